@@ -1,0 +1,81 @@
+"""One primary ray through each pixel-sample centre, straight into Embree's float32 unit frame.
+
+Pixel (column i, row j) with samples = n gets n×n rays through the centres of an n×n grid of cells:
+raster (i + (a + ½)/n, j + (b + ½)/n). Row 0 is the top row. Ray k of a tile belongs to pixel k // n²
+and sub-cell k % n² (b = row of the cell, a = column).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from .records import Frame
+from .scene import Scene
+
+
+@dataclass(frozen=True, eq=False)
+class CameraRig:
+    """An orthonormal camera frame and the half-extent of the image plane at distance 1."""
+    eye: np.ndarray        # (3,) float64, world
+    right: np.ndarray      # (3,) unit
+    up: np.ndarray         # (3,) unit, orthogonal to right and forward
+    forward: np.ndarray    # (3,) unit, toward look_at
+    half_height: float     # perspective: tan(fov / 2); orthographic: view_height / 2 (world units)
+    half_width: float      # half_height × width / height
+    orthographic: bool
+
+
+def camera_rig(scene: Scene) -> CameraRig:
+    camera, render = scene.camera, scene.render
+    eye = np.asarray(camera.position, np.float64)
+    forward = np.asarray(camera.look_at, np.float64) - eye
+    forward /= np.linalg.norm(forward)
+    right = np.cross(forward, np.asarray(camera.up, np.float64))
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    orthographic = camera.type == "orthographic"
+    half_height = camera.view_height / 2 if orthographic else math.tan(math.radians(camera.fov) / 2)
+    return CameraRig(eye, right, up, forward, half_height, half_height * render.width / render.height, orthographic)
+
+
+def generate_rays(rig: CameraRig, frame: Frame, width: int, height: int, samples: int,
+                  row0: int, row1: int) -> tuple[np.ndarray, np.ndarray]:
+    """Rays of image rows [row0, row1): origins and unit directions, (N, 3) float32 in the unit frame."""
+    count = (row1 - row0) * width * samples * samples
+    origins = np.empty((count, 3), np.float32)
+    directions = np.empty((count, 3), np.float32)
+    _fill_rays(row0, row1, width, height, samples, rig.eye, rig.right, rig.up, rig.forward,
+               rig.half_width, rig.half_height, rig.orthographic, frame.center, 1.0 / frame.scale,
+               origins, directions)
+    return origins, directions
+
+
+@njit(cache=True, nogil=True)
+def _fill_rays(row0, row1, width, height, samples, eye, right, up, forward, half_width, half_height,
+               orthographic, center, inv_scale, origins, directions):
+    k = 0
+    for row in range(row0, row1):
+        for col in range(width):
+            for b in range(samples):
+                # Raster → screen: x from -1 (left) to 1, y from 1 (top) to -1.
+                y = 1.0 - 2.0 * (row + (b + 0.5) / samples) / height
+                for a in range(samples):
+                    x = 2.0 * (col + (a + 0.5) / samples) / width - 1.0
+                    sx, sy = x * half_width, y * half_height
+                    if orthographic:
+                        for i in range(3):
+                            origins[k, i] = (eye[i] + sx * right[i] + sy * up[i] - center[i]) * inv_scale
+                            directions[k, i] = forward[i]
+                    else:
+                        dx = forward[0] + sx * right[0] + sy * up[0]
+                        dy = forward[1] + sx * right[1] + sy * up[1]
+                        dz = forward[2] + sx * right[2] + sy * up[2]
+                        norm = math.sqrt(dx * dx + dy * dy + dz * dz)  # normalise in float64, then round once
+                        directions[k, 0], directions[k, 1], directions[k, 2] = dx / norm, dy / norm, dz / norm
+                        for i in range(3):
+                            origins[k, i] = (eye[i] - center[i]) * inv_scale
+                    k += 1

@@ -1,0 +1,56 @@
+"""The only embreex importer: build the BVH once, answer closest-hit queries in float32.
+
+Embree works in float32, so the scene is moved and scaled to unit size in float64 first (Frame):
+a model far from the origin keeps its low-order bits. Quirks of the binding handled here: a miss
+keeps tfar = 1e37 and stale u/v (we return face -1 and t = inf), `run(dists=…)` overwrites its
+argument (we always pass a fresh array), and NaN vertices or rays silently miss (the scene loader
+refuses non-finite input before it gets here).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from embreex import rtcore_scene
+from embreex.mesh_construction import TriangleMesh
+
+from .records import Frame, Geometry
+
+
+def unit_frame(vertices: np.ndarray) -> Frame:
+    """Centre and half-extent of the bounding box: unit = (world − center) / scale spans ≈ [−1, 1]."""
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    extent = float((high - low).max()) / 2
+    # A single point or a degenerate scene still needs a non-zero scale.
+    return Frame(center=(low + high) / 2, scale=extent if extent > 0 else 1.0)
+
+
+@dataclass(frozen=True, eq=False)
+class TileHits:
+    """Closest hit of each ray of a tile, aligned index for index with its rays."""
+    face: np.ndarray  # (N,) int32, -1 where the ray missed
+    u: np.ndarray     # (N,) float32, barycentric weight of corner 1
+    v: np.ndarray     # (N,) float32, barycentric weight of corner 2
+    t: np.ndarray     # (N,) float32, distance in the unit frame (× Frame.scale for world units)
+
+
+class Accelerator:
+    """Embree BVH over one Geometry, built (committed) in the constructor so threads may share it."""
+
+    def __init__(self, geometry: Geometry, frame: Frame | None = None):
+        self.frame = frame or unit_frame(geometry.vertices)
+        self._scene = rtcore_scene.EmbreeScene(robust=True)  # robust: watertight edges, no cracks between faces
+        self._mesh = TriangleMesh(self._scene, self.frame.to_unit(geometry.vertices).astype(np.float32),
+                                  np.ascontiguousarray(geometry.faces, np.int32))
+        # The first query commits the scene; do it here, once, before any worker thread starts.
+        self._scene.run(np.zeros((1, 3), np.float32), np.array([[0, 0, 1]], np.float32))
+
+    def closest_hits(self, origins: np.ndarray, directions: np.ndarray) -> TileHits:
+        """Closest hit along each ray; origins and unit directions (N, 3) float32 in the unit frame."""
+        found = self._scene.run(origins, directions, output=1)
+        return TileHits(face=found["primID"], u=found["u"], v=found["v"], t=found["tfar"])
+
+    def cast_only(self, origins: np.ndarray, directions: np.ndarray) -> None:
+        """The raw cast, as closest_hits does it, with nothing after it (for benchmarks)."""
+        self._scene.run(origins, directions, output=1)

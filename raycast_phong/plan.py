@@ -1,0 +1,112 @@
+"""Decide, before any ray is cast, which stages and terms this scene needs; leave out the rest.
+
+A left-out term is never evaluated (the shading kernel counts its evaluations, and the tests check
+the count is zero) and a left-out stage is never called. `build_plan(scene, optimize=False)` keeps
+every optional stage, for tests that compare the two images.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .illumination import (F_AOV_GEOMETRY, F_AOV_TERMS, F_ATTENUATION, F_DIFFUSE, F_EMISSION,
+                           F_LIGHT_AMBIENT, F_SCENE_AMBIENT, F_SCREEN, F_SPECULAR, F_TWO_SIDED,
+                           F_VIEW_PER_POINT, FLAG_COUNT)
+from .records import RenderPlan, Stage
+from .scene import Mode, Scene, ShadingModel, SpecularModel, Viewer
+
+GEOMETRY_AOVS = {"depth", "normal", "face"}
+TERM_AOVS = {"ambient", "diffuse", "specular", "emission"}
+
+
+def build_plan(scene: Scene, optimize: bool = True) -> RenderPlan:
+    """The stages of this scene's render, each kept or left out with its reason."""
+    objects = scene.objects
+    materials = [scene.material_of(obj) for obj in objects]
+    lights = scene.lights
+    models = {scene.shading_of(obj) for obj in objects}
+    smooth = [obj for obj in objects if scene.shading_of(obj) != ShadingModel.FLAT]
+    render, camera = scene.render, scene.camera
+
+    def any_positive(values) -> bool:
+        return any(max(v) > 0 for v in values)
+
+    stages = []
+
+    def add(name: str, needed: bool, why_kept: str, why_left_out: str, optional: bool = True) -> None:
+        kept = needed or (optional and not optimize)
+        reason = why_kept if needed else (why_left_out if kept is False else f"kept for comparison: {why_left_out}")
+        stages.append(Stage(name, kept, reason))
+
+    add("vertex_normals", bool(smooth),
+        f"{len(smooth)} object(s) with Gouraud or Phong shading",
+        "every object is flat-shaded: face normals only")
+    creased = [obj for obj in smooth if obj.crease_angle < 180]
+    add("crease_split", bool(creased),
+        f"{len(creased)} smooth object(s) with crease_angle < 180°",
+        "no smooth object has a crease angle below 180°")
+    add("emission", any_positive(m.ke for m in materials),
+        "some material has k_e > 0", "every material's k_e is 0")
+    add("scene_ambient", max(scene.ambient) > 0 and any_positive(m.ka for m in materials),
+        "I_a and some k_a are > 0", "I_a is 0 or every k_a is 0")
+    add("light_ambient", any_positive(light.ambient for light in lights) and any_positive(m.ka for m in materials),
+        "some light has its own ambient and some k_a > 0", "no light has its own ambient (or every k_a is 0)")
+    add("diffuse", any_positive(light.diffuse for light in lights) and any_positive(m.kd for m in materials),
+        "some light's I_d and some k_d are > 0", "no light has I_d > 0 with a material whose k_d > 0")
+    specular = any_positive(light.specular for light in lights) and any_positive(m.ks for m in materials)
+    formula = "max(v·r, 0)^f" if render.specular == SpecularModel.PHONG else "max(n·h, 0)^f, h = normalize(l + v)"
+    add("specular", specular, f"{render.specular.value}: {formula}",
+        "every material's k_s or every light's I_s is 0")
+    attenuating = [light for light in lights if light.type == "point" and light.attenuation != "none"]
+    add("attenuation", bool(attenuating), f"{len(attenuating)} point light(s) attenuate",
+        "no point light attenuates: f_att = 1")
+
+    per_point = specular and render.viewer == Viewer.LOCAL and camera.type == "perspective"
+    if not specular:
+        why = "no specular term, so no view vector"
+    elif render.viewer == Viewer.INFINITE:
+        why = "infinite viewer: one view vector, −forward, for the whole image"
+    else:
+        why = "orthographic camera: the eye is at infinity, one view vector −forward"
+    stages.append(Stage("view_vector_per_point", per_point,
+                        "local viewer, perspective camera: v = normalize(eye − p) per point" if per_point else why))
+
+    stages.append(Stage("supersampling", render.samples > 1,
+                        f"{render.samples}×{render.samples} rays per pixel, averaged" if render.samples > 1
+                        else "samples = 1: one ray through each pixel centre, no averaging loop"))
+    stages.append(Stage("screen_interpolation", render.interpolation == "screen",
+                        "interpolation = screen: weights linear in the image plane" if render.interpolation == "screen"
+                        else "perspective-correct weights straight from Embree"))
+    stages.append(Stage("two_sided", render.two_sided,
+                        "back-facing hits are shaded with the normal flipped toward the viewer" if render.two_sided
+                        else "two_sided = false: back faces shaded with their own normal"))
+    stages.append(Stage("shadow_rays", render.mode == Mode.GLOBAL,
+                        "mode = global: an occlusion query per hit and light" if render.mode == Mode.GLOBAL
+                        else "mode = local: the local model knows no other surface"))
+    geometry_aovs = sorted(GEOMETRY_AOVS & set(scene.output.aovs))
+    term_aovs = sorted(TERM_AOVS & set(scene.output.aovs))
+    stages.append(Stage("aov_geometry", bool(geometry_aovs),
+                        f"layers {', '.join(geometry_aovs)}" if geometry_aovs else "no depth/normal/face layer asked for"))
+    stages.append(Stage("aov_terms", bool(term_aovs),
+                        f"layers {', '.join(term_aovs)}" if term_aovs else "no per-term layer asked for"))
+    stages.append(Stage("shading_models", True, ", ".join(sorted(m.value for m in models))))
+    stages.append(Stage("float64_shading", render.precision == "float64",
+                        "precision = float64" if render.precision == "float64" else "precision = float32"))
+    return RenderPlan(tuple(stages))
+
+
+def plan_flags(plan: RenderPlan, scene: Scene) -> np.ndarray:
+    """The shading kernel's flag array for this plan."""
+    flags = np.zeros(FLAG_COUNT, np.int64)
+    flags[F_SPECULAR] = (1 if scene.render.specular == SpecularModel.PHONG else 2) if plan.keeps("specular") else 0
+    flags[F_ATTENUATION] = plan.keeps("attenuation")
+    flags[F_LIGHT_AMBIENT] = plan.keeps("light_ambient")
+    flags[F_EMISSION] = plan.keeps("emission")
+    flags[F_SCENE_AMBIENT] = plan.keeps("scene_ambient")
+    flags[F_DIFFUSE] = plan.keeps("diffuse")
+    flags[F_VIEW_PER_POINT] = plan.keeps("view_vector_per_point")
+    flags[F_TWO_SIDED] = plan.keeps("two_sided")
+    flags[F_SCREEN] = plan.keeps("screen_interpolation")
+    flags[F_AOV_GEOMETRY] = plan.keeps("aov_geometry")
+    flags[F_AOV_TERMS] = plan.keeps("aov_terms")
+    return flags

@@ -1,0 +1,77 @@
+"""The pipeline's nouns: plain numpy arrays in small frozen records passed from stage to stage.
+
+F faces, V vertices, K lights, H×W pixels. The Scene itself (validated keys, no arrays) is in scene.py.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass(frozen=True, eq=False)
+class Geometry:
+    """Every object of the scene placed in the world and concatenated into one triangle mesh."""
+    vertices: np.ndarray        # (V, 3) float64, world coordinates
+    faces: np.ndarray           # (F, 3) int32, indices into vertices
+    face_normals: np.ndarray    # (F, 3) float64, unit; zero for a degenerate face
+    corner_normals: np.ndarray  # (F, 3, 3) float64, unit vertex normal at each face corner (after crease split);
+                                # empty (0, 3, 3) when no object is smooth-shaded
+    face_material: np.ndarray   # (F,) int32, index into the material table
+    face_model: np.ndarray      # (F,) int8, 0 flat, 1 gouraud, 2 phong
+    face_object: np.ndarray     # (F,) int32, index of the scene object the face belongs to
+
+    @property
+    def triangles(self) -> int:
+        return len(self.faces)
+
+
+@dataclass(frozen=True, eq=False)
+class Frame:
+    """The float32 frame Embree works in: world = unit * scale + center (float64 on both sides)."""
+    center: np.ndarray  # (3,) float64, centre of the scene's bounding box
+    scale: float        # half the largest extent of the box, so the scene spans about [-1, 1]
+
+    def to_unit(self, points: np.ndarray) -> np.ndarray:
+        return (points - self.center) / self.scale
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One line of a render plan: a stage or term, whether it runs, and why."""
+    name: str
+    kept: bool
+    reason: str
+
+
+@dataclass(frozen=True)
+class RenderPlan:
+    """What this scene needs, decided before any ray is cast; shading reads its flags."""
+    stages: tuple[Stage, ...]
+
+    def keeps(self, name: str) -> bool:
+        for stage in self.stages:
+            if stage.name == name:
+                return stage.kept
+        raise KeyError(name)
+
+    def describe(self) -> str:
+        width = max(len(stage.name) for stage in self.stages)
+        return "\n".join(f"{'kept' if s.kept else 'left out':8}  {s.name:{width}}  {s.reason}" for s in self.stages)
+
+
+@dataclass(frozen=True, eq=False)
+class RenderResult:
+    """What render() returns: the image, its layers, and where the time went."""
+    image: np.ndarray                 # (H, W, 3) float32, linear display values, unclamped
+    aovs: dict[str, np.ndarray]       # layer name -> (H, W, C) float32, only those the scene asks for
+    timings: dict[str, float]         # seconds per stage: load, geometry, build, rays, shade, frame (and write)
+    plan: RenderPlan
+    triangles: int
+    rays: int
+    counts: dict[str, int] = field(default_factory=dict)  # term evaluations done by the shading kernel
+
+    @property
+    def rays_per_second(self) -> float:
+        return self.rays / max(self.timings.get("frame", 0.0), 1e-12)

@@ -1,0 +1,458 @@
+"""Read a scene file (TOML, or JSON with the same structure) into a validated, frozen Scene.
+
+The contract is ../shared/scene-format.md, version 1; docs/scene-format.md lists every key with its
+default and allowed range. Every problem becomes one SceneError naming the file, the key path and what
+is allowed, so the CLI can print one line and exit 2.
+"""
+
+from __future__ import annotations
+
+import difflib
+import json
+import math
+import tomllib
+from enum import Enum
+from pathlib import Path
+from typing import Annotated, Any, Literal, Union
+
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+MAX_SIZE = 16384          # pixels per side, from the format
+MAX_SAMPLES = 16          # 16×16 = 256 rays per pixel is already a reference-quality render
+MAX_PIXEL_RAYS = 2**31 - 1  # embree indexes rays with int32 per call; beyond this a frame is absurd anyway
+
+
+class SceneError(ValueError):
+    """A scene the renderer refuses: the message is one line naming file, key and what is allowed."""
+
+
+class ShadingModel(str, Enum):
+    FLAT = "flat"
+    GOURAUD = "gouraud"
+    PHONG = "phong"
+
+
+class SpecularModel(str, Enum):
+    PHONG = "phong"
+    BLINN = "blinn"
+
+
+class Viewer(str, Enum):
+    LOCAL = "local"
+    INFINITE = "infinite"
+
+
+class Mode(str, Enum):
+    LOCAL = "local"
+    GLOBAL = "global"
+
+
+# ---------------------------------------------------------------- value types
+
+def _triple(value: Any) -> Any:
+    """A single number means the same value in all three channels (format: Conventions)."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return (value, value, value)
+    return value
+
+
+def _finite(values: tuple[float, ...]) -> tuple[float, ...]:
+    if not all(math.isfinite(v) for v in values):
+        raise ValueError(f"must be finite numbers, got {list(values)}")
+    return values
+
+
+def _unit_range(values: tuple[float, ...]) -> tuple[float, ...]:
+    _finite(values)
+    if not all(0.0 <= v <= 1.0 for v in values):
+        raise ValueError(f"each coefficient must be in [0, 1], got {list(values)}")
+    return values
+
+
+def _non_negative(values: tuple[float, ...]) -> tuple[float, ...]:
+    _finite(values)
+    if not all(v >= 0.0 for v in values):
+        raise ValueError(f"intensities must be ≥ 0, got {list(values)}")
+    return values
+
+
+Vec3 = Annotated[tuple[float, float, float], BeforeValidator(_triple)]
+Coefficient = Annotated[tuple[float, float, float], BeforeValidator(_triple)]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
+
+
+# ---------------------------------------------------------------- tables
+
+class Render(_Strict):
+    width: int = Field(640, ge=1, le=MAX_SIZE)
+    height: int = Field(480, ge=1, le=MAX_SIZE)
+    shading: ShadingModel = ShadingModel.PHONG
+    specular: SpecularModel = SpecularModel.PHONG
+    viewer: Viewer = Viewer.LOCAL
+    mode: Mode = Mode.LOCAL
+    terminator: Literal["none", "hanika"] = "hanika"
+    samples: int = Field(1, ge=1, le=MAX_SAMPLES)
+    background: Vec3 = (0.0, 0.0, 0.0)
+    precision: Literal["float32", "float64"] = "float32"
+    two_sided: bool = True
+    interpolation: Literal["perspective", "screen"] = "perspective"
+
+    _check_background = field_validator("background")(lambda v: _non_negative(v))
+
+
+class Camera(_Strict):
+    type: Literal["perspective", "orthographic"] = "perspective"
+    position: Vec3 = (0.0, 0.0, 4.0)
+    look_at: Vec3 = (0.0, 0.0, 0.0)
+    up: Vec3 = (0.0, 1.0, 0.0)
+    fov: float = Field(40.0, gt=0.0, lt=180.0)
+    view_height: float = Field(2.0, gt=0.0, allow_inf_nan=False)
+
+    _check_finite = field_validator("position", "look_at", "up")(lambda v: _finite(v))
+
+    @model_validator(mode="after")
+    def _frame(self) -> "Camera":
+        forward = [b - a for a, b in zip(self.position, self.look_at)]
+        if math.hypot(*forward) == 0.0:
+            raise ValueError("position and look_at coincide: the camera has no viewing direction")
+        if math.hypot(*self.up) == 0.0:
+            raise ValueError("up is the zero vector; give any direction not parallel to look_at − position")
+        cross = (forward[1] * self.up[2] - forward[2] * self.up[1],
+                 forward[2] * self.up[0] - forward[0] * self.up[2],
+                 forward[0] * self.up[1] - forward[1] * self.up[0])
+        # Relative test: |f × up| / (|f| |up|) is the sine of the angle between them.
+        if math.hypot(*cross) <= 1e-9 * math.hypot(*forward) * math.hypot(*self.up):
+            raise ValueError(f"up {list(self.up)} is parallel to the viewing direction {forward}: "
+                             "choose an up vector at an angle to look_at − position")
+        return self
+
+
+def _attenuation(value: Any) -> Any:
+    if isinstance(value, (list, tuple)):
+        if len(value) != 3:
+            raise ValueError(f"the attenuation list is [c, l, q], got {len(value)} numbers")
+        c, l, q = (float(x) for x in value)
+        _finite((c, l, q))
+        if c <= 0 or l < 0 or q < 0:
+            raise ValueError(f"[c, l, q] = {list(value)} can make c + l·d + q·d² zero or negative: "
+                             "c must be > 0 and l, q ≥ 0")
+        return (c, l, q)
+    return value
+
+
+class Light(_Strict):
+    type: Literal["point", "directional"] = "point"
+    position: Vec3 | None = None
+    direction: Vec3 | None = None
+    diffuse: Vec3 = (0.8, 0.8, 0.8)
+    specular: Vec3 = (1.0, 1.0, 1.0)
+    ambient: Vec3 = (0.0, 0.0, 0.0)
+    attenuation: Annotated[Union[Literal["none", "inverse_square"], tuple[float, float, float]],
+                           BeforeValidator(_attenuation)] = "none"
+
+    _check_finite = field_validator("position", "direction")(lambda v: v if v is None else _finite(v))
+    _check_intensity = field_validator("diffuse", "specular", "ambient")(lambda v: _non_negative(v))
+
+    @model_validator(mode="after")
+    def _placement(self) -> "Light":
+        if self.type == "point" and self.position is None:
+            raise ValueError("a point light needs position = [x, y, z]")
+        if self.type == "directional":
+            if self.direction is None:
+                raise ValueError("a directional light needs direction = [x, y, z] (the way the light travels)")
+            if math.hypot(*self.direction) == 0.0:
+                raise ValueError("direction is the zero vector")
+        return self
+
+
+class Material(_Strict):
+    ka: Coefficient = (0.2, 0.2, 0.2)
+    kd: Coefficient = (0.8, 0.8, 0.8)
+    ks: Coefficient = (0.5, 0.5, 0.5)
+    ke: Coefficient = (0.0, 0.0, 0.0)
+    shininess: float = 32.0
+
+    _check_coefficients = field_validator("ka", "kd", "ks", "ke")(lambda v: _unit_range(v))
+
+    @field_validator("shininess")
+    @classmethod
+    def _shininess(cls, value: float) -> float:
+        if math.isnan(value) or value < 0:
+            raise ValueError(f"shininess must be ≥ 0 (inf allowed: the mirror limit), got {value}")
+        return value
+
+
+SHAPES = ("icosphere", "uv_sphere", "box", "plane", "cylinder", "torus", "mesh")
+
+
+class Object(_Strict):
+    name: str | None = None
+    shape: Literal["icosphere", "uv_sphere", "box", "plane", "cylinder", "torus", "mesh"]
+    subdivisions: int = Field(2, ge=0, le=8)
+    segments: tuple[int, int] | None = None
+    radius: float = Field(1.0, gt=0.0, allow_inf_nan=False)
+    height: float = Field(2.0, gt=0.0, allow_inf_nan=False)      # cylinder: length along local z
+    major_radius: float = Field(1.0, gt=0.0, allow_inf_nan=False)
+    minor_radius: float = Field(0.25, gt=0.0, allow_inf_nan=False)
+    size: tuple[float, ...] | None = None
+    path: str | None = None
+    material: str = "default"
+    shading: ShadingModel | None = None
+    normals: Literal["mean", "area", "angle", "file"] = "mean"
+    crease_angle: float = Field(180.0, ge=0.0, le=180.0)
+    translate: Vec3 = (0.0, 0.0, 0.0)
+    rotate: Vec3 = (0.0, 0.0, 0.0)
+    scale: Annotated[tuple[float, float, float], BeforeValidator(_triple)] = (1.0, 1.0, 1.0)
+
+    _check_finite = field_validator("translate", "rotate")(lambda v: _finite(v))
+
+    @field_validator("scale")
+    @classmethod
+    def _scale(cls, value: tuple[float, float, float]) -> tuple[float, float, float]:
+        _finite(value)
+        if any(v == 0 for v in value):
+            raise ValueError(f"scale {list(value)} has a zero factor, which flattens the object")
+        return value
+
+    @field_validator("segments")
+    @classmethod
+    def _segments(cls, value):
+        if value is not None and not all(3 <= s <= 4096 for s in value):
+            raise ValueError(f"segments must be two whole numbers in [3, 4096], got {list(value)}")
+        return value
+
+    @field_validator("size")
+    @classmethod
+    def _size(cls, value):
+        if value is not None:
+            _finite(value)
+            if len(value) not in (2, 3) or not all(v > 0 for v in value):
+                raise ValueError(f"size must be 2 (plane) or 3 (box) positive numbers, got {list(value)}")
+        return value
+
+    @model_validator(mode="after")
+    def _shape_keys(self) -> "Object":
+        if self.shape == "mesh" and not self.path:
+            raise ValueError('shape = "mesh" needs path = "file.obj" (any format trimesh reads)')
+        if self.shape != "mesh" and self.normals == "file":
+            raise ValueError(f'normals = "file" needs a mesh file; shape = "{self.shape}" has no stored normals')
+        if self.size is not None and self.shape == "box" and len(self.size) != 3:
+            raise ValueError("a box's size is [x, y, z]")
+        if self.size is not None and self.shape == "plane" and len(self.size) != 2:
+            raise ValueError("a plane's size is [width, depth]")
+        return self
+
+
+AOVS = ("depth", "normal", "face", "ambient", "diffuse", "specular", "emission")
+
+
+class Output(_Strict):
+    path: str = "out.png"
+    aovs: tuple[Literal["depth", "normal", "face", "ambient", "diffuse", "specular", "emission"], ...] = ()
+
+    @model_validator(mode="after")
+    def _format(self) -> "Output":
+        suffix = Path(self.path).suffix.lower()
+        if suffix not in (".png", ".exr"):
+            raise ValueError(f"path {self.path!r} must end in .png or .exr")
+        if self.aovs and suffix != ".exr":
+            raise ValueError(f"aovs {list(self.aovs)} need an .exr output (a PNG holds only RGB)")
+        return self
+
+
+DEFAULT_MATERIAL = Material()
+
+
+class Scene(_Strict):
+    """A validated scene: every key of the format with its value or default."""
+    render: Render = Render()
+    camera: Camera = Camera()
+    ambient: Vec3 = (0.1, 0.1, 0.1)
+    lights: tuple[Light, ...] = ()
+    materials: dict[str, Material] = {}
+    objects: tuple[Object, ...] = ()
+    output: Output = Output()
+    folder: str = Field(".", exclude=True)  # the scene file's folder: relative paths start here
+
+    _check_ambient = field_validator("ambient")(lambda v: _non_negative(v))
+
+    @model_validator(mode="after")
+    def _references(self) -> "Scene":
+        if not self.objects:
+            raise ValueError("the scene has no [[objects]]: add at least one")
+        for index, obj in enumerate(self.objects):
+            if obj.material != "default" and obj.material not in self.materials:
+                close = difflib.get_close_matches(obj.material, list(self.materials), n=1)
+                hint = f" (did you mean {close[0]!r}?)" if close else ""
+                defined = ", ".join(sorted(self.materials)) or "none"
+                raise _KeyError(("objects", index, "material"),
+                                f"material {obj.material!r} is not defined{hint}; defined: {defined}")
+        width, height, samples = self.render.width, self.render.height, self.render.samples
+        if width * height * samples * samples > MAX_PIXEL_RAYS:
+            raise _KeyError(("render", "samples"), f"{width}×{height} pixels × {samples}² samples is more "
+                            f"than {MAX_PIXEL_RAYS} rays per frame")
+        return self
+
+    def material_of(self, obj: Object) -> Material:
+        return self.materials.get(obj.material, DEFAULT_MATERIAL)
+
+    def shading_of(self, obj: Object) -> ShadingModel:
+        return obj.shading or self.render.shading
+
+    def resolve(self, path: str) -> Path:
+        """A path from the scene file, relative to the file's folder."""
+        return Path(self.folder) / Path(path).expanduser()
+
+
+class _KeyError(Exception):
+    """Raised inside a validator when the error belongs to a key other than the one validated.
+
+    Not a ValueError, so pydantic lets it through instead of blaming the whole table."""
+
+    def __init__(self, loc: tuple, message: str):
+        super().__init__(message)
+        self.loc = loc
+        self.message = message
+
+
+# ---------------------------------------------------------------- reading
+
+def read_scene_dict(path: Path) -> dict:
+    """Parse the file's syntax only (TOML, or JSON for .json), with a one-line error on failure."""
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except FileNotFoundError:
+        raise SceneError(f"{path}: no such scene file") from None
+    except (OSError, UnicodeDecodeError) as error:
+        raise SceneError(f"{path}: cannot read the scene file ({error})") from None
+    try:
+        if path.suffix.lower() == ".json":
+            data = json.loads(text)
+        else:
+            data = tomllib.loads(text)
+    except json.JSONDecodeError as error:
+        raise SceneError(f"{path}: JSON syntax error at line {error.lineno}, column {error.colno}: {error.msg}") from None
+    except tomllib.TOMLDecodeError as error:
+        raise SceneError(f"{path}: TOML syntax error: {error}") from None
+    if not isinstance(data, dict):
+        raise SceneError(f"{path}: the top level must be a table of keys")
+    return data
+
+
+def load_scene(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
+    """Read, override (`key.path=value`, as `--set`), and validate a scene file."""
+    path = Path(path)
+    data = read_scene_dict(path)
+    for assignment in overrides:
+        apply_override(data, assignment, source=str(path))
+    return validate_scene(data, source=str(path), folder=path.parent)
+
+
+def validate_scene(data: dict, source: str = "<scene>", folder: str | Path = ".") -> Scene:
+    """Validate a parsed scene dictionary; errors name `source` and the key path."""
+    data = dict(data)
+    if "folder" in data:
+        raise SceneError(f"{source}: folder: unknown key")
+    try:
+        return Scene.model_validate({**data, "folder": str(folder)})
+    except ValidationError as error:
+        raise SceneError(describe_error(error, data, source)) from None
+    except _KeyError as error:
+        raise SceneError(f"{source}: {_dotted(error.loc)}: {error.message}") from None
+
+
+def _dotted(loc: tuple) -> str:
+    return ".".join(str(part) for part in loc)
+
+
+def _model_at(loc: tuple) -> type[BaseModel] | None:
+    """The pydantic model that holds the key at `loc` (for suggesting a close valid key)."""
+    nested = {"render": Render, "camera": Camera, "lights": Light, "objects": Object, "output": Output}
+    model: Any = Scene
+    for part in (p for p in loc if not isinstance(p, int)):
+        if model is Scene and part == "materials":
+            model = "materials"
+        elif model == "materials":
+            model = Material
+        elif model is Scene and part in nested:
+            model = nested[part]
+        else:
+            return None
+    return model if isinstance(model, type) else None
+
+
+def describe_error(error: ValidationError, data: dict, source: str) -> str:
+    """One line for the first problem pydantic found: file, key path, what is wrong, what is allowed."""
+    first = error.errors()[0]
+    loc = tuple(part for part in first["loc"] if not (isinstance(part, str) and "[" in part))
+    # pydantic names union branches and validator functions in loc; keep only real keys.
+    loc = tuple(p for p in loc if isinstance(p, int) or not p.startswith(("function-", "tuple[", "literal[")))
+    key = _dotted(loc) or "(top level)"
+    kind = first["type"]
+    if kind == "extra_forbidden":
+        owner = _model_at(loc[:-1])
+        valid = [name for name in (owner.model_fields if owner else {}) if name != "folder"]
+        close = difflib.get_close_matches(str(loc[-1]), valid, n=1, cutoff=0.6)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        return f"{source}: {key}: unknown key{hint}; valid keys here: {', '.join(valid)}"
+    message = first["msg"]
+    if message.startswith("Value error, "):
+        message = message[len("Value error, "):]
+    value = first.get("input")
+    shown = "" if kind in ("missing",) or isinstance(value, dict) else f" (got {value!r})"
+    return f"{source}: {key}: {message}{shown}"
+
+
+def apply_override(data: dict, assignment: str, source: str = "--set") -> None:
+    """Set `key.path=value` in a parsed scene; the value is read as TOML, else as a plain string.
+
+    List items are addressed by index: `lights.0.position=[1, 2, 3]`, `objects.1.shading=flat`.
+    """
+    if "=" not in assignment:
+        raise SceneError(f"--set {assignment!r}: expected key.path=value")
+    key, text = (part.strip() for part in assignment.split("=", 1))
+    try:
+        value = tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = text
+    parts = key.split(".")
+    node: Any = data
+    for depth, part in enumerate(parts[:-1]):
+        child_default: Any = [] if parts[depth + 1].isdigit() else {}
+        node = _child(node, part, child_default, assignment)
+    last = parts[-1]
+    if isinstance(node, list):
+        index = _index(node, last, assignment)
+        node[index] = value
+    else:
+        node[last] = value
+
+
+def _child(node: Any, part: str, default: Any, assignment: str) -> Any:
+    if isinstance(node, list):
+        return node[_index(node, part, assignment)]
+    if not isinstance(node, dict):
+        raise SceneError(f"--set {assignment!r}: {part!r} is inside a value, not a table")
+    return node.setdefault(part, default)
+
+
+def _index(node: list, part: str, assignment: str) -> int:
+    if not part.isdigit() or int(part) >= len(node):
+        raise SceneError(f"--set {assignment!r}: index {part!r} is out of range (the list has {len(node)} items)")
+    return int(part)
+
+
+def default_scene_path() -> Path:
+    """The built-in default scene: the lecture's figure, one sphere in flat, Gouraud and Phong shading."""
+    return Path(__file__).parent / "data" / "default.toml"
+
+
+def scene_json_schema() -> dict:
+    """The JSON Schema of the scene format, published as docs/scene.schema.json."""
+    schema = Scene.model_json_schema(mode="validation")
+    schema["properties"].pop("folder", None)
+    schema["title"] = "raycast-phong scene, format version 1"
+    return schema
