@@ -117,16 +117,16 @@ class Camera(_Strict):
     def _frame(self) -> "Camera":
         forward = [b - a for a, b in zip(self.position, self.look_at)]
         if math.hypot(*forward) == 0.0:
-            raise ValueError("position and look_at coincide: the camera has no viewing direction")
+            raise _KeyError(("camera", "look_at"), "position and look_at coincide: the camera has no viewing direction")
         if math.hypot(*self.up) == 0.0:
-            raise ValueError("up is the zero vector; give any direction not parallel to look_at − position")
+            raise _KeyError(("camera", "up"), "the zero vector; give any direction not parallel to look_at − position")
         cross = (forward[1] * self.up[2] - forward[2] * self.up[1],
                  forward[2] * self.up[0] - forward[0] * self.up[2],
                  forward[0] * self.up[1] - forward[1] * self.up[0])
         # Relative test: |f × up| / (|f| |up|) is the sine of the angle between them.
         if math.hypot(*cross) <= 1e-9 * math.hypot(*forward) * math.hypot(*self.up):
-            raise ValueError(f"up {list(self.up)} is parallel to the viewing direction {forward}: "
-                             "choose an up vector at an angle to look_at − position")
+            raise _KeyError(("camera", "up"), f"{list(self.up)} is parallel to the viewing direction {forward}; "
+                            "choose an up vector at an angle to look_at − position")
         return self
 
 
@@ -401,9 +401,26 @@ def describe_error(error: ValidationError, data: dict, source: str) -> str:
     message = first["msg"]
     if message.startswith("Value error, "):
         message = message[len("Value error, "):]
+    if kind in ("greater_than_equal", "less_than_equal", "greater_than", "less_than"):
+        message = f"out of range; allowed: {_allowed_range(loc)}"
     value = first.get("input")
-    shown = "" if kind in ("missing",) or isinstance(value, dict) else f" (got {value!r})"
+    shown = "" if kind == "missing" or isinstance(value, dict) or "got " in message else f" (got {value!r})"
     return f"{source}: {key}: {message}{shown}"
+
+
+def _allowed_range(loc: tuple) -> str:
+    """'1 ≤ width ≤ 16384' from the field's constraints."""
+    owner = _model_at(loc[:-1])
+    field = owner.model_fields.get(str(loc[-1])) if owner else None
+    low = high = None
+    for item in (field.metadata if field else ()):
+        for name, symbol in (("ge", "≤"), ("gt", "<")):
+            if getattr(item, name, None) is not None:
+                low = f"{getattr(item, name)} {symbol} "
+        for name, symbol in (("le", "≤"), ("lt", "<")):
+            if getattr(item, name, None) is not None:
+                high = f" {symbol} {getattr(item, name)}"
+    return f"{low or ''}{loc[-1]}{high or ''}"
 
 
 def apply_override(data: dict, assignment: str, source: str = "--set") -> None:

@@ -1,0 +1,169 @@
+"""The `raycast-phong` command: parse arguments, call the package, turn errors into exit codes.
+
+Exit status: 0 ok, 2 bad input (scene, mesh, option, output path), 1 internal error.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+import raycast_phong as rp
+from raycast_phong.image_io import ImageError, check_output_path
+from raycast_phong.scene import Mode, ShadingModel, SpecularModel
+
+app = typer.Typer(
+    help="Ray-cast flat, Gouraud and Phong shading with Intel Embree.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+    rich_markup_mode="markdown",
+)
+
+SceneArgument = Annotated[Optional[Path], typer.Argument(
+    help="Scene file (.toml or .json, see docs/scene-format.md). Omit it for the built-in default scene.",
+    show_default=False, dir_okay=False)]
+SetOption = Annotated[list[str], typer.Option(
+    "--set", metavar="KEY.PATH=VALUE",
+    help="Override a scene key, e.g. `render.width=320`, `lights.0.position=[1,2,3]`, "
+         "`materials.red.shininess=8`. Repeatable.")]
+
+
+def fail(message: str, code: int = 2) -> None:
+    typer.secho(f"error: {message}", err=True, fg=typer.colors.RED)
+    raise typer.Exit(code=code)
+
+
+def scene_overrides(options: dict[str, object]) -> list[str]:
+    """CLI options that stand for scene keys, as `key=value` overrides (None = not given)."""
+    out = []
+    for key, value in options.items():
+        if value is None:
+            continue
+        value = value.value if hasattr(value, "value") else value
+        out.append(f"{key}={json.dumps(value)}")
+    return out
+
+
+@app.command(epilog="""
+**Examples**
+
+  raycast-phong render                                  # the default figure → default.png
+
+  raycast-phong render scenes/coloured_lights.toml -o lights.exr
+
+  raycast-phong render scenes/default.toml --shading gouraud --specular blinn --samples 3
+
+  raycast-phong render scene.toml --set render.width=320 --set "lights.0.diffuse=[1, 0, 0]"
+""")
+def render(
+    scene: SceneArgument = None,
+    output: Annotated[Optional[Path], typer.Option("--output", "-o", help="Image to write: .png (8-bit, clamped) or "
+                      ".exr (float32, with the scene's AOV layers). Default: the scene's output.path.")] = None,
+    shading: Annotated[Optional[ShadingModel], typer.Option(help="render.shading (objects with their own "
+                       "`shading` keep it).")] = None,
+    specular: Annotated[Optional[SpecularModel], typer.Option(help="render.specular: phong (v·r) or "
+                        "blinn (n·h).")] = None,
+    mode: Annotated[Optional[Mode], typer.Option(help="render.mode: local (no shadows) or global.")] = None,
+    width: Annotated[Optional[int], typer.Option(help="render.width in pixels, 1..16384.")] = None,
+    height: Annotated[Optional[int], typer.Option(help="render.height in pixels, 1..16384.")] = None,
+    samples: Annotated[Optional[int], typer.Option(help="render.samples: n → n×n rays per pixel, 1..16.")] = None,
+    set_: SetOption = [],
+    srgb: Annotated[bool, typer.Option("--srgb", help="Encode a PNG with the sRGB curve instead of "
+                    "storing the model's display values as they are.")] = False,
+    threads: Annotated[Optional[int], typer.Option(min=1, max=64, help="Worker threads (default: cores).")] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar and no summary line.")] = False,
+) -> None:
+    """Render a scene file (or the built-in default scene) to a PNG or EXR image."""
+    overrides = [*scene_overrides({"render.shading": shading, "render.specular": specular, "render.mode": mode,
+                                   "render.width": width, "render.height": height, "render.samples": samples}),
+                 *set_]
+    try:
+        started = time.perf_counter()
+        path = scene or rp.default_scene_path()
+        loaded = rp.load_scene(path, overrides)
+        load_seconds = time.perf_counter() - started
+        if output is None:
+            output = Path(loaded.output.path).name if scene is None else loaded.resolve(loaded.output.path)
+        check_output_path(output)
+        if loaded.output.aovs and Path(output).suffix.lower() != ".exr":
+            fail(f"{output}: output.aovs {list(loaded.output.aovs)} need an .exr output")
+        result = _render_with_progress(loaded, str(path), threads, quiet)
+        started = time.perf_counter()
+        rp.write_image(output, result.image, result.aovs, srgb=srgb)
+        result.timings["write"] = time.perf_counter() - started
+        result.timings["load"] = load_seconds
+    except (rp.SceneError, ImageError) as error:
+        fail(str(error))
+    except typer.Exit:
+        raise
+    except Exception as error:  # anything else is our bug: one line, exit 1 (RAYCAST_PHONG_DEBUG=1 for the trace)
+        if _debug():
+            raise
+        fail(f"internal error: {type(error).__name__}: {error}", code=1)
+    if not quiet:
+        typer.echo(summary_line(result, output))
+
+
+def _debug() -> bool:
+    import os
+    return os.environ.get("RAYCAST_PHONG_DEBUG", "") not in ("", "0")
+
+
+def _render_with_progress(scene: rp.Scene, source: str, threads: int | None, quiet: bool) -> rp.RenderResult:
+    if quiet or not sys.stderr.isatty():
+        return rp.render(scene, threads=threads, source=source)
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+    from rich.console import Console
+    with Progress(TextColumn("rendering"), BarColumn(), TextColumn("{task.completed}/{task.total} tiles"),
+                  TimeRemainingColumn(), console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task("render", total=None)
+        return rp.render(scene, threads=threads, source=source,
+                         progress=lambda done, total: bar.update(task, completed=done, total=total))
+
+
+def summary_line(result: rp.RenderResult, output: Path) -> str:
+    """One line: size, triangles, rays/s, seconds per stage."""
+    h, w = result.image.shape[:2]
+    t = result.timings
+    stages = ", ".join(f"{name} {t[name]:.3f}s" for name in ("load", "geometry", "build", "rays", "shade", "write")
+                       if name in t)
+    return (f"{output}: {w}×{h}, {result.triangles:,} triangles, {result.rays:,} rays, "
+            f"{result.rays_per_second / 1e6:.1f} Mrays/s; frame {t['frame']:.3f}s ({stages}; rays and shade "
+            f"summed over threads)")
+
+
+@app.command(epilog="""
+**Examples**
+
+  raycast-phong plan                           # the default scene
+
+  raycast-phong plan scenes/attenuation.toml --set render.viewer=infinite
+""")
+def plan(scene: SceneArgument = None, set_: SetOption = []) -> None:
+    """Print the render plan: each stage and term, kept or left out, and why."""
+    try:
+        loaded = rp.load_scene(scene or rp.default_scene_path(), set_)
+    except rp.SceneError as error:
+        fail(str(error))
+    typer.echo(rp.build_plan(loaded).describe())
+
+
+@app.command(epilog="""
+**Examples**
+
+  raycast-phong schema > scene.schema.json
+""")
+def schema() -> None:
+    """Print the JSON Schema of the scene format (the same as docs/scene.schema.json)."""
+    from raycast_phong.scene import scene_json_schema
+    typer.echo(json.dumps(scene_json_schema(), indent=2, ensure_ascii=False))
+
+
+if __name__ == "__main__":
+    app()
