@@ -54,7 +54,7 @@ def generate_rays(rig: CameraRig, frame: Frame, width: int, height: int, samples
     return origins, directions
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _fill_rays(row0, row1, width, height, samples, eye, right, up, forward, half_width, half_height,
                orthographic, center, inv_scale, origins, directions):
     k = 0

@@ -6,7 +6,9 @@ vertex duplication: corner (f, k) carries the normal that vertex faces[f, k] has
 
 from __future__ import annotations
 
+import io
 import math
+
 import numpy as np
 import trimesh
 
@@ -93,17 +95,24 @@ def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
     key = f"{source}: objects.{index}.path"
     if not path.is_file():
         raise SceneError(f"{key}: no such mesh file {str(path)!r}")
+    readable = "a mesh file trimesh reads (OBJ, PLY, STL, OFF, GLB)"
     try:
-        # Keep the file's vertex order when its normals are wanted; otherwise let trimesh merge and clean.
-        loaded = trimesh.load(str(path), force="mesh", process=obj.normals != "file")
+        # Load unprocessed: trimesh's cleaning would silently drop NaN vertices and their faces.
+        loaded = trimesh.load(**_mesh_source(path), force="mesh", process=False)
     except Exception as error:  # trimesh raises many kinds for a bad file; all mean "unreadable"
-        raise SceneError(f"{key}: cannot read mesh {str(path)!r} ({type(error).__name__}: {error})") from None
+        raise SceneError(f"{key}: cannot read {str(path)!r} as {readable} ({type(error).__name__}: "
+                         f"{error})") from None
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-        raise SceneError(f"{key}: {str(path)!r} holds no triangles")
+        raise SceneError(f"{key}: {str(path)!r} holds no triangles; expected {readable}")
+    used = np.unique(np.asarray(loaded.faces))
+    finite = np.isfinite(np.asarray(loaded.vertices, np.float64)[used]).all(axis=1)
+    if not finite.all():
+        raise SceneError(f"{key}: {str(path)!r} has {int((~finite).sum())} vertices with NaN or infinite "
+                         "coordinates; every vertex of a face must be a finite number")
+    if obj.normals != "file":
+        # Keep the file's vertex order when its normals are wanted; otherwise let trimesh merge and clean.
+        loaded.process()
     vertices = np.asarray(loaded.vertices, np.float64)
-    if not np.isfinite(vertices).all():
-        bad = int((~np.isfinite(vertices)).any(axis=1).sum())
-        raise SceneError(f"{key}: {str(path)!r} has {bad} vertices with NaN or infinite coordinates")
     normals = None
     if obj.normals == "file":
         if "vertex_normals" not in loaded._cache:
@@ -111,6 +120,25 @@ def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
                              'normals; use "mean", "area" or "angle"')
         normals = np.asarray(loaded.vertex_normals, np.float64)
     return vertices, np.asarray(loaded.faces, np.int64), normals
+
+
+TEXT_FORMATS = (".obj", ".off")  # trimesh decodes these as text, guessing any non-UTF-8 encoding
+
+
+def _mesh_source(path) -> dict:
+    """trimesh.load arguments for `path`; a text format that is not UTF-8 is read as Latin-1.
+
+    trimesh needs the optional charset_normalizer to guess an encoding, and fails without it, so
+    decide here: every byte is a Latin-1 character, and the OBJ and OFF keywords are plain ASCII.
+    """
+    suffix = path.suffix.lower()
+    if suffix in TEXT_FORMATS:
+        data = path.read_bytes()
+        try:
+            data.decode("utf-8")
+        except UnicodeDecodeError:
+            return {"file_obj": io.BytesIO(data.decode("latin-1").encode("utf-8")), "file_type": suffix[1:]}
+    return {"file_obj": str(path)}
 
 
 def rotation_of(obj: Object) -> np.ndarray:

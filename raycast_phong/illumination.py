@@ -15,30 +15,31 @@ import math
 
 from numba import njit
 
-# Indices into the `flags` array (int64) that the render plan fills in.
-F_SPECULAR = 0        # 0: no specular work, 1: phong (v·r), 2: blinn (n·h)
-F_ATTENUATION = 1     # some point light attenuates
-F_LIGHT_AMBIENT = 2   # some light has its own ambient intensity
-F_EMISSION = 3        # some material emits
-F_SCENE_AMBIENT = 4   # I_a k_a is non-zero somewhere
-F_DIFFUSE = 5         # some light and material have a diffuse part
-F_VIEW_PER_POINT = 6  # local viewer with a perspective camera: v = normalize(eye − p) per point
-F_TWO_SIDED = 7       # flip the shading normal of a back-facing hit toward the viewer
-F_SCREEN = 8          # interpolate with screen-space weights instead of perspective-correct ones
-F_AOV_GEOMETRY = 9    # write depth, normal and face layers
-F_AOV_TERMS = 10      # write the per-term layers
-FLAG_COUNT = 11
+# Bits of the `flags` integer that the render plan fills in (the specular model travels apart).
+F_ATTENUATION = 1 << 0     # some point light attenuates
+F_LIGHT_AMBIENT = 1 << 1   # some light has its own ambient intensity
+F_EMISSION = 1 << 2        # some material emits
+F_SCENE_AMBIENT = 1 << 3   # I_a k_a is non-zero somewhere
+F_DIFFUSE = 1 << 4         # some light and material have a diffuse part
+F_VIEW_PER_POINT = 1 << 5  # local viewer with a perspective camera: v = normalize(eye − p) per point
+F_TWO_SIDED = 1 << 6       # flip the shading normal of a back-facing hit toward the viewer
+F_SCREEN = 1 << 7          # interpolate with screen-space weights instead of perspective-correct ones
+F_AOV_GEOMETRY = 1 << 8    # write depth, normal and face layers
+F_AOV_TERMS = 1 << 9       # write the per-term layers
+SPECULAR_NONE, SPECULAR_PHONG, SPECULAR_BLINN = 0, 1, 2
+
+# Columns of the material table (M, 13) and of the light table (K, 17).
+KA, KD, KS, KE, SHININESS = 0, 3, 6, 9, 12
+L_KIND, L_VEC, L_ID, L_IS, L_IA, L_ATT_KIND, L_ATT = 0, 1, 4, 7, 10, 13, 14
 
 # Indices into the `counts` array: how many times each optional term was evaluated.
 COUNTED_TERMS = ("specular", "attenuation", "light_ambient", "emission", "scene_ambient", "diffuse",
                  "view_vector")
 C_SPECULAR, C_ATTENUATION, C_LIGHT_AMBIENT, C_EMISSION, C_SCENE_AMBIENT, C_DIFFUSE, C_VIEW = range(7)
 
-# Layers of the accumulator `acc` (4, 3).
-AMBIENT, DIFFUSE, SPECULAR, EMISSION = range(4)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def specular_power(x, f, zero, one):
     """max(x, 0)^f with the limits the format asks for.
 
@@ -54,37 +55,38 @@ def specular_power(x, f, zero, one):
     return x ** f
 
 
-@njit(cache=True, nogil=True)
-def illuminate(px, py, pz, nx, ny, nz, m, w, ka, kd, ks, ke, shininess,
-               light_kind, light_vec, light_id, light_is, light_ia, light_att_kind, light_att,
-               ambient, eye, fixed_view, flags, c, acc, counts):
-    """Add w × (the model at point p with unit normal n, material m) to acc[term, channel].
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def illuminate(px, py, pz, nx, ny, nz, m, materials, lights, view, flags, specular, zero, one, two, tiny):
+    """The model at point p with unit normal n and material row m.
 
-    light_vec holds a point light's position, or a directional light's unit vector toward the light.
+    view = (I_a r, g, b, eye x, y, z, fixed view x, y, z). Returns the four terms as 12 scalars
+    (ambient, diffuse, specular, emission; r, g, b each) and a bit mask of the optional terms
+    evaluated (bit i = COUNTED_TERMS[i]). Scalars and three tables, not many arrays: every array
+    argument costs an atomic reference count per call, which dominated an earlier version.
+    A light's L_VEC is a point light's position, or a directional light's unit vector toward it.
     """
-    zero, one, two, tiny = c[0], c[1], c[2], c[3]
-    if flags[F_EMISSION]:
-        counts[C_EMISSION] += 1
-        for ch in range(3):
-            acc[EMISSION, ch] += w * ke[m, ch]
-    if flags[F_SCENE_AMBIENT]:
-        counts[C_SCENE_AMBIENT] += 1
-        for ch in range(3):
-            acc[AMBIENT, ch] += w * ambient[ch] * ka[m, ch]
+    ar = ag = ab = dr = dg = db = sr = sg = sb = er = eg = eb = zero
+    mask = 0
+    if flags & F_EMISSION:
+        mask |= 1 << C_EMISSION
+        er, eg, eb = materials[m, KE], materials[m, KE + 1], materials[m, KE + 2]
+    ka_r, ka_g, ka_b = materials[m, KA], materials[m, KA + 1], materials[m, KA + 2]
+    if flags & F_SCENE_AMBIENT:
+        mask |= 1 << C_SCENE_AMBIENT
+        ar, ag, ab = view[0] * ka_r, view[1] * ka_g, view[2] * ka_b
 
-    specular = flags[F_SPECULAR]
-    vx, vy, vz = fixed_view[0], fixed_view[1], fixed_view[2]
-    if specular != 0 and flags[F_VIEW_PER_POINT]:
-        counts[C_VIEW] += 1
-        vx, vy, vz = eye[0] - px, eye[1] - py, eye[2] - pz
+    vx, vy, vz = view[6], view[7], view[8]
+    if specular != SPECULAR_NONE and flags & F_VIEW_PER_POINT:
+        mask |= 1 << C_VIEW
+        vx, vy, vz = view[3] - px, view[4] - py, view[5] - pz
         length = math.sqrt(vx * vx + vy * vy + vz * vz)
         if length > zero:
             vx, vy, vz = vx / length, vy / length, vz / length
 
-    for k in range(light_kind.shape[0]):
+    for k in range(lights.shape[0]):
         d = zero
-        if light_kind[k] == 0:
-            lx, ly, lz = light_vec[k, 0] - px, light_vec[k, 1] - py, light_vec[k, 2] - pz
+        if lights[k, L_KIND] == 0:
+            lx, ly, lz = lights[k, L_VEC] - px, lights[k, L_VEC + 1] - py, lights[k, L_VEC + 2] - pz
             d = math.sqrt(lx * lx + ly * ly + lz * lz)
             if d > zero:
                 lx, ly, lz = lx / d, ly / d, lz / d
@@ -92,39 +94,43 @@ def illuminate(px, py, pz, nx, ny, nz, m, w, ka, kd, ks, ke, shininess,
                 # A light exactly on the surface has no direction: treat it as head-on.
                 lx, ly, lz = nx, ny, nz
         else:
-            lx, ly, lz = light_vec[k, 0], light_vec[k, 1], light_vec[k, 2]
+            lx, ly, lz = lights[k, L_VEC], lights[k, L_VEC + 1], lights[k, L_VEC + 2]
 
-        weight = w
-        if flags[F_ATTENUATION] and light_att_kind[k] != 0:
-            counts[C_ATTENUATION] += 1
-            if light_att_kind[k] == 1:
+        weight = one
+        if flags & F_ATTENUATION and lights[k, L_ATT_KIND] != 0:
+            mask |= 1 << C_ATTENUATION
+            if lights[k, L_ATT_KIND] == 1:
                 # 1/d² exactly; d² is floored at the smallest normal number so d = 0 stays finite.
-                weight = w * (one / max(d * d, tiny))
+                weight = one / max(d * d, tiny)
             else:
-                weight = w * min(one, one / (light_att[k, 0] + light_att[k, 1] * d + light_att[k, 2] * d * d))
+                weight = min(one, one / (lights[k, L_ATT] + lights[k, L_ATT + 1] * d + lights[k, L_ATT + 2] * d * d))
 
-        if flags[F_LIGHT_AMBIENT]:
-            counts[C_LIGHT_AMBIENT] += 1
-            for ch in range(3):
-                acc[AMBIENT, ch] += weight * light_ia[k, ch] * ka[m, ch]
+        if flags & F_LIGHT_AMBIENT:
+            mask |= 1 << C_LIGHT_AMBIENT
+            ar += weight * lights[k, L_IA] * ka_r
+            ag += weight * lights[k, L_IA + 1] * ka_g
+            ab += weight * lights[k, L_IA + 2] * ka_b
 
         n_dot_l = nx * lx + ny * ly + nz * lz
         if n_dot_l <= zero:
             continue  # no diffuse and no highlight on a side turned away from the light
-        if flags[F_DIFFUSE]:
-            counts[C_DIFFUSE] += 1
-            for ch in range(3):
-                acc[DIFFUSE, ch] += weight * light_id[k, ch] * kd[m, ch] * n_dot_l
-        if specular != 0:
-            counts[C_SPECULAR] += 1
-            if specular == 1:
+        if flags & F_DIFFUSE:
+            mask |= 1 << C_DIFFUSE
+            lit = weight * n_dot_l
+            dr += lit * lights[k, L_ID] * materials[m, KD]
+            dg += lit * lights[k, L_ID + 1] * materials[m, KD + 1]
+            db += lit * lights[k, L_ID + 2] * materials[m, KD + 2]
+        if specular != SPECULAR_NONE:
+            mask |= 1 << C_SPECULAR
+            if specular == SPECULAR_PHONG:
                 rx, ry, rz = two * n_dot_l * nx - lx, two * n_dot_l * ny - ly, two * n_dot_l * nz - lz
                 x = rx * vx + ry * vy + rz * vz
             else:
                 hx, hy, hz = lx + vx, ly + vy, lz + vz
                 length = math.sqrt(hx * hx + hy * hy + hz * hz)
                 x = (nx * hx + ny * hy + nz * hz) / length if length > zero else zero
-            s = specular_power(x, shininess[m], zero, one)
-            if s > zero:
-                for ch in range(3):
-                    acc[SPECULAR, ch] += weight * light_is[k, ch] * ks[m, ch] * s
+            s = weight * specular_power(x, materials[m, SHININESS], zero, one)
+            sr += s * lights[k, L_IS] * materials[m, KS]
+            sg += s * lights[k, L_IS + 1] * materials[m, KS + 1]
+            sb += s * lights[k, L_IS + 2] * materials[m, KS + 2]
+    return ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask

@@ -7,11 +7,9 @@ every optional stage, for tests that compare the two images.
 
 from __future__ import annotations
 
-import numpy as np
-
 from .illumination import (F_AOV_GEOMETRY, F_AOV_TERMS, F_ATTENUATION, F_DIFFUSE, F_EMISSION,
-                           F_LIGHT_AMBIENT, F_SCENE_AMBIENT, F_SCREEN, F_SPECULAR, F_TWO_SIDED,
-                           F_VIEW_PER_POINT, FLAG_COUNT)
+                           F_LIGHT_AMBIENT, F_SCENE_AMBIENT, F_SCREEN, F_TWO_SIDED, F_VIEW_PER_POINT,
+                           SPECULAR_BLINN, SPECULAR_NONE, SPECULAR_PHONG)
 from .records import RenderPlan, Stage
 from .scene import Mode, Scene, ShadingModel, SpecularModel, Viewer
 
@@ -95,18 +93,15 @@ def build_plan(scene: Scene, optimize: bool = True) -> RenderPlan:
     return RenderPlan(tuple(stages))
 
 
-def plan_flags(plan: RenderPlan, scene: Scene) -> np.ndarray:
-    """The shading kernel's flag array for this plan."""
-    flags = np.zeros(FLAG_COUNT, np.int64)
-    flags[F_SPECULAR] = (1 if scene.render.specular == SpecularModel.PHONG else 2) if plan.keeps("specular") else 0
-    flags[F_ATTENUATION] = plan.keeps("attenuation")
-    flags[F_LIGHT_AMBIENT] = plan.keeps("light_ambient")
-    flags[F_EMISSION] = plan.keeps("emission")
-    flags[F_SCENE_AMBIENT] = plan.keeps("scene_ambient")
-    flags[F_DIFFUSE] = plan.keeps("diffuse")
-    flags[F_VIEW_PER_POINT] = plan.keeps("view_vector_per_point")
-    flags[F_TWO_SIDED] = plan.keeps("two_sided")
-    flags[F_SCREEN] = plan.keeps("screen_interpolation")
-    flags[F_AOV_GEOMETRY] = plan.keeps("aov_geometry")
-    flags[F_AOV_TERMS] = plan.keeps("aov_terms")
-    return flags
+def plan_flags(plan: RenderPlan, scene: Scene) -> tuple[int, int]:
+    """The shading kernel's flag bits and specular model for this plan."""
+    bits = {F_ATTENUATION: "attenuation", F_LIGHT_AMBIENT: "light_ambient", F_EMISSION: "emission",
+            F_SCENE_AMBIENT: "scene_ambient", F_DIFFUSE: "diffuse", F_VIEW_PER_POINT: "view_vector_per_point",
+            F_TWO_SIDED: "two_sided", F_SCREEN: "screen_interpolation", F_AOV_GEOMETRY: "aov_geometry",
+            F_AOV_TERMS: "aov_terms"}
+    flags = sum(bit for bit, stage in bits.items() if plan.keeps(stage))
+    if not plan.keeps("specular"):
+        specular = SPECULAR_NONE
+    else:
+        specular = SPECULAR_PHONG if scene.render.specular == SpecularModel.PHONG else SPECULAR_BLINN
+    return flags, specular

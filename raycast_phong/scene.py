@@ -15,7 +15,8 @@ from enum import Enum
 from pathlib import Path
 from typing import Annotated, Any, Literal, Union
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, Strict, ValidationError, field_validator,
+                      model_validator)
 
 MAX_SIZE = 16384          # pixels per side, from the format
 MAX_SAMPLES = 16          # 16×16 = 256 rays per pixel is already a reference-quality render
@@ -49,10 +50,42 @@ class Mode(str, Enum):
 
 # ---------------------------------------------------------------- value types
 
+def _shown(value: Any) -> str:
+    """A value as the scene file spells it: the string '32', true, [1, 2]."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return f"the string {value!r}"
+    if isinstance(value, dict):
+        return "a table"
+    return repr(list(value)) if isinstance(value, tuple) else repr(value)
+
+
+def _number(value: Any) -> Any:
+    """TOML and JSON tell text and booleans from numbers, so "32" or true where a number belongs is a
+    mistake in the file; pydantic's lax mode would quietly convert them."""
+    if isinstance(value, (str, bool, dict, list, tuple)) or value is None:
+        raise ValueError(f"must be a number, got {_shown(value)}")
+    return value
+
+
+def _whole(value: Any) -> Any:
+    if isinstance(value, (str, bool, dict, list, tuple)) or value is None:
+        raise ValueError(f"must be a whole number, got {_shown(value)}")
+    return value
+
+
+Number = Annotated[float, BeforeValidator(_number)]
+Whole = Annotated[int, BeforeValidator(_whole)]
+
+
 def _triple(value: Any) -> Any:
     """A single number means the same value in all three channels (format: Conventions)."""
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         return (value, value, value)
+    if not isinstance(value, (list, tuple)) or len(value) != 3:
+        count = f"{len(value)} numbers: " if isinstance(value, (list, tuple)) else ""
+        raise ValueError(f"must be three numbers [a, b, c] (or one number for all three), got {count}{_shown(value)}")
     return value
 
 
@@ -76,8 +109,8 @@ def _non_negative(values: tuple[float, ...]) -> tuple[float, ...]:
     return values
 
 
-Vec3 = Annotated[tuple[float, float, float], BeforeValidator(_triple)]
-Coefficient = Annotated[tuple[float, float, float], BeforeValidator(_triple)]
+Vec3 = Annotated[tuple[Number, Number, Number], BeforeValidator(_triple)]
+Coefficient = Annotated[tuple[Number, Number, Number], BeforeValidator(_triple)]
 
 
 class _Strict(BaseModel):
@@ -87,17 +120,17 @@ class _Strict(BaseModel):
 # ---------------------------------------------------------------- tables
 
 class Render(_Strict):
-    width: int = Field(640, ge=1, le=MAX_SIZE)
-    height: int = Field(480, ge=1, le=MAX_SIZE)
+    width: Whole = Field(640, ge=1, le=MAX_SIZE)
+    height: Whole = Field(480, ge=1, le=MAX_SIZE)
     shading: ShadingModel = ShadingModel.PHONG
     specular: SpecularModel = SpecularModel.PHONG
     viewer: Viewer = Viewer.LOCAL
     mode: Mode = Mode.LOCAL
     terminator: Literal["none", "hanika"] = "hanika"
-    samples: int = Field(1, ge=1, le=MAX_SAMPLES)
+    samples: Whole = Field(1, ge=1, le=MAX_SAMPLES)
     background: Vec3 = (0.0, 0.0, 0.0)
     precision: Literal["float32", "float64"] = "float32"
-    two_sided: bool = True
+    two_sided: Annotated[bool, Strict()] = True  # true or false, not "yes" or 1
     interpolation: Literal["perspective", "screen"] = "perspective"
 
     _check_background = field_validator("background")(lambda v: _non_negative(v))
@@ -108,8 +141,8 @@ class Camera(_Strict):
     position: Vec3 = (0.0, 0.0, 4.0)
     look_at: Vec3 = (0.0, 0.0, 0.0)
     up: Vec3 = (0.0, 1.0, 0.0)
-    fov: float = Field(40.0, gt=0.0, lt=180.0)
-    view_height: float = Field(2.0, gt=0.0, allow_inf_nan=False)
+    fov: Number = Field(40.0, gt=0.0, lt=180.0)
+    view_height: Number = Field(2.0, gt=0.0, allow_inf_nan=False)
 
     _check_finite = field_validator("position", "look_at", "up")(lambda v: _finite(v))
 
@@ -117,7 +150,8 @@ class Camera(_Strict):
     def _frame(self) -> "Camera":
         forward = [b - a for a, b in zip(self.position, self.look_at)]
         if math.hypot(*forward) == 0.0:
-            raise _KeyError(("camera", "look_at"), "position and look_at coincide: the camera has no viewing direction")
+            raise _KeyError(("camera", "look_at"), f"{list(self.look_at)} is the camera position too, so the camera "
+                            "has no viewing direction; look_at must differ from camera.position")
         if math.hypot(*self.up) == 0.0:
             raise _KeyError(("camera", "up"), "the zero vector; give any direction not parallel to look_at − position")
         cross = (forward[1] * self.up[2] - forward[2] * self.up[1],
@@ -130,17 +164,25 @@ class Camera(_Strict):
         return self
 
 
+ATTENUATION_ALLOWED = '"none", "inverse_square" or [c, l, q] with c > 0 and l, q ≥ 0'
+
+
 def _attenuation(value: Any) -> Any:
-    if isinstance(value, (list, tuple)):
-        if len(value) != 3:
-            raise ValueError(f"the attenuation list is [c, l, q], got {len(value)} numbers")
-        c, l, q = (float(x) for x in value)
-        _finite((c, l, q))
-        if c <= 0 or l < 0 or q < 0:
-            raise ValueError(f"[c, l, q] = {list(value)} can make c + l·d + q·d² zero or negative: "
-                             "c must be > 0 and l, q ≥ 0")
-        return (c, l, q)
-    return value
+    if isinstance(value, str):
+        if value not in ("none", "inverse_square"):
+            raise ValueError(f"allowed: {ATTENUATION_ALLOWED}; got {value!r}")
+        return value
+    if not isinstance(value, (list, tuple)):
+        raise ValueError(f"allowed: {ATTENUATION_ALLOWED}; got {_shown(value)}")
+    if len(value) != 3:
+        raise ValueError(f"the attenuation list is [c, l, q], got {len(value)} numbers: {list(value)}")
+    c, l, q = (float(_number(x)) for x in value)
+    _finite((c, l, q))
+    # c + l·d + q·d² must stay positive for every distance d ≥ 0, including d = 0 at the light.
+    if c <= 0 or l < 0 or q < 0:
+        raise ValueError(f"[c, l, q] = {list(value)} lets c + l·d + q·d² reach zero or below, which divides by "
+                         "zero; allowed: c > 0 and l, q ≥ 0")
+    return (c, l, q)
 
 
 class Light(_Strict):
@@ -173,7 +215,7 @@ class Material(_Strict):
     kd: Coefficient = (0.8, 0.8, 0.8)
     ks: Coefficient = (0.5, 0.5, 0.5)
     ke: Coefficient = (0.0, 0.0, 0.0)
-    shininess: float = 32.0
+    shininess: Number = 32.0
 
     _check_coefficients = field_validator("ka", "kd", "ks", "ke")(lambda v: _unit_range(v))
 
@@ -188,24 +230,30 @@ class Material(_Strict):
 SHAPES = ("icosphere", "uv_sphere", "box", "plane", "cylinder", "torus", "mesh")
 
 
+def _pair(value: Any) -> Any:
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise ValueError(f"must be two whole numbers [a, b] in [3, 4096], got {_shown(value)}")
+    return value
+
+
 class Object(_Strict):
     name: str | None = None
     shape: Literal["icosphere", "uv_sphere", "box", "plane", "cylinder", "torus", "mesh"]
-    subdivisions: int = Field(2, ge=0, le=8)
-    segments: tuple[int, int] | None = None
-    radius: float = Field(1.0, gt=0.0, allow_inf_nan=False)
-    height: float = Field(2.0, gt=0.0, allow_inf_nan=False)      # cylinder: length along local z
-    major_radius: float = Field(1.0, gt=0.0, allow_inf_nan=False)
-    minor_radius: float = Field(0.25, gt=0.0, allow_inf_nan=False)
-    size: tuple[float, ...] | None = None
+    subdivisions: Whole = Field(2, ge=0, le=8)
+    segments: Annotated[tuple[Whole, Whole], BeforeValidator(_pair)] | None = None
+    radius: Number = Field(1.0, gt=0.0, allow_inf_nan=False)
+    height: Number = Field(2.0, gt=0.0, allow_inf_nan=False)      # cylinder: length along local z
+    major_radius: Number = Field(1.0, gt=0.0, allow_inf_nan=False)
+    minor_radius: Number = Field(0.25, gt=0.0, allow_inf_nan=False)
+    size: tuple[Number, ...] | None = None
     path: str | None = None
     material: str = "default"
     shading: ShadingModel | None = None
     normals: Literal["mean", "area", "angle", "file"] = "mean"
-    crease_angle: float = Field(180.0, ge=0.0, le=180.0)
+    crease_angle: Number = Field(180.0, ge=0.0, le=180.0)
     translate: Vec3 = (0.0, 0.0, 0.0)
     rotate: Vec3 = (0.0, 0.0, 0.0)
-    scale: Annotated[tuple[float, float, float], BeforeValidator(_triple)] = (1.0, 1.0, 1.0)
+    scale: Vec3 = (1.0, 1.0, 1.0)
 
     _check_finite = field_validator("translate", "rotate")(lambda v: _finite(v))
 
@@ -253,13 +301,22 @@ class Output(_Strict):
     path: str = "out.png"
     aovs: tuple[Literal["depth", "normal", "face", "ambient", "diffuse", "specular", "emission"], ...] = ()
 
+    @model_validator(mode="before")
+    @classmethod
+    def _default_path(cls, data: Any) -> Any:
+        # Layers need EXR: with aovs and no path, default to out.exr rather than refuse out.png.
+        if isinstance(data, dict) and data.get("aovs") and "path" not in data:
+            return {**data, "path": "out.exr"}
+        return data
+
     @model_validator(mode="after")
     def _format(self) -> "Output":
         suffix = Path(self.path).suffix.lower()
         if suffix not in (".png", ".exr"):
-            raise ValueError(f"path {self.path!r} must end in .png or .exr")
+            raise _KeyError(("output", "path"), f"{self.path!r} must end in .png or .exr")
         if self.aovs and suffix != ".exr":
-            raise ValueError(f"aovs {list(self.aovs)} need an .exr output (a PNG holds only RGB)")
+            raise _KeyError(("output", "aovs"), f"{list(self.aovs)} need an .exr output, but output.path is "
+                            f"{self.path!r} (a PNG holds only RGB)")
         return self
 
 
@@ -282,7 +339,8 @@ class Scene(_Strict):
     @model_validator(mode="after")
     def _references(self) -> "Scene":
         if not self.objects:
-            raise ValueError("the scene has no [[objects]]: add at least one")
+            raise _KeyError(("objects",), 'the scene has no [[objects]]; add at least one, e.g. '
+                            '[[objects]] shape = "icosphere"')
         for index, obj in enumerate(self.objects):
             if obj.material != "default" and obj.material not in self.materials:
                 close = difflib.get_close_matches(obj.material, list(self.materials), n=1)
@@ -401,15 +459,33 @@ def describe_error(error: ValidationError, data: dict, source: str) -> str:
     message = first["msg"]
     if message.startswith("Value error, "):
         message = message[len("Value error, "):]
+    # Say pydantic's type errors in the scene file's words (table, list, true/false).
     if kind in ("greater_than_equal", "less_than_equal", "greater_than", "less_than"):
         message = f"out of range; allowed: {_allowed_range(loc)}"
+    elif message.startswith(("must be a number", "must be a whole number")) and _bounded(loc):
+        message = f"{message}; allowed: {_allowed_range(loc)}"
+    elif kind == "missing":
+        message = "this key is required"
+    elif kind in ("model_type", "dict_type"):
+        message = "must be a table of keys"
+    elif kind in ("tuple_type", "list_type"):
+        message = (f"must be an array of tables, [[{loc[-1]}]]" if loc and loc[-1] in ("lights", "objects")
+                   else "must be a list")
+    elif kind == "bool_type":
+        message = "must be true or false"
     value = first.get("input")
-    shown = "" if kind == "missing" or isinstance(value, dict) or "got " in message else f" (got {value!r})"
+    shown = "" if kind == "missing" or isinstance(value, dict) or "got " in message else f" (got {_shown(value)})"
     return f"{source}: {key}: {message}{shown}"
 
 
+def _bounded(loc: tuple) -> bool:
+    return _allowed_range(loc) != str(loc[-1])
+
+
 def _allowed_range(loc: tuple) -> str:
-    """'1 ≤ width ≤ 16384' from the field's constraints."""
+    """'1 ≤ width ≤ 16384' from the field's constraints ('width' alone if it has none)."""
+    if not loc:
+        return ""
     owner = _model_at(loc[:-1])
     field = owner.model_fields.get(str(loc[-1])) if owner else None
     low = high = None
@@ -428,38 +504,38 @@ def apply_override(data: dict, assignment: str, source: str = "--set") -> None:
 
     List items are addressed by index: `lights.0.position=[1, 2, 3]`, `objects.1.shading=flat`.
     """
+    where = f"{source}: --set {assignment!r}"
     if "=" not in assignment:
-        raise SceneError(f"--set {assignment!r}: expected key.path=value")
+        raise SceneError(f"{where}: expected KEY.PATH=VALUE, e.g. render.width=320 or lights.0.position=[1, 2, 3]")
     key, text = (part.strip() for part in assignment.split("=", 1))
+    parts = key.split(".")
+    if not all(parts):
+        raise SceneError(f"{where}: {key!r} is not a key path; expected names and list indices joined by dots, "
+                         "e.g. render.width")
     try:
         value = tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         value = text
-    parts = key.split(".")
     node: Any = data
-    for depth, part in enumerate(parts[:-1]):
-        child_default: Any = [] if parts[depth + 1].isdigit() else {}
-        node = _child(node, part, child_default, assignment)
-    last = parts[-1]
-    if isinstance(node, list):
-        index = _index(node, last, assignment)
-        node[index] = value
-    else:
-        node[last] = value
-
-
-def _child(node: Any, part: str, default: Any, assignment: str) -> Any:
-    if isinstance(node, list):
-        return node[_index(node, part, assignment)]
-    if not isinstance(node, dict):
-        raise SceneError(f"--set {assignment!r}: {part!r} is inside a value, not a table")
-    return node.setdefault(part, default)
-
-
-def _index(node: list, part: str, assignment: str) -> int:
-    if not part.isdigit() or int(part) >= len(node):
-        raise SceneError(f"--set {assignment!r}: index {part!r} is out of range (the list has {len(node)} items)")
-    return int(part)
+    for depth, part in enumerate(parts):
+        node_path = ".".join(parts[:depth]) or "(top level)"
+        if isinstance(node, list):
+            if not part.isdigit() or int(part) >= len(node):
+                allowed = f"0..{len(node) - 1}" if node else "none: it is empty"
+                raise SceneError(f"{where}: {_dotted(parts[:depth + 1])}: {node_path} is a list of {len(node)} "
+                                 f"items; allowed indices: {allowed}")
+            index: Any = int(part)
+        elif isinstance(node, dict):
+            index = part
+        else:
+            raise SceneError(f"{where}: {node_path} is the value {_shown(node)}, not a table, so it has no key "
+                             f"{part!r}")
+        if depth == len(parts) - 1:
+            node[index] = value
+        elif isinstance(node, dict) and part not in node:
+            node = node.setdefault(part, [] if parts[depth + 1].isdigit() else {})
+        else:
+            node = node[index]
 
 
 def default_scene_path() -> Path:

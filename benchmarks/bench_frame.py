@@ -1,0 +1,76 @@
+"""Frame time against the raw Embree cast of the same rays, in one run (issue 2's speed target).
+
+Scene: icosphere of 6 subdivisions (81,920 triangles, radius 1), camera at distance 4, fov 40°, one
+point light, Phong shading and specular, 1000×1000. Reports the median of --repeats runs:
+  raw cast  the same rays, generated beforehand, cast in the same tiles on the same thread pool
+  frame     render() wall time minus the BVH build (ray generation + cast + shading + film)
+and the ratio frame / raw cast (target ≤ 1.5), rays/s, and the per-stage split.
+Usage: python benchmarks/bench_frame.py [--size 1000] [--repeats 5] [--threads 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from concurrent.futures import ThreadPoolExecutor
+
+import raycast_phong as rp
+from raycast_phong.camera import camera_rig, generate_rays
+from raycast_phong.geometry import build_geometry
+from raycast_phong.intersect import Accelerator, unit_frame
+from raycast_phong.render import TILE_RAYS
+
+
+def benchmark_scene(size: int, subdivisions: int = 6) -> rp.Scene:
+    return rp.validate_scene({
+        "render": {"width": size, "height": size, "shading": "phong", "specular": "phong"},
+        "camera": {"position": [0, 0, 4], "look_at": [0, 0, 0], "fov": 40},
+        "lights": [{"type": "point", "position": [2, 2, 3]}],
+        "materials": {"m": {"ka": 1, "kd": 0.7, "ks": 0.5, "shininess": 32}},
+        "objects": [{"shape": "icosphere", "subdivisions": subdivisions, "radius": 1.0, "material": "m"}],
+    }, source="benchmark")
+
+
+def raw_cast_seconds(scene: rp.Scene, threads: int) -> float:
+    """Cast the render's rays, pre-generated in the render's tiles, on `threads` threads."""
+    geometry = build_geometry(scene)
+    frame = unit_frame(geometry.vertices)
+    accelerator = Accelerator(geometry, frame)
+    rig = camera_rig(scene)
+    width, height = scene.render.width, scene.render.height
+    rows = max(1, TILE_RAYS // width)
+    tiles = [generate_rays(rig, frame, width, height, 1, r, min(r + rows, height)) for r in range(0, height, rows)]
+    with ThreadPoolExecutor(threads) as pool:
+        start = time.perf_counter()
+        list(pool.map(lambda tile: accelerator.cast_only(*tile), tiles))
+        return time.perf_counter() - start
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--size", type=int, default=1000)
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--threads", type=int, default=2)
+    args = parser.parse_args()
+    scene = benchmark_scene(args.size)
+    rp.render(benchmark_scene(64), threads=args.threads)  # compile or load the numba kernels first
+    casts, frames, splits = [], [], []
+    for _ in range(args.repeats):
+        casts.append(raw_cast_seconds(scene, args.threads))
+        result = rp.render(scene, threads=args.threads)
+        frames.append(result.timings["frame"])
+        splits.append(result.timings)
+    cast, frame = statistics.median(casts), statistics.median(frames)
+    rays = args.size * args.size
+    median_split = {key: statistics.median(s[key] for s in splits) for key in ("geometry", "build", "rays", "shade")}
+    print(f"{args.size}×{args.size}, {result.triangles:,} triangles, {args.threads} threads, median of {args.repeats}")
+    print(f"raw cast   {cast * 1e3:7.1f} ms  {rays / cast / 1e6:5.1f} Mrays/s")
+    print(f"frame      {frame * 1e3:7.1f} ms  {rays / frame / 1e6:5.1f} Mrays/s")
+    print(f"ratio      {frame / cast:7.2f}    (frame / raw cast; target ≤ 1.5)")
+    print("stages     " + ", ".join(f"{k} {v * 1e3:.1f} ms" for k, v in median_split.items())
+          + "  (rays = generation + cast, rays and shade summed over threads)")
+
+
+if __name__ == "__main__":
+    main()
