@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from .camera import CameraRig
-from .illumination import COUNTED_TERMS, F_AOV_GEOMETRY, F_AOV_TERMS, F_SCREEN, F_TWO_SIDED, illuminate
+from .illumination import COUNTED_TERMS, F_AOV_GEOMETRY, F_AOV_TERMS, F_ATTENUATION, F_SCREEN, F_TWO_SIDED, illuminate
 from .intersect import TileHits
 from .records import Frame, Geometry
 from .scene import DEFAULT_MATERIAL, Scene
@@ -61,7 +61,9 @@ def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Fra
             kind, vector = 1, -np.asarray(light.direction, np.float64)
             vector = vector / np.linalg.norm(vector)
         if light.type == "directional" or light.attenuation == "none":
-            attenuation = (0, 1.0, 0.0, 0.0)  # f_att = 1 for directional lights, whatever the file says
+            # f_att = 1 for directional lights, whatever the file says. When the plan keeps attenuation,
+            # "none" is evaluated as min(1, 1/(1 + 0 d + 0 d²)) = 1, so every light goes through it.
+            attenuation = (2, 1.0, 0.0, 0.0) if flags[0] & F_ATTENUATION else (0, 1.0, 0.0, 0.0)
         elif light.attenuation == "inverse_square":
             attenuation = (1, 0.0, 0.0, 1.0)
         else:

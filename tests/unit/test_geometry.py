@@ -1,0 +1,93 @@
+"""Face and vertex normals, crease splitting, shapes and placement."""
+
+import math
+
+import numpy as np
+import pytest
+import trimesh
+
+import raycast_phong as rp
+from raycast_phong.geometry import build_geometry, compute_corner_normals, face_normals, plane_mesh
+
+
+def test_icosphere_vertex_normals_are_the_unit_positions_to_first_order():
+    mesh = trimesh.creation.icosphere(subdivisions=3)
+    corners = compute_corner_normals(mesh.vertices, mesh.faces, "mean")
+    expected = mesh.vertices[mesh.faces]
+    assert np.abs(corners - expected).max() < 0.01
+    np.testing.assert_allclose(np.linalg.norm(corners, axis=-1), 1.0, atol=1e-12)
+
+
+def test_mean_area_and_angle_weightings_on_a_hand_made_fan():
+    """Vertex 0 is shared by a large face in the x–y plane and a small face tilted 90° about x."""
+    vertices = np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0], [1, 0, 0], [0, 0, -1]], float)
+    faces = np.array([[0, 1, 2], [0, 3, 4]])  # normals +z (area 2) and +y... check below
+    unit, doubled = face_normals(vertices, faces)
+    np.testing.assert_allclose(unit, [[0, 0, 1], [0, 1, 0]], atol=1e-12)
+    mean = compute_corner_normals(vertices, faces, "mean")[0, 0]
+    area = compute_corner_normals(vertices, faces, "area")[0, 0]
+    angle = compute_corner_normals(vertices, faces, "angle")[0, 0]
+    np.testing.assert_allclose(mean, np.array([0, 1, 1]) / math.sqrt(2), atol=1e-12)
+    np.testing.assert_allclose(area, np.array([0, 0.5, 2]) / math.hypot(0.5, 2), atol=1e-12)
+    # Both corner angles at vertex 0 are 90°: the angle weighting equals the mean.
+    np.testing.assert_allclose(angle, mean, atol=1e-12)
+
+
+def test_crease_angle_splits_a_cube_into_face_normals():
+    box = trimesh.creation.box()
+    unit, _ = face_normals(box.vertices, box.faces)
+    creased = compute_corner_normals(box.vertices, box.faces, "mean", crease_angle=30)
+    np.testing.assert_allclose(creased, np.repeat(unit[:, None], 3, axis=1), atol=1e-12)
+    smooth = compute_corner_normals(box.vertices, box.faces, "mean", crease_angle=180)
+    # Uncreased, a cube corner's normal points along the diagonal (averaging the three faces' normals,
+    # each counted once per adjacent triangle).
+    assert np.abs(smooth - np.repeat(unit[:, None], 3, axis=1)).max() > 0.3
+
+
+def test_crease_angle_180_and_the_creased_path_agree():
+    mesh = trimesh.creation.icosphere(subdivisions=2)
+    a = compute_corner_normals(mesh.vertices, mesh.faces, "area", crease_angle=180)
+    b = compute_corner_normals(mesh.vertices, mesh.faces, "area", crease_angle=179.999)
+    np.testing.assert_allclose(a, b, atol=1e-12)
+
+
+def test_degenerate_faces_do_not_poison_normals():
+    vertices = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [2, 0, 0]], float)
+    faces = np.array([[0, 1, 2], [0, 1, 3]])  # the second is a zero-area sliver along x
+    corners = compute_corner_normals(vertices, faces, "mean")
+    assert np.isfinite(corners).all()
+    np.testing.assert_allclose(corners[0], [[0, 0, 1]] * 3, atol=1e-12)
+
+
+def test_plane_faces_point_up():
+    vertices, faces = plane_mesh((2, 3), (2, 3))
+    unit, doubled = face_normals(vertices, faces)
+    np.testing.assert_allclose(unit, np.tile([0, 1, 0], (len(faces), 1)))
+    assert doubled.sum() / 2 == pytest.approx(6.0)
+
+
+def test_placement_scales_rotates_then_translates_and_mirrors_keep_normals_outward():
+    scene = rp.validate_scene({
+        "objects": [{"shape": "plane", "size": [2, 2], "scale": [1, -1, 1], "rotate": [90, 0, 0],
+                     "translate": [5, 0, 0]}],
+    })
+    g = build_geometry(scene)
+    # Mirror in y turns the up-facing plane down: −y; then 90° about x sends −y to −z.
+    np.testing.assert_allclose(g.face_normals, np.tile([0, 0, -1], (len(g.faces), 1)), atol=1e-12)
+    np.testing.assert_allclose(g.vertices.mean(axis=0), [5, 0, 0], atol=1e-12)
+
+
+@pytest.mark.parametrize("shape", ["icosphere", "uv_sphere", "box", "plane", "cylinder", "torus"])
+def test_every_builtin_shape_builds_with_unit_normals(shape):
+    g = build_geometry(rp.validate_scene({"objects": [{"shape": shape}]}))
+    assert g.triangles > 0
+    np.testing.assert_allclose(np.linalg.norm(g.corner_normals, axis=-1), 1.0, atol=1e-9)
+
+
+def test_file_normals_are_read_from_an_obj(tmp_path):
+    (tmp_path / "tri.obj").write_text(
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0.6 0 0.8\nvn 0 0.6 0.8\nf 1//1 2//2 3//3\n")
+    scene = rp.validate_scene({"objects": [{"shape": "mesh", "path": "tri.obj", "normals": "file"}]},
+                              folder=tmp_path)
+    g = build_geometry(scene)
+    np.testing.assert_allclose(g.corner_normals[0], [[0, 0, 1], [0.6, 0, 0.8], [0, 0.6, 0.8]], atol=1e-12)

@@ -1,0 +1,164 @@
+"""Shading models against an exact sphere, and invariants that must hold exactly."""
+
+import numpy as np
+import pytest
+
+import raycast_phong as rp
+from raycast_phong.camera import camera_rig
+
+LIGHT = {"type": "point", "position": [2, 2, 3], "diffuse": [0.8, 0.8, 0.8], "specular": [1, 1, 1]}
+MATERIAL = {"ka": 1.0, "kd": [0.7, 0.5, 0.3], "ks": 0.5, "shininess": 16}
+
+
+def sphere_scene(subdivisions: int, shading: str = "phong", size: int = 96, **render):
+    return rp.validate_scene({
+        "render": {"width": size, "height": size, "shading": shading, "precision": "float64", **render},
+        "camera": {"position": [0, 0, 4], "look_at": [0, 0, 0], "fov": 40},
+        "ambient": 0.1,
+        "lights": [LIGHT],
+        "materials": {"m": MATERIAL},
+        "objects": [{"shape": "icosphere", "subdivisions": subdivisions, "radius": 1.0, "material": "m"}],
+    })
+
+
+def exact_sphere_image(scene) -> tuple[np.ndarray, np.ndarray]:
+    """The model on the true unit sphere, per pixel centre, in numpy float64: image and n·v."""
+    rig = camera_rig(scene)
+    w, h = scene.render.width, scene.render.height
+    x = (np.arange(w) + 0.5) / w * 2 - 1
+    y = 1 - (np.arange(h) + 0.5) / h * 2
+    sx, sy = np.meshgrid(x * rig.half_width, y * rig.half_height)
+    d = rig.forward + sx[..., None] * rig.right + sy[..., None] * rig.up
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    o = rig.eye
+    # |o + t d|² = 1: t² + 2 (o·d) t + |o|² − 1 = 0, nearest root.
+    b = d @ o
+    disc = b * b - (o @ o - 1)
+    hit = disc > 0
+    t = -b - np.sqrt(np.where(hit, disc, 0))
+    p = o + t[..., None] * d
+    n = p  # unit sphere at the origin
+    to_light = np.asarray(LIGHT["position"]) - p
+    to_light /= np.linalg.norm(to_light, axis=-1, keepdims=True)
+    to_viewer = -d
+    n_dot_l = np.einsum("...i,...i", n, to_light)
+    r = 2 * n_dot_l[..., None] * n - to_light
+    v_dot_r = np.einsum("...i,...i", r, to_viewer)
+    s = np.where(n_dot_l > 0, np.maximum(v_dot_r, 0) ** MATERIAL["shininess"], 0)
+    kd = np.asarray(MATERIAL["kd"])
+    image = (0.1 * MATERIAL["ka"] + 0.8 * kd * np.maximum(n_dot_l, 0)[..., None]
+             + 1.0 * MATERIAL["ks"] * s[..., None])
+    image = np.where(hit[..., None], image, 0.0)
+    return image, np.where(hit, np.einsum("...i,...i", n, to_viewer), 0.0)
+
+
+def test_phong_on_a_fine_icosphere_matches_the_exact_sphere():
+    scene = sphere_scene(5)
+    image = rp.render(scene).image
+    exact, n_dot_v = exact_sphere_image(scene)
+    interior = n_dot_v > 0.3  # away from the silhouette, where a pixel may see the mesh or not
+    assert interior.sum() > 2000
+    error = np.abs(image - exact).max(axis=2)[interior]
+    assert error.max() < 0.01, f"max error {error.max():.4f} on interior pixels"
+
+
+def test_the_sphere_comparison_can_fail():
+    """Flat shading on a coarse sphere is far from the exact image: the oracle discriminates."""
+    scene = sphere_scene(1, shading="flat")
+    exact, n_dot_v = exact_sphere_image(scene)
+    error = np.abs(rp.render(scene).image - exact).max(axis=2)[n_dot_v > 0.3]
+    assert error.max() > 0.05
+
+
+def box_scene(shading: str):
+    return rp.validate_scene({
+        "render": {"width": 64, "height": 48, "shading": shading, "viewer": "infinite", "precision": "float64"},
+        "camera": {"type": "orthographic", "position": [3, 2.5, 4], "look_at": [0, 0, 0], "view_height": 3.5},
+        "lights": [{"type": "directional", "direction": [-1, -2, -1.5]}],
+        "materials": {"m": MATERIAL},
+        "objects": [{"shape": "box", "size": [1.5, 1, 1.2], "rotate": [10, 20, 0], "crease_angle": 30,
+                     "material": "m"}],
+    })
+
+
+def test_box_flat_gouraud_and_phong_are_identical():
+    """Directional light, orthographic camera, infinite viewer, creased box: the model is constant on
+    each face, so where it is evaluated cannot matter."""
+    flat, gouraud, phong = (rp.render(box_scene(model)).image for model in ("flat", "gouraud", "phong"))
+    assert flat.max() > 0.3 and len(np.unique(flat.round(4))) >= 4  # three lit faces and background
+    np.testing.assert_allclose(gouraud, flat, atol=1e-6)
+    np.testing.assert_allclose(phong, flat, atol=1e-6)
+
+
+def test_box_without_creases_differs_under_smooth_shading():
+    """The same box with crease_angle 180 averages normals across edges: Phong no longer equals flat."""
+    scene = box_scene("phong")
+    smooth = scene.model_copy(update={"objects": (scene.objects[0].model_copy(update={"crease_angle": 180.0}),)})
+    assert np.abs(rp.render(smooth).image - rp.render(box_scene("flat")).image).max() > 0.05
+
+
+@pytest.mark.parametrize("shading", ["flat", "gouraud", "phong"])
+def test_one_and_two_threads_give_bit_identical_images(shading):
+    scene = sphere_scene(2, shading=shading, size=200, samples=2)
+    one, two = rp.render(scene, threads=1).image, rp.render(scene, threads=2).image
+    assert np.array_equal(one, two)
+
+
+def plane_view(height: float, two_sided: bool):
+    return rp.validate_scene({
+        "render": {"width": 32, "height": 32, "two_sided": two_sided, "shading": "phong", "precision": "float64"},
+        "camera": {"position": [0.3, height, 0.2], "look_at": [0, 0, 0], "up": [0, 0, 1], "fov": 60},
+        "lights": [{"type": "point", "position": [0.3, height, 0.2]}],
+        "materials": {"m": MATERIAL},
+        "objects": [{"shape": "plane", "size": [3, 3], "segments": [3, 3], "material": "m"}],
+    })
+
+
+def test_plane_seen_from_below_with_two_sided_shading_looks_as_from_above():
+    above = rp.render(plane_view(2.0, True)).image
+    below = rp.render(plane_view(-2.0, True)).image
+    assert above.mean() > 0.2
+    # Mirrored through the plane, camera and light see the same picture up to the image's flip in x
+    # (the camera's right vector turns over with it).
+    np.testing.assert_allclose(below[:, ::-1], above, atol=1e-6)
+
+
+def test_plane_seen_from_below_one_sided_gets_no_direct_light():
+    below = rp.render(plane_view(-2.0, False)).image
+    ambient_only = 0.1 * MATERIAL["ka"]
+    np.testing.assert_allclose(below, ambient_only, atol=1e-6)
+
+
+def test_samples_average_sub_pixel_rays():
+    """samples = 2 equals the mean of the 2×2 blocks of a render at twice the resolution."""
+    coarse = rp.render(sphere_scene(2, size=40, samples=2)).image
+    fine = rp.render(sphere_scene(2, size=80)).image
+    np.testing.assert_allclose(coarse, fine.reshape(40, 2, 40, 2, 3).mean(axis=(1, 3)), atol=1e-6)
+
+
+def test_term_layers_add_up_to_the_image_and_geometry_layers_are_sane():
+    scene = sphere_scene(3, size=48)
+    scene = scene.model_copy(update={"output": rp.scene.Output(path="x.exr", aovs=(
+        "depth", "normal", "face", "ambient", "diffuse", "specular", "emission"))})
+    result = rp.render(scene)
+    total = sum(result.aovs[name] for name in ("ambient", "diffuse", "specular", "emission"))
+    np.testing.assert_allclose(total, result.image, atol=1e-6)
+    hit = result.aovs["face"][..., 0] >= 0
+    # The nearest point of the unit sphere is 3 away from the eye at distance 4.
+    assert 2.99 < result.aovs["depth"][..., 0][hit].min() < 3.01
+    np.testing.assert_allclose(np.linalg.norm(result.aovs["normal"][hit], axis=-1), 1.0, atol=1e-5)
+    assert np.isinf(result.aovs["depth"][..., 0][~hit]).all()
+
+
+def test_screen_space_interpolation_differs_from_perspective_on_a_receding_plane():
+    """Gouraud on one big triangle pair seen at a grazing angle: screen-space weights are not the true ones."""
+    base = {
+        "render": {"width": 48, "height": 48, "shading": "gouraud", "precision": "float64"},
+        "camera": {"position": [0, 0.6, 3], "look_at": [0, 0, -2], "fov": 60},
+        "lights": [{"type": "point", "position": [0, 0.3, 1.5]}],
+        "materials": {"m": MATERIAL},
+        "objects": [{"shape": "plane", "size": [4, 8], "translate": [0, 0, -2], "material": "m"}],
+    }
+    perspective = rp.render(rp.validate_scene(base)).image
+    screen = rp.render(rp.validate_scene({**base, "render": {**base["render"], "interpolation": "screen"}})).image
+    assert np.abs(perspective - screen).max() > 0.01
