@@ -1,4 +1,4 @@
-"""Gather shaded tiles into the (H, W, 3) image and its layers; encode display values for 8-bit files.
+"""The (H, W, 3) image and its layers that tiles are shaded into; display encoding for 8-bit files.
 
 The model's values are display values (as in the lecture's shader), so a PNG stores them clamped to
 [0, 1] with no gamma curve; `srgb=True` applies the sRGB transfer curve instead (IEC 61966-2-1).
@@ -6,39 +6,41 @@ The model's values are display values (as in the lecture's shader), so a PNG sto
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
-from .shading import TileImage
+from .records import ImageBuffers
 
 TERM_LAYERS = ("ambient", "diffuse", "specular", "emission")
 
 
-@dataclass(eq=False)
-class Film:
-    """The whole image and the requested layers, filled tile by tile (each tile owns its rows)."""
-    width: int
-    height: int
-    aovs: tuple[str, ...]
-    rgb: np.ndarray = field(init=False)
-    layers: dict[str, np.ndarray] = field(init=False)
+GEOMETRY_LAYERS = ("depth", "normal", "face")
 
-    def __post_init__(self) -> None:
-        self.rgb = np.zeros((self.height, self.width, 3), np.float32)
-        channels = {"depth": 1, "normal": 3, "face": 1, **{name: 3 for name in TERM_LAYERS}}
-        self.layers = {name: np.zeros((self.height, self.width, channels[name]), np.float32) for name in self.aovs}
 
-    def put(self, row0: int, tile: TileImage) -> None:
-        rows = slice(row0, row0 + tile.rgb.shape[0])
-        self.rgb[rows] = tile.rgb
-        for name, layer in self.layers.items():
-            if name in TERM_LAYERS:
-                layer[rows] = tile.terms[:, :, TERM_LAYERS.index(name)]
-            elif name == "normal":
-                layer[rows] = tile.normal
-            else:
-                layer[rows] = getattr(tile, name)[:, :, None]
+def allocate_film(width: int, height: int, aovs: tuple[str, ...]) -> ImageBuffers:
+    """Zeroed buffers for the image and only the layers asked for."""
+    terms = any(name in TERM_LAYERS for name in aovs)
+    geometry = any(name in GEOMETRY_LAYERS for name in aovs)
+    h, w = (height, width) if geometry else (0, 0)
+    return ImageBuffers(
+        rgb=np.zeros((height, width, 3), np.float32),
+        terms=np.zeros((height, width, 4, 3) if terms else (0, 0, 4, 3), np.float32),
+        depth=np.full((h, w), np.inf, np.float32),
+        normal=np.zeros((h, w, 3), np.float32),
+        face=np.full((h, w), -1.0, np.float32),
+    )
+
+
+def film_layers(film: ImageBuffers, aovs: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """The requested layers as name → (H, W, C) float32, in the order asked for."""
+    layers = {}
+    for name in aovs:
+        if name in TERM_LAYERS:
+            layers[name] = film.terms[:, :, TERM_LAYERS.index(name)]
+        elif name == "normal":
+            layers[name] = film.normal
+        else:
+            layers[name] = getattr(film, name)[:, :, None]
+    return layers
 
 
 def srgb_encode(linear: np.ndarray) -> np.ndarray:

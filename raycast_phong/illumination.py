@@ -56,21 +56,21 @@ def specular_power(x, f, zero, one):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def illuminate(px, py, pz, nx, ny, nz, m, materials, lights, view, flags, specular, zero, one, two, tiny):
-    """The model at point p with unit normal n and material row m.
+def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, zero, one, two, tiny):
+    """The model at point p with unit normal n and one material (a row of the material table, as a tuple).
 
-    view = (I_a r, g, b, eye x, y, z, fixed view x, y, z). Returns the four terms as 12 scalars
+    view = (I_a r, g, b, eye x, y, z, fixed view x, y, z), a tuple. Returns the four terms as 12 scalars
     (ambient, diffuse, specular, emission; r, g, b each) and a bit mask of the optional terms
-    evaluated (bit i = COUNTED_TERMS[i]). Scalars and three tables, not many arrays: every array
-    argument costs an atomic reference count per call, which dominated an earlier version.
+    evaluated (bit i = COUNTED_TERMS[i]). Tuples and scalars, and one array: every array argument
+    costs an atomic reference count per call, which dominated the frame time of an earlier version.
     A light's L_VEC is a point light's position, or a directional light's unit vector toward it.
     """
     ar = ag = ab = dr = dg = db = sr = sg = sb = er = eg = eb = zero
     mask = 0
     if flags & F_EMISSION:
         mask |= 1 << C_EMISSION
-        er, eg, eb = materials[m, KE], materials[m, KE + 1], materials[m, KE + 2]
-    ka_r, ka_g, ka_b = materials[m, KA], materials[m, KA + 1], materials[m, KA + 2]
+        er, eg, eb = material[KE], material[KE + 1], material[KE + 2]
+    ka_r, ka_g, ka_b = material[KA], material[KA + 1], material[KA + 2]
     if flags & F_SCENE_AMBIENT:
         mask |= 1 << C_SCENE_AMBIENT
         ar, ag, ab = view[0] * ka_r, view[1] * ka_g, view[2] * ka_b
@@ -117,9 +117,9 @@ def illuminate(px, py, pz, nx, ny, nz, m, materials, lights, view, flags, specul
         if flags & F_DIFFUSE:
             mask |= 1 << C_DIFFUSE
             lit = weight * n_dot_l
-            dr += lit * lights[k, L_ID] * materials[m, KD]
-            dg += lit * lights[k, L_ID + 1] * materials[m, KD + 1]
-            db += lit * lights[k, L_ID + 2] * materials[m, KD + 2]
+            dr += lit * lights[k, L_ID] * material[KD]
+            dg += lit * lights[k, L_ID + 1] * material[KD + 1]
+            db += lit * lights[k, L_ID + 2] * material[KD + 2]
         if specular != SPECULAR_NONE:
             mask |= 1 << C_SPECULAR
             if specular == SPECULAR_PHONG:
@@ -129,8 +129,8 @@ def illuminate(px, py, pz, nx, ny, nz, m, materials, lights, view, flags, specul
                 hx, hy, hz = lx + vx, ly + vy, lz + vz
                 length = math.sqrt(hx * hx + hy * hy + hz * hz)
                 x = (nx * hx + ny * hy + nz * hz) / length if length > zero else zero
-            s = weight * specular_power(x, materials[m, SHININESS], zero, one)
-            sr += s * lights[k, L_IS] * materials[m, KS]
-            sg += s * lights[k, L_IS + 1] * materials[m, KS + 1]
-            sb += s * lights[k, L_IS + 2] * materials[m, KS + 2]
+            s = weight * specular_power(x, material[SHININESS], zero, one)
+            sr += s * lights[k, L_IS] * material[KS]
+            sg += s * lights[k, L_IS + 1] * material[KS + 1]
+            sb += s * lights[k, L_IS + 2] * material[KS + 2]
     return ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask

@@ -37,6 +37,25 @@ class Frame:
         return (points - self.center) / self.scale
 
 
+@dataclass(frozen=True, eq=False)
+class ImageBuffers:
+    """The image and its layers, written in place by the shading kernel, tile by tile.
+
+    A layer that was not asked for is an empty array, so the kernel's signature never changes.
+    """
+    rgb: np.ndarray     # (H, W, 3) float32, zeroed: the kernel adds each sample's share
+    terms: np.ndarray   # (H, W, 4, 3) float32 ambient, diffuse, specular, emission; (0, 0, 4, 3) if not asked
+    depth: np.ndarray   # (H, W) float32, world distance along the ray, inf on a miss; (0, 0) if not asked
+    normal: np.ndarray  # (H, W, 3) float32 shading normal, 0 on a miss; (0, 0, 3) if not asked
+    face: np.ndarray    # (H, W) float32 face index, -1 on a miss; (0, 0) if not asked
+
+    def rows(self, row0: int, row1: int) -> "ImageBuffers":
+        """Views of rows [row0, row1) (empty layers stay empty); C-contiguous because rows are whole."""
+        def cut(array: np.ndarray) -> np.ndarray:
+            return array[row0:row1] if len(array) else array
+        return ImageBuffers(*(cut(a) for a in (self.rgb, self.terms, self.depth, self.normal, self.face)))
+
+
 @dataclass(frozen=True)
 class Stage:
     """One line of a render plan: a stage or term, whether it runs, and why."""

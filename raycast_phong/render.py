@@ -16,7 +16,7 @@ from typing import Callable
 import numpy as np
 
 from .camera import camera_rig, generate_rays
-from .film import Film
+from .film import allocate_film, film_layers
 from .geometry import build_geometry
 from .illumination import COUNTED_TERMS
 from .intersect import Accelerator, unit_frame
@@ -65,7 +65,7 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     width, height, samples = render_opts.width, render_opts.height, render_opts.samples
     rig = camera_rig(scene)
     inputs = prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene))
-    film = Film(width, height, tuple(scene.output.aovs))
+    film = allocate_film(width, height, tuple(scene.output.aovs))
     background = np.asarray(render_opts.background, np.float32)
     rows_per_tile = max(1, TILE_RAYS // (width * samples * samples))
     bands = [(row, min(row + rows_per_tile, height)) for row in range(0, height, rows_per_tile)]
@@ -76,9 +76,8 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
         origins, directions = generate_rays(rig, frame, width, height, samples, row0, row1)
         hits = accelerator.closest_hits(origins, directions)
         t1 = time.perf_counter()
-        tile = shade_tile(inputs, hits, directions, row1 - row0, width, samples, background)
-        film.put(row0, tile)
-        return t1 - t0, time.perf_counter() - t1, tile.counts
+        tile_counts = shade_tile(inputs, hits, directions, film.rows(row0, row1), samples, background)
+        return t1 - t0, time.perf_counter() - t1, tile_counts
 
     counts = np.zeros(len(COUNTED_TERMS), np.int64)
     rays_seconds = shade_seconds = 0.0
@@ -92,7 +91,7 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
                 progress(done, len(bands))
     timings["frame"] = time.perf_counter() - start
     timings["rays"], timings["shade"] = rays_seconds, shade_seconds
-    return RenderResult(image=film.rgb, aovs=film.layers, timings=timings, plan=plan,
+    return RenderResult(image=film.rgb, aovs=film_layers(film, tuple(scene.output.aovs)), timings=timings, plan=plan,
                         triangles=geometry.triangles, rays=width * height * samples * samples,
                         counts=dict(zip(COUNTED_TERMS, counts.tolist())))
 

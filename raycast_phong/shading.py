@@ -22,7 +22,7 @@ from numba import njit
 from .camera import CameraRig
 from .illumination import COUNTED_TERMS, F_AOV_GEOMETRY, F_AOV_TERMS, F_ATTENUATION, F_SCREEN, F_TWO_SIDED, illuminate
 from .intersect import TileHits
-from .records import Frame, Geometry
+from .records import Frame, Geometry, ImageBuffers
 from .scene import DEFAULT_MATERIAL, Scene
 
 
@@ -91,38 +91,20 @@ def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Fra
     )
 
 
-@dataclass(frozen=True, eq=False)
-class TileImage:
-    """Shaded rows [row0, row1) of the image and of the requested layers."""
-    rgb: np.ndarray     # (rows, W, 3) float32
-    terms: np.ndarray   # (rows, W, 4, 3) float32 ambient, diffuse, specular, emission; (0, 0, 4, 3) if not asked
-    depth: np.ndarray   # (rows, W) float32, world distance along the ray; inf on a miss; (0, 0) if not asked
-    normal: np.ndarray  # (rows, W, 3) float32 shading normal; 0 on a miss
-    face: np.ndarray    # (rows, W) float32 face index, -1 on a miss
-    counts: np.ndarray  # (len(COUNTED_TERMS),) int64
+def shade_tile(inputs: ShadingInputs, hits: TileHits, directions: np.ndarray, out: ImageBuffers,
+               samples: int, background: np.ndarray) -> np.ndarray:
+    """Shade a tile's rays into `out` (views of whole image rows; mean over the n×n samples per pixel).
 
-
-def shade_tile(inputs: ShadingInputs, hits: TileHits, directions: np.ndarray, rows: int, width: int,
-               samples: int, background: np.ndarray) -> TileImage:
-    """Colour of every pixel of a tile from its rays' closest hits (mean over the n×n samples)."""
-    geometry_layers = bool(inputs.flags & F_AOV_GEOMETRY)
-    term_layers = bool(inputs.flags & F_AOV_TERMS)
-    g_rows = rows if geometry_layers else 0
-    tile = TileImage(
-        rgb=np.zeros((rows, width, 3), np.float32),
-        terms=np.zeros((rows if term_layers else 0, width if term_layers else 0, 4, 3), np.float32),
-        depth=np.full((g_rows, width if geometry_layers else 0), np.inf, np.float32),
-        normal=np.zeros((g_rows, width if geometry_layers else 0, 3), np.float32),
-        face=np.full((g_rows, width if geometry_layers else 0), -1.0, np.float32),
-        counts=np.zeros(len(COUNTED_TERMS), np.int64),
-    )
+    Returns how many shading points evaluated each optional term, (len(COUNTED_TERMS),) int64.
+    """
+    counts = np.zeros(len(COUNTED_TERMS), np.int64)
     i, real = inputs, inputs.real
-    _shade_rays(hits.face, hits.u, hits.v, hits.t, directions, samples, width, i.frame_scale,
+    _shade_rays(hits.face, hits.u, hits.v, hits.t, directions, samples, out.rgb.shape[1], i.frame_scale,
                 i.vertices, i.faces, i.face_normals, i.corner_normals, i.face_material, i.face_model,
                 i.materials, i.lights, i.view, i.camera, np.asarray(background, np.float32),
                 i.flags, i.specular, real(0), real(1), real(2), real(np.finfo(real).tiny),
-                tile.rgb, tile.terms, tile.depth, tile.normal, tile.face, tile.counts)
-    return tile
+                out.rgb, out.terms, out.depth, out.normal, out.face, counts)
+    return counts
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -164,6 +146,7 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
                 materials, lights, view, camera, background, flags, specular, zero, one, two, tiny,
                 rgb, terms, depth, normal, face_out, counts):
     eye = view[3:6]
+    view_tuple = (view[0], view[1], view[2], view[3], view[4], view[5], view[6], view[7], view[8])
     third = one / (one + one + one)
     per_pixel = samples * samples
     weight = one / (one * per_pixel)
@@ -190,6 +173,9 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
         if two_sided and gx * directions[k, 0] + gy * directions[k, 1] + gz * directions[k, 2] > 0:
             side = -one  # the ray sees the back: shade the side that faces the viewer
         m = face_material[f]
+        material = (materials[m, 0], materials[m, 1], materials[m, 2], materials[m, 3], materials[m, 4],
+                    materials[m, 5], materials[m, 6], materials[m, 7], materials[m, 8], materials[m, 9],
+                    materials[m, 10], materials[m, 11], materials[m, 12])
         model = face_model[f]
         nx, ny, nz = side * gx, side * gy, side * gz
         if model == 0:
@@ -197,7 +183,7 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
             py = (vertices[i0, 1] + vertices[i1, 1] + vertices[i2, 1]) * third
             pz = (vertices[i0, 2] + vertices[i1, 2] + vertices[i2, 2]) * third
             ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask = illuminate(
-                px, py, pz, nx, ny, nz, m, materials, lights, view, flags, specular, zero, one, two, tiny)
+                px, py, pz, nx, ny, nz, material, lights, view_tuple, flags, specular, zero, one, two, tiny)
         elif model == 1:
             ar = ag = ab = dr = dg = db = sr = sg = sb = er = eg = eb = zero
             mask = 0
@@ -206,8 +192,8 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
                 bj = b0 if j == 0 else (b1 if j == 1 else b2)
                 jar, jag, jab, jdr, jdg, jdb, jsr, jsg, jsb, jer, jeg, jeb, jmask = illuminate(
                     vertices[vj, 0], vertices[vj, 1], vertices[vj, 2], side * corner_normals[f, j, 0],
-                    side * corner_normals[f, j, 1], side * corner_normals[f, j, 2], m, materials, lights,
-                    view, flags, specular, zero, one, two, tiny)
+                    side * corner_normals[f, j, 1], side * corner_normals[f, j, 2], material, lights,
+                    view_tuple, flags, specular, zero, one, two, tiny)
                 ar, ag, ab = ar + bj * jar, ag + bj * jag, ab + bj * jab
                 dr, dg, db = dr + bj * jdr, dg + bj * jdg, db + bj * jdb
                 sr, sg, sb = sr + bj * jsr, sg + bj * jsg, sb + bj * jsb
@@ -228,7 +214,7 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
             if length > zero:
                 nx, ny, nz = side * sx / length, side * sy / length, side * sz / length
             ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask = illuminate(
-                px, py, pz, nx, ny, nz, m, materials, lights, view, flags, specular, zero, one, two, tiny)
+                px, py, pz, nx, ny, nz, material, lights, view_tuple, flags, specular, zero, one, two, tiny)
 
         for bit in range(len(counts)):
             evaluated[bit] += (mask >> bit) & 1
