@@ -88,11 +88,16 @@ def render(
         path = scene or rp.default_scene_path()
         loaded = rp.load_scene(path, overrides)
         load_seconds = time.perf_counter() - started
+        option = "--output" if output is not None else "output.path"
         if output is None:
             output = Path(loaded.output.path).name if scene is None else loaded.resolve(loaded.output.path)
-        check_output_path(output)
+        try:
+            check_output_path(output)
+        except ImageError as error:
+            fail(f"{path}: {option}: {error}")  # say where the path came from: the option or the scene
         if loaded.output.aovs and Path(output).suffix.lower() != ".exr":
-            fail(f"{output}: output.aovs {list(loaded.output.aovs)} need an .exr output")
+            fail(f"{path}: output.aovs: {list(loaded.output.aovs)} need an .exr output, but -o {output} is a PNG "
+                 "(a PNG holds only RGB)")
         result = _render_with_progress(loaded, str(path), threads, quiet)
         started = time.perf_counter()
         rp.write_image(output, result.image, result.aovs, srgb=srgb)

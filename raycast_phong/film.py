@@ -49,9 +49,16 @@ def srgb_encode(linear: np.ndarray) -> np.ndarray:
     return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
 
 
-def to_8bit(image: np.ndarray, srgb: bool = False) -> np.ndarray:
-    """Display values to uint8: clamp to [0, 1] (never wrap), optional sRGB, round to nearest."""
-    values = srgb_encode(image) if srgb else np.clip(image, 0.0, 1.0)
-    # NaN would cast to an arbitrary byte; the renderer never produces one, but a caller's array might.
-    values = np.nan_to_num(values, nan=0.0)
-    return np.round(values * 255.0).astype(np.uint8)
+def to_8bit(image: np.ndarray, srgb: bool = False, rows_per_band: int = 256) -> np.ndarray:
+    """Display values to uint8: clamp to [0, 1] (never wrap), optional sRGB, round to nearest.
+
+    Converted in bands of rows, so a 16k × 16k image needs no full-size float temporaries.
+    """
+    out = np.empty(image.shape, np.uint8)
+    for row in range(0, image.shape[0], rows_per_band):
+        band = np.asarray(image[row:row + rows_per_band], np.float32)
+        values = srgb_encode(band) if srgb else np.clip(band, 0.0, 1.0)
+        # NaN would cast to an arbitrary byte; the renderer never produces one, but a caller's array might.
+        values = np.nan_to_num(values, nan=0.0)
+        out[row:row + rows_per_band] = np.round(values * 255.0)
+    return out

@@ -107,8 +107,8 @@ def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
     used = np.unique(np.asarray(loaded.faces))
     finite = np.isfinite(np.asarray(loaded.vertices, np.float64)[used]).all(axis=1)
     if not finite.all():
-        raise SceneError(f"{key}: {str(path)!r} has {int((~finite).sum())} vertices with NaN or infinite "
-                         "coordinates; every vertex of a face must be a finite number")
+        raise SceneError(f"{key}: {str(path)!r} has {int((~finite).sum())} vertex(es) with NaN or infinite "
+                         "coordinates; every vertex of a face must have finite coordinates")
     if obj.normals != "file":
         # Keep the file's vertex order when its normals are wanted; otherwise let trimesh merge and clean.
         loaded.process()

@@ -26,10 +26,12 @@ def check_output_path(path: str | Path) -> Path:
     """Refuse, before rendering, an output whose folder is missing or whose format is unknown."""
     path = Path(path)
     if path.suffix.lower() not in (".png", ".exr"):
-        raise ImageError(f"{path}: the output must end in .png or .exr")
+        got = f"not {path.suffix!r}" if path.suffix else "it has no extension"
+        raise ImageError(f"{path}: the output must end in .png (8-bit) or .exr (float32), {got}")
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
-        raise ImageError(f"{path}: the output folder {str(folder)!r} does not exist")
+        raise ImageError(f"{path}: the output folder {str(folder)!r} does not exist; create it or choose an "
+                         "existing folder")
     if not os.access(folder, os.W_OK):
         raise ImageError(f"{path}: the output folder {str(folder)!r} is not writable")
     return path

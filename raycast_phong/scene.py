@@ -13,7 +13,7 @@ import math
 import tomllib
 from enum import Enum
 from pathlib import Path
-from typing import Annotated, Any, Literal, Union
+from typing import Annotated, Any, Literal, Union, get_args, get_origin
 
 from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, Strict, ValidationError, field_validator,
                       model_validator)
@@ -58,7 +58,7 @@ def _shown(value: Any) -> str:
         return f"the string {value!r}"
     if isinstance(value, dict):
         return "a table"
-    return repr(list(value)) if isinstance(value, tuple) else repr(value)
+    return repr(list(value)) if isinstance(value, (tuple, list)) else repr(value)
 
 
 def _number(value: Any) -> Any:
@@ -70,6 +70,7 @@ def _number(value: Any) -> Any:
 
 
 def _whole(value: Any) -> Any:
+    """As _number, for counts: width, height, samples, subdivisions, segments."""
     if isinstance(value, (str, bool, dict, list, tuple)) or value is None:
         raise ValueError(f"must be a whole number, got {_shown(value)}")
     return value
@@ -83,10 +84,18 @@ def _triple(value: Any) -> Any:
     """A single number means the same value in all three channels (format: Conventions)."""
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         return (value, value, value)
-    if not isinstance(value, (list, tuple)) or len(value) != 3:
-        count = f"{len(value)} numbers: " if isinstance(value, (list, tuple)) else ""
+    sequence = _sequence(value)
+    if sequence is None or len(sequence) != 3:
+        count = f"{len(sequence)} numbers: " if sequence is not None else ""
         raise ValueError(f"must be three numbers [a, b, c] (or one number for all three), got {count}{_shown(value)}")
-    return value
+    return sequence
+
+
+def _sequence(value: Any) -> tuple | None:
+    """A list from the file, or any sized iterable from Python callers (a numpy array), as a tuple."""
+    if isinstance(value, (str, bytes, dict)) or not hasattr(value, "__len__") or not hasattr(value, "__iter__"):
+        return None
+    return tuple(value)
 
 
 def _finite(values: tuple[float, ...]) -> tuple[float, ...]:
@@ -172,16 +181,17 @@ def _attenuation(value: Any) -> Any:
         if value not in ("none", "inverse_square"):
             raise ValueError(f"allowed: {ATTENUATION_ALLOWED}; got {value!r}")
         return value
-    if not isinstance(value, (list, tuple)):
+    sequence = _sequence(value)
+    if sequence is None:
         raise ValueError(f"allowed: {ATTENUATION_ALLOWED}; got {_shown(value)}")
-    if len(value) != 3:
-        raise ValueError(f"the attenuation list is [c, l, q], got {len(value)} numbers: {list(value)}")
-    c, l, q = (float(_number(x)) for x in value)
+    if len(sequence) != 3:
+        raise ValueError(f"the attenuation list is [c, l, q], got {len(sequence)} numbers: {list(sequence)}")
+    c, l, q = (float(_number(x)) for x in sequence)
     _finite((c, l, q))
     # c + l·d + q·d² must stay positive for every distance d ≥ 0, including d = 0 at the light.
     if c <= 0 or l < 0 or q < 0:
-        raise ValueError(f"[c, l, q] = {list(value)} lets c + l·d + q·d² reach zero or below, which divides by "
-                         "zero; allowed: c > 0 and l, q ≥ 0")
+        raise ValueError(f"got [c, l, q] = {list(sequence)}, which lets c + l·d + q·d² reach zero or below and "
+                         "divide by zero; allowed: c > 0 and l, q ≥ 0")
     return (c, l, q)
 
 
@@ -231,9 +241,10 @@ SHAPES = ("icosphere", "uv_sphere", "box", "plane", "cylinder", "torus", "mesh")
 
 
 def _pair(value: Any) -> Any:
-    if not isinstance(value, (list, tuple)) or len(value) != 2:
+    sequence = _sequence(value)
+    if sequence is None or len(sequence) != 2:
         raise ValueError(f"must be two whole numbers [a, b] in [3, 4096], got {_shown(value)}")
-    return value
+    return sequence
 
 
 class Object(_Strict):
@@ -464,8 +475,11 @@ def describe_error(error: ValidationError, data: dict, source: str) -> str:
         message = f"out of range; allowed: {_allowed_range(loc)}"
     elif message.startswith(("must be a number", "must be a whole number")) and _bounded(loc):
         message = f"{message}; allowed: {_allowed_range(loc)}"
+    elif kind == "int_from_float":
+        message = "must be a whole number" + (f"; allowed: {_allowed_range(loc)}" if _bounded(loc) else "")
     elif kind == "missing":
-        message = "this key is required"
+        choices = _choices(loc)
+        message = "this key is required" + (f"; allowed: {', '.join(map(repr, choices))}" if choices else "")
     elif kind in ("model_type", "dict_type"):
         message = "must be a table of keys"
     elif kind in ("tuple_type", "list_type"):
@@ -480,6 +494,15 @@ def describe_error(error: ValidationError, data: dict, source: str) -> str:
 
 def _bounded(loc: tuple) -> bool:
     return _allowed_range(loc) != str(loc[-1])
+
+
+def _choices(loc: tuple) -> tuple:
+    """The values a Literal key allows ('icosphere', 'box', ...), or () for other keys."""
+    owner = _model_at(loc[:-1]) if loc else None
+    field = owner.model_fields.get(str(loc[-1])) if owner else None
+    if field is None or get_origin(field.annotation) is not Literal:
+        return ()
+    return get_args(field.annotation)
 
 
 def _allowed_range(loc: tuple) -> str:
@@ -521,9 +544,9 @@ def apply_override(data: dict, assignment: str, source: str = "--set") -> None:
         node_path = ".".join(parts[:depth]) or "(top level)"
         if isinstance(node, list):
             if not part.isdigit() or int(part) >= len(node):
-                allowed = f"0..{len(node) - 1}" if node else "none: it is empty"
+                allowed = f"0 to {len(node) - 1}" if node else "none, the list is empty"
                 raise SceneError(f"{where}: {_dotted(parts[:depth + 1])}: {node_path} is a list of {len(node)} "
-                                 f"items; allowed indices: {allowed}")
+                                 f"item{'s' if len(node) != 1 else ''}; allowed indices: {allowed}")
             index: Any = int(part)
         elif isinstance(node, dict):
             index = part

@@ -1,0 +1,413 @@
+"""Bad input: every kind of mistake in a scene, a mesh, an option or an output path.
+
+Each test runs the CLI as a user would and checks the whole contract for bad input: exit status 2,
+a message of one or two lines on stderr that names the scene file, the key path and what is
+allowed, no traceback, and an existing output image left byte for byte as it was.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import pytest
+from typer.testing import CliRunner
+
+import raycast_phong
+from cli import app
+
+runner = CliRunner()
+
+# Stands in for a good image the user already has; a refused run must not touch it.
+SENTINEL = b"\x89PNG not really: bytes the renderer must leave alone\x00\x01\x02"
+
+# A scene that renders (test_the_base_scene_renders), so each test below fails for its one change only.
+BASE: dict[str, Any] = {
+    "ambient": [0.1, 0.1, 0.1],
+    "render": {"width": 16, "height": 16},
+    "camera": {"position": [0, 0, 4], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 40},
+    "lights": [{"type": "point", "position": [2, 2, 3]}],
+    "materials": {"red": {"ka": [1.0, 0.3, 0.3], "kd": [0.9, 0.2, 0.2], "ks": [0.6, 0.6, 0.6], "shininess": 32}},
+    "objects": [{"shape": "icosphere", "subdivisions": 1, "material": "red"}],
+    "output": {"path": "out.png"},
+}
+DELETE = object()  # a `changes` value that removes the key
+
+
+# ---------------------------------------------------------------- helpers
+
+def toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float) and not math.isfinite(value):
+        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")  # TOML spells them so
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value)  # a TOML basic string escapes as JSON does
+    return "[" + ", ".join(toml_value(item) for item in value) + "]"
+
+
+def toml_text(table: dict, prefix: str = "") -> str:
+    """TOML for a scene dictionary: plain keys first, then [tables] and [[arrays of tables]]."""
+    lines = [f"{key} = {toml_value(value)}" for key, value in table.items()
+             if not isinstance(value, dict) and not (isinstance(value, list) and value and isinstance(value[0], dict))]
+    for key, value in table.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, dict):
+            lines += ["", f"[{name}]", toml_text(value, name + ".")]
+        elif isinstance(value, list) and value and isinstance(value[0], dict):
+            for item in value:
+                lines += ["", f"[[{name}]]", toml_text(item, name + ".")]
+    return "\n".join(lines)
+
+
+def scene_with(changes: dict[str, Any]) -> dict:
+    """BASE with `changes` applied; keys are dotted paths with list indices, "objects.0.path"."""
+    scene = copy.deepcopy(BASE)
+    for dotted, value in changes.items():
+        *parents, last = [int(p) if p.isdigit() else p for p in dotted.split(".")]
+        node: Any = scene
+        for part in parents:
+            node = node[part] if isinstance(node, list) else node.setdefault(part, {})
+        if value is DELETE:
+            del node[last]
+        else:
+            node[last] = value
+    return scene
+
+
+def write_scene(folder: Path, changes: dict[str, Any] | None = None, name: str = "scene.toml") -> Path:
+    scene = scene_with(changes or {})
+    path = folder / name
+    path.write_text(json.dumps(scene) if name.endswith(".json") else toml_text(scene), encoding="utf-8")
+    return path
+
+
+def snapshot(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def run_refused(folder: Path, args: list[str], *expected: str, scene: Path | None = None,
+                output: Path | None = None) -> str:
+    """Run the CLI; check the bad-input contract and that the message holds every `expected` part.
+
+    `output` (default: folder/out.png, the scene's output.path) is created with known bytes first.
+    Returns the message.
+    """
+    output = output or folder / "out.png"
+    if output.parent.is_dir():
+        output.write_bytes(SENTINEL)
+    before = snapshot(folder)
+    result = runner.invoke(app, args)
+    message = result.output.strip()
+    assert "Traceback" not in result.output, result.output
+    # CliRunner turns an uncaught exception into exit 1; 2 only comes from the CLI's own refusal.
+    assert result.exit_code == 2, f"exit {result.exit_code}: {result.output} {result.exception!r}"
+    assert isinstance(result.exception, SystemExit)
+    assert result.stdout == "", "a refused run prints no summary"
+    assert message.startswith("error: ")
+    assert 1 <= len(message.splitlines()) <= 2, message
+    if scene is not None:
+        assert str(scene) in message, f"the message does not name the scene file: {message}"
+    for part in expected:
+        assert part in message, f"{part!r} not in: {message}"
+    # Nothing written: no new file, no temporary left behind, and the old image as it was.
+    assert snapshot(folder) == before
+    if output.parent.is_dir():
+        assert output.read_bytes() == SENTINEL
+    return message
+
+
+def refuse_scene(tmp_path: Path, changes: dict[str, Any], *expected: str, args: tuple[str, ...] = (),
+                 name: str = "scene.toml") -> str:
+    """Write BASE with `changes`, render it to the scene's own output.path, expect a refusal."""
+    scene = write_scene(tmp_path, changes, name)
+    return run_refused(tmp_path, ["render", str(scene), *args], *expected, scene=scene)
+
+
+@pytest.fixture(autouse=True)
+def _in_tmp_path(tmp_path, monkeypatch):
+    """Run in tmp_path, so a default-named output can never land in the repository."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("RAYCAST_PHONG_DEBUG", raising=False)
+
+
+@pytest.fixture
+def no_render(monkeypatch):
+    """Fail the test if the CLI gets as far as rendering (and allocating the image)."""
+    def render(*args, **kwargs):
+        pytest.fail("the scene reached the renderer; it should have been refused while loading")
+    monkeypatch.setattr(raycast_phong, "render", render)
+
+
+# ---------------------------------------------------------------- the control
+
+def test_the_base_scene_renders(tmp_path):
+    """Every test below changes one thing in this scene; unchanged, it renders and writes out.png."""
+    scene = write_scene(tmp_path)
+    result = runner.invoke(app, ["render", str(scene), "--quiet"])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "out.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_the_helpers_write_the_scene_they_are_given(tmp_path):
+    import tomllib
+    changes = {"render.background": [0.0, math.inf, 0.0], "objects.0.name": 'a "quoted" name'}
+    written = tomllib.loads(write_scene(tmp_path, changes).read_text())
+    assert written["objects"][0]["name"] == 'a "quoted" name'
+    assert written["render"]["background"][1] == math.inf
+    assert written["materials"]["red"]["shininess"] == 32
+    assert "objects" not in scene_with({"objects": DELETE})
+
+
+# ---------------------------------------------------------------- syntax
+
+def test_toml_syntax_error(tmp_path):
+    scene = tmp_path / "scene.toml"
+    scene.write_text(toml_text(BASE).replace("width = 16", "width = "), encoding="utf-8")
+    line = toml_text(BASE).splitlines().index("width = 16") + 1
+    run_refused(tmp_path, ["render", str(scene)], "TOML syntax error", f"line {line}", scene=scene)
+
+
+def test_json_syntax_error(tmp_path):
+    scene = tmp_path / "scene.json"
+    scene.write_text('{\n  "render": {"width": 16,}\n}\n', encoding="utf-8")
+    run_refused(tmp_path, ["render", str(scene)], "JSON syntax error", "line 2", scene=scene)
+
+
+def test_a_json_scene_is_validated_like_toml(tmp_path):
+    refuse_scene(tmp_path, {"render.widht": 16}, "render.widht: unknown key", "did you mean 'width'",
+                 name="scene.json")
+
+
+# ---------------------------------------------------------------- keys and types
+
+@pytest.mark.parametrize(("key", "suggested"), [
+    ("render.widht", "width"),
+    ("objects.0.materal", "material"),
+    ("materials.red.shinyness", "shininess"),
+    ("lights.0.positon", "position"),
+    ("camera.fvo", "fov"),
+])
+def test_unknown_key_suggests_the_closest_valid_key(tmp_path, key, suggested):
+    message = refuse_scene(tmp_path, {key: 1}, f"{key}: unknown key", f"did you mean {suggested!r}?",
+                           "valid keys here: ")
+    assert message.count(suggested) >= 2  # suggested, and listed among the valid keys
+
+
+@pytest.mark.parametrize(("key", "value", "allowed"), [
+    ("render.width", "32", "must be a whole number, got the string '32'; allowed: 1 ≤ width ≤ 16384"),
+    ("render.width", True, "must be a whole number, got true"),
+    ("render.width", 12.5, "must be a whole number; allowed: 1 ≤ width ≤ 16384"),
+    ("camera.fov", "40", "must be a number, got the string '40'; allowed: 0.0 < fov < 180.0"),
+    ("materials.red.shininess", "eight", "must be a number, got the string 'eight'"),
+    ("lights.0.position", ["1", 2, 3], "lights.0.position.0: must be a number"),
+    ("materials.red.kd", [0.5, 0.5], "must be three numbers [a, b, c] (or one number for all three)"),
+    ("render.two_sided", "yes", "must be true or false"),
+    ("lights", {"position": [1, 2, 3]}, "lights: must be an array of tables, [[lights]]"),
+])
+def test_wrong_type(tmp_path, key, value, allowed):
+    refuse_scene(tmp_path, {key: value}, f"{key.split('.')[0]}", allowed)
+
+
+@pytest.mark.parametrize(("key", "value"), [
+    ("ka", 1.5), ("kd", [0.5, -0.1, 0.2]), ("ks", 2), ("ke", [0, 0, 3]),
+])
+def test_coefficient_outside_0_1(tmp_path, key, value):
+    refuse_scene(tmp_path, {f"materials.red.{key}": value}, f"materials.red.{key}:",
+                 "each coefficient must be in [0, 1]")
+
+
+@pytest.mark.parametrize("shininess", [-1.0, math.nan])
+def test_shininess_negative_or_nan(tmp_path, shininess):
+    refuse_scene(tmp_path, {"materials.red.shininess": shininess}, "materials.red.shininess:",
+                 "shininess must be ≥ 0 (inf allowed", f"got {shininess}")
+
+
+def test_infinite_shininess_is_allowed(tmp_path):
+    """The format's mirror limit: inf is a valid shininess, not bad input."""
+    scene = write_scene(tmp_path, {"materials.red.shininess": math.inf})
+    result = runner.invoke(app, ["render", str(scene), "--quiet"])
+    assert result.exit_code == 0, result.output
+
+
+@pytest.mark.parametrize(("key", "value"), [
+    ("lights.0.position", [math.nan, 1.0, 1.0]),
+    ("camera.position", [0.0, 0.0, math.inf]),
+    ("camera.look_at", [0.0, -math.inf, 0.0]),
+    ("objects.0.translate", [0.0, math.nan, 0.0]),
+    ("objects.0.scale", math.nan),
+    ("ambient", [math.nan, 0.0, 0.0]),
+    ("render.background", [0.0, -math.inf, 0.0]),
+    ("lights.0.diffuse", [0.0, math.inf, 0.0]),
+])
+def test_nan_or_inf_in_a_list(tmp_path, key, value):
+    refuse_scene(tmp_path, {key: value}, f"{key}: must be finite numbers, got [")
+
+
+# ---------------------------------------------------------------- meshes
+
+def test_missing_mesh_file(tmp_path):
+    refuse_scene(tmp_path, {"objects.0.shape": "mesh", "objects.0.path": "meshes/nothere.obj"},
+                 "objects.0.path: no such mesh file", str(tmp_path / "meshes" / "nothere.obj"))
+
+
+@pytest.mark.parametrize("name", ["garbage.obj", "garbage.ply"])
+def test_unreadable_mesh_file(tmp_path, name):
+    # Bytes that are neither UTF-8 text nor any mesh format (fixed, so the test is deterministic).
+    (tmp_path / name).write_bytes(bytes(range(256)) * 4)
+    refuse_scene(tmp_path, {"objects.0.shape": "mesh", "objects.0.path": name}, "objects.0.path:",
+                 str(tmp_path / name), "a mesh file trimesh reads (OBJ, PLY, STL, OFF, GLB)")
+
+
+def test_mesh_file_with_nan_vertices(tmp_path):
+    (tmp_path / "nan.obj").write_text("v nan 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n")
+    refuse_scene(tmp_path, {"objects.0.shape": "mesh", "objects.0.path": "nan.obj"}, "objects.0.path:",
+                 "has 1 vertex(es) with NaN or infinite coordinates", "must have finite coordinates")
+
+
+def test_a_good_mesh_file_renders(tmp_path):
+    """The control for the mesh tests: the same square without the NaN is accepted."""
+    (tmp_path / "square.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n")
+    scene = write_scene(tmp_path, {"objects.0.shape": "mesh", "objects.0.path": "square.obj"})
+    result = runner.invoke(app, ["render", str(scene)])
+    assert result.exit_code == 0, result.output
+    assert "2 triangles" in result.stdout
+
+
+def test_a_latin1_obj_file_is_read(tmp_path):
+    """A comment in Latin-1 (not UTF-8) does not make an OBJ unreadable."""
+    (tmp_path / "café.obj").write_bytes("# caf\xe9 mod\xe8le\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".encode("latin-1"))
+    scene = write_scene(tmp_path, {"objects.0.shape": "mesh", "objects.0.path": "café.obj"})
+    result = runner.invoke(app, ["render", str(scene)])
+    assert result.exit_code == 0, result.output
+    assert "1 triangles" in result.stdout
+
+
+# ---------------------------------------------------------------- references
+
+@pytest.mark.parametrize(("name", "hint"), [("rde", " (did you mean 'red'?)"), ("blue", "")])
+def test_undefined_material(tmp_path, name, hint):
+    message = refuse_scene(tmp_path, {"objects.0.material": name},
+                           f"objects.0.material: material {name!r} is not defined{hint}; defined: red")
+    assert hint or "did you mean" not in message
+
+
+def test_scene_without_objects(tmp_path):
+    refuse_scene(tmp_path, {"objects": DELETE}, "objects: the scene has no [[objects]]; add at least one")
+
+
+# ---------------------------------------------------------------- image size and camera
+
+@pytest.mark.parametrize(("key", "value"), [("render.width", 0), ("render.height", 0), ("render.width", 100000),
+                                            ("render.height", -3)])
+def test_image_size_is_refused_before_allocating(tmp_path, no_render, key, value):
+    name = key.split(".")[1]
+    refuse_scene(tmp_path, {key: value}, f"{key}: out of range; allowed: 1 ≤ {name} ≤ 16384", f"(got {value})")
+
+
+def test_absurd_size_from_the_command_line(tmp_path, no_render):
+    refuse_scene(tmp_path, {}, "render.width: out of range; allowed: 1 ≤ width ≤ 16384 (got 100000)",
+                 args=("--width", "100000"))
+
+
+def test_absurd_ray_count_is_refused(tmp_path, no_render):
+    """Each side within range, but 16384² pixels × 16² samples is more rays than a frame may have."""
+    refuse_scene(tmp_path, {"render.width": 16384, "render.height": 16384, "render.samples": 16},
+                 "render.samples:", "16384×16384 pixels × 16² samples", "2147483647 rays per frame")
+
+
+@pytest.mark.parametrize("fov", [0, 180, -5, math.nan])
+def test_fov_out_of_range(tmp_path, fov):
+    refuse_scene(tmp_path, {"camera.fov": fov}, "camera.fov: out of range; allowed: 0.0 < fov < 180.0")
+
+
+@pytest.mark.parametrize(("changes", "expected"), [
+    ({"camera.up": [0, 0, 0]}, "camera.up: the zero vector; give any direction not parallel to look_at − position"),
+    ({"camera.up": [0, 0, 1]}, "camera.up: [0.0, 0.0, 1.0] is parallel to the viewing direction"),
+    ({"camera.up": [0, 0, -3]}, "camera.up: [0.0, 0.0, -3.0] is parallel to the viewing direction"),
+    ({"camera.look_at": [0, 0, 4]}, "camera.look_at: [0.0, 0.0, 4.0] is the camera position too"),
+])
+def test_camera_without_a_frame(tmp_path, changes, expected):
+    message = refuse_scene(tmp_path, changes, expected)
+    assert "choose" in message or "must differ from camera.position" in message or "give any" in message
+
+
+@pytest.mark.parametrize("attenuation", [[0, 0, 1], [1, -1, 0], [-1, 0, 0], [1, 0, -0.5], [0, 0, 0]])
+def test_attenuation_that_can_divide_by_zero(tmp_path, attenuation):
+    refuse_scene(tmp_path, {"lights.0.attenuation": attenuation}, "lights.0.attenuation:",
+                 f"[c, l, q] = {attenuation}", "allowed: c > 0 and l, q ≥ 0")
+
+
+def test_attenuation_name_not_known(tmp_path):
+    refuse_scene(tmp_path, {"lights.0.attenuation": "linear"}, "lights.0.attenuation:",
+                 'allowed: "none", "inverse_square" or [c, l, q]', "got 'linear'")
+
+
+# ---------------------------------------------------------------- output
+
+def test_output_folder_missing(tmp_path):
+    scene = write_scene(tmp_path)
+    run_refused(tmp_path, ["render", str(scene), "-o", "/nonexistent/dir/x.png"],
+                "--output: /nonexistent/dir/x.png: the output folder '/nonexistent/dir' does not exist",
+                "create it or choose an existing folder", scene=scene)
+
+
+def test_output_with_unsupported_extension(tmp_path):
+    scene = write_scene(tmp_path)
+    run_refused(tmp_path, ["render", str(scene), "-o", str(tmp_path / "x.jpg")], "--output: ",
+                "must end in .png (8-bit) or .exr (float32), not '.jpg'", scene=scene,
+                output=tmp_path / "x.jpg")
+
+
+def test_scene_output_path_with_unsupported_extension(tmp_path):
+    (tmp_path / "x.jpg").write_bytes(SENTINEL)
+    refuse_scene(tmp_path, {"output.path": "x.jpg"}, "output.path: 'x.jpg' must end in .png or .exr")
+    assert (tmp_path / "x.jpg").read_bytes() == SENTINEL
+
+
+def test_aovs_with_a_png_output_option(tmp_path):
+    """The scene asks for layers (its default output becomes out.exr); -o names a PNG."""
+    scene = write_scene(tmp_path, {"output": {"aovs": ["depth"]}})
+    run_refused(tmp_path, ["render", str(scene), "-o", str(tmp_path / "out.png")],
+                "output.aovs: ['depth'] need an .exr output", "-o", scene=scene)
+
+
+def test_aovs_with_a_png_output_path(tmp_path):
+    refuse_scene(tmp_path, {"output.aovs": ["depth", "normal"]},
+                 "output.aovs: ['depth', 'normal'] need an .exr output, but output.path is 'out.png'")
+
+
+def test_aovs_without_an_output_path_default_to_exr(tmp_path):
+    scene = write_scene(tmp_path, {"output": {"aovs": ["depth"]}})
+    result = runner.invoke(app, ["render", str(scene), "--quiet"])
+    assert result.exit_code == 0, result.output
+    channels = raycast_phong.read_image(tmp_path / "out.exr")[1]
+    assert channels == ("R", "G", "B", "depth.Z")
+
+
+# ---------------------------------------------------------------- --set
+
+@pytest.mark.parametrize(("assignment", "expected"), [
+    ("render.width", "expected KEY.PATH=VALUE, e.g. render.width=320"),
+    ("lights.5.position=[1, 1, 1]", "lights.5: lights is a list of 1 item; allowed indices: 0 to 0"),
+    ("objects.first.shape=box", "objects.first: objects is a list of 1 item; allowed indices: 0 to 0"),
+    ("render.width.x=3", "render.width is the value 16, not a table, so it has no key 'x'"),
+    ("=3", "'' is not a key path"),
+])
+def test_set_with_bad_syntax_or_index(tmp_path, assignment, expected):
+    refuse_scene(tmp_path, {}, f"--set {assignment!r}: ", expected, args=("--set", assignment))
+
+
+def test_set_value_is_validated_like_the_file(tmp_path):
+    refuse_scene(tmp_path, {}, "materials.red.kd: each coefficient must be in [0, 1]",
+                 args=("--set", "materials.red.kd=[2, 0, 0]"))
+
+
+def test_plan_refuses_bad_input_too(tmp_path):
+    scene = write_scene(tmp_path, {"camera.fov": 180})
+    run_refused(tmp_path, ["plan", str(scene)], "camera.fov: out of range", scene=scene)

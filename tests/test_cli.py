@@ -1,0 +1,194 @@
+"""The `raycast-phong` command through typer's CliRunner: what it writes, prints and exits with.
+
+Bad input (exit 2) has its own file, test_bad_input.py; this one covers the good runs, the
+other commands, the help pages and the internal-error path (exit 1).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import OpenImageIO as oiio
+import pytest
+from typer.testing import CliRunner
+
+import raycast_phong
+from cli import app
+
+runner = CliRunner()
+
+TINY_SCENE = """\
+ambient = [0.1, 0.1, 0.1]
+
+[render]
+width = 32
+height = 24
+
+[camera]
+position = [0, 0, 4]
+look_at = [0, 0, 0]
+fov = 40
+
+[[lights]]
+position = [2, 2, 3]
+
+[materials.red]
+ka = [1.0, 0.3, 0.3]
+kd = [0.9, 0.2, 0.2]
+ks = [0.6, 0.6, 0.6]
+
+[[objects]]
+shape = "icosphere"
+subdivisions = 1
+material = "red"
+
+[output]
+path = "tiny.png"
+"""
+ICOSPHERE_1_TRIANGLES = 80  # 20 faces × 4 after one subdivision
+
+
+@pytest.fixture(autouse=True)
+def _in_tmp_path(tmp_path, monkeypatch):
+    """Run in tmp_path, so a default-named output can never land in the repository."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("RAYCAST_PHONG_DEBUG", raising=False)
+
+
+@pytest.fixture
+def tiny_scene(tmp_path) -> Path:
+    path = tmp_path / "tiny.toml"
+    path.write_text(TINY_SCENE, encoding="utf-8")
+    return path
+
+
+def image_spec(path: Path) -> tuple[int, int, int]:
+    """(width, height, channels) of an image file, as OpenImageIO reads it."""
+    source = oiio.ImageInput.open(str(path))
+    assert source is not None, oiio.geterror()
+    spec = source.spec()
+    source.close()
+    return spec.width, spec.height, spec.nchannels
+
+
+# ---------------------------------------------------------------- render
+
+def test_render_writes_the_png_and_one_summary_line(tiny_scene, tmp_path):
+    output = tmp_path / "out.png"
+    result = runner.invoke(app, ["render", str(tiny_scene), "-o", str(output)])
+    assert result.exit_code == 0, result.output
+    assert image_spec(output) == (32, 24, 3)
+    lines = result.stdout.strip().splitlines()
+    assert len(lines) == 1, result.stdout
+    line = lines[0]
+    assert line.startswith(f"{output}: 32×24, ")
+    assert f"{ICOSPHERE_1_TRIANGLES} triangles" in line
+    assert f"{32 * 24:,} rays" in line
+    assert re.search(r"\d+\.\d Mrays/s", line), line
+    # The sphere (radius 1, 40° view from 4 away) fills the middle and misses the corners.
+    image = raycast_phong.read_layer(output)
+    assert image[12, 16].max() > 0.1
+    np.testing.assert_array_equal(image[0, 0], 0.0)
+
+
+def test_render_defaults_to_the_scene_output_path(tiny_scene, tmp_path):
+    """Without -o the image goes to output.path, relative to the scene file's folder."""
+    elsewhere = tmp_path / "cwd"
+    elsewhere.mkdir()
+    result = runner.invoke(app, ["render", str(tiny_scene), "--quiet"])
+    assert result.exit_code == 0, result.output
+    assert result.output == ""  # --quiet: no summary line
+    assert image_spec(tmp_path / "tiny.png") == (32, 24, 3)
+    assert list(elsewhere.iterdir()) == []
+
+
+def test_render_options_override_the_scene(tiny_scene, tmp_path):
+    output = tmp_path / "small.exr"
+    result = runner.invoke(app, ["render", str(tiny_scene), "-o", str(output), "--width", "20",
+                                 "--set", "render.height=10", "--shading", "flat"])
+    assert result.exit_code == 0, result.output
+    assert image_spec(output) == (20, 10, 3)
+    assert ": 20×10, " in result.stdout
+
+
+def test_render_without_a_scene_renders_the_default_figure(tmp_path):
+    output = tmp_path / "x.png"
+    result = runner.invoke(app, ["render", "--width", "96", "--height", "36", "-o", str(output)])
+    assert result.exit_code == 0, result.output
+    assert image_spec(output) == (96, 36, 3)
+    assert "96×36" in result.stdout
+    assert "240 triangles" in result.stdout  # three icospheres of 80 faces
+    image = raycast_phong.read_layer(output)
+    # Three unit spheres 2.4 apart, seen 10 away with fov 24: the image is 2·10·tan 12° = 4.25 units
+    # high and 11.3 wide, so their centres fall on columns 28, 48 and 68, and column 58 (x = 1.2)
+    # lies in the gap between two of them.
+    row = image[18, :, :].max(axis=1)
+    assert (row[[28, 48, 68]] > 0.05).all(), row
+    np.testing.assert_array_equal(row[[38, 58]], 0.0)
+    np.testing.assert_array_equal(image[0, 0], 0.0)
+    np.testing.assert_array_equal(image[35, 95], 0.0)
+
+
+# ---------------------------------------------------------------- plan, schema, help
+
+def test_plan_lists_each_stage_kept_or_left_out():
+    result = runner.invoke(app, ["plan"])
+    assert result.exit_code == 0, result.output
+    rows = [re.match(r"(kept|left out)\s+(\w+)\s+\S", line) for line in result.stdout.strip().splitlines()]
+    assert all(rows), result.stdout  # every line: status, stage, reason
+    stages = {row[2]: row[1] for row in rows}
+    # The default figure: smooth objects need vertex normals; no material glows; no shadows in local mode.
+    assert stages["vertex_normals"] == "kept"
+    assert stages["emission"] == "left out"
+    assert stages["shadow_rays"] == "left out"
+
+
+def test_plan_follows_set(tiny_scene):
+    """An all-flat scene needs no vertex normals; the plan says so."""
+    smooth = runner.invoke(app, ["plan", str(tiny_scene)])
+    flat = runner.invoke(app, ["plan", str(tiny_scene), "--set", "render.shading=flat"])
+    assert smooth.exit_code == flat.exit_code == 0, smooth.output + flat.output
+    assert re.search(r"^kept\s+vertex_normals", smooth.stdout, re.M), smooth.stdout
+    assert re.search(r"^left out\s+vertex_normals", flat.stdout, re.M), flat.stdout
+
+
+def test_schema_is_json_schema_of_the_scene_format():
+    result = runner.invoke(app, ["schema"])
+    assert result.exit_code == 0, result.output
+    schema = json.loads(result.stdout)
+    assert set(schema["properties"]) == {"render", "camera", "ambient", "lights", "materials", "objects", "output"}
+    assert schema["additionalProperties"] is False  # unknown keys are an error, as the format says
+
+
+def test_every_command_has_help_with_examples():
+    names = [command.name or command.callback.__name__ for command in app.registered_commands]
+    assert set(names) >= {"render", "plan", "schema"}
+    for name in names:
+        result = runner.invoke(app, [name, "--help"])
+        assert result.exit_code == 0, result.output
+        assert "Examples" in result.output, f"`{name} --help` has no Examples"
+        assert f"raycast-phong {name}" in result.output
+
+
+def test_no_arguments_shows_help():
+    result = runner.invoke(app, [])
+    assert "render" in result.output and "plan" in result.output and "schema" in result.output
+
+
+# ---------------------------------------------------------------- internal error
+
+def test_internal_error_exits_1_with_one_line(tiny_scene, tmp_path, monkeypatch):
+    def broken_render(*args, **kwargs):
+        raise RuntimeError("kernel exploded")
+    monkeypatch.setattr(raycast_phong, "render", broken_render)
+    output = tmp_path / "out.png"
+    output.write_bytes(b"an earlier image")
+    result = runner.invoke(app, ["render", str(tiny_scene), "-o", str(output)])
+    assert result.exit_code == 1, result.output
+    assert isinstance(result.exception, SystemExit)  # the CLI's own exit, not an escaped exception
+    assert "Traceback" not in result.output
+    assert result.output.strip().splitlines() == ["error: internal error: RuntimeError: kernel exploded"]
+    assert output.read_bytes() == b"an earlier image"
