@@ -98,7 +98,9 @@ def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
     readable = "a mesh file trimesh reads (OBJ, PLY, STL, OFF, GLB)"
     try:
         # Load unprocessed: trimesh's cleaning would silently drop NaN vertices and their faces.
-        loaded = trimesh.load(**_mesh_source(path), force="mesh", process=False)
+        loaded = trimesh.load(**_mesh_source(path), process=False)
+        if isinstance(loaded, trimesh.Scene):  # several parts: one mesh (force="mesh" would drop file normals)
+            loaded = loaded.to_mesh() if loaded.geometry else None
     except Exception as error:  # trimesh raises many kinds for a bad file; all mean "unreadable"
         raise SceneError(f"{key}: cannot read {str(path)!r} as {readable} ({type(error).__name__}: "
                          f"{error})") from None

@@ -48,7 +48,8 @@ def write_image(path: str | Path, image: np.ndarray, aovs: dict[str, np.ndarray]
     if path.suffix.lower() == ".png":
         if aovs:
             raise ImageError(f"{path}: layers {sorted(aovs)} need an .exr output")
-        pixels, names, fmt = to_8bit(image, srgb), ["R", "G", "B"], oiio.UINT8
+        # OpenImageIO's PNG writer needs C order; a strided view (e.g. from read_layer) writes no data.
+        pixels, names, fmt = np.ascontiguousarray(to_8bit(image, srgb)), ["R", "G", "B"], oiio.UINT8
     else:
         planes, names = [np.asarray(image, np.float32)], ["R", "G", "B"]
         for name, layer in aovs.items():
@@ -70,6 +71,10 @@ def write_image(path: str | Path, image: np.ndarray, aovs: dict[str, np.ndarray]
         output.close()
         if not ok:
             raise ImageError(f"{path}: cannot write ({oiio.geterror()})")
+        # mkstemp creates the file 0600; give the image the permissions a plain open() would.
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(temporary, 0o666 & ~umask)
         os.replace(temporary, path)
     finally:
         if os.path.exists(temporary):

@@ -1,0 +1,73 @@
+"""PNG and EXR output: encoding, layers, atomic replacement, permissions."""
+
+import os
+import stat
+
+import numpy as np
+import pytest
+
+import raycast_phong as rp
+from raycast_phong.film import srgb_encode, to_8bit
+
+
+def test_png_is_clamped_8bit_without_gamma(tmp_path):
+    image = np.array([[[0.0, 0.5, 1.0], [-0.2, 1.7, 0.25]]], np.float32)
+    path = rp.write_image(tmp_path / "x.png", image)
+    back, names = rp.read_image(path)
+    assert names == ("R", "G", "B")
+    expected = np.array([[[0, 128, 255], [0, 255, 64]]]) / 255  # round(0.5·255) = 128, round(0.25·255) = 64
+    np.testing.assert_allclose(back, expected, atol=1e-6)
+
+
+def test_srgb_option_encodes_with_the_srgb_curve(tmp_path):
+    image = np.full((1, 2, 3), 0.5, np.float32)
+    back, _ = rp.read_image(rp.write_image(tmp_path / "s.png", image, srgb=True))
+    # sRGB(0.5) = 1.055 · 0.5^(1/2.4) − 0.055 = 0.7354 → byte 188.
+    assert srgb_encode(np.float32(0.5)) == pytest.approx(0.735357, abs=1e-5)
+    np.testing.assert_allclose(back, 188 / 255, atol=1e-6)
+
+
+def test_to_8bit_never_wraps_and_bands_agree_with_one_pass():
+    rng = np.random.default_rng(1)
+    image = rng.uniform(-2, 3, size=(600, 7, 3)).astype(np.float32)
+    banded = to_8bit(image, rows_per_band=256)
+    assert banded.dtype == np.uint8
+    np.testing.assert_array_equal(banded, np.round(np.clip(image, 0, 1) * 255).astype(np.uint8))
+
+
+def test_exr_keeps_values_unclamped_with_named_layers(tmp_path):
+    image = np.array([[[0.0, 2.5, 1e4]]], np.float32)
+    layers = {"depth": np.array([[[3.25]]], np.float32), "specular": np.array([[[0.1, 0.2, 0.3]]], np.float32)}
+    path = rp.write_image(tmp_path / "x.exr", image, layers)
+    np.testing.assert_array_equal(rp.read_layer(path), image)
+    np.testing.assert_array_equal(rp.read_layer(path, "depth"), layers["depth"])
+    np.testing.assert_array_equal(rp.read_layer(path, "specular"), layers["specular"])
+    with pytest.raises(rp.ImageError, match="no layer 'normal'"):
+        rp.read_layer(path, "normal")
+
+
+def test_a_strided_array_writes_as_png(tmp_path):
+    """A view with strides (such as a layer cut from a multi-channel EXR) still writes real pixels."""
+    wide = np.linspace(0, 1, 4 * 5 * 6, dtype=np.float32).reshape(4, 5, 6)
+    view = wide[:, :, ::2]
+    back, _ = rp.read_image(rp.write_image(tmp_path / "v.png", view))
+    np.testing.assert_allclose(back, np.round(view * 255) / 255, atol=1e-6)
+
+
+def test_written_image_has_umask_permissions_and_no_temporary_left(tmp_path):
+    old = os.umask(0o022)
+    try:
+        path = rp.write_image(tmp_path / "p.png", np.zeros((2, 2, 3), np.float32))
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o644
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.png"]
+
+
+def test_failed_write_leaves_the_old_image(tmp_path):
+    path = tmp_path / "keep.png"
+    path.write_bytes(b"old image")
+    with pytest.raises(rp.ImageError):
+        rp.write_image(path, np.zeros((2, 2, 3), np.float32), {"depth": np.zeros((2, 2, 1), np.float32)})
+    assert path.read_bytes() == b"old image"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["keep.png"]
