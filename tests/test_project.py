@@ -1,0 +1,52 @@
+"""The project's own promises: README commands, CI script, published schema, packaged default scene."""
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import raycast_phong as rp
+from raycast_phong.scene import scene_json_schema
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def readme_commands() -> list[str]:
+    text = (ROOT / "README.md").read_text()
+    return re.findall(r"```sh\n(python3 -m venv[^\n]*)\n```", text)
+
+
+def test_readme_has_the_two_setup_commands_and_ci_runs_the_test_one():
+    install_and_render, install_and_test = readme_commands()
+    assert "raycast-phong render" in install_and_render
+    assert "pytest" in install_and_test
+    ci = (ROOT / ".ci" / "run").read_text().strip().splitlines()
+    assert ci[-1] == install_and_test
+
+
+def test_published_json_schema_is_current():
+    published = json.loads((ROOT / "docs" / "scene.schema.json").read_text())
+    assert published == json.loads(json.dumps(scene_json_schema())), "run: raycast-phong schema > docs/scene.schema.json"
+
+
+def test_scenes_default_is_the_packaged_default():
+    assert (ROOT / "scenes" / "default.toml").read_bytes() == rp.default_scene_path().read_bytes()
+
+
+def test_every_example_scene_loads_and_is_documented():
+    readme = (ROOT / "README.md").read_text()
+    scenes = sorted((ROOT / "scenes").glob("*.toml"))
+    assert len(scenes) >= 5
+    for path in scenes:
+        rp.load_scene(path)
+        assert f"`{path.name}`" in readme, f"{path.name} missing from the README's scene table"
+
+
+def test_benchmark_script_runs_in_a_reduced_form():
+    """The benchmark is not a timed test; this keeps the script working (tiny image, one repeat)."""
+    done = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bench_frame.py"), "--size", "64",
+                           "--repeats", "1"], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert re.search(r"ratio\s+\d+\.\d+", done.stdout)
+    assert "64×64, 81,920 triangles" in done.stdout
