@@ -123,13 +123,16 @@ def _debug() -> bool:
 def _render_with_progress(scene: rp.Scene, source: str, threads: int | None, quiet: bool) -> rp.RenderResult:
     if quiet or not sys.stderr.isatty():
         return rp.render(scene, threads=threads, source=source)
-    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
     from rich.console import Console
-    with Progress(TextColumn("rendering"), BarColumn(), TextColumn("{task.completed}/{task.total} tiles"),
-                  TimeRemainingColumn(), console=Console(stderr=True), transient=True) as bar:
-        task = bar.add_task("render", total=None)
-        return rp.render(scene, threads=threads, source=source,
-                         progress=lambda done, total: bar.update(task, completed=done, total=total))
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+    columns = (TextColumn("{task.description}"), BarColumn(), TimeRemainingColumn())
+    with Progress(*columns, console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task("building the BVH", total=None)
+
+        def advance(done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total, description=f"rendering {done}/{total} tiles")
+
+        return rp.render(scene, threads=threads, source=source, progress=advance)
 
 
 def summary_line(result: rp.RenderResult, output: Path) -> str:

@@ -82,6 +82,8 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     counts = np.zeros(len(COUNTED_TERMS), np.int64)
     rays_seconds = shade_seconds = 0.0
     start = time.perf_counter()
+    if progress:
+        progress(0, len(bands))
     with ThreadPoolExecutor(max_workers=threads or default_threads()) as pool:
         for done, (ray_s, shade_s, tile_counts) in enumerate(pool.map(work, bands), start=1):
             rays_seconds += ray_s

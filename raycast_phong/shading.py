@@ -211,7 +211,8 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
             sy = b0 * corner_normals[f, 0, 1] + b1 * corner_normals[f, 1, 1] + b2 * corner_normals[f, 2, 1]
             sz = b0 * corner_normals[f, 0, 2] + b1 * corner_normals[f, 1, 2] + b2 * corner_normals[f, 2, 2]
             length = math.sqrt(sx * sx + sy * sy + sz * sz)
-            if length > zero:
+            # A mix of unit normals shorter than 1e-6 points nowhere in particular: keep the face normal.
+            if length > one * 1e-6:
                 nx, ny, nz = side * sx / length, side * sy / length, side * sz / length
             ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask = illuminate(
                 px, py, pz, nx, ny, nz, material, lights, view_tuple, flags, specular, zero, one, two, tiny)

@@ -162,3 +162,22 @@ def test_screen_space_interpolation_differs_from_perspective_on_a_receding_plane
     perspective = rp.render(rp.validate_scene(base)).image
     screen = rp.render(rp.validate_scene({**base, "render": {**base["render"], "interpolation": "screen"}})).image
     assert np.abs(perspective - screen).max() > 0.01
+
+
+def test_vertex_normals_that_cancel_fall_back_to_the_face_normal(tmp_path):
+    """File normals point outward in the triangle's plane and sum to zero at its centroid, where the
+    centre pixel's ray hits: Phong shading there must use the face normal (+z), not a random one."""
+    s = np.sqrt(3) / 2
+    (tmp_path / "tri.obj").write_text(f"v 1 0 0\nv -0.5 {s} 0\nv -0.5 {-s} 0\n"
+                                      f"vn 1 0 0\nvn -0.5 {s} 0\nvn -0.5 {-s} 0\nf 1//1 2//2 3//3\n")
+    scene = rp.validate_scene({
+        "render": {"width": 3, "height": 3, "viewer": "infinite", "precision": "float64"},
+        "camera": {"type": "orthographic", "position": [0, 0, 3], "view_height": 0.3},
+        "ambient": 0,
+        "lights": [{"type": "directional", "direction": [0, 0, -1], "diffuse": 1, "specular": 1}],
+        "materials": {"m": {"ka": 0, "kd": 0.6, "ks": 0.3, "shininess": 10}},
+        "objects": [{"shape": "mesh", "path": "tri.obj", "normals": "file", "material": "m"}],
+    }, folder=tmp_path)
+    image = rp.render(scene).image
+    assert np.isfinite(image).all()
+    np.testing.assert_allclose(image[1, 1], 0.6 + 0.3, atol=1e-6)
