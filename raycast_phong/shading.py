@@ -223,18 +223,10 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
         rgb[row, col, 1] += weight * (ag + dg + sg + eg)
         rgb[row, col, 2] += weight * (ab + db + sb + eb)
         if term_layers:
-            terms[row, col, 0, 0] += weight * ar
-            terms[row, col, 0, 1] += weight * ag
-            terms[row, col, 0, 2] += weight * ab
-            terms[row, col, 1, 0] += weight * dr
-            terms[row, col, 1, 1] += weight * dg
-            terms[row, col, 1, 2] += weight * db
-            terms[row, col, 2, 0] += weight * sr
-            terms[row, col, 2, 1] += weight * sg
-            terms[row, col, 2, 2] += weight * sb
-            terms[row, col, 3, 0] += weight * er
-            terms[row, col, 3, 1] += weight * eg
-            terms[row, col, 3, 2] += weight * eb
+            for term, (r, g, b) in enumerate(((ar, ag, ab), (dr, dg, db), (sr, sg, sb), (er, eg, eb))):
+                terms[row, col, term, 0] += weight * r
+                terms[row, col, term, 1] += weight * g
+                terms[row, col, term, 2] += weight * b
         if geometry_layers and sample == centre_sample:
             depth[row, col] = tfar[k] * frame_scale
             face_out[row, col] = f
