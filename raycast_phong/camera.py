@@ -42,21 +42,46 @@ def camera_rig(scene: Scene) -> CameraRig:
     return CameraRig(eye, right, up, forward, half_height, half_height * render.width / render.height, orthographic)
 
 
+class RayGenerator:
+    """Primary rays of whole image rows, (N, 3) float32 origins and unit directions in the unit frame.
+
+    A perspective camera's rays all start at the eye: one shared, read-only origins array (Embree
+    never writes it) serves every tile, so only directions are computed per tile.
+    """
+
+    def __init__(self, rig: CameraRig, frame: Frame, width: int, height: int, samples: int, max_rays: int):
+        self.rig, self.frame = rig, frame
+        self.width, self.height, self.samples = width, height, samples
+        self._shared_origins = None
+        if not rig.orthographic:
+            eye = frame.to_unit(rig.eye).astype(np.float32)
+            self._shared_origins = np.ascontiguousarray(np.broadcast_to(eye, (max_rays, 3)))
+
+    def rows(self, row0: int, row1: int) -> tuple[np.ndarray, np.ndarray]:
+        count = (row1 - row0) * self.width * self.samples * self.samples
+        directions = np.empty((count, 3), np.float32)
+        if self._shared_origins is not None:
+            origins, write_origins = self._shared_origins[:count], False
+        else:
+            origins, write_origins = np.empty((count, 3), np.float32), True
+        rig = self.rig
+        _fill_rays(row0, row1, self.width, self.height, self.samples, rig.eye, rig.right, rig.up, rig.forward,
+                   rig.half_width, rig.half_height, write_origins, self.frame.center, 1.0 / self.frame.scale,
+                   origins, directions)
+        return origins, directions
+
+
 def generate_rays(rig: CameraRig, frame: Frame, width: int, height: int, samples: int,
                   row0: int, row1: int) -> tuple[np.ndarray, np.ndarray]:
-    """Rays of image rows [row0, row1): origins and unit directions, (N, 3) float32 in the unit frame."""
+    """Rays of image rows [row0, row1) (one-off use; render() keeps a RayGenerator)."""
     count = (row1 - row0) * width * samples * samples
-    origins = np.empty((count, 3), np.float32)
-    directions = np.empty((count, 3), np.float32)
-    _fill_rays(row0, row1, width, height, samples, rig.eye, rig.right, rig.up, rig.forward,
-               rig.half_width, rig.half_height, rig.orthographic, frame.center, 1.0 / frame.scale,
-               origins, directions)
-    return origins, directions
+    return RayGenerator(rig, frame, width, height, samples, count).rows(row0, row1)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _fill_rays(row0, row1, width, height, samples, eye, right, up, forward, half_width, half_height,
                orthographic, center, inv_scale, origins, directions):
+    """Directions (and, for an orthographic camera, origins) of the rays of rows [row0, row1)."""
     k = 0
     for row in range(row0, row1):
         for col in range(width):
@@ -76,6 +101,4 @@ def _fill_rays(row0, row1, width, height, samples, eye, right, up, forward, half
                         dz = forward[2] + sx * right[2] + sy * up[2]
                         norm = math.sqrt(dx * dx + dy * dy + dz * dz)  # normalise in float64, then round once
                         directions[k, 0], directions[k, 1], directions[k, 2] = dx / norm, dy / norm, dz / norm
-                        for i in range(3):
-                            origins[k, i] = (eye[i] - center[i]) * inv_scale
                     k += 1

@@ -15,7 +15,7 @@ from typing import Callable
 
 import numpy as np
 
-from .camera import camera_rig, generate_rays
+from .camera import RayGenerator, camera_rig
 from .film import allocate_film, film_layers
 from .geometry import build_geometry
 from .illumination import COUNTED_TERMS
@@ -69,11 +69,12 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     background = np.asarray(render_opts.background, np.float32)
     rows_per_tile = max(1, TILE_RAYS // (width * samples * samples))
     bands = [(row, min(row + rows_per_tile, height)) for row in range(0, height, rows_per_tile)]
+    rays = RayGenerator(rig, frame, width, height, samples, max_rays=rows_per_tile * width * samples * samples)
 
     def work(band: tuple[int, int]) -> tuple[float, float, np.ndarray]:
         row0, row1 = band
         t0 = time.perf_counter()
-        origins, directions = generate_rays(rig, frame, width, height, samples, row0, row1)
+        origins, directions = rays.rows(row0, row1)
         hits = accelerator.closest_hits(origins, directions)
         t1 = time.perf_counter()
         tile_counts = shade_tile(inputs, hits, directions, film.rows(row0, row1), samples, background)

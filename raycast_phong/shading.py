@@ -154,13 +154,21 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
     geometry_layers, term_layers = flags & F_AOV_GEOMETRY != 0, flags & F_AOV_TERMS != 0
     two_sided, screen = flags & F_TWO_SIDED != 0, flags & F_SCREEN != 0
     evaluated = np.zeros(len(counts), np.int64)
+    # The film starts at zero, so a black background needs no writes at all.
+    has_background = background[0] != 0 or background[1] != 0 or background[2] != 0
+    # Ray k is sample k % n² of pixel k // n²; counters keep integer division out of the hot path.
+    row, col, sample = 0, 0, -1
     for k in range(face.shape[0]):
-        pixel, sample = k // per_pixel, k % per_pixel
-        row, col = pixel // width, pixel % width
+        sample += 1
+        if sample == per_pixel:
+            sample, col = 0, col + 1
+            if col == width:
+                col, row = 0, row + 1
         f = face[k]
         if f < 0:
-            for ch in range(3):
-                rgb[row, col, ch] += weight * background[ch]
+            if has_background:
+                for ch in range(3):
+                    rgb[row, col, ch] += weight * background[ch]
             continue
 
         i0, i1, i2 = faces[f, 0], faces[f, 1], faces[f, 2]
