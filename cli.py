@@ -139,11 +139,11 @@ def summary_line(result: rp.RenderResult, output: Path) -> str:
     """One line: size, triangles, rays/s, seconds per stage."""
     h, w = result.image.shape[:2]
     t = result.timings
-    stages = ", ".join(f"{name} {t[name]:.3f}s" for name in ("load", "geometry", "build", "rays", "shade", "write")
+    stages = ", ".join(f"{name} {t[name]:.3f}s" for name in ("load", "geometry", "build", "rays", "shadows", "shade", "write")
                        if name in t)
     return (f"{output}: {w}×{h}, {result.triangles:,} triangles, {result.rays:,} rays, "
-            f"{result.rays_per_second / 1e6:.1f} Mrays/s; frame {t['frame']:.3f}s ({stages}; rays and shade "
-            f"summed over threads)")
+            f"{result.rays_per_second / 1e6:.1f} Mrays/s; frame {t['frame']:.3f}s ({stages}; rays, shadows "
+            f"and shade summed over threads)")
 
 
 @app.command(epilog="""

@@ -26,6 +26,7 @@ F_TWO_SIDED = 1 << 6       # flip the shading normal of a back-facing hit toward
 F_SCREEN = 1 << 7          # interpolate with screen-space weights instead of perspective-correct ones
 F_AOV_GEOMETRY = 1 << 8    # write depth, normal and face layers
 F_AOV_TERMS = 1 << 9       # write the per-term layers
+F_SHADOWS = 1 << 10        # global mode: per-ray light visibility masks are given
 SPECULAR_NONE, SPECULAR_PHONG, SPECULAR_BLINN = 0, 1, 2
 
 # Columns of the material table (M, 13) and of the light table (K, 17).
@@ -56,10 +57,12 @@ def specular_power(x, f, zero, one):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, zero, one, two, tiny):
+def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, visible, zero, one, two, tiny):
     """The model at point p with unit normal n and one material (a row of the material table, as a tuple).
 
-    view = (I_a r, g, b, eye x, y, z, fixed view x, y, z), a tuple. Returns the four terms as 12 scalars
+    view = (I_a r, g, b, eye x, y, z, fixed view x, y, z), a tuple. `visible` holds one bit per light
+    (global mode's shadow-ray answers; all bits set in local mode): a light whose bit is clear adds
+    only its ambient part. Returns the four terms as 12 scalars
     (ambient, diffuse, specular, emission; r, g, b each) and a bit mask of the optional terms
     evaluated (bit i = COUNTED_TERMS[i]). Tuples and scalars, and one array: every array argument
     costs an atomic reference count per call, which dominated the frame time of an earlier version.
@@ -111,6 +114,8 @@ def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, 
             ag += weight * lights[k, L_IA + 1] * ka_g
             ab += weight * lights[k, L_IA + 2] * ka_b
 
+        if (visible >> k) & 1 == 0:
+            continue  # in shadow: vis = 0 removes the direct term only
         n_dot_l = nx * lx + ny * ly + nz * lz
         if n_dot_l <= zero:
             continue  # no diffuse and no highlight on a side turned away from the light

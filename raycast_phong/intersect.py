@@ -51,6 +51,11 @@ class Accelerator:
         found = self._scene.run(origins, directions, output=1)
         return TileHits(face=found["primID"], u=found["u"], v=found["v"], t=found["tfar"])
 
+    def occluded(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> np.ndarray:
+        """(N,) bool: something lies on the ray within (0, t_max]. t_max (N,) float32 is overwritten
+        by embreex, so pass an array you will not read again. OCCLUDED answers 0 blocked, −1 clear."""
+        return self._scene.run(origins, directions, dists=t_max, query="OCCLUDED") == 0
+
     def cast_only(self, origins: np.ndarray, directions: np.ndarray) -> None:
         """The raw cast, as closest_hits does it, with nothing after it (for benchmarks)."""
         self._scene.run(origins, directions, output=1)

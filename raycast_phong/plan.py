@@ -8,7 +8,7 @@ every optional stage, for tests that compare the two images.
 from __future__ import annotations
 
 from .illumination import (F_AOV_GEOMETRY, F_AOV_TERMS, F_ATTENUATION, F_DIFFUSE, F_EMISSION,
-                           F_LIGHT_AMBIENT, F_SCENE_AMBIENT, F_SCREEN, F_TWO_SIDED, F_VIEW_PER_POINT,
+                           F_LIGHT_AMBIENT, F_SCENE_AMBIENT, F_SCREEN, F_SHADOWS, F_TWO_SIDED, F_VIEW_PER_POINT,
                            SPECULAR_BLINN, SPECULAR_NONE, SPECULAR_PHONG)
 from .records import RenderPlan, Stage
 from .scene import Mode, Scene, ShadingModel, SpecularModel, Viewer
@@ -78,9 +78,25 @@ def build_plan(scene: Scene, optimize: bool = True) -> RenderPlan:
     stages.append(Stage("two_sided", render.two_sided,
                         "back-facing hits are shaded with the normal flipped toward the viewer" if render.two_sided
                         else "two_sided = false: back faces shaded with their own normal"))
-    stages.append(Stage("shadow_rays", render.mode == Mode.GLOBAL,
-                        "mode = global: an occlusion query per hit and light" if render.mode == Mode.GLOBAL
-                        else "mode = local: the local model knows no other surface"))
+    global_mode = render.mode == Mode.GLOBAL
+    if global_mode and not lights:
+        shadow_reason = "mode = global but the scene has no lights: nothing to shadow"
+    elif global_mode:
+        shadow_reason = f"mode = global: an occlusion query per hit and light ({len(lights)} light(s))"
+    else:
+        shadow_reason = "mode = local: the local model knows no other surface"
+    shadows = global_mode and bool(lights)
+    stages.append(Stage("shadow_rays", shadows, shadow_reason))
+    hanika = shadows and bool(smooth) and render.terminator == "hanika"
+    if hanika:
+        terminator_reason = "Gouraud/Phong faces: shadow rays start on the smooth surface (Hanika 2021)"
+    elif not shadows:
+        terminator_reason = "no shadow rays"
+    elif not smooth:
+        terminator_reason = "every object is flat-shaded: the facets are the surface"
+    else:
+        terminator_reason = 'terminator = "none": shadow rays start at the hit point'
+    stages.append(Stage("terminator_fix", hanika, terminator_reason))
     geometry_aovs = sorted(GEOMETRY_AOVS & set(scene.output.aovs))
     term_aovs = sorted(TERM_AOVS & set(scene.output.aovs))
     stages.append(Stage("aov_geometry", bool(geometry_aovs),
@@ -98,7 +114,7 @@ def plan_flags(plan: RenderPlan, scene: Scene) -> tuple[int, int]:
     bits = {F_ATTENUATION: "attenuation", F_LIGHT_AMBIENT: "light_ambient", F_EMISSION: "emission",
             F_SCENE_AMBIENT: "scene_ambient", F_DIFFUSE: "diffuse", F_VIEW_PER_POINT: "view_vector_per_point",
             F_TWO_SIDED: "two_sided", F_SCREEN: "screen_interpolation", F_AOV_GEOMETRY: "aov_geometry",
-            F_AOV_TERMS: "aov_terms"}
+            F_AOV_TERMS: "aov_terms", F_SHADOWS: "shadow_rays"}
     flags = sum(bit for bit, stage in bits.items() if plan.keeps(stage))
     if not plan.keeps("specular"):
         specular = SPECULAR_NONE

@@ -1,4 +1,4 @@
-"""Compose the stages for one scene: plan → geometry → BVH → tiles (rays → hits → shading → film).
+"""Compose the stages for one scene: plan → geometry → BVH → tiles (rays → hits → [shadow rays] → shading).
 
 Tiles are bands of rows, each about TILE_RAYS rays, shaded on a thread pool: Embree and the numba
 kernels release the GIL, so both cores work and memory stays flat whatever the image size. Every
@@ -22,8 +22,9 @@ from .illumination import COUNTED_TERMS
 from .intersect import Accelerator, unit_frame
 from .plan import build_plan, plan_flags
 from .records import RenderPlan, RenderResult
-from .scene import Mode, Scene, SceneError, load_scene
+from .scene import Scene, SceneError, load_scene
 from .shading import prepare_shading, shade_tile
+from .shadows import MAX_LIGHTS, light_visibility, prepare_shadows
 
 TILE_RAYS = 1 << 15  # 32k rays: large enough to amortise a call, small enough for ~10 MB per tile
 
@@ -45,12 +46,14 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     Returns
     -------
     RenderResult with .image (H, W, 3) float32, .aovs, .timings (seconds: geometry, build, rays,
-    shade, frame; rays and shade are summed over the worker threads, frame is wall time).
+    shadows (global mode), shade, frame; rays, shadows and shade are summed over the worker threads,
+    frame is wall time).
     """
     timings: dict[str, float] = {}
     plan = plan or build_plan(scene)
-    if scene.render.mode == Mode.GLOBAL:
-        raise SceneError(f'{source}: render.mode: "global" (shadow rays) is not available yet; use "local"')
+    if plan.keeps("shadow_rays") and len(scene.lights) > MAX_LIGHTS:
+        raise SceneError(f"{source}: lights: global mode handles at most {MAX_LIGHTS} lights, "
+                         f"the scene has {len(scene.lights)}; use render.mode = \"local\" or fewer lights")
 
     start = time.perf_counter()
     geometry = build_geometry(scene, source=source, vertex_normals=plan.keeps("vertex_normals"))
@@ -65,35 +68,43 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     width, height, samples = render_opts.width, render_opts.height, render_opts.samples
     rig = camera_rig(scene)
     inputs = prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene))
+    shadow_inputs = prepare_shadows(scene, geometry, frame) if plan.keeps("shadow_rays") else None
     film = allocate_film(width, height, tuple(scene.output.aovs))
     background = np.asarray(render_opts.background, np.float32)
     rows_per_tile = max(1, TILE_RAYS // (width * samples * samples))
     bands = [(row, min(row + rows_per_tile, height)) for row in range(0, height, rows_per_tile)]
     rays = RayGenerator(rig, frame, width, height, samples, max_rays=rows_per_tile * width * samples * samples)
 
-    def work(band: tuple[int, int]) -> tuple[float, float, np.ndarray]:
+    def work(band: tuple[int, int]) -> tuple[float, float, float, np.ndarray]:
         row0, row1 = band
         t0 = time.perf_counter()
         origins, directions = rays.rows(row0, row1)
         hits = accelerator.closest_hits(origins, directions)
         t1 = time.perf_counter()
-        tile_counts = shade_tile(inputs, hits, directions, film.rows(row0, row1), samples, background)
-        return t1 - t0, time.perf_counter() - t1, tile_counts
+        visible = None
+        if shadow_inputs is not None:
+            visible = light_visibility(shadow_inputs, hits, directions, accelerator)
+        t2 = time.perf_counter()
+        tile_counts = shade_tile(inputs, hits, directions, film.rows(row0, row1), samples, background, visible)
+        return t1 - t0, t2 - t1, time.perf_counter() - t2, tile_counts
 
     counts = np.zeros(len(COUNTED_TERMS), np.int64)
-    rays_seconds = shade_seconds = 0.0
+    rays_seconds = shadow_seconds = shade_seconds = 0.0
     start = time.perf_counter()
     if progress:
         progress(0, len(bands))
     with ThreadPoolExecutor(max_workers=threads or default_threads()) as pool:
-        for done, (ray_s, shade_s, tile_counts) in enumerate(pool.map(work, bands), start=1):
+        for done, (ray_s, shadow_s, shade_s, tile_counts) in enumerate(pool.map(work, bands), start=1):
             rays_seconds += ray_s
+            shadow_seconds += shadow_s
             shade_seconds += shade_s
             counts += tile_counts
             if progress:
                 progress(done, len(bands))
     timings["frame"] = time.perf_counter() - start
     timings["rays"], timings["shade"] = rays_seconds, shade_seconds
+    if shadow_inputs is not None:
+        timings["shadows"] = shadow_seconds
     return RenderResult(image=film.rgb, aovs=film_layers(film, tuple(scene.output.aovs)), timings=timings, plan=plan,
                         triangles=geometry.triangles, rays=width * height * samples * samples,
                         counts=dict(zip(COUNTED_TERMS, counts.tolist())))

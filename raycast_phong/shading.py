@@ -20,7 +20,11 @@ import numpy as np
 from numba import njit
 
 from .camera import CameraRig
-from .illumination import COUNTED_TERMS, F_AOV_GEOMETRY, F_AOV_TERMS, F_ATTENUATION, F_SCREEN, F_TWO_SIDED, illuminate
+from .illumination import (COUNTED_TERMS, F_AOV_GEOMETRY, F_AOV_TERMS, F_ATTENUATION, F_SCREEN, F_SHADOWS,
+                           F_TWO_SIDED, illuminate)
+
+ALL_VISIBLE = -1                       # every bit set: local mode, no light is ever shadowed
+NO_SHADOWS = np.zeros(0, np.int64)     # the kernel's `visible` argument in local mode
 from .intersect import TileHits
 from .records import Frame, Geometry, ImageBuffers
 from .scene import DEFAULT_MATERIAL, Scene
@@ -92,8 +96,10 @@ def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Fra
 
 
 def shade_tile(inputs: ShadingInputs, hits: TileHits, directions: np.ndarray, out: ImageBuffers,
-               samples: int, background: np.ndarray) -> np.ndarray:
+               samples: int, background: np.ndarray, visible: np.ndarray | None = None) -> np.ndarray:
     """Shade a tile's rays into `out` (views of whole image rows; mean over the n×n samples per pixel).
+
+    `visible` (N,) int64: global mode's per-ray light bits (shadows.light_visibility); None in local mode.
 
     Returns how many shading points evaluated each optional term, (len(COUNTED_TERMS),) int64.
     """
@@ -103,6 +109,7 @@ def shade_tile(inputs: ShadingInputs, hits: TileHits, directions: np.ndarray, ou
                 i.vertices, i.faces, i.face_normals, i.corner_normals, i.face_material, i.face_model,
                 i.materials, i.lights, i.view, i.camera, np.asarray(background, np.float32),
                 i.flags, i.specular, real(0), real(1), real(2), real(np.finfo(real).tiny),
+                NO_SHADOWS if visible is None else visible,
                 out.rgb, out.terms, out.depth, out.normal, out.face, counts)
     return counts
 
@@ -144,7 +151,7 @@ def _screen_weights(b0, b1, b2, v, f0, f1, f2, eye, camera, one):
 def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
                 vertices, faces, face_normals, corner_normals, face_material, face_model,
                 materials, lights, view, camera, background, flags, specular, zero, one, two, tiny,
-                rgb, terms, depth, normal, face_out, counts):
+                visible, rgb, terms, depth, normal, face_out, counts):
     eye = view[3:6]
     view_tuple = (view[0], view[1], view[2], view[3], view[4], view[5], view[6], view[7], view[8])
     third = one / (one + one + one)
@@ -152,7 +159,7 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
     weight = one / (one * per_pixel)
     centre_sample = (samples // 2) * samples + samples // 2  # the geometric layers come from this sample
     geometry_layers, term_layers = flags & F_AOV_GEOMETRY != 0, flags & F_AOV_TERMS != 0
-    two_sided, screen = flags & F_TWO_SIDED != 0, flags & F_SCREEN != 0
+    two_sided, screen, shadows = flags & F_TWO_SIDED != 0, flags & F_SCREEN != 0, flags & F_SHADOWS != 0
     evaluated = np.zeros(len(counts), np.int64)
     # The film starts at zero, so a black background needs no writes at all.
     has_background = background[0] != 0 or background[1] != 0 or background[2] != 0
@@ -165,6 +172,7 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
             if col == width:
                 col, row = 0, row + 1
         f = face[k]
+        visible_k = visible[k] if shadows else ALL_VISIBLE
         if f < 0:
             if has_background:
                 for ch in range(3):
@@ -191,7 +199,7 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
             py = (vertices[i0, 1] + vertices[i1, 1] + vertices[i2, 1]) * third
             pz = (vertices[i0, 2] + vertices[i1, 2] + vertices[i2, 2]) * third
             ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask = illuminate(
-                px, py, pz, nx, ny, nz, material, lights, view_tuple, flags, specular, zero, one, two, tiny)
+                px, py, pz, nx, ny, nz, material, lights, view_tuple, flags, specular, visible_k, zero, one, two, tiny)
         elif model == 1:
             ar = ag = ab = dr = dg = db = sr = sg = sb = er = eg = eb = zero
             mask = 0
@@ -201,7 +209,7 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
                 jar, jag, jab, jdr, jdg, jdb, jsr, jsg, jsb, jer, jeg, jeb, jmask = illuminate(
                     vertices[vj, 0], vertices[vj, 1], vertices[vj, 2], side * corner_normals[f, j, 0],
                     side * corner_normals[f, j, 1], side * corner_normals[f, j, 2], material, lights,
-                    view_tuple, flags, specular, zero, one, two, tiny)
+                    view_tuple, flags, specular, visible_k, zero, one, two, tiny)
                 ar, ag, ab = ar + bj * jar, ag + bj * jag, ab + bj * jab
                 dr, dg, db = dr + bj * jdr, dg + bj * jdg, db + bj * jdb
                 sr, sg, sb = sr + bj * jsr, sg + bj * jsg, sb + bj * jsb
@@ -223,7 +231,7 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
             if length > one * 1e-6:
                 nx, ny, nz = side * sx / length, side * sy / length, side * sz / length
             ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask = illuminate(
-                px, py, pz, nx, ny, nz, material, lights, view_tuple, flags, specular, zero, one, two, tiny)
+                px, py, pz, nx, ny, nz, material, lights, view_tuple, flags, specular, visible_k, zero, one, two, tiny)
 
         for bit in range(len(counts)):
             evaluated[bit] += (mask >> bit) & 1

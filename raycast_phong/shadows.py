@@ -1,0 +1,167 @@
+"""Global mode: shadow rays from every hit toward every light, answered by Embree occlusion queries.
+
+For hit ray k the answer is a bit mask (bit j set: light j is visible), which the shading kernel
+applies to light j's direct term (diffuse + specular) for every shading model, per pixel sample.
+
+Two decisions keep shadows honest at any scale, both made in Embree's unit frame:
+- *No self-shadowing* (Wächter & Binder, "A Fast and Robust Method for Avoiding Self-Intersection",
+  Ray Tracing Gems, ch. 6): Embree starts every ray at t = 0, so the origin is moved off the surface
+  along the geometric normal, to the light's side, by 256 float32 ulps of each coordinate (a fixed
+  1/65536 near the origin, where ulps vanish). The offset follows the magnitude of the coordinates,
+  not a fixed epsilon.
+- *The shadow terminator* (Hanika, "Hacking the Shadow Terminator", Ray Tracing Gems II, ch. 4): for
+  Gouraud and Phong faces with `terminator = "hanika"`, the origin first moves to where the smooth
+  surface described by the vertex normals would be, so coarse facets do not shadow their own lit side.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from .intersect import Accelerator, TileHits
+from .records import Frame, Geometry
+from .scene import Scene
+
+MAX_LIGHTS = 63          # visibility travels as bits of one int64 per ray
+INT_SCALE = 256.0        # Wächter & Binder: ulps of offset per unit of normal
+FLOAT_SCALE = 1.0 / 65536.0
+ORIGIN = 1.0 / 32.0      # below this magnitude a coordinate gets the fixed offset
+SHORT_OF_LIGHT = 1e-4    # embreex counts a hit exactly at tfar: stop this fraction short of a point light
+
+
+@dataclass(frozen=True, eq=False)
+class ShadowInputs:
+    """Geometry and lights in Embree's unit frame (float64), for building shadow rays."""
+    vertices: np.ndarray        # (V, 3) float64, unit frame
+    faces: np.ndarray           # (F, 3) int32
+    face_normals: np.ndarray    # (F, 3) float64
+    corner_normals: np.ndarray  # (F, 3, 3) float64, or (1, 3, 3) when no face is smooth
+    smooth: np.ndarray          # (F,) bool: move the origin to the smooth surface (Hanika) on this face
+    light_kind: np.ndarray      # (K,) int64, 0 point, 1 directional
+    light_vec: np.ndarray       # (K, 3) float64: unit-frame position, or unit vector toward the light
+    two_sided: bool
+    offset_scale: float = 1.0   # 1: the Wächter–Binder offset; 0: none (only to show what acne looks like)
+
+
+def prepare_shadows(scene: Scene, geometry: Geometry, frame: Frame, offset_scale: float = 1.0) -> ShadowInputs:
+    kinds, vectors = [], []
+    for light in scene.lights:
+        if light.type == "point":
+            kinds.append(0), vectors.append(frame.to_unit(np.asarray(light.position, np.float64)))
+        else:
+            toward = -np.asarray(light.direction, np.float64)
+            kinds.append(1), vectors.append(toward / np.linalg.norm(toward))
+    hanika = scene.render.terminator == "hanika" and len(geometry.corner_normals) > 0
+    corner = geometry.corner_normals if len(geometry.corner_normals) else np.zeros((1, 3, 3))
+    return ShadowInputs(
+        vertices=frame.to_unit(geometry.vertices),
+        faces=np.ascontiguousarray(geometry.faces, np.int32),
+        face_normals=np.ascontiguousarray(geometry.face_normals, np.float64),
+        corner_normals=np.ascontiguousarray(corner, np.float64),
+        smooth=(geometry.face_model != 0) & hanika,
+        light_kind=np.asarray(kinds, np.int64).reshape(-1),
+        light_vec=np.asarray(vectors, np.float64).reshape(-1, 3),
+        two_sided=scene.render.two_sided,
+        offset_scale=offset_scale,
+    )
+
+
+def shadow_rays(inputs: ShadowInputs, hits: TileHits, directions: np.ndarray):
+    """One shadow ray per hit and light: origins, unit directions (M, 3) float32 and t_max (M,)
+    float32 in the unit frame, and the indices (H,) of the rays that hit (M = H × K, light-minor)."""
+    lights = len(inputs.light_kind)
+    hit_rays = np.flatnonzero(hits.face >= 0)
+    count = len(hit_rays) * lights
+    origins = np.empty((count, 3), np.float32)
+    toward = np.empty((count, 3), np.float32)
+    t_max = np.empty(count, np.float32)
+    _shadow_rays(hit_rays, hits.face, hits.u, hits.v, directions, inputs.vertices, inputs.faces,
+                 inputs.face_normals, inputs.corner_normals, inputs.smooth, inputs.light_kind, inputs.light_vec,
+                 inputs.two_sided, inputs.offset_scale, origins, toward, t_max)
+    return origins, toward, t_max, hit_rays
+
+
+def light_visibility(inputs: ShadowInputs, hits: TileHits, directions: np.ndarray,
+                     accelerator: Accelerator) -> np.ndarray:
+    """(N,) int64 bit masks: bit j set where light j is visible from hit k (0 for a miss)."""
+    origins, toward, t_max, hit_rays = shadow_rays(inputs, hits, directions)
+    free = ~accelerator.occluded(origins, toward, t_max)
+    visible = np.zeros(len(hits.face), np.int64)
+    _gather_bits(hit_rays, free, len(inputs.light_kind), visible)
+    return visible
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _offset(x, n):
+    """Move coordinate x by 256 float32 ulps in the direction of n (a fixed 1/65536 near zero)."""
+    if abs(x) < ORIGIN:
+        return x + FLOAT_SCALE * n
+    exponent = math.frexp(x)[1]  # x = m 2^e with 0.5 ≤ |m| < 1, so one float32 ulp of x is 2^(e − 24)
+    return x + n * INT_SCALE * math.ldexp(1.0, exponent - 24)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _shadow_rays(hit_rays, face, bu, bv, directions, vertices, faces, face_normals, corner_normals, smooth,
+                 light_kind, light_vec, two_sided, offset_scale, origins, toward, t_max):
+    lights = light_kind.shape[0]
+    for h in range(hit_rays.shape[0]):
+        k = hit_rays[h]
+        f = face[k]
+        b1, b2 = float(bu[k]), float(bv[k])
+        b0 = 1.0 - b1 - b2
+        gx, gy, gz = face_normals[f, 0], face_normals[f, 1], face_normals[f, 2]
+        side = 1.0
+        if two_sided and gx * directions[k, 0] + gy * directions[k, 1] + gz * directions[k, 2] > 0:
+            side = -1.0  # the viewer sees the back: the smooth surface bulges toward the back
+        p = np.zeros(3)
+        for i in range(3):
+            p[i] = b0 * vertices[faces[f, 0], i] + b1 * vertices[faces[f, 1], i] + b2 * vertices[faces[f, 2], i]
+        if smooth[f]:
+            # Hanika 2021: p' = Σ_j b_j (v_j + t_j), t_j = (p − v_j) with its part below corner j's tangent
+            # plane removed; as Σ b_j (p − v_j) = 0 this is p − Σ_j b_j min(0, (p − v_j)·n_j) n_j.
+            q0, q1, q2 = p[0], p[1], p[2]
+            for j in range(3):
+                bj = b0 if j == 0 else (b1 if j == 1 else b2)
+                vj = faces[f, j]
+                n0, n1, n2 = side * corner_normals[f, j, 0], side * corner_normals[f, j, 1], side * corner_normals[f, j, 2]
+                below = min(0.0, (p[0] - vertices[vj, 0]) * n0 + (p[1] - vertices[vj, 1]) * n1
+                            + (p[2] - vertices[vj, 2]) * n2)
+                q0, q1, q2 = q0 - bj * below * n0, q1 - bj * below * n1, q2 - bj * below * n2
+            p[0], p[1], p[2] = q0, q1, q2
+        for j in range(lights):
+            r = h * lights + j
+            if light_kind[j] == 0:
+                lx, ly, lz = light_vec[j, 0] - p[0], light_vec[j, 1] - p[1], light_vec[j, 2] - p[2]
+            else:
+                lx, ly, lz = light_vec[j, 0], light_vec[j, 1], light_vec[j, 2]
+            # Leave the surface on the light's side of the geometric normal.
+            toward_side = offset_scale if gx * lx + gy * ly + gz * lz >= 0 else -offset_scale
+            ox = _offset(p[0], toward_side * gx)
+            oy = _offset(p[1], toward_side * gy)
+            oz = _offset(p[2], toward_side * gz)
+            if light_kind[j] == 0:
+                lx, ly, lz = light_vec[j, 0] - ox, light_vec[j, 1] - oy, light_vec[j, 2] - oz
+                d = math.sqrt(lx * lx + ly * ly + lz * lz)
+                t_max[r] = d * (1.0 - SHORT_OF_LIGHT) if d > 0 else 0.0
+                if d > 0:
+                    lx, ly, lz = lx / d, ly / d, lz / d
+                else:
+                    lx, ly, lz = gx, gy, gz
+            else:
+                t_max[r] = 1e37  # embreex's own "no limit"
+            origins[r, 0], origins[r, 1], origins[r, 2] = ox, oy, oz
+            toward[r, 0], toward[r, 1], toward[r, 2] = lx, ly, lz
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _gather_bits(hit_rays, free, lights, visible):
+    for h in range(hit_rays.shape[0]):
+        mask = 0
+        for j in range(lights):
+            if free[h * lights + j]:
+                mask |= 1 << j
+        visible[hit_rays[h]] = mask
