@@ -30,6 +30,7 @@ MAX_LIGHTS = 63          # visibility travels as bits of one int64 per ray
 INT_SCALE = 256.0        # Wächter & Binder: ulps of offset per unit of normal
 FLOAT_SCALE = 1.0 / 65536.0
 ORIGIN = 1.0 / 32.0      # below this magnitude a coordinate gets the fixed offset
+ULP_FACTOR = 2.0 ** -23  # |x| · 2^-23 is one to two float32 ulps of x
 SHORT_OF_LIGHT = 1e-4    # embreex counts a hit exactly at tfar: stop this fraction short of a point light
 
 
@@ -97,11 +98,14 @@ def light_visibility(inputs: ShadowInputs, hits: TileHits, directions: np.ndarra
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _offset(x, n):
-    """Move coordinate x by 256 float32 ulps in the direction of n (a fixed 1/65536 near zero)."""
+    """Move coordinate x by 256–512 float32 ulps in the direction of n (a fixed 1/65536 near zero).
+
+    |x| · 2^-23 lies between one and two float32 ulps of x: Wächter & Binder's integer ulp step,
+    in magnitude form, without reading the float's bits.
+    """
     if abs(x) < ORIGIN:
         return x + FLOAT_SCALE * n
-    exponent = math.frexp(x)[1]  # x = m 2^e with 0.5 ≤ |m| < 1, so one float32 ulp of x is 2^(e − 24)
-    return x + n * INT_SCALE * math.ldexp(1.0, exponent - 24)
+    return x + n * INT_SCALE * abs(x) * ULP_FACTOR
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -117,32 +121,33 @@ def _shadow_rays(hit_rays, face, bu, bv, directions, vertices, faces, face_norma
         side = 1.0
         if two_sided and gx * directions[k, 0] + gy * directions[k, 1] + gz * directions[k, 2] > 0:
             side = -1.0  # the viewer sees the back: the smooth surface bulges toward the back
-        p = np.zeros(3)
-        for i in range(3):
-            p[i] = b0 * vertices[faces[f, 0], i] + b1 * vertices[faces[f, 1], i] + b2 * vertices[faces[f, 2], i]
+        i0, i1, i2 = faces[f, 0], faces[f, 1], faces[f, 2]
+        px = b0 * vertices[i0, 0] + b1 * vertices[i1, 0] + b2 * vertices[i2, 0]
+        py = b0 * vertices[i0, 1] + b1 * vertices[i1, 1] + b2 * vertices[i2, 1]
+        pz = b0 * vertices[i0, 2] + b1 * vertices[i1, 2] + b2 * vertices[i2, 2]
         if smooth[f]:
             # Hanika 2021: p' = Σ_j b_j (v_j + t_j), t_j = (p − v_j) with its part below corner j's tangent
             # plane removed; as Σ b_j (p − v_j) = 0 this is p − Σ_j b_j min(0, (p − v_j)·n_j) n_j.
-            q0, q1, q2 = p[0], p[1], p[2]
+            qx, qy, qz = px, py, pz
             for j in range(3):
                 bj = b0 if j == 0 else (b1 if j == 1 else b2)
                 vj = faces[f, j]
                 n0, n1, n2 = side * corner_normals[f, j, 0], side * corner_normals[f, j, 1], side * corner_normals[f, j, 2]
-                below = min(0.0, (p[0] - vertices[vj, 0]) * n0 + (p[1] - vertices[vj, 1]) * n1
-                            + (p[2] - vertices[vj, 2]) * n2)
-                q0, q1, q2 = q0 - bj * below * n0, q1 - bj * below * n1, q2 - bj * below * n2
-            p[0], p[1], p[2] = q0, q1, q2
+                below = min(0.0, (px - vertices[vj, 0]) * n0 + (py - vertices[vj, 1]) * n1
+                            + (pz - vertices[vj, 2]) * n2)
+                qx, qy, qz = qx - bj * below * n0, qy - bj * below * n1, qz - bj * below * n2
+            px, py, pz = qx, qy, qz
         for j in range(lights):
             r = h * lights + j
             if light_kind[j] == 0:
-                lx, ly, lz = light_vec[j, 0] - p[0], light_vec[j, 1] - p[1], light_vec[j, 2] - p[2]
+                lx, ly, lz = light_vec[j, 0] - px, light_vec[j, 1] - py, light_vec[j, 2] - pz
             else:
                 lx, ly, lz = light_vec[j, 0], light_vec[j, 1], light_vec[j, 2]
             # Leave the surface on the light's side of the geometric normal.
             toward_side = offset_scale if gx * lx + gy * ly + gz * lz >= 0 else -offset_scale
-            ox = _offset(p[0], toward_side * gx)
-            oy = _offset(p[1], toward_side * gy)
-            oz = _offset(p[2], toward_side * gz)
+            ox = _offset(px, toward_side * gx)
+            oy = _offset(py, toward_side * gy)
+            oz = _offset(pz, toward_side * gz)
             if light_kind[j] == 0:
                 lx, ly, lz = light_vec[j, 0] - ox, light_vec[j, 1] - oy, light_vec[j, 2] - oz
                 d = math.sqrt(lx * lx + ly * ly + lz * lz)

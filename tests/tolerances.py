@@ -48,4 +48,6 @@ IMAGE_TOLERANCES: dict[tuple[str, str], ImageTolerance] = {
     ("specular", "gouraud"): STANDARD,         # Gouraud dims the f = 512 highlight to a faint polygon
     ("specular", "phong"): STANDARD,
     ("specular", "blinn"): STANDARD,
+    ("shadows", "authored"): STANDARD,         # global mode: shadow rays and Hanika's terminator fix; shadow
+                                               # edges flip like silhouettes, within the same share
 }
