@@ -16,14 +16,15 @@ TERM_LAYERS = ("ambient", "diffuse", "specular", "emission")
 GEOMETRY_LAYERS = ("depth", "normal", "face")
 
 
-def allocate_film(width: int, height: int, aovs: tuple[str, ...]) -> ImageBuffers:
-    """Zeroed buffers for the image and only the layers asked for."""
+def allocate_film(width: int, height: int, aovs: tuple[str, ...], dtype: type = np.float32) -> ImageBuffers:
+    """Zeroed buffers for the image and only the layers asked for; the image and term layers in
+    `dtype` (the shading precision, so a float64 render keeps its digits), the others float32."""
     terms = any(name in TERM_LAYERS for name in aovs)
     geometry = any(name in GEOMETRY_LAYERS for name in aovs)
     h, w = (height, width) if geometry else (0, 0)
     return ImageBuffers(
-        rgb=np.zeros((height, width, 3), np.float32),
-        terms=np.zeros((height, width, 4, 3) if terms else (0, 0, 4, 3), np.float32),
+        rgb=np.zeros((height, width, 3), dtype),
+        terms=np.zeros((height, width, 4, 3) if terms else (0, 0, 4, 3), dtype),
         depth=np.full((h, w), np.inf, np.float32),
         normal=np.zeros((h, w, 3), np.float32),
         face=np.full((h, w), -1.0, np.float32),

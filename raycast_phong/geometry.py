@@ -24,9 +24,14 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
     `vertex_normals=False` (the plan's choice for an all-flat scene) leaves corner_normals empty.
     """
     material_index = {name: i + 1 for i, name in enumerate(scene.materials)}  # 0 is the built-in default
-    parts = []
+    parts, notes = [], []
     for index, obj in enumerate(scene.objects):
         vertices, faces, file_normals = object_mesh(scene, obj, index, source)
+        if obj.shape == "mesh":
+            faces, flipped, outward = repair_winding(vertices, faces)
+            if flipped:
+                notes.append(f"objects.{index}: the winding of {flipped} of {len(faces)} faces was repaired"
+                             + (" (and turned outward: the mesh is closed)" if outward else ""))
         vertices, faces, file_normals = place(obj, vertices, faces, file_normals)
         if not np.isfinite(vertices).all():
             raise SceneError(f"{source}: objects.{index}: the placed mesh has NaN or infinite coordinates")
@@ -51,7 +56,27 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
         face_material=np.concatenate([np.full(len(p[1]), p[4], np.int32) for p in parts]),
         face_model=np.concatenate([np.full(len(p[1]), p[5], np.int8) for p in parts]),
         face_object=np.concatenate([np.full(len(p[1]), i, np.int32) for i, p in enumerate(parts)]),
+        notes=tuple(notes),
     )
+
+
+def repair_winding(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int, bool]:
+    """Make a mesh file's winding consistent (trimesh.repair), and outward if the mesh is closed.
+
+    Inconsistent winding makes face normals of neighbours cancel in the vertex-normal mean. Returns
+    the faces, how many were flipped, and whether the orientation was decided by closedness.
+    """
+    mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False, validate=False)
+    trimesh.repair.fix_winding(mesh)
+    closed = mesh.is_watertight
+    if closed:
+        trimesh.repair.fix_inversion(mesh)
+    repaired = np.asarray(mesh.faces, np.int64)
+    # A face counts as flipped when its corners no longer come in the same cyclic order.
+    same = np.zeros(len(faces), bool)
+    for shift in range(3):
+        same |= (np.roll(repaired, shift, axis=1) == faces).all(axis=1)
+    return repaired, int((~same).sum()), closed
 
 
 def object_mesh(scene: Scene, obj: Object, index: int, source: str):

@@ -57,10 +57,10 @@ def specular_power(x, f, zero, one):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, visible, zero, one, two, tiny):
+def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, visible, zero, one, two):
     """The model at point p with unit normal n and one material (a row of the material table, as a tuple).
 
-    view = (I_a r, g, b, eye x, y, z, fixed view x, y, z), a tuple. `visible` holds one bit per light
+    view = (I_a r, g, b, eye x, y, z, fixed view x, y, z, smallest d² of 1/d²), a tuple. `visible` holds one bit per light
     (global mode's shadow-ray answers; all bits set in local mode): a light whose bit is clear adds
     only its ambient part. Returns the four terms as 12 scalars
     (ambient, diffuse, specular, emission; r, g, b each) and a bit mask of the optional terms
@@ -103,8 +103,9 @@ def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, 
         if flags & F_ATTENUATION and lights[k, L_ATT_KIND] != 0:
             mask |= 1 << C_ATTENUATION
             if lights[k, L_ATT_KIND] == 1:
-                # 1/d² exactly; d² is floored at the smallest normal number so d = 0 stays finite.
-                weight = one / max(d * d, tiny)
+                # 1/d² exactly, with d floored at 1e-6 of the scene's size (view[9] = that floor²), so a
+                # light on or inside the surface stays finite in float32 too.
+                weight = one / max(d * d, view[9])
             else:
                 weight = min(one, one / (lights[k, L_ATT] + lights[k, L_ATT + 1] * d + lights[k, L_ATT + 2] * d * d))
 

@@ -7,6 +7,10 @@ every optional stage, for tests that compare the two images.
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
+
 from .illumination import (F_AOV_GEOMETRY, F_AOV_TERMS, F_ATTENUATION, F_DIFFUSE, F_EMISSION,
                            F_LIGHT_AMBIENT, F_SCENE_AMBIENT, F_SCREEN, F_SHADOWS, F_TWO_SIDED, F_VIEW_PER_POINT,
                            SPECULAR_BLINN, SPECULAR_NONE, SPECULAR_PHONG)
@@ -104,9 +108,80 @@ def build_plan(scene: Scene, optimize: bool = True) -> RenderPlan:
     stages.append(Stage("aov_terms", bool(term_aovs),
                         f"layers {', '.join(term_aovs)}" if term_aovs else "no per-term layer asked for"))
     stages.append(Stage("shading_models", True, ", ".join(sorted(m.value for m in models))))
-    stages.append(Stage("float64_shading", render.precision == "float64",
-                        "precision = float64" if render.precision == "float64" else "precision = float32"))
+    stiff = sorted({m.shininess for m in materials if m.shininess > F32_SHININESS_LIMIT}) if specular else []
+    if render.precision == "float64":
+        precision_reason = "precision = float64"
+    elif stiff:
+        precision_reason = (f"shininess {stiff[-1]:g} > {F32_SHININESS_LIMIT:g}: a float32 cosine (relative "
+                            "error 2^-24) would move such a highlight by more than half an 8-bit step, "
+                            "so this scene is shaded in float64")
+    else:
+        precision_reason = "precision = float32"
+    stages.append(Stage("float64_shading", render.precision == "float64" or bool(stiff), precision_reason))
     return RenderPlan(tuple(stages))
+
+
+# Above this shininess one float32 rounding of the cosine x (relative 2^-24) changes x^f by about
+# f · 2^-24 > 1/512 relative, half an 8-bit step: float32 no longer represents the highlight.
+F32_SHININESS_LIMIT = 2.0 ** 24 / 512
+
+
+def diagnose(plan: RenderPlan, scene: Scene, geometry) -> RenderPlan:
+    """The plan with what the geometry tells: repaired windings, and highlights the render will miss.
+
+    - Gouraud samples the model only at vertices: when neighbouring vertex normals are further apart
+      than the highlight is wide (about 1/√f radians), the highlight is lost or smeared.
+    - A highlight narrower than a pixel may fall between the pixel centres: supersample.
+    """
+    stages = list(plan.stages)
+    stages.append(Stage("winding_repair", bool(geometry.notes),
+                        "; ".join(geometry.notes) if geometry.notes else "no mesh file needed a winding repair"))
+    warnings = []
+    if plan.keeps("specular"):
+        for index, obj in enumerate(scene.objects):
+            f = scene.material_of(obj).shininess
+            if max(scene.material_of(obj).ks) == 0 or not (0 < f < math.inf):
+                continue
+            faces = geometry.face_object == index
+            highlight = 1 / math.sqrt(f)  # radians of normal deviation where S falls to ≈ e^-1/2
+            if scene.shading_of(obj) == ShadingModel.GOURAUD and len(geometry.corner_normals):
+                spacing = vertex_normal_spacing(geometry.corner_normals[faces])
+                if spacing > highlight:
+                    more = math.ceil(math.log2(spacing / highlight))
+                    how = (f"subdivisions = {obj.subdivisions + more}" if obj.shape == "icosphere"
+                           else f"{more} more subdivision(s) of each face (×{4 ** more} triangles)")
+                    warnings.append(f"objects.{index} (gouraud): vertex normals are {math.degrees(spacing):.1f}° "
+                                    f"apart but the f = {f:g} highlight is about {math.degrees(highlight):.1f}° wide, "
+                                    f"so Gouraud shading will miss or smear it; use {how}, or Phong shading")
+            if obj.shape in ("box", "plane") or scene.render.samples > 1:
+                continue  # flat faces: the highlight's width depends on the light, not on curvature
+            width_px = highlight_width_pixels(scene, geometry.vertices[np.unique(geometry.faces[faces])], highlight)
+            if width_px < 1:
+                warnings.append(f"objects.{index}: the f = {f:g} highlight is about {width_px:.2f} pixel wide and "
+                                f"may fall between pixel centres; use render.samples = {math.ceil(2 / width_px)} "
+                                "or more")
+    return RenderPlan(tuple(stages), tuple(warnings))
+
+
+def vertex_normal_spacing(corner_normals: np.ndarray) -> float:
+    """Median over faces of the largest angle between two of a face's corner normals, radians."""
+    pairs = [(0, 1), (1, 2), (2, 0)]
+    cosines = np.stack([np.einsum("ij,ij->i", corner_normals[:, a], corner_normals[:, b]) for a, b in pairs])
+    return float(np.median(np.arccos(np.clip(cosines.min(axis=0), -1, 1))))
+
+
+def highlight_width_pixels(scene: Scene, vertices: np.ndarray, highlight: float) -> float:
+    """Rough width on screen of a highlight `highlight` radians wide on a curved object: the object's
+    bounding radius R stands in for its radius of curvature, so the highlight spans R·highlight."""
+    centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2
+    radius = float(np.linalg.norm(vertices - centre, axis=1).max())
+    camera = scene.camera
+    if camera.type == "orthographic":
+        pixel = camera.view_height / scene.render.height
+    else:
+        distance = float(np.linalg.norm(centre - np.asarray(camera.position)))
+        pixel = 2 * distance * math.tan(math.radians(camera.fov) / 2) / scene.render.height
+    return radius * highlight / pixel
 
 
 def plan_flags(plan: RenderPlan, scene: Scene) -> tuple[int, int]:

@@ -21,6 +21,7 @@ class Geometry:
     face_material: np.ndarray   # (F,) int32, index into the material table
     face_model: np.ndarray      # (F,) int8, 0 flat, 1 gouraud, 2 phong
     face_object: np.ndarray     # (F,) int32, index of the scene object the face belongs to
+    notes: tuple[str, ...] = () # what loading changed, e.g. a repaired winding (shown by the plan)
 
     @property
     def triangles(self) -> int:
@@ -43,8 +44,8 @@ class ImageBuffers:
 
     A layer that was not asked for is an empty array, so the kernel's signature never changes.
     """
-    rgb: np.ndarray     # (H, W, 3) float32, zeroed: the kernel adds each sample's share
-    terms: np.ndarray   # (H, W, 4, 3) float32 ambient, diffuse, specular, emission; (0, 0, 4, 3) if not asked
+    rgb: np.ndarray     # (H, W, 3) shading precision, zeroed: the kernel adds each sample's share
+    terms: np.ndarray   # (H, W, 4, 3) shading precision, ambient, diffuse, specular, emission; (0, 0, 4, 3) if not asked
     depth: np.ndarray   # (H, W) float32, world distance along the ray, inf on a miss; (0, 0) if not asked
     normal: np.ndarray  # (H, W, 3) float32 shading normal, 0 on a miss; (0, 0, 3) if not asked
     face: np.ndarray    # (H, W) float32 face index, -1 on a miss; (0, 0) if not asked
@@ -66,8 +67,12 @@ class Stage:
 
 @dataclass(frozen=True)
 class RenderPlan:
-    """What this scene needs, decided before any ray is cast; shading reads its flags."""
+    """What this scene needs, decided before any ray is cast; shading reads its flags.
+
+    `warnings` are found once the geometry is known (plan.diagnose): results the user may not want.
+    """
     stages: tuple[Stage, ...]
+    warnings: tuple[str, ...] = ()
 
     def keeps(self, name: str) -> bool:
         for stage in self.stages:
@@ -77,13 +82,15 @@ class RenderPlan:
 
     def describe(self) -> str:
         width = max(len(stage.name) for stage in self.stages)
-        return "\n".join(f"{'kept' if s.kept else 'left out':8}  {s.name:{width}}  {s.reason}" for s in self.stages)
+        lines = [f"{'kept' if s.kept else 'left out':8}  {s.name:{width}}  {s.reason}" for s in self.stages]
+        return "\n".join(lines + [f"warning   {warning}" for warning in self.warnings])
 
 
 @dataclass(frozen=True, eq=False)
 class RenderResult:
     """What render() returns: the image, its layers, and where the time went."""
-    image: np.ndarray                 # (H, W, 3) float32, linear display values, unclamped
+    image: np.ndarray                 # (H, W, 3) linear display values, unclamped; float32, or float64
+                                      # when the plan shades in float64
     aovs: dict[str, np.ndarray]       # layer name -> (H, W, C) float32, only those the scene asks for
     timings: dict[str, float]         # seconds per stage: load, geometry, build, rays, shade, frame (and write)
     plan: RenderPlan

@@ -20,7 +20,7 @@ from .film import allocate_film, film_layers
 from .geometry import build_geometry
 from .illumination import COUNTED_TERMS
 from .intersect import Accelerator, unit_frame
-from .plan import build_plan, plan_flags
+from .plan import build_plan, diagnose, plan_flags
 from .records import RenderPlan, RenderResult
 from .scene import Scene, SceneError, load_scene
 from .shading import prepare_shading, shade_tile
@@ -45,7 +45,7 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
 
     Returns
     -------
-    RenderResult with .image (H, W, 3) float32, .aovs, .timings (seconds: geometry, build, rays,
+    RenderResult with .image (H, W, 3) in the shading precision (float32, or float64), .aovs, .timings (seconds: geometry, build, rays,
     shadows (global mode), shade, frame; rays, shadows and shade are summed over the worker threads,
     frame is wall time).
     """
@@ -58,6 +58,7 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     start = time.perf_counter()
     geometry = build_geometry(scene, source=source, vertex_normals=plan.keeps("vertex_normals"))
     timings["geometry"] = time.perf_counter() - start
+    plan = diagnose(plan, scene, geometry)
 
     start = time.perf_counter()
     frame = unit_frame(geometry.vertices)
@@ -67,10 +68,11 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     render_opts = scene.render
     width, height, samples = render_opts.width, render_opts.height, render_opts.samples
     rig = camera_rig(scene)
-    inputs = prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene))
+    real = np.float64 if plan.keeps("float64_shading") else np.float32
+    inputs = prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), real)
     shadow_inputs = prepare_shadows(scene, geometry, frame) if plan.keeps("shadow_rays") else None
-    film = allocate_film(width, height, tuple(scene.output.aovs))
-    background = np.asarray(render_opts.background, np.float32)
+    film = allocate_film(width, height, tuple(scene.output.aovs), real)
+    background = np.asarray(render_opts.background, real)
     rows_per_tile = max(1, TILE_RAYS // (width * samples * samples))
     bands = [(row, min(row + rows_per_tile, height)) for row in range(0, height, rows_per_tile)]
     rays = RayGenerator(rig, frame, width, height, samples, max_rays=rows_per_tile * width * samples * samples)

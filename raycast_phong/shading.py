@@ -23,6 +23,7 @@ from .camera import CameraRig
 from .illumination import (COUNTED_TERMS, F_AOV_GEOMETRY, F_AOV_TERMS, F_ATTENUATION, F_SCREEN, F_SHADOWS,
                            F_TWO_SIDED, illuminate)
 
+MIN_DISTANCE = 1e-6  # × the scene's half-extent: the floor of d in 1/d² attenuation
 ALL_VISIBLE = -1                       # every bit set: local mode, no light is ever shadowed
 NO_SHADOWS = np.zeros(0, np.int64)     # the kernel's `visible` argument in local mode
 from .intersect import TileHits
@@ -42,7 +43,8 @@ class ShadingInputs:
     materials: np.ndarray       # (M, 13) ka, kd, ks, ke, shininess; row 0 is the built-in default
     lights: np.ndarray          # (K, 17) kind (0 point, 1 directional), position or unit vector toward
                                 # the light, I_d, I_s, I_a, attenuation kind (0 none, 1 1/d², 2 c-l-q), c, l, q
-    view: np.ndarray            # (9,) I_a, eye, fixed view vector (−forward: infinite viewer or orthographic)
+    view: np.ndarray            # (10,) I_a, eye, fixed view vector (−forward: infinite viewer or orthographic),
+                                # smallest d² for 1/d² attenuation
     camera: np.ndarray          # (10,) right, up, forward, orthographic (1/0): for screen-space weights
     flags: int                  # F_* bits from the render plan
     specular: int               # SPECULAR_NONE, SPECULAR_PHONG or SPECULAR_BLINN
@@ -51,9 +53,12 @@ class ShadingInputs:
 
 
 def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Frame,
-                    flags: tuple[int, int]) -> ShadingInputs:
-    """Pack the scene's numbers into tables of the scene's precision for the kernel."""
-    real = np.float32 if scene.render.precision == "float32" else np.float64
+                    flags: tuple[int, int], real: type = np.float32) -> ShadingInputs:
+    """Pack the scene's numbers into tables of the shading precision `real` for the kernel.
+
+    view[9] is the smallest distance 1/d² attenuation divides by, squared: 1e-6 of the scene's
+    half-extent, so a light on the surface gives a large but finite f_att (≤ 1e12 / scale²).
+    """
     center = frame.center
     materials = [DEFAULT_MATERIAL, *scene.materials.values()]
     material_rows = [[*m.ka, *m.kd, *m.ks, *m.ke, m.shininess] for m in materials]
@@ -88,7 +93,7 @@ def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Fra
         face_model=np.ascontiguousarray(geometry.face_model, np.int8),
         materials=table(material_rows, 13),
         lights=table(light_rows, 17),
-        view=table([*scene.ambient, *(rig.eye - center), *(-rig.forward)]),
+        view=table([*scene.ambient, *(rig.eye - center), *(-rig.forward), (MIN_DISTANCE * frame.scale) ** 2]),
         camera=table([*rig.right, *rig.up, *rig.forward, float(rig.orthographic)]),
         flags=int(flags[0]), specular=int(flags[1]), real=real,
         frame_scale=frame.scale,
@@ -107,8 +112,8 @@ def shade_tile(inputs: ShadingInputs, hits: TileHits, directions: np.ndarray, ou
     i, real = inputs, inputs.real
     _shade_rays(hits.face, hits.u, hits.v, hits.t, directions, samples, out.rgb.shape[1], i.frame_scale,
                 i.vertices, i.faces, i.face_normals, i.corner_normals, i.face_material, i.face_model,
-                i.materials, i.lights, i.view, i.camera, np.asarray(background, np.float32),
-                i.flags, i.specular, real(0), real(1), real(2), real(np.finfo(real).tiny),
+                i.materials, i.lights, i.view, i.camera, np.asarray(background, out.rgb.dtype),
+                i.flags, i.specular, real(0), real(1), real(2),
                 NO_SHADOWS if visible is None else visible,
                 out.rgb, out.terms, out.depth, out.normal, out.face, counts)
     return counts
@@ -150,10 +155,10 @@ def _screen_weights(b0, b1, b2, v, f0, f1, f2, eye, camera, one):
 @njit(cache=True, nogil=True, error_model="numpy")
 def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
                 vertices, faces, face_normals, corner_normals, face_material, face_model,
-                materials, lights, view, camera, background, flags, specular, zero, one, two, tiny,
+                materials, lights, view, camera, background, flags, specular, zero, one, two,
                 visible, rgb, terms, depth, normal, face_out, counts):
     eye = view[3:6]
-    view_tuple = (view[0], view[1], view[2], view[3], view[4], view[5], view[6], view[7], view[8])
+    view_tuple = (view[0], view[1], view[2], view[3], view[4], view[5], view[6], view[7], view[8], view[9])
     third = one / (one + one + one)
     per_pixel = samples * samples
     weight = one / (one * per_pixel)
@@ -199,7 +204,7 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
             py = (vertices[i0, 1] + vertices[i1, 1] + vertices[i2, 1]) * third
             pz = (vertices[i0, 2] + vertices[i1, 2] + vertices[i2, 2]) * third
             ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask = illuminate(
-                px, py, pz, nx, ny, nz, material, lights, view_tuple, flags, specular, visible_k, zero, one, two, tiny)
+                px, py, pz, nx, ny, nz, material, lights, view_tuple, flags, specular, visible_k, zero, one, two)
         elif model == 1:
             ar = ag = ab = dr = dg = db = sr = sg = sb = er = eg = eb = zero
             mask = 0
@@ -209,7 +214,7 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
                 jar, jag, jab, jdr, jdg, jdb, jsr, jsg, jsb, jer, jeg, jeb, jmask = illuminate(
                     vertices[vj, 0], vertices[vj, 1], vertices[vj, 2], side * corner_normals[f, j, 0],
                     side * corner_normals[f, j, 1], side * corner_normals[f, j, 2], material, lights,
-                    view_tuple, flags, specular, visible_k, zero, one, two, tiny)
+                    view_tuple, flags, specular, visible_k, zero, one, two)
                 ar, ag, ab = ar + bj * jar, ag + bj * jag, ab + bj * jab
                 dr, dg, db = dr + bj * jdr, dg + bj * jdg, db + bj * jdb
                 sr, sg, sb = sr + bj * jsr, sg + bj * jsg, sb + bj * jsb
@@ -231,7 +236,7 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
             if length > one * 1e-6:
                 nx, ny, nz = side * sx / length, side * sy / length, side * sz / length
             ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask = illuminate(
-                px, py, pz, nx, ny, nz, material, lights, view_tuple, flags, specular, visible_k, zero, one, two, tiny)
+                px, py, pz, nx, ny, nz, material, lights, view_tuple, flags, specular, visible_k, zero, one, two)
 
         for bit in range(len(counts)):
             evaluated[bit] += (mask >> bit) & 1
