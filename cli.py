@@ -8,13 +8,15 @@ from __future__ import annotations
 import json
 import sys
 import time
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
 
 import raycast_phong as rp
-from raycast_phong.image_io import ImageError, check_output_path
+from raycast_phong import compare
+from raycast_phong.image_io import NO_FONT, ImageError, check_output_path
 from raycast_phong.scene import Mode, ShadingModel, SpecularModel
 
 app = typer.Typer(
@@ -115,6 +117,21 @@ def render(
         typer.echo(summary_line(result, output))
 
 
+@contextmanager
+def exit_codes():
+    """Bad input (SceneError, ImageError) exits 2 and anything else 1, each with one line on stderr."""
+    try:
+        yield
+    except (rp.SceneError, ImageError) as error:
+        fail(str(error))
+    except typer.Exit:
+        raise
+    except Exception as error:  # anything else is our bug: one line, exit 1 (RAYCAST_PHONG_DEBUG=1 for the trace)
+        if _debug():
+            raise
+        fail(f"internal error: {type(error).__name__}: {error}", code=1)
+
+
 def _debug() -> bool:
     import os
     return os.environ.get("RAYCAST_PHONG_DEBUG", "") not in ("", "0")
@@ -144,6 +161,67 @@ def summary_line(result: rp.RenderResult, output: Path) -> str:
     return (f"{output}: {w}×{h}, {result.triangles:,} triangles, {result.rays:,} rays, "
             f"{result.rays_per_second / 1e6:.1f} Mrays/s; frame {t['frame']:.3f}s ({stages}; rays, shadows "
             f"and shade summed over threads)")
+
+
+@app.command("side-by-side", epilog="""
+**Examples**
+
+  raycast-phong side-by-side scenes/specular.toml --vary render.shading=flat,gouraud,phong -o shading.png
+
+  raycast-phong side-by-side scenes/specular.toml --vary render.specular=phong,blinn -o specular.exr
+
+  raycast-phong side-by-side --vary "lights.0.position=[3,4,6],[-3,4,6]" --width 480 --height 180
+
+  raycast-phong side-by-side --vary materials.clay.shininess=8,64,512 --set render.samples=2
+""")
+def side_by_side(
+    vary: Annotated[str, typer.Option(metavar="KEY.PATH=V1,V2[,...]", show_default=False, help="The scene key to "
+                    "vary and two or more values, each applied as `--set KEY.PATH=V` would be, e.g. "
+                    "`render.shading=flat,gouraud,phong` or `lights.0.position=[1,2,3],[3,2,1]` (split at the commas "
+                    "outside brackets and quotes). Every variant is compared with the last.")],
+    scene: SceneArgument = None,
+    output: Annotated[Path, typer.Option("--output", "-o", help="The composed image: .png (8-bit, panels "
+                      "clamped) or .exr (float32, with the variants as parts `variant0`, … of channels "
+                      "`variant0.R/G/B`, …). With NAME.png, that EXR is written beside it as NAME-variants.exr.")
+                      ] = Path("side-by-side.png"),
+    width: Annotated[Optional[int], typer.Option(help="render.width in pixels, 1..16384.")] = None,
+    height: Annotated[Optional[int], typer.Option(help="render.height in pixels, 1..16384.")] = None,
+    set_: SetOption = [],
+) -> None:
+    """Render a scene once per value of one key; write the variants side by side over heat maps of how
+    much each differs from the last, and print the share of pixels changed, mean and max difference."""
+    with exit_codes():
+        key, values = compare.parse_vary(vary)
+        path = scene or rp.default_scene_path()
+        fixed = [*scene_overrides({"render.width": width, "render.height": height}), *set_]
+        scenes = compare.load_variants(path, fixed, key, values)  # every value checked before any render
+        check_output_path(output)
+        comparison = compare.compose([rp.render(variant, source=str(path)).image for variant in scenes], key, values)
+        layers = output if output.suffix.lower() == ".exr" else output.with_name(f"{output.stem}-variants.exr")
+        rp.write_image(layers, comparison.image, parts=comparison.parts())
+        if layers != output:
+            rp.write_image(output, comparison.image)
+    for line in variant_lines(key, values, comparison.stats):
+        typer.echo(line)
+    grid = comparison.layout
+    typer.echo(f"{output}: {len(values)} variants of {grid.width}×{grid.height} and their differences, "
+               f"{grid.image_width}×{grid.image_height}; exact variants in {layers}")
+    if not comparison.labelled:
+        typer.secho(f"warning: the image has no labels: {NO_FONT}", err=True, fg=typer.colors.YELLOW)
+    if comparison.scale == 0:
+        own = key == "render.shading" and any(obj.shading for obj in scenes[0].objects)
+        hint = " (objects with their own `shading` keep it)" if own else ""
+        typer.secho(f"note: all {len(values)} variants are identical: {key} changes nothing in this scene{hint}",
+                    err=True, fg=typer.colors.YELLOW)
+
+
+def variant_lines(key: str, values: list[str], stats: list[compare.VariantStats]) -> list[str]:
+    """One line per variant: the share of pixels changed, mean and max difference against the last."""
+    labels = [f"{key} = {value}" for value in values]
+    pad = max(len(label) for label in labels)
+    lines = [f"{label:<{pad}}  {s.changed:7.2%} of pixels changed (> {compare.CHANGED_ABOVE:g}), "
+             f"mean {s.mean:.4g}, max {s.max:.4g}" for label, s in zip(labels, stats)]
+    return [f"{line} against {labels[-1]}" for line in lines[:-1]] + [f"{lines[-1]} (the reference)"]
 
 
 @app.command(epilog="""

@@ -1,4 +1,5 @@
-"""The only OpenImageIO importer: write PNG (8-bit) and EXR (float32, with extra layers); read back.
+"""The only OpenImageIO importer: write PNG (8-bit) and EXR (float32, with extra layers and parts); read
+back; rasterise a line of label text.
 
 Every write goes to a temporary file in the target folder and is renamed over the target only when
 complete, so a failure never leaves a half-written image over a good one.
@@ -38,16 +39,20 @@ def check_output_path(path: str | Path) -> Path:
 
 
 def write_image(path: str | Path, image: np.ndarray, aovs: dict[str, np.ndarray] | None = None,
-                srgb: bool = False) -> Path:
+                srgb: bool = False, parts: dict[str, tuple[np.ndarray, tuple[int, int]]] | None = None) -> Path:
     """Write an (H, W, 3) image: .png 8-bit clamped (sRGB-encoded if asked), .exr float32 unclamped.
 
     `aovs` (EXR only) adds layers as channels `name.R/G/B` (terms), `depth.Z`, `normal.X/Y/Z`, `face.id`.
+    `parts` (EXR only) maps name → ((h, w, 3) image, (x, y)): each becomes one more part of a multi-part
+    EXR, with channels `name.R/G/B` and its data window at (x, y) in the main image's H×W display window
+    (OpenEXR requires one display window for all parts; the data windows may differ in size).
     """
     path = check_output_path(path)
     aovs = aovs or {}
+    parts = parts or {}
     if path.suffix.lower() == ".png":
-        if aovs:
-            raise ImageError(f"{path}: layers {sorted(aovs)} need an .exr output")
+        if aovs or parts:
+            raise ImageError(f"{path}: layers {sorted(aovs) + sorted(parts)} need an .exr output")
         # OpenImageIO's PNG writer needs C order; a strided view (e.g. from read_layer) writes no data.
         pixels, names, fmt = np.ascontiguousarray(to_8bit(image, srgb)), ["R", "G", "B"], oiio.UINT8
     else:
@@ -61,16 +66,25 @@ def write_image(path: str | Path, image: np.ndarray, aovs: dict[str, np.ndarray]
     spec.channelnames = tuple(names)
     if path.suffix.lower() == ".exr":
         spec.attribute("compression", "zip")
+    extra = [_part(name, layer, origin, spec) for name, (layer, origin) in parts.items()]
+    if extra:
+        spec.attribute("name", "image")  # every part of a multi-part EXR needs a unique name
     descriptor, temporary = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=path.suffix, dir=path.parent or ".")
     os.close(descriptor)
     try:
         output = oiio.ImageOutput.create(temporary)
-        if output is None or not output.open(temporary, spec):
-            raise ImageError(f"{path}: cannot write ({oiio.geterror() or 'no writer'})")
+        specs = [spec, *(part_spec for part_spec, _ in extra)]
+        if output is None or not output.open(temporary, specs if extra else spec):
+            reason = (output.geterror() if output is not None else "") or oiio.geterror() or "no writer"
+            raise ImageError(f"{path}: cannot write ({reason})")
         ok = output.write_image(pixels)
+        # Later parts follow the first: reopen for each with AppendSubimage, then write its pixels.
+        for part_spec, part_pixels in extra:
+            ok = ok and output.open(temporary, part_spec, "AppendSubimage") and output.write_image(part_pixels)
+        error = output.geterror()
         output.close()
         if not ok:
-            raise ImageError(f"{path}: cannot write ({oiio.geterror()})")
+            raise ImageError(f"{path}: cannot write ({error or oiio.geterror()})")
         # mkstemp creates the file 0600; give the image the permissions a plain open() would.
         umask = os.umask(0)
         os.umask(umask)
@@ -82,9 +96,26 @@ def write_image(path: str | Path, image: np.ndarray, aovs: dict[str, np.ndarray]
     return path
 
 
-def read_image(path: str | Path) -> tuple[np.ndarray, tuple[str, ...]]:
-    """All channels of an image as (H, W, C) float32 (8-bit files scaled to [0, 1]) and their names."""
-    buffer = oiio.ImageBuf(str(path))
+def _part(name: str, layer: np.ndarray, origin: tuple[int, int],
+          main: oiio.ImageSpec) -> tuple[oiio.ImageSpec, np.ndarray]:
+    """The spec and C-ordered float32 (h, w, C) pixels of one extra EXR part at `origin` = (x, y)."""
+    pixels = np.ascontiguousarray(layer, np.float32)
+    height, width, channels = pixels.shape
+    spec = oiio.ImageSpec(width, height, channels, oiio.FLOAT)
+    spec.channelnames = tuple(f"{name}.{c}" for c in LAYER_CHANNELS.get(name, ("R", "G", "B")))
+    spec.x, spec.y = origin
+    spec.full_x, spec.full_y, spec.full_width, spec.full_height = 0, 0, main.width, main.height
+    spec.attribute("name", name)
+    spec.attribute("compression", "zip")
+    return spec, pixels
+
+
+def read_image(path: str | Path, part: int = 0) -> tuple[np.ndarray, tuple[str, ...]]:
+    """All channels of one part of an image as (H, W, C) float32 (8-bit files scaled to [0, 1]) and their names.
+
+    A part is read over its own data window: an extra part of write_image comes back at its own size.
+    """
+    buffer = oiio.ImageBuf(str(path), part, 0)
     if buffer.has_error:
         raise ImageError(f"{path}: cannot read ({buffer.geterror()})")
     pixels = buffer.get_pixels(oiio.FLOAT)
@@ -94,12 +125,57 @@ def read_image(path: str | Path) -> tuple[np.ndarray, tuple[str, ...]]:
 
 
 def read_layer(path: str | Path, layer: str | None = None) -> np.ndarray:
-    """The RGB image (layer None) or one named layer of a file written by write_image."""
-    pixels, names = read_image(path)
-    if layer is None:
-        wanted = ["R", "G", "B"]
-    else:
-        wanted = [n for n in names if n.startswith(layer + ".")]
-    if not wanted or any(name not in names for name in wanted):
-        raise ImageError(f"{path}: no layer {layer or 'RGB'!r}; channels are {', '.join(names)}")
-    return pixels[:, :, [names.index(name) for name in wanted]]
+    """The RGB image (layer None) or one named layer, in any part, of a file written by write_image."""
+    seen: list[str] = []
+    for part in range(_part_count(path) if layer is not None else 1):
+        pixels, names = read_image(path, part)
+        seen += names
+        wanted = ["R", "G", "B"] if layer is None else [n for n in names if n.startswith(layer + ".")]
+        if wanted and all(name in names for name in wanted):
+            return pixels[:, :, [names.index(name) for name in wanted]]
+    raise ImageError(f"{path}: no layer {layer or 'RGB'!r}; channels are {', '.join(seen)}")
+
+
+def _part_count(path: str | Path) -> int:
+    buffer = oiio.ImageBuf(str(path))
+    count = buffer.nsubimages
+    buffer.geterror()  # a missing file reports through read_image; drop the error here, unread
+    return max(count, 1)
+
+
+# ---------------------------------------------------------------- label text
+
+# "" is OpenImageIO's default font, the DroidSans its wheel ships in OpenImageIO/share/fonts; a build
+# without it may still find DejaVuSans in a folder named by $OPENIMAGEIO_FONTS.
+LABEL_FONTS = ("", "DejaVuSans")
+LINE_GLYPHS = "Ag[]|()"  # the tallest capital, a descender and the brackets that reach above and below both
+NO_FONT = ("OpenImageIO found no font (tried its own DroidSans and DejaVuSans); set OPENIMAGEIO_FONTS to "
+           "a folder holding DejaVuSans.ttf")
+
+
+def label_font() -> str | None:
+    """The first of LABEL_FONTS that OpenImageIO can load, or None on a machine without them."""
+    for name in LABEL_FONTS:
+        if oiio.ImageBufAlgo.text_size("Ag", 12, name).defined:
+            return name
+    return None
+
+
+def text_coverage(text: str, size: int) -> np.ndarray | None:
+    """One line of text as (h, w) float32 coverage in [0, 1], or None when no font is found.
+
+    h is the font's line height at `size` pixels (the extent of LINE_GLYPHS, the same for any text, so
+    labels drawn side by side share a baseline); w is the text's width.
+    """
+    font = label_font()
+    if font is None:
+        return None
+    line = oiio.ImageBufAlgo.text_size(LINE_GLYPHS, size, font)
+    extent = oiio.ImageBufAlgo.text_size(text, size, font)
+    width = max(extent.xend - min(extent.xbegin, 0), 1) if extent.defined else 1  # "" or blanks have no extent
+    buffer = oiio.ImageBuf(oiio.ImageSpec(width, line.yend - line.ybegin, 1, oiio.FLOAT))
+    # x, y is the baseline's left end: shift so that the ascent and any left overhang land inside.
+    if not oiio.ImageBufAlgo.render_text(buffer, -min(extent.xbegin, 0), -line.ybegin, text, size, font, (1.0,)):
+        buffer.geterror()
+        return None
+    return np.asarray(buffer.get_pixels(oiio.FLOAT), np.float32)[:, :, 0]

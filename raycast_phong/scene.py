@@ -522,12 +522,13 @@ def _allowed_range(loc: tuple) -> str:
     return f"{low or ''}{loc[-1]}{high or ''}"
 
 
-def apply_override(data: dict, assignment: str, source: str = "--set") -> None:
+def apply_override(data: dict, assignment: str, source: str = "--set", option: str = "--set") -> None:
     """Set `key.path=value` in a parsed scene; the value is read as TOML, else as a plain string.
 
     List items are addressed by index: `lights.0.position=[1, 2, 3]`, `objects.1.shading=flat`.
+    `option` names the command-line option the assignment came from in error messages (--set, --vary).
     """
-    where = f"{source}: --set {assignment!r}"
+    where = f"{source}: {option} {assignment!r}"
     if "=" not in assignment:
         raise SceneError(f"{where}: expected KEY.PATH=VALUE, e.g. render.width=320 or lights.0.position=[1, 2, 3]")
     key, text = (part.strip() for part in assignment.split("=", 1))

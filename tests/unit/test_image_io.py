@@ -71,3 +71,30 @@ def test_failed_write_leaves_the_old_image(tmp_path):
         rp.write_image(path, np.zeros((2, 2, 3), np.float32), {"depth": np.zeros((2, 2, 1), np.float32)})
     assert path.read_bytes() == b"old image"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["keep.png"]
+
+
+def test_exr_parts_keep_their_own_size_and_place(tmp_path):
+    """Extra parts (multi-part EXR) of another size than the image, each at its (x, y) in the image."""
+    image = np.zeros((4, 6, 3), np.float32)
+    small = np.arange(2 * 3 * 3, dtype=np.float32).reshape(2, 3, 3)
+    path = rp.write_image(tmp_path / "p.exr", image, parts={"left": (small, (1, 2)), "right": (small + 100, (3, 0))})
+    np.testing.assert_array_equal(rp.read_layer(path), image)
+    np.testing.assert_array_equal(rp.read_layer(path, "left"), small)
+    np.testing.assert_array_equal(rp.read_layer(path, "right"), small + 100)
+    assert rp.read_image(path, part=2)[1] == ("right.R", "right.G", "right.B")
+    with pytest.raises(rp.ImageError, match=r"no layer 'middle'; channels are R, G, B, left.R, .*right.B"):
+        rp.read_layer(path, "middle")
+    with pytest.raises(rp.ImageError, match="need an .exr output"):
+        rp.write_image(tmp_path / "p.png", image, parts={"left": (small, (0, 0))})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.exr"]
+
+
+def test_text_coverage_is_one_line_of_text_or_none_without_a_font(monkeypatch):
+    from raycast_phong import image_io
+    wide, narrow = image_io.text_coverage("render.shading = flat", 12), image_io.text_coverage("flat", 12)
+    assert wide.dtype == np.float32 and 0.0 <= wide.min() and wide.max() <= 1.0 and wide.max() > 0.9
+    assert wide.shape[0] == narrow.shape[0]  # one line height for any text, so labels share a baseline
+    assert wide.shape[1] > 3 * narrow.shape[1]
+    monkeypatch.setattr(image_io, "LABEL_FONTS", ("NoSuchFont",))
+    assert image_io.label_font() is None
+    assert image_io.text_coverage("flat", 12) is None

@@ -1,0 +1,303 @@
+"""One scene rendered once per value of a key, composed into one labelled image, and measured.
+
+parse_vary reads `KEY=V1,V2[,...]`; load_variants applies each value as `--set KEY=V` would; compose
+lays the variants side by side over their difference heat maps (see Layout). The difference of two
+(H, W, 3) linear images is, per pixel, the largest of |a − b| over R, G and B; every variant is measured
+against the last. Pure numpy: image_io rasterises the label text.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .image_io import label_font, text_coverage
+from .scene import Scene, SceneError, apply_override, read_scene_dict, validate_scene
+
+# A pixel "changed" when its difference exceeds this: about 8 float32 steps at 1, so above rounding noise, and
+# far below one 8-bit step (1/255), so every change a PNG could show is counted.
+CHANGED_ABOVE = 1e-6
+
+# ---------------------------------------------------------------- --vary
+
+
+def split_top_level(text: str) -> list[str]:
+    """`text` split on the commas outside brackets, braces and quotes: "[1,2],[3,4]" → ["[1,2]", "[3,4]"].
+
+    Raises ValueError for a bracket closed before it opens, or one left open, or an unclosed quote.
+    """
+    items, depth, quote, start = [], 0, "", 0
+    for index, char in enumerate(text):
+        if quote:
+            quote = "" if char == quote else quote
+        elif char in "\"'":
+            quote = char
+        elif char in "[{":
+            depth += 1
+        elif char in "]}":
+            depth -= 1
+            if depth < 0:
+                raise ValueError(f"{char!r} at character {index + 1} closes nothing")
+        elif char == "," and depth == 0:
+            items.append(text[start:index])
+            start = index + 1
+    if quote or depth:
+        raise ValueError(f"an unclosed {quote or 'bracket'}")
+    return [*items, text[start:]]
+
+
+def parse_vary(text: str) -> tuple[str, list[str]]:
+    """`KEY=V1,V2[,...]` as (key, [value text, ...]); at least two values, none empty.
+
+    Raises SceneError with one line naming the key (or the whole text when there is no key).
+    """
+    key, _, values = (part.strip() for part in text.partition("="))
+    if "=" not in text or not key:
+        raise SceneError(f"--vary {text!r}: expected KEY.PATH=V1,V2[,...], e.g. render.shading=flat,gouraud,phong")
+    try:
+        items = [item.strip() for item in split_top_level(values)]
+    except ValueError as error:
+        raise SceneError(f"--vary {key}: cannot split {values!r} into values: {error}") from None
+    if len(items) < 2:
+        raise SceneError(f"--vary {key}: needs at least 2 values to compare, got {len(items)} ({values!r}); "
+                         f"e.g. {key}={values or 'A'},B")
+    empty = [str(index + 1) for index, item in enumerate(items) if not item]
+    if empty:
+        raise SceneError(f"--vary {key}: value {', '.join(empty)} of {len(items)} is empty in {values!r}")
+    return key, items
+
+
+def load_variants(path: str | Path, fixed: list[str], key: str, values: list[str]) -> list[Scene]:
+    """The scene file with the `fixed` overrides, then `key=value` for each value: one Scene per value.
+
+    Every variant is validated before any is rendered; they must share one image size.
+    """
+    path = Path(path)
+    data = read_scene_dict(path)
+    for assignment in fixed:
+        apply_override(data, assignment, source=str(path))
+    scenes = []
+    for value in values:
+        variant = copy.deepcopy(data)  # each value starts from the same file and --set overrides
+        apply_override(variant, f"{key}={value}", source=str(path), option="--vary")
+        scenes.append(validate_scene(variant, source=str(path), folder=path.parent))
+    sizes = [(scene.render.width, scene.render.height) for scene in scenes]
+    if len(set(sizes)) > 1:
+        shown = ", ".join(f"{value} → {w}×{h}" for value, (w, h) in zip(values, sizes))
+        raise SceneError(f"{path}: --vary {key}: the variants must share one image size to be compared; got {shown}")
+    return scenes
+
+
+# ---------------------------------------------------------------- statistics
+
+
+@dataclass(frozen=True)
+class VariantStats:
+    """One variant against the reference (the last variant)."""
+    changed: float  # share of pixels whose difference exceeds CHANGED_ABOVE, in [0, 1]
+    mean: float     # mean difference over all pixels
+    max: float      # largest difference
+
+
+def difference(image: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """Per pixel max over RGB of |image − reference|: two (H, W, 3) linear images → (H, W), float64 if either
+    is (a render in float64 precision), else float32."""
+    dtype = np.result_type(image, reference, np.float32)
+    return np.abs(np.asarray(image, dtype) - np.asarray(reference, dtype)).max(axis=2)
+
+
+def measure(diff: np.ndarray) -> VariantStats:
+    """Share of changed pixels, mean and max of an (H, W) difference."""
+    return VariantStats(changed=float((diff > CHANGED_ABOVE).mean()), mean=float(diff.mean()), max=float(diff.max()))
+
+
+# ---------------------------------------------------------------- colour map
+
+# matplotlib's "inferno" (Smith & van der Walt, CC0) sampled at t = 0, 0.1, …, 1: black to pale yellow, its
+# lightness rising steadily, so a brighter pixel always means a larger difference, also in grey print.
+INFERNO = np.array([
+    [0.001462, 0.000466, 0.013866], [0.087411, 0.044556, 0.224813], [0.258234, 0.038571, 0.406485],
+    [0.416331, 0.090203, 0.432943], [0.578304, 0.148039, 0.404411], [0.735683, 0.215906, 0.330245],
+    [0.865006, 0.316822, 0.226055], [0.954506, 0.468744, 0.099874], [0.987622, 0.645320, 0.039886],
+    [0.964394, 0.843848, 0.273391], [0.988362, 0.998364, 0.644924]], np.float32)
+
+
+def colour_map(t: np.ndarray) -> np.ndarray:
+    """Values t in [0, 1] (clamped) of any shape S → (*S, 3) float32 display colours, INFERNO interpolated."""
+    t = np.clip(np.asarray(t, np.float32), 0.0, 1.0)
+    stops = np.linspace(0.0, 1.0, len(INFERNO))
+    return np.stack([np.interp(t, stops, INFERNO[:, c]) for c in range(3)], axis=-1).astype(np.float32)
+
+
+def heat_map(diff: np.ndarray, scale: float) -> np.ndarray:
+    """An (H, W) difference → (H, W, 3) colours, 0 → black and `scale` → pale yellow (all black if scale is 0)."""
+    return colour_map(diff / scale if scale > 0 else np.zeros_like(diff))
+
+
+# ---------------------------------------------------------------- layout
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Where each part of the composed image sits, in pixels (x to the right, y down).
+
+    For n panels of W×H: font size f = clamp(round(H / 10), 10, 32), gap g = f // 2, label strip
+    s = f + f // 2, colour bar b = f. Column i (both rows) starts at x = g + i·(W + g). From the top:
+
+        y = g                   top labels, height s         "key = value"
+        y = g + s               the variants, height H       linear values (clamped only in a PNG)
+        y = 2g + s + H          difference labels, height s  "value vs last", "last = reference"
+        y = 2g + 2s + H         difference heat maps, height H
+        y = 3g + 2s + 2H        colour bar, height b, from x = g to x = width − g
+        y = 3g + 2s + 2H + b    its scale, height s: 0 at the left, the largest difference at the right
+
+    Size: width n·W + (n + 1)·g, height 2H + 3s + b + 4g (g below the scale).
+    """
+    count: int   # n panels per row
+    width: int   # W, one panel
+    height: int  # H
+    font: int    # f, label text size in pixels
+    gap: int     # g
+    strip: int   # s
+    bar: int     # b
+
+    @property
+    def image_width(self) -> int:
+        return self.count * self.width + (self.count + 1) * self.gap
+
+    @property
+    def image_height(self) -> int:
+        return 2 * self.height + 3 * self.strip + self.bar + 4 * self.gap
+
+    def column(self, index: int) -> int:
+        """x of panel `index`'s left edge, in both rows."""
+        return self.gap + index * (self.width + self.gap)
+
+    @property
+    def rows(self) -> dict[str, int]:
+        """y of each band's top edge: labels, variants, difference_labels, differences, bar, scale."""
+        g, s, h = self.gap, self.strip, self.height
+        return {"labels": g, "variants": g + s, "difference_labels": 2 * g + s + h, "differences": 2 * g + 2 * s + h,
+                "bar": 3 * g + 2 * s + 2 * h, "scale": 3 * g + 2 * s + 2 * h + self.bar}
+
+
+def layout(count: int, width: int, height: int) -> Layout:
+    """The Layout for `count` panels of width × height pixels."""
+    font = min(max(round(height / 10), 10), 32)  # 10 px is the smallest that stays legible; 32 is plenty
+    return Layout(count=count, width=width, height=height, font=font, gap=font // 2, strip=font + font // 2,
+                  bar=font)
+
+
+# ---------------------------------------------------------------- composition
+
+BACKDROP = 0.18  # mid-dark grey behind the panels: their black backgrounds keep a visible edge, white text reads
+TEXT_RGB = (1.0, 1.0, 1.0)
+MIN_FONT = 8     # labels shrink to fit down to this size; below it they are cut at the panel's edge
+
+
+@dataclass(frozen=True, eq=False)
+class Comparison:
+    """The composed image and what it shows."""
+    image: np.ndarray              # (layout.image_height, layout.image_width, 3) float32
+    layout: Layout
+    variants: list[np.ndarray]     # the inputs, (H, W, 3) linear float32 (float64 from float64 renders), in order
+    differences: list[np.ndarray]  # per variant, (H, W) against the last, in the variants' precision
+    stats: list[VariantStats]      # per variant, against the last (the last: all zero)
+    scale: float                   # the largest difference: the colour bar's top
+    labelled: bool                 # False when no font was found and the label strips are blank
+
+    def parts(self) -> dict[str, tuple[np.ndarray, tuple[int, int]]]:
+        """The variants as write_image parts: `variant0`, `variant1`, … each at its panel's (x, y)."""
+        y = self.layout.rows["variants"]
+        return {f"variant{index}": (variant, (self.layout.column(index), y))
+                for index, variant in enumerate(self.variants)}
+
+
+def compose(variants: list[np.ndarray], key: str, values: list[str]) -> Comparison:
+    """Variants (each (H, W, 3) linear, float32 or float64, in the order of `values`) → the labelled Comparison."""
+    height, width = variants[0].shape[:2]
+    grid = layout(len(variants), width, height)
+    rows = grid.rows
+    differences = [difference(variant, variants[-1]) for variant in variants]
+    scale = max(float(diff.max()) for diff in differences)
+    canvas = np.full((grid.image_height, grid.image_width, 3), BACKDROP, np.float32)
+    # Place each variant over its heat map.
+    for index, (variant, diff) in enumerate(zip(variants, differences)):
+        x = grid.column(index)
+        canvas[rows["variants"]:rows["variants"] + height, x:x + width] = variant
+        canvas[rows["differences"]:rows["differences"] + height, x:x + width] = heat_map(diff, scale)
+    # The colour bar runs from 0 to `scale` across the panels' full span.
+    left, right = grid.gap, grid.image_width - grid.gap
+    ramp = (np.arange(right - left) + 0.5) / (right - left)  # pixel centres, so both ends sit inside [0, 1]
+    canvas[rows["bar"]:rows["bar"] + grid.bar, left:right] = colour_map(ramp)
+    labelled = _draw_labels(canvas, grid, key, values, scale)
+    return Comparison(image=canvas, layout=grid, variants=list(variants), differences=differences,
+                      stats=[measure(diff) for diff in differences], scale=scale, labelled=labelled)
+
+
+def _draw_labels(canvas: np.ndarray, grid: Layout, key: str, values: list[str], scale: float) -> bool:
+    """Write every label into its strip of the (image_height, image_width, 3) canvas; False if there is no font."""
+    if label_font() is None:
+        return False
+    rows, reference = grid.rows, values[-1]
+    # Each label has a full and a short wording: a row of narrow panels uses the short one throughout.
+    above = [(f"{key} = {value}", value) for value in values]
+    below = [(f"{value} vs {reference}", value) for value in values[:-1]] + [(f"{reference} = reference", "reference")]
+    for row, wordings in (("labels", above), ("difference_labels", below)):
+        texts, size = _row_wording(wordings, grid.font, grid.width)
+        for index, text in enumerate(texts):
+            _draw_text(canvas, text, (grid.column(index), rows[row], grid.width, grid.strip), size)
+    # The scale: 0 at the left end, the top at the right, the caption centred between them if it fits.
+    span, y = grid.image_width - 2 * grid.gap, rows["scale"]
+    top = f"{scale:.3g}" if scale > 0 else "0 (no pixel differs)"
+    zero = _draw_text(canvas, "0", (grid.gap, y, span, grid.strip), grid.font)
+    end = _draw_text(canvas, top, (grid.gap, y, span, grid.strip), grid.font, align="right")
+    room = span - zero - end - 2 * grid.font
+    size = _fitting_size(CAPTION, grid.font, room)
+    if size is not None:
+        _draw_text(canvas, CAPTION, (grid.gap + zero + grid.font, y, room, grid.strip), size, align="center")
+    return True
+
+
+CAPTION = "max over RGB of |variant - reference|, linear"  # ASCII: the bundled font has no Δ or − glyph
+
+
+def _row_wording(wordings: list[tuple[str, ...]], size: int, width: int) -> tuple[list[str], int]:
+    """One row's labels: the first wording that fits every label in `width` at MIN_FONT or larger, and the
+    largest size up to `size` at which all of them fit; if none fits, the last wording at MIN_FONT."""
+    for choice in range(len(wordings[0])):
+        sizes = [_fitting_size(wording[choice], size, width) for wording in wordings]
+        if None not in sizes:
+            return [wording[choice] for wording in wordings], min(sizes)
+    return [wording[-1] for wording in wordings], MIN_FONT
+
+
+def _fitting_size(text: str, size: int, width: int) -> int | None:
+    """The largest font size from `size` down to MIN_FONT at which `text` is at most `width` wide, or None."""
+    while size >= MIN_FONT:
+        drawn = text_coverage(text, size)
+        if drawn is None or drawn.shape[1] <= width:
+            return size if drawn is not None else None
+        # Text width grows about linearly with the size: jump to near the fit, then step down.
+        size = min(size - 1, size * width // drawn.shape[1])
+    return None
+
+
+def _draw_text(canvas: np.ndarray, text: str, box: tuple[int, int, int, int], size: int,
+               align: str = "left") -> int:
+    """Blend one line of white text into box = (x, y, width, height) of the canvas, centred vertically and cut
+    at the box's edges. Returns the width drawn in pixels (0 without a font)."""
+    x, y, width, height = box
+    coverage = text_coverage(text, size)
+    if coverage is None or width <= 0:
+        return 0
+    h, w = min(coverage.shape[0], height), min(coverage.shape[1], width)
+    left = x + {"left": 0, "center": (width - w) // 2, "right": width - w}[align]
+    top = y + (height - h) // 2
+    alpha = coverage[:h, :w, None]
+    region = canvas[top:top + h, left:left + w]
+    region[:] = region * (1 - alpha) + np.asarray(TEXT_RGB, np.float32) * alpha
+    return w
