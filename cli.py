@@ -85,7 +85,7 @@ def render(
     overrides = [*scene_overrides({"render.shading": shading, "render.specular": specular, "render.mode": mode,
                                    "render.width": width, "render.height": height, "render.samples": samples}),
                  *set_]
-    try:
+    with exit_codes():
         started = time.perf_counter()
         path = scene or rp.default_scene_path()
         loaded = rp.load_scene(path, overrides)
@@ -105,15 +105,9 @@ def render(
         rp.write_image(output, result.image, result.aovs, srgb=srgb)
         result.timings["write"] = time.perf_counter() - started
         result.timings["load"] = load_seconds
-    except (rp.SceneError, ImageError) as error:
-        fail(str(error))
-    except typer.Exit:
-        raise
-    except Exception as error:  # anything else is our bug: one line, exit 1 (RAYCAST_PHONG_DEBUG=1 for the trace)
-        if _debug():
-            raise
-        fail(f"internal error: {type(error).__name__}: {error}", code=1)
     if not quiet:
+        for warning in result.plan.warnings:
+            typer.secho(f"warning: {warning}", err=True, fg=typer.colors.YELLOW)
         typer.echo(summary_line(result, output))
 
 
@@ -232,12 +226,59 @@ def variant_lines(key: str, values: list[str], stats: list[compare.VariantStats]
   raycast-phong plan scenes/attenuation.toml --set render.viewer=infinite
 """)
 def plan(scene: SceneArgument = None, set_: SetOption = []) -> None:
-    """Print the render plan: each stage and term, kept or left out, and why."""
-    try:
-        loaded = rp.load_scene(scene or rp.default_scene_path(), set_)
-    except rp.SceneError as error:
-        fail(str(error))
-    typer.echo(rp.build_plan(loaded).describe())
+    """Print the render plan: each stage and term, kept or left out, and why; then what the geometry
+    tells (repaired windings, highlights the render would miss)."""
+    from raycast_phong.geometry import build_geometry
+    from raycast_phong.plan import diagnose
+    with exit_codes():
+        path = scene or rp.default_scene_path()
+        loaded = rp.load_scene(path, set_)
+        stages = rp.build_plan(loaded)
+        geometry = build_geometry(loaded, source=str(path), vertex_normals=stages.keeps("vertex_normals"))
+        typer.echo(diagnose(stages, loaded, geometry).describe())
+
+
+@app.command(epilog="""
+**Examples**
+
+  raycast-phong stability                      # every case, as a table
+
+  raycast-phong stability --case watertightness --case grazing_light
+
+  raycast-phong stability --json > stability.json
+""")
+def stability(
+    case: Annotated[list[str], typer.Option("--case", help="Run only this case (repeatable); "
+                    "`--list` shows the names.")] = [],
+    as_json: Annotated[bool, typer.Option("--json", help="One JSON object per case, for machines.")] = False,
+    list_: Annotated[bool, typer.Option("--list", help="List the case names and exit.")] = False,
+) -> None:
+    """Run the numerical-stability suite on the installed package: stiff and extreme inputs, each a
+    property that can fail. Exit status 1 if any case fails."""
+    from raycast_phong import stability as suite
+    if list_:
+        typer.echo("\n".join(suite.CASES))
+        return
+    unknown = [name for name in case if name not in suite.CASES]
+    if unknown:
+        fail(f"--case: unknown case {unknown[0]!r}; cases: {', '.join(suite.CASES)}")
+    with exit_codes():
+        results = suite.run_all(case or None)
+    if as_json:
+        typer.echo(json.dumps([{"case": r.case, "property": r.property, "figure": r.figure, "passed": r.passed,
+                                "seconds": round(r.seconds, 3)} for r in results], indent=2, ensure_ascii=False))
+    else:
+        from rich.console import Console
+        from rich.table import Table
+        table = Table("case", "property", "measured", "", "s", show_lines=True)
+        for r in results:
+            table.add_row(r.case, r.property, r.figure, "[green]pass[/]" if r.passed else "[red]FAIL[/]",
+                          f"{r.seconds:.2f}")
+        Console(width=max(140, Console().width)).print(table)
+        failed = sum(not r.passed for r in results)
+        typer.echo(f"{len(results) - failed} passed, {failed} failed")
+    if any(not r.passed for r in results):
+        raise typer.Exit(code=1)
 
 
 @app.command(epilog="""
