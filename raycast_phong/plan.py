@@ -15,7 +15,7 @@ from .illumination import (F_AOV_GEOMETRY, F_AOV_TERMS, F_ATTENUATION, F_DIFFUSE
                            F_LIGHT_AMBIENT, F_SCENE_AMBIENT, F_SCREEN, F_SHADOWS, F_TWO_SIDED, F_VIEW_PER_POINT,
                            SPECULAR_BLINN, SPECULAR_NONE, SPECULAR_PHONG)
 from .records import RenderPlan, Stage
-from .scene import Mode, Scene, ShadingModel, SpecularModel, Viewer
+from .scene import MAX_SAMPLES, Mode, Scene, ShadingModel, SpecularModel, Viewer
 
 GEOMETRY_AOVS = {"depth", "normal", "face"}
 TERM_AOVS = {"ambient", "diffuse", "specular", "emission"}
@@ -157,9 +157,12 @@ def diagnose(plan: RenderPlan, scene: Scene, geometry) -> RenderPlan:
                 continue  # flat faces: the highlight's width depends on the light, not on curvature
             width_px = highlight_width_pixels(scene, geometry.vertices[np.unique(geometry.faces[faces])], highlight)
             if width_px < 1:
+                wanted = math.ceil(2 / width_px)  # two samples across the highlight
+                advice = (f"use render.samples = {wanted} or more" if wanted <= MAX_SAMPLES else
+                          f"use render.samples = {MAX_SAMPLES} (the most allowed) and a larger image "
+                          f"(about {wanted / MAX_SAMPLES:.0f}× the width and height)")
                 warnings.append(f"objects.{index}: the f = {f:g} highlight is about {width_px:.2f} pixel wide and "
-                                f"may fall between pixel centres; use render.samples = {math.ceil(2 / width_px)} "
-                                "or more")
+                                f"may fall between pixel centres; {advice}")
     return RenderPlan(tuple(stages), tuple(warnings))
 
 

@@ -156,8 +156,13 @@ def subpixel_highlight() -> CaseResult:
     scene = sphere_scene(1e5, subdivisions=5, size=32)
     warnings = render(scene).plan.warnings
     suggests = [w for w in warnings if "render.samples" in w]
+    figure = "no warning"
+    if suggests:
+        width = suggests[0].split("about ")[1].split(" pixel")[0]
+        advice = suggests[0].split("centres; ")[1]
+        figure = f"f = 1e5 on a 32 px sphere: {width} px wide; plan: {advice}"
     return CaseResult("sub-pixel highlight", "a highlight narrower than a pixel is warned about with a sample count",
-                      suggests[0].split(": ", 1)[1][:60] + "…" if suggests else "no warning", bool(suggests))
+                      figure, bool(suggests))
 
 
 # ---------------------------------------------------------------- 3. light at, on or inside the surface
@@ -301,11 +306,12 @@ def scale_and_position() -> CaseResult:
             for shift in (0.0, 1e6 * 4 * scale):  # up to 1e6 × the scene size away
                 image = render(placed_scene(scale, shift, mode)).image
                 difference = np.abs(image - reference).max(axis=2)
-                worst = max(worst, float(np.median(difference)))
+                worst = max(worst, float(difference.max()))
                 worst_share = max(worst_share, float((difference > 1e-3).mean()))
-    return CaseResult("scale and position", "s from 1e-6 to 1e6, |t| up to 1e6 × the scene size, local and "
+    return CaseResult("scale and position", "s from 1e-6 to 1e6, shifts up to 1e6 × the scene size, local and "
                       "global: ≤ 1 % of pixels (silhouettes, shadow edges) off by more than 1e-3",
-                      f"worst share {worst_share:.2%}, worst median difference {worst:.1e}", worst_share <= 0.01)
+                      f"{worst_share:.2%} of pixels off by > 1e-3; largest difference {worst:.1e}",
+                      worst_share <= 0.01)
 
 
 # ---------------------------------------------------------------- 8. watertightness
