@@ -35,7 +35,6 @@ def stiff_gouraud_figure() -> None:
 
 def interpolation_figure() -> None:
     """A receding quad shaded with Gouraud: perspective-correct weights (left), screen-space (right)."""
-    stability.interpolation_difference(16.0)  # writes the quad
     images = []
     for interpolation in ("perspective", "screen"):
         scene = stability.receding_quad_scene(16.0, interpolation)
