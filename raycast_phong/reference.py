@@ -1,0 +1,475 @@
+"""Exact references: the illumination model on the true surfaces of the analytic shapes, in float64 numpy.
+
+Every pixel sample's camera ray (camera_rig and camera.py's sample centres) is intersected with the
+exact sphere, box, plane, cylinder or torus each object's mesh approximates, placed as geometry.place
+places the mesh (world = T · Rz · Ry · Rx · S · local, so a non-uniform scale gives an ellipsoid): the
+ray is taken into object space by the inverse affine map, the normal back by the inverse transpose.
+The model is illumination.py's formula term for term; global mode casts analytic shadow rays.
+A mesh file has no closed form: `fine=N` gives a self-convergence reference instead (fine_reference).
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from .camera import CameraRig, RayGenerator, camera_rig
+from .geometry import build_geometry, object_mesh, rotation_of
+from .intersect import Accelerator, unit_frame
+from .scene import Object, Scene, SceneError, SpecularModel, Viewer, validate_scene
+from .shading import MIN_DISTANCE
+
+TILE_SAMPLES = 1 << 16  # rays per tile: the torus's 4×4 eigenproblems stay a few MB
+SHADOW_OFFSET = 1e-9    # × the scene's half-extent: float64 exact hits sit ~1e-15 off the surface
+
+
+@dataclass(frozen=True, eq=False)
+class ReferenceImage:
+    """A reference render and what the metrics need besides the colour."""
+    image: np.ndarray     # (H, W, 3) float64, linear display values (mean over the pixel's samples)
+    specular: np.ndarray  # (H, W, 3) float64, the specular term alone (highlight loss)
+    coverage: np.ndarray  # (H, W) float64, share of the pixel's samples that hit a surface
+    kind: str             # "analytic", or "fine N" for a self-convergence reference
+
+
+# ---------------------------------------------------------------- tessellation levels
+
+def refined(obj: Object, level: int) -> dict:
+    """The keys that give an analytic object tessellation `level` (docs/accuracy.md, "Levels").
+
+    icosphere: subdivisions = L (20·4^L triangles); uv_sphere, torus: segments = [8·2^L, 4·2^L];
+    cylinder: segments = [8·2^L, 1]; plane: segments = [2^L, 2^L]; box: unchanged (12 flat faces are
+    exact). L = 2 is the format's default for every shape.
+    """
+    if obj.shape == "icosphere":
+        return {"subdivisions": level}
+    if obj.shape in ("uv_sphere", "torus"):
+        return {"segments": [8 * 2 ** level, 4 * 2 ** level]}
+    if obj.shape == "cylinder":
+        return {"segments": [8 * 2 ** level, 1]}
+    if obj.shape == "plane":
+        return {"segments": [2 ** level, 2 ** level]}
+    return {}
+
+
+def level_of(obj: Object) -> int:
+    """The level of an object as the scene gives it (the inverse of `refined`; 0 for a box or mesh)."""
+    if obj.shape == "icosphere":
+        return obj.subdivisions
+    if obj.shape in ("uv_sphere", "torus", "cylinder"):
+        return max(0, round(math.log2((obj.segments or (32, 16))[0] / 8)))
+    if obj.shape == "plane":
+        return max(0, round(math.log2((obj.segments or (1, 1))[0])))
+    return 0
+
+
+# ---------------------------------------------------------------- exact intersections in object space
+
+def _sphere(o, d, obj, t_min):
+    """|o + t d|² = r²: the nearest root above t_min (the cancellation-free pair q/a, c/q)."""
+    a = np.einsum("ij,ij->i", d, d)
+    b = np.einsum("ij,ij->i", o, d)
+    c = np.einsum("ij,ij->i", o, o) - obj.radius ** 2
+    disc = b * b - a * c
+    root = np.sqrt(np.maximum(disc, 0))
+    q = -(b + np.copysign(root, b))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = _nearest(t_min, np.where(disc >= 0, q / a, np.inf), np.where(disc >= 0, c / q, np.inf))
+    return t, o + np.where(np.isfinite(t), t, 0)[:, None] * d
+
+
+def _box(o, d, obj, t_min):
+    """Slabs |x_i| ≤ h_i: enter at the largest near plane, leave at the smallest far plane."""
+    half = np.asarray(obj.size or (2.0, 2.0, 2.0)) / 2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1, t2 = (-half - o) / d, (half - o) / d
+    # fmin/fmax skip the NaN of 0/0 (a ray in a slab's boundary plane): that slab does not limit t.
+    near = np.fmax.reduce(np.fmin(t1, t2), axis=1)
+    far = np.fmin.reduce(np.fmax(t1, t2), axis=1)
+    inside = near <= far
+    t = _nearest(t_min, np.where(inside, near, np.inf), np.where(inside, far, np.inf))
+    return t, o + np.where(np.isfinite(t), t, 0)[:, None] * d
+
+
+def _box_normal(p, obj):
+    half = np.asarray(obj.size or (2.0, 2.0, 2.0)) / 2
+    axis = np.argmax(np.abs(p) / half, axis=1)  # the face the point lies on
+    normal = np.zeros_like(p)
+    normal[np.arange(len(p)), axis] = np.sign(p[np.arange(len(p)), axis])
+    return normal
+
+
+def _plane(o, d, obj, t_min):
+    """y = 0 within |x| ≤ w/2, |z| ≤ depth/2."""
+    width, depth = obj.size or (2.0, 2.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = -o[:, 1] / d[:, 1]
+    p = o + np.where(np.isfinite(t), t, 0)[:, None] * d
+    on = (np.abs(p[:, 0]) <= width / 2) & (np.abs(p[:, 2]) <= depth / 2) & (t > t_min)
+    return np.where(on, t, np.inf), p
+
+
+def _cylinder(o, d, obj, t_min):
+    """Side x² + y² = r², |z| ≤ h/2, and the two caps z = ±h/2, x² + y² ≤ r²."""
+    r, h = obj.radius, obj.height / 2
+    a = d[:, 0] ** 2 + d[:, 1] ** 2
+    b = o[:, 0] * d[:, 0] + o[:, 1] * d[:, 1]
+    c = o[:, 0] ** 2 + o[:, 1] ** 2 - r * r
+    disc = b * b - a * c
+    root = np.sqrt(np.maximum(disc, 0))
+    q = -(b + np.copysign(root, b))
+    candidates = []
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for t in (q / a, c / q):
+            z = o[:, 2] + t * d[:, 2]
+            candidates.append(np.where((disc >= 0) & (np.abs(z) <= h) & np.isfinite(t), t, np.inf))
+        for cap in (-h, h):
+            t = (cap - o[:, 2]) / d[:, 2]
+            x, y = o[:, 0] + t * d[:, 0], o[:, 1] + t * d[:, 1]
+            candidates.append(np.where((x * x + y * y <= r * r) & np.isfinite(t), t, np.inf))
+    t = _nearest(t_min, *candidates)
+    return t, o + np.where(np.isfinite(t), t, 0)[:, None] * d
+
+
+def _cylinder_normal(p, obj):
+    # A cap point lies at |z| = h/2 (to rounding); a side point at radius r.
+    side_gap = np.abs(np.hypot(p[:, 0], p[:, 1]) - obj.radius)
+    cap_gap = np.abs(np.abs(p[:, 2]) - obj.height / 2)
+    cap = cap_gap < side_gap
+    normal = np.column_stack([p[:, 0], p[:, 1], np.zeros(len(p))])
+    normal[cap] = np.column_stack([np.zeros(cap.sum()), np.zeros(cap.sum()), np.sign(p[cap, 2])])
+    return normal
+
+
+def _torus(o, d, obj, t_min):
+    """(|p|² + R² − r²)² = 4R²(x² + y²), the tube around the circle of radius R in the local x–y plane.
+
+    With a unit direction u and the parameter τ measured from the point q closest to the centre
+    (q·u = 0) the quartic has no cubic term: τ⁴ + (2e − 4R²a₂)τ² − 4R²a₁τ + e² − 4R²a₀, e = |q|² + R² − r².
+    Its roots are the eigenvalues of the companion matrix, polished by Newton steps.
+    """
+    big, small = obj.major_radius, obj.minor_radius
+    length = np.linalg.norm(d, axis=1)
+    u = d / length[:, None]
+    s0 = -np.einsum("ij,ij->i", o, u)
+    q = o + s0[:, None] * u
+    t = np.full(len(o), np.inf)
+    near = np.linalg.norm(q, axis=1) < big + small  # rays that miss the bounding sphere need no quartic
+    if near.any():
+        qn, un = q[near], u[near]
+        e = np.einsum("ij,ij->i", qn, qn) + big * big - small * small
+        a2 = un[:, 0] ** 2 + un[:, 1] ** 2
+        a1 = 2 * (qn[:, 0] * un[:, 0] + qn[:, 1] * un[:, 1])
+        a0 = qn[:, 0] ** 2 + qn[:, 1] ** 2
+        c2, c1, c0 = 2 * e - 4 * big * big * a2, -4 * big * big * a1, e * e - 4 * big * big * a0
+        companion = np.zeros((len(qn), 4, 4))
+        companion[:, 0, 1], companion[:, 0, 2], companion[:, 0, 3] = -c2, -c1, -c0
+        companion[:, 1, 0] = companion[:, 2, 1] = companion[:, 3, 2] = 1.0
+        roots = np.linalg.eigvals(companion)
+        # A near-double root (a grazing ray) comes out with an imaginary part of about √ε × the size.
+        tau = np.where(np.abs(roots.imag) <= 1e-6 * (big + small), roots.real, np.nan)
+        for _ in range(3):
+            value = ((tau * tau + c2[:, None]) * tau + c1[:, None]) * tau + c0[:, None]
+            slope = (4 * tau * tau + 2 * c2[:, None]) * tau + c1[:, None]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                step = np.where(slope != 0, value / slope, 0.0)
+            tau = tau - np.where(np.isfinite(step), step, 0.0)
+        s = s0[near, None] + tau
+        s = np.where(np.isfinite(s) & (s > t_min * length[near, None]), s, np.inf)
+        t[near] = s.min(axis=1) / length[near]
+    return t, o + np.where(np.isfinite(t), t, 0)[:, None] * d
+
+
+def _torus_normal(p, obj):
+    ring = np.hypot(p[:, 0], p[:, 1])
+    # The nearest point of the tube's centre circle; the normal points from it to p.
+    centre = obj.major_radius * p[:, :2] / np.where(ring > 0, ring, 1.0)[:, None]
+    return np.column_stack([p[:, 0] - centre[:, 0], p[:, 1] - centre[:, 1], p[:, 2]])
+
+
+def _nearest(t_min, *candidates):
+    """The smallest candidate above t_min, inf if none."""
+    stacked = np.stack(candidates)
+    return np.where(stacked > t_min, stacked, np.inf).min(axis=0)
+
+
+INTERSECT = {"icosphere": _sphere, "uv_sphere": _sphere, "box": _box, "plane": _plane,
+             "cylinder": _cylinder, "torus": _torus}
+NORMAL = {"icosphere": lambda p, obj: p, "uv_sphere": lambda p, obj: p, "box": _box_normal,
+          "plane": lambda p, obj: np.broadcast_to([0.0, 1.0, 0.0], p.shape).copy(),
+          "cylinder": _cylinder_normal, "torus": _torus_normal}
+
+
+class ExactScene:
+    """The scene's analytic objects, each with its world_from_object affine map."""
+
+    def __init__(self, scene: Scene, source: str = "<scene>"):
+        for index, obj in enumerate(scene.objects):
+            if obj.shape == "mesh":
+                raise SceneError(f'{source}: objects.{index}.shape: "mesh" has no closed form; use --fine N')
+        self.objects = scene.objects
+        # world = linear · local + translate, linear = R S (geometry.place); rows map object → world.
+        self.linear = [rotation_of(obj) @ np.diag(obj.scale) for obj in scene.objects]
+        self.inverse = [np.linalg.inv(m) for m in self.linear]
+        self.translate = [np.asarray(obj.translate, np.float64) for obj in scene.objects]
+        low, high = self.bounds()
+        # The same half-extent intersect.unit_frame takes from the mesh (it floors d in 1/d²).
+        self.scale = float((high - low).max()) / 2 or 1.0
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The exact world bounding box, from each shape's support function under its affine map."""
+        lows, highs = [], []
+        for obj, m, t in zip(self.objects, self.linear, self.translate):
+            if obj.shape in ("icosphere", "uv_sphere"):
+                extent = obj.radius * np.linalg.norm(m, axis=1)
+            elif obj.shape == "box":
+                extent = np.abs(m) @ (np.asarray(obj.size or (2.0, 2.0, 2.0)) / 2)
+            elif obj.shape == "plane":
+                width, depth = obj.size or (2.0, 2.0)
+                extent = np.abs(m[:, 0]) * width / 2 + np.abs(m[:, 2]) * depth / 2
+            elif obj.shape == "cylinder":  # a disc in local x–y swept along z
+                extent = obj.radius * np.hypot(m[:, 0], m[:, 1]) + np.abs(m[:, 2]) * obj.height / 2
+            else:  # torus: the centre circle plus a ball of the minor radius
+                extent = obj.major_radius * np.hypot(m[:, 0], m[:, 1]) + obj.minor_radius * np.linalg.norm(m, axis=1)
+            lows.append(t - extent)
+            highs.append(t + extent)
+        return np.min(lows, axis=0), np.max(highs, axis=0)
+
+    def closest(self, origins: np.ndarray, directions: np.ndarray, t_min: float = 0.0):
+        """Nearest exact hit: t (N,) (inf on a miss), object index (N,) (−1), world point and unit normal (N, 3).
+
+        `directions` are unit in world space; an affine map keeps t, so t is the world distance.
+        """
+        best = np.full(len(origins), np.inf)
+        which = np.full(len(origins), -1)
+        normal = np.zeros_like(origins)
+        for index, obj in enumerate(self.objects):
+            inverse = self.inverse[index]
+            local_o = (origins - self.translate[index]) @ inverse.T
+            local_d = directions @ inverse.T
+            t, local_p = INTERSECT[obj.shape](local_o, local_d, obj, t_min)
+            closer = t < best
+            if closer.any():
+                best[closer], which[closer] = t[closer], index
+                # Normals are covectors: world = (linear)^-T · local, i.e. local @ inverse as rows.
+                normal[closer] = NORMAL[obj.shape](local_p[closer], obj) @ inverse
+        length = np.linalg.norm(normal, axis=1, keepdims=True)
+        normal = normal / np.where(length > 0, length, 1.0)
+        points = origins + np.where(np.isfinite(best), best, 0)[:, None] * directions
+        return best, which, points, normal
+
+
+# ---------------------------------------------------------------- the illumination model, float64 numpy
+
+def specular_power(x: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """max(x, 0)^f with illumination.specular_power's limits: f = 0 → 1 where x > 0; f = inf → x ≥ 1."""
+    out = np.zeros_like(x)
+    positive = x > 0
+    out[positive & (f == 0)] = 1.0
+    ordinary = positive & (f > 0) & np.isfinite(f)
+    out[ordinary] = x[ordinary] ** f[ordinary]
+    mirror = positive & np.isinf(f)
+    out[mirror] = (x[mirror] >= 1).astype(np.float64)
+    return out
+
+
+def illuminate_exact(scene: Scene, points, normals, to_viewer, material_rows, visible, scale: float):
+    """The four terms (ambient, diffuse, specular, emission), each (M, 3) float64, at M points.
+
+        I = k_e + I_a k_a + Σ_lights f_att [ I_a,light k_a + vis (I_d k_d max(l·n, 0) + I_s k_s S) ]
+
+    as illumination.illuminate evaluates it (scene format, "Meaning"). material_rows (M, 13): ka, kd,
+    ks, ke, f; visible (M, K) bool (all True in local mode); normals already flipped toward the viewer.
+    """
+    ka, kd, ks, ke, f = (material_rows[:, 0:3], material_rows[:, 3:6], material_rows[:, 6:9],
+                         material_rows[:, 9:12], material_rows[:, 12])
+    ambient = np.asarray(scene.ambient) * ka
+    diffuse, specular = np.zeros_like(ka), np.zeros_like(ka)
+    for k, light in enumerate(scene.lights):
+        if light.type == "point":
+            to_light = np.asarray(light.position) - points
+            distance = np.linalg.norm(to_light, axis=1)
+            # A light exactly on the surface has no direction: head-on, as the kernel does.
+            to_light = np.where(distance[:, None] > 0, to_light / np.where(distance > 0, distance, 1)[:, None], normals)
+        else:
+            distance = np.zeros(len(points))
+            to_light = np.broadcast_to(-np.asarray(light.direction) / np.linalg.norm(light.direction), points.shape)
+        weight = np.ones(len(points))
+        if light.type == "point" and light.attenuation == "inverse_square":
+            # d floored at MIN_DISTANCE × the scene's half-extent, as shading.prepare_shading does.
+            weight = 1 / np.maximum(distance ** 2, (MIN_DISTANCE * scale) ** 2)
+        elif light.type == "point" and light.attenuation != "none":
+            c, l, q = light.attenuation
+            weight = np.minimum(1.0, 1 / (c + l * distance + q * distance ** 2))
+        ambient = ambient + weight[:, None] * np.asarray(light.ambient) * ka
+        n_dot_l = np.einsum("ij,ij->i", normals, to_light)
+        lit = (n_dot_l > 0) & visible[:, k]  # S = 0 (and no diffuse) where l·n ≤ 0 or in shadow
+        diffuse += np.where(lit, weight * n_dot_l, 0)[:, None] * np.asarray(light.diffuse) * kd
+        if scene.render.specular == SpecularModel.PHONG:
+            reflected = 2 * n_dot_l[:, None] * normals - to_light
+            x = np.einsum("ij,ij->i", reflected, to_viewer)
+        else:
+            half = to_light + to_viewer
+            length = np.linalg.norm(half, axis=1)
+            x = np.where(length > 0, np.einsum("ij,ij->i", normals, half) / np.where(length > 0, length, 1), 0.0)
+        s = np.where(lit, weight * specular_power(x, f), 0)
+        specular += s[:, None] * np.asarray(light.specular) * ks
+    return ambient, diffuse, specular, ke
+
+
+# ---------------------------------------------------------------- rays and the image
+
+def sample_rays(rig: CameraRig, width: int, height: int, samples: int, row0: int, row1: int):
+    """float64 world origins and unit directions of rows [row0, row1), in camera._fill_rays's order."""
+    cells = (np.arange(samples) + 0.5) / samples
+    rows = np.arange(row0, row1)
+    # Order: row, column, sub-row b, sub-column a (ray k → pixel k // n², cell k % n²).
+    y = 1.0 - 2.0 * (rows[:, None, None, None] + cells[None, None, :, None]) / height
+    x = 2.0 * (np.arange(width)[None, :, None, None] + cells[None, None, None, :]) / width - 1.0
+    y, x = np.broadcast_arrays(y, x)
+    sx, sy = (x * rig.half_width).reshape(-1, 1), (y * rig.half_height).reshape(-1, 1)
+    if rig.orthographic:
+        origins = rig.eye + sx * rig.right + sy * rig.up
+        directions = np.broadcast_to(rig.forward, origins.shape).copy()
+    else:
+        directions = rig.forward + sx * rig.right + sy * rig.up
+        directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+        origins = np.broadcast_to(rig.eye, directions.shape).copy()
+    return origins, directions
+
+
+def material_table(scene: Scene) -> np.ndarray:
+    """(objects, 13) float64: each object's ka, kd, ks, ke, shininess."""
+    return np.array([[*m.ka, *m.kd, *m.ks, *m.ke, m.shininess] for m in map(scene.material_of, scene.objects)])
+
+
+def analytic_reference(scene: Scene, source: str = "<scene>") -> ReferenceImage:
+    """The scene on its exact surfaces, float64: see the module docstring. SceneError for a mesh object."""
+    exact = ExactScene(scene, source)
+    rig = camera_rig(scene)
+    opts = scene.render
+    width, height, n = opts.width, opts.height, opts.samples
+    per_pixel = n * n
+    materials = material_table(scene)
+    image = np.zeros((height, width, 3))
+    specular_image = np.zeros((height, width, 3))
+    coverage = np.zeros((height, width))
+    fixed_view = opts.viewer == Viewer.INFINITE or rig.orthographic  # one v = −forward for the image
+    rows_per_tile = max(1, TILE_SAMPLES // (width * per_pixel))
+    for row0 in range(0, height, rows_per_tile):
+        row1 = min(row0 + rows_per_tile, height)
+        origins, directions = sample_rays(rig, width, height, n, row0, row1)
+        t, which, points, normals = exact.closest(origins, directions)
+        hit = np.isfinite(t)
+        rgb = np.broadcast_to(np.asarray(opts.background, np.float64), origins.shape).copy()
+        spec = np.zeros_like(rgb)
+        if hit.any():
+            p, nrm, d = points[hit], normals[hit], directions[hit]
+            # Two-sided: a back-facing hit is shaded with the normal turned toward the viewer.
+            if opts.two_sided:
+                nrm = np.where((np.einsum("ij,ij->i", nrm, d) > 0)[:, None], -nrm, nrm)
+            if fixed_view:
+                to_viewer = np.broadcast_to(-rig.forward, p.shape)
+            else:
+                to_viewer = rig.eye - p
+                to_viewer = to_viewer / np.linalg.norm(to_viewer, axis=1, keepdims=True)
+            visible = light_visibility(exact, scene, p, nrm) if opts.mode.value == "global" else \
+                np.ones((len(p), len(scene.lights)), bool)
+            terms = illuminate_exact(scene, p, nrm, to_viewer, materials[which[hit]], visible, exact.scale)
+            rgb[hit] = sum(terms)
+            spec[hit] = terms[2]
+        shape = (row1 - row0, width, per_pixel)
+        image[row0:row1] = rgb.reshape(*shape, 3).mean(axis=2)
+        specular_image[row0:row1] = spec.reshape(*shape, 3).mean(axis=2)
+        coverage[row0:row1] = hit.reshape(shape).mean(axis=2)
+    return ReferenceImage(image, specular_image, coverage, "analytic")
+
+
+def light_visibility(exact: ExactScene, scene: Scene, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """(M, K) bool: an exact shadow ray from each point reaches light k (global mode).
+
+    The origin is lifted SHADOW_OFFSET × the scene's size off the surface on the light's side, so
+    the ray does not find the surface it leaves; the true surface has no shadow terminator to fix.
+    """
+    offset = SHADOW_OFFSET * exact.scale
+    visible = np.ones((len(points), len(scene.lights)), bool)
+    for k, light in enumerate(scene.lights):
+        if light.type == "point":
+            to_light = np.asarray(light.position) - points
+            distance = np.linalg.norm(to_light, axis=1)
+            to_light = to_light / np.where(distance > 0, distance, 1)[:, None]
+        else:
+            distance = np.full(len(points), np.inf)
+            to_light = np.broadcast_to(-np.asarray(light.direction) / np.linalg.norm(light.direction), points.shape)
+        side = np.sign(np.einsum("ij,ij->i", normals, to_light))
+        origin = points + (offset * side)[:, None] * normals
+        t, _, _, _ = exact.closest(origin, np.ascontiguousarray(to_light))
+        visible[:, k] = t >= distance - offset
+    return visible
+
+
+# ---------------------------------------------------------------- self-convergence reference (meshes)
+
+def fine_reference(scene: Scene, levels: int, source: str = "<scene>") -> ReferenceImage:
+    """The scene refined `levels` times, rendered with Phong shading in float64.
+
+    A mesh file is Loop-subdivided `levels` times (trimesh.remesh.subdivide_loop: it converges to a
+    smooth limit surface, where midpoint subdivision would keep the same flat facets); an analytic
+    object goes `levels` tessellation levels up from its own (`refined`). Coverage comes from the
+    same Embree cast as the render's.
+    """
+    from .render import render  # render imports this module lazily; keep the cycle one-way at import
+    data = scene.model_dump(exclude={"folder"})
+    data["render"].update(shading="phong", precision="float64")
+    data["output"] = {"path": "reference.exr", "aovs": ["specular"]}
+    with tempfile.TemporaryDirectory(prefix="raycast-phong-fine-") as folder:
+        for index, obj in enumerate(scene.objects):
+            entry = data["objects"][index]
+            entry["shading"] = "phong"
+            if obj.shape == "mesh":
+                vertices, faces, _ = object_mesh(scene, obj, index, source)
+                vertices, faces = trimesh.remesh.subdivide_loop(vertices, faces, iterations=levels)
+                path = Path(folder) / f"object{index}.ply"
+                trimesh.Trimesh(vertices, faces, process=False).export(path)
+                entry["path"] = str(path)
+                if entry.get("normals") == "file":
+                    entry["normals"] = "mean"  # the subdivided mesh stores no normals
+            else:
+                entry.update(refined(obj, min(level_of(obj) + levels, max_level(obj))))
+        fine = validate_scene(data, source=source, folder=scene.folder)
+        result = render(fine, source=source)
+        coverage = mesh_coverage(fine, source)
+    return ReferenceImage(result.image.astype(np.float64), result.aovs["specular"].astype(np.float64),
+                          coverage, f"fine {levels}")
+
+
+def max_level(obj: Object) -> int:
+    """The finest level the scene format allows for the shape (subdivisions ≤ 8, segments ≤ 4096)."""
+    return 8 if obj.shape == "icosphere" else 9
+
+
+def reference_image(scene: Scene, source: str = "<scene>", fine: int | None = None) -> ReferenceImage:
+    """The analytic reference, or with `fine` the self-convergence one (the only choice for meshes)."""
+    return analytic_reference(scene, source) if fine is None else fine_reference(scene, fine, source)
+
+
+def mesh_coverage(scene: Scene, source: str = "<scene>") -> np.ndarray:
+    """(H, W) share of each pixel's samples whose ray hits the scene's triangles (the render's own cast)."""
+    geometry = build_geometry(scene, source=source, vertex_normals=False)
+    frame = unit_frame(geometry.vertices)
+    accelerator = Accelerator(geometry, frame)
+    opts = scene.render
+    width, height, n = opts.width, opts.height, opts.samples
+    rows_per_tile = max(1, TILE_SAMPLES // (width * n * n))
+    rays = RayGenerator(camera_rig(scene), frame, width, height, n, max_rays=rows_per_tile * width * n * n)
+    coverage = np.zeros((height, width))
+    for row0 in range(0, height, rows_per_tile):
+        row1 = min(row0 + rows_per_tile, height)
+        hits = accelerator.closest_hits(*rays.rows(row0, row1))
+        coverage[row0:row1] = (hits.face >= 0).reshape(row1 - row0, width, n * n).mean(axis=2)
+    return coverage

@@ -1,0 +1,173 @@
+"""The analytic reference against values worked out by hand at chosen pixels (to 1e-9)."""
+
+import math
+
+import numpy as np
+import pytest
+
+import raycast_phong as rp
+from raycast_phong.reference import analytic_reference, fine_reference, mesh_coverage
+
+HAND = 1e-9  # every expected value below is a closed form; float64 rounding is ~1e-15
+
+
+def scene(objects, lights, camera=None, size=(5, 5), material=None, **render):
+    return rp.validate_scene({
+        "render": {"width": size[0], "height": size[1], "precision": "float64", **render},
+        "camera": camera or {"position": [0, 0, 4], "look_at": [0, 0, 0], "fov": 40},
+        "ambient": 0.1,
+        "lights": lights,
+        "materials": {"m": material or {"ka": 1.0, "kd": [0.7, 0.5, 0.3], "ks": 0.5, "shininess": 16}},
+        "objects": [{"material": "m", **obj} for obj in objects],
+    })
+
+
+# Orthographic, looking down −z with a 4 × 4 view over 4 × 4 pixels: pixel (col, row) has its centre at
+# world x = col − 1.5, y = 1.5 − row, and every ray travels along (0, 0, −1); v = (0, 0, 1).
+ORTHO = {"type": "orthographic", "position": [0, 0, 10], "look_at": [0, 0, 0], "view_height": 4}
+OVERHEAD = {"type": "directional", "direction": [0, 0, -1], "diffuse": 0.8, "specular": 1.0}  # l = (0, 0, 1)
+KD, KS, F = np.array([0.7, 0.5, 0.3]), 0.5, 16
+
+
+def lit_from_above(normal, ka=1.0):
+    """The model for OVERHEAD and an orthographic viewer at a unit normal n: l = v = (0, 0, 1)."""
+    n_dot_l = normal[2]
+    r_dot_v = 2 * n_dot_l * normal[2] - 1  # r = 2(n·l)n − l
+    return 0.1 * ka + 0.8 * KD * max(n_dot_l, 0) + KS * (max(r_dot_v, 0) ** F if n_dot_l > 0 else 0)
+
+
+def test_sphere_centre_pixel_perspective_local_viewer():
+    # The centre ray of a 5 × 5 image hits the unit sphere at (0, 0, 1): n = v = (0, 0, 1), l = (1, 1, 1)/√3.
+    light = {"type": "point", "position": [2, 2, 3], "diffuse": 0.8, "specular": 1.0}
+    ref = analytic_reference(scene([{"shape": "icosphere"}], [light]))
+    s = 1 / math.sqrt(3)
+    expected = 0.1 + 0.8 * KD * s + KS * s ** F  # r·v = 2(n·l)n_z − l_z = 1/√3
+    np.testing.assert_allclose(ref.image[2, 2], expected, rtol=0, atol=HAND)
+    assert ref.coverage[2, 2] == 1 and ref.coverage[0, 0] == 0
+
+
+@pytest.mark.parametrize(("rotate", "point"), [([0, 0, 0], (1.5, 0.5)), ([0, 0, 90], (0.5, 1.5))])
+def test_rotated_ellipsoid_normal_is_the_inverse_transpose(rotate, point):
+    # scale [2, 1, 1], then Rz 90°: the long axis turns from x to y (world = T Rz Ry Rx S local).
+    obj = {"shape": "uv_sphere", "scale": [2, 1, 1], "rotate": rotate}
+    ref = analytic_reference(scene([obj], [OVERHEAD], ORTHO, size=(4, 4)))
+    x, y = point
+    a2, b2 = (4.0, 1.0) if rotate[2] == 0 else (1.0, 4.0)
+    z = math.sqrt(1 - x * x / a2 - y * y / b2)  # 0.1875 = 1 − 0.5625 − 0.25
+    gradient = np.array([x / a2, y / b2, z])
+    col, row = int(x + 1.5), int(1.5 - y)
+    np.testing.assert_allclose(ref.image[row, col], lit_from_above(gradient / np.linalg.norm(gradient)),
+                               rtol=0, atol=HAND)
+
+
+def test_box_plane_cylinder_at_hand_picked_pixels():
+    # Three objects seen from above, each under its own pixel column.
+    objects = [
+        {"shape": "box", "size": [0.8, 4, 0.5], "translate": [-1.5, 0, 0]},                  # top face z = 0.25
+        {"shape": "plane", "size": [0.8, 4], "rotate": [90, 0, 0], "translate": [-0.5, 0, 0]},  # Rx 90°: +y → +z
+        {"shape": "cylinder", "radius": 0.4, "height": 4, "rotate": [90, 0, 0], "translate": [0.5, 0, 0]},
+    ]
+    ref = analytic_reference(scene(objects, [OVERHEAD], ORTHO, size=(4, 4)))
+    up = np.array([0.0, 0.0, 1.0])
+    np.testing.assert_allclose(ref.image[0, 0], lit_from_above(up), atol=HAND)  # box top
+    np.testing.assert_allclose(ref.image[0, 1], lit_from_above(up), atol=HAND)  # plane
+    # The cylinder lies along world y after Rx 90°, its axis under column x = 0.5: n = (0, 0, 1) there.
+    np.testing.assert_allclose(ref.image[1, 2], lit_from_above(up), atol=HAND)
+    assert ref.coverage[:, 3].sum() == 0  # nothing under x = 1.5
+
+
+def test_cylinder_side_and_cap():
+    # Cylinder r = 1, height 1 along z, seen from above: pixel (1, 1) → (−0.5, 0.5) hits the top cap,
+    # n = (0, 0, 1). Tilted by Ry 90° (axis along x), pixel (1, 1) hits the side at y = 0.5, z = √0.75.
+    upright = analytic_reference(scene([{"shape": "cylinder", "radius": 1, "height": 1}], [OVERHEAD], ORTHO,
+                                       size=(4, 4)))
+    np.testing.assert_allclose(upright.image[1, 1], lit_from_above(np.array([0.0, 0, 1])), atol=HAND)
+    lying = analytic_reference(scene([{"shape": "cylinder", "radius": 1, "height": 4, "rotate": [0, 90, 0]}],
+                                     [OVERHEAD], ORTHO, size=(4, 4)))
+    np.testing.assert_allclose(lying.image[1, 1], lit_from_above(np.array([0.0, 0.5, math.sqrt(0.75)])), atol=HAND)
+
+
+def test_torus_tube_top_and_slope():
+    # Torus R = 1, r = 0.5 at the origin, seen from above; pixel (col, row) looks at (col − 1.5, 1.5 − row).
+    # Pixel (2, 2) → (0.5, −0.5): ρ = √0.5 from the axis, tube offset ρ − R, z = √(r² − (ρ − R)²).
+    obj = {"shape": "torus", "major_radius": 1.0, "minor_radius": 0.5}
+    ref = analytic_reference(scene([obj], [OVERHEAD], ORTHO, size=(4, 4)))
+    rho = math.sqrt(0.5)
+    z = math.sqrt(0.25 - (rho - 1) ** 2)
+    normal = np.array([0.5 * (1 - 1 / rho), -0.5 * (1 - 1 / rho), z]) / 0.5  # (p − R p_xy/ρ) / r
+    np.testing.assert_allclose(np.linalg.norm(normal), 1, atol=1e-12)
+    np.testing.assert_allclose(ref.image[2, 2], lit_from_above(normal), atol=HAND)
+    # Pixel (0, 3) → (−1.5, −1.5): ρ = 2.12 > R + r, a miss.
+    assert ref.coverage[3, 0] == 0
+
+
+@pytest.mark.parametrize("attenuation", ["inverse_square", [1.0, 0.5, 0.25]])
+def test_attenuation_and_light_ambient(attenuation):
+    # Light 2 above the top of the unit sphere, seen from the side by an orthographic camera along −x?
+    # Simpler: perspective centre pixel, light on the axis at (0, 0, 3): d = 2, l = n = v = (0, 0, 1).
+    light = {"type": "point", "position": [0, 0, 3], "diffuse": 0.8, "specular": 1.0, "ambient": 0.3,
+             "attenuation": attenuation}
+    ref = analytic_reference(scene([{"shape": "icosphere"}], [light]))
+    weight = 0.25 if attenuation == "inverse_square" else min(1.0, 1 / (1 + 0.5 * 2 + 0.25 * 4))
+    expected = 0.1 + weight * (0.3 + 0.8 * KD + KS)  # r = v exactly: S = 1
+    np.testing.assert_allclose(ref.image[2, 2], expected, atol=HAND)
+
+
+def test_blinn_and_infinite_viewer():
+    # Infinite viewer: v = −forward = (0, 0, 1) even off-axis; centre pixel n = (0, 0, 1), l = (1, 1, 1)/√3,
+    # h = normalize(l + v), n·h = (1/√3 + 1) / |l + v|.
+    light = {"type": "point", "position": [2, 2, 3], "diffuse": 0.8, "specular": 1.0}
+    ref = analytic_reference(scene([{"shape": "icosphere"}], [light], specular="blinn", viewer="infinite"))
+    s = 1 / math.sqrt(3)
+    n_dot_h = (s + 1) / math.sqrt(2 * s * s + (s + 1) ** 2)
+    np.testing.assert_allclose(ref.image[2, 2], 0.1 + 0.8 * KD * s + KS * n_dot_h ** F, atol=HAND)
+
+
+@pytest.mark.parametrize("two_sided", [True, False])
+def test_plane_seen_from_below(two_sided):
+    # Camera below a plane (normal +y) looking up; light below too. Two-sided: n flips to (0, −1, 0), lit head-on.
+    camera = {"position": [0, -4, 0], "look_at": [0, 0, 0], "up": [0, 0, 1], "fov": 40}
+    light = {"type": "point", "position": [0, -3, 0], "diffuse": 0.8, "specular": 1.0}
+    ref = analytic_reference(scene([{"shape": "plane", "size": [4, 4]}], [light], camera, two_sided=two_sided))
+    expected = 0.1 + (0.8 * KD + KS if two_sided else 0)  # one-sided: n·l = −1 ≤ 0, ambient only
+    np.testing.assert_allclose(ref.image[2, 2], expected, atol=HAND)
+
+
+def test_global_mode_shadow_from_an_exact_sphere():
+    # A small sphere between a plane and an overhead light: the pixel under it gets ambient only.
+    # The centre ray runs from (0, 4, 4) to the origin, 1/√2 from the sphere's centre: it sees the plane.
+    camera = {"position": [0, 4, 4], "look_at": [0, 0, 0], "fov": 40}
+    light = {"type": "point", "position": [0, 3, 0], "diffuse": 0.8, "specular": 1.0}
+    objects = [{"shape": "plane", "size": [4, 4]}, {"shape": "icosphere", "radius": 0.05, "translate": [1, 1, 0]}]
+    lit = analytic_reference(scene(objects, [light], camera, mode="global"))
+    blocked = analytic_reference(scene([objects[0], {**objects[1], "translate": [0, 1, 0]}], [light], camera,
+                                       mode="global"))
+    assert lit.image[2, 2, 0] > 0.3
+    np.testing.assert_allclose(blocked.image[2, 2], 0.1 * np.ones(3), atol=HAND)  # ka I_a alone
+
+
+def test_samples_average_the_sub_pixel_rays():
+    light = {"type": "point", "position": [2, 2, 3], "diffuse": 0.8, "specular": 1.0}
+    one = analytic_reference(scene([{"shape": "icosphere"}], [light], size=(10, 10)))
+    two = analytic_reference(scene([{"shape": "icosphere"}], [light], size=(5, 5), samples=2))
+    np.testing.assert_allclose(two.image, one.image.reshape(5, 2, 5, 2, 3).mean(axis=(1, 3)), atol=1e-14)
+    np.testing.assert_allclose(two.coverage, one.coverage.reshape(5, 2, 5, 2).mean(axis=(1, 3)))
+
+
+def test_a_mesh_object_has_no_closed_form(tmp_path):
+    s = rp.validate_scene({"objects": [{"shape": "mesh", "path": "x.ply"}]}, source="scene.toml")
+    with pytest.raises(rp.SceneError, match=r'^scene.toml: objects.0.shape: "mesh" has no closed form; use --fine N$'):
+        analytic_reference(s, source="scene.toml")
+
+
+def test_fine_phong_mesh_converges_to_the_analytic_reference():
+    light = {"type": "point", "position": [2, 2, 3], "diffuse": 0.8, "specular": 1.0}
+    coarse = scene([{"shape": "icosphere", "subdivisions": 1}], [light], size=(48, 48))
+    exact = analytic_reference(coarse)
+    errors = []
+    for levels in (1, 3):
+        fine = fine_reference(coarse, levels)
+        both = (fine.coverage == 1) & (exact.coverage == 1)
+        errors.append(np.sqrt(((fine.image - exact.image)[both] ** 2).mean()))
+    assert errors[1] < errors[0] / 4 and errors[1] < 3e-3
+    assert ((mesh_coverage(coarse) > 0) != (exact.coverage > 0)).sum() > 0  # the 80-face silhouette differs
