@@ -292,5 +292,73 @@ def schema() -> None:
     typer.echo(json.dumps(scene_json_schema(), indent=2, ensure_ascii=False))
 
 
+@app.command(epilog="""
+**Examples**
+
+  raycast-phong batch scenes/ --out renders              # every scene in the folder, on all cores
+
+  raycast-phong batch "scenes/*.toml" sweeps/shading.toml --out renders --jobs 2
+
+  raycast-phong batch scenes/ --out renders --force      # render even the up-to-date ones
+
+  raycast-phong batch scenes/ --out renders --scheduler tcp://10.0.0.5:8786   # on a Dask cluster
+""")
+def batch(
+    paths: Annotated[list[str], typer.Argument(metavar="PATHS...", show_default=False, help="Scene files, folders "
+                     "(their .toml and .json files), globs (quoted) and sweep files (see docs/batch.md).")],
+    out: Annotated[Path, typer.Option("--out", help="Output folder: one image per scene, named after it, and "
+                   "manifest.json.", show_default=False)],
+    jobs: Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, max=256, help="Scenes rendered at once, "
+                    "each in its own worker process with one thread (default: cores). With 1, scenes render one "
+                    "after another in this process, each on all cores.")] = None,
+    force: Annotated[bool, typer.Option("--force", help="Render every scene, even those whose outputs are "
+                     "up to date.")] = False,
+    scheduler: Annotated[Optional[str], typer.Option(metavar="tcp://HOST:PORT", help="Run the renders on this "
+                         "Dask scheduler (pip install 'raycast-phong[distributed]'); scene files and the output "
+                         "folder must be at the same paths on its workers.")] = None,
+    srgb: Annotated[bool, typer.Option("--srgb", help="Encode PNG outputs with the sRGB curve.")] = False,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress and no summary; failures are still "
+                     "reported.")] = False,
+) -> None:
+    """Render many scene files into one folder, in parallel; skip those whose outputs are up to date.
+    A failing scene is reported (file and reason) and the others go on; exit status 1 if any failed."""
+    from raycast_phong import batch as batches
+    with exit_codes():
+        found = batches.find_jobs(paths)
+        report = _batch_with_progress(found, out, jobs, force, batches.Settings(srgb=srgb), scheduler, quiet)
+    for outcome in report.failed:
+        typer.secho(f"failed: {outcome.reason}", err=True, fg=typer.colors.RED)
+    if not quiet:
+        sheets = "".join(f"; contact sheet {out / name}" for name in report.sheets.values())
+        typer.echo(f"{len(report.outcomes)} scenes: {report.count(batches.RENDERED)} rendered, "
+                   f"{report.count(batches.UP_TO_DATE)} up to date, {len(report.failed)} failed in "
+                   f"{report.seconds:.2f}s; manifest {out / batches.MANIFEST}{sheets}")
+    if report.failed:
+        raise typer.Exit(code=1)
+
+
+def _batch_with_progress(found, out: Path, jobs: int | None, force: bool, settings, scheduler: str | None,
+                         quiet: bool):
+    """run_batch with a progress bar over the scenes on a terminal, one line per scene otherwise."""
+    from raycast_phong.batch import run_batch
+    options = dict(workers=jobs, force=force, settings=settings, scheduler=scheduler)
+    if quiet:
+        return run_batch(found, out, **options)
+    if not sys.stderr.isatty():
+        def line(outcome, done: int, total: int) -> None:
+            typer.echo(f"[{done}/{total}] {outcome.status}: {outcome.name}", err=True)
+        return run_batch(found, out, progress=line, **options)
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
+    with Progress(*columns, console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task("scenes", total=len(found))
+
+        def advance(outcome, done: int, total: int) -> None:
+            bar.update(task, completed=done, description=f"{outcome.status}: {outcome.name}")
+
+        return run_batch(found, out, progress=advance, **options)
+
+
 if __name__ == "__main__":
     app()

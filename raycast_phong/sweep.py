@@ -1,0 +1,250 @@
+"""Sweeps: one base scene and a grid of overrides, rendered as their product, and a labelled contact sheet.
+
+A sweep file is TOML with the base `scene` (relative to the sweep file), optional fixed overrides `set`,
+and a `[grid]` table whose every leaf is a list of values for that key path (docs/batch.md):
+
+    scene = "specular.toml"
+    set = ["render.width=160"]
+    [grid]
+    render.shading = ["flat", "gouraud", "phong"]
+    materials.f64.shininess = [8, 64]
+
+Each cell of the product is a batch Job named `<sweep>--<label>=<value>--…`. The contact sheet puts the
+last axis along the columns and the product of the others down the rows, in the grid's order.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import re
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .compare import BACKDROP, MIN_FONT, _draw_text, _fitting_size, _row_wording, layout
+from .film import srgb_encode
+from .image_io import ImageError, read_layer, text_coverage, write_image
+from .scene import SceneError
+
+SWEEP_KEYS = ("scene", "set", "grid")
+FAILED_RGB = (0.35, 0.06, 0.06)  # a failed cell: dark red, so it cannot pass for a black render
+ROW_LABEL_MIN = 240  # px: room for "shading=gouraud, shininess=512" at 12 px, however small the cells
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A parsed sweep file."""
+    path: Path
+    scene: Path                                  # the base scene file
+    fixed: tuple[str, ...]                       # overrides applied to every cell
+    axes: tuple[tuple[str, tuple[Any, ...]], ...]  # (key path, values) in the file's order
+
+    @property
+    def name(self) -> str:
+        return self.path.stem
+
+    def labels(self) -> list[str]:
+        """Each axis's short name: the key's last part, or the whole path where two axes share a last part."""
+        last = [key.rsplit(".", 1)[-1] for key, _ in self.axes]
+        return [part if last.count(part) == 1 else key for part, (key, _) in zip(last, self.axes)]
+
+    def jobs(self) -> list:
+        """The product of the axes as batch Jobs, the last axis varying fastest."""
+        from .batch import Job
+        labels = self.labels()
+        jobs = []
+        for values in itertools.product(*(values for _, values in self.axes)):
+            texts = [toml_value(value) for value in values]
+            cell = tuple((label, slug(text)) for label, text in zip(labels, texts))
+            name = "--".join([self.name, *(f"{label}={value}" for label, value in cell)])
+            overrides = (*self.fixed, *(f"{key}={text}" for (key, _), text in zip(self.axes, texts)))
+            jobs.append(Job(name=name, scene=self.scene, overrides=overrides, sweep=self.name, cell=cell))
+        return jobs
+
+
+def is_sweep(path: Path) -> bool:
+    """A TOML file with a top-level `grid` table (a scene file never has one)."""
+    if path.suffix.lower() != ".toml":
+        return False
+    try:
+        return "grid" in tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return False  # the scene loader reports the file's problem
+
+
+def load_sweep(path: str | Path) -> Sweep:
+    """Read and check a sweep file; every problem is one SceneError naming the file and the key."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as error:
+        raise SceneError(f"{path}: cannot read the sweep file ({error})") from None
+    except tomllib.TOMLDecodeError as error:
+        raise SceneError(f"{path}: TOML syntax error: {error}") from None
+    unknown = [key for key in data if key not in SWEEP_KEYS]
+    if unknown:
+        raise SceneError(f"{path}: {unknown[0]}: unknown key; a sweep file has {', '.join(SWEEP_KEYS)}")
+    if not isinstance(data.get("scene"), str):
+        raise SceneError(f"{path}: scene: must be the base scene file, a string relative to the sweep file")
+    fixed = data.get("set", [])
+    if not isinstance(fixed, list) or not all(isinstance(item, str) and "=" in item for item in fixed):
+        raise SceneError(f'{path}: set: must be a list of "key.path=value" strings, e.g. ["render.width=160"]')
+    if not isinstance(data["grid"], dict) or not data["grid"]:
+        raise SceneError(f'{path}: grid: must be a table of key paths and value lists, e.g. '
+                         'render.shading = ["flat", "phong"]')
+    axes = []
+    for key, values in _leaves(data["grid"]):
+        if not isinstance(values, list) or not values:
+            raise SceneError(f"{path}: grid.{key}: must be a non-empty list of values, got {json.dumps(values)}")
+        axes.append((key, tuple(values)))
+    return Sweep(path=path, scene=path.parent / data["scene"], fixed=tuple(fixed), axes=tuple(axes))
+
+
+def _leaves(table: dict, prefix: str = "") -> list[tuple[str, Any]]:
+    """A nested TOML table (dotted keys make tables) flattened back into (key path, value) pairs."""
+    out = []
+    for key, value in table.items():
+        if isinstance(value, dict):
+            out += _leaves(value, f"{prefix}{key}.")
+        else:
+            out.append((f"{prefix}{key}", value))
+    return out
+
+
+def toml_value(value: Any) -> str:
+    """A value as TOML text, as apply_override reads it: "flat", 8, 0.5, true, [1, 0, 0]."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, list):
+        return "[" + ", ".join(toml_value(item) for item in value) + "]"
+    return json.dumps(value, ensure_ascii=False)  # a JSON string is a TOML basic string
+
+
+def slug(text: str) -> str:
+    """A value's TOML text made safe for a file name: brackets, quotes and blanks dropped, others → '-'."""
+    text = re.sub(r"[\[\]\"' ]", "", text)
+    return re.sub(r"[^A-Za-z0-9._,+=-]", "-", text) or "empty"
+
+
+# ---------------------------------------------------------------- contact sheet
+
+
+@dataclass(frozen=True)
+class SheetLayout:
+    """Where each cell of a contact sheet sits, in pixels (x to the right, y down).
+
+    Cells of W×H; gap g and label strip s from compare.layout (font f = clamp(round(H / 10), 10, 32),
+    g = f // 2, s = f + f // 2); L the widest row label (0 for a single row). Column labels sit in the
+    strip at y = g; cell (r, c) at x = x0 + c·(W + g), y = g + s + r·(H + g), with x0 = g (+ L + g with
+    row labels, which sit at x = g). Size: x0 + C·(W + g) wide, g + s + R·(H + g) high.
+    """
+    rows: int
+    columns: int
+    width: int        # W, one cell
+    height: int       # H
+    font: int
+    gap: int
+    strip: int
+    label_width: int  # L
+
+    @property
+    def left(self) -> int:
+        return self.gap + (self.label_width + self.gap if self.label_width else 0)
+
+    @property
+    def image_width(self) -> int:
+        return self.left + self.columns * (self.width + self.gap)
+
+    @property
+    def image_height(self) -> int:
+        return self.gap + self.strip + self.rows * (self.height + self.gap)
+
+    def origin(self, row: int, column: int) -> tuple[int, int]:
+        """(x, y) of cell (row, column)'s top-left pixel."""
+        return self.left + column * (self.width + self.gap), self.gap + self.strip + row * (self.height + self.gap)
+
+
+def sheet_layout(rows: int, columns: int, width: int, height: int, row_labels: list[str]) -> SheetLayout:
+    """The SheetLayout for a rows × columns grid of width × height cells; row labels at most
+    max(2 W, ROW_LABEL_MIN) wide, so that labels of small cells stay legible."""
+    base = layout(columns, width, height)
+    label_width = 0
+    if rows > 1:
+        room = max(2 * width, ROW_LABEL_MIN)
+        size = min((_fitting_size(text, base.font, room) or MIN_FONT) for text in row_labels)
+        drawn = [text_coverage(text, size) for text in row_labels]
+        label_width = min(max((d.shape[1] for d in drawn if d is not None), default=0), room)
+    return SheetLayout(rows=rows, columns=columns, width=width, height=height, font=base.font, gap=base.gap,
+                       strip=base.strip, label_width=label_width)
+
+
+def compose_sheet(cells: list[tuple[tuple[str, str], ...]], images: list[np.ndarray | None]) -> tuple[np.ndarray,
+                                                                                                       SheetLayout]:
+    """Cells (their (label, value) per axis, in product order) and their (h, w, 3) display images (None: failed)
+    → the (image_height, image_width, 3) float32 sheet and its layout."""
+    columns = len(dict.fromkeys(cell[-1] for cell in cells))
+    rows = len(cells) // columns
+    shapes = [image.shape[:2] for image in images if image is not None] or [(16, 16)]
+    height, width = max(h for h, _ in shapes), max(w for _, w in shapes)
+    row_labels = [", ".join(f"{label}={value}" for label, value in cells[r * columns][:-1]) for r in range(rows)]
+    grid = sheet_layout(rows, columns, width, height, row_labels)
+    canvas = np.full((grid.image_height, grid.image_width, 3), BACKDROP, np.float32)
+    for index, image in enumerate(images):
+        row, column = divmod(index, columns)
+        x, y = grid.origin(row, column)
+        if image is None:
+            canvas[y:y + height, x:x + width] = FAILED_RGB
+            _draw_text(canvas, "failed", (x, y, width, height), grid.font, align="center")
+        else:
+            canvas[y:y + image.shape[0], x:x + image.shape[1]] = image
+    # Column labels over the first row; row labels left of each row.
+    # Column labels read "label=value", or the value alone when any of them would not fit.
+    texts, size = _row_wording([(f"{label}={value}", value) for label, value in (cells[c][-1] for c in range(columns))],
+                               grid.font, width)
+    for column, text in enumerate(texts):
+        _draw_text(canvas, text, (grid.origin(0, column)[0], grid.gap, width, grid.strip), size, align="center")
+    for row, text in enumerate(row_labels if grid.label_width else []):
+        size = _fitting_size(text, grid.font, grid.label_width) or grid.font
+        _draw_text(canvas, text, (grid.gap, grid.origin(row, 0)[1], grid.label_width, height), size)
+    return canvas, grid
+
+
+def write_contact_sheets(jobs: list, report, settings, force: bool) -> dict[str, str]:
+    """For each sweep in the batch, DIR/<sweep>-contact.png, rewritten when a cell rendered or it is missing.
+
+    Returns sweep name → sheet file name. Cells are read back from their files: a PNG as stored, an EXR as the
+    PNG writer would show it (clamped, sRGB-encoded with --srgb).
+    """
+    by_name = {outcome.name: outcome for outcome in report.outcomes}
+    sheets: dict[str, str] = {}
+    for sweep in dict.fromkeys(job.sweep for job in jobs if job.sweep):
+        members = [job for job in jobs if job.sweep == sweep]
+        path = report.folder / f"{sweep}-contact.png"
+        if path.is_file() and not force and all(by_name[job.name].status != "rendered" for job in members):
+            sheets[sweep] = path.name
+            continue
+        images = []
+        for job in members:
+            outcome = by_name[job.name]
+            if outcome.status == "failed" or not outcome.outputs:
+                images.append(None)
+                continue
+            output = report.folder / outcome.outputs[0]
+            try:
+                image = np.asarray(read_layer(output), np.float32)
+            except ImageError:
+                images.append(None)
+                continue
+            if output.suffix.lower() == ".exr" and settings.srgb:
+                image = srgb_encode(image)
+            images.append(np.clip(image, 0.0, 1.0))
+        canvas, _ = compose_sheet([job.cell for job in members], images)
+        write_image(path, canvas)
+        sheets[sweep] = path.name
+    return sheets
