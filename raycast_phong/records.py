@@ -101,3 +101,23 @@ class RenderResult:
     @property
     def rays_per_second(self) -> float:
         return self.rays / max(self.timings.get("frame", 0.0), 1e-12)
+
+
+@dataclass(frozen=True)
+class ImageErrors:
+    """A render measured against a reference (metrics.measure); errors in linear display values."""
+    rmse: float              # root mean square over the RGB values of the pixels both images cover
+    max_error: float         # largest |render − reference| over those values
+    psnr: float              # 20 log10(1 / rmse), dB; inf for identical images
+    mae: float               # mean |render − reference| over those values
+    silhouette_pixels: int   # pixels whose coverage differs: covered by one and not (or less) the other
+    highlight_loss: float    # share of the reference's specular peak the render misses, 0..1; nan without one
+    compared_pixels: int     # pixels both cover fully (the set rmse, max_error, mae are taken over)
+    reference: str = "analytic"  # "analytic" or "fine N"
+
+
+@dataclass(frozen=True, eq=False)
+class MeasuredResult(RenderResult):
+    """A RenderResult that also carries its errors against a reference (render(..., reference=...))."""
+    errors: ImageErrors | None = None
+    reference_seconds: float = 0.0   # time to compute the reference (not part of timings)
