@@ -322,7 +322,10 @@ def batch(
 ) -> None:
     """Render many scene files into one folder, in parallel; skip those whose outputs are up to date.
     A failing scene is reported (file and reason) and the others go on; exit status 1 if any failed."""
+    import signal
     from raycast_phong import batch as batches
+    # `kill` (SIGTERM) unwinds like Ctrl-C: temporary files are removed and running workers finish or stop.
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(128 + signal.SIGTERM))
     with exit_codes():
         found = batches.find_jobs(paths)
         report = _batch_with_progress(found, out, jobs, force, batches.Settings(srgb=srgb), scheduler, quiet)

@@ -1,0 +1,247 @@
+"""`raycast-phong batch`: failure isolation, the manifest, the up-to-date check, atomic outputs, sweeps.
+
+Scenes are 16×16, so the in-process tests take milliseconds; one test starts a worker pool (--jobs 2) and
+one kills a batch in a subprocess, about a second each.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import raycast_phong as rp
+from cli import app
+from raycast_phong import batch
+from raycast_phong.sweep import compose_sheet, load_sweep
+
+runner = CliRunner()
+ROOT = Path(__file__).resolve().parents[1]
+
+SCENE = """\
+[render]
+width = {size}
+height = {size}
+samples = {samples}
+
+[[lights]]
+position = [2, 2, 3]
+
+[materials.red]
+kd = [0.9, 0.2, 0.2]
+shininess = 32
+
+[[objects]]
+shape = "{shape}"
+{extra}
+material = "red"
+"""
+# A tetrahedron: the smallest closed mesh, written as text so the test needs no mesh library.
+TETRAHEDRON = "v 1 1 1\nv -1 -1 1\nv -1 1 -1\nv 1 -1 -1\nf 1 2 3\nf 1 4 2\nf 1 3 4\nf 2 4 3\n"
+
+
+def scene_text(shape: str = "icosphere", extra: str = "subdivisions = 1", size: int = 16, samples: int = 1) -> str:
+    return SCENE.format(shape=shape, extra=extra, size=size, samples=samples)
+
+
+@pytest.fixture
+def five_scenes(tmp_path: Path) -> Path:
+    """Four good scenes (one of them a mesh) and one whose mesh file is missing."""
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    for index in range(3):
+        (folder / f"sphere{index}.toml").write_text(scene_text(extra=f"subdivisions = {index + 1}"))
+    (folder / "tetra.obj").write_text(TETRAHEDRON)
+    (folder / "mesh.toml").write_text(scene_text(shape="mesh", extra='path = "tetra.obj"'))
+    (folder / "broken.toml").write_text(scene_text(shape="mesh", extra='path = "missing.obj"'))
+    return folder
+
+
+def run(*args: str):
+    return runner.invoke(app, ["batch", *args])
+
+
+def images(folder: Path) -> list[Path]:
+    """The visible images (pathlib's glob also matches write_image's hidden temporaries)."""
+    return sorted(p for p in folder.glob("*.png") if not p.name.startswith(".")) if folder.is_dir() else []
+
+
+def manifest(folder: Path) -> dict:
+    return json.loads((folder / "manifest.json").read_text())["scenes"]
+
+
+def statuses(folder: Path) -> dict[str, str]:
+    return {name: entry["status"] for name, entry in manifest(folder).items()}
+
+
+def test_a_broken_scene_is_reported_and_the_others_render(five_scenes, tmp_path):
+    out = tmp_path / "out"
+    result = run(str(five_scenes), "--out", str(out), "--jobs", "1")
+    assert result.exit_code == 1
+    assert sorted(p.name for p in out.glob("*.png")) == ["mesh.png", "sphere0.png", "sphere1.png", "sphere2.png"]
+    entries = manifest(out)
+    assert entries["broken"]["status"] == "failed"
+    assert entries["broken"]["reason"] == f"{five_scenes / 'broken.toml'}: objects.0.path: no such mesh file " \
+                                          f"'{five_scenes / 'missing.obj'}'"
+    assert f"failed: {entries['broken']['reason']}" in result.stderr
+    good = entries["sphere1"]
+    assert good["status"] == "rendered" and good["outputs"] == ["sphere1.png"] and good["hash"].startswith("sha256:")
+    assert {"load", "geometry", "build", "rays", "shade", "frame", "write", "total"} <= set(good["seconds"])
+    assert good["rays_per_second"] > 0
+    assert "5 scenes: 4 rendered, 0 up to date, 1 failed" in result.stdout
+
+
+def test_a_rerun_renders_only_what_changed(five_scenes, tmp_path):
+    out = tmp_path / "out"
+    run(str(five_scenes), "--out", str(out), "--jobs", "1")
+    written = {p.name: p.stat().st_mtime_ns for p in out.glob("*.png")}
+    # Unchanged: nothing renders, no image is rewritten; the broken scene is tried again and fails again.
+    assert run(str(five_scenes), "--out", str(out), "--jobs", "1").exit_code == 1
+    assert statuses(out) == {"broken": "failed", "mesh": "up to date", "sphere0": "up to date",
+                             "sphere1": "up to date", "sphere2": "up to date"}
+    assert {p.name: p.stat().st_mtime_ns for p in out.glob("*.png")} == written
+    # A changed scene file (a comment is enough: the hash is of the bytes) renders that scene only.
+    with open(five_scenes / "sphere0.toml", "a") as scene:
+        scene.write("# edited\n")
+    run(str(five_scenes), "--out", str(out), "--jobs", "1")
+    assert [name for name, status in statuses(out).items() if status == "rendered"] == ["sphere0"]
+    # So does a changed mesh file, for the scene that reads it.
+    (five_scenes / "tetra.obj").write_text(TETRAHEDRON.replace("v 1 1 1", "v 1 1 1.5"))
+    run(str(five_scenes), "--out", str(out), "--jobs", "1")
+    assert [name for name, status in statuses(out).items() if status == "rendered"] == ["mesh"]
+    # --force renders everything; a deleted output is rendered again.
+    run(str(five_scenes), "--out", str(out), "--jobs", "1", "--force")
+    assert list(statuses(out).values()).count("rendered") == 4
+    (out / "sphere2.png").unlink()
+    run(str(five_scenes), "--out", str(out), "--jobs", "1")
+    assert [name for name, status in statuses(out).items() if status == "rendered"] == ["sphere2"]
+
+
+def test_worker_processes_write_the_same_images(five_scenes, tmp_path):
+    """--jobs 2 (a process pool, one render thread each) and --jobs 1 give identical files."""
+    assert run(str(five_scenes), "--out", str(tmp_path / "one"), "--jobs", "1").exit_code == 1
+    assert run(str(five_scenes), "--out", str(tmp_path / "two"), "--jobs", "2").exit_code == 1
+    names = sorted(p.name for p in (tmp_path / "one").glob("*.png"))
+    assert names == sorted(p.name for p in (tmp_path / "two").glob("*.png")) and len(names) == 4
+    for name in names:
+        assert (tmp_path / "one" / name).read_bytes() == (tmp_path / "two" / name).read_bytes(), name
+    assert statuses(tmp_path / "two")["broken"] == "failed"
+
+
+def test_paths_globs_and_duplicate_names(five_scenes, tmp_path):
+    found = batch.find_jobs([str(five_scenes / "sphere*.toml"), five_scenes / "mesh.toml"])
+    assert [job.name for job in found] == ["sphere0", "sphere1", "sphere2", "mesh"]
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "mesh.toml").write_text(scene_text())
+    result = run(str(five_scenes), str(other), "--out", str(tmp_path / "out"))
+    assert result.exit_code == 2
+    assert "mesh.toml: its output name 'mesh' is also" in result.stderr
+    result = run(str(tmp_path / "nothing-*.toml"), "--out", str(tmp_path / "out"))
+    assert result.exit_code == 2 and "no such scene file, folder or matching glob" in result.stderr
+
+
+def test_leftover_temporary_files_are_removed(five_scenes, tmp_path):
+    """A writer killed hard (SIGKILL) can leave write_image's hidden temporary; the next run deletes it."""
+    out = tmp_path / "out"
+    out.mkdir()
+    stale = [out / ".sphere0-abcd1234.png", out / ".manifest-x1y2z3w4.json"]
+    for path in stale:
+        path.write_bytes(b"half an image")
+    keep = out / ".unrelated-12345678.png"  # not a name of this batch: left alone
+    keep.write_bytes(b"")
+    run(str(five_scenes), "--out", str(out), "--jobs", "1")
+    assert not any(path.exists() for path in stale) and keep.exists()
+
+
+def test_a_killed_batch_leaves_no_partial_image_and_a_rerun_completes_it(tmp_path):
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    count = 8
+    for index in range(count):  # 192×192 with 3×3 samples: ~0.1 s each, so the kill lands mid-batch
+        (folder / f"s{index}.toml").write_text(scene_text(extra="subdivisions = 3", size=192, samples=3))
+    out = tmp_path / "out"
+    command = [sys.executable, "-m", "cli", "batch", str(folder), "--out", str(out), "--jobs", "1"]
+    process = subprocess.Popen(command, cwd=ROOT, start_new_session=True, stdout=subprocess.DEVNULL,
+                               stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 60
+    while not images(out) and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert process.poll() is None, process.communicate()[1].decode()
+    os.killpg(process.pid, signal.SIGTERM)
+    process.wait(timeout=30)
+    leftovers = [p.name for p in out.iterdir() if p.name.startswith(".")]
+    assert leftovers == [], leftovers
+    finished = images(out)
+    assert 1 <= len(finished) < count, "the batch finished before the kill; make the scenes slower"
+    for path in finished:  # every visible image is whole
+        assert rp.read_image(path)[0].shape == (192, 192, 3)
+    result = run(str(folder), "--out", str(out), "--jobs", "1")
+    assert result.exit_code == 0
+    assert len(images(out)) == count
+    assert list(statuses(out).values()).count("up to date") >= len(finished) - 1  # the last may predate its entry
+
+
+SWEEP = """\
+scene = "base.toml"
+set = ["render.width=12", "render.height=10"]
+
+[grid]
+render.shading = ["flat", "gouraud", "phong"]
+materials.red.shininess = [8, 512]
+objects.0.subdivisions = [1, 3]
+"""
+
+
+def test_a_sweep_renders_the_product_and_a_contact_sheet(tmp_path):
+    (tmp_path / "base.toml").write_text(scene_text())
+    (tmp_path / "shading.toml").write_text(SWEEP)
+    out = tmp_path / "out"
+    result = run(str(tmp_path / "shading.toml"), "--out", str(out), "--jobs", "1")
+    assert result.exit_code == 0, result.stderr
+    images = sorted(p.name for p in out.glob("shading--*.png"))
+    assert len(images) == 12
+    assert "shading--shading=gouraud--shininess=512--subdivisions=3.png" in images
+    sheet = rp.read_image(out / "shading-contact.png")[0]
+    # 6 rows (shading × shininess) by 2 columns (subdivisions, the last axis), as compose_sheet lays them out.
+    jobs = load_sweep(tmp_path / "shading.toml").jobs()
+    cells = [rp.read_image(out / f"{job.name}.png")[0] for job in jobs]
+    expected, grid = compose_sheet([job.cell for job in jobs], cells)
+    assert (grid.rows, grid.columns, grid.width, grid.height) == (6, 2, 12, 10)
+    assert sheet.shape == (grid.image_height, grid.image_width, 3) == expected.shape
+    for index, cell in enumerate(cells):
+        x, y = grid.origin(*divmod(index, 2))
+        np.testing.assert_array_equal(sheet[y:y + 10, x:x + 12], cell)
+    assert json.loads((out / "manifest.json").read_text())["sheets"] == {"shading": "shading-contact.png"}
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ('scene = "base.toml"\n[grid]\nrender.shading = "flat"\n', "grid.render.shading: must be a non-empty list"),
+    ('scene = "base.toml"\nsweep = 1\n[grid]\nrender.shading = ["flat"]\n', "sweep: unknown key"),
+    ('[grid]\nrender.shading = ["flat"]\n', "scene: must be the base scene file"),
+])
+def test_a_bad_sweep_file_exits_2_naming_the_key(tmp_path, text, message):
+    (tmp_path / "base.toml").write_text(scene_text())
+    (tmp_path / "bad.toml").write_text(text)
+    result = run(str(tmp_path / "bad.toml"), "--out", str(tmp_path / "out"))
+    assert result.exit_code == 2
+    assert result.stderr.strip() == f"error: {tmp_path / 'bad.toml'}: {message}" or message in result.stderr
+
+
+def test_a_bad_sweep_value_fails_that_cell_only(tmp_path):
+    (tmp_path / "base.toml").write_text(scene_text())
+    (tmp_path / "widths.toml").write_text('scene = "base.toml"\n[grid]\nrender.width = [8, 0]\n')
+    out = tmp_path / "out"
+    result = run(str(tmp_path / "widths.toml"), "--out", str(out), "--jobs", "1")
+    assert result.exit_code == 1
+    assert statuses(out) == {"widths--width=8": "rendered", "widths--width=0": "failed"}
+    assert "render.width: out of range" in manifest(out)["widths--width=0"]["reason"]
+    assert (out / "widths-contact.png").is_file()
