@@ -80,6 +80,8 @@ def render(
                     "storing the model's display values as they are.")] = False,
     threads: Annotated[Optional[int], typer.Option(min=1, max=64, help="Worker threads (default: cores).")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar and no summary line.")] = False,
+    reference: Annotated[Optional[ReferenceKind], typer.Option(help="Also measure the render against the exact "
+                         "surfaces (docs/accuracy.md): print RMSE, max error and PSNR beside the timing line.")] = None,
 ) -> None:
     """Render a scene file (or the built-in default scene) to a PNG or EXR image."""
     overrides = [*scene_overrides({"render.shading": shading, "render.specular": specular, "render.mode": mode,
@@ -100,7 +102,11 @@ def render(
         if loaded.output.aovs and Path(output).suffix.lower() != ".exr":
             fail(f"{path}: output.aovs: {list(loaded.output.aovs)} need an .exr output, but -o {output} is a PNG "
                  "(a PNG holds only RGB)")
+        if reference is not None:
+            ExactScene(loaded, str(path))  # a mesh has no closed form: refuse before rendering
         result = _render_with_progress(loaded, str(path), threads, quiet)
+        if reference is not None:
+            result = measured(loaded, result, reference.value, 2, str(path))
         started = time.perf_counter()
         rp.write_image(output, result.image, result.aovs, srgb=srgb)
         result.timings["write"] = time.perf_counter() - started
@@ -109,6 +115,8 @@ def render(
         for warning in result.plan.warnings:
             typer.secho(f"warning: {warning}", err=True, fg=typer.colors.YELLOW)
         typer.echo(summary_line(result, output))
+        if reference is not None:
+            typer.echo(error_line(result.errors, result.reference_seconds))
 
 
 @contextmanager
@@ -361,6 +369,128 @@ def _batch_with_progress(found, out: Path, jobs: int | None, force: bool, settin
             bar.update(task, completed=done, description=f"{outcome.status}: {outcome.name}")
 
         return run_batch(found, out, progress=advance, **options)
+
+
+# ---------------------------------------------------------------- accuracy: reference and study (docs/accuracy.md)
+
+from raycast_phong.reference import ExactScene, ReferenceKind  # noqa: E402  (kept beside the commands that use them)
+from raycast_phong.render import measured  # noqa: E402
+
+
+def error_line(errors, seconds: float) -> str:
+    """One line: RMSE, max and PSNR against the reference, and the silhouette and highlight figures."""
+    return (f"against the {errors.reference} reference: RMSE {errors.rmse:.5f}, max {errors.max_error:.4f}, "
+            f"PSNR {errors.psnr:.1f} dB over {errors.compared_pixels:,} pixels both cover; "
+            f"{errors.silhouette_pixels:,} silhouette pixels, highlight loss {errors.highlight_loss:.3f} "
+            f"(reference {seconds:.3f}s)")
+
+
+@app.command("reference", epilog="""
+**Examples**
+
+  raycast-phong reference scenes/default.toml -o ref.exr        # exact spheres, float64
+
+  raycast-phong reference scenes/mesh.toml --fine 2 -o ref.exr  # a mesh: Loop-subdivided twice, Phong, float64
+""")
+def reference_command(
+    scene: SceneArgument = None,
+    output: Annotated[Path, typer.Option("--output", "-o", help="Image to write (.exr keeps float values; "
+                      ".png is clamped to 8 bits).")] = Path("reference.exr"),
+    fine: Annotated[Optional[int], typer.Option(min=1, max=6, help="Self-convergence reference instead: every "
+                    "mesh Loop-subdivided N times and every shape N levels finer, Phong shading, float64. "
+                    "The only choice for a scene with a mesh file.")] = None,
+    set_: SetOption = [],
+) -> None:
+    """Render the analytic reference: the same camera, lights, materials and model on the exact sphere,
+    plane, box, cylinder and torus, in float64, with the true normal."""
+    from raycast_phong.reference import reference_image
+    with exit_codes():
+        path = scene or rp.default_scene_path()
+        loaded = rp.load_scene(path, set_)
+        check_output_path(output)
+        started = time.perf_counter()
+        exact = reference_image(loaded, str(path), fine=fine)
+        seconds = time.perf_counter() - started
+        rp.write_image(output, exact.image.astype("float32"))
+    h, w = exact.image.shape[:2]
+    typer.echo(f"{output}: {w}×{h} {exact.kind} reference in {seconds:.3f}s")
+
+
+def _numbers(text: str | None, kind: type, option: str) -> tuple | None:
+    """'0,1,2' → (0, 1, 2); None stays None; a bad item exits 2 naming the option."""
+    if text is None:
+        return None
+    try:
+        return tuple(kind(item) for item in text.split(",") if item.strip())
+    except ValueError:
+        fail(f"{option}: expected numbers separated by commas, got {text!r}")
+
+
+@app.command(epilog="""
+**Examples**
+
+  raycast-phong study scenes/default.toml --out study/          # 3 models × levels 0-3, 3 repeats
+
+  raycast-phong study --levels 0,1,2,3,4 --precision float32,float64 --out study/
+
+  raycast-phong study scenes/specular.toml --shininess 10,100,1000 --models gouraud,phong --out stiff/
+""")
+def study(
+    scene: SceneArgument = None,
+    out: Annotated[Path, typer.Option("--out", help="Folder for study.csv, error_vs_time.png, summary.md.")
+                   ] = Path("study"),
+    levels: Annotated[str, typer.Option(help="Tessellation levels (docs/accuracy.md: icosphere subdivisions, "
+                      "segments 8·2^L, meshes Loop-subdivided L times).")] = "0,1,2,3",
+    models: Annotated[str, typer.Option(help="Shading models.")] = "flat,gouraud,phong",
+    specular: Annotated[Optional[str], typer.Option(help="Specular models, e.g. phong,blinn (default: the "
+                        "scene's).")] = None,
+    precision: Annotated[Optional[str], typer.Option(help="float32,float64 (default: the scene's).")] = None,
+    samples: Annotated[Optional[str], typer.Option(help="Samples per pixel side, e.g. 1,2 (default: the "
+                       "scene's).")] = None,
+    shininess: Annotated[Optional[str], typer.Option(help="Set every material's f, e.g. 10,100,1000.")] = None,
+    repeats: Annotated[int, typer.Option(min=1, max=50, help="Renders per combination; the median time counts.")] = 3,
+    fine: Annotated[Optional[int], typer.Option(min=1, max=6, help="Measure against a self-convergence "
+                    "reference N levels finer (needed for mesh files).")] = None,
+    target: Annotated[float, typer.Option(help="The RMSE the advice in summary.md aims for.")] = 0.005,
+    width: Annotated[Optional[int], typer.Option(help="render.width in pixels, 1..16384.")] = None,
+    height: Annotated[Optional[int], typer.Option(help="render.height in pixels, 1..16384.")] = None,
+    set_: SetOption = [],
+) -> None:
+    """Work-precision study: render every combination, time it, measure it against the reference;
+    write the CSV, the error-against-time plot and a summary with the fitted convergence orders."""
+    from raycast_phong import study as sweep
+
+    def choices(text: str | None, enum, option: str) -> tuple | None:
+        if text is None:
+            return None
+        allowed = [e.value for e in enum]
+        items = [item.strip() for item in text.split(",") if item.strip()]
+        for item in items:
+            if item not in allowed:
+                fail(f"{option}: {item!r} is not one of {', '.join(allowed)}")
+        return tuple(enum(item) for item in items)
+
+    for item in (precision or "").split(","):
+        if item.strip() and item.strip() not in ("float32", "float64"):
+            fail(f"--precision: {item.strip()!r} is not one of float32, float64")
+    options = sweep.StudyOptions(
+        levels=_numbers(levels, int, "--levels"), models=choices(models, ShadingModel, "--models"),
+        speculars=choices(specular, SpecularModel, "--specular"),
+        precisions=tuple(p.strip() for p in precision.split(",") if p.strip()) if precision else None,
+        samples=_numbers(samples, int, "--samples"), shininess=_numbers(shininess, float, "--shininess"),
+        repeats=repeats, fine=fine, target=target)
+    overrides = [*scene_overrides({"render.width": width, "render.height": height}), *set_]
+    with exit_codes():
+        path = scene or rp.default_scene_path()
+        result = sweep.run_study(path, overrides, options)
+        written = sweep.write_study(result, out)
+    for fit in result.fits:
+        typer.echo(f"{fit.model:8} {fit.group}: order {fit.order:.2f} (theory {fit.theory:g})")
+    typer.echo(sweep.advice(result))
+    typer.echo(f"{written['csv']}: {len(result.rows)} renders; {written['summary']}"
+               + (f"; {written['plot']}" if written["plot"] else ""))
+    if written["plot"] is None:
+        typer.secho(f"note: no plot: {sweep.PLOT_HINT}", err=True, fg=typer.colors.YELLOW)
 
 
 if __name__ == "__main__":
