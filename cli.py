@@ -493,5 +493,49 @@ def study(
         typer.secho(f"note: no plot: {sweep.PLOT_HINT}", err=True, fg=typer.colors.YELLOW)
 
 
+@app.command("compare", epilog="""
+**Examples**
+
+  raycast-phong compare render.png reference.png                 # any pixel off by > 1e-6 fails
+
+  raycast-phong compare a.exr b.exr --fail 1e-3 --fail-percent 0.2 --diff diff.png
+
+  raycast-phong compare a.png b.png --fail 0.02 --warn 0.004     # 5 and 1 8-bit steps
+""")
+def compare_images(
+    a: Annotated[Path, typer.Argument(help="First image (.png, .exr, any format OpenImageIO reads).",
+                                      show_default=False)],
+    b: Annotated[Path, typer.Argument(help="Second image, of the same size.", show_default=False)],
+    diff: Annotated[Optional[Path], typer.Option("--diff", help="Write a heat map of max over channels of "
+                    "|A − B| (black 0, pale yellow the largest difference).")] = None,
+    fail_: Annotated[float, typer.Option("--fail", min=0.0, help="A pixel fails when a channel differs by more.")
+                     ] = 1e-6,
+    warn: Annotated[float, typer.Option("--warn", min=0.0, help="A pixel warns when a channel differs by more.")
+                    ] = 1e-6,
+    fail_percent: Annotated[float, typer.Option("--fail-percent", min=0.0, max=100.0, help="The comparison fails "
+                            "only when more than this percentage of pixels fail.")] = 0.0,
+) -> None:
+    """Compare two images as idiff does: mean, RMS, PSNR, the largest error and where. Exit status 0 pass
+    (warnings included), 1 fail, 2 unreadable input or different sizes."""
+    from raycast_phong.image_io import compare_files
+    with exit_codes():
+        found = compare_files(a, b, fail_, warn)
+        if diff is not None:
+            difference = compare.difference(found.a, found.b)
+            rp.write_image(diff, compare.heat_map(difference, float(difference.max())))
+    (x, y), channel = found.max_at, found.max_channel
+    typer.echo(f"mean error {found.mean:.6g}, RMS error {found.rms:.6g}, PSNR {found.psnr:.2f} dB, "
+               f"max error {found.max:.6g} at pixel ({x}, {y}) channel {channel}")
+    share = 100.0 * found.failed / max(found.pixels, 1)
+    counts = (f"{found.failed} of {found.pixels} pixels ({share:.3g}%) over --fail {fail_:g}, "
+              f"{found.warned} over --warn {warn:g}")
+    if diff is not None:
+        counts += f"; heat map {diff}"
+    if share > fail_percent:
+        typer.secho(f"FAILURE: {counts} (allowed {fail_percent:g}%)", fg=typer.colors.RED)
+        raise typer.Exit(code=1)
+    typer.echo(f"{'WARNING' if found.warned else 'PASS'}: {counts}")
+
+
 if __name__ == "__main__":
     app()

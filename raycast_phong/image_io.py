@@ -1,5 +1,5 @@
 """The only OpenImageIO importer: write PNG (8-bit) and EXR (float32, with extra layers and parts); read
-back; rasterise a line of label text.
+back; compare two image files (ImageBufAlgo.compare); rasterise a line of label text.
 
 Every write goes to a temporary file in the target folder and is renamed over the target only when
 complete, so a failure never leaves a half-written image over a good one.
@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -179,3 +180,47 @@ def text_coverage(text: str, size: int) -> np.ndarray | None:
         buffer.geterror()
         return None
     return np.asarray(buffer.get_pixels(oiio.FLOAT), np.float32)[:, :, 0]
+
+
+# ---------------------------------------------------------------- comparison
+
+
+@dataclass(frozen=True, eq=False)
+class ImageComparison:
+    """OpenImageIO's comparison of two images of one size (ImageBufAlgo.compare), and their pixels."""
+    mean: float                  # mean |a − b| over every pixel and channel
+    rms: float                   # root mean square of a − b
+    psnr: float                  # 20·log10(1 / rms) dB; inf for identical images
+    max: float                   # largest |a − b|
+    max_at: tuple[int, int]      # (x, y) of that pixel
+    max_channel: int             # and its channel
+    warned: int                  # pixels with some channel above the warn threshold
+    failed: int                  # pixels with some channel above the fail threshold
+    pixels: int                  # width × height
+    a: np.ndarray                # (H, W, C) float32
+    b: np.ndarray                # (H, W, C) float32
+
+
+def compare_files(a: str | Path, b: str | Path, fail: float, warn: float) -> ImageComparison:
+    """Compare two image files as idiff does (8-bit files scaled to [0, 1]).
+
+    Raises ImageError for an unreadable file or a different size or channel count.
+    """
+    buffers = []
+    for path in (a, b):
+        buffer = oiio.ImageBuf(str(path))
+        if buffer.has_error or not buffer.read():
+            raise ImageError(f"{path}: cannot read ({buffer.geterror() or oiio.geterror()})")
+        buffers.append(buffer)
+    specs = [buffer.spec() for buffer in buffers]
+    shapes = [(spec.width, spec.height, spec.nchannels) for spec in specs]
+    if shapes[0] != shapes[1]:
+        (wa, ha, ca), (wb, hb, cb) = shapes
+        raise ImageError(f"{b}: {wb}×{hb} with {cb} channels, but {a} is {wa}×{ha} with {ca}; only images of one "
+                         "size and channel count can be compared")
+    # CompareResults.error is set whenever a pixel fails (OpenImageIO 3.2), so it says nothing about the call.
+    found = oiio.ImageBufAlgo.compare(buffers[0], buffers[1], fail, warn)
+    pixels_a, pixels_b = (np.asarray(buffer.get_pixels(oiio.FLOAT), np.float32) for buffer in buffers)
+    return ImageComparison(mean=found.meanerror, rms=found.rms_error, psnr=found.PSNR, max=found.maxerror,
+                           max_at=(found.maxx, found.maxy), max_channel=found.maxc, warned=found.nwarn,
+                           failed=found.nfail, pixels=specs[0].width * specs[0].height, a=pixels_a, b=pixels_b)
