@@ -196,3 +196,45 @@ def test_internal_error_exits_1_with_one_line(tiny_scene, tmp_path, monkeypatch)
     assert "Traceback" not in result.output
     assert result.output.strip().splitlines() == ["error: internal error: RuntimeError: kernel exploded"]
     assert output.read_bytes() == b"an earlier image"
+
+
+# ---------------------------------------------------------------- reference, study, render --reference
+
+def test_render_with_reference_prints_the_errors(tmp_path):
+    from typer.testing import CliRunner
+    from cli import app
+    result = CliRunner().invoke(app, ["render", "--width", "60", "--height", "24", "--reference", "analytic",
+                                      "-o", str(tmp_path / "r.png"), "-q"])
+    assert result.exit_code == 0, result.output
+    result = CliRunner().invoke(app, ["render", "--width", "60", "--height", "24", "--reference", "analytic",
+                                      "-o", str(tmp_path / "r.png")])
+    assert result.exit_code == 0 and "against the analytic reference: RMSE" in result.output and "PSNR" in result.output
+
+
+def test_reference_command_and_the_mesh_error(tmp_path):
+    from typer.testing import CliRunner
+    from cli import app
+    import raycast_phong as rp
+    out = tmp_path / "ref.exr"
+    result = CliRunner().invoke(app, ["reference", "--set", "render.width=30", "--set", "render.height=12",
+                                      "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert rp.read_layer(out).shape == (12, 30, 3)
+    scene = tmp_path / "scene.toml"
+    scene.write_text('[[objects]]\nshape = "mesh"\npath = "x.ply"\n')
+    result = CliRunner().invoke(app, ["reference", str(scene), "-o", str(out)])
+    assert result.exit_code == 2
+    assert result.output.strip().splitlines()[-1] == (f'error: {scene}: objects.0.shape: "mesh" has no closed '
+                                                      'form; use --fine N')
+
+
+def test_study_command_writes_its_three_files(tmp_path):
+    from typer.testing import CliRunner
+    from cli import app
+    result = CliRunner().invoke(app, ["study", "--width", "24", "--height", "12", "--levels", "0,1",
+                                      "--repeats", "1", "--out", str(tmp_path / "s")])
+    assert result.exit_code == 0, result.output
+    assert {p.name for p in (tmp_path / "s").iterdir()} == {"study.csv", "error_vs_time.png", "summary.md"}
+    assert "order" in result.output and "To reach RMSE" in result.output
+    bad = CliRunner().invoke(app, ["study", "--models", "flat,smooth", "--out", str(tmp_path / "t")])
+    assert bad.exit_code == 2 and "--models: 'smooth' is not one of flat, gouraud, phong" in bad.output
