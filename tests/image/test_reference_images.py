@@ -1,19 +1,20 @@
 """Every example scene in scenes/, rendered small, against its reference EXR in references/.
 
 References are linear float32 EXRs, <scene>-<variant>.exr, rewritten only by `pytest --update-references`
-(look at them before committing). Tolerances, with their reasons, are in tests/tolerances.py. On a
-failure the render, the reference and their difference are left in the test's tmp_path.
+(look at them before committing). Tolerances, with their reasons, are in tests/tolerances.py; the comparison
+is the package's pytest plugin (assert_image_matches, docs/testing.md), which on a failure leaves the
+render, the reference and a difference heat map in the test's tmp_path.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import raycast_phong as rp
+from raycast_phong.pytest_plugin import ImageMatch, match_images, write_diagnostics
 from tolerances import IMAGE_TOLERANCES, STANDARD, ImageTolerance
 
 SCENES = Path(__file__).resolve().parents[2] / "scenes"
@@ -43,59 +44,21 @@ def render_small(scene_name: str, variant: str, extra: list[str] | tuple[str, ..
     return rp.render(rp.load_scene(path, overrides), source=str(path)).image
 
 
-@dataclass(frozen=True, eq=False)
-class Comparison:
-    """A render against its reference under one tolerance."""
-    error: np.ndarray | None     # (H, W) largest |render − reference| over R, G, B; None if the sizes differ
-    outliers: np.ndarray | None  # (H, W) bool, error above tolerance.pixel (NaN counts as above)
-    tolerance: ImageTolerance
-    message: str                 # one line: how far off, and what is allowed
-
-    @property
-    def passed(self) -> bool:
-        return self.outliers is not None and self.outliers.mean() <= self.tolerance.share
+def assert_options(tolerance: ImageTolerance) -> dict[str, float]:
+    """tests/tolerances.py's (pixel, share) as the plugin's keywords: atol = pixel, fail_percent = 100·share."""
+    return {"rtol": 0.0, "atol": tolerance.pixel, "fail_percent": 100 * tolerance.share}
 
 
-def compare_images(image: np.ndarray, reference: np.ndarray, tolerance: ImageTolerance) -> Comparison:
+def compare_images(image: np.ndarray, reference: np.ndarray, tolerance: ImageTolerance) -> ImageMatch:
     """Count the pixels of `image` farther than tolerance.pixel from `reference` (both (H, W, 3))."""
-    if image.shape != reference.shape:
-        return Comparison(None, None, tolerance, f"size {image.shape} differs from the reference's {reference.shape}")
-    error = np.abs(image.astype(np.float64) - reference.astype(np.float64)).max(axis=2)
-    # `not <=` rather than `>`: a NaN pixel must count as wrong, not as equal.
-    outliers = ~(error <= tolerance.pixel)
-    worst = float(np.nanmax(error)) if not np.isnan(error).all() else float("nan")
-    message = (f"{outliers.mean():.3%} of pixels ({int(outliers.sum())} of {outliers.size}) are off by more than "
-               f"{tolerance.pixel:g} (allowed {tolerance.share:.2%}); largest difference {worst:.4g}"
-               + (f", {int(np.isnan(error).sum())} NaN" if np.isnan(error).any() else ""))
-    return Comparison(error, outliers, tolerance, message)
-
-
-def save_comparison(folder: Path, stem: str, image: np.ndarray, reference: np.ndarray,
-                    comparison: Comparison) -> list[Path]:
-    """Write <stem>-render.exr, -reference.exr, and (same size only) -diff.exr (|render − reference|)
-    and -outliers.png (the reference dimmed, pixels over tolerance in red); return their paths."""
-    written = [rp.write_image(folder / f"{stem}-render.exr", image),
-               rp.write_image(folder / f"{stem}-reference.exr", reference)]
-    if comparison.outliers is not None:
-        written.append(rp.write_image(folder / f"{stem}-diff.exr", np.abs(image - reference)))
-        # Dimmed so the red marks stand out; contiguous because write_image(".png") cannot write the
-        # channel-planar arrays read_layer returns.
-        marked = np.ascontiguousarray(np.clip(reference, 0, 1) * 0.35)
-        marked[comparison.outliers] = (1.0, 0.0, 0.0)
-        written.append(rp.write_image(folder / f"{stem}-outliers.png", marked))
-    return written
+    return match_images(image, reference, **assert_options(tolerance))
 
 
 @pytest.mark.parametrize(("scene_name", "variant"), sorted(IMAGE_TOLERANCES),
                          ids=[f"{s}-{v}" for s, v in sorted(IMAGE_TOLERANCES)])
-def test_render_matches_reference(scene_name, variant, references, tmp_path):
+def test_render_matches_reference(scene_name, variant, assert_image_matches):
     image = render_small(scene_name, variant)
-    reference = references.load_or_update(f"{scene_name}-{variant}.exr", image)
-    comparison = compare_images(image, reference, IMAGE_TOLERANCES[scene_name, variant])
-    if not comparison.passed:
-        written = save_comparison(tmp_path, f"{scene_name}-{variant}", image, reference, comparison)
-        pytest.fail(f"{scene_name}-{variant}: {comparison.message}; see {', '.join(map(str, written))}",
-                    pytrace=False)
+    assert_image_matches(image, f"{scene_name}-{variant}", **assert_options(IMAGE_TOLERANCES[scene_name, variant]))
 
 
 def test_every_scene_has_a_reference_case():
@@ -117,10 +80,10 @@ def test_comparison_fails_on_a_changed_shininess(tmp_path):
     assert compare_images(image, reference, STANDARD).passed
     comparison = compare_images(changed, reference, STANDARD)
     assert not comparison.passed, comparison.message
-    written = save_comparison(tmp_path, "specular-phong", changed, reference, comparison)
-    assert [path.name for path in written] == ["specular-phong-render.exr", "specular-phong-reference.exr",
-                                               "specular-phong-diff.exr", "specular-phong-outliers.png"]
-    np.testing.assert_allclose(rp.read_layer(written[2]), np.abs(changed - reference), atol=0)
+    written = write_diagnostics(tmp_path, "specular-phong", changed, reference, comparison)
+    assert [path.name for path in written] == ["specular-phong-actual.exr", "specular-phong-reference.exr",
+                                               "specular-phong-diff.png"]
+    np.testing.assert_array_equal(rp.read_layer(written[0]), changed.astype(np.float32))  # EXRs hold float32
 
 
 def test_comparison_counts_nan_and_size_as_failures():
@@ -142,7 +105,7 @@ def test_comparison_allows_the_stated_share_of_outliers():
     assert not compare_images(two_off, reference, tolerance).passed
 
 
-def test_missing_reference_fails_with_a_hint(references, tmp_path):
-    empty = type(references)(tmp_path / "references", update=False)
+def test_missing_reference_fails_with_a_hint(image_references, tmp_path):
+    empty = type(image_references)(tmp_path / "references", update=False, diagnostics=tmp_path)
     with pytest.raises(pytest.fail.Exception, match="--update-references"):
         empty.load_or_update("nothing-here.exr", np.zeros((2, 2, 3), np.float32))

@@ -1,0 +1,134 @@
+"""pytest plugin: compare rendered images with reference EXRs kept beside the test (docs/testing.md).
+
+Registered through the `pytest11` entry point, so installing raycast-phong is enough:
+
+    def test_sphere(assert_image_matches):
+        image = raycast_phong.render_file("sphere.toml").image
+        assert_image_matches(image, "sphere", atol=1e-3, fail_percent=0.2)
+
+The reference is `references/sphere.exr` in the test file's folder, rewritten only under
+`pytest --update-references`. On a failure the actual, reference and difference images are written to the
+test's tmp_path and the message gives their paths and the metrics.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import pytest
+
+from .compare import heat_map
+from .image_io import read_layer, write_image
+
+UPDATE_OPTION = "--update-references"
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption(UPDATE_OPTION, action="store_true", default=False,
+                     help="raycast-phong: rewrite the reference images (references/<name>.exr beside each test) "
+                          "from the current results; look at them before committing.")
+
+
+@dataclass(frozen=True, eq=False)
+class ImageMatch:
+    """An image against its reference: a pixel is off when a channel differs by more than atol + rtol·|reference|
+    (NaN counts as off); the images match when at most fail_percent % of the pixels are off."""
+    error: np.ndarray | None     # (H, W) largest |image − reference| over the channels; None if the sizes differ
+    outliers: np.ndarray | None  # (H, W) bool, the pixels that are off
+    fail_percent: float
+    message: str                 # one line: how many pixels are off, allowed, the largest difference and where
+
+    @property
+    def passed(self) -> bool:
+        return self.outliers is not None and int(self.outliers.sum()) <= self.fail_percent / 100 * self.outliers.size
+
+
+def match_images(image: np.ndarray, reference: np.ndarray, *, rtol: float = 0.0, atol: float = 1e-3,
+                 fail_percent: float = 0.0) -> ImageMatch:
+    """Compare an (H, W, C) image with its (H, W, C) reference in float64."""
+    image, reference = np.asarray(image, np.float64), np.asarray(reference, np.float64)
+    if image.shape != reference.shape:
+        return ImageMatch(None, None, fail_percent, f"size {image.shape} differs from the reference's {reference.shape}")
+    difference = np.abs(image - reference)
+    # `not <=` rather than `>`: a NaN must count as off, not as equal.
+    outliers = ~(difference <= atol + rtol * np.abs(reference)).all(axis=2)
+    error = difference.max(axis=2)
+    finite = np.where(np.isnan(error), -np.inf, error)
+    y, x = np.unravel_index(int(np.argmax(finite)), error.shape)
+    nans = int(np.isnan(error).sum())
+    message = (f"{outliers.mean():.3%} of pixels ({int(outliers.sum())} of {outliers.size}) are off by more than "
+               f"atol {atol:g} + rtol {rtol:g}·|reference| (allowed {fail_percent:g}%); largest difference "
+               f"{finite[y, x]:.4g} at pixel (x {x}, y {y}); mean {float(np.nanmean(error)):.4g}"
+               + (f"; {nans} NaN" if nans else ""))
+    return ImageMatch(error, outliers, fail_percent, message)
+
+
+def write_diagnostics(folder: Path, name: str, image: np.ndarray, reference: np.ndarray | None,
+                      match: ImageMatch | None) -> list[Path]:
+    """<name>-actual.exr, <name>-reference.exr and (same size only) <name>-diff.png: the per-pixel largest
+    difference as a heat map, black 0 to pale yellow the largest; return the paths written."""
+    folder.mkdir(parents=True, exist_ok=True)
+    written = [write_image(folder / f"{name}-actual.exr", np.ascontiguousarray(image, np.float32))]
+    if reference is not None:
+        written.append(write_image(folder / f"{name}-reference.exr", np.ascontiguousarray(reference, np.float32)))
+    if match is not None and match.error is not None:
+        error = np.nan_to_num(match.error, nan=np.inf)
+        scale = float(np.max(error[np.isfinite(error)], initial=0.0))
+        written.append(write_image(folder / f"{name}-diff.png", heat_map(np.minimum(error, scale), scale)))
+    return written
+
+
+class ReferenceImages:
+    """The reference EXRs in one folder: compare against them, or rewrite them under --update-references."""
+
+    def __init__(self, folder: Path, update: bool, diagnostics: Path):
+        self.folder = folder
+        self.update = update
+        self.diagnostics = diagnostics
+
+    def path(self, name: str) -> Path:
+        return self.folder / f"{name}.exr"
+
+    def load_or_update(self, name: str, image: np.ndarray) -> np.ndarray:
+        """The reference `name` as (H, W, 3) float32; in update mode `image` is written first.
+
+        A missing reference fails the test (never passes silently) and says how to make one.
+        """
+        path = self.path(name)
+        if self.update:
+            self.folder.mkdir(parents=True, exist_ok=True)
+            write_image(path, image)  # EXR: float32, zip-compressed, unclamped
+        elif not path.is_file():
+            written = write_diagnostics(self.diagnostics, name, image, None, None)
+            pytest.fail(f"no reference image {path}; the result is in {written[0]}; make the reference with "
+                        f"`pytest {UPDATE_OPTION}`, look at it, and commit it", pytrace=False)
+        # Read back even right after writing, so update runs also go through the EXR round trip.
+        return read_layer(path)
+
+    def assert_matches(self, image: np.ndarray, name: str, *, rtol: float = 0.0, atol: float = 1e-3,
+                       fail_percent: float = 0.0) -> ImageMatch:
+        """Fail the test unless `image` matches references/<name>.exr (see ImageMatch); return the match."""
+        reference = self.load_or_update(name, image)
+        match = match_images(image, reference, rtol=rtol, atol=atol, fail_percent=fail_percent)
+        if not match.passed:
+            written = write_diagnostics(self.diagnostics, name, image, reference, match)
+            pytest.fail(f"{name}: {match.message}; actual, reference, difference: {', '.join(map(str, written))}",
+                        pytrace=False)
+        return match
+
+
+@pytest.fixture
+def image_references(request: pytest.FixtureRequest, tmp_path: Path) -> ReferenceImages:
+    """Reference images in the `references/` folder beside the requesting test module."""
+    return ReferenceImages(Path(request.path).parent / "references",
+                           update=request.config.getoption(UPDATE_OPTION), diagnostics=tmp_path)
+
+
+@pytest.fixture
+def assert_image_matches(image_references: ReferenceImages) -> Callable[..., ImageMatch]:
+    """assert_image_matches(image, name, rtol=0, atol=1e-3, fail_percent=0): image (H, W, 3) against
+    references/<name>.exr beside the test; see ReferenceImages.assert_matches."""
+    return image_references.assert_matches

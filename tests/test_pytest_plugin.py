@@ -1,0 +1,67 @@
+"""The pytest plugin (raycast_phong/pytest_plugin.py) as a user's test suite meets it, through pytester."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import raycast_phong as rp
+
+USER_TEST = """
+import numpy as np
+
+def image(value):
+    out = np.zeros((4, 6, 3), np.float32)
+    out[1, 2] = value  # one pixel of 24 (4.2 %)
+    return out
+
+def test_matches(assert_image_matches):
+    assert_image_matches(image({value}), "square", atol=1e-3, fail_percent={fail_percent})
+"""
+
+
+def write_test(pytester: pytest.Pytester, value: float, fail_percent: float = 0.0) -> None:
+    pytester.makepyfile(test_user=USER_TEST.format(value=value, fail_percent=fail_percent))
+
+
+def test_update_writes_the_reference_then_the_same_image_passes(pytester):
+    write_test(pytester, 0.5)
+    # Without a reference the test fails and says how to make one.
+    missing = pytester.runpytest()
+    missing.assert_outcomes(failed=1)
+    missing.stdout.fnmatch_lines(["*no reference image*references/square.exr*--update-references*"])
+    pytester.runpytest("--update-references").assert_outcomes(passed=1)
+    reference = pytester.path / "references" / "square.exr"
+    assert rp.read_layer(reference)[1, 2].tolist() == [0.5, 0.5, 0.5]
+    pytester.runpytest().assert_outcomes(passed=1)
+
+
+def test_a_different_image_fails_with_metrics_and_three_images(pytester):
+    write_test(pytester, 0.5)
+    pytester.runpytest("--update-references").assert_outcomes(passed=1)
+    write_test(pytester, 0.75)
+    result = pytester.runpytest()
+    result.assert_outcomes(failed=1)
+    text = result.stdout.str()
+    assert "square: 4.167% of pixels (1 of 24) are off by more than atol 0.001" in text
+    assert "largest difference 0.25 at pixel (x 2, y 1)" in text
+    paths = [Path(p) for p in re.search(r"actual, reference, difference: (.*)", text)[1].split(", ")]
+    assert [p.name for p in paths] == ["square-actual.exr", "square-reference.exr", "square-diff.png"]
+    assert all(p.is_file() for p in paths)
+    assert rp.read_layer(paths[0])[1, 2, 0] == 0.75 and rp.read_layer(paths[1])[1, 2, 0] == 0.5
+    # The reference is untouched by a failing run; fail_percent above the share lets it pass.
+    assert rp.read_layer(pytester.path / "references" / "square.exr")[1, 2, 0] == 0.5
+    write_test(pytester, 0.75, fail_percent=5)
+    pytester.runpytest().assert_outcomes(passed=1)
+    # --update-references rewrites it.
+    write_test(pytester, 0.75)
+    pytester.runpytest("--update-references").assert_outcomes(passed=1)
+    assert rp.read_layer(pytester.path / "references" / "square.exr")[1, 2, 0] == 0.75
+
+
+def test_the_option_is_defined_once_by_the_plugin(pytester):
+    result = pytester.runpytest("--help")
+    assert result.stdout.str().count("--update-references") == 1
