@@ -18,6 +18,15 @@ from embreex.mesh_construction import TriangleMesh
 from .records import Frame, Geometry
 
 
+_started = False  # has this process created an Embree scene (and so Embree's worker threads)?
+
+
+def embree_started() -> bool:
+    """Whether this process has started Embree: after that, forking it is unsafe (its thread pool's
+    locks would be copied in whatever state they are in)."""
+    return _started
+
+
 def unit_frame(vertices: np.ndarray) -> Frame:
     """Centre and half-extent of the bounding box: unit = (world − center) / scale spans ≈ [−1, 1]."""
     low, high = vertices.min(axis=0), vertices.max(axis=0)
@@ -39,6 +48,8 @@ class Accelerator:
     """Embree BVH over one Geometry, built (committed) in the constructor so threads may share it."""
 
     def __init__(self, geometry: Geometry, frame: Frame | None = None):
+        global _started
+        _started = True
         self.frame = frame or unit_frame(geometry.vertices)
         self._scene = rtcore_scene.EmbreeScene(robust=True)  # robust: watertight edges, no cracks between faces
         self._mesh = TriangleMesh(self._scene, self.frame.to_unit(geometry.vertices).astype(np.float32),

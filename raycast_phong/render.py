@@ -135,6 +135,32 @@ def measured(scene: Scene, result: RenderResult, reference: str, fine: int, sour
     return MeasuredResult(**fields, errors=errors, reference_seconds=time.perf_counter() - start)
 
 
+def warm_kernels() -> None:
+    """Load (or compile) every numba kernel a render uses, in both precisions, without starting Embree.
+
+    A process that forks workers afterwards hands them ready kernels (batch.py): each would otherwise
+    spend ~0.15 s loading them from numba's cache. The kernels are typed by their arguments, so they
+    are called through the real wrappers on a 2×2 image whose rays all miss.
+    """
+    from .intersect import TileHits
+    from .scene import validate_scene
+    from .shadows import shadow_rays
+    scene = validate_scene({"render": {"width": 2, "height": 2, "mode": "global"},
+                            "lights": [{"type": "point", "position": [2, 2, 3]}],
+                            "objects": [{"shape": "icosphere", "subdivisions": 0}]}, source="warm-up")
+    plan = build_plan(scene)
+    geometry = build_geometry(scene)
+    frame, rig = unit_frame(geometry.vertices), camera_rig(scene)
+    _, directions = RayGenerator(rig, frame, 2, 2, 1, 4).rows(0, 2)
+    misses = TileHits(face=np.full(4, -1, np.int32), u=np.zeros(4, np.float32), v=np.zeros(4, np.float32),
+                      t=np.zeros(4, np.float32))
+    shadow_rays(prepare_shadows(scene, geometry, frame), misses, directions)
+    for real in (np.float32, np.float64):
+        inputs = prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), real)
+        film = allocate_film(2, 2, (), real)
+        shade_tile(inputs, misses, directions, film.rows(0, 2), 1, np.zeros(3, real), np.zeros(4, np.int64))
+
+
 def render_file(path: str | Path, overrides: list[str] | tuple[str, ...] = (), **options) -> RenderResult:
     """Load a scene file (with `key.path=value` overrides) and render it; timings include "load"."""
     start = time.perf_counter()

@@ -245,3 +245,24 @@ def test_a_bad_sweep_value_fails_that_cell_only(tmp_path):
     assert statuses(out) == {"widths--width=8": "rendered", "widths--width=0": "failed"}
     assert "render.width: out of range" in manifest(out)["widths--width=0"]["reason"]
     assert (out / "widths-contact.png").is_file()
+
+
+def test_forked_workers_from_a_fresh_command_match_one_process(five_scenes, tmp_path):
+    """A fresh `batch` command has not started Embree, so it warms the kernels and forks its workers
+    (the pytest process here has started Embree, so in-process runs use the fork server instead)."""
+    run(str(five_scenes), "--out", str(tmp_path / "one"), "--jobs", "1")
+    command = [sys.executable, "-m", "cli", "batch", str(five_scenes), "--out", str(tmp_path / "forked"),
+               "--jobs", "2"]
+    done = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 1  # the broken scene
+    names = sorted(p.name for p in (tmp_path / "one").glob("*.png"))
+    assert names == sorted(p.name for p in (tmp_path / "forked").glob("*.png")) and len(names) == 4
+    for name in names:
+        assert (tmp_path / "one" / name).read_bytes() == (tmp_path / "forked" / name).read_bytes()
+
+
+def test_warming_the_kernels_starts_no_embree():
+    probe = ("from raycast_phong.render import warm_kernels; from raycast_phong.intersect import embree_started; "
+             "warm_kernels(); print(embree_started())")
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
+    assert done.stdout.strip() == "False", done.stderr
