@@ -8,4 +8,42 @@ plugin (raycast_phong/pytest_plugin.py, registered by the installed package's py
 
 from __future__ import annotations
 
+from pathlib import Path
+
 pytest_plugins = ["pytester"]  # the plugin's own tests (tests/test_pytest_plugin.py) run pytest inside pytest
+
+
+# One low-poly red sphere in the middle, lit from the upper right: flat, Gouraud and Phong differ on it,
+# the corners are background. Tests format in the size (and an [output] table if they need one).
+TINY_SCENE = """\
+ambient = [0.1, 0.1, 0.1]
+
+[render]
+width = {width}
+height = {height}
+
+[camera]
+position = [0, 0, 4]
+look_at = [0, 0, 0]
+fov = 40
+
+[[lights]]
+position = [2, 2, 3]
+
+[materials.red]
+ka = [1.0, 0.3, 0.3]
+kd = [0.9, 0.2, 0.2]
+ks = [0.6, 0.6, 0.6]
+
+[[objects]]
+shape = "icosphere"
+subdivisions = 1
+material = "red"
+"""
+
+
+def write_tiny_scene(folder: Path, width: int, height: int, extra: str = "") -> Path:
+    """TINY_SCENE at width × height, with `extra` TOML appended, as folder/tiny.toml."""
+    path = folder / "tiny.toml"
+    path.write_text(TINY_SCENE.format(width=width, height=height) + extra, encoding="utf-8")
+    return path

@@ -17,37 +17,10 @@ from typer.testing import CliRunner
 
 import raycast_phong
 from cli import app
+from conftest import write_tiny_scene
 
 runner = CliRunner()
 
-TINY_SCENE = """\
-ambient = [0.1, 0.1, 0.1]
-
-[render]
-width = 32
-height = 24
-
-[camera]
-position = [0, 0, 4]
-look_at = [0, 0, 0]
-fov = 40
-
-[[lights]]
-position = [2, 2, 3]
-
-[materials.red]
-ka = [1.0, 0.3, 0.3]
-kd = [0.9, 0.2, 0.2]
-ks = [0.6, 0.6, 0.6]
-
-[[objects]]
-shape = "icosphere"
-subdivisions = 1
-material = "red"
-
-[output]
-path = "tiny.png"
-"""
 ICOSPHERE_1_TRIANGLES = 80  # 20 faces × 4 after one subdivision
 
 
@@ -60,9 +33,7 @@ def _in_tmp_path(tmp_path, monkeypatch):
 
 @pytest.fixture
 def tiny_scene(tmp_path) -> Path:
-    path = tmp_path / "tiny.toml"
-    path.write_text(TINY_SCENE, encoding="utf-8")
-    return path
+    return write_tiny_scene(tmp_path, 32, 24, '\n[output]\npath = "tiny.png"\n')
 
 
 def image_spec(path: Path) -> tuple[int, int, int]:

@@ -16,37 +16,12 @@ from typer.testing import CliRunner
 
 import raycast_phong as rp
 from cli import app
+from conftest import write_tiny_scene
 from raycast_phong import compare, image_io
 from raycast_phong.film import to_8bit
 
 runner = CliRunner()
 
-# 48×32, one low-poly red sphere in the middle: flat, Gouraud and Phong differ on it, the corners are background.
-TINY_SCENE = """\
-ambient = [0.1, 0.1, 0.1]
-
-[render]
-width = 48
-height = 32
-
-[camera]
-position = [0, 0, 4]
-look_at = [0, 0, 0]
-fov = 40
-
-[[lights]]
-position = [2, 2, 3]
-
-[materials.red]
-ka = [1.0, 0.3, 0.3]
-kd = [0.9, 0.2, 0.2]
-ks = [0.6, 0.6, 0.6]
-
-[[objects]]
-shape = "icosphere"
-subdivisions = 1
-material = "red"
-"""
 SHADINGS = ["flat", "gouraud", "phong"]
 # The Layout docstring for 3 panels of 48×32: f = clamp(round(32 / 10), 10, 32) = 10, g = 5, s = 15, b = 10.
 COLUMNS = [5, 58, 111]  # g + i·(W + g)
@@ -64,9 +39,7 @@ def _in_tmp_path(tmp_path, monkeypatch):
 
 @pytest.fixture
 def tiny_scene(tmp_path) -> Path:
-    path = tmp_path / "tiny.toml"
-    path.write_text(TINY_SCENE, encoding="utf-8")
-    return path
+    return write_tiny_scene(tmp_path, 48, 32)
 
 
 def render_alone(scene: Path, *overrides: str) -> np.ndarray:
