@@ -247,35 +247,35 @@ def _draw_labels(canvas: np.ndarray, grid: Layout, key: str, values: list[str], 
     above = [(f"{key} = {value}", value) for value in values]
     below = [(f"{value} vs {reference}", value) for value in values[:-1]] + [(f"{reference} = reference", "reference")]
     for row, wordings in (("labels", above), ("difference_labels", below)):
-        texts, size = _row_wording(wordings, grid.font, grid.width)
+        texts, size = row_wording(wordings, grid.font, grid.width)
         for index, text in enumerate(texts):
-            _draw_text(canvas, text, (grid.column(index), rows[row], grid.width, grid.strip), size)
+            draw_text(canvas, text, (grid.column(index), rows[row], grid.width, grid.strip), size)
     # The scale: 0 at the left end, the top at the right, the caption centred between them if it fits.
     span, y = grid.image_width - 2 * grid.gap, rows["scale"]
     top = f"{scale:.3g}" if scale > 0 else "0 (no pixel differs)"
-    zero = _draw_text(canvas, "0", (grid.gap, y, span, grid.strip), grid.font)
-    end = _draw_text(canvas, top, (grid.gap, y, span, grid.strip), grid.font, align="right")
+    zero = draw_text(canvas, "0", (grid.gap, y, span, grid.strip), grid.font)
+    end = draw_text(canvas, top, (grid.gap, y, span, grid.strip), grid.font, align="right")
     room = span - zero - end - 2 * grid.font
-    size = _fitting_size(CAPTION, grid.font, room)
+    size = fitting_size(CAPTION, grid.font, room)
     if size is not None:
-        _draw_text(canvas, CAPTION, (grid.gap + zero + grid.font, y, room, grid.strip), size, align="center")
+        draw_text(canvas, CAPTION, (grid.gap + zero + grid.font, y, room, grid.strip), size, align="center")
     return True
 
 
 CAPTION = "max over RGB of |variant - reference|, linear"  # ASCII: the bundled font has no Δ or − glyph
 
 
-def _row_wording(wordings: list[tuple[str, ...]], size: int, width: int) -> tuple[list[str], int]:
+def row_wording(wordings: list[tuple[str, ...]], size: int, width: int) -> tuple[list[str], int]:
     """One row's labels: the first wording that fits every label in `width` at MIN_FONT or larger, and the
     largest size up to `size` at which all of them fit; if none fits, the last wording at MIN_FONT."""
     for choice in range(len(wordings[0])):
-        sizes = [_fitting_size(wording[choice], size, width) for wording in wordings]
+        sizes = [fitting_size(wording[choice], size, width) for wording in wordings]
         if None not in sizes:
             return [wording[choice] for wording in wordings], min(sizes)
     return [wording[-1] for wording in wordings], MIN_FONT
 
 
-def _fitting_size(text: str, size: int, width: int) -> int | None:
+def fitting_size(text: str, size: int, width: int) -> int | None:
     """The largest font size from `size` down to MIN_FONT at which `text` is at most `width` wide, or None."""
     while size >= MIN_FONT:
         drawn = text_coverage(text, size)
@@ -286,7 +286,7 @@ def _fitting_size(text: str, size: int, width: int) -> int | None:
     return None
 
 
-def _draw_text(canvas: np.ndarray, text: str, box: tuple[int, int, int, int], size: int,
+def draw_text(canvas: np.ndarray, text: str, box: tuple[int, int, int, int], size: int,
                align: str = "left") -> int:
     """Blend one line of white text into box = (x, y, width, height) of the canvas, centred vertically and cut
     at the box's edges. Returns the width drawn in pixels (0 without a font)."""

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from .compare import BACKDROP, MIN_FONT, _draw_text, _fitting_size, _row_wording, layout
+from .compare import BACKDROP, MIN_FONT, draw_text, fitting_size, row_wording, layout
 from .film import srgb_encode
 from .image_io import ImageError, read_layer, text_coverage, write_image
 from .scene import SceneError
@@ -177,7 +177,7 @@ def sheet_layout(rows: int, columns: int, width: int, height: int, row_labels: l
     label_width = 0
     if rows > 1:
         room = max(2 * width, ROW_LABEL_MIN)
-        size = min((_fitting_size(text, base.font, room) or MIN_FONT) for text in row_labels)
+        size = min((fitting_size(text, base.font, room) or MIN_FONT) for text in row_labels)
         drawn = [text_coverage(text, size) for text in row_labels]
         label_width = min(max((d.shape[1] for d in drawn if d is not None), default=0), room)
     return SheetLayout(rows=rows, columns=columns, width=width, height=height, font=base.font, gap=base.gap,
@@ -200,18 +200,18 @@ def compose_sheet(cells: list[tuple[tuple[str, str], ...]], images: list[np.ndar
         x, y = grid.origin(row, column)
         if image is None:
             canvas[y:y + height, x:x + width] = FAILED_RGB
-            _draw_text(canvas, "failed", (x, y, width, height), grid.font, align="center")
+            draw_text(canvas, "failed", (x, y, width, height), grid.font, align="center")
         else:
             canvas[y:y + image.shape[0], x:x + image.shape[1]] = image
     # Column labels over the first row; row labels left of each row.
     # Column labels read "label=value", or the value alone when any of them would not fit.
-    texts, size = _row_wording([(f"{label}={value}", value) for label, value in (cells[c][-1] for c in range(columns))],
+    texts, size = row_wording([(f"{label}={value}", value) for label, value in (cells[c][-1] for c in range(columns))],
                                grid.font, width)
     for column, text in enumerate(texts):
-        _draw_text(canvas, text, (grid.origin(0, column)[0], grid.gap, width, grid.strip), size, align="center")
+        draw_text(canvas, text, (grid.origin(0, column)[0], grid.gap, width, grid.strip), size, align="center")
     for row, text in enumerate(row_labels if grid.label_width else []):
-        size = _fitting_size(text, grid.font, grid.label_width) or grid.font
-        _draw_text(canvas, text, (grid.gap, grid.origin(row, 0)[1], grid.label_width, height), size)
+        size = fitting_size(text, grid.font, grid.label_width) or grid.font
+        draw_text(canvas, text, (grid.gap, grid.origin(row, 0)[1], grid.label_width, height), size)
     return canvas, grid
 
 
