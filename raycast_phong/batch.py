@@ -17,13 +17,13 @@ import os
 import re
 import signal
 import sys
-import tempfile
 import time
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Callable, Iterator
 
+from .atomic import replaced_atomically
 from .image_io import ImageError, write_image
 from .intersect import embree_started
 from .scene import Scene, SceneError, load_scene
@@ -302,14 +302,8 @@ def write_manifest(folder: Path, manifest: dict) -> None:
     """Rewrite DIR/manifest.json atomically (temporary file, then rename)."""
     from . import __version__
     manifest = {**manifest, "format": MANIFEST_FORMAT, "package_version": __version__}
-    descriptor, temporary = tempfile.mkstemp(prefix=".manifest-", suffix=".json", dir=folder)
-    try:
-        with os.fdopen(descriptor, "w") as stream:
-            json.dump(manifest, stream, indent=2, ensure_ascii=False)
-        os.replace(temporary, folder / MANIFEST)
-    finally:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
+    with replaced_atomically(folder / MANIFEST, prefix=".manifest-") as temporary:
+        temporary.write_text(json.dumps(manifest, indent=2, ensure_ascii=False), encoding="utf-8")
 
 
 def remove_temporaries(folder: Path, names: list[str]) -> list[Path]:

@@ -8,13 +8,13 @@ complete, so a failure never leaves a half-written image over a good one.
 from __future__ import annotations
 
 import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import OpenImageIO as oiio
 
+from .atomic import replaced_atomically
 from .film import to_8bit
 
 LAYER_CHANNELS = {"depth": ("Z",), "normal": ("X", "Y", "Z"), "face": ("id",)}
@@ -70,9 +70,8 @@ def write_image(path: str | Path, image: np.ndarray, aovs: dict[str, np.ndarray]
     extra = [_part(name, layer, origin, spec) for name, (layer, origin) in parts.items()]
     if extra:
         spec.attribute("name", "image")  # every part of a multi-part EXR needs a unique name
-    descriptor, temporary = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=path.suffix, dir=path.parent or ".")
-    os.close(descriptor)
-    try:
+    with replaced_atomically(path, prefix=f".{path.stem}-") as temporary_path:
+        temporary = str(temporary_path)
         output = oiio.ImageOutput.create(temporary)
         specs = [spec, *(part_spec for part_spec, _ in extra)]
         if output is None or not output.open(temporary, specs if extra else spec):
@@ -86,14 +85,6 @@ def write_image(path: str | Path, image: np.ndarray, aovs: dict[str, np.ndarray]
         output.close()
         if not ok:
             raise ImageError(f"{path}: cannot write ({error or oiio.geterror()})")
-        # mkstemp creates the file 0600; give the image the permissions a plain open() would.
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(temporary, 0o666 & ~umask)
-        os.replace(temporary, path)
-    finally:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
     return path
 
 

@@ -16,7 +16,6 @@ from typing import Callable
 
 import numpy as np
 
-from .camera import RayGenerator, camera_rig
 from .geometry import build_geometry
 from .intersect import Accelerator, unit_frame
 from .plan import F32_SHININESS_LIMIT, build_plan

@@ -1,6 +1,5 @@
 """The work-precision study: orders on the sphere, stiff highlights, and a small study end to end."""
 
-import csv
 import math
 
 import numpy as np

@@ -7,7 +7,7 @@ import pytest
 
 import raycast_phong as rp
 from raycast_phong.geometry import build_geometry
-from raycast_phong.intersect import Accelerator, TileHits, unit_frame
+from raycast_phong.intersect import Accelerator, unit_frame
 from raycast_phong.shadows import light_visibility, prepare_shadows
 
 MATTE = {"ka": 1.0, "kd": 0.8, "ks": 0.0}
