@@ -162,8 +162,11 @@ def run_study(path: str | Path, overrides: list[str] | tuple[str, ...] = (), opt
     samples_list = list(options.samples or (base.render.samples,))
     shininess_list = list(options.shininess or (None,))
     models = [m.value if hasattr(m, "value") else m for m in options.models]
-    combos = [(f, spec, n, prec, model, level) for f in shininess_list for spec in speculars for n in samples_list
-              for prec in precisions for model in models for level in options.levels]
+    # Every model at one setting is timed round-robin, repeat by repeat, so a machine that slows down
+    # for a while slows all models alike instead of whichever happened to run then.
+    groups = [(f, spec, n, prec, level) for f in shininess_list for spec in speculars for n in samples_list
+              for prec in precisions for level in options.levels]
+    total_renders = len(groups) * len(models)
     rows = []
     with tempfile.TemporaryDirectory(prefix="raycast-phong-study-") as folder:
         def make(**keys) -> Scene:
@@ -177,31 +180,40 @@ def run_study(path: str | Path, overrides: list[str] | tuple[str, ...] = (), opt
                 **warm.render.model_dump(), "width": 8, "height": 8}}, source=source, folder=warm.folder))
 
         references, meshes = {}, {}
-        for done, (f, spec, n, prec, model, level) in enumerate(combos):
+        for done, (f, spec, n, prec, level) in enumerate(groups):
             if progress:
-                progress(done, len(combos), f"{model} level {level}")
-            scene = make(model=model, specular=spec, precision=prec, samples=n, shininess=f, level=level)
+                progress(done * len(models), total_renders, f"level {level}")
+            scenes = {model: make(model=model, specular=spec, precision=prec, samples=n, shininess=f, level=level)
+                      for model in models}
+            first = scenes[models[0]]
             if (spec, n, f) not in references:
                 # The reference depends on neither the model, the precision nor the level.
-                references[spec, n, f] = reference_image(scene, source, fine=options.fine)
+                references[spec, n, f] = reference_image(first, source, fine=options.fine)
             if (n, level) not in meshes:
-                meshes[n, level] = (mesh_coverage(scene, source), mean_edge_length(scene, source))
+                meshes[n, level] = (mesh_coverage(first, source), mean_edge_length(first, source))
             coverage, edge = meshes[n, level]
-            results = [render(scene, threads=options.threads, source=source) for _ in range(options.repeats)]
-            timing = {stage: statistics.median(r.timings.get(stage, 0.0) for r in results)
-                      for stage in ("geometry", "build", "rays", "shade", "frame")}
-            total = statistics.median(r.timings["geometry"] + r.timings["build"] + r.timings["frame"] for r in results)
-            errors = measure(results[-1].image, coverage, references[spec, n, f])
-            rows.append(StudyRow(
-                model=model, specular=spec, precision=prec, samples=n, shininess="scene" if f is None else f"{f:g}",
-                level=level, triangles=results[-1].triangles, edge_length=edge, seconds=timing["frame"],
-                seconds_total=total, geometry_seconds=timing["geometry"], build_seconds=timing["build"],
-                rays_seconds=timing["rays"], shade_seconds=timing["shade"], rmse=errors.rmse,
-                max_error=errors.max_error, psnr=errors.psnr, mae=errors.mae,
-                silhouette_pixels=errors.silhouette_pixels, highlight_loss=errors.highlight_loss,
-                compared_pixels=errors.compared_pixels, reference=errors.reference))
+            runs = {model: [] for model in models}
+            for _ in range(options.repeats):
+                for model in models:
+                    runs[model].append(render(scenes[model], threads=options.threads, source=source))
+            for model in models:
+                results = runs[model]
+                timing = {stage: statistics.median(r.timings.get(stage, 0.0) for r in results)
+                          for stage in ("geometry", "build", "rays", "shade", "frame")}
+                total = statistics.median(r.timings["geometry"] + r.timings["build"] + r.timings["frame"]
+                                          for r in results)
+                errors = measure(results[-1].image, coverage, references[spec, n, f])
+                rows.append(StudyRow(
+                    model=model, specular=spec, precision=prec, samples=n,
+                    shininess="scene" if f is None else f"{f:g}", level=level, triangles=results[-1].triangles,
+                    edge_length=edge, seconds=timing["frame"], seconds_total=total,
+                    geometry_seconds=timing["geometry"], build_seconds=timing["build"],
+                    rays_seconds=timing["rays"], shade_seconds=timing["shade"], rmse=errors.rmse,
+                    max_error=errors.max_error, psnr=errors.psnr, mae=errors.mae,
+                    silhouette_pixels=errors.silhouette_pixels, highlight_loss=errors.highlight_loss,
+                    compared_pixels=errors.compared_pixels, reference=errors.reference))
         if progress:
-            progress(len(combos), len(combos), "done")
+            progress(total_renders, total_renders, "done")
     return Study(rows, fit_orders(rows), source, options.target)
 
 
