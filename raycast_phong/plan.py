@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 
+from .camera import camera_rig
 from .illumination import (F_AOV_GEOMETRY, F_AOV_TERMS, F_ATTENUATION, F_DIFFUSE, F_EMISSION,
                            F_LIGHT_AMBIENT, F_SCENE_AMBIENT, F_SCREEN, F_SHADOWS, F_TWO_SIDED, F_VIEW_PER_POINT,
                            SPECULAR_BLINN, SPECULAR_NONE, SPECULAR_PHONG)
@@ -178,12 +179,10 @@ def highlight_width_pixels(scene: Scene, vertices: np.ndarray, highlight: float)
     bounding radius R stands in for its radius of curvature, so the highlight spans R·highlight."""
     centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2
     radius = float(np.linalg.norm(vertices - centre, axis=1).max())
-    camera = scene.camera
-    if camera.type == "orthographic":
-        pixel = camera.view_height / scene.render.height
-    else:
-        distance = float(np.linalg.norm(centre - np.asarray(camera.position)))
-        pixel = 2 * distance * math.tan(math.radians(camera.fov) / 2) / scene.render.height
+    rig = camera_rig(scene)
+    # The image plane's half-height is in world units for an orthographic camera, per unit distance otherwise.
+    distance = 1.0 if rig.orthographic else float(np.linalg.norm(centre - rig.eye))
+    pixel = 2 * rig.half_height * distance / scene.render.height
     return radius * highlight / pixel
 
 
