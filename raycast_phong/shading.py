@@ -152,6 +152,14 @@ def _screen_weights(b0, b1, b2, v, f0, f1, f2, eye, camera, one):
     return one - w1 - w2, w1, w2
 
 
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _mixed_normal(corner_normals, f, b0, b1, b2):
+    """b0 n0 + b1 n1 + b2 n2: face f's vertex normals mixed with barycentric weights (not renormalised)."""
+    return (b0 * corner_normals[f, 0, 0] + b1 * corner_normals[f, 1, 0] + b2 * corner_normals[f, 2, 0],
+            b0 * corner_normals[f, 0, 1] + b1 * corner_normals[f, 1, 1] + b2 * corner_normals[f, 2, 1],
+            b0 * corner_normals[f, 0, 2] + b1 * corner_normals[f, 1, 2] + b2 * corner_normals[f, 2, 2])
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
 def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
                 vertices, faces, face_normals, corner_normals, face_material, face_model,
@@ -221,16 +229,13 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
                 er, eg, eb = er + bj * jer, eg + bj * jeg, eb + bj * jeb
                 mask |= jmask
             if geometry_layers:
-                nx = side * (b0 * corner_normals[f, 0, 0] + b1 * corner_normals[f, 1, 0] + b2 * corner_normals[f, 2, 0])
-                ny = side * (b0 * corner_normals[f, 0, 1] + b1 * corner_normals[f, 1, 1] + b2 * corner_normals[f, 2, 1])
-                nz = side * (b0 * corner_normals[f, 0, 2] + b1 * corner_normals[f, 1, 2] + b2 * corner_normals[f, 2, 2])
+                sx, sy, sz = _mixed_normal(corner_normals, f, b0, b1, b2)
+                nx, ny, nz = side * sx, side * sy, side * sz
         else:
             px = b0 * vertices[i0, 0] + b1 * vertices[i1, 0] + b2 * vertices[i2, 0]
             py = b0 * vertices[i0, 1] + b1 * vertices[i1, 1] + b2 * vertices[i2, 1]
             pz = b0 * vertices[i0, 2] + b1 * vertices[i1, 2] + b2 * vertices[i2, 2]
-            sx = b0 * corner_normals[f, 0, 0] + b1 * corner_normals[f, 1, 0] + b2 * corner_normals[f, 2, 0]
-            sy = b0 * corner_normals[f, 0, 1] + b1 * corner_normals[f, 1, 1] + b2 * corner_normals[f, 2, 1]
-            sz = b0 * corner_normals[f, 0, 2] + b1 * corner_normals[f, 1, 2] + b2 * corner_normals[f, 2, 2]
+            sx, sy, sz = _mixed_normal(corner_normals, f, b0, b1, b2)
             length = math.sqrt(sx * sx + sy * sy + sz * sz)
             # A mix of unit normals shorter than 1e-6 points nowhere in particular: keep the face normal.
             if length > one * 1e-6:
