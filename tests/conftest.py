@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 pytest_plugins = ["pytester"]  # the plugin's own tests (tests/test_pytest_plugin.py) run pytest inside pytest
 
 
@@ -47,3 +49,10 @@ def write_tiny_scene(folder: Path, width: int, height: int, extra: str = "") -> 
     path = folder / "tiny.toml"
     path.write_text(TINY_SCENE.format(width=width, height=height) + extra, encoding="utf-8")
     return path
+
+
+@pytest.fixture
+def in_tmp_path(tmp_path, monkeypatch):
+    """Run in tmp_path, so a default-named output can never land in the repository; no debug tracebacks."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("RAYCAST_PHONG_DEBUG", raising=False)

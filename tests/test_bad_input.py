@@ -129,11 +129,7 @@ def refuse_scene(tmp_path: Path, changes: dict[str, Any], *expected: str, args: 
     return run_refused(tmp_path, ["render", str(scene), *args], *expected, scene=scene)
 
 
-@pytest.fixture(autouse=True)
-def _in_tmp_path(tmp_path, monkeypatch):
-    """Run in tmp_path, so a default-named output can never land in the repository."""
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.delenv("RAYCAST_PHONG_DEBUG", raising=False)
+pytestmark = pytest.mark.usefixtures("in_tmp_path")
 
 
 @pytest.fixture

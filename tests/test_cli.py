@@ -24,11 +24,7 @@ runner = CliRunner()
 ICOSPHERE_1_TRIANGLES = 80  # 20 faces × 4 after one subdivision
 
 
-@pytest.fixture(autouse=True)
-def _in_tmp_path(tmp_path, monkeypatch):
-    """Run in tmp_path, so a default-named output can never land in the repository."""
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.delenv("RAYCAST_PHONG_DEBUG", raising=False)
+pytestmark = pytest.mark.usefixtures("in_tmp_path")
 
 
 @pytest.fixture

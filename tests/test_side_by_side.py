@@ -30,11 +30,7 @@ SIZE = (3 * 48 + 4 * 5, 2 * 32 + 3 * 15 + 10 + 4 * 5)  # (n·W + (n + 1)·g, 2H 
 BACKDROP8 = round(compare.BACKDROP * 255)  # the grey between panels, as a PNG byte: 46
 
 
-@pytest.fixture(autouse=True)
-def _in_tmp_path(tmp_path, monkeypatch):
-    """Run in tmp_path, so a default-named output can never land in the repository."""
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.delenv("RAYCAST_PHONG_DEBUG", raising=False)
+pytestmark = pytest.mark.usefixtures("in_tmp_path")
 
 
 @pytest.fixture
