@@ -316,9 +316,9 @@ def batch(
                      "(their .toml and .json files), globs (quoted) and sweep files (see docs/batch.md).")],
     out: Annotated[Path, typer.Option("--out", help="Output folder: one image per scene, named after it, and "
                    "manifest.json.", show_default=False)],
-    jobs: Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, max=256, help="Scenes rendered at once, "
-                    "each in its own worker process with one thread (default: cores). With 1, scenes render one "
-                    "after another in this process, each on all cores.")] = None,
+    jobs: Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, max=256, help="Cores to use (default: all): "
+                    "N scenes render at once, each in a worker process on one thread; fewer scenes than N share "
+                    "the N cores as threads. With 1, scenes render one after another in this process.")] = None,
     force: Annotated[bool, typer.Option("--force", help="Render every scene, even those whose outputs are "
                      "up to date.")] = False,
     scheduler: Annotated[Optional[str], typer.Option(metavar="tcp://HOST:PORT", help="Run the renders on this "

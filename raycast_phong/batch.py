@@ -3,7 +3,8 @@
 find_jobs turns files, folders, globs and sweep files into Jobs; prepare_job (in the calling process) loads
 each scene and hashes it to decide whether its outputs are current; render_job (in a worker) renders one scene
 and writes its image atomically. run_batch drives both through any executor and rewrites DIR/manifest.json
-after every scene, so an interrupted batch keeps what it finished. A failing scene becomes a failed entry
+as scenes finish (at most every MANIFEST_INTERVAL, and at the end or on an interrupt), so an interrupted
+batch keeps what it finished. A failing scene becomes a failed entry
 with a one-line reason; it never stops the others.
 """
 
@@ -33,6 +34,9 @@ MANIFEST_FORMAT = 1
 SCENE_SUFFIXES = (".toml", ".json")
 # Statuses of a manifest entry.
 RENDERED, UP_TO_DATE, FAILED = "rendered", "up to date", "failed"
+# The manifest is rewritten at most this often while scenes finish (and always at the end, or on an interrupt):
+# rewriting it after every scene cost the parent 4 ms each, O(scenes²) over a batch.
+MANIFEST_INTERVAL = 0.5
 # A Dask client gives up on an unreachable scheduler after this long rather than hanging the batch.
 CONNECT_TIMEOUT = "10s"
 
@@ -60,8 +64,9 @@ class Task:
     scene: Scene
     output: Path
     digest: str
+    inputs: dict[str, int]  # input_times() when the scene was loaded
     settings: Settings
-    threads: int | None  # render() worker threads; 1 when several scenes run at once
+    threads: int | None  # render() threads: the batch's cores shared among the scenes rendering at once
     load_seconds: float
 
 
@@ -76,7 +81,9 @@ class Outcome:
     outputs: list[str] = field(default_factory=list)  # file names in the batch folder
     seconds: dict[str, float] = field(default_factory=dict)  # load, geometry, build, rays, shade, frame, write, total
     rays_per_second: float | None = None
+    threads: int | None = None        # render() threads the scene had (see run_batch's `workers`)
     hash: str | None = None
+    inputs: dict[str, int] = field(default_factory=dict)  # scene and mesh files → modification time (ns)
 
 
 @dataclass
@@ -154,9 +161,22 @@ def mesh_paths(scene: Scene | None) -> list[Path]:
     return [scene.resolve(obj.path) for obj in scene.objects if obj.shape == "mesh" and obj.path]
 
 
-def is_current(previous: dict | None, digest: str, folder: Path) -> bool:
-    """A previous manifest entry still describes the folder: same hash, rendered, every output present."""
-    return (previous is not None and previous.get("hash") == digest and previous.get("status") in (RENDERED, UP_TO_DATE)
+def input_times(job: Job, scene: Scene | None) -> dict[str, int]:
+    """Modification time (ns) of the scene file and of each mesh it reads; -1 for a missing file."""
+    times = {}
+    for path in [job.scene, *mesh_paths(scene)]:
+        try:
+            times[str(path)] = path.stat().st_mtime_ns
+        except OSError:
+            times[str(path)] = -1
+    return times
+
+
+def is_current(previous: dict | None, digest: str, inputs: dict[str, int], folder: Path) -> bool:
+    """A previous manifest entry still describes the folder: same hash, same input modification times (so
+    `touch` re-renders, as with make), rendered, every output present."""
+    return (previous is not None and previous.get("hash") == digest and previous.get("inputs") == inputs
+            and previous.get("status") in (RENDERED, UP_TO_DATE)
             and bool(previous.get("outputs")) and all((folder / name).is_file() for name in previous["outputs"]))
 
 
@@ -170,12 +190,12 @@ def prepare_job(job: Job, folder: Path, settings: Settings, previous: dict | Non
         entry.reason, entry.hash = _reason(job, str(error)), job_hash(job, None, settings)
         return entry
     load_seconds = time.perf_counter() - start
-    digest = job_hash(job, scene, settings)
-    if not force and is_current(previous, digest, folder):
+    digest, inputs = job_hash(job, scene, settings), input_times(job, scene)
+    if not force and is_current(previous, digest, inputs, folder):
         return replace(entry, status=UP_TO_DATE, outputs=previous["outputs"], seconds=previous.get("seconds", {}),
-                       rays_per_second=previous.get("rays_per_second"), hash=digest)
+                       rays_per_second=previous.get("rays_per_second"), hash=digest, inputs=inputs)
     output = folder / f"{job.name}{Path(scene.output.path).suffix.lower()}"
-    return Task(job=job, scene=scene, output=output, digest=digest, settings=settings, threads=None,
+    return Task(job=job, scene=scene, output=output, digest=digest, inputs=inputs, settings=settings, threads=None,
                 load_seconds=load_seconds)
 
 
@@ -190,7 +210,7 @@ def render_job(task: Task) -> Outcome:
     from .render import render
     start = time.perf_counter()
     entry = Outcome(name=task.job.name, scene=str(task.job.scene), overrides=list(task.job.overrides),
-                    status=FAILED, hash=task.digest)
+                    status=FAILED, hash=task.digest, inputs=task.inputs)
     try:
         result = render(task.scene, threads=task.threads, source=str(task.job.scene))
         written = time.perf_counter()
@@ -205,7 +225,7 @@ def render_job(task: Task) -> Outcome:
     seconds = {"load": task.load_seconds, **result.timings, "total": time.perf_counter() - start}
     return replace(entry, status=RENDERED, outputs=[task.output.name],
                    seconds={name: round(value, 6) for name, value in seconds.items()},
-                   rays_per_second=round(result.rays_per_second, 1))
+                   rays_per_second=round(result.rays_per_second, 1), threads=task.threads)
 
 
 def _reason(job: Job, message: str) -> str:
@@ -262,7 +282,7 @@ def _result(future: Future, task: Task) -> Outcome:
     except Exception as error:
         return Outcome(name=task.job.name, scene=str(task.job.scene), overrides=list(task.job.overrides),
                        status=FAILED, reason=_reason(task.job, f"worker failed: {type(error).__name__}: {error}"),
-                       hash=task.digest)
+                       hash=task.digest, inputs=task.inputs)
 
 
 def _dask(tasks: list[Task], scheduler: str) -> Iterator[Outcome]:
@@ -328,9 +348,10 @@ def run_batch(jobs: list[Job], folder: str | Path, *, workers: int | None = None
 
     Parameters
     ----------
-    workers: scenes rendered at once in worker processes (default: the machine's cores). With 1, scenes render
-        one after another in this process on render()'s own threads; with more, each worker renders with one
-        thread, so N workers keep N cores busy without oversubscribing them.
+    workers: the cores the batch may use (default: all of them), like make's -j. Scenes render side by side,
+        one per worker process, each on one thread; with fewer scenes to render than cores, fewer processes
+        get more threads each. With 1 (or one scene to render) the scenes render in this process, one after
+        another, on `workers` threads.
     scheduler: a Dask scheduler address (tcp://host:port); the renders run on that cluster instead.
     progress: called as progress(outcome, done, total) after each job.
     """
@@ -343,35 +364,39 @@ def run_batch(jobs: list[Job], folder: str | Path, *, workers: int | None = None
         raise ImageError(f"{folder}: cannot create the output folder ({error.strerror})") from None
     manifest = read_manifest(folder)
     remove_temporaries(folder, [job.name for job in jobs])
-    workers = workers or os.cpu_count() or 1
+    cores = workers or os.cpu_count() or 1
     prepared = [prepare_job(job, folder, settings, manifest["scenes"].get(job.name), force) for job in jobs]
     tasks = [item for item in prepared if isinstance(item, Task)]
-    # One scene at a time gets render()'s thread pool; scenes side by side get one thread each.
-    parallel = scheduler is not None or (workers > 1 and len(tasks) > 1)
-    tasks = [replace(task, threads=1 if parallel else None) for task in tasks]
+    processes = min(cores, len(tasks)) if scheduler is None else 0
+    threads = max(1, cores // processes) if processes else 1  # a Dask worker's own threads run the scenes
+    tasks = [replace(task, threads=threads) for task in tasks]
     outcomes: dict[str, Outcome] = {}
-    done = 0
+    written = time.perf_counter()
 
     def record(outcome: Outcome) -> None:
-        nonlocal done
+        nonlocal written
         outcomes[outcome.name] = outcome
         manifest["scenes"][outcome.name] = asdict(outcome)
-        write_manifest(folder, manifest)
-        done += 1
+        if time.perf_counter() - written >= MANIFEST_INTERVAL:
+            write_manifest(folder, manifest)
+            written = time.perf_counter()
         if progress:
-            progress(outcome, done, len(jobs))
+            progress(outcome, len(outcomes), len(jobs))
 
-    for item in prepared:
-        if isinstance(item, Outcome):
-            record(item)
-    if scheduler is not None:
-        executed = _dask(tasks, scheduler)
-    elif not parallel:
-        executed = _in_process(tasks)
-    else:
-        executed = _process_pool(tasks, min(workers, len(tasks)))
-    for outcome in executed:
-        record(outcome)
+    try:
+        for item in prepared:
+            if isinstance(item, Outcome):
+                record(item)
+        if scheduler is not None:
+            executed = _dask(tasks, scheduler)
+        elif processes <= 1:
+            executed = _in_process(tasks)
+        else:
+            executed = _process_pool(tasks, processes)
+        for outcome in executed:
+            record(outcome)
+    finally:  # an interrupted batch keeps the entries of the scenes it finished
+        write_manifest(folder, manifest)
     report = BatchReport(folder=folder, outcomes=[outcomes[job.name] for job in jobs])
     report.sheets = write_contact_sheets(jobs, report, settings, force)
     manifest["sheets"].update(report.sheets)

@@ -117,6 +117,12 @@ def test_a_rerun_renders_only_what_changed(five_scenes, tmp_path):
     (five_scenes / "tetra.obj").write_text(TETRAHEDRON.replace("v 1 1 1", "v 1 1 1.5"))
     run(str(five_scenes), "--out", str(out), "--jobs", "1")
     assert [name for name, status in statuses(out).items() if status == "rendered"] == ["mesh"]
+    # Touching a scene, or a mesh, re-renders only the scene that reads it (as with make).
+    for touched, expected in (("sphere1.toml", "sphere1"), ("tetra.obj", "mesh")):
+        stamp = (five_scenes / touched).stat().st_mtime_ns + 1_000_000_000
+        os.utime(five_scenes / touched, ns=(stamp, stamp))
+        run(str(five_scenes), "--out", str(out), "--jobs", "1")
+        assert [name for name, status in statuses(out).items() if status == "rendered"] == [expected]
     # --force renders everything; a deleted output is rendered again.
     run(str(five_scenes), "--out", str(out), "--jobs", "1", "--force")
     assert list(statuses(out).values()).count("rendered") == 4
@@ -134,6 +140,15 @@ def test_worker_processes_write_the_same_images(five_scenes, tmp_path):
     for name in names:
         assert (tmp_path / "one" / name).read_bytes() == (tmp_path / "two" / name).read_bytes(), name
     assert statuses(tmp_path / "two")["broken"] == "failed"
+    # --jobs is a core budget: one thread per scene in either case here; one stale scene gets both cores.
+    threads = {name: entry["threads"] for name, entry in manifest(tmp_path / "two").items() if name != "broken"}
+    assert set(threads.values()) == {1}
+    assert {entry["threads"] for name, entry in manifest(tmp_path / "one").items() if name != "broken"} == {1}
+    (tmp_path / "two" / "sphere0.png").unlink()
+    run(str(five_scenes / "sphere*.toml"), "--out", str(tmp_path / "two"), "--jobs", "2")
+    spheres = {name: status for name, status in statuses(tmp_path / "two").items() if name.startswith("sphere")}
+    assert spheres == {"sphere0": "rendered", "sphere1": "up to date", "sphere2": "up to date"}
+    assert manifest(tmp_path / "two")["sphere0"]["threads"] == 2
 
 
 def test_paths_globs_and_duplicate_names(five_scenes, tmp_path):
