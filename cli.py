@@ -343,7 +343,8 @@ def batch(
         sheets = "".join(f"; contact sheet {out / name}" for name in report.sheets.values())
         typer.echo(f"{len(report.outcomes)} scenes: {report.count(batches.RENDERED)} rendered, "
                    f"{report.count(batches.UP_TO_DATE)} up to date, {len(report.failed)} failed in "
-                   f"{report.seconds:.2f}s; manifest {out / batches.MANIFEST}{sheets}")
+                   f"{report.seconds:.2f}s ({report.startup:.2f}s of it loading the kernels); "
+                   f"manifest {out / batches.MANIFEST}{sheets}")
     if report.failed:
         raise typer.Exit(code=1)
 
@@ -356,8 +357,11 @@ def _batch_with_progress(found, out: Path, jobs: int | None, force: bool, settin
     if quiet:
         return run_batch(found, out, **options)
     if not sys.stderr.isatty():
+        started = time.perf_counter()
+
         def line(outcome, done: int, total: int) -> None:
-            typer.echo(f"[{done}/{total}] {outcome.status}: {outcome.name}", err=True)
+            typer.echo(f"[{done}/{total} {time.perf_counter() - started:.2f}s] {outcome.status}: {outcome.name}",
+                       err=True)
         return run_batch(found, out, progress=line, **options)
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn

@@ -93,6 +93,7 @@ class BatchReport:
     outcomes: list[Outcome]
     sheets: dict[str, str] = field(default_factory=dict)  # sweep name → contact sheet file name
     seconds: float = 0.0
+    startup: float = 0.0  # of `seconds`, loading the numba kernels before the first scene (warm_up)
 
     def count(self, status: str) -> int:
         return sum(outcome.status == status for outcome in self.outcomes)
@@ -243,6 +244,29 @@ def _in_process(tasks: list[Task]) -> Iterator[Outcome]:
         yield render_job(task)
 
 
+def warm_up(tasks: list[Task]) -> float:
+    """Load the numba kernels the tasks need (precisions, shadow rays) before any scene; the seconds it took.
+
+    The once-per-command start-up every batch pays, whatever --jobs: doing it here, not in the first
+    render, lets forked workers start warm and lets the batch report it apart from the scenes.
+    """
+    import numpy as np
+    from .plan import build_plan
+    from .render import warm_kernels
+    start = time.perf_counter()
+    plans = []
+    for task in tasks:
+        try:
+            plans.append(build_plan(task.scene))
+        except Exception:  # that scene's own render reports it; it must not stop the others
+            pass
+    if plans:
+        reals = {np.float64 if plan.keeps("float64_shading") else np.float32 for plan in plans}
+        warm_kernels(tuple(sorted(reals, key=lambda real: np.dtype(real).itemsize)),
+                     shadows=any(plan.keeps("shadow_rays") for plan in plans))
+    return time.perf_counter() - start
+
+
 def _worker_start() -> None:
     """Turn SIGTERM into SystemExit in a worker, so write_image's `finally` removes its temporary file."""
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(128 + signal.SIGTERM))
@@ -254,10 +278,8 @@ def _process_pool(tasks: list[Task], jobs: int) -> Iterator[Outcome]:
     threads (the CLI's case), else from a fork server (e.g. inside a test run that rendered already)."""
     methods = multiprocessing.get_all_start_methods()
     if "fork" in methods and not embree_started():
-        # This process has imported everything and started no Embree threads: forked workers inherit the
-        # imports (0.7 s each otherwise) and, once warmed here, the numba kernels (0.15 s each).
-        from .render import warm_kernels
-        warm_kernels()
+        # This process has imported everything, loaded the kernels (warm_up) and started no Embree threads:
+        # forked workers inherit the imports (0.7 s each otherwise) and the kernels (0.15 s each).
         context = multiprocessing.get_context("fork")
     else:
         context = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
@@ -372,6 +394,7 @@ def run_batch(jobs: list[Job], folder: str | Path, *, workers: int | None = None
     tasks = [replace(task, threads=threads) for task in tasks]
     outcomes: dict[str, Outcome] = {}
     written = time.perf_counter()
+    startup = warm_up(tasks) if scheduler is None else 0.0
 
     def record(outcome: Outcome) -> None:
         nonlocal written
@@ -397,9 +420,11 @@ def run_batch(jobs: list[Job], folder: str | Path, *, workers: int | None = None
             record(outcome)
     finally:  # an interrupted batch keeps the entries of the scenes it finished
         write_manifest(folder, manifest)
-    report = BatchReport(folder=folder, outcomes=[outcomes[job.name] for job in jobs])
+    report = BatchReport(folder=folder, outcomes=[outcomes[job.name] for job in jobs], startup=startup)
     report.sheets = write_contact_sheets(jobs, report, settings, force)
     manifest["sheets"].update(report.sheets)
-    write_manifest(folder, manifest)
     report.seconds = time.perf_counter() - started
+    manifest["batch"] = {"seconds": round(report.seconds, 6), "startup": round(startup, 6), "cores": cores,
+                         "processes": processes, "threads": threads, "scheduler": scheduler}
+    write_manifest(folder, manifest)
     return report

@@ -135,12 +135,14 @@ def measured(scene: Scene, result: RenderResult, reference: str, fine: int, sour
     return MeasuredResult(**fields, errors=errors, reference_seconds=time.perf_counter() - start)
 
 
-def warm_kernels() -> None:
-    """Load (or compile) every numba kernel a render uses, in both precisions, without starting Embree.
+def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bool = True) -> None:
+    """Load (or compile) the numba kernels a render uses, in the `reals` precisions and with global mode's
+    shadow-ray kernel if `shadows`, without starting Embree.
 
     A process that forks workers afterwards hands them ready kernels (batch.py): each would otherwise
-    spend ~0.15 s loading them from numba's cache. The kernels are typed by their arguments, so they
-    are called through the real wrappers on a 2×2 image whose rays all miss.
+    spend ~0.15 s loading them from numba's cache, most of it numba's one-time set-up on a process's
+    first dispatch. The kernels are typed by their arguments, so they are called through the real
+    wrappers on a 2×2 image whose rays all miss.
     """
     from .intersect import TileHits
     from .scene import validate_scene
@@ -154,8 +156,9 @@ def warm_kernels() -> None:
     _, directions = RayGenerator(rig, frame, 2, 2, 1, 4).rows(0, 2)
     misses = TileHits(face=np.full(4, -1, np.int32), u=np.zeros(4, np.float32), v=np.zeros(4, np.float32),
                       t=np.zeros(4, np.float32))
-    shadow_rays(prepare_shadows(scene, geometry, frame), misses, directions)
-    for real in (np.float32, np.float64):
+    if shadows:
+        shadow_rays(prepare_shadows(scene, geometry, frame), misses, directions)
+    for real in reals:
         inputs = prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), real)
         film = allocate_film(2, 2, (), real)
         shade_tile(inputs, misses, directions, film.rows(0, 2), 1, np.zeros(3, real), np.zeros(4, np.int64))

@@ -281,3 +281,26 @@ def test_warming_the_kernels_starts_no_embree():
              "warm_kernels(); print(embree_started())")
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
     assert done.stdout.strip() == "False", done.stderr
+
+
+def test_warm_up_loads_only_the_kernels_the_scenes_need(tmp_path):
+    """A batch of local float32 scenes loads the float32 shading kernel and no shadow-ray kernel, and the
+    manifest records that start-up apart from the scenes."""
+    probe = f"""
+import json, sys
+from raycast_phong import batch
+from raycast_phong.shading import _shade_rays
+from raycast_phong.shadows import _shadow_rays
+folder = sys.argv[1]
+open(folder + "/a.toml", "w").write('[render]\\nwidth = 8\\nheight = 8\\n[[objects]]\\nshape = "icosphere"\\n')
+report = batch.run_batch(batch.find_jobs([folder + "/a.toml"]), folder + "/out", workers=1)
+print(json.dumps(dict(shade=[str(s) for s in _shade_rays.signatures], shadow=len(_shadow_rays.signatures),
+                      startup=report.startup, batch=batch.read_manifest(__import__("pathlib").Path(folder + "/out"))["batch"])))
+"""
+    done = subprocess.run([sys.executable, "-c", probe, str(tmp_path)], capture_output=True, text=True, timeout=120,
+                          cwd=ROOT)
+    found = json.loads(done.stdout)
+    assert len(found["shade"]) == 1 and "Array(float32" in found["shade"][0] and "Array(float64" not in found["shade"][0]
+    assert found["shadow"] == 0
+    assert 0 < found["batch"]["startup"] == round(found["startup"], 6) < found["batch"]["seconds"], found
+    assert (found["batch"]["cores"], found["batch"]["processes"], found["batch"]["threads"]) == (1, 1, 1)
