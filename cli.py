@@ -9,6 +9,7 @@ import json
 import sys
 import time
 from contextlib import contextmanager
+from enum import Enum
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -34,6 +35,11 @@ SetOption = Annotated[list[str], typer.Option(
     "--set", metavar="KEY.PATH=VALUE",
     help="Override a scene key, e.g. `render.width=320`, `lights.0.position=[1,2,3]`, "
          "`materials.red.shininess=8`. Repeatable.")]
+
+
+class ReferenceKind(str, Enum):
+    """What `render --reference` measures against (here, not in reference.py, so --help loads no renderer)."""
+    ANALYTIC = "analytic"
 
 
 def fail(message: str, code: int = 2) -> None:
@@ -103,9 +109,11 @@ def render(
             fail(f"{path}: output.aovs: {list(loaded.output.aovs)} need an .exr output, but -o {output} is a PNG "
                  "(a PNG holds only RGB)")
         if reference is not None:
+            from raycast_phong.reference import ExactScene
             ExactScene(loaded, str(path))  # a mesh has no closed form: refuse before rendering
         result = _render_with_progress(loaded, str(path), threads, quiet)
         if reference is not None:
+            from raycast_phong.render import measured
             result = measured(loaded, result, reference.value, 2, str(path))
         started = time.perf_counter()
         rp.write_image(output, result.image, result.aovs, srgb=srgb)
@@ -377,8 +385,6 @@ def _batch_with_progress(found, out: Path, jobs: int | None, force: bool, settin
 
 # ---------------------------------------------------------------- accuracy: reference and study (docs/accuracy.md)
 
-from raycast_phong.reference import ExactScene, ReferenceKind  # noqa: E402  (kept beside the commands that use them)
-from raycast_phong.render import measured  # noqa: E402
 
 
 def error_line(errors, seconds: float) -> str:

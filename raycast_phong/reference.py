@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 import tempfile
 from dataclasses import dataclass
-from enum import Enum
 from pathlib import Path
 
 import numpy as np
@@ -474,8 +473,3 @@ def mesh_coverage(scene: Scene, source: str = "<scene>") -> np.ndarray:
         hits = accelerator.closest_hits(*rays.rows(row0, row1))
         coverage[row0:row1] = (hits.face >= 0).reshape(row1 - row0, width, n * n).mean(axis=2)
     return coverage
-
-
-class ReferenceKind(str, Enum):
-    """What `render --reference` measures against."""
-    ANALYTIC = "analytic"

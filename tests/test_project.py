@@ -50,3 +50,24 @@ def test_benchmark_script_runs_in_a_reduced_form():
     assert done.returncode == 0, done.stderr
     assert re.search(r"ratio\s+\d+\.\d+", done.stdout)
     assert "64×64, 81,920 triangles" in done.stdout
+
+
+HEAVY = ("numba", "trimesh", "scipy", "embreex")
+
+
+def test_importing_the_package_the_plugin_and_the_cli_loads_no_renderer():
+    """pytest loads the plugin in every session of an environment that has raycast-phong, and --help and
+    compare render nothing: none of them may pay the ≈ 0.7 s of numba, trimesh and Embree."""
+    probe = (f"import sys, raycast_phong, raycast_phong.pytest_plugin, cli; "
+             f"print([m for m in {HEAVY!r} if m in sys.modules])")
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=ROOT, timeout=60)
+    assert done.stdout.strip() == "[]", done.stdout + done.stderr
+
+
+def test_the_package_names_load_on_first_use_and_stay_functions():
+    """Importing the submodule raycast_phong.render first must not leave the module where render() belongs."""
+    probe = ("import sys, raycast_phong.render, raycast_phong as rp; "
+             "print(callable(rp.render), rp.render.__module__, 'numba' in sys.modules, set(rp.__all__) <= set(dir(rp)))")
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=ROOT, timeout=60)
+    assert done.stdout.split() == ["True", "raycast_phong.render", "True", "True"], done.stdout + done.stderr
+    assert callable(rp.render) and rp.load_scene.__module__ == "raycast_phong.scene"
