@@ -351,7 +351,7 @@ def batch(
         sheets = "".join(f"; contact sheet {out / name}" for name in report.sheets.values())
         typer.echo(f"{len(report.outcomes)} scenes: {report.count(batches.RENDERED)} rendered, "
                    f"{report.count(batches.UP_TO_DATE)} up to date, {len(report.failed)} failed in "
-                   f"{report.seconds:.2f}s ({report.startup:.2f}s of it loading the kernels); "
+                   f"{report.seconds:.2f}s ({report.startup:.2f}s of it loading the renderer); "
                    f"manifest {out / batches.MANIFEST}{sheets}")
     if report.failed:
         raise typer.Exit(code=1)

@@ -93,7 +93,7 @@ class BatchReport:
     outcomes: list[Outcome]
     sheets: dict[str, str] = field(default_factory=dict)  # sweep name → contact sheet file name
     seconds: float = 0.0
-    startup: float = 0.0  # of `seconds`, loading the numba kernels before the first scene (warm_up)
+    startup: float = 0.0  # of `seconds`, loading the renderer and its kernels before the first scene (warm_up)
 
     def count(self, status: str) -> int:
         return sum(outcome.status == status for outcome in self.outcomes)
@@ -245,15 +245,18 @@ def _in_process(tasks: list[Task]) -> Iterator[Outcome]:
 
 
 def warm_up(tasks: list[Task]) -> float:
-    """Load the numba kernels the tasks need (precisions, shadow rays) before any scene; the seconds it took.
+    """Load the renderer (its imports: numba, trimesh, Embree) and the numba kernels the tasks need
+    (precisions, shadow rays) before any scene; the seconds it took.
 
     The once-per-command start-up every batch pays, whatever --jobs: doing it here, not in the first
     render, lets forked workers start warm and lets the batch report it apart from the scenes.
     """
+    if not tasks:
+        return 0.0
+    start = time.perf_counter()
     import numpy as np
     from .plan import build_plan
     from .render import warm_kernels
-    start = time.perf_counter()
     plans = []
     for task in tasks:
         try:
