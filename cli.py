@@ -386,7 +386,6 @@ def _batch_with_progress(found, out: Path, jobs: int | None, force: bool, settin
 # ---------------------------------------------------------------- accuracy: reference and study (docs/accuracy.md)
 
 
-
 def error_line(errors, seconds: float) -> str:
     """One line: RMSE, max and PSNR against the reference, and the silhouette and highlight figures."""
     return (f"against the {errors.reference} reference: RMSE {errors.rmse:.5f}, max {errors.max_error:.4f}, "

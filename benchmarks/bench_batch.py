@@ -20,6 +20,7 @@ Usage: python benchmarks/bench_batch.py [--workloads tiny,small,examples] [--sce
 from __future__ import annotations
 
 import argparse
+import json
 import re
 import shutil
 import statistics
@@ -146,7 +147,6 @@ def main() -> None:
         probes = [temporary / "small" / "scene00.toml"] if "small" in kinds else []
         if "examples" in kinds:
             probes += sorted((temporary / "examples").glob("*0[0-5].toml"))
-        import json
         startup = json.loads(subprocess.run([sys.executable, "-c", STARTUP, *map(str, probes)], check=True,
                                             cwd=ROOT, capture_output=True, text=True).stdout)
         runs = {}

@@ -146,7 +146,7 @@ def job_hash(job: Job, scene: Scene | None, settings: Settings) -> str:
     digest = hashlib.sha256()
     header = {"package": __version__, "settings": asdict(settings), "overrides": list(job.overrides)}
     digest.update(json.dumps(header, sort_keys=True).encode())
-    for path in [job.scene, *mesh_paths(scene)]:
+    for path in input_paths(job, scene):
         digest.update(str(path.name).encode())
         try:
             digest.update(path.read_bytes())
@@ -155,17 +155,18 @@ def job_hash(job: Job, scene: Scene | None, settings: Settings) -> str:
     return "sha256:" + digest.hexdigest()
 
 
-def mesh_paths(scene: Scene | None) -> list[Path]:
-    """The mesh files a scene reads, resolved against its folder."""
+def input_paths(job: Job, scene: Scene | None) -> list[Path]:
+    """The files a job's image depends on: its scene file, then the mesh files the scene reads (resolved
+    against its folder); the hash and the modification times both cover exactly these."""
     if scene is None:
-        return []
-    return [scene.resolve(obj.path) for obj in scene.objects if obj.shape == "mesh" and obj.path]
+        return [job.scene]
+    return [job.scene, *(scene.resolve(obj.path) for obj in scene.objects if obj.shape == "mesh" and obj.path)]
 
 
 def input_times(job: Job, scene: Scene | None) -> dict[str, int]:
     """Modification time (ns) of the scene file and of each mesh it reads; -1 for a missing file."""
     times = {}
-    for path in [job.scene, *mesh_paths(scene)]:
+    for path in input_paths(job, scene):
         try:
             times[str(path)] = path.stat().st_mtime_ns
         except OSError:
@@ -264,8 +265,7 @@ def warm_up(tasks: list[Task]) -> float:
         except Exception:  # that scene's own render reports it; it must not stop the others
             pass
     if plans:
-        reals = {np.float64 if plan.keeps("float64_shading") else np.float32 for plan in plans}
-        warm_kernels(tuple(sorted(reals, key=lambda real: np.dtype(real).itemsize)),
+        warm_kernels(tuple({np.float64 if plan.keeps("float64_shading") else np.float32 for plan in plans}),
                      shadows=any(plan.keeps("shadow_rays") for plan in plans))
     return time.perf_counter() - start
 

@@ -20,7 +20,6 @@ from typing import Callable
 import numpy as np
 import pytest
 
-
 UPDATE_OPTION = "--update-references"
 
 

@@ -286,8 +286,9 @@ def test_warming_the_kernels_starts_no_embree():
 def test_warm_up_loads_only_the_kernels_the_scenes_need(tmp_path):
     """A batch of local float32 scenes loads the float32 shading kernel and no shadow-ray kernel, and the
     manifest records that start-up apart from the scenes."""
-    probe = f"""
+    probe = """
 import json, sys
+from pathlib import Path
 from raycast_phong import batch
 from raycast_phong.shading import _shade_rays
 from raycast_phong.shadows import _shadow_rays
@@ -295,7 +296,7 @@ folder = sys.argv[1]
 open(folder + "/a.toml", "w").write('[render]\\nwidth = 8\\nheight = 8\\n[[objects]]\\nshape = "icosphere"\\n')
 report = batch.run_batch(batch.find_jobs([folder + "/a.toml"]), folder + "/out", workers=1)
 print(json.dumps(dict(shade=[str(s) for s in _shade_rays.signatures], shadow=len(_shadow_rays.signatures),
-                      startup=report.startup, batch=batch.read_manifest(__import__("pathlib").Path(folder + "/out"))["batch"])))
+                      startup=report.startup, batch=batch.read_manifest(Path(folder) / "out")["batch"])))
 """
     done = subprocess.run([sys.executable, "-c", probe, str(tmp_path)], capture_output=True, text=True, timeout=120,
                           cwd=ROOT)
