@@ -90,11 +90,13 @@ def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, 
         d = zero
         if lights[k, L_KIND] == 0:
             lx, ly, lz = lights[k, L_VEC] - px, lights[k, L_VEC + 1] - py, lights[k, L_VEC + 2] - pz
-            d = math.sqrt(lx * lx + ly * ly + lz * lz)
-            if d > zero:
+            d2 = lx * lx + ly * ly + lz * lz
+            d = math.sqrt(d2)
+            if d2 > view[9]:
                 lx, ly, lz = lx / d, ly / d, lz / d
             else:
-                # A light exactly on the surface has no direction: treat it as head-on.
+                # A light within the distance floor (view[9] = floor², 1e-6 of the scene's half-extent) has
+                # no direction the hit point's rounding does not decide: treat it as head-on, l = n.
                 lx, ly, lz = nx, ny, nz
         else:
             lx, ly, lz = lights[k, L_VEC], lights[k, L_VEC + 1], lights[k, L_VEC + 2]
@@ -105,7 +107,7 @@ def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, 
             if lights[k, L_ATT_KIND] == 1:
                 # 1/d² exactly, with d floored at 1e-6 of the scene's size (view[9] = that floor²), so a
                 # light on or inside the surface stays finite in float32 too.
-                weight = one / max(d * d, view[9])
+                weight = one / max(d2, view[9])
             else:
                 weight = min(one, one / (lights[k, L_ATT] + lights[k, L_ATT + 1] * d + lights[k, L_ATT + 2] * d * d))
 

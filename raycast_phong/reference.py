@@ -294,8 +294,10 @@ def illuminate_exact(scene: Scene, points, normals, to_viewer, material_rows, vi
         if light.type == "point":
             to_light = np.asarray(light.position) - points
             distance = np.linalg.norm(to_light, axis=1)
-            # A light exactly on the surface has no direction: head-on, as the kernel does.
-            to_light = np.where(distance[:, None] > 0, to_light / np.where(distance > 0, distance, 1)[:, None], normals)
+            # A light within the distance floor has no direction the hit point's rounding does not decide:
+            # head-on (l = n), as the kernel does.
+            away = distance > MIN_DISTANCE * scale
+            to_light = np.where(away[:, None], to_light / np.where(away, distance, 1)[:, None], normals)
         else:
             distance = np.zeros(len(points))
             to_light = np.broadcast_to(-np.asarray(light.direction) / np.linalg.norm(light.direction), points.shape)

@@ -166,11 +166,13 @@ def subpixel_highlight() -> CaseResult:
 
 # ---------------------------------------------------------------- 3. light at, on or inside the surface
 
-def plane_with_light(distance: float, attenuation, precision: str = "float32") -> Scene:
+def plane_with_light(distance: float, attenuation, precision: str = "float32",
+                     sideways: tuple[float, float] = (0.0, 0.0)) -> Scene:
+    """A 4 × 4 plane (half-extent 2) seen head-on, a point light `distance` above its centre, moved `sideways`."""
     return validate_scene({
         "render": {"width": 9, "height": 9, "shading": "phong", "precision": precision},
         "camera": {"type": "orthographic", "position": [0, 0, 5], "view_height": 1.0},
-        "lights": [{"type": "point", "position": [0, 0, distance], "attenuation": attenuation}],
+        "lights": [{"type": "point", "position": [*sideways, distance], "attenuation": attenuation}],
         "objects": [{"shape": "plane", "size": [4, 4], "rotate": [90, 0, 0]}],
     }, source="stability")
 
@@ -178,15 +180,26 @@ def plane_with_light(distance: float, attenuation, precision: str = "float32") -
 @case
 def light_on_the_surface() -> CaseResult:
     worst, finite = 0.0, True
+    head_on = True
     for distance in (0.0, 1e-30, 1e-12, -1e-12):
-        for attenuation in ("none", "inverse_square", [1.0, 0.5, 0.25]):
-            for precision in ("float32", "float64"):
-                image = render(plane_with_light(distance, attenuation, precision)).image
-                finite &= bool(np.isfinite(image).all() and image.min() >= 0)
-                worst = max(worst, float(image.max()))
-    return CaseResult("light at, on or inside the surface", "d ∈ {0, 1e-30, ±1e-12}, every attenuation, both "
-                      "precisions: finite, ≥ 0 (1/d² floors d at 1e-6 of the scene size)",
-                      f"largest pixel {worst:.3g}", finite)
+        for sideways in ((0.0, 0.0), (3e-7, -5e-7)):
+            for attenuation in ("none", "inverse_square", [1.0, 0.5, 0.25]):
+                for precision in ("float32", "float64"):
+                    image = render(plane_with_light(distance, attenuation, precision, sideways)).image
+                    finite &= bool(np.isfinite(image).all() and image.min() >= 0)
+                    worst = max(worst, float(image.max()))
+                    if attenuation == "inverse_square":
+                        # Inside the floor (2e-6 here) the light is head-on: f_att (kd + ks) at the centre.
+                        head_on &= abs(float(image[4, 4].max()) / LIGHT_ON_SURFACE_PEAK - 1) < 1e-5
+    return CaseResult("light at, on or inside the surface", "d ∈ {0, 1e-30, ±1e-12}, on the axis and 6e-7 "
+                      "sideways, every attenuation, both precisions: finite, ≥ 0; inside the 1/d² floor (1e-6 of "
+                      "the scene size) the light is head-on, so the centre pixel is f_att (k_d + k_s) on any CPU",
+                      f"largest pixel {worst:.3g}", finite and head_on)
+
+
+# f_att (I_d k_d + I_s k_s) with l = n = v: the floor d = 1e-6 × the plane's half-extent 2, the default light
+# (I_d 0.8, I_s 1) and material (k_d 0.8, k_s 0.5); the ambient term is 1e-12 of it.
+LIGHT_ON_SURFACE_PEAK = 1 / (2e-6) ** 2 * (0.8 * 0.8 + 1.0 * 0.5)
 
 
 # ---------------------------------------------------------------- 4. grazing light and view

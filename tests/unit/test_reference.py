@@ -171,3 +171,17 @@ def test_fine_phong_mesh_converges_to_the_analytic_reference():
         errors.append(np.sqrt(((fine.image - exact.image)[both] ** 2).mean()))
     assert errors[1] < errors[0] / 4 and errors[1] < 3e-3
     assert ((mesh_coverage(coarse) > 0) != (exact.coverage > 0)).sum() > 0  # the 80-face silhouette differs
+
+
+@pytest.mark.parametrize("sideways", [(0.0, 0.0), (3e-7, -5e-7)])
+def test_a_light_inside_the_distance_floor_is_head_on_in_the_reference_too(sideways):
+    """The oracle keeps the kernel's rule: within 1e-6 × the half-extent (2e-6 for this 4 × 4 plane), l = n.
+
+    At the centre pixel (x = y = 0 exactly in float64), f_att = 1/(2e-6)² and n·l = v·r = 1.
+    """
+    light = {"type": "point", "position": [*sideways, 1e-12], "attenuation": "inverse_square",
+             "diffuse": 0.8, "specular": 1.0}
+    plane = {"shape": "plane", "size": [4, 4], "rotate": [90, 0, 0]}
+    ref = analytic_reference(scene([plane], [light], ORTHO, size=(5, 5)))
+    expected = 0.1 + (0.8 * KD + KS) / (2e-6) ** 2
+    np.testing.assert_allclose(ref.image[2, 2], expected, rtol=1e-12)
