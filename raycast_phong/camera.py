@@ -11,8 +11,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
+from .jit import kernel
 from .records import Frame
 from .scene import Scene
 
@@ -78,7 +78,7 @@ def generate_rays(rig: CameraRig, frame: Frame, width: int, height: int, samples
     return RayGenerator(rig, frame, width, height, samples, count).rows(row0, row1)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@kernel()
 def _fill_rays(row0, row1, width, height, samples, eye, right, up, forward, half_width, half_height,
                orthographic, center, inv_scale, origins, directions):
     """Directions (and, for an orthographic camera, origins) of the rays of rows [row0, row1)."""

@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from .jit import kernel
+
 
 # Bits of the `flags` integer that the render plan fills in (the specular model travels apart).
 F_ATTENUATION = 1 << 0     # some point light attenuates
@@ -40,7 +41,7 @@ C_SPECULAR, C_ATTENUATION, C_LIGHT_AMBIENT, C_EMISSION, C_SCENE_AMBIENT, C_DIFFU
 
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@kernel()
 def specular_power(x, f, zero, one):
     """max(x, 0)^f with the limits the format asks for.
 
@@ -56,7 +57,7 @@ def specular_power(x, f, zero, one):
     return x ** f
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@kernel(inline="always")
 def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, visible, zero, one, two):
     """The model at point p with unit normal n and one material (a row of the material table, as a tuple).
 

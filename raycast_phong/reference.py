@@ -22,7 +22,7 @@ from .camera import CameraRig, RayGenerator, camera_rig
 from .geometry import build_geometry, object_mesh, rotation_of
 from .intersect import Accelerator, unit_frame
 from .scene import Object, Scene, SceneError, SpecularModel, Viewer, validate_scene
-from .shading import MIN_DISTANCE
+from .tolerances import MIN_DISTANCE
 
 TILE_SAMPLES = 1 << 16  # rays per tile: the torus's 4×4 eigenproblems stay a few MB
 SHADOW_OFFSET = 1e-9    # × the scene's half-extent: float64 exact hits sit ~1e-15 off the surface

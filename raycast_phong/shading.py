@@ -17,18 +17,18 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
 from .camera import CameraRig
 from .illumination import (COUNTED_TERMS, F_AOV_GEOMETRY, F_AOV_TERMS, F_ATTENUATION, F_SCREEN, F_SHADOWS,
                            F_TWO_SIDED, illuminate)
-
-MIN_DISTANCE = 1e-6  # × the scene's half-extent: the floor of d in 1/d² attenuation
-ALL_VISIBLE = -1                       # every bit set: local mode, no light is ever shadowed
-NO_SHADOWS = np.zeros(0, np.int64)     # the kernel's `visible` argument in local mode
 from .intersect import TileHits
+from .jit import kernel
 from .records import Frame, Geometry, ImageBuffers
 from .scene import DEFAULT_MATERIAL, Scene
+from .tolerances import MIN_DISTANCE, NO_DIRECTION
+
+ALL_VISIBLE = -1                       # every bit set: local mode, no light is ever shadowed
+NO_SHADOWS = np.zeros(0, np.int64)     # the kernel's `visible` argument in local mode
 
 
 @dataclass(frozen=True, eq=False)
@@ -119,7 +119,7 @@ def shade_tile(inputs: ShadingInputs, hits: TileHits, directions: np.ndarray, ou
     return counts
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@kernel()
 def _project(x, y, z, eye, camera):
     """Image-plane coordinates of a point: (x/z, y/z) in the camera frame, or (x, y) if orthographic."""
     rx, ry, rz = x - eye[0], y - eye[1], z - eye[2]
@@ -131,7 +131,7 @@ def _project(x, y, z, eye, camera):
     return cx / cz, cy / cz
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@kernel()
 def _screen_weights(b0, b1, b2, v, f0, f1, f2, eye, camera, one):
     """Barycentric weights of the hit's image-plane position in the projected triangle.
 
@@ -152,7 +152,7 @@ def _screen_weights(b0, b1, b2, v, f0, f1, f2, eye, camera, one):
     return one - w1 - w2, w1, w2
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@kernel(inline="always")
 def _mixed_normal(corner_normals, f, b0, b1, b2):
     """b0 n0 + b1 n1 + b2 n2: face f's vertex normals mixed with barycentric weights (not renormalised)."""
     return (b0 * corner_normals[f, 0, 0] + b1 * corner_normals[f, 1, 0] + b2 * corner_normals[f, 2, 0],
@@ -160,7 +160,7 @@ def _mixed_normal(corner_normals, f, b0, b1, b2):
             b0 * corner_normals[f, 0, 2] + b1 * corner_normals[f, 1, 2] + b2 * corner_normals[f, 2, 2])
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@kernel()
 def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
                 vertices, faces, face_normals, corner_normals, face_material, face_model,
                 materials, lights, view, camera, background, flags, specular, zero, one, two,
@@ -237,8 +237,8 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
             pz = b0 * vertices[i0, 2] + b1 * vertices[i1, 2] + b2 * vertices[i2, 2]
             sx, sy, sz = _mixed_normal(corner_normals, f, b0, b1, b2)
             length = math.sqrt(sx * sx + sy * sy + sz * sz)
-            # A mix of unit normals shorter than 1e-6 points nowhere in particular: keep the face normal.
-            if length > one * 1e-6:
+            # A mix of unit normals with no length points nowhere in particular: keep the face normal.
+            if length > one * NO_DIRECTION:
                 nx, ny, nz = side * sx / length, side * sy / length, side * sz / length
             ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask = illuminate(
                 px, py, pz, nx, ny, nz, material, lights, view_tuple, flags, specular, visible_k, zero, one, two)

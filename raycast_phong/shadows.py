@@ -20,9 +20,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
 from .intersect import Accelerator, TileHits
+from .jit import kernel
 from .records import Frame, Geometry
 from .scene import Scene
 
@@ -96,7 +96,7 @@ def light_visibility(inputs: ShadowInputs, hits: TileHits, directions: np.ndarra
     return visible
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@kernel()
 def _offset(x, n):
     """Move coordinate x by 256–512 float32 ulps in the direction of n (a fixed 1/65536 near zero).
 
@@ -108,7 +108,7 @@ def _offset(x, n):
     return x + n * INT_SCALE * abs(x) * ULP_FACTOR
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@kernel()
 def _shadow_rays(hit_rays, face, bu, bv, directions, vertices, faces, face_normals, corner_normals, smooth,
                  light_kind, light_vec, two_sided, offset_scale, origins, toward, t_max):
     lights = light_kind.shape[0]
@@ -162,7 +162,7 @@ def _shadow_rays(hit_rays, face, bu, bv, directions, vertices, faces, face_norma
             toward[r, 0], toward[r, 1], toward[r, 2] = lx, ly, lz
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@kernel()
 def _gather_bits(hit_rays, free, lights, visible):
     for h in range(hit_rays.shape[0]):
         mask = 0

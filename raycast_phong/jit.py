@@ -1,0 +1,104 @@
+"""The one decorator for compiled kernels: numba's njit, cached under a key of every kernel module's source.
+
+numba's on-disk cache checks only the source file a function is defined in, but a kernel compiles in
+the helpers it calls from other modules (`illuminate` from illumination.py inside shading's
+`_shade_rays`): edit illumination.py and the cached `_shade_rays` would keep running the old model.
+So every kernel of the package is cached in a folder named after a hash of all the package's
+kernel modules (every .py file here that uses `@kernel`) and of the package modules they import:
+any edit to any of them starts a fresh folder, and stale folders are removed. Only numba's documented cache directory setting
+(`numba.config.CACHE_DIR`, the NUMBA_CACHE_DIR variable) is used, set for the moment a kernel is
+decorated and restored at once, so other numba code in the process is unaffected.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import re
+import shutil
+import tempfile
+from functools import lru_cache
+from pathlib import Path
+
+import numba
+from numba import njit
+
+PACKAGE = Path(__file__).resolve().parent
+MARK = "@kernel("          # how a module declares a kernel; such a module is part of the key
+PREFIX = "raycast-phong-kernels-"
+RELATIVE_IMPORT = re.compile(rb"^from (\.+)([\w.]*) import \(?([\w, \n]*)", re.MULTILINE)
+
+
+@lru_cache(maxsize=1)
+def source_key() -> str:
+    """sha256 (16 hex digits) of numba's version and the text of every kernel module and of every package
+    module they import, transitively (a kernel also freezes in the constants it reads, e.g. tolerances.py)."""
+    texts = {path: path.read_bytes() for path in PACKAGE.rglob("*.py")}
+    keyed = {path for path, text in texts.items() if MARK.encode() in text and path.name != "jit.py"}
+    pending = list(keyed)
+    while pending:
+        importer = pending.pop()
+        # Relative imports ("from .x import …", "from ..x.y import …", "from . import x, y") read off the
+        # text: parsing every module with ast would cost 10× more at each start-up.
+        for dots, module, names in RELATIVE_IMPORT.findall(texts[importer]):
+            folder = importer.parents[len(dots) - 1]
+            targets = [module] if module else re.findall(rb"\w+", names)
+            for target in targets:
+                base = folder.joinpath(*target.decode().split("."))
+                for path in (base.with_suffix(".py"), base / "__init__.py"):
+                    if path in texts and path not in keyed:
+                        keyed.add(path)
+                        pending.append(path)
+    digest = hashlib.sha256(numba.__version__.encode())
+    for path in sorted(keyed):
+        digest.update(path.relative_to(PACKAGE).as_posix().encode() + b"\0" + texts[path] + b"\0")
+    return digest.hexdigest()[:16]
+
+
+def _writable(folder: Path) -> bool:
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        tempfile.TemporaryFile(dir=folder).close()
+        return True
+    except OSError:
+        return False
+
+
+@lru_cache(maxsize=1)
+def cache_folder() -> Path | None:
+    """This source's kernel cache: under NUMBA_CACHE_DIR if the user set one, else the package's
+    __pycache__, else the user's cache folder; None if none is writable (kernels then compile per process).
+    In the package's own __pycache__, folders of other keys are removed: they belong to sources of this
+    tree that no longer exist (a shared folder may hold other installs' keys, so it is left alone)."""
+    own = PACKAGE / "__pycache__"
+    bases = [Path(numba.config.CACHE_DIR)] if numba.config.CACHE_DIR else []  # NUMBA_CACHE_DIR
+    bases += [own, Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "raycast-phong"]
+    for base in bases:
+        folder = base / f"{PREFIX}{source_key()}"
+        if _writable(folder):
+            if base == own:
+                for stale in base.glob(f"{PREFIX}*"):
+                    if stale != folder:
+                        shutil.rmtree(stale, ignore_errors=True)  # another process may be removing it too
+            return folder
+    return None
+
+
+def kernel(**options):
+    """njit(cache=True, nogil=True, error_model="numpy", **options), cached in `cache_folder()`.
+
+    error_model="numpy": a division by zero gives inf/nan as numpy would, instead of a Python exception
+    check in every division of the hot loop.
+    """
+    def decorate(function):
+        folder = cache_folder()
+        settings = {"nogil": True, "error_model": "numpy", **options}
+        if folder is None:
+            return njit(cache=False, **settings)(function)
+        previous = numba.config.CACHE_DIR
+        numba.config.CACHE_DIR = str(folder)  # read once, when njit makes the function's cache locator
+        try:
+            return njit(cache=True, **settings)(function)
+        finally:
+            numba.config.CACHE_DIR = previous
+    return decorate

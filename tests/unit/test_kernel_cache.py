@@ -1,0 +1,94 @@
+"""No stale kernels: an edit to any module a cached kernel compiles in reaches the next render.
+
+numba's own cache checks only the file a kernel is defined in; shading's `_shade_rays` inlines
+illumination's `illuminate`. These tests work on a copy of the package (its own __pycache__), import it
+in fresh interpreters, and edit it between runs, as a developer would.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import raycast_phong
+
+PACKAGE = Path(raycast_phong.__file__).resolve().parent
+
+# Render a small Phong sphere with the diffuse layer; report the kernel's cache statistics.
+RENDER = """
+import json, sys
+import numpy as np
+import raycast_phong as rp
+from raycast_phong import shading
+scene = rp.validate_scene({
+    "render": {"width": 24, "height": 24, "shading": "phong"},
+    "camera": {"position": [0, 0, 4], "fov": 40},
+    "lights": [{"type": "point", "position": [2, 2, 3]}],
+    "objects": [{"shape": "icosphere", "subdivisions": 2}],
+    "output": {"aovs": ["diffuse"]},
+})
+result = rp.render(scene, threads=1)
+np.save(sys.argv[1], np.stack([result.image, result.aovs["diffuse"]]))
+stats = shading._shade_rays.stats
+print(json.dumps({"hits": sum(stats.cache_hits.values()), "misses": sum(stats.cache_misses.values())}))
+"""
+
+KEY = "from raycast_phong import jit; print(jit.source_key())"
+
+
+@pytest.fixture
+def package_copy(tmp_path):
+    """A copy of the installed package's sources under tmp_path/src, and a runner importing it."""
+    shutil.copytree(PACKAGE, tmp_path / "src" / "raycast_phong", ignore=shutil.ignore_patterns("__pycache__"))
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "PYTHONPATH")}
+    env["PYTHONPATH"] = str(tmp_path / "src")
+
+    def run(code: str, *args: str) -> str:
+        done = subprocess.run([sys.executable, "-c", code, *args], env=env, cwd=tmp_path, capture_output=True,
+                              text=True, timeout=300)
+        assert done.returncode == 0, done.stderr
+        return done.stdout.strip().splitlines()[-1]
+
+    return tmp_path / "src" / "raycast_phong", run
+
+
+def edit(path: Path, old: str, new: str) -> None:
+    text = path.read_text()
+    assert text.count(old) == 1, f"{path.name} no longer has {old!r}: update this test"
+    path.write_text(text.replace(old, new))
+
+
+def test_an_edit_to_an_inlined_helper_reaches_the_cached_kernel(package_copy, tmp_path):
+    copy, run = package_copy
+    assert "import raycast_phong" in RENDER and str(copy.parent) in run("import raycast_phong; print(raycast_phong.__file__)")
+    first = json.loads(run(RENDER, str(tmp_path / "first.npy")))
+    again = json.loads(run(RENDER, str(tmp_path / "again.npy")))
+    assert first["misses"] > 0 and again == {"hits": again["hits"], "misses": 0} and again["hits"] > 0
+    # Double the diffuse term in illumination.py only: shading.py, where the cached kernel lives, is untouched.
+    edit(copy / "illumination.py", "lit = weight * n_dot_l\n", "lit = two * weight * n_dot_l\n")
+    edited = json.loads(run(RENDER, str(tmp_path / "edited.npy")))
+    assert edited["misses"] > 0, "the cached _shade_rays was loaded although illuminate changed"
+    (before, diffuse), (after, _) = np.load(tmp_path / "first.npy"), np.load(tmp_path / "edited.npy")
+    np.testing.assert_array_equal(np.load(tmp_path / "again.npy")[0], before)
+    # image' = image + diffuse exactly, up to float32 rounding of the sum (a few ulps of the pixel).
+    assert diffuse.max() > 0.3
+    np.testing.assert_allclose(after, before + diffuse, rtol=1e-6, atol=1e-7)
+
+
+def test_the_cache_key_covers_every_module_a_kernel_reads_and_only_those(package_copy):
+    copy, run = package_copy
+    key = run(KEY)
+    # tolerances.py holds constants the kernels freeze in; no kernel is defined there.
+    edit(copy / "tolerances.py", "NO_DIRECTION = 1e-6", "NO_DIRECTION = 2e-6")
+    assert run(KEY) != key
+    key = run(KEY)
+    # batch.py is a tool on top of the pipeline: editing it must not throw away compiled kernels.
+    (copy / "batch.py").write_text((copy / "batch.py").read_text() + "\n# an edit\n")
+    assert run(KEY) == key
