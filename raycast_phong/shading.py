@@ -121,14 +121,16 @@ def shade_tile(inputs: ShadingInputs, hits: TileHits, directions: np.ndarray, ou
 
 @kernel()
 def _project(x, y, z, eye, camera):
-    """Image-plane coordinates of a point: (x/z, y/z) in the camera frame, or (x, y) if orthographic."""
+    """Image-plane coordinates of a point, (x/z, y/z) in the camera frame or (x, y) if orthographic, and
+    its depth z along the view direction (1 if orthographic: every point projects)."""
     rx, ry, rz = x - eye[0], y - eye[1], z - eye[2]
     cx = rx * camera[0] + ry * camera[1] + rz * camera[2]
     cy = rx * camera[3] + ry * camera[4] + rz * camera[5]
     if camera[9] != 0:
-        return cx, cy
+        return cx, cy, camera[9]
     cz = rx * camera[6] + ry * camera[7] + rz * camera[8]
-    return cx / cz, cy / cz
+    # At or behind the eye plane a point has no image: report its depth and let the caller refuse it.
+    return (cx / cz, cy / cz, cz / math.sqrt(rx * rx + ry * ry + rz * rz)) if cz > 0 else (cx, cy, cz)
 
 
 @kernel()
@@ -136,14 +138,19 @@ def _screen_weights(b0, b1, b2, v, f0, f1, f2, eye, camera, one):
     """Barycentric weights of the hit's image-plane position in the projected triangle.
 
     The hit's own image position is the projection of the true hit point (b0 v0 + b1 v1 + b2 v2).
+    A triangle with a corner at or behind the eye plane has no projected triangle to interpolate in
+    (its "weights" would leave [0, 1], e.g. (0.56, 0.56, −0.12)): it keeps the true weights, as does an
+    edge-on one. "At" means within NO_DIRECTION of the plane, as a cosine, so that 1/z stays finite.
     """
     px = b0 * v[f0, 0] + b1 * v[f1, 0] + b2 * v[f2, 0]
     py = b0 * v[f0, 1] + b1 * v[f1, 1] + b2 * v[f2, 1]
     pz = b0 * v[f0, 2] + b1 * v[f1, 2] + b2 * v[f2, 2]
-    sx, sy = _project(px, py, pz, eye, camera)
-    ax, ay = _project(v[f0, 0], v[f0, 1], v[f0, 2], eye, camera)
-    bx, by = _project(v[f1, 0], v[f1, 1], v[f1, 2], eye, camera)
-    cx, cy = _project(v[f2, 0], v[f2, 1], v[f2, 2], eye, camera)
+    ax, ay, az = _project(v[f0, 0], v[f0, 1], v[f0, 2], eye, camera)
+    bx, by, bz = _project(v[f1, 0], v[f1, 1], v[f1, 2], eye, camera)
+    cx, cy, cz = _project(v[f2, 0], v[f2, 1], v[f2, 2], eye, camera)
+    if min(az, bz, cz) <= NO_DIRECTION:
+        return b0, b1, b2
+    sx, sy, _ = _project(px, py, pz, eye, camera)
     area = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
     if area == 0:
         return b0, b1, b2  # an edge-on triangle has no screen area: keep the true weights

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
+from raycast_phong import shading
 from raycast_phong.camera import camera_rig
 
 LIGHT = {"type": "point", "position": [2, 2, 3], "diffuse": [0.8, 0.8, 0.8], "specular": [1, 1, 1]}
@@ -181,3 +182,52 @@ def test_vertex_normals_that_cancel_fall_back_to_the_face_normal(tmp_path):
     image = rp.render(scene).image
     assert np.isfinite(image).all()
     np.testing.assert_allclose(image[1, 1], 0.6 + 0.3, atol=1e-6)
+
+
+# The camera frame as the kernel reads it: right, up, forward, orthographic flag; eye at the origin.
+LOOKING_DOWN_MINUS_Z = np.array([1, 0, 0, 0, 1, 0, 0, 0, -1, 0], np.float64)
+
+
+def test_screen_weights_in_a_triangle_in_front_of_the_eye_are_the_projected_ones():
+    """All corners in front: the weights are the hit's 2-D barycentrics in the projected triangle."""
+    vertices = np.array([[0, 0, -1], [2, 0, -3], [0, 1, -2]], np.float64)
+    true = np.array([0.2, 0.5, 0.3])
+    got = shading._screen_weights(*true, vertices, 0, 1, 2, np.zeros(3), LOOKING_DOWN_MINUS_Z, 1.0)
+    projected = vertices[:, :2] / -vertices[:, 2:]          # (x/z, y/z) with z the depth along forward
+    hit = true @ vertices
+    screen = hit[:2] / -hit[2]
+    # Solve screen = Σ w_i projected_i with Σ w_i = 1 independently of the kernel.
+    expected = np.linalg.solve(np.vstack([projected.T, np.ones(3)]), np.append(screen, 1.0))
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)
+    assert np.abs(np.asarray(got) - true).max() > 0.05  # a receding triangle: screen ≠ perspective weights
+
+
+@pytest.mark.parametrize("behind", [1.0, 0.0, 1e-9])
+def test_a_triangle_reaching_behind_the_eye_keeps_its_true_weights(behind):
+    """A corner at or behind the eye plane has no image; projecting it anyway gave weights outside [0, 1]."""
+    vertices = np.array([[0, 0, -1], [1, 0, -1], [0, 0.5, behind]], np.float64)
+    true = (0.3, 0.3, 0.4)  # the hit (0.3, 0.2, 0.4 behind − 0.6) is in front of the eye
+    got = shading._screen_weights(*true, vertices, 0, 1, 2, np.zeros(3), LOOKING_DOWN_MINUS_Z, 1.0)
+    np.testing.assert_allclose(got, true, rtol=0, atol=1e-15)
+
+
+def test_screen_interpolation_stays_inside_the_vertex_values_on_a_floor_reaching_behind_the_eye():
+    """Gouraud, screen weights, a 40 × 40 floor whose far corners are behind the camera: every pixel is a
+    convex mix of its corners' intensities, kd I_d (n·l) with n·l = 3/|light − corner| (no ambient, no
+    specular), so it lies between the smallest and the largest of the four."""
+    light = np.array([0.0, 3.0, -3.0])
+    corners = np.array([[x, 0.0, z] for x in (-20, 20) for z in (-20, 20)])
+    n_dot_l = 3.0 / np.linalg.norm(light - corners, axis=1)
+    scene = rp.validate_scene({
+        "render": {"width": 48, "height": 32, "shading": "gouraud", "interpolation": "screen",
+                   "precision": "float64"},
+        "camera": {"position": [0, 1, 0], "look_at": [0, 0, -5], "fov": 90},
+        "ambient": 0,
+        "lights": [{"type": "point", "position": light.tolist(), "diffuse": 1.0}],
+        "materials": {"m": {"ka": 0, "kd": 1.0, "ks": 0}},
+        "objects": [{"shape": "plane", "size": [40, 40], "material": "m"}],
+    })
+    image = rp.render(scene).image[..., 0]
+    floor = image[image > 0]
+    assert floor.size > 0.4 * image.size
+    assert n_dot_l.min() - 1e-12 <= floor.min() and floor.max() <= n_dot_l.max() + 1e-12
