@@ -6,15 +6,17 @@ S = max(v·r, 0)^f with r = 2(l·n)n − l (Phong 1975), or max(n·h, 0)^f with 
 1977); S = 0 where l·n ≤ 0. f_att is 1, 1/d², or min(1, 1/(c + l·d + q·d²)); 1 for directional lights.
 The four terms are kept apart (ambient, diffuse, specular, emission) so they can be written as layers.
 All arithmetic happens in the dtype of the arrays passed in (the scene's `precision`): the constants
-0, 1, 2 come from the array `c` of that dtype, never from Python literals, which numba would widen.
+0, 1, 2 arrive as scalars of that dtype (zero, one, two), never as Python literals, which numba would widen.
 """
 
 from __future__ import annotations
 
 import math
 
-from .jit import kernel
+import numpy as np
 
+from .jit import kernel
+from .surface import to_light
 
 # Bits of the `flags` integer that the render plan fills in (the specular model travels apart).
 F_ATTENUATION = 1 << 0     # some point light attenuates
@@ -30,15 +32,49 @@ F_AOV_TERMS = 1 << 9       # write the per-term layers
 F_SHADOWS = 1 << 10        # global mode: per-ray light visibility masks are given
 SPECULAR_NONE, SPECULAR_PHONG, SPECULAR_BLINN = 0, 1, 2
 
-# Columns of the material table (M, 13) and of the light table (K, 17).
-KA, KD, KS, KE, SHININESS = 0, 3, 6, 9, 12
-L_KIND, L_VEC, L_ID, L_IS, L_IA, L_ATT_KIND, L_ATT = 0, 1, 4, 7, 10, 13, 14
+# Columns of the material table (M, 13) and of the light table (K, 17); material_table and light_table
+# below are the only writers, illuminate the only reader.
+KA, KD, KS, KE, SHININESS, MATERIAL_COLUMNS = 0, 3, 6, 9, 12, 13
+L_KIND, L_VEC, L_ID, L_IS, L_IA, L_ATT_KIND, L_ATT, LIGHT_COLUMNS = 0, 1, 4, 7, 10, 13, 14, 17
+POINT, DIRECTIONAL = 0, 1                                    # L_KIND
+ATTENUATION_NONE, INVERSE_SQUARE, CLQ = 0, 1, 2              # L_ATT_KIND
 
 # Indices into the `counts` array: how many times each optional term was evaluated.
 COUNTED_TERMS = ("specular", "attenuation", "light_ambient", "emission", "scene_ambient", "diffuse",
                  "view_vector")
 C_SPECULAR, C_ATTENUATION, C_LIGHT_AMBIENT, C_EMISSION, C_SCENE_AMBIENT, C_DIFFUSE, C_VIEW = range(7)
 
+
+def material_table(materials, real: type) -> np.ndarray:
+    """(M, MATERIAL_COLUMNS) array of `real`: per material k_a, k_d, k_s, k_e (r, g, b each) and f."""
+    table = np.zeros((len(materials), MATERIAL_COLUMNS))
+    for row, m in zip(table, materials):
+        row[KA:KA + 3], row[KD:KD + 3], row[KS:KS + 3], row[KE:KE + 3], row[SHININESS] = m.ka, m.kd, m.ks, m.ke, m.shininess
+    return np.ascontiguousarray(table, real)
+
+
+def light_table(lights, center: np.ndarray, attenuate: bool, real: type) -> np.ndarray:
+    """(K, LIGHT_COLUMNS) array of `real`: per light its kind, a point light's position − `center` or a
+    directional light's unit vector toward it, I_d, I_s, I_a, and its attenuation kind with c, l, q.
+
+    f_att = 1 for directional lights, whatever the file says. When some light attenuates (`attenuate`),
+    "none" is written as min(1, 1/(1 + 0 d + 0 d²)) = 1, so that every light takes the same branch.
+    """
+    table = np.zeros((len(lights), LIGHT_COLUMNS))
+    for row, light in zip(table, lights):
+        if light.type == "point":
+            row[L_KIND], row[L_VEC:L_VEC + 3] = POINT, np.asarray(light.position) - center
+        else:
+            toward = -np.asarray(light.direction, np.float64)
+            row[L_KIND], row[L_VEC:L_VEC + 3] = DIRECTIONAL, toward / np.linalg.norm(toward)
+        row[L_ID:L_ID + 3], row[L_IS:L_IS + 3], row[L_IA:L_IA + 3] = light.diffuse, light.specular, light.ambient
+        if light.type == "directional" or light.attenuation == "none":
+            row[L_ATT_KIND], row[L_ATT:L_ATT + 3] = (CLQ if attenuate else ATTENUATION_NONE), (1.0, 0.0, 0.0)
+        elif light.attenuation == "inverse_square":
+            row[L_ATT_KIND], row[L_ATT:L_ATT + 3] = INVERSE_SQUARE, (0.0, 0.0, 1.0)
+        else:
+            row[L_ATT_KIND], row[L_ATT:L_ATT + 3] = CLQ, light.attenuation
+    return np.ascontiguousarray(table, real)
 
 
 @kernel()
@@ -88,27 +124,16 @@ def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, 
             vx, vy, vz = vx / length, vy / length, vz / length
 
     for k in range(lights.shape[0]):
-        d = zero
-        if lights[k, L_KIND] == 0:
-            lx, ly, lz = lights[k, L_VEC] - px, lights[k, L_VEC + 1] - py, lights[k, L_VEC + 2] - pz
-            d2 = lx * lx + ly * ly + lz * lz
-            d = math.sqrt(d2)
-            if d2 > view[9]:
-                lx, ly, lz = lx / d, ly / d, lz / d
-            else:
-                # A light within the distance floor (view[9] = floor², 1e-6 of the scene's half-extent) has
-                # no direction the hit point's rounding does not decide: treat it as head-on, l = n.
-                lx, ly, lz = nx, ny, nz
-        else:
-            lx, ly, lz = lights[k, L_VEC], lights[k, L_VEC + 1], lights[k, L_VEC + 2]
+        lx, ly, lz, d = to_light(lights[k, L_KIND] == POINT, lights[k, L_VEC], lights[k, L_VEC + 1],
+                                 lights[k, L_VEC + 2], px, py, pz, nx, ny, nz, view[9])
 
         weight = one
-        if flags & F_ATTENUATION and lights[k, L_ATT_KIND] != 0:
+        if flags & F_ATTENUATION and lights[k, L_ATT_KIND] != ATTENUATION_NONE:
             mask |= 1 << C_ATTENUATION
-            if lights[k, L_ATT_KIND] == 1:
+            if lights[k, L_ATT_KIND] == INVERSE_SQUARE:
                 # 1/d² exactly, with d floored at 1e-6 of the scene's size (view[9] = that floor²), so a
                 # light on or inside the surface stays finite in float32 too.
-                weight = one / max(d2, view[9])
+                weight = one / max(d * d, view[9])
             else:
                 weight = min(one, one / (lights[k, L_ATT] + lights[k, L_ATT + 1] * d + lights[k, L_ATT + 2] * d * d))
 

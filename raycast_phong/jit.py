@@ -26,7 +26,7 @@ from numba import njit
 PACKAGE = Path(__file__).resolve().parent
 MARK = "@kernel("          # how a module declares a kernel; such a module is part of the key
 PREFIX = "raycast-phong-kernels-"
-RELATIVE_IMPORT = re.compile(rb"^from (\.+)([\w.]*) import \(?([\w, \n]*)", re.MULTILINE)
+RELATIVE_IMPORT = re.compile(rb"^from (\.+)([\w.]*) import (\([^)]*\)|[^\n]*)", re.MULTILINE)
 
 
 @lru_cache(maxsize=1)

@@ -81,7 +81,6 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     inputs = prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), real)
     shadow_inputs = prepare_shadows(scene, geometry, frame) if plan.keeps("shadow_rays") else None
     film = allocate_film(width, height, tuple(scene.output.aovs), real)
-    background = np.asarray(render_opts.background, real)
     rows_per_tile = max(1, TILE_RAYS // (width * samples * samples))
     bands = [(row, min(row + rows_per_tile, height)) for row in range(0, height, rows_per_tile)]
     rays = RayGenerator(rig, frame, width, height, samples, max_rays=rows_per_tile * width * samples * samples)
@@ -96,7 +95,7 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
         if shadow_inputs is not None:
             visible = light_visibility(shadow_inputs, hits, directions, accelerator)
         t2 = time.perf_counter()
-        tile_counts = shade_tile(inputs, hits, directions, film.rows(row0, row1), samples, background, visible)
+        tile_counts = shade_tile(inputs, hits, directions, film.rows(row0, row1), samples, visible)
         return t1 - t0, t2 - t1, time.perf_counter() - t2, tile_counts
 
     counts = np.zeros(len(COUNTED_TERMS), np.int64)
@@ -161,7 +160,7 @@ def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bo
     for real in reals:
         inputs = prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), real)
         film = allocate_film(2, 2, (), real)
-        shade_tile(inputs, misses, directions, film.rows(0, 2), 1, np.zeros(3, real), np.zeros(4, np.int64))
+        shade_tile(inputs, misses, directions, film.rows(0, 2), 1, np.zeros(4, np.int64))
 
 
 def render_file(path: str | Path, overrides: list[str] | tuple[str, ...] = (), **options) -> RenderResult:

@@ -14,75 +14,83 @@ centred on the scene (translation changes no direction or distance) in the scene
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from .camera import CameraRig
 from .illumination import (COUNTED_TERMS, F_AOV_GEOMETRY, F_AOV_TERMS, F_ATTENUATION, F_SCREEN, F_SHADOWS,
-                           F_TWO_SIDED, illuminate)
+                           F_TWO_SIDED, illuminate, light_table, material_table)
 from .intersect import TileHits
 from .jit import kernel
 from .records import Frame, Geometry, ImageBuffers
 from .scene import DEFAULT_MATERIAL, Scene
+from .surface import facing_side, hit_point
 from .tolerances import MIN_DISTANCE, NO_DIRECTION
 
 ALL_VISIBLE = -1                       # every bit set: local mode, no light is ever shadowed
 NO_SHADOWS = np.zeros(0, np.int64)     # the kernel's `visible` argument in local mode
 
 
-@dataclass(frozen=True, eq=False)
-class ShadingInputs:
-    """Everything the shading kernel reads, in the scene's precision, centred on the scene."""
+class ShadingInputs(NamedTuple):
+    """Everything the shading kernel reads, in the scene's precision, centred on the scene.
+
+    A NamedTuple, not a dataclass: numba takes it as one argument and reads its fields by name (a field
+    may not be called `view`: numba reads `x.view` as ndarray.view).
+    """
     vertices: np.ndarray        # (V, 3)
     faces: np.ndarray           # (F, 3) int32
     face_normals: np.ndarray    # (F, 3)
     corner_normals: np.ndarray  # (F, 3, 3), or (1, 3, 3) of zeros when no face is smooth-shaded
     face_material: np.ndarray   # (F,) int32, row of the material table
     face_model: np.ndarray      # (F,) int8, 0 flat, 1 gouraud, 2 phong
-    materials: np.ndarray       # (M, 13) ka, kd, ks, ke, shininess; row 0 is the built-in default
-    lights: np.ndarray          # (K, 17) kind (0 point, 1 directional), position or unit vector toward
-                                # the light, I_d, I_s, I_a, attenuation kind (0 none, 1 1/d², 2 c-l-q), c, l, q
-    view: np.ndarray            # (10,) I_a, eye, fixed view vector (−forward: infinite viewer or orthographic),
+    materials: np.ndarray       # (M, MATERIAL_COLUMNS): illumination.material_table; row 0 the built-in default
+    lights: np.ndarray          # (K, LIGHT_COLUMNS): illumination.light_table
+    viewing: np.ndarray         # (10,) I_a, eye, fixed view vector (−forward: infinite viewer or orthographic),
                                 # smallest d² for 1/d² attenuation
     camera: np.ndarray          # (10,) right, up, forward, orthographic (1/0): for screen-space weights
+    background: np.ndarray      # (3,) linear RGB of a pixel sample that hits nothing
     flags: int                  # F_* bits from the render plan
     specular: int               # SPECULAR_NONE, SPECULAR_PHONG or SPECULAR_BLINN
-    real: type                  # np.float32 or np.float64, the scene's precision
     frame_scale: float          # Embree's unit-frame t × frame_scale = world distance
+    zero: np.floating           # 0, 1 and 2 in the shading precision: Python literals would widen float32
+    one: np.floating
+    two: np.floating
+
+
+class TileRays(NamedTuple):
+    """A tile's rays and their closest hits, as the kernel reads them (ray k is sample k % n² of pixel k // n²)."""
+    face: np.ndarray        # (N,) int32, -1 on a miss
+    u: np.ndarray           # (N,) float32, weight of corner 1
+    v: np.ndarray           # (N,) float32, weight of corner 2
+    t: np.ndarray           # (N,) float32, unit-frame distance
+    directions: np.ndarray  # (N, 3) float32, unit
+    visible: np.ndarray     # (N,) int64 light bits (global mode), or empty in local mode
+    samples: int            # n: n × n samples per pixel
+
+
+class FilmRows(NamedTuple):
+    """Views of whole image rows that the kernel adds into (ImageBuffers.rows), and its term counters."""
+    rgb: np.ndarray
+    terms: np.ndarray
+    depth: np.ndarray
+    normal: np.ndarray
+    face: np.ndarray
+    counts: np.ndarray      # (len(COUNTED_TERMS),) int64, shading points that evaluated each term
 
 
 def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Frame,
                     flags: tuple[int, int], real: type = np.float32) -> ShadingInputs:
     """Pack the scene's numbers into tables of the shading precision `real` for the kernel.
 
-    view[9] is the smallest distance 1/d² attenuation divides by, squared: 1e-6 of the scene's
+    viewing[9] is the smallest distance 1/d² attenuation divides by, squared: MIN_DISTANCE of the scene's
     half-extent, so a light on the surface gives a large but finite f_att (≤ 1e12 / scale²).
     """
     center = frame.center
-    materials = [DEFAULT_MATERIAL, *scene.materials.values()]
-    material_rows = [[*m.ka, *m.kd, *m.ks, *m.ke, m.shininess] for m in materials]
-    light_rows = []
-    for light in scene.lights:
-        if light.type == "point":
-            kind, vector = 0, np.asarray(light.position) - center
-        else:
-            kind, vector = 1, -np.asarray(light.direction, np.float64)
-            vector = vector / np.linalg.norm(vector)
-        if light.type == "directional" or light.attenuation == "none":
-            # f_att = 1 for directional lights, whatever the file says. When the plan keeps attenuation,
-            # "none" is evaluated as min(1, 1/(1 + 0 d + 0 d²)) = 1, so every light goes through it.
-            attenuation = (2, 1.0, 0.0, 0.0) if flags[0] & F_ATTENUATION else (0, 1.0, 0.0, 0.0)
-        elif light.attenuation == "inverse_square":
-            attenuation = (1, 0.0, 0.0, 1.0)
-        else:
-            attenuation = (2, *light.attenuation)
-        light_rows.append([kind, *vector, *light.diffuse, *light.specular, *light.ambient, *attenuation])
     corner = geometry.corner_normals if len(geometry.corner_normals) else np.zeros((1, 3, 3))
 
-    def table(values, columns=None):
-        return np.ascontiguousarray(np.asarray(values, np.float64).reshape(-1, columns) if columns
-                                    else np.asarray(values, np.float64), dtype=real)
+    def table(values):
+        return np.ascontiguousarray(np.asarray(values, np.float64), dtype=real)
 
     return ShadingInputs(
         vertices=table(geometry.vertices - center),
@@ -91,17 +99,18 @@ def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Fra
         corner_normals=table(corner),
         face_material=np.ascontiguousarray(geometry.face_material, np.int32),
         face_model=np.ascontiguousarray(geometry.face_model, np.int8),
-        materials=table(material_rows, 13),
-        lights=table(light_rows, 17),
-        view=table([*scene.ambient, *(rig.eye - center), *(-rig.forward), (MIN_DISTANCE * frame.scale) ** 2]),
+        materials=material_table([DEFAULT_MATERIAL, *scene.materials.values()], real),
+        lights=light_table(scene.lights, center, bool(flags[0] & F_ATTENUATION), real),
+        viewing=table([*scene.ambient, *(rig.eye - center), *(-rig.forward), (MIN_DISTANCE * frame.scale) ** 2]),
         camera=table([*rig.right, *rig.up, *rig.forward, float(rig.orthographic)]),
-        flags=int(flags[0]), specular=int(flags[1]), real=real,
-        frame_scale=frame.scale,
+        background=table(scene.render.background),
+        flags=int(flags[0]), specular=int(flags[1]), frame_scale=float(frame.scale),
+        zero=real(0), one=real(1), two=real(2),
     )
 
 
 def shade_tile(inputs: ShadingInputs, hits: TileHits, directions: np.ndarray, out: ImageBuffers,
-               samples: int, background: np.ndarray, visible: np.ndarray | None = None) -> np.ndarray:
+               samples: int, visible: np.ndarray | None = None) -> np.ndarray:
     """Shade a tile's rays into `out` (views of whole image rows; mean over the n×n samples per pixel).
 
     `visible` (N,) int64: global mode's per-ray light bits (shadows.light_visibility); None in local mode.
@@ -109,13 +118,8 @@ def shade_tile(inputs: ShadingInputs, hits: TileHits, directions: np.ndarray, ou
     Returns how many shading points evaluated each optional term, (len(COUNTED_TERMS),) int64.
     """
     counts = np.zeros(len(COUNTED_TERMS), np.int64)
-    i, real = inputs, inputs.real
-    _shade_rays(hits.face, hits.u, hits.v, hits.t, directions, samples, out.rgb.shape[1], i.frame_scale,
-                i.vertices, i.faces, i.face_normals, i.corner_normals, i.face_material, i.face_model,
-                i.materials, i.lights, i.view, i.camera, np.asarray(background, out.rgb.dtype),
-                i.flags, i.specular, real(0), real(1), real(2),
-                NO_SHADOWS if visible is None else visible,
-                out.rgb, out.terms, out.depth, out.normal, out.face, counts)
+    rays = TileRays(hits.face, hits.u, hits.v, hits.t, directions, NO_SHADOWS if visible is None else visible, samples)
+    _shade_rays(inputs, rays, FilmRows(out.rgb, out.terms, out.depth, out.normal, out.face, counts))
     return counts
 
 
@@ -168,10 +172,15 @@ def _mixed_normal(corner_normals, f, b0, b1, b2):
 
 
 @kernel()
-def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
-                vertices, faces, face_normals, corner_normals, face_material, face_model,
-                materials, lights, view, camera, background, flags, specular, zero, one, two,
-                visible, rgb, terms, depth, normal, face_out, counts):
+def _shade_rays(inputs, rays, film):
+    """Shade every ray of a tile into the film rows (ShadingInputs, TileRays, FilmRows)."""
+    vertices, faces, face_normals, corner_normals = inputs.vertices, inputs.faces, inputs.face_normals, inputs.corner_normals
+    face_material, face_model = inputs.face_material, inputs.face_model
+    materials, lights, view, camera, background = inputs.materials, inputs.lights, inputs.viewing, inputs.camera, inputs.background
+    flags, specular, zero, one, two = inputs.flags, inputs.specular, inputs.zero, inputs.one, inputs.two
+    face, bu, bv, tfar, directions, visible, samples = rays
+    rgb, terms, depth, normal, face_out, counts = film
+    width = rgb.shape[1]
     eye = view[3:6]
     view_tuple = (view[0], view[1], view[2], view[3], view[4], view[5], view[6], view[7], view[8], view[9])
     third = one / (one + one + one)
@@ -205,9 +214,7 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
         if screen:
             b0, b1, b2 = _screen_weights(b0, b1, b2, vertices, i0, i1, i2, eye, camera, one)
         gx, gy, gz = face_normals[f, 0], face_normals[f, 1], face_normals[f, 2]
-        side = one
-        if two_sided and gx * directions[k, 0] + gy * directions[k, 1] + gz * directions[k, 2] > 0:
-            side = -one  # the ray sees the back: shade the side that faces the viewer
+        side = facing_side(gx, gy, gz, directions[k], two_sided, one)  # shade the side the viewer sees
         m = face_material[f]
         material = (materials[m, 0], materials[m, 1], materials[m, 2], materials[m, 3], materials[m, 4],
                     materials[m, 5], materials[m, 6], materials[m, 7], materials[m, 8], materials[m, 9],
@@ -215,9 +222,7 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
         model = face_model[f]
         nx, ny, nz = side * gx, side * gy, side * gz
         if model == 0:
-            px = (vertices[i0, 0] + vertices[i1, 0] + vertices[i2, 0]) * third
-            py = (vertices[i0, 1] + vertices[i1, 1] + vertices[i2, 1]) * third
-            pz = (vertices[i0, 2] + vertices[i1, 2] + vertices[i2, 2]) * third
+            px, py, pz = hit_point(vertices, faces, f, third, third, third)  # the centroid
             ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask = illuminate(
                 px, py, pz, nx, ny, nz, material, lights, view_tuple, flags, specular, visible_k, zero, one, two)
         elif model == 1:
@@ -239,9 +244,7 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
                 sx, sy, sz = _mixed_normal(corner_normals, f, b0, b1, b2)
                 nx, ny, nz = side * sx, side * sy, side * sz
         else:
-            px = b0 * vertices[i0, 0] + b1 * vertices[i1, 0] + b2 * vertices[i2, 0]
-            py = b0 * vertices[i0, 1] + b1 * vertices[i1, 1] + b2 * vertices[i2, 1]
-            pz = b0 * vertices[i0, 2] + b1 * vertices[i1, 2] + b2 * vertices[i2, 2]
+            px, py, pz = hit_point(vertices, faces, f, b0, b1, b2)
             sx, sy, sz = _mixed_normal(corner_normals, f, b0, b1, b2)
             length = math.sqrt(sx * sx + sy * sy + sz * sz)
             # A mix of unit normals with no length points nowhere in particular: keep the face normal.
@@ -261,7 +264,7 @@ def _shade_rays(face, bu, bv, tfar, directions, samples, width, frame_scale,
                 terms[row, col, term, 1] += weight * g
                 terms[row, col, term, 2] += weight * b
         if geometry_layers and sample == centre_sample:
-            depth[row, col] = tfar[k] * frame_scale
+            depth[row, col] = tfar[k] * inputs.frame_scale
             face_out[row, col] = f
             length = math.sqrt(nx * nx + ny * ny + nz * nz)
             if length > 0:

@@ -25,6 +25,8 @@ from .intersect import Accelerator, TileHits
 from .jit import kernel
 from .records import Frame, Geometry
 from .scene import Scene
+from .surface import facing_side, hit_point, to_light
+from .tolerances import MIN_DISTANCE
 
 MAX_LIGHTS = 63          # visibility travels as bits of one int64 per ray
 INT_SCALE = 256.0        # Wächter & Binder: ulps of offset per unit of normal
@@ -32,6 +34,7 @@ FLOAT_SCALE = 1.0 / 65536.0
 ORIGIN = 1.0 / 32.0      # below this magnitude a coordinate gets the fixed offset
 ULP_FACTOR = 2.0 ** -23  # |x| · 2^-23 is one to two float32 ulps of x
 SHORT_OF_LIGHT = 1e-4    # embreex counts a hit exactly at tfar: stop this fraction short of a point light
+FLOOR_SQUARED = MIN_DISTANCE ** 2  # the unit frame's half-extent is 1: a light this close is head-on
 
 
 @dataclass(frozen=True, eq=False)
@@ -118,13 +121,9 @@ def _shadow_rays(hit_rays, face, bu, bv, directions, vertices, faces, face_norma
         b1, b2 = float(bu[k]), float(bv[k])
         b0 = 1.0 - b1 - b2
         gx, gy, gz = face_normals[f, 0], face_normals[f, 1], face_normals[f, 2]
-        side = 1.0
-        if two_sided and gx * directions[k, 0] + gy * directions[k, 1] + gz * directions[k, 2] > 0:
-            side = -1.0  # the viewer sees the back: the smooth surface bulges toward the back
-        i0, i1, i2 = faces[f, 0], faces[f, 1], faces[f, 2]
-        px = b0 * vertices[i0, 0] + b1 * vertices[i1, 0] + b2 * vertices[i2, 0]
-        py = b0 * vertices[i0, 1] + b1 * vertices[i1, 1] + b2 * vertices[i2, 1]
-        pz = b0 * vertices[i0, 2] + b1 * vertices[i1, 2] + b2 * vertices[i2, 2]
+        # The viewer may see the back of a two-sided face: its smooth surface bulges toward the back.
+        side = facing_side(gx, gy, gz, directions[k], two_sided, 1.0)
+        px, py, pz = hit_point(vertices, faces, f, b0, b1, b2)
         if smooth[f]:
             # Hanika 2021: p' = Σ_j b_j (v_j + t_j), t_j = (p − v_j) with its part below corner j's tangent
             # plane removed; as Σ b_j (p − v_j) = 0 this is p − Σ_j b_j min(0, (p − v_j)·n_j) n_j.
@@ -139,25 +138,19 @@ def _shadow_rays(hit_rays, face, bu, bv, directions, vertices, faces, face_norma
             px, py, pz = qx, qy, qz
         for j in range(lights):
             r = h * lights + j
-            if light_kind[j] == 0:
-                lx, ly, lz = light_vec[j, 0] - px, light_vec[j, 1] - py, light_vec[j, 2] - pz
-            else:
-                lx, ly, lz = light_vec[j, 0], light_vec[j, 1], light_vec[j, 2]
+            point = light_kind[j] == 0
+            lx, ly, lz, _ = to_light(point, light_vec[j, 0], light_vec[j, 1], light_vec[j, 2], px, py, pz,
+                                     gx, gy, gz, FLOOR_SQUARED)
             # Leave the surface on the light's side of the geometric normal.
             toward_side = offset_scale if gx * lx + gy * ly + gz * lz >= 0 else -offset_scale
             ox = _offset(px, toward_side * gx)
             oy = _offset(py, toward_side * gy)
             oz = _offset(pz, toward_side * gz)
-            if light_kind[j] == 0:
-                lx, ly, lz = light_vec[j, 0] - ox, light_vec[j, 1] - oy, light_vec[j, 2] - oz
-                d = math.sqrt(lx * lx + ly * ly + lz * lz)
-                t_max[r] = d * (1.0 - SHORT_OF_LIGHT) if d > 0 else 0.0
-                if d > 0:
-                    lx, ly, lz = lx / d, ly / d, lz / d
-                else:
-                    lx, ly, lz = gx, gy, gz
-            else:
-                t_max[r] = 1e37  # embreex's own "no limit"
+            t_max[r] = 1e37  # embreex's own "no limit"
+            if point:
+                lx, ly, lz, d = to_light(point, light_vec[j, 0], light_vec[j, 1], light_vec[j, 2], ox, oy, oz,
+                                         gx, gy, gz, FLOOR_SQUARED)
+                t_max[r] = d * (1.0 - SHORT_OF_LIGHT)
             origins[r, 0], origins[r, 1], origins[r, 2] = ox, oy, oz
             toward[r, 0], toward[r, 1], toward[r, 2] = lx, ly, lz
 

@@ -301,7 +301,8 @@ print(json.dumps(dict(shade=[str(s) for s in _shade_rays.signatures], shadow=len
     done = subprocess.run([sys.executable, "-c", probe, str(tmp_path)], capture_output=True, text=True, timeout=120,
                           cwd=ROOT)
     found = json.loads(done.stdout)
-    assert len(found["shade"]) == 1 and "Array(float32" in found["shade"][0] and "Array(float64" not in found["shade"][0]
+    signature = found["shade"][0].lower() if len(found["shade"]) == 1 else ""
+    assert "array(float32" in signature and "array(float64" not in signature, found["shade"]
     assert found["shadow"] == 0
     assert 0 < found["batch"]["startup"] == round(found["startup"], 6) < found["batch"]["seconds"], found
     assert (found["batch"]["cores"], found["batch"]["processes"], found["batch"]["threads"]) == (1, 1, 1)
