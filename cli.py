@@ -113,7 +113,7 @@ def render(
             ExactScene(loaded, str(path))  # a mesh has no closed form: refuse before rendering
         result = _render_with_progress(loaded, str(path), threads, quiet)
         if reference is not None:
-            from raycast_phong.render import measured
+            from raycast_phong.accuracy import measured
             result = measured(loaded, result, reference.value, 2, str(path))
         started = time.perf_counter()
         rp.write_image(output, result.image, result.aovs, srgb=srgb)
@@ -412,7 +412,7 @@ def reference_command(
 ) -> None:
     """Render the analytic reference: the same camera, lights, materials and model on the exact sphere,
     plane, box, cylinder and torus, in float64, with the true normal."""
-    from raycast_phong.reference import reference_image
+    from raycast_phong.accuracy import reference_image
     with exit_codes():
         path = scene or rp.default_scene_path()
         loaded = rp.load_scene(path, set_)

@@ -118,6 +118,6 @@ class ImageErrors:
 
 @dataclass(frozen=True, eq=False)
 class MeasuredResult(RenderResult):
-    """A RenderResult that also carries its errors against a reference (render(..., reference=...))."""
+    """A RenderResult that also carries its errors against a reference (accuracy.measured)."""
     errors: ImageErrors | None = None
     reference_seconds: float = 0.0   # time to compute the reference (not part of timings)

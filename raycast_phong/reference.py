@@ -1,31 +1,64 @@
-"""Exact references: the illumination model on the true surfaces of the analytic shapes, in float64 numpy.
+"""The oracle: the illumination model on the true surfaces of the analytic shapes, in float64 numpy.
 
-Every pixel sample's camera ray (camera_rig and camera.py's sample centres) is intersected with the
-exact sphere, box, plane, cylinder or torus each object's mesh approximates, placed as geometry.place
-places the mesh (world = T · Rz · Ry · Rx · S · local, so a non-uniform scale gives an ellipsoid): the
-ray is taken into object space by the inverse affine map, the normal back by the inverse transpose.
-The model is illumination.py's formula term for term; global mode casts analytic shadow rays.
-A mesh file has no closed form: `fine=N` gives a self-convergence reference instead (fine_reference).
+Written from the scene format alone (docs/scene-format.md), it imports none of the renderer's stages:
+its own camera frame and pixel-sample rays, its own object placement (world = T · Rz · Ry · Rx · S ·
+local, so a non-uniform scale gives an ellipsoid), its own exact sphere, box, plane, cylinder and torus
+intersections (the ray taken into object space by the inverse affine map, the normal back by the
+inverse transpose), its own evaluation of the model; global mode casts analytic shadow rays. A bug in
+a stage therefore shows as a difference instead of being shared. It shares only the Scene record and
+the model's named tolerances. A mesh file has no closed form: accuracy.fine_reference is for those.
 """
 
 from __future__ import annotations
 
 import math
-import tempfile
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
-import trimesh
 
-from .camera import CameraRig, RayGenerator, camera_rig
-from .geometry import build_geometry, object_mesh, rotation_of
-from .intersect import Accelerator, unit_frame
-from .scene import Object, Scene, SceneError, SpecularModel, Viewer, validate_scene
+from .scene import Object, Scene, SceneError, SpecularModel, Viewer
 from .tolerances import MIN_DISTANCE
 
 TILE_SAMPLES = 1 << 16  # rays per tile: the torus's 4×4 eigenproblems stay a few MB
 SHADOW_OFFSET = 1e-9    # × the scene's half-extent: float64 exact hits sit ~1e-15 off the surface
+
+
+@dataclass(frozen=True)
+class CameraFrame:
+    """The camera as the scene format defines it: an orthonormal frame and the image plane's half-size."""
+    eye: np.ndarray        # (3,) float64
+    right: np.ndarray      # (3,) unit: forward × up, normalised
+    up: np.ndarray         # (3,) unit: right × forward
+    forward: np.ndarray    # (3,) unit, toward look_at
+    half_width: float      # at distance 1 (perspective: tan(fov/2) · W/H) or in world units (orthographic)
+    half_height: float
+    orthographic: bool
+
+
+def camera_frame(scene: Scene) -> CameraFrame:
+    """The scene's camera: forward = normalize(look_at − position), right = normalize(forward × up)."""
+    camera, width, height = scene.camera, scene.render.width, scene.render.height
+    eye = np.array(camera.position, np.float64)
+    forward = np.array(camera.look_at, np.float64) - eye
+    forward /= np.linalg.norm(forward)
+    right = np.cross(forward, np.array(camera.up, np.float64))
+    right /= np.linalg.norm(right)
+    orthographic = camera.type == "orthographic"
+    half_height = camera.view_height / 2 if orthographic else math.tan(math.radians(camera.fov) / 2)
+    return CameraFrame(eye, right, np.cross(right, forward), forward, half_height * width / height, half_height,
+                       orthographic)
+
+
+def rotation(obj: Object) -> np.ndarray:
+    """R = Rz · Ry · Rx of the object's `rotate` angles in degrees (x first), a 3×3 matrix."""
+    def about(axis: int, degrees: float) -> np.ndarray:
+        c, s = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
+        i, j = [(1, 2), (2, 0), (0, 1)][axis]  # the plane the rotation turns: y–z, z–x, x–y
+        m = np.eye(3)
+        m[i, i], m[i, j], m[j, i], m[j, j] = c, -s, s, c
+        return m
+    rx, ry, rz = obj.rotate
+    return about(2, rz) @ about(1, ry) @ about(0, rx)
 
 
 @dataclass(frozen=True, eq=False)
@@ -35,37 +68,6 @@ class ReferenceImage:
     specular: np.ndarray  # (H, W, 3) float64, the specular term alone (highlight loss)
     coverage: np.ndarray  # (H, W) float64, share of the pixel's samples that hit a surface
     kind: str             # "analytic", or "fine N" for a self-convergence reference
-
-
-# ---------------------------------------------------------------- tessellation levels
-
-def refined(obj: Object, level: int) -> dict:
-    """The keys that give an analytic object tessellation `level` (docs/accuracy.md, "Levels").
-
-    icosphere: subdivisions = L (20·4^L triangles); uv_sphere, torus: segments = [8·2^L, 4·2^L];
-    cylinder: segments = [8·2^L, 1]; plane: segments = [2^L, 2^L]; box: unchanged (12 flat faces are
-    exact). L = 2 is the format's default for every shape.
-    """
-    if obj.shape == "icosphere":
-        return {"subdivisions": level}
-    if obj.shape in ("uv_sphere", "torus"):
-        return {"segments": [8 * 2 ** level, 4 * 2 ** level]}
-    if obj.shape == "cylinder":
-        return {"segments": [8 * 2 ** level, 1]}
-    if obj.shape == "plane":
-        return {"segments": [2 ** level, 2 ** level]}
-    return {}
-
-
-def level_of(obj: Object) -> int:
-    """The level of an object as the scene gives it (the inverse of `refined`; 0 for a box or mesh)."""
-    if obj.shape == "icosphere":
-        return obj.subdivisions
-    if obj.shape in ("uv_sphere", "torus", "cylinder"):
-        return max(0, round(math.log2((obj.segments or (32, 16))[0] / 8)))
-    if obj.shape == "plane":
-        return max(0, round(math.log2((obj.segments or (1, 1))[0])))
-    return 0
 
 
 # ---------------------------------------------------------------- exact intersections in object space
@@ -214,7 +216,7 @@ class ExactScene:
                 raise SceneError(f'{source}: objects.{index}.shape: "mesh" has no closed form; use --fine N')
         self.objects = scene.objects
         # world = linear · local + translate, linear = R S (geometry.place); rows map object → world.
-        self.linear = [rotation_of(obj) @ np.diag(obj.scale) for obj in scene.objects]
+        self.linear = [rotation(obj) @ np.diag(obj.scale) for obj in scene.objects]
         self.inverse = [np.linalg.inv(m) for m in self.linear]
         self.translate = [np.asarray(obj.translate, np.float64) for obj in scene.objects]
         low, high = self.bounds()
@@ -326,8 +328,9 @@ def illuminate_exact(scene: Scene, points, normals, to_viewer, material_rows, vi
 
 # ---------------------------------------------------------------- rays and the image
 
-def sample_rays(rig: CameraRig, width: int, height: int, samples: int, row0: int, row1: int):
-    """float64 world origins and unit directions of rows [row0, row1), in camera._fill_rays's order."""
+def sample_rays(rig: CameraFrame, width: int, height: int, samples: int, row0: int, row1: int):
+    """float64 world origins and unit directions of rows [row0, row1): pixel (i, j) with n × n samples has
+    rays through raster (i + (a + ½)/n, j + (b + ½)/n), row 0 at the top, ray k → pixel k // n², cell k % n²."""
     cells = (np.arange(samples) + 0.5) / samples
     rows = np.arange(row0, row1)
     # Order: row, column, sub-row b, sub-column a (ray k → pixel k // n², cell k % n²).
@@ -353,7 +356,7 @@ def material_table(scene: Scene) -> np.ndarray:
 def analytic_reference(scene: Scene, source: str = "<scene>") -> ReferenceImage:
     """The scene on its exact surfaces, float64: see the module docstring. SceneError for a mesh object."""
     exact = ExactScene(scene, source)
-    rig = camera_rig(scene)
+    rig = camera_frame(scene)
     opts = scene.render
     width, height, n = opts.width, opts.height, opts.samples
     per_pixel = n * n
@@ -413,65 +416,3 @@ def light_visibility(exact: ExactScene, scene: Scene, points: np.ndarray, normal
         t, _, _, _ = exact.closest(origin, np.ascontiguousarray(to_light))
         visible[:, k] = t >= distance - offset
     return visible
-
-
-# ---------------------------------------------------------------- self-convergence reference (meshes)
-
-def fine_reference(scene: Scene, levels: int, source: str = "<scene>") -> ReferenceImage:
-    """The scene refined `levels` times, rendered with Phong shading in float64.
-
-    A mesh file is Loop-subdivided `levels` times (trimesh.remesh.subdivide_loop: it converges to a
-    smooth limit surface, where midpoint subdivision would keep the same flat facets); an analytic
-    object goes `levels` tessellation levels up from its own (`refined`). Coverage comes from the
-    same Embree cast as the render's.
-    """
-    from .render import render  # render imports this module lazily; keep the cycle one-way at import
-    data = scene.model_dump(exclude={"folder"})
-    data["render"].update(shading="phong", precision="float64")
-    data["output"] = {"path": "reference.exr", "aovs": ["specular"]}
-    with tempfile.TemporaryDirectory(prefix="raycast-phong-fine-") as folder:
-        for index, obj in enumerate(scene.objects):
-            entry = data["objects"][index]
-            entry["shading"] = "phong"
-            if obj.shape == "mesh":
-                vertices, faces, _ = object_mesh(scene, obj, index, source)
-                vertices, faces = trimesh.remesh.subdivide_loop(vertices, faces, iterations=levels)
-                path = Path(folder) / f"object{index}.ply"
-                trimesh.Trimesh(vertices, faces, process=False).export(path)
-                entry["path"] = str(path)
-                if entry.get("normals") == "file":
-                    entry["normals"] = "mean"  # the subdivided mesh stores no normals
-            else:
-                entry.update(refined(obj, min(level_of(obj) + levels, max_level(obj))))
-        fine = validate_scene(data, source=source, folder=scene.folder)
-        result = render(fine, source=source)
-        coverage = mesh_coverage(fine, source)
-    return ReferenceImage(result.image.astype(np.float64), result.aovs["specular"].astype(np.float64),
-                          coverage, f"fine {levels}")
-
-
-def max_level(obj: Object) -> int:
-    """The finest level the scene format allows for the shape (subdivisions ≤ 8, segments ≤ 4096)."""
-    return 8 if obj.shape == "icosphere" else 9
-
-
-def reference_image(scene: Scene, source: str = "<scene>", fine: int | None = None) -> ReferenceImage:
-    """The analytic reference, or with `fine` the self-convergence one (the only choice for meshes)."""
-    return analytic_reference(scene, source) if fine is None else fine_reference(scene, fine, source)
-
-
-def mesh_coverage(scene: Scene, source: str = "<scene>") -> np.ndarray:
-    """(H, W) share of each pixel's samples whose ray hits the scene's triangles (the render's own cast)."""
-    geometry = build_geometry(scene, source=source, vertex_normals=False)
-    frame = unit_frame(geometry.vertices)
-    accelerator = Accelerator(geometry, frame)
-    opts = scene.render
-    width, height, n = opts.width, opts.height, opts.samples
-    rows_per_tile = max(1, TILE_SAMPLES // (width * n * n))
-    rays = RayGenerator(camera_rig(scene), frame, width, height, n, max_rays=rows_per_tile * width * n * n)
-    coverage = np.zeros((height, width))
-    for row0 in range(0, height, rows_per_tile):
-        row1 = min(row0 + rows_per_tile, height)
-        hits = accelerator.closest_hits(*rays.rows(row0, row1))
-        coverage[row0:row1] = (hits.face >= 0).reshape(row1 - row0, width, n * n).mean(axis=2)
-    return coverage

@@ -21,7 +21,7 @@ from .geometry import build_geometry
 from .illumination import COUNTED_TERMS
 from .intersect import Accelerator, unit_frame
 from .plan import build_plan, diagnose, plan_flags
-from .records import MeasuredResult, RenderPlan, RenderResult
+from .records import RenderPlan, RenderResult
 from .scene import Scene, SceneError, load_scene
 from .shading import prepare_shading, shade_tile
 from .shadows import MAX_LIGHTS, light_visibility, prepare_shadows
@@ -34,8 +34,7 @@ def default_threads() -> int:
 
 
 def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None = None,
-           progress: Callable[[int, int], None] | None = None, source: str = "<scene>",
-           reference: str | None = None, fine: int | None = None) -> RenderResult:
+           progress: Callable[[int, int], None] | None = None, source: str = "<scene>") -> RenderResult:
     """Render a validated scene.
 
     Parameters
@@ -43,9 +42,7 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     threads: worker threads for the tiles (default: the machine's cores, at most 8).
     plan: the render plan; default build_plan(scene). build_plan(scene, optimize=False) keeps every stage.
     progress: called as progress(tiles_done, tiles_total) after each tile.
-    reference: "analytic" (exact surfaces; SceneError for a mesh object) or "fine" (self-convergence,
-        `fine` levels finer): the result is then a MeasuredResult whose .errors are RMSE, max, PSNR, …
-        against that reference (metrics.measure), computed after the timed render.
+    (accuracy.measured adds RMSE, max, PSNR, … against the analytic or a self-convergence reference.)
 
     Returns
     -------
@@ -53,11 +50,6 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     shadows (global mode), shade, frame; rays, shadows and shade are summed over the worker threads,
     frame is wall time).
     """
-    if reference not in (None, "analytic", "fine"):
-        raise ValueError(f"reference must be 'analytic' or 'fine', got {reference!r}")
-    if reference == "analytic":
-        from .reference import ExactScene
-        ExactScene(scene, source)  # refuse a mesh before spending the render on it
     timings: dict[str, float] = {}
     plan = plan or build_plan(scene)
     if plan.keeps("shadow_rays") and len(scene.lights) > MAX_LIGHTS:
@@ -115,23 +107,9 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     timings["rays"], timings["shade"] = rays_seconds, shade_seconds
     if shadow_inputs is not None:
         timings["shadows"] = shadow_seconds
-    result = dict(image=film.rgb, aovs=film_layers(film, tuple(scene.output.aovs)), timings=timings, plan=plan,
-                  triangles=geometry.triangles, rays=width * height * samples * samples,
-                  counts=dict(zip(COUNTED_TERMS, counts.tolist())))
-    if reference is None:
-        return RenderResult(**result)
-    return measured(scene, RenderResult(**result), reference, fine or 2, source)
-
-
-def measured(scene: Scene, result: RenderResult, reference: str, fine: int, source: str) -> MeasuredResult:
-    """`result` with its errors against the analytic (or `fine`-level self-convergence) reference."""
-    from .metrics import measure
-    from .reference import mesh_coverage, reference_image
-    start = time.perf_counter()
-    exact = reference_image(scene, source, fine=fine if reference == "fine" else None)
-    errors = measure(result.image, mesh_coverage(scene, source), exact)
-    fields = {name: getattr(result, name) for name in RenderResult.__dataclass_fields__}
-    return MeasuredResult(**fields, errors=errors, reference_seconds=time.perf_counter() - start)
+    return RenderResult(image=film.rgb, aovs=film_layers(film, tuple(scene.output.aovs)), timings=timings, plan=plan,
+                        triangles=geometry.triangles, rays=width * height * samples * samples,
+                        counts=dict(zip(COUNTED_TERMS, counts.tolist())))
 
 
 def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bool = True) -> None:

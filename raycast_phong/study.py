@@ -18,11 +18,10 @@ from pathlib import Path
 from typing import Callable
 
 import numpy as np
-import trimesh
 
-from .geometry import build_geometry, object_mesh
+from .accuracy import mesh_coverage, reference_image, refine_entry
+from .geometry import build_geometry
 from .metrics import measure
-from .reference import mesh_coverage, reference_image, refined
 from .render import render
 from .scene import Scene, SceneError, ShadingModel, SpecularModel, apply_override, read_scene_dict, validate_scene
 
@@ -112,19 +111,9 @@ def variant(base: Scene, data: dict, *, model: str, specular: str, precision: st
     data = copy.deepcopy(data)
     data.setdefault("render", {}).update(shading=model, specular=specular, precision=precision, samples=samples)
     data["objects"] = [dict(entry) for entry in data.get("objects", [])]
-    for index, (entry, obj) in enumerate(zip(data["objects"], base.objects)):
+    for index, entry in enumerate(data["objects"]):
         entry["shading"] = model  # an object's own shading would otherwise keep it out of the sweep
-        if obj.shape != "mesh":
-            entry.update(refined(obj, level))
-        elif level > 0:
-            vertices, faces, _ = object_mesh(base, obj, index, source)
-            vertices, faces = trimesh.remesh.subdivide_loop(vertices, faces, iterations=level)
-            target = Path(folder) / f"object{index}-level{level}.ply"
-            if not target.exists():
-                trimesh.Trimesh(vertices, faces, process=False).export(target)
-            entry["path"] = str(target)
-            if entry.get("normals") == "file":
-                entry["normals"] = "mean"  # the subdivided mesh stores no normals
+        refine_entry(base, index, entry, level, level, Path(folder), source)
     if shininess is not None:
         materials = {name: dict(values) for name, values in data.get("materials", {}).items()}
         for values in materials.values():

@@ -7,7 +7,8 @@ import pytest
 
 import raycast_phong as rp
 from raycast_phong.metrics import highlight_loss, measure, psnr, rmse, silhouette_pixels
-from raycast_phong.reference import analytic_reference, mesh_coverage
+from raycast_phong.accuracy import mesh_coverage
+from raycast_phong.reference import analytic_reference
 from raycast_phong.study import CSV_COLUMNS, StudyOptions, read_csv, run_study, variant, scene_data, write_study
 
 REQUIRED = ["model", "specular", "precision", "samples", "level", "triangles", "seconds", "rmse", "max_error",

@@ -1,0 +1,132 @@
+"""A render's error against a reference: the analytic oracle, or a finer render of the scene itself.
+
+Tessellation levels (`refined`, `level_of`), the self-convergence reference for meshes
+(`fine_reference`: the scene `levels` finer, rendered by the renderer itself), the coverage of the
+render's own triangles (`mesh_coverage`), and `measured`, which attaches RMSE, max, PSNR, … to a
+RenderResult (render --reference, study). A tool on top of the pipeline; reference.py, the oracle,
+knows none of this.
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from .camera import RayGenerator, camera_rig
+from .geometry import build_geometry, object_mesh
+from .intersect import Accelerator, unit_frame
+from .metrics import measure
+from .records import MeasuredResult, RenderResult
+from .reference import TILE_SAMPLES, ReferenceImage, analytic_reference
+from .render import render
+from .scene import Object, Scene, validate_scene
+
+
+def refined(obj: Object, level: int) -> dict:
+    """The keys that give an analytic object tessellation `level` (docs/accuracy.md, "Levels").
+
+    icosphere: subdivisions = L (20·4^L triangles); uv_sphere, torus: segments = [8·2^L, 4·2^L];
+    cylinder: segments = [8·2^L, 1]; plane: segments = [2^L, 2^L]; box: unchanged (12 flat faces are
+    exact). L = 2 is the format's default for every shape.
+    """
+    if obj.shape == "icosphere":
+        return {"subdivisions": level}
+    if obj.shape in ("uv_sphere", "torus"):
+        return {"segments": [8 * 2 ** level, 4 * 2 ** level]}
+    if obj.shape == "cylinder":
+        return {"segments": [8 * 2 ** level, 1]}
+    if obj.shape == "plane":
+        return {"segments": [2 ** level, 2 ** level]}
+    return {}
+
+
+def level_of(obj: Object) -> int:
+    """The level of an object as the scene gives it (the inverse of `refined`; 0 for a box or mesh)."""
+    if obj.shape == "icosphere":
+        return obj.subdivisions
+    if obj.shape in ("uv_sphere", "torus", "cylinder"):
+        return max(0, round(math.log2((obj.segments or (32, 16))[0] / 8)))
+    if obj.shape == "plane":
+        return max(0, round(math.log2((obj.segments or (1, 1))[0])))
+    return 0
+
+
+def refine_entry(scene: Scene, index: int, entry: dict, level: int, iterations: int, folder: Path,
+                 source: str) -> None:
+    """Set scene object `index`'s dict `entry` to tessellation `level` (analytic shapes), or, for a mesh,
+    to its file Loop-subdivided `iterations` times (trimesh.remesh.subdivide_loop: it converges to a smooth
+    limit surface, where midpoint subdivision would keep the same flat facets), written into `folder`."""
+    obj = scene.objects[index]
+    if obj.shape != "mesh":
+        entry.update(refined(obj, level))
+    elif iterations > 0:
+        target = folder / f"object{index}-loop{iterations}.ply"
+        if not target.exists():
+            vertices, faces, _ = object_mesh(scene, obj, index, source)
+            vertices, faces = trimesh.remesh.subdivide_loop(vertices, faces, iterations=iterations)
+            trimesh.Trimesh(vertices, faces, process=False).export(target)
+        entry["path"] = str(target)
+        if entry.get("normals") == "file":
+            entry["normals"] = "mean"  # the subdivided mesh stores no normals
+
+
+def fine_reference(scene: Scene, levels: int, source: str = "<scene>") -> ReferenceImage:
+    """The scene refined `levels` times (refine_entry: meshes Loop-subdivided, analytic shapes `levels`
+    tessellation levels up from their own), rendered with Phong shading in float64. Coverage comes from
+    the same Embree cast as the render's."""
+    data = scene.model_dump(exclude={"folder"})
+    data["render"].update(shading="phong", precision="float64")
+    data["output"] = {"path": "reference.exr", "aovs": ["specular"]}
+    with tempfile.TemporaryDirectory(prefix="raycast-phong-fine-") as folder:
+        for index, obj in enumerate(scene.objects):
+            data["objects"][index]["shading"] = "phong"
+            refine_entry(scene, index, data["objects"][index], min(level_of(obj) + levels, max_level(obj)), levels,
+                         Path(folder), source)
+        fine = validate_scene(data, source=source, folder=scene.folder)
+        result = render(fine, source=source)
+        coverage = mesh_coverage(fine, source)
+    return ReferenceImage(result.image.astype(np.float64), result.aovs["specular"].astype(np.float64),
+                          coverage, f"fine {levels}")
+
+
+def max_level(obj: Object) -> int:
+    """The finest level the scene format allows for the shape (subdivisions ≤ 8, segments ≤ 4096)."""
+    return 8 if obj.shape == "icosphere" else 9
+
+
+def reference_image(scene: Scene, source: str = "<scene>", fine: int | None = None) -> ReferenceImage:
+    """The analytic reference, or with `fine` the self-convergence one (the only choice for meshes)."""
+    return analytic_reference(scene, source) if fine is None else fine_reference(scene, fine, source)
+
+
+def mesh_coverage(scene: Scene, source: str = "<scene>") -> np.ndarray:
+    """(H, W) share of each pixel's samples whose ray hits the scene's triangles (the render's own cast)."""
+    geometry = build_geometry(scene, source=source, vertex_normals=False)
+    frame = unit_frame(geometry.vertices)
+    accelerator = Accelerator(geometry, frame)
+    opts = scene.render
+    width, height, n = opts.width, opts.height, opts.samples
+    rows_per_tile = max(1, TILE_SAMPLES // (width * n * n))
+    rays = RayGenerator(camera_rig(scene), frame, width, height, n, max_rays=rows_per_tile * width * n * n)
+    coverage = np.zeros((height, width))
+    for row0 in range(0, height, rows_per_tile):
+        row1 = min(row0 + rows_per_tile, height)
+        hits = accelerator.closest_hits(*rays.rows(row0, row1))
+        coverage[row0:row1] = (hits.face >= 0).reshape(row1 - row0, width, n * n).mean(axis=2)
+    return coverage
+
+
+def measured(scene: Scene, result: RenderResult, reference: str, fine: int = 2, source: str = "<scene>") -> MeasuredResult:
+    """`result` with its errors against the "analytic" (or "fine": `fine` levels finer) reference."""
+    if reference not in ("analytic", "fine"):
+        raise ValueError(f"reference must be 'analytic' or 'fine', got {reference!r}")
+    start = time.perf_counter()
+    exact = reference_image(scene, source, fine=fine if reference == "fine" else None)
+    errors = measure(result.image, mesh_coverage(scene, source), exact)
+    fields = {name: getattr(result, name) for name in RenderResult.__dataclass_fields__}
+    return MeasuredResult(**fields, errors=errors, reference_seconds=time.perf_counter() - start)
