@@ -173,7 +173,12 @@ def _mixed_normal(corner_normals, f, b0, b1, b2):
 
 @kernel()
 def _shade_rays(inputs, rays, film):
-    """Shade every ray of a tile into the film rows (ShadingInputs, TileRays, FilmRows)."""
+    """Shade every ray of a tile into the film rows (ShadingInputs, TileRays, FilmRows).
+
+    One loop, kept whole on purpose: moving the Gouraud corners, the Phong normal and the film writes into
+    inlined helpers measured 11–30 % more CPU time per tile (thread_time, min of 40, 600² sphere), even
+    with every array taken out of its tuple once, here, as now (a field read per hit costs a reference count).
+    """
     vertices, faces, face_normals, corner_normals = inputs.vertices, inputs.faces, inputs.face_normals, inputs.corner_normals
     face_material, face_model = inputs.face_material, inputs.face_model
     materials, lights, view, camera, background = inputs.materials, inputs.lights, inputs.viewing, inputs.camera, inputs.background
