@@ -122,7 +122,7 @@ def _shadow_rays(hit_rays, face, bu, bv, directions, vertices, faces, face_norma
         b0 = 1.0 - b1 - b2
         gx, gy, gz = face_normals[f, 0], face_normals[f, 1], face_normals[f, 2]
         # The viewer may see the back of a two-sided face: its smooth surface bulges toward the back.
-        side = facing_side(gx, gy, gz, directions[k], two_sided, 1.0)
+        side = facing_side(gx, gy, gz, directions[k, 0], directions[k, 1], directions[k, 2], two_sided, 1.0)
         px, py, pz = hit_point(vertices, faces, f, b0, b1, b2)
         if smooth[f]:
             # Hanika 2021: p' = Σ_j b_j (v_j + t_j), t_j = (p − v_j) with its part below corner j's tangent

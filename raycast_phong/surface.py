@@ -25,9 +25,12 @@ def hit_point(vertices, faces, f, b0, b1, b2):
 
 
 @kernel(inline="always")
-def facing_side(gx, gy, gz, direction, two_sided, one):
-    """−1 where a two-sided face is seen from behind (g · d > 0): its normals are flipped toward the ray."""
-    if two_sided and gx * direction[0] + gy * direction[1] + gz * direction[2] > 0:
+def facing_side(gx, gy, gz, dx, dy, dz, two_sided, one):
+    """−1 where a two-sided face is seen from behind (g · d > 0): its normals are flipped toward the ray.
+
+    Scalars, not the ray's row of the directions array: a row view per hit costs an allocation.
+    """
+    if two_sided and gx * dx + gy * dy + gz * dz > 0:
         return -one
     return one
 
