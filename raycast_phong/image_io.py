@@ -113,6 +113,36 @@ def _write_oiio(temporary: str, specs, pixels: np.ndarray, extra: list) -> None:
     if not (ok and closed) or output.has_error:
         message = output.geterror() or oiio.geterror() or ""
         raise os_reason(temporary, message.replace(temporary, "the temporary file"))
+    if not _complete(temporary, 1 + len(extra)):
+        raise os_reason(temporary, "the image file is incomplete after the writer closed it")
+
+
+# The last chunk of every PNG (length 0, type IEND, its CRC): the PNG writer writes it last, so a file
+# that ends in it was written to the end.
+PNG_END = b"\x00\x00\x00\x00IEND\xaeB`\x82"
+
+
+def _complete(temporary: str, parts: int) -> bool:
+    """Whether the file OpenImageIO closed is whole. Its writers ignore an error in the final flush at close
+    (measured under RLIMIT_FSIZE: a PNG or EXR a few bytes over the limit is cut short while open, write_image,
+    close and has_error all report success), so look: a PNG must end in its IEND chunk; an EXR must read back
+    (OpenEXR notices any missing chunk, even the last byte)."""
+    if temporary.lower().endswith(".png"):
+        with open(temporary, "rb") as handle:
+            handle.seek(0, os.SEEK_END)
+            if handle.tell() < len(PNG_END):
+                return False
+            handle.seek(-len(PNG_END), os.SEEK_END)
+            return handle.read() == PNG_END
+    source = oiio.ImageInput.open(temporary)  # not an ImageBuf: the image cache would keep the file open
+    if source is None:
+        oiio.geterror()  # clear it: the caller reports the OS reason instead
+        return False
+    whole = all(source.seek_subimage(part, 0) and source.read_image(oiio.FLOAT) is not None
+                for part in range(parts)) and not source.has_error
+    source.geterror()
+    source.close()
+    return whole
 
 
 def _part(name: str, layer: np.ndarray, origin: tuple[int, int],

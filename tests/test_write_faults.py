@@ -56,14 +56,21 @@ def scene(tmp_path: Path) -> Path:
     return write_tiny_scene(tmp_path, 64, 64)
 
 
+@pytest.mark.parametrize("short", ["mid-write", "one byte"])
 @pytest.mark.parametrize("suffix", [".png", ".exr"])
-def test_render_under_a_file_size_limit_keeps_the_old_image(scene, tmp_path, suffix):
+def test_render_under_a_file_size_limit_keeps_the_old_image(scene, tmp_path, suffix, short):
+    """Stopped mid-write, or one byte short: then only the writer's final flush at close fails, which
+    OpenImageIO does not report (its open, write_image and close all return True)."""
     output = tmp_path / f"out{suffix}"
     assert cli("render", scene, "-o", output, "-q").returncode == 0
     old = output.read_bytes()
     assert len(old) > 1000
-    # 256×256 is 16 times the pixels: well over the 1000-byte limit in either format.
-    done = cli("render", scene, "-o", output, "--width", "256", "--height", "256", limit=1000)
+    bigger = ("--width", "256", "--height", "256")  # 16 times the pixels: well over 1000 bytes in either format
+    probe = tmp_path / f"probe{suffix}"
+    assert cli("render", scene, "-o", probe, *bigger, "-q").returncode == 0  # the renderer is deterministic
+    limit = 1000 if short == "mid-write" else probe.stat().st_size - 1
+    probe.unlink()
+    done = cli("render", scene, "-o", output, *bigger, limit=limit)
     assert_refused_write(done, output)
     assert done.stdout == ""  # no success line
     assert output.read_bytes() == old
@@ -165,3 +172,20 @@ def test_batch_manifest_under_a_file_size_limit(tmp_path):
     done = cli("batch", scenes, "--out", out, "--jobs", "1", "-q", "--force", limit=400)
     assert_refused_write(done, manifest)
     assert manifest.read_bytes() == old and temporaries(out) == []
+
+
+def test_batch_contact_sheet_under_a_file_size_limit(tmp_path):
+    """Two 64×64 cells (~1-2 kB each) and the manifest (~2 kB) fit under 2500 bytes; their sheet (~3.5 kB) does not."""
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    write_tiny_scene(folder, 64, 64)
+    sweep = folder / "sweep.toml"
+    sweep.write_text('scene = "tiny.toml"\n[grid]\nrender.shading = ["flat", "phong"]\n')
+    out = tmp_path / "out"
+    assert cli("batch", sweep, "--out", out, "--jobs", "1", "-q").returncode == 0
+    sheet = out / "sweep-contact.png"
+    old = sheet.read_bytes()
+    assert len(old) > 2500 and (out / "manifest.json").stat().st_size < 2300
+    done = cli("batch", sweep, "--out", out, "--jobs", "1", "-q", "--force", limit=2500)
+    assert_refused_write(done, sheet)
+    assert sheet.read_bytes() == old and temporaries(out) == []
