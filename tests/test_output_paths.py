@@ -103,6 +103,15 @@ def test_compare_diff_onto_one_of_the_compared_images_is_refused(tmp_path, spell
     refused(tmp_path, ["compare", str(a), str(b), "--diff", diff], diff, "is the input")
 
 
+@pytest.mark.parametrize("command", ["render", "reference"])
+def test_an_output_onto_the_scene_file_is_refused(tmp_path, no_render, command):
+    """A scene file read through a link named like an image: -o onto that name would replace the scene."""
+    scene = write_tiny_scene(tmp_path, 16, 16)
+    disguised = tmp_path / "scene.png"
+    disguised.symlink_to(scene)
+    refused(tmp_path, [command, str(disguised), "-o", str(tmp_path / "." / "scene.png")], "is the input")
+
+
 def test_the_side_by_side_sibling_exr_may_not_be_the_scene(tmp_path, no_render):
     """NAME.png writes NAME-variants.exr too: a scene file of that name is refused, not replaced."""
     scene = write_tiny_scene(tmp_path, 16, 16)
