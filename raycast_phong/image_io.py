@@ -125,8 +125,10 @@ PNG_END = b"\x00\x00\x00\x00IEND\xaeB`\x82"
 def _complete(temporary: str, parts: int) -> bool:
     """Whether the file OpenImageIO closed is whole. Its writers ignore an error in the final flush at close
     (measured under RLIMIT_FSIZE: a PNG or EXR a few bytes over the limit is cut short while open, write_image,
-    close and has_error all report success), so look: a PNG must end in its IEND chunk; an EXR must read back
-    (OpenEXR notices any missing chunk, even the last byte)."""
+    close and has_error all report success), so look at the end of the file, which a lost flush always takes:
+    a PNG must end in its IEND chunk; the last scanline of every EXR part must read back (its chunk is the
+    last of the part, and OpenEXR notices a chunk missing even one byte). Reading one line per part instead
+    of the whole image: 1 ms instead of 60 for a 1920×1080 EXR."""
     if temporary.lower().endswith(".png"):
         with open(temporary, "rb") as handle:
             handle.seek(0, os.SEEK_END)
@@ -138,8 +140,13 @@ def _complete(temporary: str, parts: int) -> bool:
     if source is None:
         oiio.geterror()  # clear it: the caller reports the OS reason instead
         return False
-    whole = all(source.seek_subimage(part, 0) and source.read_image(oiio.FLOAT) is not None
-                for part in range(parts)) and not source.has_error
+    whole = True
+    for part in range(parts):
+        whole = whole and source.seek_subimage(part, 0)
+        if whole:
+            spec = source.spec()
+            whole = source.read_scanline(spec.y + spec.height - 1, 0, oiio.FLOAT) is not None
+    whole = whole and not source.has_error
     source.geterror()
     source.close()
     return whole
