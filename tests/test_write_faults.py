@@ -66,10 +66,12 @@ def test_render_under_a_file_size_limit_keeps_the_old_image(scene, tmp_path, suf
     old = output.read_bytes()
     assert len(old) > 1000
     bigger = ("--width", "256", "--height", "256")  # 16 times the pixels: well over 1000 bytes in either format
-    probe = tmp_path / f"probe{suffix}"
-    assert cli("render", scene, "-o", probe, *bigger, "-q").returncode == 0  # the renderer is deterministic
-    limit = 1000 if short == "mid-write" else probe.stat().st_size - 1
-    probe.unlink()
+    limit = 1000
+    if short == "one byte":  # the renderer is deterministic: the same command writes the same bytes
+        probe = tmp_path / f"probe{suffix}"
+        assert cli("render", scene, "-o", probe, *bigger, "-q").returncode == 0
+        limit = probe.stat().st_size - 1
+        probe.unlink()
     done = cli("render", scene, "-o", output, *bigger, limit=limit)
     assert_refused_write(done, output)
     assert done.stdout == ""  # no success line
