@@ -1,6 +1,7 @@
 """The `raycast-phong` command: parse arguments, call the package, turn errors into exit codes.
 
-Exit status: 0 ok, 2 bad input (scene, mesh, option, output path), 1 internal error.
+Exit status: 0 ok, 2 bad input (scene, mesh, option, output path) or an output that could not be written
+(a full disk, a file-size limit: the old file is unchanged), 1 internal error.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import typer
 
 import raycast_phong as rp
 from raycast_phong import compare
+from raycast_phong.atomic import WriteError
 from raycast_phong.image_io import NO_FONT, ImageError, check_output_path
 from raycast_phong.scene import Mode, ShadingModel, SpecularModel
 
@@ -99,10 +101,12 @@ def render(
         loaded = rp.load_scene(path, overrides)
         load_seconds = time.perf_counter() - started
         option = "--output" if output is not None else "output.path"
+        if output is None and scene is not None:
+            loaded.output.check_inside(str(path))  # a scene writes inside its folder; elsewhere only with -o
         if output is None:
             output = Path(loaded.output.path).name if scene is None else loaded.resolve(loaded.output.path)
         try:
-            check_output_path(output)
+            check_output_path(output, inputs=(path,))
         except ImageError as error:
             fail(f"{path}: {option}: {error}")  # say where the path came from: the option or the scene
         if loaded.output.aovs and Path(output).suffix.lower() != ".exr":
@@ -129,10 +133,11 @@ def render(
 
 @contextmanager
 def exit_codes():
-    """Bad input (SceneError, ImageError) exits 2 and anything else 1, each with one line on stderr."""
+    """Bad input (SceneError, ImageError) and a failed write (WriteError) exit 2 and anything else 1, each with
+    one line on stderr."""
     try:
         yield
-    except (rp.SceneError, ImageError) as error:
+    except (rp.SceneError, ImageError, WriteError) as error:
         fail(str(error))
     except typer.Exit:
         raise
@@ -205,9 +210,10 @@ def side_by_side(
         path = scene or rp.default_scene_path()
         fixed = [*scene_overrides({"render.width": width, "render.height": height}), *set_]
         scenes = compare.load_variants(path, fixed, key, values)  # every value checked before any render
-        check_output_path(output)
-        comparison = compare.compose([rp.render(variant, source=str(path)).image for variant in scenes], key, values)
+        check_output_path(output, inputs=(path,))
         layers = output if output.suffix.lower() == ".exr" else output.with_name(f"{output.stem}-variants.exr")
+        check_output_path(layers, inputs=(path,))
+        comparison = compare.compose([rp.render(variant, source=str(path)).image for variant in scenes], key, values)
         rp.write_image(layers, comparison.image, parts=comparison.parts())
         if layers != output:
             rp.write_image(output, comparison.image)
@@ -416,7 +422,7 @@ def reference_command(
     with exit_codes():
         path = scene or rp.default_scene_path()
         loaded = rp.load_scene(path, set_)
-        check_output_path(output)
+        check_output_path(output, inputs=(path,))
         started = time.perf_counter()
         exact = reference_image(loaded, str(path), fine=fine)
         seconds = time.perf_counter() - started
@@ -491,6 +497,7 @@ def study(
     overrides = [*scene_overrides({"render.width": width, "render.height": height}), *set_]
     with exit_codes():
         path = scene or rp.default_scene_path()
+        sweep.check_study_folder(out, path)
         result = sweep.run_study(path, overrides, options)
         written = sweep.write_study(result, out)
     for fit in result.fits:
@@ -528,13 +535,19 @@ def compare_images(
     (warnings included), 1 fail, 2 unreadable input or different sizes."""
     from raycast_phong.image_io import compare_files
     with exit_codes():
+        if diff is not None:
+            check_output_path(diff, inputs=(a, b))  # before reading: --diff onto an input would replace it
         found = compare_files(a, b, fail_, warn)
         if diff is not None:
-            difference = compare.difference(found.a, found.b)
-            rp.write_image(diff, compare.heat_map(difference, float(difference.max())))
+            rp.write_image(diff, compare.difference_map(found.a, found.b))
     (x, y), channel = found.max_at, found.max_channel
     typer.echo(f"mean error {found.mean:.6g}, RMS error {found.rms:.6g}, PSNR {found.psnr:.2f} dB, "
                f"max error {found.max:.6g} at pixel ({x}, {y}) channel {channel}")
+    nonfinite = dict.fromkeys(f"{name}: {nan} pixel{'s' * (nan != 1)} with NaN, {inf} with inf"
+                              for name, nan, inf in zip((a, b), found.nan, found.inf) if nan or inf)
+    if nonfinite:  # not a number is no measurement: the comparison fails whatever --fail-percent allows
+        typer.secho(f"FAILURE: {'; '.join(nonfinite)}", fg=typer.colors.RED)
+        raise typer.Exit(code=1)
     share = 100.0 * found.failed / max(found.pixels, 1)
     counts = (f"{found.failed} of {found.pixels} pixels ({share:.3g}%) over --fail {fail_:g}, "
               f"{found.warned} over --warn {warn:g}")

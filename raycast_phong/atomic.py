@@ -1,4 +1,10 @@
-"""Write a file so that no reader, crash or kill ever sees half of it: temporary file, then rename.
+"""Write a file so that no reader, crash, kill or failed write ever sees half of it: temporary file, checked
+write, fsync, then rename.
+
+Every writer of the package (images, the batch manifest, the study's CSV, plot and summary) goes through
+replaced_atomically, the one home of the rule: a write that fails at any step (a full disk, a file-size
+limit, a quota, an I/O error at fsync) raises WriteError with one line naming the file and the OS reason,
+removes the temporary file and leaves the old file as it was.
 
 SIGTERM and SIGINT are held back while the temporary file exists (their handlers run right after),
 so a `kill` cannot land between creating it and removing or renaming it — the window that left a
@@ -7,15 +13,20 @@ stray `.manifest-XXXXXXXX.json` behind in one CI run.
 
 from __future__ import annotations
 
+import errno
 import os
 import signal
 import tempfile
 import threading
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import Iterator
 
 DEFERRED = (signal.SIGTERM, signal.SIGINT)
+
+
+class WriteError(OSError):
+    """An output that could not be written whole; the message names it, the OS reason and the old file's state."""
 
 
 @contextmanager
@@ -38,19 +49,97 @@ def signals_deferred() -> Iterator[None]:
 
 @contextmanager
 def replaced_atomically(target: Path, prefix: str) -> Iterator[Path]:
-    """A temporary path beside `target`; renamed over it if the block succeeds, removed otherwise.
+    """A temporary path beside `target`; fsynced and renamed over it if the block succeeds, removed otherwise.
 
-    The file gets the permissions a plain open() would give (mkstemp makes it 0600).
+    The block writes the temporary file and raises OSError on any failure (its strerror, or its text, is the
+    reason). Raises WriteError "TARGET: write failed: REASON (the old file is unchanged)" for that or for a
+    failure here (creating, fsync, rename). The file gets the permissions a plain open() would give (mkstemp
+    makes it 0600).
     """
+    target = Path(target)
+    existed = target.exists()
     with signals_deferred():
-        descriptor, temporary = tempfile.mkstemp(prefix=prefix, suffix=target.suffix, dir=target.parent)
-        os.close(descriptor)
+        try:
+            descriptor, temporary = tempfile.mkstemp(prefix=prefix, suffix=target.suffix, dir=target.parent)
+            os.close(descriptor)
+        except OSError as error:
+            raise WriteError(_failed(target, error, existed)) from None
         try:
             yield Path(temporary)
-            umask = os.umask(0)
-            os.umask(umask)
-            os.chmod(temporary, 0o666 & ~umask)
+            _settle(temporary)
             os.replace(temporary, target)
+        except WriteError:
+            raise
+        except OSError as error:
+            raise WriteError(_failed(target, error, existed)) from None
         finally:
-            if os.path.exists(temporary):
+            # Nothing more can be done if this fails too; the original error is the one to report.
+            with suppress(OSError):
                 os.unlink(temporary)
+
+
+def _settle(temporary: str) -> None:
+    """Give the file open()'s permissions and push it to the disk: fsync is where a full disk (delayed
+    allocation, NFS, quotas) reports what write() did not."""
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(temporary, 0o666 & ~umask)
+    descriptor = os.open(temporary, os.O_RDONLY)
+    try:
+        os.fsync(descriptor)
+    finally:
+        os.close(descriptor)
+
+
+def _failed(target: Path, error: OSError, existed: bool) -> str:
+    """One line: the file, the OS reason, and what is on disk now."""
+    reason = error.strerror or str(error) or type(error).__name__
+    reason = reason.splitlines()[0] if reason.strip() else type(error).__name__
+    state = "the old file is unchanged" if existed else "no file was written"
+    return f"{target}: write failed: {reason} ({state})"
+
+
+def write_bytes(target: str | Path, data: bytes, prefix: str | None = None) -> Path:
+    """Replace `target` with `data` atomically, checking every write, the written size and the close.
+
+    Raises WriteError (see replaced_atomically).
+    """
+    target = Path(target)
+    with replaced_atomically(target, prefix or f".{target.stem}-") as temporary:
+        descriptor = os.open(temporary, os.O_WRONLY | os.O_TRUNC)
+        try:
+            view = memoryview(data)
+            while view:  # os.write may write less than asked; the next call then raises the reason
+                view = view[os.write(descriptor, view):]
+            if os.fstat(descriptor).st_size != len(data):
+                raise OSError(errno.EIO, f"{os.fstat(descriptor).st_size} of {len(data)} bytes on disk")
+        finally:
+            os.close(descriptor)  # raises if the close itself reports a deferred error
+    return target
+
+
+def write_text(target: str | Path, text: str, prefix: str | None = None) -> Path:
+    """Replace `target` with `text` in UTF-8, as write_bytes does."""
+    return write_bytes(target, text.encode("utf-8"), prefix)
+
+
+def os_reason(temporary: str | Path, fallback: str) -> OSError:
+    """The OS error behind a failed write by a library that reports only its own text (OpenImageIO).
+
+    Appending to the temporary file (it is discarded anyway) meets the same limit the library met: a
+    file-size limit (EFBIG), a full disk (ENOSPC), a quota (EDQUOT). If that append succeeds the
+    condition has passed; the library's first line is the reason then.
+    """
+    probe = b"\0" * (1 << 16)  # larger than any write buffer, so a full disk cannot absorb it in a partial block
+    try:
+        descriptor = os.open(temporary, os.O_WRONLY | os.O_APPEND)
+        try:
+            os.write(descriptor, probe)
+            os.fsync(descriptor)
+        finally:
+            os.close(descriptor)
+    except OSError as error:
+        if error.errno is not None:
+            return OSError(error.errno, os.strerror(error.errno))
+    lines = [line.strip() for line in fallback.splitlines() if line.strip()]
+    return OSError(lines[0] if lines else "the image writer failed without saying why")

@@ -24,7 +24,7 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Callable, Iterator
 
-from .atomic import replaced_atomically
+from .atomic import WriteError, write_text
 from .image_io import ImageError, write_image
 from .intersect import embree_started
 from .scene import Scene, SceneError, load_scene
@@ -218,7 +218,7 @@ def render_job(task: Task) -> Outcome:
         written = time.perf_counter()
         write_image(task.output, result.image, result.aovs, srgb=task.settings.srgb)
         result.timings["write"] = time.perf_counter() - written
-    except (SceneError, ImageError) as error:
+    except (SceneError, ImageError, WriteError) as error:  # a failed write is a failed scene, never rendered
         entry.reason = _reason(task.job, str(error))
         return entry
     except Exception as error:  # a renderer bug in one scene must not stop the batch
@@ -344,11 +344,10 @@ def read_manifest(folder: Path) -> dict:
 
 
 def write_manifest(folder: Path, manifest: dict) -> None:
-    """Rewrite DIR/manifest.json atomically (temporary file, then rename)."""
+    """Rewrite DIR/manifest.json atomically (temporary file, checked write, then rename); raises WriteError."""
     from . import __version__
     manifest = {**manifest, "format": MANIFEST_FORMAT, "package_version": __version__}
-    with replaced_atomically(folder / MANIFEST, prefix=".manifest-") as temporary:
-        temporary.write_text(json.dumps(manifest, indent=2, ensure_ascii=False), encoding="utf-8")
+    write_text(folder / MANIFEST, json.dumps(manifest, indent=2, ensure_ascii=False), prefix=".manifest-")
 
 
 def remove_temporaries(folder: Path, names: list[str]) -> list[Path]:

@@ -133,8 +133,19 @@ def colour_map(t: np.ndarray) -> np.ndarray:
 
 
 def heat_map(diff: np.ndarray, scale: float) -> np.ndarray:
-    """An (H, W) difference → (H, W, 3) colours, 0 → black and `scale` → pale yellow (all black if scale is 0)."""
-    return colour_map(diff / scale if scale > 0 else np.zeros_like(diff))
+    """An (H, W) difference → (H, W, 3) colours, 0 → black and `scale` → pale yellow (all black if scale is 0);
+    a NaN or infinite difference is pale yellow too."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = diff / scale if scale > 0 else np.zeros_like(diff)
+    return colour_map(np.where(np.isfinite(diff), t, 1.0))
+
+
+def difference_map(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """`compare --diff`: the heat map of two (H, W, C) images, scaled to their largest finite difference."""
+    with np.errstate(invalid="ignore"):  # inf − inf is NaN: drawn at the top of the scale, never a warning
+        diff = difference(a, b)
+    finite = diff[np.isfinite(diff)]
+    return heat_map(diff, float(finite.max()) if finite.size else 0.0)
 
 
 # ---------------------------------------------------------------- layout

@@ -1,8 +1,9 @@
 """The only OpenImageIO importer: write PNG (8-bit) and EXR (float32, with extra layers and parts); read
 back; compare two image files (ImageBufAlgo.compare); rasterise a line of label text.
 
-Every write goes to a temporary file in the target folder and is renamed over the target only when
-complete, so a failure never leaves a half-written image over a good one.
+Every write goes through atomic.replaced_atomically: a temporary file in the target folder, every
+OpenImageIO result and error state checked, fsync, then rename. A failure raises WriteError and never
+leaves a half-written image over a good one.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import OpenImageIO as oiio
 
-from .atomic import replaced_atomically
+from .atomic import os_reason, replaced_atomically
 from .film import to_8bit
 
 LAYER_CHANNELS = {"depth": ("Z",), "normal": ("X", "Y", "Z"), "face": ("id",)}
@@ -24,19 +25,38 @@ class ImageError(OSError):
     """An image that cannot be written or read; the message names the path."""
 
 
-def check_output_path(path: str | Path) -> Path:
-    """Refuse, before rendering, an output whose folder is missing or whose format is unknown."""
+def check_output_path(path: str | Path, inputs: tuple[str | Path, ...] = ()) -> Path:
+    """Refuse, before rendering, an output whose folder is missing, whose format is unknown, that is a
+    folder, or that is one of the command's `inputs` (writing it would destroy what is being read)."""
     path = Path(path)
     if path.suffix.lower() not in (".png", ".exr"):
         got = f"not {path.suffix!r}" if path.suffix else "it has no extension"
         raise ImageError(f"{path}: the output must end in .png (8-bit) or .exr (float32), {got}")
+    check_output_file(path, inputs)
+    return path
+
+
+def check_output_file(path: Path, inputs: tuple[str | Path, ...] = ()) -> None:
+    """Refuse an output file in a missing or read-only folder, a folder itself, or one of `inputs`."""
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
         raise ImageError(f"{path}: the output folder {str(folder)!r} does not exist; create it or choose an "
                          "existing folder")
+    if path.is_dir():
+        raise ImageError(f"{path}: the output is a folder; give a file name in it")
+    for given in inputs:
+        if _same_file(path, Path(given)):
+            raise ImageError(f"{path}: the output is the input {given}; writing it would replace what is read")
     if not os.access(folder, os.W_OK):
         raise ImageError(f"{path}: the output folder {str(folder)!r} is not writable")
-    return path
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """One file under two spellings (relative, `..`, a symbolic or hard link), or one path not yet written."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one of them does not exist: compare the spelled-out paths
+        return a.resolve() == b.resolve()
 
 
 def write_image(path: str | Path, image: np.ndarray, aovs: dict[str, np.ndarray] | None = None,
@@ -71,21 +91,65 @@ def write_image(path: str | Path, image: np.ndarray, aovs: dict[str, np.ndarray]
     if extra:
         spec.attribute("name", "image")  # every part of a multi-part EXR needs a unique name
     with replaced_atomically(path, prefix=f".{path.stem}-") as temporary_path:
-        temporary = str(temporary_path)
-        output = oiio.ImageOutput.create(temporary)
-        specs = [spec, *(part_spec for part_spec, _ in extra)]
-        if output is None or not output.open(temporary, specs if extra else spec):
-            reason = (output.geterror() if output is not None else "") or oiio.geterror() or "no writer"
-            raise ImageError(f"{path}: cannot write ({reason})")
-        ok = output.write_image(pixels)
-        # Later parts follow the first: reopen for each with AppendSubimage, then write its pixels.
-        for part_spec, part_pixels in extra:
-            ok = ok and output.open(temporary, part_spec, "AppendSubimage") and output.write_image(part_pixels)
-        error = output.geterror()
-        output.close()
-        if not ok:
-            raise ImageError(f"{path}: cannot write ({error or oiio.geterror()})")
+        specs = [spec, *(part_spec for part_spec, _ in extra)] if extra else spec
+        _write_oiio(str(temporary_path), specs, pixels, extra)
     return path
+
+
+def _write_oiio(temporary: str, specs, pixels: np.ndarray, extra: list) -> None:
+    """Write every part into `temporary`, checking each bool and the writer's error state after close.
+
+    OpenImageIO's PNG writer reports a short write (a full disk, a file-size limit) only through
+    has_error: write_image and close both return True. Raises OSError with the OS reason.
+    """
+    output = oiio.ImageOutput.create(temporary)
+    if output is None:
+        raise OSError(f"no image writer ({oiio.geterror() or 'unknown format'})")
+    ok = output.open(temporary, specs) and output.write_image(pixels)
+    # Later parts follow the first: reopen for each with AppendSubimage, then write its pixels.
+    for part_spec, part_pixels in extra:
+        ok = ok and output.open(temporary, part_spec, "AppendSubimage") and output.write_image(part_pixels)
+    closed = output.close()
+    if not (ok and closed) or output.has_error:
+        message = output.geterror() or oiio.geterror() or ""
+        raise os_reason(temporary, message.replace(temporary, "the temporary file"))
+    if not _complete(temporary, 1 + len(extra)):
+        raise os_reason(temporary, "the image file is incomplete after the writer closed it")
+
+
+# The last chunk of every PNG (length 0, type IEND, its CRC): the PNG writer writes it last, so a file
+# that ends in it was written to the end.
+PNG_END = b"\x00\x00\x00\x00IEND\xaeB`\x82"
+
+
+def _complete(temporary: str, parts: int) -> bool:
+    """Whether the file OpenImageIO closed is whole. Its writers ignore an error in the final flush at close
+    (measured under RLIMIT_FSIZE: a PNG or EXR a few bytes over the limit is cut short while open, write_image,
+    close and has_error all report success), so look at the end of the file, which a lost flush always takes:
+    a PNG must end in its IEND chunk; the last scanline of every EXR part must read back (its chunk is the
+    last of the part, and OpenEXR notices a chunk missing even one byte). Reading one line per part instead
+    of the whole image: 1 ms instead of 60 for a 1920×1080 EXR."""
+    if temporary.lower().endswith(".png"):
+        with open(temporary, "rb") as handle:
+            handle.seek(0, os.SEEK_END)
+            if handle.tell() < len(PNG_END):
+                return False
+            handle.seek(-len(PNG_END), os.SEEK_END)
+            return handle.read() == PNG_END
+    source = oiio.ImageInput.open(temporary)  # not an ImageBuf: the image cache would keep the file open
+    if source is None:
+        oiio.geterror()  # clear it: the caller reports the OS reason instead
+        return False
+    whole = True
+    for part in range(parts):
+        whole = whole and source.seek_subimage(part, 0)
+        if whole:
+            spec = source.spec()
+            whole = source.read_scanline(spec.y + spec.height - 1, 0, oiio.FLOAT) is not None
+    whole = whole and not source.has_error
+    source.geterror()
+    source.close()
+    return whole
 
 
 def _part(name: str, layer: np.ndarray, origin: tuple[int, int],
@@ -188,6 +252,8 @@ class ImageComparison:
     warned: int                  # pixels with some channel above the warn threshold
     failed: int                  # pixels with some channel above the fail threshold
     pixels: int                  # width × height
+    nan: tuple[int, int]         # pixels of a and of b with a NaN channel
+    inf: tuple[int, int]         # pixels of a and of b with an infinite channel
     a: np.ndarray                # (H, W, C) float32
     b: np.ndarray                # (H, W, C) float32
 
@@ -212,6 +278,10 @@ def compare_files(a: str | Path, b: str | Path, fail: float, warn: float) -> Ima
     # CompareResults.error is set whenever a pixel fails (OpenImageIO 3.2), so it says nothing about the call.
     found = oiio.ImageBufAlgo.compare(buffers[0], buffers[1], fail, warn)
     pixels_a, pixels_b = (np.asarray(buffer.get_pixels(oiio.FLOAT), np.float32) for buffer in buffers)
+    # ImageBufAlgo.compare counts a NaN as no difference: an image of NaN passes against itself.
+    nan = tuple(int(np.isnan(p).any(axis=2).sum()) for p in (pixels_a, pixels_b))
+    inf = tuple(int(np.isinf(p).any(axis=2).sum()) for p in (pixels_a, pixels_b))
     return ImageComparison(mean=found.meanerror, rms=found.rms_error, psnr=found.PSNR, max=found.maxerror,
                            max_at=(found.maxx, found.maxy), max_channel=found.maxc, warned=found.nwarn,
-                           failed=found.nfail, pixels=specs[0].width * specs[0].height, a=pixels_a, b=pixels_b)
+                           failed=found.nfail, pixels=specs[0].width * specs[0].height, nan=nan, inf=inf,
+                           a=pixels_a, b=pixels_b)

@@ -16,7 +16,6 @@ Two decisions keep shadows honest at any scale, both made in Embree's unit frame
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np

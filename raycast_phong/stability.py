@@ -7,7 +7,10 @@ seconds. docs/stability.md has the table and pictures of the instructive cases.
 
 from __future__ import annotations
 
+import atexit
+import functools
 import math
+import shutil
 import tempfile
 import time
 from dataclasses import dataclass, replace
@@ -494,10 +497,10 @@ def receding_quad_scene(ratio: float, interpolation: str) -> Scene:
     """A quad from depth 1 to depth `ratio` in front of the camera; vertex normals (from the file) turn
     from facing a directional light at the near edge to perpendicular at the far edge, so Gouraud's
     diffuse term is an attribute going linearly from 1 to 0 along the depth."""
-    RECEDING_FOLDER.mkdir(exist_ok=True)
+    folder = scratch_folder()
     near, far = 1.0, ratio
     # The near edge is seen 0.8 below the view axis at depth 1, the far edge 0.5 above it at depth r.
-    (RECEDING_FOLDER / f"quad-{ratio:g}.obj").write_text(
+    (folder / f"quad-{ratio:g}.obj").write_text(
         f"v -0.1 {-0.8 * near} -{near}\nv 0.1 {-0.8 * near} -{near}\nv 0.1 {0.5 * far} -{far}\nv -0.1 {0.5 * far} -{far}\n"
         "vn 0 0 1\nvn 0 0 1\nvn 1 0 0\nvn 1 0 0\nf 1//1 2//2 3//3\nf 1//1 3//3 4//4\n")
     return validate_scene({
@@ -508,10 +511,16 @@ def receding_quad_scene(ratio: float, interpolation: str) -> Scene:
         "lights": [{"type": "directional", "direction": [0, 0, -1], "diffuse": 1, "specular": 0}],
         "materials": {"m": {"ka": 0, "kd": 1, "ks": 0}},
         "objects": [{"shape": "mesh", "path": f"quad-{ratio:g}.obj", "normals": "file", "material": "m"}],
-    }, source="stability", folder=RECEDING_FOLDER)
+    }, source="stability", folder=folder)
 
 
-RECEDING_FOLDER = Path(tempfile.gettempdir()) / "raycast-phong-stability"
+@functools.cache
+def scratch_folder() -> Path:
+    """This process's own folder for the suite's mesh files: fresh (mkdtemp, mode 0700), so two runs or two
+    users never share or plant files in it; removed when the process exits."""
+    folder = Path(tempfile.mkdtemp(prefix="raycast-phong-stability-"))
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    return folder
 
 
 def interpolation_difference(ratio: float) -> tuple[float, float]:

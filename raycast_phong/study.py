@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import copy
 import csv
+import io
 import math
 import statistics
 import tempfile
@@ -20,7 +21,9 @@ from typing import Callable
 import numpy as np
 
 from .accuracy import mesh_coverage, reference_image, refine_entry
+from .atomic import write_bytes, write_text
 from .geometry import build_geometry
+from .image_io import ImageError, check_output_file
 from .metrics import measure
 from .render import render
 from .scene import Scene, SceneError, ShadingModel, SpecularModel, apply_override, read_scene_dict, validate_scene
@@ -236,11 +239,13 @@ CSV_COLUMNS = [f.name for f in fields(StudyRow)]
 
 
 def write_csv(study: Study, path: Path) -> None:
-    with open(path, "w", newline="") as handle:
-        writer = csv.DictWriter(handle, CSV_COLUMNS)
-        writer.writeheader()
-        for row in study.rows:
-            writer.writerow({k: (repr(v) if isinstance(v, float) else v) for k, v in asdict(row).items()})
+    """One line per render; floats as repr, so they read back exactly. Raises WriteError."""
+    text = io.StringIO(newline="")
+    writer = csv.DictWriter(text, CSV_COLUMNS)
+    writer.writeheader()
+    for row in study.rows:
+        writer.writerow({k: (repr(v) if isinstance(v, float) else v) for k, v in asdict(row).items()})
+    write_text(path, text.getvalue())
 
 
 def read_csv(path: Path) -> list[dict[str, str]]:
@@ -251,7 +256,7 @@ def read_csv(path: Path) -> list[dict[str, str]]:
 def write_plot(study: Study, path: Path) -> bool:
     """Log RMSE against log frame time, one curve per model (and setting), points labelled with triangles.
 
-    Returns False (and writes nothing) when matplotlib is not installed.
+    Returns False (and writes nothing) when matplotlib is not installed. Raises WriteError.
     """
     try:
         import matplotlib
@@ -286,8 +291,10 @@ def write_plot(study: Study, path: Path) -> bool:
     axes.grid(True, which="both", alpha=0.3)
     axes.legend(fontsize=8)
     figure.tight_layout()
-    figure.savefig(path)
+    encoded = io.BytesIO()  # encode in memory: the file itself is written, checked and renamed by write_bytes
+    figure.savefig(encoded, format="png")
     plt.close(figure)
+    write_bytes(path, encoded.getvalue())
     return True
 
 
@@ -348,14 +355,30 @@ def summary_markdown(study: Study, plotted: bool) -> str:
     return "\n".join(lines)
 
 
+OUTPUTS = {"csv": "study.csv", "plot": "error_vs_time.png", "summary": "summary.md"}
+
+
+def check_study_folder(folder: Path, scene: str | Path) -> None:
+    """Refuse, before the first render, a --out that is a file or that holds a folder (or the scene) under
+    one of the OUTPUTS' names. Raises ImageError."""
+    if folder.exists() and not folder.is_dir():
+        raise ImageError(f"{folder}: --out must be a folder, but it is a file")
+    if folder.is_dir():
+        for name in OUTPUTS.values():
+            check_output_file(folder / name, inputs=(scene,))
+
+
 def write_study(study: Study, folder: Path) -> dict[str, Path | None]:
-    """DIR/study.csv, DIR/error_vs_time.png (None without matplotlib) and DIR/summary.md."""
-    folder.mkdir(parents=True, exist_ok=True)
-    written: dict[str, Path | None] = {"csv": folder / "study.csv", "plot": folder / "error_vs_time.png",
-                                       "summary": folder / "summary.md"}
+    """DIR/study.csv, DIR/error_vs_time.png (None without matplotlib) and DIR/summary.md, each replaced
+    atomically. Raises WriteError when one cannot be written (those before it are written, it is unchanged)."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise ImageError(f"{folder}: cannot create the output folder ({error.strerror})") from None
+    written: dict[str, Path | None] = {key: folder / name for key, name in OUTPUTS.items()}
     write_csv(study, written["csv"])
     plotted = write_plot(study, written["plot"])
     if not plotted:
         written["plot"] = None
-    written["summary"].write_text(summary_markdown(study, plotted))
+    write_text(written["summary"], summary_markdown(study, plotted))
     return written
