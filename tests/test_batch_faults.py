@@ -144,13 +144,20 @@ def test_a_signal_stops_the_workers_at_once_and_the_manifest_tells_the_truth(tmp
 
 @LINUX_PROC
 def test_killing_the_batch_with_sigkill_leaves_no_worker_behind(tmp_path, start_batch):
-    folder, out = slow_scenes(tmp_path / "scenes", 16), tmp_path / "out"
+    """Each worker is mid-way through a scene of ~36 M rays (seconds on one thread) when the batch is killed:
+    they must die with it, not finish their scenes (nor wait for work) first."""
+    folder, out = tmp_path / "scenes", tmp_path / "out"
+    folder.mkdir()
+    (folder / "a.toml").write_text(scene_text())  # the first image: then both workers are on a large scene
+    for index in range(3):
+        (folder / f"b{index}.toml").write_text(scene_text(extra="subdivisions = 3", size=2000, samples=3))
     process = start_batch(folder, out, jobs=2)
     wait_for_first_image(process, out)
     assert len(session_processes(process.pid)) == 3  # the command and its two workers
     os.kill(process.pid, signal.SIGKILL)
     process.wait(timeout=60)  # not communicate(): a worker left behind would hold its pipes open
     assert wait_until_gone(process.pid) == []
+    assert images(out) == [out / "a.png"]
 
 
 @LINUX_PROC
