@@ -149,7 +149,6 @@ def find_jobs(paths: list[str | Path], out: str | Path | None = None) -> list[Jo
     Raises SceneError when a path matches nothing or two jobs would write the same output name.
     """
     from .sweep import is_sweep, load_sweep
-    own = (Path(out) / MANIFEST).resolve() if out is not None else None
     files: list[Path] = []
     for given in map(str, paths):
         path = Path(given)
@@ -160,7 +159,7 @@ def find_jobs(paths: list[str | Path], out: str | Path | None = None) -> list[Jo
             found = [path]
         else:
             found = sorted(Path(p) for p in glob.glob(given, recursive=True) if Path(p).is_file())
-        found = [p for p in found if p.resolve() != own]
+        found = [p for p in found if out is None or not is_own_manifest(p, Path(out))]
         if not found:
             raise SceneError(f"{given}: no such scene file, folder or matching glob")
         files += [p for p in found if p not in files]
@@ -174,6 +173,11 @@ def find_jobs(paths: list[str | Path], out: str | Path | None = None) -> list[Jo
                              "rename one of the files or run them in separate batches")
         seen[job.name] = job
     return jobs
+
+
+def is_own_manifest(path: Path, folder: Path) -> bool:
+    """Whether `path` is the manifest of the batch folder `folder` (never a scene, however it is spelled)."""
+    return path.resolve() == (folder / MANIFEST).resolve()
 
 
 # ---------------------------------------------------------------- up-to-date check
@@ -608,7 +612,7 @@ def run_batch(jobs: list[Job], folder: str | Path, *, workers: int | None = None
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as error:
         raise ImageError(f"{folder}: cannot create the output folder ({error.strerror})") from None
-    jobs = [job for job in jobs if job.scene.resolve() != (folder / MANIFEST).resolve()]  # see find_jobs
+    jobs = [job for job in jobs if not is_own_manifest(job.scene, folder)]
     with folder_lock(folder):
         return _run_locked(jobs, folder, workers, force, settings, scheduler, progress)
 
