@@ -437,13 +437,14 @@ def _work(tasks: connection.Connection, parent: int | None) -> None:
 
 def _die_with_parent(parent: int | None) -> None:
     """Make this worker die with the process that started it (`parent`, or whichever it has now), even when
-    that one is killed with SIGKILL: on Linux the kernel sends SIGKILL (PR_SET_PDEATHSIG); elsewhere a thread
-    checks every 0.2 s."""
+    that one is killed with SIGKILL: on Linux the kernel sends SIGKILL (PR_SET_PDEATHSIG); elsewhere, or if
+    that fails, a thread checks every 0.2 s."""
     parent = parent or os.getppid()
+    told = False
     if sys.platform.startswith("linux"):
         import ctypes
-        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-    else:
+        told = ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0) == 0
+    if not told:
         def watch() -> None:
             while os.getppid() == parent:
                 time.sleep(0.2)
