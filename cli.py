@@ -343,14 +343,23 @@ def batch(
                      "reported.")] = False,
 ) -> None:
     """Render many scene files into one folder, in parallel; skip those whose outputs are up to date.
-    A failing scene is reported (file and reason) and the others go on; exit status 1 if any failed."""
+    A failing scene is reported (file and reason) and the others go on; exit status 1 if any failed.
+    Ctrl-C or `kill` stops the workers at once; exit status 130 (SIGINT) or 143 (SIGTERM)."""
     import signal
     from raycast_phong import batch as batches
-    # `kill` (SIGTERM) unwinds like Ctrl-C: temporary files are removed and running workers finish or stop.
-    signal.signal(signal.SIGTERM, lambda *_: sys.exit(128 + signal.SIGTERM))
-    with exit_codes():
-        found = batches.find_jobs(paths)
-        report = _batch_with_progress(found, out, jobs, force, batches.Settings(srgb=srgb), scheduler, quiet)
+    # Ctrl-C and `kill` (SIGTERM) both stop the batch: workers killed, temporaries removed, the manifest written.
+    previous = {number: signal.signal(number, batches.interrupt) for number in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        with exit_codes():
+            found = batches.find_jobs(paths, out)
+            report = _batch_with_progress(found, out, jobs, force, batches.Settings(srgb=srgb), scheduler, quiet)
+    except batches.Interrupted as stop:
+        _report_interrupt(stop, out)
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+    for warning in report.warnings:
+        typer.secho(f"warning: {warning}", err=True, fg=typer.colors.YELLOW)
     for outcome in report.failed:
         typer.secho(f"failed: {outcome.reason}", err=True, fg=typer.colors.RED)
     if not quiet:
@@ -361,6 +370,22 @@ def batch(
                    f"manifest {out / batches.MANIFEST}{sheets}")
     if report.failed:
         raise typer.Exit(code=1)
+
+
+def _report_interrupt(stop, out: Path) -> None:
+    """One line for a batch a signal stopped, and its exit status, 128 + the signal's number."""
+    import signal
+    from raycast_phong import batch as batches
+    line = f"interrupted by {signal.Signals(stop.signal).name}"
+    if stop.report is not None:
+        for warning in stop.report.warnings:
+            typer.secho(f"warning: {warning}", err=True, fg=typer.colors.YELLOW)
+        counts = ", ".join(f"{stop.report.count(status)} {status}" for status in
+                           (batches.RENDERED, batches.UP_TO_DATE, batches.FAILED, batches.INTERRUPTED,
+                            batches.NOT_STARTED))
+        line += f": {counts}; manifest {out / batches.MANIFEST}"
+    typer.secho(line, err=True, fg=typer.colors.RED)
+    raise typer.Exit(code=128 + stop.signal)
 
 
 def _batch_with_progress(found, out: Path, jobs: int | None, force: bool, settings, scheduler: str | None,

@@ -72,7 +72,7 @@ def is_sweep(path: Path) -> bool:
         return False
     try:
         return "grid" in tomllib.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+    except (OSError, ValueError, RecursionError):  # TOMLDecodeError, UnicodeDecodeError; nested too deep
         return False  # the scene loader reports the file's problem
 
 

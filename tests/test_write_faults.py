@@ -48,7 +48,8 @@ def assert_refused_write(done: subprocess.CompletedProcess, path: Path, code: in
 
 
 def temporaries(folder: Path) -> list[str]:
-    return sorted(p.name for p in folder.iterdir() if p.name.startswith("."))
+    """Hidden files left in `folder`: temporaries (the batch's own lock file, .batch.lock, is not one)."""
+    return sorted(p.name for p in folder.iterdir() if p.name.startswith(".") and p.name != ".batch.lock")
 
 
 @pytest.fixture

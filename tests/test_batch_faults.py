@@ -1,0 +1,324 @@
+"""`raycast-phong batch` under faults: real signals, a killed parent, a killed worker, two batches in one folder,
+scene files that break the loader, the output folder inside an input folder, paths spelled differently, a
+corrupt manifest (docs/batch.md, "Faults").
+
+The signal tests run the command in a subprocess of its own session (a background job of a shell ignores
+SIGINT; a new session does not) and find its processes by scanning /proc for that session. Waits are bounded
+polls; nothing asserts a duration.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+import raycast_phong as rp
+from raycast_phong import batch
+from test_batch import ROOT, TETRAHEDRON, five_scenes, images, manifest, run, scene_text, statuses  # noqa: F401
+
+LINUX_PROC = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="finds processes through /proc")
+SIZE = 192  # 192×192 with 3×3 samples: ~0.1-0.3 s a scene, so a signal lands mid-batch
+
+
+def slow_scenes(folder: Path, count: int) -> Path:
+    folder.mkdir()
+    for index in range(count):
+        (folder / f"s{index:02d}.toml").write_text(scene_text(extra="subdivisions = 3", size=SIZE, samples=3))
+    return folder
+
+
+@pytest.fixture
+def start_batch():
+    """Start the command in a new session (its id is the process id), so its signals and processes are its
+    own; whatever of the session is left at the end (a test that failed) is killed."""
+    started = []
+
+    def start(folder: Path, out: Path, jobs: int) -> subprocess.Popen:
+        command = [sys.executable, "-m", "cli", "batch", str(folder), "--out", str(out), "--jobs", str(jobs)]
+        started.append(subprocess.Popen(command, cwd=ROOT, start_new_session=True, stdout=subprocess.PIPE,
+                                        stderr=subprocess.PIPE, text=True))
+        return started[-1]
+
+    yield start
+    for process in started:
+        for pid in session_processes(process.pid):
+            os.kill(pid, signal.SIGKILL)
+        process.kill()
+        process.communicate()
+
+
+def wait_for_first_image(process: subprocess.Popen, out: Path) -> int:
+    """Poll (at most a minute) until the batch has written an image; the number of images then."""
+    deadline = time.monotonic() + 60
+    while not images(out) and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert process.poll() is None, process.communicate()
+    return len(images(out))
+
+
+def session_processes(session: int) -> list[int]:
+    """The live (not zombie) processes of a session, from /proc/PID/stat."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue  # it has just exited
+            state, _ppid, _group, sid = stat[stat.rindex(")") + 2:].split()[:4]
+            if int(sid) == session and state != "Z":
+                found.append(int(entry.name))
+    return found
+
+
+def children(pid: int) -> list[int]:
+    found = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue
+            if int(stat[stat.rindex(")") + 2:].split()[1]) == pid:
+                found.append(int(entry.name))
+    return found
+
+
+def wait_until_gone(session: int, seconds: float = 10) -> list[int]:
+    """Poll until no process of the session is left, or `seconds` pass; those left."""
+    deadline = time.monotonic() + seconds
+    while (left := session_processes(session)) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    return left
+
+
+def hidden(folder: Path) -> list[str]:
+    """Temporary files left in the folder (the lock file is meant to stay)."""
+    return sorted(p.name for p in folder.iterdir() if p.name.startswith(".") and p.name != batch.LOCK)
+
+
+# ---------------------------------------------------------------- signals
+
+
+@LINUX_PROC
+@pytest.mark.parametrize(("number", "jobs"), [(signal.SIGINT, 2), (signal.SIGTERM, 2), (signal.SIGINT, 1)],
+                         ids=["SIGINT", "SIGTERM", "SIGINT-jobs-1"])
+def test_a_signal_stops_the_workers_at_once_and_the_manifest_tells_the_truth(tmp_path, start_batch, number, jobs):
+    count = 16
+    folder, out = slow_scenes(tmp_path / "scenes", count), tmp_path / "out"
+    process = start_batch(folder, out, jobs=jobs)
+    written = wait_for_first_image(process, out)
+    os.kill(process.pid, number)
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 128 + number, stderr
+    assert wait_until_gone(process.pid) == []
+    assert stderr.strip().splitlines()[-1].startswith(f"interrupted by {signal.Signals(number).name}: ")
+    assert "Traceback" not in stderr
+    # At most the scenes rendering at the signal finish; no scene starts after it.
+    on_disk = images(out)
+    assert len(on_disk) <= written + jobs, f"{len(on_disk) - written} images written after the signal"
+    assert hidden(out) == []
+    # Every image on disk is whole and listed as rendered; every scene has an entry saying what happened.
+    entries = manifest(out)
+    assert sorted(entries) == [f"s{index:02d}" for index in range(count)]
+    listed = sorted(name for entry in entries.values() if entry["status"] == "rendered" for name in entry["outputs"])
+    assert listed == [path.name for path in on_disk]
+    for path in on_disk:
+        assert rp.read_image(path)[0].shape == (SIZE, SIZE, 3)
+    kinds = {entry["status"] for entry in entries.values()}
+    assert kinds <= {"rendered", "interrupted", "not started"} and "not started" in kinds, kinds
+    # A rerun renders exactly the rest.
+    result = run(str(folder), "--out", str(out), "--jobs", "1")
+    assert result.exit_code == 0, result.stderr
+    assert list(statuses(out).values()).count("up to date") == len(on_disk)
+    assert len(images(out)) == count
+
+
+@LINUX_PROC
+def test_killing_the_batch_with_sigkill_leaves_no_worker_behind(tmp_path, start_batch):
+    """Each worker is mid-way through a scene of ~36 M rays (seconds on one thread) when the batch is killed:
+    they must die with it, not finish their scenes (nor wait for work) first."""
+    folder, out = tmp_path / "scenes", tmp_path / "out"
+    folder.mkdir()
+    (folder / "a.toml").write_text(scene_text())  # the first image: then both workers are on a large scene
+    for index in range(3):
+        (folder / f"b{index}.toml").write_text(scene_text(extra="subdivisions = 3", size=2000, samples=3))
+    process = start_batch(folder, out, jobs=2)
+    wait_for_first_image(process, out)
+    assert len(session_processes(process.pid)) == 3  # the command and its two workers
+    os.kill(process.pid, signal.SIGKILL)
+    process.wait(timeout=60)  # not communicate(): a worker left behind would hold its pipes open
+    assert wait_until_gone(process.pid) == []
+    assert images(out) == [out / "a.png"]
+
+
+@LINUX_PROC
+def test_a_killed_worker_fails_only_its_scene_and_is_replaced(tmp_path, start_batch):
+    """The out-of-memory killer, simulated: SIGKILL to one worker mid-batch."""
+    count = 10
+    folder, out = slow_scenes(tmp_path / "scenes", count), tmp_path / "out"
+    process = start_batch(folder, out, jobs=2)
+    wait_for_first_image(process, out)
+    workers = children(process.pid)
+    assert len(workers) == 2, workers
+    os.kill(workers[0], signal.SIGKILL)
+    _, stderr = process.communicate(timeout=120)
+    failed = {name: entry["reason"] for name, entry in manifest(out).items() if entry["status"] == "failed"}
+    # Its scene failed, unless the kill landed between the image's rename and the worker's report: then the
+    # image is whole and listed as rendered.
+    assert len(failed) <= 1, stderr
+    for name, reason in failed.items():
+        assert reason == f"{folder / name}.toml: its worker process died (killed by SIGKILL; out of memory?)"
+        assert f"failed: {reason}" in stderr
+    assert process.returncode == (1 if failed else 0), stderr
+    assert list(statuses(out).values()).count("rendered") == count - len(failed) == len(images(out))
+    assert hidden(out) == []
+
+
+# ---------------------------------------------------------------- two batches, one folder
+
+
+def test_a_second_batch_into_the_same_folder_is_refused(tmp_path, start_batch):
+    count = 8
+    folder, out = slow_scenes(tmp_path / "scenes", count), tmp_path / "out"
+    first = start_batch(folder, out, jobs=1)
+    wait_for_first_image(first, out)
+    second = run(str(folder), "--out", str(out), "--jobs", "1", "--force")
+    assert second.exit_code == 2
+    assert second.stderr == (f"error: {out}: another batch (process {first.pid}) is writing into this folder; "
+                             "wait for it to finish, or use another --out\n")
+    _, stderr = first.communicate(timeout=120)
+    assert first.returncode == 0, stderr  # its temporaries and manifest were left alone
+    assert set(statuses(out).values()) == {"rendered"} and len(images(out)) == count
+    assert hidden(out) == []
+    # The lock is the batch's for its run only: the next batch goes ahead.
+    assert run(str(folder), "--out", str(out), "--jobs", "1").exit_code == 0
+
+
+def test_the_folder_lock_is_an_flock(tmp_path, five_scenes):
+    """Whoever holds DIR/.batch.lock (here this test) keeps a batch out; nothing is written meanwhile."""
+    out = tmp_path / "out"
+    out.mkdir()
+    with open(out / batch.LOCK, "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        result = run(str(five_scenes), "--out", str(out), "--jobs", "1")
+    assert result.exit_code == 2 and "another batch is writing into this folder" in result.stderr
+    assert sorted(p.name for p in out.iterdir()) == [batch.LOCK]
+
+
+# ---------------------------------------------------------------- scene files that break the loader
+
+
+def test_each_broken_scene_file_fails_only_itself(tmp_path):
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    (folder / "good.toml").write_text(scene_text())
+    broken = {
+        "deep_json.json": "[" * 100_000 + "]" * 100_000,      # RecursionError in json
+        "deep_toml.toml": "a = " + "[" * 100_000 + "]" * 100_000 + "\n",  # and in tomllib
+        "digits.json": '{"render": {"width": 1' + "0" * 5000 + "}}",  # int() refuses over 4300 digits
+        "binary.toml": bytes(range(256)) * 4,
+    }
+    for name, text in broken.items():
+        (folder / name).write_bytes(text if isinstance(text, bytes) else text.encode())
+    out = tmp_path / "out"
+    result = run(str(folder), "--out", str(out), "--jobs", "1")
+    assert result.exit_code == 1, result.stderr
+    assert "Traceback" not in result.stderr
+    entries = manifest(out)
+    assert entries["good"]["status"] == "rendered"
+    for name in broken:
+        entry = entries[Path(name).stem]
+        assert entry["status"] == "failed"
+        assert entry["reason"].startswith(str(folder / name) + ": ") and "\n" not in entry["reason"]
+        # A bug is told apart from bad input: "internal error", and its traceback kept in the manifest.
+        assert (entry["traceback"] is not None) == ("internal error" in entry["reason"]), entry
+        assert f"failed: {entry['reason']}" in result.stderr
+
+
+def test_an_internal_error_keeps_its_traceback_and_the_batch_goes_on(five_scenes, tmp_path, monkeypatch):
+    def load_scene(path, overrides=()):
+        if Path(path).stem == "sphere1":
+            return 1 / 0  # a bug in the loader, on one scene
+        return rp.load_scene(path, overrides)
+
+    monkeypatch.setattr(batch, "load_scene", load_scene)
+    out = tmp_path / "out"
+    result = run(str(five_scenes), "--out", str(out), "--jobs", "1")
+    assert result.exit_code == 1, result.stderr
+    entries = manifest(out)
+    bug = entries["sphere1"]
+    assert bug["status"] == "failed"
+    assert bug["reason"] == f"{five_scenes / 'sphere1.toml'}: internal error: ZeroDivisionError: division by zero"
+    assert bug["traceback"].startswith("Traceback") and "return 1 / 0" in bug["traceback"]
+    assert entries["broken"]["traceback"] is None  # bad input: no traceback
+    assert [name for name, entry in entries.items() if entry["status"] == "rendered"] == \
+        ["mesh", "sphere0", "sphere2"]
+
+
+# ---------------------------------------------------------------- the folder and the manifest
+
+
+@pytest.mark.parametrize("layout", ["out is the scene folder", "out under a globbed folder"])
+def test_the_batch_never_reads_its_own_manifest(tmp_path, layout):
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    (folder / "a.toml").write_text(scene_text())
+    (folder / "b.json").write_text(json.dumps({"objects": [{"shape": "icosphere"}], "render": {"width": 8,
+                                                                                              "height": 8}}))
+    paths, out = ([str(folder)], folder) if layout.startswith("out is") else \
+        ([str(folder / "**" / "*.json"), str(folder / "a.toml")], folder / "out")
+    for _ in range(2):
+        result = run(*paths, "--out", str(out), "--jobs", "1")
+        assert result.exit_code == 0, result.stderr
+    assert statuses(out) == {"a": "up to date", "b": "up to date"}
+
+
+def test_the_up_to_date_check_does_not_depend_on_how_a_path_is_spelled(tmp_path, monkeypatch):
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    (folder / "tetra.obj").write_text(TETRAHEDRON)
+    (folder / "mesh.toml").write_text(scene_text(shape="mesh", extra='path = "tetra.obj"'))
+    (tmp_path / "link").symlink_to(folder)
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "out"
+    assert run("scenes/mesh.toml", "--out", str(out)).exit_code == 0
+    for spelling in ("./scenes/mesh.toml", str(folder / "mesh.toml"), "scenes/../scenes/mesh.toml",
+                     "link/mesh.toml", "scenes"):
+        result = run(spelling, "--out", str(out))
+        assert result.exit_code == 0, result.stderr
+        assert statuses(out) == {"mesh": "up to date"}, spelling
+
+
+@pytest.mark.parametrize("text", [b"{not json", b"\xff\xfe", json.dumps({"format": 1, "scenes": {"a": 3}}).encode(),
+                                  json.dumps({"format": 99, "scenes": {}}).encode(), b"[" * 100_000])
+def test_a_corrupt_manifest_is_reported_and_kept_aside(five_scenes, tmp_path, text):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "manifest.json").write_bytes(text)
+    (out / "manifest.json.corrupt-1").write_bytes(b"an earlier one")
+    result = run(str(five_scenes), "--out", str(out), "--jobs", "1")
+    assert result.exit_code == 1  # the broken scene
+    warnings = [line for line in result.stderr.splitlines() if line.startswith("warning:")]
+    assert len(warnings) == 1 and warnings[0].startswith(f"warning: {out / 'manifest.json'}: not ")
+    assert warnings[0].endswith("; kept as manifest.json.corrupt-2, every scene renders again")
+    assert (out / "manifest.json.corrupt-2").read_bytes() == text
+    assert (out / "manifest.json.corrupt-1").read_bytes() == b"an earlier one"
+    assert list(statuses(out).values()).count("rendered") == 4
+
+
+def test_an_unreadable_manifest_is_refused(five_scenes, tmp_path):
+    out = tmp_path / "out"
+    (out / "manifest.json").mkdir(parents=True)
+    result = run(str(five_scenes), "--out", str(out), "--jobs", "1")
+    assert result.exit_code == 2
+    assert result.stderr == f"error: {out / 'manifest.json'}: cannot read the batch manifest (Is a directory)\n"
+    assert images(out) == []
