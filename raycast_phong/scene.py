@@ -477,9 +477,14 @@ def read_scene_dict(path: Path) -> dict:
         raise SceneError(f"{path}: no such scene file") from None
     except (OSError, UnicodeDecodeError) as error:
         raise SceneError(f"{path}: cannot read the scene file ({error})") from None
+    text = text.removeprefix("\ufeff")  # a byte-order mark, as some Windows editors write, is no syntax error
     try:
         if path.suffix.lower() == ".json":
-            data = json.loads(text)
+            data = json.loads(text, object_pairs_hook=_JSONObject)
+            twice = _duplicate_key(data)
+            if twice:
+                raise SceneError(f"{path}: {_dotted(twice)}: the key is given twice in one object (JSON would keep "
+                                 "the last silently); allowed: each key once")
         else:
             data = tomllib.loads(text)
     except json.JSONDecodeError as error:
@@ -489,6 +494,29 @@ def read_scene_dict(path: Path) -> dict:
     if not isinstance(data, dict):
         raise SceneError(f"{path}: the top level must be a table of keys")
     return data
+
+
+class _JSONObject(dict):
+    """A JSON object (json's object_pairs_hook) that remembers the keys it was given more than once."""
+
+    def __init__(self, pairs: list[tuple[str, Any]]):
+        super().__init__(pairs)
+        self.repeated = []
+        if len(self) < len(pairs):
+            seen: set[str] = set()
+            self.repeated = [key for key, _ in pairs if key in seen or seen.add(key)]
+
+
+def _duplicate_key(node: Any, loc: tuple = ()) -> tuple | None:
+    """The key path of the first key given twice in a JSON object, or None."""
+    if isinstance(node, _JSONObject) and node.repeated:
+        return (*loc, node.repeated[0])
+    children = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+    for key, child in children:
+        found = _duplicate_key(child, (*loc, key))
+        if found:
+            return found
+    return None
 
 
 def load_scene(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
