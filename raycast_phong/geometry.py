@@ -99,6 +99,17 @@ def check_float_range(scene: Scene, vertices: np.ndarray, source: str = "<scene>
         raise SceneError(f"{source}: {_dotted(problem[0])}: {problem[1]}")
 
 
+def behind_camera(scene: Scene, vertices: np.ndarray) -> str | None:
+    """A one-line warning if every placed vertex lies behind the camera (or on its plane), else None:
+    no ray can hit anything, so the image is only background."""
+    eye = np.asarray(scene.camera.position)
+    forward = np.asarray(scene.camera.look_at) - eye
+    if ((vertices - eye) @ forward).max() > 0:
+        return None
+    return (f"every object is behind the camera (camera.position {list(scene.camera.position)} looks toward "
+            f"look_at {list(scene.camera.look_at)}); the image will be only background")
+
+
 def repair_winding(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int, bool]:
     """Make a mesh file's winding consistent (trimesh.repair), and outward if the mesh is closed.
 

@@ -259,3 +259,15 @@ def test_an_option_error_is_one_line_from_the_real_command():
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 2 and done.stdout == "", done
     assert len(done.stderr.strip().splitlines()) == 1 and "'--width'" in done.stderr, done.stderr
+
+
+@pytest.mark.parametrize(("look_at", "warned"), [([0, 0, 8], True), ([0, 0, 0], False), ([8, 0, 4], False)])
+def test_a_scene_entirely_behind_the_camera_warns_once(tmp_path, look_at, warned):
+    # Looking away from the sphere (+z from z = 4); at it; sideways (the sphere's rim is in front of the eye plane).
+    scene = scene_file(tmp_path, lambda s: s["camera"].update(look_at=look_at))
+    result = runner.invoke(app, ["render", str(scene), "-o", str(tmp_path / "out.png")])
+    assert result.exit_code == 0, result.output
+    lines = [line for line in result.stderr.splitlines() if "behind the camera" in line]
+    assert len(lines) == (1 if warned else 0), result.stderr
+    if warned:
+        assert lines[0].startswith("warning: every object is behind the camera")
