@@ -133,21 +133,31 @@ def object_mesh(scene: Scene, obj: Object, index: int, source: str):
     """(vertices (V, 3), faces (F, 3), file vertex normals (V, 3) or None) in the object's own frame."""
     if obj.shape == "mesh":
         return _load_mesh(scene, obj, index, source)
-    if obj.shape == "icosphere":
-        mesh = trimesh.creation.icosphere(subdivisions=obj.subdivisions, radius=obj.radius)
-    elif obj.shape == "uv_sphere":
-        mesh = trimesh.creation.uv_sphere(radius=obj.radius, count=list(obj.segments or (32, 16)))
-    elif obj.shape == "box":
-        mesh = trimesh.creation.box(extents=obj.size or (2.0, 2.0, 2.0))
-    elif obj.shape == "cylinder":
-        mesh = trimesh.creation.cylinder(radius=obj.radius, height=obj.height, sections=(obj.segments or (32, 1))[0])
-    elif obj.shape == "torus":
-        major, minor = obj.segments or (32, 16)
-        mesh = trimesh.creation.torus(major_radius=obj.major_radius, minor_radius=obj.minor_radius,
-                                      major_sections=major, minor_sections=minor)
-    else:
+    if obj.shape == "plane":
         return (*plane_mesh(obj.size or (2.0, 2.0), obj.segments or (1, 1)), None)
-    return np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64), None
+    # Build at unit size and scale after: trimesh merges vertices closer than an absolute 1e-8, which
+    # would collapse (and divide by zero on) a sphere of radius 1e-20.
+    lengths = {"icosphere": (obj.radius,), "uv_sphere": (obj.radius,), "box": obj.size or (2.0, 2.0, 2.0),
+               "cylinder": (obj.radius, obj.height), "torus": (obj.major_radius, obj.minor_radius)}[obj.shape]
+    unit = max(lengths)
+    if obj.shape == "icosphere":
+        mesh = trimesh.creation.icosphere(subdivisions=obj.subdivisions, radius=1.0)
+    elif obj.shape == "uv_sphere":
+        mesh = trimesh.creation.uv_sphere(radius=1.0, count=list(obj.segments or (32, 16)))
+    elif obj.shape == "box":
+        mesh = trimesh.creation.box(extents=[length / unit for length in lengths])
+    elif obj.shape == "cylinder":
+        mesh = trimesh.creation.cylinder(radius=obj.radius / unit, height=obj.height / unit,
+                                         sections=(obj.segments or (32, 1))[0])
+    else:
+        major, minor = obj.segments or (32, 16)
+        mesh = trimesh.creation.torus(major_radius=obj.major_radius / unit, minor_radius=obj.minor_radius / unit,
+                                      major_sections=major, minor_sections=minor)
+    if len(mesh.faces) == 0:
+        raise SceneError(f"{source}: objects.{index}: a {obj.shape} with lengths {list(lengths)} has no triangles: "
+                         "trimesh merges vertices closer than 1e-8 of the shape's size; allowed: the smaller "
+                         "length a larger share of the larger one")
+    return np.asarray(mesh.vertices, np.float64) * unit, np.asarray(mesh.faces, np.int64), None
 
 
 def plane_mesh(size, segments) -> tuple[np.ndarray, np.ndarray]:

@@ -271,3 +271,16 @@ def test_a_scene_entirely_behind_the_camera_warns_once(tmp_path, look_at, warned
     assert len(lines) == (1 if warned else 0), result.stderr
     if warned:
         assert lines[0].startswith("warning: every object is behind the camera")
+
+
+def test_a_tiny_shape_beside_a_normal_one_renders(tmp_path):
+    # trimesh's icosphere at radius 1e-20 divided 0 by 0 (it merges vertices closer than an absolute 1e-8):
+    # shapes are now built at unit size and scaled, so the speck is just too small to see.
+    scene = scene_file(tmp_path, lambda s: s["objects"].append({"shape": "icosphere", "subdivisions": 2,
+                                                                 "radius": 1e-20, "translate": [0, 0, 1.5]}))
+    rendered(tmp_path, scene)
+
+
+@pytest.mark.parametrize("obj", [{"shape": "torus", "minor_radius": 1e-12}, {"shape": "cylinder", "radius": 1e-12}])
+def test_a_shape_too_thin_for_trimesh_is_refused(tmp_path, obj):
+    refused(tmp_path, scene_file(tmp_path, lambda s: set_path(s, "objects.0", obj)), "objects.0:", "no triangles")
