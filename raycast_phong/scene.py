@@ -507,15 +507,16 @@ class _JSONObject(dict):
             self.repeated = [key for key, _ in pairs if key in seen or seen.add(key)]
 
 
-def _duplicate_key(node: Any, loc: tuple = ()) -> tuple | None:
-    """The key path of the first key given twice in a JSON object, or None."""
-    if isinstance(node, _JSONObject) and node.repeated:
-        return (*loc, node.repeated[0])
-    children = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
-    for key, child in children:
-        found = _duplicate_key(child, (*loc, key))
-        if found:
-            return found
+def _duplicate_key(data: Any) -> tuple | None:
+    """The key path of the first key given twice in a JSON object, or None (a walk with a stack, not
+    recursion, so a nesting as deep as json accepts cannot overflow Python's stack here)."""
+    stack = [((), data)]
+    while stack:
+        loc, node = stack.pop()
+        if isinstance(node, _JSONObject) and node.repeated:
+            return (*loc, node.repeated[0])
+        children = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+        stack.extend(reversed([((*loc, key), child) for key, child in children]))
     return None
 
 
