@@ -272,8 +272,11 @@ class Material(_Strict):
     @field_validator("shininess")
     @classmethod
     def _shininess(cls, value: float) -> float:
-        if math.isnan(value) or value < 0:
-            raise ValueError(f"shininess must be ≥ 0 (inf allowed: the mirror limit), got {value}")
+        # The material table is in the shading precision: a finite f must also be finite in float32. Beyond
+        # 1e38, x^f is 0 for every x < 1 anyway, which is what inf (the mirror limit) says.
+        if math.isnan(value) or value < 0 or INTENSITY_LIMIT < value < math.inf:
+            raise ValueError(f"shininess must be ≥ 0 (inf allowed: the mirror limit) and, if finite, at most "
+                             f"{INTENSITY_LIMIT:g}, got {value}")
         return value
 
 

@@ -97,12 +97,17 @@ OVERFLOWS = [
     ("ambient", 1e308, "[0, 1e+38]"),
     ("render.background", 1e39, "[0, 1e+38]"),
     ("lights.0.attenuation", [0, 0, 1e39], "0 ≤ c, l, q ≤ 1e+38"),
+    ("materials.m.shininess", 3.5e38, "if finite, at most 1e+38"),  # found by tests/test_fuzz.py, with ks = 0
 ]
 
 
 @pytest.mark.parametrize(("key", "value", "allowed"), OVERFLOWS, ids=[f"{k}={v}" for k, v, _ in OVERFLOWS])
 def test_a_value_that_would_overflow_is_refused_naming_its_key(tmp_path, key, value, allowed):
-    refused(tmp_path, scene_file(tmp_path, lambda s: set_path(s, key, value)), f"{key}:", allowed)
+    def edit(scene):
+        scene["materials"] = {"m": {"ks": 0}}
+        scene["objects"][0]["material"] = "m"
+        set_path(scene, key, value)
+    refused(tmp_path, scene_file(tmp_path, edit), f"{key}:", allowed)
 
 
 def test_a_light_direction_too_short_to_normalise_is_refused(tmp_path):

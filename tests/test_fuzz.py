@@ -167,6 +167,10 @@ def scenes(draw) -> Any:
     scene = json.loads(json.dumps(WORKING))
     for key in draw(st.lists(st.sampled_from(sorted(LEAVES)), min_size=1, max_size=4, unique=True)):
         set_path(scene, key, draw(LEAVES[key]))
+    # Long lists: 64 lights pass global mode's limit of 63; 30 objects, each cheap.
+    for key, many in (("lights", 64), ("objects", 30)):
+        if isinstance(scene[key], list):
+            scene[key] = scene[key] * draw(st.sampled_from([1, 1, 1, 1, 1, many]))
     return affordable(scene)
 
 
@@ -223,6 +227,10 @@ FOUND: list[Any] = [
     # trimesh's icosphere divided 0 by 0 at radius 1.6e-51 (now built at unit size, then refused as too small).
     {"render": {"width": 6, "height": 5, "samples": 2}, "lights": [{"position": [2, 2, 3]}],
      "objects": [{"shape": "icosphere", "subdivisions": 2, "radius": 1.5784229686664424e-51}]},
+    # A shininess past float32 with ks = 0 (so no float64 shading) overflowed the material table's cast.
+    {"render": {"width": 6, "height": 5, "samples": 2}, "lights": [{"position": [2, 2, 3]}], "ambient": 0,
+     "materials": {"m0": {"ks": 0, "shininess": 3.5e+38}},
+     "objects": [{"shape": "icosphere", "subdivisions": 1, "material": "m0"}]},
 ]
 
 
