@@ -85,16 +85,14 @@ def check_float_range(scene: Scene, vertices: np.ndarray, source: str = "<scene>
                          f"side); allowed: at least {2 * MIN_EXTENT:g}, so the 1/d² floor and Embree's unit frame "
                          "stay in float32's range; raise the objects' scale or size")
     floor = MIN_DISTANCE * extent
-    gains = []
-    for light in scene.lights:
+    gains = {}
+    for k, light in enumerate(scene.lights):
         if light.type == "point" and light.attenuation == "inverse_square":
             position = np.asarray(light.position)
             d = float(np.linalg.norm(np.maximum(np.maximum(low - position, position - high), 0.0)))
-            gains.append(1.0 / max(d, floor) ** 2)
-        else:
-            gains.append(1.0)
-    problem = brightness_problem(scene, tuple(gains), why="with 1/d² attenuation up to "
-                                 f"{max(gains, default=1.0):.3g} (the light at or near the scene), ")
+            gains[k] = 1.0 / max(d, floor) ** 2
+    problem = brightness_problem(scene, gains, why="with 1/d² attenuation up to "
+                                 f"{max(gains.values(), default=1.0):.3g} (the light at or near the scene), ")
     if problem:
         raise SceneError(f"{source}: {_dotted(problem[0])}: {problem[1]}")
 

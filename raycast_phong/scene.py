@@ -440,14 +440,23 @@ class Scene(_Strict):
         return Path(self.folder) / Path(path).expanduser()
 
 
-def brightness_problem(scene: Scene, gains: tuple[float, ...] | None = None, why: str = "") -> tuple | None:
+def brightness_problem(scene: Scene, inverse_square: dict[int, float] | None = None, why: str = "") -> tuple | None:
     """(key path, message) if the lights could make a pixel channel exceed INTENSITY_LIMIT, else None.
 
     Every coefficient, cosine and S is at most 1, so a pixel channel is at most
-    1 + I_a + Σ_k g_k (I_a,k + I_d,k + I_s,k), with g_k ≥ f_att of light k: 1 unless it attenuates as 1/d²,
-    whose bound the geometry decides (geometry.check_float_range); supersampling only averages.
+    1 + I_a + Σ_k g_k (I_a,k + I_d,k + I_s,k), with g_k ≥ f_att of light k: 1 without attenuation,
+    min(1, 1/c) for [c, l, q], and for a 1/d² light the bound `inverse_square[k]` that only the geometry
+    can give (geometry.check_float_range; 0 until then). Supersampling only averages.
     """
-    gains = gains or (1.0,) * len(scene.lights)
+    inverse_square = inverse_square or {}
+    gains = []
+    for k, light in enumerate(scene.lights):
+        if light.type == "directional" or light.attenuation == "none":
+            gains.append(1.0)
+        elif light.attenuation == "inverse_square":
+            gains.append(inverse_square.get(k, 0.0))
+        else:
+            gains.append(min(1.0, 1.0 / light.attenuation[0]) if light.attenuation[0] > 0 else 1.0)
     terms = [[g * (a + d + s) for a, d, s in zip(light.ambient, light.diffuse, light.specular)]
              for g, light in zip(gains, scene.lights)]
     total = max(1.0 + scene.ambient[c] + sum(term[c] for term in terms) for c in range(3))

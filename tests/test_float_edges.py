@@ -289,3 +289,11 @@ def test_a_tiny_shape_beside_a_normal_one_renders(tmp_path):
 @pytest.mark.parametrize("obj", [{"shape": "torus", "minor_radius": 1e-12}, {"shape": "cylinder", "radius": 1e-12}])
 def test_a_shape_too_thin_for_trimesh_is_refused(tmp_path, obj):
     refused(tmp_path, scene_file(tmp_path, lambda s: set_path(s, "objects.0", obj)), "objects.0:", "no triangles")
+
+
+def test_a_bright_inverse_square_light_far_away_is_accepted(tmp_path):
+    # I_d + I_s = 1.8e38 would pass the limit at f_att = 1, but 1e10 from the scene 1/d² is at most 1e-20.
+    def edit(scene):
+        scene["lights"][0].update(position=[0, 0, 1e10], diffuse=9e37, specular=9e37, attenuation="inverse_square")
+    image = rendered(tmp_path, scene_file(tmp_path, edit))
+    assert image.max() > 1e17  # 9e37 · 1e-20 · k_d n·l: the light does reach the sphere
