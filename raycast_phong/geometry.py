@@ -190,12 +190,12 @@ def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         raise SceneError(f"{key}: {str(path)!r} holds no triangles; expected {readable}")
     used = np.unique(np.asarray(loaded.faces))
-    # Within ±POSITION_LIMIT, as every point of a scene: trimesh squares coordinates (lengths, cross products).
     coordinates = np.asarray(loaded.vertices, np.float64)[used]
     finite = np.isfinite(coordinates).all(axis=1)
     if not finite.all():
         raise SceneError(f"{key}: {str(path)!r} has {int((~finite).sum())} vertex(es) with NaN or infinite "
                          "coordinates; every vertex of a face must have finite coordinates")
+    # Within ±POSITION_LIMIT, as every point of a scene: trimesh squares coordinates (lengths, cross products).
     huge = (np.abs(coordinates) > POSITION_LIMIT).any(axis=1)
     if huge.any():
         raise SceneError(f"{key}: {str(path)!r} has {int(huge.sum())} vertex(es) with a coordinate beyond "
