@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
+from typer.core import TyperGroup
 
 import raycast_phong as rp
 from raycast_phong import compare
@@ -22,7 +23,35 @@ from raycast_phong.atomic import WriteError
 from raycast_phong.image_io import NO_FONT, ImageError, check_output_path
 from raycast_phong.scene import Mode, ShadingModel, SpecularModel
 
+# The click that typer parses with (typer ≥ 0.2x vendors its own copy): its exception classes.
+_click_errors = sys.modules[typer.BadParameter.__module__]
+
+
+class OneLineErrors(TyperGroup):
+    """typer's command group, but a usage error (a bad --width, an unknown option or command) is one line on
+    stderr with exit 2, like every other error of the program, instead of rich's boxed message."""
+
+    def main(self, *args, standalone_mode: bool = True, **kwargs):
+        if not standalone_mode:
+            return super().main(*args, standalone_mode=False, **kwargs)
+        try:
+            code = super().main(*args, standalone_mode=False, **kwargs)
+        except getattr(_click_errors, "NoArgsIsHelpError", ()):
+            return super().main(*args, **kwargs)  # no arguments at all: typer shows the help, as it did
+        except _click_errors.ClickException as error:
+            command = error.ctx.command_path if getattr(error, "ctx", None) else None
+            where = f"{command}: " if command else ""
+            hint = f" (see {command} --help)" if command else ""
+            typer.secho(f"error: {where}{error.format_message()}{hint}", err=True, fg=typer.colors.RED)
+            sys.exit(error.exit_code)
+        except typer.Abort:
+            typer.secho("error: aborted", err=True, fg=typer.colors.RED)
+            sys.exit(1)
+        sys.exit(code if isinstance(code, int) else 0)  # a command's typer.Exit(code), else success
+
+
 app = typer.Typer(
+    cls=OneLineErrors,
     help="Ray-cast flat, Gouraud and Phong shading with Intel Embree.",
     no_args_is_help=True,
     add_completion=False,

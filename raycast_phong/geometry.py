@@ -13,7 +13,8 @@ import numpy as np
 import trimesh
 
 from .records import Geometry
-from .scene import Object, Scene, SceneError, ShadingModel
+from .scene import (MIN_EXTENT, POSITION_LIMIT, Object, Scene, SceneError, ShadingModel, _dotted,
+                    brightness_problem)
 
 MODEL_CODE = {ShadingModel.FLAT: 0, ShadingModel.GOURAUD: 1, ShadingModel.PHONG: 2}
 
@@ -33,8 +34,15 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
                 notes.append(f"objects.{index}: the winding of {flipped} of {len(faces)} faces was repaired"
                              + (" (and turned outward: the mesh is closed)" if outward else ""))
         vertices, faces, file_normals = place(obj, vertices, faces, file_normals)
-        if not np.isfinite(vertices).all():
-            raise SceneError(f"{source}: objects.{index}: the placed mesh has NaN or infinite coordinates")
+        reach = float(np.abs(vertices).max())
+        if not reach <= POSITION_LIMIT:  # NaN fails the comparison too
+            raise SceneError(f"{source}: objects.{index}: placed (scale, rotate, translate), the object reaches a "
+                             f"coordinate of {reach:.3g}; allowed: within ±{POSITION_LIMIT:g}, so distances squared "
+                             "stay finite in float32; lower scale, its size or translate")
+        if not np.ptp(vertices, axis=0).any():
+            raise SceneError(f"{source}: objects.{index}: placed, the object collapses to a single point (its scale "
+                             f"{list(obj.scale)} is below float64's resolution at translate {list(obj.translate)}); "
+                             "allowed: an object with some extent; raise scale or its size")
         unit, _ = face_normals(vertices, faces)
         model = MODEL_CODE[scene.shading_of(obj)]
         corners = None
@@ -47,7 +55,7 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
         parts.append((vertices, faces, unit, corners, material_index.get(obj.material, 0), model))
 
     offset = np.cumsum([0] + [len(p[0]) for p in parts])
-    return Geometry(
+    geometry = Geometry(
         vertices=np.concatenate([p[0] for p in parts]),
         faces=np.concatenate([p[1] + o for p, o in zip(parts, offset)]).astype(np.int32),
         face_normals=np.concatenate([p[2] for p in parts]),
@@ -58,6 +66,46 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
         face_object=np.concatenate([np.full(len(p[1]), i, np.int32) for i, p in enumerate(parts)]),
         notes=tuple(notes),
     )
+    check_float_range(scene, geometry.vertices, source)
+    return geometry
+
+
+def check_float_range(scene: Scene, vertices: np.ndarray, source: str = "<scene>") -> None:
+    """Refuse a scene whose placed extent or 1/d² lights would leave float32's range (SceneError).
+
+    The half-extent must be at least MIN_EXTENT; a 1/d² light's f_att is at most 1/max(d, floor)², d its
+    distance to the scene's bounding box and floor shading.MIN_DISTANCE × the half-extent, and the lights
+    must keep every pixel channel below INTENSITY_LIMIT with that gain (scene.brightness_problem).
+    """
+    from .shading import MIN_DISTANCE  # the 1/d² floor has its home with the shading kernel
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    extent = float((high - low).max()) / 2  # as intersect.unit_frame measures it
+    if extent < MIN_EXTENT:
+        raise SceneError(f"{source}: objects: the whole scene spans only {2 * extent:.3g} (its largest bounding-box "
+                         f"side); allowed: at least {2 * MIN_EXTENT:g}, so the 1/d² floor and Embree's unit frame "
+                         "stay in float32's range; raise the objects' scale or size")
+    floor = MIN_DISTANCE * extent
+    gains = {}
+    for k, light in enumerate(scene.lights):
+        if light.type == "point" and light.attenuation == "inverse_square":
+            position = np.asarray(light.position)
+            d = float(np.linalg.norm(np.maximum(np.maximum(low - position, position - high), 0.0)))
+            gains[k] = 1.0 / max(d, floor) ** 2
+    problem = brightness_problem(scene, gains, why="with 1/d² attenuation up to "
+                                 f"{max(gains.values(), default=1.0):.3g} (the light at or near the scene), ")
+    if problem:
+        raise SceneError(f"{source}: {_dotted(problem[0])}: {problem[1]}")
+
+
+def behind_camera(scene: Scene, vertices: np.ndarray) -> str | None:
+    """A one-line warning if every placed vertex lies behind the camera (or on its plane), else None:
+    no ray can hit anything, so the image is only background."""
+    eye = np.asarray(scene.camera.position)
+    forward = np.asarray(scene.camera.look_at) - eye
+    if ((vertices - eye) @ forward).max() > 0:
+        return None
+    return (f"every object is behind the camera (camera.position {list(scene.camera.position)} looks toward "
+            f"look_at {list(scene.camera.look_at)}); the image will be only background")
 
 
 def repair_winding(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int, bool]:
@@ -83,21 +131,31 @@ def object_mesh(scene: Scene, obj: Object, index: int, source: str):
     """(vertices (V, 3), faces (F, 3), file vertex normals (V, 3) or None) in the object's own frame."""
     if obj.shape == "mesh":
         return _load_mesh(scene, obj, index, source)
-    if obj.shape == "icosphere":
-        mesh = trimesh.creation.icosphere(subdivisions=obj.subdivisions, radius=obj.radius)
-    elif obj.shape == "uv_sphere":
-        mesh = trimesh.creation.uv_sphere(radius=obj.radius, count=list(obj.segments or (32, 16)))
-    elif obj.shape == "box":
-        mesh = trimesh.creation.box(extents=obj.size or (2.0, 2.0, 2.0))
-    elif obj.shape == "cylinder":
-        mesh = trimesh.creation.cylinder(radius=obj.radius, height=obj.height, sections=(obj.segments or (32, 1))[0])
-    elif obj.shape == "torus":
-        major, minor = obj.segments or (32, 16)
-        mesh = trimesh.creation.torus(major_radius=obj.major_radius, minor_radius=obj.minor_radius,
-                                      major_sections=major, minor_sections=minor)
-    else:
+    if obj.shape == "plane":
         return (*plane_mesh(obj.size or (2.0, 2.0), obj.segments or (1, 1)), None)
-    return np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64), None
+    # Build at unit size and scale after: trimesh merges vertices closer than an absolute 1e-8, which
+    # would collapse (and divide by zero on) a sphere of radius 1e-20.
+    lengths = {"icosphere": (obj.radius,), "uv_sphere": (obj.radius,), "box": obj.size or (2.0, 2.0, 2.0),
+               "cylinder": (obj.radius, obj.height), "torus": (obj.major_radius, obj.minor_radius)}[obj.shape]
+    unit = max(lengths)
+    if obj.shape == "icosphere":
+        mesh = trimesh.creation.icosphere(subdivisions=obj.subdivisions, radius=1.0)
+    elif obj.shape == "uv_sphere":
+        mesh = trimesh.creation.uv_sphere(radius=1.0, count=list(obj.segments or (32, 16)))
+    elif obj.shape == "box":
+        mesh = trimesh.creation.box(extents=[length / unit for length in lengths])
+    elif obj.shape == "cylinder":
+        mesh = trimesh.creation.cylinder(radius=obj.radius / unit, height=obj.height / unit,
+                                         sections=(obj.segments or (32, 1))[0])
+    else:
+        major, minor = obj.segments or (32, 16)
+        mesh = trimesh.creation.torus(major_radius=obj.major_radius / unit, minor_radius=obj.minor_radius / unit,
+                                      major_sections=major, minor_sections=minor)
+    if len(mesh.faces) == 0:
+        raise SceneError(f"{source}: objects.{index}: a {obj.shape} with lengths {list(lengths)} has no triangles: "
+                         "trimesh merges vertices closer than 1e-8 of the shape's size; allowed: the smaller "
+                         "length a larger share of the larger one")
+    return np.asarray(mesh.vertices, np.float64) * unit, np.asarray(mesh.faces, np.int64), None
 
 
 def plane_mesh(size, segments) -> tuple[np.ndarray, np.ndarray]:
@@ -132,10 +190,17 @@ def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         raise SceneError(f"{key}: {str(path)!r} holds no triangles; expected {readable}")
     used = np.unique(np.asarray(loaded.faces))
-    finite = np.isfinite(np.asarray(loaded.vertices, np.float64)[used]).all(axis=1)
+    coordinates = np.asarray(loaded.vertices, np.float64)[used]
+    finite = np.isfinite(coordinates).all(axis=1)
     if not finite.all():
         raise SceneError(f"{key}: {str(path)!r} has {int((~finite).sum())} vertex(es) with NaN or infinite "
                          "coordinates; every vertex of a face must have finite coordinates")
+    # Within ±POSITION_LIMIT, as every point of a scene: trimesh squares coordinates (lengths, cross products).
+    huge = (np.abs(coordinates) > POSITION_LIMIT).any(axis=1)
+    if huge.any():
+        raise SceneError(f"{key}: {str(path)!r} has {int(huge.sum())} vertex(es) with a coordinate beyond "
+                         f"±{POSITION_LIMIT:g} (largest {float(np.abs(coordinates).max()):.3g}); allowed: within "
+                         f"±{POSITION_LIMIT:g}, so lengths squared stay finite")
     if obj.normals != "file":
         # Keep the file's vertex order when its normals are wanted; otherwise let trimesh merge and clean.
         loaded.process()

@@ -135,7 +135,8 @@ def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, 
                 # light on or inside the surface stays finite in float32 too.
                 weight = one / max(d * d, view[9])
             else:
-                weight = min(one, one / (lights[k, L_ATT] + lights[k, L_ATT + 1] * d + lights[k, L_ATT + 2] * d * d))
+                # min(1, 1/x) as 1/max(1, x): the same for x ≥ 0, and never 1/0 where x = 0 (c = 0 at d = 0).
+                weight = one / max(one, lights[k, L_ATT] + lights[k, L_ATT + 1] * d + lights[k, L_ATT + 2] * d * d)
 
         if flags & F_LIGHT_AMBIENT:
             mask |= 1 << C_LIGHT_AMBIENT

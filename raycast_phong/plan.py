@@ -137,7 +137,9 @@ def diagnose(plan: RenderPlan, scene: Scene, geometry) -> RenderPlan:
     stages = list(plan.stages)
     stages.append(Stage("winding_repair", bool(geometry.notes),
                         "; ".join(geometry.notes) if geometry.notes else "no mesh file needed a winding repair"))
+    from .geometry import behind_camera  # geometry loads trimesh: only once a render has geometry
     warnings = []
+    warnings += filter(None, [behind_camera(scene, geometry.vertices)])
     if plan.keeps("specular"):
         for index, obj in enumerate(scene.objects):
             f = scene.material_of(obj).shininess

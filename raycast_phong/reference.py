@@ -309,7 +309,8 @@ def illuminate_exact(scene: Scene, points, normals, to_viewer, material_rows, vi
             weight = 1 / np.maximum(distance ** 2, (MIN_DISTANCE * scale) ** 2)
         elif light.type == "point" and light.attenuation != "none":
             c, l, q = light.attenuation
-            weight = np.minimum(1.0, 1 / (c + l * distance + q * distance ** 2))
+            # min(1, 1/x) as 1/max(1, x), as the kernel: no 1/0 where x = 0 (c = 0 at d = 0).
+            weight = 1 / np.maximum(1.0, c + l * distance + q * distance ** 2)
         ambient = ambient + weight[:, None] * np.asarray(light.ambient) * ka
         n_dot_l = np.einsum("ij,ij->i", normals, to_light)
         lit = (n_dot_l > 0) & visible[:, k]  # S = 0 (and no diffuse) where l·n ≤ 0 or in shadow

@@ -22,6 +22,18 @@ MAX_SIZE = 16384          # pixels per side, from the format
 MAX_SAMPLES = 16          # 16×16 = 256 rays per pixel is already a reference-quality render
 MAX_PIXEL_RAYS = 2**31 - 1  # embree indexes rays with int32 per call; beyond this a frame is absurd anyway
 
+# The float range a render stays inside (docs/scene-format.md, "Number ranges"). Shading runs in float32 by
+# default (largest finite 3.4e38, smallest normal 1.2e-38) and Embree always does, so each bound keeps the
+# numbers derived from a valid scene finite there, and their squares finite in float64.
+POSITION_LIMIT = 1e18   # |coordinate| of a point, and the largest length: squared distances across the
+                        # scene, (2√3 · 1e18)² ≈ 1.2e37, stay below float32's 3.4e38
+MIN_EXTENT = 1e-12      # the scene's half-extent: the 1/d² floor, 1e-6 of it, squared is a normal float32,
+                        # and the camera in Embree's unit frame stays within 3.5e18 / 1e-12 ≈ 3.5e30
+DIRECTION_RANGE = (1e-150, 1e150)  # length of a direction: its square is a normal, finite float64, so
+                                   # normalising it by sqrt(v·v) neither underflows to 0/0 nor overflows
+INTENSITY_LIMIT = 1e38  # a bound on any channel of a pixel: below float32's 3.4e38 with room for the rounding
+                        # of the kernel's sums
+
 
 class SceneError(ValueError):
     """A scene the renderer refuses: the message is one line naming file, key and what is allowed."""
@@ -104,6 +116,26 @@ def _finite(values: tuple[float, ...]) -> tuple[float, ...]:
     return values
 
 
+def _position(values: tuple[float, ...]) -> tuple[float, ...]:
+    """A point in the world: finite, each coordinate within ±POSITION_LIMIT."""
+    _finite(values)
+    if not all(abs(v) <= POSITION_LIMIT for v in values):
+        raise ValueError(f"each coordinate must be within ±{POSITION_LIMIT:g} (so squared distances stay finite "
+                         f"in float32), got {list(values)}")
+    return values
+
+
+def _direction(values: tuple[float, ...]) -> tuple[float, ...]:
+    """A direction: finite, with a length in DIRECTION_RANGE (the zero vector is left to the owner's check,
+    which says what the direction is for)."""
+    _finite(values)
+    length, (low, high) = math.hypot(*values), DIRECTION_RANGE
+    if length != 0.0 and not low <= length <= high:
+        raise ValueError(f"length {length:.3g}; allowed: {low:g} ≤ length ≤ {high:g} (its square must be a normal "
+                         f"float64 to normalise it), got {list(values)}")
+    return values
+
+
 def _unit_range(values: tuple[float, ...]) -> tuple[float, ...]:
     _finite(values)
     if not all(0.0 <= v <= 1.0 for v in values):
@@ -113,8 +145,9 @@ def _unit_range(values: tuple[float, ...]) -> tuple[float, ...]:
 
 def _non_negative(values: tuple[float, ...]) -> tuple[float, ...]:
     _finite(values)
-    if not all(v >= 0.0 for v in values):
-        raise ValueError(f"intensities must be ≥ 0, got {list(values)}")
+    if not all(0.0 <= v <= INTENSITY_LIMIT for v in values):
+        raise ValueError(f"intensities must be in [0, {INTENSITY_LIMIT:g}] (a pixel must stay finite in float32), "
+                         f"got {list(values)}")
     return values
 
 
@@ -151,9 +184,10 @@ class Camera(_Strict):
     look_at: Vec3 = (0.0, 0.0, 0.0)
     up: Vec3 = (0.0, 1.0, 0.0)
     fov: Number = Field(40.0, gt=0.0, lt=180.0)
-    view_height: Number = Field(2.0, gt=0.0, allow_inf_nan=False)
+    view_height: Number = Field(2.0, gt=0.0, le=POSITION_LIMIT, allow_inf_nan=False)
 
-    _check_finite = field_validator("position", "look_at", "up")(lambda v: _finite(v))
+    _check_position = field_validator("position", "look_at")(lambda v: _position(v))
+    _check_up = field_validator("up")(lambda v: _direction(v))
 
     @model_validator(mode="after")
     def _frame(self) -> "Camera":
@@ -161,6 +195,10 @@ class Camera(_Strict):
         if math.hypot(*forward) == 0.0:
             raise _KeyError(("camera", "look_at"), f"{list(self.look_at)} is the camera position too, so the camera "
                             "has no viewing direction; look_at must differ from camera.position")
+        if math.hypot(*forward) < DIRECTION_RANGE[0]:
+            raise _KeyError(("camera", "look_at"), f"{list(self.look_at)} is only {math.hypot(*forward):.3g} from "
+                            f"camera.position; allowed: at least {DIRECTION_RANGE[0]:g} (the viewing direction "
+                            "look_at − position is normalised by sqrt(v·v))")
         if math.hypot(*self.up) == 0.0:
             raise _KeyError(("camera", "up"), "the zero vector; give any direction not parallel to look_at − position")
         cross = (forward[1] * self.up[2] - forward[2] * self.up[1],
@@ -173,7 +211,8 @@ class Camera(_Strict):
         return self
 
 
-ATTENUATION_ALLOWED = '"none", "inverse_square" or [c, l, q] with c > 0 and l, q ≥ 0'
+ATTENUATION_ALLOWED = (f'"none", "inverse_square" or [c, l, q] with 0 ≤ c, l, q ≤ {INTENSITY_LIMIT:g}, '
+                       'not all zero')
 
 
 def _attenuation(value: Any) -> Any:
@@ -187,11 +226,11 @@ def _attenuation(value: Any) -> Any:
     if len(sequence) != 3:
         raise ValueError(f"the attenuation list is [c, l, q], got {len(sequence)} numbers: {list(sequence)}")
     c, l, q = (float(_number(x)) for x in sequence)
-    _finite((c, l, q))
-    # c + l·d + q·d² must stay positive for every distance d ≥ 0, including d = 0 at the light.
-    if c <= 0 or l < 0 or q < 0:
-        raise ValueError(f"got [c, l, q] = {list(sequence)}, which lets c + l·d + q·d² reach zero or below and "
-                         "divide by zero; allowed: c > 0 and l, q ≥ 0")
+    # min(1, 1/(c + l·d + q·d²)) is defined for every d ≥ 0 when no coefficient is negative: where the sum
+    # is 0 (c = 0 at d = 0) the clamp gives 1. All zero would be "none" in disguise. The kernel's tables
+    # are float32, so each coefficient must be finite there.
+    if not all(0 <= x <= INTENSITY_LIMIT for x in (c, l, q)) or c == l == q == 0:
+        raise ValueError(f"got [c, l, q] = {list(sequence)}; allowed: {ATTENUATION_ALLOWED}")
     return (c, l, q)
 
 
@@ -205,7 +244,8 @@ class Light(_Strict):
     attenuation: Annotated[Union[Literal["none", "inverse_square"], tuple[float, float, float]],
                            BeforeValidator(_attenuation)] = "none"
 
-    _check_finite = field_validator("position", "direction")(lambda v: v if v is None else _finite(v))
+    _check_position = field_validator("position")(lambda v: v if v is None else _position(v))
+    _check_direction = field_validator("direction")(lambda v: v if v is None else _direction(v))
     _check_intensity = field_validator("diffuse", "specular", "ambient")(lambda v: _non_negative(v))
 
     @model_validator(mode="after")
@@ -232,12 +272,19 @@ class Material(_Strict):
     @field_validator("shininess")
     @classmethod
     def _shininess(cls, value: float) -> float:
-        if math.isnan(value) or value < 0:
-            raise ValueError(f"shininess must be ≥ 0 (inf allowed: the mirror limit), got {value}")
+        # The material table is in the shading precision: a finite f must also be finite in float32. Beyond
+        # 1e38, x^f is 0 for every x < 1 anyway, which is what inf (the mirror limit) says.
+        if math.isnan(value) or value < 0 or INTENSITY_LIMIT < value < math.inf:
+            raise ValueError(f"shininess must be ≥ 0 (inf allowed: the mirror limit) and, if finite, at most "
+                             f"{INTENSITY_LIMIT:g}, got {value}")
         return value
 
 
 SHAPES = ("icosphere", "uv_sphere", "box", "plane", "cylinder", "torus", "mesh")
+# The keys only some shapes read; every other key of [[objects]] applies to all of them.
+SHAPE_KEYS = {"icosphere": ("radius", "subdivisions"), "uv_sphere": ("radius", "segments"), "box": ("size",),
+              "plane": ("size", "segments"), "cylinder": ("radius", "height", "segments"),
+              "torus": ("major_radius", "minor_radius", "segments"), "mesh": ("path",)}
 
 
 def _pair(value: Any) -> Any:
@@ -252,10 +299,10 @@ class Object(_Strict):
     shape: Literal["icosphere", "uv_sphere", "box", "plane", "cylinder", "torus", "mesh"]
     subdivisions: Whole = Field(2, ge=0, le=8)
     segments: Annotated[tuple[Whole, Whole], BeforeValidator(_pair)] | None = None
-    radius: Number = Field(1.0, gt=0.0, allow_inf_nan=False)
-    height: Number = Field(2.0, gt=0.0, allow_inf_nan=False)      # cylinder: length along local z
-    major_radius: Number = Field(1.0, gt=0.0, allow_inf_nan=False)
-    minor_radius: Number = Field(0.25, gt=0.0, allow_inf_nan=False)
+    radius: Number = Field(1.0, gt=0.0, le=POSITION_LIMIT, allow_inf_nan=False)
+    height: Number = Field(2.0, gt=0.0, le=POSITION_LIMIT, allow_inf_nan=False)      # cylinder: length along local z
+    major_radius: Number = Field(1.0, gt=0.0, le=POSITION_LIMIT, allow_inf_nan=False)
+    minor_radius: Number = Field(0.25, gt=0.0, le=POSITION_LIMIT, allow_inf_nan=False)
     size: tuple[Number, ...] | None = None
     path: str | None = None
     material: str = "default"
@@ -266,7 +313,8 @@ class Object(_Strict):
     rotate: Vec3 = (0.0, 0.0, 0.0)
     scale: Vec3 = (1.0, 1.0, 1.0)
 
-    _check_finite = field_validator("translate", "rotate")(lambda v: _finite(v))
+    _check_translate = field_validator("translate")(lambda v: _position(v))
+    _check_rotate = field_validator("rotate")(lambda v: _finite(v))
 
     @field_validator("scale")
     @classmethod
@@ -274,6 +322,10 @@ class Object(_Strict):
         _finite(value)
         if any(v == 0 for v in value):
             raise ValueError(f"scale {list(value)} has a zero factor, which flattens the object")
+        # A shape's lengths are at most POSITION_LIMIT, so the scaled coordinates stay finite in float64 and
+        # the placed object's own bound (geometry.place) can be checked.
+        if not all(abs(v) <= POSITION_LIMIT for v in value):
+            raise ValueError(f"each factor must be within ±{POSITION_LIMIT:g}, got {list(value)}")
         return value
 
     @field_validator("segments")
@@ -288,8 +340,9 @@ class Object(_Strict):
     def _size(cls, value):
         if value is not None:
             _finite(value)
-            if len(value) not in (2, 3) or not all(v > 0 for v in value):
-                raise ValueError(f"size must be 2 (plane) or 3 (box) positive numbers, got {list(value)}")
+            if len(value) not in (2, 3) or not all(0 < v <= POSITION_LIMIT for v in value):
+                raise ValueError(f"size must be 2 (plane) or 3 (box) numbers in (0, {POSITION_LIMIT:g}], "
+                                 f"got {list(value)}")
         return value
 
     @model_validator(mode="after")
@@ -365,6 +418,14 @@ class Scene(_Strict):
             raise _KeyError(("objects",), 'the scene has no [[objects]]; add at least one, e.g. '
                             '[[objects]] shape = "icosphere"')
         for index, obj in enumerate(self.objects):
+            # Like an unknown key, a key the shape does not read is a mistake the file should hear about. Only a
+            # value other than the default counts, so a scene written back with every key (model_dump) still reads.
+            foreign = sorted(key for key in set().union(*SHAPE_KEYS.values()) - set(SHAPE_KEYS[obj.shape])
+                             if getattr(obj, key) != Object.model_fields[key].default)
+            if foreign:
+                raise _KeyError(("objects", index, foreign[0]), f'does not apply to shape = "{obj.shape}"; '
+                                f'a {obj.shape} reads {", ".join(SHAPE_KEYS[obj.shape])} besides the keys of '
+                                "every object; remove it")
             if obj.material != "default" and obj.material not in self.materials:
                 close = difflib.get_close_matches(obj.material, list(self.materials), n=1)
                 hint = f" (did you mean {close[0]!r}?)" if close else ""
@@ -375,6 +436,9 @@ class Scene(_Strict):
         if width * height * samples * samples > MAX_PIXEL_RAYS:
             raise _KeyError(("render", "samples"), f"{width}×{height} pixels × {samples}² samples is more "
                             f"than {MAX_PIXEL_RAYS} rays per frame")
+        problem = brightness_problem(self)
+        if problem:
+            raise _KeyError(*problem)
         return self
 
     def material_of(self, obj: Object) -> Material:
@@ -386,6 +450,34 @@ class Scene(_Strict):
     def resolve(self, path: str) -> Path:
         """A path from the scene file, relative to the file's folder."""
         return Path(self.folder) / Path(path).expanduser()
+
+
+def brightness_problem(scene: Scene, inverse_square: dict[int, float] | None = None, why: str = "") -> tuple | None:
+    """(key path, message) if the lights could make a pixel channel exceed INTENSITY_LIMIT, else None.
+
+    Every coefficient, cosine and S is at most 1, so a pixel channel is at most
+    1 + I_a + Σ_k g_k (I_a,k + I_d,k + I_s,k), with g_k ≥ f_att of light k: 1 without attenuation,
+    min(1, 1/c) for [c, l, q], and for a 1/d² light the bound `inverse_square[k]` that only the geometry
+    can give (geometry.check_float_range; 0 until then). Supersampling only averages.
+    """
+    inverse_square = inverse_square or {}
+    gains = []
+    for k, light in enumerate(scene.lights):
+        if light.type == "directional" or light.attenuation == "none":
+            gains.append(1.0)
+        elif light.attenuation == "inverse_square":
+            gains.append(inverse_square.get(k, 0.0))
+        else:
+            gains.append(min(1.0, 1.0 / light.attenuation[0]) if light.attenuation[0] > 0 else 1.0)
+    terms = [[g * (a + d + s) for a, d, s in zip(light.ambient, light.diffuse, light.specular)]
+             for g, light in zip(gains, scene.lights)]
+    total = max(1.0 + scene.ambient[c] + sum(term[c] for term in terms) for c in range(3))
+    if not total <= INTENSITY_LIMIT and terms:  # without lights the total is at most 1 + 1e38
+        k = max(range(len(terms)), key=lambda i: max(terms[i]))
+        return (("lights", k), f"{why}a pixel channel could reach {total:.3g} = 1 + ambient + Σ f_att × "
+                        f"(ambient + diffuse + specular) over the lights; allowed: at most {INTENSITY_LIMIT:g}, so "
+                        "the image stays finite in float32; lower this light's intensities")
+    return None
 
 
 class _KeyError(Exception):
@@ -409,9 +501,14 @@ def read_scene_dict(path: Path) -> dict:
         raise SceneError(f"{path}: no such scene file") from None
     except (OSError, UnicodeDecodeError) as error:
         raise SceneError(f"{path}: cannot read the scene file ({error})") from None
+    text = text.removeprefix("\ufeff")  # a byte-order mark, as some Windows editors write, is no syntax error
     try:
         if path.suffix.lower() == ".json":
-            data = json.loads(text)
+            data = json.loads(text, object_pairs_hook=_JSONObject)
+            twice = _duplicate_key(data)
+            if twice:
+                raise SceneError(f"{path}: {_dotted(twice)}: the key is given twice in one object (JSON would keep "
+                                 "the last silently); allowed: each key once")
         else:
             data = tomllib.loads(text)
     except json.JSONDecodeError as error:
@@ -421,6 +518,30 @@ def read_scene_dict(path: Path) -> dict:
     if not isinstance(data, dict):
         raise SceneError(f"{path}: the top level must be a table of keys")
     return data
+
+
+class _JSONObject(dict):
+    """A JSON object (json's object_pairs_hook) that remembers the keys it was given more than once."""
+
+    def __init__(self, pairs: list[tuple[str, Any]]):
+        super().__init__(pairs)
+        self.repeated = []
+        if len(self) < len(pairs):
+            seen: set[str] = set()
+            self.repeated = [key for key, _ in pairs if key in seen or seen.add(key)]
+
+
+def _duplicate_key(data: Any) -> tuple | None:
+    """The key path of the first key given twice in a JSON object, or None (a walk with a stack, not
+    recursion, so a nesting as deep as json accepts cannot overflow Python's stack here)."""
+    stack = [((), data)]
+    while stack:
+        loc, node = stack.pop()
+        if isinstance(node, _JSONObject) and node.repeated:
+            return (*loc, node.repeated[0])
+        children = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+        stack.extend(reversed([((*loc, key), child) for key, child in children]))
+    return None
 
 
 def load_scene(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
