@@ -37,6 +37,24 @@ SetOption = Annotated[list[str], typer.Option(
          "`materials.red.shininess=8`. Repeatable.")]
 
 
+def _max_memory(text: Optional[str]) -> Optional[int]:
+    """--max-memory SIZE in bytes; a malformed size exits 2 with one line."""
+    if text is None:
+        return None
+    from raycast_phong.memory import parse_size
+    try:
+        return parse_size(text)
+    except ValueError as error:
+        fail(f"--max-memory: {error}")
+
+
+MaxMemoryOption = Annotated[Optional[str], typer.Option(
+    "--max-memory", metavar="SIZE", callback=_max_memory, show_default=False,
+    help="Memory budget for rendering, e.g. 8G or 500M (K, M, G, T: powers of 1024). A scene whose estimated "
+         "geometry and image need more is refused before anything is built. Default: 3/4 of the memory "
+         "available now.")]
+
+
 class ReferenceKind(str, Enum):
     """What `render --reference` measures against (here, not in reference.py, so --help loads no renderer)."""
     ANALYTIC = "analytic"
@@ -88,6 +106,7 @@ def render(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar and no summary line.")] = False,
     reference: Annotated[Optional[ReferenceKind], typer.Option(help="Also measure the render against the exact "
                          "surfaces (docs/accuracy.md): print RMSE, max error and PSNR beside the timing line.")] = None,
+    max_memory: MaxMemoryOption = None,
 ) -> None:
     """Render a scene file (or the built-in default scene) to a PNG or EXR image."""
     overrides = [*scene_overrides({"render.shading": shading, "render.specular": specular, "render.mode": mode,
@@ -111,7 +130,7 @@ def render(
         if reference is not None:
             from raycast_phong.reference import ExactScene
             ExactScene(loaded, str(path))  # a mesh has no closed form: refuse before rendering
-        result = _render_with_progress(loaded, str(path), threads, quiet)
+        result = _render_with_progress(loaded, str(path), threads, quiet, max_memory)
         if reference is not None:
             from raycast_phong.render import measured
             result = measured(loaded, result, reference.value, 2, str(path))
@@ -147,9 +166,10 @@ def _debug() -> bool:
     return os.environ.get("RAYCAST_PHONG_DEBUG", "") not in ("", "0")
 
 
-def _render_with_progress(scene: rp.Scene, source: str, threads: int | None, quiet: bool) -> rp.RenderResult:
+def _render_with_progress(scene: rp.Scene, source: str, threads: int | None, quiet: bool,
+                          max_memory: int | None = None) -> rp.RenderResult:
     if quiet or not sys.stderr.isatty():
-        return rp.render(scene, threads=threads, source=source)
+        return rp.render(scene, threads=threads, source=source, max_memory=max_memory)
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
     columns = (TextColumn("{task.description}"), BarColumn(), TimeRemainingColumn())
@@ -159,7 +179,7 @@ def _render_with_progress(scene: rp.Scene, source: str, threads: int | None, qui
         def advance(done: int, total: int) -> None:
             bar.update(task, completed=done, total=total, description=f"rendering {done}/{total} tiles")
 
-        return rp.render(scene, threads=threads, source=source, progress=advance)
+        return rp.render(scene, threads=threads, source=source, progress=advance, max_memory=max_memory)
 
 
 def summary_line(result: rp.RenderResult, output: Path) -> str:
@@ -197,6 +217,7 @@ def side_by_side(
     width: Annotated[Optional[int], typer.Option(help="render.width in pixels, 1..16384.")] = None,
     height: Annotated[Optional[int], typer.Option(help="render.height in pixels, 1..16384.")] = None,
     set_: SetOption = [],
+    max_memory: MaxMemoryOption = None,
 ) -> None:
     """Render a scene once per value of one key; write the variants side by side over heat maps of how
     much each differs from the last, and print the share of pixels changed, mean and max difference."""
@@ -206,7 +227,8 @@ def side_by_side(
         fixed = [*scene_overrides({"render.width": width, "render.height": height}), *set_]
         scenes = compare.load_variants(path, fixed, key, values)  # every value checked before any render
         check_output_path(output)
-        comparison = compare.compose([rp.render(variant, source=str(path)).image for variant in scenes], key, values)
+        comparison = compare.compose([rp.render(variant, source=str(path), max_memory=max_memory).image
+                                      for variant in scenes], key, values)
         layers = output if output.suffix.lower() == ".exr" else output.with_name(f"{output.stem}-variants.exr")
         rp.write_image(layers, comparison.image, parts=comparison.parts())
         if layers != output:
@@ -250,6 +272,8 @@ def plan(scene: SceneArgument = None, set_: SetOption = []) -> None:
         path = scene or rp.default_scene_path()
         loaded = rp.load_scene(path, set_)
         stages = rp.build_plan(loaded)
+        from raycast_phong.memory import check_memory
+        check_memory(loaded, str(path), None, smooth=stages.keeps("vertex_normals"))  # before building it
         geometry = build_geometry(loaded, source=str(path), vertex_normals=stages.keeps("vertex_normals"))
         typer.echo(diagnose(stages, loaded, geometry).describe())
 
@@ -335,6 +359,7 @@ def batch(
     srgb: Annotated[bool, typer.Option("--srgb", help="Encode PNG outputs with the sRGB curve.")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress and no summary; failures are still "
                      "reported.")] = False,
+    max_memory: MaxMemoryOption = None,
 ) -> None:
     """Render many scene files into one folder, in parallel; skip those whose outputs are up to date.
     A failing scene is reported (file and reason) and the others go on; exit status 1 if any failed."""
@@ -344,7 +369,8 @@ def batch(
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(128 + signal.SIGTERM))
     with exit_codes():
         found = batches.find_jobs(paths)
-        report = _batch_with_progress(found, out, jobs, force, batches.Settings(srgb=srgb), scheduler, quiet)
+        report = _batch_with_progress(found, out, jobs, force, batches.Settings(srgb=srgb), scheduler, quiet,
+                                      max_memory)
     for outcome in report.failed:
         typer.secho(f"failed: {outcome.reason}", err=True, fg=typer.colors.RED)
     if not quiet:
@@ -358,10 +384,10 @@ def batch(
 
 
 def _batch_with_progress(found, out: Path, jobs: int | None, force: bool, settings, scheduler: str | None,
-                         quiet: bool):
+                         quiet: bool, max_memory: int | None = None):
     """run_batch with a progress bar over the scenes on a terminal, one line per scene otherwise."""
     from raycast_phong.batch import run_batch
-    options = dict(workers=jobs, force=force, settings=settings, scheduler=scheduler)
+    options = dict(workers=jobs, force=force, settings=settings, scheduler=scheduler, max_memory=max_memory)
     if quiet:
         return run_batch(found, out, **options)
     if not sys.stderr.isatty():
@@ -464,6 +490,7 @@ def study(
     width: Annotated[Optional[int], typer.Option(help="render.width in pixels, 1..16384.")] = None,
     height: Annotated[Optional[int], typer.Option(help="render.height in pixels, 1..16384.")] = None,
     set_: SetOption = [],
+    max_memory: MaxMemoryOption = None,
 ) -> None:
     """Work-precision study: render every combination, time it, measure it against the reference;
     write the CSV, the error-against-time plot and a summary with the fitted convergence orders."""
@@ -487,7 +514,7 @@ def study(
         speculars=choices(specular, SpecularModel, "--specular"),
         precisions=tuple(p.strip() for p in precision.split(",") if p.strip()) if precision else None,
         samples=_numbers(samples, int, "--samples"), shininess=_numbers(shininess, float, "--shininess"),
-        repeats=repeats, fine=fine, target=target)
+        repeats=repeats, fine=fine, target=target, max_memory=max_memory)
     overrides = [*scene_overrides({"render.width": width, "render.height": height}), *set_]
     with exit_codes():
         path = scene or rp.default_scene_path()

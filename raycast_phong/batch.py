@@ -27,7 +27,7 @@ from typing import Callable, Iterator
 from .atomic import replaced_atomically
 from .image_io import ImageError, write_image
 from .intersect import embree_started
-from .scene import Scene, SceneError, load_scene
+from .scene import Scene, SceneError, load_scene, open_regular
 
 MANIFEST = "manifest.json"
 MANIFEST_FORMAT = 1
@@ -68,6 +68,7 @@ class Task:
     settings: Settings
     threads: int | None  # render() threads: the batch's cores shared among the scenes rendering at once
     load_seconds: float
+    max_memory: int | None = None  # render()'s memory budget: the batch's shared among the scenes at once
 
 
 @dataclass
@@ -148,9 +149,11 @@ def job_hash(job: Job, scene: Scene | None, settings: Settings) -> str:
     digest.update(json.dumps(header, sort_keys=True).encode())
     for path in input_paths(job, scene):
         digest.update(str(path.name).encode())
-        try:
-            digest.update(path.read_bytes())
-        except OSError:
+        try:  # only a regular file (a FIFO would block), in blocks (a mesh file may be large)
+            with open_regular(path, str(path), "file") as handle:
+                for block in iter(lambda: handle.read(1 << 20), b""):
+                    digest.update(block)
+        except (OSError, SceneError):
             digest.update(b"<missing>")  # the render reports the missing file; the hash must still change
     return "sha256:" + digest.hexdigest()
 
@@ -214,7 +217,7 @@ def render_job(task: Task) -> Outcome:
     entry = Outcome(name=task.job.name, scene=str(task.job.scene), overrides=list(task.job.overrides),
                     status=FAILED, hash=task.digest, inputs=task.inputs)
     try:
-        result = render(task.scene, threads=task.threads, source=str(task.job.scene))
+        result = render(task.scene, threads=task.threads, source=str(task.job.scene), max_memory=task.max_memory)
         written = time.perf_counter()
         write_image(task.output, result.image, result.aovs, srgb=task.settings.srgb)
         result.timings["write"] = time.perf_counter() - written
@@ -368,7 +371,8 @@ def remove_temporaries(folder: Path, names: list[str]) -> list[Path]:
 
 def run_batch(jobs: list[Job], folder: str | Path, *, workers: int | None = None, force: bool = False,
               settings: Settings = Settings(), scheduler: str | None = None,
-              progress: Callable[[Outcome, int, int], None] | None = None) -> BatchReport:
+              progress: Callable[[Outcome, int, int], None] | None = None,
+              max_memory: int | None = None) -> BatchReport:
     """Render every job that is not up to date into `folder`; write folder/manifest.json after each scene.
 
     Parameters
@@ -379,6 +383,8 @@ def run_batch(jobs: list[Job], folder: str | Path, *, workers: int | None = None
         another, on `workers` threads.
     scheduler: a Dask scheduler address (tcp://host:port); the renders run on that cluster instead.
     progress: called as progress(outcome, done, total) after each job.
+    max_memory: memory budget in bytes for the scenes rendering at once on this machine (default: render()'s,
+        3/4 of the memory available); each of the P worker processes gets 1/P of it. Dask workers use their own.
     """
     from .sweep import write_contact_sheets
     started = time.perf_counter()
@@ -394,7 +400,11 @@ def run_batch(jobs: list[Job], folder: str | Path, *, workers: int | None = None
     tasks = [item for item in prepared if isinstance(item, Task)]
     processes = min(cores, len(tasks)) if scheduler is None else 0
     threads = max(1, cores // processes) if processes else 1  # a Dask worker's own threads run the scenes
-    tasks = [replace(task, threads=threads) for task in tasks]
+    if scheduler is None:
+        from .memory import default_budget
+        budget = max_memory or default_budget()
+        max_memory = budget // max(processes, 1) if budget else None
+    tasks = [replace(task, threads=threads, max_memory=max_memory) for task in tasks]
     outcomes: dict[str, Outcome] = {}
     written = time.perf_counter()
     startup = warm_up(tasks) if scheduler is None else 0.0
