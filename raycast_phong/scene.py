@@ -391,7 +391,7 @@ class _KeyError(Exception):
 
 # ---------------------------------------------------------------- reading
 
-MAX_SCENE_BYTES = 16 << 20  # 16 MiB: a scene is keys and numbers; 40,000 objects take about 2 MiB of TOML
+MAX_SCENE_BYTES = 16 << 20  # 16 MiB: a scene is keys and numbers; 40,000 objects take about 3.5 MiB of TOML
 
 FILE_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe (FIFO)"), (stat.S_ISCHR, "a device"),
               (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
