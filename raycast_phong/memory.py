@@ -71,7 +71,8 @@ def shape_triangles(obj) -> int:
 def pole_valence(obj) -> int:
     """Faces meeting at one vertex of the shape's poles or cap centres (0 if it has none)."""
     if obj.shape == "uv_sphere":
-        return 2 * (lambda v: v + v % 2)((obj.segments or (32, 16))[1])
+        sections = (obj.segments or (32, 16))[1]
+        return 2 * (sections + sections % 2)  # as shape_triangles: rounded up to even, doubled
     if obj.shape == "cylinder":
         return (obj.segments or (32, 1))[0]
     return 0
