@@ -263,7 +263,7 @@ def variant_lines(key: str, values: list[str], stats: list[compare.VariantStats]
 
   raycast-phong plan scenes/attenuation.toml --set render.viewer=infinite
 """)
-def plan(scene: SceneArgument = None, set_: SetOption = []) -> None:
+def plan(scene: SceneArgument = None, set_: SetOption = [], max_memory: MaxMemoryOption = None) -> None:
     """Print the render plan: each stage and term, kept or left out, and why; then what the geometry
     tells (repaired windings, highlights the render would miss)."""
     from raycast_phong.geometry import build_geometry
@@ -273,7 +273,7 @@ def plan(scene: SceneArgument = None, set_: SetOption = []) -> None:
         loaded = rp.load_scene(path, set_)
         stages = rp.build_plan(loaded)
         from raycast_phong.memory import check_memory
-        check_memory(loaded, str(path), None, smooth=stages.keeps("vertex_normals"))  # before building it
+        check_memory(loaded, str(path), max_memory, smooth=stages.keeps("vertex_normals"))  # before building it
         geometry = build_geometry(loaded, source=str(path), vertex_normals=stages.keeps("vertex_normals"))
         typer.echo(diagnose(stages, loaded, geometry).describe())
 

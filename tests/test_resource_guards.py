@@ -167,7 +167,7 @@ def test_image_layers_over_the_budget_are_refused_naming_the_size(tmp_path):
 
 def test_a_malformed_max_memory_is_one_line(tmp_path):
     path = scene_file(tmp_path, [{"shape": "box"}])
-    for command in (["render", str(path)], ["batch", str(path), "--out", "o"],
+    for command in (["render", str(path)], ["plan", str(path)], ["batch", str(path), "--out", "o"],
                     ["side-by-side", str(path), "--vary", "render.shading=flat,phong"], ["study", str(path)]):
         done = run_cli(*command, "--max-memory", "lots", cwd=tmp_path)
         assert_one_line_refusal(done, "--max-memory: expected a size such as 8G")
