@@ -8,6 +8,7 @@ every optional stage, for tests that compare the two images.
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 
@@ -139,7 +140,8 @@ def diagnose(plan: RenderPlan, scene: Scene, geometry) -> RenderPlan:
     """
     stages = list(plan.stages)
     stages.append(Stage("winding_repair", bool(geometry.notes),
-                        "; ".join(geometry.notes) if geometry.notes else "no mesh file needed a winding repair"))
+                        "; ".join(aggregate_notes(geometry.notes)) if geometry.notes
+                        else "no mesh file needed a winding repair"))
     found: list[tuple[tuple, int, float]] = []  # (what the warning says, object, its measured figure)
     if plan.keeps("specular"):
         found = [*gouraud_findings(scene, geometry), *subpixel_findings(scene, geometry)]
@@ -251,11 +253,7 @@ def aggregate_warnings(found: list[tuple[tuple, int, float]]) -> tuple[str, ...]
     lines = []
     for what, members in groups.items():
         indices, figures = [m[0] for m in members], [m[1] for m in members]
-        if len(indices) == 1:
-            who = f"objects.{indices[0]}"
-        else:
-            shown = ", ".join(str(i) for i in indices[:SHOWN_OBJECTS])
-            who = f"objects {shown}{' …' if len(indices) > SHOWN_OBJECTS else ''} ({len(indices):,} in all)"
+        who = _objects(indices)
         if what[0] == "gouraud":
             _, f, highlight, how = what
             spread = _span(min(figures), max(figures), ".1f")
@@ -271,6 +269,26 @@ def aggregate_warnings(found: list[tuple[tuple, int, float]]) -> tuple[str, ...]
             lines.append(f"{who}: the f = {f:g} highlight is about {_span(narrowest, max(figures), '.2f')} pixel "
                          f"wide and may fall between pixel centres; {advice}")
     return tuple(lines)
+
+
+def aggregate_notes(notes: tuple[str, ...]) -> list[str]:
+    """Geometry notes ("objects.N: what happened") with the same text after the object share one entry."""
+    groups: dict[str, list[int]] = {}
+    for note in notes:
+        match = re.fullmatch(r"objects\.(\d+): (.*)", note)
+        if match is None:
+            groups.setdefault(note, [])
+        else:
+            groups.setdefault(match[2], []).append(int(match[1]))
+    return [f"{_objects(indices)}: {text}" if indices else text for text, indices in groups.items()]
+
+
+def _objects(indices: list[int]) -> str:
+    """'objects.3' for one object; 'objects 3, 7, 12 … (40,000 in all)' for several."""
+    if len(indices) == 1:
+        return f"objects.{indices[0]}"
+    shown = ", ".join(str(i) for i in indices[:SHOWN_OBJECTS])
+    return f"objects {shown}{' …' if len(indices) > SHOWN_OBJECTS else ''} ({len(indices):,} in all)"
 
 
 def _span(low: float, high: float, spec: str) -> str:

@@ -23,7 +23,7 @@ import raycast_phong as rp
 from raycast_phong.geometry import build_geometry
 from raycast_phong.memory import (check_memory, default_budget, estimate_memory, mesh_file_triangles, parse_size,
                                   shape_triangles)
-from raycast_phong.plan import group_median
+from raycast_phong.plan import diagnose, group_median
 from raycast_phong.scene import MAX_SCENE_BYTES
 
 CLI = [sys.executable, str(Path(__file__).parents[1] / "cli.py")]
@@ -269,3 +269,17 @@ def test_the_grouped_median_is_numpys_median_per_group(rng):
 @pytest.fixture
 def rng():
     return np.random.default_rng(10)
+
+
+def test_many_copies_of_a_repaired_mesh_share_one_note(tmp_path):
+    """A tetrahedron with one face wound the other way, placed 40 times: one winding note, with the count."""
+    (tmp_path / "tet.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 4 3\n")
+    def reason(count: int) -> str:
+        scene = rp.validate_scene({"objects": [{"shape": "mesh", "path": "tet.obj", "translate": [2 * i, 0, 0]}
+                                               for i in range(count)]}, folder=tmp_path)
+        plan = rp.build_plan(scene)
+        stages = diagnose(plan, scene, build_geometry(scene)).stages
+        return next(stage.reason for stage in stages if stage.name == "winding_repair")
+    assert reason(1) == "objects.0: the winding of 1 of 4 faces was repaired (and turned outward: the mesh is closed)"
+    assert reason(40) == ("objects 0, 1, 2 … (40 in all): the winding of 1 of 4 faces was repaired (and turned "
+                          "outward: the mesh is closed)")
