@@ -68,6 +68,24 @@ SetOption = Annotated[list[str], typer.Option(
          "`materials.red.shininess=8`. Repeatable.")]
 
 
+def _max_memory(text: Optional[str]) -> Optional[int]:
+    """--max-memory SIZE in bytes; a malformed size exits 2 with one line."""
+    if text is None:
+        return None
+    from raycast_phong.memory import parse_size
+    try:
+        return parse_size(text)
+    except ValueError as error:
+        fail(f"--max-memory: {error}")
+
+
+MaxMemoryOption = Annotated[Optional[str], typer.Option(
+    "--max-memory", metavar="SIZE", callback=_max_memory, show_default=False,
+    help="Memory budget for rendering, e.g. 8G or 500M (K, M, G, T: powers of 1024). A scene whose estimated "
+         "geometry and image need more is refused before anything is built. Default: 3/4 of the memory "
+         "available now.")]
+
+
 class ReferenceKind(str, Enum):
     """What `render --reference` measures against (here, not in reference.py, so --help loads no renderer)."""
     ANALYTIC = "analytic"
@@ -119,6 +137,7 @@ def render(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar and no summary line.")] = False,
     reference: Annotated[Optional[ReferenceKind], typer.Option(help="Also measure the render against the exact "
                          "surfaces (docs/accuracy.md): print RMSE, max error and PSNR beside the timing line.")] = None,
+    max_memory: MaxMemoryOption = None,
 ) -> None:
     """Render a scene file (or the built-in default scene) to a PNG or EXR image."""
     overrides = [*scene_overrides({"render.shading": shading, "render.specular": specular, "render.mode": mode,
@@ -144,7 +163,7 @@ def render(
         if reference is not None:
             from raycast_phong.reference import ExactScene
             ExactScene(loaded, str(path))  # a mesh has no closed form: refuse before rendering
-        result = _render_with_progress(loaded, str(path), threads, quiet)
+        result = _render_with_progress(loaded, str(path), threads, quiet, max_memory)
         if reference is not None:
             from raycast_phong.accuracy import measured
             result = measured(loaded, result, reference.value, 2, str(path))
@@ -181,9 +200,10 @@ def _debug() -> bool:
     return os.environ.get("RAYCAST_PHONG_DEBUG", "") not in ("", "0")
 
 
-def _render_with_progress(scene: rp.Scene, source: str, threads: int | None, quiet: bool) -> rp.RenderResult:
+def _render_with_progress(scene: rp.Scene, source: str, threads: int | None, quiet: bool,
+                          max_memory: int | None = None) -> rp.RenderResult:
     if quiet or not sys.stderr.isatty():
-        return rp.render(scene, threads=threads, source=source)
+        return rp.render(scene, threads=threads, source=source, max_memory=max_memory)
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
     columns = (TextColumn("{task.description}"), BarColumn(), TimeRemainingColumn())
@@ -193,7 +213,7 @@ def _render_with_progress(scene: rp.Scene, source: str, threads: int | None, qui
         def advance(done: int, total: int) -> None:
             bar.update(task, completed=done, total=total, description=f"rendering {done}/{total} tiles")
 
-        return rp.render(scene, threads=threads, source=source, progress=advance)
+        return rp.render(scene, threads=threads, source=source, progress=advance, max_memory=max_memory)
 
 
 def summary_line(result: rp.RenderResult, output: Path) -> str:
@@ -231,6 +251,7 @@ def side_by_side(
     width: Annotated[Optional[int], typer.Option(help="render.width in pixels, 1..16384.")] = None,
     height: Annotated[Optional[int], typer.Option(help="render.height in pixels, 1..16384.")] = None,
     set_: SetOption = [],
+    max_memory: MaxMemoryOption = None,
 ) -> None:
     """Render a scene once per value of one key; write the variants side by side over heat maps of how
     much each differs from the last, and print the share of pixels changed, mean and max difference."""
@@ -242,7 +263,8 @@ def side_by_side(
         check_output_path(output, inputs=(path,))
         layers = output if output.suffix.lower() == ".exr" else output.with_name(f"{output.stem}-variants.exr")
         check_output_path(layers, inputs=(path,))
-        comparison = compare.compose([rp.render(variant, source=str(path)).image for variant in scenes], key, values)
+        comparison = compare.compose([rp.render(variant, source=str(path), max_memory=max_memory).image
+                                      for variant in scenes], key, values)
         rp.write_image(layers, comparison.image, parts=comparison.parts())
         if layers != output:
             rp.write_image(output, comparison.image)
@@ -276,7 +298,7 @@ def variant_lines(key: str, values: list[str], stats: list[compare.VariantStats]
 
   raycast-phong plan scenes/attenuation.toml --set render.viewer=infinite
 """)
-def plan(scene: SceneArgument = None, set_: SetOption = []) -> None:
+def plan(scene: SceneArgument = None, set_: SetOption = [], max_memory: MaxMemoryOption = None) -> None:
     """Print the render plan: each stage and term, kept or left out, and why; then what the geometry
     tells (repaired windings, highlights the render would miss)."""
     from raycast_phong.geometry import build_geometry
@@ -285,6 +307,8 @@ def plan(scene: SceneArgument = None, set_: SetOption = []) -> None:
         path = scene or rp.default_scene_path()
         loaded = rp.load_scene(path, set_)
         stages = rp.build_plan(loaded)
+        from raycast_phong.memory import check_memory
+        check_memory(loaded, str(path), max_memory, smooth=stages.keeps("vertex_normals"))  # before building it
         geometry = build_geometry(loaded, source=str(path), vertex_normals=stages.keeps("vertex_normals"))
         typer.echo(diagnose(stages, loaded, geometry).describe())
 
@@ -370,6 +394,7 @@ def batch(
     srgb: Annotated[bool, typer.Option("--srgb", help="Encode PNG outputs with the sRGB curve.")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress and no summary; failures are still "
                      "reported.")] = False,
+    max_memory: MaxMemoryOption = None,
 ) -> None:
     """Render many scene files into one folder, in parallel; skip those whose outputs are up to date.
     A failing scene is reported (file and reason) and the others go on; exit status 1 if any failed.
@@ -381,7 +406,8 @@ def batch(
     try:
         with exit_codes():
             found = batches.find_jobs(paths, out)
-            report = _batch_with_progress(found, out, jobs, force, batches.Settings(srgb=srgb), scheduler, quiet)
+            report = _batch_with_progress(found, out, jobs, force, batches.Settings(srgb=srgb), scheduler, quiet,
+                                          max_memory)
     except batches.Interrupted as stop:
         _report_interrupt(stop, out)
     finally:
@@ -418,10 +444,10 @@ def _report_interrupt(stop, out: Path) -> None:
 
 
 def _batch_with_progress(found, out: Path, jobs: int | None, force: bool, settings, scheduler: str | None,
-                         quiet: bool):
+                         quiet: bool, max_memory: int | None = None):
     """run_batch with a progress bar over the scenes on a terminal, one line per scene otherwise."""
     from raycast_phong.batch import run_batch
-    options = dict(workers=jobs, force=force, settings=settings, scheduler=scheduler)
+    options = dict(workers=jobs, force=force, settings=settings, scheduler=scheduler, max_memory=max_memory)
     if quiet:
         return run_batch(found, out, **options)
     if not sys.stderr.isatty():
@@ -524,6 +550,7 @@ def study(
     width: Annotated[Optional[int], typer.Option(help="render.width in pixels, 1..16384.")] = None,
     height: Annotated[Optional[int], typer.Option(help="render.height in pixels, 1..16384.")] = None,
     set_: SetOption = [],
+    max_memory: MaxMemoryOption = None,
 ) -> None:
     """Work-precision study: render every combination, time it, measure it against the reference;
     write the CSV, the error-against-time plot and a summary with the fitted convergence orders."""
@@ -547,7 +574,7 @@ def study(
         speculars=choices(specular, SpecularModel, "--specular"),
         precisions=tuple(p.strip() for p in precision.split(",") if p.strip()) if precision else None,
         samples=_numbers(samples, int, "--samples"), shininess=_numbers(shininess, float, "--shininess"),
-        repeats=repeats, fine=fine, target=target)
+        repeats=repeats, fine=fine, target=target, max_memory=max_memory)
     overrides = [*scene_overrides({"render.width": width, "render.height": height}), *set_]
     with exit_codes():
         path = scene or rp.default_scene_path()

@@ -36,7 +36,7 @@ from typing import Callable, Iterator
 from .atomic import WriteError, signals_deferred, write_text
 from .image_io import ImageError, write_image
 from .intersect import embree_started
-from .scene import Scene, SceneError, load_scene
+from .scene import Scene, SceneError, load_scene, open_regular
 
 MANIFEST = "manifest.json"
 MANIFEST_FORMAT = 1
@@ -81,6 +81,7 @@ class Task:
     settings: Settings
     threads: int | None  # render() threads: the batch's cores shared among the scenes rendering at once
     load_seconds: float
+    max_memory: int | None = None  # render()'s memory budget: the batch's shared among the scenes at once
     before: tuple[int, int, int] | None = None  # _identity(output) when the scene was loaded (see written())
 
     def written(self) -> bool:
@@ -191,9 +192,11 @@ def job_hash(job: Job, scene: Scene | None, settings: Settings) -> str:
     digest.update(json.dumps(header, sort_keys=True).encode())
     for path in input_paths(job, scene):
         digest.update(str(path.name).encode())
-        try:
-            digest.update(path.read_bytes())
-        except OSError:
+        try:  # only a regular file (a FIFO would block), in blocks (a mesh file may be large)
+            with open_regular(path, str(path), "file") as handle:
+                for block in iter(lambda: handle.read(1 << 20), b""):
+                    digest.update(block)
+        except (OSError, SceneError):
             digest.update(b"<missing>")  # the render reports the missing file; the hash must still change
     return "sha256:" + digest.hexdigest()
 
@@ -260,7 +263,7 @@ def render_job(task: Task) -> Outcome:
     start = time.perf_counter()
     entry = _entry(task.job, FAILED, hash=task.digest, inputs=task.inputs)
     try:
-        result = render(task.scene, threads=task.threads, source=str(task.job.scene))
+        result = render(task.scene, threads=task.threads, source=str(task.job.scene), max_memory=task.max_memory)
         written = time.perf_counter()
         write_image(task.output, result.image, result.aovs, srgb=task.settings.srgb)
         result.timings["write"] = time.perf_counter() - written
@@ -591,7 +594,8 @@ def remove_temporaries(folder: Path, names: list[str]) -> list[Path]:
 
 def run_batch(jobs: list[Job], folder: str | Path, *, workers: int | None = None, force: bool = False,
               settings: Settings = Settings(), scheduler: str | None = None,
-              progress: Callable[[Outcome, int, int], None] | None = None) -> BatchReport:
+              progress: Callable[[Outcome, int, int], None] | None = None,
+              max_memory: int | None = None) -> BatchReport:
     """Render every job that is not up to date into `folder`; write folder/manifest.json after each scene.
 
     Parameters
@@ -602,6 +606,8 @@ def run_batch(jobs: list[Job], folder: str | Path, *, workers: int | None = None
         another, on `workers` threads.
     scheduler: a Dask scheduler address (tcp://host:port); the renders run on that cluster instead.
     progress: called as progress(outcome, done, total) after each job.
+    max_memory: memory budget in bytes for the scenes rendering at once on this machine (default: render()'s,
+        3/4 of the memory available); each of the P worker processes gets 1/P of it. Dask workers use their own.
 
     Raises ImageError when another batch is writing into `folder` (see folder_lock), and Interrupted on
     KeyboardInterrupt (SIGINT, or SIGTERM through `interrupt`) once the workers are stopped and the manifest
@@ -614,11 +620,12 @@ def run_batch(jobs: list[Job], folder: str | Path, *, workers: int | None = None
         raise ImageError(f"{folder}: cannot create the output folder ({error.strerror})") from None
     jobs = [job for job in jobs if not is_own_manifest(job.scene, folder)]
     with folder_lock(folder):
-        return _run_locked(jobs, folder, workers, force, settings, scheduler, progress)
+        return _run_locked(jobs, folder, workers, force, settings, scheduler, progress, max_memory)
 
 
 def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool, settings: Settings,
-                scheduler: str | None, progress: Callable[[Outcome, int, int], None] | None) -> BatchReport:
+                scheduler: str | None, progress: Callable[[Outcome, int, int], None] | None,
+                max_memory: int | None) -> BatchReport:
     """run_batch, with the folder locked."""
     from .sweep import write_contact_sheets
     started = time.perf_counter()
@@ -656,7 +663,11 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
                 record(item)
         processes = min(cores, len(tasks)) if scheduler is None else 0
         threads = max(1, cores // processes) if processes else 1  # a Dask worker's own threads run the scenes
-        tasks = [replace(task, threads=threads) for task in tasks]
+        if scheduler is None:
+            from .memory import default_budget
+            budget = max_memory or default_budget()
+            max_memory = budget // max(processes, 1) if budget else None
+        tasks = [replace(task, threads=threads, max_memory=max_memory) for task in tasks]
         startup = warm_up(tasks) if scheduler is None else 0.0
         if scheduler is not None:
             executed = _dask(tasks, scheduler, begun)

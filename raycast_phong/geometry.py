@@ -14,7 +14,7 @@ import trimesh
 
 from .records import Geometry
 from .scene import (MIN_EXTENT, POSITION_LIMIT, Object, Scene, SceneError, ShadingModel, _dotted,
-                    brightness_problem)
+                    brightness_problem, open_regular)
 
 MODEL_CODE = {ShadingModel.FLAT: 0, ShadingModel.GOURAUD: 1, ShadingModel.PHONG: 2}
 
@@ -176,12 +176,15 @@ def plane_mesh(size, segments) -> tuple[np.ndarray, np.ndarray]:
 def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
     path = scene.resolve(obj.path)
     key = f"{source}: objects.{index}.path"
-    if not path.is_file():
-        raise SceneError(f"{key}: no such mesh file {str(path)!r}")
+    try:
+        handle = open_regular(path, key, "mesh file")  # never a FIFO, a device or a folder
+    except FileNotFoundError:
+        raise SceneError(f"{key}: no such mesh file {str(path)!r}") from None
     readable = "a mesh file trimesh reads (OBJ, PLY, STL, OFF, GLB)"
     try:
         # Load unprocessed: trimesh's cleaning would silently drop NaN vertices and their faces.
-        loaded = trimesh.load(**_mesh_source(path), process=False)
+        with handle:
+            loaded = trimesh.load(**_mesh_source(path, handle), process=False)
         if isinstance(loaded, trimesh.Scene):  # several parts: one mesh (force="mesh" would drop file normals)
             loaded = loaded.to_mesh() if loaded.geometry else None
     except Exception as error:  # trimesh raises many kinds for a bad file; all mean "unreadable"
@@ -217,20 +220,24 @@ def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
 TEXT_FORMATS = (".obj", ".off")  # trimesh decodes these as text, guessing any non-UTF-8 encoding
 
 
-def _mesh_source(path) -> dict:
-    """trimesh.load arguments for `path`; a text format that is not UTF-8 is read as Latin-1.
+def _mesh_source(path, handle) -> dict:
+    """trimesh.load arguments for the open file `handle` of `path`; a text format that is not UTF-8 is
+    read as Latin-1. The file already opened is read (not the path again), and files it names (an OBJ's
+    materials, a glTF's buffers) are found beside it.
 
     trimesh needs the optional charset_normalizer to guess an encoding, and fails without it, so
     decide here: every byte is a Latin-1 character, and the OBJ and OFF keywords are plain ASCII.
     """
     suffix = path.suffix.lower()
+    source = {"file_obj": handle, "file_type": suffix[1:], "resolver": trimesh.resolvers.FilePathResolver(path)}
     if suffix in TEXT_FORMATS:
-        data = path.read_bytes()
+        data = handle.read()
         try:
             data.decode("utf-8")
         except UnicodeDecodeError:
-            return {"file_obj": io.BytesIO(data.decode("latin-1").encode("utf-8")), "file_type": suffix[1:]}
-    return {"file_obj": str(path)}
+            data = data.decode("latin-1").encode("utf-8")
+        source["file_obj"] = io.BytesIO(data)
+    return source
 
 
 def rotation_of(obj: Object) -> np.ndarray:

@@ -8,6 +8,7 @@ every optional stage, for tests that compare the two images.
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 
@@ -133,59 +134,169 @@ def diagnose(plan: RenderPlan, scene: Scene, geometry) -> RenderPlan:
     - Gouraud samples the model only at vertices: when neighbouring vertex normals are further apart
       than the highlight is wide (about 1/√f radians), the highlight is lost or smeared.
     - A highlight narrower than a pixel may fall between the pixel centres: supersample.
+
+    Every figure is computed for all objects at once (grouped by object, O(faces + objects)), and objects
+    with the same warning share one line (aggregate_warnings): 40,000 spheres give one line, not 40,000.
     """
     stages = list(plan.stages)
     stages.append(Stage("winding_repair", bool(geometry.notes),
-                        "; ".join(geometry.notes) if geometry.notes else "no mesh file needed a winding repair"))
-    from .geometry import behind_camera  # geometry loads trimesh: only once a render has geometry
-    warnings = []
-    warnings += filter(None, [behind_camera(scene, geometry.vertices)])
+                        "; ".join(aggregate_notes(geometry.notes)) if geometry.notes
+                        else "no mesh file needed a winding repair"))
+    found: list[tuple[tuple, int, float]] = []  # (what the warning says, object, its measured figure)
     if plan.keeps("specular"):
-        for index, obj in enumerate(scene.objects):
-            f = scene.material_of(obj).shininess
-            if max(scene.material_of(obj).ks) == 0 or not (0 < f < math.inf):
-                continue
-            faces = geometry.face_object == index
-            highlight = 1 / math.sqrt(f)  # radians of normal deviation where S falls to ≈ e^-1/2
-            if scene.shading_of(obj) == ShadingModel.GOURAUD and len(geometry.corner_normals):
-                spacing = vertex_normal_spacing(geometry.corner_normals[faces])
-                if spacing > highlight:
-                    more = math.ceil(math.log2(spacing / highlight))
-                    how = (f"subdivisions = {obj.subdivisions + more}" if obj.shape == "icosphere"
-                           else f"{more} more subdivision(s) of each face (×{4 ** more} triangles)")
-                    warnings.append(f"objects.{index} (gouraud): vertex normals are {math.degrees(spacing):.1f}° "
-                                    f"apart but the f = {f:g} highlight is about {math.degrees(highlight):.1f}° wide, "
-                                    f"so Gouraud shading will miss or smear it; use {how}, or Phong shading")
-            if obj.shape in ("box", "plane") or scene.render.samples > 1:
-                continue  # flat faces: the highlight's width depends on the light, not on curvature
-            width_px = highlight_width_pixels(scene, geometry.vertices[np.unique(geometry.faces[faces])], highlight)
-            if width_px < 1:
-                wanted = math.ceil(2 / width_px)  # two samples across the highlight
-                advice = (f"use render.samples = {wanted} or more" if wanted <= MAX_SAMPLES else
-                          f"use render.samples = {MAX_SAMPLES} (the most allowed) and a larger image "
-                          f"(about {wanted / MAX_SAMPLES:.0f}× the width and height)")
-                warnings.append(f"objects.{index}: the f = {f:g} highlight is about {width_px:.2f} pixel wide and "
-                                f"may fall between pixel centres; {advice}")
-    return RenderPlan(tuple(stages), tuple(warnings))
+        found = [*gouraud_findings(scene, geometry), *subpixel_findings(scene, geometry)]
+    from .geometry import behind_camera  # geometry loads trimesh: only once a render has geometry
+    behind = behind_camera(scene, geometry.vertices)
+    return RenderPlan(tuple(stages), (*([behind] if behind else []), *aggregate_warnings(found)))
 
 
-def vertex_normal_spacing(corner_normals: np.ndarray) -> float:
-    """Median over faces of the largest angle between two of a face's corner normals, radians."""
+def _candidates(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+    """Objects whose highlight has a width (k_s > 0, 0 < f < ∞), and every object's f, (N,)."""
+    materials = [scene.material_of(obj) for obj in scene.objects]
+    shininess = np.array([m.shininess for m in materials], np.float64)
+    specular = np.array([max(m.ks) > 0 for m in materials], bool)
+    return specular & (shininess > 0) & np.isfinite(shininess), shininess
+
+
+def _face_groups(face_object: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Faces ordered by object (build_geometry already concatenates them so), each object's first
+    position in that order and its face count."""
+    order = np.argsort(face_object, kind="stable")
+    sizes = np.bincount(face_object, minlength=count)
+    return order, np.cumsum(sizes) - sizes, sizes
+
+
+def gouraud_findings(scene: Scene, geometry):
+    """Gouraud objects whose vertex normals are further apart than their highlight is wide."""
+    wanted, shininess = _candidates(scene)
+    gouraud = np.array([scene.shading_of(obj) == ShadingModel.GOURAUD for obj in scene.objects], bool)
+    wanted &= gouraud
+    if not wanted.any() or not len(geometry.corner_normals):
+        return
+    picked = np.flatnonzero(wanted[geometry.face_object])
+    spacing = group_median(face_normal_spread(geometry.corner_normals[picked]), geometry.face_object[picked],
+                           len(scene.objects))
+    highlight = 1 / np.sqrt(np.where(wanted, shininess, 1.0))  # radians where S falls to ≈ e^-1/2
+    for index in np.flatnonzero(wanted & (spacing > highlight)):
+        obj, f = scene.objects[index], shininess[index]
+        more = math.ceil(math.log2(spacing[index] / highlight[index]))
+        how = (f"subdivisions = {obj.subdivisions + more}" if obj.shape == "icosphere"
+               else f"{more} more subdivision(s) of each face (×{4 ** more} triangles)")
+        yield ("gouraud", f, math.degrees(highlight[index]), how), int(index), math.degrees(spacing[index])
+
+
+def subpixel_findings(scene: Scene, geometry):
+    """Curved objects whose highlight is narrower than a pixel (with one sample per pixel)."""
+    if scene.render.samples > 1:
+        return
+    wanted, shininess = _candidates(scene)
+    wanted &= np.array([obj.shape not in ("box", "plane") for obj in scene.objects], bool)
+    if not wanted.any():
+        return
+    # The vertices each object's faces use, grouped by object: objects own disjoint vertex ranges.
+    vertex_object = np.full(len(geometry.vertices), -1, np.int64)
+    vertex_object[geometry.faces] = geometry.face_object[:, None]
+    used = np.flatnonzero(vertex_object >= 0)
+    used = used[np.argsort(vertex_object[used], kind="stable")]
+    owner, points = vertex_object[used], geometry.vertices[used]
+    present, first = np.unique(owner, return_index=True)
+    centre = np.zeros((len(scene.objects), 3))
+    centre[present] = (np.minimum.reduceat(points, first) + np.maximum.reduceat(points, first)) / 2
+    radius = np.zeros(len(scene.objects))
+    radius[present] = np.maximum.reduceat(np.linalg.norm(points - centre[owner], axis=1), first)
+    highlight = 1 / np.sqrt(np.where(wanted, shininess, 1.0))
+    width_px = highlight_width_pixels(scene, centre, radius, highlight)
+    for index in np.flatnonzero(wanted & (width_px < 1)):
+        yield ("subpixel", shininess[index]), int(index), float(width_px[index])
+
+
+def face_normal_spread(corner_normals: np.ndarray) -> np.ndarray:
+    """Largest angle between two of each face's corner normals (F,), radians."""
     pairs = [(0, 1), (1, 2), (2, 0)]
     cosines = np.stack([np.einsum("ij,ij->i", corner_normals[:, a], corner_normals[:, b]) for a, b in pairs])
-    return float(np.median(np.arccos(np.clip(cosines.min(axis=0), -1, 1))))
+    return np.arccos(np.clip(cosines.min(axis=0), -1, 1))
 
 
-def highlight_width_pixels(scene: Scene, vertices: np.ndarray, highlight: float) -> float:
-    """Rough width on screen of a highlight `highlight` radians wide on a curved object: the object's
+def group_median(values: np.ndarray, groups: np.ndarray, count: int) -> np.ndarray:
+    """Median of `values` within each group 0..count-1 (N,) as np.median takes it; 0 for an empty group."""
+    order = np.lexsort((values, groups))
+    values, groups = values[order], groups[order]
+    sizes = np.bincount(groups, minlength=count)
+    first = np.cumsum(sizes) - sizes
+    median = np.zeros(count)
+    full = sizes > 0
+    low, high = first[full] + (sizes[full] - 1) // 2, first[full] + sizes[full] // 2
+    median[full] = (values[low] + values[high]) / 2  # the middle one, or the mean of the middle two
+    return median
+
+
+def highlight_width_pixels(scene: Scene, centre: np.ndarray, radius: np.ndarray, highlight: np.ndarray) -> np.ndarray:
+    """Rough width on screen (N,) of a highlight `highlight` radians wide on curved objects: each object's
     bounding radius R stands in for its radius of curvature, so the highlight spans R·highlight."""
-    centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2
-    radius = float(np.linalg.norm(vertices - centre, axis=1).max())
     rig = camera_rig(scene)
     # The image plane's half-height is in world units for an orthographic camera, per unit distance otherwise.
-    distance = 1.0 if rig.orthographic else float(np.linalg.norm(centre - rig.eye))
+    distance = np.ones(len(centre)) if rig.orthographic else np.linalg.norm(centre - rig.eye, axis=1)
     pixel = 2 * rig.half_height * distance / scene.render.height
-    return radius * highlight / pixel
+    with np.errstate(divide="ignore", invalid="ignore"):  # an object at the eye: no width to speak of
+        return np.where(pixel > 0, radius * highlight / np.where(pixel > 0, pixel, 1.0), np.inf)
+
+
+SHOWN_OBJECTS = 3  # object numbers listed in an aggregated warning before "…"
+
+
+def aggregate_warnings(found: list[tuple[tuple, int, float]]) -> tuple[str, ...]:
+    """One line per distinct warning: objects with the same finding share it, with the range of their
+    figures and the advice for the worst of them; a lone object keeps the key path `objects.N`."""
+    groups: dict[tuple, list[tuple[int, float]]] = {}
+    # In object order, an object's Gouraud finding before its sub-pixel one: lines come in the order of the
+    # first object each names.
+    for what, index, figure in sorted(found, key=lambda item: (item[1], item[0][0] != "gouraud")):
+        groups.setdefault(what, []).append((index, figure))
+    lines = []
+    for what, members in groups.items():
+        indices, figures = [m[0] for m in members], [m[1] for m in members]
+        who = _objects(indices)
+        if what[0] == "gouraud":
+            _, f, highlight, how = what
+            spread = _span(min(figures), max(figures), ".1f")
+            lines.append(f"{who} (gouraud): vertex normals are {spread}° apart but the f = {f:g} highlight is about "
+                         f"{highlight:.1f}° wide, so Gouraud shading will miss or smear it; use {how}, or Phong "
+                         "shading")
+        else:
+            f, narrowest = what[1], min(figures)
+            wanted = math.ceil(2 / narrowest)  # two samples across the narrowest highlight
+            advice = (f"use render.samples = {wanted} or more" if wanted <= MAX_SAMPLES else
+                      f"use render.samples = {MAX_SAMPLES} (the most allowed) and a larger image "
+                      f"(about {wanted / MAX_SAMPLES:.0f}× the width and height)")
+            lines.append(f"{who}: the f = {f:g} highlight is about {_span(narrowest, max(figures), '.2f')} pixel "
+                         f"wide and may fall between pixel centres; {advice}")
+    return tuple(lines)
+
+
+def aggregate_notes(notes: tuple[str, ...]) -> list[str]:
+    """Geometry notes ("objects.N: what happened") with the same text after the object share one entry."""
+    groups: dict[str, list[int]] = {}
+    for note in notes:
+        match = re.fullmatch(r"objects\.(\d+): (.*)", note)
+        if match is None:
+            groups.setdefault(note, [])
+        else:
+            groups.setdefault(match[2], []).append(int(match[1]))
+    return [f"{_objects(indices)}: {text}" if indices else text for text, indices in groups.items()]
+
+
+def _objects(indices: list[int]) -> str:
+    """'objects.3' for one object; 'objects 3, 7, 12 … (40,000 in all)' for several."""
+    if len(indices) == 1:
+        return f"objects.{indices[0]}"
+    shown = ", ".join(str(i) for i in indices[:SHOWN_OBJECTS])
+    return f"objects {shown}{' …' if len(indices) > SHOWN_OBJECTS else ''} ({len(indices):,} in all)"
+
+
+def _span(low: float, high: float, spec: str) -> str:
+    """'0.25' or '0.05–0.31': one figure, or the range when the objects differ."""
+    a, b = format(low, spec), format(high, spec)
+    return a if a == b else f"{a}–{b}"
 
 
 def plan_flags(plan: RenderPlan, scene: Scene) -> tuple[int, int]:

@@ -20,6 +20,7 @@ from .film import allocate_film, film_layers
 from .geometry import build_geometry
 from .illumination import COUNTED_TERMS
 from .intersect import Accelerator, unit_frame
+from .memory import check_memory
 from .plan import build_plan, diagnose, plan_flags
 from .records import RenderPlan, RenderResult
 from .scene import Scene, SceneError, load_scene
@@ -34,7 +35,8 @@ def default_threads() -> int:
 
 
 def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None = None,
-           progress: Callable[[int, int], None] | None = None, source: str = "<scene>") -> RenderResult:
+           progress: Callable[[int, int], None] | None = None, source: str = "<scene>",
+           max_memory: int | str | None = None) -> RenderResult:
     """Render a validated scene.
 
     Parameters
@@ -43,6 +45,9 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     plan: the render plan; default build_plan(scene). build_plan(scene, optimize=False) keeps every stage.
     progress: called as progress(tiles_done, tiles_total) after each tile.
     (accuracy.measured adds RMSE, max, PSNR, … against the analytic or a self-convergence reference.)
+    max_memory: the memory budget, bytes or a size such as "8G" (default: 3/4 of the memory available now);
+        a scene whose estimate (memory.estimate_memory) exceeds it is refused with a SceneError before
+        anything is built.
 
     Returns
     -------
@@ -56,6 +61,15 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
         raise SceneError(f"{source}: lights: global mode handles at most {MAX_LIGHTS} lights, "
                          f"the scene has {len(scene.lights)}; use render.mode = \"local\" or fewer lights")
 
+    render_opts = scene.render
+    width, height, samples = render_opts.width, render_opts.height, render_opts.samples
+    rows_per_tile = max(1, TILE_RAYS // (width * samples * samples))
+    threads = threads or default_threads()
+    check_memory(scene, source, max_memory, smooth=plan.keeps("vertex_normals"),
+                 float64=plan.keeps("float64_shading"),
+                 shadow_lights=len(scene.lights) if plan.keeps("shadow_rays") else 0,
+                 tile_rays=rows_per_tile * width * samples * samples, threads=min(threads, -(-height // rows_per_tile)))
+
     start = time.perf_counter()
     geometry = build_geometry(scene, source=source, vertex_normals=plan.keeps("vertex_normals"))
     timings["geometry"] = time.perf_counter() - start
@@ -66,14 +80,11 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     accelerator = Accelerator(geometry, frame)
     timings["build"] = time.perf_counter() - start
 
-    render_opts = scene.render
-    width, height, samples = render_opts.width, render_opts.height, render_opts.samples
     rig = camera_rig(scene)
     real = np.float64 if plan.keeps("float64_shading") else np.float32
     inputs = prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), real)
     shadow_inputs = prepare_shadows(scene, geometry, frame) if plan.keeps("shadow_rays") else None
     film = allocate_film(width, height, tuple(scene.output.aovs), real)
-    rows_per_tile = max(1, TILE_RAYS // (width * samples * samples))
     bands = [(row, min(row + rows_per_tile, height)) for row in range(0, height, rows_per_tile)]
     rays = RayGenerator(rig, frame, width, height, samples, max_rays=rows_per_tile * width * samples * samples)
 
@@ -95,7 +106,7 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     start = time.perf_counter()
     if progress:
         progress(0, len(bands))
-    with ThreadPoolExecutor(max_workers=threads or default_threads()) as pool:
+    with ThreadPoolExecutor(max_workers=threads) as pool:
         for done, (ray_s, shadow_s, shade_s, tile_counts) in enumerate(pool.map(work, bands), start=1):
             rays_seconds += ray_s
             shadow_seconds += shadow_s

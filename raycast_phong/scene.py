@@ -10,10 +10,12 @@ from __future__ import annotations
 import difflib
 import json
 import math
+import os
+import stat
 import tomllib
 from enum import Enum
 from pathlib import Path
-from typing import Annotated, Any, Literal, Union, get_args, get_origin
+from typing import Annotated, Any, BinaryIO, Literal, Union, get_args, get_origin
 
 from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, Strict, ValidationError, field_validator,
                       model_validator)
@@ -493,10 +495,60 @@ class _KeyError(Exception):
 
 # ---------------------------------------------------------------- reading
 
-def read_scene_dict(path: Path) -> dict:
-    """Parse the file's syntax only (TOML, or JSON for .json), with a one-line error on failure."""
+MAX_SCENE_BYTES = 16 << 20  # 16 MiB: a scene is keys and numbers; 40,000 objects take about 3.5 MiB of TOML
+
+FILE_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe (FIFO)"), (stat.S_ISCHR, "a device"),
+              (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+
+
+def open_regular(path: Path, where: str, what: str, limit: int | None = None) -> BinaryIO:
+    """Open `path` for binary reading if it is a regular file of at most `limit` bytes; else SceneError
+    "{where}: ..." naming `what` (a scene file, a mesh file). A missing file raises FileNotFoundError,
+    for the caller to word.
+
+    A FIFO would block the read forever and /dev/zero never ends, so the kind is checked with stat before
+    opening (opening some devices acts on them), and again with fstat after an O_NONBLOCK open, in case
+    the path was swapped in between (a FIFO opens at once without blocking then).
+    """
+    def refuse_kind(mode: int) -> None:
+        if not stat.S_ISREG(mode):
+            kind = next((f"{name}, not a regular file" for test, name in FILE_KINDS if test(mode)),
+                        "not a regular file")
+            raise SceneError(f"{where}: {str(path)!r} is {kind}; give a {what}")
+
     try:
-        text = path.read_bytes().decode("utf-8")
+        refuse_kind(os.stat(path).st_mode)
+        descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
+    except NotADirectoryError:
+        raise FileNotFoundError(path) from None
+    except FileNotFoundError:
+        raise
+    except OSError as error:
+        raise SceneError(f"{where}: cannot read the {what} {str(path)!r} ({error.strerror})") from None
+    try:
+        info = os.fstat(descriptor)
+        refuse_kind(info.st_mode)
+        if limit is not None and info.st_size > limit:
+            raise SceneError(f"{where}: the {what} is {info.st_size:,} bytes, more than the {limit:,} "
+                             f"({limit >> 20} MiB) allowed")
+        os.set_blocking(descriptor, True)
+        return os.fdopen(descriptor, "rb")
+    except BaseException:
+        os.close(descriptor)
+        raise
+
+
+def read_scene_dict(path: Path) -> dict:
+    """Parse the file's syntax only (TOML, or JSON for .json), with a one-line error on failure.
+
+    Only a regular file of at most MAX_SCENE_BYTES is read (open_regular)."""
+    try:
+        with open_regular(path, str(path), "scene file", MAX_SCENE_BYTES) as handle:
+            # One byte over the cap tells a file that grew after fstat from one that fits.
+            data = handle.read(MAX_SCENE_BYTES + 1)
+        if len(data) > MAX_SCENE_BYTES:
+            raise SceneError(f"{path}: the scene file grew past the {MAX_SCENE_BYTES >> 20} MiB allowed while read")
+        text = data.decode("utf-8")
     except FileNotFoundError:
         raise SceneError(f"{path}: no such scene file") from None
     except (OSError, UnicodeDecodeError) as error:

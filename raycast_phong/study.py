@@ -45,6 +45,7 @@ class StudyOptions:
     fine: int | None = None                     # self-convergence reference this many levels finer
     target: float = 0.005                       # the RMSE the advice in summary.md asks for
     threads: int | None = None
+    max_memory: int | None = None               # render()'s memory budget, bytes (default: its own)
 
 
 @dataclass(frozen=True)
@@ -187,7 +188,8 @@ def run_study(path: str | Path, overrides: list[str] | tuple[str, ...] = (), opt
             runs = {model: [] for model in models}
             for _ in range(options.repeats):
                 for model in models:
-                    runs[model].append(render(scenes[model], threads=options.threads, source=source))
+                    runs[model].append(render(scenes[model], threads=options.threads, source=source,
+                                              max_memory=options.max_memory))
             for model in models:
                 results = runs[model]
                 timing = {stage: statistics.median(r.timings.get(stage, 0.0) for r in results)

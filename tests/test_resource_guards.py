@@ -1,0 +1,285 @@
+"""Resource guards: a scene too large for the memory is refused before anything is built, only regular
+files are read, and many objects cost one warning line, not one per object.
+
+The oversized scenes run in a subprocess under a real address-space limit (RLIMIT_AS, 2 GiB) and a
+timeout: without the guard they would fail there (MemoryError, exit 1) instead of eating the machine;
+the FIFOs are real ones (os.mkfifo), which block a reader forever without the guard.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+import raycast_phong as rp
+from raycast_phong.geometry import build_geometry
+from raycast_phong.memory import (check_memory, default_budget, estimate_memory, mesh_file_triangles, parse_size,
+                                  shape_triangles)
+from raycast_phong.plan import diagnose, group_median
+from raycast_phong.scene import MAX_SCENE_BYTES
+
+CLI = [sys.executable, str(Path(__file__).parents[1] / "cli.py")]
+ADDRESS_SPACE = 2 << 30  # plenty for the small renders here (measured: the default scene renders under it)
+TIMEOUT = 120  # seconds: a guarded refusal takes about one; a blocked read would take forever
+
+
+def run_cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    """The CLI in a fresh process with a 2 GiB address space; TimeoutExpired fails the test."""
+    def limit() -> None:
+        resource.setrlimit(resource.RLIMIT_AS, (ADDRESS_SPACE, ADDRESS_SPACE))
+    env = {k: v for k, v in os.environ.items() if k != "RAYCAST_PHONG_DEBUG"}
+    return subprocess.run([*CLI, *args], cwd=cwd, capture_output=True, text=True, timeout=TIMEOUT,
+                          preexec_fn=limit, env=env, stdin=subprocess.DEVNULL)
+
+
+def assert_one_line_refusal(done: subprocess.CompletedProcess, *needles: str, code: int = 2) -> str:
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == code, done.stderr
+    assert len(lines) == 1 and "Traceback" not in done.stderr, done.stderr
+    for needle in needles:
+        assert needle in lines[0], lines[0]
+    return lines[0]
+
+
+def scene_file(folder: Path, objects: list[dict], render: dict | None = None, name: str = "scene.json",
+               output: dict | None = None) -> Path:
+    path = folder / name
+    data = {"render": {"width": 16, "height": 12, **(render or {})}, "lights": [{"position": [2, 2, 3]}],
+            "objects": objects}
+    if output:
+        data["output"] = output
+    path.write_text(json.dumps(data), encoding="utf-8")
+    return path
+
+
+# ---------------------------------------------------------------- the estimate
+
+
+@pytest.mark.parametrize("obj", [
+    {"shape": "icosphere", "subdivisions": 0}, {"shape": "icosphere", "subdivisions": 2},
+    {"shape": "uv_sphere"}, {"shape": "uv_sphere", "segments": [5, 3]}, {"shape": "uv_sphere", "segments": [7, 9]},
+    {"shape": "box"}, {"shape": "plane"}, {"shape": "plane", "segments": [3, 5]},
+    {"shape": "cylinder"}, {"shape": "cylinder", "segments": [7, 3]},
+    {"shape": "torus"}, {"shape": "torus", "segments": [3, 5]},
+], ids=lambda obj: "-".join(str(v) for v in obj.values()))
+def test_the_estimate_counts_the_triangles_trimesh_builds(obj):
+    """The guard's count from the keys alone equals the built mesh's, so the estimate follows trimesh."""
+    scene = rp.validate_scene({"objects": [obj]})
+    assert shape_triangles(scene.objects[0]) == build_geometry(scene).triangles
+
+
+@pytest.mark.parametrize("suffix, options", [(".obj", {}), (".ply", {}), (".ply", {"encoding": "ascii"}),
+                                             (".stl", {}), (".off", {}), (".glb", {})])
+def test_mesh_file_triangles_are_read_from_the_header(tmp_path, suffix, options):
+    mesh = trimesh.creation.icosphere(subdivisions=2)  # 320 triangles
+    path = tmp_path / f"sphere{suffix}"
+    mesh.export(path, **options)
+    assert mesh_file_triangles(path, "key") == 320
+
+
+def test_an_ascii_stl_is_bounded_by_its_size(tmp_path):
+    path = tmp_path / "sphere.stl"
+    trimesh.creation.icosphere(subdivisions=2).export(path, file_type="stl_ascii")
+    assert 320 <= mesh_file_triangles(path, "key") <= path.stat().st_size // 86
+
+
+def test_an_obj_polygon_counts_its_fan_of_triangles(tmp_path):
+    path = tmp_path / "quads.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\nf 1 2 3 4\nf 1 2 3 4 5\nf\t1 2 3\n")
+    assert mesh_file_triangles(path, "key") == 2 + 3 + 1
+
+
+@pytest.mark.parametrize("text, expected", [("8G", 8 << 30), ("500M", 500 << 20), ("1.5GiB", 3 << 29),
+                                            ("2048", 2048), ("64k", 64 << 10), (" 2 TB ", 2 << 40)])
+def test_sizes_are_read_in_binary_units(text, expected):
+    assert parse_size(text) == expected
+
+
+@pytest.mark.parametrize("text", ["", "0", "-1G", "8X", "G", "1e9", "8 G B"])
+def test_a_malformed_size_is_refused(text):
+    with pytest.raises(ValueError, match="expected a size"):
+        parse_size(text)
+
+
+def test_the_default_budget_is_a_share_of_the_memory_available():
+    budget = default_budget()
+    assert budget is not None and 0 < budget < os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+
+
+def test_image_bytes_grow_with_the_pixels_and_the_layers():
+    def image(render: dict, aovs: tuple = ()) -> int:
+        scene = rp.validate_scene({"render": render, "output": {"aovs": list(aovs)}, "objects": [{"shape": "box"}]})
+        return estimate_memory(scene, tile_rays=0).image
+    plain = image({"width": 100, "height": 100})
+    assert image({"width": 200, "height": 100}) == 2 * plain
+    # RGB in float32 (12 B) and its float32 copy for writing (12 B): 24 B a pixel
+    assert plain == 100 * 100 * 24
+    assert image({"width": 100, "height": 100}, ("depth",)) == 100 * 100 * (24 + 20 + 4)
+
+
+# ---------------------------------------------------------------- refusals
+
+
+def test_a_scene_over_the_budget_is_refused_in_python_naming_the_key():
+    scene = rp.validate_scene({"objects": [{"shape": "icosphere", "subdivisions": 8}]})
+    with pytest.raises(rp.SceneError) as refused:
+        rp.render(scene, source="s.toml", max_memory="64M")
+    message = str(refused.value)
+    assert message.startswith("s.toml: objects.0.subdivisions: 8 needs ≈ ")
+    assert "1.3M triangles" in message and "64 MB budget" in message and "--max-memory" in message
+    assert check_memory(scene, "s.toml", "8G").triangles == 20 * 4 ** 8  # a larger budget lets it through
+
+
+def test_the_cli_refuses_a_tessellation_over_the_budget_before_building_it(tmp_path):
+    """Three planes of 4096 × 4096 segments, 100M triangles: tens of GB without the guard."""
+    planes = [{"shape": "plane", "segments": [4096, 4096], "translate": [i, 0, 0]} for i in range(3)]
+    path = scene_file(tmp_path, planes)
+    done = run_cli("render", str(path), "-o", "out.png", cwd=tmp_path)
+    assert_one_line_refusal(done, "scene.json: objects: 3 objects need ≈ ", "101M triangles", "budget",
+                            "objects.0.segments = [4096, 4096]", "--max-memory")
+    assert not (tmp_path / "out.png").exists()
+
+
+def test_max_memory_raises_and_lowers_the_budget(tmp_path):
+    path = scene_file(tmp_path, [{"shape": "icosphere", "subdivisions": 6}])  # 82k triangles, ≈ 60 MB
+    refused = run_cli("render", str(path), "-o", "out.png", "--max-memory", "20M", cwd=tmp_path)
+    assert_one_line_refusal(refused, "objects.0.subdivisions: 6", "above the 20 MB budget")
+    done = run_cli("render", str(path), "-o", "out.png", "--max-memory", "1G", "-q", cwd=tmp_path)
+    assert done.returncode == 0 and (tmp_path / "out.png").stat().st_size > 0, done.stderr
+
+
+def test_image_layers_over_the_budget_are_refused_naming_the_size(tmp_path):
+    path = scene_file(tmp_path, [{"shape": "box"}], render={"width": 16384, "height": 16384},
+                      output={"path": "out.exr", "aovs": ["depth", "normal", "face", "ambient", "diffuse",
+                                                          "specular", "emission"]})
+    done = run_cli("render", str(path), "-o", "out.exr", "--max-memory", "4G", cwd=tmp_path)
+    assert_one_line_refusal(done, "render.width × render.height: 16384×16384 pixels and 7 layer(s)",
+                            "above the 4 GB budget")
+
+
+def test_a_malformed_max_memory_is_one_line(tmp_path):
+    path = scene_file(tmp_path, [{"shape": "box"}])
+    for command in (["render", str(path)], ["plan", str(path)], ["batch", str(path), "--out", "o"],
+                    ["side-by-side", str(path), "--vary", "render.shading=flat,phong"], ["study", str(path)]):
+        done = run_cli(*command, "--max-memory", "lots", cwd=tmp_path)
+        assert_one_line_refusal(done, "--max-memory: expected a size such as 8G")
+
+
+def test_batch_fails_the_oversized_scene_only(tmp_path):
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    scene_file(folder, [{"shape": "icosphere", "subdivisions": 8}], name="big.json")
+    scene_file(folder, [{"shape": "box"}], name="small.json")
+    done = run_cli("batch", str(folder), "--out", "out", "-j", "1", "--max-memory", "100M", cwd=tmp_path)
+    assert done.returncode == 1
+    failed = [line for line in done.stderr.splitlines() if line.startswith("failed:")]
+    assert len(failed) == 1 and "big.json: objects.0.subdivisions: 8" in failed[0] and "budget" in failed[0]
+    assert (tmp_path / "out" / "small.png").is_file() and not (tmp_path / "out" / "big.png").exists()
+
+
+# ---------------------------------------------------------------- only regular files
+
+
+@pytest.fixture
+def fifo(tmp_path) -> Path:
+    path = tmp_path / "pipe.toml"
+    os.mkfifo(path)
+    return path
+
+
+def test_a_scene_path_that_is_a_fifo_is_refused_at_once(tmp_path, fifo):
+    done = run_cli("render", str(fifo), "-o", "out.png", cwd=tmp_path)
+    assert_one_line_refusal(done, "pipe.toml", "named pipe (FIFO), not a regular file")
+
+
+def test_a_device_as_the_scene_is_refused(tmp_path):
+    done = run_cli("render", "/dev/zero", "-o", "out.png", cwd=tmp_path)
+    assert_one_line_refusal(done, "/dev/zero", "a device, not a regular file")
+
+
+@pytest.mark.parametrize("kind", ["fifo", "device", "folder"])
+def test_a_mesh_path_that_is_not_a_regular_file_is_refused(tmp_path, kind):
+    target = {"fifo": "pipe.obj", "device": "/dev/zero", "folder": "meshes"}[kind]
+    if kind == "fifo":
+        os.mkfifo(tmp_path / target)
+    elif kind == "folder":
+        (tmp_path / target).mkdir()
+    path = scene_file(tmp_path, [{"shape": "mesh", "path": target}])
+    for command in (["render", str(path), "-o", "out.png"], ["plan", str(path)]):
+        done = run_cli(*command, cwd=tmp_path)
+        assert_one_line_refusal(done, "objects.0.path", "not a regular file; give a mesh file")
+
+
+def test_batch_does_not_block_on_a_fifo_mesh(tmp_path):
+    """The batch hashes its inputs before rendering: that read must not wait on a FIFO either."""
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    os.mkfifo(folder / "pipe.obj")
+    scene_file(folder, [{"shape": "mesh", "path": "pipe.obj"}], name="a.json")
+    done = run_cli("batch", str(folder), "--out", "out", "-j", "1", cwd=tmp_path)
+    assert done.returncode == 1 and "named pipe (FIFO)" in done.stderr, done.stderr
+
+
+def test_a_scene_file_over_the_size_cap_is_refused_unread(tmp_path):
+    path = tmp_path / "huge.toml"
+    with open(path, "wb") as handle:
+        handle.truncate(MAX_SCENE_BYTES + 1)  # sparse: no disk used
+    done = run_cli("render", str(path), "-o", "out.png", cwd=tmp_path)
+    assert_one_line_refusal(done, "huge.toml", f"{MAX_SCENE_BYTES + 1:,} bytes", "16 MiB")
+
+
+# ---------------------------------------------------------------- many objects
+
+
+def grid_of_spheres(count: int, shading: str) -> rp.Scene:
+    side = int(np.ceil(np.sqrt(count)))
+    objects = [{"shape": "icosphere", "subdivisions": 1, "radius": 0.4,
+                "translate": [i % side - side / 2, i // side - side / 2, 0]} for i in range(count)]
+    return rp.validate_scene({"render": {"width": 48, "height": 48, "shading": shading},
+                              "camera": {"position": [0, 0, 2 * side]}, "lights": [{"position": [0, 0, 3 * side]}],
+                              "objects": objects})
+
+
+def test_many_objects_with_the_same_warning_share_one_line():
+    """300 Gouraud spheres, each with a missed and a sub-pixel highlight: two lines, each with the count."""
+    warnings = rp.render(grid_of_spheres(300, "gouraud")).plan.warnings
+    assert len(warnings) == 2
+    assert all(w.startswith("objects 0, 1, 2 … (300 in all)") for w in warnings), warnings
+    assert "(gouraud): vertex normals are 36.0° apart" in warnings[0] and "subdivisions = 3" in warnings[0]
+    assert "pixel wide" in warnings[1] and "render.samples = " in warnings[1]
+
+
+def test_the_grouped_median_is_numpys_median_per_group(rng):
+    groups = rng.integers(0, 7, size=500)
+    values = rng.normal(size=500)
+    medians = group_median(values, groups, 9)
+    for group in range(9):
+        inside = values[groups == group]
+        assert medians[group] == (np.median(inside) if len(inside) else 0.0)
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(10)
+
+
+def test_many_copies_of_a_repaired_mesh_share_one_note(tmp_path):
+    """A tetrahedron with one face wound the other way, placed 40 times: one winding note, with the count."""
+    (tmp_path / "tet.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 4 3\n")
+    def reason(count: int) -> str:
+        scene = rp.validate_scene({"objects": [{"shape": "mesh", "path": "tet.obj", "translate": [2 * i, 0, 0]}
+                                               for i in range(count)]}, folder=tmp_path)
+        plan = rp.build_plan(scene)
+        stages = diagnose(plan, scene, build_geometry(scene)).stages
+        return next(stage.reason for stage in stages if stage.name == "winding_repair")
+    assert reason(1) == "objects.0: the winding of 1 of 4 faces was repaired (and turned outward: the mesh is closed)"
+    assert reason(40) == ("objects 0, 1, 2 … (40 in all): the winding of 1 of 4 faces was repaired (and turned "
+                          "outward: the mesh is closed)")
