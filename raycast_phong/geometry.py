@@ -15,6 +15,7 @@ import trimesh
 from .records import Geometry
 from .scene import (MIN_EXTENT, POSITION_LIMIT, Object, Scene, SceneError, ShadingModel, _dotted,
                     brightness_problem, open_regular)
+from .tolerances import NO_DIRECTION
 
 MODEL_CODE = {ShadingModel.FLAT: 0, ShadingModel.GOURAUD: 1, ShadingModel.PHONG: 2}
 
@@ -253,9 +254,10 @@ def place(obj: Object, vertices, faces, file_normals):
     rotation, scale = rotation_of(obj), np.asarray(obj.scale)
     placed = (vertices * scale) @ rotation.T + np.asarray(obj.translate)
     if file_normals is not None:
-        # Normals transform with the inverse transpose: (R S)^-T = R S^-1.
+        # Normals transform with the inverse transpose: (R S)^-T = R S^-1, which stretches by at most 1/min|s|.
+        reach = np.linalg.norm(file_normals, axis=-1, keepdims=True) / np.abs(scale).min()
         file_normals = (file_normals / scale) @ rotation.T
-        file_normals = _normalise_or(file_normals, file_normals)
+        file_normals = _normalise_or(file_normals, np.zeros_like(file_normals), reach)  # none: the face normal later
     if np.prod(scale) < 0:
         faces = faces[:, ::-1]
     return placed, faces, file_normals
@@ -300,15 +302,17 @@ def compute_corner_normals(vertices: np.ndarray, faces: np.ndarray, weighting: s
         weights = corner_angles(vertices, faces)
     else:
         raise ValueError(f"unknown normal weighting {weighting!r}")
-    contribution = (weights[:, :, None] * unit[:, None, :]).reshape(-1, 3)  # (3F, 3), one per corner
+    # (3F, 4), one row per corner: w n_f, and w |n_f| (the length the sum would have if every normal agreed).
+    contribution = np.concatenate([weights[:, :, None] * unit[:, None, :],
+                                   (weights * np.linalg.norm(unit, axis=1)[:, None])[:, :, None]], axis=2).reshape(-1, 4)
     corner_vertex = faces.ravel()
     if crease_angle >= 180.0:
         summed = np.column_stack([np.bincount(corner_vertex, contribution[:, i], minlength=len(vertices))
-                                  for i in range(3)])[corner_vertex]
+                                  for i in range(4)])[corner_vertex]
     else:
         summed = _creased_sums(corner_vertex, contribution, np.repeat(unit, 3, axis=0), crease_angle)
     fallback = np.repeat(unit, 3, axis=0)
-    return _normalise_or(summed, fallback).reshape(-1, 3, 3)
+    return _normalise_or(summed[:, :3], fallback, summed[:, 3:]).reshape(-1, 3, 3)
 
 
 def _creased_sums(corner_vertex, contribution, corner_face_normal, crease_angle):
@@ -326,11 +330,13 @@ def _creased_sums(corner_vertex, contribution, corner_face_normal, crease_angle)
     cosine = np.einsum("ij,ij->i", corner_face_normal[mine], corner_face_normal[neighbour])
     smooth = cosine >= math.cos(math.radians(crease_angle)) - 1e-12
     return np.column_stack([np.bincount(mine[smooth], contribution[neighbour[smooth], i], minlength=len(order))
-                            for i in range(3)])
+                            for i in range(contribution.shape[1])])
 
 
-def _normalise_or(vectors: np.ndarray, fallback: np.ndarray) -> np.ndarray:
-    """Unit vectors; where a vector has no length, the fallback instead."""
+def _normalise_or(vectors: np.ndarray, fallback: np.ndarray, reach: np.ndarray | float = 1.0) -> np.ndarray:
+    """Unit vectors; the fallback where a vector has no direction: a length at most NO_DIRECTION × `reach`,
+    the length it would have if its parts agreed (a sum of unit normals that nearly cancels points
+    wherever rounding sends it). The shading kernel applies the same tolerance to its mixed normals."""
     length = np.linalg.norm(vectors, axis=-1, keepdims=True)
-    tiny = length <= 1e-300
+    tiny = length <= NO_DIRECTION * np.asarray(reach)
     return np.where(tiny, fallback, vectors / np.where(tiny, 1.0, length))

@@ -91,3 +91,24 @@ def test_file_normals_are_read_from_an_obj(tmp_path):
                               folder=tmp_path)
     g = build_geometry(scene)
     np.testing.assert_allclose(g.corner_normals[0], [[0, 0, 1], [0.6, 0, 0.8], [0, 0.6, 0.8]], atol=1e-12)
+
+
+@pytest.mark.parametrize(("fold", "cancels"), [(1e-9, True), (1e-4, False)])
+def test_vertex_normals_that_cancel_below_no_direction_fall_back_to_the_face_normals(fold, cancels):
+    """Two triangles folded onto each other at an angle `fold` (a knife-edge fin): their normals nearly
+    oppose, and at the shared edge their sum has length 2 sin(fold / 2) of the 2 it would have if they
+    agreed. Below NO_DIRECTION (1e-6, the kernel's own tolerance for a mixed normal) that sum points
+    wherever rounding sends it, so each corner keeps its face's normal; above it, it is used."""
+    from raycast_phong.geometry import compute_corner_normals, face_normals
+    a = fold  # the second triangle is the first turned by `fold` about the x axis (the shared edge)
+    vertices = np.array([[0, 0, 0], [1, 0, 0], [0.5, 1, 0], [0.5, math.cos(a), math.sin(a)]], np.float64)
+    faces = np.array([[0, 1, 2], [1, 0, 3]])
+    unit, _ = face_normals(vertices, faces)
+    assert np.linalg.norm(unit.sum(axis=0)) == pytest.approx(2 * math.sin(a / 2), rel=1e-6)
+    corners = compute_corner_normals(vertices, faces)
+    shared = corners[0, 0]  # vertex 0 of face 0, on the fold
+    if cancels:
+        np.testing.assert_allclose(shared, unit[0], atol=1e-12)
+    else:
+        np.testing.assert_allclose(shared, unit.sum(axis=0) / np.linalg.norm(unit.sum(axis=0)), atol=1e-9)
+        assert abs(shared @ unit[0]) < 1e-3  # the fin's edge normal lies in the bisecting plane
