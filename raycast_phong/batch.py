@@ -37,6 +37,7 @@ from .atomic import WriteError, signals_deferred, write_text
 from .image_io import ImageError, write_image
 from .intersect import embree_started
 from .scene import Scene, SceneError, load_scene, open_regular
+from .sweep import Job, is_sweep, load_sweep, write_contact_sheets
 
 MANIFEST = "manifest.json"
 MANIFEST_FORMAT = 1
@@ -52,16 +53,6 @@ PR_SET_PDEATHSIG = 1
 MANIFEST_INTERVAL = 0.5
 # A Dask client gives up on an unreachable scheduler after this long rather than hanging the batch.
 CONNECT_TIMEOUT = "10s"
-
-
-@dataclass(frozen=True)
-class Job:
-    """One image to make: a scene file, with overrides (a sweep's parameters), named for its output."""
-    name: str                          # output file stem, unique within a batch
-    scene: Path                        # the scene file
-    overrides: tuple[str, ...] = ()    # `key.path=value`, applied as --set
-    sweep: str | None = None           # the sweep file's stem, when the job is one cell of a sweep
-    cell: tuple[tuple[str, str], ...] = ()  # the sweep's (label, value) per axis, in the grid's order
 
 
 @dataclass(frozen=True)
@@ -149,7 +140,6 @@ def find_jobs(paths: list[str | Path], out: str | Path | None = None) -> list[Jo
     A sweep file (a TOML with a `grid` table, see sweep.py) stands for its product of overrides.
     Raises SceneError when a path matches nothing or two jobs would write the same output name.
     """
-    from .sweep import is_sweep, load_sweep
     files: list[Path] = []
     for given in map(str, paths):
         path = Path(given)
@@ -627,7 +617,6 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
                 scheduler: str | None, progress: Callable[[Outcome, int, int], None] | None,
                 max_memory: int | None) -> BatchReport:
     """run_batch, with the folder locked."""
-    from .sweep import write_contact_sheets
     started = time.perf_counter()
     manifest, warning = open_manifest(folder)
     remove_temporaries(folder, [job.name for job in jobs])

@@ -36,6 +36,16 @@ ROW_LABEL_MIN = 240  # px: room for "shading=gouraud, shininess=512" at 12 px, h
 
 
 @dataclass(frozen=True)
+class Job:
+    """One image to make: a scene file, with overrides (a sweep's parameters), named for its output."""
+    name: str                          # output file stem, unique within a batch
+    scene: Path                        # the scene file
+    overrides: tuple[str, ...] = ()    # `key.path=value`, applied as --set
+    sweep: str | None = None           # the sweep file's stem, when the job is one cell of a sweep
+    cell: tuple[tuple[str, str], ...] = ()  # the sweep's (label, value) per axis, in the grid's order
+
+
+@dataclass(frozen=True)
 class Sweep:
     """A parsed sweep file."""
     path: Path
@@ -52,9 +62,8 @@ class Sweep:
         last = [key.rsplit(".", 1)[-1] for key, _ in self.axes]
         return [part if last.count(part) == 1 else key for part, (key, _) in zip(last, self.axes)]
 
-    def jobs(self) -> list:
+    def jobs(self) -> list[Job]:
         """The product of the axes as batch Jobs, the last axis varying fastest."""
-        from .batch import Job
         labels = self.labels()
         jobs = []
         for values in itertools.product(*(values for _, values in self.axes)):

@@ -18,3 +18,50 @@ def test_the_oracle_imports_no_stage_of_the_renderer():
     loaded = json.loads(done.stdout)
     assert "raycast_phong.reference" in loaded
     assert not [m for m in loaded if m.split(".")[-1] in STAGES or m.startswith(("numba", "embreex"))], loaded
+
+
+def _package_imports() -> dict[str, set[str]]:
+    """module → the package modules it imports anywhere in its text (lazy, function-level imports too)."""
+    import ast
+    from pathlib import Path
+
+    import raycast_phong
+    root = Path(raycast_phong.__file__).parent
+    graph: dict[str, set[str]] = {}
+    for path in root.rglob("*.py"):
+        name = ".".join(path.relative_to(root).with_suffix("").parts)
+        package = name.rsplit(".", 1)[0] if "." in name else ""
+        targets = graph.setdefault(name, set())
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and node.level:
+                base = package.split(".")[:len(package.split(".")) - (node.level - 1)] if package else []
+                stem = ".".join([*filter(None, base), *(node.module.split(".") if node.module else [])])
+                for alias in node.names:
+                    for candidate in (f"{stem}.{alias.name}" if stem else alias.name, stem):
+                        if candidate and (root / Path(*candidate.split("."))).with_suffix(".py").exists():
+                            targets.add(candidate)
+                            break
+    graph.pop("__init__", None)
+    return {name: {t for t in targets if t != "__init__"} for name, targets in graph.items()}
+
+
+def test_the_package_has_no_import_cycles():
+    """Imports point one way (stages ← tools ← CLI): a cycle means two modules each need the other."""
+    graph = _package_imports()
+    assert {"render", "reference", "batch", "sweep", "shading", "illumination"} <= set(graph)
+    state: dict[str, int] = {}
+    cycles = []
+
+    def visit(node: str, trail: list[str]) -> None:
+        state[node] = 1
+        for target in sorted(graph.get(node, ())):
+            if state.get(target) == 1:
+                cycles.append(trail[trail.index(target):] + [target] if target in trail else [node, target])
+            elif target not in state:
+                visit(target, [*trail, target])
+        state[node] = 2
+
+    for module in sorted(graph):
+        if module not in state:
+            visit(module, [module])
+    assert not cycles, cycles
