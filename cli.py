@@ -7,6 +7,7 @@ Exit status: 0 ok, 2 bad input (scene, mesh, option, output path) or an output t
 from __future__ import annotations
 
 import json
+import os
 import sys
 import time
 from contextlib import contextmanager
@@ -189,10 +190,25 @@ def exit_codes():
         fail(str(error))
     except typer.Exit:
         raise
-    except Exception as error:  # anything else is our bug: one line, exit 1 (RAYCAST_PHONG_DEBUG=1 for the trace)
+    except Exception as error:  # anything else is our bug: one line, exit 1, the traceback in a log file
         if _debug():
             raise
-        fail(f"internal error: {type(error).__name__}: {error}", code=1)
+        log = _traceback_log(error)
+        fail(f"internal error: {type(error).__name__}: {error}" + (f" (traceback in {log})" if log else ""), code=1)
+
+
+def _traceback_log(error: BaseException) -> str | None:
+    """Write the traceback of an internal error to a fresh raycast-phong-error-*.log in the temporary folder
+    and return its path (None if even that cannot be written: the one line must still come out)."""
+    import tempfile
+    import traceback
+    try:
+        descriptor, path = tempfile.mkstemp(prefix="raycast-phong-error-", suffix=".log")
+        with os.fdopen(descriptor, "w", encoding="utf-8") as log:
+            log.write("".join(traceback.format_exception(error)))
+        return path
+    except OSError:
+        return None
 
 
 def _debug() -> bool:

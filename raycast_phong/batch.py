@@ -312,8 +312,8 @@ def warm_up(tasks: list[Task]) -> float:
     for task in tasks:
         try:
             plans.append(build_plan(task.scene))
-        except Exception:  # that scene's own render reports it; it must not stop the others
-            pass
+        except SceneError:  # bad input: that scene's own render reports it; it must not stop the others
+            continue
     if plans:
         warm_kernels(tuple({np.float64 if plan.keeps("float64_shading") else np.float32 for plan in plans}),
                      shadows=any(plan.keeps("shadow_rays") for plan in plans))

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import io
 import math
+from pathlib import Path
 
 import numpy as np
 import trimesh
@@ -18,6 +19,7 @@ from .scene import (MIN_EXTENT, POSITION_LIMIT, Object, Scene, SceneError, Shadi
 from .tolerances import NO_DIRECTION
 
 MODEL_CODE = {ShadingModel.FLAT: 0, ShadingModel.GOURAUD: 1, ShadingModel.PHONG: 2}
+TRIMESH = Path(trimesh.__file__).resolve().parent  # an exception that passed through here: trimesh refused the file
 
 
 def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool = True) -> Geometry:
@@ -188,7 +190,9 @@ def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
             loaded = trimesh.load(**_mesh_source(path, handle), process=False)
         if isinstance(loaded, trimesh.Scene):  # several parts: one mesh (force="mesh" would drop file normals)
             loaded = loaded.to_mesh() if loaded.geometry else None
-    except Exception as error:  # trimesh raises many kinds for a bad file; all mean "unreadable"
+    except Exception as error:
+        if not _raised_in_trimesh(error):
+            raise  # our own bug, not the file's: an internal error with its traceback
         raise SceneError(f"{key}: cannot read {str(path)!r} as {readable} ({type(error).__name__}: "
                          f"{error})") from None
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
@@ -219,6 +223,24 @@ def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
 
 
 TEXT_FORMATS = (".obj", ".off")  # trimesh decodes these as text, guessing any non-UTF-8 encoding
+
+
+def _raised_in_trimesh(error: BaseException) -> bool:
+    """Whether `error` came out of trimesh's own code, i.e. trimesh could not read the file.
+
+    A corrupt file makes trimesh raise almost anything (750 corrupted OBJ, PLY, STL, OFF and GLB files gave
+    ValueError, KeyError, IndexError, TypeError, NotImplementedError and, from a bug of its own on a bad PLY
+    header, UnboundLocalError), so the type says little; where it was raised says whose problem it is.
+    Running out of memory is never the file's fault.
+    """
+    if isinstance(error, MemoryError):
+        return False
+    frame = error.__traceback__
+    while frame is not None:
+        if Path(frame.tb_frame.f_code.co_filename).resolve().is_relative_to(TRIMESH):
+            return True
+        frame = frame.tb_next
+    return False
 
 
 def _mesh_source(path, handle) -> dict:

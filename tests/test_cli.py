@@ -161,7 +161,12 @@ def test_internal_error_exits_1_with_one_line(tiny_scene, tmp_path, monkeypatch)
     assert result.exit_code == 1, result.output
     assert isinstance(result.exception, SystemExit)  # the CLI's own exit, not an escaped exception
     assert "Traceback" not in result.output
-    assert result.output.strip().splitlines() == ["error: internal error: RuntimeError: kernel exploded"]
+    [line] = result.output.strip().splitlines()
+    assert line.startswith("error: internal error: RuntimeError: kernel exploded (traceback in ")
+    log = Path(line.split("(traceback in ")[1].rstrip(")"))
+    text = log.read_text(encoding="utf-8")
+    log.unlink()
+    assert "Traceback" in text and "broken_render" in text and "RuntimeError: kernel exploded" in text
     assert output.read_bytes() == b"an earlier image"
 
 

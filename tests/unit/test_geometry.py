@@ -112,3 +112,25 @@ def test_vertex_normals_that_cancel_below_no_direction_fall_back_to_the_face_nor
     else:
         np.testing.assert_allclose(shared, unit.sum(axis=0) / np.linalg.norm(unit.sum(axis=0)), atol=1e-9)
         assert abs(shared @ unit[0]) < 1e-3  # the fin's edge normal lies in the bisecting plane
+
+
+def test_a_malformed_mesh_file_is_bad_input_but_a_bug_stays_an_internal_error(tmp_path, monkeypatch):
+    """Whatever trimesh raises for a corrupt file (an UnboundLocalError for this PLY header) is the user's to
+    fix: SceneError. An exception that never passed through trimesh is ours and must not be dressed up as
+    "cannot read the file"."""
+    import raycast_phong.geometry as geometry
+    (tmp_path / "bad.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nend_header\n\x00")
+    (tmp_path / "odd.stl").write_bytes(bytes(range(256)) * 3)  # not UTF-8: trimesh needs charset-normalizer
+    scene = lambda name: rp.validate_scene({"objects": [{"shape": "mesh", "path": name}]}, folder=tmp_path)
+    with pytest.raises(rp.SceneError, match="objects.0.path: cannot read"):
+        build_geometry(scene("bad.ply"))
+    try:
+        build_geometry(scene("odd.stl"))  # binary STL reads any bytes; what matters is no missing module
+    except rp.SceneError as error:
+        assert "ModuleNotFoundError" not in str(error), error
+
+    def bug(**kwargs):
+        raise ZeroDivisionError("a bug, not a file problem")
+    monkeypatch.setattr(geometry.trimesh, "load", bug)
+    with pytest.raises(ZeroDivisionError):
+        build_geometry(scene("bad.ply"))
