@@ -6,7 +6,7 @@ const token = new URLSearchParams(location.search).get("token") || "";
 const $ = (selector) => document.querySelector(selector);
 const state = {
   hello: null,
-  settings: { a: {}, b: { "render.shading": "gouraud" } },  // B starts as A in Gouraud: the lecture's contrast
+  settings: { a: {}, b: {} },  // B starts as A in Gouraud shading (onHello): the lecture's contrast
   editing: "a",
   level: { a: null, b: null },  // the tessellation slider's level, or null: as the scene says
   compare: "off",
@@ -82,19 +82,19 @@ function show(img, bytes) {
 function onFrame(header, parts) {
   if (header.id < state.shownId) return;
   state.shownId = header.id;
+  // A draft frame (half size) is shown at the full frame's size; side by side, each gets half the room.
   const displayWidth = state.hello.scene.render.width;
+  $("#stage").style.maxWidth = `${state.compare === "side" ? 2 * displayWidth + 8 : displayWidth}px`;
+  $("#heat-box").style.maxWidth = `${displayWidth}px`;
   for (const name of ["a", "b"]) {
     if (!parts[name]) continue;
     const img = $(`#image-${name}`);
-    img.style.width = `${displayWidth}px`;  // a draft frame (half size) is shown at full size
     show(img, parts[name]);
     img.dataset.id = header.id;
     img.dataset.quality = header.quality;
   }
   if (parts.heat) {
-    const heat = $("#heat");
-    heat.style.width = `${displayWidth}px`;
-    show(heat, parts.heat);
+    show($("#heat"), parts.heat);
     $("#heat-caption").textContent = `|A − B|, max over RGB: black 0, pale yellow ${header.difference.max.toPrecision(3)}` +
       ` (mean ${header.difference.mean.toPrecision(3)})`;
   } else if (header.difference) {
@@ -189,10 +189,16 @@ function refreshControls() {
   $("#shininess").nextElementSibling.textContent = shininess;
 }
 
+// The shading switch sets every object's own `shading` too: the default figure gives each sphere its own.
+function shadingKeys() {
+  return ["render.shading", ...state.hello.scene.objects.map((_, i) => `objects.${i}.shading`)];
+}
+
 function onHello(message) {
   state.hello = message;
   $("#source").textContent = message.source;
   $("#material").replaceChildren(...message.materials.map((name) => new Option(name, name)));
+  for (const key of shadingKeys()) state.settings.b[key] = "gouraud";
   refreshControls();
   request("full");
 }
@@ -209,8 +215,7 @@ function wire() {
   $("#shading").addEventListener("change", () => {
     const mine = state.settings[state.editing];
     const model = $("#shading").value;
-    const keys = ["render.shading", ...state.hello.scene.objects.map((_, i) => `objects.${i}.shading`)];
-    for (const key of keys) {
+    for (const key of shadingKeys()) {
       if (model) mine[key] = model; else delete mine[key];  // "as the scene says": the file's own choices
     }
     request("full");
