@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import secrets
 import socket
-import sys
+import threading
 import webbrowser
+from contextlib import contextmanager
 from pathlib import Path
 
 from .server import Source, create_app, open_source
 
-__all__ = ["Source", "create_app", "open_source", "serve", "bind"]
+__all__ = ["Source", "bind", "create_app", "open_source", "running", "serve"]
 
 
 def bind(host: str, port: int) -> socket.socket:
@@ -36,6 +37,34 @@ def origins_for(host: str, port: int) -> list[str]:
     return sorted(f"http://{shown(name)}:{port}" for name in names)
 
 
+def server_config(app):
+    import uvicorn
+    # ws_max_size: the page's messages are small settings tables; refuse a flood at the protocol level.
+    return uvicorn.Config(app, log_level="warning", ws_max_size=1 << 16, ws_ping_interval=None)
+
+
+@contextmanager
+def running(path: str | Path | None, host: str = "127.0.0.1", port: int = 0, token: str | None = None, **options):
+    """Serve the view on a background thread (tests, the benchmark, the screenshots); yields the page's URL."""
+    import uvicorn
+    token = token or secrets.token_urlsafe(32)
+    sock = bind(host, port)
+    port = sock.getsockname()[1]
+    app = create_app(open_source(path), token, origins_for(host, port), **options)
+    server = uvicorn.Server(server_config(app))
+    thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
+    thread.start()
+    try:
+        while not server.started and thread.is_alive():
+            threading.Event().wait(0.01)
+        yield f"http://{host}:{port}/?token={token}"
+    finally:
+        server.should_exit = True
+        thread.join(30)
+        sock.close()
+        app.state.executor.shutdown(wait=False, cancel_futures=True)
+
+
 def serve(path: str | Path | None, host: str = "127.0.0.1", port: int = 8765, open_browser: bool = True,
           announce=print, token: str | None = None) -> None:
     """Serve the view of `path` (scene, mesh, or None for the default scene) until interrupted."""
@@ -50,9 +79,8 @@ def serve(path: str | Path | None, host: str = "127.0.0.1", port: int = 8765, op
     announce(url)
     if open_browser:
         webbrowser.open(url)
-    config = uvicorn.Config(app, log_level="warning", ws_max_size=1 << 16, ws_ping_interval=None)
     try:
-        uvicorn.Server(config).run(sockets=[sock])
+        uvicorn.Server(server_config(app)).run(sockets=[sock])
     finally:
         sock.close()
         app.state.executor.shutdown(wait=False, cancel_futures=True)
