@@ -286,3 +286,14 @@ def test_view_command_warns_when_not_bound_to_loopback(monkeypatch):
     monkeypatch.setattr(live, "serve", lambda *args, **kwargs: None)  # only the warning is under test
     result = CliRunner().invoke(cli_app, ["view", "--host", "0.0.0.0", "--no-browser"])
     assert result.exit_code == 0 and "reachable from other machines" in result.output
+
+
+def test_benchmark_script_runs_in_a_reduced_form():
+    """bench_view.py is not a timed test; this keeps the script working (tiny frame, few requests)."""
+    root = Path(__file__).resolve().parent.parent
+    done = subprocess.run([sys.executable, str(root / "benchmarks" / "bench_view.py"), "--size", "64x36",
+                           "--steps", "2", "--rate", "20", "--seconds", "0.5"], capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "at 64×36 (draft 32×18)" in done.stdout and "step, draft: change→image" in done.stdout
+    assert "10 moves at 20 Hz" in done.stdout

@@ -62,7 +62,8 @@ def running(path: str | Path | None, host: str = "127.0.0.1", port: int = 0, tok
         server.should_exit = True
         thread.join(30)
         sock.close()
-        app.state.executor.shutdown(wait=False, cancel_futures=True)
+        for pool in (app.state.executor, app.state.reference_executor):
+            pool.shutdown(wait=False, cancel_futures=True)
 
 
 def serve(path: str | Path | None, host: str = "127.0.0.1", port: int = 8765, open_browser: bool = True,
@@ -83,4 +84,5 @@ def serve(path: str | Path | None, host: str = "127.0.0.1", port: int = 8765, op
         uvicorn.Server(server_config(app)).run(sockets=[sock])
     finally:
         sock.close()
-        app.state.executor.shutdown(wait=False, cancel_futures=True)
+        for pool in (app.state.executor, app.state.reference_executor):
+            pool.shutdown(wait=False, cancel_futures=True)

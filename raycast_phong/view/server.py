@@ -329,11 +329,13 @@ class Renderer:
 
 @dataclass
 class Client:
-    """One socket's queue: at most one waiting render (latest wins) and one waiting save."""
+    """One socket's queue: at most one waiting render (latest wins), one waiting save, one waiting reference."""
     pending: dict | None = None
     pending_save: dict | None = None
     wake: asyncio.Event = field(default_factory=asyncio.Event)
     dropped: int = 0
+    reference_next: dict | None = None        # the newest full frame whose exact errors are still owed
+    reference_task: asyncio.Task | None = None
 
 
 def create_app(source: Source, token: str, origins: list[str], *, render: Callable | None = None,
@@ -342,6 +344,7 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
     folder = Path(tempfile.mkdtemp(prefix="raycast-phong-view-"))
     renderer = Renderer(source, folder, render)
     executor = executor or ThreadPoolExecutor(max_workers=1, thread_name_prefix="view-render")
+    reference_executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="view-reference")
     hosts = sorted({o.split("://", 1)[1].rsplit(":", 1)[0].strip("[]") for o in origins})
 
     def authorised(connection) -> bool:
@@ -397,6 +400,8 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
             pass  # the page closed (or sent a binary frame: receive_text's KeyError); nothing is owed to it
         finally:
             worker.cancel()
+            if client.reference_task is not None:
+                client.reference_task.cancel()
 
     async def work(websocket: WebSocket, client: Client) -> None:
         loop = asyncio.get_running_loop()
@@ -419,17 +424,30 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
                                                           f"internal error: {type(error).__name__}: {error}"}))
                     continue
                 await websocket.send_bytes(reply)
-                # The exact reference costs more than a frame: only for a full frame, only when no newer waits.
-                if is_frame and request.get("quality", "full") == "full" and request.get("reference") \
-                        and client.pending is None:
+                if is_frame and request.get("quality", "full") == "full" and request.get("reference"):
                     moved = unpack(reply)[0].get("moved", {})
-                    errors = await loop.run_in_executor(executor, renderer.errors, {**request, "moved": moved})
-                    if errors is not None:
-                        await websocket.send_text(json.dumps(errors))
+                    client.reference_next = {**request, "moved": moved}  # latest wins here too
+                    if client.reference_task is None or client.reference_task.done():
+                        client.reference_task = asyncio.create_task(measure(websocket, client))
+
+    async def measure(websocket: WebSocket, client: Client) -> None:
+        """The exact errors of the newest full frame, on their own thread: the reference costs several frames'
+        time, and the next frame must not wait for it."""
+        loop = asyncio.get_running_loop()
+        while client.reference_next is not None:
+            request, client.reference_next = client.reference_next, None
+            try:
+                errors = await loop.run_in_executor(reference_executor, renderer.errors, request)
+            except Exception as error:  # the frame was fine; say why its errors are missing and go on
+                errors = {"type": "error", "id": request.get("id"), "message": f"exact reference: {error}"}
+            if errors is not None:
+                await websocket.send_text(json.dumps(errors))
 
     routes = [Route("/", index), Mount("/static", app=static), WebSocketRoute("/socket", socket)]
     app = Starlette(routes=routes, middleware=[Middleware(TrustedHostMiddleware, allowed_hosts=hosts)])
-    app.state.executor, app.state.renderer = executor, renderer
+    app.state.executor, app.state.reference_executor, app.state.renderer = executor, reference_executor, renderer
+    # Load the kernels (a second or more from numba's cache) before the page asks for its first frame.
+    executor.submit(rp.render, draft_of(scene_with(source, {})), source=source.name)
     return app
 
 

@@ -16,7 +16,7 @@ const state = {
   urls: {},        // object URLs on screen, revoked when replaced
   lastFrame: null, // header of the frame on screen (tests read it)
 };
-window.view = state;
+window.view = state;  // for the browser tests and the screenshot script
 
 // ------------------------------------------------------------------ socket
 
@@ -69,6 +69,7 @@ function request(quality, drag) {
   });
   return id;
 }
+state.request = request;
 
 // ------------------------------------------------------------------ frames
 
@@ -84,8 +85,9 @@ function onFrame(header, parts) {
   state.shownId = header.id;
   // A draft frame (half size) is shown at the full frame's size; side by side, each gets half the room.
   const displayWidth = state.hello.scene.render.width;
-  $("#stage").style.maxWidth = `${state.compare === "side" ? 2 * displayWidth + 8 : displayWidth}px`;
-  $("#heat-box").style.maxWidth = `${displayWidth}px`;
+  const stageWidth = `${state.compare === "side" ? 2 * displayWidth + 8 : displayWidth}px`;
+  $("#stage").style.maxWidth = stageWidth;
+  $("#wipe").style.maxWidth = stageWidth;
   for (const name of ["a", "b"]) {
     if (!parts[name]) continue;
     const img = $(`#image-${name}`);
@@ -286,8 +288,13 @@ function wire() {
 }
 
 function wipe() {
-  const share = state.compare === "wipe" ? Number($("#wipe").value) : 0;
+  const share = Number($("#wipe").value);
   $("#image-b").style.clipPath = state.compare === "wipe" ? `inset(0 0 0 ${share}%)` : "";
+  $("#wipe-line").hidden = state.compare !== "wipe";
+  $("#wipe-line").style.left = `${share}%`;
 }
+
+// The heat map is shown at the size of one image, whatever the layout.
+new ResizeObserver(() => { $("#heat").style.width = `${$("#image-a").clientWidth}px`; }).observe($("#image-a"));
 
 wire();
