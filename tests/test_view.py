@@ -297,3 +297,16 @@ def test_benchmark_script_runs_in_a_reduced_form():
     assert done.returncode == 0, done.stderr
     assert "at 64×36 (draft 32×18)" in done.stdout and "step, draft: change→image" in done.stdout
     assert "10 moves at 20 Hz" in done.stdout
+
+
+def test_a_mesh_file_is_framed_lit_and_rendered(tmp_path):
+    """`view MESH`: the camera looks at the mesh's bounding box centre and the whole mesh is in the frame."""
+    mesh = Path(__file__).resolve().parent.parent / "scenes" / "meshes" / "torus_knot.ply"
+    with connect(client_for(mesh)) as ws:
+        hello = json.loads(ws.receive_text())
+        ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "full"}))
+        header, parts = receive_frame(ws)
+    assert hello["analytic"] is False and hello["scene"]["objects"][0]["shape"] == "mesh"
+    image = decode_png(parts["a"], tmp_path)
+    covered = image.max(axis=2) > 0
+    assert covered.any() and not (covered[0].any() or covered[-1].any() or covered[:, 0].any() or covered[:, -1].any())
