@@ -310,3 +310,15 @@ def test_a_mesh_file_is_framed_lit_and_rendered(tmp_path):
     image = decode_png(parts["a"], tmp_path)
     covered = image.max(axis=2) > 0
     assert covered.any() and not (covered[0].any() or covered[-1].any() or covered[:, 0].any() or covered[:, -1].any())
+
+
+def test_view_command_on_a_busy_port_fails_in_one_line(monkeypatch):
+    import socket
+    monkeypatch.delenv("RAYCAST_PHONG_DEBUG", raising=False)
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen(1)
+        port = taken.getsockname()[1]
+        result = CliRunner().invoke(cli_app, ["view", "--port", str(port), "--no-browser"])
+    assert result.exit_code == 2
+    assert result.output.strip().count("\n") == 0 and f"cannot listen on 127.0.0.1:{port}" in result.output

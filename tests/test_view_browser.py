@@ -196,3 +196,21 @@ def other_origin():
     finally:
         server.shutdown()
         server.server_close()
+
+
+def test_compare_shows_b_beside_a_with_the_heat_map(page, scene_path):
+    page.select_option("[data-key='render.specular']", "blinn")  # A changed before B exists: B starts from it
+    wait_for_full_frame(page)
+    page.select_option("#compare", "side")
+    wait_for_full_frame(page)
+    assert page.is_visible("#image-b") and page.is_visible("#heat") and not page.is_visible("#wipe")
+    b = rp.load_scene(scene_path, [*shading("gouraud"), 'render.specular="blinn"'])
+    np.testing.assert_array_equal(page_image(page, "#image-b"), to_8bit(rp.render(b).image))
+    assert page_image(page, "#heat").shape == (HEIGHT, WIDTH, 3)
+    assert "pale yellow" in page.text_content("#heat-caption")
+    page.select_option("#compare", "wipe")
+    wait_for_full_frame(page)
+    assert page.is_visible("#wipe") and page.is_visible("#wipe-line")
+    page.fill("#wipe", "30")
+    page.dispatch_event("#wipe", "input")
+    assert page.evaluate("document.querySelector('#image-b').style.clipPath") == "inset(0px 0px 0px 30%)"

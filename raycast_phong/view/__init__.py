@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import secrets
+import shutil
 import socket
 import threading
 import webbrowser
@@ -37,6 +38,13 @@ def origins_for(host: str, port: int) -> list[str]:
     return sorted(f"http://{shown(name)}:{port}" for name in names)
 
 
+def close(app) -> None:
+    """Stop the app's render threads and remove its scratch folder."""
+    for pool in (app.state.executor, app.state.reference_executor):
+        pool.shutdown(wait=False, cancel_futures=True)
+    shutil.rmtree(app.state.folder, ignore_errors=True)
+
+
 def server_config(app):
     import uvicorn
     # ws_max_size: the page's messages are small settings tables; refuse a flood at the protocol level.
@@ -62,8 +70,7 @@ def running(path: str | Path | None, host: str = "127.0.0.1", port: int = 0, tok
         server.should_exit = True
         thread.join(30)
         sock.close()
-        for pool in (app.state.executor, app.state.reference_executor):
-            pool.shutdown(wait=False, cancel_futures=True)
+        close(app)
 
 
 def serve(path: str | Path | None, host: str = "127.0.0.1", port: int = 8765, open_browser: bool = True,
@@ -84,5 +91,4 @@ def serve(path: str | Path | None, host: str = "127.0.0.1", port: int = 8765, op
         uvicorn.Server(server_config(app)).run(sockets=[sock])
     finally:
         sock.close()
-        for pool in (app.state.executor, app.state.reference_executor):
-            pool.shutdown(wait=False, cancel_futures=True)
+        close(app)

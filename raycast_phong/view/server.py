@@ -446,6 +446,7 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
     routes = [Route("/", index), Mount("/static", app=static), WebSocketRoute("/socket", socket)]
     app = Starlette(routes=routes, middleware=[Middleware(TrustedHostMiddleware, allowed_hosts=hosts)])
     app.state.executor, app.state.reference_executor, app.state.renderer = executor, reference_executor, renderer
+    app.state.folder = folder  # scratch files of the PNG/EXR encoder; removed by view.close
     # Load the kernels (a second or more from numba's cache) before the page asks for its first frame.
     executor.submit(rp.render, draft_of(scene_with(source, {})), source=source.name)
     return app

@@ -6,7 +6,8 @@ const token = new URLSearchParams(location.search).get("token") || "";
 const $ = (selector) => document.querySelector(selector);
 const state = {
   hello: null,
-  settings: { a: {}, b: {} },  // B starts as A in Gouraud shading (onHello): the lecture's contrast
+  settings: { a: {}, b: {} },  // B is set from A when a comparison is first asked for
+  bStarted: false,
   editing: "a",
   level: { a: null, b: null },  // the tessellation slider's level, or null: as the scene says
   compare: "off",
@@ -200,7 +201,6 @@ function onHello(message) {
   state.hello = message;
   $("#source").textContent = message.source;
   $("#material").replaceChildren(...message.materials.map((name) => new Option(name, name)));
-  for (const key of shadingKeys()) state.settings.b[key] = "gouraud";
   refreshControls();
   request("full");
 }
@@ -248,8 +248,15 @@ function wire() {
   });
   shininess.addEventListener("change", () => request("full"));
   $("#compare").addEventListener("change", () => {
+    const on = $("#compare").value !== "off";
+    if (on && state.compare === "off" && !state.bStarted) {
+      // B starts as A is now, with every object in Gouraud shading: the lecture's contrast.
+      state.settings.b = { ...state.settings.a };
+      for (const key of shadingKeys()) state.settings.b[key] = "gouraud";
+      state.level.b = state.level.a;
+      state.bStarted = true;
+    }
     state.compare = $("#compare").value;
-    const on = state.compare !== "off";
     $("#panel-b").hidden = !on;
     $("#heat-box").hidden = !on;
     $("#wipe").hidden = state.compare !== "wipe";
