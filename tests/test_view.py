@@ -139,6 +139,10 @@ def test_page_values_are_data_for_the_schema_only(scene_path, settings, says):
         assert answer["type"] == "error" and says in answer["message"], answer
         ws.send_text("not json")
         assert "not JSON" in json.loads(ws.receive_text())["message"]
+        for malformed in ({"settings": [1, 2]}, {"compare": "x"}, {"drag": {"light": "0"}}, {"quality": "best"}):
+            ws.send_text(json.dumps({"type": "render", "id": 8, **malformed}))
+            answer = json.loads(ws.receive_text())
+            assert answer["type"] == "error" and "internal" not in answer["message"], (malformed, answer)
 
 
 # ---------------------------------------------------------------- frames

@@ -227,6 +227,14 @@ def unpack(message: bytes) -> tuple[dict, dict[str, bytes]]:
     return header, parts
 
 
+def settings_of(request: dict, key: str = "settings") -> dict:
+    """A request's table of settings (a copy), refused in one line if it is not a table."""
+    value = request.get(key) or {}
+    if not isinstance(value, dict):
+        raise ViewError(f"{key} must be a table of KEY.PATH: value")
+    return dict(value)
+
+
 def left_out(plan) -> list[dict]:
     return [{"name": s.name, "reason": s.reason} for s in plan.stages if not s.kept]
 
@@ -248,21 +256,21 @@ class Renderer:
         quality = request.get("quality", "full")
         if quality not in ("draft", "full"):
             raise ViewError(f"quality: {quality!r}; allowed: 'draft' or 'full'")
-        settings = dict(request.get("settings") or {})
+        settings = settings_of(request)
         header: dict = {"type": "frame", "id": request.get("id"), "quality": quality}
         drag = request.get("drag")
         if drag is not None:
             if not isinstance(drag, dict):
                 raise ViewError("drag must be a table {light, u, v}")
             light = drag.get("light", 0)
-            if not isinstance(light, int):
+            if not isinstance(light, int) or isinstance(light, bool):
                 raise ViewError("drag.light must be a light's index")
             position = light_on_plane(scene_with(self.source, settings), light, drag.get("u"), drag.get("v"))
             settings[f"lights.{light}.position"] = position
             header["moved"] = {f"lights.{light}.position": position}
         scenes = {"a": scene_with(self.source, settings)}
         if request.get("compare") is not None:
-            compare = dict(request["compare"])
+            compare = settings_of(request, "compare")
             compare.update(header.get("moved", {}))  # a dragged light moves in both
             scenes["b"] = scene_with(self.source, compare)
         shaped = draft_of if quality == "draft" else frame_of
@@ -294,7 +302,7 @@ class Renderer:
         """RMSE, max error and highlight loss of A against the exact surfaces; None for a mesh scene."""
         from raycast_phong.reference import ExactScene
         from raycast_phong.render import measured
-        scene = frame_of(scene_with(self.source, dict(request.get("settings") or {}) | request.get("moved", {})))
+        scene = frame_of(scene_with(self.source, settings_of(request) | request.get("moved", {})))
         try:
             ExactScene(scene, self.source.name)
         except SceneError:
@@ -312,7 +320,7 @@ class Renderer:
     def save(self, request: dict) -> bytes:
         """The current settings as a scene file (toml), or the full-resolution image (png, exr with layers)."""
         what = request.get("what")
-        scene = scene_with(self.source, dict(request.get("settings") or {}))
+        scene = scene_with(self.source, settings_of(request))
         stem = Path(self.source.name).stem or "scene"
         if what == "toml":
             data = scene_toml(scene).encode("utf-8")
