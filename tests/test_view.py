@@ -239,7 +239,7 @@ def test_a_saved_scene_renders_to_the_frame_shown(scene_path, tmp_path):
         ws.receive_text()
         ws.send_text(json.dumps({"type": "render", "id": 1, "settings": settings}))
         _, frame = receive_frame(ws)
-        for what in ("toml", "exr"):
+        for what in ("toml", "exr", "png"):
             ws.send_text(json.dumps({"type": "save", "id": 2, "what": what, "settings": settings}))
             header, parts = unpack(ws.receive_bytes())
             assert header["type"] == "saved" and header["filename"] == f"tiny-view.{what}"
@@ -247,6 +247,7 @@ def test_a_saved_scene_renders_to_the_frame_shown(scene_path, tmp_path):
     saved = rp.load_scene(tmp_path / "tiny-view.toml")
     np.testing.assert_array_equal(rendered_png(saved), decode_png(frame["a"], tmp_path))
     np.testing.assert_array_equal(rp.read_image(tmp_path / "tiny-view.exr")[0], rp.render(saved).image)
+    assert (tmp_path / "tiny-view.png").read_bytes() == frame["a"]  # the same bytes as the frame shown
 
 
 # ---------------------------------------------------------------- the command

@@ -47,7 +47,7 @@ MAX_MESSAGE_BYTES = 1 << 16   # a page message is a few hundred bytes of setting
 MAX_SETTINGS = 256            # keys per request: far more than the page has controls
 MAX_VIEW_RAYS = 1920 * 1080 * 16  # rays per frame: ~2 s here; a larger frame is a batch job, not a view
 LEVELS = range(0, 7)          # tessellation levels the page offers (reference.refined: level 6 = 81,920 faces)
-COOKIE = "raycast_phong_view"
+COOKIE = "raycast_phong_view_{port}"  # cookies ignore the port: one name per server, as Jupyter's
 
 
 class ViewError(ValueError):
@@ -356,7 +356,7 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
     hosts = sorted({o.split("://", 1)[1].rsplit(":", 1)[0].strip("[]") for o in origins})
 
     def authorised(connection) -> bool:
-        given = connection.query_params.get("token") or connection.cookies.get(COOKIE) or ""
+        given = connection.query_params.get("token") or connection.cookies.get(cookie_name(connection)) or ""
         return secrets.compare_digest(given.encode(), token.encode())
 
     def refused() -> Response:
@@ -368,7 +368,7 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
             return refused()
         response = FileResponse(STATIC / "index.html", headers={"Cache-Control": "no-store"})
         # The page's own files (script, style) then come with the cookie, as Jupyter's do.
-        response.set_cookie(COOKIE, token, httponly=True, samesite="strict")
+        response.set_cookie(cookie_name(request), token, httponly=True, samesite="strict")
         return response
 
     static_files = StaticFiles(directory=STATIC)
@@ -458,6 +458,10 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
     # Load the kernels (a second or more from numba's cache) before the page asks for its first frame.
     executor.submit(rp.render, draft_of(scene_with(source, {})), source=source.name)
     return app
+
+
+def cookie_name(connection) -> str:
+    return COOKIE.format(port=connection.url.port or 80)
 
 
 def parse(text: str) -> dict:
