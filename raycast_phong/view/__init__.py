@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import secrets
-import shutil
 import socket
 import threading
 import webbrowser
@@ -39,10 +38,9 @@ def origins_for(host: str, port: int) -> list[str]:
 
 
 def close(app) -> None:
-    """Stop the app's render threads and remove its scratch folder."""
+    """Stop the app's render threads."""
     for pool in (app.state.executor, app.state.reference_executor):
         pool.shutdown(wait=False, cancel_futures=True)
-    shutil.rmtree(app.state.folder, ignore_errors=True)
 
 
 def server_config(app):

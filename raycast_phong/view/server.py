@@ -22,7 +22,6 @@ import secrets
 import struct
 import tempfile
 import time
-import uuid
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -198,14 +197,13 @@ def scene_toml(scene: rp.Scene) -> str:
 
 # ---------------------------------------------------------------- frames
 
-def encode(image: np.ndarray, suffix: str, folder: Path, aovs: dict | None = None) -> bytes:
-    """An image as the bytes of the file `raycast-phong render -o x.png|.exr` would write."""
-    path = folder / f"{uuid.uuid4().hex}{suffix}"
-    try:
+def encode(image: np.ndarray, suffix: str, aovs: dict | None = None) -> bytes:
+    """An image as the bytes of the file `raycast-phong render -o x.png|.exr` would write (image_io writes
+    only files: one scratch folder per call, removed at once)."""
+    with tempfile.TemporaryDirectory(prefix="raycast-phong-view-") as folder:
+        path = Path(folder) / f"image{suffix}"
         rp.write_image(path, image, aovs)
         return path.read_bytes()
-    finally:
-        path.unlink(missing_ok=True)
 
 
 def pack(header: dict, parts: list[tuple[str, bytes]]) -> bytes:
@@ -243,7 +241,6 @@ def left_out(plan) -> list[dict]:
 class Renderer:
     """Turns one request into one reply; runs on the view's worker thread."""
     source: Source
-    folder: Path
     render: Callable[..., Any] = None  # rp.render; a test may wrap it (to hold a render while it sends more)
 
     def __post_init__(self):
@@ -280,7 +277,7 @@ class Renderer:
             if name == "a" and quality == "full":
                 self.last_full = (request.get("id"), result)  # errors() measures this image, not a new one
             images[name] = result.image
-            parts.append((name, encode(result.image, ".png", self.folder)))
+            parts.append((name, encode(result.image, ".png")))
             stats[name] = {"frame": result.timings["frame"], "rays_per_second": result.rays_per_second,
                            "rays": result.rays, "triangles": result.triangles, "left_out": left_out(result.plan),
                            "warnings": list(result.plan.warnings),
@@ -291,7 +288,7 @@ class Renderer:
                 diff = difference(images["a"], images["b"])
                 scale = float(diff.max())
                 header["difference"] = {"max": scale, "mean": float(diff.mean())}
-                parts.append(("heat", encode(heat_map(diff, scale), ".png", self.folder)))
+                parts.append(("heat", encode(heat_map(diff, scale), ".png")))
             else:
                 header["difference"] = {"note": "A and B differ in size; no heat map"}
         header["stats"] = stats
@@ -326,7 +323,7 @@ class Renderer:
             data = scene_toml(scene).encode("utf-8")
         elif what in ("png", "exr"):
             result = self.render(scene if what == "exr" else frame_of(scene), source=self.source.name)
-            data = encode(result.image, f".{what}", self.folder, result.aovs if what == "exr" else None)
+            data = encode(result.image, f".{what}", result.aovs if what == "exr" else None)
         else:
             raise ViewError(f"save: {what!r}; allowed: 'toml', 'png' or 'exr'")
         return pack({"type": "saved", "id": request.get("id"), "what": what, "filename": f"{stem}-view.{what}"},
@@ -349,8 +346,7 @@ class Client:
 def create_app(source: Source, token: str, origins: list[str], *, render: Callable | None = None,
                executor: ThreadPoolExecutor | None = None) -> Starlette:
     """The view's Starlette app. `origins` are the page's own (scheme://host:port); the socket accepts no other."""
-    folder = Path(tempfile.mkdtemp(prefix="raycast-phong-view-"))
-    renderer = Renderer(source, folder, render)
+    renderer = Renderer(source, render)
     executor = executor or ThreadPoolExecutor(max_workers=1, thread_name_prefix="view-render")
     reference_executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="view-reference")
     hosts = sorted({o.split("://", 1)[1].rsplit(":", 1)[0].strip("[]") for o in origins})
@@ -454,7 +450,6 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
     routes = [Route("/", index), Mount("/static", app=static), WebSocketRoute("/socket", socket)]
     app = Starlette(routes=routes, middleware=[Middleware(TrustedHostMiddleware, allowed_hosts=hosts)])
     app.state.executor, app.state.reference_executor, app.state.renderer = executor, reference_executor, renderer
-    app.state.folder = folder  # scratch files of the PNG/EXR encoder; removed by view.close
     # Load the kernels (a second or more from numba's cache) before the page asks for its first frame.
     executor.submit(rp.render, draft_of(scene_with(source, {})), source=source.name)
     return app
