@@ -115,8 +115,13 @@ def test_a_signal_stops_the_workers_at_once_and_the_manifest_tells_the_truth(tmp
     count = 16
     folder, out = slow_scenes(tmp_path / "scenes", count), tmp_path / "out"
     process = start_batch(folder, out, jobs=jobs)
-    written = wait_for_first_image(process, out)
+    wait_for_first_image(process, out)
+    # Freeze the whole batch (its session is its process group) while counting, so a stall of this test
+    # process on a loaded machine cannot let scenes finish between the count and the signal.
+    os.killpg(process.pid, signal.SIGSTOP)
+    written = len(images(out))
     os.kill(process.pid, number)
+    os.killpg(process.pid, signal.SIGCONT)
     _, stderr = process.communicate(timeout=60)
     assert process.returncode == 128 + number, stderr
     assert wait_until_gone(process.pid) == []

@@ -1,0 +1,86 @@
+"""Screenshots of `raycast-phong view` for docs/view.md, taken with Playwright in Debian's headless Chromium.
+
+Usage: python docs/figures/make_view_screenshots.py   (writes docs/images/view-*.png)
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from playwright.sync_api import sync_playwright
+
+from raycast_phong.view import running
+
+ROOT = Path(__file__).resolve().parents[2]
+IMAGES = ROOT / "docs" / "images"
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+        "--disable-component-update", "--disable-sync", "--no-first-run"]
+
+
+def settle(page, errors: bool = False) -> None:
+    """Wait for the full frame of the newest request (and, if asked, its exact errors)."""
+    sent = page.evaluate("window.view.nextId - 1")
+    page.wait_for_function("""(sent) => { const img = document.querySelector('#image-a');
+        return img.dataset.quality === 'full' && Number(img.dataset.id) >= sent && img.complete; }""",
+                           arg=sent, timeout=120_000)
+    if errors:
+        page.wait_for_function("document.querySelector('#exact').textContent.startsWith('RMSE')", timeout=120_000)
+
+
+def drag(page, points: list[tuple[float, float]]) -> None:
+    """Drag on image A through image points (u, v) ∈ [0, 1]², then release."""
+    box = page.locator("#image-a").bounding_box()
+    at = [(box["x"] + u * box["width"], box["y"] + v * box["height"]) for u, v in points]
+    page.mouse.move(*at[0])
+    page.mouse.down()
+    for x, y in at[1:]:
+        page.mouse.move(x, y, steps=4)
+    page.mouse.up()
+
+
+def main() -> None:
+    with sync_playwright() as driver:
+        browser = driver.chromium.launch(executable_path="/usr/bin/chromium", args=ARGS)
+        page = browser.new_page(viewport={"width": 1320, "height": 860})
+
+        os.chdir(ROOT)  # the page names the scene as given: a short relative path
+        with running(Path("scenes/default.toml")) as url:  # the default figure: flat, Gouraud, Phong spheres
+            page.goto(url)
+            settle(page)
+            page.evaluate("window.view.request('full')")  # a second frame: the kernels are loaded by now
+            settle(page, errors=True)
+            page.screenshot(path=IMAGES / "view-overview.png")
+            page.select_option("#compare", "side")
+            settle(page, errors=True)
+            page.screenshot(path=IMAGES / "view-compare.png")
+
+        with running(Path("scenes/specular.toml")) as url:
+            page.goto(url)
+            settle(page)
+            page.select_option("#compare", "wipe")
+            page.select_option("#editing", "b")
+            page.select_option("#shading", "phong")  # B: Phong shading (not the page's Gouraud start) …
+            page.select_option("[data-key='render.specular']", "blinn")  # … with Blinn's specular term
+            settle(page)
+            page.fill("#wipe", "45")
+            page.dispatch_event("#wipe", "input")
+            page.locator("#viewer").screenshot(path=IMAGES / "view-wipe.png")
+
+        with running(Path("scenes/default.toml")) as url:  # drag the light over the three spheres
+            page.goto(url)
+            settle(page)
+            path = [(0.75, 0.2), (0.5, 0.35), (0.3, 0.5), (0.15, 0.7)]
+            for index, end in enumerate(path[1:], start=1):
+                drag(page, [path[index - 1], end])
+                settle(page)
+                page.locator("#stage").screenshot(path=IMAGES / f"view-drag-{index}.png")
+            page.evaluate("window.view.settings.a['materials.clay.shininess'] = -1")
+            page.select_option("[data-key='render.specular']", "blinn")
+            page.wait_for_selector("#error:not([hidden])")
+            page.screenshot(path=IMAGES / "view-error.png", clip={"x": 0, "y": 0, "width": 1320, "height": 260})
+        browser.close()
+
+
+if __name__ == "__main__":
+    main()

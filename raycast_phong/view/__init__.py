@@ -1,0 +1,92 @@
+"""`raycast-phong view`: a local web page that re-renders a scene live (server.py; the page is in static/)."""
+
+from __future__ import annotations
+
+import secrets
+import socket
+import threading
+import webbrowser
+from contextlib import contextmanager
+from pathlib import Path
+
+from .server import Source, create_app, open_source
+
+__all__ = ["Source", "bind", "create_app", "open_source", "running", "serve"]
+
+
+def bind(host: str, port: int) -> socket.socket:
+    """A listening socket on host:port (port 0: a free one), so the URL can name the real port."""
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    sock = socket.socket(family, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind((host, port))
+    except OSError as error:
+        sock.close()
+        raise OSError(f"cannot listen on {host}:{port} ({error.strerror or error}); choose another --port, "
+                      "or --port 0 for any free one") from None
+    sock.listen(64)
+    sock.set_inheritable(True)
+    return sock
+
+
+def origins_for(host: str, port: int) -> list[str]:
+    """The page's origins the socket accepts: the address it is served on (and localhost for 127.0.0.1)."""
+    names = {host} | ({"localhost", "127.0.0.1"} if host in ("127.0.0.1", "localhost") else set())
+    shown = lambda name: f"[{name}]" if ":" in name else name  # an IPv6 address in a URL
+    return sorted(f"http://{shown(name)}:{port}" for name in names)
+
+
+def close(app) -> None:
+    """Stop the app's render threads."""
+    for pool in (app.state.executor, app.state.reference_executor):
+        pool.shutdown(wait=False, cancel_futures=True)
+
+
+def server_config(app):
+    import uvicorn
+    # ws_max_size: the page's messages are small settings tables; refuse a flood at the protocol level.
+    return uvicorn.Config(app, log_level="warning", ws_max_size=1 << 16, ws_ping_interval=None)
+
+
+@contextmanager
+def running(path: str | Path | None, host: str = "127.0.0.1", port: int = 0, token: str | None = None, **options):
+    """Serve the view on a background thread (tests, the benchmark, the screenshots); yields the page's URL."""
+    import uvicorn
+    token = token or secrets.token_urlsafe(32)
+    sock = bind(host, port)
+    port = sock.getsockname()[1]
+    app = create_app(open_source(path), token, origins_for(host, port), **options)
+    server = uvicorn.Server(server_config(app))
+    thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
+    thread.start()
+    try:
+        while not server.started and thread.is_alive():
+            threading.Event().wait(0.01)
+        yield f"http://{host}:{port}/?token={token}"
+    finally:
+        server.should_exit = True
+        thread.join(30)
+        sock.close()
+        close(app)
+
+
+def serve(path: str | Path | None, host: str = "127.0.0.1", port: int = 8765, open_browser: bool = True,
+          announce=print, token: str | None = None) -> None:
+    """Serve the view of `path` (scene, mesh, or None for the default scene) until interrupted."""
+    import uvicorn
+    source = open_source(path)
+    token = token or secrets.token_urlsafe(32)
+    sock = bind(host, port)
+    port = sock.getsockname()[1]
+    app = create_app(source, token, origins_for(host, port))
+    shown = f"[{host}]" if ":" in host else host
+    url = f"http://{shown}:{port}/?token={token}"
+    announce(url)
+    if open_browser:
+        webbrowser.open(url)
+    try:
+        uvicorn.Server(server_config(app)).run(sockets=[sock])
+    finally:
+        sock.close()
+        close(app)

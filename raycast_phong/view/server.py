@@ -1,0 +1,493 @@
+"""`raycast-phong view`: a local page that re-renders one scene as a person changes its settings.
+
+The page sends settings as {dotted scene key: value}; each is applied to the scene file's table with
+scene.apply_override and the whole checked by validate_scene, exactly as `render --set` does, so a
+bad value is answered with the CLI's one-line message. Frames are rendered by rp.render on one worker
+thread and sent back as PNG (image_io.write_image, the CLI's own 8-bit encoding).
+
+Security (as Jupyter): a random token in the URL (then a same-site cookie for the page's own files)
+and on the socket; the socket's Origin must be the page's; only files inside static/ are served;
+page values are data for the scene schema only (never code, never a file path); one client holds
+at most one running and one pending render (latest wins: a newer request replaces a waiting one).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import copy
+import json
+import math
+import re
+import secrets
+import struct
+import tempfile
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+from starlette.applications import Starlette
+from starlette.middleware import Middleware
+from starlette.middleware.trustedhost import TrustedHostMiddleware
+from starlette.requests import Request
+from starlette.responses import FileResponse, PlainTextResponse, Response
+from starlette.routing import Mount, Route, WebSocketRoute
+from starlette.staticfiles import StaticFiles
+from starlette.websockets import WebSocket, WebSocketDisconnect
+
+import raycast_phong as rp
+from raycast_phong.scene import SceneError, apply_override, read_scene_dict
+from raycast_phong.sweep import toml_value
+
+STATIC = Path(__file__).parent / "static"
+MAX_MESSAGE_BYTES = 1 << 16   # a page message is a few hundred bytes of settings; refuse anything larger
+MAX_SETTINGS = 256            # keys per request: far more than the page has controls
+MAX_VIEW_RAYS = 1920 * 1080 * 16  # rays per frame: ~2 s here; a larger frame is a batch job, not a view
+LEVELS = range(0, 7)          # tessellation levels the page offers (reference.refined: level 6 = 81,920 faces)
+COOKIE = "raycast_phong_view_{port}"  # cookies ignore the port: one name per server, as Jupyter's
+
+
+class ViewError(ValueError):
+    """A request the view refuses; the message is one line, shown on the page."""
+
+
+# ---------------------------------------------------------------- scenes from page settings
+
+@dataclass
+class Source:
+    """The scene the view was started with: its parsed table, the name errors use, its folder."""
+    data: dict
+    name: str
+    folder: Path
+
+
+def open_source(path: str | Path | None) -> Source:
+    """A scene file (.toml/.json), a mesh file (framed by a camera and lit by one light), or the default scene;
+    validated now, so a bad file is refused before the server starts."""
+    path = Path(path) if path is not None else rp.default_scene_path()
+    if path.suffix.lower() in (".toml", ".json"):
+        source = Source(read_scene_dict(path), str(path), path.parent)
+    else:
+        source = Source(mesh_scene(path), str(path), path.parent)
+    scene_with(source, {})
+    return source
+
+
+def mesh_scene(path: Path) -> dict:
+    """A scene table that shows one mesh file: camera on +z framing its bounding sphere, a light above right."""
+    import trimesh
+    try:
+        mesh = trimesh.load(str(path), force="mesh")
+        lower, upper = np.asarray(mesh.bounds, np.float64)
+    except Exception as error:  # trimesh raises many kinds; the person only needs the file and the reason
+        raise SceneError(f"{path}: cannot read the mesh ({type(error).__name__}: {error})") from None
+    centre, radius = (lower + upper) / 2, max(float(np.linalg.norm(upper - lower)) / 2, 1e-9)
+    distance = radius / math.sin(math.radians(15))  # fov 30°: the bounding sphere just fits the height
+    return {
+        "render": {"width": 640, "height": 360},
+        "camera": {"position": (centre + [0, 0, distance]).tolist(), "look_at": centre.tolist(), "fov": 30},
+        "lights": [{"type": "point", "position": (centre + radius * np.array([2.0, 3.0, 4.0])).tolist()}],
+        "objects": [{"shape": "mesh", "path": str(path.resolve())}],
+    }
+
+
+KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.([A-Za-z0-9_-]+))*")
+# The page never changes a file path: a mesh path would let a page make the server read any file.
+PATH_KEYS = re.compile(r"(objects\.\d+\.path|output(\..*)?|folder)")
+
+
+def scene_with(source: Source, settings: dict) -> rp.Scene:
+    """The source scene with the page's settings applied and validated, as `render --set KEY=VALUE` would."""
+    if not isinstance(settings, dict):
+        raise ViewError("settings must be a table of KEY.PATH: value")
+    if len(settings) > MAX_SETTINGS:
+        raise ViewError(f"settings: {len(settings)} keys; allowed: at most {MAX_SETTINGS}")
+    data = copy.deepcopy(source.data)
+    for key, value in settings.items():
+        if not KEY.fullmatch(key):
+            raise ViewError(f"{source.name}: {key!r} is not a key path; expected names and list indices joined "
+                            "by dots, e.g. render.width")
+        if PATH_KEYS.fullmatch(key):
+            raise ViewError(f"{source.name}: {key}: the view does not change file paths or outputs; edit the "
+                            "scene file instead")
+        apply_override(data, f"{key}={toml_value(value)}", source=source.name)
+    scene = rp.validate_scene(data, source=source.name, folder=source.folder)
+    opts = scene.render
+    if opts.width * opts.height * opts.samples ** 2 > MAX_VIEW_RAYS:
+        raise ViewError(f"{source.name}: render.samples: {opts.width}×{opts.height} pixels × {opts.samples}² "
+                        f"samples is more than the view's {MAX_VIEW_RAYS:,} rays per frame; render it with "
+                        "`raycast-phong render` instead")
+    return scene
+
+
+def draft_of(scene: rp.Scene) -> rp.Scene:
+    """The frame shown while dragging: a quarter of the pixels (half each side), one sample, no layers."""
+    opts = scene.render
+    draft = opts.model_copy(update={"width": max(1, (opts.width + 1) // 2),
+                                    "height": max(1, (opts.height + 1) // 2), "samples": 1})
+    return scene.model_copy(update={"render": draft, "output": scene.output.model_copy(update={"aovs": ()})})
+
+
+def frame_of(scene: rp.Scene) -> rp.Scene:
+    """The scene as the view renders it at rest: every pixel and sample, no extra layers."""
+    return scene.model_copy(update={"output": scene.output.model_copy(update={"aovs": ()})})
+
+
+def light_on_plane(scene: rp.Scene, light: int, u: float, v: float) -> list[float]:
+    """Where a light goes when dragged to image point (u, v) ∈ [0, 1]² (u right, v down).
+
+    The light moves in the plane parallel to the image at its present depth along the view axis (at the
+    look_at point's depth if it is behind the eye), so dragging never pulls it toward or away from the
+    camera; the ray through (u, v) follows camera.py's raster convention.
+    """
+    from raycast_phong.camera import camera_rig
+    if not (0 <= light < len(scene.lights)) or scene.lights[light].type != "point":
+        raise ViewError(f"lights.{light}: only a point light can be dragged")
+    if not all(isinstance(x, (int, float)) and math.isfinite(x) for x in (u, v)):
+        raise ViewError("drag: u and v must be finite numbers")
+    rig = camera_rig(scene)
+    x, y = 2 * min(max(u, 0.0), 1.0) - 1, 1 - 2 * min(max(v, 0.0), 1.0)  # raster → screen, y up
+    sx, sy = x * rig.half_width, y * rig.half_height
+    depth = float(np.dot(np.asarray(scene.lights[light].position) - rig.eye, rig.forward))
+    if depth <= 0:
+        depth = float(np.dot(np.asarray(scene.camera.look_at) - rig.eye, rig.forward))
+    if rig.orthographic:
+        point = rig.eye + sx * rig.right + sy * rig.up + depth * rig.forward
+    else:
+        point = rig.eye + depth * (rig.forward + sx * rig.right + sy * rig.up)
+    return [round(float(c), 6) for c in point]
+
+
+# ---------------------------------------------------------------- a scene as a TOML file
+
+def toml_key(name: str) -> str:
+    """A TOML key: bare when it may be, else a quoted basic string."""
+    return name if re.fullmatch(r"[A-Za-z0-9_-]+", name) else json.dumps(name, ensure_ascii=False)
+
+
+def scene_toml(scene: rp.Scene) -> str:
+    """The validated scene as a scene file that load_scene reads back to the same Scene.
+
+    Every key is written with its value (defaults too, so the file does not depend on later defaults);
+    a mesh path is made absolute, since the file is saved somewhere else than the scene it came from.
+    """
+    data = scene.model_dump(mode="json", exclude={"folder"})
+    for obj, dumped in zip(scene.objects, data["objects"]):
+        if obj.path is not None:
+            dumped["path"] = str(scene.resolve(obj.path).resolve())
+
+    def table(values: dict) -> list[str]:
+        return [f"{toml_key(k)} = {toml_value(v)}" for k, v in values.items() if v is not None]
+
+    lines = ["# Saved by `raycast-phong view`; render it with `raycast-phong render THIS.toml`.", ""]
+    lines += table({"ambient": data["ambient"]})
+    for name in ("render", "camera"):
+        lines += ["", f"[{name}]", *table(data[name])]
+    for light in data["lights"]:
+        lines += ["", "[[lights]]", *table(light)]
+    for name, material in data["materials"].items():
+        lines += ["", f"[materials.{toml_key(name)}]", *table(material)]
+    for obj in data["objects"]:
+        lines += ["", "[[objects]]", *table(obj)]
+    lines += ["", "[output]", *table(data["output"])]
+    return "\n".join(lines) + "\n"
+
+
+# ---------------------------------------------------------------- frames
+
+def encode(image: np.ndarray, suffix: str, aovs: dict | None = None) -> bytes:
+    """An image as the bytes of the file `raycast-phong render -o x.png|.exr` would write (image_io writes
+    only files: one scratch folder per call, removed at once)."""
+    with tempfile.TemporaryDirectory(prefix="raycast-phong-view-") as folder:
+        path = Path(folder) / f"image{suffix}"
+        rp.write_image(path, image, aovs)
+        return path.read_bytes()
+
+
+def pack(header: dict, parts: list[tuple[str, bytes]]) -> bytes:
+    """One binary socket message: uint32 LE header length, the JSON header (with each part's name and
+    length), then the parts' bytes in order."""
+    header = {**header, "parts": [{"name": name, "length": len(data)} for name, data in parts]}
+    text = json.dumps(header).encode("utf-8")
+    return struct.pack("<I", len(text)) + text + b"".join(data for _, data in parts)
+
+
+def unpack(message: bytes) -> tuple[dict, dict[str, bytes]]:
+    """The inverse of pack (for tests and the benchmark)."""
+    (length,) = struct.unpack_from("<I", message)
+    header = json.loads(message[4:4 + length])
+    parts, at = {}, 4 + length
+    for part in header["parts"]:
+        parts[part["name"]] = message[at:at + part["length"]]
+        at += part["length"]
+    return header, parts
+
+
+def settings_of(request: dict, key: str = "settings") -> dict:
+    """A request's table of settings (a copy), refused in one line if it is not a table."""
+    value = request.get(key) or {}
+    if not isinstance(value, dict):
+        raise ViewError(f"{key} must be a table of KEY.PATH: value")
+    return dict(value)
+
+
+def left_out(plan) -> list[dict]:
+    return [{"name": s.name, "reason": s.reason} for s in plan.stages if not s.kept]
+
+
+@dataclass
+class Renderer:
+    """Turns one request into one reply; runs on the view's worker thread."""
+    source: Source
+    render: Callable[..., Any] = None  # rp.render; a test may wrap it (to hold a render while it sends more)
+
+    def __post_init__(self):
+        self.render = self.render or rp.render
+        self.last_full: tuple = (None, None)  # (request id, RenderResult) of the last full frame A
+
+    def frame(self, request: dict) -> bytes:
+        """Render settings A (and B, to compare) at the requested quality; the PNGs, the heat map, the figures."""
+        started = time.perf_counter()
+        quality = request.get("quality", "full")
+        if quality not in ("draft", "full"):
+            raise ViewError(f"quality: {quality!r}; allowed: 'draft' or 'full'")
+        settings = settings_of(request)
+        header: dict = {"type": "frame", "id": request.get("id"), "quality": quality}
+        drag = request.get("drag")
+        if drag is not None:
+            if not isinstance(drag, dict):
+                raise ViewError("drag must be a table {light, u, v}")
+            light = drag.get("light", 0)
+            if not isinstance(light, int) or isinstance(light, bool):
+                raise ViewError("drag.light must be a light's index")
+            position = light_on_plane(scene_with(self.source, settings), light, drag.get("u"), drag.get("v"))
+            settings[f"lights.{light}.position"] = position
+            header["moved"] = {f"lights.{light}.position": position}
+        scenes = {"a": scene_with(self.source, settings)}
+        if request.get("compare") is not None:
+            compare = settings_of(request, "compare")
+            compare.update(header.get("moved", {}))  # a dragged light moves in both
+            scenes["b"] = scene_with(self.source, compare)
+        shaped = draft_of if quality == "draft" else frame_of
+        parts, images, stats = [], {}, {}
+        for name, scene in scenes.items():
+            result = self.render(shaped(scene), source=self.source.name)
+            if name == "a" and quality == "full":
+                self.last_full = (request.get("id"), result)  # errors() measures this image, not a new one
+            images[name] = result.image
+            parts.append((name, encode(result.image, ".png")))
+            stats[name] = {"frame": result.timings["frame"], "rays_per_second": result.rays_per_second,
+                           "rays": result.rays, "triangles": result.triangles, "left_out": left_out(result.plan),
+                           "warnings": list(result.plan.warnings),
+                           "width": result.image.shape[1], "height": result.image.shape[0]}
+        if "b" in images:
+            from raycast_phong.compare import difference, heat_map
+            if images["a"].shape == images["b"].shape:
+                diff = difference(images["a"], images["b"])
+                scale = float(diff.max())
+                header["difference"] = {"max": scale, "mean": float(diff.mean())}
+                parts.append(("heat", encode(heat_map(diff, scale), ".png")))
+            else:
+                header["difference"] = {"note": "A and B differ in size; no heat map"}
+        header["stats"] = stats
+        header["seconds"] = time.perf_counter() - started
+        return pack(header, parts)
+
+    def errors(self, request: dict) -> dict | None:
+        """RMSE, max error and highlight loss of A against the exact surfaces; None for a mesh scene."""
+        from raycast_phong.accuracy import measured
+        from raycast_phong.reference import ExactScene
+        scene = frame_of(scene_with(self.source, settings_of(request) | request.get("moved", {})))
+        try:
+            ExactScene(scene, self.source.name)
+        except SceneError:
+            return None
+        shown_id, shown = self.last_full
+        if shown_id != request.get("id"):
+            shown = self.render(scene, source=self.source.name)
+        result = measured(scene, shown, "analytic", 2, self.source.name)
+        e = result.errors
+        finite = lambda x: None if x is None or not math.isfinite(x) else x  # JSON has no nan or inf
+        return {"type": "errors", "id": request.get("id"), "rmse": finite(e.rmse), "max_error": finite(e.max_error),
+                "psnr": finite(e.psnr), "highlight_loss": finite(e.highlight_loss),
+                "seconds": result.reference_seconds}
+
+    def save(self, request: dict) -> bytes:
+        """The current settings as a scene file (toml), or the full-resolution image (png, exr with layers)."""
+        what = request.get("what")
+        scene = scene_with(self.source, settings_of(request))
+        stem = Path(self.source.name).stem or "scene"
+        if what == "toml":
+            data = scene_toml(scene).encode("utf-8")
+        elif what in ("png", "exr"):
+            result = self.render(scene if what == "exr" else frame_of(scene), source=self.source.name)
+            data = encode(result.image, f".{what}", result.aovs if what == "exr" else None)
+        else:
+            raise ViewError(f"save: {what!r}; allowed: 'toml', 'png' or 'exr'")
+        return pack({"type": "saved", "id": request.get("id"), "what": what, "filename": f"{stem}-view.{what}"},
+                    [("file", data)])
+
+
+# ---------------------------------------------------------------- the app
+
+@dataclass
+class Client:
+    """One socket's queue: at most one waiting render (latest wins), one waiting save, one waiting reference."""
+    pending: dict | None = None
+    pending_save: dict | None = None
+    wake: asyncio.Event = field(default_factory=asyncio.Event)
+    dropped: int = 0
+    reference_next: dict | None = None        # the newest full frame whose exact errors are still owed
+    reference_task: asyncio.Task | None = None
+
+
+def create_app(source: Source, token: str, origins: list[str], *, render: Callable | None = None,
+               executor: ThreadPoolExecutor | None = None) -> Starlette:
+    """The view's Starlette app. `origins` are the page's own (scheme://host:port); the socket accepts no other."""
+    renderer = Renderer(source, render)
+    executor = executor or ThreadPoolExecutor(max_workers=1, thread_name_prefix="view-render")
+    reference_executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="view-reference")
+    hosts = sorted({o.split("://", 1)[1].rsplit(":", 1)[0].strip("[]") for o in origins})
+
+    def authorised(connection) -> bool:
+        given = connection.query_params.get("token") or connection.cookies.get(cookie_name(connection)) or ""
+        return secrets.compare_digest(given.encode(), token.encode())
+
+    def refused() -> Response:
+        return PlainTextResponse("403: this page needs the token the `raycast-phong view` command printed\n",
+                                 status_code=403)
+
+    async def index(request: Request) -> Response:
+        if not authorised(request):
+            return refused()
+        response = FileResponse(STATIC / "index.html", headers={"Cache-Control": "no-store"})
+        # The page's own files (script, style) then come with the cookie, as Jupyter's do.
+        response.set_cookie(cookie_name(request), token, httponly=True, samesite="strict")
+        return response
+
+    static_files = StaticFiles(directory=STATIC)
+
+    async def static(scope, receive, send):
+        request = Request(scope)
+        if not authorised(request):
+            return await refused()(scope, receive, send)
+        await static_files(scope, receive, send)
+
+    async def socket(websocket: WebSocket) -> None:
+        origin = websocket.headers.get("origin")
+        if not authorised(websocket) or origin not in origins:
+            await websocket.close(code=1008)  # policy violation, before the handshake completes
+            return
+        await websocket.accept()
+        client = Client()
+        await websocket.send_text(json.dumps(hello(source)))
+        worker = asyncio.create_task(work(websocket, client))
+        try:
+            while True:
+                text = await websocket.receive_text()
+                try:
+                    request = parse(text)
+                except ViewError as error:
+                    await websocket.send_text(json.dumps({"type": "error", "id": None, "message": str(error)}))
+                    continue
+                if request.get("type") == "save":
+                    client.pending_save = request
+                else:
+                    if client.pending is not None:  # a newer request replaces the one still waiting
+                        client.dropped += 1
+                        await websocket.send_text(json.dumps({"type": "dropped", "id": client.pending.get("id")}))
+                    client.pending = request
+                client.wake.set()
+        except (WebSocketDisconnect, RuntimeError, KeyError):
+            pass  # the page closed (or sent a binary frame: receive_text's KeyError); nothing is owed to it
+        finally:
+            worker.cancel()
+            if client.reference_task is not None:
+                client.reference_task.cancel()
+
+    async def work(websocket: WebSocket, client: Client) -> None:
+        loop = asyncio.get_running_loop()
+        while True:
+            await client.wake.wait()
+            client.wake.clear()
+            jobs = [(renderer.save, client.pending_save, False), (renderer.frame, client.pending, True)]
+            client.pending_save = client.pending = None
+            for job, request, is_frame in jobs:
+                if request is None:
+                    continue
+                try:
+                    reply = await loop.run_in_executor(executor, job, request)
+                except (ViewError, SceneError, rp.ImageError) as error:
+                    await websocket.send_text(json.dumps({"type": "error", "id": request.get("id"),
+                                                          "message": str(error)}))
+                    continue
+                except Exception as error:  # our bug: say so on the page in one line and keep serving
+                    await websocket.send_text(json.dumps({"type": "error", "id": request.get("id"), "message":
+                                                          f"internal error: {type(error).__name__}: {error}"}))
+                    continue
+                await websocket.send_bytes(reply)
+                if is_frame and request.get("quality", "full") == "full" and request.get("reference"):
+                    moved = unpack(reply)[0].get("moved", {})
+                    client.reference_next = {**request, "moved": moved}  # latest wins here too
+                    if client.reference_task is None or client.reference_task.done():
+                        client.reference_task = asyncio.create_task(measure(websocket, client))
+
+    async def measure(websocket: WebSocket, client: Client) -> None:
+        """The exact errors of the newest full frame, on their own thread: the reference costs several frames'
+        time, and the next frame must not wait for it."""
+        loop = asyncio.get_running_loop()
+        while client.reference_next is not None:
+            request, client.reference_next = client.reference_next, None
+            try:
+                errors = await loop.run_in_executor(reference_executor, renderer.errors, request)
+            except Exception as error:  # the frame was fine; say why its errors are missing and go on
+                errors = {"type": "error", "id": request.get("id"), "message": f"exact reference: {error}"}
+            if errors is not None:
+                await websocket.send_text(json.dumps(errors))
+
+    routes = [Route("/", index), Mount("/static", app=static), WebSocketRoute("/socket", socket)]
+    app = Starlette(routes=routes, middleware=[Middleware(TrustedHostMiddleware, allowed_hosts=hosts)])
+    app.state.executor, app.state.reference_executor, app.state.renderer = executor, reference_executor, renderer
+    # Load the kernels (a second or more from numba's cache) before the page asks for its first frame.
+    executor.submit(rp.render, draft_of(scene_with(source, {})), source=source.name)
+    return app
+
+
+def cookie_name(connection) -> str:
+    return COOKIE.format(port=connection.url.port or 80)
+
+
+def parse(text: str) -> dict:
+    """One page message: a JSON table with type 'render' or 'save', bounded in size."""
+    if len(text) > MAX_MESSAGE_BYTES:
+        raise ViewError(f"message of {len(text)} characters; allowed: at most {MAX_MESSAGE_BYTES}")
+    try:
+        request = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise ViewError(f"message is not JSON: {error}") from None
+    if not isinstance(request, dict) or request.get("type", "render") not in ("render", "save"):
+        raise ViewError("message must be a table with type 'render' or 'save'")
+    return request
+
+
+def hello(source: Source) -> dict:
+    """What the page needs to build its controls: the scene's own settings and the choices it offers."""
+    from raycast_phong.accuracy import refined
+    from raycast_phong.reference import ExactScene
+    scene = rp.validate_scene(copy.deepcopy(source.data), source=source.name, folder=source.folder)
+    try:
+        ExactScene(scene, source.name)
+        analytic = True
+    except SceneError:
+        analytic = False
+    levels = {}
+    for level in LEVELS:
+        levels[level] = {f"objects.{i}.{key}": value for i, obj in enumerate(scene.objects)
+                         for key, value in refined(obj, level).items()}
+    used = sorted({obj.material for obj in scene.objects})
+    return {"type": "hello", "source": source.name, "analytic": analytic, "levels": levels,
+            "scene": scene.model_dump(mode="json", exclude={"folder"}), "materials": used,
+            "material_values": {name: scene.material_of(next(o for o in scene.objects if o.material == name))
+                                .model_dump(mode="json") for name in used}}

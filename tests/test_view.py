@@ -1,0 +1,331 @@
+"""`raycast-phong view`'s server (raycast_phong/view/server.py) through Starlette's TestClient, and the command
+through a real uvicorn process: the token and Origin checks, the static folder, the CLI's one-line messages,
+frames equal to render(), latest-wins, saves, the dragged light."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("starlette", reason="the view's server needs the [view] extra")
+from starlette.testclient import TestClient  # noqa: E402
+from starlette.websockets import WebSocketDisconnect  # noqa: E402
+from typer.testing import CliRunner  # noqa: E402
+
+import raycast_phong as rp  # noqa: E402
+from cli import app as cli_app  # noqa: E402
+from conftest import write_tiny_scene  # noqa: E402
+from raycast_phong import accuracy  # noqa: E402
+from raycast_phong.film import to_8bit  # noqa: E402
+from raycast_phong.view.server import create_app, open_source, unpack  # noqa: E402
+
+TOKEN = "test-token"
+ORIGIN = "http://testserver"  # TestClient's own origin
+
+
+@pytest.fixture
+def scene_path(tmp_path) -> Path:
+    return write_tiny_scene(tmp_path, 64, 48)
+
+
+def client_for(path: Path, **options) -> TestClient:
+    return TestClient(create_app(open_source(path), TOKEN, [ORIGIN], **options))
+
+
+def connect(client: TestClient, token: str = TOKEN, origin: str | None = ORIGIN):
+    headers = {"origin": origin} if origin is not None else {}
+    return client.websocket_connect(f"/socket?token={token}", headers=headers)
+
+
+def decode_png(data: bytes, folder: Path) -> np.ndarray:
+    path = folder / "frame.png"
+    path.write_bytes(data)
+    return np.round(rp.read_image(path)[0] * 255).astype(np.uint8)  # read_image gives 8-bit values / 255
+
+
+def rendered_png(scene: rp.Scene) -> np.ndarray:
+    """What `raycast-phong render -o x.png` stores for the scene: the 8-bit display values."""
+    return to_8bit(rp.render(scene).image)
+
+
+def receive_frame(ws) -> tuple[dict, dict]:
+    header, parts = unpack(ws.receive_bytes())
+    assert header["type"] == "frame", header
+    return header, parts
+
+
+# ---------------------------------------------------------------- access
+
+
+def test_page_and_its_files_need_the_token(scene_path):
+    client = client_for(scene_path)
+    for url in ("/", "/?token=wrong", "/static/view.js", "/static/view.js?token=wrong"):
+        response = client.get(url)
+        assert response.status_code == 403, url
+        assert "token" in response.text
+    page = client.get(f"/?token={TOKEN}")
+    assert page.status_code == 200 and "<html" in page.text
+    assert client.get("/static/view.js").status_code == 200  # the page's files come with its cookie
+
+
+def test_socket_without_the_token_or_from_another_origin_is_closed(scene_path):
+    client = client_for(scene_path)
+    for token, origin in (("", ORIGIN), ("wrong", ORIGIN), (TOKEN, "http://evil.example"), (TOKEN, None),
+                          (TOKEN, "null")):
+        with pytest.raises(WebSocketDisconnect) as refused:
+            with connect(client, token, origin) as ws:
+                ws.receive_text()
+        assert refused.value.code == 1008, (token, origin)
+    with connect(client) as ws:
+        assert json.loads(ws.receive_text())["type"] == "hello"
+
+
+def test_no_file_outside_the_static_folder_is_served(scene_path):
+    client = client_for(scene_path)
+    client.get(f"/?token={TOKEN}")
+    for url in ("/static/../server.py", "/static/%2e%2e/server.py", "/static/..%2fserver.py",
+                "/static/%2e%2e%2f%2e%2e%2fscene.py", "/static//etc/passwd", "/server.py"):
+        response = client.get(url)
+        assert response.status_code in (403, 404), url
+        assert "def create_app" not in response.text and "root:" not in response.text, url
+
+
+def test_a_host_name_other_than_the_servers_is_refused(scene_path):
+    """DNS rebinding: a page of another site resolving to 127.0.0.1 still names its own host."""
+    response = client_for(scene_path).get(f"/?token={TOKEN}", headers={"host": "evil.example"})
+    assert response.status_code == 400
+
+
+# ---------------------------------------------------------------- the scene schema's messages
+
+
+def test_a_bad_value_gets_the_clis_one_line_message(scene_path, monkeypatch):
+    monkeypatch.delenv("RAYCAST_PHONG_DEBUG", raising=False)
+    cli = CliRunner().invoke(cli_app, ["render", str(scene_path), "--set", "render.samples=99", "-o",
+                                       str(scene_path.with_suffix(".png"))])
+    assert cli.exit_code == 2
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 1, "settings": {"render.samples": 99}}))
+        answer = json.loads(ws.receive_text())
+    assert answer["type"] == "error" and answer["id"] == 1
+    assert f"error: {answer['message']}" == cli.output.strip()
+    assert "\n" not in answer["message"] and "render.samples" in answer["message"] and "≤ 16" in answer["message"]
+
+
+@pytest.mark.parametrize(("settings", "says"), [
+    ({"objects.0.path": "/etc/passwd"}, "does not change file paths"),
+    ({"output.path": "x.png"}, "does not change file paths"),
+    ({"render.width": 16384, "render.height": 16384}, "rays per frame"),
+    ({"render..width": 3}, "not a key path"),
+    ({"materials.red.shininess": "__import__('os')"}, "materials.red.shininess"),
+])
+def test_page_values_are_data_for_the_schema_only(scene_path, settings, says):
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 7, "settings": settings}))
+        answer = json.loads(ws.receive_text())
+        assert answer["type"] == "error" and says in answer["message"], answer
+        ws.send_text("not json")
+        assert "not JSON" in json.loads(ws.receive_text())["message"]
+        for malformed in ({"settings": [1, 2]}, {"compare": "x"}, {"drag": {"light": "0"}}, {"quality": "best"}):
+            ws.send_text(json.dumps({"type": "render", "id": 8, **malformed}))
+            answer = json.loads(ws.receive_text())
+            assert answer["type"] == "error" and "internal" not in answer["message"], (malformed, answer)
+
+
+# ---------------------------------------------------------------- frames
+
+
+SHADING = {"render.shading": "flat", "render.specular": "blinn", "materials.red.shininess": 12.5,
+           "lights.0.diffuse": [0.2, 0.9, 0.4]}
+
+
+def test_a_frame_is_the_png_of_render_with_the_same_settings(scene_path, tmp_path):
+    overrides = ["render.shading=\"flat\"", "render.specular=\"blinn\"", "materials.red.shininess=12.5",
+                 "lights.0.diffuse=[0.2, 0.9, 0.4]"]
+    expected = rendered_png(rp.load_scene(scene_path, overrides))
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "full", "settings": SHADING}))
+        header, parts = receive_frame(ws)
+        ws.send_text(json.dumps({"type": "render", "id": 2, "quality": "draft", "settings": SHADING}))
+        draft, draft_parts = receive_frame(ws)
+    np.testing.assert_array_equal(decode_png(parts["a"], tmp_path), expected)
+    stats = header["stats"]["a"]
+    assert (stats["width"], stats["height"], stats["rays"]) == (64, 48, 64 * 48)
+    assert stats["rays_per_second"] > 0 and stats["frame"] > 0
+    assert {"shadow_rays", "supersampling"} <= {stage["name"] for stage in stats["left_out"]}
+    # Dragging: a quarter of the pixels, the same camera.
+    draft_scene = rp.load_scene(scene_path, [*overrides, "render.width=32", "render.height=24"])
+    np.testing.assert_array_equal(decode_png(draft_parts["a"], tmp_path), rendered_png(draft_scene))
+    assert draft["stats"]["a"]["rays"] == 32 * 24
+
+
+def test_compare_sends_both_frames_and_their_difference(scene_path, tmp_path):
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 1, "settings": {"render.shading": "flat"},
+                                 "compare": {"render.shading": "phong"}}))
+        header, parts = receive_frame(ws)
+    flat = rp.render(rp.load_scene(scene_path, ["render.shading=\"flat\""])).image
+    phong = rp.render(rp.load_scene(scene_path, ["render.shading=\"phong\""])).image
+    np.testing.assert_array_equal(decode_png(parts["b"], tmp_path), to_8bit(phong))
+    assert header["difference"]["max"] == pytest.approx(float(np.abs(flat - phong).max()), rel=1e-6)
+    assert decode_png(parts["heat"], tmp_path).shape == (48, 64, 3)
+
+
+def test_latest_wins_while_a_render_runs(scene_path):
+    """Requests that arrive while a render runs replace one another: only the newest is rendered."""
+    started, release = threading.Event(), threading.Event()
+
+    def held_render(scene, **options):
+        started.set()
+        release.wait(60)
+        return rp.render(scene, **options)
+
+    with connect(client_for(scene_path, render=held_render)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "draft"}))
+        assert started.wait(60)
+        for request_id in (2, 3, 4):
+            ws.send_text(json.dumps({"type": "render", "id": request_id, "quality": "draft"}))
+        dropped = [json.loads(ws.receive_text()) for _ in range(2)]
+        release.set()
+        first, _ = receive_frame(ws)
+        last, _ = receive_frame(ws)
+    assert dropped == [{"type": "dropped", "id": 2}, {"type": "dropped", "id": 3}]
+    assert (first["id"], last["id"]) == (1, 4)
+
+
+def test_dragging_moves_the_light_in_its_plane_in_front_of_the_camera(scene_path):
+    """Camera at z = 4 looking at the origin (fov 40°, 64×48), light at (2, 2, 3): its depth along the view
+    axis is 1, so the image centre puts it at (0, 0, 3) and the top-right corner at (tan 20° · 4/3, tan 20°, 3)."""
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        positions = []
+        for request_id, (u, v) in enumerate([(0.5, 0.5), (1.0, 0.0)]):
+            ws.send_text(json.dumps({"type": "render", "id": request_id, "drag": {"light": 0, "u": u, "v": v}}))
+            positions.append(receive_frame(ws)[0]["moved"]["lights.0.position"])
+    t = math.tan(math.radians(20))
+    np.testing.assert_allclose(positions, [[0, 0, 3], [t * 64 / 48, t, 3]], atol=1e-6)
+
+
+def test_exact_errors_follow_a_full_frame_of_an_analytic_scene(scene_path):
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 5, "quality": "full", "reference": True}))
+        receive_frame(ws)
+        errors = json.loads(ws.receive_text())
+    scene = rp.load_scene(scene_path)
+    measured = accuracy.measured(scene, rp.render(scene), "analytic").errors
+    assert errors["type"] == "errors" and errors["id"] == 5
+    assert errors["rmse"] == pytest.approx(measured.rmse) and errors["max_error"] == pytest.approx(measured.max_error)
+
+
+def test_a_saved_scene_renders_to_the_frame_shown(scene_path, tmp_path):
+    settings = {**SHADING, "lights.0.position": [-1.5, 0.5, 2.0], "objects.0.subdivisions": 3}
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 1, "settings": settings}))
+        _, frame = receive_frame(ws)
+        for what in ("toml", "exr", "png"):
+            ws.send_text(json.dumps({"type": "save", "id": 2, "what": what, "settings": settings}))
+            header, parts = unpack(ws.receive_bytes())
+            assert header["type"] == "saved" and header["filename"] == f"tiny-view.{what}"
+            (tmp_path / header["filename"]).write_bytes(parts["file"])
+    saved = rp.load_scene(tmp_path / "tiny-view.toml")
+    np.testing.assert_array_equal(rendered_png(saved), decode_png(frame["a"], tmp_path))
+    np.testing.assert_array_equal(rp.read_image(tmp_path / "tiny-view.exr")[0], rp.render(saved).image)
+    assert (tmp_path / "tiny-view.png").read_bytes() == frame["a"]  # the same bytes as the frame shown
+
+
+# ---------------------------------------------------------------- the command
+
+
+def test_view_command_prints_a_url_whose_token_is_required(scene_path):
+    command = [sys.executable, "-c", "from cli import app; app()", "view", str(scene_path), "--port", "0",
+               "--no-browser"]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               cwd=Path(__file__).resolve().parent.parent)
+    try:
+        line = process.stdout.readline()
+        assert line.startswith("raycast-phong view: open http://127.0.0.1:"), line + process.stderr.read()
+        url = line.split("open ", 1)[1].strip()
+        assert "token=" in url and len(url.split("token=", 1)[1]) >= 40  # token_urlsafe(32): 43 characters
+        with urllib.request.urlopen(url, timeout=30) as page:
+            assert page.status == 200
+        with pytest.raises(urllib.error.HTTPError) as refused:
+            urllib.request.urlopen(url.split("?", 1)[0], timeout=30)
+        assert refused.value.code == 403
+    finally:
+        process.send_signal(signal.SIGINT)
+        try:
+            process.wait(30)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            raise
+    assert process.returncode == 0, process.stderr.read()
+
+
+def test_view_command_refuses_a_bad_scene_in_one_line(tmp_path, monkeypatch):
+    monkeypatch.delenv("RAYCAST_PHONG_DEBUG", raising=False)
+    bad = write_tiny_scene(tmp_path, 64, 48, extra="[output]\npath = 'x.jpg'\n")
+    result = CliRunner().invoke(cli_app, ["view", str(bad), "--no-browser", "--port", "0"])
+    assert result.exit_code == 2
+    assert result.output.strip().count("\n") == 0 and "output.path" in result.output
+
+
+def test_view_command_warns_when_not_bound_to_loopback(monkeypatch):
+    import raycast_phong.view as live
+    monkeypatch.setattr(live, "serve", lambda *args, **kwargs: None)  # only the warning is under test
+    result = CliRunner().invoke(cli_app, ["view", "--host", "0.0.0.0", "--no-browser"])
+    assert result.exit_code == 0 and "reachable from other machines" in result.output
+
+
+def test_benchmark_script_runs_in_a_reduced_form():
+    """bench_view.py is not a timed test; this keeps the script working (tiny frame, few requests)."""
+    root = Path(__file__).resolve().parent.parent
+    done = subprocess.run([sys.executable, str(root / "benchmarks" / "bench_view.py"), "--size", "64x36",
+                           "--steps", "2", "--rate", "20", "--seconds", "0.5"], capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "at 64×36 (draft 32×18)" in done.stdout and "step, draft: change→image" in done.stdout
+    assert "10 moves at 20 Hz" in done.stdout
+
+
+def test_a_mesh_file_is_framed_lit_and_rendered(tmp_path):
+    """`view MESH`: the camera looks at the mesh's bounding box centre and the whole mesh is in the frame."""
+    mesh = Path(__file__).resolve().parent.parent / "scenes" / "meshes" / "torus_knot.ply"
+    with connect(client_for(mesh)) as ws:
+        hello = json.loads(ws.receive_text())
+        ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "full"}))
+        header, parts = receive_frame(ws)
+    assert hello["analytic"] is False and hello["scene"]["objects"][0]["shape"] == "mesh"
+    image = decode_png(parts["a"], tmp_path)
+    covered = image.max(axis=2) > 0
+    assert covered.any() and not (covered[0].any() or covered[-1].any() or covered[:, 0].any() or covered[:, -1].any())
+
+
+def test_view_command_on_a_busy_port_fails_in_one_line(monkeypatch):
+    import socket
+    monkeypatch.delenv("RAYCAST_PHONG_DEBUG", raising=False)
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen(1)
+        port = taken.getsockname()[1]
+        result = CliRunner().invoke(cli_app, ["view", "--port", str(port), "--no-browser"])
+    assert result.exit_code == 2
+    assert result.output.strip().count("\n") == 0 and f"cannot listen on 127.0.0.1:{port}" in result.output
