@@ -212,3 +212,70 @@ def test_global_mode_refuses_more_lights_than_its_bit_masks_hold():
     })
     with pytest.raises(rp.SceneError, match="at most 63 lights"):
         rp.render(scene)
+
+
+# A point light off to one side between a plane and a second sphere: sphere A (below the light) shadows
+# the plane; sphere B (above the light) must not, as shadow rays stop at a point light. The light sits
+# below the centre of the scene's box (y 0 to 3.3, centre 1.65), so its position read as a vector from
+# that centre points down, away from the plane, while the true direction from the plane points up.
+LIGHT_AT = np.array([1.2, 1.6, -0.6])
+SPHERES = ((np.array([0.3, 0.8, 0.4]), 0.4), (np.array([1.2, 2.7, -0.6]), 0.6))
+
+
+def segment_distance(points: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """Distance from `centre` to each segment point → LIGHT_AT."""
+    along = LIGHT_AT - points
+    s = np.clip(np.einsum("ij,ij->i", centre - points, along) / np.einsum("ij,ij->i", along, along), 0, 1)
+    return np.linalg.norm(points + s[:, None] * along - centre, axis=1)
+
+
+def test_a_point_light_shadow_is_where_the_segment_to_the_light_meets_the_sphere():
+    """Plane y = 0 seen straight down (orthographic, so pixel (i, j) shows the point under its centre).
+    A plane point is in shadow iff the segment from it to the light meets an occluder: computed per pixel
+    against the exact spheres, with the icosphere between its inscribed radius and r. A shadow ray cast
+    toward the light's position as if it were a direction, from the wrong point, or past the light
+    (sphere B would then shadow a ring around the point under the light) fails."""
+    size, view = 160, 6.0
+    objects = [{"shape": "plane", "size": [8, 8], "material": "m"}]
+    objects += [{"shape": "icosphere", "subdivisions": 4, "radius": r, "translate": c.tolist(), "material": "m"}
+                for c, r in SPHERES]
+    scene = rp.validate_scene({
+        "render": {"width": size, "height": size, "mode": "global", "shading": "flat", "viewer": "infinite"},
+        "camera": {"type": "orthographic", "position": [0, 10, 0], "look_at": [0, 0, 0], "up": [0, 0, -1],
+                   "view_height": view},
+        "ambient": 0.1,
+        "lights": [{"type": "point", "position": LIGHT_AT.tolist(), "specular": 0}],
+        "materials": {"m": MATTE},
+        "objects": objects,
+        "output": {"path": "x.exr", "aovs": ["face"]},
+    })
+    result = rp.render(scene)
+    geometry = build_geometry(scene)
+    plane = (result.aovs["face"][..., 0] >= 0) & (result.aovs["face"][..., 0] < 2)  # the plane's two faces
+    # Camera right = forward × up = (0, −1, 0) × (0, 0, −1) = (1, 0, 0); image up = −z, so row j is at z = +centre.
+    centre = (np.arange(size) + 0.5) / size * view - view / 2
+    x, z = np.meshgrid(centre, centre)
+    points = np.stack([x, np.zeros_like(x), z], axis=-1)[plane]
+    # Flat shading lights each plane face at its centroid, n·l ≥ 1.6 / |light − farthest corner| ≥ 0.22,
+    # × kd 0.8: a lit pixel exceeds the ambient 0.1 by ≥ 0.18; a shadowed one keeps the ambient only.
+    shadowed = result.image[..., 0][plane] < 0.1 + 1e-6
+    assert (result.image[..., 0][plane][~shadowed] > 0.1 + 0.17).all()
+    blocked = np.zeros(len(points), bool)
+    clear = np.ones(len(points), bool)
+    for index, (c, r) in enumerate(SPHERES):
+        faces = geometry.face_object == index + 1
+        v0 = geometry.vertices[geometry.faces[faces, 0]]
+        r_in = np.min(np.einsum("ij,ij->i", v0 - c, geometry.face_normals[faces]))
+        distance = segment_distance(points, c)
+        blocked |= distance < r_in - 1e-4    # 1e-4: the offset origin, 256 float32 ulps of a ~3-unit scene
+        clear &= distance > r + 1e-4
+    assert blocked.sum() > 500 and clear.sum() > 5000
+    assert shadowed[blocked].all(), "a point whose segment to the light meets a sphere is lit"
+    assert not shadowed[clear].any(), "a point that sees the light is in shadow"
+    # Where sphere B lies on the ray from the point on past the light, the point is lit all the same:
+    # a shadow ray that ran on past the light would darken this disc under the light.
+    c, r = SPHERES[1]
+    along = LIGHT_AT - points
+    s = np.einsum("ij,ij->i", c - points, along) / np.einsum("ij,ij->i", along, along)  # > 1: past the light
+    behind_light = np.linalg.norm(points + s[:, None] * along - c, axis=1) < r - 0.05
+    assert (behind_light & clear).sum() > 500
