@@ -121,10 +121,10 @@ def test_render_matches_reference(scene_name, variant, assert_image_matches):
 
     How the references were made and checked: each was written by this renderer (`pytest tests/image
     --update-references`, float64 shading, 128 px wide) and looked at; none is an independent oracle. What
-    ties them to the model: the specular and attenuation cases' interiors are also checked against the
-    analytic reference (test_analytic_reference_images below, the same scenes' exact spheres), the box and
-    plane scenes' flat faces by hand-computed pixels in tests/unit, and shadows by the analytic shadow tests
-    in tests/unit/test_shadows.py. A reference is rewritten only with a commit that says why it changed.
+    ties them to the model: the specular scene's Phong render is checked against the analytic reference
+    (its exact spheres) within a bound derived from the tessellation (test_analytic_images.py); the model
+    itself by hand-computed pixels (tests/unit/test_illumination.py, test_reference.py), cameras and
+    layers by hand-built rays (test_camera_and_layers.py), shadows by analytic shadows (test_shadows.py). A reference is rewritten only with a commit that says why it changed.
     """
     scene = small_scene(scene_name, variant)
     image = rp.render(scene).image
