@@ -26,28 +26,37 @@ FOV, VIEW_HEIGHT = 40.0, 2.0
 ROUNDING = 1e-5
 
 
-def ball_scene(camera: str, shading: str = "phong", samples: int = 1, aovs=("depth", "normal", "face")):
+def camera_frame(roll: float) -> tuple[np.ndarray, np.ndarray]:
+    """right and up of a camera on +z looking at the origin with `up` turned by `roll` degrees about z:
+    right = forward × up = (0, 0, −1) × (−sin, cos, 0) = (cos, sin, 0), up' = right × forward = (−sin, cos, 0)."""
+    c, s = math.cos(math.radians(roll)), math.sin(math.radians(roll))
+    return np.array([c, s, 0.0]), np.array([-s, c, 0.0])
+
+
+def ball_scene(camera: str, shading: str = "phong", samples: int = 1, aovs=("depth", "normal", "face"),
+               roll: float = 0.0):
     cam = {"type": "orthographic", "view_height": VIEW_HEIGHT} if camera == "orthographic" else {"fov": FOV}
     return rp.validate_scene({
         "render": {"width": W, "height": H, "shading": shading, "samples": samples, "precision": "float64"},
-        "camera": {"position": EYE.tolist(), "look_at": [0, 0, 0], "up": [0, 1, 0], **cam},
+        "camera": {"position": EYE.tolist(), "look_at": [0, 0, 0], "up": camera_frame(roll)[1].tolist(), **cam},
         "lights": [{"type": "directional", "direction": [0, 0, -1]}],
         "objects": [{"shape": "icosphere", "subdivisions": 4, "radius": RADIUS, "translate": CENTRE.tolist()}],
         "output": {"path": "x.exr", "aovs": list(aovs)},
     })
 
 
-def hand_rays(camera: str) -> tuple[np.ndarray, np.ndarray]:
+def hand_rays(camera: str, roll: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """(H, W, 3) origins and unit directions through the pixel centres, from the formulas alone."""
     x = 2 * (np.arange(W) + 0.5) / W - 1
     y = 1 - 2 * (np.arange(H) + 0.5) / H
     sx, sy = np.meshgrid(x, y)
+    right, up = camera_frame(roll)
     if camera == "orthographic":
         half = VIEW_HEIGHT / 2
-        origins = np.stack([sx * half * W / H, sy * half, np.full_like(sx, EYE[2])], axis=-1)
+        origins = EYE + (sx * half * W / H)[..., None] * right + (sy * half)[..., None] * up
         return origins, np.broadcast_to([0.0, 0.0, -1.0], origins.shape)
     half = math.tan(math.radians(FOV) / 2)
-    d = np.stack([sx * half * W / H, sy * half, -np.ones_like(sx)], axis=-1)
+    d = [0, 0, -1.0] + (sx * half * W / H)[..., None] * right + (sy * half)[..., None] * up
     return np.broadcast_to(EYE, d.shape), d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
@@ -67,13 +76,15 @@ def inscribed_radius(scene) -> float:
     return float(np.min(np.einsum("ij,ij->i", v0 - CENTRE, geometry.face_normals)))
 
 
+@pytest.mark.parametrize("roll", [0.0, 30.0])
 @pytest.mark.parametrize("camera", ["perspective", "orthographic"])
-def test_the_sphere_covers_exactly_the_pixels_whose_rays_meet_it(camera):
+def test_the_sphere_covers_exactly_the_pixels_whose_rays_meet_it(camera, roll):
     """Hit where the hand-built ray passes inside r_in, background where it passes outside r: an image
-    flipped in x or y, a wrong aspect, field of view or view height, or a shifted raster all fail."""
-    scene = ball_scene(camera)
+    flipped in x or y, a wrong aspect, field of view or view height, or a shifted raster all fail; the
+    camera rolled 30° about its axis (right and up both tilted) makes every component of them count."""
+    scene = ball_scene(camera, roll=roll)
     face = rp.render(scene).aovs["face"][..., 0]
-    _, miss_distance = sphere_entry(*hand_rays(camera), RADIUS)
+    _, miss_distance = sphere_entry(*hand_rays(camera, roll), RADIUS)
     inside = miss_distance < inscribed_radius(scene) - ROUNDING
     outside = miss_distance > RADIUS + ROUNDING
     assert inside.sum() > 80 and outside.sum() > 1500
@@ -150,3 +161,18 @@ def test_the_normal_layer_of_a_two_sided_plane_seen_from_below_faces_the_camera(
     half = math.tan(math.radians(15))
     off_axis = math.hypot(0.5 / 4 * half, 0.5 / 4 * half)
     np.testing.assert_allclose(layers["depth"][3:5, 3:5, 0], 3 * math.sqrt(1 + off_axis ** 2), rtol=1e-6)
+
+
+def test_generate_rays_gives_the_rows_the_generator_gives():
+    """The one-off helper (benchmarks use it) returns rows [1, 3) of a 2×2-sample image: 2 rows × W × 4 rays,
+    the same as a RayGenerator's, for both camera types."""
+    from raycast_phong.camera import RayGenerator, camera_rig, generate_rays
+    from raycast_phong.intersect import unit_frame
+    for camera in ("perspective", "orthographic"):
+        scene = ball_scene(camera)
+        rig, frame = camera_rig(scene), unit_frame(build_geometry(scene).vertices)
+        origins, directions = generate_rays(rig, frame, W, H, 2, 1, 3)
+        assert origins.shape == directions.shape == (2 * W * 4, 3)
+        expected = RayGenerator(rig, frame, W, H, 2, 3 * W * 4).rows(1, 3)
+        np.testing.assert_array_equal(origins, expected[0])
+        np.testing.assert_array_equal(directions, expected[1])
