@@ -172,7 +172,9 @@ def test_screen_space_and_perspective_weights_give_the_hand_computed_gouraud_mix
     image plane (x/z, y/z in the camera frame) within the projected triangle (interpolation = "screen").
     Both renders match their own hand mix, and the two differ by as much as the hand mixes do."""
     kd = np.array([0.7, 0.5, 0.3])
-    eye, look_at, light = np.array([0, 0.6, 3.0]), np.array([0, 0, -2.0]), np.array([0, 0.3, 1.5])
+    # Camera and light off the plane's mirror plane x = 0, so corners left and right differ in colour and
+    # the camera's right vector has a z part: every coordinate of the projection counts.
+    eye, look_at, light = np.array([0.5, 0.6, 3.0]), np.array([-0.3, 0, -2.0]), np.array([0.8, 0.3, 1.5])
     size, fov = 48, 60
     base = {
         "render": {"width": size, "height": size, "shading": "gouraud", "precision": "float64"},
