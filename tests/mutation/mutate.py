@@ -142,9 +142,10 @@ def _conditions(tree: ast.Module) -> list[ast.AST]:
     return [n.test for n in ast.walk(tree) if isinstance(n, (ast.If, ast.IfExp, ast.While))]
 
 
-def generate(module: str) -> list[Mutant]:
-    """Every one-line mutant of raycast_phong/<module>.py, in source order."""
-    source = (REPO / PACKAGE / f"{module}.py").read_text(encoding="utf-8")
+def generate(module: str, source: str | None = None) -> list[Mutant]:
+    """Every one-line mutant of raycast_phong/<module>.py (or of `source`), in source order."""
+    if source is None:
+        source = (REPO / PACKAGE / f"{module}.py").read_text(encoding="utf-8")
     lines = source.splitlines()
     tree = ast.parse(source)
     skip = _skipped_spans(tree)
