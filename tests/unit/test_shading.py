@@ -139,10 +139,11 @@ def test_samples_average_sub_pixel_rays():
     np.testing.assert_allclose(coarse, fine.reshape(40, 2, 40, 2, 3).mean(axis=(1, 3)), atol=1e-6)
 
 
-def test_background_fills_the_misses_and_mixes_with_the_coverage():
-    """A coloured background: a pixel no sample hits is the colour exactly; with 2×2 samples a silhouette
-    pixel is the mean of its samples, background ones included (the 2×2 blocks of a 2× render)."""
-    background = [0.2, 0.4, 0.6]
+@pytest.mark.parametrize("background", [[0.2, 0.4, 0.6], [0.3, 0, 0], [0, 0, 0.3]])
+def test_background_fills_the_misses_and_mixes_with_the_coverage(background):
+    """A coloured background (also one with a single non-zero channel): a pixel no sample hits is the colour
+    exactly; with 2×2 samples a silhouette pixel is the mean of its samples, background ones included (the
+    2×2 blocks of a 2× render)."""
     coarse = rp.render(sphere_scene(2, size=40, samples=2, background=background)).image
     fine = rp.render(sphere_scene(2, size=80, background=background)).image
     np.testing.assert_allclose(coarse[0, 0], background, rtol=0, atol=1e-12)

@@ -281,33 +281,38 @@ def test_a_point_light_shadow_is_where_the_segment_to_the_light_meets_the_sphere
     assert (behind_light & clear).sum() > 500
 
 
+@pytest.mark.parametrize("from_below", [False, True])
 @pytest.mark.parametrize("weights", [(0.2, 0.3, 0.5), (0.6, 0.1, 0.3), (1 / 3, 1 / 3, 1 / 3)])
-def test_hanika_origin_is_the_mean_of_the_corners_tangent_plane_points(weights):
+def test_hanika_origin_is_the_mean_of_the_corners_tangent_plane_points(weights, from_below):
     """Hanika 2021, as written in the paper: p' = Σ_j b_j (v_j + t_j), t_j = (p − v_j) minus its part below
     corner j's tangent plane, min(0, (p − v_j)·n_j) n_j. One triangle in the unit frame, corner normals
     tilted 30° outward (a bulge of ~0.1), a light straight above: the shadow ray's origin is p' plus the
     Wächter–Binder offset along +z, 256 |z| 2^-23 (256–512 float32 ulps of z, as |z| ≥ 1/32 here), each
-    to the float32 rounding of the stored origin (2 ulps of 0.6: 1.2e-7)."""
+    to the float32 rounding of the stored origin (2 ulps of 0.6: 1.2e-7). Seen from below with two-sided
+    shading (light below too, normals tilted inward so the back is the convex side), every normal turns
+    over and the surface bulges downward."""
     from raycast_phong.intersect import TileHits
     from raycast_phong.shadows import ShadowInputs, shadow_rays
     vertices = np.array([[0.0, 0.0, 0.5], [1.0, 0.0, 0.5], [0.0, 1.0, 0.5]])
-    outward = vertices - vertices.mean(axis=0)
+    side = -1.0 if from_below else 1.0
+    # Tilted away from the side that is seen: the surface is convex toward the viewer and the light.
+    outward = (vertices - vertices.mean(axis=0)) * side
     normals = outward / np.linalg.norm(outward, axis=1, keepdims=True) * math.tan(math.radians(30)) + [0, 0, 1]
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
     inputs = ShadowInputs(vertices=vertices, faces=np.array([[0, 1, 2]], np.int32),
                           face_normals=np.array([[0.0, 0.0, 1.0]]), corner_normals=normals[None],
                           smooth=np.array([True]), light_kind=np.array([1], np.int64),
-                          light_vec=np.array([[0.0, 0.0, 1.0]]), two_sided=False)
+                          light_vec=np.array([[0.0, 0.0, side]]), two_sided=True)
     b = np.asarray(weights)
     hits = TileHits(face=np.array([0], np.int32), u=np.array([b[1]], np.float32), v=np.array([b[2]], np.float32),
                     t=np.array([1.0], np.float32))
-    origins, toward, _, _ = shadow_rays(inputs, hits, np.array([[0.0, 0.0, -1.0]], np.float32))
+    origins, toward, _, _ = shadow_rays(inputs, hits, np.array([[0.0, 0.0, -side]], np.float32))
     b = np.array([1 - float(np.float32(b[1])) - float(np.float32(b[2])), np.float32(b[1]), np.float32(b[2])])
     p = b @ vertices
-    tangent = [(p - v) - min(0.0, (p - v) @ n) * n for v, n in zip(vertices, normals)]
+    tangent = [(p - v) - min(0.0, (p - v) @ (side * n)) * (side * n) for v, n in zip(vertices, normals)]
     expected = sum(bj * (v + t) for bj, v, t in zip(b, vertices, tangent))
-    assert expected[2] - p[2] > 0.05  # the smooth surface bulges well above the facet
+    assert side * (expected[2] - p[2]) > 0.05  # the smooth surface bulges well out of the facet
     np.testing.assert_allclose(origins[0, :2], expected[:2], rtol=0, atol=1.2e-7)
-    offset = 256 * abs(expected[2]) * 2.0 ** -23
+    offset = side * 256 * abs(expected[2]) * 2.0 ** -23
     np.testing.assert_allclose(origins[0, 2] - expected[2], offset, rtol=0, atol=1.2e-7)
-    np.testing.assert_allclose(toward[0], [0, 0, 1])
+    np.testing.assert_allclose(toward[0], [0, 0, side])
