@@ -1,11 +1,14 @@
 """Shading models against an exact sphere, and invariants that must hold exactly."""
 
+import math
+
 import numpy as np
 import pytest
 
 import raycast_phong as rp
 from raycast_phong import shading
 from raycast_phong.camera import camera_rig
+from raycast_phong.geometry import build_geometry
 
 LIGHT = {"type": "point", "position": [2, 2, 3], "diffuse": [0.8, 0.8, 0.8], "specular": [1, 1, 1]}
 MATERIAL = {"ka": 1.0, "kd": [0.7, 0.5, 0.3], "ks": 0.5, "shininess": 16}
@@ -137,6 +140,19 @@ def test_samples_average_sub_pixel_rays():
     np.testing.assert_allclose(coarse, fine.reshape(40, 2, 40, 2, 3).mean(axis=(1, 3)), atol=1e-6)
 
 
+@pytest.mark.parametrize("background", [[0.2, 0.4, 0.6], [0.3, 0, 0], [0, 0, 0.3]])
+def test_background_fills_the_misses_and_mixes_with_the_coverage(background):
+    """A coloured background (also one with a single non-zero channel): a pixel no sample hits is the colour
+    exactly; with 2×2 samples a silhouette pixel is the mean of its samples, background ones included (the
+    2×2 blocks of a 2× render)."""
+    coarse = rp.render(sphere_scene(2, size=40, samples=2, background=background)).image
+    fine = rp.render(sphere_scene(2, size=80, background=background)).image
+    np.testing.assert_allclose(coarse[0, 0], background, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(coarse, fine.reshape(40, 2, 40, 2, 3).mean(axis=(1, 3)), atol=1e-6)
+    mixed = (fine.reshape(40, 2, 40, 2, 3) == background).all(axis=-1).sum(axis=(1, 3))
+    assert ((mixed > 0) & (mixed < 4)).sum() > 20  # silhouette pixels where the background is averaged in
+
+
 def test_term_layers_add_up_to_the_image_and_geometry_layers_are_sane():
     scene = sphere_scene(3, size=48)
     scene = scene.model_copy(update={"output": rp.scene.Output(path="x.exr", aovs=(
@@ -151,18 +167,78 @@ def test_term_layers_add_up_to_the_image_and_geometry_layers_are_sane():
     assert np.isinf(result.aovs["depth"][..., 0][~hit]).all()
 
 
-def test_screen_space_interpolation_differs_from_perspective_on_a_receding_plane():
-    """Gouraud on one big triangle pair seen at a grazing angle: screen-space weights are not the true ones."""
+# Camera and light off the plane's mirror plane x = 0, so corners left and right differ in colour and the
+# camera's right vector has a z part: every coordinate of the projection counts. The second view looks
+# along −x, where the right vector has no x part at all.
+VIEWS = {"along -z": ([0.5, 0.6, 3.0], [-0.3, 0, -2.0], [0.8, 0.3, 1.5]),
+         "along -x": ([4.0, 0.6, -2.0], [-2.0, 0, -2.0], [1.5, 0.3, -1.2])}
+
+
+@pytest.mark.parametrize("view", sorted(VIEWS))
+def test_screen_space_and_perspective_weights_give_the_hand_computed_gouraud_mix(view):
+    """Gouraud on one big triangle pair seen at a grazing angle, matte, lit by a point light: the corners'
+    colours are k_d max(n·l_j, 0), and each pixel mixes them with weights worked out by hand from its
+    ray's hit point: the true barycentrics (perspective-correct), or those of its projection in the
+    image plane (x/z, y/z in the camera frame) within the projected triangle (interpolation = "screen").
+    Both renders match their own hand mix, and the two differ by as much as the hand mixes do."""
+    kd = np.array([0.7, 0.5, 0.3])
+    eye, look_at, light = (np.array(v) for v in VIEWS[view])
+    size, fov = 48, 60
     base = {
-        "render": {"width": 48, "height": 48, "shading": "gouraud", "precision": "float64"},
-        "camera": {"position": [0, 0.6, 3], "look_at": [0, 0, -2], "fov": 60},
-        "lights": [{"type": "point", "position": [0, 0.3, 1.5]}],
-        "materials": {"m": MATERIAL},
+        "render": {"width": size, "height": size, "shading": "gouraud", "precision": "float64"},
+        "camera": {"position": eye.tolist(), "look_at": look_at.tolist(), "fov": fov},
+        "ambient": 0,
+        "lights": [{"type": "point", "position": light.tolist(), "diffuse": 1, "specular": 0}],
+        "materials": {"m": {"ka": 0, "kd": kd.tolist(), "ks": 0}},
         "objects": [{"shape": "plane", "size": [4, 8], "translate": [0, 0, -2], "material": "m"}],
     }
     perspective = rp.render(rp.validate_scene(base)).image
     screen = rp.render(rp.validate_scene({**base, "render": {**base["render"], "interpolation": "screen"}})).image
-    assert np.abs(perspective - screen).max() > 0.01
+
+    geometry = build_geometry(rp.validate_scene(base))
+    vertices, faces = geometry.vertices, geometry.faces
+    to_light = light - vertices
+    corner = kd * np.maximum(to_light[:, 1] / np.linalg.norm(to_light, axis=1), 0)[:, None]  # n = +y
+    # The camera frame by hand: forward toward look_at, right = forward × up(+y), up = right × forward.
+    forward = (look_at - eye) / np.linalg.norm(look_at - eye)
+    right = np.cross(forward, [0, 1, 0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    half = math.tan(math.radians(fov) / 2)
+
+    def project(q):
+        c = q - eye
+        return np.array([c @ right, c @ up]) / (c @ forward)
+
+    def weights(point, a, b, c):
+        """Barycentrics of `point` in triangle (a, b, c), 2-D or 3-D (least squares in the plane)."""
+        m = np.stack([b - a, c - a], axis=1)
+        w1, w2 = np.linalg.lstsq(m, point - a, rcond=None)[0]
+        return np.array([1 - w1 - w2, w1, w2])
+
+    expected = {"perspective": np.zeros_like(perspective), "screen": np.zeros_like(screen)}
+    hit = np.zeros((size, size), bool)
+    for row in range(size):
+        for col in range(size):
+            x, y = 2 * (col + 0.5) / size - 1, 1 - 2 * (row + 0.5) / size
+            d = forward + x * half * right + y * half * up
+            if d[1] >= 0:
+                continue
+            p = eye - eye[1] / d[1] * d  # on the plane y = 0
+            for face in faces:
+                b = weights(p, *vertices[face])
+                if b.min() >= -1e-9:
+                    w = weights(project(p), *(project(v) for v in vertices[face]))
+                    expected["perspective"][row, col] = b @ corner[face]
+                    expected["screen"][row, col] = w @ corner[face]
+                    hit[row, col] = True
+                    break
+    assert hit.sum() > 300
+    # Embree's float32 barycentrics carry ~1e-7 relative rounding in the unit frame; a corner colour is ≤ 0.7.
+    np.testing.assert_allclose(perspective[hit], expected["perspective"][hit], atol=1e-5)
+    np.testing.assert_allclose(screen[hit], expected["screen"][hit], atol=1e-5)
+    gap = np.abs(expected["screen"] - expected["perspective"]).max()
+    assert gap > 0.005  # 0.036 and 0.0076 in the two views: ≥ 750× the agreement asserted above
 
 
 def test_vertex_normals_that_cancel_fall_back_to_the_face_normal(tmp_path):

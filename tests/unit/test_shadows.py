@@ -212,3 +212,107 @@ def test_global_mode_refuses_more_lights_than_its_bit_masks_hold():
     })
     with pytest.raises(rp.SceneError, match="at most 63 lights"):
         rp.render(scene)
+
+
+# A point light off to one side between a plane and a second sphere: sphere A (below the light) shadows
+# the plane; sphere B (above the light) must not, as shadow rays stop at a point light. The light sits
+# below the centre of the scene's box (y 0 to 3.3, centre 1.65), so its position read as a vector from
+# that centre points down, away from the plane, while the true direction from the plane points up.
+LIGHT_AT = np.array([1.2, 1.6, -0.6])
+SPHERES = ((np.array([0.3, 0.8, 0.4]), 0.4), (np.array([1.2, 2.7, -0.6]), 0.6))
+
+
+def segment_distance(points: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """Distance from `centre` to each segment point → LIGHT_AT."""
+    along = LIGHT_AT - points
+    s = np.clip(np.einsum("ij,ij->i", centre - points, along) / np.einsum("ij,ij->i", along, along), 0, 1)
+    return np.linalg.norm(points + s[:, None] * along - centre, axis=1)
+
+
+def test_a_point_light_shadow_is_where_the_segment_to_the_light_meets_the_sphere():
+    """Plane y = 0 seen straight down (orthographic, so pixel (i, j) shows the point under its centre).
+    A plane point is in shadow iff the segment from it to the light meets an occluder: computed per pixel
+    against the exact spheres, with the icosphere between its inscribed radius and r. A shadow ray cast
+    toward the light's position as if it were a direction, from the wrong point, or past the light
+    (sphere B would then shadow a ring around the point under the light) fails."""
+    size, view = 160, 6.0
+    objects = [{"shape": "plane", "size": [8, 8], "material": "m"}]
+    objects += [{"shape": "icosphere", "subdivisions": 4, "radius": r, "translate": c.tolist(), "material": "m"}
+                for c, r in SPHERES]
+    scene = rp.validate_scene({
+        "render": {"width": size, "height": size, "mode": "global", "shading": "flat", "viewer": "infinite"},
+        "camera": {"type": "orthographic", "position": [0, 10, 0], "look_at": [0, 0, 0], "up": [0, 0, -1],
+                   "view_height": view},
+        "ambient": 0.1,
+        "lights": [{"type": "point", "position": LIGHT_AT.tolist(), "specular": 0}],
+        "materials": {"m": MATTE},
+        "objects": objects,
+        "output": {"path": "x.exr", "aovs": ["face"]},
+    })
+    result = rp.render(scene)
+    geometry = build_geometry(scene)
+    plane = (result.aovs["face"][..., 0] >= 0) & (result.aovs["face"][..., 0] < 2)  # the plane's two faces
+    # Camera right = forward × up = (0, −1, 0) × (0, 0, −1) = (1, 0, 0); image up = −z, so row j is at z = +centre.
+    centre = (np.arange(size) + 0.5) / size * view - view / 2
+    x, z = np.meshgrid(centre, centre)
+    points = np.stack([x, np.zeros_like(x), z], axis=-1)[plane]
+    # Flat shading lights each plane face at its centroid, n·l ≥ 1.6 / |light − farthest corner| ≥ 0.22,
+    # × kd 0.8: a lit pixel exceeds the ambient 0.1 by ≥ 0.18; a shadowed one keeps the ambient only.
+    shadowed = result.image[..., 0][plane] < 0.1 + 1e-6
+    assert (result.image[..., 0][plane][~shadowed] > 0.1 + 0.17).all()
+    blocked = np.zeros(len(points), bool)
+    clear = np.ones(len(points), bool)
+    for index, (c, r) in enumerate(SPHERES):
+        faces = geometry.face_object == index + 1
+        v0 = geometry.vertices[geometry.faces[faces, 0]]
+        r_in = np.min(np.einsum("ij,ij->i", v0 - c, geometry.face_normals[faces]))
+        distance = segment_distance(points, c)
+        blocked |= distance < r_in - 1e-4    # 1e-4: the offset origin, 256 float32 ulps of a ~3-unit scene
+        clear &= distance > r + 1e-4
+    assert blocked.sum() > 500 and clear.sum() > 5000
+    assert shadowed[blocked].all(), "a point whose segment to the light meets a sphere is lit"
+    assert not shadowed[clear].any(), "a point that sees the light is in shadow"
+    # Where sphere B lies on the ray from the point on past the light, the point is lit all the same:
+    # a shadow ray that ran on past the light would darken this disc under the light.
+    c, r = SPHERES[1]
+    along = LIGHT_AT - points
+    s = np.einsum("ij,ij->i", c - points, along) / np.einsum("ij,ij->i", along, along)  # > 1: past the light
+    behind_light = np.linalg.norm(points + s[:, None] * along - c, axis=1) < r - 0.05
+    assert (behind_light & clear).sum() > 500
+
+
+@pytest.mark.parametrize("from_below", [False, True])
+@pytest.mark.parametrize("weights", [(0.2, 0.3, 0.5), (0.6, 0.1, 0.3), (1 / 3, 1 / 3, 1 / 3)])
+def test_hanika_origin_is_the_mean_of_the_corners_tangent_plane_points(weights, from_below):
+    """Hanika 2021, as written in the paper: p' = Σ_j b_j (v_j + t_j), t_j = (p − v_j) minus its part below
+    corner j's tangent plane, min(0, (p − v_j)·n_j) n_j. One triangle in the unit frame, corner normals
+    tilted 30° outward (a bulge of ~0.1), a light straight above: the shadow ray's origin is p' plus the
+    Wächter–Binder offset along +z, 256 |z| 2^-23 (256–512 float32 ulps of z, as |z| ≥ 1/32 here), each
+    to the float32 rounding of the stored origin (2 ulps of 0.6: 1.2e-7). Seen from below with two-sided
+    shading (light below too, normals tilted inward so the back is the convex side), every normal turns
+    over and the surface bulges downward."""
+    from raycast_phong.intersect import TileHits
+    from raycast_phong.shadows import ShadowInputs, shadow_rays
+    vertices = np.array([[0.0, 0.0, 0.5], [1.0, 0.0, 0.5], [0.0, 1.0, 0.5]])
+    side = -1.0 if from_below else 1.0
+    # Tilted away from the side that is seen: the surface is convex toward the viewer and the light.
+    outward = (vertices - vertices.mean(axis=0)) * side
+    normals = outward / np.linalg.norm(outward, axis=1, keepdims=True) * math.tan(math.radians(30)) + [0, 0, 1]
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    inputs = ShadowInputs(vertices=vertices, faces=np.array([[0, 1, 2]], np.int32),
+                          face_normals=np.array([[0.0, 0.0, 1.0]]), corner_normals=normals[None],
+                          smooth=np.array([True]), light_kind=np.array([1], np.int64),
+                          light_vec=np.array([[0.0, 0.0, side]]), two_sided=True)
+    b = np.asarray(weights)
+    hits = TileHits(face=np.array([0], np.int32), u=np.array([b[1]], np.float32), v=np.array([b[2]], np.float32),
+                    t=np.array([1.0], np.float32))
+    origins, toward, _, _ = shadow_rays(inputs, hits, np.array([[0.0, 0.0, -side]], np.float32))
+    b = np.array([1 - float(np.float32(b[1])) - float(np.float32(b[2])), np.float32(b[1]), np.float32(b[2])])
+    p = b @ vertices
+    tangent = [(p - v) - min(0.0, (p - v) @ (side * n)) * (side * n) for v, n in zip(vertices, normals)]
+    expected = sum(bj * (v + t) for bj, v, t in zip(b, vertices, tangent))
+    assert side * (expected[2] - p[2]) > 0.05  # the smooth surface bulges well out of the facet
+    np.testing.assert_allclose(origins[0, :2], expected[:2], rtol=0, atol=1.2e-7)
+    offset = side * 256 * abs(expected[2]) * 2.0 ** -23
+    np.testing.assert_allclose(origins[0, 2] - expected[2], offset, rtol=0, atol=1.2e-7)
+    np.testing.assert_allclose(toward[0], [0, 0, side])

@@ -1,0 +1,330 @@
+"""Mutation testing of the rendering modules: apply realistic one-line bugs one at a time, see if a test fails.
+
+    .venv/bin/python tests/mutation/mutate.py --list --module illumination          # the mutants, not run
+    .venv/bin/python tests/mutation/mutate.py --module illumination --module shading \\
+        --sample 80 --seed 14 --budget 2700 --out build/mutation                    # run, report survivors
+    .venv/bin/python tests/mutation/mutate.py --rerun build/mutation/mutants.json   # re-run the survivors
+
+Mutants come from the module's AST, one node at a time, and are written back as a one-line textual edit
+(the node's source span replaced by its mutated `ast.unparse`), so line numbers never move:
+  operator   + ↔ -, * ↔ /, < ↔ <=, > ↔ >=, == ↔ !=, and ↔ or
+  constant   0 → 1, 1 → 0, 2 → 1, other numbers × 2 (bools and strings are left alone)
+  name       zero ↔ one, two → one (the kernels' dtype-typed constants)
+  sign       -x → x
+  drop       a + b → a, a + b → b, a - b → a, a * b → a (a dropped term or factor)
+  swap       f(a, b, …) → f(b, a, …) (first two plain-name arguments)
+  negate     `if c` / `c if … else` / `while c` → `not c`
+Docstrings, decorators, annotations, imports and `raise` statements are not mutated.
+
+Each mutant runs in a copy of the repository (raycast_phong/, tests/, scenes/, cli.py, pyproject.toml) at
+one fixed work path, imported through PYTHONPATH ahead of the editable install, with its own NUMBA_CACHE_DIR:
+a copy of the unmutated run's cache with every kernel of the mutated module, and of every module that imports
+from it (numba inlines and links callees into the caller's cache, and its cache keys see only the caller's
+own file), deleted. The mutant is *killed* when the test subset fails, *timeout* when it runs past --timeout,
+*survived* when the subset passes. Not collected by pytest (tests/mutation has no test_*.py).
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import copy
+import json
+import os
+import random
+import shutil
+import subprocess
+import sys
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[2]
+PACKAGE = "raycast_phong"
+CORE_MODULES = ("illumination", "shading", "shadows", "camera", "film", "geometry", "intersect", "render", "plan")
+DEFAULT_TESTS = ("tests/unit", "tests/image")
+COPIED = ("raycast_phong", "tests", "scenes", "cli.py", "pyproject.toml")
+WORK = Path(os.environ.get("TMPDIR", "/tmp")) / "raycast-phong-mutation"
+
+OPERATOR_SWAPS = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,
+                  ast.Lt: ast.LtE, ast.LtE: ast.Lt, ast.Gt: ast.GtE, ast.GtE: ast.Gt, ast.Eq: ast.NotEq,
+                  ast.NotEq: ast.Eq, ast.And: ast.Or, ast.Or: ast.And}
+NAME_SWAPS = {"zero": ["one"], "one": ["zero"], "two": ["one"]}
+
+
+@dataclass
+class Mutant:
+    module: str
+    line: int
+    col: int
+    end_col: int
+    kind: str
+    original: str   # the node's source text
+    mutated: str    # its replacement
+    status: str = "pending"
+    seconds: float = 0.0
+    failed: str = ""   # the first failing test, for a killed mutant
+
+    @property
+    def key(self) -> str:
+        return f"{self.module}.py:{self.line}:{self.col} {self.kind}: {self.original} → {self.mutated}"
+
+
+def _skipped_spans(tree: ast.Module) -> set[int]:
+    """ids of nodes never mutated: docstrings, decorators, annotations, imports, raise statements."""
+    skip: set[int] = set()
+
+    def mark(node):
+        for sub in ast.walk(node):
+            skip.add(id(sub))
+
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.FunctionDef, ast.ClassDef)) and node.body:
+            first = node.body[0]
+            if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant):
+                mark(first)
+        if isinstance(node, (ast.FunctionDef, ast.ClassDef)):
+            for decorator in node.decorator_list:
+                mark(decorator)
+            if isinstance(node, ast.FunctionDef):
+                if node.returns:
+                    mark(node.returns)
+                for arg in [*node.args.args, *node.args.kwonlyargs, *node.args.posonlyargs]:
+                    if arg.annotation:
+                        mark(arg.annotation)
+        if isinstance(node, ast.AnnAssign):
+            mark(node.annotation)
+        if isinstance(node, (ast.Import, ast.ImportFrom, ast.Raise, ast.JoinedStr)):
+            mark(node)
+    return skip
+
+
+def _variants(node: ast.AST) -> list[tuple[str, ast.AST]]:
+    """(kind, mutated copy) for one node."""
+    out = []
+    if isinstance(node, ast.BinOp):
+        if type(node.op) in OPERATOR_SWAPS:
+            new = copy.deepcopy(node)
+            new.op = OPERATOR_SWAPS[type(node.op)]()
+            out.append(("operator", new))
+        if isinstance(node.op, (ast.Add, ast.Sub, ast.Mult)):
+            out.append(("drop", node.left))
+        if isinstance(node.op, ast.Add):
+            out.append(("drop", node.right))
+    elif isinstance(node, ast.Compare) and len(node.ops) == 1 and type(node.ops[0]) in OPERATOR_SWAPS:
+        new = copy.deepcopy(node)
+        new.ops = [OPERATOR_SWAPS[type(node.ops[0])]()]
+        out.append(("operator", new))
+    elif isinstance(node, ast.BoolOp):
+        new = copy.deepcopy(node)
+        new.op = OPERATOR_SWAPS[type(node.op)]()
+        out.append(("operator", new))
+    elif isinstance(node, ast.Constant) and type(node.value) in (int, float):
+        value = node.value
+        replacement = {0: 1, 1: 0, 2: 1}.get(value, value * 2) if value in (0, 1, 2) else value * 2
+        if isinstance(value, float):
+            replacement = float(replacement)
+        if replacement != value:
+            out.append(("constant", ast.Constant(replacement)))
+    elif isinstance(node, ast.Name) and isinstance(node.ctx, ast.Load) and node.id in NAME_SWAPS:
+        out += [("name", ast.Name(other, ast.Load())) for other in NAME_SWAPS[node.id]]
+    elif isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub):
+        out.append(("sign", node.operand))
+    elif isinstance(node, ast.Call) and len(node.args) >= 2 and all(isinstance(a, ast.Name) for a in node.args[:2]) \
+            and node.args[0].id != node.args[1].id:
+        new = copy.deepcopy(node)
+        new.args[0], new.args[1] = new.args[1], new.args[0]
+        out.append(("swap", new))
+    return out
+
+
+def _conditions(tree: ast.Module) -> list[ast.AST]:
+    return [n.test for n in ast.walk(tree) if isinstance(n, (ast.If, ast.IfExp, ast.While))]
+
+
+def generate(module: str, source: str | None = None) -> list[Mutant]:
+    """Every one-line mutant of raycast_phong/<module>.py (or of `source`), in source order."""
+    if source is None:
+        source = (REPO / PACKAGE / f"{module}.py").read_text(encoding="utf-8")
+    lines = source.splitlines()
+    tree = ast.parse(source)
+    skip = _skipped_spans(tree)
+    conditions = {id(c) for c in _conditions(tree)}
+    mutants, seen = [], set()
+    for node in ast.walk(tree):
+        if id(node) in skip or not hasattr(node, "lineno") or node.lineno != node.end_lineno:
+            continue
+        variants = _variants(node)
+        if id(node) in conditions:
+            variants.append(("negate", ast.UnaryOp(ast.Not(), copy.deepcopy(node))))
+        line = lines[node.lineno - 1]
+        original = line[node.col_offset:node.end_col_offset]
+        for kind, new in variants:
+            text = ast.unparse(new)
+            if kind in ("operator", "negate", "sign", "drop", "swap") and isinstance(node, (ast.BinOp, ast.BoolOp,
+                                                                                           ast.Compare)):
+                text = f"({text})"  # keep the precedence the original had in its context
+            key = (node.lineno, node.col_offset, node.end_col_offset, text)
+            if text == original or key in seen:
+                continue
+            seen.add(key)
+            mutated_line = line[:node.col_offset] + text + line[node.end_col_offset:]
+            try:
+                ast.parse("\n".join([*lines[:node.lineno - 1], mutated_line, *lines[node.lineno:]]))
+            except SyntaxError:
+                continue
+            mutants.append(Mutant(module, node.lineno, node.col_offset, node.end_col_offset, kind, original, text))
+    return sorted(mutants, key=lambda m: (m.line, m.col, m.kind, m.mutated))
+
+
+def _importers(module: str) -> set[str]:
+    """The module and every package module that imports from it, transitively (their caches go stale with it)."""
+    graph = {}
+    for path in (REPO / PACKAGE).glob("*.py"):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        graph[path.stem] = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.level == 1
+                            and n.module}
+    affected, changed = {module}, True
+    while changed:
+        changed = False
+        for name, imports in graph.items():
+            if name not in affected and imports & affected:
+                affected.add(name)
+                changed = True
+    return affected
+
+
+def _fresh_copy(origin: Path | None = None) -> Path:
+    """The files of `origin` (default: the snapshot taken at the start) at WORK/repo; always the same path,
+    so numba's cache folder name is stable, and never the working tree, which may change during a run."""
+    origin = origin or WORK / "snapshot"
+    target = WORK / ("snapshot" if origin == REPO else "repo")
+    shutil.rmtree(target, ignore_errors=True)
+    target.mkdir(parents=True)
+    ignore = shutil.ignore_patterns("__pycache__", "*.pyc", ".pytest_cache", "mutation")
+    for name in COPIED:
+        source = origin / name
+        if source.is_dir():
+            shutil.copytree(source, target / name, ignore=ignore)
+        else:
+            shutil.copy2(source, target / name)
+    return target
+
+
+def _run_tests(repo: Path, cache: Path, tests: list[str], timeout: float) -> tuple[str, str]:
+    env = {**os.environ, "PYTHONPATH": str(repo), "NUMBA_CACHE_DIR": str(cache), "PYTHONDONTWRITEBYTECODE": "1"}
+    env.pop("RAYCAST_PHONG_DEBUG", None)
+    command = [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", "-o", "addopts=-m 'not bench'",
+               *tests]
+    try:
+        done = subprocess.run(command, cwd=repo, env=env, capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return "timeout", ""
+    if done.returncode == 0:
+        return "survived", ""
+    output = done.stdout.strip().splitlines() or [f"exit code {done.returncode}"]
+    failed = next((line for line in output if line.startswith(("FAILED", "ERROR"))), output[-1])
+    return "killed", failed[:200]
+
+
+def baseline(tests: list[str], timeout: float) -> Path:
+    """Snapshot the repository, run the subset on an unmutated copy (it must pass), keep its numba cache."""
+    _fresh_copy(REPO)
+    repo = _fresh_copy()
+    cache = WORK / "cache-base"
+    shutil.rmtree(cache, ignore_errors=True)
+    check = subprocess.run([sys.executable, "-c", f"import {PACKAGE}; print({PACKAGE}.__file__)"], cwd=repo,
+                           env={**os.environ, "PYTHONPATH": str(repo)}, capture_output=True, text=True)
+    if not check.stdout.startswith(str(repo)):
+        sys.exit(f"the copy is not what gets imported ({check.stdout.strip() or check.stderr.strip()})")
+    status, failed = _run_tests(repo, cache, tests, timeout * 3)
+    if status != "survived":
+        sys.exit(f"the unmutated code fails the test subset ({status}: {failed}); fix that first")
+    return cache
+
+
+def run_one(mutant: Mutant, seed_cache: Path, tests: list[str], timeout: float) -> None:
+    repo = _fresh_copy()
+    path = repo / PACKAGE / f"{mutant.module}.py"
+    lines = path.read_text(encoding="utf-8").split("\n")
+    line = lines[mutant.line - 1]
+    assert line[mutant.col:mutant.end_col] == mutant.original, f"source moved under {mutant.key}"
+    lines[mutant.line - 1] = line[:mutant.col] + mutant.mutated + line[mutant.end_col:]
+    path.write_text("\n".join(lines), encoding="utf-8")
+    cache = WORK / "cache"
+    shutil.rmtree(cache, ignore_errors=True)
+    shutil.copytree(seed_cache, cache)
+    stale = tuple(f"{name}." for name in _importers(mutant.module))
+    for file in cache.rglob("*.nb*"):
+        if file.name.startswith(stale):
+            file.unlink()
+    start = time.perf_counter()
+    mutant.status, mutant.failed = _run_tests(repo, cache, tests, timeout)
+    mutant.seconds = round(time.perf_counter() - start, 1)
+
+
+def write_reports(mutants: list[Mutant], out: Path, tests: list[str]) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "mutants.json").write_text(json.dumps({"tests": tests, "mutants": [asdict(m) for m in mutants]},
+                                                 indent=1, ensure_ascii=False), encoding="utf-8")
+    done = [m for m in mutants if m.status != "pending"]
+    lines = ["# Mutation run", "", f"Test subset: `{' '.join(tests)}`", "",
+             "| module | mutants | killed | survived | timeout | score |", "|---|---|---|---|---|---|"]
+    for module in sorted({m.module for m in done}) + ["all"]:
+        ms = [m for m in done if module in ("all", m.module)]
+        killed = sum(m.status in ("killed", "timeout") for m in ms)
+        lines.append(f"| {module} | {len(ms)} | {sum(m.status == 'killed' for m in ms)} | "
+                     f"{sum(m.status == 'survived' for m in ms)} | {sum(m.status == 'timeout' for m in ms)} | "
+                     f"{killed / len(ms):.0%} |" if ms else f"| {module} | 0 | | | | |")
+    lines += ["", "## Survivors", ""]
+    lines += [f"- `raycast_phong/{m.key}`" for m in done if m.status == "survived"] or ["none"]
+    (out / "report.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--module", action="append", choices=CORE_MODULES,
+                        help="a module to mutate (repeatable; default: all core modules)")
+    parser.add_argument("--sample", type=int, help="run a random sample of this many mutants of each module")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--budget", type=float, default=float("inf"), help="start no mutant after this many seconds")
+    parser.add_argument("--timeout", type=float, default=240.0, help="seconds per mutant before it counts as timeout")
+    parser.add_argument("--tests", nargs="+", default=list(DEFAULT_TESTS), help="the test subset (pytest paths)")
+    parser.add_argument("--out", type=Path, default=REPO / "build" / "mutation")
+    parser.add_argument("--list", action="store_true", help="print the mutants and stop")
+    parser.add_argument("--rerun", type=Path, help="re-run the survivors (and timeouts) of an earlier mutants.json")
+    args = parser.parse_args()
+
+    if args.rerun:
+        earlier = json.loads(args.rerun.read_text(encoding="utf-8"))
+        mutants = [Mutant(**m) for m in earlier["mutants"]]
+        todo = [m for m in mutants if m.status in ("survived", "timeout", "pending")]
+    else:
+        mutants = []
+        for module in args.module or CORE_MODULES:
+            candidates = generate(module)
+            if args.sample and args.sample < len(candidates):
+                candidates = sorted(random.Random(f"{args.seed}-{module}").sample(candidates, args.sample),
+                                    key=lambda m: m.line)
+            mutants += candidates
+        todo = mutants
+    if args.list:
+        print("\n".join(m.key for m in mutants), f"\n{len(mutants)} mutants", sep="")
+        return
+    start = time.perf_counter()
+    seed_cache = baseline(args.tests, args.timeout)
+    print(f"baseline passed in {time.perf_counter() - start:.0f} s; {len(todo)} mutants", flush=True)
+    for index, mutant in enumerate(todo, 1):
+        if time.perf_counter() - start > args.budget:
+            print(f"budget spent: {len(todo) - index + 1} mutants not run", flush=True)
+            break
+        run_one(mutant, seed_cache, args.tests, args.timeout)
+        print(f"[{index}/{len(todo)}] {mutant.status:8} {mutant.seconds:5.1f} s  {mutant.key}  {mutant.failed}",
+              flush=True)
+        write_reports(mutants, args.out, args.tests)
+    write_reports(mutants, args.out, args.tests)
+    print(f"report: {args.out / 'report.md'}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,55 @@
+"""tests/mutation/mutate.py generates sound mutants (the run itself is too slow for the suite: docs/testing.md)."""
+
+from __future__ import annotations
+
+import ast
+import importlib.util
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+spec = importlib.util.spec_from_file_location("mutate", ROOT / "tests" / "mutation" / "mutate.py")
+mutate = importlib.util.module_from_spec(spec)
+sys.modules["mutate"] = mutate  # its dataclass looks its module up there
+spec.loader.exec_module(mutate)
+
+
+def test_every_mutant_is_a_one_line_edit_that_parses_and_changes_the_code():
+    for module in ("illumination", "camera"):
+        source = (ROOT / "raycast_phong" / f"{module}.py").read_text(encoding="utf-8")
+        lines = source.split("\n")
+        mutants = mutate.generate(module)
+        assert len(mutants) > 100
+        assert {m.kind for m in mutants} >= {"operator", "constant", "drop", "negate"}
+        for m in mutants:
+            line = lines[m.line - 1]
+            assert line[m.col:m.end_col] == m.original
+            edited = [*lines[:m.line - 1], line[:m.col] + m.mutated + line[m.end_col:], *lines[m.line:]]
+            tree = ast.parse("\n".join(edited))
+            assert ast.dump(tree) != ast.dump(ast.parse(source)), m.key
+
+
+SNIPPET = '''\
+from .x import y
+
+
+@decorate(limit=3)
+def f(x: "Annotated[int, 2]" = 1) -> "list[1]":
+    """Doc 1."""
+    if x > 2:
+        raise ValueError(x + 1)
+    return x + 1
+'''
+
+
+def test_decorators_annotations_and_raise_statements_are_left_alone():
+    mutants = mutate.generate("snippet", SNIPPET)
+    assert {m.line for m in mutants} == {5, 7, 9}  # the default, the condition, the returned sum
+    assert {m.mutated for m in mutants if m.line == 9} == {"(x - 1)", "(x)", "(1)", "0"}
+    assert {m.mutated for m in mutants if m.line == 7} == {"(x >= 2)", "1", "(not x > 2)"}
+
+
+def test_a_kernel_module_invalidates_the_cache_of_its_importers():
+    """shading inlines illumination's kernel: mutating illumination must drop shading's cached kernels too."""
+    assert {"illumination", "shading"} <= mutate._importers("illumination")
+    assert "illumination" not in mutate._importers("shading")
