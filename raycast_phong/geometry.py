@@ -16,7 +16,7 @@ import trimesh
 from .records import Geometry
 from .scene import (MIN_EXTENT, POSITION_LIMIT, Object, Scene, SceneError, ShadingModel, _dotted,
                     brightness_problem, open_regular)
-from .tolerances import NO_DIRECTION
+from .tolerances import MIN_DISTANCE, NO_DIRECTION
 
 MODEL_CODE = {ShadingModel.FLAT: 0, ShadingModel.GOURAUD: 1, ShadingModel.PHONG: 2}
 TRIMESH = Path(trimesh.__file__).resolve().parent  # an exception that passed through here: trimesh refused the file
@@ -77,10 +77,9 @@ def check_float_range(scene: Scene, vertices: np.ndarray, source: str = "<scene>
     """Refuse a scene whose placed extent or 1/d² lights would leave float32's range (SceneError).
 
     The half-extent must be at least MIN_EXTENT; a 1/d² light's f_att is at most 1/max(d, floor)², d its
-    distance to the scene's bounding box and floor shading.MIN_DISTANCE × the half-extent, and the lights
+    distance to the scene's bounding box and floor tolerances.MIN_DISTANCE × the half-extent, and the lights
     must keep every pixel channel below INTENSITY_LIMIT with that gain (scene.brightness_problem).
     """
-    from .shading import MIN_DISTANCE  # the 1/d² floor has its home with the shading kernel
     low, high = vertices.min(axis=0), vertices.max(axis=0)
     extent = float((high - low).max()) / 2  # as intersect.unit_frame measures it
     if extent < MIN_EXTENT:
