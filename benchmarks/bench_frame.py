@@ -17,11 +17,11 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 
 import raycast_phong as rp
-from raycast_phong.camera import camera_rig, generate_rays
-from raycast_phong.geometry import build_geometry
-from raycast_phong.intersect import Accelerator, unit_frame
-from raycast_phong.render import TILE_RAYS
-from raycast_phong.shadows import prepare_shadows, shadow_rays
+from raycast_phong.pipeline.camera import camera_rig, generate_rays
+from raycast_phong.pipeline.geometry import build_geometry
+from raycast_phong.pipeline.intersect import Accelerator, unit_frame
+from raycast_phong.pipeline.render import TILE_RAYS
+from raycast_phong.pipeline.shadows import prepare_shadows, shadow_rays
 
 
 def benchmark_scene(size: int, subdivisions: int = 6, mode: str = "local") -> rp.Scene:

@@ -21,8 +21,8 @@ import time
 
 from websockets.sync.client import connect
 
-from raycast_phong.view import running
-from raycast_phong.view.server import unpack
+from raycast_phong.tools.view import running
+from raycast_phong.tools.view.server import unpack
 
 
 def quantile(values: list[float], q: float) -> float:

@@ -1,7 +1,7 @@
 """raycast-phong: ray-cast flat, Gouraud and Phong shading on Intel Embree.
 
     scene = raycast_phong.load_scene("scenes/default.toml")
-    result = raycast_phong.render(scene)          # .image (H, W, 3) float32, .timings, .plan
+    result = raycast_phong.pipeline.render(scene)          # .image (H, W, 3) float32, .timings, .plan
     raycast_phong.write_image("out.png", result.image)
 
 The names below load their module on first use (PEP 562), so `import raycast_phong` — and the pytest
@@ -12,29 +12,30 @@ something renders.
 from __future__ import annotations
 
 import importlib
-import sys
-import types
 from typing import TYPE_CHECKING
 
 __version__ = "0.1.0"
 
 _HOMES = {
-    "ImageError": "image_io", "read_image": "image_io", "read_layer": "image_io", "write_image": "image_io",
-    "build_plan": "plan",
-    "RenderPlan": "records", "RenderResult": "records",
-    "render": "render", "render_file": "render",
-    "Scene": "scene", "SceneError": "scene", "ShadingModel": "scene", "SpecularModel": "scene",
-    "default_scene_path": "scene", "load_scene": "scene", "validate_scene": "scene",
+    "ImageError": "io.image_io", "read_image": "io.image_io", "read_layer": "io.image_io", "write_image": "io.image_io",
+    "WriteError": "io.atomic",
+    "build_plan": "pipeline.plan",
+    "RenderPlan": "pipeline.records", "RenderResult": "pipeline.records",
+    "render": "pipeline.render", "render_file": "pipeline.render",
+    "Scene": "pipeline.scene", "SceneError": "pipeline.scene", "ShadingModel": "pipeline.scene",
+    "SpecularModel": "pipeline.scene", "default_scene_path": "pipeline.scene", "load_scene": "pipeline.scene",
+    "validate_scene": "pipeline.scene",
 }
 __all__ = sorted(_HOMES)
 
 if TYPE_CHECKING:
-    from .image_io import ImageError, read_image, read_layer, write_image
-    from .plan import build_plan
-    from .records import RenderPlan, RenderResult
-    from .render import render, render_file
-    from .scene import (Scene, SceneError, ShadingModel, SpecularModel, default_scene_path, load_scene,
-                        validate_scene)
+    from .io.image_io import ImageError, read_image, read_layer, write_image
+    from .pipeline.plan import build_plan
+    from .pipeline.records import RenderPlan, RenderResult
+    from .pipeline.render import render, render_file
+    from .io.atomic import WriteError
+    from .pipeline.scene import (Scene, SceneError, ShadingModel, SpecularModel, default_scene_path, load_scene,
+                                 validate_scene)
 
 
 def __getattr__(name: str):
@@ -47,16 +48,3 @@ def __getattr__(name: str):
 
 def __dir__() -> list[str]:
     return sorted([*globals(), *_HOMES])
-
-
-class _Package(types.ModuleType):
-    """Importing the submodule raycast_phong.render sets the package's attribute `render` to that module;
-    keep the function there instead (the eager `from .render import render` used to overwrite it)."""
-
-    def __setattr__(self, name: str, value) -> None:
-        if name in _HOMES and isinstance(value, types.ModuleType):
-            value = getattr(value, name)
-        super().__setattr__(name, value)
-
-
-sys.modules[__name__].__class__ = _Package

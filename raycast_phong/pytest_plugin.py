@@ -97,8 +97,8 @@ def write_diagnostics(folder: Path, name: str, image: np.ndarray, reference: np.
     """<name>-actual.exr, <name>-reference.exr and (same size only) <name>-diff.png: the per-pixel largest
     difference as a heat map, black 0 to pale yellow the largest; return the paths written."""
     folder.mkdir(parents=True, exist_ok=True)
-    from .compare import heat_map
-    from .image_io import write_image
+    from .tools.compare import heat_map
+    from .io.image_io import write_image
     written = [write_image(folder / f"{name}-actual.exr", np.ascontiguousarray(image, np.float32))]
     if reference is not None:
         written.append(write_image(folder / f"{name}-reference.exr", np.ascontiguousarray(reference, np.float32)))
@@ -125,7 +125,7 @@ class ReferenceImages:
 
         A missing reference fails the test (never passes silently) and says how to make one.
         """
-        from .image_io import read_layer, write_image  # here: pytest loads this plugin in every session
+        from .io.image_io import read_layer, write_image  # here: pytest loads this plugin in every session
         path = self.path(name)
         if self.update:
             self.folder.mkdir(parents=True, exist_ok=True)

@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from raycast_phong import batch
+from raycast_phong.tools import batch
 from test_batch import SWEEP, five_scenes, scene_text  # noqa: F401  (five_scenes is a fixture)
 
 distributed = pytest.importorskip("distributed", reason="pip install 'raycast-phong[distributed]'")

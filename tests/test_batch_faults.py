@@ -21,7 +21,7 @@ from pathlib import Path
 import pytest
 
 import raycast_phong as rp
-from raycast_phong import batch
+from raycast_phong.tools import batch
 from test_batch import ROOT, TETRAHEDRON, five_scenes, images, manifest, run, scene_text, statuses  # noqa: F401
 
 LINUX_PROC = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="finds processes through /proc")
@@ -42,7 +42,7 @@ def start_batch():
     started = []
 
     def start(folder: Path, out: Path, jobs: int) -> subprocess.Popen:
-        command = [sys.executable, "-m", "cli", "batch", str(folder), "--out", str(out), "--jobs", str(jobs)]
+        command = [sys.executable, "-m", "raycast_phong.commands", "batch", str(folder), "--out", str(out), "--jobs", str(jobs)]
         started.append(subprocess.Popen(command, cwd=ROOT, start_new_session=True, stdout=subprocess.PIPE,
                                         stderr=subprocess.PIPE, text=True))
         return started[-1]

@@ -7,8 +7,8 @@ import pytest
 from typer.testing import CliRunner
 
 import raycast_phong as rp
-from cli import app
-from raycast_phong.image_io import compare_files
+from raycast_phong.commands import app
+from raycast_phong.io.image_io import compare_files
 
 runner = CliRunner()
 

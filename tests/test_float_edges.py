@@ -20,7 +20,7 @@ import pytest
 from typer.testing import CliRunner
 
 import raycast_phong as rp
-from cli import app
+from raycast_phong.commands import app
 
 runner = CliRunner()
 pytestmark = [pytest.mark.usefixtures("in_tmp_path"), pytest.mark.filterwarnings("error")]
@@ -203,7 +203,7 @@ def test_pure_inverse_square_attenuation_by_hand(tmp_path, height, expected):
 
 def test_the_analytic_reference_agrees_at_zero_distance():
     """illuminate_exact at d = 0 with c = 0: f_att = 1 and l = n, no division by zero (warnings are errors)."""
-    from raycast_phong.reference import illuminate_exact
+    from raycast_phong.tools.reference import illuminate_exact
     scene = rp.validate_scene(plane_under_a_light(0.0, [0, 0, 1]))
     points, normals = np.zeros((1, 3)), np.array([[0.0, 1.0, 0.0]])
     material = np.array([[0, 0, 0, 1, 1, 1, 0, 0, 0, 0, 0, 0, 32.0]])

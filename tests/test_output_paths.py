@@ -17,7 +17,7 @@ from typer.testing import CliRunner
 
 import raycast_phong
 import raycast_phong as rp
-from cli import app
+from raycast_phong.commands import app
 from conftest import write_tiny_scene
 
 runner = CliRunner()
@@ -32,8 +32,8 @@ def no_render(monkeypatch):
     def render(*args, **kwargs):
         pytest.fail("the command reached the renderer; the output should have been refused first")
     monkeypatch.setattr(raycast_phong, "render", render)
-    monkeypatch.setattr("raycast_phong.accuracy.reference_image", render)
-    monkeypatch.setattr("raycast_phong.study.run_study", render)
+    monkeypatch.setattr("raycast_phong.tools.accuracy.reference_image", render)
+    monkeypatch.setattr("raycast_phong.tools.study.run_study", render)
 
 
 def snapshot(folder: Path) -> dict[str, bytes]:
@@ -196,7 +196,7 @@ def test_stability_writes_into_a_fresh_temporary_folder(tmp_path):
     temporary.mkdir()
     (temporary / "raycast-phong-stability").write_text("planted by someone else")
     env = {**{k: v for k, v in os.environ.items() if k != "RAYCAST_PHONG_DEBUG"}, "TMPDIR": str(temporary)}
-    done = subprocess.run([sys.executable, "-m", "cli", "stability", "--case", "perspective_against_screen", "--json"],
+    done = subprocess.run([sys.executable, "-m", "raycast_phong.commands", "stability", "--case", "perspective_against_screen", "--json"],
                           cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert '"passed": true' in done.stdout

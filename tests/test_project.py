@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 import raycast_phong as rp
-from raycast_phong.scene import scene_json_schema
+from raycast_phong.pipeline.scene import scene_json_schema
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -65,9 +65,9 @@ def test_importing_the_package_the_plugin_and_the_cli_loads_no_renderer():
 
 
 def test_the_package_names_load_on_first_use_and_stay_functions():
-    """Importing the submodule raycast_phong.render first must not leave the module where render() belongs."""
-    probe = ("import sys, raycast_phong.render, raycast_phong as rp; "
+    """Importing the submodule raycast_phong.pipeline.render first must not leave the module where render() belongs."""
+    probe = ("import sys, raycast_phong.pipeline.render, raycast_phong as rp; "
              "print(callable(rp.render), rp.render.__module__, 'numba' in sys.modules, set(rp.__all__) <= set(dir(rp)))")
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=ROOT, timeout=60)
-    assert done.stdout.split() == ["True", "raycast_phong.render", "True", "True"], done.stdout + done.stderr
-    assert callable(rp.render) and rp.load_scene.__module__ == "raycast_phong.scene"
+    assert done.stdout.split() == ["True", "raycast_phong.pipeline.render", "True", "True"], done.stdout + done.stderr
+    assert callable(rp.render) and rp.load_scene.__module__ == "raycast_phong.pipeline.scene"

@@ -15,10 +15,11 @@ import pytest
 from typer.testing import CliRunner
 
 import raycast_phong as rp
-from cli import app
+from raycast_phong.commands import app
 from conftest import write_tiny_scene
-from raycast_phong import compare, image_io
-from raycast_phong.film import to_8bit
+from raycast_phong.io import image_io
+from raycast_phong.tools import compare
+from raycast_phong.pipeline.film import to_8bit
 
 runner = CliRunner()
 

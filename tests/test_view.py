@@ -1,4 +1,4 @@
-"""`raycast-phong view`'s server (raycast_phong/view/server.py) through Starlette's TestClient, and the command
+"""`raycast-phong view`'s server (raycast_phong/tools/view/server.py) through Starlette's TestClient, and the command
 through a real uvicorn process: the token and Origin checks, the static folder, the CLI's one-line messages,
 frames equal to render(), latest-wins, saves, the dragged light."""
 
@@ -25,11 +25,11 @@ from starlette.websockets import WebSocketDisconnect  # noqa: E402
 from typer.testing import CliRunner  # noqa: E402
 
 import raycast_phong as rp  # noqa: E402
-from cli import app as cli_app  # noqa: E402
+from raycast_phong.commands import app as cli_app  # noqa: E402
 from conftest import write_tiny_scene  # noqa: E402
-from raycast_phong import accuracy  # noqa: E402
-from raycast_phong.film import to_8bit  # noqa: E402
-from raycast_phong.view.server import create_app, open_source, unpack  # noqa: E402
+from raycast_phong.tools import accuracy  # noqa: E402
+from raycast_phong.pipeline.film import to_8bit  # noqa: E402
+from raycast_phong.tools.view.server import create_app, open_source, unpack  # noqa: E402
 
 TOKEN = "test-token"
 ORIGIN = "http://testserver"  # TestClient's own origin
@@ -256,7 +256,7 @@ def test_a_saved_scene_renders_to_the_frame_shown(scene_path, tmp_path):
 
 
 def test_view_command_prints_a_url_whose_token_is_required(scene_path):
-    command = [sys.executable, "-c", "from cli import app; app()", "view", str(scene_path), "--port", "0",
+    command = [sys.executable, "-c", "from raycast_phong.commands import app; app()", "view", str(scene_path), "--port", "0",
                "--no-browser"]
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                cwd=Path(__file__).resolve().parent.parent)
@@ -289,7 +289,7 @@ def test_view_command_refuses_a_bad_scene_in_one_line(tmp_path, monkeypatch):
 
 
 def test_view_command_warns_when_not_bound_to_loopback(monkeypatch):
-    import raycast_phong.view as live
+    import raycast_phong.tools.view as live
     monkeypatch.setattr(live, "serve", lambda *args, **kwargs: None)  # only the warning is under test
     result = CliRunner().invoke(cli_app, ["view", "--host", "0.0.0.0", "--no-browser"])
     assert result.exit_code == 0 and "reachable from other machines" in result.output

@@ -20,8 +20,8 @@ pytest.importorskip("starlette", reason="the view's server needs the [view] extr
 
 import raycast_phong as rp  # noqa: E402
 from conftest import write_tiny_scene  # noqa: E402
-from raycast_phong.film import to_8bit  # noqa: E402
-from raycast_phong.view import running  # noqa: E402
+from raycast_phong.pipeline.film import to_8bit  # noqa: E402
+from raycast_phong.tools.view import running  # noqa: E402
 
 # Headless, and nothing that reaches out: no updates, sync or first-run pages.
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
@@ -122,7 +122,7 @@ def test_dragging_moves_the_light_and_refines_when_released(page, scene_path):
 def test_a_saved_scene_renders_from_the_cli_to_the_image_shown(page, tmp_path, monkeypatch):
     from typer.testing import CliRunner
 
-    from cli import app
+    from raycast_phong.commands import app
     monkeypatch.delenv("RAYCAST_PHONG_DEBUG", raising=False)
     page.select_option("#shading", "flat")
     page.select_option("[data-key='render.specular']", "blinn")

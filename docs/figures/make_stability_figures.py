@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 import raycast_phong as rp
-from raycast_phong import stability
+from raycast_phong.tools import stability
 
 OUT = Path("docs/images")
 

@@ -23,9 +23,9 @@ from pathlib import Path
 import numpy as np
 
 import raycast_phong as rp
-from raycast_phong.camera import camera_rig
-from raycast_phong.geometry import build_geometry
-from raycast_phong.reference import analytic_reference
+from raycast_phong.pipeline.camera import camera_rig
+from raycast_phong.pipeline.geometry import build_geometry
+from raycast_phong.tools.reference import analytic_reference
 
 SCENE = Path(__file__).resolve().parents[2] / "scenes" / "specular.toml"
 CENTRES = np.array([[-2.4, 0, 0], [0, 0, 0], [2.4, 0, 0]])

@@ -40,7 +40,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
-PACKAGE = "raycast_phong"
+PACKAGE = "raycast_phong/pipeline"  # the core modules: every pipeline stage
 CORE_MODULES = ("illumination", "shading", "shadows", "camera", "film", "geometry", "intersect", "render", "plan")
 DEFAULT_TESTS = ("tests/unit", "tests/image")
 COPIED = ("raycast_phong", "tests", "scenes", "cli.py", "pyproject.toml")

@@ -1,4 +1,4 @@
-"""The stability suite's cases, each a property that can fail (raycast_phong/stability.py).
+"""The stability suite's cases, each a property that can fail (raycast_phong/tools/stability.py).
 
 `raycast-phong stability` runs the same functions on the installed package; these tests add the
 figures' expected values where the issue states them.
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
-from raycast_phong import stability
-from raycast_phong.plan import F32_SHININESS_LIMIT
+from raycast_phong.tools import stability
+from raycast_phong.pipeline.plan import F32_SHININESS_LIMIT
 
 
 @pytest.mark.parametrize("name", list(stability.CASES))

@@ -4,8 +4,8 @@ import json
 
 from typer.testing import CliRunner
 
-from cli import app
-from raycast_phong import stability
+from raycast_phong.commands import app
+from raycast_phong.tools import stability
 
 runner = CliRunner()
 

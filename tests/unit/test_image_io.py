@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
-from raycast_phong.film import srgb_encode, to_8bit
+from raycast_phong.pipeline.film import srgb_encode, to_8bit
 
 
 def test_png_is_clamped_8bit_without_gamma(tmp_path):
@@ -90,7 +90,7 @@ def test_exr_parts_keep_their_own_size_and_place(tmp_path):
 
 
 def test_text_coverage_is_one_line_of_text_or_none_without_a_font(monkeypatch):
-    from raycast_phong import image_io
+    from raycast_phong.io import image_io
     wide, narrow = image_io.text_coverage("render.shading = flat", 12), image_io.text_coverage("flat", 12)
     assert wide.dtype == np.float32 and 0.0 <= wide.min() and wide.max() <= 1.0 and wide.max() > 0.9
     assert wide.shape[0] == narrow.shape[0]  # one line height for any text, so labels share a baseline

@@ -26,7 +26,7 @@ RENDER = """
 import json, sys
 import numpy as np
 import raycast_phong as rp
-from raycast_phong import shading
+from raycast_phong.pipeline import shading
 scene = rp.validate_scene({
     "render": {"width": 24, "height": 24, "shading": "phong"},
     "camera": {"position": [0, 0, 4], "fov": 40},
@@ -40,7 +40,7 @@ stats = shading._shade_rays.stats
 print(json.dumps({"hits": sum(stats.cache_hits.values()), "misses": sum(stats.cache_misses.values())}))
 """
 
-KEY = "from raycast_phong import jit; print(jit.source_key())"
+KEY = "from raycast_phong.pipeline import jit; print(jit.source_key())"
 
 
 @pytest.fixture
@@ -72,7 +72,7 @@ def test_an_edit_to_an_inlined_helper_reaches_the_cached_kernel(package_copy, tm
     again = json.loads(run(RENDER, str(tmp_path / "again.npy")))
     assert first["misses"] > 0 and again == {"hits": again["hits"], "misses": 0} and again["hits"] > 0
     # Double the diffuse term in illumination.py only: shading.py, where the cached kernel lives, is untouched.
-    edit(copy / "illumination.py", "lit = weight * n_dot_l\n", "lit = two * weight * n_dot_l\n")
+    edit(copy / "pipeline" / "illumination.py", "lit = weight * n_dot_l\n", "lit = two * weight * n_dot_l\n")
     edited = json.loads(run(RENDER, str(tmp_path / "edited.npy")))
     assert edited["misses"] > 0, "the cached _shade_rays was loaded although illuminate changed"
     (before, diffuse), (after, _) = np.load(tmp_path / "first.npy"), np.load(tmp_path / "edited.npy")
@@ -86,9 +86,9 @@ def test_the_cache_key_covers_every_module_a_kernel_reads_and_only_those(package
     copy, run = package_copy
     key = run(KEY)
     # tolerances.py holds constants the kernels freeze in; no kernel is defined there.
-    edit(copy / "tolerances.py", "NO_DIRECTION = 1e-6", "NO_DIRECTION = 2e-6")
+    edit(copy / "pipeline" / "tolerances.py", "NO_DIRECTION = 1e-6", "NO_DIRECTION = 2e-6")
     assert run(KEY) != key
     key = run(KEY)
     # batch.py is a tool on top of the pipeline: editing it must not throw away compiled kernels.
-    (copy / "batch.py").write_text((copy / "batch.py").read_text() + "\n# an edit\n")
+    (copy / "tools" / "batch.py").write_text((copy / "tools" / "batch.py").read_text() + "\n# an edit\n")
     assert run(KEY) == key

@@ -12,11 +12,11 @@ STAGES = ("camera", "geometry", "intersect", "illumination", "shading", "shadows
 
 
 def test_the_oracle_imports_no_stage_of_the_renderer():
-    probe = ("import json, sys; import raycast_phong.reference; "
+    probe = ("import json, sys; import raycast_phong.tools.reference; "
              "print(json.dumps(sorted(m for m in sys.modules if m.startswith(('raycast_phong.', 'numba', 'embreex')))))")
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
     loaded = json.loads(done.stdout)
-    assert "raycast_phong.reference" in loaded
+    assert "raycast_phong.tools.reference" in loaded
     assert not [m for m in loaded if m.split(".")[-1] in STAGES or m.startswith(("numba", "embreex"))], loaded
 
 
@@ -33,9 +33,12 @@ def _package_imports() -> dict[str, set[str]]:
         package = name.rsplit(".", 1)[0] if "." in name else ""
         targets = graph.setdefault(name, set())
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if isinstance(node, ast.ImportFrom) and node.level:
-                base = package.split(".")[:len(package.split(".")) - (node.level - 1)] if package else []
-                stem = ".".join([*filter(None, base), *(node.module.split(".") if node.module else [])])
+            if isinstance(node, ast.ImportFrom) and (node.level or (node.module or "").startswith("raycast_phong.")):
+                if node.level:
+                    base = package.split(".")[:len(package.split(".")) - (node.level - 1)] if package else []
+                    stem = ".".join([*filter(None, base), *(node.module.split(".") if node.module else [])])
+                else:  # from raycast_phong.x.y import z
+                    stem = node.module.removeprefix("raycast_phong.")
                 for alias in node.names:
                     for candidate in (f"{stem}.{alias.name}" if stem else alias.name, stem):
                         if candidate and (root / Path(*candidate.split("."))).with_suffix(".py").exists():
@@ -48,7 +51,7 @@ def _package_imports() -> dict[str, set[str]]:
 def test_the_package_has_no_import_cycles():
     """Imports point one way (stages ← tools ← CLI): a cycle means two modules each need the other."""
     graph = _package_imports()
-    assert {"render", "reference", "batch", "sweep", "shading", "illumination"} <= set(graph)
+    assert {"pipeline.render", "tools.reference", "tools.batch", "tools.sweep", "pipeline.shading"} <= set(graph)
     state: dict[str, int] = {}
     cycles = []
 
@@ -65,3 +68,14 @@ def test_the_package_has_no_import_cycles():
         if module not in state:
             visit(module, [module])
     assert not cycles, cycles
+
+
+def test_imports_point_down_the_layers():
+    """pipeline/ (the stages) imports nothing from io/ or tools/; io/ nothing from tools/; nothing in the package
+    imports the CLI (commands). The folders show the layers, and this keeps them true."""
+    graph = _package_imports()
+    below = {"pipeline": ("io.", "tools.", "commands"), "io": ("tools.", "commands"), "tools": ("commands",)}
+    wrong = sorted(f"{module} -> {target}" for module, targets in graph.items() for target in targets
+                   for layer, forbidden in below.items() if module.startswith(f"{layer}.") and target.startswith(forbidden))
+    assert {"pipeline.render", "io.image_io", "tools.batch"} <= set(graph)
+    assert not wrong, wrong

@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
-import raycast_phong.geometry as geometry
-from raycast_phong.illumination import COUNTED_TERMS
+import raycast_phong.pipeline.scene
+import raycast_phong.pipeline.geometry as geometry
+from raycast_phong.pipeline.illumination import COUNTED_TERMS
 
 
 def scene(**changes):
@@ -19,7 +20,7 @@ def scene(**changes):
                     {"shape": "box", "size": [3, 0.2, 3], "translate": [0, -1.2, 0], "material": "m"}],
     }
     for path, value in changes.items():
-        rp.scene.apply_override(data, f"{path.replace('__', '.')}={value}")
+        rp.pipeline.scene.apply_override(data, f"{path.replace('__', '.')}={value}")
     return rp.validate_scene(data)
 
 

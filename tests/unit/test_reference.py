@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
-from raycast_phong.accuracy import fine_reference, mesh_coverage
-from raycast_phong.reference import analytic_reference
+from raycast_phong.tools.accuracy import fine_reference, mesh_coverage
+from raycast_phong.tools.reference import analytic_reference
 
 HAND = 1e-9  # every expected value below is a closed form; float64 rounding is ~1e-15
 

@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
-from raycast_phong import shading
-from raycast_phong.camera import camera_rig
-from raycast_phong.geometry import build_geometry
+import raycast_phong.pipeline.scene
+from raycast_phong.pipeline import shading
+from raycast_phong.pipeline.camera import camera_rig
+from raycast_phong.pipeline.geometry import build_geometry
 
 LIGHT = {"type": "point", "position": [2, 2, 3], "diffuse": [0.8, 0.8, 0.8], "specular": [1, 1, 1]}
 MATERIAL = {"ka": 1.0, "kd": [0.7, 0.5, 0.3], "ks": 0.5, "shininess": 16}
@@ -155,7 +156,7 @@ def test_background_fills_the_misses_and_mixes_with_the_coverage(background):
 
 def test_term_layers_add_up_to_the_image_and_geometry_layers_are_sane():
     scene = sphere_scene(3, size=48)
-    scene = scene.model_copy(update={"output": rp.scene.Output(path="x.exr", aovs=(
+    scene = scene.model_copy(update={"output": rp.pipeline.scene.Output(path="x.exr", aovs=(
         "depth", "normal", "face", "ambient", "diffuse", "specular", "emission"))})
     result = rp.render(scene)
     total = sum(result.aovs[name] for name in ("ambient", "diffuse", "specular", "emission"))

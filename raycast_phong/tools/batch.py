@@ -33,10 +33,10 @@ from multiprocessing import connection
 from pathlib import Path
 from typing import Callable, Iterator
 
-from .atomic import WriteError, signals_deferred, write_text
-from .image_io import ImageError, write_image
-from .intersect import embree_started
-from .scene import Scene, SceneError, load_scene, open_regular
+from ..io.atomic import WriteError, signals_deferred, write_text
+from ..io.image_io import ImageError, write_image
+from ..pipeline.intersect import embree_started
+from ..pipeline.scene import Scene, SceneError, load_scene, open_regular
 from .sweep import Job, is_sweep, load_sweep, write_contact_sheets
 
 MANIFEST = "manifest.json"
@@ -176,7 +176,7 @@ def is_own_manifest(path: Path, folder: Path) -> bool:
 
 def job_hash(job: Job, scene: Scene | None, settings: Settings) -> str:
     """sha256 of the package version, the settings, the overrides, the scene file and its meshes' bytes."""
-    from . import __version__
+    from .. import __version__
     digest = hashlib.sha256()
     header = {"package": __version__, "settings": asdict(settings), "overrides": list(job.overrides)}
     digest.update(json.dumps(header, sort_keys=True).encode())
@@ -249,7 +249,7 @@ def render_job(task: Task) -> Outcome:
 
     The one function both the process pool and Dask run, so failure isolation and timings are the same.
     """
-    from .render import render
+    from ..pipeline.render import render
     start = time.perf_counter()
     entry = _entry(task.job, FAILED, hash=task.digest, inputs=task.inputs)
     try:
@@ -306,8 +306,8 @@ def warm_up(tasks: list[Task]) -> float:
         return 0.0
     start = time.perf_counter()
     import numpy as np
-    from .plan import build_plan
-    from .render import warm_kernels
+    from ..pipeline.plan import build_plan
+    from ..pipeline.render import warm_kernels
     plans = []
     for task in tasks:
         try:
@@ -338,7 +338,7 @@ def _process_pool(tasks: list[Task], jobs: int, started: set[str]) -> Iterator[O
         context = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
     # Import the package once in the fork server, not once per worker.
     if context.get_start_method() == "forkserver":
-        context.set_forkserver_preload(["raycast_phong.batch", "raycast_phong.render"])
+        context.set_forkserver_preload(["raycast_phong.tools.batch", "raycast_phong.pipeline.render"])
     parent = os.getpid() if context.get_start_method() == "fork" else None
     queue, workers, finished = deque(tasks), [], False
     try:
@@ -452,6 +452,7 @@ def _died(task: Task, exitcode: int | None) -> Outcome:
     if task.written():
         return _entry(task.job, RENDERED, outputs=[task.output.name], hash=task.digest, inputs=task.inputs,
                       threads=task.threads)
+    remove_temporaries(task.output.parent, [task.job.name])  # killed mid-write, it left its temporary file
     how = f"killed by {signal.Signals(-exitcode).name}" if exitcode and exitcode < 0 else f"exit status {exitcode}"
     return _entry(task.job, FAILED, reason=_reason(task.job, f"its worker process died ({how}; out of memory?)"),
                   hash=task.digest, inputs=task.inputs)
@@ -562,7 +563,7 @@ def folder_lock(folder: Path) -> Iterator[None]:
 
 def write_manifest(folder: Path, manifest: dict) -> None:
     """Rewrite DIR/manifest.json atomically (temporary file, checked write, then rename); raises WriteError."""
-    from . import __version__
+    from .. import __version__
     manifest = {**manifest, "format": MANIFEST_FORMAT, "package_version": __version__}
     write_text(folder / MANIFEST, json.dumps(manifest, indent=2, ensure_ascii=False), prefix=".manifest-")
 
@@ -653,7 +654,7 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
         processes = min(cores, len(tasks)) if scheduler is None else 0
         threads = max(1, cores // processes) if processes else 1  # a Dask worker's own threads run the scenes
         if scheduler is None:
-            from .memory import default_budget
+            from ..pipeline.memory import default_budget
             budget = max_memory or default_budget()
             max_memory = budget // max(processes, 1) if budget else None
         tasks = [replace(task, threads=threads, max_memory=max_memory) for task in tasks]

@@ -16,7 +16,7 @@ import numpy as np
 import OpenImageIO as oiio
 
 from .atomic import os_reason, replaced_atomically
-from .film import to_8bit
+from ..pipeline.film import to_8bit
 
 LAYER_CHANNELS = {"depth": ("Z",), "normal": ("X", "Y", "Z"), "face": ("id",)}
 

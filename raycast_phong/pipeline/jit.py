@@ -23,7 +23,8 @@ from pathlib import Path
 import numba
 from numba import njit
 
-PACKAGE = Path(__file__).resolve().parent
+PACKAGE = Path(__file__).resolve().parents[1]  # raycast_phong/: a kernel may import from anywhere in it
+OWN_CACHE = Path(__file__).resolve().parent / "__pycache__"
 MARK = "@kernel("          # how a module declares a kernel; such a module is part of the key
 PREFIX = "raycast-phong-kernels-"
 RELATIVE_IMPORT = re.compile(rb"^from (\.+)([\w.]*) import (\([^)]*\)|[^\n]*)", re.MULTILINE)
@@ -70,7 +71,7 @@ def cache_folder() -> Path | None:
     __pycache__, else the user's cache folder; None if none is writable (kernels then compile per process).
     In the package's own __pycache__, folders of other keys are removed: they belong to sources of this
     tree that no longer exist (a shared folder may hold other installs' keys, so it is left alone)."""
-    own = PACKAGE / "__pycache__"
+    own = OWN_CACHE
     bases = [Path(numba.config.CACHE_DIR)] if numba.config.CACHE_DIR else []  # NUMBA_CACHE_DIR
     bases += [own, Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "raycast-phong"]
     for base in bases:

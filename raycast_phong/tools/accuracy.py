@@ -17,14 +17,14 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from .camera import RayGenerator, camera_rig
-from .geometry import build_geometry, object_mesh
-from .intersect import Accelerator, unit_frame
+from ..pipeline.camera import RayGenerator, camera_rig
+from ..pipeline.geometry import build_geometry, object_mesh
+from ..pipeline.intersect import Accelerator, unit_frame
 from .metrics import measure
-from .records import MeasuredResult, RenderResult
+from ..pipeline.records import MeasuredResult, RenderResult
 from .reference import TILE_SAMPLES, ReferenceImage, analytic_reference
-from .render import render
-from .scene import Object, Scene, validate_scene
+from ..pipeline.render import render
+from ..pipeline.scene import Object, Scene, validate_scene
 
 
 def refined(obj: Object, level: int) -> dict:

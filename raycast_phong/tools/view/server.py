@@ -38,8 +38,8 @@ from starlette.staticfiles import StaticFiles
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
 import raycast_phong as rp
-from raycast_phong.scene import SceneError, apply_override, read_scene_dict
-from raycast_phong.sweep import toml_value
+from raycast_phong.pipeline.scene import SceneError, apply_override, read_scene_dict
+from raycast_phong.tools.sweep import toml_value
 
 STATIC = Path(__file__).parent / "static"
 MAX_MESSAGE_BYTES = 1 << 16   # a page message is a few hundred bytes of settings; refuse anything larger
@@ -142,7 +142,7 @@ def light_on_plane(scene: rp.Scene, light: int, u: float, v: float) -> list[floa
     look_at point's depth if it is behind the eye), so dragging never pulls it toward or away from the
     camera; the ray through (u, v) follows camera.py's raster convention.
     """
-    from raycast_phong.camera import camera_rig
+    from raycast_phong.pipeline.camera import camera_rig
     if not (0 <= light < len(scene.lights)) or scene.lights[light].type != "point":
         raise ViewError(f"lights.{light}: only a point light can be dragged")
     if not all(isinstance(x, (int, float)) and math.isfinite(x) for x in (u, v)):
@@ -283,7 +283,7 @@ class Renderer:
                            "warnings": list(result.plan.warnings),
                            "width": result.image.shape[1], "height": result.image.shape[0]}
         if "b" in images:
-            from raycast_phong.compare import difference, heat_map
+            from raycast_phong.tools.compare import difference, heat_map
             if images["a"].shape == images["b"].shape:
                 diff = difference(images["a"], images["b"])
                 scale = float(diff.max())
@@ -297,8 +297,8 @@ class Renderer:
 
     def errors(self, request: dict) -> dict | None:
         """RMSE, max error and highlight loss of A against the exact surfaces; None for a mesh scene."""
-        from raycast_phong.accuracy import measured
-        from raycast_phong.reference import ExactScene
+        from raycast_phong.tools.accuracy import measured
+        from raycast_phong.tools.reference import ExactScene
         scene = frame_of(scene_with(self.source, settings_of(request) | request.get("moved", {})))
         try:
             ExactScene(scene, self.source.name)
@@ -474,8 +474,8 @@ def parse(text: str) -> dict:
 
 def hello(source: Source) -> dict:
     """What the page needs to build its controls: the scene's own settings and the choices it offers."""
-    from raycast_phong.accuracy import refined
-    from raycast_phong.reference import ExactScene
+    from raycast_phong.tools.accuracy import refined
+    from raycast_phong.tools.reference import ExactScene
     scene = rp.validate_scene(copy.deepcopy(source.data), source=source.name, folder=source.folder)
     try:
         ExactScene(scene, source.name)

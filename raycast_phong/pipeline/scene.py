@@ -749,7 +749,7 @@ def apply_override(data: dict, assignment: str, source: str = "--set", option: s
 
 def default_scene_path() -> Path:
     """The built-in default scene: the lecture's figure, one sphere in flat, Gouraud and Phong shading."""
-    return Path(__file__).parent / "data" / "default.toml"
+    return Path(__file__).parents[1] / "data" / "default.toml"  # raycast_phong/data
 
 
 def scene_json_schema() -> dict:

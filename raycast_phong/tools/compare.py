@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .image_io import label_font, text_coverage
-from .scene import Scene, SceneError, apply_override, read_scene_dict, validate_scene
+from ..io.image_io import label_font, text_coverage
+from ..pipeline.scene import Scene, SceneError, apply_override, read_scene_dict, validate_scene
 
 # A pixel "changed" when its difference exceeds this: about 8 float32 steps at 1, so above rounding noise, and
 # far below one 8-bit step (1/255), so every change a PNG could show is counted.

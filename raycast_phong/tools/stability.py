@@ -19,12 +19,12 @@ from typing import Callable
 
 import numpy as np
 
-from .geometry import build_geometry
-from .intersect import Accelerator, unit_frame
-from .plan import F32_SHININESS_LIMIT, build_plan
-from .records import RenderPlan, Stage
-from .render import render
-from .scene import Scene, SceneError, validate_scene
+from ..pipeline.geometry import build_geometry
+from ..pipeline.intersect import Accelerator, unit_frame
+from ..pipeline.plan import F32_SHININESS_LIMIT, build_plan
+from ..pipeline.records import RenderPlan, Stage
+from ..pipeline.render import render
+from ..pipeline.scene import Scene, SceneError, validate_scene
 
 
 @dataclass(frozen=True)
@@ -391,7 +391,7 @@ def watertightness() -> CaseResult:
 
 @case
 def hdr_linearity() -> CaseResult:
-    from .image_io import read_image, write_image
+    from ..io.image_io import read_image, write_image
 
     def lit(k: float) -> Scene:
         scene = sphere_scene(32, size=32)
