@@ -122,8 +122,8 @@ def run_batch(folder: Path, out: Path, jobs: int) -> dict[str, float]:
     whole = time.perf_counter() - start
     finished = [float(t) for t in re.findall(r"^\[\d+/\d+ ([0-9.]+)s\]", done.stderr, re.M)]
     batch, kernels = map(float, re.search(r"failed in ([0-9.]+)s \(([0-9.]+)s of it loading", done.stdout).groups())
-    return dict(whole=whole, batch=batch, scenes=batch - kernels, first=finished[0],
-                steady=(finished[-1] - finished[0]) / (len(finished) - 1))
+    return {"whole": whole, "batch": batch, "scenes": batch - kernels, "first": finished[0],
+                "steady": (finished[-1] - finished[0]) / (len(finished) - 1)}
 
 
 def median(runs: list[dict[str, float]], key: str) -> float:
@@ -171,7 +171,8 @@ def main() -> None:
               f"{median(one, 'scenes') / median(two, 'scenes'):13.2f}× {'':12} "
               f"{median(one, 'steady') / median(two, 'steady'):13.2f}×")
     print(f"start-up, once per command: interpreter {interpreter:.3f} s, imports "
-          f"{startup['imports']:.3f} s (what a render imports), numba's first dispatch (warm_kernels) {startup['numba']:.3f} s; "
+          f"{startup['imports']:.3f} s (what a render imports), "
+          f"numba's first dispatch (warm_kernels) {startup['numba']:.3f} s; "
           f"forking a warm worker {startup['fork'] * 1e3:.1f} ms")
     print("per scene (best of 5, one thread):   load  geometry  embreex copy  Embree build  triangles")
     for path, t in startup["scenes"].items():

@@ -89,7 +89,7 @@ def main() -> None:
         splits.append(result.timings)
     cast, frame = statistics.median(casts), statistics.median(frames)
     rays = args.size * args.size
-    stages = ("geometry", "build", "rays", "shadows", "shade") if args.mode == "global" else ("geometry", "build", "rays", "shade")
+    stages = ("geometry", "build", "rays", *(("shadows",) if args.mode == "global" else ()), "shade")
     median_split = {key: statistics.median(s[key] for s in splits) for key in stages}
     print(f"{args.size}×{args.size}, {result.triangles:,} triangles, {args.threads} threads, median of {args.repeats}")
     print(f"raw cast   {cast * 1e3:7.1f} ms  {rays / cast / 1e6:5.1f} Mrays/s")

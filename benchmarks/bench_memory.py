@@ -11,8 +11,9 @@ import argparse
 import resource
 import time
 
-import raycast_phong as rp
 from bench_frame import benchmark_scene
+
+import raycast_phong as rp
 
 
 def peak_mib() -> float:

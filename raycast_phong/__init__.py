@@ -29,13 +29,20 @@ _HOMES = {
 __all__ = sorted(_HOMES)
 
 if TYPE_CHECKING:
+    from .io.atomic import WriteError
     from .io.image_io import ImageError, read_image, read_layer, write_image
     from .pipeline.plan import build_plan
     from .pipeline.records import RenderPlan, RenderResult
     from .pipeline.render import render, render_file
-    from .io.atomic import WriteError
-    from .pipeline.scene import (Scene, SceneError, ShadingModel, SpecularModel, default_scene_path, load_scene,
-                                 validate_scene)
+    from .pipeline.scene import (
+        Scene,
+        SceneError,
+        ShadingModel,
+        SpecularModel,
+        default_scene_path,
+        load_scene,
+        validate_scene,
+    )
 
 
 def __getattr__(name: str):

@@ -13,16 +13,16 @@ import time
 from contextlib import contextmanager
 from enum import Enum
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
 from typer.core import TyperGroup
 
 import raycast_phong as rp
-from raycast_phong.tools import compare
 from raycast_phong.io.atomic import WriteError
 from raycast_phong.io.image_io import NO_FONT, ImageError, check_output_path
 from raycast_phong.pipeline.scene import Mode, ShadingModel, SpecularModel
+from raycast_phong.tools import compare
 
 # The click that typer parses with (typer ≥ 0.2x vendors its own copy): its exception classes.
 _click_errors = sys.modules[typer.BadParameter.__module__]
@@ -60,7 +60,7 @@ app = typer.Typer(
     rich_markup_mode="markdown",
 )
 
-SceneArgument = Annotated[Optional[Path], typer.Argument(
+SceneArgument = Annotated[Path | None, typer.Argument(
     help="Scene file (.toml or .json, see docs/scene-format.md). Omit it for the built-in default scene.",
     show_default=False, dir_okay=False)]
 SetOption = Annotated[list[str], typer.Option(
@@ -69,7 +69,7 @@ SetOption = Annotated[list[str], typer.Option(
          "`materials.red.shininess=8`. Repeatable.")]
 
 
-def _max_memory(text: Optional[str]) -> Optional[int]:
+def _max_memory(text: str | None) -> int | None:
     """--max-memory SIZE in bytes; a malformed size exits 2 with one line."""
     if text is None:
         return None
@@ -80,7 +80,7 @@ def _max_memory(text: Optional[str]) -> Optional[int]:
         fail(f"--max-memory: {error}")
 
 
-MaxMemoryOption = Annotated[Optional[str], typer.Option(
+MaxMemoryOption = Annotated[str | None, typer.Option(
     "--max-memory", metavar="SIZE", callback=_max_memory, show_default=False,
     help="Memory budget for rendering, e.g. 8G or 500M (K, M, G, T: powers of 1024). A scene whose estimated "
          "geometry and image need more is refused before anything is built. Default: 3/4 of the memory "
@@ -121,22 +121,22 @@ def scene_overrides(options: dict[str, object]) -> list[str]:
 """)
 def render(
     scene: SceneArgument = None,
-    output: Annotated[Optional[Path], typer.Option("--output", "-o", help="Image to write: .png (8-bit, clamped) or "
+    output: Annotated[Path | None, typer.Option("--output", "-o", help="Image to write: .png (8-bit, clamped) or "
                       ".exr (float32, with the scene's AOV layers). Default: the scene's output.path.")] = None,
-    shading: Annotated[Optional[ShadingModel], typer.Option(help="render.shading (objects with their own "
+    shading: Annotated[ShadingModel | None, typer.Option(help="render.shading (objects with their own "
                        "`shading` keep it).")] = None,
-    specular: Annotated[Optional[SpecularModel], typer.Option(help="render.specular: phong (v·r) or "
+    specular: Annotated[SpecularModel | None, typer.Option(help="render.specular: phong (v·r) or "
                         "blinn (n·h).")] = None,
-    mode: Annotated[Optional[Mode], typer.Option(help="render.mode: local (no shadows) or global.")] = None,
-    width: Annotated[Optional[int], typer.Option(help="render.width in pixels, 1..16384.")] = None,
-    height: Annotated[Optional[int], typer.Option(help="render.height in pixels, 1..16384.")] = None,
-    samples: Annotated[Optional[int], typer.Option(help="render.samples: n → n×n rays per pixel, 1..16.")] = None,
+    mode: Annotated[Mode | None, typer.Option(help="render.mode: local (no shadows) or global.")] = None,
+    width: Annotated[int | None, typer.Option(help="render.width in pixels, 1..16384.")] = None,
+    height: Annotated[int | None, typer.Option(help="render.height in pixels, 1..16384.")] = None,
+    samples: Annotated[int | None, typer.Option(help="render.samples: n → n×n rays per pixel, 1..16.")] = None,
     set_: SetOption = [],
     srgb: Annotated[bool, typer.Option("--srgb", help="Encode a PNG with the sRGB curve instead of "
                     "storing the model's display values as they are.")] = False,
-    threads: Annotated[Optional[int], typer.Option(min=1, max=64, help="Worker threads (default: cores).")] = None,
+    threads: Annotated[int | None, typer.Option(min=1, max=64, help="Worker threads (default: cores).")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar and no summary line.")] = False,
-    reference: Annotated[Optional[ReferenceKind], typer.Option(help="Also measure the render against the exact "
+    reference: Annotated[ReferenceKind | None, typer.Option(help="Also measure the render against the exact "
                          "surfaces (docs/accuracy.md): print RMSE, max error and PSNR beside the timing line.")] = None,
     max_memory: MaxMemoryOption = None,
 ) -> None:
@@ -236,7 +236,8 @@ def summary_line(result: rp.RenderResult, output: Path) -> str:
     """One line: size, triangles, rays/s, seconds per stage."""
     h, w = result.image.shape[:2]
     t = result.timings
-    stages = ", ".join(f"{name} {t[name]:.3f}s" for name in ("load", "geometry", "build", "rays", "shadows", "shade", "write")
+    stages = ", ".join(f"{name} {t[name]:.3f}s"
+                       for name in ("load", "geometry", "build", "rays", "shadows", "shade", "write")
                        if name in t)
     return (f"{output}: {w}×{h}, {result.triangles:,} triangles, {result.rays:,} rays, "
             f"{result.rays_per_second / 1e6:.1f} Mrays/s; frame {t['frame']:.3f}s ({stages}; rays, shadows "
@@ -264,8 +265,8 @@ def side_by_side(
                       "clamped) or .exr (float32, with the variants as parts `variant0`, … of channels "
                       "`variant0.R/G/B`, …). With NAME.png, that EXR is written beside it as NAME-variants.exr.")
                       ] = Path("side-by-side.png"),
-    width: Annotated[Optional[int], typer.Option(help="render.width in pixels, 1..16384.")] = None,
-    height: Annotated[Optional[int], typer.Option(help="render.height in pixels, 1..16384.")] = None,
+    width: Annotated[int | None, typer.Option(help="render.width in pixels, 1..16384.")] = None,
+    height: Annotated[int | None, typer.Option(help="render.height in pixels, 1..16384.")] = None,
     set_: SetOption = [],
     max_memory: MaxMemoryOption = None,
 ) -> None:
@@ -393,7 +394,7 @@ def schema() -> None:
   raycast-phong view scenes/meshes/torus_knot.ply       # a mesh file, framed and lit
 """)
 def view(
-    scene: Annotated[Optional[Path], typer.Argument(help="Scene file (.toml, .json) or a mesh file (any format "
+    scene: Annotated[Path | None, typer.Argument(help="Scene file (.toml, .json) or a mesh file (any format "
                      "trimesh reads). Omit it for the built-in default scene.", show_default=False,
                      dir_okay=False)] = None,
     port: Annotated[int, typer.Option(min=0, max=65535, help="Port to listen on; 0 for any free one.")] = 8765,
@@ -436,12 +437,12 @@ def batch(
                      "(their .toml and .json files), globs (quoted) and sweep files (see docs/batch.md).")],
     out: Annotated[Path, typer.Option("--out", help="Output folder: one image per scene, named after it, and "
                    "manifest.json.", show_default=False)],
-    jobs: Annotated[Optional[int], typer.Option("--jobs", "-j", min=1, max=256, help="Cores to use (default: all): "
+    jobs: Annotated[int | None, typer.Option("--jobs", "-j", min=1, max=256, help="Cores to use (default: all): "
                     "N scenes render at once, each in a worker process on one thread; fewer scenes than N share "
                     "the N cores as threads. With 1, scenes render one after another in this process.")] = None,
     force: Annotated[bool, typer.Option("--force", help="Render every scene, even those whose outputs are "
                      "up to date.")] = False,
-    scheduler: Annotated[Optional[str], typer.Option(metavar="tcp://HOST:PORT", help="Run the renders on this "
+    scheduler: Annotated[str | None, typer.Option(metavar="tcp://HOST:PORT", help="Run the renders on this "
                          "Dask scheduler (pip install 'raycast-phong[distributed]'); scene files and the output "
                          "folder must be at the same paths on its workers.")] = None,
     srgb: Annotated[bool, typer.Option("--srgb", help="Encode PNG outputs with the sRGB curve.")] = False,
@@ -453,6 +454,7 @@ def batch(
     A failing scene is reported (file and reason) and the others go on; exit status 1 if any failed.
     Ctrl-C or `kill` stops the workers at once; exit status 130 (SIGINT) or 143 (SIGTERM)."""
     import signal
+
     from raycast_phong.tools import batch as batches
     # Ctrl-C and `kill` (SIGTERM) both stop the batch: workers killed, temporaries removed, the manifest written.
     previous = {number: signal.signal(number, batches.interrupt) for number in (signal.SIGINT, signal.SIGTERM)}
@@ -483,6 +485,7 @@ def batch(
 def _report_interrupt(stop, out: Path) -> None:
     """One line for a batch a signal stopped, and its exit status, 128 + the signal's number."""
     import signal
+
     from raycast_phong.tools import batch as batches
     line = f"interrupted by {signal.Signals(stop.signal).name}"
     if stop.report is not None:
@@ -500,7 +503,7 @@ def _batch_with_progress(found, out: Path, jobs: int | None, force: bool, settin
                          quiet: bool, max_memory: int | None = None):
     """run_batch with a progress bar over the scenes on a terminal, one line per scene otherwise."""
     from raycast_phong.tools.batch import run_batch
-    options = dict(workers=jobs, force=force, settings=settings, scheduler=scheduler, max_memory=max_memory)
+    options = {"workers": jobs, "force": force, "settings": settings, "scheduler": scheduler, "max_memory": max_memory}
     if quiet:
         return run_batch(found, out, **options)
     if not sys.stderr.isatty():
@@ -544,7 +547,7 @@ def reference_command(
     scene: SceneArgument = None,
     output: Annotated[Path, typer.Option("--output", "-o", help="Image to write (.exr keeps float values; "
                       ".png is clamped to 8 bits).")] = Path("reference.exr"),
-    fine: Annotated[Optional[int], typer.Option(min=1, max=6, help="Self-convergence reference instead: every "
+    fine: Annotated[int | None, typer.Option(min=1, max=6, help="Self-convergence reference instead: every "
                     "mesh Loop-subdivided N times and every shape N levels finer, Phong shading, float64. "
                     "The only choice for a scene with a mesh file.")] = None,
     set_: SetOption = [],
@@ -590,18 +593,18 @@ def study(
     levels: Annotated[str, typer.Option(help="Tessellation levels (docs/accuracy.md: icosphere subdivisions, "
                       "segments 8·2^L, meshes Loop-subdivided L times).")] = "0,1,2,3",
     models: Annotated[str, typer.Option(help="Shading models.")] = "flat,gouraud,phong",
-    specular: Annotated[Optional[str], typer.Option(help="Specular models, e.g. phong,blinn (default: the "
+    specular: Annotated[str | None, typer.Option(help="Specular models, e.g. phong,blinn (default: the "
                         "scene's).")] = None,
-    precision: Annotated[Optional[str], typer.Option(help="float32,float64 (default: the scene's).")] = None,
-    samples: Annotated[Optional[str], typer.Option(help="Samples per pixel side, e.g. 1,2 (default: the "
+    precision: Annotated[str | None, typer.Option(help="float32,float64 (default: the scene's).")] = None,
+    samples: Annotated[str | None, typer.Option(help="Samples per pixel side, e.g. 1,2 (default: the "
                        "scene's).")] = None,
-    shininess: Annotated[Optional[str], typer.Option(help="Set every material's f, e.g. 10,100,1000.")] = None,
+    shininess: Annotated[str | None, typer.Option(help="Set every material's f, e.g. 10,100,1000.")] = None,
     repeats: Annotated[int, typer.Option(min=1, max=50, help="Renders per combination; the median time counts.")] = 3,
-    fine: Annotated[Optional[int], typer.Option(min=1, max=6, help="Measure against a self-convergence "
+    fine: Annotated[int | None, typer.Option(min=1, max=6, help="Measure against a self-convergence "
                     "reference N levels finer (needed for mesh files).")] = None,
     target: Annotated[float, typer.Option(help="The RMSE the advice in summary.md aims for.")] = 0.005,
-    width: Annotated[Optional[int], typer.Option(help="render.width in pixels, 1..16384.")] = None,
-    height: Annotated[Optional[int], typer.Option(help="render.height in pixels, 1..16384.")] = None,
+    width: Annotated[int | None, typer.Option(help="render.width in pixels, 1..16384.")] = None,
+    height: Annotated[int | None, typer.Option(help="render.height in pixels, 1..16384.")] = None,
     set_: SetOption = [],
     max_memory: MaxMemoryOption = None,
 ) -> None:
@@ -656,7 +659,7 @@ def compare_images(
     a: Annotated[Path, typer.Argument(help="First image (.png, .exr, any format OpenImageIO reads).",
                                       show_default=False)],
     b: Annotated[Path, typer.Argument(help="Second image, of the same size.", show_default=False)],
-    diff: Annotated[Optional[Path], typer.Option("--diff", help="Write a heat map of max over channels of "
+    diff: Annotated[Path | None, typer.Option("--diff", help="Write a heat map of max over channels of "
                     "|A − B| (black 0, pale yellow the largest difference).")] = None,
     fail_: Annotated[float, typer.Option("--fail", min=0.0, help="A pixel fails when a channel differs by more.")
                      ] = 1e-6,

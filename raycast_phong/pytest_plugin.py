@@ -13,9 +13,9 @@ test's tmp_path and the message gives their paths and the metrics.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 import pytest
@@ -66,7 +66,8 @@ def match_images(image: np.ndarray, reference: np.ndarray, *, rtol: float = 0.0,
     """
     image, reference = np.asarray(image, np.float64), np.asarray(reference, np.float64)
     if image.shape != reference.shape:
-        return ImageMatch(None, None, fail_percent, f"size {image.shape} differs from the reference's {reference.shape}")
+        return ImageMatch(None, None, fail_percent,
+                          f"size {image.shape} differs from the reference's {reference.shape}")
     difference = np.abs(image - reference)
     # `not <=` rather than `>`: a NaN must count as off, not as equal.
     outliers = ~(difference <= atol + rtol * np.abs(reference)).all(axis=2)
@@ -83,7 +84,8 @@ def match_images(image: np.ndarray, reference: np.ndarray, *, rtol: float = 0.0,
     message = (f"{outliers.mean():.3%} of pixels ({int(outliers.sum())} of {outliers.size}) are off by more than "
                f"atol {atol:g} + rtol {rtol:g}·|reference| (allowed {fail_percent:g}%"
                + (", on edges only, within the neighbours' range" if edges is not None else "")
-               + f"); largest difference {finite[y, x]:.4g} at pixel (x {x}, y {y}); mean {float(np.nanmean(error)):.4g}"
+               + f"); largest difference {finite[y, x]:.4g} at pixel (x {x}, y {y}); "
+               + f"mean {float(np.nanmean(error)):.4g}"
                + (f"; {nans} NaN" if nans else ""))
     if unexcused is not None and unexcused.any():
         uy, ux = np.argwhere(unexcused)[0]
@@ -97,8 +99,8 @@ def write_diagnostics(folder: Path, name: str, image: np.ndarray, reference: np.
     """<name>-actual.exr, <name>-reference.exr and (same size only) <name>-diff.png: the per-pixel largest
     difference as a heat map, black 0 to pale yellow the largest; return the paths written."""
     folder.mkdir(parents=True, exist_ok=True)
-    from .tools.compare import heat_map
     from .io.image_io import write_image
+    from .tools.compare import heat_map
     written = [write_image(folder / f"{name}-actual.exr", np.ascontiguousarray(image, np.float32))]
     if reference is not None:
         written.append(write_image(folder / f"{name}-reference.exr", np.ascontiguousarray(reference, np.float32)))

@@ -248,7 +248,8 @@ def test_nan_or_inf_in_a_list(tmp_path, key, value):
 # ---------------------------------------------------------------- meshes
 
 def test_missing_mesh_file(tmp_path):
-    refuse_scene(tmp_path, {"objects.0.shape": "mesh", "objects.0.subdivisions": DELETE, "objects.0.path": "meshes/nothere.obj"},
+    refuse_scene(tmp_path, {"objects.0.shape": "mesh", "objects.0.subdivisions": DELETE,
+                            "objects.0.path": "meshes/nothere.obj"},
                  "objects.0.path: no such mesh file", str(tmp_path / "meshes" / "nothere.obj"))
 
 
@@ -256,20 +257,23 @@ def test_missing_mesh_file(tmp_path):
 def test_unreadable_mesh_file(tmp_path, name):
     # Bytes that are neither UTF-8 text nor any mesh format (fixed, so the test is deterministic).
     (tmp_path / name).write_bytes(bytes(range(256)) * 4)
-    refuse_scene(tmp_path, {"objects.0.shape": "mesh", "objects.0.subdivisions": DELETE, "objects.0.path": name}, "objects.0.path:",
+    refuse_scene(tmp_path, {"objects.0.shape": "mesh", "objects.0.subdivisions": DELETE, "objects.0.path": name},
+                 "objects.0.path:",
                  str(tmp_path / name), "a mesh file trimesh reads (OBJ, PLY, STL, OFF, GLB)")
 
 
 def test_mesh_file_with_nan_vertices(tmp_path):
     (tmp_path / "nan.obj").write_text("v nan 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n")
-    refuse_scene(tmp_path, {"objects.0.shape": "mesh", "objects.0.subdivisions": DELETE, "objects.0.path": "nan.obj"}, "objects.0.path:",
+    refuse_scene(tmp_path, {"objects.0.shape": "mesh", "objects.0.subdivisions": DELETE,
+                            "objects.0.path": "nan.obj"}, "objects.0.path:",
                  "has 1 vertex(es) with NaN or infinite coordinates", "must have finite coordinates")
 
 
 def test_a_good_mesh_file_renders(tmp_path):
     """The control for the mesh tests: the same square without the NaN is accepted."""
     (tmp_path / "square.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n")
-    scene = write_scene(tmp_path, {"objects.0.shape": "mesh", "objects.0.subdivisions": DELETE, "objects.0.path": "square.obj"})
+    scene = write_scene(tmp_path, {"objects.0.shape": "mesh", "objects.0.subdivisions": DELETE,
+                                   "objects.0.path": "square.obj"})
     result = runner.invoke(app, ["render", str(scene)])
     assert result.exit_code == 0, result.output
     assert "2 triangles" in result.stdout
@@ -278,7 +282,8 @@ def test_a_good_mesh_file_renders(tmp_path):
 def test_a_latin1_obj_file_is_read(tmp_path):
     """A comment in Latin-1 (not UTF-8) does not make an OBJ unreadable."""
     (tmp_path / "café.obj").write_bytes("# caf\xe9 mod\xe8le\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".encode("latin-1"))
-    scene = write_scene(tmp_path, {"objects.0.shape": "mesh", "objects.0.subdivisions": DELETE, "objects.0.path": "café.obj"})
+    scene = write_scene(tmp_path, {"objects.0.shape": "mesh", "objects.0.subdivisions": DELETE,
+                                   "objects.0.path": "café.obj"})
     result = runner.invoke(app, ["render", str(scene)])
     assert result.exit_code == 0, result.output
     assert "1 triangles" in result.stdout

@@ -266,7 +266,8 @@ def test_forked_workers_from_a_fresh_command_match_one_process(five_scenes, tmp_
     """A fresh `batch` command has not started Embree, so it warms the kernels and forks its workers
     (the pytest process here has started Embree, so in-process runs use the fork server instead)."""
     run(str(five_scenes), "--out", str(tmp_path / "one"), "--jobs", "1")
-    command = [sys.executable, "-m", "raycast_phong.commands", "batch", str(five_scenes), "--out", str(tmp_path / "forked"),
+    command = [sys.executable, "-m", "raycast_phong.commands", "batch", str(five_scenes), "--out",
+               str(tmp_path / "forked"),
                "--jobs", "2"]
     done = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert done.returncode == 1  # the broken scene
@@ -277,7 +278,8 @@ def test_forked_workers_from_a_fresh_command_match_one_process(five_scenes, tmp_
 
 
 def test_warming_the_kernels_starts_no_embree():
-    probe = ("from raycast_phong.pipeline.render import warm_kernels; from raycast_phong.pipeline.intersect import embree_started; "
+    probe = ("from raycast_phong.pipeline.render import warm_kernels; "
+             "from raycast_phong.pipeline.intersect import embree_started; "
              "warm_kernels(); print(embree_started())")
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
     assert done.stdout.strip() == "False", done.stderr

@@ -5,9 +5,9 @@ from __future__ import annotations
 import json
 
 import pytest
+from test_batch import SWEEP, five_scenes, scene_text  # noqa: F401  (five_scenes is a fixture)
 
 from raycast_phong.tools import batch
-from test_batch import SWEEP, five_scenes, scene_text  # noqa: F401  (five_scenes is a fixture)
 
 distributed = pytest.importorskip("distributed", reason="pip install 'raycast-phong[distributed]'")
 
@@ -21,7 +21,7 @@ def cluster():
         yield local.scheduler_address
 
 
-def test_a_dask_batch_writes_the_same_images_bit_for_bit(five_scenes, tmp_path, cluster):  # noqa: F811
+def test_a_dask_batch_writes_the_same_images_bit_for_bit(five_scenes, tmp_path, cluster):
     (five_scenes / "base.toml").write_text(scene_text())
     (five_scenes / "sweep.toml").write_text(SWEEP)
     jobs = batch.find_jobs([five_scenes])
@@ -41,7 +41,7 @@ def test_a_dask_batch_writes_the_same_images_bit_for_bit(five_scenes, tmp_path, 
     assert entries["broken"]["status"] == "failed" and entries["sphere0"]["hash"].startswith("sha256:")
 
 
-def test_an_unreachable_scheduler_is_bad_input(five_scenes, tmp_path, monkeypatch):  # noqa: F811
+def test_an_unreachable_scheduler_is_bad_input(five_scenes, tmp_path, monkeypatch):
     monkeypatch.setattr(batch, "CONNECT_TIMEOUT", "0.5s")  # port 9 (discard) never answers; don't wait 10 s
-    with pytest.raises(batch.SceneError, match="--scheduler tcp://127.0.0.1:9: cannot connect"):
+    with pytest.raises(batch.SceneError, match=r"--scheduler tcp://127\.0\.0\.1:9: cannot connect"):
         batch.run_batch(batch.find_jobs([five_scenes]), tmp_path / "out", scheduler="tcp://127.0.0.1:9")

@@ -19,10 +19,10 @@ import time
 from pathlib import Path
 
 import pytest
+from test_batch import ROOT, TETRAHEDRON, five_scenes, images, manifest, run, scene_text, statuses  # noqa: F401
 
 import raycast_phong as rp
 from raycast_phong.tools import batch
-from test_batch import ROOT, TETRAHEDRON, five_scenes, images, manifest, run, scene_text, statuses  # noqa: F401
 
 LINUX_PROC = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="finds processes through /proc")
 SIZE = 192  # 192×192 with 3×3 samples: ~0.1-0.3 s a scene, so a signal lands mid-batch
@@ -42,7 +42,8 @@ def start_batch():
     started = []
 
     def start(folder: Path, out: Path, jobs: int) -> subprocess.Popen:
-        command = [sys.executable, "-m", "raycast_phong.commands", "batch", str(folder), "--out", str(out), "--jobs", str(jobs)]
+        command = [sys.executable, "-m", "raycast_phong.commands", "batch", str(folder), "--out", str(out), "--jobs",
+                   str(jobs)]
         started.append(subprocess.Popen(command, cwd=ROOT, start_new_session=True, stdout=subprocess.PIPE,
                                         stderr=subprocess.PIPE, text=True))
         return started[-1]

@@ -13,12 +13,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import write_tiny_scene
 from typer.testing import CliRunner
 
 import raycast_phong
 import raycast_phong as rp
 from raycast_phong.commands import app
-from conftest import write_tiny_scene
 
 runner = CliRunner()
 ROOT = Path(__file__).resolve().parents[1]
@@ -196,7 +196,8 @@ def test_stability_writes_into_a_fresh_temporary_folder(tmp_path):
     temporary.mkdir()
     (temporary / "raycast-phong-stability").write_text("planted by someone else")
     env = {**{k: v for k, v in os.environ.items() if k != "RAYCAST_PHONG_DEBUG"}, "TMPDIR": str(temporary)}
-    done = subprocess.run([sys.executable, "-m", "raycast_phong.commands", "stability", "--case", "perspective_against_screen", "--json"],
+    done = subprocess.run([sys.executable, "-m", "raycast_phong.commands", "stability", "--case",
+                           "perspective_against_screen", "--json"],
                           cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert '"passed": true' in done.stdout

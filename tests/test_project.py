@@ -27,7 +27,8 @@ def test_readme_has_the_two_setup_commands_and_ci_runs_the_test_one():
 
 def test_published_json_schema_is_current():
     published = json.loads((ROOT / "docs" / "scene.schema.json").read_text())
-    assert published == json.loads(json.dumps(scene_json_schema())), "run: raycast-phong schema > docs/scene.schema.json"
+    current = json.loads(json.dumps(scene_json_schema()))
+    assert published == current, "run: raycast-phong schema > docs/scene.schema.json"
 
 
 def test_scenes_default_is_the_packaged_default():
@@ -67,7 +68,8 @@ def test_importing_the_package_the_plugin_and_the_cli_loads_no_renderer():
 def test_the_package_names_load_on_first_use_and_stay_functions():
     """Importing the submodule raycast_phong.pipeline.render first must not leave the module where render() belongs."""
     probe = ("import sys, raycast_phong.pipeline.render, raycast_phong as rp; "
-             "print(callable(rp.render), rp.render.__module__, 'numba' in sys.modules, set(rp.__all__) <= set(dir(rp)))")
+             "print(callable(rp.render), rp.render.__module__, 'numba' in sys.modules, "
+             "set(rp.__all__) <= set(dir(rp)))")
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=ROOT, timeout=60)
     assert done.stdout.split() == ["True", "raycast_phong.pipeline.render", "True", "True"], done.stdout + done.stderr
     assert callable(rp.render) and rp.load_scene.__module__ == "raycast_phong.pipeline.scene"

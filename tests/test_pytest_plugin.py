@@ -8,10 +8,11 @@ from pathlib import Path
 import pytest
 
 import raycast_phong as rp
+
 # pytester's in-process runs drop the modules they imported when they end; OpenImageIO's native module
 # aborts the process when imported a second time, so load it here, before the first run (run alone, this
 # file used to die with SIGABRT on its second inner run).
-import raycast_phong.io.image_io  # noqa: F401
+import raycast_phong.io.image_io
 
 USER_TEST = """
 import numpy as np

@@ -21,8 +21,14 @@ import trimesh
 
 import raycast_phong as rp
 from raycast_phong.pipeline.geometry import build_geometry
-from raycast_phong.pipeline.memory import (check_memory, default_budget, estimate_memory, mesh_file_triangles, parse_size,
-                                  shape_triangles)
+from raycast_phong.pipeline.memory import (
+    check_memory,
+    default_budget,
+    estimate_memory,
+    mesh_file_triangles,
+    parse_size,
+    shape_triangles,
+)
 from raycast_phong.pipeline.plan import diagnose, group_median
 from raycast_phong.pipeline.scene import MAX_SCENE_BYTES
 

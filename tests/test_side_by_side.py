@@ -12,14 +12,14 @@ from pathlib import Path
 import numpy as np
 import OpenImageIO as oiio
 import pytest
+from conftest import write_tiny_scene
 from typer.testing import CliRunner
 
 import raycast_phong as rp
 from raycast_phong.commands import app
-from conftest import write_tiny_scene
 from raycast_phong.io import image_io
-from raycast_phong.tools import compare
 from raycast_phong.pipeline.film import to_8bit
+from raycast_phong.tools import compare
 
 runner = CliRunner()
 
@@ -98,7 +98,7 @@ def test_exr_output_holds_the_exact_variants_as_parts(tiny_scene, tmp_path):
         variant = render_alone(tiny_scene, f"render.shading={model}")
         np.testing.assert_array_equal(rp.read_layer(path, f"variant{index}"), variant)
         np.testing.assert_array_equal(panel(composed, "variants", index), variant)  # linear, unclamped
-        pixels, names = rp.read_image(path, part=index + 1)
+        _pixels, names = rp.read_image(path, part=index + 1)
         assert names == (f"variant{index}.R", f"variant{index}.G", f"variant{index}.B")
         # Each part's data window sits over its panel in the composed image's display window.
         spec = oiio.ImageBuf(str(path), index + 1, 0).spec()

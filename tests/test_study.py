@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
-from raycast_phong.tools.metrics import highlight_loss, measure, psnr, rmse, silhouette_pixels
 from raycast_phong.tools.accuracy import mesh_coverage
+from raycast_phong.tools.metrics import highlight_loss, measure, psnr, rmse, silhouette_pixels
 from raycast_phong.tools.reference import analytic_reference
-from raycast_phong.tools.study import CSV_COLUMNS, StudyOptions, read_csv, run_study, variant, scene_data, write_study
+from raycast_phong.tools.study import CSV_COLUMNS, StudyOptions, read_csv, run_study, scene_data, variant, write_study
 
 REQUIRED = ["model", "specular", "precision", "samples", "level", "triangles", "seconds", "rmse", "max_error",
             "psnr", "silhouette_pixels", "highlight_loss"]

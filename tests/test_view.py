@@ -6,12 +6,10 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import signal
 import subprocess
 import sys
 import threading
-import time
 import urllib.error
 import urllib.request
 from pathlib import Path
@@ -20,16 +18,16 @@ import numpy as np
 import pytest
 
 pytest.importorskip("starlette", reason="the view's server needs the [view] extra")
-from starlette.testclient import TestClient  # noqa: E402
-from starlette.websockets import WebSocketDisconnect  # noqa: E402
-from typer.testing import CliRunner  # noqa: E402
+from conftest import write_tiny_scene
+from starlette.testclient import TestClient
+from starlette.websockets import WebSocketDisconnect
+from typer.testing import CliRunner
 
-import raycast_phong as rp  # noqa: E402
-from raycast_phong.commands import app as cli_app  # noqa: E402
-from conftest import write_tiny_scene  # noqa: E402
-from raycast_phong.tools import accuracy  # noqa: E402
-from raycast_phong.pipeline.film import to_8bit  # noqa: E402
-from raycast_phong.tools.view.server import create_app, open_source, unpack  # noqa: E402
+import raycast_phong as rp
+from raycast_phong.commands import app as cli_app
+from raycast_phong.pipeline.film import to_8bit
+from raycast_phong.tools import accuracy
+from raycast_phong.tools.view.server import create_app, open_source, unpack
 
 TOKEN = "test-token"
 ORIGIN = "http://testserver"  # TestClient's own origin
@@ -256,7 +254,8 @@ def test_a_saved_scene_renders_to_the_frame_shown(scene_path, tmp_path):
 
 
 def test_view_command_prints_a_url_whose_token_is_required(scene_path):
-    command = [sys.executable, "-c", "from raycast_phong.commands import app; app()", "view", str(scene_path), "--port", "0",
+    command = [sys.executable, "-c", "from raycast_phong.commands import app; app()", "view", str(scene_path),
+               "--port", "0",
                "--no-browser"]
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                cwd=Path(__file__).resolve().parent.parent)
@@ -312,7 +311,7 @@ def test_a_mesh_file_is_framed_lit_and_rendered(tmp_path):
     with connect(client_for(mesh)) as ws:
         hello = json.loads(ws.receive_text())
         ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "full"}))
-        header, parts = receive_frame(ws)
+        _header, parts = receive_frame(ws)
     assert hello["analytic"] is False and hello["scene"]["objects"][0]["shape"] == "mesh"
     image = decode_png(parts["a"], tmp_path)
     covered = image.max(axis=2) > 0

@@ -18,10 +18,11 @@ pytestmark = pytest.mark.skipif(not CHROMIUM.exists(), reason=f"no Chromium at {
 playwright = pytest.importorskip("playwright.sync_api", reason="the browser tests need the [test] extra's playwright")
 pytest.importorskip("starlette", reason="the view's server needs the [view] extra")
 
-import raycast_phong as rp  # noqa: E402
-from conftest import write_tiny_scene  # noqa: E402
-from raycast_phong.pipeline.film import to_8bit  # noqa: E402
-from raycast_phong.tools.view import running  # noqa: E402
+from conftest import write_tiny_scene
+
+import raycast_phong as rp
+from raycast_phong.pipeline.film import to_8bit
+from raycast_phong.tools.view import running
 
 # Headless, and nothing that reaches out: no updates, sync or first-run pages.
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",

@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import write_tiny_scene
 
 import raycast_phong as rp
-from conftest import write_tiny_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 TOO_LARGE = os.strerror(errno.EFBIG)  # "File too large" in the C locale
@@ -34,7 +34,8 @@ def cli(*args: str | Path, limit: int | None = None) -> subprocess.CompletedProc
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # EFBIG from write(), not death by signal
         resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
     env = {key: value for key, value in os.environ.items() if key != "RAYCAST_PHONG_DEBUG"}
-    return subprocess.run([sys.executable, "-m", "raycast_phong.commands", *map(str, args)], cwd=ROOT, capture_output=True, text=True,
+    return subprocess.run([sys.executable, "-m", "raycast_phong.commands", *map(str, args)], cwd=ROOT,
+                          capture_output=True, text=True,
                           timeout=300, env=env, preexec_fn=limited if limit is not None else None)
 
 

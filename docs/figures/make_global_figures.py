@@ -53,7 +53,7 @@ def main() -> None:
     rp.write_image(OUT / "global-acne.png", pair(acne, none))
     # The terminator: the sphere, enlarged 2× by pixel repetition.
     crop = (slice(60, 260), slice(120, 340))
-    zoom = lambda image: image[crop].repeat(2, axis=0).repeat(2, axis=1)  # noqa: E731
+    zoom = lambda image: image[crop].repeat(2, axis=0).repeat(2, axis=1)
     rp.write_image(OUT / "global-terminator.png", pair(zoom(none), zoom(hanika)))
     print("| render | frame (median of 5) | × local |")
     print("|---|---|---|")

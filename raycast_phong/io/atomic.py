@@ -18,9 +18,9 @@ import os
 import signal
 import tempfile
 import threading
+from collections.abc import Iterator
 from contextlib import contextmanager, suppress
 from pathlib import Path
-from typing import Iterator
 
 DEFERRED = (signal.SIGTERM, signal.SIGINT)
 

@@ -14,8 +14,17 @@ import numpy as np
 import trimesh
 
 from .records import Geometry
-from .scene import (MIN_EXTENT, POSITION_LIMIT, Object, Scene, SceneError, ShadingModel, _dotted,
-                    brightness_problem, open_regular)
+from .scene import (
+    MIN_EXTENT,
+    POSITION_LIMIT,
+    Object,
+    Scene,
+    SceneError,
+    ShadingModel,
+    _dotted,
+    brightness_problem,
+    open_regular,
+)
 from .tolerances import MIN_DISTANCE, NO_DIRECTION
 
 MODEL_CODE = {ShadingModel.FLAT: 0, ShadingModel.GOURAUD: 1, ShadingModel.PHONG: 2}
@@ -324,8 +333,8 @@ def compute_corner_normals(vertices: np.ndarray, faces: np.ndarray, weighting: s
     else:
         raise ValueError(f"unknown normal weighting {weighting!r}")
     # (3F, 4), one row per corner: w n_f, and w |n_f| (the length the sum would have if every normal agreed).
-    contribution = np.concatenate([weights[:, :, None] * unit[:, None, :],
-                                   (weights * np.linalg.norm(unit, axis=1)[:, None])[:, :, None]], axis=2).reshape(-1, 4)
+    reach = weights * np.linalg.norm(unit, axis=1)[:, None]
+    contribution = np.concatenate([weights[:, :, None] * unit[:, None, :], reach[:, :, None]], axis=2).reshape(-1, 4)
     corner_vertex = faces.ravel()
     if crease_angle >= 180.0:
         summed = np.column_stack([np.bincount(corner_vertex, contribution[:, i], minlength=len(vertices))

@@ -49,7 +49,8 @@ def material_table(materials, real: type) -> np.ndarray:
     """(M, MATERIAL_COLUMNS) array of `real`: per material k_a, k_d, k_s, k_e (r, g, b each) and f."""
     table = np.zeros((len(materials), MATERIAL_COLUMNS))
     for row, m in zip(table, materials):
-        row[KA:KA + 3], row[KD:KD + 3], row[KS:KS + 3], row[KE:KE + 3], row[SHININESS] = m.ka, m.kd, m.ks, m.ke, m.shininess
+        row[KA:KA + 3], row[KD:KD + 3], row[KS:KS + 3], row[KE:KE + 3] = m.ka, m.kd, m.ks, m.ke
+        row[SHININESS] = m.shininess
     return np.ascontiguousarray(table, real)
 
 
@@ -97,7 +98,8 @@ def specular_power(x, f, zero, one):
 def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, visible, zero, one, two):
     """The model at point p with unit normal n and one material (a row of the material table, as a tuple).
 
-    view = (I_a r, g, b, eye x, y, z, fixed view x, y, z, smallest d² of 1/d²), a tuple. `visible` holds one bit per light
+    view = (I_a r, g, b, eye x, y, z, fixed view x, y, z, smallest d² of 1/d²), a tuple. `visible` holds one
+    bit per light
     (global mode's shadow-ray answers; all bits set in local mode): a light whose bit is clear adds
     only its ambient part. Returns the four terms as 12 scalars
     (ambient, diffuse, specular, emission; r, g, b each) and a bit mask of the optional terms

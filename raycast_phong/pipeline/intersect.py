@@ -17,7 +17,6 @@ from embreex.mesh_construction import TriangleMesh
 
 from .records import Frame, Geometry
 
-
 _started = False  # has this process created an Embree scene (and so Embree's worker threads)?
 
 

@@ -5,8 +5,8 @@ the helpers it calls from other modules (`illuminate` from illumination.py insid
 `_shade_rays`): edit illumination.py and the cached `_shade_rays` would keep running the old model.
 So every kernel of the package is cached in a folder named after a hash of all the package's
 kernel modules (every .py file here that uses `@kernel`) and of the package modules they import:
-any edit to any of them starts a fresh folder, and stale folders are removed. Only numba's documented cache directory setting
-(`numba.config.CACHE_DIR`, the NUMBA_CACHE_DIR variable) is used, set for the moment a kernel is
+any edit to any of them starts a fresh folder, and stale folders are removed. Only numba's documented
+cache directory setting (`numba.config.CACHE_DIR`, the NUMBA_CACHE_DIR variable) is used, set for the moment a kernel is
 decorated and restored at once, so other numba code in the process is unaffected.
 """
 

@@ -13,9 +13,22 @@ import re
 import numpy as np
 
 from .camera import camera_rig
-from .illumination import (F_AOV_GEOMETRY, F_AOV_TERMS, F_ATTENUATION, F_DIFFUSE, F_EMISSION,
-                           F_LIGHT_AMBIENT, F_SCENE_AMBIENT, F_SCREEN, F_SHADOWS, F_TWO_SIDED, F_VIEW_PER_POINT,
-                           SPECULAR_BLINN, SPECULAR_NONE, SPECULAR_PHONG)
+from .illumination import (
+    F_AOV_GEOMETRY,
+    F_AOV_TERMS,
+    F_ATTENUATION,
+    F_DIFFUSE,
+    F_EMISSION,
+    F_LIGHT_AMBIENT,
+    F_SCENE_AMBIENT,
+    F_SCREEN,
+    F_SHADOWS,
+    F_TWO_SIDED,
+    F_VIEW_PER_POINT,
+    SPECULAR_BLINN,
+    SPECULAR_NONE,
+    SPECULAR_PHONG,
+)
 from .records import RenderPlan, Stage
 from .scene import MAX_SAMPLES, Mode, Scene, ShadingModel, SpecularModel, Viewer
 
@@ -106,7 +119,8 @@ def build_plan(scene: Scene, optimize: bool = True) -> RenderPlan:
     geometry_aovs = sorted(GEOMETRY_AOVS & set(scene.output.aovs))
     term_aovs = sorted(TERM_AOVS & set(scene.output.aovs))
     stages.append(Stage("aov_geometry", bool(geometry_aovs),
-                        f"layers {', '.join(geometry_aovs)}" if geometry_aovs else "no depth/normal/face layer asked for"))
+                        f"layers {', '.join(geometry_aovs)}" if geometry_aovs
+                        else "no depth/normal/face layer asked for"))
     stages.append(Stage("aov_terms", bool(term_aovs),
                         f"layers {', '.join(term_aovs)}" if term_aovs else "no per-term layer asked for"))
     stages.append(Stage("shading_models", True, ", ".join(sorted(m.value for m in models))))

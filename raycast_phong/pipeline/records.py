@@ -45,12 +45,12 @@ class ImageBuffers:
     A layer that was not asked for is an empty array, so the kernel's signature never changes.
     """
     rgb: np.ndarray     # (H, W, 3) shading precision, zeroed: the kernel adds each sample's share
-    terms: np.ndarray   # (H, W, 4, 3) shading precision, ambient, diffuse, specular, emission; (0, 0, 4, 3) if not asked
+    terms: np.ndarray   # (H, W, 4, 3) shading precision: ambient, diffuse, specular, emission; (0, 0, 4, 3) if not
     depth: np.ndarray   # (H, W) float32, world distance along the ray, inf on a miss; (0, 0) if not asked
     normal: np.ndarray  # (H, W, 3) float32 shading normal, 0 on a miss; (0, 0, 3) if not asked
     face: np.ndarray    # (H, W) float32 face index, -1 on a miss; (0, 0) if not asked
 
-    def rows(self, row0: int, row1: int) -> "ImageBuffers":
+    def rows(self, row0: int, row1: int) -> ImageBuffers:
         """Views of rows [row0, row1) (empty layers stay empty); C-contiguous because rows are whole."""
         def cut(array: np.ndarray) -> np.ndarray:
             return array[row0:row1] if len(array) else array

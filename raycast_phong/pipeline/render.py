@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -51,7 +51,8 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
 
     Returns
     -------
-    RenderResult with .image (H, W, 3) in the shading precision (float32, or float64), .aovs, .timings (seconds: geometry, build, rays,
+    RenderResult with .image (H, W, 3) in the shading precision (float32, or float64), .aovs, .timings
+    (seconds: geometry, build, rays,
     shadows (global mode), shade, frame; rays, shadows and shade are summed over the worker threads,
     frame is wall time).
     """

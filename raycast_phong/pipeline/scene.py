@@ -15,10 +15,18 @@ import stat
 import tomllib
 from enum import Enum
 from pathlib import Path
-from typing import Annotated, Any, BinaryIO, Literal, Union, get_args, get_origin
+from typing import Annotated, Any, BinaryIO, Literal, get_args, get_origin
 
-from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, Strict, ValidationError, field_validator,
-                      model_validator)
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    Strict,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 MAX_SIZE = 16384          # pixels per side, from the format
 MAX_SAMPLES = 16          # 16×16 = 256 rays per pixel is already a reference-quality render
@@ -192,7 +200,7 @@ class Camera(_Strict):
     _check_up = field_validator("up")(lambda v: _direction(v))
 
     @model_validator(mode="after")
-    def _frame(self) -> "Camera":
+    def _frame(self) -> Camera:
         forward = [b - a for a, b in zip(self.position, self.look_at)]
         if math.hypot(*forward) == 0.0:
             raise _KeyError(("camera", "look_at"), f"{list(self.look_at)} is the camera position too, so the camera "
@@ -227,7 +235,7 @@ def _attenuation(value: Any) -> Any:
         raise ValueError(f"allowed: {ATTENUATION_ALLOWED}; got {_shown(value)}")
     if len(sequence) != 3:
         raise ValueError(f"the attenuation list is [c, l, q], got {len(sequence)} numbers: {list(sequence)}")
-    c, l, q = (float(_number(x)) for x in sequence)
+    c, l, q = (float(_number(x)) for x in sequence)  # noqa: E741
     # min(1, 1/(c + l·d + q·d²)) is defined for every d ≥ 0 when no coefficient is negative: where the sum
     # is 0 (c = 0 at d = 0) the clamp gives 1. All zero would be "none" in disguise. The kernel's tables
     # are float32, so each coefficient must be finite there.
@@ -243,7 +251,7 @@ class Light(_Strict):
     diffuse: Vec3 = (0.8, 0.8, 0.8)
     specular: Vec3 = (1.0, 1.0, 1.0)
     ambient: Vec3 = (0.0, 0.0, 0.0)
-    attenuation: Annotated[Union[Literal["none", "inverse_square"], tuple[float, float, float]],
+    attenuation: Annotated[Literal["none", "inverse_square"] | tuple[float, float, float],
                            BeforeValidator(_attenuation)] = "none"
 
     _check_position = field_validator("position")(lambda v: v if v is None else _position(v))
@@ -251,7 +259,7 @@ class Light(_Strict):
     _check_intensity = field_validator("diffuse", "specular", "ambient")(lambda v: _non_negative(v))
 
     @model_validator(mode="after")
-    def _placement(self) -> "Light":
+    def _placement(self) -> Light:
         if self.type == "point" and self.position is None:
             raise ValueError("a point light needs position = [x, y, z]")
         if self.type == "directional":
@@ -348,7 +356,7 @@ class Object(_Strict):
         return value
 
     @model_validator(mode="after")
-    def _shape_keys(self) -> "Object":
+    def _shape_keys(self) -> Object:
         if self.shape == "mesh" and not self.path:
             raise ValueError('shape = "mesh" needs path = "file.obj" (any format trimesh reads)')
         if self.shape != "mesh" and self.normals == "file":
@@ -376,7 +384,7 @@ class Output(_Strict):
         return data
 
     @model_validator(mode="after")
-    def _format(self) -> "Output":
+    def _format(self) -> Output:
         suffix = Path(self.path).suffix.lower()
         if suffix not in (".png", ".exr"):
             raise _KeyError(("output", "path"), f"{self.path!r} must end in .png or .exr")
@@ -415,7 +423,7 @@ class Scene(_Strict):
     _check_ambient = field_validator("ambient")(lambda v: _non_negative(v))
 
     @model_validator(mode="after")
-    def _references(self) -> "Scene":
+    def _references(self) -> Scene:
         if not self.objects:
             raise _KeyError(("objects",), 'the scene has no [[objects]]; add at least one, e.g. '
                             '[[objects]] shape = "icosphere"')
@@ -564,7 +572,8 @@ def read_scene_dict(path: Path) -> dict:
         else:
             data = tomllib.loads(text)
     except json.JSONDecodeError as error:
-        raise SceneError(f"{path}: JSON syntax error at line {error.lineno}, column {error.colno}: {error.msg}") from None
+        where = f"line {error.lineno}, column {error.colno}"
+        raise SceneError(f"{path}: JSON syntax error at {where}: {error.msg}") from None
     except tomllib.TOMLDecodeError as error:
         raise SceneError(f"{path}: TOML syntax error: {error}") from None
     if not isinstance(data, dict):

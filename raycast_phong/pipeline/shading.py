@@ -19,8 +19,18 @@ from typing import NamedTuple
 import numpy as np
 
 from .camera import CameraRig
-from .illumination import (COUNTED_TERMS, F_AOV_GEOMETRY, F_AOV_TERMS, F_ATTENUATION, F_SCREEN, F_SHADOWS,
-                           F_TWO_SIDED, illuminate, light_table, material_table)
+from .illumination import (
+    COUNTED_TERMS,
+    F_AOV_GEOMETRY,
+    F_AOV_TERMS,
+    F_ATTENUATION,
+    F_SCREEN,
+    F_SHADOWS,
+    F_TWO_SIDED,
+    illuminate,
+    light_table,
+    material_table,
+)
 from .intersect import TileHits
 from .jit import kernel
 from .records import Frame, Geometry, ImageBuffers
@@ -180,9 +190,10 @@ def _shade_rays(inputs, rays, film):
     come out of their tuples once, here: a field read per hit costs a reference count, and so does a
     row view such as directions[k] (it made the frame 15–28 % slower until the scalars were passed).
     """
-    vertices, faces, face_normals, corner_normals = inputs.vertices, inputs.faces, inputs.face_normals, inputs.corner_normals
-    face_material, face_model = inputs.face_material, inputs.face_model
-    materials, lights, view, camera, background = inputs.materials, inputs.lights, inputs.viewing, inputs.camera, inputs.background
+    vertices, faces, face_normals = inputs.vertices, inputs.faces, inputs.face_normals
+    corner_normals, face_material, face_model = inputs.corner_normals, inputs.face_material, inputs.face_model
+    materials, lights, view = inputs.materials, inputs.lights, inputs.viewing
+    camera, background = inputs.camera, inputs.background
     flags, specular, zero, one, two = inputs.flags, inputs.specular, inputs.zero, inputs.one, inputs.two
     face, bu, bv, tfar, directions, visible, samples = rays
     rgb, terms, depth, normal, face_out, counts = film

@@ -130,7 +130,8 @@ def _shadow_rays(hit_rays, face, bu, bv, directions, vertices, faces, face_norma
             for j in range(3):
                 bj = b0 if j == 0 else (b1 if j == 1 else b2)
                 vj = faces[f, j]
-                n0, n1, n2 = side * corner_normals[f, j, 0], side * corner_normals[f, j, 1], side * corner_normals[f, j, 2]
+                n0, n1, n2 = (side * corner_normals[f, j, 0], side * corner_normals[f, j, 1],
+                              side * corner_normals[f, j, 2])
                 below = min(0.0, (px - vertices[vj, 0]) * n0 + (py - vertices[vj, 1]) * n1
                             + (pz - vertices[vj, 2]) * n2)
                 qx, qy, qz = qx - bj * below * n0, qy - bj * below * n1, qz - bj * below * n2

@@ -1,1 +1,1 @@
-"""Tools built on the pipeline: the oracle and the metrics, studies, stability, batches, sweeps, comparison, the live view."""
+"""Tools built on the pipeline: the oracle, metrics, studies, stability, batches, sweeps, comparison, the live view."""

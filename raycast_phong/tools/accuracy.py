@@ -20,11 +20,11 @@ import trimesh
 from ..pipeline.camera import RayGenerator, camera_rig
 from ..pipeline.geometry import build_geometry, object_mesh
 from ..pipeline.intersect import Accelerator, unit_frame
-from .metrics import measure
 from ..pipeline.records import MeasuredResult, RenderResult
-from .reference import TILE_SAMPLES, ReferenceImage, analytic_reference
 from ..pipeline.render import render
 from ..pipeline.scene import Object, Scene, validate_scene
+from .metrics import measure
+from .reference import TILE_SAMPLES, ReferenceImage, analytic_reference
 
 
 def refined(obj: Object, level: int) -> dict:
@@ -121,7 +121,8 @@ def mesh_coverage(scene: Scene, source: str = "<scene>") -> np.ndarray:
     return coverage
 
 
-def measured(scene: Scene, result: RenderResult, reference: str, fine: int = 2, source: str = "<scene>") -> MeasuredResult:
+def measured(scene: Scene, result: RenderResult, reference: str, fine: int = 2,
+             source: str = "<scene>") -> MeasuredResult:
     """`result` with its errors against the "analytic" (or "fine": `fine` levels finer) reference."""
     if reference not in ("analytic", "fine"):
         raise ValueError(f"reference must be 'analytic' or 'fine', got {reference!r}")

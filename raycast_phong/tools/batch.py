@@ -26,12 +26,12 @@ import threading
 import time
 import traceback
 from collections import deque
+from collections.abc import Callable, Iterator
 from concurrent.futures import Future
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field, replace
 from multiprocessing import connection
 from pathlib import Path
-from typing import Callable, Iterator
 
 from ..io.atomic import WriteError, signals_deferred, write_text
 from ..io.image_io import ImageError, write_image
@@ -229,7 +229,7 @@ def prepare_job(job: Job, folder: Path, settings: Settings, previous: dict | Non
     except SceneError as error:
         entry.reason, entry.hash = _reason(job, str(error)), job_hash(job, None, settings)
         return entry
-    except Exception as error:  # a loader bug on one file (e.g. a RecursionError) fails that scene only
+    except Exception as error:  # noqa: BLE001 — a loader bug on one file (e.g. a RecursionError) fails that scene only
         return replace(_internal_error(job, entry, error), hash=job_hash(job, None, settings))
     load_seconds = time.perf_counter() - start
     digest, inputs = job_hash(job, scene, settings), input_times(job, scene)
@@ -260,7 +260,7 @@ def render_job(task: Task) -> Outcome:
     except (SceneError, ImageError, WriteError) as error:  # a failed write is a failed scene, never rendered
         entry.reason = _reason(task.job, str(error))
         return entry
-    except Exception as error:  # a renderer bug in one scene must not stop the batch
+    except Exception as error:  # noqa: BLE001 — a renderer bug in one scene must not stop the batch
         return _internal_error(task.job, entry, error)
     seconds = {"load": task.load_seconds, **result.timings, "total": time.perf_counter() - start}
     return replace(entry, status=RENDERED, outputs=[task.output.name],
@@ -306,6 +306,7 @@ def warm_up(tasks: list[Task]) -> float:
         return 0.0
     start = time.perf_counter()
     import numpy as np
+
     from ..pipeline.plan import build_plan
     from ..pipeline.render import warm_kernels
     plans = []
@@ -462,7 +463,7 @@ def _result(future: Future, task: Task) -> Outcome:
     """A finished Dask future's Outcome; a worker that died (a crash, not an exception) fails only its task."""
     try:
         return future.result()
-    except Exception as error:
+    except Exception as error:  # noqa: BLE001
         return _entry(task.job, FAILED, reason=_reason(task.job, f"worker failed: {type(error).__name__}: {error}"),
                       hash=task.digest, inputs=task.inputs)
 

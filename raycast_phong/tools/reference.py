@@ -308,7 +308,7 @@ def illuminate_exact(scene: Scene, points, normals, to_viewer, material_rows, vi
             # d floored at MIN_DISTANCE × the scene's half-extent, as shading.prepare_shading does.
             weight = 1 / np.maximum(distance ** 2, (MIN_DISTANCE * scale) ** 2)
         elif light.type == "point" and light.attenuation != "none":
-            c, l, q = light.attenuation
+            c, l, q = light.attenuation  # noqa: E741
             # min(1, 1/x) as 1/max(1, x), as the kernel: no 1/0 where x = 0 (c = 0 at d = 0).
             weight = 1 / np.maximum(1.0, c + l * distance + q * distance ** 2)
         ambient = ambient + weight[:, None] * np.asarray(light.ambient) * ka

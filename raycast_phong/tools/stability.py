@@ -13,9 +13,9 @@ import math
 import shutil
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -120,7 +120,8 @@ def float32_shininess_limit() -> CaseResult:
     errors = {f: float32_highlight_error(f)[0] for f in (1e3, 1e4, F32_SHININESS_LIMIT, 1e6, 1e7)}
     switched = build_plan(sphere_scene(1e6)).keeps("float64_shading")
     stays = not build_plan(sphere_scene(1e3)).keeps("float64_shading")
-    figure = "forced float32 error near the highlight peak: " + ", ".join(f"{e:.0e} at f = {f:g}" for f, e in errors.items())
+    figure = "forced float32 error near the highlight peak: " + ", ".join(f"{e:.0e} at f = {f:g}"
+                                                                          for f, e in errors.items())
     return CaseResult("float32 and stiff highlights", f"above f = {F32_SHININESS_LIMIT:g} the plan shades in "
                       "float64; below it float32 stays within half an 8-bit step (1/512)", figure,
                       switched and stays and errors[1e4] < 1 / 512)
@@ -259,7 +260,8 @@ def grazing_view() -> CaseResult:
 # ---------------------------------------------------------------- 5. degenerate geometry
 
 def write_obj(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
-    lines = [f"v {float(x)!r} {float(y)!r} {float(z)!r}" for x, y, z in vertices] + [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in faces]
+    lines = [f"v {float(x)!r} {float(y)!r} {float(z)!r}" for x, y, z in vertices]
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in faces]
     path.write_text("\n".join(lines) + "\n")
 
 
@@ -396,7 +398,7 @@ def hdr_linearity() -> CaseResult:
     def lit(k: float) -> Scene:
         scene = sphere_scene(32, size=32)
         lights = tuple(l.model_copy(update={"diffuse": tuple(k * v for v in l.diffuse),
-                                            "specular": tuple(k * v for v in l.specular)}) for l in scene.lights)
+                                            "specular": tuple(k * v for v in l.specular)}) for l in scene.lights)  # noqa: E741
         return scene.model_copy(update={"lights": lights, "ambient": tuple(k * v for v in scene.ambient)})
 
     base = render(lit(1.0)).image.astype(np.float64)
@@ -467,7 +469,8 @@ def float32_against_float64() -> CaseResult:
     deviations = {name: float32_deviation(make) for name, make in FLOAT32_CASES.items()}
     return CaseResult("float32 against float64", "float64 matches a float64 hand computation to 1e-12; "
                       "the float32 deviation of each case's scene is reported (relative to its largest pixel)",
-                      f"float64 error {error64:.1e}; float32: " + ", ".join(f"{k} {v:.0e}" for k, v in deviations.items()),
+                      f"float64 error {error64:.1e}; float32: "
+                      + ", ".join(f"{k} {v:.0e}" for k, v in deviations.items()),
                       error64 < 1e-12)
 
 
@@ -501,7 +504,8 @@ def receding_quad_scene(ratio: float, interpolation: str) -> Scene:
     near, far = 1.0, ratio
     # The near edge is seen 0.8 below the view axis at depth 1, the far edge 0.5 above it at depth r.
     (folder / f"quad-{ratio:g}.obj").write_text(
-        f"v -0.1 {-0.8 * near} -{near}\nv 0.1 {-0.8 * near} -{near}\nv 0.1 {0.5 * far} -{far}\nv -0.1 {0.5 * far} -{far}\n"
+        f"v -0.1 {-0.8 * near} -{near}\nv 0.1 {-0.8 * near} -{near}\n"
+        f"v 0.1 {0.5 * far} -{far}\nv -0.1 {0.5 * far} -{far}\n"
         "vn 0 0 1\nvn 0 0 1\nvn 1 0 0\nvn 1 0 0\nf 1//1 2//2 3//3\nf 1//1 3//3 4//4\n")
     return validate_scene({
         "render": {"width": 9, "height": 200, "shading": "gouraud", "viewer": "infinite",

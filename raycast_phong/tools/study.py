@@ -14,19 +14,27 @@ import io
 import math
 import statistics
 import tempfile
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
-from .accuracy import mesh_coverage, reference_image, refine_entry
 from ..io.atomic import write_bytes, write_text
-from ..pipeline.geometry import build_geometry
 from ..io.image_io import ImageError, check_output_file
-from .metrics import measure
+from ..pipeline.geometry import build_geometry
 from ..pipeline.render import render
-from ..pipeline.scene import Scene, SceneError, ShadingModel, SpecularModel, apply_override, read_scene_dict, validate_scene
+from ..pipeline.scene import (
+    Scene,
+    SceneError,
+    ShadingModel,
+    SpecularModel,
+    apply_override,
+    read_scene_dict,
+    validate_scene,
+)
+from .accuracy import mesh_coverage, reference_image, refine_entry
+from .metrics import measure
 
 THEORY = {"flat": 1.0, "gouraud": 2.0, "phong": 2.0}  # orders in the edge length h, smooth regions
 PLOT_HINT = "pip install 'raycast-phong[plot]' (matplotlib) for error_vs_time.png"

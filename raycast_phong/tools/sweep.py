@@ -25,10 +25,10 @@ from typing import Any
 
 import numpy as np
 
-from .compare import BACKDROP, MIN_FONT, draw_text, fitting_size, row_wording, layout
-from ..pipeline.film import srgb_encode
 from ..io.image_io import ImageError, read_layer, text_coverage, write_image
+from ..pipeline.film import srgb_encode
 from ..pipeline.scene import SceneError
+from .compare import BACKDROP, MIN_FONT, draw_text, fitting_size, layout, row_wording
 
 SWEEP_KEYS = ("scene", "set", "grid")
 FAILED_RGB = (0.35, 0.06, 0.06)  # a failed cell: dark red, so it cannot pass for a black render

@@ -58,7 +58,8 @@ def tube(curve: np.ndarray, radius: float, sides: int) -> trimesh.Trimesh:
                           -np.sin(angles)[:, None] * normals + np.cos(angles)[:, None] * binormals)
 
     around = 2 * np.pi * np.arange(sides) / sides
-    offsets = np.cos(around)[None, :, None] * normals[:, None, :] + np.sin(around)[None, :, None] * binormals[:, None, :]
+    offsets = (np.cos(around)[None, :, None] * normals[:, None, :]
+               + np.sin(around)[None, :, None] * binormals[:, None, :])
     vertices = (curve[:, None, :] + radius * offsets).reshape(-1, 3)
     ring, side = np.meshgrid(np.arange(count), np.arange(sides), indexing="ij")
     a = (ring * sides + side).ravel()

@@ -8,16 +8,17 @@ render, the reference and a difference heat map in the test's tmp_path.
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 
 import numpy as np
 import pytest
+from tolerances import IMAGE_TOLERANCES, STANDARD, ImageTolerance
 
 import raycast_phong as rp
 import raycast_phong.pipeline.scene
-from raycast_phong.pytest_plugin import ImageMatch, match_images, write_diagnostics
 from raycast_phong.pipeline.geometry import build_geometry
-from tolerances import IMAGE_TOLERANCES, STANDARD, ImageTolerance
+from raycast_phong.pytest_plugin import ImageMatch, match_images, write_diagnostics
 
 SCENES = Path(__file__).resolve().parents[2] / "scenes"
 TEST_WIDTH = 128  # 128×72 for a 16:9 scene: ~20 ms a render; references of 10–95 KB (smooth floors compress worst)
@@ -74,7 +75,7 @@ def surface_keys(geometry) -> np.ndarray:
         n_hi = np.where(swap[..., None], na, nb).reshape(-1, 3)
         owner = np.repeat(np.arange(count), 3)
         order = np.lexsort((hi, lo))
-        for i, j in zip(order[:-1], order[1:]):
+        for i, j in itertools.pairwise(order):
             if lo[i] == lo[j] and hi[i] == hi[j] and smooth[owner[i]] and smooth[owner[j]] \
                     and np.allclose(n_lo[i], n_lo[j], atol=1e-9) and np.allclose(n_hi[i], n_hi[j], atol=1e-9):
                 parent[root(owner[i])] = root(owner[j])
@@ -125,7 +126,8 @@ def test_render_matches_reference(scene_name, variant, assert_image_matches):
     ties them to the model: the specular scene's Phong render is checked against the analytic reference
     (its exact spheres) within a bound derived from the tessellation (test_analytic_images.py); the model
     itself by hand-computed pixels (tests/unit/test_illumination.py, test_reference.py), cameras and
-    layers by hand-built rays (test_camera_and_layers.py), shadows by analytic shadows (test_shadows.py). A reference is rewritten only with a commit that says why it changed.
+    layers by hand-built rays (test_camera_and_layers.py), shadows by analytic shadows (test_shadows.py).
+    A reference is rewritten only with a commit that says why it changed.
     """
     scene = small_scene(scene_name, variant)
     image = rp.render(scene).image

@@ -270,7 +270,7 @@ def write_reports(mutants: list[Mutant], out: Path, tests: list[str]) -> None:
     done = [m for m in mutants if m.status != "pending"]
     lines = ["# Mutation run", "", f"Test subset: `{' '.join(tests)}`", "",
              "| module | mutants | killed | survived | timeout | score |", "|---|---|---|---|---|---|"]
-    for module in sorted({m.module for m in done}) + ["all"]:
+    for module in [*sorted({m.module for m in done}), "all"]:
         ms = [m for m in done if module in ("all", m.module)]
         killed = sum(m.status in ("killed", "timeout") for m in ms)
         lines.append(f"| {module} | {len(ms)} | {sum(m.status == 'killed' for m in ms)} | "

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
-from raycast_phong.tools import stability
 from raycast_phong.pipeline.plan import F32_SHININESS_LIMIT
+from raycast_phong.tools import stability
 
 
 @pytest.mark.parametrize("name", list(stability.CASES))

@@ -121,7 +121,8 @@ def test_depth_normal_and_face_layers_describe_the_hit(camera, shading):
     # Barycentrics of the point: areas of the sub-triangles over the face's, signed along its normal.
     twice_area = np.einsum("ij,ij->i", np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]),
                            geometry.face_normals[f])
-    weights = np.stack([np.einsum("ij,ij->i", np.cross(corners[:, (j + 1) % 3] - point, corners[:, (j + 2) % 3] - point),
+    weights = np.stack([np.einsum("ij,ij->i", np.cross(corners[:, (j + 1) % 3] - point, corners[:,
+                                                                                                (j + 2) % 3] - point),
                                   geometry.face_normals[f]) / twice_area for j in range(3)], axis=1)
     edge = np.linalg.norm(corners[:, 1] - corners[:, 0], axis=1).min()
     slack = 4 * ROUNDING / edge  # the point's rounding, in barycentric units

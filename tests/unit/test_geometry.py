@@ -22,7 +22,7 @@ def test_mean_area_and_angle_weightings_on_a_hand_made_fan():
     """Vertex 0 is shared by a large face in the x–y plane and a small face tilted 90° about x."""
     vertices = np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0], [1, 0, 0], [0, 0, -1]], float)
     faces = np.array([[0, 1, 2], [0, 3, 4]])  # normals +z (area 2) and +y... check below
-    unit, doubled = face_normals(vertices, faces)
+    unit, _doubled = face_normals(vertices, faces)
     np.testing.assert_allclose(unit, [[0, 0, 1], [0, 1, 0]], atol=1e-12)
     mean = compute_corner_normals(vertices, faces, "mean")[0, 0]
     area = compute_corner_normals(vertices, faces, "area")[0, 0]
@@ -122,7 +122,7 @@ def test_a_malformed_mesh_file_is_bad_input_but_a_bug_stays_an_internal_error(tm
     (tmp_path / "bad.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nend_header\n\x00")
     (tmp_path / "odd.stl").write_bytes(bytes(range(256)) * 3)  # not UTF-8: trimesh needs charset-normalizer
     scene = lambda name: rp.validate_scene({"objects": [{"shape": "mesh", "path": name}]}, folder=tmp_path)
-    with pytest.raises(rp.SceneError, match="objects.0.path: cannot read"):
+    with pytest.raises(rp.SceneError, match=r"objects\.0\.path: cannot read"):
         build_geometry(scene("bad.ply"))
     try:
         build_geometry(scene("odd.stl"))  # binary STL reads any bytes; what matters is no missing module

@@ -84,7 +84,7 @@ def test_exr_parts_keep_their_own_size_and_place(tmp_path):
     assert rp.read_image(path, part=2)[1] == ("right.R", "right.G", "right.B")
     with pytest.raises(rp.ImageError, match=r"no layer 'middle'; channels are R, G, B, left.R, .*right.B"):
         rp.read_layer(path, "middle")
-    with pytest.raises(rp.ImageError, match="need an .exr output"):
+    with pytest.raises(rp.ImageError, match=r"need an \.exr output"):
         rp.write_image(tmp_path / "p.png", image, parts={"left": (small, (0, 0))})
     assert sorted(p.name for p in tmp_path.iterdir()) == ["p.exr"]
 

@@ -67,7 +67,7 @@ def edit(path: Path, old: str, new: str) -> None:
 
 def test_an_edit_to_an_inlined_helper_reaches_the_cached_kernel(package_copy, tmp_path):
     copy, run = package_copy
-    assert "import raycast_phong" in RENDER and str(copy.parent) in run("import raycast_phong; print(raycast_phong.__file__)")
+    assert str(copy.parent) in run("import raycast_phong; print(raycast_phong.__file__)")
     first = json.loads(run(RENDER, str(tmp_path / "first.npy")))
     again = json.loads(run(RENDER, str(tmp_path / "again.npy")))
     assert first["misses"] > 0 and again == {"hits": again["hits"], "misses": 0} and again["hits"] > 0

@@ -13,7 +13,8 @@ STAGES = ("camera", "geometry", "intersect", "illumination", "shading", "shadows
 
 def test_the_oracle_imports_no_stage_of_the_renderer():
     probe = ("import json, sys; import raycast_phong.tools.reference; "
-             "print(json.dumps(sorted(m for m in sys.modules if m.startswith(('raycast_phong.', 'numba', 'embreex')))))")
+             "print(json.dumps(sorted(m for m in sys.modules "
+             "if m.startswith(('raycast_phong.', 'numba', 'embreex')))))")
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
     loaded = json.loads(done.stdout)
     assert "raycast_phong.tools.reference" in loaded
@@ -59,7 +60,7 @@ def test_the_package_has_no_import_cycles():
         state[node] = 1
         for target in sorted(graph.get(node, ())):
             if state.get(target) == 1:
-                cycles.append(trail[trail.index(target):] + [target] if target in trail else [node, target])
+                cycles.append([*trail[trail.index(target):], target] if target in trail else [node, target])
             elif target not in state:
                 visit(target, [*trail, target])
         state[node] = 2
@@ -76,6 +77,7 @@ def test_imports_point_down_the_layers():
     graph = _package_imports()
     below = {"pipeline": ("io.", "tools.", "commands"), "io": ("tools.", "commands"), "tools": ("commands",)}
     wrong = sorted(f"{module} -> {target}" for module, targets in graph.items() for target in targets
-                   for layer, forbidden in below.items() if module.startswith(f"{layer}.") and target.startswith(forbidden))
+                   for layer,
+                       forbidden in below.items() if module.startswith(f"{layer}.") and target.startswith(forbidden))
     assert {"pipeline.render", "io.image_io", "tools.batch"} <= set(graph)
     assert not wrong, wrong

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
-import raycast_phong.pipeline.scene
 import raycast_phong.pipeline.geometry as geometry
+import raycast_phong.pipeline.scene
 from raycast_phong.pipeline.illumination import COUNTED_TERMS
 
 
@@ -57,8 +57,7 @@ def test_left_out_stage_is_reported_and_image_equals_the_full_pipeline(overrides
 
 
 def test_kept_terms_are_counted():
-    s = scene(**{"lights__0__attenuation": "[1, 0.1, 0.01]", "lights__0__ambient": "0.1",
-                 "materials__m__ke": "0.05"})
+    s = scene(lights__0__attenuation="[1, 0.1, 0.01]", lights__0__ambient="0.1", materials__m__ke="0.05")
     plan = rp.build_plan(s)
     result = rp.render(s)
     for term in COUNTED_TERMS:
@@ -89,6 +88,6 @@ def test_crease_split_is_used_only_with_a_crease_angle(monkeypatch):
 
 
 def test_plan_command_lists_every_stage_with_a_reason():
-    text = rp.build_plan(scene(**{"materials__m__ks": "0"})).describe()
+    text = rp.build_plan(scene(materials__m__ks="0")).describe()
     assert "left out  specular" in text and "every material's k_s or every light's I_s is 0" in text
     assert "kept      diffuse" in text

@@ -22,10 +22,11 @@ import secrets
 import struct
 import tempfile
 import time
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 from starlette.applications import Starlette
@@ -45,7 +46,7 @@ STATIC = Path(__file__).parent / "static"
 MAX_MESSAGE_BYTES = 1 << 16   # a page message is a few hundred bytes of settings; refuse anything larger
 MAX_SETTINGS = 256            # keys per request: far more than the page has controls
 MAX_VIEW_RAYS = 1920 * 1080 * 16  # rays per frame: ~2 s here; a larger frame is a batch job, not a view
-LEVELS = range(0, 7)          # tessellation levels the page offers (reference.refined: level 6 = 81,920 faces)
+LEVELS = range(7)          # tessellation levels the page offers (reference.refined: level 6 = 81,920 faces)
 COOKIE = "raycast_phong_view_{port}"  # cookies ignore the port: one name per server, as Jupyter's
 
 
@@ -81,13 +82,14 @@ def mesh_scene(path: Path) -> dict:
     try:
         mesh = trimesh.load(str(path), force="mesh")
         lower, upper = np.asarray(mesh.bounds, np.float64)
-    except Exception as error:  # trimesh raises many kinds; the person only needs the file and the reason
+    except Exception as error:  # noqa: BLE001 — trimesh raises many kinds; the person only needs the file and the reason
         raise SceneError(f"{path}: cannot read the mesh ({type(error).__name__}: {error})") from None
     centre, radius = (lower + upper) / 2, max(float(np.linalg.norm(upper - lower)) / 2, 1e-9)
     distance = radius / math.sin(math.radians(15))  # fov 30°: the bounding sphere just fits the height
     return {
         "render": {"width": 640, "height": 360},
-        "camera": {"position": (centre + [0, 0, distance]).tolist(), "look_at": centre.tolist(), "fov": 30},
+        "camera": {"position": (centre + np.array([0.0, 0.0, distance])).tolist(), "look_at": centre.tolist(),
+                   "fov": 30},
         "lights": [{"type": "point", "position": (centre + radius * np.array([2.0, 3.0, 4.0])).tolist()}],
         "objects": [{"shape": "mesh", "path": str(path.resolve())}],
     }
@@ -423,7 +425,7 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
                     await websocket.send_text(json.dumps({"type": "error", "id": request.get("id"),
                                                           "message": str(error)}))
                     continue
-                except Exception as error:  # our bug: say so on the page in one line and keep serving
+                except Exception as error:  # noqa: BLE001 — our bug: say so on the page in one line and keep serving
                     await websocket.send_text(json.dumps({"type": "error", "id": request.get("id"), "message":
                                                           f"internal error: {type(error).__name__}: {error}"}))
                     continue
@@ -442,7 +444,7 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
             request, client.reference_next = client.reference_next, None
             try:
                 errors = await loop.run_in_executor(reference_executor, renderer.errors, request)
-            except Exception as error:  # the frame was fine; say why its errors are missing and go on
+            except Exception as error:  # noqa: BLE001 — the frame was fine; say why its errors are missing and go on
                 errors = {"type": "error", "id": request.get("id"), "message": f"exact reference: {error}"}
             if errors is not None:
                 await websocket.send_text(json.dumps(errors))
