@@ -6,6 +6,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 import raycast_phong as rp
 from raycast_phong.pipeline.scene import scene_json_schema
 
@@ -73,3 +75,13 @@ def test_the_package_names_load_on_first_use_and_stay_functions():
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=ROOT, timeout=60)
     assert done.stdout.split() == ["True", "raycast_phong.pipeline.render", "True", "True"], done.stdout + done.stderr
     assert callable(rp.render) and rp.load_scene.__module__ == "raycast_phong.pipeline.scene"
+
+
+def test_ruff_is_clean():
+    """The stated rule set in pyproject.toml ([tool.ruff]) holds over the whole tree; CI runs it through here."""
+    ruff = Path(sys.executable).with_name("ruff")
+    if not ruff.exists():
+        pytest.skip("ruff is not installed in this environment (pip install -e '.[test]' brings it)")
+    done = subprocess.run([str(ruff), "check", "--output-format", "concise", str(ROOT)], capture_output=True,
+                          text=True, cwd=ROOT, timeout=120)
+    assert done.returncode == 0, done.stdout + done.stderr
