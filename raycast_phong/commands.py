@@ -671,12 +671,13 @@ def compare_images(
     """Compare two images as idiff does: mean, RMS, PSNR, the largest error and where. Exit status 0 pass
     (warnings included), 1 fail, 2 unreadable input or different sizes."""
     from raycast_phong.io.image_io import compare_files
+    from raycast_phong.tools.difference import difference_map
     with exit_codes():
         if diff is not None:
             check_output_path(diff, inputs=(a, b))  # before reading: --diff onto an input would replace it
         found = compare_files(a, b, fail_, warn)
         if diff is not None:
-            rp.write_image(diff, compare.difference_map(found.a, found.b))
+            rp.write_image(diff, difference_map(found.a, found.b))
     (x, y), channel = found.max_at, found.max_channel
     typer.echo(f"mean error {found.mean:.6g}, RMS error {found.rms:.6g}, PSNR {found.psnr:.2f} dB, "
                f"max error {found.max:.6g} at pixel ({x}, {y}) channel {channel}")

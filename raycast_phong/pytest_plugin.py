@@ -100,7 +100,7 @@ def write_diagnostics(folder: Path, name: str, image: np.ndarray, reference: np.
     difference as a heat map, black 0 to pale yellow the largest; return the paths written."""
     folder.mkdir(parents=True, exist_ok=True)
     from .io.image_io import write_image
-    from .tools.compare import heat_map
+    from .tools.difference import heat_map
     written = [write_image(folder / f"{name}-actual.exr", np.ascontiguousarray(image, np.float32))]
     if reference is not None:
         written.append(write_image(folder / f"{name}-reference.exr", np.ascontiguousarray(reference, np.float32)))

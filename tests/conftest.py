@@ -56,3 +56,14 @@ def in_tmp_path(tmp_path, monkeypatch):
     """Run in tmp_path, so a default-named output can never land in the repository; no debug tracebacks."""
     monkeypatch.chdir(tmp_path)
     monkeypatch.delenv("RAYCAST_PHONG_DEBUG", raising=False)
+
+
+def pixel_centre_rays(rig, width: int, height: int):
+    """The eye and the unit direction (H, W, 3) through every pixel centre of a perspective camera_rig,
+    written from the scene format (x right, y up, row 0 at the top), independent of camera.py."""
+    import numpy as np
+    x = (np.arange(width) + 0.5) / width * 2 - 1
+    y = 1 - (np.arange(height) + 0.5) / height * 2
+    sx, sy = np.meshgrid(x * rig.half_width, y * rig.half_height)
+    d = rig.forward + sx[..., None] * rig.right + sy[..., None] * rig.up
+    return rig.eye, d / np.linalg.norm(d, axis=-1, keepdims=True)

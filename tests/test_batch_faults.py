@@ -65,8 +65,8 @@ def wait_for_first_image(process: subprocess.Popen, out: Path) -> int:
     return len(images(out))
 
 
-def session_processes(session: int) -> list[int]:
-    """The live (not zombie) processes of a session, from /proc/PID/stat."""
+def _processes() -> list[tuple[int, str, int, int]]:
+    """(pid, state, parent pid, session id) of every process, from /proc/PID/stat."""
     found = []
     for entry in Path("/proc").iterdir():
         if entry.name.isdigit():
@@ -74,23 +74,18 @@ def session_processes(session: int) -> list[int]:
                 stat = (entry / "stat").read_text()
             except OSError:
                 continue  # it has just exited
-            state, _ppid, _group, sid = stat[stat.rindex(")") + 2:].split()[:4]
-            if int(sid) == session and state != "Z":
-                found.append(int(entry.name))
+            state, ppid, _group, sid = stat[stat.rindex(")") + 2:].split()[:4]
+            found.append((int(entry.name), state, int(ppid), int(sid)))
     return found
+
+
+def session_processes(session: int) -> list[int]:
+    """The live (not zombie) processes of a session."""
+    return [pid for pid, state, _, sid in _processes() if sid == session and state != "Z"]
 
 
 def children(pid: int) -> list[int]:
-    found = []
-    for entry in Path("/proc").iterdir():
-        if entry.name.isdigit():
-            try:
-                stat = (entry / "stat").read_text()
-            except OSError:
-                continue
-            if int(stat[stat.rindex(")") + 2:].split()[1]) == pid:
-                found.append(int(entry.name))
-    return found
+    return [child for child, _, parent, _ in _processes() if parent == pid]
 
 
 def wait_until_gone(session: int, seconds: float = 10) -> list[int]:

@@ -19,7 +19,7 @@ import raycast_phong as rp
 from raycast_phong.commands import app
 from raycast_phong.io import image_io
 from raycast_phong.pipeline.film import to_8bit
-from raycast_phong.tools import compare
+from raycast_phong.tools import compare, difference
 
 runner = CliRunner()
 
@@ -158,7 +158,7 @@ def test_difference_panels_are_zero_exactly_where_the_variants_agree(tiny_scene,
     flat, phong = (render_alone(tiny_scene, f"render.shading={m}") for m in ("flat", "phong"))
     changed = np.abs(flat - phong).max(axis=2) > 0
     assert 0.05 < changed.mean() < 0.6  # the sphere's pixels differ; the background does not
-    black = compare.colour_map(0.0)
+    black = difference.colour_map(0.0)
     heat = panel(composed, "differences", 0)
     np.testing.assert_array_equal(heat[~changed], np.broadcast_to(black, heat[~changed].shape))
     assert (np.abs(heat[changed] - black).max(axis=1) > 0).all()
@@ -176,7 +176,7 @@ def test_a_key_that_changes_nothing_gives_zero_statistics_and_a_note(tiny_scene,
     composed = rp.read_layer(tmp_path / "same.exr")
     for index in range(2):
         np.testing.assert_array_equal(panel(composed, "differences", index),
-                                      np.broadcast_to(compare.colour_map(0.0), (32, 48, 3)))
+                                      np.broadcast_to(difference.colour_map(0.0), (32, 48, 3)))
 
 
 def test_printed_statistics_for_a_background_change(tiny_scene):
@@ -199,7 +199,7 @@ def test_statistics_of_one_difference():
     b = a.copy()
     b[0, 0] = [0.1, -0.4, 0.2]  # max over RGB of |a − b| = 0.4
     b[1, 1, 2] = 5e-7           # below the threshold: not "changed", still in the mean
-    diff = compare.difference(a, b)
+    diff = difference.difference(a, b)
     np.testing.assert_allclose(diff, [[0.4, 0], [0, 5e-7]], rtol=1e-6)
     stats = compare.measure(diff)
     assert stats.changed == 0.25
@@ -210,19 +210,19 @@ def test_statistics_of_one_difference():
 def test_difference_keeps_float64_renders_in_float64():
     a = np.zeros((1, 1, 3))
     b = a + 1e-9  # lost in float32 next to a value of 1, kept in float64
-    assert compare.difference(a + 1, b + 1).dtype == np.float64
-    assert compare.difference(a + 1, b + 1)[0, 0] == pytest.approx(1e-9, rel=1e-6)
-    assert compare.difference(a.astype(np.float32), b.astype(np.float32)).dtype == np.float32
+    assert difference.difference(a + 1, b + 1).dtype == np.float64
+    assert difference.difference(a + 1, b + 1)[0, 0] == pytest.approx(1e-9, rel=1e-6)
+    assert difference.difference(a.astype(np.float32), b.astype(np.float32)).dtype == np.float32
 
 
 def test_colour_map_runs_from_black_to_pale_yellow_with_rising_lightness():
     t = np.linspace(0, 1, 256)
-    colours = compare.colour_map(t)
-    np.testing.assert_allclose(colours[0], compare.INFERNO[0])
-    np.testing.assert_allclose(colours[-1], compare.INFERNO[-1])
+    colours = difference.colour_map(t)
+    np.testing.assert_allclose(colours[0], difference.INFERNO[0])
+    np.testing.assert_allclose(colours[-1], difference.INFERNO[-1])
     luma = colours @ np.array([0.2126, 0.7152, 0.0722], np.float32)  # Rec. 709 weights
     assert (np.diff(luma) > 0).all()
-    np.testing.assert_array_equal(compare.colour_map(np.array([-1.0, 2.0])), compare.INFERNO[[0, -1]])  # clamped
+    np.testing.assert_array_equal(difference.colour_map(np.array([-1.0, 2.0])), difference.INFERNO[[0, -1]])  # clamped
 
 
 # ---------------------------------------------------------------- --vary

@@ -21,6 +21,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from conftest import pixel_centre_rays
 
 import raycast_phong as rp
 from raycast_phong.pipeline.camera import camera_rig
@@ -44,11 +45,7 @@ def pixel_geometry(scene):
     """Per pixel: which sphere the centre ray meets (−1: none or at n·v < 0.5) and n·v there."""
     rig = camera_rig(scene)
     w, h = scene.render.width, scene.render.height
-    x = (np.arange(w) + 0.5) / w * 2 - 1
-    y = 1 - (np.arange(h) + 0.5) / h * 2
-    sx, sy = np.meshgrid(x * rig.half_width, y * rig.half_height)
-    d = rig.forward + sx[..., None] * rig.right + sy[..., None] * rig.up
-    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    _, d = pixel_centre_rays(rig, w, h)
     which, n_dot_v = np.full((h, w), -1), np.zeros((h, w))
     for index, centre in enumerate(CENTRES):
         oc = rig.eye - centre

@@ -81,3 +81,17 @@ def test_imports_point_down_the_layers():
                        forbidden in below.items() if module.startswith(f"{layer}.") and target.startswith(forbidden))
     assert {"pipeline.render", "io.image_io", "tools.batch"} <= set(graph)
     assert not wrong, wrong
+
+
+def test_the_pytest_plugin_pulls_in_no_scene_model():
+    """Every pytest session of an environment with the package loads the plugin; writing its diagnostics
+    (heat map included) must not import pydantic, the scene model or the renderer."""
+    probe = ("import json, sys, numpy as np; from pathlib import Path; import tempfile; "
+             "from raycast_phong.pytest_plugin import match_images, write_diagnostics; "
+             "a = np.zeros((4, 4, 3), np.float32); b = a + 0.5; "
+             "write_diagnostics(Path(tempfile.mkdtemp()), 'x', a, b, match_images(a, b)); "
+             "print(json.dumps(sorted(m for m in sys.modules if m.startswith(('pydantic', 'raycast_phong.')))))")
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
+    loaded = json.loads(done.stdout)
+    assert "raycast_phong.tools.difference" in loaded, done.stderr
+    assert not [m for m in loaded if m.startswith("pydantic") or ".pipeline.scene" in m or ".pipeline.render" in m]

@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import pixel_centre_rays
 
 import raycast_phong as rp
 import raycast_phong.pipeline.scene
@@ -30,11 +31,7 @@ def exact_sphere_image(scene) -> tuple[np.ndarray, np.ndarray]:
     """The model on the true unit sphere, per pixel centre, in numpy float64: image and n·v."""
     rig = camera_rig(scene)
     w, h = scene.render.width, scene.render.height
-    x = (np.arange(w) + 0.5) / w * 2 - 1
-    y = 1 - (np.arange(h) + 0.5) / h * 2
-    sx, sy = np.meshgrid(x * rig.half_width, y * rig.half_height)
-    d = rig.forward + sx[..., None] * rig.right + sy[..., None] * rig.up
-    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    _, d = pixel_centre_rays(rig, w, h)
     o = rig.eye
     # |o + t d|² = 1: t² + 2 (o·d) t + |o|² − 1 = 0, nearest root.
     b = d @ o

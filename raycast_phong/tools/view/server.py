@@ -285,7 +285,7 @@ class Renderer:
                            "warnings": list(result.plan.warnings),
                            "width": result.image.shape[1], "height": result.image.shape[0]}
         if "b" in images:
-            from raycast_phong.tools.compare import difference, heat_map
+            from raycast_phong.tools.difference import difference, heat_map
             if images["a"].shape == images["b"].shape:
                 diff = difference(images["a"], images["b"])
                 scale = float(diff.max())
