@@ -38,20 +38,28 @@ TERM_AOVS = {"ambient", "diffuse", "specular", "emission"}
 
 def build_plan(scene: Scene, optimize: bool = True) -> RenderPlan:
     """The stages of this scene's render, each kept or left out with its reason."""
-    objects = scene.objects
-    materials = [scene.material_of(obj) for obj in objects]
-    lights = scene.lights
-    models = {scene.shading_of(obj) for obj in objects}
-    smooth = [obj for obj in objects if scene.shading_of(obj) != ShadingModel.FLAT]
-    render, camera = scene.render, scene.camera
+    smooth = [obj for obj in scene.objects if scene.shading_of(obj) != ShadingModel.FLAT]
+    stages, specular = _term_stages(scene, smooth, optimize)
+    stages.append(_view_stage(scene, specular))
+    stages += _sampling_stages(scene)
+    stages += _shadow_stages(scene, smooth)
+    stages += _output_stages(scene)
+    stages.append(_precision_stage(scene, specular))
+    return RenderPlan(tuple(stages))
 
-    def any_positive(values) -> bool:
-        return any(max(v) > 0 for v in values)
 
+def _any_positive(values) -> bool:
+    return any(max(v) > 0 for v in values)
+
+
+def _term_stages(scene: Scene, smooth: list, optimize: bool) -> tuple[list[Stage], bool]:
+    """Normals and the model's terms, each kept only where some light and material make it non-zero
+    (`optimize=False` keeps the optional ones anyway); and whether the specular term is needed."""
+    materials, lights, render = [scene.material_of(obj) for obj in scene.objects], scene.lights, scene.render
     stages = []
 
-    def add(name: str, needed: bool, why_kept: str, why_left_out: str, optional: bool = True) -> None:
-        kept = needed or (optional and not optimize)
+    def add(name: str, needed: bool, why_kept: str, why_left_out: str) -> None:
+        kept = needed or not optimize
         reason = why_kept if needed else (why_left_out if kept is False else f"kept for comparison: {why_left_out}")
         stages.append(Stage(name, kept, reason))
 
@@ -62,41 +70,59 @@ def build_plan(scene: Scene, optimize: bool = True) -> RenderPlan:
     add("crease_split", bool(creased),
         f"{len(creased)} smooth object(s) with crease_angle < 180°",
         "no smooth object has a crease angle below 180°")
-    add("emission", any_positive(m.ke for m in materials),
+    add("emission", _any_positive(m.ke for m in materials),
         "some material has k_e > 0", "every material's k_e is 0")
-    add("scene_ambient", max(scene.ambient) > 0 and any_positive(m.ka for m in materials),
+    add("scene_ambient", max(scene.ambient) > 0 and _any_positive(m.ka for m in materials),
         "I_a and some k_a are > 0", "I_a is 0 or every k_a is 0")
-    add("light_ambient", any_positive(light.ambient for light in lights) and any_positive(m.ka for m in materials),
+    add("light_ambient", _any_positive(light.ambient for light in lights) and _any_positive(m.ka for m in materials),
         "some light has its own ambient and some k_a > 0", "no light has its own ambient (or every k_a is 0)")
-    add("diffuse", any_positive(light.diffuse for light in lights) and any_positive(m.kd for m in materials),
+    add("diffuse", _any_positive(light.diffuse for light in lights) and _any_positive(m.kd for m in materials),
         "some light's I_d and some k_d are > 0", "no light has I_d > 0 with a material whose k_d > 0")
-    specular = any_positive(light.specular for light in lights) and any_positive(m.ks for m in materials)
+    specular = _any_positive(light.specular for light in lights) and _any_positive(m.ks for m in materials)
     formula = "max(v·r, 0)^f" if render.specular == SpecularModel.PHONG else "max(n·h, 0)^f, h = normalize(l + v)"
     add("specular", specular, f"{render.specular.value}: {formula}",
         "every material's k_s or every light's I_s is 0")
     attenuating = [light for light in lights if light.type == "point" and light.attenuation != "none"]
     add("attenuation", bool(attenuating), f"{len(attenuating)} point light(s) attenuate",
         "no point light attenuates: f_att = 1")
+    return stages, specular
 
-    per_point = specular and render.viewer == Viewer.LOCAL and camera.type == "perspective"
-    if not specular:
+
+def _view_stage(scene: Scene, specular: bool) -> Stage:
+    """v per point only for a local viewer and a perspective camera, and only if there is a highlight."""
+    render = scene.render
+    per_point = specular and render.viewer == Viewer.LOCAL and scene.camera.type == "perspective"
+    if per_point:
+        why = "local viewer, perspective camera: v = normalize(eye − p) per point"
+    elif not specular:
         why = "no specular term, so no view vector"
     elif render.viewer == Viewer.INFINITE:
         why = "infinite viewer: one view vector, −forward, for the whole image"
     else:
         why = "orthographic camera: the eye is at infinity, one view vector −forward"
-    stages.append(Stage("view_vector_per_point", per_point,
-                        "local viewer, perspective camera: v = normalize(eye − p) per point" if per_point else why))
+    return Stage("view_vector_per_point", per_point, why)
 
-    stages.append(Stage("supersampling", render.samples > 1,
-                        f"{render.samples}×{render.samples} rays per pixel, averaged" if render.samples > 1
-                        else "samples = 1: one ray through each pixel centre, no averaging loop"))
-    stages.append(Stage("screen_interpolation", render.interpolation == "screen",
-                        "interpolation = screen: weights linear in the image plane" if render.interpolation == "screen"
-                        else "perspective-correct weights straight from Embree"))
-    stages.append(Stage("two_sided", render.two_sided,
-                        "back-facing hits are shaded with the normal flipped toward the viewer" if render.two_sided
-                        else "two_sided = false: back faces shaded with their own normal"))
+
+def _sampling_stages(scene: Scene) -> list[Stage]:
+    """Supersampling, screen-space interpolation and two-sided shading, as the render keys ask."""
+    render = scene.render
+    screen = render.interpolation == "screen"
+    return [
+        Stage("supersampling", render.samples > 1,
+              f"{render.samples}×{render.samples} rays per pixel, averaged" if render.samples > 1
+              else "samples = 1: one ray through each pixel centre, no averaging loop"),
+        Stage("screen_interpolation", screen,
+              "interpolation = screen: weights linear in the image plane" if screen
+              else "perspective-correct weights straight from Embree"),
+        Stage("two_sided", render.two_sided,
+              "back-facing hits are shaded with the normal flipped toward the viewer" if render.two_sided
+              else "two_sided = false: back faces shaded with their own normal"),
+    ]
+
+
+def _shadow_stages(scene: Scene, smooth: list) -> list[Stage]:
+    """Global mode's shadow rays (only with lights), and Hanika's terminator fix (only on smooth faces)."""
+    render, lights = scene.render, scene.lights
     global_mode = render.mode == Mode.GLOBAL
     if global_mode and not lights:
         shadow_reason = "mode = global but the scene has no lights: nothing to shadow"
@@ -105,7 +131,6 @@ def build_plan(scene: Scene, optimize: bool = True) -> RenderPlan:
     else:
         shadow_reason = "mode = local: the local model knows no other surface"
     shadows = global_mode and bool(lights)
-    stages.append(Stage("shadow_rays", shadows, shadow_reason))
     hanika = shadows and bool(smooth) and render.terminator == "hanika"
     if hanika:
         terminator_reason = "Gouraud/Phong faces: shadow rays start on the smooth surface (Hanika 2021)"
@@ -115,26 +140,36 @@ def build_plan(scene: Scene, optimize: bool = True) -> RenderPlan:
         terminator_reason = "every object is flat-shaded: the facets are the surface"
     else:
         terminator_reason = 'terminator = "none": shadow rays start at the hit point'
-    stages.append(Stage("terminator_fix", hanika, terminator_reason))
+    return [Stage("shadow_rays", shadows, shadow_reason), Stage("terminator_fix", hanika, terminator_reason)]
+
+
+def _output_stages(scene: Scene) -> list[Stage]:
+    """The layers asked for, and the shading models in use."""
     geometry_aovs = sorted(GEOMETRY_AOVS & set(scene.output.aovs))
     term_aovs = sorted(TERM_AOVS & set(scene.output.aovs))
-    stages.append(Stage("aov_geometry", bool(geometry_aovs),
-                        f"layers {', '.join(geometry_aovs)}" if geometry_aovs
-                        else "no depth/normal/face layer asked for"))
-    stages.append(Stage("aov_terms", bool(term_aovs),
-                        f"layers {', '.join(term_aovs)}" if term_aovs else "no per-term layer asked for"))
-    stages.append(Stage("shading_models", True, ", ".join(sorted(m.value for m in models))))
+    models = {scene.shading_of(obj) for obj in scene.objects}
+    return [
+        Stage("aov_geometry", bool(geometry_aovs),
+              f"layers {', '.join(geometry_aovs)}" if geometry_aovs else "no depth/normal/face layer asked for"),
+        Stage("aov_terms", bool(term_aovs),
+              f"layers {', '.join(term_aovs)}" if term_aovs else "no per-term layer asked for"),
+        Stage("shading_models", True, ", ".join(sorted(m.value for m in models))),
+    ]
+
+
+def _precision_stage(scene: Scene, specular: bool) -> Stage:
+    """float64 shading when asked, or when a highlight is too stiff for float32 (F32_SHININESS_LIMIT)."""
+    materials = [scene.material_of(obj) for obj in scene.objects]
     stiff = sorted({m.shininess for m in materials if m.shininess > F32_SHININESS_LIMIT}) if specular else []
-    if render.precision == "float64":
-        precision_reason = "precision = float64"
+    if scene.render.precision == "float64":
+        reason = "precision = float64"
     elif stiff:
-        precision_reason = (f"shininess {stiff[-1]:g} > {F32_SHININESS_LIMIT:g}: a float32 cosine (relative "
-                            "error 2^-24) would move such a highlight by more than half an 8-bit step, "
-                            "so this scene is shaded in float64")
+        reason = (f"shininess {stiff[-1]:g} > {F32_SHININESS_LIMIT:g}: a float32 cosine (relative "
+                  "error 2^-24) would move such a highlight by more than half an 8-bit step, "
+                  "so this scene is shaded in float64")
     else:
-        precision_reason = "precision = float32"
-    stages.append(Stage("float64_shading", render.precision == "float64" or bool(stiff), precision_reason))
-    return RenderPlan(tuple(stages))
+        reason = "precision = float32"
+    return Stage("float64_shading", scene.render.precision == "float64" or bool(stiff), reason)
 
 
 # Above this shininess one float32 rounding of the cosine x (relative 2^-24) changes x^f by about

@@ -11,6 +11,7 @@ import os
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -22,10 +23,10 @@ from .illumination import COUNTED_TERMS
 from .intersect import Accelerator, unit_frame
 from .memory import check_memory
 from .plan import build_plan, diagnose, plan_flags
-from .records import RenderPlan, RenderResult
+from .records import ImageBuffers, RenderPlan, RenderResult
 from .scene import Scene, SceneError, load_scene
-from .shading import prepare_shading, shade_tile
-from .shadows import MAX_LIGHTS, light_visibility, prepare_shadows
+from .shading import ShadingInputs, prepare_shading, shade_tile
+from .shadows import MAX_LIGHTS, ShadowInputs, light_visibility, prepare_shadows
 
 TILE_RAYS = 1 << 15  # 32k rays: large enough to amortise a call, small enough for ~10 MB per tile
 
@@ -61,9 +62,7 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     if plan.keeps("shadow_rays") and len(scene.lights) > MAX_LIGHTS:
         raise SceneError(f"{source}: lights: global mode handles at most {MAX_LIGHTS} lights, "
                          f"the scene has {len(scene.lights)}; use render.mode = \"local\" or fewer lights")
-
-    render_opts = scene.render
-    width, height, samples = render_opts.width, render_opts.height, render_opts.samples
+    width, height, samples = scene.render.width, scene.render.height, scene.render.samples
     rows_per_tile = max(1, TILE_RAYS // (width * samples * samples))
     threads = threads or default_threads()
     check_memory(scene, source, max_memory, smooth=plan.keeps("vertex_normals"),
@@ -75,7 +74,6 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     geometry = build_geometry(scene, source=source, vertex_normals=plan.keeps("vertex_normals"))
     timings["geometry"] = time.perf_counter() - start
     plan = diagnose(plan, scene, geometry)
-
     start = time.perf_counter()
     frame = unit_frame(geometry.vertices)
     accelerator = Accelerator(geometry, frame)
@@ -83,45 +81,65 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
 
     rig = camera_rig(scene)
     real = np.float64 if plan.keeps("float64_shading") else np.float32
-    inputs = prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), real)
-    shadow_inputs = prepare_shadows(scene, geometry, frame) if plan.keeps("shadow_rays") else None
-    film = allocate_film(width, height, tuple(scene.output.aovs), real)
+    tile = TileWork(
+        rays=RayGenerator(rig, frame, width, height, samples, max_rays=rows_per_tile * width * samples * samples),
+        accelerator=accelerator,
+        shadows=prepare_shadows(scene, geometry, frame) if plan.keeps("shadow_rays") else None,
+        shading=prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), real),
+        film=allocate_film(width, height, tuple(scene.output.aovs), real), samples=samples)
     bands = [(row, min(row + rows_per_tile, height)) for row in range(0, height, rows_per_tile)]
-    rays = RayGenerator(rig, frame, width, height, samples, max_rays=rows_per_tile * width * samples * samples)
+    counts = run_tiles(tile, bands, threads, progress, timings)
+    return RenderResult(image=tile.film.rgb, aovs=film_layers(tile.film, tuple(scene.output.aovs)), timings=timings,
+                        plan=plan, triangles=geometry.triangles, rays=width * height * samples * samples,
+                        counts=dict(zip(COUNTED_TERMS, counts.tolist())))
 
-    def work(band: tuple[int, int]) -> tuple[float, float, float, np.ndarray]:
+
+@dataclass(frozen=True, eq=False)
+class TileWork:
+    """What every tile of one frame needs: its rays, the BVH, the shadow and shading inputs, the film."""
+    rays: RayGenerator
+    accelerator: Accelerator
+    shadows: ShadowInputs | None   # None in local mode
+    shading: ShadingInputs
+    film: ImageBuffers
+    samples: int
+
+    def __call__(self, band: tuple[int, int]) -> tuple[float, float, float, np.ndarray]:
+        """Rays, closest hits, [shadow rays,] shading of rows [row0, row1) into the film; seconds of each
+        part and the kernel's term counts."""
         row0, row1 = band
         t0 = time.perf_counter()
-        origins, directions = rays.rows(row0, row1)
-        hits = accelerator.closest_hits(origins, directions)
+        origins, directions = self.rays.rows(row0, row1)
+        hits = self.accelerator.closest_hits(origins, directions)
         t1 = time.perf_counter()
         visible = None
-        if shadow_inputs is not None:
-            visible = light_visibility(shadow_inputs, hits, directions, accelerator)
+        if self.shadows is not None:
+            visible = light_visibility(self.shadows, hits, directions, self.accelerator)
         t2 = time.perf_counter()
-        tile_counts = shade_tile(inputs, hits, directions, film.rows(row0, row1), samples, visible)
-        return t1 - t0, t2 - t1, time.perf_counter() - t2, tile_counts
+        counts = shade_tile(self.shading, hits, directions, self.film.rows(row0, row1), self.samples, visible)
+        return t1 - t0, t2 - t1, time.perf_counter() - t2, counts
 
+
+def run_tiles(tile: TileWork, bands: list[tuple[int, int]], threads: int,
+              progress: Callable[[int, int], None] | None, timings: dict[str, float]) -> np.ndarray:
+    """Run `tile` over the bands on a pool of `threads` (the kernels and Embree release the GIL); add
+    frame (wall), rays, shade and, in global mode, shadows (summed over threads) to `timings`."""
     counts = np.zeros(len(COUNTED_TERMS), np.int64)
-    rays_seconds = shadow_seconds = shade_seconds = 0.0
+    seconds = np.zeros(3)  # rays, shadows, shade
     start = time.perf_counter()
     if progress:
         progress(0, len(bands))
     with ThreadPoolExecutor(max_workers=threads) as pool:
-        for done, (ray_s, shadow_s, shade_s, tile_counts) in enumerate(pool.map(work, bands), start=1):
-            rays_seconds += ray_s
-            shadow_seconds += shadow_s
-            shade_seconds += shade_s
+        for done, (ray_s, shadow_s, shade_s, tile_counts) in enumerate(pool.map(tile, bands), start=1):
+            seconds += (ray_s, shadow_s, shade_s)
             counts += tile_counts
             if progress:
                 progress(done, len(bands))
     timings["frame"] = time.perf_counter() - start
-    timings["rays"], timings["shade"] = rays_seconds, shade_seconds
-    if shadow_inputs is not None:
-        timings["shadows"] = shadow_seconds
-    return RenderResult(image=film.rgb, aovs=film_layers(film, tuple(scene.output.aovs)), timings=timings, plan=plan,
-                        triangles=geometry.triangles, rays=width * height * samples * samples,
-                        counts=dict(zip(COUNTED_TERMS, counts.tolist())))
+    timings["rays"], timings["shade"] = float(seconds[0]), float(seconds[2])
+    if tile.shadows is not None:
+        timings["shadows"] = float(seconds[1])
+    return counts
 
 
 def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bool = True) -> None:
