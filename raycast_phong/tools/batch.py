@@ -676,9 +676,9 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
             by_name = {task.job.name: task for task in tasks}
             for job in jobs:
                 if job.name not in outcomes:
-                    outcome = _unfinished(job, by_name.get(job.name), job.name in begun)
-                    outcomes[job.name] = outcome
-                    manifest["scenes"][job.name] = asdict(outcome)
+                    outcomes[job.name] = _unfinished(job, by_name.get(job.name), job.name in begun)
+                # Every entry again: the signal may have landed inside record(), between its two updates.
+                manifest["scenes"][job.name] = asdict(outcomes[job.name])
             write_manifest(folder, manifest)
         if isinstance(stop, SystemExit):
             raise
