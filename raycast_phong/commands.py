@@ -218,6 +218,36 @@ def _debug() -> bool:
 
 def _render_with_progress(scene: rp.Scene, source: str, threads: int | None, quiet: bool,
                           max_memory: int | None = None) -> rp.RenderResult:
+    compile_seconds = _compile_kernels(scene, quiet)
+    result = _render_shown(scene, source, threads, quiet, max_memory)
+    if compile_seconds is not None:
+        result.timings["compile"] = compile_seconds
+    return result
+
+
+def _compile_kernels(scene: rp.Scene, quiet: bool) -> float | None:
+    """Compile the kernels this scene needs before its render, saying so, when the cache does not hold them
+    (the first render after an install or an edit): the frame time, and the Mrays/s printed from it, must
+    not include seconds of compilation. Returns those seconds, or None when the kernels were cached."""
+    import time
+
+    import numpy as np
+
+    from raycast_phong.pipeline.jit import compiled_before
+    from raycast_phong.pipeline.render import warm_kernels
+    if compiled_before("_shade_rays"):
+        return None
+    plan = rp.build_plan(scene)
+    if not quiet:
+        typer.echo("compiling the shading kernels, once after an install or an edit (about 10-30 s)...", err=True)
+    started = time.perf_counter()
+    warm_kernels((np.float64 if plan.keeps("float64_shading") else np.float32,), shadows=plan.keeps("shadow_rays"))
+    return time.perf_counter() - started
+
+
+def _render_shown(scene: rp.Scene, source: str, threads: int | None, quiet: bool,
+                  max_memory: int | None) -> rp.RenderResult:
+    """render(), with a progress bar over the tiles on a terminal."""
     if quiet or not sys.stderr.isatty():
         return rp.render(scene, threads=threads, source=source, max_memory=max_memory)
     from rich.console import Console
@@ -237,7 +267,7 @@ def summary_line(result: rp.RenderResult, output: Path) -> str:
     h, w = result.image.shape[:2]
     t = result.timings
     stages = ", ".join(f"{name} {t[name]:.3f}s"
-                       for name in ("load", "geometry", "build", "rays", "shadows", "shade", "write")
+                       for name in ("load", "compile", "geometry", "build", "rays", "shadows", "shade", "write")
                        if name in t)
     return (f"{output}: {w}×{h}, {result.triangles:,} triangles, {result.rays:,} rays, "
             f"{result.rays_per_second / 1e6:.1f} Mrays/s; frame {t['frame']:.3f}s ({stages}; rays, shadows "

@@ -103,3 +103,10 @@ def kernel(**options):
         finally:
             numba.config.CACHE_DIR = previous
     return decorate
+
+
+def compiled_before(kernel_name: str) -> bool:
+    """Whether this source's cache already holds `kernel_name` (e.g. "_shade_rays") for some signature:
+    if not, the next process to call it compiles it (seconds), and the CLI says so before it starts."""
+    folder = cache_folder()
+    return folder is not None and any(folder.rglob(f"*.{kernel_name}-*.nbi"))

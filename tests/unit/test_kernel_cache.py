@@ -92,3 +92,27 @@ def test_the_cache_key_covers_every_module_a_kernel_reads_and_only_those(package
     # batch.py is a tool on top of the pipeline: editing it must not throw away compiled kernels.
     (copy / "tools" / "batch.py").write_text((copy / "tools" / "batch.py").read_text() + "\n# an edit\n")
     assert run(KEY) == key
+
+
+def test_the_first_render_says_it_compiles_and_keeps_compilation_out_of_the_frame(package_copy, tmp_path):
+    """After an install (an empty cache) `render` says it is compiling before it does, and reports those
+    seconds apart: the frame, and the Mrays/s printed from it, hold none of them. The next run says nothing."""
+    del package_copy  # its copy of the package under tmp_path/src is what PYTHONPATH imports
+    cli = ("import sys; sys.argv = ['raycast-phong', 'render', '--width', '32', '--height', '12', '-o', "
+           f"{str(tmp_path / 'x.png')!r}]; from raycast_phong.commands import app; app()")
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "PYTHONPATH")}
+    env["PYTHONPATH"] = str(tmp_path / "src")
+
+    def render() -> tuple[str, str]:
+        done = subprocess.run([sys.executable, "-c", cli], env=env, cwd=tmp_path, capture_output=True, text=True,
+                              timeout=300)
+        assert done.returncode == 0, done.stderr
+        return done.stdout, done.stderr
+
+    out, err = render()
+    assert "compiling the shading kernels" in err
+    compile_s = float(out.split("compile ")[1].split("s")[0])
+    frame_s = float(out.split("frame ")[1].split("s")[0])
+    assert compile_s > frame_s, out  # seconds of compilation against milliseconds of a 32×12 frame
+    out, err = render()
+    assert "compiling" not in err and "compile " not in out, (out, err)
