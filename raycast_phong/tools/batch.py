@@ -660,12 +660,7 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
             max_memory = budget // max(processes, 1) if budget else None
         tasks = [replace(task, threads=threads, max_memory=max_memory) for task in tasks]
         startup = warm_up(tasks) if scheduler is None else 0.0
-        if scheduler is not None:
-            executed = _dask(tasks, scheduler, begun)
-        elif processes <= 1:
-            executed = _in_process(tasks, begun)
-        else:
-            executed = _process_pool(tasks, processes, begun)
+        executed = _executor(tasks, scheduler, processes, begun)
         for outcome in executed:
             record(outcome)
     except (KeyboardInterrupt, SystemExit) as stop:
@@ -673,12 +668,7 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
             if executed is not None:
                 executed.close()  # the workers are killed before anything below looks at the folder
             remove_temporaries(folder, [job.name for job in jobs])
-            by_name = {task.job.name: task for task in tasks}
-            for job in jobs:
-                if job.name not in outcomes:
-                    outcomes[job.name] = _unfinished(job, by_name.get(job.name), job.name in begun)
-                # Every entry again: the signal may have landed inside record(), between its two updates.
-                manifest["scenes"][job.name] = asdict(outcomes[job.name])
+            _settle(jobs, tasks, begun, outcomes, manifest)
             write_manifest(folder, manifest)
         if isinstance(stop, SystemExit):
             raise
@@ -697,6 +687,27 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
                          "processes": processes, "threads": threads, "scheduler": scheduler}
     write_manifest(folder, manifest)
     return done
+
+
+def _executor(tasks: list[Task], scheduler: str | None, processes: int, begun: set[str]) -> Iterator[Outcome]:
+    """The tasks' outcomes as they finish: on a Dask cluster, in this process, or on worker processes."""
+    if scheduler is not None:
+        return _dask(tasks, scheduler, begun)
+    if processes <= 1:
+        return _in_process(tasks, begun)
+    return _process_pool(tasks, processes, begun)
+
+
+def _settle(jobs: list[Job], tasks: list[Task], begun: set[str], outcomes: dict[str, Outcome],
+            manifest: dict) -> None:
+    """After an interrupt: every job without an outcome gets one (rendered if its image was written after
+    all, else interrupted or not started), and every job's manifest entry is written from its outcome
+    again, since the signal may have landed inside record(), between its two updates."""
+    by_name = {task.job.name: task for task in tasks}
+    for job in jobs:
+        if job.name not in outcomes:
+            outcomes[job.name] = _unfinished(job, by_name.get(job.name), job.name in begun)
+        manifest["scenes"][job.name] = asdict(outcomes[job.name])
 
 
 def _identity(path: Path) -> tuple[int, int, int] | None:

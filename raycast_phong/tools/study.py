@@ -146,18 +146,23 @@ def mean_edge_length(scene: Scene, source: str) -> float:
 
 # ---------------------------------------------------------------- the sweep
 
-def run_study(path: str | Path, overrides: list[str] | tuple[str, ...] = (), options: StudyOptions = StudyOptions(),
-              progress: Callable[[int, int, str], None] | None = None) -> Study:
-    """Render and measure every combination; the reference is computed once per (specular, samples, f)."""
-    source = str(path)
-    data = scene_data(path, overrides)
-    base = validate_scene(data, source=source, folder=Path(path).parent)
+def _check_options(base: Scene, options: StudyOptions, source: str) -> None:
+    """A mesh needs a self-convergence reference (--fine); every axis needs a value."""
     if options.fine is None:
         for index, obj in enumerate(base.objects):
             if obj.shape == "mesh":
                 raise SceneError(f'{source}: objects.{index}.shape: "mesh" has no closed form; use --fine N')
     if options.repeats < 1 or not options.levels or not options.models:
         raise SceneError(f"{source}: the study needs at least one level, one model and one repeat")
+
+
+def run_study(path: str | Path, overrides: list[str] | tuple[str, ...] = (), options: StudyOptions = StudyOptions(),
+              progress: Callable[[int, int, str], None] | None = None) -> Study:
+    """Render and measure every combination; the reference is computed once per (specular, samples, f)."""
+    source = str(path)
+    data = scene_data(path, overrides)
+    base = validate_scene(data, source=source, folder=Path(path).parent)
+    _check_options(base, options, source)
     speculars = [s.value if hasattr(s, "value") else s for s in (options.speculars or (base.render.specular,))]
     precisions = list(options.precisions or (base.render.precision,))
     samples_list = list(options.samples or (base.render.samples,))
@@ -199,24 +204,26 @@ def run_study(path: str | Path, overrides: list[str] | tuple[str, ...] = (), opt
                     runs[model].append(render(scenes[model], threads=options.threads, source=source,
                                               max_memory=options.max_memory))
             for model in models:
-                results = runs[model]
-                timing = {stage: statistics.median(r.timings.get(stage, 0.0) for r in results)
-                          for stage in ("geometry", "build", "rays", "shade", "frame")}
-                total = statistics.median(r.timings["geometry"] + r.timings["build"] + r.timings["frame"]
-                                          for r in results)
-                errors = measure(results[-1].image, coverage, references[spec, n, f])
-                rows.append(StudyRow(
-                    model=model, specular=spec, precision=prec, samples=n,
-                    shininess="scene" if f is None else f"{f:g}", level=level, triangles=results[-1].triangles,
-                    edge_length=edge, seconds=timing["frame"], seconds_total=total,
+                errors = measure(runs[model][-1].image, coverage, references[spec, n, f])
+                rows.append(study_row(runs[model], errors, model=model, specular=spec, precision=prec, samples=n,
+                                      shininess="scene" if f is None else f"{f:g}", level=level, edge_length=edge))
+        if progress:
+            progress(total_renders, total_renders, "done")
+    return Study(rows, fit_orders(rows), source, options.target)
+
+
+def study_row(results: list, errors, **setting) -> StudyRow:
+    """One row: a setting's repeated renders (medians of their stage times; time to image = geometry + BVH +
+    frame) and the last render's errors against the reference."""
+    timing = {stage: statistics.median(r.timings.get(stage, 0.0) for r in results)
+              for stage in ("geometry", "build", "rays", "shade", "frame")}
+    total = statistics.median(r.timings["geometry"] + r.timings["build"] + r.timings["frame"] for r in results)
+    return StudyRow(**setting, triangles=results[-1].triangles, seconds=timing["frame"], seconds_total=total,
                     geometry_seconds=timing["geometry"], build_seconds=timing["build"],
                     rays_seconds=timing["rays"], shade_seconds=timing["shade"], rmse=errors.rmse,
                     max_error=errors.max_error, psnr=errors.psnr, mae=errors.mae,
                     silhouette_pixels=errors.silhouette_pixels, highlight_loss=errors.highlight_loss,
-                    compared_pixels=errors.compared_pixels, reference=errors.reference))
-        if progress:
-            progress(total_renders, total_renders, "done")
-    return Study(rows, fit_orders(rows), source, options.target)
+                    compared_pixels=errors.compared_pixels, reference=errors.reference)
 
 
 def curve_key(row: StudyRow) -> tuple:
