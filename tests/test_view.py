@@ -328,3 +328,20 @@ def test_view_command_on_a_busy_port_fails_in_one_line(monkeypatch):
         result = CliRunner().invoke(cli_app, ["view", "--port", str(port), "--no-browser"])
     assert result.exit_code == 2
     assert result.output.strip().count("\n") == 0 and f"cannot listen on 127.0.0.1:{port}" in result.output
+
+
+@pytest.mark.parametrize("kind", ["fifo", "nan"])
+def test_a_mesh_path_is_read_by_the_renderers_own_loader(tmp_path, kind):
+    """`view MESH` reads the mesh as render does: a FIFO is refused at once (never blocks), a NaN vertex
+    is refused naming the key, each in one line with exit 2."""
+    import os
+    path = tmp_path / "model.obj"
+    if kind == "fifo":
+        os.mkfifo(path)
+    else:
+        path.write_text("v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    command = [sys.executable, "-m", "raycast_phong.commands", "view", str(path), "--no-browser", "--port", "0"]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=60, cwd=tmp_path)
+    assert done.returncode == 2, done.stderr
+    [line] = done.stderr.strip().splitlines()
+    assert "objects.0.path" in line and ("named pipe" in line if kind == "fifo" else "NaN" in line), line

@@ -77,13 +77,16 @@ def open_source(path: str | Path | None) -> Source:
 
 
 def mesh_scene(path: Path) -> dict:
-    """A scene table that shows one mesh file: camera on +z framing its bounding sphere, a light above right."""
-    import trimesh
-    try:
-        mesh = trimesh.load(str(path), force="mesh")
-        lower, upper = np.asarray(mesh.bounds, np.float64)
-    except Exception as error:  # noqa: BLE001 — trimesh raises many kinds; the person only needs the file and the reason
-        raise SceneError(f"{path}: cannot read the mesh ({type(error).__name__}: {error})") from None
+    """A scene table that shows one mesh file: camera on +z framing its bounding sphere, a light above right.
+
+    The file is read by the renderer's own loader (geometry.object_mesh): a regular file only, the same
+    encodings, the same one-line SceneError for a file trimesh cannot read or one with NaN coordinates.
+    """
+    from raycast_phong.pipeline.geometry import object_mesh
+    objects = [{"shape": "mesh", "path": str(path.resolve())}]
+    probe = rp.validate_scene({"objects": objects}, source=str(path), folder=path.parent)
+    vertices, _, _ = object_mesh(probe, probe.objects[0], 0, str(path))
+    lower, upper = vertices.min(axis=0), vertices.max(axis=0)
     centre, radius = (lower + upper) / 2, max(float(np.linalg.norm(upper - lower)) / 2, 1e-9)
     distance = radius / math.sin(math.radians(15))  # fov 30°: the bounding sphere just fits the height
     return {
@@ -91,7 +94,7 @@ def mesh_scene(path: Path) -> dict:
         "camera": {"position": (centre + np.array([0.0, 0.0, distance])).tolist(), "look_at": centre.tolist(),
                    "fov": 30},
         "lights": [{"type": "point", "position": (centre + radius * np.array([2.0, 3.0, 4.0])).tolist()}],
-        "objects": [{"shape": "mesh", "path": str(path.resolve())}],
+        "objects": objects,
     }
 
 
