@@ -229,19 +229,14 @@ def _compile_kernels(scene: rp.Scene, quiet: bool) -> float | None:
     """Compile the kernels this scene needs before its render, saying so, when the cache does not hold them
     (the first render after an install or an edit): the frame time, and the Mrays/s printed from it, must
     not include seconds of compilation. Returns those seconds, or None when the kernels were cached."""
-    import time
-
-    import numpy as np
-
     from raycast_phong.pipeline.jit import compiled_before
-    from raycast_phong.pipeline.render import warm_kernels
+    from raycast_phong.pipeline.render import warm_kernels_for
     if compiled_before("_shade_rays"):
         return None
-    plan = rp.build_plan(scene)
     if not quiet:
         typer.echo("compiling the shading kernels, once after an install or an edit (about 10-30 s)...", err=True)
     started = time.perf_counter()
-    warm_kernels((np.float64 if plan.keeps("float64_shading") else np.float32,), shadows=plan.keeps("shadow_rays"))
+    warm_kernels_for([rp.build_plan(scene)])
     return time.perf_counter() - started
 
 

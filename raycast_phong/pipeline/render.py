@@ -171,6 +171,14 @@ def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bo
         shade_tile(inputs, misses, directions, film.rows(0, 2), 1, np.zeros(4, np.int64))
 
 
+def warm_kernels_for(plans: list[RenderPlan]) -> None:
+    """warm_kernels with only what these plans need: their shading precisions, and the shadow-ray kernel
+    if some plan casts shadow rays."""
+    if plans:
+        warm_kernels(tuple({np.float64 if plan.keeps("float64_shading") else np.float32 for plan in plans}),
+                     shadows=any(plan.keeps("shadow_rays") for plan in plans))
+
+
 def render_file(path: str | Path, overrides: list[str] | tuple[str, ...] = (), **options) -> RenderResult:
     """Load a scene file (with `key.path=value` overrides) and render it; timings include "load"."""
     start = time.perf_counter()

@@ -305,19 +305,15 @@ def warm_up(tasks: list[Task]) -> float:
     if not tasks:
         return 0.0
     start = time.perf_counter()
-    import numpy as np
-
     from ..pipeline.plan import build_plan
-    from ..pipeline.render import warm_kernels
+    from ..pipeline.render import warm_kernels_for
     plans = []
     for task in tasks:
         try:
             plans.append(build_plan(task.scene))
         except SceneError:  # bad input: that scene's own render reports it; it must not stop the others
             continue
-    if plans:
-        warm_kernels(tuple({np.float64 if plan.keeps("float64_shading") else np.float32 for plan in plans}),
-                     shadows=any(plan.keeps("shadow_rays") for plan in plans))
+    warm_kernels_for(plans)
     return time.perf_counter() - start
 
 
