@@ -99,9 +99,8 @@ def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, 
     """The model at point p with unit normal n and one material (a row of the material table, as a tuple).
 
     view = (I_a r, g, b, eye x, y, z, fixed view x, y, z, smallest d² of 1/d²), a tuple. `visible` holds one
-    bit per light
-    (global mode's shadow-ray answers; all bits set in local mode): a light whose bit is clear adds
-    only its ambient part. Returns the four terms as 12 scalars
+    bit per light (global mode's shadow-ray answers; all bits set in local mode): a light whose bit is
+    clear adds only its ambient part. Returns the four terms as 12 scalars
     (ambient, diffuse, specular, emission; r, g, b each) and a bit mask of the optional terms
     evaluated (bit i = COUNTED_TERMS[i]). Tuples and scalars, and one array: every array argument
     costs an atomic reference count per call, which dominated the frame time of an earlier version.

@@ -6,8 +6,8 @@ the helpers it calls from other modules (`illuminate` from illumination.py insid
 So every kernel of the package is cached in a folder named after a hash of all the package's
 kernel modules (every .py file here that uses `@kernel`) and of the package modules they import:
 any edit to any of them starts a fresh folder, and stale folders are removed. Only numba's documented
-cache directory setting (`numba.config.CACHE_DIR`, the NUMBA_CACHE_DIR variable) is used, set for the moment a kernel is
-decorated and restored at once, so other numba code in the process is unaffected.
+cache directory setting (`numba.config.CACHE_DIR`, the NUMBA_CACHE_DIR variable) is used, set for the
+moment a kernel is decorated and restored at once, so other numba code in the process is unaffected.
 """
 
 from __future__ import annotations
@@ -71,13 +71,12 @@ def cache_folder() -> Path | None:
     __pycache__, else the user's cache folder; None if none is writable (kernels then compile per process).
     In the package's own __pycache__, folders of other keys are removed: they belong to sources of this
     tree that no longer exist (a shared folder may hold other installs' keys, so it is left alone)."""
-    own = OWN_CACHE
     bases = [Path(numba.config.CACHE_DIR)] if numba.config.CACHE_DIR else []  # NUMBA_CACHE_DIR
-    bases += [own, Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "raycast-phong"]
+    bases += [OWN_CACHE, Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "raycast-phong"]
     for base in bases:
         folder = base / f"{PREFIX}{source_key()}"
         if _writable(folder):
-            if base == own:
+            if base == OWN_CACHE:
                 for stale in base.glob(f"{PREFIX}*"):
                     if stale != folder:
                         shutil.rmtree(stale, ignore_errors=True)  # another process may be removing it too

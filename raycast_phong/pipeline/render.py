@@ -53,9 +53,8 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     Returns
     -------
     RenderResult with .image (H, W, 3) in the shading precision (float32, or float64), .aovs, .timings
-    (seconds: geometry, build, rays,
-    shadows (global mode), shade, frame; rays, shadows and shade are summed over the worker threads,
-    frame is wall time).
+    (seconds: geometry, build, rays, shadows (global mode), shade, frame; rays, shadows and shade are
+    summed over the worker threads, frame is wall time).
     """
     timings: dict[str, float] = {}
     plan = plan or build_plan(scene)
