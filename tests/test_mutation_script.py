@@ -47,9 +47,3 @@ def test_decorators_annotations_and_raise_statements_are_left_alone():
     assert {m.line for m in mutants} == {5, 7, 9}  # the default, the condition, the returned sum
     assert {m.mutated for m in mutants if m.line == 9} == {"(x - 1)", "(x)", "(1)", "0"}
     assert {m.mutated for m in mutants if m.line == 7} == {"(x >= 2)", "1", "(not x > 2)"}
-
-
-def test_a_kernel_module_invalidates_the_cache_of_its_importers():
-    """shading inlines illumination's kernel: mutating illumination must drop shading's cached kernels too."""
-    assert {"illumination", "shading"} <= mutate._importers("illumination")
-    assert "illumination" not in mutate._importers("shading")

@@ -17,10 +17,9 @@ Mutants come from the module's AST, one node at a time, and are written back as 
 Docstrings, decorators, annotations, imports and `raise` statements are not mutated.
 
 Each mutant runs in a copy of the repository (raycast_phong/, tests/, scenes/, cli.py, pyproject.toml) at
-one fixed work path, imported through PYTHONPATH ahead of the editable install, with its own NUMBA_CACHE_DIR:
-a copy of the unmutated run's cache with every kernel of the mutated module, and of every module that imports
-from it (numba inlines and links callees into the caller's cache, and its cache keys see only the caller's
-own file), deleted. The mutant is *killed* when the test subset fails, *timeout* when it runs past --timeout,
+one fixed work path, imported through PYTHONPATH ahead of the editable install, with its own NUMBA_CACHE_DIR
+seeded from the unmutated run's. A mutated kernel module cannot reuse a stale kernel: pipeline/jit.py keys the
+kernels' cache folder on the source of every kernel module and its imports. The mutant is *killed* when the test subset fails, *timeout* when it runs past --timeout,
 *survived* when the subset passes. Not collected by pytest (tests/mutation has no test_*.py).
 """
 
@@ -177,23 +176,6 @@ def generate(module: str, source: str | None = None) -> list[Mutant]:
     return sorted(mutants, key=lambda m: (m.line, m.col, m.kind, m.mutated))
 
 
-def _importers(module: str) -> set[str]:
-    """The module and every package module that imports from it, transitively (their caches go stale with it)."""
-    graph = {}
-    for path in (REPO / PACKAGE).glob("*.py"):
-        tree = ast.parse(path.read_text(encoding="utf-8"))
-        graph[path.stem] = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.level == 1
-                            and n.module}
-    affected, changed = {module}, True
-    while changed:
-        changed = False
-        for name, imports in graph.items():
-            if name not in affected and imports & affected:
-                affected.add(name)
-                changed = True
-    return affected
-
-
 def _fresh_copy(origin: Path | None = None) -> Path:
     """The files of `origin` (default: the snapshot taken at the start) at WORK/repo; always the same path,
     so numba's cache folder name is stable, and never the working tree, which may change during a run."""
@@ -254,10 +236,7 @@ def run_one(mutant: Mutant, seed_cache: Path, tests: list[str], timeout: float) 
     cache = WORK / "cache"
     shutil.rmtree(cache, ignore_errors=True)
     shutil.copytree(seed_cache, cache)
-    stale = tuple(f"{name}." for name in _importers(mutant.module))
-    for file in cache.rglob("*.nb*"):
-        if file.name.startswith(stale):
-            file.unlink()
+    # No stale kernels to delete: pipeline/jit.py keys the cache folder on the kernel modules' source.
     start = time.perf_counter()
     mutant.status, mutant.failed = _run_tests(repo, cache, tests, timeout)
     mutant.seconds = round(time.perf_counter() - start, 1)
