@@ -30,7 +30,7 @@ from .illumination import (
     SPECULAR_PHONG,
 )
 from .records import RenderPlan, Stage
-from .scene import MAX_SAMPLES, Mode, Scene, ShadingModel, SpecularModel, Viewer
+from .scene import MAX_SAMPLES, Material, Mode, Scene, ShadingModel, SpecularModel, Viewer
 
 GEOMETRY_AOVS = {"depth", "normal", "face"}
 TERM_AOVS = {"ambient", "diffuse", "specular", "emission"}
@@ -52,10 +52,17 @@ def _any_positive(values) -> bool:
     return any(max(v) > 0 for v in values)
 
 
+# Stands for the materials a mesh file may bring: every coefficient > 0, so no term is left out for them.
+FILE_MATERIALS = Material(ka=1, kd=1, ks=1, ke=1)
+
+
 def _term_stages(scene: Scene, smooth: list, optimize: bool) -> tuple[list[Stage], bool]:
     """Normals and the model's terms, each kept only where some light and material make it non-zero
     (`optimize=False` keeps the optional ones anyway); and whether the specular term is needed."""
     materials, lights, render = [scene.material_of(obj) for obj in scene.objects], scene.lights, scene.render
+    if any(obj.shape == "mesh" and obj.material == "default" for obj in scene.objects):
+        # A mesh file may bring its own materials (read with the geometry, after this plan): keep every term.
+        materials.append(FILE_MATERIALS)
     stages = []
 
     def add(name: str, needed: bool, why_kept: str, why_left_out: str) -> None:
@@ -196,7 +203,8 @@ def diagnose(plan: RenderPlan, scene: Scene, geometry) -> RenderPlan:
         found = [*gouraud_findings(scene, geometry), *subpixel_findings(scene, geometry)]
     from .geometry import behind_camera  # geometry loads trimesh: only once a render has geometry
     behind = behind_camera(scene, geometry.vertices)
-    return RenderPlan(tuple(stages), (*([behind] if behind else []), *aggregate_warnings(found)))
+    return RenderPlan(tuple(stages), (*([behind] if behind else []), *aggregate_warnings(found)),
+                      notes=geometry.file_notes)
 
 
 def _candidates(scene: Scene) -> tuple[np.ndarray, np.ndarray]:

@@ -36,7 +36,8 @@ from pathlib import Path
 from ..io.atomic import WriteError, signals_deferred, write_text
 from ..io.image_io import ImageError, write_image
 from ..pipeline.intersect import embree_started
-from ..pipeline.scene import Scene, SceneError, load_scene, open_regular
+from ..pipeline.mesh_scene import load_scene
+from ..pipeline.scene import Scene, SceneError, open_regular
 from .sweep import Job, is_sweep, load_sweep, write_contact_sheets
 
 MANIFEST = "manifest.json"
