@@ -17,8 +17,9 @@ import math
 import os
 import re
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import trimesh
@@ -163,20 +164,48 @@ def _read(path: Path, where: str) -> MeshFile:
                     tuple(dict.fromkeys(notes)), centre, radius)
 
 
-def _parts(loaded) -> list[trimesh.Trimesh]:
-    """The triangle meshes of what trimesh loaded, in world placement (a glTF's node transforms applied)."""
-    if isinstance(loaded, trimesh.Scene):
-        return [part for part in loaded.dump() if isinstance(part, trimesh.Trimesh) and len(part.faces)]
-    return [loaded] if isinstance(loaded, trimesh.Trimesh) and len(loaded.faces) else []
+class _Part(NamedTuple):
+    """One placed triangle mesh of what trimesh loaded."""
+    vertices: np.ndarray          # (V, 3) float64, placed by its node's transform
+    faces: np.ndarray             # (F, 3) int64
+    normals: np.ndarray | None    # (V, 3) the normals the file stores, transformed with the vertices
+    visual: object                # trimesh's visual: its material, its colours
 
 
-def _concatenate(parts: list[trimesh.Trimesh]) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+def _parts(loaded) -> list[_Part]:
+    """The triangle meshes of what trimesh loaded, in world placement (a glTF's node transforms applied).
+
+    Not Scene.dump(): its copies forget the vertex normals the file stored."""
+    if isinstance(loaded, trimesh.Trimesh):
+        instances = [(np.eye(4), loaded)]
+    elif isinstance(loaded, trimesh.Scene):
+        instances = [(np.asarray(loaded.graph[node][0], np.float64), loaded.geometry[loaded.graph[node][1]])
+                     for node in loaded.graph.nodes_geometry]
+    else:
+        instances = []
+    parts = []
+    for transform, mesh in instances:
+        if not isinstance(mesh, trimesh.Trimesh) or not len(mesh.faces):
+            continue
+        linear, faces = transform[:3, :3], np.asarray(mesh.faces, np.int64)
+        vertices = np.asarray(mesh.vertices, np.float64) @ linear.T + transform[:3, 3]
+        normals = None
+        if "vertex_normals" in mesh._cache and np.linalg.det(linear) != 0:
+            # Normals transform with the inverse transpose; their length is set by the geometry stage.
+            normals = np.asarray(mesh.vertex_normals, np.float64) @ np.linalg.inv(linear)
+        if np.linalg.det(linear) < 0:
+            faces = faces[:, ::-1]  # a mirroring node keeps the faces outward
+        parts.append(_Part(vertices, faces, normals, mesh.visual))
+    return parts
+
+
+def _concatenate(parts: list[_Part]) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """One vertex and face array; vertex normals only if every part stores them."""
     offsets = np.cumsum([0] + [len(part.vertices) for part in parts])
-    vertices = np.concatenate([np.asarray(part.vertices, np.float64) for part in parts])
-    faces = np.concatenate([np.asarray(part.faces, np.int64) + o for part, o in zip(parts, offsets)])
-    stored = all("vertex_normals" in part._cache for part in parts)
-    normals = np.concatenate([np.asarray(part.vertex_normals, np.float64) for part in parts]) if stored else None
+    vertices = np.concatenate([part.vertices for part in parts])
+    faces = np.concatenate([part.faces + o for part, o in zip(parts, offsets)])
+    stored = all(part.normals is not None for part in parts)
+    normals = np.concatenate([part.normals for part in parts]) if stored else None
     return vertices, faces, normals
 
 
@@ -208,9 +237,16 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
             found, gltf = _from_pbr(material, path, notes), True
         elif material is not None and library is not None:
             found = library.get(getattr(material, "name", None) or "")
-        if found is not None and found.name not in index:
-            index[found.name] = len(materials)
-            materials.append(found)
+        if found is not None:
+            # Two different materials under one name (glTF names are optional) each keep their own values.
+            name, copy = found.name, 1
+            while name in index and materials[index[name]] != replace(found, name=name):
+                copy += 1
+                name = f"{found.name}-{copy}"
+            found = replace(found, name=name)
+            if name not in index:
+                index[name] = len(materials)
+                materials.append(found)
         groups.append(np.full(len(part.faces), index[found.name] if found is not None else -1, np.int32))
         colour = _face_colour_sums(part)
         any_colour |= colour is not None
@@ -227,7 +263,7 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
     return np.concatenate(groups), tuple(materials), face_colour
 
 
-def _face_colour_sums(part: trimesh.Trimesh) -> np.ndarray | None:
+def _face_colour_sums(part: _Part) -> np.ndarray | None:
     """(F, 3) int32 sums of the three corners' 8-bit colours (vertex colours), or 3 × the face colour; None
     when the part has no colours. The mean is the sum / 765, so equal means compare equal exactly."""
     visual = part.visual
@@ -236,7 +272,7 @@ def _face_colour_sums(part: trimesh.Trimesh) -> np.ndarray | None:
         return None
     if kind == "vertex":
         rgb = np.asarray(visual.vertex_colors)[:, :3].astype(np.int32)
-        return rgb[np.asarray(part.faces)].sum(axis=1)
+        return rgb[part.faces].sum(axis=1)
     return 3 * np.asarray(visual.face_colors)[:, :3].astype(np.int32)
 
 

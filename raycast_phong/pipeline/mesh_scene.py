@@ -74,6 +74,9 @@ def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), vie
         apply_override(data, assignment, source=where)
     # Frame again for the size, field of view and camera type the overrides chose; a key they set wins.
     touched = {tuple(a.split("=", 1)[0].strip().split(".")) for a in overrides}
+    output = data.get("output")
+    if isinstance(output, dict) and output.get("aovs") and ("output", "path") not in touched:
+        output["path"] = f"{path.stem}.exr"  # layers need EXR, as the format's own default path says
     camera, lights = data.get("camera"), data.get("lights")
     if isinstance(camera, dict) and ("camera",) not in touched:
         placed = frame_camera(found.centre, found.radius, up_axis, view, _render_size(data),
