@@ -199,3 +199,28 @@ def test_a_mesh_file_is_read_once_for_framing_and_render(monkeypatch):
     mesh_file._bounds.clear()
     rp.render_file(MESHES / "painted_knot.ply", ["render.width=16", "render.height=12"])
     assert len(reads) == 1
+
+
+def test_an_mtllib_that_is_a_fifo_is_one_note_and_never_blocks(tmp_path):
+    """An OBJ whose `mtllib` names a FIFO: reading it would wait for a writer forever. It is refused as not a
+    regular file (one note) by our .mtl reader and by the resolver trimesh is given, and the render goes on."""
+    import os
+    import subprocess
+    import sys
+    path = copy_dice(tmp_path, None)
+    os.mkfifo(tmp_path / "dice.mtl")
+    command = [sys.executable, "-m", "raycast_phong.commands", "render", str(path), "-o", "out.png", "--width", "32",
+               "--height", "24"]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    notes = [line for line in done.stderr.splitlines() if line.startswith("note: ")]
+    assert len(notes) == 1 and "named pipe (FIFO)" in notes[0] and "default material is used" in notes[0], notes
+    assert (tmp_path / "out.png").is_file()
+
+
+def test_the_scene_command_never_writes_over_its_mesh(tmp_path):
+    path = copy_dice(tmp_path, (MESHES / "dice.mtl").read_text(encoding="utf-8"))
+    before = path.read_bytes()
+    done = runner.invoke(app, ["scene", str(path), "-o", str(path)])
+    assert done.exit_code == 2 and len(done.stderr.strip().splitlines()) == 1, done.output
+    assert path.read_bytes() == before

@@ -1,4 +1,4 @@
-"""Any scene file: a TOML or JSON scene, or a mesh file (anything else trimesh reads) made into a scene.
+"""Any scene file: a TOML or JSON scene, or a mesh file (any suffix trimesh reads) made into a scene.
 
 A mesh file becomes one `mesh` object with the file's named materials as [materials.NAME] tables, a
 perspective camera framing the model's bounding sphere (a three-quarter view by default; front, side,
@@ -28,8 +28,13 @@ AZIMUTH, ELEVATION = math.radians(30.0), math.radians(20.0)
 
 
 def is_mesh_file(path: str | Path) -> bool:
-    """Whether `path` names a mesh file rather than a scene file (by its suffix: not .toml or .json)."""
-    return Path(path).suffix.lower() not in SCENE_SUFFIXES
+    """Whether `path` names a mesh file rather than a scene file, by its suffix: one trimesh reads (.obj,
+    .ply, .stl, .off, .glb, .gltf, ...). Any other is a scene file: TOML, or JSON for .json."""
+    suffix = Path(path).suffix.lower()
+    if suffix in SCENE_SUFFIXES or not suffix:
+        return False  # the common case answers without importing trimesh
+    import trimesh
+    return suffix[1:] in trimesh.available_formats()
 
 
 def read_scene_dict(path: str | Path, overrides: list[str] | tuple[str, ...] = (), view: str | None = None,

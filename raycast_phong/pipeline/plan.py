@@ -77,8 +77,10 @@ def _term_stages(scene: Scene, smooth: list, optimize: bool) -> tuple[list[Stage
     add("crease_split", bool(creased),
         f"{len(creased)} smooth object(s) with crease_angle < 180°",
         "no smooth object has a crease angle below 180°")
+    own = [m for m in materials if m is not FILE_MATERIALS]
     add("emission", _any_positive(m.ke for m in materials),
-        "some material has k_e > 0", "every material's k_e is 0")
+        "some material has k_e > 0" if _any_positive(m.ke for m in own)
+        else "a mesh file's own materials may have k_e > 0 (read with the geometry)", "every material's k_e is 0")
     add("scene_ambient", max(scene.ambient) > 0 and _any_positive(m.ka for m in materials),
         "I_a and some k_a are > 0", "I_a is 0 or every k_a is 0")
     add("light_ambient", _any_positive(light.ambient for light in lights) and _any_positive(m.ka for m in materials),
