@@ -195,7 +195,7 @@ def test_a_mesh_file_is_read_once_for_framing_and_render(monkeypatch):
     from raycast_phong.pipeline import mesh_file
     reads = []
     real = mesh_file._read
-    monkeypatch.setattr(mesh_file, "_read", lambda *a: reads.append(a) or real(*a))
+    monkeypatch.setattr(mesh_file, "_read", lambda *a, **k: reads.append(a) or real(*a, **k))
     mesh_file._bounds.clear()
     rp.render_file(MESHES / "painted_knot.ply", ["render.width=16", "render.height=12"])
     assert len(reads) == 1

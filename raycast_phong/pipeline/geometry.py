@@ -167,12 +167,12 @@ class FileRows:
         default = self.scene.materials.get("default", DEFAULT_MATERIAL)
         named = [self.scene.materials.get(m.name, m) for m in read.materials] + [default]  # -1: no material
         group = np.where(read.face_group < 0, len(named) - 1, read.face_group)
-        if read.face_colour is None:
-            colour_code = np.zeros(len(group), np.int64)
-        else:
-            # Colours replace k_d and k_a (docs/meshes.md); -1 marks faces of a part without colours.
-            sums = read.face_colour.astype(np.int64)
-            colour_code = np.where(sums[:, 0] < 0, 0, 1 + (sums[:, 0] << 20 | sums[:, 1] << 10 | sums[:, 2]))
+        if read.face_colour is None:  # one row per material: no sort of the faces
+            self.rows.append(self._rows(named, np.arange(len(named)), np.zeros(len(named), np.int64)))
+            return (self.first + sum(len(r) for r in self.rows[:-1]) + group).astype(np.int32)
+        # Colours replace k_d and k_a (docs/meshes.md); -1 marks faces of a part without colours.
+        sums = read.face_colour.astype(np.int64)
+        colour_code = np.where(sums[:, 0] < 0, 0, 1 + (sums[:, 0] << 20 | sums[:, 1] << 10 | sums[:, 2]))
         keys, inverse = np.unique(group.astype(np.int64) << 31 | colour_code, return_inverse=True)
         rows = self._rows(named, keys >> 31, keys & ((1 << 31) - 1))
         self.rows.append(rows)
@@ -180,8 +180,8 @@ class FileRows:
 
     @staticmethod
     def _rows(named: list, groups: np.ndarray, codes: np.ndarray) -> np.ndarray:
-        def column(key: str) -> np.ndarray:
-            return np.array([getattr(named[g], key) for g in groups], np.float64).reshape(len(groups), -1)
+        def column(key: str) -> np.ndarray:  # one row per key: a colour mesh may have a million of them
+            return np.array([getattr(m, key) for m in named], np.float64).reshape(len(named), -1)[groups]
         ka, kd = column("ka"), column("kd")
         coloured = codes > 0
         if coloured.any():

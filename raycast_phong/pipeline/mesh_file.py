@@ -63,7 +63,8 @@ class MeshFile:
                                     # (0..765: exact for the mean of three), or None without colours
     up: tuple[float, float, float] | None  # the up axis the format states, or None
     notes: tuple[str, ...]          # one line each: side files missing or broken, what is ignored
-    centre: np.ndarray              # (3,) float64 centre of the used vertices' bounding box
+    centre: np.ndarray              # (3,) float64 centre of the used vertices' bounding box (NaN unless read
+                                    # for framing: read_mesh(keep=True))
     radius: float                   # largest distance of a used vertex from `centre`
 
 
@@ -98,11 +99,10 @@ def read_mesh(path: Path, where: str, keep: bool = False) -> MeshFile:
             if not keep:
                 _kept = None
             return found
-    found = _read(path, where)
+    found = _read(path, where, bounds=keep)
     with _lock:
         if keep and identity is not None:
             _kept = (identity, found)
-        if identity is not None:
             _remember_bounds(identity, found)
     return found
 
@@ -130,7 +130,7 @@ def _remember_bounds(identity: tuple, found: MeshFile) -> None:
 
 # ---------------------------------------------------------------- reading
 
-def _read(path: Path, where: str) -> MeshFile:
+def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
     try:
         handle = open_regular(path, where, "mesh file")  # never a FIFO, a device or a folder
     except FileNotFoundError:
@@ -154,12 +154,15 @@ def _read(path: Path, where: str) -> MeshFile:
     if not parts:
         raise SceneError(f"{where}: {str(path)!r} holds no triangles; expected {READABLE}")
     vertices, faces, normals = _concatenate(parts)
-    _check_values(vertices, faces, path, where)
+    mask = np.zeros(len(vertices), bool)
+    mask[faces.ravel()] = True  # the vertices faces use: O(F), where np.unique would sort
+    used = vertices if mask.all() else vertices[mask]
+    _check_values(used, path, where)
     face_group, materials, face_colour = _surfaces(parts, library, path, notes)
-    used = vertices[np.unique(faces)]
-    low, high = used.min(axis=0), used.max(axis=0)
-    centre = (low + high) / 2
-    radius = float(np.sqrt(((used - centre) ** 2).sum(axis=1).max()))
+    centre, radius = np.full(3, np.nan), math.nan
+    if bounds:  # only framing needs them: a render's own read skips the pass
+        centre = (used.min(axis=0) + used.max(axis=0)) / 2
+        radius = float(np.sqrt(((used - centre) ** 2).sum(axis=1).max()))
     return MeshFile(vertices, faces, normals, face_group, materials, face_colour, STATED_UP.get(suffix),
                     tuple(dict.fromkeys(notes)), centre, radius)
 
@@ -188,19 +191,24 @@ def _parts(loaded) -> list[_Part]:
         if not isinstance(mesh, trimesh.Trimesh) or not len(mesh.faces):
             continue
         linear, faces = transform[:3, :3], np.asarray(mesh.faces, np.int64)
-        vertices = np.asarray(mesh.vertices, np.float64) @ linear.T + transform[:3, 3]
-        normals = None
-        if "vertex_normals" in mesh._cache and np.linalg.det(linear) != 0:
+        vertices = np.asarray(mesh.vertices, np.float64)
+        # The raw dict, not `in mesh._cache`: that re-hashes the arrays to validate the cache (slow without xxhash).
+        normals = mesh._cache.cache.get("vertex_normals")
+        normals = None if normals is None else np.asarray(normals, np.float64)
+        if not np.array_equal(transform, np.eye(4)):  # most files: one part, placed as it is
+            vertices = vertices @ linear.T + transform[:3, 3]
             # Normals transform with the inverse transpose; their length is set by the geometry stage.
-            normals = np.asarray(mesh.vertex_normals, np.float64) @ np.linalg.inv(linear)
-        if np.linalg.det(linear) < 0:
-            faces = faces[:, ::-1]  # a mirroring node keeps the faces outward
+            normals = None if normals is None or np.linalg.det(linear) == 0 else normals @ np.linalg.inv(linear)
+            if np.linalg.det(linear) < 0:
+                faces = faces[:, ::-1]  # a mirroring node keeps the faces outward
         parts.append(_Part(vertices, faces, normals, mesh.visual))
     return parts
 
 
 def _concatenate(parts: list[_Part]) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """One vertex and face array; vertex normals only if every part stores them."""
+    if len(parts) == 1:
+        return parts[0].vertices, parts[0].faces, parts[0].normals
     offsets = np.cumsum([0] + [len(part.vertices) for part in parts])
     vertices = np.concatenate([part.vertices for part in parts])
     faces = np.concatenate([part.faces + o for part, o in zip(parts, offsets)])
@@ -209,9 +217,11 @@ def _concatenate(parts: list[_Part]) -> tuple[np.ndarray, np.ndarray, np.ndarray
     return vertices, faces, normals
 
 
-def _check_values(vertices: np.ndarray, faces: np.ndarray, path: Path, where: str) -> None:
-    """Every vertex of a face finite and within ±POSITION_LIMIT (trimesh squares coordinates)."""
-    coordinates = vertices[np.unique(faces)]
+def _check_values(coordinates: np.ndarray, path: Path, where: str) -> None:
+    """Every vertex of a face (`coordinates`, (U, 3)) finite and within ±POSITION_LIMIT (trimesh squares
+    coordinates)."""
+    if (np.abs(coordinates) <= POSITION_LIMIT).all():  # one pass; NaN fails the comparison too
+        return
     finite = np.isfinite(coordinates).all(axis=1)
     if not finite.all():
         raise SceneError(f"{where}: {str(path)!r} has {int((~finite).sum())} vertex(es) with NaN or infinite "
