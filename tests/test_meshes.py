@@ -224,3 +224,25 @@ def test_the_scene_command_never_writes_over_its_mesh(tmp_path):
     done = runner.invoke(app, ["scene", str(path), "-o", str(path)])
     assert done.exit_code == 2 and len(done.stderr.strip().splitlines()) == 1, done.output
     assert path.read_bytes() == before
+
+
+def test_batch_renders_a_mesh_file_again_when_its_mtl_changes(tmp_path):
+    """The .mtl is one of the files a mesh file's image depends on: batch's up-to-date rule covers it."""
+    import json
+    path = copy_dice(tmp_path, (MESHES / "dice.mtl").read_text(encoding="utf-8"))
+    out = tmp_path / "out"
+    sets = ["--jobs", "1", "--quiet"]
+
+    def statuses() -> dict:
+        manifest = json.loads((out / "manifest.json").read_text(encoding="utf-8"))
+        return {name: entry["status"] for name, entry in manifest["scenes"].items()}
+
+    assert runner.invoke(app, ["batch", str(path), "--out", str(out), *sets]).exit_code == 0
+    assert runner.invoke(app, ["batch", str(path), "--out", str(out), *sets]).exit_code == 0
+    assert statuses() == {"dice": "up to date"}
+    before = rp.read_layer(out / "dice.png")
+    mtl = (tmp_path / "dice.mtl").read_text()
+    (tmp_path / "dice.mtl").write_text(mtl.replace("Kd 0.1 0.2 0.9", "Kd 0.9 0.2 0.1"))  # blue: lit in this view
+    assert runner.invoke(app, ["batch", str(path), "--out", str(out), *sets]).exit_code == 0
+    assert statuses() == {"dice": "rendered"}
+    assert not np.array_equal(rp.read_layer(out / "dice.png"), before)

@@ -77,9 +77,16 @@ MAX_BOUNDS = 64
 
 
 def _identity(path: Path) -> tuple:
-    """The file as it is now: resolved path, mtime, size, inode (a rewrite changes at least one)."""
-    info = os.stat(path)
-    return (str(Path(path).resolve()), info.st_mtime_ns, info.st_size, info.st_ino)
+    """The file as it is now: resolved path, mtime, size, inode (a rewrite changes at least one), and the same
+    of its side files (an .mtl edited alone changes the materials)."""
+    def stamp(file: Path) -> tuple:
+        try:
+            info = os.stat(file)
+        except OSError:
+            return (str(file), None)
+        return (str(Path(file).resolve()), info.st_mtime_ns, info.st_size, info.st_ino)
+    os.stat(path)  # a missing mesh file: no identity (the read words the error)
+    return (stamp(path), *(stamp(side) for side in side_files(path)))
 
 
 def read_mesh(path: Path, where: str, keep: bool = False) -> MeshFile:
@@ -126,6 +133,30 @@ def _remember_bounds(identity: tuple, found: MeshFile) -> None:
     empty = np.zeros((0, 3))
     _bounds[identity] = MeshFile(empty, empty.astype(np.int64), None, np.zeros(0, np.int32), found.materials, None,
                                  found.up, found.notes, found.centre, found.radius)
+
+
+def side_files(path: Path) -> list[Path]:
+    """The files a mesh file names that change its image: an OBJ's .mtl (its first `mtllib`, as read), a .gltf's
+    external buffers. For `batch`'s up-to-date rule; the OBJ is scanned only up to its `mtllib` line."""
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".obj":
+            with open_regular(path, str(path), "mesh file") as handle:
+                tail = b""
+                for block in iter(lambda: handle.read(1 << 20), b""):
+                    found = re.search(rb"^[ \t]*mtllib[ \t]+([^\r\n]+)", tail + block, re.MULTILINE)
+                    if found:
+                        return [path.parent / found.group(1).decode("utf-8", "replace").strip()]
+                    tail = block[-4096:]  # a line split between two blocks
+        elif suffix == ".gltf":
+            import json
+            with open_regular(path, str(path), "mesh file", MAX_SIDE_FILE) as handle:
+                document = json.loads(handle.read(MAX_SIDE_FILE))
+            return [path.parent / b["uri"] for b in document.get("buffers", [])
+                    if isinstance(b, dict) and isinstance(b.get("uri"), str) and not b["uri"].startswith("data:")]
+    except (OSError, SceneError, ValueError):
+        pass  # the render reports an unreadable file
+    return []
 
 
 # ---------------------------------------------------------------- reading
