@@ -243,16 +243,17 @@ def plane_mesh(size, segments) -> tuple[np.ndarray, np.ndarray]:
 def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
     path = scene.resolve(obj.path)
     read = read_mesh(path, f"{source}: objects.{index}.path")
-    loaded = trimesh.Trimesh(vertices=read.vertices, faces=read.faces, process=False, validate=False)
-    normals = read.normals if obj.normals in (None, "file") else None
+    normals = read.normals if obj.normals in (None, "file") else None  # unset: the file's, if it has them
     if obj.normals == "file" and normals is None:
         raise SceneError(f'{source}: objects.{index}.normals: "file" but {str(path)!r} stores no vertex '
                          'normals; use "mean", "area" or "angle"')
-    if normals is None:
-        # Keep the file's vertex order when its normals are wanted; otherwise let trimesh merge and clean
-        # (merging keeps the faces and their order, so the per-face materials still line up).
-        loaded.process()
-    return ObjectMesh(np.asarray(loaded.vertices, np.float64), np.asarray(loaded.faces, np.int64), normals, read)
+    if normals is not None:  # keep the file's vertex order: its normals are per vertex
+        return ObjectMesh(read.vertices, read.faces, normals, read)
+    # Otherwise let trimesh merge and clean (merging keeps the faces and their order, so the per-face
+    # materials still line up).
+    loaded = trimesh.Trimesh(vertices=read.vertices, faces=read.faces, process=False, validate=False)
+    loaded.process()
+    return ObjectMesh(np.asarray(loaded.vertices, np.float64), np.asarray(loaded.faces, np.int64), None, read)
 
 
 def rotation_of(obj: Object) -> np.ndarray:
