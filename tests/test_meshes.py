@@ -246,3 +246,23 @@ def test_batch_renders_a_mesh_file_again_when_its_mtl_changes(tmp_path):
     assert runner.invoke(app, ["batch", str(path), "--out", str(out), *sets]).exit_code == 0
     assert statuses() == {"dice": "rendered"}
     assert not np.array_equal(rp.read_layer(out / "dice.png"), before)
+
+
+def test_mtl_mapping_edge_cases_and_their_notes(tmp_path):
+    """illum 0 is the colour only (k_e = Kd + Ke); one number is grey; a missing key takes the default's value;
+    values outside [0, 1] are clamped; a value that is not a number keeps the default; Tr, illum 3 and maps
+    are said once each, with the render going on."""
+    from raycast_phong.pipeline.mesh_file import parse_mtl
+    notes: list[str] = []
+    found = parse_mtl("newmtl flat\nKd 0.5 0.25 0.125\nKe 0.25 0 0\nillum 0\n"
+                      "newmtl grey\nKa 0.3\nKd 1.5 0.5 -1\nKs nonsense\nTr 0.2\nillum 3\nbump b.png\n",
+                      tmp_path / "m.mtl", notes)
+    flat, grey = found["flat"], found["grey"]
+    assert (flat.ka, flat.kd, flat.ks, flat.ke) == ((0, 0, 0), (0, 0, 0), (0, 0, 0), (0.75, 0.25, 0.125))
+    assert grey.ka == (0.3, 0.3, 0.3) and grey.kd == (1.0, 0.5, 0.0)
+    assert grey.ks == (0.5, 0.5, 0.5) and grey.shininess == 32  # the default material's k_s and f
+    said = "\n".join(notes)
+    assert len(notes) == 6, said  # not numbers, clamped, transparency, illum 3, maps ignored, b.png missing
+    for words in ("Ks nonsense", "clamped", "transparency", "illum 3", "texture maps are ignored",
+                  "'b.png' is missing"):
+        assert words in said, said
