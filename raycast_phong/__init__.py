@@ -23,7 +23,7 @@ _HOMES = {
     "RenderPlan": "pipeline.records", "RenderResult": "pipeline.records",
     "render": "pipeline.render", "render_file": "pipeline.render",
     "Scene": "pipeline.scene", "SceneError": "pipeline.scene", "ShadingModel": "pipeline.scene",
-    "SpecularModel": "pipeline.scene", "default_scene_path": "pipeline.scene", "load_scene": "pipeline.scene",
+    "SpecularModel": "pipeline.scene", "default_scene_path": "pipeline.scene", "load_scene": "pipeline.mesh_scene",
     "validate_scene": "pipeline.scene",
 }
 __all__ = sorted(_HOMES)
@@ -31,6 +31,7 @@ __all__ = sorted(_HOMES)
 if TYPE_CHECKING:
     from .io.atomic import WriteError
     from .io.image_io import ImageError, read_image, read_layer, write_image
+    from .pipeline.mesh_scene import load_scene
     from .pipeline.plan import build_plan
     from .pipeline.records import RenderPlan, RenderResult
     from .pipeline.render import render, render_file
@@ -40,7 +41,6 @@ if TYPE_CHECKING:
         ShadingModel,
         SpecularModel,
         default_scene_path,
-        load_scene,
         validate_scene,
     )
 

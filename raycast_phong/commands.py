@@ -61,8 +61,31 @@ app = typer.Typer(
 )
 
 SceneArgument = Annotated[Path | None, typer.Argument(
-    help="Scene file (.toml or .json, see docs/scene-format.md). Omit it for the built-in default scene.",
+    help="Scene file (.toml or .json, see docs/scene-format.md) or a mesh file (.obj, .ply, .stl, .off, .glb, "
+         ".gltf, anything trimesh reads: framed, lit and with its own materials, see docs/meshes.md). Omit it for "
+         "the built-in default scene.",
     show_default=False, dir_okay=False)]
+
+
+class MeshView(str, Enum):
+    """Where the default camera of a mesh file looks from (pipeline.mesh_scene.VIEWS)."""
+    THREE_QUARTER = "three-quarter"
+    FRONT = "front"
+    SIDE = "side"
+    TOP = "top"
+    ISO = "iso"
+
+
+ViewOption = Annotated[MeshView | None, typer.Option(
+    "--view", show_default=False, help="A mesh file's camera: three-quarter (the default: 30° round from the "
+    "front, 20° up), front, side, top or iso; it frames the model's bounding sphere.")]
+UpOption = Annotated[str | None, typer.Option(
+    "--up", metavar="AXIS", show_default=False, help="A mesh file's up axis: x, y, z, -x, -y or -z. Default: the "
+    "one its format states (glTF: y), else y.")]
+
+
+def _view(view: MeshView | None) -> str | None:
+    return view.value if view is not None else None
 SetOption = Annotated[list[str], typer.Option(
     "--set", metavar="KEY.PATH=VALUE",
     help="Override a scene key, e.g. `render.width=320`, `lights.0.position=[1,2,3]`, "
@@ -139,15 +162,17 @@ def render(
     reference: Annotated[ReferenceKind | None, typer.Option(help="Also measure the render against the exact "
                          "surfaces (docs/accuracy.md): print RMSE, max error and PSNR beside the timing line.")] = None,
     max_memory: MaxMemoryOption = None,
+    view: ViewOption = None,
+    up: UpOption = None,
 ) -> None:
-    """Render a scene file (or the built-in default scene) to a PNG or EXR image."""
+    """Render a scene file, a mesh file or the built-in default scene to a PNG or EXR image."""
     overrides = [*scene_overrides({"render.shading": shading, "render.specular": specular, "render.mode": mode,
                                    "render.width": width, "render.height": height, "render.samples": samples}),
                  *set_]
     with exit_codes():
         started = time.perf_counter()
         path = scene or rp.default_scene_path()
-        loaded = rp.load_scene(path, overrides)
+        loaded = rp.load_scene(path, overrides, view=_view(view), up=up)
         load_seconds = time.perf_counter() - started
         option = "--output" if output is not None else "output.path"
         if output is None and scene is not None:
@@ -175,6 +200,8 @@ def render(
     if not quiet:
         for warning in result.plan.warnings:
             typer.secho(f"warning: {warning}", err=True, fg=typer.colors.YELLOW)
+        for note in result.plan.notes:
+            typer.echo(f"note: {note}", err=True)
         typer.echo(summary_line(result, output))
         if reference is not None:
             typer.echo(error_line(result.errors, result.reference_seconds))
@@ -294,6 +321,8 @@ def side_by_side(
     height: Annotated[int | None, typer.Option(help="render.height in pixels, 1..16384.")] = None,
     set_: SetOption = [],
     max_memory: MaxMemoryOption = None,
+    view: ViewOption = None,
+    up: UpOption = None,
 ) -> None:
     """Render a scene once per value of one key; write the variants side by side over heat maps of how
     much each differs from the last, and print the share of pixels changed, mean and max difference."""
@@ -301,7 +330,8 @@ def side_by_side(
         key, values = compare.parse_vary(vary)
         path = scene or rp.default_scene_path()
         fixed = [*scene_overrides({"render.width": width, "render.height": height}), *set_]
-        scenes = compare.load_variants(path, fixed, key, values)  # every value checked before any render
+        # every value is checked before any render
+        scenes = compare.load_variants(path, fixed, key, values, _view(view), up)
         check_output_path(output, inputs=(path,))
         layers = output if output.suffix.lower() == ".exr" else output.with_name(f"{output.stem}-variants.exr")
         check_output_path(layers, inputs=(path,))
@@ -340,14 +370,15 @@ def variant_lines(key: str, values: list[str], stats: list[compare.VariantStats]
 
   raycast-phong plan scenes/attenuation.toml --set render.viewer=infinite
 """)
-def plan(scene: SceneArgument = None, set_: SetOption = [], max_memory: MaxMemoryOption = None) -> None:
+def plan(scene: SceneArgument = None, set_: SetOption = [], max_memory: MaxMemoryOption = None,
+         view: ViewOption = None, up: UpOption = None) -> None:
     """Print the render plan: each stage and term, kept or left out, and why; then what the geometry
     tells (repaired windings, highlights the render would miss)."""
     from raycast_phong.pipeline.geometry import build_geometry
     from raycast_phong.pipeline.plan import diagnose
     with exit_codes():
         path = scene or rp.default_scene_path()
-        loaded = rp.load_scene(path, set_)
+        loaded = rp.load_scene(path, set_, view=_view(view), up=up)
         stages = rp.build_plan(loaded)
         from raycast_phong.pipeline.memory import check_memory
         check_memory(loaded, str(path), max_memory, smooth=stages.keeps("vertex_normals"))  # before building it
@@ -396,6 +427,49 @@ def stability(
         typer.echo(f"{len(results) - failed} passed, {failed} failed")
     if any(not r.passed for r in results):
         raise typer.Exit(code=1)
+
+
+@app.command("scene", epilog="""
+**Examples**
+
+  raycast-phong scene model.obj > model.toml           # then edit it and render model.toml
+
+  raycast-phong scene model.glb --view front --up z -o model.toml   # mesh path written relative to model.toml
+
+  raycast-phong scene model.ply --set render.width=1280 --set render.height=720
+""")
+def scene_command(
+    scene: Annotated[Path, typer.Argument(help="Mesh file (or a scene file, written out with every key).",
+                                          show_default=False, dir_okay=False)],
+    output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the TOML here (atomically) instead "
+                      "of to standard output; the mesh path is then relative to its folder.")] = None,
+    set_: SetOption = [],
+    view: ViewOption = None,
+    up: UpOption = None,
+) -> None:
+    """Print the scene file a mesh file stands for: its materials, the framing camera, the key light and
+    every other key with its value. `render` of that file gives the same image as `render` of the mesh."""
+    from raycast_phong.pipeline.mesh_scene import is_mesh_file
+    from raycast_phong.tools.sweep import scene_toml
+    with exit_codes():
+        loaded = rp.load_scene(scene, set_, view=_view(view), up=up)
+        notes = ()
+        if is_mesh_file(scene):
+            from raycast_phong.pipeline.mesh_file import mesh_bounds
+            notes = mesh_bounds(scene, str(scene)).notes
+        header = (f"# The scene `raycast-phong render {scene.name}` renders: written by `raycast-phong scene`.\n"
+                  "# A [materials.NAME] table overrides the mesh file's material of that name; see docs/meshes.md.")
+        if output is not None:
+            from raycast_phong.io.image_io import check_output_file
+            check_output_file(output, inputs=(scene,))
+        text = scene_toml(loaded, header, relative_to=output.parent if output is not None else None)
+        if output is not None:
+            from raycast_phong.io.atomic import write_text
+            write_text(output, text)
+    for note in notes:
+        typer.echo(f"note: {note}", err=True)
+    if output is None:
+        typer.echo(text, nl=False)
 
 
 @app.command(epilog="""
@@ -576,13 +650,15 @@ def reference_command(
                     "mesh Loop-subdivided N times and every shape N levels finer, Phong shading, float64. "
                     "The only choice for a scene with a mesh file.")] = None,
     set_: SetOption = [],
+    view: ViewOption = None,
+    up: UpOption = None,
 ) -> None:
     """Render the analytic reference: the same camera, lights, materials and model on the exact sphere,
     plane, box, cylinder and torus, in float64, with the true normal."""
     from raycast_phong.tools.accuracy import reference_image
     with exit_codes():
         path = scene or rp.default_scene_path()
-        loaded = rp.load_scene(path, set_)
+        loaded = rp.load_scene(path, set_, view=_view(view), up=up)
         check_output_path(output, inputs=(path,))
         started = time.perf_counter()
         exact = reference_image(loaded, str(path), fine=fine)

@@ -6,15 +6,17 @@ vertex duplication: corner (f, k) carries the normal that vertex faces[f, k] has
 
 from __future__ import annotations
 
-import io
 import math
-from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import trimesh
 
+from .illumination import material_rows
+from .mesh_file import MeshFile, read_mesh
 from .records import Geometry
 from .scene import (
+    DEFAULT_MATERIAL,
     MIN_EXTENT,
     POSITION_LIMIT,
     Object,
@@ -23,12 +25,18 @@ from .scene import (
     ShadingModel,
     _dotted,
     brightness_problem,
-    open_regular,
 )
 from .tolerances import MIN_DISTANCE, NO_DIRECTION
 
 MODEL_CODE = {ShadingModel.FLAT: 0, ShadingModel.GOURAUD: 1, ShadingModel.PHONG: 2}
-TRIMESH = Path(trimesh.__file__).resolve().parent  # an exception that passed through here: trimesh refused the file
+
+
+class ObjectMesh(NamedTuple):
+    """An object's triangles in its own frame, as object_mesh builds or reads them."""
+    vertices: np.ndarray         # (V, 3) float64
+    faces: np.ndarray            # (F, 3) int64
+    normals: np.ndarray | None   # (V, 3) vertex normals a mesh file stores (used when normals is "file" or unset)
+    file: MeshFile | None = None  # a mesh file's materials and colours, aligned with `faces`
 
 
 def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool = True) -> Geometry:
@@ -37,9 +45,14 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
     `vertex_normals=False` (the plan's choice for an all-flat scene) leaves corner_normals empty.
     """
     material_index = {name: i + 1 for i, name in enumerate(scene.materials)}  # 0 is the built-in default
-    parts, notes = [], []
+    parts, notes, file_notes, file_rows = [], [], [], FileRows(scene, material_index)
     for index, obj in enumerate(scene.objects):
-        vertices, faces, file_normals = object_mesh(scene, obj, index, source)
+        vertices, faces, file_normals, read = object_mesh(scene, obj, index, source)
+        face_material = material_index.get(obj.material, 0)
+        if read is not None:
+            file_notes += read.notes
+            if obj.material == "default":  # the file's own materials; any other name paints the whole mesh
+                face_material = file_rows.faces(read)
         if obj.shape == "mesh":
             faces, flipped, outward = repair_winding(vertices, faces)
             if flipped:
@@ -59,12 +72,12 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
         model = MODEL_CODE[scene.shading_of(obj)]
         corners = None
         if vertex_normals:
-            if obj.normals == "file":
+            if file_normals is not None:
                 corners = file_normals[faces]
                 corners = _normalise_or(corners, np.repeat(unit[:, None, :], 3, axis=1))
             else:
-                corners = compute_corner_normals(vertices, faces, obj.normals, obj.crease_angle)
-        parts.append((vertices, faces, unit, corners, material_index.get(obj.material, 0), model))
+                corners = compute_corner_normals(vertices, faces, obj.normals or "mean", obj.crease_angle)
+        parts.append((vertices, faces, unit, corners, face_material, model))
 
     offset = np.cumsum([0] + [len(p[0]) for p in parts])
     geometry = Geometry(
@@ -73,10 +86,12 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
         face_normals=np.concatenate([p[2] for p in parts]),
         corner_normals=(np.concatenate([p[3] for p in parts]) if vertex_normals
                         else np.zeros((0, 3, 3))),
-        face_material=np.concatenate([np.full(len(p[1]), p[4], np.int32) for p in parts]),
+        face_material=np.concatenate([np.broadcast_to(np.asarray(p[4], np.int32), len(p[1])) for p in parts]),
         face_model=np.concatenate([np.full(len(p[1]), p[5], np.int8) for p in parts]),
         face_object=np.concatenate([np.full(len(p[1]), i, np.int32) for i, p in enumerate(parts)]),
         notes=tuple(notes),
+        file_materials=file_rows.table(),
+        file_notes=tuple(dict.fromkeys(file_notes)),
     )
     check_float_range(scene, geometry.vertices, source)
     return geometry
@@ -138,12 +153,53 @@ def repair_winding(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     return repaired, int((~same).sum()), closed
 
 
-def object_mesh(scene: Scene, obj: Object, index: int, source: str):
-    """(vertices (V, 3), faces (F, 3), file vertex normals (V, 3) or None) in the object's own frame."""
+class FileRows:
+    """The material table's rows after the scene's own: one per distinct (file material, colour) of the mesh
+    files' faces. A file material the scene defines by name ([materials.NAME]) uses the scene's row instead."""
+
+    def __init__(self, scene: Scene, material_index: dict[str, int]):
+        self.scene, self.material_index = scene, material_index
+        self.rows: list[np.ndarray] = []
+        self.first = 1 + len(scene.materials)  # row of the first file material: after the default and the scene's
+
+    def faces(self, read: MeshFile) -> np.ndarray:
+        """(F,) int32 material rows for the faces of one mesh file."""
+        default = self.scene.materials.get("default", DEFAULT_MATERIAL)
+        named = [self.scene.materials.get(m.name, m) for m in read.materials] + [default]  # -1: no material
+        group = np.where(read.face_group < 0, len(named) - 1, read.face_group)
+        if read.face_colour is None:  # one row per material: no sort of the faces
+            self.rows.append(self._rows(named, np.arange(len(named)), np.zeros(len(named), np.int64)))
+            return (self.first + sum(len(r) for r in self.rows[:-1]) + group).astype(np.int32)
+        # Colours replace k_d and k_a (docs/meshes.md); -1 marks faces of a part without colours.
+        sums = read.face_colour.astype(np.int64)
+        colour_code = np.where(sums[:, 0] < 0, 0, 1 + (sums[:, 0] << 20 | sums[:, 1] << 10 | sums[:, 2]))
+        keys, inverse = np.unique(group.astype(np.int64) << 31 | colour_code, return_inverse=True)
+        rows = self._rows(named, keys >> 31, keys & ((1 << 31) - 1))
+        self.rows.append(rows)
+        return (self.first + sum(len(r) for r in self.rows[:-1]) + inverse.reshape(-1)).astype(np.int32)
+
+    @staticmethod
+    def _rows(named: list, groups: np.ndarray, codes: np.ndarray) -> np.ndarray:
+        def column(key: str) -> np.ndarray:  # one row per key: a colour mesh may have a million of them
+            return np.array([getattr(m, key) for m in named], np.float64).reshape(len(named), -1)[groups]
+        ka, kd = column("ka"), column("kd")
+        coloured = codes > 0
+        if coloured.any():
+            code = codes[coloured] - 1
+            colour = np.column_stack([code >> 20, (code >> 10) & 1023, code & 1023]) / 765.0  # mean of 3 × 8 bit
+            ka[coloured] = kd[coloured] = colour
+        return material_rows(ka, kd, column("ks"), column("ke"), column("shininess")[:, 0])
+
+    def table(self) -> np.ndarray:
+        return np.concatenate(self.rows) if self.rows else material_rows(*(np.zeros((0, 3)),) * 4, np.zeros(0))
+
+
+def object_mesh(scene: Scene, obj: Object, index: int, source: str) -> ObjectMesh:
+    """The object's triangles in its own frame (a mesh file's with its materials, colours and normals)."""
     if obj.shape == "mesh":
         return _load_mesh(scene, obj, index, source)
     if obj.shape == "plane":
-        return (*plane_mesh(obj.size or (2.0, 2.0), obj.segments or (1, 1)), None)
+        return ObjectMesh(*plane_mesh(obj.size or (2.0, 2.0), obj.segments or (1, 1)), None)
     # Build at unit size and scale after: trimesh merges vertices closer than an absolute 1e-8, which
     # would collapse (and divide by zero on) a sphere of radius 1e-20.
     lengths = {"icosphere": (obj.radius,), "uv_sphere": (obj.radius,), "box": obj.size or (2.0, 2.0, 2.0),
@@ -166,7 +222,7 @@ def object_mesh(scene: Scene, obj: Object, index: int, source: str):
         raise SceneError(f"{source}: objects.{index}: a {obj.shape} with lengths {list(lengths)} has no triangles: "
                          "trimesh merges vertices closer than 1e-8 of the shape's size; allowed: the smaller "
                          "length a larger share of the larger one")
-    return np.asarray(mesh.vertices, np.float64) * unit, np.asarray(mesh.faces, np.int64), None
+    return ObjectMesh(np.asarray(mesh.vertices, np.float64) * unit, np.asarray(mesh.faces, np.int64), None)
 
 
 def plane_mesh(size, segments) -> tuple[np.ndarray, np.ndarray]:
@@ -186,89 +242,18 @@ def plane_mesh(size, segments) -> tuple[np.ndarray, np.ndarray]:
 
 def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
     path = scene.resolve(obj.path)
-    key = f"{source}: objects.{index}.path"
-    try:
-        handle = open_regular(path, key, "mesh file")  # never a FIFO, a device or a folder
-    except FileNotFoundError:
-        raise SceneError(f"{key}: no such mesh file {str(path)!r}") from None
-    readable = "a mesh file trimesh reads (OBJ, PLY, STL, OFF, GLB)"
-    try:
-        # Load unprocessed: trimesh's cleaning would silently drop NaN vertices and their faces.
-        with handle:
-            loaded = trimesh.load(**_mesh_source(path, handle), process=False)
-        if isinstance(loaded, trimesh.Scene):  # several parts: one mesh (force="mesh" would drop file normals)
-            loaded = loaded.to_mesh() if loaded.geometry else None
-    except Exception as error:
-        if not _raised_in_trimesh(error):
-            raise  # our own bug, not the file's: an internal error with its traceback
-        raise SceneError(f"{key}: cannot read {str(path)!r} as {readable} ({type(error).__name__}: "
-                         f"{error})") from None
-    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-        raise SceneError(f"{key}: {str(path)!r} holds no triangles; expected {readable}")
-    used = np.unique(np.asarray(loaded.faces))
-    coordinates = np.asarray(loaded.vertices, np.float64)[used]
-    finite = np.isfinite(coordinates).all(axis=1)
-    if not finite.all():
-        raise SceneError(f"{key}: {str(path)!r} has {int((~finite).sum())} vertex(es) with NaN or infinite "
-                         "coordinates; every vertex of a face must have finite coordinates")
-    # Within ±POSITION_LIMIT, as every point of a scene: trimesh squares coordinates (lengths, cross products).
-    huge = (np.abs(coordinates) > POSITION_LIMIT).any(axis=1)
-    if huge.any():
-        raise SceneError(f"{key}: {str(path)!r} has {int(huge.sum())} vertex(es) with a coordinate beyond "
-                         f"±{POSITION_LIMIT:g} (largest {float(np.abs(coordinates).max()):.3g}); allowed: within "
-                         f"±{POSITION_LIMIT:g}, so lengths squared stay finite")
-    if obj.normals != "file":
-        # Keep the file's vertex order when its normals are wanted; otherwise let trimesh merge and clean.
-        loaded.process()
-    vertices = np.asarray(loaded.vertices, np.float64)
-    normals = None
-    if obj.normals == "file":
-        if "vertex_normals" not in loaded._cache:
-            raise SceneError(f'{source}: objects.{index}.normals: "file" but {str(path)!r} stores no vertex '
-                             'normals; use "mean", "area" or "angle"')
-        normals = np.asarray(loaded.vertex_normals, np.float64)
-    return vertices, np.asarray(loaded.faces, np.int64), normals
-
-
-TEXT_FORMATS = (".obj", ".off")  # trimesh decodes these as text, guessing any non-UTF-8 encoding
-
-
-def _raised_in_trimesh(error: BaseException) -> bool:
-    """Whether `error` came out of trimesh's own code, i.e. trimesh could not read the file.
-
-    A corrupt file makes trimesh raise almost anything (750 corrupted OBJ, PLY, STL, OFF and GLB files gave
-    ValueError, KeyError, IndexError, TypeError, NotImplementedError and, from a bug of its own on a bad PLY
-    header, UnboundLocalError), so the type says little; where it was raised says whose problem it is.
-    Running out of memory is never the file's fault.
-    """
-    if isinstance(error, MemoryError):
-        return False
-    frame = error.__traceback__
-    while frame is not None:
-        if Path(frame.tb_frame.f_code.co_filename).resolve().is_relative_to(TRIMESH):
-            return True
-        frame = frame.tb_next
-    return False
-
-
-def _mesh_source(path, handle) -> dict:
-    """trimesh.load arguments for the open file `handle` of `path`; a text format that is not UTF-8 is
-    read as Latin-1. The file already opened is read (not the path again), and files it names (an OBJ's
-    materials, a glTF's buffers) are found beside it.
-
-    trimesh needs the optional charset_normalizer to guess an encoding, and fails without it, so
-    decide here: every byte is a Latin-1 character, and the OBJ and OFF keywords are plain ASCII.
-    """
-    suffix = path.suffix.lower()
-    source = {"file_obj": handle, "file_type": suffix[1:], "resolver": trimesh.resolvers.FilePathResolver(path)}
-    if suffix in TEXT_FORMATS:
-        data = handle.read()
-        try:
-            data.decode("utf-8")
-        except UnicodeDecodeError:
-            data = data.decode("latin-1").encode("utf-8")
-        source["file_obj"] = io.BytesIO(data)
-    return source
+    read = read_mesh(path, f"{source}: objects.{index}.path")
+    normals = read.normals if obj.normals in (None, "file") else None  # unset: the file's, if it has them
+    if obj.normals == "file" and normals is None:
+        raise SceneError(f'{source}: objects.{index}.normals: "file" but {str(path)!r} stores no vertex '
+                         'normals; use "mean", "area" or "angle"')
+    if normals is not None:  # keep the file's vertex order: its normals are per vertex
+        return ObjectMesh(read.vertices, read.faces, normals, read)
+    # Otherwise let trimesh merge and clean (merging keeps the faces and their order, so the per-face
+    # materials still line up).
+    loaded = trimesh.Trimesh(vertices=read.vertices, faces=read.faces, process=False, validate=False)
+    loaded.process()
+    return ObjectMesh(np.asarray(loaded.vertices, np.float64), np.asarray(loaded.faces, np.int64), None, read)
 
 
 def rotation_of(obj: Object) -> np.ndarray:

@@ -45,13 +45,22 @@ COUNTED_TERMS = ("specular", "attenuation", "light_ambient", "emission", "scene_
 C_SPECULAR, C_ATTENUATION, C_LIGHT_AMBIENT, C_EMISSION, C_SCENE_AMBIENT, C_DIFFUSE, C_VIEW = range(7)
 
 
-def material_table(materials, real: type) -> np.ndarray:
-    """(M, MATERIAL_COLUMNS) array of `real`: per material k_a, k_d, k_s, k_e (r, g, b each) and f."""
-    table = np.zeros((len(materials), MATERIAL_COLUMNS))
-    for row, m in zip(table, materials):
-        row[KA:KA + 3], row[KD:KD + 3], row[KS:KS + 3], row[KE:KE + 3] = m.ka, m.kd, m.ks, m.ke
-        row[SHININESS] = m.shininess
+def material_table(materials, real: type, more: np.ndarray | None = None) -> np.ndarray:
+    """(M, MATERIAL_COLUMNS) array of `real`: per material k_a, k_d, k_s, k_e (r, g, b each) and f; then the
+    rows `more` (material_rows: the materials read from mesh files)."""
+    table = material_rows(*(np.array([getattr(m, key) for m in materials], np.float64).reshape(len(materials), -1)
+                            for key in ("ka", "kd", "ks", "ke", "shininess")))
+    if more is not None:
+        table = np.concatenate([table, more])
     return np.ascontiguousarray(table, real)
+
+
+def material_rows(ka, kd, ks, ke, shininess) -> np.ndarray:
+    """(M, MATERIAL_COLUMNS) float64 rows of the material table from (M, 3) coefficients and (M,) or (M, 1) f."""
+    table = np.zeros((len(ka), MATERIAL_COLUMNS))
+    table[:, KA:KA + 3], table[:, KD:KD + 3], table[:, KS:KS + 3], table[:, KE:KE + 3] = ka, kd, ks, ke
+    table[:, SHININESS] = np.reshape(shininess, -1)
+    return table
 
 
 def light_table(lights, center: np.ndarray, attenuate: bool, real: type) -> np.ndarray:

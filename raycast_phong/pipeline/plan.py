@@ -30,7 +30,7 @@ from .illumination import (
     SPECULAR_PHONG,
 )
 from .records import RenderPlan, Stage
-from .scene import MAX_SAMPLES, Mode, Scene, ShadingModel, SpecularModel, Viewer
+from .scene import MAX_SAMPLES, Material, Mode, Scene, ShadingModel, SpecularModel, Viewer
 
 GEOMETRY_AOVS = {"depth", "normal", "face"}
 TERM_AOVS = {"ambient", "diffuse", "specular", "emission"}
@@ -52,10 +52,17 @@ def _any_positive(values) -> bool:
     return any(max(v) > 0 for v in values)
 
 
+# Stands for the materials a mesh file may bring: every coefficient > 0, so no term is left out for them.
+FILE_MATERIALS = Material(ka=1, kd=1, ks=1, ke=1)
+
+
 def _term_stages(scene: Scene, smooth: list, optimize: bool) -> tuple[list[Stage], bool]:
     """Normals and the model's terms, each kept only where some light and material make it non-zero
     (`optimize=False` keeps the optional ones anyway); and whether the specular term is needed."""
     materials, lights, render = [scene.material_of(obj) for obj in scene.objects], scene.lights, scene.render
+    if any(obj.shape == "mesh" and obj.material == "default" for obj in scene.objects):
+        # A mesh file may bring its own materials (read with the geometry, after this plan): keep every term.
+        materials.append(FILE_MATERIALS)
     stages = []
 
     def add(name: str, needed: bool, why_kept: str, why_left_out: str) -> None:
@@ -70,8 +77,10 @@ def _term_stages(scene: Scene, smooth: list, optimize: bool) -> tuple[list[Stage
     add("crease_split", bool(creased),
         f"{len(creased)} smooth object(s) with crease_angle < 180°",
         "no smooth object has a crease angle below 180°")
+    own = [m for m in materials if m is not FILE_MATERIALS]
     add("emission", _any_positive(m.ke for m in materials),
-        "some material has k_e > 0", "every material's k_e is 0")
+        "some material has k_e > 0" if _any_positive(m.ke for m in own)
+        else "a mesh file's own materials may have k_e > 0 (read with the geometry)", "every material's k_e is 0")
     add("scene_ambient", max(scene.ambient) > 0 and _any_positive(m.ka for m in materials),
         "I_a and some k_a are > 0", "I_a is 0 or every k_a is 0")
     add("light_ambient", _any_positive(light.ambient for light in lights) and _any_positive(m.ka for m in materials),
@@ -196,7 +205,8 @@ def diagnose(plan: RenderPlan, scene: Scene, geometry) -> RenderPlan:
         found = [*gouraud_findings(scene, geometry), *subpixel_findings(scene, geometry)]
     from .geometry import behind_camera  # geometry loads trimesh: only once a render has geometry
     behind = behind_camera(scene, geometry.vertices)
-    return RenderPlan(tuple(stages), (*([behind] if behind else []), *aggregate_warnings(found)))
+    return RenderPlan(tuple(stages), (*([behind] if behind else []), *aggregate_warnings(found)),
+                      notes=geometry.file_notes)
 
 
 def _candidates(scene: Scene) -> tuple[np.ndarray, np.ndarray]:

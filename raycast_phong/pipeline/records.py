@@ -22,6 +22,10 @@ class Geometry:
     face_model: np.ndarray      # (F,) int8, 0 flat, 1 gouraud, 2 phong
     face_object: np.ndarray     # (F,) int32, index of the scene object the face belongs to
     notes: tuple[str, ...] = () # what loading changed, e.g. a repaired winding (shown by the plan)
+    file_materials: np.ndarray = field(default_factory=lambda: np.zeros((0, 13)))
+                                # (M, 13) float64 material-table rows read from mesh files (their .mtl, glTF
+                                # materials, colours); face_material counts them after the scene's materials
+    file_notes: tuple[str, ...] = ()  # what the mesh files' materials left out (textures, transparency, ...)
 
     @property
     def triangles(self) -> int:
@@ -73,6 +77,7 @@ class RenderPlan:
     """
     stages: tuple[Stage, ...]
     warnings: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()     # what a mesh file's materials left out or approximated (geometry.file_notes)
 
     def keeps(self, name: str) -> bool:
         for stage in self.stages:
@@ -83,7 +88,8 @@ class RenderPlan:
     def describe(self) -> str:
         width = max(len(stage.name) for stage in self.stages)
         lines = [f"{'kept' if s.kept else 'left out':8}  {s.name:{width}}  {s.reason}" for s in self.stages]
-        return "\n".join(lines + [f"warning   {warning}" for warning in self.warnings])
+        return "\n".join(lines + [f"warning   {warning}" for warning in self.warnings]
+                         + [f"note      {note}" for note in self.notes])
 
 
 @dataclass(frozen=True, eq=False)

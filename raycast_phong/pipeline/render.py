@@ -22,9 +22,10 @@ from .geometry import build_geometry
 from .illumination import COUNTED_TERMS
 from .intersect import Accelerator, unit_frame
 from .memory import check_memory
+from .mesh_scene import load_scene
 from .plan import build_plan, diagnose, plan_flags
 from .records import ImageBuffers, RenderPlan, RenderResult
-from .scene import Scene, SceneError, load_scene
+from .scene import Scene, SceneError
 from .shading import ShadingInputs, prepare_shading, shade_tile
 from .shadows import MAX_LIGHTS, ShadowInputs, light_visibility, prepare_shadows
 
@@ -178,10 +179,12 @@ def warm_kernels_for(plans: list[RenderPlan]) -> None:
                      shadows=any(plan.keeps("shadow_rays") for plan in plans))
 
 
-def render_file(path: str | Path, overrides: list[str] | tuple[str, ...] = (), **options) -> RenderResult:
-    """Load a scene file (with `key.path=value` overrides) and render it; timings include "load"."""
+def render_file(path: str | Path, overrides: list[str] | tuple[str, ...] = (), *, view: str | None = None,
+                up: str | None = None, **options) -> RenderResult:
+    """Load a scene file or a mesh file (with `key.path=value` overrides; `view` and `up` frame a mesh file,
+    docs/meshes.md) and render it; timings include "load". `options` are render()'s."""
     start = time.perf_counter()
-    scene = load_scene(path, overrides)
+    scene = load_scene(path, overrides, view=view, up=up)
     loaded = time.perf_counter() - start
     result = render(scene, source=str(path), **options)
     result.timings["load"] = loaded

@@ -317,7 +317,8 @@ class Object(_Strict):
     path: str | None = None
     material: str = "default"
     shading: ShadingModel | None = None
-    normals: Literal["mean", "area", "angle", "file"] = "mean"
+    normals: Literal["mean", "area", "angle", "file"] | None = None  # None: "file" if the mesh file stores
+                                                                     # vertex normals, else "mean"
     crease_angle: Number = Field(180.0, ge=0.0, le=180.0)
     translate: Vec3 = (0.0, 0.0, 0.0)
     rotate: Vec3 = (0.0, 0.0, 0.0)

@@ -109,7 +109,7 @@ def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Fra
         corner_normals=table(corner),
         face_material=np.ascontiguousarray(geometry.face_material, np.int32),
         face_model=np.ascontiguousarray(geometry.face_model, np.int8),
-        materials=material_table([DEFAULT_MATERIAL, *scene.materials.values()], real),
+        materials=material_table([DEFAULT_MATERIAL, *scene.materials.values()], real, geometry.file_materials),
         lights=light_table(scene.lights, center, bool(flags[0] & F_ATTENUATION), real),
         viewing=table([*scene.ambient, *(rig.eye - center), *(-rig.forward), (MIN_DISTANCE * frame.scale) ** 2]),
         camera=table([*rig.right, *rig.up, *rig.forward, float(rig.orthographic)]),

@@ -36,7 +36,8 @@ from pathlib import Path
 from ..io.atomic import WriteError, signals_deferred, write_text
 from ..io.image_io import ImageError, write_image
 from ..pipeline.intersect import embree_started
-from ..pipeline.scene import Scene, SceneError, load_scene, open_regular
+from ..pipeline.mesh_scene import load_scene
+from ..pipeline.scene import Scene, SceneError, open_regular
 from .sweep import Job, is_sweep, load_sweep, write_contact_sheets
 
 MANIFEST = "manifest.json"
@@ -193,10 +194,13 @@ def job_hash(job: Job, scene: Scene | None, settings: Settings) -> str:
 
 def input_paths(job: Job, scene: Scene | None) -> list[Path]:
     """The files a job's image depends on: its scene file, then the mesh files the scene reads (resolved
-    against its folder); the hash and the modification times both cover exactly these."""
+    against its folder) and their side files (mesh_file.side_files); the hash and the modification times
+    both cover exactly these."""
     if scene is None:
         return [job.scene]
-    return [job.scene, *(scene.resolve(obj.path) for obj in scene.objects if obj.shape == "mesh" and obj.path)]
+    from ..pipeline.mesh_file import side_files  # an .obj's .mtl, a .gltf's buffers change the image too
+    meshes = [scene.resolve(obj.path) for obj in scene.objects if obj.shape == "mesh" and obj.path]
+    return [job.scene, *meshes, *(side for mesh in meshes for side in side_files(mesh))]
 
 
 def input_times(job: Job, scene: Scene | None) -> dict[str, int]:

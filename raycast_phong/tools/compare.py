@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from ..io.image_io import label_font, text_coverage
-from ..pipeline.scene import Scene, SceneError, apply_override, read_scene_dict, validate_scene
+from ..pipeline.mesh_scene import read_scene_dict
+from ..pipeline.scene import Scene, SceneError, apply_override, validate_scene
 from .difference import colour_map, difference, heat_map
 
 # A pixel "changed" when its difference exceeds this: about 8 float32 steps at 1, so above rounding noise, and
@@ -71,15 +72,15 @@ def parse_vary(text: str) -> tuple[str, list[str]]:
     return key, items
 
 
-def load_variants(path: str | Path, fixed: list[str], key: str, values: list[str]) -> list[Scene]:
-    """The scene file with the `fixed` overrides, then `key=value` for each value: one Scene per value.
+def load_variants(path: str | Path, fixed: list[str], key: str, values: list[str], view: str | None = None,
+                  up: str | None = None) -> list[Scene]:
+    """The scene file (or mesh file, framed from `view` with `up`) with the `fixed` overrides, then `key=value`
+    for each value: one Scene per value.
 
     Every variant is validated before any is rendered; they must share one image size.
     """
     path = Path(path)
-    data = read_scene_dict(path)
-    for assignment in fixed:
-        apply_override(data, assignment, source=str(path))
+    data = read_scene_dict(path, fixed, view, up)
     scenes = []
     for value in values:
         variant = copy.deepcopy(data)  # each value starts from the same file and --set overrides

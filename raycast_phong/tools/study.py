@@ -23,14 +23,13 @@ import numpy as np
 from ..io.atomic import write_bytes, write_text
 from ..io.image_io import ImageError, check_output_file
 from ..pipeline.geometry import build_geometry
+from ..pipeline.mesh_scene import read_scene_dict
 from ..pipeline.render import render
 from ..pipeline.scene import (
     Scene,
     SceneError,
     ShadingModel,
     SpecularModel,
-    apply_override,
-    read_scene_dict,
     validate_scene,
 )
 from .accuracy import mesh_coverage, reference_image, refine_entry
@@ -107,11 +106,8 @@ class Study:
 # ---------------------------------------------------------------- scenes of the sweep
 
 def scene_data(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) -> dict:
-    """The scene file parsed, with `--set` overrides applied (validated later, per combination)."""
-    data = read_scene_dict(Path(path))
-    for assignment in overrides:
-        apply_override(data, assignment, source=str(path))
-    return data
+    """The scene (or mesh) file parsed, with `--set` overrides applied (validated later, per combination)."""
+    return read_scene_dict(Path(path), overrides)
 
 
 def variant(base: Scene, data: dict, *, model: str, specular: str, precision: str, samples: int,

@@ -39,8 +39,9 @@ from starlette.staticfiles import StaticFiles
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
 import raycast_phong as rp
-from raycast_phong.pipeline.scene import SceneError, apply_override, read_scene_dict
-from raycast_phong.tools.sweep import toml_value
+from raycast_phong.pipeline.mesh_scene import read_scene_dict
+from raycast_phong.pipeline.scene import SceneError, apply_override
+from raycast_phong.tools.sweep import scene_toml, toml_value
 
 STATIC = Path(__file__).parent / "static"
 MAX_MESSAGE_BYTES = 1 << 16   # a page message is a few hundred bytes of settings; refuse anything larger
@@ -65,37 +66,12 @@ class Source:
 
 
 def open_source(path: str | Path | None) -> Source:
-    """A scene file (.toml/.json), a mesh file (framed by a camera and lit by one light), or the default scene;
-    validated now, so a bad file is refused before the server starts."""
+    """A scene file (.toml/.json), a mesh file (mesh_scene: framed by a camera and lit by a key light), or the
+    default scene; validated now, so a bad file is refused before the server starts."""
     path = Path(path) if path is not None else rp.default_scene_path()
-    if path.suffix.lower() in (".toml", ".json"):
-        source = Source(read_scene_dict(path), str(path), path.parent)
-    else:
-        source = Source(mesh_scene(path), str(path), path.parent)
+    source = Source(read_scene_dict(path), str(path), path.parent)
     scene_with(source, {})
     return source
-
-
-def mesh_scene(path: Path) -> dict:
-    """A scene table that shows one mesh file: camera on +z framing its bounding sphere, a light above right.
-
-    The file is read by the renderer's own loader (geometry.object_mesh): a regular file only, the same
-    encodings, the same one-line SceneError for a file trimesh cannot read or one with NaN coordinates.
-    """
-    from raycast_phong.pipeline.geometry import object_mesh
-    objects = [{"shape": "mesh", "path": str(path.resolve())}]
-    probe = rp.validate_scene({"objects": objects}, source=str(path), folder=path.parent)
-    vertices, _, _ = object_mesh(probe, probe.objects[0], 0, str(path))
-    lower, upper = vertices.min(axis=0), vertices.max(axis=0)
-    centre, radius = (lower + upper) / 2, max(float(np.linalg.norm(upper - lower)) / 2, 1e-9)
-    distance = radius / math.sin(math.radians(15))  # fov 30°: the bounding sphere just fits the height
-    return {
-        "render": {"width": 640, "height": 360},
-        "camera": {"position": (centre + np.array([0.0, 0.0, distance])).tolist(), "look_at": centre.tolist(),
-                   "fov": 30},
-        "lights": [{"type": "point", "position": (centre + radius * np.array([2.0, 3.0, 4.0])).tolist()}],
-        "objects": objects,
-    }
 
 
 KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.([A-Za-z0-9_-]+))*")
@@ -163,41 +139,6 @@ def light_on_plane(scene: rp.Scene, light: int, u: float, v: float) -> list[floa
     else:
         point = rig.eye + depth * (rig.forward + sx * rig.right + sy * rig.up)
     return [round(float(c), 6) for c in point]
-
-
-# ---------------------------------------------------------------- a scene as a TOML file
-
-def toml_key(name: str) -> str:
-    """A TOML key: bare when it may be, else a quoted basic string."""
-    return name if re.fullmatch(r"[A-Za-z0-9_-]+", name) else json.dumps(name, ensure_ascii=False)
-
-
-def scene_toml(scene: rp.Scene) -> str:
-    """The validated scene as a scene file that load_scene reads back to the same Scene.
-
-    Every key is written with its value (defaults too, so the file does not depend on later defaults);
-    a mesh path is made absolute, since the file is saved somewhere else than the scene it came from.
-    """
-    data = scene.model_dump(mode="json", exclude={"folder"})
-    for obj, dumped in zip(scene.objects, data["objects"]):
-        if obj.path is not None:
-            dumped["path"] = str(scene.resolve(obj.path).resolve())
-
-    def table(values: dict) -> list[str]:
-        return [f"{toml_key(k)} = {toml_value(v)}" for k, v in values.items() if v is not None]
-
-    lines = ["# Saved by `raycast-phong view`; render it with `raycast-phong render THIS.toml`.", ""]
-    lines += table({"ambient": data["ambient"]})
-    for name in ("render", "camera"):
-        lines += ["", f"[{name}]", *table(data[name])]
-    for light in data["lights"]:
-        lines += ["", "[[lights]]", *table(light)]
-    for name, material in data["materials"].items():
-        lines += ["", f"[materials.{toml_key(name)}]", *table(material)]
-    for obj in data["objects"]:
-        lines += ["", "[[objects]]", *table(obj)]
-    lines += ["", "[output]", *table(data["output"])]
-    return "\n".join(lines) + "\n"
 
 
 # ---------------------------------------------------------------- frames

@@ -1,0 +1,501 @@
+"""Read a mesh file (any format trimesh reads) with what it says about its surface: materials, colours, normals.
+
+Everything the file says about materials is mapped here onto the lecture's model (k_a, k_d, k_s, f, k_e);
+docs/meshes.md has the table term by term. Problems with the file's side files (a missing or broken .mtl,
+textures) are notes, one line each, and the render goes on with defaults; a file that is not a mesh is a
+SceneError, one line.
+
+A file read to frame a camera (mesh_scene) is kept for the render that follows, so a 2M-triangle file is
+read once: one entry, keyed on the path and the file's mtime, size and inode, taken (not copied) by the
+geometry stage; its bounds stay in a small cache of their own.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+import re
+import threading
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+import trimesh
+
+from .scene import DEFAULT_MATERIAL, POSITION_LIMIT, SceneError, open_regular
+
+TRIMESH = Path(trimesh.__file__).resolve().parent  # an exception that passed through here: trimesh refused the file
+TEXT_FORMATS = (".obj", ".off")  # trimesh decodes these as text, guessing any non-UTF-8 encoding
+MAX_SIDE_FILE = 16 << 20  # an .mtl is text of a few kB; refuse to read more than a scene file may be
+READABLE = "a mesh file trimesh reads (OBJ, PLY, STL, OFF, GLB)"
+# Up axes the formats' specifications state (glTF 2.0 §3.4: +Y up; 3MF core §3.4: +Z up); others say nothing.
+STATED_UP = {".gltf": (0.0, 1.0, 0.0), ".glb": (0.0, 1.0, 0.0), ".3mf": (0.0, 0.0, 1.0)}
+MAX_FILE_SHININESS = 1000.0  # the .mtl Ns range (0..1000); the glTF roughness map is capped to it too
+
+
+@dataclass(frozen=True)
+class FileMaterial:
+    """A named material of the file, already on the lecture's model (each coefficient in [0, 1])."""
+    name: str
+    ka: tuple[float, float, float]
+    kd: tuple[float, float, float]
+    ks: tuple[float, float, float]
+    ke: tuple[float, float, float]
+    shininess: float
+
+    def as_scene(self) -> dict:
+        """The keys of a [materials.NAME] table with these values."""
+        return {"ka": list(self.ka), "kd": list(self.kd), "ks": list(self.ks), "ke": list(self.ke),
+                "shininess": self.shininess}
+
+
+@dataclass(frozen=True, eq=False)
+class MeshFile:
+    """A mesh file as read: one triangle mesh in the file's frame, and its surface description."""
+    vertices: np.ndarray            # (V, 3) float64, every used vertex finite and within ±POSITION_LIMIT
+    faces: np.ndarray               # (F, 3) int64
+    normals: np.ndarray | None      # (V, 3) float64 vertex normals the file stores, else None
+    face_group: np.ndarray          # (F,) int32: index into `materials`, -1 for a face without a material
+    materials: tuple[FileMaterial, ...]
+    face_colour: np.ndarray | None  # (F, 3) int32: the face's colour as the sum of its corners' 8-bit values
+                                    # (0..765: exact for the mean of three), or None without colours
+    up: tuple[float, float, float] | None  # the up axis the format states, or None
+    notes: tuple[str, ...]          # one line each: side files missing or broken, what is ignored
+    centre: np.ndarray              # (3,) float64 centre of the used vertices' bounding box (NaN unless read
+                                    # for framing: read_mesh(keep=True))
+    radius: float                   # largest distance of a used vertex from `centre`
+
+
+# ---------------------------------------------------------------- the cache
+
+_lock = threading.Lock()
+_kept: tuple[tuple, MeshFile] | None = None  # (identity, file) read for framing, waiting for its render
+_bounds: dict[tuple, MeshFile] = {}          # identity → a file stripped of its arrays (centre, radius, materials)
+MAX_BOUNDS = 64
+
+
+def _identity(path: Path) -> tuple:
+    """The file as it is now: resolved path, mtime, size, inode (a rewrite changes at least one), and the same
+    of its side files (an .mtl edited alone changes the materials)."""
+    def stamp(file: Path) -> tuple:
+        try:
+            info = os.stat(file)
+        except OSError:
+            return (str(file), None)
+        return (str(Path(file).resolve()), info.st_mtime_ns, info.st_size, info.st_ino)
+    os.stat(path)  # a missing mesh file: no identity (the read words the error)
+    return (stamp(path), *(stamp(side) for side in side_files(path)))
+
+
+def read_mesh(path: Path, where: str, keep: bool = False) -> MeshFile:
+    """The mesh file at `path`; `where` starts every error ("scene.toml: objects.0.path").
+
+    keep=True (framing a camera) leaves the result for the next read of the same unchanged file, which
+    takes it; so the render that follows a framing does not read the file again.
+    """
+    global _kept
+    try:
+        identity = _identity(path)
+    except OSError:
+        identity = None  # let the read word the error
+    with _lock:
+        if identity is not None and _kept is not None and _kept[0] == identity:
+            found = _kept[1]
+            if not keep:
+                _kept = None
+            return found
+    found = _read(path, where, bounds=keep)
+    with _lock:
+        if keep and identity is not None:
+            _kept = (identity, found)
+            _remember_bounds(identity, found)
+    return found
+
+
+def mesh_bounds(path: Path, where: str) -> MeshFile:
+    """The file's centre, radius, up axis, materials and notes (its arrays may be empty): from the small
+    cache when this unchanged file was read before, else read (and kept for the render)."""
+    try:
+        identity = _identity(path)
+    except OSError:
+        identity = None
+    with _lock:
+        if identity is not None and identity in _bounds:
+            return _bounds[identity]
+    return read_mesh(path, where, keep=True)
+
+
+def _remember_bounds(identity: tuple, found: MeshFile) -> None:
+    if len(_bounds) >= MAX_BOUNDS:
+        _bounds.pop(next(iter(_bounds)))
+    empty = np.zeros((0, 3))
+    _bounds[identity] = MeshFile(empty, empty.astype(np.int64), None, np.zeros(0, np.int32), found.materials, None,
+                                 found.up, found.notes, found.centre, found.radius)
+
+
+def side_files(path: Path) -> list[Path]:
+    """The files a mesh file names that change its image: an OBJ's .mtl (its first `mtllib`, as read), a .gltf's
+    external buffers. For `batch`'s up-to-date rule; the OBJ is scanned only up to its `mtllib` line."""
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".obj":
+            with open_regular(path, str(path), "mesh file") as handle:
+                tail = b""
+                for block in iter(lambda: handle.read(1 << 20), b""):
+                    found = re.search(rb"^[ \t]*mtllib[ \t]+([^\r\n]+)", tail + block, re.MULTILINE)
+                    if found:
+                        return [path.parent / found.group(1).decode("utf-8", "replace").strip()]
+                    tail = block[-4096:]  # a line split between two blocks
+        elif suffix == ".gltf":
+            import json
+            with open_regular(path, str(path), "mesh file", MAX_SIDE_FILE) as handle:
+                document = json.loads(handle.read(MAX_SIDE_FILE))
+            return [path.parent / b["uri"] for b in document.get("buffers", [])
+                    if isinstance(b, dict) and isinstance(b.get("uri"), str) and not b["uri"].startswith("data:")]
+    except (OSError, SceneError, ValueError):
+        pass  # the render reports an unreadable file
+    return []
+
+
+# ---------------------------------------------------------------- reading
+
+def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
+    try:
+        handle = open_regular(path, where, "mesh file")  # never a FIFO, a device or a folder
+    except FileNotFoundError:
+        raise SceneError(f"{where}: no such mesh file {str(path)!r}") from None
+    notes: list[str] = []
+    suffix = path.suffix.lower()
+    try:
+        # Load unprocessed: trimesh's cleaning would silently drop NaN vertices and their faces.
+        with handle:
+            source = _mesh_source(path, handle)
+            library = _obj_materials(path, source["file_obj"], notes) if suffix == ".obj" else None
+            loaded = trimesh.load(**source, process=False)
+        parts = _parts(loaded)
+    except SceneError:
+        raise
+    except Exception as error:
+        if not _raised_in_trimesh(error):
+            raise  # our own bug, not the file's: an internal error with its traceback
+        raise SceneError(f"{where}: cannot read {str(path)!r} as {READABLE} ({type(error).__name__}: "
+                         f"{error})") from None
+    if not parts:
+        raise SceneError(f"{where}: {str(path)!r} holds no triangles; expected {READABLE}")
+    vertices, faces, normals = _concatenate(parts)
+    mask = np.zeros(len(vertices), bool)
+    mask[faces.ravel()] = True  # the vertices faces use: O(F), where np.unique would sort
+    used = vertices if mask.all() else vertices[mask]
+    _check_values(used, path, where)
+    face_group, materials, face_colour = _surfaces(parts, library, path, notes)
+    centre, radius = np.full(3, np.nan), math.nan
+    if bounds:  # only framing needs them: a render's own read skips the pass
+        centre = (used.min(axis=0) + used.max(axis=0)) / 2
+        radius = float(np.sqrt(((used - centre) ** 2).sum(axis=1).max()))
+    return MeshFile(vertices, faces, normals, face_group, materials, face_colour, STATED_UP.get(suffix),
+                    tuple(dict.fromkeys(notes)), centre, radius)
+
+
+class _Part(NamedTuple):
+    """One placed triangle mesh of what trimesh loaded."""
+    vertices: np.ndarray          # (V, 3) float64, placed by its node's transform
+    faces: np.ndarray             # (F, 3) int64
+    normals: np.ndarray | None    # (V, 3) the normals the file stores, transformed with the vertices
+    visual: object                # trimesh's visual: its material, its colours
+
+
+def _parts(loaded) -> list[_Part]:
+    """The triangle meshes of what trimesh loaded, in world placement (a glTF's node transforms applied).
+
+    Not Scene.dump(): its copies forget the vertex normals the file stored."""
+    if isinstance(loaded, trimesh.Trimesh):
+        instances = [(np.eye(4), loaded)]
+    elif isinstance(loaded, trimesh.Scene):
+        instances = [(np.asarray(loaded.graph[node][0], np.float64), loaded.geometry[loaded.graph[node][1]])
+                     for node in loaded.graph.nodes_geometry]
+    else:
+        instances = []
+    parts = []
+    for transform, mesh in instances:
+        if not isinstance(mesh, trimesh.Trimesh) or not len(mesh.faces):
+            continue
+        linear, faces = transform[:3, :3], np.asarray(mesh.faces, np.int64)
+        vertices = np.asarray(mesh.vertices, np.float64)
+        # The raw dict, not `in mesh._cache`: that re-hashes the arrays to validate the cache (slow without xxhash).
+        normals = mesh._cache.cache.get("vertex_normals")
+        normals = None if normals is None else np.asarray(normals, np.float64)
+        if not np.array_equal(transform, np.eye(4)):  # most files: one part, placed as it is
+            vertices = vertices @ linear.T + transform[:3, 3]
+            # Normals transform with the inverse transpose; their length is set by the geometry stage.
+            normals = None if normals is None or np.linalg.det(linear) == 0 else normals @ np.linalg.inv(linear)
+            if np.linalg.det(linear) < 0:
+                faces = faces[:, ::-1]  # a mirroring node keeps the faces outward
+        parts.append(_Part(vertices, faces, normals, mesh.visual))
+    return parts
+
+
+def _concatenate(parts: list[_Part]) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """One vertex and face array; vertex normals only if every part stores them."""
+    if len(parts) == 1:
+        return parts[0].vertices, parts[0].faces, parts[0].normals
+    offsets = np.cumsum([0] + [len(part.vertices) for part in parts])
+    vertices = np.concatenate([part.vertices for part in parts])
+    faces = np.concatenate([part.faces + o for part, o in zip(parts, offsets)])
+    stored = all(part.normals is not None for part in parts)
+    normals = np.concatenate([part.normals for part in parts]) if stored else None
+    return vertices, faces, normals
+
+
+def _check_values(coordinates: np.ndarray, path: Path, where: str) -> None:
+    """Every vertex of a face (`coordinates`, (U, 3)) finite and within ±POSITION_LIMIT (trimesh squares
+    coordinates)."""
+    if (np.abs(coordinates) <= POSITION_LIMIT).all():  # one pass; NaN fails the comparison too
+        return
+    finite = np.isfinite(coordinates).all(axis=1)
+    if not finite.all():
+        raise SceneError(f"{where}: {str(path)!r} has {int((~finite).sum())} vertex(es) with NaN or infinite "
+                         "coordinates; every vertex of a face must have finite coordinates")
+    huge = (np.abs(coordinates) > POSITION_LIMIT).any(axis=1)
+    if huge.any():
+        raise SceneError(f"{where}: {str(path)!r} has {int(huge.sum())} vertex(es) with a coordinate beyond "
+                         f"±{POSITION_LIMIT:g} (largest {float(np.abs(coordinates).max()):.3g}); allowed: within "
+                         f"±{POSITION_LIMIT:g}, so lengths squared stay finite")
+
+
+# ---------------------------------------------------------------- materials and colours
+
+def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes: list[str]):
+    """Per face: its material (an index into the returned tuple, -1 for none) and its colour sum or None."""
+    materials: list[FileMaterial] = []
+    index: dict[str, int] = {}
+    groups, colours, any_colour, gltf = [], [], False, False
+    for part in parts:
+        material = getattr(part.visual, "material", None)
+        found = None
+        if isinstance(material, trimesh.visual.material.PBRMaterial):
+            found, gltf = _from_pbr(material, path, notes), True
+        elif material is not None and library is not None:
+            found = library.get(getattr(material, "name", None) or "")
+        if found is not None:
+            # Two different materials under one name (glTF names are optional) each keep their own values.
+            name, copy = found.name, 1
+            while name in index and materials[index[name]] != replace(found, name=name):
+                copy += 1
+                name = f"{found.name}-{copy}"
+            found = replace(found, name=name)
+            if name not in index:
+                index[name] = len(materials)
+                materials.append(found)
+        groups.append(np.full(len(part.faces), index[found.name] if found is not None else -1, np.int32))
+        colour = _face_colour_sums(part)
+        any_colour |= colour is not None
+        colours.append(colour)
+    if gltf:
+        notes.append(f"{path}: glTF metallic-roughness materials are approximated on the Phong model: k_d = k_a = "
+                     "base colour, k_s = 0.04 + (base colour − 0.04) × metallic, f = 2/roughness⁴ − 2 (at most "
+                     f"{MAX_FILE_SHININESS:g}), k_e = emissive (docs/meshes.md)")
+    face_colour = None
+    if any_colour:
+        # A part without colours keeps its material's own k_d: mark it with -1 to tell it apart.
+        face_colour = np.concatenate([c if c is not None else np.full((len(p.faces), 3), -1, np.int32)
+                                      for c, p in zip(colours, parts)])
+    return np.concatenate(groups), tuple(materials), face_colour
+
+
+def _face_colour_sums(part: _Part) -> np.ndarray | None:
+    """(F, 3) int32 sums of the three corners' 8-bit colours (vertex colours), or 3 × the face colour; None
+    when the part has no colours. The mean is the sum / 765, so equal means compare equal exactly."""
+    visual = part.visual
+    kind = getattr(visual, "kind", None)
+    if not isinstance(visual, trimesh.visual.ColorVisuals) or kind not in ("vertex", "face"):
+        return None
+    if kind == "vertex":
+        rgb = np.asarray(visual.vertex_colors)[:, :3].astype(np.int32)
+        return rgb[part.faces].sum(axis=1)
+    return 3 * np.asarray(visual.face_colors)[:, :3].astype(np.int32)
+
+
+def _from_pbr(material, path: Path, notes: list[str]) -> FileMaterial:
+    """glTF 2.0 metallic-roughness → Phong: a stated approximation (docs/meshes.md).
+
+    k_d = k_a = base colour; k_s = F0 of the metallic workflow, lerp(0.04, base colour, metallic) (glTF
+    2.0 Appendix B); f = 2/α² − 2 with α = roughness², the Blinn-Phong exponent of the same lobe width
+    (Walter et al. 2007), capped at MAX_FILE_SHININESS; k_e = emissive factor. glTF's defaults: base
+    colour 1, metallic 1, roughness 1.
+    """
+    base = material.baseColorFactor
+    base = np.ones(4) if base is None else np.asarray(base, np.float64) / 255.0
+    metallic = 1.0 if material.metallicFactor is None else float(material.metallicFactor)
+    roughness = 1.0 if material.roughnessFactor is None else float(material.roughnessFactor)
+    emissive = np.zeros(3) if material.emissiveFactor is None else np.asarray(material.emissiveFactor, np.float64)
+    rgb = np.clip(base[:3], 0, 1)
+    metallic, roughness = min(max(metallic, 0.0), 1.0), min(max(roughness, 0.0), 1.0)
+    alpha = roughness * roughness
+    shininess = MAX_FILE_SHININESS if alpha == 0 else min(MAX_FILE_SHININESS, max(0.0, 2 / alpha**2 - 2))
+    name = material.name or f"{path.stem}-material"
+    if base[3] < 1 or getattr(material, "alphaMode", None) in ("BLEND", "MASK"):
+        notes.append(f"{path}: material {name!r}: transparency (alpha {base[3]:.3g}) is ignored: surfaces are opaque")
+    textures = [key for key in ("baseColorTexture", "metallicRoughnessTexture", "normalTexture",
+                                "emissiveTexture", "occlusionTexture") if getattr(material, key, None) is not None]
+    if textures:
+        notes.append(f"{path}: material {name!r}: texture maps are ignored ({', '.join(textures)}); its factors "
+                     "are used")
+    return FileMaterial(name, _rgb(rgb), _rgb(rgb), _rgb(0.04 + (rgb - 0.04) * metallic),
+                        _rgb(np.clip(emissive[:3], 0, 1)), float(shininess))
+
+
+def _rgb(values) -> tuple[float, float, float]:
+    return tuple(float(v) for v in values)  # type: ignore[return-value]
+
+
+# ---------------------------------------------------------------- .mtl files
+
+TEXTURE_KEYS = ("map_", "bump", "disp", "decal", "refl", "norm")
+
+
+def _obj_materials(path: Path, text: io.BytesIO, notes: list[str]) -> dict[str, FileMaterial]:
+    """The materials of the .mtl an OBJ names (its first `mtllib`, as trimesh reads), by name; {} and a note
+    when it is missing or unreadable."""
+    data = text.getvalue()
+    text.seek(0)
+    found = re.search(rb"^[ \t]*mtllib[ \t]+([^\r\n]+)", data, re.MULTILINE)
+    if found is None:
+        return {}
+    name = found.group(1).decode("utf-8", "replace").strip()
+    mtl = path.parent / name
+    try:
+        with open_regular(mtl, f"{path}: mtllib", "material file", MAX_SIDE_FILE) as handle:
+            content = handle.read(MAX_SIDE_FILE + 1).decode("utf-8", "replace")
+    except FileNotFoundError:
+        notes.append(f"{path}: its material file {name!r} is missing; the default material is used")
+        return {}
+    except (SceneError, OSError) as error:
+        notes.append(f"{path}: its material file {name!r} cannot be read ({error}); the default material is used")
+        return {}
+    return parse_mtl(content, mtl, notes)
+
+
+def parse_mtl(content: str, mtl: Path, notes: list[str]) -> dict[str, FileMaterial]:
+    """Wavefront .mtl → materials on the lecture's model (docs/meshes.md, "Materials").
+
+    Ka → k_a, Kd → k_d, Ks → k_s, Ke → k_e, Ns → f; a key the material omits takes the scene default's
+    value; illum 0 is colour only (k_e = Kd + Ke, the other terms 0), 1 has no specular term (k_s = 0),
+    2 and above are Phong (reflection and refraction are out of scope). d < 1 or Tr > 0 (transparency) and
+    texture maps are ignored, each said once. Coefficients outside [0, 1] are clamped, and said.
+    """
+    raw: dict[str, dict[str, list[str]]] = {}
+    current = None
+    for line in content.splitlines():
+        words = line.split("#", 1)[0].split()
+        if len(words) < 2:
+            continue
+        key = words[0].lower()
+        if key == "newmtl":
+            current = raw.setdefault(" ".join(words[1:]), {})
+        elif current is not None:
+            current[key] = words[1:]
+    materials, bad, clamped, textures, transparent, illums = {}, [], [], [], [], set()
+    for name, keys in raw.items():
+        values = {}
+        for key in ("ka", "kd", "ks", "ke", "ns", "d", "tr", "illum"):
+            if key not in keys:
+                continue
+            try:
+                numbers = [float(word) for word in keys[key][:3]]
+                if not all(math.isfinite(x) for x in numbers):
+                    raise ValueError
+            except ValueError:
+                bad.append(f"{name}: {key.capitalize()} {' '.join(keys[key])}")
+                continue
+            values[key] = numbers
+        textures += [(name, key, " ".join(words)) for key, words in keys.items() if key.startswith(TEXTURE_KEYS)]
+        if values.get("d", [1.0])[0] < 1 or values.get("tr", [0.0])[0] > 0:
+            transparent.append(name)
+        illum = int(values.get("illum", [2])[0])
+        coefficients = {}
+        for key, default in (("ka", DEFAULT_MATERIAL.ka), ("kd", DEFAULT_MATERIAL.kd), ("ks", DEFAULT_MATERIAL.ks),
+                             ("ke", DEFAULT_MATERIAL.ke)):
+            given = values.get(key)
+            rgb = default if given is None else (given * 3)[:3] if len(given) == 1 else given
+            if any(not 0 <= x <= 1 for x in rgb):
+                clamped.append(f"{name}: {key.capitalize()}")
+            coefficients[key] = _rgb(np.clip(rgb, 0, 1))
+        shininess = min(max(values.get("ns", [DEFAULT_MATERIAL.shininess])[0], 0.0), MAX_FILE_SHININESS)
+        if illum == 0:
+            colour = np.clip(np.add(coefficients["kd"], coefficients["ke"]), 0, 1)
+            coefficients = {"ka": (0.0,) * 3, "kd": (0.0,) * 3, "ks": (0.0,) * 3, "ke": _rgb(colour)}
+        elif illum == 1:
+            coefficients["ks"] = (0.0, 0.0, 0.0)
+        elif illum > 2:
+            illums.add(illum)
+        materials[name] = FileMaterial(name, coefficients["ka"], coefficients["kd"], coefficients["ks"],
+                                       coefficients["ke"], float(shininess))
+    if bad:
+        notes.append(f"{mtl}: {len(bad)} value(s) are not numbers and keep their defaults (first: {bad[0]})")
+    if clamped:
+        notes.append(f"{mtl}: {len(clamped)} coefficient(s) outside [0, 1] are clamped to it (first: {clamped[0]})")
+    if transparent:
+        notes.append(f"{mtl}: transparency (d < 1 or Tr > 0) is ignored: {', '.join(transparent)} render opaque")
+    if illums:
+        notes.append(f"{mtl}: illum {', '.join(map(str, sorted(illums)))} render as illum 2 (Phong); reflection "
+                     "and refraction are out of scope")
+    if textures:
+        shown = ", ".join(f"{key} {file}" for _, key, file in textures[:3]) + (", ..." if len(textures) > 3 else "")
+        notes.append(f"{mtl}: texture maps are ignored ({shown}); the materials' colours are used")
+        for _, _, file in textures:
+            target = mtl.parent / file.split()[-1]
+            if not target.is_file():
+                notes.append(f"{mtl}: texture {file.split()[-1]!r} is missing (textures are ignored anyway)")
+    return materials
+
+
+# ---------------------------------------------------------------- trimesh's side of reading
+
+def _raised_in_trimesh(error: BaseException) -> bool:
+    """Whether `error` came out of trimesh's own code, i.e. trimesh could not read the file.
+
+    A corrupt file makes trimesh raise almost anything (750 corrupted OBJ, PLY, STL, OFF and GLB files gave
+    ValueError, KeyError, IndexError, TypeError, NotImplementedError and, from a bug of its own on a bad PLY
+    header, UnboundLocalError), so the type says little; where it was raised says whose problem it is.
+    Running out of memory is never the file's fault.
+    """
+    if isinstance(error, MemoryError):
+        return False
+    frame = error.__traceback__
+    while frame is not None:
+        if Path(frame.tb_frame.f_code.co_filename).resolve().is_relative_to(TRIMESH):
+            return True
+        frame = frame.tb_next
+    return False
+
+
+class _RegularFiles(trimesh.resolvers.FilePathResolver):
+    """trimesh's resolver for the files a mesh names (.mtl, textures, glTF buffers), but only regular files:
+    a FIFO named by `mtllib` would block the read forever."""
+
+    def get(self, name):
+        path = Path(self.parent) / name
+        with open_regular(path, str(path), "file") as handle:
+            return handle.read()
+
+
+def _mesh_source(path, handle) -> dict:
+    """trimesh.load arguments for the open file `handle` of `path`; a text format that is not UTF-8 is
+    read as Latin-1. The file already opened is read (not the path again), and files it names (an OBJ's
+    materials, a glTF's buffers) are found beside it.
+
+    trimesh needs the optional charset_normalizer to guess an encoding, and fails without it, so
+    decide here: every byte is a Latin-1 character, and the OBJ and OFF keywords are plain ASCII.
+    """
+    suffix = path.suffix.lower()
+    source = {"file_obj": handle, "file_type": suffix[1:], "resolver": _RegularFiles(path)}
+    if suffix in TEXT_FORMATS:
+        data = handle.read()
+        try:
+            data.decode("utf-8")
+        except UnicodeDecodeError:
+            data = data.decode("latin-1").encode("utf-8")
+        source["file_obj"] = io.BytesIO(data)
+    return source
