@@ -19,8 +19,9 @@ Docstrings, decorators, annotations, imports and `raise` statements are not muta
 Each mutant runs in a copy of the repository (raycast_phong/, tests/, scenes/, cli.py, pyproject.toml) at
 one fixed work path, imported through PYTHONPATH ahead of the editable install, with its own NUMBA_CACHE_DIR
 seeded from the unmutated run's. A mutated kernel module cannot reuse a stale kernel: pipeline/jit.py keys the
-kernels' cache folder on the source of every kernel module and its imports. The mutant is *killed* when the test subset fails, *timeout* when it runs past --timeout,
-*survived* when the subset passes. Not collected by pytest (tests/mutation has no test_*.py).
+kernels' cache folder on the source of every kernel module and its imports. The mutant is *killed* when the
+test subset fails, *timeout* when it runs past --timeout, *survived* when the subset passes. Not collected by pytest
+(tests/mutation has no test_*.py).
 """
 
 from __future__ import annotations
