@@ -1,4 +1,5 @@
-"""Build every object's triangles (trimesh), place them in the world, compute face and vertex normals.
+"""Build every object's triangles (shapes.py; trimesh reads mesh files), place them in the world, compute
+face and vertex normals.
 
 Vertex normals are stored per face corner, so a crease split or normals read from a file need no
 vertex duplication: corner (f, k) carries the normal that vertex faces[f, k] has *on face f*.
@@ -6,13 +7,14 @@ vertex duplication: corner (f, k) carries the normal that vertex faces[f, k] has
 
 from __future__ import annotations
 
+import importlib
 import io
 import math
 from pathlib import Path
 
 import numpy as np
-import trimesh
 
+from . import shapes
 from .records import Geometry
 from .scene import (
     MIN_EXTENT,
@@ -28,7 +30,19 @@ from .scene import (
 from .tolerances import MIN_DISTANCE, NO_DIRECTION
 
 MODEL_CODE = {ShadingModel.FLAT: 0, ShadingModel.GOURAUD: 1, ShadingModel.PHONG: 2}
-TRIMESH = Path(trimesh.__file__).resolve().parent  # an exception that passed through here: trimesh refused the file
+
+
+class _OnFirstUse:
+    """Stands for a module and imports it at the first attribute access (import_module is thread-safe)."""
+
+    def __init__(self, name: str):
+        self._name = name
+
+    def __getattr__(self, attribute: str):
+        return getattr(importlib.import_module(self._name), attribute)
+
+
+trimesh = _OnFirstUse("trimesh")  # for mesh files only (≈ 0.3 s to import): the built-in shapes are numpy
 
 
 def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool = True) -> Geometry:
@@ -138,35 +152,37 @@ def repair_winding(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     return repaired, int((~same).sum()), closed
 
 
+THIN = 2.0 ** -23  # float32's resolution: a tube thinner than this share of the shape collapses in Embree's frame
+
+
 def object_mesh(scene: Scene, obj: Object, index: int, source: str):
     """(vertices (V, 3), faces (F, 3), file vertex normals (V, 3) or None) in the object's own frame."""
     if obj.shape == "mesh":
         return _load_mesh(scene, obj, index, source)
     if obj.shape == "plane":
         return (*plane_mesh(obj.size or (2.0, 2.0), obj.segments or (1, 1)), None)
-    # Build at unit size and scale after: trimesh merges vertices closer than an absolute 1e-8, which
-    # would collapse (and divide by zero on) a sphere of radius 1e-20.
+    # Build at unit size and scale after, so a shape of radius 1e-20 or 1e15 has the same well-scaled triangles.
     lengths = {"icosphere": (obj.radius,), "uv_sphere": (obj.radius,), "box": obj.size or (2.0, 2.0, 2.0),
                "cylinder": (obj.radius, obj.height), "torus": (obj.major_radius, obj.minor_radius)}[obj.shape]
     unit = max(lengths)
+    # A tube thinner than float32's resolution of the whole (Embree's precision) has nothing to hit.
+    thin = {"cylinder": obj.radius, "torus": obj.minor_radius}.get(obj.shape, unit)
+    if thin < THIN * unit:
+        raise SceneError(f"{source}: objects.{index}: a {obj.shape} with lengths {list(lengths)} has no triangles "
+                         f"Embree can hit: its {'radius' if obj.shape == 'cylinder' else 'minor_radius'} is below "
+                         f"float32's resolution of its size; allowed: at least {THIN:.3g} of the larger length")
     if obj.shape == "icosphere":
-        mesh = trimesh.creation.icosphere(subdivisions=obj.subdivisions, radius=1.0)
+        vertices, faces = shapes.icosphere(obj.subdivisions)
     elif obj.shape == "uv_sphere":
-        mesh = trimesh.creation.uv_sphere(radius=1.0, count=list(obj.segments or (32, 16)))
+        vertices, faces = shapes.uv_sphere(obj.segments or (32, 16))
     elif obj.shape == "box":
-        mesh = trimesh.creation.box(extents=[length / unit for length in lengths])
+        vertices, faces = shapes.box([length / unit for length in lengths])
     elif obj.shape == "cylinder":
-        mesh = trimesh.creation.cylinder(radius=obj.radius / unit, height=obj.height / unit,
-                                         sections=(obj.segments or (32, 1))[0])
+        vertices, faces = shapes.cylinder(obj.radius / unit, obj.height / unit, (obj.segments or (32, 1))[0])
     else:
         major, minor = obj.segments or (32, 16)
-        mesh = trimesh.creation.torus(major_radius=obj.major_radius / unit, minor_radius=obj.minor_radius / unit,
-                                      major_sections=major, minor_sections=minor)
-    if len(mesh.faces) == 0:
-        raise SceneError(f"{source}: objects.{index}: a {obj.shape} with lengths {list(lengths)} has no triangles: "
-                         "trimesh merges vertices closer than 1e-8 of the shape's size; allowed: the smaller "
-                         "length a larger share of the larger one")
-    return np.asarray(mesh.vertices, np.float64) * unit, np.asarray(mesh.faces, np.int64), None
+        vertices, faces = shapes.torus(obj.major_radius / unit, obj.minor_radius / unit, major, minor)
+    return vertices * unit, faces, None
 
 
 def plane_mesh(size, segments) -> tuple[np.ndarray, np.ndarray]:
@@ -243,9 +259,10 @@ def _raised_in_trimesh(error: BaseException) -> bool:
     """
     if isinstance(error, MemoryError):
         return False
+    folder = Path(trimesh.__file__).resolve().parent  # an exception that passed through here: trimesh refused the file
     frame = error.__traceback__
     while frame is not None:
-        if Path(frame.tb_frame.f_code.co_filename).resolve().is_relative_to(TRIMESH):
+        if Path(frame.tb_frame.f_code.co_filename).resolve().is_relative_to(folder):
             return True
         frame = frame.tb_next
     return False
@@ -273,10 +290,15 @@ def _mesh_source(path, handle) -> dict:
 
 def rotation_of(obj: Object) -> np.ndarray:
     """3×3 rotation about x, then y, then z, by the object's angles in degrees."""
-    rx, ry, rz = (math.radians(a) for a in obj.rotate)
-    return (trimesh.transformations.rotation_matrix(rz, [0, 0, 1])
-            @ trimesh.transformations.rotation_matrix(ry, [0, 1, 0])
-            @ trimesh.transformations.rotation_matrix(rx, [1, 0, 0]))[:3, :3]
+    turns = []
+    for axis, degrees in enumerate(obj.rotate):
+        cos, sin = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
+        i, j = (axis + 1) % 3, (axis + 2) % 3  # the plane it turns: y→z about x, z→x about y, x→y about z
+        turn = np.eye(3)
+        turn[i, i] = turn[j, j] = cos
+        turn[j, i], turn[i, j] = sin, -sin
+        turns.append(turn)
+    return turns[2] @ turns[1] @ turns[0]
 
 
 def place(obj: Object, vertices, faces, file_normals):
