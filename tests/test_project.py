@@ -1,6 +1,7 @@
 """The project's own promises: README commands, CI script, published schema, packaged default scene."""
 
 import json
+import os
 import re
 import subprocess
 import sys
@@ -53,6 +54,31 @@ def test_benchmark_script_runs_in_a_reduced_form():
     assert done.returncode == 0, done.stderr
     assert re.search(r"ratio\s+\d+\.\d+", done.stdout)
     assert "64×64, 81,920 triangles" in done.stdout
+
+
+def test_cli_benchmark_runs_in_a_reduced_form():
+    """bench_cli.py is not a timed test; this keeps it working (one repeat)."""
+    done = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bench_cli.py"), "--repeats", "1"],
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert re.search(r"this tree\s+wall \d+\.\d+ s", done.stdout) and "numba" in done.stdout, done.stdout
+    assert "ms  total after Python's own start" in done.stdout, done.stdout
+
+
+def test_render_benchmark_runs_or_says_how_to_install_open3d(tmp_path):
+    """bench_render.py compares with Open3D, which is no dependency: without it (here a package that fails to
+    import) one line says how to install it; with it, a tiny run prints the ratio."""
+    fake = tmp_path / "open3d"
+    fake.mkdir()
+    (fake / "__init__.py").write_text("raise ImportError('no open3d here')\n", encoding="utf-8")
+    script = str(ROOT / "benchmarks" / "bench_render.py")
+    done = subprocess.run([sys.executable, script, "--size", "32", "--repeats", "1"], capture_output=True, text=True,
+                          timeout=600, env={**os.environ, "PYTHONPATH": str(tmp_path)})
+    assert done.returncode == 1 and "pip install -e '.[bench]'" in done.stderr, done.stderr
+    pytest.importorskip("open3d")
+    done = subprocess.run([sys.executable, script, "--size", "32", "--repeats", "1"], capture_output=True,
+                          text=True, timeout=600)
+    assert done.returncode == 0 and re.search(r"ratio\s+\d+\.\d+", done.stdout), done.stdout + done.stderr
 
 
 HEAVY = ("numba", "trimesh", "scipy", "embreex")
