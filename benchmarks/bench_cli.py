@@ -34,6 +34,7 @@ marks = []
 def mark(name):
     marks.append((name, time.perf_counter()))
 import raycast_phong as rp, raycast_phong.commands
+assert rp.__file__.startswith(TREE), rp.__file__
 mark("import the CLI (typer, numpy, OpenImageIO, pydantic)")
 import numpy as np
 from raycast_phong.pipeline import render
@@ -63,8 +64,9 @@ def run(tree: Path, arguments: list[str], importtime: bool = False) -> tuple[flo
     env = {**os.environ, "PYTHONPATH": str(tree)}
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
+    # From a neutral folder: `python -c` puts the current folder first on sys.path, before PYTHONPATH.
     done = subprocess.run([sys.executable, *(["-X", "importtime"] if importtime else []), "-c", CLI, *arguments],
-                          env=env, capture_output=True, text=True, timeout=600)
+                          env=env, capture_output=True, text=True, timeout=600, cwd=tempfile.gettempdir())
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if done.returncode != 0:
@@ -120,9 +122,9 @@ def main() -> None:
             print(f"\nimport time by package, {name} (ms, one run):")
             for package, milliseconds in import_breakdown(stderr):
                 print(f"  {milliseconds:7.1f}  {package}")
-            stages = subprocess.run([sys.executable, "-c", STAGES.replace("OUTPUT", repr(arguments[-1]))],
-                                    env={**os.environ, "PYTHONPATH": str(tree)}, capture_output=True, text=True,
-                                    timeout=600)
+            code = STAGES.replace("OUTPUT", repr(arguments[-1])).replace("TREE", repr(str(tree)))
+            stages = subprocess.run([sys.executable, "-c", code], env={**os.environ, "PYTHONPATH": str(tree)},
+                                    capture_output=True, text=True, timeout=600, cwd=folder)
             print(f"start-up in stages, {name} (one process):\n{stages.stdout}{stages.stderr}")
 
 
