@@ -69,8 +69,7 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
             raise SceneError(f"{source}: objects.{index}: placed, the object collapses to a single point (its scale "
                              f"{list(obj.scale)} is below float64's resolution at translate {list(obj.translate)}); "
                              "allowed: an object with some extent; raise scale or its size")
-        normals = face_normals(vertices, faces)
-        unit = normals[0]
+        unit, _ = face_normals(vertices, faces)
         model = MODEL_CODE[scene.shading_of(obj)]
         corners = None
         if vertex_normals:
@@ -78,7 +77,7 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
                 corners = file_normals[faces]
                 corners = _normalise_or(corners, np.repeat(unit[:, None, :], 3, axis=1))
             else:
-                corners = compute_corner_normals(vertices, faces, obj.normals, obj.crease_angle, normals)
+                corners = compute_corner_normals(vertices, faces, obj.normals, obj.crease_angle)
         parts.append((vertices, faces, unit, corners, material_index.get(obj.material, 0), model))
 
     offset = np.cumsum([0] + [len(p[0]) for p in parts])
@@ -338,16 +337,15 @@ def corner_angles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 
 def compute_corner_normals(vertices: np.ndarray, faces: np.ndarray, weighting: str = "mean",
-                           crease_angle: float = 180.0, normals: tuple | None = None) -> np.ndarray:
+                           crease_angle: float = 180.0) -> np.ndarray:
     """Vertex normal at every face corner (F, 3, 3), unit.
 
     n_v = normalize(Σ_f w_f n_f) over the faces f around v, with w = 1 ("mean", the lecture's rule),
     the face area ("area") or the corner angle ("angle"); degenerate faces weigh 0. With a crease
     angle below 180°, corner (f, v) only gathers faces g whose normal is within that angle of n_f.
-    A vertex whose sum vanishes falls back to the face normal. `normals`: face_normals(vertices, faces), if
-    the caller has it already.
+    A vertex whose sum vanishes falls back to the face normal.
     """
-    unit, doubled_area = normals or face_normals(vertices, faces)
+    unit, doubled_area = face_normals(vertices, faces)
     if weighting == "mean":
         weights = np.ones(faces.shape)
     elif weighting == "area":
@@ -361,16 +359,11 @@ def compute_corner_normals(vertices: np.ndarray, faces: np.ndarray, weighting: s
     contribution = np.concatenate([weights[:, :, None] * unit[:, None, :], reach[:, :, None]], axis=2).reshape(-1, 4)
     corner_vertex = faces.ravel()
     if crease_angle >= 180.0:
-        # One normal per vertex, normalised once (V rows, not 3F) and copied to its corners; NaN marks a vertex
-        # without a direction, whose corners take their own face's normal.
         summed = np.column_stack([np.bincount(corner_vertex, contribution[:, i], minlength=len(vertices))
-                                  for i in range(4)])
-        corners = _normalise_or(summed[:, :3], np.full((len(vertices), 3), np.nan), summed[:, 3:])[corner_vertex]
-        lost = np.flatnonzero(np.isnan(corners[:, 0]))
-        corners[lost] = unit[lost // 3]
-        return corners.reshape(-1, 3, 3)
+                                  for i in range(4)])[corner_vertex]
+    else:
+        summed = _creased_sums(corner_vertex, contribution, np.repeat(unit, 3, axis=0), crease_angle)
     fallback = np.repeat(unit, 3, axis=0)
-    summed = _creased_sums(corner_vertex, contribution, fallback, crease_angle)
     return _normalise_or(summed[:, :3], fallback, summed[:, 3:]).reshape(-1, 3, 3)
 
 
