@@ -2,7 +2,8 @@
 version of pipeline/geometry.py, in one process.
 
 Times build_geometry (shapes, placement, face and vertex normals, checks) on bench_frame's scene (icosphere of
-6 subdivisions, 81,920 triangles, Phong) and on the default scene (three 80-face icospheres), and the
+6 subdivisions, 81,920 triangles, Phong), on the default scene (three 80-face icospheres) and on 1,000
+80-face icospheres (the cost per object), and the
 icosphere builder alone against trimesh.creation.icosphere. CPU time of this thread (time.thread_time),
 minimum of --repeats, the versions interleaved: other jobs on the machine barely move it.
 
@@ -57,8 +58,11 @@ def main() -> None:
     versions = {"now": geometry}
     if args.before:
         versions = {args.before: geometry_at(args.before), **versions}
+    grid = [{"shape": "icosphere", "subdivisions": 1, "radius": 0.4, "translate": [i % 32, i // 32, 0]}
+            for i in range(1000)]
     cases = {"icosphere 6 (81,920 faces)": benchmark_scene(1000),
-             "default scene": rp.load_scene(rp.default_scene_path())}
+             "default scene": rp.load_scene(rp.default_scene_path()),
+             "1,000 icospheres of 80 faces": rp.validate_scene({"objects": grid}, source="grid")}
     for module in versions.values():
         for scene in cases.values():
             module.build_geometry(scene)  # first calls: imports, caches
@@ -74,7 +78,7 @@ def main() -> None:
         row = "   ".join(f"{name} {min(seconds[case, name]) * 1e3:7.2f} ms" for name in versions)
         ratio = (f"   now / {args.before} {min(seconds[case, 'now']) / min(seconds[case, args.before]):.2f}"
                  if args.before else "")
-        print(f"  {case:28s} {row}{ratio}")
+        print(f"  {case:30s} {row}{ratio}")
     import trimesh
     ours = best(lambda: shapes.icosphere(6), args.repeats)
     theirs = best(lambda: trimesh.creation.icosphere(6), args.repeats)

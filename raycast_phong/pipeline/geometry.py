@@ -7,7 +7,6 @@ vertex duplication: corner (f, k) carries the normal that vertex faces[f, k] has
 
 from __future__ import annotations
 
-import importlib
 import io
 import math
 from pathlib import Path
@@ -15,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from . import shapes
+from .lazy import OnFirstUse
 from .records import Geometry
 from .scene import (
     MIN_EXTENT,
@@ -30,19 +30,7 @@ from .scene import (
 from .tolerances import MIN_DISTANCE, NO_DIRECTION
 
 MODEL_CODE = {ShadingModel.FLAT: 0, ShadingModel.GOURAUD: 1, ShadingModel.PHONG: 2}
-
-
-class _OnFirstUse:
-    """Stands for a module and imports it at the first attribute access (import_module is thread-safe)."""
-
-    def __init__(self, name: str):
-        self._name = name
-
-    def __getattr__(self, attribute: str):
-        return getattr(importlib.import_module(self._name), attribute)
-
-
-trimesh = _OnFirstUse("trimesh")  # for mesh files only (≈ 0.3 s to import): the built-in shapes are numpy
+trimesh = OnFirstUse("trimesh")  # for mesh files only (0.2–0.3 s to import): the built-in shapes are numpy
 
 
 def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool = True) -> Geometry:

@@ -10,6 +10,8 @@ poles of a fine uv sphere). Every shape is centred on the origin; revolved shape
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 # A box's 12 triangles over its corners 4x + 2y + z (x, y, z ∈ {0, 1}): two per side, counter-clockwise
@@ -28,9 +30,11 @@ def box(extents) -> tuple[np.ndarray, np.ndarray]:
     return (corners - 0.5) * np.asarray(extents, np.float64), BOX_FACES.copy()
 
 
+@lru_cache(maxsize=1)
 def icosahedron() -> tuple[np.ndarray, np.ndarray]:
     """The regular icosahedron on the unit sphere: vertices the cyclic permutations of (±1, ±φ, 0), faces the
-    20 triples of mutually adjacent vertices (edge length 2 before normalising), wound outward."""
+    20 triples of mutually adjacent vertices (edge length 2 before normalising), wound outward. Built once
+    (a scene may hold thousands of icospheres); the arrays are read-only."""
     phi = (1.0 + 5.0 ** 0.5) / 2.0
     signs = np.array([[-1, 1], [1, 1], [-1, -1], [1, -1]], np.float64)
     seed = np.column_stack([signs[:, 0], signs[:, 1] * phi, np.zeros(4)])        # (±1, ±φ, 0)
@@ -43,13 +47,15 @@ def icosahedron() -> tuple[np.ndarray, np.ndarray]:
     # Outward: for a convex solid around the origin, det[a, b, c] > 0 is a counter-clockwise face seen from outside.
     inward = np.linalg.det(vertices[faces]) < 0
     faces[inward] = faces[inward][:, [0, 2, 1]]
-    return vertices / np.linalg.norm(vertices, axis=1, keepdims=True), faces
+    vertices = vertices / np.linalg.norm(vertices, axis=1, keepdims=True)
+    vertices.flags.writeable = faces.flags.writeable = False
+    return vertices, faces
 
 
 def icosphere(subdivisions: int) -> tuple[np.ndarray, np.ndarray]:
     """Unit icosphere: the icosahedron with every triangle split in four `subdivisions` times, each new
     edge midpoint pushed out to the sphere; 20·4^subdivisions faces."""
-    vertices, faces = icosahedron()
+    vertices, faces = (array.copy() for array in icosahedron())
     for _ in range(subdivisions):
         # One midpoint per undirected edge: edge k of a face runs from corner k to corner k + 1.
         start, end = faces.ravel(), faces[:, [1, 2, 0]].ravel()
