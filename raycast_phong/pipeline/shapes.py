@@ -2,10 +2,11 @@
 
 The triangles are those trimesh.creation builds (same positions to float64 rounding, same faces and
 orientation, another order), so images rendered before keep their references; trimesh itself is imported
-only for mesh files. Two differences, both where trimesh's cleaning is wrong for a renderer: a point on the
-axis of revolution is one vertex by construction (trimesh merges copies closer than an absolute 1e-8), and
-no real triangle is dropped (trimesh drops revolved triangles of area below 1e-8, which opens holes near the
-poles of a fine uv sphere). Every shape is centred on the origin; revolved shapes turn about z.
+only for mesh files. Nothing is cleaned afterwards: a point on the axis of revolution is one vertex by
+construction, and only the triangles that would join it to itself are left out. trimesh instead merges
+vertices closer than an absolute 1e-8 and drops revolved triangles of area below 1e-8, which opens holes
+near the poles of a fine uv sphere (4096 × 96 segments). Every shape is centred on the origin; revolved
+shapes turn about z.
 """
 
 from __future__ import annotations
