@@ -1,11 +1,11 @@
 """Wall time of a warm `raycast-phong render` of the default scene (issue 12's ≤ 1.0 s target), and where it goes.
 
 Each run is a fresh process, as a user starts it (`python -c "from raycast_phong.commands import app; app()"
-render -q -o …`); one run beforehand makes sure the kernels are in numba's cache. Reports the minimum over
---repeats of the wall time and of the process's CPU time (user + sys; two tile threads may make it exceed the
-wall), then the import time per package (`python -X importtime`, each module's own time summed by top-level
-package) and the start-up in stages, timed in one process: imports, numba's set-up on its first kernel
-call, the kernels, the render and the write.
+render -q -o …`); beforehand the package is compiled to bytecode (compileall, as pip does at install) and
+one run makes sure the kernels are in numba's cache. Reports the minimum over --repeats of the wall time and
+of the process's CPU time (user + sys; two tile threads may make it exceed the wall), then the import time
+per package (`python -X importtime`) and the start-up in stages, timed in one process: imports, numba's
+set-up on its first kernel call, the kernels, the render and the write.
 
 --before PATH times another source tree too (e.g. `git archive REV | tar -x -C PATH`), interleaved run by run,
 so both sides see the same machine load.
@@ -102,6 +102,9 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as folder:
         arguments = ["render", "-q", "-o", str(Path(folder) / "out.png")]
         for tree in trees.values():
+            # Bytecode, as an installed package has it (pip compiles at install): with PYTHONDONTWRITEBYTECODE
+            # set, as here, each run would otherwise compile the package's modules from source (≈ 0.1 s).
+            subprocess.run([sys.executable, "-m", "compileall", "-q", str(tree / "raycast_phong")], check=True)
             run(tree, arguments)  # compiles the kernels if this tree's cache lacks them
         walls: dict[str, list[float]] = defaultdict(list)
         cpus: dict[str, list[float]] = defaultdict(list)
