@@ -13,7 +13,7 @@ import time
 from contextlib import contextmanager
 from enum import Enum
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from typer.core import TyperGroup
@@ -22,7 +22,9 @@ import raycast_phong as rp
 from raycast_phong.io.atomic import WriteError
 from raycast_phong.io.image_io import NO_FONT, ImageError, check_output_path
 from raycast_phong.pipeline.scene import Mode, ShadingModel, SpecularModel
-from raycast_phong.tools import compare
+
+if TYPE_CHECKING:
+    from raycast_phong.tools import compare
 
 # The click that typer parses with (typer ≥ 0.2x vendors its own copy): its exception classes.
 _click_errors = sys.modules[typer.BadParameter.__module__]
@@ -326,6 +328,7 @@ def side_by_side(
 ) -> None:
     """Render a scene once per value of one key; write the variants side by side over heat maps of how
     much each differs from the last, and print the share of pixels changed, mean and max difference."""
+    from raycast_phong.tools import compare  # only this command composes variants
     with exit_codes():
         key, values = compare.parse_vary(vary)
         path = scene or rp.default_scene_path()
@@ -358,7 +361,8 @@ def variant_lines(key: str, values: list[str], stats: list[compare.VariantStats]
     """One line per variant: the share of pixels changed, mean and max difference against the last."""
     labels = [f"{key} = {value}" for value in values]
     pad = max(len(label) for label in labels)
-    lines = [f"{label:<{pad}}  {s.changed:7.2%} of pixels changed (> {compare.CHANGED_ABOVE:g}), "
+    from raycast_phong.tools.compare import CHANGED_ABOVE
+    lines = [f"{label:<{pad}}  {s.changed:7.2%} of pixels changed (> {CHANGED_ABOVE:g}), "
              f"mean {s.mean:.4g}, max {s.max:.4g}" for label, s in zip(labels, stats)]
     return [f"{line} against {labels[-1]}" for line in lines[:-1]] + [f"{lines[-1]} (the reference)"]
 

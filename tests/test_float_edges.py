@@ -287,7 +287,7 @@ def test_a_tiny_shape_beside_a_normal_one_renders(tmp_path):
 
 
 @pytest.mark.parametrize("obj", [{"shape": "torus", "minor_radius": 1e-12}, {"shape": "cylinder", "radius": 1e-12}])
-def test_a_shape_too_thin_for_trimesh_is_refused(tmp_path, obj):
+def test_a_shape_too_thin_for_float32_is_refused(tmp_path, obj):
     refused(tmp_path, scene_file(tmp_path, lambda s: set_path(s, "objects.0", obj)), "objects.0:", "no triangles")
 
 

@@ -1,6 +1,7 @@
 """The project's own promises: README commands, CI script, published schema, packaged default scene."""
 
 import json
+import os
 import re
 import subprocess
 import sys
@@ -55,6 +56,31 @@ def test_benchmark_script_runs_in_a_reduced_form():
     assert "64×64, 81,920 triangles" in done.stdout
 
 
+def test_cli_benchmark_runs_in_a_reduced_form():
+    """bench_cli.py is not a timed test; this keeps it working (one repeat)."""
+    done = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bench_cli.py"), "--repeats", "1"],
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert re.search(r"this tree\s+wall \d+\.\d+ s", done.stdout) and "numba" in done.stdout, done.stdout
+    assert "ms  total after Python's own start" in done.stdout, done.stdout
+
+
+def test_render_benchmark_runs_or_says_how_to_install_open3d(tmp_path):
+    """bench_render.py compares with Open3D, which is no dependency: without it (here a package that fails to
+    import) one line says how to install it; with it, a tiny run prints the ratio."""
+    fake = tmp_path / "open3d"
+    fake.mkdir()
+    (fake / "__init__.py").write_text("raise ImportError('no open3d here')\n", encoding="utf-8")
+    script = str(ROOT / "benchmarks" / "bench_render.py")
+    done = subprocess.run([sys.executable, script, "--size", "32", "--repeats", "1"], capture_output=True, text=True,
+                          timeout=600, env={**os.environ, "PYTHONPATH": str(tmp_path)})
+    assert done.returncode == 1 and "pip install -e '.[bench]'" in done.stderr, done.stderr
+    pytest.importorskip("open3d")
+    done = subprocess.run([sys.executable, script, "--size", "32", "--repeats", "1"], capture_output=True,
+                          text=True, timeout=600)
+    assert done.returncode == 0 and re.search(r"ratio\s+\d+\.\d+", done.stdout), done.stdout + done.stderr
+
+
 HEAVY = ("numba", "trimesh", "scipy", "embreex")
 
 
@@ -65,6 +91,22 @@ def test_importing_the_package_the_plugin_and_the_cli_loads_no_renderer():
              f"print([m for m in {HEAVY!r} if m in sys.modules])")
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=ROOT, timeout=60)
     assert done.stdout.strip() == "[]", done.stdout + done.stderr
+
+
+def test_rendering_built_in_shapes_from_the_cli_loads_no_mesh_library_and_no_tool(tmp_path):
+    """A warm `raycast-phong render` pays for what the scene needs: the built-in shapes are numpy, so trimesh
+    (≈ 0.2–0.3 s to import) loads only for a mesh file, and the tools only for their own commands."""
+    probe = ("import sys\nfrom raycast_phong.commands import app\n"
+             "try:\n    app()\nexcept SystemExit as done:\n    assert done.code == 0, done.code\n"
+             "print([m for m in sys.modules if m.split('.')[0] == 'trimesh' or m.startswith('raycast_phong.tools')])")
+    scene = tmp_path / "shapes.toml"  # one of each built-in shape, tiny
+    shapes = ["icosphere", "uv_sphere", "box", "plane", "cylinder", "torus"]
+    scene.write_text("[render]\nwidth = 8\nheight = 6\n"
+                     + "".join(f'[[objects]]\nshape = "{shape}"\ntranslate = [{3 * i - 7}, 0, 0]\n'
+                               for i, shape in enumerate(shapes)), encoding="utf-8")
+    done = subprocess.run([sys.executable, "-c", probe, "render", str(scene), "-q", "-o", str(tmp_path / "out.png")],
+                          capture_output=True, text=True, cwd=ROOT, timeout=600)
+    assert done.returncode == 0 and done.stdout.strip() == "[]", done.stdout + done.stderr
 
 
 def test_the_package_names_load_on_first_use_and_stay_functions():

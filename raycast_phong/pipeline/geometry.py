@@ -1,4 +1,5 @@
-"""Build every object's triangles (trimesh), place them in the world, compute face and vertex normals.
+"""Build every object's triangles (shapes.py; trimesh reads mesh files), place them in the world, compute
+face and vertex normals.
 
 Vertex normals are stored per face corner, so a crease split or normals read from a file need no
 vertex duplication: corner (f, k) carries the normal that vertex faces[f, k] has *on face f*.
@@ -7,13 +8,13 @@ vertex duplication: corner (f, k) carries the normal that vertex faces[f, k] has
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
-import trimesh
 
+from . import shapes
 from .illumination import material_rows
-from .mesh_file import MeshFile, read_mesh
+from .lazy import OnFirstUse
 from .records import Geometry
 from .scene import (
     DEFAULT_MATERIAL,
@@ -28,6 +29,9 @@ from .scene import (
 )
 from .tolerances import MIN_DISTANCE, NO_DIRECTION
 
+if TYPE_CHECKING:  # mesh_file imports trimesh: only a scene with a mesh file loads it
+    from .mesh_file import MeshFile
+
 MODEL_CODE = {ShadingModel.FLAT: 0, ShadingModel.GOURAUD: 1, ShadingModel.PHONG: 2}
 
 
@@ -37,6 +41,9 @@ class ObjectMesh(NamedTuple):
     faces: np.ndarray            # (F, 3) int64
     normals: np.ndarray | None   # (V, 3) vertex normals a mesh file stores (used when normals is "file" or unset)
     file: MeshFile | None = None  # a mesh file's materials and colours, aligned with `faces`
+
+
+trimesh = OnFirstUse("trimesh")  # for mesh files only (0.2–0.3 s to import): the built-in shapes are numpy
 
 
 def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool = True) -> Geometry:
@@ -153,6 +160,9 @@ def repair_winding(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     return repaired, int((~same).sum()), closed
 
 
+THIN = 2.0 ** -23  # float32's resolution: a tube thinner than this share of the shape collapses in Embree's frame
+
+
 class FileRows:
     """The material table's rows after the scene's own: one per distinct (file material, colour) of the mesh
     files' faces. A file material the scene defines by name ([materials.NAME]) uses the scene's row instead."""
@@ -200,29 +210,28 @@ def object_mesh(scene: Scene, obj: Object, index: int, source: str) -> ObjectMes
         return _load_mesh(scene, obj, index, source)
     if obj.shape == "plane":
         return ObjectMesh(*plane_mesh(obj.size or (2.0, 2.0), obj.segments or (1, 1)), None)
-    # Build at unit size and scale after: trimesh merges vertices closer than an absolute 1e-8, which
-    # would collapse (and divide by zero on) a sphere of radius 1e-20.
+    # Build at unit size and scale after, so a shape of radius 1e-20 or 1e15 has the same well-scaled triangles.
     lengths = {"icosphere": (obj.radius,), "uv_sphere": (obj.radius,), "box": obj.size or (2.0, 2.0, 2.0),
                "cylinder": (obj.radius, obj.height), "torus": (obj.major_radius, obj.minor_radius)}[obj.shape]
     unit = max(lengths)
+    # A tube thinner than float32's resolution of the whole (Embree's precision) has nothing to hit.
+    thin = {"cylinder": obj.radius, "torus": obj.minor_radius}.get(obj.shape, unit)
+    if thin < THIN * unit:
+        raise SceneError(f"{source}: objects.{index}: a {obj.shape} with lengths {list(lengths)} has no triangles "
+                         f"Embree can hit: its {'radius' if obj.shape == 'cylinder' else 'minor_radius'} is below "
+                         f"float32's resolution of its size; allowed: at least {THIN:.3g} of the larger length")
     if obj.shape == "icosphere":
-        mesh = trimesh.creation.icosphere(subdivisions=obj.subdivisions, radius=1.0)
+        vertices, faces = shapes.icosphere(obj.subdivisions)
     elif obj.shape == "uv_sphere":
-        mesh = trimesh.creation.uv_sphere(radius=1.0, count=list(obj.segments or (32, 16)))
+        vertices, faces = shapes.uv_sphere(obj.segments or (32, 16))
     elif obj.shape == "box":
-        mesh = trimesh.creation.box(extents=[length / unit for length in lengths])
+        vertices, faces = shapes.box([length / unit for length in lengths])
     elif obj.shape == "cylinder":
-        mesh = trimesh.creation.cylinder(radius=obj.radius / unit, height=obj.height / unit,
-                                         sections=(obj.segments or (32, 1))[0])
+        vertices, faces = shapes.cylinder(obj.radius / unit, obj.height / unit, (obj.segments or (32, 1))[0])
     else:
         major, minor = obj.segments or (32, 16)
-        mesh = trimesh.creation.torus(major_radius=obj.major_radius / unit, minor_radius=obj.minor_radius / unit,
-                                      major_sections=major, minor_sections=minor)
-    if len(mesh.faces) == 0:
-        raise SceneError(f"{source}: objects.{index}: a {obj.shape} with lengths {list(lengths)} has no triangles: "
-                         "trimesh merges vertices closer than 1e-8 of the shape's size; allowed: the smaller "
-                         "length a larger share of the larger one")
-    return ObjectMesh(np.asarray(mesh.vertices, np.float64) * unit, np.asarray(mesh.faces, np.int64), None)
+        vertices, faces = shapes.torus(obj.major_radius / unit, obj.minor_radius / unit, major, minor)
+    return ObjectMesh(vertices * unit, faces, None)
 
 
 def plane_mesh(size, segments) -> tuple[np.ndarray, np.ndarray]:
@@ -242,6 +251,8 @@ def plane_mesh(size, segments) -> tuple[np.ndarray, np.ndarray]:
 
 def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
     path = scene.resolve(obj.path)
+    from .mesh_file import read_mesh  # imports trimesh (0.2–0.3 s): only for mesh files
+
     read = read_mesh(path, f"{source}: objects.{index}.path")
     normals = read.normals if obj.normals in (None, "file") else None  # unset: the file's, if it has them
     if obj.normals == "file" and normals is None:
@@ -258,10 +269,15 @@ def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
 
 def rotation_of(obj: Object) -> np.ndarray:
     """3×3 rotation about x, then y, then z, by the object's angles in degrees."""
-    rx, ry, rz = (math.radians(a) for a in obj.rotate)
-    return (trimesh.transformations.rotation_matrix(rz, [0, 0, 1])
-            @ trimesh.transformations.rotation_matrix(ry, [0, 1, 0])
-            @ trimesh.transformations.rotation_matrix(rx, [1, 0, 0]))[:3, :3]
+    turns = []
+    for axis, degrees in enumerate(obj.rotate):
+        cos, sin = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
+        i, j = (axis + 1) % 3, (axis + 2) % 3  # the plane it turns: y→z about x, z→x about y, x→y about z
+        turn = np.eye(3)
+        turn[i, i] = turn[j, j] = cos
+        turn[j, i], turn[i, j] = sin, -sin
+        turns.append(turn)
+    return turns[2] @ turns[1] @ turns[0]
 
 
 def place(obj: Object, vertices, faces, file_normals):

@@ -359,14 +359,12 @@ def scale_and_position() -> CaseResult:
 
 @case
 def watertightness() -> CaseResult:
-    import trimesh
-    mesh = trimesh.creation.icosphere(4)  # the same vertices and edges as the scene's object
     scene = validate_scene({"objects": [{"shape": "icosphere", "subdivisions": 4}]}, source="stability")
     geometry = build_geometry(scene, vertex_normals=False)
     frame = unit_frame(geometry.vertices)
     accelerator = Accelerator(geometry, frame)
     rng = np.random.default_rng(7)
-    edges = np.asarray(mesh.edges_unique)
+    edges = np.unique(np.sort(geometry.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
     a, b = geometry.vertices[edges[:, 0]], geometry.vertices[edges[:, 1]]
     targets = {"edge midpoints": (a + b) / 2,
                "random edge points": a + rng.uniform(size=(len(a), 1)) * (b - a),

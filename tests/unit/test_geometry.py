@@ -118,7 +118,7 @@ def test_a_malformed_mesh_file_is_bad_input_but_a_bug_stays_an_internal_error(tm
     """Whatever trimesh raises for a corrupt file (an UnboundLocalError for this PLY header) is the user's to
     fix: SceneError. An exception that never passed through trimesh is ours and must not be dressed up as
     "cannot read the file"."""
-    import raycast_phong.pipeline.geometry as geometry
+    import trimesh
     (tmp_path / "bad.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nend_header\n\x00")
     (tmp_path / "odd.stl").write_bytes(bytes(range(256)) * 3)  # not UTF-8: trimesh needs charset-normalizer
     scene = lambda name: rp.validate_scene({"objects": [{"shape": "mesh", "path": name}]}, folder=tmp_path)
@@ -131,6 +131,6 @@ def test_a_malformed_mesh_file_is_bad_input_but_a_bug_stays_an_internal_error(tm
 
     def bug(**kwargs):
         raise ZeroDivisionError("a bug, not a file problem")
-    monkeypatch.setattr(geometry.trimesh, "load", bug)
+    monkeypatch.setattr(trimesh, "load", bug)
     with pytest.raises(ZeroDivisionError):
         build_geometry(scene("bad.ply"))
