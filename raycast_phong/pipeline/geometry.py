@@ -465,8 +465,9 @@ def compute_corner_normals(vertices: np.ndarray, faces: np.ndarray, weighting: s
     the face area ("area") or the corner angle ("angle"); degenerate faces weigh 0. With a crease
     angle below 180°, corner (f, v) only gathers faces g whose normal is within that angle of n_f.
     A vertex whose sum vanishes falls back to the face normal. `normals`: face_normals(vertices, faces)
-    if the caller has them. Without creases the sums are per vertex, (V, 4) float64, and only the
-    result is per corner: 36 bytes a triangle in float32, 72 in float64.
+    if the caller has them. The sums are per vertex, (V, 4) float64, and only the result is per corner
+    (36 bytes a triangle in float32, 72 in float64); only corners at a vertex a crease may split pay
+    for the pairwise test (_creased_vertices).
     """
     unit, doubled_area = normals if normals is not None else face_normals(vertices, faces)
     if weighting == "mean":
@@ -480,24 +481,43 @@ def compute_corner_normals(vertices: np.ndarray, faces: np.ndarray, weighting: s
     # w |n_f|: the length the sum would have if every normal agreed (|n_f| is 1, or 0 for a degenerate face).
     length = np.linalg.norm(unit, axis=1)
     reach = (np.repeat(length, 3) if weights is None else (weights * length[:, None]).ravel())
-    if crease_angle < 180.0:
-        contribution = np.column_stack([_corner_terms(unit, weights, i) for i in range(3)] + [reach])
-        summed = _creased_sums(faces.ravel(), contribution, np.repeat(unit, 3, axis=0), crease_angle)
-        fallback = np.repeat(unit, 3, axis=0)
-        return _normalise_or(summed[:, :3], fallback, summed[:, 3:]).reshape(-1, 3, 3).astype(dtype, copy=False)
     # Sum per vertex, in the corners' order (the order of the additions fixes the last bits).
     corner_vertex = faces.ravel()
     summed = np.column_stack([np.bincount(corner_vertex, _corner_terms(unit, weights, i), minlength=len(vertices))
                               for i in range(3)] + [np.bincount(corner_vertex, reach, minlength=len(vertices))])
-    del reach
     size = np.linalg.norm(summed[:, :3], axis=1, keepdims=True)
     vague = (size <= NO_DIRECTION * summed[:, 3:]).ravel()  # no direction: the face normal (as _normalise_or)
-    vertex_normal = (summed[:, :3] / np.where(vague[:, None], 1.0, size)).astype(dtype, copy=False)
+    vertex_normal = summed[:, :3] / np.where(vague[:, None], 1.0, size)
     del summed, size
-    corners = vertex_normal[faces]
+    split = _creased_vertices(unit, corner_vertex, vertex_normal, vague, crease_angle)
+    corners = vertex_normal.astype(dtype, copy=False)[faces]
     face, corner = np.nonzero(vague[faces])
     corners[face, corner] = unit[face]
+    if split.any():
+        # Corners at a vertex with a crease: each gathers only the faces within the angle of its own.
+        picked = np.flatnonzero(split[corner_vertex])
+        face = picked // 3
+        contribution = np.column_stack([_corner_terms(unit, weights, i)[picked] for i in range(3)] + [reach[picked]])
+        sums = _creased_sums(corner_vertex[picked], contribution, unit[face], crease_angle)
+        corners.reshape(-1, 3)[picked] = _normalise_or(sums[:, :3], unit[face], sums[:, 3:])
     return corners
+
+
+def _creased_vertices(unit, corner_vertex, vertex_normal, vague, crease_angle) -> np.ndarray:
+    """(V,) bool: vertices whose faces do not all lie within `crease_angle` of each other, so a crease
+    may split them. A vertex whose face normals all lie within half the angle of its mean normal is
+    not: any two are then within the angle (triangle inequality on the sphere), and every corner there
+    gathers every face, which is the uncreased sum, bit for bit (the same additions in the same order).
+    Only the others pay for the (corner, neighbour) pairs of _creased_sums."""
+    if crease_angle >= 180.0:
+        return np.zeros(len(vertex_normal), bool)
+    cosine = np.zeros(len(corner_vertex))
+    for i in range(3):
+        cosine += np.repeat(unit[:, i], 3) * vertex_normal[corner_vertex, i]
+    least = np.full(len(vertex_normal), np.inf)
+    np.minimum.at(least, corner_vertex, cosine)
+    # The margin sends a vertex at the bound through the exact pairwise test instead.
+    return vague | ~(least >= math.cos(math.radians(crease_angle) / 2) + 1e-9)
 
 
 def _corner_terms(unit: np.ndarray, weights: np.ndarray | None, axis: int) -> np.ndarray:
