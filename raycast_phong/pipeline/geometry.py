@@ -72,11 +72,14 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
         parts.append((vertices, faces, unit, corners, material_index.get(obj.material, 0), model))
 
     offset = np.cumsum([0] + [len(p[0]) for p in parts])
+    faces = np.empty((sum(len(p[1]) for p in parts), 3), np.int32)  # filled part by part: no int64 copies
+    for (_, part_faces, *_), start, first in zip(parts, np.cumsum([0] + [len(p[1]) for p in parts]), offset):
+        np.add(part_faces, first, out=faces[start:start + len(part_faces)], casting="unsafe")
     geometry = Geometry(
-        vertices=np.concatenate([p[0] for p in parts]),
-        faces=np.concatenate([p[1] + o for p, o in zip(parts, offset)]).astype(np.int32),
-        face_normals=np.concatenate([p[2] for p in parts]),
-        corner_normals=(np.concatenate([p[3] for p in parts]) if vertex_normals
+        vertices=_joined([p[0] for p in parts]),
+        faces=faces,
+        face_normals=_joined([p[2] for p in parts]),
+        corner_normals=(_joined([p[3] for p in parts]) if vertex_normals
                         else np.zeros((0, 3, 3), normal_dtype)),
         face_material=np.concatenate([np.full(len(p[1]), p[4], np.int32) for p in parts]),
         face_model=np.concatenate([np.full(len(p[1]), p[5], np.int8) for p in parts]),
@@ -85,6 +88,11 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
     )
     check_float_range(scene, geometry.vertices, source)
     return geometry
+
+
+def _joined(arrays: list[np.ndarray]) -> np.ndarray:
+    """np.concatenate, but a lone array as it is: a one-mesh scene makes no copy of its largest arrays."""
+    return arrays[0] if len(arrays) == 1 else np.concatenate(arrays)
 
 
 def check_float_range(scene: Scene, vertices: np.ndarray, source: str = "<scene>") -> None:
@@ -141,13 +149,11 @@ def repair_winding(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     sort of its 3F half-edges (and a closed one its signed volume); only an inconsistent one pays for
     the face graph (`_orient_faces`).
     """
-    # One int64 per half-edge: the undirected edge (low, high), then one bit for its direction.
-    start, end = faces.ravel(), faces[:, [1, 2, 0]].ravel()
-    low, high = np.minimum(start, end).astype(np.int64), np.maximum(start, end)
-    keys = np.sort((low * len(vertices) + high) * 2 + (start > end))
-    edge = keys >> 1
-    closed = len(keys) % 2 == 0 and bool((edge[0::2] == edge[1::2]).all()) and not (edge[1:-1:2] == edge[2::2]).any()
-    del low, high, edge
+    keys = _half_edge_keys(faces, len(vertices))
+    keys.sort()
+    # Closed: the sorted undirected edges come in pairs, each pair unlike its neighbours.
+    closed = (len(keys) % 2 == 0 and bool(((keys[0::2] >> 1) == (keys[1::2] >> 1)).all())
+              and not ((keys[1:-1:2] >> 1) == (keys[2::2] >> 1)).any())
     # Consistent: no half-edge is traversed twice in the same direction (by two faces or a duplicate face).
     if not (keys[1:] == keys[:-1]).any():
         del keys
@@ -175,8 +181,7 @@ def _orient_faces(vertices: np.ndarray, faces: np.ndarray, closed: bool) -> np.n
     from scipy.sparse.csgraph import connected_components
 
     count = len(faces)
-    start, end = faces.ravel(), faces[:, [1, 2, 0]].ravel()
-    keys = (np.minimum(start, end).astype(np.int64) * len(vertices) + np.maximum(start, end)) * 2 + (start > end)
+    keys = _half_edge_keys(faces, len(vertices))
     order = np.argsort(keys, kind="stable")
     keys, face = keys[order], order // 3
     edge = keys >> 1
@@ -202,14 +207,39 @@ def _orient_faces(vertices: np.ndarray, faces: np.ndarray, closed: bool) -> np.n
     return flip
 
 
+def _half_edge_keys(faces: np.ndarray, vertex_count: int) -> np.ndarray:
+    """(3F,) int64, one per half-edge (start → end) of face f's corner k at 3f + k: the undirected edge
+    (low · V + high), shifted left one bit for its direction (1 where start > end). Built in place: the
+    3F half-edges are the largest arrays of mesh preparation."""
+    start = np.ascontiguousarray(faces, np.int64).ravel()
+    end = np.roll(faces, -1, axis=1).astype(np.int64).ravel()
+    keys = np.minimum(start, end)
+    keys *= vertex_count
+    np.maximum(start, end, out=end)
+    keys += end
+    del end
+    keys <<= 1
+    keys += np.roll(faces, -1, axis=1).ravel() < start  # start > end
+    return keys
+
+
+FACE_CHUNK = 1 << 18  # faces per step of a per-face computation: ~25 MB of temporaries, whatever the mesh
+
+
 def _signed_volumes(vertices: np.ndarray, faces: np.ndarray, piece: np.ndarray, pieces: int,
                     sign: np.ndarray | float = 1.0) -> np.ndarray:
     """Six times the signed volume enclosed by each piece's faces (divergence theorem: Σ v0 · (v1 × v2)),
     (pieces,) float64; `sign` (F,) −1 for a face taken flipped. Measured from the bounding-box centre,
     so a mesh far from the origin keeps its digits."""
     low, high = bounding_box(vertices)
-    v0, v1, v2 = (vertices[faces[:, k]] - (low + high) / 2 for k in range(3))
-    return np.bincount(piece, sign * np.einsum("ij,ij->i", v0, cross_rows(v1, v2)), minlength=pieces)
+    sign = np.broadcast_to(sign, len(faces))
+    total = np.zeros(pieces)
+    for at in range(0, len(faces), FACE_CHUNK):
+        part = faces[at:at + FACE_CHUNK]
+        v0, v1, v2 = (vertices[part[:, k]] - (low + high) / 2 for k in range(3))
+        total += np.bincount(piece[at:at + FACE_CHUNK], sign[at:at + FACE_CHUNK]
+                             * np.einsum("ij,ij->i", v0, cross_rows(v1, v2)), minlength=pieces)
+    return total
 
 
 def merge_duplicate_vertices(vertices: np.ndarray, faces: np.ndarray,
@@ -426,12 +456,14 @@ def place(obj: Object, vertices, faces, file_normals):
 
 def face_normals(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit face normals (F, 3) (zero for a degenerate face) and twice the areas (F,)."""
-    # Gather corner by corner: (F, 3) temporaries instead of one (F, 3, 3).
-    first = vertices[faces[:, 0]]
-    cross = cross_rows(vertices[faces[:, 1]] - first, vertices[faces[:, 2]] - first)
-    del first
-    doubled_area = np.sqrt(cross[:, 0] * cross[:, 0] + cross[:, 1] * cross[:, 1] + cross[:, 2] * cross[:, 2])
-    unit = np.divide(cross, doubled_area[:, None], out=np.zeros_like(cross), where=doubled_area[:, None] > 0)
+    unit, doubled_area = np.zeros((len(faces), 3)), np.empty(len(faces))
+    for at in range(0, len(faces), FACE_CHUNK):  # in chunks: the outputs are the only (F, ·) arrays
+        part = faces[at:at + FACE_CHUNK]
+        first = vertices[part[:, 0]]
+        cross = cross_rows(vertices[part[:, 1]] - first, vertices[part[:, 2]] - first)
+        area = np.sqrt(cross[:, 0] * cross[:, 0] + cross[:, 1] * cross[:, 1] + cross[:, 2] * cross[:, 2])
+        np.divide(cross, area[:, None], out=unit[at:at + FACE_CHUNK], where=area[:, None] > 0)
+        doubled_area[at:at + FACE_CHUNK] = area
     return unit, doubled_area
 
 
