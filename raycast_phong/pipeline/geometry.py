@@ -244,7 +244,7 @@ def _signed_volumes(vertices: np.ndarray, faces: np.ndarray, piece: np.ndarray, 
 
 def merge_duplicate_vertices(vertices: np.ndarray, faces: np.ndarray,
                              normals: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Merge vertices at exactly the same position and drop those no face uses, in first-use order.
+    """Merge vertices at exactly the same position and drop those no face uses; the first of each kept, in file order.
 
     What trimesh's process() did that matters for shading: a file that repeats a point for every face
     around it (STL always, OBJ and PLY often) must share it, or the vertex-normal mean sees one face
@@ -260,17 +260,7 @@ def merge_duplicate_vertices(vertices: np.ndarray, faces: np.ndarray,
     index = np.flatnonzero(used)
     rows = vertices[index] if normals is None else np.column_stack([vertices[index], np.round(normals[index] * 100)])
     rows += 0.0  # −0.0 + 0.0 is +0.0: the two zeros are one value
-    # Hash each row to one uint64: splitmix64's mixer on each column in turn, so every input bit reaches
-    # every output bit (float32 data in float64 leaves the low 29 mantissa bits zero).
-    bits = rows.view(np.uint64)
-    key = np.zeros(len(rows), np.uint64)
-    for column in range(bits.shape[1]):
-        key ^= bits[:, column]
-        key ^= key >> np.uint64(30)
-        key *= np.uint64(0xBF58476D1CE4E5B9)
-        key ^= key >> np.uint64(27)
-        key *= np.uint64(0x94D049BB133111EB)
-        key ^= key >> np.uint64(31)
+    key = _row_hashes(rows)
     order = np.argsort(key)
     key = key[order]
     starts = np.r_[True, key[1:] != key[:-1]]
@@ -296,6 +286,21 @@ def merge_duplicate_vertices(vertices: np.ndarray, faces: np.ndarray,
     new_of_old = np.full(len(vertices), -1, np.int64)
     new_of_old[index] = number[first]
     return vertices[index[keep]], new_of_old[faces]
+
+
+def _row_hashes(rows: np.ndarray) -> np.ndarray:
+    """One uint64 per row of a float64 array (N, C): splitmix64's mixer over the columns in turn, so every
+    input bit reaches every output bit (float32 data in float64 leaves the low 29 mantissa bits zero)."""
+    bits = rows.view(np.uint64)
+    key = np.zeros(len(rows), np.uint64)
+    for column in range(bits.shape[1]):
+        key ^= bits[:, column]
+        key ^= key >> np.uint64(30)
+        key *= np.uint64(0xBF58476D1CE4E5B9)
+        key ^= key >> np.uint64(27)
+        key *= np.uint64(0x94D049BB133111EB)
+        key ^= key >> np.uint64(31)
+    return key
 
 
 def object_mesh(scene: Scene, obj: Object, index: int, source: str):
