@@ -564,22 +564,42 @@ def _corner_terms(unit: np.ndarray, weights: np.ndarray | None, axis: int) -> np
     return (weights * unit[:, axis, None]).ravel()
 
 
+PAIR_CHUNK = 1 << 20  # (corner, neighbour) pairs per step of _creased_sums: ~60 MB of temporaries
+
+
 def _creased_sums(corner_vertex, contribution, corner_face_normal, crease_angle):
     """For each corner, the sum of contributions of the corners at the same vertex whose faces are
-    within `crease_angle` of its own face."""
+    within `crease_angle` of its own face. corner_face_normal (C, 3) is indexed like the corners.
+
+    A vertex of valence s makes s² (corner, neighbour) pairs, so they are made PAIR_CHUNK at a time
+    (whole corners per step: each corner's sum is added in the same order whatever the chunking).
+    """
     order = np.argsort(corner_vertex, kind="stable")
     sorted_vertex = corner_vertex[order]
     start = np.searchsorted(sorted_vertex, sorted_vertex, side="left")
     count = np.searchsorted(sorted_vertex, sorted_vertex, side="right") - start
-    # Every (corner, neighbour corner) pair that shares a vertex, in sorted positions.
-    mine = np.repeat(np.arange(len(order)), count)
-    neighbour = start[mine] + (np.arange(len(mine)) - np.repeat(np.cumsum(count) - count, count))
-    mine, neighbour = order[mine], order[neighbour]
+    del sorted_vertex
     # The small slack keeps a face and its exact coplanar neighbour together despite rounding.
-    cosine = np.einsum("ij,ij->i", corner_face_normal[mine], corner_face_normal[neighbour])
-    smooth = cosine >= math.cos(math.radians(crease_angle)) - 1e-12
-    return np.column_stack([np.bincount(mine[smooth], contribution[neighbour[smooth], i], minlength=len(order))
-                            for i in range(contribution.shape[1])])
+    least = math.cos(math.radians(crease_angle)) - 1e-12
+    sums = np.zeros((len(order), contribution.shape[1]))
+    pairs_before = np.cumsum(count) - count
+    cuts = np.searchsorted(pairs_before, np.arange(0, pairs_before[-1] + count[-1], PAIR_CHUNK)) if len(order) else []
+    for first, last in zip(cuts, [*cuts[1:], len(order)]):
+        if first == last:
+            continue
+        # Every (corner, neighbour corner) pair that shares a vertex, in sorted positions.
+        here = count[first:last]
+        mine = np.repeat(np.arange(first, last), here)
+        neighbour = start[mine] + (np.arange(len(mine)) - np.repeat(pairs_before[first:last] - pairs_before[first],
+                                                                    here))
+        neighbour = order[neighbour]
+        cosine = np.einsum("ij,ij->i", corner_face_normal[order[mine]], corner_face_normal[neighbour])
+        smooth = cosine >= least
+        mine, neighbour = mine[smooth] - first, neighbour[smooth]  # mine: row within this chunk
+        rows = order[first:last]
+        for i in range(contribution.shape[1]):
+            sums[rows, i] = np.bincount(mine, contribution[neighbour, i], minlength=last - first)
+    return sums
 
 
 def _normalise_or(vectors: np.ndarray, fallback: np.ndarray, reach: np.ndarray | float = 1.0) -> np.ndarray:
