@@ -157,7 +157,7 @@ def repair_winding(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     # Consistent: no half-edge is traversed twice in the same direction (by two faces or a duplicate face).
     if not (keys[1:] == keys[:-1]).any():
         del keys
-        if closed and _signed_volumes(vertices, faces, np.zeros(len(faces), np.int64), 1)[0] < 0:
+        if closed and _signed_volumes(vertices, faces)[0] < 0:
             return faces[:, ::-1], len(faces), True
         return faces, 0, closed
     del keys
@@ -226,19 +226,20 @@ def _half_edge_keys(faces: np.ndarray, vertex_count: int) -> np.ndarray:
 FACE_CHUNK = 1 << 18  # faces per step of a per-face computation: ~25 MB of temporaries, whatever the mesh
 
 
-def _signed_volumes(vertices: np.ndarray, faces: np.ndarray, piece: np.ndarray, pieces: int,
+def _signed_volumes(vertices: np.ndarray, faces: np.ndarray, piece: np.ndarray | None = None, pieces: int = 1,
                     sign: np.ndarray | float = 1.0) -> np.ndarray:
     """Six times the signed volume enclosed by each piece's faces (divergence theorem: Σ v0 · (v1 × v2)),
-    (pieces,) float64; `sign` (F,) −1 for a face taken flipped. Measured from the bounding-box centre,
-    so a mesh far from the origin keeps its digits."""
+    (pieces,) float64; piece (F,) numbers each face's piece (None: one piece), `sign` (F,) −1 for a face
+    taken flipped. Measured from the bounding-box centre, so a mesh far from the origin keeps its digits."""
     low, high = bounding_box(vertices)
+    centred = vertices - (low + high) / 2
     sign = np.broadcast_to(sign, len(faces))
     total = np.zeros(pieces)
     for at in range(0, len(faces), FACE_CHUNK):
         part = faces[at:at + FACE_CHUNK]
-        v0, v1, v2 = (vertices[part[:, k]] - (low + high) / 2 for k in range(3))
-        total += np.bincount(piece[at:at + FACE_CHUNK], sign[at:at + FACE_CHUNK]
-                             * np.einsum("ij,ij->i", v0, cross_rows(v1, v2)), minlength=pieces)
+        v0, v1, v2 = (centred[part[:, k]] for k in range(3))
+        six = np.einsum("ij,ij->i", v0, cross_rows(v1, v2)) * sign[at:at + FACE_CHUNK]
+        total += six.sum() if piece is None else np.bincount(piece[at:at + FACE_CHUNK], six, minlength=pieces)
     return total
 
 
