@@ -1,6 +1,6 @@
 """Mesh preparation at millions of triangles (issue 11's Scale targets), as ratios measured in one run.
 
-For each size a binary PLY is written by `write_surface_ply` (a closed, bumpy torus of n × m vertices:
+For each size a binary PLY (or an OBJ) is written by `write_surface` (a closed, bumpy torus of n × m vertices:
 F = 2 n m triangles on V = F / 2 vertices, each vertex shared by 6 faces, like a scanned surface) into a
 temporary folder, and a fresh subprocess per size measures, in CPU seconds of its own thread
 (time.thread_time, min of --repeats; other programs on the machine barely move it):
@@ -13,6 +13,7 @@ temporary folder, and a fresh subprocess per size measures, in CPU seconds of it
             (the high-water mark is reset through /proc/self/clear_refs), bytes per triangle
 Then it fits log(seconds) against log(triangles) per stage: a slope of 1 is linear.
 Usage: python benchmarks/bench_mesh.py [--triangles 100000 1000000 2000000] [--size 1000] [--crease 30]
+       [--format ply|obj] [--repeats 2]
 """
 
 from __future__ import annotations
@@ -30,8 +31,9 @@ import numpy as np
 STAGES = ("trimesh", "load", "prepare", "BVH", "frame")
 
 
-def write_surface_ply(path: Path, triangles: int) -> int:
-    """A closed bumpy torus as a binary little-endian PLY with about `triangles` faces; returns the count.
+def write_surface(path: Path, triangles: int) -> int:
+    """A closed bumpy torus with about `triangles` faces as a binary little-endian PLY, or as an OBJ if
+    `path` ends in .obj; returns the count.
 
     n × m grid on the torus (n ≈ 2m), quads split in two: V = n m, F = 2 n m. The radius wobbles
     (3 × 5 bumps) so neighbouring normals differ and a crease angle has edges to split.
@@ -54,6 +56,11 @@ def write_surface_ply(path: Path, triangles: int) -> int:
     faces["count"] = 3
     faces["corners"][0::2] = np.column_stack([a, b, c])  # counter-clockwise seen from outside: outward
     faces["corners"][1::2] = np.column_stack([a, c, d])
+    if path.suffix == ".obj":
+        with open(path, "w") as out:
+            np.savetxt(out, vertices, fmt="v %.7g %.7g %.7g")
+            np.savetxt(out, faces["corners"] + 1, fmt="f %d %d %d")
+        return len(faces)
     header = ("ply\nformat binary_little_endian 1.0\n"
               f"element vertex {len(vertices)}\nproperty float x\nproperty float y\nproperty float z\n"
               f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n")
@@ -137,6 +144,7 @@ def main() -> None:
     parser.add_argument("--size", type=int, default=1000)
     parser.add_argument("--crease", type=float, default=180.0)
     parser.add_argument("--repeats", type=int, default=2)
+    parser.add_argument("--format", choices=["ply", "obj"], default="ply")
     parser.add_argument("--one", help=argparse.SUPPRESS)  # internal: measure this file in this process
     args = parser.parse_args()
     if args.one:
@@ -145,8 +153,8 @@ def main() -> None:
     rows = []
     with tempfile.TemporaryDirectory() as folder:
         for count in args.triangles:
-            path = Path(folder) / f"surface-{count}.ply"
-            write_surface_ply(path, count)
+            path = Path(folder) / f"surface-{count}.{args.format}"
+            write_surface(path, count)
             out = subprocess.run([sys.executable, __file__, "--one", str(path), "--size", str(args.size),
                                   "--crease", str(args.crease), "--repeats", str(args.repeats)],
                                  capture_output=True, text=True, check=True)
@@ -159,7 +167,8 @@ def main() -> None:
     if len(rows) > 1:
         counts = [r["triangles"] for r in rows]
         print("log-log slopes: " + ", ".join(f"{s} {slope(counts, [r[s] for r in rows]):.2f}"
-                                             for s in (*STAGES, "peak_bytes_per_triangle")))
+                                             for s in (*STAGES, "load+prepare"))
+              + f", peak {slope(counts, [r['peak_bytes_per_triangle'] * r['triangles'] for r in rows]):.2f}")
 
 
 if __name__ == "__main__":
