@@ -146,8 +146,9 @@ def repair_winding(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     Inconsistent winding makes face normals of neighbours cancel in the vertex-normal mean. Returns
     the faces, how many were flipped, and whether the mesh is closed (every edge in exactly two faces:
     then it is turned outward, by its signed volume). A consistent mesh, the common case, costs one
-    sort of its 3F half-edges (and a closed one its signed volume); only an inconsistent one pays for
-    the face graph (`_orient_faces`).
+    sort of its 3F half-edges (and a closed one its signed volume, taken over the whole mesh as trimesh's
+    fix_inversion did: a consistent mesh whose pieces disagree is left to its majority by volume); only an
+    inconsistent one pays for the face graph (`_orient_faces`), which also orients each piece by its own volume.
     """
     keys = _half_edge_keys(faces, len(vertices))
     keys.sort()
@@ -449,7 +450,10 @@ def rotation_of(obj: Object) -> np.ndarray:
 def place(obj: Object, vertices, faces, file_normals):
     """World = R (S v) + t; a mirroring scale reverses the winding so faces still point outward."""
     rotation, scale = rotation_of(obj), np.asarray(obj.scale)
-    placed = (vertices * scale) @ rotation.T + np.asarray(obj.translate)
+    if not any(obj.rotate) and (scale == 1).all():
+        placed = vertices + np.asarray(obj.translate)  # the same numbers; a (V, 3) @ (3, 3) is slow for large V
+    else:
+        placed = (vertices * scale) @ rotation.T + np.asarray(obj.translate)
     if file_normals is not None:
         # Normals transform with the inverse transpose: (R S)^-T = R S^-1, which stretches by at most 1/min|s|.
         reach = np.linalg.norm(file_normals, axis=-1, keepdims=True) / np.abs(scale).min()
