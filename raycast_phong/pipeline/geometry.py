@@ -36,7 +36,8 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
     """Concatenate the scene's objects in world space.
 
     `vertex_normals=False` (the plan's choice for an all-flat scene) leaves corner_normals empty;
-    `normal_dtype` is theirs: render() asks for float32 when it shades in float32, which rounds them so anyway.
+    `normal_dtype` is the corner normals' dtype: render() asks for float32 when it shades in float32 (the
+    kernel would round them so anyway), which halves the largest array of a smooth mesh.
     """
     material_index = {name: i + 1 for i, name in enumerate(scene.materials)}  # 0 is the built-in default
     parts, notes = [], []
