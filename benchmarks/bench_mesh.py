@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import subprocess
 import sys
 import tempfile
@@ -38,8 +39,8 @@ def write_surface(path: Path, triangles: int) -> int:
     n × m grid on the torus (n ≈ 2m), quads split in two: V = n m, F = 2 n m. The radius wobbles
     (3 × 5 bumps) so neighbouring normals differ and a crease angle has edges to split.
     """
-    m = max(3, int(round(np.sqrt(triangles / 4))))
-    n = max(3, int(round(triangles / (2 * m))))
+    m = max(3, round(math.sqrt(triangles / 4)))
+    n = max(3, round(triangles / (2 * m)))
     u, v = np.meshgrid(np.linspace(0, 2 * np.pi, n, endpoint=False),
                        np.linspace(0, 2 * np.pi, m, endpoint=False), indexing="ij")
     tube = 0.5 + 0.05 * np.sin(3 * u) * np.cos(5 * v)

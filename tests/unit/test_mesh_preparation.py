@@ -129,7 +129,7 @@ def test_each_closed_piece_is_turned_outward_by_its_own_volume():
     small = trimesh.creation.icosphere(subdivisions=2, radius=0.5)
     small_faces = small.faces[:, ::-1] + len(large.vertices)
     small_faces[:7] = small_faces[:7, ::-1]
-    vertices = np.vstack([large.vertices, small.vertices + [10, 0, 0]])
+    vertices = np.vstack([large.vertices, small.vertices + np.array([10.0, 0, 0])])
     faces = np.vstack([large.faces, small_faces])
     repaired, flipped, closed = repair_winding(vertices, faces)
     assert closed and flipped == len(small.faces) - 7
