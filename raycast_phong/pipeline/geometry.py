@@ -64,8 +64,7 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
         corners = None
         if vertex_normals:
             if obj.normals == "file":
-                corners = file_normals[faces]
-                corners = _normalise_or(corners, np.repeat(unit[:, None, :], 3, axis=1)).astype(normal_dtype)
+                corners = file_corner_normals(file_normals, faces, unit, normal_dtype)
             else:
                 corners = compute_corner_normals(vertices, faces, obj.normals, obj.crease_angle, normal_dtype,
                                                  normals=(unit, doubled_area))
@@ -533,9 +532,7 @@ def compute_corner_normals(vertices: np.ndarray, faces: np.ndarray, weighting: s
     vertex_normal = summed[:, :3] / np.where(vague[:, None], 1.0, size)
     del summed, size
     split = _creased_vertices(unit, corner_vertex, vertex_normal, vague, crease_angle)
-    corners = vertex_normal.astype(dtype, copy=False)[faces]
-    face, corner = np.nonzero(vague[faces])
-    corners[face, corner] = unit[face]
+    corners = _corners_of(vertex_normal, vague, faces, unit, dtype)
     if split.any():
         # Corners at a vertex with a crease: each gathers only the faces within the angle of its own.
         picked = np.flatnonzero(split[corner_vertex])
@@ -561,6 +558,26 @@ def _creased_vertices(unit, corner_vertex, vertex_normal, vague, crease_angle) -
     np.minimum.at(least, corner_vertex, cosine)
     # The margin sends a vertex at the bound through the exact pairwise test instead.
     return vague | ~(least >= math.cos(math.radians(crease_angle) / 2) + 1e-9)
+
+
+def file_corner_normals(file_normals: np.ndarray, faces: np.ndarray, unit: np.ndarray,
+                        dtype: type = np.float64) -> np.ndarray:
+    """Corner normals (F, 3, 3) from a file's vertex normals (V, 3), placed (geometry.place): each unit
+    length, and a vertex normal without direction (≤ NO_DIRECTION, as _normalise_or) gives way to the face
+    normal `unit` (F, 3). Normalised per vertex, then gathered: no (F, 3, 3) float64 temporaries."""
+    length = np.linalg.norm(file_normals, axis=1, keepdims=True)
+    vague = (length <= NO_DIRECTION).ravel()
+    return _corners_of(file_normals / np.where(vague[:, None], 1.0, length), vague, faces, unit, dtype)
+
+
+def _corners_of(vertex_normal: np.ndarray, vague: np.ndarray, faces: np.ndarray, unit: np.ndarray,
+                dtype: type) -> np.ndarray:
+    """(F, 3, 3) in `dtype`: each corner its vertex's normal (V, 3), or its face's `unit` normal where the
+    vertex is `vague` (V,) bool (its normal has no direction)."""
+    corners = vertex_normal.astype(dtype, copy=False)[faces]
+    face, corner = np.nonzero(vague[faces])
+    corners[face, corner] = unit[face]
+    return corners
 
 
 def _corner_terms(unit: np.ndarray, weights: np.ndarray | None, axis: int) -> np.ndarray:

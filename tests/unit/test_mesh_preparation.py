@@ -201,3 +201,18 @@ def test_float32_corner_normals_are_the_float64_ones_rounded():
     narrow = build_geometry(scene, normal_dtype=np.float32)
     assert narrow.corner_normals.dtype == np.float32
     np.testing.assert_array_equal(narrow.corner_normals, wide.corner_normals.astype(np.float32))
+
+
+def test_file_normals_per_vertex_equal_the_per_corner_rule_and_fall_back_to_the_face():
+    """Normalised per vertex then gathered, bit for bit what normalising every corner gives; a vertex whose
+    file normal is zero (no direction) takes each face's own normal."""
+    sphere = trimesh.creation.icosphere(subdivisions=2)
+    vertices, faces = sphere.vertices, np.asarray(sphere.faces)
+    normals = sphere.vertices * np.linspace(0.5, 2.0, len(vertices))[:, None]  # not unit: must be normalised
+    normals[::5] = 0.0
+    unit, _ = face_normals(vertices, faces)
+    found = geometry.file_corner_normals(normals, faces, unit)
+    per_corner = geometry._normalise_or(normals[faces], np.repeat(unit[:, None, :], 3, axis=1))
+    np.testing.assert_array_equal(found, per_corner)
+    np.testing.assert_array_equal(found[faces == 0], unit[(faces == 0).any(axis=1)])  # vertex 0 has no normal
+    assert geometry.file_corner_normals(normals, faces, unit, np.float32).dtype == np.float32
