@@ -18,17 +18,22 @@ from pathlib import Path
 
 from .scene import Scene, SceneError, ShadingModel, open_regular
 
-# Peak bytes per triangle above a warmed-up process's baseline (ru_maxrss; one object, 8×8 image,
-# one thread; trimesh 4/5, numpy 2; measured 2026-11 on the project's x86-64 machine):
-#   icosphere 7 (327,680 triangles) flat 276, phong 611; icosphere 8 (1.31M) phong 585, the same in
-#   global mode at float64 585; plane 1024×512 (1.05M) flat 237, phong with crease_angle 30 1692;
-#   uv_sphere [1024, 8] with crease_angle 30 1714. The same icosphere read from a file: flat 550 (PLY)
-#   to 764 (OFF), phong 807 to 858 (OBJ, PLY, STL, OFF, GLB). The constants round these up.
-FLAT_BYTES = 300       # vertices, faces, face normals, Embree's BVH, the shading and shadow copies
-SMOOTH_BYTES = 650     # + corner normals (72 B) and their float32/float64 copies for the kernels
-CREASED_BYTES = 1800   # + the (corner, neighbour) pairs of the crease split, ≈ 18 per triangle
-CREASE_PAIR_BYTES = 96  # ≈ 1700 B / 18 pairs: a pole where s faces meet adds s² pairs
-MESH_FILE_BYTES = 550  # + trimesh's load, process() and the winding repair of a mesh file
+# Peak bytes per triangle above a warmed-up process's baseline (VmHWM after /proc/self/clear_refs; one
+# object, 8×8 image, one thread; trimesh 4, numpy 2; measured 2026-11 on the project's x86-64 machine):
+#   icosphere 8 (1.31M triangles) flat 251, phong 305, phong in float64 341, phong in global mode 345;
+#   plane 1024×512 flat 186, phong with crease_angle 30 222; uv_sphere [8, 2048] with crease_angle 30
+#   (two poles of 4096 faces) 572 on 49k triangles. The same icosphere (7) from a file, phong: PLY 281,
+#   OBJ 331, GLB 347, STL 573, OFF 797 (flat the same but PLY 245, GLB 310: trimesh's own parse is the peak).
+#   A noisy 1.31M-triangle PLY whose every vertex the crease splits, crease_angle 30: 692.
+# The constants round these up; bench_mesh.py measures the whole render at 1000×1000 and 2M triangles.
+FLAT_BYTES = 270       # vertices, faces, face normals, Embree's BVH, the shading copies, freed heap kept by malloc
+SMOOTH_BYTES = 330     # + float32 corner normals (36 B) and their per-vertex sums
+FLOAT64_NORMAL_BYTES = 40  # corner normals in float64 (float64 shading, or global mode's shadow copy)
+CREASED_FILE_BYTES = 720   # a mesh file with a crease angle: at worst every corner takes the pairwise test
+CREASE_CHUNK_BYTES = 64 << 20  # the pairwise test's temporaries, a chunk at a time (geometry.PAIR_CHUNK)
+# trimesh's load of a mesh file, above the render's own peak (the parse of a text or STL file is larger).
+MESH_FILE_BYTES = {".ply": 30, ".obj": 80, ".glb": 70, ".gltf": 70, ".stl": 330, ".off": 550}
+OTHER_MESH_FILE_BYTES = 550
 # Per ray of a tile (origins, directions, hits, Embree's output): 8192 × 16² rays in one row took 117 MB.
 RAY_BYTES = 64
 BUDGET_SHARE = 0.75    # of the memory available now: the rest is for the OS and other programs
@@ -68,16 +73,6 @@ def shape_triangles(obj) -> int:
     return 2 * nx * nz
 
 
-def pole_valence(obj) -> int:
-    """Faces meeting at one vertex of the shape's poles or cap centres (0 if it has none)."""
-    if obj.shape == "uv_sphere":
-        sections = (obj.segments or (32, 16))[1]
-        return 2 * (sections + sections % 2)  # as shape_triangles: rounded up to even, doubled
-    if obj.shape == "cylinder":
-        return (obj.segments or (32, 1))[0]
-    return 0
-
-
 def size_key(obj) -> str:
     """The key that sets an object's triangle count."""
     return {"icosphere": "subdivisions", "mesh": "path", "box": "shape"}.get(obj.shape, "segments")
@@ -92,20 +87,24 @@ def estimate_memory(scene: Scene, source: str = "<scene>", *, smooth: bool = Tru
     """
     files: dict[Path, int] = {}
     geometry, triangles, largest, largest_bytes = 0, 0, None, -1
+    wide_normals = FLOAT64_NORMAL_BYTES if float64 or shadow_lights else 0
     for index, obj in enumerate(scene.objects):
-        if obj.shape == "mesh":
+        mesh_file = obj.shape == "mesh"
+        if mesh_file:
             path = scene.resolve(obj.path)
             if path not in files:
                 files[path] = mesh_file_triangles(path, f"{source}: objects.{index}.path")
-            count, extra = files[path], MESH_FILE_BYTES
+            count, extra = files[path], MESH_FILE_BYTES.get(path.suffix.lower(), OTHER_MESH_FILE_BYTES)
         else:
             count, extra = shape_triangles(obj), 0
         smooth_here = smooth and scene.shading_of(obj) != ShadingModel.FLAT
-        if smooth_here and obj.crease_angle < 180:
-            per, pairs = CREASED_BYTES, 2 * pole_valence(obj) ** 2
-        else:
-            per, pairs = (SMOOTH_BYTES if smooth_here else FLAT_BYTES), 0
-        size = count * (per + extra) + pairs * CREASE_PAIR_BYTES
+        per, chunk = FLAT_BYTES, 0
+        if smooth_here:
+            per = SMOOTH_BYTES + wide_normals
+            if obj.crease_angle < 180:
+                # A built-in shape is smooth but for a few edges and poles; a file may be noise everywhere.
+                per, chunk = (max(per, CREASED_FILE_BYTES) if mesh_file else per), CREASE_CHUNK_BYTES
+        size = count * (per + extra) + chunk
         triangles += count
         geometry += size
         if size > largest_bytes:

@@ -16,7 +16,8 @@ class Geometry:
     vertices: np.ndarray        # (V, 3) float64, world coordinates
     faces: np.ndarray           # (F, 3) int32, indices into vertices
     face_normals: np.ndarray    # (F, 3) float64, unit; zero for a degenerate face
-    corner_normals: np.ndarray  # (F, 3, 3) float64, unit vertex normal at each face corner (after crease split);
+    corner_normals: np.ndarray  # (F, 3, 3) unit vertex normal at each face corner (after crease split); float64,
+                                # or float32 when render() shades in float32 (half the bytes, the same image);
                                 # empty (0, 3, 3) when no object is smooth-shaded
     face_material: np.ndarray   # (F,) int32, index into the material table
     face_model: np.ndarray      # (F,) int8, 0 flat, 1 gouraud, 2 phong

@@ -71,7 +71,8 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
                  tile_rays=rows_per_tile * width * samples * samples, threads=min(threads, -(-height // rows_per_tile)))
 
     start = time.perf_counter()
-    geometry = build_geometry(scene, source=source, vertex_normals=plan.keeps("vertex_normals"))
+    real = np.float64 if plan.keeps("float64_shading") else np.float32
+    geometry = build_geometry(scene, source=source, vertex_normals=plan.keeps("vertex_normals"), normal_dtype=real)
     timings["geometry"] = time.perf_counter() - start
     plan = diagnose(plan, scene, geometry)
     start = time.perf_counter()
@@ -80,7 +81,6 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     timings["build"] = time.perf_counter() - start
 
     rig = camera_rig(scene)
-    real = np.float64 if plan.keeps("float64_shading") else np.float32
     tile = TileWork(
         rays=RayGenerator(rig, frame, width, height, samples, max_rays=rows_per_tile * width * samples * samples),
         accelerator=accelerator,

@@ -106,7 +106,7 @@ def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Fra
         vertices=table(geometry.vertices - center),
         faces=np.ascontiguousarray(geometry.faces, np.int32),
         face_normals=table(geometry.face_normals),
-        corner_normals=table(corner),
+        corner_normals=np.ascontiguousarray(corner, real),  # no copy when geometry made them in `real`
         face_material=np.ascontiguousarray(geometry.face_material, np.int32),
         face_model=np.ascontiguousarray(geometry.face_model, np.int8),
         materials=material_table([DEFAULT_MATERIAL, *scene.materials.values()], real, geometry.file_materials),
