@@ -150,6 +150,7 @@ def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bo
     first dispatch. The kernels are typed by their arguments, so they are called through the real
     wrappers on a 2×2 image whose rays all miss.
     """
+    from . import embree
     from .intersect import TileHits
     from .scene import validate_scene
     from .shadows import shadow_rays
@@ -164,6 +165,12 @@ def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bo
                       t=np.zeros(4, np.float32))
     if shadows:
         shadow_rays(prepare_shadows(scene, geometry, frame), misses, directions)
+    if embree.library() is not None:
+        # The queries' kernels too, on no rays: Embree itself (its device and threads) is not started.
+        nothing = np.zeros((0, 3), np.float32)
+        embree.intersect_rays(0, nothing, nothing, misses.face[:0], misses.u[:0], misses.v[:0], misses.t[:0])
+        if shadows:
+            embree.occluded_rays(0, nothing, nothing, misses.t[:0], np.zeros(0, np.bool_))
     for real in reals:
         inputs = prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), real)
         film = allocate_film(2, 2, (), real)
