@@ -183,43 +183,53 @@ def _packet():
 
 
 @kernel()
-def intersect_rays(scene, origins, directions, face, u, v, t):
-    """Closest hits of rays (N, 3) float32 in packets of 16 consecutive rays: face (−1 on a miss), u, v
-    (0 on a miss) and t (NO_LIMIT on a miss) (N,) written in place."""
+def intersect_rays(scene, origins, directions, row_rays, face, u, v, t):
+    """Closest hits of rays (N, 3) float32: face (−1 on a miss), u, v (0 on a miss) and t (NO_LIMIT on a
+    miss) (N,) written in place.
+
+    The rays are read as an image of row_rays rays a row and cast in packets of 4 × 4 neighbours (coherent:
+    Embree traverses a packet together while its rays agree); row_rays = 4 casts 16 consecutive rays.
+    Written out in full: a helper taking the arrays measured 3× slower (numba counts references per call).
+    """
     words, ints, valid, arguments = _packet()
     count = origins.shape[0]
-    for first in range(0, count, 16):
-        lanes = min(16, count - first)
-        for lane in range(16):
-            if lane < lanes:
-                k = first + lane
-                valid[lane] = -1
-                words[ORG_X + lane], words[ORG_Y + lane], words[ORG_Z + lane] = (
-                    origins[k, 0], origins[k, 1], origins[k, 2])
-                words[DIR_X + lane], words[DIR_Y + lane], words[DIR_Z + lane] = (
-                    directions[k, 0], directions[k, 1], directions[k, 2])
-            else:
-                valid[lane] = 0
-            words[TNEAR + lane] = 0
-            words[TIME + lane] = 0
-            words[TFAR + lane] = NO_LIMIT
-            ints[MASK + lane] = -1
-            ints[FLAGS + lane] = 0
-            ints[GEOM_ID + lane] = INVALID_ID
-            ints[PRIM_ID + lane] = INVALID_ID
-        rtc_intersect16(valid.ctypes.data, scene, words.ctypes.data, arguments.ctypes.data)
-        for lane in range(lanes):
-            k = first + lane
-            if ints[GEOM_ID + lane] == INVALID_ID:
-                face[k], u[k], v[k], t[k] = -1, 0, 0, NO_LIMIT
-            else:
-                face[k], u[k], v[k], t[k] = ints[PRIM_ID + lane], words[HIT_U + lane], words[HIT_V + lane], \
-                    words[TFAR + lane]
+    for r0 in range(0, -(-count // row_rays), 4):
+        for c0 in range(0, row_rays, 4):
+            for lane in range(16):
+                # Lane (i, j) of the block is ray (r0 + i, c0 + j); off the image's edge it stays inactive.
+                c = c0 + (lane & 3)
+                k = (r0 + (lane >> 2)) * row_rays + c
+                if c < row_rays and k < count:
+                    valid[lane] = -1
+                    words[ORG_X + lane], words[ORG_Y + lane], words[ORG_Z + lane] = (
+                        origins[k, 0], origins[k, 1], origins[k, 2])
+                    words[DIR_X + lane], words[DIR_Y + lane], words[DIR_Z + lane] = (
+                        directions[k, 0], directions[k, 1], directions[k, 2])
+                else:
+                    valid[lane] = 0
+                words[TNEAR + lane] = 0
+                words[TIME + lane] = 0
+                words[TFAR + lane] = NO_LIMIT
+                ints[MASK + lane] = -1
+                ints[FLAGS + lane] = 0
+                ints[GEOM_ID + lane] = INVALID_ID
+                ints[PRIM_ID + lane] = INVALID_ID
+            rtc_intersect16(valid.ctypes.data, scene, words.ctypes.data, arguments.ctypes.data)
+            for lane in range(16):
+                c = c0 + (lane & 3)
+                k = (r0 + (lane >> 2)) * row_rays + c
+                if c >= row_rays or k >= count:
+                    continue
+                if ints[GEOM_ID + lane] == INVALID_ID:
+                    face[k], u[k], v[k], t[k] = -1, 0, 0, NO_LIMIT
+                else:
+                    face[k], u[k], v[k] = ints[PRIM_ID + lane], words[HIT_U + lane], words[HIT_V + lane]
+                    t[k] = words[TFAR + lane]
 
 
 @kernel()
 def occluded_rays(scene, origins, directions, t_max, blocked):
-    """blocked[k] = something lies on ray k within [0, t_max[k]], packets of 16 consecutive rays."""
+    """blocked[k] = something lies on ray k within [0, t_max[k]], in packets of 16 consecutive rays."""
     words, ints, valid, arguments = _packet()
     count = origins.shape[0]
     for first in range(0, count, 16):

@@ -68,15 +68,16 @@ class Accelerator:
         # The first query commits the scene; do it here, once, before any worker thread starts.
         self._scene.run(np.zeros((1, 3), np.float32), np.array([[0, 0, 1]], np.float32))
 
-    def closest_hits(self, origins: np.ndarray, directions: np.ndarray) -> TileHits:
-        """Closest hit along each ray; origins and unit directions (N, 3) float32 in the unit frame."""
+    def closest_hits(self, origins: np.ndarray, directions: np.ndarray, row_rays: int = 4) -> TileHits:
+        """Closest hit along each ray; origins and unit directions (N, 3) float32 in the unit frame.
+        row_rays: the rays form an image of rows this long (4 × 4 neighbours share an Embree packet)."""
         if self.embree_scene is None:
             found = self._scene.run(origins, directions, output=1)
             return TileHits(face=found["primID"], u=found["u"], v=found["v"], t=found["tfar"])
         count = len(origins)
         hits = TileHits(face=np.empty(count, np.int32), u=np.empty(count, np.float32),
                         v=np.empty(count, np.float32), t=np.empty(count, np.float32))
-        embree.intersect_rays(self.embree_scene.scene, _f32(origins), _f32(directions),
+        embree.intersect_rays(self.embree_scene.scene, _f32(origins), _f32(directions), row_rays,
                               hits.face, hits.u, hits.v, hits.t)
         return hits
 

@@ -91,10 +91,10 @@ RENDER = """
 import sys
 import numpy as np
 import raycast_phong as rp
-from raycast_phong.pipeline import embree, render
+from raycast_phong.pipeline import embree, tile
 result = rp.render_file(sys.argv[1], ["render.width=48", "render.height=36"], threads=2)
 np.save(sys.argv[2], result.image)
-stats = embree.intersect_rays.stats
+stats = tile.render_band.stats  # the tile kernel: rays, rtcIntersect16, [rtcOccluded16,] shading
 print(embree.library() is not None, sum(stats.cache_hits.values()), sum(stats.cache_misses.values()))
 """
 
@@ -130,7 +130,7 @@ def test_a_cached_kernel_that_calls_embree_loads_without_compiling(tmp_path):
     first = _run(RENDER, scene, str(tmp_path / "first.npy"), env=env, cwd=tmp_path).stdout.split()
     again = _run(RENDER, scene, str(tmp_path / "again.npy"), env=env, cwd=tmp_path).stdout.split()
     assert first[0] == again[0] == "True"
-    assert int(first[2]) > 0, "the first process should have compiled intersect_rays into the copy's cache"
+    assert int(first[2]) > 0, "the first process should have compiled render_band into the copy's cache"
     assert int(again[1]) > 0 and int(again[2]) == 0, f"hits, misses = {again[1:]}: the cached kernel recompiled"
     np.testing.assert_array_equal(np.load(tmp_path / "again.npy"), np.load(tmp_path / "first.npy"))
 
