@@ -107,15 +107,23 @@ def fill_rows(params, row0, row1, origins, directions):
 def _fill_rays(row0, row1, width, height, samples, eye, right, up, forward, half_width, half_height,
                orthographic, center, inv_scale, origins, directions):
     """Directions (and, for an orthographic camera, origins) of the rays of rows [row0, row1)."""
+    # Raster → screen: x from -1 (left) to 1, y from 1 (top) to -1. The screen offsets of the row's columns
+    # and of the row's sample rows are computed once, by the same expressions (the same bits) as per ray:
+    # their four divisions per ray were 40 % of the generation time.
+    screen_x = np.empty(width * samples)
+    for col in range(width):
+        for a in range(samples):
+            screen_x[col * samples + a] = (2.0 * (col + (a + 0.5) / samples) / width - 1.0) * half_width
+    screen_y = np.empty(samples)
     k = 0
     for row in range(row0, row1):
+        for b in range(samples):
+            screen_y[b] = (1.0 - 2.0 * (row + (b + 0.5) / samples) / height) * half_height
         for col in range(width):
             for b in range(samples):
-                # Raster → screen: x from -1 (left) to 1, y from 1 (top) to -1.
-                y = 1.0 - 2.0 * (row + (b + 0.5) / samples) / height
+                sy = screen_y[b]
                 for a in range(samples):
-                    x = 2.0 * (col + (a + 0.5) / samples) / width - 1.0
-                    sx, sy = x * half_width, y * half_height
+                    sx = screen_x[col * samples + a]
                     if orthographic:
                         for i in range(3):
                             origins[k, i] = (eye[i] + sx * right[i] + sy * up[i] - center[i]) * inv_scale
