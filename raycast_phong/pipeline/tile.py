@@ -40,7 +40,7 @@ def render_band(scene, row0, row1, params, shared_origins, shadows, inputs, film
     RayGenerator's (perspective); shadows: ShadowInputs (read in global mode only); inputs: ShadingInputs.
     seconds (3,) float64 gets the time of rays (generation + cast), shadow rays and shading added."""
     row_rays = params.width * params.samples * params.samples
-    capacity = CHUNK_ROWS * row_rays
+    capacity = min(CHUNK_ROWS, row1 - row0) * row_rays  # a band of one very wide row needs one row's buffers
     directions = np.empty((capacity, 3), np.float32)
     own_origins = np.empty((capacity if params.orthographic else 0, 3), np.float32)
     face = np.empty(capacity, np.int32)
