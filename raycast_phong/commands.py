@@ -259,8 +259,8 @@ def _compile_kernels(scene: rp.Scene, quiet: bool) -> float | None:
     (the first render after an install or an edit): the frame time, and the Mrays/s printed from it, must
     not include seconds of compilation. Returns those seconds, or None when the kernels were cached."""
     from raycast_phong.pipeline.jit import compiled_before
-    from raycast_phong.pipeline.render import warm_kernels_for
-    if compiled_before("_shade_rays"):
+    from raycast_phong.pipeline.render import tile_kernel, warm_kernels_for
+    if compiled_before(tile_kernel()):
         return None
     if not quiet:
         typer.echo("compiling the shading kernels, once after an install or an edit (about 10-30 s)...", err=True)

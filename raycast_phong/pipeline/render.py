@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import embree
 from .camera import RayGenerator, camera_rig
 from .film import allocate_film, film_layers
 from .geometry import build_geometry
@@ -26,10 +27,12 @@ from .mesh_scene import load_scene
 from .plan import build_plan, diagnose, plan_flags
 from .records import ImageBuffers, RenderPlan, RenderResult
 from .scene import Scene, SceneError
-from .shading import ShadingInputs, prepare_shading, shade_tile
-from .shadows import MAX_LIGHTS, ShadowInputs, light_visibility, prepare_shadows
+from .shading import FilmRows, ShadingInputs, prepare_shading, shade_tile
+from .shadows import MAX_LIGHTS, ShadowInputs, light_visibility, no_shadows, prepare_shadows
+from .tile import render_band
 
 TILE_RAYS = 1 << 15  # 32k rays: large enough to amortise a call, small enough for ~10 MB per tile
+NO_SHADOWS = no_shadows()  # local mode's shadow inputs for the tile kernel (read only in global mode)
 
 
 def default_threads() -> int:
@@ -108,9 +111,16 @@ class TileWork:
         """Rays, closest hits, [shadow rays,] shading of rows [row0, row1) into the film; seconds of each
         part and the kernel's term counts."""
         row0, row1 = band
+        scene = self.accelerator.embree_scene
+        if scene is not None:  # Embree's C API: the whole band in one kernel (tile.py)
+            out, counts, seconds = self.film.rows(row0, row1), np.zeros(len(COUNTED_TERMS), np.int64), np.zeros(3)
+            render_band(scene.scene, row0, row1, self.rays.params, self.rays.shared_origins,
+                        self.shadows or NO_SHADOWS, self.shading,
+                        FilmRows(out.rgb, out.terms, out.depth, out.normal, out.face, counts), seconds)
+            return seconds[0], seconds[1], seconds[2], counts
         t0 = time.perf_counter()
         origins, directions = self.rays.rows(row0, row1)
-        hits = self.accelerator.closest_hits(origins, directions)
+        hits = self.accelerator.closest_hits(origins, directions, self.rays.width * self.samples * self.samples)
         t1 = time.perf_counter()
         visible = None
         if self.shadows is not None:
@@ -142,10 +152,19 @@ def run_tiles(tile: TileWork, bands: list[tuple[int, int]], threads: int,
     return counts
 
 
+def tile_kernel() -> str:
+    """The kernel a render runs its tiles in (for jit.compiled_before): tile.render_band on Embree's C API,
+    shading._shade_rays on embreex's fallback."""
+    return "render_band" if embree.library() is not None else "_shade_rays"
+
+
 def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bool = True) -> None:
     """Load (or compile) the numba kernels a render uses, in the `reals` precisions and with global mode's
     shadow-ray kernel if `shadows`, without starting Embree.
 
+    With Embree's C API that is the tile kernel alone (tile.render_band, called on no rows: it reaches
+    Embree only per chunk of rows); it holds the shadow rays whatever `shadows` says. On embreex's fallback
+    it is the kernels TileWork calls from Python.
     A process that forks workers afterwards hands them ready kernels (batch.py): each would otherwise
     spend ~0.15 s loading them from numba's cache, most of it numba's one-time set-up on a process's
     first dispatch. The kernels are typed by their arguments, so they are called through the real
@@ -160,15 +179,23 @@ def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bo
     plan = build_plan(scene)
     geometry = build_geometry(scene)
     frame, rig = unit_frame(geometry.vertices), camera_rig(scene)
-    _, directions = RayGenerator(rig, frame, 2, 2, 1, 4).rows(0, 2)
+    rays = RayGenerator(rig, frame, 2, 2, 1, 4)
+    fused = embree.library() is not None
+    _, directions = rays.rows(0, 2)
     misses = TileHits(face=np.full(4, -1, np.int32), u=np.zeros(4, np.float32), v=np.zeros(4, np.float32),
                       t=np.zeros(4, np.float32))
-    if shadows:
+    if shadows and not fused:
         shadow_rays(prepare_shadows(scene, geometry, frame), misses, directions)
     for real in reals:
         inputs = prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), real)
         film = allocate_film(2, 2, (), real)
-        shade_tile(inputs, misses, directions, film.rows(0, 2), 1, np.zeros(4, np.int64))
+        if fused:
+            out = film.rows(0, 0)
+            render_band(0, 0, 0, rays.params, rays.shared_origins, NO_SHADOWS, inputs,
+                        FilmRows(out.rgb, out.terms, out.depth, out.normal, out.face,
+                                 np.zeros(len(COUNTED_TERMS), np.int64)), np.zeros(3))
+        else:
+            shade_tile(inputs, misses, directions, film.rows(0, 2), 1, np.zeros(4, np.int64))
 
 
 def warm_kernels_for(plans: list[RenderPlan]) -> None:

@@ -16,10 +16,11 @@ Two decisions keep shadows honest at any scale, both made in Embree's unit frame
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
+from .embree import occluded_rays
 from .intersect import Accelerator, TileHits
 from .jit import kernel
 from .records import Frame, Geometry
@@ -36,9 +37,9 @@ SHORT_OF_LIGHT = 1e-4    # embreex counts a hit exactly at tfar: stop this fract
 FLOOR_SQUARED = MIN_DISTANCE ** 2  # the unit frame's half-extent is 1: a light this close is head-on
 
 
-@dataclass(frozen=True, eq=False)
-class ShadowInputs:
-    """Geometry and lights in Embree's unit frame (float64), for building shadow rays."""
+class ShadowInputs(NamedTuple):
+    """Geometry and lights in Embree's unit frame (float64), for building shadow rays (a NamedTuple: kernels
+    take it as one argument)."""
     vertices: np.ndarray        # (V, 3) float64, unit frame
     faces: np.ndarray           # (F, 3) int32
     face_normals: np.ndarray    # (F, 3) float64
@@ -68,9 +69,15 @@ def prepare_shadows(scene: Scene, geometry: Geometry, frame: Frame, offset_scale
         smooth=(geometry.face_model != 0) & hanika,
         light_kind=np.asarray(kinds, np.int64).reshape(-1),
         light_vec=np.asarray(vectors, np.float64).reshape(-1, 3),
-        two_sided=scene.render.two_sided,
-        offset_scale=offset_scale,
+        two_sided=bool(scene.render.two_sided),
+        offset_scale=float(offset_scale),
     )
+
+
+def no_shadows() -> ShadowInputs:
+    """Local mode's stand-in (no lights, nothing to build from): the tile kernel's arguments keep one type."""
+    return ShadowInputs(np.zeros((0, 3)), np.zeros((0, 3), np.int32), np.zeros((0, 3)), np.zeros((1, 3, 3)),
+                        np.zeros(0, np.bool_), np.zeros(0, np.int64), np.zeros((0, 3)), False)
 
 
 def shadow_rays(inputs: ShadowInputs, hits: TileHits, directions: np.ndarray):
@@ -96,6 +103,32 @@ def light_visibility(inputs: ShadowInputs, hits: TileHits, directions: np.ndarra
     visible = np.zeros(len(hits.face), np.int64)
     _gather_bits(hit_rays, free, len(inputs.light_kind), visible)
     return visible
+
+
+@kernel()
+def cast_shadows(scene, inputs, face, u, v, directions, visible):
+    """light_visibility inside a kernel, on Embree's C API scene (embree.EmbreeScene.scene): visible (N,)
+    int64 light bits written in place (0 for a miss)."""
+    lights = inputs.light_kind.shape[0]
+    hits = 0
+    for k in range(face.shape[0]):
+        visible[k] = 0
+        hits += face[k] >= 0
+    hit_rays = np.empty(hits, np.int64)
+    h = 0
+    for k in range(face.shape[0]):
+        if face[k] >= 0:
+            hit_rays[h] = k
+            h += 1
+    origins = np.empty((hits * lights, 3), np.float32)
+    toward = np.empty((hits * lights, 3), np.float32)
+    t_max = np.empty(hits * lights, np.float32)
+    _shadow_rays(hit_rays, face, u, v, directions, inputs.vertices, inputs.faces, inputs.face_normals,
+                 inputs.corner_normals, inputs.smooth, inputs.light_kind, inputs.light_vec, inputs.two_sided,
+                 inputs.offset_scale, origins, toward, t_max)
+    blocked = np.empty(hits * lights, np.bool_)
+    occluded_rays(scene, origins, toward, t_max, blocked)
+    _gather_bits(hit_rays, ~blocked, lights, visible)
 
 
 @kernel()

@@ -346,7 +346,9 @@ def _process_pool(tasks: list[Task], jobs: int, started: set[str]) -> Iterator[O
         while queue or any(worker.task is not None for worker in workers):
             while queue and len(workers) < jobs:
                 workers.append(_Worker(context, parent))
-            for worker in [worker for worker in workers if worker.task is None and queue]:
+            for worker in [worker for worker in workers if worker.task is None]:
+                if not queue:  # two workers may finish together with one task left
+                    break
                 task = queue.popleft()
                 started.add(task.job.name)
                 if not worker.give(task):  # it had died: the task fails with it (so a broken pool cannot loop)

@@ -26,7 +26,7 @@ RENDER = """
 import json, sys
 import numpy as np
 import raycast_phong as rp
-from raycast_phong.pipeline import shading
+from raycast_phong.pipeline import embree, shading, tile
 scene = rp.validate_scene({
     "render": {"width": 24, "height": 24, "shading": "phong"},
     "camera": {"position": [0, 0, 4], "fov": 40},
@@ -36,7 +36,8 @@ scene = rp.validate_scene({
 })
 result = rp.render(scene, threads=1)
 np.save(sys.argv[1], np.stack([result.image, result.aovs["diffuse"]]))
-stats = shading._shade_rays.stats
+# With Embree's C API the tile kernel compiles _shade_rays (and so illuminate) into itself.
+stats = (tile.render_band if embree.library() is not None else shading._shade_rays).stats
 print(json.dumps({"hits": sum(stats.cache_hits.values()), "misses": sum(stats.cache_misses.values())}))
 """
 

@@ -7,8 +7,8 @@ import subprocess
 import sys
 
 # The pipeline stages whose bugs the analytic reference exists to catch: it may import none of them.
-STAGES = ("camera", "geometry", "intersect", "illumination", "shading", "shadows", "surface", "film", "render",
-          "plan", "jit")
+STAGES = ("camera", "geometry", "intersect", "embree", "illumination", "shading", "shadows", "surface", "film",
+          "render", "plan", "jit")
 
 
 def test_the_oracle_imports_no_stage_of_the_renderer():

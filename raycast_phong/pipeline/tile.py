@@ -1,0 +1,75 @@
+"""One band of image rows in one compiled loop: rays → Embree packets → [shadow rays] → shading, no Python between.
+
+Each stage keeps its home (camera.fill_rows, embree.intersect_rays, shadows.cast_shadows, shading._shade_rays);
+this kernel only runs them in turn on CHUNK_ROWS image rows at a time, so a chunk's rays, hits and shadow
+rays stay in the CPU's cache and its buffers are allocated once per band. It needs Embree's C API
+(embree.py): on embreex's fallback render.TileWork runs the same stages from Python instead.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+from numba import types
+
+from .camera import fill_rows
+from .embree import intersect_rays
+from .illumination import F_SHADOWS
+from .jit import kernel
+from .shading import FilmRows, TileRays, _shade_rays
+from .shadows import cast_shadows
+
+CHUNK_ROWS = 4  # image rows per pass: one row of Embree's 4 × 4 packets
+# clock_gettime(2) from the C library, linked by name like Embree's functions (numba caches the call).
+clock_gettime = types.ExternalFunction("clock_gettime", types.int32(types.int32, types.intp))
+MONOTONIC = 6 if sys.platform == "darwin" else 1  # CLOCK_MONOTONIC: <time.h> on macOS, Linux
+
+
+@kernel()
+def _now(timespec):
+    """Seconds on the monotonic clock (the stage split of render()'s timings)."""
+    clock_gettime(MONOTONIC, timespec.ctypes.data)
+    return timespec[0] + 1e-9 * timespec[1]
+
+
+@kernel()
+def render_band(scene, row0, row1, params, shared_origins, shadows, inputs, film, seconds):
+    """Render image rows [row0, row1) into `film` (FilmRows of those rows; its counts are set, as by
+    shading._shade_rays). scene: embree.EmbreeScene.scene; params: camera.RayParams; shared_origins: the
+    RayGenerator's (perspective); shadows: ShadowInputs (read in global mode only); inputs: ShadingInputs.
+    seconds (3,) float64 gets the time of rays (generation + cast), shadow rays and shading added."""
+    row_rays = params.width * params.samples * params.samples
+    capacity = min(CHUNK_ROWS, row1 - row0) * row_rays  # a band of one very wide row needs one row's buffers
+    directions = np.empty((capacity, 3), np.float32)
+    own_origins = np.empty((capacity if params.orthographic else 0, 3), np.float32)
+    face = np.empty(capacity, np.int32)
+    u = np.empty(capacity, np.float32)
+    v = np.empty(capacity, np.float32)
+    t = np.empty(capacity, np.float32)
+    visible = np.zeros(capacity, np.int64)
+    rgb, terms, depth, normal, face_out, counts = film
+    chunk_counts = np.zeros_like(counts)
+    counts[:] = 0
+    timespec = np.zeros(2, np.int64)
+    global_mode = inputs.flags & F_SHADOWS != 0
+    for row in range(row0, row1, CHUNK_ROWS):
+        end = min(row + CHUNK_ROWS, row1)
+        n = (end - row) * row_rays
+        start = _now(timespec)
+        origins = own_origins[:n] if params.orthographic else shared_origins[:n]
+        fill_rows(params, row, end, origins, directions[:n])
+        intersect_rays(scene, origins, directions[:n], row_rays, face[:n], u[:n], v[:n], t[:n])
+        cast = _now(timespec)
+        if global_mode:
+            cast_shadows(scene, shadows, face[:n], u[:n], v[:n], directions[:n], visible[:n])
+        shadowed = _now(timespec)
+        # Film rows of this chunk, relative to the band; a layer not asked for is empty and stays so.
+        a, b = row - row0, end - row0
+        _shade_rays(inputs, TileRays(face[:n], u[:n], v[:n], t[:n], directions[:n], visible[:n], params.samples),
+                    FilmRows(rgb[a:b], terms[a:b], depth[a:b], normal[a:b], face_out[a:b], chunk_counts))
+        counts += chunk_counts
+        done = _now(timespec)
+        seconds[0] += cast - start
+        seconds[1] += shadowed - cast
+        seconds[2] += done - shadowed

@@ -1,0 +1,211 @@
+"""Embree's C API (pipeline/embree.py) against embreex's own API, its fallback, its kernel cache and its errors.
+
+embreex stays the cross-check: the same library answers the same rays through its one-ray API, so a future
+embreex or Embree whose layout no longer matches embree.py's structs shows here as different hits.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import raycast_phong
+import raycast_phong as rp
+from raycast_phong.pipeline import embree
+from raycast_phong.pipeline.camera import camera_rig, generate_rays
+from raycast_phong.pipeline.geometry import build_geometry
+from raycast_phong.pipeline.intersect import Accelerator, unit_frame
+
+PACKAGE = Path(raycast_phong.__file__).resolve().parent
+SCENES = Path(__file__).resolve().parents[2] / "scenes"
+pytestmark = pytest.mark.skipif(embree.library() is None, reason="Embree's C library cannot be loaded here")
+
+# Both paths run Embree's own float32 ray–triangle test (robust mode) on the same vertices and rays, but the
+# 16-wide packet kernel may evaluate the same products in another order or fused (FMA): u, v and t are ratios
+# of sums of three products, each rounded within a few float32 ulps of its largest term. 16 ε relative (ε =
+# 2^-23), and 16 ε absolute for u, v ∈ [0, 1], bounds that for any triangle not seen edge-on.
+EPS32 = float(np.finfo(np.float32).eps)
+
+
+def _both_ways(geometry, origins, directions):
+    frame = unit_frame(geometry.vertices)
+    c_api = Accelerator(geometry, frame)
+    fallback = Accelerator(geometry, frame, use_c_api=False)
+    assert c_api.embree_scene is not None and fallback.embree_scene is None
+    return c_api.closest_hits(origins, directions), fallback.closest_hits(origins, directions), c_api, fallback
+
+
+@pytest.mark.parametrize("name", sorted(path.stem for path in SCENES.glob("*.toml")))
+def test_the_c_api_finds_the_hits_embreex_finds(name):
+    """Every camera ray of every example scene (one 48-row band of tiles): same face, u, v, t to float32 rounding."""
+    scene = rp.load_scene(SCENES / f"{name}.toml", ["render.width=160", "render.height=120"])
+    geometry = build_geometry(scene)
+    frame = unit_frame(geometry.vertices)
+    origins, directions = generate_rays(camera_rig(scene), frame, 160, 120, 1, 0, 120)
+    ours, theirs, _, _ = _both_ways(geometry, origins, directions)
+    hit = theirs.face >= 0
+    assert hit.any() and (~hit).any()
+    np.testing.assert_array_equal(ours.face, theirs.face)
+    np.testing.assert_allclose(ours.u[hit], theirs.u[hit], rtol=16 * EPS32, atol=16 * EPS32)
+    np.testing.assert_allclose(ours.v[hit], theirs.v[hit], rtol=16 * EPS32, atol=16 * EPS32)
+    np.testing.assert_allclose(ours.t[hit], theirs.t[hit], rtol=16 * EPS32)
+    assert (ours.t[~hit] == theirs.t[~hit]).all()  # 1e37, the "no limit" both paths start from
+
+
+def test_random_rays_and_occlusion_agree_with_embreex():
+    """Rays from everywhere in every direction (not a coherent packet), in counts that leave a partial last
+    packet, and occlusion within random limits: the same answers both ways."""
+    rng = np.random.default_rng(12)
+    scene = rp.load_scene(SCENES / "shadows.toml")
+    geometry = build_geometry(scene)
+    count = 16 * 997 + 5
+    origins = rng.uniform(-1.5, 1.5, (count, 3)).astype(np.float32)
+    directions = rng.normal(size=(count, 3))
+    directions = (directions / np.linalg.norm(directions, axis=1)[:, None]).astype(np.float32)
+    ours, theirs, c_api, fallback = _both_ways(geometry, origins, directions)
+    hit = theirs.face >= 0
+    assert 0.1 < hit.mean() < 0.9
+    np.testing.assert_array_equal(ours.face >= 0, hit)
+    # The box stands on the floor: its bottom faces and the floor's coincide, and a ray that meets them there
+    # has two closest hits at the same t; which one a traversal reports depends on its order (4 of 2110 hits
+    # here). Such a tie is the only difference allowed: the same t, and both faces in one plane.
+    tie = ours.face != theirs.face
+    assert tie.sum() < 0.01 * hit.sum()
+    normals = geometry.face_normals
+    assert (np.abs(np.einsum("ij,ij->i", normals[ours.face[tie]], normals[theirs.face[tie]])) > 1 - 1e-12).all()
+    np.testing.assert_allclose(ours.t[hit], theirs.t[hit], rtol=16 * EPS32)
+    # Limits well away from the hit distance, where a rounding of t could not flip the answer.
+    t_max = (np.where(rng.random(count) < 0.5, 0.5, 2.0) * np.where(hit, theirs.t, 3.0)).astype(np.float32)
+    blocked = c_api.occluded(origins, directions, t_max.copy())
+    np.testing.assert_array_equal(blocked, fallback.occluded(origins, directions, t_max.copy()))
+    np.testing.assert_array_equal(blocked, hit & (t_max > theirs.t))
+
+
+RENDER = """
+import sys
+import numpy as np
+import raycast_phong as rp
+from raycast_phong.pipeline import embree, tile
+result = rp.render_file(sys.argv[1], ["render.width=48", "render.height=36"], threads=2)
+np.save(sys.argv[2], result.image)
+stats = tile.render_band.stats  # the tile kernel: rays, rtcIntersect16, [rtcOccluded16,] shading
+print(embree.library() is not None, sum(stats.cache_hits.values()), sum(stats.cache_misses.values()))
+"""
+
+
+def _run(code: str, *args: str, env: dict | None = None, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    done = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=300,
+                          env={**os.environ, **(env or {})}, cwd=cwd)
+    assert done.returncode == 0, done.stderr
+    return done
+
+
+@pytest.mark.parametrize("library", ["missing", "without-symbols"])
+def test_without_the_library_the_render_falls_back_to_embreex_with_one_note(tmp_path, library):
+    """A library that is not there, or one without Embree's symbols (libtbb beside it): one note, the same image."""
+    path = tmp_path / "libembree4.so.4" if library == "missing" else next(
+        embree.library_path().parent.glob("libtbb*"))
+    scene = SCENES / "shadows.toml"
+    done = _run(RENDER, str(scene), str(tmp_path / "fallback.npy"), env={embree.LIBRARY_VARIABLE: str(path)})
+    assert done.stdout.split()[0] == "False"
+    notes = [line for line in done.stderr.splitlines() if line.strip()]
+    assert len(notes) == 1 and notes[0].startswith("note: Embree's C API is not available"), done.stderr
+    image = rp.render_file(scene, ["render.width=48", "render.height=36"], threads=2).image
+    np.testing.assert_array_equal(np.load(tmp_path / "fallback.npy"), image)
+
+
+def test_a_cached_kernel_that_calls_embree_loads_without_compiling(tmp_path):
+    """The queries link by name (llvmlite add_symbol), so numba's cache serves a fresh process: no recompile."""
+    shutil.copytree(PACKAGE, tmp_path / "src" / "raycast_phong", ignore=shutil.ignore_patterns("__pycache__"))
+    # The copy's own __pycache__ holds its kernels: no NUMBA_CACHE_DIR (as in test_kernel_cache.py).
+    env = {"PYTHONPATH": str(tmp_path / "src"), "NUMBA_CACHE_DIR": ""}
+    scene = str(SCENES / "default.toml")
+    # cwd: tmp_path, so that `-c` code imports the copy (the working folder comes first on sys.path).
+    first = _run(RENDER, scene, str(tmp_path / "first.npy"), env=env, cwd=tmp_path).stdout.split()
+    again = _run(RENDER, scene, str(tmp_path / "again.npy"), env=env, cwd=tmp_path).stdout.split()
+    assert first[0] == again[0] == "True"
+    assert int(first[2]) > 0, "the first process should have compiled render_band into the copy's cache"
+    assert int(again[1]) > 0 and int(again[2]) == 0, f"hits, misses = {again[1:]}: the cached kernel recompiled"
+    np.testing.assert_array_equal(np.load(tmp_path / "again.npy"), np.load(tmp_path / "first.npy"))
+
+
+OUT_OF_ADDRESS_SPACE = """
+import re, resource, sys
+import raycast_phong as rp
+from raycast_phong.pipeline import embree
+from raycast_phong.pipeline.geometry import build_geometry
+from raycast_phong.pipeline.intersect import Accelerator
+geometry = build_geometry(rp.load_scene(sys.argv[1]))
+assert embree.library() is not None  # mapped now: this test is about the device, not about loading the library
+# Leave 20 MB of address space above what the process uses now: Embree reserves more for a device
+# (its thread pool's stacks alone take 8 MB a thread).
+used = int(re.search(r"VmSize:\\s+(\\d+)", open("/proc/self/status").read()).group(1)) * 1024
+resource.setrlimit(resource.RLIMIT_AS, (used + 20 * 2**20, resource.RLIM_INFINITY))
+try:
+    Accelerator(geometry)
+except embree.EmbreeError as error:
+    print(error)
+"""
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="reads VmSize from Linux's /proc")
+def test_an_embree_device_error_becomes_one_clear_error():
+    """A real fault: too little address space for Embree's device. EmbreeError names what failed and why."""
+    done = _run(OUT_OF_ADDRESS_SPACE, str(SCENES / "default.toml"))
+    assert done.stdout.startswith("Embree failed while creating a device: out of memory"), done.stdout + done.stderr
+
+
+@pytest.mark.parametrize("name", sorted(path.stem for path in SCENES.glob("*.toml")))
+def test_the_tile_kernel_renders_what_the_embreex_path_renders(name, monkeypatch):
+    """Every example scene (2 × 2 samples, every layer) through tile.render_band and through embreex's Python
+    tile path: the same image, layers and term counts, bit for bit (same hits, same shading kernel)."""
+    from functools import partial
+
+    from raycast_phong.pipeline import render as render_module
+    overrides = ["render.width=64", "render.height=48", "render.samples=2",
+                 'output.aovs=["depth", "normal", "face", "ambient", "diffuse", "specular"]', 'output.path="x.exr"']
+    fused = rp.render_file(SCENES / f"{name}.toml", overrides, threads=2)
+    monkeypatch.setattr(render_module, "Accelerator", partial(Accelerator, use_c_api=False))
+    fallback = rp.render_file(SCENES / f"{name}.toml", overrides, threads=2)
+    np.testing.assert_array_equal(fused.image, fallback.image)
+    assert fused.aovs.keys() == fallback.aovs.keys() and fused.counts == fallback.counts
+    for layer in fused.aovs:
+        np.testing.assert_array_equal(fused.aovs[layer], fallback.aovs[layer], err_msg=layer)
+
+
+@pytest.mark.skipif(not Path("/proc/self/statm").exists(), reason="reads the resident size from Linux's /proc")
+def test_dropping_an_accelerator_releases_embrees_scene_and_device():
+    """40 BVHs of 82k triangles built and dropped in turn: resident memory stays within a few BVHs' worth.
+    Without rtcReleaseScene / rtcReleaseDevice each would stay (≈ 5 MB apiece: 202 MB measured)."""
+    scene = rp.validate_scene({"objects": [{"shape": "icosphere", "subdivisions": 6}]}, source="test")
+    geometry = build_geometry(scene, vertex_normals=False)
+    page = os.sysconf("SC_PAGE_SIZE")
+
+    def resident() -> int:
+        return int(Path("/proc/self/statm").read_text().split()[1]) * page
+
+    Accelerator(geometry)  # the first one also brings up Embree's thread pool and allocator
+    before = resident()
+    for _ in range(40):
+        Accelerator(geometry)
+    assert resident() - before < 60 * 2**20, f"{(resident() - before) / 2**20:.0f} MB kept after 40 dropped BVHs"
+
+
+def test_the_tile_kernel_in_global_mode_gives_the_same_image_on_one_and_three_threads():
+    """Shadow rays from Embree's C API on a thread pool: bands on 3 threads (concurrent rtcIntersect16 and
+    rtcOccluded16 on one scene) give the image one thread gives, bit for bit, with shadows where lights are
+    blocked and local mode's light where none is."""
+    overrides = ["render.width=320", "render.height=200", "render.samples=2"]
+    one = rp.render_file(SCENES / "shadows.toml", overrides, threads=1)
+    three = rp.render_file(SCENES / "shadows.toml", overrides, threads=3)
+    local = rp.render_file(SCENES / "shadows.toml", [*overrides, 'render.mode="local"'], threads=3)
+    np.testing.assert_array_equal(one.image, three.image)
+    assert (local.image - three.image).max() > 0.1  # somewhere a light is blocked in global mode only
+    # ... and somewhere every light reaches a brightly lit point, exactly as in local mode.
+    assert ((local.image.max(axis=2) > 0.3) & (local.image == three.image).all(axis=2)).any()
