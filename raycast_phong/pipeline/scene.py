@@ -317,7 +317,7 @@ class Object(_Strict):
     path: str | None = None
     material: str = "default"
     shading: ShadingModel | None = None
-    normals: Literal["mean", "area", "angle", "file"] = "mean"
+    normals: Literal["mean", "area", "angle", "file", "exact"] = "mean"
     crease_angle: Number = Field(180.0, ge=0.0, le=180.0)
     translate: Vec3 = (0.0, 0.0, 0.0)
     rotate: Vec3 = (0.0, 0.0, 0.0)
@@ -361,6 +361,9 @@ class Object(_Strict):
             raise ValueError('shape = "mesh" needs path = "file.obj" (any format trimesh reads)')
         if self.shape != "mesh" and self.normals == "file":
             raise ValueError(f'normals = "file" needs a mesh file; shape = "{self.shape}" has no stored normals')
+        if self.shape == "mesh" and self.normals == "exact":
+            raise ValueError('normals = "exact" needs a built-in shape; a mesh file has no closed form (use "file", '
+                             '"mean", "area" or "angle")')
         if self.size is not None and self.shape == "box" and len(self.size) != 3:
             raise ValueError("a box's size is [x, y, z]")
         if self.size is not None and self.shape == "plane" and len(self.size) != 2:
