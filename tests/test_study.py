@@ -120,8 +120,11 @@ def test_time_to_image_rises_with_triangles_in_every_model(exact_sphere):
         coarse, fine = rows[0], rows[-1]
         assert fine.geometry_seconds > 2 * coarse.geometry_seconds
         assert fine.seconds_total > coarse.seconds_total
-        assert all(r.seconds_total >= r.geometry_seconds + r.build_seconds + r.seconds * 0.999 for r in rows)
-        assert all(r.repeats == 3 and r.seconds_total_median >= r.seconds_total for r in rows)
+        assert all(r.seconds_total >= r.geometry_seconds + r.build_seconds + r.seconds for r in rows)
+        # The stage minima (the geometry and BVH pooled over the settings that repeat them) never exceed the
+        # plain minimum of the whole call, which never exceeds its median.
+        assert all(r.repeats == 3 and r.seconds_total <= r.seconds_total_wall * (1 + 1e-9) <= r.seconds_total_median
+                   * (1 + 1e-9) for r in rows)
 
 
 def test_the_front_and_the_advice_pick_the_fastest_setting_that_reaches_the_target(exact_sphere):

@@ -4,8 +4,9 @@ The axes: tessellation level, shading model, vertex normals ("mean", "exact", �
 pixel, and (as different problems) the specular model and the shininess. Each setting is rendered once
 for its errors against the reference (metrics.measure: the shading error over the pixels both cover, the
 highlight loss; and against a supersampled reference, the silhouette and whole-image error), then timed:
-every setting once per round, `repeats` rounds, so a slow spell of the machine hits all settings alike;
-a point's time is the minimum over the rounds (the least disturbed run), the spread is recorded.
+every setting once per round in a shuffled order, `repeats` rounds, so a slow spell of the machine hits
+different settings each round; a point's time to image is the sum of its stages' minima (the geometry and
+BVH stages pooled over every setting that repeats the same work), the spread of the rounds is recorded.
 
 The levels are either given or chosen (`levels=None`): one more level at a time until every curve's
 fitted order (the slope of log RMSE against log edge length over its last three levels) has settled,
@@ -84,13 +85,15 @@ class StudyRow:
     level: int
     triangles: int
     edge_length: float      # mean length of the scene mesh's edges, world units
-    seconds_total: float    # time to image: the whole render() call (geometry, BVH, frame), min over the rounds
-    seconds_total_median: float
-    seconds_total_spread: float  # (median − min) / min over the rounds: how disturbed this point's runs were
+    seconds_total: float    # time to image: geometry + BVH + frame + the rest of render(), each stage's minimum
+                            # (geometry and BVH pooled over the settings that repeat them: study_row)
+    seconds_total_wall: float    # the plain minimum of the whole render() call over the rounds
+    seconds_total_median: float  # the median of the whole call
+    seconds_total_spread: float  # (median − min) / min of the whole call: how disturbed this point's runs were
     cpu_seconds: float      # CPU time of the render() call over all its threads, min over the rounds
     seconds: float          # frame time (rays + shading), min over the rounds: the cost of one more frame
     seconds_spread: float
-    geometry_seconds: float  # min over the rounds, as the stages below
+    geometry_seconds: float  # pooled minimum (see seconds_total); the stages below: min over the rounds
     build_seconds: float
     rays_seconds: float     # summed over worker threads, like RenderResult.timings
     shade_seconds: float
@@ -259,6 +262,7 @@ class _Sweep:
         self.meshes: dict = {}
         self.measured: dict[Setting, tuple] = {}   # setting -> (errors, image_rmse, silhouette_rmse, triangles)
         self.images: dict[Setting, tuple] = {}     # setting -> (image, reference image, coverage)
+        self.render_seconds: dict[int, float] = {}  # level -> seconds its measuring renders took
 
     def scene(self, s: Setting, samples: int | None = None) -> Scene:
         return variant(self.base, self.data, model=s.model, specular=s.specular, precision=s.precision,
@@ -295,8 +299,10 @@ class _Sweep:
                 self.meshes[s.samples, level] = (mesh_coverage(scene, self.source),
                                                  mean_edge_length(scene, self.source))
             coverage, _ = self.meshes[s.samples, level]
+            began = time.perf_counter()
             result = render(scene, threads=self.options.threads, source=self.source,
                             max_memory=self.options.max_memory)
+            self.render_seconds[level] = self.render_seconds.get(level, 0.0) + time.perf_counter() - began
             reference = self.references[s.specular, s.samples, s.shininess]
             errors = measure(result.image, coverage, reference)
             fine = self.references[s.specular, self.supersampling, s.shininess]
@@ -347,7 +353,9 @@ def run_study(path: str | Path, overrides: list[str] | tuple[str, ...] = (), opt
         if progress:
             progress(0, len(settings) * options.repeats, "timing")
         runs, noise = sweep.time_all(settings, options.repeats)
-        rows = [study_row(s, runs[s], *sweep.measured[s], sweep.meshes[s.samples, s.level][1]) for s in settings]
+        pooled = pooled_minima(runs)
+        rows = [study_row(s, runs[s], *sweep.measured[s], sweep.meshes[s.samples, s.level][1], pooled)
+                for s in settings]
         study = Study(rows, fit_orders(rows, options.settle), sweep.source, options.target, noise,
                       levels_note=note, shininess=sweep.base.material_of(sweep.base.objects[0]).shininess
                       if sweep.base.objects else math.nan)
@@ -359,8 +367,8 @@ def run_study(path: str | Path, overrides: list[str] | tuple[str, ...] = (), opt
 
 def choose_levels(sweep: _Sweep, progress) -> tuple[list[int], str]:
     """The given levels, measured; or levels added one at a time from FIRST_AUTO_LEVEL until every curve's
-    order has settled, the budget is spent (the next level costing about 4× the last), the shape's finest
-    level or AUTO_TRIANGLES is reached."""
+    order has settled, the budget would be spent (the next level's renders costing about 4× the last level's,
+    and the timing rounds `repeats` × all of them), the shape's finest level or AUTO_TRIANGLES is reached."""
     options = sweep.options
     middle = options.error_level
     if options.levels is not None:
@@ -374,7 +382,7 @@ def choose_levels(sweep: _Sweep, progress) -> tuple[list[int], str]:
     finest = min((max_level(obj) for obj in sweep.base.objects), default=8)
     levels: list[int] = []
     start = time.perf_counter()
-    last_cost, why = 0.0, "the finest level the scene format allows was reached"
+    why = "the finest level the scene format allows was reached"
     level = FIRST_AUTO_LEVEL
     while level <= finest:
         if levels:
@@ -382,15 +390,15 @@ def choose_levels(sweep: _Sweep, progress) -> tuple[list[int], str]:
             if 4 * triangles > AUTO_TRIANGLES:
                 why = f"the next level would pass {AUTO_TRIANGLES:,} triangles"
                 break
-            spent = time.perf_counter() - start
-            if spent + 4 * last_cost * (1 + options.repeats) > options.budget:
+            # Spent so far, the next level's renders (about 4× the last level's) and every level's timing rounds.
+            renders = sum(sweep.render_seconds.values()) + 4 * sweep.render_seconds[levels[-1]]
+            if time.perf_counter() - start + 4 * sweep.render_seconds[levels[-1]] + options.repeats * renders \
+                    > options.budget:
                 why = f"the next level would pass the budget of {options.budget:g} s"
                 break
         if progress:
             progress(len(levels), len(levels) + 1, f"level {level}")
-        began = time.perf_counter()
         sweep.measure_level(level, keep_images=True)
-        last_cost = time.perf_counter() - began
         levels.append(level)
         level += 1
         if len(levels) > FIT_WINDOW:
@@ -410,20 +418,47 @@ def provisional_row(s: Setting, measured: tuple, edge: float) -> StudyRow:
     return study_row(s, [(0.0, {})], *measured, edge)
 
 
+def pooled_minima(runs: dict[Setting, list[tuple[float, dict]]]) -> dict[tuple, float]:
+    """The fastest geometry and BVH stage over every setting that does the same work there: the geometry of
+    one level, normals and need of vertex normals (flat needs none), the BVH of one level's vertices.
+
+    A stage's minimum over 5 rounds can still sit inside a busy spell (a geometry stage measured 136, 336
+    and 393 ms at one level for three shininesses); pooled over the settings that repeat it, it has 10-30
+    runs to escape by. Model, precision, samples and shininess change neither stage.
+    """
+    pooled: dict[tuple, float] = {}
+    for s, timed in runs.items():
+        for key, stage in ((("geometry", s.level, s.normals, s.model == "flat"), "geometry"),
+                           (("build", s.level), "build")):
+            best = min(t.get(stage, math.inf) for _, t in timed)
+            pooled[key] = min(pooled.get(key, math.inf), best)
+    return pooled
+
+
 def study_row(s: Setting, runs: list[tuple[float, dict]], errors, image_rmse: float, silhouette_rmse: float,
-              triangles: int, edge_length: float) -> StudyRow:
-    """One row: a setting's timed runs (wall time of render() and its stages, min over the rounds) and errors."""
+              triangles: int, edge_length: float, pooled: dict[tuple, float] | None = None) -> StudyRow:
+    """One row: a setting's timed runs and its errors.
+
+    Time to image = the pooled minima of the geometry and BVH stages (pooled_minima) + this setting's own
+    minimum frame + its minimum of the rest of the call (plan, memory check, film); the plain minimum of
+    the whole call is kept as seconds_total_wall.
+    """
     walls = [wall for wall, _ in runs]
     frames = [t.get("frame", 0.0) for _, t in runs]
     stage = {name: min(t.get(name, 0.0) for _, t in runs) for name in ("geometry", "build", "rays", "shade", "cpu")}
+    rest = min(wall - sum(t.get(name, 0.0) for name in ("geometry", "build", "frame")) for wall, t in runs)
+    pooled = pooled or {}
+    geometry = pooled.get(("geometry", s.level, s.normals, s.model == "flat"), stage["geometry"])
+    build = pooled.get(("build", s.level), stage["build"])
     return StudyRow(model=s.model, normals=s.normals or "scene", specular=s.specular, precision=s.precision,
                     samples=s.samples, shininess="scene" if s.shininess is None else f"{s.shininess:g}",
                     level=s.level, triangles=triangles, edge_length=edge_length,
-                    seconds_total=min(walls), seconds_total_median=statistics.median(walls),
+                    seconds_total=geometry + build + min(frames) + max(rest, 0.0), seconds_total_wall=min(walls),
+                    seconds_total_median=statistics.median(walls),
                     seconds_total_spread=spread(walls) if min(walls) > 0 else 0.0, cpu_seconds=stage["cpu"],
                     seconds=min(frames),
                     seconds_spread=spread(frames) if min(frames) > 0 else 0.0,
-                    geometry_seconds=stage["geometry"], build_seconds=stage["build"],
+                    geometry_seconds=geometry, build_seconds=build,
                     rays_seconds=stage["rays"], shade_seconds=stage["shade"], repeats=len(runs),
                     rmse=errors.rmse, max_error=errors.max_error, psnr=errors.psnr, mae=errors.mae,
                     silhouette_pixels=errors.silhouette_pixels, highlight_loss=errors.highlight_loss,

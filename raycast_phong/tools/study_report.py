@@ -128,7 +128,7 @@ def front_figure(study: Study) -> bytes:
     for rows, (left, right) in zip(groups, grid):
         _front_axes(left, rows, "seconds_total", study.target, True)
         _front_axes(right, rows, "seconds", study.target, False)
-        left.set_xlabel("time to image, ms (geometry + BVH + frame; min over the rounds)")
+        left.set_xlabel("time to image, ms (geometry + BVH + frame: stage minima over the rounds)")
         right.set_xlabel("frame time, ms (rays + shading; min over the rounds)")
         left.set_ylabel("shading RMSE (pixels both cover)")
         left.set_title(f"{Path(study.scene).name}: {problem_label(rows[0])}", fontsize=9)
@@ -231,7 +231,10 @@ def orders_figure(study: Study) -> bytes:
     axes.set_xlabel("edge length in highlight widths, h·√f (finer →)")
     axes.set_ylabel("local order, Δ log RMSE / Δ log h")
     axes.grid(True, which="both", alpha=0.3)
-    axes.legend(fontsize=7)
+    if axes.get_legend_handles_labels()[0]:
+        axes.legend(fontsize=7)
+    else:
+        axes.set_title("one level only: no order to show", fontsize=9)
     figure.tight_layout()
     return _encode(figure)
 
@@ -323,8 +326,11 @@ def report_html(study: Study, plots: dict[str, Plot]) -> str:
         "<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
         f"<title>Work-precision study: {name}</title><style>{STYLE}</style></head><body>",
         f"<h1>Work-precision study: {name}</h1>",
-        f"<p>{html.escape(study.levels_note)}. {len(study.rows)} settings. Cost is the time to image: the whole "
-        "render (geometry, BVH, frame), the minimum over interleaved rounds in which every setting ran once.</p>",
+        f"<p>{html.escape(study.levels_note)}. {len(study.rows)} settings. Cost is the time to image (geometry, "
+        "BVH, frame and the rest of the render call), timed in interleaved rounds in which every setting ran once "
+        "in a shuffled order: the sum of each stage's minimum, the geometry and BVH stages pooled over every "
+        "setting that builds the same mesh (study.csv also has the plain minimum and the median of the whole "
+        "call).</p>",
         f"<p><b>Machine noise</b>: {noise}. Errors and triangle counts do not depend on the machine.</p>",
         f'<div class="advice">{advice_html}</div>',
         "<h2>Error against time to image</h2>", _figure(plots["plot"]),
