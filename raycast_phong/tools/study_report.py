@@ -178,7 +178,7 @@ def silhouette_figure(study: Study) -> bytes:
 
 def highlight_figure(study: Study) -> bytes:
     plt = _pyplot()
-    figure, axes = plt.subplots(figsize=(7.5, 4.6), dpi=100)
+    figure, axes = plt.subplots(figsize=(9.5, 4.6), dpi=100)
     base = _base(study.rows)
     shininess = list(dict.fromkeys(r.shininess for r in study.rows))
     for key, curve in curves([r for r in study.rows if _is_base(r, base)]).items():
@@ -194,7 +194,7 @@ def highlight_figure(study: Study) -> bytes:
     axes.set_ylabel("highlight loss (0 all delivered, 1 none)")
     axes.set_ylim(-0.02, 1.02)
     axes.grid(True, alpha=0.3)
-    axes.legend(fontsize=7)
+    axes.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
     axes.set_title(f"{Path(study.scene).name}: the specular peak, {base[0]} normals, {base[1]}, {base[2]} spp",
                    fontsize=9)
     figure.tight_layout()
@@ -209,7 +209,7 @@ def highlight_widths(row: StudyRow, scene_shininess: float) -> float:
 
 def orders_figure(study: Study) -> bytes:
     plt = _pyplot()
-    figure, axes = plt.subplots(figsize=(7.5, 4.6), dpi=100)
+    figure, axes = plt.subplots(figsize=(10, 4.8), dpi=100)
     first = study.rows[0]
     shininess = list(dict.fromkeys(r.shininess for r in study.rows))
     normals = list(dict.fromkeys(r.normals for r in study.rows))
@@ -232,7 +232,7 @@ def orders_figure(study: Study) -> bytes:
     axes.set_ylabel("local order, Δ log RMSE / Δ log h")
     axes.grid(True, which="both", alpha=0.3)
     if axes.get_legend_handles_labels()[0]:
-        axes.legend(fontsize=7)
+        axes.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
     else:
         axes.set_title("one level only: no order to show", fontsize=9)
     figure.tight_layout()
