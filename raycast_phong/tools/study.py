@@ -130,7 +130,8 @@ class Fit:
 
 @dataclass(frozen=True)
 class ErrorImage:
-    """One model's render, its reference and their per-pixel difference at the error-image level."""
+    """One model's render, its reference and their per-pixel difference at the error-image level, cropped to
+    the objects."""
     model: str
     level: int
     triangles: int
@@ -474,9 +475,20 @@ def error_images(sweep: _Sweep) -> list[ErrorImage]:
         diff = difference(image, reference).astype(np.float64)
         both = covered & reference_covered
         scale = float(diff[both].max()) if both.any() else float(diff.max())
-        out.append(ErrorImage(s.model, s.level, sweep.measured[s][3], np.asarray(image, np.float64),
-                              np.asarray(reference, np.float64), diff, scale))
+        crop = _crop(covered | reference_covered | (diff > 0))
+        out.append(ErrorImage(s.model, s.level, sweep.measured[s][3], np.asarray(image, np.float64)[crop],
+                              np.asarray(reference, np.float64)[crop], diff[crop], scale))
     return out
+
+
+def _crop(mask: np.ndarray, margin: int = 4) -> tuple[slice, slice]:
+    """The bounding box of `mask` widened by `margin` pixels (the whole image if the mask is empty), so the
+    error images show the objects, not the background around them."""
+    rows, columns = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if not rows.size:
+        return slice(None), slice(None)
+    return (slice(max(rows[0] - margin, 0), rows[-1] + margin + 1),
+            slice(max(columns[0] - margin, 0), columns[-1] + margin + 1))
 
 
 # ---------------------------------------------------------------- curves, fits, fronts

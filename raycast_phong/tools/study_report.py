@@ -244,7 +244,9 @@ def error_figure(study: Study) -> bytes:
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import ListedColormap, Normalize
     images = study.images or []
-    figure, grid = plt.subplots(max(len(images), 1), 3, figsize=(12, 3.2 * max(len(images), 1)), dpi=100,
+    aspect = images[0].image.shape[0] / images[0].image.shape[1] if images else 1.0
+    row_height = 3.8 * aspect + 0.7  # three panels of about 3.8 inches across, and a title
+    figure, grid = plt.subplots(max(len(images), 1), 3, figsize=(12, row_height * max(len(images), 1)), dpi=100,
                                 squeeze=False)
     cmap = ListedColormap(heat_map(np.linspace(0, 1, 256)[None, :], 1.0)[0])
     for picture, (render_axes, reference_axes, error_axes) in zip(images, grid):
