@@ -676,7 +676,8 @@ def study(
         path = scene or rp.default_scene_path()
         sweep.check_study_folder(out, path)
         result = sweep.run_study(path, overrides, options)
-        written = sweep.write_study(result, out)
+        from raycast_phong.tools.study_report import write_study
+        written = write_study(result, out)
     typer.echo(result.levels_note)
     for fit in result.fits:
         typer.echo(f"{fit.model:8} {fit.group}: order {fit.order:.2f} over the last levels, {fit.order_all:.2f} over "

@@ -22,8 +22,8 @@ from raycast_phong.tools.study import (
     run_study,
     scene_data,
     variant,
-    write_study,
 )
+from raycast_phong.tools.study_report import write_study
 
 REQUIRED = ["model", "specular", "precision", "samples", "level", "triangles", "seconds", "rmse", "max_error",
             "psnr", "silhouette_pixels", "highlight_loss"]

@@ -692,19 +692,3 @@ def check_study_folder(folder: Path, scene: str | Path) -> None:
     if folder.is_dir():
         for name in OUTPUTS.values():
             check_output_file(folder / name, inputs=(scene,))
-
-
-def write_study(study: Study, folder: Path) -> dict[str, Path]:
-    """DIR/study.csv, the plots, DIR/summary.md and DIR/report.html, in that order, each replaced atomically.
-    Raises WriteError when one cannot be written (those before it are written, it is unchanged)."""
-    from .study_report import report_html, write_plots
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as error:
-        raise ImageError(f"{folder}: cannot create the output folder ({error.strerror})") from None
-    written = {key: folder / name for key, name in OUTPUTS.items()}
-    write_csv(study, written["csv"])
-    plots = write_plots(study, {key: written[key] for key in ("plot", "silhouette", "highlight", "orders", "errors")})
-    write_text(written["summary"], summary_markdown(study, plots))
-    write_text(written["report"], report_html(study, plots))
-    return written

@@ -25,11 +25,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io.atomic import write_bytes
+from ..io.atomic import write_bytes, write_text
+from ..io.image_io import ImageError
 from ..pipeline.film import to_8bit
 from .difference import heat_map
 from .study import (
     FIT_WINDOW,
+    OUTPUTS,
     Study,
     StudyRow,
     advice,
@@ -43,6 +45,8 @@ from .study import (
     problems,
     rows_table,
     setting_label,
+    summary_markdown,
+    write_csv,
 )
 
 COLOURS = {"flat": "tab:blue", "gouraud": "tab:orange", "phong": "tab:green"}
@@ -349,3 +353,18 @@ def report_html(study: Study, plots: dict[str, Plot]) -> str:
         "<p>Times: minimum over the rounds; spread = (median − min) / min. The CSV (study.csv) has every column.</p>",
         _table(rows_table(study)), "</body></html>", ""]
     return "\n".join(parts)
+
+
+def write_study(study: Study, folder: Path) -> dict[str, Path]:
+    """DIR/study.csv, the plots, DIR/summary.md and DIR/report.html, in that order, each replaced atomically.
+    Raises WriteError when one cannot be written (those before it are written, it is unchanged)."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise ImageError(f"{folder}: cannot create the output folder ({error.strerror})") from None
+    written = {key: folder / name for key, name in OUTPUTS.items()}
+    write_csv(study, written["csv"])
+    plots = write_plots(study, {key: written[key] for key in ("plot", "silhouette", "highlight", "orders", "errors")})
+    write_text(written["summary"], summary_markdown(study, plots))
+    write_text(written["report"], report_html(study, plots))
+    return written
