@@ -661,8 +661,8 @@ def study(
         if item.strip() and item.strip() not in ("float32", "float64"):
             fail(f"--precision: {item.strip()!r} is not one of float32, float64")
     for item in (normals or "").split(","):
-        if item.strip() and item.strip() not in ("mean", "area", "angle", "exact"):
-            fail(f"--normals: {item.strip()!r} is not one of mean, area, angle, exact")
+        if item.strip() and item.strip() not in sweep.NORMALS:
+            fail(f"--normals: {item.strip()!r} is not one of {', '.join(sweep.NORMALS)}")
     options = sweep.StudyOptions(
         levels=None if levels.strip() == "auto" else _numbers(levels, int, "--levels"),
         models=choices(models, ShadingModel, "--models"), budget=budget, error_level=error_level,

@@ -24,6 +24,7 @@ import os
 import statistics
 import tempfile
 import time
+import typing
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
@@ -35,6 +36,7 @@ from ..io.image_io import ImageError, check_output_file
 from ..pipeline.geometry import build_geometry
 from ..pipeline.render import render
 from ..pipeline.scene import (
+    Object,
     Scene,
     SceneError,
     ShadingModel,
@@ -51,6 +53,8 @@ FIT_WINDOW = 3           # the fitted order is the slope over a curve's last thr
 FIRST_AUTO_LEVEL = 1     # level 0 (an icosahedron, 20 triangles) is far from the asymptotic regime
 AUTO_TRIANGLES = 2_000_000  # chosen levels stop before the scene would pass this many triangles
 SUPERSAMPLING = 4        # the silhouette reference: samples per pixel side, at least 2× the largest swept
+# The vertex normals the study can set on every built-in object: the scene format's, but a file's own.
+NORMALS = tuple(n for n in typing.get_args(Object.model_fields["normals"].annotation) if n != "file")
 
 
 @dataclass(frozen=True)
