@@ -132,8 +132,8 @@ def front_figure(study: Study) -> bytes:
     for rows, (left, right) in zip(groups, grid):
         _front_axes(left, rows, "seconds_total", study.target, True)
         _front_axes(right, rows, "seconds", study.target, False)
-        left.set_xlabel("time to image, ms (geometry + BVH + frame: stage minima, monotone in the level)")
-        right.set_xlabel("frame time, ms (rays + shading; min over the rounds)")
+        left.set_xlabel("time to image, ms (stage minima, monotone fit)")
+        right.set_xlabel("frame time, ms (rays + shading, min over the rounds)")
         left.set_ylabel("shading RMSE (pixels both cover)")
         left.set_title(f"{Path(study.scene).name}: {problem_label(rows[0])}", fontsize=9)
         left.legend(fontsize=7, loc="lower left")
