@@ -246,3 +246,13 @@ def test_small_study_writes_report_csv_plots_and_summary(tmp_path):
     assert float(row["highlight_loss"]) == errors.highlight_loss
     assert int(row["triangles"]) == again.triangles == 448  # uv sphere, segments [16, 8]
     assert 0 < float(row["seconds"]) <= float(row["seconds_total"]) <= float(row["seconds_total_median"])
+
+
+def test_a_cylinder_scene_can_be_studied(tmp_path):
+    """accuracy.refined gave a cylinder segments [8·2^L, 1], which the format refuses (3..4096): the study of
+    any scene with a cylinder stopped with a SceneError. Levels 0 and 1: 32 and 64 side sections."""
+    path = tmp_path / "cylinder.toml"
+    path.write_text(SPHERE.format(size=16, shape="cylinder", normals="exact").replace(
+        'normals = "exact"', 'normals = "exact"\nrotate = [30, 20, 0]'))
+    study = run_study(path, options=StudyOptions(levels=(0, 1), models=(rp.ShadingModel.PHONG,), repeats=1))
+    assert sorted(r.triangles for r in study.rows) == [32, 64]
