@@ -250,7 +250,7 @@ def test_small_study_writes_report_csv_plots_and_summary(tmp_path):
 
 def test_a_cylinder_scene_can_be_studied(tmp_path):
     """accuracy.refined gave a cylinder segments [8·2^L, 1], which the format refuses (3..4096): the study of
-    any scene with a cylinder stopped with a SceneError. Levels 0 and 1: 32 and 64 side sections."""
+    any scene with a cylinder stopped with a SceneError. Levels 0 and 1: 8 and 16 sections, 32 and 64 triangles."""
     path = tmp_path / "cylinder.toml"
     path.write_text(SPHERE.format(size=16, shape="cylinder", normals="exact").replace(
         'normals = "exact"', 'normals = "exact"\nrotate = [30, 20, 0]'))
