@@ -685,18 +685,25 @@ def _numbers(text: str | None, kind: type, option: str) -> tuple | None:
 @app.command(epilog="""
 **Examples**
 
-  raycast-phong study scenes/default.toml --out study/          # 3 models × levels 0-3, 3 repeats
+  raycast-phong study scenes/default.toml --out study/          # levels chosen until the orders settle
 
-  raycast-phong study --levels 0,1,2,3,4 --precision float32,float64 --out study/
+  raycast-phong study --levels 0,1,2,3,4 --precision float32,float64 --samples 1,2 --out study/
+
+  raycast-phong study --normals mean,exact --budget 300 --out study/   # the icosphere's seams, measured
 
   raycast-phong study scenes/specular.toml --shininess 10,100,1000 --models gouraud,phong --out stiff/
 """)
 def study(
     scene: SceneArgument = None,
-    out: Annotated[Path, typer.Option("--out", help="Folder for study.csv, error_vs_time.png, summary.md.")
-                   ] = Path("study"),
+    out: Annotated[Path, typer.Option("--out", help="Folder for report.html, study.csv, the PNG plots and "
+                   "summary.md.")] = Path("study"),
     levels: Annotated[str, typer.Option(help="Tessellation levels (docs/accuracy.md: icosphere subdivisions, "
-                      "segments 8·2^L, meshes Loop-subdivided L times).")] = "0,1,2,3",
+                      "segments 8·2^L, meshes Loop-subdivided L times), or auto: from level 1 up until every "
+                      "fitted order settles or --budget is spent.")] = "auto",
+    budget: Annotated[float, typer.Option(min=1.0, max=86400.0, help="Seconds the study may spend choosing "
+                      "levels (--levels auto).")] = 120.0,
+    normals: Annotated[str | None, typer.Option(help="Vertex normals of every built-in object, e.g. mean,exact "
+                       "(default: the scene's).")] = None,
     models: Annotated[str, typer.Option(help="Shading models.")] = "flat,gouraud,phong",
     specular: Annotated[str | None, typer.Option(help="Specular models, e.g. phong,blinn (default: the "
                         "scene's).")] = None,
@@ -704,17 +711,20 @@ def study(
     samples: Annotated[str | None, typer.Option(help="Samples per pixel side, e.g. 1,2 (default: the "
                        "scene's).")] = None,
     shininess: Annotated[str | None, typer.Option(help="Set every material's f, e.g. 10,100,1000.")] = None,
-    repeats: Annotated[int, typer.Option(min=1, max=50, help="Renders per combination; the median time counts.")] = 3,
+    repeats: Annotated[int, typer.Option(min=1, max=50, help="Timing rounds, every setting once per round; the "
+                       "fastest counts, the spread is reported.")] = 5,
     fine: Annotated[int | None, typer.Option(min=1, max=6, help="Measure against a self-convergence "
                     "reference N levels finer (needed for mesh files).")] = None,
-    target: Annotated[float, typer.Option(help="The RMSE the advice in summary.md aims for.")] = 0.005,
+    target: Annotated[float, typer.Option(help="The RMSE the advice aims for.")] = 0.005,
+    error_level: Annotated[int | None, typer.Option(min=0, max=9, help="The level of the error images "
+                           "(default: the middle level).")] = None,
     width: Annotated[int | None, typer.Option(help="render.width in pixels, 1..16384.")] = None,
     height: Annotated[int | None, typer.Option(help="render.height in pixels, 1..16384.")] = None,
     set_: SetOption = [],
     max_memory: MaxMemoryOption = None,
 ) -> None:
-    """Work-precision study: render every combination, time it, measure it against the reference;
-    write the CSV, the error-against-time plot and a summary with the fitted convergence orders."""
+    """Work-precision study: measure every setting against the reference, time them all in interleaved rounds;
+    write report.html (fronts, fitted orders, error images, advice, the machine's noise), study.csv and the plots."""
     from raycast_phong.tools import study as sweep
 
     def choices(text: str | None, enum, option: str) -> tuple | None:
@@ -730,8 +740,13 @@ def study(
     for item in (precision or "").split(","):
         if item.strip() and item.strip() not in ("float32", "float64"):
             fail(f"--precision: {item.strip()!r} is not one of float32, float64")
+    for item in (normals or "").split(","):
+        if item.strip() and item.strip() not in sweep.NORMALS:
+            fail(f"--normals: {item.strip()!r} is not one of {', '.join(sweep.NORMALS)}")
     options = sweep.StudyOptions(
-        levels=_numbers(levels, int, "--levels"), models=choices(models, ShadingModel, "--models"),
+        levels=None if levels.strip() == "auto" else _numbers(levels, int, "--levels"),
+        models=choices(models, ShadingModel, "--models"), budget=budget, error_level=error_level,
+        normals=tuple(n.strip() for n in normals.split(",") if n.strip()) if normals else None,
         speculars=choices(specular, SpecularModel, "--specular"),
         precisions=tuple(p.strip() for p in precision.split(",") if p.strip()) if precision else None,
         samples=_numbers(samples, int, "--samples"), shininess=_numbers(shininess, float, "--shininess"),
@@ -741,14 +756,15 @@ def study(
         path = scene or rp.default_scene_path()
         sweep.check_study_folder(out, path)
         result = sweep.run_study(path, overrides, options)
-        written = sweep.write_study(result, out)
+        from raycast_phong.tools.study_report import write_study
+        written = write_study(result, out)
+    typer.echo(result.levels_note)
     for fit in result.fits:
-        typer.echo(f"{fit.model:8} {fit.group}: order {fit.order:.2f} (theory {fit.theory:g})")
+        typer.echo(f"{fit.model:8} {fit.group}: order {fit.order:.2f} over the last levels, {fit.order_all:.2f} over "
+                   f"all (theory {fit.theory:g}){'' if fit.settled else '; not settled'}")
     typer.echo(sweep.advice(result))
-    typer.echo(f"{written['csv']}: {len(result.rows)} renders; {written['summary']}"
-               + (f"; {written['plot']}" if written["plot"] else ""))
-    if written["plot"] is None:
-        typer.secho(f"note: no plot: {sweep.PLOT_HINT}", err=True, fg=typer.colors.YELLOW)
+    typer.echo(f"machine: {result.noise.sentence()}")
+    typer.echo(f"{written['report']}: {len(result.rows)} settings; {written['csv']}, plots and summary.md beside it")
 
 
 @app.command("compare", epilog="""

@@ -202,14 +202,18 @@ def test_reference_command_and_the_mesh_error(tmp_path):
                                                       'form; use --fine N')
 
 
-def test_study_command_writes_its_three_files(tmp_path):
+def test_study_command_writes_its_report_and_files(tmp_path):
     from typer.testing import CliRunner
 
     from raycast_phong.commands import app
     result = CliRunner().invoke(app, ["study", "--width", "24", "--height", "12", "--levels", "0,1",
-                                      "--repeats", "1", "--out", str(tmp_path / "s")])
+                                      "--repeats", "1", "--normals", "mean,exact", "--out", str(tmp_path / "s")])
     assert result.exit_code == 0, result.output
-    assert {p.name for p in (tmp_path / "s").iterdir()} == {"study.csv", "error_vs_time.png", "summary.md"}
-    assert "order" in result.output and "To reach RMSE" in result.output
+    assert {p.name for p in (tmp_path / "s").iterdir()} == {
+        "study.csv", "error_vs_time.png", "silhouette.png", "highlight.png", "orders.png", "error_images.png",
+        "summary.md", "report.html"}
+    assert "order" in result.output and "RMSE 0.005" in result.output and "machine:" in result.output
+    bad = CliRunner().invoke(app, ["study", "--normals", "file", "--out", str(tmp_path / "u")])
+    assert bad.exit_code == 2 and "--normals: 'file' is not one of mean, area, angle, exact" in bad.output
     bad = CliRunner().invoke(app, ["study", "--models", "flat,smooth", "--out", str(tmp_path / "t")])
     assert bad.exit_code == 2 and "--models: 'smooth' is not one of flat, gouraud, phong" in bad.output

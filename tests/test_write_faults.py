@@ -128,7 +128,6 @@ def test_reference_under_a_file_size_limit(scene, tmp_path):
 # 200 bytes stops the CSV, 2000 the plot.
 @pytest.mark.parametrize(("limit", "stopped"), [(200, "study.csv"), (2000, "error_vs_time.png")])
 def test_study_under_a_file_size_limit(scene, tmp_path, limit, stopped):
-    pytest.importorskip("matplotlib")
     out = tmp_path / "study"
     args = ("study", scene, "--levels", "0", "--models", "flat", "--repeats", "1", "--width", "16",
             "--height", "16", "--out", out)

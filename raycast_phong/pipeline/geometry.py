@@ -42,7 +42,6 @@ class ObjectMesh(NamedTuple):
     file: MeshFile | None = None  # a mesh file's materials and colours, aligned with `faces`
 
 
-
 def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool = True,
                    normal_dtype: type = np.float64) -> Geometry:
     """Concatenate the scene's objects in world space.
@@ -60,6 +59,7 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
             file_notes += read.notes
             if obj.material == "default":  # the file's own materials; any other name paints the whole mesh
                 face_material = file_rows.faces(read)
+        exact = exact_corner_normals(obj, vertices, faces) if vertex_normals and obj.normals == "exact" else None
         if obj.shape == "mesh":
             faces, flipped, outward = repair_winding(vertices, faces)
             if flipped:
@@ -80,7 +80,9 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
         model = MODEL_CODE[scene.shading_of(obj)]
         corners = None
         if vertex_normals:
-            if file_normals is not None:
+            if exact is not None:
+                corners = exact.astype(normal_dtype, copy=False)
+            elif file_normals is not None:
                 corners = file_corner_normals(file_normals, faces, unit, normal_dtype)
             else:
                 corners = compute_corner_normals(vertices, faces, obj.normals or "mean", obj.crease_angle,
@@ -451,13 +453,52 @@ def place(obj: Object, vertices, faces, file_normals):
     else:
         placed = (vertices * scale) @ rotation.T + np.asarray(obj.translate)
     if file_normals is not None:
-        # Normals transform with the inverse transpose: (R S)^-T = R S^-1, which stretches by at most 1/min|s|.
-        reach = np.linalg.norm(file_normals, axis=-1, keepdims=True) / np.abs(scale).min()
-        file_normals = (file_normals / scale) @ rotation.T
-        file_normals = _normalise_or(file_normals, np.zeros_like(file_normals), reach)  # none: the face normal later
+        file_normals = place_normals(obj, file_normals)
     if np.prod(scale) < 0:
         faces = faces[:, ::-1]
     return placed, faces, file_normals
+
+
+def place_normals(obj: Object, normals: np.ndarray) -> np.ndarray:
+    """Object-frame normals (..., 3) → unit world normals; zero where one has no direction (the caller's
+    fallback then applies). Normals transform with the inverse transpose: (R S)^-T = R S^-1, which stretches
+    by at most 1/min|s|."""
+    rotation, scale = rotation_of(obj), np.asarray(obj.scale)
+    reach = np.linalg.norm(normals, axis=-1, keepdims=True) / np.abs(scale).min()
+    # (n / s) @ R^T as three scaled columns of R: numpy's matmul with a 3-wide inner dimension took 95 ms for
+    # 245,760 corners on a busy 2-core machine, this 4 ms.
+    placed = sum(normals[..., k:k + 1] * (rotation[:, k] / scale[k]) for k in range(3))
+    return _normalise_or(placed, np.zeros_like(normals), reach)
+
+
+def exact_corner_normals(obj: Object, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """`normals = "exact"`: the true surface normal of the built-in shape at every face corner (F, 3, 3),
+    placed in the world and in the corner order of place()'s faces.
+
+    From the shape's parameters in its own frame (vertices, faces as object_mesh gives them): sphere p/|p|;
+    torus p minus the nearest point of the tube's centre circle (radius major_radius in the x–y plane);
+    cylinder radial (x, y, 0) on the side faces and ±z on the caps, decided per face by its face normal (the
+    rim vertices are shared by both); box and plane the face normal, which is exact. The error of a vertex
+    normal then comes from the interpolation alone, so the shading orders are the textbook's.
+    """
+    corners = vertices[faces]  # (F, 3, 3)
+    unit, _ = face_normals(vertices, faces)
+    flat = np.repeat(unit[:, None, :], 3, axis=1)
+    if obj.shape in ("icosphere", "uv_sphere"):
+        local = corners
+    elif obj.shape == "torus":
+        ring = np.hypot(corners[..., 0], corners[..., 1])
+        centre = obj.major_radius * corners[..., :2] / np.where(ring > 0, ring, 1.0)[..., None]
+        local = np.concatenate([corners[..., :2] - centre, corners[..., 2:]], axis=-1)
+    elif obj.shape == "cylinder":
+        radial = np.concatenate([corners[..., :2], np.zeros_like(corners[..., 2:])], axis=-1)
+        cap = np.abs(unit[:, 2]) > 0.5  # a cap face's normal is ±z, a side face's lies in the x–y plane
+        local = np.where(cap[:, None, None], np.sign(unit[:, None, 2:3]) * np.array([0.0, 0.0, 1.0]), radial)
+    else:  # box, plane: flat faces
+        local = flat
+    local = _normalise_or(local, flat, np.linalg.norm(local, axis=-1, keepdims=True).max())
+    placed = place_normals(obj, local.reshape(-1, 3)).reshape(-1, 3, 3)
+    return placed[:, ::-1] if np.prod(obj.scale) < 0 else placed  # place() reversed the mirrored winding
 
 
 def face_normals(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

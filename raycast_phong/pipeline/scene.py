@@ -304,6 +304,9 @@ def _pair(value: Any) -> Any:
     return sequence
 
 
+NormalsRule = Literal["mean", "area", "angle", "file", "exact"]  # how an object's vertex normals are made
+
+
 class Object(_Strict):
     name: str | None = None
     shape: Literal["icosphere", "uv_sphere", "box", "plane", "cylinder", "torus", "mesh"]
@@ -317,8 +320,7 @@ class Object(_Strict):
     path: str | None = None
     material: str = "default"
     shading: ShadingModel | None = None
-    normals: Literal["mean", "area", "angle", "file"] | None = None  # None: "file" if the mesh file stores
-                                                                     # vertex normals, else "mean"
+    normals: NormalsRule | None = None  # None: "file" if the mesh file stores vertex normals, else "mean"
     crease_angle: Number = Field(180.0, ge=0.0, le=180.0)
     translate: Vec3 = (0.0, 0.0, 0.0)
     rotate: Vec3 = (0.0, 0.0, 0.0)
@@ -362,6 +364,9 @@ class Object(_Strict):
             raise ValueError('shape = "mesh" needs path = "file.obj" (any format trimesh reads)')
         if self.shape != "mesh" and self.normals == "file":
             raise ValueError(f'normals = "file" needs a mesh file; shape = "{self.shape}" has no stored normals')
+        if self.shape == "mesh" and self.normals == "exact":
+            raise ValueError('normals = "exact" needs a built-in shape; a mesh file has no closed form (use "file", '
+                             '"mean", "area" or "angle")')
         if self.size is not None and self.shape == "box" and len(self.size) != 3:
             raise ValueError("a box's size is [x, y, z]")
         if self.size is not None and self.shape == "plane" and len(self.size) != 2:

@@ -31,15 +31,15 @@ def refined(obj: Object, level: int) -> dict:
     """The keys that give an analytic object tessellation `level` (docs/accuracy.md, "Levels").
 
     icosphere: subdivisions = L (20·4^L triangles); uv_sphere, torus: segments = [8·2^L, 4·2^L];
-    cylinder: segments = [8·2^L, 1]; plane: segments = [2^L, 2^L]; box: unchanged (12 flat faces are
+    cylinder: segments = [8·2^L, its own second value]; plane: segments = [2^L, 2^L]; box: unchanged (12 flat faces are
     exact). L = 2 is the format's default for every shape.
     """
     if obj.shape == "icosphere":
         return {"subdivisions": level}
     if obj.shape in ("uv_sphere", "torus"):
         return {"segments": [8 * 2 ** level, 4 * 2 ** level]}
-    if obj.shape == "cylinder":
-        return {"segments": [8 * 2 ** level, 1]}
+    if obj.shape == "cylinder":  # the second value is unused, but the format asks for 3..4096
+        return {"segments": [8 * 2 ** level, (obj.segments or (32, 3))[1]]}
     if obj.shape == "plane":
         return {"segments": [2 ** level, 2 ** level]}
     return {}

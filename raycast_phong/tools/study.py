@@ -1,9 +1,16 @@
-"""Error against run time for the shading models: a sweep of renders measured against a reference.
+"""Error against the cost a user pays, for every setting that trades one for the other: a work-precision study.
 
-For every combination of shading model × specular model × precision × samples × shininess ×
-tessellation level: render (median time of `repeats`, the per-stage split kept), measure against the
-reference (metrics.measure), and write DIR/study.csv, DIR/error_vs_time.png (matplotlib, optional) and
-DIR/summary.md with the fitted convergence orders: the slope of log RMSE against log mean edge length.
+The axes: tessellation level, shading model, vertex normals ("mean", "exact", …), precision, samples per
+pixel, and (as different problems) the specular model and the shininess. Each setting is rendered once
+for its errors against the reference (metrics.measure: the shading error over the pixels both cover, the
+highlight loss; and against a supersampled reference, the silhouette and whole-image error), then timed:
+every setting once per round in a shuffled order, `repeats` rounds, so a slow spell of the machine hits
+different settings each round; a point's time to image is the sum of its stages' minima (the geometry and
+BVH stages pooled over every setting that repeats the same work), the spread of the rounds is recorded.
+
+The levels are either given or chosen (`levels=None`): one more level at a time until every curve's
+fitted order (the slope of log RMSE against log edge length over its last three levels) has settled,
+or the time budget is spent. study_report.py draws the fronts and writes report.html.
 """
 
 from __future__ import annotations
@@ -11,54 +18,69 @@ from __future__ import annotations
 import copy
 import csv
 import io
+import itertools
 import math
+import os
 import statistics
 import tempfile
+import time
+import typing
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
 
-from ..io.atomic import write_bytes, write_text
+from ..io.atomic import write_text
 from ..io.image_io import ImageError, check_output_file
 from ..pipeline.geometry import build_geometry
 from ..pipeline.mesh_scene import read_scene_dict
 from ..pipeline.render import render
 from ..pipeline.scene import (
+    NormalsRule,
     Scene,
     SceneError,
     ShadingModel,
     SpecularModel,
     validate_scene,
 )
-from .accuracy import mesh_coverage, reference_image, refine_entry
-from .metrics import measure
+from .accuracy import max_level, mesh_coverage, reference_image, refine_entry
+from .metrics import measure, rmse
 
 THEORY = {"flat": 1.0, "gouraud": 2.0, "phong": 2.0}  # orders in the edge length h, smooth regions
-PLOT_HINT = "pip install 'raycast-phong[plot]' (matplotlib) for error_vs_time.png"
+FIT_WINDOW = 3           # the fitted order is the slope over a curve's last three levels
+FIRST_AUTO_LEVEL = 1     # level 0 (an icosahedron, 20 triangles) is far from the asymptotic regime
+AUTO_TRIANGLES = 2_000_000  # chosen levels stop before the scene would pass this many triangles
+SUPERSAMPLING = 4        # the silhouette reference: samples per pixel side, at least 2× the largest swept
+# The vertex normals the study can set on every built-in object: the scene format's, but a file's own.
+NORMALS = tuple(n for n in typing.get_args(NormalsRule) if n != "file")
 
 
 @dataclass(frozen=True)
 class StudyOptions:
-    """What to sweep; None keeps the scene's own value."""
-    levels: tuple[int, ...] = (0, 1, 2, 3)
+    """What to sweep; None keeps the scene's own value (levels None: choose them, see the module docstring)."""
+    levels: tuple[int, ...] | None = (0, 1, 2, 3)
     models: tuple[ShadingModel, ...] = (ShadingModel.FLAT, ShadingModel.GOURAUD, ShadingModel.PHONG)
     speculars: tuple[SpecularModel, ...] | None = None
     precisions: tuple[str, ...] | None = None
     samples: tuple[int, ...] | None = None
     shininess: tuple[float, ...] | None = None  # every material's f (and the default material's)
+    normals: tuple[str, ...] | None = None      # every built-in object's `normals` (a mesh keeps its own)
     repeats: int = 3
+    budget: float = 120.0                       # seconds for choosing levels (levels None)
+    settle: float = 0.1                         # an order has settled when its last two windows differ less
     fine: int | None = None                     # self-convergence reference this many levels finer
-    target: float = 0.005                       # the RMSE the advice in summary.md asks for
+    target: float = 0.005                       # the RMSE the advice asks for
+    error_level: int | None = None              # the level of the error images (default: the middle one)
     threads: int | None = None
     max_memory: int | None = None               # render()'s memory budget, bytes (default: its own)
 
 
 @dataclass(frozen=True)
 class StudyRow:
-    """One render of the sweep: its settings, mesh, median timings (seconds) and errors."""
+    """One setting of the sweep: its keys, mesh, timings (seconds; min over the rounds) and errors."""
     model: str
+    normals: str
     specular: str
     precision: str
     samples: int
@@ -66,33 +88,78 @@ class StudyRow:
     level: int
     triangles: int
     edge_length: float      # mean length of the scene mesh's edges, world units
-    seconds: float          # median frame time: rays + shading (the cost of one more frame)
-    seconds_total: float    # median of geometry + BVH build + frame
-    geometry_seconds: float
+    seconds_total: float    # time to image along its curve, made non-decreasing in the level (monotone_times)
+    seconds_total_measured: float  # geometry + BVH + frame + the rest of render(), each stage's minimum
+                            # (geometry and BVH pooled over the settings that repeat them: study_row)
+    seconds_total_wall: float    # the plain minimum of the whole render() call over the rounds
+    seconds_total_median: float  # the median of the whole call
+    seconds_total_spread: float  # (median − min) / min of the whole call: how disturbed this point's runs were
+    cpu_seconds: float      # CPU time of the render() call over all its threads, min over the rounds
+    seconds: float          # frame time (rays + shading), min over the rounds: the cost of one more frame
+    seconds_spread: float
+    geometry_seconds: float  # pooled minimum (see seconds_total); the stages below: min over the rounds
     build_seconds: float
     rays_seconds: float     # summed over worker threads, like RenderResult.timings
     shade_seconds: float
-    rmse: float
+    repeats: int
+    rmse: float             # shading error: against the reference at the same samples, pixels both cover fully
     max_error: float
     psnr: float
     mae: float
     silhouette_pixels: int
     highlight_loss: float
     compared_pixels: int
+    image_rmse: float       # every pixel, against the supersampled reference: what a viewer sees
+    silhouette_rmse: float  # the pixels either image covers only partly (or one covers and the other not)
     reference: str
 
 
 @dataclass(frozen=True)
 class Fit:
-    """Slope of log RMSE against log edge length over one curve's levels."""
+    """Slope of log RMSE against log edge length for one curve: over its last FIT_WINDOW levels (`order`,
+    the asymptotic one) and over all (`order_all`); `settled` when three successive windows agree (fit_orders)."""
     model: str
-    group: str              # the other settings of the curve, e.g. "phong specular, float32, 1 spp, f=100"
+    group: str              # the curve's other settings, e.g. "exact normals, phong specular, float32, 1 spp, f=100"
     order: float
+    order_all: float
     levels: int
+    settled: bool
+    previous: float         # the order over the window one level before (nan with fewer than FIT_WINDOW + 1)
+    key: tuple = ()
 
     @property
     def theory(self) -> float:
         return THEORY[self.model]
+
+
+@dataclass(frozen=True)
+class ErrorImage:
+    """One model's render, its reference and their per-pixel difference at the error-image level, cropped to
+    the objects."""
+    model: str
+    level: int
+    triangles: int
+    image: np.ndarray
+    reference: np.ndarray
+    difference: np.ndarray  # (H, W) max over RGB of |render − reference|
+    scale: float            # the heat map's top: the largest difference over the pixels both cover fully
+
+
+@dataclass(frozen=True)
+class MachineNoise:
+    """How quiet the machine was while the study timed: the spread of the rounds and the load."""
+    cpus: int
+    load_before: tuple[float, float, float]
+    load_after: tuple[float, float, float]
+    median_spread: float    # median over the settings of (median − min) / min of the time to image
+    worst_spread: float
+    rounds: int
+    timing_seconds: float   # wall time of the timing rounds
+
+    def sentence(self) -> str:
+        return (f"{self.rounds} interleaved rounds on {self.cpus} CPUs; load average {self.load_before[0]:.2f} "
+                f"before and {self.load_after[0]:.2f} after; a point's median run was {100 * self.median_spread:.0f}"
+                f" % slower than its fastest (median over the points; worst {100 * self.worst_spread:.0f} %)")
 
 
 @dataclass
@@ -101,6 +168,10 @@ class Study:
     fits: list[Fit] = field(default_factory=list)
     scene: str = "<scene>"
     target: float = 0.005
+    noise: MachineNoise | None = None
+    images: list[ErrorImage] = field(default_factory=list)
+    levels_note: str = ""   # how the levels were chosen
+    shininess: float = math.nan  # the first object's f, when the sweep keeps the scene's own (orders plot)
 
 
 # ---------------------------------------------------------------- scenes of the sweep
@@ -111,16 +182,19 @@ def scene_data(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) ->
 
 
 def variant(base: Scene, data: dict, *, model: str, specular: str, precision: str, samples: int,
-            shininess: float | None, level: int, folder: str, source: str) -> Scene:
+            shininess: float | None, level: int, folder: str, source: str, normals: str | None = None) -> Scene:
     """The base scene with every object at `level` and shaded with `model`, and the render keys set.
 
-    Mesh files are Loop-subdivided `level` times into `folder` (level 0: the file as it is).
+    Mesh files are Loop-subdivided `level` times into `folder` (level 0: the file as it is); `normals`, when
+    given, is set on every built-in object.
     """
     data = copy.deepcopy(data)
     data.setdefault("render", {}).update(shading=model, specular=specular, precision=precision, samples=samples)
     data["objects"] = [dict(entry) for entry in data.get("objects", [])]
     for index, entry in enumerate(data["objects"]):
         entry["shading"] = model  # an object's own shading would otherwise keep it out of the sweep
+        if normals is not None and base.objects[index].shape != "mesh":
+            entry["normals"] = normals
         refine_entry(base, index, entry, level, level, Path(folder), source)
     if shininess is not None:
         materials = {name: dict(values) for name, values in data.get("materials", {}).items()}
@@ -142,108 +216,432 @@ def mean_edge_length(scene: Scene, source: str) -> float:
 
 # ---------------------------------------------------------------- the sweep
 
+@dataclass(frozen=True)
+class Setting:
+    """One point of the sweep: a problem (specular, f) and the user's choices for it."""
+    model: str
+    normals: str | None
+    specular: str
+    precision: str
+    samples: int
+    shininess: float | None
+    level: int
+
+    def keys(self) -> dict:
+        return asdict(self)
+
+
 def _check_options(base: Scene, options: StudyOptions, source: str) -> None:
     """A mesh needs a self-convergence reference (--fine); every axis needs a value."""
     if options.fine is None:
         for index, obj in enumerate(base.objects):
             if obj.shape == "mesh":
                 raise SceneError(f'{source}: objects.{index}.shape: "mesh" has no closed form; use --fine N')
-    if options.repeats < 1 or not options.levels or not options.models:
+    if options.repeats < 1 or (options.levels is not None and not options.levels) or not options.models:
         raise SceneError(f"{source}: the study needs at least one level, one model and one repeat")
+    if not options.budget > 0:
+        raise SceneError(f"{source}: --budget must be a positive number of seconds, got {options.budget:g}")
+
+
+class _Sweep:
+    """The state of one study: scenes, references and measured errors per setting."""
+
+    def __init__(self, path: str | Path, overrides, options: StudyOptions, folder: str):
+        self.source = str(path)
+        self.data = scene_data(path, overrides)
+        self.base = validate_scene(self.data, source=self.source, folder=Path(path).parent)
+        _check_options(self.base, options, self.source)
+        self.options, self.folder = options, folder
+        value = lambda v: v.value if hasattr(v, "value") else v
+        self.models = [value(m) for m in options.models]
+        self.problems = [(value(s), f) for f in (options.shininess or (None,))
+                         for s in (options.speculars or (self.base.render.specular,))]
+        self.choices = [(nrm, prec, n) for nrm in (options.normals or (None,))
+                        for prec in (options.precisions or (self.base.render.precision,))
+                        for n in (options.samples or (self.base.render.samples,))]
+        self.supersampling = max(SUPERSAMPLING, 2 * max(n for _, _, n in self.choices))
+        self.references: dict = {}
+        self.meshes: dict = {}
+        self.measured: dict[Setting, tuple] = {}   # setting -> (errors, image_rmse, silhouette_rmse, triangles)
+        self.images: dict[Setting, tuple] = {}     # setting -> (image, reference image, coverage)
+        self.render_seconds: dict[int, float] = {}  # level -> seconds its measuring renders took
+
+    def scene(self, s: Setting, samples: int | None = None) -> Scene:
+        return variant(self.base, self.data, model=s.model, specular=s.specular, precision=s.precision,
+                       samples=s.samples if samples is None else samples, shininess=s.shininess, level=s.level,
+                       folder=self.folder, source=self.source, normals=s.normals)
+
+    def settings(self, level: int) -> list[Setting]:
+        """Every setting at `level`; flat shading reads no vertex normals, so only with the first normals."""
+        first = self.choices[0][0]
+        return [Setting(m, nrm, spec, prec, n, f, level) for spec, f in self.problems
+                for nrm, prec, n in self.choices for m in self.models if m != "flat" or nrm == first]
+
+    def warm_up(self) -> None:
+        """Compile the shading kernels for every precision before any timed render."""
+        for _, prec, _ in self.choices:
+            warm = self.scene(Setting(self.models[0], self.choices[0][0], self.problems[0][0], prec, 1,
+                                      self.problems[0][1], 0))
+            data = warm.model_dump(exclude={"folder"})
+            data["render"].update(width=8, height=8)
+            render(validate_scene(data, source=self.source, folder=warm.folder))
+
+    def measure_level(self, level: int, keep_images: bool) -> None:
+        """Render every setting at `level` once and measure it (the references are computed once per problem)."""
+        for s in self.settings(level):
+            scene = self.scene(s)
+            if (s.specular, s.samples, s.shininess) not in self.references:
+                # The reference depends on neither the model, the normals, the precision nor the level.
+                self.references[s.specular, s.samples, s.shininess] = reference_image(scene, self.source,
+                                                                                      fine=self.options.fine)
+            if (s.specular, self.supersampling, s.shininess) not in self.references:
+                self.references[s.specular, self.supersampling, s.shininess] = reference_image(
+                    self.scene(s, samples=self.supersampling), self.source, fine=self.options.fine)
+            if (s.samples, level) not in self.meshes:
+                self.meshes[s.samples, level] = (mesh_coverage(scene, self.source),
+                                                 mean_edge_length(scene, self.source))
+            coverage, _ = self.meshes[s.samples, level]
+            began = time.perf_counter()
+            result = render(scene, threads=self.options.threads, source=self.source,
+                            max_memory=self.options.max_memory)
+            self.render_seconds[level] = self.render_seconds.get(level, 0.0) + time.perf_counter() - began
+            reference = self.references[s.specular, s.samples, s.shininess]
+            errors = measure(result.image, coverage, reference)
+            fine = self.references[s.specular, self.supersampling, s.shininess]
+            both_full = (coverage == 1) & (fine.coverage == 1)
+            both_empty = (coverage == 0) & (fine.coverage == 0)
+            everywhere = np.ones(coverage.shape, bool)
+            self.measured[s] = (errors, rmse(result.image, fine.image, everywhere),
+                                rmse(result.image, fine.image, ~both_full & ~both_empty), result.triangles)
+            first = self.settings(level)[0]
+            if keep_images and (s.normals, s.specular, s.precision, s.samples, s.shininess) == (
+                    first.normals, first.specular, first.precision, first.samples, first.shininess):
+                self.images[s] = (result.image, reference.image, coverage == 1, reference.coverage == 1)
+
+    def time_all(self, settings: list[Setting], repeats: int) -> tuple[dict, MachineNoise]:
+        """`repeats` rounds, every setting once per round, each round in its own shuffled order (seeded), so
+        a slow spell hits different neighbours every round and the minimum escapes it."""
+        scenes = {s: self.scene(s) for s in settings}
+        runs: dict[Setting, list[tuple[float, dict]]] = {s: [] for s in settings}
+        load_before, start = os.getloadavg(), time.perf_counter()
+        for round_ in range(repeats):
+            for index in np.random.default_rng(round_).permutation(len(settings)):
+                s = settings[index]
+                begin, cpu = time.perf_counter(), time.process_time()
+                result = render(scenes[s], threads=self.options.threads, source=self.source,
+                                max_memory=self.options.max_memory)
+                wall = time.perf_counter() - begin
+                runs[s].append((wall, {**result.timings, "cpu": time.process_time() - cpu}))
+        spreads = [spread([wall for wall, _ in r]) for r in runs.values()]
+        noise = MachineNoise(os.cpu_count() or 1, load_before, os.getloadavg(), statistics.median(spreads),
+                             max(spreads), repeats, time.perf_counter() - start)
+        return runs, noise
+
+
+def spread(times: list[float]) -> float:
+    """(median − min) / min: 0 for runs that all took the fastest run's time."""
+    fastest = min(times)
+    return (statistics.median(times) - fastest) / fastest if fastest > 0 else 0.0
 
 
 def run_study(path: str | Path, overrides: list[str] | tuple[str, ...] = (), options: StudyOptions = StudyOptions(),
               progress: Callable[[int, int, str], None] | None = None) -> Study:
-    """Render and measure every combination; the reference is computed once per (specular, samples, f)."""
-    source = str(path)
-    data = scene_data(path, overrides)
-    base = validate_scene(data, source=source, folder=Path(path).parent)
-    _check_options(base, options, source)
-    speculars = [s.value if hasattr(s, "value") else s for s in (options.speculars or (base.render.specular,))]
-    precisions = list(options.precisions or (base.render.precision,))
-    samples_list = list(options.samples or (base.render.samples,))
-    shininess_list = list(options.shininess or (None,))
-    models = [m.value if hasattr(m, "value") else m for m in options.models]
-    # Every model at one setting is timed round-robin, repeat by repeat, so a machine that slows down
-    # for a while slows all models alike instead of whichever happened to run then.
-    groups = [(f, spec, n, prec, level) for f in shininess_list for spec in speculars for n in samples_list
-              for prec in precisions for level in options.levels]
-    total_renders = len(groups) * len(models)
-    rows = []
+    """Measure every setting at the given (or chosen) levels, then time them all in interleaved rounds."""
     with tempfile.TemporaryDirectory(prefix="raycast-phong-study-") as folder:
-        def make(**keys) -> Scene:
-            return variant(base, data, folder=folder, source=source, **keys)
-
-        # Compile the shading kernels for every precision before any timed render.
-        for prec in precisions:
-            warm = make(model=models[0], specular=speculars[0], precision=prec, samples=1,
-                        shininess=shininess_list[0], level=min(options.levels))
-            render(validate_scene({**warm.model_dump(exclude={"folder"}), "render": {
-                **warm.render.model_dump(), "width": 8, "height": 8}}, source=source, folder=warm.folder))
-
-        references, meshes = {}, {}
-        for done, (f, spec, n, prec, level) in enumerate(groups):
-            if progress:
-                progress(done * len(models), total_renders, f"level {level}")
-            scenes = {model: make(model=model, specular=spec, precision=prec, samples=n, shininess=f, level=level)
-                      for model in models}
-            first = scenes[models[0]]
-            if (spec, n, f) not in references:
-                # The reference depends on neither the model, the precision nor the level.
-                references[spec, n, f] = reference_image(first, source, fine=options.fine)
-            if (n, level) not in meshes:
-                meshes[n, level] = (mesh_coverage(first, source), mean_edge_length(first, source))
-            coverage, edge = meshes[n, level]
-            runs = {model: [] for model in models}
-            for _ in range(options.repeats):
-                for model in models:
-                    runs[model].append(render(scenes[model], threads=options.threads, source=source,
-                                              max_memory=options.max_memory))
-            for model in models:
-                errors = measure(runs[model][-1].image, coverage, references[spec, n, f])
-                rows.append(study_row(runs[model], errors, model=model, specular=spec, precision=prec, samples=n,
-                                      shininess="scene" if f is None else f"{f:g}", level=level, edge_length=edge))
+        sweep = _Sweep(path, overrides, options, folder)
+        sweep.warm_up()
+        levels, note = choose_levels(sweep, progress)
+        settings = [s for level in levels for s in sweep.settings(level)]
         if progress:
-            progress(total_renders, total_renders, "done")
-    return Study(rows, fit_orders(rows), source, options.target)
+            progress(0, len(settings) * options.repeats, "timing")
+        runs, noise = sweep.time_all(settings, options.repeats)
+        pooled = pooled_minima(runs)
+        rows = monotone_times([study_row(s, runs[s], *sweep.measured[s], sweep.meshes[s.samples, s.level][1], pooled)
+                               for s in settings])
+        study = Study(rows, fit_orders(rows, options.settle), sweep.source, options.target, noise,
+                      levels_note=note, shininess=sweep.base.material_of(sweep.base.objects[0]).shininess
+                      if sweep.base.objects else math.nan)
+        study.images = error_images(sweep)
+        if progress:
+            progress(len(settings) * options.repeats, len(settings) * options.repeats, "done")
+    return study
 
 
-def study_row(results: list, errors, **setting) -> StudyRow:
-    """One row: a setting's repeated renders (medians of their stage times; time to image = geometry + BVH +
-    frame) and the last render's errors against the reference."""
-    timing = {stage: statistics.median(r.timings.get(stage, 0.0) for r in results)
-              for stage in ("geometry", "build", "rays", "shade", "frame")}
-    total = statistics.median(r.timings["geometry"] + r.timings["build"] + r.timings["frame"] for r in results)
-    return StudyRow(**setting, triangles=results[-1].triangles, seconds=timing["frame"], seconds_total=total,
-                    geometry_seconds=timing["geometry"], build_seconds=timing["build"],
-                    rays_seconds=timing["rays"], shade_seconds=timing["shade"], rmse=errors.rmse,
-                    max_error=errors.max_error, psnr=errors.psnr, mae=errors.mae,
+def choose_levels(sweep: _Sweep, progress) -> tuple[list[int], str]:
+    """The given levels, measured; or levels added one at a time from FIRST_AUTO_LEVEL until every curve's
+    order has settled, the budget would be spent (the next level's renders costing about 4× the last level's,
+    and the timing rounds `repeats` × all of them), the shape's finest level or AUTO_TRIANGLES is reached."""
+    options = sweep.options
+    middle = options.error_level
+    if options.levels is not None:
+        levels = sorted(set(options.levels))
+        keep = middle if middle in levels else levels[len(levels) // 2]
+        for level in levels:
+            if progress:
+                progress(levels.index(level), len(levels), f"level {level}")
+            sweep.measure_level(level, keep_images=level == keep)
+        return levels, f"levels {', '.join(map(str, levels))} as given"
+    finest = min((max_level(obj) for obj in sweep.base.objects), default=8)
+    levels: list[int] = []
+    start = time.perf_counter()
+    why = "the finest level the scene format allows was reached"
+    level = FIRST_AUTO_LEVEL
+    while level <= finest:
+        if levels:
+            triangles = max(m[3] for s, m in sweep.measured.items() if s.level == levels[-1])
+            if 4 * triangles > AUTO_TRIANGLES:
+                why = f"the next level would pass {AUTO_TRIANGLES:,} triangles"
+                break
+            # Spent so far, the next level's renders (about 4× the last level's) and every level's timing rounds.
+            renders = sum(sweep.render_seconds.values()) + 4 * sweep.render_seconds[levels[-1]]
+            if time.perf_counter() - start + 4 * sweep.render_seconds[levels[-1]] + options.repeats * renders \
+                    > options.budget:
+                why = f"the next level would pass the budget of {options.budget:g} s"
+                break
+        if progress:
+            progress(len(levels), len(levels) + 1, f"level {level}")
+        sweep.measure_level(level, keep_images=True)
+        levels.append(level)
+        level += 1
+        if len(levels) > FIT_WINDOW:
+            rows = [provisional_row(s, m, sweep.meshes[s.samples, s.level][1]) for s, m in sweep.measured.items()]
+            fits = fit_orders(rows, options.settle)
+            if fits and all(f.settled for f in fits):
+                why = f"every order settled (its last three windows within {options.settle:g} of each other)"
+                break
+    keep = middle if middle in levels else levels[len(levels) // 2]
+    for s in [s for s in sweep.images if s.level != keep]:
+        del sweep.images[s]
+    return levels, f"levels {levels[0]}–{levels[-1]} chosen: {why}"
+
+
+def provisional_row(s: Setting, measured: tuple, edge: float) -> StudyRow:
+    """A row without timings, for the order fits while levels are being chosen."""
+    return study_row(s, [(0.0, {})], *measured, edge)
+
+
+def pooled_minima(runs: dict[Setting, list[tuple[float, dict]]]) -> dict[tuple, float]:
+    """The fastest geometry and BVH stage over every setting that does the same work there: the geometry of
+    one level, normals and need of vertex normals (flat needs none), the BVH of one level's vertices.
+
+    A stage's minimum over 5 rounds can still sit inside a busy spell (a geometry stage measured 136, 336
+    and 393 ms at one level for three shininesses); pooled over the settings that repeat it, it has 10-30
+    runs to escape by. Model, precision, samples and shininess change neither stage.
+    """
+    pooled: dict[tuple, float] = {}
+    for s, timed in runs.items():
+        for key, stage in ((("geometry", s.level, s.normals, s.model == "flat"), "geometry"),
+                           (("build", s.level), "build")):
+            best = min(t.get(stage, math.inf) for _, t in timed)
+            pooled[key] = min(pooled.get(key, math.inf), best)
+    return pooled
+
+
+def monotone_times(rows: list[StudyRow]) -> list[StudyRow]:
+    """Each curve's time to image made non-decreasing in the level: the least-squares monotone fit of the
+    measured times (pool adjacent violators), in the curve's level order.
+
+    More triangles never take less work (the geometry and the BVH grow with them, the frame does not shrink),
+    but below ~15,000 triangles the levels differ by a few ms, less than a busy machine's noise in the frame
+    time, and the measured minima can come out in the wrong order. Pooling the violators averages them
+    instead of inventing a speed-up; seconds_total_measured keeps what was measured.
+    """
+    fitted: dict[int, float] = {}
+    for curve in curves(rows).values():
+        blocks: list[list] = []  # [mean, count] per pooled block
+        for row in curve:
+            blocks.append([row.seconds_total_measured, 1])
+            while len(blocks) > 1 and blocks[-2][0] > blocks[-1][0]:
+                mean, count = blocks.pop()
+                blocks[-1] = [(blocks[-1][0] * blocks[-1][1] + mean * count) / (blocks[-1][1] + count),
+                              blocks[-1][1] + count]
+        values = [mean for mean, count in blocks for _ in range(count)]
+        fitted.update({id(row): value for row, value in zip(curve, values)})
+    return [replace(row, seconds_total=fitted[id(row)]) for row in rows]
+
+
+def study_row(s: Setting, runs: list[tuple[float, dict]], errors, image_rmse: float, silhouette_rmse: float,
+              triangles: int, edge_length: float, pooled: dict[tuple, float] | None = None) -> StudyRow:
+    """One row: a setting's timed runs and its errors.
+
+    Time to image = the pooled minima of the geometry and BVH stages (pooled_minima) + this setting's own
+    minimum frame + its minimum of the rest of the call (plan, memory check, film); the plain minimum of
+    the whole call is kept as seconds_total_wall.
+    """
+    walls = [wall for wall, _ in runs]
+    frames = [t.get("frame", 0.0) for _, t in runs]
+    stage = {name: min(t.get(name, 0.0) for _, t in runs) for name in ("geometry", "build", "rays", "shade", "cpu")}
+    rest = min(wall - sum(t.get(name, 0.0) for name in ("geometry", "build", "frame")) for wall, t in runs)
+    pooled = pooled or {}
+    geometry = pooled.get(("geometry", s.level, s.normals, s.model == "flat"), stage["geometry"])
+    build = pooled.get(("build", s.level), stage["build"])
+    return StudyRow(model=s.model, normals=s.normals or "scene", specular=s.specular, precision=s.precision,
+                    samples=s.samples, shininess="scene" if s.shininess is None else f"{s.shininess:g}",
+                    level=s.level, triangles=triangles, edge_length=edge_length,
+                    seconds_total=geometry + build + min(frames) + max(rest, 0.0),
+                    seconds_total_measured=geometry + build + min(frames) + max(rest, 0.0),
+                    seconds_total_wall=min(walls),
+                    seconds_total_median=statistics.median(walls),
+                    seconds_total_spread=spread(walls) if min(walls) > 0 else 0.0, cpu_seconds=stage["cpu"],
+                    seconds=min(frames),
+                    seconds_spread=spread(frames) if min(frames) > 0 else 0.0,
+                    geometry_seconds=geometry, build_seconds=build,
+                    rays_seconds=stage["rays"], shade_seconds=stage["shade"], repeats=len(runs),
+                    rmse=errors.rmse, max_error=errors.max_error, psnr=errors.psnr, mae=errors.mae,
                     silhouette_pixels=errors.silhouette_pixels, highlight_loss=errors.highlight_loss,
-                    compared_pixels=errors.compared_pixels, reference=errors.reference)
+                    compared_pixels=errors.compared_pixels, image_rmse=image_rmse, silhouette_rmse=silhouette_rmse,
+                    reference=errors.reference)
 
+
+def error_images(sweep: _Sweep) -> list[ErrorImage]:
+    """Per model, at the kept level and the first value of every other axis: render, reference, difference."""
+    from .difference import difference
+    out = []
+    for s, (image, reference, covered, reference_covered) in sweep.images.items():
+        diff = difference(image, reference).astype(np.float64)
+        both = covered & reference_covered
+        scale = float(diff[both].max()) if both.any() else float(diff.max())
+        crop = _crop(covered | reference_covered | (diff > 0))
+        out.append(ErrorImage(s.model, s.level, sweep.measured[s][3], np.asarray(image, np.float64)[crop],
+                              np.asarray(reference, np.float64)[crop], diff[crop], scale))
+    return out
+
+
+def _crop(mask: np.ndarray, margin: int = 4) -> tuple[slice, slice]:
+    """The bounding box of `mask` widened by `margin` pixels (the whole image if the mask is empty), so the
+    error images show the objects, not the background around them."""
+    rows, columns = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if not rows.size:
+        return slice(None), slice(None)
+    return (slice(max(rows[0] - margin, 0), rows[-1] + margin + 1),
+            slice(max(columns[0] - margin, 0), columns[-1] + margin + 1))
+
+
+# ---------------------------------------------------------------- curves, fits, fronts
 
 def curve_key(row: StudyRow) -> tuple:
-    return (row.model, row.specular, row.precision, row.samples, row.shininess)
+    return (row.model, row.normals, row.specular, row.precision, row.samples, row.shininess)
+
+
+def problem_key(row: StudyRow) -> tuple:
+    """What the scene asks (the reference): the specular model and the shininess."""
+    return (row.specular, row.shininess)
 
 
 def group_label(row: StudyRow) -> str:
     f = "" if row.shininess == "scene" else f", f={row.shininess}"
-    return f"{row.specular} specular, {row.precision}, {row.samples} spp{f}"
+    normals = "" if row.normals == "scene" else f"{row.normals} normals, "
+    return f"{normals}{row.specular} specular, {row.precision}, {row.samples} spp{f}"
 
 
-def fit_orders(rows: list[StudyRow]) -> list[Fit]:
-    """Least-squares slope of log RMSE against log edge length, one per curve (≥ 2 distinct levels)."""
-    curves: dict[tuple, list[StudyRow]] = {}
+def problem_label(row: StudyRow) -> str:
+    return f"{row.specular} specular" + ("" if row.shininess == "scene" else f", f = {row.shininess}")
+
+
+def setting_label(row: StudyRow) -> str:
+    """A point's choices, short: 'phong L3 exact f32 1spp'."""
+    normals = "" if row.normals == "scene" else f" {row.normals}"
+    return f"{row.model} L{row.level}{normals} {row.precision.replace('float', 'f')} {row.samples}spp"
+
+
+def curves(rows: list[StudyRow]) -> dict[tuple, list[StudyRow]]:
+    """Rows by curve, each sorted by level."""
+    out: dict[tuple, list[StudyRow]] = {}
     for row in rows:
-        curves.setdefault(curve_key(row), []).append(row)
+        out.setdefault(curve_key(row), []).append(row)
+    return {key: sorted(curve, key=lambda r: r.level) for key, curve in out.items()}
+
+
+def slope(curve: list[StudyRow]) -> float:
+    usable = [r for r in curve if r.rmse > 0 and math.isfinite(r.rmse)]
+    if len({r.edge_length for r in usable}) < 2:
+        return math.nan
+    return float(np.polyfit(np.log([r.edge_length for r in usable]), np.log([r.rmse for r in usable]), 1)[0])
+
+
+def fit_orders(rows: list[StudyRow], settle: float = 0.1) -> list[Fit]:
+    """Per curve (≥ 2 levels): the order over its last FIT_WINDOW levels and over all. Settled when the last
+    three windows (each one level finer) give orders within `settle` of each other: two windows alone can
+    agree on a pre-asymptotic plateau (the exact sphere's Phong gives 1.76, 1.77, then 1.97, 2.02)."""
     fits = []
-    for key, curve in curves.items():
+    for key, curve in curves(rows).items():
         usable = [r for r in curve if r.rmse > 0 and math.isfinite(r.rmse)]
         if len({r.edge_length for r in usable}) < 2:
             continue
-        slope = np.polyfit(np.log([r.edge_length for r in usable]), np.log([r.rmse for r in usable]), 1)[0]
-        fits.append(Fit(key[0], group_label(curve[0]), float(slope), len(usable)))
+        windows = [slope(usable[len(usable) - FIT_WINDOW - back:len(usable) - back]) for back in range(3)
+                   if len(usable) - FIT_WINDOW - back >= 0]
+        settled = len(windows) == 3 and max(windows) - min(windows) <= settle
+        previous = windows[1] if len(windows) > 1 else math.nan
+        fits.append(Fit(key[0], group_label(curve[0]), slope(usable[-FIT_WINDOW:]), slope(usable), len(usable),
+                        bool(settled), previous, key))
     return fits
+
+
+def local_orders(curve: list[StudyRow]) -> list[tuple[StudyRow, float]]:
+    """The slope between each pair of successive levels, at the finer one."""
+    out = []
+    for coarse, fine in itertools.pairwise(curve):
+        if coarse.rmse > 0 and fine.rmse > 0 and fine.edge_length != coarse.edge_length:
+            out.append((fine, math.log(fine.rmse / coarse.rmse) / math.log(fine.edge_length / coarse.edge_length)))
+    return out
+
+
+def pareto_front(rows: list[StudyRow], error: str = "rmse", cost: str = "seconds_total") -> list[StudyRow]:
+    """The settings no other setting beats on both cost and error, fastest first."""
+    front: list[StudyRow] = []
+    for row in sorted((r for r in rows if math.isfinite(getattr(r, error))),
+                      key=lambda r: (getattr(r, cost), getattr(r, error))):
+        if not front or getattr(row, error) < getattr(front[-1], error):
+            front.append(row)
+    return front
+
+
+def problems(rows: list[StudyRow]) -> dict[tuple, list[StudyRow]]:
+    out: dict[tuple, list[StudyRow]] = {}
+    for row in rows:
+        out.setdefault(problem_key(row), []).append(row)
+    return out
+
+
+def fastest(rows: list[StudyRow], target: float) -> StudyRow | None:
+    """The setting with the shortest time to image whose shading RMSE is at most `target`."""
+    reaching = [r for r in rows if r.rmse <= target]
+    return min(reaching, key=lambda r: r.seconds_total) if reaching else None
+
+
+def monotone(curve: list[StudyRow], cost: str = "seconds_total") -> bool:
+    """Whether the curve's cost rises with its level."""
+    values = [getattr(r, cost) for r in curve]
+    return all(b > a for a, b in itertools.pairwise(values))
+
+
+def advice(study: Study, target: float | None = None) -> str:
+    """Per problem: the fastest setting to RMSE `target` (time to image), then each model's own fastest."""
+    target = study.target if target is None else target
+    groups = problems(study.rows)
+    sentences = []
+    for rows in groups.values():
+        where = f" ({problem_label(rows[0])})" if len(groups) > 1 else ""
+        best = fastest(rows, target)
+        if best is None:
+            top = min(rows, key=lambda r: r.rmse)
+            sentences.append(f"No setting reaches RMSE {target:g}{where}: the best is {setting_label(top)} with "
+                             f"{top.rmse:.4f} ({top.triangles:,} triangles, {top.seconds_total * 1e3:.1f} ms).")
+            continue
+        parts = []
+        for model in dict.fromkeys(r.model for r in rows):
+            mine = fastest([r for r in rows if r.model == model], target)
+            if mine is None:
+                top = min((r for r in rows if r.model == model), key=lambda r: r.rmse)
+                parts.append(f"{model} does not get there within the levels tried (best {top.rmse:.4f} at "
+                             f"{top.triangles:,} triangles)")
+            else:
+                parts.append(f"{model} {mine.seconds_total * 1e3:.1f} ms ({setting_label(mine)}, "
+                             f"{mine.triangles:,} triangles)")
+        sentences.append(f"Fastest to RMSE {target:g}{where}: {setting_label(best)}, {best.triangles:,} triangles, "
+                         f"{best.seconds_total * 1e3:.1f} ms to image (RMSE {best.rmse:.4f}). Per model: "
+                         + "; ".join(parts) + ".")
+    return "\n".join(sentences)
 
 
 # ---------------------------------------------------------------- output
@@ -252,7 +650,7 @@ CSV_COLUMNS = [f.name for f in fields(StudyRow)]
 
 
 def write_csv(study: Study, path: Path) -> None:
-    """One line per render; floats as repr, so they read back exactly. Raises WriteError."""
+    """One line per setting; floats as repr, so they read back exactly. Raises WriteError."""
     text = io.StringIO(newline="")
     writer = csv.DictWriter(text, CSV_COLUMNS)
     writer.writeheader()
@@ -266,109 +664,50 @@ def read_csv(path: Path) -> list[dict[str, str]]:
         return list(csv.DictReader(handle))
 
 
-def write_plot(study: Study, path: Path) -> bool:
-    """Log RMSE against log frame time, one curve per model (and setting), points labelled with triangles.
-
-    Returns False (and writes nothing) when matplotlib is not installed. Raises WriteError.
-    """
-    try:
-        import matplotlib
-        matplotlib.use("Agg")  # files only, never a window
-        import matplotlib.pyplot as plt
-    except ImportError:
-        return False
-    curves: dict[tuple, list[StudyRow]] = {}
-    for row in study.rows:
-        curves.setdefault(curve_key(row), []).append(row)
-    groups = sorted({group_label(c[0]) for c in curves.values()})
-    colours = {"flat": "tab:blue", "gouraud": "tab:orange", "phong": "tab:green"}
-    styles = ["-", "--", ":", "-."]
-    markers = ["o", "s", "^", "D", "v", "P"]
-    figure, axes = plt.subplots(figsize=(7.5, 5.5), dpi=110)
-    for key, curve in curves.items():
-        curve = sorted((r for r in curve if r.rmse > 0 and math.isfinite(r.rmse)), key=lambda r: r.level)
-        if not curve:
-            continue
-        g = groups.index(group_label(curve[0]))
-        label = key[0] + (f" ({group_label(curve[0])})" if len(groups) > 1 else "")
-        axes.plot([r.seconds * 1e3 for r in curve], [r.rmse for r in curve], styles[g % 4],
-                  marker=markers[g % 6], color=colours.get(key[0], "black"), label=label)
-        for r in curve:
-            axes.annotate(f"{r.triangles:,}", (r.seconds * 1e3, r.rmse), textcoords="offset points",
-                          xytext=(4, 4), fontsize=7, color=colours.get(key[0], "black"))
-    axes.set_xscale("log")
-    axes.set_yscale("log")
-    axes.set_xlabel("frame time, ms (median; rays + shading)")
-    axes.set_ylabel("RMSE against the reference (pixels both cover)")
-    axes.set_title(f"Work-precision: {Path(study.scene).name}; points labelled with triangle counts", fontsize=10)
-    axes.grid(True, which="both", alpha=0.3)
-    axes.legend(fontsize=8)
-    figure.tight_layout()
-    encoded = io.BytesIO()  # encode in memory: the file itself is written, checked and renamed by write_bytes
-    figure.savefig(encoded, format="png")
-    plt.close(figure)
-    write_bytes(path, encoded.getvalue())
-    return True
+def fits_table(study: Study) -> list[list[str]]:
+    """Header and rows of the fitted-order table (summary.md and report.html)."""
+    rows = [["model", "curve", f"order (last {FIT_WINDOW} levels)", "window before", "all levels", "theory",
+             "levels", "settled"]]
+    for f in study.fits:
+        rows.append([f.model, f.group, f"{f.order:.2f}", "–" if math.isnan(f.previous) else f"{f.previous:.2f}",
+                     f"{f.order_all:.2f}", f"{f.theory:g}", str(f.levels), "yes" if f.settled else "no"])
+    return rows
 
 
-def cheapest(rows: list[StudyRow], target: float) -> dict[str, StudyRow | None]:
-    """Per model, the render with the fewest triangles (then the shortest frame) with RMSE ≤ target.
-
-    Fewest triangles rather than fastest: at these image sizes frame times differ by less than their
-    run-to-run noise, while the triangle count is exact.
-    """
-    best: dict[str, StudyRow | None] = {}
-    for row in rows:
-        best.setdefault(row.model, None)
-        known = best[row.model]
-        if row.rmse <= target and (known is None or (row.triangles, row.seconds) < (known.triangles, known.seconds)):
-            best[row.model] = row
-    return best
-
-
-def advice(study: Study, target: float | None = None) -> str:
-    """'To reach RMSE 0.005 on this scene: flat needs N triangles and X ms, …', one sentence per setting."""
-    target = study.target if target is None else target
-    groups: dict[str, list[StudyRow]] = {}
-    for row in study.rows:
-        groups.setdefault(group_label(row), []).append(row)
-    sentences = []
-    for label, rows in groups.items():
-        parts = []
-        for model, row in cheapest(rows, target).items():
-            mine = [r for r in rows if r.model == model]
-            if row is None:
-                best = min(mine, key=lambda r: r.rmse)
-                parts.append(f"{model} does not get there within the levels tried (best RMSE {best.rmse:.4f} at "
-                             f"{best.triangles:,} triangles, {best.seconds * 1e3:.1f} ms)")
-            else:
-                parts.append(f"{model} needs {row.triangles:,} triangles and {row.seconds * 1e3:.1f} ms "
-                             f"(level {row.level}, RMSE {row.rmse:.4f})")
-        where = f" ({label})" if len(groups) > 1 else ""
-        sentences.append(f"To reach RMSE {target:g} on this scene{where}: " + "; ".join(parts) + ".")
-    return "\n".join(sentences)
-
-
-def summary_markdown(study: Study, plotted: bool) -> str:
-    lines = [f"# Error against run time: {study.scene}", ""]
-    lines += ["\n\n".join(advice(study).splitlines()), ""]
-    lines += ["## Fitted convergence orders", "",
-              "Slope of log RMSE against log mean edge length over the levels (least squares).", "",
-              "| model | curve | measured order | theory | levels |", "|---|---|---:|---:|---:|"]
-    lines += [f"| {f.model} | {f.group} | {f.order:.2f} | {f.theory:g} | {f.levels} |" for f in study.fits]
-    lines += ["", "## Renders", "",
-              "| model | specular | precision | spp | f | level | triangles | edge | ms | RMSE | max | PSNR dB "
-              "| silhouette px | highlight loss |",
-              "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+def rows_table(study: Study) -> list[list[str]]:
+    rows = [["model", "normals", "specular", "precision", "spp", "f", "level", "triangles", "edge",
+             "ms to image", "spread", "frame ms", "RMSE", "max", "PSNR dB", "silhouette RMSE", "image RMSE",
+             "highlight loss"]]
     for r in study.rows:
-        lines.append(f"| {r.model} | {r.specular} | {r.precision} | {r.samples} | {r.shininess} | {r.level} | "
-                     f"{r.triangles:,} | {r.edge_length:.4f} | {r.seconds * 1e3:.2f} | {r.rmse:.5f} | "
-                     f"{r.max_error:.4f} | {r.psnr:.1f} | {r.silhouette_pixels} | {r.highlight_loss:.3f} |")
-    lines += ["", "![error against time](error_vs_time.png)" if plotted else f"No plot: {PLOT_HINT}.", ""]
+        rows.append([r.model, r.normals, r.specular, r.precision, str(r.samples), r.shininess, str(r.level),
+                     f"{r.triangles:,}", f"{r.edge_length:.4f}", f"{r.seconds_total * 1e3:.2f}",
+                     f"{100 * r.seconds_total_spread:.0f} %", f"{r.seconds * 1e3:.2f}", f"{r.rmse:.2e}",
+                     f"{r.max_error:.3g}", f"{r.psnr:.1f}", f"{r.silhouette_rmse:.3g}", f"{r.image_rmse:.3g}",
+                     f"{r.highlight_loss:.3f}"])
+    return rows
+
+
+def markdown_table(rows: list[list[str]]) -> list[str]:
+    return ["| " + " | ".join(rows[0]) + " |", "|" + "---|" * len(rows[0])] + \
+        ["| " + " | ".join(row) + " |" for row in rows[1:]]
+
+
+def summary_markdown(study: Study, plots: dict) -> str:
+    lines = [f"# Error against run time: {study.scene}", "", study.levels_note + ".", ""]
+    if study.noise:
+        lines += [f"Machine: {study.noise.sentence()}.", ""]
+    lines += ["\n\n".join(advice(study).splitlines()), "", "## Fitted convergence orders", "",
+              "Slope of log RMSE against log mean edge length (least squares).", ""]
+    lines += markdown_table(fits_table(study))
+    lines += ["", "## Settings", "", "Times are the minimum over the rounds; spread = (median − min) / min.", ""]
+    lines += markdown_table(rows_table(study))
+    lines += [""] + [f"![{key}]({plot.path.name})" for key, plot in plots.items()] + [""]
     return "\n".join(lines)
 
 
-OUTPUTS = {"csv": "study.csv", "plot": "error_vs_time.png", "summary": "summary.md"}
+OUTPUTS = {"csv": "study.csv", "plot": "error_vs_time.png", "silhouette": "silhouette.png",
+           "highlight": "highlight.png", "orders": "orders.png", "errors": "error_images.png",
+           "summary": "summary.md", "report": "report.html"}
 
 
 def check_study_folder(folder: Path, scene: str | Path) -> None:
@@ -379,19 +718,3 @@ def check_study_folder(folder: Path, scene: str | Path) -> None:
     if folder.is_dir():
         for name in OUTPUTS.values():
             check_output_file(folder / name, inputs=(scene,))
-
-
-def write_study(study: Study, folder: Path) -> dict[str, Path | None]:
-    """DIR/study.csv, DIR/error_vs_time.png (None without matplotlib) and DIR/summary.md, each replaced
-    atomically. Raises WriteError when one cannot be written (those before it are written, it is unchanged)."""
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as error:
-        raise ImageError(f"{folder}: cannot create the output folder ({error.strerror})") from None
-    written: dict[str, Path | None] = {key: folder / name for key, name in OUTPUTS.items()}
-    write_csv(study, written["csv"])
-    plotted = write_plot(study, written["plot"])
-    if not plotted:
-        written["plot"] = None
-    write_text(written["summary"], summary_markdown(study, plotted))
-    return written

@@ -1,0 +1,376 @@
+"""The study's pictures and its one page: work-precision fronts, silhouettes, highlights, orders, error images.
+
+One figure per question (study.OUTPUTS names the files):
+- error_vs_time.png: shading RMSE against time to image (and, beside it, frame time), one curve per model
+  at the first value of the other axes, every other setting as a grey point, the Pareto front of all
+  settings drawn and labelled, the target and the fastest setting that reaches it marked;
+- silhouette.png: silhouette RMSE against samples per pixel (one curve per level), and the whole-image
+  error against time to image with its own front (samples trade cost for aliasing);
+- highlight.png: highlight loss against level, per model and shininess;
+- orders.png: the local order against the edge length in highlight widths (h √f), per model, normals and
+  shininess: Gouraud's crossover to 2 once the edges are well below the highlight's width;
+- error_images.png: per model, the render, the reference and the per-pixel error (difference.heat_map).
+report.html embeds them (base64 PNG) with the tables, the fitted orders, the advice and the machine's noise.
+matplotlib (Agg: files only, never a window) is imported here only, so only the study pays for it.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..io.atomic import write_bytes, write_text
+from ..io.image_io import ImageError
+from ..pipeline.film import to_8bit
+from .difference import heat_map
+from .study import (
+    FIT_WINDOW,
+    OUTPUTS,
+    Study,
+    StudyRow,
+    advice,
+    curves,
+    fastest,
+    fits_table,
+    local_orders,
+    monotone,
+    pareto_front,
+    problem_label,
+    problems,
+    rows_table,
+    setting_label,
+    summary_markdown,
+    write_csv,
+)
+
+COLOURS = {"flat": "tab:blue", "gouraud": "tab:orange", "phong": "tab:green"}
+STYLES = ["-", "--", ":", "-."]
+CAPTIONS = {
+    "plot": "Shading RMSE against time to image (left) and frame time (right). Coloured: one curve per model at "
+            "the first value of the other axes, in level order; grey: every other setting; black: the Pareto "
+            "front of all settings, labelled; star: the fastest setting that reaches the target.",
+    "silhouette": "Left: silhouette RMSE (pixels either image covers only partly, against a supersampled "
+                  "reference) against samples per pixel side, one curve per level. Right: the whole image's "
+                  "RMSE against time to image, every setting, with its Pareto front.",
+    "highlight": "Highlight loss (share of the reference's specular peak the render misses) against level.",
+    "orders": "Local convergence order (slope between successive levels) against the edge length measured in "
+              "highlight widths, h·√f (for a unit radius). Theory: 1 for flat, 2 for Gouraud and Phong.",
+    "errors": "Per model: the render, the reference and the per-pixel error max over RGB |render − reference| "
+              "(black 0, pale yellow the largest error over the pixels both cover fully; silhouette pixels "
+              "saturate).",
+}
+
+
+@dataclass(frozen=True)
+class Plot:
+    path: Path
+    png: bytes
+    caption: str
+
+
+def _pyplot():
+    import matplotlib
+    matplotlib.use("Agg")  # files only, never a window
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def _encode(figure) -> bytes:
+    encoded = io.BytesIO()  # encode in memory: the file itself is written, checked and renamed by write_bytes
+    figure.savefig(encoded, format="png")
+    _pyplot().close(figure)
+    return encoded.getvalue()
+
+
+def _base(rows: list[StudyRow]) -> tuple:
+    """The first value of the axes other than model and level: the curves drawn in colour."""
+    first = rows[0]
+    return (first.normals, first.precision, first.samples)
+
+
+def _is_base(row: StudyRow, base: tuple) -> bool:
+    return (row.normals, row.precision, row.samples) == base
+
+
+def _front_axes(axes, rows: list[StudyRow], cost: str, target: float, label_front: bool) -> None:
+    base = _base(rows)
+    others = [r for r in rows if not _is_base(r, base)]
+    if others:
+        axes.scatter([getattr(r, cost) * 1e3 for r in others], [r.rmse for r in others], s=10, color="0.7",
+                     label="other settings", zorder=1)
+    for key, curve in curves([r for r in rows if _is_base(r, base)]).items():
+        curve = [r for r in curve if r.rmse > 0]
+        axes.plot([getattr(r, cost) * 1e3 for r in curve], [r.rmse for r in curve], "-o", ms=4,
+                  color=COLOURS.get(key[0], "black"), label=key[0], zorder=3)
+    front = [r for r in pareto_front(rows, cost=cost) if r.rmse > 0]
+    if front:
+        xs = [getattr(r, cost) * 1e3 for r in front]
+        axes.step(xs, [r.rmse for r in front], where="post", color="black", lw=1.2, label="Pareto front", zorder=2)
+        if label_front:
+            for r in front:
+                axes.annotate(setting_label(r), (getattr(r, cost) * 1e3, r.rmse), textcoords="offset points",
+                              xytext=(4, 3), fontsize=6)
+    axes.axhline(target, color="tab:red", lw=0.8, ls="--", label=f"target {target:g}")
+    best = fastest(rows, target)
+    if best is not None:
+        axes.plot([getattr(best, cost) * 1e3], [best.rmse], "*", ms=13, color="tab:red", zorder=4)
+    axes.set_xscale("log")
+    axes.set_yscale("log")
+    axes.grid(True, which="both", alpha=0.3)
+
+
+def front_figure(study: Study) -> bytes:
+    plt = _pyplot()
+    groups = list(problems(study.rows).values())
+    figure, grid = plt.subplots(len(groups), 2, figsize=(11, 4.6 * len(groups)), dpi=100, squeeze=False)
+    for rows, (left, right) in zip(groups, grid):
+        _front_axes(left, rows, "seconds_total", study.target, True)
+        _front_axes(right, rows, "seconds", study.target, False)
+        left.set_xlabel("time to image, ms (stage minima, monotone fit)")
+        right.set_xlabel("frame time, ms (rays + shading, min over the rounds)")
+        left.set_ylabel("shading RMSE (pixels both cover)")
+        left.set_title(f"{Path(study.scene).name}: {problem_label(rows[0])}", fontsize=9)
+        left.legend(fontsize=7, loc="lower left")
+    figure.tight_layout()
+    return _encode(figure)
+
+
+def silhouette_figure(study: Study) -> bytes:
+    plt = _pyplot()
+    rows = next(iter(problems(study.rows).values()))
+    model = rows[-1].model  # the last model swept (phong by default): its shading error is smallest
+    first = rows[0]
+    figure, (left, right) = plt.subplots(1, 2, figsize=(11, 4.4), dpi=100)
+    mine = [r for r in rows if r.model == model and (r.normals, r.precision) == (first.normals, first.precision)]
+    levels = sorted({r.level for r in mine})
+    colours = plt.get_cmap("viridis")(np.linspace(0, 0.9, max(len(levels), 1)))
+    for colour, level in zip(colours, levels):
+        points = sorted((r for r in mine if r.level == level), key=lambda r: r.samples)
+        left.plot([r.samples for r in points], [r.silhouette_rmse for r in points], "-o", ms=4, color=colour,
+                  label=f"level {level} ({points[0].triangles:,} tri)")
+    left.set_xscale("log", base=2)
+    left.set_yscale("log")
+    left.set_xlabel("samples per pixel side (n × n rays per pixel)")
+    left.set_ylabel("silhouette RMSE")
+    left.set_title(f"{model}, {problem_label(first)}" + ("" if len({r.samples for r in mine}) > 1 else
+                                                         " (one sample count swept)"), fontsize=9)
+    left.legend(fontsize=7)
+    left.grid(True, which="both", alpha=0.3)
+    finite = [r for r in rows if r.image_rmse > 0]
+    right.scatter([r.seconds_total * 1e3 for r in finite], [r.image_rmse for r in finite], s=10,
+                  c=[COLOURS.get(r.model, "black") for r in finite])
+    front = [r for r in pareto_front(finite, error="image_rmse") if r.image_rmse > 0]
+    right.step([r.seconds_total * 1e3 for r in front], [r.image_rmse for r in front], where="post", color="black",
+               lw=1.2)
+    for r in front:
+        right.annotate(setting_label(r), (r.seconds_total * 1e3, r.image_rmse), textcoords="offset points",
+                       xytext=(4, 3), fontsize=6)
+    right.set_xscale("log")
+    right.set_yscale("log")
+    right.set_xlabel("time to image, ms")
+    right.set_ylabel("whole-image RMSE against the supersampled reference")
+    right.grid(True, which="both", alpha=0.3)
+    figure.tight_layout()
+    return _encode(figure)
+
+
+def highlight_figure(study: Study) -> bytes:
+    plt = _pyplot()
+    figure, axes = plt.subplots(figsize=(9.5, 4.6), dpi=100)
+    base = _base(study.rows)
+    shininess = list(dict.fromkeys(r.shininess for r in study.rows))
+    for key, curve in curves([r for r in study.rows if _is_base(r, base)]).items():
+        curve = [r for r in curve if math.isfinite(r.highlight_loss)]
+        if not curve:
+            continue
+        style = STYLES[shininess.index(key[5]) % len(STYLES)]
+        label = key[0] + ("" if key[5] == "scene" else f", f = {key[5]}") + (
+            f", {key[2]} specular" if len({r.specular for r in study.rows}) > 1 else "")
+        axes.plot([r.level for r in curve], [r.highlight_loss for r in curve], style, marker="o", ms=4,
+                  color=COLOURS.get(key[0], "black"), label=label)
+    axes.set_xlabel("tessellation level (triangles ×4 per level)")
+    axes.set_ylabel("highlight loss (0 all delivered, 1 none)")
+    axes.set_ylim(-0.02, 1.02)
+    axes.grid(True, alpha=0.3)
+    axes.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
+    axes.set_title(f"{Path(study.scene).name}: the specular peak, {base[0]} normals, {base[1]}, {base[2]} spp",
+                   fontsize=9)
+    figure.tight_layout()
+    return _encode(figure)
+
+
+def highlight_widths(row: StudyRow, scene_shininess: float) -> float:
+    """The edge length in highlight widths: h √f (the highlight is about 1/√f radians wide on a unit sphere)."""
+    f = scene_shininess if row.shininess == "scene" else float(row.shininess)
+    return row.edge_length * math.sqrt(f) if f > 0 and math.isfinite(f) else row.edge_length
+
+
+def orders_figure(study: Study) -> bytes:
+    plt = _pyplot()
+    figure, axes = plt.subplots(figsize=(10, 4.8), dpi=100)
+    first = study.rows[0]
+    shininess = list(dict.fromkeys(r.shininess for r in study.rows))
+    normals = list(dict.fromkeys(r.normals for r in study.rows))
+    markers = ["o", "s", "^", "D"]
+    for key, curve in curves([r for r in study.rows if (r.precision, r.samples) == (first.precision, first.samples)
+                              ]).items():
+        points = local_orders(curve)
+        if not points:
+            continue
+        label = key[0] + ("" if key[1] == "scene" else f", {key[1]} normals") + (
+            "" if key[5] == "scene" else f", f = {key[5]}")
+        axes.plot([highlight_widths(r, study.shininess) for r, _ in points], [o for _, o in points],
+                  STYLES[shininess.index(key[5]) % len(STYLES)], marker=markers[normals.index(key[1]) % 4], ms=4,
+                  color=COLOURS.get(key[0], "black"), label=label)
+    for theory in (1, 2):
+        axes.axhline(theory, color="0.5", lw=0.8, ls=":")
+    axes.set_xscale("log")
+    axes.invert_xaxis()  # finer to the right
+    axes.set_xlabel("edge length in highlight widths, h·√f (finer →)")
+    axes.set_ylabel("local order, Δ log RMSE / Δ log h")
+    axes.grid(True, which="both", alpha=0.3)
+    if axes.get_legend_handles_labels()[0]:
+        axes.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
+    else:
+        axes.set_title("one level only: no order to show", fontsize=9)
+    figure.tight_layout()
+    return _encode(figure)
+
+
+def error_figure(study: Study) -> bytes:
+    plt = _pyplot()
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import ListedColormap, Normalize
+    images = study.images or []
+    aspect = images[0].image.shape[0] / images[0].image.shape[1] if images else 1.0
+    row_height = 3.8 * aspect + 0.7  # three panels of about 3.8 inches across, and a title
+    figure, grid = plt.subplots(max(len(images), 1), 3, figsize=(12, row_height * max(len(images), 1)), dpi=100,
+                                squeeze=False)
+    cmap = ListedColormap(heat_map(np.linspace(0, 1, 256)[None, :], 1.0)[0])
+    for picture, (render_axes, reference_axes, error_axes) in zip(images, grid):
+        render_axes.imshow(to_8bit(picture.image), interpolation="nearest")
+        render_axes.set_title(f"{picture.model}, level {picture.level} ({picture.triangles:,} triangles)",
+                              fontsize=9)
+        reference_axes.imshow(to_8bit(picture.reference), interpolation="nearest")
+        reference_axes.set_title("reference", fontsize=9)
+        error_axes.imshow(heat_map(picture.difference, picture.scale), interpolation="nearest")
+        error_axes.set_title(f"|error|, black 0 … yellow {picture.scale:.3g}", fontsize=9)
+        figure.colorbar(ScalarMappable(Normalize(0, picture.scale), cmap), ax=error_axes, fraction=0.046, pad=0.02)
+    for axes in grid.ravel():
+        axes.set_xticks([])
+        axes.set_yticks([])
+    figure.tight_layout()
+    return _encode(figure)
+
+
+FIGURES = {"plot": front_figure, "silhouette": silhouette_figure, "highlight": highlight_figure,
+           "orders": orders_figure, "errors": error_figure}
+
+
+def write_plots(study: Study, paths: dict[str, Path]) -> dict[str, Plot]:
+    """Every figure encoded in memory and written atomically, in FIGURES' order. Raises WriteError."""
+    written = {}
+    for key, draw in FIGURES.items():
+        png = draw(study)
+        write_bytes(paths[key], png)
+        written[key] = Plot(paths[key], png, CAPTIONS[key])
+    return written
+
+
+# ---------------------------------------------------------------- report.html
+
+STYLE = """body{font:14px/1.45 system-ui,sans-serif;max-width:1180px;margin:2em auto;padding:0 1em;color:#222}
+table{border-collapse:collapse;font-size:12px;margin:.5em 0 1.5em}td,th{border:1px solid #ccc;padding:2px 6px}
+th{background:#f3f3f3}td{text-align:right}td:first-child,td:nth-child(2){text-align:left}
+img{max-width:100%;border:1px solid #eee}figure{margin:1em 0 2em}figcaption{font-size:13px;color:#444}
+.advice{background:#f6fbf6;border-left:4px solid #4a4;padding:.5em 1em}.no{color:#b00}"""
+
+
+def _table(rows: list[list[str]]) -> str:
+    head = "".join(f"<th>{html.escape(cell)}</th>" for cell in rows[0])
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(cell)}</td>" for cell in row) + "</tr>" for row in rows[1:])
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def _figure(plot: Plot) -> str:
+    data = base64.b64encode(plot.png).decode("ascii")
+    return (f'<figure><img alt="{html.escape(plot.path.name)}" src="data:image/png;base64,{data}">'
+            f"<figcaption><b>{html.escape(plot.path.name)}</b>: {html.escape(plot.caption)}</figcaption></figure>")
+
+
+def fronts_table(study: Study) -> list[list[str]]:
+    rows = [["problem", "setting", "triangles", "ms to image", "shading RMSE"]]
+    for group in problems(study.rows).values():
+        for r in pareto_front(group):
+            rows.append([problem_label(r), setting_label(r), f"{r.triangles:,}", f"{r.seconds_total * 1e3:.2f}",
+                         f"{r.rmse:.2e}"])
+    return rows
+
+
+def monotone_table(study: Study) -> list[list[str]]:
+    rows = [["model", "curve", "triangles", "ms to image, measured (stage minima)", "measured rises",
+             "geometry rises", "plotted (monotone fit)"]]
+    for key, curve in curves(study.rows).items():
+        rows.append([key[0], f"{key[1]} normals, {key[2]}, {key[3]}, {key[4]} spp, f={key[5]}",
+                     " → ".join(f"{r.triangles:,}" for r in curve),
+                     " → ".join(f"{r.seconds_total_measured * 1e3:.1f}" for r in curve),
+                     "yes" if monotone(curve, "seconds_total_measured") else "no",
+                     "yes" if monotone(curve, "geometry_seconds") else "no",
+                     " → ".join(f"{r.seconds_total * 1e3:.1f}" for r in curve)])
+    return rows
+
+
+def report_html(study: Study, plots: dict[str, Plot]) -> str:
+    """The self-contained page: advice, machine noise, fronts, orders, silhouettes, highlights, error images."""
+    name = html.escape(Path(study.scene).name)
+    advice_html = "".join(f"<p>{html.escape(line)}</p>" for line in advice(study).splitlines())
+    noise = html.escape(study.noise.sentence()) if study.noise else "not measured"
+    parts = [
+        "<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
+        f"<title>Work-precision study: {name}</title><style>{STYLE}</style></head><body>",
+        f"<h1>Work-precision study: {name}</h1>",
+        f"<p>{html.escape(study.levels_note)}. {len(study.rows)} settings. Cost is the time to image (geometry, "
+        "BVH, frame and the rest of the render call), timed in interleaved rounds in which every setting ran once "
+        "in a shuffled order: the sum of each stage's minimum, the geometry and BVH stages pooled over every "
+        "setting that builds the same mesh (study.csv also has the plain minimum and the median of the whole "
+        "call).</p>",
+        f"<p><b>Machine noise</b>: {noise}. Errors and triangle counts do not depend on the machine.</p>",
+        f'<div class="advice">{advice_html}</div>',
+        "<h2>Error against time to image</h2>", _figure(plots["plot"]),
+        "<h3>The Pareto front</h3>", _table(fronts_table(study)),
+        "<h2>Fitted convergence orders</h2>",
+        f"<p>Least-squares slope of log RMSE against log mean edge length over each curve's last {FIT_WINDOW} levels "
+        "(the asymptotic order), the window one level coarser, and all levels.</p>",
+        _table(fits_table(study)), _figure(plots["orders"]),
+        "<h2>Silhouettes and samples</h2>", _figure(plots["silhouette"]),
+        "<h2>Highlights</h2>", _figure(plots["highlight"]),
+        "<h2>Where the error lives</h2>", _figure(plots["errors"]),
+        "<h2>Cost rises with the mesh</h2>",
+        "<p>More triangles never take less work; where the measured times of a curve come out in the wrong order "
+        "(levels a few ms apart, below the machine's noise), the plotted time to image is their monotone "
+        "least-squares fit (adjacent violators pooled to their mean).</p>", _table(monotone_table(study)),
+        "<h2>Every setting</h2>",
+        "<p>Times: minimum over the rounds; spread = (median − min) / min. The CSV (study.csv) has every column.</p>",
+        _table(rows_table(study)), "</body></html>", ""]
+    return "\n".join(parts)
+
+
+def write_study(study: Study, folder: Path) -> dict[str, Path]:
+    """DIR/study.csv, the plots, DIR/summary.md and DIR/report.html, in that order, each replaced atomically.
+    Raises WriteError when one cannot be written (those before it are written, it is unchanged)."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise ImageError(f"{folder}: cannot create the output folder ({error.strerror})") from None
+    written = {key: folder / name for key, name in OUTPUTS.items()}
+    write_csv(study, written["csv"])
+    plots = write_plots(study, {key: written[key] for key in ("plot", "silhouette", "highlight", "orders", "errors")})
+    write_text(written["summary"], summary_markdown(study, plots))
+    write_text(written["report"], report_html(study, plots))
+    return written
