@@ -1,8 +1,5 @@
-"""Build every object's triangles (shapes.py; trimesh reads mesh files), place them in the world, compute
-face and vertex normals.
-
-Vertex normals are stored per face corner, so a crease split or normals read from a file need no
-vertex duplication: corner (f, k) carries the normal that vertex faces[f, k] has *on face f*.
+"""Build every object's triangles (shapes.py; mesh_file.py reads mesh files, mesh_repair.py mends them), place
+them in the world, and give them face and vertex normals (normals.py): one world-space mesh, the Geometry.
 """
 
 from __future__ import annotations
@@ -14,7 +11,9 @@ import numpy as np
 
 from . import shapes
 from .illumination import material_rows
-from .records import Geometry
+from .mesh_repair import merge_duplicate_vertices, repair_winding
+from .normals import _normalise_or, compute_corner_normals, face_normals, file_corner_normals
+from .records import Geometry, bounding_box
 from .scene import (
     DEFAULT_MATERIAL,
     MIN_EXTENT,
@@ -26,7 +25,7 @@ from .scene import (
     _dotted,
     brightness_problem,
 )
-from .tolerances import MIN_DISTANCE, NO_DIRECTION
+from .tolerances import MIN_DISTANCE
 
 if TYPE_CHECKING:  # mesh_file imports trimesh: only a scene with a mesh file loads it
     from .mesh_file import MeshFile
@@ -142,14 +141,6 @@ def check_float_range(scene: Scene, vertices: np.ndarray, source: str = "<scene>
         raise SceneError(f"{source}: {_dotted(problem[0])}: {problem[1]}")
 
 
-def bounding_box(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Lowest and highest coordinate (3,) of (V, 3) vertices; NaN if any is NaN (as vertices.min(axis=0)).
-
-    Column by column: numpy reduces a (V, 3) array along axis 0 some 10× slower than three strided columns.
-    """
-    return (np.array([vertices[:, k].min() for k in range(3)]), np.array([vertices[:, k].max() for k in range(3)]))
-
-
 def behind_camera(scene: Scene, vertices: np.ndarray) -> str | None:
     """A one-line warning if every placed vertex lies behind the camera (or on its plane), else None:
     no ray can hit anything, so the image is only background."""
@@ -159,171 +150,6 @@ def behind_camera(scene: Scene, vertices: np.ndarray) -> str | None:
         return None
     return (f"every object is behind the camera (camera.position {list(scene.camera.position)} looks toward "
             f"look_at {list(scene.camera.look_at)}); the image will be only background")
-
-
-def repair_winding(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int, bool]:
-    """Make a mesh file's winding consistent, and outward if the mesh is closed.
-
-    Inconsistent winding makes face normals of neighbours cancel in the vertex-normal mean. Returns
-    the faces, how many were flipped, and whether the mesh is closed (every edge in exactly two faces:
-    then it is turned outward, by its signed volume). A consistent mesh, the common case, costs one
-    sort of its 3F half-edges (and a closed one its signed volume, taken over the whole mesh as trimesh's
-    fix_inversion did: a consistent mesh whose pieces disagree is left to its majority by volume); only an
-    inconsistent one pays for the face graph (`_orient_faces`), which also orients each piece by its own volume.
-    """
-    keys = _half_edge_keys(faces, len(vertices))
-    keys.sort()
-    # Closed: the sorted undirected edges come in pairs, each pair unlike its neighbours.
-    closed = (len(keys) % 2 == 0 and bool(((keys[0::2] >> 1) == (keys[1::2] >> 1)).all())
-              and not ((keys[1:-1:2] >> 1) == (keys[2::2] >> 1)).any())
-    # Consistent: no half-edge is traversed twice in the same direction (by two faces or a duplicate face).
-    if not (keys[1:] == keys[:-1]).any():
-        del keys
-        if closed and _signed_volumes(vertices, faces)[0] < 0:
-            return faces[:, ::-1], len(faces), True
-        return faces, 0, closed
-    del keys
-    flip = _orient_faces(vertices, faces, closed)
-    repaired = faces.copy()
-    repaired[flip] = faces[flip, ::-1]
-    return repaired, int(flip.sum()), closed
-
-
-def _orient_faces(vertices: np.ndarray, faces: np.ndarray, closed: bool) -> np.ndarray:
-    """Which faces to flip (F,) bool so that every edge shared by exactly two faces is traversed in
-    opposite directions; per connected piece the orientation that flips fewer faces, or, if the mesh is
-    closed, the one with positive signed volume. A non-orientable piece (a Möbius strip) is left as it is.
-
-    Orientation is a two-colouring: face f as it is is node f, flipped node f + F; an edge whose two faces
-    agree joins (f, g) and (f + F, g + F), one where they disagree (f, g + F) and (f + F, g). The graph's
-    connected components (scipy.sparse.csgraph, linear) then give every face's orientation relative to
-    its piece at once; a piece whose f and f + F fall in one component cannot be oriented.
-    """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    count = len(faces)
-    keys = _half_edge_keys(faces, len(vertices))
-    order = np.argsort(keys, kind="stable")
-    keys, face = keys[order], order // 3
-    edge = keys >> 1
-    first = np.flatnonzero(np.r_[True, edge[1:] != edge[:-1]])
-    runs = np.diff(np.r_[first, len(edge)])
-    shared = first[runs == 2]  # manifold edges only: a third face makes orientation ambiguous there
-    f, g = face[shared], face[shared + 1]
-    agree = (keys[shared] & 1) != (keys[shared + 1] & 1)
-    rows = np.concatenate([f, f + count])
-    cols = np.concatenate([np.where(agree, g, g + count), np.where(agree, g + count, g)])
-    graph = coo_matrix((np.ones(len(rows), np.int8), (rows, cols)), shape=(2 * count, 2 * count))
-    _, label = connected_components(graph, directed=False)
-    as_is, flipped = label[:count], label[count:]
-    piece = np.minimum(as_is, flipped)  # one name per piece, whichever node carries it
-    orientable = as_is != flipped
-    # Keep the side of each piece that most faces already have; a closed mesh: the side of positive volume.
-    votes = np.bincount(piece, np.where(as_is == piece, 1.0, -1.0), minlength=2 * count)
-    flip = orientable & ((as_is == piece) != (votes[piece] >= 0))
-    if closed:
-        sign = np.where(flip, -1.0, 1.0)
-        inward = _signed_volumes(vertices, faces, piece, 2 * count, sign) < 0
-        flip ^= orientable & inward[piece]
-    return flip
-
-
-def _half_edge_keys(faces: np.ndarray, vertex_count: int) -> np.ndarray:
-    """(3F,) int64, one per half-edge (start → end) of face f's corner k at 3f + k: the undirected edge
-    (low · V + high), shifted left one bit for its direction (1 where start > end). Built in place: the
-    3F half-edges are the largest arrays of mesh preparation."""
-    start = np.ascontiguousarray(faces, np.int64).ravel()
-    end = np.roll(faces, -1, axis=1).astype(np.int64).ravel()
-    keys = np.minimum(start, end)
-    keys *= vertex_count
-    np.maximum(start, end, out=end)
-    keys += end
-    del end
-    keys <<= 1
-    keys += np.roll(faces, -1, axis=1).ravel() < start  # start > end
-    return keys
-
-
-FACE_CHUNK = 1 << 18  # faces per step of a per-face computation: ~25 MB of temporaries, whatever the mesh
-
-
-def _signed_volumes(vertices: np.ndarray, faces: np.ndarray, piece: np.ndarray | None = None, pieces: int = 1,
-                    sign: np.ndarray | float = 1.0) -> np.ndarray:
-    """Six times the signed volume enclosed by each piece's faces (divergence theorem: Σ v0 · (v1 × v2)),
-    (pieces,) float64; piece (F,) numbers each face's piece (None: one piece), `sign` (F,) −1 for a face
-    taken flipped. Measured from the bounding-box centre, so a mesh far from the origin keeps its digits."""
-    low, high = bounding_box(vertices)
-    centred = vertices - (low + high) / 2
-    sign = np.broadcast_to(sign, len(faces))
-    total = np.zeros(pieces)
-    for at in range(0, len(faces), FACE_CHUNK):
-        part = faces[at:at + FACE_CHUNK]
-        v0, v1, v2 = (centred[part[:, k]] for k in range(3))
-        six = np.einsum("ij,ij->i", v0, cross_rows(v1, v2)) * sign[at:at + FACE_CHUNK]
-        total += six.sum() if piece is None else np.bincount(piece[at:at + FACE_CHUNK], six, minlength=pieces)
-    return total
-
-
-def merge_duplicate_vertices(vertices: np.ndarray, faces: np.ndarray,
-                             normals: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Merge vertices at exactly the same position and drop those no face uses; the first of each kept, in file order.
-
-    What trimesh's process() did that matters for shading: a file that repeats a point for every face
-    around it (STL always, OBJ and PLY often) must share it, or the vertex-normal mean sees one face
-    and the surface shades faceted. As process(), vertices whose file normals (V, 3) differ (rounded to
-    0.01) stay apart: a hard edge the file draws stays hard. Unlike process(): positions are compared
-    exactly (−0 = +0), not rounded to trimesh's 1e-8 grid, and UV coordinates do not keep two vertices
-    apart (the renderer reads no textures: a texture seam is no edge of the surface). Rows are hashed
-    to one uint64 and the hashes sorted (V log V, numpy's vectorised sort); equal hashes are then
-    checked value by value.
-    """
-    used = np.zeros(len(vertices), bool)
-    used[faces] = True
-    index = np.flatnonzero(used)
-    rows = vertices[index] if normals is None else np.column_stack([vertices[index], np.round(normals[index] * 100)])
-    rows += 0.0  # −0.0 + 0.0 is +0.0: the two zeros are one value
-    key = _row_hashes(rows)
-    order = np.argsort(key)
-    key = key[order]
-    starts = np.r_[True, key[1:] != key[:-1]]
-    del key
-    if starts.all():
-        if len(index) == len(vertices):
-            return vertices, faces  # nothing to merge or drop: no copies
-        first = np.arange(len(index))
-    else:
-        # The first row (in file order) of each run of equal keys stands for the run.
-        first_sorted = np.minimum.reduceat(order, np.flatnonzero(starts))[np.cumsum(starts) - 1]
-        # A run holds one row unless two rows collided in the hash (about 2^-64 per pair): then fall back
-        # to numpy's exact (and slower) row comparison.
-        if (rows[first_sorted] == rows[order]).all():
-            first = np.empty_like(order)
-            first[order] = first_sorted  # from sorted positions back to the rows' order
-        else:
-            _, first_seen, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
-            first = first_seen[inverse.ravel()]
-    # first[i]: the first vertex (in `index` order) at point i's position; number the firsts in order.
-    keep = first == np.arange(len(first))
-    number = np.cumsum(keep) - 1
-    new_of_old = np.full(len(vertices), -1, np.int64)
-    new_of_old[index] = number[first]
-    return vertices[index[keep]], new_of_old[faces]
-
-
-def _row_hashes(rows: np.ndarray) -> np.ndarray:
-    """One uint64 per row of a float64 array (N, C): splitmix64's mixer over the columns in turn, so every
-    input bit reaches every output bit (float32 data in float64 leaves the low 29 mantissa bits zero)."""
-    bits = rows.view(np.uint64)
-    key = np.zeros(len(rows), np.uint64)
-    for column in range(bits.shape[1]):
-        key ^= bits[:, column]
-        key ^= key >> np.uint64(30)
-        key *= np.uint64(0xBF58476D1CE4E5B9)
-        key ^= key >> np.uint64(27)
-        key *= np.uint64(0x94D049BB133111EB)
-        key ^= key >> np.uint64(31)
-    return key
 
 
 THIN = 2.0 ** -23  # float32's resolution: a tube thinner than this share of the shape collapses in Embree's frame
@@ -501,171 +327,3 @@ def exact_corner_normals(obj: Object, vertices: np.ndarray, faces: np.ndarray) -
     return placed[:, ::-1] if np.prod(obj.scale) < 0 else placed  # place() reversed the mirrored winding
 
 
-def face_normals(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unit face normals (F, 3) (zero for a degenerate face) and twice the areas (F,)."""
-    unit, doubled_area = np.zeros((len(faces), 3)), np.empty(len(faces))
-    for at in range(0, len(faces), FACE_CHUNK):  # in chunks: the outputs are the only (F, ·) arrays
-        part = faces[at:at + FACE_CHUNK]
-        first = vertices[part[:, 0]]
-        cross = cross_rows(vertices[part[:, 1]] - first, vertices[part[:, 2]] - first)
-        area = np.sqrt(cross[:, 0] * cross[:, 0] + cross[:, 1] * cross[:, 1] + cross[:, 2] * cross[:, 2])
-        np.divide(cross, area[:, None], out=unit[at:at + FACE_CHUNK], where=area[:, None] > 0)
-        doubled_area[at:at + FACE_CHUNK] = area
-    return unit, doubled_area
-
-
-def cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b row by row, (N, 3): np.cross's arithmetic (so its bits) without its (N, 3) temporaries."""
-    cross = np.empty_like(a)
-    for k in range(3):
-        i, j = (k + 1) % 3, (k + 2) % 3
-        np.subtract(a[:, i] * b[:, j], a[:, j] * b[:, i], out=cross[:, k])
-    return cross
-
-
-def corner_angles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Interior angle at each corner (F, 3), radians; 0 at a degenerate corner."""
-    corners = vertices[faces]
-    angles = np.zeros(faces.shape)
-    for k in range(3):
-        a = corners[:, (k + 1) % 3] - corners[:, k]
-        b = corners[:, (k + 2) % 3] - corners[:, k]
-        # atan2(|a×b|, a·b) is accurate at every angle, unlike acos of a normalised dot.
-        angles[:, k] = np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.einsum("ij,ij->i", a, b))
-    return angles
-
-
-def compute_corner_normals(vertices: np.ndarray, faces: np.ndarray, weighting: str = "mean",
-                           crease_angle: float = 180.0, dtype: type = np.float64,
-                           normals: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
-    """Vertex normal at every face corner (F, 3, 3), unit, in `dtype`.
-
-    n_v = normalize(Σ_f w_f n_f) over the faces f around v, with w = 1 ("mean", the lecture's rule),
-    the face area ("area") or the corner angle ("angle"); degenerate faces weigh 0. With a crease
-    angle below 180°, corner (f, v) only gathers faces g whose normal is within that angle of n_f.
-    A vertex whose sum vanishes falls back to the face normal. `normals`: face_normals(vertices, faces)
-    if the caller has them. The sums are per vertex, (V, 4) float64, and only the result is per corner
-    (36 bytes a triangle in float32, 72 in float64); only corners at a vertex a crease may split pay
-    for the pairwise test (_creased_vertices).
-    """
-    unit, doubled_area = normals if normals is not None else face_normals(vertices, faces)
-    if weighting == "mean":
-        weights = None
-    elif weighting == "area":
-        weights = np.repeat(doubled_area[:, None], 3, axis=1)
-    elif weighting == "angle":
-        weights = corner_angles(vertices, faces)
-    else:
-        raise ValueError(f"unknown normal weighting {weighting!r}")
-    # w |n_f|: the length the sum would have if every normal agreed (|n_f| is 1, or 0 for a degenerate face).
-    length = np.linalg.norm(unit, axis=1)
-    reach = (np.repeat(length, 3) if weights is None else (weights * length[:, None]).ravel())
-    # Sum per vertex, in the corners' order (the order of the additions fixes the last bits).
-    corner_vertex = faces.ravel()
-    summed = np.column_stack([np.bincount(corner_vertex, _corner_terms(unit, weights, i), minlength=len(vertices))
-                              for i in range(3)] + [np.bincount(corner_vertex, reach, minlength=len(vertices))])
-    size = np.linalg.norm(summed[:, :3], axis=1, keepdims=True)
-    vague = (size <= NO_DIRECTION * summed[:, 3:]).ravel()  # no direction: the face normal (as _normalise_or)
-    vertex_normal = summed[:, :3] / np.where(vague[:, None], 1.0, size)
-    del summed, size
-    split = _creased_vertices(unit, corner_vertex, vertex_normal, vague, crease_angle)
-    corners = _corners_of(vertex_normal, vague, faces, unit, dtype)
-    if split.any():
-        # Corners at a vertex with a crease: each gathers only the faces within the angle of its own.
-        picked = np.flatnonzero(split[corner_vertex])
-        face = picked // 3
-        contribution = np.column_stack([_corner_terms(unit, weights, i)[picked] for i in range(3)] + [reach[picked]])
-        sums = _creased_sums(corner_vertex[picked], contribution, unit[face], crease_angle)
-        corners.reshape(-1, 3)[picked] = _normalise_or(sums[:, :3], unit[face], sums[:, 3:])
-    return corners
-
-
-def _creased_vertices(unit, corner_vertex, vertex_normal, vague, crease_angle) -> np.ndarray:
-    """(V,) bool: vertices whose faces do not all lie within `crease_angle` of each other, so a crease
-    may split them. A vertex whose face normals all lie within half the angle of its mean normal is
-    not: any two are then within the angle (triangle inequality on the sphere), and every corner there
-    gathers every face, which is the uncreased sum, bit for bit (the same additions in the same order).
-    Only the others pay for the (corner, neighbour) pairs of _creased_sums."""
-    if crease_angle >= 180.0:
-        return np.zeros(len(vertex_normal), bool)
-    cosine = np.zeros(len(corner_vertex))
-    for i in range(3):
-        cosine += np.repeat(unit[:, i], 3) * vertex_normal[corner_vertex, i]
-    least = np.full(len(vertex_normal), np.inf)
-    np.minimum.at(least, corner_vertex, cosine)
-    # The margin sends a vertex at the bound through the exact pairwise test instead.
-    return vague | ~(least >= math.cos(math.radians(crease_angle) / 2) + 1e-9)
-
-
-def file_corner_normals(file_normals: np.ndarray, faces: np.ndarray, unit: np.ndarray,
-                        dtype: type = np.float64) -> np.ndarray:
-    """Corner normals (F, 3, 3) from a file's vertex normals (V, 3), placed (geometry.place): each unit
-    length, and a vertex normal without direction (≤ NO_DIRECTION, as _normalise_or) gives way to the face
-    normal `unit` (F, 3). Normalised per vertex, then gathered: no (F, 3, 3) float64 temporaries."""
-    length = np.linalg.norm(file_normals, axis=1, keepdims=True)
-    vague = (length <= NO_DIRECTION).ravel()
-    return _corners_of(file_normals / np.where(vague[:, None], 1.0, length), vague, faces, unit, dtype)
-
-
-def _corners_of(vertex_normal: np.ndarray, vague: np.ndarray, faces: np.ndarray, unit: np.ndarray,
-                dtype: type) -> np.ndarray:
-    """(F, 3, 3) in `dtype`: each corner its vertex's normal (V, 3), or its face's `unit` normal where the
-    vertex is `vague` (V,) bool (its normal has no direction)."""
-    corners = vertex_normal.astype(dtype, copy=False)[faces]
-    face, corner = np.nonzero(vague[faces])
-    corners[face, corner] = unit[face]
-    return corners
-
-
-def _corner_terms(unit: np.ndarray, weights: np.ndarray | None, axis: int) -> np.ndarray:
-    """(3F,) w n_f[axis] for every corner, in corner order; weights (F, 3), or None for all ones."""
-    if weights is None:
-        return np.repeat(unit[:, axis], 3)
-    return (weights * unit[:, axis, None]).ravel()
-
-
-PAIR_CHUNK = 1 << 20  # (corner, neighbour) pairs per step of _creased_sums: ~60 MB of temporaries
-
-
-def _creased_sums(corner_vertex, contribution, corner_face_normal, crease_angle):
-    """For each corner, the sum of contributions of the corners at the same vertex whose faces are
-    within `crease_angle` of its own face. corner_face_normal (C, 3) is indexed like the corners.
-
-    A vertex of valence s makes s² (corner, neighbour) pairs, so they are made PAIR_CHUNK at a time
-    (whole corners per step: each corner's sum is added in the same order whatever the chunking).
-    """
-    order = np.argsort(corner_vertex, kind="stable")
-    sorted_vertex = corner_vertex[order]
-    start = np.searchsorted(sorted_vertex, sorted_vertex, side="left")
-    count = np.searchsorted(sorted_vertex, sorted_vertex, side="right") - start
-    del sorted_vertex
-    # The small slack keeps a face and its exact coplanar neighbour together despite rounding.
-    least = math.cos(math.radians(crease_angle)) - 1e-12
-    sums = np.zeros((len(order), contribution.shape[1]))
-    pairs_before = np.cumsum(count) - count
-    cuts = np.searchsorted(pairs_before, np.arange(0, pairs_before[-1] + count[-1], PAIR_CHUNK)) if len(order) else []
-    for first, last in zip(cuts, [*cuts[1:], len(order)]):
-        if first == last:
-            continue
-        # Every (corner, neighbour corner) pair that shares a vertex, in sorted positions.
-        here = count[first:last]
-        mine = np.repeat(np.arange(first, last), here)
-        neighbour = start[mine] + (np.arange(len(mine)) - np.repeat(pairs_before[first:last] - pairs_before[first],
-                                                                    here))
-        neighbour = order[neighbour]
-        cosine = np.einsum("ij,ij->i", corner_face_normal[order[mine]], corner_face_normal[neighbour])
-        smooth = cosine >= least
-        mine, neighbour = mine[smooth] - first, neighbour[smooth]  # mine: row within this chunk
-        rows = order[first:last]
-        for i in range(contribution.shape[1]):
-            sums[rows, i] = np.bincount(mine, contribution[neighbour, i], minlength=last - first)
-    return sums
-
-
-def _normalise_or(vectors: np.ndarray, fallback: np.ndarray, reach: np.ndarray | float = 1.0) -> np.ndarray:
-    """Unit vectors; the fallback where a vector has no direction: a length at most NO_DIRECTION × `reach`,
-    the length it would have if its parts agreed (a sum of unit normals that nearly cancels points
-    wherever rounding sends it). The shading kernel applies the same tolerance to its mixed normals."""
-    length = np.linalg.norm(vectors, axis=-1, keepdims=True)
-    tiny = length <= NO_DIRECTION * np.asarray(reach)
-    return np.where(tiny, fallback, vectors / np.where(tiny, 1.0, length))

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import embree
-from .records import Frame, Geometry
+from .records import Frame, Geometry, bounding_box
 
 _started = False  # has this process created an Embree scene (and so Embree's worker threads)?
 
@@ -28,9 +28,7 @@ def embree_started() -> bool:
 
 def unit_frame(vertices: np.ndarray) -> Frame:
     """Centre and half-extent of the bounding box: unit = (world − center) / scale spans ≈ [−1, 1]."""
-    # Column by column: numpy reduces an (N, 3) array along axis 0 ~15× slower (a 2M-triangle mesh: 44 ms).
-    low = np.array([vertices[:, axis].min() for axis in range(3)])
-    high = np.array([vertices[:, axis].max() for axis in range(3)])
+    low, high = bounding_box(vertices)
     extent = float((high - low).max()) / 2
     # A single point or a degenerate scene still needs a non-zero scale.
     return Frame(center=(low + high) / 2, scale=extent if extent > 0 else 1.0)

@@ -8,15 +8,11 @@ import pytest
 import trimesh
 
 import raycast_phong as rp
-from raycast_phong.pipeline import geometry
-from raycast_phong.pipeline.geometry import (
-    _creased_sums,
-    build_geometry,
-    compute_corner_normals,
-    face_normals,
-    merge_duplicate_vertices,
-    repair_winding,
-)
+from raycast_phong.pipeline import geometry, mesh_repair
+from raycast_phong.pipeline import normals as normal_rules
+from raycast_phong.pipeline.geometry import build_geometry
+from raycast_phong.pipeline.mesh_repair import merge_duplicate_vertices, repair_winding
+from raycast_phong.pipeline.normals import _creased_sums, compute_corner_normals, face_normals
 
 
 @pytest.fixture
@@ -74,7 +70,7 @@ def test_a_hash_collision_falls_back_to_the_exact_comparison(monkeypatch):
     """Every row hashed alike (a forced collision): the exact path must still tell the points apart."""
     sphere = trimesh.creation.icosphere(subdivisions=1)
     vertices, faces = split_corners(sphere)
-    monkeypatch.setattr(geometry, "_row_hashes", lambda rows: np.zeros(len(rows), np.uint64))
+    monkeypatch.setattr(mesh_repair, "_row_hashes", lambda rows: np.zeros(len(rows), np.uint64))
     merged, remapped = merge_duplicate_vertices(vertices, faces)
     assert len(merged) == len(sphere.vertices)
     np.testing.assert_array_equal(merged[remapped], vertices[faces])
@@ -180,17 +176,17 @@ def test_the_creased_shortcut_equals_the_pairwise_rule_bit_for_bit(weighting, cr
     vertices, faces = mesh.vertices, np.asarray(mesh.faces)
     unit, doubled = face_normals(vertices, faces)
     weights = {"mean": np.ones(faces.shape), "area": np.repeat(doubled[:, None], 3, axis=1),
-               "angle": geometry.corner_angles(vertices, faces)}[weighting]
+               "angle": normal_rules.corner_angles(vertices, faces)}[weighting]
     reach = weights * np.linalg.norm(unit, axis=1)[:, None]
     contribution = np.concatenate([weights[:, :, None] * unit[:, None, :], reach[:, :, None]], axis=2).reshape(-1, 4)
     sums = _creased_sums(faces.ravel(), contribution, np.repeat(unit, 3, axis=0), crease_angle)
-    pairwise = geometry._normalise_or(sums[:, :3], np.repeat(unit, 3, axis=0), sums[:, 3:]).reshape(-1, 3, 3)
+    pairwise = normal_rules._normalise_or(sums[:, :3], np.repeat(unit, 3, axis=0), sums[:, 3:]).reshape(-1, 3, 3)
     found = compute_corner_normals(vertices, faces, weighting, crease_angle)
     np.testing.assert_array_equal(found, pairwise)
     # The mesh exercises both paths: some vertices take the pairwise rule, some the shortcut.
     vertex_normal = np.zeros((len(vertices), 3))
     vertex_normal[faces.ravel()] = compute_corner_normals(vertices, faces, weighting).reshape(-1, 3)
-    split = geometry._creased_vertices(unit, faces.ravel(), vertex_normal, np.zeros(len(vertices), bool),
+    split = normal_rules._creased_vertices(unit, faces.ravel(), vertex_normal, np.zeros(len(vertices), bool),
                                        crease_angle)
     assert 0 < split.sum() < len(vertices)
 
@@ -211,8 +207,8 @@ def test_file_normals_per_vertex_equal_the_per_corner_rule_and_fall_back_to_the_
     normals = sphere.vertices * np.linspace(0.5, 2.0, len(vertices))[:, None]  # not unit: must be normalised
     normals[::5] = 0.0
     unit, _ = face_normals(vertices, faces)
-    found = geometry.file_corner_normals(normals, faces, unit)
-    per_corner = geometry._normalise_or(normals[faces], np.repeat(unit[:, None, :], 3, axis=1))
+    found = normal_rules.file_corner_normals(normals, faces, unit)
+    per_corner = normal_rules._normalise_or(normals[faces], np.repeat(unit[:, None, :], 3, axis=1))
     np.testing.assert_array_equal(found, per_corner)
     np.testing.assert_array_equal(found[faces == 0], unit[(faces == 0).any(axis=1)])  # vertex 0 has no normal
-    assert geometry.file_corner_normals(normals, faces, unit, np.float32).dtype == np.float32
+    assert normal_rules.file_corner_normals(normals, faces, unit, np.float32).dtype == np.float32

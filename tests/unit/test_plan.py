@@ -5,6 +5,7 @@ import pytest
 
 import raycast_phong as rp
 import raycast_phong.pipeline.geometry as geometry
+import raycast_phong.pipeline.normals as normals
 import raycast_phong.pipeline.scene
 from raycast_phong.pipeline.illumination import COUNTED_TERMS
 
@@ -79,8 +80,8 @@ def test_all_flat_scene_never_computes_vertex_normals(monkeypatch):
 
 def test_crease_split_is_used_only_with_a_crease_angle(monkeypatch):
     calls = []
-    original = geometry._creased_sums
-    monkeypatch.setattr(geometry, "_creased_sums", lambda *a: calls.append(1) or original(*a))
+    original = normals._creased_sums
+    monkeypatch.setattr(normals, "_creased_sums", lambda *a: calls.append(1) or original(*a))
     rp.render(scene())
     assert calls == []
     rp.render(scene(objects__1__crease_angle="30"))
