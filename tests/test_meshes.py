@@ -266,3 +266,18 @@ def test_mtl_mapping_edge_cases_and_their_notes(tmp_path):
     for words in ("Ks nonsense", "clamped", "transparency", "illum 3", "texture maps are ignored",
                   "'b.png' is missing"):
         assert words in said, said
+
+
+def test_a_mesh_file_too_large_to_read_for_framing_is_one_line_before_any_read(tmp_path, monkeypatch):
+    """Framing reads the file before render()'s memory check: a PLY whose header promises 10¹² faces is
+    refused from its header (the read would try to allocate them), one line naming the file, exit 2."""
+    from raycast_phong.pipeline import mesh_file
+    header = ("ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+              "property float z\nelement face 1000000000000\nproperty list uchar int vertex_indices\nend_header\n")
+    (tmp_path / "huge.ply").write_bytes(header.encode() + bytes(64))
+    monkeypatch.setattr(mesh_file, "read_mesh", lambda *a, **k: pytest.fail("the file was read"))
+    done = runner.invoke(app, ["render", str(tmp_path / "huge.ply"), "-o", str(tmp_path / "x.png")])
+    assert done.exit_code == 2, done.output
+    [line] = done.stderr.strip().splitlines()
+    assert line.startswith(f"error: {tmp_path / 'huge.ply'}: reading its 1000000M triangles needs"), line
+    assert "more than the" in line and "available" in line and not (tmp_path / "x.png").exists()

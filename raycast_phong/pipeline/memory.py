@@ -222,6 +222,20 @@ def parse_size(text: str) -> int:
     return int(float(match[1]) * UNITS[match[2].lower()])
 
 
+def check_mesh_read(path: Path, source: str) -> None:
+    """Refuse (SceneError, one line) to read a mesh file for framing (mesh_scene.py, before any render and
+    so before check_memory) when the read alone could not fit in the memory available now: its triangles
+    (from the header, mesh_file_triangles) × the flat render's bytes per triangle and the format's parse.
+    Against the whole available memory, not the budget: --max-memory only reaches the render."""
+    available = available_memory()
+    triangles = mesh_file_triangles(path, source)
+    need = triangles * (FLAT_BYTES + MESH_FILE_BYTES.get(path.suffix.lower(), OTHER_MESH_FILE_BYTES))
+    if available is not None and need > available:
+        raise SceneError(f"{source}: reading its {_count(triangles)} triangles needs ≈ {format_bytes(need)} of "
+                         f"memory, more than the {format_bytes(available)} available; allowed: a mesh whose "
+                         "triangles fit, so decimate it or free memory")
+
+
 def format_bytes(count: float) -> str:
     """3.4 GB, 512 MB, 20 kB: binary units, written the way people say them."""
     for unit, size in (("TB", 1 << 40), ("GB", 1 << 30), ("MB", 1 << 20), ("kB", 1 << 10)):

@@ -61,11 +61,13 @@ def load_scene(path: str | Path, overrides: list[str] | tuple[str, ...] = (), vi
 def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), view: str | None = None,
                     up: str | None = None) -> dict:
     """A scene table showing one mesh file: its materials, a framing camera, a key light (docs/meshes.md)."""
+    from .memory import check_mesh_read
     from .mesh_file import mesh_bounds
     where = str(path)
     view = view or VIEWS[0]
     if view not in VIEWS:
         raise SceneError(f"{where}: --view {view!r}; allowed: {', '.join(VIEWS)}")
+    check_mesh_read(path, where)  # the framing read comes before render()'s own memory check
     found = mesh_bounds(path, where)
     up_axis = parse_up(up, where) if up is not None else np.asarray(found.up or DEFAULT_UP)
     data: dict = {
