@@ -281,3 +281,13 @@ def test_a_mesh_file_too_large_to_read_for_framing_is_one_line_before_any_read(t
     [line] = done.stderr.strip().splitlines()
     assert line.startswith(f"error: {tmp_path / 'huge.ply'}: reading its 1000000M triangles needs"), line
     assert "more than the" in line and "available" in line and not (tmp_path / "x.png").exists()
+
+
+def test_a_model_whose_vertices_all_coincide_is_one_line_not_a_camera_error(tmp_path):
+    """Nothing to frame: the camera would sit on its target (and a numpy warning escaped before)."""
+    (tmp_path / "point.obj").write_text("v 1 2 3\nv 1 2 3\nv 1 2 3\nf 1 2 3\n")
+    done = runner.invoke(app, ["render", str(tmp_path / "point.obj"), "-o", str(tmp_path / "x.png")])
+    assert done.exit_code == 2, done.output
+    [line] = done.stderr.strip().splitlines()
+    assert line == (f"error: {tmp_path / 'point.obj'}: every vertex of the model lies within 0 of [1.0, 2.0, 3.0]; "
+                    "allowed: a model at least 2e-12 across"), line

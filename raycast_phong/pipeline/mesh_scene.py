@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .scene import Scene, SceneError, apply_override, validate_scene
+from .scene import MIN_EXTENT, Scene, SceneError, apply_override, validate_scene
 from .scene import read_scene_dict as read_scene_file
 
 SCENE_SUFFIXES = (".toml", ".json")
@@ -69,6 +69,10 @@ def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), vie
         raise SceneError(f"{where}: --view {view!r}; allowed: {', '.join(VIEWS)}")
     check_mesh_read(path, where)  # the framing read comes before render()'s own memory check
     found = mesh_bounds(path, where)
+    if not found.radius >= MIN_EXTENT:  # every vertex at one point: nothing to frame (or to see)
+        centre = [float(x) for x in found.centre]
+        raise SceneError(f"{where}: every vertex of the model lies within {found.radius:.3g} of {centre}; "
+                         f"allowed: a model at least {2 * MIN_EXTENT:g} across")
     up_axis = parse_up(up, where) if up is not None else np.asarray(found.up or DEFAULT_UP)
     data: dict = {
         "materials": {m.name: m.as_scene() for m in found.materials},
