@@ -47,3 +47,10 @@ def test_decorators_annotations_and_raise_statements_are_left_alone():
     assert {m.line for m in mutants} == {5, 7, 9}  # the default, the condition, the returned sum
     assert {m.mutated for m in mutants if m.line == 9} == {"(x - 1)", "(x)", "(1)", "0"}
     assert {m.mutated for m in mutants if m.line == 7} == {"(x >= 2)", "1", "(not x > 2)"}
+
+
+def test_the_baseline_imports_the_core_package_from_the_copy():
+    """The check that a mutant's copy is what gets imported: it once built `import raycast_phong/pipeline`
+    from the package path, a syntax error that stopped every mutation run before its first mutant."""
+    found = mutate.imported_from(mutate.REPO)
+    assert found == str(mutate.REPO / mutate.PACKAGE / "__init__.py"), found

@@ -41,7 +41,8 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
 PACKAGE = "raycast_phong/pipeline"  # the core modules: every pipeline stage
-CORE_MODULES = ("illumination", "shading", "shadows", "camera", "film", "geometry", "intersect", "render", "plan")
+CORE_MODULES = ("illumination", "shading", "shadows", "camera", "film", "geometry", "intersect", "render", "plan",
+                "normals", "mesh_repair", "shapes", "tile", "embree")
 DEFAULT_TESTS = ("tests/unit", "tests/image")
 COPIED = ("raycast_phong", "tests", "scenes", "cli.py", "pyproject.toml")
 WORK = Path(os.environ.get("TMPDIR", "/tmp")) / "raycast-phong-mutation"
@@ -210,16 +211,23 @@ def _run_tests(repo: Path, cache: Path, tests: list[str], timeout: float) -> tup
     return "killed", failed[:200]
 
 
+def imported_from(repo: Path) -> str:
+    """Where the core package is imported from with `repo` on PYTHONPATH (or the error that stopped it)."""
+    module = PACKAGE.replace("/", ".")
+    check = subprocess.run([sys.executable, "-c", f"import {module}; print({module}.__file__)"], cwd=repo,
+                           env={**os.environ, "PYTHONPATH": str(repo)}, capture_output=True, text=True)
+    return check.stdout.strip() or check.stderr.strip()
+
+
 def baseline(tests: list[str], timeout: float) -> Path:
     """Snapshot the repository, run the subset on an unmutated copy (it must pass), keep its numba cache."""
     _fresh_copy(REPO)
     repo = _fresh_copy()
     cache = WORK / "cache-base"
     shutil.rmtree(cache, ignore_errors=True)
-    check = subprocess.run([sys.executable, "-c", f"import {PACKAGE}; print({PACKAGE}.__file__)"], cwd=repo,
-                           env={**os.environ, "PYTHONPATH": str(repo)}, capture_output=True, text=True)
-    if not check.stdout.startswith(str(repo)):
-        sys.exit(f"the copy is not what gets imported ({check.stdout.strip() or check.stderr.strip()})")
+    imported = imported_from(repo)
+    if not imported.startswith(str(repo)):
+        sys.exit(f"the copy is not what gets imported ({imported})")
     status, failed = _run_tests(repo, cache, tests, timeout * 3)
     if status != "survived":
         sys.exit(f"the unmutated code fails the test subset ({status}: {failed}); fix that first")
