@@ -30,7 +30,7 @@ FLAT_BYTES = 270       # vertices, faces, face normals, Embree's BVH, the shadin
 SMOOTH_BYTES = 330     # + float32 corner normals (36 B) and their per-vertex sums
 FLOAT64_NORMAL_BYTES = 40  # corner normals in float64 (float64 shading, or global mode's shadow copy)
 CREASED_FILE_BYTES = 720   # a mesh file with a crease angle: at worst every corner takes the pairwise test
-CREASE_CHUNK_BYTES = 64 << 20  # the pairwise test's temporaries, a chunk at a time (geometry.PAIR_CHUNK)
+CREASE_CHUNK_BYTES = 64 << 20  # the pairwise test's temporaries, a chunk at a time (normals.PAIR_CHUNK)
 # trimesh's load of a mesh file, above the render's own peak (the parse of a text or STL file is larger).
 MESH_FILE_BYTES = {".ply": 30, ".obj": 80, ".glb": 70, ".gltf": 70, ".stl": 330, ".off": 550}
 OTHER_MESH_FILE_BYTES = 550

@@ -212,3 +212,30 @@ def test_file_normals_per_vertex_equal_the_per_corner_rule_and_fall_back_to_the_
     np.testing.assert_array_equal(found, per_corner)
     np.testing.assert_array_equal(found[faces == 0], unit[(faces == 0).any(axis=1)])  # vertex 0 has no normal
     assert normal_rules.file_corner_normals(normals, faces, unit, np.float32).dtype == np.float32
+
+
+@pytest.mark.parametrize("chunk", [1, 7, 100])
+def test_chunked_steps_give_the_one_chunk_answers_at_any_chunk_size(monkeypatch, chunk):
+    """Face normals, signed volumes and creased sums run in chunks (FACE_CHUNK = 2^18 faces, PAIR_CHUNK = 2^20
+    pairs) to bound their temporaries: larger than any mesh here, so with tiny chunks every boundary is
+    crossed. Normals must equal the one-chunk answers bit for bit (each face and each corner's sum is computed
+    whole, in the same order); a volume is one sum over the faces, regrouped by the chunks: within F·ε·F,
+    since each of its F additions errs by at most ε times a running sum of at most F terms of size ≤ 1 (the
+    unit sphere). A chunk that skipped or repeated faces or pairs is off by a whole term."""
+    sphere = trimesh.creation.icosphere(subdivisions=3)  # 1,280 faces; adjacent normals ~9° apart
+    vertices, faces = np.asarray(sphere.vertices), np.asarray(sphere.faces, np.int64)
+    piece = np.arange(len(faces)) % 3
+    sign = np.where(np.arange(len(faces)) % 5 == 0, -1.0, 1.0)
+
+    def normals():
+        return (*face_normals(vertices, faces), compute_corner_normals(vertices, faces, "area", 10.0))
+
+    def volumes():
+        return np.concatenate([mesh_repair._signed_volumes(vertices, faces),
+                               mesh_repair._signed_volumes(vertices, faces, piece, 3, sign)])
+    whole_normals, whole_volumes = normals(), volumes()
+    for module, name in ((normal_rules, "FACE_CHUNK"), (mesh_repair, "FACE_CHUNK"), (normal_rules, "PAIR_CHUNK")):
+        monkeypatch.setattr(module, name, chunk)
+    for found, expected in zip(normals(), whole_normals):
+        np.testing.assert_array_equal(found, expected)
+    np.testing.assert_allclose(volumes(), whole_volumes, rtol=0, atol=len(faces) ** 2 * np.finfo(float).eps)
