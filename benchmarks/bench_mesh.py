@@ -111,17 +111,11 @@ def measure(path: Path, size: int, crease: float, repeats: int) -> dict:
              "frame": total - result.timings["geometry"] - result.timings["build"]}
     del result
 
-    def best(step) -> float:
-        times = []
-        for _ in range(repeats):
-            start = time.thread_time()
-            step()
-            times.append(time.thread_time() - start)
-        return min(times)
+    from bench_geometry import best  # thread CPU seconds, min of `repeats` (this script's folder is on sys.path)
 
-    found["trimesh"] = best(lambda: trimesh.load(str(path), process=False))
-    found["load"] = best(lambda: object_mesh(scene, scene.objects[0], 0, str(path)))
-    found["load+prepare"] = best(lambda: build_geometry(scene, str(path)))
+    found["trimesh"] = best(lambda: trimesh.load(str(path), process=False), repeats)
+    found["load"] = best(lambda: object_mesh(scene, scene.objects[0], 0, str(path)), repeats)
+    found["load+prepare"] = best(lambda: build_geometry(scene, str(path)), repeats)
     found["prepare"] = found["load+prepare"] - found["load"]
     geometry = build_geometry(scene, str(path))
     found["BVH"] = min(found["BVH"], *(_wall(lambda: Accelerator(geometry)) for _ in range(repeats)))
