@@ -291,3 +291,24 @@ def test_a_model_whose_vertices_all_coincide_is_one_line_not_a_camera_error(tmp_
     [line] = done.stderr.strip().splitlines()
     assert line == (f"error: {tmp_path / 'point.obj'}: every vertex of the model lies within 0 of [1.0, 2.0, 3.0]; "
                     "allowed: a model at least 2e-12 across"), line
+
+
+def test_an_obj_is_scanned_for_its_mtllib_once_per_version(tmp_path, monkeypatch):
+    """The read cache's identity names an OBJ's .mtl, found by scanning the OBJ up to `mtllib` (all of it when
+    there is none: 0.3 s for 78 MB). Framing, the render's read and batch ask for it; it is scanned once per
+    version of the file, and a rewrite that names another .mtl is seen."""
+    import os
+
+    from raycast_phong.pipeline import mesh_file
+    path = tmp_path / "tri.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    opened = []
+    real = mesh_file.open_regular
+    monkeypatch.setattr(mesh_file, "open_regular", lambda *a, **k: opened.append(a[0]) or real(*a, **k))
+    rp.render_file(path, ["render.width=16", "render.height=12"])
+    assert mesh_file.side_files(path) == []
+    scans = opened.count(path) - 1  # the one read of the mesh itself opens it too
+    assert scans == 1, opened
+    path.write_text("mtllib other.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    os.utime(path, ns=(1, 1))  # a new version even on a coarse clock: the size and mtime differ
+    assert mesh_file.side_files(path) == [tmp_path / "other.mtl"]
