@@ -27,7 +27,7 @@ from .mesh_scene import load_scene
 from .plan import build_plan, diagnose, plan_flags
 from .records import ImageBuffers, RenderPlan, RenderResult
 from .scene import Scene, SceneError
-from .shading import FilmRows, ShadingInputs, prepare_shading, shade_tile
+from .shading import ShadingInputs, film_rows, prepare_shading, shade_tile
 from .shadows import MAX_LIGHTS, ShadowInputs, light_visibility, no_shadows, prepare_shadows
 from .tile import render_band
 
@@ -113,11 +113,10 @@ class TileWork:
         row0, row1 = band
         scene = self.accelerator.embree_scene
         if scene is not None:  # Embree's C API: the whole band in one kernel (tile.py)
-            out, counts, seconds = self.film.rows(row0, row1), np.zeros(len(COUNTED_TERMS), np.int64), np.zeros(3)
+            film, seconds = film_rows(self.film.rows(row0, row1)), np.zeros(3)
             render_band(scene.scene, row0, row1, self.rays.params, self.rays.shared_origins,
-                        self.shadows or NO_SHADOWS, self.shading,
-                        FilmRows(out.rgb, out.terms, out.depth, out.normal, out.face, counts), seconds)
-            return seconds[0], seconds[1], seconds[2], counts
+                        self.shadows or NO_SHADOWS, self.shading, film, seconds)
+            return seconds[0], seconds[1], seconds[2], film.counts
         t0 = time.perf_counter()
         origins, directions = self.rays.rows(row0, row1)
         hits = self.accelerator.closest_hits(origins, directions, self.rays.width * self.samples * self.samples)
@@ -190,10 +189,8 @@ def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bo
         inputs = prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), real)
         film = allocate_film(2, 2, (), real)
         if fused:
-            out = film.rows(0, 0)
-            render_band(0, 0, 0, rays.params, rays.shared_origins, NO_SHADOWS, inputs,
-                        FilmRows(out.rgb, out.terms, out.depth, out.normal, out.face,
-                                 np.zeros(len(COUNTED_TERMS), np.int64)), np.zeros(3))
+            render_band(0, 0, 0, rays.params, rays.shared_origins, NO_SHADOWS, inputs, film_rows(film.rows(0, 0)),
+                        np.zeros(3))
         else:
             shade_tile(inputs, misses, directions, film.rows(0, 2), 1, np.zeros(4, np.int64))
 

@@ -89,6 +89,12 @@ class FilmRows(NamedTuple):
     counts: np.ndarray      # (len(COUNTED_TERMS),) int64, shading points that evaluated each term
 
 
+def film_rows(out: ImageBuffers, counts: np.ndarray | None = None) -> FilmRows:
+    """The kernel's FilmRows of image rows `out` (ImageBuffers.rows), with fresh term counters unless given."""
+    counts = np.zeros(len(COUNTED_TERMS), np.int64) if counts is None else counts
+    return FilmRows(out.rgb, out.terms, out.depth, out.normal, out.face, counts)
+
+
 def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Frame,
                     flags: tuple[int, int], real: type = np.float32) -> ShadingInputs:
     """Pack the scene's numbers into tables of the shading precision `real` for the kernel.
@@ -127,10 +133,10 @@ def shade_tile(inputs: ShadingInputs, hits: TileHits, directions: np.ndarray, ou
 
     Returns how many shading points evaluated each optional term, (len(COUNTED_TERMS),) int64.
     """
-    counts = np.zeros(len(COUNTED_TERMS), np.int64)
     rays = TileRays(hits.face, hits.u, hits.v, hits.t, directions, NO_SHADOWS if visible is None else visible, samples)
-    _shade_rays(inputs, rays, FilmRows(out.rgb, out.terms, out.depth, out.normal, out.face, counts))
-    return counts
+    film = film_rows(out)
+    _shade_rays(inputs, rays, film)
+    return film.counts
 
 
 @kernel()
