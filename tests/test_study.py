@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
+from raycast_phong.pipeline.mesh_scene import read_scene_dict
 from raycast_phong.tools.accuracy import mesh_coverage
 from raycast_phong.tools.metrics import highlight_loss, measure, psnr, rmse, silhouette_pixels
 from raycast_phong.tools.reference import analytic_reference
@@ -21,7 +22,6 @@ from raycast_phong.tools.study import (
     pareto_front,
     read_csv,
     run_study,
-    scene_data,
     variant,
 )
 from raycast_phong.tools.study_report import write_study
@@ -237,7 +237,7 @@ def test_small_study_writes_report_csv_plots_and_summary(tmp_path):
     # Re-measure one row: the same scene rendered again gives the CSV's errors (renders are deterministic).
     row = next(r for r in rows if r["model"] == "gouraud" and r["level"] == "1" and r["precision"] == "float32")
     base = rp.load_scene(path)
-    scene = variant(base, scene_data(path), model="gouraud", specular="phong", precision="float32", samples=1,
+    scene = variant(base, read_scene_dict(path), model="gouraud", specular="phong", precision="float32", samples=1,
                     shininess=None, level=1, folder=str(tmp_path), source=str(path))
     again = rp.render(scene)
     errors = measure(again.image, mesh_coverage(scene), analytic_reference(scene))

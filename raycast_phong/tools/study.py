@@ -176,11 +176,6 @@ class Study:
 
 # ---------------------------------------------------------------- scenes of the sweep
 
-def scene_data(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) -> dict:
-    """The scene (or mesh) file parsed, with `--set` overrides applied (validated later, per combination)."""
-    return read_scene_dict(Path(path), overrides)
-
-
 def variant(base: Scene, data: dict, *, model: str, specular: str, precision: str, samples: int,
             shininess: float | None, level: int, folder: str, source: str, normals: str | None = None) -> Scene:
     """The base scene with every object at `level` and shaded with `model`, and the render keys set.
@@ -248,7 +243,7 @@ class _Sweep:
 
     def __init__(self, path: str | Path, overrides, options: StudyOptions, folder: str):
         self.source = str(path)
-        self.data = scene_data(path, overrides)
+        self.data = read_scene_dict(path, overrides)  # validated later, per combination
         self.base = validate_scene(self.data, source=self.source, folder=Path(path).parent)
         _check_options(self.base, options, self.source)
         self.options, self.folder = options, folder
