@@ -25,6 +25,7 @@ from typing import NamedTuple
 import numpy as np
 import trimesh
 
+from .records import bounding_box
 from .scene import DEFAULT_MATERIAL, POSITION_LIMIT, SceneError, open_regular
 
 TRIMESH = Path(trimesh.__file__).resolve().parent  # an exception that passed through here: trimesh refused the file
@@ -205,7 +206,8 @@ def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
     face_group, materials, face_colour = _surfaces(parts, library, path, notes)
     centre, radius = np.full(3, np.nan), math.nan
     if bounds:  # only framing needs them: a render's own read skips the pass
-        centre = (used.min(axis=0) + used.max(axis=0)) / 2
+        low, high = bounding_box(used)  # column by column: numpy's axis-0 min/max is ~20× slower
+        centre = (low + high) / 2
         radius = float(np.sqrt(((used - centre) ** 2).sum(axis=1).max()))
     return MeshFile(vertices, faces, normals, face_group, materials, face_colour, STATED_UP.get(suffix),
                     tuple(dict.fromkeys(notes)), centre, radius)
