@@ -1,10 +1,10 @@
 """`python cli.py …` from a checkout: the same app as the installed `raycast-phong` command.
 
-The app itself lives in the package (raycast_phong/commands.py), so installing raycast-phong adds no
+The app itself lives in the package (raycast_phong/cli/commands.py), so installing raycast-phong adds no
 top-level module named `cli` that would shadow another on the path.
 """
 
-from raycast_phong.commands import app
+from raycast_phong.cli import app
 
 if __name__ == "__main__":
     app()

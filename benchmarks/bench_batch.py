@@ -63,9 +63,9 @@ import json, sys, time
 import numpy as np
 started = time.perf_counter()
 import raycast_phong as rp
-import raycast_phong.pipeline.render  # the package's names load lazily: this is what a render imports
+import raycast_phong.renderer.frame  # the package's names load lazily: this is what a render imports
 imported = time.perf_counter()
-render = sys.modules["raycast_phong.pipeline.render"]
+render = sys.modules["raycast_phong.renderer.frame"]
 render.warm_kernels()
 warmed = time.perf_counter()
 from concurrent.futures import ProcessPoolExecutor
@@ -75,8 +75,8 @@ with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork")) as p
 forked = time.perf_counter()
 from embreex import rtcore_scene
 from embreex.mesh_construction import TriangleMesh
-from raycast_phong.pipeline.geometry import build_geometry
-from raycast_phong.pipeline.intersect import unit_frame
+from raycast_phong.geometry.build import build_geometry
+from raycast_phong.renderer.intersect import unit_frame
 def per_scene(path):
     best = {}
     for _ in range(5):

@@ -19,9 +19,9 @@ from types import SimpleNamespace
 import numpy as np
 
 import raycast_phong as rp
-from raycast_phong.pipeline import embree
-from raycast_phong.pipeline.geometry import build_geometry, plane_mesh
-from raycast_phong.pipeline.intersect import Accelerator, unit_frame
+from raycast_phong.geometry.build import build_geometry, plane_mesh
+from raycast_phong.renderer.intersect import Accelerator, unit_frame
+from raycast_phong.renderer.kernels import embree
 
 
 def meshes() -> dict[str, SimpleNamespace]:

@@ -23,14 +23,14 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 import raycast_phong as rp
-from raycast_phong.pipeline.camera import RayGenerator, camera_rig, generate_rays
-from raycast_phong.pipeline.film import allocate_film
-from raycast_phong.pipeline.geometry import build_geometry
-from raycast_phong.pipeline.intersect import Accelerator, unit_frame
-from raycast_phong.pipeline.plan import build_plan, plan_flags
-from raycast_phong.pipeline.render import TILE_RAYS, TileWork
-from raycast_phong.pipeline.shading import prepare_shading
-from raycast_phong.pipeline.shadows import prepare_shadows, shadow_rays
+from raycast_phong.geometry.build import build_geometry
+from raycast_phong.renderer.film import allocate_film
+from raycast_phong.renderer.frame import TILE_RAYS, TileWork
+from raycast_phong.renderer.intersect import Accelerator, unit_frame
+from raycast_phong.renderer.kernels.camera import RayGenerator, camera_rig, generate_rays
+from raycast_phong.renderer.kernels.shading import prepare_shading
+from raycast_phong.renderer.kernels.shadows import prepare_shadows, shadow_rays
+from raycast_phong.renderer.plan import build_plan, plan_flags
 
 
 def benchmark_scene(size: int, subdivisions: int = 6, mode: str = "local") -> rp.Scene:

@@ -1,5 +1,5 @@
 """The geometry stage for built-in shapes (issue 12: "geometry in milliseconds"), optionally against an older
-version of pipeline/geometry.py, in one process.
+version of geometry/build.py, in one process.
 
 Times build_geometry (shapes, placement, face and vertex normals, checks) on bench_frame's scene (icosphere of
 6 subdivisions, 81,920 triangles, Phong), on the default scene (three 80-face icospheres) and on 1,000
@@ -23,14 +23,15 @@ from pathlib import Path
 from bench_frame import benchmark_scene
 
 import raycast_phong as rp
-from raycast_phong.pipeline import geometry, shapes
+from raycast_phong.geometry import build as geometry
+from raycast_phong.geometry import shapes
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def geometry_at(revision: str):
-    """pipeline/geometry.py as of `revision`, as a module of today's package (its relative imports resolve)."""
-    source = subprocess.run(["git", "show", f"{revision}:raycast_phong/pipeline/geometry.py"], cwd=ROOT,
+    """geometry/build.py as of `revision`, as a module of today's package (its relative imports resolve)."""
+    source = subprocess.run(["git", "show", f"{revision}:raycast_phong/geometry/build.py"], cwd=ROOT,
                             capture_output=True, text=True, check=True).stdout
     name = f"raycast_phong.pipeline._geometry_{revision}"
     module = importlib.util.module_from_spec(importlib.util.spec_from_loader(name, loader=None))

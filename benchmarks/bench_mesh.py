@@ -95,8 +95,8 @@ def measure(path: Path, size: int, crease: float, repeats: int) -> dict:
     import trimesh
 
     import raycast_phong as rp
-    from raycast_phong.pipeline.geometry import build_geometry, object_mesh
-    from raycast_phong.pipeline.intersect import Accelerator
+    from raycast_phong.geometry.build import build_geometry, object_mesh
+    from raycast_phong.renderer.intersect import Accelerator
 
     scene = rp.validate_scene(scene_for(path, size, crease), source=str(path))
     rp.render(rp.validate_scene(scene_for(path, 8, crease), source="warm-up"))  # kernels compiled and loaded

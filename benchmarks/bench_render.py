@@ -24,7 +24,7 @@ import numpy as np
 from bench_frame import benchmark_scene
 
 import raycast_phong as rp
-from raycast_phong.pipeline.geometry import build_geometry
+from raycast_phong.geometry.build import build_geometry
 
 try:
     import open3d as o3d

@@ -1,7 +1,7 @@
 """raycast-phong: ray-cast flat, Gouraud and Phong shading on Intel Embree.
 
     scene = raycast_phong.load_scene("scenes/default.toml")
-    result = raycast_phong.pipeline.render(scene)          # .image (H, W, 3) float32, .timings, .plan
+    result = raycast_phong.renderer.frame(scene)          # .image (H, W, 3) float32, .timings, .plan
     raycast_phong.write_image("out.png", result.image)
 
 The names below load their module on first use (PEP 562), so `import raycast_phong` — and the pytest
@@ -19,23 +19,23 @@ __version__ = "0.1.0"
 _HOMES = {
     "ImageError": "io.image_io", "read_image": "io.image_io", "read_layer": "io.image_io", "write_image": "io.image_io",
     "WriteError": "io.atomic",
-    "build_plan": "pipeline.plan",
-    "RenderPlan": "pipeline.records", "RenderResult": "pipeline.records",
-    "render": "pipeline.render", "render_file": "pipeline.render",
-    "Scene": "pipeline.scene", "SceneError": "pipeline.scene", "ShadingModel": "pipeline.scene",
-    "SpecularModel": "pipeline.scene", "default_scene_path": "pipeline.scene", "load_scene": "pipeline.mesh_scene",
-    "validate_scene": "pipeline.scene",
+    "build_plan": "renderer.plan",
+    "RenderPlan": "records", "RenderResult": "records",
+    "render": "renderer.frame", "render_file": "renderer.frame",
+    "Scene": "scene.schema", "SceneError": "scene.schema", "ShadingModel": "scene.schema",
+    "SpecularModel": "scene.schema", "default_scene_path": "scene.schema", "load_scene": "scene.load",
+    "validate_scene": "scene.schema",
 }
 __all__ = sorted(_HOMES)
 
 if TYPE_CHECKING:
     from .io.atomic import WriteError
     from .io.image_io import ImageError, read_image, read_layer, write_image
-    from .pipeline.mesh_scene import load_scene
-    from .pipeline.plan import build_plan
-    from .pipeline.records import RenderPlan, RenderResult
-    from .pipeline.render import render, render_file
-    from .pipeline.scene import (
+    from .records import RenderPlan, RenderResult
+    from .renderer.frame import render, render_file
+    from .renderer.plan import build_plan
+    from .scene.load import load_scene
+    from .scene.schema import (
         Scene,
         SceneError,
         ShadingModel,

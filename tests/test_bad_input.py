@@ -17,7 +17,7 @@ import pytest
 from typer.testing import CliRunner
 
 import raycast_phong
-from raycast_phong.commands import app
+from raycast_phong.cli import app
 
 runner = CliRunner()
 

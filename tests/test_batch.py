@@ -19,7 +19,7 @@ import pytest
 from typer.testing import CliRunner
 
 import raycast_phong as rp
-from raycast_phong.commands import app
+from raycast_phong.cli import app
 from raycast_phong.tools import batch
 from raycast_phong.tools.sweep import compose_sheet, load_sweep
 
@@ -184,7 +184,7 @@ def test_a_killed_batch_leaves_no_partial_image_and_a_rerun_completes_it(tmp_pat
     for index in range(count):  # 192×192 with 3×3 samples: ~0.1 s each, so the kill lands mid-batch
         (folder / f"s{index}.toml").write_text(scene_text(extra="subdivisions = 3", size=192, samples=3))
     out = tmp_path / "out"
-    command = [sys.executable, "-m", "raycast_phong.commands", "batch", str(folder), "--out", str(out), "--jobs", "1"]
+    command = [sys.executable, "-m", "raycast_phong.cli", "batch", str(folder), "--out", str(out), "--jobs", "1"]
     process = subprocess.Popen(command, cwd=ROOT, start_new_session=True, stdout=subprocess.DEVNULL,
                                stderr=subprocess.PIPE)
     deadline = time.monotonic() + 60
@@ -266,7 +266,7 @@ def test_forked_workers_from_a_fresh_command_match_one_process(five_scenes, tmp_
     """A fresh `batch` command has not started Embree, so it warms the kernels and forks its workers
     (the pytest process here has started Embree, so in-process runs use the fork server instead)."""
     run(str(five_scenes), "--out", str(tmp_path / "one"), "--jobs", "1")
-    command = [sys.executable, "-m", "raycast_phong.commands", "batch", str(five_scenes), "--out",
+    command = [sys.executable, "-m", "raycast_phong.cli", "batch", str(five_scenes), "--out",
                str(tmp_path / "forked"),
                "--jobs", "2"]
     done = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=120)
@@ -278,8 +278,8 @@ def test_forked_workers_from_a_fresh_command_match_one_process(five_scenes, tmp_
 
 
 def test_warming_the_kernels_starts_no_embree():
-    probe = ("from raycast_phong.pipeline.render import warm_kernels; "
-             "from raycast_phong.pipeline.intersect import embree_started; "
+    probe = ("from raycast_phong.renderer.frame import warm_kernels; "
+             "from raycast_phong.renderer.intersect import embree_started; "
              "warm_kernels(); print(embree_started())")
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
     assert done.stdout.strip() == "False", done.stderr
@@ -292,9 +292,10 @@ def test_warm_up_loads_only_the_kernels_the_scenes_need(tmp_path):
 import json, sys
 from pathlib import Path
 from raycast_phong.tools import batch
-from raycast_phong.pipeline import embree, tile
-from raycast_phong.pipeline.shading import _shade_rays
-from raycast_phong.pipeline.shadows import _shadow_rays
+from raycast_phong.renderer.kernels import embree
+from raycast_phong.renderer.kernels import tile
+from raycast_phong.renderer.kernels.shading import _shade_rays
+from raycast_phong.renderer.kernels.shadows import _shadow_rays
 folder = sys.argv[1]
 open(folder + "/a.toml", "w").write('[render]\\nwidth = 8\\nheight = 8\\n[[objects]]\\nshape = "icosphere"\\n')
 report = batch.run_batch(batch.find_jobs([folder + "/a.toml"]), folder + "/out", workers=1)

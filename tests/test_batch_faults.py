@@ -42,7 +42,7 @@ def start_batch():
     started = []
 
     def start(folder: Path, out: Path, jobs: int) -> subprocess.Popen:
-        command = [sys.executable, "-m", "raycast_phong.commands", "batch", str(folder), "--out", str(out), "--jobs",
+        command = [sys.executable, "-m", "raycast_phong.cli", "batch", str(folder), "--out", str(out), "--jobs",
                    str(jobs)]
         started.append(subprocess.Popen(command, cwd=ROOT, start_new_session=True, stdout=subprocess.PIPE,
                                         stderr=subprocess.PIPE, text=True))

@@ -17,7 +17,7 @@ from conftest import write_tiny_scene
 from typer.testing import CliRunner
 
 import raycast_phong
-from raycast_phong.commands import app
+from raycast_phong.cli import app
 
 runner = CliRunner()
 
@@ -175,7 +175,7 @@ def test_internal_error_exits_1_with_one_line(tiny_scene, tmp_path, monkeypatch)
 def test_render_with_reference_prints_the_errors(tmp_path):
     from typer.testing import CliRunner
 
-    from raycast_phong.commands import app
+    from raycast_phong.cli import app
     result = CliRunner().invoke(app, ["render", "--width", "60", "--height", "24", "--reference", "analytic",
                                       "-o", str(tmp_path / "r.png"), "-q"])
     assert result.exit_code == 0, result.output
@@ -188,7 +188,7 @@ def test_reference_command_and_the_mesh_error(tmp_path):
     from typer.testing import CliRunner
 
     import raycast_phong as rp
-    from raycast_phong.commands import app
+    from raycast_phong.cli import app
     out = tmp_path / "ref.exr"
     result = CliRunner().invoke(app, ["reference", "--set", "render.width=30", "--set", "render.height=12",
                                       "-o", str(out)])
@@ -205,7 +205,7 @@ def test_reference_command_and_the_mesh_error(tmp_path):
 def test_study_command_writes_its_report_and_files(tmp_path):
     from typer.testing import CliRunner
 
-    from raycast_phong.commands import app
+    from raycast_phong.cli import app
     result = CliRunner().invoke(app, ["study", "--width", "24", "--height", "12", "--levels", "0,1",
                                       "--repeats", "1", "--normals", "mean,exact", "--out", str(tmp_path / "s")])
     assert result.exit_code == 0, result.output

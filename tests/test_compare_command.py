@@ -7,7 +7,7 @@ import pytest
 from typer.testing import CliRunner
 
 import raycast_phong as rp
-from raycast_phong.commands import app
+from raycast_phong.cli import app
 from raycast_phong.io.image_io import compare_files
 
 runner = CliRunner()

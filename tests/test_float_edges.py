@@ -20,7 +20,7 @@ import pytest
 from typer.testing import CliRunner
 
 import raycast_phong as rp
-from raycast_phong.commands import app
+from raycast_phong.cli import app
 
 runner = CliRunner()
 pytestmark = [pytest.mark.usefixtures("in_tmp_path"), pytest.mark.filterwarnings("error")]

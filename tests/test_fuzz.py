@@ -25,8 +25,8 @@ from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 import raycast_phong as rp
-from raycast_phong.commands import app
-from raycast_phong.pipeline.scene import scene_json_schema
+from raycast_phong.cli import app
+from raycast_phong.scene.schema import scene_json_schema
 
 DEFAULT_EXAMPLES = 40
 FUZZ_EXAMPLES = int(os.environ.get("RAYCAST_PHONG_FUZZ_EXAMPLES", DEFAULT_EXAMPLES))

@@ -16,8 +16,8 @@ import trimesh
 from typer.testing import CliRunner
 
 import raycast_phong as rp
-from raycast_phong.commands import app
-from raycast_phong.pipeline.geometry import build_geometry
+from raycast_phong.cli import app
+from raycast_phong.geometry.build import build_geometry
 
 MESHES = Path(__file__).resolve().parent.parent / "scenes" / "meshes"
 SHIPPED = ("dice.obj", "painted_knot.ply", "still_life.glb")
@@ -192,7 +192,7 @@ def test_a_mesh_file_that_is_not_one_is_one_line_naming_it(tmp_path):
 
 def test_a_mesh_file_is_read_once_for_framing_and_render(monkeypatch):
     """load_scene reads the file to frame it; the render takes that reading instead of a second one."""
-    from raycast_phong.pipeline import mesh_file
+    from raycast_phong.io import mesh_file
     reads = []
     real = mesh_file._read
     monkeypatch.setattr(mesh_file, "_read", lambda *a, **k: reads.append(a) or real(*a, **k))
@@ -209,7 +209,7 @@ def test_an_mtllib_that_is_a_fifo_is_one_note_and_never_blocks(tmp_path):
     import sys
     path = copy_dice(tmp_path, None)
     os.mkfifo(tmp_path / "dice.mtl")
-    command = [sys.executable, "-m", "raycast_phong.commands", "render", str(path), "-o", "out.png", "--width", "32",
+    command = [sys.executable, "-m", "raycast_phong.cli", "render", str(path), "-o", "out.png", "--width", "32",
                "--height", "24"]
     done = subprocess.run(command, capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert done.returncode == 0, done.stderr
@@ -252,7 +252,7 @@ def test_mtl_mapping_edge_cases_and_their_notes(tmp_path):
     """illum 0 is the colour only (k_e = Kd + Ke); one number is grey; a missing key takes the default's value;
     values outside [0, 1] are clamped; a value that is not a number keeps the default; Tr, illum 3 and maps
     are said once each, with the render going on."""
-    from raycast_phong.pipeline.mesh_file import parse_mtl
+    from raycast_phong.io.mesh_file import parse_mtl
     notes: list[str] = []
     found = parse_mtl("newmtl flat\nKd 0.5 0.25 0.125\nKe 0.25 0 0\nillum 0\n"
                       "newmtl grey\nKa 0.3\nKd 1.5 0.5 -1\nKs nonsense\nTr 0.2\nillum 3\nbump b.png\n",
@@ -271,7 +271,7 @@ def test_mtl_mapping_edge_cases_and_their_notes(tmp_path):
 def test_a_mesh_file_too_large_to_read_for_framing_is_one_line_before_any_read(tmp_path, monkeypatch):
     """Framing reads the file before render()'s memory check: a PLY whose header promises 10¹² faces is
     refused from its header (the read would try to allocate them), one line naming the file, exit 2."""
-    from raycast_phong.pipeline import mesh_file
+    from raycast_phong.io import mesh_file
     header = ("ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
               "property float z\nelement face 1000000000000\nproperty list uchar int vertex_indices\nend_header\n")
     (tmp_path / "huge.ply").write_bytes(header.encode() + bytes(64))
@@ -299,7 +299,7 @@ def test_an_obj_is_scanned_for_its_mtllib_once_per_version(tmp_path, monkeypatch
     version of the file, and a rewrite that names another .mtl is seen."""
     import os
 
-    from raycast_phong.pipeline import mesh_file
+    from raycast_phong.io import mesh_file
     path = tmp_path / "tri.obj"
     path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     opened = []
@@ -319,7 +319,7 @@ def test_an_obj_is_counted_once_for_the_framing_check_and_the_render(tmp_path, m
     and render()'s estimate both ask, and the count is made once per version of the file."""
     import os
 
-    from raycast_phong.pipeline import memory
+    from raycast_phong.renderer import budget as memory
     path = tmp_path / "tri.obj"
     path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     counted = []

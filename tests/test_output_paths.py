@@ -18,7 +18,7 @@ from typer.testing import CliRunner
 
 import raycast_phong
 import raycast_phong as rp
-from raycast_phong.commands import app
+from raycast_phong.cli import app
 
 runner = CliRunner()
 ROOT = Path(__file__).resolve().parents[1]
@@ -196,7 +196,7 @@ def test_stability_writes_into_a_fresh_temporary_folder(tmp_path):
     temporary.mkdir()
     (temporary / "raycast-phong-stability").write_text("planted by someone else")
     env = {**{k: v for k, v in os.environ.items() if k != "RAYCAST_PHONG_DEBUG"}, "TMPDIR": str(temporary)}
-    done = subprocess.run([sys.executable, "-m", "raycast_phong.commands", "stability", "--case",
+    done = subprocess.run([sys.executable, "-m", "raycast_phong.cli", "stability", "--case",
                            "perspective_against_screen", "--json"],
                           cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr

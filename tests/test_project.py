@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 import raycast_phong as rp
-from raycast_phong.pipeline.scene import scene_json_schema
+from raycast_phong.scene.schema import scene_json_schema
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -96,7 +96,7 @@ def test_importing_the_package_the_plugin_and_the_cli_loads_no_renderer():
 def test_rendering_built_in_shapes_from_the_cli_loads_no_mesh_library_and_no_tool(tmp_path):
     """A warm `raycast-phong render` pays for what the scene needs: the built-in shapes are numpy, so trimesh
     (≈ 0.2–0.3 s to import) loads only for a mesh file, and the tools only for their own commands."""
-    probe = ("import sys\nfrom raycast_phong.commands import app\n"
+    probe = ("import sys\nfrom raycast_phong.cli import app\n"
              "try:\n    app()\nexcept SystemExit as done:\n    assert done.code == 0, done.code\n"
              "print([m for m in sys.modules if m.split('.')[0] == 'trimesh' or m.startswith('raycast_phong.tools')])")
     scene = tmp_path / "shapes.toml"  # one of each built-in shape, tiny
@@ -110,14 +110,14 @@ def test_rendering_built_in_shapes_from_the_cli_loads_no_mesh_library_and_no_too
 
 
 def test_the_package_names_load_on_first_use_and_stay_functions():
-    """Importing the submodule raycast_phong.pipeline.render first must not leave the module where render() belongs."""
-    probe = ("import sys, raycast_phong.pipeline.render, raycast_phong as rp; "
+    """Importing the submodule raycast_phong.renderer.frame first must not leave the module where render() belongs."""
+    probe = ("import sys, raycast_phong.renderer.frame, raycast_phong as rp; "
              "print(callable(rp.render), rp.render.__module__, 'numba' in sys.modules, "
              "set(rp.__all__) <= set(dir(rp)))")
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=ROOT, timeout=60)
-    assert done.stdout.split() == ["True", "raycast_phong.pipeline.render", "True", "True"], done.stdout + done.stderr
+    assert done.stdout.split() == ["True", "raycast_phong.renderer.frame", "True", "True"], done.stdout + done.stderr
     # load_scene reads any scene file, a mesh file too: its home is mesh_scene, above scene.py (no cycle).
-    assert callable(rp.render) and rp.load_scene.__module__ == "raycast_phong.pipeline.mesh_scene"
+    assert callable(rp.render) and rp.load_scene.__module__ == "raycast_phong.scene.load"
 
 
 def test_ruff_is_clean():

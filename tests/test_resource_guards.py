@@ -20,8 +20,8 @@ import pytest
 import trimesh
 
 import raycast_phong as rp
-from raycast_phong.pipeline.geometry import build_geometry
-from raycast_phong.pipeline.memory import (
+from raycast_phong.geometry.build import build_geometry
+from raycast_phong.renderer.budget import (
     check_memory,
     default_budget,
     estimate_memory,
@@ -29,8 +29,8 @@ from raycast_phong.pipeline.memory import (
     parse_size,
     shape_triangles,
 )
-from raycast_phong.pipeline.plan import diagnose, group_median
-from raycast_phong.pipeline.scene import MAX_SCENE_BYTES
+from raycast_phong.renderer.plan import diagnose, group_median
+from raycast_phong.scene.schema import MAX_SCENE_BYTES
 
 CLI = [sys.executable, str(Path(__file__).parents[1] / "cli.py")]
 ADDRESS_SPACE = 2 << 30  # plenty for the small renders here (measured: the default scene renders under it)

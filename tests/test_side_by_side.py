@@ -16,9 +16,9 @@ from conftest import write_tiny_scene
 from typer.testing import CliRunner
 
 import raycast_phong as rp
-from raycast_phong.commands import app
+from raycast_phong.cli import app
 from raycast_phong.io import image_io
-from raycast_phong.pipeline.film import to_8bit
+from raycast_phong.renderer.film import to_8bit
 from raycast_phong.tools import compare, difference
 
 runner = CliRunner()

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
-from raycast_phong.pipeline.mesh_scene import read_scene_dict
+from raycast_phong.scene.load import read_scene_dict
 from raycast_phong.tools.accuracy import mesh_coverage
 from raycast_phong.tools.metrics import highlight_loss, measure, psnr, rmse, silhouette_pixels
 from raycast_phong.tools.reference import analytic_reference

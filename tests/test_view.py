@@ -24,8 +24,8 @@ from starlette.websockets import WebSocketDisconnect
 from typer.testing import CliRunner
 
 import raycast_phong as rp
-from raycast_phong.commands import app as cli_app
-from raycast_phong.pipeline.film import to_8bit
+from raycast_phong.cli import app as cli_app
+from raycast_phong.renderer.film import to_8bit
 from raycast_phong.tools import accuracy
 from raycast_phong.tools.view.server import create_app, open_source, unpack
 
@@ -254,7 +254,7 @@ def test_a_saved_scene_renders_to_the_frame_shown(scene_path, tmp_path):
 
 
 def test_view_command_prints_a_url_whose_token_is_required(scene_path):
-    command = [sys.executable, "-c", "from raycast_phong.commands import app; app()", "view", str(scene_path),
+    command = [sys.executable, "-c", "from raycast_phong.cli import app; app()", "view", str(scene_path),
                "--port", "0",
                "--no-browser"]
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
@@ -340,7 +340,7 @@ def test_a_mesh_path_is_read_by_the_renderers_own_loader(tmp_path, kind):
         os.mkfifo(path)
     else:
         path.write_text("v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
-    command = [sys.executable, "-m", "raycast_phong.commands", "view", str(path), "--no-browser", "--port", "0"]
+    command = [sys.executable, "-m", "raycast_phong.cli", "view", str(path), "--no-browser", "--port", "0"]
     done = subprocess.run(command, capture_output=True, text=True, timeout=60, cwd=tmp_path)
     assert done.returncode == 2, done.stderr
     [line] = done.stderr.strip().splitlines()

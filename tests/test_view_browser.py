@@ -21,7 +21,7 @@ pytest.importorskip("starlette", reason="the view's server needs the [view] extr
 from conftest import write_tiny_scene
 
 import raycast_phong as rp
-from raycast_phong.pipeline.film import to_8bit
+from raycast_phong.renderer.film import to_8bit
 from raycast_phong.tools.view import running
 
 # Headless, and nothing that reaches out: no updates, sync or first-run pages.
@@ -123,7 +123,7 @@ def test_dragging_moves_the_light_and_refines_when_released(page, scene_path):
 def test_a_saved_scene_renders_from_the_cli_to_the_image_shown(page, tmp_path, monkeypatch):
     from typer.testing import CliRunner
 
-    from raycast_phong.commands import app
+    from raycast_phong.cli import app
     monkeypatch.delenv("RAYCAST_PHONG_DEBUG", raising=False)
     page.select_option("#shading", "flat")
     page.select_option("[data-key='render.specular']", "blinn")

@@ -34,7 +34,7 @@ def cli(*args: str | Path, limit: int | None = None) -> subprocess.CompletedProc
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # EFBIG from write(), not death by signal
         resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
     env = {key: value for key, value in os.environ.items() if key != "RAYCAST_PHONG_DEBUG"}
-    return subprocess.run([sys.executable, "-m", "raycast_phong.commands", *map(str, args)], cwd=ROOT,
+    return subprocess.run([sys.executable, "-m", "raycast_phong.cli", *map(str, args)], cwd=ROOT,
                           capture_output=True, text=True,
                           timeout=300, env=env, preexec_fn=limited if limit is not None else None)
 

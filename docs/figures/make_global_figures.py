@@ -15,9 +15,9 @@ from pathlib import Path
 import numpy as np
 
 import raycast_phong as rp
-from raycast_phong.pipeline import shadows
+from raycast_phong.renderer.kernels import shadows
 
-render_module = sys.modules["raycast_phong.pipeline.render"]
+render_module = sys.modules["raycast_phong.renderer.frame"]
 SCENE = Path("scenes/shadows.toml")
 OUT = Path("docs/images")
 

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import OpenImageIO as oiio
 
-from ..pipeline.film import to_8bit
+from ..renderer.film import to_8bit
 from .atomic import os_reason, replaced_atomically
 
 LAYER_CHANNELS = {"depth": ("Z",), "normal": ("X", "Y", "Z"), "face": ("id",)}

@@ -17,12 +17,12 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from ..pipeline.camera import RayGenerator, camera_rig
-from ..pipeline.geometry import build_geometry, object_mesh
-from ..pipeline.intersect import Accelerator, unit_frame
-from ..pipeline.records import MeasuredResult, RenderResult
-from ..pipeline.render import render
-from ..pipeline.scene import Object, Scene, validate_scene
+from ..geometry.build import build_geometry, object_mesh
+from ..records import MeasuredResult, RenderResult
+from ..renderer.frame import render
+from ..renderer.intersect import Accelerator, unit_frame
+from ..renderer.kernels.camera import RayGenerator, camera_rig
+from ..scene.schema import Object, Scene, validate_scene
 from .metrics import measure
 from .reference import TILE_SAMPLES, ReferenceImage, analytic_reference
 

@@ -35,9 +35,9 @@ from pathlib import Path
 
 from ..io.atomic import WriteError, signals_deferred, write_text
 from ..io.image_io import ImageError, write_image
-from ..pipeline.intersect import embree_started
-from ..pipeline.mesh_scene import load_scene
-from ..pipeline.scene import Scene, SceneError, open_regular
+from ..renderer.intersect import embree_started
+from ..scene.load import load_scene
+from ..scene.schema import Scene, SceneError, open_regular
 from .sweep import Job, is_sweep, load_sweep, write_contact_sheets
 
 MANIFEST = "manifest.json"
@@ -198,7 +198,7 @@ def input_paths(job: Job, scene: Scene | None) -> list[Path]:
     both cover exactly these."""
     if scene is None:
         return [job.scene]
-    from ..pipeline.mesh_file import side_files  # an .obj's .mtl, a .gltf's buffers change the image too
+    from ..io.mesh_file import side_files  # an .obj's .mtl, a .gltf's buffers change the image too
     meshes = [scene.resolve(obj.path) for obj in scene.objects if obj.shape == "mesh" and obj.path]
     return [job.scene, *meshes, *(side for mesh in meshes for side in side_files(mesh))]
 
@@ -253,7 +253,7 @@ def render_job(task: Task) -> Outcome:
 
     The one function both the process pool and Dask run, so failure isolation and timings are the same.
     """
-    from ..pipeline.render import render
+    from ..renderer.frame import render
     start = time.perf_counter()
     entry = _entry(task.job, FAILED, hash=task.digest, inputs=task.inputs)
     try:
@@ -309,8 +309,8 @@ def warm_up(tasks: list[Task]) -> float:
     if not tasks:
         return 0.0
     start = time.perf_counter()
-    from ..pipeline.plan import build_plan
-    from ..pipeline.render import warm_kernels_for
+    from ..renderer.frame import warm_kernels_for
+    from ..renderer.plan import build_plan
     plans = []
     for task in tasks:
         try:
@@ -339,7 +339,7 @@ def _process_pool(tasks: list[Task], jobs: int, started: set[str]) -> Iterator[O
         context = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
     # Import the package once in the fork server, not once per worker.
     if context.get_start_method() == "forkserver":
-        context.set_forkserver_preload(["raycast_phong.tools.batch", "raycast_phong.pipeline.render"])
+        context.set_forkserver_preload(["raycast_phong.tools.batch", "raycast_phong.renderer.frame"])
     parent = os.getpid() if context.get_start_method() == "fork" else None
     queue, workers, finished = deque(tasks), [], False
     try:
@@ -657,7 +657,7 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
         processes = min(cores, len(tasks)) if scheduler is None else 0
         threads = max(1, cores // processes) if processes else 1  # a Dask worker's own threads run the scenes
         if scheduler is None:
-            from ..pipeline.memory import default_budget
+            from ..renderer.budget import default_budget
             budget = max_memory or default_budget()
             max_memory = budget // max(processes, 1) if budget else None
         tasks = [replace(task, threads=threads, max_memory=max_memory) for task in tasks]

@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from ..io.image_io import label_font, text_coverage
-from ..pipeline.mesh_scene import read_scene_dict
-from ..pipeline.scene import Scene, SceneError, apply_override, validate_scene
+from ..scene.load import read_scene_dict
+from ..scene.schema import Scene, SceneError, apply_override, validate_scene
 from .difference import colour_map, difference, heat_map
 
 # A pixel "changed" when its difference exceeds this: about 8 float32 steps at 1, so above rounding noise, and

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from ..pipeline.records import ImageErrors
+from ..records import ImageErrors
 
 PEAK = 1.0            # PSNR's peak signal: display values are meant to lie in [0, 1]
 HIGHLIGHT_LEVEL = 0.5  # the specular peak is where the reference's specular term is ≥ half its maximum

@@ -19,12 +19,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..pipeline.geometry import build_geometry
-from ..pipeline.intersect import Accelerator, unit_frame
-from ..pipeline.plan import F32_SHININESS_LIMIT, build_plan
-from ..pipeline.records import RenderPlan, Stage
-from ..pipeline.render import render
-from ..pipeline.scene import Scene, SceneError, validate_scene
+from ..geometry.build import build_geometry
+from ..records import RenderPlan, Stage
+from ..renderer.frame import render
+from ..renderer.intersect import Accelerator, unit_frame
+from ..renderer.plan import F32_SHININESS_LIMIT, build_plan
+from ..scene.schema import Scene, SceneError, validate_scene
 
 
 @dataclass(frozen=True)

@@ -31,12 +31,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ..geometry.build import build_geometry
 from ..io.atomic import write_text
 from ..io.image_io import ImageError, check_output_file
-from ..pipeline.geometry import build_geometry
-from ..pipeline.mesh_scene import read_scene_dict
-from ..pipeline.render import render
-from ..pipeline.scene import (
+from ..renderer.frame import render
+from ..scene.load import read_scene_dict
+from ..scene.schema import (
     NormalsRule,
     Scene,
     SceneError,

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..io.atomic import write_bytes, write_text
 from ..io.image_io import ImageError
-from ..pipeline.film import to_8bit
+from ..renderer.film import to_8bit
 from .difference import heat_map
 from .study import (
     FIT_WINDOW,

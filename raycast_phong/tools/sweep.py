@@ -27,8 +27,8 @@ from typing import Any
 import numpy as np
 
 from ..io.image_io import ImageError, read_layer, text_coverage, write_image
-from ..pipeline.film import srgb_encode
-from ..pipeline.scene import SceneError
+from ..renderer.film import srgb_encode
+from ..scene.schema import SceneError
 from .compare import BACKDROP, MIN_FONT, draw_text, fitting_size, layout, row_wording
 
 SWEEP_KEYS = ("scene", "set", "grid")

@@ -16,8 +16,8 @@ import pytest
 from tolerances import IMAGE_TOLERANCES, STANDARD, ImageTolerance
 
 import raycast_phong as rp
-import raycast_phong.pipeline.scene
-from raycast_phong.pipeline.geometry import build_geometry
+import raycast_phong.scene.schema
+from raycast_phong.geometry.build import build_geometry
 from raycast_phong.pytest_plugin import ImageMatch, match_images, write_diagnostics
 
 SCENES = Path(__file__).resolve().parents[2] / "scenes"
@@ -93,7 +93,7 @@ def edge_pixels(scene: rp.Scene) -> np.ndarray:
         window = sliding_window_view(np.pad(labels, 1, mode="edge"), (3, 3))
         return window.min(axis=(-2, -1)) != window.max(axis=(-2, -1))
 
-    with_face = scene.model_copy(update={"output": rp.pipeline.scene.Output(path="x.exr", aovs=("face",))})
+    with_face = scene.model_copy(update={"output": rp.scene.schema.Output(path="x.exr", aovs=("face",))})
     result = rp.render(with_face)
     face = result.aovs["face"][..., 0].astype(np.int64)
     keys = surface_keys(build_geometry(scene))

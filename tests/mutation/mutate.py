@@ -18,7 +18,7 @@ Docstrings, decorators, annotations, imports and `raise` statements are not muta
 
 Each mutant runs in a copy of the repository (raycast_phong/, tests/, scenes/, cli.py, pyproject.toml) at
 one fixed work path, imported through PYTHONPATH ahead of the editable install, with its own NUMBA_CACHE_DIR
-seeded from the unmutated run's. A mutated kernel module cannot reuse a stale kernel: pipeline/jit.py keys the
+seeded from the unmutated run's. A mutated kernel module cannot reuse a stale kernel: renderer/kernels/jit.py keys the
 kernels' cache folder on the source of every kernel module and its imports. The mutant is *killed* when the
 test subset fails, *timeout* when it runs past --timeout, *survived* when the subset passes. Not collected by pytest
 (tests/mutation has no test_*.py).
@@ -40,9 +40,11 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
-PACKAGE = "raycast_phong/pipeline"  # the core modules: every pipeline stage
-CORE_MODULES = ("illumination", "shading", "shadows", "camera", "film", "geometry", "intersect", "render", "plan",
-                "normals", "mesh_repair", "shapes", "tile", "embree")
+PACKAGE = "raycast_phong"  # modules are named by their path below it, e.g. renderer/kernels/shading
+CORE_MODULES = ("renderer/kernels/illumination", "renderer/kernels/shading", "renderer/kernels/shadows",
+                "renderer/kernels/camera", "renderer/film", "geometry/build", "renderer/intersect", "renderer/frame",
+                "renderer/plan", "geometry/normals", "geometry/mesh_repair", "geometry/shapes", "renderer/kernels/tile",
+                "renderer/kernels/embree")
 DEFAULT_TESTS = ("tests/unit", "tests/image")
 COPIED = ("raycast_phong", "tests", "scenes", "cli.py", "pyproject.toml")
 WORK = Path(os.environ.get("TMPDIR", "/tmp")) / "raycast-phong-mutation"
@@ -245,7 +247,7 @@ def run_one(mutant: Mutant, seed_cache: Path, tests: list[str], timeout: float) 
     cache = WORK / "cache"
     shutil.rmtree(cache, ignore_errors=True)
     shutil.copytree(seed_cache, cache)
-    # No stale kernels to delete: pipeline/jit.py keys the cache folder on the kernel modules' source.
+    # No stale kernels to delete: renderer/kernels/jit.py keys the cache folder on the kernel modules' source.
     start = time.perf_counter()
     mutant.status, mutant.failed = _run_tests(repo, cache, tests, timeout)
     mutant.seconds = round(time.perf_counter() - start, 1)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
-from raycast_phong.pipeline.plan import F32_SHININESS_LIMIT
+from raycast_phong.renderer.plan import F32_SHININESS_LIMIT
 from raycast_phong.tools import stability
 
 

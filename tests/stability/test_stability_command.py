@@ -4,7 +4,7 @@ import json
 
 from typer.testing import CliRunner
 
-from raycast_phong.commands import app
+from raycast_phong.cli import app
 from raycast_phong.tools import stability
 
 runner = CliRunner()

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
-from raycast_phong.pipeline.geometry import build_geometry
+from raycast_phong.geometry.build import build_geometry
 
 W, H = 64, 40                        # not square: a swapped width/height or aspect shows
 CENTRE, RADIUS = np.array([0.7, 0.4, 0.0]), 0.5  # up and to the right: any flip of x or y shows
@@ -167,8 +167,8 @@ def test_the_normal_layer_of_a_two_sided_plane_seen_from_below_faces_the_camera(
 def test_generate_rays_gives_the_rows_the_generator_gives():
     """The one-off helper (benchmarks use it) returns rows [1, 3) of a 2×2-sample image: 2 rows × W × 4 rays,
     the same as a RayGenerator's, for both camera types."""
-    from raycast_phong.pipeline.camera import RayGenerator, camera_rig, generate_rays
-    from raycast_phong.pipeline.intersect import unit_frame
+    from raycast_phong.renderer.intersect import unit_frame
+    from raycast_phong.renderer.kernels.camera import RayGenerator, camera_rig, generate_rays
     for camera in ("perspective", "orthographic"):
         scene = ball_scene(camera)
         rig, frame = camera_rig(scene), unit_frame(build_geometry(scene).vertices)

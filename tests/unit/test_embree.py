@@ -1,4 +1,4 @@
-"""Embree's C API (pipeline/embree.py) against embreex's own API, its fallback, its kernel cache and its errors.
+"""Embree's C API (renderer/kernels/embree.py) against embreex's own API, its fallback, its kernel cache and its errors.
 
 embreex stays the cross-check: the same library answers the same rays through its one-ray API, so a future
 embreex or Embree whose layout no longer matches embree.py's structs shows here as different hits.
@@ -17,10 +17,10 @@ import pytest
 
 import raycast_phong
 import raycast_phong as rp
-from raycast_phong.pipeline import embree
-from raycast_phong.pipeline.camera import camera_rig, generate_rays
-from raycast_phong.pipeline.geometry import build_geometry
-from raycast_phong.pipeline.intersect import Accelerator, unit_frame
+from raycast_phong.geometry.build import build_geometry
+from raycast_phong.renderer.intersect import Accelerator, unit_frame
+from raycast_phong.renderer.kernels import embree
+from raycast_phong.renderer.kernels.camera import camera_rig, generate_rays
 
 PACKAGE = Path(raycast_phong.__file__).resolve().parent
 SCENES = Path(__file__).resolve().parents[2] / "scenes"
@@ -91,7 +91,8 @@ RENDER = """
 import sys
 import numpy as np
 import raycast_phong as rp
-from raycast_phong.pipeline import embree, tile
+from raycast_phong.renderer.kernels import embree
+from raycast_phong.renderer.kernels import tile
 result = rp.render_file(sys.argv[1], ["render.width=48", "render.height=36"], threads=2)
 np.save(sys.argv[2], result.image)
 stats = tile.render_band.stats  # the tile kernel: rays, rtcIntersect16, [rtcOccluded16,] shading
@@ -138,9 +139,9 @@ def test_a_cached_kernel_that_calls_embree_loads_without_compiling(tmp_path):
 OUT_OF_ADDRESS_SPACE = """
 import re, resource, sys
 import raycast_phong as rp
-from raycast_phong.pipeline import embree
-from raycast_phong.pipeline.geometry import build_geometry
-from raycast_phong.pipeline.intersect import Accelerator
+from raycast_phong.renderer.kernels import embree
+from raycast_phong.geometry.build import build_geometry
+from raycast_phong.renderer.intersect import Accelerator
 geometry = build_geometry(rp.load_scene(sys.argv[1]))
 assert embree.library() is not None  # mapped now: this test is about the device, not about loading the library
 # Leave 20 MB of address space above what the process uses now: Embree reserves more for a device
@@ -167,7 +168,7 @@ def test_the_tile_kernel_renders_what_the_embreex_path_renders(name, monkeypatch
     tile path: the same image, layers and term counts, bit for bit (same hits, same shading kernel)."""
     from functools import partial
 
-    from raycast_phong.pipeline import render as render_module
+    from raycast_phong.renderer import frame as render_module
     overrides = ["render.width=64", "render.height=48", "render.samples=2",
                  'output.aovs=["depth", "normal", "face", "ambient", "diffuse", "specular"]', 'output.path="x.exr"']
     fused = rp.render_file(SCENES / f"{name}.toml", overrides, threads=2)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
-from raycast_phong.pipeline.geometry import build_geometry
+from raycast_phong.geometry.build import build_geometry
 
 
 def geometry(**obj):

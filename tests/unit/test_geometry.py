@@ -7,8 +7,8 @@ import pytest
 import trimesh
 
 import raycast_phong as rp
-from raycast_phong.pipeline.geometry import build_geometry, plane_mesh
-from raycast_phong.pipeline.normals import compute_corner_normals, face_normals
+from raycast_phong.geometry.build import build_geometry, plane_mesh
+from raycast_phong.geometry.normals import compute_corner_normals, face_normals
 
 
 def test_icosphere_vertex_normals_are_the_unit_positions_to_first_order():
@@ -100,7 +100,7 @@ def test_vertex_normals_that_cancel_below_no_direction_fall_back_to_the_face_nor
     oppose, and at the shared edge their sum has length 2 sin(fold / 2) of the 2 it would have if they
     agreed. Below NO_DIRECTION (1e-6, the kernel's own tolerance for a mixed normal) that sum points
     wherever rounding sends it, so each corner keeps its face's normal; above it, it is used."""
-    from raycast_phong.pipeline.normals import compute_corner_normals, face_normals
+    from raycast_phong.geometry.normals import compute_corner_normals, face_normals
     a = fold  # the second triangle is the first turned by `fold` about the x axis (the shared edge)
     vertices = np.array([[0, 0, 0], [1, 0, 0], [0.5, 1, 0], [0.5, math.cos(a), math.sin(a)]], np.float64)
     faces = np.array([[0, 1, 2], [1, 0, 3]])

@@ -26,7 +26,9 @@ RENDER = """
 import json, sys
 import numpy as np
 import raycast_phong as rp
-from raycast_phong.pipeline import embree, shading, tile
+from raycast_phong.renderer.kernels import embree
+from raycast_phong.renderer.kernels import shading
+from raycast_phong.renderer.kernels import tile
 scene = rp.validate_scene({
     "render": {"width": 24, "height": 24, "shading": "phong"},
     "camera": {"position": [0, 0, 4], "fov": 40},
@@ -41,7 +43,7 @@ stats = (tile.render_band if embree.library() is not None else shading._shade_ra
 print(json.dumps({"hits": sum(stats.cache_hits.values()), "misses": sum(stats.cache_misses.values())}))
 """
 
-KEY = "from raycast_phong.pipeline import jit; print(jit.source_key())"
+KEY = "from raycast_phong.renderer.kernels import jit; print(jit.source_key())"
 
 
 @pytest.fixture
@@ -73,7 +75,8 @@ def test_an_edit_to_an_inlined_helper_reaches_the_cached_kernel(package_copy, tm
     again = json.loads(run(RENDER, str(tmp_path / "again.npy")))
     assert first["misses"] > 0 and again == {"hits": again["hits"], "misses": 0} and again["hits"] > 0
     # Double the diffuse term in illumination.py only: shading.py, where the cached kernel lives, is untouched.
-    edit(copy / "pipeline" / "illumination.py", "lit = weight * n_dot_l\n", "lit = two * weight * n_dot_l\n")
+    edit(copy / "renderer" / "kernels" / "illumination.py", "lit = weight * n_dot_l\n",
+         "lit = two * weight * n_dot_l\n")
     edited = json.loads(run(RENDER, str(tmp_path / "edited.npy")))
     assert edited["misses"] > 0, "the cached _shade_rays was loaded although illuminate changed"
     (before, diffuse), (after, _) = np.load(tmp_path / "first.npy"), np.load(tmp_path / "edited.npy")
@@ -87,7 +90,7 @@ def test_the_cache_key_covers_every_module_a_kernel_reads_and_only_those(package
     copy, run = package_copy
     key = run(KEY)
     # tolerances.py holds constants the kernels freeze in; no kernel is defined there.
-    edit(copy / "pipeline" / "tolerances.py", "NO_DIRECTION = 1e-6", "NO_DIRECTION = 2e-6")
+    edit(copy / "tolerances.py", "NO_DIRECTION = 1e-6", "NO_DIRECTION = 2e-6")
     assert run(KEY) != key
     key = run(KEY)
     # batch.py is a tool on top of the pipeline: editing it must not throw away compiled kernels.
@@ -100,7 +103,7 @@ def test_the_first_render_says_it_compiles_and_keeps_compilation_out_of_the_fram
     seconds apart: the frame, and the Mrays/s printed from it, hold none of them. The next run says nothing."""
     del package_copy  # its copy of the package under tmp_path/src is what PYTHONPATH imports
     cli = ("import sys; sys.argv = ['raycast-phong', 'render', '--width', '32', '--height', '12', '-o', "
-           f"{str(tmp_path / 'x.png')!r}]; from raycast_phong.commands import app; app()")
+           f"{str(tmp_path / 'x.png')!r}]; from raycast_phong.cli import app; app()")
     env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "PYTHONPATH")}
     env["PYTHONPATH"] = str(tmp_path / "src")
 

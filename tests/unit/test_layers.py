@@ -7,8 +7,7 @@ import subprocess
 import sys
 
 # The pipeline stages whose bugs the analytic reference exists to catch: it may import none of them.
-STAGES = ("camera", "geometry", "intersect", "embree", "illumination", "shading", "shadows", "surface", "film",
-          "render", "plan", "jit")
+STAGES = ("raycast_phong.geometry", "raycast_phong.renderer")
 
 
 def test_the_oracle_imports_no_stage_of_the_renderer():
@@ -18,7 +17,7 @@ def test_the_oracle_imports_no_stage_of_the_renderer():
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
     loaded = json.loads(done.stdout)
     assert "raycast_phong.tools.reference" in loaded
-    assert not [m for m in loaded if m.split(".")[-1] in STAGES or m.startswith(("numba", "embreex"))], loaded
+    assert not [m for m in loaded if m.startswith(STAGES) or m.startswith(("numba", "embreex"))], loaded
 
 
 def _package_imports() -> dict[str, set[str]]:
@@ -52,7 +51,7 @@ def _package_imports() -> dict[str, set[str]]:
 def test_the_package_has_no_import_cycles():
     """Imports point one way (stages ← tools ← CLI): a cycle means two modules each need the other."""
     graph = _package_imports()
-    assert {"pipeline.render", "tools.reference", "tools.batch", "tools.sweep", "pipeline.shading"} <= set(graph)
+    assert {"renderer.frame", "tools.reference", "tools.batch", "tools.sweep", "renderer.kernels.shading"} <= set(graph)
     state: dict[str, int] = {}
     cycles = []
 
@@ -71,16 +70,49 @@ def test_the_package_has_no_import_cycles():
     assert not cycles, cycles
 
 
+# The layers, top to bottom: a module may import its own layer and those below it, never one above.
+# renderer.kernels is a layer of its own: compiled code sees arrays and named layouts, never the scene schema.
+LAYERS = ("cli", "tools", "renderer", "renderer.kernels", "geometry", "scene", "io", "base")
+BASE = {"errors", "codes", "records", "tolerances"}  # vocabularies and records every layer may use
+KERNEL_ALLOWED = {"renderer.kernels.", "tolerances", "codes"}  # what compiled code may import from the package
+# Known exceptions while the layout is being finished (issue 19); the list only shrinks.
+PENDING: set[str] = {
+    "geometry.build -> renderer.kernels.illumination", "io.image_io -> renderer.film",
+    "io.mesh_file -> scene.schema", "scene.load -> renderer.budget",
+    "renderer.kernels.camera -> records", "renderer.kernels.camera -> scene.schema",
+    "renderer.kernels.shading -> records", "renderer.kernels.shading -> renderer.intersect",
+    "renderer.kernels.shading -> scene.schema", "renderer.kernels.shadows -> records",
+    "renderer.kernels.shadows -> renderer.intersect", "renderer.kernels.shadows -> scene.schema",
+}
+
+
+def _layer(module: str) -> str:
+    if module in BASE:
+        return "base"
+    return "renderer.kernels" if module.startswith("renderer.kernels.") else module.split(".")[0]
+
+
 def test_imports_point_down_the_layers():
-    """pipeline/ (the stages) imports nothing from io/ or tools/; io/ nothing from tools/; nothing in the package
-    imports the CLI (commands). The folders show the layers, and this keeps them true."""
+    """cli → tools → renderer → renderer.kernels → geometry → scene → io → base: nothing imports upward, and a
+    kernel module imports only other kernel modules, the tolerances and the codes (so an edit to the scene
+    schema or a message recompiles no kernel). The folders show the layers, and this keeps them true."""
     graph = _package_imports()
-    below = {"pipeline": ("io.", "tools.", "commands"), "io": ("tools.", "commands"), "tools": ("commands",)}
-    wrong = sorted(f"{module} -> {target}" for module, targets in graph.items() for target in targets
-                   for layer,
-                       forbidden in below.items() if module.startswith(f"{layer}.") and target.startswith(forbidden))
-    assert {"pipeline.render", "io.image_io", "tools.batch"} <= set(graph)
-    assert not wrong, wrong
+    assert {"renderer.frame", "io.image_io", "tools.batch", "renderer.kernels.shading"} <= set(graph)
+    order = {layer: rank for rank, layer in enumerate(LAYERS)}
+    wrong = set()
+    for module, targets in graph.items():
+        if module == "pytest_plugin":
+            continue
+        for target in targets:
+            source, goal = _layer(module), _layer(target)
+            if goal not in order or source not in order:
+                wrong.add(f"{module} -> {target}")  # a module outside every layer
+            elif source == "renderer.kernels" and not target.startswith(tuple(KERNEL_ALLOWED)):
+                wrong.add(f"{module} -> {target}")
+            elif order[goal] < order[source] and not (source == "renderer" and goal == "renderer.kernels"):
+                wrong.add(f"{module} -> {target}")
+    assert not sorted(wrong - PENDING), sorted(wrong - PENDING)
+    assert not sorted(PENDING - wrong), "fixed: remove from PENDING " + str(sorted(PENDING - wrong))
 
 
 def test_the_pytest_plugin_pulls_in_no_scene_model():
@@ -94,4 +126,4 @@ def test_the_pytest_plugin_pulls_in_no_scene_model():
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
     loaded = json.loads(done.stdout)
     assert "raycast_phong.tools.difference" in loaded, done.stderr
-    assert not [m for m in loaded if m.startswith("pydantic") or ".pipeline.scene" in m or ".pipeline.render" in m]
+    assert not [m for m in loaded if m.startswith("pydantic") or ".scene.schema" in m or ".renderer.frame" in m]

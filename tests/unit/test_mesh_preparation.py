@@ -8,11 +8,12 @@ import pytest
 import trimesh
 
 import raycast_phong as rp
-from raycast_phong.pipeline import geometry, mesh_repair
-from raycast_phong.pipeline import normals as normal_rules
-from raycast_phong.pipeline.geometry import build_geometry
-from raycast_phong.pipeline.mesh_repair import merge_duplicate_vertices, repair_winding
-from raycast_phong.pipeline.normals import _creased_sums, compute_corner_normals, face_normals
+from raycast_phong.geometry import build as geometry
+from raycast_phong.geometry import mesh_repair
+from raycast_phong.geometry import normals as normal_rules
+from raycast_phong.geometry.build import build_geometry
+from raycast_phong.geometry.mesh_repair import merge_duplicate_vertices, repair_winding
+from raycast_phong.geometry.normals import _creased_sums, compute_corner_normals, face_normals
 
 
 @pytest.fixture

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
-import raycast_phong.pipeline.geometry as geometry
-import raycast_phong.pipeline.normals as normals
-import raycast_phong.pipeline.scene
-from raycast_phong.pipeline.illumination import COUNTED_TERMS
+import raycast_phong.geometry.build as geometry
+import raycast_phong.geometry.normals as normals
+import raycast_phong.scene.schema
+from raycast_phong.renderer.kernels.illumination import COUNTED_TERMS
 
 
 def scene(**changes):
@@ -21,7 +21,7 @@ def scene(**changes):
                     {"shape": "box", "size": [3, 0.2, 3], "translate": [0, -1.2, 0], "material": "m"}],
     }
     for path, value in changes.items():
-        rp.pipeline.scene.apply_override(data, f"{path.replace('__', '.')}={value}")
+        rp.scene.schema.apply_override(data, f"{path.replace('__', '.')}={value}")
     return rp.validate_scene(data)
 
 

@@ -7,10 +7,10 @@ import pytest
 from conftest import pixel_centre_rays
 
 import raycast_phong as rp
-import raycast_phong.pipeline.scene
-from raycast_phong.pipeline import shading
-from raycast_phong.pipeline.camera import camera_rig
-from raycast_phong.pipeline.geometry import build_geometry
+import raycast_phong.scene.schema
+from raycast_phong.geometry.build import build_geometry
+from raycast_phong.renderer.kernels import shading
+from raycast_phong.renderer.kernels.camera import camera_rig
 
 LIGHT = {"type": "point", "position": [2, 2, 3], "diffuse": [0.8, 0.8, 0.8], "specular": [1, 1, 1]}
 MATERIAL = {"ka": 1.0, "kd": [0.7, 0.5, 0.3], "ks": 0.5, "shininess": 16}
@@ -153,7 +153,7 @@ def test_background_fills_the_misses_and_mixes_with_the_coverage(background):
 
 def test_term_layers_add_up_to_the_image_and_geometry_layers_are_sane():
     scene = sphere_scene(3, size=48)
-    scene = scene.model_copy(update={"output": rp.pipeline.scene.Output(path="x.exr", aovs=(
+    scene = scene.model_copy(update={"output": rp.scene.schema.Output(path="x.exr", aovs=(
         "depth", "normal", "face", "ambient", "diffuse", "specular", "emission"))})
     result = rp.render(scene)
     total = sum(result.aovs[name] for name in ("ambient", "diffuse", "specular", "emission"))

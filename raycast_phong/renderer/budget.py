@@ -16,7 +16,7 @@ import struct
 from dataclasses import dataclass
 from pathlib import Path
 
-from .scene import Scene, SceneError, ShadingModel, open_regular
+from ..scene.schema import Scene, SceneError, ShadingModel, open_regular
 
 # Peak bytes per triangle above a warmed-up process's baseline (VmHWM after /proc/self/clear_refs; one
 # object, 8×8 image, one thread; trimesh 4, numpy 2; measured 2026-11 on the project's x86-64 machine):

@@ -21,7 +21,7 @@ from typer.core import TyperGroup
 import raycast_phong as rp
 from raycast_phong.io.atomic import WriteError
 from raycast_phong.io.image_io import NO_FONT, ImageError, check_output_path
-from raycast_phong.pipeline.scene import Mode, ShadingModel, SpecularModel
+from raycast_phong.scene.schema import Mode, ShadingModel, SpecularModel
 
 if TYPE_CHECKING:
     from raycast_phong.tools import compare
@@ -98,7 +98,7 @@ def _max_memory(text: str | None) -> int | None:
     """--max-memory SIZE in bytes; a malformed size exits 2 with one line."""
     if text is None:
         return None
-    from raycast_phong.pipeline.memory import parse_size
+    from raycast_phong.renderer.budget import parse_size
     try:
         return parse_size(text)
     except ValueError as error:
@@ -258,8 +258,8 @@ def _ready_kernels(scene: rp.Scene, quiet: bool) -> tuple[str, float]:
     from it, hold neither compilation nor loading: ("compile", seconds) when the cache does not hold them
     (the first render after an install or an edit; said on stderr first), else ("kernels", seconds) for
     loading them from the cache, most of it numba's one-time set-up in a process (≈ 0.25 s)."""
-    from raycast_phong.pipeline.jit import compiled_before
-    from raycast_phong.pipeline.render import tile_kernel, warm_kernels_for
+    from raycast_phong.renderer.frame import tile_kernel, warm_kernels_for
+    from raycast_phong.renderer.kernels.jit import compiled_before
     cached = compiled_before(tile_kernel())
     if not cached and not quiet:
         typer.echo("compiling the shading kernels, once after an install or an edit (about 10-30 s)...", err=True)
@@ -376,13 +376,13 @@ def plan(scene: SceneArgument = None, set_: SetOption = [], max_memory: MaxMemor
          view: ViewOption = None, up: UpOption = None) -> None:
     """Print the render plan: each stage and term, kept or left out, and why; then what the geometry
     tells (repaired windings, highlights the render would miss)."""
-    from raycast_phong.pipeline.geometry import build_geometry
-    from raycast_phong.pipeline.plan import diagnose
+    from raycast_phong.geometry.build import build_geometry
+    from raycast_phong.renderer.plan import diagnose
     with exit_codes():
         path = scene or rp.default_scene_path()
         loaded = rp.load_scene(path, set_, view=_view(view), up=up)
         stages = rp.build_plan(loaded)
-        from raycast_phong.pipeline.memory import check_memory
+        from raycast_phong.renderer.budget import check_memory
         check_memory(loaded, str(path), max_memory, smooth=stages.keeps("vertex_normals"))  # before building it
         geometry = build_geometry(loaded, source=str(path), vertex_normals=stages.keeps("vertex_normals"))
         typer.echo(diagnose(stages, loaded, geometry).describe())
@@ -451,13 +451,13 @@ def scene_command(
 ) -> None:
     """Print the scene file a mesh file stands for: its materials, the framing camera, the key light and
     every other key with its value. `render` of that file gives the same image as `render` of the mesh."""
-    from raycast_phong.pipeline.mesh_scene import is_mesh_file
+    from raycast_phong.scene.load import is_mesh_file
     from raycast_phong.tools.sweep import scene_toml
     with exit_codes():
         loaded = rp.load_scene(scene, set_, view=_view(view), up=up)
         notes = ()
         if is_mesh_file(scene):
-            from raycast_phong.pipeline.mesh_file import mesh_bounds
+            from raycast_phong.io.mesh_file import mesh_bounds
             notes = mesh_bounds(scene, str(scene)).notes
         header = (f"# The scene `raycast-phong render {scene.name}` renders: written by `raycast-phong scene`.\n"
                   "# A [materials.NAME] table overrides the mesh file's material of that name; see docs/meshes.md.")
@@ -481,7 +481,7 @@ def scene_command(
 """)
 def schema() -> None:
     """Print the JSON Schema of the scene format (the same as docs/scene.schema.json)."""
-    from raycast_phong.pipeline.scene import scene_json_schema
+    from raycast_phong.scene.schema import scene_json_schema
     typer.echo(json.dumps(scene_json_schema(), indent=2, ensure_ascii=False))
 
 

@@ -9,12 +9,9 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from . import shapes
-from .illumination import material_rows
-from .mesh_repair import merge_duplicate_vertices, repair_winding
-from .normals import _normalise_or, compute_corner_normals, face_normals, file_corner_normals
-from .records import Geometry, bounding_box
-from .scene import (
+from ..records import Geometry, bounding_box
+from ..renderer.kernels.illumination import material_rows
+from ..scene.schema import (
     DEFAULT_MATERIAL,
     MIN_EXTENT,
     POSITION_LIMIT,
@@ -25,10 +22,13 @@ from .scene import (
     _dotted,
     brightness_problem,
 )
-from .tolerances import MIN_DISTANCE
+from ..tolerances import MIN_DISTANCE
+from . import shapes
+from .mesh_repair import merge_duplicate_vertices, repair_winding
+from .normals import _normalise_or, compute_corner_normals, face_normals, file_corner_normals
 
 if TYPE_CHECKING:  # mesh_file imports trimesh: only a scene with a mesh file loads it
-    from .mesh_file import MeshFile
+    from ..io.mesh_file import MeshFile
 
 MODEL_CODE = {ShadingModel.FLAT: 0, ShadingModel.GOURAUD: 1, ShadingModel.PHONG: 2}
 
@@ -243,7 +243,7 @@ def plane_mesh(size, segments) -> tuple[np.ndarray, np.ndarray]:
 
 def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
     path = scene.resolve(obj.path)
-    from .mesh_file import read_mesh  # imports trimesh (0.2–0.3 s): only for mesh files
+    from ..io.mesh_file import read_mesh  # imports trimesh (0.2–0.3 s): only for mesh files
 
     read = read_mesh(path, f"{source}: objects.{index}.path")
     normals = read.normals if obj.normals in (None, "file") else None  # unset: the file's, if it has them

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from .tolerances import NO_DIRECTION
+from ..tolerances import NO_DIRECTION
 
 FACE_CHUNK = 1 << 18  # faces per step of a per-face computation: ~25 MB of temporaries, whatever the mesh
 

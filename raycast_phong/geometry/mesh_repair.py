@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..records import bounding_box
 from .normals import FACE_CHUNK, cross_rows
-from .records import bounding_box
 
 
 def repair_winding(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int, bool]:

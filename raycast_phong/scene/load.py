@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .scene import MIN_EXTENT, Scene, SceneError, apply_override, validate_scene
-from .scene import read_scene_dict as read_scene_file
+from .schema import MIN_EXTENT, Scene, SceneError, apply_override, validate_scene
+from .schema import read_scene_dict as read_scene_file
 
 SCENE_SUFFIXES = (".toml", ".json")
 VIEWS = ("three-quarter", "front", "side", "top", "iso")
@@ -61,8 +61,8 @@ def load_scene(path: str | Path, overrides: list[str] | tuple[str, ...] = (), vi
 def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), view: str | None = None,
                     up: str | None = None) -> dict:
     """A scene table showing one mesh file: its materials, a framing camera, a key light (docs/meshes.md)."""
-    from .memory import check_mesh_read
-    from .mesh_file import mesh_bounds
+    from ..io.mesh_file import mesh_bounds
+    from ..renderer.budget import check_mesh_read
     where = str(path)
     view = view or VIEWS[0]
     if view not in VIEWS:

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import embree
-from .records import Frame, Geometry, bounding_box
+from ..records import Frame, Geometry, bounding_box
+from .kernels import embree
 
 _started = False  # has this process created an Embree scene (and so Embree's worker threads)?
 

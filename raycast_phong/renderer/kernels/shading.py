@@ -18,6 +18,10 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ...records import Frame, Geometry, ImageBuffers
+from ...scene.schema import DEFAULT_MATERIAL, Scene
+from ...tolerances import MIN_DISTANCE, NO_DIRECTION
+from ..intersect import TileHits
 from .camera import CameraRig
 from .illumination import (
     COUNTED_TERMS,
@@ -31,12 +35,8 @@ from .illumination import (
     light_table,
     material_table,
 )
-from .intersect import TileHits
 from .jit import kernel
-from .records import Frame, Geometry, ImageBuffers
-from .scene import DEFAULT_MATERIAL, Scene
 from .surface import facing_side, hit_point
-from .tolerances import MIN_DISTANCE, NO_DIRECTION
 
 ALL_VISIBLE = -1                       # every bit set: local mode, no light is ever shadowed
 NO_SHADOWS = np.zeros(0, np.int64)     # the kernel's `visible` argument in local mode

@@ -13,9 +13,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ...records import Frame
+from ...scene.schema import Scene
 from .jit import kernel
-from .records import Frame
-from .scene import Scene
 
 
 @dataclass(frozen=True, eq=False)

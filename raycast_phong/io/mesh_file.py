@@ -25,8 +25,8 @@ from typing import NamedTuple
 import numpy as np
 import trimesh
 
-from .records import bounding_box
-from .scene import DEFAULT_MATERIAL, POSITION_LIMIT, SceneError, open_regular
+from ..records import bounding_box
+from ..scene.schema import DEFAULT_MATERIAL, POSITION_LIMIT, SceneError, open_regular
 
 TRIMESH = Path(trimesh.__file__).resolve().parent  # an exception that passed through here: trimesh refused the file
 TEXT_FORMATS = (".obj", ".off")  # trimesh decodes these as text, guessing any non-UTF-8 encoding

@@ -20,13 +20,13 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ...records import Frame, Geometry
+from ...scene.schema import Scene
+from ...tolerances import MIN_DISTANCE
+from ..intersect import Accelerator, TileHits
 from .embree import occluded_rays
-from .intersect import Accelerator, TileHits
 from .jit import kernel
-from .records import Frame, Geometry
-from .scene import Scene
 from .surface import facing_side, hit_point, to_light
-from .tolerances import MIN_DISTANCE
 
 MAX_LIGHTS = 63          # visibility travels as bits of one int64 per ray
 INT_SCALE = 256.0        # Wächter & Binder: ulps of offset per unit of normal

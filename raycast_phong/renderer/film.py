@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .records import ImageBuffers
+from ..records import ImageBuffers
 
 TERM_LAYERS = ("ambient", "diffuse", "specular", "emission")
 

@@ -12,8 +12,10 @@ import re
 
 import numpy as np
 
-from .camera import camera_rig
-from .illumination import (
+from ..records import RenderPlan, Stage
+from ..scene.schema import MAX_SAMPLES, Material, Mode, Scene, ShadingModel, SpecularModel, Viewer
+from .kernels.camera import camera_rig
+from .kernels.illumination import (
     F_AOV_GEOMETRY,
     F_AOV_TERMS,
     F_ATTENUATION,
@@ -29,8 +31,6 @@ from .illumination import (
     SPECULAR_NONE,
     SPECULAR_PHONG,
 )
-from .records import RenderPlan, Stage
-from .scene import MAX_SAMPLES, Material, Mode, Scene, ShadingModel, SpecularModel, Viewer
 
 GEOMETRY_AOVS = {"depth", "normal", "face"}
 TERM_AOVS = {"ambient", "diffuse", "specular", "emission"}
@@ -203,7 +203,7 @@ def diagnose(plan: RenderPlan, scene: Scene, geometry) -> RenderPlan:
     found: list[tuple[tuple, int, float]] = []  # (what the warning says, object, its measured figure)
     if plan.keeps("specular"):
         found = [*gouraud_findings(scene, geometry), *subpixel_findings(scene, geometry)]
-    from .geometry import behind_camera  # geometry loads trimesh: only once a render has geometry
+    from ..geometry.build import behind_camera  # geometry loads trimesh: only once a render has geometry
     behind = behind_camera(scene, geometry.vertices)
     return RenderPlan(tuple(stages), (*([behind] if behind else []), *aggregate_warnings(found)),
                       notes=geometry.file_notes)

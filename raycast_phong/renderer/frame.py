@@ -16,20 +16,20 @@ from pathlib import Path
 
 import numpy as np
 
-from . import embree
-from .camera import RayGenerator, camera_rig
+from ..geometry.build import build_geometry
+from ..records import ImageBuffers, RenderPlan, RenderResult
+from ..scene.load import load_scene
+from ..scene.schema import Scene, SceneError
+from .budget import check_memory
 from .film import allocate_film, film_layers
-from .geometry import build_geometry
-from .illumination import COUNTED_TERMS
 from .intersect import Accelerator, unit_frame
-from .memory import check_memory
-from .mesh_scene import load_scene
+from .kernels import embree
+from .kernels.camera import RayGenerator, camera_rig
+from .kernels.illumination import COUNTED_TERMS
+from .kernels.shading import ShadingInputs, film_rows, prepare_shading, shade_tile
+from .kernels.shadows import MAX_LIGHTS, ShadowInputs, light_visibility, no_shadows, prepare_shadows
+from .kernels.tile import render_band
 from .plan import build_plan, diagnose, plan_flags
-from .records import ImageBuffers, RenderPlan, RenderResult
-from .scene import Scene, SceneError
-from .shading import ShadingInputs, film_rows, prepare_shading, shade_tile
-from .shadows import MAX_LIGHTS, ShadowInputs, light_visibility, no_shadows, prepare_shadows
-from .tile import render_band
 
 TILE_RAYS = 1 << 15  # 32k rays: large enough to amortise a call, small enough for ~10 MB per tile
 NO_SHADOWS = no_shadows()  # local mode's shadow inputs for the tile kernel (read only in global mode)
@@ -169,9 +169,9 @@ def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bo
     first dispatch. The kernels are typed by their arguments, so they are called through the real
     wrappers on a 2×2 image whose rays all miss.
     """
+    from ..scene.schema import validate_scene
     from .intersect import TileHits
-    from .scene import validate_scene
-    from .shadows import shadow_rays
+    from .kernels.shadows import shadow_rays
     scene = validate_scene({"render": {"width": 2, "height": 2, "mode": "global"},
                             "lights": [{"type": "point", "position": [2, 2, 3]}],
                             "objects": [{"shape": "icosphere", "subdivisions": 0}]}, source="warm-up")

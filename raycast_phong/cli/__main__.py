@@ -1,0 +1,5 @@
+"""python -m raycast_phong.cli: the raycast-phong command."""
+
+from . import app
+
+app()
