@@ -25,9 +25,9 @@ from .film import allocate_film, film_layers
 from .intersect import Accelerator, unit_frame
 from .kernels import embree
 from .kernels.camera import RayGenerator, camera_rig
-from .kernels.illumination import COUNTED_TERMS
-from .kernels.shading import ShadingInputs, film_rows, prepare_shading, shade_tile
-from .kernels.shadows import MAX_LIGHTS, ShadowInputs, light_visibility, no_shadows, prepare_shadows
+from .kernels.illumination import COUNTS
+from .kernels.shading import ShadingInputs, film_rows, prepare_shading
+from .kernels.shadows import MAX_LIGHTS, ShadowInputs, no_shadows, prepare_shadows
 from .kernels.tile import render_band
 from .plan import build_plan, diagnose, plan_flags
 
@@ -89,12 +89,12 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
         accelerator=accelerator,
         shadows=prepare_shadows(scene, geometry, frame) if plan.keeps("shadow_rays") else None,
         shading=prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), real),
-        film=allocate_film(width, height, tuple(scene.output.aovs), real), samples=samples)
+        film=allocate_film(width, height, tuple(scene.output.aovs), real))
     bands = [(row, min(row + rows_per_tile, height)) for row in range(0, height, rows_per_tile)]
     counts = run_tiles(tile, bands, threads, progress, timings)
     return RenderResult(image=tile.film.rgb, aovs=film_layers(tile.film, tuple(scene.output.aovs)), timings=timings,
                         plan=plan, triangles=geometry.triangles, rays=width * height * samples * samples,
-                        counts=dict(zip(COUNTED_TERMS, counts.tolist())))
+                        counts=dict(zip(COUNTS, counts.tolist())))
 
 
 @dataclass(frozen=True, eq=False)
@@ -105,35 +105,22 @@ class TileWork:
     shadows: ShadowInputs | None   # None in local mode
     shading: ShadingInputs
     film: ImageBuffers
-    samples: int
 
     def __call__(self, band: tuple[int, int]) -> tuple[float, float, float, np.ndarray]:
-        """Rays, closest hits, [shadow rays,] shading of rows [row0, row1) into the film; seconds of each
-        part and the kernel's term counts."""
+        """Rays, closest hits, [shadow rays,] shading of rows [row0, row1) into the film, in one kernel
+        (tile.render_band); seconds of each part and the kernel's counts."""
         row0, row1 = band
-        scene = self.accelerator.embree_scene
-        if scene is not None:  # Embree's C API: the whole band in one kernel (tile.py)
-            film, seconds = film_rows(self.film.rows(row0, row1)), np.zeros(3)
-            render_band(scene.scene, row0, row1, self.rays.params, self.rays.shared_origins,
-                        self.shadows or NO_SHADOWS, self.shading, film, seconds)
-            return seconds[0], seconds[1], seconds[2], film.counts
-        t0 = time.perf_counter()
-        origins, directions = self.rays.rows(row0, row1)
-        hits = self.accelerator.closest_hits(origins, directions, self.rays.width * self.samples * self.samples)
-        t1 = time.perf_counter()
-        visible = None
-        if self.shadows is not None:
-            visible = light_visibility(self.shadows, hits, directions, self.accelerator)
-        t2 = time.perf_counter()
-        counts = shade_tile(self.shading, hits, directions, self.film.rows(row0, row1), self.samples, visible)
-        return t1 - t0, t2 - t1, time.perf_counter() - t2, counts
+        film, seconds = film_rows(self.film.rows(row0, row1)), np.zeros(3)
+        render_band(self.accelerator.embree_scene.scene, row0, row1, self.rays.params, self.rays.shared_origins,
+                    self.shadows or NO_SHADOWS, self.shading, film, seconds)
+        return seconds[0], seconds[1], seconds[2], film.counts
 
 
 def run_tiles(tile: TileWork, bands: list[tuple[int, int]], threads: int,
               progress: Callable[[int, int], None] | None, timings: dict[str, float]) -> np.ndarray:
     """Run `tile` over the bands on a pool of `threads` (the kernels and Embree release the GIL); add
     frame (wall), rays, shade and, in global mode, shadows (summed over threads) to `timings`."""
-    counts = np.zeros(len(COUNTED_TERMS), np.int64)
+    counts = np.zeros(len(COUNTS), np.int64)
     seconds = np.zeros(3)  # rays, shadows, shade
     start = time.perf_counter()
     if progress:
@@ -152,26 +139,22 @@ def run_tiles(tile: TileWork, bands: list[tuple[int, int]], threads: int,
 
 
 def tile_kernel() -> str:
-    """The kernel a render runs its tiles in (for jit.compiled_before): tile.render_band on Embree's C API,
-    shading._shade_rays on embreex's fallback."""
-    return "render_band" if embree.library() is not None else "_shade_rays"
+    """The kernel a render runs its tiles in (for jit.compiled_before)."""
+    return "render_band"
 
 
 def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bool = True) -> None:
-    """Load (or compile) the numba kernels a render uses, in the `reals` precisions and with global mode's
-    shadow-ray kernel if `shadows`, without starting Embree.
+    """Load (or compile) the tile kernel (tile.render_band, which holds global mode's shadow rays too, so
+    `shadows` changes nothing) in the `reals` precisions, without starting Embree: called on no rows, it
+    reaches Embree only per chunk of rows.
 
-    With Embree's C API that is the tile kernel alone (tile.render_band, called on no rows: it reaches
-    Embree only per chunk of rows); it holds the shadow rays whatever `shadows` says. On embreex's fallback
-    it is the kernels TileWork calls from Python.
     A process that forks workers afterwards hands them ready kernels (batch.py): each would otherwise
     spend ~0.15 s loading them from numba's cache, most of it numba's one-time set-up on a process's
-    first dispatch. The kernels are typed by their arguments, so they are called through the real
-    wrappers on a 2×2 image whose rays all miss.
+    first dispatch. The kernel is typed by its arguments, so it is called through the real wrappers.
     """
     from ..scene.schema import validate_scene
-    from .intersect import TileHits
-    from .kernels.shadows import shadow_rays
+    del shadows
+    embree.library()  # binds the names the kernel links against (EmbreeError if it cannot be loaded)
     scene = validate_scene({"render": {"width": 2, "height": 2, "mode": "global"},
                             "lights": [{"type": "point", "position": [2, 2, 3]}],
                             "objects": [{"shape": "icosphere", "subdivisions": 0}]}, source="warm-up")
@@ -179,20 +162,11 @@ def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bo
     geometry = build_geometry(scene)
     frame, rig = unit_frame(geometry.vertices), camera_rig(scene)
     rays = RayGenerator(rig, frame, 2, 2, 1, 4)
-    fused = embree.library() is not None
-    _, directions = rays.rows(0, 2)
-    misses = TileHits(face=np.full(4, -1, np.int32), u=np.zeros(4, np.float32), v=np.zeros(4, np.float32),
-                      t=np.zeros(4, np.float32))
-    if shadows and not fused:
-        shadow_rays(prepare_shadows(scene, geometry, frame), misses, directions)
     for real in reals:
         inputs = prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), real)
         film = allocate_film(2, 2, (), real)
-        if fused:
-            render_band(0, 0, 0, rays.params, rays.shared_origins, NO_SHADOWS, inputs, film_rows(film.rows(0, 0)),
-                        np.zeros(3))
-        else:
-            shade_tile(inputs, misses, directions, film.rows(0, 2), 1, np.zeros(4, np.int64))
+        render_band(0, 0, 0, rays.params, rays.shared_origins, NO_SHADOWS, inputs, film_rows(film.rows(0, 0)),
+                    np.zeros(3))
 
 
 def warm_kernels_for(plans: list[RenderPlan]) -> None:

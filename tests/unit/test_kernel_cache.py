@@ -26,8 +26,6 @@ RENDER = """
 import json, sys
 import numpy as np
 import raycast_phong as rp
-from raycast_phong.renderer.kernels import embree
-from raycast_phong.renderer.kernels import shading
 from raycast_phong.renderer.kernels import tile
 scene = rp.validate_scene({
     "render": {"width": 24, "height": 24, "shading": "phong"},
@@ -38,8 +36,8 @@ scene = rp.validate_scene({
 })
 result = rp.render(scene, threads=1)
 np.save(sys.argv[1], np.stack([result.image, result.aovs["diffuse"]]))
-# With Embree's C API the tile kernel compiles _shade_rays (and so illuminate) into itself.
-stats = (tile.render_band if embree.library() is not None else shading._shade_rays).stats
+# The tile kernel compiles _shade_rays (and so illuminate) into itself.
+stats = tile.render_band.stats
 print(json.dumps({"hits": sum(stats.cache_hits.values()), "misses": sum(stats.cache_misses.values())}))
 """
 

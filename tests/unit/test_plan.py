@@ -39,7 +39,7 @@ CASES = [
     ({"render__shading": '"flat"'}, "vertex_normals", None),
     ({}, "crease_split", None),
     ({}, "supersampling", None),
-    ({}, "shadow_rays", None),
+    ({}, "shadow_rays", "shadow_rays"),
 ]
 
 

@@ -43,6 +43,10 @@ ATTENUATION_NONE, INVERSE_SQUARE, CLQ = 0, 1, 2              # L_ATT_KIND
 COUNTED_TERMS = ("specular", "attenuation", "light_ambient", "emission", "scene_ambient", "diffuse",
                  "view_vector")
 C_SPECULAR, C_ATTENUATION, C_LIGHT_AMBIENT, C_EMISSION, C_SCENE_AMBIENT, C_DIFFUSE, C_VIEW = range(7)
+TERMS = len(COUNTED_TERMS)
+# The tile kernel's counts: the terms, then the shadow rays it cast (global mode's stage, counted where it runs).
+COUNTS = (*COUNTED_TERMS, "shadow_rays")
+C_SHADOW_RAYS = TERMS
 
 
 def material_table(materials, real: type, more: np.ndarray | None = None) -> np.ndarray:

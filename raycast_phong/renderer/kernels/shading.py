@@ -21,16 +21,16 @@ import numpy as np
 from ...records import Frame, Geometry, ImageBuffers
 from ...scene.schema import DEFAULT_MATERIAL, Scene
 from ...tolerances import MIN_DISTANCE, NO_DIRECTION
-from ..intersect import TileHits
 from .camera import CameraRig
 from .illumination import (
-    COUNTED_TERMS,
+    COUNTS,
     F_AOV_GEOMETRY,
     F_AOV_TERMS,
     F_ATTENUATION,
     F_SCREEN,
     F_SHADOWS,
     F_TWO_SIDED,
+    TERMS,
     illuminate,
     light_table,
     material_table,
@@ -38,8 +38,7 @@ from .illumination import (
 from .jit import kernel
 from .surface import facing_side, hit_point
 
-ALL_VISIBLE = -1                       # every bit set: local mode, no light is ever shadowed
-NO_SHADOWS = np.zeros(0, np.int64)     # the kernel's `visible` argument in local mode
+ALL_VISIBLE = -1  # every bit set: local mode, no light is ever shadowed
 
 
 class ShadingInputs(NamedTuple):
@@ -86,12 +85,12 @@ class FilmRows(NamedTuple):
     depth: np.ndarray
     normal: np.ndarray
     face: np.ndarray
-    counts: np.ndarray      # (len(COUNTED_TERMS),) int64, shading points that evaluated each term
+    counts: np.ndarray      # (len(COUNTS),) int64: shading points that evaluated each term, shadow rays
 
 
 def film_rows(out: ImageBuffers, counts: np.ndarray | None = None) -> FilmRows:
     """The kernel's FilmRows of image rows `out` (ImageBuffers.rows), with fresh term counters unless given."""
-    counts = np.zeros(len(COUNTED_TERMS), np.int64) if counts is None else counts
+    counts = np.zeros(len(COUNTS), np.int64) if counts is None else counts
     return FilmRows(out.rgb, out.terms, out.depth, out.normal, out.face, counts)
 
 
@@ -123,20 +122,6 @@ def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Fra
         flags=int(flags[0]), specular=int(flags[1]), frame_scale=float(frame.scale),
         zero=real(0), one=real(1), two=real(2),
     )
-
-
-def shade_tile(inputs: ShadingInputs, hits: TileHits, directions: np.ndarray, out: ImageBuffers,
-               samples: int, visible: np.ndarray | None = None) -> np.ndarray:
-    """Shade a tile's rays into `out` (views of whole image rows; mean over the n×n samples per pixel).
-
-    `visible` (N,) int64: global mode's per-ray light bits (shadows.light_visibility); None in local mode.
-
-    Returns how many shading points evaluated each optional term, (len(COUNTED_TERMS),) int64.
-    """
-    rays = TileRays(hits.face, hits.u, hits.v, hits.t, directions, NO_SHADOWS if visible is None else visible, samples)
-    film = film_rows(out)
-    _shade_rays(inputs, rays, film)
-    return film.counts
 
 
 @kernel()
@@ -277,7 +262,7 @@ def _shade_rays(inputs, rays, film):
             ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask = illuminate(
                 px, py, pz, nx, ny, nz, material, lights, view_tuple, flags, specular, visible_k, zero, one, two)
 
-        for bit in range(len(counts)):
+        for bit in range(TERMS):
             evaluated[bit] += (mask >> bit) & 1
         rgb[row, col, 0] += weight * (ar + dr + sr + er)
         rgb[row, col, 1] += weight * (ag + dg + sg + eg)

@@ -23,7 +23,6 @@ import numpy as np
 from ...records import Frame, Geometry
 from ...scene.schema import Scene
 from ...tolerances import MIN_DISTANCE
-from ..intersect import Accelerator, TileHits
 from .embree import occluded_rays
 from .jit import kernel
 from .surface import facing_side, hit_point, to_light
@@ -80,35 +79,11 @@ def no_shadows() -> ShadowInputs:
                         np.zeros(0, np.bool_), np.zeros(0, np.int64), np.zeros((0, 3)), False)
 
 
-def shadow_rays(inputs: ShadowInputs, hits: TileHits, directions: np.ndarray):
-    """One shadow ray per hit and light: origins, unit directions (M, 3) float32 and t_max (M,)
-    float32 in the unit frame, and the indices (H,) of the rays that hit (M = H × K, light-minor)."""
-    lights = len(inputs.light_kind)
-    hit_rays = np.flatnonzero(hits.face >= 0)
-    count = len(hit_rays) * lights
-    origins = np.empty((count, 3), np.float32)
-    toward = np.empty((count, 3), np.float32)
-    t_max = np.empty(count, np.float32)
-    _shadow_rays(hit_rays, hits.face, hits.u, hits.v, directions, inputs.vertices, inputs.faces,
-                 inputs.face_normals, inputs.corner_normals, inputs.smooth, inputs.light_kind, inputs.light_vec,
-                 inputs.two_sided, inputs.offset_scale, origins, toward, t_max)
-    return origins, toward, t_max, hit_rays
-
-
-def light_visibility(inputs: ShadowInputs, hits: TileHits, directions: np.ndarray,
-                     accelerator: Accelerator) -> np.ndarray:
-    """(N,) int64 bit masks: bit j set where light j is visible from hit k (0 for a miss)."""
-    origins, toward, t_max, hit_rays = shadow_rays(inputs, hits, directions)
-    free = ~accelerator.occluded(origins, toward, t_max)
-    visible = np.zeros(len(hits.face), np.int64)
-    _gather_bits(hit_rays, free, len(inputs.light_kind), visible)
-    return visible
-
-
 @kernel()
 def cast_shadows(scene, inputs, face, u, v, directions, visible):
-    """light_visibility inside a kernel, on Embree's C API scene (embree.EmbreeScene.scene): visible (N,)
-    int64 light bits written in place (0 for a miss)."""
+    """Shadow rays from every hit of a tile toward every light, on Embree's C API scene
+    (embree.EmbreeScene.scene): visible (N,) int64 light bits written in place (bit j set: light j is
+    visible; 0 for a miss). Returns the number of shadow rays cast."""
     lights = inputs.light_kind.shape[0]
     hits = 0
     for k in range(face.shape[0]):
@@ -123,12 +98,11 @@ def cast_shadows(scene, inputs, face, u, v, directions, visible):
     origins = np.empty((hits * lights, 3), np.float32)
     toward = np.empty((hits * lights, 3), np.float32)
     t_max = np.empty(hits * lights, np.float32)
-    _shadow_rays(hit_rays, face, u, v, directions, inputs.vertices, inputs.faces, inputs.face_normals,
-                 inputs.corner_normals, inputs.smooth, inputs.light_kind, inputs.light_vec, inputs.two_sided,
-                 inputs.offset_scale, origins, toward, t_max)
+    shadow_rays(inputs, hit_rays, face, u, v, directions, origins, toward, t_max)
     blocked = np.empty(hits * lights, np.bool_)
     occluded_rays(scene, origins, toward, t_max, blocked)
     _gather_bits(hit_rays, ~blocked, lights, visible)
+    return hits * lights
 
 
 @kernel()
@@ -144,8 +118,14 @@ def _offset(x, n):
 
 
 @kernel()
-def _shadow_rays(hit_rays, face, bu, bv, directions, vertices, faces, face_normals, corner_normals, smooth,
-                 light_kind, light_vec, two_sided, offset_scale, origins, toward, t_max):
+def shadow_rays(inputs, hit_rays, face, bu, bv, directions, origins, toward, t_max):
+    """One shadow ray per hit and light (ShadowInputs; the hits' face, u, v and ray directions): origins,
+    unit directions toward (M, 3) float32 and t_max (M,) float32 in the unit frame written in place, for the
+    hits hit_rays (H,) (M = H × K, light-minor)."""
+    vertices, faces, face_normals, corner_normals = (inputs.vertices, inputs.faces, inputs.face_normals,
+                                                     inputs.corner_normals)
+    smooth, light_kind, light_vec = inputs.smooth, inputs.light_kind, inputs.light_vec
+    two_sided, offset_scale = inputs.two_sided, inputs.offset_scale
     lights = light_kind.shape[0]
     for h in range(hit_rays.shape[0]):
         k = hit_rays[h]
