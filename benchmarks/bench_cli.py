@@ -39,7 +39,7 @@ mark("import the CLI (typer, numpy, OpenImageIO, pydantic)")
 import numpy as np
 from raycast_phong.renderer import frame as render
 mark("import the renderer (numba, embreex, the stages)")
-from raycast_phong.renderer.kernels.camera import RayGenerator, camera_rig
+from raycast_phong.renderer.pack import RayGenerator, camera_rig
 scene = rp.load_scene(rp.default_scene_path())
 geometry = render.build_geometry(scene)
 frame = render.unit_frame(geometry.vertices)

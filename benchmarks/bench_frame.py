@@ -27,10 +27,16 @@ from raycast_phong.geometry.build import build_geometry
 from raycast_phong.renderer.film import allocate_film
 from raycast_phong.renderer.frame import TILE_RAYS, TileWork
 from raycast_phong.renderer.intersect import Accelerator, unit_frame
-from raycast_phong.renderer.kernels.camera import RayGenerator, camera_rig, generate_rays
-from raycast_phong.renderer.kernels.shading import prepare_shading
-from raycast_phong.renderer.kernels.shadows import prepare_shadows, shadow_rays
-from raycast_phong.renderer.plan import build_plan, plan_flags
+from raycast_phong.renderer.kernels.shadows import shadow_rays
+from raycast_phong.renderer.pack import (
+    RayGenerator,
+    camera_rig,
+    generate_rays,
+    plan_flags,
+    prepare_shading,
+    prepare_shadows,
+)
+from raycast_phong.renderer.plan import build_plan
 
 
 def benchmark_scene(size: int, subdivisions: int = 6, mode: str = "local") -> rp.Scene:

@@ -24,12 +24,10 @@ from .budget import check_memory
 from .film import allocate_film, film_layers
 from .intersect import Accelerator, unit_frame
 from .kernels import embree
-from .kernels.camera import RayGenerator, camera_rig
-from .kernels.illumination import COUNTS
-from .kernels.shading import ShadingInputs, film_rows, prepare_shading
-from .kernels.shadows import MAX_LIGHTS, ShadowInputs, no_shadows, prepare_shadows
+from .kernels.layout import COUNTS, MAX_LIGHTS, ShadingInputs, ShadowInputs
 from .kernels.tile import render_band
-from .plan import build_plan, diagnose, plan_flags
+from .pack import RayGenerator, camera_rig, film_rows, no_shadows, plan_flags, prepare_shading, prepare_shadows
+from .plan import build_plan, diagnose
 
 TILE_RAYS = 1 << 15  # 32k rays: large enough to amortise a call, small enough for ~10 MB per tile
 NO_SHADOWS = no_shadows()  # local mode's shadow inputs for the tile kernel (read only in global mode)

@@ -21,7 +21,7 @@ from ..geometry.build import build_geometry, object_mesh
 from ..records import MeasuredResult, RenderResult
 from ..renderer.frame import render
 from ..renderer.intersect import Accelerator, unit_frame
-from ..renderer.kernels.camera import RayGenerator, camera_rig
+from ..renderer.pack import RayGenerator, camera_rig
 from ..scene.schema import Object, Scene, validate_scene
 from .metrics import measure
 from .reference import TILE_SAMPLES, ReferenceImage, analytic_reference

@@ -21,7 +21,7 @@ import raycast_phong as rp
 from raycast_phong.geometry.build import build_geometry
 from raycast_phong.renderer.intersect import Accelerator, TileHits, unit_frame
 from raycast_phong.renderer.kernels import embree
-from raycast_phong.renderer.kernels.camera import camera_rig, generate_rays
+from raycast_phong.renderer.pack import camera_rig, generate_rays
 
 PACKAGE = Path(raycast_phong.__file__).resolve().parent
 SCENES = Path(__file__).resolve().parents[2] / "scenes"

@@ -7,7 +7,7 @@ import raycast_phong as rp
 import raycast_phong.geometry.build as geometry
 import raycast_phong.geometry.normals as normals
 import raycast_phong.scene.schema
-from raycast_phong.renderer.kernels.illumination import COUNTED_TERMS
+from raycast_phong.renderer.kernels.layout import COUNTED_TERMS
 
 
 def scene(**changes):

@@ -8,7 +8,8 @@ import pytest
 import raycast_phong as rp
 from raycast_phong.geometry.build import build_geometry
 from raycast_phong.renderer.intersect import Accelerator, unit_frame
-from raycast_phong.renderer.kernels.shadows import cast_shadows, prepare_shadows
+from raycast_phong.renderer.kernels.shadows import cast_shadows
+from raycast_phong.renderer.pack import prepare_shadows
 
 MATTE = {"ka": 1.0, "kd": 0.8, "ks": 0.0}
 
@@ -96,7 +97,7 @@ def test_no_light_leaks_under_an_occluder_1e4_of_the_scene_size_above_a_plane(sc
     geometry = build_geometry(scene)
     frame = unit_frame(geometry.vertices)
     accelerator = Accelerator(geometry, frame)
-    from raycast_phong.renderer.kernels.camera import RayGenerator, camera_rig
+    from raycast_phong.renderer.pack import RayGenerator, camera_rig
     origins, directions = RayGenerator(camera_rig(scene), frame, 32, 32, 1, 32 * 32).rows(0, 32)
     hits = accelerator.closest_hits(origins, directions)
     assert (hits.face >= 0).all() and (hits.face < 32).all()  # every ray sees the big plane from below
@@ -194,7 +195,7 @@ def test_without_the_offset_a_lit_sphere_shadows_itself():
     geometry = build_geometry(scene)
     frame = unit_frame(geometry.vertices)
     accelerator = Accelerator(geometry, frame)
-    from raycast_phong.renderer.kernels.camera import RayGenerator, camera_rig
+    from raycast_phong.renderer.pack import RayGenerator, camera_rig
     origins, directions = RayGenerator(camera_rig(scene), frame, 48, 48, 1, 48 * 48).rows(0, 48)
     hits = accelerator.closest_hits(origins, directions)
     hit = hits.face >= 0
@@ -296,7 +297,8 @@ def test_hanika_origin_is_the_mean_of_the_corners_tangent_plane_points(weights, 
     to the float32 rounding of the stored origin (2 ulps of 0.6: 1.2e-7). Seen from below with two-sided
     shading (light below too, normals tilted inward so the back is the convex side), every normal turns
     over and the surface bulges downward."""
-    from raycast_phong.renderer.kernels.shadows import ShadowInputs, shadow_rays
+    from raycast_phong.renderer.kernels.layout import ShadowInputs
+    from raycast_phong.renderer.kernels.shadows import shadow_rays
     vertices = np.array([[0.0, 0.0, 0.5], [1.0, 0.0, 0.5], [0.0, 1.0, 0.5]])
     side = -1.0 if from_below else 1.0
     # Tilted away from the side that is seen: the surface is convex toward the viewer and the light.

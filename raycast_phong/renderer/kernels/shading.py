@@ -14,114 +14,30 @@ centred on the scene (translation changes no direction or distance) in the scene
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
 
 import numpy as np
 
-from ...records import Frame, Geometry, ImageBuffers
-from ...scene.schema import DEFAULT_MATERIAL, Scene
-from ...tolerances import MIN_DISTANCE, NO_DIRECTION
-from .camera import CameraRig
-from .illumination import (
-    COUNTS,
+from ...tolerances import NO_DIRECTION
+from .illumination import illuminate
+from .jit import kernel
+from .layout import (
+    CAM_FORWARD,
+    CAM_ORTHOGRAPHIC,
+    CAM_RIGHT,
+    CAM_UP,
     F_AOV_GEOMETRY,
     F_AOV_TERMS,
-    F_ATTENUATION,
     F_SCREEN,
     F_SHADOWS,
     F_TWO_SIDED,
+    FLAT,
+    GOURAUD,
     TERMS,
-    illuminate,
-    light_table,
-    material_table,
+    V_EYE,
 )
-from .jit import kernel
 from .surface import facing_side, hit_point
 
 ALL_VISIBLE = -1  # every bit set: local mode, no light is ever shadowed
-
-
-class ShadingInputs(NamedTuple):
-    """Everything the shading kernel reads, in the scene's precision, centred on the scene.
-
-    A NamedTuple, not a dataclass: numba takes it as one argument and reads its fields by name (a field
-    may not be called `view`: numba reads `x.view` as ndarray.view).
-    """
-    vertices: np.ndarray        # (V, 3)
-    faces: np.ndarray           # (F, 3) int32
-    face_normals: np.ndarray    # (F, 3)
-    corner_normals: np.ndarray  # (F, 3, 3), or (1, 3, 3) of zeros when no face is smooth-shaded
-    face_material: np.ndarray   # (F,) int32, row of the material table
-    face_model: np.ndarray      # (F,) int8, 0 flat, 1 gouraud, 2 phong
-    materials: np.ndarray       # (M, MATERIAL_COLUMNS): illumination.material_table; row 0 the built-in default
-    lights: np.ndarray          # (K, LIGHT_COLUMNS): illumination.light_table
-    viewing: np.ndarray         # (10,) I_a, eye, fixed view vector (−forward: infinite viewer or orthographic),
-                                # smallest d² for 1/d² attenuation
-    camera: np.ndarray          # (10,) right, up, forward, orthographic (1/0): for screen-space weights
-    background: np.ndarray      # (3,) linear RGB of a pixel sample that hits nothing
-    flags: int                  # F_* bits from the render plan
-    specular: int               # SPECULAR_NONE, SPECULAR_PHONG or SPECULAR_BLINN
-    frame_scale: float          # Embree's unit-frame t × frame_scale = world distance
-    zero: np.floating           # 0, 1 and 2 in the shading precision: Python literals would widen float32
-    one: np.floating
-    two: np.floating
-
-
-class TileRays(NamedTuple):
-    """A tile's rays and their closest hits, as the kernel reads them (ray k is sample k % n² of pixel k // n²)."""
-    face: np.ndarray        # (N,) int32, -1 on a miss
-    u: np.ndarray           # (N,) float32, weight of corner 1
-    v: np.ndarray           # (N,) float32, weight of corner 2
-    t: np.ndarray           # (N,) float32, unit-frame distance
-    directions: np.ndarray  # (N, 3) float32, unit
-    visible: np.ndarray     # (N,) int64 light bits (global mode), or empty in local mode
-    samples: int            # n: n × n samples per pixel
-
-
-class FilmRows(NamedTuple):
-    """Views of whole image rows that the kernel adds into (ImageBuffers.rows), and its term counters."""
-    rgb: np.ndarray
-    terms: np.ndarray
-    depth: np.ndarray
-    normal: np.ndarray
-    face: np.ndarray
-    counts: np.ndarray      # (len(COUNTS),) int64: shading points that evaluated each term, shadow rays
-
-
-def film_rows(out: ImageBuffers, counts: np.ndarray | None = None) -> FilmRows:
-    """The kernel's FilmRows of image rows `out` (ImageBuffers.rows), with fresh term counters unless given."""
-    counts = np.zeros(len(COUNTS), np.int64) if counts is None else counts
-    return FilmRows(out.rgb, out.terms, out.depth, out.normal, out.face, counts)
-
-
-def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Frame,
-                    flags: tuple[int, int], real: type = np.float32) -> ShadingInputs:
-    """Pack the scene's numbers into tables of the shading precision `real` for the kernel.
-
-    viewing[9] is the smallest distance 1/d² attenuation divides by, squared: MIN_DISTANCE of the scene's
-    half-extent, so a light on the surface gives a large but finite f_att (≤ 1e12 / scale²).
-    """
-    center = frame.center
-    corner = geometry.corner_normals if len(geometry.corner_normals) else np.zeros((1, 3, 3))
-
-    def table(values):
-        return np.ascontiguousarray(np.asarray(values, np.float64), dtype=real)
-
-    return ShadingInputs(
-        vertices=table(geometry.vertices - center),
-        faces=np.ascontiguousarray(geometry.faces, np.int32),
-        face_normals=table(geometry.face_normals),
-        corner_normals=np.ascontiguousarray(corner, real),  # no copy when geometry made them in `real`
-        face_material=np.ascontiguousarray(geometry.face_material, np.int32),
-        face_model=np.ascontiguousarray(geometry.face_model, np.int8),
-        materials=material_table([DEFAULT_MATERIAL, *scene.materials.values()], real, geometry.file_materials),
-        lights=light_table(scene.lights, center, bool(flags[0] & F_ATTENUATION), real),
-        viewing=table([*scene.ambient, *(rig.eye - center), *(-rig.forward), (MIN_DISTANCE * frame.scale) ** 2]),
-        camera=table([*rig.right, *rig.up, *rig.forward, float(rig.orthographic)]),
-        background=table(scene.render.background),
-        flags=int(flags[0]), specular=int(flags[1]), frame_scale=float(frame.scale),
-        zero=real(0), one=real(1), two=real(2),
-    )
 
 
 @kernel()
@@ -129,11 +45,11 @@ def _project(x, y, z, eye, camera):
     """Image-plane coordinates of a point, (x/z, y/z) in the camera frame or (x, y) if orthographic, and
     its depth z along the view direction (1 if orthographic: every point projects)."""
     rx, ry, rz = x - eye[0], y - eye[1], z - eye[2]
-    cx = rx * camera[0] + ry * camera[1] + rz * camera[2]
-    cy = rx * camera[3] + ry * camera[4] + rz * camera[5]
-    if camera[9] != 0:
-        return cx, cy, camera[9]
-    cz = rx * camera[6] + ry * camera[7] + rz * camera[8]
+    cx = rx * camera[CAM_RIGHT] + ry * camera[CAM_RIGHT + 1] + rz * camera[CAM_RIGHT + 2]
+    cy = rx * camera[CAM_UP] + ry * camera[CAM_UP + 1] + rz * camera[CAM_UP + 2]
+    if camera[CAM_ORTHOGRAPHIC] != 0:
+        return cx, cy, camera[CAM_ORTHOGRAPHIC]
+    cz = rx * camera[CAM_FORWARD] + ry * camera[CAM_FORWARD + 1] + rz * camera[CAM_FORWARD + 2]
     # At or behind the eye plane a point has no image: report its depth and let the caller refuse it.
     return (cx / cz, cy / cz, cz / math.sqrt(rx * rx + ry * ry + rz * rz)) if cz > 0 else (cx, cy, cz)
 
@@ -189,7 +105,8 @@ def _shade_rays(inputs, rays, film):
     face, bu, bv, tfar, directions, visible, samples = rays
     rgb, terms, depth, normal, face_out, counts = film
     width = rgb.shape[1]
-    eye = view[3:6]
+    eye = view[V_EYE:V_EYE + 3]
+    # The whole viewing row (layout.VIEWING_SIZE) as a tuple: illuminate reads it by layout's names.
     view_tuple = (view[0], view[1], view[2], view[3], view[4], view[5], view[6], view[7], view[8], view[9])
     third = one / (one + one + one)
     per_pixel = samples * samples
@@ -230,11 +147,11 @@ def _shade_rays(inputs, rays, film):
                     materials[m, 10], materials[m, 11], materials[m, 12])
         model = face_model[f]
         nx, ny, nz = side * gx, side * gy, side * gz
-        if model == 0:
+        if model == FLAT:
             px, py, pz = hit_point(vertices, faces, f, third, third, third)  # the centroid
             ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask = illuminate(
                 px, py, pz, nx, ny, nz, material, lights, view_tuple, flags, specular, visible_k, zero, one, two)
-        elif model == 1:
+        elif model == GOURAUD:
             ar = ag = ab = dr = dg = db = sr = sg = sb = er = eg = eb = zero
             mask = 0
             for j in range(3):

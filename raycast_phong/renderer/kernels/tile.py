@@ -15,9 +15,9 @@ from numba import types
 
 from .camera import fill_rows
 from .embree import intersect_rays
-from .illumination import C_SHADOW_RAYS, F_SHADOWS
 from .jit import kernel
-from .shading import FilmRows, TileRays, _shade_rays
+from .layout import C_SHADOW_RAYS, F_SHADOWS, FilmRows, TileRays
+from .shading import _shade_rays
 from .shadows import cast_shadows
 
 CHUNK_ROWS = 4  # image rows per pass: one row of Embree's 4 × 4 packets
