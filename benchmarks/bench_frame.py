@@ -25,18 +25,14 @@ import numpy as np
 import raycast_phong as rp
 from raycast_phong.geometry.build import build_geometry
 from raycast_phong.renderer.film import allocate_film
-from raycast_phong.renderer.frame import TILE_RAYS, TileWork
 from raycast_phong.renderer.intersect import Accelerator, unit_frame
 from raycast_phong.renderer.kernels.shadows import shadow_rays
 from raycast_phong.renderer.pack import (
-    RayGenerator,
     camera_rig,
     generate_rays,
-    plan_flags,
-    prepare_shading,
     prepare_shadows,
 )
-from raycast_phong.renderer.plan import build_plan
+from raycast_phong.renderer.prepare import TILE_RAYS, TileWork, prepare
 
 
 def benchmark_scene(size: int, subdivisions: int = 6, mode: str = "local") -> rp.Scene:
@@ -114,20 +110,15 @@ def raw_shadow_cast_seconds(scene: rp.Scene, threads: int) -> float:
 
 def cpu_seconds(scene: rp.Scene, repeats: int) -> tuple[float, float]:
     """CPU time on this one thread (min of `repeats`) of the raw embreex cast and of the frame's tiles, run
-    in turn here through render's own TileWork (a fresh film each time)."""
-    geometry = build_geometry(scene)
-    frame = unit_frame(geometry.vertices)
-    accelerator, embreex = Accelerator(geometry, frame), Embreex(geometry, frame)
-    rig, plan = camera_rig(scene), build_plan(scene)
+    in turn here through render's own prepare and TileWork (a fresh film each time)."""
+    ready = prepare(scene)
+    accelerator, embreex = ready.build(), Embreex(ready.geometry, ready.frame)
     width, height = scene.render.width, scene.render.height
-    rows = max(1, TILE_RAYS // width)
-    bands = [(r, min(r + rows, height)) for r in range(0, height, rows)]
-    tiles = [generate_rays(rig, frame, width, height, 1, *band) for band in bands]
+    bands = ready.bands
+    tiles = [generate_rays(camera_rig(scene), ready.frame, width, height, 1, *band) for band in bands]
     casts, frames = [], []
     for _ in range(repeats):
-        work = TileWork(RayGenerator(rig, frame, width, height, 1, rows * width), accelerator,
-                        prepare_shadows(scene, geometry, frame) if plan.keeps("shadow_rays") else None,
-                        prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), np.float32),
+        work = TileWork(ready.rays, accelerator, ready.shadows, ready.shading,
                         allocate_film(width, height, (), np.float32))
         start = time.thread_time()
         for band in bands:
