@@ -30,10 +30,6 @@ from .layout import (
     F_SCENE_AMBIENT,
     F_VIEW_PER_POINT,
     INVERSE_SQUARE,
-    KA,
-    KD,
-    KE,
-    KS,
     L_ATT,
     L_ATT_KIND,
     L_IA,
@@ -42,13 +38,13 @@ from .layout import (
     L_KIND,
     L_VEC,
     POINT,
-    SHININESS,
     SPECULAR_NONE,
     SPECULAR_PHONG,
     V_AMBIENT,
     V_EYE,
     V_FLOOR,
     V_VIEW,
+    Lit,
 )
 from .surface import to_light
 
@@ -71,22 +67,22 @@ def specular_power(x, f, zero, one):
 
 @kernel(inline="always")
 def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, visible, zero, one, two):
-    """The model at point p with unit normal n and one material (a row of the material table, as a tuple).
+    """The model at point p with unit normal n and one material (layout.Material: a row of the material table).
 
     view: ShadingInputs.viewing as a tuple (layout.V_AMBIENT, V_EYE, V_VIEW, V_FLOOR). `visible` holds one
     bit per light (global mode's shadow-ray answers; all bits set in local mode): a light whose bit is
-    clear adds only its ambient part. Returns the four terms as 12 scalars
-    (ambient, diffuse, specular, emission; r, g, b each) and a bit mask of the optional terms
-    evaluated (bit i = COUNTED_TERMS[i]). Tuples and scalars, and one array: every array argument
-    costs an atomic reference count per call, which dominated the frame time of an earlier version.
+    clear adds only its ambient part. Returns a layout.Lit: the four terms (ambient, diffuse, specular,
+    emission; r, g, b each) and a bit mask of the optional terms evaluated (bit i = COUNTED_TERMS[i]).
+    Tuples and scalars, and one array: every array argument costs an atomic reference count per call,
+    which dominated the frame time of an earlier version.
     A light's L_VEC is a point light's position, or a directional light's unit vector toward it.
     """
     ar = ag = ab = dr = dg = db = sr = sg = sb = er = eg = eb = zero
     mask = 0
     if flags & F_EMISSION:
         mask |= 1 << C_EMISSION
-        er, eg, eb = material[KE], material[KE + 1], material[KE + 2]
-    ka_r, ka_g, ka_b = material[KA], material[KA + 1], material[KA + 2]
+        er, eg, eb = material.ke_r, material.ke_g, material.ke_b
+    ka_r, ka_g, ka_b = material.ka_r, material.ka_g, material.ka_b
     if flags & F_SCENE_AMBIENT:
         mask |= 1 << C_SCENE_AMBIENT
         ar, ag, ab = view[V_AMBIENT] * ka_r, view[V_AMBIENT + 1] * ka_g, view[V_AMBIENT + 2] * ka_b
@@ -128,9 +124,9 @@ def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, 
         if flags & F_DIFFUSE:
             mask |= 1 << C_DIFFUSE
             lit = weight * n_dot_l
-            dr += lit * lights[k, L_ID] * material[KD]
-            dg += lit * lights[k, L_ID + 1] * material[KD + 1]
-            db += lit * lights[k, L_ID + 2] * material[KD + 2]
+            dr += lit * lights[k, L_ID] * material.kd_r
+            dg += lit * lights[k, L_ID + 1] * material.kd_g
+            db += lit * lights[k, L_ID + 2] * material.kd_b
         if specular != SPECULAR_NONE:
             mask |= 1 << C_SPECULAR
             if specular == SPECULAR_PHONG:
@@ -140,8 +136,8 @@ def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, 
                 hx, hy, hz = lx + vx, ly + vy, lz + vz
                 length = math.sqrt(hx * hx + hy * hy + hz * hz)
                 x = (nx * hx + ny * hy + nz * hz) / length if length > zero else zero
-            s = weight * specular_power(x, material[SHININESS], zero, one)
-            sr += s * lights[k, L_IS] * material[KS]
-            sg += s * lights[k, L_IS + 1] * material[KS + 1]
-            sb += s * lights[k, L_IS + 2] * material[KS + 2]
-    return ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask
+            s = weight * specular_power(x, material.shininess, zero, one)
+            sr += s * lights[k, L_IS] * material.ks_r
+            sg += s * lights[k, L_IS + 1] * material.ks_g
+            sb += s * lights[k, L_IS + 2] * material.ks_b
+    return Lit(ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask)

@@ -54,6 +54,42 @@ COUNTS = (*COUNTED_TERMS, "shadow_rays")
 C_SHADOW_RAYS = TERMS
 
 
+class Material(NamedTuple):
+    """One row of the material table as scalars, read by name in illumination.illuminate: scalars, not a row
+    view of the table, since every array argument costs an atomic reference count per call."""
+    ka_r: float
+    ka_g: float
+    ka_b: float
+    kd_r: float
+    kd_g: float
+    kd_b: float
+    ks_r: float
+    ks_g: float
+    ks_b: float
+    ke_r: float
+    ke_g: float
+    ke_b: float
+    shininess: float
+
+
+class Lit(NamedTuple):
+    """What illumination.illuminate returns: the four terms (r, g, b each), kept apart so they can be written as
+    layers, and a bit mask of the optional terms evaluated (bit i = COUNTED_TERMS[i])."""
+    ambient_r: float
+    ambient_g: float
+    ambient_b: float
+    diffuse_r: float
+    diffuse_g: float
+    diffuse_b: float
+    specular_r: float
+    specular_g: float
+    specular_b: float
+    emission_r: float
+    emission_g: float
+    emission_b: float
+    mask: int
+
+
 class ShadingInputs(NamedTuple):
     """Everything the shading kernel reads, in the scene's precision, centred on the scene (pack.prepare_shading).
 

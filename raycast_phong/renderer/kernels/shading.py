@@ -32,8 +32,14 @@ from .layout import (
     F_TWO_SIDED,
     FLAT,
     GOURAUD,
+    KA,
+    KD,
+    KE,
+    KS,
+    SHININESS,
     TERMS,
     V_EYE,
+    Material,
 )
 from .surface import facing_side, hit_point
 
@@ -142,9 +148,10 @@ def _shade_rays(inputs, rays, film):
         # Shade the side the viewer sees.
         side = facing_side(gx, gy, gz, directions[k, 0], directions[k, 1], directions[k, 2], two_sided, one)
         m = face_material[f]
-        material = (materials[m, 0], materials[m, 1], materials[m, 2], materials[m, 3], materials[m, 4],
-                    materials[m, 5], materials[m, 6], materials[m, 7], materials[m, 8], materials[m, 9],
-                    materials[m, 10], materials[m, 11], materials[m, 12])
+        material = Material(materials[m, KA], materials[m, KA + 1], materials[m, KA + 2], materials[m, KD],
+                            materials[m, KD + 1], materials[m, KD + 2], materials[m, KS], materials[m, KS + 1],
+                            materials[m, KS + 2], materials[m, KE], materials[m, KE + 1], materials[m, KE + 2],
+                            materials[m, SHININESS])
         model = face_model[f]
         nx, ny, nz = side * gx, side * gy, side * gz
         if model == FLAT:
@@ -157,15 +164,15 @@ def _shade_rays(inputs, rays, film):
             for j in range(3):
                 vj = faces[f, j]
                 bj = b0 if j == 0 else (b1 if j == 1 else b2)
-                jar, jag, jab, jdr, jdg, jdb, jsr, jsg, jsb, jer, jeg, jeb, jmask = illuminate(
+                lit = illuminate(
                     vertices[vj, 0], vertices[vj, 1], vertices[vj, 2], side * corner_normals[f, j, 0],
                     side * corner_normals[f, j, 1], side * corner_normals[f, j, 2], material, lights,
                     view_tuple, flags, specular, visible_k, zero, one, two)
-                ar, ag, ab = ar + bj * jar, ag + bj * jag, ab + bj * jab
-                dr, dg, db = dr + bj * jdr, dg + bj * jdg, db + bj * jdb
-                sr, sg, sb = sr + bj * jsr, sg + bj * jsg, sb + bj * jsb
-                er, eg, eb = er + bj * jer, eg + bj * jeg, eb + bj * jeb
-                mask |= jmask
+                ar, ag, ab = ar + bj * lit.ambient_r, ag + bj * lit.ambient_g, ab + bj * lit.ambient_b
+                dr, dg, db = dr + bj * lit.diffuse_r, dg + bj * lit.diffuse_g, db + bj * lit.diffuse_b
+                sr, sg, sb = sr + bj * lit.specular_r, sg + bj * lit.specular_g, sb + bj * lit.specular_b
+                er, eg, eb = er + bj * lit.emission_r, eg + bj * lit.emission_g, eb + bj * lit.emission_b
+                mask |= lit.mask
             if geometry_layers:
                 sx, sy, sz = _mixed_normal(corner_normals, f, b0, b1, b2)
                 nx, ny, nz = side * sx, side * sy, side * sz
