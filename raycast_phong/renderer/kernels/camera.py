@@ -17,16 +17,11 @@ from .jit import kernel
 
 @kernel()
 def fill_rows(params, row0, row1, origins, directions):
-    """Directions (and, for an orthographic camera, origins) (N, 3) float32 of the rays of rows [row0, row1)."""
-    _fill_rays(row0, row1, params.width, params.height, params.samples, params.eye, params.right, params.up,
-               params.forward, params.half_width, params.half_height, params.orthographic, params.center,
-               params.inv_scale, origins, directions)
-
-
-@kernel()
-def _fill_rays(row0, row1, width, height, samples, eye, right, up, forward, half_width, half_height,
-               orthographic, center, inv_scale, origins, directions):
-    """Directions (and, for an orthographic camera, origins) of the rays of rows [row0, row1)."""
+    """Directions (and, for an orthographic camera, origins) (N, 3) float32 of the rays of rows [row0, row1);
+    params: layout.RayParams."""
+    width, height, samples, orthographic = params.width, params.height, params.samples, params.orthographic
+    eye, right, up, forward, center = params.eye, params.right, params.up, params.forward, params.center
+    half_width, half_height, inv_scale = params.half_width, params.half_height, params.inv_scale
     # Raster → screen: x from -1 (left) to 1, y from 1 (top) to -1. The screen offsets of the row's columns
     # and of the row's sample rows are computed once, by the same expressions (the same bits) as per ray:
     # their four divisions per ray were 40 % of the generation time.
