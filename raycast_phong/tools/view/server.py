@@ -123,7 +123,7 @@ def light_on_plane(scene: rp.Scene, light: int, u: float, v: float) -> list[floa
     look_at point's depth if it is behind the eye), so dragging never pulls it toward or away from the
     camera; the ray through (u, v) follows camera.py's raster convention.
     """
-    from raycast_phong.renderer.kernels.camera import camera_rig
+    from raycast_phong.renderer.pack import camera_rig
     if not (0 <= light < len(scene.lights)) or scene.lights[light].type != "point":
         raise ViewError(f"lights.{light}: only a point light can be dragged")
     if not all(isinstance(x, (int, float)) and math.isfinite(x) for x in (u, v)):
