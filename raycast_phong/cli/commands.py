@@ -19,9 +19,9 @@ import typer
 from typer.core import TyperGroup
 
 import raycast_phong as rp
-from raycast_phong.io.atomic import WriteError
-from raycast_phong.io.image_io import NO_FONT, ImageError, check_output_path
-from raycast_phong.scene.schema import Mode, ShadingModel, SpecularModel
+from raycast_phong.codes import Mode, ShadingModel, SpecularModel
+from raycast_phong.errors import ImageError, InputError, OutputError
+from raycast_phong.io.image_io import NO_FONT, check_output_path
 
 if TYPE_CHECKING:
     from raycast_phong.tools import compare
@@ -211,11 +211,11 @@ def render(
 
 @contextmanager
 def exit_codes():
-    """Bad input (SceneError, ImageError) and a failed write (WriteError) exit 2 and anything else 1, each with
-    one line on stderr."""
+    """Bad input (errors.InputError) and an output that cannot be made (errors.OutputError) exit 2 and anything
+    else 1, each with one line on stderr."""
     try:
         yield
-    except (rp.SceneError, ImageError, WriteError) as error:
+    except (InputError, OutputError) as error:
         fail(str(error))
     except typer.Exit:
         raise

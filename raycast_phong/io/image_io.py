@@ -15,14 +15,11 @@ from pathlib import Path
 import numpy as np
 import OpenImageIO as oiio
 
-from ..renderer.film import to_8bit
+from ..errors import ImageError
 from .atomic import os_reason, replaced_atomically
+from .encoding import to_8bit
 
 LAYER_CHANNELS = {"depth": ("Z",), "normal": ("X", "Y", "Z"), "face": ("id",)}
-
-
-class ImageError(OSError):
-    """An image that cannot be written or read; the message names the path."""
 
 
 def check_output_path(path: str | Path, inputs: tuple[str | Path, ...] = ()) -> Path:

@@ -33,17 +33,27 @@ from dataclasses import asdict, dataclass, field, replace
 from multiprocessing import connection
 from pathlib import Path
 
-from ..io.atomic import WriteError, signals_deferred, write_text
-from ..io.image_io import ImageError, write_image
+from ..codes import SCENE_SUFFIXES
+from ..errors import (
+    BatchBusy,
+    BatchFolderError,
+    CorruptManifest,
+    ImageError,
+    OptionError,
+    SceneError,
+    WriteError,
+)
+from ..io.atomic import signals_deferred, write_text
+from ..io.files import open_regular
+from ..io.image_io import write_image
 from ..renderer.intersect import embree_started
 from ..scene.load import load_scene
-from ..scene.schema import Scene, SceneError, open_regular
+from ..scene.schema import Scene
 from .sweep import Job, is_sweep, load_sweep, write_contact_sheets
 
 MANIFEST = "manifest.json"
 MANIFEST_FORMAT = 1
 LOCK = ".batch.lock"  # held (flock) by the batch writing into the folder
-SCENE_SUFFIXES = (".toml", ".json")
 # Statuses of a manifest entry: the last two only after an interrupt (SIGINT, SIGTERM).
 RENDERED, UP_TO_DATE, FAILED = "rendered", "up to date", "failed"
 INTERRUPTED, NOT_STARTED = "interrupted", "not started"
@@ -475,12 +485,12 @@ def _dask(tasks: list[Task], scheduler: str, started: set[str]) -> Iterator[Outc
     try:
         from distributed import Client, as_completed
     except ImportError:
-        raise SceneError(f"--scheduler {scheduler}: Dask is not installed; pip install 'raycast-phong[distributed]'") \
+        raise OptionError(f"--scheduler {scheduler}: Dask is not installed; pip install 'raycast-phong[distributed]'") \
             from None
     try:
         client = Client(scheduler, timeout=CONNECT_TIMEOUT)
     except (OSError, TimeoutError) as error:
-        raise SceneError(f"--scheduler {scheduler}: cannot connect ({error})") from None
+        raise OptionError(f"--scheduler {scheduler}: cannot connect ({error})") from None
     with client:
         # pure=False: a re-run must render again, not reuse a result the cluster remembers.
         futures = {client.submit(render_job, task, pure=False): task for task in tasks}
@@ -492,15 +502,11 @@ def _dask(tasks: list[Task], scheduler: str, started: set[str]) -> Iterator[Outc
 # ---------------------------------------------------------------- the manifest and the folder lock
 
 
-class CorruptManifest(ValueError):
-    """DIR/manifest.json exists but is not a batch manifest this version can read."""
-
-
 def read_manifest(folder: Path) -> dict:
     """DIR/manifest.json, or an empty manifest if there is none.
 
-    Raises CorruptManifest for a file that is not a batch manifest (format MANIFEST_FORMAT), ImageError for
-    one that cannot be read (e.g. a folder of that name).
+    Raises CorruptManifest for a file that is not a batch manifest (format MANIFEST_FORMAT), BatchFolderError for
+    one that cannot be read (BatchFolderError; e.g. a folder of that name).
     """
     path = folder / MANIFEST
     try:
@@ -508,7 +514,7 @@ def read_manifest(folder: Path) -> dict:
     except FileNotFoundError:
         return {"format": MANIFEST_FORMAT, "scenes": {}, "sheets": {}}
     except OSError as error:
-        raise ImageError(f"{path}: cannot read the batch manifest ({error.strerror})") from None
+        raise BatchFolderError(f"{path}: cannot read the batch manifest ({error.strerror})") from None
     try:
         data = json.loads(text)
     except (ValueError, RecursionError) as error:  # not UTF-8, not JSON, or nested too deep
@@ -532,7 +538,7 @@ def open_manifest(folder: Path) -> tuple[dict, str | None]:
         try:
             path.rename(kept)  # the folder lock is held: nothing else writes these names meanwhile
         except OSError as failure:
-            raise ImageError(f"{path}: {error}, and cannot keep it aside ({failure.strerror})") from None
+            raise BatchFolderError(f"{path}: {error}, and cannot keep it aside ({failure.strerror})") from None
         return read_manifest(folder), f"{path}: {error}; kept as {kept.name}, every scene renders again"
 
 
@@ -540,25 +546,25 @@ def open_manifest(folder: Path) -> tuple[dict, str | None]:
 def folder_lock(folder: Path) -> Iterator[None]:
     """Hold DIR/.batch.lock (flock) while the block runs: two batches writing into one folder would delete
     each other's temporary files and overwrite each other's manifest entries. A second batch is refused at
-    once (ImageError, exit 2), naming the process that holds the folder, rather than waiting unseen."""
+    once (BatchBusy, exit 2), naming the process that holds the folder, rather than waiting unseen."""
     import fcntl
     path = folder / LOCK
     try:
         descriptor = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
     except OSError as error:
-        raise ImageError(f"{path}: cannot create the batch lock ({error.strerror})") from None
+        raise BatchFolderError(f"{path}: cannot create the batch lock ({error.strerror})") from None
     try:
         try:
             fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             holder = os.pread(descriptor, 32, 0).decode(errors="replace").strip()
-            raise ImageError(f"{folder}: another batch{f' (process {holder})' if holder.isdigit() else ''} is "
+            raise BatchBusy(f"{folder}: another batch{f' (process {holder})' if holder.isdigit() else ''} is "
                              "writing into this folder; wait for it to finish, or use another --out") from None
         try:
             os.ftruncate(descriptor, 0)
             os.pwrite(descriptor, f"{os.getpid()}\n".encode(), 0)  # for the message above; the lock is the flock
         except OSError as error:
-            raise ImageError(f"{path}: cannot write the batch lock ({error.strerror})") from None
+            raise BatchFolderError(f"{path}: cannot write the batch lock ({error.strerror})") from None
         yield
     finally:
         os.close(descriptor)  # releases the flock
@@ -603,7 +609,7 @@ def run_batch(jobs: list[Job], folder: str | Path, *, workers: int | None = None
     max_memory: memory budget in bytes for the scenes rendering at once on this machine (default: render()'s,
         3/4 of the memory available); each of the P worker processes gets 1/P of it. Dask workers use their own.
 
-    Raises ImageError when another batch is writing into `folder` (see folder_lock), and Interrupted on
+    Raises BatchBusy when another batch is writing into `folder` (see folder_lock), and Interrupted on
     KeyboardInterrupt (SIGINT, or SIGTERM through `interrupt`) once the workers are stopped and the manifest
     is written.
     """
@@ -611,7 +617,7 @@ def run_batch(jobs: list[Job], folder: str | Path, *, workers: int | None = None
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as error:
-        raise ImageError(f"{folder}: cannot create the output folder ({error.strerror})") from None
+        raise BatchFolderError(f"{folder}: cannot create the output folder ({error.strerror})") from None
     jobs = [job for job in jobs if not is_own_manifest(job.scene, folder)]
     with folder_lock(folder):
         return _run_locked(jobs, folder, workers, force, settings, scheduler, progress, max_memory)
