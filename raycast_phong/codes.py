@@ -1,5 +1,5 @@
-"""The shared vocabularies, each named once: shading and specular models, viewer and mode, light kinds, shapes,
-AOV layer names, file suffixes, and the numbers compiled code uses for them.
+"""The shared vocabularies, each named once: shading and specular models, viewer and mode, light kinds, mesh
+views, precisions, shapes, AOV layer names, file suffixes, and the numbers compiled code uses for them.
 
 The scene schema, the plan, the memory estimate, the film, the geometry stage, the CLI and the kernels'
 layout all derive from these, so a new model or layer is added here and nowhere else is a second list to
@@ -35,6 +35,15 @@ class Mode(str, Enum):
 class LightKind(str, Enum):
     POINT = "point"
     DIRECTIONAL = "directional"
+
+
+class View(str, Enum):
+    """Where a mesh file's framing camera looks from (scene.framing)."""
+    THREE_QUARTER = "three-quarter"  # the default: 30° round from the front, 20° up
+    FRONT = "front"
+    SIDE = "side"
+    TOP = "top"
+    ISO = "iso"
 
 
 class Precision(str, Enum):

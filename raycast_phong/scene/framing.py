@@ -15,11 +15,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ..codes import View
 from ..errors import SceneError
 from ..tolerances import MIN_EXTENT
 from .overrides import apply_override
 
-VIEWS = ("three-quarter", "front", "side", "top", "iso")
+VIEWS = tuple(view.value for view in View)  # the first is the default
 AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 DEFAULT_UP = (0.0, 1.0, 0.0)  # most formats state no up axis; +Y is glTF's and most viewers' choice
 FILL = 0.9                    # the bounding sphere fills this share of the image's smaller half-extent
