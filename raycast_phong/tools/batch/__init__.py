@@ -16,6 +16,7 @@ manifest (the manifest, the folder lock, temporaries), supervisor (this process 
 (Dask), run (run_batch, the driver). The names below are its public face.
 """
 
+from ...errors import BatchBusy, CorruptManifest  # raised here; defined with every other error
 from .cluster import CONNECT_TIMEOUT
 from .jobs import (
     FAILED,
@@ -52,9 +53,37 @@ from .run import MANIFEST_INTERVAL, run_batch
 from .supervisor import warm_up
 
 __all__ = [
-    "CONNECT_TIMEOUT", "FAILED", "INTERRUPTED", "LOCK", "MANIFEST", "MANIFEST_FORMAT", "MANIFEST_INTERVAL",
-    "NOT_STARTED", "RENDERED", "UP_TO_DATE", "BatchReport", "Interrupted", "Outcome", "Settings", "Task",
-    "find_jobs", "folder_lock", "input_paths", "input_times", "interrupt", "is_current", "is_own_manifest",
-    "job_hash", "open_manifest", "prepare_job", "read_manifest", "remove_temporaries", "render_job", "run_batch",
-    "warm_up", "write_manifest",
+    "CONNECT_TIMEOUT",
+    "FAILED",
+    "INTERRUPTED",
+    "LOCK",
+    "MANIFEST",
+    "MANIFEST_FORMAT",
+    "MANIFEST_INTERVAL",
+    "NOT_STARTED",
+    "RENDERED",
+    "UP_TO_DATE",
+    "BatchBusy",
+    "BatchReport",
+    "CorruptManifest",
+    "Interrupted",
+    "Outcome",
+    "Settings",
+    "Task",
+    "find_jobs",
+    "folder_lock",
+    "input_paths",
+    "input_times",
+    "interrupt",
+    "is_current",
+    "is_own_manifest",
+    "job_hash",
+    "open_manifest",
+    "prepare_job",
+    "read_manifest",
+    "remove_temporaries",
+    "render_job",
+    "run_batch",
+    "warm_up",
+    "write_manifest",
 ]
