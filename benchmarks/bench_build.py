@@ -20,8 +20,8 @@ import numpy as np
 
 import raycast_phong as rp
 from raycast_phong.geometry.build import build_geometry, plane_mesh
+from raycast_phong.renderer import embree
 from raycast_phong.renderer.intersect import Accelerator, unit_frame
-from raycast_phong.renderer.kernels import embree
 
 
 def meshes() -> dict[str, SimpleNamespace]:

@@ -1,6 +1,6 @@
 """Wall time of a warm `raycast-phong render` of the default scene (issue 12's ≤ 1.0 s target), and where it goes.
 
-Each run is a fresh process, as a user starts it (`python -c "from raycast_phong.cli.commands import app; app()"
+Each run is a fresh process, as a user starts it (`python -c "from raycast_phong.cli import app; app()"
 render -q -o …`); beforehand the package is compiled to bytecode (compileall, as pip does at install) and
 one run makes sure the kernels are in numba's cache. Reports the minimum over --repeats of the wall time and
 of the process's CPU time (user + sys; two tile threads may make it exceed the wall), then the import time
@@ -26,16 +26,16 @@ from collections import defaultdict
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-CLI = "from raycast_phong.cli.commands import app; app()"
+CLI = "from raycast_phong.cli import app; app()"
 STAGES = """
 import time
 start = time.perf_counter()
 marks = []
 def mark(name):
     marks.append((name, time.perf_counter()))
-import raycast_phong as rp, raycast_phong.cli.commands
+import raycast_phong as rp, raycast_phong.cli
 assert rp.__file__.startswith(TREE), rp.__file__
-mark("import the CLI (typer, numpy, OpenImageIO, pydantic)")
+mark("import the CLI (typer, pydantic)")
 import numpy as np
 from raycast_phong.renderer import frame as render
 mark("import the renderer (numba, embreex, the stages)")

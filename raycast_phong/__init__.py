@@ -17,32 +17,26 @@ from typing import TYPE_CHECKING
 __version__ = "0.1.0"
 
 _HOMES = {
-    "ImageError": "io.image_io", "read_image": "io.image_io", "read_layer": "io.image_io", "write_image": "io.image_io",
-    "WriteError": "io.atomic",
+    "read_image": "io.image_io", "read_layer": "io.image_io", "write_image": "io.image_io",
+    "ImageError": "errors", "RaycastPhongError": "errors", "SceneError": "errors", "WriteError": "errors",
     "build_plan": "renderer.plan",
     "RenderPlan": "records", "RenderResult": "records",
     "render": "renderer.frame", "render_file": "renderer.frame",
-    "Scene": "scene.schema", "SceneError": "scene.schema", "ShadingModel": "scene.schema",
-    "SpecularModel": "scene.schema", "default_scene_path": "scene.schema", "load_scene": "scene.load",
+    "ShadingModel": "codes", "SpecularModel": "codes",
+    "Scene": "scene.schema", "default_scene_path": "scene.schema", "load_scene": "scene.load",
     "validate_scene": "scene.schema",
 }
 __all__ = sorted(_HOMES)
 
 if TYPE_CHECKING:
-    from .io.atomic import WriteError
-    from .io.image_io import ImageError, read_image, read_layer, write_image
+    from .codes import ShadingModel, SpecularModel
+    from .errors import ImageError, RaycastPhongError, SceneError, WriteError
+    from .io.image_io import read_image, read_layer, write_image
     from .records import RenderPlan, RenderResult
     from .renderer.frame import render, render_file
     from .renderer.plan import build_plan
     from .scene.load import load_scene
-    from .scene.schema import (
-        Scene,
-        SceneError,
-        ShadingModel,
-        SpecularModel,
-        default_scene_path,
-        validate_scene,
-    )
+    from .scene.schema import Scene, default_scene_path, validate_scene
 
 
 def __getattr__(name: str):

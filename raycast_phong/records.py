@@ -9,6 +9,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .codes import MATERIAL_WIDTH
+
 
 @dataclass(frozen=True, eq=False)
 class Geometry:
@@ -23,7 +25,7 @@ class Geometry:
     face_model: np.ndarray      # (F,) int8, 0 flat, 1 gouraud, 2 phong
     face_object: np.ndarray     # (F,) int32, index of the scene object the face belongs to
     notes: tuple[str, ...] = () # what loading changed, e.g. a repaired winding (shown by the plan)
-    file_materials: np.ndarray = field(default_factory=lambda: np.zeros((0, 13)))
+    file_materials: np.ndarray = field(default_factory=lambda: np.zeros((0, MATERIAL_WIDTH)))
                                 # (M, 13) float64 material-table rows read from mesh files (their .mtl, glTF
                                 # materials, colours); face_material counts them after the scene's materials
     file_notes: tuple[str, ...] = ()  # what the mesh files' materials left out (textures, transparency, ...)

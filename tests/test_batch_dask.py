@@ -7,6 +7,7 @@ import json
 import pytest
 from test_batch import SWEEP, five_scenes, scene_text  # noqa: F401  (five_scenes is a fixture)
 
+from raycast_phong.errors import OptionError
 from raycast_phong.tools import batch
 
 distributed = pytest.importorskip("distributed", reason="pip install 'raycast-phong[distributed]'")
@@ -42,6 +43,6 @@ def test_a_dask_batch_writes_the_same_images_bit_for_bit(five_scenes, tmp_path, 
 
 
 def test_an_unreachable_scheduler_is_bad_input(five_scenes, tmp_path, monkeypatch):
-    monkeypatch.setattr(batch, "CONNECT_TIMEOUT", "0.5s")  # port 9 (discard) never answers; don't wait 10 s
-    with pytest.raises(batch.SceneError, match=r"--scheduler tcp://127\.0\.0\.1:9: cannot connect"):
+    monkeypatch.setattr(batch.cluster, "CONNECT_TIMEOUT", "0.5s")  # port 9 (discard) never answers; don't wait 10 s
+    with pytest.raises(OptionError, match=r"--scheduler tcp://127\.0\.0\.1:9: cannot connect"):
         batch.run_batch(batch.find_jobs([five_scenes]), tmp_path / "out", scheduler="tcp://127.0.0.1:9")

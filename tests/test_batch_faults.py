@@ -251,7 +251,7 @@ def test_an_internal_error_keeps_its_traceback_and_the_batch_goes_on(five_scenes
             return 1 / 0  # a bug in the loader, on one scene
         return rp.load_scene(path, overrides)
 
-    monkeypatch.setattr(batch, "load_scene", load_scene)
+    monkeypatch.setattr(batch.jobs, "load_scene", load_scene)
     out = tmp_path / "out"
     result = run(str(five_scenes), "--out", str(out), "--jobs", "1")
     assert result.exit_code == 1, result.stderr
@@ -331,7 +331,7 @@ def test_a_signal_inside_the_bookkeeping_of_a_finished_scene_still_lists_it(tmp_
     missing from the manifest). The interrupted manifest must still list it, as rendered."""
     folder = slow_scenes(tmp_path / "scenes", 3)
     out = tmp_path / "out"
-    real_asdict, calls = batch.asdict, []
+    real_asdict, calls = batch.run.asdict, []
 
     def asdict_then_signal(record):
         if isinstance(record, batch.Outcome) and record.status == batch.RENDERED and not calls:
@@ -339,7 +339,7 @@ def test_a_signal_inside_the_bookkeeping_of_a_finished_scene_still_lists_it(tmp_
             raise batch.Interrupted(signal.SIGTERM)  # as batch.interrupt would, mid-record
         return real_asdict(record)
 
-    monkeypatch.setattr(batch, "asdict", asdict_then_signal)
+    monkeypatch.setattr(batch.run, "asdict", asdict_then_signal)
     with pytest.raises(batch.Interrupted) as stopped:
         batch.run_batch(batch.find_jobs([folder]), out, workers=1)
     assert stopped.value.report is not None

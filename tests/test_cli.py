@@ -217,3 +217,17 @@ def test_study_command_writes_its_report_and_files(tmp_path):
     assert bad.exit_code == 2 and "--normals: 'file' is not one of mean, area, angle, exact" in bad.output
     bad = CliRunner().invoke(app, ["study", "--models", "flat,smooth", "--out", str(tmp_path / "t")])
     assert bad.exit_code == 2 and "--models: 'smooth' is not one of flat, gouraud, phong" in bad.output
+
+
+def test_help_of_every_command_loads_no_array_or_image_library():
+    """The CLI modules parse and print: `--help` of any command imports neither numpy nor numba, trimesh, Embree
+    or OpenImageIO (each command imports what it runs inside its body)."""
+    import subprocess
+    import sys
+    names = [command.name or command.callback.__name__ for command in app.registered_commands]
+    probe = ("import sys\nfrom raycast_phong.cli import app\n"
+             "for name in sys.argv[1:]:\n"
+             "    try:\n        app([name, '--help'])\n    except SystemExit:\n        pass\n"
+             "print([m for m in ('numpy', 'numba', 'trimesh', 'embreex', 'OpenImageIO') if m in sys.modules])")
+    done = subprocess.run([sys.executable, "-c", probe, *names], capture_output=True, text=True, timeout=120)
+    assert len(names) == 11 and done.stdout.strip().splitlines()[-1] == "[]", done.stdout[-500:] + done.stderr

@@ -196,7 +196,7 @@ def test_a_mesh_file_is_read_once_for_framing_and_render(monkeypatch):
     reads = []
     real = mesh_file._read
     monkeypatch.setattr(mesh_file, "_read", lambda *a, **k: reads.append(a) or real(*a, **k))
-    mesh_file._bounds.clear()
+    mesh_file.BOUNDS.clear()
     rp.render_file(MESHES / "painted_knot.ply", ["render.width=16", "render.height=12"])
     assert len(reads) == 1
 
@@ -315,11 +315,11 @@ def test_an_obj_is_scanned_for_its_mtllib_once_per_version(tmp_path, monkeypatch
 
 
 def test_an_obj_is_counted_once_for_the_framing_check_and_the_render(tmp_path, monkeypatch):
-    """memory.mesh_file_triangles counts an OBJ's face lines (0.37 s for 78 MB); the framing's memory check
+    """io.mesh_header.mesh_file_triangles counts an OBJ's face lines (0.37 s for 78 MB); the framing's memory check
     and render()'s estimate both ask, and the count is made once per version of the file."""
     import os
 
-    from raycast_phong.renderer import budget as memory
+    from raycast_phong.io import mesh_header as memory
     path = tmp_path / "tri.obj"
     path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     counted = []

@@ -21,16 +21,16 @@ import trimesh
 
 import raycast_phong as rp
 from raycast_phong.geometry.build import build_geometry
+from raycast_phong.io.mesh_header import mesh_file_triangles
+from raycast_phong.io.scene_file import MAX_SCENE_BYTES
 from raycast_phong.renderer.budget import (
     check_memory,
     default_budget,
     estimate_memory,
-    mesh_file_triangles,
     parse_size,
     shape_triangles,
 )
 from raycast_phong.renderer.plan import diagnose, group_median
-from raycast_phong.scene.schema import MAX_SCENE_BYTES
 
 CLI = [sys.executable, str(Path(__file__).parents[1] / "cli.py")]
 ADDRESS_SPACE = 2 << 30  # plenty for the small renders here (measured: the default scene renders under it)
@@ -326,3 +326,10 @@ def test_the_estimate_follows_the_measured_peak_of_a_mesh_file(tmp_path, shading
     estimate = estimate_memory(scene, smooth=plan.keeps("vertex_normals"), tile_rays=64, threads=1)
     assert measured <= estimate.total, (measured, estimate)
     assert estimate.total <= 1.6 * measured, (measured, estimate)
+
+
+def test_the_framing_check_counts_the_render_bytes_per_triangle():
+    """io.mesh_header checks a framing read below the renderer with its own copy of the measured figure."""
+    from raycast_phong.io.mesh_header import MESH_READ_BYTES
+    from raycast_phong.renderer.budget import FLAT_BYTES
+    assert MESH_READ_BYTES == FLAT_BYTES

@@ -18,7 +18,7 @@ from typer.testing import CliRunner
 import raycast_phong as rp
 from raycast_phong.cli import app
 from raycast_phong.io import image_io
-from raycast_phong.renderer.film import to_8bit
+from raycast_phong.io.encoding import to_8bit
 from raycast_phong.tools import compare, difference
 
 runner = CliRunner()

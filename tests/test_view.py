@@ -25,7 +25,7 @@ from typer.testing import CliRunner
 
 import raycast_phong as rp
 from raycast_phong.cli import app as cli_app
-from raycast_phong.renderer.film import to_8bit
+from raycast_phong.io.encoding import to_8bit
 from raycast_phong.tools import accuracy
 from raycast_phong.tools.view.server import create_app, open_source, unpack
 

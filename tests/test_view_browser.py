@@ -21,7 +21,7 @@ pytest.importorskip("starlette", reason="the view's server needs the [view] extr
 from conftest import write_tiny_scene
 
 import raycast_phong as rp
-from raycast_phong.renderer.film import to_8bit
+from raycast_phong.io.encoding import to_8bit
 from raycast_phong.tools.view import running
 
 # Headless, and nothing that reaches out: no updates, sync or first-run pages.

@@ -21,7 +21,7 @@ SIZE = ["--width", "480", "--height", "360", "--samples", "2"]
 
 
 def render(model: Path, name: str, *options: str) -> None:
-    command = [sys.executable, "-m", "raycast_phong.cli.commands", "render", str(model), "-o", str(OUT / name),
+    command = [sys.executable, "-m", "raycast_phong.cli", "render", str(model), "-o", str(OUT / name),
                *SIZE, *options]
     print(" ".join(["raycast-phong", *command[3:]]))
     subprocess.run(command, check=True)

@@ -9,19 +9,12 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
+from ..codes import MODEL_CODE
+from ..errors import SceneError
 from ..records import Geometry, bounding_box
-from ..scene.schema import (
-    DEFAULT_MATERIAL,
-    MIN_EXTENT,
-    POSITION_LIMIT,
-    Object,
-    Scene,
-    SceneError,
-    ShadingModel,
-    _dotted,
-    brightness_problem,
-)
-from ..tolerances import MIN_DISTANCE
+from ..scene.messages import dotted
+from ..scene.schema import DEFAULT_MATERIAL, Object, Scene, brightness_problem
+from ..tolerances import MIN_DISTANCE, MIN_EXTENT, POSITION_LIMIT
 from . import shapes
 from .materials import material_rows
 from .mesh_repair import merge_duplicate_vertices, repair_winding
@@ -29,9 +22,6 @@ from .normals import _normalise_or, compute_corner_normals, face_normals, file_c
 
 if TYPE_CHECKING:  # mesh_file imports trimesh: only a scene with a mesh file loads it
     from ..io.mesh_file import MeshFile
-
-MODEL_CODE = {ShadingModel.FLAT: 0, ShadingModel.GOURAUD: 1, ShadingModel.PHONG: 2}
-
 
 class ObjectMesh(NamedTuple):
     """An object's triangles in its own frame, as object_mesh builds or reads them."""
@@ -138,7 +128,7 @@ def check_float_range(scene: Scene, vertices: np.ndarray, source: str = "<scene>
     problem = brightness_problem(scene, gains, why="with 1/d² attenuation up to "
                                  f"{max(gains.values(), default=1.0):.3g} (the light at or near the scene), ")
     if problem:
-        raise SceneError(f"{source}: {_dotted(problem[0])}: {problem[1]}")
+        raise SceneError(f"{source}: {dotted(problem[0])}: {problem[1]}")
 
 
 def behind_camera(scene: Scene, vertices: np.ndarray) -> str | None:

@@ -1,18 +1,20 @@
 """Rows of the kernels' material table from coefficient arrays: the one writer of the row order, for the
 scene's materials (renderer/pack.py) and a mesh file's (build.py).
 
-The order is k_a, k_d, k_s, k_e (r, g, b each), then f: the columns renderer/kernels/layout.py names
-(KA, KD, KS, KE, SHININESS; a test pins the two together). Pure numpy, so geometry needs no renderer import.
+The order is k_a, k_d, k_s, k_e (r, g, b each), then f: the columns codes.py names (KA, KD, KS, KE,
+SHININESS), which renderer/kernels/layout.py reads too. Pure numpy, so geometry needs no renderer import.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..codes import KA, KD, KE, KS, MATERIAL_WIDTH, SHININESS
+
 
 def material_rows(ka, kd, ks, ke, shininess) -> np.ndarray:
-    """(M, 13) float64 rows of the material table from (M, 3) coefficients and (M,) or (M, 1) f."""
-    table = np.zeros((len(ka), 13))
-    table[:, 0:3], table[:, 3:6], table[:, 6:9], table[:, 9:12] = ka, kd, ks, ke
-    table[:, 12] = np.reshape(shininess, -1)
+    """(M, MATERIAL_WIDTH) float64 rows of the material table from (M, 3) coefficients and (M,) or (M, 1) f."""
+    table = np.zeros((len(ka), MATERIAL_WIDTH))
+    table[:, KA:KA + 3], table[:, KD:KD + 3], table[:, KS:KS + 3], table[:, KE:KE + 3] = ka, kd, ks, ke
+    table[:, SHININESS] = np.reshape(shininess, -1)
     return table

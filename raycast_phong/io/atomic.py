@@ -22,11 +22,9 @@ from collections.abc import Iterator
 from contextlib import contextmanager, suppress
 from pathlib import Path
 
+from ..errors import WriteError
+
 DEFERRED = (signal.SIGTERM, signal.SIGINT)
-
-
-class WriteError(OSError):
-    """An output that could not be written whole; the message names it, the OS reason and the old file's state."""
 
 
 @contextmanager

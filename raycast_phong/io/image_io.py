@@ -15,21 +15,19 @@ from pathlib import Path
 import numpy as np
 import OpenImageIO as oiio
 
-from ..renderer.film import to_8bit
+from ..codes import IMAGE_SUFFIXES
+from ..errors import ImageError
 from .atomic import os_reason, replaced_atomically
+from .encoding import to_8bit
 
 LAYER_CHANNELS = {"depth": ("Z",), "normal": ("X", "Y", "Z"), "face": ("id",)}
-
-
-class ImageError(OSError):
-    """An image that cannot be written or read; the message names the path."""
 
 
 def check_output_path(path: str | Path, inputs: tuple[str | Path, ...] = ()) -> Path:
     """Refuse, before rendering, an output whose folder is missing, whose format is unknown, that is a
     folder, or that is one of the command's `inputs` (writing it would destroy what is being read)."""
     path = Path(path)
-    if path.suffix.lower() not in (".png", ".exr"):
+    if path.suffix.lower() not in IMAGE_SUFFIXES:
         got = f"not {path.suffix!r}" if path.suffix else "it has no extension"
         raise ImageError(f"{path}: the output must end in .png (8-bit) or .exr (float32), {got}")
     check_output_file(path, inputs)

@@ -5,9 +5,10 @@ docs/meshes.md has the table term by term. Problems with the file's side files (
 textures) are notes, one line each, and the render goes on with defaults; a file that is not a mesh is a
 SceneError, one line.
 
-A file read to frame a camera (mesh_scene) is kept for the render that follows, so a 2M-triangle file is
-read once: one entry, keyed on the path and the file's mtime, size and inode, taken (not copied) by the
-geometry stage; its bounds stay in a small cache of their own.
+A file read to frame a camera (scene.framing) is kept for the render that follows, so a 2M-triangle file is
+read once: the hand-over is the file-version cache KEPT (io.files.VersionCache, one entry keyed on the
+file's and its side files' versions), which the framing read fills and the geometry stage's read takes (not
+copies); the bounds framing needs stay in BOUNDS, a small cache of their own.
 """
 
 from __future__ import annotations
@@ -16,17 +17,18 @@ import io
 import math
 import os
 import re
-import threading
 from dataclasses import dataclass, replace
-from functools import lru_cache
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 import trimesh
 
+from ..codes import MATERIAL_DEFAULTS
+from ..errors import SceneError
 from ..records import bounding_box
-from ..scene.schema import DEFAULT_MATERIAL, POSITION_LIMIT, SceneError, open_regular
+from ..tolerances import POSITION_LIMIT
+from .files import VersionCache, file_version, open_regular
 
 TRIMESH = Path(trimesh.__file__).resolve().parent  # an exception that passed through here: trimesh refused the file
 TEXT_FORMATS = (".obj", ".off")  # trimesh decodes these as text, guessing any non-UTF-8 encoding
@@ -72,10 +74,9 @@ class MeshFile:
 
 # ---------------------------------------------------------------- the cache
 
-_lock = threading.Lock()
-_kept: tuple[tuple, MeshFile] | None = None  # (identity, file) read for framing, waiting for its render
-_bounds: dict[tuple, MeshFile] = {}          # identity → a file stripped of its arrays (centre, radius, materials)
-MAX_BOUNDS = 64
+KEPT: VersionCache[MeshFile] = VersionCache(1)     # identity → the file read for framing, waiting for its render
+BOUNDS: VersionCache[MeshFile] = VersionCache(64)  # identity → a file stripped of its arrays (centre, radius, ...)
+SIDE_FILES: VersionCache[tuple[Path, ...]] = VersionCache(64)  # a mesh file's version → the files it names
 
 
 def _identity(path: Path) -> tuple:
@@ -83,10 +84,9 @@ def _identity(path: Path) -> tuple:
     of its side files (an .mtl edited alone changes the materials)."""
     def stamp(file: Path) -> tuple:
         try:
-            info = os.stat(file)
+            return file_version(file)
         except OSError:
             return (str(file), None)
-        return (str(Path(file).resolve()), info.st_mtime_ns, info.st_size, info.st_ino)
     os.stat(path)  # a missing mesh file: no identity (the read words the error)
     return (stamp(path), *(stamp(side) for side in side_files(path)))
 
@@ -97,22 +97,18 @@ def read_mesh(path: Path, where: str, keep: bool = False) -> MeshFile:
     keep=True (framing a camera) leaves the result for the next read of the same unchanged file, which
     takes it; so the render that follows a framing does not read the file again.
     """
-    global _kept
     try:
         identity = _identity(path)
     except OSError:
         identity = None  # let the read word the error
-    with _lock:
-        if identity is not None and _kept is not None and _kept[0] == identity:
-            found = _kept[1]
-            if not keep:
-                _kept = None
+    if identity is not None:
+        found = KEPT.get(identity) if keep else KEPT.take(identity)
+        if found is not None:
             return found
     found = _read(path, where, bounds=keep)
-    with _lock:
-        if keep and identity is not None:
-            _kept = (identity, found)
-            _remember_bounds(identity, found)
+    if keep and identity is not None:
+        KEPT.put(identity, found)
+        _remember_bounds(identity, found)
     return found
 
 
@@ -123,18 +119,14 @@ def mesh_bounds(path: Path, where: str) -> MeshFile:
         identity = _identity(path)
     except OSError:
         identity = None
-    with _lock:
-        if identity is not None and identity in _bounds:
-            return _bounds[identity]
-    return read_mesh(path, where, keep=True)
+    found = BOUNDS.get(identity) if identity is not None else None
+    return found if found is not None else read_mesh(path, where, keep=True)
 
 
 def _remember_bounds(identity: tuple, found: MeshFile) -> None:
-    if len(_bounds) >= MAX_BOUNDS:
-        _bounds.pop(next(iter(_bounds)))
     empty = np.zeros((0, 3))
-    _bounds[identity] = MeshFile(empty, empty.astype(np.int64), None, np.zeros(0, np.int32), found.materials, None,
-                                 found.up, found.notes, found.centre, found.radius)
+    BOUNDS.put(identity, MeshFile(empty, empty.astype(np.int64), None, np.zeros(0, np.int32), found.materials, None,
+                                 found.up, found.notes, found.centre, found.radius))
 
 
 def side_files(path: Path) -> list[Path]:
@@ -143,15 +135,14 @@ def side_files(path: Path) -> list[Path]:
     to its `mtllib` line, but one without it is scanned whole (0.3 s for 78 MB), so the answer is kept per
     version of the file (path, mtime, size, inode): framing, the render's read and batch scan it once."""
     try:
-        info = os.stat(path)
+        version = file_version(path)
     except OSError:
         return []  # the render reports a missing file
-    return list(_side_files(Path(path), info.st_mtime_ns, info.st_size, info.st_ino))
+    return list(SIDE_FILES.setdefault((str(path), *version), lambda: _side_files(Path(path))))
 
 
-@lru_cache(maxsize=64)
-def _side_files(path: Path, mtime: int, size: int, inode: int) -> tuple[Path, ...]:
-    """side_files of one version of the file (the stat fields are the cache key)."""
+def _side_files(path: Path) -> tuple[Path, ...]:
+    """side_files of the file as it is now."""
     suffix = path.suffix.lower()
     try:
         if suffix == ".obj":
@@ -430,14 +421,14 @@ def parse_mtl(content: str, mtl: Path, notes: list[str]) -> dict[str, FileMateri
             transparent.append(name)
         illum = int(values.get("illum", [2])[0])
         coefficients = {}
-        for key, default in (("ka", DEFAULT_MATERIAL.ka), ("kd", DEFAULT_MATERIAL.kd), ("ks", DEFAULT_MATERIAL.ks),
-                             ("ke", DEFAULT_MATERIAL.ke)):
+        for key in ("ka", "kd", "ks", "ke"):
+            default = MATERIAL_DEFAULTS[key]
             given = values.get(key)
             rgb = default if given is None else (given * 3)[:3] if len(given) == 1 else given
             if any(not 0 <= x <= 1 for x in rgb):
                 clamped.append(f"{name}: {key.capitalize()}")
             coefficients[key] = _rgb(np.clip(rgb, 0, 1))
-        shininess = min(max(values.get("ns", [DEFAULT_MATERIAL.shininess])[0], 0.0), MAX_FILE_SHININESS)
+        shininess = min(max(values.get("ns", [MATERIAL_DEFAULTS["shininess"]])[0], 0.0), MAX_FILE_SHININESS)
         if illum == 0:
             colour = np.clip(np.add(coefficients["kd"], coefficients["ke"]), 0, 1)
             coefficients = {"ka": (0.0,) * 3, "kd": (0.0,) * 3, "ks": (0.0,) * 3, "ke": _rgb(colour)}

@@ -9,14 +9,15 @@ render(max_memory=...)).
 
 from __future__ import annotations
 
-import json
-import os
 import re
-import struct
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..scene.schema import Scene, SceneError, ShadingModel, open_regular
+from ..codes import GEOMETRY_LAYERS, TERM_LAYERS, ShadingModel
+from ..errors import SceneError
+from ..io.mesh_header import MESH_FILE_BYTES, OTHER_MESH_FILE_BYTES, mesh_file_triangles
+from ..io.system import available_memory, count_text, format_bytes
+from ..scene.schema import Scene
 
 # Peak bytes per triangle above a warmed-up process's baseline (VmHWM after /proc/self/clear_refs; one
 # object, 8×8 image, one thread; trimesh 4, numpy 2; measured 2026-11 on the project's x86-64 machine):
@@ -31,9 +32,6 @@ SMOOTH_BYTES = 330     # + float32 corner normals (36 B) and their per-vertex su
 FLOAT64_NORMAL_BYTES = 40  # corner normals in float64 (float64 shading, or global mode's shadow copy)
 CREASED_FILE_BYTES = 720   # a mesh file with a crease angle: at worst every corner takes the pairwise test
 CREASE_CHUNK_BYTES = 64 << 20  # the pairwise test's temporaries, a chunk at a time (normals.PAIR_CHUNK)
-# trimesh's load of a mesh file, above the render's own peak (the parse of a text or STL file is larger).
-MESH_FILE_BYTES = {".ply": 30, ".obj": 80, ".glb": 70, ".gltf": 70, ".stl": 330, ".off": 550}
-OTHER_MESH_FILE_BYTES = 550
 # Per ray of a tile (origins, directions, hits, Embree's output): 8192 × 16² rays in one row took 117 MB.
 RAY_BYTES = 64
 BUDGET_SHARE = 0.75    # of the memory available now: the rest is for the OS and other programs
@@ -113,109 +111,17 @@ def estimate_memory(scene: Scene, source: str = "<scene>", *, smooth: bool = Tru
     pixels = render.width * render.height
     real = 8 if float64 else 4
     aovs = set(scene.output.aovs)
-    terms = bool(aovs & {"ambient", "diffuse", "specular", "emission"})
-    layers = bool(aovs & {"depth", "normal", "face"})
+    terms = bool(aovs & set(TERM_LAYERS))
+    layers = bool(aovs & set(GEOMETRY_LAYERS))
     film = pixels * (3 * real + (12 * real if terms else 0) + (20 if layers else 0))
     # Writing makes one float32 copy of every channel written (PNG: of RGB before the 8-bit conversion).
-    written = pixels * 4 * (3 + 3 * len(aovs & {"ambient", "diffuse", "specular", "emission", "normal"})
+    written = pixels * 4 * (3 + 3 * len(aovs & {*TERM_LAYERS, "normal"})
                             + len(aovs & {"depth", "face"}))
     rays = tile_rays * threads * (1 + shadow_lights) * RAY_BYTES
     return MemoryEstimate(triangles, geometry, film + written + rays, largest, max(largest_bytes, 0))
 
 
-def mesh_file_triangles(path: Path, key: str) -> int:
-    """Triangles in a mesh file, read cheaply: PLY and OFF headers, binary STL's count, OBJ's face lines,
-    glTF's accessor counts; other formats by file size (at least 6 bytes per triangle). 0 for a missing
-    file (the loader reports it); a FIFO, device or folder is refused here (SceneError)."""
-    try:
-        handle = open_regular(path, key, "mesh file")
-    except FileNotFoundError:
-        return 0
-    with handle:
-        info = os.fstat(handle.fileno())
-        version = (str(path), info.st_mtime_ns, info.st_size, info.st_ino)
-        if version not in _counted:  # an OBJ is counted line by line (0.37 s for 78 MB): once per version
-            if len(_counted) >= MAX_COUNTED:
-                _counted.pop(next(iter(_counted)))
-            _counted[version] = _count_triangles(handle, path.suffix.lower(), info.st_size)
-        return _counted[version]
-
-
-_counted: dict[tuple, int] = {}  # (path, mtime, size, inode) → triangles: framing and the render both ask
-MAX_COUNTED = 64
-
-
-def _count_triangles(handle, suffix: str, size: int) -> int:
-    """mesh_file_triangles of the open file `handle` of `size` bytes."""
-    head = handle.read(4096)
-    try:
-        if suffix == ".ply":
-            match = re.search(rb"^element\s+face\s+(\d+)", head, re.M)
-            if match:
-                return int(match[1])
-        elif suffix == ".stl":
-            if not head.lstrip().startswith(b"solid") or size == 84 + 50 * struct.unpack_from("<I", head, 80)[0]:
-                return struct.unpack_from("<I", head, 80)[0]
-            return size // 86  # the shortest ASCII facet ("facet normal 0 0 0\nouter loop\n…") is 86 bytes
-        elif suffix == ".off":
-            numbers = [line.split() for line in head.splitlines()[1:] if line.strip() and not line.startswith(b"#")]
-            if numbers and len(numbers[0]) >= 2:
-                return int(numbers[0][1])
-        elif suffix == ".obj":
-            handle.seek(0)
-            # A polygon of k corners becomes k − 2 triangles; 0.09 s for a 12.8 MB file (7% of its load).
-            return sum(len(line.split()) - 3 for line in handle if line[:2] in (b"f ", b"f\t"))
-        elif suffix == ".glb" and head[:4] == b"glTF":
-            length = struct.unpack_from("<I", head, 12)[0]
-            handle.seek(20)
-            return _gltf_triangles(json.loads(handle.read(length)))
-        elif suffix == ".gltf":
-            handle.seek(0)
-            return _gltf_triangles(json.loads(handle.read()))
-    except (ValueError, KeyError, IndexError, TypeError, struct.error, OSError):
-        pass  # a malformed header: fall back to the size bound; the loader reports the real problem
-    return size // 6
-
-
-def _gltf_triangles(document: dict) -> int:
-    """Triangles over every node's mesh (each instance counts), from the accessors' counts."""
-    accessors, meshes = document.get("accessors", []), document.get("meshes", [])
-    uses = [node["mesh"] for node in document.get("nodes", []) if "mesh" in node] or range(len(meshes))
-    total = 0
-    for mesh in uses:
-        for primitive in meshes[mesh].get("primitives", []):
-            indexed = primitive.get("indices", primitive.get("attributes", {}).get("POSITION"))
-            total += accessors[indexed]["count"] // 3
-    return total
-
-
 # ---------------------------------------------------------------- the budget
-
-
-def available_memory() -> int | None:
-    """Bytes the machine can give now: MemAvailable (Linux), capped by a cgroup limit; else free pages."""
-    found = None
-    try:
-        with open("/proc/meminfo", "rb") as meminfo:
-            for line in meminfo:
-                if line.startswith(b"MemAvailable:"):
-                    found = int(line.split()[1]) * 1024
-                    break
-    except (OSError, ValueError, IndexError):
-        pass
-    if found is None:
-        try:
-            found = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-        except (ValueError, OSError, AttributeError):
-            return None
-    try:  # a container's limit (cgroup v2) can be far below the host's free memory
-        limit = Path("/sys/fs/cgroup/memory.max").read_text().strip()
-        used = int(Path("/sys/fs/cgroup/memory.current").read_text())
-        if limit != "max":
-            found = min(found, max(int(limit) - used, 0))
-    except (OSError, ValueError):
-        pass
-    return found
 
 
 def default_budget() -> int | None:
@@ -233,28 +139,6 @@ def parse_size(text: str) -> int:
     if not match or float(match[1]) <= 0:
         raise ValueError(f"expected a size such as 8G, 500M or 1.5GiB (K, M, G, T: powers of 1024), got {text!r}")
     return int(float(match[1]) * UNITS[match[2].lower()])
-
-
-def check_mesh_read(path: Path, source: str) -> None:
-    """Refuse (SceneError, one line) to read a mesh file for framing (mesh_scene.py, before any render and
-    so before check_memory) when the read alone could not fit in the memory available now: its triangles
-    (from the header, mesh_file_triangles) × the flat render's bytes per triangle and the format's parse.
-    Against the whole available memory, not the budget: --max-memory only reaches the render."""
-    available = available_memory()
-    triangles = mesh_file_triangles(path, source)
-    need = triangles * (FLAT_BYTES + MESH_FILE_BYTES.get(path.suffix.lower(), OTHER_MESH_FILE_BYTES))
-    if available is not None and need > available:
-        raise SceneError(f"{source}: reading its {_count(triangles)} triangles needs ≈ {format_bytes(need)} of "
-                         f"memory, more than the {format_bytes(available)} available; allowed: a mesh whose "
-                         "triangles fit, so decimate it or free memory")
-
-
-def format_bytes(count: float) -> str:
-    """3.4 GB, 512 MB, 20 kB: binary units, written the way people say them."""
-    for unit, size in (("TB", 1 << 40), ("GB", 1 << 30), ("MB", 1 << 20), ("kB", 1 << 10)):
-        if count >= size:
-            return f"{count / size:.3g} {unit}"
-    return f"{int(count)} bytes"
 
 
 def check_memory(scene: Scene, source: str, max_memory: int | str | None, **options) -> MemoryEstimate:
@@ -275,7 +159,7 @@ def check_memory(scene: Scene, source: str, max_memory: int | str | None, **opti
         value = getattr(obj, key)
         shown = repr(value) if isinstance(value, str) else str(list(value) if isinstance(value, tuple) else value)
         others = f", and {format_bytes(found.image)} for the image" if found.image * 20 > found.total else ""
-        amount = f"≈ {need} of memory for geometry ({_count(found.triangles)} triangles{others})"
+        amount = f"≈ {need} of memory for geometry ({count_text(found.triangles)} triangles{others})"
         if found.largest_bytes * 2 >= found.geometry:  # one object is most of it: name its key
             what = f"objects.{index}.{key}: {shown} needs {amount}"
         else:
@@ -289,12 +173,3 @@ def check_memory(scene: Scene, source: str, max_memory: int | str | None, **opti
     raise SceneError(f"{source}: render.width × render.height: {render.width}×{render.height} pixels{samples}"
                      f"{layers} need ≈ {need} of memory, above the {limit} budget; lower them or raise the "
                      "budget (--max-memory, render(max_memory=...))")
-
-
-def _count(n: int) -> str:
-    """335M, 1.3M, 40,000: a triangle count at a glance."""
-    if n >= 10_000_000:
-        return f"{n / 1e6:.0f}M"
-    if n >= 1_000_000:
-        return f"{n / 1e6:.1f}M"
-    return f"{n:,}"

@@ -13,8 +13,8 @@ import numpy as np
 from ..records import RenderPlan, RenderResult
 from ..scene.load import load_scene
 from ..scene.schema import Scene
+from . import embree
 from .film import allocate_film
-from .kernels import embree
 from .kernels.tile import render_band
 from .pack import film_rows
 from .prepare import NO_SHADOWS, TILE_RAYS, default_threads, prepare

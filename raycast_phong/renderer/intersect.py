@@ -14,7 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..records import Frame, Geometry, bounding_box
-from .kernels import embree
+from . import embree
+from .kernels import embree as kernels_embree
 
 _started = False  # has this process created an Embree scene (and so Embree's worker threads)?
 
@@ -63,14 +64,14 @@ class Accelerator:
         count = len(origins)
         hits = TileHits(face=np.empty(count, np.int32), u=np.empty(count, np.float32),
                         v=np.empty(count, np.float32), t=np.empty(count, np.float32))
-        embree.intersect_rays(self.embree_scene.scene, _f32(origins), _f32(directions), row_rays,
+        kernels_embree.intersect_rays(self.embree_scene.scene, _f32(origins), _f32(directions), row_rays,
                               hits.face, hits.u, hits.v, hits.t)
         return hits
 
     def occluded(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> np.ndarray:
         """(N,) bool: something lies on the ray within (0, t_max], t_max (N,) float32."""
         blocked = np.empty(len(origins), np.bool_)
-        embree.occluded_rays(self.embree_scene.scene, _f32(origins), _f32(directions), _f32(t_max, 1), blocked)
+        kernels_embree.occluded_rays(self.embree_scene.scene, _f32(origins), _f32(directions), _f32(t_max, 1), blocked)
         return blocked
 
 

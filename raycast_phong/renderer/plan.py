@@ -12,12 +12,10 @@ import re
 
 import numpy as np
 
+from ..codes import GEOMETRY_LAYERS, TERM_LAYERS, Mode, ShadingModel, SpecularModel, Viewer
 from ..records import RenderPlan, Stage
-from ..scene.schema import MAX_SAMPLES, Material, Mode, Scene, ShadingModel, SpecularModel, Viewer
+from ..scene.schema import MAX_SAMPLES, Material, Scene
 from .pack import camera_rig
-
-GEOMETRY_AOVS = {"depth", "normal", "face"}
-TERM_AOVS = {"ambient", "diffuse", "specular", "emission"}
 
 
 def build_plan(scene: Scene, optimize: bool = True) -> RenderPlan:
@@ -138,8 +136,8 @@ def _shadow_stages(scene: Scene, smooth: list) -> list[Stage]:
 
 def _output_stages(scene: Scene) -> list[Stage]:
     """The layers asked for, and the shading models in use."""
-    geometry_aovs = sorted(GEOMETRY_AOVS & set(scene.output.aovs))
-    term_aovs = sorted(TERM_AOVS & set(scene.output.aovs))
+    geometry_aovs = sorted(set(GEOMETRY_LAYERS) & set(scene.output.aovs))
+    term_aovs = sorted(set(TERM_LAYERS) & set(scene.output.aovs))
     models = {scene.shading_of(obj) for obj in scene.objects}
     return [
         Stage("aov_geometry", bool(geometry_aovs),
@@ -199,14 +197,6 @@ def _candidates(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     shininess = np.array([m.shininess for m in materials], np.float64)
     specular = np.array([max(m.ks) > 0 for m in materials], bool)
     return specular & (shininess > 0) & np.isfinite(shininess), shininess
-
-
-def _face_groups(face_object: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Faces ordered by object (build_geometry already concatenates them so), each object's first
-    position in that order and its face count."""
-    order = np.argsort(face_object, kind="stable")
-    sizes = np.bincount(face_object, minlength=count)
-    return order, np.cumsum(sizes) - sizes, sizes
 
 
 def gouraud_findings(scene: Scene, geometry):

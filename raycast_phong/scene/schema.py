@@ -1,21 +1,17 @@
-"""Read a scene file (TOML, or JSON with the same structure) into a validated, frozen Scene.
+"""The scene format as pydantic models, with its limits: a parsed scene table into a validated, frozen Scene.
 
 The contract is ../shared/scene-format.md, version 1; docs/scene-format.md lists every key with its
 default and allowed range. Every problem becomes one SceneError naming the file, the key path and what
-is allowed, so the CLI can print one line and exit 2.
+is allowed (worded by scene.messages), so the CLI can print one line and exit 2. Reading files is
+scene.load's (through io.scene_file), `--set` is scene.overrides'.
 """
 
 from __future__ import annotations
 
 import difflib
-import json
 import math
-import os
-import stat
-import tomllib
-from enum import Enum
 from pathlib import Path
-from typing import Annotated, Any, BinaryIO, Literal, get_args, get_origin
+from typing import Annotated, Any, Literal
 
 from pydantic import (
     BaseModel,
@@ -28,73 +24,40 @@ from pydantic import (
     model_validator,
 )
 
+from ..codes import (
+    IMAGE_SUFFIXES,
+    LAYERS,
+    MATERIAL_DEFAULTS,
+    SHAPES,
+    LightKind,
+    Mode,
+    Precision,
+    ShadingModel,
+    SpecularModel,
+    Viewer,
+)
+from ..errors import RaycastPhongError, SceneError
+from ..tolerances import DIRECTION_RANGE, INTENSITY_LIMIT, POSITION_LIMIT
+from .messages import describe_error, dotted, shown
+
 MAX_SIZE = 16384          # pixels per side, from the format
 MAX_SAMPLES = 16          # 16×16 = 256 rays per pixel is already a reference-quality render
 MAX_PIXEL_RAYS = 2**31 - 1  # embree indexes rays with int32 per call; beyond this a frame is absurd anyway
 
-# The float range a render stays inside (docs/scene-format.md, "Number ranges"). Shading runs in float32 by
-# default (largest finite 3.4e38, smallest normal 1.2e-38) and Embree always does, so each bound keeps the
-# numbers derived from a valid scene finite there, and their squares finite in float64.
-POSITION_LIMIT = 1e18   # |coordinate| of a point, and the largest length: squared distances across the
-                        # scene, (2√3 · 1e18)² ≈ 1.2e37, stay below float32's 3.4e38
-MIN_EXTENT = 1e-12      # the scene's half-extent: the 1/d² floor, 1e-6 of it, squared is a normal float32,
-                        # and the camera in Embree's unit frame stays within 3.5e18 / 1e-12 ≈ 3.5e30
-DIRECTION_RANGE = (1e-150, 1e150)  # length of a direction: its square is a normal, finite float64, so
-                                   # normalising it by sqrt(v·v) neither underflows to 0/0 nor overflows
-INTENSITY_LIMIT = 1e38  # a bound on any channel of a pixel: below float32's 3.4e38 with room for the rounding
-                        # of the kernel's sums
-
-
-class SceneError(ValueError):
-    """A scene the renderer refuses: the message is one line naming file, key and what is allowed."""
-
-
-class ShadingModel(str, Enum):
-    FLAT = "flat"
-    GOURAUD = "gouraud"
-    PHONG = "phong"
-
-
-class SpecularModel(str, Enum):
-    PHONG = "phong"
-    BLINN = "blinn"
-
-
-class Viewer(str, Enum):
-    LOCAL = "local"
-    INFINITE = "infinite"
-
-
-class Mode(str, Enum):
-    LOCAL = "local"
-    GLOBAL = "global"
-
-
 # ---------------------------------------------------------------- value types
-
-def _shown(value: Any) -> str:
-    """A value as the scene file spells it: the string '32', true, [1, 2]."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return f"the string {value!r}"
-    if isinstance(value, dict):
-        return "a table"
-    return repr(list(value)) if isinstance(value, (tuple, list)) else repr(value)
-
 
 def _number(value: Any) -> Any:
     """TOML and JSON tell text and booleans from numbers, so "32" or true where a number belongs is a
     mistake in the file; pydantic's lax mode would quietly convert them."""
     if isinstance(value, (str, bool, dict, list, tuple)) or value is None:
-        raise ValueError(f"must be a number, got {_shown(value)}")
+        raise ValueError(f"must be a number, got {shown(value)}")
     return value
 
 
 def _whole(value: Any) -> Any:
     """As _number, for counts: width, height, samples, subdivisions, segments."""
     if isinstance(value, (str, bool, dict, list, tuple)) or value is None:
-        raise ValueError(f"must be a whole number, got {_shown(value)}")
+        raise ValueError(f"must be a whole number, got {shown(value)}")
     return value
 
 
@@ -109,7 +72,7 @@ def _triple(value: Any) -> Any:
     sequence = _sequence(value)
     if sequence is None or len(sequence) != 3:
         count = f"{len(sequence)} numbers: " if sequence is not None else ""
-        raise ValueError(f"must be three numbers [a, b, c] (or one number for all three), got {count}{_shown(value)}")
+        raise ValueError(f"must be three numbers [a, b, c] (or one number for all three), got {count}{shown(value)}")
     return sequence
 
 
@@ -181,7 +144,7 @@ class Render(_Strict):
     terminator: Literal["none", "hanika"] = "hanika"
     samples: Whole = Field(1, ge=1, le=MAX_SAMPLES)
     background: Vec3 = (0.0, 0.0, 0.0)
-    precision: Literal["float32", "float64"] = "float32"
+    precision: Literal[tuple(p.value for p in Precision)] = "float32"  # type: ignore[valid-type]
     two_sided: Annotated[bool, Strict()] = True  # true or false, not "yes" or 1
     interpolation: Literal["perspective", "screen"] = "perspective"
 
@@ -232,7 +195,7 @@ def _attenuation(value: Any) -> Any:
         return value
     sequence = _sequence(value)
     if sequence is None:
-        raise ValueError(f"allowed: {ATTENUATION_ALLOWED}; got {_shown(value)}")
+        raise ValueError(f"allowed: {ATTENUATION_ALLOWED}; got {shown(value)}")
     if len(sequence) != 3:
         raise ValueError(f"the attenuation list is [c, l, q], got {len(sequence)} numbers: {list(sequence)}")
     c, l, q = (float(_number(x)) for x in sequence)  # noqa: E741
@@ -245,7 +208,7 @@ def _attenuation(value: Any) -> Any:
 
 
 class Light(_Strict):
-    type: Literal["point", "directional"] = "point"
+    type: Literal[tuple(kind.value for kind in LightKind)] = "point"  # type: ignore[valid-type]
     position: Vec3 | None = None
     direction: Vec3 | None = None
     diffuse: Vec3 = (0.8, 0.8, 0.8)
@@ -271,11 +234,11 @@ class Light(_Strict):
 
 
 class Material(_Strict):
-    ka: Coefficient = (0.2, 0.2, 0.2)
-    kd: Coefficient = (0.8, 0.8, 0.8)
-    ks: Coefficient = (0.5, 0.5, 0.5)
-    ke: Coefficient = (0.0, 0.0, 0.0)
-    shininess: Number = 32.0
+    ka: Coefficient = MATERIAL_DEFAULTS["ka"]
+    kd: Coefficient = MATERIAL_DEFAULTS["kd"]
+    ks: Coefficient = MATERIAL_DEFAULTS["ks"]
+    ke: Coefficient = MATERIAL_DEFAULTS["ke"]
+    shininess: Number = MATERIAL_DEFAULTS["shininess"]
 
     _check_coefficients = field_validator("ka", "kd", "ks", "ke")(lambda v: _unit_range(v))
 
@@ -290,7 +253,6 @@ class Material(_Strict):
         return value
 
 
-SHAPES = ("icosphere", "uv_sphere", "box", "plane", "cylinder", "torus", "mesh")
 # The keys only some shapes read; every other key of [[objects]] applies to all of them.
 SHAPE_KEYS = {"icosphere": ("radius", "subdivisions"), "uv_sphere": ("radius", "segments"), "box": ("size",),
               "plane": ("size", "segments"), "cylinder": ("radius", "height", "segments"),
@@ -300,7 +262,7 @@ SHAPE_KEYS = {"icosphere": ("radius", "subdivisions"), "uv_sphere": ("radius", "
 def _pair(value: Any) -> Any:
     sequence = _sequence(value)
     if sequence is None or len(sequence) != 2:
-        raise ValueError(f"must be two whole numbers [a, b] in [3, 4096], got {_shown(value)}")
+        raise ValueError(f"must be two whole numbers [a, b] in [3, 4096], got {shown(value)}")
     return sequence
 
 
@@ -309,7 +271,7 @@ NormalsRule = Literal["mean", "area", "angle", "file", "exact"]  # how an object
 
 class Object(_Strict):
     name: str | None = None
-    shape: Literal["icosphere", "uv_sphere", "box", "plane", "cylinder", "torus", "mesh"]
+    shape: Literal[SHAPES]  # type: ignore[valid-type]
     subdivisions: Whole = Field(2, ge=0, le=8)
     segments: Annotated[tuple[Whole, Whole], BeforeValidator(_pair)] | None = None
     radius: Number = Field(1.0, gt=0.0, le=POSITION_LIMIT, allow_inf_nan=False)
@@ -374,12 +336,9 @@ class Object(_Strict):
         return self
 
 
-AOVS = ("depth", "normal", "face", "ambient", "diffuse", "specular", "emission")
-
-
 class Output(_Strict):
     path: str = "out.png"
-    aovs: tuple[Literal["depth", "normal", "face", "ambient", "diffuse", "specular", "emission"], ...] = ()
+    aovs: tuple[Literal[LAYERS], ...] = ()  # type: ignore[valid-type]
 
     @model_validator(mode="before")
     @classmethod
@@ -392,7 +351,7 @@ class Output(_Strict):
     @model_validator(mode="after")
     def _format(self) -> Output:
         suffix = Path(self.path).suffix.lower()
-        if suffix not in (".png", ".exr"):
+        if suffix not in IMAGE_SUFFIXES:
             raise _KeyError(("output", "path"), f"{self.path!r} must end in .png or .exr")
         if self.aovs and suffix != ".exr":
             raise _KeyError(("output", "aovs"), f"{list(self.aovs)} need an .exr output, but output.path is "
@@ -496,8 +455,9 @@ def brightness_problem(scene: Scene, inverse_square: dict[int, float] | None = N
     return None
 
 
-class _KeyError(Exception):
-    """Raised inside a validator when the error belongs to a key other than the one validated.
+class _KeyError(RaycastPhongError):
+    """Raised inside a validator when the error belongs to a key other than the one validated; validate_scene
+    turns it into a SceneError, so it is never seen outside.
 
     Not a ValueError, so pydantic lets it through instead of blaming the whole table."""
 
@@ -505,119 +465,6 @@ class _KeyError(Exception):
         super().__init__(message)
         self.loc = loc
         self.message = message
-
-
-# ---------------------------------------------------------------- reading
-
-MAX_SCENE_BYTES = 16 << 20  # 16 MiB: a scene is keys and numbers; 40,000 objects take about 3.5 MiB of TOML
-
-FILE_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe (FIFO)"), (stat.S_ISCHR, "a device"),
-              (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
-
-
-def open_regular(path: Path, where: str, what: str, limit: int | None = None) -> BinaryIO:
-    """Open `path` for binary reading if it is a regular file of at most `limit` bytes; else SceneError
-    "{where}: ..." naming `what` (a scene file, a mesh file). A missing file raises FileNotFoundError,
-    for the caller to word.
-
-    A FIFO would block the read forever and /dev/zero never ends, so the kind is checked with stat before
-    opening (opening some devices acts on them), and again with fstat after an O_NONBLOCK open, in case
-    the path was swapped in between (a FIFO opens at once without blocking then).
-    """
-    def refuse_kind(mode: int) -> None:
-        if not stat.S_ISREG(mode):
-            kind = next((f"{name}, not a regular file" for test, name in FILE_KINDS if test(mode)),
-                        "not a regular file")
-            raise SceneError(f"{where}: {str(path)!r} is {kind}; give a {what}")
-
-    try:
-        refuse_kind(os.stat(path).st_mode)
-        descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
-    except NotADirectoryError:
-        raise FileNotFoundError(path) from None
-    except FileNotFoundError:
-        raise
-    except OSError as error:
-        raise SceneError(f"{where}: cannot read the {what} {str(path)!r} ({error.strerror})") from None
-    try:
-        info = os.fstat(descriptor)
-        refuse_kind(info.st_mode)
-        if limit is not None and info.st_size > limit:
-            raise SceneError(f"{where}: the {what} is {info.st_size:,} bytes, more than the {limit:,} "
-                             f"({limit >> 20} MiB) allowed")
-        os.set_blocking(descriptor, True)
-        return os.fdopen(descriptor, "rb")
-    except BaseException:
-        os.close(descriptor)
-        raise
-
-
-def read_scene_dict(path: Path) -> dict:
-    """Parse the file's syntax only (TOML, or JSON for .json), with a one-line error on failure.
-
-    Only a regular file of at most MAX_SCENE_BYTES is read (open_regular)."""
-    try:
-        with open_regular(path, str(path), "scene file", MAX_SCENE_BYTES) as handle:
-            # One byte over the cap tells a file that grew after fstat from one that fits.
-            data = handle.read(MAX_SCENE_BYTES + 1)
-        if len(data) > MAX_SCENE_BYTES:
-            raise SceneError(f"{path}: the scene file grew past the {MAX_SCENE_BYTES >> 20} MiB allowed while read")
-        text = data.decode("utf-8")
-    except FileNotFoundError:
-        raise SceneError(f"{path}: no such scene file") from None
-    except (OSError, UnicodeDecodeError) as error:
-        raise SceneError(f"{path}: cannot read the scene file ({error})") from None
-    text = text.removeprefix("\ufeff")  # a byte-order mark, as some Windows editors write, is no syntax error
-    try:
-        if path.suffix.lower() == ".json":
-            data = json.loads(text, object_pairs_hook=_JSONObject)
-            twice = _duplicate_key(data)
-            if twice:
-                raise SceneError(f"{path}: {_dotted(twice)}: the key is given twice in one object (JSON would keep "
-                                 "the last silently); allowed: each key once")
-        else:
-            data = tomllib.loads(text)
-    except json.JSONDecodeError as error:
-        where = f"line {error.lineno}, column {error.colno}"
-        raise SceneError(f"{path}: JSON syntax error at {where}: {error.msg}") from None
-    except tomllib.TOMLDecodeError as error:
-        raise SceneError(f"{path}: TOML syntax error: {error}") from None
-    if not isinstance(data, dict):
-        raise SceneError(f"{path}: the top level must be a table of keys")
-    return data
-
-
-class _JSONObject(dict):
-    """A JSON object (json's object_pairs_hook) that remembers the keys it was given more than once."""
-
-    def __init__(self, pairs: list[tuple[str, Any]]):
-        super().__init__(pairs)
-        self.repeated = []
-        if len(self) < len(pairs):
-            seen: set[str] = set()
-            self.repeated = [key for key, _ in pairs if key in seen or seen.add(key)]
-
-
-def _duplicate_key(data: Any) -> tuple | None:
-    """The key path of the first key given twice in a JSON object, or None (a walk with a stack, not
-    recursion, so a nesting as deep as json accepts cannot overflow Python's stack here)."""
-    stack = [((), data)]
-    while stack:
-        loc, node = stack.pop()
-        if isinstance(node, _JSONObject) and node.repeated:
-            return (*loc, node.repeated[0])
-        children = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
-        stack.extend(reversed([((*loc, key), child) for key, child in children]))
-    return None
-
-
-def load_scene(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
-    """Read, override (`key.path=value`, as `--set`), and validate a scene file."""
-    path = Path(path)
-    data = read_scene_dict(path)
-    for assignment in overrides:
-        apply_override(data, assignment, source=str(path))
-    return validate_scene(data, source=str(path), folder=path.parent)
 
 
 def validate_scene(data: dict, source: str = "<scene>", folder: str | Path = ".") -> Scene:
@@ -628,138 +475,9 @@ def validate_scene(data: dict, source: str = "<scene>", folder: str | Path = "."
     try:
         return Scene.model_validate({**data, "folder": str(folder)})
     except ValidationError as error:
-        raise SceneError(describe_error(error, data, source)) from None
+        raise SceneError(describe_error(error, data, source, Scene)) from None
     except _KeyError as error:
-        raise SceneError(f"{source}: {_dotted(error.loc)}: {error.message}") from None
-
-
-def _dotted(loc: tuple) -> str:
-    return ".".join(str(part) for part in loc)
-
-
-def _model_at(loc: tuple) -> type[BaseModel] | None:
-    """The pydantic model that holds the key at `loc` (for suggesting a close valid key)."""
-    nested = {"render": Render, "camera": Camera, "lights": Light, "objects": Object, "output": Output}
-    model: Any = Scene
-    for part in (p for p in loc if not isinstance(p, int)):
-        if model is Scene and part == "materials":
-            model = "materials"
-        elif model == "materials":
-            model = Material
-        elif model is Scene and part in nested:
-            model = nested[part]
-        else:
-            return None
-    return model if isinstance(model, type) else None
-
-
-def describe_error(error: ValidationError, data: dict, source: str) -> str:
-    """One line for the first problem pydantic found: file, key path, what is wrong, what is allowed."""
-    first = error.errors()[0]
-    loc = tuple(part for part in first["loc"] if not (isinstance(part, str) and "[" in part))
-    # pydantic names union branches and validator functions in loc; keep only real keys.
-    loc = tuple(p for p in loc if isinstance(p, int) or not p.startswith(("function-", "tuple[", "literal[")))
-    key = _dotted(loc) or "(top level)"
-    kind = first["type"]
-    if kind == "extra_forbidden":
-        owner = _model_at(loc[:-1])
-        valid = [name for name in (owner.model_fields if owner else {}) if name != "folder"]
-        close = difflib.get_close_matches(str(loc[-1]), valid, n=1, cutoff=0.6)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        return f"{source}: {key}: unknown key{hint}; valid keys here: {', '.join(valid)}"
-    message = first["msg"]
-    if message.startswith("Value error, "):
-        message = message[len("Value error, "):]
-    # Say pydantic's type errors in the scene file's words (table, list, true/false).
-    if kind in ("greater_than_equal", "less_than_equal", "greater_than", "less_than"):
-        message = f"out of range; allowed: {_allowed_range(loc)}"
-    elif message.startswith(("must be a number", "must be a whole number")) and _bounded(loc):
-        message = f"{message}; allowed: {_allowed_range(loc)}"
-    elif kind == "int_from_float":
-        message = "must be a whole number" + (f"; allowed: {_allowed_range(loc)}" if _bounded(loc) else "")
-    elif kind == "missing":
-        choices = _choices(loc)
-        message = "this key is required" + (f"; allowed: {', '.join(map(repr, choices))}" if choices else "")
-    elif kind in ("model_type", "dict_type"):
-        message = "must be a table of keys"
-    elif kind in ("tuple_type", "list_type"):
-        message = (f"must be an array of tables, [[{loc[-1]}]]" if loc and loc[-1] in ("lights", "objects")
-                   else "must be a list")
-    elif kind == "bool_type":
-        message = "must be true or false"
-    value = first.get("input")
-    shown = "" if kind == "missing" or isinstance(value, dict) or "got " in message else f" (got {_shown(value)})"
-    return f"{source}: {key}: {message}{shown}"
-
-
-def _bounded(loc: tuple) -> bool:
-    return _allowed_range(loc) != str(loc[-1])
-
-
-def _choices(loc: tuple) -> tuple:
-    """The values a Literal key allows ('icosphere', 'box', ...), or () for other keys."""
-    owner = _model_at(loc[:-1]) if loc else None
-    field = owner.model_fields.get(str(loc[-1])) if owner else None
-    if field is None or get_origin(field.annotation) is not Literal:
-        return ()
-    return get_args(field.annotation)
-
-
-def _allowed_range(loc: tuple) -> str:
-    """'1 ≤ width ≤ 16384' from the field's constraints ('width' alone if it has none)."""
-    if not loc:
-        return ""
-    owner = _model_at(loc[:-1])
-    field = owner.model_fields.get(str(loc[-1])) if owner else None
-    low = high = None
-    for item in (field.metadata if field else ()):
-        for name, symbol in (("ge", "≤"), ("gt", "<")):
-            if getattr(item, name, None) is not None:
-                low = f"{getattr(item, name)} {symbol} "
-        for name, symbol in (("le", "≤"), ("lt", "<")):
-            if getattr(item, name, None) is not None:
-                high = f" {symbol} {getattr(item, name)}"
-    return f"{low or ''}{loc[-1]}{high or ''}"
-
-
-def apply_override(data: dict, assignment: str, source: str = "--set", option: str = "--set") -> None:
-    """Set `key.path=value` in a parsed scene; the value is read as TOML, else as a plain string.
-
-    List items are addressed by index: `lights.0.position=[1, 2, 3]`, `objects.1.shading=flat`.
-    `option` names the command-line option the assignment came from in error messages (--set, --vary).
-    """
-    where = f"{source}: {option} {assignment!r}"
-    if "=" not in assignment:
-        raise SceneError(f"{where}: expected KEY.PATH=VALUE, e.g. render.width=320 or lights.0.position=[1, 2, 3]")
-    key, text = (part.strip() for part in assignment.split("=", 1))
-    parts = key.split(".")
-    if not all(parts):
-        raise SceneError(f"{where}: {key!r} is not a key path; expected names and list indices joined by dots, "
-                         "e.g. render.width")
-    try:
-        value = tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
-        value = text
-    node: Any = data
-    for depth, part in enumerate(parts):
-        node_path = ".".join(parts[:depth]) or "(top level)"
-        if isinstance(node, list):
-            if not part.isdigit() or int(part) >= len(node):
-                allowed = f"0 to {len(node) - 1}" if node else "none, the list is empty"
-                raise SceneError(f"{where}: {_dotted(parts[:depth + 1])}: {node_path} is a list of {len(node)} "
-                                 f"item{'s' if len(node) != 1 else ''}; allowed indices: {allowed}")
-            index: Any = int(part)
-        elif isinstance(node, dict):
-            index = part
-        else:
-            raise SceneError(f"{where}: {node_path} is the value {_shown(node)}, not a table, so it has no key "
-                             f"{part!r}")
-        if depth == len(parts) - 1:
-            node[index] = value
-        elif isinstance(node, dict) and part not in node:
-            node = node.setdefault(part, [] if parts[depth + 1].isdigit() else {})
-        else:
-            node = node[index]
+        raise SceneError(f"{source}: {dotted(error.loc)}: {error.message}") from None
 
 
 def default_scene_path() -> Path:

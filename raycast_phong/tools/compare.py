@@ -14,9 +14,11 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import SceneError
 from ..io.image_io import label_font, text_coverage
 from ..scene.load import read_scene_dict
-from ..scene.schema import Scene, SceneError, apply_override, validate_scene
+from ..scene.overrides import apply_override
+from ..scene.schema import Scene, validate_scene
 from .difference import colour_map, difference, heat_map
 
 # A pixel "changed" when its difference exceeds this: about 8 float32 steps at 1, so above rounding noise, and

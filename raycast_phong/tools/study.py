@@ -31,8 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import OutputError
 from ..io.atomic import write_text
-from ..io.image_io import ImageError, check_output_file
+from ..io.image_io import check_output_file
 from ..records import Geometry
 from ..renderer.frame import render
 from ..renderer.prepare import prepare
@@ -709,9 +710,9 @@ OUTPUTS = {"csv": "study.csv", "plot": "error_vs_time.png", "silhouette": "silho
 
 def check_study_folder(folder: Path, scene: str | Path) -> None:
     """Refuse, before the first render, a --out that is a file or that holds a folder (or the scene) under
-    one of the OUTPUTS' names. Raises ImageError."""
+    one of the OUTPUTS' names. Raises OutputError (ImageError from check_output_file)."""
     if folder.exists() and not folder.is_dir():
-        raise ImageError(f"{folder}: --out must be a folder, but it is a file")
+        raise OutputError(f"{folder}: --out must be a folder, but it is a file")
     if folder.is_dir():
         for name in OUTPUTS.values():
             check_output_file(folder / name, inputs=(scene,))

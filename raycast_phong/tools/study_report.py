@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import OutputError
 from ..io.atomic import write_bytes, write_text
-from ..io.image_io import ImageError
-from ..renderer.film import to_8bit
+from ..io.encoding import to_8bit
 from .difference import heat_map
 from .study import (
     FIT_WINDOW,
@@ -367,7 +367,7 @@ def write_study(study: Study, folder: Path) -> dict[str, Path]:
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as error:
-        raise ImageError(f"{folder}: cannot create the output folder ({error.strerror})") from None
+        raise OutputError(f"{folder}: cannot create the output folder ({error.strerror})") from None
     written = {key: folder / name for key, name in OUTPUTS.items()}
     write_csv(study, written["csv"])
     plots = write_plots(study, {key: written[key] for key in ("plot", "silhouette", "highlight", "orders", "errors")})

@@ -26,9 +26,9 @@ from typing import Any
 
 import numpy as np
 
-from ..io.image_io import ImageError, read_layer, text_coverage, write_image
-from ..renderer.film import srgb_encode
-from ..scene.schema import SceneError
+from ..errors import ImageError, SceneError
+from ..io.encoding import srgb_encode
+from ..io.image_io import read_layer, text_coverage, write_image
 from .compare import BACKDROP, MIN_FONT, draw_text, fitting_size, layout, row_wording
 
 SWEEP_KEYS = ("scene", "set", "grid")

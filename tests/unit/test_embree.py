@@ -19,8 +19,8 @@ import pytest
 import raycast_phong
 import raycast_phong as rp
 from raycast_phong.geometry.build import build_geometry
+from raycast_phong.renderer import embree
 from raycast_phong.renderer.intersect import Accelerator, TileHits, unit_frame
-from raycast_phong.renderer.kernels import embree
 from raycast_phong.renderer.pack import camera_rig, generate_rays
 
 PACKAGE = Path(raycast_phong.__file__).resolve().parent
@@ -107,7 +107,7 @@ RENDER = """
 import sys
 import numpy as np
 import raycast_phong as rp
-from raycast_phong.renderer.kernels import embree
+from raycast_phong.renderer import embree
 from raycast_phong.renderer.kernels import tile
 result = rp.render_file(sys.argv[1], ["render.width=48", "render.height=36"], threads=2)
 np.save(sys.argv[2], result.image)
@@ -156,7 +156,7 @@ def test_a_cached_kernel_that_calls_embree_loads_without_compiling(tmp_path):
 OUT_OF_ADDRESS_SPACE = """
 import re, resource, sys
 import raycast_phong as rp
-from raycast_phong.renderer.kernels import embree
+from raycast_phong.renderer import embree
 from raycast_phong.geometry.build import build_geometry
 from raycast_phong.renderer.intersect import Accelerator
 geometry = build_geometry(rp.load_scene(sys.argv[1]))

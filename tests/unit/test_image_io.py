@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
-from raycast_phong.renderer.film import srgb_encode, to_8bit
+from raycast_phong.io.encoding import srgb_encode, to_8bit
 
 
 def test_png_is_clamped_8bit_without_gamma(tmp_path):

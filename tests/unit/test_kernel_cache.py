@@ -91,13 +91,14 @@ def test_the_cache_key_covers_every_module_a_kernel_reads_and_only_those(package
     edit(copy / "tolerances.py", "NO_DIRECTION = 1e-6", "NO_DIRECTION = 2e-6")
     assert run(KEY) != key
     key = run(KEY)
-    # batch.py is a tool on top of the pipeline: editing it must not throw away compiled kernels.
-    (copy / "tools" / "batch.py").write_text((copy / "tools" / "batch.py").read_text() + "\n# an edit\n")
+    # batch/ is a tool on top of the pipeline: editing it must not throw away compiled kernels.
+    tool = copy / "tools" / "batch" / "run.py"
+    tool.write_text(tool.read_text() + "\n# an edit\n")
     assert run(KEY) == key
     # The scene schema is no kernel code (kernels read renderer/kernels/layout.py's tables): a new message
     # there recompiles nothing. So is the packing of a Scene into those tables (renderer/pack.py).
-    edit(copy / "scene" / "schema.py", 'raise ValueError(f"must be a whole number, got {_shown(value)}")',
-         'raise ValueError(f"must be an integer, got {_shown(value)}")')
+    edit(copy / "scene" / "schema.py", 'raise ValueError(f"must be a whole number, got {shown(value)}")',
+         'raise ValueError(f"must be an integer, got {shown(value)}")')
     (copy / "renderer" / "pack.py").write_text((copy / "renderer" / "pack.py").read_text() + "\n# an edit\n")
     assert run(KEY) == key
     # ... while the layout the kernels read is.

@@ -6,7 +6,7 @@ import pytest
 import raycast_phong as rp
 import raycast_phong.geometry.build as geometry
 import raycast_phong.geometry.normals as normals
-import raycast_phong.scene.schema
+import raycast_phong.scene.overrides
 from raycast_phong.renderer.kernels.layout import COUNTED_TERMS
 
 
@@ -21,7 +21,7 @@ def scene(**changes):
                     {"shape": "box", "size": [3, 0.2, 3], "translate": [0, -1.2, 0], "material": "m"}],
     }
     for path, value in changes.items():
-        rp.scene.schema.apply_override(data, f"{path.replace('__', '.')}={value}")
+        rp.scene.overrides.apply_override(data, f"{path.replace('__', '.')}={value}")
     return rp.validate_scene(data)
 
 

@@ -308,8 +308,8 @@ def test_screen_interpolation_stays_inside_the_vertex_values_on_a_floor_reaching
 
 
 def test_the_geometry_writes_the_columns_and_codes_the_kernels_read():
-    """geometry may not import the kernels' layout, so the two homes of the material row order and the shading
-    model codes are pinned together here: each coefficient lands in the column layout names for it."""
+    """The material row order and the shading model codes have one home, codes.py, which the geometry stage
+    writes with and the kernels' layout reads: each coefficient lands in the column layout names for it."""
     from raycast_phong.geometry.build import MODEL_CODE
     from raycast_phong.geometry.materials import material_rows
     from raycast_phong.renderer.kernels import layout

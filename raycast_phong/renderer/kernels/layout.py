@@ -3,7 +3,8 @@
 The kernels see arrays and these names only, never the scene schema: renderer/pack.py is the one writer
 (Scene → these records), the kernels the readers. So an edit to the scene's schema or its messages changes
 no kernel module and recompiles nothing (jit.source_key covers the kernel modules and what they import).
-The role of pbrt-v4's wavefront/workitems.h. Imports numpy only.
+The role of pbrt-v4's wavefront/workitems.h. Imports numpy and the shared codes (codes.py: the model, light
+and material-column numbers that the geometry stage writes too, named there once).
 """
 
 from __future__ import annotations
@@ -11,6 +12,13 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+
+from ...codes import KA as KA  # the material columns, re-exported for the kernels (`X as X`: on purpose)
+from ...codes import KD as KD
+from ...codes import KE as KE
+from ...codes import KS as KS
+from ...codes import LIGHT_CODE, MATERIAL_WIDTH, MODEL_CODE, LightKind, ShadingModel
+from ...codes import SHININESS as SHININESS
 
 # Bits of the `flags` integer that the render plan fills in (pack.plan_flags; the specular model travels apart).
 F_ATTENUATION = 1 << 0     # some point light attenuates
@@ -26,15 +34,15 @@ F_AOV_TERMS = 1 << 9       # write the per-term layers
 F_SHADOWS = 1 << 10        # global mode: per-ray light visibility masks are given
 SPECULAR_NONE, SPECULAR_PHONG, SPECULAR_BLINN = 0, 1, 2     # ShadingInputs.specular
 
-# Shading model codes of ShadingInputs.face_model (geometry.build.MODEL_CODE writes them; a test pins the two).
-FLAT, GOURAUD, PHONG = 0, 1, 2
+# Shading model codes of ShadingInputs.face_model (geometry.build writes codes.MODEL_CODE).
+FLAT, GOURAUD, PHONG = (MODEL_CODE[m] for m in (ShadingModel.FLAT, ShadingModel.GOURAUD, ShadingModel.PHONG))
 
-# Columns of the material table (M, 13): k_a, k_d, k_s, k_e (r, g, b each) and f. geometry.materials.material_rows
-# writes rows in this order (a test pins it), pack.material_table the table, illumination.illuminate reads it.
-KA, KD, KS, KE, SHININESS, MATERIAL_COLUMNS = 0, 3, 6, 9, 12, 13
+# Columns of the material table (M, 13): k_a, k_d, k_s, k_e (r, g, b each) and f, as codes.py names them.
+# geometry.materials.material_rows writes rows, pack.material_table the table, illumination.illuminate reads it.
+MATERIAL_COLUMNS = MATERIAL_WIDTH
 # Columns of the light table (K, 17), written by pack.light_table.
 L_KIND, L_VEC, L_ID, L_IS, L_IA, L_ATT_KIND, L_ATT, LIGHT_COLUMNS = 0, 1, 4, 7, 10, 13, 14, 17
-POINT, DIRECTIONAL = 0, 1                                    # L_KIND, and ShadowInputs.light_kind
+POINT, DIRECTIONAL = LIGHT_CODE[LightKind.POINT], LIGHT_CODE[LightKind.DIRECTIONAL]  # L_KIND, ShadowInputs
 ATTENUATION_NONE, INVERSE_SQUARE, CLQ = 0, 1, 2              # L_ATT_KIND
 MAX_LIGHTS = 63  # global mode: visibility travels as bits of one int64 per ray
 

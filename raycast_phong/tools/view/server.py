@@ -39,8 +39,9 @@ from starlette.staticfiles import StaticFiles
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
 import raycast_phong as rp
+from raycast_phong.errors import SceneError, ViewError
 from raycast_phong.scene.load import read_scene_dict
-from raycast_phong.scene.schema import SceneError, apply_override
+from raycast_phong.scene.overrides import apply_override
 from raycast_phong.tools.sweep import scene_toml, toml_value
 
 STATIC = Path(__file__).parent / "static"
@@ -49,10 +50,6 @@ MAX_SETTINGS = 256            # keys per request: far more than the page has con
 MAX_VIEW_RAYS = 1920 * 1080 * 16  # rays per frame: ~2 s here; a larger frame is a batch job, not a view
 LEVELS = range(7)          # tessellation levels the page offers (reference.refined: level 6 = 81,920 faces)
 COOKIE = "raycast_phong_view_{port}"  # cookies ignore the port: one name per server, as Jupyter's
-
-
-class ViewError(ValueError):
-    """A request the view refuses; the message is one line, shown on the page."""
 
 
 # ---------------------------------------------------------------- scenes from page settings

@@ -1,0 +1,175 @@
+"""`reference`, `study` and `stability`: the exact image, the work-precision study and the numerical-stability
+suite (docs/accuracy.md)."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+import raycast_phong as rp
+from raycast_phong.codes import ShadingModel, SpecularModel
+
+from .common import (
+    MaxMemoryOption,
+    SceneArgument,
+    SetOption,
+    UpOption,
+    ViewOption,
+    _view,
+    app,
+    exit_codes,
+    fail,
+    scene_overrides,
+)
+
+
+@app.command("reference", epilog="""
+**Examples**
+
+  raycast-phong reference scenes/default.toml -o ref.exr        # exact spheres, float64
+
+  raycast-phong reference scenes/mesh.toml --fine 2 -o ref.exr  # a mesh: Loop-subdivided twice, Phong, float64
+""")
+def reference_command(
+    scene: SceneArgument = None,
+    output: Annotated[Path, typer.Option("--output", "-o", help="Image to write (.exr keeps float values; "
+                      ".png is clamped to 8 bits).")] = Path("reference.exr"),
+    fine: Annotated[int | None, typer.Option(min=1, max=6, help="Self-convergence reference instead: every "
+                    "mesh Loop-subdivided N times and every shape N levels finer, Phong shading, float64. "
+                    "The only choice for a scene with a mesh file.")] = None,
+    set_: SetOption = [],
+    view: ViewOption = None,
+    up: UpOption = None,
+) -> None:
+    """Render the analytic reference: the same camera, lights, materials and model on the exact sphere,
+    plane, box, cylinder and torus, in float64, with the true normal."""
+    from raycast_phong.io.image_io import check_output_path
+    from raycast_phong.tools.accuracy import reference_image
+    with exit_codes():
+        path = scene or rp.default_scene_path()
+        loaded = rp.load_scene(path, set_, view=_view(view), up=up)
+        check_output_path(output, inputs=(path,))
+        started = time.perf_counter()
+        exact = reference_image(loaded, str(path), fine=fine)
+        seconds = time.perf_counter() - started
+        rp.write_image(output, exact.image.astype("float32"))
+    h, w = exact.image.shape[:2]
+    typer.echo(f"{output}: {w}×{h} {exact.kind} reference in {seconds:.3f}s")
+
+
+@app.command(epilog="""
+**Examples**
+
+  raycast-phong study scenes/default.toml --out study/          # levels chosen until the orders settle
+
+  raycast-phong study --levels 0,1,2,3,4 --precision float32,float64 --samples 1,2 --out study/
+
+  raycast-phong study --normals mean,exact --budget 300 --out study/   # the icosphere's seams, measured
+
+  raycast-phong study scenes/specular.toml --shininess 10,100,1000 --models gouraud,phong --out stiff/
+""")
+def study(
+    scene: SceneArgument = None,
+    out: Annotated[Path, typer.Option("--out", help="Folder for report.html, study.csv, the PNG plots and "
+                   "summary.md.")] = Path("study"),
+    levels: Annotated[str, typer.Option(help="Tessellation levels (docs/accuracy.md: icosphere subdivisions, "
+                      "segments 8·2^L, meshes Loop-subdivided L times), or auto: from level 1 up until every "
+                      "fitted order settles or --budget is spent.")] = "auto",
+    budget: Annotated[float, typer.Option(min=1.0, max=86400.0, help="Seconds the study may spend choosing "
+                      "levels (--levels auto).")] = 120.0,
+    normals: Annotated[str | None, typer.Option(help="Vertex normals of every built-in object, e.g. mean,exact "
+                       "(default: the scene's).")] = None,
+    models: Annotated[str, typer.Option(help="Shading models.")] = "flat,gouraud,phong",
+    specular: Annotated[str | None, typer.Option(help="Specular models, e.g. phong,blinn (default: the "
+                        "scene's).")] = None,
+    precision: Annotated[str | None, typer.Option(help="float32,float64 (default: the scene's).")] = None,
+    samples: Annotated[str | None, typer.Option(help="Samples per pixel side, e.g. 1,2 (default: the "
+                       "scene's).")] = None,
+    shininess: Annotated[str | None, typer.Option(help="Set every material's f, e.g. 10,100,1000.")] = None,
+    repeats: Annotated[int, typer.Option(min=1, max=50, help="Timing rounds, every setting once per round; the "
+                       "fastest counts, the spread is reported.")] = 5,
+    fine: Annotated[int | None, typer.Option(min=1, max=6, help="Measure against a self-convergence "
+                    "reference N levels finer (needed for mesh files).")] = None,
+    target: Annotated[float, typer.Option(help="The RMSE the advice aims for.")] = 0.005,
+    error_level: Annotated[int | None, typer.Option(min=0, max=9, help="The level of the error images "
+                           "(default: the middle level).")] = None,
+    width: Annotated[int | None, typer.Option(help="render.width in pixels, 1..16384.")] = None,
+    height: Annotated[int | None, typer.Option(help="render.height in pixels, 1..16384.")] = None,
+    set_: SetOption = [],
+    max_memory: MaxMemoryOption = None,
+) -> None:
+    """Work-precision study: measure every setting against the reference, time them all in interleaved rounds;
+    write report.html (fronts, fitted orders, error images, advice, the machine's noise), study.csv and the plots."""
+    from raycast_phong.codes import Precision
+    from raycast_phong.tools import lists
+    from raycast_phong.tools import study as sweep
+    with exit_codes():
+        options = sweep.StudyOptions(
+            levels=None if levels.strip() == "auto" else lists.numbers(levels, int, "--levels"),
+            models=lists.choices(models, ShadingModel, "--models", ShadingModel), budget=budget,
+            error_level=error_level, normals=lists.choices(normals or None, sweep.NORMALS, "--normals"),
+            speculars=lists.choices(specular, SpecularModel, "--specular", SpecularModel),
+            precisions=lists.choices(precision or None, Precision, "--precision"),
+            samples=lists.numbers(samples, int, "--samples"), shininess=lists.numbers(shininess, float, "--shininess"),
+            repeats=repeats, fine=fine, target=target, max_memory=max_memory)
+    overrides = [*scene_overrides({"render.width": width, "render.height": height}), *set_]
+    with exit_codes():
+        path = scene or rp.default_scene_path()
+        sweep.check_study_folder(out, path)
+        result = sweep.run_study(path, overrides, options)
+        from raycast_phong.tools.study_report import write_study
+        written = write_study(result, out)
+    typer.echo(result.levels_note)
+    for fit in result.fits:
+        typer.echo(f"{fit.model:8} {fit.group}: order {fit.order:.2f} over the last levels, {fit.order_all:.2f} over "
+                   f"all (theory {fit.theory:g}){'' if fit.settled else '; not settled'}")
+    typer.echo(sweep.advice(result))
+    typer.echo(f"machine: {result.noise.sentence()}")
+    typer.echo(f"{written['report']}: {len(result.rows)} settings; {written['csv']}, plots and summary.md beside it")
+
+
+@app.command(epilog="""
+**Examples**
+
+  raycast-phong stability                      # every case, as a table
+
+  raycast-phong stability --case watertightness --case grazing_light
+
+  raycast-phong stability --json > stability.json
+""")
+def stability(
+    case: Annotated[list[str], typer.Option("--case", help="Run only this case (repeatable); "
+                    "`--list` shows the names.")] = [],
+    as_json: Annotated[bool, typer.Option("--json", help="One JSON object per case, for machines.")] = False,
+    list_: Annotated[bool, typer.Option("--list", help="List the case names and exit.")] = False,
+) -> None:
+    """Run the numerical-stability suite on the installed package: stiff and extreme inputs, each a
+    property that can fail. Exit status 1 if any case fails."""
+    from raycast_phong.tools import stability as suite
+    if list_:
+        typer.echo("\n".join(suite.CASES))
+        return
+    unknown = [name for name in case if name not in suite.CASES]
+    if unknown:
+        fail(f"--case: unknown case {unknown[0]!r}; cases: {', '.join(suite.CASES)}")
+    with exit_codes():
+        results = suite.run_all(case or None)
+    if as_json:
+        typer.echo(json.dumps([{"case": r.case, "property": r.property, "figure": r.figure, "passed": r.passed,
+                                "seconds": round(r.seconds, 3)} for r in results], indent=2, ensure_ascii=False))
+    else:
+        from rich.console import Console
+        from rich.table import Table
+        table = Table("case", "property", "measured", "", "s", show_lines=True)
+        for r in results:
+            table.add_row(r.case, r.property, r.figure, "[green]pass[/]" if r.passed else "[red]FAIL[/]",
+                          f"{r.seconds:.2f}")
+        Console(width=max(140, Console().width)).print(table)
+        failed = sum(not r.passed for r in results)
+        typer.echo(f"{len(results) - failed} passed, {failed} failed")
+    if any(not r.passed for r in results):
+        raise typer.Exit(code=1)

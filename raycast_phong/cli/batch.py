@@ -1,0 +1,116 @@
+"""`batch`: many scene files into one folder, in parallel, with progress and a one-line summary."""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from .common import MaxMemoryOption, app, exit_codes
+
+
+@app.command(epilog="""
+**Examples**
+
+  raycast-phong batch scenes/ --out renders              # every scene in the folder, on all cores
+
+  raycast-phong batch "scenes/*.toml" sweeps/shading.toml --out renders --jobs 2
+
+  raycast-phong batch scenes/ --out renders --force      # render even the up-to-date ones
+
+  raycast-phong batch scenes/ --out renders --scheduler tcp://10.0.0.5:8786   # on a Dask cluster
+""")
+def batch(
+    paths: Annotated[list[str], typer.Argument(metavar="PATHS...", show_default=False, help="Scene files, folders "
+                     "(their .toml and .json files), globs (quoted) and sweep files (see docs/batch.md).")],
+    out: Annotated[Path, typer.Option("--out", help="Output folder: one image per scene, named after it, and "
+                   "manifest.json.", show_default=False)],
+    jobs: Annotated[int | None, typer.Option("--jobs", "-j", min=1, max=256, help="Cores to use (default: all): "
+                    "N scenes render at once, each in a worker process on one thread; fewer scenes than N share "
+                    "the N cores as threads. With 1, scenes render one after another in this process.")] = None,
+    force: Annotated[bool, typer.Option("--force", help="Render every scene, even those whose outputs are "
+                     "up to date.")] = False,
+    scheduler: Annotated[str | None, typer.Option(metavar="tcp://HOST:PORT", help="Run the renders on this "
+                         "Dask scheduler (pip install 'raycast-phong[distributed]'); scene files and the output "
+                         "folder must be at the same paths on its workers.")] = None,
+    srgb: Annotated[bool, typer.Option("--srgb", help="Encode PNG outputs with the sRGB curve.")] = False,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress and no summary; failures are still "
+                     "reported.")] = False,
+    max_memory: MaxMemoryOption = None,
+) -> None:
+    """Render many scene files into one folder, in parallel; skip those whose outputs are up to date.
+    A failing scene is reported (file and reason) and the others go on; exit status 1 if any failed.
+    Ctrl-C or `kill` stops the workers at once; exit status 130 (SIGINT) or 143 (SIGTERM)."""
+    import signal
+
+    from raycast_phong.tools import batch as batches
+    # Ctrl-C and `kill` (SIGTERM) both stop the batch: workers killed, temporaries removed, the manifest written.
+    previous = {number: signal.signal(number, batches.interrupt) for number in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        with exit_codes():
+            found = batches.find_jobs(paths, out)
+            report = _batch_with_progress(found, out, jobs, force, batches.Settings(srgb=srgb), scheduler, quiet,
+                                          max_memory)
+    except batches.Interrupted as stop:
+        _report_interrupt(stop, out)
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+    for warning in report.warnings:
+        typer.secho(f"warning: {warning}", err=True, fg=typer.colors.YELLOW)
+    for outcome in report.failed:
+        typer.secho(f"failed: {outcome.reason}", err=True, fg=typer.colors.RED)
+    if not quiet:
+        sheets = "".join(f"; contact sheet {out / name}" for name in report.sheets.values())
+        typer.echo(f"{len(report.outcomes)} scenes: {report.count(batches.RENDERED)} rendered, "
+                   f"{report.count(batches.UP_TO_DATE)} up to date, {len(report.failed)} failed in "
+                   f"{report.seconds:.2f}s ({report.startup:.2f}s of it loading the renderer); "
+                   f"manifest {out / batches.MANIFEST}{sheets}")
+    if report.failed:
+        raise typer.Exit(code=1)
+
+
+def _report_interrupt(stop, out: Path) -> None:
+    """One line for a batch a signal stopped, and its exit status, 128 + the signal's number."""
+    import signal
+
+    from raycast_phong.tools import batch as batches
+    line = f"interrupted by {signal.Signals(stop.signal).name}"
+    if stop.report is not None:
+        for warning in stop.report.warnings:
+            typer.secho(f"warning: {warning}", err=True, fg=typer.colors.YELLOW)
+        counts = ", ".join(f"{stop.report.count(status)} {status}" for status in
+                           (batches.RENDERED, batches.UP_TO_DATE, batches.FAILED, batches.INTERRUPTED,
+                            batches.NOT_STARTED))
+        line += f": {counts}; manifest {out / batches.MANIFEST}"
+    typer.secho(line, err=True, fg=typer.colors.RED)
+    raise typer.Exit(code=128 + stop.signal)
+
+
+def _batch_with_progress(found, out: Path, jobs: int | None, force: bool, settings, scheduler: str | None,
+                         quiet: bool, max_memory: int | None = None):
+    """run_batch with a progress bar over the scenes on a terminal, one line per scene otherwise."""
+    from raycast_phong.tools.batch import run_batch
+    options = {"workers": jobs, "force": force, "settings": settings, "scheduler": scheduler, "max_memory": max_memory}
+    if quiet:
+        return run_batch(found, out, **options)
+    if not sys.stderr.isatty():
+        started = time.perf_counter()
+
+        def line(outcome, done: int, total: int) -> None:
+            typer.echo(f"[{done}/{total} {time.perf_counter() - started:.2f}s] {outcome.status}: {outcome.name}",
+                       err=True)
+        return run_batch(found, out, progress=line, **options)
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
+    with Progress(*columns, console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task("scenes", total=len(found))
+
+        def advance(outcome, done: int, total: int) -> None:
+            bar.update(task, completed=done, description=f"{outcome.status}: {outcome.name}")
+
+        return run_batch(found, out, progress=advance, **options)

@@ -1,0 +1,156 @@
+"""The `raycast-phong` app and what every command shares: one-line errors and exit codes, the scene argument and
+the options several commands take. Each command group is a module of this package; cli/__init__.py
+assembles them.
+
+Exit status: 0 ok, 2 bad input (scene, mesh, option, output path) or an output that could not be written
+(a full disk, a file-size limit: the old file is unchanged), 1 internal error.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from typer.core import TyperGroup
+
+from raycast_phong.codes import View
+from raycast_phong.errors import InputError, OutputError
+
+_click_errors = sys.modules[typer.BadParameter.__module__]
+
+
+class OneLineErrors(TyperGroup):
+    """typer's command group, but a usage error (a bad --width, an unknown option or command) is one line on
+    stderr with exit 2, like every other error of the program, instead of rich's boxed message."""
+
+    def main(self, *args, standalone_mode: bool = True, **kwargs):
+        if not standalone_mode:
+            return super().main(*args, standalone_mode=False, **kwargs)
+        try:
+            code = super().main(*args, standalone_mode=False, **kwargs)
+        except getattr(_click_errors, "NoArgsIsHelpError", ()):
+            return super().main(*args, **kwargs)  # no arguments at all: typer shows the help, as it did
+        except _click_errors.ClickException as error:
+            command = error.ctx.command_path if getattr(error, "ctx", None) else None
+            where = f"{command}: " if command else ""
+            hint = f" (see {command} --help)" if command else ""
+            typer.secho(f"error: {where}{error.format_message()}{hint}", err=True, fg=typer.colors.RED)
+            sys.exit(error.exit_code)
+        except typer.Abort:
+            typer.secho("error: aborted", err=True, fg=typer.colors.RED)
+            sys.exit(1)
+        sys.exit(code if isinstance(code, int) else 0)  # a command's typer.Exit(code), else success
+
+
+app = typer.Typer(
+    cls=OneLineErrors,
+    help="Ray-cast flat, Gouraud and Phong shading with Intel Embree.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+    rich_markup_mode="markdown",
+)
+
+
+SceneArgument = Annotated[Path | None, typer.Argument(
+    help="Scene file (.toml or .json, see docs/scene-format.md) or a mesh file (.obj, .ply, .stl, .off, .glb, "
+         ".gltf, anything trimesh reads: framed, lit and with its own materials, see docs/meshes.md). Omit it for "
+         "the built-in default scene.",
+    show_default=False, dir_okay=False)]
+
+
+MeshView = View  # a mesh file's camera (scene.framing.VIEWS): typer's choices come from the enum
+
+ViewOption = Annotated[MeshView | None, typer.Option(
+    "--view", show_default=False, help="A mesh file's camera: three-quarter (the default: 30° round from the "
+    "front, 20° up), front, side, top or iso; it frames the model's bounding sphere.")]
+
+
+UpOption = Annotated[str | None, typer.Option(
+    "--up", metavar="AXIS", show_default=False, help="A mesh file's up axis: x, y, z, -x, -y or -z. Default: the "
+    "one its format states (glTF: y), else y.")]
+
+
+def _view(view: MeshView | None) -> str | None:
+    return view.value if view is not None else None
+
+
+SetOption = Annotated[list[str], typer.Option(
+    "--set", metavar="KEY.PATH=VALUE",
+    help="Override a scene key, e.g. `render.width=320`, `lights.0.position=[1,2,3]`, "
+         "`materials.red.shininess=8`. Repeatable.")]
+
+
+def _max_memory(text: str | None) -> int | None:
+    """--max-memory SIZE in bytes; a malformed size exits 2 with one line."""
+    if text is None:
+        return None
+    from raycast_phong.renderer.budget import parse_size  # its module is light: no numba, no trimesh
+    try:
+        return parse_size(text)
+    except ValueError as error:
+        fail(f"--max-memory: {error}")
+
+
+MaxMemoryOption = Annotated[str | None, typer.Option(
+    "--max-memory", metavar="SIZE", callback=_max_memory, show_default=False,
+    help="Memory budget for rendering, e.g. 8G or 500M (K, M, G, T: powers of 1024). A scene whose estimated "
+         "geometry and image need more is refused before anything is built. Default: 3/4 of the memory "
+         "available now.")]
+
+
+def fail(message: str, code: int = 2) -> None:
+    typer.secho(f"error: {message}", err=True, fg=typer.colors.RED)
+    raise typer.Exit(code=code)
+
+
+def scene_overrides(options: dict[str, object]) -> list[str]:
+    """CLI options that stand for scene keys, as `key=value` overrides (None = not given)."""
+    out = []
+    for key, value in options.items():
+        if value is None:
+            continue
+        value = value.value if hasattr(value, "value") else value
+        out.append(f"{key}={json.dumps(value)}")
+    return out
+
+
+@contextmanager
+def exit_codes():
+    """Bad input (errors.InputError) and an output that cannot be made (errors.OutputError) exit 2 and anything
+    else 1, each with one line on stderr."""
+    try:
+        yield
+    except (InputError, OutputError) as error:
+        fail(str(error))
+    except typer.Exit:
+        raise
+    except Exception as error:  # anything else is our bug: one line, exit 1, the traceback in a log file
+        if _debug():
+            raise
+        log = _traceback_log(error)
+        fail(f"internal error: {type(error).__name__}: {error}" + (f" (traceback in {log})" if log else ""), code=1)
+
+
+def _traceback_log(error: BaseException) -> str | None:
+    """Write the traceback of an internal error to a fresh raycast-phong-error-*.log in the temporary folder
+    and return its path (None if even that cannot be written: the one line must still come out)."""
+    import tempfile
+    import traceback
+    try:
+        descriptor, path = tempfile.mkstemp(prefix="raycast-phong-error-", suffix=".log")
+        with os.fdopen(descriptor, "w", encoding="utf-8") as log:
+            log.write("".join(traceback.format_exception(error)))
+        return path
+    except OSError:
+        return None
+
+
+def _debug() -> bool:
+    import os
+    return os.environ.get("RAYCAST_PHONG_DEBUG", "") not in ("", "0")

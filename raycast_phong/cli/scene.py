@@ -1,0 +1,67 @@
+"""`scene` and `schema`: the scene file a mesh file stands for, and the JSON Schema of the format."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+import raycast_phong as rp
+
+from .common import SetOption, UpOption, ViewOption, _view, app, exit_codes
+
+
+@app.command("scene", epilog="""
+**Examples**
+
+  raycast-phong scene model.obj > model.toml           # then edit it and render model.toml
+
+  raycast-phong scene model.glb --view front --up z -o model.toml   # mesh path written relative to model.toml
+
+  raycast-phong scene model.ply --set render.width=1280 --set render.height=720
+""")
+def scene_command(
+    scene: Annotated[Path, typer.Argument(help="Mesh file (or a scene file, written out with every key).",
+                                          show_default=False, dir_okay=False)],
+    output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the TOML here (atomically) instead "
+                      "of to standard output; the mesh path is then relative to its folder.")] = None,
+    set_: SetOption = [],
+    view: ViewOption = None,
+    up: UpOption = None,
+) -> None:
+    """Print the scene file a mesh file stands for: its materials, the framing camera, the key light and
+    every other key with its value. `render` of that file gives the same image as `render` of the mesh."""
+    from raycast_phong.scene.load import is_mesh_file
+    from raycast_phong.tools.sweep import scene_toml
+    with exit_codes():
+        loaded = rp.load_scene(scene, set_, view=_view(view), up=up)
+        notes = ()
+        if is_mesh_file(scene):
+            from raycast_phong.io.mesh_file import mesh_bounds
+            notes = mesh_bounds(scene, str(scene)).notes
+        header = (f"# The scene `raycast-phong render {scene.name}` renders: written by `raycast-phong scene`.\n"
+                  "# A [materials.NAME] table overrides the mesh file's material of that name; see docs/meshes.md.")
+        if output is not None:
+            from raycast_phong.io.image_io import check_output_file
+            check_output_file(output, inputs=(scene,))
+        text = scene_toml(loaded, header, relative_to=output.parent if output is not None else None)
+        if output is not None:
+            from raycast_phong.io.atomic import write_text
+            write_text(output, text)
+    for note in notes:
+        typer.echo(f"note: {note}", err=True)
+    if output is None:
+        typer.echo(text, nl=False)
+
+
+@app.command(epilog="""
+**Examples**
+
+  raycast-phong schema > scene.schema.json
+""")
+def schema() -> None:
+    """Print the JSON Schema of the scene format (the same as docs/scene.schema.json)."""
+    from raycast_phong.scene.schema import scene_json_schema
+    typer.echo(json.dumps(scene_json_schema(), indent=2, ensure_ascii=False))

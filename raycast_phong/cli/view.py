@@ -1,0 +1,47 @@
+"""`view`: explore a scene live in the browser (docs/view.md)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from .common import app, exit_codes, fail
+
+
+@app.command(epilog="""
+**Examples**
+
+  raycast-phong view                                    # the default figure, in the browser
+
+  raycast-phong view scenes/specular.toml --port 0 --no-browser   # any free port; open the printed URL
+
+  raycast-phong view scenes/meshes/torus_knot.ply       # a mesh file, framed and lit
+""")
+def view(
+    scene: Annotated[Path | None, typer.Argument(help="Scene file (.toml, .json) or a mesh file (any format "
+                     "trimesh reads). Omit it for the built-in default scene.", show_default=False,
+                     dir_okay=False)] = None,
+    port: Annotated[int, typer.Option(min=0, max=65535, help="Port to listen on; 0 for any free one.")] = 8765,
+    host: Annotated[str, typer.Option(help="Address to listen on. Anything but 127.0.0.1 lets other machines "
+                    "reach the page (they still need the token).")] = "127.0.0.1",
+    no_browser: Annotated[bool, typer.Option("--no-browser", help="Only print the URL.")] = False,
+) -> None:
+    """Explore a scene live in the browser: switch shading models, drag the light, compare two settings
+    (docs/view.md). Prints the page's URL with its access token; Ctrl-C stops the server."""
+    try:
+        from raycast_phong.tools import view as live
+    except ImportError as error:
+        fail(f"the view needs its extra packages ({error.name} is missing): pip install 'raycast-phong[view]'")
+    if host not in ("127.0.0.1", "localhost", "::1"):
+        typer.secho(f"warning: --host {host}: the page is reachable from other machines; anyone with the URL's "
+                    "token can use it", err=True, fg=typer.colors.YELLOW)
+    with exit_codes():
+        try:
+            live.serve(scene, host=host, port=port, open_browser=not no_browser,
+                       announce=lambda url: typer.echo(f"raycast-phong view: open {url}"))
+        except OSError as error:
+            fail(str(error))
+        except KeyboardInterrupt:
+            pass

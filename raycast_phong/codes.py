@@ -1,0 +1,78 @@
+"""The shared vocabularies, each named once: shading and specular models, viewer and mode, light kinds, mesh
+views, precisions, shapes, AOV layer names, file suffixes, and the numbers compiled code uses for them.
+
+The scene schema, the plan, the memory estimate, the film, the geometry stage, the CLI and the kernels'
+layout all derive from these, so a new model or layer is added here and nowhere else is a second list to
+forget. The integer codes follow each enum's order (flat 0, gouraud 1, phong 2), so they are stated once.
+"""
+
+from __future__ import annotations
+
+from enum import Enum
+
+
+class ShadingModel(str, Enum):
+    FLAT = "flat"
+    GOURAUD = "gouraud"
+    PHONG = "phong"
+
+
+class SpecularModel(str, Enum):
+    PHONG = "phong"
+    BLINN = "blinn"
+
+
+class Viewer(str, Enum):
+    LOCAL = "local"
+    INFINITE = "infinite"
+
+
+class Mode(str, Enum):
+    LOCAL = "local"
+    GLOBAL = "global"
+
+
+class LightKind(str, Enum):
+    POINT = "point"
+    DIRECTIONAL = "directional"
+
+
+class View(str, Enum):
+    """Where a mesh file's framing camera looks from (scene.framing)."""
+    THREE_QUARTER = "three-quarter"  # the default: 30° round from the front, 20° up
+    FRONT = "front"
+    SIDE = "side"
+    TOP = "top"
+    ISO = "iso"
+
+
+class Precision(str, Enum):
+    FLOAT32 = "float32"
+    FLOAT64 = "float64"
+
+
+def codes_of(enum: type[Enum]) -> dict:
+    """member → its integer code, the member's position in the enum (what compiled code compares)."""
+    return {member: index for index, member in enumerate(enum)}
+
+
+MODEL_CODE = codes_of(ShadingModel)          # flat 0, gouraud 1, phong 2
+LIGHT_CODE = codes_of(LightKind)             # point 0, directional 1
+
+SHAPES = ("icosphere", "uv_sphere", "box", "plane", "cylinder", "torus", "mesh")
+
+# AOV layers (output.aovs): per-pixel geometry, and the model's terms (the film stores them in this order).
+GEOMETRY_LAYERS = ("depth", "normal", "face")
+TERM_LAYERS = ("ambient", "diffuse", "specular", "emission")
+LAYERS = GEOMETRY_LAYERS + TERM_LAYERS
+
+SCENE_SUFFIXES = (".toml", ".json")   # a scene file; any other suffix trimesh reads is a mesh file
+IMAGE_SUFFIXES = (".png", ".exr")     # what the renderer writes: 8-bit PNG, float32 EXR with layers
+
+# The default material (the scene format's [materials] defaults; a mesh file's .mtl omits keys to these).
+MATERIAL_DEFAULTS = {"ka": (0.2, 0.2, 0.2), "kd": (0.8, 0.8, 0.8), "ks": (0.5, 0.5, 0.5), "ke": (0.0, 0.0, 0.0),
+                     "shininess": 32.0}
+
+# A material-table row: ka (3), kd (3), ks (3), ke (3), shininess; the first column of each and the width.
+MATERIAL_COLUMNS = ("ka", "kd", "ks", "ke", "shininess")
+KA, KD, KS, KE, SHININESS, MATERIAL_WIDTH = 0, 3, 6, 9, 12, 13

@@ -1,0 +1,77 @@
+"""Every exception the package raises on purpose, defined here once, in one tree:
+
+    RaycastPhongError                   the base: `except RaycastPhongError` catches every refusal
+    ├── InputError (ValueError)         bad input; the CLI prints one line and exits 2
+    │   ├── SceneError                  a scene, a mesh file or a scene key the renderer refuses
+    │   ├── OptionError                 a command-line option that cannot be honoured (--scheduler
+    │   │                               without Dask, or a cluster that does not answer)
+    │   ├── CorruptManifest             a batch folder's manifest.json that is no manifest of this version
+    │   └── ViewError                   a live-view request that cannot be applied (shown on the page)
+    ├── OutputError (OSError)           an output that cannot be made; the CLI prints one line and exits 2
+    │   ├── WriteError                  a write that failed whole (full disk, a size limit): the old file stays
+    │   ├── ImageError                  an image that cannot be written or read back, or a bad output path
+    │   └── BatchFolderError            a batch folder whose manifest or lock cannot be read or made
+    │       └── BatchBusy               a batch folder another batch is writing into (its lock is held)
+    └── EngineError (RuntimeError)      the engine underneath failed; an internal error, exit 1
+        └── EmbreeError                 Embree's library could not be loaded, or reported an error
+
+Outside the tree, on purpose: tools.batch.Interrupted, a KeyboardInterrupt carrying a batch's report when
+SIGINT or SIGTERM stops it; it stays a BaseException so no `except Exception` swallows the signal.
+
+Each branch also derives from the built-in class its callers caught before the tree existed (SceneError is
+a ValueError, WriteError an OSError), so every `except` clause and exit status stays as it was.
+"""
+
+from __future__ import annotations
+
+
+class RaycastPhongError(Exception):
+    """The base of every exception the package raises on purpose."""
+
+
+class InputError(RaycastPhongError, ValueError):
+    """Input the program refuses: the message is one line naming the file or option, the key and what is allowed."""
+
+
+class SceneError(InputError):
+    """A scene the renderer refuses: the message is one line naming file, key and what is allowed."""
+
+
+class OptionError(InputError):
+    """A command-line option the program cannot honour; the message names the option."""
+
+
+class CorruptManifest(InputError):
+    """DIR/manifest.json exists but is not a batch manifest this version can read."""
+
+
+class ViewError(InputError):
+    """A request the live view refuses; the message is one line, shown on the page."""
+
+
+class OutputError(RaycastPhongError, OSError):
+    """An output that cannot be made; the message names the path."""
+
+
+class WriteError(OutputError):
+    """An output that could not be written whole; the message names it, the OS reason and the old file's state."""
+
+
+class ImageError(OutputError):
+    """An image that cannot be written or read; the message names the path."""
+
+
+class BatchFolderError(OutputError):
+    """A batch output folder whose manifest or lock cannot be read, moved aside or created."""
+
+
+class BatchBusy(BatchFolderError):
+    """A batch output folder another batch holds (flock on DIR/.batch.lock); the message names its process."""
+
+
+class EngineError(RaycastPhongError, RuntimeError):
+    """The engine underneath (Embree, the compiled kernels) failed: an internal error, not the input's."""
+
+
+class EmbreeError(EngineError):
+    """Embree reported an error (the kernel layer's own class is to derive from this one)."""

@@ -1,0 +1,107 @@
+"""Reading input files safely, and the one cache of what was read from them, keyed on the file's version.
+
+open_regular opens only a regular file (never a FIFO, a device or a folder) of at most a given size.
+VersionCache remembers a value per version of a file, (resolved path, mtime, size, inode): a rewrite changes
+at least one, so a stale answer is never given. Every cache over file contents lives in one of these (the
+mesh read kept from framing for the render, mesh bounds, triangle counts, an OBJ's side files), so each
+stage that reads a file asks the cache rather than receiving the result through a module global.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+import threading
+from collections.abc import Callable
+from pathlib import Path
+from typing import BinaryIO, Generic, TypeVar
+
+from ..errors import SceneError
+
+FILE_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe (FIFO)"), (stat.S_ISCHR, "a device"),
+              (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+
+
+def open_regular(path: Path, where: str, what: str, limit: int | None = None) -> BinaryIO:
+    """Open `path` for binary reading if it is a regular file of at most `limit` bytes; else SceneError
+    "{where}: ..." naming `what` (a scene file, a mesh file). A missing file raises FileNotFoundError,
+    for the caller to word.
+
+    A FIFO would block the read forever and /dev/zero never ends, so the kind is checked with stat before
+    opening (opening some devices acts on them), and again with fstat after an O_NONBLOCK open, in case
+    the path was swapped in between (a FIFO opens at once without blocking then).
+    """
+    def refuse_kind(mode: int) -> None:
+        if not stat.S_ISREG(mode):
+            kind = next((f"{name}, not a regular file" for test, name in FILE_KINDS if test(mode)),
+                        "not a regular file")
+            raise SceneError(f"{where}: {str(path)!r} is {kind}; give a {what}")
+
+    try:
+        refuse_kind(os.stat(path).st_mode)
+        descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
+    except NotADirectoryError:
+        raise FileNotFoundError(path) from None
+    except FileNotFoundError:
+        raise
+    except OSError as error:
+        raise SceneError(f"{where}: cannot read the {what} {str(path)!r} ({error.strerror})") from None
+    try:
+        info = os.fstat(descriptor)
+        refuse_kind(info.st_mode)
+        if limit is not None and info.st_size > limit:
+            raise SceneError(f"{where}: the {what} is {info.st_size:,} bytes, more than the {limit:,} "
+                             f"({limit >> 20} MiB) allowed")
+        os.set_blocking(descriptor, True)
+        return os.fdopen(descriptor, "rb")
+    except BaseException:
+        os.close(descriptor)
+        raise
+
+
+def file_version(path: str | Path, info: os.stat_result | None = None) -> tuple:
+    """(resolved path, mtime, size, inode) of the file as it is now; OSError for a missing one. `info`: a
+    stat (or fstat of an open handle) already made."""
+    info = os.stat(path) if info is None else info
+    return (str(Path(path).resolve()), info.st_mtime_ns, info.st_size, info.st_ino)
+
+
+T = TypeVar("T")
+
+
+class VersionCache(Generic[T]):
+    """At most `size` values, each keyed on file versions (file_version tuples), the oldest dropped first.
+    Thread-safe: the renderer's threads and a batch's in-process jobs may ask at once."""
+
+    def __init__(self, size: int):
+        self.size = size
+        self._values: dict[tuple, T] = {}
+        self._lock = threading.Lock()
+
+    def get(self, key: tuple) -> T | None:
+        with self._lock:
+            return self._values.get(key)
+
+    def put(self, key: tuple, value: T) -> None:
+        with self._lock:
+            self._values.pop(key, None)
+            while len(self._values) >= self.size:
+                self._values.pop(next(iter(self._values)))
+            self._values[key] = value
+
+    def take(self, key: tuple) -> T | None:
+        """The value for `key`, removed from the cache (a hand-over: the taker owns it now)."""
+        with self._lock:
+            return self._values.pop(key, None)
+
+    def setdefault(self, key: tuple, make: Callable[[], T]) -> T:
+        """The value for `key`, made (outside the lock) and kept when it is not there yet."""
+        found = self.get(key)
+        if found is None:
+            found = make()
+            self.put(key, found)
+        return found
+
+    def clear(self) -> None:
+        with self._lock:
+            self._values.clear()

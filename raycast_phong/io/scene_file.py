@@ -1,0 +1,75 @@
+"""The syntax of a scene file: TOML, or JSON for .json, read safely into a dict (the schema judges the keys).
+
+Only a regular file of at most MAX_SCENE_BYTES is read; a JSON key given twice in one object is refused
+(JSON parsers keep the last silently); every problem is one SceneError naming the file.
+"""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from ..errors import SceneError
+from .files import open_regular
+
+MAX_SCENE_BYTES = 16 << 20  # 16 MiB: a scene is keys and numbers; 40,000 objects take about 3.5 MiB of TOML
+
+
+def read_scene_file(path: Path) -> dict:
+    """Parse the file's syntax only (TOML, or JSON for .json), with a one-line error on failure."""
+    path = Path(path)
+    try:
+        with open_regular(path, str(path), "scene file", MAX_SCENE_BYTES) as handle:
+            # One byte over the cap tells a file that grew after fstat from one that fits.
+            data = handle.read(MAX_SCENE_BYTES + 1)
+        if len(data) > MAX_SCENE_BYTES:
+            raise SceneError(f"{path}: the scene file grew past the {MAX_SCENE_BYTES >> 20} MiB allowed while read")
+        text = data.decode("utf-8")
+    except FileNotFoundError:
+        raise SceneError(f"{path}: no such scene file") from None
+    except (OSError, UnicodeDecodeError) as error:
+        raise SceneError(f"{path}: cannot read the scene file ({error})") from None
+    text = text.removeprefix("\ufeff")  # a byte-order mark, as some Windows editors write, is no syntax error
+    try:
+        if path.suffix.lower() == ".json":
+            data = json.loads(text, object_pairs_hook=_JSONObject)
+            twice = _duplicate_key(data)
+            if twice:
+                raise SceneError(f"{path}: {'.'.join(map(str, twice))}: the key is given twice in one object (JSON "
+                                 "would keep the last silently); allowed: each key once")
+        else:
+            data = tomllib.loads(text)
+    except json.JSONDecodeError as error:
+        where = f"line {error.lineno}, column {error.colno}"
+        raise SceneError(f"{path}: JSON syntax error at {where}: {error.msg}") from None
+    except tomllib.TOMLDecodeError as error:
+        raise SceneError(f"{path}: TOML syntax error: {error}") from None
+    if not isinstance(data, dict):
+        raise SceneError(f"{path}: the top level must be a table of keys")
+    return data
+
+
+class _JSONObject(dict):
+    """A JSON object (json's object_pairs_hook) that remembers the keys it was given more than once."""
+
+    def __init__(self, pairs: list[tuple[str, Any]]):
+        super().__init__(pairs)
+        self.repeated = []
+        if len(self) < len(pairs):
+            seen: set[str] = set()
+            self.repeated = [key for key, _ in pairs if key in seen or seen.add(key)]
+
+
+def _duplicate_key(data: Any) -> tuple | None:
+    """The key path of the first key given twice in a JSON object, or None (a walk with a stack, not
+    recursion, so a nesting as deep as json accepts cannot overflow Python's stack here)."""
+    stack = [((), data)]
+    while stack:
+        loc, node = stack.pop()
+        if isinstance(node, _JSONObject) and node.repeated:
+            return (*loc, node.repeated[0])
+        children = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+        stack.extend(reversed([((*loc, key), child) for key, child in children]))
+    return None

@@ -1,0 +1,150 @@
+"""A mesh file made into a scene: one `mesh` object with the file's named materials as [materials.NAME]
+tables, a perspective camera framing the model's bounding sphere (a three-quarter view by default; front,
+side, top or iso), a key light above and to the left of the camera, and the format's defaults for the rest
+(docs/meshes.md).
+
+`--set` overrides apply to that table exactly as to a TOML file's, before the camera is placed, so
+`--set render.width=300` or `--set camera.fov=20` still frames the model. The file is read once: io.mesh_file
+keeps the framing read in its file-version cache, where the render's read finds it.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..codes import View
+from ..errors import SceneError
+from ..tolerances import MIN_EXTENT
+from .overrides import apply_override
+
+VIEWS = tuple(view.value for view in View)  # the first is the default
+AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
+DEFAULT_UP = (0.0, 1.0, 0.0)  # most formats state no up axis; +Y is glTF's and most viewers' choice
+FILL = 0.9                    # the bounding sphere fills this share of the image's smaller half-extent
+# The three-quarter view: 30° round from the front toward the right, 20° above the horizon.
+AZIMUTH, ELEVATION = math.radians(30.0), math.radians(20.0)
+
+
+def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), view: str | None = None,
+                    up: str | None = None) -> dict:
+    """A scene table showing one mesh file: its materials, a framing camera, a key light (docs/meshes.md)."""
+    from ..io.mesh_file import mesh_bounds  # trimesh: only when a mesh file is framed
+    from ..io.mesh_header import check_mesh_read
+    where = str(path)
+    view = view or VIEWS[0]
+    if view not in VIEWS:
+        raise SceneError(f"{where}: --view {view!r}; allowed: {', '.join(VIEWS)}")
+    check_mesh_read(path, where)  # the framing read comes before render()'s own memory check
+    found = mesh_bounds(path, where)
+    if not found.radius >= MIN_EXTENT:  # every vertex at one point: nothing to frame (or to see)
+        centre = [float(x) for x in found.centre]
+        raise SceneError(f"{where}: every vertex of the model lies within {found.radius:.3g} of {centre}; "
+                         f"allowed: a model at least {2 * MIN_EXTENT:g} across")
+    up_axis = parse_up(up, where) if up is not None else np.asarray(found.up or DEFAULT_UP)
+    data: dict = {
+        "materials": {m.name: m.as_scene() for m in found.materials},
+        "objects": [{"name": path.stem, "shape": "mesh", "path": path.name}],
+        "output": {"path": f"{path.stem}.png"},
+    }
+    data["camera"] = frame_camera(found.centre, found.radius, up_axis, view, (640.0, 480.0), 40.0, False)
+    data["lights"] = [key_light(found.centre, data["camera"], up_axis)]
+    for assignment in overrides:
+        apply_override(data, assignment, source=where)
+    # Frame again for the size, field of view and camera type the overrides chose; a key they set wins.
+    touched = {tuple(a.split("=", 1)[0].strip().split(".")) for a in overrides}
+    output = data.get("output")
+    if isinstance(output, dict) and output.get("aovs") and ("output", "path") not in touched:
+        output["path"] = f"{path.stem}.exr"  # layers need EXR, as the format's own default path says
+    camera, lights = data.get("camera"), data.get("lights")
+    if isinstance(camera, dict) and ("camera",) not in touched:
+        placed = frame_camera(found.centre, found.radius, up_axis, view, _render_size(data),
+                              _number(camera.get("fov"), 40.0), camera.get("type") == "orthographic")
+        camera.update({k: v for k, v in placed.items() if ("camera", k) not in touched})
+        if isinstance(lights, list) and lights and isinstance(lights[0], dict) and not touched & {
+                ("lights",), ("lights", "0"), ("lights", "0", "position")}:
+            lights[0]["position"] = key_light(found.centre, camera, up_axis)["position"]
+    return data
+
+
+def parse_up(text: str, where: str) -> np.ndarray:
+    """--up: x, y, z with an optional sign (+z, -y)."""
+    sign, axis = (-1.0, text[1:]) if text.startswith("-") else (1.0, text.removeprefix("+"))
+    if axis.lower() not in AXES:
+        raise SceneError(f"{where}: --up {text!r}; allowed: x, y, z, -x, -y, -z")
+    return sign * np.asarray(AXES[axis.lower()])
+
+
+def _number(value, default: float) -> float:
+    return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else default
+
+
+def _render_size(data: dict) -> tuple[float, float]:
+    """Width and height the overrides set (the format's defaults otherwise; validation judges bad values)."""
+    render = data.get("render") if isinstance(data.get("render"), dict) else {}
+    width, height = _number(render.get("width"), 640.0), _number(render.get("height"), 480.0)
+    return (width, height) if width > 0 and height > 0 else (640.0, 480.0)
+
+
+def view_basis(up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(front, right) for an up axis: the model's front faces +Z when Y is up, −Y when Z is up (Blender's
+    front view), +Z when X is up; right = up × front, so (right, up, front) is right-handed."""
+    axis = int(np.argmax(np.abs(up)))
+    front = {0: np.array([0.0, 0.0, 1.0]), 1: np.array([0.0, 0.0, 1.0]),
+             2: np.array([0.0, -1.0, 0.0]) * np.sign(up[2])}[axis]
+    return front, np.cross(up, front)
+
+
+def frame_camera(centre: np.ndarray, radius: float, up: np.ndarray, view: str, size: tuple[float, float],
+                 fov: float, orthographic: bool) -> dict:
+    """camera.position, look_at, up (and view_height) so the bounding sphere (centre, radius) fills FILL of
+    the image's smaller half-extent, seen from `view`.
+
+    A sphere seen at distance d under half-angle α has sin α = r / d; in a perspective image of vertical
+    field of view θ its outline is a circle of radius tan α in the image plane, whose half-height is
+    tan(θ/2) (half-width aspect × that). So tan α = FILL · tan β, β the smaller of the two half-angles.
+    """
+    radius = max(radius, 1e-300)  # a model collapsed to a point is refused by the geometry, not here
+    front, right = view_basis(up)
+    camera_up = up
+    if view == "front":
+        direction = front
+    elif view == "side":
+        direction = right
+    elif view == "top":
+        direction, camera_up = up, -front  # looking down, the model's front at the bottom of the image
+    elif view == "iso":
+        direction = (front + right + up) / math.sqrt(3.0)
+    else:
+        direction = (math.cos(ELEVATION) * (math.cos(AZIMUTH) * front + math.sin(AZIMUTH) * right)
+                     + math.sin(ELEVATION) * up)
+    aspect = size[0] / size[1]
+    half = math.radians(min(max(fov, 1e-3), 179.0)) / 2
+    if orthographic:
+        distance = 3.0 * radius
+        placed = {"view_height": float(2 * radius / FILL * max(1.0, 1.0 / aspect))}
+    else:
+        limit = min(half, math.atan(aspect * math.tan(half)))
+        distance = radius / math.sin(math.atan(FILL * math.tan(limit)))
+        placed = {}
+    return {"position": [float(x) for x in centre + distance * direction], "look_at": [float(x) for x in centre],
+            "up": [float(x) for x in camera_up], **placed}
+
+
+def key_light(centre: np.ndarray, camera: dict, up: np.ndarray) -> dict:
+    """A point light above and to the left of the camera, as far from the model's centre as the camera."""
+    try:
+        eye = np.asarray(camera["position"], np.float64)
+        camera_up = np.asarray(camera.get("up", up), np.float64)
+    except (TypeError, ValueError, KeyError):
+        return {"type": "point", "position": [float(x) for x in centre + up]}  # validation reports the camera
+    to_eye = eye - centre
+    distance = float(np.linalg.norm(to_eye)) or 1.0
+    to_eye = to_eye / distance
+    right = np.cross(-to_eye, camera_up)
+    right = right / (np.linalg.norm(right) or 1.0)
+    camera_up = np.cross(right, -to_eye)
+    toward = to_eye + 0.8 * camera_up - 0.6 * right  # about 40° up and 30° left of the view direction
+    return {"type": "point", "position": [float(x) for x in centre + distance * toward / np.linalg.norm(toward)]}

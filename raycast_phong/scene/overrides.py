@@ -1,0 +1,54 @@
+"""`--set KEY.PATH=VALUE`: one assignment applied to a parsed scene table, before validation.
+
+The value is read as TOML (so 320, "flat", [1, 2, 3] and true mean what they mean in a scene file), else
+kept as a plain string; list items are addressed by index. The same rule serves --set, --vary, sweep files
+and the live view.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from typing import Any
+
+from ..errors import SceneError
+from .messages import dotted, shown
+
+
+def apply_override(data: dict, assignment: str, source: str = "--set", option: str = "--set") -> None:
+    """Set `key.path=value` in a parsed scene; the value is read as TOML, else as a plain string.
+
+    List items are addressed by index: `lights.0.position=[1, 2, 3]`, `objects.1.shading=flat`.
+    `option` names the command-line option the assignment came from in error messages (--set, --vary).
+    """
+    where = f"{source}: {option} {assignment!r}"
+    if "=" not in assignment:
+        raise SceneError(f"{where}: expected KEY.PATH=VALUE, e.g. render.width=320 or lights.0.position=[1, 2, 3]")
+    key, text = (part.strip() for part in assignment.split("=", 1))
+    parts = key.split(".")
+    if not all(parts):
+        raise SceneError(f"{where}: {key!r} is not a key path; expected names and list indices joined by dots, "
+                         "e.g. render.width")
+    try:
+        value = tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = text
+    node: Any = data
+    for depth, part in enumerate(parts):
+        node_path = ".".join(parts[:depth]) or "(top level)"
+        if isinstance(node, list):
+            if not part.isdigit() or int(part) >= len(node):
+                allowed = f"0 to {len(node) - 1}" if node else "none, the list is empty"
+                raise SceneError(f"{where}: {dotted(parts[:depth + 1])}: {node_path} is a list of {len(node)} "
+                                 f"item{'s' if len(node) != 1 else ''}; allowed indices: {allowed}")
+            index: Any = int(part)
+        elif isinstance(node, dict):
+            index = part
+        else:
+            raise SceneError(f"{where}: {node_path} is the value {shown(node)}, not a table, so it has no key "
+                             f"{part!r}")
+        if depth == len(parts) - 1:
+            node[index] = value
+        elif isinstance(node, dict) and part not in node:
+            node = node.setdefault(part, [] if parts[depth + 1].isdigit() else {})
+        else:
+            node = node[index]

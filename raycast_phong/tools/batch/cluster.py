@@ -1,0 +1,42 @@
+"""Running a batch's tasks on an existing Dask cluster (`--scheduler tcp://HOST:PORT`, the `distributed`
+extra); the scene files and the output folder must be at the same paths on its workers.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from concurrent.futures import Future
+
+from ...errors import OptionError
+from .jobs import FAILED, Outcome, Task, new_entry, reason_line, render_job
+
+# A Dask client gives up on an unreachable scheduler after this long rather than hanging the batch.
+CONNECT_TIMEOUT = "10s"
+
+
+def cluster_outcome(future: Future, task: Task) -> Outcome:
+    """A finished Dask future's Outcome; a worker that died (a crash, not an exception) fails only its task."""
+    try:
+        return future.result()
+    except Exception as error:  # noqa: BLE001
+        reason = reason_line(task.job, f"worker failed: {type(error).__name__}: {error}")
+        return new_entry(task.job, FAILED, reason=reason, hash=task.digest, inputs=task.inputs)
+
+
+def on_cluster(tasks: list[Task], scheduler: str, started: set[str]) -> Iterator[Outcome]:
+    """Each task on an existing Dask cluster; the scene files and output folder must be at the same paths there."""
+    try:
+        from distributed import Client, as_completed
+    except ImportError:
+        raise OptionError(f"--scheduler {scheduler}: Dask is not installed; pip install 'raycast-phong[distributed]'") \
+            from None
+    try:
+        client = Client(scheduler, timeout=CONNECT_TIMEOUT)
+    except (OSError, TimeoutError) as error:
+        raise OptionError(f"--scheduler {scheduler}: cannot connect ({error})") from None
+    with client:
+        # pure=False: a re-run must render again, not reuse a result the cluster remembers.
+        futures = {client.submit(render_job, task, pure=False): task for task in tasks}
+        started.update(task.job.name for task in tasks)
+        for future in as_completed(futures):
+            yield cluster_outcome(future, futures[future])

@@ -1,0 +1,260 @@
+"""A batch's jobs: which scenes (find_jobs: files, folders, globs, sweep files), whether each is up to date
+(job_hash, input_times, is_current), and one job from load to written image (prepare_job in the calling
+process, render_job wherever it runs: every executor calls it). The records the other modules pass around
+(Task, Outcome, BatchReport) live here.
+"""
+
+from __future__ import annotations
+
+import glob
+import hashlib
+import json
+import signal
+import time
+import traceback
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+
+from ...codes import SCENE_SUFFIXES
+from ...errors import ImageError, SceneError, WriteError
+from ...io.files import open_regular
+from ...io.image_io import write_image
+from ...scene.load import load_scene
+from ...scene.schema import Scene
+from ..sweep import Job, is_sweep, load_sweep
+from .manifest import is_own_manifest
+
+# Statuses of a manifest entry: the last two only after an interrupt (SIGINT, SIGTERM).
+RENDERED, UP_TO_DATE, FAILED = "rendered", "up to date", "failed"
+
+
+INTERRUPTED, NOT_STARTED = "interrupted", "not started"
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Options that change the bytes written, besides the scene: part of every job's hash."""
+    srgb: bool = False  # PNG outputs sRGB-encoded
+
+
+@dataclass(frozen=True)
+class Task:
+    """A job ready for a worker: the validated scene and where its image goes."""
+    job: Job
+    scene: Scene
+    output: Path
+    digest: str
+    inputs: dict[str, int]  # input_times() when the scene was loaded
+    settings: Settings
+    threads: int | None  # render() threads: the batch's cores shared among the scenes rendering at once
+    load_seconds: float
+    max_memory: int | None = None  # render()'s memory budget: the batch's shared among the scenes at once
+    before: tuple[int, int, int] | None = None  # file_identity(output) when the scene was loaded (see written())
+
+    def written(self) -> bool:
+        """Whether the output is a new file since the task was made: its writer renamed a whole image into
+        place, even if it died (or was stopped) before it could say so."""
+        return file_identity(self.output) not in (None, self.before)
+
+
+@dataclass
+class Outcome:
+    """One manifest entry: what happened to a job."""
+    name: str
+    scene: str
+    overrides: list[str]
+    status: str                       # RENDERED, UP_TO_DATE, FAILED; INTERRUPTED or NOT_STARTED after an interrupt
+    reason: str | None = None         # one line, for FAILED; "internal error: …" for a bug, with its traceback
+    outputs: list[str] = field(default_factory=list)  # file names in the batch folder
+    seconds: dict[str, float] = field(default_factory=dict)  # load, geometry, build, rays, shade, frame, write, total
+    rays_per_second: float | None = None
+    threads: int | None = None        # render() threads the scene had (see run_batch's `workers`)
+    hash: str | None = None
+    inputs: dict[str, int] = field(default_factory=dict)  # scene and mesh files → modification time (ns)
+    traceback: str | None = None      # for an internal error (a bug, not bad input): where it was raised
+
+
+@dataclass
+class BatchReport:
+    """What run_batch did, in job order."""
+    folder: Path
+    outcomes: list[Outcome]
+    sheets: dict[str, str] = field(default_factory=dict)  # sweep name → contact sheet file name
+    seconds: float = 0.0
+    startup: float = 0.0  # of `seconds`, loading the renderer and its kernels before the first scene (warm_up)
+    warnings: list[str] = field(default_factory=list)  # one line each, e.g. a corrupt manifest kept aside
+
+    def count(self, status: str) -> int:
+        return sum(outcome.status == status for outcome in self.outcomes)
+
+    @property
+    def failed(self) -> list[Outcome]:
+        return [outcome for outcome in self.outcomes if outcome.status == FAILED]
+
+
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM stopped a batch. run_batch raises it once its workers are gone and the manifest says
+    what was done; `report` has every job, those not rendered as INTERRUPTED or NOT_STARTED."""
+
+    def __init__(self, number: int = signal.SIGINT, report: BatchReport | None = None):
+        super().__init__(signal.Signals(number).name)
+        self.signal, self.report = int(number), report
+
+
+def interrupt(number: int, frame) -> None:
+    """Signal handler (the `batch` command's, for SIGINT and SIGTERM): stop the batch as Ctrl-C would."""
+    raise Interrupted(number)
+
+
+def find_jobs(paths: list[str | Path], out: str | Path | None = None) -> list[Job]:
+    """Scene files, folders (their *.toml and *.json, not recursive, not hidden), globs and sweep files → Jobs,
+    in order; never the manifest of the output folder `out` (a batch may write into a folder it reads).
+
+    A sweep file (a TOML with a `grid` table, see sweep.py) stands for its product of overrides.
+    Raises SceneError when a path matches nothing or two jobs would write the same output name.
+    """
+    files: list[Path] = []
+    for given in map(str, paths):
+        path = Path(given)
+        if path.is_dir():
+            found = sorted(p for p in path.iterdir()
+                           if p.suffix.lower() in SCENE_SUFFIXES and not p.name.startswith(".") and p.is_file())
+        elif path.is_file():
+            found = [path]
+        else:
+            found = sorted(Path(p) for p in glob.glob(given, recursive=True) if Path(p).is_file())
+        found = [p for p in found if out is None or not is_own_manifest(p, Path(out))]
+        if not found:
+            raise SceneError(f"{given}: no such scene file, folder or matching glob")
+        files += [p for p in found if p not in files]
+    jobs: list[Job] = []
+    for path in files:
+        jobs += load_sweep(path).jobs() if is_sweep(path) else [Job(name=path.stem, scene=path)]
+    seen: dict[str, Job] = {}
+    for job in jobs:
+        if job.name in seen:
+            raise SceneError(f"{job.scene}: its output name {job.name!r} is also {seen[job.name].scene}'s; "
+                             "rename one of the files or run them in separate batches")
+        seen[job.name] = job
+    return jobs
+
+
+def job_hash(job: Job, scene: Scene | None, settings: Settings) -> str:
+    """sha256 of the package version, the settings, the overrides, the scene file and its meshes' bytes."""
+    from ... import __version__
+    digest = hashlib.sha256()
+    header = {"package": __version__, "settings": asdict(settings), "overrides": list(job.overrides)}
+    digest.update(json.dumps(header, sort_keys=True).encode())
+    for path in input_paths(job, scene):
+        digest.update(str(path.name).encode())
+        try:  # only a regular file (a FIFO would block), in blocks (a mesh file may be large)
+            with open_regular(path, str(path), "file") as handle:
+                for block in iter(lambda: handle.read(1 << 20), b""):
+                    digest.update(block)
+        except (OSError, SceneError):
+            digest.update(b"<missing>")  # the render reports the missing file; the hash must still change
+    return "sha256:" + digest.hexdigest()
+
+
+def input_paths(job: Job, scene: Scene | None) -> list[Path]:
+    """The files a job's image depends on: its scene file, then the mesh files the scene reads (resolved
+    against its folder) and their side files (mesh_file.side_files); the hash and the modification times
+    both cover exactly these."""
+    if scene is None:
+        return [job.scene]
+    from ...io.mesh_file import side_files  # an .obj's .mtl, a .gltf's buffers change the image too
+    meshes = [scene.resolve(obj.path) for obj in scene.objects if obj.shape == "mesh" and obj.path]
+    return [job.scene, *meshes, *(side for mesh in meshes for side in side_files(mesh))]
+
+
+def input_times(job: Job, scene: Scene | None) -> dict[str, int]:
+    """Modification time (ns) of the scene file and of each mesh it reads, keyed by the resolved path (so
+    `a.toml`, `./a.toml`, its absolute path and a symlink to it are one file); -1 for a missing file."""
+    times = {}
+    for path in input_paths(job, scene):
+        try:
+            times[str(path.resolve())] = path.stat().st_mtime_ns
+        except OSError:
+            times[str(path.resolve())] = -1
+    return times
+
+
+def is_current(previous: dict | None, digest: str, inputs: dict[str, int], folder: Path) -> bool:
+    """A previous manifest entry still describes the folder: same hash, same input modification times (so
+    `touch` re-renders, as with make), rendered, every output present."""
+    outputs = previous.get("outputs") if previous is not None else None
+    return (previous is not None and previous.get("hash") == digest and previous.get("inputs") == inputs
+            and previous.get("status") in (RENDERED, UP_TO_DATE) and isinstance(outputs, list) and bool(outputs)
+            and all(isinstance(name, str) and (folder / name).is_file() for name in outputs))
+
+
+def prepare_job(job: Job, folder: Path, settings: Settings, previous: dict | None, force: bool) -> Task | Outcome:
+    """Load and hash one job: a Task to render, or an Outcome already (up to date, or a scene that fails to load)."""
+    start = time.perf_counter()
+    entry = new_entry(job, FAILED)
+    try:
+        scene = load_scene(job.scene, job.overrides)
+    except SceneError as error:
+        entry.reason, entry.hash = reason_line(job, str(error)), job_hash(job, None, settings)
+        return entry
+    except Exception as error:  # noqa: BLE001 — a loader bug on one file (e.g. a RecursionError) fails that scene only
+        return replace(_internal_error(job, entry, error), hash=job_hash(job, None, settings))
+    load_seconds = time.perf_counter() - start
+    digest, inputs = job_hash(job, scene, settings), input_times(job, scene)
+    if not force and is_current(previous, digest, inputs, folder):
+        return replace(entry, status=UP_TO_DATE, outputs=previous["outputs"], seconds=previous.get("seconds", {}),
+                       rays_per_second=previous.get("rays_per_second"), hash=digest, inputs=inputs)
+    output = folder / f"{job.name}{Path(scene.output.path).suffix.lower()}"
+    return Task(job=job, scene=scene, output=output, digest=digest, inputs=inputs, settings=settings, threads=None,
+                load_seconds=load_seconds, before=file_identity(output))
+
+
+def render_job(task: Task) -> Outcome:
+    """Render one task and write its image (temporary file, then rename); never raises.
+
+    The one function both the process pool and Dask run, so failure isolation and timings are the same.
+    """
+    from ...renderer.frame import render
+    start = time.perf_counter()
+    entry = new_entry(task.job, FAILED, hash=task.digest, inputs=task.inputs)
+    try:
+        result = render(task.scene, threads=task.threads, source=str(task.job.scene), max_memory=task.max_memory)
+        written = time.perf_counter()
+        write_image(task.output, result.image, result.aovs, srgb=task.settings.srgb)
+        result.timings["write"] = time.perf_counter() - written
+    except (SceneError, ImageError, WriteError) as error:  # a failed write is a failed scene, never rendered
+        entry.reason = reason_line(task.job, str(error))
+        return entry
+    except Exception as error:  # noqa: BLE001 — a renderer bug in one scene must not stop the batch
+        return _internal_error(task.job, entry, error)
+    seconds = {"load": task.load_seconds, **result.timings, "total": time.perf_counter() - start}
+    return replace(entry, status=RENDERED, outputs=[task.output.name],
+                   seconds={name: round(value, 6) for name, value in seconds.items()},
+                   rays_per_second=round(result.rays_per_second, 1), threads=task.threads)
+
+
+def new_entry(job: Job, status: str, **fields) -> Outcome:
+    """A manifest entry for `job`."""
+    return Outcome(name=job.name, scene=str(job.scene), overrides=list(job.overrides), status=status, **fields)
+
+
+def _internal_error(job: Job, entry: Outcome, error: BaseException) -> Outcome:
+    """`entry` failed by a bug, not by bad input: "internal error: …" and the traceback, kept in the manifest."""
+    return replace(entry, status=FAILED, reason=reason_line(job, f"internal error: {type(error).__name__}: {error}"),
+                   traceback="".join(traceback.format_exception(error)))
+
+
+def reason_line(job: Job, message: str) -> str:
+    """One line that starts with the scene file (SceneError messages already do), and names a sweep cell's values."""
+    line = message.splitlines()[0] if message else "unknown error"
+    line = line if line.startswith(str(job.scene)) else f"{job.scene}: {line}"
+    return f"{line} (sweep cell {job.name})" if job.sweep else line
+
+
+def file_identity(path: Path) -> tuple[int, int, int] | None:
+    """Which file is at `path` (device, inode, modification time), None if none: an atomic write changes it."""
+    try:
+        stat = path.stat()
+    except OSError:
+        return None
+    return stat.st_dev, stat.st_ino, stat.st_mtime_ns

@@ -1,0 +1,26 @@
+"""codes.py is the one home of the shared vocabularies: the schema's choices and the numbers compiled code
+compares come from it."""
+
+from __future__ import annotations
+
+import typing
+
+from raycast_phong import codes
+from raycast_phong.scene import schema
+
+
+def test_the_integer_codes_follow_the_enums_order():
+    assert [codes.MODEL_CODE[m] for m in (codes.ShadingModel.FLAT, codes.ShadingModel.GOURAUD,
+                                          codes.ShadingModel.PHONG)] == [0, 1, 2]
+    assert codes.LIGHT_CODE == {codes.LightKind.POINT: 0, codes.LightKind.DIRECTIONAL: 1}
+
+
+def test_the_schema_offers_exactly_the_codes():
+    assert typing.get_args(schema.Object.model_fields["shape"].annotation) == codes.SHAPES
+    aov = typing.get_args(schema.Output.model_fields["aovs"].annotation)[0]
+    assert typing.get_args(aov) == codes.LAYERS == codes.GEOMETRY_LAYERS + codes.TERM_LAYERS
+    assert typing.get_args(schema.Light.model_fields["type"].annotation) == tuple(k.value for k in codes.LightKind)
+    assert schema.Render.model_fields["shading"].annotation is codes.ShadingModel
+    assert schema.ShadingModel is codes.ShadingModel  # the old import path names the same class
+    assert schema.DEFAULT_MATERIAL.model_dump() == {**codes.MATERIAL_DEFAULTS}
+    assert len(codes.MATERIAL_COLUMNS) == 5 and codes.MATERIAL_WIDTH == 4 * 3 + 1
