@@ -195,8 +195,12 @@ class _Mesh:
             if part.corners is not None:
                 self.corners = part.corners[0]
             return
-        at_vertex = (self.vertex_start[members][:, None] + np.arange(part.vertices.shape[1])).ravel()
-        at_face = (self.face_start[members][:, None] + np.arange(part.faces.shape[1])).ravel()
+        if members[-1] - members[0] + 1 == len(members):  # consecutive objects (the usual case): one slice each
+            at_vertex = slice(self.vertex_start[members[0]], self.vertex_start[members[-1]] + part.vertices.shape[1])
+            at_face = slice(self.face_start[members[0]], self.face_start[members[-1]] + part.faces.shape[1])
+        else:
+            at_vertex = (self.vertex_start[members][:, None] + np.arange(part.vertices.shape[1])).ravel()
+            at_face = (self.face_start[members][:, None] + np.arange(part.faces.shape[1])).ravel()
         self.vertices[at_vertex] = part.vertices.reshape(-1, 3)
         self.faces[at_face] = (part.faces + self.vertex_start[members][:, None, None]).reshape(-1, 3)
         self.unit[at_face] = part.unit.reshape(-1, 3)
