@@ -1,0 +1,72 @@
+"""A scene of many built-in objects: objects that share a shape are built once and placed together
+(geometry.build's groups), with the same bits as each object built alone, and errors still name the object."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import raycast_phong as rp
+import raycast_phong.geometry.build as build
+
+LIGHT = {"type": "point", "position": [5, 6, 7]}
+MIXED = [  # shapes, rotations, scales (one mirroring), normal rules and creases, repeated so groups form
+    {"shape": "box", "size": [1, 2, 3], "translate": [1, 0, 0]},
+    {"shape": "icosphere", "subdivisions": 1, "rotate": [10, 20, 30], "scale": [1, 2, 1]},
+    {"shape": "box", "size": [1, 2, 3], "rotate": [0, 45, 0], "scale": [-1, 1, 1], "translate": [0, 3, 0]},
+    {"shape": "torus", "segments": [8, 6], "normals": "exact", "rotate": [90, 0, 0], "scale": [2, 2, 2]},
+    {"shape": "icosphere", "subdivisions": 1, "translate": [4, 4, 4], "shading": "flat"},
+    {"shape": "cylinder", "segments": [7, 3], "crease_angle": 30, "rotate": [5, 5, 5]},
+    {"shape": "torus", "segments": [8, 6], "normals": "exact", "scale": [1, -1, 1], "translate": [-3, 0, 0]},
+    {"shape": "plane", "segments": [3, 4], "rotate": [0, 0, 33]},
+    {"shape": "cylinder", "segments": [7, 3], "crease_angle": 30, "translate": [0, -4, 0], "material": "red"},
+]
+
+
+def scene_of(objects: list[dict]) -> rp.Scene:
+    return rp.validate_scene({"lights": [LIGHT], "objects": objects, "materials": {"red": {"kd": [1, 0, 0]}}})
+
+
+def test_a_group_gives_every_object_the_bits_it_has_alone():
+    """The scene's mesh equals its objects built one scene at a time and concatenated: vertices, faces, face
+    and corner normals bit for bit, materials and models per face (a batched placement must not round
+    differently from a single one)."""
+    together = build.build_geometry(scene_of(MIXED))
+    alone = [build.build_geometry(scene_of([obj])) for obj in MIXED]
+    offsets = np.cumsum([0] + [len(g.vertices) for g in alone])
+    np.testing.assert_array_equal(together.vertices, np.concatenate([g.vertices for g in alone]))
+    np.testing.assert_array_equal(together.faces, np.concatenate([g.faces + o for g, o in zip(alone, offsets)]))
+    np.testing.assert_array_equal(together.face_normals, np.concatenate([g.face_normals for g in alone]))
+    np.testing.assert_array_equal(together.corner_normals, np.concatenate([g.corner_normals for g in alone]))
+    np.testing.assert_array_equal(together.face_model, np.concatenate([g.face_model for g in alone]))
+    np.testing.assert_array_equal(together.face_object, np.repeat(np.arange(len(MIXED)), [g.triangles for g in alone]))
+    red = together.face_material[together.face_object == 8]
+    assert (red == 1).all() and (together.face_material[together.face_object != 8] == 0).all()
+
+
+def test_objects_that_share_a_shape_are_built_once(monkeypatch):
+    """Ten thousand boxes of two sizes cost two shape builds, not ten thousand (positive control: two
+    different sizes are two builds), and each group of consecutive boxes lands where the scene puts it."""
+    calls = []
+    original = build.object_mesh
+    monkeypatch.setattr(build, "object_mesh", lambda *a, **k: calls.append(a[2]) or original(*a, **k))
+    rng = np.random.default_rng(5)
+    boxes = [{"shape": "box", "size": [0.1, 0.1, 0.2 if i < 5000 else 0.1], "translate": rng.uniform(-9, 9, 3).tolist(),
+              "rotate": [0, float(rng.uniform(0, 90)), 0]} for i in range(10_000)]
+    geometry = build.build_geometry(scene_of(boxes))
+    assert sorted(calls) == [0, 5000]
+    assert geometry.triangles == 12 * len(boxes)
+    # Each box is where its scene says: the centroid of its eight corners is its translate.
+    centres = geometry.vertices.reshape(len(boxes), 8, 3).mean(axis=1)
+    np.testing.assert_allclose(centres, [b["translate"] for b in boxes], atol=1e-12)
+
+
+@pytest.mark.parametrize("bad, message", [
+    ({"translate": [9e17, 0, 0], "scale": [2e17, 1, 1]}, "reaches a coordinate of"),
+    ({"scale": [1e-300, 1e-300, 1e-300], "translate": [1e10, 1e10, 1e10]}, "collapses to a single point"),
+])
+def test_an_error_in_a_group_names_its_object(bad, message):
+    objects = [{"shape": "box", "translate": [i, 0, 0]} for i in range(50)]
+    objects[37] = {**objects[37], **bad}
+    with pytest.raises(rp.SceneError, match=rf"objects\.37: placed.*{message}"):
+        build.build_geometry(scene_of(objects))
