@@ -13,8 +13,8 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None) -
     """("compile", seconds) when the cache does not hold this scene's kernels (the first render after an install
     or an edit; `announce` is told first, as it takes 10-30 s), else ("kernels", seconds) for loading them
     from the cache, most of it numba's one-time set-up in a process (≈ 0.25 s)."""
+    from ..jit import compiled_before
     from .frame import tile_kernel, warm_kernels_for
-    from .kernels.jit import compiled_before
     from .plan import build_plan
     cached = compiled_before(tile_kernel())
     if not cached and announce is not None:

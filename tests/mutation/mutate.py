@@ -18,7 +18,7 @@ Docstrings, decorators, annotations, imports and `raise` statements are not muta
 
 Each mutant runs in a copy of the repository (raycast_phong/, tests/, scenes/, cli.py, pyproject.toml) at
 one fixed work path, imported through PYTHONPATH ahead of the editable install, with its own NUMBA_CACHE_DIR
-seeded from the unmutated run's. A mutated kernel module cannot reuse a stale kernel: renderer/kernels/jit.py keys the
+seeded from the unmutated run's. A mutated kernel module cannot reuse a stale kernel: raycast_phong/jit.py keys the
 kernels' cache folder on the source of every kernel module and its imports. The mutant is *killed* when the
 test subset fails, *timeout* when it runs past --timeout, *survived* when the subset passes. Not collected by pytest
 (tests/mutation has no test_*.py).
@@ -247,7 +247,7 @@ def run_one(mutant: Mutant, seed_cache: Path, tests: list[str], timeout: float) 
     cache = WORK / "cache"
     shutil.rmtree(cache, ignore_errors=True)
     shutil.copytree(seed_cache, cache)
-    # No stale kernels to delete: renderer/kernels/jit.py keys the cache folder on the kernel modules' source.
+    # No stale kernels to delete: raycast_phong/jit.py keys the cache folder on the kernel modules' source.
     start = time.perf_counter()
     mutant.status, mutant.failed = _run_tests(repo, cache, tests, timeout)
     mutant.seconds = round(time.perf_counter() - start, 1)

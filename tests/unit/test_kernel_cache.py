@@ -41,7 +41,7 @@ stats = tile.render_band.stats
 print(json.dumps({"hits": sum(stats.cache_hits.values()), "misses": sum(stats.cache_misses.values())}))
 """
 
-KEY = "from raycast_phong.renderer.kernels import jit; print(jit.source_key())"
+KEY = "from raycast_phong import jit; print(jit.source_key())"
 
 
 @pytest.fixture

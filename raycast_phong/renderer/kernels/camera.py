@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from .jit import kernel
+from ...jit import kernel
 
 
 @kernel()

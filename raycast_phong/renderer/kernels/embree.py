@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from numba import types
 
-from .jit import kernel
+from ...jit import kernel
 
 RTC_RAY_QUERY_FLAG_COHERENT = 1 << 16   # neighbouring pixels: Embree may traverse the packet together
 RTC_FEATURE_FLAG_ALL = -1               # 0xffffffff as int32

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 
-from .jit import kernel
+from ...jit import kernel
 from .layout import (
     ATTENUATION_NONE,
     C_ATTENUATION,

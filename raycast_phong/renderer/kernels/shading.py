@@ -17,9 +17,9 @@ import math
 
 import numpy as np
 
+from ...jit import kernel
 from ...tolerances import NO_DIRECTION
 from .illumination import illuminate
-from .jit import kernel
 from .layout import (
     CAM_FORWARD,
     CAM_ORTHOGRAPHIC,

@@ -18,9 +18,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...jit import kernel
 from ...tolerances import MIN_DISTANCE
 from .embree import occluded_rays
-from .jit import kernel
 from .layout import POINT
 from .surface import facing_side, hit_point, to_light
 

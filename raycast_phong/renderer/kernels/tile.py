@@ -13,9 +13,9 @@ import sys
 import numpy as np
 from numba import types
 
+from ...jit import kernel
 from .camera import fill_rows
 from .embree import intersect_rays
-from .jit import kernel
 from .layout import C_SHADOW_RAYS, F_SHADOWS, FilmRows, TileRays
 from .shading import _shade_rays
 from .shadows import cast_shadows

@@ -23,7 +23,7 @@ from pathlib import Path
 import numba
 from numba import njit
 
-PACKAGE = Path(__file__).resolve().parents[2]  # raycast_phong/: a kernel may import from anywhere in it
+PACKAGE = Path(__file__).resolve().parent  # raycast_phong/: a kernel may import from anywhere in it
 OWN_CACHE = Path(__file__).resolve().parent / "__pycache__"
 MARK = "@kernel("          # how a module declares a kernel; such a module is part of the key
 PREFIX = "raycast-phong-kernels-"
