@@ -259,7 +259,7 @@ def test_an_option_error_is_one_line(args):
 
 def test_an_option_error_is_one_line_from_the_real_command():
     """The console script as a user runs it (typer's rich formatting depends on the real streams)."""
-    cli = Path(__file__).resolve().parents[1] / "cli.py"
+    cli = Path(__file__).resolve().parents[2] / "cli.py"
     done = subprocess.run([sys.executable, "-W", "error", str(cli), "render", "--width", "abc"],
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 2 and done.stdout == "", done

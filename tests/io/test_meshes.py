@@ -19,7 +19,7 @@ import raycast_phong as rp
 from raycast_phong.cli import app
 from raycast_phong.geometry.build import build_geometry
 
-MESHES = Path(__file__).resolve().parent.parent / "scenes" / "meshes"
+MESHES = Path(__file__).resolve().parents[2] / "scenes" / "meshes"
 SHIPPED = ("dice.obj", "painted_knot.ply", "still_life.glb")
 runner = CliRunner()
 pytestmark = pytest.mark.usefixtures("in_tmp_path")

@@ -32,7 +32,7 @@ from raycast_phong.renderer.budget import (
 from raycast_phong.renderer.plan import diagnose, group_median
 from raycast_phong.scene.schema import MAX_SCENE_BYTES
 
-CLI = [sys.executable, str(Path(__file__).parents[1] / "cli.py")]
+CLI = [sys.executable, str(Path(__file__).parents[2] / "cli.py")]
 ADDRESS_SPACE = 2 << 30  # plenty for the small renders here (measured: the default scene renders under it)
 TIMEOUT = 120  # seconds: a guarded refusal takes about one; a blocked read would take forever
 

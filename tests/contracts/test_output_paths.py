@@ -21,7 +21,7 @@ import raycast_phong as rp
 from raycast_phong.cli import app
 
 runner = CliRunner()
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 pytestmark = pytest.mark.usefixtures("in_tmp_path")
 

@@ -24,7 +24,7 @@ from raycast_phong.tools import batch
 from raycast_phong.tools.sweep import compose_sheet, load_sweep
 
 runner = CliRunner()
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 SCENE = """\
 [render]

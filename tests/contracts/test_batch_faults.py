@@ -19,6 +19,8 @@ import time
 from pathlib import Path
 
 import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))  # test_batch.py's helpers, beside it
 from test_batch import ROOT, TETRAHEDRON, five_scenes, images, manifest, run, scene_text, statuses  # noqa: F401
 
 import raycast_phong as rp

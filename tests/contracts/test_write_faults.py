@@ -24,7 +24,7 @@ from conftest import write_tiny_scene
 
 import raycast_phong as rp
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 TOO_LARGE = os.strerror(errno.EFBIG)  # "File too large" in the C locale
 
 

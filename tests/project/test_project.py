@@ -12,7 +12,7 @@ import pytest
 import raycast_phong as rp
 from raycast_phong.scene.schema import scene_json_schema
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def readme_commands() -> list[str]:

@@ -23,7 +23,7 @@ from raycast_phong.renderer.kernels import embree
 from raycast_phong.renderer.kernels.camera import camera_rig, generate_rays
 
 PACKAGE = Path(raycast_phong.__file__).resolve().parent
-SCENES = Path(__file__).resolve().parents[2] / "scenes"
+SCENES = Path(__file__).resolve().parents[3] / "scenes"
 pytestmark = pytest.mark.skipif(embree.library() is None, reason="Embree's C library cannot be loaded here")
 
 # Both paths run Embree's own float32 ray–triangle test (robust mode) on the same vertices and rays, but the
