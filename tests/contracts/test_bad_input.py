@@ -150,6 +150,12 @@ def test_the_base_scene_renders(tmp_path):
     assert (tmp_path / "out.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_no_render_stops_a_scene_that_reaches_the_renderer(tmp_path, no_render):
+    """The control for the tests that use `no_render`: the CLI's render does go through the patched name."""
+    with pytest.raises(pytest.fail.Exception, match="reached the renderer"):
+        runner.invoke(app, ["render", str(write_scene(tmp_path)), "--quiet"], catch_exceptions=False)
+
+
 def test_the_helpers_write_the_scene_they_are_given(tmp_path):
     import tomllib
     changes = {"render.background": [0.0, math.inf, 0.0], "objects.0.name": 'a "quoted" name'}

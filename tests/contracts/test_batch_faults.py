@@ -109,6 +109,7 @@ def hidden(folder: Path) -> list[str]:
 @LINUX_PROC
 @pytest.mark.parametrize(("number", "jobs"), [(signal.SIGINT, 2), (signal.SIGTERM, 2), (signal.SIGINT, 1)],
                          ids=["SIGINT", "SIGTERM", "SIGINT-jobs-1"])
+@pytest.mark.slow
 def test_a_signal_stops_the_workers_at_once_and_the_manifest_tells_the_truth(tmp_path, start_batch, number, jobs):
     count = 16
     folder, out = slow_scenes(tmp_path / "scenes", count), tmp_path / "out"
@@ -164,6 +165,7 @@ def test_killing_the_batch_with_sigkill_leaves_no_worker_behind(tmp_path, start_
 
 
 @LINUX_PROC
+@pytest.mark.slow
 def test_a_killed_worker_fails_only_its_scene_and_is_replaced(tmp_path, start_batch):
     """The out-of-memory killer, simulated: SIGKILL to one worker mid-batch."""
     count = 10
@@ -189,6 +191,7 @@ def test_a_killed_worker_fails_only_its_scene_and_is_replaced(tmp_path, start_ba
 # ---------------------------------------------------------------- two batches, one folder
 
 
+@pytest.mark.slow
 def test_a_second_batch_into_the_same_folder_is_refused(tmp_path, start_batch):
     count = 8
     folder, out = slow_scenes(tmp_path / "scenes", count), tmp_path / "out"

@@ -212,6 +212,7 @@ def folder():
 @settings(max_examples=FUZZ_EXAMPLES, derandomize=FUZZ_EXAMPLES == DEFAULT_EXAMPLES, deadline=None,
           database=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
                                                 HealthCheck.filter_too_much, HealthCheck.function_scoped_fixture])
+@pytest.mark.slow
 @given(scene=scenes())
 def test_any_scene_renders_finitely_or_is_refused_in_one_line(folder, monkeypatch, scene):
     monkeypatch.chdir(folder)

@@ -154,6 +154,7 @@ def test_the_cli_refuses_a_tessellation_over_the_budget_before_building_it(tmp_p
     assert not (tmp_path / "out.png").exists()
 
 
+@pytest.mark.slow
 def test_max_memory_raises_and_lowers_the_budget(tmp_path):
     path = scene_file(tmp_path, [{"shape": "icosphere", "subdivisions": 6}])  # 82k triangles, ≈ 60 MB
     refused = run_cli("render", str(path), "-o", "out.png", "--max-memory", "20M", cwd=tmp_path)

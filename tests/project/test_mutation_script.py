@@ -7,6 +7,8 @@ import importlib.util
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[2]
 spec = importlib.util.spec_from_file_location("mutate", ROOT / "tests" / "mutation" / "mutate.py")
 mutate = importlib.util.module_from_spec(spec)
@@ -14,6 +16,7 @@ sys.modules["mutate"] = mutate  # its dataclass looks its module up there
 spec.loader.exec_module(mutate)
 
 
+@pytest.mark.slow
 def test_every_mutant_is_a_one_line_edit_that_parses_and_changes_the_code():
     for module in ("renderer/kernels/illumination", "renderer/kernels/camera"):
         source = (ROOT / "raycast_phong" / f"{module}.py").read_text(encoding="utf-8")

@@ -294,6 +294,7 @@ def test_view_command_warns_when_not_bound_to_loopback(monkeypatch):
     assert result.exit_code == 0 and "reachable from other machines" in result.output
 
 
+@pytest.mark.slow
 def test_benchmark_script_runs_in_a_reduced_form():
     """bench_view.py is not a timed test; this keeps the script working (tiny frame, few requests)."""
     root = Path(__file__).resolve().parents[2]

@@ -121,6 +121,7 @@ def test_without_the_library_the_render_falls_back_to_embreex_with_one_note(tmp_
     np.testing.assert_array_equal(np.load(tmp_path / "fallback.npy"), image)
 
 
+@pytest.mark.slow
 def test_a_cached_kernel_that_calls_embree_loads_without_compiling(tmp_path):
     """The queries link by name (llvmlite add_symbol), so numba's cache serves a fresh process: no recompile."""
     shutil.copytree(PACKAGE, tmp_path / "src" / "raycast_phong", ignore=shutil.ignore_patterns("__pycache__"))

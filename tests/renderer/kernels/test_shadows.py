@@ -167,16 +167,19 @@ def test_visibility_is_applied_for_every_shading_model(shading):
 
 
 def test_local_mode_casts_no_shadow_rays(monkeypatch):
-    import sys
-    render_module = sys.modules["raycast_phong.renderer.frame"]  # the package's `render` attribute is the function
+    import importlib
+    render_module = importlib.import_module("raycast_phong.renderer.frame")  # not rp.render: that is the function
 
     def forbidden(*args, **kwargs):
         raise AssertionError("shadow rays cast in local mode")
 
-    monkeypatch.setattr(render_module, "light_visibility", forbidden)
+    for stage in ("prepare_shadows", "light_visibility"):  # the tile kernel's inputs; the fallback's stage
+        monkeypatch.setattr(render_module, stage, forbidden)
     scene = two_light_scene(mode="local")
     assert not rp.build_plan(scene).keeps("shadow_rays")
     rp.render(scene)
+    with pytest.raises(AssertionError, match="shadow rays"):
+        rp.render(two_light_scene())  # the control: global mode reaches the patched stage
 
 
 def test_without_the_offset_a_lit_sphere_shadows_itself():
