@@ -1,8 +1,8 @@
 """Read a scene file (TOML, or JSON with the same structure) into a validated, frozen Scene.
 
-The contract is ../shared/scene-format.md, version 1; docs/scene-format.md lists every key with its
-default and allowed range. Every problem becomes one SceneError naming the file, the key path and what
-is allowed, so the CLI can print one line and exit 2.
+The scene format is version 1; docs/scene-format.md lists every key with its default and allowed range.
+Every problem becomes one SceneError naming the file, the key path and what is allowed, so the CLI can
+print one line and exit 2.
 """
 
 from __future__ import annotations

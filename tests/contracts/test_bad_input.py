@@ -346,7 +346,7 @@ def test_camera_without_a_frame(tmp_path, changes, expected):
 
 @pytest.mark.parametrize("attenuation", [[1, -1, 0], [-1, 0, 0], [1, 0, -0.5], [0, 0, 0], [0, 0, 1e39]])
 def test_attenuation_out_of_range(tmp_path, attenuation):
-    # [0, 0, 1] is allowed now (pure 1/d² under the clamp): tests/test_float_edges.py
+    # [0, 0, 1] is allowed now (pure 1/d² under the clamp): tests/contracts/test_float_edges.py
     refuse_scene(tmp_path, {"lights.0.attenuation": attenuation}, "lights.0.attenuation:",
                  f"[c, l, q] = {attenuation}", "with 0 ≤ c, l, q ≤ 1e+38, not all zero")
 

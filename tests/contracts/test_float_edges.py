@@ -97,7 +97,7 @@ OVERFLOWS = [
     ("ambient", 1e308, "[0, 1e+38]"),
     ("render.background", 1e39, "[0, 1e+38]"),
     ("lights.0.attenuation", [0, 0, 1e39], "0 ≤ c, l, q ≤ 1e+38"),
-    ("materials.m.shininess", 3.5e38, "if finite, at most 1e+38"),  # found by tests/test_fuzz.py, with ks = 0
+    ("materials.m.shininess", 3.5e38, "if finite, at most 1e+38"),  # found by tests/contracts/test_fuzz.py, with ks = 0
 ]
 
 

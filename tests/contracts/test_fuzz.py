@@ -5,7 +5,7 @@ exactly one line on stderr and the output file untouched; never a traceback, an 
 or a RuntimeWarning (warnings are errors here, and the CLI would turn one into exit 1).
 
 CI runs a fixed, derandomized set of FUZZ_EXAMPLES examples (a few seconds). Run longer, with fresh
-random examples, by setting the number:  RAYCAST_PHONG_FUZZ_EXAMPLES=2000 pytest tests/test_fuzz.py
+random examples, by setting the number:  RAYCAST_PHONG_FUZZ_EXAMPLES=2000 pytest tests/contracts/test_fuzz.py
 """
 
 from __future__ import annotations
