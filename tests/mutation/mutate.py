@@ -21,7 +21,7 @@ Mutants come from the module's AST, one node at a time, and are written back as 
   negate     `if c` / `c if … else` / `while c` → `not c`
 Docstrings, decorators, annotations, imports and `raise` statements are not mutated.
 
-Each mutant runs in a copy of the repository (raycast_phong/, tests/, scenes/, cli.py, pyproject.toml) at
+Each mutant runs in a copy of the repository (COPIED: the package, tests, scenes, docs, benchmarks) at
 one fixed work path, imported through PYTHONPATH ahead of the editable install, with its own NUMBA_CACHE_DIR
 seeded from the unmutated run's. A mutated kernel module cannot reuse a stale kernel: renderer/kernels/jit.py keys the
 kernels' cache folder on the source of every kernel module and its imports. The mutant is *killed* when the
@@ -74,7 +74,7 @@ def tests_for(module: str) -> list[str]:
     top = module.split("/")[0] if "/" in module else ""
     mirror = [f"tests/{top}"] if top and (REPO / "tests" / top).is_dir() else []
     return [*mirror, *EXTRA_TESTS.get(top, ()), *MODULE_TESTS.get(module, ())]
-COPIED = ("raycast_phong", "tests", "scenes", "cli.py", "pyproject.toml")
+COPIED = ("raycast_phong", "tests", "scenes", "cli.py", "pyproject.toml", "README.md", "docs", "benchmarks", ".ci")
 WORK = Path(os.environ.get("TMPDIR", "/tmp")) / "raycast-phong-mutation"
 
 # Bugs written by hand (issue 19's independent sample, outside the kernels): (module, original text, mutated
