@@ -242,7 +242,7 @@ def _fresh_copy(origin: Path | None = None) -> Path:
     target = WORK / ("snapshot" if origin == REPO else "repo")
     shutil.rmtree(target, ignore_errors=True)
     target.mkdir(parents=True)
-    ignore = shutil.ignore_patterns("__pycache__", "*.pyc", ".pytest_cache", "mutation")
+    ignore = shutil.ignore_patterns("__pycache__", "*.pyc", ".pytest_cache")
     for name in COPIED:
         source = origin / name
         if source.is_dir():
