@@ -140,7 +140,7 @@ def _file_exists(token: str) -> bool:
     if token.startswith("../"):
         return False  # outside the repository: a reader of the package cannot follow it
     token = token.rstrip("/")
-    if (ROOT / token).exists() or (PACKAGE / token).exists():
+    if any((folder / name).exists() for folder in (ROOT, PACKAGE) for name in (token, f"{token}.py")):
         return True
     for folder, dirs, files in os.walk(ROOT):
         dirs[:] = [d for d in dirs if not d.startswith(".") and d not in ("build", "__pycache__")]
@@ -183,7 +183,7 @@ def unresolved(token: str) -> bool:
 
 def test_the_name_check_sees_a_wrong_name():
     """The control: a misspelt function, a module's old home and a missing file are caught."""
-    text = "`accuracy.refined` `reference.refined` `pipeline/render.py` `camera.position` `io/atomic.py`"
+    text = "`accuracy.refined` `reference.refined` `pipeline/render.py` `camera.position` `io/atomic.py` `io/atomic`"
     assert [t for t in names_in(text) if unresolved(t)] == ["reference.refined", "pipeline/render.py"]
 
 
