@@ -54,7 +54,8 @@ CORE_MODULES = (  # where a pixel's value is decided: the kernels and the stages
 EXTRA_TESTS = {"renderer": ("tests/image",), "geometry": ("tests/image",), "io": ("tests/contracts",),
                "scene": ("tests/contracts", "tests/cli"), "cli": ("tests/contracts",), "tools": (),
                "": ("tests/project", "tests/renderer", "tests/io")}  # "": the package's top-level modules
-MODULE_TESTS = {"renderer/budget": ("tests/contracts/test_resource_guards.py",)}  # the memory guard's own tests
+MODULE_TESTS = {"renderer/budget": ("tests/contracts/test_resource_guards.py",),  # the memory guard's own tests
+                "pytest_plugin": ("tests/image",)}  # the reference images match through it, edges and all
 
 
 def _has_code(path: Path) -> bool:
