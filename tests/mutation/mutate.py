@@ -296,6 +296,9 @@ def baseline(tests: list[str], timeout: float, cache: Path) -> None:
     if not imported.startswith(str(repo)):
         sys.exit(f"the copy is not what gets imported ({imported})")
     status, failed = _run_tests(repo, cache, tests, timeout * 3)
+    if status != "survived":  # once more: a test that is flaky under load should not end a long run
+        print(f"baseline {' '.join(tests)} failed ({failed}); once more", flush=True)
+        status, failed = _run_tests(repo, cache, tests, timeout * 3)
     if status != "survived":
         sys.exit(f"the unmutated code fails the test subset {' '.join(tests)} ({status}: {failed}); fix that first")
 
