@@ -1,7 +1,7 @@
 """raycast-phong: ray-cast flat, Gouraud and Phong shading on Intel Embree.
 
     scene = raycast_phong.load_scene("scenes/default.toml")
-    result = raycast_phong.renderer.frame(scene)          # .image (H, W, 3) float32, .timings, .plan
+    result = raycast_phong.render(scene)                  # .image (H, W, 3) float32, .timings, .plan
     raycast_phong.write_image("out.png", result.image)
 
 The names below load their module on first use (PEP 562), so `import raycast_phong` — and the pytest

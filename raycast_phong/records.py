@@ -38,8 +38,9 @@ class Geometry:
 def bounding_box(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Lowest and highest coordinate (3,) of (V, 3) vertices; NaN if any is NaN (as vertices.min(axis=0)).
 
-    Column by column: numpy reduces a (V, 3) array along axis 0 some 10× slower than three strided columns
-    (a 2M-triangle mesh: 44 ms). The box the unit Frame is made from (intersect.unit_frame).
+    Column by column: numpy reduces a (V, 3) array along axis 0 15-25× slower than three strided columns
+    (1M vertices: 85 ms against 3-6 ms, float32 and float64). The box the unit Frame is made from
+    (intersect.unit_frame).
     """
     return (np.array([vertices[:, k].min() for k in range(3)]), np.array([vertices[:, k].max() for k in range(3)]))
 

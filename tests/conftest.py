@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-pytest_plugins = ["pytester"]  # the plugin's own tests (tests/test_pytest_plugin.py) run pytest inside pytest
+pytest_plugins = ["pytester"]  # the plugin's own tests (tests/project/test_pytest_plugin.py) run pytest inside pytest
 
 
 # One low-poly red sphere in the middle, lit from the upper right: flat, Gouraud and Phong differ on it,

@@ -1,9 +1,9 @@
 """The scene format as pydantic models, with its limits: a parsed scene table into a validated, frozen Scene.
 
-The contract is ../shared/scene-format.md, version 1; docs/scene-format.md lists every key with its
-default and allowed range. Every problem becomes one SceneError naming the file, the key path and what
-is allowed (worded by scene.messages), so the CLI can print one line and exit 2. Reading files is
-scene.load's (through io.scene_file), `--set` is scene.overrides'.
+The scene format is version 1; docs/scene-format.md lists every key with its default and allowed range.
+Every problem becomes one SceneError naming the file, the key path and what is allowed (worded by
+scene.messages), so the CLI can print one line and exit 2. Reading files is scene.load's (through
+io.scene_file), `--set` is scene.overrides'.
 """
 
 from __future__ import annotations

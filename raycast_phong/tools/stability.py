@@ -1,7 +1,7 @@
 """The stability suite: stiff and extreme inputs, each case a property that can fail and a measured figure.
 
 `raycast-phong stability` runs every case on the installed package and prints the table;
-tests/stability runs the same functions. Images are small (tens of pixels) so the suite takes
+tests/tools/test_stability.py runs the same functions. Images are small (tens of pixels) so the suite takes
 seconds. docs/stability.md has the table and pictures of the instructive cases.
 """
 

@@ -125,7 +125,7 @@ def test_render_matches_reference(scene_name, variant, assert_image_matches):
     --update-references`, float64 shading, 128 px wide) and looked at; none is an independent oracle. What
     ties them to the model: the specular scene's Phong render is checked against the analytic reference
     (its exact spheres) within a bound derived from the tessellation (test_analytic_images.py); the model
-    itself by hand-computed pixels (tests/unit/test_illumination.py, test_reference.py), cameras and
+    itself by hand-computed pixels (tests/renderer/kernels/test_illumination.py, test_reference.py), cameras and
     layers by hand-built rays (test_camera_and_layers.py), shadows by analytic shadows (test_shadows.py).
     A reference is rewritten only with a commit that says why it changed.
     """

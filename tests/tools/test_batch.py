@@ -24,7 +24,7 @@ from raycast_phong.tools import batch
 from raycast_phong.tools.sweep import compose_sheet, load_sweep
 
 runner = CliRunner()
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 SCENE = """\
 [render]
@@ -131,6 +131,7 @@ def test_a_rerun_renders_only_what_changed(five_scenes, tmp_path):
     assert [name for name, status in statuses(out).items() if status == "rendered"] == ["sphere2"]
 
 
+@pytest.mark.slow
 def test_worker_processes_write_the_same_images(five_scenes, tmp_path):
     """--jobs 2 (a process pool, one render thread each) and --jobs 1 give identical files."""
     assert run(str(five_scenes), "--out", str(tmp_path / "one"), "--jobs", "1").exit_code == 1
@@ -177,6 +178,7 @@ def test_leftover_temporary_files_are_removed(five_scenes, tmp_path):
     assert not any(path.exists() for path in stale) and keep.exists()
 
 
+@pytest.mark.slow
 def test_a_killed_batch_leaves_no_partial_image_and_a_rerun_completes_it(tmp_path):
     folder = tmp_path / "scenes"
     folder.mkdir()
@@ -280,9 +282,11 @@ def test_forked_workers_from_a_fresh_command_match_one_process(five_scenes, tmp_
 def test_warming_the_kernels_starts_no_embree():
     probe = ("from raycast_phong.renderer.frame import warm_kernels; "
              "from raycast_phong.renderer.intersect import embree_started; "
-             "warm_kernels(); print(embree_started())")
+             "warm_kernels(); print(embree_started()); import raycast_phong as rp; "
+             "rp.render(rp.load_scene(rp.default_scene_path(), ['render.width=8', 'render.height=6'])); "
+             "print(embree_started())")  # the control: a render does start it
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
-    assert done.stdout.strip() == "False", done.stderr
+    assert done.stdout.split() == ["False", "True"], done.stderr
 
 
 def test_warm_up_loads_only_the_kernels_the_scenes_need(tmp_path):

@@ -5,6 +5,7 @@ a scene's own output.path stays in its folder unless -o says otherwise; compare 
 
 from __future__ import annotations
 
+import importlib
 import os
 import subprocess
 import sys
@@ -21,7 +22,7 @@ import raycast_phong as rp
 from raycast_phong.cli import app
 
 runner = CliRunner()
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 pytestmark = pytest.mark.usefixtures("in_tmp_path")
 
@@ -29,6 +30,9 @@ pytestmark = pytest.mark.usefixtures("in_tmp_path")
 @pytest.fixture
 def no_render(monkeypatch):
     """Fail the test if a command gets as far as rendering."""
+    # Imported before the patches: study's `from .accuracy import reference_image` must bind the real one.
+    importlib.import_module("raycast_phong.tools.study")
+
     def render(*args, **kwargs):
         pytest.fail("the command reached the renderer; the output should have been refused first")
     monkeypatch.setattr(raycast_phong, "render", render)

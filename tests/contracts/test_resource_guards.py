@@ -32,7 +32,7 @@ from raycast_phong.renderer.budget import (
 )
 from raycast_phong.renderer.plan import diagnose, group_median
 
-CLI = [sys.executable, str(Path(__file__).parents[1] / "cli.py")]
+CLI = [sys.executable, str(Path(__file__).parents[2] / "cli.py")]
 ADDRESS_SPACE = 2 << 30  # plenty for the small renders here (measured: the default scene renders under it)
 TIMEOUT = 120  # seconds: a guarded refusal takes about one; a blocked read would take forever
 
@@ -154,6 +154,7 @@ def test_the_cli_refuses_a_tessellation_over_the_budget_before_building_it(tmp_p
     assert not (tmp_path / "out.png").exists()
 
 
+@pytest.mark.slow
 def test_max_memory_raises_and_lowers_the_budget(tmp_path):
     path = scene_file(tmp_path, [{"shape": "icosphere", "subdivisions": 6}])  # 82k triangles, ≈ 60 MB
     refused = run_cli("render", str(path), "-o", "out.png", "--max-memory", "20M", cwd=tmp_path)

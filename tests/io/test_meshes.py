@@ -19,7 +19,7 @@ import raycast_phong as rp
 from raycast_phong.cli import app
 from raycast_phong.geometry.build import build_geometry
 
-MESHES = Path(__file__).resolve().parent.parent / "scenes" / "meshes"
+MESHES = Path(__file__).resolve().parents[2] / "scenes" / "meshes"
 SHIPPED = ("dice.obj", "painted_knot.ply", "still_life.glb")
 runner = CliRunner()
 pytestmark = pytest.mark.usefixtures("in_tmp_path")
@@ -330,3 +330,27 @@ def test_an_obj_is_counted_once_for_the_framing_check_and_the_render(tmp_path, m
     path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n")
     os.utime(path, ns=(1, 1))
     assert memory.mesh_file_triangles(path, "tri.obj") == 2 and counted == [".obj", ".obj"]
+
+
+def test_face_colours_drive_kd_and_ka_like_vertex_colours(tmp_path):
+    """A face colour counts as its three corners (the sums are over 765): pure red is k_a = 1, not 1/3."""
+    mesh = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], process=False,
+                           face_colors=[[255, 0, 0, 255]])
+    mesh.export(tmp_path / "red.ply")
+    (tmp_path / "s.toml").write_text('ambient = 1.0\n[render]\nwidth = 32\nheight = 32\n[camera]\n'
+                                     'position = [0.3, 0.3, 2]\nlook_at = [0.3, 0.3, 0]\n'
+                                     '[[objects]]\nshape = "mesh"\npath = "red.ply"\n')
+    image = rp.render(rp.load_scene(tmp_path / "s.toml")).image
+    covered = image.max(axis=2) > 0
+    assert covered.sum() > 50
+    np.testing.assert_allclose(image[covered], np.broadcast_to([1.0, 0.0, 0.0], image[covered].shape), rtol=1e-6)
+
+
+def test_an_mtl_material_name_keeps_its_spaces(tmp_path):
+    """`newmtl red paint` names the material "red paint" (as `usemtl red paint` refers to it): two names that
+    share a first word stay two materials."""
+    from raycast_phong.io.mesh_file import parse_mtl
+    notes: list[str] = []
+    materials = parse_mtl("newmtl red paint\nKd 1 0 0\nnewmtl red glaze\nKd 0 1 0\n", tmp_path / "m.mtl", notes)
+    assert sorted(materials) == ["red glaze", "red paint"]
+    assert materials["red paint"].kd == (1.0, 0.0, 0.0) and materials["red glaze"].kd == (0.0, 1.0, 0.0)

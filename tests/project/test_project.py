@@ -12,7 +12,7 @@ import pytest
 import raycast_phong as rp
 from raycast_phong.scene.schema import scene_json_schema
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def readme_commands() -> list[str]:
@@ -56,6 +56,7 @@ def test_benchmark_script_runs_in_a_reduced_form():
     assert "64×64, 81,920 triangles" in done.stdout
 
 
+@pytest.mark.slow
 def test_cli_benchmark_runs_in_a_reduced_form():
     """bench_cli.py is not a timed test; this keeps it working (one repeat)."""
     done = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bench_cli.py"), "--repeats", "1"],
@@ -91,6 +92,9 @@ def test_importing_the_package_the_plugin_and_the_cli_loads_no_renderer():
              f"print([m for m in {HEAVY!r} if m in sys.modules])")
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=ROOT, timeout=60)
     assert done.stdout.strip() == "[]", done.stdout + done.stderr
+    control = subprocess.run([sys.executable, "-c", "import raycast_phong.renderer.frame; " + probe],
+                             capture_output=True, text=True, cwd=ROOT, timeout=60)
+    assert "'numba'" in control.stdout, control.stdout + control.stderr  # the control: the probe does see one
 
 
 def test_rendering_built_in_shapes_from_the_cli_loads_no_mesh_library_and_no_tool(tmp_path):
@@ -107,6 +111,9 @@ def test_rendering_built_in_shapes_from_the_cli_loads_no_mesh_library_and_no_too
     done = subprocess.run([sys.executable, "-c", probe, "render", str(scene), "-q", "-o", str(tmp_path / "out.png")],
                           capture_output=True, text=True, cwd=ROOT, timeout=600)
     assert done.returncode == 0 and done.stdout.strip() == "[]", done.stdout + done.stderr
+    control = subprocess.run([sys.executable, "-c", "import trimesh, raycast_phong.tools.metrics\n" + probe, "--help"],
+                             capture_output=True, text=True, cwd=ROOT, timeout=600)
+    assert "'trimesh'" in control.stdout and "'raycast_phong.tools.metrics'" in control.stdout, control.stderr
 
 
 def test_the_package_names_load_on_first_use_and_stay_functions():

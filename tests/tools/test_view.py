@@ -258,7 +258,7 @@ def test_view_command_prints_a_url_whose_token_is_required(scene_path):
                "--port", "0",
                "--no-browser"]
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               cwd=Path(__file__).resolve().parent.parent)
+                               cwd=Path(__file__).resolve().parents[2])
     try:
         line = process.stdout.readline()
         assert line.startswith("raycast-phong view: open http://127.0.0.1:"), line + process.stderr.read()
@@ -294,9 +294,10 @@ def test_view_command_warns_when_not_bound_to_loopback(monkeypatch):
     assert result.exit_code == 0 and "reachable from other machines" in result.output
 
 
+@pytest.mark.slow
 def test_benchmark_script_runs_in_a_reduced_form():
     """bench_view.py is not a timed test; this keeps the script working (tiny frame, few requests)."""
-    root = Path(__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parents[2]
     done = subprocess.run([sys.executable, str(root / "benchmarks" / "bench_view.py"), "--size", "64x36",
                            "--steps", "2", "--rate", "20", "--seconds", "0.5"], capture_output=True, text=True,
                           timeout=300)
@@ -307,7 +308,7 @@ def test_benchmark_script_runs_in_a_reduced_form():
 
 def test_a_mesh_file_is_framed_lit_and_rendered(tmp_path):
     """`view MESH`: the camera looks at the mesh's bounding box centre and the whole mesh is in the frame."""
-    mesh = Path(__file__).resolve().parent.parent / "scenes" / "meshes" / "torus_knot.ply"
+    mesh = Path(__file__).resolve().parents[2] / "scenes" / "meshes" / "torus_knot.ply"
     with connect(client_for(mesh)) as ws:
         hello = json.loads(ws.receive_text())
         ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "full"}))

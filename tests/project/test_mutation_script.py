@@ -7,13 +7,16 @@ import importlib.util
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
 spec = importlib.util.spec_from_file_location("mutate", ROOT / "tests" / "mutation" / "mutate.py")
 mutate = importlib.util.module_from_spec(spec)
 sys.modules["mutate"] = mutate  # its dataclass looks its module up there
 spec.loader.exec_module(mutate)
 
 
+@pytest.mark.slow
 def test_every_mutant_is_a_one_line_edit_that_parses_and_changes_the_code():
     for module in ("renderer/kernels/illumination", "renderer/kernels/camera"):
         source = (ROOT / "raycast_phong" / f"{module}.py").read_text(encoding="utf-8")
@@ -54,3 +57,15 @@ def test_the_baseline_imports_the_core_package_from_the_copy():
     from the package path, a syntax error that stopped every mutation run before its first mutant."""
     found = mutate.imported_from(mutate.REPO)
     assert found == str(mutate.REPO / mutate.PACKAGE / "__init__.py"), found
+
+
+def test_every_module_with_code_is_a_candidate_with_a_subset_that_exists():
+    assert {"io/atomic", "renderer/budget", "renderer/kernels/shading", "tools/view/server", "records"} \
+        <= set(mutate.MODULES)
+    assert "geometry/__init__" not in mutate.MODULES  # empty
+    assert set(mutate.CORE_MODULES) <= set(mutate.MODULES)
+    for module in mutate.MODULES:
+        tests = mutate.tests_for(module)
+        assert tests and all((ROOT / path).exists() for path in tests), (module, tests)
+    assert mutate.tests_for("renderer/kernels/shading") == ["tests/renderer", "tests/image"]
+

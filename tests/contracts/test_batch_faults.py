@@ -19,6 +19,8 @@ import time
 from pathlib import Path
 
 import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))  # test_batch.py's helpers, beside it
 from test_batch import ROOT, TETRAHEDRON, five_scenes, images, manifest, run, scene_text, statuses  # noqa: F401
 
 import raycast_phong as rp
@@ -107,6 +109,7 @@ def hidden(folder: Path) -> list[str]:
 @LINUX_PROC
 @pytest.mark.parametrize(("number", "jobs"), [(signal.SIGINT, 2), (signal.SIGTERM, 2), (signal.SIGINT, 1)],
                          ids=["SIGINT", "SIGTERM", "SIGINT-jobs-1"])
+@pytest.mark.slow
 def test_a_signal_stops_the_workers_at_once_and_the_manifest_tells_the_truth(tmp_path, start_batch, number, jobs):
     count = 16
     folder, out = slow_scenes(tmp_path / "scenes", count), tmp_path / "out"
@@ -162,6 +165,7 @@ def test_killing_the_batch_with_sigkill_leaves_no_worker_behind(tmp_path, start_
 
 
 @LINUX_PROC
+@pytest.mark.slow
 def test_a_killed_worker_fails_only_its_scene_and_is_replaced(tmp_path, start_batch):
     """The out-of-memory killer, simulated: SIGKILL to one worker mid-batch."""
     count = 10
@@ -187,6 +191,7 @@ def test_a_killed_worker_fails_only_its_scene_and_is_replaced(tmp_path, start_ba
 # ---------------------------------------------------------------- two batches, one folder
 
 
+@pytest.mark.slow
 def test_a_second_batch_into_the_same_folder_is_refused(tmp_path, start_batch):
     count = 8
     folder, out = slow_scenes(tmp_path / "scenes", count), tmp_path / "out"

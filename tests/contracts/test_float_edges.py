@@ -97,7 +97,7 @@ OVERFLOWS = [
     ("ambient", 1e308, "[0, 1e+38]"),
     ("render.background", 1e39, "[0, 1e+38]"),
     ("lights.0.attenuation", [0, 0, 1e39], "0 ≤ c, l, q ≤ 1e+38"),
-    ("materials.m.shininess", 3.5e38, "if finite, at most 1e+38"),  # found by tests/test_fuzz.py, with ks = 0
+    ("materials.m.shininess", 3.5e38, "if finite, at most 1e+38"),  # found by tests/contracts/test_fuzz.py, with ks = 0
 ]
 
 
@@ -259,7 +259,7 @@ def test_an_option_error_is_one_line(args):
 
 def test_an_option_error_is_one_line_from_the_real_command():
     """The console script as a user runs it (typer's rich formatting depends on the real streams)."""
-    cli = Path(__file__).resolve().parents[1] / "cli.py"
+    cli = Path(__file__).resolve().parents[2] / "cli.py"
     done = subprocess.run([sys.executable, "-W", "error", str(cli), "render", "--width", "abc"],
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 2 and done.stdout == "", done

@@ -150,6 +150,12 @@ def test_the_base_scene_renders(tmp_path):
     assert (tmp_path / "out.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_no_render_stops_a_scene_that_reaches_the_renderer(tmp_path, no_render):
+    """The control for the tests that use `no_render`: the CLI's render does go through the patched name."""
+    with pytest.raises(pytest.fail.Exception, match="reached the renderer"):
+        runner.invoke(app, ["render", str(write_scene(tmp_path)), "--quiet"], catch_exceptions=False)
+
+
 def test_the_helpers_write_the_scene_they_are_given(tmp_path):
     import tomllib
     changes = {"render.background": [0.0, math.inf, 0.0], "objects.0.name": 'a "quoted" name'}
@@ -340,7 +346,7 @@ def test_camera_without_a_frame(tmp_path, changes, expected):
 
 @pytest.mark.parametrize("attenuation", [[1, -1, 0], [-1, 0, 0], [1, 0, -0.5], [0, 0, 0], [0, 0, 1e39]])
 def test_attenuation_out_of_range(tmp_path, attenuation):
-    # [0, 0, 1] is allowed now (pure 1/d² under the clamp): tests/test_float_edges.py
+    # [0, 0, 1] is allowed now (pure 1/d² under the clamp): tests/contracts/test_float_edges.py
     refuse_scene(tmp_path, {"lights.0.attenuation": attenuation}, "lights.0.attenuation:",
                  f"[c, l, q] = {attenuation}", "with 0 ≤ c, l, q ≤ 1e+38, not all zero")
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import raycast_phong as rp
@@ -69,3 +70,25 @@ def test_a_different_image_fails_with_metrics_and_three_images(pytester):
 def test_the_option_is_defined_once_by_the_plugin(pytester):
     result = pytester.runpytest("--help")
     assert result.stdout.str().count("--update-references") == 1
+
+
+def test_on_edges_the_share_covers_only_values_the_neighbours_have():
+    """match_images' `edges`: a pixel on an edge may take the other side's value, not any value, and an
+    off pixel away from the edges always fails (the neighbourhood is the reference's own 3×3)."""
+    from raycast_phong.pytest_plugin import match_images, neighbourhood_range
+    reference = np.zeros((6, 6, 3))
+    reference[:, 3:] = 1.0  # a vertical edge between columns 2 and 3
+    edges = np.zeros((6, 6), bool)
+    edges[:, 2:4] = True
+    low, high = neighbourhood_range(reference)
+    assert low.shape == high.shape == reference.shape
+    assert (low[:, 2:4] == 0).all() and (high[:, 2:4] == 1).all() and (high[:, 0] == 0).all()
+
+    def match(row, column, value):
+        image = reference.copy()
+        image[row, column] = value
+        return match_images(image, reference, fail_percent=5, edges=edges)
+
+    assert match(2, 3, 0.0).passed          # the other side's value, on the edge
+    assert not match(2, 3, 2.0).passed      # on the edge, but no neighbour has it
+    assert not match(2, 0, 1.0).passed      # a value the image has, but away from the edge

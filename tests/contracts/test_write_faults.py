@@ -24,7 +24,7 @@ from conftest import write_tiny_scene
 
 import raycast_phong as rp
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 TOO_LARGE = os.strerror(errno.EFBIG)  # "File too large" in the C locale
 
 
@@ -60,6 +60,7 @@ def scene(tmp_path: Path) -> Path:
 
 @pytest.mark.parametrize("short", ["mid-write", "one byte"])
 @pytest.mark.parametrize("suffix", [".png", ".exr"])
+@pytest.mark.slow
 def test_render_under_a_file_size_limit_keeps_the_old_image(scene, tmp_path, suffix, short):
     """Stopped mid-write, or one byte short: then only the writer's final flush at close fails, which
     OpenImageIO does not report (its open, write_image and close all return True)."""
@@ -81,6 +82,7 @@ def test_render_under_a_file_size_limit_keeps_the_old_image(scene, tmp_path, suf
     assert temporaries(tmp_path) == []
 
 
+@pytest.mark.slow
 def test_a_new_file_that_cannot_be_written_is_not_left_half_written(scene, tmp_path):
     cli("render", scene, "-o", tmp_path / "warm.png", "-q")
     output = tmp_path / "new.png"
@@ -116,6 +118,7 @@ def test_side_by_side_under_a_file_size_limit(scene, tmp_path):
     assert temporaries(tmp_path) == []
 
 
+@pytest.mark.slow
 def test_reference_under_a_file_size_limit(scene, tmp_path):
     output = tmp_path / "ref.exr"
     assert cli("reference", scene, "-o", output).returncode == 0
@@ -127,6 +130,7 @@ def test_reference_under_a_file_size_limit(scene, tmp_path):
 # The study writes study.csv (~500 bytes for one render), then error_vs_time.png (~28 kB), then summary.md:
 # 200 bytes stops the CSV, 2000 the plot.
 @pytest.mark.parametrize(("limit", "stopped"), [(200, "study.csv"), (2000, "error_vs_time.png")])
+@pytest.mark.slow
 def test_study_under_a_file_size_limit(scene, tmp_path, limit, stopped):
     out = tmp_path / "study"
     args = ("study", scene, "--levels", "0", "--models", "flat", "--repeats", "1", "--width", "16",
@@ -141,6 +145,7 @@ def test_study_under_a_file_size_limit(scene, tmp_path, limit, stopped):
     assert temporaries(out) == []
 
 
+@pytest.mark.slow
 def test_batch_records_an_image_it_could_not_write_as_failed(tmp_path):
     scenes = tmp_path / "scenes"
     scenes.mkdir()
@@ -163,6 +168,7 @@ def test_batch_records_an_image_it_could_not_write_as_failed(tmp_path):
     assert image.read_bytes() != old
 
 
+@pytest.mark.slow
 def test_batch_manifest_under_a_file_size_limit(tmp_path):
     scenes = tmp_path / "scenes"
     scenes.mkdir()
@@ -177,6 +183,7 @@ def test_batch_manifest_under_a_file_size_limit(tmp_path):
     assert manifest.read_bytes() == old and temporaries(out) == []
 
 
+@pytest.mark.slow
 def test_batch_contact_sheet_under_a_file_size_limit(tmp_path):
     """Two 64×64 cells (~1-2 kB each) and the manifest (~2 kB) fit under 2500 bytes; their sheet (~3.5 kB) does not."""
     folder = tmp_path / "scenes"

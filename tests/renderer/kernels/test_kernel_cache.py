@@ -66,6 +66,7 @@ def edit(path: Path, old: str, new: str) -> None:
     path.write_text(text.replace(old, new))
 
 
+@pytest.mark.slow
 def test_an_edit_to_an_inlined_helper_reaches_the_cached_kernel(package_copy, tmp_path):
     copy, run = package_copy
     assert str(copy.parent) in run("import raycast_phong; print(raycast_phong.__file__)")
@@ -106,6 +107,7 @@ def test_the_cache_key_covers_every_module_a_kernel_reads_and_only_those(package
     assert run(KEY) != key
 
 
+@pytest.mark.slow
 def test_the_first_render_says_it_compiles_and_keeps_compilation_out_of_the_frame(package_copy, tmp_path):
     """After an install (an empty cache) `render` says it is compiling before it does, and reports those
     seconds apart: the frame, and the Mrays/s printed from it, hold none of them. The next run says nothing."""

@@ -5,7 +5,7 @@ exactly one line on stderr and the output file untouched; never a traceback, an 
 or a RuntimeWarning (warnings are errors here, and the CLI would turn one into exit 1).
 
 CI runs a fixed, derandomized set of FUZZ_EXAMPLES examples (a few seconds). Run longer, with fresh
-random examples, by setting the number:  RAYCAST_PHONG_FUZZ_EXAMPLES=2000 pytest tests/test_fuzz.py
+random examples, by setting the number:  RAYCAST_PHONG_FUZZ_EXAMPLES=2000 pytest tests/contracts/test_fuzz.py
 """
 
 from __future__ import annotations
@@ -212,6 +212,7 @@ def folder():
 @settings(max_examples=FUZZ_EXAMPLES, derandomize=FUZZ_EXAMPLES == DEFAULT_EXAMPLES, deadline=None,
           database=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
                                                 HealthCheck.filter_too_much, HealthCheck.function_scoped_fixture])
+@pytest.mark.slow
 @given(scene=scenes())
 def test_any_scene_renders_finitely_or_is_refused_in_one_line(folder, monkeypatch, scene):
     monkeypatch.chdir(folder)

@@ -24,7 +24,7 @@ from raycast_phong.renderer.intersect import Accelerator, TileHits, unit_frame
 from raycast_phong.renderer.pack import camera_rig, generate_rays
 
 PACKAGE = Path(raycast_phong.__file__).resolve().parent
-SCENES = Path(__file__).resolve().parents[2] / "scenes"
+SCENES = Path(__file__).resolve().parents[3] / "scenes"
 
 # Both paths run Embree's own float32 ray–triangle test (robust mode) on the same vertices and rays, but the
 # 16-wide packet kernel may evaluate the same products in another order or fused (FMA): u, v and t are ratios
@@ -139,6 +139,7 @@ def test_without_the_library_a_render_stops_with_one_clear_line(tmp_path, librar
     assert not (tmp_path / "x.png").exists()
 
 
+@pytest.mark.slow
 def test_a_cached_kernel_that_calls_embree_loads_without_compiling(tmp_path):
     """The queries link by name (llvmlite add_symbol), so numba's cache serves a fresh process: no recompile."""
     shutil.copytree(PACKAGE, tmp_path / "src" / "raycast_phong", ignore=shutil.ignore_patterns("__pycache__"))

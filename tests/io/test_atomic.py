@@ -1,0 +1,37 @@
+"""io/atomic.py: the data reaches the disk before the new name does, so a failure leaves the old file."""
+
+from __future__ import annotations
+
+import errno
+import os
+
+import pytest
+
+from raycast_phong.io import atomic
+
+
+def test_a_failing_fsync_raises_write_error_and_leaves_the_old_file(tmp_path, monkeypatch):
+    """A full disk may show only at fsync (delayed allocation, NFS, quotas): the rename must not have
+    happened yet, so the old file is still the one on disk, and no temporary file is left beside it."""
+    target = tmp_path / "image.png"
+    target.write_bytes(b"old")
+
+    def full(descriptor):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(atomic.os, "fsync", full)
+    with pytest.raises(atomic.WriteError, match="No space left on device"):
+        atomic.write_bytes(target, b"new")
+    assert target.read_bytes() == b"old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["image.png"]
+
+
+def test_the_file_is_synced_before_it_is_renamed(tmp_path, monkeypatch):
+    """The order a crash needs: fsync of the temporary file, then the rename over the target."""
+    events: list[str] = []
+    fsync, replace = os.fsync, os.replace
+    monkeypatch.setattr(atomic.os, "fsync", lambda fd: events.append("fsync") or fsync(fd))
+    monkeypatch.setattr(atomic.os, "replace", lambda a, b: events.append("replace") or replace(a, b))
+    atomic.write_bytes(tmp_path / "a.bin", b"data")
+    assert events == ["fsync", "replace"]
+    assert (tmp_path / "a.bin").read_bytes() == b"data"

@@ -1,0 +1,198 @@
+"""The docs cannot drift from the code: their Python examples run, and every name they give exists.
+
+1. The README's and docs/'s ```python blocks, and the package docstrings' indented examples that use
+   `raycast_phong`, run in a temporary folder holding `scenes/` and the mesh files the examples name
+   (model.obj, model.glb). A block that needs something else says so in its first line: `# docs: skip`.
+2. Every backticked `module.name` (module: a module or subpackage of raycast_phong, or `rp`) and every
+   backticked path (`io/atomic.py`, `tests/io/`, a bare `jit.py`; not a user's `a.toml`) in README.md and
+   docs/*.md, outside fenced blocks, resolves to an attribute, a scene key or a file of the repository.
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import os
+import re
+from pathlib import Path
+
+import pytest
+
+import raycast_phong
+
+ROOT = Path(__file__).resolve().parents[2]
+PACKAGE = ROOT / "raycast_phong"
+DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+SKIP = "# docs: skip"
+
+# Names in docs/pipeline.md's module tree, which is rewritten as a whole after the package's reorganisation
+# (issue 19). Like tests/project/test_layers.py's PENDING, this set must only shrink.
+PENDING: set[tuple[str, str]] = set()
+
+
+def _fenced_python(text: str) -> list[str]:
+    return re.findall(r"^```python\n(.*?)^```", text, re.S | re.M)
+
+
+def _docstring_examples() -> list[tuple[str, str]]:
+    """(where, code) for each indented block of a package docstring that parses as Python and uses the package."""
+    found = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for node in ast.walk(tree):
+            if not isinstance(node, (ast.Module, ast.FunctionDef, ast.ClassDef)):
+                continue
+            doc = ast.get_docstring(node)
+            for block in re.findall(r"(?:^|\n\n)((?:    .*(?:\n|$))+)", doc or ""):
+                code = "\n".join(line[4:] for line in block.splitlines())
+                try:
+                    ast.parse(code)
+                except SyntaxError:
+                    continue
+                if "raycast_phong" in code:
+                    found.append((f"{path.relative_to(ROOT)}:{getattr(node, 'name', 'module')}", code))
+    return found
+
+
+EXAMPLES = [(f"{path.name}#{i}", code) for path in DOCS for i, code in enumerate(_fenced_python(path.read_text()))]
+EXAMPLES += _docstring_examples()
+
+
+@pytest.fixture(scope="module")
+def example_folder(tmp_path_factory):
+    """scenes/ (a link to the repository's) and small mesh files named model.obj and model.glb."""
+    import trimesh
+    folder = tmp_path_factory.mktemp("examples")
+    (folder / "scenes").symlink_to(ROOT / "scenes")
+    sphere = trimesh.creation.icosphere(subdivisions=1)
+    for name in ("model.obj", "model.glb"):
+        sphere.export(folder / name)
+    return folder
+
+
+def test_the_examples_are_found():
+    """The control for the test below: it sees the README's example and the package docstring's."""
+    names = [where for where, _ in EXAMPLES]
+    assert "README.md#0" in names and "raycast_phong/__init__.py:module" in names, names
+
+
+@pytest.mark.parametrize(("where", "code"), EXAMPLES, ids=[where for where, _ in EXAMPLES])
+def test_the_python_examples_run(where, code, example_folder, monkeypatch):
+    if code.lstrip().startswith(SKIP):
+        pytest.skip(code.lstrip().splitlines()[0])
+    monkeypatch.chdir(example_folder)
+    small = ["render.width=16", "render.height=12"]
+    load, render_file = raycast_phong.load_scene, raycast_phong.render_file
+    # The examples render at their scenes' sizes; 16 × 12 runs the same calls in a fraction of the time.
+    monkeypatch.setattr(raycast_phong, "load_scene",
+                        lambda path, overrides=(), **kw: load(path, [*overrides, *small], **kw))
+    monkeypatch.setattr(raycast_phong, "render_file",
+                        lambda path, overrides=(), **kw: render_file(path, [*overrides, *small], **kw))
+    exec(compile(code, where, "exec"), {"raycast_phong": raycast_phong, "__name__": "example"})
+
+
+# ---------------------------------------------------------------- names
+
+
+def _modules() -> dict[str, list[str]]:
+    """Last component → the dotted names of the package's modules and subpackages that end in it."""
+    found: dict[str, list[str]] = {"raycast_phong": ["raycast_phong"], "rp": ["raycast_phong"]}
+    for path in PACKAGE.rglob("*.py"):
+        parts = path.relative_to(ROOT).with_suffix("").parts
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        found.setdefault(parts[-1], []).append(".".join(parts))
+    return found
+
+
+MODULES = _modules()
+
+
+def _resolves(dotted: str) -> bool:
+    parts = dotted.split(".")
+    for cut in range(len(parts), 0, -1):
+        try:
+            value = importlib.import_module(".".join(parts[:cut]))
+        except ImportError:
+            continue
+        try:
+            for name in parts[cut:]:
+                value = getattr(value, name)
+        except AttributeError:
+            return False
+        return True
+    return False
+
+
+def _is_scene_key(token: str) -> bool:
+    from raycast_phong.scene.schema import Scene
+    model, keyed = Scene, False
+    for name in token.split("."):
+        if keyed:  # a table of named entries ([materials.NAME]): an upper-case placeholder or a digit stands for any
+            keyed = False
+            if name.isupper() or name.isdigit():
+                continue
+        fields = getattr(model, "model_fields", None)
+        if fields is None or name not in fields:
+            return False
+        annotation = fields[name].annotation
+        keyed = getattr(annotation, "__origin__", None) is dict
+        model = next((a for a in getattr(annotation, "__args__", ()) if hasattr(a, "model_fields")), annotation)
+    return True
+
+
+def _file_exists(token: str) -> bool:
+    if token.startswith("../"):
+        return False  # outside the repository: a reader of the package cannot follow it
+    token = token.rstrip("/")
+    if any((folder / name).exists() for folder in (ROOT, PACKAGE) for name in (token, f"{token}.py")):
+        return True
+    for folder, dirs, files in os.walk(ROOT):
+        dirs[:] = [d for d in dirs if not d.startswith(".") and d not in ("build", "__pycache__")]
+        if any(Path(folder, name).as_posix().endswith("/" + token) for name in [*dirs, *files]):
+            return True
+    return False
+
+
+ROOTS = {"raycast_phong", "tests", "docs", "scenes", "benchmarks", ".ci",
+         *{p.name for p in PACKAGE.rglob("*") if p.is_dir() and p.name != "__pycache__"}}
+
+
+FILES = (".py", ".toml", ".json", ".md", ".ply", ".obj", ".glb", ".mtl", ".js", ".css", ".html", ".csv", ".png",
+         ".exr")  # a `name.toml` is a file, not an attribute
+
+
+def names_in(text: str) -> list[str]:
+    """The backticked names and paths to check in one Markdown text (fenced blocks left out)."""
+    text = re.sub(r"^```.*?^```", "", text, flags=re.S | re.M)
+    names = []
+    for token in re.findall(r"`([^`\n]+)`", text):
+        token = token.split("(")[0].strip()
+        if re.fullmatch(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)+", token, re.A) and not token.endswith(FILES):
+            if token.split(".")[0] in MODULES:
+                names.append(token)
+        elif re.fullmatch(r"[\w.-]+(/[\w.-]+)*/?", token, re.A) and (
+                token.endswith(".py") or ("/" in token and token.split("/")[0] in {*ROOTS, ".."})):
+            names.append(token)
+    return names
+
+
+def unresolved(token: str) -> bool:
+    if "/" in token or token.endswith(FILES):
+        return not _file_exists(token)
+    first, rest = token.split(".", 1)
+    if _is_scene_key(token):
+        return False
+    return not any(_resolves(f"{module}.{rest}") for module in MODULES[first])
+
+
+def test_the_name_check_sees_a_wrong_name():
+    """The control: a misspelt function, a module's old home and a missing file are caught."""
+    text = "`accuracy.refined` `reference.refined` `pipeline/render.py` `camera.position` `io/atomic.py` `io/atomic`"
+    assert [t for t in names_in(text) if unresolved(t)] == ["reference.refined", "pipeline/render.py"]
+
+
+def test_every_name_in_the_docs_exists():
+    wrong = {(path.name, token) for path in DOCS for token in names_in(path.read_text()) if unresolved(token)}
+    assert not sorted(wrong - PENDING), sorted(wrong - PENDING)
+    assert not sorted(PENDING - wrong), "fixed: remove from PENDING " + str(sorted(PENDING - wrong))
