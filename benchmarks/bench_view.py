@@ -36,10 +36,11 @@ def summary(name: str, seconds: list[float]) -> str:
             f"max {max(ms):7.1f} ms   (n = {len(ms)})")
 
 
-def point(k: int, n: int) -> tuple[float, float]:
-    """The k-th of n points on a circle around the image centre (a light dragged round the object)."""
+def point(k: int, n: int) -> list[float]:
+    """The k-th of n light positions on a circle of radius 5 round the view axis at z = 4 (the page's gizmo
+    turning the light round the look-at point)."""
     angle = 2 * math.pi * k / max(n, 1)
-    return 0.5 + 0.3 * math.cos(angle), 0.5 + 0.3 * math.sin(angle)
+    return [round(5 * math.cos(angle), 6), round(5 * math.sin(angle), 6), 4.0]
 
 
 def main() -> None:
@@ -60,11 +61,12 @@ def main() -> None:
             json.loads(ws.recv())  # hello
             request_id = 0
 
-            def ask(quality: str, u: float, v: float, reference: bool = False) -> int:
+            def ask(quality: str, position: list[float], reference: bool = False) -> int:
                 nonlocal request_id
                 request_id += 1
-                ws.send(json.dumps({"type": "render", "id": request_id, "quality": quality, "settings": settings,
-                                    "drag": {"light": 0, "u": u, "v": v}, "reference": reference}))
+                moved = {**settings, "lights.0.position": position}
+                ws.send(json.dumps({"type": "render", "id": request_id, "quality": quality, "settings": moved,
+                                    "reference": reference}))
                 return request_id
 
             def frame() -> dict:
@@ -77,7 +79,7 @@ def main() -> None:
                     elif json.loads(message)["type"] == "error":
                         raise SystemExit(json.loads(message)["message"])
 
-            ask("full", 0.5, 0.5)  # warm: the kernels load and the BVH code runs once
+            ask("full", point(0, 1))  # warm: the kernels load and the BVH code runs once
             frame()
             print(f"view of {args.scene or 'the default scene'} at {width}×{height} "
                   f"(draft {(width + 1) // 2}×{(height + 1) // 2}), served at {origin}")
@@ -85,7 +87,7 @@ def main() -> None:
                 latencies, renders = [], []
                 for k in range(args.steps):
                     started = time.perf_counter()
-                    ask(quality, *point(k, args.steps), reference)
+                    ask(quality, point(k, args.steps), reference)
                     header = frame()
                     latencies.append(time.perf_counter() - started)
                     renders.append(header["stats"]["a"]["frame"])
@@ -110,7 +112,7 @@ def main() -> None:
                     if isinstance(message, bytes):
                         header = unpack(message)[0]
                         ages.append(time.perf_counter() - sent_at[header["id"]])
-                sent_at[ask("draft", *point(k, 120))] = time.perf_counter()
+                sent_at[ask("draft", point(k, 120))] = time.perf_counter()
             last = request_id
             while True:
                 message = ws.recv()

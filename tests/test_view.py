@@ -5,7 +5,6 @@ frames equal to render(), latest-wins, saves, the dragged light."""
 from __future__ import annotations
 
 import json
-import math
 import signal
 import subprocess
 import sys
@@ -138,7 +137,7 @@ def test_page_values_are_data_for_the_schema_only(scene_path, settings, says):
         assert answer["type"] == "error" and says in answer["message"], answer
         ws.send_text("not json")
         assert "not JSON" in json.loads(ws.receive_text())["message"]
-        for malformed in ({"settings": [1, 2]}, {"compare": "x"}, {"drag": {"light": "0"}}, {"quality": "best"}):
+        for malformed in ({"settings": [1, 2]}, {"compare": "x"}, {"quality": "best"}):
             ws.send_text(json.dumps({"type": "render", "id": 8, **malformed}))
             answer = json.loads(ws.receive_text())
             assert answer["type"] == "error" and "internal" not in answer["message"], (malformed, answer)
@@ -206,19 +205,6 @@ def test_latest_wins_while_a_render_runs(scene_path):
         last, _ = receive_frame(ws)
     assert dropped == [{"type": "dropped", "id": 2}, {"type": "dropped", "id": 3}]
     assert (first["id"], last["id"]) == (1, 4)
-
-
-def test_dragging_moves_the_light_in_its_plane_in_front_of_the_camera(scene_path):
-    """Camera at z = 4 looking at the origin (fov 40°, 64×48), light at (2, 2, 3): its depth along the view
-    axis is 1, so the image centre puts it at (0, 0, 3) and the top-right corner at (tan 20° · 4/3, tan 20°, 3)."""
-    with connect(client_for(scene_path)) as ws:
-        ws.receive_text()
-        positions = []
-        for request_id, (u, v) in enumerate([(0.5, 0.5), (1.0, 0.0)]):
-            ws.send_text(json.dumps({"type": "render", "id": request_id, "drag": {"light": 0, "u": u, "v": v}}))
-            positions.append(receive_frame(ws)[0]["moved"]["lights.0.position"])
-    t = math.tan(math.radians(20))
-    np.testing.assert_allclose(positions, [[0, 0, 3], [t * 64 / 48, t, 3]], atol=1e-6)
 
 
 def test_exact_errors_follow_a_full_frame_of_an_analytic_scene(scene_path):

@@ -46,8 +46,15 @@ def scene_path(tmp_path) -> Path:
 @pytest.fixture
 def page(browser, scene_path):
     """The page of a view of the tiny scene, connected and showing its first full frame."""
-    with running(scene_path) as url:
-        tab = browser.new_page(viewport={"width": 1000, "height": 700})
+    with opened(browser, scene_path) as tab:
+        yield tab
+
+
+@contextmanager
+def opened(browser, path: Path, **options):
+    """A tab on a view of `path`, showing its first full frame; no script error may occur meanwhile."""
+    with running(path, **options) as url:
+        tab = browser.new_page(viewport={"width": 1000, "height": 800})
         errors: list[str] = []
         tab.on("pageerror", lambda error: errors.append(str(error)))
         tab.goto(url)
@@ -99,25 +106,91 @@ def test_switching_shading_shows_what_render_gives(page, scene_path):
     assert "Mrays/s" not in page.text_content("#rays") and " M (" in page.text_content("#rays")
 
 
-def test_dragging_moves_the_light_and_refines_when_released(page, scene_path):
-    box = page.locator("#image-a").bounding_box()
-    start = (box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
-    end = (box["x"] + 0.8 * box["width"], box["y"] + 0.25 * box["height"])
-    page.mouse.move(*start)
-    page.mouse.down()
-    page.mouse.move(*end, steps=8)
-    page.wait_for_function("document.querySelector('#image-a').dataset.quality === 'draft'", timeout=60_000)
-    page.mouse.up()
+def turned(p, axis, angle: float) -> np.ndarray:
+    """p turned by `angle` round the unit `axis` (Rodrigues), written here apart from the page's own."""
+    p, axis = np.asarray(p, float), np.asarray(axis, float)
+    return p * math.cos(angle) + np.cross(axis, p) * math.sin(angle) + axis * axis.dot(p) * (1 - math.cos(angle))
+
+
+def drag(tab, selector: str, dx: float, dy: float, modifier: str | None = None) -> None:
+    """Press in the middle of `selector`, move by (dx, dy) CSS pixels in 8 steps, release."""
+    box = tab.locator(selector).bounding_box()
+    x, y = round(box["x"] + box["width"] / 2), round(box["y"] + box["height"] / 2)
+    if modifier:
+        tab.keyboard.down(modifier)
+    tab.mouse.move(x, y)
+    tab.mouse.down()
+    tab.mouse.move(x + dx, y + dy, steps=8)
+    tab.wait_for_function("document.querySelector('#image-a').dataset.quality === 'draft'", timeout=60_000)
+    tab.mouse.up()
+    if modifier:
+        tab.keyboard.up(modifier)
+
+
+def test_the_light_gizmo_turns_the_light_round_the_look_at_point(page, scene_path):
+    # Dragging across the gizmo's radius (74 px) is a quarter turn: 37 px right turns the light (2, 2, 3)
+    # 45° round the camera's up axis (0, 1, 0) through the look-at point (the origin), at the same distance.
+    drag(page, "#gizmo", 37, 0)
     wait_for_full_frame(page)
     position = page.evaluate("window.view.settings.a['lights.0.position']")
-    # Camera at z = 4 looking down −z, fov 40°, 4:3; the light (2, 2, 3) is 1 in front of the eye, so it moves
-    # in the plane z = 3: image point (u, v) puts it at ((2u − 1) tan 20° · 4/3, (1 − 2v) tan 20°, 3).
-    u, v = (end[0] - box["x"]) / box["width"], (end[1] - box["y"]) / box["height"]
-    t = math.tan(math.radians(20))
-    expected = [(2 * u - 1) * t * WIDTH / HEIGHT, (1 - 2 * v) * t, 3.0]
-    np.testing.assert_allclose(position, expected, atol=1e-5)  # the server rounds to 6 decimals
+    np.testing.assert_allclose(position, turned([2, 2, 3], [0, 1, 0], math.pi / 4), atol=1e-4)
     moved = rp.load_scene(scene_path, [f"lights.0.position={position}"])
     np.testing.assert_array_equal(page_image(page), to_8bit(rp.render(moved).image))
+    # Down by 74 px: a quarter turn round the camera's right axis (1, 0, 0), so the light drops below.
+    drag(page, "#gizmo", 0, 74)
+    wait_for_full_frame(page)
+    lowered = page.evaluate("window.view.settings.a['lights.0.position']")
+    np.testing.assert_allclose(lowered, turned(position, [1, 0, 0], math.pi / 2), atol=1e-4)
+    assert lowered[1] < 0  # anywhere on the sphere of directions, not a patch in front of the camera
+    # The wheel moves it 10 % further a notch, along the same direction.
+    box = page.locator("#gizmo").bounding_box()
+    page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+    page.mouse.wheel(0, 100)
+    wait_for_full_frame(page)
+    further = page.evaluate("window.view.settings.a['lights.0.position']")
+    np.testing.assert_allclose(further, 1.1 * np.asarray(lowered), atol=1e-5)
+    assert float(page.input_value("#light-distance")) == pytest.approx(1.1 * math.sqrt(17), abs=1e-3)
+
+
+def test_light_fields_place_the_light_its_marker_shows_it_and_reset_brings_it_back(page, scene_path):
+    original = page_image(page)
+    assert page.is_hidden("#marker-a")  # the scene's light (2, 2, 3) is outside the 40° view
+    for axis, value in enumerate(("0.5", "0.3", "2")):
+        page.fill(f"#light-xyz input[data-axis='{axis}']", value)
+        page.dispatch_event(f"#light-xyz input[data-axis='{axis}']", "change")
+    wait_for_full_frame(page)
+    assert page.evaluate("window.view.settings.a['lights.0.position']") == [0.5, 0.3, 2]
+    moved = rp.load_scene(scene_path, ["lights.0.position=[0.5, 0.3, 2]"])
+    np.testing.assert_array_equal(page_image(page), to_8bit(rp.render(moved).image))
+    # Eye at z = 4, fov 40°, 4:3: the light at depth 2 is seen at x = 0.5 / (2 tan 20° · 4/3), y = 0.3 / (2 tan 20°).
+    t = math.tan(math.radians(20))
+    u, v = (1 + 0.5 / (2 * t * WIDTH / HEIGHT)) / 2, (1 - 0.3 / (2 * t)) / 2
+    image, marker = page.locator("#image-a").bounding_box(), page.locator("#marker-a").bounding_box()
+    centre = (marker["x"] + marker["width"] / 2, marker["y"] + marker["height"] / 2)
+    assert centre[0] == pytest.approx(image["x"] + u * image["width"], abs=1.5)
+    assert centre[1] == pytest.approx(image["y"] + v * image["height"], abs=1.5)
+    page.click("#light-reset")
+    wait_for_full_frame(page)
+    assert page.evaluate("Object.keys(window.view.settings.a)") == []
+    np.testing.assert_array_equal(page_image(page), original)
+    assert page.input_value("#light-xyz input[data-axis='0']") == "2"
+
+
+def test_every_light_of_the_scene_can_be_chosen_and_moved(browser, tmp_path):
+    path = write_tiny_scene(tmp_path, WIDTH, HEIGHT, '[[lights]]\ntype = "directional"\ndirection = [1, 0, -1]\n')
+    with opened(browser, path) as tab:
+        assert tab.locator("#light option").all_text_contents() == ["1: point", "2: directional"]
+        tab.select_option("#light", "1")
+        assert tab.text_content("#light-xyz-name") == "direction" and tab.is_disabled("#light-distance")
+        drag(tab, "#gizmo", 37, 0)
+        wait_for_full_frame(tab)
+        settings = tab.evaluate("window.view.settings.a")
+        assert list(settings) == ["lights.1.direction"]  # the first light stays where the scene put it
+        # The direction the light travels turns with the direction towards it: 45° round (0, 1, 0).
+        expected = turned(np.array([1, 0, -1]) / math.sqrt(2), [0, 1, 0], math.pi / 4)
+        np.testing.assert_allclose(settings["lights.1.direction"], expected, atol=1e-4)
+        moved = rp.load_scene(path, [f"lights.1.direction={settings['lights.1.direction']}"])
+        np.testing.assert_array_equal(page_image(tab), to_8bit(rp.render(moved).image))
 
 
 def test_a_saved_scene_renders_from_the_cli_to_the_image_shown(page, tmp_path, monkeypatch):

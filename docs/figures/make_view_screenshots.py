@@ -28,14 +28,13 @@ def settle(page, errors: bool = False) -> None:
         page.wait_for_function("document.querySelector('#exact').textContent.startsWith('RMSE')", timeout=120_000)
 
 
-def drag(page, points: list[tuple[float, float]]) -> None:
-    """Drag on image A through image points (u, v) ∈ [0, 1]², then release."""
-    box = page.locator("#image-a").bounding_box()
-    at = [(box["x"] + u * box["width"], box["y"] + v * box["height"]) for u, v in points]
-    page.mouse.move(*at[0])
+def drag(page, selector: str, dx: float, dy: float) -> None:
+    """Drag from the middle of `selector` by (dx, dy) CSS pixels, then release."""
+    box = page.locator(selector).bounding_box()
+    x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+    page.mouse.move(x, y)
     page.mouse.down()
-    for x, y in at[1:]:
-        page.mouse.move(x, y, steps=4)
+    page.mouse.move(x + dx, y + dy, steps=6)
     page.mouse.up()
 
 
@@ -67,12 +66,11 @@ def main() -> None:
             page.dispatch_event("#wipe", "input")
             page.locator("#viewer").screenshot(path=IMAGES / "view-wipe.png")
 
-        with running(Path("scenes/default.toml")) as url:  # drag the light over the three spheres
+        with running(Path("scenes/default.toml")) as url:  # turn the light over the three spheres (gizmo)
             page.goto(url)
             settle(page)
-            path = [(0.75, 0.2), (0.5, 0.35), (0.3, 0.5), (0.15, 0.7)]
-            for index, end in enumerate(path[1:], start=1):
-                drag(page, [path[index - 1], end])
+            for index, (dx, dy) in enumerate([(-20, 8), (-20, 8), (-20, 8)], start=1):
+                drag(page, "#gizmo", dx, dy)
                 settle(page)
                 page.locator("#stage").screenshot(path=IMAGES / f"view-drag-{index}.png")
             page.evaluate("window.view.settings.a['materials.clay.shininess'] = -1")

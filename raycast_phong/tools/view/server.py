@@ -116,31 +116,6 @@ def frame_of(scene: rp.Scene) -> rp.Scene:
     return scene.model_copy(update={"output": scene.output.model_copy(update={"aovs": ()})})
 
 
-def light_on_plane(scene: rp.Scene, light: int, u: float, v: float) -> list[float]:
-    """Where a light goes when dragged to image point (u, v) ∈ [0, 1]² (u right, v down).
-
-    The light moves in the plane parallel to the image at its present depth along the view axis (at the
-    look_at point's depth if it is behind the eye), so dragging never pulls it toward or away from the
-    camera; the ray through (u, v) follows camera.py's raster convention.
-    """
-    from raycast_phong.renderer.kernels.camera import camera_rig
-    if not (0 <= light < len(scene.lights)) or scene.lights[light].type != "point":
-        raise ViewError(f"lights.{light}: only a point light can be dragged")
-    if not all(isinstance(x, (int, float)) and math.isfinite(x) for x in (u, v)):
-        raise ViewError("drag: u and v must be finite numbers")
-    rig = camera_rig(scene)
-    x, y = 2 * min(max(u, 0.0), 1.0) - 1, 1 - 2 * min(max(v, 0.0), 1.0)  # raster → screen, y up
-    sx, sy = x * rig.half_width, y * rig.half_height
-    depth = float(np.dot(np.asarray(scene.lights[light].position) - rig.eye, rig.forward))
-    if depth <= 0:
-        depth = float(np.dot(np.asarray(scene.camera.look_at) - rig.eye, rig.forward))
-    if rig.orthographic:
-        point = rig.eye + sx * rig.right + sy * rig.up + depth * rig.forward
-    else:
-        point = rig.eye + depth * (rig.forward + sx * rig.right + sy * rig.up)
-    return [round(float(c), 6) for c in point]
-
-
 # ---------------------------------------------------------------- frames
 
 def encode(image: np.ndarray, suffix: str, aovs: dict | None = None) -> bytes:
@@ -201,21 +176,9 @@ class Renderer:
             raise ViewError(f"quality: {quality!r}; allowed: 'draft' or 'full'")
         settings = settings_of(request)
         header: dict = {"type": "frame", "id": request.get("id"), "quality": quality}
-        drag = request.get("drag")
-        if drag is not None:
-            if not isinstance(drag, dict):
-                raise ViewError("drag must be a table {light, u, v}")
-            light = drag.get("light", 0)
-            if not isinstance(light, int) or isinstance(light, bool):
-                raise ViewError("drag.light must be a light's index")
-            position = light_on_plane(scene_with(self.source, settings), light, drag.get("u"), drag.get("v"))
-            settings[f"lights.{light}.position"] = position
-            header["moved"] = {f"lights.{light}.position": position}
         scenes = {"a": scene_with(self.source, settings)}
         if request.get("compare") is not None:
-            compare = settings_of(request, "compare")
-            compare.update(header.get("moved", {}))  # a dragged light moves in both
-            scenes["b"] = scene_with(self.source, compare)
+            scenes["b"] = scene_with(self.source, settings_of(request, "compare"))
         shaped = draft_of if quality == "draft" else frame_of
         parts, images, stats = [], {}, {}
         for name, scene in scenes.items():
@@ -245,7 +208,7 @@ class Renderer:
         """RMSE, max error and highlight loss of A against the exact surfaces; None for a mesh scene."""
         from raycast_phong.tools.accuracy import measured
         from raycast_phong.tools.reference import ExactScene
-        scene = frame_of(scene_with(self.source, settings_of(request) | request.get("moved", {})))
+        scene = frame_of(scene_with(self.source, settings_of(request)))
         try:
             ExactScene(scene, self.source.name)
         except SceneError:
@@ -375,8 +338,7 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
                     continue
                 await websocket.send_bytes(reply)
                 if is_frame and request.get("quality", "full") == "full" and request.get("reference"):
-                    moved = unpack(reply)[0].get("moved", {})
-                    client.reference_next = {**request, "moved": moved}  # latest wins here too
+                    client.reference_next = request  # latest wins here too
                     if client.reference_task is None or client.reference_task.done():
                         client.reference_task = asyncio.create_task(measure(websocket, client))
 

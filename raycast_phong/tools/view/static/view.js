@@ -59,11 +59,11 @@ function send(message) {
   if (socket.readyState === WebSocket.OPEN) socket.send(JSON.stringify(message));
 }
 
-function request(quality, drag) {
+function request(quality) {
   const id = state.nextId++;
   state.sentAt[id] = performance.now();
   send({
-    type: "render", id, quality, drag,
+    type: "render", id, quality,
     settings: state.settings.a,
     compare: state.compare === "off" ? null : state.settings.b,
     reference: Boolean(state.hello && state.hello.analytic) && quality === "full",
@@ -103,10 +103,6 @@ function onFrame(header, parts) {
   } else if (header.difference) {
     $("#heat-caption").textContent = header.difference.note || "";
   }
-  for (const [key, value] of Object.entries(header.moved || {})) {
-    state.settings.a[key] = value;
-    state.settings.b[key] = value;
-  }
   const a = header.stats.a;
   $("#frame-time").textContent = `${(1000 * a.frame).toFixed(1)} ms render of ${a.width}×${a.height}` +
     ` (${header.quality}), ${(1000 * header.seconds).toFixed(1)} ms in all`;
@@ -120,6 +116,7 @@ function onFrame(header, parts) {
   $("#warnings").replaceChildren(...a.warnings.map((w) => Object.assign(document.createElement("li"), { textContent: w })));
   if (header.quality === "draft") $("#exact").textContent = "(when the pointer rests)";
   state.lastFrame = header;
+  drawMarkers();
   hideError();
 }
 
@@ -146,10 +143,11 @@ function sceneValue(key) {
   for (const part of key.split(".")) node = node === undefined || node === null ? undefined : node[part];
   return node;
 }
-function valueOf(key) {
-  const mine = state.settings[state.editing];
+function valueIn(side, key) {
+  const mine = state.settings[side];
   return key in mine ? mine[key] : sceneValue(key);
 }
+const valueOf = (key) => valueIn(state.editing, key);
 function set(values, quality) {
   Object.assign(state.settings[state.editing], values);
   request(quality);
@@ -167,7 +165,6 @@ function materialValue(coefficient) {
 }
 
 function refreshControls() {
-  const scene = state.hello.scene;
   for (const input of document.querySelectorAll("[data-key]")) {
     input.value = valueOf(input.dataset.key);
     const out = input.parentElement.querySelector("output");
@@ -177,13 +174,7 @@ function refreshControls() {
   const level = state.level[state.editing];
   $("#level").value = level ?? 2;
   $("#level").nextElementSibling.textContent = level ?? "scene";
-  const light = scene.lights[0];
-  $("#light-box").disabled = !light || light.type !== "point";
-  if (light) {
-    $("#light-colour").value = toHex(valueOf("lights.0.diffuse"));
-    const attenuation = valueOf("lights.0.attenuation");
-    $("#attenuation").value = typeof attenuation === "string" ? attenuation : "none";
-  }
+  refreshLight();
   for (const input of document.querySelectorAll("[data-coefficient]")) {
     input.value = toHex(materialValue(input.dataset.coefficient));
   }
@@ -201,8 +192,226 @@ function onHello(message) {
   state.hello = message;
   $("#source").textContent = message.source;
   $("#material").replaceChildren(...message.materials.map((name) => new Option(name, name)));
+  $("#light").replaceChildren(...message.scene.lights.map((light, index) =>
+    new Option(`${index + 1}: ${light.type}`, String(index))));
   refreshControls();
   request("full");
+}
+
+// ------------------------------------------------------------------ geometry (camera.py's conventions)
+
+const sub = (p, q) => p.map((x, i) => x - q[i]);
+const add = (p, q) => p.map((x, i) => x + q[i]);
+const scale = (p, s) => p.map((x) => x * s);
+const dot = (p, q) => p.reduce((sum, x, i) => sum + x * q[i], 0);
+const norm = (p) => Math.hypot(...p);
+const unit = (p) => scale(p, 1 / norm(p));
+const cross = (p, q) => [p[1] * q[2] - p[2] * q[1], p[2] * q[0] - p[0] * q[2], p[0] * q[1] - p[1] * q[0]];
+const rounded = (p) => p.map((x) => Number(x.toFixed(6)));  // what the settings (and so the URL) carry
+
+// p turned by `angle` (radians) round the unit `axis` (Rodrigues' formula).
+function rotate(p, axis, angle) {
+  const c = Math.cos(angle), s = Math.sin(angle);
+  return add(add(scale(p, c), scale(cross(axis, p), s)), scale(axis, dot(axis, p) * (1 - c)));
+}
+
+// The camera of one side (A or B) as its settings make it: camera_rig's eye, right, up, forward and half sizes.
+function rigOf(side) {
+  const value = (key) => valueIn(side, key);
+  const eye = value("camera.position"), target = value("camera.look_at");
+  const forward = unit(sub(target, eye));
+  const right = unit(cross(forward, value("camera.up")));
+  const up = cross(right, forward);
+  const orthographic = value("camera.type") === "orthographic";
+  const halfHeight = orthographic ? value("camera.view_height") / 2 : Math.tan((value("camera.fov") * Math.PI) / 360);
+  const aspect = value("render.width") / value("render.height");
+  return { eye, target, forward, right, up, orthographic, halfHeight, halfWidth: halfHeight * aspect };
+}
+
+// Where world point p falls on the image, (u, v) ∈ [0, 1]² from the top left; null behind the eye.
+function project(rig, p) {
+  const q = sub(p, rig.eye);
+  const depth = dot(q, rig.forward);
+  if (!rig.orthographic && depth <= 0) return null;
+  const along = rig.orthographic ? 1 : depth;
+  const x = dot(q, rig.right) / (along * rig.halfWidth), y = dot(q, rig.up) / (along * rig.halfHeight);
+  return { u: (x + 1) / 2, v: (1 - y) / 2 };
+}
+
+// ------------------------------------------------------------------ lights: gizmo, marker, fields
+
+const lightIndex = () => Number($("#light").value || 0);
+const lightOf = (index) => state.hello.scene.lights[index];
+
+// The selected light's direction from the look-at point (unit, towards the light) and its distance;
+// a directional light has only a direction (the way its light travels is the opposite).
+function lightPlacement(side = state.editing, index = lightIndex()) {
+  const rig = rigOf(side);
+  if (lightOf(index).type === "directional") {
+    return { toLight: unit(scale(valueIn(side, `lights.${index}.direction`), -1)), distance: null, rig };
+  }
+  const offset = sub(valueIn(side, `lights.${index}.position`), rig.target);
+  const distance = norm(offset);
+  return { toLight: distance > 0 ? scale(offset, 1 / distance) : scale(rig.forward, -1), distance, rig };
+}
+
+// Move or turn a light in A and (while comparing) B alike, so that the two stay comparable.
+function setShared(values, quality) {
+  for (const side of state.bStarted ? ["a", "b"] : ["a"]) Object.assign(state.settings[side], values);
+  request(quality);
+  refreshLight();
+}
+
+function placeLight(toLight, distance, quality) {
+  const index = lightIndex();
+  if (lightOf(index).type === "directional") {
+    setShared({ [`lights.${index}.direction`]: rounded(scale(toLight, -1)) }, quality);
+  } else {
+    setShared({ [`lights.${index}.position`]: rounded(add(rigOf(state.editing).target, scale(toLight, distance))) }, quality);
+  }
+}
+
+// Trackball: a drag of (dx, dy) pixels turns the light round the camera's up and right axes through
+// the look-at point, `perPixel` radians a pixel; relative, so a click never makes it jump.
+function turnLight(dx, dy, perPixel, quality) {
+  const { toLight, distance, rig } = lightPlacement();
+  const turned = rotate(rotate(toLight, rig.up, dx * perPixel), rig.right, dy * perPixel);
+  placeLight(unit(turned), distance, quality);
+}
+
+// The gizmo shows every direction round the look-at point as a disc (azimuthal equidistant): the centre
+// is towards the viewer, the middle ring is the image plane's directions, the rim is straight behind.
+function gizmoPoint(rig, toLight, radius) {
+  const towardsViewer = scale(rig.forward, -1);
+  const angle = Math.acos(Math.max(-1, Math.min(1, dot(toLight, towardsViewer))));
+  const x = dot(toLight, rig.right), y = dot(toLight, rig.up);
+  const across = Math.hypot(x, y) || 1;
+  const r = (radius * angle) / Math.PI;
+  return { x: (r * x) / across, y: (-r * y) / across, front: angle <= Math.PI / 2 };
+}
+
+function drawGizmo() {
+  const canvas = $("#gizmo");
+  const g = canvas.getContext("2d");
+  const size = canvas.width, radius = size / 2 - 6, centre = size / 2;
+  g.clearRect(0, 0, size, size);
+  g.fillStyle = "#26282b";
+  g.beginPath(); g.arc(centre, centre, radius, 0, 2 * Math.PI); g.fill();
+  g.strokeStyle = "#555";
+  g.beginPath(); g.arc(centre, centre, radius / 2, 0, 2 * Math.PI); g.stroke();
+  g.beginPath(); g.moveTo(centre - radius, centre); g.lineTo(centre + radius, centre);
+  g.moveTo(centre, centre - radius); g.lineTo(centre, centre + radius); g.stroke();
+  if (!state.hello || !state.hello.scene.lights.length) return;
+  state.hello.scene.lights.forEach((_, index) => {
+    const { toLight, rig } = lightPlacement(state.editing, index);
+    const p = gizmoPoint(rig, toLight, radius);
+    const selected = index === lightIndex();
+    g.beginPath();
+    g.arc(centre + p.x, centre + p.y, selected ? 6 : 4, 0, 2 * Math.PI);
+    g.fillStyle = g.strokeStyle = selected ? "#ffd84a" : "#999";
+    g.lineWidth = 2;
+    if (p.front) g.fill(); else g.stroke();  // hollow: behind the look-at point
+    g.lineWidth = 1;
+  });
+}
+
+// The selected light's marker on each image (hidden when it is off the image or behind the eye).
+function drawMarkers() {
+  if (!state.hello || !lightOf(lightIndex())) return;
+  for (const side of ["a", "b"]) {
+    const marker = $(`#marker-${side}`);
+    const index = lightIndex();
+    const at = lightOf(index).type === "point" ? project(rigOf(side), valueIn(side, `lights.${index}.position`)) : null;
+    marker.hidden = !at || at.u < 0 || at.u > 1 || at.v < 0 || at.v > 1;
+    if (at) { marker.style.left = `${100 * at.u}%`; marker.style.top = `${100 * at.v}%`; }
+  }
+}
+
+function refreshLight() {
+  const index = lightIndex();
+  const light = lightOf(index);
+  $("#light-box").disabled = !light;
+  if (!light) return;
+  const point = light.type === "point";
+  $("#light-xyz-name").textContent = point ? "position" : "direction";
+  const xyz = valueOf(point ? `lights.${index}.position` : `lights.${index}.direction`);
+  for (const input of document.querySelectorAll("#light-xyz input")) {
+    if (document.activeElement !== input) input.value = Number(xyz[input.dataset.axis].toFixed(4));
+  }
+  $("#light-distance").disabled = !point;
+  $("#attenuation").disabled = !point;
+  const { distance } = lightPlacement();
+  if (document.activeElement !== $("#light-distance")) $("#light-distance").value = point ? Number(distance.toFixed(4)) : "";
+  $("#light-colour").value = toHex(valueOf(`lights.${index}.diffuse`));
+  const attenuation = valueOf(`lights.${index}.attenuation`);
+  $("#attenuation").value = typeof attenuation === "string" ? attenuation : "none";
+  drawGizmo();
+  drawMarkers();
+}
+
+function wireLight() {
+  $("#light").addEventListener("change", refreshLight);
+  const gizmo = $("#gizmo");
+  const radius = gizmo.width / 2 - 6;
+  let last = null;
+  gizmo.addEventListener("pointerdown", (event) => {
+    gizmo.setPointerCapture(event.pointerId);
+    last = { x: event.clientX, y: event.clientY };
+  });
+  gizmo.addEventListener("pointermove", (event) => {
+    if (!last || !gizmo.hasPointerCapture(event.pointerId)) return;
+    // Across the disc's radius is a quarter turn: the whole sphere of directions is within one drag.
+    turnLight(event.clientX - last.x, event.clientY - last.y, Math.PI / 2 / radius, "draft");
+    last = { x: event.clientX, y: event.clientY };
+  });
+  gizmo.addEventListener("pointerup", (event) => {
+    if (!last) return;
+    gizmo.releasePointerCapture(event.pointerId);
+    last = null;
+    request("full");
+  });
+  let settle = null;
+  gizmo.addEventListener("wheel", (event) => {
+    event.preventDefault();
+    const { toLight, distance } = lightPlacement();
+    if (distance === null) return;
+    placeLight(toLight, distance * 1.1 ** Math.sign(event.deltaY), "draft");  // 10 % a notch, away when scrolled down
+    clearTimeout(settle);
+    settle = setTimeout(() => request("full"), 250);
+  }, { passive: false });
+  gizmo.addEventListener("keydown", (event) => {
+    const step = { ArrowLeft: [-1, 0], ArrowRight: [1, 0], ArrowUp: [0, -1], ArrowDown: [0, 1] }[event.key];
+    if (!step) return;
+    event.preventDefault();
+    turnLight(step[0], step[1], Math.PI / 36, "full");  // 5° a key press
+  });
+  for (const input of document.querySelectorAll("#light-xyz input")) {
+    input.addEventListener("change", () => {
+      const index = lightIndex();
+      const key = lightOf(index).type === "point" ? `lights.${index}.position` : `lights.${index}.direction`;
+      const xyz = [...valueOf(key)];
+      xyz[input.dataset.axis] = Number(input.value);
+      setShared({ [key]: xyz }, "full");
+    });
+  }
+  $("#light-distance").addEventListener("change", () => {
+    const distance = Number($("#light-distance").value);
+    if (distance > 0) placeLight(lightPlacement().toLight, distance, "full");
+  });
+  $("#light-reset").addEventListener("click", () => {
+    const prefix = `lights.${lightIndex()}.`;
+    for (const side of ["a", "b"]) {
+      for (const key of Object.keys(state.settings[side])) if (key.startsWith(prefix)) delete state.settings[side][key];
+    }
+    refreshLight();
+    request("full");
+  });
+  $("#light-colour").addEventListener("input", () => {
+    const rgb = fromHex($("#light-colour").value);
+    set({ [`lights.${lightIndex()}.diffuse`]: rgb, [`lights.${lightIndex()}.specular`]: rgb }, "draft");
+  });
+  $("#light-colour").addEventListener("change", () => request("full"));
+  $("#attenuation").addEventListener("change", () => set({ [`lights.${lightIndex()}.attenuation`]: $("#attenuation").value }, "full"));
 }
 
 function wire() {
@@ -230,12 +439,7 @@ function wire() {
   };
   level.addEventListener("input", () => applyLevel("draft"));
   level.addEventListener("change", () => applyLevel("full"));
-  $("#light-colour").addEventListener("input", () => {
-    const rgb = fromHex($("#light-colour").value);
-    set({ "lights.0.diffuse": rgb, "lights.0.specular": rgb }, "draft");
-  });
-  $("#light-colour").addEventListener("change", () => request("full"));
-  $("#attenuation").addEventListener("change", () => set({ "lights.0.attenuation": $("#attenuation").value }, "full"));
+  wireLight();
   $("#material").addEventListener("change", refreshControls);
   for (const input of document.querySelectorAll("[data-coefficient]")) {
     input.addEventListener("input", () => set({ [materialKey(input.dataset.coefficient)]: fromHex(input.value) }, "draft"));
@@ -271,26 +475,6 @@ function wire() {
   for (const button of document.querySelectorAll("[data-save]")) {
     button.addEventListener("click", () => send({ type: "save", id: state.nextId++, what: button.dataset.save,
                                                    settings: state.settings[state.editing] }));
-  }
-  // Drag the first light: the server maps the pointer to a point on a plane in front of the camera.
-  for (const img of [$("#image-a"), $("#image-b")]) {
-    const at = (event) => {
-      const box = img.getBoundingClientRect();
-      return { light: 0, u: (event.clientX - box.left) / box.width, v: (event.clientY - box.top) / box.height };
-    };
-    img.addEventListener("pointerdown", (event) => {
-      if ($("#light-box").disabled) return;
-      img.setPointerCapture(event.pointerId);
-      request("draft", at(event));
-    });
-    img.addEventListener("pointermove", (event) => {
-      if (img.hasPointerCapture(event.pointerId)) request("draft", at(event));
-    });
-    img.addEventListener("pointerup", (event) => {
-      if (!img.hasPointerCapture(event.pointerId)) return;
-      img.releasePointerCapture(event.pointerId);
-      request("full", at(event));
-    });
   }
 }
 
