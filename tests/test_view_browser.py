@@ -193,6 +193,50 @@ def test_every_light_of_the_scene_can_be_chosen_and_moved(browser, tmp_path):
         np.testing.assert_array_equal(page_image(tab), to_8bit(rp.render(moved).image))
 
 
+def test_the_camera_orbits_pans_zooms_and_resets(page, scene_path, tmp_path):
+    original = page_image(page)
+    height = page.locator("#image-a").bounding_box()["height"]
+    # Dragging across the image's height is half a turn: 1/4 of it to the right turns the eye (0, 0, 4)
+    # by −45° round the scene's up axis (0, 1, 0), about look_at, so the sphere seems to turn right.
+    drag(page, "#image-a", height / 4, 0)
+    wait_for_full_frame(page)
+    position = page.evaluate("window.view.settings.a['camera.position']")
+    np.testing.assert_allclose(position, turned([0, 0, 4], [0, 1, 0], -math.pi / 4), atol=1e-4)
+    orbited = rp.load_scene(scene_path, [f"camera.position={position}"])
+    np.testing.assert_array_equal(page_image(page), to_8bit(rp.render(orbited).image))
+    # The wheel moves the eye 10 % further a notch along its view axis.
+    page.mouse.wheel(0, 100)
+    wait_for_full_frame(page)
+    np.testing.assert_allclose(page.evaluate("window.view.settings.a['camera.position']"),
+                               1.1 * np.asarray(position), atol=1e-5)
+    # A key press on the image orbits 5°, and R resets the view.
+    page.focus("#stage")
+    page.keyboard.press("r")
+    wait_for_full_frame(page)
+    assert page.evaluate("Object.keys(window.view.settings.a)") == []
+    np.testing.assert_array_equal(page_image(page), original)
+    page.keyboard.press("ArrowLeft")
+    wait_for_full_frame(page)
+    np.testing.assert_allclose(page.evaluate("window.view.settings.a['camera.position']"),
+                               turned([0, 0, 4], [0, 1, 0], math.pi / 36), atol=1e-5)
+    page.click("#camera-reset")
+    # Shift-drag pans: eye and look_at move together; 1/8 of the height right moves them left by
+    # 1/8 of the view's height at the look_at point's depth, 2 · 4 · tan 20°.
+    drag(page, "#image-a", height / 8, 0, modifier="Shift")
+    wait_for_full_frame(page)
+    shift = -2 * 4 * math.tan(math.radians(20)) / 8
+    settings = page.evaluate("window.view.settings.a")
+    np.testing.assert_allclose(settings["camera.look_at"], [shift, 0, 0], atol=1e-5)
+    np.testing.assert_allclose(settings["camera.position"], [shift, 0, 4], atol=1e-5)
+    # The camera is saved with the settings: the scene file renders the image shown.
+    with page.expect_download() as download:
+        page.click("[data-save=toml]")
+    saved = tmp_path / "saved.toml"
+    download.value.save_as(saved)
+    np.testing.assert_allclose(rp.load_scene(saved).camera.look_at, [shift, 0, 0], atol=1e-5)
+    np.testing.assert_array_equal(page_image(page), to_8bit(rp.render(rp.load_scene(saved)).image))
+
+
 def test_a_saved_scene_renders_from_the_cli_to_the_image_shown(page, tmp_path, monkeypatch):
     from typer.testing import CliRunner
 

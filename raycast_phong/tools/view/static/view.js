@@ -414,6 +414,96 @@ function wireLight() {
   $("#attenuation").addEventListener("change", () => set({ [`lights.${lightIndex()}.attenuation`]: $("#attenuation").value }, "full"));
 }
 
+// ------------------------------------------------------------------ camera: orbit, pan, zoom
+
+const CAMERA_KEYS = ["camera.position", "camera.look_at", "camera.view_height"];
+
+// Orbit round look_at: (dx, dy) pixels turn the eye round the scene's up axis and the camera's right
+// axis, `perPixel` radians a pixel, as if the object were turned with the pointer (f3d, three.js).
+function orbit(dx, dy, perPixel, quality) {
+  const rig = rigOf(state.editing);
+  const worldUp = unit(valueOf("camera.up"));
+  let offset = rotate(sub(rig.eye, rig.target), worldUp, -dx * perPixel);
+  const right = unit(cross(scale(offset, -1), worldUp));
+  const pitched = rotate(offset, right, -dy * perPixel);
+  // Stop a degree short of the poles: looking along `up` leaves the camera without a frame.
+  const fromUp = Math.acos(Math.max(-1, Math.min(1, dot(unit(pitched), worldUp))));
+  if (fromUp > Math.PI / 180 && fromUp < Math.PI - Math.PI / 180) offset = pitched;
+  setShared({ "camera.position": rounded(add(rig.target, offset)) }, quality);
+}
+
+// Pan: eye and look_at move together in the image plane, so the point under the pointer follows it
+// (at the look_at point's depth); `pixels` is the image's height on screen.
+function pan(dx, dy, pixels, quality) {
+  const rig = rigOf(state.editing);
+  const depth = rig.orthographic ? 1 : norm(sub(rig.target, rig.eye));
+  const perPixel = (2 * rig.halfHeight * depth) / pixels;
+  const shift = add(scale(rig.right, -dx * perPixel), scale(rig.up, dy * perPixel));
+  setShared({ "camera.position": rounded(add(rig.eye, shift)), "camera.look_at": rounded(add(rig.target, shift)) },
+            quality);
+}
+
+// Zoom by `factor` (> 1: away): a perspective eye moves along its view axis, an orthographic view widens.
+function zoom(factor, quality) {
+  const rig = rigOf(state.editing);
+  if (rig.orthographic) {
+    setShared({ "camera.view_height": Number((valueOf("camera.view_height") * factor).toPrecision(6)) }, quality);
+  } else {
+    const offset = scale(sub(rig.eye, rig.target), factor);
+    if (norm(offset) > 1e-3) setShared({ "camera.position": rounded(add(rig.target, offset)) }, quality);
+  }
+}
+
+function resetCamera() {
+  for (const side of ["a", "b"]) for (const key of CAMERA_KEYS) delete state.settings[side][key];
+  refreshLight();
+  request("full");
+}
+
+function wireCamera() {
+  let last = null, settle = null;
+  const later = () => { clearTimeout(settle); settle = setTimeout(() => request("full"), 250); };
+  for (const img of [$("#image-a"), $("#image-b")]) {
+    img.addEventListener("contextmenu", (event) => event.preventDefault());  // the right button pans
+    img.addEventListener("pointerdown", (event) => {
+      img.setPointerCapture(event.pointerId);
+      last = { x: event.clientX, y: event.clientY, pan: event.shiftKey || event.button !== 0 };
+      $("#stage").focus({ preventScroll: true });
+    });
+    img.addEventListener("pointermove", (event) => {
+      if (!last || !img.hasPointerCapture(event.pointerId)) return;
+      const dx = event.clientX - last.x, dy = event.clientY - last.y;
+      const pixels = img.getBoundingClientRect().height;
+      // Dragging across the image's height is half a turn.
+      if (last.pan) pan(dx, dy, pixels, "draft"); else orbit(dx, dy, Math.PI / pixels, "draft");
+      Object.assign(last, { x: event.clientX, y: event.clientY });
+    });
+    img.addEventListener("pointerup", (event) => {
+      if (!last) return;
+      img.releasePointerCapture(event.pointerId);
+      last = null;
+      request("full");
+    });
+    img.addEventListener("wheel", (event) => {
+      event.preventDefault();
+      zoom(1.1 ** Math.sign(event.deltaY), "draft");  // 10 % a notch; scrolling down moves away
+      later();
+    }, { passive: false });
+  }
+  $("#stage").addEventListener("keydown", (event) => {
+    const arrow = { ArrowLeft: [-1, 0], ArrowRight: [1, 0], ArrowUp: [0, -1], ArrowDown: [0, 1] }[event.key];
+    const pixels = $("#image-a").getBoundingClientRect().height;
+    if (arrow && event.shiftKey) pan(arrow[0] * pixels / 20, arrow[1] * pixels / 20, pixels, "full");  // 5 % of the view
+    else if (arrow) orbit(arrow[0], arrow[1], Math.PI / 36, "full");  // 5° a press
+    else if (event.key === "+" || event.key === "=") zoom(1 / 1.1, "full");
+    else if (event.key === "-") zoom(1.1, "full");
+    else if (event.key === "r" || event.key === "R" || event.key === "Home") resetCamera();
+    else return;
+    event.preventDefault();
+  });
+  $("#camera-reset").addEventListener("click", resetCamera);
+}
+
 function wire() {
   for (const input of document.querySelectorAll("[data-key]")) {
     const value = () => (input.dataset.kind === "int" ? Number(input.value) : input.value);
@@ -440,6 +530,7 @@ function wire() {
   level.addEventListener("input", () => applyLevel("draft"));
   level.addEventListener("change", () => applyLevel("full"));
   wireLight();
+  wireCamera();
   $("#material").addEventListener("change", refreshControls);
   for (const input of document.querySelectorAll("[data-coefficient]")) {
     input.addEventListener("input", () => set({ [materialKey(input.dataset.coefficient)]: fromHex(input.value) }, "draft"));
