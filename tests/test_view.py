@@ -5,6 +5,7 @@ frames equal to render(), latest-wins, saves, the dragged light."""
 from __future__ import annotations
 
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -239,12 +240,13 @@ def test_a_saved_scene_renders_to_the_frame_shown(scene_path, tmp_path):
 # ---------------------------------------------------------------- the command
 
 
-def test_view_command_prints_a_url_whose_token_is_required(scene_path):
+def test_view_command_prints_a_url_whose_token_is_required(scene_path, tmp_path):
     command = [sys.executable, "-c", "from raycast_phong.cli import app; app()", "view", str(scene_path),
                "--port", "0",
                "--no-browser"]
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               cwd=Path(__file__).resolve().parent.parent)
+                               cwd=Path(__file__).resolve().parent.parent,
+                               env={**os.environ, "XDG_STATE_HOME": str(tmp_path)})  # its kept token
     try:
         line = process.stdout.readline()
         assert line.startswith("raycast-phong view: open http://127.0.0.1:"), line + process.stderr.read()
@@ -263,6 +265,22 @@ def test_view_command_prints_a_url_whose_token_is_required(scene_path):
             process.kill()
             raise
     assert process.returncode == 0, process.stderr.read()
+
+
+def test_the_token_is_kept_between_runs_in_a_private_folder(tmp_path, monkeypatch):
+    from raycast_phong.tools.view import remembered_token
+    monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path))
+    first = remembered_token()
+    assert len(first) >= 40 and remembered_token() == first  # a restarted server accepts the open pages
+    folder = tmp_path / "raycast-phong"
+    assert folder.stat().st_mode & 0o777 == 0o700
+    assert (folder / "view-token").read_text().strip() == first
+    (folder / "view-token").write_text("short\n")  # not a token: replaced
+    replaced = remembered_token()
+    assert replaced != first and len(replaced) >= 40 and remembered_token() == replaced
+    folder.chmod(0o755)  # others can read the folder: its token is not reused, and none is written there
+    assert remembered_token() != replaced
+    assert (folder / "view-token").read_text().strip() == replaced
 
 
 def test_view_command_refuses_a_bad_scene_in_one_line(tmp_path, monkeypatch):

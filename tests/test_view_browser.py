@@ -237,6 +237,33 @@ def test_the_camera_orbits_pans_zooms_and_resets(page, scene_path, tmp_path):
     np.testing.assert_array_equal(page_image(page), to_8bit(rp.render(rp.load_scene(saved)).image))
 
 
+def test_a_lost_server_turns_the_page_off_and_it_reconnects_to_the_restarted_one(browser, scene_path):
+    token = "kept-" + "x" * 40  # serve() keeps its token between runs (remembered_token); so do we here
+    tab = browser.new_page(viewport={"width": 1000, "height": 800})
+    try:
+        with running(scene_path, token=token) as url:
+            port = int(url.split(":")[2].split("/")[0])
+            tab.goto(url)
+            wait_for_full_frame(tab)
+            tab.select_option("#shading", "flat")
+            wait_for_full_frame(tab)
+            assert tab.is_hidden("#lost") and tab.is_enabled("#shading")
+        tab.wait_for_selector("#lost:not([hidden])", timeout=30_000)
+        assert "not answering" in tab.text_content("#lost")
+        assert tab.is_disabled("#shading") and tab.is_disabled("#gizmo-box ~ label input")
+        assert tab.text_content("#connection") == "disconnected"
+        with running(scene_path, port=port, token=token):
+            tab.wait_for_selector("#lost", state="hidden", timeout=30_000)
+            wait_for_full_frame(tab)
+            assert tab.is_enabled("#shading") and tab.input_value("#shading") == "flat"
+            flat = rp.load_scene(scene_path, shading("flat"))
+            np.testing.assert_array_equal(page_image(tab), to_8bit(rp.render(flat).image))
+            assert tab.reload().status == 200  # the cookie and the URL's token are still good
+            wait_for_full_frame(tab)
+    finally:
+        tab.close()
+
+
 def test_a_saved_scene_renders_from_the_cli_to_the_image_shown(page, tmp_path, monkeypatch):
     from typer.testing import CliRunner
 

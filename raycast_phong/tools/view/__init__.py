@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import re
 import secrets
 import socket
 import threading
@@ -11,7 +13,39 @@ from pathlib import Path
 
 from .server import Source, create_app, open_source
 
-__all__ = ["Source", "bind", "create_app", "open_source", "running", "serve"]
+__all__ = ["Source", "bind", "create_app", "open_source", "remembered_token", "running", "serve"]
+
+TOKEN = re.compile(r"[A-Za-z0-9_-]{32,128}")  # what secrets.token_urlsafe(32) gives, and no less
+
+
+def token_folder() -> Path:
+    """Where the view keeps its token: $XDG_STATE_HOME/raycast-phong (~/.local/state/raycast-phong)."""
+    return Path(os.environ.get("XDG_STATE_HOME") or Path.home() / ".local" / "state") / "raycast-phong"
+
+
+def remembered_token() -> str:
+    """This user's view token, kept between runs so that a restarted server accepts the open pages: they
+    reconnect by themselves and a reload works (as Jupyter keeps its runtime files). The folder is made
+    private (0700) and a token in a folder others can read is not reused; if nothing can be kept, a fresh
+    token serves this run only."""
+    from raycast_phong.io.atomic import WriteError, write_text
+    folder = token_folder()
+    path = folder / "view-token"
+    try:
+        folder.mkdir(parents=True, exist_ok=True, mode=0o700)
+        private = folder.stat().st_mode & 0o077 == 0
+        kept = path.read_text(encoding="ascii").strip() if private and path.exists() else ""
+    except (OSError, UnicodeDecodeError):
+        return secrets.token_urlsafe(32)
+    if TOKEN.fullmatch(kept):
+        return kept
+    token = secrets.token_urlsafe(32)
+    if private:
+        try:
+            write_text(path, token + "\n")
+        except WriteError:
+            pass  # this run's token only: the page then needs the new URL after a restart
+    return token
 
 
 def bind(host: str, port: int) -> socket.socket:
@@ -73,12 +107,13 @@ def running(path: str | Path | None, host: str = "127.0.0.1", port: int = 0, tok
 
 def serve(path: str | Path | None, host: str = "127.0.0.1", port: int = 8765, open_browser: bool = True,
           announce=print, token: str | None = None) -> None:
-    """Serve the view of `path` (scene, mesh, or None for the default scene) until interrupted."""
+    """Serve the view of `path` (scene, mesh, or None for the default scene) until interrupted; the token is
+    remembered_token() unless given."""
     import uvicorn
     source = open_source(path)
-    token = token or secrets.token_urlsafe(32)
     sock = bind(host, port)
     port = sock.getsockname()[1]
+    token = token or remembered_token()
     app = create_app(source, token, origins_for(host, port))
     shown = f"[{host}]" if ":" in host else host
     url = f"http://{shown}:{port}/?token={token}"

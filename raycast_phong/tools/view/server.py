@@ -265,8 +265,9 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
         return secrets.compare_digest(given.encode(), token.encode())
 
     def refused() -> Response:
-        return PlainTextResponse("403: this page needs the token the `raycast-phong view` command printed\n",
-                                 status_code=403)
+        return PlainTextResponse("403: this page needs the token the `raycast-phong view` command printed; open "
+                                 "the URL it printed (its token is kept in ~/.local/state/raycast-phong, so a "
+                                 "restarted server prints the same one)\n", status_code=403)
 
     async def index(request: Request) -> Response:
         if not authorised(request):

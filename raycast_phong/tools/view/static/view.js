@@ -16,19 +16,49 @@ const state = {
   sentAt: {},      // request id → time sent, for the change → image latency
   urls: {},        // object URLs on screen, revoked when replaced
   lastFrame: null, // header of the frame on screen (tests read it)
+  connected: false,
 };
 window.view = state;  // for the browser tests and the screenshot script
 
 // ------------------------------------------------------------------ socket
 
-const socket = new WebSocket(`ws://${location.host}/socket?token=${encodeURIComponent(token)}`);
-socket.binaryType = "arraybuffer";
-socket.onopen = () => { $("#connection").textContent = "connected"; };
-socket.onclose = (event) => {
-  $("#connection").textContent = `disconnected (${event.code})`;
-  if (event.code === 1008) showError("the server refused this page: open the URL the view command printed");
-};
-socket.onmessage = (event) => {
+// A lost server disables the controls and dims the image behind a banner; the page then tries again every
+// second or two, and a server restarted on the same port (it keeps its token) picks up where this one was:
+// the settings stay in the page and are sent again with the next frame.
+let socket = null;
+let retries = 0;
+function connect() {
+  socket = new WebSocket(`ws://${location.host}/socket?token=${encodeURIComponent(token)}`);
+  socket.binaryType = "arraybuffer";
+  socket.onopen = () => {
+    retries = 0;
+    connected(true, "connected");
+  };
+  socket.onclose = (event) => {
+    const wasOpen = state.connected;
+    connected(false, event.code === 1008
+      ? "the server refused this page's token: open the URL the view command printed"
+      : `the server is not answering (${wasOpen ? `closed, code ${event.code}` : "no connection"}); ` +
+        "the controls are off until it is back; trying again…");
+    retries += 1;
+    // 1008: a server with another token; asking again cannot help until the page is opened anew.
+    if (event.code !== 1008) setTimeout(connect, Math.min(2000, 250 * 2 ** retries));
+  };
+  socket.onmessage = onMessage;
+}
+
+function connected(on, text) {
+  state.connected = on;
+  $("#connection").textContent = on ? "connected" : "disconnected";
+  $("#connection").classList.toggle("lost", !on);
+  $("#lost").hidden = on;
+  $("#lost").textContent = on ? "" : text;
+  $("#controls").inert = !on;
+  for (const box of document.querySelectorAll("#controls fieldset")) box.disabled = !on || box.dataset.off === "1";
+  $("#viewer").classList.toggle("lost", !on);
+}
+
+function onMessage(event) {
   if (typeof event.data === "string") return onText(JSON.parse(event.data));
   const view = new DataView(event.data);
   const length = view.getUint32(0, true);
@@ -41,7 +71,7 @@ socket.onmessage = (event) => {
   }
   if (header.type === "frame") onFrame(header, parts);
   else if (header.type === "saved") download(header.filename, parts.file);
-};
+}
 
 function onText(message) {
   if (message.type === "hello") return onHello(message);
@@ -189,11 +219,14 @@ function shadingKeys() {
 }
 
 function onHello(message) {
+  const again = state.hello !== null;  // a reconnection: keep the light and material chosen
+  const light = $("#light").value, material = $("#material").value;
   state.hello = message;
   $("#source").textContent = message.source;
   $("#material").replaceChildren(...message.materials.map((name) => new Option(name, name)));
   $("#light").replaceChildren(...message.scene.lights.map((light, index) =>
     new Option(`${index + 1}: ${light.type}`, String(index))));
+  if (again) { $("#light").value = light; $("#material").value = material; }
   refreshControls();
   request("full");
 }
@@ -330,7 +363,8 @@ function drawMarkers() {
 function refreshLight() {
   const index = lightIndex();
   const light = lightOf(index);
-  $("#light-box").disabled = !light;
+  $("#light-box").dataset.off = light ? "0" : "1";
+  $("#light-box").disabled = !light || !state.connected;
   if (!light) return;
   const point = light.type === "point";
   $("#light-xyz-name").textContent = point ? "position" : "direction";
@@ -491,6 +525,7 @@ function wireCamera() {
     }, { passive: false });
   }
   $("#stage").addEventListener("keydown", (event) => {
+    if (!state.connected) return;
     const arrow = { ArrowLeft: [-1, 0], ArrowRight: [1, 0], ArrowUp: [0, -1], ArrowDown: [0, 1] }[event.key];
     const pixels = $("#image-a").getBoundingClientRect().height;
     if (arrow && event.shiftKey) pan(arrow[0] * pixels / 20, arrow[1] * pixels / 20, pixels, "full");  // 5 % of the view
@@ -580,3 +615,6 @@ function wipe() {
 new ResizeObserver(() => { $("#heat").style.width = `${$("#image-a").clientWidth}px`; }).observe($("#image-a"));
 
 wire();
+connected(false, "connecting…");
+$("#lost").hidden = true;  // not lost: not yet connected
+connect();
