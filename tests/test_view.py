@@ -267,6 +267,36 @@ def test_view_command_prints_a_url_whose_token_is_required(scene_path, tmp_path)
     assert process.returncode == 0, process.stderr.read()
 
 
+def test_the_server_prepares_every_kernel_the_page_can_ask_for_and_says_so(scene_path, monkeypatch):
+    from raycast_phong.renderer import frame
+    from raycast_phong.tools.view import server
+    warmed = []
+    monkeypatch.setattr(frame, "warm_kernels", lambda reals, shadows: warmed.append((set(reals), shadows)))
+    server.warm(open_source(scene_path))
+    assert warmed == [({np.float32, np.float64}, True)]  # both precisions, and global mode's shadow rays
+    release = threading.Event()
+    monkeypatch.setattr(server, "warm", lambda source: release.wait(60))
+    client = client_for(scene_path)
+    with connect(client) as ws:
+        assert json.loads(ws.receive_text())["warming"] is True  # the page shows "preparing the renderer"
+    release.set()
+    client.app.state.warming.result(60)
+    with connect(client) as ws:
+        assert json.loads(ws.receive_text())["warming"] is False
+
+
+def test_a_full_frame_reports_its_progress(scene_path):
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 7, "quality": "full"}))
+        message = ws.receive()
+        while "text" in message:  # progress messages come before the frame
+            progress = json.loads(message["text"])
+            assert progress["type"] == "progress" and progress["id"] == 7 and 0 <= progress["done"] < 1
+            message = ws.receive()
+        assert unpack(message["bytes"])[0]["id"] == 7
+
+
 def test_the_token_is_kept_between_runs_in_a_private_folder(tmp_path, monkeypatch):
     from raycast_phong.tools.view import remembered_token
     monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path))

@@ -264,6 +264,29 @@ def test_a_lost_server_turns_the_page_off_and_it_reconnects_to_the_restarted_one
         tab.close()
 
 
+def test_the_page_shows_that_it_is_rendering_and_how_far(browser, scene_path):
+    holding, release = threading.Event(), threading.Event()
+
+    def held(scene, **options):
+        """Once `holding` is set, a full frame reports a quarter of its tiles done and waits for `release`."""
+        if holding.is_set() and options.get("progress") is not None:
+            options["progress"](1, 4)
+            release.wait(60)
+        return rp.render(scene, **options)
+
+    with opened(browser, scene_path, render=held) as tab:
+        assert tab.is_hidden("#busy")
+        holding.set()
+        tab.select_option("#shading", "flat")
+        tab.wait_for_selector("#busy:not([hidden])", timeout=30_000)
+        tab.wait_for_function("document.querySelector('#busy-bar').value === 0.25", timeout=30_000)
+        assert tab.text_content("#busy-text").startswith("rendering the full frame…")
+        assert "stale" in tab.get_attribute("#stage", "class")
+        release.set()
+        wait_for_full_frame(tab)
+        assert tab.is_hidden("#busy") and "stale" not in tab.get_attribute("#stage", "class")
+
+
 def test_a_saved_scene_renders_from_the_cli_to_the_image_shown(page, tmp_path, monkeypatch):
     from typer.testing import CliRunner
 

@@ -168,8 +168,9 @@ class Renderer:
         self.render = self.render or rp.render
         self.last_full: tuple = (None, None)  # (request id, RenderResult) of the last full frame A
 
-    def frame(self, request: dict) -> bytes:
-        """Render settings A (and B, to compare) at the requested quality; the PNGs, the heat map, the figures."""
+    def frame(self, request: dict, progress: Callable[[float], None] | None = None) -> bytes:
+        """Render settings A (and B, to compare) at the requested quality; the PNGs, the heat map, the figures.
+        `progress(share)` is told the share of the tiles done, 0..1 over A and B together."""
         started = time.perf_counter()
         quality = request.get("quality", "full")
         if quality not in ("draft", "full"):
@@ -181,8 +182,11 @@ class Renderer:
             scenes["b"] = scene_with(self.source, settings_of(request, "compare"))
         shaped = draft_of if quality == "draft" else frame_of
         parts, images, stats = [], {}, {}
-        for name, scene in scenes.items():
-            result = self.render(shaped(scene), source=self.source.name)
+        for k, (name, scene) in enumerate(scenes.items()):
+            told = None
+            if progress is not None:
+                told = lambda done, total, k=k: progress((k + done / max(total, 1)) / len(scenes))
+            result = self.render(shaped(scene), source=self.source.name, progress=told)
             if name == "a" and quality == "full":
                 self.last_full = (request.get("id"), result)  # errors() measures this image, not a new one
             images[name] = result.image
@@ -292,7 +296,7 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
             return
         await websocket.accept()
         client = Client()
-        await websocket.send_text(json.dumps(hello(source)))
+        await websocket.send_text(json.dumps({**hello(source), "warming": not app.state.warming.done()}))
         worker = asyncio.create_task(work(websocket, client))
         try:
             while True:
@@ -328,7 +332,11 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
                 if request is None:
                     continue
                 try:
-                    reply = await loop.run_in_executor(executor, job, request)
+                    if is_frame:
+                        told = progress_to(websocket, loop, request.get("id"))
+                        reply = await loop.run_in_executor(executor, job, request, told)
+                    else:
+                        reply = await loop.run_in_executor(executor, job, request)
                 except (ViewError, SceneError, rp.ImageError) as error:
                     await websocket.send_text(json.dumps({"type": "error", "id": request.get("id"),
                                                           "message": str(error)}))
@@ -359,9 +367,35 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
     routes = [Route("/", index), Mount("/static", app=static), WebSocketRoute("/socket", socket)]
     app = Starlette(routes=routes, middleware=[Middleware(TrustedHostMiddleware, allowed_hosts=hosts)])
     app.state.executor, app.state.reference_executor, app.state.renderer = executor, reference_executor, renderer
-    # Load the kernels (a second or more from numba's cache) before the page asks for its first frame.
-    executor.submit(rp.render, draft_of(scene_with(source, {})), source=source.name)
+    # Load or compile every kernel the page can ask for (float32 and float64 shading, shadow rays) before
+    # it asks: a first switch to float64 used to wait ~35 s for numba mid-session. The page shows
+    # "preparing the renderer" while this runs (hello's `warming`); the first frame queues behind it.
+    app.state.warming = executor.submit(warm, source)
     return app
+
+
+def warm(source: Source) -> None:
+    """warm_kernels for both precisions with shadows, then one draft frame (geometry, BVH and the PNG path)."""
+    from raycast_phong.renderer.frame import warm_kernels
+    warm_kernels((np.float32, np.float64), shadows=True)
+    rp.render(draft_of(scene_with(source, {})), source=source.name)
+
+
+PROGRESS_EVERY = 0.1  # seconds between progress messages: the page's bar moves smoothly, the socket stays quiet
+
+
+def progress_to(websocket: WebSocket, loop: asyncio.AbstractEventLoop, request_id) -> Callable[[float], None]:
+    """A progress callback for the render thread: sends {"type": "progress", "id", "done": 0..1} to the page
+    through the event loop, at most every PROGRESS_EVERY seconds."""
+    last = [0.0]
+
+    def told(share: float) -> None:
+        now = time.perf_counter()
+        if now - last[0] >= PROGRESS_EVERY and share < 1:
+            last[0] = now
+            message = json.dumps({"type": "progress", "id": request_id, "done": round(share, 3)})
+            asyncio.run_coroutine_threadsafe(websocket.send_text(message), loop)
+    return told
 
 
 def cookie_name(connection) -> str:

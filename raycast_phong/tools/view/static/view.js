@@ -17,6 +17,9 @@ const state = {
   urls: {},        // object URLs on screen, revoked when replaced
   lastFrame: null, // header of the frame on screen (tests read it)
   connected: false,
+  answered: 0,     // newest request answered (by a frame or an error)
+  asked: null,     // {id, quality, at} of the newest request sent
+  warming: false,  // the server is still loading or compiling its kernels
 };
 window.view = state;  // for the browser tests and the screenshot script
 
@@ -75,7 +78,13 @@ function onMessage(event) {
 
 function onText(message) {
   if (message.type === "hello") return onHello(message);
+  if (message.type === "progress") {
+    if (state.asked && message.id === state.asked.id) $("#busy-bar").value = message.done;
+    return;
+  }
   if (message.type === "error") {
+    state.answered = Math.max(state.answered, message.id ?? 0);
+    busy();
     if (message.id === null || message.id >= state.shownId) showError(message.message);
   } else if (message.type === "errors" && message.id === state.shownId) {
     const pct = (x) => (x === null ? "–" : `${(100 * x).toFixed(1)} %`);
@@ -90,8 +99,11 @@ function send(message) {
 }
 
 function request(quality) {
+  if (!state.connected) return null;  // the settings stay; the frame is asked for on reconnecting
   const id = state.nextId++;
   state.sentAt[id] = performance.now();
+  state.asked = { id, quality, at: performance.now() };
+  $("#busy-bar").removeAttribute("value");  // indeterminate until the first tiles are done
   send({
     type: "render", id, quality,
     settings: state.settings.a,
@@ -114,6 +126,9 @@ function show(img, bytes) {
 function onFrame(header, parts) {
   if (header.id < state.shownId) return;
   state.shownId = header.id;
+  state.answered = Math.max(state.answered, header.id);
+  state.warming = false;
+  busy();
   // A draft frame (half size) is shown at the full frame's size; side by side, each gets half the room.
   const displayWidth = state.hello.scene.render.width;
   const stageWidth = `${state.compare === "side" ? 2 * displayWidth + 8 : displayWidth}px`;
@@ -149,6 +164,20 @@ function onFrame(header, parts) {
   drawMarkers();
   hideError();
 }
+
+// While a change waits for its image: a bar (the share of tiles done, for full frames), what is being done
+// and for how long; the images dim while a full frame is owed. Silent for the first 150 ms (drafts).
+function busy() {
+  const owed = state.asked && state.asked.id > state.answered && state.connected;
+  const waited = owed ? (performance.now() - state.asked.at) / 1000 : 0;
+  $("#busy").hidden = !owed || waited < 0.15;
+  $("#stage").classList.toggle("stale", Boolean(owed) && waited >= 0.15 && state.asked.quality === "full");
+  if (!owed) return;
+  const what = state.warming ? "preparing the renderer (its kernels are compiled on the first run, then cached)"
+    : `rendering the ${state.asked.quality} frame`;
+  $("#busy-text").textContent = `${what}… ${waited.toFixed(1)} s`;
+}
+setInterval(busy, 100);
 
 function showError(message) {
   $("#error").textContent = message;
@@ -220,6 +249,7 @@ function shadingKeys() {
 
 function onHello(message) {
   const again = state.hello !== null;  // a reconnection: keep the light and material chosen
+  state.warming = Boolean(message.warming);
   const light = $("#light").value, material = $("#material").value;
   state.hello = message;
   $("#source").textContent = message.source;
