@@ -176,6 +176,34 @@ def test_light_fields_place_the_light_its_marker_shows_it_and_reset_brings_it_ba
     assert page.input_value("#light-xyz input[data-axis='0']") == "2"
 
 
+def test_light_intensity_is_apart_from_its_colour_and_attenuation_keeps_the_brightness(page, scene_path):
+    assert page.input_value("#light-diffuse-colour") == "#ffffff"  # the scene's (0.8, 0.8, 0.8): white × 0.8
+    assert page.input_value("#light-diffuse-intensity") == "0.8"
+    page.fill("#light-diffuse-intensity", "2.5")  # above 1: a colour picker alone would clip it
+    page.dispatch_event("#light-diffuse-intensity", "change")
+    wait_for_full_frame(page)
+    assert page.evaluate("window.view.settings.a['lights.0.diffuse']") == [2.5, 2.5, 2.5]
+    page.fill("#light-diffuse-colour", "#ffffff")  # picking the same colour again changes nothing …
+    page.dispatch_event("#light-diffuse-colour", "input")
+    assert page.evaluate("window.view.settings.a['lights.0.diffuse']") == [2.5, 2.5, 2.5]
+    assert "lights.0.specular" not in page.evaluate("window.view.settings.a")  # … and leaves the specular alone
+    # 1/d² with the light √17 from the look-at point: both intensities × 17, so that point stays as bright.
+    page.select_option("#attenuation", "inverse_square")
+    wait_for_full_frame(page)
+    settings = page.evaluate("window.view.settings.a")
+    assert settings["lights.0.attenuation"] == "inverse_square"
+    np.testing.assert_allclose(settings["lights.0.diffuse"], [42.5] * 3, rtol=1e-5)
+    np.testing.assert_allclose(settings["lights.0.specular"], [17] * 3, rtol=1e-5)
+    # [c, l, q] = [1, 0, 1]: 1/(1 + 17) instead of 1/17, so × 18/17 more.
+    page.select_option("#attenuation", "clq")
+    wait_for_full_frame(page)
+    settings = page.evaluate("window.view.settings.a")
+    assert settings["lights.0.attenuation"] == [1, 0, 1] and page.is_visible("#attenuation-clq")
+    np.testing.assert_allclose(settings["lights.0.diffuse"], [45.0] * 3, rtol=1e-5)
+    overrides = [f"lights.0.{key}={settings[f'lights.0.{key}']}" for key in ("diffuse", "specular", "attenuation")]
+    np.testing.assert_array_equal(page_image(page), to_8bit(rp.render(rp.load_scene(scene_path, overrides)).image))
+
+
 def test_every_light_of_the_scene_can_be_chosen_and_moved(browser, tmp_path):
     path = write_tiny_scene(tmp_path, WIDTH, HEIGHT, '[[lights]]\ntype = "directional"\ndirection = [1, 0, -1]\n')
     with opened(browser, path) as tab:

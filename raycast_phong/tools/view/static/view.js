@@ -406,11 +406,42 @@ function refreshLight() {
   $("#attenuation").disabled = !point;
   const { distance } = lightPlacement();
   if (document.activeElement !== $("#light-distance")) $("#light-distance").value = point ? Number(distance.toFixed(4)) : "";
-  $("#light-colour").value = toHex(valueOf(`lights.${index}.diffuse`));
+  for (const term of ["diffuse", "specular"]) {
+    const rgb = valueOf(`lights.${index}.${term}`);
+    const intensity = Math.max(...rgb);
+    $(`#light-${term}-colour`).value = toHex(intensity > 0 ? scale(rgb, 1 / intensity) : [1, 1, 1]);
+    if (document.activeElement !== $(`#light-${term}-intensity`)) $(`#light-${term}-intensity`).value = Number(intensity.toPrecision(6));
+  }
   const attenuation = valueOf(`lights.${index}.attenuation`);
-  $("#attenuation").value = typeof attenuation === "string" ? attenuation : "none";
+  $("#attenuation").value = typeof attenuation === "string" ? attenuation : "clq";
+  $("#attenuation-clq").hidden = typeof attenuation === "string";
+  if (typeof attenuation !== "string") {
+    for (const input of document.querySelectorAll("#attenuation-clq input")) input.value = attenuation[input.dataset.term];
+  }
   drawGizmo();
   drawMarkers();
+}
+
+// How much a light's attenuation dims it at distance d: min(1, 1/(c + l·d + q·d²)) as illumination.py has it.
+function dimming(attenuation, d) {
+  if (attenuation === "none") return 1;
+  const [c, l, q] = attenuation === "inverse_square" ? [0, 0, 1] : attenuation;
+  return Math.min(1, 1 / (c + l * d + q * d * d));
+}
+
+// A new attenuation for the selected point light, its intensities rescaled so that the look-at point gets
+// the light it got before: 1/d² alone would turn a scene lit from 7 units away 50 times darker.
+function setAttenuation(attenuation) {
+  const index = lightIndex();
+  const key = `lights.${index}.attenuation`;
+  const { distance } = lightPlacement();
+  const ratio = dimming(valueOf(key), distance) / dimming(attenuation, distance);
+  const values = { [key]: attenuation };
+  for (const term of ["diffuse", "specular"]) {
+    values[`lights.${index}.${term}`] = valueOf(`lights.${index}.${term}`).map((x) => Number((x * ratio).toPrecision(6)));
+  }
+  set(values, "full");
+  refreshLight();
 }
 
 function wireLight() {
@@ -470,12 +501,27 @@ function wireLight() {
     refreshLight();
     request("full");
   });
-  $("#light-colour").addEventListener("input", () => {
-    const rgb = fromHex($("#light-colour").value);
-    set({ [`lights.${lightIndex()}.diffuse`]: rgb, [`lights.${lightIndex()}.specular`]: rgb }, "draft");
+  for (const term of ["diffuse", "specular"]) {
+    // The colour is the light's hue at full strength; the intensity (its brightest channel) multiplies it,
+    // so a picker never clips a bright light and picking the same colour again changes nothing.
+    const apply = (quality) => {
+      const intensity = Math.max(0, Number($(`#light-${term}-intensity`).value) || 0);
+      set({ [`lights.${lightIndex()}.${term}`]: rounded(scale(fromHex($(`#light-${term}-colour`).value), intensity)) }, quality);
+    };
+    $(`#light-${term}-colour`).addEventListener("input", () => apply("draft"));
+    $(`#light-${term}-colour`).addEventListener("change", () => request("full"));
+    $(`#light-${term}-intensity`).addEventListener("change", () => apply("full"));
+  }
+  $("#attenuation").addEventListener("change", () => {
+    const choice = $("#attenuation").value;
+    setAttenuation(choice === "clq" ? [1, 0, 1] : choice);
   });
-  $("#light-colour").addEventListener("change", () => request("full"));
-  $("#attenuation").addEventListener("change", () => set({ [`lights.${lightIndex()}.attenuation`]: $("#attenuation").value }, "full"));
+  for (const input of document.querySelectorAll("#attenuation-clq input")) {
+    input.addEventListener("change", () => {
+      const clq = [...document.querySelectorAll("#attenuation-clq input")].map((x) => Math.max(0, Number(x.value) || 0));
+      setAttenuation(clq);
+    });
+  }
 }
 
 // ------------------------------------------------------------------ camera: orbit, pan, zoom
