@@ -315,6 +315,39 @@ def test_the_page_shows_that_it_is_rendering_and_how_far(browser, scene_path):
         assert tab.is_hidden("#busy") and "stale" not in tab.get_attribute("#stage", "class")
 
 
+def test_the_url_is_a_permalink_of_the_settings(page, scene_path):
+    page.select_option("#shading", "flat")
+    page.fill("#light-xyz input[data-axis='0']", "-1.5")
+    page.dispatch_event("#light-xyz input[data-axis='0']", "change")
+    wait_for_full_frame(page)
+    page.select_option("#compare", "side")
+    wait_for_full_frame(page)
+    settings = page.evaluate("window.view.settings")
+    link = page.url
+    assert "#view=" in link and page.get_attribute("#permalink", "href") in link
+    shown_a, shown_b = page_image(page), page_image(page, "#image-b")
+    other = page.context.browser.new_page()  # a bookmark opened later, elsewhere: only the URL is shared
+    try:
+        other.goto(link)
+        wait_for_full_frame(other)
+        assert other.evaluate("window.view.settings") == settings
+        assert other.input_value("#shading") == "flat" and other.input_value("#compare") == "side"
+        assert other.input_value("#light-xyz input[data-axis='0']") == "-1.5"
+        np.testing.assert_array_equal(page_image(other), shown_a)
+        np.testing.assert_array_equal(page_image(other, "#image-b"), shown_b)
+        moved = rp.load_scene(scene_path, [*shading("flat"), "lights.0.position=[-1.5, 2, 3]"])
+        np.testing.assert_array_equal(shown_a, to_8bit(rp.render(moved).image))
+    finally:
+        other.close()
+    damaged = page.context.browser.new_page()  # a damaged link: the scene as it is
+    try:
+        damaged.goto(link.split("#")[0] + "#view=%7Bnot-json")
+        wait_for_full_frame(damaged)
+        assert damaged.evaluate("Object.keys(window.view.settings.a)") == []
+    finally:
+        damaged.close()
+
+
 def test_a_saved_scene_renders_from_the_cli_to_the_image_shown(page, tmp_path, monkeypatch):
     from typer.testing import CliRunner
 

@@ -100,6 +100,7 @@ function send(message) {
 
 function request(quality) {
   if (!state.connected) return null;  // the settings stay; the frame is asked for on reconnecting
+  permalink();
   const id = state.nextId++;
   state.sentAt[id] = performance.now();
   state.asked = { id, quality, at: performance.now() };
@@ -663,13 +664,8 @@ function wire() {
       state.bStarted = true;
     }
     state.compare = $("#compare").value;
-    $("#panel-b").hidden = !on;
-    $("#heat-box").hidden = !on;
-    $("#wipe").hidden = state.compare !== "wipe";
-    $("#editing-label").hidden = !on;
-    $("#stage").classList.toggle("wipe", state.compare === "wipe");
+    layoutCompare();
     if (!on) { state.editing = "a"; $("#editing").value = "a"; refreshControls(); }
-    wipe();
     request("full");
   });
   $("#editing").addEventListener("change", () => { state.editing = $("#editing").value; refreshControls(); });
@@ -678,6 +674,46 @@ function wire() {
     button.addEventListener("click", () => send({ type: "save", id: state.nextId++, what: button.dataset.save,
                                                    settings: state.settings[state.editing] }));
   }
+}
+
+function layoutCompare() {
+  const on = state.compare !== "off";
+  $("#compare").value = state.compare;
+  $("#panel-b").hidden = !on;
+  $("#heat-box").hidden = !on;
+  $("#wipe").hidden = state.compare !== "wipe";
+  $("#editing-label").hidden = !on;
+  $("#stage").classList.toggle("wipe", state.compare === "wipe");
+  wipe();
+}
+
+// ------------------------------------------------------------------ permalink: the settings in the URL
+
+// The URL's fragment carries the settings (A, B, the comparison, the tessellation levels): never sent to the
+// server, kept by a reload, the history and a bookmark. The token stays in the query, as the server needs it.
+function permalink() {
+  const kept = { a: state.settings.a, compare: state.compare, level: state.level };
+  if (state.bStarted) kept.b = state.settings.b;
+  const url = `${location.pathname}${location.search}#view=${encodeURIComponent(JSON.stringify(kept))}`;
+  history.replaceState(null, "", url);
+  $("#permalink").href = url;
+}
+
+function restore() {
+  const found = /^#view=(.*)$/.exec(location.hash);
+  if (!found) return;
+  let kept;
+  try {
+    kept = JSON.parse(decodeURIComponent(found[1]));
+  } catch (error) {
+    return showError(`this link's settings could not be read (${error.message}); showing the scene as it is`);
+  }
+  const table = (x) => (x && typeof x === "object" && !Array.isArray(x) ? x : {});
+  state.settings.a = table(kept.a);
+  if (kept.b) { state.settings.b = table(kept.b); state.bStarted = true; }
+  state.level = { a: null, b: null, ...table(kept.level) };
+  state.compare = ["off", "side", "wipe"].includes(kept.compare) && state.bStarted ? kept.compare : "off";
+  layoutCompare();
 }
 
 function wipe() {
@@ -691,6 +727,7 @@ function wipe() {
 new ResizeObserver(() => { $("#heat").style.width = `${$("#image-a").clientWidth}px`; }).observe($("#image-a"));
 
 wire();
+restore();
 connected(false, "connecting…");
 $("#lost").hidden = true;  // not lost: not yet connected
 connect();
