@@ -297,6 +297,36 @@ def test_a_full_frame_reports_its_progress(scene_path):
         assert unpack(message["bytes"])[0]["id"] == 7
 
 
+def test_a_saved_scene_file_loads_back_as_the_settings_that_make_it(scene_path):
+    from raycast_phong.tools.sweep import scene_toml
+    changes = {"render.shading": "flat", "lights.0.position": [1.0, -2.0, 3.5], "materials.red.shininess": 10.0,
+               "camera.look_at": [0.25, 0.0, 0.0]}
+    from raycast_phong.tools.view.server import ViewError, scene_with, settings_from
+    source = open_source(scene_path)
+    text = scene_toml(scene_with(source, changes))
+    assert settings_from(source, text, "saved.toml") == changes
+    assert settings_from(source, json.dumps(rp.load_scene(scene_path).model_dump(mode="json", exclude={"folder"})),
+                         "same.json") == {}
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "load", "id": 3, "name": "../../saved.toml", "text": text}))
+        assert json.loads(ws.receive_text()) == {"type": "loaded", "id": 3, "settings": changes}
+        refusals = {"x = [": "not a TOML scene",
+                    text + "\n[[lights]]\nposition = [0, 0, 5]\n": "2 lights, this view's scene has 1",
+                    text.replace("shininess = 10.0", "shininess = -1.0"): "materials.red.shininess"}
+        for bad, says in refusals.items():
+            ws.send_text(json.dumps({"type": "load", "id": 4, "name": "saved.toml", "text": bad}))
+            reply = json.loads(ws.receive_text())
+            assert reply["type"] == "error" and says in reply["message"] and "\n" not in reply["message"], reply
+    # A view of a mesh file: the saved file names it by its absolute path, which is the same file; another is not.
+    mesh = Path(__file__).resolve().parent.parent / "scenes" / "meshes" / "torus_knot.ply"
+    source = open_source(mesh)
+    text = scene_toml(scene_with(source, {"render.shading": "flat"}))
+    assert settings_from(source, text, "knot.toml") == {"render.shading": "flat"}
+    with pytest.raises(ViewError, match=r"objects.0.path is .*painted_knot.ply, not this view's torus_knot.ply"):
+        settings_from(source, text.replace("torus_knot.ply", "painted_knot.ply"), "knot.toml")
+
+
 def test_the_token_is_kept_between_runs_in_a_private_folder(tmp_path, monkeypatch):
     from raycast_phong.tools.view import remembered_token
     monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path))

@@ -370,6 +370,28 @@ def test_a_saved_scene_renders_from_the_cli_to_the_image_shown(page, tmp_path, m
     np.testing.assert_array_equal(rendered, page_image(page))
 
 
+def test_a_saved_scene_file_opens_back_on_the_page(page, scene_path, tmp_path):
+    page.select_option("#shading", "gouraud")
+    page.fill("#light-xyz input[data-axis='1']", "-1")
+    page.dispatch_event("#light-xyz input[data-axis='1']", "change")
+    wait_for_full_frame(page)
+    with page.expect_download() as download:
+        page.click("[data-save=toml]")
+    saved = tmp_path / "saved.toml"
+    download.value.save_as(saved)
+    shown = page_image(page)
+    page.click("#light-reset")
+    page.select_option("#shading", "phong")
+    wait_for_full_frame(page)
+    assert (page_image(page) != shown).any()
+    page.set_input_files("#load", str(saved))
+    page.wait_for_function("window.view.settings.a['render.shading'] === 'gouraud'", timeout=30_000)
+    wait_for_full_frame(page)
+    assert page.input_value("#shading") == "gouraud" and page.input_value("#light-xyz input[data-axis='1']") == "-1"
+    np.testing.assert_array_equal(page_image(page), shown)
+    np.testing.assert_array_equal(shown, to_8bit(rp.render(rp.load_scene(saved)).image))
+
+
 def test_a_bad_value_shows_the_one_line_message(page):
     page.evaluate("window.view.settings.a['render.samples'] = 99")
     page.select_option("[data-key='render.mode']", "global")

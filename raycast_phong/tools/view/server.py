@@ -116,6 +116,65 @@ def frame_of(scene: rp.Scene) -> rp.Scene:
     return scene.model_copy(update={"output": scene.output.model_copy(update={"aovs": ()})})
 
 
+def leaves(node: Any, prefix: str = "") -> dict[str, Any]:
+    """A scene table as {dotted key: value}, the keys `render --set` takes: tables and lists of tables are
+    opened (objects.0.shading), anything else (numbers, strings, [x, y, z]) is one value."""
+    if isinstance(node, dict):
+        items = node.items()
+    elif isinstance(node, list) and node and all(isinstance(item, dict) for item in node):
+        items = enumerate(node)
+    else:
+        return {prefix[:-1]: node}
+    found: dict[str, Any] = {}
+    for key, value in items:
+        found.update(leaves(value, f"{prefix}{key}."))
+    return found
+
+
+def settings_from(source: Source, text: str, name: str) -> dict:
+    """The page's settings that turn the view's scene into the scene file `text` (a TOML or JSON scene, as
+    the Save button writes it): the keys whose values differ. Refused in one line when no settings can (a
+    different mesh file, another number of lights or objects) or the file is not a valid scene."""
+    import tomllib
+    is_json = name.lower().endswith(".json")
+    try:
+        data = json.loads(text) if is_json else tomllib.loads(text)
+    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as error:
+        raise ViewError(f"{name}: not a {'JSON' if is_json else 'TOML'} scene: {error}") from None
+    if not isinstance(data, dict):
+        raise ViewError(f"{name}: a scene file is a table of tables")
+    theirs = rp.validate_scene(data, source=name, folder=source.folder)
+    def dump(scene: rp.Scene) -> dict:  # paths and outputs are compared apart
+        table = leaves(scene.model_dump(mode="json", exclude={"folder"}))
+        return {key: value for key, value in table.items() if not PATH_KEYS.fullmatch(key)}
+
+    ours = scene_with(source, {})
+    for kind in ("objects", "lights"):
+        if len(getattr(theirs, kind)) != len(getattr(ours, kind)):
+            raise ViewError(f"{name}: {len(getattr(theirs, kind))} {kind}, this view's scene has "
+                            f"{len(getattr(ours, kind))}; open it with `raycast-phong view {name}` instead")
+    for index, (mine, other) in enumerate(zip(ours.objects, theirs.objects)):
+        where = lambda obj: None if obj.path is None else (source.folder / obj.path).resolve()
+        if where(mine) != where(other):
+            raise ViewError(f"{name}: objects.{index}.path is {other.path}, not this view's {mine.path}; the page "
+                            f"does not change files: open it with `raycast-phong view {name}` instead")
+    wanted = dump(theirs)
+    current = dump(ours)
+    settings = {key: value for key, value in wanted.items() if current.get(key, ...) != value}
+    if any(value is None for value in settings.values()):
+        unset = next(key for key, value in settings.items() if value is None)
+        raise ViewError(f"{name}: {unset} is unset there and set here; a page setting cannot unset a key")
+    try:
+        made = dump(scene_with(source, settings))
+    except SceneError as error:
+        raise ViewError(f"{name}: these settings do not apply to this view's scene: {error}") from None
+    if made != wanted:
+        differs = sorted(key for key in wanted.keys() | made.keys() if made.get(key) != wanted.get(key))
+        raise ViewError(f"{name}: {', '.join(differs[:3])} cannot be set from the page; open it with "
+                        f"`raycast-phong view {name}` instead")
+    return settings
+
+
 # ---------------------------------------------------------------- frames
 
 def encode(image: np.ndarray, suffix: str, aovs: dict | None = None) -> bytes:
@@ -306,7 +365,9 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
                 except ViewError as error:
                     await websocket.send_text(json.dumps({"type": "error", "id": None, "message": str(error)}))
                     continue
-                if request.get("type") == "save":
+                if request.get("type") == "load":
+                    await websocket.send_text(json.dumps(loaded(request)))
+                elif request.get("type") == "save":
                     client.pending_save = request
                 else:
                     if client.pending is not None:  # a newer request replaces the one still waiting
@@ -320,6 +381,17 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
             worker.cancel()
             if client.reference_task is not None:
                 client.reference_task.cancel()
+
+    def loaded(request: dict) -> dict:
+        """A scene file the page opened, as the settings that make it; milliseconds, so on the event loop."""
+        text, name = request.get("text"), request.get("name") or "scene.toml"
+        try:
+            if not isinstance(text, str) or not isinstance(name, str):
+                raise ViewError("load: text and name must be strings")
+            name = Path(name).name  # a name for messages only: nothing is read from the disk by it
+            return {"type": "loaded", "id": request.get("id"), "settings": settings_from(source, text, name)}
+        except (ViewError, SceneError) as error:
+            return {"type": "error", "id": request.get("id"), "message": str(error)}
 
     async def work(websocket: WebSocket, client: Client) -> None:
         loop = asyncio.get_running_loop()
@@ -403,15 +475,15 @@ def cookie_name(connection) -> str:
 
 
 def parse(text: str) -> dict:
-    """One page message: a JSON table with type 'render' or 'save', bounded in size."""
+    """One page message: a JSON table with type 'render', 'save' or 'load', bounded in size."""
     if len(text) > MAX_MESSAGE_BYTES:
         raise ViewError(f"message of {len(text)} characters; allowed: at most {MAX_MESSAGE_BYTES}")
     try:
         request = json.loads(text)
     except json.JSONDecodeError as error:
         raise ViewError(f"message is not JSON: {error}") from None
-    if not isinstance(request, dict) or request.get("type", "render") not in ("render", "save"):
-        raise ViewError("message must be a table with type 'render' or 'save'")
+    if not isinstance(request, dict) or request.get("type", "render") not in ("render", "save", "load"):
+        raise ViewError("message must be a table with type 'render', 'save' or 'load'")
     return request
 
 

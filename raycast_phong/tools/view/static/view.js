@@ -78,6 +78,14 @@ function onMessage(event) {
 
 function onText(message) {
   if (message.type === "hello") return onHello(message);
+  if (message.type === "loaded") {
+    // A scene file opened on the page: its settings replace those of the side being edited.
+    state.settings[state.editing] = message.settings;
+    state.level[state.editing] = null;
+    refreshControls();
+    request("full");
+    return;
+  }
   if (message.type === "progress") {
     if (state.asked && message.id === state.asked.id) $("#busy-bar").value = message.done;
     return;
@@ -670,6 +678,13 @@ function wire() {
   });
   $("#editing").addEventListener("change", () => { state.editing = $("#editing").value; refreshControls(); });
   $("#wipe").addEventListener("input", wipe);
+  $("#load").addEventListener("change", async () => {
+    const file = $("#load").files[0];
+    if (!file) return;
+    if (file.size > 60000) return showError(`${file.name}: ${file.size} bytes; a scene file the page opens is at most 60 kB`);
+    send({ type: "load", id: state.nextId++, name: file.name, text: await file.text() });
+    $("#load").value = "";  // the same file can be opened again
+  });
   for (const button of document.querySelectorAll("[data-save]")) {
     button.addEventListener("click", () => send({ type: "save", id: state.nextId++, what: button.dataset.save,
                                                    settings: state.settings[state.editing] }));
