@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import threading
+import time
 import urllib.error
 import urllib.request
 from pathlib import Path
@@ -59,7 +60,12 @@ def rendered_png(scene: rp.Scene) -> np.ndarray:
 
 
 def receive_frame(ws) -> tuple[dict, dict]:
-    header, parts = unpack(ws.receive_bytes())
+    """The next frame, past the progress messages of a full one."""
+    message = ws.receive()
+    while message.get("text") is not None:
+        assert json.loads(message["text"])["type"] == "progress", message["text"]
+        message = ws.receive()
+    header, parts = unpack(message["bytes"])
     assert header["type"] == "frame", header
     return header, parts
 
@@ -104,6 +110,39 @@ def test_a_host_name_other_than_the_servers_is_refused(scene_path):
     """DNS rebinding: a page of another site resolving to 127.0.0.1 still names its own host."""
     response = client_for(scene_path).get(f"/?token={TOKEN}", headers={"host": "evil.example"})
     assert response.status_code == 400
+
+
+def test_host_names_in_brackets_and_wildcard_addresses(scene_path):
+    """--host ::1 answers its own URL (a Host of [::1]:port); --host 0.0.0.0 answers any host name, and then
+    the socket's Origin must be the page of the host it asked."""
+    from raycast_phong.tools.view import origins_for, page_url
+    assert page_url("::1", 8765, "t") == "http://[::1]:8765/?token=t" and origins_for("::1", 8765)[0] == "http://[::1]:8765"
+    assert page_url("0.0.0.0", 8765, "t") == "http://127.0.0.1:8765/?token=t"  # the wildcard, reached here
+    ipv6 = create_app(open_source(scene_path), TOKEN, ["http://[::1]:8765"])
+    assert TestClient(ipv6).get(f"/?token={TOKEN}", headers={"host": "[::1]:8765"}).status_code == 200
+    for bad in ("::1", "evil.example", "[::1"):
+        assert TestClient(ipv6).get(f"/?token={TOKEN}", headers={"host": bad}).status_code == 400, bad
+    wildcard = TestClient(create_app(open_source(scene_path), TOKEN, ["http://127.0.0.1:8765"], any_host=True))
+    assert wildcard.get(f"/?token={TOKEN}", headers={"host": "lab-pc.local:8765"}).status_code == 200
+    with wildcard.websocket_connect(f"/socket?token={TOKEN}", headers={"host": "lab-pc.local:8765",
+                                                                       "origin": "http://lab-pc.local:8765"}) as ws:
+        assert json.loads(ws.receive_text())["type"] == "hello"
+    with pytest.raises(WebSocketDisconnect):
+        with wildcard.websocket_connect(f"/socket?token={TOKEN}", headers={"host": "lab-pc.local:8765",
+                                                                           "origin": "http://evil.example"}) as ws:
+            ws.receive_text()
+
+
+def test_every_response_keeps_the_page_to_itself(scene_path):
+    client = client_for(scene_path)
+    for url, status in ((f"/?token={TOKEN}", 200), ("/static/view.js", 200), ("/?token=wrong", 403)):
+        response = client.get(url)
+        assert response.status_code == status
+        policy = response.headers["content-security-policy"]
+        assert "default-src 'none'" in policy and "script-src 'self'" in policy
+        assert "connect-src 'self' ws://testserver" in policy and "frame-ancestors 'self' http://localhost:*" in policy
+        assert response.headers["referrer-policy"] == "no-referrer"  # the URL holds the token
+        assert response.headers["x-content-type-options"] == "nosniff"
 
 
 # ---------------------------------------------------------------- the scene schema's messages
@@ -341,6 +380,39 @@ def test_the_token_is_kept_between_runs_in_a_private_folder(tmp_path, monkeypatc
     folder.chmod(0o755)  # others can read the folder: its token is not reused, and none is written there
     assert remembered_token() != replaced
     assert (folder / "view-token").read_text().strip() == replaced
+
+
+def test_ctrl_c_during_a_long_render_stops_the_command_at_once(tmp_path):
+    from websockets.sync.client import connect as ws_connect
+    path = write_tiny_scene(tmp_path, 64, 48)
+    command = [sys.executable, "-c", "from raycast_phong.cli import app; app()", "view", str(path), "--port", "0",
+               "--no-browser"]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               env={**os.environ, "XDG_STATE_HOME": str(tmp_path)})
+    try:
+        url = process.stdout.readline().split("open ", 1)[1].strip()
+        origin = url.split("/?", 1)[0]
+        socket_url = origin.replace("http://", "ws://") + "/socket?token=" + url.split("token=", 1)[1]
+        with ws_connect(socket_url, origin=origin, max_size=None) as ws:
+            ws.recv()  # hello
+            # The largest frame the view renders (1920 × 1080 × 4² rays, float64, shadow rays): seconds.
+            big = {"render.width": 1920, "render.height": 1080, "render.samples": 4, "render.precision": "float64",
+                   "render.mode": "global"}
+            ws.send(json.dumps({"type": "render", "id": 1, "quality": "full", "settings": big}))
+            while json.loads(ws.recv(timeout=120)).get("type") != "progress":  # the frame is being rendered
+                pass
+            process.send_signal(signal.SIGINT)
+            stopped = time.perf_counter()
+            time.sleep(0.2)
+            process.send_signal(signal.SIGINT)  # an impatient second Ctrl-C
+            process.wait(30)
+            waited = time.perf_counter() - stopped
+    finally:
+        if process.poll() is None:
+            process.kill()
+    errors = process.stderr.read()
+    assert process.returncode == 0 and "Traceback" not in errors, errors
+    assert waited < 3, f"Ctrl-C took {waited:.1f} s"
 
 
 def test_view_command_refuses_a_bad_scene_in_one_line(tmp_path, monkeypatch):

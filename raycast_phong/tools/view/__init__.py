@@ -6,6 +6,7 @@ import os
 import re
 import secrets
 import socket
+import sys
 import threading
 import webbrowser
 from contextlib import contextmanager
@@ -64,11 +65,23 @@ def bind(host: str, port: int) -> socket.socket:
     return sock
 
 
+WILDCARDS = ("0.0.0.0", "::", "")  # every address of the machine: any host name may reach the page
+
+
 def origins_for(host: str, port: int) -> list[str]:
-    """The page's origins the socket accepts: the address it is served on (and localhost for 127.0.0.1)."""
-    names = {host} | ({"localhost", "127.0.0.1"} if host in ("127.0.0.1", "localhost") else set())
+    """The page's origins the socket accepts: the address it is served on (and localhost for 127.0.0.1, and
+    the loopback names for a wildcard address, which answers any host name besides)."""
+    loopback = {"localhost", "127.0.0.1"} if host in ("127.0.0.1", "localhost", "0.0.0.0", "") else set()
+    names = ({host} - set(WILDCARDS)) | loopback | ({"::1", "localhost"} if host in ("::1", "::") else set())
     shown = lambda name: f"[{name}]" if ":" in name else name  # an IPv6 address in a URL
     return sorted(f"http://{shown(name)}:{port}" for name in names)
+
+
+def page_url(host: str, port: int, token: str) -> str:
+    """The URL to open: a wildcard address is reached here through loopback; an IPv6 address in brackets."""
+    shown = {"0.0.0.0": "127.0.0.1", "": "127.0.0.1", "::": "::1"}.get(host, host)
+    shown = f"[{shown}]" if ":" in shown else shown
+    return f"http://{shown}:{port}/?token={token}"
 
 
 def close(app) -> None:
@@ -80,7 +93,9 @@ def close(app) -> None:
 def server_config(app):
     import uvicorn
     # ws_max_size: the page's messages are small settings tables; refuse a flood at the protocol level.
-    return uvicorn.Config(app, log_level="warning", ws_max_size=1 << 16, ws_ping_interval=None)
+    # lifespan off: the app has no start-up or shut-down events, and uvicorn's lifespan task logged a
+    # traceback when Ctrl-C's KeyboardInterrupt cancelled it.
+    return uvicorn.Config(app, log_level="warning", ws_max_size=1 << 16, ws_ping_interval=None, lifespan="off")
 
 
 @contextmanager
@@ -90,14 +105,14 @@ def running(path: str | Path | None, host: str = "127.0.0.1", port: int = 0, tok
     token = token or secrets.token_urlsafe(32)
     sock = bind(host, port)
     port = sock.getsockname()[1]
-    app = create_app(open_source(path), token, origins_for(host, port), **options)
+    app = create_app(open_source(path), token, origins_for(host, port), any_host=host in WILDCARDS, **options)
     server = uvicorn.Server(server_config(app))
     thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
     thread.start()
     try:
         while not server.started and thread.is_alive():
             threading.Event().wait(0.01)
-        yield f"http://{host}:{port}/?token={token}"
+        yield page_url(host, port, token)
     finally:
         server.should_exit = True
         thread.join(30)
@@ -114,9 +129,8 @@ def serve(path: str | Path | None, host: str = "127.0.0.1", port: int = 8765, op
     sock = bind(host, port)
     port = sock.getsockname()[1]
     token = token or remembered_token()
-    app = create_app(source, token, origins_for(host, port))
-    shown = f"[{host}]" if ":" in host else host
-    url = f"http://{shown}:{port}/?token={token}"
+    app = create_app(source, token, origins_for(host, port), any_host=host in WILDCARDS)
+    url = page_url(host, port, token)
     announce(url)
     if open_browser:
         webbrowser.open(url)
@@ -125,3 +139,16 @@ def serve(path: str | Path | None, host: str = "127.0.0.1", port: int = 8765, op
     finally:
         sock.close()
         close(app)
+        leave_if_rendering()
+
+
+def leave_if_rendering() -> None:
+    """End the process now if a render is still running after the server stopped (Ctrl-C mid-frame): Python
+    joins worker threads at exit, so the exit would wait for the frame (seconds at 8 samples; the renderer's
+    tile pool runs every queued band), and a second Ctrl-C would break that join with a traceback. Nothing
+    is owed to the disk: frames and saves go to the browser only."""
+    others = [t for t in threading.enumerate() if t is not threading.current_thread() and not t.daemon]
+    if any(t.is_alive() for t in others):
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(0)

@@ -30,8 +30,6 @@ from typing import Any
 
 import numpy as np
 from starlette.applications import Starlette
-from starlette.middleware import Middleware
-from starlette.middleware.trustedhost import TrustedHostMiddleware
 from starlette.requests import Request
 from starlette.responses import FileResponse, PlainTextResponse, Response
 from starlette.routing import Mount, Route, WebSocketRoute
@@ -316,12 +314,13 @@ class Client:
 
 
 def create_app(source: Source, token: str, origins: list[str], *, render: Callable | None = None,
-               executor: ThreadPoolExecutor | None = None) -> Starlette:
-    """The view's Starlette app. `origins` are the page's own (scheme://host:port); the socket accepts no other."""
+               executor: ThreadPoolExecutor | None = None, any_host: bool = False) -> Starlette:
+    """The view's Starlette app. `origins` are the page's own (scheme://host:port); the socket accepts no other.
+    `any_host` (served on 0.0.0.0 or ::): any Host name, and then the socket's Origin must be that host's page."""
     renderer = Renderer(source, render)
     executor = executor or ThreadPoolExecutor(max_workers=1, thread_name_prefix="view-render")
     reference_executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="view-reference")
-    hosts = sorted({o.split("://", 1)[1].rsplit(":", 1)[0].strip("[]") for o in origins})
+    hosts = {host_of(o.split("://", 1)[1]) for o in origins}
 
     def authorised(connection) -> bool:
         given = connection.query_params.get("token") or connection.cookies.get(cookie_name(connection)) or ""
@@ -350,7 +349,8 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
 
     async def socket(websocket: WebSocket) -> None:
         origin = websocket.headers.get("origin")
-        if not authorised(websocket) or origin not in origins:
+        own = any_host and origin == f"http://{websocket.headers.get('host', '')}"  # the page of the host it asked
+        if not authorised(websocket) or not (origin in origins or own):
             await websocket.close(code=1008)  # policy violation, before the handshake completes
             return
         await websocket.accept()
@@ -437,7 +437,8 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
                 await websocket.send_text(json.dumps(errors))
 
     routes = [Route("/", index), Mount("/static", app=static), WebSocketRoute("/socket", socket)]
-    app = Starlette(routes=routes, middleware=[Middleware(TrustedHostMiddleware, allowed_hosts=hosts)])
+    app = Starlette(routes=routes)
+    app.add_middleware(Guard, hosts=hosts, any_host=any_host)
     app.state.executor, app.state.reference_executor, app.state.renderer = executor, reference_executor, renderer
     # Load or compile every kernel the page can ask for (float32 and float64 shading, shadow rays) before
     # it asks: a first switch to float64 used to wait ~35 s for numba mid-session. The page shows
@@ -468,6 +469,48 @@ def progress_to(websocket: WebSocket, loop: asyncio.AbstractEventLoop, request_i
             message = json.dumps({"type": "progress", "id": request_id, "done": round(share, 3)})
             asyncio.run_coroutine_threadsafe(websocket.send_text(message), loop)
     return told
+
+
+def host_of(header: str) -> str:
+    """The host name in a Host header or an origin's authority, without the port, lower case: `[::1]:8765` →
+    `::1`, `localhost:8765` → `localhost`; "" when it is malformed (an IPv6 address without brackets)."""
+    header = header.strip().lower()
+    if header.startswith("["):
+        return header[1:header.index("]")] if "]" in header else ""
+    if header.count(":") > 1:
+        return ""
+    return header.split(":", 1)[0]
+
+
+class Guard:
+    """ASGI middleware: refuse a Host the server was not asked for (DNS rebinding; 400, or the socket closed),
+    and give every response the headers that keep the page to itself: a Content-Security-Policy (own scripts,
+    styles and socket only; framed only by local pages, so a notebook can embed it), no referrer (the URL
+    holds the token), no MIME sniffing."""
+
+    def __init__(self, app, hosts: set[str], any_host: bool):
+        self.app, self.hosts, self.any_host = app, hosts, any_host
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] not in ("http", "websocket"):
+            return await self.app(scope, receive, send)
+        host = dict(scope["headers"]).get(b"host", b"").decode("latin-1")
+        if not (host_of(host) and (self.any_host or host_of(host) in self.hosts)):
+            if scope["type"] == "websocket":
+                return await send({"type": "websocket.close", "code": 1008})
+            return await PlainTextResponse("400: this server does not answer to that host name\n",
+                                           status_code=400)(scope, receive, send)
+        policy = ("default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' blob: data:; "
+                  f"connect-src 'self' ws://{host}; base-uri 'none'; form-action 'none'; "
+                  "frame-ancestors 'self' http://localhost:* http://127.0.0.1:* http://[::1]:*")
+        extra = [(b"content-security-policy", policy.encode("latin-1")), (b"referrer-policy", b"no-referrer"),
+                 (b"x-content-type-options", b"nosniff")]
+
+        async def with_headers(message):
+            if message["type"] == "http.response.start":
+                message = {**message, "headers": [*message.get("headers", []), *extra]}
+            await send(message)
+        await self.app(scope, receive, with_headers)
 
 
 def cookie_name(connection) -> str:
