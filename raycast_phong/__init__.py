@@ -25,6 +25,7 @@ _HOMES = {
     "Scene": "scene.schema", "SceneError": "scene.schema", "ShadingModel": "scene.schema",
     "SpecularModel": "scene.schema", "default_scene_path": "scene.schema", "load_scene": "scene.load",
     "validate_scene": "scene.schema",
+    "show": "tools.notebook",
 }
 __all__ = sorted(_HOMES)
 
@@ -43,6 +44,7 @@ if TYPE_CHECKING:
         default_scene_path,
         validate_scene,
     )
+    from .tools.notebook import show
 
 
 def __getattr__(name: str):

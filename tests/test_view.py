@@ -81,6 +81,8 @@ def test_page_and_its_files_need_the_token(scene_path):
         assert "token" in response.text
     page = client.get(f"/?token={TOKEN}")
     assert page.status_code == 200 and "<html" in page.text
+    # Its own script comes with the token in its URL too: framed by a notebook of another site, it has no cookie.
+    assert f'src="static/view.js?token={TOKEN}"' in page.text
     assert client.get("/static/view.js").status_code == 200  # the page's files come with its cookie
 
 

@@ -425,11 +425,10 @@ def test_the_page_and_socket_refuse_a_request_without_the_token(page, browser):
 
 
 @contextmanager
-def other_origin():
-    """An empty page at http://127.0.0.1:<another port>/."""
+def other_origin(body: bytes = b"<!doctype html><title>another origin</title>"):
+    """A page (empty by default) at http://127.0.0.1:<another port>/."""
     class Blank(http.server.BaseHTTPRequestHandler):
         def do_GET(self):
-            body = b"<!doctype html><title>another origin</title>"
             self.send_response(200)
             self.send_header("Content-Type", "text/html")
             self.send_header("Content-Length", str(len(body)))
@@ -465,3 +464,22 @@ def test_compare_shows_b_beside_a_with_the_heat_map(page, scene_path):
     page.fill("#wipe", "30")
     page.dispatch_event("#wipe", "input")
     assert page.evaluate("document.querySelector('#image-b').style.clipPath") == "inset(0px 0px 0px 30%)"
+
+
+def test_the_live_view_can_be_framed_by_a_notebook_on_another_port(browser, scene_path):
+    from raycast_phong.tools.notebook import live
+    view = live(scene_path, height=600)
+    try:
+        cell = f"<!doctype html><title>a notebook</title>{view._repr_html_()}".encode()
+        with other_origin(cell) as notebook:  # Jupyter's page: another origin on loopback
+            stranger = browser.new_context()  # no cookie: the framed page's own files come by their token
+            try:
+                tab = stranger.new_page()
+                tab.goto(notebook)
+                framed = tab.frame_locator("iframe")
+                framed.locator("#image-a[data-quality='full']").wait_for(timeout=120_000)
+                assert framed.locator("#connection").text_content() == "connected"
+            finally:
+                stranger.close()
+    finally:
+        view.stop()

@@ -20,18 +20,18 @@ import math
 import re
 import secrets
 import struct
-import tempfile
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+from urllib.parse import quote
 
 import numpy as np
 from starlette.applications import Starlette
 from starlette.requests import Request
-from starlette.responses import FileResponse, PlainTextResponse, Response
+from starlette.responses import HTMLResponse, PlainTextResponse, Response
 from starlette.routing import Mount, Route, WebSocketRoute
 from starlette.staticfiles import StaticFiles
 from starlette.websockets import WebSocket, WebSocketDisconnect
@@ -39,6 +39,7 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 import raycast_phong as rp
 from raycast_phong.scene.load import read_scene_dict
 from raycast_phong.scene.schema import SceneError, apply_override
+from raycast_phong.tools.notebook import image_bytes
 from raycast_phong.tools.sweep import scene_toml, toml_value
 
 STATIC = Path(__file__).parent / "static"
@@ -46,6 +47,7 @@ MAX_MESSAGE_BYTES = 1 << 16   # a page message is a few hundred bytes of setting
 MAX_SETTINGS = 256            # keys per request: far more than the page has controls
 MAX_VIEW_RAYS = 1920 * 1080 * 16  # rays per frame: ~2 s here; a larger frame is a batch job, not a view
 LEVELS = range(7)          # tessellation levels the page offers (reference.refined: level 6 = 81,920 faces)
+STATIC_LINK = re.compile(r'(src|href)="static/([A-Za-z0-9_.-]+)"')  # index.html's links to its own files
 COOKIE = "raycast_phong_view_{port}"  # cookies ignore the port: one name per server, as Jupyter's
 
 
@@ -176,12 +178,8 @@ def settings_from(source: Source, text: str, name: str) -> dict:
 # ---------------------------------------------------------------- frames
 
 def encode(image: np.ndarray, suffix: str, aovs: dict | None = None) -> bytes:
-    """An image as the bytes of the file `raycast-phong render -o x.png|.exr` would write (image_io writes
-    only files: one scratch folder per call, removed at once)."""
-    with tempfile.TemporaryDirectory(prefix="raycast-phong-view-") as folder:
-        path = Path(folder) / f"image{suffix}"
-        rp.write_image(path, image, aovs)
-        return path.read_bytes()
+    """An image as the bytes of the file `raycast-phong render -o x.png|.exr` would write."""
+    return image_bytes(image, suffix, aovs)
 
 
 def pack(header: dict, parts: list[tuple[str, bytes]]) -> bytes:
@@ -334,8 +332,11 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
     async def index(request: Request) -> Response:
         if not authorised(request):
             return refused()
-        response = FileResponse(STATIC / "index.html", headers={"Cache-Control": "no-store"})
-        # The page's own files (script, style) then come with the cookie, as Jupyter's do.
+        # The page's own files (script, style) come with the token in their URLs, as the page's own did: a
+        # page framed by a notebook of another site gets no same-site cookie. The cookie serves the rest.
+        page = STATIC_LINK.sub(lambda m: f'{m[1]}="static/{m[2]}?token={quote(token, safe="")}"',
+                               (STATIC / "index.html").read_text(encoding="utf-8"))
+        response = HTMLResponse(page, headers={"Cache-Control": "no-store"})
         response.set_cookie(cookie_name(request), token, httponly=True, samesite="strict")
         return response
 
