@@ -142,7 +142,8 @@ def test_every_response_keeps_the_page_to_itself(scene_path):
         assert response.status_code == status
         policy = response.headers["content-security-policy"]
         assert "default-src 'none'" in policy and "script-src 'self'" in policy
-        assert "connect-src 'self' ws://testserver" in policy and "frame-ancestors 'self' http://localhost:*" in policy
+        assert "connect-src 'self' blob: ws://testserver" in policy  # blob: the page's own frames and downloads
+        assert "frame-ancestors 'self' http://localhost:*" in policy
         assert response.headers["referrer-policy"] == "no-referrer"  # the URL holds the token
         assert response.headers["x-content-type-options"] == "nosniff"
 
@@ -226,6 +227,25 @@ def test_compare_sends_both_frames_and_their_difference(scene_path, tmp_path):
     assert decode_png(parts["heat"], tmp_path).shape == (48, 64, 3)
 
 
+def test_the_three_models_of_a_in_one_frame(scene_path, tmp_path):
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 1, "models": True, "settings": {"render.specular": "blinn"},
+                                 "compare": {"render.shading": "flat"}}))  # models wins over a comparison
+        header, parts = receive_frame(ws)
+        ws.send_text(json.dumps({"type": "save", "id": 2, "what": "toml", "side": "b", "settings": {}}))
+        saved, _ = unpack(ws.receive_bytes())
+        ws.send_text(json.dumps({"type": "save", "id": 3, "what": "toml", "side": "c", "settings": {}}))
+        refused = json.loads(ws.receive_text())
+    assert sorted(parts) == ["a", "b", "c"] and "difference" not in header
+    for name, model in zip("abc", ("flat", "gouraud", "phong")):
+        scene = rp.load_scene(scene_path, [f'render.shading="{model}"', f'objects.0.shading="{model}"',
+                                           'render.specular="blinn"'])
+        np.testing.assert_array_equal(decode_png(parts[name], tmp_path), rendered_png(scene))
+    assert saved["filename"] == "tiny-view-B.toml"
+    assert refused["type"] == "error" and "allowed: 'a' or 'b'" in refused["message"]
+
+
 def test_latest_wins_while_a_render_runs(scene_path):
     """Requests that arrive while a render runs replace one another: only the newest is rendered."""
     started, release = threading.Event(), threading.Event()
@@ -270,12 +290,12 @@ def test_a_saved_scene_renders_to_the_frame_shown(scene_path, tmp_path):
         for what in ("toml", "exr", "png"):
             ws.send_text(json.dumps({"type": "save", "id": 2, "what": what, "settings": settings}))
             header, parts = unpack(ws.receive_bytes())
-            assert header["type"] == "saved" and header["filename"] == f"tiny-view.{what}"
+            assert header["type"] == "saved" and header["filename"] == f"tiny-view-A.{what}"
             (tmp_path / header["filename"]).write_bytes(parts["file"])
-    saved = rp.load_scene(tmp_path / "tiny-view.toml")
+    saved = rp.load_scene(tmp_path / "tiny-view-A.toml")
     np.testing.assert_array_equal(rendered_png(saved), decode_png(frame["a"], tmp_path))
-    np.testing.assert_array_equal(rp.read_image(tmp_path / "tiny-view.exr")[0], rp.render(saved).image)
-    assert (tmp_path / "tiny-view.png").read_bytes() == frame["a"]  # the same bytes as the frame shown
+    np.testing.assert_array_equal(rp.read_image(tmp_path / "tiny-view-A.exr")[0], rp.render(saved).image)
+    assert (tmp_path / "tiny-view-A.png").read_bytes() == frame["a"]  # the same bytes as the frame shown
 
 
 # ---------------------------------------------------------------- the command

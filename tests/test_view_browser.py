@@ -121,7 +121,7 @@ def drag(tab, selector: str, dx: float, dy: float, modifier: str | None = None) 
     tab.mouse.move(x, y)
     tab.mouse.down()
     tab.mouse.move(x + dx, y + dy, steps=8)
-    tab.wait_for_function("document.querySelector('#image-a').dataset.quality === 'draft'", timeout=60_000)
+    tab.wait_for_function("() => document.querySelector('#image-a').dataset.quality === 'draft'", timeout=60_000)
     tab.mouse.up()
     if modifier:
         tab.keyboard.up(modifier)
@@ -307,7 +307,7 @@ def test_the_page_shows_that_it_is_rendering_and_how_far(browser, scene_path):
         holding.set()
         tab.select_option("#shading", "flat")
         tab.wait_for_selector("#busy:not([hidden])", timeout=30_000)
-        tab.wait_for_function("document.querySelector('#busy-bar').value === 0.25", timeout=30_000)
+        tab.wait_for_function("() => document.querySelector('#busy-bar').value === 0.25", timeout=30_000)
         assert tab.text_content("#busy-text").startswith("rendering the full frame…")
         assert "stale" in tab.get_attribute("#stage", "class")
         release.set()
@@ -362,7 +362,7 @@ def test_a_saved_scene_renders_from_the_cli_to_the_image_shown(page, tmp_path, m
         page.click("[data-save=toml]")
     saved = tmp_path / download.value.suggested_filename
     download.value.save_as(saved)
-    assert saved.name == "tiny-view.toml"
+    assert saved.name == "tiny-view-A.toml"  # which setting it is
     assert rp.load_scene(saved).materials["red"].shininess == 31.6
     result = CliRunner().invoke(app, ["render", str(saved), "-o", str(tmp_path / "cli.png"), "--quiet"])
     assert result.exit_code == 0, result.output
@@ -385,7 +385,7 @@ def test_a_saved_scene_file_opens_back_on_the_page(page, scene_path, tmp_path):
     wait_for_full_frame(page)
     assert (page_image(page) != shown).any()
     page.set_input_files("#load", str(saved))
-    page.wait_for_function("window.view.settings.a['render.shading'] === 'gouraud'", timeout=30_000)
+    page.wait_for_function("() => window.view.settings.a['render.shading'] === 'gouraud'", timeout=30_000)
     wait_for_full_frame(page)
     assert page.input_value("#shading") == "gouraud" and page.input_value("#light-xyz input[data-axis='1']") == "-1"
     np.testing.assert_array_equal(page_image(page), shown)
@@ -422,6 +422,26 @@ def test_the_page_and_socket_refuse_a_request_without_the_token(page, browser):
     with other_origin() as other:
         page.goto(other)
         assert page.evaluate(outcome, f"{socket}?token={token}") == "closed"
+
+
+def test_flat_gouraud_and_phong_side_by_side_in_one_view(page, scene_path):
+    page.select_option("[data-key='render.specular']", "blinn")  # the three panels are A's, with its settings
+    page.select_option("#compare", "models")
+    wait_for_full_frame(page)
+    assert [page.text_content(f"#tag-{p}") for p in "abc"] == ["flat", "Gouraud", "Phong"]
+    assert page.is_hidden("#heat-box") and page.is_hidden("#editing-label")
+    for panel, model in zip("abc", ("flat", "gouraud", "phong")):
+        expected = rp.load_scene(scene_path, [*shading(model), 'render.specular="blinn"'])
+        np.testing.assert_array_equal(page_image(page, f"#image-{panel}"), to_8bit(rp.render(expected).image))
+    assert page.evaluate("window.view.lastFrame.stats.c.width") == WIDTH
+    page.select_option("#compare", "side")
+    wait_for_full_frame(page)
+    assert [page.text_content(f"#tag-{p}") for p in "ab"] == ["A", "B"] and page.is_hidden("#panel-c")
+    assert page.text_content("#heat-box .tag") == "|A − B|" and page.text_content("#exact-label") == "exact error of A"
+    page.select_option("#editing", "b")
+    with page.expect_download() as download:
+        page.click("[data-save=toml]")
+    assert download.value.suggested_filename == "tiny-view-B.toml"
 
 
 @contextmanager

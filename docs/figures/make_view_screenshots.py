@@ -25,7 +25,7 @@ def settle(page, errors: bool = False) -> None:
         return img.dataset.quality === 'full' && Number(img.dataset.id) >= sent && img.complete; }""",
                            arg=sent, timeout=120_000)
     if errors:
-        page.wait_for_function("document.querySelector('#exact').textContent.startsWith('RMSE')", timeout=120_000)
+        page.wait_for_function("() => document.querySelector('#exact').textContent.startsWith('RMSE')", timeout=120_000)
 
 
 def drag(page, selector: str, dx: float, dy: float) -> None:

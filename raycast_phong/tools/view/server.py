@@ -233,7 +233,11 @@ class Renderer:
         settings = settings_of(request)
         header: dict = {"type": "frame", "id": request.get("id"), "quality": quality}
         scenes = {"a": scene_with(self.source, settings)}
-        if request.get("compare") is not None:
+        if request.get("models"):
+            # The lecture's figure: A in flat, Gouraud and Phong shading, as panels a, b and c.
+            from raycast_phong.tools.notebook import MODELS, shaded
+            scenes = dict(zip("abc", (shaded(scenes["a"], model) for model in MODELS)))
+        elif request.get("compare") is not None:
             scenes["b"] = scene_with(self.source, settings_of(request, "compare"))
         shaped = draft_of if quality == "draft" else frame_of
         parts, images, stats = [], {}, {}
@@ -242,7 +246,7 @@ class Renderer:
             if progress is not None:
                 told = lambda done, total, k=k: progress((k + done / max(total, 1)) / len(scenes))
             result = self.render(shaped(scene), source=self.source.name, progress=told)
-            if name == "a" and quality == "full":
+            if name == "a" and quality == "full" and not request.get("models"):
                 self.last_full = (request.get("id"), result)  # errors() measures this image, not a new one
             images[name] = result.image
             parts.append((name, encode(result.image, ".png")))
@@ -250,7 +254,7 @@ class Renderer:
                            "rays": result.rays, "triangles": result.triangles, "left_out": left_out(result.plan),
                            "warnings": list(result.plan.warnings),
                            "width": result.image.shape[1], "height": result.image.shape[0]}
-        if "b" in images:
+        if "b" in images and "c" not in images:
             from raycast_phong.tools.difference import difference, heat_map
             if images["a"].shape == images["b"].shape:
                 diff = difference(images["a"], images["b"])
@@ -286,7 +290,10 @@ class Renderer:
         """The current settings as a scene file (toml), or the full-resolution image (png, exr with layers)."""
         what = request.get("what")
         scene = scene_with(self.source, settings_of(request))
-        stem = Path(self.source.name).stem or "scene"
+        side = request.get("side", "a")
+        if side not in ("a", "b"):
+            raise ViewError(f"save: side {side!r}; allowed: 'a' or 'b'")
+        stem = f"{Path(self.source.name).stem or 'scene'}-view-{side.upper()}"  # which setting it is
         if what == "toml":
             data = scene_toml(scene).encode("utf-8")
         elif what in ("png", "exr"):
@@ -294,7 +301,7 @@ class Renderer:
             data = encode(result.image, f".{what}", result.aovs if what == "exr" else None)
         else:
             raise ViewError(f"save: {what!r}; allowed: 'toml', 'png' or 'exr'")
-        return pack({"type": "saved", "id": request.get("id"), "what": what, "filename": f"{stem}-view.{what}"},
+        return pack({"type": "saved", "id": request.get("id"), "what": what, "filename": f"{stem}.{what}"},
                     [("file", data)])
 
 
@@ -502,7 +509,7 @@ class Guard:
             return await PlainTextResponse("400: this server does not answer to that host name\n",
                                            status_code=400)(scope, receive, send)
         policy = ("default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' blob: data:; "
-                  f"connect-src 'self' ws://{host}; base-uri 'none'; form-action 'none'; "
+                  f"connect-src 'self' blob: ws://{host}; base-uri 'none'; form-action 'none'; "
                   "frame-ancestors 'self' http://localhost:* http://127.0.0.1:* http://[::1]:*")
         extra = [(b"content-security-policy", policy.encode("latin-1")), (b"referrer-policy", b"no-referrer"),
                  (b"x-content-type-options", b"nosniff")]

@@ -113,11 +113,12 @@ function request(quality) {
   state.sentAt[id] = performance.now();
   state.asked = { id, quality, at: performance.now() };
   $("#busy-bar").removeAttribute("value");  // indeterminate until the first tiles are done
+  const models = state.compare === "models";
   send({
-    type: "render", id, quality,
+    type: "render", id, quality, models,
     settings: state.settings.a,
-    compare: state.compare === "off" ? null : state.settings.b,
-    reference: Boolean(state.hello && state.hello.analytic) && quality === "full",
+    compare: state.compare === "off" || models ? null : state.settings.b,
+    reference: Boolean(state.hello && state.hello.analytic) && quality === "full" && !models,
   });
   return id;
 }
@@ -140,10 +141,11 @@ function onFrame(header, parts) {
   busy();
   // A draft frame (half size) is shown at the full frame's size; side by side, each gets half the room.
   const displayWidth = state.hello.scene.render.width;
-  const stageWidth = `${state.compare === "side" ? 2 * displayWidth + 8 : displayWidth}px`;
+  const panels = { side: 2, models: 3 }[state.compare] || 1;
+  const stageWidth = `${panels * displayWidth + 8 * (panels - 1)}px`;
   $("#stage").style.maxWidth = stageWidth;
   $("#wipe").style.maxWidth = stageWidth;
-  for (const name of ["a", "b"]) {
+  for (const name of ["a", "b", "c"]) {
     if (!parts[name]) continue;
     const img = $(`#image-${name}`);
     show(img, parts[name]);
@@ -390,8 +392,9 @@ function drawGizmo() {
 // The selected light's marker on each image (hidden when it is off the image or behind the eye).
 function drawMarkers() {
   if (!state.hello || !lightOf(lightIndex())) return;
-  for (const side of ["a", "b"]) {
-    const marker = $(`#marker-${side}`);
+  for (const panel of ["a", "b", "c"]) {
+    const marker = $(`#marker-${panel}`);
+    const side = panel === "b" && state.compare !== "models" ? "b" : "a";  // the three models are all A's
     const index = lightIndex();
     const at = lightOf(index).type === "point" ? project(rigOf(side), valueIn(side, `lights.${index}.position`)) : null;
     marker.hidden = !at || at.u < 0 || at.u > 1 || at.v < 0 || at.v > 1;
@@ -582,7 +585,7 @@ function resetCamera() {
 function wireCamera() {
   let last = null, settle = null;
   const later = () => { clearTimeout(settle); settle = setTimeout(() => request("full"), 250); };
-  for (const img of [$("#image-a"), $("#image-b")]) {
+  for (const img of [$("#image-a"), $("#image-b"), $("#image-c")]) {
     img.addEventListener("contextmenu", (event) => event.preventDefault());  // the right button pans
     img.addEventListener("pointerdown", (event) => {
       img.setPointerCapture(event.pointerId);
@@ -664,7 +667,7 @@ function wire() {
   shininess.addEventListener("change", () => request("full"));
   $("#compare").addEventListener("change", () => {
     const on = $("#compare").value !== "off";
-    if (on && state.compare === "off" && !state.bStarted) {
+    if (on && $("#compare").value !== "models" && !state.bStarted) {
       // B starts as A is now, with every object in Gouraud shading: the lecture's contrast.
       state.settings.b = { ...state.settings.a };
       for (const key of shadingKeys()) state.settings.b[key] = "gouraud";
@@ -673,7 +676,7 @@ function wire() {
     }
     state.compare = $("#compare").value;
     layoutCompare();
-    if (!on) { state.editing = "a"; $("#editing").value = "a"; refreshControls(); }
+    if (!on || state.compare === "models") { state.editing = "a"; $("#editing").value = "a"; refreshControls(); }
     request("full");
   });
   $("#editing").addEventListener("change", () => { state.editing = $("#editing").value; refreshControls(); });
@@ -687,17 +690,23 @@ function wire() {
   });
   for (const button of document.querySelectorAll("[data-save]")) {
     button.addEventListener("click", () => send({ type: "save", id: state.nextId++, what: button.dataset.save,
-                                                   settings: state.settings[state.editing] }));
+                                                   side: state.editing, settings: state.settings[state.editing] }));
   }
 }
 
 function layoutCompare() {
   const on = state.compare !== "off";
+  const models = state.compare === "models";
   $("#compare").value = state.compare;
   $("#panel-b").hidden = !on;
-  $("#heat-box").hidden = !on;
+  $("#panel-c").hidden = !models;
+  $("#heat-box").hidden = !on || models;
   $("#wipe").hidden = state.compare !== "wipe";
-  $("#editing-label").hidden = !on;
+  $("#editing-label").hidden = !on || models;
+  // The panels say what they show: A and B, or A's three shading models.
+  [$("#tag-a").textContent, $("#tag-b").textContent] = models ? ["flat", "Gouraud"] : ["A", "B"];
+  $("#exact-label").textContent = models ? "exact error" : "exact error of A";
+  if (models) $("#exact").textContent = "(of A alone: choose A only or A | B)";
   $("#stage").classList.toggle("wipe", state.compare === "wipe");
   wipe();
 }
@@ -727,7 +736,8 @@ function restore() {
   state.settings.a = table(kept.a);
   if (kept.b) { state.settings.b = table(kept.b); state.bStarted = true; }
   state.level = { a: null, b: null, ...table(kept.level) };
-  state.compare = ["off", "side", "wipe"].includes(kept.compare) && state.bStarted ? kept.compare : "off";
+  const known = kept.compare === "models" || (["side", "wipe"].includes(kept.compare) && state.bStarted);
+  state.compare = known ? kept.compare : "off";
   layoutCompare();
 }
 
