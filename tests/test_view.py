@@ -246,6 +246,30 @@ def test_the_three_models_of_a_in_one_frame(scene_path, tmp_path):
     assert refused["type"] == "error" and "allowed: 'a' or 'b'" in refused["message"]
 
 
+def test_an_edited_scene_file_is_reloaded_and_a_broken_one_kept_out(scene_path, tmp_path, monkeypatch):
+    from raycast_phong.tools.view import server
+    monkeypatch.setattr(server, "WATCH_EVERY", 0.05)
+    text = scene_path.read_text()
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        scene_path.write_text(text.replace("ambient = [0.1, 0.1, 0.1]", "ambient = [0.5, 0.2, 0.1]"))
+        hello = json.loads(ws.receive_text())
+        assert hello["type"] == "hello" and hello["reloaded"] and hello["scene"]["ambient"] == [0.5, 0.2, 0.1]
+        ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "full", "settings": SHADING}))
+        _, parts = receive_frame(ws)
+        edited = rp.load_scene(scene_path, [f"{k}={json.dumps(v)}" for k, v in SHADING.items()])
+        np.testing.assert_array_equal(decode_png(parts["a"], tmp_path), rendered_png(edited))
+        scene_path.write_text(text.replace("subdivisions = 1", "subdivisions = -1"))  # invalid: refused, kept out
+        error = json.loads(ws.receive_text())
+        assert error["type"] == "error" and "objects.0.subdivisions" in error["message"]
+        assert "\n" not in error["message"] and "keeps the scene as it was" in error["message"]
+        ws.send_text(json.dumps({"type": "render", "id": 2, "quality": "full", "settings": SHADING}))
+        _, parts = receive_frame(ws)
+        np.testing.assert_array_equal(decode_png(parts["a"], tmp_path), rendered_png(edited))  # the last good one
+        scene_path.write_text(text)
+        assert json.loads(ws.receive_text())["scene"]["ambient"] == [0.1, 0.1, 0.1]
+
+
 def test_latest_wins_while_a_render_runs(scene_path):
     """Requests that arrive while a render runs replace one another: only the newest is rendered."""
     started, release = threading.Event(), threading.Event()

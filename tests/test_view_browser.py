@@ -444,6 +444,18 @@ def test_flat_gouraud_and_phong_side_by_side_in_one_view(page, scene_path):
     assert download.value.suggested_filename == "tiny-view-B.toml"
 
 
+def test_an_edited_scene_file_shows_on_the_page_with_its_settings_kept(page, scene_path):
+    page.select_option("#shading", "flat")
+    wait_for_full_frame(page)
+    shown = page.evaluate("window.view.nextId")
+    scene_path.write_text(scene_path.read_text().replace("ambient = [0.1, 0.1, 0.1]", "ambient = [0.4, 0.4, 0.6]"))
+    page.wait_for_function("(shown) => window.view.nextId > shown", arg=shown, timeout=30_000)  # asked anew
+    wait_for_full_frame(page)
+    assert "(reloaded" in page.text_content("#source") and page.input_value("#shading") == "flat"
+    edited = rp.load_scene(scene_path, shading("flat"))
+    np.testing.assert_array_equal(page_image(page), to_8bit(rp.render(edited).image))
+
+
 @contextmanager
 def other_origin(body: bytes = b"<!doctype html><title>another origin</title>"):
     """A page (empty by default) at http://127.0.0.1:<another port>/."""

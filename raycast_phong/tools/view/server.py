@@ -23,6 +23,7 @@ import struct
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import suppress
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -59,19 +60,34 @@ class ViewError(ValueError):
 
 @dataclass
 class Source:
-    """The scene the view was started with: its parsed table, the name errors use, its folder."""
+    """The scene the view was started with: its parsed table, the name errors use, its folder, and the scene
+    file the server watches (None for a mesh file, which render() itself reads anew when it changes)."""
     data: dict
     name: str
     folder: Path
+    watched: Path | None = None
 
 
 def open_source(path: str | Path | None) -> Source:
     """A scene file (.toml/.json), a mesh file (mesh_scene: framed by a camera and lit by a key light), or the
     default scene; validated now, so a bad file is refused before the server starts."""
     path = Path(path) if path is not None else rp.default_scene_path()
-    source = Source(read_scene_dict(path), str(path), path.parent)
+    scene_file = path.suffix.lower() in (".toml", ".json")
+    source = Source(read_scene_dict(path), str(path), path.parent, path if scene_file else None)
     scene_with(source, {})
     return source
+
+
+WATCH_EVERY = 0.5  # seconds between looks at the scene file: an edit shows within a second, the disk stays idle
+
+
+def version(path: Path) -> tuple | None:
+    """What changes when a file is rewritten (an editor's save replaces it: a new inode); None if it is gone."""
+    try:
+        stat = path.stat()
+    except OSError:
+        return None
+    return stat.st_mtime_ns, stat.st_size, stat.st_ino
 
 
 KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.([A-Za-z0-9_-]+))*")
@@ -363,6 +379,9 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
             return
         await websocket.accept()
         client = Client()
+        pages.add(websocket)
+        if source.watched is not None and (not watcher or watcher[0].done()):
+            watcher[:] = [asyncio.create_task(watch())]
         await websocket.send_text(json.dumps({**hello(source), "warming": not app.state.warming.done()}))
         worker = asyncio.create_task(work(websocket, client))
         try:
@@ -386,9 +405,35 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
         except (WebSocketDisconnect, RuntimeError, KeyError):
             pass  # the page closed (or sent a binary frame: receive_text's KeyError); nothing is owed to it
         finally:
+            pages.discard(websocket)
             worker.cancel()
             if client.reference_task is not None:
                 client.reference_task.cancel()
+
+    pages: set[WebSocket] = set()   # the open pages, told when the scene file changes
+    watcher: list[asyncio.Task] = []  # the one task watching it, while a page is open
+
+    async def watch() -> None:
+        """Re-read the scene file when it changes, while a page is open: each page gets the new hello (and keeps
+        its own settings over it), or the file's one-line message while it is invalid (the old scene stays)."""
+        path, seen = source.watched, version(source.watched)
+        while pages:
+            await asyncio.sleep(WATCH_EVERY)
+            now = version(path)
+            if now == seen or now is None:  # gone: an editor between its delete and its write, or removed
+                continue
+            seen = now
+            try:
+                fresh = await asyncio.get_running_loop().run_in_executor(None, open_source, path)
+            except (SceneError, ViewError, OSError, ValueError) as error:
+                message = {"type": "error", "id": None,
+                           "message": f"{error} (the page keeps the scene as it was until the file is valid)"}
+            else:
+                source.data = fresh.data  # scene_with copies it per request: a running render is unaffected
+                message = {**hello(source), "warming": False, "reloaded": True}
+            for page in list(pages):
+                with suppress(Exception):  # a page closing meanwhile: nothing is owed to it
+                    await page.send_text(json.dumps(message))
 
     def loaded(request: dict) -> dict:
         """A scene file the page opened, as the settings that make it; milliseconds, so on the event loop."""

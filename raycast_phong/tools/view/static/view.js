@@ -264,6 +264,7 @@ function onHello(message) {
   const light = $("#light").value, material = $("#material").value;
   state.hello = message;
   $("#source").textContent = message.source;
+  if (message.reloaded) $("#source").textContent += ` (reloaded ${new Date().toLocaleTimeString()})`;
   $("#material").replaceChildren(...message.materials.map((name) => new Option(name, name)));
   $("#light").replaceChildren(...message.scene.lights.map((light, index) =>
     new Option(`${index + 1}: ${light.type}`, String(index))));
