@@ -515,3 +515,16 @@ def test_the_live_view_can_be_framed_by_a_notebook_on_another_port(browser, scen
                 stranger.close()
     finally:
         view.stop()
+
+
+def test_the_browser_benchmark_runs_in_a_reduced_form():
+    """bench_view.py --browser is not a timed test; this keeps it working (one step a size, short drags)."""
+    import subprocess
+    import sys
+    root = Path(__file__).resolve().parent.parent
+    done = subprocess.run([sys.executable, str(root / "benchmarks" / "bench_view.py"), "--browser", "--steps", "1",
+                           "--seconds", "0.6", "--rate", "20"], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    for line in ("rest 640×360                 full", "rest 1280×720                full",
+                 "dragging 640×360             draft"):
+        assert line in done.stdout, done.stdout

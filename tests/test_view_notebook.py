@@ -79,3 +79,15 @@ def test_the_tutorial_runs_from_top_to_bottom():
     assert "highlight lost" in printed and "triangles" in printed
     assert any("image/png" in out.get("data", {}) for cell in code for out in cell.get("outputs", []))  # the plot
     assert "skip-execution" in code[-1].metadata.get("tags", [])  # the live page needs a browser
+
+
+def test_png_bytes_hold_the_8bit_values_render_stores(tmp_path):
+    """The view's frames are encoded in memory: out-of-range, odd-sized and 1×1 images decode (OpenImageIO) to
+    film.to_8bit's values, what `render -o x.png` stores."""
+    from raycast_phong.tools.notebook import png_bytes
+    rng = np.random.default_rng(7)
+    for shape in [(1, 1, 3), (3, 5, 3), (37, 61, 3)]:
+        image = rng.uniform(-0.5, 1.5, shape).astype(np.float32)
+        path = tmp_path / "frame.png"
+        path.write_bytes(png_bytes(image))
+        np.testing.assert_array_equal(np.round(rp.read_image(path)[0] * 255).astype(np.uint8), to_8bit(image))

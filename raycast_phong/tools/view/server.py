@@ -17,9 +17,11 @@ import asyncio
 import copy
 import json
 import math
+import os
 import re
 import secrets
 import struct
+import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -340,7 +342,8 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
     `any_host` (served on 0.0.0.0 or ::): any Host name, and then the socket's Origin must be that host's page."""
     renderer = Renderer(source, render)
     executor = executor or ThreadPoolExecutor(max_workers=1, thread_name_prefix="view-render")
-    reference_executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="view-reference")
+    reference_executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="view-reference",
+                                            initializer=lowest_priority)
     hosts = {host_of(o.split("://", 1)[1]) for o in origins}
 
     def authorised(connection) -> bool:
@@ -481,6 +484,10 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
         time, and the next frame must not wait for it."""
         loop = asyncio.get_running_loop()
         while client.reference_next is not None:
+            # Start only once the page has rested a moment: a drag that goes on makes it stale before it starts.
+            await asyncio.sleep(REFERENCE_REST)
+            if client.pending is not None:
+                continue  # a newer frame is on its way, and brings its own reference request
             request, client.reference_next = client.reference_next, None
             try:
                 errors = await loop.run_in_executor(reference_executor, renderer.errors, request)
@@ -498,6 +505,17 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
     # "preparing the renderer" while this runs (hello's `warming`); the first frame queues behind it.
     app.state.warming = executor.submit(warm, source)
     return app
+
+
+REFERENCE_REST = 0.3  # seconds without a newer request before the exact errors of a full frame are computed
+
+
+def lowest_priority() -> None:
+    """Run this thread (the exact-error reference's) at nice 19: Linux schedules threads one by one, so the
+    render's threads, at the server's own priority, get the cores first while a reference runs beside them."""
+    if hasattr(os, "setpriority"):
+        with suppress(OSError):  # not allowed or not supported: the reference then competes as before
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 19)
 
 
 def warm(source: Source) -> None:

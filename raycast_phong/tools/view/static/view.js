@@ -17,6 +17,7 @@ const state = {
   urls: {},        // object URLs on screen, revoked when replaced
   lastFrame: null, // header of the frame on screen (tests read it)
   connected: false,
+  painted: [],     // {id, quality, ms (change → on screen), server (ms in the server)} of the frames shown
   answered: 0,     // newest request answered (by a frame or an error)
   asked: null,     // {id, quality, at} of the newest request sent
   warming: false,  // the server is still loading or compiling its kernels
@@ -164,8 +165,17 @@ function onFrame(header, parts) {
     ` (${header.quality}), ${(1000 * header.seconds).toFixed(1)} ms in all`;
   $("#rays").textContent = `${(a.rays_per_second / 1e6).toFixed(1)} M (${a.rays.toLocaleString()} rays, ` +
     `${a.triangles.toLocaleString()} triangles)`;
+  // Change → on screen: from the request (sent by the input's own handler) to the first animation frame
+  // after image A decoded, the frame the browser then paints. benchmarks/bench_view.py --browser reads these.
   const sent = state.sentAt[header.id];
-  if (sent !== undefined) $("#latency").textContent = `${(performance.now() - sent).toFixed(0)} ms`;
+  if (sent !== undefined) {
+    $("#image-a").decode().then(() => requestAnimationFrame(() => {
+      const ms = performance.now() - sent;
+      $("#latency").textContent = `${ms.toFixed(0)} ms`;
+      state.painted.push({ id: header.id, quality: header.quality, ms, server: header.seconds * 1000 });
+      if (state.painted.length > 2000) state.painted.shift();
+    }), () => {});  // a newer image replaced it before it decoded: that one is measured instead
+  }
   for (const id of Object.keys(state.sentAt)) if (Number(id) <= header.id) delete state.sentAt[id];
   $("#left-out").textContent = a.left_out.map((s) => s.name).join(", ") || "nothing";
   $("#left-out").title = a.left_out.map((s) => `${s.name}: ${s.reason}`).join("\n");
