@@ -305,6 +305,34 @@ def test_exact_errors_follow_a_full_frame_of_an_analytic_scene(scene_path):
     assert errors["rmse"] == pytest.approx(measured.rmse) and errors["max_error"] == pytest.approx(measured.max_error)
 
 
+def test_a_slow_page_does_not_hold_another_pages_frames(scene_path):
+    """Each page renders on its own thread: while one page's frame is held, another page gets its frames."""
+    started, release, finished = threading.Event(), threading.Event(), threading.Event()
+
+    def held_render(scene, **options):
+        if scene.render.width == 31:  # the slow page's draft (of 61 pixels across)
+            started.set()
+            release.wait(30)
+            finished.set()
+        return rp.render(scene, **options)
+
+    client = client_for(scene_path, render=held_render)
+    try:
+        with connect(client) as slow, connect(client) as other:
+            slow.receive_text()
+            other.receive_text()
+            slow.send_text(json.dumps({"type": "render", "id": 1, "quality": "draft",
+                                       "settings": {"render.width": 61}}))
+            assert started.wait(60)
+            other.send_text(json.dumps({"type": "render", "id": 1, "quality": "draft"}))
+            header, _ = receive_frame(other)  # while the slow page's frame is still held
+            assert header["stats"]["a"]["width"] == 32 and not finished.is_set()
+            release.set()
+            assert receive_frame(slow)[0]["stats"]["a"]["width"] == 31  # its draft: half of 61, rounded up
+    finally:
+        release.set()
+
+
 def test_the_exact_reference_runs_at_the_lowest_priority(scene_path):
     """Linux schedules threads one by one: the reference's thread at nice 19 leaves the cores to the frames."""
     pool = client_for(scene_path).app.state.reference_executor

@@ -239,11 +239,11 @@ class Renderer:
 
     def __post_init__(self):
         self.render = self.render or rp.render
-        self.last_full: tuple = (None, None)  # (request id, RenderResult) of the last full frame A
 
-    def frame(self, request: dict, progress: Callable[[float], None] | None = None) -> bytes:
+    def frame(self, request: dict, progress: Callable[[float], None] | None = None, shown: dict | None = None) -> bytes:
         """Render settings A (and B, to compare) at the requested quality; the PNGs, the heat map, the figures.
-        `progress(share)` is told the share of the tiles done, 0..1 over A and B together."""
+        `progress(share)` is told the share of the tiles done, 0..1 over A and B together; `shown` (the page's
+        own table) keeps (request id, RenderResult) of its last full frame A for errors()."""
         started = time.perf_counter()
         quality = request.get("quality", "full")
         if quality not in ("draft", "full"):
@@ -264,8 +264,8 @@ class Renderer:
             if progress is not None:
                 told = lambda done, total, k=k: progress((k + done / max(total, 1)) / len(scenes))
             result = self.render(shaped(scene), source=self.source.name, progress=told)
-            if name == "a" and quality == "full" and not request.get("models"):
-                self.last_full = (request.get("id"), result)  # errors() measures this image, not a new one
+            if name == "a" and quality == "full" and not request.get("models") and shown is not None:
+                shown["a"] = (request.get("id"), result)  # errors() measures this image, not a new one
             images[name] = result.image
             parts.append((name, encode(result.image, ".png")))
             stats[name] = {"frame": result.timings["frame"], "rays_per_second": result.rays_per_second,
@@ -285,8 +285,9 @@ class Renderer:
         header["seconds"] = time.perf_counter() - started
         return pack(header, parts)
 
-    def errors(self, request: dict) -> dict | None:
-        """RMSE, max error and highlight loss of A against the exact surfaces; None for a mesh scene."""
+    def errors(self, request: dict, shown: dict | None = None) -> dict | None:
+        """RMSE, max error and highlight loss of A against the exact surfaces; None for a mesh scene. The image
+        measured is the page's last full frame (`shown`, as frame() kept it) if it is this request's."""
         from raycast_phong.tools.accuracy import measured
         from raycast_phong.tools.reference import ExactScene
         scene = frame_of(scene_with(self.source, settings_of(request)))
@@ -294,10 +295,10 @@ class Renderer:
             ExactScene(scene, self.source.name)
         except SceneError:
             return None
-        shown_id, shown = self.last_full
+        shown_id, image = (shown or {}).get("a", (None, None))
         if shown_id != request.get("id"):
-            shown = self.render(scene, source=self.source.name)
-        result = measured(scene, shown, "analytic", 2, self.source.name)
+            image = self.render(scene, source=self.source.name)
+        result = measured(scene, image, "analytic", 2, self.source.name)
         e = result.errors
         finite = lambda x: None if x is None or not math.isfinite(x) else x  # JSON has no nan or inf
         return {"type": "errors", "id": request.get("id"), "rmse": finite(e.rmse), "max_error": finite(e.max_error),
@@ -327,13 +328,17 @@ class Renderer:
 
 @dataclass
 class Client:
-    """One socket's queue: at most one waiting render (latest wins), one waiting save, one waiting reference."""
+    """One socket's queue: at most one waiting render (latest wins), one waiting save, one waiting reference;
+    its own render thread, so a page asking for a slow frame never holds another page's frames; its last full
+    frame A (for the exact errors: request ids are each page's own)."""
     pending: dict | None = None
     pending_save: dict | None = None
     wake: asyncio.Event = field(default_factory=asyncio.Event)
     dropped: int = 0
     reference_next: dict | None = None        # the newest full frame whose exact errors are still owed
     reference_task: asyncio.Task | None = None
+    executor: ThreadPoolExecutor = field(default_factory=lambda: ThreadPoolExecutor(1, "view-page"))
+    shown: dict = field(default_factory=dict)
 
 
 def create_app(source: Source, token: str, origins: list[str], *, render: Callable | None = None,
@@ -410,6 +415,7 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
         finally:
             pages.discard(websocket)
             worker.cancel()
+            client.executor.shutdown(wait=False, cancel_futures=True)
             if client.reference_task is not None:
                 client.reference_task.cancel()
 
@@ -451,6 +457,8 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
 
     async def work(websocket: WebSocket, client: Client) -> None:
         loop = asyncio.get_running_loop()
+        with suppress(Exception):  # the kernels first (compiled once, shared); a failed warm-up shows in the frame
+            await asyncio.wrap_future(app.state.warming)
         while True:
             await client.wake.wait()
             client.wake.clear()
@@ -462,9 +470,9 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
                 try:
                     if is_frame:
                         told = progress_to(websocket, loop, request.get("id"))
-                        reply = await loop.run_in_executor(executor, job, request, told)
+                        reply = await loop.run_in_executor(client.executor, job, request, told, client.shown)
                     else:
-                        reply = await loop.run_in_executor(executor, job, request)
+                        reply = await loop.run_in_executor(client.executor, job, request)
                 except (ViewError, SceneError, rp.ImageError) as error:
                     await websocket.send_text(json.dumps({"type": "error", "id": request.get("id"),
                                                           "message": str(error)}))
@@ -490,7 +498,7 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
                 continue  # a newer frame is on its way, and brings its own reference request
             request, client.reference_next = client.reference_next, None
             try:
-                errors = await loop.run_in_executor(reference_executor, renderer.errors, request)
+                errors = await loop.run_in_executor(reference_executor, renderer.errors, request, client.shown)
             except Exception as error:  # noqa: BLE001 — the frame was fine; say why its errors are missing and go on
                 errors = {"type": "error", "id": request.get("id"), "message": f"exact reference: {error}"}
             if errors is not None:
