@@ -333,11 +333,18 @@ def test_a_slow_page_does_not_hold_another_pages_frames(scene_path):
         release.set()
 
 
-def test_the_exact_reference_runs_at_the_lowest_priority(scene_path):
-    """Linux schedules threads one by one: the reference's thread at nice 19 leaves the cores to the frames."""
-    pool = client_for(scene_path).app.state.reference_executor
-    nice = pool.submit(lambda: os.getpriority(os.PRIO_PROCESS, threading.get_native_id())).result(30)
-    assert nice == 19
+def test_the_exact_reference_runs_at_the_lowest_priority():
+    """Linux schedules threads one by one: a page's reference thread at nice 19 leaves the cores to the frames;
+    its render thread keeps the server's priority."""
+    from raycast_phong.tools.view.server import Client
+    page = Client()
+    nice = lambda: os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
+    try:
+        assert page.references.submit(nice).result(30) == 19
+        assert page.executor.submit(nice).result(30) == os.getpriority(os.PRIO_PROCESS, 0)
+    finally:
+        page.references.shutdown()
+        page.executor.shutdown()
 
 
 def test_a_saved_scene_renders_to_the_frame_shown(scene_path, tmp_path):

@@ -86,8 +86,7 @@ def page_url(host: str, port: int, token: str) -> str:
 
 def close(app) -> None:
     """Stop the app's render threads."""
-    for pool in (app.state.executor, app.state.reference_executor):
-        pool.shutdown(wait=False, cancel_futures=True)
+    app.state.executor.shutdown(wait=False, cancel_futures=True)  # each page's own threads end with its socket
 
 
 def server_config(app):

@@ -338,6 +338,10 @@ class Client:
     reference_next: dict | None = None        # the newest full frame whose exact errors are still owed
     reference_task: asyncio.Task | None = None
     executor: ThreadPoolExecutor = field(default_factory=lambda: ThreadPoolExecutor(1, "view-page"))
+    # Its exact references on a thread of their own at nice 19: a closed page's reference still running (it
+    # cannot be stopped midway) then delays no other page's, and the frames get the cores first.
+    references: ThreadPoolExecutor = field(default_factory=lambda: ThreadPoolExecutor(
+        1, "view-page-reference", initializer=lowest_priority))
     shown: dict = field(default_factory=dict)
 
 
@@ -347,8 +351,6 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
     `any_host` (served on 0.0.0.0 or ::): any Host name, and then the socket's Origin must be that host's page."""
     renderer = Renderer(source, render)
     executor = executor or ThreadPoolExecutor(max_workers=1, thread_name_prefix="view-render")
-    reference_executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="view-reference",
-                                            initializer=lowest_priority)
     hosts = {host_of(o.split("://", 1)[1]) for o in origins}
 
     def authorised(connection) -> bool:
@@ -416,6 +418,7 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
             pages.discard(websocket)
             worker.cancel()
             client.executor.shutdown(wait=False, cancel_futures=True)
+            client.references.shutdown(wait=False, cancel_futures=True)
             if client.reference_task is not None:
                 client.reference_task.cancel()
 
@@ -498,7 +501,7 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
                 continue  # a newer frame is on its way, and brings its own reference request
             request, client.reference_next = client.reference_next, None
             try:
-                errors = await loop.run_in_executor(reference_executor, renderer.errors, request, client.shown)
+                errors = await loop.run_in_executor(client.references, renderer.errors, request, client.shown)
             except Exception as error:  # noqa: BLE001 — the frame was fine; say why its errors are missing and go on
                 errors = {"type": "error", "id": request.get("id"), "message": f"exact reference: {error}"}
             if errors is not None:
@@ -507,7 +510,7 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
     routes = [Route("/", index), Mount("/static", app=static), WebSocketRoute("/socket", socket)]
     app = Starlette(routes=routes)
     app.add_middleware(Guard, hosts=hosts, any_host=any_host)
-    app.state.executor, app.state.reference_executor, app.state.renderer = executor, reference_executor, renderer
+    app.state.executor, app.state.renderer = executor, renderer
     # Load or compile every kernel the page can ask for (float32 and float64 shading, shadow rays) before
     # it asks: a first switch to float64 used to wait ~35 s for numba mid-session. The page shows
     # "preparing the renderer" while this runs (hello's `warming`); the first frame queues behind it.
