@@ -39,10 +39,12 @@ mark("import the CLI (typer, numpy, OpenImageIO, pydantic)")
 import numpy as np
 from raycast_phong.renderer import frame as render
 mark("import the renderer (numba, embreex, the stages)")
-from raycast_phong.renderer.kernels.camera import RayGenerator, camera_rig
+from raycast_phong.geometry.build import build_geometry
+from raycast_phong.renderer.intersect import unit_frame
+from raycast_phong.renderer.pack import RayGenerator, camera_rig
 scene = rp.load_scene(rp.default_scene_path())
-geometry = render.build_geometry(scene)
-frame = render.unit_frame(geometry.vertices)
+geometry = build_geometry(scene)
+frame = unit_frame(geometry.vertices)
 RayGenerator(camera_rig(scene), frame, 2, 2, 1, 4).rows(0, 2)
 mark("numba's set-up on the first kernel call (+ load, geometry)")
 render.warm_kernels((np.float32,), shadows=False)

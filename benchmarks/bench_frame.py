@@ -25,12 +25,14 @@ import numpy as np
 import raycast_phong as rp
 from raycast_phong.geometry.build import build_geometry
 from raycast_phong.renderer.film import allocate_film
-from raycast_phong.renderer.frame import TILE_RAYS, TileWork
 from raycast_phong.renderer.intersect import Accelerator, unit_frame
-from raycast_phong.renderer.kernels.camera import RayGenerator, camera_rig, generate_rays
-from raycast_phong.renderer.kernels.shading import prepare_shading
-from raycast_phong.renderer.kernels.shadows import prepare_shadows, shadow_rays
-from raycast_phong.renderer.plan import build_plan, plan_flags
+from raycast_phong.renderer.kernels.shadows import shadow_rays
+from raycast_phong.renderer.pack import (
+    camera_rig,
+    generate_rays,
+    prepare_shadows,
+)
+from raycast_phong.renderer.prepare import TILE_RAYS, TileWork, prepare
 
 
 def benchmark_scene(size: int, subdivisions: int = 6, mode: str = "local") -> rp.Scene:
@@ -43,19 +45,41 @@ def benchmark_scene(size: int, subdivisions: int = 6, mode: str = "local") -> rp
     }, source="benchmark")
 
 
+class Embreex:
+    """embreex's one-ray API on the render's unit-frame mesh: the yardstick (the renderer itself uses only
+    Embree's C API)."""
+
+    def __init__(self, geometry, frame):
+        from embreex import rtcore_scene
+        from embreex.mesh_construction import TriangleMesh
+        self.scene = rtcore_scene.EmbreeScene(robust=True)
+        TriangleMesh(self.scene, frame.to_unit(geometry.vertices).astype(np.float32),
+                     np.ascontiguousarray(geometry.faces, np.int32))
+        self.scene.run(np.zeros((1, 3), np.float32), np.array([[0, 0, 1]], np.float32))  # commits the BVH
+
+    def cast_only(self, origins, directions) -> None:
+        self.scene.run(origins, directions, output=1)
+
+    def occluded(self, origins, directions, t_max) -> np.ndarray:
+        return self.scene.run(origins, directions, dists=t_max, query="OCCLUDED") == 0
+
+
 def raw_cast_seconds(scene: rp.Scene, threads: int, use_c_api: bool = False) -> float:
     """Cast the render's rays, pre-generated in the render's tiles, on `threads` threads (through embreex,
     or Embree's C API)."""
     geometry = build_geometry(scene)
     frame = unit_frame(geometry.vertices)
-    accelerator = Accelerator(geometry, frame, use_c_api=use_c_api)
+    accelerator = Accelerator(geometry, frame) if use_c_api else Embreex(geometry, frame)
     rig = camera_rig(scene)
     width, height = scene.render.width, scene.render.height
     rows = max(1, TILE_RAYS // width)
     tiles = [generate_rays(rig, frame, width, height, 1, r, min(r + rows, height)) for r in range(0, height, rows)]
     with ThreadPoolExecutor(threads) as pool:
         start = time.perf_counter()
-        list(pool.map(lambda tile: accelerator.cast_only(*tile), tiles))
+        if use_c_api:
+            list(pool.map(lambda tile: accelerator.closest_hits(*tile), tiles))
+        else:
+            list(pool.map(lambda tile: accelerator.cast_only(*tile), tiles))
         return time.perf_counter() - start
 
 
@@ -64,7 +88,7 @@ def raw_shadow_cast_seconds(scene: rp.Scene, threads: int) -> float:
     `threads` threads."""
     geometry = build_geometry(scene)
     frame = unit_frame(geometry.vertices)
-    accelerator = Accelerator(geometry, frame, use_c_api=False)
+    accelerator, embreex = Accelerator(geometry, frame), Embreex(geometry, frame)
     rig = camera_rig(scene)
     inputs = prepare_shadows(scene, geometry, frame)
     width, height = scene.render.width, scene.render.height
@@ -73,30 +97,29 @@ def raw_shadow_cast_seconds(scene: rp.Scene, threads: int) -> float:
     for r in range(0, height, rows):
         origins, directions = generate_rays(rig, frame, width, height, 1, r, min(r + rows, height))
         hits = accelerator.closest_hits(origins, directions)
-        batches.append(shadow_rays(inputs, hits, directions))
+        hit_rays = np.flatnonzero(hits.face >= 0)
+        count = len(hit_rays) * len(inputs.light_kind)
+        batch = (np.empty((count, 3), np.float32), np.empty((count, 3), np.float32), np.empty(count, np.float32))
+        shadow_rays(inputs, hit_rays, hits.face, hits.u, hits.v, directions, *batch)
+        batches.append(batch)
     with ThreadPoolExecutor(threads) as pool:
         start = time.perf_counter()
-        list(pool.map(lambda batch: accelerator.occluded(batch[0], batch[1], batch[2].copy()), batches))
+        list(pool.map(lambda batch: embreex.occluded(batch[0], batch[1], batch[2].copy()), batches))
         return time.perf_counter() - start
 
 
 def cpu_seconds(scene: rp.Scene, repeats: int) -> tuple[float, float]:
     """CPU time on this one thread (min of `repeats`) of the raw embreex cast and of the frame's tiles, run
-    in turn here through render's own TileWork (a fresh film each time)."""
-    geometry = build_geometry(scene)
-    frame = unit_frame(geometry.vertices)
-    accelerator, embreex = Accelerator(geometry, frame), Accelerator(geometry, frame, use_c_api=False)
-    rig, plan = camera_rig(scene), build_plan(scene)
+    in turn here through render's own prepare and TileWork (a fresh film each time)."""
+    ready = prepare(scene)
+    accelerator, embreex = ready.build(), Embreex(ready.geometry, ready.frame)
     width, height = scene.render.width, scene.render.height
-    rows = max(1, TILE_RAYS // width)
-    bands = [(r, min(r + rows, height)) for r in range(0, height, rows)]
-    tiles = [generate_rays(rig, frame, width, height, 1, *band) for band in bands]
+    bands = ready.bands
+    tiles = [generate_rays(camera_rig(scene), ready.frame, width, height, 1, *band) for band in bands]
     casts, frames = [], []
     for _ in range(repeats):
-        work = TileWork(RayGenerator(rig, frame, width, height, 1, rows * width), accelerator,
-                        prepare_shadows(scene, geometry, frame) if plan.keeps("shadow_rays") else None,
-                        prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), np.float32),
-                        allocate_film(width, height, (), np.float32), 1)
+        work = TileWork(ready.rays, accelerator, ready.shadows, ready.shading,
+                        allocate_film(width, height, (), np.float32))
         start = time.thread_time()
         for band in bands:
             work(band)

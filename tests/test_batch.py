@@ -292,17 +292,14 @@ def test_warm_up_loads_only_the_kernels_the_scenes_need(tmp_path):
 import json, sys
 from pathlib import Path
 from raycast_phong.tools import batch
-from raycast_phong.renderer.kernels import embree
 from raycast_phong.renderer.kernels import tile
-from raycast_phong.renderer.kernels.shading import _shade_rays
-from raycast_phong.renderer.kernels.shadows import _shadow_rays
+from raycast_phong.renderer.kernels.shadows import shadow_rays
 folder = sys.argv[1]
 open(folder + "/a.toml", "w").write('[render]\\nwidth = 8\\nheight = 8\\n[[objects]]\\nshape = "icosphere"\\n')
 report = batch.run_batch(batch.find_jobs([folder + "/a.toml"]), folder + "/out", workers=1)
-# The shading inputs' types of the kernel that shades: the tile kernel (Embree's C API) or _shade_rays.
-fused = embree.library() is not None
-shade = [str(s[6] if fused else s[0]) for s in (tile.render_band if fused else _shade_rays).signatures]
-print(json.dumps(dict(shade=shade, shadow=len(_shadow_rays.signatures),
+# The shading inputs' types of the kernel that shades: the tile kernel.
+shade = [str(s[6]) for s in tile.render_band.signatures]
+print(json.dumps(dict(shade=shade, shadow=len(shadow_rays.signatures),
                       startup=report.startup, batch=batch.read_manifest(Path(folder) / "out")["batch"])))
 """
     done = subprocess.run([sys.executable, "-c", probe, str(tmp_path)], capture_output=True, text=True, timeout=120,

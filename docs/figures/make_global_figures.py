@@ -9,15 +9,14 @@ rays with offset_scale = 0 (no offset), which no scene key can ask for.
 from __future__ import annotations
 
 import statistics
-import sys
 from pathlib import Path
 
 import numpy as np
 
 import raycast_phong as rp
-from raycast_phong.renderer.kernels import shadows
+from raycast_phong.renderer import pack
+from raycast_phong.renderer import prepare as render_module
 
-render_module = sys.modules["raycast_phong.renderer.frame"]
 SCENE = Path("scenes/shadows.toml")
 OUT = Path("docs/images")
 
@@ -37,7 +36,7 @@ def timed(overrides: list[str], repeats: int = 5) -> tuple[np.ndarray, float, di
 
 def without_offset(overrides: list[str]) -> np.ndarray:
     original = render_module.prepare_shadows
-    render_module.prepare_shadows = lambda *a, **k: shadows.prepare_shadows(*a, offset_scale=0.0)
+    render_module.prepare_shadows = lambda *a, **k: pack.prepare_shadows(*a, offset_scale=0.0)
     try:
         return rp.render(rp.load_scene(SCENE, overrides)).image
     finally:

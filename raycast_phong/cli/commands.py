@@ -376,16 +376,12 @@ def plan(scene: SceneArgument = None, set_: SetOption = [], max_memory: MaxMemor
          view: ViewOption = None, up: UpOption = None) -> None:
     """Print the render plan: each stage and term, kept or left out, and why; then what the geometry
     tells (repaired windings, highlights the render would miss)."""
-    from raycast_phong.geometry.build import build_geometry
-    from raycast_phong.renderer.plan import diagnose
+    from raycast_phong.renderer.prepare import prepare
     with exit_codes():
         path = scene or rp.default_scene_path()
         loaded = rp.load_scene(path, set_, view=_view(view), up=up)
-        stages = rp.build_plan(loaded)
-        from raycast_phong.renderer.budget import check_memory
-        check_memory(loaded, str(path), max_memory, smooth=stages.keeps("vertex_normals"))  # before building it
-        geometry = build_geometry(loaded, source=str(path), vertex_normals=stages.keeps("vertex_normals"))
-        typer.echo(diagnose(stages, loaded, geometry).describe())
+        # render's own preparation: the same memory check (before building anything), geometry and diagnosis.
+        typer.echo(prepare(loaded, source=str(path), max_memory=max_memory).plan.describe())
 
 
 @app.command(epilog="""

@@ -10,7 +10,6 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from ..records import Geometry, bounding_box
-from ..renderer.kernels.illumination import material_rows
 from ..scene.schema import (
     DEFAULT_MATERIAL,
     MIN_EXTENT,
@@ -24,6 +23,7 @@ from ..scene.schema import (
 )
 from ..tolerances import MIN_DISTANCE
 from . import shapes
+from .materials import material_rows
 from .mesh_repair import merge_duplicate_vertices, repair_winding
 from .normals import _normalise_or, compute_corner_normals, face_normals, file_corner_normals
 

@@ -1,11 +1,10 @@
 """Build the BVH once, answer closest-hit and occlusion queries in float32: Embree's C API (embree.py)
-through numba kernels on packets of 16 rays, or embreex's one-ray API where that library cannot be loaded.
+through numba kernels on packets of 16 rays, the renderer's one engine.
 
 Embree works in float32, so the scene is moved and scaled to unit size in float64 first (Frame):
-a model far from the origin keeps its low-order bits. Both paths answer alike: a miss has face −1 and
-t = 1e37 (embreex's "no limit"; u, v are 0 on the C path and stale on embreex's, so read them only where
-face ≥ 0), and NaN vertices or rays silently miss (the scene loader refuses non-finite input before it
-gets here). embreex's `run(dists=…)` overwrites its argument (we always pass a fresh array).
+a model far from the origin keeps its low-order bits. A miss has face −1, u = v = 0 and t = 1e37
+(embreex's "no limit"), and NaN vertices or rays silently miss (the scene loader refuses non-finite
+input before it gets here).
 """
 
 from __future__ import annotations
@@ -46,34 +45,21 @@ class TileHits:
 class Accelerator:
     """Embree BVH over one Geometry, built (committed) in the constructor so threads may share it.
 
-    `embree_scene` is the C API's scene (None on the embreex fallback): kernels may query it directly
-    (embree.py's rtc_intersect16 / rtc_occluded16) while this object lives.
+    `embree_scene.scene` is the C API's scene: kernels query it directly (embree.py's rtc_intersect16 /
+    rtc_occluded16) while this object lives. EmbreeError if Embree's library cannot be loaded.
     """
 
-    def __init__(self, geometry: Geometry, frame: Frame | None = None, *, use_c_api: bool = True):
+    def __init__(self, geometry: Geometry, frame: Frame | None = None):
         global _started
         _started = True
         self.frame = frame or unit_frame(geometry.vertices)
-        library = embree.library() if use_c_api else None
-        self.embree_scene = self._scene = None
-        if library is not None:
-            # Robust mode (as embreex's robust=True): watertight edges, no cracks between faces.
-            self.embree_scene = embree.EmbreeScene(library, self.frame.to_unit(geometry.vertices), geometry.faces)
-            return
-        from embreex import rtcore_scene
-        from embreex.mesh_construction import TriangleMesh
-        self._scene = rtcore_scene.EmbreeScene(robust=True)  # robust: watertight edges, no cracks between faces
-        TriangleMesh(self._scene, self.frame.to_unit(geometry.vertices).astype(np.float32),
-                     np.ascontiguousarray(geometry.faces, np.int32))
-        # The first query commits the scene; do it here, once, before any worker thread starts.
-        self._scene.run(np.zeros((1, 3), np.float32), np.array([[0, 0, 1]], np.float32))
+        # Robust mode (as embreex's robust=True): watertight edges, no cracks between faces.
+        self.embree_scene = embree.EmbreeScene(embree.library(), self.frame.to_unit(geometry.vertices),
+                                               geometry.faces)
 
     def closest_hits(self, origins: np.ndarray, directions: np.ndarray, row_rays: int = 4) -> TileHits:
         """Closest hit along each ray; origins and unit directions (N, 3) float32 in the unit frame.
         row_rays: the rays form an image of rows this long (4 × 4 neighbours share an Embree packet)."""
-        if self.embree_scene is None:
-            found = self._scene.run(origins, directions, output=1)
-            return TileHits(face=found["primID"], u=found["u"], v=found["v"], t=found["tfar"])
         count = len(origins)
         hits = TileHits(face=np.empty(count, np.int32), u=np.empty(count, np.float32),
                         v=np.empty(count, np.float32), t=np.empty(count, np.float32))
@@ -82,20 +68,10 @@ class Accelerator:
         return hits
 
     def occluded(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> np.ndarray:
-        """(N,) bool: something lies on the ray within (0, t_max]. t_max (N,) float32 may be overwritten
-        (embreex does), so pass an array you will not read again. OCCLUDED answers 0 blocked, −1 clear."""
-        if self.embree_scene is None:
-            return self._scene.run(origins, directions, dists=t_max, query="OCCLUDED") == 0
+        """(N,) bool: something lies on the ray within (0, t_max], t_max (N,) float32."""
         blocked = np.empty(len(origins), np.bool_)
         embree.occluded_rays(self.embree_scene.scene, _f32(origins), _f32(directions), _f32(t_max, 1), blocked)
         return blocked
-
-    def cast_only(self, origins: np.ndarray, directions: np.ndarray) -> None:
-        """The raw cast, as closest_hits does it, with nothing after it (for benchmarks)."""
-        if self.embree_scene is None:
-            self._scene.run(origins, directions, output=1)
-        else:
-            self.closest_hits(origins, directions)
 
 
 def _f32(array: np.ndarray, ndim: int = 2) -> np.ndarray:

@@ -14,23 +14,7 @@ import numpy as np
 
 from ..records import RenderPlan, Stage
 from ..scene.schema import MAX_SAMPLES, Material, Mode, Scene, ShadingModel, SpecularModel, Viewer
-from .kernels.camera import camera_rig
-from .kernels.illumination import (
-    F_AOV_GEOMETRY,
-    F_AOV_TERMS,
-    F_ATTENUATION,
-    F_DIFFUSE,
-    F_EMISSION,
-    F_LIGHT_AMBIENT,
-    F_SCENE_AMBIENT,
-    F_SCREEN,
-    F_SHADOWS,
-    F_TWO_SIDED,
-    F_VIEW_PER_POINT,
-    SPECULAR_BLINN,
-    SPECULAR_NONE,
-    SPECULAR_PHONG,
-)
+from .pack import camera_rig
 
 GEOMETRY_AOVS = {"depth", "normal", "face"}
 TERM_AOVS = {"ambient", "diffuse", "specular", "emission"}
@@ -356,17 +340,3 @@ def _span(low: float, high: float, spec: str) -> str:
     """'0.25' or '0.05–0.31': one figure, or the range when the objects differ."""
     a, b = format(low, spec), format(high, spec)
     return a if a == b else f"{a}–{b}"
-
-
-def plan_flags(plan: RenderPlan, scene: Scene) -> tuple[int, int]:
-    """The shading kernel's flag bits and specular model for this plan."""
-    bits = {F_ATTENUATION: "attenuation", F_LIGHT_AMBIENT: "light_ambient", F_EMISSION: "emission",
-            F_SCENE_AMBIENT: "scene_ambient", F_DIFFUSE: "diffuse", F_VIEW_PER_POINT: "view_vector_per_point",
-            F_TWO_SIDED: "two_sided", F_SCREEN: "screen_interpolation", F_AOV_GEOMETRY: "aov_geometry",
-            F_AOV_TERMS: "aov_terms", F_SHADOWS: "shadow_rays"}
-    flags = sum(bit for bit, stage in bits.items() if plan.keeps(stage))
-    if not plan.keeps("specular"):
-        specular = SPECULAR_NONE
-    else:
-        specular = SPECULAR_PHONG if scene.render.specular == SpecularModel.PHONG else SPECULAR_BLINN
-    return flags, specular

@@ -17,14 +17,13 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from ..geometry.build import build_geometry, object_mesh
+from ..geometry.build import object_mesh
 from ..records import MeasuredResult, RenderResult
 from ..renderer.frame import render
-from ..renderer.intersect import Accelerator, unit_frame
-from ..renderer.kernels.camera import RayGenerator, camera_rig
+from ..renderer.prepare import Prepared, prepare
 from ..scene.schema import Object, Scene, validate_scene
 from .metrics import measure
-from .reference import TILE_SAMPLES, ReferenceImage, analytic_reference
+from .reference import ReferenceImage, analytic_reference
 
 
 def refined(obj: Object, level: int) -> dict:
@@ -104,19 +103,16 @@ def reference_image(scene: Scene, source: str = "<scene>", fine: int | None = No
     return analytic_reference(scene, source) if fine is None else fine_reference(scene, fine, source)
 
 
-def mesh_coverage(scene: Scene, source: str = "<scene>") -> np.ndarray:
-    """(H, W) share of each pixel's samples whose ray hits the scene's triangles (the render's own cast)."""
-    geometry = build_geometry(scene, source=source, vertex_normals=False)
-    frame = unit_frame(geometry.vertices)
-    accelerator = Accelerator(geometry, frame)
-    opts = scene.render
-    width, height, n = opts.width, opts.height, opts.samples
-    rows_per_tile = max(1, TILE_SAMPLES // (width * n * n))
-    rays = RayGenerator(camera_rig(scene), frame, width, height, n, max_rays=rows_per_tile * width * n * n)
-    coverage = np.zeros((height, width))
-    for row0 in range(0, height, rows_per_tile):
-        row1 = min(row0 + rows_per_tile, height)
-        hits = accelerator.closest_hits(*rays.rows(row0, row1))
+def mesh_coverage(scene: Scene | Prepared, source: str = "<scene>") -> np.ndarray:
+    """(H, W) share of each pixel's samples whose ray hits the scene's triangles: the render's own rays and
+    BVH (prepare, or a scene already prepared), cast band by band."""
+    ready = scene if isinstance(scene, Prepared) else prepare(scene, source=source)
+    scene = ready.scene
+    accelerator = ready.build()
+    width, n = scene.render.width, scene.render.samples
+    coverage = np.zeros((scene.render.height, width))
+    for row0, row1 in ready.bands:
+        hits = accelerator.closest_hits(*ready.rays.rows(row0, row1), width * n * n)
         coverage[row0:row1] = (hits.face >= 0).reshape(row1 - row0, width, n * n).mean(axis=2)
     return coverage
 

@@ -31,10 +31,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..geometry.build import build_geometry
 from ..io.atomic import write_text
 from ..io.image_io import ImageError, check_output_file
+from ..records import Geometry
 from ..renderer.frame import render
+from ..renderer.prepare import prepare
 from ..scene.load import read_scene_dict
 from ..scene.schema import (
     NormalsRule,
@@ -201,9 +202,8 @@ def variant(base: Scene, data: dict, *, model: str, specular: str, precision: st
     return validate_scene(data, source=source, folder=base.folder)
 
 
-def mean_edge_length(scene: Scene, source: str) -> float:
+def mean_edge_length(geometry: Geometry) -> float:
     """Mean length of the unique edges of the scene's triangles (world units)."""
-    geometry = build_geometry(scene, source=source, vertex_normals=False)
     edges = np.sort(geometry.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
     edges = np.unique(edges, axis=0)
     return float(np.linalg.norm(geometry.vertices[edges[:, 0]] - geometry.vertices[edges[:, 1]], axis=1).mean())
@@ -293,8 +293,10 @@ class _Sweep:
                 self.references[s.specular, self.supersampling, s.shininess] = reference_image(
                     self.scene(s, samples=self.supersampling), self.source, fine=self.options.fine)
             if (s.samples, level) not in self.meshes:
-                self.meshes[s.samples, level] = (mesh_coverage(scene, self.source),
-                                                 mean_edge_length(scene, self.source))
+                # One prepare (plan, memory check, geometry) serves both: the render's own triangles.
+                ready = prepare(scene, source=self.source, threads=self.options.threads,
+                                max_memory=self.options.max_memory)
+                self.meshes[s.samples, level] = (mesh_coverage(ready), mean_edge_length(ready.geometry))
             coverage, _ = self.meshes[s.samples, level]
             began = time.perf_counter()
             result = render(scene, threads=self.options.threads, source=self.source,

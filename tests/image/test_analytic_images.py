@@ -25,7 +25,7 @@ from conftest import pixel_centre_rays
 
 import raycast_phong as rp
 from raycast_phong.geometry.build import build_geometry
-from raycast_phong.renderer.kernels.camera import camera_rig
+from raycast_phong.renderer.pack import camera_rig
 from raycast_phong.tools.reference import analytic_reference
 
 SCENE = Path(__file__).resolve().parents[2] / "scenes" / "specular.toml"

@@ -168,7 +168,7 @@ def test_generate_rays_gives_the_rows_the_generator_gives():
     """The one-off helper (benchmarks use it) returns rows [1, 3) of a 2×2-sample image: 2 rows × W × 4 rays,
     the same as a RayGenerator's, for both camera types."""
     from raycast_phong.renderer.intersect import unit_frame
-    from raycast_phong.renderer.kernels.camera import RayGenerator, camera_rig, generate_rays
+    from raycast_phong.renderer.pack import RayGenerator, camera_rig, generate_rays
     for camera in ("perspective", "orthographic"):
         scene = ball_scene(camera)
         rig, frame = camera_rig(scene), unit_frame(build_geometry(scene).vertices)

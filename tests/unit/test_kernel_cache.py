@@ -26,8 +26,6 @@ RENDER = """
 import json, sys
 import numpy as np
 import raycast_phong as rp
-from raycast_phong.renderer.kernels import embree
-from raycast_phong.renderer.kernels import shading
 from raycast_phong.renderer.kernels import tile
 scene = rp.validate_scene({
     "render": {"width": 24, "height": 24, "shading": "phong"},
@@ -38,8 +36,8 @@ scene = rp.validate_scene({
 })
 result = rp.render(scene, threads=1)
 np.save(sys.argv[1], np.stack([result.image, result.aovs["diffuse"]]))
-# With Embree's C API the tile kernel compiles _shade_rays (and so illuminate) into itself.
-stats = (tile.render_band if embree.library() is not None else shading._shade_rays).stats
+# The tile kernel compiles _shade_rays (and so illuminate) into itself.
+stats = tile.render_band.stats
 print(json.dumps({"hits": sum(stats.cache_hits.values()), "misses": sum(stats.cache_misses.values())}))
 """
 
@@ -96,6 +94,15 @@ def test_the_cache_key_covers_every_module_a_kernel_reads_and_only_those(package
     # batch.py is a tool on top of the pipeline: editing it must not throw away compiled kernels.
     (copy / "tools" / "batch.py").write_text((copy / "tools" / "batch.py").read_text() + "\n# an edit\n")
     assert run(KEY) == key
+    # The scene schema is no kernel code (kernels read renderer/kernels/layout.py's tables): a new message
+    # there recompiles nothing. So is the packing of a Scene into those tables (renderer/pack.py).
+    edit(copy / "scene" / "schema.py", 'raise ValueError(f"must be a whole number, got {_shown(value)}")',
+         'raise ValueError(f"must be an integer, got {_shown(value)}")')
+    (copy / "renderer" / "pack.py").write_text((copy / "renderer" / "pack.py").read_text() + "\n# an edit\n")
+    assert run(KEY) == key
+    # ... while the layout the kernels read is.
+    edit(copy / "renderer" / "kernels" / "layout.py", "MAX_LIGHTS = 63", "MAX_LIGHTS = 62")
+    assert run(KEY) != key
 
 
 def test_the_first_render_says_it_compiles_and_keeps_compilation_out_of_the_frame(package_copy, tmp_path):

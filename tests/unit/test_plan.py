@@ -7,7 +7,7 @@ import raycast_phong as rp
 import raycast_phong.geometry.build as geometry
 import raycast_phong.geometry.normals as normals
 import raycast_phong.scene.schema
-from raycast_phong.renderer.kernels.illumination import COUNTED_TERMS
+from raycast_phong.renderer.kernels.layout import COUNTED_TERMS
 
 
 def scene(**changes):
@@ -39,7 +39,7 @@ CASES = [
     ({"render__shading": '"flat"'}, "vertex_normals", None),
     ({}, "crease_split", None),
     ({}, "supersampling", None),
-    ({}, "shadow_rays", None),
+    ({}, "shadow_rays", "shadow_rays"),
 ]
 
 
@@ -92,3 +92,28 @@ def test_plan_command_lists_every_stage_with_a_reason():
     text = rp.build_plan(scene(materials__m__ks="0")).describe()
     assert "left out  specular" in text and "every material's k_s or every light's I_s is 0" in text
     assert "kept      diffuse" in text
+
+
+def test_the_plan_command_and_render_agree_on_whether_a_scene_fits_near_the_budget(tmp_path):
+    """One memory check (prepare) for both commands: at the estimate's last byte both go ahead, one byte below
+    it both refuse with the same line (exit 2). A global-mode float64 scene with supersampling and layers, where
+    an estimate that left out the shadow rays, the precision or the tiles in flight would fall short."""
+    from typer.testing import CliRunner
+
+    from raycast_phong.cli import app
+    from raycast_phong.renderer.prepare import prepare
+    path = tmp_path / "s.toml"
+    path.write_text('[render]\nwidth = 64\nheight = 48\nsamples = 2\nmode = "global"\nprecision = "float64"\n'
+                    '[output]\naovs = ["depth", "diffuse"]\npath = "x.exr"\n'
+                    '[[lights]]\ntype = "point"\nposition = [2, 2, 3]\n'
+                    '[[objects]]\nshape = "icosphere"\nsubdivisions = 5\n')
+    total = prepare(rp.load_scene(path), source=str(path)).memory.total
+    runner = CliRunner()
+    for budget, fits in ((total, True), (total - 1, False)):
+        plan = runner.invoke(app, ["plan", str(path), "--max-memory", str(budget)])
+        render = runner.invoke(app, ["render", str(path), "-q", "-o", str(tmp_path / "x.exr"),
+                                     "--max-memory", str(budget)])
+        assert (plan.exit_code, render.exit_code) == ((0, 0) if fits else (2, 2)), (budget, plan.output,
+                                                                                     render.output)
+        if not fits:
+            assert "above the" in plan.output and plan.output.strip() == render.output.strip()

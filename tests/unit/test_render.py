@@ -2,6 +2,8 @@
 
 import time
 
+import numpy as np
+
 import raycast_phong as rp
 
 
@@ -24,3 +26,41 @@ def test_timings_are_parts_of_the_wall_time():
     for name in ("rays", "shadows", "shade"):
         assert 0 <= timings[name] <= threads * wall, (name, timings[name], wall)
     assert result.rays == 64 * 48
+
+
+def test_every_caller_prepares_through_the_one_sequencer(monkeypatch, tmp_path):
+    """render, render_file, the plan command, warm_kernels and accuracy.mesh_coverage each run prepare() once:
+    its memory check (the one home of that check) sees each call once, with the same arguments for the
+    plan command and render. Then Prepared.render() twice gives the same image, bit for bit."""
+    from typer.testing import CliRunner
+
+    from raycast_phong.cli import app
+    from raycast_phong.renderer import prepare as module
+    from raycast_phong.renderer.frame import warm_kernels
+    from raycast_phong.tools.accuracy import mesh_coverage
+    checks = []
+    check_memory = module.check_memory
+
+    def counted(*args, **kwargs):
+        checks.append(kwargs)
+        return check_memory(*args, **kwargs)
+
+    monkeypatch.setattr(module, "check_memory", counted)
+    path = tmp_path / "s.toml"
+    path.write_text('[render]\nwidth = 32\nheight = 24\nmode = "global"\n[[lights]]\ntype = "point"\n'
+                    'position = [2, 2, 3]\n[[objects]]\nshape = "icosphere"\n')
+    scene = rp.load_scene(path)
+    for call in (lambda: rp.render(scene, max_memory="1G"), lambda: rp.render_file(path, max_memory="1G"),
+                 lambda: mesh_coverage(scene), lambda: warm_kernels((np.float32,)),
+                 lambda: runner_plan(CliRunner(), app, path)):
+        before = len(checks)
+        call()
+        assert len(checks) == before + 1, call
+    assert checks[1] == checks[4]  # render_file and the plan command: the same estimate's arguments
+    ready = module.prepare(scene)
+    np.testing.assert_array_equal(ready.render().image, ready.render().image)
+
+
+def runner_plan(runner, app, path):
+    done = runner.invoke(app, ["plan", str(path), "--max-memory", "1G"])
+    assert done.exit_code == 0, done.output

@@ -10,7 +10,7 @@ import raycast_phong as rp
 import raycast_phong.scene.schema
 from raycast_phong.geometry.build import build_geometry
 from raycast_phong.renderer.kernels import shading
-from raycast_phong.renderer.kernels.camera import camera_rig
+from raycast_phong.renderer.pack import camera_rig
 
 LIGHT = {"type": "point", "position": [2, 2, 3], "diffuse": [0.8, 0.8, 0.8], "specular": [1, 1, 1]}
 MATERIAL = {"ka": 1.0, "kd": [0.7, 0.5, 0.3], "ks": 0.5, "shininess": 16}
@@ -305,3 +305,18 @@ def test_screen_interpolation_stays_inside_the_vertex_values_on_a_floor_reaching
     floor = image[image > 0]
     assert floor.size > 0.4 * image.size
     assert n_dot_l.min() - 1e-12 <= floor.min() and floor.max() <= n_dot_l.max() + 1e-12
+
+
+def test_the_geometry_writes_the_columns_and_codes_the_kernels_read():
+    """geometry may not import the kernels' layout, so the two homes of the material row order and the shading
+    model codes are pinned together here: each coefficient lands in the column layout names for it."""
+    from raycast_phong.geometry.build import MODEL_CODE
+    from raycast_phong.geometry.materials import material_rows
+    from raycast_phong.renderer.kernels import layout
+    rows = material_rows(*(np.full((2, 3), value) for value in (1.0, 2.0, 3.0, 4.0)), np.full(2, 5.0))
+    assert rows.shape == (2, layout.MATERIAL_COLUMNS)
+    for column, value in ((layout.KA, 1), (layout.KD, 2), (layout.KS, 3), (layout.KE, 4)):
+        assert (rows[:, column:column + 3] == value).all()
+    assert (rows[:, layout.SHININESS] == 5).all()
+    assert {model.value: code for model, code in MODEL_CODE.items()} == {
+        "flat": layout.FLAT, "gouraud": layout.GOURAUD, "phong": layout.PHONG}

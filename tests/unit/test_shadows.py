@@ -8,9 +8,18 @@ import pytest
 import raycast_phong as rp
 from raycast_phong.geometry.build import build_geometry
 from raycast_phong.renderer.intersect import Accelerator, unit_frame
-from raycast_phong.renderer.kernels.shadows import light_visibility, prepare_shadows
+from raycast_phong.renderer.kernels.shadows import cast_shadows
+from raycast_phong.renderer.pack import prepare_shadows
 
 MATTE = {"ka": 1.0, "kd": 0.8, "ks": 0.0}
+
+
+def light_visibility(inputs, hits, directions, accelerator) -> np.ndarray:
+    """(N,) int64 light bits of a tile's hits from the kernel the tile kernel runs (shadows.cast_shadows)."""
+    visible = np.empty(len(hits.face), np.int64)
+    cast = cast_shadows(accelerator.embree_scene.scene, inputs, hits.face, hits.u, hits.v, directions, visible)
+    assert cast == (hits.face >= 0).sum() * len(inputs.light_kind)  # one shadow ray per hit and light
+    return visible
 
 
 def test_sphere_over_a_plane_casts_the_analytic_disc():
@@ -88,7 +97,7 @@ def test_no_light_leaks_under_an_occluder_1e4_of_the_scene_size_above_a_plane(sc
     geometry = build_geometry(scene)
     frame = unit_frame(geometry.vertices)
     accelerator = Accelerator(geometry, frame)
-    from raycast_phong.renderer.kernels.camera import RayGenerator, camera_rig
+    from raycast_phong.renderer.pack import RayGenerator, camera_rig
     origins, directions = RayGenerator(camera_rig(scene), frame, 32, 32, 1, 32 * 32).rows(0, 32)
     hits = accelerator.closest_hits(origins, directions)
     assert (hits.face >= 0).all() and (hits.face < 32).all()  # every ray sees the big plane from below
@@ -166,17 +175,14 @@ def test_visibility_is_applied_for_every_shading_model(shading):
     np.testing.assert_allclose(image, reference, atol=1e-6)  # flat plane and box: all models agree
 
 
-def test_local_mode_casts_no_shadow_rays(monkeypatch):
-    import sys
-    render_module = sys.modules["raycast_phong.renderer.frame"]  # the package's `render` attribute is the function
-
-    def forbidden(*args, **kwargs):
-        raise AssertionError("shadow rays cast in local mode")
-
-    monkeypatch.setattr(render_module, "light_visibility", forbidden)
-    scene = two_light_scene(mode="local")
-    assert not rp.build_plan(scene).keeps("shadow_rays")
-    rp.render(scene)
+def test_local_mode_casts_no_shadow_rays():
+    """The tile kernel counts the shadow rays it casts: none in local mode, and (the same probe, the positive
+    control) one per hit and light in global mode."""
+    local, shadowed = two_light_scene(mode="local"), two_light_scene()
+    assert not rp.build_plan(local).keeps("shadow_rays") and rp.build_plan(shadowed).keeps("shadow_rays")
+    assert rp.render(local).counts["shadow_rays"] == 0
+    # The 8 × 8 plane fills the 6 × 3 view: every pixel is a hit, with a shadow ray to each of 2 lights.
+    assert rp.render(shadowed).counts["shadow_rays"] == 120 * 60 * 2
 
 
 def test_without_the_offset_a_lit_sphere_shadows_itself():
@@ -189,7 +195,7 @@ def test_without_the_offset_a_lit_sphere_shadows_itself():
     geometry = build_geometry(scene)
     frame = unit_frame(geometry.vertices)
     accelerator = Accelerator(geometry, frame)
-    from raycast_phong.renderer.kernels.camera import RayGenerator, camera_rig
+    from raycast_phong.renderer.pack import RayGenerator, camera_rig
     origins, directions = RayGenerator(camera_rig(scene), frame, 48, 48, 1, 48 * 48).rows(0, 48)
     hits = accelerator.closest_hits(origins, directions)
     hit = hits.face >= 0
@@ -291,8 +297,8 @@ def test_hanika_origin_is_the_mean_of_the_corners_tangent_plane_points(weights, 
     to the float32 rounding of the stored origin (2 ulps of 0.6: 1.2e-7). Seen from below with two-sided
     shading (light below too, normals tilted inward so the back is the convex side), every normal turns
     over and the surface bulges downward."""
-    from raycast_phong.renderer.intersect import TileHits
-    from raycast_phong.renderer.kernels.shadows import ShadowInputs, shadow_rays
+    from raycast_phong.renderer.kernels.layout import ShadowInputs
+    from raycast_phong.renderer.kernels.shadows import shadow_rays
     vertices = np.array([[0.0, 0.0, 0.5], [1.0, 0.0, 0.5], [0.0, 1.0, 0.5]])
     side = -1.0 if from_below else 1.0
     # Tilted away from the side that is seen: the surface is convex toward the viewer and the light.
@@ -304,9 +310,9 @@ def test_hanika_origin_is_the_mean_of_the_corners_tangent_plane_points(weights, 
                           smooth=np.array([True]), light_kind=np.array([1], np.int64),
                           light_vec=np.array([[0.0, 0.0, side]]), two_sided=True)
     b = np.asarray(weights)
-    hits = TileHits(face=np.array([0], np.int32), u=np.array([b[1]], np.float32), v=np.array([b[2]], np.float32),
-                    t=np.array([1.0], np.float32))
-    origins, toward, _, _ = shadow_rays(inputs, hits, np.array([[0.0, 0.0, -side]], np.float32))
+    origins, toward, t_max = np.empty((1, 3), np.float32), np.empty((1, 3), np.float32), np.empty(1, np.float32)
+    shadow_rays(inputs, np.zeros(1, np.int64), np.array([0], np.int32), np.array([b[1]], np.float32),
+                np.array([b[2]], np.float32), np.array([[0.0, 0.0, -side]], np.float32), origins, toward, t_max)
     b = np.array([1 - float(np.float32(b[1])) - float(np.float32(b[2])), np.float32(b[1]), np.float32(b[2])])
     p = b @ vertices
     tangent = [(p - v) - min(0.0, (p - v) @ (side * n)) * (side * n) for v, n in zip(vertices, normals)]

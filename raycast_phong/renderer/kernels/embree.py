@@ -9,8 +9,9 @@ is compiled or loaded: the cached machine code links by name, so a warm process 
 Layouts follow include/embree4/rtcore_ray.h and rtcore_scene.h (Embree 4): RTCRayHit16 is structure-of-
 arrays, 64-byte aligned; the valid mask is int32[16] with −1 for an active lane; RTCIntersectArguments and
 RTCOccludedArguments are filled here (rtcInitIntersectArguments is an inline function, not a symbol).
-If the library or a symbol is missing (or LIBRARY_VARIABLE names a file that cannot be loaded), `library()`
-is None, one note says so on stderr, and intersect.py answers queries through embreex's own API instead.
+This is the renderer's one engine: embreex's wheels link their own modules against the libembree4 they
+carry, so wherever embreex imports, this library loads. If it cannot (a missing file or symbol, or
+LIBRARY_VARIABLE naming a file that is not the library), `library()` raises one EmbreeError saying so.
 """
 
 from __future__ import annotations
@@ -18,7 +19,6 @@ from __future__ import annotations
 import ctypes
 import importlib.util
 import os
-import sys
 from functools import lru_cache
 from pathlib import Path
 
@@ -103,17 +103,16 @@ class Library:
 
 
 @lru_cache(maxsize=1)
-def library() -> Library | None:
-    """The loaded library with the kernels' symbols bound, or None (after a one-line note on stderr)."""
+def library() -> Library:
+    """The loaded library with the kernels' symbols bound; EmbreeError if it cannot be loaded."""
     path = library_path()
     try:
         if path is None:
             raise OSError("embreex carries no libembree4")
         loaded = Library(path)
     except (OSError, AttributeError) as error:
-        print(f"note: Embree's C API is not available ({error}); using embreex's slower one-ray API",
-              file=sys.stderr)
-        return None
+        raise EmbreeError(f"Embree's C library could not be loaded from {path or 'embreex'} ({error}); "
+                          "reinstall embreex") from None
     for name, address in loaded.query_addresses.items():
         binding.add_symbol(name, address)
     return loaded

@@ -14,129 +14,36 @@ centred on the scene (translation changes no direction or distance) in the scene
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
 
 import numpy as np
 
-from ...records import Frame, Geometry, ImageBuffers
-from ...scene.schema import DEFAULT_MATERIAL, Scene
-from ...tolerances import MIN_DISTANCE, NO_DIRECTION
-from ..intersect import TileHits
-from .camera import CameraRig
-from .illumination import (
-    COUNTED_TERMS,
+from ...tolerances import NO_DIRECTION
+from .illumination import illuminate
+from .jit import kernel
+from .layout import (
+    CAM_FORWARD,
+    CAM_ORTHOGRAPHIC,
+    CAM_RIGHT,
+    CAM_UP,
     F_AOV_GEOMETRY,
     F_AOV_TERMS,
-    F_ATTENUATION,
     F_SCREEN,
     F_SHADOWS,
     F_TWO_SIDED,
-    illuminate,
-    light_table,
-    material_table,
+    FLAT,
+    GOURAUD,
+    KA,
+    KD,
+    KE,
+    KS,
+    SHININESS,
+    TERMS,
+    V_EYE,
+    Material,
 )
-from .jit import kernel
 from .surface import facing_side, hit_point
 
-ALL_VISIBLE = -1                       # every bit set: local mode, no light is ever shadowed
-NO_SHADOWS = np.zeros(0, np.int64)     # the kernel's `visible` argument in local mode
-
-
-class ShadingInputs(NamedTuple):
-    """Everything the shading kernel reads, in the scene's precision, centred on the scene.
-
-    A NamedTuple, not a dataclass: numba takes it as one argument and reads its fields by name (a field
-    may not be called `view`: numba reads `x.view` as ndarray.view).
-    """
-    vertices: np.ndarray        # (V, 3)
-    faces: np.ndarray           # (F, 3) int32
-    face_normals: np.ndarray    # (F, 3)
-    corner_normals: np.ndarray  # (F, 3, 3), or (1, 3, 3) of zeros when no face is smooth-shaded
-    face_material: np.ndarray   # (F,) int32, row of the material table
-    face_model: np.ndarray      # (F,) int8, 0 flat, 1 gouraud, 2 phong
-    materials: np.ndarray       # (M, MATERIAL_COLUMNS): illumination.material_table; row 0 the built-in default
-    lights: np.ndarray          # (K, LIGHT_COLUMNS): illumination.light_table
-    viewing: np.ndarray         # (10,) I_a, eye, fixed view vector (−forward: infinite viewer or orthographic),
-                                # smallest d² for 1/d² attenuation
-    camera: np.ndarray          # (10,) right, up, forward, orthographic (1/0): for screen-space weights
-    background: np.ndarray      # (3,) linear RGB of a pixel sample that hits nothing
-    flags: int                  # F_* bits from the render plan
-    specular: int               # SPECULAR_NONE, SPECULAR_PHONG or SPECULAR_BLINN
-    frame_scale: float          # Embree's unit-frame t × frame_scale = world distance
-    zero: np.floating           # 0, 1 and 2 in the shading precision: Python literals would widen float32
-    one: np.floating
-    two: np.floating
-
-
-class TileRays(NamedTuple):
-    """A tile's rays and their closest hits, as the kernel reads them (ray k is sample k % n² of pixel k // n²)."""
-    face: np.ndarray        # (N,) int32, -1 on a miss
-    u: np.ndarray           # (N,) float32, weight of corner 1
-    v: np.ndarray           # (N,) float32, weight of corner 2
-    t: np.ndarray           # (N,) float32, unit-frame distance
-    directions: np.ndarray  # (N, 3) float32, unit
-    visible: np.ndarray     # (N,) int64 light bits (global mode), or empty in local mode
-    samples: int            # n: n × n samples per pixel
-
-
-class FilmRows(NamedTuple):
-    """Views of whole image rows that the kernel adds into (ImageBuffers.rows), and its term counters."""
-    rgb: np.ndarray
-    terms: np.ndarray
-    depth: np.ndarray
-    normal: np.ndarray
-    face: np.ndarray
-    counts: np.ndarray      # (len(COUNTED_TERMS),) int64, shading points that evaluated each term
-
-
-def film_rows(out: ImageBuffers, counts: np.ndarray | None = None) -> FilmRows:
-    """The kernel's FilmRows of image rows `out` (ImageBuffers.rows), with fresh term counters unless given."""
-    counts = np.zeros(len(COUNTED_TERMS), np.int64) if counts is None else counts
-    return FilmRows(out.rgb, out.terms, out.depth, out.normal, out.face, counts)
-
-
-def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Frame,
-                    flags: tuple[int, int], real: type = np.float32) -> ShadingInputs:
-    """Pack the scene's numbers into tables of the shading precision `real` for the kernel.
-
-    viewing[9] is the smallest distance 1/d² attenuation divides by, squared: MIN_DISTANCE of the scene's
-    half-extent, so a light on the surface gives a large but finite f_att (≤ 1e12 / scale²).
-    """
-    center = frame.center
-    corner = geometry.corner_normals if len(geometry.corner_normals) else np.zeros((1, 3, 3))
-
-    def table(values):
-        return np.ascontiguousarray(np.asarray(values, np.float64), dtype=real)
-
-    return ShadingInputs(
-        vertices=table(geometry.vertices - center),
-        faces=np.ascontiguousarray(geometry.faces, np.int32),
-        face_normals=table(geometry.face_normals),
-        corner_normals=np.ascontiguousarray(corner, real),  # no copy when geometry made them in `real`
-        face_material=np.ascontiguousarray(geometry.face_material, np.int32),
-        face_model=np.ascontiguousarray(geometry.face_model, np.int8),
-        materials=material_table([DEFAULT_MATERIAL, *scene.materials.values()], real, geometry.file_materials),
-        lights=light_table(scene.lights, center, bool(flags[0] & F_ATTENUATION), real),
-        viewing=table([*scene.ambient, *(rig.eye - center), *(-rig.forward), (MIN_DISTANCE * frame.scale) ** 2]),
-        camera=table([*rig.right, *rig.up, *rig.forward, float(rig.orthographic)]),
-        background=table(scene.render.background),
-        flags=int(flags[0]), specular=int(flags[1]), frame_scale=float(frame.scale),
-        zero=real(0), one=real(1), two=real(2),
-    )
-
-
-def shade_tile(inputs: ShadingInputs, hits: TileHits, directions: np.ndarray, out: ImageBuffers,
-               samples: int, visible: np.ndarray | None = None) -> np.ndarray:
-    """Shade a tile's rays into `out` (views of whole image rows; mean over the n×n samples per pixel).
-
-    `visible` (N,) int64: global mode's per-ray light bits (shadows.light_visibility); None in local mode.
-
-    Returns how many shading points evaluated each optional term, (len(COUNTED_TERMS),) int64.
-    """
-    rays = TileRays(hits.face, hits.u, hits.v, hits.t, directions, NO_SHADOWS if visible is None else visible, samples)
-    film = film_rows(out)
-    _shade_rays(inputs, rays, film)
-    return film.counts
+ALL_VISIBLE = -1  # every bit set: local mode, no light is ever shadowed
 
 
 @kernel()
@@ -144,11 +51,11 @@ def _project(x, y, z, eye, camera):
     """Image-plane coordinates of a point, (x/z, y/z) in the camera frame or (x, y) if orthographic, and
     its depth z along the view direction (1 if orthographic: every point projects)."""
     rx, ry, rz = x - eye[0], y - eye[1], z - eye[2]
-    cx = rx * camera[0] + ry * camera[1] + rz * camera[2]
-    cy = rx * camera[3] + ry * camera[4] + rz * camera[5]
-    if camera[9] != 0:
-        return cx, cy, camera[9]
-    cz = rx * camera[6] + ry * camera[7] + rz * camera[8]
+    cx = rx * camera[CAM_RIGHT] + ry * camera[CAM_RIGHT + 1] + rz * camera[CAM_RIGHT + 2]
+    cy = rx * camera[CAM_UP] + ry * camera[CAM_UP + 1] + rz * camera[CAM_UP + 2]
+    if camera[CAM_ORTHOGRAPHIC] != 0:
+        return cx, cy, camera[CAM_ORTHOGRAPHIC]
+    cz = rx * camera[CAM_FORWARD] + ry * camera[CAM_FORWARD + 1] + rz * camera[CAM_FORWARD + 2]
     # At or behind the eye plane a point has no image: report its depth and let the caller refuse it.
     return (cx / cz, cy / cz, cz / math.sqrt(rx * rx + ry * ry + rz * rz)) if cz > 0 else (cx, cy, cz)
 
@@ -204,7 +111,8 @@ def _shade_rays(inputs, rays, film):
     face, bu, bv, tfar, directions, visible, samples = rays
     rgb, terms, depth, normal, face_out, counts = film
     width = rgb.shape[1]
-    eye = view[3:6]
+    eye = view[V_EYE:V_EYE + 3]
+    # The whole viewing row (layout.VIEWING_SIZE) as a tuple: illuminate reads it by layout's names.
     view_tuple = (view[0], view[1], view[2], view[3], view[4], view[5], view[6], view[7], view[8], view[9])
     third = one / (one + one + one)
     per_pixel = samples * samples
@@ -240,30 +148,31 @@ def _shade_rays(inputs, rays, film):
         # Shade the side the viewer sees.
         side = facing_side(gx, gy, gz, directions[k, 0], directions[k, 1], directions[k, 2], two_sided, one)
         m = face_material[f]
-        material = (materials[m, 0], materials[m, 1], materials[m, 2], materials[m, 3], materials[m, 4],
-                    materials[m, 5], materials[m, 6], materials[m, 7], materials[m, 8], materials[m, 9],
-                    materials[m, 10], materials[m, 11], materials[m, 12])
+        material = Material(materials[m, KA], materials[m, KA + 1], materials[m, KA + 2], materials[m, KD],
+                            materials[m, KD + 1], materials[m, KD + 2], materials[m, KS], materials[m, KS + 1],
+                            materials[m, KS + 2], materials[m, KE], materials[m, KE + 1], materials[m, KE + 2],
+                            materials[m, SHININESS])
         model = face_model[f]
         nx, ny, nz = side * gx, side * gy, side * gz
-        if model == 0:
+        if model == FLAT:
             px, py, pz = hit_point(vertices, faces, f, third, third, third)  # the centroid
             ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask = illuminate(
                 px, py, pz, nx, ny, nz, material, lights, view_tuple, flags, specular, visible_k, zero, one, two)
-        elif model == 1:
+        elif model == GOURAUD:
             ar = ag = ab = dr = dg = db = sr = sg = sb = er = eg = eb = zero
             mask = 0
             for j in range(3):
                 vj = faces[f, j]
                 bj = b0 if j == 0 else (b1 if j == 1 else b2)
-                jar, jag, jab, jdr, jdg, jdb, jsr, jsg, jsb, jer, jeg, jeb, jmask = illuminate(
+                lit = illuminate(
                     vertices[vj, 0], vertices[vj, 1], vertices[vj, 2], side * corner_normals[f, j, 0],
                     side * corner_normals[f, j, 1], side * corner_normals[f, j, 2], material, lights,
                     view_tuple, flags, specular, visible_k, zero, one, two)
-                ar, ag, ab = ar + bj * jar, ag + bj * jag, ab + bj * jab
-                dr, dg, db = dr + bj * jdr, dg + bj * jdg, db + bj * jdb
-                sr, sg, sb = sr + bj * jsr, sg + bj * jsg, sb + bj * jsb
-                er, eg, eb = er + bj * jer, eg + bj * jeg, eb + bj * jeb
-                mask |= jmask
+                ar, ag, ab = ar + bj * lit.ambient_r, ag + bj * lit.ambient_g, ab + bj * lit.ambient_b
+                dr, dg, db = dr + bj * lit.diffuse_r, dg + bj * lit.diffuse_g, db + bj * lit.diffuse_b
+                sr, sg, sb = sr + bj * lit.specular_r, sg + bj * lit.specular_g, sb + bj * lit.specular_b
+                er, eg, eb = er + bj * lit.emission_r, eg + bj * lit.emission_g, eb + bj * lit.emission_b
+                mask |= lit.mask
             if geometry_layers:
                 sx, sy, sz = _mixed_normal(corner_normals, f, b0, b1, b2)
                 nx, ny, nz = side * sx, side * sy, side * sz
@@ -277,7 +186,7 @@ def _shade_rays(inputs, rays, film):
             ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask = illuminate(
                 px, py, pz, nx, ny, nz, material, lights, view_tuple, flags, specular, visible_k, zero, one, two)
 
-        for bit in range(len(counts)):
+        for bit in range(TERMS):
             evaluated[bit] += (mask >> bit) & 1
         rgb[row, col, 0] += weight * (ar + dr + sr + er)
         rgb[row, col, 1] += weight * (ag + dg + sg + eg)

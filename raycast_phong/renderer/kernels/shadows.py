@@ -16,19 +16,14 @@ Two decisions keep shadows honest at any scale, both made in Embree's unit frame
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import numpy as np
 
-from ...records import Frame, Geometry
-from ...scene.schema import Scene
 from ...tolerances import MIN_DISTANCE
-from ..intersect import Accelerator, TileHits
 from .embree import occluded_rays
 from .jit import kernel
+from .layout import POINT
 from .surface import facing_side, hit_point, to_light
 
-MAX_LIGHTS = 63          # visibility travels as bits of one int64 per ray
 INT_SCALE = 256.0        # Wächter & Binder: ulps of offset per unit of normal
 FLOAT_SCALE = 1.0 / 65536.0
 ORIGIN = 1.0 / 32.0      # below this magnitude a coordinate gets the fixed offset
@@ -37,78 +32,11 @@ SHORT_OF_LIGHT = 1e-4    # embreex counts a hit exactly at tfar: stop this fract
 FLOOR_SQUARED = MIN_DISTANCE ** 2  # the unit frame's half-extent is 1: a light this close is head-on
 
 
-class ShadowInputs(NamedTuple):
-    """Geometry and lights in Embree's unit frame (float64), for building shadow rays (a NamedTuple: kernels
-    take it as one argument)."""
-    vertices: np.ndarray        # (V, 3) float64, unit frame
-    faces: np.ndarray           # (F, 3) int32
-    face_normals: np.ndarray    # (F, 3) float64
-    corner_normals: np.ndarray  # (F, 3, 3) float64, or (1, 3, 3) when no face is smooth
-    smooth: np.ndarray          # (F,) bool: move the origin to the smooth surface (Hanika) on this face
-    light_kind: np.ndarray      # (K,) int64, 0 point, 1 directional
-    light_vec: np.ndarray       # (K, 3) float64: unit-frame position, or unit vector toward the light
-    two_sided: bool
-    offset_scale: float = 1.0   # 1: the Wächter–Binder offset; 0: none (only to show what acne looks like)
-
-
-def prepare_shadows(scene: Scene, geometry: Geometry, frame: Frame, offset_scale: float = 1.0) -> ShadowInputs:
-    kinds, vectors = [], []
-    for light in scene.lights:
-        if light.type == "point":
-            kinds.append(0), vectors.append(frame.to_unit(np.asarray(light.position, np.float64)))
-        else:
-            toward = -np.asarray(light.direction, np.float64)
-            kinds.append(1), vectors.append(toward / np.linalg.norm(toward))
-    hanika = scene.render.terminator == "hanika" and len(geometry.corner_normals) > 0
-    corner = geometry.corner_normals if len(geometry.corner_normals) else np.zeros((1, 3, 3))
-    return ShadowInputs(
-        vertices=frame.to_unit(geometry.vertices),
-        faces=np.ascontiguousarray(geometry.faces, np.int32),
-        face_normals=np.ascontiguousarray(geometry.face_normals, np.float64),
-        corner_normals=np.ascontiguousarray(corner, np.float64),
-        smooth=(geometry.face_model != 0) & hanika,
-        light_kind=np.asarray(kinds, np.int64).reshape(-1),
-        light_vec=np.asarray(vectors, np.float64).reshape(-1, 3),
-        two_sided=bool(scene.render.two_sided),
-        offset_scale=float(offset_scale),
-    )
-
-
-def no_shadows() -> ShadowInputs:
-    """Local mode's stand-in (no lights, nothing to build from): the tile kernel's arguments keep one type."""
-    return ShadowInputs(np.zeros((0, 3)), np.zeros((0, 3), np.int32), np.zeros((0, 3)), np.zeros((1, 3, 3)),
-                        np.zeros(0, np.bool_), np.zeros(0, np.int64), np.zeros((0, 3)), False)
-
-
-def shadow_rays(inputs: ShadowInputs, hits: TileHits, directions: np.ndarray):
-    """One shadow ray per hit and light: origins, unit directions (M, 3) float32 and t_max (M,)
-    float32 in the unit frame, and the indices (H,) of the rays that hit (M = H × K, light-minor)."""
-    lights = len(inputs.light_kind)
-    hit_rays = np.flatnonzero(hits.face >= 0)
-    count = len(hit_rays) * lights
-    origins = np.empty((count, 3), np.float32)
-    toward = np.empty((count, 3), np.float32)
-    t_max = np.empty(count, np.float32)
-    _shadow_rays(hit_rays, hits.face, hits.u, hits.v, directions, inputs.vertices, inputs.faces,
-                 inputs.face_normals, inputs.corner_normals, inputs.smooth, inputs.light_kind, inputs.light_vec,
-                 inputs.two_sided, inputs.offset_scale, origins, toward, t_max)
-    return origins, toward, t_max, hit_rays
-
-
-def light_visibility(inputs: ShadowInputs, hits: TileHits, directions: np.ndarray,
-                     accelerator: Accelerator) -> np.ndarray:
-    """(N,) int64 bit masks: bit j set where light j is visible from hit k (0 for a miss)."""
-    origins, toward, t_max, hit_rays = shadow_rays(inputs, hits, directions)
-    free = ~accelerator.occluded(origins, toward, t_max)
-    visible = np.zeros(len(hits.face), np.int64)
-    _gather_bits(hit_rays, free, len(inputs.light_kind), visible)
-    return visible
-
-
 @kernel()
 def cast_shadows(scene, inputs, face, u, v, directions, visible):
-    """light_visibility inside a kernel, on Embree's C API scene (embree.EmbreeScene.scene): visible (N,)
-    int64 light bits written in place (0 for a miss)."""
+    """Shadow rays from every hit of a tile toward every light, on Embree's C API scene
+    (embree.EmbreeScene.scene): visible (N,) int64 light bits written in place (bit j set: light j is
+    visible; 0 for a miss). Returns the number of shadow rays cast."""
     lights = inputs.light_kind.shape[0]
     hits = 0
     for k in range(face.shape[0]):
@@ -123,12 +51,11 @@ def cast_shadows(scene, inputs, face, u, v, directions, visible):
     origins = np.empty((hits * lights, 3), np.float32)
     toward = np.empty((hits * lights, 3), np.float32)
     t_max = np.empty(hits * lights, np.float32)
-    _shadow_rays(hit_rays, face, u, v, directions, inputs.vertices, inputs.faces, inputs.face_normals,
-                 inputs.corner_normals, inputs.smooth, inputs.light_kind, inputs.light_vec, inputs.two_sided,
-                 inputs.offset_scale, origins, toward, t_max)
+    shadow_rays(inputs, hit_rays, face, u, v, directions, origins, toward, t_max)
     blocked = np.empty(hits * lights, np.bool_)
     occluded_rays(scene, origins, toward, t_max, blocked)
     _gather_bits(hit_rays, ~blocked, lights, visible)
+    return hits * lights
 
 
 @kernel()
@@ -144,8 +71,14 @@ def _offset(x, n):
 
 
 @kernel()
-def _shadow_rays(hit_rays, face, bu, bv, directions, vertices, faces, face_normals, corner_normals, smooth,
-                 light_kind, light_vec, two_sided, offset_scale, origins, toward, t_max):
+def shadow_rays(inputs, hit_rays, face, bu, bv, directions, origins, toward, t_max):
+    """One shadow ray per hit and light (layout.ShadowInputs; the hits' face, u, v and ray directions): origins,
+    unit directions toward (M, 3) float32 and t_max (M,) float32 in the unit frame written in place, for the
+    hits hit_rays (H,) (M = H × K, light-minor)."""
+    vertices, faces, face_normals, corner_normals = (inputs.vertices, inputs.faces, inputs.face_normals,
+                                                     inputs.corner_normals)
+    smooth, light_kind, light_vec = inputs.smooth, inputs.light_kind, inputs.light_vec
+    two_sided, offset_scale = inputs.two_sided, inputs.offset_scale
     lights = light_kind.shape[0]
     for h in range(hit_rays.shape[0]):
         k = hit_rays[h]
@@ -171,7 +104,7 @@ def _shadow_rays(hit_rays, face, bu, bv, directions, vertices, faces, face_norma
             px, py, pz = qx, qy, qz
         for j in range(lights):
             r = h * lights + j
-            point = light_kind[j] == 0
+            point = light_kind[j] == POINT
             lx, ly, lz, _ = to_light(point, light_vec[j, 0], light_vec[j, 1], light_vec[j, 2], px, py, pz,
                                      gx, gy, gz, FLOOR_SQUARED)
             # Leave the surface on the light's side of the geometric normal.

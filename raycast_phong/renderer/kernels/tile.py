@@ -3,7 +3,7 @@
 Each stage keeps its home (camera.fill_rows, embree.intersect_rays, shadows.cast_shadows, shading._shade_rays);
 this kernel only runs them in turn on CHUNK_ROWS image rows at a time, so a chunk's rays, hits and shadow
 rays stay in the CPU's cache and its buffers are allocated once per band. It needs Embree's C API
-(embree.py): on embreex's fallback render.TileWork runs the same stages from Python instead.
+(embree.py), the renderer's one engine.
 """
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ from numba import types
 
 from .camera import fill_rows
 from .embree import intersect_rays
-from .illumination import F_SHADOWS
 from .jit import kernel
-from .shading import FilmRows, TileRays, _shade_rays
+from .layout import C_SHADOW_RAYS, F_SHADOWS, FilmRows, TileRays
+from .shading import _shade_rays
 from .shadows import cast_shadows
 
 CHUNK_ROWS = 4  # image rows per pass: one row of Embree's 4 × 4 packets
@@ -35,9 +35,10 @@ def _now(timespec):
 
 @kernel()
 def render_band(scene, row0, row1, params, shared_origins, shadows, inputs, film, seconds):
-    """Render image rows [row0, row1) into `film` (FilmRows of those rows; its counts are set, as by
-    shading._shade_rays). scene: embree.EmbreeScene.scene; params: camera.RayParams; shared_origins: the
-    RayGenerator's (perspective); shadows: ShadowInputs (read in global mode only); inputs: ShadingInputs.
+    """Render image rows [row0, row1) into `film` (FilmRows of those rows; its counts are set: the terms
+    shading._shade_rays evaluated, and the shadow rays cast). scene: embree.EmbreeScene.scene; params:
+    camera.RayParams; shared_origins: the RayGenerator's (perspective); shadows: ShadowInputs (read in global
+    mode only); inputs: ShadingInputs.
     seconds (3,) float64 gets the time of rays (generation + cast), shadow rays and shading added."""
     row_rays = params.width * params.samples * params.samples
     capacity = min(CHUNK_ROWS, row1 - row0) * row_rays  # a band of one very wide row needs one row's buffers
@@ -62,7 +63,8 @@ def render_band(scene, row0, row1, params, shared_origins, shadows, inputs, film
         intersect_rays(scene, origins, directions[:n], row_rays, face[:n], u[:n], v[:n], t[:n])
         cast = _now(timespec)
         if global_mode:
-            cast_shadows(scene, shadows, face[:n], u[:n], v[:n], directions[:n], visible[:n])
+            counts[C_SHADOW_RAYS] += cast_shadows(scene, shadows, face[:n], u[:n], v[:n], directions[:n],
+                                                  visible[:n])
         shadowed = _now(timespec)
         # Film rows of this chunk, relative to the band; a layer not asked for is empty and stays so.
         a, b = row - row0, end - row0

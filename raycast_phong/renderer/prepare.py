@@ -1,0 +1,169 @@
+"""The one place the stages are sequenced: prepare() = plan → memory check → geometry → diagnosis → packing;
+Prepared.render() = BVH → tiles (rays → hits → [shadow rays] → shading, in one kernel per band) → film.
+
+render(), render_file(), warm_kernels, the `plan` command, accuracy.mesh_coverage and the study all go
+through prepare(), so they agree on the plan, on whether a scene fits its memory budget (one check, with
+the same arguments for all) and on what the kernels get. Tiles are bands of rows, about TILE_RAYS rays
+each, shaded on a thread pool: Embree and the kernels release the GIL, so both cores work and memory stays
+flat whatever the image size. Every band writes only its own rows: the image is bit-identical for any
+number of threads.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..geometry.build import build_geometry
+from ..records import Frame, Geometry, ImageBuffers, RenderPlan, RenderResult
+from ..scene.schema import Scene, SceneError
+from .budget import MemoryEstimate, check_memory
+from .film import allocate_film, film_layers
+from .intersect import Accelerator, unit_frame
+from .kernels.layout import COUNTS, MAX_LIGHTS, ShadingInputs, ShadowInputs
+from .kernels.tile import render_band
+from .pack import RayGenerator, camera_rig, film_rows, no_shadows, plan_flags, prepare_shading, prepare_shadows
+from .plan import build_plan, diagnose
+
+TILE_RAYS = 1 << 15  # 32k rays: large enough to amortise a call, small enough for ~10 MB per tile
+NO_SHADOWS = no_shadows()  # local mode's shadow inputs for the tile kernel (read only in global mode)
+
+
+def default_threads() -> int:
+    return max(1, min(os.cpu_count() or 1, 8))
+
+
+@dataclass(frozen=True, eq=False)
+class Prepared:
+    """Everything a render of one scene needs before its BVH and tiles: the plan, the memory estimate that
+    let it through, the geometry, the unit frame and the kernels' packed inputs. `.render()` runs the rest."""
+    scene: Scene
+    source: str
+    plan: RenderPlan                 # diagnosed: with the geometry's warnings and notes
+    memory: MemoryEstimate
+    geometry: Geometry
+    frame: Frame                     # Embree's unit frame
+    rays: RayGenerator
+    shading: ShadingInputs
+    shadows: ShadowInputs | None     # None in local mode
+    bands: tuple[tuple[int, int], ...]  # the tiles: image rows [row0, row1)
+    threads: int
+    progress: Callable[[int, int], None] | None = None
+    timings: dict[str, float] = field(default_factory=dict)  # geometry so far; render() adds the rest
+
+    @property
+    def real(self) -> type:
+        """The shading precision."""
+        return np.float64 if self.plan.keeps("float64_shading") else np.float32
+
+    def build(self) -> Accelerator:
+        """The BVH (starts Embree; committed before any thread uses it)."""
+        return Accelerator(self.geometry, self.frame)
+
+    def render(self) -> RenderResult:
+        """BVH, then every band on the thread pool into a fresh film.
+
+        Returns a RenderResult with .image (H, W, 3) in the shading precision, .aovs, .timings (seconds:
+        geometry, build, rays, shadows (global mode), shade, frame; rays, shadows and shade are summed over
+        the worker threads, frame is wall time) and .counts (terms evaluated, shadow rays cast).
+        """
+        timings = dict(self.timings)
+        start = time.perf_counter()
+        accelerator = self.build()
+        timings["build"] = time.perf_counter() - start
+        render = self.scene.render
+        aovs = tuple(self.scene.output.aovs)
+        tile = TileWork(self.rays, accelerator, self.shadows, self.shading,
+                        allocate_film(render.width, render.height, aovs, self.real))
+        counts = run_tiles(tile, list(self.bands), self.threads, self.progress, timings)
+        return RenderResult(image=tile.film.rgb, aovs=film_layers(tile.film, aovs), timings=timings, plan=self.plan,
+                            triangles=self.geometry.triangles, rays=render.width * render.height * render.samples ** 2,
+                            counts=dict(zip(COUNTS, counts.tolist())))
+
+
+def prepare(scene: Scene, *, source: str = "<scene>", threads: int | None = None,
+            max_memory: int | str | None = None, plan: RenderPlan | None = None,
+            progress: Callable[[int, int], None] | None = None) -> Prepared:
+    """Plan the render, check it fits the memory budget, build the geometry and pack the kernels' inputs.
+
+    Parameters
+    ----------
+    threads: worker threads for the tiles (default: the machine's cores, at most 8).
+    max_memory: the budget, bytes or a size such as "8G" (default: 3/4 of the memory available now); a scene
+        whose estimate (budget.estimate_memory) exceeds it is refused with a SceneError before anything is built.
+    plan: the render plan; default build_plan(scene). build_plan(scene, optimize=False) keeps every stage.
+    progress: called as progress(tiles_done, tiles_total) by render().
+    """
+    plan = plan or build_plan(scene)
+    if plan.keeps("shadow_rays") and len(scene.lights) > MAX_LIGHTS:
+        raise SceneError(f"{source}: lights: global mode handles at most {MAX_LIGHTS} lights, "
+                         f"the scene has {len(scene.lights)}; use render.mode = \"local\" or fewer lights")
+    width, height, samples = scene.render.width, scene.render.height, scene.render.samples
+    rows_per_tile = max(1, TILE_RAYS // (width * samples * samples))
+    bands = tuple((row, min(row + rows_per_tile, height)) for row in range(0, height, rows_per_tile))
+    threads = threads or default_threads()
+    tile_rays = rows_per_tile * width * samples * samples
+    memory = check_memory(scene, source, max_memory, smooth=plan.keeps("vertex_normals"),
+                          float64=plan.keeps("float64_shading"),
+                          shadow_lights=len(scene.lights) if plan.keeps("shadow_rays") else 0,
+                          tile_rays=tile_rays, threads=min(threads, len(bands)))
+
+    start = time.perf_counter()
+    real = np.float64 if plan.keeps("float64_shading") else np.float32
+    geometry = build_geometry(scene, source=source, vertex_normals=plan.keeps("vertex_normals"), normal_dtype=real)
+    timings = {"geometry": time.perf_counter() - start}
+    plan = diagnose(plan, scene, geometry)
+    frame = unit_frame(geometry.vertices)
+    rig = camera_rig(scene)
+    return Prepared(
+        scene=scene, source=source, plan=plan, memory=memory, geometry=geometry, frame=frame,
+        rays=RayGenerator(rig, frame, width, height, samples, max_rays=tile_rays),
+        shading=prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), real),
+        shadows=prepare_shadows(scene, geometry, frame) if plan.keeps("shadow_rays") else None,
+        bands=bands, threads=threads, progress=progress, timings=timings)
+
+
+@dataclass(frozen=True, eq=False)
+class TileWork:
+    """What every tile of one frame needs: its rays, the BVH, the shadow and shading inputs, the film."""
+    rays: RayGenerator
+    accelerator: Accelerator
+    shadows: ShadowInputs | None   # None in local mode
+    shading: ShadingInputs
+    film: ImageBuffers
+
+    def __call__(self, band: tuple[int, int]) -> tuple[float, float, float, np.ndarray]:
+        """Rays, closest hits, [shadow rays,] shading of rows [row0, row1) into the film, in one kernel
+        (tile.render_band); seconds of each part and the kernel's counts."""
+        row0, row1 = band
+        film, seconds = film_rows(self.film.rows(row0, row1)), np.zeros(3)
+        render_band(self.accelerator.embree_scene.scene, row0, row1, self.rays.params, self.rays.shared_origins,
+                    self.shadows or NO_SHADOWS, self.shading, film, seconds)
+        return seconds[0], seconds[1], seconds[2], film.counts
+
+
+def run_tiles(tile: TileWork, bands: list[tuple[int, int]], threads: int,
+              progress: Callable[[int, int], None] | None, timings: dict[str, float]) -> np.ndarray:
+    """Run `tile` over the bands on a pool of `threads` (the kernels and Embree release the GIL); add
+    frame (wall), rays, shade and, in global mode, shadows (summed over threads) to `timings`."""
+    counts = np.zeros(len(COUNTS), np.int64)
+    seconds = np.zeros(3)  # rays, shadows, shade
+    start = time.perf_counter()
+    if progress:
+        progress(0, len(bands))
+    with ThreadPoolExecutor(max_workers=threads) as pool:
+        for done, (ray_s, shadow_s, shade_s, tile_counts) in enumerate(pool.map(tile, bands), start=1):
+            seconds += (ray_s, shadow_s, shade_s)
+            counts += tile_counts
+            if progress:
+                progress(done, len(bands))
+    timings["frame"] = time.perf_counter() - start
+    timings["rays"], timings["shade"] = float(seconds[0]), float(seconds[2])
+    if tile.shadows is not None:
+        timings["shadows"] = float(seconds[1])
+    return counts
