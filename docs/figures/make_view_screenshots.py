@@ -28,16 +28,6 @@ def settle(page, errors: bool = False) -> None:
         page.wait_for_function("() => document.querySelector('#exact').textContent.startsWith('RMSE')", timeout=120_000)
 
 
-def drag(page, selector: str, dx: float, dy: float) -> None:
-    """Drag from the middle of `selector` by (dx, dy) CSS pixels, then release."""
-    box = page.locator(selector).bounding_box()
-    x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
-    page.mouse.move(x, y)
-    page.mouse.down()
-    page.mouse.move(x + dx, y + dy, steps=6)
-    page.mouse.up()
-
-
 def animation(page, path: Path) -> None:
     """docs/images/view-drag.gif: the light turned with the gizmo round the spheres, then the camera orbited,
     each step a screenshot of the page after its full frame, assembled by Pillow (optimised palette GIF)."""
