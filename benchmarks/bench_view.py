@@ -9,6 +9,14 @@ Serves the view (uvicorn, on a background thread) and talks to it as the page do
             last move to its frame (no queue builds up if it stays near one frame's time)
 Target: a draft frame within 100 ms at 640×360. Reports medians and 90th percentiles; asserts nothing.
 Usage: python benchmarks/bench_view.py [SCENE] [--size 640x360] [--steps 20] [--rate 60] [--seconds 3]
+
+--browser: the latency a user feels, in Playwright driving Debian's Chromium (issue 23's targets: draft ≤ 50 ms
+and full ≤ 100 ms at 640×360 while dragging, full ≤ 250 ms at 1280×720). The page records, for each frame it
+shows, the time from the request its input handler sent to the first animation frame after the image decoded
+(window.view.painted). Three runs: `rest` (640×360 and 1280×720: press on the light gizmo, one move, wait for
+the draft on screen, release, wait for the full frame and its exact errors), and `dragging` at 640×360 (drags
+of --seconds / 3 at --rate Hz, each released into the next with no pause, so a release's exact-error job runs
+while the next drag's drafts are rendered). Median and 95th percentile.
 """
 
 from __future__ import annotations
@@ -36,10 +44,80 @@ def summary(name: str, seconds: list[float]) -> str:
             f"max {max(ms):7.1f} ms   (n = {len(ms)})")
 
 
-def point(k: int, n: int) -> tuple[float, float]:
-    """The k-th of n points on a circle around the image centre (a light dragged round the object)."""
+def point(k: int, n: int) -> list[float]:
+    """The k-th of n light positions on a circle of radius 5 round the view axis at z = 4 (the page's gizmo
+    turning the light round the look-at point)."""
     angle = 2 * math.pi * k / max(n, 1)
-    return 0.5 + 0.3 * math.cos(angle), 0.5 + 0.3 * math.sin(angle)
+    return [round(5 * math.cos(angle), 6), round(5 * math.sin(angle), 6), 4.0]
+
+
+CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                 "--disable-component-update", "--disable-sync", "--no-first-run"]
+
+
+def p95(values: list[float]) -> float:
+    return quantile(values, 0.95)
+
+
+def browser_benchmark(scene: str | None, steps: int, rate: float, seconds: float) -> None:
+    """The `--browser` runs (see the module docstring); prints one line per run and quality."""
+    from urllib.parse import quote
+
+    from playwright.sync_api import sync_playwright
+
+    def opened(page, url: str, width: int, height: int) -> None:
+        kept = {"a": {"render.width": width, "render.height": height}, "compare": "off"}
+        page.goto("about:blank")  # else a new fragment alone would not load the page again
+        page.goto(f"{url}#view={quote(json.dumps(kept))}")  # the permalink sets the size
+        page.wait_for_function("() => window.view.painted.some((p) => p.quality === 'full')", timeout=180_000)
+        assert page.evaluate("window.view.lastFrame.stats.a.width") == width
+        page.evaluate("window.view.painted.length = 0")
+
+    def painted(page, quality: str) -> list[float]:
+        return page.evaluate("(q) => window.view.painted.filter((p) => p.quality === q).map((p) => p.ms)", quality)
+
+    def report(name: str, page) -> None:
+        for quality in ("draft", "full"):
+            ms = painted(page, quality)
+            if ms:
+                print(f"{name:28} {quality:5}  median {statistics.median(ms):6.1f} ms   p95 {p95(ms):6.1f} ms   "
+                      f"(n = {len(ms)})")
+
+    with sync_playwright() as driver:
+        browser = driver.chromium.launch(executable_path="/usr/bin/chromium", args=CHROMIUM_ARGS)
+        page = browser.new_page(viewport={"width": 1700, "height": 1100})
+        with running(scene) as url:
+            for width, height in ((640, 360), (1280, 720)):
+                opened(page, url, width, height)
+                box = page.locator("#gizmo").bounding_box()
+                x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+                for k in range(steps):
+                    count = len(page.evaluate("window.view.painted"))
+                    page.mouse.move(x, y)
+                    page.mouse.down()
+                    page.mouse.move(x + (3 if k % 2 else -3), y)
+                    page.wait_for_function("(n) => window.view.painted.length > n", arg=count, timeout=60_000)
+                    page.mouse.up()
+                    page.wait_for_function("(n) => window.view.painted.length > n + 1", arg=count, timeout=60_000)
+                    if page.evaluate("window.view.hello.analytic"):  # at rest: its exact errors are done too
+                        page.wait_for_function("() => document.querySelector('#exact').textContent.startsWith("
+                                               "'RMSE')", timeout=120_000)
+                report(f"rest {width}×{height}", page)
+            opened(page, url, 640, 360)
+            box = page.locator("#gizmo").bounding_box()
+            x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+            moves = max(1, int(rate * seconds / 3))
+            for drag in range(3):
+                page.mouse.move(x, y)
+                page.mouse.down()
+                started = time.perf_counter()
+                for k in range(moves):
+                    time.sleep(max(0.0, started + k / rate - time.perf_counter()))
+                    page.mouse.move(x + 40 * math.sin(2 * math.pi * k / moves), y + 10 * math.sin(drag + k / 9))
+                page.mouse.up()
+            page.wait_for_function("() => window.view.painted.at(-1).quality === 'full'", timeout=60_000)
+            report("dragging 640×360", page)
+        browser.close()
 
 
 def main() -> None:
@@ -49,7 +127,10 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=20, help="changes per quality in the step test")
     parser.add_argument("--rate", type=float, default=60.0, help="pointer events per second in the drag test")
     parser.add_argument("--seconds", type=float, default=3.0, help="length of the drag test")
+    parser.add_argument("--browser", action="store_true", help="the latency felt in Chromium instead (Playwright)")
     args = parser.parse_args()
+    if args.browser:
+        return browser_benchmark(args.scene, args.steps, args.rate, args.seconds)
     width, height = (int(x) for x in args.size.lower().split("x"))
     settings = {"render.width": width, "render.height": height}
 
@@ -60,11 +141,12 @@ def main() -> None:
             json.loads(ws.recv())  # hello
             request_id = 0
 
-            def ask(quality: str, u: float, v: float, reference: bool = False) -> int:
+            def ask(quality: str, position: list[float], reference: bool = False) -> int:
                 nonlocal request_id
                 request_id += 1
-                ws.send(json.dumps({"type": "render", "id": request_id, "quality": quality, "settings": settings,
-                                    "drag": {"light": 0, "u": u, "v": v}, "reference": reference}))
+                moved = {**settings, "lights.0.position": position}
+                ws.send(json.dumps({"type": "render", "id": request_id, "quality": quality, "settings": moved,
+                                    "reference": reference}))
                 return request_id
 
             def frame() -> dict:
@@ -77,7 +159,7 @@ def main() -> None:
                     elif json.loads(message)["type"] == "error":
                         raise SystemExit(json.loads(message)["message"])
 
-            ask("full", 0.5, 0.5)  # warm: the kernels load and the BVH code runs once
+            ask("full", point(0, 1))  # warm: the kernels load and the BVH code runs once
             frame()
             print(f"view of {args.scene or 'the default scene'} at {width}×{height} "
                   f"(draft {(width + 1) // 2}×{(height + 1) // 2}), served at {origin}")
@@ -85,7 +167,7 @@ def main() -> None:
                 latencies, renders = [], []
                 for k in range(args.steps):
                     started = time.perf_counter()
-                    ask(quality, *point(k, args.steps), reference)
+                    ask(quality, point(k, args.steps), reference)
                     header = frame()
                     latencies.append(time.perf_counter() - started)
                     renders.append(header["stats"]["a"]["frame"])
@@ -110,7 +192,7 @@ def main() -> None:
                     if isinstance(message, bytes):
                         header = unpack(message)[0]
                         ages.append(time.perf_counter() - sent_at[header["id"]])
-                sent_at[ask("draft", *point(k, 120))] = time.perf_counter()
+                sent_at[ask("draft", point(k, 120))] = time.perf_counter()
             last = request_id
             while True:
                 message = ws.recv()

@@ -25,6 +25,7 @@ _HOMES = {
     "ShadingModel": "codes", "SpecularModel": "codes",
     "Scene": "scene.schema", "default_scene_path": "scene.schema", "load_scene": "scene.load",
     "validate_scene": "scene.schema",
+    "show": "tools.notebook",
 }
 __all__ = sorted(_HOMES)
 
@@ -37,6 +38,7 @@ if TYPE_CHECKING:
     from .renderer.plan import build_plan
     from .scene.load import load_scene
     from .scene.schema import Scene, default_scene_path, validate_scene
+    from .tools.notebook import show
 
 
 def __getattr__(name: str):

@@ -121,6 +121,13 @@ class RenderResult:
     def rays_per_second(self) -> float:
         return self.rays / max(self.timings.get("frame", 0.0), 1e-12)
 
+    def _repr_html_(self) -> str:
+        """Jupyter shows a render as its image with a small table of its timings and plan. The drawing lives
+        in tools/notebook.py (it encodes PNGs); this base record reaches it by the package's public name,
+        as a notebook would, so importing records loads nothing."""
+        import raycast_phong
+        return raycast_phong.show(self)._repr_html_()
+
 
 @dataclass(frozen=True)
 class ImageErrors:

@@ -1,6 +1,6 @@
 """Screenshots of `raycast-phong view` for docs/view.md, taken with Playwright in Debian's headless Chromium.
 
-Usage: python docs/figures/make_view_screenshots.py   (writes docs/images/view-*.png)
+Usage: python docs/figures/make_view_screenshots.py   (writes docs/images/view-*.png and view-drag.gif)
 """
 
 from __future__ import annotations
@@ -25,18 +25,37 @@ def settle(page, errors: bool = False) -> None:
         return img.dataset.quality === 'full' && Number(img.dataset.id) >= sent && img.complete; }""",
                            arg=sent, timeout=120_000)
     if errors:
-        page.wait_for_function("document.querySelector('#exact').textContent.startsWith('RMSE')", timeout=120_000)
+        page.wait_for_function("() => document.querySelector('#exact').textContent.startsWith('RMSE')", timeout=120_000)
 
 
-def drag(page, points: list[tuple[float, float]]) -> None:
-    """Drag on image A through image points (u, v) ∈ [0, 1]², then release."""
-    box = page.locator("#image-a").bounding_box()
-    at = [(box["x"] + u * box["width"], box["y"] + v * box["height"]) for u, v in points]
-    page.mouse.move(*at[0])
-    page.mouse.down()
-    for x, y in at[1:]:
-        page.mouse.move(x, y, steps=4)
-    page.mouse.up()
+def animation(page, path: Path) -> None:
+    """docs/images/view-drag.gif: the light turned with the gizmo round the spheres, then the camera orbited,
+    each step a screenshot of the page after its full frame, assembled by Pillow (optimised palette GIF)."""
+    from io import BytesIO
+
+    from PIL import Image
+    frames = []
+
+    def shot() -> None:
+        settle(page)
+        image = Image.open(BytesIO(page.screenshot(clip={"x": 0, "y": 0, "width": 1180, "height": 780})))
+        frames.append(image.convert("RGB").resize((826, 546), Image.LANCZOS))
+
+    def step(selector: str, dx: float, dy: float) -> None:
+        box = page.locator(selector).bounding_box()
+        x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+        page.mouse.move(x, y)
+        page.mouse.down()
+        page.mouse.move(x + dx, y + dy, steps=3)
+        page.mouse.up()
+        shot()
+
+    shot()
+    for dx, dy in [(-6, 0)] * 11 + [(0, 5)] * 4:  # the light across the front to the left (80°), then down
+        step("#gizmo", dx, dy)
+    for dx, dy in [(10, 0)] * 8 + [(0, 8)] * 3:  # the camera round the spheres, then a little from above
+        step("#image-a", dx, dy)
+    frames[0].save(path, save_all=True, append_images=frames[1:], duration=220, loop=0, optimize=True)
 
 
 def main() -> None:
@@ -67,18 +86,26 @@ def main() -> None:
             page.dispatch_event("#wipe", "input")
             page.locator("#viewer").screenshot(path=IMAGES / "view-wipe.png")
 
-        with running(Path("scenes/default.toml")) as url:  # drag the light over the three spheres
+        with running(Path("scenes/default.toml")) as url:  # the light over the three spheres, by its fields
             page.goto(url)
             settle(page)
-            path = [(0.75, 0.2), (0.5, 0.35), (0.3, 0.5), (0.15, 0.7)]
-            for index, end in enumerate(path[1:], start=1):
-                drag(page, [path[index - 1], end])
+            # In the plane z = 6, 4 in front of the eye: over a vertex of the Gouraud sphere, between vertices,
+            # further left and down.
+            for index, position in enumerate([(0, 0.255068, 6), (-0.906908, 0, 6), (-1.587089, -0.34009, 6)], 1):
+                for axis, value in enumerate(position):
+                    page.fill(f"#light-xyz input[data-axis='{axis}']", str(value))
+                    page.dispatch_event(f"#light-xyz input[data-axis='{axis}']", "change")
                 settle(page)
                 page.locator("#stage").screenshot(path=IMAGES / f"view-drag-{index}.png")
             page.evaluate("window.view.settings.a['materials.clay.shininess'] = -1")
             page.select_option("[data-key='render.specular']", "blinn")
             page.wait_for_selector("#error:not([hidden])")
             page.screenshot(path=IMAGES / "view-error.png", clip={"x": 0, "y": 0, "width": 1320, "height": 260})
+        with running(Path("scenes/default.toml")) as url:  # the animation, from the scene's own light and camera
+            page.set_viewport_size({"width": 1180, "height": 860})
+            page.goto(url)
+            settle(page)
+            animation(page, IMAGES / "view-drag.gif")
         browser.close()
 
 

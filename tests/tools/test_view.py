@@ -5,11 +5,12 @@ frames equal to render(), latest-wins, saves, the dragged light."""
 from __future__ import annotations
 
 import json
-import math
+import os
 import signal
 import subprocess
 import sys
 import threading
+import time
 import urllib.error
 import urllib.request
 from pathlib import Path
@@ -59,7 +60,12 @@ def rendered_png(scene: rp.Scene) -> np.ndarray:
 
 
 def receive_frame(ws) -> tuple[dict, dict]:
-    header, parts = unpack(ws.receive_bytes())
+    """The next frame, past the progress messages of a full one."""
+    message = ws.receive()
+    while message.get("text") is not None:
+        assert json.loads(message["text"])["type"] == "progress", message["text"]
+        message = ws.receive()
+    header, parts = unpack(message["bytes"])
     assert header["type"] == "frame", header
     return header, parts
 
@@ -75,6 +81,8 @@ def test_page_and_its_files_need_the_token(scene_path):
         assert "token" in response.text
     page = client.get(f"/?token={TOKEN}")
     assert page.status_code == 200 and "<html" in page.text
+    # Its own script comes with the token in its URL too: framed by a notebook of another site, it has no cookie.
+    assert f'src="static/view.js?token={TOKEN}"' in page.text
     assert client.get("/static/view.js").status_code == 200  # the page's files come with its cookie
 
 
@@ -104,6 +112,40 @@ def test_a_host_name_other_than_the_servers_is_refused(scene_path):
     """DNS rebinding: a page of another site resolving to 127.0.0.1 still names its own host."""
     response = client_for(scene_path).get(f"/?token={TOKEN}", headers={"host": "evil.example"})
     assert response.status_code == 400
+
+
+def test_host_names_in_brackets_and_wildcard_addresses(scene_path):
+    """--host ::1 answers its own URL (a Host of [::1]:port); --host 0.0.0.0 answers any host name, and then
+    the socket's Origin must be the page of the host it asked."""
+    from raycast_phong.tools.view import origins_for, page_url
+    assert page_url("::1", 8765, "t") == "http://[::1]:8765/?token=t" and origins_for("::1", 8765)[0] == "http://[::1]:8765"
+    assert page_url("0.0.0.0", 8765, "t") == "http://127.0.0.1:8765/?token=t"  # the wildcard, reached here
+    ipv6 = create_app(open_source(scene_path), TOKEN, ["http://[::1]:8765"])
+    assert TestClient(ipv6).get(f"/?token={TOKEN}", headers={"host": "[::1]:8765"}).status_code == 200
+    for bad in ("::1", "evil.example", "[::1"):
+        assert TestClient(ipv6).get(f"/?token={TOKEN}", headers={"host": bad}).status_code == 400, bad
+    wildcard = TestClient(create_app(open_source(scene_path), TOKEN, ["http://127.0.0.1:8765"], any_host=True))
+    assert wildcard.get(f"/?token={TOKEN}", headers={"host": "lab-pc.local:8765"}).status_code == 200
+    with wildcard.websocket_connect(f"/socket?token={TOKEN}", headers={"host": "lab-pc.local:8765",
+                                                                       "origin": "http://lab-pc.local:8765"}) as ws:
+        assert json.loads(ws.receive_text())["type"] == "hello"
+    with pytest.raises(WebSocketDisconnect):
+        with wildcard.websocket_connect(f"/socket?token={TOKEN}", headers={"host": "lab-pc.local:8765",
+                                                                           "origin": "http://evil.example"}) as ws:
+            ws.receive_text()
+
+
+def test_every_response_keeps_the_page_to_itself(scene_path):
+    client = client_for(scene_path)
+    for url, status in ((f"/?token={TOKEN}", 200), ("/static/view.js", 200), ("/?token=wrong", 403)):
+        response = client.get(url)
+        assert response.status_code == status
+        policy = response.headers["content-security-policy"]
+        assert "default-src 'none'" in policy and "script-src 'self'" in policy
+        assert "connect-src 'self' blob: ws://testserver" in policy  # blob: the page's own frames and downloads
+        assert "frame-ancestors 'self' http://localhost:*" in policy
+        assert response.headers["referrer-policy"] == "no-referrer"  # the URL holds the token
+        assert response.headers["x-content-type-options"] == "nosniff"
 
 
 # ---------------------------------------------------------------- the scene schema's messages
@@ -138,7 +180,7 @@ def test_page_values_are_data_for_the_schema_only(scene_path, settings, says):
         assert answer["type"] == "error" and says in answer["message"], answer
         ws.send_text("not json")
         assert "not JSON" in json.loads(ws.receive_text())["message"]
-        for malformed in ({"settings": [1, 2]}, {"compare": "x"}, {"drag": {"light": "0"}}, {"quality": "best"}):
+        for malformed in ({"settings": [1, 2]}, {"compare": "x"}, {"quality": "best"}):
             ws.send_text(json.dumps({"type": "render", "id": 8, **malformed}))
             answer = json.loads(ws.receive_text())
             assert answer["type"] == "error" and "internal" not in answer["message"], (malformed, answer)
@@ -185,6 +227,49 @@ def test_compare_sends_both_frames_and_their_difference(scene_path, tmp_path):
     assert decode_png(parts["heat"], tmp_path).shape == (48, 64, 3)
 
 
+def test_the_three_models_of_a_in_one_frame(scene_path, tmp_path):
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 1, "models": True, "settings": {"render.specular": "blinn"},
+                                 "compare": {"render.shading": "flat"}}))  # models wins over a comparison
+        header, parts = receive_frame(ws)
+        ws.send_text(json.dumps({"type": "save", "id": 2, "what": "toml", "side": "b", "settings": {}}))
+        saved, _ = unpack(ws.receive_bytes())
+        ws.send_text(json.dumps({"type": "save", "id": 3, "what": "toml", "side": "c", "settings": {}}))
+        refused = json.loads(ws.receive_text())
+    assert sorted(parts) == ["a", "b", "c"] and "difference" not in header
+    for name, model in zip("abc", ("flat", "gouraud", "phong")):
+        scene = rp.load_scene(scene_path, [f'render.shading="{model}"', f'objects.0.shading="{model}"',
+                                           'render.specular="blinn"'])
+        np.testing.assert_array_equal(decode_png(parts[name], tmp_path), rendered_png(scene))
+    assert saved["filename"] == "tiny-view-B.toml"
+    assert refused["type"] == "error" and "allowed: 'a' or 'b'" in refused["message"]
+
+
+def test_an_edited_scene_file_is_reloaded_and_a_broken_one_kept_out(scene_path, tmp_path, monkeypatch):
+    from raycast_phong.tools.view import server
+    monkeypatch.setattr(server, "WATCH_EVERY", 0.05)
+    text = scene_path.read_text()
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        scene_path.write_text(text.replace("ambient = [0.1, 0.1, 0.1]", "ambient = [0.5, 0.2, 0.1]"))
+        hello = json.loads(ws.receive_text())
+        assert hello["type"] == "hello" and hello["reloaded"] and hello["scene"]["ambient"] == [0.5, 0.2, 0.1]
+        ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "full", "settings": SHADING}))
+        _, parts = receive_frame(ws)
+        edited = rp.load_scene(scene_path, [f"{k}={json.dumps(v)}" for k, v in SHADING.items()])
+        np.testing.assert_array_equal(decode_png(parts["a"], tmp_path), rendered_png(edited))
+        scene_path.write_text(text.replace("subdivisions = 1", "subdivisions = -1"))  # invalid: refused, kept out
+        error = json.loads(ws.receive_text())
+        assert error["type"] == "error" and "objects.0.subdivisions" in error["message"]
+        assert "\n" not in error["message"] and "keeps the scene as it was" in error["message"]
+        ws.send_text(json.dumps({"type": "render", "id": 2, "quality": "full", "settings": SHADING}))
+        _, parts = receive_frame(ws)
+        np.testing.assert_array_equal(decode_png(parts["a"], tmp_path), rendered_png(edited))  # the last good one
+        scene_path.write_text(text)
+        assert json.loads(ws.receive_text())["scene"]["ambient"] == [0.1, 0.1, 0.1]
+
+
 def test_latest_wins_while_a_render_runs(scene_path):
     """Requests that arrive while a render runs replace one another: only the newest is rendered."""
     started, release = threading.Event(), threading.Event()
@@ -208,19 +293,6 @@ def test_latest_wins_while_a_render_runs(scene_path):
     assert (first["id"], last["id"]) == (1, 4)
 
 
-def test_dragging_moves_the_light_in_its_plane_in_front_of_the_camera(scene_path):
-    """Camera at z = 4 looking at the origin (fov 40°, 64×48), light at (2, 2, 3): its depth along the view
-    axis is 1, so the image centre puts it at (0, 0, 3) and the top-right corner at (tan 20° · 4/3, tan 20°, 3)."""
-    with connect(client_for(scene_path)) as ws:
-        ws.receive_text()
-        positions = []
-        for request_id, (u, v) in enumerate([(0.5, 0.5), (1.0, 0.0)]):
-            ws.send_text(json.dumps({"type": "render", "id": request_id, "drag": {"light": 0, "u": u, "v": v}}))
-            positions.append(receive_frame(ws)[0]["moved"]["lights.0.position"])
-    t = math.tan(math.radians(20))
-    np.testing.assert_allclose(positions, [[0, 0, 3], [t * 64 / 48, t, 3]], atol=1e-6)
-
-
 def test_exact_errors_follow_a_full_frame_of_an_analytic_scene(scene_path):
     with connect(client_for(scene_path)) as ws:
         ws.receive_text()
@@ -233,6 +305,48 @@ def test_exact_errors_follow_a_full_frame_of_an_analytic_scene(scene_path):
     assert errors["rmse"] == pytest.approx(measured.rmse) and errors["max_error"] == pytest.approx(measured.max_error)
 
 
+def test_a_slow_page_does_not_hold_another_pages_frames(scene_path):
+    """Each page renders on its own thread: while one page's frame is held, another page gets its frames."""
+    started, release, finished = threading.Event(), threading.Event(), threading.Event()
+
+    def held_render(scene, **options):
+        if scene.render.width == 31:  # the slow page's draft (of 61 pixels across)
+            started.set()
+            release.wait(30)
+            finished.set()
+        return rp.render(scene, **options)
+
+    client = client_for(scene_path, render=held_render)
+    try:
+        with connect(client) as slow, connect(client) as other:
+            slow.receive_text()
+            other.receive_text()
+            slow.send_text(json.dumps({"type": "render", "id": 1, "quality": "draft",
+                                       "settings": {"render.width": 61}}))
+            assert started.wait(60)
+            other.send_text(json.dumps({"type": "render", "id": 1, "quality": "draft"}))
+            header, _ = receive_frame(other)  # while the slow page's frame is still held
+            assert header["stats"]["a"]["width"] == 32 and not finished.is_set()
+            release.set()
+            assert receive_frame(slow)[0]["stats"]["a"]["width"] == 31  # its draft: half of 61, rounded up
+    finally:
+        release.set()
+
+
+def test_the_exact_reference_runs_at_the_lowest_priority():
+    """Linux schedules threads one by one: a page's reference thread at nice 19 leaves the cores to the frames;
+    its render thread keeps the server's priority."""
+    from raycast_phong.tools.view.server import Client
+    page = Client()
+    nice = lambda: os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
+    try:
+        assert page.references.submit(nice).result(30) == 19
+        assert page.executor.submit(nice).result(30) == os.getpriority(os.PRIO_PROCESS, 0)
+    finally:
+        page.references.shutdown()
+        page.executor.shutdown()
+
+
 def test_a_saved_scene_renders_to_the_frame_shown(scene_path, tmp_path):
     settings = {**SHADING, "lights.0.position": [-1.5, 0.5, 2.0], "objects.0.subdivisions": 3}
     with connect(client_for(scene_path)) as ws:
@@ -242,23 +356,24 @@ def test_a_saved_scene_renders_to_the_frame_shown(scene_path, tmp_path):
         for what in ("toml", "exr", "png"):
             ws.send_text(json.dumps({"type": "save", "id": 2, "what": what, "settings": settings}))
             header, parts = unpack(ws.receive_bytes())
-            assert header["type"] == "saved" and header["filename"] == f"tiny-view.{what}"
+            assert header["type"] == "saved" and header["filename"] == f"tiny-view-A.{what}"
             (tmp_path / header["filename"]).write_bytes(parts["file"])
-    saved = rp.load_scene(tmp_path / "tiny-view.toml")
+    saved = rp.load_scene(tmp_path / "tiny-view-A.toml")
     np.testing.assert_array_equal(rendered_png(saved), decode_png(frame["a"], tmp_path))
-    np.testing.assert_array_equal(rp.read_image(tmp_path / "tiny-view.exr")[0], rp.render(saved).image)
-    assert (tmp_path / "tiny-view.png").read_bytes() == frame["a"]  # the same bytes as the frame shown
+    np.testing.assert_array_equal(rp.read_image(tmp_path / "tiny-view-A.exr")[0], rp.render(saved).image)
+    assert (tmp_path / "tiny-view-A.png").read_bytes() == frame["a"]  # the same bytes as the frame shown
 
 
 # ---------------------------------------------------------------- the command
 
 
-def test_view_command_prints_a_url_whose_token_is_required(scene_path):
+def test_view_command_prints_a_url_whose_token_is_required(scene_path, tmp_path):
     command = [sys.executable, "-c", "from raycast_phong.cli import app; app()", "view", str(scene_path),
                "--port", "0",
                "--no-browser"]
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               cwd=Path(__file__).resolve().parents[2])
+                               cwd=Path(__file__).resolve().parents[2],
+                               env={**os.environ, "XDG_STATE_HOME": str(tmp_path)})  # its kept token
     try:
         line = process.stdout.readline()
         assert line.startswith("raycast-phong view: open http://127.0.0.1:"), line + process.stderr.read()
@@ -277,6 +392,115 @@ def test_view_command_prints_a_url_whose_token_is_required(scene_path):
             process.kill()
             raise
     assert process.returncode == 0, process.stderr.read()
+
+
+def test_the_server_prepares_every_kernel_the_page_can_ask_for_and_says_so(scene_path, monkeypatch):
+    from raycast_phong.renderer import frame
+    from raycast_phong.tools.view import server
+    warmed = []
+    monkeypatch.setattr(frame, "warm_kernels", lambda reals, shadows: warmed.append((set(reals), shadows)))
+    server.warm(open_source(scene_path))
+    assert warmed == [({np.float32, np.float64}, True)]  # both precisions, and global mode's shadow rays
+    release = threading.Event()
+    monkeypatch.setattr(server, "warm", lambda source: release.wait(60))
+    client = client_for(scene_path)
+    with connect(client) as ws:
+        assert json.loads(ws.receive_text())["warming"] is True  # the page shows "preparing the renderer"
+    release.set()
+    client.app.state.warming.result(60)
+    with connect(client) as ws:
+        assert json.loads(ws.receive_text())["warming"] is False
+
+
+def test_a_full_frame_reports_its_progress(scene_path):
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 7, "quality": "full"}))
+        message = ws.receive()
+        while "text" in message:  # progress messages come before the frame
+            progress = json.loads(message["text"])
+            assert progress["type"] == "progress" and progress["id"] == 7 and 0 <= progress["done"] < 1
+            message = ws.receive()
+        assert unpack(message["bytes"])[0]["id"] == 7
+
+
+def test_a_saved_scene_file_loads_back_as_the_settings_that_make_it(scene_path):
+    from raycast_phong.tools.sweep import scene_toml
+    changes = {"render.shading": "flat", "lights.0.position": [1.0, -2.0, 3.5], "materials.red.shininess": 10.0,
+               "camera.look_at": [0.25, 0.0, 0.0]}
+    from raycast_phong.tools.view.server import ViewError, scene_with, settings_from
+    source = open_source(scene_path)
+    text = scene_toml(scene_with(source, changes))
+    assert settings_from(source, text, "saved.toml") == changes
+    assert settings_from(source, json.dumps(rp.load_scene(scene_path).model_dump(mode="json", exclude={"folder"})),
+                         "same.json") == {}
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "load", "id": 3, "name": "../../saved.toml", "text": text}))
+        assert json.loads(ws.receive_text()) == {"type": "loaded", "id": 3, "settings": changes}
+        refusals = {"x = [": "not a TOML scene",
+                    text + "\n[[lights]]\nposition = [0, 0, 5]\n": "2 lights, this view's scene has 1",
+                    text.replace("shininess = 10.0", "shininess = -1.0"): "materials.red.shininess"}
+        for bad, says in refusals.items():
+            ws.send_text(json.dumps({"type": "load", "id": 4, "name": "saved.toml", "text": bad}))
+            reply = json.loads(ws.receive_text())
+            assert reply["type"] == "error" and says in reply["message"] and "\n" not in reply["message"], reply
+    # A view of a mesh file: the saved file names it by its absolute path, which is the same file; another is not.
+    mesh = Path(__file__).resolve().parent.parent / "scenes" / "meshes" / "torus_knot.ply"
+    source = open_source(mesh)
+    text = scene_toml(scene_with(source, {"render.shading": "flat"}))
+    assert settings_from(source, text, "knot.toml") == {"render.shading": "flat"}
+    with pytest.raises(ViewError, match=r"objects.0.path is .*painted_knot.ply, not this view's torus_knot.ply"):
+        settings_from(source, text.replace("torus_knot.ply", "painted_knot.ply"), "knot.toml")
+
+
+def test_the_token_is_kept_between_runs_in_a_private_folder(tmp_path, monkeypatch):
+    from raycast_phong.tools.view import remembered_token
+    monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path))
+    first = remembered_token()
+    assert len(first) >= 40 and remembered_token() == first  # a restarted server accepts the open pages
+    folder = tmp_path / "raycast-phong"
+    assert folder.stat().st_mode & 0o777 == 0o700
+    assert (folder / "view-token").read_text().strip() == first
+    (folder / "view-token").write_text("short\n")  # not a token: replaced
+    replaced = remembered_token()
+    assert replaced != first and len(replaced) >= 40 and remembered_token() == replaced
+    folder.chmod(0o755)  # others can read the folder: its token is not reused, and none is written there
+    assert remembered_token() != replaced
+    assert (folder / "view-token").read_text().strip() == replaced
+
+
+def test_ctrl_c_during_a_long_render_stops_the_command_at_once(tmp_path):
+    from websockets.sync.client import connect as ws_connect
+    path = write_tiny_scene(tmp_path, 64, 48)
+    command = [sys.executable, "-c", "from raycast_phong.cli import app; app()", "view", str(path), "--port", "0",
+               "--no-browser"]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               env={**os.environ, "XDG_STATE_HOME": str(tmp_path)})
+    try:
+        url = process.stdout.readline().split("open ", 1)[1].strip()
+        origin = url.split("/?", 1)[0]
+        socket_url = origin.replace("http://", "ws://") + "/socket?token=" + url.split("token=", 1)[1]
+        with ws_connect(socket_url, origin=origin, max_size=None) as ws:
+            ws.recv()  # hello
+            # The largest frame the view renders (1920 × 1080 × 4² rays, float64, shadow rays): seconds.
+            big = {"render.width": 1920, "render.height": 1080, "render.samples": 4, "render.precision": "float64",
+                   "render.mode": "global"}
+            ws.send(json.dumps({"type": "render", "id": 1, "quality": "full", "settings": big}))
+            while json.loads(ws.recv(timeout=120)).get("type") != "progress":  # the frame is being rendered
+                pass
+            process.send_signal(signal.SIGINT)
+            stopped = time.perf_counter()
+            time.sleep(0.2)
+            process.send_signal(signal.SIGINT)  # an impatient second Ctrl-C
+            process.wait(30)
+            waited = time.perf_counter() - stopped
+    finally:
+        if process.poll() is None:
+            process.kill()
+    errors = process.stderr.read()
+    assert process.returncode == 0 and "Traceback" not in errors, errors
+    assert waited < 3, f"Ctrl-C took {waited:.1f} s"
 
 
 def test_view_command_refuses_a_bad_scene_in_one_line(tmp_path, monkeypatch):

@@ -46,8 +46,15 @@ def scene_path(tmp_path) -> Path:
 @pytest.fixture
 def page(browser, scene_path):
     """The page of a view of the tiny scene, connected and showing its first full frame."""
-    with running(scene_path) as url:
-        tab = browser.new_page(viewport={"width": 1000, "height": 700})
+    with opened(browser, scene_path) as tab:
+        yield tab
+
+
+@contextmanager
+def opened(browser, path: Path, **options):
+    """A tab on a view of `path`, showing its first full frame; no script error may occur meanwhile."""
+    with running(path, **options) as url:
+        tab = browser.new_page(viewport={"width": 1000, "height": 800})
         errors: list[str] = []
         tab.on("pageerror", lambda error: errors.append(str(error)))
         tab.goto(url)
@@ -99,25 +106,246 @@ def test_switching_shading_shows_what_render_gives(page, scene_path):
     assert "Mrays/s" not in page.text_content("#rays") and " M (" in page.text_content("#rays")
 
 
-def test_dragging_moves_the_light_and_refines_when_released(page, scene_path):
-    box = page.locator("#image-a").bounding_box()
-    start = (box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
-    end = (box["x"] + 0.8 * box["width"], box["y"] + 0.25 * box["height"])
-    page.mouse.move(*start)
-    page.mouse.down()
-    page.mouse.move(*end, steps=8)
-    page.wait_for_function("document.querySelector('#image-a').dataset.quality === 'draft'", timeout=60_000)
-    page.mouse.up()
+def turned(p, axis, angle: float) -> np.ndarray:
+    """p turned by `angle` round the unit `axis` (Rodrigues), written here apart from the page's own."""
+    p, axis = np.asarray(p, float), np.asarray(axis, float)
+    return p * math.cos(angle) + np.cross(axis, p) * math.sin(angle) + axis * axis.dot(p) * (1 - math.cos(angle))
+
+
+def drag(tab, selector: str, dx: float, dy: float, modifier: str | None = None) -> None:
+    """Press in the middle of `selector`, move by (dx, dy) CSS pixels in 8 steps, release."""
+    box = tab.locator(selector).bounding_box()
+    x, y = round(box["x"] + box["width"] / 2), round(box["y"] + box["height"] / 2)
+    if modifier:
+        tab.keyboard.down(modifier)
+    tab.mouse.move(x, y)
+    tab.mouse.down()
+    tab.mouse.move(x + dx, y + dy, steps=8)
+    tab.wait_for_function("() => document.querySelector('#image-a').dataset.quality === 'draft'", timeout=60_000)
+    tab.mouse.up()
+    if modifier:
+        tab.keyboard.up(modifier)
+
+
+def test_the_light_gizmo_turns_the_light_round_the_look_at_point(page, scene_path):
+    # Dragging across the gizmo's radius (74 px) is a quarter turn: 37 px right turns the light (2, 2, 3)
+    # 45° round the camera's up axis (0, 1, 0) through the look-at point (the origin), at the same distance.
+    drag(page, "#gizmo", 37, 0)
     wait_for_full_frame(page)
     position = page.evaluate("window.view.settings.a['lights.0.position']")
-    # Camera at z = 4 looking down −z, fov 40°, 4:3; the light (2, 2, 3) is 1 in front of the eye, so it moves
-    # in the plane z = 3: image point (u, v) puts it at ((2u − 1) tan 20° · 4/3, (1 − 2v) tan 20°, 3).
-    u, v = (end[0] - box["x"]) / box["width"], (end[1] - box["y"]) / box["height"]
-    t = math.tan(math.radians(20))
-    expected = [(2 * u - 1) * t * WIDTH / HEIGHT, (1 - 2 * v) * t, 3.0]
-    np.testing.assert_allclose(position, expected, atol=1e-5)  # the server rounds to 6 decimals
+    np.testing.assert_allclose(position, turned([2, 2, 3], [0, 1, 0], math.pi / 4), atol=1e-4)
     moved = rp.load_scene(scene_path, [f"lights.0.position={position}"])
     np.testing.assert_array_equal(page_image(page), to_8bit(rp.render(moved).image))
+    # Down by 74 px: a quarter turn round the camera's right axis (1, 0, 0), so the light drops below.
+    drag(page, "#gizmo", 0, 74)
+    wait_for_full_frame(page)
+    lowered = page.evaluate("window.view.settings.a['lights.0.position']")
+    np.testing.assert_allclose(lowered, turned(position, [1, 0, 0], math.pi / 2), atol=1e-4)
+    assert lowered[1] < 0  # anywhere on the sphere of directions, not a patch in front of the camera
+    # The wheel moves it 10 % further a notch, along the same direction.
+    box = page.locator("#gizmo").bounding_box()
+    page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+    page.mouse.wheel(0, 100)
+    wait_for_full_frame(page)
+    further = page.evaluate("window.view.settings.a['lights.0.position']")
+    np.testing.assert_allclose(further, 1.1 * np.asarray(lowered), atol=1e-5)
+    assert float(page.input_value("#light-distance")) == pytest.approx(1.1 * math.sqrt(17), abs=1e-3)
+
+
+def test_light_fields_place_the_light_its_marker_shows_it_and_reset_brings_it_back(page, scene_path):
+    original = page_image(page)
+    assert page.is_hidden("#marker-a")  # the scene's light (2, 2, 3) is outside the 40° view
+    for axis, value in enumerate(("0.5", "0.3", "2")):
+        page.fill(f"#light-xyz input[data-axis='{axis}']", value)
+        page.dispatch_event(f"#light-xyz input[data-axis='{axis}']", "change")
+    wait_for_full_frame(page)
+    assert page.evaluate("window.view.settings.a['lights.0.position']") == [0.5, 0.3, 2]
+    moved = rp.load_scene(scene_path, ["lights.0.position=[0.5, 0.3, 2]"])
+    np.testing.assert_array_equal(page_image(page), to_8bit(rp.render(moved).image))
+    # Eye at z = 4, fov 40°, 4:3: the light at depth 2 is seen at x = 0.5 / (2 tan 20° · 4/3), y = 0.3 / (2 tan 20°).
+    t = math.tan(math.radians(20))
+    u, v = (1 + 0.5 / (2 * t * WIDTH / HEIGHT)) / 2, (1 - 0.3 / (2 * t)) / 2
+    image, marker = page.locator("#image-a").bounding_box(), page.locator("#marker-a").bounding_box()
+    centre = (marker["x"] + marker["width"] / 2, marker["y"] + marker["height"] / 2)
+    assert centre[0] == pytest.approx(image["x"] + u * image["width"], abs=1.5)
+    assert centre[1] == pytest.approx(image["y"] + v * image["height"], abs=1.5)
+    page.click("#light-reset")
+    wait_for_full_frame(page)
+    assert page.evaluate("Object.keys(window.view.settings.a)") == []
+    np.testing.assert_array_equal(page_image(page), original)
+    assert page.input_value("#light-xyz input[data-axis='0']") == "2"
+
+
+def test_light_intensity_is_apart_from_its_colour_and_attenuation_keeps_the_brightness(page, scene_path):
+    assert page.input_value("#light-diffuse-colour") == "#ffffff"  # the scene's (0.8, 0.8, 0.8): white × 0.8
+    assert page.input_value("#light-diffuse-intensity") == "0.8"
+    page.fill("#light-diffuse-intensity", "2.5")  # above 1: a colour picker alone would clip it
+    page.dispatch_event("#light-diffuse-intensity", "change")
+    wait_for_full_frame(page)
+    assert page.evaluate("window.view.settings.a['lights.0.diffuse']") == [2.5, 2.5, 2.5]
+    page.fill("#light-diffuse-colour", "#ffffff")  # picking the same colour again changes nothing …
+    page.dispatch_event("#light-diffuse-colour", "input")
+    assert page.evaluate("window.view.settings.a['lights.0.diffuse']") == [2.5, 2.5, 2.5]
+    assert "lights.0.specular" not in page.evaluate("window.view.settings.a")  # … and leaves the specular alone
+    # 1/d² with the light √17 from the look-at point: both intensities × 17, so that point stays as bright.
+    page.select_option("#attenuation", "inverse_square")
+    wait_for_full_frame(page)
+    settings = page.evaluate("window.view.settings.a")
+    assert settings["lights.0.attenuation"] == "inverse_square"
+    np.testing.assert_allclose(settings["lights.0.diffuse"], [42.5] * 3, rtol=1e-5)
+    np.testing.assert_allclose(settings["lights.0.specular"], [17] * 3, rtol=1e-5)
+    # [c, l, q] = [1, 0, 1]: 1/(1 + 17) instead of 1/17, so × 18/17 more.
+    page.select_option("#attenuation", "clq")
+    wait_for_full_frame(page)
+    settings = page.evaluate("window.view.settings.a")
+    assert settings["lights.0.attenuation"] == [1, 0, 1] and page.is_visible("#attenuation-clq")
+    np.testing.assert_allclose(settings["lights.0.diffuse"], [45.0] * 3, rtol=1e-5)
+    overrides = [f"lights.0.{key}={settings[f'lights.0.{key}']}" for key in ("diffuse", "specular", "attenuation")]
+    np.testing.assert_array_equal(page_image(page), to_8bit(rp.render(rp.load_scene(scene_path, overrides)).image))
+
+
+def test_every_light_of_the_scene_can_be_chosen_and_moved(browser, tmp_path):
+    path = write_tiny_scene(tmp_path, WIDTH, HEIGHT, '[[lights]]\ntype = "directional"\ndirection = [1, 0, -1]\n')
+    with opened(browser, path) as tab:
+        assert tab.locator("#light option").all_text_contents() == ["1: point", "2: directional"]
+        tab.select_option("#light", "1")
+        assert tab.text_content("#light-xyz-name") == "direction" and tab.is_disabled("#light-distance")
+        drag(tab, "#gizmo", 37, 0)
+        wait_for_full_frame(tab)
+        settings = tab.evaluate("window.view.settings.a")
+        assert list(settings) == ["lights.1.direction"]  # the first light stays where the scene put it
+        # The direction the light travels turns with the direction towards it: 45° round (0, 1, 0).
+        expected = turned(np.array([1, 0, -1]) / math.sqrt(2), [0, 1, 0], math.pi / 4)
+        np.testing.assert_allclose(settings["lights.1.direction"], expected, atol=1e-4)
+        moved = rp.load_scene(path, [f"lights.1.direction={settings['lights.1.direction']}"])
+        np.testing.assert_array_equal(page_image(tab), to_8bit(rp.render(moved).image))
+
+
+def test_the_camera_orbits_pans_zooms_and_resets(page, scene_path, tmp_path):
+    original = page_image(page)
+    height = page.locator("#image-a").bounding_box()["height"]
+    # Dragging across the image's height is half a turn: 1/4 of it to the right turns the eye (0, 0, 4)
+    # by −45° round the scene's up axis (0, 1, 0), about look_at, so the sphere seems to turn right.
+    drag(page, "#image-a", height / 4, 0)
+    wait_for_full_frame(page)
+    position = page.evaluate("window.view.settings.a['camera.position']")
+    np.testing.assert_allclose(position, turned([0, 0, 4], [0, 1, 0], -math.pi / 4), atol=1e-4)
+    orbited = rp.load_scene(scene_path, [f"camera.position={position}"])
+    np.testing.assert_array_equal(page_image(page), to_8bit(rp.render(orbited).image))
+    # The wheel moves the eye 10 % further a notch along its view axis.
+    page.mouse.wheel(0, 100)
+    wait_for_full_frame(page)
+    np.testing.assert_allclose(page.evaluate("window.view.settings.a['camera.position']"),
+                               1.1 * np.asarray(position), atol=1e-5)
+    # A key press on the image orbits 5°, and R resets the view.
+    page.focus("#stage")
+    page.keyboard.press("r")
+    wait_for_full_frame(page)
+    assert page.evaluate("Object.keys(window.view.settings.a)") == []
+    np.testing.assert_array_equal(page_image(page), original)
+    page.keyboard.press("ArrowLeft")
+    wait_for_full_frame(page)
+    np.testing.assert_allclose(page.evaluate("window.view.settings.a['camera.position']"),
+                               turned([0, 0, 4], [0, 1, 0], math.pi / 36), atol=1e-5)
+    page.click("#camera-reset")
+    # Shift-drag pans: eye and look_at move together; 1/8 of the height right moves them left by
+    # 1/8 of the view's height at the look_at point's depth, 2 · 4 · tan 20°.
+    drag(page, "#image-a", height / 8, 0, modifier="Shift")
+    wait_for_full_frame(page)
+    shift = -2 * 4 * math.tan(math.radians(20)) / 8
+    settings = page.evaluate("window.view.settings.a")
+    np.testing.assert_allclose(settings["camera.look_at"], [shift, 0, 0], atol=1e-5)
+    np.testing.assert_allclose(settings["camera.position"], [shift, 0, 4], atol=1e-5)
+    # The camera is saved with the settings: the scene file renders the image shown.
+    with page.expect_download() as download:
+        page.click("[data-save=toml]")
+    saved = tmp_path / "saved.toml"
+    download.value.save_as(saved)
+    np.testing.assert_allclose(rp.load_scene(saved).camera.look_at, [shift, 0, 0], atol=1e-5)
+    np.testing.assert_array_equal(page_image(page), to_8bit(rp.render(rp.load_scene(saved)).image))
+
+
+def test_a_lost_server_turns_the_page_off_and_it_reconnects_to_the_restarted_one(browser, scene_path):
+    token = "kept-" + "x" * 40  # serve() keeps its token between runs (remembered_token); so do we here
+    tab = browser.new_page(viewport={"width": 1000, "height": 800})
+    try:
+        with running(scene_path, token=token) as url:
+            port = int(url.split(":")[2].split("/")[0])
+            tab.goto(url)
+            wait_for_full_frame(tab)
+            tab.select_option("#shading", "flat")
+            wait_for_full_frame(tab)
+            assert tab.is_hidden("#lost") and tab.is_enabled("#shading")
+        tab.wait_for_selector("#lost:not([hidden])", timeout=30_000)
+        assert "not answering" in tab.text_content("#lost")
+        assert tab.is_disabled("#shading") and tab.is_disabled("#gizmo-box ~ label input")
+        assert tab.text_content("#connection") == "disconnected"
+        with running(scene_path, port=port, token=token):
+            tab.wait_for_selector("#lost", state="hidden", timeout=30_000)
+            wait_for_full_frame(tab)
+            assert tab.is_enabled("#shading") and tab.input_value("#shading") == "flat"
+            flat = rp.load_scene(scene_path, shading("flat"))
+            np.testing.assert_array_equal(page_image(tab), to_8bit(rp.render(flat).image))
+            assert tab.reload().status == 200  # the cookie and the URL's token are still good
+            wait_for_full_frame(tab)
+    finally:
+        tab.close()
+
+
+def test_the_page_shows_that_it_is_rendering_and_how_far(browser, scene_path):
+    holding, release = threading.Event(), threading.Event()
+
+    def held(scene, **options):
+        """Once `holding` is set, a full frame reports a quarter of its tiles done and waits for `release`."""
+        if holding.is_set() and options.get("progress") is not None:
+            options["progress"](1, 4)
+            release.wait(60)
+        return rp.render(scene, **options)
+
+    with opened(browser, scene_path, render=held) as tab:
+        assert tab.is_hidden("#busy")
+        holding.set()
+        tab.select_option("#shading", "flat")
+        tab.wait_for_selector("#busy:not([hidden])", timeout=30_000)
+        tab.wait_for_function("() => document.querySelector('#busy-bar').value === 0.25", timeout=30_000)
+        assert tab.text_content("#busy-text").startswith("rendering the full frame…")
+        assert "stale" in tab.get_attribute("#stage", "class")
+        release.set()
+        wait_for_full_frame(tab)
+        assert tab.is_hidden("#busy") and "stale" not in tab.get_attribute("#stage", "class")
+
+
+def test_the_url_is_a_permalink_of_the_settings(page, scene_path):
+    page.select_option("#shading", "flat")
+    page.fill("#light-xyz input[data-axis='0']", "-1.5")
+    page.dispatch_event("#light-xyz input[data-axis='0']", "change")
+    wait_for_full_frame(page)
+    page.select_option("#compare", "side")
+    wait_for_full_frame(page)
+    settings = page.evaluate("window.view.settings")
+    link = page.url
+    assert "#view=" in link and page.get_attribute("#permalink", "href") in link
+    shown_a, shown_b = page_image(page), page_image(page, "#image-b")
+    other = page.context.browser.new_page()  # a bookmark opened later, elsewhere: only the URL is shared
+    try:
+        other.goto(link)
+        wait_for_full_frame(other)
+        assert other.evaluate("window.view.settings") == settings
+        assert other.input_value("#shading") == "flat" and other.input_value("#compare") == "side"
+        assert other.input_value("#light-xyz input[data-axis='0']") == "-1.5"
+        np.testing.assert_array_equal(page_image(other), shown_a)
+        np.testing.assert_array_equal(page_image(other, "#image-b"), shown_b)
+        moved = rp.load_scene(scene_path, [*shading("flat"), "lights.0.position=[-1.5, 2, 3]"])
+        np.testing.assert_array_equal(shown_a, to_8bit(rp.render(moved).image))
+    finally:
+        other.close()
+    damaged = page.context.browser.new_page()  # a damaged link: the scene as it is
+    try:
+        damaged.goto(link.split("#")[0] + "#view=%7Bnot-json")
+        wait_for_full_frame(damaged)
+        assert damaged.evaluate("Object.keys(window.view.settings.a)") == []
+    finally:
+        damaged.close()
 
 
 def test_a_saved_scene_renders_from_the_cli_to_the_image_shown(page, tmp_path, monkeypatch):
@@ -134,12 +362,34 @@ def test_a_saved_scene_renders_from_the_cli_to_the_image_shown(page, tmp_path, m
         page.click("[data-save=toml]")
     saved = tmp_path / download.value.suggested_filename
     download.value.save_as(saved)
-    assert saved.name == "tiny-view.toml"
+    assert saved.name == "tiny-view-A.toml"  # which setting it is
     assert rp.load_scene(saved).materials["red"].shininess == 31.6
     result = CliRunner().invoke(app, ["render", str(saved), "-o", str(tmp_path / "cli.png"), "--quiet"])
     assert result.exit_code == 0, result.output
     rendered = np.round(rp.read_image(tmp_path / "cli.png")[0] * 255).astype(np.uint8)
     np.testing.assert_array_equal(rendered, page_image(page))
+
+
+def test_a_saved_scene_file_opens_back_on_the_page(page, scene_path, tmp_path):
+    page.select_option("#shading", "gouraud")
+    page.fill("#light-xyz input[data-axis='1']", "-1")
+    page.dispatch_event("#light-xyz input[data-axis='1']", "change")
+    wait_for_full_frame(page)
+    with page.expect_download() as download:
+        page.click("[data-save=toml]")
+    saved = tmp_path / "saved.toml"
+    download.value.save_as(saved)
+    shown = page_image(page)
+    page.click("#light-reset")
+    page.select_option("#shading", "phong")
+    wait_for_full_frame(page)
+    assert (page_image(page) != shown).any()
+    page.set_input_files("#load", str(saved))
+    page.wait_for_function("() => window.view.settings.a['render.shading'] === 'gouraud'", timeout=30_000)
+    wait_for_full_frame(page)
+    assert page.input_value("#shading") == "gouraud" and page.input_value("#light-xyz input[data-axis='1']") == "-1"
+    np.testing.assert_array_equal(page_image(page), shown)
+    np.testing.assert_array_equal(shown, to_8bit(rp.render(rp.load_scene(saved)).image))
 
 
 def test_a_bad_value_shows_the_one_line_message(page):
@@ -174,12 +424,43 @@ def test_the_page_and_socket_refuse_a_request_without_the_token(page, browser):
         assert page.evaluate(outcome, f"{socket}?token={token}") == "closed"
 
 
+def test_flat_gouraud_and_phong_side_by_side_in_one_view(page, scene_path):
+    page.select_option("[data-key='render.specular']", "blinn")  # the three panels are A's, with its settings
+    page.select_option("#compare", "models")
+    wait_for_full_frame(page)
+    assert [page.text_content(f"#tag-{p}") for p in "abc"] == ["flat", "Gouraud", "Phong"]
+    assert page.is_hidden("#heat-box") and page.is_hidden("#editing-label")
+    for panel, model in zip("abc", ("flat", "gouraud", "phong")):
+        expected = rp.load_scene(scene_path, [*shading(model), 'render.specular="blinn"'])
+        np.testing.assert_array_equal(page_image(page, f"#image-{panel}"), to_8bit(rp.render(expected).image))
+    assert page.evaluate("window.view.lastFrame.stats.c.width") == WIDTH
+    page.select_option("#compare", "side")
+    wait_for_full_frame(page)
+    assert [page.text_content(f"#tag-{p}") for p in "ab"] == ["A", "B"] and page.is_hidden("#panel-c")
+    assert page.text_content("#heat-box .tag") == "|A − B|" and page.text_content("#exact-label") == "exact error of A"
+    page.select_option("#editing", "b")
+    with page.expect_download() as download:
+        page.click("[data-save=toml]")
+    assert download.value.suggested_filename == "tiny-view-B.toml"
+
+
+def test_an_edited_scene_file_shows_on_the_page_with_its_settings_kept(page, scene_path):
+    page.select_option("#shading", "flat")
+    wait_for_full_frame(page)
+    shown = page.evaluate("window.view.nextId")
+    scene_path.write_text(scene_path.read_text().replace("ambient = [0.1, 0.1, 0.1]", "ambient = [0.4, 0.4, 0.6]"))
+    page.wait_for_function("(shown) => window.view.nextId > shown", arg=shown, timeout=30_000)  # asked anew
+    wait_for_full_frame(page)
+    assert "(reloaded" in page.text_content("#source") and page.input_value("#shading") == "flat"
+    edited = rp.load_scene(scene_path, shading("flat"))
+    np.testing.assert_array_equal(page_image(page), to_8bit(rp.render(edited).image))
+
+
 @contextmanager
-def other_origin():
-    """An empty page at http://127.0.0.1:<another port>/."""
+def other_origin(body: bytes = b"<!doctype html><title>another origin</title>"):
+    """A page (empty by default) at http://127.0.0.1:<another port>/."""
     class Blank(http.server.BaseHTTPRequestHandler):
         def do_GET(self):
-            body = b"<!doctype html><title>another origin</title>"
             self.send_response(200)
             self.send_header("Content-Type", "text/html")
             self.send_header("Content-Length", str(len(body)))
@@ -215,3 +496,35 @@ def test_compare_shows_b_beside_a_with_the_heat_map(page, scene_path):
     page.fill("#wipe", "30")
     page.dispatch_event("#wipe", "input")
     assert page.evaluate("document.querySelector('#image-b').style.clipPath") == "inset(0px 0px 0px 30%)"
+
+
+def test_the_live_view_can_be_framed_by_a_notebook_on_another_port(browser, scene_path):
+    from raycast_phong.tools.notebook import live
+    view = live(scene_path, height=600)
+    try:
+        cell = f"<!doctype html><title>a notebook</title>{view._repr_html_()}".encode()
+        with other_origin(cell) as notebook:  # Jupyter's page: another origin on loopback
+            stranger = browser.new_context()  # no cookie: the framed page's own files come by their token
+            try:
+                tab = stranger.new_page()
+                tab.goto(notebook)
+                framed = tab.frame_locator("iframe")
+                framed.locator("#image-a[data-quality='full']").wait_for(timeout=120_000)
+                assert framed.locator("#connection").text_content() == "connected"
+            finally:
+                stranger.close()
+    finally:
+        view.stop()
+
+
+def test_the_browser_benchmark_runs_in_a_reduced_form():
+    """bench_view.py --browser is not a timed test; this keeps it working (one step a size, short drags)."""
+    import subprocess
+    import sys
+    root = Path(__file__).resolve().parent.parent
+    done = subprocess.run([sys.executable, str(root / "benchmarks" / "bench_view.py"), "--browser", "--steps", "1",
+                           "--seconds", "0.6", "--rate", "20"], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    for line in ("rest 640×360                 full", "rest 1280×720                full",
+                 "dragging 640×360             draft"):
+        assert line in done.stdout, done.stdout

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import os
+import re
 import secrets
 import socket
+import sys
 import threading
 import webbrowser
 from contextlib import contextmanager
@@ -11,7 +14,39 @@ from pathlib import Path
 
 from .server import Source, create_app, open_source
 
-__all__ = ["Source", "bind", "create_app", "open_source", "running", "serve"]
+__all__ = ["Source", "bind", "create_app", "open_source", "remembered_token", "running", "serve"]
+
+TOKEN = re.compile(r"[A-Za-z0-9_-]{32,128}")  # what secrets.token_urlsafe(32) gives, and no less
+
+
+def token_folder() -> Path:
+    """Where the view keeps its token: $XDG_STATE_HOME/raycast-phong (~/.local/state/raycast-phong)."""
+    return Path(os.environ.get("XDG_STATE_HOME") or Path.home() / ".local" / "state") / "raycast-phong"
+
+
+def remembered_token() -> str:
+    """This user's view token, kept between runs so that a restarted server accepts the open pages: they
+    reconnect by themselves and a reload works (as Jupyter keeps its runtime files). The folder is made
+    private (0700) and a token in a folder others can read is not reused; if nothing can be kept, a fresh
+    token serves this run only."""
+    from raycast_phong.io.atomic import WriteError, write_text
+    folder = token_folder()
+    path = folder / "view-token"
+    try:
+        folder.mkdir(parents=True, exist_ok=True, mode=0o700)
+        private = folder.stat().st_mode & 0o077 == 0
+        kept = path.read_text(encoding="ascii").strip() if private and path.exists() else ""
+    except (OSError, UnicodeDecodeError):
+        return secrets.token_urlsafe(32)
+    if TOKEN.fullmatch(kept):
+        return kept
+    token = secrets.token_urlsafe(32)
+    if private:
+        try:
+            write_text(path, token + "\n")
+        except WriteError:
+            pass  # this run's token only: the page then needs the new URL after a restart
+    return token
 
 
 def bind(host: str, port: int) -> socket.socket:
@@ -30,23 +65,36 @@ def bind(host: str, port: int) -> socket.socket:
     return sock
 
 
+WILDCARDS = ("0.0.0.0", "::", "")  # every address of the machine: any host name may reach the page
+
+
 def origins_for(host: str, port: int) -> list[str]:
-    """The page's origins the socket accepts: the address it is served on (and localhost for 127.0.0.1)."""
-    names = {host} | ({"localhost", "127.0.0.1"} if host in ("127.0.0.1", "localhost") else set())
+    """The page's origins the socket accepts: the address it is served on (and localhost for 127.0.0.1, and
+    the loopback names for a wildcard address, which answers any host name besides)."""
+    loopback = {"localhost", "127.0.0.1"} if host in ("127.0.0.1", "localhost", "0.0.0.0", "") else set()
+    names = ({host} - set(WILDCARDS)) | loopback | ({"::1", "localhost"} if host in ("::1", "::") else set())
     shown = lambda name: f"[{name}]" if ":" in name else name  # an IPv6 address in a URL
     return sorted(f"http://{shown(name)}:{port}" for name in names)
 
 
+def page_url(host: str, port: int, token: str) -> str:
+    """The URL to open: a wildcard address is reached here through loopback; an IPv6 address in brackets."""
+    shown = {"0.0.0.0": "127.0.0.1", "": "127.0.0.1", "::": "::1"}.get(host, host)
+    shown = f"[{shown}]" if ":" in shown else shown
+    return f"http://{shown}:{port}/?token={token}"
+
+
 def close(app) -> None:
     """Stop the app's render threads."""
-    for pool in (app.state.executor, app.state.reference_executor):
-        pool.shutdown(wait=False, cancel_futures=True)
+    app.state.executor.shutdown(wait=False, cancel_futures=True)  # each page's own threads end with its socket
 
 
 def server_config(app):
     import uvicorn
     # ws_max_size: the page's messages are small settings tables; refuse a flood at the protocol level.
-    return uvicorn.Config(app, log_level="warning", ws_max_size=1 << 16, ws_ping_interval=None)
+    # lifespan off: the app has no start-up or shut-down events, and uvicorn's lifespan task logged a
+    # traceback when Ctrl-C's KeyboardInterrupt cancelled it.
+    return uvicorn.Config(app, log_level="warning", ws_max_size=1 << 16, ws_ping_interval=None, lifespan="off")
 
 
 @contextmanager
@@ -56,14 +104,14 @@ def running(path: str | Path | None, host: str = "127.0.0.1", port: int = 0, tok
     token = token or secrets.token_urlsafe(32)
     sock = bind(host, port)
     port = sock.getsockname()[1]
-    app = create_app(open_source(path), token, origins_for(host, port), **options)
+    app = create_app(open_source(path), token, origins_for(host, port), any_host=host in WILDCARDS, **options)
     server = uvicorn.Server(server_config(app))
     thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
     thread.start()
     try:
         while not server.started and thread.is_alive():
             threading.Event().wait(0.01)
-        yield f"http://{host}:{port}/?token={token}"
+        yield page_url(host, port, token)
     finally:
         server.should_exit = True
         thread.join(30)
@@ -73,15 +121,15 @@ def running(path: str | Path | None, host: str = "127.0.0.1", port: int = 0, tok
 
 def serve(path: str | Path | None, host: str = "127.0.0.1", port: int = 8765, open_browser: bool = True,
           announce=print, token: str | None = None) -> None:
-    """Serve the view of `path` (scene, mesh, or None for the default scene) until interrupted."""
+    """Serve the view of `path` (scene, mesh, or None for the default scene) until interrupted; the token is
+    remembered_token() unless given."""
     import uvicorn
     source = open_source(path)
-    token = token or secrets.token_urlsafe(32)
     sock = bind(host, port)
     port = sock.getsockname()[1]
-    app = create_app(source, token, origins_for(host, port))
-    shown = f"[{host}]" if ":" in host else host
-    url = f"http://{shown}:{port}/?token={token}"
+    token = token or remembered_token()
+    app = create_app(source, token, origins_for(host, port), any_host=host in WILDCARDS)
+    url = page_url(host, port, token)
     announce(url)
     if open_browser:
         webbrowser.open(url)
@@ -90,3 +138,16 @@ def serve(path: str | Path | None, host: str = "127.0.0.1", port: int = 8765, op
     finally:
         sock.close()
         close(app)
+        leave_if_rendering()
+
+
+def leave_if_rendering() -> None:
+    """End the process now if a render is still running after the server stopped (Ctrl-C mid-frame): Python
+    joins worker threads at exit, so the exit would wait for the frame (seconds at 8 samples; the renderer's
+    tile pool runs every queued band), and a second Ctrl-C would break that join with a traceback. Nothing
+    is owed to the disk: frames and saves go to the browser only."""
+    others = [t for t in threading.enumerate() if t is not threading.current_thread() and not t.daemon]
+    if any(t.is_alive() for t in others):
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(0)

@@ -17,23 +17,24 @@ import asyncio
 import copy
 import json
 import math
+import os
 import re
 import secrets
 import struct
-import tempfile
+import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import suppress
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+from urllib.parse import quote
 
 import numpy as np
 from starlette.applications import Starlette
-from starlette.middleware import Middleware
-from starlette.middleware.trustedhost import TrustedHostMiddleware
 from starlette.requests import Request
-from starlette.responses import FileResponse, PlainTextResponse, Response
+from starlette.responses import HTMLResponse, PlainTextResponse, Response
 from starlette.routing import Mount, Route, WebSocketRoute
 from starlette.staticfiles import StaticFiles
 from starlette.websockets import WebSocket, WebSocketDisconnect
@@ -42,6 +43,7 @@ import raycast_phong as rp
 from raycast_phong.errors import SceneError, ViewError
 from raycast_phong.scene.load import read_scene_dict
 from raycast_phong.scene.overrides import apply_override
+from raycast_phong.tools.notebook import image_bytes
 from raycast_phong.tools.sweep import scene_toml, toml_value
 
 STATIC = Path(__file__).parent / "static"
@@ -49,6 +51,7 @@ MAX_MESSAGE_BYTES = 1 << 16   # a page message is a few hundred bytes of setting
 MAX_SETTINGS = 256            # keys per request: far more than the page has controls
 MAX_VIEW_RAYS = 1920 * 1080 * 16  # rays per frame: ~2 s here; a larger frame is a batch job, not a view
 LEVELS = range(7)          # tessellation levels the page offers (reference.refined: level 6 = 81,920 faces)
+STATIC_LINK = re.compile(r'(src|href)="static/([A-Za-z0-9_.-]+)"')  # index.html's links to its own files
 COOKIE = "raycast_phong_view_{port}"  # cookies ignore the port: one name per server, as Jupyter's
 
 
@@ -56,19 +59,34 @@ COOKIE = "raycast_phong_view_{port}"  # cookies ignore the port: one name per se
 
 @dataclass
 class Source:
-    """The scene the view was started with: its parsed table, the name errors use, its folder."""
+    """The scene the view was started with: its parsed table, the name errors use, its folder, and the scene
+    file the server watches (None for a mesh file, which render() itself reads anew when it changes)."""
     data: dict
     name: str
     folder: Path
+    watched: Path | None = None
 
 
 def open_source(path: str | Path | None) -> Source:
     """A scene file (.toml/.json), a mesh file (mesh_scene: framed by a camera and lit by a key light), or the
     default scene; validated now, so a bad file is refused before the server starts."""
     path = Path(path) if path is not None else rp.default_scene_path()
-    source = Source(read_scene_dict(path), str(path), path.parent)
+    scene_file = path.suffix.lower() in (".toml", ".json")
+    source = Source(read_scene_dict(path), str(path), path.parent, path if scene_file else None)
     scene_with(source, {})
     return source
+
+
+WATCH_EVERY = 0.5  # seconds between looks at the scene file: an edit shows within a second, the disk stays idle
+
+
+def version(path: Path) -> tuple | None:
+    """What changes when a file is rewritten (an editor's save replaces it: a new inode); None if it is gone."""
+    try:
+        stat = path.stat()
+    except OSError:
+        return None
+    return stat.st_mtime_ns, stat.st_size, stat.st_ino
 
 
 KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.([A-Za-z0-9_-]+))*")
@@ -113,40 +131,70 @@ def frame_of(scene: rp.Scene) -> rp.Scene:
     return scene.model_copy(update={"output": scene.output.model_copy(update={"aovs": ()})})
 
 
-def light_on_plane(scene: rp.Scene, light: int, u: float, v: float) -> list[float]:
-    """Where a light goes when dragged to image point (u, v) ∈ [0, 1]² (u right, v down).
-
-    The light moves in the plane parallel to the image at its present depth along the view axis (at the
-    look_at point's depth if it is behind the eye), so dragging never pulls it toward or away from the
-    camera; the ray through (u, v) follows camera.py's raster convention.
-    """
-    from raycast_phong.renderer.pack import camera_rig
-    if not (0 <= light < len(scene.lights)) or scene.lights[light].type != "point":
-        raise ViewError(f"lights.{light}: only a point light can be dragged")
-    if not all(isinstance(x, (int, float)) and math.isfinite(x) for x in (u, v)):
-        raise ViewError("drag: u and v must be finite numbers")
-    rig = camera_rig(scene)
-    x, y = 2 * min(max(u, 0.0), 1.0) - 1, 1 - 2 * min(max(v, 0.0), 1.0)  # raster → screen, y up
-    sx, sy = x * rig.half_width, y * rig.half_height
-    depth = float(np.dot(np.asarray(scene.lights[light].position) - rig.eye, rig.forward))
-    if depth <= 0:
-        depth = float(np.dot(np.asarray(scene.camera.look_at) - rig.eye, rig.forward))
-    if rig.orthographic:
-        point = rig.eye + sx * rig.right + sy * rig.up + depth * rig.forward
+def leaves(node: Any, prefix: str = "") -> dict[str, Any]:
+    """A scene table as {dotted key: value}, the keys `render --set` takes: tables and lists of tables are
+    opened (objects.0.shading), anything else (numbers, strings, [x, y, z]) is one value."""
+    if isinstance(node, dict):
+        items = node.items()
+    elif isinstance(node, list) and node and all(isinstance(item, dict) for item in node):
+        items = enumerate(node)
     else:
-        point = rig.eye + depth * (rig.forward + sx * rig.right + sy * rig.up)
-    return [round(float(c), 6) for c in point]
+        return {prefix[:-1]: node}
+    found: dict[str, Any] = {}
+    for key, value in items:
+        found.update(leaves(value, f"{prefix}{key}."))
+    return found
+
+
+def settings_from(source: Source, text: str, name: str) -> dict:
+    """The page's settings that turn the view's scene into the scene file `text` (a TOML or JSON scene, as
+    the Save button writes it): the keys whose values differ. Refused in one line when no settings can (a
+    different mesh file, another number of lights or objects) or the file is not a valid scene."""
+    import tomllib
+    is_json = name.lower().endswith(".json")
+    try:
+        data = json.loads(text) if is_json else tomllib.loads(text)
+    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as error:
+        raise ViewError(f"{name}: not a {'JSON' if is_json else 'TOML'} scene: {error}") from None
+    if not isinstance(data, dict):
+        raise ViewError(f"{name}: a scene file is a table of tables")
+    theirs = rp.validate_scene(data, source=name, folder=source.folder)
+    def dump(scene: rp.Scene) -> dict:  # paths and outputs are compared apart
+        table = leaves(scene.model_dump(mode="json", exclude={"folder"}))
+        return {key: value for key, value in table.items() if not PATH_KEYS.fullmatch(key)}
+
+    ours = scene_with(source, {})
+    for kind in ("objects", "lights"):
+        if len(getattr(theirs, kind)) != len(getattr(ours, kind)):
+            raise ViewError(f"{name}: {len(getattr(theirs, kind))} {kind}, this view's scene has "
+                            f"{len(getattr(ours, kind))}; open it with `raycast-phong view {name}` instead")
+    for index, (mine, other) in enumerate(zip(ours.objects, theirs.objects)):
+        where = lambda obj: None if obj.path is None else (source.folder / obj.path).resolve()
+        if where(mine) != where(other):
+            raise ViewError(f"{name}: objects.{index}.path is {other.path}, not this view's {mine.path}; the page "
+                            f"does not change files: open it with `raycast-phong view {name}` instead")
+    wanted = dump(theirs)
+    current = dump(ours)
+    settings = {key: value for key, value in wanted.items() if current.get(key, ...) != value}
+    if any(value is None for value in settings.values()):
+        unset = next(key for key, value in settings.items() if value is None)
+        raise ViewError(f"{name}: {unset} is unset there and set here; a page setting cannot unset a key")
+    try:
+        made = dump(scene_with(source, settings))
+    except SceneError as error:
+        raise ViewError(f"{name}: these settings do not apply to this view's scene: {error}") from None
+    if made != wanted:
+        differs = sorted(key for key in wanted.keys() | made.keys() if made.get(key) != wanted.get(key))
+        raise ViewError(f"{name}: {', '.join(differs[:3])} cannot be set from the page; open it with "
+                        f"`raycast-phong view {name}` instead")
+    return settings
 
 
 # ---------------------------------------------------------------- frames
 
 def encode(image: np.ndarray, suffix: str, aovs: dict | None = None) -> bytes:
-    """An image as the bytes of the file `raycast-phong render -o x.png|.exr` would write (image_io writes
-    only files: one scratch folder per call, removed at once)."""
-    with tempfile.TemporaryDirectory(prefix="raycast-phong-view-") as folder:
-        path = Path(folder) / f"image{suffix}"
-        rp.write_image(path, image, aovs)
-        return path.read_bytes()
+    """An image as the bytes of the file `raycast-phong render -o x.png|.exr` would write."""
+    return image_bytes(image, suffix, aovs)
 
 
 def pack(header: dict, parts: list[tuple[str, bytes]]) -> bytes:
@@ -188,44 +236,40 @@ class Renderer:
 
     def __post_init__(self):
         self.render = self.render or rp.render
-        self.last_full: tuple = (None, None)  # (request id, RenderResult) of the last full frame A
 
-    def frame(self, request: dict) -> bytes:
-        """Render settings A (and B, to compare) at the requested quality; the PNGs, the heat map, the figures."""
+    def frame(self, request: dict, progress: Callable[[float], None] | None = None, shown: dict | None = None) -> bytes:
+        """Render settings A (and B, to compare) at the requested quality; the PNGs, the heat map, the figures.
+        `progress(share)` is told the share of the tiles done, 0..1 over A and B together; `shown` (the page's
+        own table) keeps (request id, RenderResult) of its last full frame A for errors()."""
         started = time.perf_counter()
         quality = request.get("quality", "full")
         if quality not in ("draft", "full"):
             raise ViewError(f"quality: {quality!r}; allowed: 'draft' or 'full'")
         settings = settings_of(request)
         header: dict = {"type": "frame", "id": request.get("id"), "quality": quality}
-        drag = request.get("drag")
-        if drag is not None:
-            if not isinstance(drag, dict):
-                raise ViewError("drag must be a table {light, u, v}")
-            light = drag.get("light", 0)
-            if not isinstance(light, int) or isinstance(light, bool):
-                raise ViewError("drag.light must be a light's index")
-            position = light_on_plane(scene_with(self.source, settings), light, drag.get("u"), drag.get("v"))
-            settings[f"lights.{light}.position"] = position
-            header["moved"] = {f"lights.{light}.position": position}
         scenes = {"a": scene_with(self.source, settings)}
-        if request.get("compare") is not None:
-            compare = settings_of(request, "compare")
-            compare.update(header.get("moved", {}))  # a dragged light moves in both
-            scenes["b"] = scene_with(self.source, compare)
+        if request.get("models"):
+            # The lecture's figure: A in flat, Gouraud and Phong shading, as panels a, b and c.
+            from raycast_phong.tools.notebook import MODELS, shaded
+            scenes = dict(zip("abc", (shaded(scenes["a"], model) for model in MODELS)))
+        elif request.get("compare") is not None:
+            scenes["b"] = scene_with(self.source, settings_of(request, "compare"))
         shaped = draft_of if quality == "draft" else frame_of
         parts, images, stats = [], {}, {}
-        for name, scene in scenes.items():
-            result = self.render(shaped(scene), source=self.source.name)
-            if name == "a" and quality == "full":
-                self.last_full = (request.get("id"), result)  # errors() measures this image, not a new one
+        for k, (name, scene) in enumerate(scenes.items()):
+            told = None
+            if progress is not None:
+                told = lambda done, total, k=k: progress((k + done / max(total, 1)) / len(scenes))
+            result = self.render(shaped(scene), source=self.source.name, progress=told)
+            if name == "a" and quality == "full" and not request.get("models") and shown is not None:
+                shown["a"] = (request.get("id"), result)  # errors() measures this image, not a new one
             images[name] = result.image
             parts.append((name, encode(result.image, ".png")))
             stats[name] = {"frame": result.timings["frame"], "rays_per_second": result.rays_per_second,
                            "rays": result.rays, "triangles": result.triangles, "left_out": left_out(result.plan),
                            "warnings": list(result.plan.warnings),
                            "width": result.image.shape[1], "height": result.image.shape[0]}
-        if "b" in images:
+        if "b" in images and "c" not in images:
             from raycast_phong.tools.difference import difference, heat_map
             if images["a"].shape == images["b"].shape:
                 diff = difference(images["a"], images["b"])
@@ -238,19 +282,20 @@ class Renderer:
         header["seconds"] = time.perf_counter() - started
         return pack(header, parts)
 
-    def errors(self, request: dict) -> dict | None:
-        """RMSE, max error and highlight loss of A against the exact surfaces; None for a mesh scene."""
+    def errors(self, request: dict, shown: dict | None = None) -> dict | None:
+        """RMSE, max error and highlight loss of A against the exact surfaces; None for a mesh scene. The image
+        measured is the page's last full frame (`shown`, as frame() kept it) if it is this request's."""
         from raycast_phong.tools.accuracy import measured
         from raycast_phong.tools.reference import ExactScene
-        scene = frame_of(scene_with(self.source, settings_of(request) | request.get("moved", {})))
+        scene = frame_of(scene_with(self.source, settings_of(request)))
         try:
             ExactScene(scene, self.source.name)
         except SceneError:
             return None
-        shown_id, shown = self.last_full
+        shown_id, image = (shown or {}).get("a", (None, None))
         if shown_id != request.get("id"):
-            shown = self.render(scene, source=self.source.name)
-        result = measured(scene, shown, "analytic", 2, self.source.name)
+            image = self.render(scene, source=self.source.name)
+        result = measured(scene, image, "analytic", 2, self.source.name)
         e = result.errors
         finite = lambda x: None if x is None or not math.isfinite(x) else x  # JSON has no nan or inf
         return {"type": "errors", "id": request.get("id"), "rmse": finite(e.rmse), "max_error": finite(e.max_error),
@@ -261,7 +306,10 @@ class Renderer:
         """The current settings as a scene file (toml), or the full-resolution image (png, exr with layers)."""
         what = request.get("what")
         scene = scene_with(self.source, settings_of(request))
-        stem = Path(self.source.name).stem or "scene"
+        side = request.get("side", "a")
+        if side not in ("a", "b"):
+            raise ViewError(f"save: side {side!r}; allowed: 'a' or 'b'")
+        stem = f"{Path(self.source.name).stem or 'scene'}-view-{side.upper()}"  # which setting it is
         if what == "toml":
             data = scene_toml(scene).encode("utf-8")
         elif what in ("png", "exr"):
@@ -269,7 +317,7 @@ class Renderer:
             data = encode(result.image, f".{what}", result.aovs if what == "exr" else None)
         else:
             raise ViewError(f"save: {what!r}; allowed: 'toml', 'png' or 'exr'")
-        return pack({"type": "saved", "id": request.get("id"), "what": what, "filename": f"{stem}-view.{what}"},
+        return pack({"type": "saved", "id": request.get("id"), "what": what, "filename": f"{stem}.{what}"},
                     [("file", data)])
 
 
@@ -277,36 +325,48 @@ class Renderer:
 
 @dataclass
 class Client:
-    """One socket's queue: at most one waiting render (latest wins), one waiting save, one waiting reference."""
+    """One socket's queue: at most one waiting render (latest wins), one waiting save, one waiting reference;
+    its own render thread, so a page asking for a slow frame never holds another page's frames; its last full
+    frame A (for the exact errors: request ids are each page's own)."""
     pending: dict | None = None
     pending_save: dict | None = None
     wake: asyncio.Event = field(default_factory=asyncio.Event)
     dropped: int = 0
     reference_next: dict | None = None        # the newest full frame whose exact errors are still owed
     reference_task: asyncio.Task | None = None
+    executor: ThreadPoolExecutor = field(default_factory=lambda: ThreadPoolExecutor(1, "view-page"))
+    # Its exact references on a thread of their own at nice 19: a closed page's reference still running (it
+    # cannot be stopped midway) then delays no other page's, and the frames get the cores first.
+    references: ThreadPoolExecutor = field(default_factory=lambda: ThreadPoolExecutor(
+        1, "view-page-reference", initializer=lowest_priority))
+    shown: dict = field(default_factory=dict)
 
 
 def create_app(source: Source, token: str, origins: list[str], *, render: Callable | None = None,
-               executor: ThreadPoolExecutor | None = None) -> Starlette:
-    """The view's Starlette app. `origins` are the page's own (scheme://host:port); the socket accepts no other."""
+               executor: ThreadPoolExecutor | None = None, any_host: bool = False) -> Starlette:
+    """The view's Starlette app. `origins` are the page's own (scheme://host:port); the socket accepts no other.
+    `any_host` (served on 0.0.0.0 or ::): any Host name, and then the socket's Origin must be that host's page."""
     renderer = Renderer(source, render)
     executor = executor or ThreadPoolExecutor(max_workers=1, thread_name_prefix="view-render")
-    reference_executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="view-reference")
-    hosts = sorted({o.split("://", 1)[1].rsplit(":", 1)[0].strip("[]") for o in origins})
+    hosts = {host_of(o.split("://", 1)[1]) for o in origins}
 
     def authorised(connection) -> bool:
         given = connection.query_params.get("token") or connection.cookies.get(cookie_name(connection)) or ""
         return secrets.compare_digest(given.encode(), token.encode())
 
     def refused() -> Response:
-        return PlainTextResponse("403: this page needs the token the `raycast-phong view` command printed\n",
-                                 status_code=403)
+        return PlainTextResponse("403: this page needs the token the `raycast-phong view` command printed; open "
+                                 "the URL it printed (its token is kept in ~/.local/state/raycast-phong, so a "
+                                 "restarted server prints the same one)\n", status_code=403)
 
     async def index(request: Request) -> Response:
         if not authorised(request):
             return refused()
-        response = FileResponse(STATIC / "index.html", headers={"Cache-Control": "no-store"})
-        # The page's own files (script, style) then come with the cookie, as Jupyter's do.
+        # The page's own files (script, style) come with the token in their URLs, as the page's own did: a
+        # page framed by a notebook of another site gets no same-site cookie. The cookie serves the rest.
+        page = STATIC_LINK.sub(lambda m: f'{m[1]}="static/{m[2]}?token={quote(token, safe="")}"',
+                               (STATIC / "index.html").read_text(encoding="utf-8"))
+        response = HTMLResponse(page, headers={"Cache-Control": "no-store"})
         response.set_cookie(cookie_name(request), token, httponly=True, samesite="strict")
         return response
 
@@ -320,12 +380,16 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
 
     async def socket(websocket: WebSocket) -> None:
         origin = websocket.headers.get("origin")
-        if not authorised(websocket) or origin not in origins:
+        own = any_host and origin == f"http://{websocket.headers.get('host', '')}"  # the page of the host it asked
+        if not authorised(websocket) or not (origin in origins or own):
             await websocket.close(code=1008)  # policy violation, before the handshake completes
             return
         await websocket.accept()
         client = Client()
-        await websocket.send_text(json.dumps(hello(source)))
+        pages.add(websocket)
+        if source.watched is not None and (not watcher or watcher[0].done()):
+            watcher[:] = [asyncio.create_task(watch())]
+        await websocket.send_text(json.dumps({**hello(source), "warming": not app.state.warming.done()}))
         worker = asyncio.create_task(work(websocket, client))
         try:
             while True:
@@ -335,7 +399,9 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
                 except ViewError as error:
                     await websocket.send_text(json.dumps({"type": "error", "id": None, "message": str(error)}))
                     continue
-                if request.get("type") == "save":
+                if request.get("type") == "load":
+                    await websocket.send_text(json.dumps(loaded(request)))
+                elif request.get("type") == "save":
                     client.pending_save = request
                 else:
                     if client.pending is not None:  # a newer request replaces the one still waiting
@@ -346,12 +412,53 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
         except (WebSocketDisconnect, RuntimeError, KeyError):
             pass  # the page closed (or sent a binary frame: receive_text's KeyError); nothing is owed to it
         finally:
+            pages.discard(websocket)
             worker.cancel()
+            client.executor.shutdown(wait=False, cancel_futures=True)
+            client.references.shutdown(wait=False, cancel_futures=True)
             if client.reference_task is not None:
                 client.reference_task.cancel()
 
+    pages: set[WebSocket] = set()   # the open pages, told when the scene file changes
+    watcher: list[asyncio.Task] = []  # the one task watching it, while a page is open
+
+    async def watch() -> None:
+        """Re-read the scene file when it changes, while a page is open: each page gets the new hello (and keeps
+        its own settings over it), or the file's one-line message while it is invalid (the old scene stays)."""
+        path, seen = source.watched, version(source.watched)
+        while pages:
+            await asyncio.sleep(WATCH_EVERY)
+            now = version(path)
+            if now == seen or now is None:  # gone: an editor between its delete and its write, or removed
+                continue
+            seen = now
+            try:
+                fresh = await asyncio.get_running_loop().run_in_executor(None, open_source, path)
+            except (SceneError, ViewError, OSError, ValueError) as error:
+                message = {"type": "error", "id": None,
+                           "message": f"{error} (the page keeps the scene as it was until the file is valid)"}
+            else:
+                source.data = fresh.data  # scene_with copies it per request: a running render is unaffected
+                message = {**hello(source), "warming": False, "reloaded": True}
+            for page in list(pages):
+                with suppress(Exception):  # a page closing meanwhile: nothing is owed to it
+                    await page.send_text(json.dumps(message))
+
+    def loaded(request: dict) -> dict:
+        """A scene file the page opened, as the settings that make it; milliseconds, so on the event loop."""
+        text, name = request.get("text"), request.get("name") or "scene.toml"
+        try:
+            if not isinstance(text, str) or not isinstance(name, str):
+                raise ViewError("load: text and name must be strings")
+            name = Path(name).name  # a name for messages only: nothing is read from the disk by it
+            return {"type": "loaded", "id": request.get("id"), "settings": settings_from(source, text, name)}
+        except (ViewError, SceneError) as error:
+            return {"type": "error", "id": request.get("id"), "message": str(error)}
+
     async def work(websocket: WebSocket, client: Client) -> None:
         loop = asyncio.get_running_loop()
+        with suppress(Exception):  # the kernels first (compiled once, shared); a failed warm-up shows in the frame
+            await asyncio.wrap_future(app.state.warming)
         while True:
             await client.wake.wait()
             client.wake.clear()
@@ -361,7 +468,11 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
                 if request is None:
                     continue
                 try:
-                    reply = await loop.run_in_executor(executor, job, request)
+                    if is_frame:
+                        told = progress_to(websocket, loop, request.get("id"))
+                        reply = await loop.run_in_executor(client.executor, job, request, told, client.shown)
+                    else:
+                        reply = await loop.run_in_executor(client.executor, job, request)
                 except (ViewError, SceneError, rp.ImageError) as error:
                     await websocket.send_text(json.dumps({"type": "error", "id": request.get("id"),
                                                           "message": str(error)}))
@@ -372,8 +483,7 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
                     continue
                 await websocket.send_bytes(reply)
                 if is_frame and request.get("quality", "full") == "full" and request.get("reference"):
-                    moved = unpack(reply)[0].get("moved", {})
-                    client.reference_next = {**request, "moved": moved}  # latest wins here too
+                    client.reference_next = request  # latest wins here too
                     if client.reference_task is None or client.reference_task.done():
                         client.reference_task = asyncio.create_task(measure(websocket, client))
 
@@ -382,20 +492,104 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
         time, and the next frame must not wait for it."""
         loop = asyncio.get_running_loop()
         while client.reference_next is not None:
+            # Start only once the page has rested a moment: a drag that goes on makes it stale before it starts.
+            await asyncio.sleep(REFERENCE_REST)
+            if client.pending is not None:
+                continue  # a newer frame is on its way, and brings its own reference request
             request, client.reference_next = client.reference_next, None
             try:
-                errors = await loop.run_in_executor(reference_executor, renderer.errors, request)
+                errors = await loop.run_in_executor(client.references, renderer.errors, request, client.shown)
             except Exception as error:  # noqa: BLE001 — the frame was fine; say why its errors are missing and go on
                 errors = {"type": "error", "id": request.get("id"), "message": f"exact reference: {error}"}
             if errors is not None:
                 await websocket.send_text(json.dumps(errors))
 
     routes = [Route("/", index), Mount("/static", app=static), WebSocketRoute("/socket", socket)]
-    app = Starlette(routes=routes, middleware=[Middleware(TrustedHostMiddleware, allowed_hosts=hosts)])
-    app.state.executor, app.state.reference_executor, app.state.renderer = executor, reference_executor, renderer
-    # Load the kernels (a second or more from numba's cache) before the page asks for its first frame.
-    executor.submit(rp.render, draft_of(scene_with(source, {})), source=source.name)
+    app = Starlette(routes=routes)
+    app.add_middleware(Guard, hosts=hosts, any_host=any_host)
+    app.state.executor, app.state.renderer = executor, renderer
+    # Load or compile every kernel the page can ask for (float32 and float64 shading, shadow rays) before
+    # it asks: a first switch to float64 used to wait ~35 s for numba mid-session. The page shows
+    # "preparing the renderer" while this runs (hello's `warming`); the first frame queues behind it.
+    app.state.warming = executor.submit(warm, source)
     return app
+
+
+REFERENCE_REST = 0.3  # seconds without a newer request before the exact errors of a full frame are computed
+
+
+def lowest_priority() -> None:
+    """Run this thread (the exact-error reference's) at nice 19: Linux schedules threads one by one, so the
+    render's threads, at the server's own priority, get the cores first while a reference runs beside them."""
+    if hasattr(os, "setpriority"):
+        with suppress(OSError):  # not allowed or not supported: the reference then competes as before
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 19)
+
+
+def warm(source: Source) -> None:
+    """warm_kernels for both precisions with shadows, then one draft frame (geometry, BVH and the PNG path)."""
+    from raycast_phong.renderer.frame import warm_kernels
+    warm_kernels((np.float32, np.float64), shadows=True)
+    rp.render(draft_of(scene_with(source, {})), source=source.name)
+
+
+PROGRESS_EVERY = 0.1  # seconds between progress messages: the page's bar moves smoothly, the socket stays quiet
+
+
+def progress_to(websocket: WebSocket, loop: asyncio.AbstractEventLoop, request_id) -> Callable[[float], None]:
+    """A progress callback for the render thread: sends {"type": "progress", "id", "done": 0..1} to the page
+    through the event loop, at most every PROGRESS_EVERY seconds."""
+    last = [0.0]
+
+    def told(share: float) -> None:
+        now = time.perf_counter()
+        if now - last[0] >= PROGRESS_EVERY and share < 1:
+            last[0] = now
+            message = json.dumps({"type": "progress", "id": request_id, "done": round(share, 3)})
+            asyncio.run_coroutine_threadsafe(websocket.send_text(message), loop)
+    return told
+
+
+def host_of(header: str) -> str:
+    """The host name in a Host header or an origin's authority, without the port, lower case: `[::1]:8765` →
+    `::1`, `localhost:8765` → `localhost`; "" when it is malformed (an IPv6 address without brackets)."""
+    header = header.strip().lower()
+    if header.startswith("["):
+        return header[1:header.index("]")] if "]" in header else ""
+    if header.count(":") > 1:
+        return ""
+    return header.split(":", 1)[0]
+
+
+class Guard:
+    """ASGI middleware: refuse a Host the server was not asked for (DNS rebinding; 400, or the socket closed),
+    and give every response the headers that keep the page to itself: a Content-Security-Policy (own scripts,
+    styles and socket only; framed only by local pages, so a notebook can embed it), no referrer (the URL
+    holds the token), no MIME sniffing."""
+
+    def __init__(self, app, hosts: set[str], any_host: bool):
+        self.app, self.hosts, self.any_host = app, hosts, any_host
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] not in ("http", "websocket"):
+            return await self.app(scope, receive, send)
+        host = dict(scope["headers"]).get(b"host", b"").decode("latin-1")
+        if not (host_of(host) and (self.any_host or host_of(host) in self.hosts)):
+            if scope["type"] == "websocket":
+                return await send({"type": "websocket.close", "code": 1008})
+            return await PlainTextResponse("400: this server does not answer to that host name\n",
+                                           status_code=400)(scope, receive, send)
+        policy = ("default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' blob: data:; "
+                  f"connect-src 'self' blob: ws://{host}; base-uri 'none'; form-action 'none'; "
+                  "frame-ancestors 'self' http://localhost:* http://127.0.0.1:* http://[::1]:*")
+        extra = [(b"content-security-policy", policy.encode("latin-1")), (b"referrer-policy", b"no-referrer"),
+                 (b"x-content-type-options", b"nosniff")]
+
+        async def with_headers(message):
+            if message["type"] == "http.response.start":
+                message = {**message, "headers": [*message.get("headers", []), *extra]}
+            await send(message)
+        await self.app(scope, receive, with_headers)
 
 
 def cookie_name(connection) -> str:
@@ -403,15 +597,15 @@ def cookie_name(connection) -> str:
 
 
 def parse(text: str) -> dict:
-    """One page message: a JSON table with type 'render' or 'save', bounded in size."""
+    """One page message: a JSON table with type 'render', 'save' or 'load', bounded in size."""
     if len(text) > MAX_MESSAGE_BYTES:
         raise ViewError(f"message of {len(text)} characters; allowed: at most {MAX_MESSAGE_BYTES}")
     try:
         request = json.loads(text)
     except json.JSONDecodeError as error:
         raise ViewError(f"message is not JSON: {error}") from None
-    if not isinstance(request, dict) or request.get("type", "render") not in ("render", "save"):
-        raise ViewError("message must be a table with type 'render' or 'save'")
+    if not isinstance(request, dict) or request.get("type", "render") not in ("render", "save", "load"):
+        raise ViewError("message must be a table with type 'render', 'save' or 'load'")
     return request
 
 

@@ -16,19 +16,53 @@ const state = {
   sentAt: {},      // request id → time sent, for the change → image latency
   urls: {},        // object URLs on screen, revoked when replaced
   lastFrame: null, // header of the frame on screen (tests read it)
+  connected: false,
+  painted: [],     // {id, quality, ms (change → on screen), server (ms in the server)} of the frames shown
+  answered: 0,     // newest request answered (by a frame or an error)
+  asked: null,     // {id, quality, at} of the newest request sent
+  warming: false,  // the server is still loading or compiling its kernels
 };
 window.view = state;  // for the browser tests and the screenshot script
 
 // ------------------------------------------------------------------ socket
 
-const socket = new WebSocket(`ws://${location.host}/socket?token=${encodeURIComponent(token)}`);
-socket.binaryType = "arraybuffer";
-socket.onopen = () => { $("#connection").textContent = "connected"; };
-socket.onclose = (event) => {
-  $("#connection").textContent = `disconnected (${event.code})`;
-  if (event.code === 1008) showError("the server refused this page: open the URL the view command printed");
-};
-socket.onmessage = (event) => {
+// A lost server disables the controls and dims the image behind a banner; the page then tries again every
+// second or two, and a server restarted on the same port (it keeps its token) picks up where this one was:
+// the settings stay in the page and are sent again with the next frame.
+let socket = null;
+let retries = 0;
+function connect() {
+  socket = new WebSocket(`ws://${location.host}/socket?token=${encodeURIComponent(token)}`);
+  socket.binaryType = "arraybuffer";
+  socket.onopen = () => {
+    retries = 0;
+    connected(true, "connected");
+  };
+  socket.onclose = (event) => {
+    const wasOpen = state.connected;
+    connected(false, event.code === 1008
+      ? "the server refused this page's token: open the URL the view command printed"
+      : `the server is not answering (${wasOpen ? `closed, code ${event.code}` : "no connection"}); ` +
+        "the controls are off until it is back; trying again…");
+    retries += 1;
+    // 1008: a server with another token; asking again cannot help until the page is opened anew.
+    if (event.code !== 1008) setTimeout(connect, Math.min(2000, 250 * 2 ** retries));
+  };
+  socket.onmessage = onMessage;
+}
+
+function connected(on, text) {
+  state.connected = on;
+  $("#connection").textContent = on ? "connected" : "disconnected";
+  $("#connection").classList.toggle("lost", !on);
+  $("#lost").hidden = on;
+  $("#lost").textContent = on ? "" : text;
+  $("#controls").inert = !on;
+  for (const box of document.querySelectorAll("#controls fieldset")) box.disabled = !on || box.dataset.off === "1";
+  $("#viewer").classList.toggle("lost", !on);
+}
+
+function onMessage(event) {
   if (typeof event.data === "string") return onText(JSON.parse(event.data));
   const view = new DataView(event.data);
   const length = view.getUint32(0, true);
@@ -41,11 +75,25 @@ socket.onmessage = (event) => {
   }
   if (header.type === "frame") onFrame(header, parts);
   else if (header.type === "saved") download(header.filename, parts.file);
-};
+}
 
 function onText(message) {
   if (message.type === "hello") return onHello(message);
+  if (message.type === "loaded") {
+    // A scene file opened on the page: its settings replace those of the side being edited.
+    state.settings[state.editing] = message.settings;
+    state.level[state.editing] = null;
+    refreshControls();
+    request("full");
+    return;
+  }
+  if (message.type === "progress") {
+    if (state.asked && message.id === state.asked.id) $("#busy-bar").value = message.done;
+    return;
+  }
   if (message.type === "error") {
+    state.answered = Math.max(state.answered, message.id ?? 0);
+    busy();
     if (message.id === null || message.id >= state.shownId) showError(message.message);
   } else if (message.type === "errors" && message.id === state.shownId) {
     const pct = (x) => (x === null ? "–" : `${(100 * x).toFixed(1)} %`);
@@ -59,14 +107,19 @@ function send(message) {
   if (socket.readyState === WebSocket.OPEN) socket.send(JSON.stringify(message));
 }
 
-function request(quality, drag) {
+function request(quality) {
+  if (!state.connected) return null;  // the settings stay; the frame is asked for on reconnecting
+  permalink();
   const id = state.nextId++;
   state.sentAt[id] = performance.now();
+  state.asked = { id, quality, at: performance.now() };
+  $("#busy-bar").removeAttribute("value");  // indeterminate until the first tiles are done
+  const models = state.compare === "models";
   send({
-    type: "render", id, quality, drag,
+    type: "render", id, quality, models,
     settings: state.settings.a,
-    compare: state.compare === "off" ? null : state.settings.b,
-    reference: Boolean(state.hello && state.hello.analytic) && quality === "full",
+    compare: state.compare === "off" || models ? null : state.settings.b,
+    reference: Boolean(state.hello && state.hello.analytic) && quality === "full" && !models,
   });
   return id;
 }
@@ -84,12 +137,16 @@ function show(img, bytes) {
 function onFrame(header, parts) {
   if (header.id < state.shownId) return;
   state.shownId = header.id;
+  state.answered = Math.max(state.answered, header.id);
+  state.warming = false;
+  busy();
   // A draft frame (half size) is shown at the full frame's size; side by side, each gets half the room.
   const displayWidth = state.hello.scene.render.width;
-  const stageWidth = `${state.compare === "side" ? 2 * displayWidth + 8 : displayWidth}px`;
+  const panels = { side: 2, models: 3 }[state.compare] || 1;
+  const stageWidth = `${panels * displayWidth + 8 * (panels - 1)}px`;
   $("#stage").style.maxWidth = stageWidth;
   $("#wipe").style.maxWidth = stageWidth;
-  for (const name of ["a", "b"]) {
+  for (const name of ["a", "b", "c"]) {
     if (!parts[name]) continue;
     const img = $(`#image-${name}`);
     show(img, parts[name]);
@@ -103,25 +160,45 @@ function onFrame(header, parts) {
   } else if (header.difference) {
     $("#heat-caption").textContent = header.difference.note || "";
   }
-  for (const [key, value] of Object.entries(header.moved || {})) {
-    state.settings.a[key] = value;
-    state.settings.b[key] = value;
-  }
   const a = header.stats.a;
   $("#frame-time").textContent = `${(1000 * a.frame).toFixed(1)} ms render of ${a.width}×${a.height}` +
     ` (${header.quality}), ${(1000 * header.seconds).toFixed(1)} ms in all`;
   $("#rays").textContent = `${(a.rays_per_second / 1e6).toFixed(1)} M (${a.rays.toLocaleString()} rays, ` +
     `${a.triangles.toLocaleString()} triangles)`;
+  // Change → on screen: from the request (sent by the input's own handler) to the first animation frame
+  // after image A decoded, the frame the browser then paints. benchmarks/bench_view.py --browser reads these.
   const sent = state.sentAt[header.id];
-  if (sent !== undefined) $("#latency").textContent = `${(performance.now() - sent).toFixed(0)} ms`;
+  if (sent !== undefined) {
+    $("#image-a").decode().then(() => requestAnimationFrame(() => {
+      const ms = performance.now() - sent;
+      $("#latency").textContent = `${ms.toFixed(0)} ms`;
+      state.painted.push({ id: header.id, quality: header.quality, ms, server: header.seconds * 1000 });
+      if (state.painted.length > 2000) state.painted.shift();
+    }), () => {});  // a newer image replaced it before it decoded: that one is measured instead
+  }
   for (const id of Object.keys(state.sentAt)) if (Number(id) <= header.id) delete state.sentAt[id];
   $("#left-out").textContent = a.left_out.map((s) => s.name).join(", ") || "nothing";
   $("#left-out").title = a.left_out.map((s) => `${s.name}: ${s.reason}`).join("\n");
   $("#warnings").replaceChildren(...a.warnings.map((w) => Object.assign(document.createElement("li"), { textContent: w })));
   if (header.quality === "draft") $("#exact").textContent = "(when the pointer rests)";
   state.lastFrame = header;
+  drawMarkers();
   hideError();
 }
+
+// While a change waits for its image: a bar (the share of tiles done, for full frames), what is being done
+// and for how long; the images dim while a full frame is owed. Silent for the first 150 ms (drafts).
+function busy() {
+  const owed = state.asked && state.asked.id > state.answered && state.connected;
+  const waited = owed ? (performance.now() - state.asked.at) / 1000 : 0;
+  $("#busy").hidden = !owed || waited < 0.15;
+  $("#stage").classList.toggle("stale", Boolean(owed) && waited >= 0.15 && state.asked.quality === "full");
+  if (!owed) return;
+  const what = state.warming ? "preparing the renderer (its kernels are compiled on the first run, then cached)"
+    : `rendering the ${state.asked.quality} frame`;
+  $("#busy-text").textContent = `${what}… ${waited.toFixed(1)} s`;
+}
+setInterval(busy, 100);
 
 function showError(message) {
   $("#error").textContent = message;
@@ -146,10 +223,11 @@ function sceneValue(key) {
   for (const part of key.split(".")) node = node === undefined || node === null ? undefined : node[part];
   return node;
 }
-function valueOf(key) {
-  const mine = state.settings[state.editing];
+function valueIn(side, key) {
+  const mine = state.settings[side];
   return key in mine ? mine[key] : sceneValue(key);
 }
+const valueOf = (key) => valueIn(state.editing, key);
 function set(values, quality) {
   Object.assign(state.settings[state.editing], values);
   request(quality);
@@ -167,7 +245,6 @@ function materialValue(coefficient) {
 }
 
 function refreshControls() {
-  const scene = state.hello.scene;
   for (const input of document.querySelectorAll("[data-key]")) {
     input.value = valueOf(input.dataset.key);
     const out = input.parentElement.querySelector("output");
@@ -177,13 +254,7 @@ function refreshControls() {
   const level = state.level[state.editing];
   $("#level").value = level ?? 2;
   $("#level").nextElementSibling.textContent = level ?? "scene";
-  const light = scene.lights[0];
-  $("#light-box").disabled = !light || light.type !== "point";
-  if (light) {
-    $("#light-colour").value = toHex(valueOf("lights.0.diffuse"));
-    const attenuation = valueOf("lights.0.attenuation");
-    $("#attenuation").value = typeof attenuation === "string" ? attenuation : "none";
-  }
+  refreshLight();
   for (const input of document.querySelectorAll("[data-coefficient]")) {
     input.value = toHex(materialValue(input.dataset.coefficient));
   }
@@ -198,11 +269,373 @@ function shadingKeys() {
 }
 
 function onHello(message) {
+  const again = state.hello !== null;  // a reconnection: keep the light and material chosen
+  state.warming = Boolean(message.warming);
+  const light = $("#light").value, material = $("#material").value;
   state.hello = message;
   $("#source").textContent = message.source;
+  if (message.reloaded) $("#source").textContent += ` (reloaded ${new Date().toLocaleTimeString()})`;
   $("#material").replaceChildren(...message.materials.map((name) => new Option(name, name)));
+  $("#light").replaceChildren(...message.scene.lights.map((light, index) =>
+    new Option(`${index + 1}: ${light.type}`, String(index))));
+  if (again) { $("#light").value = light; $("#material").value = material; }
   refreshControls();
   request("full");
+}
+
+// ------------------------------------------------------------------ geometry (camera.py's conventions)
+
+const sub = (p, q) => p.map((x, i) => x - q[i]);
+const add = (p, q) => p.map((x, i) => x + q[i]);
+const scale = (p, s) => p.map((x) => x * s);
+const dot = (p, q) => p.reduce((sum, x, i) => sum + x * q[i], 0);
+const norm = (p) => Math.hypot(...p);
+const unit = (p) => scale(p, 1 / norm(p));
+const cross = (p, q) => [p[1] * q[2] - p[2] * q[1], p[2] * q[0] - p[0] * q[2], p[0] * q[1] - p[1] * q[0]];
+const rounded = (p) => p.map((x) => Number(x.toFixed(6)));  // what the settings (and so the URL) carry
+
+// p turned by `angle` (radians) round the unit `axis` (Rodrigues' formula).
+function rotate(p, axis, angle) {
+  const c = Math.cos(angle), s = Math.sin(angle);
+  return add(add(scale(p, c), scale(cross(axis, p), s)), scale(axis, dot(axis, p) * (1 - c)));
+}
+
+// The camera of one side (A or B) as its settings make it: camera_rig's eye, right, up, forward and half sizes.
+function rigOf(side) {
+  const value = (key) => valueIn(side, key);
+  const eye = value("camera.position"), target = value("camera.look_at");
+  const forward = unit(sub(target, eye));
+  const right = unit(cross(forward, value("camera.up")));
+  const up = cross(right, forward);
+  const orthographic = value("camera.type") === "orthographic";
+  const halfHeight = orthographic ? value("camera.view_height") / 2 : Math.tan((value("camera.fov") * Math.PI) / 360);
+  const aspect = value("render.width") / value("render.height");
+  return { eye, target, forward, right, up, orthographic, halfHeight, halfWidth: halfHeight * aspect };
+}
+
+// Where world point p falls on the image, (u, v) ∈ [0, 1]² from the top left; null behind the eye.
+function project(rig, p) {
+  const q = sub(p, rig.eye);
+  const depth = dot(q, rig.forward);
+  if (!rig.orthographic && depth <= 0) return null;
+  const along = rig.orthographic ? 1 : depth;
+  const x = dot(q, rig.right) / (along * rig.halfWidth), y = dot(q, rig.up) / (along * rig.halfHeight);
+  return { u: (x + 1) / 2, v: (1 - y) / 2 };
+}
+
+// ------------------------------------------------------------------ lights: gizmo, marker, fields
+
+const lightIndex = () => Number($("#light").value || 0);
+const lightOf = (index) => state.hello.scene.lights[index];
+
+// The selected light's direction from the look-at point (unit, towards the light) and its distance;
+// a directional light has only a direction (the way its light travels is the opposite).
+function lightPlacement(side = state.editing, index = lightIndex()) {
+  const rig = rigOf(side);
+  if (lightOf(index).type === "directional") {
+    return { toLight: unit(scale(valueIn(side, `lights.${index}.direction`), -1)), distance: null, rig };
+  }
+  const offset = sub(valueIn(side, `lights.${index}.position`), rig.target);
+  const distance = norm(offset);
+  return { toLight: distance > 0 ? scale(offset, 1 / distance) : scale(rig.forward, -1), distance, rig };
+}
+
+// Move or turn a light in A and (while comparing) B alike, so that the two stay comparable.
+function setShared(values, quality) {
+  for (const side of state.bStarted ? ["a", "b"] : ["a"]) Object.assign(state.settings[side], values);
+  request(quality);
+  refreshLight();
+}
+
+function placeLight(toLight, distance, quality) {
+  const index = lightIndex();
+  if (lightOf(index).type === "directional") {
+    setShared({ [`lights.${index}.direction`]: rounded(scale(toLight, -1)) }, quality);
+  } else {
+    setShared({ [`lights.${index}.position`]: rounded(add(rigOf(state.editing).target, scale(toLight, distance))) }, quality);
+  }
+}
+
+// Trackball: a drag of (dx, dy) pixels turns the light round the camera's up and right axes through
+// the look-at point, `perPixel` radians a pixel; relative, so a click never makes it jump.
+function turnLight(dx, dy, perPixel, quality) {
+  const { toLight, distance, rig } = lightPlacement();
+  const turned = rotate(rotate(toLight, rig.up, dx * perPixel), rig.right, dy * perPixel);
+  placeLight(unit(turned), distance, quality);
+}
+
+// The gizmo shows every direction round the look-at point as a disc (azimuthal equidistant): the centre
+// is towards the viewer, the middle ring is the image plane's directions, the rim is straight behind.
+function gizmoPoint(rig, toLight, radius) {
+  const towardsViewer = scale(rig.forward, -1);
+  const angle = Math.acos(Math.max(-1, Math.min(1, dot(toLight, towardsViewer))));
+  const x = dot(toLight, rig.right), y = dot(toLight, rig.up);
+  const across = Math.hypot(x, y) || 1;
+  const r = (radius * angle) / Math.PI;
+  return { x: (r * x) / across, y: (-r * y) / across, front: angle <= Math.PI / 2 };
+}
+
+function drawGizmo() {
+  const canvas = $("#gizmo");
+  const g = canvas.getContext("2d");
+  const size = canvas.width, radius = size / 2 - 6, centre = size / 2;
+  g.clearRect(0, 0, size, size);
+  g.fillStyle = "#26282b";
+  g.beginPath(); g.arc(centre, centre, radius, 0, 2 * Math.PI); g.fill();
+  g.strokeStyle = "#555";
+  g.beginPath(); g.arc(centre, centre, radius / 2, 0, 2 * Math.PI); g.stroke();
+  g.beginPath(); g.moveTo(centre - radius, centre); g.lineTo(centre + radius, centre);
+  g.moveTo(centre, centre - radius); g.lineTo(centre, centre + radius); g.stroke();
+  if (!state.hello || !state.hello.scene.lights.length) return;
+  state.hello.scene.lights.forEach((_, index) => {
+    const { toLight, rig } = lightPlacement(state.editing, index);
+    const p = gizmoPoint(rig, toLight, radius);
+    const selected = index === lightIndex();
+    g.beginPath();
+    g.arc(centre + p.x, centre + p.y, selected ? 6 : 4, 0, 2 * Math.PI);
+    g.fillStyle = g.strokeStyle = selected ? "#ffd84a" : "#999";
+    g.lineWidth = 2;
+    if (p.front) g.fill(); else g.stroke();  // hollow: behind the look-at point
+    g.lineWidth = 1;
+  });
+}
+
+// The selected light's marker on each image (hidden when it is off the image or behind the eye).
+function drawMarkers() {
+  if (!state.hello || !lightOf(lightIndex())) return;
+  for (const panel of ["a", "b", "c"]) {
+    const marker = $(`#marker-${panel}`);
+    const side = panel === "b" && state.compare !== "models" ? "b" : "a";  // the three models are all A's
+    const index = lightIndex();
+    const at = lightOf(index).type === "point" ? project(rigOf(side), valueIn(side, `lights.${index}.position`)) : null;
+    marker.hidden = !at || at.u < 0 || at.u > 1 || at.v < 0 || at.v > 1;
+    if (at) { marker.style.left = `${100 * at.u}%`; marker.style.top = `${100 * at.v}%`; }
+  }
+}
+
+function refreshLight() {
+  const index = lightIndex();
+  const light = lightOf(index);
+  $("#light-box").dataset.off = light ? "0" : "1";
+  $("#light-box").disabled = !light || !state.connected;
+  if (!light) return;
+  const point = light.type === "point";
+  $("#light-xyz-name").textContent = point ? "position" : "direction";
+  const xyz = valueOf(point ? `lights.${index}.position` : `lights.${index}.direction`);
+  for (const input of document.querySelectorAll("#light-xyz input")) {
+    if (document.activeElement !== input) input.value = Number(xyz[input.dataset.axis].toFixed(4));
+  }
+  $("#light-distance").disabled = !point;
+  $("#attenuation").disabled = !point;
+  const { distance } = lightPlacement();
+  if (document.activeElement !== $("#light-distance")) $("#light-distance").value = point ? Number(distance.toFixed(4)) : "";
+  for (const term of ["diffuse", "specular"]) {
+    const rgb = valueOf(`lights.${index}.${term}`);
+    const intensity = Math.max(...rgb);
+    $(`#light-${term}-colour`).value = toHex(intensity > 0 ? scale(rgb, 1 / intensity) : [1, 1, 1]);
+    if (document.activeElement !== $(`#light-${term}-intensity`)) $(`#light-${term}-intensity`).value = Number(intensity.toPrecision(6));
+  }
+  const attenuation = valueOf(`lights.${index}.attenuation`);
+  $("#attenuation").value = typeof attenuation === "string" ? attenuation : "clq";
+  $("#attenuation-clq").hidden = typeof attenuation === "string";
+  if (typeof attenuation !== "string") {
+    for (const input of document.querySelectorAll("#attenuation-clq input")) input.value = attenuation[input.dataset.term];
+  }
+  drawGizmo();
+  drawMarkers();
+}
+
+// How much a light's attenuation dims it at distance d: min(1, 1/(c + l·d + q·d²)) as illumination.py has it.
+function dimming(attenuation, d) {
+  if (attenuation === "none") return 1;
+  const [c, l, q] = attenuation === "inverse_square" ? [0, 0, 1] : attenuation;
+  return Math.min(1, 1 / (c + l * d + q * d * d));
+}
+
+// A new attenuation for the selected point light, its intensities rescaled so that the look-at point gets
+// the light it got before: 1/d² alone would turn a scene lit from 7 units away 50 times darker.
+function setAttenuation(attenuation) {
+  const index = lightIndex();
+  const key = `lights.${index}.attenuation`;
+  const { distance } = lightPlacement();
+  const ratio = dimming(valueOf(key), distance) / dimming(attenuation, distance);
+  const values = { [key]: attenuation };
+  for (const term of ["diffuse", "specular"]) {
+    values[`lights.${index}.${term}`] = valueOf(`lights.${index}.${term}`).map((x) => Number((x * ratio).toPrecision(6)));
+  }
+  set(values, "full");
+  refreshLight();
+}
+
+function wireLight() {
+  $("#light").addEventListener("change", refreshLight);
+  const gizmo = $("#gizmo");
+  const radius = gizmo.width / 2 - 6;
+  let last = null;
+  gizmo.addEventListener("pointerdown", (event) => {
+    gizmo.setPointerCapture(event.pointerId);
+    last = { x: event.clientX, y: event.clientY };
+  });
+  gizmo.addEventListener("pointermove", (event) => {
+    if (!last || !gizmo.hasPointerCapture(event.pointerId)) return;
+    // Across the disc's radius is a quarter turn: the whole sphere of directions is within one drag.
+    turnLight(event.clientX - last.x, event.clientY - last.y, Math.PI / 2 / radius, "draft");
+    last = { x: event.clientX, y: event.clientY };
+  });
+  gizmo.addEventListener("pointerup", (event) => {
+    if (!last) return;
+    gizmo.releasePointerCapture(event.pointerId);
+    last = null;
+    request("full");
+  });
+  let settle = null;
+  gizmo.addEventListener("wheel", (event) => {
+    event.preventDefault();
+    const { toLight, distance } = lightPlacement();
+    if (distance === null) return;
+    placeLight(toLight, distance * 1.1 ** Math.sign(event.deltaY), "draft");  // 10 % a notch, away when scrolled down
+    clearTimeout(settle);
+    settle = setTimeout(() => request("full"), 250);
+  }, { passive: false });
+  gizmo.addEventListener("keydown", (event) => {
+    const step = { ArrowLeft: [-1, 0], ArrowRight: [1, 0], ArrowUp: [0, -1], ArrowDown: [0, 1] }[event.key];
+    if (!step) return;
+    event.preventDefault();
+    turnLight(step[0], step[1], Math.PI / 36, "full");  // 5° a key press
+  });
+  for (const input of document.querySelectorAll("#light-xyz input")) {
+    input.addEventListener("change", () => {
+      const index = lightIndex();
+      const key = lightOf(index).type === "point" ? `lights.${index}.position` : `lights.${index}.direction`;
+      const xyz = [...valueOf(key)];
+      xyz[input.dataset.axis] = Number(input.value);
+      setShared({ [key]: xyz }, "full");
+    });
+  }
+  $("#light-distance").addEventListener("change", () => {
+    const distance = Number($("#light-distance").value);
+    if (distance > 0) placeLight(lightPlacement().toLight, distance, "full");
+  });
+  $("#light-reset").addEventListener("click", () => {
+    const prefix = `lights.${lightIndex()}.`;
+    for (const side of ["a", "b"]) {
+      for (const key of Object.keys(state.settings[side])) if (key.startsWith(prefix)) delete state.settings[side][key];
+    }
+    refreshLight();
+    request("full");
+  });
+  for (const term of ["diffuse", "specular"]) {
+    // The colour is the light's hue at full strength; the intensity (its brightest channel) multiplies it,
+    // so a picker never clips a bright light and picking the same colour again changes nothing.
+    const apply = (quality) => {
+      const intensity = Math.max(0, Number($(`#light-${term}-intensity`).value) || 0);
+      set({ [`lights.${lightIndex()}.${term}`]: rounded(scale(fromHex($(`#light-${term}-colour`).value), intensity)) }, quality);
+    };
+    $(`#light-${term}-colour`).addEventListener("input", () => apply("draft"));
+    $(`#light-${term}-colour`).addEventListener("change", () => request("full"));
+    $(`#light-${term}-intensity`).addEventListener("change", () => apply("full"));
+  }
+  $("#attenuation").addEventListener("change", () => {
+    const choice = $("#attenuation").value;
+    setAttenuation(choice === "clq" ? [1, 0, 1] : choice);
+  });
+  for (const input of document.querySelectorAll("#attenuation-clq input")) {
+    input.addEventListener("change", () => {
+      const clq = [...document.querySelectorAll("#attenuation-clq input")].map((x) => Math.max(0, Number(x.value) || 0));
+      setAttenuation(clq);
+    });
+  }
+}
+
+// ------------------------------------------------------------------ camera: orbit, pan, zoom
+
+const CAMERA_KEYS = ["camera.position", "camera.look_at", "camera.view_height"];
+
+// Orbit round look_at: (dx, dy) pixels turn the eye round the scene's up axis and the camera's right
+// axis, `perPixel` radians a pixel, as if the object were turned with the pointer (f3d, three.js).
+function orbit(dx, dy, perPixel, quality) {
+  const rig = rigOf(state.editing);
+  const worldUp = unit(valueOf("camera.up"));
+  let offset = rotate(sub(rig.eye, rig.target), worldUp, -dx * perPixel);
+  const right = unit(cross(scale(offset, -1), worldUp));
+  const pitched = rotate(offset, right, -dy * perPixel);
+  // Stop a degree short of the poles: looking along `up` leaves the camera without a frame.
+  const fromUp = Math.acos(Math.max(-1, Math.min(1, dot(unit(pitched), worldUp))));
+  if (fromUp > Math.PI / 180 && fromUp < Math.PI - Math.PI / 180) offset = pitched;
+  setShared({ "camera.position": rounded(add(rig.target, offset)) }, quality);
+}
+
+// Pan: eye and look_at move together in the image plane, so the point under the pointer follows it
+// (at the look_at point's depth); `pixels` is the image's height on screen.
+function pan(dx, dy, pixels, quality) {
+  const rig = rigOf(state.editing);
+  const depth = rig.orthographic ? 1 : norm(sub(rig.target, rig.eye));
+  const perPixel = (2 * rig.halfHeight * depth) / pixels;
+  const shift = add(scale(rig.right, -dx * perPixel), scale(rig.up, dy * perPixel));
+  setShared({ "camera.position": rounded(add(rig.eye, shift)), "camera.look_at": rounded(add(rig.target, shift)) },
+            quality);
+}
+
+// Zoom by `factor` (> 1: away): a perspective eye moves along its view axis, an orthographic view widens.
+function zoom(factor, quality) {
+  const rig = rigOf(state.editing);
+  if (rig.orthographic) {
+    setShared({ "camera.view_height": Number((valueOf("camera.view_height") * factor).toPrecision(6)) }, quality);
+  } else {
+    const offset = scale(sub(rig.eye, rig.target), factor);
+    if (norm(offset) > 1e-3) setShared({ "camera.position": rounded(add(rig.target, offset)) }, quality);
+  }
+}
+
+function resetCamera() {
+  for (const side of ["a", "b"]) for (const key of CAMERA_KEYS) delete state.settings[side][key];
+  refreshLight();
+  request("full");
+}
+
+function wireCamera() {
+  let last = null, settle = null;
+  const later = () => { clearTimeout(settle); settle = setTimeout(() => request("full"), 250); };
+  for (const img of [$("#image-a"), $("#image-b"), $("#image-c")]) {
+    img.addEventListener("contextmenu", (event) => event.preventDefault());  // the right button pans
+    img.addEventListener("pointerdown", (event) => {
+      img.setPointerCapture(event.pointerId);
+      last = { x: event.clientX, y: event.clientY, pan: event.shiftKey || event.button !== 0 };
+      $("#stage").focus({ preventScroll: true });
+    });
+    img.addEventListener("pointermove", (event) => {
+      if (!last || !img.hasPointerCapture(event.pointerId)) return;
+      const dx = event.clientX - last.x, dy = event.clientY - last.y;
+      const pixels = img.getBoundingClientRect().height;
+      // Dragging across the image's height is half a turn.
+      if (last.pan) pan(dx, dy, pixels, "draft"); else orbit(dx, dy, Math.PI / pixels, "draft");
+      Object.assign(last, { x: event.clientX, y: event.clientY });
+    });
+    img.addEventListener("pointerup", (event) => {
+      if (!last) return;
+      img.releasePointerCapture(event.pointerId);
+      last = null;
+      request("full");
+    });
+    img.addEventListener("wheel", (event) => {
+      event.preventDefault();
+      zoom(1.1 ** Math.sign(event.deltaY), "draft");  // 10 % a notch; scrolling down moves away
+      later();
+    }, { passive: false });
+  }
+  $("#stage").addEventListener("keydown", (event) => {
+    if (!state.connected) return;
+    const arrow = { ArrowLeft: [-1, 0], ArrowRight: [1, 0], ArrowUp: [0, -1], ArrowDown: [0, 1] }[event.key];
+    const pixels = $("#image-a").getBoundingClientRect().height;
+    if (arrow && event.shiftKey) pan(arrow[0] * pixels / 20, arrow[1] * pixels / 20, pixels, "full");  // 5 % of the view
+    else if (arrow) orbit(arrow[0], arrow[1], Math.PI / 36, "full");  // 5° a press
+    else if (event.key === "+" || event.key === "=") zoom(1 / 1.1, "full");
+    else if (event.key === "-") zoom(1.1, "full");
+    else if (event.key === "r" || event.key === "R" || event.key === "Home") resetCamera();
+    else return;
+    event.preventDefault();
+  });
+  $("#camera-reset").addEventListener("click", resetCamera);
 }
 
 function wire() {
@@ -230,12 +663,8 @@ function wire() {
   };
   level.addEventListener("input", () => applyLevel("draft"));
   level.addEventListener("change", () => applyLevel("full"));
-  $("#light-colour").addEventListener("input", () => {
-    const rgb = fromHex($("#light-colour").value);
-    set({ "lights.0.diffuse": rgb, "lights.0.specular": rgb }, "draft");
-  });
-  $("#light-colour").addEventListener("change", () => request("full"));
-  $("#attenuation").addEventListener("change", () => set({ "lights.0.attenuation": $("#attenuation").value }, "full"));
+  wireLight();
+  wireCamera();
   $("#material").addEventListener("change", refreshControls);
   for (const input of document.querySelectorAll("[data-coefficient]")) {
     input.addEventListener("input", () => set({ [materialKey(input.dataset.coefficient)]: fromHex(input.value) }, "draft"));
@@ -249,7 +678,7 @@ function wire() {
   shininess.addEventListener("change", () => request("full"));
   $("#compare").addEventListener("change", () => {
     const on = $("#compare").value !== "off";
-    if (on && state.compare === "off" && !state.bStarted) {
+    if (on && $("#compare").value !== "models" && !state.bStarted) {
       // B starts as A is now, with every object in Gouraud shading: the lecture's contrast.
       state.settings.b = { ...state.settings.a };
       for (const key of shadingKeys()) state.settings.b[key] = "gouraud";
@@ -257,41 +686,70 @@ function wire() {
       state.bStarted = true;
     }
     state.compare = $("#compare").value;
-    $("#panel-b").hidden = !on;
-    $("#heat-box").hidden = !on;
-    $("#wipe").hidden = state.compare !== "wipe";
-    $("#editing-label").hidden = !on;
-    $("#stage").classList.toggle("wipe", state.compare === "wipe");
-    if (!on) { state.editing = "a"; $("#editing").value = "a"; refreshControls(); }
-    wipe();
+    layoutCompare();
+    if (!on || state.compare === "models") { state.editing = "a"; $("#editing").value = "a"; refreshControls(); }
     request("full");
   });
   $("#editing").addEventListener("change", () => { state.editing = $("#editing").value; refreshControls(); });
   $("#wipe").addEventListener("input", wipe);
+  $("#load").addEventListener("change", async () => {
+    const file = $("#load").files[0];
+    if (!file) return;
+    if (file.size > 60000) return showError(`${file.name}: ${file.size} bytes; a scene file the page opens is at most 60 kB`);
+    send({ type: "load", id: state.nextId++, name: file.name, text: await file.text() });
+    $("#load").value = "";  // the same file can be opened again
+  });
   for (const button of document.querySelectorAll("[data-save]")) {
     button.addEventListener("click", () => send({ type: "save", id: state.nextId++, what: button.dataset.save,
-                                                   settings: state.settings[state.editing] }));
+                                                   side: state.editing, settings: state.settings[state.editing] }));
   }
-  // Drag the first light: the server maps the pointer to a point on a plane in front of the camera.
-  for (const img of [$("#image-a"), $("#image-b")]) {
-    const at = (event) => {
-      const box = img.getBoundingClientRect();
-      return { light: 0, u: (event.clientX - box.left) / box.width, v: (event.clientY - box.top) / box.height };
-    };
-    img.addEventListener("pointerdown", (event) => {
-      if ($("#light-box").disabled) return;
-      img.setPointerCapture(event.pointerId);
-      request("draft", at(event));
-    });
-    img.addEventListener("pointermove", (event) => {
-      if (img.hasPointerCapture(event.pointerId)) request("draft", at(event));
-    });
-    img.addEventListener("pointerup", (event) => {
-      if (!img.hasPointerCapture(event.pointerId)) return;
-      img.releasePointerCapture(event.pointerId);
-      request("full", at(event));
-    });
+}
+
+function layoutCompare() {
+  const on = state.compare !== "off";
+  const models = state.compare === "models";
+  $("#compare").value = state.compare;
+  $("#panel-b").hidden = !on;
+  $("#panel-c").hidden = !models;
+  $("#heat-box").hidden = !on || models;
+  $("#wipe").hidden = state.compare !== "wipe";
+  $("#editing-label").hidden = !on || models;
+  // The panels say what they show: A and B, or A's three shading models.
+  [$("#tag-a").textContent, $("#tag-b").textContent] = models ? ["flat", "Gouraud"] : ["A", "B"];
+  $("#exact-label").textContent = models ? "exact error" : "exact error of A";
+  if (models) $("#exact").textContent = "(of A alone: choose A only or A | B)";
+  $("#stage").classList.toggle("wipe", state.compare === "wipe");
+  wipe();
+}
+
+// ------------------------------------------------------------------ permalink: the settings in the URL
+
+// The URL's fragment carries the settings (A, B, the comparison, the tessellation levels): never sent to the
+// server, kept by a reload, the history and a bookmark. The token stays in the query, as the server needs it.
+function permalink() {
+  const kept = { a: state.settings.a, compare: state.compare, level: state.level };
+  if (state.bStarted) kept.b = state.settings.b;
+  const url = `${location.pathname}${location.search}#view=${encodeURIComponent(JSON.stringify(kept))}`;
+  history.replaceState(null, "", url);
+  $("#permalink").href = url;
+}
+
+function restore() {
+  const found = /^#view=(.*)$/.exec(location.hash);
+  if (!found) return;
+  let kept;
+  try {
+    kept = JSON.parse(decodeURIComponent(found[1]));
+  } catch (error) {
+    return showError(`this link's settings could not be read (${error.message}); showing the scene as it is`);
   }
+  const table = (x) => (x && typeof x === "object" && !Array.isArray(x) ? x : {});
+  state.settings.a = table(kept.a);
+  if (kept.b) { state.settings.b = table(kept.b); state.bStarted = true; }
+  state.level = { a: null, b: null, ...table(kept.level) };
+  const known = kept.compare === "models" || (["side", "wipe"].includes(kept.compare) && state.bStarted);
+  state.compare = known ? kept.compare : "off";
+  layoutCompare();
 }
 
 function wipe() {
@@ -305,3 +763,7 @@ function wipe() {
 new ResizeObserver(() => { $("#heat").style.width = `${$("#image-a").clientWidth}px`; }).observe($("#image-a"));
 
 wire();
+restore();
+connected(false, "connecting…");
+$("#lost").hidden = true;  // not lost: not yet connected
+connect();

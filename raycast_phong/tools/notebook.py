@@ -1,0 +1,172 @@
+"""Jupyter: a render shown in a cell, flat / Gouraud / Phong side by side, and the live view in a cell.
+
+    import raycast_phong as rp
+    rp.render(scene)                      # a RenderResult shows itself: the image, then timings and plan
+    rp.show("scenes/default.toml")        # flat | Gouraud | Phong, the lecture's figure
+    live("scenes/default.toml")           # the `raycast-phong view` page, framed in the cell
+
+Images are encoded exactly as `raycast-phong render -o x.png` stores them (image_bytes), and embedded as
+data URIs, so a saved notebook keeps its figures.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import struct
+import tempfile
+import zlib
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+import raycast_phong as rp
+from raycast_phong.records import RenderResult
+from raycast_phong.renderer.film import to_8bit
+from raycast_phong.scene.schema import Scene, ShadingModel
+
+MODELS = (ShadingModel.FLAT, ShadingModel.GOURAUD, ShadingModel.PHONG)
+MODEL_NAMES = {ShadingModel.FLAT: "flat", ShadingModel.GOURAUD: "Gouraud", ShadingModel.PHONG: "Phong"}
+
+
+def png_bytes(image: np.ndarray) -> bytes:
+    """An (H, W, 3) image as a PNG in memory, with the 8-bit values `raycast-phong render -o x.png` stores
+    (film.to_8bit: clamped, rounded). Written here, not by OpenImageIO, which writes only files: its route
+    (a scratch file, fsynced, read back) took 45 ms of a 640×360 frame and 240 ms of a 1280×720 one, this
+    takes the to_8bit pass and a zlib pass at level 1 (speed over size: the bytes cross a local socket).
+
+    PNG: signature, IHDR (8-bit RGB), one IDAT of zlib rows each led by filter 0, IEND (RFC 2083).
+    """
+    rgb8 = to_8bit(image)
+    height, width = rgb8.shape[:2]
+    rows = np.zeros((height, 1 + 3 * width), np.uint8)  # column 0: each row's filter type, 0 = none
+    rows[:, 1:] = rgb8.reshape(height, 3 * width)
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)  # depth 8, colour type 2 (RGB), no interlace
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(rows.tobytes(), 1))
+            + chunk(b"IEND", b""))
+
+
+def image_bytes(image, suffix: str = ".png", aovs: dict | None = None) -> bytes:
+    """An image as a file's bytes: a PNG with the pixels `raycast-phong render -o x.png` stores (png_bytes),
+    or the EXR it would write, layers and all (image_io writes only files: a scratch folder, removed at once).
+    The view's frames and saves use it too."""
+    if suffix == ".png" and not aovs:
+        return png_bytes(image)
+    with tempfile.TemporaryDirectory(prefix="raycast-phong-image-") as folder:
+        path = Path(folder) / f"image{suffix}"
+        rp.write_image(path, image, aovs)
+        return path.read_bytes()
+
+
+def figure_html(result: RenderResult, title: str = "") -> str:
+    """One render as HTML: the image at its own size, its title, and a small table of the frame's figures,
+    with the plan (kept and left-out stages, and why) folded under it."""
+    height, width = result.image.shape[:2]
+    png = base64.b64encode(image_bytes(result.image)).decode("ascii")
+    rows = [("frame", f"{1000 * result.timings.get('frame', 0.0):.1f} ms"),
+            ("in all", f"{1000 * sum(result.timings.values()):.1f} ms ("
+             + ", ".join(f"{k} {1000 * v:.1f}" for k, v in result.timings.items()) + ")"),
+            ("rays", f"{result.rays:,} ({result.rays_per_second / 1e6:.1f} M/s)"),
+            ("triangles", f"{result.triangles:,}")]
+    errors = getattr(result, "errors", None)  # an accuracy.measured result also carries its errors
+    if errors is not None:
+        rows.append(("error", f"RMSE {errors.rmse:.4g}, max {errors.max_error:.4g}, highlight loss "
+                              f"{errors.highlight_loss:.1%} ({errors.reference})"))
+    table = "".join(f"<tr><th style='text-align:left'>{html.escape(k)}</th><td style='text-align:left'>"
+                    f"{html.escape(v)}</td></tr>" for k, v in rows)
+    stages = "".join(f"<tr><td style='text-align:left'>{'kept' if s.kept else 'left out'}</td>"
+                     f"<td style='text-align:left'>{html.escape(s.name)}</td>"
+                     f"<td style='text-align:left'>{html.escape(s.reason)}</td></tr>" for s in result.plan.stages)
+    warnings = "".join(f"<li>{html.escape(w)}</li>" for w in result.plan.warnings)
+    left_out = sum(not s.kept for s in result.plan.stages)
+    caption = f"<b>{html.escape(title)}</b><br>" if title else ""
+    return (f"<figure style='display:inline-block;margin:0 1em 1em 0;vertical-align:top'>"
+            f"<img src='data:image/png;base64,{png}' width='{width}' height='{height}' alt='{html.escape(title)}'>"
+            f"<figcaption style='font-size:smaller'>{caption}<table>{table}</table>"
+            f"<details><summary>plan: {len(result.plan.stages) - left_out} stages kept, {left_out} left out"
+            f"</summary><table>{stages}</table></details>"
+            + (f"<ul>{warnings}</ul>" if warnings else "") + "</figcaption></figure>")
+
+
+@dataclass
+class Figures:
+    """Renders shown side by side in a cell (Jupyter calls _repr_html_); `results` keeps them for code."""
+    results: list[RenderResult]
+    titles: list[str] = field(default_factory=list)
+
+    def _repr_html_(self) -> str:
+        titles = self.titles or [""] * len(self.results)
+        return ("<div style='display:flex;flex-wrap:wrap;align-items:flex-start'>"
+                + "".join(figure_html(r, t) for r, t in zip(self.results, titles)) + "</div>")
+
+    def __getitem__(self, index: int) -> RenderResult:
+        return self.results[index]
+
+
+def shaded(scene: Scene, model: ShadingModel) -> Scene:
+    """The scene with every object in `model`: render.shading and each object's own `shading` (an object's
+    own choice wins over render.shading, and the default figure gives each sphere its own)."""
+    objects = type(scene.objects)(obj.model_copy(update={"shading": model}) for obj in scene.objects)
+    return scene.model_copy(update={"render": scene.render.model_copy(update={"shading": model}),
+                                    "objects": objects})
+
+
+def show(what: RenderResult | Iterable[RenderResult] | Scene | str | Path | None = None,
+         models: Sequence[str] = MODELS, overrides: Sequence[str] = ()) -> Figures:
+    """Show renders in a notebook cell, side by side.
+
+    Parameters
+    ----------
+    what: a RenderResult or several (shown as they are); or a Scene, a scene or mesh file, or None for the
+        default scene, rendered once per shading model in `models` (flat, Gouraud and Phong by default).
+    overrides: `key.path=value` settings for a scene file, as `render --set` takes them
+        (e.g. "render.width=320").
+
+    Returns
+    -------
+    Figures: shown by Jupyter as the images with their timings; `.results` holds the RenderResults.
+    """
+    if isinstance(what, RenderResult):
+        return Figures([what])
+    if isinstance(what, Iterable) and not isinstance(what, (str, Path, Scene)):
+        return Figures(list(what))
+    source = "<scene>"
+    if isinstance(what, Scene):
+        scene = what
+    else:
+        path = Path(what) if what is not None else rp.default_scene_path()
+        scene, source = rp.load_scene(path, list(overrides)), str(path)
+    chosen = [ShadingModel(m) for m in models]
+    results = [rp.render(shaded(scene, model), source=source) for model in chosen]
+    return Figures(results, [MODEL_NAMES[m] for m in chosen])
+
+
+@dataclass
+class Live:
+    """A running `raycast-phong view` server framed in a cell; stop() ends it (the kernel's exit does too)."""
+    url: str
+    height: int
+    _server: object = None
+
+    def _repr_html_(self) -> str:
+        return (f"<iframe src='{html.escape(self.url)}' width='100%' height='{self.height}' "
+                "style='border:1px solid #888'></iframe>")
+
+    def stop(self) -> None:
+        if self._server is not None:
+            self._server.__exit__(None, None, None)
+            self._server = None
+
+
+def live(scene: str | Path | None = None, height: int = 760, port: int = 0) -> Live:
+    """Start the live view of a scene or mesh file (None: the default scene) on a free loopback port and
+    frame its page in the cell; the page's URL (with its token) is `.url`. Needs the [view] extra."""
+    from raycast_phong.tools.view import running
+    server = running(scene, port=port)
+    url = server.__enter__()
+    return Live(url, height, server)
