@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 
 import raycast_phong as rp
+from raycast_phong.io.encoding import to_8bit
 from raycast_phong.records import RenderResult
-from raycast_phong.renderer.film import to_8bit
 from raycast_phong.scene.schema import Scene, ShadingModel
 
 MODELS = (ShadingModel.FLAT, ShadingModel.GOURAUD, ShadingModel.PHONG)

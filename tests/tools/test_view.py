@@ -446,7 +446,7 @@ def test_a_saved_scene_file_loads_back_as_the_settings_that_make_it(scene_path):
             reply = json.loads(ws.receive_text())
             assert reply["type"] == "error" and says in reply["message"] and "\n" not in reply["message"], reply
     # A view of a mesh file: the saved file names it by its absolute path, which is the same file; another is not.
-    mesh = Path(__file__).resolve().parent.parent / "scenes" / "meshes" / "torus_knot.ply"
+    mesh = Path(__file__).resolve().parents[2] / "scenes" / "meshes" / "torus_knot.ply"
     source = open_source(mesh)
     text = scene_toml(scene_with(source, {"render.shading": "flat"}))
     assert settings_from(source, text, "knot.toml") == {"render.shading": "flat"}

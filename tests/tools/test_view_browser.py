@@ -521,7 +521,7 @@ def test_the_browser_benchmark_runs_in_a_reduced_form():
     """bench_view.py --browser is not a timed test; this keeps it working (one step a size, short drags)."""
     import subprocess
     import sys
-    root = Path(__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parents[2]
     done = subprocess.run([sys.executable, str(root / "benchmarks" / "bench_view.py"), "--browser", "--steps", "1",
                            "--seconds", "0.6", "--rate", "20"], capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr

@@ -13,7 +13,7 @@ import pytest
 from conftest import write_tiny_scene
 
 import raycast_phong as rp
-from raycast_phong.renderer.film import to_8bit
+from raycast_phong.io.encoding import to_8bit
 
 ROOT = Path(__file__).resolve().parents[2]
 
