@@ -354,3 +354,13 @@ def test_an_mtl_material_name_keeps_its_spaces(tmp_path):
     materials = parse_mtl("newmtl red paint\nKd 1 0 0\nnewmtl red glaze\nKd 0 1 0\n", tmp_path / "m.mtl", notes)
     assert sorted(materials) == ["red glaze", "red paint"]
     assert materials["red paint"].kd == (1.0, 0.0, 0.0) and materials["red glaze"].kd == (0.0, 1.0, 0.0)
+
+
+@pytest.mark.parametrize(("up", "axis"), [("x", 0), ("y", 1), ("z", 2), ("-z", 2)])
+def test_the_up_option_is_the_camera_up_and_the_front_view_looks_across_it(tmp_path, up, axis):
+    trimesh.creation.box().export(tmp_path / "box.obj")
+    camera = rp.load_scene(tmp_path / "box.obj", up=up, view="front").camera
+    expected = np.zeros(3)
+    expected[axis] = -1.0 if up.startswith("-") else 1.0
+    np.testing.assert_array_equal(camera.up, expected)
+    assert abs(np.subtract(camera.position, camera.look_at)[axis]) < 1e-9  # the eye is level with the centre
