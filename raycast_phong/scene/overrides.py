@@ -8,10 +8,14 @@ and the live view.
 from __future__ import annotations
 
 import tomllib
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from ..codes import ShadingModel
 from ..errors import SceneError
 from .messages import dotted, shown
+
+if TYPE_CHECKING:
+    from .schema import Scene
 
 
 def apply_override(data: dict, assignment: str, source: str = "--set", option: str = "--set") -> None:
@@ -52,3 +56,12 @@ def apply_override(data: dict, assignment: str, source: str = "--set", option: s
             node = node.setdefault(part, [] if parts[depth + 1].isdigit() else {})
         else:
             node = node[index]
+
+
+def shaded(scene: Scene, model: ShadingModel) -> Scene:
+    """The scene with every object in `model`: render.shading and each object's own `shading` (an object's
+    own choice wins over render.shading, and the default figure gives each sphere its own). The lecture's
+    flat | Gouraud | Phong figure renders these (notebooks' show(), the view's three-model page)."""
+    objects = type(scene.objects)(obj.model_copy(update={"shading": model}) for obj in scene.objects)
+    return scene.model_copy(update={"render": scene.render.model_copy(update={"shading": model}),
+                                    "objects": objects})

@@ -1,7 +1,8 @@
 """Jupyter: a render shown in a cell, flat / Gouraud / Phong side by side, and the live view in a cell.
 
+    # docs: skip (a notebook's cells: live() starts a server)
     import raycast_phong as rp
-    rp.render(scene)                      # a RenderResult shows itself: the image, then timings and plan
+    rp.render(rp.load_scene("scenes/default.toml"))  # a RenderResult shows itself: image, timings, plan
     rp.show("scenes/default.toml")        # flat | Gouraud | Phong, the lecture's figure
     live("scenes/default.toml")           # the `raycast-phong view` page, framed in the cell
 
@@ -13,54 +14,18 @@ from __future__ import annotations
 
 import base64
 import html
-import struct
-import tempfile
-import zlib
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-
 import raycast_phong as rp
-from raycast_phong.io.encoding import to_8bit
+from raycast_phong.io.image_io import image_bytes
 from raycast_phong.records import RenderResult
+from raycast_phong.scene.overrides import shaded
 from raycast_phong.scene.schema import Scene, ShadingModel
 
-MODELS = (ShadingModel.FLAT, ShadingModel.GOURAUD, ShadingModel.PHONG)
+MODELS = tuple(ShadingModel)  # flat, Gouraud, Phong: the lecture's order
 MODEL_NAMES = {ShadingModel.FLAT: "flat", ShadingModel.GOURAUD: "Gouraud", ShadingModel.PHONG: "Phong"}
-
-
-def png_bytes(image: np.ndarray) -> bytes:
-    """An (H, W, 3) image as a PNG in memory, with the 8-bit values `raycast-phong render -o x.png` stores
-    (film.to_8bit: clamped, rounded). Written here, not by OpenImageIO, which writes only files: its route
-    (a scratch file, fsynced, read back) took 45 ms of a 640×360 frame and 240 ms of a 1280×720 one, this
-    takes the to_8bit pass and a zlib pass at level 1 (speed over size: the bytes cross a local socket).
-
-    PNG: signature, IHDR (8-bit RGB), one IDAT of zlib rows each led by filter 0, IEND (RFC 2083).
-    """
-    rgb8 = to_8bit(image)
-    height, width = rgb8.shape[:2]
-    rows = np.zeros((height, 1 + 3 * width), np.uint8)  # column 0: each row's filter type, 0 = none
-    rows[:, 1:] = rgb8.reshape(height, 3 * width)
-
-    def chunk(kind: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
-    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)  # depth 8, colour type 2 (RGB), no interlace
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(rows.tobytes(), 1))
-            + chunk(b"IEND", b""))
-
-
-def image_bytes(image, suffix: str = ".png", aovs: dict | None = None) -> bytes:
-    """An image as a file's bytes: a PNG with the pixels `raycast-phong render -o x.png` stores (png_bytes),
-    or the EXR it would write, layers and all (image_io writes only files: a scratch folder, removed at once).
-    The view's frames and saves use it too."""
-    if suffix == ".png" and not aovs:
-        return png_bytes(image)
-    with tempfile.TemporaryDirectory(prefix="raycast-phong-image-") as folder:
-        path = Path(folder) / f"image{suffix}"
-        rp.write_image(path, image, aovs)
-        return path.read_bytes()
 
 
 def figure_html(result: RenderResult, title: str = "") -> str:
@@ -106,14 +71,6 @@ class Figures:
 
     def __getitem__(self, index: int) -> RenderResult:
         return self.results[index]
-
-
-def shaded(scene: Scene, model: ShadingModel) -> Scene:
-    """The scene with every object in `model`: render.shading and each object's own `shading` (an object's
-    own choice wins over render.shading, and the default figure gives each sphere its own)."""
-    objects = type(scene.objects)(obj.model_copy(update={"shading": model}) for obj in scene.objects)
-    return scene.model_copy(update={"render": scene.render.model_copy(update={"shading": model}),
-                                    "objects": objects})
 
 
 def show(what: RenderResult | Iterable[RenderResult] | Scene | str | Path | None = None,

@@ -84,7 +84,7 @@ def test_the_tutorial_runs_from_top_to_bottom():
 def test_png_bytes_hold_the_8bit_values_render_stores(tmp_path):
     """The view's frames are encoded in memory: out-of-range, odd-sized and 1×1 images decode (OpenImageIO) to
     film.to_8bit's values, what `render -o x.png` stores."""
-    from raycast_phong.tools.notebook import png_bytes
+    from raycast_phong.io.image_io import png_bytes
     rng = np.random.default_rng(7)
     for shape in [(1, 1, 3), (3, 5, 3), (37, 61, 3)]:
         image = rng.uniform(-0.5, 1.5, shape).astype(np.float32)

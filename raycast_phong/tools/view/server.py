@@ -40,10 +40,11 @@ from starlette.staticfiles import StaticFiles
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
 import raycast_phong as rp
+from raycast_phong.codes import ShadingModel
 from raycast_phong.errors import SceneError, ViewError
+from raycast_phong.io.image_io import image_bytes
 from raycast_phong.scene.load import read_scene_dict
 from raycast_phong.scene.overrides import apply_override
-from raycast_phong.tools.notebook import image_bytes
 from raycast_phong.tools.sweep import scene_toml, toml_value
 
 STATIC = Path(__file__).parent / "static"
@@ -250,8 +251,8 @@ class Renderer:
         scenes = {"a": scene_with(self.source, settings)}
         if request.get("models"):
             # The lecture's figure: A in flat, Gouraud and Phong shading, as panels a, b and c.
-            from raycast_phong.tools.notebook import MODELS, shaded
-            scenes = dict(zip("abc", (shaded(scenes["a"], model) for model in MODELS)))
+            from raycast_phong.scene.overrides import shaded
+            scenes = dict(zip("abc", (shaded(scenes["a"], model) for model in ShadingModel)))
         elif request.get("compare") is not None:
             scenes["b"] = scene_with(self.source, settings_of(request, "compare"))
         shaped = draft_of if quality == "draft" else frame_of
