@@ -115,7 +115,7 @@ class RenderResult:
     plan: RenderPlan
     triangles: int
     rays: int
-    counts: dict[str, int] = field(default_factory=dict)  # term evaluations done by the shading kernel
+    counts: dict[str, int] = field(default_factory=dict)  # the kernel's term evaluations, and shadow_rays cast
 
     @property
     def rays_per_second(self) -> float:

@@ -39,17 +39,15 @@ def tile_kernel() -> str:
     return "render_band"
 
 
-def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bool = True) -> None:
-    """Load (or compile) the tile kernel (tile.render_band, which holds global mode's shadow rays too, so
-    `shadows` changes nothing) in the `reals` precisions, without starting Embree: called on no rows, it
-    reaches Embree only per chunk of rows.
+def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64)) -> None:
+    """Load (or compile) the tile kernel (tile.render_band, which holds global mode's shadow rays too) in the
+    `reals` precisions, without starting Embree: called on no rows, it reaches Embree only per chunk of rows.
 
     A process that forks workers afterwards hands them ready kernels (batch.py): each would otherwise
     spend ~0.15 s loading them from numba's cache, most of it numba's one-time set-up on a process's
     first dispatch. The kernel is typed by its arguments, so it is called on a prepared 2×2 scene.
     """
     from ..scene.schema import validate_scene
-    del shadows
     embree.library()  # binds the names the kernel links against (EmbreeError if it cannot be loaded)
     for real in reals:
         precision = "float64" if real == np.float64 else "float32"

@@ -398,9 +398,9 @@ def test_the_server_prepares_every_kernel_the_page_can_ask_for_and_says_so(scene
     from raycast_phong.renderer import frame
     from raycast_phong.tools.view import server
     warmed = []
-    monkeypatch.setattr(frame, "warm_kernels", lambda reals, shadows: warmed.append((set(reals), shadows)))
+    monkeypatch.setattr(frame, "warm_kernels", lambda reals: warmed.append(set(reals)))
     server.warm(open_source(scene_path))
-    assert warmed == [({np.float32, np.float64}, True)]  # both precisions, and global mode's shadow rays
+    assert warmed == [{np.float32, np.float64}]  # both precisions (the tile kernel holds global mode's shadow rays)
     release = threading.Event()
     monkeypatch.setattr(server, "warm", lambda source: release.wait(60))
     client = client_for(scene_path)

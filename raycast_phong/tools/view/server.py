@@ -530,7 +530,7 @@ def lowest_priority() -> None:
 def warm(source: Source) -> None:
     """warm_kernels for both precisions with shadows, then one draft frame (geometry, BVH and the PNG path)."""
     from raycast_phong.renderer.frame import warm_kernels
-    warm_kernels((np.float32, np.float64), shadows=True)
+    warm_kernels((np.float32, np.float64))
     rp.render(draft_of(scene_with(source, {})), source=source.name)
 
 
