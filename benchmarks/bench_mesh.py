@@ -6,14 +6,16 @@ beast-2m) in each format (binary PLY, binary STL, GLB, OBJ), a fresh subprocess 
   geometry    build_geometry of a scene holding the file: read (io/mesh_file.py), merge repeated points,
               winding check (and repair), placing, face and corner normals — load + geometry
   read        geometry.object_mesh alone (read, checks, merge): the part of `geometry` that is reading
-  peak        VmHWM during one build_geometry above the process's VmRSS after imports and a warm-up on
-              the same file (the high-water mark reset through /proc/self/clear_refs), bytes per triangle
+  peak        VmHWM during one build_geometry above the process's VmRSS after imports and a warm-up render
+              of the same file (the high-water mark reset through /proc/self/clear_refs), bytes per triangle
+  render peak the same during a whole render() at --size² pixels (geometry, BVH, frame; 0: skipped)
 Times are wall seconds, the minimum of --repeats (the first call of a kernel loads it from numba's cache;
 the warm-up pays that). On a virtual machine the first touch of memory the guest has handed back to the
 host costs ~5 ms/MB (measured here), so a single cold run mostly measures allocation; the minimum measures the work.
 --torus N adds the synthetic bumpy torus of N triangles (binary PLY) of the earlier rounds.
 Every line carries the CPU (model and its widest SIMD). Targets: geometry/trimesh ≤ 3, peak ≤ 300 B/triangle.
 Usage: python benchmarks/bench_mesh.py [--scan bunny-1m bunny-4m] [--formats ply stl glb obj] [--repeats 3]
+       [--size 1000] [--torus 1000000 ...]
 """
 
 from __future__ import annotations
@@ -81,9 +83,9 @@ def vm(field: str) -> int:
     raise KeyError(field)
 
 
-def scene_for(path: Path) -> dict:
+def scene_for(path: Path, size: int) -> dict:
     return {
-        "render": {"width": 64, "height": 64, "shading": "phong"},
+        "render": {"width": size, "height": size, "shading": "phong"},
         "camera": {"position": [0, -4, 3], "look_at": [0, 0, 0], "up": [0, 0, 1], "fov": 40},
         "lights": [{"type": "point", "position": [3, -3, 5]}],
         "objects": [{"shape": "mesh", "path": str(path)}],
@@ -100,22 +102,25 @@ def best(step, repeats: int) -> float:
     return min(times)
 
 
-def measure(path: Path, repeats: int) -> dict:
-    """One file in this (fresh) process: the peak first (after a warm-up), then the times."""
+def measure(path: Path, repeats: int, size: int) -> dict:
+    """One file in this (fresh) process: the peaks first (after a warm-up), then the times."""
     import trimesh
 
     import raycast_phong as rp
     from raycast_phong.geometry.build import build_geometry, object_mesh
 
-    scene = rp.validate_scene(scene_for(path), source=str(path))
-    geometry = build_geometry(scene, str(path))  # warm-up: kernels loaded, trimesh's lazy imports done
-    triangles = len(geometry.faces)
-    del geometry
+    scene = rp.validate_scene(scene_for(path, 8), source=str(path))
+    triangles = rp.render(scene).triangles  # warm-up: kernels loaded, trimesh's lazy imports done
     baseline = vm("VmRSS")
     Path("/proc/self/clear_refs").write_text("5")  # VmHWM := VmRSS now
     geometry = build_geometry(scene, str(path))
     found = {"file": path.name, "triangles": triangles, "peak_bytes_per_triangle": (vm("VmHWM") - baseline) / triangles}
     del geometry
+    if size:
+        baseline = vm("VmRSS")
+        Path("/proc/self/clear_refs").write_text("5")
+        rp.render(rp.validate_scene(scene_for(path, size), source=str(path)))
+        found["render_peak_bytes_per_triangle"] = (vm("VmHWM") - baseline) / triangles
     found["trimesh"] = best(lambda: trimesh.load(str(path), process=False), repeats)
     found["geometry"] = best(lambda: build_geometry(scene, str(path)), repeats)
     found["read"] = best(lambda: object_mesh(scene, scene.objects[0], 0, str(path)), repeats)
@@ -128,10 +133,11 @@ def main() -> None:
     parser.add_argument("--formats", nargs="+", default=["ply", "stl", "glb", "obj"])
     parser.add_argument("--torus", type=int, nargs="*", default=[])
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--size", type=int, default=1000, help="pixels a side of the render-peak render; 0: none")
     parser.add_argument("--one", help=argparse.SUPPRESS)  # internal: measure this file in this process
     args = parser.parse_args()
     if args.one:
-        print(json.dumps(measure(Path(args.one), args.repeats)))
+        print(json.dumps(measure(Path(args.one), args.repeats, args.size)))
         return
     from make_scans import scan  # this script's folder is on sys.path
 
@@ -144,7 +150,8 @@ def main() -> None:
             write_torus(files[-1], count)
         met = True
         for path in files:
-            out = subprocess.run([sys.executable, __file__, "--one", str(path), "--repeats", str(args.repeats)],
+            out = subprocess.run([sys.executable, __file__, "--one", str(path), "--repeats", str(args.repeats),
+                                  "--size", str(args.size)],
                                  capture_output=True, text=True)
             if out.returncode:
                 print(f"{path.name}: failed: {out.stderr.strip().splitlines()[-1:]}", flush=True)
@@ -155,7 +162,8 @@ def main() -> None:
             met &= ratio <= TARGET_RATIO and row["peak_bytes_per_triangle"] <= TARGET_PEAK
             print(f"{row['file']:>16} {row['triangles']:>10,} triangles: trimesh {row['trimesh']:.3f} s, "
                   f"geometry {row['geometry']:.3f} s (read {row['read']:.3f} s), geometry/trimesh {ratio:.2f}, "
-                  f"peak {row['peak_bytes_per_triangle']:.0f} B/triangle  [{where}]", flush=True)
+                  f"peak {row['peak_bytes_per_triangle']:.0f} B/triangle (render "
+                  f"{row.get('render_peak_bytes_per_triangle', math.nan):.0f})  [{where}]", flush=True)
     print("targets met" if met else "targets NOT met")
 
 
