@@ -217,15 +217,14 @@ def signed_volume(vertices, faces, centre):
 
 
 @kernel()
-def merge_rows(rows, used, table):
-    """Rows (N, C) float64 equal value by value (−0 = +0) merged, in row order: (new_of_old (N,) int64, −1 for a row
-    not `used`; first (K,) int64, the first used row of each distinct value, numbered in the order first seen).
-    `table`: the caller's, −1 everywhere, a power of two at least twice the used rows (int32 when N < 2^31):
-    an open-addressing hash table (linear probing) of splitmix64 over each row's bits."""
+def merge_rows(rows, used, table, new_of_old, first):
+    """Rows (N, C) float64 equal value by value (−0 = +0) merged, in row order. Fills new_of_old (N,) (−1 for a row
+    not `used`) and first[:K], the first used row of each distinct value, numbered in the order first seen, and
+    returns K. `table`: −1 everywhere, a power of two at least twice the used rows: an open-addressing hash table
+    (linear probing) of splitmix64 over each row's bits. The caller's arrays: int32 when N < 2^31."""
     n, width = rows.shape
     mask = np.uint64(table.shape[0] - 1)
-    new_of_old = np.full(n, -1, np.int64)
-    first = np.empty(n, np.int64)
+    new_of_old[:] = -1
     count = 0
     bits = rows.view(np.uint64)
     for i in range(n):
@@ -257,7 +256,7 @@ def merge_rows(rows, used, table):
                 new_of_old[i] = new_of_old[j]
                 break
             slot = (slot + np.uint64(1)) & mask
-    return new_of_old, first[:count]
+    return count
 
 
 @kernel()

@@ -98,8 +98,9 @@ def merge_duplicate_vertices(vertices: np.ndarray, faces: np.ndarray,
     if normals is not None and not np.isfinite(rows[used]).all():
         return _merge_sorted(vertices, faces, normals, used)
     size = 1 << max(1, int(np.count_nonzero(used)) * 2 - 1).bit_length()  # a power of two ≥ 2 × the used rows
-    table = np.full(size, -1, np.int32 if len(rows) < 1 << 31 else np.int64)
-    new_of_old, first = merge_rows(np.ascontiguousarray(rows, np.float64), used, table)
+    kind = np.int32 if len(rows) < 1 << 31 else np.int64
+    table, new_of_old, first = np.full(size, -1, kind), np.empty(len(rows), kind), np.empty(len(rows), kind)
+    first = first[:merge_rows(np.ascontiguousarray(rows, np.float64), used, table, new_of_old, first)]
     del table
     if len(first) == len(vertices):
         return vertices, faces  # nothing to merge or drop: no copies
