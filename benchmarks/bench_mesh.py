@@ -1,19 +1,21 @@
-"""Mesh preparation at millions of triangles (issue 11's Scale targets), as ratios measured in one run.
+"""Mesh preparation on real scans, against trimesh's raw load of the same file (issue 22), in one run.
 
-For each size a binary PLY (or an OBJ) is written by `write_surface` (a closed, bumpy torus of n × m vertices:
-F = 2 n m triangles on V = F / 2 vertices, each vertex shared by 6 faces, like a scanned surface) into a
-temporary folder, and a fresh subprocess per size measures, in CPU seconds of its own thread
-(time.thread_time, min of --repeats; other programs on the machine barely move it):
-  trimesh   trimesh.load(..., process=False) of the file: the reference the targets are ratios of
-  load      geometry.object_mesh: read, check, merge duplicate vertices (what process() did)
-  prepare   the rest of build_geometry: winding check, placing, face and corner normals
-  BVH       Accelerator(geometry) (wall seconds: Embree builds on every core)
-  frame     the whole render() at --size² pixels minus geometry and BVH (wall seconds)
-  peak      VmHWM during the whole render above the process's VmRSS after imports and a warm-up render
-            (the high-water mark is reset through /proc/self/clear_refs), bytes per triangle
-Then it fits log(seconds) against log(triangles) per stage: a slope of 1 is linear.
-Usage: python benchmarks/bench_mesh.py [--triangles 100000 1000000 2000000] [--size 1000] [--crease 30]
-       [--format ply|obj] [--repeats 2]
+For each scan of make_scans.py (public scans subdivided to millions of triangles: bunny-1m, bunny-4m,
+beast-2m) in each format (binary PLY, binary STL, GLB, OBJ), a fresh subprocess measures:
+  trimesh     trimesh.load(path, process=False): the raw parse, the reference of the ratio
+  geometry    build_geometry of a scene holding the file: read (io/mesh_file.py), merge repeated points,
+              winding check (and repair), placing, face and corner normals — load + geometry
+  read        geometry.object_mesh alone (read, checks, merge): the part of `geometry` that is reading
+  peak        VmHWM during one build_geometry above the process's VmRSS after imports and a warm-up render
+              of the same file (the high-water mark reset through /proc/self/clear_refs), bytes per triangle
+  render peak the same during a whole render() at --size² pixels (geometry, BVH, frame; 0: skipped)
+Times are wall seconds, the minimum of --repeats (the first call of a kernel loads it from numba's cache;
+the warm-up pays that). On a virtual machine the first touch of memory the guest has handed back to the
+host costs ~5 ms/MB (measured here), so a single cold run mostly measures allocation; the minimum measures the work.
+--torus N adds the synthetic bumpy torus of N triangles (binary PLY) of the earlier rounds.
+Every line carries the CPU (model and its widest SIMD). Targets: geometry/trimesh ≤ 3, peak ≤ 300 B/triangle.
+Usage: python benchmarks/bench_mesh.py [--scan bunny-1m bunny-4m] [--formats ply stl glb obj] [--repeats 3]
+       [--size 1000] [--torus 1000000 ...]
 """
 
 from __future__ import annotations
@@ -29,16 +31,22 @@ from pathlib import Path
 
 import numpy as np
 
-STAGES = ("trimesh", "load", "prepare", "BVH", "frame")
+TARGET_RATIO, TARGET_PEAK = 3.0, 300.0
 
 
-def write_surface(path: Path, triangles: int) -> int:
-    """A closed bumpy torus with about `triangles` faces as a binary little-endian PLY, or as an OBJ if
-    `path` ends in .obj; returns the count.
+def cpu() -> str:
+    """The CPU model and the widest vector ISA it reports (what Embree and LLVM can pick), e.g. "AMD EPYC, AVX-512"."""
+    text = Path("/proc/cpuinfo").read_text() if Path("/proc/cpuinfo").exists() else ""
+    model = next((line.split(":", 1)[1].strip() for line in text.splitlines() if line.startswith("model name")), "?")
+    flags = next((set(line.split(":", 1)[1].split()) for line in text.splitlines() if line.startswith("flags")), set())
+    isa = ("AVX-512" if "avx512f" in flags else "AVX2" if "avx2" in flags else "AVX" if "avx" in flags
+           else "SSE4.2" if "sse4_2" in flags else "?")
+    return f"{model}, {isa}, {len([ln for ln in text.splitlines() if ln.startswith('processor')])} cores"
 
-    n × m grid on the torus (n ≈ 2m), quads split in two: V = n m, F = 2 n m. The radius wobbles
-    (3 × 5 bumps) so neighbouring normals differ and a crease angle has edges to split.
-    """
+
+def write_torus(path: Path, triangles: int) -> int:
+    """A closed bumpy torus of about `triangles` faces as a binary little-endian PLY; returns the count.
+    n × m grid, quads split in two (V = n m, F = 2 n m); the radius wobbles so neighbouring normals differ."""
     m = max(3, round(math.sqrt(triangles / 4)))
     n = max(3, round(triangles / (2 * m)))
     u, v = np.meshgrid(np.linspace(0, 2 * np.pi, n, endpoint=False),
@@ -57,11 +65,6 @@ def write_surface(path: Path, triangles: int) -> int:
     faces["count"] = 3
     faces["corners"][0::2] = np.column_stack([a, b, c])  # counter-clockwise seen from outside: outward
     faces["corners"][1::2] = np.column_stack([a, c, d])
-    if path.suffix == ".obj":
-        with open(path, "w") as out:
-            np.savetxt(out, vertices, fmt="v %.7g %.7g %.7g")
-            np.savetxt(out, faces["corners"] + 1, fmt="f %d %d %d")
-        return len(faces)
     header = ("ply\nformat binary_little_endian 1.0\n"
               f"element vertex {len(vertices)}\nproperty float x\nproperty float y\nproperty float z\n"
               f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n")
@@ -80,90 +83,88 @@ def vm(field: str) -> int:
     raise KeyError(field)
 
 
-def scene_for(path: Path, size: int, crease: float) -> dict:
+def scene_for(path: Path, size: int) -> dict:
     return {
         "render": {"width": size, "height": size, "shading": "phong"},
         "camera": {"position": [0, -4, 3], "look_at": [0, 0, 0], "up": [0, 0, 1], "fov": 40},
         "lights": [{"type": "point", "position": [3, -3, 5]}],
-        "materials": {"m": {"ka": 0.2, "kd": 0.7, "ks": 0.4, "shininess": 32}},
-        "objects": [{"shape": "mesh", "path": str(path), "material": "m", "crease_angle": crease}],
+        "objects": [{"shape": "mesh", "path": str(path)}],
     }
 
 
-def measure(path: Path, size: int, crease: float, repeats: int) -> dict:
-    """One size in this (fresh) process: the peak first, then the CPU times."""
+def best(step, repeats: int) -> float:
+    """The least wall time of `repeats` calls of step() (its result dropped before the next)."""
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        step()
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
+def measure(path: Path, repeats: int, size: int) -> dict:
+    """One file in this (fresh) process: the peaks first (after a warm-up), then the times."""
     import trimesh
 
     import raycast_phong as rp
     from raycast_phong.geometry.build import build_geometry, object_mesh
-    from raycast_phong.renderer.intersect import Accelerator
 
-    scene = rp.validate_scene(scene_for(path, size, crease), source=str(path))
-    rp.render(rp.validate_scene(scene_for(path, 8, crease), source="warm-up"))  # kernels compiled and loaded
+    scene = rp.validate_scene(scene_for(path, 8), source=str(path))
+    triangles = rp.render(scene).triangles  # warm-up: kernels loaded, trimesh's lazy imports done
     baseline = vm("VmRSS")
     Path("/proc/self/clear_refs").write_text("5")  # VmHWM := VmRSS now
-    start = time.perf_counter()
-    result = rp.render(scene)
-    total = time.perf_counter() - start
-    peak = vm("VmHWM") - baseline
-    found = {"triangles": result.triangles, "peak_bytes_per_triangle": peak / result.triangles,
-             "BVH": result.timings["build"],
-             "frame": total - result.timings["geometry"] - result.timings["build"]}
-    del result
-
-    from bench_geometry import best  # thread CPU seconds, min of `repeats` (this script's folder is on sys.path)
-
-    found["trimesh"] = best(lambda: trimesh.load(str(path), process=False), repeats)
-    found["load"] = best(lambda: object_mesh(scene, scene.objects[0], 0, str(path)), repeats)
-    found["load+prepare"] = best(lambda: build_geometry(scene, str(path)), repeats)
-    found["prepare"] = found["load+prepare"] - found["load"]
     geometry = build_geometry(scene, str(path))
-    found["BVH"] = min(found["BVH"], *(_wall(lambda: Accelerator(geometry)) for _ in range(repeats)))
+    found = {"file": path.name, "triangles": triangles, "peak_bytes_per_triangle": (vm("VmHWM") - baseline) / triangles}
+    del geometry
+    if size:
+        baseline = vm("VmRSS")
+        Path("/proc/self/clear_refs").write_text("5")
+        rp.render(rp.validate_scene(scene_for(path, size), source=str(path)))
+        found["render_peak_bytes_per_triangle"] = (vm("VmHWM") - baseline) / triangles
+    found["trimesh"] = best(lambda: trimesh.load(str(path), process=False), repeats)
+    found["geometry"] = best(lambda: build_geometry(scene, str(path)), repeats)
+    found["read"] = best(lambda: object_mesh(scene, scene.objects[0], 0, str(path)), repeats)
     return found
-
-
-def _wall(step) -> float:
-    start = time.perf_counter()
-    step()
-    return time.perf_counter() - start
-
-
-def slope(xs, ys) -> float:
-    """Least-squares slope of log y against log x."""
-    return float(np.polyfit(np.log(xs), np.log(ys), 1)[0])
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--triangles", type=int, nargs="+", default=[100_000, 1_000_000, 2_000_000])
-    parser.add_argument("--size", type=int, default=1000)
-    parser.add_argument("--crease", type=float, default=180.0)
-    parser.add_argument("--repeats", type=int, default=2)
-    parser.add_argument("--format", choices=["ply", "obj"], default="ply")
+    parser.add_argument("--scan", nargs="*", default=["bunny-1m", "bunny-4m"])
+    parser.add_argument("--formats", nargs="+", default=["ply", "stl", "glb", "obj"])
+    parser.add_argument("--torus", type=int, nargs="*", default=[])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--size", type=int, default=1000, help="pixels a side of the render-peak render; 0: none")
     parser.add_argument("--one", help=argparse.SUPPRESS)  # internal: measure this file in this process
     args = parser.parse_args()
     if args.one:
-        print(json.dumps(measure(Path(args.one), args.size, args.crease, args.repeats)))
+        print(json.dumps(measure(Path(args.one), args.repeats, args.size)))
         return
-    rows = []
+    from make_scans import scan  # this script's folder is on sys.path
+
+    where = cpu()
+    print(f"CPU: {where}; targets: geometry/trimesh ≤ {TARGET_RATIO:g}, peak ≤ {TARGET_PEAK:g} B/triangle", flush=True)
     with tempfile.TemporaryDirectory() as folder:
-        for count in args.triangles:
-            path = Path(folder) / f"surface-{count}.{args.format}"
-            write_surface(path, count)
-            out = subprocess.run([sys.executable, __file__, "--one", str(path), "--size", str(args.size),
-                                  "--crease", str(args.crease), "--repeats", str(args.repeats)],
-                                 capture_output=True, text=True, check=True)
-            rows.append(json.loads(out.stdout.splitlines()[-1]))
-            path.unlink()
-            row = rows[-1]
-            print(f"{row['triangles']:>10,} triangles: " + ", ".join(f"{s} {row[s]:.3f} s" for s in STAGES)
-                  + f"; (load+prepare)/trimesh {row['load+prepare'] / row['trimesh']:.2f}; peak "
-                  f"{row['peak_bytes_per_triangle']:.0f} B/triangle", flush=True)
-    if len(rows) > 1:
-        counts = [r["triangles"] for r in rows]
-        print("log-log slopes: " + ", ".join(f"{s} {slope(counts, [r[s] for r in rows]):.2f}"
-                                             for s in (*STAGES, "load+prepare"))
-              + f", peak {slope(counts, [r['peak_bytes_per_triangle'] * r['triangles'] for r in rows]):.2f}")
+        files = [scan(name, fmt) for name in args.scan for fmt in args.formats]
+        for count in args.torus:
+            files.append(Path(folder) / f"torus-{count}.ply")
+            write_torus(files[-1], count)
+        met = True
+        for path in files:
+            out = subprocess.run([sys.executable, __file__, "--one", str(path), "--repeats", str(args.repeats),
+                                  "--size", str(args.size)],
+                                 capture_output=True, text=True)
+            if out.returncode:
+                print(f"{path.name}: failed: {out.stderr.strip().splitlines()[-1:]}", flush=True)
+                met = False
+                continue
+            row = json.loads(out.stdout.splitlines()[-1])
+            ratio = row["geometry"] / row["trimesh"]
+            met &= ratio <= TARGET_RATIO and row["peak_bytes_per_triangle"] <= TARGET_PEAK
+            print(f"{row['file']:>16} {row['triangles']:>10,} triangles: trimesh {row['trimesh']:.3f} s, "
+                  f"geometry {row['geometry']:.3f} s (read {row['read']:.3f} s), geometry/trimesh {ratio:.2f}, "
+                  f"peak {row['peak_bytes_per_triangle']:.0f} B/triangle (render "
+                  f"{row.get('render_peak_bytes_per_triangle', math.nan):.0f})  [{where}]", flush=True)
+    print("targets met" if met else "targets NOT met")
 
 
 if __name__ == "__main__":

@@ -4,6 +4,7 @@ them in the world, and give them face and vertex normals (normals.py): one world
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import TYPE_CHECKING, NamedTuple
 
@@ -344,6 +345,8 @@ def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
     # Otherwise merge what the file repeats (the faces and their order stay, so the per-face materials line up).
     # The scene named a rule, so the file's normals neither shade nor keep its points apart.
     vertices, faces = merge_duplicate_vertices(read.vertices, read.faces)
+    # The merged arrays replace the file's: an STL's raw (3F, 3) points need not live through the normals.
+    read = dataclasses.replace(read, vertices=read.vertices[:0], faces=read.faces[:0])
     return ObjectMesh(vertices, faces, None, read)
 
 

@@ -1,13 +1,16 @@
 """Repair what a mesh file gets wrong for shading: points it repeats (merged) and faces wound inconsistently
-(made consistent, and outward when the mesh is closed). Vectorised numpy on the raw arrays, linear or
-n log n in the triangles (docs/performance.md, "Mesh files at millions of triangles").
+(made consistent, and outward when the mesh is closed). Compiled passes over the raw arrays (kernels.py),
+linear in the triangles (docs/performance.md, "Mesh files at millions of triangles").
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..records import bounding_box
+from .kernels import merge_rows, orient_pieces, renumber, signed_volume, winding_state
 from .normals import FACE_CHUNK, cross_rows
 
 
@@ -17,82 +20,46 @@ def repair_winding(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     Inconsistent winding makes face normals of neighbours cancel in the vertex-normal mean. Returns
     the faces, how many were flipped, and whether the mesh is closed (every edge in exactly two faces:
     then it is turned outward, by its signed volume). A consistent mesh, the common case, costs one
-    sort of its 3F half-edges (and a closed one its signed volume, taken over the whole mesh as trimesh's
-    fix_inversion did: a consistent mesh whose pieces disagree is left to its majority by volume); only an
-    inconsistent one pays for the face graph (`_orient_faces`), which also orients each piece by its own volume.
+    pass bucketing its 3F half-edges by vertex (kernels.winding_state; and a closed one its signed volume,
+    taken over the whole mesh as trimesh's fix_inversion did: a consistent mesh whose pieces disagree is left
+    to its majority by volume); only an inconsistent one pays for the face graph (kernels.orient_pieces: per
+    piece the side most faces have), and if closed each piece is then turned outward by its own volume.
     """
-    keys = _half_edge_keys(faces, len(vertices))
-    keys.sort()
-    # Closed: the sorted undirected edges come in pairs, each pair unlike its neighbours.
-    closed = (len(keys) % 2 == 0 and bool(((keys[0::2] >> 1) == (keys[1::2] >> 1)).all())
-              and not ((keys[1:-1:2] >> 1) == (keys[2::2] >> 1)).any())
-    # Consistent: no half-edge is traversed twice in the same direction (by two faces or a duplicate face).
-    if not (keys[1:] == keys[:-1]).any():
-        del keys
-        if closed and _signed_volumes(vertices, faces)[0] < 0:
+    kind = np.int32 if len(vertices) < 1 << 30 and 3 * len(faces) < 1 << 31 else np.int64
+    key, edge = np.empty(3 * len(faces), kind), np.empty(3 * len(faces), kind)
+    consistent, closed, start = winding_state(faces, len(vertices), key, edge)
+    if consistent:
+        del start, key, edge
+        if closed and _volume_sign(vertices, faces) < 0:
             return faces[:, ::-1], len(faces), True
         return faces, 0, closed
-    del keys
-    flip = _orient_faces(vertices, faces, closed)
+    flip, piece, orientable = orient_pieces(start, key, edge, len(faces))
+    del start, key, edge
+    if closed:  # each piece turned outward: the side of positive volume
+        sign = np.where(flip, -1.0, 1.0)
+        inward = _signed_volumes(vertices, faces, piece, 2 * len(faces), sign) < 0
+        flip ^= orientable & inward[piece]
+    flipped = int(flip.sum())
+    if not flipped:
+        return faces, 0, closed  # inconsistent only where no flip helps (a duplicate or non-manifold face)
     repaired = faces.copy()
     repaired[flip] = faces[flip, ::-1]
-    return repaired, int(flip.sum()), closed
+    return repaired, flipped, closed
 
 
-def _orient_faces(vertices: np.ndarray, faces: np.ndarray, closed: bool) -> np.ndarray:
-    """Which faces to flip (F,) bool so that every edge shared by exactly two faces is traversed in
-    opposite directions; per connected piece the orientation that flips fewer faces, or, if the mesh is
-    closed, the one with positive signed volume. A non-orientable piece (a Möbius strip) is left as it is.
+def _volume_sign(vertices: np.ndarray, faces: np.ndarray) -> float:
+    """The sign of _signed_volumes(vertices, faces)[0] (−1, 0 or 1), from one compiled pass.
 
-    Orientation is a two-colouring: face f as it is is node f, flipped node f + F; an edge whose two faces
-    agree joins (f, g) and (f + F, g + F), one where they disagree (f, g + F) and (f + F, g). The graph's
-    connected components (scipy.sparse.csgraph, linear) then give every face's orientation relative to
-    its piece at once; a piece whose f and f + F fall in one component cannot be oriented.
-    """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    count = len(faces)
-    keys = _half_edge_keys(faces, len(vertices))
-    order = np.argsort(keys, kind="stable")
-    keys, face = keys[order], order // 3
-    edge = keys >> 1
-    first = np.flatnonzero(np.r_[True, edge[1:] != edge[:-1]])
-    runs = np.diff(np.r_[first, len(edge)])
-    shared = first[runs == 2]  # manifold edges only: a third face makes orientation ambiguous there
-    f, g = face[shared], face[shared + 1]
-    agree = (keys[shared] & 1) != (keys[shared + 1] & 1)
-    rows = np.concatenate([f, f + count])
-    cols = np.concatenate([np.where(agree, g, g + count), np.where(agree, g + count, g)])
-    graph = coo_matrix((np.ones(len(rows), np.int8), (rows, cols)), shape=(2 * count, 2 * count))
-    _, label = connected_components(graph, directed=False)
-    as_is, flipped = label[:count], label[count:]
-    piece = np.minimum(as_is, flipped)  # one name per piece, whichever node carries it
-    orientable = as_is != flipped
-    # Keep the side of each piece that most faces already have; a closed mesh: the side of positive volume.
-    votes = np.bincount(piece, np.where(as_is == piece, 1.0, -1.0), minlength=2 * count)
-    flip = orientable & ((as_is == piece) != (votes[piece] >= 0))
-    if closed:
-        sign = np.where(flip, -1.0, 1.0)
-        inward = _signed_volumes(vertices, faces, piece, 2 * count, sign) < 0
-        flip ^= orientable & inward[piece]
-    return flip
-
-
-def _half_edge_keys(faces: np.ndarray, vertex_count: int) -> np.ndarray:
-    """(3F,) int64, one per half-edge (start → end) of face f's corner k at 3f + k: the undirected edge
-    (low · V + high), shifted left one bit for its direction (1 where start > end). Built in place: the
-    3F half-edges are the largest arrays of mesh preparation."""
-    start = np.ascontiguousarray(faces, np.int64).ravel()
-    end = np.roll(faces, -1, axis=1).astype(np.int64).ravel()
-    keys = np.minimum(start, end)
-    keys *= vertex_count
-    np.maximum(start, end, out=end)
-    keys += end
-    del end
-    keys <<= 1
-    keys += np.roll(faces, -1, axis=1).ravel() < start  # start > end
-    return keys
+    The pass adds in another order than numpy, so its sum may differ in the last bits, but both lie within
+    γ = (F + 5) u of the exact sum, relative to the sum of the absolute values of every product (`scale`:
+    five roundings in a term, F − 1 in the sum, u = 2^-53). Beyond twice that from 0 both have the exact sum's
+    sign; nearer (a closed mesh of almost no volume) the numpy sum decides, as before."""
+    low, high = bounding_box(vertices)
+    total, scale = signed_volume(vertices, faces, (low + high) / 2)
+    n = len(faces) + 5
+    if abs(total) > 2.0 * n * 2.0 ** -53 / (1 - n * 2.0 ** -53) * scale:
+        return math.copysign(1.0, total)
+    return float(np.sign(_signed_volumes(vertices, faces)[0]))
 
 
 def _signed_volumes(vertices: np.ndarray, faces: np.ndarray, piece: np.ndarray | None = None, pieces: int = 1,
@@ -121,14 +88,29 @@ def merge_duplicate_vertices(vertices: np.ndarray, faces: np.ndarray,
     and the surface shades faceted. As process(), vertices whose file normals (V, 3) differ (rounded to
     0.01) stay apart: a hard edge the file draws stays hard. Unlike process(): positions are compared
     exactly (−0 = +0), not rounded to trimesh's 1e-8 grid, and UV coordinates do not keep two vertices
-    apart (the renderer reads no textures: a texture seam is no edge of the surface). Rows are hashed
-    to one uint64 and the hashes sorted (V log V, numpy's vectorised sort); equal hashes are then
-    checked value by value.
+    apart (the renderer reads no textures: a texture seam is no edge of the surface). Rows go through a
+    hash table in file order (kernels.merge_rows, linear); a row that is not finite (a file normal of NaN)
+    is merged by hashing and sorting the rows (_merge_sorted), which compares them as numpy does.
     """
     used = np.zeros(len(vertices), bool)
     used[faces] = True
+    rows = vertices if normals is None else np.column_stack([vertices, np.round(normals * 100)])
+    if normals is not None and not np.isfinite(rows[used]).all():
+        return _merge_sorted(vertices, faces, normals, used)
+    size = 1 << max(1, int(np.count_nonzero(used)) * 2 - 1).bit_length()  # a power of two ≥ 2 × the used rows
+    kind = np.int32 if len(rows) < 1 << 31 else np.int64
+    table, new_of_old, first = np.full(size, -1, kind), np.empty(len(rows), kind), np.empty(len(rows), kind)
+    first = first[:merge_rows(np.ascontiguousarray(rows, np.float64), used, table, new_of_old, first)]
+    del table
+    if len(first) == len(vertices):
+        return vertices, faces  # nothing to merge or drop: no copies
+    return vertices[first], renumber(faces, new_of_old)
+
+
+def _merge_sorted(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray, used: np.ndarray):
+    """merge_duplicate_vertices by sorting row hashes (V log V); equal hashes are then checked value by value."""
     index = np.flatnonzero(used)
-    rows = vertices[index] if normals is None else np.column_stack([vertices[index], np.round(normals[index] * 100)])
+    rows = np.column_stack([vertices[index], np.round(normals[index] * 100)])
     rows += 0.0  # −0.0 + 0.0 is +0.0: the two zeros are one value
     key = _row_hashes(rows)
     order = np.argsort(key)
@@ -137,7 +119,7 @@ def merge_duplicate_vertices(vertices: np.ndarray, faces: np.ndarray,
     del key
     if starts.all():
         if len(index) == len(vertices):
-            return vertices, faces  # nothing to merge or drop: no copies
+            return vertices, faces
         first = np.arange(len(index))
     else:
         # The first row (in file order) of each run of equal keys stands for the run.

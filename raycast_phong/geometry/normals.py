@@ -12,20 +12,16 @@ import math
 import numpy as np
 
 from ..tolerances import NO_DIRECTION
+from .kernels import face_normals_into, gather_corners, normalise_sums, vertex_normal_sums
 
 FACE_CHUNK = 1 << 18  # faces per step of a per-face computation: ~25 MB of temporaries, whatever the mesh
 
 
 def face_normals(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unit face normals (F, 3) (zero for a degenerate face) and twice the areas (F,)."""
+    """Unit face normals (F, 3) (zero for a degenerate face) and twice the areas (F,): one compiled pass
+    over the faces (kernels.face_normals_into), no per-face temporaries."""
     unit, doubled_area = np.zeros((len(faces), 3)), np.empty(len(faces))
-    for at in range(0, len(faces), FACE_CHUNK):  # in chunks: the outputs are the only (F, ·) arrays
-        part = faces[at:at + FACE_CHUNK]
-        first = vertices[part[:, 0]]
-        cross = cross_rows(vertices[part[:, 1]] - first, vertices[part[:, 2]] - first)
-        area = np.sqrt(cross[:, 0] * cross[:, 0] + cross[:, 1] * cross[:, 1] + cross[:, 2] * cross[:, 2])
-        np.divide(cross, area[:, None], out=unit[at:at + FACE_CHUNK], where=area[:, None] > 0)
-        doubled_area[at:at + FACE_CHUNK] = area
+    face_normals_into(vertices, faces, unit, doubled_area)
     return unit, doubled_area
 
 
@@ -72,21 +68,19 @@ def compute_corner_normals(vertices: np.ndarray, faces: np.ndarray, weighting: s
         weights = corner_angles(vertices, faces)
     else:
         raise ValueError(f"unknown normal weighting {weighting!r}")
-    # w |n_f|: the length the sum would have if every normal agreed (|n_f| is 1, or 0 for a degenerate face).
-    length = np.linalg.norm(unit, axis=1)
-    reach = (np.repeat(length, 3) if weights is None else (weights * length[:, None]).ravel())
-    # Sum per vertex, in the corners' order (the order of the additions fixes the last bits).
+    # Σ w n_f and Σ w |n_f| (the length the sum would have if every normal agreed) per vertex, added in the
+    # corners' order (the order of the additions fixes the last bits): one pass, no per-corner arrays.
+    summed = vertex_normal_sums(faces, unit, np.empty((0, 3)) if weights is None else weights, weights is not None,
+                                len(vertices))
+    vertex_normal, vague = normalise_sums(summed, NO_DIRECTION)  # no direction: the face normal (as _normalise_or)
+    del summed
     corner_vertex = faces.ravel()
-    summed = np.column_stack([np.bincount(corner_vertex, _corner_terms(unit, weights, i), minlength=len(vertices))
-                              for i in range(3)] + [np.bincount(corner_vertex, reach, minlength=len(vertices))])
-    size = np.linalg.norm(summed[:, :3], axis=1, keepdims=True)
-    vague = (size <= NO_DIRECTION * summed[:, 3:]).ravel()  # no direction: the face normal (as _normalise_or)
-    vertex_normal = summed[:, :3] / np.where(vague[:, None], 1.0, size)
-    del summed, size
     split = _creased_vertices(unit, corner_vertex, vertex_normal, vague, crease_angle)
     corners = _corners_of(vertex_normal, vague, faces, unit, dtype)
     if split.any():
         # Corners at a vertex with a crease: each gathers only the faces within the angle of its own.
+        length = np.linalg.norm(unit, axis=1)
+        reach = (np.repeat(length, 3) if weights is None else (weights * length[:, None]).ravel())
         picked = np.flatnonzero(split[corner_vertex])
         face = picked // 3
         contribution = np.column_stack([_corner_terms(unit, weights, i)[picked] for i in range(3)] + [reach[picked]])
@@ -126,9 +120,8 @@ def _corners_of(vertex_normal: np.ndarray, vague: np.ndarray, faces: np.ndarray,
                 dtype: type) -> np.ndarray:
     """(F, 3, 3) in `dtype`: each corner its vertex's normal (V, 3), or its face's `unit` normal where the
     vertex is `vague` (V,) bool (its normal has no direction)."""
-    corners = vertex_normal.astype(dtype, copy=False)[faces]
-    face, corner = np.nonzero(vague[faces])
-    corners[face, corner] = unit[face]
+    corners = np.empty((len(faces), 3, 3), dtype)
+    gather_corners(vertex_normal, vague, faces, unit, corners)
     return corners
 
 

@@ -9,7 +9,7 @@ import trimesh
 
 import raycast_phong as rp
 from raycast_phong.geometry import build as geometry
-from raycast_phong.geometry import mesh_repair
+from raycast_phong.geometry import kernels, mesh_repair
 from raycast_phong.geometry import normals as normal_rules
 from raycast_phong.geometry.build import build_geometry
 from raycast_phong.geometry.mesh_repair import merge_duplicate_vertices, repair_winding
@@ -67,14 +67,17 @@ def test_different_file_normals_keep_a_point_apart_and_equal_ones_do_not():
     np.testing.assert_array_equal(remapped, [[0, 2, 2], [1, 2, 2]])  # kept in file order: 0, 1, 2(=3)
 
 
-def test_a_hash_collision_falls_back_to_the_exact_comparison(monkeypatch):
-    """Every row hashed alike (a forced collision): the exact path must still tell the points apart."""
+def test_colliding_hashes_are_told_apart_by_the_exact_comparison():
+    """The merge's hash table nearly full (every slot but one taken: long probe runs through other points'
+    slots): the row-by-row comparison must still tell the points apart and merge only equal ones."""
     sphere = trimesh.creation.icosphere(subdivisions=1)
-    vertices, faces = split_corners(sphere)
-    monkeypatch.setattr(mesh_repair, "_row_hashes", lambda rows: np.zeros(len(rows), np.uint64))
-    merged, remapped = merge_duplicate_vertices(vertices, faces)
-    assert len(merged) == len(sphere.vertices)
-    np.testing.assert_array_equal(merged[remapped], vertices[faces])
+    vertices, _ = split_corners(sphere)
+    distinct = len(sphere.vertices)
+    table = np.full(1 << distinct.bit_length(), -1, np.int64)  # > distinct slots, < 2 × distinct
+    new_of_old, first = np.empty(len(vertices), np.int64), np.empty(len(vertices), np.int64)
+    first = first[:kernels.merge_rows(vertices, np.ones(len(vertices), bool), table, new_of_old, first)]
+    assert len(first) == distinct and (table >= 0).sum() == distinct
+    np.testing.assert_array_equal(vertices[first][new_of_old], vertices)
 
 
 def test_a_mesh_file_renders_as_before_the_merge_replaced_trimesh_process(tmp_path):

@@ -1,0 +1,269 @@
+"""Mesh preparation's compiled passes: face normals, per-vertex normal sums and corner gathers, the half-edge
+check and orientation, the duplicate-vertex merge. Each is one pass over the faces (or vertices) with no
+(3F,) temporaries, and does the arithmetic of the numpy code it replaced in the same order, so its results
+carry the same bits (tests/geometry/test_prep_kernels.py compares them with that code).
+
+Half-edges are bucketed by their lower vertex (a counting sort: linear, and each bucket holds a vertex's few
+edges), in place of a sort of all 3F half-edge keys; points are merged through an open-addressing hash table.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..jit import kernel
+
+SMALL_BUCKET = 32  # half-edges at one vertex sorted by insertion below this, by a merge sort above
+
+
+@kernel()
+def face_normals_into(vertices, faces, unit, doubled_area):
+    """unit (F, 3) zeroed by the caller: the unit normal of each face, zero where it is degenerate (or NaN);
+    doubled_area (F,): |e1 × e2|. The products and sums of normals.cross_rows, in its order."""
+    for f in range(faces.shape[0]):
+        a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
+        e1x, e1y, e1z = (vertices[b, 0] - vertices[a, 0], vertices[b, 1] - vertices[a, 1],
+                         vertices[b, 2] - vertices[a, 2])
+        e2x, e2y, e2z = (vertices[c, 0] - vertices[a, 0], vertices[c, 1] - vertices[a, 1],
+                         vertices[c, 2] - vertices[a, 2])
+        cx = e1y * e2z - e1z * e2y
+        cy = e1z * e2x - e1x * e2z
+        cz = e1x * e2y - e1y * e2x
+        area = math.sqrt(cx * cx + cy * cy + cz * cz)
+        doubled_area[f] = area
+        if area > 0:
+            unit[f, 0], unit[f, 1], unit[f, 2] = cx / area, cy / area, cz / area
+
+
+@kernel()
+def vertex_normal_sums(faces, unit, weights, weighted, vertex_count):
+    """(V, 4) float64: per vertex Σ w n_f (columns 0-2) and Σ w |n_f| (column 3) over its corners, added in
+    corner order (3f + k) as np.bincount adds them; w = weights[f, k] if `weighted`, else 1."""
+    summed = np.zeros((vertex_count, 4))
+    for f in range(faces.shape[0]):
+        u0, u1, u2 = unit[f, 0], unit[f, 1], unit[f, 2]
+        length = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+        for k in range(3):
+            v = faces[f, k]
+            if weighted:
+                w = weights[f, k]
+                summed[v, 0] += w * u0
+                summed[v, 1] += w * u1
+                summed[v, 2] += w * u2
+                summed[v, 3] += w * length
+            else:
+                summed[v, 0] += u0
+                summed[v, 1] += u1
+                summed[v, 2] += u2
+                summed[v, 3] += length
+    return summed
+
+
+@kernel()
+def normalise_sums(summed, no_direction):
+    """The vertex normals (V, 3) of normal sums (V, 4), and which have no direction (V,) bool: |s| at most
+    no_direction × the length they would have if every normal agreed (then the normal is left unscaled)."""
+    count = summed.shape[0]
+    normal, vague = np.empty((count, 3)), np.empty(count, np.bool_)
+    for v in range(count):
+        s0, s1, s2 = summed[v, 0], summed[v, 1], summed[v, 2]
+        size = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+        vague[v] = size <= no_direction * summed[v, 3]
+        if vague[v]:
+            size = 1.0
+        normal[v, 0], normal[v, 1], normal[v, 2] = s0 / size, s1 / size, s2 / size
+    return normal, vague
+
+
+@kernel()
+def gather_corners(vertex_normal, vague, faces, unit, corners):
+    """corners (F, 3, 3) in its dtype: each corner its vertex's normal, or its face's normal where the vertex is
+    vague (its normal has no direction)."""
+    for f in range(faces.shape[0]):
+        for k in range(3):
+            v = faces[f, k]
+            for i in range(3):
+                corners[f, k, i] = unit[f, i] if vague[v] else vertex_normal[v, i]
+
+
+@kernel()
+def _bucket_half_edges(faces, vertex_count, key, edge):
+    """Half-edge h = 3f + k (corner k → k + 1 of face f) bucketed by its lower vertex (a counting sort). Returns
+    start (V + 1,); fills key (3F,) and edge (3F,) (the caller's, int32 when they fit: 8 bytes a half-edge, not 16).
+    Bucket v is start[v]:start[v + 1], sorted by key = 2 × higher vertex + (1 where the half-edge runs high → low)
+    and, among equal keys, by h = edge: the order a stable sort of all 3F (undirected edge, direction) keys gives."""
+    start = np.zeros(vertex_count + 1, np.int64)
+    for f in range(faces.shape[0]):
+        for k in range(3):
+            start[min(faces[f, k], faces[f, (k + 1) % 3]) + 1] += 1
+    for v in range(vertex_count):
+        start[v + 1] += start[v]
+    fill = start[:-1].copy()
+    for f in range(faces.shape[0]):
+        for k in range(3):
+            a, b = faces[f, k], faces[f, (k + 1) % 3]
+            low = min(a, b)
+            at = fill[low]
+            fill[low] += 1
+            key[at] = 2 * max(a, b) + (1 if b < a else 0)
+            edge[at] = 3 * f + k
+    for v in range(vertex_count):
+        first, last = start[v], start[v + 1]
+        if last - first <= SMALL_BUCKET:
+            for i in range(first + 1, last):  # insertion sort: stable
+                k, e, j = key[i], edge[i], i - 1
+                while j >= first and key[j] > k:
+                    key[j + 1], edge[j + 1] = key[j], edge[j]
+                    j -= 1
+                key[j + 1], edge[j + 1] = k, e
+        else:
+            order = np.argsort(key[first:last], kind="mergesort")  # stable
+            key[first:last], edge[first:last] = key[first:last][order], edge[first:last][order]
+    return start
+
+
+@kernel()
+def winding_state(faces, vertex_count, key, edge):
+    """(consistent, closed) of a mesh: consistent, no half-edge is traversed twice in the same direction;
+    closed, every undirected edge belongs to exactly two half-edges; and `start` of the buckets it fills
+    (_bucket_half_edges)."""
+    start = _bucket_half_edges(faces, vertex_count, key, edge)
+    consistent, closed = True, True
+    for v in range(vertex_count):
+        at, last = start[v], start[v + 1]
+        while at < last:
+            run = at + 1
+            while run < last and key[run] >> 1 == key[at] >> 1:
+                run += 1
+            if run - at != 2:
+                closed = False
+            for i in range(at + 1, run):
+                if key[i] == key[i - 1]:
+                    consistent = False
+            at = run
+    return consistent, closed, start
+
+
+@kernel()
+def _root(parent, x):
+    while parent[x] != x:
+        parent[x] = parent[parent[x]]
+        x = parent[x]
+    return x
+
+
+@kernel()
+def _join(parent, a, b):
+    """Union keeping the smaller node as the root: every component's root is its least node."""
+    a, b = _root(parent, a), _root(parent, b)
+    if a < b:
+        parent[b] = a
+    elif b < a:
+        parent[a] = b
+
+
+@kernel()
+def orient_pieces(start, key, edge, face_count):
+    """Orientation as a two-colouring: face f as it is is node f, flipped f + F; an edge shared by exactly two
+    half-edges joins (f, g) and (f + F, g + F) if they run opposite ways, else (f, g + F) and (f + F, g) (union-find,
+    each component named by its least node, as scipy's connected_components numbers them in that order).
+    Returns flip (F,) bool: per piece the side most faces already have (a tie keeps them as they are); piece (F,),
+    the least node of the face's two components (edge's dtype); orientable (F,) bool, False on a Möbius strip."""
+    parent = np.arange(2 * face_count).astype(edge.dtype)  # node numbers < 2F < 3F fit edge's dtype
+    for v in range(start.shape[0] - 1):
+        at, last = start[v], start[v + 1]
+        while at < last:
+            run = at + 1
+            while run < last and key[run] >> 1 == key[at] >> 1:
+                run += 1
+            if run - at == 2:
+                f, g = edge[at] // 3, edge[at + 1] // 3
+                if (key[at] & 1) != (key[at + 1] & 1):  # opposite directions: the faces agree
+                    _join(parent, f, g)
+                    _join(parent, f + face_count, g + face_count)
+                else:
+                    _join(parent, f, g + face_count)
+                    _join(parent, f + face_count, g)
+            at = run
+    piece = np.empty(face_count, edge.dtype)
+    as_is = np.empty(face_count, np.bool_)  # the face as it is carries the piece's name
+    orientable = np.empty(face_count, np.bool_)
+    votes = np.zeros(2 * face_count, edge.dtype)
+    for f in range(face_count):
+        a, b = _root(parent, f), _root(parent, f + face_count)
+        piece[f], as_is[f], orientable[f] = min(a, b), a <= b, a != b
+        votes[piece[f]] += 1 if a <= b else -1
+    flip = np.empty(face_count, np.bool_)
+    for f in range(face_count):
+        flip[f] = orientable[f] and (as_is[f] != (votes[piece[f]] >= 0))
+    return flip, piece, orientable
+
+
+@kernel()
+def signed_volume(vertices, faces, centre):
+    """(Σ_f v0 · (v1 × v2), Σ_f of the absolute values of every product in it) about `centre`: six times the
+    enclosed volume, and the scale its rounding error is measured against (mesh_repair._volume_sign)."""
+    total, scale = 0.0, 0.0
+    for f in range(faces.shape[0]):
+        a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
+        x0, y0, z0 = vertices[a, 0] - centre[0], vertices[a, 1] - centre[1], vertices[a, 2] - centre[2]
+        x1, y1, z1 = vertices[b, 0] - centre[0], vertices[b, 1] - centre[1], vertices[b, 2] - centre[2]
+        x2, y2, z2 = vertices[c, 0] - centre[0], vertices[c, 1] - centre[1], vertices[c, 2] - centre[2]
+        total += x0 * (y1 * z2 - z1 * y2) + y0 * (z1 * x2 - x1 * z2) + z0 * (x1 * y2 - y1 * x2)
+        scale += ((abs(x0) + abs(y0) + abs(z0)) * (abs(x1) + abs(y1) + abs(z1)) * (abs(x2) + abs(y2) + abs(z2)))
+    return total, scale
+
+
+@kernel()
+def merge_rows(rows, used, table, new_of_old, first):
+    """Rows (N, C) float64 equal value by value (−0 = +0) merged, in row order. Fills new_of_old (N,) (−1 for a row
+    not `used`) and first[:K], the first used row of each distinct value, numbered in the order first seen, and
+    returns K. `table`: −1 everywhere, a power of two at least twice the used rows: an open-addressing hash table
+    (linear probing) of splitmix64 over each row's bits. The caller's arrays: int32 when N < 2^31."""
+    n, width = rows.shape
+    mask = np.uint64(table.shape[0] - 1)
+    new_of_old[:] = -1
+    count = 0
+    bits = rows.view(np.uint64)
+    for i in range(n):
+        if not used[i]:
+            continue
+        h = np.uint64(0)
+        for c in range(width):
+            h ^= bits[i, c] if rows[i, c] != 0.0 else np.uint64(0)  # −0.0 and +0.0: one value
+            h ^= h >> np.uint64(30)
+            h *= np.uint64(0xBF58476D1CE4E5B9)
+            h ^= h >> np.uint64(27)
+            h *= np.uint64(0x94D049BB133111EB)
+            h ^= h >> np.uint64(31)
+        slot = h & mask
+        while True:
+            j = table[slot]
+            if j < 0:
+                table[slot] = i
+                new_of_old[i] = count
+                first[count] = i
+                count += 1
+                break
+            same = True
+            for c in range(width):
+                if rows[i, c] != rows[j, c]:
+                    same = False
+                    break
+            if same:
+                new_of_old[i] = new_of_old[j]
+                break
+            slot = (slot + np.uint64(1)) & mask
+    return count
+
+
+@kernel()
+def renumber(faces, new_of_old):
+    """new_of_old[faces], (F, 3) int64."""
+    out = np.empty(faces.shape, np.int64)
+    for f in range(faces.shape[0]):
+        for k in range(3):
+            out[f, k] = new_of_old[faces[f, k]]
+    return out

@@ -1,0 +1,220 @@
+"""The numpy mesh preparation the compiled kernels replaced (geometry/kernels.py, issue 22), kept as the tests'
+oracle: the kernels must give its results bit for bit. Helpers both share are imported from the package."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from raycast_phong.geometry.mesh_repair import _row_hashes, _signed_volumes
+from raycast_phong.geometry.normals import (
+    FACE_CHUNK,
+    _corner_terms,
+    _creased_sums,
+    _creased_vertices,
+    _normalise_or,
+    corner_angles,
+    cross_rows,
+)
+from raycast_phong.tolerances import NO_DIRECTION
+
+
+def face_normals(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit face normals (F, 3) (zero for a degenerate face) and twice the areas (F,)."""
+    unit, doubled_area = np.zeros((len(faces), 3)), np.empty(len(faces))
+    for at in range(0, len(faces), FACE_CHUNK):  # in chunks: the outputs are the only (F, ·) arrays
+        part = faces[at:at + FACE_CHUNK]
+        first = vertices[part[:, 0]]
+        cross = cross_rows(vertices[part[:, 1]] - first, vertices[part[:, 2]] - first)
+        area = np.sqrt(cross[:, 0] * cross[:, 0] + cross[:, 1] * cross[:, 1] + cross[:, 2] * cross[:, 2])
+        np.divide(cross, area[:, None], out=unit[at:at + FACE_CHUNK], where=area[:, None] > 0)
+        doubled_area[at:at + FACE_CHUNK] = area
+    return unit, doubled_area
+
+
+
+def compute_corner_normals(vertices: np.ndarray, faces: np.ndarray, weighting: str = "mean",
+                           crease_angle: float = 180.0, dtype: type = np.float64,
+                           normals: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """Vertex normal at every face corner (F, 3, 3), unit, in `dtype`.
+
+    n_v = normalize(Σ_f w_f n_f) over the faces f around v, with w = 1 ("mean", the lecture's rule),
+    the face area ("area") or the corner angle ("angle"); degenerate faces weigh 0. With a crease
+    angle below 180°, corner (f, v) only gathers faces g whose normal is within that angle of n_f.
+    A vertex whose sum vanishes falls back to the face normal. `normals`: face_normals(vertices, faces)
+    if the caller has them. The sums are per vertex, (V, 4) float64, and only the result is per corner
+    (36 bytes a triangle in float32, 72 in float64); only corners at a vertex a crease may split pay
+    for the pairwise test (_creased_vertices).
+    """
+    unit, doubled_area = normals if normals is not None else face_normals(vertices, faces)
+    if weighting == "mean":
+        weights = None
+    elif weighting == "area":
+        weights = np.repeat(doubled_area[:, None], 3, axis=1)
+    elif weighting == "angle":
+        weights = corner_angles(vertices, faces)
+    else:
+        raise ValueError(f"unknown normal weighting {weighting!r}")
+    # w |n_f|: the length the sum would have if every normal agreed (|n_f| is 1, or 0 for a degenerate face).
+    length = np.linalg.norm(unit, axis=1)
+    reach = (np.repeat(length, 3) if weights is None else (weights * length[:, None]).ravel())
+    # Sum per vertex, in the corners' order (the order of the additions fixes the last bits).
+    corner_vertex = faces.ravel()
+    summed = np.column_stack([np.bincount(corner_vertex, _corner_terms(unit, weights, i), minlength=len(vertices))
+                              for i in range(3)] + [np.bincount(corner_vertex, reach, minlength=len(vertices))])
+    size = np.linalg.norm(summed[:, :3], axis=1, keepdims=True)
+    vague = (size <= NO_DIRECTION * summed[:, 3:]).ravel()  # no direction: the face normal (as _normalise_or)
+    vertex_normal = summed[:, :3] / np.where(vague[:, None], 1.0, size)
+    del summed, size
+    split = _creased_vertices(unit, corner_vertex, vertex_normal, vague, crease_angle)
+    corners = _corners_of(vertex_normal, vague, faces, unit, dtype)
+    if split.any():
+        # Corners at a vertex with a crease: each gathers only the faces within the angle of its own.
+        picked = np.flatnonzero(split[corner_vertex])
+        face = picked // 3
+        contribution = np.column_stack([_corner_terms(unit, weights, i)[picked] for i in range(3)] + [reach[picked]])
+        sums = _creased_sums(corner_vertex[picked], contribution, unit[face], crease_angle)
+        corners.reshape(-1, 3)[picked] = _normalise_or(sums[:, :3], unit[face], sums[:, 3:])
+    return corners
+
+
+
+def _corners_of(vertex_normal: np.ndarray, vague: np.ndarray, faces: np.ndarray, unit: np.ndarray,
+                dtype: type) -> np.ndarray:
+    """(F, 3, 3) in `dtype`: each corner its vertex's normal (V, 3), or its face's `unit` normal where the
+    vertex is `vague` (V,) bool (its normal has no direction)."""
+    corners = vertex_normal.astype(dtype, copy=False)[faces]
+    face, corner = np.nonzero(vague[faces])
+    corners[face, corner] = unit[face]
+    return corners
+
+
+
+def repair_winding(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int, bool]:
+    """Make a mesh file's winding consistent, and outward if the mesh is closed.
+
+    Inconsistent winding makes face normals of neighbours cancel in the vertex-normal mean. Returns
+    the faces, how many were flipped, and whether the mesh is closed (every edge in exactly two faces:
+    then it is turned outward, by its signed volume). A consistent mesh, the common case, costs one
+    sort of its 3F half-edges (and a closed one its signed volume, taken over the whole mesh as trimesh's
+    fix_inversion did: a consistent mesh whose pieces disagree is left to its majority by volume); only an
+    inconsistent one pays for the face graph (`_orient_faces`), which also orients each piece by its own volume.
+    """
+    keys = _half_edge_keys(faces, len(vertices))
+    keys.sort()
+    # Closed: the sorted undirected edges come in pairs, each pair unlike its neighbours.
+    closed = (len(keys) % 2 == 0 and bool(((keys[0::2] >> 1) == (keys[1::2] >> 1)).all())
+              and not ((keys[1:-1:2] >> 1) == (keys[2::2] >> 1)).any())
+    # Consistent: no half-edge is traversed twice in the same direction (by two faces or a duplicate face).
+    if not (keys[1:] == keys[:-1]).any():
+        del keys
+        if closed and _signed_volumes(vertices, faces)[0] < 0:
+            return faces[:, ::-1], len(faces), True
+        return faces, 0, closed
+    del keys
+    flip = _orient_faces(vertices, faces, closed)
+    repaired = faces.copy()
+    repaired[flip] = faces[flip, ::-1]
+    return repaired, int(flip.sum()), closed
+
+
+def _orient_faces(vertices: np.ndarray, faces: np.ndarray, closed: bool) -> np.ndarray:
+    """Which faces to flip (F,) bool so that every edge shared by exactly two faces is traversed in
+    opposite directions; per connected piece the orientation that flips fewer faces, or, if the mesh is
+    closed, the one with positive signed volume. A non-orientable piece (a Möbius strip) is left as it is.
+
+    Orientation is a two-colouring: face f as it is is node f, flipped node f + F; an edge whose two faces
+    agree joins (f, g) and (f + F, g + F), one where they disagree (f, g + F) and (f + F, g). The graph's
+    connected components (scipy.sparse.csgraph, linear) then give every face's orientation relative to
+    its piece at once; a piece whose f and f + F fall in one component cannot be oriented.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    count = len(faces)
+    keys = _half_edge_keys(faces, len(vertices))
+    order = np.argsort(keys, kind="stable")
+    keys, face = keys[order], order // 3
+    edge = keys >> 1
+    first = np.flatnonzero(np.r_[True, edge[1:] != edge[:-1]])
+    runs = np.diff(np.r_[first, len(edge)])
+    shared = first[runs == 2]  # manifold edges only: a third face makes orientation ambiguous there
+    f, g = face[shared], face[shared + 1]
+    agree = (keys[shared] & 1) != (keys[shared + 1] & 1)
+    rows = np.concatenate([f, f + count])
+    cols = np.concatenate([np.where(agree, g, g + count), np.where(agree, g + count, g)])
+    graph = coo_matrix((np.ones(len(rows), np.int8), (rows, cols)), shape=(2 * count, 2 * count))
+    _, label = connected_components(graph, directed=False)
+    as_is, flipped = label[:count], label[count:]
+    piece = np.minimum(as_is, flipped)  # one name per piece, whichever node carries it
+    orientable = as_is != flipped
+    # Keep the side of each piece that most faces already have; a closed mesh: the side of positive volume.
+    votes = np.bincount(piece, np.where(as_is == piece, 1.0, -1.0), minlength=2 * count)
+    flip = orientable & ((as_is == piece) != (votes[piece] >= 0))
+    if closed:
+        sign = np.where(flip, -1.0, 1.0)
+        inward = _signed_volumes(vertices, faces, piece, 2 * count, sign) < 0
+        flip ^= orientable & inward[piece]
+    return flip
+
+
+def _half_edge_keys(faces: np.ndarray, vertex_count: int) -> np.ndarray:
+    """(3F,) int64, one per half-edge (start → end) of face f's corner k at 3f + k: the undirected edge
+    (low · V + high), shifted left one bit for its direction (1 where start > end). Built in place: the
+    3F half-edges are the largest arrays of mesh preparation."""
+    start = np.ascontiguousarray(faces, np.int64).ravel()
+    end = np.roll(faces, -1, axis=1).astype(np.int64).ravel()
+    keys = np.minimum(start, end)
+    keys *= vertex_count
+    np.maximum(start, end, out=end)
+    keys += end
+    del end
+    keys <<= 1
+    keys += np.roll(faces, -1, axis=1).ravel() < start  # start > end
+    return keys
+
+
+
+def merge_duplicate_vertices(vertices: np.ndarray, faces: np.ndarray,
+                             normals: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Merge vertices at exactly the same position and drop those no face uses; the first of each kept, in file order.
+
+    What trimesh's process() did that matters for shading: a file that repeats a point for every face
+    around it (STL always, OBJ and PLY often) must share it, or the vertex-normal mean sees one face
+    and the surface shades faceted. As process(), vertices whose file normals (V, 3) differ (rounded to
+    0.01) stay apart: a hard edge the file draws stays hard. Unlike process(): positions are compared
+    exactly (−0 = +0), not rounded to trimesh's 1e-8 grid, and UV coordinates do not keep two vertices
+    apart (the renderer reads no textures: a texture seam is no edge of the surface). Rows are hashed
+    to one uint64 and the hashes sorted (V log V, numpy's vectorised sort); equal hashes are then
+    checked value by value.
+    """
+    used = np.zeros(len(vertices), bool)
+    used[faces] = True
+    index = np.flatnonzero(used)
+    rows = vertices[index] if normals is None else np.column_stack([vertices[index], np.round(normals[index] * 100)])
+    rows += 0.0  # −0.0 + 0.0 is +0.0: the two zeros are one value
+    key = _row_hashes(rows)
+    order = np.argsort(key)
+    key = key[order]
+    starts = np.r_[True, key[1:] != key[:-1]]
+    del key
+    if starts.all():
+        if len(index) == len(vertices):
+            return vertices, faces  # nothing to merge or drop: no copies
+        first = np.arange(len(index))
+    else:
+        # The first row (in file order) of each run of equal keys stands for the run.
+        first_sorted = np.minimum.reduceat(order, np.flatnonzero(starts))[np.cumsum(starts) - 1]
+        # A run holds one row unless two rows collided in the hash (about 2^-64 per pair): then fall back
+        # to numpy's exact (and slower) row comparison.
+        if (rows[first_sorted] == rows[order]).all():
+            first = np.empty_like(order)
+            first[order] = first_sorted  # from sorted positions back to the rows' order
+        else:
+            _, first_seen, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
+            first = first_seen[inverse.ravel()]
+    # first[i]: the first vertex (in `index` order) at point i's position; number the firsts in order.
+    keep = first == np.arange(len(first))
+    number = np.cumsum(keep) - 1
+    new_of_old = np.full(len(vertices), -1, np.int64)
+    new_of_old[index] = number[first]
+    return vertices[index[keep]], new_of_old[faces]
