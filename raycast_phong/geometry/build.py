@@ -29,6 +29,7 @@ class ObjectMesh(NamedTuple):
     faces: np.ndarray            # (F, 3) int64
     normals: np.ndarray | None   # (V, 3) vertex normals a mesh file stores (used when normals is "file" or unset)
     file: MeshFile | None = None  # a mesh file's materials and colours, aligned with `faces`
+    crease_angle: float | None = None  # a mesh file's crease angle when the object leaves it unset
 
 
 OBJECT_CHUNK_VERTICES = 1 << 20  # placed vertices per step of a group: ~25 MB of float64 temporaries
@@ -135,7 +136,8 @@ def _group_part(scene: Scene, members: list[int], template: ObjectMesh, exact: n
             placed = place_normals(template.normals, scale, rotation).reshape(-1, 3)
             corners = file_corner_normals(placed, flat_faces, unit, normal_dtype)
         else:
-            corners = compute_corner_normals(flat_vertices, flat_faces, first.normals or "mean", first.crease_angle,
+            crease = first.crease_angle if template.crease_angle is None else template.crease_angle
+            corners = compute_corner_normals(flat_vertices, flat_faces, first.normals or "mean", crease,
                                              normal_dtype, normals=(unit, doubled_area))
         corners = corners.reshape(count, -1, 3, 3)
     del doubled_area
@@ -344,7 +346,16 @@ def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
     # Otherwise merge what the file repeats (the faces and their order stay, so the per-face materials line up).
     # The scene named a rule, so the file's normals neither shade nor keep its points apart.
     vertices, faces = merge_duplicate_vertices(read.vertices, read.faces)
-    return ObjectMesh(vertices, faces, None, read)
+    return ObjectMesh(vertices, faces, None, read, file_crease_angle(obj, read.stores_normals))
+
+
+def file_crease_angle(obj: Object, stores_normals: bool) -> float | None:
+    """The crease angle of a mesh object that leaves crease_angle and normals unset, reading a file that
+    stores no normals: FILE_CREASE_ANGLE (a CAD part's edges stay sharp); None otherwise (the object's own)."""
+    if stores_normals or obj.normals is not None or "crease_angle" in obj.model_fields_set:
+        return None
+    from ..io.mesh_file import FILE_CREASE_ANGLE
+    return FILE_CREASE_ANGLE
 
 
 def rotation_of(obj: Object) -> np.ndarray:
