@@ -68,6 +68,12 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
                 notes.append(f"objects.{members[0]}: the winding of {flipped} of {len(faces)} faces was repaired"
                              + (" (and turned outward: the mesh is closed)" if outward else ""))
             template = template._replace(faces=faces)
+            if template.normals is not None:
+                against = normals_against_winding(template.vertices, faces, template.normals)
+                if against > 0.5:
+                    template = template._replace(normals=-template.normals)
+                    file_notes.append(f"objects.{members[0]}: the vertex normals {first.path!r} stores point against "
+                                      f"its faces' winding on {against:.0%} of its area; they were turned over")
         built.append((members, template, exact, rows))
     mesh = _Mesh.allocate(scene, built, vertex_normals, normal_dtype, material_index)
     for members, template, exact, rows in built:
@@ -347,6 +353,20 @@ def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
     # The scene named a rule, so the file's normals neither shade nor keep its points apart.
     vertices, faces = merge_duplicate_vertices(read.vertices, read.faces)
     return ObjectMesh(vertices, faces, None, read, file_crease_angle(obj, read.stores_normals))
+
+
+def normals_against_winding(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray) -> float:
+    """The share of the surface's area (0..1) whose file normals (the mean of a face's three) point against
+    the face's winding: most of it means the file's normals are inward (an exporter's flipped `vn`), which
+    shades the lit side black."""
+    total = against = 0.0
+    for at in range(0, len(faces), OBJECT_CHUNK_VERTICES):  # bounded temporaries on a large scan
+        part = faces[at:at + OBJECT_CHUNK_VERTICES]
+        cross = np.cross(vertices[part[:, 1]] - vertices[part[:, 0]], vertices[part[:, 2]] - vertices[part[:, 0]])
+        area = np.linalg.norm(cross, axis=1)
+        facing = np.einsum("ij,ij->i", cross, normals[part].sum(axis=1))
+        total, against = total + float(area.sum()), against + float(area[facing < 0].sum())
+    return against / total if total > 0 else 0.0
 
 
 def file_crease_angle(obj: Object, stores_normals: bool) -> float | None:

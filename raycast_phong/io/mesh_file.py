@@ -217,6 +217,9 @@ def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
         low, high = bounding_box(used)  # column by column (records.bounding_box says why)
         centre = (low + high) / 2
         radius = float(np.sqrt(((used - centre) ** 2).sum(axis=1).max()))
+        hint = up_hint(high - low, suffix)
+        if hint:
+            notes.append(f"{path}: {hint}")
     return MeshFile(vertices, faces, normals, face_group, materials, face_colour, STATED_UP.get(suffix),
                     tuple(dict.fromkeys(notes)), centre, radius, normals is not None)
 
@@ -248,6 +251,18 @@ def sniff(head: bytes) -> str | None:
     return None
 
 
+def check_file_content(path: Path, where: str) -> None:
+    """check_content on the file at `path` (framing calls it before the memory check reads a binary STL's
+    triangle count from a header that may be an OBJ's first line). A file that cannot be opened is left to
+    the read, which words it."""
+    try:
+        handle = open_regular(path, where, "mesh file")
+    except (OSError, SceneError):
+        return
+    with handle:
+        check_content(path, handle, where)
+
+
 def check_content(path: Path, handle, where: str) -> None:
     """Refuse, in one line, a file whose content is not the format its suffix says (an OBJ named .stl was read
     as a binary STL of 433 GB), an archive or compressed file (decompress it first), or a glTF's sibling."""
@@ -269,8 +284,10 @@ def check_content(path: Path, handle, where: str) -> None:
             return  # text formats whose first lines may look like each other's
     elif suffix not in EXPECTED or found in EXPECTED[suffix]:
         return
-    said = f"its content is {found}" if found else "its content is not that format"
-    raise SceneError(f"{where}: {str(path)!r} is named {suffix} but {said}; rename it to its format's suffix")
+    name = suffix[1:].upper().replace("GLTF", "glTF")
+    said = (f"its content is {found}; rename it to that format's suffix" if found
+            else f"its content does not start as a {name} file does")
+    raise SceneError(f"{where}: cannot read {str(path)!r} as {name}: {said}")
 
 
 # Required glTF extensions read here; any other one in extensionsRequired is refused (glTF 2.0 §3.12: a loader
@@ -306,11 +323,33 @@ def _check_gltf(path: Path, handle, where: str, notes: list[str]) -> None:
     if missing:
         raise SceneError(f"{where}: {str(path)!r} requires the glTF extension(s) {', '.join(missing)}, which this "
                          f"renderer does not support; supported: {', '.join(SUPPORTED_REQUIRED)}")
+    meshes = document.get("meshes", [])
+    primitives = [p for m in (meshes if isinstance(meshes, list) else []) if isinstance(m, dict)
+                  for p in m.get("primitives", []) if isinstance(p, dict)]
+    if any("COLOR_0" in (p.get("attributes") or {}) and "material" in p for p in primitives):
+        notes.append(f"{path}: COLOR_0 vertex colours beside a material are not applied yet; the material's "
+                     "factors are used (docs/meshes.md)")
     from urllib.parse import unquote
     for image in document.get("images", []):
         uri = image.get("uri") if isinstance(image, dict) else None
         if isinstance(uri, str) and not uri.startswith("data:") and not (path.parent / unquote(uri)).is_file():
             notes.append(f"{path}: texture {unquote(uri)!r} is missing")
+
+
+Z_UP_RATIO = 1.5  # a model this many times longer along Z than along Y (and longest along Z) looks Z-up
+
+
+def up_hint(extent: np.ndarray, suffix: str) -> str | None:
+    """A one-line hint when a format that states no up axis holds a model that looks Z-up: longest along Z
+    and at least Z_UP_RATIO times longer along Z than along Y (a scanned statue, a standing figure from a
+    Z-up tool), which the default +Y up shows lying on its back. None otherwise (docs/meshes.md, "Up")."""
+    if suffix in STATED_UP or not extent[2] > 0:
+        return None
+    if extent[2] >= extent.max() and extent[2] >= Z_UP_RATIO * extent[1]:
+        return (f"the model is {extent[2] / max(extent[1], 1e-300):.3g}× longer along Z than along Y, as models "
+                "made Z-up are; the view takes +Y as up (the format states none), so if it lies on its back, "
+                "add --up z")
+    return None
 
 
 class _Part(NamedTuple):
@@ -420,7 +459,7 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
     """Per face: its material (an index into the returned tuple, -1 for none) and its colour sum or None."""
     materials: list[FileMaterial] = []
     index: dict[str, int] = {}
-    groups, colours, any_colour, gltf = [], [], False, False
+    groups, colours, any_colour, gltf, varied_corners = [], [], False, False, False
     for part in parts:
         material = getattr(part.visual, "material", None)
         found = None
@@ -440,6 +479,12 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
                 materials.append(found)
         groups.append(np.full(len(part.faces), index[found.name] if found is not None else -1, np.int32))
         colour = _face_colour_sums(part)
+        if colour is not None and not varied_corners and getattr(part.visual, "kind", None) == "vertex":
+            corners = np.asarray(part.visual.vertex_colors)[:, :3][part.faces]
+            varied_corners = bool((corners.min(axis=1) != corners.max(axis=1)).any())
+        if varied_corners and colour is not None:
+            notes.append(f"{path}: vertex colours are not interpolated per corner yet: each face takes the mean "
+                         "of its three corners' colours (docs/meshes.md)")
         any_colour |= colour is not None
         colours.append(colour)
     if gltf:
@@ -763,5 +808,8 @@ def _mesh_source(path, handle) -> dict:
             data.decode("utf-8")
         except UnicodeDecodeError:
             data = data.decode("latin-1").encode("utf-8")
+        if suffix == ".obj":
+            from .obj_polygons import triangulate_concave
+            data, _ = triangulate_concave(data)  # trimesh would fan a concave polygon over its hole
         source["file_obj"] = io.BytesIO(data)
     return source
