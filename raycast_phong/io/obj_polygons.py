@@ -19,31 +19,41 @@ VERTEX = re.compile(rb"^[ \t]*v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)", re.MULTILINE)
 
 
 def triangulate_concave(data: bytes) -> tuple[bytes, int]:
-    """The OBJ text with every concave polygon cut into triangles, and how many polygons were cut."""
+    """The OBJ text with every concave polygon cut into triangles, and how many polygons were cut.
+
+    Convexity is tested for all polygons of one corner count at once (90,000 quads: about a second); only
+    the concave ones are cut, one by one."""
     polygons = list(POLYGON.finditer(data))
     if not polygons:
         return data, 0
     found = list(VERTEX.finditer(data))
     try:
-        points = np.array([[float(x) for x in m.groups()] for m in found], np.float64).reshape(-1, 3)
+        points = np.array([m.groups() for m in found]).astype(np.float64).reshape(-1, 3)
     except ValueError:
         return data, 0  # trimesh words what is wrong with the file
     starts = np.array([m.start() for m in found], np.int64)
-    pieces, at, cut = [], 0, 0
-    for match in polygons:
-        tokens = match.group(0).split(b"#", 1)[0].split()[1:]
-        before = int(np.searchsorted(starts, match.start()))  # v lines before this face: the base of -1 indices
+    before = np.searchsorted(starts, np.array([m.start() for m in polygons], np.int64))  # v lines before: -1's base
+    tokens = [m.group(0).split(b"#", 1)[0].split()[1:] for m in polygons]
+    groups: dict[int, list[int]] = {}
+    for k, words in enumerate(tokens):
+        groups.setdefault(len(words), []).append(k)
+    concave: dict[int, np.ndarray] = {}
+    for members in groups.values():
         try:
-            index = np.array([int(t.split(b"/", 1)[0]) for t in tokens], np.int64)
+            index = np.array([[int(t.split(b"/", 1)[0]) for t in tokens[k]] for k in members], np.int64)
         except ValueError:
-            continue
-        index = np.where(index < 0, before + index, index - 1)
-        if not ((index >= 0) & (index < len(points))).all():
-            continue  # the reader reports indices out of range
-        triangles = _ear_clip(points[index])
+            continue  # the reader reports a malformed face
+        index = np.where(index < 0, before[members][:, None] + index, index - 1)
+        valid = ((index >= 0) & (index < len(points))).all(axis=1)  # the reader reports indices out of range
+        bent = valid & ~_convex(points[np.clip(index, 0, max(len(points) - 1, 0))])
+        concave.update({members[i]: index[i] for i in np.flatnonzero(bent)})
+    pieces, at, cut = [], 0, 0
+    for k in sorted(concave):
+        triangles = _ear_clip(points[concave[k]])
         if triangles is None:
             continue
-        lines = b"\n".join(b"f " + b" ".join(tokens[k] for k in triangle) for triangle in triangles)
+        match = polygons[k]
+        lines = b"\n".join(b"f " + b" ".join(tokens[k][c] for c in triangle) for triangle in triangles)
         pieces += [data[at:match.start()], lines]
         at, cut = match.end(), cut + 1
     if not cut:
@@ -52,9 +62,20 @@ def triangulate_concave(data: bytes) -> tuple[bytes, int]:
     return b"".join(pieces), cut
 
 
+def _convex(corners: np.ndarray) -> np.ndarray:
+    """(m,) bool: which of m polygons (m, n, 3) turn the same way at every corner about their own normal
+    (Newell's: the sum of the cross products about the centre); one without a normal counts as convex."""
+    centred = corners - corners.mean(axis=1, keepdims=True)
+    normal = np.cross(centred, np.roll(centred, -1, axis=1)).sum(axis=1)
+    edges = np.roll(corners, -1, axis=1) - corners
+    turns = np.einsum("mij,mj->mi", np.cross(edges, np.roll(edges, -1, axis=1)), normal)
+    scale = np.abs(turns).max(axis=1, keepdims=True)
+    return (turns >= -1e-12 * scale).all(axis=1) | ~(np.linalg.norm(normal, axis=1) > 0)
+
+
 def _ear_clip(corners: np.ndarray) -> list[tuple[int, ...]] | None:
-    """Triangles (corner numbers, wound as the polygon) of a concave polygon (n, 3), or None when it is convex
-    (trimesh's fan is right) or cannot be cut (no plane, or earcut leaves it)."""
+    """Triangles (corner numbers, wound as the polygon) of a concave polygon (n, 3), or None when it cannot
+    be cut (no plane, or earcut leaves it: trimesh's fan then stays)."""
     import mapbox_earcut
 
     normal = np.cross(corners - corners.mean(axis=0), np.roll(corners, -1, axis=0) - corners.mean(axis=0)).sum(axis=0)
@@ -65,10 +86,6 @@ def _ear_clip(corners: np.ndarray) -> list[tuple[int, ...]] | None:
     u = np.cross(normal, [1.0, 0.0, 0.0] if abs(normal[0]) < 0.9 else [0.0, 1.0, 0.0])
     u /= np.linalg.norm(u)
     flat = np.column_stack([corners @ u, corners @ np.cross(normal, u)])  # counter-clockwise about the normal
-    edges = np.roll(flat, -1, axis=0) - flat
-    turns = edges[:, 0] * np.roll(edges, -1, axis=0)[:, 1] - edges[:, 1] * np.roll(edges, -1, axis=0)[:, 0]
-    if (turns >= 0).all():
-        return None  # convex: every corner turns left
     found = mapbox_earcut.triangulate_float64(flat, np.array([len(flat)], np.uint32)).reshape(-1, 3)
     if not len(found):
         return None
