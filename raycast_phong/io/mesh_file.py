@@ -254,7 +254,9 @@ def sniff(head: bytes) -> str | None:
 def check_file_content(path: Path, where: str) -> None:
     """check_content on the file at `path` (framing calls it before the memory check reads a binary STL's
     triangle count from a header that may be an OBJ's first line). A file that cannot be opened is left to
-    the read, which words it."""
+    the read, which words it. Text formats are left to the read: their header count cannot be fooled so."""
+    if path.suffix.lower() in TEXT_FORMATS:
+        return
     try:
         handle = open_regular(path, where, "mesh file")
     except (OSError, SceneError):
@@ -286,7 +288,7 @@ def check_content(path: Path, handle, where: str) -> None:
         return
     name = suffix[1:].upper().replace("GLTF", "glTF")
     said = (f"its content is {found}; rename it to that format's suffix" if found
-            else f"its content does not start as a {name} file does")
+            else f"its content does not start as a {name} file does; expected {READABLE}")
     raise SceneError(f"{where}: cannot read {str(path)!r} as {name}: {said}")
 
 
