@@ -238,6 +238,7 @@ CONTAINERS = {".zip": "a zip archive", ".bz2": "bzip2-compressed", ".gz": "gzip-
 
 def sniff(head: bytes) -> str | None:
     """The format a file's first bytes announce, or None (text formats without a signature: OBJ, OFF)."""
+    head = head.removeprefix(b"\xef\xbb\xbf")  # a UTF-8 byte-order mark before a text format's first word
     stripped = head.lstrip()
     for signature, name in SIGNATURES:
         if head.startswith(signature) or (name in ("JSON", "XML", "COLLADA (XML)") and stripped.startswith(signature)):

@@ -330,3 +330,12 @@ def test_a_texture_is_decoded_at_the_size_its_use_needs(tmp_path):
     grown = float(subprocess.run([sys.executable, "-c", code, str(tmp_path / "big.glb")], capture_output=True,
                                  text=True, check=True).stdout)
     assert grown < 30, f"{grown:.0f} MB"
+
+
+def test_an_empty_model_file_is_one_line_saying_so(tmp_path):
+    """An empty file is said to be empty, before trimesh is asked to read it."""
+    (tmp_path / "robot.glb").write_bytes(b"")
+    done = runner.invoke(app, ["render", "robot.glb"])
+    assert done.exit_code == 2
+    [line] = done.stderr.strip().splitlines()
+    assert "is empty (0 bytes)" in line, line
