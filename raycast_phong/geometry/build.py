@@ -30,6 +30,7 @@ class ObjectMesh(NamedTuple):
     faces: np.ndarray            # (F, 3) int64
     normals: np.ndarray | None   # (V, 3) vertex normals a mesh file stores (used when normals is "file" or unset)
     file: MeshFile | None = None  # a mesh file's materials and colours, aligned with `faces`
+    crease_angle: float | None = None  # a mesh file's crease angle when the object leaves it unset
 
 
 OBJECT_CHUNK_VERTICES = 1 << 20  # placed vertices per step of a group: ~25 MB of float64 temporaries
@@ -68,6 +69,12 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
                 notes.append(f"objects.{members[0]}: the winding of {flipped} of {len(faces)} faces was repaired"
                              + (" (and turned outward: the mesh is closed)" if outward else ""))
             template = template._replace(faces=faces)
+            if template.normals is not None:
+                against = normals_against_winding(template.vertices, faces, template.normals)
+                if against > 0.5:
+                    template = template._replace(normals=-template.normals)
+                    file_notes.append(f"objects.{members[0]}: the vertex normals {first.path!r} stores point against "
+                                      f"its faces' winding on {against:.0%} of its area; they were turned over")
         built.append((members, template, exact, rows))
     mesh = _Mesh.allocate(scene, built, vertex_normals, normal_dtype, material_index)
     for members, template, exact, rows in built:
@@ -136,7 +143,8 @@ def _group_part(scene: Scene, members: list[int], template: ObjectMesh, exact: n
             placed = place_normals(template.normals, scale, rotation).reshape(-1, 3)
             corners = file_corner_normals(placed, flat_faces, unit, normal_dtype)
         else:
-            corners = compute_corner_normals(flat_vertices, flat_faces, first.normals or "mean", first.crease_angle,
+            crease = first.crease_angle if template.crease_angle is None else template.crease_angle
+            corners = compute_corner_normals(flat_vertices, flat_faces, first.normals or "mean", crease,
                                              normal_dtype, normals=(unit, doubled_area))
         corners = corners.reshape(count, -1, 3, 3)
     del doubled_area
@@ -346,8 +354,32 @@ def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
     # The scene named a rule, so the file's normals neither shade nor keep its points apart.
     vertices, faces = merge_duplicate_vertices(read.vertices, read.faces)
     # The merged arrays replace the file's: an STL's raw (3F, 3) points need not live through the normals.
+    crease = file_crease_angle(obj, read.stores_normals)
     read = dataclasses.replace(read, vertices=read.vertices[:0], faces=read.faces[:0])
-    return ObjectMesh(vertices, faces, None, read)
+    return ObjectMesh(vertices, faces, None, read, crease)
+
+
+def normals_against_winding(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray) -> float:
+    """The share of the surface's area (0..1) whose file normals (the mean of a face's three) point against
+    the face's winding: most of it means the file's normals are inward (an exporter's flipped `vn`), which
+    shades the lit side black."""
+    total = against = 0.0
+    for at in range(0, len(faces), OBJECT_CHUNK_VERTICES):  # bounded temporaries on a large scan
+        part = faces[at:at + OBJECT_CHUNK_VERTICES]
+        cross = np.cross(vertices[part[:, 1]] - vertices[part[:, 0]], vertices[part[:, 2]] - vertices[part[:, 0]])
+        area = np.linalg.norm(cross, axis=1)
+        facing = np.einsum("ij,ij->i", cross, normals[part].sum(axis=1))
+        total, against = total + float(area.sum()), against + float(area[facing < 0].sum())
+    return against / total if total > 0 else 0.0
+
+
+def file_crease_angle(obj: Object, stores_normals: bool) -> float | None:
+    """The crease angle of a mesh object that leaves crease_angle and normals unset, reading a file that
+    stores no normals: FILE_CREASE_ANGLE (a CAD part's edges stay sharp); None otherwise (the object's own)."""
+    if stores_normals or obj.normals is not None or "crease_angle" in obj.model_fields_set:
+        return None
+    from ..io.mesh_file import FILE_CREASE_ANGLE
+    return FILE_CREASE_ANGLE
 
 
 def rotation_of(obj: Object) -> np.ndarray:

@@ -37,6 +37,14 @@ READABLE = "a mesh file trimesh reads (OBJ, PLY, STL, OFF, GLB)"
 # Up axes the formats' specifications state (glTF 2.0 §3.4: +Y up; 3MF core §3.4: +Z up); others say nothing.
 STATED_UP = {".gltf": (0.0, 1.0, 0.0), ".glb": (0.0, 1.0, 0.0), ".3mf": (0.0, 0.0, 1.0)}
 MAX_FILE_SHININESS = 1000.0  # the .mtl Ns range (0..1000); the glTF roughness map is capped to it too
+# A file's specular lobe wider than the scene default's (f = 32) keeps at most that lobe's reflected energy:
+# its k_s falls as (f + 2) / (WIDE_LOBE + 2) (specular_lobe says why), and f is at least MIN_FILE_SHININESS.
+WIDE_LOBE = 32.0
+MIN_FILE_SHININESS = 1.0
+# The feature angle at which a file without normals is creased (VTK's vtkPolyDataNormals and Blender's
+# auto-smooth both default to 30°): CAD faces keep their edges, a scan's small angles stay smooth.
+FILE_CREASE_ANGLE = 30.0
+TEXTURE_MEAN_SIZE = 64  # a texture's mean colour is taken on a thumbnail of at most this many pixels a side
 
 
 @dataclass(frozen=True)
@@ -70,6 +78,7 @@ class MeshFile:
     centre: np.ndarray              # (3,) float64 centre of the used vertices' bounding box (NaN unless read
                                     # for framing: read_mesh(keep=True))
     radius: float                   # largest distance of a used vertex from `centre`
+    stores_normals: bool = False    # whether the file stores vertex normals (kept in the bounds cache too)
 
 
 # ---------------------------------------------------------------- the cache
@@ -126,7 +135,7 @@ def mesh_bounds(path: Path, where: str) -> MeshFile:
 def _remember_bounds(identity: tuple, found: MeshFile) -> None:
     empty = np.zeros((0, 3))
     BOUNDS.put(identity, MeshFile(empty, empty.astype(np.int64), None, np.zeros(0, np.int32), found.materials, None,
-                                 found.up, found.notes, found.centre, found.radius))
+                                 found.up, found.notes, found.centre, found.radius, found.normals is not None))
 
 
 def side_files(path: Path) -> list[Path]:
@@ -176,10 +185,13 @@ def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
     try:
         # Load unprocessed: trimesh's cleaning would silently drop NaN vertices and their faces.
         with handle:
+            check_content(path, handle, where)
+            if suffix in (".gltf", ".glb"):
+                _check_gltf(path, handle, where, notes)
             source = _mesh_source(path, handle)
             library = _obj_materials(path, source["file_obj"], notes) if suffix == ".obj" else None
             loaded = trimesh.load(**source, process=False)
-        parts = _parts(loaded)
+        parts = _parts(loaded) or _strip_parts(loaded)
     except SceneError:
         raise
     except Exception as error:
@@ -190,6 +202,11 @@ def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
     if not parts:
         raise SceneError(f"{where}: {str(path)!r} holds no triangles; expected {READABLE}")
     vertices, faces, normals = _concatenate(parts)
+    if faces.size and not (0 <= faces.min() and faces.max() < len(vertices)):
+        bad = int(((faces < 0) | (faces >= len(vertices))).any(axis=1).sum())
+        raise SceneError(f"{where}: {str(path)!r} has {bad} face(s) with a vertex index outside 0..{len(vertices) - 1} "
+                         f"(first: {faces[((faces < 0) | (faces >= len(vertices))).any(axis=1)][0].tolist()}); "
+                         "allowed: indices of the file's own vertices")
     mask = np.zeros(len(vertices), bool)
     mask[faces.ravel()] = True  # the vertices faces use: O(F), where np.unique would sort
     used = vertices if mask.all() else vertices[mask]
@@ -200,8 +217,142 @@ def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
         low, high = bounding_box(used)  # column by column (records.bounding_box says why)
         centre = (low + high) / 2
         radius = float(np.sqrt(((used - centre) ** 2).sum(axis=1).max()))
+        hint = up_hint(high - low, suffix)
+        if hint:
+            notes.append(f"{path}: {hint}")
     return MeshFile(vertices, faces, normals, face_group, materials, face_colour, STATED_UP.get(suffix),
-                    tuple(dict.fromkeys(notes)), centre, radius)
+                    tuple(dict.fromkeys(notes)), centre, radius, normals is not None)
+
+
+# ---------------------------------------------------------------- what the content is
+
+SIGNATURES = ((b"ply", "PLY"), (b"glTF", "GLB"), (b"PK\x03\x04", "a zip archive"), (b"BZh", "bzip2-compressed"),
+              (b"\x1f\x8b", "gzip-compressed"), (b"\xfd7zXZ", "xz-compressed"), (b"<?xml", "XML"),
+              (b"<COLLADA", "COLLADA (XML)"), (b"{", "JSON"))
+# What a suffix's content starts with (a binary STL is told by its size instead); formats not listed are
+# left to trimesh.
+EXPECTED = {".ply": ("PLY",), ".glb": ("GLB",), ".gltf": ("JSON",), ".3mf": ("a zip archive",)}
+CONTAINERS = {".zip": "a zip archive", ".bz2": "bzip2-compressed", ".gz": "gzip-compressed", ".xz": "xz-compressed",
+              ".tar": "a tar archive", ".7z": "a 7z archive"}
+
+
+def sniff(head: bytes) -> str | None:
+    """The format a file's first bytes announce, or None (text formats without a signature: OBJ, OFF)."""
+    head = head.removeprefix(b"\xef\xbb\xbf")  # a UTF-8 byte-order mark before a text format's first word
+    stripped = head.lstrip()
+    for signature, name in SIGNATURES:
+        if head.startswith(signature) or (name in ("JSON", "XML", "COLLADA (XML)") and stripped.startswith(signature)):
+            return name
+    if re.match(rb"(\s*(#[^\n]*)?\n)*\s*(v|vn|vt|f|o|g|mtllib|usemtl)\s", head):
+        return "OBJ"
+    if re.match(rb"\s*[CN]?[ST]?OFF\b", head):
+        return "OFF"
+    if stripped[:5].lower() == b"solid":
+        return "ASCII STL"
+    return None
+
+
+def check_file_content(path: Path, where: str) -> None:
+    """check_content on the file at `path` (framing calls it before the memory check reads a binary STL's
+    triangle count from a header that may be an OBJ's first line). A file that cannot be opened is left to
+    the read, which words it. Text formats are left to the read: their header count cannot be fooled so."""
+    if path.suffix.lower() in TEXT_FORMATS:
+        return
+    try:
+        handle = open_regular(path, where, "mesh file")
+    except (OSError, SceneError):
+        return
+    with handle:
+        check_content(path, handle, where)
+
+
+def check_content(path: Path, handle, where: str) -> None:
+    """Refuse, in one line, a file whose content is not the format its suffix says (an OBJ named .stl was read
+    as a binary STL of 433 GB), an archive or compressed file (decompress it first), or a glTF's sibling."""
+    suffix = path.suffix.lower()
+    if suffix in CONTAINERS:
+        raise SceneError(f"{where}: {str(path)!r} is {CONTAINERS[suffix]}; extract or decompress it and render the "
+                         "model file inside (OBJ, PLY, STL, OFF, GLB/glTF, ...)")
+    head = handle.read(512)
+    handle.seek(0)
+    if not head:
+        raise SceneError(f"{where}: {str(path)!r} is empty (0 bytes); expected {READABLE}")
+    found = sniff(head)
+    if suffix == ".stl":
+        size = os.fstat(handle.fileno()).st_size
+        if (size >= 84 and size == 84 + 50 * int.from_bytes(head[80:84], "little")) or found in ("ASCII STL", None):
+            return
+    elif suffix in (".obj", ".off"):
+        if found in (None, "OBJ", "OFF", "ASCII STL"):
+            return  # text formats whose first lines may look like each other's
+    elif suffix not in EXPECTED or found in EXPECTED[suffix]:
+        return
+    name = suffix[1:].upper().replace("GLTF", "glTF")
+    said = (f"its content is {found}; rename it to that format's suffix" if found
+            else f"its content does not start as a {name} file does; expected {READABLE}")
+    raise SceneError(f"{where}: cannot read {str(path)!r} as {name}: {said}")
+
+
+# Required glTF extensions read here; any other one in extensionsRequired is refused (glTF 2.0 §3.12: a loader
+# must not load a file whose required extensions it does not support). Draco needs DracoPy.
+SUPPORTED_REQUIRED = ("KHR_draco_mesh_compression",)
+
+
+def _check_gltf(path: Path, handle, where: str, notes: list[str]) -> None:
+    """The glTF's JSON (a .glb's first chunk): refuse required extensions that are not supported, naming them;
+    a note for each image file it names that is missing."""
+    import json
+    try:
+        if path.suffix.lower() == ".glb":
+            header = handle.read(20)
+            length = int.from_bytes(header[12:16], "little")
+            text = handle.read(min(length, MAX_SIDE_FILE)) if header[16:20] == b"JSON" else b"{}"
+        else:
+            text = handle.read(MAX_SIDE_FILE)
+        document = json.loads(text)
+    except (ValueError, UnicodeDecodeError):
+        document = {}  # trimesh words what is wrong with the file
+    finally:
+        handle.seek(0)
+    if not isinstance(document, dict):
+        return
+    required = [e for e in document.get("extensionsRequired", []) if isinstance(e, str)]
+    missing = [e for e in required if e not in SUPPORTED_REQUIRED]
+    if "KHR_draco_mesh_compression" in required:
+        try:
+            import DracoPy  # noqa: F401  (trimesh decodes Draco with it)
+        except ImportError:
+            missing.insert(0, "KHR_draco_mesh_compression (Draco compression: pip install DracoPy)")
+    if missing:
+        raise SceneError(f"{where}: {str(path)!r} requires the glTF extension(s) {', '.join(missing)}, which this "
+                         f"renderer does not support; supported: {', '.join(SUPPORTED_REQUIRED)}")
+    meshes = document.get("meshes", [])
+    primitives = [p for m in (meshes if isinstance(meshes, list) else []) if isinstance(m, dict)
+                  for p in m.get("primitives", []) if isinstance(p, dict)]
+    if any("COLOR_0" in (p.get("attributes") or {}) and "material" in p for p in primitives):
+        notes.append(f"{path}: COLOR_0 vertex colours beside a material are not applied yet; the material's "
+                     "factors are used (docs/meshes.md)")
+    from urllib.parse import unquote
+    for image in document.get("images", []):
+        uri = image.get("uri") if isinstance(image, dict) else None
+        if isinstance(uri, str) and not uri.startswith("data:") and not (path.parent / unquote(uri)).is_file():
+            notes.append(f"{path}: texture {unquote(uri)!r} is missing")
+
+
+Z_UP_RATIO = 1.5  # a model this many times longer along Z than along Y (and longest along Z) looks Z-up
+
+
+def up_hint(extent: np.ndarray, suffix: str) -> str | None:
+    """A one-line hint when a format that states no up axis holds a model that looks Z-up: longest along Z
+    and at least Z_UP_RATIO times longer along Z than along Y (a scanned statue, a standing figure from a
+    Z-up tool), which the default +Y up shows lying on its back. None otherwise (docs/meshes.md, "Up")."""
+    if suffix in STATED_UP or not extent[2] > 0:
+        return None
+    if extent[2] >= extent.max() and extent[2] >= Z_UP_RATIO * extent[1]:
+        return (f"the model is {extent[2] / max(extent[1], 1e-300):.3g}× longer along Z than along Y, as models "
+                "made Z-up are; the view takes +Y as up (the format states none), so if it lies on its back, "
+                "add --up z")
+    return None
 
 
 class _Part(NamedTuple):
@@ -242,6 +393,41 @@ def _parts(loaded) -> list[_Part]:
     return parts
 
 
+def _strip_parts(loaded) -> list[_Part]:
+    """A PLY that stores triangle strips (a `tristrips` element, -1 between strips) as triangles: trimesh
+    reads only its vertices. Strip triangle i is (s_i, s_i+1, s_i+2), every other one reversed to keep the
+    winding; triangles that repeat a vertex (the strips' joins) are dropped."""
+    raw = getattr(loaded, "metadata", {}).get("_ply_raw") if hasattr(loaded, "metadata") else None
+    if not raw or "tristrips" not in raw or "vertex" not in raw:
+        return []
+    data = raw["tristrips"]["data"]
+    try:
+        field = data["vertex_indices"]
+        rows = field["f1"] if field.dtype.names else field
+        strips = np.concatenate([np.append(np.asarray(row, np.int64).ravel(), -1) for row in np.atleast_1d(rows)])
+    except (KeyError, ValueError, TypeError, IndexError):
+        return []
+    vertex = raw["vertex"]["data"]
+    try:
+        vertices = np.column_stack([np.asarray(vertex[k], np.float64).ravel() for k in ("x", "y", "z")])
+    except (KeyError, ValueError, TypeError, IndexError):
+        return []
+    if len(strips) < 3:
+        return []
+    windows = np.lib.stride_tricks.sliding_window_view(strips, 3)
+    restart = np.flatnonzero(strips < 0)
+    start = np.zeros(len(strips), np.int64)  # where each position's strip starts
+    start[restart[restart + 1 < len(strips)] + 1] = restart[restart + 1 < len(strips)] + 1
+    start = np.maximum.accumulate(start)[: len(windows)]
+    odd = (np.arange(len(windows)) - start) % 2 == 1
+    keep = ((windows >= 0).all(axis=1) & (windows[:, 0] != windows[:, 1]) & (windows[:, 1] != windows[:, 2])
+            & (windows[:, 0] != windows[:, 2]))
+    faces = np.where(odd[:, None], windows[:, [1, 0, 2]], windows)[keep]
+    if not len(faces):
+        return []
+    return [_Part(vertices, faces, None, trimesh.visual.ColorVisuals())]
+
+
 def _concatenate(parts: list[_Part]) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """One vertex and face array; vertex normals only if every part stores them."""
     if len(parts) == 1:
@@ -276,7 +462,7 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
     """Per face: its material (an index into the returned tuple, -1 for none) and its colour sum or None."""
     materials: list[FileMaterial] = []
     index: dict[str, int] = {}
-    groups, colours, any_colour, gltf = [], [], False, False
+    groups, colours, any_colour, gltf, varied_corners = [], [], False, False, False
     for part in parts:
         material = getattr(part.visual, "material", None)
         found = None
@@ -296,12 +482,19 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
                 materials.append(found)
         groups.append(np.full(len(part.faces), index[found.name] if found is not None else -1, np.int32))
         colour = _face_colour_sums(part)
+        if colour is not None and not varied_corners and getattr(part.visual, "kind", None) == "vertex":
+            corners = np.asarray(part.visual.vertex_colors)[:, :3][part.faces]
+            varied_corners = bool((corners.min(axis=1) != corners.max(axis=1)).any())
+        if varied_corners and colour is not None:
+            notes.append(f"{path}: vertex colours are not interpolated per corner yet: each face takes the mean "
+                         "of its three corners' colours (docs/meshes.md)")
         any_colour |= colour is not None
         colours.append(colour)
     if gltf:
         notes.append(f"{path}: glTF metallic-roughness materials are approximated on the Phong model: k_d = k_a = "
-                     "base colour, k_s = 0.04 + (base colour − 0.04) × metallic, f = 2/roughness⁴ − 2 (at most "
-                     f"{MAX_FILE_SHININESS:g}), k_e = emissive (docs/meshes.md)")
+                     "base colour, F0 = 0.04 + (base colour − 0.04) × metallic, f = 2/roughness⁴ − 2 in [1, "
+                     f"{MAX_FILE_SHININESS:g}], k_s = F0 × min(1, (f + 2)/{WIDE_LOBE + 2:g}), k_e = emissive "
+                     "(docs/meshes.md)")
     face_colour = None
     if any_colour:
         # A part without colours keeps its material's own k_d: mark it with -1 to tell it apart.
@@ -323,13 +516,40 @@ def _face_colour_sums(part: _Part) -> np.ndarray | None:
     return 3 * np.asarray(visual.face_colors)[:, :3].astype(np.int32)
 
 
+def specular_lobe(ks, shininess: float) -> tuple[np.ndarray, float]:
+    """A file's (k_s, f) made into a highlight the lecture's lobe shows faithfully (docs/meshes.md, "Highlights").
+
+    The lecture's lobe max(v·r, 0)^f peaks at k_s whatever its width, so a wide lobe reflects far more light
+    than a surface can: f = 0 (glTF roughness 1, .mtl Ns 0) is a second, view-independent diffuse term at
+    full strength, which saturates the whole lit side. A normalised lobe's peak is (f + 2)/2π times the light
+    it reflects, so a lobe wider than WIDE_LOBE (the scene default's f) has its peak lowered by
+    (f + 2)/(WIDE_LOBE + 2): it reflects no more than a WIDE_LOBE lobe of the stated k_s, and a fully rough
+    surface looks matte. Lobes at least as narrow keep the file's k_s; f is kept in [1, 1000].
+    """
+    shininess = min(max(float(shininess), MIN_FILE_SHININESS), MAX_FILE_SHININESS)
+    return np.asarray(ks, np.float64) * min(1.0, (shininess + 2) / (WIDE_LOBE + 2)), shininess
+
+
+def texture_mean(image) -> np.ndarray | None:
+    """The mean RGB (3,) in [0, 1] of a PIL image, which is shrunk in place to at most TEXTURE_MEAN_SIZE
+    pixels a side (a JPEG not yet decoded is decoded at that scale); 8-bit values as stored, like vertex
+    colours. None when the image cannot be decoded."""
+    try:
+        image.thumbnail((TEXTURE_MEAN_SIZE, TEXTURE_MEAN_SIZE))  # in place: the full-size pixels are let go
+        rgb = np.asarray(image.convert("RGB"), np.float64).reshape(-1, 3)
+    except Exception:  # noqa: BLE001 - PIL raises many types on a corrupt image; a texture is only a note
+        return None
+    return rgb.mean(axis=0) / 255.0 if len(rgb) else None
+
+
 def _from_pbr(material, path: Path, notes: list[str]) -> FileMaterial:
     """glTF 2.0 metallic-roughness → Phong: a stated approximation (docs/meshes.md).
 
     k_d = k_a = base colour; k_s = F0 of the metallic workflow, lerp(0.04, base colour, metallic) (glTF
     2.0 Appendix B); f = 2/α² − 2 with α = roughness², the Blinn-Phong exponent of the same lobe width
-    (Walter et al. 2007), capped at MAX_FILE_SHININESS; k_e = emissive factor. glTF's defaults: base
-    colour 1, metallic 1, roughness 1.
+    (Walter et al. 2007); both through specular_lobe, so roughness 1 is matte; k_e = emissive factor.
+    Textures are not applied yet: a base colour or emissive texture's mean colour multiplies its factor
+    (a note says so). glTF's defaults: base colour 1, metallic 1, roughness 1, emissive 0.
     """
     base = material.baseColorFactor
     base = np.ones(4) if base is None else np.asarray(base, np.float64) / 255.0
@@ -339,17 +559,31 @@ def _from_pbr(material, path: Path, notes: list[str]) -> FileMaterial:
     rgb = np.clip(base[:3], 0, 1)
     metallic, roughness = min(max(metallic, 0.0), 1.0), min(max(roughness, 0.0), 1.0)
     alpha = roughness * roughness
-    shininess = MAX_FILE_SHININESS if alpha == 0 else min(MAX_FILE_SHININESS, max(0.0, 2 / alpha**2 - 2))
+    shininess = MAX_FILE_SHININESS if alpha == 0 else 2 / alpha**2 - 2
     name = material.name or f"{path.stem}-material"
     if base[3] < 1 or getattr(material, "alphaMode", None) in ("BLEND", "MASK"):
         notes.append(f"{path}: material {name!r}: transparency (alpha {base[3]:.3g}) is ignored: surfaces are opaque")
-    textures = [key for key in ("baseColorTexture", "metallicRoughnessTexture", "normalTexture",
-                                "emissiveTexture", "occlusionTexture") if getattr(material, key, None) is not None]
-    if textures:
-        notes.append(f"{path}: material {name!r}: texture maps are ignored ({', '.join(textures)}); its factors "
-                     "are used")
-    return FileMaterial(name, _rgb(rgb), _rgb(rgb), _rgb(0.04 + (rgb - 0.04) * metallic),
-                        _rgb(np.clip(emissive[:3], 0, 1)), float(shininess))
+    used = []
+    for key in ("baseColorTexture", "emissiveTexture"):
+        image = getattr(material, key, None)
+        if image is None:
+            continue
+        mean = texture_mean(image)
+        if mean is None:
+            notes.append(f"{path}: material {name!r}: its {key} cannot be decoded; its factor is used")
+        elif key == "baseColorTexture":
+            rgb, used = rgb * mean, [*used, key]
+        else:
+            emissive, used = emissive[:3] * mean, [*used, key]
+    if used:
+        notes.append(f"{path}: material {name!r}: textures are not applied yet; the mean colour of its "
+                     f"{' and '.join(used)} multiplies the factor (docs/meshes.md)")
+    ignored = [key for key in ("metallicRoughnessTexture", "normalTexture", "occlusionTexture")
+               if getattr(material, key, None) is not None]
+    if ignored:
+        notes.append(f"{path}: material {name!r}: {', '.join(ignored)} not applied; its factors are used")
+    ks, shininess = specular_lobe(0.04 + (rgb - 0.04) * metallic, shininess)
+    return FileMaterial(name, _rgb(rgb), _rgb(rgb), _rgb(ks), _rgb(np.clip(emissive[:3], 0, 1)), float(shininess))
 
 
 def _rgb(values) -> tuple[float, float, float]:
@@ -402,7 +636,7 @@ def parse_mtl(content: str, mtl: Path, notes: list[str]) -> dict[str, FileMateri
             current = raw.setdefault(" ".join(words[1:]), {})
         elif current is not None:
             current[key] = words[1:]
-    materials, bad, clamped, textures, transparent, illums = {}, [], [], [], [], set()
+    materials, bad, clamped, textures, transparent, illums, averaged, undecoded = {}, [], [], [], [], set(), [], []
     for name, keys in raw.items():
         values = {}
         for key in ("ka", "kd", "ks", "ke", "ns", "d", "tr", "illum"):
@@ -416,7 +650,7 @@ def parse_mtl(content: str, mtl: Path, notes: list[str]) -> dict[str, FileMateri
                 bad.append(f"{name}: {key.capitalize()} {' '.join(keys[key])}")
                 continue
             values[key] = numbers
-        textures += [(name, key, " ".join(words)) for key, words in keys.items() if key.startswith(TEXTURE_KEYS)]
+        textures += [(name, key, _map_file(words)) for key, words in keys.items() if key.startswith(TEXTURE_KEYS)]
         if values.get("d", [1.0])[0] < 1 or values.get("tr", [0.0])[0] > 0:
             transparent.append(name)
         illum = int(values.get("illum", [2])[0])
@@ -428,7 +662,20 @@ def parse_mtl(content: str, mtl: Path, notes: list[str]) -> dict[str, FileMateri
             if any(not 0 <= x <= 1 for x in rgb):
                 clamped.append(f"{name}: {key.capitalize()}")
             coefficients[key] = _rgb(np.clip(rgb, 0, 1))
-        shininess = min(max(values.get("ns", [MATERIAL_DEFAULTS["shininess"]])[0], 0.0), MAX_FILE_SHININESS)
+        maps = {key: _map_file(words) for key, words in keys.items() if key in ("map_kd", "map_ka", "map_ke")}
+        for key, file in maps.items():
+            mean = _file_texture_mean(mtl.parent, file) if file else None
+            if mean is not None:
+                target = {"map_kd": "kd", "map_ka": "ka", "map_ke": "ke"}[key]
+                coefficients[target] = _rgb(np.asarray(coefficients[target]) * mean)
+                if key == "map_kd" and "map_ka" not in maps:  # the texture multiplies k_d and k_a
+                    coefficients["ka"] = _rgb(np.asarray(coefficients["ka"]) * mean)
+                averaged.append(f"{key} {file}")
+            elif file and _texture_path(mtl.parent, file) is not None:
+                undecoded.append(file)
+        ks, shininess = specular_lobe(coefficients["ks"],
+                                      values.get("ns", [MATERIAL_DEFAULTS["shininess"]])[0])
+        coefficients["ks"] = _rgb(ks)
         if illum == 0:
             colour = np.clip(np.add(coefficients["kd"], coefficients["ke"]), 0, 1)
             coefficients = {"ka": (0.0,) * 3, "kd": (0.0,) * 3, "ks": (0.0,) * 3, "ke": _rgb(colour)}
@@ -448,13 +695,74 @@ def parse_mtl(content: str, mtl: Path, notes: list[str]) -> dict[str, FileMateri
         notes.append(f"{mtl}: illum {', '.join(map(str, sorted(illums)))} render as illum 2 (Phong); reflection "
                      "and refraction are out of scope")
     if textures:
-        shown = ", ".join(f"{key} {file}" for _, key, file in textures[:3]) + (", ..." if len(textures) > 3 else "")
-        notes.append(f"{mtl}: texture maps are ignored ({shown}); the materials' colours are used")
-        for _, _, file in textures:
-            target = mtl.parent / file.split()[-1]
-            if not target.is_file():
-                notes.append(f"{mtl}: texture {file.split()[-1]!r} is missing (textures are ignored anyway)")
+        missing = sorted({file for _, _, file in textures if file and _texture_path(mtl.parent, file) is None})
+        for file in missing:
+            notes.append(f"{mtl}: texture {file!r} is missing")
+        for file in sorted(set(undecoded)):
+            notes.append(f"{mtl}: texture {file!r} cannot be read as an image; its coefficient is used")
+        if averaged:
+            shown = ", ".join(averaged[:3]) + (", ..." if len(averaged) > 3 else "")
+            notes.append(f"{mtl}: textures are not applied yet; the mean colour of each colour map multiplies its "
+                         f"coefficient ({shown}; docs/meshes.md)")
+        others = [f"{key} {file}" for _, key, file in textures if key not in ("map_kd", "map_ka", "map_ke")]
+        if others:
+            shown = ", ".join(others[:3]) + (", ..." if len(others) > 3 else "")
+            notes.append(f"{mtl}: texture maps not applied ({shown})")
     return materials
+
+
+# Options of a map statement and how many values each takes (the .mtl specification, "Texture map options").
+MAP_OPTIONS = {"-blendu": 1, "-blendv": 1, "-bm": 1, "-boost": 1, "-cc": 1, "-clamp": 1, "-imfchan": 1,
+               "-mm": 2, "-o": 3, "-s": 3, "-t": 3, "-texres": 1, "-type": 1}
+
+
+def _map_file(words: list[str]) -> str:
+    """The file a map statement names: its options skipped (-o, -s and -t take up to 3 numbers), the rest,
+    spaces kept ("fuze uv.jpg"), backslashes read as folder separators (files written on Windows)."""
+    at = 0
+    while at < len(words) and words[at].lower() in MAP_OPTIONS:
+        count = MAP_OPTIONS[words[at].lower()]
+        at += 1
+        taken = 0
+        while taken < count and at < len(words) - 1:
+            if count == 1 or _is_number(words[at]):
+                at, taken = at + 1, taken + 1
+            else:
+                break
+    return " ".join(words[at:]).replace("\\", "/")
+
+
+def _is_number(word: str) -> bool:
+    try:
+        float(word)
+    except ValueError:
+        return False
+    return True
+
+
+def _texture_path(folder: Path, file: str) -> Path | None:
+    """The texture a material names, relative to its .mtl: as written, else by its file name alone beside
+    the .mtl (exporters often keep the absolute path of the machine they ran on); None when neither exists."""
+    for candidate in (folder / file, folder / Path(file).name):
+        try:
+            if candidate.is_file():
+                return candidate
+        except OSError:
+            pass
+    return None
+
+
+def _file_texture_mean(folder: Path, file: str) -> np.ndarray | None:
+    """texture_mean of a texture file beside an .mtl, or None when it is missing or not an image."""
+    found = _texture_path(folder, file)
+    if found is None:
+        return None
+    try:
+        from PIL import Image
+        with open_regular(found, str(found), "texture") as handle, Image.open(handle) as image:
+            return texture_mean(image)
+    except Exception:  # noqa: BLE001 - a texture that is not an image: its coefficient stays as stated
+        return None
 
 
 # ---------------------------------------------------------------- trimesh's side of reading
@@ -503,5 +811,8 @@ def _mesh_source(path, handle) -> dict:
             data.decode("utf-8")
         except UnicodeDecodeError:
             data = data.decode("latin-1").encode("utf-8")
+        if suffix == ".obj":
+            from .obj_polygons import triangulate_concave
+            data, _ = triangulate_concave(data)  # trimesh would fan a concave polygon over its hole
         source["file_obj"] = io.BytesIO(data)
     return source

@@ -56,8 +56,15 @@ def _term_stages(scene: Scene, smooth: list, optimize: bool) -> tuple[list[Stage
         f"{len(smooth)} object(s) with Gouraud or Phong shading",
         "every object is flat-shaded: face normals only")
     creased = [obj for obj in smooth if obj.crease_angle < 180]
-    add("crease_split", bool(creased),
-        f"{len(creased)} smooth object(s) with crease_angle < 180°",
+    # A mesh object leaving crease_angle and normals unset creases a file without normals (geometry.build).
+    maybe = [obj for obj in smooth if obj.shape == "mesh" and obj.normals is None
+             and "crease_angle" not in obj.model_fields_set]
+    if maybe:
+        from ..io.mesh_file import FILE_CREASE_ANGLE
+    add("crease_split", bool(creased or maybe),
+        "; ".join(([f"{len(creased)} smooth object(s) with crease_angle < 180°"] if creased else [])
+                  + ([f"{len(maybe)} mesh object(s) creased at {FILE_CREASE_ANGLE:g}° if the file stores no "
+                      "normals (set crease_angle to choose)"] if maybe else [])),
         "no smooth object has a crease angle below 180°")
     own = [m for m in materials if m is not FILE_MATERIALS]
     add("emission", _any_positive(m.ke for m in materials),

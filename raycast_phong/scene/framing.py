@@ -31,12 +31,13 @@ AZIMUTH, ELEVATION = math.radians(30.0), math.radians(20.0)
 def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), view: str | None = None,
                     up: str | None = None) -> dict:
     """A scene table showing one mesh file: its materials, a framing camera, a key light (docs/meshes.md)."""
-    from ..io.mesh_file import mesh_bounds  # trimesh: only when a mesh file is framed
+    from ..io.mesh_file import FILE_CREASE_ANGLE, check_file_content, mesh_bounds  # trimesh: only for mesh files
     from ..io.mesh_header import check_mesh_read
     where = str(path)
     view = view or VIEWS[0]
     if view not in VIEWS:
         raise SceneError(f"{where}: --view {view!r}; allowed: {', '.join(VIEWS)}")
+    check_file_content(path, where)  # an OBJ named .stl is no binary STL of 1702M triangles
     check_mesh_read(path, where)  # the framing read comes before render()'s own memory check
     found = mesh_bounds(path, where)
     if not found.radius >= MIN_EXTENT:  # every vertex at one point: nothing to frame (or to see)
@@ -46,7 +47,9 @@ def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), vie
     up_axis = parse_up(up, where) if up is not None else np.asarray(found.up or DEFAULT_UP)
     data: dict = {
         "materials": {m.name: m.as_scene() for m in found.materials},
-        "objects": [{"name": path.stem, "shape": "mesh", "path": path.name}],
+        # A file without normals is creased at the feature angle (docs/meshes.md, "Normals"): shown by `scene`.
+        "objects": [{"name": path.stem, "shape": "mesh", "path": path.name,
+                     **({} if found.stores_normals else {"crease_angle": FILE_CREASE_ANGLE})}],
         "output": {"path": f"{path.stem}.png"},
     }
     data["camera"] = frame_camera(found.centre, found.radius, up_axis, view, (640.0, 480.0), 40.0, False)
