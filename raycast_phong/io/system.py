@@ -1,4 +1,5 @@
-"""What the machine can give now: available memory (Linux's /proc/meminfo, capped by a cgroup v2 limit), and
+"""What the machine can give now: available memory (Linux's /proc/meminfo, capped by cgroup v1/v2 limits,
+`ulimit -v` and the command's --max-memory), and
 how byte and triangle counts are written in messages.
 """
 
@@ -9,7 +10,9 @@ from pathlib import Path
 
 
 def available_memory() -> int | None:
-    """Bytes the machine can give now: MemAvailable (Linux), capped by a cgroup limit; else free pages."""
+    """Bytes the machine can give this process now: MemAvailable (Linux), capped by its cgroup's limit (v2 or
+    v1, its own cgroup and every parent) and by the address space `ulimit -v` (RLIMIT_AS) leaves; else free
+    pages. The --max-memory budget of this command, where one is set (limit_budget), caps it too."""
     found = None
     try:
         with open("/proc/meminfo", "rb") as meminfo:
@@ -24,14 +27,66 @@ def available_memory() -> int | None:
             found = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
         except (ValueError, OSError, AttributeError):
             return None
-    try:  # a container's limit (cgroup v2) can be far below the host's free memory
-        limit = Path("/sys/fs/cgroup/memory.max").read_text().strip()
-        used = int(Path("/sys/fs/cgroup/memory.current").read_text())
-        if limit != "max":
-            found = min(found, max(int(limit) - used, 0))
-    except (OSError, ValueError):
-        pass
+    for limit in (_cgroup_room(), _address_space_room(), BUDGET[0]):
+        if limit is not None:
+            found = min(found, limit)
     return found
+
+
+# The budget a command was given (--max-memory), so that a read below the renderer (framing's mesh read)
+# keeps to it too; the CLI sets it for one command and clears it after (cli.common).
+BUDGET: list[int | None] = [None]
+
+
+def limit_budget(budget: int | None) -> None:
+    """Cap available_memory() at `budget` bytes for the rest of this command (None: no cap)."""
+    BUDGET[0] = budget
+
+
+def _cgroup_room() -> int | None:
+    """What the tightest memory limit of this process's cgroup and its parents leaves (v2, else v1)."""
+    room = None
+    try:
+        lines = Path("/proc/self/cgroup").read_text().splitlines()
+    except OSError:
+        lines = []
+    places = []
+    for line in lines:
+        number, controllers, where = [*line.split(":", 2), "", ""][:3]
+        if number == "0" and controllers == "":
+            places.append((Path("/sys/fs/cgroup") / where.lstrip("/"), "memory.max", "memory.current"))
+        elif "memory" in controllers.split(","):
+            places.append((Path("/sys/fs/cgroup/memory") / where.lstrip("/"), "memory.limit_in_bytes",
+                           "memory.usage_in_bytes"))
+    places.append((Path("/sys/fs/cgroup"), "memory.max", "memory.current"))
+    for folder, limit_name, used_name in places:
+        while True:
+            try:
+                limit = (folder / limit_name).read_text().strip()
+                used = int((folder / used_name).read_text())
+                if limit != "max" and int(limit) < 1 << 62:  # v1 writes "no limit" as a huge number
+                    left = max(int(limit) - used, 0)
+                    room = left if room is None else min(room, left)
+            except (OSError, ValueError):
+                pass
+            if folder.parent == folder or folder.name in ("cgroup", "memory"):
+                break
+            folder = folder.parent
+    return room
+
+
+def _address_space_room() -> int | None:
+    """What `ulimit -v` (RLIMIT_AS) leaves above this process's mapped size now; None without a limit."""
+    try:
+        import resource
+        soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+        if soft == resource.RLIM_INFINITY:
+            return None
+        with open("/proc/self/status", "rb") as status:
+            size = next((int(line.split()[1]) * 1024 for line in status if line.startswith(b"VmSize:")), 0)
+        return max(soft - size, 0)
+    except (ImportError, OSError, ValueError):
+        return None
 
 
 def format_bytes(count: float) -> str:
