@@ -36,6 +36,13 @@ class OneLineErrors(TyperGroup):
             limit_budget(None)  # --max-memory holds for one command (tests run many in one process)
 
     def _main(self, *args, standalone_mode: bool = True, **kwargs):
+        from raycast_phong.io.system import check_environment
+        try:
+            for warning in check_environment():
+                typer.secho(f"warning: {one_line(warning)}", err=True, fg=typer.colors.YELLOW)
+        except InputError as error:
+            typer.secho(f"error: {one_line(str(error))}", err=True, fg=typer.colors.RED)
+            sys.exit(2)
         if not standalone_mode:
             return super().main(*args, standalone_mode=False, **kwargs)
         try:
@@ -46,7 +53,7 @@ class OneLineErrors(TyperGroup):
             command = error.ctx.command_path if getattr(error, "ctx", None) else None
             where = f"{command}: " if command else ""
             hint = f" (see {command} --help)" if command else ""
-            typer.secho(f"error: {where}{error.format_message()}{hint}", err=True, fg=typer.colors.RED)
+            typer.secho(f"error: {one_line(where + error.format_message() + hint)}", err=True, fg=typer.colors.RED)
             sys.exit(error.exit_code)
         except typer.Abort:
             typer.secho("error: aborted", err=True, fg=typer.colors.RED)
@@ -114,8 +121,19 @@ MaxMemoryOption = Annotated[str | None, typer.Option(
          "available now.")]
 
 
+MESSAGE_CHARACTERS = 2000  # an error line is one line of bounded length, whatever a value held
+
+
+def one_line(message: str, limit: int = MESSAGE_CHARACTERS) -> str:
+    """`message` as one printable line: control characters (a newline, a bell, an escape) shown escaped, and
+    cut to `limit` characters with how many were left out. Every error line passes here."""
+    if not message.isprintable():
+        message = "".join(c if c.isprintable() else repr(c)[1:-1] for c in message)
+    return message if len(message) <= limit else f"{message[:limit]}… ({len(message) - limit:,} more characters)"
+
+
 def fail(message: str, code: int = 2) -> None:
-    typer.secho(f"error: {message}", err=True, fg=typer.colors.RED)
+    typer.secho(f"error: {one_line(message)}", err=True, fg=typer.colors.RED)
     raise typer.Exit(code=code)
 
 

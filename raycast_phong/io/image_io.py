@@ -37,6 +37,7 @@ def check_output_path(path: str | Path, inputs: tuple[str | Path, ...] = ()) -> 
 def check_output_file(path: Path, inputs: tuple[str | Path, ...] = ()) -> None:
     """Refuse an output file in a missing or read-only folder, a folder itself, or one of `inputs`."""
     folder = path.parent if str(path.parent) else Path(".")
+    _check_name_length(path, folder)
     if not folder.is_dir():
         raise ImageError(f"{path}: the output folder {str(folder)!r} does not exist; create it or choose an "
                          "existing folder")
@@ -47,6 +48,21 @@ def check_output_file(path: Path, inputs: tuple[str | Path, ...] = ()) -> None:
             raise ImageError(f"{path}: the output is the input {given}; writing it would replace what is read")
     if not os.access(folder, os.W_OK):
         raise ImageError(f"{path}: the output folder {str(folder)!r} is not writable")
+
+
+def _check_name_length(path: Path, folder: Path) -> None:
+    """Refuse a file name or path longer than the file system allows (ENAMETOOLONG from any later call)."""
+    name, whole = len(os.fsencode(path.name)), len(os.fsencode(str(path)))
+    try:
+        name_max = os.pathconf(folder if folder.is_dir() else ".", "PC_NAME_MAX")
+        path_max = os.pathconf(folder if folder.is_dir() else ".", "PC_PATH_MAX")
+    except (OSError, ValueError):
+        name_max, path_max = 255, 4096
+    if name > name_max or whole >= path_max:
+        what, size, limit = ("file name", name, name_max) if name > name_max else ("path", whole, path_max)
+        shown = f"{str(path)[:60]}…" if len(str(path)) > 60 else str(path)
+        raise ImageError(f"{shown}: the output's {what} is {size:,} bytes, longer than the {limit:,} the file system "
+                         "allows; choose a shorter name")
 
 
 def _same_file(a: Path, b: Path) -> bool:

@@ -41,14 +41,27 @@ def read_scene_file(path: Path) -> dict:
                                  "would keep the last silently); allowed: each key once")
         else:
             data = tomllib.loads(text)
+    except SceneError:
+        raise
     except json.JSONDecodeError as error:
         where = f"line {error.lineno}, column {error.colno}"
         raise SceneError(f"{path}: JSON syntax error at {where}: {error.msg}") from None
     except tomllib.TOMLDecodeError as error:
         raise SceneError(f"{path}: TOML syntax error: {error}") from None
+    except (RecursionError, ValueError) as error:
+        raise SceneError(f"{path}: {syntax_limit(error)}") from None
     if not isinstance(data, dict):
         raise SceneError(f"{path}: the top level must be a table of keys")
     return data
+
+
+def syntax_limit(error: RecursionError | ValueError) -> str:
+    """What a parser's RecursionError (lists or tables nested thousands deep) or ValueError (an integer of more
+    than 4300 digits, Python's limit) means, as the rest of a one-line message."""
+    if isinstance(error, RecursionError):
+        return "lists or tables nested too deep to read; allowed: a few levels, as docs/scene-format.md shows"
+    return ("a number with more digits than can be read (Python's limit is 4300); allowed: a number within "
+            "the key's range")
 
 
 class _JSONObject(dict):

@@ -6,6 +6,8 @@ how byte and triangle counts are written in messages.
 from __future__ import annotations
 
 import os
+import re
+import sys
 from pathlib import Path
 
 
@@ -87,6 +89,35 @@ def _address_space_room() -> int | None:
         return max(soft - size, 0)
     except (ImportError, OSError, ValueError):
         return None
+
+
+def check_environment() -> list[str]:
+    """Refuse (OptionError) NUMBA_* settings the renderer cannot run under, before numba is imported:
+    NUMBA_NUM_THREADS that is not a whole number from 1 (numba's import fails on it) and NUMBA_DISABLE_JIT
+    (the kernels would run as Python without Embree's calls: a wrong image). Returns numba's own complaints
+    about other NUMBA_* values it cannot parse, one line each, instead of its raw multi-line warnings."""
+    from ..errors import OptionError
+    threads = os.environ.get("NUMBA_NUM_THREADS", "").strip()
+    if threads and not (threads.isdigit() and 1 <= int(threads) <= 1024):
+        raise OptionError(f"NUMBA_NUM_THREADS={threads[:20]!r}: numba's thread count; allowed: a whole number from 1 "
+                          f"to 1024 (this machine has {os.cpu_count()} cores), or unset it")
+    if os.environ.get("NUMBA_DISABLE_JIT", "").strip() not in ("", "0"):
+        raise OptionError("NUMBA_DISABLE_JIT is set: the renderer's kernels call Embree only when compiled, so "
+                          "without numba's compiler the image would be wrong; allowed: 0 or unset")
+    if not any(name.startswith("NUMBA_") for name in os.environ) or "numba" in sys.modules:
+        return []
+    import warnings
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        import numba  # noqa: F401  (numba reads its environment once, at import)
+    found = []
+    for warning in caught:
+        text = str(warning.message).splitlines()[0]
+        match = re.search(r"variable '(NUMBA_\w+)' is defined but its associated value '(.*)' could not be parsed",
+                          text)
+        found.append(f"{match[1]}={match[2][:40]!r} is not a value numba understands; it is ignored" if match
+                     else text)
+    return found
 
 
 def format_bytes(count: float) -> str:
