@@ -31,7 +31,22 @@ class OneLineErrors(TyperGroup):
     def main(self, *args, standalone_mode: bool = True, **kwargs):
         from raycast_phong.io.system import limit_budget
         try:
-            return self._main(*args, standalone_mode=standalone_mode, **kwargs)
+            if not standalone_mode:
+                return self._main(*args, standalone_mode=False, **kwargs)
+            before = _stdout_identity()
+            try:
+                code = self._main(*args, standalone_mode=True, **kwargs)
+            except SystemExit as done:
+                code = done.code
+                # typer (a PacifyFlushWrapper) and rich (stdout pointed at /dev/null) meet EPIPE with a silent
+                # exit 1: say it as every other failed write
+                if type(sys.stdout).__name__ == "PacifyFlushWrapper" or _stdout_identity() != before:
+                    import errno
+                    raise BrokenPipeError(errno.EPIPE, "Broken pipe") from None
+            _flush_or_fail(sys.stdout, "stdout")  # a full disk or a closed pipe shows at the flush too
+            sys.exit(code)
+        except OSError as error:  # a print to stdout or stderr failed: what --help and errors write to
+            _output_failed(error)
         finally:
             limit_budget(None)  # --max-memory holds for one command (tests run many in one process)
 
@@ -61,6 +76,40 @@ class OneLineErrors(TyperGroup):
         sys.exit(code if isinstance(code, int) else 0)  # a command's typer.Exit(code), else success
 
 
+def _stdout_identity() -> tuple[int, int] | None:
+    try:
+        info = os.fstat(sys.stdout.fileno())
+        return info.st_dev, info.st_ino
+    except (OSError, ValueError, AttributeError):  # a test runner's stdout has no descriptor
+        return None
+
+
+def _flush_or_fail(stream, name: str) -> None:
+    try:
+        stream.flush()
+    except OSError as error:
+        error.stream = name
+        raise
+
+
+def _output_failed(error: OSError) -> None:
+    """stdout or stderr could not be written (`> /dev/full`, a reader that closed the pipe): one line on
+    stderr if it still takes one, exit 2 (a failed write, like any other output), no traceback; stdout is
+    pointed at /dev/null so Python's own flush at exit does not fail again."""
+    import errno
+    try:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+    reason = "the reader closed the pipe" if error.errno == errno.EPIPE else (error.strerror or str(error))
+    try:
+        sys.stderr.write(f"error: {getattr(error, 'stream', 'stdout')}: write failed: {reason}\n")
+        sys.stderr.flush()
+    except (OSError, ValueError):
+        pass
+    os._exit(2)  # nothing left to flush that could be written
+
+
 app = typer.Typer(
     cls=OneLineErrors,
     help="Ray-cast flat, Gouraud and Phong shading with Intel Embree.",
@@ -74,7 +123,8 @@ app = typer.Typer(
 SceneArgument = Annotated[Path | None, typer.Argument(
     help="Scene file (.toml or .json, see docs/scene-format.md) or a mesh file (.obj, .ply, .stl, .off, .glb, "
          ".gltf, anything trimesh reads: framed, lit and with its own materials, see docs/meshes.md). Omit it for "
-         "the built-in default scene.",
+         "the built-in default scene; `-` reads a scene from standard input (TOML, or JSON starting with {), "
+         "e.g. `cat scene.toml | raycast-phong render - -o out.png`.",
     show_default=False, dir_okay=False)]
 
 
