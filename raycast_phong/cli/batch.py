@@ -47,8 +47,9 @@ def batch(
     import signal
 
     from raycast_phong.tools import batch as batches
-    # Ctrl-C and `kill` (SIGTERM) both stop the batch: workers killed, temporaries removed, the manifest written.
-    previous = {number: signal.signal(number, batches.interrupt) for number in (signal.SIGINT, signal.SIGTERM)}
+    # Ctrl-C, `kill` (SIGTERM), a closed terminal (SIGHUP) and SIGQUIT stop the batch: workers killed,
+    # temporaries removed, the manifest written.
+    previous = {number: signal.signal(number, batches.interrupt) for number in batches.STOP_SIGNALS}
     try:
         with exit_codes():
             found = batches.find_jobs(paths, out)

@@ -8,6 +8,7 @@ leaves a half-written image over a good one.
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,6 +20,7 @@ from ..codes import IMAGE_SUFFIXES
 from ..errors import ImageError
 from .atomic import os_reason, replaced_atomically
 from .encoding import to_8bit
+from .system import format_bytes
 
 LAYER_CHANNELS = {"depth": ("Z",), "normal": ("X", "Y", "Z"), "face": ("id",)}
 
@@ -272,11 +274,48 @@ class ImageComparison:
     b: np.ndarray                # (H, W, C) float32
 
 
-def compare_files(a: str | Path, b: str | Path, fail: float, warn: float) -> ImageComparison:
+# Bytes per pixel channel that compare_files holds for each image: OpenImageIO's buffer (read as float),
+# its float32 copy, and the comparison's float32 temporaries (the NaN and inf tests, the heat map).
+COMPARE_BYTES_PER_SAMPLE = 16
+
+
+def image_header(path: str | Path) -> tuple[int, int, int] | None:
+    """(width, height, channels) of an image's first part from its header alone, or None if it cannot be
+    opened (the read reports why)."""
+    source = oiio.ImageInput.open(str(path))
+    if source is None:
+        oiio.geterror()
+        return None
+    try:
+        spec = source.spec()
+        return spec.width, spec.height, spec.nchannels
+    finally:
+        source.close()
+
+
+def check_image_reads(paths: tuple[str | Path, ...], budget: int | None, per_sample: int,
+                      raise_it: str = "raise the budget (--max-memory)") -> None:
+    """Refuse (ImageError, one line) to read images whose headers claim more pixels than the budget holds at
+    `per_sample` bytes per pixel channel: a 100-byte PNG may claim 20000 × 20000 pixels."""
+    if budget is None:
+        return
+    sizes = {path: image_header(path) for path in paths}
+    need = sum(w * h * c for w, h, c in filter(None, sizes.values())) * per_sample
+    if need > budget:
+        path, (w, h, c) = max(((p, s) for p, s in sizes.items() if s), key=lambda item: math.prod(item[1]))
+        raise ImageError(f"{path}: its header says {w}×{h} pixels with {c} channels; reading "
+                         f"{'them' if len(paths) == 1 else 'the images'} needs ≈ {format_bytes(need)} of memory, "
+                         f"above the {format_bytes(budget)} budget; {raise_it}")
+
+
+def compare_files(a: str | Path, b: str | Path, fail: float, warn: float,
+                  budget: int | None = None) -> ImageComparison:
     """Compare two image files as idiff does (8-bit files scaled to [0, 1]).
 
-    Raises ImageError for an unreadable file or a different size or channel count.
+    Raises ImageError for an unreadable file, a different size or channel count, or images whose headers
+    claim more pixels than `budget` bytes hold (checked before any pixel is read).
     """
+    check_image_reads((a, b), budget, COMPARE_BYTES_PER_SAMPLE)
     buffers = []
     for path in (a, b):
         buffer = oiio.ImageBuf(str(path))

@@ -101,8 +101,14 @@ class Interrupted(KeyboardInterrupt):
         self.signal, self.report = int(number), report
 
 
+# The signals that stop a batch as Ctrl-C does: `kill`, and a closed terminal (SIGHUP) or Ctrl-\\ (SIGQUIT),
+# which would otherwise end it with no manifest written and its workers' temporary files left.
+STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP", "SIGQUIT")
+                     if hasattr(signal, name))
+
+
 def interrupt(number: int, frame) -> None:
-    """Signal handler (the `batch` command's, for SIGINT and SIGTERM): stop the batch as Ctrl-C would."""
+    """Signal handler (the `batch` command's, for STOP_SIGNALS): stop the batch as Ctrl-C would."""
     raise Interrupted(number)
 
 
