@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import os
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -279,6 +280,32 @@ class ImageComparison:
 COMPARE_BYTES_PER_SAMPLE = 16
 
 
+@contextmanager
+def _library_lines():
+    """Hold what C libraries under OpenImageIO write straight to stderr (file descriptor 2) while a file is
+    read, and drop it: the read's own error, one line, says what went wrong."""
+    import sys
+    import tempfile
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError):
+        yield
+        return
+    with tempfile.TemporaryFile() as held:
+        os.dup2(held.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+
+
+def _first_line(text: str) -> str:
+    """OpenImageIO's error text is several lines, the first the reason."""
+    return next((line.strip() for line in str(text).splitlines() if line.strip()), "unknown reason")
+
+
 def image_header(path: str | Path) -> tuple[int, int, int] | None:
     """(width, height, channels) of an image's first part from its header alone, or None if it cannot be
     opened (the read reports why)."""
@@ -318,9 +345,11 @@ def compare_files(a: str | Path, b: str | Path, fail: float, warn: float,
     check_image_reads((a, b), budget, COMPARE_BYTES_PER_SAMPLE)
     buffers = []
     for path in (a, b):
-        buffer = oiio.ImageBuf(str(path))
-        if buffer.has_error or not buffer.read():
-            raise ImageError(f"{path}: cannot read ({buffer.geterror() or oiio.geterror()})")
+        with _library_lines():  # libpng prints "libpng error: …" on stderr itself; our line says it
+            buffer = oiio.ImageBuf(str(path))
+            unread = buffer.has_error or not buffer.read()
+        if unread:
+            raise ImageError(f"{path}: cannot read ({_first_line(buffer.geterror() or oiio.geterror())})")
         buffers.append(buffer)
     specs = [buffer.spec() for buffer in buffers]
     shapes = [(spec.width, spec.height, spec.nchannels) for spec in specs]

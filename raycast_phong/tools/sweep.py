@@ -81,7 +81,7 @@ class Sweep:
 
 def is_sweep(path: Path) -> bool:
     """A TOML file with a top-level `grid` table (a scene file never has one)."""
-    if path.suffix.lower() != ".toml":
+    if path.suffix.lower() != ".toml" or not path.is_file():  # a FIFO would block the read: the loader refuses it
         return False
     try:
         return "grid" in tomllib.loads(path.read_text(encoding="utf-8"))

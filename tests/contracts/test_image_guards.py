@@ -95,3 +95,24 @@ def test_a_sweep_of_a_million_cells_is_refused_at_once(tmp_path):
     lines = result.output.strip().splitlines()
     assert result.exit_code == 2 and len(lines) == 1, result.output[:2000]
     assert "1,000 × 1,000 = 1,000,000 cells" in lines[0], lines[0]
+
+
+def test_a_truncated_png_in_compare_is_our_one_line_only(tmp_path):
+    """libpng wrote its own `libpng error: …` line on stderr beside ours (issue 21, item 9)."""
+    whole = tmp_path / "whole.png"
+    done = subprocess.run([*CLI, "render", "-o", str(whole), "--width", "64", "--height", "64", "-q"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    cut = tmp_path / "cut.png"
+    cut.write_bytes(whole.read_bytes()[:600])
+    done = subprocess.run([*CLI, "compare", str(cut), str(whole)], capture_output=True, text=True, timeout=300)
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and len(lines) == 1 and "libpng" not in done.stderr, done.stderr
+    assert lines[0].startswith(f"error: {cut}: cannot read (") and "\\n" not in lines[0], lines[0]
+
+
+def test_srgb_with_an_exr_output_says_it_does_nothing(tmp_path):
+    result = runner.invoke(app, ["render", "-o", str(tmp_path / "x.exr"), "--srgb", "--width", "8", "--height", "8",
+                                 "-q"])
+    assert result.exit_code == 0, result.output
+    assert "warning: --srgb encodes a PNG" in result.output, result.output
