@@ -68,11 +68,14 @@ def _writable(folder: Path) -> bool:
 @lru_cache(maxsize=1)
 def cache_folder() -> Path | None:
     """This source's kernel cache: under NUMBA_CACHE_DIR if the user set one, else the package's
-    __pycache__, else the user's cache folder; None if none is writable (kernels then compile per process).
+    __pycache__, else the user's cache folder, else a private folder in the temporary folder; None if none
+    is writable (kernels then compile per process).
     In the package's own __pycache__, folders of other keys are removed: they belong to sources of this
     tree that no longer exist (a shared folder may hold other installs' keys, so it is left alone)."""
     bases = [Path(numba.config.CACHE_DIR)] if numba.config.CACHE_DIR else []  # NUMBA_CACHE_DIR
     bases += [OWN_CACHE, Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "raycast-phong"]
+    private = _private_temporary()  # last: a read-only install and home would otherwise compile every run
+    bases += [private] if private is not None else []
     for base in bases:
         folder = base / f"{PREFIX}{source_key()}"
         if _writable(folder):
@@ -81,6 +84,21 @@ def cache_folder() -> Path | None:
                     if stale != folder:
                         shutil.rmtree(stale, ignore_errors=True)  # another process may be removing it too
             return folder
+    return None
+
+
+def _private_temporary() -> Path | None:
+    """raycast-phong-<uid> in the temporary folder, made 0700 and used only if this user owns it and no one
+    else can write it (numba's cache holds code that is loaded: another user's folder must never be used)."""
+    try:
+        base = Path(tempfile.gettempdir()) / f"raycast-phong-{os.getuid()}"
+        base.mkdir(mode=0o700, exist_ok=True)
+        info = os.lstat(base)
+        import stat
+        if stat.S_ISDIR(info.st_mode) and info.st_uid == os.getuid() and not info.st_mode & 0o022:
+            return base
+    except (OSError, AttributeError):  # AttributeError: no getuid (Windows)
+        pass
     return None
 
 
