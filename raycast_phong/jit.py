@@ -74,8 +74,6 @@ def cache_folder() -> Path | None:
     tree that no longer exist (a shared folder may hold other installs' keys, so it is left alone)."""
     bases = [Path(numba.config.CACHE_DIR)] if numba.config.CACHE_DIR else []  # NUMBA_CACHE_DIR
     bases += [OWN_CACHE, Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "raycast-phong"]
-    private = _private_temporary()  # last: a read-only install and home would otherwise compile every run
-    bases += [private] if private is not None else []
     for base in bases:
         folder = base / f"{PREFIX}{source_key()}"
         if _writable(folder):
@@ -84,7 +82,9 @@ def cache_folder() -> Path | None:
                     if stale != folder:
                         shutil.rmtree(stale, ignore_errors=True)  # another process may be removing it too
             return folder
-    return None
+    private = _private_temporary()  # last: a read-only install and home would otherwise compile every run
+    folder = private / f"{PREFIX}{source_key()}" if private is not None else None
+    return folder if folder is not None and _writable(folder) else None
 
 
 def _private_temporary() -> Path | None:
