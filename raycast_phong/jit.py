@@ -68,7 +68,8 @@ def _writable(folder: Path) -> bool:
 @lru_cache(maxsize=1)
 def cache_folder() -> Path | None:
     """This source's kernel cache: under NUMBA_CACHE_DIR if the user set one, else the package's
-    __pycache__, else the user's cache folder; None if none is writable (kernels then compile per process).
+    __pycache__, else the user's cache folder, else a private folder in the temporary folder; None if none
+    is writable (kernels then compile per process).
     In the package's own __pycache__, folders of other keys are removed: they belong to sources of this
     tree that no longer exist (a shared folder may hold other installs' keys, so it is left alone)."""
     bases = [Path(numba.config.CACHE_DIR)] if numba.config.CACHE_DIR else []  # NUMBA_CACHE_DIR
@@ -81,6 +82,23 @@ def cache_folder() -> Path | None:
                     if stale != folder:
                         shutil.rmtree(stale, ignore_errors=True)  # another process may be removing it too
             return folder
+    private = _private_temporary()  # last: a read-only install and home would otherwise compile every run
+    folder = private / f"{PREFIX}{source_key()}" if private is not None else None
+    return folder if folder is not None and _writable(folder) else None
+
+
+def _private_temporary() -> Path | None:
+    """raycast-phong-<uid> in the temporary folder, made 0700 and used only if this user owns it and no one
+    else can write it (numba's cache holds code that is loaded: another user's folder must never be used)."""
+    try:
+        base = Path(tempfile.gettempdir()) / f"raycast-phong-{os.getuid()}"
+        base.mkdir(mode=0o700, exist_ok=True)
+        info = os.lstat(base)
+        import stat
+        if stat.S_ISDIR(info.st_mode) and info.st_uid == os.getuid() and not info.st_mode & 0o022:
+            return base
+    except (OSError, AttributeError):  # AttributeError: no getuid (Windows)
+        pass
     return None
 
 

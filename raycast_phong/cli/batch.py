@@ -9,7 +9,7 @@ from typing import Annotated
 
 import typer
 
-from .common import MaxMemoryOption, app, exit_codes
+from .common import MaxMemoryOption, app, exit_codes, one_line
 
 
 @app.command(epilog="""
@@ -47,8 +47,9 @@ def batch(
     import signal
 
     from raycast_phong.tools import batch as batches
-    # Ctrl-C and `kill` (SIGTERM) both stop the batch: workers killed, temporaries removed, the manifest written.
-    previous = {number: signal.signal(number, batches.interrupt) for number in (signal.SIGINT, signal.SIGTERM)}
+    # Ctrl-C, `kill` (SIGTERM), a closed terminal (SIGHUP) and SIGQUIT stop the batch: workers killed,
+    # temporaries removed, the manifest written.
+    previous = {number: signal.signal(number, batches.interrupt) for number in batches.STOP_SIGNALS}
     try:
         with exit_codes():
             found = batches.find_jobs(paths, out)
@@ -62,7 +63,7 @@ def batch(
     for warning in report.warnings:
         typer.secho(f"warning: {warning}", err=True, fg=typer.colors.YELLOW)
     for outcome in report.failed:
-        typer.secho(f"failed: {outcome.reason}", err=True, fg=typer.colors.RED)
+        typer.secho(f"failed: {one_line(outcome.reason)}", err=True, fg=typer.colors.RED)
     if not quiet:
         sheets = "".join(f"; contact sheet {out / name}" for name in report.sheets.values())
         typer.echo(f"{len(report.outcomes)} scenes: {report.count(batches.RENDERED)} rendered, "
@@ -101,8 +102,8 @@ def _batch_with_progress(found, out: Path, jobs: int | None, force: bool, settin
         started = time.perf_counter()
 
         def line(outcome, done: int, total: int) -> None:
-            typer.echo(f"[{done}/{total} {time.perf_counter() - started:.2f}s] {outcome.status}: {outcome.name}",
-                       err=True)
+            typer.echo(f"[{done}/{total} {time.perf_counter() - started:.2f}s] {outcome.status}: "
+                       f"{one_line(outcome.name)}", err=True)  # a name with a newline stays on its line
         return run_batch(found, out, progress=line, **options)
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
@@ -111,6 +112,6 @@ def _batch_with_progress(found, out: Path, jobs: int | None, force: bool, settin
         task = bar.add_task("scenes", total=len(found))
 
         def advance(outcome, done: int, total: int) -> None:
-            bar.update(task, completed=done, description=f"{outcome.status}: {outcome.name}")
+            bar.update(task, completed=done, description=f"{outcome.status}: {one_line(outcome.name)}")
 
         return run_batch(found, out, progress=advance, **options)

@@ -29,6 +29,35 @@ class OneLineErrors(TyperGroup):
     stderr with exit 2, like every other error of the program, instead of rich's boxed message."""
 
     def main(self, *args, standalone_mode: bool = True, **kwargs):
+        from raycast_phong.io.system import limit_budget
+        try:
+            if not standalone_mode:
+                return self._main(*args, standalone_mode=False, **kwargs)
+            before = _stdout_identity()
+            try:
+                code = self._main(*args, standalone_mode=True, **kwargs)
+            except SystemExit as done:
+                code = done.code
+                # typer (a PacifyFlushWrapper) and rich (stdout pointed at /dev/null) meet EPIPE with a silent
+                # exit 1: say it as every other failed write
+                if type(sys.stdout).__name__ == "PacifyFlushWrapper" or _stdout_identity() != before:
+                    import errno
+                    raise BrokenPipeError(errno.EPIPE, "Broken pipe") from None
+            _flush_or_fail(sys.stdout, "stdout")  # a full disk or a closed pipe shows at the flush too
+            sys.exit(code)
+        except OSError as error:  # a print to stdout or stderr failed: what --help and errors write to
+            _output_failed(error)
+        finally:
+            limit_budget(None)  # --max-memory holds for one command (tests run many in one process)
+
+    def _main(self, *args, standalone_mode: bool = True, **kwargs):
+        from raycast_phong.io.system import check_environment
+        try:
+            for warning in check_environment():
+                typer.secho(f"warning: {one_line(warning)}", err=True, fg=typer.colors.YELLOW)
+        except InputError as error:
+            typer.secho(f"error: {one_line(str(error))}", err=True, fg=typer.colors.RED)
+            sys.exit(2)
         if not standalone_mode:
             return super().main(*args, standalone_mode=False, **kwargs)
         try:
@@ -39,12 +68,46 @@ class OneLineErrors(TyperGroup):
             command = error.ctx.command_path if getattr(error, "ctx", None) else None
             where = f"{command}: " if command else ""
             hint = f" (see {command} --help)" if command else ""
-            typer.secho(f"error: {where}{error.format_message()}{hint}", err=True, fg=typer.colors.RED)
+            typer.secho(f"error: {one_line(where + error.format_message() + hint)}", err=True, fg=typer.colors.RED)
             sys.exit(error.exit_code)
         except typer.Abort:
             typer.secho("error: aborted", err=True, fg=typer.colors.RED)
             sys.exit(1)
         sys.exit(code if isinstance(code, int) else 0)  # a command's typer.Exit(code), else success
+
+
+def _stdout_identity() -> tuple[int, int] | None:
+    try:
+        info = os.fstat(sys.stdout.fileno())
+        return info.st_dev, info.st_ino
+    except (OSError, ValueError, AttributeError):  # a test runner's stdout has no descriptor
+        return None
+
+
+def _flush_or_fail(stream, name: str) -> None:
+    try:
+        stream.flush()
+    except OSError as error:
+        error.stream = name
+        raise
+
+
+def _output_failed(error: OSError) -> None:
+    """stdout or stderr could not be written (`> /dev/full`, a reader that closed the pipe): one line on
+    stderr if it still takes one, exit 2 (a failed write, like any other output), no traceback; stdout is
+    pointed at /dev/null so Python's own flush at exit does not fail again."""
+    import errno
+    try:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+    reason = "the reader closed the pipe" if error.errno == errno.EPIPE else (error.strerror or str(error))
+    try:
+        sys.stderr.write(f"error: {getattr(error, 'stream', 'stdout')}: write failed: {reason}\n")
+        sys.stderr.flush()
+    except (OSError, ValueError):
+        pass
+    os._exit(2)  # nothing left to flush that could be written
 
 
 app = typer.Typer(
@@ -60,7 +123,8 @@ app = typer.Typer(
 SceneArgument = Annotated[Path | None, typer.Argument(
     help="Scene file (.toml or .json, see docs/scene-format.md) or a mesh file (.obj, .ply, .stl, .off, .glb, "
          ".gltf, anything trimesh reads: framed, lit and with its own materials, see docs/meshes.md). Omit it for "
-         "the built-in default scene.",
+         "the built-in default scene; `-` reads a scene from standard input (TOML, or JSON starting with {), "
+         "e.g. `cat scene.toml | raycast-phong render - -o out.png`.",
     show_default=False, dir_okay=False)]
 
 
@@ -90,11 +154,14 @@ def _max_memory(text: str | None) -> int | None:
     """--max-memory SIZE in bytes; a malformed size exits 2 with one line."""
     if text is None:
         return None
+    from raycast_phong.io.system import limit_budget
     from raycast_phong.renderer.budget import parse_size  # its module is light: no numba, no trimesh
     try:
-        return parse_size(text)
+        budget = parse_size(text)
     except ValueError as error:
         fail(f"--max-memory: {error}")
+    limit_budget(budget)  # a read below the renderer (framing's mesh read) keeps to it too
+    return budget
 
 
 MaxMemoryOption = Annotated[str | None, typer.Option(
@@ -104,8 +171,19 @@ MaxMemoryOption = Annotated[str | None, typer.Option(
          "available now.")]
 
 
+MESSAGE_CHARACTERS = 2000  # an error line is one line of bounded length, whatever a value held
+
+
+def one_line(message: str, limit: int = MESSAGE_CHARACTERS) -> str:
+    """`message` as one printable line: control characters (a newline, a bell, an escape) shown escaped, and
+    cut to `limit` characters with how many were left out. Every error line passes here."""
+    if not message.isprintable():
+        message = "".join(c if c.isprintable() else repr(c)[1:-1] for c in message)
+    return message if len(message) <= limit else f"{message[:limit]}… ({len(message) - limit:,} more characters)"
+
+
 def fail(message: str, code: int = 2) -> None:
-    typer.secho(f"error: {message}", err=True, fg=typer.colors.RED)
+    typer.secho(f"error: {one_line(message)}", err=True, fg=typer.colors.RED)
     raise typer.Exit(code=code)
 
 

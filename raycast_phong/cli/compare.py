@@ -66,7 +66,9 @@ def side_by_side(
         check_output_path(output, inputs=(path,))
         layers = output if output.suffix.lower() == ".exr" else output.with_name(f"{output.stem}-variants.exr")
         check_output_path(layers, inputs=(path,))
-        comparison = compare.compose([rp.render(variant, source=str(path), max_memory=max_memory).image
+        from raycast_phong.renderer.budget import default_budget
+        each = compare.render_budget(scenes, max_memory or default_budget(), str(path))
+        comparison = compare.compose([rp.render(variant, source=str(path), max_memory=each).image
                                       for variant in scenes], key, values)
         rp.write_image(layers, comparison.image, parts=comparison.parts())
         if layers != output:
@@ -116,6 +118,7 @@ def compare_images(
                     ] = 1e-6,
     fail_percent: Annotated[float, typer.Option("--fail-percent", min=0.0, max=100.0, help="The comparison fails "
                             "only when more than this percentage of pixels fail.")] = 0.0,
+    max_memory: MaxMemoryOption = None,
 ) -> None:
     """Compare two images as idiff does: mean, RMS, PSNR, the largest error and where. Exit status 0 pass
     (warnings included), 1 fail, 2 unreadable input or different sizes."""
@@ -124,7 +127,8 @@ def compare_images(
     with exit_codes():
         if diff is not None:
             check_output_path(diff, inputs=(a, b))  # before reading: --diff onto an input would replace it
-        found = compare_files(a, b, fail_, warn)
+        from raycast_phong.renderer.budget import default_budget
+        found = compare_files(a, b, fail_, warn, max_memory or default_budget())
         if diff is not None:
             rp.write_image(diff, difference_map(found.a, found.b))
     (x, y), channel = found.max_at, found.max_channel

@@ -87,6 +87,9 @@ def render(
         rp.write_image(output, result.image, result.aovs, srgb=srgb)
         result.timings["write"] = time.perf_counter() - started
         result.timings["load"] = load_seconds
+    if srgb and Path(output).suffix.lower() == ".exr":  # said even with --quiet: the option did nothing
+        typer.secho(f"warning: --srgb encodes a PNG; {output} is an EXR of linear float32 values, written "
+                    "unencoded", err=True, fg=typer.colors.YELLOW)
     if not quiet:
         for warning in result.plan.warnings:
             typer.secho(f"warning: {warning}", err=True, fg=typer.colors.YELLOW)

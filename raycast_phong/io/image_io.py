@@ -8,10 +8,12 @@ leaves a half-written image over a good one.
 
 from __future__ import annotations
 
+import math
 import os
 import struct
 import tempfile
 import zlib
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -22,6 +24,7 @@ from ..codes import IMAGE_SUFFIXES
 from ..errors import ImageError
 from .atomic import os_reason, replaced_atomically
 from .encoding import to_8bit
+from .system import format_bytes
 
 LAYER_CHANNELS = {"depth": ("Z",), "normal": ("X", "Y", "Z"), "face": ("id",)}
 
@@ -40,6 +43,7 @@ def check_output_path(path: str | Path, inputs: tuple[str | Path, ...] = ()) -> 
 def check_output_file(path: Path, inputs: tuple[str | Path, ...] = ()) -> None:
     """Refuse an output file in a missing or read-only folder, a folder itself, or one of `inputs`."""
     folder = path.parent if str(path.parent) else Path(".")
+    _check_name_length(path, folder)
     if not folder.is_dir():
         raise ImageError(f"{path}: the output folder {str(folder)!r} does not exist; create it or choose an "
                          "existing folder")
@@ -50,6 +54,21 @@ def check_output_file(path: Path, inputs: tuple[str | Path, ...] = ()) -> None:
             raise ImageError(f"{path}: the output is the input {given}; writing it would replace what is read")
     if not os.access(folder, os.W_OK):
         raise ImageError(f"{path}: the output folder {str(folder)!r} is not writable")
+
+
+def _check_name_length(path: Path, folder: Path) -> None:
+    """Refuse a file name or path longer than the file system allows (ENAMETOOLONG from any later call)."""
+    name, whole = len(os.fsencode(path.name)), len(os.fsencode(str(path)))
+    try:
+        name_max = os.pathconf(folder if folder.is_dir() else ".", "PC_NAME_MAX")
+        path_max = os.pathconf(folder if folder.is_dir() else ".", "PC_PATH_MAX")
+    except (OSError, ValueError):
+        name_max, path_max = 255, 4096
+    if name > name_max or whole >= path_max:
+        what, size, limit = ("file name", name, name_max) if name > name_max else ("path", whole, path_max)
+        shown = f"{str(path)[:60]}…" if len(str(path)) > 60 else str(path)
+        raise ImageError(f"{shown}: the output's {what} is {size:,} bytes, longer than the {limit:,} the file system "
+                         "allows; choose a shorter name")
 
 
 def _same_file(a: Path, b: Path) -> bool:
@@ -259,16 +278,81 @@ class ImageComparison:
     b: np.ndarray                # (H, W, C) float32
 
 
-def compare_files(a: str | Path, b: str | Path, fail: float, warn: float) -> ImageComparison:
+# Bytes per pixel channel that compare_files holds for each image: OpenImageIO's buffer (read as float),
+# its float32 copy, and the comparison's float32 temporaries (the NaN and inf tests, the heat map).
+COMPARE_BYTES_PER_SAMPLE = 16
+
+
+@contextmanager
+def _library_lines():
+    """Hold what C libraries under OpenImageIO write straight to stderr (file descriptor 2) while a file is
+    read, and drop it: the read's own error, one line, says what went wrong."""
+    import sys
+    import tempfile
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError):
+        yield
+        return
+    with tempfile.TemporaryFile() as held:
+        os.dup2(held.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+
+
+def _first_line(text: str) -> str:
+    """OpenImageIO's error text is several lines, the first the reason."""
+    return next((line.strip() for line in str(text).splitlines() if line.strip()), "unknown reason")
+
+
+def image_header(path: str | Path) -> tuple[int, int, int] | None:
+    """(width, height, channels) of an image's first part from its header alone, or None if it cannot be
+    opened (the read reports why)."""
+    source = oiio.ImageInput.open(str(path))
+    if source is None:
+        oiio.geterror()
+        return None
+    try:
+        spec = source.spec()
+        return spec.width, spec.height, spec.nchannels
+    finally:
+        source.close()
+
+
+def check_image_reads(paths: tuple[str | Path, ...], budget: int | None, per_sample: int,
+                      raise_it: str = "raise the budget (--max-memory)") -> None:
+    """Refuse (ImageError, one line) to read images whose headers claim more pixels than the budget holds at
+    `per_sample` bytes per pixel channel: a 100-byte PNG may claim 20000 × 20000 pixels."""
+    if budget is None:
+        return
+    sizes = {path: image_header(path) for path in paths}
+    need = sum(w * h * c for w, h, c in filter(None, sizes.values())) * per_sample
+    if need > budget:
+        path, (w, h, c) = max(((p, s) for p, s in sizes.items() if s), key=lambda item: math.prod(item[1]))
+        raise ImageError(f"{path}: its header says {w}×{h} pixels with {c} channels; reading "
+                         f"{'them' if len(paths) == 1 else 'the images'} needs ≈ {format_bytes(need)} of memory, "
+                         f"above the {format_bytes(budget)} budget; {raise_it}")
+
+
+def compare_files(a: str | Path, b: str | Path, fail: float, warn: float,
+                  budget: int | None = None) -> ImageComparison:
     """Compare two image files as idiff does (8-bit files scaled to [0, 1]).
 
-    Raises ImageError for an unreadable file or a different size or channel count.
+    Raises ImageError for an unreadable file, a different size or channel count, or images whose headers
+    claim more pixels than `budget` bytes hold (checked before any pixel is read).
     """
+    check_image_reads((a, b), budget, COMPARE_BYTES_PER_SAMPLE)
     buffers = []
     for path in (a, b):
-        buffer = oiio.ImageBuf(str(path))
-        if buffer.has_error or not buffer.read():
-            raise ImageError(f"{path}: cannot read ({buffer.geterror() or oiio.geterror()})")
+        with _library_lines():  # libpng prints "libpng error: …" on stderr itself; our line says it
+            buffer = oiio.ImageBuf(str(path))
+            unread = buffer.has_error or not buffer.read()
+        if unread:
+            raise ImageError(f"{path}: cannot read ({_first_line(buffer.geterror() or oiio.geterror())})")
         buffers.append(buffer)
     specs = [buffer.spec() for buffer in buffers]
     shapes = [(spec.width, spec.height, spec.nchannels) for spec in specs]

@@ -1,5 +1,6 @@
 """A mesh file's size before it is read: its triangle count from the header (PLY, OFF, binary STL, glTF) or
-a cheap scan (OBJ's face lines), and whether reading it could fit in memory at all.
+a cheap scan in bounded pieces (OBJ's face corners), the least its read costs from its size and format,
+and whether reading it could fit in memory at all.
 
 Counts are kept per file version (io.files.VersionCache): framing's check and the render's estimate both ask.
 """
@@ -11,6 +12,8 @@ import os
 import re
 import struct
 from pathlib import Path
+
+import numpy as np
 
 from ..errors import SceneError
 from .files import VersionCache, file_version, open_regular
@@ -25,53 +28,123 @@ MESH_READ_BYTES = 270
 
 
 def mesh_file_triangles(path: Path, key: str) -> int:
-    """Triangles in a mesh file, read cheaply: PLY and OFF headers, binary STL's count, OBJ's face lines,
-    glTF's accessor counts; other formats by file size (at least 6 bytes per triangle). 0 for a missing
-    file (the loader reports it); a FIFO, device or folder is refused here (SceneError)."""
+    """Triangles in a mesh file, read cheaply: PLY and OFF headers, binary STL's count, OBJ's face corners,
+    glTF's accessor counts (a JSON above JSON_LIMIT is not parsed); other formats by file size (at least 6
+    bytes per triangle). Where the file's vertices outnumber its triangles, its vertices (less 2):
+    unused vertices cost memory too. 0 for a missing file (the loader reports it); a FIFO, device or folder is
+    refused here, and so is a binary STL whose size does not match its header's count (SceneError)."""
     try:
         handle = open_regular(path, key, "mesh file")
     except FileNotFoundError:
         return 0
     with handle:
         info = os.fstat(handle.fileno())
-        # An OBJ is counted line by line (0.37 s for 78 MB): once per version; framing and the render both ask.
-        return COUNTS.setdefault(file_version(path, info),
-                                 lambda: _count_triangles(handle, path.suffix.lower(), info.st_size))
+        # An OBJ is counted in 1 MB pieces: once per version; framing and the render ask.
+        suffix = path.suffix.lower()
+        return COUNTS.setdefault(file_version(path, info), lambda: _count_triangles(handle, suffix, info.st_size, key))
+
+
+def mesh_file_read_bytes(path: Path) -> int:
+    """The least memory reading a mesh file costs, from its size and format alone (0 if it is not there):
+    the floor under the triangle count's estimate for a file that claims little and is large."""
+    try:
+        size = path.stat().st_size
+    except OSError:
+        return 0
+    return size * READ_BYTES_PER_BYTE.get(path.suffix.lower(), TEXT_READ_BYTES_PER_BYTE)
 
 
 COUNTS: VersionCache[int] = VersionCache(64)  # file version → triangles
 
+# A file is read whole and parsed before any triangle exists: trimesh holds the text, its decoded str and its
+# split tokens. Measured (trimesh 4, peak RSS over the interpreter's): an icosphere-7 OBJ of 12.8 MB 93 MB;
+# a 100 MB OBJ of vertex lines 1.0 GB, of one line 1.9 GB, of face lines 2.0 GB. So reading a file costs at
+# least its size times these bytes, whatever its header claims (the counts above cover the face lines).
+READ_BYTES_PER_BYTE = {".glb": 2}  # binary chunks are read as they are
+TEXT_READ_BYTES_PER_BYTE = 12      # a text file, or one that may be (PLY, STL)
+JSON_LIMIT = 64 << 20  # a glTF's JSON above this is not parsed to count: the size bound counts it
+CHUNK = 1 << 20  # an OBJ is scanned this many bytes at a time (about 20 MB of index arrays), never a whole line
 
-def _count_triangles(handle, suffix: str, size: int) -> int:
-    """mesh_file_triangles of the open file `handle` of `size` bytes."""
+
+def _count_triangles(handle, suffix: str, size: int, key: str = "mesh file") -> int:
+    """Triangles' worth of the open file `handle` of `size` bytes (mesh_file_triangles, before the size bound)."""
     head = handle.read(4096)
     try:
         if suffix == ".ply":
-            match = re.search(rb"^element\s+face\s+(\d+)", head, re.M)
-            if match:
-                return int(match[1])
+            faces = re.search(rb"^element\s+face\s+(\d+)", head, re.M)
+            points = re.search(rb"^element\s+vertex\s+(\d+)", head, re.M)
+            if faces:
+                return _weigh(int(faces[1]), int(points[1]) if points else 0)
         elif suffix == ".stl":
-            if not head.lstrip().startswith(b"solid") or size == 84 + 50 * struct.unpack_from("<I", head, 80)[0]:
-                return struct.unpack_from("<I", head, 80)[0]
+            binary = size >= 84 and (not head.lstrip().startswith(b"solid")
+                                     or size == 84 + 50 * struct.unpack_from("<I", head, 80)[0])
+            if binary:
+                count = struct.unpack_from("<I", head, 80)[0]
+                if size != 84 + 50 * count:
+                    raise SceneError(f"{key}: a binary STL whose header counts {count:,} triangles "
+                                     f"({84 + 50 * count:,} bytes) but which has {size:,} bytes: the file is "
+                                     "corrupt or cut short; allowed: 84 + 50 × its count bytes")
+                return count
             return size // 86  # the shortest ASCII facet ("facet normal 0 0 0\nouter loop\n…") is 86 bytes
         elif suffix == ".off":
             numbers = [line.split() for line in head.splitlines()[1:] if line.strip() and not line.startswith(b"#")]
             if numbers and len(numbers[0]) >= 2:
-                return int(numbers[0][1])
+                return _weigh(int(numbers[0][1]), int(numbers[0][0]))
         elif suffix == ".obj":
             handle.seek(0)
-            # A polygon of k corners becomes k − 2 triangles; 0.09 s for a 12.8 MB file (7% of its load).
-            return sum(len(line.split()) - 3 for line in handle if line[:2] in (b"f ", b"f\t"))
+            return _obj_triangles(handle)
         elif suffix == ".glb" and head[:4] == b"glTF":
             length = struct.unpack_from("<I", head, 12)[0]
-            handle.seek(20)
-            return _gltf_triangles(json.loads(handle.read(length)))
-        elif suffix == ".gltf":
+            if length <= JSON_LIMIT:
+                handle.seek(20)
+                return _gltf_triangles(json.loads(handle.read(length)))
+        elif suffix == ".gltf" and size <= JSON_LIMIT:
             handle.seek(0)
             return _gltf_triangles(json.loads(handle.read()))
-    except (ValueError, KeyError, IndexError, TypeError, struct.error, OSError):
+    except SceneError:
+        raise
+    except (ValueError, KeyError, IndexError, TypeError, struct.error, OSError, RecursionError):
         pass  # a malformed header: fall back to the size bound; the loader reports the real problem
     return size // 6
+
+
+def _weigh(triangles: int, vertices: int) -> int:
+    """Triangles, or the vertices less 2 where those are more: a closed surface has T/2 + 2 vertices and an
+    open one a few more, so only vertices far beyond what the faces need (millions unused) raise the count.
+    A vertex read costs about 130 bytes (7.5M vertex lines of OBJ: 1.0 GB), a triangle's worth more."""
+    return max(triangles, vertices - 2)
+
+
+def _obj_triangles(handle) -> int:
+    """An OBJ's triangles (a face of k corners is k − 2), or its vertices where more (_weigh), scanned in
+    CHUNK-byte pieces with numpy: a line is never held whole, so a one-line 1 GB file costs about 20 MB here.
+
+    Each piece is seen with the stream's two bytes before it, so a line that starts at a piece's edge is
+    classified (its first two bytes: `f ` or `v `) exactly once, and a token start (a non-blank byte after a
+    blank one) is counted in the line it belongs to."""
+    triangles = vertices = open_tokens = 0
+    before, in_face = b"\n\n", False
+    while True:
+        chunk = handle.read(CHUNK)
+        buffer = np.frombuffer(before + (chunk or b"\n"), np.uint8)
+        # Positions 1 .. len − 2 of the buffer are this piece's (each stream byte once over the pieces).
+        starts = np.flatnonzero(buffer[:-2] == 10) + 1
+        blank = buffer <= 32
+        first, second = buffer[starts], buffer[starts + 1]
+        gap = (second == 32) | (second == 9)
+        face = np.concatenate(([in_face], (first == ord("f")) & gap))  # 0: the line carried from before
+        vertices += int(np.count_nonzero((first == ord("v")) & gap))
+        begins = np.flatnonzero(~blank[1:-1] & blank[:-2]) + 1
+        line = np.searchsorted(starts, begins, side="right")
+        tokens = np.bincount(line[face[line]], minlength=len(face))  # per line: `f` and its corners
+        tokens[0] += open_tokens
+        closed = tokens if not chunk else tokens[:-1]  # the last line may go on in the next piece
+        triangles += int(np.maximum(closed - 3, 0).sum())
+        if not chunk:
+            break
+        open_tokens, in_face = int(tokens[-1]), bool(face[-1])
+        before = buffer[-2:].tobytes()
+    return _weigh(triangles, vertices)
 
 
 def _gltf_triangles(document: dict) -> int:
@@ -88,13 +161,17 @@ def _gltf_triangles(document: dict) -> int:
 
 def check_mesh_read(path: Path, source: str) -> None:
     """Refuse (SceneError, one line) to read a mesh file for framing (scene.framing, before any render and
-    so before renderer.budget.check_memory) when the read alone could not fit in the memory available now: its triangles
-    (from the header, mesh_file_triangles) × the flat render's bytes per triangle and the format's parse.
-    Against the whole available memory, not the budget: --max-memory only reaches the render."""
+    so before renderer.budget.check_memory) when the read alone could not fit in the memory available now
+    (io.system.available_memory: cgroup, `ulimit -v` and the command's --max-memory): the file's size × its
+    parse (mesh_file_read_bytes, checked first, so a huge file is never scanned), or its triangles (from
+    the header, mesh_file_triangles) × the flat render's bytes per triangle and the format's parse."""
     available = available_memory()
-    triangles = mesh_file_triangles(path, source)
-    need = triangles * (MESH_READ_BYTES + MESH_FILE_BYTES.get(path.suffix.lower(), OTHER_MESH_FILE_BYTES))
+    floor = mesh_file_read_bytes(path)  # from the size alone: a huge file is refused before any byte is read
+    triangles = 0 if available is not None and floor > available else mesh_file_triangles(path, source)
+    need = max(triangles * (MESH_READ_BYTES + MESH_FILE_BYTES.get(path.suffix.lower(), OTHER_MESH_FILE_BYTES)),
+               floor)
     if available is not None and need > available:
-        raise SceneError(f"{source}: reading its {count_text(triangles)} triangles needs ≈ {format_bytes(need)} of "
-                         f"memory, more than the {format_bytes(available)} available; allowed: a mesh whose "
-                         "triangles fit, so decimate it or free memory")
+        what = f"{count_text(triangles)} triangles" if triangles else f"{format_bytes(path.stat().st_size)}"
+        raise SceneError(f"{source}: reading its {what} needs ≈ {format_bytes(need)} of memory, more than the "
+                         f"{format_bytes(available)} available; allowed: a mesh whose size and triangles fit, "
+                         "so decimate it or free memory")

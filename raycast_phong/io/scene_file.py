@@ -1,4 +1,5 @@
 """The syntax of a scene file: TOML, or JSON for .json, read safely into a dict (the schema judges the keys).
+`-` (or /dev/stdin) reads the scene from standard input: TOML, or JSON when it starts with `{`.
 
 Only a regular file of at most MAX_SCENE_BYTES is read; a JSON key given twice in one object is refused
 (JSON parsers keep the last silently); every problem is one SceneError naming the file.
@@ -7,6 +8,7 @@ Only a regular file of at most MAX_SCENE_BYTES is read; a JSON key given twice i
 from __future__ import annotations
 
 import json
+import sys
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -20,12 +22,16 @@ MAX_SCENE_BYTES = 16 << 20  # 16 MiB: a scene is keys and numbers; 40,000 object
 def read_scene_file(path: Path) -> dict:
     """Parse the file's syntax only (TOML, or JSON for .json), with a one-line error on failure."""
     path = Path(path)
+    stdin = is_stdin(path)
     try:
-        with open_regular(path, str(path), "scene file", MAX_SCENE_BYTES) as handle:
-            # One byte over the cap tells a file that grew after fstat from one that fits.
-            data = handle.read(MAX_SCENE_BYTES + 1)
+        if stdin:  # a pipe: read to its end, one byte past the cap at most
+            data = sys.stdin.buffer.read(MAX_SCENE_BYTES + 1)
+        else:
+            with open_regular(path, str(path), "scene file", MAX_SCENE_BYTES) as handle:
+                # One byte over the cap tells a file that grew after fstat from one that fits.
+                data = handle.read(MAX_SCENE_BYTES + 1)
         if len(data) > MAX_SCENE_BYTES:
-            raise SceneError(f"{path}: the scene file grew past the {MAX_SCENE_BYTES >> 20} MiB allowed while read")
+            raise SceneError(f"{path}: the scene is more than the {MAX_SCENE_BYTES >> 20} MiB allowed")
         text = data.decode("utf-8")
     except FileNotFoundError:
         raise SceneError(f"{path}: no such scene file") from None
@@ -33,7 +39,7 @@ def read_scene_file(path: Path) -> dict:
         raise SceneError(f"{path}: cannot read the scene file ({error})") from None
     text = text.removeprefix("\ufeff")  # a byte-order mark, as some Windows editors write, is no syntax error
     try:
-        if path.suffix.lower() == ".json":
+        if path.suffix.lower() == ".json" or (stdin and text.lstrip("\ufeff \t\r\n").startswith("{")):
             data = json.loads(text, object_pairs_hook=_JSONObject)
             twice = _duplicate_key(data)
             if twice:
@@ -41,14 +47,35 @@ def read_scene_file(path: Path) -> dict:
                                  "would keep the last silently); allowed: each key once")
         else:
             data = tomllib.loads(text)
+    except SceneError:
+        raise
     except json.JSONDecodeError as error:
         where = f"line {error.lineno}, column {error.colno}"
         raise SceneError(f"{path}: JSON syntax error at {where}: {error.msg}") from None
     except tomllib.TOMLDecodeError as error:
         raise SceneError(f"{path}: TOML syntax error: {error}") from None
+    except (RecursionError, ValueError) as error:
+        raise SceneError(f"{path}: {syntax_limit(error)}") from None
     if not isinstance(data, dict):
         raise SceneError(f"{path}: the top level must be a table of keys")
     return data
+
+
+STDIN_NAMES = ("-", "/dev/stdin")  # a scene piped in: TOML, or JSON when it starts with "{" (TOML cannot)
+
+
+def is_stdin(path: str | Path) -> bool:
+    """Whether a scene path means standard input: `-`, or /dev/stdin (a pipe the FIFO guard would refuse)."""
+    return str(path) in STDIN_NAMES
+
+
+def syntax_limit(error: RecursionError | ValueError) -> str:
+    """What a parser's RecursionError (lists or tables nested thousands deep) or ValueError (an integer of more
+    than 4300 digits, Python's limit) means, as the rest of a one-line message."""
+    if isinstance(error, RecursionError):
+        return "lists or tables nested too deep to read; allowed: a few levels, as docs/scene-format.md shows"
+    return ("a number with more digits than can be read (Python's limit is 4300); allowed: a number within "
+            "the key's range")
 
 
 class _JSONObject(dict):

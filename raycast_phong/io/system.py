@@ -1,15 +1,20 @@
-"""What the machine can give now: available memory (Linux's /proc/meminfo, capped by a cgroup v2 limit), and
+"""What the machine can give now: available memory (Linux's /proc/meminfo, capped by cgroup v1/v2 limits,
+`ulimit -v` and the command's --max-memory), and
 how byte and triangle counts are written in messages.
 """
 
 from __future__ import annotations
 
 import os
+import re
+import sys
 from pathlib import Path
 
 
 def available_memory() -> int | None:
-    """Bytes the machine can give now: MemAvailable (Linux), capped by a cgroup limit; else free pages."""
+    """Bytes the machine can give this process now: MemAvailable (Linux), capped by its cgroup's limit (v2 or
+    v1, its own cgroup and every parent) and by the address space `ulimit -v` (RLIMIT_AS) leaves; else free
+    pages. The --max-memory budget of this command, where one is set (limit_budget), caps it too."""
     found = None
     try:
         with open("/proc/meminfo", "rb") as meminfo:
@@ -24,13 +29,94 @@ def available_memory() -> int | None:
             found = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
         except (ValueError, OSError, AttributeError):
             return None
-    try:  # a container's limit (cgroup v2) can be far below the host's free memory
-        limit = Path("/sys/fs/cgroup/memory.max").read_text().strip()
-        used = int(Path("/sys/fs/cgroup/memory.current").read_text())
-        if limit != "max":
-            found = min(found, max(int(limit) - used, 0))
-    except (OSError, ValueError):
-        pass
+    for limit in (_cgroup_room(), _address_space_room(), BUDGET[0]):
+        if limit is not None:
+            found = min(found, limit)
+    return found
+
+
+# The budget a command was given (--max-memory), so that a read below the renderer (framing's mesh read)
+# keeps to it too; the CLI sets it for one command and clears it after (cli.common).
+BUDGET: list[int | None] = [None]
+
+
+def limit_budget(budget: int | None) -> None:
+    """Cap available_memory() at `budget` bytes for the rest of this command (None: no cap)."""
+    BUDGET[0] = budget
+
+
+def _cgroup_room() -> int | None:
+    """What the tightest memory limit of this process's cgroup and its parents leaves (v2, else v1)."""
+    room = None
+    try:
+        lines = Path("/proc/self/cgroup").read_text().splitlines()
+    except OSError:
+        lines = []
+    places = []
+    for line in lines:
+        number, controllers, where = [*line.split(":", 2), "", ""][:3]
+        if number == "0" and controllers == "":
+            places.append((Path("/sys/fs/cgroup") / where.lstrip("/"), "memory.max", "memory.current"))
+        elif "memory" in controllers.split(","):
+            places.append((Path("/sys/fs/cgroup/memory") / where.lstrip("/"), "memory.limit_in_bytes",
+                           "memory.usage_in_bytes"))
+    places.append((Path("/sys/fs/cgroup"), "memory.max", "memory.current"))
+    for folder, limit_name, used_name in places:
+        while True:
+            try:
+                limit = (folder / limit_name).read_text().strip()
+                used = int((folder / used_name).read_text())
+                if limit != "max" and int(limit) < 1 << 62:  # v1 writes "no limit" as a huge number
+                    left = max(int(limit) - used, 0)
+                    room = left if room is None else min(room, left)
+            except (OSError, ValueError):
+                pass
+            if folder.parent == folder or folder.name in ("cgroup", "memory"):
+                break
+            folder = folder.parent
+    return room
+
+
+def _address_space_room() -> int | None:
+    """What `ulimit -v` (RLIMIT_AS) leaves above this process's mapped size now; None without a limit."""
+    try:
+        import resource
+        soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+        if soft == resource.RLIM_INFINITY:
+            return None
+        with open("/proc/self/status", "rb") as status:
+            size = next((int(line.split()[1]) * 1024 for line in status if line.startswith(b"VmSize:")), 0)
+        return max(soft - size, 0)
+    except (ImportError, OSError, ValueError):
+        return None
+
+
+def check_environment() -> list[str]:
+    """Refuse (OptionError) NUMBA_* settings the renderer cannot run under, before numba is imported:
+    NUMBA_NUM_THREADS that is not a whole number from 1 (numba's import fails on it) and NUMBA_DISABLE_JIT
+    (the kernels would run as Python without Embree's calls: a wrong image). Returns numba's own complaints
+    about other NUMBA_* values it cannot parse, one line each, instead of its raw multi-line warnings."""
+    from ..errors import OptionError
+    threads = os.environ.get("NUMBA_NUM_THREADS", "").strip()
+    if threads and not (threads.isdigit() and 1 <= int(threads) <= 1024):
+        raise OptionError(f"NUMBA_NUM_THREADS={threads[:20]!r}: numba's thread count; allowed: a whole number from 1 "
+                          f"to 1024 (this machine has {os.cpu_count()} cores), or unset it")
+    if os.environ.get("NUMBA_DISABLE_JIT", "").strip() not in ("", "0"):
+        raise OptionError("NUMBA_DISABLE_JIT is set: the renderer's kernels call Embree only when compiled, so "
+                          "without numba's compiler the image would be wrong; allowed: 0 or unset")
+    if not any(name.startswith("NUMBA_") for name in os.environ) or "numba" in sys.modules:
+        return []
+    import warnings
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        import numba  # noqa: F401  (numba reads its environment once, at import)
+    found = []
+    for warning in caught:
+        text = str(warning.message).splitlines()[0]
+        match = re.search(r"variable '(NUMBA_\w+)' is defined but its associated value '(.*)' could not be parsed",
+                          text)
+        found.append(f"{match[1]}={match[2][:40]!r} is not a value numba understands; it is ignored" if match
+                     else text)
     return found
 
 

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from ..codes import GEOMETRY_LAYERS, TERM_LAYERS, ShadingModel
 from ..errors import SceneError
-from ..io.mesh_header import MESH_FILE_BYTES, OTHER_MESH_FILE_BYTES, mesh_file_triangles
+from ..io.mesh_header import MESH_FILE_BYTES, OTHER_MESH_FILE_BYTES, mesh_file_read_bytes, mesh_file_triangles
 from ..io.system import available_memory, count_text, format_bytes
 from ..scene.schema import Scene
 
@@ -103,6 +103,8 @@ def estimate_memory(scene: Scene, source: str = "<scene>", *, smooth: bool = Tru
                 # A built-in shape is smooth but for a few edges and poles; a file may be noise everywhere.
                 per, chunk = (max(per, CREASED_FILE_BYTES) if mesh_file else per), CREASE_CHUNK_BYTES
         size = count * (per + extra) + chunk
+        if mesh_file:  # a large file that claims few triangles still costs its read (a one-line OBJ)
+            size = max(size, mesh_file_read_bytes(path))
         triangles += count
         geometry += size
         if size > largest_bytes:

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from ..codes import SCENE_SUFFIXES
 from ..errors import SceneError
-from ..io.scene_file import read_scene_file
+from ..io.scene_file import is_stdin, read_scene_file
 from .framing import mesh_scene_dict
 from .overrides import apply_override
 from .schema import Scene, validate_scene
@@ -44,4 +44,5 @@ def load_scene(path: str | Path, overrides: list[str] | tuple[str, ...] = (), vi
                up: str | None = None) -> Scene:
     """Read, override (`key.path=value`, as `--set`), and validate a scene file or a mesh file."""
     path = Path(path)
-    return validate_scene(read_scene_dict(path, overrides, view, up), source=str(path), folder=path.parent)
+    folder = Path(".") if is_stdin(path) else path.parent  # a piped scene's paths are the working folder's
+    return validate_scene(read_scene_dict(path, overrides, view, up), source=str(path), folder=folder)

@@ -12,21 +12,36 @@ from typing import Any, Literal, get_args, get_origin
 
 from pydantic import BaseModel, ValidationError
 
+SHOWN_CHARACTERS = 80  # a value echoed in a message: enough to recognise it, never a megabyte of it
+
+
+def shorten(text: str, limit: int = SHOWN_CHARACTERS) -> str:
+    """`text` cut to `limit` characters with how much was left out: a message stays one short line."""
+    return text if len(text) <= limit else f"{text[:limit]}… ({len(text) - limit:,} more characters)"
+
 
 def shown(value: Any) -> str:
-    """A value as the scene file spells it: the string '32', true, [1, 2]."""
+    """A value as the scene file spells it, cut to SHOWN_CHARACTERS: the string '32', true, [1, 2]."""
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, str):
-        return f"the string {value!r}"
+        return f"the string {shorten(repr(value))}"
     if isinstance(value, dict):
         return "a table"
-    return repr(list(value)) if isinstance(value, (tuple, list)) else repr(value)
+    if isinstance(value, (tuple, list)):
+        head = repr(list(value[:SHOWN_CHARACTERS // 2]))
+        return shorten(head if len(value) <= SHOWN_CHARACTERS // 2 else f"{head[:-1]}, …]")
+    return shorten(repr(value))
 
 
 def dotted(loc: tuple) -> str:
-    """("lights", 0, "position") → lights.0.position."""
-    return ".".join(str(part) for part in loc)
+    """("lights", 0, "position") → lights.0.position; a key with a control character, a dot or a space is
+    quoted with its escapes shown (a bell or a newline in a key must not reach the terminal raw)."""
+    return ".".join(str(part) if isinstance(part, int) or _plain(part) else shorten(repr(part)) for part in loc)
+
+
+def _plain(key: str) -> bool:
+    return key.isprintable() and "." not in key and " " not in key and len(key) <= SHOWN_CHARACTERS
 
 
 def _model_of(annotation: Any) -> tuple[type[BaseModel] | None, bool]:

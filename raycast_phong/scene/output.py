@@ -3,15 +3,28 @@
 -o wins; otherwise the scene's output.path, resolved against the scene's folder and never leaving it (a
 scene file is data: it may write beside itself or below); the built-in default scene writes its file name
 into the working folder. The output must be a writable .png or .exr that is not the input, and layers
-(output.aovs) need an .exr.
+(output.aovs) need an .exr. Symbolic links: output.path is checked where it really leads (a linked subfolder
+that leaves the scene's folder is refused); `-o LINK` writes the file LINK names and keeps the link.
 """
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from ..errors import ImageError, SceneError
 from .schema import Scene
+
+
+def _check_real_path(scene: Scene, output: Path, source: Path) -> None:
+    """Refuse an output.path whose real location (every symbolic link followed: a linked subfolder, a
+    linked file) leaves the scene's folder, as output.check_inside refuses one spelled with '..'."""
+    folder = Path(os.path.realpath(scene.folder))
+    real = Path(os.path.realpath(output))
+    if real != folder and folder not in real.parents:
+        raise SceneError(f"{source}: output.path: {scene.output.path!r} leaves the scene's folder through a "
+                         f"symbolic link (it is {real}); give a path inside that folder, or choose the output "
+                         "with -o")
 
 
 def render_output(scene: Scene, source: Path, given: Path | None, builtin: bool) -> Path | str:
@@ -23,8 +36,14 @@ def render_output(scene: Scene, source: Path, given: Path | None, builtin: bool)
         scene.output.check_inside(str(source))  # a scene writes inside its folder; elsewhere only with -o
     output = given if given is not None else (Path(scene.output.path).name if builtin
                                               else scene.resolve(scene.output.path))
+    if given is None and not builtin:
+        _check_real_path(scene, Path(output), source)
     try:
         check_output_path(output, inputs=(source,))
+        if given is not None and Path(given).is_symlink():
+            # -o LINK writes the file the link names, as `cp x LINK` or `> LINK` would, and keeps the link
+            # (the atomic rename would otherwise replace the link itself with a file).
+            output = check_output_path(Path(os.path.realpath(given)), inputs=(source,))
     except ImageError as error:
         raise ImageError(f"{source}: {option}: {error}") from None  # where the path came from: option or scene
     if scene.output.aovs and Path(output).suffix.lower() != ".exr":

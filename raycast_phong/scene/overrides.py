@@ -12,7 +12,8 @@ from typing import TYPE_CHECKING, Any
 
 from ..codes import ShadingModel
 from ..errors import SceneError
-from .messages import dotted, shown
+from ..io.scene_file import syntax_limit
+from .messages import dotted, shorten, shown
 
 if TYPE_CHECKING:
     from .schema import Scene
@@ -24,7 +25,7 @@ def apply_override(data: dict, assignment: str, source: str = "--set", option: s
     List items are addressed by index: `lights.0.position=[1, 2, 3]`, `objects.1.shading=flat`.
     `option` names the command-line option the assignment came from in error messages (--set, --vary).
     """
-    where = f"{source}: {option} {assignment!r}"
+    where = f"{source}: {option} {shorten(repr(assignment))}"
     if "=" not in assignment:
         raise SceneError(f"{where}: expected KEY.PATH=VALUE, e.g. render.width=320 or lights.0.position=[1, 2, 3]")
     key, text = (part.strip() for part in assignment.split("=", 1))
@@ -36,6 +37,8 @@ def apply_override(data: dict, assignment: str, source: str = "--set", option: s
         value = tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         value = text
+    except (RecursionError, ValueError) as error:
+        raise SceneError(f"{where}: {syntax_limit(error)}") from None
     node: Any = data
     for depth, part in enumerate(parts):
         node_path = ".".join(parts[:depth]) or "(top level)"

@@ -197,7 +197,7 @@ def _attenuation(value: Any) -> Any:
     if sequence is None:
         raise ValueError(f"allowed: {ATTENUATION_ALLOWED}; got {shown(value)}")
     if len(sequence) != 3:
-        raise ValueError(f"the attenuation list is [c, l, q], got {len(sequence)} numbers: {list(sequence)}")
+        raise ValueError(f"the attenuation list is [c, l, q], got {len(sequence)} numbers: {shown(sequence)}")
     c, l, q = (float(_number(x)) for x in sequence)  # noqa: E741
     # min(1, 1/(c + l·d + q·d²)) is defined for every d ≥ 0 when no coefficient is negative: where the sum
     # is 0 (c = 0 at d = 0) the clamp gives 1. All zero would be "none" in disguise. The kernel's tables

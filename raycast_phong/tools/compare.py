@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..io.image_io import label_font, text_coverage
+from ..io.system import format_bytes
 from ..scene.load import read_scene_dict
 from ..scene.overrides import apply_override
 from ..scene.schema import Scene, validate_scene
@@ -188,6 +189,27 @@ class Comparison:
         y = self.layout.rows["variants"]
         return {f"variant{index}": (variant, (self.layout.column(index), y))
                 for index, variant in enumerate(self.variants)}
+
+
+# Bytes per pixel of each variant while the variants are held and composed: its image (float32 RGB) and its
+# difference, the heat map's temporary, its two panels on the canvas, and the canvas's copies when written
+# (the 8-bit PNG's float32 RGB and the EXR of parts): 12 + 4 + 12 + 24 + 24 + 12, rounded up.
+HELD_BYTES_PER_PIXEL = 96
+
+
+def render_budget(scenes: list[Scene], budget: int | None, source: str) -> int | None:
+    """What is left of `budget` for each variant's render once every variant's image is held and composed;
+    SceneError (one line) when holding them alone is over it. None: no budget."""
+    if budget is None:
+        return None
+    render = scenes[0].render
+    held = len(scenes) * render.width * render.height * HELD_BYTES_PER_PIXEL
+    if held >= budget:
+        raise SceneError(f"{source}: --vary: {len(scenes)} variants of {render.width}×{render.height} pixels need "
+                         f"≈ {format_bytes(held)} of memory to hold and compose, above the "
+                         f"{format_bytes(budget)} budget; use fewer values, a smaller render.width × "
+                         "render.height, or raise the budget (--max-memory)")
+    return budget - held
 
 
 def compose(variants: list[np.ndarray], key: str, values: list[str]) -> Comparison:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 import os
 import re
 import tomllib
@@ -32,6 +33,8 @@ from ..io.image_io import read_layer, text_coverage, write_image
 from .compare import BACKDROP, MIN_FONT, draw_text, fitting_size, layout, row_wording
 
 SWEEP_KEYS = ("scene", "set", "grid")
+# A sweep's product is rendered and shown on one sheet: a million cells would run for hours without a word.
+MAX_SWEEP_CELLS = 4096
 FAILED_RGB = (0.35, 0.06, 0.06)  # a failed cell: dark red, so it cannot pass for a black render
 ROW_LABEL_MIN = 240  # px: room for "shading=gouraud, shininess=512" at 12 px, however small the cells
 
@@ -78,7 +81,7 @@ class Sweep:
 
 def is_sweep(path: Path) -> bool:
     """A TOML file with a top-level `grid` table (a scene file never has one)."""
-    if path.suffix.lower() != ".toml":
+    if path.suffix.lower() != ".toml" or not path.is_file():  # a FIFO would block the read: the loader refuses it
         return False
     try:
         return "grid" in tomllib.loads(path.read_text(encoding="utf-8"))
@@ -111,6 +114,12 @@ def load_sweep(path: str | Path) -> Sweep:
         if not isinstance(values, list) or not values:
             raise SceneError(f"{path}: grid.{key}: must be a non-empty list of values, got {json.dumps(values)}")
         axes.append((key, tuple(values)))
+    cells = math.prod(len(values) for _, values in axes)
+    if cells > MAX_SWEEP_CELLS:
+        sizes = " × ".join(f"{len(values):,}" for _, values in axes)
+        raise SceneError(f"{path}: grid: {sizes} = {cells:,} cells, more than the {MAX_SWEEP_CELLS:,} a sweep "
+                         "renders (each is a render and a cell of the contact sheet); split the sweep or use "
+                         "fewer values")
     return Sweep(path=path, scene=path.parent / data["scene"], fixed=tuple(fixed), axes=tuple(axes))
 
 

@@ -107,8 +107,9 @@ def hidden(folder: Path) -> list[str]:
 
 
 @LINUX_PROC
-@pytest.mark.parametrize(("number", "jobs"), [(signal.SIGINT, 2), (signal.SIGTERM, 2), (signal.SIGINT, 1)],
-                         ids=["SIGINT", "SIGTERM", "SIGINT-jobs-1"])
+@pytest.mark.parametrize(("number", "jobs"), [(signal.SIGINT, 2), (signal.SIGTERM, 2), (signal.SIGINT, 1),
+                                             (signal.SIGHUP, 2), (signal.SIGQUIT, 2)],
+                         ids=["SIGINT", "SIGTERM", "SIGINT-jobs-1", "SIGHUP-to-the-group", "SIGQUIT"])
 @pytest.mark.slow
 def test_a_signal_stops_the_workers_at_once_and_the_manifest_tells_the_truth(tmp_path, start_batch, number, jobs):
     count = 16
@@ -119,7 +120,8 @@ def test_a_signal_stops_the_workers_at_once_and_the_manifest_tells_the_truth(tmp
     # process on a loaded machine cannot let scenes finish between the count and the signal.
     os.killpg(process.pid, signal.SIGSTOP)
     written = len(images(out))
-    os.kill(process.pid, number)
+    # A closed terminal sends SIGHUP to the whole process group, the workers included (issue 21, item 7).
+    (os.killpg if number == signal.SIGHUP else os.kill)(process.pid, number)
     os.killpg(process.pid, signal.SIGCONT)
     _, stderr = process.communicate(timeout=60)
     assert process.returncode == 128 + number, stderr

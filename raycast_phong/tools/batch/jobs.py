@@ -101,8 +101,14 @@ class Interrupted(KeyboardInterrupt):
         self.signal, self.report = int(number), report
 
 
+# The signals that stop a batch as Ctrl-C does: `kill`, and a closed terminal (SIGHUP) or Ctrl-\\ (SIGQUIT),
+# which would otherwise end it with no manifest written and its workers' temporary files left.
+STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP", "SIGQUIT")
+                     if hasattr(signal, name))
+
+
 def interrupt(number: int, frame) -> None:
-    """Signal handler (the `batch` command's, for SIGINT and SIGTERM): stop the batch as Ctrl-C would."""
+    """Signal handler (the `batch` command's, for STOP_SIGNALS): stop the batch as Ctrl-C would."""
     raise Interrupted(number)
 
 
@@ -117,12 +123,15 @@ def find_jobs(paths: list[str | Path], out: str | Path | None = None) -> list[Jo
     for given in map(str, paths):
         path = Path(given)
         if path.is_dir():
+            # Not only regular files: a FIFO or a device named *.toml is taken, and refused when read, so it is
+            # reported as a failed scene instead of being skipped without a word.
             found = sorted(p for p in path.iterdir()
-                           if p.suffix.lower() in SCENE_SUFFIXES and not p.name.startswith(".") and p.is_file())
+                           if p.suffix.lower() in SCENE_SUFFIXES and not p.name.startswith(".") and not p.is_dir())
         elif path.is_file():
             found = [path]
-        else:
-            found = sorted(Path(p) for p in glob.glob(given, recursive=True) if Path(p).is_file())
+        else:  # a glob such as 'dir/*' matches the images a batch wrote there too: only scenes and meshes
+            found = sorted(Path(p) for p in glob.glob(given, recursive=True)
+                           if not Path(p).is_dir() and _is_scene(Path(p)))
         found = [p for p in found if out is None or not is_own_manifest(p, Path(out))]
         if not found:
             raise SceneError(f"{given}: no such scene file, folder or matching glob")
@@ -137,6 +146,12 @@ def find_jobs(paths: list[str | Path], out: str | Path | None = None) -> list[Jo
                              "rename one of the files or run them in separate batches")
         seen[job.name] = job
     return jobs
+
+
+def _is_scene(path: Path) -> bool:
+    """A scene file (by suffix) or a mesh file trimesh reads, not an image, a log or a manifest."""
+    from ...scene.load import is_mesh_file
+    return path.suffix.lower() in SCENE_SUFFIXES or is_mesh_file(path)
 
 
 def job_hash(job: Job, scene: Scene | None, settings: Settings) -> str:

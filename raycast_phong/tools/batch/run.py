@@ -68,6 +68,27 @@ def run_batch(jobs: list[Job], folder: str | Path, *, workers: int | None = None
         return _run_locked(jobs, folder, workers, force, settings, scheduler, progress, max_memory)
 
 
+# A worker process holds Python, numpy, numba's compiled kernels, Embree and trimesh before its first scene:
+# about 150 MB (40 workers on a 2-core machine took 6 GB in 2 s).
+WORKER_BYTES = 150 << 20
+
+
+def worker_count(asked: int | None, budget: int | None) -> tuple[int, str | None]:
+    """Scenes to render at once: --jobs, at most the machine's cores and as many workers as the budget holds
+    (each WORKER_BYTES and its scenes' share), and the warning that says so when the cap applies."""
+    cores = os.cpu_count() or 1
+    wanted = asked or cores
+    fits = max(1, budget // (2 * WORKER_BYTES)) if budget else wanted
+    count = max(1, min(wanted, cores, fits))
+    if count == wanted:
+        return count, None
+    from ...io.system import format_bytes
+    why = (f"the machine has {cores} cores" if count == cores else
+           f"each worker takes about {format_bytes(WORKER_BYTES)} and its scenes as much again of the "
+           f"{format_bytes(budget)} budget")
+    return count, f"--jobs {wanted}: {count} worker{'s' * (count != 1)} instead, as {why}"
+
+
 def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool, settings: Settings,
                 scheduler: str | None, progress: Callable[[Outcome, int, int], None] | None,
                 max_memory: int | None) -> BatchReport:
@@ -75,7 +96,11 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
     started = time.perf_counter()
     manifest, warning = open_manifest(folder)
     remove_temporaries(folder, [job.name for job in jobs])
-    cores = workers or os.cpu_count() or 1
+    budget = None
+    if scheduler is None:
+        from ...renderer.budget import default_budget
+        budget = max_memory or default_budget()
+    cores, capped = worker_count(workers, budget) if scheduler is None else (workers or os.cpu_count() or 1, None)
     outcomes: dict[str, Outcome] = {}
     tasks: list[Task] = []
     begun: set[str] = set()  # names the executor has started
@@ -96,7 +121,7 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
 
     def report() -> BatchReport:
         return BatchReport(folder=folder, outcomes=[outcomes[job.name] for job in jobs], startup=startup,
-                           warnings=[warning] if warning else [])
+                           warnings=[w for w in (warning, capped) if w])
 
     try:
         for job in jobs:
@@ -108,8 +133,6 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
         processes = min(cores, len(tasks)) if scheduler is None else 0
         threads = max(1, cores // processes) if processes else 1  # a Dask worker's own threads run the scenes
         if scheduler is None:
-            from ...renderer.budget import default_budget
-            budget = max_memory or default_budget()
             max_memory = budget // max(processes, 1) if budget else None
         tasks = [replace(task, threads=threads, max_memory=max_memory) for task in tasks]
         startup = warm_up(tasks) if scheduler is None else 0.0

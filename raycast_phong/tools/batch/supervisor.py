@@ -17,7 +17,7 @@ from multiprocessing import connection
 
 from ...errors import SceneError
 from ...renderer.intersect import embree_started
-from .jobs import FAILED, RENDERED, Outcome, Task, new_entry, reason_line, render_job
+from .jobs import FAILED, RENDERED, STOP_SIGNALS, Outcome, Task, new_entry, reason_line, render_job
 from .manifest import remove_temporaries
 
 # Linux's prctl option that has the kernel send a signal to a process when its parent dies.
@@ -106,8 +106,8 @@ class _Worker:
     def __init__(self, context, parent: int | None):
         self.connection, theirs = context.Pipe()
         self.process = context.Process(target=_work, args=(theirs, parent), daemon=True)
-        # The worker starts with SIGINT and SIGTERM blocked, so neither lands before it has its own handlers.
-        blocked = signal.pthread_sigmask(signal.SIG_BLOCK, (signal.SIGINT, signal.SIGTERM))
+        # The worker starts with the stop signals blocked, so none lands before it has its own handlers.
+        blocked = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
         try:
             self.process.start()
         finally:
@@ -151,10 +151,12 @@ class _Worker:
 def _work(tasks: connection.Connection, parent: int | None) -> None:
     """A worker process: render the tasks it receives until it receives None or the batch is gone."""
     _die_with_parent(parent)
-    # SIGTERM unwinds (write_image's `finally` removes its temporary file); Ctrl-C is the parent's to handle.
+    # SIGTERM unwinds (write_image's `finally` removes its temporary file); Ctrl-C, a closed terminal (SIGHUP,
+    # sent to the whole process group) and SIGQUIT are the parent's to handle: it stops the workers itself.
+    for number in STOP_SIGNALS:
+        signal.signal(number, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(128 + signal.SIGTERM))
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, (signal.SIGINT, signal.SIGTERM))
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
     try:
         while (task := tasks.recv()) is not None:
             tasks.send(render_job(task))

@@ -1,0 +1,162 @@
+"""Guards on what a file costs to read, not what it claims (issue 21, item 1): a large mesh file that claims
+few triangles (one line, zeros, a sparse file) is refused from its size and format before it is read; a
+binary STL whose size does not match its count is corrupt; an OBJ is counted in bounded pieces; unused
+vertices count; the budget follows `ulimit -v`.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from raycast_phong.errors import SceneError
+from raycast_phong.io import mesh_header
+from raycast_phong.io.mesh_header import mesh_file_triangles
+
+CLI = [sys.executable, str(Path(__file__).parents[2] / "cli.py")]
+
+
+def sparse(path: Path, size: int, head: bytes = b"") -> Path:
+    """A file of `size` bytes that takes no disk: `head`, then a hole (zeros)."""
+    with open(path, "wb") as handle:
+        handle.write(head)
+        handle.truncate(size)
+    return path
+
+
+def run_measured(args: list[str], cwd: Path) -> tuple[subprocess.CompletedProcess, int, float]:
+    """The CLI in a fresh process: its result, its peak resident bytes (through a wrapper that reads its own
+    children's ru_maxrss) and its wall time."""
+    probe = ("import resource, subprocess, sys; done = subprocess.run(sys.argv[1:], capture_output=True, "
+             "text=True, stdin=subprocess.DEVNULL); sys.stderr.write(done.stderr); sys.stdout.write(done.stdout); "
+             "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, file=sys.stderr); "
+             "sys.exit(done.returncode)")
+    env = {k: v for k, v in os.environ.items() if k != "RAYCAST_PHONG_DEBUG"}
+    started = time.perf_counter()
+    done = subprocess.run([sys.executable, "-c", probe, *CLI, *args], cwd=cwd, capture_output=True, text=True,
+                          timeout=300, env=env)
+    seconds = time.perf_counter() - started
+    lines = done.stderr.strip().splitlines()
+    peak = int(lines[-1]) * 1024
+    done.stderr = "\n".join(lines[:-1])
+    return done, peak, seconds
+
+
+@pytest.mark.parametrize("name, head", [("one-line.obj", b"v 0 0 0 "), ("zeros.stl", b""),
+                                        ("huge.gltf", b'{"asset": {"version": "2.0"}, "x": "'),
+                                        ("zeros.ply", b"")])
+def test_a_large_file_claiming_little_is_refused_before_it_is_read(tmp_path, name, head):
+    """512 MB that claim nothing, --max-memory 100M: one line, exit 2, in seconds, without reading the file
+    (before the change: the whole file was read by the count and by trimesh, gigabytes)."""
+    path = sparse(tmp_path / name, 512 << 20, head)
+    done, peak, seconds = run_measured(["render", str(path), "--max-memory", "100M", "-o",
+                                        str(tmp_path / "out.png")], tmp_path)
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and len(lines) == 1 and "Traceback" not in done.stderr, done.stderr
+    assert name in lines[0] and ("memory" in lines[0] or "corrupt" in lines[0]), lines[0]
+    assert peak < 400 << 20, f"{peak >> 20} MB resident to refuse {name}"
+    assert seconds < 60
+
+
+def test_the_read_floor_grows_with_the_size_and_not_the_claim(tmp_path):
+    from raycast_phong.io.mesh_header import mesh_file_read_bytes
+    small, large = sparse(tmp_path / "a.obj", 1 << 20), sparse(tmp_path / "b.obj", 1 << 30)
+    assert mesh_file_read_bytes(large) == 1024 * mesh_file_read_bytes(small) >= 1 << 33
+    assert mesh_file_read_bytes(tmp_path / "missing.obj") == 0
+
+
+def test_a_binary_stl_whose_size_does_not_match_its_count_is_corrupt(tmp_path):
+    path = tmp_path / "cut.stl"
+    path.write_bytes(b"\0" * 80 + (1000).to_bytes(4, "little") + b"\0" * 50 * 10)  # counts 1000, holds 10
+    with pytest.raises(SceneError, match=r"cut\.stl.*binary STL.*1,000 triangles.*corrupt"):
+        mesh_file_triangles(path, f"{path}")
+    big = sparse(tmp_path / "zeros.stl", 1 << 30)  # a multi-GiB STL of zeros counts 0 but is 1 GiB
+    with pytest.raises(SceneError, match="corrupt"):
+        mesh_file_triangles(big, str(big))
+
+
+def test_unused_vertices_count(tmp_path):
+    """A million vertices and one face weigh as what they hold (before: one triangle)."""
+    obj = tmp_path / "points.obj"
+    obj.write_bytes(b"v 0 0 0\n" * 1_000_000 + b"f 1 2 3\n")
+    assert mesh_file_triangles(obj, "k") >= 999_000
+    ply = tmp_path / "points.ply"
+    ply.write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 1000000\nproperty float x\n"
+                    b"property float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                    b"end_header\n")
+    assert mesh_file_triangles(ply, "k") >= 999_000
+
+
+def reference_count(text: bytes) -> int:
+    """An OBJ's triangles line by line, as the count was before (holding each line)."""
+    faces = sum(max(len(line.split()) - 3, 0) for line in text.split(b"\n") if line[:2] in (b"f ", b"f\t"))
+    vertices = sum(1 for line in text.split(b"\n") if line[:2] in (b"v ", b"v\t"))
+    return max(faces, vertices - 2)
+
+
+obj_lines = st.lists(st.one_of(
+    st.builds(lambda n: b"f" + b" 1" * n, st.integers(0, 9)),
+    st.builds(lambda n: b"f\t" + b"2 " * n, st.integers(0, 9)),
+    st.just(b"v 1 2 3"), st.just(b"vn 0 0 1"), st.just(b"# f 1 2 3"), st.just(b""), st.just(b"  "),
+    st.just(b"ff 1 2 3"), st.binary(max_size=6)), max_size=30)
+
+
+@settings(max_examples=200, deadline=None)
+@given(lines=obj_lines, chunk=st.integers(1, 9), newline=st.sampled_from([b"\n", b"\r\n"]))
+def test_an_obj_is_counted_the_same_in_any_pieces(lines, chunk, newline):
+    """The chunked count equals the line-by-line count wherever the pieces cut the lines."""
+    text = newline.join(lines)
+    if any(b"\n" in line or b"\r" in line for line in lines):
+        text = b"\n".join(line.replace(b"\r", b" ").replace(b"\n", b" ") for line in lines)
+    expected = reference_count(text)
+    saved = mesh_header.CHUNK
+    try:
+        mesh_header.CHUNK = chunk
+        assert mesh_header._obj_triangles(io.BytesIO(text)) == max(expected, 0)
+    finally:
+        mesh_header.CHUNK = saved
+
+
+def test_a_one_line_obj_is_counted_in_bounded_memory(tmp_path):
+    """16 MB on one line: the count holds 1 MB pieces and their index arrays, not the line (before: the line
+    and its split, 500 MB)."""
+    import tracemalloc
+    path = tmp_path / "polygon.obj"
+    corners = 8_000_000
+    path.write_bytes(b"f" + b" 1" * corners)
+    tracemalloc.start()
+    try:
+        count = mesh_file_triangles(path, "k")
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert count == corners - 2
+    assert peak < 32 << 20, f"{peak >> 20} MB to count a 16 MB line"
+
+
+def test_the_budget_follows_ulimit_v():
+    """available_memory() is at most what RLIMIT_AS leaves (before: the machine's free memory only)."""
+    probe = ("import resource; from raycast_phong.io.system import available_memory; "
+             "resource.setrlimit(resource.RLIMIT_AS, (3 << 30, 3 << 30)); print(available_memory())")
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=60, check=True)
+    assert 0 <= int(done.stdout) < 3 << 30
+
+
+def test_max_memory_caps_the_framing_read_and_is_cleared_after(tmp_path):
+    from typer.testing import CliRunner
+
+    from raycast_phong.cli import app
+    from raycast_phong.io import system
+    path = tmp_path / "a.obj"
+    path.write_bytes(b"v 0 0 0\n" * 200_000 + b"f 1 2 3\n")
+    done = CliRunner().invoke(app, ["plan", str(path), "--max-memory", "1M"])
+    assert done.exit_code == 2 and "a.obj" in done.output and "memory" in done.output, done.output
+    assert system.BUDGET[0] is None

@@ -1,0 +1,118 @@
+"""Every command that holds images keeps to the budget (issue 21, items 2 and 3): compare refuses images
+whose headers claim more pixels than the budget holds before reading a pixel; side-by-side counts the
+variants it holds; batch --jobs is capped by the cores and the budget and says so; a sweep of a million
+cells is refused.
+"""
+
+from __future__ import annotations
+
+import os
+import struct
+import subprocess
+import sys
+import zlib
+from pathlib import Path
+
+from typer.testing import CliRunner
+
+from raycast_phong.cli import app
+
+runner = CliRunner()
+CLI = [sys.executable, str(Path(__file__).parents[2] / "cli.py")]
+
+
+def claiming_png(path: Path, width: int, height: int) -> Path:
+    """A real PNG of width × height black pixels that takes about 1/1000 of their bytes (zlib of zeros)."""
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+    packer, row = zlib.compressobj(9), b"\0" * (1 + 3 * width)
+    data = b"".join(packer.compress(row) for _ in range(height)) + packer.flush()
+    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", data) + chunk(b"IEND", b""))
+    return path
+
+
+def test_compare_refuses_images_whose_headers_claim_more_than_the_budget(tmp_path):
+    """Two 200 kB PNGs of 8000 × 8000: before, compare held ≈ 3 GB of them (20000²: 16 GB, 85 s); now one line
+    from the headers, in well under a second, within 400 MB."""
+    a = claiming_png(tmp_path / "a.png", 8000, 8000)
+    probe = ("import resource, subprocess, sys; done = subprocess.run(sys.argv[1:], capture_output=True, text=True);"
+             " sys.stderr.write(done.stderr); print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, "
+             "done.returncode)")
+    done = subprocess.run([sys.executable, "-c", probe, *CLI, "compare", str(a), str(a), "--max-memory", "100M"],
+                          capture_output=True, text=True, timeout=300)
+    peak, code = map(int, done.stdout.split())
+    lines = done.stderr.strip().splitlines()
+    assert code == 2 and len(lines) == 1, done.stderr
+    assert "a.png: its header says 8000×8000 pixels with 3 channels" in lines[0] and "budget" in lines[0], lines[0]
+    assert peak < 400 << 10, f"{peak >> 10} MB resident"
+
+
+def test_compare_within_the_budget_still_compares(tmp_path):
+    a = claiming_png(tmp_path / "a.png", 64, 64)
+    result = runner.invoke(app, ["compare", str(a), str(a), "--max-memory", "100M"])
+    assert result.exit_code == 0 and "PASS" in result.output, result.output
+
+
+def test_side_by_side_counts_the_variants_it_holds(tmp_path):
+    result = runner.invoke(app, ["side-by-side", "--vary", "render.shading=flat,phong,gouraud,flat,phong,gouraud",
+                                 "--width", "4000", "--height", "4000", "--max-memory", "2G",
+                                 "-o", str(tmp_path / "s.png")])
+    lines = result.output.strip().splitlines()
+    assert result.exit_code == 2 and len(lines) == 1, result.output
+    assert "6 variants of 4000×4000 pixels need" in lines[0] and "2 GB budget" in lines[0], lines[0]
+    assert not list(tmp_path.iterdir())
+
+
+def test_batch_jobs_are_capped_by_the_cores_and_the_budget():
+    from raycast_phong.tools.batch.run import WORKER_BYTES, worker_count
+    cores = os.cpu_count() or 1
+    count, warning = worker_count(cores + 38, None)
+    assert count == cores and warning == f"--jobs {cores + 38}: {cores} worker{'s' * (cores != 1)} instead, as the " \
+        f"machine has {cores} cores"
+    assert worker_count(cores, None) == (cores, None)
+    count, warning = worker_count(cores, 2 * WORKER_BYTES)  # room for one worker and its scenes
+    assert count == 1 and (cores == 1 or "budget" in warning)
+
+
+def test_batch_says_when_the_cap_applies(tmp_path):
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    (folder / "a.toml").write_text('[[objects]]\nshape = "box"\n[[lights]]\nposition = [2, 2, 3]\n'
+                                   '[render]\nwidth = 8\nheight = 8\n')
+    done = subprocess.run([*CLI, "batch", str(folder), "--out", str(tmp_path / "out"), "--jobs", "40", "-q"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "warning: --jobs 40: " in done.stderr, done.stderr
+
+
+def test_a_sweep_of_a_million_cells_is_refused_at_once(tmp_path):
+    (tmp_path / "base.toml").write_text('[[objects]]\nshape = "box"\n')
+    values = ", ".join(str(i) for i in range(1000))
+    (tmp_path / "sweep.toml").write_text(f'scene = "base.toml"\n[grid]\n"render.width" = [{values}]\n'
+                                         f'"render.height" = [{values}]\n')
+    result = runner.invoke(app, ["batch", str(tmp_path / "sweep.toml"), "--out", str(tmp_path / "out")])
+    lines = result.output.strip().splitlines()
+    assert result.exit_code == 2 and len(lines) == 1, result.output[:2000]
+    assert "1,000 × 1,000 = 1,000,000 cells" in lines[0], lines[0]
+
+
+def test_a_truncated_png_in_compare_is_our_one_line_only(tmp_path):
+    """libpng wrote its own `libpng error: …` line on stderr beside ours (issue 21, item 9)."""
+    whole = tmp_path / "whole.png"
+    done = subprocess.run([*CLI, "render", "-o", str(whole), "--width", "64", "--height", "64", "-q"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    cut = tmp_path / "cut.png"
+    cut.write_bytes(whole.read_bytes()[:600])
+    done = subprocess.run([*CLI, "compare", str(cut), str(whole)], capture_output=True, text=True, timeout=300)
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and len(lines) == 1 and "libpng" not in done.stderr, done.stderr
+    assert lines[0].startswith(f"error: {cut}: cannot read (") and "\\n" not in lines[0], lines[0]
+
+
+def test_srgb_with_an_exr_output_says_it_does_nothing(tmp_path):
+    result = runner.invoke(app, ["render", "-o", str(tmp_path / "x.exr"), "--srgb", "--width", "8", "--height", "8",
+                                 "-q"])
+    assert result.exit_code == 0, result.output
+    assert "warning: --srgb encodes a PNG" in result.output, result.output
