@@ -52,7 +52,10 @@ def run_measured(args: list[str], cwd: Path) -> tuple[subprocess.CompletedProces
 
 @pytest.mark.parametrize("name, head", [("one-line.obj", b"v 0 0 0 "), ("zeros.stl", b""),
                                         ("huge.gltf", b'{"asset": {"version": "2.0"}, "x": "'),
-                                        ("zeros.ply", b"")])
+                                        ("zeros.ply", b"ply\nformat binary_little_endian 1.0\nelement vertex 3\n"
+                                                      b"property float x\nproperty float y\nproperty float z\n"
+                                                      b"element face 1\nproperty list uchar int vertex_indices\n"
+                                                      b"end_header\n")])
 def test_a_large_file_claiming_little_is_refused_before_it_is_read(tmp_path, name, head):
     """512 MB that claim nothing, --max-memory 100M: one line, exit 2, in seconds, without reading the file
     (before the change: the whole file was read by the count and by trimesh, gigabytes)."""
