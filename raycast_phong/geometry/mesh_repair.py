@@ -107,10 +107,11 @@ def merge_duplicate_vertices(vertices: np.ndarray, faces: np.ndarray,
     return vertices[first], renumber(faces, new_of_old)
 
 
-def _merge_sorted(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray, used: np.ndarray):
-    """merge_duplicate_vertices by sorting row hashes (V log V); equal hashes are then checked value by value."""
+def _merge_sorted(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray | None, used: np.ndarray):
+    """merge_duplicate_vertices by sorting row hashes (V log V); equal hashes are then checked value by value.
+    `used` (V,) bool: the vertices some face uses."""
     index = np.flatnonzero(used)
-    rows = np.column_stack([vertices[index], np.round(normals[index] * 100)])
+    rows = vertices[index] if normals is None else np.column_stack([vertices[index], np.round(normals[index] * 100)])
     rows += 0.0  # −0.0 + 0.0 is +0.0: the two zeros are one value
     key = _row_hashes(rows)
     order = np.argsort(key)

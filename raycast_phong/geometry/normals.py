@@ -46,6 +46,18 @@ def corner_angles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return angles
 
 
+def corner_weights(vertices: np.ndarray, faces: np.ndarray, doubled_area: np.ndarray, weighting: str):
+    """The weight w of each face corner in a vertex normal's sum Σ w n_f: None for "mean" (w = 1), the face's
+    doubled area (F, 3) for "area", the corner angle (F, 3) for "angle"."""
+    if weighting == "mean":
+        return None
+    if weighting == "area":
+        return np.repeat(doubled_area[:, None], 3, axis=1)
+    if weighting == "angle":
+        return corner_angles(vertices, faces)
+    raise ValueError(f"unknown normal weighting {weighting!r}")
+
+
 def compute_corner_normals(vertices: np.ndarray, faces: np.ndarray, weighting: str = "mean",
                            crease_angle: float = 180.0, dtype: type = np.float64,
                            normals: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
@@ -60,14 +72,7 @@ def compute_corner_normals(vertices: np.ndarray, faces: np.ndarray, weighting: s
     for the pairwise test (_creased_vertices).
     """
     unit, doubled_area = normals if normals is not None else face_normals(vertices, faces)
-    if weighting == "mean":
-        weights = None
-    elif weighting == "area":
-        weights = np.repeat(doubled_area[:, None], 3, axis=1)
-    elif weighting == "angle":
-        weights = corner_angles(vertices, faces)
-    else:
-        raise ValueError(f"unknown normal weighting {weighting!r}")
+    weights = corner_weights(vertices, faces, doubled_area, weighting)
     # Σ w n_f and Σ w |n_f| (the length the sum would have if every normal agreed) per vertex, added in the
     # corners' order (the order of the additions fixes the last bits): one pass, no per-corner arrays.
     summed = vertex_normal_sums(faces, unit, np.empty((0, 3)) if weights is None else weights, weights is not None,

@@ -5,14 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from raycast_phong.geometry.mesh_repair import _row_hashes, _signed_volumes
+from raycast_phong.geometry.mesh_repair import _merge_sorted, _signed_volumes
 from raycast_phong.geometry.normals import (
     FACE_CHUNK,
     _corner_terms,
     _creased_sums,
     _creased_vertices,
     _normalise_or,
-    corner_angles,
+    corner_weights,
     cross_rows,
 )
 from raycast_phong.tolerances import NO_DIRECTION
@@ -46,14 +46,7 @@ def compute_corner_normals(vertices: np.ndarray, faces: np.ndarray, weighting: s
     for the pairwise test (_creased_vertices).
     """
     unit, doubled_area = normals if normals is not None else face_normals(vertices, faces)
-    if weighting == "mean":
-        weights = None
-    elif weighting == "area":
-        weights = np.repeat(doubled_area[:, None], 3, axis=1)
-    elif weighting == "angle":
-        weights = corner_angles(vertices, faces)
-    else:
-        raise ValueError(f"unknown normal weighting {weighting!r}")
+    weights = corner_weights(vertices, faces, doubled_area, weighting)
     # w |n_f|: the length the sum would have if every normal agreed (|n_f| is 1, or 0 for a degenerate face).
     length = np.linalg.norm(unit, axis=1)
     reach = (np.repeat(length, 3) if weights is None else (weights * length[:, None]).ravel())
@@ -176,45 +169,8 @@ def _half_edge_keys(faces: np.ndarray, vertex_count: int) -> np.ndarray:
 
 def merge_duplicate_vertices(vertices: np.ndarray, faces: np.ndarray,
                              normals: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Merge vertices at exactly the same position and drop those no face uses; the first of each kept, in file order.
-
-    What trimesh's process() did that matters for shading: a file that repeats a point for every face
-    around it (STL always, OBJ and PLY often) must share it, or the vertex-normal mean sees one face
-    and the surface shades faceted. As process(), vertices whose file normals (V, 3) differ (rounded to
-    0.01) stay apart: a hard edge the file draws stays hard. Unlike process(): positions are compared
-    exactly (−0 = +0), not rounded to trimesh's 1e-8 grid, and UV coordinates do not keep two vertices
-    apart (the renderer reads no textures: a texture seam is no edge of the surface). Rows are hashed
-    to one uint64 and the hashes sorted (V log V, numpy's vectorised sort); equal hashes are then
-    checked value by value.
-    """
+    """merge_duplicate_vertices as it was before the hash table: the package\'s sort-based path
+    (mesh_repair._merge_sorted, row hashes sorted, then compared value by value) on every row."""
     used = np.zeros(len(vertices), bool)
     used[faces] = True
-    index = np.flatnonzero(used)
-    rows = vertices[index] if normals is None else np.column_stack([vertices[index], np.round(normals[index] * 100)])
-    rows += 0.0  # −0.0 + 0.0 is +0.0: the two zeros are one value
-    key = _row_hashes(rows)
-    order = np.argsort(key)
-    key = key[order]
-    starts = np.r_[True, key[1:] != key[:-1]]
-    del key
-    if starts.all():
-        if len(index) == len(vertices):
-            return vertices, faces  # nothing to merge or drop: no copies
-        first = np.arange(len(index))
-    else:
-        # The first row (in file order) of each run of equal keys stands for the run.
-        first_sorted = np.minimum.reduceat(order, np.flatnonzero(starts))[np.cumsum(starts) - 1]
-        # A run holds one row unless two rows collided in the hash (about 2^-64 per pair): then fall back
-        # to numpy's exact (and slower) row comparison.
-        if (rows[first_sorted] == rows[order]).all():
-            first = np.empty_like(order)
-            first[order] = first_sorted  # from sorted positions back to the rows' order
-        else:
-            _, first_seen, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
-            first = first_seen[inverse.ravel()]
-    # first[i]: the first vertex (in `index` order) at point i's position; number the firsts in order.
-    keep = first == np.arange(len(first))
-    number = np.cumsum(keep) - 1
-    new_of_old = np.full(len(vertices), -1, np.int64)
-    new_of_old[index] = number[first]
-    return vertices[index[keep]], new_of_old[faces]
+    return _merge_sorted(vertices, faces, normals, used)
