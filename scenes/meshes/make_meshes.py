@@ -3,7 +3,9 @@
     .venv/bin/python scenes/meshes/make_meshes.py
 
 torus_knot.ply  a (2, 3) torus knot swept as a tube: 144 rings × 10 sides = 1,440 vertices,
-                2,880 triangles, watertight; coarse enough that flat shading shows its facets.
+                2,880 triangles, watertight; coarse enough that flat shading shows its facets. It stores the
+                tube's exact vertex normals (nx, ny, nz): its sides meet at 36°, beyond the 30° crease that
+                a file without normals gets, and the knot is a smooth surface.
 painted_knot.ply  the same knot with a colour per vertex, a hue wheel once round the curve (binary PLY,
                 red/green/blue/alpha properties): vertex colours as k_d and k_a (docs/meshes.md).
 dice.obj, dice.mtl  a cube of 12 triangles with one normal per face (`vn`) and three materials, one per pair
@@ -79,6 +81,9 @@ def tube(curve: np.ndarray, radius: float, sides: int) -> trimesh.Trimesh:
     mesh = trimesh.Trimesh(vertices, faces, process=False)
     if mesh.volume < 0:  # wind the faces so the normals point out of the tube
         mesh.invert()
+    # The tube's own normals (unit, outward from the curve), stored in the file: 10 sides meet at 36°, more
+    # than the 30° at which a file without normals is creased, so without them the knot would be faceted.
+    mesh.vertex_normals = offsets.reshape(-1, 3)
     return mesh
 
 
@@ -140,7 +145,9 @@ def painted(knot: trimesh.Trimesh, rings: int, sides: int) -> trimesh.Trimesh:
     hue = np.repeat(np.arange(rings) / rings, sides)
     rgb = np.clip(np.abs(((hue[:, None] * 6 + np.array([0, 4, 2])) % 6) - 3) - 1, 0, 1)  # HSV → RGB, S = V = 1
     colours = np.column_stack([np.round(255 * rgb), np.full(len(rgb), 255)]).astype(np.uint8)
-    return trimesh.Trimesh(knot.vertices, knot.faces, vertex_colors=colours, process=False)
+    mesh = trimesh.Trimesh(knot.vertices, knot.faces, vertex_colors=colours, process=False)
+    mesh.vertex_normals = knot.vertex_normals
+    return mesh
 
 
 def still_life() -> trimesh.Scene:
@@ -168,9 +175,9 @@ def main() -> None:
     t = 2 * np.pi * np.arange(144) / 144
     knot = tube(torus_knot_curve(t), radius=0.45, sides=10)
     assert knot.is_watertight and knot.volume > 0
-    knot.export(HERE / "torus_knot.ply")
+    knot.export(HERE / "torus_knot.ply", vertex_normal=True)
     print(f"torus_knot.ply: {len(knot.vertices)} vertices, {len(knot.faces)} faces")
-    painted(knot, 144, 10).export(HERE / "painted_knot.ply")
+    painted(knot, 144, 10).export(HERE / "painted_knot.ply", vertex_normal=True)
     (HERE / "dice.mtl").write_text(DICE_MTL, encoding="utf-8")
     (HERE / "dice.obj").write_text(dice_obj(), encoding="utf-8")
     still_life().export(HERE / "still_life.glb", include_normals=True)
