@@ -1,6 +1,7 @@
 """One band of image rows in one compiled loop: rays → Embree packets → [shadow rays] → shading, no Python between.
 
-Each stage keeps its home (camera.fill_rows, embree.intersect_rays, shadows.cast_shadows, shading._shade_rays);
+Each stage keeps its home (embree.camera_hits: rays generated straight into Embree's packets, with camera.py's
+formulas; shadows.cast_shadows; shading._shade_rays);
 this kernel only runs them in turn on CHUNK_ROWS image rows at a time, so a chunk's rays, hits and shadow
 rays stay in the CPU's cache and its buffers are allocated once per band. It needs Embree's C API
 (embree.py), the renderer's one engine.
@@ -14,8 +15,7 @@ import numpy as np
 from numba import types
 
 from ...jit import kernel
-from .camera import fill_rows
-from .embree import intersect_rays
+from .embree import camera_hits
 from .layout import C_SHADOW_RAYS, F_SHADOWS, FilmRows, TileRays
 from .shading import _shade_rays
 from .shadows import cast_shadows
@@ -43,7 +43,6 @@ def render_band(scene, row0, row1, params, shared_origins, shadows, inputs, film
     row_rays = params.width * params.samples * params.samples
     capacity = min(CHUNK_ROWS, row1 - row0) * row_rays  # a band of one very wide row needs one row's buffers
     directions = np.empty((capacity, 3), np.float32)
-    own_origins = np.empty((capacity if params.orthographic else 0, 3), np.float32)
     face = np.empty(capacity, np.int32)
     u = np.empty(capacity, np.float32)
     v = np.empty(capacity, np.float32)
@@ -58,9 +57,7 @@ def render_band(scene, row0, row1, params, shared_origins, shadows, inputs, film
         end = min(row + CHUNK_ROWS, row1)
         n = (end - row) * row_rays
         start = _now(timespec)
-        origins = own_origins[:n] if params.orthographic else shared_origins[:n]
-        fill_rows(params, row, end, origins, directions[:n])
-        intersect_rays(scene, origins, directions[:n], row_rays, face[:n], u[:n], v[:n], t[:n])
+        camera_hits(scene, params, row, end, shared_origins, directions[:n], face[:n], u[:n], v[:n], t[:n])
         cast = _now(timespec)
         if global_mode:
             counts[C_SHADOW_RAYS] += cast_shadows(scene, shadows, face[:n], u[:n], v[:n], directions[:n],
