@@ -235,12 +235,11 @@ def report(scene: rp.Scene, repeats: int, threads: int, embreex: bool) -> None:
     one = one_thread(limit, repeats)
     print(f"CPU        {one['frame'] / one['limit']:7.2f}    (frame {one['frame'] * 1e3:.1f} ms / limit "
           f"{one['limit'] * 1e3:.1f} ms, CPU time on one thread, min of {repeats})")
-    cast_part = one["rays"] - one["generation"]
     print(f"stages     generation {one['generation'] * 1e3:.1f} ms (fill_rows alone), rays {one['rays'] * 1e3:.1f} ms "
           f"(generation + cast in the frame: {one['rays'] / one['limit']:.2f} × limit), "
           + (f"shadow rays {one['shadows'] * 1e3:.1f} ms, " if r.mode == "global" else "")
-          + f"shading {one['shade'] * 1e3:.1f} ms ({one['shade'] / one['limit']:.2f} × limit); "
-          f"rays − generation − limit {(cast_part - one['limit']) * 1e3:+.1f} ms")
+          + f"shading {one['shade'] * 1e3:.1f} ms ({one['shade'] / one['limit']:.2f} × limit); the rest "
+          f"{(one['frame'] - one['rays'] - one['shadows'] - one['shade']) * 1e3:.1f} ms")
 
 
 def scan_scene(name: str, size: int, mode: str) -> rp.Scene:

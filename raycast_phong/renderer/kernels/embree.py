@@ -16,7 +16,7 @@ import numpy as np
 from numba import types
 
 from ...jit import kernel
-from .camera import direction, ortho_origin, screen_columns, screen_y
+from .camera import direction, ortho_origin, screen_y
 
 RTC_RAY_QUERY_FLAG_COHERENT = 1 << 16   # neighbouring pixels: Embree may traverse the packet together
 RTC_FEATURE_FLAG_ALL = -1               # 0xffffffff as int32
@@ -100,11 +100,12 @@ def intersect_rays(scene, origins, directions, row_rays, face, u, v, t):
 
 
 @kernel()
-def camera_hits(scene, params, row0, row1, eye, directions, face, u, v, t):
+def camera_hits(scene, params, screen_x, cell_row, row0, row1, eye, directions, face, u, v, t):
     """Closest hits of the primary rays of image rows [row0, row1) (params: layout.RayParams), generated
     straight into Embree's packets: directions (N, 3) float32 (for shading), face, u, v, t (N,) written as
     intersect_rays writes them, the rays in fill_rows' order and the packets in intersect_rays' 4 × 4 blocks
-    of rays. eye: (≥1, 3) float32 unit-frame origin of a perspective camera's rays (read only then).
+    of rays. screen_x, cell_row: camera.screen_columns(params), made once per band by the caller. eye: (≥1, 3)
+    float32 unit-frame origin of a perspective camera's rays (read only then).
 
     One pass, no rays array: each lane's direction is computed (camera.direction, the same operations and
     bits as fill_rows) into the packet and the directions array at once.
@@ -114,15 +115,15 @@ def camera_hits(scene, params, row0, row1, eye, directions, face, u, v, t):
     forward, right, up = params.forward, params.right, params.up
     fx, fy, fz, rx, ry, rz, ux, uy, uz = (forward[0], forward[1], forward[2], right[0], right[1], right[2],
                                           up[0], up[1], up[2])
-    screen_x, cell_row = screen_columns(params)
     row_rays, samples = screen_x.shape[0], params.samples
     rows = row1 - row0
     sy_rows = np.empty(4 * samples)  # screen y of the block's 4 image rows × n cell rows
+    lane_x, lane_y = np.zeros(16), np.zeros(16)  # the block's screen positions (0 for an inactive lane)
     if not orthographic and rows > 0:
         for lane in range(16):
             words[ORG_X + lane], words[ORG_Y + lane], words[ORG_Z + lane] = eye[0, 0], eye[0, 1], eye[0, 2]
+    ox, oy, oz = np.float32(fx), np.float32(fy), np.float32(fz)
     if orthographic:
-        ox, oy, oz = np.float32(forward[0]), np.float32(forward[1]), np.float32(forward[2])
         for lane in range(16):
             words[DIR_X + lane], words[DIR_Y + lane], words[DIR_Z + lane] = ox, oy, oz
     for r0 in range(0, rows, 4):
@@ -130,34 +131,33 @@ def camera_hits(scene, params, row0, row1, eye, directions, face, u, v, t):
             for b in range(samples):
                 sy_rows[i * samples + b] = screen_y(params, row0 + r0 + i, b)
         for c0 in range(0, row_rays, 4):
+            # Lane (i, j) of the block is ray (r0 + i, c0 + j); off the image's edge it stays inactive.
             for lane in range(16):
-                # Lane (i, j) of the block is ray (r0 + i, c0 + j); off the image's edge it stays inactive.
                 r, c = r0 + (lane >> 2), c0 + (lane & 3)
+                active = c < row_rays and r < rows
+                valid[lane] = -1 if active else 0
+                lane_x[lane] = screen_x[c] if active else 0.0
+                lane_y[lane] = sy_rows[(lane >> 2) * samples + cell_row[c]] if active else 0.0
                 words[TFAR + lane] = NO_LIMIT
                 ints[GEOM_ID + lane] = INVALID_ID
                 ints[PRIM_ID + lane] = INVALID_ID
-                if c >= row_rays or r >= rows:
-                    valid[lane] = 0
-                    continue
-                valid[lane] = -1
-                k = r * row_rays + c
-                sx, sy = screen_x[c], sy_rows[(lane >> 2) * samples + cell_row[c]]
-                if orthographic:
-                    words[ORG_X + lane] = ortho_origin(params, 0, sx, sy)
-                    words[ORG_Y + lane] = ortho_origin(params, 1, sx, sy)
-                    words[ORG_Z + lane] = ortho_origin(params, 2, sx, sy)
-                    directions[k, 0], directions[k, 1], directions[k, 2] = ox, oy, oz
-                else:
-                    dx, dy, dz = direction(fx, fy, fz, rx, ry, rz, ux, uy, uz, sx, sy)
-                    words[DIR_X + lane] = directions[k, 0] = dx
-                    words[DIR_Y + lane] = directions[k, 1] = dy
-                    words[DIR_Z + lane] = directions[k, 2] = dz
+            # Branch-free over the 16 lanes, so that it runs in vector registers.
+            if orthographic:
+                for lane in range(16):
+                    words[ORG_X + lane] = ortho_origin(params, 0, lane_x[lane], lane_y[lane])
+                    words[ORG_Y + lane] = ortho_origin(params, 1, lane_x[lane], lane_y[lane])
+                    words[ORG_Z + lane] = ortho_origin(params, 2, lane_x[lane], lane_y[lane])
+            else:
+                for lane in range(16):
+                    dx, dy, dz = direction(fx, fy, fz, rx, ry, rz, ux, uy, uz, lane_x[lane], lane_y[lane])
+                    words[DIR_X + lane], words[DIR_Y + lane], words[DIR_Z + lane] = dx, dy, dz
             rtc_intersect16(valid.ctypes.data, scene, words.ctypes.data, arguments.ctypes.data)
             for lane in range(16):
-                r, c = r0 + (lane >> 2), c0 + (lane & 3)
-                if c >= row_rays or r >= rows:
+                if valid[lane] == 0:
                     continue
-                k = r * row_rays + c
+                k = (r0 + (lane >> 2)) * row_rays + c0 + (lane & 3)
+                directions[k, 0], directions[k, 1], directions[k, 2] = (
+                    words[DIR_X + lane], words[DIR_Y + lane], words[DIR_Z + lane])
                 if ints[GEOM_ID + lane] == INVALID_ID:
                     face[k], u[k], v[k], t[k] = -1, 0, 0, NO_LIMIT
                 else:
