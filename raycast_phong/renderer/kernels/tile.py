@@ -93,7 +93,7 @@ def render_band(scene, row0, row1, params, shared_origins, shadows, inputs, film
                 touched += _touch(face[:n], shadows.faces, shadows.vertices, shadows.face_normals,
                                   shadows.corner_normals, shadows.smooth)
             counts[C_SHADOW_RAYS] += cast_shadows(scene, shadows, face[:n], u[:n], v[:n], directions[:n],
-                                                  visible[:n])
+                                                  row_rays, visible[:n])
         shadowed = _now(timespec)
         if inputs.faces.shape[0] >= TOUCH_FACES:
             touched += _touch(face[:n], inputs.faces, inputs.vertices, inputs.face_normals, inputs.corner_normals,
