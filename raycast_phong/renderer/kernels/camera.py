@@ -66,10 +66,13 @@ def fill_rows(params, row0, row1, origins, directions):
                                           up[0], up[1], up[2])
     screen_x, cell_row = screen_columns(params)
     row_rays = screen_x.shape[0]
+    sy_row = np.empty(samples)  # screen y of the row's n cell rows
     k = 0
     for row in range(row0, row1):
+        for b in range(samples):
+            sy_row[b] = screen_y(params, row, b)
         for c in range(row_rays):
-            sx, sy = screen_x[c], screen_y(params, row, cell_row[c])
+            sx, sy = screen_x[c], sy_row[cell_row[c]]
             if orthographic:
                 for i in range(3):
                     origins[k, i] = ortho_origin(params, i, sx, sy)
