@@ -29,18 +29,13 @@ from pathlib import Path
 import numpy as np
 
 import raycast_phong as rp
-from raycast_phong.geometry.build import build_geometry
 from raycast_phong.renderer.embree import device_report, library, picked_target
 from raycast_phong.renderer.film import allocate_film
-from raycast_phong.renderer.intersect import Accelerator, packed_rays, unit_frame
+from raycast_phong.renderer.intersect import packed_rays
 from raycast_phong.renderer.kernels.camera import fill_rows
 from raycast_phong.renderer.kernels.shadows import shadow_rays
-from raycast_phong.renderer.pack import (
-    camera_rig,
-    generate_rays,
-    prepare_shadows,
-)
-from raycast_phong.renderer.prepare import TILE_RAYS, TileWork, prepare, run_tiles
+from raycast_phong.renderer.pack import camera_rig, generate_rays
+from raycast_phong.renderer.prepare import TileWork, prepare, run_tiles
 
 
 def benchmark_scene(size: int, subdivisions: int = 6, mode: str = "local") -> rp.Scene:
@@ -72,35 +67,21 @@ class Embreex:
         return self.scene.run(origins, directions, dists=t_max, query="OCCLUDED") == 0
 
 
-def raw_cast_seconds(scene: rp.Scene, threads: int) -> float:
-    """Cast the render's rays, pre-generated in the render's tiles, through embreex on `threads` threads."""
-    geometry = build_geometry(scene)
-    frame = unit_frame(geometry.vertices)
-    embreex = Embreex(geometry, frame)
-    rig = camera_rig(scene)
-    width, height = scene.render.width, scene.render.height
-    rows = max(1, TILE_RAYS // width)
-    tiles = [generate_rays(rig, frame, width, height, 1, r, min(r + rows, height)) for r in range(0, height, rows)]
+def raw_cast_seconds(limit: Limit, embreex: Embreex, threads: int) -> float:
+    """Cast the frame's rays, generated beforehand in the render's bands, through embreex on `threads` threads."""
     with ThreadPoolExecutor(threads) as pool:
         start = time.perf_counter()
-        list(pool.map(lambda tile: embreex.cast_only(*tile), tiles))
+        list(pool.map(lambda tile: embreex.cast_only(*tile), limit.tiles))
         return time.perf_counter() - start
 
 
-def raw_shadow_cast_seconds(scene: rp.Scene, threads: int) -> float:
-    """Occlusion queries of the render's shadow rays, built beforehand per tile, through embreex, on
+def raw_shadow_cast_seconds(limit: Limit, embreex: Embreex, threads: int) -> float:
+    """Occlusion queries of the render's shadow rays, built beforehand per band, through embreex, on
     `threads` threads."""
-    geometry = build_geometry(scene)
-    frame = unit_frame(geometry.vertices)
-    accelerator, embreex = Accelerator(geometry, frame), Embreex(geometry, frame)
-    rig = camera_rig(scene)
-    inputs = prepare_shadows(scene, geometry, frame)
-    width, height = scene.render.width, scene.render.height
-    rows = max(1, TILE_RAYS // width)
+    inputs = limit.ready.shadows
     batches = []
-    for r in range(0, height, rows):
-        origins, directions = generate_rays(rig, frame, width, height, 1, r, min(r + rows, height))
-        hits = accelerator.closest_hits(origins, directions)
+    for origins, directions in limit.tiles:
+        hits = limit.accelerator.closest_hits(origins, directions)
         hit_rays = np.flatnonzero(hits.face >= 0)
         count = len(hit_rays) * len(inputs.light_kind)
         batch = (np.empty((count, 3), np.float32), np.empty((count, 3), np.float32), np.empty(count, np.float32))
@@ -134,7 +115,8 @@ class Limit:
     """One prepared scene with its BVH and the frame's rays as Embree packets, band by band."""
     ready: object
     accelerator: object
-    packets: list
+    tiles: list    # (origins, directions) of each band
+    packets: list  # (packets, valid) of each band
 
     @classmethod
     def of(cls, scene: rp.Scene) -> Limit:
@@ -142,9 +124,9 @@ class Limit:
         accelerator = ready.build()
         width, height, samples = scene.render.width, scene.render.height, scene.render.samples
         rig = camera_rig(scene)
-        packets = [packed_rays(*generate_rays(rig, ready.frame, width, height, samples, *band),
-                               width * samples * samples) for band in ready.bands]
-        return cls(ready, accelerator, packets)
+        tiles = [generate_rays(rig, ready.frame, width, height, samples, *band) for band in ready.bands]
+        packets = [packed_rays(*tile, width * samples * samples) for tile in tiles]
+        return cls(ready, accelerator, tiles, packets)
 
     def work(self) -> TileWork:
         scene = self.ready.scene
@@ -162,7 +144,8 @@ class Limit:
             fill_rows(params, row0, row1, self._origins[:count], self._directions[:count])
 
     def __post_init__(self):
-        most = max(b - a for a, b in self.ready.bands) * self.ready.rays.params.width * self.ready.rays.params.samples ** 2
+        params = self.ready.rays.params
+        most = max(b - a for a, b in self.ready.bands) * params.width * params.samples ** 2
         self._directions = np.empty((most, 3), np.float32)
         self._origins = np.empty((most, 3), np.float32)
 
@@ -211,14 +194,17 @@ def report(scene: rp.Scene, repeats: int, threads: int, embreex: bool) -> None:
     work = limit.work()
     for band in limit.ready.bands[:2]:  # load the kernels
         work(band)
+    limit.cast(0)
     walls = [threads_wall(limit, threads) for _ in range(repeats)]
-    casts = [raw_cast_seconds(scene, threads) for _ in range(repeats)] if embreex else []
-    shadow_casts = ([raw_shadow_cast_seconds(scene, threads) for _ in range(repeats)]
-                    if embreex and scene.render.mode == "global" else [])
+    peer = Embreex(limit.ready.geometry, limit.ready.frame) if embreex else None
+    casts = [raw_cast_seconds(limit, peer, threads) for _ in range(repeats)] if peer else []
+    shadow_casts = ([raw_shadow_cast_seconds(limit, peer, threads) for _ in range(repeats)]
+                    if peer and limit.ready.shadows is not None else [])
     cast, frame = statistics.median(w[0] for w in walls), statistics.median(w[1] for w in walls)
     r = scene.render
     rays = r.width * r.height * r.samples ** 2
-    print(f"{r.width}×{r.height}, {len(limit.ready.geometry.faces):,} triangles, {r.mode.value} mode, {threads} threads, "
+    print(f"{r.width}×{r.height}, {len(limit.ready.geometry.faces):,} triangles, {r.mode.value} mode, "
+          f"{threads} threads, "
           f"median of {repeats}; CPU: {cpu()}")
     print(f"limit      {cast * 1e3:7.1f} ms  {rays / cast / 1e6:5.1f} Mrays/s  (Embree's rtcIntersect16 on 4×4 "
           "packets of the same rays, prepared beforehand)")

@@ -207,7 +207,7 @@ def cast_packets(scene, packets, valid):
 @kernel()
 def occluded_rays(scene, origins, directions, t_max, blocked):
     """blocked[k] = something lies on ray k within [0, t_max[k]], in packets of 16 consecutive rays."""
-    words, ints, valid, arguments = _packet()
+    words, _, valid, arguments = _packet()
     count = origins.shape[0]
     for first in range(0, count, 16):
         lanes = min(16, count - first)

@@ -58,5 +58,6 @@ def test_no_rows_touch_nothing():
     """A band of no rows (how warm_kernels types the kernel) writes nothing and does not read the eye."""
     ready = prepare(_scene("perspective", 8, 8, 1))
     accelerator = ready.build()
-    camera_hits(accelerator.embree_scene.scene, ready.rays.params, *screen_columns(ready.rays.params), 3, 3, np.zeros((0, 3), np.float32),
+    params = ready.rays.params
+    camera_hits(accelerator.embree_scene.scene, params, *screen_columns(params), 3, 3, np.zeros((0, 3), np.float32),
                 np.zeros((0, 3), np.float32), np.zeros(0, np.int32), *(np.zeros(0, np.float32) for _ in range(3)))
