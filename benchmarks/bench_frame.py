@@ -1,38 +1,41 @@
-"""Frame time against the raw embreex cast of the same rays, in one run (issue 12's speed targets).
+"""The frame against Embree's own limit on the same rays, in one run, on whatever CPU runs it (issue 22).
 
-Scene: icosphere of 6 subdivisions (81,920 triangles, radius 1), camera at distance 4, fov 40°, one
-point light, Phong shading and specular, 1000×1000. Reports the median of --repeats runs:
-  raw cast  the same rays, generated beforehand, cast through embreex's one-ray API (EmbreeScene.run) in
-            the same tiles on the same thread pool: the fixed yardstick of issues 2, 3 and 12
-  C cast    the same, through Embree's C API (rtcIntersect16 packets, embree.py): Embree's own limit
-  frame     render() wall time minus the BVH build (ray generation + cast + shading + film)
-and the ratio frame / raw cast (issue 12's targets: ≤ 0.6 in local mode, ≤ 1.2 in global mode, where
-every hit also casts a shadow ray), rays/s, and the per-stage split. Wall-clock ratios move by ±20 % on a
-machine other jobs share, so the same ratio is also given in CPU time on one thread (time.thread_time, min
-of --repeats, every tile of the frame run in turn in this thread): that one hardly moves.
+Scene: icosphere of 6 subdivisions (81,920 triangles, radius 1), camera at distance 4, fov 40°, one point
+light, Phong shading and specular, 1000×1000; or, with --scan, cached real scans (make_scans.py) framed by the
+mesh loader, in local and global mode. Reports the median of --repeats runs of:
+  limit     Embree's rtcIntersect16 on coherent 4×4 packets of the frame's rays, prepared beforehand in the
+            render's bands (intersect.packed_rays), on the same thread pool, no shading: what Embree's own
+            code needs for these rays on this CPU, so frame / limit means the same on any machine
+  frame     the render's tiles (run_tiles, as render() times it: rays + cast + [shadow rays] + shading + film)
+  raw cast  the same rays through embreex's one-ray API (EmbreeScene.run): the yardstick of issues 2, 3, 12
+and, since wall-clock ratios move by ±20 % on a machine other jobs share, the same ratio in CPU time on one
+thread (time.thread_time, min of --repeats, every band run in turn on this thread), with the frame's stages
+(the kernel's own clock) and ray generation alone (camera.fill_rows), each against the limit. The first line
+names the CPU (model, AVX2/AVX-512) and the ISA Embree picked (its verbose device report).
 Usage: python benchmarks/bench_frame.py [--size 1000] [--repeats 5] [--threads 2] [--mode global]
+       python benchmarks/bench_frame.py --scan bunny-1m bunny-4m [--no-embreex]
 """
-
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
+import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 import raycast_phong as rp
-from raycast_phong.geometry.build import build_geometry
+from raycast_phong.renderer.embree import device_report, library, picked_target
 from raycast_phong.renderer.film import allocate_film
-from raycast_phong.renderer.intersect import Accelerator, unit_frame
+from raycast_phong.renderer.intersect import packed_rays
+from raycast_phong.renderer.kernels.camera import fill_rows
 from raycast_phong.renderer.kernels.shadows import shadow_rays
-from raycast_phong.renderer.pack import (
-    camera_rig,
-    generate_rays,
-    prepare_shadows,
-)
-from raycast_phong.renderer.prepare import TILE_RAYS, TileWork, prepare
+from raycast_phong.renderer.pack import camera_rig, generate_rays
+from raycast_phong.renderer.prepare import TileWork, prepare, run_tiles
 
 
 def benchmark_scene(size: int, subdivisions: int = 6, mode: str = "local") -> rp.Scene:
@@ -64,39 +67,21 @@ class Embreex:
         return self.scene.run(origins, directions, dists=t_max, query="OCCLUDED") == 0
 
 
-def raw_cast_seconds(scene: rp.Scene, threads: int, use_c_api: bool = False) -> float:
-    """Cast the render's rays, pre-generated in the render's tiles, on `threads` threads (through embreex,
-    or Embree's C API)."""
-    geometry = build_geometry(scene)
-    frame = unit_frame(geometry.vertices)
-    accelerator = Accelerator(geometry, frame) if use_c_api else Embreex(geometry, frame)
-    rig = camera_rig(scene)
-    width, height = scene.render.width, scene.render.height
-    rows = max(1, TILE_RAYS // width)
-    tiles = [generate_rays(rig, frame, width, height, 1, r, min(r + rows, height)) for r in range(0, height, rows)]
+def raw_cast_seconds(limit: Limit, embreex: Embreex, threads: int) -> float:
+    """Cast the frame's rays, generated beforehand in the render's bands, through embreex on `threads` threads."""
     with ThreadPoolExecutor(threads) as pool:
         start = time.perf_counter()
-        if use_c_api:
-            list(pool.map(lambda tile: accelerator.closest_hits(*tile), tiles))
-        else:
-            list(pool.map(lambda tile: accelerator.cast_only(*tile), tiles))
+        list(pool.map(lambda tile: embreex.cast_only(*tile), limit.tiles))
         return time.perf_counter() - start
 
 
-def raw_shadow_cast_seconds(scene: rp.Scene, threads: int) -> float:
-    """Occlusion queries of the render's shadow rays, built beforehand per tile, through embreex, on
+def raw_shadow_cast_seconds(limit: Limit, embreex: Embreex, threads: int) -> float:
+    """Occlusion queries of the render's shadow rays, built beforehand per band, through embreex, on
     `threads` threads."""
-    geometry = build_geometry(scene)
-    frame = unit_frame(geometry.vertices)
-    accelerator, embreex = Accelerator(geometry, frame), Embreex(geometry, frame)
-    rig = camera_rig(scene)
-    inputs = prepare_shadows(scene, geometry, frame)
-    width, height = scene.render.width, scene.render.height
-    rows = max(1, TILE_RAYS // width)
+    inputs = limit.ready.shadows
     batches = []
-    for r in range(0, height, rows):
-        origins, directions = generate_rays(rig, frame, width, height, 1, r, min(r + rows, height))
-        hits = accelerator.closest_hits(origins, directions)
+    for origins, directions in limit.tiles:
+        hits = limit.accelerator.closest_hits(origins, directions)
         hit_rays = np.flatnonzero(hits.face >= 0)
         count = len(hit_rays) * len(inputs.light_kind)
         batch = (np.empty((count, 3), np.float32), np.empty((count, 3), np.float32), np.empty(count, np.float32))
@@ -108,27 +93,146 @@ def raw_shadow_cast_seconds(scene: rp.Scene, threads: int) -> float:
         return time.perf_counter() - start
 
 
-def cpu_seconds(scene: rp.Scene, repeats: int) -> tuple[float, float]:
-    """CPU time on this one thread (min of `repeats`) of the raw embreex cast and of the frame's tiles, run
-    in turn here through render's own prepare and TileWork (a fresh film each time)."""
-    ready = prepare(scene)
-    accelerator, embreex = ready.build(), Embreex(ready.geometry, ready.frame)
-    width, height = scene.render.width, scene.render.height
-    bands = ready.bands
-    tiles = [generate_rays(camera_rig(scene), ready.frame, width, height, 1, *band) for band in bands]
-    casts, frames = [], []
+def cpu() -> str:
+    """The CPU's model and vector flags (/proc/cpuinfo) and the ISA Embree picked (its verbose report)."""
+    model, flags = "unknown CPU", set()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            key, _, value = line.partition(":")
+            if key.strip() == "model name" and model == "unknown CPU":
+                model = value.strip()
+            elif key.strip() == "flags":
+                flags = set(value.split())
+    except OSError:
+        pass
+    vector = "/".join(flag for flag in ("avx2", "avx512f") if flag in flags) or "no avx2"
+    picked = picked_target(device_report(library())) or "unknown"
+    return f"{model} ({vector}, {os.cpu_count()} CPUs), Embree {picked}"
+
+
+@dataclass
+class Limit:
+    """One prepared scene with its BVH and the frame's rays as Embree packets, band by band."""
+    ready: object
+    accelerator: object
+    tiles: list    # (origins, directions) of each band
+    packets: list  # (packets, valid) of each band
+
+    @classmethod
+    def of(cls, scene: rp.Scene) -> Limit:
+        ready = prepare(scene)
+        accelerator = ready.build()
+        width, height, samples = scene.render.width, scene.render.height, scene.render.samples
+        rig = camera_rig(scene)
+        tiles = [generate_rays(rig, ready.frame, width, height, samples, *band) for band in ready.bands]
+        packets = [packed_rays(*tile, width * samples * samples) for tile in tiles]
+        return cls(ready, accelerator, tiles, packets)
+
+    def work(self) -> TileWork:
+        scene = self.ready.scene
+        return TileWork(self.ready.rays, self.accelerator, self.ready.shadows, self.ready.shading,
+                        allocate_film(scene.render.width, scene.render.height, (), self.ready.real))
+
+    def cast(self, band: int) -> None:
+        self.accelerator.cast_packets(*self.packets[band])
+
+    def generate(self) -> None:
+        """The frame's rays alone (camera.fill_rows into reused arrays), band by band."""
+        params = self.ready.rays.params
+        for row0, row1 in self.ready.bands:
+            count = (row1 - row0) * params.width * params.samples ** 2
+            fill_rows(params, row0, row1, self._origins[:count], self._directions[:count])
+
+    def __post_init__(self):
+        params = self.ready.rays.params
+        most = max(b - a for a, b in self.ready.bands) * params.width * params.samples ** 2
+        self._directions = np.empty((most, 3), np.float32)
+        self._origins = np.empty((most, 3), np.float32)
+
+
+def one_thread(limit: Limit, repeats: int) -> dict[str, float]:
+    """CPU time on this one thread (min of `repeats`): Embree's limit (every band's packets), the frame (every
+    band through render's TileWork, a fresh film each time) and its stages (the kernel's own clock), and ray
+    generation alone."""
+    bands = range(len(limit.packets))
+    best = {"limit": np.inf, "frame": np.inf, "generation": np.inf}
+    stages = {}
     for _ in range(repeats):
-        work = TileWork(ready.rays, accelerator, ready.shadows, ready.shading,
-                        allocate_film(width, height, (), np.float32))
         start = time.thread_time()
         for band in bands:
-            work(band)
-        frames.append(time.thread_time() - start)
+            limit.cast(band)
+        best["limit"] = min(best["limit"], time.thread_time() - start)
+        work, split = limit.work(), np.zeros(3)
         start = time.thread_time()
-        for origins, directions in tiles:
-            embreex.cast_only(origins, directions)
-        casts.append(time.thread_time() - start)
-    return min(casts), min(frames)
+        for band in limit.ready.bands:
+            split += work(band)[:3]
+        frame = time.thread_time() - start
+        if frame < best["frame"]:
+            best["frame"] = frame
+            stages = {"rays": split[0], "shadows": split[1], "shade": split[2]}
+        start = time.thread_time()
+        limit.generate()
+        best["generation"] = min(best["generation"], time.thread_time() - start)
+    return best | stages
+
+
+def threads_wall(limit: Limit, threads: int) -> tuple[float, float]:
+    """Wall time on `threads` threads of Embree's limit (the bands' packets) and of the frame (run_tiles, as
+    render() times it)."""
+    with ThreadPoolExecutor(threads) as pool:
+        start = time.perf_counter()
+        list(pool.map(limit.cast, range(len(limit.packets))))
+        cast = time.perf_counter() - start
+    timings = {}
+    run_tiles(limit.work(), list(limit.ready.bands), threads, None, timings)
+    return cast, timings["frame"]
+
+
+def report(scene: rp.Scene, repeats: int, threads: int, embreex: bool) -> None:
+    """The frame against Embree's limit (and embreex's one-ray cast) in one run, wall and CPU time."""
+    limit = Limit.of(scene)
+    work = limit.work()
+    for band in limit.ready.bands[:2]:  # load the kernels
+        work(band)
+    limit.cast(0)
+    walls = [threads_wall(limit, threads) for _ in range(repeats)]
+    peer = Embreex(limit.ready.geometry, limit.ready.frame) if embreex else None
+    casts = [raw_cast_seconds(limit, peer, threads) for _ in range(repeats)] if peer else []
+    shadow_casts = ([raw_shadow_cast_seconds(limit, peer, threads) for _ in range(repeats)]
+                    if peer and limit.ready.shadows is not None else [])
+    cast, frame = statistics.median(w[0] for w in walls), statistics.median(w[1] for w in walls)
+    r = scene.render
+    rays = r.width * r.height * r.samples ** 2
+    print(f"{r.width}×{r.height}, {len(limit.ready.geometry.faces):,} triangles, {r.mode.value} mode, "
+          f"{threads} threads, "
+          f"median of {repeats}; CPU: {cpu()}")
+    print(f"limit      {cast * 1e3:7.1f} ms  {rays / cast / 1e6:5.1f} Mrays/s  (Embree's rtcIntersect16 on 4×4 "
+          "packets of the same rays, prepared beforehand)")
+    print(f"frame      {frame * 1e3:7.1f} ms  {rays / frame / 1e6:5.1f} Mrays/s  (rays + cast + "
+          f"{'shadow rays + ' if r.mode == 'global' else ''}shading + film)")
+    print(f"ratio      {frame / cast:7.2f}    (frame / limit, wall; target ≤ 1.3)")
+    if casts:
+        raw = statistics.median(casts)
+        print(f"raw cast   {raw * 1e3:7.1f} ms  {rays / raw / 1e6:5.1f} Mrays/s  (embreex's one-ray API); "
+              f"frame / raw cast {frame / raw:.2f}")
+    if shadow_casts:
+        shadow = statistics.median(shadow_casts)
+        print(f"shadow     {shadow * 1e3:7.1f} ms  (embreex's occlusion queries of the shadow rays alone)")
+    one = one_thread(limit, repeats)
+    print(f"CPU        {one['frame'] / one['limit']:7.2f}    (frame {one['frame'] * 1e3:.1f} ms / limit "
+          f"{one['limit'] * 1e3:.1f} ms, CPU time on one thread, min of {repeats})")
+    print(f"stages     generation {one['generation'] * 1e3:.1f} ms (fill_rows alone), rays {one['rays'] * 1e3:.1f} ms "
+          f"(generation + cast in the frame: {one['rays'] / one['limit']:.2f} × limit), "
+          + (f"shadow rays {one['shadows'] * 1e3:.1f} ms, " if r.mode == "global" else "")
+          + f"shading {one['shade'] * 1e3:.1f} ms ({one['shade'] / one['limit']:.2f} × limit); the rest "
+          f"{(one['frame'] - one['rays'] - one['shadows'] - one['shade']) * 1e3:.1f} ms")
+
+
+def scan_scene(name: str, size: int, mode: str) -> rp.Scene:
+    """A cached real scan (benchmarks/make_scans.py) framed by the mesh loader, at size × size."""
+    path = Path(os.environ.get("RAYCAST_PHONG_SCANS") or Path.home() / ".cache" / "raycast-phong" / "scans")
+    return rp.load_scene(path / f"{name}.ply", [f"render.width={size}", f"render.height={size}",
+                                                 f"render.mode={mode}", "render.shading=phong"])
 
 
 def main() -> None:
@@ -138,39 +242,20 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--mode", choices=["local", "global"], default="local",
                         help="global: also shadow rays to the light; reports their raw cast too")
+    parser.add_argument("--scan", nargs="*", metavar="NAME",
+                        help="render cached real scans instead (e.g. bunny-1m bunny-4m: make_scans.py), in local "
+                             "and global mode (or --mode only if given)")
+    parser.add_argument("--no-embreex", action="store_true", help="skip embreex's one-ray cast")
     args = parser.parse_args()
-    scene = benchmark_scene(args.size, mode=args.mode)
-    rp.render(benchmark_scene(64, mode=args.mode), threads=args.threads)  # compile or load the kernels first
-    casts, c_casts, shadow_casts, frames, splits = [], [], [], [], []
-    for _ in range(args.repeats):
-        casts.append(raw_cast_seconds(scene, args.threads))
-        c_casts.append(raw_cast_seconds(scene, args.threads, use_c_api=True))
-        if args.mode == "global":
-            shadow_casts.append(raw_shadow_cast_seconds(scene, args.threads))
-        result = rp.render(scene, threads=args.threads)
-        frames.append(result.timings["frame"])
-        splits.append(result.timings)
-    cast, frame = statistics.median(casts), statistics.median(frames)
-    rays = args.size * args.size
-    stages = ("geometry", "build", "rays", *(("shadows",) if args.mode == "global" else ()), "shade")
-    median_split = {key: statistics.median(s[key] for s in splits) for key in stages}
-    print(f"{args.size}×{args.size}, {result.triangles:,} triangles, {args.threads} threads, median of {args.repeats}")
-    c_cast = statistics.median(c_casts)
-    print(f"raw cast   {cast * 1e3:7.1f} ms  {rays / cast / 1e6:5.1f} Mrays/s  (embreex)")
-    print(f"C cast     {c_cast * 1e3:7.1f} ms  {rays / c_cast / 1e6:5.1f} Mrays/s  ({c_cast / cast:.2f} × raw cast: "
-          "Embree's C API, rtcIntersect16)")
-    if shadow_casts:
-        shadow = statistics.median(shadow_casts)
-        print(f"shadow     {shadow * 1e3:7.1f} ms  ({shadow / cast:.2f} × the primary cast): "
-              "embreex's occlusion queries alone, same tiles")
-    print(f"frame      {frame * 1e3:7.1f} ms  {rays / frame / 1e6:5.1f} Mrays/s")
-    target = 1.2 if args.mode == "global" else 0.6
-    print(f"ratio      {frame / cast:7.2f}    (frame / raw cast; target ≤ {target})")
-    cpu_cast, cpu_frame = cpu_seconds(scene, args.repeats)
-    print(f"CPU        {cpu_frame / cpu_cast:7.2f}    (frame {cpu_frame * 1e3:.1f} ms / raw cast "
-          f"{cpu_cast * 1e3:.1f} ms, CPU time on one thread)")
-    print("stages     " + ", ".join(f"{k} {v * 1e3:.1f} ms" for k, v in median_split.items())
-          + "  (rays = generation + cast; summed over threads)")
+    rp.render(benchmark_scene(64, mode="global"), threads=args.threads)  # compile or load the kernels first
+    if args.scan is None:
+        report(benchmark_scene(args.size, mode=args.mode), args.repeats, args.threads, not args.no_embreex)
+        return
+    modes = ("local", "global") if "--mode" not in sys.argv else (args.mode,)
+    for name in args.scan or ["bunny-1m", "bunny-4m"]:
+        for mode in modes:
+            report(scan_scene(name, args.size, mode), args.repeats, args.threads, not args.no_embreex)
+            print()
 
 
 if __name__ == "__main__":

@@ -88,6 +88,45 @@ def library() -> Library:
     return loaded
 
 
+# Embree 4's CPU targets, best first, as its verbose device report names them (rtcNewDevice("verbose=1")).
+TARGETS = ("AVX512", "AVX2", "AVXI", "AVX", "SSE4.2", "SSE2")
+
+
+def picked_target(report: str) -> str | None:
+    """The ISA Embree runs its kernels in: the best target that is both "(supported)" by the CPU and
+    "(compile time enabled)" in the library, read from a verbose device report; None if it names none."""
+    sets = {}
+    for line in report.splitlines():
+        for kind in ("supported", "compile time enabled"):
+            if line.rstrip().endswith(f"({kind})"):
+                words = line.rsplit("(", 1)[0].replace("Targets", " ").replace(":", " ").split()
+                sets[kind] = set(words)
+    both = sets.get("supported", set()) & sets.get("compile time enabled", set())
+    return next((target for target in TARGETS if target in both), None)
+
+
+def device_report(lib: Library) -> str:
+    """What Embree prints about itself and this CPU when a device is made with "verbose=1" (its version,
+    the CPU's ISA, its targets): captured from file descriptor 1, where the C library prints it."""
+    import sys
+    import tempfile
+    libc = ctypes.CDLL(None)
+    sys.stdout.flush()
+    saved = os.dup(1)
+    with tempfile.TemporaryFile() as capture:
+        try:
+            os.dup2(capture.fileno(), 1)
+            device = lib.rtcNewDevice(b"verbose=1")
+            if device:
+                lib.rtcReleaseDevice(device)
+            libc.fflush(None)
+        finally:
+            os.dup2(saved, 1)
+            os.close(saved)
+        capture.seek(0)
+        return capture.read().decode(errors="replace")
+
+
 def device_error(lib: Library, device: int | None, doing: str) -> None:
     """Raise EmbreeError if Embree recorded an error on `device` (rtcGetDeviceError also clears it)."""
     code = lib.rtcGetDeviceError(device)

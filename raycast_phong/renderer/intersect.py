@@ -68,11 +68,34 @@ class Accelerator:
                               hits.face, hits.u, hits.v, hits.t)
         return hits
 
+    def cast_packets(self, packets: np.ndarray, valid: np.ndarray) -> None:
+        """rtcIntersect16 on prepared packets (packed_rays), hits left in them: Embree's own cost of the rays."""
+        kernels_embree.cast_packets(self.embree_scene.scene, packets, valid)
+
     def occluded(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> np.ndarray:
         """(N,) bool: something lies on the ray within (0, t_max], t_max (N,) float32."""
         blocked = np.empty(len(origins), np.bool_)
         kernels_embree.occluded_rays(self.embree_scene.scene, _f32(origins), _f32(directions), _f32(t_max, 1), blocked)
         return blocked
+
+
+def packed_rays(origins: np.ndarray, directions: np.ndarray, row_rays: int = 4) -> tuple[np.ndarray, np.ndarray]:
+    """Rays (N, 3) as Embree's RTCRayHit16 packets (P, PACKET_WORDS) float32 and valid masks (P, 16) int32,
+    64-byte aligned, in closest_hits' 4 × 4 blocks of an image of rows row_rays long (for cast_packets)."""
+    rows = -(-len(origins) // row_rays)
+    blocks = -(-rows // 4) * -(-row_rays // 4)
+    packets = _aligned((blocks, kernels_embree.PACKET_WORDS), np.float32)
+    valid = _aligned((blocks, 16), np.int32)
+    kernels_embree.fill_packets(_f32(origins), _f32(directions), row_rays, packets, valid)
+    return packets, valid
+
+
+def _aligned(shape: tuple[int, int], dtype: type) -> np.ndarray:
+    """A zeroed C-contiguous array whose data starts on a 64-byte boundary (Embree's 16-lane loads)."""
+    size = shape[0] * shape[1] * np.dtype(dtype).itemsize
+    store = np.zeros(size + 64, np.uint8)
+    start = -store.ctypes.data % 64
+    return store[start:start + size].view(dtype).reshape(shape)
 
 
 def _f32(array: np.ndarray, ndim: int = 2) -> np.ndarray:

@@ -3,7 +3,8 @@ the camera's RayParams come from renderer/pack.py).
 
 Pixel (column i, row j) with samples = n gets n×n rays through the centres of an n×n grid of cells:
 raster (i + (a + ½)/n, j + (b + ½)/n). Row 0 is the top row. Ray k of a tile belongs to pixel k // n²
-and sub-cell k % n² (b = row of the cell, a = column).
+and sub-cell k % n² (b = row of the cell, a = column). The formulas live here once: fill_rows writes the
+rays into arrays, embree.camera_hits straight into Embree's packets, with the same operations (same bits).
 """
 
 from __future__ import annotations
@@ -16,37 +17,67 @@ from ...jit import kernel
 
 
 @kernel()
+def screen_columns(params):
+    """Screen x (float64) and cell row b of each ray column c = i n² + b n + a of an image row (width n²
+    entries): raster → screen x from -1 (left) to 1, times half_width. Computed once per band: the divisions
+    per ray were 40 % of the generation time."""
+    width, samples, half_width = params.width, params.samples, params.half_width
+    per_pixel = samples * samples
+    screen_x = np.empty(width * per_pixel)
+    cell_row = np.empty(width * per_pixel, np.int64)
+    for col in range(width):
+        for b in range(samples):
+            for a in range(samples):
+                c = col * per_pixel + b * samples + a
+                screen_x[c] = (2.0 * (col + (a + 0.5) / samples) / width - 1.0) * half_width
+                cell_row[c] = b
+    return screen_x, cell_row
+
+
+@kernel(inline="always")
+def screen_y(params, row, b):
+    """Screen y of cell row b of image row `row`: from 1 (top) to -1, times half_height."""
+    return (1.0 - 2.0 * (row + (b + 0.5) / params.samples) / params.height) * params.half_height
+
+
+@kernel(inline="always")
+def direction(fx, fy, fz, rx, ry, rz, ux, uy, uz, sx, sy):
+    """The unit direction forward + sx right + sy up, normalised in float64 (the caller rounds it once)."""
+    dx = fx + sx * rx + sy * ux
+    dy = fy + sx * ry + sy * uy
+    dz = fz + sx * rz + sy * uz
+    norm = math.sqrt(dx * dx + dy * dy + dz * dz)
+    return dx / norm, dy / norm, dz / norm
+
+
+@kernel(inline="always")
+def ortho_origin(params, i, sx, sy):
+    """Coordinate i of an orthographic ray's origin, eye + sx right + sy up, in the unit frame."""
+    return (params.eye[i] + sx * params.right[i] + sy * params.up[i] - params.center[i]) * params.inv_scale
+
+
+@kernel()
 def fill_rows(params, row0, row1, origins, directions):
     """Directions (and, for an orthographic camera, origins) (N, 3) float32 of the rays of rows [row0, row1);
     params: layout.RayParams."""
-    width, height, samples, orthographic = params.width, params.height, params.samples, params.orthographic
-    eye, right, up, forward, center = params.eye, params.right, params.up, params.forward, params.center
-    half_width, half_height, inv_scale = params.half_width, params.half_height, params.inv_scale
-    # Raster → screen: x from -1 (left) to 1, y from 1 (top) to -1. The screen offsets of the row's columns
-    # and of the row's sample rows are computed once, by the same expressions (the same bits) as per ray:
-    # their four divisions per ray were 40 % of the generation time.
-    screen_x = np.empty(width * samples)
-    for col in range(width):
-        for a in range(samples):
-            screen_x[col * samples + a] = (2.0 * (col + (a + 0.5) / samples) / width - 1.0) * half_width
-    screen_y = np.empty(samples)
+    samples, orthographic = params.samples, params.orthographic
+    forward, right, up = params.forward, params.right, params.up
+    fx, fy, fz, rx, ry, rz, ux, uy, uz = (forward[0], forward[1], forward[2], right[0], right[1], right[2],
+                                          up[0], up[1], up[2])
+    screen_x, cell_row = screen_columns(params)
+    row_rays = screen_x.shape[0]
+    sy_row = np.empty(samples)  # screen y of the row's n cell rows
     k = 0
     for row in range(row0, row1):
         for b in range(samples):
-            screen_y[b] = (1.0 - 2.0 * (row + (b + 0.5) / samples) / height) * half_height
-        for col in range(width):
-            for b in range(samples):
-                sy = screen_y[b]
-                for a in range(samples):
-                    sx = screen_x[col * samples + a]
-                    if orthographic:
-                        for i in range(3):
-                            origins[k, i] = (eye[i] + sx * right[i] + sy * up[i] - center[i]) * inv_scale
-                            directions[k, i] = forward[i]
-                    else:
-                        dx = forward[0] + sx * right[0] + sy * up[0]
-                        dy = forward[1] + sx * right[1] + sy * up[1]
-                        dz = forward[2] + sx * right[2] + sy * up[2]
-                        norm = math.sqrt(dx * dx + dy * dy + dz * dz)  # normalise in float64, then round once
-                        directions[k, 0], directions[k, 1], directions[k, 2] = dx / norm, dy / norm, dz / norm
-                    k += 1
+            sy_row[b] = screen_y(params, row, b)
+        for c in range(row_rays):
+            sx, sy = screen_x[c], sy_row[cell_row[c]]
+            if orthographic:
+                for i in range(3):
+                    origins[k, i] = ortho_origin(params, i, sx, sy)
+                    directions[k, i] = forward[i]
+            else:
+                directions[k, 0], directions[k, 1], directions[k, 2] = direction(fx, fy, fz, rx, ry, rz,
+                                                                                 ux, uy, uz, sx, sy)
+            k += 1

@@ -16,6 +16,7 @@ import numpy as np
 from numba import types
 
 from ...jit import kernel
+from .camera import direction, ortho_origin, screen_y
 
 RTC_RAY_QUERY_FLAG_COHERENT = 1 << 16   # neighbouring pixels: Embree may traverse the packet together
 RTC_FEATURE_FLAG_ALL = -1               # 0xffffffff as int32
@@ -50,7 +51,11 @@ def _packet():
     valid = store[start + PACKET_WORDS:start + PACKET_WORDS + 16].view(np.int32)
     arguments = store[start + PACKET_WORDS + 16:start + PACKET_WORDS + 16 + ARGUMENT_WORDS].view(np.int32)
     arguments[0], arguments[1] = RTC_RAY_QUERY_FLAG_COHERENT, RTC_FEATURE_FLAG_ALL
-    return words, words.view(np.int32), valid, arguments
+    ints = words.view(np.int32)
+    # The fields Embree reads but never writes are set once here: tnear = time = flags = 0 (zeroed), mask all.
+    for lane in range(16):
+        ints[MASK + lane] = -1
+    return words, ints, valid, arguments
 
 
 @kernel()
@@ -78,11 +83,7 @@ def intersect_rays(scene, origins, directions, row_rays, face, u, v, t):
                         directions[k, 0], directions[k, 1], directions[k, 2])
                 else:
                     valid[lane] = 0
-                words[TNEAR + lane] = 0
-                words[TIME + lane] = 0
-                words[TFAR + lane] = NO_LIMIT
-                ints[MASK + lane] = -1
-                ints[FLAGS + lane] = 0
+                words[TFAR + lane] = NO_LIMIT  # a hit lowers tfar and sets the ids: reset them
                 ints[GEOM_ID + lane] = INVALID_ID
                 ints[PRIM_ID + lane] = INVALID_ID
             rtc_intersect16(valid.ctypes.data, scene, words.ctypes.data, arguments.ctypes.data)
@@ -99,9 +100,114 @@ def intersect_rays(scene, origins, directions, row_rays, face, u, v, t):
 
 
 @kernel()
+def camera_hits(scene, params, screen_x, cell_row, row0, row1, eye, directions, face, u, v, t):
+    """Closest hits of the primary rays of image rows [row0, row1) (params: layout.RayParams), generated
+    straight into Embree's packets: directions (N, 3) float32 (for shading), face, u, v, t (N,) written as
+    intersect_rays writes them, the rays in fill_rows' order and the packets in intersect_rays' 4 × 4 blocks
+    of rays. screen_x, cell_row: camera.screen_columns(params), made once per band by the caller. eye: (≥1, 3)
+    float32 unit-frame origin of a perspective camera's rays (read only then).
+
+    One pass, no rays array: each lane's direction is computed (camera.direction, the same operations and
+    bits as fill_rows) into the packet and the directions array at once.
+    """
+    words, ints, valid, arguments = _packet()
+    orthographic = params.orthographic
+    forward, right, up = params.forward, params.right, params.up
+    fx, fy, fz, rx, ry, rz, ux, uy, uz = (forward[0], forward[1], forward[2], right[0], right[1], right[2],
+                                          up[0], up[1], up[2])
+    row_rays, samples = screen_x.shape[0], params.samples
+    rows = row1 - row0
+    sy_rows = np.empty(4 * samples)  # screen y of the block's 4 image rows × n cell rows
+    lane_x, lane_y = np.zeros(16), np.zeros(16)  # the block's screen positions (0 for an inactive lane)
+    if not orthographic and rows > 0:
+        for lane in range(16):
+            words[ORG_X + lane], words[ORG_Y + lane], words[ORG_Z + lane] = eye[0, 0], eye[0, 1], eye[0, 2]
+    ox, oy, oz = np.float32(fx), np.float32(fy), np.float32(fz)
+    if orthographic:
+        for lane in range(16):
+            words[DIR_X + lane], words[DIR_Y + lane], words[DIR_Z + lane] = ox, oy, oz
+    for r0 in range(0, rows, 4):
+        for i in range(4):
+            for b in range(samples):
+                sy_rows[i * samples + b] = screen_y(params, row0 + r0 + i, b)
+        for c0 in range(0, row_rays, 4):
+            # Lane (i, j) of the block is ray (r0 + i, c0 + j); off the image's edge it stays inactive.
+            for lane in range(16):
+                r, c = r0 + (lane >> 2), c0 + (lane & 3)
+                active = c < row_rays and r < rows
+                valid[lane] = -1 if active else 0
+                lane_x[lane] = screen_x[c] if active else 0.0
+                lane_y[lane] = sy_rows[(lane >> 2) * samples + cell_row[c]] if active else 0.0
+                words[TFAR + lane] = NO_LIMIT
+                ints[GEOM_ID + lane] = INVALID_ID
+                ints[PRIM_ID + lane] = INVALID_ID
+            # Branch-free over the 16 lanes, so that it runs in vector registers.
+            if orthographic:
+                for lane in range(16):
+                    words[ORG_X + lane] = ortho_origin(params, 0, lane_x[lane], lane_y[lane])
+                    words[ORG_Y + lane] = ortho_origin(params, 1, lane_x[lane], lane_y[lane])
+                    words[ORG_Z + lane] = ortho_origin(params, 2, lane_x[lane], lane_y[lane])
+            else:
+                for lane in range(16):
+                    dx, dy, dz = direction(fx, fy, fz, rx, ry, rz, ux, uy, uz, lane_x[lane], lane_y[lane])
+                    words[DIR_X + lane], words[DIR_Y + lane], words[DIR_Z + lane] = dx, dy, dz
+            rtc_intersect16(valid.ctypes.data, scene, words.ctypes.data, arguments.ctypes.data)
+            for lane in range(16):
+                if valid[lane] == 0:
+                    continue
+                k = (r0 + (lane >> 2)) * row_rays + c0 + (lane & 3)
+                directions[k, 0], directions[k, 1], directions[k, 2] = (
+                    words[DIR_X + lane], words[DIR_Y + lane], words[DIR_Z + lane])
+                if ints[GEOM_ID + lane] == INVALID_ID:
+                    face[k], u[k], v[k], t[k] = -1, 0, 0, NO_LIMIT
+                else:
+                    face[k], u[k], v[k] = ints[PRIM_ID + lane], words[HIT_U + lane], words[HIT_V + lane]
+                    t[k] = words[TFAR + lane]
+
+
+@kernel()
+def fill_packets(origins, directions, row_rays, packets, valid):
+    """Rays (N, 3) float32 into RTCRayHit16 packets (P, PACKET_WORDS) float32, 64-byte aligned, and their
+    valid masks (P, 16) int32, in intersect_rays' 4 × 4 blocks: the rays cast_packets casts."""
+    count = origins.shape[0]
+    ints = packets.view(np.int32)
+    p = 0
+    for r0 in range(0, -(-count // row_rays), 4):
+        for c0 in range(0, row_rays, 4):
+            for lane in range(16):
+                c = c0 + (lane & 3)
+                k = (r0 + (lane >> 2)) * row_rays + c
+                ints[p, MASK + lane] = -1
+                if c < row_rays and k < count:
+                    valid[p, lane] = -1
+                    packets[p, ORG_X + lane], packets[p, ORG_Y + lane], packets[p, ORG_Z + lane] = (
+                        origins[k, 0], origins[k, 1], origins[k, 2])
+                    packets[p, DIR_X + lane], packets[p, DIR_Y + lane], packets[p, DIR_Z + lane] = (
+                        directions[k, 0], directions[k, 1], directions[k, 2])
+                else:
+                    valid[p, lane] = 0
+            p += 1
+
+
+@kernel()
+def cast_packets(scene, packets, valid):
+    """rtcIntersect16 on each prepared packet in turn, resetting only what a hit changes (tfar, geomID):
+    Embree's own cost of casting these rays, the yardstick a frame is measured against."""
+    _, _, _, arguments = _packet()
+    ints = packets.view(np.int32)
+    # Addresses by arithmetic: a row view per packet would cost reference counts the yardstick must not pay.
+    base, mask_base, packet_bytes = packets.ctypes.data, valid.ctypes.data, 4 * packets.shape[1]
+    for p in range(packets.shape[0]):
+        for lane in range(16):
+            packets[p, TFAR + lane] = NO_LIMIT
+            ints[p, GEOM_ID + lane] = INVALID_ID
+        rtc_intersect16(mask_base + 64 * p, scene, base + packet_bytes * p, arguments.ctypes.data)
+
+
+@kernel()
 def occluded_rays(scene, origins, directions, t_max, blocked):
     """blocked[k] = something lies on ray k within [0, t_max[k]], in packets of 16 consecutive rays."""
-    words, ints, valid, arguments = _packet()
+    words, _, valid, arguments = _packet()
     count = origins.shape[0]
     for first in range(0, count, 16):
         lanes = min(16, count - first)
@@ -116,10 +222,6 @@ def occluded_rays(scene, origins, directions, t_max, blocked):
                 words[TFAR + lane] = t_max[k]
             else:
                 valid[lane] = 0
-            words[TNEAR + lane] = 0
-            words[TIME + lane] = 0
-            ints[MASK + lane] = -1
-            ints[FLAGS + lane] = 0
         rtc_occluded16(valid.ctypes.data, scene, words.ctypes.data, arguments.ctypes.data)
         # An occluded ray's tfar becomes −inf (rtcOccluded16's documented answer).
         for lane in range(lanes):

@@ -210,3 +210,68 @@ def test_the_tile_kernel_in_global_mode_gives_the_same_image_on_one_and_three_th
     assert (local.image - three.image).max() > 0.1  # somewhere a light is blocked in global mode only
     # ... and somewhere every light reaches a brightly lit point, exactly as in local mode.
     assert ((local.image.max(axis=2) > 0.3) & (local.image == three.image).all(axis=2)).any()
+
+
+# Embree 4.4's verbose device report on an AVX-512 CPU (abridged): the targets line without a parenthesis
+# lists what the library knows, the other two what the CPU supports and what the build enabled.
+REPORT = """
+Embree Ray Tracing Kernels 4.4.0 (e794a4799e1ec68c7141f382864481095edd9c48)
+  CPU       : Unknown CPU (AuthenticAMD)
+   ISA      : XMM YMM ZMM SSE SSE2 SSE3 SSSE3 SSE4.1 SSE4.2 POPCNT AVX F16C RDRAND AVX2 FMA3 AVX512F
+   Targets  : SSE SSE2 SSE3 SSSE3 SSE4.1 SSE4.2 AVX AVXI AVX2 AVX512
+  Config
+    Targets : SSE SSE2 SSE3 SSSE3 SSE4.1 SSE4.2 AVX AVXI {cpu}  (supported)
+              SSE2 SSE4.2 AVX {build}  (compile time enabled)
+"""
+
+
+@pytest.mark.parametrize(("cpu", "build", "picked"), [
+    ("AVX2 AVX512", "AVX2 AVX512", "AVX512"),  # both: the best
+    ("AVX2 AVX512", "AVX2", "AVX2"),           # a library built without AVX-512 on an AVX-512 CPU
+    ("", "AVX2 AVX512", "AVX"),                # a CPU without AVX2: AVXI is not enabled in the build, AVX is
+])
+def test_the_isa_embree_picked_is_the_best_target_both_lists_name(cpu, build, picked):
+    assert embree.picked_target(REPORT.format(cpu=cpu, build=build)) == picked
+
+
+def test_a_report_without_targets_names_no_isa():
+    assert embree.picked_target("Embree Ray Tracing Kernels 4.4.0\n   Targets  : SSE2 AVX2\n") is None
+    assert embree.picked_target("") is None
+
+
+def test_the_device_report_is_captured_from_the_library_and_names_an_isa(capfd):
+    report = embree.device_report(embree.library())
+    assert "Embree Ray Tracing Kernels" in report
+    assert embree.picked_target(report) in embree.TARGETS
+    assert "Embree Ray Tracing Kernels" not in capfd.readouterr().out  # captured, not printed
+
+
+def test_prepared_packets_cast_alone_give_the_hits_closest_hits_gives():
+    """intersect.packed_rays + cast_packets (bench_frame's yardstick): the same packets as closest_hits (4 × 4
+    blocks of an image 37 rays wide, partial blocks at the edges), so the hits left in them are the same bits;
+    cast twice, as the benchmark repeats it, they stay so (tfar and geomID are reset before each cast)."""
+    from raycast_phong.renderer.intersect import packed_rays
+    from raycast_phong.renderer.kernels import embree as kernels
+    scene = rp.load_scene(SCENES / "default.toml", ["render.width=37", "render.height=23"])
+    geometry = build_geometry(scene)
+    frame = unit_frame(geometry.vertices)
+    origins, directions = generate_rays(camera_rig(scene), frame, 37, 23, 1, 0, 23)
+    accelerator = Accelerator(geometry, frame)
+    expected = accelerator.closest_hits(origins, directions, 37)
+    packets, valid = packed_rays(origins, directions, 37)
+    assert packets.ctypes.data % 64 == 0 and valid.ctypes.data % 64 == 0
+    assert len(packets) == 6 * 10  # ⌈23 / 4⌉ block rows × ⌈37 / 4⌉ block columns
+    for _ in range(2):
+        accelerator.cast_packets(packets, valid)
+        face = np.full(37 * 23, -2, np.int64)
+        u = np.full(37 * 23, np.nan, np.float32)
+        ints = packets.view(np.int32)
+        for p in range(len(packets)):
+            r0, c0 = 4 * (p // 10), 4 * (p % 10)
+            for lane in np.flatnonzero(valid[p]):
+                k = (r0 + lane // 4) * 37 + c0 + lane % 4
+                hit = ints[p, kernels.GEOM_ID + lane] != kernels.INVALID_ID
+                face[k] = ints[p, kernels.PRIM_ID + lane] if hit else -1
+                u[k] = packets[p, kernels.HIT_U + lane] if hit else 0
+        assert (face == expected.face).all() and (face >= 0).any() and (face < 0).any()
+        assert u.tobytes() == expected.u.tobytes()

@@ -14,12 +14,40 @@ from raycast_phong.renderer.pack import prepare_shadows
 MATTE = {"ka": 1.0, "kd": 0.8, "ks": 0.0}
 
 
-def light_visibility(inputs, hits, directions, accelerator) -> np.ndarray:
+def light_visibility(inputs, hits, directions, accelerator, row_rays: int = 4) -> np.ndarray:
     """(N,) int64 light bits of a tile's hits from the kernel the tile kernel runs (shadows.cast_shadows)."""
     visible = np.empty(len(hits.face), np.int64)
-    cast = cast_shadows(accelerator.embree_scene.scene, inputs, hits.face, hits.u, hits.v, directions, visible)
+    cast = cast_shadows(accelerator.embree_scene.scene, inputs, hits.face, hits.u, hits.v, directions, row_rays,
+                        visible)
     assert cast == (hits.face >= 0).sum() * len(inputs.light_kind)  # one shadow ray per hit and light
     return visible
+
+
+def test_shadow_packets_in_image_blocks_answer_as_in_scanline_order():
+    """cast_shadows takes the hits in 4 × 4 blocks of the image (row_rays wide) to fill its packets; with
+    row_rays = 1 they go in ray order. Each ray's answer is its own: the bits must not depend on the grouping,
+    for a width that leaves partial blocks and two lights."""
+    width, height = 45, 30
+    scene = rp.validate_scene({
+        "render": {"width": width, "height": height, "mode": "global", "shading": "phong"},
+        "camera": {"position": [0, 2, 4], "look_at": [0, 0, 0], "fov": 50},
+        "lights": [{"type": "point", "position": [1, 3, 1]}, {"type": "directional", "direction": [-1, -1, 0]}],
+        "materials": {"m": MATTE},
+        "objects": [{"shape": "plane", "size": [4, 4], "material": "m"},
+                    {"shape": "icosphere", "subdivisions": 3, "radius": 0.6, "translate": [0, 0.6, 0],
+                     "material": "m"}],
+    }, source="test")
+    from raycast_phong.renderer.pack import camera_rig, generate_rays
+    geometry = build_geometry(scene)
+    frame = unit_frame(geometry.vertices)
+    accelerator = Accelerator(geometry, frame)
+    origins, directions = generate_rays(camera_rig(scene), frame, width, height, 1, 0, height)
+    hits = accelerator.closest_hits(origins, directions, width)
+    inputs = prepare_shadows(scene, geometry, frame)
+    blocks = light_visibility(inputs, hits, directions, accelerator, row_rays=width)
+    in_order = light_visibility(inputs, hits, directions, accelerator, row_rays=1)
+    assert (blocks == in_order).all()
+    assert len(set(blocks[hits.face >= 0].tolist())) == 4  # lit by both, either, neither: all four occur
 
 
 def test_sphere_over_a_plane_casts_the_analytic_disc():
