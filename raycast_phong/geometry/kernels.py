@@ -217,22 +217,23 @@ def signed_volume(vertices, faces, centre):
 
 
 @kernel()
-def merge_rows(rows, used, table, new_of_old, first):
-    """Rows (N, C) float64 equal value by value (−0 = +0) merged, in row order. Fills new_of_old (N,) (−1 for a row
-    not `used`) and first[:K], the first used row of each distinct value, numbered in the order first seen, and
-    returns K. `table`: −1 everywhere, a power of two at least twice the used rows: an open-addressing hash table
-    (linear probing) of splitmix64 over each row's bits. The caller's arrays: int32 when N < 2^31."""
+def merge_rows(rows, bits, used, table, new_of_old, first):
+    """Rows (N, C) of float64 or float32 equal value by value (−0 = +0) merged, in row order. `bits`: the rows
+    viewed as unsigned integers of their size (what is hashed). Fills new_of_old (N,) (−1 for a row not `used`)
+    and first[:K], the first used row of each distinct value, numbered in the order first seen, and returns K.
+    `table`: −1 everywhere, a power of two at least twice the used rows: an open-addressing hash table (linear
+    probing) of splitmix64 over each row's bits. The hash decides only where a row is looked up, so the result
+    is the same for any hash. The caller's arrays: int32 when N < 2^31."""
     n, width = rows.shape
     mask = np.uint64(table.shape[0] - 1)
     new_of_old[:] = -1
     count = 0
-    bits = rows.view(np.uint64)
     for i in range(n):
         if not used[i]:
             continue
         h = np.uint64(0)
         for c in range(width):
-            h ^= bits[i, c] if rows[i, c] != 0.0 else np.uint64(0)  # −0.0 and +0.0: one value
+            h ^= np.uint64(bits[i, c]) if rows[i, c] != 0.0 else np.uint64(0)  # −0.0 and +0.0: one value
             h ^= h >> np.uint64(30)
             h *= np.uint64(0xBF58476D1CE4E5B9)
             h ^= h >> np.uint64(27)

@@ -75,7 +75,8 @@ def test_colliding_hashes_are_told_apart_by_the_exact_comparison():
     distinct = len(sphere.vertices)
     table = np.full(1 << distinct.bit_length(), -1, np.int64)  # > distinct slots, < 2 × distinct
     new_of_old, first = np.empty(len(vertices), np.int64), np.empty(len(vertices), np.int64)
-    first = first[:kernels.merge_rows(vertices, np.ones(len(vertices), bool), table, new_of_old, first)]
+    first = first[:kernels.merge_rows(vertices, vertices.view(np.uint64), np.ones(len(vertices), bool), table,
+                                      new_of_old, first)]
     assert len(first) == distinct and (table >= 0).sum() == distinct
     np.testing.assert_array_equal(vertices[first][new_of_old], vertices)
 
