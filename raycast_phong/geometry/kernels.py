@@ -268,3 +268,72 @@ def renumber(faces, new_of_old):
         for k in range(3):
             out[f, k] = new_of_old[faces[f, k]]
     return out
+
+
+@kernel()
+def creased_vertices(faces, unit, vertex_normal, vague, least):
+    """(V,) bool: the vertices a crease may split, vague or with a face normal n_f whose cosine with the vertex
+    normal is below `least` (or NaN): normals._creased_vertices' rule, its cosines added in the same order."""
+    lowest = np.full(vertex_normal.shape[0], np.inf)
+    for f in range(faces.shape[0]):
+        for k in range(3):
+            v = faces[f, k]
+            cosine = 0.0
+            cosine += unit[f, 0] * vertex_normal[v, 0]
+            cosine += unit[f, 1] * vertex_normal[v, 1]
+            cosine += unit[f, 2] * vertex_normal[v, 2]
+            if cosine != cosine or cosine < lowest[v]:  # np.minimum: a NaN stays
+                lowest[v] = cosine
+    split = np.empty(vertex_normal.shape[0], np.bool_)
+    for v in range(vertex_normal.shape[0]):
+        split[v] = vague[v] or not lowest[v] >= least
+    return split
+
+
+@kernel()
+def creased_corners(faces, unit, weights, weighted, split, least, no_direction, corners):
+    """Corner normals (into corners (F, 3, 3)) at the vertices `split` marks: each corner sums w n_g and w |n_g|
+    over the corners at its vertex (in corner order) whose face g is within the crease of its own (n_f · n_g ≥
+    `least`), then normalises, or takes n_f where the sum has no direction (normals._creased_sums and
+    _normalise_or, their additions in their order). The corners are bucketed by vertex (a counting sort)."""
+    vertex_count = split.shape[0]
+    start = np.zeros(vertex_count + 1, np.int64)
+    for f in range(faces.shape[0]):
+        for k in range(3):
+            if split[faces[f, k]]:
+                start[faces[f, k] + 1] += 1
+    for v in range(vertex_count):
+        start[v + 1] += start[v]
+    fill = start[:-1].copy()
+    corner = np.empty(start[vertex_count], np.int64)
+    for f in range(faces.shape[0]):
+        for k in range(3):
+            v = faces[f, k]
+            if split[v]:
+                corner[fill[v]] = 3 * f + k
+                fill[v] += 1
+    for v in range(vertex_count):
+        for at in range(start[v], start[v + 1]):
+            f, k = corner[at] // 3, corner[at] % 3
+            s0, s1, s2, reach = 0.0, 0.0, 0.0, 0.0
+            for other in range(start[v], start[v + 1]):
+                g, j = corner[other] // 3, corner[other] % 3
+                cosine = unit[f, 0] * unit[g, 0] + unit[f, 1] * unit[g, 1] + unit[f, 2] * unit[g, 2]
+                if cosine >= least:
+                    w = weights[g, j] if weighted else 1.0
+                    length = math.sqrt(unit[g, 0] * unit[g, 0] + unit[g, 1] * unit[g, 1] + unit[g, 2] * unit[g, 2])
+                    if weighted:
+                        s0 += w * unit[g, 0]
+                        s1 += w * unit[g, 1]
+                        s2 += w * unit[g, 2]
+                        reach += w * length
+                    else:
+                        s0 += unit[g, 0]
+                        s1 += unit[g, 1]
+                        s2 += unit[g, 2]
+                        reach += length
+            size = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+            if size <= no_direction * reach:
+                corners[f, k, 0], corners[f, k, 1], corners[f, k, 2] = unit[f, 0], unit[f, 1], unit[f, 2]
+            else:
+                corners[f, k, 0], corners[f, k, 1], corners[f, k, 2] = s0 / size, s1 / size, s2 / size
