@@ -119,3 +119,15 @@ def _normalise_or(vectors: np.ndarray, fallback: np.ndarray, reach: np.ndarray |
     length = np.linalg.norm(vectors, axis=-1, keepdims=True)
     tiny = length <= NO_DIRECTION * np.asarray(reach)
     return np.where(tiny, fallback, vectors / np.where(tiny, 1.0, length))
+
+
+# The compiled passes of a crease split: a smooth object with a crease angle below 180°, and a mesh file that
+# stores no normals (its crease angle is mesh_file.FILE_CREASE_ANGLE unless the scene sets one).
+CREASE_KERNELS = ("creased_vertices", "creased_corners")
+
+
+def warm_up_creases(dtype: type) -> None:
+    """Load (or compile) CREASE_KERNELS with the types a render gives them: the corner normals, in `dtype`, of a
+    tetrahedron, whose every edge is a crease at 30°."""
+    vertices = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    compute_corner_normals(vertices, np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]), "mean", 30.0, dtype)
