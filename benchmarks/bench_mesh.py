@@ -18,8 +18,9 @@ host costs ~5 ms/MB (measured here), so a single cold run mostly measures alloca
 --torus N adds the synthetic bumpy torus of N triangles (binary PLY) of the earlier rounds.
 Every line carries the CPU (model and its widest SIMD) and the load average. Targets: geometry/trimesh ≤ 3, peak
 ≤ 300 B/triangle, render/Open3D ≤ 0.5.
+--before PATH measures another source tree too, file by file (its line first), for a before/after table.
 Usage: python benchmarks/bench_mesh.py [--scan bunny-1m bunny-4m] [--formats ply stl glb obj] [--repeats 3]
-       [--size 1000] [--torus 1000000 ...]
+       [--size 1000] [--torus 1000000 ...] [--before PATH]
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 TARGET_RATIO, TARGET_PEAK, TARGET_OPEN3D = 3.0, 300.0, 0.5
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def cpu() -> str:
@@ -168,6 +170,8 @@ def main() -> None:
     parser.add_argument("--torus", type=int, nargs="*", default=[])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--size", type=int, default=1000, help="pixels a side of the render-peak render; 0: none")
+    parser.add_argument("--before", type=Path, help="another source tree (git archive REV | tar -x -C PATH) measured "
+                        "the same way, file by file before this one")
     parser.add_argument("--one", help=argparse.SUPPRESS)  # internal: measure this file in this process
     args = parser.parse_args()
     if args.one:
@@ -176,32 +180,43 @@ def main() -> None:
     from make_scans import scan  # this script's folder is on sys.path
 
     where = cpu()
-    print(f"CPU: {where}; targets: geometry/trimesh ≤ {TARGET_RATIO:g}, peak ≤ {TARGET_PEAK:g} B/triangle", flush=True)
+    print(f"CPU: {where}; targets: geometry/trimesh ≤ {TARGET_RATIO:g}, peak ≤ {TARGET_PEAK:g} B/triangle, "
+          f"render/Open3D ≤ {TARGET_OPEN3D:g}", flush=True)
     with tempfile.TemporaryDirectory() as folder:
         files = [scan(name, fmt) for name in args.scan for fmt in args.formats]
         for count in args.torus:
             files.append(Path(folder) / f"torus-{count}.ply")
             write_torus(files[-1], count)
         met = True
-        for path in files:
+        trees = {"": ROOT} if args.before is None else {"before ": args.before.resolve(), "after  ": ROOT}
+        for path, (label, tree) in ((path, tree) for path in files for tree in trees.items()):
+            # The tree's package first on the path (an editable install's finder comes after PYTHONPATH).
             out = subprocess.run([sys.executable, __file__, "--one", str(path), "--repeats", str(args.repeats),
-                                  "--size", str(args.size)],
+                                  "--size", str(args.size)], env={**os.environ, "PYTHONPATH": str(tree)},
                                  capture_output=True, text=True)
             if out.returncode:
-                print(f"{path.name}: failed: {out.stderr.strip().splitlines()[-1:]}", flush=True)
+                print(f"{label}{path.name}: failed: {out.stderr.strip().splitlines()[-1:]}", flush=True)
                 met = False
                 continue
             row = json.loads(out.stdout.splitlines()[-1])
+            if label == "before ":
+                print(f"{label}{path.name}: trimesh {row['trimesh']:.3f} s, geometry {row['geometry']:.3f} s, "
+                      f"geometry/trimesh {row['geometry'] / row['trimesh']:.2f}, peak "
+                      f"{row['peak_bytes_per_triangle']:.0f} B/triangle (render "
+                      f"{row.get('render_peak_bytes_per_triangle', math.nan):.0f}); render "
+                      f"{row.get('render', math.nan):.3f} s / Open3D {row.get('open3d', math.nan):.3f} s = "
+                      f"{row.get('render', math.nan) / row.get('open3d', math.nan):.2f}", flush=True)
+                continue
             ratio = row["geometry"] / row["trimesh"]
             versus = row.get("render", math.nan) / row.get("open3d", math.nan)
             met &= (ratio <= TARGET_RATIO and row["peak_bytes_per_triangle"] <= TARGET_PEAK
                     and not versus > TARGET_OPEN3D)
-            print(f"{row['file']:>16} {row['triangles']:>10,} triangles: trimesh {row['trimesh']:.3f} s, "
+            print(f"{label}{row['file']:>16} {row['triangles']:>10,} triangles: trimesh {row['trimesh']:.3f} s, "
                   f"geometry {row['geometry']:.3f} s (read {row['read']:.3f} s), geometry/trimesh {ratio:.2f}, "
                   f"peak {row['peak_bytes_per_triangle']:.0f} B/triangle (render "
-                  f"{row.get('render_peak_bytes_per_triangle', math.nan):.0f}); render {row.get('render', math.nan):.3f}"
-                  f" s / Open3D {row.get('open3d', math.nan):.3f} s = {versus:.2f}  [{where}; load "
-                  f"{os.getloadavg()[0]:.1f}]", flush=True)
+                  f"{row.get('render_peak_bytes_per_triangle', math.nan):.0f}); render "
+                  f"{row.get('render', math.nan):.3f} s / Open3D {row.get('open3d', math.nan):.3f} s = "
+                  f"{versus:.2f}  [{where}; load {os.getloadavg()[0]:.1f}]", flush=True)
     print("targets met" if met else "targets NOT met")
 
 

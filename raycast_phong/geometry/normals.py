@@ -12,8 +12,14 @@ import math
 import numpy as np
 
 from ..tolerances import NO_DIRECTION
-from .kernels import (creased_corners, creased_vertices, face_normals_into, gather_corners, normalise_sums,
-                      vertex_normal_sums)
+from .kernels import (
+    creased_corners,
+    creased_vertices,
+    face_normals_into,
+    gather_corners,
+    normalise_sums,
+    vertex_normal_sums,
+)
 
 FACE_CHUNK = 1 << 18  # faces per step of a per-face computation: ~25 MB of temporaries, whatever the mesh
 

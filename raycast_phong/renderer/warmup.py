@@ -8,7 +8,6 @@ from collections.abc import Callable
 
 from ..scene.schema import Scene
 
-
 # The geometry stage's kernels every render loads: warm_kernels prepares a smooth icosphere, which calls them.
 GEOMETRY_KERNELS = ("face_normals_into", "vertex_normal_sums", "normalise_sums", "gather_corners")
 

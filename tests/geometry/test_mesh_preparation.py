@@ -222,10 +222,10 @@ def test_file_normals_per_vertex_equal_the_per_corner_rule_and_fall_back_to_the_
 @pytest.mark.parametrize("chunk", [1, 7, 100])
 def test_chunked_steps_give_the_one_chunk_answers_at_any_chunk_size(monkeypatch, chunk):
     """Signed volumes run in chunks (FACE_CHUNK = 2^18 faces) to bound their temporaries: larger than any mesh
-    here, so with tiny chunks every boundary is crossed (the normals, compiled passes, must not change). Normals must equal the one-chunk answers bit for bit (each face and each corner's sum is computed
-    whole, in the same order); a volume is one sum over the faces, regrouped by the chunks: within F·ε·F,
-    since each of its F additions errs by at most ε times a running sum of at most F terms of size ≤ 1 (the
-    unit sphere). A chunk that skipped or repeated faces or pairs is off by a whole term."""
+    here, so with tiny chunks every boundary is crossed. The normals (compiled passes) must not change; a volume
+    is one sum over the faces, regrouped by the chunks: within F·ε·F, since each of its F additions errs by at
+    most ε times a running sum of at most F terms of size ≤ 1 (the unit sphere). A chunk that skipped or
+    repeated faces is off by a whole term."""
     sphere = trimesh.creation.icosphere(subdivisions=3)  # 1,280 faces; adjacent normals ~9° apart
     vertices, faces = np.asarray(sphere.vertices), np.asarray(sphere.faces, np.int64)
     piece = np.arange(len(faces)) % 3

@@ -60,7 +60,8 @@ def test_a_binary_stl_prepares_the_geometry_trimesh_s_read_gave(stl_files, monke
 
 def test_the_read_floor_of_a_binary_stl_is_its_records_and_copies_of_an_ascii_one_its_parse(stl_files):
     binary, ascii_file = stl_files
-    assert mesh_header.mesh_file_read_bytes(binary) == binary.stat().st_size * mesh_header.BINARY_STL_READ_BYTES_PER_BYTE
+    size = binary.stat().st_size
+    assert mesh_header.mesh_file_read_bytes(binary) == size * mesh_header.BINARY_STL_READ_BYTES_PER_BYTE
     assert (mesh_header.mesh_file_read_bytes(ascii_file)
             == ascii_file.stat().st_size * mesh_header.TEXT_READ_BYTES_PER_BYTE)
     # A file named .stl whose size does not match its header's count is not taken for a binary STL.
