@@ -115,7 +115,7 @@ def main() -> None:
                 wall, cpu, _ = run(tree, arguments)
                 walls[name].append(wall)
                 cpus[name].append(cpu)
-        print(f"warm `raycast-phong render` of the default scene, min of {args.repeats} (target ≤ 0.6 s wall, issue 22):")
+        print(f"warm `raycast-phong render` of the default scene, min of {args.repeats} (target ≤ 0.6 s wall):")
         for name in trees:
             print(f"  {name:10s} wall {min(walls[name]):.3f} s   CPU {min(cpus[name]):.3f} s   "
                   f"(walls {', '.join(f'{w:.2f}' for w in walls[name])})")
