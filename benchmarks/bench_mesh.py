@@ -9,13 +9,18 @@ beast-2m) in each format (binary PLY, binary STL, GLB, OBJ), a fresh subprocess 
   peak        VmHWM during one build_geometry above the process's VmRSS after imports and a warm-up render
               of the same file (the high-water mark reset through /proc/self/clear_refs), bytes per triangle
   render peak the same during a whole render() at --size² pixels (geometry, BVH, frame; 0: skipped)
+  render      that whole render() of the file on 2 threads (read included), wall
+  open3d      Open3D (the `bench` extra) on the same file and the same --size² rays: read_triangle_mesh,
+              compute_vertex_normals, RaycastingScene.add_triangles (its BVH), cast_rays, 2 threads, wall
 Times are wall seconds, the minimum of --repeats (the first call of a kernel loads it from numba's cache;
 the warm-up pays that). On a virtual machine the first touch of memory the guest has handed back to the
 host costs ~5 ms/MB (measured here), so a single cold run mostly measures allocation; the minimum measures the work.
 --torus N adds the synthetic bumpy torus of N triangles (binary PLY) of the earlier rounds.
-Every line carries the CPU (model and its widest SIMD). Targets: geometry/trimesh ≤ 3, peak ≤ 300 B/triangle.
+Every line carries the CPU (model and its widest SIMD) and the load average. Targets: geometry/trimesh ≤ 3, peak
+≤ 300 B/triangle, render/Open3D ≤ 0.5.
+--before PATH measures another source tree too, file by file (its line first), for a before/after table.
 Usage: python benchmarks/bench_mesh.py [--scan bunny-1m bunny-4m] [--formats ply stl glb obj] [--repeats 3]
-       [--size 1000] [--torus 1000000 ...]
+       [--size 1000] [--torus 1000000 ...] [--before PATH]
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import subprocess
 import sys
 import tempfile
@@ -31,7 +37,8 @@ from pathlib import Path
 
 import numpy as np
 
-TARGET_RATIO, TARGET_PEAK = 3.0, 300.0
+TARGET_RATIO, TARGET_PEAK, TARGET_OPEN3D = 3.0, 300.0, 0.5
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def cpu() -> str:
@@ -102,6 +109,29 @@ def best(step, repeats: int) -> float:
     return min(times)
 
 
+def open3d_cast(path: Path, size: int, repeats: int) -> float:
+    """Least wall seconds of Open3D reading `path`, computing its vertex normals, building its BVH and casting
+    the size² rays of scene_for's camera (NaN without Open3D: pip install -e '.[bench]')."""
+    try:
+        import open3d as o3d
+    except ImportError:
+        return math.nan
+    camera = scene_for(path, size)["camera"]
+
+    def cast() -> None:
+        mesh = o3d.io.read_triangle_mesh(str(path))
+        mesh.compute_vertex_normals()
+        caster = o3d.t.geometry.RaycastingScene(nthreads=2)
+        caster.add_triangles(o3d.core.Tensor(np.asarray(mesh.vertices, np.float32)),
+                             o3d.core.Tensor(np.asarray(mesh.triangles, np.uint32)))
+        # Open3D's fov is horizontal, ours vertical: the same for a square image.
+        rays = caster.create_rays_pinhole(fov_deg=camera["fov"], center=camera["look_at"], eye=camera["position"],
+                                          up=[-c for c in camera["up"]], width_px=size, height_px=size)
+        caster.cast_rays(rays, nthreads=2)["t_hit"].numpy()
+    cast()  # Open3D's own first-call set-up
+    return best(cast, repeats)
+
+
 def measure(path: Path, repeats: int, size: int) -> dict:
     """One file in this (fresh) process: the peaks first (after a warm-up), then the times."""
     import trimesh
@@ -121,6 +151,12 @@ def measure(path: Path, repeats: int, size: int) -> dict:
         Path("/proc/self/clear_refs").write_text("5")
         rp.render(rp.validate_scene(scene_for(path, size), source=str(path)))
         found["render_peak_bytes_per_triangle"] = (vm("VmHWM") - baseline) / triangles
+    if size:
+        # The whole render of the file (read, preparation, BVH, frame) against Open3D's read + vertex normals +
+        # BVH + first cast of the same file and the same size² rays (its RaycastingScene, 2 threads each).
+        found["render"] = best(lambda: rp.render(rp.validate_scene(scene_for(path, size), source=str(path)),
+                                                 threads=2), repeats)
+        found["open3d"] = open3d_cast(path, size, repeats)
     found["trimesh"] = best(lambda: trimesh.load(str(path), process=False), repeats)
     found["geometry"] = best(lambda: build_geometry(scene, str(path)), repeats)
     found["read"] = best(lambda: object_mesh(scene, scene.objects[0], 0, str(path)), repeats)
@@ -134,6 +170,8 @@ def main() -> None:
     parser.add_argument("--torus", type=int, nargs="*", default=[])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--size", type=int, default=1000, help="pixels a side of the render-peak render; 0: none")
+    parser.add_argument("--before", type=Path, help="another source tree (git archive REV | tar -x -C PATH) measured "
+                        "the same way, file by file before this one")
     parser.add_argument("--one", help=argparse.SUPPRESS)  # internal: measure this file in this process
     args = parser.parse_args()
     if args.one:
@@ -142,28 +180,43 @@ def main() -> None:
     from make_scans import scan  # this script's folder is on sys.path
 
     where = cpu()
-    print(f"CPU: {where}; targets: geometry/trimesh ≤ {TARGET_RATIO:g}, peak ≤ {TARGET_PEAK:g} B/triangle", flush=True)
+    print(f"CPU: {where}; targets: geometry/trimesh ≤ {TARGET_RATIO:g}, peak ≤ {TARGET_PEAK:g} B/triangle, "
+          f"render/Open3D ≤ {TARGET_OPEN3D:g}", flush=True)
     with tempfile.TemporaryDirectory() as folder:
         files = [scan(name, fmt) for name in args.scan for fmt in args.formats]
         for count in args.torus:
             files.append(Path(folder) / f"torus-{count}.ply")
             write_torus(files[-1], count)
         met = True
-        for path in files:
+        trees = {"": ROOT} if args.before is None else {"before ": args.before.resolve(), "after  ": ROOT}
+        for path, (label, tree) in ((path, tree) for path in files for tree in trees.items()):
+            # The tree's package first on the path (an editable install's finder comes after PYTHONPATH).
             out = subprocess.run([sys.executable, __file__, "--one", str(path), "--repeats", str(args.repeats),
-                                  "--size", str(args.size)],
+                                  "--size", str(args.size)], env={**os.environ, "PYTHONPATH": str(tree)},
                                  capture_output=True, text=True)
             if out.returncode:
-                print(f"{path.name}: failed: {out.stderr.strip().splitlines()[-1:]}", flush=True)
+                print(f"{label}{path.name}: failed: {out.stderr.strip().splitlines()[-1:]}", flush=True)
                 met = False
                 continue
             row = json.loads(out.stdout.splitlines()[-1])
+            if label == "before ":
+                print(f"{label}{path.name}: trimesh {row['trimesh']:.3f} s, geometry {row['geometry']:.3f} s, "
+                      f"geometry/trimesh {row['geometry'] / row['trimesh']:.2f}, peak "
+                      f"{row['peak_bytes_per_triangle']:.0f} B/triangle (render "
+                      f"{row.get('render_peak_bytes_per_triangle', math.nan):.0f}); render "
+                      f"{row.get('render', math.nan):.3f} s / Open3D {row.get('open3d', math.nan):.3f} s = "
+                      f"{row.get('render', math.nan) / row.get('open3d', math.nan):.2f}", flush=True)
+                continue
             ratio = row["geometry"] / row["trimesh"]
-            met &= ratio <= TARGET_RATIO and row["peak_bytes_per_triangle"] <= TARGET_PEAK
-            print(f"{row['file']:>16} {row['triangles']:>10,} triangles: trimesh {row['trimesh']:.3f} s, "
+            versus = row.get("render", math.nan) / row.get("open3d", math.nan)
+            met &= (ratio <= TARGET_RATIO and row["peak_bytes_per_triangle"] <= TARGET_PEAK
+                    and not versus > TARGET_OPEN3D)
+            print(f"{label}{row['file']:>16} {row['triangles']:>10,} triangles: trimesh {row['trimesh']:.3f} s, "
                   f"geometry {row['geometry']:.3f} s (read {row['read']:.3f} s), geometry/trimesh {ratio:.2f}, "
                   f"peak {row['peak_bytes_per_triangle']:.0f} B/triangle (render "
-                  f"{row.get('render_peak_bytes_per_triangle', math.nan):.0f})  [{where}]", flush=True)
+                  f"{row.get('render_peak_bytes_per_triangle', math.nan):.0f}); render "
+                  f"{row.get('render', math.nan):.3f} s / Open3D {row.get('open3d', math.nan):.3f} s = "
+                  f"{versus:.2f}  [{where}; load {os.getloadavg()[0]:.1f}]", flush=True)
     print("targets met" if met else "targets NOT met")
 
 

@@ -16,6 +16,7 @@ import hashlib
 import os
 import re
 import shutil
+import sys
 import tempfile
 from functools import lru_cache
 from pathlib import Path
@@ -108,6 +109,7 @@ def kernel(**options):
     error_model="numpy": a division by zero gives inf/nan as numpy would, instead of a Python exception
     check in every division of the hot loop.
     """
+    set_up()  # before any kernel exists: a process that defines kernels calls them
     def decorate(function):
         folder = cache_folder()
         settings = {"nogil": True, "error_model": "numpy", **options}
@@ -120,6 +122,27 @@ def kernel(**options):
         finally:
             numba.config.CACHE_DIR = previous
     return decorate
+
+
+def set_up() -> None:
+    """numba's one-time set-up of its CPU target (its registries of implementations, loaded at a process's first
+    kernel call), without the BLAS probe numba makes there: with SciPy installed the probe imports scipy.linalg,
+    0.15–0.2 s of a 0.6 s start-up, for nothing the kernels use (none calls np.dot or np.linalg).
+
+    numba.np.arraymath asks once, at its import, whether `import scipy.linalg.cython_blas` works; scipy.linalg
+    is made unimportable for that moment only, so the answer is no (numba's np.convolve/np.correlate then take
+    its plain loop instead of BLAS; np.dot and np.linalg still import SciPy when a kernel uses them). Does
+    nothing if numba's set-up already ran or SciPy's linalg is already imported (then the probe is free)."""
+    if "numba.np.arraymath" in sys.modules:
+        return
+    blocked = "scipy.linalg" not in sys.modules
+    if blocked:
+        sys.modules["scipy.linalg"] = None  # an import of it raises ImportError
+    try:
+        import numba.np.arraymath  # noqa: F401  (the probe runs here)
+    finally:
+        if blocked and sys.modules.get("scipy.linalg", False) is None:
+            del sys.modules["scipy.linalg"]
 
 
 def compiled_before(kernel_name: str) -> bool:

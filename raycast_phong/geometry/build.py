@@ -355,7 +355,7 @@ def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
     vertices, faces = merge_duplicate_vertices(read.vertices, read.faces)
     # The merged arrays replace the file's: an STL's raw (3F, 3) points need not live through the normals.
     crease = file_crease_angle(obj, read.stores_normals)
-    read = dataclasses.replace(read, vertices=read.vertices[:0], faces=read.faces[:0])
+    read = dataclasses.replace(read, vertices=read.vertices[:0].copy(), faces=read.faces[:0].copy())  # no views: freed
     return ObjectMesh(vertices, faces, None, read, crease)
 
 

@@ -217,22 +217,23 @@ def signed_volume(vertices, faces, centre):
 
 
 @kernel()
-def merge_rows(rows, used, table, new_of_old, first):
-    """Rows (N, C) float64 equal value by value (−0 = +0) merged, in row order. Fills new_of_old (N,) (−1 for a row
-    not `used`) and first[:K], the first used row of each distinct value, numbered in the order first seen, and
-    returns K. `table`: −1 everywhere, a power of two at least twice the used rows: an open-addressing hash table
-    (linear probing) of splitmix64 over each row's bits. The caller's arrays: int32 when N < 2^31."""
+def merge_rows(rows, bits, used, table, new_of_old, first):
+    """Rows (N, C) of float64 or float32 equal value by value (−0 = +0) merged, in row order. `bits`: the rows
+    viewed as unsigned integers of their size (what is hashed). Fills new_of_old (N,) (−1 for a row not `used`)
+    and first[:K], the first used row of each distinct value, numbered in the order first seen, and returns K.
+    `table`: −1 everywhere, a power of two at least twice the used rows: an open-addressing hash table (linear
+    probing) of splitmix64 over each row's bits. The hash decides only where a row is looked up, so the result
+    is the same for any hash. The caller's arrays: int32 when N < 2^31."""
     n, width = rows.shape
     mask = np.uint64(table.shape[0] - 1)
     new_of_old[:] = -1
     count = 0
-    bits = rows.view(np.uint64)
     for i in range(n):
         if not used[i]:
             continue
         h = np.uint64(0)
         for c in range(width):
-            h ^= bits[i, c] if rows[i, c] != 0.0 else np.uint64(0)  # −0.0 and +0.0: one value
+            h ^= np.uint64(bits[i, c]) if rows[i, c] != 0.0 else np.uint64(0)  # −0.0 and +0.0: one value
             h ^= h >> np.uint64(30)
             h *= np.uint64(0xBF58476D1CE4E5B9)
             h ^= h >> np.uint64(27)
@@ -267,3 +268,72 @@ def renumber(faces, new_of_old):
         for k in range(3):
             out[f, k] = new_of_old[faces[f, k]]
     return out
+
+
+@kernel()
+def creased_vertices(faces, unit, vertex_normal, vague, least):
+    """(V,) bool: the vertices a crease may split, vague or with a face normal n_f whose cosine with the vertex
+    normal is below `least` (or NaN): normals._creased_vertices' rule, its cosines added in the same order."""
+    lowest = np.full(vertex_normal.shape[0], np.inf)
+    for f in range(faces.shape[0]):
+        for k in range(3):
+            v = faces[f, k]
+            cosine = 0.0
+            cosine += unit[f, 0] * vertex_normal[v, 0]
+            cosine += unit[f, 1] * vertex_normal[v, 1]
+            cosine += unit[f, 2] * vertex_normal[v, 2]
+            if cosine != cosine or cosine < lowest[v]:  # np.minimum: a NaN stays
+                lowest[v] = cosine
+    split = np.empty(vertex_normal.shape[0], np.bool_)
+    for v in range(vertex_normal.shape[0]):
+        split[v] = vague[v] or not lowest[v] >= least
+    return split
+
+
+@kernel()
+def creased_corners(faces, unit, weights, weighted, split, least, no_direction, corners):
+    """Corner normals (into corners (F, 3, 3)) at the vertices `split` marks: each corner sums w n_g and w |n_g|
+    over the corners at its vertex (in corner order) whose face g is within the crease of its own (n_f · n_g ≥
+    `least`), then normalises, or takes n_f where the sum has no direction (normals._creased_sums and
+    _normalise_or, their additions in their order). The corners are bucketed by vertex (a counting sort)."""
+    vertex_count = split.shape[0]
+    start = np.zeros(vertex_count + 1, np.int64)
+    for f in range(faces.shape[0]):
+        for k in range(3):
+            if split[faces[f, k]]:
+                start[faces[f, k] + 1] += 1
+    for v in range(vertex_count):
+        start[v + 1] += start[v]
+    fill = start[:-1].copy()
+    corner = np.empty(start[vertex_count], np.int64)
+    for f in range(faces.shape[0]):
+        for k in range(3):
+            v = faces[f, k]
+            if split[v]:
+                corner[fill[v]] = 3 * f + k
+                fill[v] += 1
+    for v in range(vertex_count):
+        for at in range(start[v], start[v + 1]):
+            f, k = corner[at] // 3, corner[at] % 3
+            s0, s1, s2, reach = 0.0, 0.0, 0.0, 0.0
+            for other in range(start[v], start[v + 1]):
+                g, j = corner[other] // 3, corner[other] % 3
+                cosine = unit[f, 0] * unit[g, 0] + unit[f, 1] * unit[g, 1] + unit[f, 2] * unit[g, 2]
+                if cosine >= least:
+                    w = weights[g, j] if weighted else 1.0
+                    length = math.sqrt(unit[g, 0] * unit[g, 0] + unit[g, 1] * unit[g, 1] + unit[g, 2] * unit[g, 2])
+                    if weighted:
+                        s0 += w * unit[g, 0]
+                        s1 += w * unit[g, 1]
+                        s2 += w * unit[g, 2]
+                        reach += w * length
+                    else:
+                        s0 += unit[g, 0]
+                        s1 += unit[g, 1]
+                        s2 += unit[g, 2]
+                        reach += length
+            size = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+            if size <= no_direction * reach:
+                corners[f, k, 0], corners[f, k, 1], corners[f, k, 2] = unit[f, 0], unit[f, 1], unit[f, 2]
+            else:
+                corners[f, k, 0], corners[f, k, 1], corners[f, k, 2] = s0 / size, s1 / size, s2 / size

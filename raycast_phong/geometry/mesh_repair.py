@@ -82,6 +82,7 @@ def _signed_volumes(vertices: np.ndarray, faces: np.ndarray, piece: np.ndarray |
 def merge_duplicate_vertices(vertices: np.ndarray, faces: np.ndarray,
                              normals: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Merge vertices at exactly the same position and drop those no face uses; the first of each kept, in file order.
+    `vertices` (V, 3) float64, or float32 as a binary STL is read; the result is float64.
 
     What trimesh's process() did that matters for shading: a file that repeats a point for every face
     around it (STL always, OBJ and PLY often) must share it, or the vertex-normal mean sees one face
@@ -100,11 +101,14 @@ def merge_duplicate_vertices(vertices: np.ndarray, faces: np.ndarray,
     size = 1 << max(1, int(np.count_nonzero(used)) * 2 - 1).bit_length()  # a power of two ≥ 2 × the used rows
     kind = np.int32 if len(rows) < 1 << 31 else np.int64
     table, new_of_old, first = np.full(size, -1, kind), np.empty(len(rows), kind), np.empty(len(rows), kind)
-    first = first[:merge_rows(np.ascontiguousarray(rows, np.float64), used, table, new_of_old, first)]
-    del table
+    # float32 points (a binary STL's, as read) are compared as they are: the same equalities as in float64.
+    rows = np.ascontiguousarray(rows, np.float32 if rows.dtype == np.float32 else np.float64)
+    bits = rows.view(np.uint32 if rows.dtype == np.float32 else np.uint64)
+    first = first[:merge_rows(rows, bits, used, table, new_of_old, first)]
+    del table, rows, bits
     if len(first) == len(vertices):
-        return vertices, faces  # nothing to merge or drop: no copies
-    return vertices[first], renumber(faces, new_of_old)
+        return np.asarray(vertices, np.float64), faces  # nothing to merge or drop: no copies (of float64)
+    return np.asarray(vertices[first], np.float64), renumber(faces, new_of_old)
 
 
 def _merge_sorted(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray | None, used: np.ndarray):
@@ -154,3 +158,20 @@ def _row_hashes(rows: np.ndarray) -> np.ndarray:
         key *= np.uint64(0x94D049BB133111EB)
         key ^= key >> np.uint64(31)
     return key
+
+
+# The compiled passes a mesh file's preparation calls (besides the normals' kernels every smooth object needs).
+MESH_FILE_KERNELS = ("merge_rows", "renumber", "winding_state", "orient_pieces", "signed_volume")
+
+
+def warm_up() -> None:
+    """Load (or compile) MESH_FILE_KERNELS with the argument types a mesh file's preparation gives them (float64
+    vertices, int64 faces, int32 tables): a tetrahedron that repeats a point (the merge), closed and consistent
+    (the volume's sign), then with one face turned (the orientation)."""
+    points = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 0.0]])
+    faces = np.array([[4, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    merge_duplicate_vertices(points.astype(np.float32), faces)  # a binary STL's points
+    vertices, faces = merge_duplicate_vertices(points, faces)
+    repair_winding(vertices, faces)
+    faces[0] = faces[0, ::-1]
+    repair_winding(vertices, faces)

@@ -12,7 +12,14 @@ import math
 import numpy as np
 
 from ..tolerances import NO_DIRECTION
-from .kernels import face_normals_into, gather_corners, normalise_sums, vertex_normal_sums
+from .kernels import (
+    creased_corners,
+    creased_vertices,
+    face_normals_into,
+    gather_corners,
+    normalise_sums,
+    vertex_normal_sums,
+)
 
 FACE_CHUNK = 1 << 18  # faces per step of a per-face computation: ~25 MB of temporaries, whatever the mesh
 
@@ -69,7 +76,7 @@ def compute_corner_normals(vertices: np.ndarray, faces: np.ndarray, weighting: s
     A vertex whose sum vanishes falls back to the face normal. `normals`: face_normals(vertices, faces)
     if the caller has them. The sums are per vertex, (V, 4) float64, and only the result is per corner
     (36 bytes a triangle in float32, 72 in float64); only corners at a vertex a crease may split pay
-    for the pairwise test (_creased_vertices).
+    for the pairwise test (kernels.creased_vertices, kernels.creased_corners).
     """
     unit, doubled_area = normals if normals is not None else face_normals(vertices, faces)
     weights = corner_weights(vertices, faces, doubled_area, weighting)
@@ -79,36 +86,17 @@ def compute_corner_normals(vertices: np.ndarray, faces: np.ndarray, weighting: s
                                 len(vertices))
     vertex_normal, vague = normalise_sums(summed, NO_DIRECTION)  # no direction: the face normal (as _normalise_or)
     del summed
-    corner_vertex = faces.ravel()
-    split = _creased_vertices(unit, corner_vertex, vertex_normal, vague, crease_angle)
     corners = _corners_of(vertex_normal, vague, faces, unit, dtype)
-    if split.any():
-        # Corners at a vertex with a crease: each gathers only the faces within the angle of its own.
-        length = np.linalg.norm(unit, axis=1)
-        reach = (np.repeat(length, 3) if weights is None else (weights * length[:, None]).ravel())
-        picked = np.flatnonzero(split[corner_vertex])
-        face = picked // 3
-        contribution = np.column_stack([_corner_terms(unit, weights, i)[picked] for i in range(3)] + [reach[picked]])
-        sums = _creased_sums(corner_vertex[picked], contribution, unit[face], crease_angle)
-        corners.reshape(-1, 3)[picked] = _normalise_or(sums[:, :3], unit[face], sums[:, 3:])
+    if crease_angle < 180.0:
+        # Corners at a vertex with a crease: each gathers only the faces within the angle of its own. A vertex
+        # whose face normals all lie within half the angle of its mean normal is not split: any two are then
+        # within the angle (triangle inequality on the sphere), so each of its corners gathers every face, the
+        # uncreased sum bit for bit. The margin sends a vertex at the bound through the pairwise test instead.
+        split = creased_vertices(faces, unit, vertex_normal, vague, math.cos(math.radians(crease_angle) / 2) + 1e-9)
+        if split.any():  # the small slack keeps a face and its exact coplanar neighbour together despite rounding
+            creased_corners(faces, unit, np.empty((0, 3)) if weights is None else weights, weights is not None,
+                            split, math.cos(math.radians(crease_angle)) - 1e-12, NO_DIRECTION, corners)
     return corners
-
-
-def _creased_vertices(unit, corner_vertex, vertex_normal, vague, crease_angle) -> np.ndarray:
-    """(V,) bool: vertices whose faces do not all lie within `crease_angle` of each other, so a crease
-    may split them. A vertex whose face normals all lie within half the angle of its mean normal is
-    not: any two are then within the angle (triangle inequality on the sphere), and every corner there
-    gathers every face, which is the uncreased sum, bit for bit (the same additions in the same order).
-    Only the others pay for the (corner, neighbour) pairs of _creased_sums."""
-    if crease_angle >= 180.0:
-        return np.zeros(len(vertex_normal), bool)
-    cosine = np.zeros(len(corner_vertex))
-    for i in range(3):
-        cosine += np.repeat(unit[:, i], 3) * vertex_normal[corner_vertex, i]
-    least = np.full(len(vertex_normal), np.inf)
-    np.minimum.at(least, corner_vertex, cosine)
-    # The margin sends a vertex at the bound through the exact pairwise test instead.
-    return vague | ~(least >= math.cos(math.radians(crease_angle) / 2) + 1e-9)
 
 
 def file_corner_normals(file_normals: np.ndarray, faces: np.ndarray, unit: np.ndarray,
@@ -130,51 +118,6 @@ def _corners_of(vertex_normal: np.ndarray, vague: np.ndarray, faces: np.ndarray,
     return corners
 
 
-def _corner_terms(unit: np.ndarray, weights: np.ndarray | None, axis: int) -> np.ndarray:
-    """(3F,) w n_f[axis] for every corner, in corner order; weights (F, 3), or None for all ones."""
-    if weights is None:
-        return np.repeat(unit[:, axis], 3)
-    return (weights * unit[:, axis, None]).ravel()
-
-
-PAIR_CHUNK = 1 << 20  # (corner, neighbour) pairs per step of _creased_sums: ~60 MB of temporaries
-
-
-def _creased_sums(corner_vertex, contribution, corner_face_normal, crease_angle):
-    """For each corner, the sum of contributions of the corners at the same vertex whose faces are
-    within `crease_angle` of its own face. corner_face_normal (C, 3) is indexed like the corners.
-
-    A vertex of valence s makes s² (corner, neighbour) pairs, so they are made PAIR_CHUNK at a time
-    (whole corners per step: each corner's sum is added in the same order whatever the chunking).
-    """
-    order = np.argsort(corner_vertex, kind="stable")
-    sorted_vertex = corner_vertex[order]
-    start = np.searchsorted(sorted_vertex, sorted_vertex, side="left")
-    count = np.searchsorted(sorted_vertex, sorted_vertex, side="right") - start
-    del sorted_vertex
-    # The small slack keeps a face and its exact coplanar neighbour together despite rounding.
-    least = math.cos(math.radians(crease_angle)) - 1e-12
-    sums = np.zeros((len(order), contribution.shape[1]))
-    pairs_before = np.cumsum(count) - count
-    cuts = np.searchsorted(pairs_before, np.arange(0, pairs_before[-1] + count[-1], PAIR_CHUNK)) if len(order) else []
-    for first, last in zip(cuts, [*cuts[1:], len(order)]):
-        if first == last:
-            continue
-        # Every (corner, neighbour corner) pair that shares a vertex, in sorted positions.
-        here = count[first:last]
-        mine = np.repeat(np.arange(first, last), here)
-        neighbour = start[mine] + (np.arange(len(mine)) - np.repeat(pairs_before[first:last] - pairs_before[first],
-                                                                    here))
-        neighbour = order[neighbour]
-        cosine = np.einsum("ij,ij->i", corner_face_normal[order[mine]], corner_face_normal[neighbour])
-        smooth = cosine >= least
-        mine, neighbour = mine[smooth] - first, neighbour[smooth]  # mine: row within this chunk
-        rows = order[first:last]
-        for i in range(contribution.shape[1]):
-            sums[rows, i] = np.bincount(mine, contribution[neighbour, i], minlength=last - first)
-    return sums
-
-
 def _normalise_or(vectors: np.ndarray, fallback: np.ndarray, reach: np.ndarray | float = 1.0) -> np.ndarray:
     """Unit vectors; the fallback where a vector has no direction: a length at most NO_DIRECTION × `reach`,
     the length it would have if its parts agreed (a sum of unit normals that nearly cancels points
@@ -182,3 +125,15 @@ def _normalise_or(vectors: np.ndarray, fallback: np.ndarray, reach: np.ndarray |
     length = np.linalg.norm(vectors, axis=-1, keepdims=True)
     tiny = length <= NO_DIRECTION * np.asarray(reach)
     return np.where(tiny, fallback, vectors / np.where(tiny, 1.0, length))
+
+
+# The compiled passes of a crease split: a smooth object with a crease angle below 180°, and a mesh file that
+# stores no normals (its crease angle is mesh_file.FILE_CREASE_ANGLE unless the scene sets one).
+CREASE_KERNELS = ("creased_vertices", "creased_corners")
+
+
+def warm_up_creases(dtype: type) -> None:
+    """Load (or compile) CREASE_KERNELS with the types a render gives them: the corner normals, in `dtype`, of a
+    tetrahedron, whose every edge is a crease at 30°."""
+    vertices = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    compute_corner_normals(vertices, np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]), "mean", 30.0, dtype)

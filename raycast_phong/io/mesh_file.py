@@ -66,7 +66,8 @@ class FileMaterial:
 @dataclass(frozen=True, eq=False)
 class MeshFile:
     """A mesh file as read: one triangle mesh in the file's frame, and its surface description."""
-    vertices: np.ndarray            # (V, 3) float64, every used vertex finite and within ±POSITION_LIMIT
+    vertices: np.ndarray            # (V, 3) float64 (float32 as a binary STL stores them), every used vertex finite
+                                    # and within ±POSITION_LIMIT
     faces: np.ndarray               # (F, 3) int64
     normals: np.ndarray | None      # (V, 3) float64 vertex normals the file stores, else None
     face_group: np.ndarray          # (F,) int32: index into `materials`, -1 for a face without a material
@@ -188,10 +189,15 @@ def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
             check_content(path, handle, where)
             if suffix in (".gltf", ".glb"):
                 _check_gltf(path, handle, where, notes)
-            source = _mesh_source(path, handle)
-            library = _obj_materials(path, source["file_obj"], notes) if suffix == ".obj" else None
-            loaded = trimesh.load(**source, process=False)
-        parts = _parts(loaded) or _strip_parts(loaded)
+            points = _binary_stl_points(handle) if suffix == ".stl" else None
+            if points is None:
+                source = _mesh_source(path, handle)
+                library = _obj_materials(path, source["file_obj"], notes) if suffix == ".obj" else None
+                loaded = trimesh.load(**source, process=False)
+        if points is not None:  # the corners in file order, as trimesh's reader gives them (without its float64)
+            library, parts = None, [_Part(points, np.arange(len(points), dtype=np.int64).reshape(-1, 3), None, None)]
+        else:
+            parts = _parts(loaded) or _strip_parts(loaded)
     except SceneError:
         raise
     except Exception as error:
@@ -214,7 +220,7 @@ def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
     face_group, materials, face_colour = _surfaces(parts, library, path, notes)
     centre, radius = np.full(3, np.nan), math.nan
     if bounds:  # only framing needs them: a render's own read skips the pass
-        low, high = bounding_box(used)  # column by column (records.bounding_box says why)
+        low, high = (side.astype(np.float64) for side in bounding_box(used))  # column by column (records says why)
         centre = (low + high) / 2
         radius = float(np.sqrt(((used - centre) ** 2).sum(axis=1).max()))
         hint = up_hint(high - low, suffix)
@@ -222,6 +228,31 @@ def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
             notes.append(f"{path}: {hint}")
     return MeshFile(vertices, faces, normals, face_group, materials, face_colour, STATED_UP.get(suffix),
                     tuple(dict.fromkeys(notes)), centre, radius, normals is not None)
+
+
+STL_RECORD = np.dtype([("normal", "<f4", 3), ("points", "<f4", (3, 3)), ("attribute", "<u2")])  # 50 bytes
+
+
+def _binary_stl_points(handle) -> np.ndarray | None:
+    """A binary STL's corner points (3F, 3) float32 in file order (corner k of triangle f at row 3f + k), or None
+    if the file is not one (an ASCII STL: its size does not match the header's count) or holds no triangle.
+
+    The values trimesh's reader gives, without its float64 (3F, 3) copy (72 bytes a triangle) and the hashing
+    its Trimesh does to validate the file's face normals (0.25 s at 1M triangles); the normals (the renderer
+    computes its own), the attribute bytes and the 80-byte header are not kept, as trimesh keeps none of them
+    for shading. The records are read into one array (50 bytes a triangle), their points copied out (36)."""
+    handle.seek(0)
+    head = handle.read(84)
+    size = os.fstat(handle.fileno()).st_size
+    count = int.from_bytes(head[80:84], "little") if len(head) == 84 else 0
+    if count == 0 or size != 84 + STL_RECORD.itemsize * count:
+        handle.seek(0)
+        return None
+    records = np.empty(count, STL_RECORD)
+    if handle.readinto(records.view(np.uint8)) != count * STL_RECORD.itemsize:
+        handle.seek(0)
+        return None  # the file shrank under us: let trimesh word it
+    return np.ascontiguousarray(records["points"], np.float32).reshape(-1, 3)
 
 
 # ---------------------------------------------------------------- what the content is
@@ -443,7 +474,7 @@ def _concatenate(parts: list[_Part]) -> tuple[np.ndarray, np.ndarray, np.ndarray
 def _check_values(coordinates: np.ndarray, path: Path, where: str) -> None:
     """Every vertex of a face (`coordinates`, (U, 3)) finite and within ±POSITION_LIMIT (trimesh squares
     coordinates)."""
-    if (np.abs(coordinates) <= POSITION_LIMIT).all():  # one pass; NaN fails the comparison too
+    if (np.abs(coordinates) <= np.float64(POSITION_LIMIT)).all():  # one pass (float32 compared in float64); NaN fails
         return
     finite = np.isfinite(coordinates).all(axis=1)
     if not finite.all():

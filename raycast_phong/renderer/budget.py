@@ -25,13 +25,15 @@ from ..scene.schema import Scene
 #   plane 1024×512 flat 186, phong with crease_angle 30 222; uv_sphere [8, 2048] with crease_angle 30
 #   (two poles of 4096 faces) 572 on 49k triangles. The same icosphere (7) from a file, phong: PLY 281,
 #   OBJ 331, GLB 347, STL 573, OFF 797 (flat the same but PLY 245, GLB 310: trimesh's own parse is the peak).
-#   A noisy 1.31M-triangle PLY whose every vertex the crease splits, crease_angle 30: 692.
+#   A noisy 1.31M-triangle PLY whose every vertex the crease splits, crease_angle 30: 692 (232 on the 327,680
+#   triangles of icosphere 7 since the crease split is a compiled pass, 2026-12).
 # The constants round these up; bench_mesh.py measures the whole render at 1000×1000 and 2M triangles.
 FLAT_BYTES = 270       # vertices, faces, face normals, Embree's BVH, the shading copies, freed heap kept by malloc
 SMOOTH_BYTES = 330     # + float32 corner normals (36 B) and their per-vertex sums
 FLOAT64_NORMAL_BYTES = 40  # corner normals in float64 (float64 shading, or global mode's shadow copy)
-CREASED_FILE_BYTES = 720   # a mesh file with a crease angle: at worst every corner takes the pairwise test
-CREASE_CHUNK_BYTES = 64 << 20  # the pairwise test's temporaries, a chunk at a time (normals.PAIR_CHUNK)
+# A mesh file with a crease angle: at worst every corner takes the pairwise test, whose compiled pass buckets the
+# corners by vertex (8 bytes a corner): the noisy icosphere-7 PLY whose every vertex it splits, 232 B/triangle.
+CREASED_FILE_BYTES = 360
 # Per ray of a tile (origins, directions, hits, Embree's output): 8192 × 16² rays in one row took 117 MB.
 RAY_BYTES = 64
 BUDGET_SHARE = 0.75    # of the memory available now: the rest is for the OS and other programs
@@ -96,13 +98,13 @@ def estimate_memory(scene: Scene, source: str = "<scene>", *, smooth: bool = Tru
         else:
             count, extra = shape_triangles(obj), 0
         smooth_here = smooth and scene.shading_of(obj) != ShadingModel.FLAT
-        per, chunk = FLAT_BYTES, 0
+        per = FLAT_BYTES
         if smooth_here:
             per = SMOOTH_BYTES + wide_normals
-            if obj.crease_angle < 180:
+            if obj.crease_angle < 180 and mesh_file:
                 # A built-in shape is smooth but for a few edges and poles; a file may be noise everywhere.
-                per, chunk = (max(per, CREASED_FILE_BYTES) if mesh_file else per), CREASE_CHUNK_BYTES
-        size = count * (per + extra) + chunk
+                per = max(per, CREASED_FILE_BYTES)
+        size = count * (per + extra)
         if mesh_file:  # a large file that claims few triangles still costs its read (a one-line OBJ)
             size = max(size, mesh_file_read_bytes(path))
         triangles += count

@@ -8,17 +8,36 @@ from collections.abc import Callable
 
 from ..scene.schema import Scene
 
+# The geometry stage's kernels every render loads: warm_kernels prepares a smooth icosphere, which calls them.
+GEOMETRY_KERNELS = ("face_normals_into", "vertex_normal_sums", "normalise_sums", "gather_corners")
+
 
 def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None) -> tuple[str, float]:
     """("compile", seconds) when the cache does not hold this scene's kernels (the first render after an install
-    or an edit; `announce` is told first, as it takes 10-30 s), else ("kernels", seconds) for loading them
-    from the cache, most of it numba's one-time set-up in a process (≈ 0.25 s)."""
+    or an edit; `announce` is told first, as it takes 10-40 s), else ("kernels", seconds) for loading them
+    from the cache (≈ 0.15 s, most of it numba's one-time set-up in a process). The kernels are the frame's, the
+    geometry stage's and, for a scene with a mesh file, its preparation's (merge, winding: mesh_repair.warm_up),
+    and the crease split's where an object may be creased (normals.warm_up_creases)."""
+    import numpy as np
+
+    from ..geometry.mesh_repair import MESH_FILE_KERNELS, warm_up
+    from ..geometry.normals import CREASE_KERNELS, warm_up_creases
     from ..jit import compiled_before
     from .frame import tile_kernel, warm_kernels_for
     from .plan import build_plan
-    cached = compiled_before(tile_kernel())
+    plan = build_plan(scene)
+    meshes = any(obj.shape == "mesh" for obj in scene.objects)
+    creases = plan.keeps("vertex_normals") and (meshes or any(obj.crease_angle < 180 for obj in scene.objects))
+    names = (tile_kernel(), *GEOMETRY_KERNELS, *(MESH_FILE_KERNELS if meshes else ()),
+             *(CREASE_KERNELS if creases else ()))
+    cached = all(compiled_before(name) for name in names)
     if not cached and announce is not None:
-        announce("compiling the shading kernels, once after an install or an edit (about 10-30 s)...")
+        announce("compiling the shading kernels (and the mesh preparation's), once after an install or an edit "
+                 "(about 10-40 s)...")
     started = time.perf_counter()
-    warm_kernels_for([build_plan(scene)])
+    warm_kernels_for([plan])
+    if meshes:
+        warm_up()
+    if creases:  # in the corner normals' dtype: the shading precision (render() asks build_geometry for it)
+        warm_up_creases(np.float64 if plan.keeps("float64_shading") else np.float32)
     return ("kernels" if cached else "compile"), time.perf_counter() - started

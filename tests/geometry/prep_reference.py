@@ -3,18 +3,12 @@ oracle: the kernels must give its results bit for bit. Helpers both share are im
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from raycast_phong.geometry.mesh_repair import _merge_sorted, _signed_volumes
-from raycast_phong.geometry.normals import (
-    FACE_CHUNK,
-    _corner_terms,
-    _creased_sums,
-    _creased_vertices,
-    _normalise_or,
-    corner_weights,
-    cross_rows,
-)
+from raycast_phong.geometry.normals import FACE_CHUNK, _normalise_or, corner_weights, cross_rows
 from raycast_phong.tolerances import NO_DIRECTION
 
 
@@ -174,3 +168,65 @@ def merge_duplicate_vertices(vertices: np.ndarray, faces: np.ndarray,
     used = np.zeros(len(vertices), bool)
     used[faces] = True
     return _merge_sorted(vertices, faces, normals, used)
+
+
+def _creased_vertices(unit, corner_vertex, vertex_normal, vague, crease_angle) -> np.ndarray:
+    """(V,) bool: vertices whose faces do not all lie within `crease_angle` of each other, so a crease
+    may split them. A vertex whose face normals all lie within half the angle of its mean normal is
+    not: any two are then within the angle (triangle inequality on the sphere), and every corner there
+    gathers every face, which is the uncreased sum, bit for bit (the same additions in the same order).
+    Only the others pay for the (corner, neighbour) pairs of _creased_sums."""
+    if crease_angle >= 180.0:
+        return np.zeros(len(vertex_normal), bool)
+    cosine = np.zeros(len(corner_vertex))
+    for i in range(3):
+        cosine += np.repeat(unit[:, i], 3) * vertex_normal[corner_vertex, i]
+    least = np.full(len(vertex_normal), np.inf)
+    np.minimum.at(least, corner_vertex, cosine)
+    # The margin sends a vertex at the bound through the exact pairwise test instead.
+    return vague | ~(least >= math.cos(math.radians(crease_angle) / 2) + 1e-9)
+
+
+def _corner_terms(unit: np.ndarray, weights: np.ndarray | None, axis: int) -> np.ndarray:
+    """(3F,) w n_f[axis] for every corner, in corner order; weights (F, 3), or None for all ones."""
+    if weights is None:
+        return np.repeat(unit[:, axis], 3)
+    return (weights * unit[:, axis, None]).ravel()
+
+
+PAIR_CHUNK = 1 << 20  # (corner, neighbour) pairs per step of _creased_sums: ~60 MB of temporaries
+
+
+def _creased_sums(corner_vertex, contribution, corner_face_normal, crease_angle):
+    """For each corner, the sum of contributions of the corners at the same vertex whose faces are
+    within `crease_angle` of its own face. corner_face_normal (C, 3) is indexed like the corners.
+
+    A vertex of valence s makes s² (corner, neighbour) pairs, so they are made PAIR_CHUNK at a time
+    (whole corners per step: each corner's sum is added in the same order whatever the chunking).
+    """
+    order = np.argsort(corner_vertex, kind="stable")
+    sorted_vertex = corner_vertex[order]
+    start = np.searchsorted(sorted_vertex, sorted_vertex, side="left")
+    count = np.searchsorted(sorted_vertex, sorted_vertex, side="right") - start
+    del sorted_vertex
+    # The small slack keeps a face and its exact coplanar neighbour together despite rounding.
+    least = math.cos(math.radians(crease_angle)) - 1e-12
+    sums = np.zeros((len(order), contribution.shape[1]))
+    pairs_before = np.cumsum(count) - count
+    cuts = np.searchsorted(pairs_before, np.arange(0, pairs_before[-1] + count[-1], PAIR_CHUNK)) if len(order) else []
+    for first, last in zip(cuts, [*cuts[1:], len(order)]):
+        if first == last:
+            continue
+        # Every (corner, neighbour corner) pair that shares a vertex, in sorted positions.
+        here = count[first:last]
+        mine = np.repeat(np.arange(first, last), here)
+        neighbour = start[mine] + (np.arange(len(mine)) - np.repeat(pairs_before[first:last] - pairs_before[first],
+                                                                    here))
+        neighbour = order[neighbour]
+        cosine = np.einsum("ij,ij->i", corner_face_normal[order[mine]], corner_face_normal[neighbour])
+        smooth = cosine >= least
+        mine, neighbour = mine[smooth] - first, neighbour[smooth]  # mine: row within this chunk
+        rows = order[first:last]
+        for i in range(contribution.shape[1]):
+            sums[rows, i] = np.bincount(mine, contribution[neighbour, i], minlength=last - first)
+    return sums

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import trimesh
+from prep_reference import _creased_sums, _creased_vertices
 
 import raycast_phong as rp
 from raycast_phong.geometry import build as geometry
@@ -13,7 +14,7 @@ from raycast_phong.geometry import kernels, mesh_repair
 from raycast_phong.geometry import normals as normal_rules
 from raycast_phong.geometry.build import build_geometry
 from raycast_phong.geometry.mesh_repair import merge_duplicate_vertices, repair_winding
-from raycast_phong.geometry.normals import _creased_sums, compute_corner_normals, face_normals
+from raycast_phong.geometry.normals import compute_corner_normals, face_normals
 
 
 @pytest.fixture
@@ -75,7 +76,8 @@ def test_colliding_hashes_are_told_apart_by_the_exact_comparison():
     distinct = len(sphere.vertices)
     table = np.full(1 << distinct.bit_length(), -1, np.int64)  # > distinct slots, < 2 × distinct
     new_of_old, first = np.empty(len(vertices), np.int64), np.empty(len(vertices), np.int64)
-    first = first[:kernels.merge_rows(vertices, np.ones(len(vertices), bool), table, new_of_old, first)]
+    first = first[:kernels.merge_rows(vertices, vertices.view(np.uint64), np.ones(len(vertices), bool), table,
+                                      new_of_old, first)]
     assert len(first) == distinct and (table >= 0).sum() == distinct
     np.testing.assert_array_equal(vertices[first][new_of_old], vertices)
 
@@ -190,8 +192,7 @@ def test_the_creased_shortcut_equals_the_pairwise_rule_bit_for_bit(weighting, cr
     # The mesh exercises both paths: some vertices take the pairwise rule, some the shortcut.
     vertex_normal = np.zeros((len(vertices), 3))
     vertex_normal[faces.ravel()] = compute_corner_normals(vertices, faces, weighting).reshape(-1, 3)
-    split = normal_rules._creased_vertices(unit, faces.ravel(), vertex_normal, np.zeros(len(vertices), bool),
-                                       crease_angle)
+    split = _creased_vertices(unit, faces.ravel(), vertex_normal, np.zeros(len(vertices), bool), crease_angle)
     assert 0 < split.sum() < len(vertices)
 
 
@@ -220,12 +221,11 @@ def test_file_normals_per_vertex_equal_the_per_corner_rule_and_fall_back_to_the_
 
 @pytest.mark.parametrize("chunk", [1, 7, 100])
 def test_chunked_steps_give_the_one_chunk_answers_at_any_chunk_size(monkeypatch, chunk):
-    """Face normals, signed volumes and creased sums run in chunks (FACE_CHUNK = 2^18 faces, PAIR_CHUNK = 2^20
-    pairs) to bound their temporaries: larger than any mesh here, so with tiny chunks every boundary is
-    crossed. Normals must equal the one-chunk answers bit for bit (each face and each corner's sum is computed
-    whole, in the same order); a volume is one sum over the faces, regrouped by the chunks: within F·ε·F,
-    since each of its F additions errs by at most ε times a running sum of at most F terms of size ≤ 1 (the
-    unit sphere). A chunk that skipped or repeated faces or pairs is off by a whole term."""
+    """Signed volumes run in chunks (FACE_CHUNK = 2^18 faces) to bound their temporaries: larger than any mesh
+    here, so with tiny chunks every boundary is crossed. The normals (compiled passes) must not change; a volume
+    is one sum over the faces, regrouped by the chunks: within F·ε·F, since each of its F additions errs by at
+    most ε times a running sum of at most F terms of size ≤ 1 (the unit sphere). A chunk that skipped or
+    repeated faces is off by a whole term."""
     sphere = trimesh.creation.icosphere(subdivisions=3)  # 1,280 faces; adjacent normals ~9° apart
     vertices, faces = np.asarray(sphere.vertices), np.asarray(sphere.faces, np.int64)
     piece = np.arange(len(faces)) % 3
@@ -238,7 +238,7 @@ def test_chunked_steps_give_the_one_chunk_answers_at_any_chunk_size(monkeypatch,
         return np.concatenate([mesh_repair._signed_volumes(vertices, faces),
                                mesh_repair._signed_volumes(vertices, faces, piece, 3, sign)])
     whole_normals, whole_volumes = normals(), volumes()
-    for module, name in ((normal_rules, "FACE_CHUNK"), (mesh_repair, "FACE_CHUNK"), (normal_rules, "PAIR_CHUNK")):
+    for module, name in ((normal_rules, "FACE_CHUNK"), (mesh_repair, "FACE_CHUNK")):
         monkeypatch.setattr(module, name, chunk)
     for found, expected in zip(normals(), whole_normals):
         np.testing.assert_array_equal(found, expected)

@@ -131,3 +131,23 @@ def test_many_repeated_points_probe_the_hash_table_as_they_merge():
     merged, remapped = merge_duplicate_vertices(vertices, faces)
     expected = reference_merge(vertices, faces)
     assert same_bits(merged, expected[0]) and np.array_equal(remapped, expected[1])
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_float32_points_as_a_binary_stl_is_read_merge_as_their_float64_values(seed):
+    """A binary STL's corners are read as float32 (io/mesh_file._binary_stl_points): the merge compares them
+    as they are and gives what the float64 path gives those values (the old read), bit for bit, in float64:
+    signed zeros joined, the first of each point kept, unused points dropped."""
+    rng = np.random.default_rng(seed)
+    points = rng.integers(-4, 5, (200, 3)).astype(np.float32) / np.float32(3)  # not exact in float32's bits
+    points[rng.random(points.shape) < 0.1] = -0.0
+    points[rng.random(points.shape) < 0.1] = 0.0
+    vertices = points[rng.integers(0, len(points), 6_000)]
+    faces = rng.integers(0, len(vertices) - 100, (2_000, 3))  # the last 100 rows: unused
+    merged, remapped = merge_duplicate_vertices(vertices, faces)
+    expected = reference_merge(vertices.astype(np.float64), faces)
+    assert same_bits(merged, expected[0]) and np.array_equal(remapped, expected[1])
+    everything = np.arange(len(vertices)).reshape(-1, 3)  # every row used, nothing to merge: float64 still
+    distinct = np.unique(points[np.any(points != 0, axis=1)], axis=0)[:99].astype(np.float32)
+    merged, remapped = merge_duplicate_vertices(distinct, everything[:33])
+    assert merged.dtype == np.float64 and np.array_equal(merged, distinct.astype(np.float64))

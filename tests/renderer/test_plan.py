@@ -80,8 +80,8 @@ def test_all_flat_scene_never_computes_vertex_normals(monkeypatch):
 
 def test_crease_split_is_used_only_with_a_crease_angle(monkeypatch):
     calls = []
-    original = normals._creased_sums
-    monkeypatch.setattr(normals, "_creased_sums", lambda *a: calls.append(1) or original(*a))
+    original = normals.creased_corners
+    monkeypatch.setattr(normals, "creased_corners", lambda *a: calls.append(1) or original(*a))
     rp.render(scene())
     assert calls == []
     rp.render(scene(objects__1__crease_angle="30"))

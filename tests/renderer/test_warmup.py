@@ -1,0 +1,64 @@
+"""The CLI's warm-up covers every kernel a scene's render calls, so the "compiling" notice is said before any of
+them compiles and no kernel loads inside the timed stages: the mesh preparation's too (issue 22)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import trimesh
+
+from raycast_phong import jit
+from raycast_phong.geometry import kernels
+from raycast_phong.geometry.mesh_repair import MESH_FILE_KERNELS
+from raycast_phong.geometry.normals import CREASE_KERNELS
+from raycast_phong.renderer import warmup
+from raycast_phong.scene.schema import validate_scene
+
+
+def mesh_scene(tmp_path):
+    trimesh.creation.icosphere(1).export(tmp_path / "ball.ply")
+    return validate_scene({"objects": [{"shape": "mesh", "path": str(tmp_path / "ball.ply")}]}, source="t")
+
+
+def test_a_mesh_file_scene_is_told_it_compiles_when_only_its_preparation_kernels_are_missing(tmp_path, monkeypatch):
+    said = []
+    monkeypatch.setattr(jit, "compiled_before", lambda name: name not in MESH_FILE_KERNELS)  # the rest cached
+    assert warmup.ready_kernels(mesh_scene(tmp_path), said.append)[0] == "compile" and len(said) == 1
+    assert "compiling the shading kernels" in said[0]
+    said.clear()  # a scene of built-in shapes calls none of them: nothing to say
+    shapes = validate_scene({"objects": [{"shape": "icosphere"}]}, source="t")
+    assert warmup.ready_kernels(shapes, said.append)[0] == "kernels" and said == []
+
+
+def test_the_warm_up_loads_the_mesh_preparation_kernels_with_the_types_a_file_gives_them(tmp_path):
+    """After ready_kernels, preparing real files (a PLY's float64 points, a binary STL's float32 corners) adds no
+    signature to any kernel: none compiles or loads inside the geometry stage."""
+    from raycast_phong.geometry.build import build_geometry
+    scene = mesh_scene(tmp_path)
+    warmup.ready_kernels(scene)
+    every = {name: getattr(kernels, name) for name in dir(kernels) if hasattr(getattr(kernels, name), "signatures")}
+    assert all(every[name].signatures for name in (*MESH_FILE_KERNELS, *CREASE_KERNELS))
+    before = {name: len(dispatcher.signatures) for name, dispatcher in every.items()}
+    mesh = trimesh.creation.icosphere(2)
+    trimesh.Trimesh(mesh.vertices[mesh.faces].reshape(-1, 3), np.arange(3 * len(mesh.faces)).reshape(-1, 3),
+                    process=False).export(tmp_path / "ball.stl")
+    flipped = mesh.faces.copy()
+    flipped[::7] = flipped[::7, ::-1]  # inconsistent: the orientation pass
+    trimesh.Trimesh(mesh.vertices, flipped, process=False).export(tmp_path / "flipped.ply")
+    for name in ("ball.ply", "ball.stl", "flipped.ply"):
+        scene = validate_scene({"objects": [{"shape": "mesh", "path": str(tmp_path / name)}]}, source="t")
+        build_geometry(scene, normal_dtype=np.float32)  # render()'s, shading in float32
+    assert {name: len(dispatcher.signatures) for name, dispatcher in every.items()} == before
+
+
+def test_numba_s_set_up_leaves_scipy_linalg_unimported():
+    """numba's first kernel call imports scipy.linalg for a BLAS probe (0.15-0.2 s of start-up) unless jit.set_up
+    answers it first; the kernels still run."""
+    code = ("import sys, numpy as np; from raycast_phong.geometry.normals import face_normals; "
+            "unit, area = face_normals(np.eye(3), np.array([[0, 1, 2]])); assert area[0] > 0; "
+            "print('scipy.linalg' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "False"
