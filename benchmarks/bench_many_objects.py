@@ -6,7 +6,7 @@ validate_scene, the memory estimate, build_geometry and the whole render(). Each
 reset before it (/proc/self/clear_refs), above the resident size at its start; run each N in a fresh
 process (the default), as malloc keeps what a previous stage freed.
 
-Usage: python benchmarks/bench_many_objects.py [--count 100000] [--shape box|icosphere]
+Usage: python benchmarks/bench_many_objects.py [--count 100000] [--shape box|icosphere|plane]
 """
 
 from __future__ import annotations
@@ -27,7 +27,8 @@ def scene_table(count: int, shape: str) -> dict:
     side = max(1.0, count ** (1 / 3))
     where = (generator.random((count, 3)) * side).round(3).tolist()
     turn = (generator.random((count, 3)) * 360).round(1).tolist()
-    keys = {"box": {"size": [0.1, 0.1, 0.1]}, "icosphere": {"radius": 0.05, "subdivisions": 1}}[shape]
+    keys = {"box": {"size": [0.1, 0.1, 0.1]}, "icosphere": {"radius": 0.05, "subdivisions": 1},
+            "plane": {"size": [0.1, 0.1]}}[shape]
     objects = [{"shape": shape, **keys, "translate": t, "rotate": r} for t, r in zip(where, turn)]
     centre = side / 2
     return {"render": {"width": 320, "height": 240},
@@ -53,7 +54,7 @@ def measured(function):
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--count", type=int, default=100_000)
-    parser.add_argument("--shape", choices=("box", "icosphere"), default="box")
+    parser.add_argument("--shape", choices=("box", "icosphere", "plane"), default="box")
     args = parser.parse_args()
     rp.render(rp.validate_scene(scene_table(8, args.shape)), max_memory="4G")  # kernels loaded, caches warm
     table = scene_table(args.count, args.shape)
@@ -65,6 +66,10 @@ def main() -> None:
     print(f"  geometry {seconds:6.2f} s {peak / 2**20:7.0f} MB", flush=True)
     _, seconds, peak = measured(lambda: rp.render(scene, max_memory="16G"))
     print(f"  render() {seconds:6.2f} s {peak / 2**20:7.0f} MB (from the validated scene)", flush=True)
+    del scene
+    _, seconds, peak = measured(lambda: rp.render(rp.validate_scene(table, source="bench"), max_memory="16G"))
+    print(f"  validate and render {seconds:6.2f} s {peak / 2**20:7.0f} MB, estimate {estimate.total / 2**20:7.0f} MB "
+          f"({(peak - estimate.total) / args.count:+.0f} B an object)", flush=True)
 
 
 if __name__ == "__main__":
