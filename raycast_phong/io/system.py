@@ -1,5 +1,5 @@
-"""What the machine can give now: available memory (Linux's /proc/meminfo, capped by cgroup v1/v2 limits,
-`ulimit -v` and the command's --max-memory), and
+"""What the machine can give now: available memory (Linux's /proc/meminfo, capped by cgroup v1/v2 limits and
+`ulimit -v`), and
 how byte and triangle counts are written in messages.
 """
 
@@ -14,7 +14,7 @@ from pathlib import Path
 def available_memory() -> int | None:
     """Bytes the machine can give this process now: MemAvailable (Linux), capped by its cgroup's limit (v2 or
     v1, its own cgroup and every parent) and by the address space `ulimit -v` (RLIMIT_AS) leaves; else free
-    pages. The --max-memory budget of this command, where one is set (limit_budget), caps it too."""
+    pages. A command's --max-memory is its caller's to apply (io.mesh_header.check_mesh_read's max_memory)."""
     found = None
     try:
         with open("/proc/meminfo", "rb") as meminfo:
@@ -29,20 +29,10 @@ def available_memory() -> int | None:
             found = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
         except (ValueError, OSError, AttributeError):
             return None
-    for limit in (_cgroup_room(), _address_space_room(), BUDGET[0]):
+    for limit in (_cgroup_room(), _address_space_room()):
         if limit is not None:
             found = min(found, limit)
     return found
-
-
-# The budget a command was given (--max-memory), so that a read below the renderer (framing's mesh read)
-# keeps to it too; the CLI sets it for one command and clears it after (cli.common).
-BUDGET: list[int | None] = [None]
-
-
-def limit_budget(budget: int | None) -> None:
-    """Cap available_memory() at `budget` bytes for the rest of this command (None: no cap)."""
-    BUDGET[0] = budget
 
 
 def _cgroup_room() -> int | None:

@@ -203,12 +203,14 @@ def is_current(previous: dict | None, digest: str, inputs: dict[str, int], folde
             and all(isinstance(name, str) and (folder / name).is_file() for name in outputs))
 
 
-def prepare_job(job: Job, folder: Path, settings: Settings, previous: dict | None, force: bool) -> Task | Outcome:
-    """Load and hash one job: a Task to render, or an Outcome already (up to date, or a scene that fails to load)."""
+def prepare_job(job: Job, folder: Path, settings: Settings, previous: dict | None, force: bool,
+                max_memory: int | None = None) -> Task | Outcome:
+    """Load and hash one job: a Task to render, or an Outcome already (up to date, or a scene that fails to load).
+    A mesh file's framing read keeps to `max_memory` bytes (the batch's budget)."""
     start = time.perf_counter()
     entry = new_entry(job, FAILED)
     try:
-        scene = load_scene(job.scene, job.overrides)
+        scene = load_scene(job.scene, job.overrides, max_memory=max_memory)
     except SceneError as error:
         entry.reason, entry.hash = reason_line(job, str(error)), job_hash(job, None, settings)
         return entry

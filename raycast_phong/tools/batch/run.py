@@ -125,7 +125,7 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
 
     try:
         for job in jobs:
-            item = prepare_job(job, folder, settings, manifest["scenes"].get(job.name), force)
+            item = prepare_job(job, folder, settings, manifest["scenes"].get(job.name), force, max_memory)
             if isinstance(item, Task):
                 tasks.append(item)
             else:
