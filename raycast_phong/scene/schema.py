@@ -492,6 +492,7 @@ _LENGTHS = {"radius": (False, POSITION_LIMIT), "height": (False, POSITION_LIMIT)
             "major_radius": (False, POSITION_LIMIT), "minor_radius": (False, POSITION_LIMIT),
             "crease_angle": (True, 180.0)}
 _VECTORS = ("translate", "rotate", "scale")
+_BULK_ROWS = 1 << 16  # objects checked at once: the columns' temporaries stay a few MB however many there are
 _BULK_KEYS = frozenset({"shape", "subdivisions", "segments", "size", *_CHOICES, *_TEXT, *_LENGTHS, *_VECTORS})
 
 
@@ -628,9 +629,11 @@ def objects_in_bulk(objects: Any) -> Any:
         for keys, members in groups.items():
             if "shape" not in keys or not _BULK_KEYS.issuperset(keys):
                 continue
-            for index, obj in zip(members, _build_group(keys, [objects[i] for i in members])):
-                if obj is not None:
-                    result[index] = obj
+            for start in range(0, len(members), _BULK_ROWS):
+                chunk = members[start:start + _BULK_ROWS]
+                for index, obj in zip(chunk, _build_group(keys, [objects[i] for i in chunk])):
+                    if obj is not None:
+                        result[index] = obj
     finally:
         if collecting:
             gc.enable()
