@@ -149,3 +149,21 @@ def test_the_sheet_check_reads_headers_only(tmp_path):
     with pytest.raises(ImageError, match=r"s-contact.png: the contact sheet of 2 cells of up to 4000×4000 pixels"):
         check_sheet_memory(tmp_path / "s-contact.png", cells, outputs, 500 << 20)
     check_sheet_memory(tmp_path / "s-contact.png", cells, outputs, 4 << 30)  # fits: no error
+
+
+def test_reference_fine_is_refused_before_it_refines_over_the_budget(tmp_path):
+    """`reference --fine 6` of the default scene makes three icospheres of subdivision 7 (983,040 triangles,
+    ≈ 400 MB): with --max-memory 100M one line naming --fine and the budget, exit 2, before anything is refined; a
+    mesh file of 1,280 triangles at --fine 6 would be Loop-subdivided to 5.2M before the render's own check."""
+    result = runner.invoke(app, ["reference", "--fine", "6", "--max-memory", "100M", "-o", str(tmp_path / "r.exr")])
+    lines = result.output.strip().splitlines()
+    assert result.exit_code == 2 and len(lines) == 1, result.output
+    assert "--fine 6: the refined scene has 983,040 triangles" in lines[0] and "above the 100 MB budget" in lines[0]
+    import trimesh
+    trimesh.creation.icosphere(3).export(tmp_path / "ball.ply")
+    result = runner.invoke(app, ["reference", str(tmp_path / "ball.ply"), "--fine", "6", "--max-memory", "500M",
+                                 "-o", str(tmp_path / "r.exr")])
+    lines = result.output.strip().splitlines()
+    assert result.exit_code == 2 and len(lines) == 1, result.output
+    assert "--fine 6: the refined scene has 5.2M triangles" in lines[0], lines[0]
+    assert not (tmp_path / "r.exr").exists()
