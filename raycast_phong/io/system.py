@@ -35,22 +35,30 @@ def available_memory() -> int | None:
     return found
 
 
-def _cgroup_room() -> int | None:
-    """What the tightest memory limit of this process's cgroup and its parents leaves (v2, else v1)."""
+_CGROUP_ROOT = "/sys/fs/cgroup"
+# Tests point the cgroup tree elsewhere (a fake memory.max in a temporary folder) for a whole subprocess:
+_CGROUP_ROOT_VARIABLE = "RAYCAST_PHONG_TEST_CGROUP_ROOT"
+
+
+def _cgroup_room(root: str | Path | None = None, lines: list[str] | None = None) -> int | None:
+    """What the tightest memory limit of this process's cgroup and its parents leaves (v2, else v1): the
+    cgroup tree under `root` (default /sys/fs/cgroup), the process's cgroups from `lines` (default
+    /proc/self/cgroup's)."""
+    root = Path(root or os.environ.get(_CGROUP_ROOT_VARIABLE) or _CGROUP_ROOT)
     room = None
-    try:
-        lines = Path("/proc/self/cgroup").read_text().splitlines()
-    except OSError:
-        lines = []
+    if lines is None:
+        try:
+            lines = Path("/proc/self/cgroup").read_text().splitlines()
+        except OSError:
+            lines = []
     places = []
     for line in lines:
         number, controllers, where = [*line.split(":", 2), "", ""][:3]
         if number == "0" and controllers == "":
-            places.append((Path("/sys/fs/cgroup") / where.lstrip("/"), "memory.max", "memory.current"))
+            places.append((root / where.lstrip("/"), "memory.max", "memory.current"))
         elif "memory" in controllers.split(","):
-            places.append((Path("/sys/fs/cgroup/memory") / where.lstrip("/"), "memory.limit_in_bytes",
-                           "memory.usage_in_bytes"))
-    places.append((Path("/sys/fs/cgroup"), "memory.max", "memory.current"))
+            places.append((root / "memory" / where.lstrip("/"), "memory.limit_in_bytes", "memory.usage_in_bytes"))
+    places.append((root, "memory.max", "memory.current"))
     for folder, limit_name, used_name in places:
         while True:
             try:
@@ -61,7 +69,7 @@ def _cgroup_room() -> int | None:
                     room = left if room is None else min(room, left)
             except (OSError, ValueError):
                 pass
-            if folder.parent == folder or folder.name in ("cgroup", "memory"):
+            if folder.parent == folder or folder in (root, root / "memory"):
                 break
             folder = folder.parent
     return room
