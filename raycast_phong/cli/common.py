@@ -210,13 +210,18 @@ def exit_codes():
         fail(f"internal error: {type(error).__name__}: {error}" + (f" (traceback in {log})" if log else ""), code=1)
 
 
+ERROR_LOGS_VARIABLE = "RAYCAST_PHONG_ERROR_LOGS"
+
+
 def _traceback_log(error: BaseException) -> str | None:
     """Write the traceback of an internal error to a fresh raycast-phong-error-*.log in the temporary folder
-    and return its path (None if even that cannot be written: the one line must still come out)."""
+    (or in $RAYCAST_PHONG_ERROR_LOGS: the test suite keeps its own there) and return its path (None if even
+    that cannot be written: the one line must still come out)."""
     import tempfile
     import traceback
     try:
-        descriptor, path = tempfile.mkstemp(prefix="raycast-phong-error-", suffix=".log")
+        descriptor, path = tempfile.mkstemp(prefix="raycast-phong-error-", suffix=".log",
+                                            dir=os.environ.get(ERROR_LOGS_VARIABLE) or None)
         with os.fdopen(descriptor, "w", encoding="utf-8") as log:
             log.write("".join(traceback.format_exception(error)))
         return path
