@@ -42,14 +42,17 @@ def _status(field: str) -> int:
         return next(int(line.split()[1]) << 10 for line in status if line.startswith(field))
 
 
+CPU = [0.0]
+
+
 def measured(function):
-    """(result, seconds, bytes of peak above the resident size at the start); prints the CPU seconds too
-    (all threads), which another job on the machine moves less than the wall-clock time."""
+    """(result, seconds, bytes of peak above the resident size at the start); CPU[0] is set to the CPU
+    seconds (all threads), which another job on the machine moves less than the wall-clock time."""
     with open("/proc/self/clear_refs", "w") as refs:
         refs.write("5")  # reset VmHWM to the resident size now
     start_rss, start, cpu = _status("VmRSS:"), time.perf_counter(), time.process_time()
     result = function()
-    print(f"    (CPU {time.process_time() - cpu:6.2f} s)", end="")
+    CPU[0] = time.process_time() - cpu
     return result, time.perf_counter() - start, _status("VmHWM:") - start_rss
 
 
@@ -61,13 +64,13 @@ def main() -> None:
     rp.render(rp.validate_scene(scene_table(8, args.shape)), max_memory="4G")  # kernels loaded, caches warm
     table = scene_table(args.count, args.shape)
     scene, seconds, peak = measured(lambda: rp.validate_scene(table, source="bench"))
-    print(f"{args.count} {args.shape}es  validate {seconds:6.2f} s {peak / 2**20:7.0f} MB", flush=True)
+    print(f"{args.count} objects ({args.shape})  validate {seconds:6.2f} s (CPU {CPU[0]:.2f} s) {peak / 2**20:7.0f} MB", flush=True)
     estimate, seconds, peak = measured(lambda: estimate_memory(scene))
     print(f"  estimate {seconds:6.2f} s  total {estimate.total / 2**20:7.0f} MB", flush=True)
     _, seconds, peak = measured(lambda: build_geometry(scene))
-    print(f"  geometry {seconds:6.2f} s {peak / 2**20:7.0f} MB", flush=True)
+    print(f"  geometry {seconds:6.2f} s (CPU {CPU[0]:.2f} s) {peak / 2**20:7.0f} MB", flush=True)
     _, seconds, peak = measured(lambda: rp.render(scene, max_memory="16G"))
-    print(f"  render() {seconds:6.2f} s {peak / 2**20:7.0f} MB (from the validated scene)", flush=True)
+    print(f"  render() {seconds:6.2f} s (CPU {CPU[0]:.2f} s) {peak / 2**20:7.0f} MB (from the validated scene)", flush=True)
     del scene
     _, seconds, peak = measured(lambda: rp.render(rp.validate_scene(table, source="bench"), max_memory="16G"))
     print(f"  validate and render {seconds:6.2f} s {peak / 2**20:7.0f} MB, estimate {estimate.total / 2**20:7.0f} MB "
