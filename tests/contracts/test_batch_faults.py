@@ -259,10 +259,10 @@ def test_each_broken_scene_file_fails_only_itself(tmp_path):
 
 
 def test_an_internal_error_keeps_its_traceback_and_the_batch_goes_on(five_scenes, tmp_path, monkeypatch):
-    def load_scene(path, overrides=()):
+    def load_scene(path, overrides=(), **options):
         if Path(path).stem == "sphere1":
             return 1 / 0  # a bug in the loader, on one scene
-        return rp.load_scene(path, overrides)
+        return rp.load_scene(path, overrides, **options)
 
     monkeypatch.setattr(batch.jobs, "load_scene", load_scene)
     out = tmp_path / "out"

@@ -178,3 +178,15 @@ def test_each_load_keeps_to_its_own_budget(tmp_path):
         else:
             with pytest.raises(SceneError, match="a.obj: reading its .* more than the 1 MB available"):
                 rp.load_scene(path, max_memory=budget)
+
+
+def test_an_obj_of_a_polygon_and_no_vertices_is_one_line(tmp_path):
+    """Found by test_fuzz_files: `f 1 1 1 1` alone made the concave-polygon pass index an empty vertex array
+    (IndexError, 'internal error', exit 1)."""
+    from typer.testing import CliRunner
+
+    from raycast_phong.cli import app
+    (tmp_path / "h.obj").write_bytes(b"f 1 1 1 1")
+    done = CliRunner().invoke(app, ["plan", str(tmp_path / "h.obj"), "--max-memory", "50M"])
+    assert done.exit_code == 2 and len(done.output.strip().splitlines()) == 1, done.output
+    assert "holds no triangles" in done.output
