@@ -567,7 +567,7 @@ def _check_column(key: str, column: list, shapes: list) -> tuple[np.ndarray, lis
     if key == "segments":
         good = np.fromiter((value is None or (type(value) in _SEQUENCE and len(value) == 2 and all(
             type(v) is int and 3 <= v <= 4096 for v in value)) for value in column), bool, count)
-        return good, [None if value is None else tuple(value) for value in column] if good.all() else column
+        return good, [tuple(value) if ok and value is not None else value for value, ok in zip(column, good.tolist())]
     if key == "size":  # a box's three lengths or a plane's two; None or any other shape: pydantic's
         good, sizes = np.zeros(count, bool), list(column)
         for shape, length in (("box", 3), ("plane", 2)):
