@@ -64,14 +64,16 @@ def main() -> None:
     rp.render(rp.validate_scene(scene_table(8, args.shape)), max_memory="4G")  # kernels loaded, caches warm
     table = scene_table(args.count, args.shape)
     scene, seconds, peak = measured(lambda: rp.validate_scene(table, source="bench"))
-    print(f"{args.count} objects ({args.shape})  validate {seconds:6.2f} s (CPU {CPU[0]:.2f} s) {peak / 2**20:7.0f} MB", flush=True)
+    print(f"{args.count} objects ({args.shape})  validate {seconds:6.2f} s (CPU {CPU[0]:.2f} s) "
+          f"{peak / 2**20:7.0f} MB", flush=True)
     estimate, seconds, peak = measured(lambda: estimate_memory(scene))
     print(f"  estimate {seconds:6.2f} s  total {estimate.total / 2**20:7.0f} MB", flush=True)
     _, seconds, peak = measured(lambda: build_geometry(scene))
     print(f"  geometry {seconds:6.2f} s (CPU {CPU[0]:.2f} s) {peak / 2**20:7.0f} MB", flush=True)
     _, seconds, peak = measured(lambda: rp.render(scene, max_memory="16G"))
-    print(f"  render() {seconds:6.2f} s (CPU {CPU[0]:.2f} s) {peak / 2**20:7.0f} MB (from the validated scene)", flush=True)
-    del scene
+    print(f"  render() {seconds:6.2f} s (CPU {CPU[0]:.2f} s) {peak / 2**20:7.0f} MB (from the validated scene)",
+          flush=True)
+    scene = None  # its memory is free for the next measurement
     _, seconds, peak = measured(lambda: rp.render(rp.validate_scene(table, source="bench"), max_memory="16G"))
     print(f"  validate and render {seconds:6.2f} s {peak / 2**20:7.0f} MB, estimate {estimate.total / 2**20:7.0f} MB "
           f"({(peak - estimate.total) / args.count:+.0f} B an object)", flush=True)

@@ -27,8 +27,8 @@ from .common import MaxMemoryOption, app, exit_codes, one_line
 """)
 def batch(
     paths: Annotated[list[str], typer.Argument(metavar="PATHS...", show_default=False, help="Scene files, folders "
-                     "(their .toml and .json files), globs (quoted) and sweep files (see docs/batch.md); - reads scene paths "
-                     "from stdin, one a line (as xargs).")],
+                     "(their .toml and .json files), globs (quoted) and sweep files (see docs/batch.md); - reads "
+                     "scene paths from stdin, one a line (as xargs).")],
     out: Annotated[Path, typer.Option("--out", help="Output folder: one image per scene, named after it, and "
                    "manifest.json.", show_default=False)],
     jobs: Annotated[int | None, typer.Option("--jobs", "-j", min=1, max=256, help="Cores to use (default: all): "

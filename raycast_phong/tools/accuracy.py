@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from ..geometry.build import object_mesh
 from ..errors import SceneError
+from ..geometry.build import object_mesh
 from ..records import MeasuredResult, RenderResult
 from ..renderer.frame import render
 from ..renderer.prepare import Prepared, prepare
@@ -93,7 +93,8 @@ def check_fine_memory(scene: Scene, data: dict, levels: int, source: str, max_me
         _mesh_triangles(scene, index, source) for index, obj in enumerate(scene.objects) if obj.shape == "mesh"))
     need = found.total + extra_triangles * (SMOOTH_BYTES + FLOAT64_NORMAL_BYTES + LOOP_BYTES)
     if need > budget:
-        raise SceneError(f"{source}: --fine {levels}: the refined scene has {count_text(found.triangles + extra_triangles)}"
+        triangles = count_text(found.triangles + extra_triangles)
+        raise SceneError(f"{source}: --fine {levels}: the refined scene has {triangles}"
                          f" triangles and needs ≈ {format_bytes(need)} of memory, above the {format_bytes(budget)} "
                          "budget; use a smaller --fine or raise the budget (--max-memory)")
 
@@ -103,7 +104,8 @@ def _mesh_triangles(scene: Scene, index: int, source: str) -> int:
     return mesh_file_triangles(scene.resolve(scene.objects[index].path), f"{source}: objects.{index}.path")
 
 
-def fine_reference(scene: Scene, levels: int, source: str = "<scene>", max_memory: int | None = None) -> ReferenceImage:
+def fine_reference(scene: Scene, levels: int, source: str = "<scene>",
+                   max_memory: int | None = None) -> ReferenceImage:
     """The scene refined `levels` times (refine_entry: meshes Loop-subdivided, analytic shapes `levels`
     tessellation levels up from their own), rendered with Phong shading in float64. Coverage comes from
     the same Embree cast as the render's. Refused (check_fine_memory) before anything is refined when it

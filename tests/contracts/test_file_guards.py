@@ -176,7 +176,7 @@ def test_each_load_keeps_to_its_own_budget(tmp_path):
         if fits:
             assert rp.load_scene(path, max_memory=budget).objects[0].shape == "mesh"
         else:
-            with pytest.raises(SceneError, match="a.obj: reading its .* more than the 1 MB available"):
+            with pytest.raises(SceneError, match=r"a\.obj: reading its .* than the 1 MB available"):
                 rp.load_scene(path, max_memory=budget)
 
 

@@ -9,7 +9,6 @@ limit, lower than the free memory, is what the budget follows."""
 from __future__ import annotations
 
 import os
-import resource
 import struct
 import subprocess
 import sys

@@ -90,8 +90,8 @@ def group(draw) -> list[dict]:
                                           "crease_angle", *schema.SHAPE_KEYS[shape]]), max_size=5, unique=True))
     rows = []
     for _ in range(draw(st.integers(1, 6))):
-        rows.append({"shape": shape, **{key: draw(st.sampled_from(GOOD[key] if draw(st.integers(0, 3)) else VALUES[key]))
-                                        for key in keys}})
+        rows.append({"shape": shape, **{key: draw(st.sampled_from(GOOD[key] if draw(st.integers(0, 3))
+                                                                  else VALUES[key])) for key in keys}})
     return rows
 
 

@@ -323,7 +323,8 @@ def test_batch_reads_scene_paths_from_stdin(tmp_path):
     (tmp_path / "a b.toml").write_text(scene_text())
     (tmp_path / "c*.toml").write_text(scene_text("box", ""))
     (tmp_path / "notes.txt").write_text("not a scene\n")
-    listed = f"{tmp_path / 'a b.toml'}\n\n{tmp_path / 'c*.toml'}\r\n{tmp_path / 'gone.toml'}\n{tmp_path / 'notes.txt'}\n"
+    listed = (f"{tmp_path / 'a b.toml'}\n\n{tmp_path / 'c*.toml'}\r\n{tmp_path / 'gone.toml'}\n"
+              f"{tmp_path / 'notes.txt'}\n")
     out = tmp_path / "out"
     result = runner.invoke(app, ["batch", "-", "--out", str(out), "--jobs", "1"], input=listed)
     assert result.exit_code == 1, result.output
