@@ -67,3 +67,18 @@ def pixel_centre_rays(rig, width: int, height: int):
     sx, sy = np.meshgrid(x * rig.half_width, y * rig.half_height)
     d = rig.forward + sx[..., None] * rig.right + sy[..., None] * rig.up
     return rig.eye, d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+@pytest.fixture(autouse=True, scope="session")
+def error_logs_in_the_session_folder(tmp_path_factory):
+    """Internal-error tracebacks (cli.common._traceback_log) of this run, and of the commands it starts, go to
+    a folder of the session's own instead of piling up as raycast-phong-error-*.log in /tmp."""
+    import os
+    folder = tmp_path_factory.mktemp("error-logs")
+    before = os.environ.get("RAYCAST_PHONG_ERROR_LOGS")
+    os.environ["RAYCAST_PHONG_ERROR_LOGS"] = str(folder)
+    yield folder
+    if before is None:
+        os.environ.pop("RAYCAST_PHONG_ERROR_LOGS", None)
+    else:
+        os.environ["RAYCAST_PHONG_ERROR_LOGS"] = before

@@ -42,6 +42,7 @@ def reference_command(
                     "mesh Loop-subdivided N times and every shape N levels finer, Phong shading, float64. "
                     "The only choice for a scene with a mesh file.")] = None,
     set_: SetOption = [],
+    max_memory: MaxMemoryOption = None,
     view: ViewOption = None,
     up: UpOption = None,
 ) -> None:
@@ -51,10 +52,10 @@ def reference_command(
     from raycast_phong.tools.accuracy import reference_image
     with exit_codes():
         path = scene or rp.default_scene_path()
-        loaded = rp.load_scene(path, set_, view=_view(view), up=up)
+        loaded = rp.load_scene(path, set_, view=_view(view), up=up, max_memory=max_memory)
         check_output_path(output, inputs=(path,))
         started = time.perf_counter()
-        exact = reference_image(loaded, str(path), fine=fine)
+        exact = reference_image(loaded, str(path), fine=fine, max_memory=max_memory)
         seconds = time.perf_counter() - started
         rp.write_image(output, exact.image.astype("float32"))
     h, w = exact.image.shape[:2]

@@ -21,11 +21,14 @@ from .common import MaxMemoryOption, app, exit_codes, one_line
 
   raycast-phong batch scenes/ --out renders --force      # render even the up-to-date ones
 
+  find . -name "*.toml" | raycast-phong batch - --out renders   # the paths on stdin, one a line
+
   raycast-phong batch scenes/ --out renders --scheduler tcp://10.0.0.5:8786   # on a Dask cluster
 """)
 def batch(
     paths: Annotated[list[str], typer.Argument(metavar="PATHS...", show_default=False, help="Scene files, folders "
-                     "(their .toml and .json files), globs (quoted) and sweep files (see docs/batch.md).")],
+                     "(their .toml and .json files), globs (quoted) and sweep files (see docs/batch.md); - reads "
+                     "scene paths from stdin, one a line (as xargs).")],
     out: Annotated[Path, typer.Option("--out", help="Output folder: one image per scene, named after it, and "
                    "manifest.json.", show_default=False)],
     jobs: Annotated[int | None, typer.Option("--jobs", "-j", min=1, max=256, help="Cores to use (default: all): "
@@ -52,7 +55,8 @@ def batch(
     previous = {number: signal.signal(number, batches.interrupt) for number in batches.STOP_SIGNALS}
     try:
         with exit_codes():
-            found = batches.find_jobs(paths, out)
+            listed = batches.listed_paths(sys.stdin.buffer) if "-" in paths else []
+            found = batches.find_jobs(paths, out, listed)
             report = _batch_with_progress(found, out, jobs, force, batches.Settings(srgb=srgb), scheduler, quiet,
                                           max_memory)
     except batches.Interrupted as stop:

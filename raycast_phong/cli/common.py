@@ -29,7 +29,6 @@ class OneLineErrors(TyperGroup):
     stderr with exit 2, like every other error of the program, instead of rich's boxed message."""
 
     def main(self, *args, standalone_mode: bool = True, **kwargs):
-        from raycast_phong.io.system import limit_budget
         try:
             if not standalone_mode:
                 return self._main(*args, standalone_mode=False, **kwargs)
@@ -47,8 +46,6 @@ class OneLineErrors(TyperGroup):
             sys.exit(code)
         except OSError as error:  # a print to stdout or stderr failed: what --help and errors write to
             _output_failed(error)
-        finally:
-            limit_budget(None)  # --max-memory holds for one command (tests run many in one process)
 
     def _main(self, *args, standalone_mode: bool = True, **kwargs):
         from raycast_phong.io.system import check_environment
@@ -154,13 +151,11 @@ def _max_memory(text: str | None) -> int | None:
     """--max-memory SIZE in bytes; a malformed size exits 2 with one line."""
     if text is None:
         return None
-    from raycast_phong.io.system import limit_budget
     from raycast_phong.renderer.budget import parse_size  # its module is light: no numba, no trimesh
     try:
         budget = parse_size(text)
     except ValueError as error:
         fail(f"--max-memory: {error}")
-    limit_budget(budget)  # a read below the renderer (framing's mesh read) keeps to it too
     return budget
 
 
@@ -215,13 +210,18 @@ def exit_codes():
         fail(f"internal error: {type(error).__name__}: {error}" + (f" (traceback in {log})" if log else ""), code=1)
 
 
+ERROR_LOGS_VARIABLE = "RAYCAST_PHONG_ERROR_LOGS"
+
+
 def _traceback_log(error: BaseException) -> str | None:
     """Write the traceback of an internal error to a fresh raycast-phong-error-*.log in the temporary folder
-    and return its path (None if even that cannot be written: the one line must still come out)."""
+    (or in $RAYCAST_PHONG_ERROR_LOGS: the test suite keeps its own there) and return its path (None if even
+    that cannot be written: the one line must still come out)."""
     import tempfile
     import traceback
     try:
-        descriptor, path = tempfile.mkstemp(prefix="raycast-phong-error-", suffix=".log")
+        descriptor, path = tempfile.mkstemp(prefix="raycast-phong-error-", suffix=".log",
+                                            dir=os.environ.get(ERROR_LOGS_VARIABLE) or None)
         with os.fdopen(descriptor, "w", encoding="utf-8") as log:
             log.write("".join(traceback.format_exception(error)))
         return path

@@ -62,7 +62,7 @@ def side_by_side(
         path = scene or rp.default_scene_path()
         fixed = [*scene_overrides({"render.width": width, "render.height": height}), *set_]
         # every value is checked before any render
-        scenes = compare.load_variants(path, fixed, key, values, _view(view), up)
+        scenes = compare.load_variants(path, fixed, key, values, _view(view), up, max_memory)
         check_output_path(output, inputs=(path,))
         layers = output if output.suffix.lower() == ".exr" else output.with_name(f"{output.stem}-variants.exr")
         check_output_path(layers, inputs=(path,))

@@ -72,7 +72,7 @@ def render(
     with exit_codes():
         started = time.perf_counter()
         path = scene or rp.default_scene_path()
-        loaded = rp.load_scene(path, overrides, view=_view(view), up=up)
+        loaded = rp.load_scene(path, overrides, view=_view(view), up=up, max_memory=max_memory)
         load_seconds = time.perf_counter() - started
         from raycast_phong.scene.output import render_output
         output = render_output(loaded, Path(path), output, builtin=scene is None)
@@ -159,6 +159,6 @@ def plan(scene: SceneArgument = None, set_: SetOption = [], max_memory: MaxMemor
     from raycast_phong.renderer.prepare import prepare
     with exit_codes():
         path = scene or rp.default_scene_path()
-        loaded = rp.load_scene(path, set_, view=_view(view), up=up)
+        loaded = rp.load_scene(path, set_, view=_view(view), up=up, max_memory=max_memory)
         # render's own preparation: the same memory check (before building anything), geometry and diagnosis.
         typer.echo(prepare(loaded, source=str(path), max_memory=max_memory).plan.describe())

@@ -177,13 +177,16 @@ def _gltf_triangles(document: dict) -> int:
     return total
 
 
-def check_mesh_read(path: Path, source: str) -> None:
+def check_mesh_read(path: Path, source: str, max_memory: int | None = None) -> None:
     """Refuse (SceneError, one line) to read a mesh file for framing (scene.framing, before any render and
     so before renderer.budget.check_memory) when the read alone could not fit in the memory available now
-    (io.system.available_memory: cgroup, `ulimit -v` and the command's --max-memory): the file's size × its
-    parse (mesh_file_read_bytes, checked first, so a huge file is never scanned), or its triangles (from
-    the header, mesh_file_triangles) × the flat render's bytes per triangle and the format's parse."""
+    (io.system.available_memory: cgroup and `ulimit -v`; and `max_memory`, the command's --max-memory): the
+    file's size × its parse (mesh_file_read_bytes, checked first, so a huge file is never scanned), or its
+    triangles (from the header, mesh_file_triangles) × the flat render's bytes per triangle and the format's
+    parse."""
     available = available_memory()
+    if max_memory is not None:
+        available = max_memory if available is None else min(available, max_memory)
     floor = mesh_file_read_bytes(path)  # from the size alone: a huge file is refused before any byte is read
     triangles = 0 if available is not None and floor > available else mesh_file_triangles(path, source)
     need = max(triangles * (MESH_READ_BYTES + MESH_FILE_BYTES.get(path.suffix.lower(), OTHER_MESH_FILE_BYTES)),

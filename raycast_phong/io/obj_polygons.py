@@ -31,6 +31,8 @@ def triangulate_concave(data: bytes) -> tuple[bytes, int]:
         points = np.array([m.groups() for m in found]).astype(np.float64).reshape(-1, 3)
     except ValueError:
         return data, 0  # trimesh words what is wrong with the file
+    if not len(points):
+        return data, 0  # faces without vertices: the reader reports the indices out of range
     starts = np.array([m.start() for m in found], np.int64)
     before = np.searchsorted(starts, np.array([m.start() for m in polygons], np.int64))  # v lines before: -1's base
     tokens = [m.group(0).split(b"#", 1)[0].split()[1:] for m in polygons]

@@ -1,5 +1,5 @@
-"""What the machine can give now: available memory (Linux's /proc/meminfo, capped by cgroup v1/v2 limits,
-`ulimit -v` and the command's --max-memory), and
+"""What the machine can give now: available memory (Linux's /proc/meminfo, capped by cgroup v1/v2 limits and
+`ulimit -v`), and
 how byte and triangle counts are written in messages.
 """
 
@@ -14,7 +14,7 @@ from pathlib import Path
 def available_memory() -> int | None:
     """Bytes the machine can give this process now: MemAvailable (Linux), capped by its cgroup's limit (v2 or
     v1, its own cgroup and every parent) and by the address space `ulimit -v` (RLIMIT_AS) leaves; else free
-    pages. The --max-memory budget of this command, where one is set (limit_budget), caps it too."""
+    pages. A command's --max-memory is its caller's to apply (io.mesh_header.check_mesh_read's max_memory)."""
     found = None
     try:
         with open("/proc/meminfo", "rb") as meminfo:
@@ -29,38 +29,36 @@ def available_memory() -> int | None:
             found = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
         except (ValueError, OSError, AttributeError):
             return None
-    for limit in (_cgroup_room(), _address_space_room(), BUDGET[0]):
+    for limit in (_cgroup_room(), _address_space_room()):
         if limit is not None:
             found = min(found, limit)
     return found
 
 
-# The budget a command was given (--max-memory), so that a read below the renderer (framing's mesh read)
-# keeps to it too; the CLI sets it for one command and clears it after (cli.common).
-BUDGET: list[int | None] = [None]
+_CGROUP_ROOT = "/sys/fs/cgroup"
+# Tests point the cgroup tree elsewhere (a fake memory.max in a temporary folder) for a whole subprocess:
+_CGROUP_ROOT_VARIABLE = "RAYCAST_PHONG_TEST_CGROUP_ROOT"
 
 
-def limit_budget(budget: int | None) -> None:
-    """Cap available_memory() at `budget` bytes for the rest of this command (None: no cap)."""
-    BUDGET[0] = budget
-
-
-def _cgroup_room() -> int | None:
-    """What the tightest memory limit of this process's cgroup and its parents leaves (v2, else v1)."""
+def _cgroup_room(root: str | Path | None = None, lines: list[str] | None = None) -> int | None:
+    """What the tightest memory limit of this process's cgroup and its parents leaves (v2, else v1): the
+    cgroup tree under `root` (default /sys/fs/cgroup), the process's cgroups from `lines` (default
+    /proc/self/cgroup's)."""
+    root = Path(root or os.environ.get(_CGROUP_ROOT_VARIABLE) or _CGROUP_ROOT)
     room = None
-    try:
-        lines = Path("/proc/self/cgroup").read_text().splitlines()
-    except OSError:
-        lines = []
+    if lines is None:
+        try:
+            lines = Path("/proc/self/cgroup").read_text().splitlines()
+        except OSError:
+            lines = []
     places = []
     for line in lines:
         number, controllers, where = [*line.split(":", 2), "", ""][:3]
         if number == "0" and controllers == "":
-            places.append((Path("/sys/fs/cgroup") / where.lstrip("/"), "memory.max", "memory.current"))
+            places.append((root / where.lstrip("/"), "memory.max", "memory.current"))
         elif "memory" in controllers.split(","):
-            places.append((Path("/sys/fs/cgroup/memory") / where.lstrip("/"), "memory.limit_in_bytes",
-                           "memory.usage_in_bytes"))
-    places.append((Path("/sys/fs/cgroup"), "memory.max", "memory.current"))
+            places.append((root / "memory" / where.lstrip("/"), "memory.limit_in_bytes", "memory.usage_in_bytes"))
+    places.append((root, "memory.max", "memory.current"))
     for folder, limit_name, used_name in places:
         while True:
             try:
@@ -71,7 +69,7 @@ def _cgroup_room() -> int | None:
                     room = left if room is None else min(room, left)
             except (OSError, ValueError):
                 pass
-            if folder.parent == folder or folder.name in ("cgroup", "memory"):
+            if folder.parent == folder or folder in (root, root / "memory"):
                 break
             folder = folder.parent
     return room

@@ -71,7 +71,7 @@ def render_file(path: str | Path, overrides: list[str] | tuple[str, ...] = (), *
     """Load a scene file or a mesh file (with `key.path=value` overrides; `view` and `up` frame a mesh file,
     docs/meshes.md) and render it; timings include "load". `options` are render()'s."""
     start = time.perf_counter()
-    scene = load_scene(path, overrides, view=view, up=up)
+    scene = load_scene(path, overrides, view=view, up=up, max_memory=options.get("max_memory"))
     loaded = time.perf_counter() - start
     result = render(scene, source=str(path), **options)
     result.timings["load"] = loaded

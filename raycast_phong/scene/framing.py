@@ -29,8 +29,10 @@ AZIMUTH, ELEVATION = math.radians(30.0), math.radians(20.0)
 
 
 def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), view: str | None = None,
-                    up: str | None = None) -> dict:
-    """A scene table showing one mesh file: its materials, a framing camera, a key light (docs/meshes.md)."""
+                    up: str | None = None, max_memory: int | None = None) -> dict:
+    """A scene table showing one mesh file: its materials, a framing camera, a key light (docs/meshes.md).
+    Reading the file to frame it keeps to `max_memory` bytes (the command's --max-memory) as well as to what
+    the machine has."""
     from ..io.mesh_file import FILE_CREASE_ANGLE, check_file_content, mesh_bounds  # trimesh: only for mesh files
     from ..io.mesh_header import check_mesh_read
     where = str(path)
@@ -38,7 +40,7 @@ def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), vie
     if view not in VIEWS:
         raise SceneError(f"{where}: --view {view!r}; allowed: {', '.join(VIEWS)}")
     check_file_content(path, where)  # an OBJ named .stl is no binary STL of 1702M triangles
-    check_mesh_read(path, where)  # the framing read comes before render()'s own memory check
+    check_mesh_read(path, where, max_memory)  # the framing read comes before render()'s own memory check
     found = mesh_bounds(path, where)
     if not found.radius >= MIN_EXTENT:  # every vertex at one point: nothing to frame (or to see)
         centre = [float(x) for x in found.centre]

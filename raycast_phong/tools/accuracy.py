@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from ..errors import SceneError
 from ..geometry.build import object_mesh
 from ..records import MeasuredResult, RenderResult
 from ..renderer.frame import render
@@ -74,20 +75,56 @@ def refine_entry(scene: Scene, index: int, entry: dict, level: int, iterations: 
             entry["normals"] = "mean"  # the subdivided mesh stores no normals
 
 
-def fine_reference(scene: Scene, levels: int, source: str = "<scene>") -> ReferenceImage:
+LOOP_BYTES = 400  # per triangle trimesh's subdivide_loop makes (peak 293 B measured at 82k) and its PLY round trip
+
+
+def check_fine_memory(scene: Scene, data: dict, levels: int, source: str, max_memory: int | None) -> None:
+    """Refuse (SceneError, one line) a fine reference whose refined scene would not fit in `max_memory` bytes
+    (default: the render's budget), before a mesh is subdivided: the refined shapes' estimate
+    (budget.estimate_memory of `data`, smooth, float64) and each mesh file's triangles × (4^levels − 1) more,
+    at the render's bytes a triangle and the subdivision's."""
+    from ..io.system import count_text, format_bytes
+    from ..renderer.budget import FLOAT64_NORMAL_BYTES, SMOOTH_BYTES, default_budget, estimate_memory
+    budget = max_memory if max_memory is not None else default_budget()
+    if budget is None:
+        return
+    found = estimate_memory(validate_scene(data, source=source, folder=scene.folder), source, float64=True)
+    extra_triangles = sum(found_triangles * (4 ** levels - 1) for found_triangles in (
+        _mesh_triangles(scene, index, source) for index, obj in enumerate(scene.objects) if obj.shape == "mesh"))
+    need = found.total + extra_triangles * (SMOOTH_BYTES + FLOAT64_NORMAL_BYTES + LOOP_BYTES)
+    if need > budget:
+        triangles = count_text(found.triangles + extra_triangles)
+        raise SceneError(f"{source}: --fine {levels}: the refined scene has {triangles}"
+                         f" triangles and needs ≈ {format_bytes(need)} of memory, above the {format_bytes(budget)} "
+                         "budget; use a smaller --fine or raise the budget (--max-memory)")
+
+
+def _mesh_triangles(scene: Scene, index: int, source: str) -> int:
+    from ..io.mesh_header import mesh_file_triangles
+    return mesh_file_triangles(scene.resolve(scene.objects[index].path), f"{source}: objects.{index}.path")
+
+
+def fine_reference(scene: Scene, levels: int, source: str = "<scene>",
+                   max_memory: int | None = None) -> ReferenceImage:
     """The scene refined `levels` times (refine_entry: meshes Loop-subdivided, analytic shapes `levels`
     tessellation levels up from their own), rendered with Phong shading in float64. Coverage comes from
-    the same Embree cast as the render's."""
+    the same Embree cast as the render's. Refused (check_fine_memory) before anything is refined when it
+    would need more than `max_memory` bytes (default: the render's budget)."""
     data = scene.model_dump(exclude={"folder"})
     data["render"].update(shading="phong", precision="float64")
     data["output"] = {"path": "reference.exr", "aovs": ["specular"]}
+    for index, obj in enumerate(scene.objects):
+        data["objects"][index]["shading"] = "phong"
+        if obj.shape != "mesh":
+            data["objects"][index].update(refined(obj, min(level_of(obj) + levels, max_level(obj))))
+    check_fine_memory(scene, data, levels, source, max_memory)
     with tempfile.TemporaryDirectory(prefix="raycast-phong-fine-") as folder:
         for index, obj in enumerate(scene.objects):
             data["objects"][index]["shading"] = "phong"
             refine_entry(scene, index, data["objects"][index], min(level_of(obj) + levels, max_level(obj)), levels,
                          Path(folder), source)
         fine = validate_scene(data, source=source, folder=scene.folder)
-        result = render(fine, source=source)
+        result = render(fine, source=source, max_memory=max_memory)
         coverage = mesh_coverage(fine, source)
     return ReferenceImage(result.image.astype(np.float64), result.aovs["specular"].astype(np.float64),
                           coverage, f"fine {levels}")
@@ -98,9 +135,11 @@ def max_level(obj: Object) -> int:
     return 8 if obj.shape == "icosphere" else 9
 
 
-def reference_image(scene: Scene, source: str = "<scene>", fine: int | None = None) -> ReferenceImage:
-    """The analytic reference, or with `fine` the self-convergence one (the only choice for meshes)."""
-    return analytic_reference(scene, source) if fine is None else fine_reference(scene, fine, source)
+def reference_image(scene: Scene, source: str = "<scene>", fine: int | None = None,
+                    max_memory: int | None = None) -> ReferenceImage:
+    """The analytic reference, or with `fine` the self-convergence one (the only choice for meshes), within
+    `max_memory` bytes (default: the render's budget)."""
+    return analytic_reference(scene, source) if fine is None else fine_reference(scene, fine, source, max_memory)
 
 
 def mesh_coverage(scene: Scene | Prepared, source: str = "<scene>") -> np.ndarray:

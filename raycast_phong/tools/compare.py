@@ -76,14 +76,14 @@ def parse_vary(text: str) -> tuple[str, list[str]]:
 
 
 def load_variants(path: str | Path, fixed: list[str], key: str, values: list[str], view: str | None = None,
-                  up: str | None = None) -> list[Scene]:
+                  up: str | None = None, max_memory: int | None = None) -> list[Scene]:
     """The scene file (or mesh file, framed from `view` with `up`) with the `fixed` overrides, then `key=value`
     for each value: one Scene per value.
 
     Every variant is validated before any is rendered; they must share one image size.
     """
     path = Path(path)
-    data = read_scene_dict(path, fixed, view, up)
+    data = read_scene_dict(path, fixed, view, up, max_memory)
     scenes = []
     for value in values:
         variant = copy.deepcopy(data)  # each value starts from the same file and --set overrides

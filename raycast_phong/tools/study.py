@@ -244,7 +244,7 @@ class _Sweep:
 
     def __init__(self, path: str | Path, overrides, options: StudyOptions, folder: str):
         self.source = str(path)
-        self.data = read_scene_dict(path, overrides)  # validated later, per combination
+        self.data = read_scene_dict(path, overrides, max_memory=options.max_memory)  # validated later, per combination
         self.base = validate_scene(self.data, source=self.source, folder=Path(path).parent)
         _check_options(self.base, options, self.source)
         self.options, self.folder = options, folder

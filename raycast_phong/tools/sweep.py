@@ -29,13 +29,19 @@ import numpy as np
 
 from ..errors import ImageError, SceneError
 from ..io.encoding import srgb_encode
-from ..io.image_io import read_layer, text_coverage, write_image
+from ..io.image_io import COMPARE_BYTES_PER_SAMPLE, image_header, read_layer, text_coverage, write_image
+from ..io.system import format_bytes
 from .compare import BACKDROP, MIN_FONT, draw_text, fitting_size, layout, row_wording
 
 SWEEP_KEYS = ("scene", "set", "grid")
 # A sweep's product is rendered and shown on one sheet: a million cells would run for hours without a word.
 MAX_SWEEP_CELLS = 4096
 FAILED_RGB = (0.35, 0.06, 0.06)  # a failed cell: dark red, so it cannot pass for a black render
+# A contact sheet's memory: every cell held as float32 RGB (12 B a pixel) until the sheet is composed, the
+# sheet itself (12 B) and what writing it as an 8-bit PNG copies (16 B), and the cell being read
+# (COMPARE_BYTES_PER_SAMPLE a channel, as compare reads).
+CELL_BYTES_PER_PIXEL = 12
+SHEET_BYTES_PER_PIXEL = 28
 ROW_LABEL_MIN = 240  # px: room for "shading=gouraud, shininess=512" at 12 px, however small the cells
 
 
@@ -245,12 +251,8 @@ def compose_sheet(cells: list[tuple[tuple[str, str], ...]], images: list[np.ndar
                                                                                                        SheetLayout]:
     """Cells (their (label, value) per axis, in product order) and their (h, w, 3) display images (None: failed)
     → the (image_height, image_width, 3) float32 sheet and its layout."""
-    columns = len(dict.fromkeys(cell[-1] for cell in cells))
-    rows = len(cells) // columns
-    shapes = [image.shape[:2] for image in images if image is not None] or [(16, 16)]
-    height, width = max(h for h, _ in shapes), max(w for _, w in shapes)
-    row_labels = [", ".join(f"{label}={value}" for label, value in cells[r * columns][:-1]) for r in range(rows)]
-    grid = sheet_layout(rows, columns, width, height, row_labels)
+    grid, row_labels = _sheet_grid(cells, [image.shape[:2] for image in images if image is not None])
+    columns, height, width = grid.columns, grid.height, grid.width
     canvas = np.full((grid.image_height, grid.image_width, 3), BACKDROP, np.float32)
     for index, image in enumerate(images):
         row, column = divmod(index, columns)
@@ -272,11 +274,42 @@ def compose_sheet(cells: list[tuple[tuple[str, str], ...]], images: list[np.ndar
     return canvas, grid
 
 
-def write_contact_sheets(jobs: list, report, settings, force: bool) -> dict[str, str]:
+def _sheet_grid(cells: list[tuple[tuple[str, str], ...]], shapes: list[tuple[int, int]]) -> tuple[SheetLayout,
+                                                                                                   list[str]]:
+    """The layout of a sheet of `cells` whose images have these (h, w) (the largest sets the cell), and its
+    row labels."""
+    columns = len(dict.fromkeys(cell[-1] for cell in cells))
+    rows = len(cells) // columns
+    shapes = shapes or [(16, 16)]
+    height, width = max(h for h, _ in shapes), max(w for _, w in shapes)
+    row_labels = [", ".join(f"{label}={value}" for label, value in cells[r * columns][:-1]) for r in range(rows)]
+    return sheet_layout(rows, columns, width, height, row_labels), row_labels
+
+
+def check_sheet_memory(path: Path, cells: list, outputs: list[Path | None], budget: int | None) -> None:
+    """Refuse (ImageError, one line) a contact sheet whose cells, from their files' headers, would not fit in
+    `budget` bytes while held and composed; checked before any pixel is read. None: no budget."""
+    if budget is None:
+        return
+    sizes = [image_header(output) if output is not None else None for output in outputs]
+    known = [size for size in sizes if size]
+    grid, _ = _sheet_grid(cells, [(h, w) for w, h, _ in known])
+    need = (sum(w * h for w, h, _ in known) * CELL_BYTES_PER_PIXEL
+            + grid.image_width * grid.image_height * SHEET_BYTES_PER_PIXEL
+            + max((w * h * c for w, h, c in known), default=0) * COMPARE_BYTES_PER_SAMPLE)
+    if need > budget:
+        raise ImageError(f"{path}: the contact sheet of {len(cells)} cells of up to {grid.width}×{grid.height} "
+                         f"pixels ({grid.image_width}×{grid.image_height} in all) needs ≈ {format_bytes(need)} of "
+                         f"memory, above the {format_bytes(budget)} budget; render smaller cells, split the sweep, "
+                         "or raise the budget (--max-memory)")
+
+
+def write_contact_sheets(jobs: list, report, settings, force: bool, budget: int | None = None) -> dict[str, str]:
     """For each sweep in the batch, DIR/<sweep>-contact.png, rewritten when a cell rendered or it is missing.
 
     Returns sweep name → sheet file name. Cells are read back from their files: a PNG as stored, an EXR as the
-    PNG writer would show it (clamped, sRGB-encoded with --srgb).
+    PNG writer would show it (clamped, sRGB-encoded with --srgb). A sheet that would need more than `budget`
+    bytes is refused (check_sheet_memory) before its cells are read.
     """
     by_name = {outcome.name: outcome for outcome in report.outcomes}
     sheets: dict[str, str] = {}
@@ -286,6 +319,9 @@ def write_contact_sheets(jobs: list, report, settings, force: bool) -> dict[str,
         if path.is_file() and not force and all(by_name[job.name].status != "rendered" for job in members):
             sheets[sweep] = path.name
             continue
+        outputs = [report.folder / by_name[job.name].outputs[0]
+                   if by_name[job.name].status != "failed" and by_name[job.name].outputs else None for job in members]
+        check_sheet_memory(path, [job.cell for job in members], outputs, budget)
         images = []
         for job in members:
             outcome = by_name[job.name]

@@ -151,7 +151,7 @@ def test_no_arguments_shows_help():
 
 # ---------------------------------------------------------------- internal error
 
-def test_internal_error_exits_1_with_one_line(tiny_scene, tmp_path, monkeypatch):
+def test_internal_error_exits_1_with_one_line(tiny_scene, tmp_path, monkeypatch, error_logs_in_the_session_folder):
     def broken_render(*args, **kwargs):
         raise RuntimeError("kernel exploded")
     monkeypatch.setattr(raycast_phong, "render", broken_render)
@@ -164,6 +164,7 @@ def test_internal_error_exits_1_with_one_line(tiny_scene, tmp_path, monkeypatch)
     [line] = result.output.strip().splitlines()
     assert line.startswith("error: internal error: RuntimeError: kernel exploded (traceback in ")
     log = Path(line.split("(traceback in ")[1].rstrip(")"))
+    assert log.parent == error_logs_in_the_session_folder  # $RAYCAST_PHONG_ERROR_LOGS: not /tmp, in a test run
     text = log.read_text(encoding="utf-8")
     log.unlink()
     assert "Traceback" in text and "broken_render" in text and "RuntimeError: kernel exploded" in text

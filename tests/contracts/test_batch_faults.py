@@ -199,7 +199,13 @@ def test_a_second_batch_into_the_same_folder_is_refused(tmp_path, start_batch):
     folder, out = slow_scenes(tmp_path / "scenes", count), tmp_path / "out"
     first = start_batch(folder, out, jobs=1)
     wait_for_first_image(first, out)
-    second = run(str(folder), "--out", str(out), "--jobs", "1", "--force")
+    # Stopped while it holds the folder: under load it could otherwise finish its last scenes before the
+    # second batch starts, and the second would then rightly go ahead (the test was flaky so).
+    os.killpg(first.pid, signal.SIGSTOP)
+    try:
+        second = run(str(folder), "--out", str(out), "--jobs", "1", "--force")
+    finally:
+        os.killpg(first.pid, signal.SIGCONT)
     assert second.exit_code == 2
     assert second.stderr == (f"error: {out}: another batch (process {first.pid}) is writing into this folder; "
                              "wait for it to finish, or use another --out\n")
@@ -253,10 +259,10 @@ def test_each_broken_scene_file_fails_only_itself(tmp_path):
 
 
 def test_an_internal_error_keeps_its_traceback_and_the_batch_goes_on(five_scenes, tmp_path, monkeypatch):
-    def load_scene(path, overrides=()):
+    def load_scene(path, overrides=(), **options):
         if Path(path).stem == "sphere1":
             return 1 / 0  # a bug in the loader, on one scene
-        return rp.load_scene(path, overrides)
+        return rp.load_scene(path, overrides, **options)
 
     monkeypatch.setattr(batch.jobs, "load_scene", load_scene)
     out = tmp_path / "out"

@@ -17,6 +17,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import raycast_phong as rp
 from raycast_phong.errors import SceneError
 from raycast_phong.io import mesh_header
 from raycast_phong.io.mesh_header import mesh_file_triangles
@@ -157,9 +158,35 @@ def test_max_memory_caps_the_framing_read_and_is_cleared_after(tmp_path):
     from typer.testing import CliRunner
 
     from raycast_phong.cli import app
-    from raycast_phong.io import system
     path = tmp_path / "a.obj"
     path.write_bytes(b"v 0 0 0\n" * 200_000 + b"f 1 2 3\n")
     done = CliRunner().invoke(app, ["plan", str(path), "--max-memory", "1M"])
     assert done.exit_code == 2 and "a.obj" in done.output and "memory" in done.output, done.output
-    assert system.BUDGET[0] is None
+    done = CliRunner().invoke(app, ["plan", str(path)])  # the next command of the process has no such cap
+    assert done.exit_code == 2 and "every vertex of the model" in done.output, done.output  # read, then refused
+
+
+def test_each_load_keeps_to_its_own_budget(tmp_path):
+    """The budget is an argument down to the framing read (load_scene → read_scene_dict → mesh_scene_dict →
+    check_mesh_read), not a module global the CLI set and cleared: loads in one process, one after the
+    other with different budgets, each get their own."""
+    path = tmp_path / "a.obj"
+    path.write_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\n" * 70_000 + b"f 1 2 3\n")  # ≈ 1.8 MB: ≈ 22 MB to read
+    for budget, fits in [(1 << 20, False), (1 << 30, True), (1 << 20, False), (None, True)]:
+        if fits:
+            assert rp.load_scene(path, max_memory=budget).objects[0].shape == "mesh"
+        else:
+            with pytest.raises(SceneError, match=r"a\.obj: reading its .* than the 1 MB available"):
+                rp.load_scene(path, max_memory=budget)
+
+
+def test_an_obj_of_a_polygon_and_no_vertices_is_one_line(tmp_path):
+    """Found by test_fuzz_files: `f 1 1 1 1` alone made the concave-polygon pass index an empty vertex array
+    (IndexError, 'internal error', exit 1)."""
+    from typer.testing import CliRunner
+
+    from raycast_phong.cli import app
+    (tmp_path / "h.obj").write_bytes(b"f 1 1 1 1")
+    done = CliRunner().invoke(app, ["plan", str(tmp_path / "h.obj"), "--max-memory", "50M"])
+    assert done.exit_code == 2 and len(done.output.strip().splitlines()) == 1, done.output
+    assert "holds no triangles" in done.output

@@ -116,3 +116,54 @@ def test_srgb_with_an_exr_output_says_it_does_nothing(tmp_path):
                                  "-q"])
     assert result.exit_code == 0, result.output
     assert "warning: --srgb encodes a PNG" in result.output, result.output
+
+
+def test_a_contact_sheet_over_the_budget_is_refused_before_its_cells_are_read(tmp_path):
+    """A sweep's nine 200×200 cells each render within --max-memory 12M (≈ 3 MB each), but the sheet that holds
+    and composes them all needs ≈ 17 MB: one line, exit 2, after the cells and the manifest are written (before:
+    the sheet was made whatever the budget)."""
+    (tmp_path / "base.toml").write_text('[render]\nwidth = 200\nheight = 200\n[[objects]]\nshape = "box"\n')
+    (tmp_path / "sweep.toml").write_text('scene = "base.toml"\n[grid]\n"render.shading" = ["flat", "gouraud", '
+                                         '"phong"]\n"materials.default.shininess" = [1, 8, 64]\n')
+    out = tmp_path / "out"
+    result = runner.invoke(app, ["batch", str(tmp_path / "sweep.toml"), "--out", str(out), "--jobs", "1",
+                                 "--max-memory", "12M", "-q"])
+    lines = result.output.strip().splitlines()
+    assert result.exit_code == 2 and len(lines) == 1, result.output[:2000]
+    assert "sweep-contact.png: the contact sheet of 9 cells of up to 200×200 pixels" in lines[0], lines[0]
+    assert "above the 12 MB budget" in lines[0], lines[0]
+    assert len(list(out.glob("sweep--*.png"))) == 9 and not (out / "sweep-contact.png").exists()
+    assert (out / "manifest.json").is_file()
+    result = runner.invoke(app, ["batch", str(tmp_path / "sweep.toml"), "--out", str(out), "--jobs", "1", "-q"])
+    assert result.exit_code == 0 and (out / "sweep-contact.png").is_file(), result.output
+
+
+def test_the_sheet_check_reads_headers_only(tmp_path):
+    """Cells whose headers claim 4000 × 4000 pixels (1 MB files): refused from the headers, naming the sheet."""
+    import pytest
+
+    from raycast_phong.errors import ImageError
+    from raycast_phong.tools.sweep import check_sheet_memory
+    cells = [(("render.shading", value),) for value in ("flat", "phong")]
+    outputs = [claiming_png(tmp_path / f"{index}.png", 4000, 4000) for index in range(2)]
+    with pytest.raises(ImageError, match=r"s-contact.png: the contact sheet of 2 cells of up to 4000×4000 pixels"):
+        check_sheet_memory(tmp_path / "s-contact.png", cells, outputs, 500 << 20)
+    check_sheet_memory(tmp_path / "s-contact.png", cells, outputs, 4 << 30)  # fits: no error
+
+
+def test_reference_fine_is_refused_before_it_refines_over_the_budget(tmp_path):
+    """`reference --fine 6` of the default scene makes three icospheres of subdivision 7 (983,040 triangles,
+    ≈ 400 MB): with --max-memory 100M one line naming --fine and the budget, exit 2, before anything is refined; a
+    mesh file of 1,280 triangles at --fine 6 would be Loop-subdivided to 5.2M before the render's own check."""
+    result = runner.invoke(app, ["reference", "--fine", "6", "--max-memory", "100M", "-o", str(tmp_path / "r.exr")])
+    lines = result.output.strip().splitlines()
+    assert result.exit_code == 2 and len(lines) == 1, result.output
+    assert "--fine 6: the refined scene has 983,040 triangles" in lines[0] and "above the 100 MB budget" in lines[0]
+    import trimesh
+    trimesh.creation.icosphere(3).export(tmp_path / "ball.ply")
+    result = runner.invoke(app, ["reference", str(tmp_path / "ball.ply"), "--fine", "6", "--max-memory", "500M",
+                                 "-o", str(tmp_path / "r.exr")])
+    lines = result.output.strip().splitlines()
+    assert result.exit_code == 2 and len(lines) == 1, result.output
+    assert "--fine 6: the refined scene has 5.2M triangles" in lines[0], lines[0]
+    assert not (tmp_path / "r.exr").exists()

@@ -314,3 +314,28 @@ print(json.dumps(dict(shade=shade, shadow=len(shadow_rays.signatures),
     assert found["shadow"] == 0
     assert 0 < found["batch"]["startup"] == round(found["startup"], 6) < found["batch"]["seconds"], found
     assert (found["batch"]["cores"], found["batch"]["processes"], found["batch"]["threads"]) == (1, 1, 1)
+
+
+def test_batch_reads_scene_paths_from_stdin(tmp_path):
+    """`batch -` takes the scene paths on stdin, one a line (as `find … | xargs`), literally (a name with a
+    space or a `*`), blank lines skipped; a line naming no file or not a scene fails as that scene, reported
+    with the others, and the rest render (before: '-: no such scene file', exit 2)."""
+    (tmp_path / "a b.toml").write_text(scene_text())
+    (tmp_path / "c*.toml").write_text(scene_text("box", ""))
+    (tmp_path / "notes.txt").write_text("not a scene\n")
+    listed = (f"{tmp_path / 'a b.toml'}\n\n{tmp_path / 'c*.toml'}\r\n{tmp_path / 'gone.toml'}\n"
+              f"{tmp_path / 'notes.txt'}\n")
+    out = tmp_path / "out"
+    result = runner.invoke(app, ["batch", "-", "--out", str(out), "--jobs", "1"], input=listed)
+    assert result.exit_code == 1, result.output
+    manifest = json.loads((out / "manifest.json").read_text())["scenes"]
+    assert {name: entry["status"] for name, entry in manifest.items()} == {
+        "a b": "rendered", "c*": "rendered", "gone": "failed", "notes": "failed"}
+    failed = [line for line in result.output.splitlines() if line.startswith("failed:")]
+    assert len(failed) == 2 and "gone.toml" in failed[0] and "notes.txt" in failed[1], result.output
+    assert "4 scenes: 2 rendered" in result.output
+
+
+def test_batch_help_says_how_to_pipe_paths_in():
+    result = runner.invoke(app, ["batch", "--help"])
+    assert "- reads scene paths from stdin" in " ".join(result.output.replace("│", " ").split()), result.output

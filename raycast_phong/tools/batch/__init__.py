@@ -36,6 +36,7 @@ from .jobs import (
     interrupt,
     is_current,
     job_hash,
+    listed_paths,
     prepare_job,
     render_job,
 )
@@ -80,6 +81,7 @@ __all__ = [
     "is_current",
     "is_own_manifest",
     "job_hash",
+    "listed_paths",
     "open_manifest",
     "prepare_job",
     "read_manifest",

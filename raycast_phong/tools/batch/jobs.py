@@ -112,16 +112,34 @@ def interrupt(number: int, frame) -> None:
     raise Interrupted(number)
 
 
-def find_jobs(paths: list[str | Path], out: str | Path | None = None) -> list[Job]:
+MAX_LISTED_BYTES = 16 << 20  # `batch -`: a list of paths on stdin, at most as long as a scene file may be
+
+
+def listed_paths(stream, source: str = "stdin") -> list[str]:
+    """The paths of `batch -`: one a line of `stream` (bytes, as xargs -d '\\n' reads them), taken literally (no
+    glob), blank lines skipped; at most MAX_LISTED_BYTES (`yes | batch -` must not fill the memory)."""
+    data = stream.read(MAX_LISTED_BYTES + 1)
+    if len(data) > MAX_LISTED_BYTES:
+        raise SceneError(f"{source}: the list of scene paths is more than the {MAX_LISTED_BYTES >> 20} MiB allowed")
+    text = data.decode("utf-8", "surrogateescape") if isinstance(data, bytes) else data
+    return [line.removesuffix("\r") for line in text.split("\n") if line.strip()]
+
+
+def find_jobs(paths: list[str | Path], out: str | Path | None = None, listed: list[str] = ()) -> list[Job]:
     """Scene files, folders (their *.toml and *.json, not recursive, not hidden), globs and sweep files → Jobs,
     in order; never the manifest of the output folder `out` (a batch may write into a folder it reads).
 
-    A sweep file (a TOML with a `grid` table, see sweep.py) stands for its product of overrides.
-    Raises SceneError when a path matches nothing or two jobs would write the same output name.
+    A sweep file (a TOML with a `grid` table, see sweep.py) stands for its product of overrides. `-` among the
+    paths stands for `listed` (`batch -`: the paths read from stdin, listed_paths): each is a scene file, and
+    one that is missing or not a scene becomes a job that fails when loaded, reported as any other scene.
+    Raises SceneError when a given path matches nothing or two jobs would write the same output name.
     """
     files: list[Path] = []
     for given in map(str, paths):
         path = Path(given)
+        if given == "-":
+            files += [Path(line) for line in listed if Path(line) not in files]
+            continue
         if path.is_dir():
             # Not only regular files: a FIFO or a device named *.toml is taken, and refused when read, so it is
             # reported as a failed scene instead of being skipped without a word.
@@ -203,12 +221,14 @@ def is_current(previous: dict | None, digest: str, inputs: dict[str, int], folde
             and all(isinstance(name, str) and (folder / name).is_file() for name in outputs))
 
 
-def prepare_job(job: Job, folder: Path, settings: Settings, previous: dict | None, force: bool) -> Task | Outcome:
-    """Load and hash one job: a Task to render, or an Outcome already (up to date, or a scene that fails to load)."""
+def prepare_job(job: Job, folder: Path, settings: Settings, previous: dict | None, force: bool,
+                max_memory: int | None = None) -> Task | Outcome:
+    """Load and hash one job: a Task to render, or an Outcome already (up to date, or a scene that fails to load).
+    A mesh file's framing read keeps to `max_memory` bytes (the batch's budget)."""
     start = time.perf_counter()
     entry = new_entry(job, FAILED)
     try:
-        scene = load_scene(job.scene, job.overrides)
+        scene = load_scene(job.scene, job.overrides, max_memory=max_memory)
     except SceneError as error:
         entry.reason, entry.hash = reason_line(job, str(error)), job_hash(job, None, settings)
         return entry

@@ -125,7 +125,7 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
 
     try:
         for job in jobs:
-            item = prepare_job(job, folder, settings, manifest["scenes"].get(job.name), force)
+            item = prepare_job(job, folder, settings, manifest["scenes"].get(job.name), force, max_memory)
             if isinstance(item, Task):
                 tasks.append(item)
             else:
@@ -156,7 +156,7 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
         raise
     write_manifest(folder, manifest)
     done = report()
-    done.sheets = write_contact_sheets(jobs, done, settings, force)
+    done.sheets = write_contact_sheets(jobs, done, settings, force, budget or max_memory)
     manifest["sheets"].update(done.sheets)
     done.seconds = time.perf_counter() - started
     manifest["batch"] = {"seconds": round(done.seconds, 6), "startup": round(startup, 6), "cores": cores,

@@ -1,0 +1,156 @@
+"""A memory watchdog over every command (issue 21, "Done when"): each CLI command, on a hostile input, with a
+200 MB budget (--max-memory 200M where the command has it, and for all of them a cgroup whose memory.max is
+200 MB: io.system's cgroup root pointed at a fake tree), run in a fresh process whose peak resident size is
+read from the wrapper's children's ru_maxrss. Each stays within the budget above the process's own peak: the
+larger of `--help`'s (the interpreter and the CLI, 25 MB) and an 8×8 render's (numba, Embree and the kernels
+loaded, ≈ 210 MB), as the budget counts bytes above a warmed-up process (renderer/budget.py). And the cgroup
+limit, lower than the free memory, is what the budget follows."""
+
+from __future__ import annotations
+
+import os
+import struct
+import subprocess
+import sys
+import zlib
+from pathlib import Path
+
+import pytest
+
+from raycast_phong.io import system
+
+CLI = [sys.executable, "-m", "raycast_phong.cli"]
+BUDGET = 200 << 20
+PROBE = ("import resource, subprocess, sys; done = subprocess.run(sys.argv[1:], capture_output=True, text=True, "
+         "stdin=subprocess.DEVNULL, timeout=240); sys.stderr.write(done.stderr[-4000:]); "
+         "print(done.returncode, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)")
+
+
+def fake_cgroup(folder: Path, limit: int, used: int = 0) -> Path:
+    """A cgroup v2 tree whose root says memory.max = limit, memory.current = used."""
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "memory.max").write_text(f"{limit}\n")
+    (folder / "memory.current").write_text(f"{used}\n")
+    return folder
+
+
+def measured(args: list[str], cwd: Path, cgroup: Path) -> tuple[int, int, str]:
+    """(exit status, peak resident bytes, stderr) of the CLI with `args` in a fresh process, under the fake
+    cgroup; the wrapper is a process of its own, so ru_maxrss is this command's peak alone."""
+    env = {**os.environ, system._CGROUP_ROOT_VARIABLE: str(cgroup)}
+    done = subprocess.run([sys.executable, "-c", PROBE, *CLI, *args], cwd=cwd, env=env, capture_output=True,
+                          text=True, timeout=300)
+    code, peak = map(int, done.stdout.split()[-2:])
+    return code, peak * 1024, done.stderr
+
+
+def claiming_png(path: Path, side: int) -> Path:
+    """A PNG whose header claims side × side RGB pixels, of zlib'd zeros (about side²/1000 bytes)."""
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+    packer, row = zlib.compressobj(9), b"\0" * (1 + 3 * side)
+    data = b"".join(packer.compress(row) for _ in range(side)) + packer.flush()
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", side, side, 8, 2, 0, 0, 0))
+                     + chunk(b"IDAT", data) + chunk(b"IEND", b""))
+    return path
+
+
+@pytest.fixture(scope="module")
+def hostile(tmp_path_factory) -> Path:
+    """A 512 MB sparse OBJ that claims one vertex, a scene of four icospheres of subdivision 8 (≈ 3.3 GB to
+    render), PNGs claiming 20000 × 20000 pixels, a batch folder of the first two."""
+    folder = tmp_path_factory.mktemp("hostile")
+    with open(folder / "huge.obj", "wb") as handle:
+        handle.write(b"v 0 0 0\n")
+        handle.truncate(512 << 20)
+    (folder / "bomb.toml").write_text('[[objects]]\nshape = "icosphere"\nsubdivisions = 8\n' * 4)
+    claiming_png(folder / "a.png", 20000)
+    claiming_png(folder / "b.png", 20000)
+    (folder / "in").mkdir()
+    (folder / "in" / "bomb.toml").write_text((folder / "bomb.toml").read_text())
+    (folder / "in" / "huge.obj").symlink_to(folder / "huge.obj")
+    fake_cgroup(folder / "cgroup", BUDGET)
+    return folder
+
+
+LIMIT = ["--max-memory", "200M"]
+COMMANDS = {  # every command of `raycast-phong --help`, on the input most likely to make it allocate
+    "render": ["render", "huge.obj", *LIMIT, "-o", "out.png"],
+    "plan": ["plan", "bomb.toml", *LIMIT],
+    "side-by-side": ["side-by-side", "huge.obj", "--vary", "render.shading=flat,phong", *LIMIT, "-o", "s.png"],
+    "compare": ["compare", "a.png", "b.png", *LIMIT],
+    "reference": ["reference", "--fine", "6", *LIMIT, "-o", "ref.exr"],
+    "study": ["study", "bomb.toml", "--levels", "8", *LIMIT, "--out", "study"],
+    "stability": ["stability", "--case", "watertightness"],  # no input of its own: the cgroup is its budget
+    "batch": ["batch", "in", "--out", "batch", "--jobs", "2", *LIMIT],
+    "view": ["view", "huge.obj", "--no-browser", "--port", "0"],
+    "scene": ["scene", "huge.obj"],
+    "schema": ["schema"],
+}
+
+
+def test_the_watchdog_covers_every_command():
+    done = subprocess.run([*CLI, "--help"], capture_output=True, text=True, timeout=120, check=True)
+    listed = [line.split()[1] for line in done.stdout.split("Commands")[1].splitlines()
+              if line.startswith("│ ") and line[2] != " "]  # a command's first line; its help wraps indented
+    assert sorted(listed) == sorted(COMMANDS)
+
+
+@pytest.fixture(scope="module")
+def baseline(hostile) -> int:
+    """The process's own peak: the larger of `--help` (the CLI and typer) and a warmed-up 8×8 render."""
+    peaks = []
+    for args in (["--help"], ["render", "--width", "8", "--height", "8", "-o", "tiny.png", "-q"]):
+        code, peak, stderr = measured(args, hostile, hostile / "cgroup")
+        assert code == 0, stderr
+        peaks.append(peak)
+    return max(peaks)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("command", sorted(COMMANDS))
+def test_every_command_on_hostile_input_stays_within_its_budget(command, hostile, baseline):
+    """Refused in one line (exit 2; batch: its two scenes fail, exit 1) or done, and the peak resident size
+    stays within the 200 MB budget above the process's own (measured 2026-12-01: render 122 MB, plan 110,
+    side-by-side 153, compare 79, reference 210, study 324, stability 179, batch 257, view 162, scene 153,
+    schema 45; the baseline 212)."""
+    code, peak, stderr = measured(COMMANDS[command], hostile, hostile / "cgroup")
+    assert "Traceback" not in stderr, stderr
+    assert code in (0, 1, 2), (code, stderr)
+    if command in ("render", "plan", "side-by-side", "compare", "reference", "study", "view", "scene"):
+        assert code == 2 and len(stderr.strip().splitlines()) == 1, stderr
+    assert peak <= baseline + BUDGET, (f"{command}: peak {peak >> 20} MB, above the {BUDGET >> 20} MB budget over "
+                                       f"the process's own {baseline >> 20} MB")
+
+
+def test_a_cgroup_limit_below_the_free_memory_wins(tmp_path):
+    """v2 and v1 trees, the process's own cgroup and a tighter parent: the room left is the least
+    limit − usage (the machine has gigabytes free)."""
+    v2 = fake_cgroup(tmp_path / "v2" / "a" / "b", 300 << 20, 100 << 20)
+    (v2.parent / "memory.max").write_text("max\n")
+    assert system._cgroup_room(tmp_path / "v2", ["0::/a/b"]) == 200 << 20
+    fake_cgroup(v2.parent, 150 << 20, 100 << 20)  # the parent leaves less
+    assert system._cgroup_room(tmp_path / "v2", ["0::/a/b"]) == 50 << 20
+    v1 = tmp_path / "v1" / "memory" / "x"
+    v1.mkdir(parents=True)
+    (v1 / "memory.limit_in_bytes").write_text(f"{500 << 20}\n")
+    (v1 / "memory.usage_in_bytes").write_text(f"{50 << 20}\n")
+    (v1.parent / "memory.limit_in_bytes").write_text(f"{(1 << 63) - 4096}\n")  # v1's "no limit"
+    (v1.parent / "memory.usage_in_bytes").write_text("0\n")
+    assert system._cgroup_room(tmp_path / "v1", ["4:memory:/x", "0::/"]) == 450 << 20
+
+
+def test_the_budget_follows_a_cgroup_lower_than_free_memory(tmp_path):
+    """In a process whose cgroup allows 200 MB, available_memory() is at most 200 MB and a scene of 824 MB
+    is refused by the default budget (3/4 of it) without --max-memory."""
+    assert system.available_memory() > 1 << 30, "the test needs a machine with more than 1 GB free"
+    cgroup = fake_cgroup(tmp_path / "cgroup", BUDGET)
+    env = {**os.environ, system._CGROUP_ROOT_VARIABLE: str(cgroup)}
+    probe = "from raycast_phong.io.system import available_memory; print(available_memory())"
+    done = subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True, text=True, timeout=60,
+                          check=True)
+    assert int(done.stdout) <= BUDGET
+    (tmp_path / "big.toml").write_text('[[objects]]\nshape = "icosphere"\nsubdivisions = 8\n')
+    done = subprocess.run([*CLI, "plan", "big.toml"], cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 2 and "above the 150 MB budget" in done.stderr, done.stderr
