@@ -283,6 +283,8 @@ class TextureBank:
         if key not in self.found:
             try:
                 pixels = decode()
+            except SceneError:
+                raise  # a scene's own map: the scene is wrong (one line, exit 2)
             except ValueError as error:
                 self.notes.append(f"{name} cannot be decoded as an image ({error}); its factor is used")
                 self.found[key] = -1

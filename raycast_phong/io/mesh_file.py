@@ -543,13 +543,12 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
         corner_colour = np.concatenate([c if c is not None else np.full((len(p.faces), 3, 3), -1, np.float32)
                                         for c, p in zip(corners, parts)])
     mapped = any(m.ka_map >= 0 or m.kd_map >= 0 or m.ke_map >= 0 for m in materials)
-    if mapped and any(u is not None for u in uvs):
+    if mapped:  # a part without texture coordinates reads its maps at (0, 0), as GL reads a missing attribute
+        if any(u is None for u, g in zip(uvs, groups) if len(g) and g[0] >= 0
+               and max(materials[g[0]].ka_map, materials[g[0]].kd_map, materials[g[0]].ke_map) >= 0):
+            notes.append(f"{path}: a textured part has no texture coordinates; its maps are read at (0, 0)")
         corner_uv = np.concatenate([u if u is not None else np.zeros((len(p.faces), 3, 2), np.float32)
                                     for u, p in zip(uvs, parts)])
-    elif mapped:
-        notes.append(f"{path}: its materials name textures but the file has no texture coordinates; the "
-                     "materials' factors are used")
-        materials = [replace(m, ka_map=-1, kd_map=-1, ke_map=-1) for m in materials]
     return np.concatenate(groups), tuple(materials), face_colour, corner_uv, corner_colour
 
 

@@ -87,7 +87,8 @@ def decode_scene_map(path: Path, where: str) -> np.ndarray:
     try:
         return decode_file(path)
     except Exception as error:  # noqa: BLE001 - any decoder failure is the file's
-        raise SceneError(f"{where}: {str(path)!r} cannot be read as an image ({str(error).strip() or 'unknown'}); "
+        reason = " ".join(str(error).split()) or "unknown"
+        raise SceneError(f"{where}: {str(path)!r} cannot be read as an image ({reason[:200]}); "
                          "give a PNG, JPEG, EXR or another format OpenImageIO reads") from None
 
 
@@ -104,6 +105,7 @@ def file_size(path: Path) -> tuple[int, int] | None:
             import OpenImageIO as oiio
             found = oiio.ImageInput.open(str(path))
             if found is None:
+                oiio.geterror()  # retrieved, so OpenImageIO does not print it at exit
                 return None
             spec = found.spec()
             found.close()

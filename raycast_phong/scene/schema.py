@@ -29,6 +29,7 @@ from ..codes import (
     LAYERS,
     MATERIAL_DEFAULTS,
     SHAPES,
+    WRAP_MODES,
     LightKind,
     Mode,
     Precision,
@@ -236,7 +237,7 @@ class Light(_Strict):
 class TextureMap(_Strict):
     """A colour map: an image file relative to the scene file, and how it repeats outside [0, 1]."""
     path: str
-    wrap: Literal["repeat", "clamp", "mirror"] = "repeat"
+    wrap: Literal[WRAP_MODES] = "repeat"  # type: ignore[valid-type]
 
 
 def _map(value: Any) -> Any:

@@ -417,3 +417,31 @@ def light_visibility(exact: ExactScene, scene: Scene, points: np.ndarray, normal
         t, _, _, _ = exact.closest(origin, np.ascontiguousarray(to_light))
         visible[:, k] = t >= distance - offset
     return visible
+
+
+# ---------------------------------------------------------------- textured surfaces (closed form)
+
+def ramp(u, v) -> np.ndarray:
+    """A linear colour ramp over texture space (…, 3): bilinear filtering and every box-filtered mip level
+    reproduce a linear function of the texel centres exactly, so a texture of these values has a closed form
+    away from the wrap seam."""
+    u, v = np.asarray(u, np.float64), np.asarray(v, np.float64)
+    return np.stack([0.2 + 0.6 * u, 0.1 + 0.5 * v, 0.3 + 0.2 * u + 0.3 * v], axis=-1)
+
+
+def exact_uv(shape: str, points: np.ndarray, size=(2.0, 2.0)) -> np.ndarray:
+    """The exact texture coordinates (…, 2) of object-frame points on a built-in shape: plane (x–z, size
+    (w, d)): u = x/w + ½, v = ½ − z/d; sphere about z: u = atan2(y, x)/2π in [0, 1), v = ½ + asin(z/|p|)/π."""
+    points = np.asarray(points, np.float64)
+    if shape == "plane":
+        return np.stack([points[..., 0] / size[0] + 0.5, 0.5 - points[..., 2] / size[1]], axis=-1)
+    r = np.linalg.norm(points, axis=-1)
+    return np.stack([(np.arctan2(points[..., 1], points[..., 0]) / (2 * np.pi)) % 1.0,
+                     0.5 + np.arcsin(np.clip(points[..., 2] / r, -1, 1)) / np.pi], axis=-1)
+
+
+def textured_plane_colour(u, v, kd, ka, ambient: float, diffuse: float, cosine: float = 1.0) -> np.ndarray:
+    """A plane whose k_d map (and so k_a's) is ramp(u, v), lit by one light of I_d = `diffuse` at the angle
+    of `cosine`, scene ambient I_a = `ambient`, no specular: (I_a k_a + I_d cos k_d) · ramp(u, v)."""
+    texture = ramp(u, v)
+    return (ambient * np.asarray(ka) + diffuse * cosine * np.asarray(kd)) * texture
