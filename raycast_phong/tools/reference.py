@@ -445,3 +445,22 @@ def textured_plane_colour(u, v, kd, ka, ambient: float, diffuse: float, cosine: 
     of `cosine`, scene ambient I_a = `ambient`, no specular: (I_a k_a + I_d cos k_d) · ramp(u, v)."""
     texture = ramp(u, v)
     return (ambient * np.asarray(ka) + diffuse * cosine * np.asarray(kd)) * texture
+
+
+def textured_ambient_reference(scene: Scene, ka) -> tuple[np.ndarray, np.ndarray]:
+    """(H, W, 3) float64 colour of a scene of ONE built-in sphere or plane (not rotated or scaled) whose k_a
+    map is ramp(u, v), lit by scene ambient only: I_a k_a ramp(u, v) at the exact hit's exact UVs; and (H, W)
+    u of each hit (NaN on a miss), so a test can keep away from the seam. One ray per pixel centre."""
+    exact = ExactScene(scene)
+    obj = scene.objects[0]
+    rig = camera_frame(scene)
+    width, height = scene.render.width, scene.render.height
+    origins, directions = sample_rays(rig, width, height, 1, 0, height)
+    t, which, points, _ = exact.closest(origins, directions)
+    local = points - exact.translate[0]
+    uv = exact_uv("plane" if obj.shape == "plane" else "sphere", local, obj.size or (2.0, 2.0))
+    colour = np.asarray(scene.ambient) * np.asarray(ka) * ramp(uv[:, 0], uv[:, 1])
+    hit = which >= 0
+    colour[~hit] = 0
+    u = np.where(hit, uv[:, 0], np.nan)
+    return colour.reshape(height, width, 3), u.reshape(height, width)

@@ -144,3 +144,38 @@ def test_a_missing_or_broken_scene_texture_is_one_line(tmp_path):
             rp.render(scene)
         assert words in str(error.value) and "materials.m.kd_map" in str(error.value)
         assert "\n" not in str(error.value)
+
+
+def ramp_exr(path, n: int = 64) -> None:
+    y, x = np.mgrid[0:n, 0:n]
+    pixels = ramp((x + 0.5) / n, 1 - (y + 0.5) / n).astype(np.float32)
+    buffer = oiio.ImageBuf(oiio.ImageSpec(n, n, 3, oiio.FLOAT))
+    buffer.set_pixels(oiio.ROI(0, n, 0, n, 0, 1, 0, 3), np.ascontiguousarray(pixels))
+    assert buffer.write(str(path))
+
+
+def test_a_textured_sphere_matches_the_analytic_reference(tmp_path):
+    """A uv_sphere of 256 × 128 segments with a ramp k_a map, ambient light only, against
+    reference.textured_ambient_reference (the exact sphere hit, u = longitude/2π, v = latitude). The
+    renderer interpolates UVs linearly over flat triangles: within one triangle u and v are off by at most
+    one segment step (1/512 in u, 1/128 in v), so the colour by at most 0.6/512 + 0.5/128 (the ramp's
+    slopes) ≈ 0.005; float32 adds nothing comparable. Away from the seam (u within 0.02 of 0 or 1), the
+    poles (v beyond 0.1 of them) and the texture's clamped edge texels."""
+    from raycast_phong.tools.reference import exact_uv, textured_ambient_reference
+    ramp_exr(tmp_path / "ramp.exr")
+    ka = (0.9, 0.8, 0.7)
+    scene = rp.validate_scene({
+        "ambient": [1, 1, 1], "render": {"width": 96, "height": 96, "shading": "phong", "specular": "phong"},
+        "camera": {"position": [0, -4, 0.5], "look_at": [0, 0, 0], "up": [0, 0, 1], "fov": 35},
+        "materials": {"r": {"ka": list(ka), "kd": [0, 0, 0], "ks": [0, 0, 0],
+                            "ka_map": {"path": "ramp.exr", "wrap": "clamp"}}},
+        "objects": [{"shape": "uv_sphere", "segments": [128, 256], "material": "r"}]}, folder=tmp_path)
+    image = rp.render(scene).image
+    expected, u = textured_ambient_reference(scene, ka)
+    inside = np.isfinite(u) & (u > 0.02) & (u < 0.98)
+    # Keep whole pixels of the sphere only (the silhouette's pixels may hit one and not the other).
+    inside[[0, -1], :] = inside[:, [0, -1]] = False
+    inside &= np.roll(inside, 1, 0) & np.roll(inside, -1, 0) & np.roll(inside, 1, 1) & np.roll(inside, -1, 1)
+    assert inside.sum() > 2000
+    np.testing.assert_allclose(image[inside], expected[inside], atol=0.6 / 512 + 0.5 / 128)
+    assert exact_uv("sphere", np.array([[0.0, 1.0, 0.0]]))[0] == pytest.approx([0.25, 0.5])
