@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry.materials import material_rows
 from ..codes import KA_MAP, KE_MAP, WRAP_CODE
+from ..geometry.materials import material_rows
 from ..records import Frame, Geometry, ImageBuffers, RenderPlan, Texture
 from ..scene.schema import DEFAULT_MATERIAL, Scene, SpecularModel
 from ..tolerances import MIN_DISTANCE

@@ -456,7 +456,7 @@ def textured_ambient_reference(scene: Scene, ka) -> tuple[np.ndarray, np.ndarray
     rig = camera_frame(scene)
     width, height = scene.render.width, scene.render.height
     origins, directions = sample_rays(rig, width, height, 1, 0, height)
-    t, which, points, _ = exact.closest(origins, directions)
+    _, which, points, _ = exact.closest(origins, directions)
     local = points - exact.translate[0]
     uv = exact_uv("plane" if obj.shape == "plane" else "sphere", local, obj.size or (2.0, 2.0))
     colour = np.asarray(scene.ambient) * np.asarray(ka) * ramp(uv[:, 0], uv[:, 1])

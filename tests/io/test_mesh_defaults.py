@@ -75,7 +75,7 @@ def test_an_emissive_texture_with_factor_1_gives_its_colour_not_a_white_silhouet
     path = pbr_sphere(tmp_path / "glow.glb", 0.5, 0.0, emissiveFactor=[1.0, 1.0, 1.0], emissiveTexture=texture)
     result = runner.invoke(app, ["plan", str(path)])
     assert "no texture coordinates; its maps are read at (0, 0)" in result.output, result.output
-    image = rp.render_file(path, SMALL + ["ambient=[0, 0, 0]", "lights=[]"]).image
+    image = rp.render_file(path, [*SMALL, "ambient=[0, 0, 0]", "lights=[]"]).image
     assert saturated_share(image) < 0.01  # was white everywhere the sphere is
     covered = image.max(axis=-1) > 0
     # The emission alone: the texture's colour, sRGB-decoded (200 → 0.578, 40 → 0.021).
