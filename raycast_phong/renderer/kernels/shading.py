@@ -114,21 +114,19 @@ def _modulated(m, r, g, b):
                     m.ks_b, m.ke_r, m.ke_g, m.ke_b, m.shininess)
 
 
-@kernel()
-def _textured_material(inputs, material, m, f, b0, b1, b2, footprint, one, cast):
+@kernel(inline="always")
+def _textured_material(materials, texels, table, uvs, density, material, m, f, b0, b1, b2, footprint, one, cast):
     """The material at a hit with its colour maps applied: each map sampled at the hit's UV (the corners'
     UVs mixed with the weights b), k_a, k_d and k_e multiplied (texture.py chooses the level from
     `footprint`, the sample's world size, times the face's texels per world length). `cast` (3,) in the
     shading precision: a sample passes through it, so the material keeps the precision of the untextured
     path (numba would widen a float32 Material to float64 for every pixel otherwise)."""
-    row, uvs = inputs.materials[m], inputs.corner_uv
-    ka_map, kd_map, ke_map = int(row[KA_MAP]), int(row[KD_MAP]), int(row[KE_MAP])
+    ka_map, kd_map, ke_map = int(materials[m, KA_MAP]), int(materials[m, KD_MAP]), int(materials[m, KE_MAP])
     if ka_map < 0 and kd_map < 0 and ke_map < 0:
         return material
     u = b0 * uvs[f, 0, 0] + b1 * uvs[f, 1, 0] + b2 * uvs[f, 2, 0]
     v = b0 * uvs[f, 0, 1] + b1 * uvs[f, 1, 1] + b2 * uvs[f, 2, 1]
-    texels, table = inputs.texels, inputs.texture_table
-    per_length = footprint * inputs.uv_density[f]
+    per_length = footprint * density[f]
     ar = ag = ab = dr = dg = db = er = eg = eb = one
     if kd_map >= 0:
         r, g, b = sample(texels, table, kd_map, u, v, per_length * math.sqrt(table[kd_map, 1] * table[kd_map, 2]))
@@ -177,6 +175,8 @@ def _shade_rays(inputs, rays, film):
     two_sided, screen, shadows = flags & F_TWO_SIDED != 0, flags & F_SCREEN != 0, flags & F_SHADOWS != 0
     textured, coloured = flags & F_TEXTURES != 0, flags & F_VERTEX_COLOURS != 0
     colours, spread = inputs.corner_colour, inputs.pixel_spread
+    texels, texture_table = inputs.texels, inputs.texture_table
+    corner_uv, uv_density = inputs.corner_uv, inputs.uv_density
     orthographic = camera[CAM_ORTHOGRAPHIC] != 0
     cast = np.zeros(3, materials.dtype)
     evaluated = np.zeros(len(counts), np.int64)
@@ -216,7 +216,8 @@ def _shade_rays(inputs, rays, film):
             # The sample's world footprint: t × spread across the ray, stretched by 1/|cos θ| on the surface.
             cosine = abs(gx * directions[k, 0] + gy * directions[k, 1] + gz * directions[k, 2])
             footprint = (spread if orthographic else spread * tfar[k] * inputs.frame_scale) / max(cosine, 1e-3)
-            material = _textured_material(inputs, material, m, f, b0, b1, b2, footprint, one, cast)
+            material = _textured_material(materials, texels, texture_table, corner_uv, uv_density, material, m, f,
+                                          b0, b1, b2, footprint, one, cast)
         if coloured and model != GOURAUD:  # Gouraud lights each corner with its own colour, below
             w0, w1, w2 = (third, third, third) if model == FLAT else (b0, b1, b2)
             material = _modulated(material, w0 * colours[f, 0, 0] + w1 * colours[f, 1, 0] + w2 * colours[f, 2, 0],

@@ -54,7 +54,7 @@ def _bilinear(texels, start, w, h, wrap_s, wrap_t, u, v):
     return r, g, b
 
 
-@kernel()
+@kernel(inline="always")
 def sample(texels, table, index, u, v, footprint):
     """Linear RGB of texture `index` at (u, v), for a pixel sample covering `footprint` level-0 texels."""
     w, h, levels = table[index, T_WIDTH], table[index, T_HEIGHT], table[index, T_LEVELS]
