@@ -81,8 +81,6 @@ class MeshFile:
     normals: np.ndarray | None      # (V, 3) float64 vertex normals the file stores, else None
     face_group: np.ndarray          # (F,) int32: index into `materials`, -1 for a face without a material
     materials: tuple[FileMaterial, ...]
-    face_colour: np.ndarray | None  # (F, 3) int32: the face's colour as the sum of its corners' 8-bit values
-                                    # (0..765: exact for the mean of three), or None without colours
     up: tuple[float, float, float] | None  # the up axis the format states, or None
     notes: tuple[str, ...]          # one line each: side files missing or broken, what is ignored
     centre: np.ndarray              # (3,) float64 centre of the used vertices' bounding box (NaN unless read
@@ -149,7 +147,7 @@ def mesh_bounds(path: Path, where: str) -> MeshFile:
 
 def _remember_bounds(identity: tuple, found: MeshFile) -> None:
     empty = np.zeros((0, 3))
-    BOUNDS.put(identity, MeshFile(empty, empty.astype(np.int64), None, np.zeros(0, np.int32), found.materials, None,
+    BOUNDS.put(identity, MeshFile(empty, empty.astype(np.int64), None, np.zeros(0, np.int32), found.materials,
                                  found.up, found.notes, found.centre, found.radius, found.normals is not None))
 
 
@@ -226,7 +224,7 @@ def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
     mask[faces.ravel()] = True  # the vertices faces use: O(F), where np.unique would sort
     used = vertices if mask.all() else vertices[mask]
     _check_values(used, path, where)
-    face_group, materials, face_colour, corner_uv, corner_colour = _surfaces(parts, library, path, notes, sources,
+    face_group, materials, corner_uv, corner_colour = _surfaces(parts, library, path, notes, sources,
                                                                             samplers)
     centre, radius = np.full(3, np.nan), math.nan
     if bounds:  # only framing needs them: a render's own read skips the pass
@@ -236,7 +234,7 @@ def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
         hint = up_hint(high - low, suffix)
         if hint:
             notes.append(f"{path}: {hint}")
-    return MeshFile(vertices, faces, normals, face_group, materials, face_colour, STATED_UP.get(suffix),
+    return MeshFile(vertices, faces, normals, face_group, materials, STATED_UP.get(suffix),
                     tuple(dict.fromkeys(notes)), centre, radius, normals is not None, corner_uv, corner_colour,
                     tuple(sources))
 
@@ -498,12 +496,12 @@ def _check_values(coordinates: np.ndarray, path: Path, where: str) -> None:
 
 def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes: list[str],
               sources: list[TextureSource], samplers: dict):
-    """Per face: its material (an index into the returned tuple, -1 for none) and its colour sum or None;
-    per corner: the texture coordinates (None unless some used material has a map) and the vertex colours
-    (None unless some part has colours)."""
+    """Per face: its material (an index into the returned tuple, -1 for none); per corner: the texture
+    coordinates (None unless some used material has a map) and the vertex colours (None unless some part
+    has colours)."""
     materials: list[FileMaterial] = []
     index: dict[str, int] = {}
-    groups, colours, corners, uvs, any_colour, gltf = [], [], [], [], False, False
+    groups, corners, uvs, any_colour, gltf = [], [], [], False, False
     for part in parts:
         material = getattr(part.visual, "material", None)
         found = None
@@ -525,21 +523,17 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
         uv = getattr(part.visual, "uv", None)
         uvs.append(None if uv is None or len(uv) != len(part.vertices)
                    else np.asarray(uv, np.float64)[:, :2][part.faces].astype(np.float32))
-        colour = _face_colour_sums(part)
         corner = _corner_colours(part)
         any_colour |= corner is not None
-        colours.append(colour)
         corners.append(corner)
     if gltf:
         notes.append(f"{path}: glTF metallic-roughness materials are approximated on the Phong model: k_d = k_a = "
                      "base colour, F0 = 0.04 + (base colour − 0.04) × metallic, f = 2/roughness⁴ − 2 in [1, "
                      f"{MAX_FILE_SHININESS:g}], k_s = F0 × min(1, (f + 2)/{WIDE_LOBE + 2:g}), k_e = emissive "
                      "(docs/meshes.md)")
-    face_colour = corner_colour = corner_uv = None
+    corner_colour = corner_uv = None
     if any_colour:
         # A part without colours keeps its material's own k_d: mark it with -1 to tell it apart.
-        face_colour = np.concatenate([c if c is not None else np.full((len(p.faces), 3), -1, np.int32)
-                                      for c, p in zip(colours, parts)])
         corner_colour = np.concatenate([c if c is not None else np.full((len(p.faces), 3, 3), -1, np.float32)
                                         for c, p in zip(corners, parts)])
     mapped = any(m.ka_map >= 0 or m.kd_map >= 0 or m.ke_map >= 0 for m in materials)
@@ -549,7 +543,7 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
             notes.append(f"{path}: a textured part has no texture coordinates; its maps are read at (0, 0)")
         corner_uv = np.concatenate([u if u is not None else np.zeros((len(p.faces), 3, 2), np.float32)
                                     for u, p in zip(uvs, parts)])
-    return np.concatenate(groups), tuple(materials), face_colour, corner_uv, corner_colour
+    return np.concatenate(groups), tuple(materials), corner_uv, corner_colour
 
 
 def _corner_colours(part: _Part) -> np.ndarray | None:
@@ -575,19 +569,6 @@ def _corner_colours(part: _Part) -> np.ndarray | None:
     if rgb.shape[1] < 3:
         return None
     return rgb[part.faces]
-
-
-def _face_colour_sums(part: _Part) -> np.ndarray | None:
-    """(F, 3) int32 sums of the three corners' 8-bit colours (vertex colours), or 3 × the face colour; None
-    when the part has no colours. The mean is the sum / 765, so equal means compare equal exactly."""
-    visual = part.visual
-    kind = getattr(visual, "kind", None)
-    if not isinstance(visual, trimesh.visual.ColorVisuals) or kind not in ("vertex", "face"):
-        return None
-    if kind == "vertex":
-        rgb = np.asarray(visual.vertex_colors)[:, :3].astype(np.int32)
-        return rgb[part.faces].sum(axis=1)
-    return 3 * np.asarray(visual.face_colors)[:, :3].astype(np.int32)
 
 
 def specular_lobe(ks, shininess: float) -> tuple[np.ndarray, float]:
