@@ -409,7 +409,12 @@ def _object_corners(scene: Scene, built: list, mesh, per_object, width: int, fil
 
 
 def _corner_uvs(scene: Scene, built: list, mesh) -> np.ndarray:
-    return _object_corners(scene, built, mesh, lambda members, template: template.uv, 2, 0.0)
+    """(F, 3, 2) texture coordinates of every face: a mesh file's, or a built-in shape's (shape_uv)."""
+    def uvs(members, template):
+        if template.uv is not None or template.file is not None:
+            return template.uv
+        return shape_uv(scene.objects[members[0]], template.vertices, template.faces)
+    return _object_corners(scene, built, mesh, uvs, 2, 0.0)
 
 
 def _corner_colours(scene: Scene, built: list, mesh) -> np.ndarray:
@@ -430,8 +435,7 @@ def object_mesh(scene: Scene, obj: Object, index: int, source: str) -> ObjectMes
     if obj.shape == "mesh":
         return _load_mesh(scene, obj, index, source)
     if obj.shape == "plane":
-        vertices, faces = plane_mesh(obj.size or (2.0, 2.0), obj.segments or (1, 1))
-        return ObjectMesh(vertices, faces, None, uv=shapes.planar_uv(vertices, faces))
+        return ObjectMesh(*plane_mesh(obj.size or (2.0, 2.0), obj.segments or (1, 1)), None)
     # Build at unit size and scale after, so a shape of radius 1e-20 or 1e15 has the same well-scaled triangles.
     lengths = {"icosphere": (obj.radius,), "uv_sphere": (obj.radius,), "box": obj.size or (2.0, 2.0, 2.0),
                "cylinder": (obj.radius, obj.height), "torus": (obj.major_radius, obj.minor_radius)}[obj.shape]
@@ -453,8 +457,18 @@ def object_mesh(scene: Scene, obj: Object, index: int, source: str) -> ObjectMes
     else:
         major, minor = obj.segments or (32, 16)
         vertices, faces = shapes.torus(obj.major_radius / unit, obj.minor_radius / unit, major, minor)
-    uv = {"icosphere": shapes.sphere_uv, "uv_sphere": shapes.sphere_uv, "box": shapes.box_uv}.get(obj.shape)
-    return ObjectMesh(vertices * unit, faces, None, uv=None if uv is None else uv(vertices, faces))
+    return ObjectMesh(vertices * unit, faces, None)
+
+
+def shape_uv(obj: Object, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray | None:
+    """(F, 3, 2) texture coordinates of a built-in shape's template (object_mesh's vertices and faces), made
+    only when the scene has textures (a textured scene's geometry stage calls it): sphere longitude and
+    latitude, plane and box planar, cylinder and torus around their axes (shapes.py)."""
+    if obj.shape == "torus":
+        return shapes.torus_uv(vertices, faces, obj.major_radius)
+    found = {"icosphere": shapes.sphere_uv, "uv_sphere": shapes.sphere_uv, "box": shapes.box_uv,
+             "cylinder": shapes.cylinder_uv, "plane": shapes.planar_uv}.get(obj.shape)
+    return None if found is None else found(vertices, faces)
 
 
 def plane_mesh(size, segments) -> tuple[np.ndarray, np.ndarray]:

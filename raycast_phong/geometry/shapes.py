@@ -129,9 +129,10 @@ def torus(major_radius: float, minor_radius: float, major_sections: int, minor_s
 
 def _seamless(u: np.ndarray) -> np.ndarray:
     """Corner longitudes (F, 3) in [0, 1) made continuous across the seam: a face whose corners span more
-    than half a turn has its small ones moved up by 1 (so u runs 0.97 → 1.02, not 0.97 → 0.02)."""
+    than half a turn has its small ones moved up by 1 (so u runs 0.97 → 1.02, not 0.97 → 0.02). NaN (a
+    pole corner, no longitude) stays NaN."""
     u = u.copy()
-    wide = u.max(axis=1) - u.min(axis=1) > 0.5
+    wide = np.fmax.reduce(u, axis=1) - np.fmin.reduce(u, axis=1) > 0.5  # NaN (a pole corner) ignored
     u[wide] = np.where(u[wide] < 0.5, u[wide] + 1.0, u[wide])
     return u
 
@@ -174,3 +175,27 @@ def box_uv(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     rows = np.arange(len(faces))[:, None]
     return np.stack([scaled[rows, np.arange(3)[None], first[:, None]],
                      scaled[rows, np.arange(3)[None], second[:, None]]], axis=-1)
+
+
+def cylinder_uv(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(F, 3, 2) UVs of a cylinder about z: the side u = longitude / 2π, v = 0 → 1 from bottom to top; each cap
+    the map seen along z over the disc's square (u along +x, v along +y)."""
+    corners = vertices[faces]
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    span = np.where(high > low, high - low, 1.0)
+    side = sphere_uv(vertices, faces)[..., 0]
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    cap = np.abs(normal[:, 2]) > 0.5 * np.linalg.norm(normal, axis=1)
+    u = np.where(cap[:, None], (corners[..., 0] - low[0]) / span[0], side)
+    v = np.where(cap[:, None], (corners[..., 1] - low[1]) / span[1], (corners[..., 2] - low[2]) / span[2])
+    return np.stack([u, v], axis=-1)
+
+
+def torus_uv(vertices: np.ndarray, faces: np.ndarray, major_radius: float) -> np.ndarray:
+    """(F, 3, 2) UVs of a torus about z: u = the angle around z / 2π, v = the angle around the tube / 2π
+    (0 on the outer equator, rising toward +z), both continuous across their seams within a face."""
+    corners = vertices[faces]
+    u = (np.arctan2(corners[..., 1], corners[..., 0]) / (2 * np.pi)) % 1.0
+    ring = np.hypot(corners[..., 0], corners[..., 1]) - major_radius
+    v = (np.arctan2(corners[..., 2], ring) / (2 * np.pi)) % 1.0
+    return np.stack([_seamless(u), _seamless(v)], axis=-1)
