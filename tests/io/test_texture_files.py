@@ -76,3 +76,22 @@ def test_the_memory_estimate_counts_the_maps_a_file_names():
     assert estimate_memory(rp.load_scene(MODELS / "fuze.obj")).textures == TEXTURE_BYTES_PER_TEXEL * 1024 * 1024
     assert estimate_memory(rp.load_scene("scenes/default.toml" if Path("scenes/default.toml").is_file()
                                          else MODELS.parents[2] / "scenes" / "default.toml")).textures == 0
+
+
+def test_gltf_color_0_beside_a_material_multiplies_its_factor(tmp_path):
+    """glTF: baseColor = factor × texture × COLOR_0. A factor (0.5, 1, 1) with random COLOR_0 per vertex, lit
+    by ambient only (k_a = base colour): the red channel never exceeds 0.5 while green reaches near 1, and the
+    corner colours are COLOR_0 at each face's corners (on main: a note, and the factor alone)."""
+    import trimesh
+    mesh = trimesh.creation.icosphere(subdivisions=2)
+    mesh.visual = trimesh.visual.TextureVisuals(material=trimesh.visual.material.PBRMaterial(
+        name="half", baseColorFactor=[128, 255, 255, 255], metallicFactor=0.0, roughnessFactor=1.0))
+    colours = np.random.default_rng(0).integers(0, 256, (len(mesh.vertices), 4)).astype(np.uint8)
+    mesh.visual.vertex_attributes["color"] = colours
+    mesh.export(tmp_path / "painted.glb")
+    read = read_mesh(tmp_path / "painted.glb", "x")
+    np.testing.assert_allclose(read.corner_colour, colours[:, :3][mesh.faces] / 255, atol=1e-6)
+    image = rp.render_file(tmp_path / "painted.glb", ["render.width=120", "render.height=90", "ambient=[1, 1, 1]",
+                                                      "lights=[]"]).image
+    covered = image.max(axis=-1) > 0
+    assert image[covered][:, 0].max() <= 128 / 255 + 1e-6 and image[covered][:, 1].max() > 0.8
