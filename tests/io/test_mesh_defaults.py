@@ -269,13 +269,17 @@ def covered_colours(path, *extra) -> np.ndarray:
 
 def test_the_duck_is_yellow_not_white():
     """Duck.glb's base colour is all in its texture (factor 1): the body must be yellow (red and green well
-    above blue), as the texture shows, not white."""
+    above blue) and the beak orange, as the texture shows, not white or one mean colour."""
     colours = covered_colours(MODELS.parent / "corpus" / "Duck.glb") if (MODELS.parent / "corpus").is_dir() \
         else covered_colours(Path("/work/corpus/Duck.glb")) if Path("/work/corpus/Duck.glb").is_file() else None
     if colours is None:
         pytest.skip("Duck.glb not available")
     median = np.median(colours, axis=0)
     assert median[0] > 2 * median[2] and median[1] > 2 * median[2], median
+    # The texture per pixel: an orange-red beak (r > 2 g) beside the yellow body. The stand-in before it
+    # (the texture's mean colour as k_d) gave every pixel one hue, r/g = 1.21.
+    hue = colours[:, 0] / np.maximum(colours[:, 1], 1e-6)
+    assert (hue > 2).mean() > 0.01 and ((hue > 1) & (hue < 1.6)).mean() > 0.5
 
 
 def test_boxtextured_shows_both_of_its_texture_colours_and_no_note_says_otherwise():
