@@ -394,6 +394,11 @@ def _follow_corners(before: np.ndarray, after: np.ndarray, values: np.ndarray) -
 def _object_corners(scene: Scene, built: list, mesh, per_object, width: int, fill: float) -> np.ndarray:
     """(F, 3, width) float32 per-corner values of every face in the scene's order: `per_object(members,
     template)` gives a template's (m, 3, width) array or None (then `fill`); mirrored objects reversed."""
+    if len(scene.objects) == 1:  # one object (a large mesh file): its own array, no copy
+        members, template = built[0][0], built[0][1]
+        values = per_object(members, template)
+        if values is not None and np.prod(scene.objects[0].scale) >= 0:
+            return np.ascontiguousarray(values, np.float32)
     out = np.full((int(mesh.face_count.sum()), 3, width), fill, np.float32)
     for members, template, *_ in built:
         values = per_object(members, template)
@@ -423,7 +428,9 @@ def _corner_colours(scene: Scene, built: list, mesh) -> np.ndarray:
         read = template.file
         if read is None or read.corner_colour is None or scene.objects[members[0]].material != "default":
             return None
-        return np.where(read.corner_colour < 0, np.float32(1), read.corner_colour)
+        colours = read.corner_colour  # the file's own array: -1 (a part without colours) becomes 1 in place
+        colours[colours < 0] = 1
+        return colours
     if not any(t.file is not None and t.file.corner_colour is not None
                and scene.objects[m[0]].material == "default" for m, t, *_ in built):
         return np.zeros((0, 3, 3), np.float32)
