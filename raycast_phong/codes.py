@@ -76,3 +76,11 @@ MATERIAL_DEFAULTS = {"ka": (0.2, 0.2, 0.2), "kd": (0.8, 0.8, 0.8), "ks": (0.5, 0
 # A material-table row: ka (3), kd (3), ks (3), ke (3), shininess; the first column of each and the width.
 MATERIAL_COLUMNS = ("ka", "kd", "ks", "ke", "shininess")
 KA, KD, KS, KE, SHININESS, MATERIAL_WIDTH = 0, 3, 6, 9, 12, 13
+# After those, the row of the texture table each colour map uses (-1: none): the map that multiplies k_a, the
+# one that multiplies k_d, the one that multiplies k_e; the kernels read them only when the scene has textures.
+MAP_COLUMNS = ("ka_map", "kd_map", "ke_map")
+KA_MAP, KD_MAP, KE_MAP, MATERIAL_TABLE_WIDTH = 13, 14, 15, 16
+# Texture wrap modes (glTF sampler codes 10497, 33071, 33648 and OBJ "-clamp on" map onto them).
+WRAP_MODES = ("repeat", "clamp", "mirror")
+WRAP_CODE = {name: index for index, name in enumerate(WRAP_MODES)}
+GLTF_WRAP = {10497: "repeat", 33071: "clamp", 33648: "mirror"}

@@ -9,7 +9,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .codes import MATERIAL_WIDTH
+from .codes import MATERIAL_TABLE_WIDTH
+
+
+@dataclass(frozen=True, eq=False)
+class Texture:
+    """A colour map decoded into linear float32 RGB, the full-resolution level of its mip pyramid."""
+    pixels: np.ndarray   # (H, W, 3) float32 linear; row 0 is the top of the image (v = 1)
+    wrap_s: str          # codes.WRAP_MODES, along u
+    wrap_t: str          # along v
+    name: str            # where it came from, for notes
 
 
 @dataclass(frozen=True, eq=False)
@@ -25,10 +34,20 @@ class Geometry:
     face_model: np.ndarray      # (F,) int8, 0 flat, 1 gouraud, 2 phong
     face_object: np.ndarray     # (F,) int32, index of the scene object the face belongs to
     notes: tuple[str, ...] = () # what loading changed, e.g. a repaired winding (shown by the plan)
-    file_materials: np.ndarray = field(default_factory=lambda: np.zeros((0, MATERIAL_WIDTH)))
-                                # (M, 13) float64 material-table rows read from mesh files (their .mtl, glTF
+    file_materials: np.ndarray = field(default_factory=lambda: np.zeros((0, MATERIAL_TABLE_WIDTH)))
+                                # (M, 16) float64 material-table rows read from mesh files (their .mtl, glTF
                                 # materials, colours); face_material counts them after the scene's materials
     file_notes: tuple[str, ...] = ()  # what the mesh files' materials left out (textures, transparency, ...)
+    corner_uv: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 2), np.float32))
+                                # (F, 3, 2) float32 texture coordinates at each face corner (v up: row 0 of a
+                                # texture is v = 1), or empty when no material of the scene has a texture
+    corner_colour: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3), np.float32))
+                                # (F, 3, 3) float32 vertex colour at each face corner (1 where a face has none),
+                                # or empty when no mesh file has vertex colours
+    textures: tuple[Texture, ...] = ()  # the decoded textures the material table's map columns index
+    scene_maps: np.ndarray = field(default_factory=lambda: np.full((0, 3), -1, np.int64))
+                                # (1 + scene materials, 3) texture rows of the default's and the scene's
+                                # materials' ka, kd, ke maps (-1: none); empty when none has a map
 
     @property
     def triangles(self) -> int:

@@ -61,4 +61,6 @@ IMAGE_TOLERANCES: dict[tuple[str, str], ImageTolerance] = {
     ("specular", "blinn"): STANDARD,
     ("shadows", "authored"): STANDARD,         # global mode: shadow rays and Hanika's terminator fix; shadow
                                                # edges flip like silhouettes, within the same share
+    ("textured_sphere", "flat"): STANDARD,     # a colour map, sampled per pixel: the facets keep sharp
+    ("textured_sphere", "phong"): STANDARD,    # checker edges; the highlight stays white
 }

@@ -6,13 +6,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from pathlib import Path
 from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
 from ..codes import MODEL_CODE
 from ..errors import SceneError
-from ..records import Geometry, bounding_box
+from ..records import Geometry, Texture, bounding_box
 from ..scene.messages import dotted
 from ..scene.schema import DEFAULT_MATERIAL, Object, Scene, brightness_problem
 from ..tolerances import MIN_DISTANCE, MIN_EXTENT, POSITION_LIMIT
@@ -31,6 +32,7 @@ class ObjectMesh(NamedTuple):
     normals: np.ndarray | None   # (V, 3) vertex normals a mesh file stores (used when normals is "file" or unset)
     file: MeshFile | None = None  # a mesh file's materials and colours, aligned with `faces`
     crease_angle: float | None = None  # a mesh file's crease angle when the object leaves it unset
+    uv: np.ndarray | None = None  # (F, 3, 2) texture coordinates per face corner, aligned with `faces`
 
 
 OBJECT_CHUNK_VERTICES = 1 << 20  # placed vertices per step of a group: ~25 MB of float64 temporaries
@@ -52,7 +54,8 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
     groups: dict[tuple, list[int]] = {}
     for index, obj in enumerate(scene.objects):
         groups.setdefault(_group_key(obj, index), []).append(index)
-    notes, file_notes, file_rows = [], [], FileRows(scene, material_index)
+    bank = TextureBank(scene, source)
+    notes, file_notes, file_rows = [], [], FileRows(scene, material_index, bank)
     built = []  # (members, template, exact corner normals in the object frame, a mesh file's material rows)
     for members in groups.values():  # groups in the order of their first object
         first = scene.objects[members[0]]
@@ -65,6 +68,11 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
             if first.material == "default":  # the file's own materials; any other name paints the whole mesh
                 rows = file_rows.faces(template.file)
             faces, flipped, outward = repair_winding(template.vertices, template.faces)
+            if flipped and template.uv is not None:  # the corner arrays follow each face's new corner order
+                template = template._replace(uv=_follow_corners(template.faces, faces, template.uv))
+            if flipped and template.file.corner_colour is not None:
+                template = template._replace(file=dataclasses.replace(
+                    template.file, corner_colour=_follow_corners(template.faces, faces, template.file.corner_colour)))
             if flipped:
                 notes.append(f"objects.{members[0]}: the winding of {flipped} of {len(faces)} faces was repaired"
                              + (" (and turned outward: the mesh is closed)" if outward else ""))
@@ -82,7 +90,14 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
         for at in range(0, len(members), step):
             mesh.write(_group_part(scene, members[at:at + step], template, exact, vertex_normals, normal_dtype,
                                    source), rows)
-    geometry = mesh.geometry(tuple(notes), file_rows.table(), tuple(dict.fromkeys(file_notes)))
+    scene_maps = bank.scene_maps([o.material for o in scene.objects])
+    textured = bank.textures and (len(scene_maps) or file_rows.mapped)
+    corner_uv = _corner_uvs(scene, built, mesh) if textured else np.zeros((0, 3, 2), np.float32)
+    corner_colour = _corner_colours(scene, built, mesh)
+    geometry = mesh.geometry(tuple(notes), file_rows.table(), tuple(dict.fromkeys(file_notes + bank.notes)))
+    geometry = dataclasses.replace(geometry, corner_uv=corner_uv, corner_colour=corner_colour,
+                                   textures=tuple(bank.textures) if textured else (),
+                                   scene_maps=scene_maps if textured else np.full((0, 3), -1, np.int64))
     check_float_range(scene, geometry.vertices, source)
     return geometry
 
@@ -253,13 +268,89 @@ def behind_camera(scene: Scene, vertices: np.ndarray) -> str | None:
 THIN = 2.0 ** -23  # float32's resolution: a tube thinner than this share of the shape collapses in Embree's frame
 
 
-class FileRows:
-    """The material table's rows after the scene's own: one per distinct (file material, colour) of the mesh
-    files' faces. A file material the scene defines by name ([materials.NAME]) uses the scene's row instead."""
+class TextureBank:
+    """The scene's decoded textures, each decoded once and only when a face's material uses it (a file's
+    unused maps are never decoded); a map that cannot be decoded is a note and its factor stands alone."""
 
-    def __init__(self, scene: Scene, material_index: dict[str, int]):
+    def __init__(self, scene: Scene, source: str):
+        self.scene, self.source = scene, source
+        self.textures: list[Texture] = []
+        self.notes: list[str] = []
+        self.found: dict = {}
+
+    def add(self, key, decode, wrap_s: str, wrap_t: str, name: str) -> int:
+        """The texture row of `key`, decoded by `decode()` the first time; -1 (and a note) if it cannot be."""
+        if key not in self.found:
+            try:
+                pixels = decode()
+            except SceneError:
+                raise  # a scene's own map: the scene is wrong (one line, exit 2)
+            except ValueError as error:
+                self.notes.append(f"{name} cannot be decoded as an image ({error}); its factor is used")
+                self.found[key] = -1
+            else:
+                self.found[key] = len(self.textures)
+                self.textures.append(Texture(pixels, wrap_s, wrap_t, name))
+        return self.found[key]
+
+    def file_map(self, read: MeshFile, index: int) -> int:
+        """The texture row of a mesh file's map `index` (into read.texture_sources), -1 for none."""
+        if index < 0:
+            return -1
+        from ..io.textures import decode_file, decode_pil
+        found = read.texture_sources[index]
+        if isinstance(found.source, Path):
+            key, decode = (str(found.source), found.wrap_s, found.wrap_t), lambda: decode_file(found.source)
+        else:
+            key, decode = (id(found.source), found.wrap_s, found.wrap_t), lambda: decode_pil(found.source)
+        return self.add(key, decode, found.wrap_s, found.wrap_t, found.name)
+
+    def scene_map(self, name: str, key: str) -> int:
+        """The texture row of a scene material's map (its `kd_map`, ...), -1 for none; SceneError (one line)
+        when the file is missing or not an image."""
+        material = self.scene.materials.get(name)
+        value = getattr(material, key, None) if material is not None else None
+        if value is None:
+            return -1
+        from ..io.textures import decode_scene_map
+        path, wrap = self.scene.resolve(value.path), value.wrap
+        where = f"{self.source}: materials.{name}.{key}"
+        return self.add((str(path), wrap, wrap), lambda: decode_scene_map(path, where), wrap, wrap, str(path))
+
+    def maps_of(self, material, read: MeshFile | None = None) -> tuple[int, int, int]:
+        """(ka, kd, ke) texture rows of a material: a FileMaterial of `read`, or a scene material by name;
+        the k_a map is the k_d map unless a k_a map of its own is given (the texture modulates both)."""
+        if read is not None:
+            ka, kd, ke = (self.file_map(read, i) for i in (material.ka_map, material.kd_map, material.ke_map))
+        else:
+            name = next((n for n, m in self.scene.materials.items() if m is material), None)
+            if name is None:
+                return -1, -1, -1
+            ka, kd, ke = (self.scene_map(name, k) for k in ("ka_map", "kd_map", "ke_map"))
+        return (kd if ka < 0 else ka), kd, ke
+
+    def scene_maps(self, used: list[str]) -> np.ndarray:
+        """(1 + scene materials, 3) texture rows of the default's and the scene's materials; decoded only for
+        the materials some object uses; empty when none has a map."""
+        rows = np.full((1 + len(self.scene.materials), 3), -1, np.int64)
+        used = set(used)
+        for i, (name, material) in enumerate(self.scene.materials.items()):
+            if name in used or name == "default":
+                rows[1 + i] = self.maps_of(material)
+        return rows if (rows >= 0).any() else np.full((0, 3), -1, np.int64)
+
+
+class FileRows:
+    """The material table's rows after the scene's own: one per file material of the mesh files' faces, and
+    for faces with vertex colours but no material one whose k_a = k_d = 1 (the colours, which multiply k_a
+    and k_d per corner in the kernel, then replace them). A file material the scene defines by name
+    ([materials.NAME]) uses the scene's factors instead, and the file's maps unless it gives its own."""
+
+    def __init__(self, scene: Scene, material_index: dict[str, int], bank: TextureBank | None = None):
         self.scene, self.material_index = scene, material_index
+        self.bank = bank if bank is not None else TextureBank(scene, "<scene>")
         self.rows: list[np.ndarray] = []
+        self.mapped = False
         self.first = 1 + len(scene.materials)  # row of the first file material: after the default and the scene's
 
     def faces(self, read: MeshFile) -> np.ndarray:
@@ -267,31 +358,83 @@ class FileRows:
         default = self.scene.materials.get("default", DEFAULT_MATERIAL)
         named = [self.scene.materials.get(m.name, m) for m in read.materials] + [default]  # -1: no material
         group = np.where(read.face_group < 0, len(named) - 1, read.face_group)
-        if read.face_colour is None:  # one row per material: no sort of the faces
-            self.rows.append(self._rows(named, np.arange(len(named)), np.zeros(len(named), np.int64)))
-            return (self.first + sum(len(r) for r in self.rows[:-1]) + group).astype(np.int32)
-        # Colours replace k_d and k_a (docs/meshes.md); -1 marks faces of a part without colours.
-        sums = read.face_colour.astype(np.int64)
-        colour_code = np.where(sums[:, 0] < 0, 0, 1 + (sums[:, 0] << 20 | sums[:, 1] << 10 | sums[:, 2]))
-        keys, inverse = np.unique(group.astype(np.int64) << 31 | colour_code, return_inverse=True)
-        rows = self._rows(named, keys >> 31, keys & ((1 << 31) - 1))
-        self.rows.append(rows)
-        return (self.first + sum(len(r) for r in self.rows[:-1]) + inverse.reshape(-1)).astype(np.int32)
+        # A scene material of the file material's name (framing writes them so) gives the factors; the file's
+        # maps stay unless it names maps of its own.
+        maps = []
+        for own, used in zip(read.materials, named):
+            given = self.bank.maps_of(used) if used is not own else (-1, -1, -1)
+            maps.append(given if max(given) >= 0 else self.bank.maps_of(own, read))
+        maps.append(self.bank.maps_of(default))
+        if read.corner_colour is not None:  # colours with no material replace k_a and k_d: a white row
+            named.append(default.model_copy(update={"ka": (1.0, 1.0, 1.0), "kd": (1.0, 1.0, 1.0)}))
+            maps.append(maps[-1])
+            coloured = (read.face_group < 0) & (read.corner_colour[:, 0, 0] >= 0)
+            group = np.where(coloured, len(named) - 1, group)
+        self.mapped |= any(r >= 0 for m in maps for r in m)
+        self.rows.append(self._rows(named, np.asarray(maps, np.int64).reshape(-1, 3)))
+        return (self.first + sum(len(r) for r in self.rows[:-1]) + group).astype(np.int32)
 
     @staticmethod
-    def _rows(named: list, groups: np.ndarray, codes: np.ndarray) -> np.ndarray:
-        def column(key: str) -> np.ndarray:  # one row per key: a colour mesh may have a million of them
-            return np.array([getattr(m, key) for m in named], np.float64).reshape(len(named), -1)[groups]
-        ka, kd = column("ka"), column("kd")
-        coloured = codes > 0
-        if coloured.any():
-            code = codes[coloured] - 1
-            colour = np.column_stack([code >> 20, (code >> 10) & 1023, code & 1023]) / 765.0  # mean of 3 × 8 bit
-            ka[coloured] = kd[coloured] = colour
-        return material_rows(ka, kd, column("ks"), column("ke"), column("shininess")[:, 0])
+    def _rows(named: list, maps: np.ndarray) -> np.ndarray:
+        def column(key: str) -> np.ndarray:
+            return np.array([getattr(m, key) for m in named], np.float64).reshape(len(named), -1)
+        return material_rows(column("ka"), column("kd"), column("ks"), column("ke"), column("shininess")[:, 0], maps)
 
     def table(self) -> np.ndarray:
         return np.concatenate(self.rows) if self.rows else material_rows(*(np.zeros((0, 3)),) * 4, np.zeros(0))
+
+
+def _follow_corners(before: np.ndarray, after: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Per-corner values (F, 3, ...) reordered as each face's corners were (repair_winding reverses some):
+    corner j of `after` takes the value of the corner of `before` with the same vertex."""
+    order = (before[:, None, :] == after[:, :, None]).argmax(axis=2)  # (F, 3): where after's corner was
+    return np.take_along_axis(values, order.reshape(*order.shape, *([1] * (values.ndim - 2))), axis=1)
+
+
+def _object_corners(scene: Scene, built: list, mesh, per_object, width: int, fill: float) -> np.ndarray:
+    """(F, 3, width) float32 per-corner values of every face in the scene's order: `per_object(members,
+    template)` gives a template's (m, 3, width) array or None (then `fill`); mirrored objects reversed."""
+    if len(scene.objects) == 1:  # one object (a large mesh file): its own array, no copy
+        members, template = built[0][0], built[0][1]
+        values = per_object(members, template)
+        if values is not None and np.prod(scene.objects[0].scale) >= 0:
+            return np.ascontiguousarray(values, np.float32)
+    out = np.full((int(mesh.face_count.sum()), 3, width), fill, np.float32)
+    for members, template, *_ in built:
+        values = per_object(members, template)
+        if values is None:
+            continue
+        for member in members:
+            start = mesh.face_start[member]
+            placed = values
+            if np.prod(scene.objects[member].scale) < 0:
+                placed = values[:, ::-1]
+            out[start:start + len(values)] = placed
+    return out
+
+
+def _corner_uvs(scene: Scene, built: list, mesh) -> np.ndarray:
+    """(F, 3, 2) texture coordinates of every face: a mesh file's, or a built-in shape's (shape_uv)."""
+    def uvs(members, template):
+        if template.uv is not None or template.file is not None:
+            return template.uv
+        return shape_uv(scene.objects[members[0]], template.vertices, template.faces)
+    return _object_corners(scene, built, mesh, uvs, 2, 0.0)
+
+
+def _corner_colours(scene: Scene, built: list, mesh) -> np.ndarray:
+    """(F, 3, 3) vertex colours per corner (1 where a face has none), or empty when no used file has any."""
+    def colours(members, template):
+        read = template.file
+        if read is None or read.corner_colour is None or scene.objects[members[0]].material != "default":
+            return None
+        colours = read.corner_colour  # the file's own array: -1 (a part without colours) becomes 1 in place
+        colours[colours < 0] = 1
+        return colours
+    if not any(t.file is not None and t.file.corner_colour is not None
+               and scene.objects[m[0]].material == "default" for m, t, *_ in built):
+        return np.zeros((0, 3, 3), np.float32)
+    return _object_corners(scene, built, mesh, colours, 3, 1.0)
 
 
 def object_mesh(scene: Scene, obj: Object, index: int, source: str) -> ObjectMesh:
@@ -324,6 +467,17 @@ def object_mesh(scene: Scene, obj: Object, index: int, source: str) -> ObjectMes
     return ObjectMesh(vertices * unit, faces, None)
 
 
+def shape_uv(obj: Object, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray | None:
+    """(F, 3, 2) texture coordinates of a built-in shape's template (object_mesh's vertices and faces), made
+    only when the scene has textures (a textured scene's geometry stage calls it): sphere longitude and
+    latitude, plane and box planar, cylinder and torus around their axes (shapes.py)."""
+    if obj.shape == "torus":
+        return shapes.torus_uv(vertices, faces, obj.major_radius)
+    found = {"icosphere": shapes.sphere_uv, "uv_sphere": shapes.sphere_uv, "box": shapes.box_uv,
+             "cylinder": shapes.cylinder_uv, "plane": shapes.planar_uv}.get(obj.shape)
+    return None if found is None else found(vertices, faces)
+
+
 def plane_mesh(size, segments) -> tuple[np.ndarray, np.ndarray]:
     """A width × depth grid in the local x–z plane, centred, wound so its normal is +y."""
     nx, nz = segments
@@ -349,14 +503,14 @@ def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
         raise SceneError(f'{source}: objects.{index}.normals: "file" but {str(path)!r} stores no vertex '
                          'normals; use "mean", "area" or "angle"')
     if normals is not None:  # keep the file's vertex order: its normals are per vertex
-        return ObjectMesh(read.vertices, read.faces, normals, read)
+        return ObjectMesh(read.vertices, read.faces, normals, read, uv=read.corner_uv)
     # Otherwise merge what the file repeats (the faces and their order stay, so the per-face materials line up).
     # The scene named a rule, so the file's normals neither shade nor keep its points apart.
     vertices, faces = merge_duplicate_vertices(read.vertices, read.faces)
     # The merged arrays replace the file's: an STL's raw (3F, 3) points need not live through the normals.
     crease = file_crease_angle(obj, read.stores_normals)
     read = dataclasses.replace(read, vertices=read.vertices[:0].copy(), faces=read.faces[:0].copy())  # no views: freed
-    return ObjectMesh(vertices, faces, None, read, crease)
+    return ObjectMesh(vertices, faces, None, read, crease, read.corner_uv)
 
 
 def normals_against_winding(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray) -> float:

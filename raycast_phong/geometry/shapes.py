@@ -123,3 +123,79 @@ def torus(major_radius: float, minor_radius: float, major_sections: int, minor_s
     phi = np.linspace(0.0, 2.0 * np.pi, minor_sections + 1)[:-1]
     return revolve(minor_radius * np.cos(phi) + major_radius, minor_radius * np.sin(phi), major_sections,
                    closed=True)
+
+
+# ---------------------------------------------------------------- texture coordinates per face corner
+
+def _seamless(u: np.ndarray) -> np.ndarray:
+    """Corner longitudes (F, 3) in [0, 1) made continuous across the seam: a face whose corners span more
+    than half a turn has its small ones moved up by 1 (so u runs 0.97 → 1.02, not 0.97 → 0.02). NaN (a
+    pole corner, no longitude) stays NaN."""
+    u = u.copy()
+    wide = np.fmax.reduce(u, axis=1) - np.fmin.reduce(u, axis=1) > 0.5  # NaN (a pole corner) ignored
+    u[wide] = np.where(u[wide] < 0.5, u[wide] + 1.0, u[wide])
+    return u
+
+
+def sphere_uv(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(F, 3, 2) UVs of a sphere about z: u = longitude / 2π (atan2(y, x), in [0, 1)), v = (latitude + π/2) / π
+    (0 at the −z pole, 1 at +z). A pole corner (no longitude) takes the mean u of its face's other corners."""
+    corners = vertices[faces]
+    r = np.linalg.norm(corners, axis=-1)
+    u = (np.arctan2(corners[..., 1], corners[..., 0]) / (2 * np.pi)) % 1.0
+    v = 0.5 + np.arcsin(np.clip(corners[..., 2] / np.where(r > 0, r, 1), -1, 1)) / np.pi
+    pole = np.hypot(corners[..., 0], corners[..., 1]) <= 1e-12 * np.maximum(r, 1e-300)
+    u = _seamless(np.where(pole, np.nan, u))
+    others = np.where(pole, np.nan, u)
+    mean = np.nanmean(np.where(np.isnan(others), np.nan, others), axis=1, keepdims=True)
+    u = np.where(pole, np.broadcast_to(mean, u.shape), u)
+    return np.stack([u, v], axis=-1)
+
+
+def planar_uv(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(F, 3, 2) UVs of a plane in the x–z plane (normal +y): u = 0 → 1 along +x, v = 0 → 1 along −z (the
+    image upright when seen from above with −z away), over the plane's extent."""
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    span = np.where(high > low, high - low, 1.0)
+    corners = vertices[faces]
+    return np.stack([(corners[..., 0] - low[0]) / span[0], (high[2] - corners[..., 2]) / span[2]], axis=-1)
+
+
+def box_uv(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(F, 3, 2) UVs of a box: each side shows the whole texture once, projected along its axis (u, v the
+    side's two other coordinates over the box's extent, in x, y, z order)."""
+    corners = vertices[faces]
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    axis = np.abs(normal).argmax(axis=1)
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    span = np.where(high > low, high - low, 1.0)
+    scaled = (corners - low) / span
+    first = np.array([1, 0, 0])[axis]   # x-side: (y, z); y-side: (x, z); z-side: (x, y)
+    second = np.array([2, 2, 1])[axis]
+    rows = np.arange(len(faces))[:, None]
+    return np.stack([scaled[rows, np.arange(3)[None], first[:, None]],
+                     scaled[rows, np.arange(3)[None], second[:, None]]], axis=-1)
+
+
+def cylinder_uv(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(F, 3, 2) UVs of a cylinder about z: the side u = longitude / 2π, v = 0 → 1 from bottom to top; each cap
+    the map seen along z over the disc's square (u along +x, v along +y)."""
+    corners = vertices[faces]
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    span = np.where(high > low, high - low, 1.0)
+    side = sphere_uv(vertices, faces)[..., 0]
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    cap = np.abs(normal[:, 2]) > 0.5 * np.linalg.norm(normal, axis=1)
+    u = np.where(cap[:, None], (corners[..., 0] - low[0]) / span[0], side)
+    v = np.where(cap[:, None], (corners[..., 1] - low[1]) / span[1], (corners[..., 2] - low[2]) / span[2])
+    return np.stack([u, v], axis=-1)
+
+
+def torus_uv(vertices: np.ndarray, faces: np.ndarray, major_radius: float) -> np.ndarray:
+    """(F, 3, 2) UVs of a torus about z: u = the angle around z / 2π, v = the angle around the tube / 2π
+    (0 on the outer equator, rising toward +z), both continuous across their seams within a face."""
+    corners = vertices[faces]
+    u = (np.arctan2(corners[..., 1], corners[..., 0]) / (2 * np.pi)) % 1.0
+    ring = np.hypot(corners[..., 0], corners[..., 1]) - major_radius
+    v = (np.arctan2(corners[..., 2], ring) / (2 * np.pi)) % 1.0
+    return np.stack([_seamless(u), _seamless(v)], axis=-1)

@@ -24,7 +24,7 @@ from typing import NamedTuple
 import numpy as np
 import trimesh
 
-from ..codes import MATERIAL_DEFAULTS
+from ..codes import GLTF_WRAP, MATERIAL_DEFAULTS
 from ..errors import SceneError
 from ..records import bounding_box
 from ..tolerances import POSITION_LIMIT
@@ -44,7 +44,14 @@ MIN_FILE_SHININESS = 1.0
 # The feature angle at which a file without normals is creased (VTK's vtkPolyDataNormals and Blender's
 # auto-smooth both default to 30°): CAD faces keep their edges, a scan's small angles stay smooth.
 FILE_CREASE_ANGLE = 30.0
-TEXTURE_MEAN_SIZE = 64  # a texture's mean colour is taken on a thumbnail of at most this many pixels a side
+
+
+class TextureSource(NamedTuple):
+    """A colour map a file's material names, not yet decoded (geometry.build decodes the ones faces use)."""
+    source: object   # a Path (decoded with OpenImageIO) or the PIL image trimesh opened (a glTF's embedded one)
+    wrap_s: str      # codes.WRAP_MODES
+    wrap_t: str
+    name: str        # for notes
 
 
 @dataclass(frozen=True)
@@ -56,6 +63,9 @@ class FileMaterial:
     ks: tuple[float, float, float]
     ke: tuple[float, float, float]
     shininess: float
+    ka_map: int = -1  # index into MeshFile.texture_sources of the map multiplying k_a (-1: none)
+    kd_map: int = -1  # ... k_d (and k_a when ka_map is -1)
+    ke_map: int = -1  # ... k_e
 
     def as_scene(self) -> dict:
         """The keys of a [materials.NAME] table with these values."""
@@ -72,14 +82,17 @@ class MeshFile:
     normals: np.ndarray | None      # (V, 3) float64 vertex normals the file stores, else None
     face_group: np.ndarray          # (F,) int32: index into `materials`, -1 for a face without a material
     materials: tuple[FileMaterial, ...]
-    face_colour: np.ndarray | None  # (F, 3) int32: the face's colour as the sum of its corners' 8-bit values
-                                    # (0..765: exact for the mean of three), or None without colours
     up: tuple[float, float, float] | None  # the up axis the format states, or None
     notes: tuple[str, ...]          # one line each: side files missing or broken, what is ignored
     centre: np.ndarray              # (3,) float64 centre of the used vertices' bounding box (NaN unless read
                                     # for framing: read_mesh(keep=True))
     radius: float                   # largest distance of a used vertex from `centre`
     stores_normals: bool = False    # whether the file stores vertex normals (kept in the bounds cache too)
+    corner_uv: np.ndarray | None = None      # (F, 3, 2) texture coordinates per face corner (v up), taken before
+                                             # any merge of repeated points so UV seams stay; None without UVs
+    corner_colour: np.ndarray | None = None  # (F, 3, 3) float32 linear vertex colour per face corner in [0, 1],
+                                             # -1 on faces of a part without colours; None without colours
+    texture_sources: tuple[TextureSource, ...] = ()
 
 
 # ---------------------------------------------------------------- the cache
@@ -135,7 +148,7 @@ def mesh_bounds(path: Path, where: str) -> MeshFile:
 
 def _remember_bounds(identity: tuple, found: MeshFile) -> None:
     empty = np.zeros((0, 3))
-    BOUNDS.put(identity, MeshFile(empty, empty.astype(np.int64), None, np.zeros(0, np.int32), found.materials, None,
+    BOUNDS.put(identity, MeshFile(empty, empty.astype(np.int64), None, np.zeros(0, np.int32), found.materials,
                                  found.up, found.notes, found.centre, found.radius, found.normals is not None))
 
 
@@ -187,12 +200,12 @@ def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
         # Load unprocessed: trimesh's cleaning would silently drop NaN vertices and their faces.
         with handle:
             check_content(path, handle, where)
-            if suffix in (".gltf", ".glb"):
-                _check_gltf(path, handle, where, notes)
+            samplers = _check_gltf(path, handle, where, notes) if suffix in (".gltf", ".glb") else {}
+            sources: list[TextureSource] = []
             points = _binary_stl_points(handle) if suffix == ".stl" else None
             if points is None:
                 source = _mesh_source(path, handle)
-                library = _obj_materials(path, source["file_obj"], notes) if suffix == ".obj" else None
+                library = _obj_materials(path, source["file_obj"], notes, sources) if suffix == ".obj" else None
                 loaded = trimesh.load(**source, process=False)
         if points is not None:  # the corners in file order, as trimesh's reader gives them (without its float64)
             library, parts = None, [_Part(points, np.arange(len(points), dtype=np.int64).reshape(-1, 3), None, None)]
@@ -217,7 +230,8 @@ def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
     mask[faces.ravel()] = True  # the vertices faces use: O(F), where np.unique would sort
     used = vertices if mask.all() else vertices[mask]
     _check_values(used, path, where)
-    face_group, materials, face_colour = _surfaces(parts, library, path, notes)
+    face_group, materials, corner_uv, corner_colour = _surfaces(parts, library, path, notes, sources,
+                                                                            samplers)
     centre, radius = np.full(3, np.nan), math.nan
     if bounds:  # only framing needs them: a render's own read skips the pass
         low, high = (side.astype(np.float64) for side in bounding_box(used))  # column by column (records says why)
@@ -226,8 +240,9 @@ def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
         hint = up_hint(high - low, suffix)
         if hint:
             notes.append(f"{path}: {hint}")
-    return MeshFile(vertices, faces, normals, face_group, materials, face_colour, STATED_UP.get(suffix),
-                    tuple(dict.fromkeys(notes)), centre, radius, normals is not None)
+    return MeshFile(vertices, faces, normals, face_group, materials, STATED_UP.get(suffix),
+                    tuple(dict.fromkeys(notes)), centre, radius, normals is not None, corner_uv, corner_colour,
+                    tuple(sources))
 
 
 STL_RECORD = np.dtype([("normal", "<f4", 3), ("points", "<f4", (3, 3)), ("attribute", "<u2")])  # 50 bytes
@@ -329,9 +344,10 @@ def check_content(path: Path, handle, where: str) -> None:
 SUPPORTED_REQUIRED = ("KHR_draco_mesh_compression",)
 
 
-def _check_gltf(path: Path, handle, where: str, notes: list[str]) -> None:
+def _check_gltf(path: Path, handle, where: str, notes: list[str]) -> dict:
     """The glTF's JSON (a .glb's first chunk): refuse required extensions that are not supported, naming them;
-    a note for each image file it names that is missing."""
+    a note for each image file it names that is missing. Returns the wrap modes of each material's colour
+    maps: {(material name, "baseColorTexture" or "emissiveTexture"): (wrap_s, wrap_t)} (trimesh drops them)."""
     import json
     try:
         if path.suffix.lower() == ".glb":
@@ -346,7 +362,7 @@ def _check_gltf(path: Path, handle, where: str, notes: list[str]) -> None:
     finally:
         handle.seek(0)
     if not isinstance(document, dict):
-        return
+        return {}
     required = [e for e in document.get("extensionsRequired", []) if isinstance(e, str)]
     missing = [e for e in required if e not in SUPPORTED_REQUIRED]
     if "KHR_draco_mesh_compression" in required:
@@ -360,14 +376,34 @@ def _check_gltf(path: Path, handle, where: str, notes: list[str]) -> None:
     meshes = document.get("meshes", [])
     primitives = [p for m in (meshes if isinstance(meshes, list) else []) if isinstance(m, dict)
                   for p in m.get("primitives", []) if isinstance(p, dict)]
-    if any("COLOR_0" in (p.get("attributes") or {}) and "material" in p for p in primitives):
-        notes.append(f"{path}: COLOR_0 vertex colours beside a material are not applied yet; the material's "
-                     "factors are used (docs/meshes.md)")
+    del primitives
     from urllib.parse import unquote
     for image in document.get("images", []):
         uri = image.get("uri") if isinstance(image, dict) else None
         if isinstance(uri, str) and not uri.startswith("data:") and not (path.parent / unquote(uri)).is_file():
             notes.append(f"{path}: texture {unquote(uri)!r} is missing")
+    return _gltf_samplers(document)
+
+
+def _gltf_samplers(document: dict) -> dict:
+    """{(material name, slot): (wrap_s, wrap_t)} from the glTF's samplers (10497 repeat, 33071 clamp, 33648
+    mirror; a texture without a sampler repeats, glTF 2.0 §5.26)."""
+    found = {}
+    try:
+        textures, samplers = document.get("textures", []), document.get("samplers", [])
+        for material in document.get("materials", []):
+            slots = {"baseColorTexture": (material.get("pbrMetallicRoughness") or {}).get("baseColorTexture"),
+                     "emissiveTexture": material.get("emissiveTexture")}
+            for slot, info in slots.items():
+                if not isinstance(info, dict) or not isinstance(info.get("index"), int):
+                    continue
+                sampler = textures[info["index"]].get("sampler")
+                modes = samplers[sampler] if isinstance(sampler, int) else {}
+                found.setdefault((material.get("name"), slot), (GLTF_WRAP.get(modes.get("wrapS"), "repeat"),
+                                                                GLTF_WRAP.get(modes.get("wrapT"), "repeat")))
+    except (AttributeError, IndexError, TypeError):
+        pass  # a malformed table: every map repeats
+    return found
 
 
 Z_UP_RATIO = 1.5  # a model this many times longer along Z than along Y (and longest along Z) looks Z-up
@@ -489,16 +525,19 @@ def _check_values(coordinates: np.ndarray, path: Path, where: str) -> None:
 
 # ---------------------------------------------------------------- materials and colours
 
-def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes: list[str]):
-    """Per face: its material (an index into the returned tuple, -1 for none) and its colour sum or None."""
+def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes: list[str],
+              sources: list[TextureSource], samplers: dict):
+    """Per face: its material (an index into the returned tuple, -1 for none); per corner: the texture
+    coordinates (None unless some used material has a map) and the vertex colours (None unless some part
+    has colours)."""
     materials: list[FileMaterial] = []
     index: dict[str, int] = {}
-    groups, colours, any_colour, gltf, varied_corners = [], [], False, False, False
+    groups, corners, uvs, any_colour, gltf = [], [], [], False, False
     for part in parts:
         material = getattr(part.visual, "material", None)
         found = None
         if isinstance(material, trimesh.visual.material.PBRMaterial):
-            found, gltf = _from_pbr(material, path, notes), True
+            found, gltf = _from_pbr(material, path, notes, sources, samplers), True
         elif material is not None and library is not None:
             found = library.get(getattr(material, "name", None) or "")
         if found is not None:
@@ -512,39 +551,55 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
                 index[name] = len(materials)
                 materials.append(found)
         groups.append(np.full(len(part.faces), index[found.name] if found is not None else -1, np.int32))
-        colour = _face_colour_sums(part)
-        if colour is not None and not varied_corners and getattr(part.visual, "kind", None) == "vertex":
-            corners = np.asarray(part.visual.vertex_colors)[:, :3][part.faces]
-            varied_corners = bool((corners.min(axis=1) != corners.max(axis=1)).any())
-        if varied_corners and colour is not None:
-            notes.append(f"{path}: vertex colours are not interpolated per corner yet: each face takes the mean "
-                         "of its three corners' colours (docs/meshes.md)")
-        any_colour |= colour is not None
-        colours.append(colour)
+        uv = getattr(part.visual, "uv", None)
+        uvs.append(None if uv is None or len(uv) != len(part.vertices)
+                   else np.asarray(uv, np.float64)[:, :2][part.faces].astype(np.float32))
+        corner = _corner_colours(part)
+        any_colour |= corner is not None
+        corners.append(corner)
     if gltf:
         notes.append(f"{path}: glTF metallic-roughness materials are approximated on the Phong model: k_d = k_a = "
                      "base colour, F0 = 0.04 + (base colour − 0.04) × metallic, f = 2/roughness⁴ − 2 in [1, "
                      f"{MAX_FILE_SHININESS:g}], k_s = F0 × min(1, (f + 2)/{WIDE_LOBE + 2:g}), k_e = emissive "
                      "(docs/meshes.md)")
-    face_colour = None
+    corner_colour = corner_uv = None
     if any_colour:
         # A part without colours keeps its material's own k_d: mark it with -1 to tell it apart.
-        face_colour = np.concatenate([c if c is not None else np.full((len(p.faces), 3), -1, np.int32)
-                                      for c, p in zip(colours, parts)])
-    return np.concatenate(groups), tuple(materials), face_colour
+        corner_colour = np.concatenate([c if c is not None else np.full((len(p.faces), 3, 3), -1, np.float32)
+                                        for c, p in zip(corners, parts)])
+    mapped = any(m.ka_map >= 0 or m.kd_map >= 0 or m.ke_map >= 0 for m in materials)
+    if mapped:  # a part without texture coordinates reads its maps at (0, 0), as GL reads a missing attribute
+        if any(u is None for u, g in zip(uvs, groups) if len(g) and g[0] >= 0
+               and max(materials[g[0]].ka_map, materials[g[0]].kd_map, materials[g[0]].ke_map) >= 0):
+            notes.append(f"{path}: a textured part has no texture coordinates; its maps are read at (0, 0)")
+        corner_uv = np.concatenate([u if u is not None else np.zeros((len(p.faces), 3, 2), np.float32)
+                                    for u, p in zip(uvs, parts)])
+    return np.concatenate(groups), tuple(materials), corner_uv, corner_colour
 
 
-def _face_colour_sums(part: _Part) -> np.ndarray | None:
-    """(F, 3) int32 sums of the three corners' 8-bit colours (vertex colours), or 3 × the face colour; None
-    when the part has no colours. The mean is the sum / 765, so equal means compare equal exactly."""
+def _corner_colours(part: _Part) -> np.ndarray | None:
+    """(F, 3, 3) float32 colour in [0, 1] at each face corner: vertex colours (8-bit /255), a face's colour
+    at its three corners, or glTF's COLOR_0 beside a material (trimesh keeps it as a vertex attribute);
+    None when the part has none. Taken as stored (glTF's COLOR_0 is linear; PLY and OFF colours say nothing,
+    and are read as linear too, as before)."""
     visual = part.visual
     kind = getattr(visual, "kind", None)
-    if not isinstance(visual, trimesh.visual.ColorVisuals) or kind not in ("vertex", "face"):
+    if isinstance(visual, trimesh.visual.ColorVisuals) and kind == "vertex":
+        rgb = np.asarray(visual.vertex_colors)[:, :3].astype(np.float32) / 255.0
+        return rgb[part.faces]
+    if isinstance(visual, trimesh.visual.ColorVisuals) and kind == "face":
+        rgb = np.asarray(visual.face_colors)[:, :3].astype(np.float32) / 255.0
+        return np.repeat(rgb[:, None, :], 3, axis=1)
+    attributes = getattr(visual, "vertex_attributes", None) or {}
+    raw = attributes.get("color") if hasattr(attributes, "get") else None
+    if raw is None or len(raw) != len(part.vertices):
         return None
-    if kind == "vertex":
-        rgb = np.asarray(visual.vertex_colors)[:, :3].astype(np.int32)
-        return rgb[part.faces].sum(axis=1)
-    return 3 * np.asarray(visual.face_colors)[:, :3].astype(np.int32)
+    raw = np.asarray(raw)
+    scale = 1.0 if raw.dtype.kind == "f" else float(np.iinfo(raw.dtype).max)
+    rgb = np.clip(np.asarray(raw, np.float64).reshape(len(raw), -1)[:, :3] / scale, 0, 1).astype(np.float32)
+    if rgb.shape[1] < 3:
+        return None
+    return rgb[part.faces]
 
 
 def specular_lobe(ks, shininess: float) -> tuple[np.ndarray, float]:
@@ -561,26 +616,15 @@ def specular_lobe(ks, shininess: float) -> tuple[np.ndarray, float]:
     return np.asarray(ks, np.float64) * min(1.0, (shininess + 2) / (WIDE_LOBE + 2)), shininess
 
 
-def texture_mean(image) -> np.ndarray | None:
-    """The mean RGB (3,) in [0, 1] of a PIL image, which is shrunk in place to at most TEXTURE_MEAN_SIZE
-    pixels a side (a JPEG not yet decoded is decoded at that scale); 8-bit values as stored, like vertex
-    colours. None when the image cannot be decoded."""
-    try:
-        image.thumbnail((TEXTURE_MEAN_SIZE, TEXTURE_MEAN_SIZE))  # in place: the full-size pixels are let go
-        rgb = np.asarray(image.convert("RGB"), np.float64).reshape(-1, 3)
-    except Exception:  # noqa: BLE001 - PIL raises many types on a corrupt image; a texture is only a note
-        return None
-    return rgb.mean(axis=0) / 255.0 if len(rgb) else None
-
-
-def _from_pbr(material, path: Path, notes: list[str]) -> FileMaterial:
+def _from_pbr(material, path: Path, notes: list[str], sources: list[TextureSource], samplers: dict) -> FileMaterial:
     """glTF 2.0 metallic-roughness → Phong: a stated approximation (docs/meshes.md).
 
     k_d = k_a = base colour; k_s = F0 of the metallic workflow, lerp(0.04, base colour, metallic) (glTF
     2.0 Appendix B); f = 2/α² − 2 with α = roughness², the Blinn-Phong exponent of the same lobe width
     (Walter et al. 2007); both through specular_lobe, so roughness 1 is matte; k_e = emissive factor.
-    Textures are not applied yet: a base colour or emissive texture's mean colour multiplies its factor
-    (a note says so). glTF's defaults: base colour 1, metallic 1, roughness 1, emissive 0.
+    A baseColorTexture is the k_d map (and k_a's), an emissiveTexture the k_e map, each with its sampler's
+    wrap modes (decoded later, only if a face uses the material). glTF's defaults: base colour 1, metallic 1,
+    roughness 1, emissive 0.
     """
     base = material.baseColorFactor
     base = np.ones(4) if base is None else np.asarray(base, np.float64) / 255.0
@@ -594,27 +638,21 @@ def _from_pbr(material, path: Path, notes: list[str]) -> FileMaterial:
     name = material.name or f"{path.stem}-material"
     if base[3] < 1 or getattr(material, "alphaMode", None) in ("BLEND", "MASK"):
         notes.append(f"{path}: material {name!r}: transparency (alpha {base[3]:.3g}) is ignored: surfaces are opaque")
-    used = []
+    maps = {}
     for key in ("baseColorTexture", "emissiveTexture"):
         image = getattr(material, key, None)
         if image is None:
             continue
-        mean = texture_mean(image)
-        if mean is None:
-            notes.append(f"{path}: material {name!r}: its {key} cannot be decoded; its factor is used")
-        elif key == "baseColorTexture":
-            rgb, used = rgb * mean, [*used, key]
-        else:
-            emissive, used = emissive[:3] * mean, [*used, key]
-    if used:
-        notes.append(f"{path}: material {name!r}: textures are not applied yet; the mean colour of its "
-                     f"{' and '.join(used)} multiplies the factor (docs/meshes.md)")
+        wrap_s, wrap_t = samplers.get((material.name, key), ("repeat", "repeat"))
+        maps[key] = len(sources)
+        sources.append(TextureSource(image, wrap_s, wrap_t, f"{path}: material {name!r}: its {key}"))
     ignored = [key for key in ("metallicRoughnessTexture", "normalTexture", "occlusionTexture")
                if getattr(material, key, None) is not None]
     if ignored:
         notes.append(f"{path}: material {name!r}: {', '.join(ignored)} not applied; its factors are used")
     ks, shininess = specular_lobe(0.04 + (rgb - 0.04) * metallic, shininess)
-    return FileMaterial(name, _rgb(rgb), _rgb(rgb), _rgb(ks), _rgb(np.clip(emissive[:3], 0, 1)), float(shininess))
+    return FileMaterial(name, _rgb(rgb), _rgb(rgb), _rgb(ks), _rgb(np.clip(emissive[:3], 0, 1)), float(shininess),
+                        kd_map=maps.get("baseColorTexture", -1), ke_map=maps.get("emissiveTexture", -1))
 
 
 def _rgb(values) -> tuple[float, float, float]:
@@ -626,7 +664,8 @@ def _rgb(values) -> tuple[float, float, float]:
 TEXTURE_KEYS = ("map_", "bump", "disp", "decal", "refl", "norm")
 
 
-def _obj_materials(path: Path, text: io.BytesIO, notes: list[str]) -> dict[str, FileMaterial]:
+def _obj_materials(path: Path, text: io.BytesIO, notes: list[str],
+                   sources: list[TextureSource] | None = None) -> dict[str, FileMaterial]:
     """The materials of the .mtl an OBJ names (its first `mtllib`, as trimesh reads), by name; {} and a note
     when it is missing or unreadable."""
     data = text.getvalue()
@@ -645,16 +684,19 @@ def _obj_materials(path: Path, text: io.BytesIO, notes: list[str]) -> dict[str, 
     except (SceneError, OSError) as error:
         notes.append(f"{path}: its material file {name!r} cannot be read ({error}); the default material is used")
         return {}
-    return parse_mtl(content, mtl, notes)
+    return parse_mtl(content, mtl, notes, sources)
 
 
-def parse_mtl(content: str, mtl: Path, notes: list[str]) -> dict[str, FileMaterial]:
+def parse_mtl(content: str, mtl: Path, notes: list[str],
+              sources: list[TextureSource] | None = None) -> dict[str, FileMaterial]:
     """Wavefront .mtl → materials on the lecture's model (docs/meshes.md, "Materials").
 
     Ka → k_a, Kd → k_d, Ks → k_s, Ke → k_e, Ns → f; a key the material omits takes the scene default's
     value; illum 0 is colour only (k_e = Kd + Ke, the other terms 0), 1 has no specular term (k_s = 0),
-    2 and above are Phong (reflection and refraction are out of scope). d < 1 or Tr > 0 (transparency) and
-    texture maps are ignored, each said once. Coefficients outside [0, 1] are clamped, and said.
+    2 and above are Phong (reflection and refraction are out of scope). map_Kd, map_Ka and map_Ke are colour
+    maps (appended to `sources`, found as _texture_path finds them, "-clamp on" clamps them, else they
+    repeat); other maps (map_Ks, bump, ...) and d < 1 or Tr > 0 (transparency) are ignored, each said once.
+    Coefficients outside [0, 1] are clamped, and said.
     """
     raw: dict[str, dict[str, list[str]]] = {}
     current = None
@@ -667,7 +709,9 @@ def parse_mtl(content: str, mtl: Path, notes: list[str]) -> dict[str, FileMateri
             current = raw.setdefault(" ".join(words[1:]), {})
         elif current is not None:
             current[key] = words[1:]
-    materials, bad, clamped, textures, transparent, illums, averaged, undecoded = {}, [], [], [], [], set(), [], []
+    materials, bad, clamped, textures, transparent, illums = {}, [], [], [], [], set()
+    sources = [] if sources is None else sources
+    registered: dict[tuple, int] = {}
     for name, keys in raw.items():
         values = {}
         for key in ("ka", "kd", "ks", "ke", "ns", "d", "tr", "illum"):
@@ -693,17 +737,17 @@ def parse_mtl(content: str, mtl: Path, notes: list[str]) -> dict[str, FileMateri
             if any(not 0 <= x <= 1 for x in rgb):
                 clamped.append(f"{name}: {key.capitalize()}")
             coefficients[key] = _rgb(np.clip(rgb, 0, 1))
-        maps = {key: _map_file(words) for key, words in keys.items() if key in ("map_kd", "map_ka", "map_ke")}
-        for key, file in maps.items():
-            mean = _file_texture_mean(mtl.parent, file) if file else None
-            if mean is not None:
-                target = {"map_kd": "kd", "map_ka": "ka", "map_ke": "ke"}[key]
-                coefficients[target] = _rgb(np.asarray(coefficients[target]) * mean)
-                if key == "map_kd" and "map_ka" not in maps:  # the texture multiplies k_d and k_a
-                    coefficients["ka"] = _rgb(np.asarray(coefficients["ka"]) * mean)
-                averaged.append(f"{key} {file}")
-            elif file and _texture_path(mtl.parent, file) is not None:
-                undecoded.append(file)
+        rows = {}
+        for key in ("map_kd", "map_ka", "map_ke"):
+            file = _map_file(keys[key]) if key in keys else ""
+            found = _texture_path(mtl.parent, file) if file else None
+            if found is None:
+                continue  # missing: a note below, and the coefficient alone
+            clamp = "clamp" if _map_clamps(keys[key]) else "repeat"
+            if (found, clamp) not in registered:
+                registered[(found, clamp)] = len(sources)
+                sources.append(TextureSource(found, clamp, clamp, f"{mtl}: texture {file!r}"))
+            rows[key] = registered[(found, clamp)]
         ks, shininess = specular_lobe(coefficients["ks"],
                                       values.get("ns", [MATERIAL_DEFAULTS["shininess"]])[0])
         coefficients["ks"] = _rgb(ks)
@@ -714,8 +758,10 @@ def parse_mtl(content: str, mtl: Path, notes: list[str]) -> dict[str, FileMateri
             coefficients["ks"] = (0.0, 0.0, 0.0)
         elif illum > 2:
             illums.add(illum)
+        kd_map = rows.get("map_kd", -1)
+        ke_map = kd_map if illum == 0 else rows.get("map_ke", -1)  # colour only: the k_d map colours k_e
         materials[name] = FileMaterial(name, coefficients["ka"], coefficients["kd"], coefficients["ks"],
-                                       coefficients["ke"], float(shininess))
+                                       coefficients["ke"], float(shininess), rows.get("map_ka", -1), kd_map, ke_map)
     if bad:
         notes.append(f"{mtl}: {len(bad)} value(s) are not numbers and keep their defaults (first: {bad[0]})")
     if clamped:
@@ -729,16 +775,10 @@ def parse_mtl(content: str, mtl: Path, notes: list[str]) -> dict[str, FileMateri
         missing = sorted({file for _, _, file in textures if file and _texture_path(mtl.parent, file) is None})
         for file in missing:
             notes.append(f"{mtl}: texture {file!r} is missing")
-        for file in sorted(set(undecoded)):
-            notes.append(f"{mtl}: texture {file!r} cannot be read as an image; its coefficient is used")
-        if averaged:
-            shown = ", ".join(averaged[:3]) + (", ..." if len(averaged) > 3 else "")
-            notes.append(f"{mtl}: textures are not applied yet; the mean colour of each colour map multiplies its "
-                         f"coefficient ({shown}; docs/meshes.md)")
         others = [f"{key} {file}" for _, key, file in textures if key not in ("map_kd", "map_ka", "map_ke")]
         if others:
             shown = ", ".join(others[:3]) + (", ..." if len(others) > 3 else "")
-            notes.append(f"{mtl}: texture maps not applied ({shown})")
+            notes.append(f"{mtl}: only colour maps (map_Kd, map_Ka, map_Ke) are applied; not applied: {shown}")
     return materials
 
 
@@ -783,17 +823,10 @@ def _texture_path(folder: Path, file: str) -> Path | None:
     return None
 
 
-def _file_texture_mean(folder: Path, file: str) -> np.ndarray | None:
-    """texture_mean of a texture file beside an .mtl, or None when it is missing or not an image."""
-    found = _texture_path(folder, file)
-    if found is None:
-        return None
-    try:
-        from PIL import Image
-        with open_regular(found, str(found), "texture") as handle, Image.open(handle) as image:
-            return texture_mean(image)
-    except Exception:  # noqa: BLE001 - a texture that is not an image: its coefficient stays as stated
-        return None
+def _map_clamps(words: list[str]) -> bool:
+    """Whether a map statement says "-clamp on" (the .mtl specification: texels outside [0, 1] clamp)."""
+    lowered = [w.lower() for w in words]
+    return any(w == "-clamp" and i + 1 < len(lowered) and lowered[i + 1] == "on" for i, w in enumerate(lowered))
 
 
 # ---------------------------------------------------------------- trimesh's side of reading

@@ -54,10 +54,11 @@ class MemoryEstimate:
     image: int           # bytes: film, layers, their float32 copies for writing, the tiles' rays
     largest: int | None  # index of the object with the most geometry bytes
     largest_bytes: int
+    textures: int = 0    # bytes: decoded colour maps and their mip pyramids (io.textures.texture_bytes)
 
     @property
     def total(self) -> int:
-        return self.geometry + self.image
+        return self.geometry + self.image + self.textures
 
 
 def shape_triangles(obj) -> int:
@@ -129,7 +130,23 @@ def estimate_memory(scene: Scene, source: str = "<scene>", *, smooth: bool = Tru
     written = pixels * 4 * (3 + 3 * len(aovs & {*TERM_LAYERS, "normal"})
                             + len(aovs & {"depth", "face"}))
     rays = tile_rays * threads * (1 + shadow_lights) * RAY_BYTES
-    return MemoryEstimate(triangles, geometry, film + written + rays, largest, max(largest_bytes, 0))
+    return MemoryEstimate(triangles, geometry, film + written + rays, largest, max(largest_bytes, 0),
+                          texture_estimate(scene, files))
+
+
+def texture_estimate(scene: Scene, files) -> int:
+    """The texture term: every colour map a used scene material names and every map the mesh files'
+    materials name, at the size it is decoded at, from image headers only (io.textures)."""
+    used = {obj.material for obj in scene.objects}
+    paths = [scene.resolve(m.path) for name, material in scene.materials.items() if name in used or name == "default"
+             for m in (material.ka_map, material.kd_map, material.ke_map) if m is not None]
+    if not paths and not any(p.suffix.lower() in (".obj", ".glb", ".gltf") for p in files):
+        return 0
+    from ..io.textures import file_size, mesh_texture_sizes, texture_bytes
+    sizes = [size for size in map(file_size, dict.fromkeys(paths)) if size]
+    for path in files:
+        sizes += mesh_texture_sizes(path)
+    return texture_bytes(sizes)
 
 
 # ---------------------------------------------------------------- the budget

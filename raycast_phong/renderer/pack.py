@@ -11,8 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..codes import KA_MAP, KE_MAP, WRAP_CODE
 from ..geometry.materials import material_rows
-from ..records import Frame, Geometry, ImageBuffers, RenderPlan
+from ..records import Frame, Geometry, ImageBuffers, RenderPlan, Texture
 from ..scene.schema import DEFAULT_MATERIAL, Scene, SpecularModel
 from ..tolerances import MIN_DISTANCE
 from .kernels.camera import fill_rows
@@ -30,7 +31,9 @@ from .kernels.layout import (
     F_SCENE_AMBIENT,
     F_SCREEN,
     F_SHADOWS,
+    F_TEXTURES,
     F_TWO_SIDED,
+    F_VERTEX_COLOURS,
     F_VIEW_PER_POINT,
     FLAT,
     INVERSE_SQUARE,
@@ -46,6 +49,7 @@ from .kernels.layout import (
     SPECULAR_BLINN,
     SPECULAR_NONE,
     SPECULAR_PHONG,
+    TEXTURE_COLUMNS,
     FilmRows,
     RayParams,
     ShadingInputs,
@@ -128,11 +132,14 @@ def plan_flags(plan: RenderPlan, scene: Scene) -> tuple[int, int]:
     return flags, specular
 
 
-def material_table(materials, real: type, more: np.ndarray | None = None) -> np.ndarray:
-    """(M, MATERIAL_COLUMNS) array of `real`: per material k_a, k_d, k_s, k_e (r, g, b each) and f; then the
-    rows `more` (material_rows: the materials read from mesh files)."""
+def material_table(materials, real: type, more: np.ndarray | None = None,
+                   maps: np.ndarray | None = None) -> np.ndarray:
+    """(M, MATERIAL_COLUMNS) array of `real`: per material k_a, k_d, k_s, k_e (r, g, b each), f and its map
+    rows (`maps`, (M, 3), Geometry.scene_maps; -1 without); then the rows `more` (material_rows: the
+    materials read from mesh files)."""
     table = material_rows(*(np.array([getattr(m, key) for m in materials], np.float64).reshape(len(materials), -1)
-                            for key in ("ka", "kd", "ks", "ke", "shininess")))
+                            for key in ("ka", "kd", "ks", "ke", "shininess")),
+                          maps=maps if maps is not None and len(maps) else None)
     if more is not None:
         table = np.concatenate([table, more])
     return np.ascontiguousarray(table, real)
@@ -162,6 +169,62 @@ def light_table(lights, center: np.ndarray, attenuate: bool, real: type) -> np.n
     return np.ascontiguousarray(table, real)
 
 
+MIP_FLOOR = 1  # the last level of a pyramid is 1 texel on its shorter side
+
+
+def mip_pyramid(pixels: np.ndarray) -> list[np.ndarray]:
+    """Level 0 (H, W, 3) and each level after it at half the size (floor, at least 1): every texel the mean
+    of the 2 × 2 texels it covers (a box filter; an odd last row or column joins no texel), down to 1 texel
+    on the shorter side. The mean of a linear function over a 2 × 2 block is its value at the block's
+    centre, so a linear ramp is the same function of (u, v) on every level."""
+    levels = [np.ascontiguousarray(pixels, np.float32)]
+    while min(levels[-1].shape[:2]) > MIP_FLOOR:
+        last = levels[-1]
+        h, w = max(1, last.shape[0] // 2), max(1, last.shape[1] // 2)
+        rows = last[:2 * h] if last.shape[0] > 1 else np.concatenate([last, last])
+        both = rows[:, :2 * w] if last.shape[1] > 1 else np.concatenate([rows, rows], axis=1)
+        block = both.reshape(h, 2, w, 2, 3).astype(np.float64)
+        levels.append(block.mean(axis=(1, 3)).astype(np.float32))
+    return levels
+
+
+def pack_textures(textures: tuple[Texture, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Every texture's mip pyramid in one flat (N, 3) float32 texel array, and the (T, TEXTURE_COLUMNS) int64
+    table of layout.py: offset, width, height, levels, wrap_s, wrap_t (texture.sample reads them)."""
+    table = np.zeros((len(textures), TEXTURE_COLUMNS), np.int64)
+    parts, offset = [], 0
+    for row, texture in zip(table, textures):
+        levels = mip_pyramid(texture.pixels)
+        h, w = texture.pixels.shape[:2]
+        row[:] = offset, w, h, len(levels), WRAP_CODE[texture.wrap_s], WRAP_CODE[texture.wrap_t]
+        parts += [level.reshape(-1, 3) for level in levels]
+        offset += sum(len(level.reshape(-1, 3)) for level in levels)
+    texels = np.concatenate(parts) if parts else np.zeros((1, 3), np.float32)
+    return np.ascontiguousarray(texels, np.float32), table
+
+
+def pyramid_texels(height: int, width: int) -> int:
+    """Texels of mip_pyramid's levels for a (height, width) level 0 (the memory estimate's count)."""
+    total = height * width
+    while min(height, width) > MIP_FLOOR:
+        height, width = max(1, height // 2), max(1, width // 2)
+        total += height * width
+    return total
+
+
+def uv_density(geometry: Geometry) -> np.ndarray:
+    """(F,) float32 sqrt(UV area / world area) per face: texels per world length divided by sqrt(w h)
+    (0 on a face of no world area)."""
+    corners = geometry.vertices[geometry.faces]
+    world = np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+    uv = geometry.corner_uv.astype(np.float64)
+    e1, e2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
+    area = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        density = np.where(world > 0, np.sqrt(area / np.where(world > 0, world, 1.0)), 0.0)
+    return density.astype(np.float32)
+
+
 def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Frame,
                     flags: tuple[int, int], real: type = np.float32) -> ShadingInputs:
     """Pack the scene's numbers into tables of the shading precision `real` for the kernel.
@@ -175,6 +238,24 @@ def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Fra
     def table(values):
         return np.ascontiguousarray(np.asarray(values, np.float64), dtype=real)
 
+    materials = material_table([DEFAULT_MATERIAL, *scene.materials.values()], real, geometry.file_materials,
+                               geometry.scene_maps)
+    bits = int(flags[0])
+    textured = len(geometry.corner_uv) > 0 and bool((materials[:, KA_MAP:KE_MAP + 1] >= 0).any())
+    if textured:
+        bits |= F_TEXTURES
+        texels, texture_table = pack_textures(geometry.textures)
+        corner_uv, density = np.ascontiguousarray(geometry.corner_uv, np.float32), uv_density(geometry)
+    else:
+        texels, texture_table = np.zeros((1, 3), np.float32), np.zeros((0, TEXTURE_COLUMNS), np.int64)
+        corner_uv, density = np.zeros((1, 3, 2), np.float32), np.zeros(1, np.float32)
+    coloured = len(geometry.corner_colour) > 0
+    bits |= F_VERTEX_COLOURS if coloured else 0
+    colours = (np.ascontiguousarray(geometry.corner_colour, np.float32) if coloured
+               else np.ones((1, 3, 3), np.float32))
+    # One sample's spread: its angle (perspective, at the image centre) or its world size (orthographic).
+    spread = 2.0 * rig.half_height / (scene.render.height * scene.render.samples)
+
     return ShadingInputs(
         vertices=table(geometry.vertices - center),
         faces=np.ascontiguousarray(geometry.faces, np.int32),
@@ -182,14 +263,16 @@ def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Fra
         corner_normals=np.ascontiguousarray(corner, real),  # no copy when geometry made them in `real`
         face_material=np.ascontiguousarray(geometry.face_material, np.int32),
         face_model=np.ascontiguousarray(geometry.face_model, np.int8),
-        materials=material_table([DEFAULT_MATERIAL, *scene.materials.values()], real, geometry.file_materials),
+        materials=materials,
         lights=light_table(scene.lights, center, bool(flags[0] & F_ATTENUATION), real),
         # In layout's order: V_AMBIENT, V_EYE, V_VIEW, V_FLOOR and CAM_RIGHT, CAM_UP, CAM_FORWARD, CAM_ORTHOGRAPHIC.
         viewing=table([*scene.ambient, *(rig.eye - center), *(-rig.forward), (MIN_DISTANCE * frame.scale) ** 2]),
         camera=table([*rig.right, *rig.up, *rig.forward, float(rig.orthographic)]),
         background=table(scene.render.background),
-        flags=int(flags[0]), specular=int(flags[1]), frame_scale=float(frame.scale),
+        flags=bits, specular=int(flags[1]), frame_scale=float(frame.scale),
         zero=real(0), one=real(1), two=real(2),
+        texels=texels, texture_table=texture_table, corner_uv=corner_uv, uv_density=density,
+        corner_colour=colours, pixel_spread=float(spread),
     )
 
 

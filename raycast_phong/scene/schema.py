@@ -33,6 +33,7 @@ from ..codes import (
     LAYERS,
     MATERIAL_DEFAULTS,
     SHAPES,
+    WRAP_MODES,
     LightKind,
     Mode,
     Precision,
@@ -237,12 +238,28 @@ class Light(_Strict):
         return self
 
 
+class TextureMap(_Strict):
+    """A colour map: an image file relative to the scene file, and how it repeats outside [0, 1]."""
+    path: str
+    wrap: Literal[WRAP_MODES] = "repeat"  # type: ignore[valid-type]
+
+
+def _map(value: Any) -> Any:
+    return {"path": value} if isinstance(value, str) else value  # kd_map = "wood.png" is the short form
+
+
+MapKey = Annotated[TextureMap, BeforeValidator(_map)] | None
+
+
 class Material(_Strict):
     ka: Coefficient = MATERIAL_DEFAULTS["ka"]
     kd: Coefficient = MATERIAL_DEFAULTS["kd"]
     ks: Coefficient = MATERIAL_DEFAULTS["ks"]
     ke: Coefficient = MATERIAL_DEFAULTS["ke"]
     shininess: Number = MATERIAL_DEFAULTS["shininess"]
+    ka_map: MapKey = None  # multiplies k_a (the kd_map does when this is not given)
+    kd_map: MapKey = None  # multiplies k_d and k_a at the hit's texture coordinates
+    ke_map: MapKey = None  # multiplies k_e
 
     _check_coefficients = field_validator("ka", "kd", "ks", "ke")(lambda v: _unit_range(v))
 

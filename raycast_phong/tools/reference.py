@@ -7,6 +7,9 @@ intersections (the ray taken into object space by the inverse affine map, the no
 inverse transpose), its own evaluation of the model; global mode casts analytic shadow rays. A bug in
 a stage therefore shows as a difference instead of being shared. It shares only the Scene record and
 the model's named tolerances. A mesh file has no closed form: accuracy.fine_reference is for those.
+Colour maps on planes and spheres are read with its own OpenImageIO call and sRGB decoding, and looked up
+bilinearly at the exact UVs of the exact hit (no mip level: the texture at the point itself), so the
+study and `accuracy` can measure a textured scene.
 """
 
 from __future__ import annotations
@@ -362,6 +365,8 @@ def analytic_reference(scene: Scene, source: str = "<scene>") -> ReferenceImage:
     width, height, n = opts.width, opts.height, opts.samples
     per_pixel = n * n
     materials = material_table(scene)
+    maps = scene_maps(scene, source)
+    textured = any(maps.values())
     image = np.zeros((height, width, 3))
     specular_image = np.zeros((height, width, 3))
     coverage = np.zeros((height, width))
@@ -386,7 +391,10 @@ def analytic_reference(scene: Scene, source: str = "<scene>") -> ReferenceImage:
                 to_viewer = to_viewer / np.linalg.norm(to_viewer, axis=1, keepdims=True)
             visible = light_visibility(exact, scene, p, nrm) if opts.mode.value == "global" else \
                 np.ones((len(p), len(scene.lights)), bool)
-            terms = illuminate_exact(scene, p, nrm, to_viewer, materials[which[hit]], visible, exact.scale)
+            rows = materials[which[hit]]
+            if textured:
+                rows = textured_rows(scene, exact, maps, rows, which[hit], p)
+            terms = illuminate_exact(scene, p, nrm, to_viewer, rows, visible, exact.scale)
             rgb[hit] = sum(terms)
             spec[hit] = terms[2]
         shape = (row1 - row0, width, per_pixel)
@@ -417,3 +425,136 @@ def light_visibility(exact: ExactScene, scene: Scene, points: np.ndarray, normal
         t, _, _, _ = exact.closest(origin, np.ascontiguousarray(to_light))
         visible[:, k] = t >= distance - offset
     return visible
+
+
+# ---------------------------------------------------------------- textured surfaces (closed form)
+
+def ramp(u, v) -> np.ndarray:
+    """A linear colour ramp over texture space (…, 3): bilinear filtering and every box-filtered mip level
+    reproduce a linear function of the texel centres exactly, so a texture of these values has a closed form
+    away from the wrap seam."""
+    u, v = np.asarray(u, np.float64), np.asarray(v, np.float64)
+    return np.stack([0.2 + 0.6 * u, 0.1 + 0.5 * v, 0.3 + 0.2 * u + 0.3 * v], axis=-1)
+
+
+def exact_uv(shape: str, points: np.ndarray, size=(2.0, 2.0)) -> np.ndarray:
+    """The exact texture coordinates (…, 2) of object-frame points on a built-in shape: plane (x–z, size
+    (w, d)): u = x/w + ½, v = ½ − z/d; sphere about z: u = atan2(y, x)/2π in [0, 1), v = ½ + asin(z/|p|)/π."""
+    points = np.asarray(points, np.float64)
+    if shape == "plane":
+        return np.stack([points[..., 0] / size[0] + 0.5, 0.5 - points[..., 2] / size[1]], axis=-1)
+    r = np.linalg.norm(points, axis=-1)
+    return np.stack([(np.arctan2(points[..., 1], points[..., 0]) / (2 * np.pi)) % 1.0,
+                     0.5 + np.arcsin(np.clip(points[..., 2] / r, -1, 1)) / np.pi], axis=-1)
+
+
+def textured_plane_colour(u, v, kd, ka, ambient: float, diffuse: float, cosine: float = 1.0) -> np.ndarray:
+    """A plane whose k_d map (and so k_a's) is ramp(u, v), lit by one light of I_d = `diffuse` at the angle
+    of `cosine`, scene ambient I_a = `ambient`, no specular: (I_a k_a + I_d cos k_d) · ramp(u, v)."""
+    texture = ramp(u, v)
+    return (ambient * np.asarray(ka) + diffuse * cosine * np.asarray(kd)) * texture
+
+
+def textured_ambient_reference(scene: Scene, ka) -> tuple[np.ndarray, np.ndarray]:
+    """(H, W, 3) float64 colour of a scene of ONE built-in sphere or plane (not rotated or scaled) whose k_a
+    map is ramp(u, v), lit by scene ambient only: I_a k_a ramp(u, v) at the exact hit's exact UVs; and (H, W)
+    u of each hit (NaN on a miss), so a test can keep away from the seam. One ray per pixel centre."""
+    exact = ExactScene(scene)
+    obj = scene.objects[0]
+    rig = camera_frame(scene)
+    width, height = scene.render.width, scene.render.height
+    origins, directions = sample_rays(rig, width, height, 1, 0, height)
+    _, which, points, _ = exact.closest(origins, directions)
+    local = points - exact.translate[0]
+    uv = exact_uv("plane" if obj.shape == "plane" else "sphere", local, obj.size or (2.0, 2.0))
+    colour = np.asarray(scene.ambient) * np.asarray(ka) * ramp(uv[:, 0], uv[:, 1])
+    hit = which >= 0
+    colour[~hit] = 0
+    u = np.where(hit, uv[:, 0], np.nan)
+    return colour.reshape(height, width, 3), u.reshape(height, width)
+
+
+# ---------------------------------------------------------------- colour maps on the exact surfaces
+
+def srgb_decode(values: np.ndarray) -> np.ndarray:
+    """The sRGB transfer function's inverse (IEC 61966-2-1), on values in [0, 1]."""
+    return np.where(values <= 0.04045, values / 12.92, ((values + 0.055) / 1.055) ** 2.4)
+
+
+def read_map(path) -> np.ndarray:
+    """(H, W, 3) float64 linear RGB of an image file, read with OpenImageIO: 8-bit images are sRGB (the
+    scene format), float images linear. Its own reading: nothing of the renderer's decoding is shared."""
+    import OpenImageIO as oiio
+    buffer = oiio.ImageBuf(str(path))
+    spec = buffer.spec()
+    pixels = np.asarray(buffer.get_pixels(oiio.FLOAT), np.float64).reshape(spec.height, spec.width, -1)
+    if pixels.shape[2] < 3:
+        pixels = np.repeat(pixels[:, :, :1], 3, axis=2)
+    pixels = pixels[:, :, :3]
+    return pixels if spec.format.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE) else srgb_decode(pixels)
+
+
+def scene_maps(scene: Scene, source: str = "<scene>") -> dict[int, dict]:
+    """object index → {"ka" | "kd" | "ke": ((H, W, 3) texels, wrap)} of the maps its material names (the k_a
+    map is the k_d map unless given). SceneError for a textured shape with no closed-form UVs here."""
+    found, cache = {}, {}
+    for index, obj in enumerate(scene.objects):
+        material = scene.material_of(obj)
+        given = {key: getattr(material, f"{key}_map", None) for key in ("ka", "kd", "ke")}
+        if given["ka"] is None:
+            given["ka"] = given["kd"]
+        maps = {}
+        for key, value in given.items():
+            if value is None:
+                continue
+            path = scene.resolve(value.path)
+            if path not in cache:
+                cache[path] = read_map(path)
+            maps[key] = (cache[path], value.wrap)
+        if maps and obj.shape not in ("plane", "icosphere", "uv_sphere"):
+            raise SceneError(f"{source}: objects.{index}: the analytic reference has exact texture coordinates for "
+                             f"planes and spheres only, not a textured {obj.shape}; use --fine N")
+        found[index] = maps
+    return found
+
+
+def _wrapped(i: np.ndarray, n: int, wrap: str) -> np.ndarray:
+    if wrap == "clamp":
+        return np.clip(i, 0, n - 1)
+    if wrap == "mirror":
+        p = np.mod(i, 2 * n)
+        return np.where(p < n, p, 2 * n - 1 - p)
+    return np.mod(i, n)
+
+
+def bilinear(texels: np.ndarray, wrap: str, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """(M, 3) bilinear lookups of texels (H, W, 3) at (u, v), v up (row 0 is v = 1), texel centres at
+    ((x + ½)/W, 1 − (y + ½)/H). No mip level: the reference is the texture at the point itself."""
+    h, w = texels.shape[:2]
+    x, y = u * w - 0.5, (1 - v) * h - 0.5
+    x0, y0 = np.floor(x), np.floor(y)
+    ax, ay = (x - x0)[:, None], (y - y0)[:, None]
+    x0, y0 = x0.astype(np.int64), y0.astype(np.int64)
+    xa, xb = _wrapped(x0, w, wrap), _wrapped(x0 + 1, w, wrap)
+    ya, yb = _wrapped(y0, h, wrap), _wrapped(y0 + 1, h, wrap)
+    return ((1 - ay) * ((1 - ax) * texels[ya, xa] + ax * texels[ya, xb])
+            + ay * ((1 - ax) * texels[yb, xa] + ax * texels[yb, xb]))
+
+
+def textured_rows(scene: Scene, exact: ExactScene, maps: dict, rows: np.ndarray, which: np.ndarray,
+                  points: np.ndarray) -> np.ndarray:
+    """Material rows (M, 13) at M hits with each object's maps applied at the exact UVs of its exact hit
+    (exact_uv in the object's own frame): k_a, k_d, k_e multiplied; k_s never."""
+    rows = rows.copy()
+    for index, found in maps.items():
+        here = which == index
+        if not found or not here.any():
+            continue
+        obj = scene.objects[index]
+        local = (points[here] - exact.translate[index]) @ exact.inverse[index].T
+        uv = exact_uv("plane" if obj.shape == "plane" else "sphere", local, obj.size or (2.0, 2.0))
+        for key, column in (("ka", 0), ("kd", 3), ("ke", 9)):
+            if key in found:
+                texels, wrap = found[key]
+                rows[here, column:column + 3] *= bilinear(texels, wrap, uv[:, 0], uv[:, 1])
+    return rows

@@ -81,18 +81,40 @@ def test_each_material_region_has_its_mtl_colour(override, light):
     np.testing.assert_allclose(to_viewer, EYE, atol=1e-12)
 
 
-def test_vertex_colours_drive_kd_and_ka_as_the_face_mean(tmp_path):
-    """One triangle with red, green and blue corners, lit by ambient only: k_a = the mean colour, 255/765."""
+def test_vertex_colours_are_interpolated_per_corner_as_gl_does(tmp_path):
+    """One triangle with red, green and blue corners, lit by ambient only (k_a = the colour): each pixel is
+    the corners' colours mixed with its barycentric weights (they sum to 1), not the face mean 1/3 (issue 20,
+    item 4). Near the red corner red dominates; every pixel's channels sum to 1."""
     mesh = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], process=False,
                            vertex_colors=[[255, 0, 0, 255], [0, 255, 0, 255], [0, 0, 255, 255]])
     mesh.export(tmp_path / "rgb.ply")
-    (tmp_path / "s.toml").write_text('ambient = 1.0\n[render]\nwidth = 32\nheight = 32\n[camera]\n'
-                                     'position = [0.3, 0.3, 2]\nlook_at = [0.3, 0.3, 0]\n'
+    (tmp_path / "s.toml").write_text('ambient = 1.0\n[render]\nwidth = 32\nheight = 32\nshading = "phong"\n'
+                                     '[camera]\nposition = [0.3, 0.3, 2]\nlook_at = [0.3, 0.3, 0]\n'
                                      '[[objects]]\nshape = "mesh"\npath = "rgb.ply"\n')
     image = rp.render(rp.load_scene(tmp_path / "s.toml")).image
     covered = image.max(axis=2) > 0
     assert covered.sum() > 50
-    np.testing.assert_allclose(image[covered], 1 / 3, rtol=1e-6)  # (255 + 0 + 0) / 765 in every channel
+    np.testing.assert_allclose(image[covered].sum(axis=1), 1.0, rtol=1e-5)  # weights sum to 1
+    assert image[covered].max(axis=0).min() > 0.7  # each corner's colour shows near its corner
+    assert image[covered].std(axis=0).min() > 0.1  # a gradient, not one flat colour
+
+
+@pytest.mark.parametrize("shading", ["flat", "gouraud"])
+def test_flat_takes_one_colour_per_face_and_gouraud_lights_each_corner(tmp_path, shading):
+    """Flat: the face's colour is the mean of its corners (the colour at the centroid it is lit at): 1/3 in
+    every channel. Gouraud: each corner lit with its own colour, then mixed: a gradient as Phong's."""
+    mesh = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], process=False,
+                           vertex_colors=[[255, 0, 0, 255], [0, 255, 0, 255], [0, 0, 255, 255]])
+    mesh.export(tmp_path / "rgb.ply")
+    (tmp_path / "s.toml").write_text(f'ambient = 1.0\n[render]\nwidth = 32\nheight = 32\nshading = "{shading}"\n'
+                                     '[camera]\nposition = [0.3, 0.3, 2]\nlook_at = [0.3, 0.3, 0]\n'
+                                     '[[objects]]\nshape = "mesh"\npath = "rgb.ply"\n')
+    image = rp.render(rp.load_scene(tmp_path / "s.toml")).image
+    covered = image.max(axis=2) > 0
+    if shading == "flat":
+        np.testing.assert_allclose(image[covered], 1 / 3, rtol=1e-5)
+    else:
+        assert image[covered].std(axis=0).min() > 0.1
 
 
 def test_gltf_metallic_roughness_is_mapped_as_documented():
@@ -265,7 +287,7 @@ def test_mtl_mapping_edge_cases_and_their_notes(tmp_path):
     assert grey.ks == (0.5, 0.5, 0.5) and grey.shininess == 32  # the default material's k_s and f
     said = "\n".join(notes)
     assert len(notes) == 6, said  # not numbers, clamped, transparency, illum 3, b.png missing, maps not applied
-    for words in ("Ks nonsense", "clamped", "transparency", "illum 3", "texture maps not applied (bump b.png)",
+    for words in ("Ks nonsense", "clamped", "transparency", "illum 3", "not applied: bump b.png",
                   "'b.png' is missing"):
         assert words in said, said
 

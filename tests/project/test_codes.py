@@ -22,5 +22,8 @@ def test_the_schema_offers_exactly_the_codes():
     assert typing.get_args(schema.Light.model_fields["type"].annotation) == tuple(k.value for k in codes.LightKind)
     assert schema.Render.model_fields["shading"].annotation is codes.ShadingModel
     assert schema.ShadingModel is codes.ShadingModel  # the old import path names the same class
-    assert schema.DEFAULT_MATERIAL.model_dump() == {**codes.MATERIAL_DEFAULTS}
+    dumped = schema.DEFAULT_MATERIAL.model_dump()
+    assert {k: v for k, v in dumped.items() if not k.endswith("_map")} == {**codes.MATERIAL_DEFAULTS}
+    assert tuple(k for k in dumped if k.endswith("_map")) == codes.MAP_COLUMNS
+    assert typing.get_args(schema.TextureMap.model_fields["wrap"].annotation) == codes.WRAP_MODES
     assert len(codes.MATERIAL_COLUMNS) == 5 and codes.MATERIAL_WIDTH == 4 * 3 + 1

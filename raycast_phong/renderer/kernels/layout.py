@@ -14,10 +14,13 @@ from typing import NamedTuple
 import numpy as np
 
 from ...codes import KA as KA  # the material columns, re-exported for the kernels (`X as X`: on purpose)
+from ...codes import KA_MAP as KA_MAP
 from ...codes import KD as KD
+from ...codes import KD_MAP as KD_MAP
 from ...codes import KE as KE
+from ...codes import KE_MAP as KE_MAP
 from ...codes import KS as KS
-from ...codes import LIGHT_CODE, MATERIAL_WIDTH, MODEL_CODE, LightKind, ShadingModel
+from ...codes import LIGHT_CODE, MATERIAL_TABLE_WIDTH, MODEL_CODE, WRAP_CODE, LightKind, ShadingModel
 from ...codes import SHININESS as SHININESS
 
 # Bits of the `flags` integer that the render plan fills in (pack.plan_flags; the specular model travels apart).
@@ -32,14 +35,22 @@ F_SCREEN = 1 << 7          # interpolate with screen-space weights instead of pe
 F_AOV_GEOMETRY = 1 << 8    # write depth, normal and face layers
 F_AOV_TERMS = 1 << 9       # write the per-term layers
 F_SHADOWS = 1 << 10        # global mode: per-ray light visibility masks are given
+F_TEXTURES = 1 << 11       # some material has a colour map: sample it at the hit's UV (texture.sample)
+F_VERTEX_COLOURS = 1 << 12 # some face has vertex colours: they multiply k_a and k_d per corner
 SPECULAR_NONE, SPECULAR_PHONG, SPECULAR_BLINN = 0, 1, 2     # ShadingInputs.specular
 
 # Shading model codes of ShadingInputs.face_model (geometry.build writes codes.MODEL_CODE).
 FLAT, GOURAUD, PHONG = (MODEL_CODE[m] for m in (ShadingModel.FLAT, ShadingModel.GOURAUD, ShadingModel.PHONG))
 
-# Columns of the material table (M, 13): k_a, k_d, k_s, k_e (r, g, b each) and f, as codes.py names them.
+# Columns of the material table (M, 16): k_a, k_d, k_s, k_e (r, g, b each), f, then the texture-table rows of the
+# k_a, k_d and k_e maps (KA_MAP, KD_MAP, KE_MAP; -1 none), as codes.py names them.
 # geometry.materials.material_rows writes rows, pack.material_table the table, illumination.illuminate reads it.
-MATERIAL_COLUMNS = MATERIAL_WIDTH
+MATERIAL_COLUMNS = MATERIAL_TABLE_WIDTH
+# Columns of the texture table (T, 6) int64, written by pack.pack_textures: where a texture's mip pyramid starts
+# in the flat texel array (level 0, then each half-size level after it), its level-0 width and height, its
+# number of levels, and its wrap modes along u and v (WRAP_REPEAT, WRAP_CLAMP, WRAP_MIRROR).
+T_OFFSET, T_WIDTH, T_HEIGHT, T_LEVELS, T_WRAP_S, T_WRAP_T, TEXTURE_COLUMNS = 0, 1, 2, 3, 4, 5, 6
+WRAP_REPEAT, WRAP_CLAMP, WRAP_MIRROR = WRAP_CODE["repeat"], WRAP_CODE["clamp"], WRAP_CODE["mirror"]
 # Columns of the light table (K, 17), written by pack.light_table.
 L_KIND, L_VEC, L_ID, L_IS, L_IA, L_ATT_KIND, L_ATT, LIGHT_COLUMNS = 0, 1, 4, 7, 10, 13, 14, 17
 POINT, DIRECTIONAL = LIGHT_CODE[LightKind.POINT], LIGHT_CODE[LightKind.DIRECTIONAL]  # L_KIND, ShadowInputs
@@ -121,6 +132,13 @@ class ShadingInputs(NamedTuple):
     zero: np.floating           # 0, 1 and 2 in the shading precision: Python literals would widen float32
     one: np.floating
     two: np.floating
+    texels: np.ndarray          # (N, 3) float32 linear RGB: every texture's mip pyramid, rows top to bottom
+    texture_table: np.ndarray   # (T, TEXTURE_COLUMNS) int64; (0, 6) without textures
+    corner_uv: np.ndarray       # (F, 3, 2) float32 per-corner UVs, or (1, 3, 2) without textures
+    uv_density: np.ndarray      # (F,) float32 sqrt(UV area / world area) of each face, or (1,) without textures
+    corner_colour: np.ndarray   # (F, 3, 3) float32 vertex colours per corner, or (1, 3, 3) without any
+    pixel_spread: float         # world footprint of one sample per unit distance (perspective: angle of a
+                                # sample, t × spread), or the sample's world size (orthographic)
 
 
 class TileRays(NamedTuple):

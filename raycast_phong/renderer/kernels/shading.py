@@ -7,6 +7,13 @@ This is where a pixel's colour is decided (`_shade_rays`). Per hit, by the face'
            mix has no length), and the model at the hit point.
 Weights are Embree's (perspective-correct: the true point on the triangle) or, with
 interpolation = "screen", linear in the image plane like the lecture's scanline formulas.
+Colour maps and vertex colours (only when the scene has them: F_TEXTURES, F_VERTEX_COLOURS) modulate the
+material per pixel: the k_d map's colour at the hit's interpolated UV multiplies k_d, the k_a map's (the k_d
+map unless the file gives its own) k_a, the k_e map's k_e; k_s is never textured (the fixed-function
+"modulate" with a separate specular). Each model then keeps its lighting rule with that material, so flat
+and Gouraud show the texture per pixel too. Vertex colours multiply k_a and k_d as glTF's COLOR_0 does:
+Phong at the hit (interpolated), Gouraud per corner (each corner lit with its own colour, as GL does),
+flat one colour per face (the mean of its corners: the colour at the centroid it is lit at).
 Two-sided shading flips the normals of a back-facing hit toward the viewer. Shading runs in a frame
 centred on the scene (translation changes no direction or distance) in the scene's precision.
 """
@@ -29,12 +36,17 @@ from .layout import (
     F_AOV_TERMS,
     F_SCREEN,
     F_SHADOWS,
+    F_TEXTURES,
     F_TWO_SIDED,
+    F_VERTEX_COLOURS,
     FLAT,
     GOURAUD,
     KA,
+    KA_MAP,
     KD,
+    KD_MAP,
     KE,
+    KE_MAP,
     KS,
     SHININESS,
     TERMS,
@@ -42,6 +54,7 @@ from .layout import (
     Material,
 )
 from .surface import facing_side, hit_point
+from .texture import sample
 
 ALL_VISIBLE = -1  # every bit set: local mode, no light is ever shadowed
 
@@ -94,6 +107,46 @@ def _mixed_normal(corner_normals, f, b0, b1, b2):
             b0 * corner_normals[f, 0, 2] + b1 * corner_normals[f, 1, 2] + b2 * corner_normals[f, 2, 2])
 
 
+@kernel(inline="always")
+def _modulated(m, r, g, b):
+    """Material m with k_a and k_d multiplied by the colour (r, g, b): a texture's or a vertex colour."""
+    return Material(m.ka_r * r, m.ka_g * g, m.ka_b * b, m.kd_r * r, m.kd_g * g, m.kd_b * b, m.ks_r, m.ks_g,
+                    m.ks_b, m.ke_r, m.ke_g, m.ke_b, m.shininess)
+
+
+@kernel(inline="always")
+def _textured_material(materials, texels, table, uvs, density, material, m, f, b0, b1, b2, footprint, one, cast):
+    """The material at a hit with its colour maps applied: each map sampled at the hit's UV (the corners'
+    UVs mixed with the weights b), k_a, k_d and k_e multiplied (texture.py chooses the level from
+    `footprint`, the sample's world size, times the face's texels per world length). `cast` (3,) in the
+    shading precision: a sample passes through it, so the material keeps the precision of the untextured
+    path (numba would widen a float32 Material to float64 for every pixel otherwise)."""
+    ka_map, kd_map, ke_map = int(materials[m, KA_MAP]), int(materials[m, KD_MAP]), int(materials[m, KE_MAP])
+    if ka_map < 0 and kd_map < 0 and ke_map < 0:
+        return material
+    u = b0 * uvs[f, 0, 0] + b1 * uvs[f, 1, 0] + b2 * uvs[f, 2, 0]
+    v = b0 * uvs[f, 0, 1] + b1 * uvs[f, 1, 1] + b2 * uvs[f, 2, 1]
+    per_length = footprint * density[f]
+    ar = ag = ab = dr = dg = db = er = eg = eb = one
+    if kd_map >= 0:
+        r, g, b = sample(texels, table, kd_map, u, v, per_length * math.sqrt(table[kd_map, 1] * table[kd_map, 2]))
+        cast[0], cast[1], cast[2] = r, g, b
+        dr, dg, db = cast[0], cast[1], cast[2]
+    if ka_map == kd_map:
+        ar, ag, ab = dr, dg, db
+    elif ka_map >= 0:
+        r, g, b = sample(texels, table, ka_map, u, v, per_length * math.sqrt(table[ka_map, 1] * table[ka_map, 2]))
+        cast[0], cast[1], cast[2] = r, g, b
+        ar, ag, ab = cast[0], cast[1], cast[2]
+    if ke_map >= 0:
+        r, g, b = sample(texels, table, ke_map, u, v, per_length * math.sqrt(table[ke_map, 1] * table[ke_map, 2]))
+        cast[0], cast[1], cast[2] = r, g, b
+        er, eg, eb = cast[0], cast[1], cast[2]
+    return Material(material.ka_r * ar, material.ka_g * ag, material.ka_b * ab, material.kd_r * dr,
+                    material.kd_g * dg, material.kd_b * db, material.ks_r, material.ks_g, material.ks_b,
+                    material.ke_r * er, material.ke_g * eg, material.ke_b * eb, material.shininess)
+
+
 @kernel()
 def _shade_rays(inputs, rays, film):
     """Shade every ray of a tile into the film rows (ShadingInputs, TileRays, FilmRows).
@@ -120,6 +173,12 @@ def _shade_rays(inputs, rays, film):
     centre_sample = (samples // 2) * samples + samples // 2  # the geometric layers come from this sample
     geometry_layers, term_layers = flags & F_AOV_GEOMETRY != 0, flags & F_AOV_TERMS != 0
     two_sided, screen, shadows = flags & F_TWO_SIDED != 0, flags & F_SCREEN != 0, flags & F_SHADOWS != 0
+    textured, coloured = flags & F_TEXTURES != 0, flags & F_VERTEX_COLOURS != 0
+    colours, spread = inputs.corner_colour, inputs.pixel_spread
+    texels, texture_table = inputs.texels, inputs.texture_table
+    corner_uv, uv_density = inputs.corner_uv, inputs.uv_density
+    orthographic = camera[CAM_ORTHOGRAPHIC] != 0
+    cast = np.zeros(3, materials.dtype)
     evaluated = np.zeros(len(counts), np.int64)
     # The film starts at zero, so a black background needs no writes at all.
     has_background = background[0] != 0 or background[1] != 0 or background[2] != 0
@@ -153,6 +212,17 @@ def _shade_rays(inputs, rays, film):
                             materials[m, KS + 2], materials[m, KE], materials[m, KE + 1], materials[m, KE + 2],
                             materials[m, SHININESS])
         model = face_model[f]
+        if textured:
+            # The sample's world footprint: t × spread across the ray, stretched by 1/|cos θ| on the surface.
+            cosine = abs(gx * directions[k, 0] + gy * directions[k, 1] + gz * directions[k, 2])
+            footprint = (spread if orthographic else spread * tfar[k] * inputs.frame_scale) / max(cosine, 1e-3)
+            material = _textured_material(materials, texels, texture_table, corner_uv, uv_density, material, m, f,
+                                          b0, b1, b2, footprint, one, cast)
+        if coloured and model != GOURAUD:  # Gouraud lights each corner with its own colour, below
+            w0, w1, w2 = (third, third, third) if model == FLAT else (b0, b1, b2)
+            material = _modulated(material, w0 * colours[f, 0, 0] + w1 * colours[f, 1, 0] + w2 * colours[f, 2, 0],
+                                  w0 * colours[f, 0, 1] + w1 * colours[f, 1, 1] + w2 * colours[f, 2, 1],
+                                  w0 * colours[f, 0, 2] + w1 * colours[f, 1, 2] + w2 * colours[f, 2, 2])
         nx, ny, nz = side * gx, side * gy, side * gz
         if model == FLAT:
             px, py, pz = hit_point(vertices, faces, f, third, third, third)  # the centroid
@@ -164,9 +234,12 @@ def _shade_rays(inputs, rays, film):
             for j in range(3):
                 vj = faces[f, j]
                 bj = b0 if j == 0 else (b1 if j == 1 else b2)
+                corner_material = material
+                if coloured:
+                    corner_material = _modulated(material, colours[f, j, 0], colours[f, j, 1], colours[f, j, 2])
                 lit = illuminate(
                     vertices[vj, 0], vertices[vj, 1], vertices[vj, 2], side * corner_normals[f, j, 0],
-                    side * corner_normals[f, j, 1], side * corner_normals[f, j, 2], material, lights,
+                    side * corner_normals[f, j, 1], side * corner_normals[f, j, 2], corner_material, lights,
                     view_tuple, flags, specular, visible_k, zero, one, two)
                 ar, ag, ab = ar + bj * lit.ambient_r, ag + bj * lit.ambient_g, ab + bj * lit.ambient_b
                 dr, dg, db = dr + bj * lit.diffuse_r, dg + bj * lit.diffuse_g, db + bj * lit.diffuse_b

@@ -1,0 +1,199 @@
+"""Colour maps decoded into linear float32 RGB, and their sizes read from headers for the memory estimate.
+
+A texture file (an .mtl's map_Kd, a scene's kd_map) is decoded with OpenImageIO; a glTF's embedded image
+arrives as the PIL image trimesh opened lazily (not yet decoded) and is decoded here, only when a material
+of a face uses it. 8-bit colour maps are sRGB (glTF 2.0 §3.9.2 says so for baseColor and emissive
+textures; .mtl colour maps are so by convention) and are decoded to linear values; float images (EXR, HDR)
+are taken as linear. A map larger than MAX_TEXTURE_SIZE on a side is shrunk to it (a box filter): no
+picture of this renderer shows more texels than that, and the memory stays bounded.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import SceneError
+
+MAX_TEXTURE_SIZE = 2048
+# Bytes per texel of level 0 while a texture is in use: the decoded float32 RGB kept in the Geometry (12), the
+# mip pyramid's float32 texels (12 × 4/3 = 16), and the float64 2 × 2 block means of one level as it is made (24).
+TEXTURE_BYTES_PER_TEXEL = 52
+
+
+def srgb_to_linear(values: np.ndarray) -> np.ndarray:
+    """The sRGB transfer function's inverse (IEC 61966-2-1) on values in [0, 1]: 188/255 → 0.5029."""
+    values = np.asarray(values, np.float64)
+    return np.where(values <= 0.04045, values / 12.92, ((values + 0.055) / 1.055) ** 2.4)
+
+
+def capped(height: int, width: int) -> tuple[int, int]:
+    """The size a map is decoded at: its own, or shrunk (aspect kept) to MAX_TEXTURE_SIZE on its longer side."""
+    longest = max(height, width)
+    if longest <= MAX_TEXTURE_SIZE:
+        return height, width
+    scale = MAX_TEXTURE_SIZE / longest
+    return max(1, round(height * scale)), max(1, round(width * scale))
+
+
+def _rgb(pixels: np.ndarray) -> np.ndarray:
+    """(H, W, C) → (H, W, 3): grey repeated, alpha dropped."""
+    if pixels.ndim == 2:
+        pixels = pixels[:, :, None]
+    if pixels.shape[2] < 3:
+        pixels = np.repeat(pixels[:, :, :1], 3, axis=2)
+    return pixels[:, :, :3]
+
+
+def decode_file(path: Path) -> np.ndarray:
+    """(H, W, 3) float32 linear RGB of an image file; ValueError when it is not an image OpenImageIO reads."""
+    import OpenImageIO as oiio
+    buffer = oiio.ImageBuf(str(path))
+    spec = buffer.spec()
+    if buffer.has_error or spec.width <= 0 or spec.height <= 0:
+        raise ValueError(buffer.geterror() or "not an image")
+    height, width = capped(spec.height, spec.width)
+    if (height, width) != (spec.height, spec.width):
+        buffer = oiio.ImageBufAlgo.resize(buffer, roi=oiio.ROI(0, width, 0, height, 0, 1, 0, spec.nchannels))
+    pixels = buffer.get_pixels(oiio.FLOAT)
+    if pixels is None or buffer.has_error:
+        raise ValueError(buffer.geterror() or "cannot decode")
+    pixels = _rgb(np.asarray(pixels).reshape(height, width, -1))
+    linear = spec.format.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE)
+    return np.ascontiguousarray(pixels if linear else srgb_to_linear(np.clip(pixels, 0, 1)), np.float32)
+
+
+def decode_pil(image) -> np.ndarray:
+    """(H, W, 3) float32 linear RGB of a PIL image (an 8-bit sRGB colour map); ValueError when it cannot be
+    decoded. A large image is shrunk in place first (thumbnail: a JPEG decodes at the smaller scale)."""
+    try:
+        height, width = capped(image.height, image.width)
+        if (height, width) != (image.height, image.width):
+            image.thumbnail((width, height))
+        pixels = np.asarray(image.convert("RGB"), np.float64) / 255.0
+    except Exception as error:  # noqa: BLE001 - PIL raises many types on a corrupt image
+        raise ValueError(f"{type(error).__name__}: {error}") from None
+    return np.ascontiguousarray(srgb_to_linear(pixels), np.float32)
+
+
+def decode_scene_map(path: Path, where: str) -> np.ndarray:
+    """A scene material's map (kd_map, ...): one line, SceneError, when missing or not an image."""
+    if not path.is_file():
+        raise SceneError(f"{where}: no such texture file {str(path)!r}; give an image file (PNG, JPEG, EXR, ...) "
+                         "relative to the scene file")
+    try:
+        return decode_file(path)
+    except Exception as error:  # noqa: BLE001 - any decoder failure is the file's
+        reason = " ".join(str(error).split()) or "unknown"
+        raise SceneError(f"{where}: {str(path)!r} cannot be read as an image ({reason[:200]}); "
+                         "give a PNG, JPEG, EXR or another format OpenImageIO reads") from None
+
+
+# ---------------------------------------------------------------- sizes for the memory estimate
+
+def file_size(path: Path) -> tuple[int, int] | None:
+    """(height, width) of an image file from its header, or None when it is not one."""
+    try:
+        from PIL import Image
+        with Image.open(path) as image:
+            return image.height, image.width
+    except Exception:  # noqa: BLE001
+        try:
+            import OpenImageIO as oiio
+            found = oiio.ImageInput.open(str(path))
+            if found is None:
+                oiio.geterror()  # retrieved, so OpenImageIO does not print it at exit
+                return None
+            spec = found.spec()
+            found.close()
+            return spec.height, spec.width
+        except Exception:  # noqa: BLE001
+            return None
+
+
+def texture_bytes(sizes) -> int:
+    """The memory estimate's texture term: TEXTURE_BYTES_PER_TEXEL per level-0 texel at the decoded size."""
+    total = 0
+    for height, width in sizes:
+        h, w = capped(height, width)
+        total += TEXTURE_BYTES_PER_TEXEL * h * w
+    return total
+
+
+def mesh_texture_sizes(path: Path) -> list[tuple[int, int]]:
+    """(height, width) of each colour map a mesh file's materials name (OBJ: its .mtl's map_Kd, map_Ka,
+    map_Ke; glTF: baseColorTexture and emissiveTexture), from headers only; what cannot be read counts 0."""
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".obj":
+            return _obj_sizes(path)
+        if suffix in (".glb", ".gltf"):
+            return _gltf_sizes(path)
+    except (OSError, ValueError, KeyError, TypeError, IndexError):
+        pass
+    return []
+
+
+def _obj_sizes(path: Path) -> list[tuple[int, int]]:
+    from .mesh_file import _map_file, _texture_path, side_files
+    sizes, seen = [], set()
+    for mtl in side_files(path):
+        if not mtl.is_file() or mtl.stat().st_size > 16 << 20:
+            continue
+        for line in mtl.read_text("utf-8", "replace").splitlines():
+            words = line.split("#", 1)[0].split()
+            if len(words) >= 2 and words[0].lower() in ("map_kd", "map_ka", "map_ke"):
+                found = _texture_path(mtl.parent, _map_file(words[1:]))
+                if found is not None and found not in seen:
+                    seen.add(found)
+                    size = file_size(found)
+                    if size:
+                        sizes.append(size)
+    return sizes
+
+
+def _gltf_sizes(path: Path) -> list[tuple[int, int]]:
+    import io
+    from urllib.parse import unquote
+    data = path.read_bytes() if path.stat().st_size <= 1 << 31 else b""
+    binary = b""
+    if path.suffix.lower() == ".glb":
+        length = int.from_bytes(data[12:16], "little")
+        document = json.loads(data[20:20 + length])
+        at = 20 + length
+        if len(data) >= at + 8 and data[at + 4:at + 8] == b"BIN\x00":
+            binary = data[at + 8:at + 8 + int.from_bytes(data[at:at + 4], "little")]
+    else:
+        document = json.loads(data)
+    images = set()
+    for material in document.get("materials", []):
+        for slot in ((material.get("pbrMetallicRoughness") or {}).get("baseColorTexture"),
+                     material.get("emissiveTexture")):
+            if isinstance(slot, dict) and "index" in slot:
+                texture = document["textures"][slot["index"]]
+                if "source" in texture:
+                    images.add(texture["source"])
+    from PIL import Image
+    sizes = []
+    for index in sorted(images):
+        image = document["images"][index]
+        try:
+            if "bufferView" in image:
+                view = document["bufferViews"][image["bufferView"]]
+                start = view.get("byteOffset", 0)
+                blob = io.BytesIO(binary[start:start + view["byteLength"]])
+                with Image.open(blob) as opened:
+                    sizes.append((opened.height, opened.width))
+            elif isinstance(image.get("uri"), str) and not image["uri"].startswith("data:"):
+                size = file_size(path.parent / unquote(image["uri"]))
+                if size:
+                    sizes.append(size)
+        except Exception:  # noqa: BLE001 - a broken image counts nothing; the read words it
+            continue
+    return sizes
+
+
+WRAP_OPTION = re.compile(r"-clamp\s+(on|off)", re.I)

@@ -1,0 +1,97 @@
+"""Colour maps read from files (issue 20, items 1 and 7): wrap modes from .mtl options and glTF samplers,
+UV seams kept through the merge of repeated points, unused maps never decoded, and the memory term."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+import raycast_phong as rp
+from raycast_phong.geometry.build import build_geometry
+from raycast_phong.io.mesh_file import _gltf_samplers, parse_mtl, read_mesh
+
+MODELS = Path(__file__).resolve().parents[1] / "data" / "models"
+
+
+def test_mtl_maps_register_their_file_and_clamp_option(tmp_path):
+    (tmp_path / "a.png").write_bytes(b"x")
+    sources: list = []
+    notes: list[str] = []
+    found = parse_mtl("newmtl m\nmap_Kd -clamp on a.png\nmap_Ke a.png\nmap_Ks a.png\n", tmp_path / "m.mtl",
+                      notes, sources)
+    m = found["m"]
+    assert [(s.source.name, s.wrap_s, s.wrap_t) for s in sources] == [("a.png", "clamp", "clamp"),
+                                                                      ("a.png", "repeat", "repeat")]
+    assert (m.ka_map, m.kd_map, m.ke_map) == (-1, 0, 1)
+    assert any("not applied: map_ks a.png" in n for n in notes), notes
+
+
+def test_gltf_sampler_codes_become_wrap_modes():
+    document = {"samplers": [{"wrapS": 33071, "wrapT": 33648}, {}],
+                "textures": [{"sampler": 0, "source": 0}, {"sampler": 1, "source": 0}, {"source": 0}],
+                "materials": [{"name": "a", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}},
+                               "emissiveTexture": {"index": 1}},
+                              {"name": "b", "pbrMetallicRoughness": {"baseColorTexture": {"index": 2}}}]}
+    assert _gltf_samplers(document) == {("a", "baseColorTexture"): ("clamp", "mirror"),
+                                        ("a", "emissiveTexture"): ("repeat", "repeat"),
+                                        ("b", "baseColorTexture"): ("repeat", "repeat")}
+
+
+def test_uv_seams_survive_the_merge_of_repeated_points(tmp_path):
+    """normals = "mean" merges the file's repeated points; the UVs are per corner, taken before, so a seam
+    (one point, two UVs) keeps both."""
+    for name in ("fuze.obj", "fuze.obj.mtl", "fuze uv.jpg"):
+        shutil.copy(MODELS / name, tmp_path / name)
+    read = read_mesh(tmp_path / "fuze.obj", "x")
+    scene = rp.load_scene(tmp_path / "fuze.obj", ["objects.0.normals=\"mean\""])
+    geometry = build_geometry(scene)
+    assert len(geometry.vertices) < 3 * len(geometry.faces)  # merged
+    np.testing.assert_array_equal(geometry.corner_uv, read.corner_uv)
+    # Some merged vertex has corners with different UVs: a seam.
+    flat_uv = geometry.corner_uv.reshape(-1, 2)
+    vertex = geometry.faces.reshape(-1)
+    order = np.lexsort((flat_uv[:, 1], flat_uv[:, 0], vertex))
+    same_vertex = vertex[order][1:] == vertex[order][:-1]
+    differs = (flat_uv[order][1:] != flat_uv[order][:-1]).any(axis=1)
+    assert (same_vertex & differs).any()
+
+
+def test_a_mesh_painted_by_a_scene_material_decodes_none_of_its_maps(tmp_path, monkeypatch):
+    import raycast_phong.io.textures as textures
+    calls = []
+    monkeypatch.setattr(textures, "decode_pil", lambda image: calls.append(image) or np.zeros((1, 1, 3), np.float32))
+    (tmp_path / "s.toml").write_text(f'[materials.plain]\nkd = [0.5, 0.5, 0.5]\n[[objects]]\nshape = "mesh"\n'
+                                     f'path = "{MODELS / "BoxTextured.glb"}"\nmaterial = "plain"\n')
+    geometry = build_geometry(rp.load_scene(tmp_path / "s.toml"))
+    assert calls == [] and geometry.textures == ()
+    build_geometry(rp.load_scene(MODELS / "BoxTextured.glb"))
+    assert len(calls) == 1
+
+
+def test_the_memory_estimate_counts_the_maps_a_file_names():
+    from raycast_phong.io.textures import TEXTURE_BYTES_PER_TEXEL
+    from raycast_phong.renderer.budget import estimate_memory
+    assert estimate_memory(rp.load_scene(MODELS / "fuze.obj")).textures == TEXTURE_BYTES_PER_TEXEL * 1024 * 1024
+    assert estimate_memory(rp.load_scene("scenes/default.toml" if Path("scenes/default.toml").is_file()
+                                         else MODELS.parents[2] / "scenes" / "default.toml")).textures == 0
+
+
+def test_gltf_color_0_beside_a_material_multiplies_its_factor(tmp_path):
+    """glTF: baseColor = factor × texture × COLOR_0. A factor (0.5, 1, 1) with random COLOR_0 per vertex, lit
+    by ambient only (k_a = base colour): the red channel never exceeds 0.5 while green reaches near 1, and the
+    corner colours are COLOR_0 at each face's corners (on main: a note, and the factor alone)."""
+    import trimesh
+    mesh = trimesh.creation.icosphere(subdivisions=2)
+    mesh.visual = trimesh.visual.TextureVisuals(material=trimesh.visual.material.PBRMaterial(
+        name="half", baseColorFactor=[128, 255, 255, 255], metallicFactor=0.0, roughnessFactor=1.0))
+    colours = np.random.default_rng(0).integers(0, 256, (len(mesh.vertices), 4)).astype(np.uint8)
+    mesh.visual.vertex_attributes["color"] = colours
+    mesh.export(tmp_path / "painted.glb")
+    read = read_mesh(tmp_path / "painted.glb", "x")
+    np.testing.assert_allclose(read.corner_colour, colours[:, :3][mesh.faces] / 255, atol=1e-6)
+    image = rp.render_file(tmp_path / "painted.glb", ["render.width=120", "render.height=90", "ambient=[1, 1, 1]",
+                                                      "lights=[]"]).image
+    covered = image.max(axis=-1) > 0
+    assert image[covered][:, 0].max() <= 128 / 255 + 1e-6 and image[covered][:, 1].max() > 0.8
