@@ -170,6 +170,27 @@ def _precision_stage(scene: Scene, specular: bool) -> Stage:
     return Stage("float64_shading", scene.render.precision == "float64" or bool(stiff), reason)
 
 
+def surface_maps(geometry) -> list[Stage]:
+    """Whether shading samples colour maps and interpolates vertex colours: work only some scenes need.
+
+    A colour map's 8-bit texels are sRGB and are decoded to linear values (docs/meshes.md, Textures); a PNG
+    written with no curve (the default) then shows the map darker than its image, which the reason says."""
+    maps = [texture.name for texture in geometry.textures]
+    textured = bool(maps) and len(geometry.corner_uv) > 0
+    shown = ", ".join(maps[:3]) + (f" and {len(maps) - 3} more" if len(maps) > 3 else "")
+    return [Stage("textures", textured,
+                  f"{len(maps)} colour map{'s' if len(maps) != 1 else ''} ({shown}), decoded to linear values: "
+                  f"{TEXTURE_DISPLAY_HINT}" if textured else "no material has a colour map"),
+            Stage("vertex_colours", len(geometry.corner_colour) > 0,
+                  "vertex colours multiply k_a and k_d at each face corner" if len(geometry.corner_colour)
+                  else "no face has vertex colours")]
+
+
+# Said by `plan` and by `render` to a PNG without --srgb: the one surprise of decoding maps to linear values.
+TEXTURE_DISPLAY_HINT = ("a PNG written with no curve shows them darker than their images; "
+                        "render --srgb encodes with the sRGB curve and shows them as their images do")
+
+
 # Above this shininess one float32 rounding of the cosine x (relative 2^-24) changes x^f by about
 # f · 2^-24 > 1/512 relative, half an 8-bit step: float32 no longer represents the highlight.
 F32_SHININESS_LIMIT = 2.0 ** 24 / 512
@@ -189,6 +210,7 @@ def diagnose(plan: RenderPlan, scene: Scene, geometry) -> RenderPlan:
     stages.append(Stage("winding_repair", bool(geometry.notes),
                         "; ".join(aggregate_notes(geometry.notes)) if geometry.notes
                         else "no mesh file needed a winding repair"))
+    stages += surface_maps(geometry)
     found: list[tuple[tuple, int, float]] = []  # (what the warning says, object, its measured figure)
     if plan.keeps("specular"):
         found = [*gouraud_findings(scene, geometry), *subpixel_findings(scene, geometry)]

@@ -232,3 +232,32 @@ def test_help_of_every_command_loads_no_array_or_image_library():
              "print([m for m in ('numpy', 'numba', 'trimesh', 'embreex', 'OpenImageIO') if m in sys.modules])")
     done = subprocess.run([sys.executable, "-c", probe, *names], capture_output=True, text=True, timeout=120)
     assert len(names) == 11 and done.stdout.strip().splitlines()[-1] == "[]", done.stdout[-500:] + done.stderr
+
+
+TEXTURED = Path(__file__).resolve().parents[2] / "scenes" / "textured_sphere.toml"
+MAP_HINT = "colour maps are decoded to linear values"
+
+
+def test_plan_says_whether_textures_and_vertex_colours_are_sampled():
+    """`plan` lists the two optional surface terms, kept or left out, and says why a PNG of maps looks dark."""
+    textured = runner.invoke(app, ["plan", str(TEXTURED)])
+    assert textured.exit_code == 0, textured.output
+    line = next(line for line in textured.output.splitlines() if line.split()[1:2] == ["textures"])
+    assert line.startswith("kept") and "checker.png" in line and "--srgb" in line
+    assert re.search(r"left out\s+vertex_colours", textured.output)
+    knot = runner.invoke(app, ["plan", str(TEXTURED.parent / "meshes" / "painted_knot.ply")])
+    assert re.search(r"kept\s+vertex_colours", knot.output) and re.search(r"left out\s+textures", knot.output)
+
+
+def test_a_textured_png_without_srgb_says_why_its_maps_look_darker(tmp_path):
+    """Maps are decoded from sRGB to linear values; a PNG with no curve shows them darker: render says so once,
+    and not when --srgb encodes the PNG, an EXR is written, or the scene has no map."""
+    sets = ["--width", "16", "--height", "12"]
+    plain = runner.invoke(app, ["render", str(TEXTURED), "-o", str(tmp_path / "a.png"), *sets])
+    assert plain.exit_code == 0, plain.output
+    assert plain.output.count(MAP_HINT) == 1
+    for extra in (["-o", str(tmp_path / "b.png"), "--srgb"], ["-o", str(tmp_path / "c.exr")]):
+        quiet = runner.invoke(app, ["render", str(TEXTURED), *extra, *sets])
+        assert quiet.exit_code == 0 and MAP_HINT not in quiet.output, quiet.output
+    untextured = runner.invoke(app, ["render", "-o", str(tmp_path / "d.png"), *sets])
+    assert untextured.exit_code == 0 and MAP_HINT not in untextured.output
