@@ -82,3 +82,21 @@ def error_logs_in_the_session_folder(tmp_path_factory):
         os.environ.pop("RAYCAST_PHONG_ERROR_LOGS", None)
     else:
         os.environ["RAYCAST_PHONG_ERROR_LOGS"] = before
+
+
+@pytest.fixture(autouse=True, scope="session")
+def kernels_ready(tmp_path_factory):
+    """Every kernel compiled (or loaded from the cache) before the first test, as after an install's first render.
+
+    A render on an empty cache says "compiling ..." first (renderer/warmup.py); tests that run the CLI check its
+    exact output, so which of them came first on a fresh clone must not decide what they see. The tests of the
+    notice itself stand in for the cache (monkeypatch jit.compiled_before)."""
+    import trimesh
+
+    from raycast_phong.renderer.warmup import ready_kernels
+    from raycast_phong.scene.schema import validate_scene
+    folder = tmp_path_factory.mktemp("warm")
+    trimesh.creation.icosphere(1).export(folder / "ball.stl")  # no normals: the crease split's kernels too
+    for precision in ("float32", "float64"):
+        ready_kernels(validate_scene({"render": {"precision": precision},
+                                      "objects": [{"shape": "mesh", "path": str(folder / "ball.stl")}]}, source="t"))

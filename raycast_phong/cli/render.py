@@ -107,7 +107,7 @@ def render(
 def _render_with_progress(scene: rp.Scene, source: str, threads: int | None, quiet: bool,
                           max_memory: int | None = None) -> rp.RenderResult:
     from raycast_phong.renderer.warmup import ready_kernels
-    stage, seconds = ready_kernels(scene, None if quiet else lambda line: typer.echo(line, err=True))
+    stage, seconds = ready_kernels(scene, None if quiet else lambda line: typer.echo(line, err=True), source)
     result = _render_shown(scene, source, threads, quiet, max_memory)
     result.timings[stage] = seconds
     return result

@@ -59,6 +59,15 @@ def open_regular(path: Path, where: str, what: str, limit: int | None = None) ->
         raise
 
 
+
+
+def open_mesh_file(path: Path, where: str) -> BinaryIO:
+    """open_regular for a mesh file, with a missing one worded: "{where}: no such mesh file 'PATH'"."""
+    try:
+        return open_regular(path, where, "mesh file")  # never a FIFO, a device or a folder
+    except FileNotFoundError:
+        raise SceneError(f"{where}: no such mesh file {str(path)!r}") from None
+
 def file_version(path: str | Path, info: os.stat_result | None = None) -> tuple:
     """(resolved path, mtime, size, inode) of the file as it is now; OSError for a missing one. `info`: a
     stat (or fstat of an open handle) already made."""

@@ -28,7 +28,7 @@ from ..codes import GLTF_WRAP, MATERIAL_DEFAULTS
 from ..errors import SceneError
 from ..records import bounding_box
 from ..tolerances import POSITION_LIMIT
-from .files import VersionCache, file_version, open_regular
+from .files import VersionCache, file_version, open_mesh_file, open_regular
 
 TRIMESH = Path(trimesh.__file__).resolve().parent  # an exception that passed through here: trimesh refused the file
 TEXT_FORMATS = (".obj", ".off")  # trimesh decodes these as text, guessing any non-UTF-8 encoding
@@ -190,10 +190,7 @@ def _side_files(path: Path) -> tuple[Path, ...]:
 # ---------------------------------------------------------------- reading
 
 def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
-    try:
-        handle = open_regular(path, where, "mesh file")  # never a FIFO, a device or a folder
-    except FileNotFoundError:
-        raise SceneError(f"{where}: no such mesh file {str(path)!r}") from None
+    handle = open_mesh_file(path, where)
     notes: list[str] = []
     suffix = path.suffix.lower()
     try:

@@ -12,12 +12,14 @@ from ..scene.schema import Scene
 GEOMETRY_KERNELS = ("face_normals_into", "vertex_normal_sums", "normalise_sums", "gather_corners")
 
 
-def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None) -> tuple[str, float]:
+def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
+                  source: str = "scene") -> tuple[str, float]:
     """("compile", seconds) when the cache does not hold this scene's kernels (the first render after an install
     or an edit; `announce` is told first, as it takes 10-40 s), else ("kernels", seconds) for loading them
     from the cache (≈ 0.15 s, most of it numba's one-time set-up in a process). The kernels are the frame's, the
     geometry stage's and, for a scene with a mesh file, its preparation's (merge, winding: mesh_repair.warm_up),
-    and the crease split's where an object may be creased (normals.warm_up_creases)."""
+    and the crease split's where an object may be creased (normals.warm_up_creases).
+    A mesh file that cannot be opened is refused first (one line, naming `source`): before 10-40 s of compiling."""
     import numpy as np
 
     from ..geometry.mesh_repair import MESH_FILE_KERNELS, warm_up
@@ -26,7 +28,12 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None) -
     from .frame import tile_kernel, warm_kernels_for
     from .plan import build_plan
     plan = build_plan(scene)
-    meshes = any(obj.shape == "mesh" for obj in scene.objects)
+    from ..io.files import open_mesh_file
+    meshes = False
+    for index, obj in enumerate(scene.objects):
+        if obj.shape == "mesh":
+            open_mesh_file(scene.resolve(obj.path), f"{source}: objects.{index}.path").close()
+            meshes = True
     creases = plan.keeps("vertex_normals") and (meshes or any(obj.crease_angle < 180 for obj in scene.objects))
     names = (tile_kernel(), *GEOMETRY_KERNELS, *(MESH_FILE_KERNELS if meshes else ()),
              *(CREASE_KERNELS if creases else ()))

@@ -62,3 +62,18 @@ def test_numba_s_set_up_leaves_scipy_linalg_unimported():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "False"
+
+
+def test_a_missing_mesh_file_is_refused_before_the_compiling_notice(tmp_path, monkeypatch):
+    """The first render after an install compiles for 10-40 s: a scene whose mesh file is missing is told so at
+    once, in the read's own words, and never hears "compiling" first."""
+    import pytest
+
+    from raycast_phong.errors import SceneError
+    said = []
+    monkeypatch.setattr(jit, "compiled_before", lambda name: False)  # nothing cached: the notice would be said
+    scene = validate_scene({"objects": [{"shape": "icosphere"}, {"shape": "mesh", "path": str(tmp_path / "no.ply")}]},
+                           source="t")
+    with pytest.raises(SceneError, match=r"^s\.toml: objects\.1\.path: no such mesh file"):
+        warmup.ready_kernels(scene, said.append, "s.toml")
+    assert said == []
