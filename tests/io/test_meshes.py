@@ -328,7 +328,13 @@ def test_an_obj_is_scanned_for_its_mtllib_once_per_version(tmp_path, monkeypatch
     path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     opened = []
     real = mesh_file.open_regular
-    monkeypatch.setattr(mesh_file, "open_regular", lambda *a, **k: opened.append(a[0]) or real(*a, **k))
+    from raycast_phong.io import files
+
+    def counted(*args, **kwargs):
+        opened.append(args[0])
+        return real(*args, **kwargs)
+    monkeypatch.setattr(mesh_file, "open_regular", counted)
+    monkeypatch.setattr(files, "open_regular", counted)  # the read's own open (files.open_mesh_file)
     rp.render_file(path, ["render.width=16", "render.height=12"])
     assert mesh_file.side_files(path) == []
     scans = opened.count(path) - 1  # the one read of the mesh itself opens it too

@@ -33,7 +33,7 @@ def test_a_binary_stl_is_read_as_float32_corners_with_trimesh_values(stl_files):
     assert read.vertices.dtype == np.float32  # trimesh's float64 copy is 72 bytes a triangle, this one 36
     np.testing.assert_array_equal(read.vertices.astype(np.float64), theirs.vertices)
     np.testing.assert_array_equal(read.faces, np.arange(3 * len(theirs.faces)).reshape(-1, 3))
-    assert read.faces.dtype == np.int64 and read.normals is None and read.face_colour is None
+    assert read.faces.dtype == np.int64 and read.normals is None and read.corner_colour is None
     assert (read.face_group == -1).all() and read.materials == ()
     # Framing's bounds in float64, as from trimesh's float64 points.
     framed = mesh_file._read(binary, "t", bounds=True)
