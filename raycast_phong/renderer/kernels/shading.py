@@ -23,6 +23,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 from ...jit import kernel
 from ...tolerances import NO_DIRECTION
@@ -56,7 +60,24 @@ from .layout import (
 from .surface import facing_side, hit_point
 from .texture import sample
 
+AHEAD = 16  # rays between a face row's prefetch and its use (8: no better, ico6 1000²)
 ALL_VISIBLE = -1  # every bit set: local mode, no light is ever shadowed
+
+
+@intrinsic
+def _prefetch(typingctx, array, index):
+    """llvm.prefetch of the element at flat `index` of a C-contiguous array (read, keep in every cache level):
+    a hint to the CPU, no result and no fault (an index past the end is never read)."""
+    def codegen(context, builder, signature, args):
+        ary = context.make_array(signature.args[0])(context, builder, args[0])
+        byte = ir.IntType(8).as_pointer()
+        i32 = ir.IntType(32)
+        pointer = builder.bitcast(builder.gep(ary.data, [args[1]]), byte)
+        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [byte, i32, i32, i32]),
+                                            "llvm.prefetch.p0")
+        builder.call(fn, [pointer, i32(0), i32(3), i32(1)])
+        return context.get_dummy_value()
+    return types.void(array, types.intp), codegen
 
 
 @kernel()
@@ -184,12 +205,27 @@ def _shade_rays(inputs, rays, film):
     has_background = background[0] != 0 or background[1] != 0 or background[2] != 0
     # Ray k is sample k % n² of pixel k // n²; counters keep integer division out of the hot path.
     row, col, sample = 0, 0, -1
+    # Hits of one run share their material row and their mask of evaluated terms: the row is read once per
+    # run of hits of one material, and a run's mask is counted once when it ends (not 7 counters per hit).
+    last_m, run_mask, run_length = -1, 0, 0
+    base = Material(zero, zero, zero, zero, zero, zero, zero, zero, zero, zero, zero, zero, zero)
     for k in range(face.shape[0]):
         sample += 1
         if sample == per_pixel:
             sample, col = 0, col + 1
             if col == width:
                 col, row = 0, row + 1
+        # The face rows (normal, corners, corner normals, vertices) of the hit AHEAD rays on: they are cache
+        # misses on a mesh larger than the cache, and one pass per hit is too long for the CPU to run that far.
+        if k + AHEAD < face.shape[0]:
+            ahead = face[k + AHEAD]
+            if ahead >= 0:
+                _prefetch(face_normals, 3 * ahead)
+                _prefetch(faces, 3 * ahead)
+                _prefetch(corner_normals, 9 * ahead)
+                _prefetch(vertices, 3 * faces[ahead, 0])
+                _prefetch(vertices, 3 * faces[ahead, 1])
+                _prefetch(vertices, 3 * faces[ahead, 2])
         f = face[k]
         visible_k = visible[k] if shadows else ALL_VISIBLE
         if f < 0:
@@ -207,10 +243,13 @@ def _shade_rays(inputs, rays, film):
         # Shade the side the viewer sees.
         side = facing_side(gx, gy, gz, directions[k, 0], directions[k, 1], directions[k, 2], two_sided, one)
         m = face_material[f]
-        material = Material(materials[m, KA], materials[m, KA + 1], materials[m, KA + 2], materials[m, KD],
+        if m != last_m:
+            last_m = m
+            base = Material(materials[m, KA], materials[m, KA + 1], materials[m, KA + 2], materials[m, KD],
                             materials[m, KD + 1], materials[m, KD + 2], materials[m, KS], materials[m, KS + 1],
                             materials[m, KS + 2], materials[m, KE], materials[m, KE + 1], materials[m, KE + 2],
                             materials[m, SHININESS])
+        material = base
         model = face_model[f]
         if textured:
             # The sample's world footprint: t × spread across the ray, stretched by 1/|cos θ| on the surface.
@@ -259,8 +298,11 @@ def _shade_rays(inputs, rays, film):
             ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask = illuminate(
                 px, py, pz, nx, ny, nz, material, lights, view_tuple, flags, specular, visible_k, zero, one, two)
 
-        for bit in range(TERMS):
-            evaluated[bit] += (mask >> bit) & 1
+        if mask != run_mask:
+            for bit in range(TERMS):
+                evaluated[bit] += run_length * ((run_mask >> bit) & 1)
+            run_mask, run_length = mask, 0
+        run_length += 1
         rgb[row, col, 0] += weight * (ar + dr + sr + er)
         rgb[row, col, 1] += weight * (ag + dg + sg + eg)
         rgb[row, col, 2] += weight * (ab + db + sb + eb)
@@ -275,4 +317,6 @@ def _shade_rays(inputs, rays, film):
             length = math.sqrt(nx * nx + ny * ny + nz * nz)
             if length > 0:
                 normal[row, col, 0], normal[row, col, 1], normal[row, col, 2] = nx / length, ny / length, nz / length
+    for bit in range(TERMS):
+        evaluated[bit] += run_length * ((run_mask >> bit) & 1)
     counts[:] = evaluated
