@@ -66,6 +66,42 @@ def specular_power(x, f, zero, one):
 
 
 @kernel(inline="always")
+def view_direction(px, py, pz, ex, ey, ez, zero):
+    """v = normalize(eye − p), the local viewer's direction (left as it is if p is the eye)."""
+    vx, vy, vz = ex - px, ey - py, ez - pz
+    length = math.sqrt(vx * vx + vy * vy + vz * vz)
+    if length > zero:
+        return vx / length, vy / length, vz / length
+    return vx, vy, vz
+
+
+@kernel(inline="always")
+def highlight_cosine(specular, n_dot_l, nx, ny, nz, lx, ly, lz, vx, vy, vz, zero, two):
+    """The specular cosine before the power: v·r with r = 2(l·n)n − l (Phong), or n·h with
+    h = normalize(l + v) (Blinn; 0 where l + v has no length)."""
+    if specular == SPECULAR_PHONG:
+        rx, ry, rz = two * n_dot_l * nx - lx, two * n_dot_l * ny - ly, two * n_dot_l * nz - lz
+        return rx * vx + ry * vy + rz * vz
+    hx, hy, hz = lx + vx, ly + vy, lz + vz
+    length = math.sqrt(hx * hx + hy * hy + hz * hz)
+    return (nx * hx + ny * hy + nz * hz) / length if length > zero else zero
+
+
+@kernel(inline="always")
+def diffuse_terms(weight, n_dot_l, ir, ig, ib, material, zero, one, two):
+    """f_att I_d k_d (l·n) of one light, r, g, b (l·n > 0); zero, one, two as illuminate's."""
+    lit = weight * n_dot_l
+    return lit * ir * material.kd_r, lit * ig * material.kd_g, lit * ib * material.kd_b
+
+
+@kernel(inline="always")
+def specular_terms(weight, x, ir, ig, ib, material, zero, one):
+    """f_att I_s k_s S of one light, r, g, b, with S = specular_power(x, shininess) (l·n > 0)."""
+    s = weight * specular_power(x, material.shininess, zero, one)
+    return s * ir * material.ks_r, s * ig * material.ks_g, s * ib * material.ks_b
+
+
+@kernel(inline="always")
 def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, visible, zero, one, two):
     """The model at point p with unit normal n and one material (layout.Material: a row of the material table).
 
@@ -90,10 +126,7 @@ def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, 
     vx, vy, vz = view[V_VIEW], view[V_VIEW + 1], view[V_VIEW + 2]
     if specular != SPECULAR_NONE and flags & F_VIEW_PER_POINT:
         mask |= 1 << C_VIEW
-        vx, vy, vz = view[V_EYE] - px, view[V_EYE + 1] - py, view[V_EYE + 2] - pz
-        length = math.sqrt(vx * vx + vy * vy + vz * vz)
-        if length > zero:
-            vx, vy, vz = vx / length, vy / length, vz / length
+        vx, vy, vz = view_direction(px, py, pz, view[V_EYE], view[V_EYE + 1], view[V_EYE + 2], zero)
 
     for k in range(lights.shape[0]):
         lx, ly, lz, d = to_light(lights[k, L_KIND] == POINT, lights[k, L_VEC], lights[k, L_VEC + 1],
@@ -123,21 +156,13 @@ def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, 
             continue  # no diffuse and no highlight on a side turned away from the light
         if flags & F_DIFFUSE:
             mask |= 1 << C_DIFFUSE
-            lit = weight * n_dot_l
-            dr += lit * lights[k, L_ID] * material.kd_r
-            dg += lit * lights[k, L_ID + 1] * material.kd_g
-            db += lit * lights[k, L_ID + 2] * material.kd_b
+            r, g, b = diffuse_terms(weight, n_dot_l, lights[k, L_ID], lights[k, L_ID + 1], lights[k, L_ID + 2],
+                                    material, zero, one, two)
+            dr, dg, db = dr + r, dg + g, db + b
         if specular != SPECULAR_NONE:
             mask |= 1 << C_SPECULAR
-            if specular == SPECULAR_PHONG:
-                rx, ry, rz = two * n_dot_l * nx - lx, two * n_dot_l * ny - ly, two * n_dot_l * nz - lz
-                x = rx * vx + ry * vy + rz * vz
-            else:
-                hx, hy, hz = lx + vx, ly + vy, lz + vz
-                length = math.sqrt(hx * hx + hy * hy + hz * hz)
-                x = (nx * hx + ny * hy + nz * hz) / length if length > zero else zero
-            s = weight * specular_power(x, material.shininess, zero, one)
-            sr += s * lights[k, L_IS] * material.ks_r
-            sg += s * lights[k, L_IS + 1] * material.ks_g
-            sb += s * lights[k, L_IS + 2] * material.ks_b
+            x = highlight_cosine(specular, n_dot_l, nx, ny, nz, lx, ly, lz, vx, vy, vz, zero, two)
+            r, g, b = specular_terms(weight, x, lights[k, L_IS], lights[k, L_IS + 1], lights[k, L_IS + 2], material,
+                                     zero, one)
+            sr, sg, sb = sr + r, sg + g, sb + b
     return Lit(ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask)

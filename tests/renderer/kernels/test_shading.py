@@ -320,3 +320,38 @@ def test_the_geometry_writes_the_columns_and_codes_the_kernels_read():
     assert (rows[:, layout.SHININESS] == 5).all()
     assert {model.value: code for model, code in MODEL_CODE.items()} == {
         "flat": layout.FLAT, "gouraud": layout.GOURAUD, "phong": layout.PHONG}
+
+
+@pytest.mark.parametrize("shading", ["flat", "phong"])
+def test_term_counts_are_the_hits_that_evaluated_each_term(shading):
+    """The kernel counts a run of hits with one mask of evaluated terms at once (the mask changes across the
+    terminator, row after row): the counts must still be the hits, one by one. One sample a pixel: a hit
+    evaluated the diffuse term exactly where its diffuse layer is positive (n·l > 0, k_d, I_d > 0), the
+    highlight there too, and the scene's ambient everywhere."""
+    scene = sphere_scene(3, shading=shading, size=48)
+    scene = scene.model_copy(update={"output": rp.scene.schema.Output(path="x.exr", aovs=("face", "diffuse"))})
+    result = rp.render(scene)
+    hit = result.aovs["face"][..., 0] >= 0
+    lit = hit & (result.aovs["diffuse"].max(axis=-1) > 0)
+    assert 0 < lit.sum() < hit.sum()  # the terminator is in view: the mask changes within rows
+    assert result.counts["diffuse"] == result.counts["specular"] == lit.sum()
+    assert result.counts["scene_ambient"] == hit.sum()
+
+
+@pytest.mark.parametrize("mode", ["local", "global"])
+@pytest.mark.parametrize("precision", ["float32", "float64"])
+def test_packets_of_phong_hits_shade_bit_identically_to_one_hit_at_a_time(mode, precision):
+    """One point light, Phong faces and highlight, a viewer per point: _shade_rays shades 16 rays at a time,
+    their vectors in SIMD lanes. A second light of zero intensity sends every ray through the one-hit loop
+    and adds exact zeros: the image and the term layers must not move by one bit."""
+    def render(lights):
+        scene = sphere_scene(4, size=64, precision=precision, mode=mode, specular="phong", samples=2)
+        scene = scene.model_copy(update={"output": rp.scene.schema.Output(path="x.exr", aovs=(
+            "ambient", "diffuse", "specular", "normal"))})
+        return rp.render(rp.validate_scene({**scene.model_dump(mode="json"), "lights": lights}))
+    dark = {"type": "directional", "direction": [-1, 0, -1], "diffuse": [0, 0, 0], "specular": [0, 0, 0]}
+    packets, one_by_one = render([LIGHT]), render([LIGHT, dark])
+    assert packets.image.max() > 0.5
+    np.testing.assert_array_equal(packets.image, one_by_one.image)
+    for name in ("ambient", "diffuse", "specular", "normal"):
+        np.testing.assert_array_equal(packets.aovs[name], one_by_one.aovs[name])
