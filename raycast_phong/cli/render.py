@@ -90,8 +90,7 @@ def render(
     if srgb and Path(output).suffix.lower() == ".exr":  # said even with --quiet: the option did nothing
         typer.secho(f"warning: --srgb encodes a PNG; {output} is an EXR of linear float32 values, written "
                     "unencoded", err=True, fg=typer.colors.YELLOW)
-    textured = any(stage.name == "textures" and stage.kept for stage in result.plan.stages)
-    if not quiet and not srgb and textured and Path(output).suffix.lower() == ".png":
+    if not quiet and not srgb and result.plan.keeps("textures") and Path(output).suffix.lower() == ".png":
         from raycast_phong.renderer.plan import TEXTURE_DISPLAY_HINT
         typer.echo(f"note: colour maps are decoded to linear values: {TEXTURE_DISPLAY_HINT}", err=True)
     if not quiet:

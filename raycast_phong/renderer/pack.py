@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..codes import KA_MAP, KE_MAP, WRAP_CODE
+from ..codes import WRAP_CODE
 from ..geometry.materials import material_rows
 from ..records import Frame, Geometry, ImageBuffers, RenderPlan, Texture
 from ..scene.schema import DEFAULT_MATERIAL, Scene, SpecularModel
@@ -123,7 +123,8 @@ def plan_flags(plan: RenderPlan, scene: Scene) -> tuple[int, int]:
     bits = {F_ATTENUATION: "attenuation", F_LIGHT_AMBIENT: "light_ambient", F_EMISSION: "emission",
             F_SCENE_AMBIENT: "scene_ambient", F_DIFFUSE: "diffuse", F_VIEW_PER_POINT: "view_vector_per_point",
             F_TWO_SIDED: "two_sided", F_SCREEN: "screen_interpolation", F_AOV_GEOMETRY: "aov_geometry",
-            F_AOV_TERMS: "aov_terms", F_SHADOWS: "shadow_rays"}
+            F_AOV_TERMS: "aov_terms", F_SHADOWS: "shadow_rays", F_TEXTURES: "textures",
+            F_VERTEX_COLOURS: "vertex_colours"}
     flags = sum(bit for bit, stage in bits.items() if plan.keeps(stage))
     if not plan.keeps("specular"):
         specular = SPECULAR_NONE
@@ -241,17 +242,13 @@ def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Fra
     materials = material_table([DEFAULT_MATERIAL, *scene.materials.values()], real, geometry.file_materials,
                                geometry.scene_maps)
     bits = int(flags[0])
-    textured = len(geometry.corner_uv) > 0 and bool((materials[:, KA_MAP:KE_MAP + 1] >= 0).any())
-    if textured:
-        bits |= F_TEXTURES
+    if bits & F_TEXTURES:  # the plan's "textures" stage (plan.surface_maps) decided it
         texels, texture_table = pack_textures(geometry.textures)
         corner_uv, density = np.ascontiguousarray(geometry.corner_uv, np.float32), uv_density(geometry)
     else:
         texels, texture_table = np.zeros((1, 3), np.float32), np.zeros((0, TEXTURE_COLUMNS), np.int64)
         corner_uv, density = np.zeros((1, 3, 2), np.float32), np.zeros(1, np.float32)
-    coloured = len(geometry.corner_colour) > 0
-    bits |= F_VERTEX_COLOURS if coloured else 0
-    colours = (np.ascontiguousarray(geometry.corner_colour, np.float32) if coloured
+    colours = (np.ascontiguousarray(geometry.corner_colour, np.float32) if bits & F_VERTEX_COLOURS
                else np.ones((1, 3, 3), np.float32))
     # One sample's spread: its angle (perspective, at the image centre) or its world size (orthographic).
     spread = 2.0 * rig.half_height / (scene.render.height * scene.render.samples)

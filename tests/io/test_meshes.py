@@ -363,7 +363,7 @@ def test_an_obj_is_counted_once_for_the_framing_check_and_the_render(tmp_path, m
 
 
 def test_face_colours_drive_kd_and_ka_like_vertex_colours(tmp_path):
-    """A face colour counts as its three corners (the sums are over 765): pure red is k_a = 1, not 1/3."""
+    """A face colour is the colour of each of its three corners: pure red is k_a = 1, not 1/3."""
     mesh = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], process=False,
                            face_colors=[[255, 0, 0, 255]])
     mesh.export(tmp_path / "red.ply")
