@@ -71,7 +71,9 @@ class Frame:
     scale: float        # half the largest extent of the box, so the scene spans about [-1, 1]
 
     def to_unit(self, points: np.ndarray) -> np.ndarray:
-        return (points - self.center) / self.scale
+        unit = np.subtract(points, self.center, dtype=np.float64)
+        unit /= self.scale  # in place: one (V, 3) array, not two
+        return unit
 
 
 @dataclass(frozen=True, eq=False)

@@ -15,6 +15,7 @@ from ..codes import MODEL_CODE
 from ..errors import SceneError
 from ..records import Geometry, Texture, bounding_box
 from ..scene.messages import dotted
+from ..scene.kinds import object_kinds, placements
 from ..scene.schema import DEFAULT_MATERIAL, Object, Scene, brightness_problem
 from ..tolerances import MIN_DISTANCE, MIN_EXTENT, POSITION_LIMIT
 from . import shapes
@@ -51,13 +52,11 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
     kernel would round them so anyway), which halves the largest array of a smooth mesh.
     """
     material_index = {name: i + 1 for i, name in enumerate(scene.materials)}  # 0 is the built-in default
-    groups: dict[tuple, list[int]] = {}
-    for index, obj in enumerate(scene.objects):
-        groups.setdefault(_group_key(obj, index), []).append(index)
+    groups = _groups(scene)
     bank = TextureBank(scene, source)
     notes, file_notes, file_rows = [], [], FileRows(scene, material_index, bank)
     built = []  # (members, template, exact corner normals in the object frame, a mesh file's material rows)
-    for members in groups.values():  # groups in the order of their first object
+    for members in groups:
         first = scene.objects[members[0]]
         template = object_mesh(scene, first, members[0], source)
         exact = (exact_corner_normals_local(first, template.vertices, template.faces)
@@ -90,7 +89,7 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
         for at in range(0, len(members), step):
             mesh.write(_group_part(scene, members[at:at + step], template, exact, vertex_normals, normal_dtype,
                                    source), rows)
-    scene_maps = bank.scene_maps([o.material for o in scene.objects])
+    scene_maps = bank.scene_maps([scene.objects[i].material for i in object_kinds(scene).first.tolist()])
     textured = bank.textures and (len(scene_maps) or file_rows.mapped)
     corner_uv = _corner_uvs(scene, built, mesh) if textured else np.zeros((0, 3, 2), np.float32)
     corner_colour = _corner_colours(scene, built, mesh)
@@ -104,11 +103,23 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
 
 class _Part(NamedTuple):
     """Objects of one group, placed: K objects of n vertices and m faces each."""
-    members: list[int]          # their indices in scene.objects
+    members: np.ndarray         # (K,) their indices in scene.objects, ascending
     vertices: np.ndarray        # (K, n, 3) float64, world
     faces: np.ndarray           # (K, m, 3) int64, each object's own vertex numbers (0..n-1), mirrored reversed
     unit: np.ndarray            # (K, m, 3) unit face normals
     corners: np.ndarray | None  # (K, m, 3, 3) corner normals in normal_dtype, or None
+
+
+def _groups(scene: Scene) -> list[np.ndarray]:
+    """The objects (ascending indices) of each group of objects sharing one build (_group_key), groups in the
+    order of their first object. Decided once per kind of object (scene.kinds), then spread to the objects."""
+    kinds = object_kinds(scene)
+    numbers: dict[tuple, int] = {}
+    kind_group = np.array([numbers.setdefault(_group_key(scene.objects[i], i), len(numbers))
+                           for i in kinds.first.tolist()], np.int64)
+    group = kind_group[kinds.kind]
+    order = np.argsort(group, kind="stable")
+    return np.split(order, np.cumsum(np.bincount(group, minlength=len(numbers)))[:-1])
 
 
 def _group_key(obj: Object, index: int) -> tuple:
@@ -120,15 +131,13 @@ def _group_key(obj: Object, index: int) -> tuple:
             obj.minor_radius, obj.normals, obj.crease_angle)
 
 
-def _group_part(scene: Scene, members: list[int], template: ObjectMesh, exact: np.ndarray | None,
+def _group_part(scene: Scene, members: np.ndarray, template: ObjectMesh, exact: np.ndarray | None,
                 vertex_normals: bool, normal_dtype: type, source: str) -> _Part:
     """Place K objects that share `template` (its vertices and faces in the object frame) and give them face
     and corner normals: the per-object steps of the scene format, done for all K at once."""
-    objects = [scene.objects[i] for i in members]
-    scale = np.array([o.scale for o in objects], np.float64)
-    rotation = rotations_of([o.rotate for o in objects])
-    translate = np.array([o.translate for o in objects], np.float64)
-    vertices = place_vertices(template.vertices, scale, rotation, translate, [any(o.rotate) for o in objects])
+    scale, rotate, translate = placements(scene.objects, members)
+    rotation = rotations_of(rotate)
+    vertices = place_vertices(template.vertices, scale, rotation, translate, (rotate != 0).any(axis=1))
     mirrored = np.prod(scale, axis=1) < 0  # a mirroring scale reverses the winding so faces still point outward
     faces = np.broadcast_to(template.faces, (len(members), *template.faces.shape)).copy()
     faces[mirrored] = faces[mirrored][:, :, ::-1]
@@ -139,7 +148,7 @@ def _group_part(scene: Scene, members: list[int], template: ObjectMesh, exact: n
                          "stay finite in float32; lower scale, its size or translate")
     extent = vertices.max(axis=1) - vertices.min(axis=1)
     for k in np.flatnonzero(~(extent != 0).any(axis=1)):
-        obj = objects[k]
+        obj = scene.objects[members[k]]
         raise SceneError(f"{source}: objects.{members[k]}: placed, the object collapses to a single point (its scale "
                          f"{list(obj.scale)} is below float64's resolution at translate {list(obj.translate)}); "
                          "allowed: an object with some extent; raise scale or its size")
@@ -149,7 +158,7 @@ def _group_part(scene: Scene, members: list[int], template: ObjectMesh, exact: n
     unit, doubled_area = face_normals(flat_vertices, flat_faces)
     corners = None
     if vertex_normals:
-        first = objects[0]
+        first = scene.objects[members[0]]
         if exact is not None:
             corners = place_normals(exact.reshape(-1, 3), scale, rotation).reshape(count, -1, 3, 3)
             corners[mirrored] = corners[mirrored][:, :, ::-1]  # as place() reversed the mirrored winding
@@ -191,9 +200,11 @@ class _Mesh:
         else:
             mesh.corners = np.zeros((0, 3, 3), normal_dtype)
         mesh.face_object = np.repeat(np.arange(objects, dtype=np.int32), mesh.face_count)
-        object_material = np.array([material_index.get(o.material, 0) for o in scene.objects], np.int32)
+        kinds = object_kinds(scene)  # material and shading are decided per kind of object
+        firsts = [scene.objects[i] for i in kinds.first.tolist()]
+        object_material = np.array([material_index.get(o.material, 0) for o in firsts], np.int32)[kinds.kind]
         mesh.face_material = object_material[mesh.face_object]
-        object_model = np.array([MODEL_CODE[scene.shading_of(o)] for o in scene.objects], np.int8)
+        object_model = np.array([MODEL_CODE[scene.shading_of(o)] for o in firsts], np.int8)[kinds.kind]
         mesh.face_model = object_model[mesh.face_object]
         return mesh
 
@@ -259,7 +270,7 @@ def behind_camera(scene: Scene, vertices: np.ndarray) -> str | None:
     no ray can hit anything, so the image is only background."""
     eye = np.asarray(scene.camera.position)
     forward = np.asarray(scene.camera.look_at) - eye
-    if ((vertices - eye) @ forward).max() > 0:
+    if (vertices @ forward).max() > eye @ forward:  # (v - eye)·forward > 0, without a (V, 3) temporary
         return None
     return (f"every object is behind the camera (camera.position {list(scene.camera.position)} looks toward "
             f"look_at {list(scene.camera.look_at)}); the image will be only background")
@@ -404,12 +415,13 @@ def _object_corners(scene: Scene, built: list, mesh, per_object, width: int, fil
         values = per_object(members, template)
         if values is None:
             continue
-        for member in members:
-            start = mesh.face_start[member]
-            placed = values
-            if np.prod(scene.objects[member].scale) < 0:
-                placed = values[:, ::-1]
-            out[start:start + len(values)] = placed
+        step = max(1, OBJECT_CHUNK_VERTICES // max(1, len(values)))
+        for at in range(0, len(members), step):
+            chunk = members[at:at + step]
+            mirrored = np.prod(placements(scene.objects, chunk)[0], axis=1) < 0
+            for objects, placed in ((chunk[~mirrored], values), (chunk[mirrored], values[:, ::-1])):
+                rows = (mesh.face_start[objects][:, None] + np.arange(len(values))).ravel()
+                out[rows] = np.broadcast_to(placed, (len(objects), *placed.shape)).reshape(-1, 3, width)
     return out
 
 

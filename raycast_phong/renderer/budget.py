@@ -17,6 +17,7 @@ from ..codes import GEOMETRY_LAYERS, TERM_LAYERS, ShadingModel
 from ..errors import SceneError
 from ..io.mesh_header import MESH_FILE_BYTES, OTHER_MESH_FILE_BYTES, mesh_file_read_bytes, mesh_file_triangles
 from ..io.system import available_memory, count_text, format_bytes
+from ..scene.kinds import object_kinds
 from ..scene.schema import Scene
 
 # Peak bytes per triangle above a warmed-up process's baseline (VmHWM after /proc/self/clear_refs; one
@@ -95,7 +96,9 @@ def estimate_memory(scene: Scene, source: str = "<scene>", *, smooth: bool = Tru
     files: dict[Path, int] = {}
     geometry, triangles, largest, largest_bytes = 0, 0, None, -1
     wide_normals = FLOAT64_NORMAL_BYTES if float64 or shadow_lights else 0
-    for index, obj in enumerate(scene.objects):
+    kinds = object_kinds(scene)  # objects that differ only in placement cost the same: one estimate a kind
+    for index, objects in zip(kinds.first.tolist(), kinds.count.tolist()):
+        obj = scene.objects[index]
         mesh_file = obj.shape == "mesh"
         if mesh_file:
             path = scene.resolve(obj.path)
@@ -114,9 +117,9 @@ def estimate_memory(scene: Scene, source: str = "<scene>", *, smooth: bool = Tru
         size = count * (per + extra)
         if mesh_file:  # a large file that claims few triangles still costs its read (a one-line OBJ)
             size = max(size, mesh_file_read_bytes(path))
-        triangles += count
-        geometry += size
-        if size > largest_bytes:
+        triangles += count * objects
+        geometry += size * objects
+        if size > largest_bytes:  # the first object of the largest kind is the first of the largest objects
             largest, largest_bytes = index, size
     geometry += len(scene.objects) * OBJECT_BYTES
     render = scene.render
@@ -137,7 +140,7 @@ def estimate_memory(scene: Scene, source: str = "<scene>", *, smooth: bool = Tru
 def texture_estimate(scene: Scene, files) -> int:
     """The texture term: every colour map a used scene material names and every map the mesh files'
     materials name, at the size it is decoded at, from image headers only (io.textures)."""
-    used = {obj.material for obj in scene.objects}
+    used = {scene.objects[i].material for i in object_kinds(scene).first.tolist()}
     paths = [scene.resolve(m.path) for name, material in scene.materials.items() if name in used or name == "default"
              for m in (material.ka_map, material.kd_map, material.ke_map) if m is not None]
     if not paths and not any(p.suffix.lower() in (".obj", ".glb", ".gltf") for p in files):

@@ -14,20 +14,29 @@ import numpy as np
 
 from ..codes import GEOMETRY_LAYERS, TERM_LAYERS, Mode, ShadingModel, SpecularModel, Viewer
 from ..records import RenderPlan, Stage
+from ..scene.kinds import object_kinds
 from ..scene.schema import MAX_SAMPLES, Material, Scene
 from .pack import camera_rig
 
 
 def build_plan(scene: Scene, optimize: bool = True) -> RenderPlan:
-    """The stages of this scene's render, each kept or left out with its reason."""
-    smooth = [obj for obj in scene.objects if scene.shading_of(obj) != ShadingModel.FLAT]
-    stages, specular = _term_stages(scene, smooth, optimize)
+    """The stages of this scene's render, each kept or left out with its reason; decided per kind of object
+    (scene.kinds: objects that differ only in placement), so a million boxes cost one decision."""
+    kinds = _kinds(scene)
+    smooth = [(obj, n) for obj, n in kinds if scene.shading_of(obj) != ShadingModel.FLAT]
+    stages, specular = _term_stages(scene, kinds, smooth, optimize)
     stages.append(_view_stage(scene, specular))
     stages += _sampling_stages(scene)
     stages += _shadow_stages(scene, smooth)
     stages += _output_stages(scene)
     stages.append(_precision_stage(scene, specular))
     return RenderPlan(tuple(stages))
+
+
+def _kinds(scene: Scene) -> list[tuple]:
+    """(first object, number of objects) of each kind of object in the scene."""
+    kinds = object_kinds(scene)
+    return [(scene.objects[i], n) for i, n in zip(kinds.first.tolist(), kinds.count.tolist())]
 
 
 def _any_positive(values) -> bool:
@@ -38,11 +47,12 @@ def _any_positive(values) -> bool:
 FILE_MATERIALS = Material(ka=1, kd=1, ks=1, ke=1)
 
 
-def _term_stages(scene: Scene, smooth: list, optimize: bool) -> tuple[list[Stage], bool]:
+def _term_stages(scene: Scene, kinds: list, smooth: list, optimize: bool) -> tuple[list[Stage], bool]:
     """Normals and the model's terms, each kept only where some light and material make it non-zero
-    (`optimize=False` keeps the optional ones anyway); and whether the specular term is needed."""
-    materials, lights, render = [scene.material_of(obj) for obj in scene.objects], scene.lights, scene.render
-    if any(obj.shape == "mesh" and obj.material == "default" for obj in scene.objects):
+    (`optimize=False` keeps the optional ones anyway); and whether the specular term is needed. `kinds` and
+    `smooth` (the smooth-shaded ones) are (object, count) pairs."""
+    materials, lights, render = [scene.material_of(obj) for obj, _ in kinds], scene.lights, scene.render
+    if any(obj.shape == "mesh" and obj.material == "default" for obj, _ in kinds):
         # A mesh file may bring its own materials (read with the geometry, after this plan): keep every term.
         materials.append(FILE_MATERIALS)
     stages = []
@@ -53,17 +63,17 @@ def _term_stages(scene: Scene, smooth: list, optimize: bool) -> tuple[list[Stage
         stages.append(Stage(name, kept, reason))
 
     add("vertex_normals", bool(smooth),
-        f"{len(smooth)} object(s) with Gouraud or Phong shading",
+        f"{sum(n for _, n in smooth)} object(s) with Gouraud or Phong shading",
         "every object is flat-shaded: face normals only")
-    creased = [obj for obj in smooth if obj.crease_angle < 180]
+    creased = sum(n for obj, n in smooth if obj.crease_angle < 180)
     # A mesh object leaving crease_angle and normals unset creases a file without normals (geometry.build).
-    maybe = [obj for obj in smooth if obj.shape == "mesh" and obj.normals is None
-             and "crease_angle" not in obj.model_fields_set]
+    maybe = sum(n for obj, n in smooth if obj.shape == "mesh" and obj.normals is None
+                and "crease_angle" not in obj.model_fields_set)
     if maybe:
         from ..io.mesh_file import FILE_CREASE_ANGLE
     add("crease_split", bool(creased or maybe),
-        "; ".join(([f"{len(creased)} smooth object(s) with crease_angle < 180°"] if creased else [])
-                  + ([f"{len(maybe)} mesh object(s) creased at {FILE_CREASE_ANGLE:g}° if the file stores no "
+        "; ".join(([f"{creased} smooth object(s) with crease_angle < 180°"] if creased else [])
+                  + ([f"{maybe} mesh object(s) creased at {FILE_CREASE_ANGLE:g}° if the file stores no "
                       "normals (set crease_angle to choose)"] if maybe else [])),
         "no smooth object has a crease angle below 180°")
     own = [m for m in materials if m is not FILE_MATERIALS]
@@ -145,7 +155,7 @@ def _output_stages(scene: Scene) -> list[Stage]:
     """The layers asked for, and the shading models in use."""
     geometry_aovs = sorted(set(GEOMETRY_LAYERS) & set(scene.output.aovs))
     term_aovs = sorted(set(TERM_LAYERS) & set(scene.output.aovs))
-    models = {scene.shading_of(obj) for obj in scene.objects}
+    models = {scene.shading_of(obj) for obj, _ in _kinds(scene)}
     return [
         Stage("aov_geometry", bool(geometry_aovs),
               f"layers {', '.join(geometry_aovs)}" if geometry_aovs else "no depth/normal/face layer asked for"),
@@ -157,7 +167,7 @@ def _output_stages(scene: Scene) -> list[Stage]:
 
 def _precision_stage(scene: Scene, specular: bool) -> Stage:
     """float64 shading when asked, or when a highlight is too stiff for float32 (F32_SHININESS_LIMIT)."""
-    materials = [scene.material_of(obj) for obj in scene.objects]
+    materials = [scene.material_of(obj) for obj, _ in _kinds(scene)]
     stiff = sorted({m.shininess for m in materials if m.shininess > F32_SHININESS_LIMIT}) if specular else []
     if scene.render.precision == "float64":
         reason = "precision = float64"
@@ -222,16 +232,22 @@ def diagnose(plan: RenderPlan, scene: Scene, geometry) -> RenderPlan:
 
 def _candidates(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     """Objects whose highlight has a width (k_s > 0, 0 < f < ∞), and every object's f, (N,)."""
-    materials = [scene.material_of(obj) for obj in scene.objects]
+    materials = [scene.material_of(obj) for obj, _ in _kinds(scene)]
     shininess = np.array([m.shininess for m in materials], np.float64)
     specular = np.array([max(m.ks) > 0 for m in materials], bool)
-    return specular & (shininess > 0) & np.isfinite(shininess), shininess
+    kind = object_kinds(scene).kind
+    return (specular & (shininess > 0) & np.isfinite(shininess))[kind], shininess[kind]
+
+
+def _per_object(scene: Scene, test) -> np.ndarray:
+    """(N,) bool: test(object) of every object, evaluated once per kind."""
+    return np.array([bool(test(obj)) for obj, _ in _kinds(scene)], bool)[object_kinds(scene).kind]
 
 
 def gouraud_findings(scene: Scene, geometry):
     """Gouraud objects whose vertex normals are further apart than their highlight is wide."""
     wanted, shininess = _candidates(scene)
-    gouraud = np.array([scene.shading_of(obj) == ShadingModel.GOURAUD for obj in scene.objects], bool)
+    gouraud = _per_object(scene, lambda obj: scene.shading_of(obj) == ShadingModel.GOURAUD)
     wanted &= gouraud
     if not wanted.any() or not len(geometry.corner_normals):
         return
@@ -252,7 +268,7 @@ def subpixel_findings(scene: Scene, geometry):
     if scene.render.samples > 1:
         return
     wanted, shininess = _candidates(scene)
-    wanted &= np.array([obj.shape not in ("box", "plane") for obj in scene.objects], bool)
+    wanted &= _per_object(scene, lambda obj: obj.shape not in ("box", "plane"))
     if not wanted.any():
         return
     # The vertices each object's faces use, grouped by object: objects own disjoint vertex ranges.

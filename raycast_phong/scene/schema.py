@@ -43,6 +43,7 @@ from ..codes import (
 )
 from ..errors import RaycastPhongError, SceneError
 from ..tolerances import DIRECTION_RANGE, INTENSITY_LIMIT, POSITION_LIMIT
+from .kinds import object_kinds
 from .messages import describe_error, dotted, shown
 
 MAX_SIZE = 16384          # pixels per side, from the format
@@ -413,7 +414,7 @@ class Scene(_Strict):
         if not self.objects:
             raise _KeyError(("objects",), 'the scene has no [[objects]]; add at least one, e.g. '
                             '[[objects]] shape = "icosphere"')
-        index = _first_misfit(self.objects, self.materials)
+        index = _first_misfit(self)
         if index is not None:
             obj = self.objects[index]
             # Like an unknown key, a key the shape does not read is a mistake the file should hear about. Only a
@@ -513,9 +514,13 @@ _BULK_ROWS = 1 << 16  # objects checked at once: the columns' temporaries stay a
 _BULK_KEYS = frozenset({"shape", "subdivisions", "segments", "size", *_CHOICES, *_TEXT, *_LENGTHS, *_VECTORS})
 
 
-def _first_misfit(objects: tuple[Object, ...], materials: dict) -> int | None:
+def _first_misfit(scene: Scene) -> int | None:
     """The first object with a key its shape does not read (set to other than the default) or an undefined
-    material, in passes over all objects (a million in about half a second); None if there is none."""
+    material; None if there is none. Decided once per kind (scene.kinds), in passes over the kinds' first
+    objects: a kind's first object is the first of its objects to go wrong, and kinds are numbered in the
+    order of their first objects."""
+    firsts = object_kinds(scene).first
+    objects = [scene.objects[i] for i in firsts.tolist()]
     count = len(objects)
     shapes = np.array(list(map(operator.attrgetter("shape"), objects)))
     wrong = np.zeros(count, bool)
@@ -524,10 +529,10 @@ def _first_misfit(objects: tuple[Object, ...], materials: dict) -> int | None:
                                   repeat(_OBJECT_DEFAULTS[key])), bool, count)
         wrong |= differs & ~np.isin(shapes, [shape for shape, keys in SHAPE_KEYS.items() if key in keys])
     names = list(map(operator.attrgetter("material"), objects))
-    undefined = {name for name in set(names) if name != "default" and name not in materials}
+    undefined = {name for name in set(names) if name != "default" and name not in scene.materials}
     if undefined:
         wrong |= np.fromiter(map(undefined.__contains__, names), bool, count)
-    return int(np.argmax(wrong)) if wrong.any() else None
+    return int(firsts[np.argmax(wrong)]) if wrong.any() else None
 
 
 def _typed(column: list, allowed: frozenset) -> np.ndarray:
@@ -639,10 +644,18 @@ def objects_in_bulk(objects: Any) -> Any:
     anything that is not a list of tables, as they were, for pydantic to validate and word."""
     if type(objects) not in _SEQUENCE:
         return objects
-    groups: dict[tuple, list[int]] = {}
-    for index, obj in enumerate(objects):
-        if type(obj) is dict:
-            groups.setdefault(tuple(obj), []).append(index)
+    if set(map(type, objects)) == {dict}:  # the usual case: group rows by their keys in C-level passes
+        keys = list(map(tuple, objects))
+        number = {key: k for k, key in enumerate(dict.fromkeys(keys))}
+        group = np.fromiter(map(number.__getitem__, keys), np.int64, len(keys))
+        order, sizes = np.argsort(group, kind="stable").tolist(), np.bincount(group, minlength=len(number))
+        groups = {key: order[end - size:end] for key, end, size in zip(number, np.cumsum(sizes).tolist(),
+                                                                         sizes.tolist())}
+    else:
+        groups: dict[tuple, list[int]] = {}
+        for index, obj in enumerate(objects):
+            if type(obj) is dict:
+                groups.setdefault(tuple(obj), []).append(index)
     result = list(objects)
     collecting = gc.isenabled()
     gc.disable()  # a million new objects would start as many collections of a growing heap
