@@ -7,6 +7,7 @@ no longer matches embree.py's structs shows here as different hits.
 
 from __future__ import annotations
 
+import ctypes
 import os
 import shutil
 import subprocess
@@ -275,3 +276,34 @@ def test_prepared_packets_cast_alone_give_the_hits_closest_hits_gives():
                 u[k] = packets[p, kernels.HIT_U + lane] if hit else 0
         assert (face == expected.face).all() and (face >= 0).any() and (face < 0).any()
         assert u.tobytes() == expected.u.tobytes()
+
+
+@pytest.mark.parametrize("name", ["shadows", "mesh", "creases"])
+def test_a_compact_bvh_finds_the_hits_the_default_one_finds(name, monkeypatch):
+    """A mesh of embree.COMPACT_FACES triangles or more is built compact (checked with rtcGetSceneFlags); it
+    answers every camera ray as the default layout does: the same triangle test on the same float32 vertices,
+    so the same face, t, u, v, but for a tie between coplanar faces, which traversal order decides."""
+    scene = rp.load_scene(SCENES / f"{name}.toml", ["render.width=160", "render.height=120"])
+    geometry = build_geometry(scene)
+    frame = unit_frame(geometry.vertices)
+    origins, directions = generate_rays(camera_rig(scene), frame, 160, 120, 1, 0, 120)
+    lib = embree.library()
+    flags_of = lib._lib.rtcGetSceneFlags
+    flags_of.restype, flags_of.argtypes = ctypes.c_int, [ctypes.c_void_p]
+    compact_flag = 1 << 1  # RTC_SCENE_FLAG_COMPACT in include/embree4/rtcore_scene.h
+    default = Accelerator(geometry, frame)
+    assert flags_of(default.embree_scene.scene) == embree.RTC_SCENE_FLAG_ROBUST
+    monkeypatch.setattr(embree, "COMPACT_FACES", len(geometry.faces))
+    compact = Accelerator(geometry, frame)
+    assert flags_of(compact.embree_scene.scene) == embree.RTC_SCENE_FLAG_ROBUST | compact_flag
+    ours, theirs = compact.closest_hits(origins, directions), default.closest_hits(origins, directions)
+    hit = theirs.face >= 0
+    assert hit.any() and (~hit).any()
+    np.testing.assert_array_equal(ours.face >= 0, hit)
+    tie = ours.face != theirs.face
+    normals = geometry.face_normals
+    assert (np.abs(np.einsum("ij,ij->i", normals[ours.face[tie]], normals[theirs.face[tie]])) > 1 - 1e-12).all()
+    np.testing.assert_allclose(ours.t[hit], theirs.t[hit], rtol=16 * EPS32)
+    same = hit & ~tie
+    np.testing.assert_allclose(ours.u[same], theirs.u[same], rtol=16 * EPS32, atol=16 * EPS32)
+    np.testing.assert_allclose(ours.v[same], theirs.v[same], rtol=16 * EPS32, atol=16 * EPS32)
