@@ -81,8 +81,8 @@ WORK = Path(os.environ.get("TMPDIR", "/tmp")) / "raycast-phong-mutation"
 # Bugs written by hand (issue 19's independent sample, outside the kernels): (module, original text, mutated
 # text), each text found exactly once in the module; --hand runs them against tests_for(module).
 HAND_MUTANTS = (
-    ("io/mesh_file", "    return 3 * np.asarray(visual.face_colors)[:, :3].astype(np.int32)",
-     "    return np.asarray(visual.face_colors)[:, :3].astype(np.int32)"),  # a face colour loses its scale
+    ("io/mesh_file", "rgb = np.asarray(visual.face_colors)[:, :3].astype(np.float32) / 255.0",
+     "rgb = np.asarray(visual.face_colors)[:, :3].astype(np.float32) / 765.0"),  # a face colour summed over 3 corners
     ("io/mesh_file", 'current = raw.setdefault(" ".join(words[1:]), {})',
      "current = raw.setdefault(words[1], {})"),  # a material name with a space cut at the space
     ("renderer/budget", "rays = tile_rays * threads * (1 + shadow_lights) * RAY_BYTES",
