@@ -14,8 +14,8 @@ import numpy as np
 from ..codes import MODEL_CODE
 from ..errors import SceneError
 from ..records import Geometry, Texture, bounding_box
-from ..scene.messages import dotted
 from ..scene.kinds import object_kinds, placements
+from ..scene.messages import dotted
 from ..scene.schema import DEFAULT_MATERIAL, Object, Scene, brightness_problem
 from ..tolerances import MIN_DISTANCE, MIN_EXTENT, POSITION_LIMIT
 from . import shapes
