@@ -53,10 +53,10 @@ def winding_state(faces: np.ndarray, vertex_count: int, key: np.ndarray, edge: n
     by lower vertex filled into key and edge (3F,) (kernels.count_half_edges, kernels.bucket_half_edges).
     Above PARALLEL_FACES each thread counts, fills and sorts the buckets of its own range of vertices."""
     start = np.zeros(vertex_count + 1, np.int64)
-    ranges = parts(vertex_count, len(faces))
-    run_parts(lambda low, high: count_half_edges(faces, start, low, high), ranges)
+    run_parts(lambda low, high: count_half_edges(faces, start, low, high), parts(vertex_count, len(faces)))
     np.cumsum(start, out=start)
-    states = run_parts(lambda low, high: bucket_half_edges(faces, start, key, edge, low, high), ranges)
+    states = run_parts(lambda low, high: bucket_half_edges(faces, start, key, edge, low, high),
+                       parts(vertex_count, len(faces), lambda: start))  # cut at equal shares of the half-edges
     return all(state[0] for state in states), all(state[1] for state in states), start
 
 

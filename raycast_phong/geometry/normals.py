@@ -47,19 +47,18 @@ def prep_threads(threads: int | None) -> Iterator[None]:
         _THREADS.reset(token)
 
 
-def parts(count: int, faces: int, weight: np.ndarray | None = None) -> list[tuple[int, int]]:
+def parts(count: int, faces: int, running: Callable[[], np.ndarray] | None = None) -> list[tuple[int, int]]:
     """[0, count) cut into one range [low, high) per preparation thread when the mesh has at least PARALLEL_FACES
-    `faces` (else the whole range: no thread is started). `weight` (count,): each item's share of the work, to
-    cut the ranges at equal shares of it instead of into equal lengths."""
+    `faces` (else the whole range: no thread is started). `running`: gives the work done up to each item (count + 1,),
+    non-decreasing (called only when the range is cut), to cut at equal shares of it instead of equal lengths."""
     threads = _THREADS.get() or min(os.cpu_count() or 1, 8)
     if faces < PARALLEL_FACES or threads < 2 or count < threads:
         return [(0, count)]
-    if weight is None:
+    if running is None:
         cuts = [count * i // threads for i in range(threads + 1)]
     else:
-        total = np.cumsum(weight)  # a cut after the first item at which the running work reaches its share
-        shares = np.searchsorted(total, total[-1] * np.arange(1, threads) / threads) + 1
-        cuts = [0, *np.minimum(shares, count).tolist(), count]
+        total = running()
+        cuts = [0, *np.searchsorted(total, total[-1] * np.arange(1, threads) / threads).tolist(), count]
     return [(low, high) for low, high in pairwise(cuts) if high > low]
 
 
@@ -152,7 +151,7 @@ def compute_corner_normals(vertices: np.ndarray, faces: np.ndarray, weighting: s
             least = math.cos(math.radians(crease_angle)) - 1e-12
             run_parts(lambda low, high: creased_corners(faces, unit, weights, weighted, split, least, NO_DIRECTION,
                                                         corners, low, high),
-                      parts(count, len(faces), split))
+                      parts(count, len(faces), lambda: np.r_[0, np.cumsum(split)]))
     return corners
 
 

@@ -92,7 +92,7 @@ def test_below_the_threshold_no_thread_is_started(monkeypatch):
     assert parts(10_000, PARALLEL_FACES - 1) == [(0, 10_000)]
     with prep_threads(2):
         assert parts(10_000, PARALLEL_FACES) == [(0, 5_000), (5_000, 10_000)]
-        assert parts(4, PARALLEL_FACES, np.array([9, 0, 0, 1])) == [(0, 1), (1, 4)]  # cut at equal work
+        assert parts(4, PARALLEL_FACES, lambda: np.array([0, 9, 9, 9, 10])) == [(0, 1), (1, 4)]  # equal work
     with prep_threads(1):
         assert parts(10_000, PARALLEL_FACES) == [(0, 10_000)]
 
