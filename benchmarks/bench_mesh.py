@@ -4,7 +4,9 @@ For each scan of make_scans.py (public scans subdivided to millions of triangles
 beast-2m) in each format (binary PLY, binary STL, GLB, OBJ), a fresh subprocess measures:
   trimesh     trimesh.load(path, process=False): the raw parse, the reference of the ratio
   geometry    build_geometry of a scene holding the file: read (io/mesh_file.py), merge repeated points,
-              winding check (and repair), placing, face and corner normals — load + geometry
+              winding check (and repair), placing, face and corner normals — load + geometry; with the corner
+              normals in float32, as render() asks for them (it shades in float32); wall, and CPU of the
+              process (all its threads: a large mesh's preparation runs on --threads threads)
   read        geometry.object_mesh alone (read, checks, merge): the part of `geometry` that is reading
   peak        VmHWM during one build_geometry above the process's VmRSS after imports and a warm-up render
               of the same file (the high-water mark reset through /proc/self/clear_refs), bytes per triangle
@@ -19,8 +21,9 @@ host costs ~5 ms/MB (measured here), so a single cold run mostly measures alloca
 Every line carries the CPU (model and its widest SIMD) and the load average. Targets: geometry/trimesh ≤ 3, peak
 ≤ 300 B/triangle, render/Open3D ≤ 0.5.
 --before PATH measures another source tree too, file by file (its line first), for a before/after table.
+--threads N: the render's and the preparation's threads (default 2).
 Usage: python benchmarks/bench_mesh.py [--scan bunny-1m bunny-4m] [--formats ply stl glb obj] [--repeats 3]
-       [--size 1000] [--torus 1000000 ...] [--before PATH]
+       [--size 1000] [--torus 1000000 ...] [--threads 2] [--before PATH]
 """
 
 from __future__ import annotations
@@ -99,14 +102,25 @@ def scene_for(path: Path, size: int) -> dict:
     }
 
 
-def best(step, repeats: int) -> float:
-    """The least wall time of `repeats` calls of step() (its result dropped before the next)."""
+def best(step, repeats: int, clock=time.perf_counter) -> float:
+    """The least time of `repeats` calls of step() (its result dropped before the next) on `clock` (wall, or
+    time.process_time: the CPU of every thread)."""
     times = []
     for _ in range(repeats):
-        start = time.perf_counter()
+        start = clock()
         step()
-        times.append(time.perf_counter() - start)
+        times.append(clock() - start)
     return min(times)
+
+
+def prep_threads(threads: int):
+    """The preparation's thread bound (normals.prep_threads) where the tree has it; a tree from before it: none."""
+    try:
+        from raycast_phong.geometry.normals import prep_threads as bound
+    except ImportError:
+        import contextlib
+        return contextlib.nullcontext()
+    return bound(threads)
 
 
 def open3d_cast(path: Path, size: int, repeats: int) -> float:
@@ -132,7 +146,7 @@ def open3d_cast(path: Path, size: int, repeats: int) -> float:
     return best(cast, repeats)
 
 
-def measure(path: Path, repeats: int, size: int) -> dict:
+def measure(path: Path, repeats: int, size: int, threads: int = 2) -> dict:
     """One file in this (fresh) process: the peaks first (after a warm-up), then the times."""
     import trimesh
 
@@ -143,7 +157,7 @@ def measure(path: Path, repeats: int, size: int) -> dict:
     triangles = rp.render(scene).triangles  # warm-up: kernels loaded, trimesh's lazy imports done
     baseline = vm("VmRSS")
     Path("/proc/self/clear_refs").write_text("5")  # VmHWM := VmRSS now
-    geometry = build_geometry(scene, str(path))
+    geometry = build_geometry(scene, str(path), normal_dtype=np.float32)
     found = {"file": path.name, "triangles": triangles, "peak_bytes_per_triangle": (vm("VmHWM") - baseline) / triangles}
     del geometry
     if size:
@@ -155,10 +169,13 @@ def measure(path: Path, repeats: int, size: int) -> dict:
         # The whole render of the file (read, preparation, BVH, frame) against Open3D's read + vertex normals +
         # BVH + first cast of the same file and the same size² rays (its RaycastingScene, 2 threads each).
         found["render"] = best(lambda: rp.render(rp.validate_scene(scene_for(path, size), source=str(path)),
-                                                 threads=2), repeats)
+                                                 threads=threads), repeats)
         found["open3d"] = open3d_cast(path, size, repeats)
     found["trimesh"] = best(lambda: trimesh.load(str(path), process=False), repeats)
-    found["geometry"] = best(lambda: build_geometry(scene, str(path)), repeats)
+    with prep_threads(threads):
+        found["geometry"] = best(lambda: build_geometry(scene, str(path), normal_dtype=np.float32), repeats)
+        found["geometry_cpu"] = best(lambda: build_geometry(scene, str(path), normal_dtype=np.float32), repeats,
+                                     time.process_time)
     found["read"] = best(lambda: object_mesh(scene, scene.objects[0], 0, str(path)), repeats)
     return found
 
@@ -170,12 +187,13 @@ def main() -> None:
     parser.add_argument("--torus", type=int, nargs="*", default=[])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--size", type=int, default=1000, help="pixels a side of the render-peak render; 0: none")
+    parser.add_argument("--threads", type=int, default=2, help="the render's and the preparation's threads")
     parser.add_argument("--before", type=Path, help="another source tree (git archive REV | tar -x -C PATH) measured "
                         "the same way, file by file before this one")
     parser.add_argument("--one", help=argparse.SUPPRESS)  # internal: measure this file in this process
     args = parser.parse_args()
     if args.one:
-        print(json.dumps(measure(Path(args.one), args.repeats, args.size)))
+        print(json.dumps(measure(Path(args.one), args.repeats, args.size, args.threads)))
         return
     from make_scans import scan  # this script's folder is on sys.path
 
@@ -192,15 +210,16 @@ def main() -> None:
         for path, (label, tree) in ((path, tree) for path in files for tree in trees.items()):
             # The tree's package first on the path (an editable install's finder comes after PYTHONPATH).
             out = subprocess.run([sys.executable, __file__, "--one", str(path), "--repeats", str(args.repeats),
-                                  "--size", str(args.size)], env={**os.environ, "PYTHONPATH": str(tree)},
-                                 capture_output=True, text=True)
+                                  "--size", str(args.size), "--threads", str(args.threads)],
+                                 env={**os.environ, "PYTHONPATH": str(tree)}, capture_output=True, text=True)
             if out.returncode:
                 print(f"{label}{path.name}: failed: {out.stderr.strip().splitlines()[-1:]}", flush=True)
                 met = False
                 continue
             row = json.loads(out.stdout.splitlines()[-1])
             if label == "before ":
-                print(f"{label}{path.name}: trimesh {row['trimesh']:.3f} s, geometry {row['geometry']:.3f} s, "
+                print(f"{label}{path.name}: trimesh {row['trimesh']:.3f} s, geometry {row['geometry']:.3f} s "
+                      f"(CPU {row['geometry_cpu']:.3f} s), "
                       f"geometry/trimesh {row['geometry'] / row['trimesh']:.2f}, peak "
                       f"{row['peak_bytes_per_triangle']:.0f} B/triangle (render "
                       f"{row.get('render_peak_bytes_per_triangle', math.nan):.0f}); render "
@@ -212,7 +231,8 @@ def main() -> None:
             met &= (ratio <= TARGET_RATIO and row["peak_bytes_per_triangle"] <= TARGET_PEAK
                     and not versus > TARGET_OPEN3D)
             print(f"{label}{row['file']:>16} {row['triangles']:>10,} triangles: trimesh {row['trimesh']:.3f} s, "
-                  f"geometry {row['geometry']:.3f} s (read {row['read']:.3f} s), geometry/trimesh {ratio:.2f}, "
+                  f"geometry {row['geometry']:.3f} s (CPU {row['geometry_cpu']:.3f} s, read {row['read']:.3f} s), "
+                  f"geometry/trimesh {ratio:.2f}, "
                   f"peak {row['peak_bytes_per_triangle']:.0f} B/triangle (render "
                   f"{row.get('render_peak_bytes_per_triangle', math.nan):.0f}); render "
                   f"{row.get('render', math.nan):.3f} s / Open3D {row.get('open3d', math.nan):.3f} s = "

@@ -5,6 +5,11 @@ carry the same bits (tests/geometry/test_prep_kernels.py compares them with that
 
 Half-edges are bucketed by their lower vertex (a counting sort: linear, and each bucket holds a vertex's few
 edges), in place of a sort of all 3F half-edge keys; points are merged through an open-addressing hash table.
+
+Passes that may run on several threads (normals.run_parts: each thread calls the same kernel, which releases the
+GIL) take either slices of the faces (face normals, corner gather, renumbering) or a range [low, high) of vertices
+that they alone write (vertex sums, crease tests, half-edge buckets): each vertex's sum is still added in corner
+order, so any split gives the bits of one thread.
 """
 
 from __future__ import annotations
@@ -38,15 +43,17 @@ def face_normals_into(vertices, faces, unit, doubled_area):
 
 
 @kernel()
-def vertex_normal_sums(faces, unit, weights, weighted, vertex_count):
-    """(V, 4) float64: per vertex Σ w n_f (columns 0-2) and Σ w |n_f| (column 3) over its corners, added in
-    corner order (3f + k) as np.bincount adds them; w = weights[f, k] if `weighted`, else 1."""
-    summed = np.zeros((vertex_count, 4))
+def vertex_normal_sums(faces, unit, weights, weighted, summed, low, high):
+    """summed (V, 4) float64, zeroed by the caller: for each vertex v in [low, high), Σ w n_f (columns 0-2) and
+    Σ w |n_f| (column 3) over its corners, added in corner order (3f + k) as np.bincount adds them; w =
+    weights[f, k] if `weighted`, else 1. Rows outside the range are not touched (another thread's)."""
     for f in range(faces.shape[0]):
-        u0, u1, u2 = unit[f, 0], unit[f, 1], unit[f, 2]
-        length = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
         for k in range(3):
             v = faces[f, k]
+            if v < low or v >= high:
+                continue
+            u0, u1, u2 = unit[f, 0], unit[f, 1], unit[f, 2]
+            length = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
             if weighted:
                 w = weights[f, k]
                 summed[v, 0] += w * u0
@@ -58,23 +65,20 @@ def vertex_normal_sums(faces, unit, weights, weighted, vertex_count):
                 summed[v, 1] += u1
                 summed[v, 2] += u2
                 summed[v, 3] += length
-    return summed
 
 
 @kernel()
-def normalise_sums(summed, no_direction):
-    """The vertex normals (V, 3) of normal sums (V, 4), and which have no direction (V,) bool: |s| at most
-    no_direction × the length they would have if every normal agreed (then the normal is left unscaled)."""
-    count = summed.shape[0]
-    normal, vague = np.empty((count, 3)), np.empty(count, np.bool_)
-    for v in range(count):
+def normalise_sums(summed, no_direction, normal, vague):
+    """Into normal (V, 3) float64 and vague (V,) bool, for normal sums (V, 4) (any rows, with the outputs' same
+    rows): the vertex normals, and which have no direction: |s| at most no_direction × the length they would
+    have if every normal agreed (then the normal is left unscaled)."""
+    for v in range(summed.shape[0]):
         s0, s1, s2 = summed[v, 0], summed[v, 1], summed[v, 2]
         size = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
         vague[v] = size <= no_direction * summed[v, 3]
         if vague[v]:
             size = 1.0
         normal[v, 0], normal[v, 1], normal[v, 2] = s0 / size, s1 / size, s2 / size
-    return normal, vague
 
 
 @kernel()
@@ -89,27 +93,37 @@ def gather_corners(vertex_normal, vague, faces, unit, corners):
 
 
 @kernel()
-def _bucket_half_edges(faces, vertex_count, key, edge):
-    """Half-edge h = 3f + k (corner k → k + 1 of face f) bucketed by its lower vertex (a counting sort). Returns
-    start (V + 1,); fills key (3F,) and edge (3F,) (the caller's, int32 when they fit: 8 bytes a half-edge, not 16).
-    Bucket v is start[v]:start[v + 1], sorted by key = 2 × higher vertex + (1 where the half-edge runs high → low)
-    and, among equal keys, by h = edge: the order a stable sort of all 3F (undirected edge, direction) keys gives."""
-    start = np.zeros(vertex_count + 1, np.int64)
+def count_half_edges(faces, start, low, high):
+    """The first half of bucketing the half-edges by their lower vertex (a counting sort): start[v + 1] += the
+    number of half-edges h = 3f + k (corner k → k + 1 of face f) whose lower vertex v is in [low, high). start
+    (V + 1,) int64 zeroed by the caller, who then takes its running sum (bucket v is start[v]:start[v + 1])."""
     for f in range(faces.shape[0]):
         for k in range(3):
-            start[min(faces[f, k], faces[f, (k + 1) % 3]) + 1] += 1
-    for v in range(vertex_count):
-        start[v + 1] += start[v]
-    fill = start[:-1].copy()
+            v = min(faces[f, k], faces[f, (k + 1) % 3])
+            if low <= v < high:
+                start[v + 1] += 1
+
+
+@kernel()
+def bucket_half_edges(faces, start, key, edge, low, high):
+    """The second half: fills the buckets of the vertices in [low, high) of key (3F,) and edge (3F,) (the caller's,
+    int32 when they fit: 8 bytes a half-edge, not 16), and returns (consistent, closed) of those buckets.
+    Bucket v is sorted by key = 2 × higher vertex + (1 where the half-edge runs high → low) and, among equal keys,
+    by h = edge: the order a stable sort of all 3F (undirected edge, direction) keys gives. consistent: no
+    half-edge is traversed twice in the same direction; closed: every undirected edge belongs to exactly two."""
+    fill = start[low:high].copy()
     for f in range(faces.shape[0]):
         for k in range(3):
             a, b = faces[f, k], faces[f, (k + 1) % 3]
-            low = min(a, b)
-            at = fill[low]
-            fill[low] += 1
+            v = min(a, b)
+            if v < low or v >= high:
+                continue
+            at = fill[v - low]
+            fill[v - low] += 1
             key[at] = 2 * max(a, b) + (1 if b < a else 0)
             edge[at] = 3 * f + k
-    for v in range(vertex_count):
+    consistent, closed = True, True
+    for v in range(low, high):
         first, last = start[v], start[v + 1]
         if last - first <= SMALL_BUCKET:
             for i in range(first + 1, last):  # insertion sort: stable
@@ -121,18 +135,7 @@ def _bucket_half_edges(faces, vertex_count, key, edge):
         else:
             order = np.argsort(key[first:last], kind="mergesort")  # stable
             key[first:last], edge[first:last] = key[first:last][order], edge[first:last][order]
-    return start
-
-
-@kernel()
-def winding_state(faces, vertex_count, key, edge):
-    """(consistent, closed) of a mesh: consistent, no half-edge is traversed twice in the same direction;
-    closed, every undirected edge belongs to exactly two half-edges; and `start` of the buckets it fills
-    (_bucket_half_edges)."""
-    start = _bucket_half_edges(faces, vertex_count, key, edge)
-    consistent, closed = True, True
-    for v in range(vertex_count):
-        at, last = start[v], start[v + 1]
+        at = first
         while at < last:
             run = at + 1
             while run < last and key[run] >> 1 == key[at] >> 1:
@@ -143,7 +146,7 @@ def winding_state(faces, vertex_count, key, edge):
                 if key[i] == key[i - 1]:
                     consistent = False
             at = run
-    return consistent, closed, start
+    return consistent, closed
 
 
 @kernel()
@@ -261,58 +264,59 @@ def merge_rows(rows, bits, used, table, new_of_old, first):
 
 
 @kernel()
-def renumber(faces, new_of_old):
-    """new_of_old[faces], (F, 3) int64."""
-    out = np.empty(faces.shape, np.int64)
+def renumber(faces, new_of_old, out):
+    """out (F, 3) int64 := new_of_old[faces] (any rows of both)."""
     for f in range(faces.shape[0]):
         for k in range(3):
             out[f, k] = new_of_old[faces[f, k]]
-    return out
 
 
 @kernel()
-def creased_vertices(faces, unit, vertex_normal, vague, least):
-    """(V,) bool: the vertices a crease may split, vague or with a face normal n_f whose cosine with the vertex
-    normal is below `least` (or NaN): normals._creased_vertices' rule, its cosines added in the same order."""
-    lowest = np.full(vertex_normal.shape[0], np.inf)
+def creased_vertices(faces, unit, vertex_normal, vague, least, split, low, high):
+    """Into split (V,) bool, for the vertices v in [low, high): whether a crease may split v, vague or with a face
+    normal n_f whose cosine with the vertex normal is below `least` (or NaN): normals._creased_vertices' rule,
+    its cosines added in the same order."""
+    lowest = np.full(high - low, np.inf)
     for f in range(faces.shape[0]):
         for k in range(3):
             v = faces[f, k]
+            if v < low or v >= high:
+                continue
             cosine = 0.0
             cosine += unit[f, 0] * vertex_normal[v, 0]
             cosine += unit[f, 1] * vertex_normal[v, 1]
             cosine += unit[f, 2] * vertex_normal[v, 2]
-            if cosine != cosine or cosine < lowest[v]:  # np.minimum: a NaN stays
-                lowest[v] = cosine
-    split = np.empty(vertex_normal.shape[0], np.bool_)
-    for v in range(vertex_normal.shape[0]):
-        split[v] = vague[v] or not lowest[v] >= least
-    return split
+            if cosine != cosine or cosine < lowest[v - low]:  # np.minimum: a NaN stays
+                lowest[v - low] = cosine
+    for v in range(low, high):
+        split[v] = vague[v] or not lowest[v - low] >= least
 
 
 @kernel()
-def creased_corners(faces, unit, weights, weighted, split, least, no_direction, corners):
-    """Corner normals (into corners (F, 3, 3)) at the vertices `split` marks: each corner sums w n_g and w |n_g|
-    over the corners at its vertex (in corner order) whose face g is within the crease of its own (n_f · n_g ≥
-    `least`), then normalises, or takes n_f where the sum has no direction (normals._creased_sums and
-    _normalise_or, their additions in their order). The corners are bucketed by vertex (a counting sort)."""
-    vertex_count = split.shape[0]
-    start = np.zeros(vertex_count + 1, np.int64)
-    for f in range(faces.shape[0]):
-        for k in range(3):
-            if split[faces[f, k]]:
-                start[faces[f, k] + 1] += 1
-    for v in range(vertex_count):
-        start[v + 1] += start[v]
-    fill = start[:-1].copy()
-    corner = np.empty(start[vertex_count], np.int64)
+def creased_corners(faces, unit, weights, weighted, split, least, no_direction, corners, low, high):
+    """Corner normals (into corners (F, 3, 3)) at the vertices in [low, high) that `split` marks: each corner sums
+    w n_g and w |n_g| over the corners at its vertex (in corner order) whose face g is within the crease of its
+    own (n_f · n_g ≥ `least`), then normalises, or takes n_f where the sum has no direction
+    (normals._creased_sums and _normalise_or, their additions in their order). The corners are bucketed by
+    vertex (a counting sort over the range's vertices)."""
+    count = high - low
+    start = np.zeros(count + 1, np.int64)
     for f in range(faces.shape[0]):
         for k in range(3):
             v = faces[f, k]
-            if split[v]:
-                corner[fill[v]] = 3 * f + k
-                fill[v] += 1
-    for v in range(vertex_count):
+            if low <= v < high and split[v]:
+                start[v - low + 1] += 1
+    for v in range(count):
+        start[v + 1] += start[v]
+    fill = start[:-1].copy()
+    corner = np.empty(start[count], np.int64)
+    for f in range(faces.shape[0]):
+        for k in range(3):
+            v = faces[f, k]
+            if low <= v < high and split[v]:
+                corner[fill[v - low]] = 3 * f + k
+                fill[v - low] += 1
+    for v in range(count):
         for at in range(start[v], start[v + 1]):
             f, k = corner[at] // 3, corner[at] % 3
             s0, s1, s2, reach = 0.0, 0.0, 0.0, 0.0

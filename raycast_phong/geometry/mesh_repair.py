@@ -10,8 +10,8 @@ import math
 import numpy as np
 
 from ..records import bounding_box
-from .kernels import merge_rows, orient_pieces, renumber, signed_volume, winding_state
-from .normals import FACE_CHUNK, cross_rows
+from .kernels import bucket_half_edges, count_half_edges, merge_rows, orient_pieces, renumber, signed_volume
+from .normals import FACE_CHUNK, cross_rows, parts, run_parts
 
 
 def repair_winding(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int, bool]:
@@ -20,7 +20,7 @@ def repair_winding(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     Inconsistent winding makes face normals of neighbours cancel in the vertex-normal mean. Returns
     the faces, how many were flipped, and whether the mesh is closed (every edge in exactly two faces:
     then it is turned outward, by its signed volume). A consistent mesh, the common case, costs one
-    pass bucketing its 3F half-edges by vertex (kernels.winding_state; and a closed one its signed volume,
+    pass bucketing its 3F half-edges by vertex (winding_state; and a closed one its signed volume,
     taken over the whole mesh as trimesh's fix_inversion did: a consistent mesh whose pieces disagree is left
     to its majority by volume); only an inconsistent one pays for the face graph (kernels.orient_pieces: per
     piece the side most faces have), and if closed each piece is then turned outward by its own volume.
@@ -45,6 +45,19 @@ def repair_winding(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     repaired = faces.copy()
     repaired[flip] = faces[flip, ::-1]
     return repaired, flipped, closed
+
+
+def winding_state(faces: np.ndarray, vertex_count: int, key: np.ndarray, edge: np.ndarray):
+    """(consistent, closed, start) of a mesh: consistent, no half-edge is traversed twice in the same direction;
+    closed, every undirected edge belongs to exactly two half-edges; start (V + 1,) the buckets of half-edges
+    by lower vertex filled into key and edge (3F,) (kernels.count_half_edges, kernels.bucket_half_edges).
+    Above PARALLEL_FACES each thread counts, fills and sorts the buckets of its own range of vertices."""
+    start = np.zeros(vertex_count + 1, np.int64)
+    run_parts(lambda low, high: count_half_edges(faces, start, low, high), parts(vertex_count, len(faces)))
+    np.cumsum(start, out=start)
+    states = run_parts(lambda low, high: bucket_half_edges(faces, start, key, edge, low, high),
+                       parts(vertex_count, len(faces), lambda: start))  # cut at equal shares of the half-edges
+    return all(state[0] for state in states), all(state[1] for state in states), start
 
 
 def _volume_sign(vertices: np.ndarray, faces: np.ndarray) -> float:
@@ -108,7 +121,10 @@ def merge_duplicate_vertices(vertices: np.ndarray, faces: np.ndarray,
     del table, rows, bits
     if len(first) == len(vertices):
         return np.asarray(vertices, np.float64), faces  # nothing to merge or drop: no copies (of float64)
-    return np.asarray(vertices[first], np.float64), renumber(faces, new_of_old)
+    remapped = np.empty(faces.shape, np.int64)  # new_of_old[faces], one slice of the faces per thread
+    run_parts(lambda low, high: renumber(faces[low:high], new_of_old, remapped[low:high]),
+              parts(len(faces), len(faces)))
+    return np.asarray(vertices[first], np.float64), remapped
 
 
 def _merge_sorted(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray | None, used: np.ndarray):
@@ -161,7 +177,8 @@ def _row_hashes(rows: np.ndarray) -> np.ndarray:
 
 
 # The compiled passes a mesh file's preparation calls (besides the normals' kernels every smooth object needs).
-MESH_FILE_KERNELS = ("merge_rows", "renumber", "winding_state", "orient_pieces", "signed_volume")
+MESH_FILE_KERNELS = ("merge_rows", "renumber", "count_half_edges", "bucket_half_edges", "orient_pieces",
+                     "signed_volume")
 
 
 def warm_up() -> None:

@@ -8,6 +8,12 @@ vertex duplication: corner (f, k) carries the normal that vertex faces[f, k] has
 from __future__ import annotations
 
 import math
+import os
+from collections.abc import Callable, Iterator
+from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
+from contextvars import ContextVar
+from itertools import pairwise
 
 import numpy as np
 
@@ -23,12 +29,56 @@ from .kernels import (
 
 FACE_CHUNK = 1 << 18  # faces per step of a per-face computation: ~25 MB of temporaries, whatever the mesh
 
+# A mesh of at least this many faces runs the passes that split bit for bit on the preparation's threads; a smaller
+# one (every built-in scene's start-up) on the calling thread alone. At 200k faces a pass takes 5-20 ms, starting
+# a thread 0.1 ms.
+PARALLEL_FACES = 200_000
+_THREADS: ContextVar[int | None] = ContextVar("prep_threads", default=None)
+
+
+@contextmanager
+def prep_threads(threads: int | None) -> Iterator[None]:
+    """The preparation's threads for the calls inside (the render's `threads`, as its tiles get; None: the
+    machine's cores, at most 8, as the render's default). A batch's worker renders with one thread: no more."""
+    token = _THREADS.set(threads)
+    try:
+        yield
+    finally:
+        _THREADS.reset(token)
+
+
+def parts(count: int, faces: int, running: Callable[[], np.ndarray] | None = None) -> list[tuple[int, int]]:
+    """[0, count) cut into one range [low, high) per preparation thread when the mesh has at least PARALLEL_FACES
+    `faces` (else the whole range: no thread is started). `running`: gives the work done up to each item (count + 1,),
+    non-decreasing (called only when the range is cut), to cut at equal shares of it instead of equal lengths."""
+    threads = _THREADS.get() or min(os.cpu_count() or 1, 8)
+    if faces < PARALLEL_FACES or threads < 2 or count < threads:
+        return [(0, count)]
+    if running is None:
+        cuts = [count * i // threads for i in range(threads + 1)]
+    else:
+        total = running()
+        cuts = [0, *np.searchsorted(total, total[-1] * np.arange(1, threads) / threads).tolist(), count]
+    return [(low, high) for low, high in pairwise(cuts) if high > low]
+
+
+def run_parts(step: Callable[[int, int], object], ranges: list[tuple[int, int]]) -> list:
+    """step(low, high) for each range, the first on this thread and each other on a thread of its own (the
+    kernels release the GIL), joined before returning; their results in order."""
+    if len(ranges) == 1:
+        return [step(*ranges[0])]
+    with ThreadPoolExecutor(max_workers=len(ranges) - 1) as pool:
+        others = [pool.submit(step, *part) for part in ranges[1:]]
+        return [step(*ranges[0]), *(future.result() for future in others)]
+
 
 def face_normals(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit face normals (F, 3) (zero for a degenerate face) and twice the areas (F,): one compiled pass
-    over the faces (kernels.face_normals_into), no per-face temporaries."""
+    over the faces (kernels.face_normals_into), no per-face temporaries; above PARALLEL_FACES, one slice of
+    the faces per thread."""
     unit, doubled_area = np.zeros((len(faces), 3)), np.empty(len(faces))
-    face_normals_into(vertices, faces, unit, doubled_area)
+    run_parts(lambda low, high: face_normals_into(vertices, faces[low:high], unit[low:high], doubled_area[low:high]),
+              parts(len(faces), len(faces)))
     return unit, doubled_area
 
 
@@ -81,22 +131,40 @@ def compute_corner_normals(vertices: np.ndarray, faces: np.ndarray, weighting: s
     unit, doubled_area = normals if normals is not None else face_normals(vertices, faces)
     weights = corner_weights(vertices, faces, doubled_area, weighting)
     # Σ w n_f and Σ w |n_f| (the length the sum would have if every normal agreed) per vertex, added in the
-    # corners' order (the order of the additions fixes the last bits): one pass, no per-corner arrays.
-    summed = vertex_normal_sums(faces, unit, np.empty((0, 3)) if weights is None else weights, weights is not None,
-                                len(vertices))
-    vertex_normal, vague = normalise_sums(summed, NO_DIRECTION)  # no direction: the face normal (as _normalise_or)
-    del summed
+    # corners' order (the order of the additions fixes the last bits): one pass, no per-corner arrays; above
+    # PARALLEL_FACES each thread sums the vertices of its own range, each still in corner order.
+    weighted, weights = weights is not None, np.empty((0, 3)) if weights is None else weights
+    count = len(vertices)
+    vertex_normal, vague = _vertex_normals(faces, unit, weights, weighted, count)  # vague: take the face normal
     corners = _corners_of(vertex_normal, vague, faces, unit, dtype)
     if crease_angle < 180.0:
         # Corners at a vertex with a crease: each gathers only the faces within the angle of its own. A vertex
         # whose face normals all lie within half the angle of its mean normal is not split: any two are then
         # within the angle (triangle inequality on the sphere), so each of its corners gathers every face, the
-        # uncreased sum bit for bit. The margin sends a vertex at the bound through the pairwise test instead.
-        split = creased_vertices(faces, unit, vertex_normal, vague, math.cos(math.radians(crease_angle) / 2) + 1e-9)
-        if split.any():  # the small slack keeps a face and its exact coplanar neighbour together despite rounding
-            creased_corners(faces, unit, np.empty((0, 3)) if weights is None else weights, weights is not None,
-                            split, math.cos(math.radians(crease_angle)) - 1e-12, NO_DIRECTION, corners)
+        # uncreased sum bit for bit. The margin sends a vertex at the bound through the pairwise test instead
+        # (the small slack keeps a face and its exact coplanar neighbour together despite rounding).
+        split = np.empty(count, bool)
+        half = math.cos(math.radians(crease_angle) / 2) + 1e-9
+        run_parts(lambda low, high: creased_vertices(faces, unit, vertex_normal, vague, half, split, low, high),
+                  parts(count, len(faces)))
+        if split.any():  # each range's corners bucketed and summed by its thread: cut by the split vertices
+            least = math.cos(math.radians(crease_angle)) - 1e-12
+            run_parts(lambda low, high: creased_corners(faces, unit, weights, weighted, split, least, NO_DIRECTION,
+                                                        corners, low, high),
+                      parts(count, len(faces), lambda: np.r_[0, np.cumsum(split)]))
     return corners
+
+
+def _vertex_normals(faces: np.ndarray, unit: np.ndarray, weights: np.ndarray, weighted: bool, count: int):
+    """The `count` vertex normals (V, 3) and which have no direction (V,) bool, from sums (V, 4) float64 of the
+    corners' w n_f and w |n_f| (kernels.vertex_normal_sums, kernels.normalise_sums), freed on return."""
+    summed = np.zeros((count, 4))
+    run_parts(lambda low, high: vertex_normal_sums(faces, unit, weights, weighted, summed, low, high),
+              parts(count, len(faces)))
+    vertex_normal, vague = np.empty((count, 3)), np.empty(count, bool)
+    run_parts(lambda low, high: normalise_sums(summed[low:high], NO_DIRECTION, vertex_normal[low:high],
+                                               vague[low:high]), parts(count, len(faces)))
+    return vertex_normal, vague
 
 
 def file_corner_normals(file_normals: np.ndarray, faces: np.ndarray, unit: np.ndarray,
@@ -114,7 +182,8 @@ def _corners_of(vertex_normal: np.ndarray, vague: np.ndarray, faces: np.ndarray,
     """(F, 3, 3) in `dtype`: each corner its vertex's normal (V, 3), or its face's `unit` normal where the
     vertex is `vague` (V,) bool (its normal has no direction)."""
     corners = np.empty((len(faces), 3, 3), dtype)
-    gather_corners(vertex_normal, vague, faces, unit, corners)
+    run_parts(lambda low, high: gather_corners(vertex_normal, vague, faces[low:high], unit[low:high],
+                                               corners[low:high]), parts(len(faces), len(faces)))
     return corners
 
 

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..geometry.build import build_geometry
+from ..geometry.normals import prep_threads
 from ..records import Frame, Geometry, ImageBuffers, RenderPlan, RenderResult
 from ..scene.schema import Scene, SceneError
 from .budget import MemoryEstimate, check_memory
@@ -115,7 +116,9 @@ def prepare(scene: Scene, *, source: str = "<scene>", threads: int | None = None
 
     start = time.perf_counter()
     real = np.float64 if plan.keeps("float64_shading") else np.float32
-    geometry = build_geometry(scene, source=source, vertex_normals=plan.keeps("vertex_normals"), normal_dtype=real)
+    with prep_threads(threads):  # a large mesh's preparation uses as many threads as its tiles
+        geometry = build_geometry(scene, source=source, vertex_normals=plan.keeps("vertex_normals"),
+                                  normal_dtype=real)
     timings = {"geometry": time.perf_counter() - start}
     plan = diagnose(plan, scene, geometry)
     frame = unit_frame(geometry.vertices)

@@ -82,7 +82,7 @@ def test_a_moebius_strip_is_left_as_it_is():
     faces = np.concatenate([np.column_stack([i, jj_in, jj_out]), np.column_stack([i, jj_out, n + i])]).astype(np.int64)
     faces[::3] = faces[::3, ::-1]  # inconsistent as well, so the orientation runs
     key, edge = np.empty(3 * len(faces), np.int32), np.empty(3 * len(faces), np.int32)
-    consistent, closed, start = kernels.winding_state(faces, len(vertices), key, edge)
+    consistent, closed, start = mesh_repair.winding_state(faces, len(vertices), key, edge)
     assert not consistent and not closed
     flip, _, orientable = kernels.orient_pieces(start, key, edge, len(faces))
     assert not orientable.any() and not flip.any()  # one piece that no choice of sides can orient
