@@ -18,6 +18,7 @@ from typer.testing import CliRunner
 import raycast_phong as rp
 from raycast_phong.cli import app
 from raycast_phong.geometry.build import build_geometry
+from raycast_phong.io import mesh_file
 
 MESHES = Path(__file__).resolve().parents[2] / "scenes" / "meshes"
 SHIPPED = ("dice.obj", "painted_knot.ply", "still_life.glb")
@@ -394,3 +395,44 @@ def test_the_up_option_is_the_camera_up_and_the_front_view_looks_across_it(tmp_p
     expected[axis] = -1.0 if up.startswith("-") else 1.0
     np.testing.assert_array_equal(camera.up, expected)
     assert abs(np.subtract(camera.position, camera.look_at)[axis]) < 1e-9  # the eye is level with the centre
+
+
+COLLADA = """<?xml version="1.0" encoding="utf-8"?>
+<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
+  <asset><up_axis>Y_UP</up_axis></asset>
+  <library_images>
+    <image id="file2" name="file2"><init_from>./MAP</init_from></image>
+  </library_images>
+  <library_effects>
+    <effect id="fx"><profile_COMMON>
+      <newparam sid="surf"><surface type="2D"><init_from>file2</init_from></surface></newparam>
+      <newparam sid="samp"><sampler2D><source>surf</source></sampler2D></newparam>
+      <technique sid="common"><phong><diffuse><texture texture="samp" texcoord="UV"/></diffuse></phong></technique>
+    </profile_COMMON></effect>
+  </library_effects>
+  <library_materials><material id="mat"><instance_effect url="#fx"/></material></library_materials>
+  <library_geometries><geometry id="g"><mesh>
+    <source id="pos"><float_array id="pa" count="9">0 0 0 1 0 0 0 1 0</float_array>
+      <technique_common><accessor source="#pa" count="3" stride="3"><param name="X" type="float"/>
+        <param name="Y" type="float"/><param name="Z" type="float"/></accessor></technique_common></source>
+    <vertices id="v"><input semantic="POSITION" source="#pos"/></vertices>
+    <triangles count="1" material="m"><input semantic="VERTEX" source="#v" offset="0"/><p>0 1 2</p></triangles>
+  </mesh></geometry></library_geometries>
+  <library_visual_scenes><visual_scene id="s"><node id="n"><instance_geometry url="#g"><bind_material>
+    <technique_common><instance_material symbol="m" target="#mat"/></technique_common>
+  </bind_material></instance_geometry></node></visual_scene></library_visual_scenes>
+  <scene><instance_visual_scene url="#s"/></scene>
+</COLLADA>
+"""
+
+
+@pytest.mark.parametrize("present", [False, True])
+def test_a_collada_files_missing_texture_is_a_note(tmp_path, present):
+    """trimesh's COLLADA reader drops a map whose image is missing without a word (duck.dae rendered white):
+    the read names it (the <image>'s init_from, a URI: %20 is a space), and says nothing when it is there."""
+    (tmp_path / "tri.dae").write_text(COLLADA.replace("MAP", "duck%20map.tga"))
+    if present:
+        (tmp_path / "duck map.tga").write_bytes(b"")
+    notes = mesh_file.read_mesh(tmp_path / "tri.dae", "scene.toml: objects.0.path").notes
+    said = [note for note in notes if "duck map.tga" in note]
+    assert said == ([] if present else [f"{tmp_path / 'tri.dae'}: texture 'duck map.tga' is missing"])
