@@ -47,7 +47,9 @@ PROBE = ("import atexit, sys, threading\n"
          "kept = Teardown()  # its __del__ runs when the interpreter is torn down\n"
          "def told():  # whether pydantic scanned the installed packages for its plugins\n"
          "    loader = sys.modules.get('pydantic.plugin._loader')\n"
-         "    print('atexit ran', 'plugins', loader is not None and loader._plugins is not None, flush=True)\n"
+         "    import gc\n"
+         "    print('atexit ran', 'plugins', loader is not None and loader._plugins is not None, gc.get_threshold()[0],"
+         " flush=True)\n"
          "atexit.register(told)\n"
          "if sys.argv.pop(1) == 'thread':\n"
          "    first = threading.main_thread()  # the thread ends once Python's exit has begun\n"
@@ -59,22 +61,23 @@ def test_the_program_ends_without_the_interpreter_s_teardown_after_its_exit_hand
     """cli.main (the console script) runs the atexit handlers, keeps the command's status and its output, and ends
     the process without tearing the interpreter down (0.2–0.3 s of a warm render); app() still exits as Python
     does (the control: the probe sees the teardown), and so does main while another thread of the program runs.
-    main leaves pydantic's plugins off: no scan of the installed packages for them (app() scans: the control)."""
+    main leaves pydantic's plugins off (no scan of the installed packages for them; app() scans: the control) and
+    the cyclic collector's young pass at 10,000 allocations (app(): Python's 700)."""
     scene = tmp_path / "tiny.toml"
     scene.write_text('[render]\nwidth = 8\nheight = 6\n[[objects]]\nshape = "icosphere"\nsubdivisions = 1\n',
                      encoding="utf-8")
     render = ["render", str(scene), "-q", "-o", str(tmp_path / "out.png")]
     done = python(PROBE.replace("ENTRY", "main"), "plain", *render)
-    assert (done.returncode, done.stdout.split()) == (0, ["atexit", "ran", "plugins", "False"]), \
+    assert (done.returncode, done.stdout.split()) == (0, ["atexit", "ran", "plugins", "False", "10000"]), \
         done.stdout + done.stderr
     assert (tmp_path / "out.png").stat().st_size > 0 and done.stderr == ""
     control = python(PROBE.replace("ENTRY", "app"), "plain", *render)
-    assert (control.returncode, control.stdout.split()) == (0, ["atexit", "ran", "plugins", "True", "torn", "down"]), \
-        control.stderr
+    python_s = ["atexit", "ran", "plugins", "True", "700", "torn", "down"]  # Python's exit, the scan, its collector
+    assert (control.returncode, control.stdout.split()) == (0, python_s), control.stderr
     refused = python(PROBE.replace("ENTRY", "main"), "plain", "render", "--width", "0", str(scene))
     assert refused.returncode == 2 and refused.stdout.split()[:2] == ["atexit", "ran"], refused.stdout + refused.stderr
     assert len(refused.stderr.splitlines()) == 1 and refused.stderr.startswith("error: "), refused.stderr
     waited = python(PROBE.replace("ENTRY", "main"), "thread", "--help")
     assert waited.returncode == 0, waited.stderr
-    assert waited.stdout.split()[-8:] == ["thread", "done", "atexit", "ran", "plugins", "False", "torn", "down"], \
-        waited.stdout
+    words = waited.stdout.split()
+    assert words[-9:] == ["thread", "done", "atexit", "ran", "plugins", "False", "10000", "torn", "down"], words
