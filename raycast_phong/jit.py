@@ -8,6 +8,8 @@ kernel modules (every .py file here that uses `@kernel`) and of the package modu
 any edit to any of them starts a fresh folder, and stale folders are removed. Only numba's documented
 cache directory setting (`numba.config.CACHE_DIR`, the NUMBA_CACHE_DIR variable) is used, set for the
 moment a kernel is decorated and restored at once, so other numba code in the process is unaffected.
+Each kernel's cache is numba's own with a lighter load (`_CacheLoadedAsIs`: no typing or lowering registries
+for a kernel that is already compiled), or numba's unchanged where its internals differ.
 """
 
 from __future__ import annotations
@@ -121,11 +123,18 @@ def kernel(**options):
         numba.config.CACHE_DIR = str(folder)  # read once, when njit makes the function's cache locator
         try:
             dispatcher = njit(cache=True, **settings)(function)
-            dispatcher._cache = _CacheLoadedAsIs(function)  # same folder, same files: only the load differs
+            if LIGHT_LOAD and isinstance(getattr(dispatcher, "_cache", None), FunctionCache):
+                dispatcher._cache = _CacheLoadedAsIs(function)  # same folder, same files: only the load differs
+            else:
+                set_up()  # numba's own load refreshes the registries: without the BLAS probe
             return dispatcher
         finally:
             numba.config.CACHE_DIR = previous
     return decorate
+
+
+# The numba internals _CacheLoadedAsIs relies on (checked with numba 0.68); without them numba's own load is kept.
+LIGHT_LOAD = all(hasattr(FunctionCache, name) for name in ("_load_overload", "_guard_against_spurious_io_errors"))
 
 
 class _CacheLoadedAsIs(FunctionCache):
@@ -141,7 +150,7 @@ class _CacheLoadedAsIs(FunctionCache):
     set_up(), so the BLAS probe is still skipped."""
 
     def load_overload(self, sig, target_context):
-        rtsys.initialize(target_context)
+        rtsys.initialize(target_context)  # what numba's refresh starts with (cpu.py); idempotent
         loaded = None
         with self._guard_against_spurious_io_errors():  # numba's own (Windows: a file another process holds)
             loaded = self._load_overload(sig, target_context)
