@@ -8,6 +8,8 @@ kernel modules (every .py file here that uses `@kernel`) and of the package modu
 any edit to any of them starts a fresh folder, and stale folders are removed. Only numba's documented
 cache directory setting (`numba.config.CACHE_DIR`, the NUMBA_CACHE_DIR variable) is used, set for the
 moment a kernel is decorated and restored at once, so other numba code in the process is unaffected.
+Each kernel's cache is numba's own with a lighter load (`_CacheLoadedAsIs`: no typing or lowering registries
+for a kernel that is already compiled), or numba's unchanged where its internals differ.
 """
 
 from __future__ import annotations
@@ -23,6 +25,8 @@ from pathlib import Path
 
 import numba
 from numba import njit
+from numba.core.caching import FunctionCache
+from numba.core.runtime.nrt import rtsys
 
 PACKAGE = Path(__file__).resolve().parent  # raycast_phong/: a kernel may import from anywhere in it
 OWN_CACHE = Path(__file__).resolve().parent / "__pycache__"
@@ -109,19 +113,50 @@ def kernel(**options):
     error_model="numpy": a division by zero gives inf/nan as numpy would, instead of a Python exception
     check in every division of the hot loop.
     """
-    set_up()  # before any kernel exists: a process that defines kernels calls them
     def decorate(function):
         folder = cache_folder()
         settings = {"nogil": True, "error_model": "numpy", **options}
         if folder is None:
+            set_up()  # every first call compiles: numba's registries load then, without the BLAS probe
             return njit(cache=False, **settings)(function)
         previous = numba.config.CACHE_DIR
         numba.config.CACHE_DIR = str(folder)  # read once, when njit makes the function's cache locator
         try:
-            return njit(cache=True, **settings)(function)
+            dispatcher = njit(cache=True, **settings)(function)
+            if LIGHT_LOAD and isinstance(getattr(dispatcher, "_cache", None), FunctionCache):
+                dispatcher._cache = _CacheLoadedAsIs(function)  # same folder, same files: only the load differs
+            else:
+                set_up()  # numba's own load refreshes the registries: without the BLAS probe
+            return dispatcher
         finally:
             numba.config.CACHE_DIR = previous
     return decorate
+
+
+# The numba internals _CacheLoadedAsIs relies on (checked with numba 0.68); without them numba's own load is kept.
+LIGHT_LOAD = all(hasattr(FunctionCache, name) for name in ("_load_overload", "_guard_against_spurious_io_errors"))
+
+
+class _CacheLoadedAsIs(FunctionCache):
+    """numba's cache of one kernel, loading a cached kernel without numba's typing and lowering registries.
+
+    numba's Cache.load_overload first refreshes the target context — imports some 50 implementation modules
+    (typed dict/list/set, random, datetime, polynomial, linalg, …) and installs their typing and lowering
+    registries: 0.15–0.25 s at a process's first call, the largest part of a warm start-up. A cached kernel
+    needs none of it: it is object code, linked against numba's C helpers (installed with the target context),
+    the NRT (initialised here, as the refresh would) and the symbols its unpickled payload brings (its
+    reload_init and referenced modules). What does need the registries is compiling: on a miss this returns
+    None and numba's compiler refreshes the context itself (compiler.py) before typing the kernel — after
+    set_up(), so the BLAS probe is still skipped."""
+
+    def load_overload(self, sig, target_context):
+        rtsys.initialize(target_context)  # what numba's refresh starts with (cpu.py); idempotent
+        loaded = None
+        with self._guard_against_spurious_io_errors():  # numba's own (Windows: a file another process holds)
+            loaded = self._load_overload(sig, target_context)
+        if loaded is None:
+            set_up()  # numba is about to compile (and load its registries)
+        return loaded
 
 
 def set_up() -> None:

@@ -2,12 +2,13 @@
 
 One module per command group, each registering its commands on the one app (common.app): render (render,
 plan), compare (side-by-side, compare), accuracy (reference, study, stability), batch, view, scene (scene,
-schema). Importing them here, in this order, is what assembles the app and orders its --help.
+schema). Importing them here, in this order, is what assembles the app and orders its --help. `main` is the
+program (the console script): app() and an exit without the interpreter's teardown (common.main).
 """
 
 # isort: off
 from . import render, compare, accuracy, batch, view, scene  # noqa: F401  (each registers its commands)
 # isort: on
-from .common import app
+from .common import app, main
 
-__all__ = ["app"]
+__all__ = ["app", "main"]

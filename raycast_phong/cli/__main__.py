@@ -1,5 +1,5 @@
 """python -m raycast_phong.cli: the raycast-phong command."""
 
-from . import app
+from . import main
 
-app()
+main()

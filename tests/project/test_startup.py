@@ -1,0 +1,83 @@
+"""What a warm start of the program does not pay for (issue 22, benchmarks/bench_cli.py): numba's typing and
+lowering registries when every kernel comes from the cache (jit._CacheLoadedAsIs), and the interpreter's teardown
+after the command (cli.main). Each is checked in a fresh process, where it happens."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+
+# Modules numba imports only to set up its typing and lowering registries (CPUContext.load_additional_registries).
+REGISTRY_MODULES = ("numba.typed.typeddict", "numba.np.arraymath", "numba.np.npyimpl", "numba.cpython.listobj")
+
+FACE_NORMAL = ("import sys, numpy as np\nfrom raycast_phong.geometry.kernels import face_normals_into\n"
+               "unit, area = np.zeros((1, 3)), np.zeros(1)\n"
+               "face_normals_into(np.array([[0.0, 0, 0], [2, 0, 0], [0, 2, 0]]), np.array([[0, 1, 2]]), unit, area)\n"
+               "assert area[0] == 4.0 and unit[0].tolist() == [0, 0, 1], (area, unit)\n")
+
+
+def python(code: str, *arguments: str, env: dict | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-c", code, *arguments], capture_output=True, text=True, cwd=ROOT,
+                          env=env, timeout=600)
+
+
+def test_a_cached_kernel_loads_without_numba_s_registries_and_a_compile_still_loads_them(tmp_path):
+    """Into an empty cache (NUMBA_CACHE_DIR) the kernel compiles: numba's registries load, without the BLAS probe
+    (no scipy.linalg). From the cache, in the next process, it runs with none of them loaded; a kernel compiled
+    after that in the same process (numpy functions: their registries) still compiles and gives numpy's values."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    loaded = f"print([name for name in {REGISTRY_MODULES!r} if name in sys.modules], 'scipy.linalg' in sys.modules)\n"
+    compiled = python(FACE_NORMAL + loaded, env=env)
+    assert compiled.returncode == 0, compiled.stderr
+    assert compiled.stdout.strip() == f"{list(REGISTRY_MODULES)} False"  # the control: a compile loads them all
+    assert list(tmp_path.rglob("*.face_normals_into-*.nbi")), "the kernel was not cached"
+    cached = python(FACE_NORMAL + loaded + "from numba import njit\nx = np.linspace(0, 1, 5)\n"
+                    "print(njit(lambda x: np.sin(x).sum())(x) == np.sin(x).sum(), 'numba.np.arraymath' in sys.modules)",
+                    env=env)
+    assert cached.returncode == 0, cached.stderr
+    assert cached.stdout.split("\n")[:2] == ["[] False", "True True"], cached.stdout
+
+
+PROBE = ("import atexit, sys, threading\n"
+         "class Teardown:\n    def __del__(self):\n        print('torn down', flush=True)\n"
+         "kept = Teardown()  # its __del__ runs when the interpreter is torn down\n"
+         "def told():  # whether pydantic scanned the installed packages for its plugins\n"
+         "    loader = sys.modules.get('pydantic.plugin._loader')\n"
+         "    import gc\n"
+         "    print('atexit ran', 'plugins', loader is not None and loader._plugins is not None, gc.get_threshold()[0],"
+         " flush=True)\n"
+         "atexit.register(told)\n"
+         "if sys.argv.pop(1) == 'thread':\n"
+         "    first = threading.main_thread()  # the thread ends once Python's exit has begun\n"
+         "    threading.Thread(target=lambda: (first.join(), print('thread done', flush=True))).start()\n"
+         "from raycast_phong.cli import ENTRY\nENTRY()\n")
+
+
+def test_the_program_ends_without_the_interpreter_s_teardown_after_its_exit_handlers(tmp_path):
+    """cli.main (the console script) runs the atexit handlers, keeps the command's status and its output, and ends
+    the process without tearing the interpreter down (0.2–0.3 s of a warm render); app() still exits as Python
+    does (the control: the probe sees the teardown), and so does main while another thread of the program runs.
+    main leaves pydantic's plugins off (no scan of the installed packages for them; app() scans: the control) and
+    the cyclic collector's young pass at 10,000 allocations (app(): Python's 700)."""
+    scene = tmp_path / "tiny.toml"
+    scene.write_text('[render]\nwidth = 8\nheight = 6\n[[objects]]\nshape = "icosphere"\nsubdivisions = 1\n',
+                     encoding="utf-8")
+    render = ["render", str(scene), "-q", "-o", str(tmp_path / "out.png")]
+    done = python(PROBE.replace("ENTRY", "main"), "plain", *render)
+    assert (done.returncode, done.stdout.split()) == (0, ["atexit", "ran", "plugins", "False", "10000"]), \
+        done.stdout + done.stderr
+    assert (tmp_path / "out.png").stat().st_size > 0 and done.stderr == ""
+    control = python(PROBE.replace("ENTRY", "app"), "plain", *render)
+    python_s = ["atexit", "ran", "plugins", "True", "700", "torn", "down"]  # Python's exit, the scan, its collector
+    assert (control.returncode, control.stdout.split()) == (0, python_s), control.stderr
+    refused = python(PROBE.replace("ENTRY", "main"), "plain", "render", "--width", "0", str(scene))
+    assert refused.returncode == 2 and refused.stdout.split()[:2] == ["atexit", "ran"], refused.stdout + refused.stderr
+    assert len(refused.stderr.splitlines()) == 1 and refused.stderr.startswith("error: "), refused.stderr
+    waited = python(PROBE.replace("ENTRY", "main"), "thread", "--help")
+    assert waited.returncode == 0, waited.stderr
+    words = waited.stdout.split()
+    assert words[-9:] == ["thread", "done", "atexit", "ran", "plugins", "False", "10000", "torn", "down"], words
