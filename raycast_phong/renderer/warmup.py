@@ -29,12 +29,14 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
     from .plan import build_plan
     plan = build_plan(scene)
     from ..io.files import open_mesh_file
+    from ..scene.kinds import object_kinds
+    kinds = [(index, scene.objects[index]) for index in object_kinds(scene).first.tolist()]  # a mesh: its own kind
     meshes = False
-    for index, obj in enumerate(scene.objects):
+    for index, obj in kinds:
         if obj.shape == "mesh":
             open_mesh_file(scene.resolve(obj.path), f"{source}: objects.{index}.path").close()
             meshes = True
-    creases = plan.keeps("vertex_normals") and (meshes or any(obj.crease_angle < 180 for obj in scene.objects))
+    creases = plan.keeps("vertex_normals") and (meshes or any(obj.crease_angle < 180 for _, obj in kinds))
     names = (tile_kernel(), *GEOMETRY_KERNELS, *(MESH_FILE_KERNELS if meshes else ()),
              *(CREASE_KERNELS if creases else ()))
     cached = all(compiled_before(name) for name in names)
