@@ -58,17 +58,6 @@ def _packet():
     return words, ints, valid, arguments
 
 
-@kernel(inline="always")
-def store_hit(words, ints, lane, k, face, u, v, t):
-    """Ray k's closest hit from lane `lane` of a cast RTCRayHit16 (words, its float32 view; ints, its int32
-    view): face, u, v, t, or face −1, u = v = 0 and t = NO_LIMIT on a miss."""
-    if ints[GEOM_ID + lane] == INVALID_ID:
-        face[k], u[k], v[k], t[k] = -1, 0, 0, NO_LIMIT
-    else:
-        face[k], u[k], v[k] = ints[PRIM_ID + lane], words[HIT_U + lane], words[HIT_V + lane]
-        t[k] = words[TFAR + lane]
-
-
 @kernel()
 def intersect_rays(scene, origins, directions, row_rays, face, u, v, t):
     """Closest hits of rays (N, 3) float32: face (−1 on a miss), u, v (0 on a miss) and t (NO_LIMIT on a
@@ -103,7 +92,11 @@ def intersect_rays(scene, origins, directions, row_rays, face, u, v, t):
                 k = (r0 + (lane >> 2)) * row_rays + c
                 if c >= row_rays or k >= count:
                     continue
-                store_hit(words, ints, lane, k, face, u, v, t)
+                if ints[GEOM_ID + lane] == INVALID_ID:
+                    face[k], u[k], v[k], t[k] = -1, 0, 0, NO_LIMIT
+                else:
+                    face[k], u[k], v[k] = ints[PRIM_ID + lane], words[HIT_U + lane], words[HIT_V + lane]
+                    t[k] = words[TFAR + lane]
 
 
 @kernel()
@@ -165,7 +158,14 @@ def camera_hits(scene, params, screen_x, cell_row, row0, row1, eye, directions, 
                 k = (r0 + (lane >> 2)) * row_rays + c0 + (lane & 3)
                 directions[k, 0], directions[k, 1], directions[k, 2] = (
                     words[DIR_X + lane], words[DIR_Y + lane], words[DIR_Z + lane])
-                store_hit(words, ints, lane, k, face, u, v, t)
+                # The hit's write-back is intersect_rays' five lines, repeated on purpose: as an inlined
+                # helper (store_hit, taking the arrays) it made this cast 3× slower, 28 -> 84 ms of CPU on
+                # ico6 at 1000² (bench_frame.py; docs/performance.md, "The store_hit regression").
+                if ints[GEOM_ID + lane] == INVALID_ID:
+                    face[k], u[k], v[k], t[k] = -1, 0, 0, NO_LIMIT
+                else:
+                    face[k], u[k], v[k] = ints[PRIM_ID + lane], words[HIT_U + lane], words[HIT_V + lane]
+                    t[k] = words[TFAR + lane]
 
 
 @kernel()
