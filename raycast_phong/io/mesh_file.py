@@ -372,10 +372,6 @@ def _check_gltf(path: Path, handle, where: str, notes: list[str]) -> dict:
     if missing:
         raise SceneError(f"{where}: {str(path)!r} requires the glTF extension(s) {', '.join(missing)}, which this "
                          f"renderer does not support; supported: {', '.join(SUPPORTED_REQUIRED)}")
-    meshes = document.get("meshes", [])
-    primitives = [p for m in (meshes if isinstance(meshes, list) else []) if isinstance(m, dict)
-                  for p in m.get("primitives", []) if isinstance(p, dict)]
-    del primitives
     from urllib.parse import unquote
     for image in document.get("images", []):
         uri = image.get("uri") if isinstance(image, dict) else None
@@ -579,8 +575,9 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
         corner = _corner_colours(part)
         any_colour |= corner is not None
         corners.append(corner)
-    if gltf:
-        notes.append(f"{path}: glTF metallic-roughness materials are approximated on the Phong model: k_d = k_a = "
+    if gltf:  # glTF's own materials, or a file whose materials trimesh reads as metallic-roughness (COLLADA)
+        kind = "glTF metallic-roughness" if path.suffix.lower() in (".gltf", ".glb") else "metallic-roughness (PBR)"
+        notes.append(f"{path}: {kind} materials are approximated on the Phong model: k_d = k_a = "
                      "base colour, F0 = 0.04 + (base colour − 0.04) × metallic, f = 2/roughness⁴ − 2 in [1, "
                      f"{MAX_FILE_SHININESS:g}], k_s = F0 × min(1, (f + 2)/{WIDE_LOBE + 2:g}), k_e = emissive "
                      "(docs/meshes.md)")

@@ -436,3 +436,4 @@ def test_a_collada_files_missing_texture_is_a_note(tmp_path, present):
     notes = mesh_file.read_mesh(tmp_path / "tri.dae", "scene.toml: objects.0.path").notes
     said = [note for note in notes if "duck map.tga" in note]
     assert said == ([] if present else [f"{tmp_path / 'tri.dae'}: texture 'duck map.tga' is missing"])
+    assert not any("glTF" in note for note in notes)  # trimesh reads its materials as PBR: the note says so
