@@ -644,18 +644,10 @@ def objects_in_bulk(objects: Any) -> Any:
     anything that is not a list of tables, as they were, for pydantic to validate and word."""
     if type(objects) not in _SEQUENCE:
         return objects
-    if set(map(type, objects)) == {dict}:  # the usual case: group rows by their keys in C-level passes
-        keys = list(map(tuple, objects))
-        number = {key: k for k, key in enumerate(dict.fromkeys(keys))}
-        group = np.fromiter(map(number.__getitem__, keys), np.int64, len(keys))
-        order, sizes = np.argsort(group, kind="stable").tolist(), np.bincount(group, minlength=len(number))
-        groups = {key: order[end - size:end] for key, end, size in zip(number, np.cumsum(sizes).tolist(),
-                                                                         sizes.tolist())}
-    else:
-        groups: dict[tuple, list[int]] = {}
-        for index, obj in enumerate(objects):
-            if type(obj) is dict:
-                groups.setdefault(tuple(obj), []).append(index)
+    groups: dict[tuple, list[int]] = {}
+    for index, obj in enumerate(objects):
+        if type(obj) is dict:
+            groups.setdefault(tuple(obj), []).append(index)
     result = list(objects)
     collecting = gc.isenabled()
     gc.disable()  # a million new objects would start as many collections of a growing heap
