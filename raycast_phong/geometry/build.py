@@ -89,7 +89,7 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
         for at in range(0, len(members), step):
             mesh.write(_group_part(scene, members[at:at + step], template, exact, vertex_normals, normal_dtype,
                                    source), rows)
-    scene_maps = bank.scene_maps([scene.objects[i].material for i in object_kinds(scene).first.tolist()])
+    scene_maps = bank.scene_maps([o.material for o in object_kinds(scene).firsts(scene.objects)])
     textured = bank.textures and (len(scene_maps) or file_rows.mapped)
     corner_uv = _corner_uvs(scene, built, mesh) if textured else np.zeros((0, 3, 2), np.float32)
     corner_colour = _corner_colours(scene, built, mesh)
@@ -117,9 +117,7 @@ def _groups(scene: Scene) -> list[np.ndarray]:
     numbers: dict[tuple, int] = {}
     kind_group = np.array([numbers.setdefault(_group_key(scene.objects[i], i), len(numbers))
                            for i in kinds.first.tolist()], np.int64)
-    group = kind_group[kinds.kind]
-    order = np.argsort(group, kind="stable")
-    return np.split(order, np.cumsum(np.bincount(group, minlength=len(numbers)))[:-1])
+    return kinds.grouped(kind_group)
 
 
 def _group_key(obj: Object, index: int) -> tuple:
@@ -201,7 +199,7 @@ class _Mesh:
             mesh.corners = np.zeros((0, 3, 3), normal_dtype)
         mesh.face_object = np.repeat(np.arange(objects, dtype=np.int32), mesh.face_count)
         kinds = object_kinds(scene)  # material and shading are decided per kind of object
-        firsts = [scene.objects[i] for i in kinds.first.tolist()]
+        firsts = kinds.firsts(scene.objects)
         object_material = np.array([material_index.get(o.material, 0) for o in firsts], np.int32)[kinds.kind]
         mesh.face_material = object_material[mesh.face_object]
         object_model = np.array([MODEL_CODE[scene.shading_of(o)] for o in firsts], np.int8)[kinds.kind]

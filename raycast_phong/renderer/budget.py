@@ -140,7 +140,7 @@ def estimate_memory(scene: Scene, source: str = "<scene>", *, smooth: bool = Tru
 def texture_estimate(scene: Scene, files) -> int:
     """The texture term: every colour map a used scene material names and every map the mesh files'
     materials name, at the size it is decoded at, from image headers only (io.textures)."""
-    used = {scene.objects[i].material for i in object_kinds(scene).first.tolist()}
+    used = {obj.material for obj in object_kinds(scene).firsts(scene.objects)}
     paths = [scene.resolve(m.path) for name, material in scene.materials.items() if name in used or name == "default"
              for m in (material.ka_map, material.kd_map, material.ke_map) if m is not None]
     if not paths and not any(p.suffix.lower() in (".obj", ".glb", ".gltf") for p in files):

@@ -36,7 +36,7 @@ def build_plan(scene: Scene, optimize: bool = True) -> RenderPlan:
 def _kinds(scene: Scene) -> list[tuple]:
     """(first object, number of objects) of each kind of object in the scene."""
     kinds = object_kinds(scene)
-    return [(scene.objects[i], n) for i, n in zip(kinds.first.tolist(), kinds.count.tolist())]
+    return list(zip(kinds.firsts(scene.objects), kinds.count.tolist()))
 
 
 def _any_positive(values) -> bool:

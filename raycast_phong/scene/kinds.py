@@ -27,11 +27,16 @@ class ObjectKinds:
     first: np.ndarray  # (K,) int64: each kind's first object, which stands for all of its objects
     count: np.ndarray  # (K,) int64: objects of each kind
 
-    def members(self, kinds) -> np.ndarray:
-        """The objects (ascending) whose kind is one of `kinds`."""
-        wanted = np.zeros(len(self.first), bool)
-        wanted[np.asarray(kinds, np.int64)] = True
-        return np.flatnonzero(wanted[self.kind])
+    def firsts(self, objects) -> list:
+        """The first object of each kind: the one each kind's decisions are taken on."""
+        return [objects[i] for i in self.first.tolist()]
+
+    def grouped(self, label: np.ndarray) -> list[np.ndarray]:
+        """The objects (ascending) of each label 0..L-1, given the label of each kind (K,): objects whose kinds
+        share a label form one group, in one stable sort rather than a pass per label."""
+        labels = label[self.kind]
+        order = np.argsort(labels, kind="stable")
+        return np.split(order, np.cumsum(np.bincount(labels))[:-1])
 
 
 _CACHE: dict[int, tuple[weakref.ref, ObjectKinds]] = {}

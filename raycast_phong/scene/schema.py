@@ -519,8 +519,8 @@ def _first_misfit(scene: Scene) -> int | None:
     material; None if there is none. Decided once per kind (scene.kinds), in passes over the kinds' first
     objects: a kind's first object is the first of its objects to go wrong, and kinds are numbered in the
     order of their first objects."""
-    firsts = object_kinds(scene).first
-    objects = [scene.objects[i] for i in firsts.tolist()]
+    kinds = object_kinds(scene)
+    firsts, objects = kinds.first, kinds.firsts(scene.objects)
     count = len(objects)
     shapes = np.array(list(map(operator.attrgetter("shape"), objects)))
     wrong = np.zeros(count, bool)

@@ -85,7 +85,10 @@ def test_objects_that_differ_only_in_placement_are_one_kind():
     assert kinds.kind.tolist() == [0, 0, 1, 2, 3, 4, 5, 6, 0]
     assert kinds.first.tolist() == [0, 2, 3, 4, 5, 6, 7]
     assert kinds.count.tolist() == [3, 1, 1, 1, 1, 1, 1]
-    assert kinds.members([0, 6]).tolist() == [0, 1, 7, 8]
+    grouped = kinds.grouped(np.array([0, 1, 1, 1, 1, 1, 0]))  # kinds 0 and 6 one group, the rest another
+    assert [g.tolist() for g in grouped] == [[0, 1, 7, 8], [2, 3, 4, 5, 6]]
+    assert [o.shape for o in kinds.firsts(scene_of(objects).objects)] == ["box", "box", "icosphere", "box", "mesh",
+                                                                         "mesh", "box"]
 
 
 def test_a_scene_of_many_objects_is_decided_once_per_kind(monkeypatch):
