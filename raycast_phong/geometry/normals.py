@@ -8,7 +8,6 @@ vertex duplication: corner (f, k) carries the normal that vertex faces[f, k] has
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
@@ -17,6 +16,7 @@ from itertools import pairwise
 
 import numpy as np
 
+from ..io.system import default_threads
 from ..tolerances import NO_DIRECTION
 from .kernels import (
     creased_corners,
@@ -51,7 +51,7 @@ def parts(count: int, faces: int, running: Callable[[], np.ndarray] | None = Non
     """[0, count) cut into one range [low, high) per preparation thread when the mesh has at least PARALLEL_FACES
     `faces` (else the whole range: no thread is started). `running`: gives the work done up to each item (count + 1,),
     non-decreasing (called only when the range is cut), to cut at equal shares of it instead of equal lengths."""
-    threads = _THREADS.get() or min(os.cpu_count() or 1, 8)
+    threads = _THREADS.get() or default_threads()
     if faces < PARALLEL_FACES or threads < 2 or count < threads:
         return [(0, count)]
     if running is None:

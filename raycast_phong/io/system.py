@@ -11,6 +11,11 @@ import sys
 from pathlib import Path
 
 
+def default_threads() -> int:
+    """Threads a render (its tiles, and its mesh preparation) uses when not told: the machine's cores, at most 8."""
+    return max(1, min(os.cpu_count() or 1, 8))
+
+
 def available_memory() -> int | None:
     """Bytes the machine can give this process now: MemAvailable (Linux), capped by its cgroup's limit (v2 or
     v1, its own cgroup and every parent) and by the address space `ulimit -v` (RLIMIT_AS) leaves; else free

@@ -11,7 +11,6 @@ number of threads.
 
 from __future__ import annotations
 
-import os
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -21,6 +20,7 @@ import numpy as np
 
 from ..geometry.build import build_geometry
 from ..geometry.normals import prep_threads
+from ..io.system import default_threads
 from ..records import Frame, Geometry, ImageBuffers, RenderPlan, RenderResult
 from ..scene.schema import Scene, SceneError
 from .budget import MemoryEstimate, check_memory
@@ -33,10 +33,6 @@ from .plan import build_plan, diagnose
 
 TILE_RAYS = 1 << 15  # 32k rays: large enough to amortise a call, small enough for ~10 MB per tile
 NO_SHADOWS = no_shadows()  # local mode's shadow inputs for the tile kernel (read only in global mode)
-
-
-def default_threads() -> int:
-    return max(1, min(os.cpu_count() or 1, 8))
 
 
 @dataclass(frozen=True, eq=False)
