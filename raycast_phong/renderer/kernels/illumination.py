@@ -46,11 +46,10 @@ from .layout import (
     V_VIEW,
     Lit,
 )
-from .power import power
 from .surface import to_light
 
 
-@kernel(inline="always")
+@kernel()
 def specular_power(x, f, zero, one):
     """max(x, 0)^f with the limits the format asks for.
 
@@ -63,7 +62,7 @@ def specular_power(x, f, zero, one):
         return one
     if math.isinf(f):
         return one if x >= one else zero
-    return power(x, f)
+    return x ** f
 
 
 @kernel(inline="always")
@@ -98,13 +97,7 @@ def diffuse_terms(weight, n_dot_l, ir, ig, ib, material, zero, one, two):
 @kernel(inline="always")
 def specular_terms(weight, x, ir, ig, ib, material, zero, one):
     """f_att I_s k_s S of one light, r, g, b, with S = specular_power(x, shininess) (l·n > 0)."""
-    return powered_terms(weight, specular_power(x, material.shininess, zero, one), ir, ig, ib, material)
-
-
-@kernel(inline="always")
-def powered_terms(weight, power_, ir, ig, ib, material):
-    """f_att I_s k_s S of one light, r, g, b, given S (shading's packets take the power lane by lane first)."""
-    s = weight * power_
+    s = weight * specular_power(x, material.shininess, zero, one)
     return s * ir * material.ks_r, s * ig * material.ks_g, s * ib * material.ks_b
 
 

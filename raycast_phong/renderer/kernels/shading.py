@@ -30,7 +30,7 @@ from numba.extending import intrinsic
 
 from ...jit import kernel
 from ...tolerances import NO_DIRECTION
-from .illumination import diffuse_terms, highlight_cosine, illuminate, powered_terms, specular_power, view_direction
+from .illumination import diffuse_terms, highlight_cosine, illuminate, specular_terms, view_direction
 from .layout import (
     ATTENUATION_NONE,
     C_DIFFUSE,
@@ -239,13 +239,13 @@ def _shade_rays(inputs, rays, film):
     base = Material(zero, zero, zero, zero, zero, zero, zero, zero, zero, zero, zero, zero, zero)
     # Packets: with one point light without attenuation, the Phong highlight, a viewer per point and no maps,
     # colours or screen weights, PACKET rays whose hits are all Phong faces of one material (misses allowed) are
-    # shaded in three passes: their rows gathered (A); normal, view and light vectors, n·l, the highlight's
-    # cosine and its power computed lane by lane, which LLVM vectorises (B: vsqrtps, vdivps on zmm; power.py
-    # keeps x^f out of libm for it); then, in ray order, the terms, counts and film (C). Each hit gets
-    # illuminate's operations in its order, so the image is bit-identical to the one-hit-at-a-time loop below
-    # (tests: test_shading.py), 24 % less CPU time on ico6 1000². The rules stay illuminate's: this is its
-    # one-light case written out by lanes. A packet of sixteen misses, in any scene, only
-    # moves the pixel counters (and adds the background).
+    # shaded in three passes: their rows gathered (A); normal, view and light vectors, n·l and the highlight's
+    # cosine computed lane by lane, which LLVM vectorises (B: vsqrtps, vdivps on zmm); then, in ray order, the
+    # terms (powf stays scalar: an own vectorisable power measured slower on every other path, docs/performance.md),
+    # counts and film (C). Each hit gets illuminate's operations in its order, so the image is bit-identical to
+    # the one-hit-at-a-time loop below (tests: test_shading.py), 24 % less CPU time on ico6 1000². The rules stay
+    # illuminate's: this is its one-light case written out by lanes. A packet of sixteen misses, in any scene,
+    # only moves the pixel counters (and adds the background).
     packets = (not textured and not coloured and not screen and lights.shape[0] == 1 and specular == SPECULAR_PHONG
                and flags & F_VIEW_PER_POINT != 0 and lights[0, L_KIND] == POINT
                and (flags & F_ATTENUATION == 0 or lights[0, L_ATT_KIND] == ATTENUATION_NONE))
@@ -310,10 +310,10 @@ def _shade_rays(inputs, rays, film):
                     lane[1, j], lane[2, j], lane[3, j] = gx, gy, gz
                     lane[4, j], lane[5, j], lane[6, j] = hit_point(vertices, faces, f, b0, b1, b2)
                     lane[7, j], lane[8, j], lane[9, j] = _mixed_normal(corner_normals, f, b0, b1, b2)
-                # Pass B: normal, view and light vectors, n·l and the highlight's S = max(v·r, 0)^f, lane by lane.
+                # Pass B: normal, view and light vectors, n·l and the highlight's cosine, lane by lane.
                 ex, ey, ez = view[V_EYE], view[V_EYE + 1], view[V_EYE + 2]
                 qx, qy, qz = lights[0, L_VEC], lights[0, L_VEC + 1], lights[0, L_VEC + 2]
-                floor, shininess = view[V_FLOOR], material.shininess
+                floor = view[V_FLOOR]
                 for j in range(PACKET):
                     side, px, py, pz = lane[0, j], lane[4, j], lane[5, j], lane[6, j]
                     sx, sy, sz = lane[7, j], lane[8, j], lane[9, j]
@@ -326,9 +326,9 @@ def _shade_rays(inputs, rays, film):
                     n_dot_l = nx * lx + ny * ly + nz * lz
                     lane[10, j], lane[11, j], lane[12, j] = nx, ny, nz
                     lane[13, j] = n_dot_l
-                    cosine = highlight_cosine(SPECULAR_PHONG, n_dot_l, nx, ny, nz, lx, ly, lz, vx, vy, vz, zero, two)
-                    lane[14, j] = specular_power(cosine, shininess, zero, one)
-                # Pass C: the terms and the film, in ray order.
+                    lane[14, j] = highlight_cosine(SPECULAR_PHONG, n_dot_l, nx, ny, nz, lx, ly, lz, vx, vy, vz, zero,
+                                                   two)
+                # Pass C: the terms (powf stays scalar) and the film, in ray order.
                 for j in range(PACKET):
                     sample += 1
                     if sample == per_pixel:
@@ -361,8 +361,8 @@ def _shade_rays(inputs, rays, film):
                                                     lights[0, L_ID + 2], material, zero, one, two)
                             dr, dg, db = dr + r, dg + g, db + b
                         mask |= 1 << C_SPECULAR
-                        r, g, b = powered_terms(one, lane[14, j], lights[0, L_IS], lights[0, L_IS + 1],
-                                                lights[0, L_IS + 2], material)
+                        r, g, b = specular_terms(one, lane[14, j], lights[0, L_IS], lights[0, L_IS + 1],
+                                                 lights[0, L_IS + 2], material, zero, one)
                         sr, sg, sb = sr + r, sg + g, sb + b
                     if mask != run_mask:
                         for bit in range(TERMS):
