@@ -12,7 +12,7 @@ and, since wall-clock ratios move by ±20 % on a machine other jobs share, the s
 thread (time.thread_time, min of --repeats, every band run in turn on this thread), with the frame's stages
 (the kernel's own clock) and ray generation alone (camera.fill_rows), each against the limit. The first line
 names the CPU (model, AVX2/AVX-512) and the ISA Embree picked (its verbose device report).
-Usage: python benchmarks/bench_frame.py [--size 1000] [--repeats 5] [--threads 2] [--mode global]
+Usage: python benchmarks/bench_frame.py [--size 1000] [--repeats 5] [--threads 2] [--mode global] [--set KEY=VALUE ...]
        python benchmarks/bench_frame.py --scan bunny-1m bunny-4m [--no-embreex]
 """
 from __future__ import annotations
@@ -36,16 +36,22 @@ from raycast_phong.renderer.kernels.camera import fill_rows
 from raycast_phong.renderer.kernels.shadows import shadow_rays
 from raycast_phong.renderer.pack import camera_rig, generate_rays
 from raycast_phong.renderer.prepare import TileWork, prepare, run_tiles
+from raycast_phong.scene.overrides import apply_override
 
 
-def benchmark_scene(size: int, subdivisions: int = 6, mode: str = "local") -> rp.Scene:
-    return rp.validate_scene({
+def benchmark_scene(size: int, subdivisions: int = 6, mode: str = "local",
+                    overrides: tuple[str, ...] = ()) -> rp.Scene:
+    """The icosphere scene; `overrides`: --set assignments (e.g. render.shading=gouraud), applied before validation."""
+    data = {
         "render": {"width": size, "height": size, "shading": "phong", "specular": "phong", "mode": mode},
         "camera": {"position": [0, 0, 4], "look_at": [0, 0, 0], "fov": 40},
         "lights": [{"type": "point", "position": [2, 2, 3]}],
         "materials": {"m": {"ka": 1, "kd": 0.7, "ks": 0.5, "shininess": 32}},
         "objects": [{"shape": "icosphere", "subdivisions": subdivisions, "radius": 1.0, "material": "m"}],
-    }, source="benchmark")
+    }
+    for assignment in overrides:
+        apply_override(data, assignment)
+    return rp.validate_scene(data, source="benchmark")
 
 
 class Embreex:
@@ -246,10 +252,14 @@ def main() -> None:
                         help="render cached real scans instead (e.g. bunny-1m bunny-4m: make_scans.py), in local "
                              "and global mode (or --mode only if given)")
     parser.add_argument("--no-embreex", action="store_true", help="skip embreex's one-ray cast")
+    parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+                        help="change the icosphere scene as the CLI's --set does, e.g. render.shading=gouraud "
+                             "render.specular=blinn lights.0.type=directional lights.0.direction=[-1,-1,-1]")
     args = parser.parse_args()
     rp.render(benchmark_scene(64, mode="global"), threads=args.threads)  # compile or load the kernels first
     if args.scan is None:
-        report(benchmark_scene(args.size, mode=args.mode), args.repeats, args.threads, not args.no_embreex)
+        report(benchmark_scene(args.size, mode=args.mode, overrides=tuple(args.set)), args.repeats, args.threads,
+               not args.no_embreex)
         return
     modes = ("local", "global") if "--mode" not in sys.argv else (args.mode,)
     for name in args.scan or ["bunny-1m", "bunny-4m"]:
