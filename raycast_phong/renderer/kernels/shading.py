@@ -33,6 +33,7 @@ from ...tolerances import NO_DIRECTION
 from .illumination import diffuse_terms, highlight_cosine, illuminate, specular_terms, view_direction
 from .layout import (
     ATTENUATION_NONE,
+    C_ATTENUATION,
     C_DIFFUSE,
     C_EMISSION,
     C_LIGHT_AMBIENT,
@@ -58,6 +59,7 @@ from .layout import (
     F_VIEW_PER_POINT,
     FLAT,
     GOURAUD,
+    INVERSE_SQUARE,
     KA,
     KA_MAP,
     KD,
@@ -65,6 +67,7 @@ from .layout import (
     KE,
     KE_MAP,
     KS,
+    L_ATT,
     L_ATT_KIND,
     L_IA,
     L_ID,
@@ -74,11 +77,12 @@ from .layout import (
     PHONG,
     POINT,
     SHININESS,
-    SPECULAR_PHONG,
+    SPECULAR_NONE,
     TERMS,
     V_AMBIENT,
     V_EYE,
     V_FLOOR,
+    V_VIEW,
     Material,
 )
 from .surface import facing_side, hit_point, to_light
@@ -86,7 +90,7 @@ from .texture import sample
 
 AHEAD = 16  # rays between a face row's prefetch and its use (8: no better, ico6 1000²)
 PACKET = 16  # rays shaded together where the scene allows (_shade_rays)
-LANES = 15  # the packet's per-hit values between its passes
+LANES = 16  # the packet's per-hit values between its passes
 ALL_VISIBLE = -1  # every bit set: local mode, no light is ever shadowed
 
 
@@ -237,25 +241,32 @@ def _shade_rays(inputs, rays, film):
     # run of hits of one material, and a run's mask is counted once when it ends (not 7 counters per hit).
     last_m, run_mask, run_length = -1, 0, 0
     base = Material(zero, zero, zero, zero, zero, zero, zero, zero, zero, zero, zero, zero, zero)
-    # Packets: with one point light without attenuation, the Phong highlight, a viewer per point and no maps,
-    # colours or screen weights, PACKET rays whose hits are all Phong faces of one material (misses allowed) are
-    # shaded in three passes: their rows gathered (A); normal, view and light vectors, n·l and the highlight's
-    # cosine computed lane by lane, which LLVM vectorises (B: vsqrtps, vdivps on zmm); then, in ray order, the
-    # terms (powf stays scalar: an own vectorisable power measured slower on every other path, docs/performance.md),
-    # counts and film (C). Each hit gets illuminate's operations in its order, so the image is bit-identical to
-    # the one-hit-at-a-time loop below (tests: test_shading.py), 24 % less CPU time on ico6 1000². The rules stay
-    # illuminate's: this is its one-light case written out by lanes. A packet of sixteen misses, in any scene,
-    # only moves the pixel counters (and adds the background).
-    packets = (not textured and not coloured and not screen and lights.shape[0] == 1 and specular == SPECULAR_PHONG
-               and flags & F_VIEW_PER_POINT != 0 and lights[0, L_KIND] == POINT
-               and (flags & F_ATTENUATION == 0 or lights[0, L_ATT_KIND] == ATTENUATION_NONE))
+    # Packets: with one light (point or directional, any attenuation, either highlight or none, any viewer) and
+    # no maps, colours or screen weights, PACKET rays whose hits are all Phong faces of one material (misses
+    # allowed) are shaded in three passes: their rows gathered (A); normal, view and light vectors, f_att, n·l
+    # and the highlight's cosine computed lane by lane, which LLVM vectorises (B: vsqrtps, vdivps on zmm); then,
+    # in ray order, the terms (powf stays scalar: an own vectorisable power measured slower on every other path,
+    # docs/performance.md), counts and film (C). Each hit gets illuminate's operations in its order, so the
+    # image is bit-identical to the one-hit-at-a-time loop below (tests: test_shading.py, one case per kind of
+    # light), 24-31 % less shading CPU time on ico6 1000². The rules stay illuminate's: this is its one-light
+    # case written out by lanes. A packet of sixteen misses, in any scene, only moves the pixel counters (and
+    # adds the background).
+    packets = not textured and not coloured and not screen and lights.shape[0] == 1
+    # The packet's light, as illuminate reads it: its kind, its attenuation (if the scene asks for any), and
+    # whether the viewer is per point (only the highlight reads v).
+    point_light = lights.shape[0] > 0 and lights[0, L_KIND] == POINT
+    falloff = lights[0, L_ATT_KIND] if packets and flags & F_ATTENUATION else ATTENUATION_NONE
+    per_point = specular != SPECULAR_NONE and flags & F_VIEW_PER_POINT != 0
     lane = np.empty((LANES, PACKET), vertices.dtype)
     fixed = 0
     if flags & F_EMISSION:
         fixed |= 1 << C_EMISSION
     if flags & F_SCENE_AMBIENT:
         fixed |= 1 << C_SCENE_AMBIENT
-    fixed |= 1 << C_VIEW
+    if per_point:
+        fixed |= 1 << C_VIEW
+    if falloff != ATTENUATION_NONE:
+        fixed |= 1 << C_ATTENUATION
     if flags & F_LIGHT_AMBIENT:
         fixed |= 1 << C_LIGHT_AMBIENT
     done_until = 0
@@ -310,9 +321,10 @@ def _shade_rays(inputs, rays, film):
                     lane[1, j], lane[2, j], lane[3, j] = gx, gy, gz
                     lane[4, j], lane[5, j], lane[6, j] = hit_point(vertices, faces, f, b0, b1, b2)
                     lane[7, j], lane[8, j], lane[9, j] = _mixed_normal(corner_normals, f, b0, b1, b2)
-                # Pass B: normal, view and light vectors, n·l and the highlight's cosine, lane by lane.
+                # Pass B: normal, view and light vectors, f_att, n·l and the highlight's cosine, lane by lane.
                 ex, ey, ez = view[V_EYE], view[V_EYE + 1], view[V_EYE + 2]
                 qx, qy, qz = lights[0, L_VEC], lights[0, L_VEC + 1], lights[0, L_VEC + 2]
+                c0, c1, c2 = lights[0, L_ATT], lights[0, L_ATT + 1], lights[0, L_ATT + 2]
                 floor = view[V_FLOOR]
                 for j in range(PACKET):
                     side, px, py, pz = lane[0, j], lane[4, j], lane[5, j], lane[6, j]
@@ -321,13 +333,22 @@ def _shade_rays(inputs, rays, film):
                     length = math.sqrt(sx * sx + sy * sy + sz * sz)
                     if length > one * NO_DIRECTION:
                         nx, ny, nz = side * sx / length, side * sy / length, side * sz / length
-                    vx, vy, vz = view_direction(px, py, pz, ex, ey, ez, zero)
-                    lx, ly, lz, _ = to_light(True, qx, qy, qz, px, py, pz, nx, ny, nz, floor)
+                    vx, vy, vz = view[V_VIEW], view[V_VIEW + 1], view[V_VIEW + 2]
+                    if per_point:
+                        vx, vy, vz = view_direction(px, py, pz, ex, ey, ez, zero)
+                    lx, ly, lz, d = to_light(point_light, qx, qy, qz, px, py, pz, nx, ny, nz, floor)
+                    fall = one  # f_att, illuminate's two formulas
+                    if falloff == INVERSE_SQUARE:
+                        fall = one / max(d * d, floor)
+                    elif falloff != ATTENUATION_NONE:
+                        fall = one / max(one, c0 + c1 * d + c2 * d * d)
                     n_dot_l = nx * lx + ny * ly + nz * lz
                     lane[10, j], lane[11, j], lane[12, j] = nx, ny, nz
                     lane[13, j] = n_dot_l
-                    lane[14, j] = highlight_cosine(SPECULAR_PHONG, n_dot_l, nx, ny, nz, lx, ly, lz, vx, vy, vz, zero,
-                                                   two)
+                    lane[14, j] = zero
+                    if specular != SPECULAR_NONE:
+                        lane[14, j] = highlight_cosine(specular, n_dot_l, nx, ny, nz, lx, ly, lz, vx, vy, vz, zero, two)
+                    lane[15, j] = fall
                 # Pass C: the terms (powf stays scalar) and the film, in ray order.
                 for j in range(PACKET):
                     sample += 1
@@ -349,21 +370,23 @@ def _shade_rays(inputs, rays, film):
                     if flags & F_SCENE_AMBIENT:
                         ar = view[V_AMBIENT] * material.ka_r
                         ag, ab = view[V_AMBIENT + 1] * material.ka_g, view[V_AMBIENT + 2] * material.ka_b
+                    fall = lane[15, j]
                     if flags & F_LIGHT_AMBIENT:
-                        ar += one * lights[0, L_IA] * material.ka_r
-                        ag += one * lights[0, L_IA + 1] * material.ka_g
-                        ab += one * lights[0, L_IA + 2] * material.ka_b
+                        ar += fall * lights[0, L_IA] * material.ka_r
+                        ag += fall * lights[0, L_IA + 1] * material.ka_g
+                        ab += fall * lights[0, L_IA + 2] * material.ka_b
                     n_dot_l = lane[13, j]
                     if visible_k & 1 != 0 and n_dot_l > zero:
                         if flags & F_DIFFUSE:
                             mask |= 1 << C_DIFFUSE
-                            r, g, b = diffuse_terms(one, n_dot_l, lights[0, L_ID], lights[0, L_ID + 1],
+                            r, g, b = diffuse_terms(fall, n_dot_l, lights[0, L_ID], lights[0, L_ID + 1],
                                                     lights[0, L_ID + 2], material, zero, one, two)
                             dr, dg, db = dr + r, dg + g, db + b
-                        mask |= 1 << C_SPECULAR
-                        r, g, b = specular_terms(one, lane[14, j], lights[0, L_IS], lights[0, L_IS + 1],
-                                                 lights[0, L_IS + 2], material, zero, one)
-                        sr, sg, sb = sr + r, sg + g, sb + b
+                        if specular != SPECULAR_NONE:
+                            mask |= 1 << C_SPECULAR
+                            r, g, b = specular_terms(fall, lane[14, j], lights[0, L_IS], lights[0, L_IS + 1],
+                                                     lights[0, L_IS + 2], material, zero, one)
+                            sr, sg, sb = sr + r, sg + g, sb + b
                     if mask != run_mask:
                         for bit in range(TERMS):
                             evaluated[bit] += run_length * ((run_mask >> bit) & 1)

@@ -338,20 +338,37 @@ def test_term_counts_are_the_hits_that_evaluated_each_term(shading):
     assert result.counts["scene_ambient"] == hit.sum()
 
 
+# The one light a packet may have, as the packets shade it: each case changes what illuminate does per light.
+PACKET_CASES = {
+    "point, Phong highlight": ({}, {"specular": "phong"}),
+    "point, Blinn highlight, infinite viewer": ({}, {"specular": "blinn", "viewer": "infinite"}),
+    "directional, Blinn": ({"type": "directional", "direction": [-2, -2, -3], "position": None},
+                           {"specular": "blinn"}),
+    "point, 1/d², light ambient": ({"attenuation": "inverse_square", "ambient": [0.2, 0.1, 0.05],
+                                    "diffuse": [9, 9, 9], "specular": [12, 12, 12]}, {"specular": "phong"}),
+    "point, c + l d + q d², no highlight": ({"attenuation": [0.5, 0.2, 0.1], "ambient": [0.2, 0.1, 0.05],
+                                             "specular": [0, 0, 0]}, {}),  # I_s = 0: the plan leaves S out
+}
+
+
+@pytest.mark.parametrize("case", PACKET_CASES)
 @pytest.mark.parametrize("mode", ["local", "global"])
 @pytest.mark.parametrize("precision", ["float32", "float64"])
-def test_packets_of_phong_hits_shade_bit_identically_to_one_hit_at_a_time(mode, precision):
-    """One point light, Phong faces and highlight, a viewer per point: _shade_rays shades 16 rays at a time,
-    their vectors in SIMD lanes. A second light of zero intensity sends every ray through the one-hit loop
-    and adds exact zeros: the image and the term layers must not move by one bit."""
+def test_packets_of_phong_hits_shade_bit_identically_to_one_hit_at_a_time(case, mode, precision):
+    """One light (point or directional, any attenuation, any highlight, any viewer) and Phong faces: _shade_rays
+    shades 16 rays at a time, their vectors in SIMD lanes. A second light of zero intensity sends every ray
+    through the one-hit loop and adds exact zeros: the image and the term layers must not move by one bit."""
+    light_change, render_change = PACKET_CASES[case]
+    light = {key: value for key, value in {**LIGHT, **light_change}.items() if value is not None}
+
     def render(lights):
-        scene = sphere_scene(4, size=64, precision=precision, mode=mode, specular="phong", samples=2)
+        scene = sphere_scene(4, size=64, precision=precision, mode=mode, samples=2, **render_change)
         scene = scene.model_copy(update={"output": rp.scene.schema.Output(path="x.exr", aovs=(
             "ambient", "diffuse", "specular", "normal"))})
         return rp.render(rp.validate_scene({**scene.model_dump(mode="json"), "lights": lights}))
     dark = {"type": "directional", "direction": [-1, 0, -1], "diffuse": [0, 0, 0], "specular": [0, 0, 0]}
-    packets, one_by_one = render([LIGHT]), render([LIGHT, dark])
-    assert packets.image.max() > 0.5
+    packets, one_by_one = render([light]), render([light, dark])
+    assert packets.image.max() > 0.3
     np.testing.assert_array_equal(packets.image, one_by_one.image)
     for name in ("ambient", "diffuse", "specular", "normal"):
         np.testing.assert_array_equal(packets.aovs[name], one_by_one.aovs[name])
