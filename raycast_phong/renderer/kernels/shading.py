@@ -198,6 +198,18 @@ def _textured_material(materials, texels, table, uvs, density, material, m, f, b
                     material.ke_r * er, material.ke_g * eg, material.ke_b * eb, material.shininess)
 
 
+@kernel(inline="always")
+def _next_sample(sample, col, row, per_pixel, width):
+    """The sample, column and row of the next ray: ray k is sample k % n² of pixel k // n², in rows of `width`
+    pixels (counters keep integer division out of the hot loop; scalars only, so inlining costs nothing)."""
+    sample += 1
+    if sample == per_pixel:
+        sample, col = 0, col + 1
+        if col == width:
+            col, row = 0, row + 1
+    return sample, col, row
+
+
 @kernel()
 def _shade_rays(inputs, rays, film):
     """Shade every ray of a tile into the film rows (ShadingInputs, TileRays, FilmRows).
@@ -235,7 +247,7 @@ def _shade_rays(inputs, rays, film):
     evaluated = np.zeros(len(counts), np.int64)
     # The film starts at zero, so a black background needs no writes at all.
     has_background = background[0] != 0 or background[1] != 0 or background[2] != 0
-    # Ray k is sample k % n² of pixel k // n²; counters keep integer division out of the hot path.
+    # Ray k is sample k % n² of pixel k // n² (_next_sample).
     row, col, sample = 0, 0, -1
     # Hits of one run share their material row and their mask of evaluated terms: the row is read once per
     # run of hits of one material, and a run's mask is counted once when it ends (not 7 counters per hit).
@@ -282,11 +294,7 @@ def _shade_rays(inputs, rays, film):
             if missed:  # sixteen misses (most of ico6's misses): the background at most, and the pixel counters
                 done_until = k + PACKET
                 for _ in range(PACKET):
-                    sample += 1
-                    if sample == per_pixel:
-                        sample, col = 0, col + 1
-                        if col == width:
-                            col, row = 0, row + 1
+                    sample, col, row = _next_sample(sample, col, row, per_pixel, width)
                     if has_background:
                         for ch in range(3):
                             rgb[row, col, ch] += weight * background[ch]
@@ -351,11 +359,7 @@ def _shade_rays(inputs, rays, film):
                     lane[15, j] = fall
                 # Pass C: the terms (powf stays scalar) and the film, in ray order.
                 for j in range(PACKET):
-                    sample += 1
-                    if sample == per_pixel:
-                        sample, col = 0, col + 1
-                        if col == width:
-                            col, row = 0, row + 1
+                    sample, col, row = _next_sample(sample, col, row, per_pixel, width)
                     f = face[k + j]
                     if f < 0:
                         if has_background:
@@ -409,11 +413,7 @@ def _shade_rays(inputs, rays, film):
                             normal[row, col, 0], normal[row, col, 1], normal[row, col, 2] = (
                                 nx / length, ny / length, nz / length)
                 continue
-        sample += 1
-        if sample == per_pixel:
-            sample, col = 0, col + 1
-            if col == width:
-                col, row = 0, row + 1
+        sample, col, row = _next_sample(sample, col, row, per_pixel, width)
         # The face rows (normal, corners, corner normals, vertices) of the hit AHEAD rays on: they are cache
         # misses on a mesh larger than the cache, and one pass per hit is too long for the CPU to run that far.
         if k + AHEAD < face.shape[0]:
