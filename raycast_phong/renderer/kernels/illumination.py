@@ -66,6 +66,21 @@ def specular_power(x, f, zero, one):
 
 
 @kernel(inline="always")
+def attenuation(kind, constant, linear, quadratic, d, floor_squared, one):
+    """f_att of a light at distance d: 1 (ATTENUATION_NONE), 1/d² (INVERSE_SQUARE) or min(1, 1/(c + l d + q d²)),
+    c, l, q = constant, linear, quadratic.
+
+    1/d² exactly, with d floored at 1e-6 of the scene's size (floor_squared = view[V_FLOOR], that floor²), so a
+    light on or inside the surface stays finite in float32 too; min(1, 1/x) as 1/max(1, x): the same for x ≥ 0,
+    and never 1/0 where x = 0 (c = 0 at d = 0)."""
+    if kind == INVERSE_SQUARE:
+        return one / max(d * d, floor_squared)
+    if kind != ATTENUATION_NONE:
+        return one / max(one, constant + linear * d + quadratic * d * d)
+    return one
+
+
+@kernel(inline="always")
 def view_direction(px, py, pz, ex, ey, ez, zero):
     """v = normalize(eye − p), the local viewer's direction (left as it is if p is the eye)."""
     vx, vy, vz = ex - px, ey - py, ez - pz
@@ -135,13 +150,8 @@ def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, 
         weight = one
         if flags & F_ATTENUATION and lights[k, L_ATT_KIND] != ATTENUATION_NONE:
             mask |= 1 << C_ATTENUATION
-            if lights[k, L_ATT_KIND] == INVERSE_SQUARE:
-                # 1/d² exactly, with d floored at 1e-6 of the scene's size (view[V_FLOOR] = that floor²), so a
-                # light on or inside the surface stays finite in float32 too.
-                weight = one / max(d * d, view[V_FLOOR])
-            else:
-                # min(1, 1/x) as 1/max(1, x): the same for x ≥ 0, and never 1/0 where x = 0 (c = 0 at d = 0).
-                weight = one / max(one, lights[k, L_ATT] + lights[k, L_ATT + 1] * d + lights[k, L_ATT + 2] * d * d)
+            weight = attenuation(lights[k, L_ATT_KIND], lights[k, L_ATT], lights[k, L_ATT + 1], lights[k, L_ATT + 2],
+                                 d, view[V_FLOOR], one)
 
         if flags & F_LIGHT_AMBIENT:
             mask |= 1 << C_LIGHT_AMBIENT

@@ -30,7 +30,7 @@ from numba.extending import intrinsic
 
 from ...jit import kernel
 from ...tolerances import NO_DIRECTION
-from .illumination import diffuse_terms, highlight_cosine, illuminate, specular_terms, view_direction
+from .illumination import attenuation, diffuse_terms, highlight_cosine, illuminate, specular_terms, view_direction
 from .layout import (
     ATTENUATION_NONE,
     C_ATTENUATION,
@@ -59,7 +59,6 @@ from .layout import (
     F_VIEW_PER_POINT,
     FLAT,
     GOURAUD,
-    INVERSE_SQUARE,
     KA,
     KA_MAP,
     KD,
@@ -345,11 +344,7 @@ def _shade_rays(inputs, rays, film):
                     if per_point:
                         vx, vy, vz = view_direction(px, py, pz, ex, ey, ez, zero)
                     lx, ly, lz, d = to_light(point_light, qx, qy, qz, px, py, pz, nx, ny, nz, floor)
-                    fall = one  # f_att, illuminate's two formulas
-                    if falloff == INVERSE_SQUARE:
-                        fall = one / max(d * d, floor)
-                    elif falloff != ATTENUATION_NONE:
-                        fall = one / max(one, c0 + c1 * d + c2 * d * d)
+                    fall = attenuation(falloff, c0, c1, c2, d, floor, one)
                     n_dot_l = nx * lx + ny * ly + nz * lz
                     lane[10, j], lane[11, j], lane[12, j] = nx, ny, nz
                     lane[13, j] = n_dot_l
