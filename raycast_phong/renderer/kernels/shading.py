@@ -284,12 +284,21 @@ def _shade_rays(inputs, rays, film):
     for k in range(face.shape[0]):
         if k < done_until:
             continue
+        usable, first_m = False, -1
         if k % PACKET == 0 and k + PACKET <= face.shape[0]:
-            missed = True
+            # One scan of the sixteen: whether all miss, and (where the scene allows packets) whether their hits
+            # are all Phong faces of one material, first_m.
+            missed, usable = True, packets
             for j in range(PACKET):
-                if face[k + j] >= 0:
+                fj = face[k + j]
+                if fj >= 0:
                     missed = False
-                    break
+                    if not usable:
+                        break
+                    if face_model[fj] != PHONG or (first_m >= 0 and face_material[fj] != first_m):
+                        usable = False
+                        break
+                    first_m = face_material[fj]
             if missed:  # sixteen misses (most of ico6's misses): the background at most, and the pixel counters
                 done_until = k + PACKET
                 for _ in range(PACKET):
@@ -298,116 +307,107 @@ def _shade_rays(inputs, rays, film):
                         for ch in range(3):
                             rgb[row, col, ch] += weight * background[ch]
                 continue
-        if packets and k % PACKET == 0 and k + PACKET <= face.shape[0]:
-            first_m, usable = -1, True
+        if usable:  # some hit, so first_m ≥ 0
+            done_until = k + PACKET
+            m = first_m
+            if m != last_m:
+                last_m = m
+                base = Material(materials[m, KA], materials[m, KA + 1], materials[m, KA + 2], materials[m, KD],
+                                materials[m, KD + 1], materials[m, KD + 2], materials[m, KS], materials[m, KS + 1],
+                                materials[m, KS + 2], materials[m, KE], materials[m, KE + 1], materials[m, KE + 2],
+                                materials[m, SHININESS])
+            material = base
+            # Pass A: the hits' rows (a miss reads face 0's, and its lanes are ignored).
             for j in range(PACKET):
-                fj = face[k + j]
-                if fj >= 0:
-                    if face_model[fj] != PHONG or (first_m >= 0 and face_material[fj] != first_m):
-                        usable = False
-                        break
-                    first_m = face_material[fj]
-            if usable and first_m >= 0:
-                done_until = k + PACKET
-                m = first_m
-                if m != last_m:
-                    last_m = m
-                    base = Material(materials[m, KA], materials[m, KA + 1], materials[m, KA + 2], materials[m, KD],
-                                    materials[m, KD + 1], materials[m, KD + 2], materials[m, KS], materials[m, KS + 1],
-                                    materials[m, KS + 2], materials[m, KE], materials[m, KE + 1], materials[m, KE + 2],
-                                    materials[m, SHININESS])
-                material = base
-                # Pass A: the hits' rows (a miss reads face 0's, and its lanes are ignored).
-                for j in range(PACKET):
-                    f = max(face[k + j], 0)
-                    b1, b2 = one * bu[k + j], one * bv[k + j]
-                    b0 = one - b1 - b2
-                    gx, gy, gz = face_normals[f, 0], face_normals[f, 1], face_normals[f, 2]
-                    lane[0, j] = facing_side(gx, gy, gz, directions[k + j, 0], directions[k + j, 1],
-                                             directions[k + j, 2], two_sided, one)
-                    lane[1, j], lane[2, j], lane[3, j] = gx, gy, gz
-                    lane[4, j], lane[5, j], lane[6, j] = hit_point(vertices, faces, f, b0, b1, b2)
-                    lane[7, j], lane[8, j], lane[9, j] = _mixed_normal(corner_normals, f, b0, b1, b2)
-                # Pass B: normal, view and light vectors, f_att, n·l and the highlight's cosine, lane by lane.
-                ex, ey, ez = view[V_EYE], view[V_EYE + 1], view[V_EYE + 2]
-                qx, qy, qz = lights[0, L_VEC], lights[0, L_VEC + 1], lights[0, L_VEC + 2]
-                c0, c1, c2 = lights[0, L_ATT], lights[0, L_ATT + 1], lights[0, L_ATT + 2]
-                floor = view[V_FLOOR]
-                for j in range(PACKET):
-                    side, px, py, pz = lane[0, j], lane[4, j], lane[5, j], lane[6, j]
-                    sx, sy, sz = lane[7, j], lane[8, j], lane[9, j]
-                    nx, ny, nz = side * lane[1, j], side * lane[2, j], side * lane[3, j]
-                    length = math.sqrt(sx * sx + sy * sy + sz * sz)
-                    if length > one * NO_DIRECTION:
-                        nx, ny, nz = side * sx / length, side * sy / length, side * sz / length
-                    vx, vy, vz = view[V_VIEW], view[V_VIEW + 1], view[V_VIEW + 2]
-                    if per_point:
-                        vx, vy, vz = view_direction(px, py, pz, ex, ey, ez, zero)
-                    lx, ly, lz, d = to_light(point_light, qx, qy, qz, px, py, pz, nx, ny, nz, floor)
-                    fall = attenuation(falloff, c0, c1, c2, d, floor, one)
-                    n_dot_l = nx * lx + ny * ly + nz * lz
-                    lane[10, j], lane[11, j], lane[12, j] = nx, ny, nz
-                    lane[13, j] = n_dot_l
-                    lane[14, j] = zero
+                f = max(face[k + j], 0)
+                b1, b2 = one * bu[k + j], one * bv[k + j]
+                b0 = one - b1 - b2
+                gx, gy, gz = face_normals[f, 0], face_normals[f, 1], face_normals[f, 2]
+                lane[0, j] = facing_side(gx, gy, gz, directions[k + j, 0], directions[k + j, 1],
+                                         directions[k + j, 2], two_sided, one)
+                lane[1, j], lane[2, j], lane[3, j] = gx, gy, gz
+                lane[4, j], lane[5, j], lane[6, j] = hit_point(vertices, faces, f, b0, b1, b2)
+                lane[7, j], lane[8, j], lane[9, j] = _mixed_normal(corner_normals, f, b0, b1, b2)
+            # Pass B: normal, view and light vectors, f_att, n·l and the highlight's cosine, lane by lane.
+            ex, ey, ez = view[V_EYE], view[V_EYE + 1], view[V_EYE + 2]
+            qx, qy, qz = lights[0, L_VEC], lights[0, L_VEC + 1], lights[0, L_VEC + 2]
+            c0, c1, c2 = lights[0, L_ATT], lights[0, L_ATT + 1], lights[0, L_ATT + 2]
+            floor = view[V_FLOOR]
+            for j in range(PACKET):
+                side, px, py, pz = lane[0, j], lane[4, j], lane[5, j], lane[6, j]
+                sx, sy, sz = lane[7, j], lane[8, j], lane[9, j]
+                nx, ny, nz = side * lane[1, j], side * lane[2, j], side * lane[3, j]
+                length = math.sqrt(sx * sx + sy * sy + sz * sz)
+                if length > one * NO_DIRECTION:
+                    nx, ny, nz = side * sx / length, side * sy / length, side * sz / length
+                vx, vy, vz = view[V_VIEW], view[V_VIEW + 1], view[V_VIEW + 2]
+                if per_point:
+                    vx, vy, vz = view_direction(px, py, pz, ex, ey, ez, zero)
+                lx, ly, lz, d = to_light(point_light, qx, qy, qz, px, py, pz, nx, ny, nz, floor)
+                fall = attenuation(falloff, c0, c1, c2, d, floor, one)
+                n_dot_l = nx * lx + ny * ly + nz * lz
+                lane[10, j], lane[11, j], lane[12, j] = nx, ny, nz
+                lane[13, j] = n_dot_l
+                lane[14, j] = zero
+                if specular != SPECULAR_NONE:
+                    lane[14, j] = highlight_cosine(specular, n_dot_l, nx, ny, nz, lx, ly, lz, vx, vy, vz, zero, two)
+                lane[15, j] = fall
+            # Pass C: the terms (powf stays scalar) and the film, in ray order.
+            for j in range(PACKET):
+                sample, col, row = _next_sample(sample, col, row, per_pixel, width)
+                f = face[k + j]
+                if f < 0:
+                    if has_background:
+                        for ch in range(3):
+                            rgb[row, col, ch] += weight * background[ch]
+                    continue
+                visible_k = visible[k + j] if shadows else ALL_VISIBLE
+                ar = ag = ab = dr = dg = db = sr = sg = sb = er = eg = eb = zero
+                mask = fixed
+                if flags & F_EMISSION:
+                    er, eg, eb = material.ke_r, material.ke_g, material.ke_b
+                if flags & F_SCENE_AMBIENT:
+                    ar = view[V_AMBIENT] * material.ka_r
+                    ag, ab = view[V_AMBIENT + 1] * material.ka_g, view[V_AMBIENT + 2] * material.ka_b
+                fall = lane[15, j]
+                if flags & F_LIGHT_AMBIENT:
+                    ar += fall * lights[0, L_IA] * material.ka_r
+                    ag += fall * lights[0, L_IA + 1] * material.ka_g
+                    ab += fall * lights[0, L_IA + 2] * material.ka_b
+                n_dot_l = lane[13, j]
+                if visible_k & 1 != 0 and n_dot_l > zero:
+                    if flags & F_DIFFUSE:
+                        mask |= 1 << C_DIFFUSE
+                        r, g, b = diffuse_terms(fall, n_dot_l, lights[0, L_ID], lights[0, L_ID + 1],
+                                                lights[0, L_ID + 2], material, zero, one, two)
+                        dr, dg, db = dr + r, dg + g, db + b
                     if specular != SPECULAR_NONE:
-                        lane[14, j] = highlight_cosine(specular, n_dot_l, nx, ny, nz, lx, ly, lz, vx, vy, vz, zero, two)
-                    lane[15, j] = fall
-                # Pass C: the terms (powf stays scalar) and the film, in ray order.
-                for j in range(PACKET):
-                    sample, col, row = _next_sample(sample, col, row, per_pixel, width)
-                    f = face[k + j]
-                    if f < 0:
-                        if has_background:
-                            for ch in range(3):
-                                rgb[row, col, ch] += weight * background[ch]
-                        continue
-                    visible_k = visible[k + j] if shadows else ALL_VISIBLE
-                    ar = ag = ab = dr = dg = db = sr = sg = sb = er = eg = eb = zero
-                    mask = fixed
-                    if flags & F_EMISSION:
-                        er, eg, eb = material.ke_r, material.ke_g, material.ke_b
-                    if flags & F_SCENE_AMBIENT:
-                        ar = view[V_AMBIENT] * material.ka_r
-                        ag, ab = view[V_AMBIENT + 1] * material.ka_g, view[V_AMBIENT + 2] * material.ka_b
-                    fall = lane[15, j]
-                    if flags & F_LIGHT_AMBIENT:
-                        ar += fall * lights[0, L_IA] * material.ka_r
-                        ag += fall * lights[0, L_IA + 1] * material.ka_g
-                        ab += fall * lights[0, L_IA + 2] * material.ka_b
-                    n_dot_l = lane[13, j]
-                    if visible_k & 1 != 0 and n_dot_l > zero:
-                        if flags & F_DIFFUSE:
-                            mask |= 1 << C_DIFFUSE
-                            r, g, b = diffuse_terms(fall, n_dot_l, lights[0, L_ID], lights[0, L_ID + 1],
-                                                    lights[0, L_ID + 2], material, zero, one, two)
-                            dr, dg, db = dr + r, dg + g, db + b
-                        if specular != SPECULAR_NONE:
-                            mask |= 1 << C_SPECULAR
-                            r, g, b = specular_terms(fall, lane[14, j], lights[0, L_IS], lights[0, L_IS + 1],
-                                                     lights[0, L_IS + 2], material, zero, one)
-                            sr, sg, sb = sr + r, sg + g, sb + b
-                    if mask != run_mask:
-                        for bit in range(TERMS):
-                            evaluated[bit] += run_length * ((run_mask >> bit) & 1)
-                        run_mask, run_length = mask, 0
-                    run_length += 1
-                    rgb[row, col, 0] += weight * (ar + dr + sr + er)
-                    rgb[row, col, 1] += weight * (ag + dg + sg + eg)
-                    rgb[row, col, 2] += weight * (ab + db + sb + eb)
-                    if term_layers:
-                        for term, (r, g, b) in enumerate(((ar, ag, ab), (dr, dg, db), (sr, sg, sb), (er, eg, eb))):
-                            terms[row, col, term, 0] += weight * r
-                            terms[row, col, term, 1] += weight * g
-                            terms[row, col, term, 2] += weight * b
-                    if geometry_layers and sample == centre_sample:
-                        nx, ny, nz = lane[10, j], lane[11, j], lane[12, j]
-                        depth[row, col] = tfar[k + j] * inputs.frame_scale
-                        face_out[row, col] = f
-                        length = math.sqrt(nx * nx + ny * ny + nz * nz)
-                        if length > 0:
-                            normal[row, col, 0], normal[row, col, 1], normal[row, col, 2] = (
-                                nx / length, ny / length, nz / length)
-                continue
+                        mask |= 1 << C_SPECULAR
+                        r, g, b = specular_terms(fall, lane[14, j], lights[0, L_IS], lights[0, L_IS + 1],
+                                                 lights[0, L_IS + 2], material, zero, one)
+                        sr, sg, sb = sr + r, sg + g, sb + b
+                if mask != run_mask:
+                    for bit in range(TERMS):
+                        evaluated[bit] += run_length * ((run_mask >> bit) & 1)
+                    run_mask, run_length = mask, 0
+                run_length += 1
+                rgb[row, col, 0] += weight * (ar + dr + sr + er)
+                rgb[row, col, 1] += weight * (ag + dg + sg + eg)
+                rgb[row, col, 2] += weight * (ab + db + sb + eb)
+                if term_layers:
+                    for term, (r, g, b) in enumerate(((ar, ag, ab), (dr, dg, db), (sr, sg, sb), (er, eg, eb))):
+                        terms[row, col, term, 0] += weight * r
+                        terms[row, col, term, 1] += weight * g
+                        terms[row, col, term, 2] += weight * b
+                if geometry_layers and sample == centre_sample:
+                    nx, ny, nz = lane[10, j], lane[11, j], lane[12, j]
+                    depth[row, col] = tfar[k + j] * inputs.frame_scale
+                    face_out[row, col] = f
+                    length = math.sqrt(nx * nx + ny * ny + nz * nz)
+                    if length > 0:
+                        normal[row, col, 0], normal[row, col, 1], normal[row, col, 2] = (
+                            nx / length, ny / length, nz / length)
+            continue
         sample, col, row = _next_sample(sample, col, row, per_pixel, width)
         # The face rows (normal, corners, corner normals, vertices) of the hit AHEAD rays on: they are cache
         # misses on a mesh larger than the cache, and one pass per hit is too long for the CPU to run that far.
