@@ -416,7 +416,8 @@ def _object_corners(scene: Scene, built: list, mesh, per_object, width: int, fil
         step = max(1, OBJECT_CHUNK_VERTICES // max(1, len(values)))
         for at in range(0, len(members), step):
             chunk = members[at:at + step]
-            mirrored = np.prod(placements(scene.objects, chunk)[0], axis=1) < 0
+            (scale,) = placements(scene.objects, chunk, ("scale",))
+            mirrored = np.prod(scale, axis=1) < 0
             for objects, placed in ((chunk[~mirrored], values), (chunk[mirrored], values[:, ::-1])):
                 rows = (mesh.face_start[objects][:, None] + np.arange(len(values))).ravel()
                 out[rows] = np.broadcast_to(placed, (len(objects), *placed.shape)).reshape(-1, 3, width)

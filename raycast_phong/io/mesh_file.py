@@ -386,7 +386,6 @@ def _check_collada_images(path: Path, handle, notes: list[str]) -> None:
 
     Read from the file's first MAX_SIDE_FILE bytes (exporters write the images before the geometry); the
     path is <init_from> (1.4) or its <ref> (1.5), a URI relative to the file."""
-    import re
     from pathlib import PurePosixPath
     from urllib.parse import unquote, urlparse
     try:

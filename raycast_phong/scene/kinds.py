@@ -78,10 +78,10 @@ def kinds_of(objects) -> ObjectKinds:
     return ObjectKinds(kind, first, counts)
 
 
-def placements(objects, rows=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(scale, rotate, translate), each (n, 3) float64, of the objects at `rows` (all when None): the numbers
-    the scene holds, read in one pass per key."""
+def placements(objects, rows=None, keys=("scale", "rotate", "translate")) -> tuple[np.ndarray, ...]:
+    """The `keys` (default: scale, rotate, translate), each (n, 3) float64, of the objects at `rows` (all when
+    None): the numbers the scene holds, read in one pass per key."""
     picked = objects if rows is None else [objects[i] for i in np.asarray(rows).tolist()]
     n = len(picked)
     return tuple(np.fromiter(chain.from_iterable(map(operator.attrgetter(key), picked)), np.float64, 3 * n)
-                 .reshape(n, 3) for key in ("scale", "rotate", "translate"))
+                 .reshape(n, 3) for key in keys)
