@@ -9,7 +9,8 @@ any edit to any of them starts a fresh folder, and stale folders are removed. On
 cache directory setting (`numba.config.CACHE_DIR`, the NUMBA_CACHE_DIR variable) is used, set for the
 moment a kernel is decorated and restored at once, so other numba code in the process is unaffected.
 Each kernel's cache is numba's own with a lighter load (`_CacheLoadedAsIs`: no typing or lowering registries
-for a kernel that is already compiled), or numba's unchanged where its internals differ.
+for a kernel that is already compiled, nor imports of the numba modules whose implementations it holds), or
+numba's unchanged where its internals differ.
 """
 
 from __future__ import annotations
@@ -20,12 +21,15 @@ import re
 import shutil
 import sys
 import tempfile
+import weakref
 from functools import lru_cache
 from pathlib import Path
 
 import numba
 from numba import njit
+from numba.core import environment
 from numba.core.caching import FunctionCache
+from numba.core.compiler_lock import global_compiler_lock
 from numba.core.runtime.nrt import rtsys
 
 PACKAGE = Path(__file__).resolve().parent  # raycast_phong/: a kernel may import from anywhere in it
@@ -134,7 +138,9 @@ def kernel(**options):
 
 
 # The numba internals _CacheLoadedAsIs relies on (checked with numba 0.68); without them numba's own load is kept.
-LIGHT_LOAD = all(hasattr(FunctionCache, name) for name in ("_load_overload", "_guard_against_spurious_io_errors"))
+LIGHT_LOAD = (all(hasattr(FunctionCache, name) for name in ("_load_overload", "_guard_against_spurious_io_errors"))
+              and all(hasattr(environment, name) for name in ("_rebuild_env", "lookup_environment"))
+              and isinstance(getattr(environment.Environment, "_memo", None), dict | weakref.WeakValueDictionary))
 
 
 class _CacheLoadedAsIs(FunctionCache):
@@ -152,11 +158,39 @@ class _CacheLoadedAsIs(FunctionCache):
     def load_overload(self, sig, target_context):
         rtsys.initialize(target_context)  # what numba's refresh starts with (cpu.py); idempotent
         loaded = None
-        with self._guard_against_spurious_io_errors():  # numba's own (Windows: a file another process holds)
-            loaded = self._load_overload(sig, target_context)
+        # numba holds this lock around every load and compile; taken again (it is re-entrant) so that the
+        # unpickler's environment rebuild is swapped for this load alone, whoever calls.
+        with global_compiler_lock, self._guard_against_spurious_io_errors():  # numba's own (Windows: a busy file)
+            rebuild, environment._rebuild_env = environment._rebuild_env, _environment_as_is
+            try:
+                loaded = self._load_overload(sig, target_context)
+            finally:
+                environment._rebuild_env = rebuild
         if loaded is None:
             set_up()  # numba is about to compile (and load its registries)
         return loaded
+
+
+def _environment_as_is(module_name, consts, name):
+    """numba's _rebuild_env for a cached kernel, without importing the module of an environment it references.
+
+    A cached kernel's payload names the environment of every function compiled into it, numba's own
+    implementations included (np.empty's in numba.np.arrayobj, min's in numba.cpython.builtins, str's in
+    numba.cpython.unicode), and numba rebuilds each from its module's globals, importing the module:
+    26–38 ms of a 0.6 s start-up for modules no cached kernel runs. Only object-mode code reads an environment's
+    globals (pylowering); these kernels are nopython, and read only its constants, which are kept. A module
+    already imported is used as numba would; otherwise the environment gets its name alone (so that it can
+    still be cached, Environment.can_cache)."""
+    if module_name is None or module_name in sys.modules or environment.lookup_environment(name) is not None:
+        return _numba_rebuild_env(module_name, consts, name)
+    rebuilt = environment.Environment({"__name__": module_name})
+    rebuilt.consts[:] = consts
+    rebuilt.env_name = name
+    environment.Environment._memo[name] = rebuilt
+    return rebuilt
+
+
+_numba_rebuild_env = environment._rebuild_env
 
 
 def set_up() -> None:

@@ -42,6 +42,26 @@ def test_a_cached_kernel_loads_without_numba_s_registries_and_a_compile_still_lo
     assert cached.stdout.split("\n")[:2] == ["[] False", "True True"], cached.stdout
 
 
+ALLOCATING = ("import numpy as np\nfrom raycast_phong.jit import kernel\n\n\n@kernel()\ndef allocate(n):\n"
+              "    a = np.empty(n)  # np.empty's implementation: an environment of numba.np.arrayobj\n"
+              "    a[:] = 2.0\n    return a.sum() + min(n, 3)  # min's: one of numba.cpython.builtins\n")
+CALL = ("import sys\nsys.path.insert(0, sys.argv[1])\nfrom allocating import allocate\n"
+        "print(allocate(4), 'numba.np.arrayobj' in sys.modules)\n"
+        "try:\n    allocate(-1)\nexcept ValueError as error:\n    print(error)\n")
+
+
+def test_a_cached_kernel_loads_without_importing_the_modules_of_numba_s_implementations_it_holds(tmp_path):
+    """A kernel calling np.empty holds numba's implementation of it, whose environment numba rebuilds at a load by
+    importing numba.np.arrayobj (26–38 ms): loaded from the cache (jit._environment_as_is) it runs, and raises
+    np.empty's own error, without that import; compiled (the control, the first process) it imports it."""
+    (tmp_path / "allocating.py").write_text(ALLOCATING, encoding="utf-8")
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    runs = [python(CALL, str(tmp_path), env=env) for _ in range(2)]
+    assert all(run.returncode == 0 for run in runs), runs[-1].stderr
+    assert runs[0].stdout.splitlines() == ["11.0 True", "negative dimensions not allowed"], runs[0].stdout
+    assert runs[1].stdout.splitlines() == ["11.0 False", "negative dimensions not allowed"], runs[1].stdout
+
+
 PROBE = ("import atexit, sys, threading\n"
          "class Teardown:\n    def __del__(self):\n        print('torn down', flush=True)\n"
          "kept = Teardown()  # its __del__ runs when the interpreter is torn down\n"
