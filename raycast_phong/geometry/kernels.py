@@ -107,10 +107,12 @@ def count_half_edges(faces, start, low, high):
 @kernel()
 def bucket_half_edges(faces, start, key, edge, low, high):
     """The second half: fills the buckets of the vertices in [low, high) of key (3F,) and edge (3F,) (the caller's,
-    int32 when they fit: 8 bytes a half-edge, not 16), and returns (consistent, closed) of those buckets.
+    int32 when they fit: 8 bytes a half-edge, not 16), and returns (consistent, closed, flippable) of those buckets.
     Bucket v is sorted by key = 2 × higher vertex + (1 where the half-edge runs high → low) and, among equal keys,
     by h = edge: the order a stable sort of all 3F (undirected edge, direction) keys gives. consistent: no
-    half-edge is traversed twice in the same direction; closed: every undirected edge belongs to exactly two."""
+    half-edge is traversed twice in the same direction; closed: every undirected edge belongs to exactly two;
+    flippable: some edge of exactly two faces is run the same way by both (the only edges orient_pieces asks a
+    flip for: a mesh inconsistent only at edges of one or three or more faces has nothing a flip would mend)."""
     fill = start[low:high].copy()
     for f in range(faces.shape[0]):
         for k in range(3):
@@ -122,7 +124,7 @@ def bucket_half_edges(faces, start, key, edge, low, high):
             fill[v - low] += 1
             key[at] = 2 * max(a, b) + (1 if b < a else 0)
             edge[at] = 3 * f + k
-    consistent, closed = True, True
+    consistent, closed, flippable = True, True, False
     for v in range(low, high):
         first, last = start[v], start[v + 1]
         if last - first <= SMALL_BUCKET:
@@ -142,39 +144,40 @@ def bucket_half_edges(faces, start, key, edge, low, high):
                 run += 1
             if run - at != 2:
                 closed = False
+            elif key[at] == key[at + 1]:
+                flippable = True
             for i in range(at + 1, run):
                 if key[i] == key[i - 1]:
                     consistent = False
             at = run
-    return consistent, closed
+    return consistent, closed, flippable
 
 
 @kernel()
-def _root(parent, x):
+def _root(parent, parity, x):
+    """(root of x, x's side relative to it: 0 the same, 1 flipped), halving the path on the way (x's parent
+    becomes its grandparent, its side then taken relative to the grandparent)."""
+    side = 0
     while parent[x] != x:
-        parent[x] = parent[parent[x]]
+        up = parent[x]
+        parity[x] ^= parity[up]
+        parent[x] = parent[up]
+        side ^= parity[x]
         x = parent[x]
-    return x
-
-
-@kernel()
-def _join(parent, a, b):
-    """Union keeping the smaller node as the root: every component's root is its least node."""
-    a, b = _root(parent, a), _root(parent, b)
-    if a < b:
-        parent[b] = a
-    elif b < a:
-        parent[a] = b
+    return x, side
 
 
 @kernel()
 def orient_pieces(start, key, edge, face_count):
-    """Orientation as a two-colouring: face f as it is is node f, flipped f + F; an edge shared by exactly two
-    half-edges joins (f, g) and (f + F, g + F) if they run opposite ways, else (f, g + F) and (f + F, g) (union-find,
-    each component named by its least node, as scipy's connected_components numbers them in that order).
+    """Orientation as a two-colouring of the faces: an edge shared by exactly two half-edges says its faces (f, g)
+    keep the same side if the half-edges run opposite ways, else opposite sides (union-find with each face's side
+    relative to its parent; each piece rooted at its least face, as scipy's connected_components numbers them;
+    a cycle of constraints that disagree marks the piece non-orientable, e.g. a Möbius strip).
     Returns flip (F,) bool: per piece the side most faces already have (a tie keeps them as they are); piece (F,),
-    the least node of the face's two components (edge's dtype); orientable (F,) bool, False on a Möbius strip."""
-    parent = np.arange(2 * face_count).astype(edge.dtype)  # node numbers < 2F < 3F fit edge's dtype
+    the piece's least face (edge's dtype); orientable (F,) bool, False on a non-orientable piece."""
+    parent = np.arange(face_count).astype(edge.dtype)  # face numbers < 3F fit edge's dtype
+    parity = np.zeros(face_count, np.uint8)
+    twisted = np.zeros(face_count, np.bool_)  # at a root: its piece cannot be oriented
     for v in range(start.shape[0] - 1):
         at, last = start[v], start[v + 1]
         while at < last:
@@ -182,22 +185,29 @@ def orient_pieces(start, key, edge, face_count):
             while run < last and key[run] >> 1 == key[at] >> 1:
                 run += 1
             if run - at == 2:
-                f, g = edge[at] // 3, edge[at + 1] // 3
-                if (key[at] & 1) != (key[at + 1] & 1):  # opposite directions: the faces agree
-                    _join(parent, f, g)
-                    _join(parent, f + face_count, g + face_count)
+                # Opposite directions: the faces agree as they are (0); the same direction: one must flip (1).
+                apart = 0 if (key[at] & 1) != (key[at + 1] & 1) else 1
+                a, side_a = _root(parent, parity, edge[at] // 3)
+                b, side_b = _root(parent, parity, edge[at + 1] // 3)
+                if a == b:
+                    if side_a ^ side_b != apart:
+                        twisted[a] = True
+                elif a < b:
+                    parent[b], parity[b] = a, side_a ^ side_b ^ apart
+                    twisted[a] |= twisted[b]
                 else:
-                    _join(parent, f, g + face_count)
-                    _join(parent, f + face_count, g)
+                    parent[a], parity[a] = b, side_a ^ side_b ^ apart
+                    twisted[b] |= twisted[a]
             at = run
     piece = np.empty(face_count, edge.dtype)
-    as_is = np.empty(face_count, np.bool_)  # the face as it is carries the piece's name
+    as_is = np.empty(face_count, np.bool_)  # the face as it is has its piece's least face's side
     orientable = np.empty(face_count, np.bool_)
-    votes = np.zeros(2 * face_count, edge.dtype)
+    votes = np.zeros(face_count, edge.dtype)
     for f in range(face_count):
-        a, b = _root(parent, f), _root(parent, f + face_count)
-        piece[f], as_is[f], orientable[f] = min(a, b), a <= b, a != b
-        votes[piece[f]] += 1 if a <= b else -1
+        root, side = _root(parent, parity, f)
+        piece[f], orientable[f] = root, not twisted[root]
+        as_is[f] = side == 0 or twisted[root]
+        votes[root] += 1 if as_is[f] else -1
     flip = np.empty(face_count, np.bool_)
     for f in range(face_count):
         flip[f] = orientable[f] and (as_is[f] != (votes[piece[f]] >= 0))

@@ -22,13 +22,15 @@ def repair_winding(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     then it is turned outward, by its signed volume). A consistent mesh, the common case, costs one
     pass bucketing its 3F half-edges by vertex (winding_state; and a closed one its signed volume,
     taken over the whole mesh as trimesh's fix_inversion did: a consistent mesh whose pieces disagree is left
-    to its majority by volume); only an inconsistent one pays for the face graph (kernels.orient_pieces: per
-    piece the side most faces have), and if closed each piece is then turned outward by its own volume.
+    to its majority by volume); so does one inconsistent only at edges no flip mends (of one face, or of three
+    or more: a real scan's holes and non-manifold seams). Only a mesh where two faces run their shared edge the same
+    way pays for the face graph (kernels.orient_pieces: per piece the side most faces have), and if closed each
+    piece is then turned outward by its own volume.
     """
     kind = np.int32 if len(vertices) < 1 << 30 and 3 * len(faces) < 1 << 31 else np.int64
     key, edge = np.empty(3 * len(faces), kind), np.empty(3 * len(faces), kind)
-    consistent, closed, start = winding_state(faces, len(vertices), key, edge)
-    if consistent:
+    consistent, closed, flippable, start = winding_state(faces, len(vertices), key, edge)
+    if consistent or not flippable:  # not flippable: inconsistent only where no flip helps (then not closed)
         del start, key, edge
         if closed and _volume_sign(vertices, faces) < 0:
             return faces[:, ::-1], len(faces), True
@@ -37,7 +39,7 @@ def repair_winding(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     del start, key, edge
     if closed:  # each piece turned outward: the side of positive volume
         sign = np.where(flip, -1.0, 1.0)
-        inward = _signed_volumes(vertices, faces, piece, 2 * len(faces), sign) < 0
+        inward = _signed_volumes(vertices, faces, piece, len(faces), sign) < 0
         flip ^= orientable & inward[piece]
     flipped = int(flip.sum())
     if not flipped:
@@ -48,8 +50,9 @@ def repair_winding(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
 
 
 def winding_state(faces: np.ndarray, vertex_count: int, key: np.ndarray, edge: np.ndarray):
-    """(consistent, closed, start) of a mesh: consistent, no half-edge is traversed twice in the same direction;
-    closed, every undirected edge belongs to exactly two half-edges; start (V + 1,) the buckets of half-edges
+    """(consistent, closed, flippable, start) of a mesh: consistent, no half-edge is traversed twice in the same
+    direction; closed, every undirected edge belongs to exactly two half-edges; flippable, some edge of exactly two
+    faces is run the same way by both (kernels.bucket_half_edges); start (V + 1,) the buckets of half-edges
     by lower vertex filled into key and edge (3F,) (kernels.count_half_edges, kernels.bucket_half_edges).
     Above PARALLEL_FACES each thread counts, fills and sorts the buckets of its own range of vertices."""
     start = np.zeros(vertex_count + 1, np.int64)
@@ -57,7 +60,8 @@ def winding_state(faces: np.ndarray, vertex_count: int, key: np.ndarray, edge: n
     np.cumsum(start, out=start)
     states = run_parts(lambda low, high: bucket_half_edges(faces, start, key, edge, low, high),
                        parts(vertex_count, len(faces), lambda: start))  # cut at equal shares of the half-edges
-    return all(state[0] for state in states), all(state[1] for state in states), start
+    return (all(state[0] for state in states), all(state[1] for state in states), any(state[2] for state in states),
+            start)
 
 
 def _volume_sign(vertices: np.ndarray, faces: np.ndarray) -> float:

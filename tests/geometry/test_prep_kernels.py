@@ -82,11 +82,35 @@ def test_a_moebius_strip_is_left_as_it_is():
     faces = np.concatenate([np.column_stack([i, jj_in, jj_out]), np.column_stack([i, jj_out, n + i])]).astype(np.int64)
     faces[::3] = faces[::3, ::-1]  # inconsistent as well, so the orientation runs
     key, edge = np.empty(3 * len(faces), np.int32), np.empty(3 * len(faces), np.int32)
-    consistent, closed, start = mesh_repair.winding_state(faces, len(vertices), key, edge)
-    assert not consistent and not closed
+    consistent, closed, flippable, start = mesh_repair.winding_state(faces, len(vertices), key, edge)
+    assert not consistent and not closed and flippable
     flip, _, orientable = kernels.orient_pieces(start, key, edge, len(faces))
     assert not orientable.any() and not flip.any()  # one piece that no choice of sides can orient
     prepare_both(vertices, faces)
+
+
+def test_a_seam_of_three_faces_is_no_flip_s_business_and_skips_the_face_graph(monkeypatch):
+    """A face added on an edge of a closed sphere, run the way one of its two faces runs it, makes the winding
+    inconsistent, but at an edge of three faces, which no flip mends (as a real scan's seams): the faces come back
+    as they are, as the reference leaves them, without the face graph. The control: one face flipped on the
+    sphere is mended, through the graph (here refused)."""
+    sphere = trimesh.creation.icosphere(2)
+    vertices = np.concatenate([sphere.vertices, [[0.0, 0.0, 3.0]]])
+    a, b, _ = sphere.faces[0]
+    faces = np.concatenate([sphere.faces, [[a, b, len(sphere.vertices)]]]).astype(np.int64)
+    key, edge = np.empty(3 * len(faces), np.int32), np.empty(3 * len(faces), np.int32)
+    assert mesh_repair.winding_state(faces, len(vertices), key, edge)[:3] == (False, False, False)
+    prepare_both(vertices, faces)
+
+    def refused(*_):
+        raise AssertionError("the face graph was built")
+    monkeypatch.setattr(mesh_repair, "orient_pieces", refused)
+    repaired, flipped, closed = repair_winding(vertices, faces)
+    assert (flipped, closed) == (0, False) and repaired is faces
+    mended = np.array(sphere.faces, np.int64)
+    mended[5] = mended[5, ::-1]
+    with pytest.raises(AssertionError, match="face graph"):
+        repair_winding(np.asarray(sphere.vertices), mended)
 
 
 def test_a_fan_of_many_faces_sorts_its_large_bucket_as_the_small_ones():

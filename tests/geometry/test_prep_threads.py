@@ -34,10 +34,11 @@ def prepared(points: np.ndarray, corners: np.ndarray, threads: int, rules) -> li
     with prep_threads(threads):
         vertices, faces = merge_duplicate_vertices(points, corners)
         key, edge = np.empty(3 * len(faces), np.int32), np.empty(3 * len(faces), np.int32)
-        consistent, closed, start = winding_state(faces, len(vertices), key, edge)
+        consistent, closed, flippable, start = winding_state(faces, len(vertices), key, edge)
         repaired, flipped, _ = repair_winding(vertices, faces)
         unit, area = face_normals(vertices, repaired)
-        found = [vertices, faces, np.array([consistent, closed, flipped]), start, key, edge, repaired, unit, area]
+        found = [vertices, faces, np.array([consistent, closed, flippable, flipped]), start, key, edge, repaired, unit,
+                 area]
         for weighting, crease, dtype in rules:
             found.append(compute_corner_normals(vertices, repaired, weighting, crease, dtype, normals=(unit, area)))
     return found
