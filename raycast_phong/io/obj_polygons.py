@@ -6,73 +6,270 @@ what the polygon leaves open. Here the OBJ text is rewritten before trimesh read
 polygon's `f` line becomes one `f` line per triangle, cut by mapbox-earcut (which trimesh itself uses for
 2-D polygons) in the polygon's own plane, each corner keeping its `v/vt/vn` token. Convex polygons and
 triangles are left to trimesh's fan, which is the same for them. Only files with such polygons pay.
+
+The text is read once by a compiled scan (`_scan`: its lines, `v` and `f` records, the vertex number of each
+corner), so a file of a million quads costs a pass over its bytes and a vectorised convexity test, not a
+Python object per token. Lines end in LF or CRLF.
 """
 
 from __future__ import annotations
 
-import re
-
 import numpy as np
 
-POLYGON = re.compile(rb"^[ \t]*f(?:[ \t]+[^ \t\r\n#]+){4,}[ \t]*(?:#[^\r\n]*)?$", re.MULTILINE)
-VERTEX = re.compile(rb"^[ \t]*v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)", re.MULTILINE)
+from ..jit import kernel
+
+SPACE, TAB, LF, CR, HASH, SLASH, MINUS, PLUS, ZERO = 32, 9, 10, 13, 35, 47, 45, 43, 48
+OBJ_KERNELS = ("_scan", "_concave")  # what reading an OBJ compiles (renderer/warmup.py loads them first)
+
+
+@kernel(inline="always")
+def _blank(c):
+    """Space or tab: what separates an OBJ record's words."""
+    return c == SPACE or c == TAB
+
+
+@kernel(inline="always")
+def _white(c):
+    """Any whitespace byte (space, tab, LF, CR, FF, VT): where a coordinate word ends."""
+    return c == SPACE or c == TAB or c == LF or c == CR or c == 12 or c == 11
+
+
+@kernel()
+def _scan(data):
+    """The `v` and polygon `f` records of OBJ text `data` (uint8), in two passes (count, then fill).
+
+    A `v` line: blanks, `v`, then three words (any non-whitespace) separated by blanks; its words' byte spans go
+    to points (V, 3, 2). A polygon: blanks, `f`, four or more words (no blank, CR or `#` in them) each after
+    blanks, then blanks and an optional `#` comment to the line's end (LF, or CRLF). Per polygon: line (P, 2) the
+    span to replace (its comment included, its CR not), first and count into the words, before the `v` lines
+    above it (a negative index counts back from there), whole whether every word starts with an integer
+    ([+-]digits, up to its `/`). Per word: word (W, 2) its span, index (W,) that integer."""
+    n = data.shape[0]
+    points = np.empty((0, 3, 2), np.int64)
+    line = np.empty((0, 2), np.int64)
+    first = np.empty(0, np.int64)
+    count = np.empty(0, np.int64)
+    before = np.empty(0, np.int64)
+    whole = np.empty(0, np.bool_)
+    word = np.empty((0, 2), np.int64)
+    index = np.empty(0, np.int64)
+    vertices = polygons = words = 0
+    for fill in range(2):
+        if fill:
+            points = np.empty((vertices, 3, 2), np.int64)
+            line = np.empty((polygons, 2), np.int64)
+            first, count = np.empty(polygons, np.int64), np.empty(polygons, np.int64)
+            before = np.empty(polygons, np.int64)
+            whole = np.empty(polygons, np.bool_)
+            word, index = np.empty((words, 2), np.int64), np.empty(words, np.int64)
+        vertices = polygons = words = 0
+        at = 0
+        while at < n:
+            end = at
+            while end < n and data[end] != LF:
+                end += 1
+            stop = end - 1 if end > at and data[end - 1] == CR else end  # a CRLF line ends before its CR
+            i = at
+            while i < stop and _blank(data[i]):
+                i += 1
+            if i + 1 < stop and data[i] == 118 and _blank(data[i + 1]):  # "v" and a blank
+                j, found = i + 1, 0
+                while found < 3:
+                    blanks = j
+                    while j < stop and _blank(data[j]):
+                        j += 1
+                    if j == blanks or j == stop or _white(data[j]):
+                        break
+                    start = j
+                    while j < stop and not _white(data[j]):
+                        j += 1
+                    if fill and vertices < points.shape[0]:  # a line that proves no vertex is overwritten
+                        points[vertices, found, 0], points[vertices, found, 1] = start, j
+                    found += 1
+                if found == 3:
+                    vertices += 1
+            elif i + 1 < stop and data[i] == 102 and _blank(data[i + 1]):  # "f" and a blank
+                j, found, valid, integers = i + 1, 0, True, True
+                while True:
+                    blanks = j
+                    while j < stop and _blank(data[j]):
+                        j += 1
+                    if j == stop or data[j] == HASH:
+                        break  # the end, or a comment to the end
+                    if j == blanks or data[j] == CR:  # a word without a blank before it, or a bare CR
+                        valid = False
+                        break
+                    start = j
+                    while j < stop and not _blank(data[j]) and data[j] != CR and data[j] != HASH:
+                        j += 1
+                    if fill and words + found < word.shape[0]:  # a line that proves no polygon is overwritten
+                        word[words + found, 0], word[words + found, 1] = start, j
+                        k, sign, value, digits = start, 1, 0, 0
+                        if data[k] == MINUS or data[k] == PLUS:
+                            sign = -1 if data[k] == MINUS else 1
+                            k += 1
+                        while k < j and ZERO <= data[k] <= ZERO + 9 and digits < 18:
+                            value, digits = 10 * value + (data[k] - ZERO), digits + 1
+                            k += 1
+                        if digits == 0 or (k < j and data[k] != SLASH):
+                            integers = False
+                        index[words + found] = sign * value
+                    found += 1
+                if valid and found >= 4:
+                    if fill:
+                        line[polygons, 0], line[polygons, 1] = at, stop
+                        first[polygons], count[polygons], before[polygons] = words, found, vertices
+                        whole[polygons] = integers
+                    polygons += 1
+                    words += found
+            at = end + 1
+    return points, line, first, count, before, whole, word, index
+
+
+@kernel()
+def _number(data, start, end):
+    """The decimal number data[start:end] ([+-]digits[.digits][(e|E)[+-]digits]), or NaN if it is not one.
+
+    Its first 18 significant digits times a power of ten: within a few units in the last place of the correctly
+    rounded value (between 1e-300 and 1e300; a value within a few units of the largest float may overflow), which
+    the convexity test's tolerance (1e-12 of a polygon's largest turn) absorbs; trimesh reads the coordinates the
+    render uses."""
+    k, sign = start, 1.0
+    if k < end and (data[k] == MINUS or data[k] == PLUS):
+        sign = -1.0 if data[k] == MINUS else 1.0
+        k += 1
+    mantissa, significant, exponent, digits = 0, 0, 0, 0
+    point = False
+    while k < end:
+        c = data[k]
+        if c == 46 and not point:  # "."
+            point = True
+        elif ZERO <= c <= ZERO + 9:
+            digits += 1
+            if significant < 18:
+                mantissa = 10 * mantissa + (c - ZERO)
+                significant += 1 if mantissa > 0 else 0
+                exponent -= 1 if point else 0
+            elif not point:
+                exponent += 1  # a digit past the 18th before the point: one more power of ten
+        else:
+            break
+        k += 1
+    if digits == 0:
+        return np.nan
+    if k < end and (data[k] == 101 or data[k] == 69):  # "e" or "E"
+        k += 1
+        power, negative, seen = 0, False, False
+        if k < end and (data[k] == MINUS or data[k] == PLUS):
+            negative = data[k] == MINUS
+            k += 1
+        while k < end and ZERO <= data[k] <= ZERO + 9:
+            power = min(10 * power + (data[k] - ZERO), 100000)
+            seen = True
+            k += 1
+        if not seen:
+            return np.nan
+        exponent += -power if negative else power
+    if k != end:
+        return np.nan
+    value = sign * mantissa
+    if exponent >= 0:
+        return value * 10.0 ** min(exponent, 400)
+    if exponent < -300:  # in two steps, so that 10^-exponent itself stays finite down to the subnormals
+        value, exponent = value / 1e300, exponent + 300
+    return value / 10.0 ** min(-exponent, 400)
+
+
+@kernel()
+def _concave(data, points, first, count, before, whole, index):
+    """(P,) bool: which polygons are concave. A polygon is tested when its corners are integers naming vertices
+    (1-based, or negative: back from the `v` lines above it) with numbers for coordinates: it is convex when it
+    turns the same way at every corner about its own normal (Newell's: the sum of the cross products about the
+    centre), turn_i = (e_i × e_i+1) · n ≥ −1e-12 max |turn|, e_i = c_i+1 − c_i, or has no normal."""
+    position = np.empty((points.shape[0], 3))
+    for v in range(points.shape[0]):
+        for axis in range(3):
+            position[v, axis] = _number(data, points[v, axis, 0], points[v, axis, 1])
+    concave = np.zeros(first.shape[0], np.bool_)
+    most = 0
+    for p in range(first.shape[0]):
+        most = max(most, count[p])
+    corner = np.empty((most, 3))
+    turn = np.empty(most)
+    for p in range(first.shape[0]):
+        n = count[p]
+        usable = whole[p]
+        for i in range(n):
+            if not usable:
+                break
+            vertex = index[first[p] + i]
+            vertex = before[p] + vertex if vertex < 0 else vertex - 1
+            if vertex < 0 or vertex >= points.shape[0]:
+                usable = False
+                break
+            for axis in range(3):
+                corner[i, axis] = position[vertex, axis]
+                usable = usable and np.isfinite(corner[i, axis])
+        if not usable:
+            continue  # left to the reader, which reports a bad corner or fans it
+        cx = cy = cz = 0.0
+        for i in range(n):
+            cx, cy, cz = cx + corner[i, 0], cy + corner[i, 1], cz + corner[i, 2]
+        cx, cy, cz = cx / n, cy / n, cz / n
+        nx = ny = nz = 0.0
+        for i in range(n):
+            j = (i + 1) % n
+            ax, ay, az = corner[i, 0] - cx, corner[i, 1] - cy, corner[i, 2] - cz
+            bx, by, bz = corner[j, 0] - cx, corner[j, 1] - cy, corner[j, 2] - cz
+            nx, ny, nz = nx + ay * bz - az * by, ny + az * bx - ax * bz, nz + ax * by - ay * bx
+        if not nx * nx + ny * ny + nz * nz > 0:
+            continue  # no normal: no side to turn to
+        scale = 0.0
+        for i in range(n):
+            j, k = (i + 1) % n, (i + 2) % n
+            ax, ay, az = corner[j, 0] - corner[i, 0], corner[j, 1] - corner[i, 1], corner[j, 2] - corner[i, 2]
+            bx, by, bz = corner[k, 0] - corner[j, 0], corner[k, 1] - corner[j, 1], corner[k, 2] - corner[j, 2]
+            turn[i] = (ay * bz - az * by) * nx + (az * bx - ax * bz) * ny + (ax * by - ay * bx) * nz
+            scale = max(scale, abs(turn[i]))
+        for i in range(n):
+            if turn[i] < -1e-12 * scale:
+                concave[p] = True
+                break
+    return position, concave
 
 
 def triangulate_concave(data: bytes) -> tuple[bytes, int]:
     """The OBJ text with every concave polygon cut into triangles, and how many polygons were cut.
 
-    Convexity is tested for all polygons of one corner count at once (90,000 quads: about a second); only
-    the concave ones are cut, one by one."""
-    polygons = list(POLYGON.finditer(data))
-    if not polygons:
+    One compiled pass reads the text's records (_scan) and one tests every polygon (_concave); only the concave
+    ones are cut, one by one. A polygon with a corner that is not an integer naming a vertex, or a vertex whose
+    coordinates are not numbers, is left to the reader, which reports it (or fans it)."""
+    if b"f" not in data:
         return data, 0
-    found = list(VERTEX.finditer(data))
-    try:
-        points = np.array([m.groups() for m in found]).astype(np.float64).reshape(-1, 3)
-    except ValueError:
-        return data, 0  # trimesh words what is wrong with the file
-    if not len(points):
-        return data, 0  # faces without vertices: the reader reports the indices out of range
-    starts = np.array([m.start() for m in found], np.int64)
-    before = np.searchsorted(starts, np.array([m.start() for m in polygons], np.int64))  # v lines before: -1's base
-    tokens = [m.group(0).split(b"#", 1)[0].split()[1:] for m in polygons]
-    groups: dict[int, list[int]] = {}
-    for k, words in enumerate(tokens):
-        groups.setdefault(len(words), []).append(k)
-    concave: dict[int, np.ndarray] = {}
-    for members in groups.values():
-        try:
-            index = np.array([[int(t.split(b"/", 1)[0]) for t in tokens[k]] for k in members], np.int64)
-        except ValueError:
-            continue  # the reader reports a malformed face
-        index = np.where(index < 0, before[members][:, None] + index, index - 1)
-        valid = ((index >= 0) & (index < len(points))).all(axis=1)  # the reader reports indices out of range
-        bent = valid & ~_convex(points[np.clip(index, 0, max(len(points) - 1, 0))])
-        concave.update({members[i]: index[i] for i in np.flatnonzero(bent)})
+    text = np.frombuffer(data, np.uint8)
+    points, line, first, count, before, whole, word, index = _scan(text)
+    if not len(line):
+        return data, 0
+    position, concave = _concave(text, points, first, count, before, whole, index)
     pieces, at, cut = [], 0, 0
-    for k in sorted(concave):
-        triangles = _ear_clip(points[concave[k]])
+    for k in np.flatnonzero(concave).tolist():
+        corner = index[first[k]:first[k] + count[k]]
+        triangles = _ear_clip(position[np.where(corner < 0, before[k] + corner, corner - 1)])
         if triangles is None:
             continue
-        match = polygons[k]
-        lines = b"\n".join(b"f " + b" ".join(tokens[k][c] for c in triangle) for triangle in triangles)
-        pieces += [data[at:match.start()], lines]
-        at, cut = match.end(), cut + 1
+        tokens = [data[start:end] for start, end in word[first[k]:first[k] + count[k]].tolist()]
+        lines = b"\n".join(b"f " + b" ".join(tokens[c] for c in triangle) for triangle in triangles)
+        pieces += [data[at:line[k, 0]], lines]
+        at, cut = int(line[k, 1]), cut + 1
     if not cut:
         return data, 0
     pieces.append(data[at:])
     return b"".join(pieces), cut
 
 
-def _convex(corners: np.ndarray) -> np.ndarray:
-    """(m,) bool: which of m polygons (m, n, 3) turn the same way at every corner about their own normal
-    (Newell's: the sum of the cross products about the centre); one without a normal counts as convex."""
-    centred = corners - corners.mean(axis=1, keepdims=True)
-    normal = np.cross(centred, np.roll(centred, -1, axis=1)).sum(axis=1)
-    edges = np.roll(corners, -1, axis=1) - corners
-    turns = np.einsum("mij,mj->mi", np.cross(edges, np.roll(edges, -1, axis=1)), normal)
-    scale = np.abs(turns).max(axis=1, keepdims=True)
-    return (turns >= -1e-12 * scale).all(axis=1) | ~(np.linalg.norm(normal, axis=1) > 0)
+def warm_up() -> None:
+    """Load (or compile) OBJ_KERNELS: a concave pentagon, cut."""
+    triangulate_concave(b"v 0 0 0\nv 2 0 0\nv 2 2 0\nv 1 0.5 0\nv 0 2 0\nf 1 2 3 4 5\n")
 
 
 def _ear_clip(corners: np.ndarray) -> list[tuple[int, ...]] | None:

@@ -17,8 +17,9 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
     """("compile", seconds) when the cache does not hold this scene's kernels (the first render after an install
     or an edit; `announce` is told first, as it takes 10-40 s), else ("kernels", seconds) for loading them
     from the cache (≈ 0.15 s, most of it numba's one-time set-up in a process). The kernels are the frame's, the
-    geometry stage's and, for a scene with a mesh file, its preparation's (merge, winding: mesh_repair.warm_up),
-    and the crease split's where an object may be creased (normals.warm_up_creases).
+    geometry stage's and, for a scene with a mesh file, its preparation's (merge, winding: mesh_repair.warm_up;
+    an OBJ's polygon scan: obj_polygons.warm_up), and the crease split's where an object may be creased
+    (normals.warm_up_creases).
     A mesh file that cannot be opened is refused first (one line, naming `source`): before 10-40 s of compiling."""
     import numpy as np
 
@@ -31,14 +32,18 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
     from ..io.files import open_mesh_file
     from ..scene.kinds import object_kinds
     kinds = [(index, scene.objects[index]) for index in object_kinds(scene).first.tolist()]  # a mesh: its own kind
-    meshes = False
+    meshes = objs = False
     for index, obj in kinds:
         if obj.shape == "mesh":
             open_mesh_file(scene.resolve(obj.path), f"{source}: objects.{index}.path").close()
             meshes = True
+            objs = objs or str(obj.path).lower().endswith(".obj")
     creases = plan.keeps("vertex_normals") and (meshes or any(obj.crease_angle < 180 for _, obj in kinds))
     names = (tile_kernel(), *GEOMETRY_KERNELS, *(MESH_FILE_KERNELS if meshes else ()),
              *(CREASE_KERNELS if creases else ()))
+    if objs:
+        from ..io import obj_polygons
+        names += obj_polygons.OBJ_KERNELS
     cached = all(compiled_before(name) for name in names)
     if not cached and announce is not None:
         announce("compiling the shading kernels (and the mesh preparation's), once after an install or an edit "
@@ -47,6 +52,8 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
     warm_kernels_for([plan])
     if meshes:
         warm_up()
+    if objs:
+        obj_polygons.warm_up()
     if creases:  # in the corner normals' dtype: the shading precision (render() asks build_geometry for it)
         warm_up_creases(np.float64 if plan.keeps("float64_shading") else np.float32)
     return ("kernels" if cached else "compile"), time.perf_counter() - started

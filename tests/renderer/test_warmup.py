@@ -32,6 +32,18 @@ def test_a_mesh_file_scene_is_told_it_compiles_when_only_its_preparation_kernels
     assert warmup.ready_kernels(shapes, said.append)[0] == "kernels" and said == []
 
 
+def test_an_obj_scene_is_told_it_compiles_when_only_its_polygon_scan_is_missing(tmp_path, monkeypatch):
+    """Reading an OBJ calls the polygon scan's kernels (io/obj_polygons.py); a PLY does not."""
+    from raycast_phong.io.obj_polygons import OBJ_KERNELS
+    said = []
+    monkeypatch.setattr(jit, "compiled_before", lambda name: name not in OBJ_KERNELS)  # the rest cached
+    trimesh.creation.icosphere(1).export(tmp_path / "ball.obj")
+    obj = validate_scene({"objects": [{"shape": "mesh", "path": str(tmp_path / "ball.obj")}]}, source="t")
+    assert warmup.ready_kernels(obj, said.append)[0] == "compile" and len(said) == 1
+    said.clear()
+    assert warmup.ready_kernels(mesh_scene(tmp_path), said.append)[0] == "kernels" and said == []
+
+
 def test_the_warm_up_loads_the_mesh_preparation_kernels_with_the_types_a_file_gives_them(tmp_path):
     """After ready_kernels, preparing real files (a PLY's float64 points, a binary STL's float32 corners) adds no
     signature to any kernel: none compiles or loads inside the geometry stage."""
