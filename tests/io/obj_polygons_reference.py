@@ -1,12 +1,14 @@
 """The regular-expression reading of an OBJ's concave polygons that io/obj_polygons.py's compiled scan replaced,
-kept as the tests' oracle (imports nothing of the package): for LF text of well-formed records, the scan must
-cut the same polygons into the same lines."""
+kept as the tests' oracle: for LF text of well-formed records, the scan must find the same concave polygons and
+cut them into the same lines. The ear clipping both share (unchanged) is imported from the package."""
 
 from __future__ import annotations
 
 import re
 
 import numpy as np
+
+from raycast_phong.io.obj_polygons import _ear_clip
 
 POLYGON = re.compile(rb"^[ \t]*f(?:[ \t]+[^ \t\r\n#]+){4,}[ \t]*(?:#[^\r\n]*)?$", re.MULTILINE)
 VERTEX = re.compile(rb"^[ \t]*v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)", re.MULTILINE)
@@ -67,25 +69,3 @@ def _convex(corners: np.ndarray) -> np.ndarray:
     turns = np.einsum("mij,mj->mi", np.cross(edges, np.roll(edges, -1, axis=1)), normal)
     scale = np.abs(turns).max(axis=1, keepdims=True)
     return (turns >= -1e-12 * scale).all(axis=1) | ~(np.linalg.norm(normal, axis=1) > 0)
-
-
-def _ear_clip(corners: np.ndarray) -> list[tuple[int, ...]] | None:
-    """Triangles (corner numbers, wound as the polygon) of a concave polygon (n, 3), or None when it cannot
-    be cut (no plane, or earcut leaves it: trimesh's fan then stays)."""
-    import mapbox_earcut
-
-    normal = np.cross(corners - corners.mean(axis=0), np.roll(corners, -1, axis=0) - corners.mean(axis=0)).sum(axis=0)
-    length = np.linalg.norm(normal)
-    if not length > 0:
-        return None
-    normal /= length
-    u = np.cross(normal, [1.0, 0.0, 0.0] if abs(normal[0]) < 0.9 else [0.0, 1.0, 0.0])
-    u /= np.linalg.norm(u)
-    flat = np.column_stack([corners @ u, corners @ np.cross(normal, u)])  # counter-clockwise about the normal
-    found = mapbox_earcut.triangulate_float64(flat, np.array([len(flat)], np.uint32)).reshape(-1, 3)
-    if not len(found):
-        return None
-    a, b, c = flat[found[:, 0]], flat[found[:, 1]], flat[found[:, 2]]
-    clockwise = ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])) < 0
-    found[clockwise] = found[clockwise][:, ::-1]  # wound as the polygon: counter-clockwise about its normal
-    return [tuple(int(k) for k in triangle) for triangle in found]
