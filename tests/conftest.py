@@ -97,6 +97,7 @@ def kernels_ready(tmp_path_factory):
     from raycast_phong.scene.schema import validate_scene
     folder = tmp_path_factory.mktemp("warm")
     trimesh.creation.icosphere(1).export(folder / "ball.stl")  # no normals: the crease split's kernels too
-    for precision in ("float32", "float64"):
+    trimesh.creation.icosphere(1).export(folder / "ball.obj")  # an OBJ's polygon scan
+    for precision, name in (("float32", "ball.stl"), ("float64", "ball.stl"), ("float32", "ball.obj")):
         ready_kernels(validate_scene({"render": {"precision": precision},
-                                      "objects": [{"shape": "mesh", "path": str(folder / "ball.stl")}]}, source="t"))
+                                      "objects": [{"shape": "mesh", "path": str(folder / name)}]}, source="t"))
