@@ -158,6 +158,16 @@ def _mixed_normal(corner_normals, f, b0, b1, b2):
 
 
 @kernel(inline="always")
+def _material_row(materials, m):
+    """Material m's row (layout's KA, KD, KS, KE, SHININESS columns) as a Material: read once per run of hits of
+    one material, by the packets and by the one-hit loop alike."""
+    return Material(materials[m, KA], materials[m, KA + 1], materials[m, KA + 2], materials[m, KD],
+                    materials[m, KD + 1], materials[m, KD + 2], materials[m, KS], materials[m, KS + 1],
+                    materials[m, KS + 2], materials[m, KE], materials[m, KE + 1], materials[m, KE + 2],
+                    materials[m, SHININESS])
+
+
+@kernel(inline="always")
 def _modulated(m, r, g, b):
     """Material m with k_a and k_d multiplied by the colour (r, g, b): a texture's or a vertex colour."""
     return Material(m.ka_r * r, m.ka_g * g, m.ka_b * b, m.kd_r * r, m.kd_g * g, m.kd_b * b, m.ks_r, m.ks_g,
@@ -312,10 +322,7 @@ def _shade_rays(inputs, rays, film):
             m = first_m
             if m != last_m:
                 last_m = m
-                base = Material(materials[m, KA], materials[m, KA + 1], materials[m, KA + 2], materials[m, KD],
-                                materials[m, KD + 1], materials[m, KD + 2], materials[m, KS], materials[m, KS + 1],
-                                materials[m, KS + 2], materials[m, KE], materials[m, KE + 1], materials[m, KE + 2],
-                                materials[m, SHININESS])
+                base = _material_row(materials, m)
             material = base
             # Pass A: the hits' rows (a miss reads face 0's, and its lanes are ignored).
             for j in range(PACKET):
@@ -439,10 +446,7 @@ def _shade_rays(inputs, rays, film):
         m = face_material[f]
         if m != last_m:
             last_m = m
-            base = Material(materials[m, KA], materials[m, KA + 1], materials[m, KA + 2], materials[m, KD],
-                            materials[m, KD + 1], materials[m, KD + 2], materials[m, KS], materials[m, KS + 1],
-                            materials[m, KS + 2], materials[m, KE], materials[m, KE + 1], materials[m, KE + 2],
-                            materials[m, SHININESS])
+            base = _material_row(materials, m)
         material = base
         model = face_model[f]
         if textured:
