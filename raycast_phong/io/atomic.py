@@ -4,7 +4,8 @@ write, fsync, then rename.
 Every writer of the package (images, the batch manifest, the study's CSV, plot and summary) goes through
 replaced_atomically, the one home of the rule: a write that fails at any step (a full disk, a file-size
 limit, a quota, an I/O error at fsync) raises WriteError with one line naming the file and the OS reason,
-removes the temporary file and leaves the old file as it was.
+removes the temporary file and leaves the old file as it was. No write follows a link: the temporary file is
+made new (O_EXCL), reopened with O_NOFOLLOW, and a link at the target is replaced, never written through.
 
 SIGTERM and SIGINT are held back while the temporary file exists (their handlers run right after),
 so a `kill` cannot land between creating it and removing or renaming it — the window that left a
@@ -59,12 +60,13 @@ def replaced_atomically(target: Path, prefix: str) -> Iterator[Path]:
     with signals_deferred():
         try:
             descriptor, temporary = tempfile.mkstemp(prefix=prefix, suffix=target.suffix, dir=target.parent)
+            made = os.fstat(descriptor)
             os.close(descriptor)
         except OSError as error:
             raise WriteError(_failed(target, error, existed)) from None
         try:
             yield Path(temporary)
-            _settle(temporary)
+            _settle(temporary, made)
             os.replace(temporary, target)
         except WriteError:
             raise
@@ -76,14 +78,19 @@ def replaced_atomically(target: Path, prefix: str) -> Iterator[Path]:
                 os.unlink(temporary)
 
 
-def _settle(temporary: str) -> None:
+def _settle(temporary: str, made: os.stat_result) -> None:
     """Give the file open()'s permissions and push it to the disk: fsync is where a full disk (delayed
-    allocation, NFS, quotas) reports what write() did not."""
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(temporary, 0o666 & ~umask)
-    descriptor = os.open(temporary, os.O_RDONLY)
+    allocation, NFS, quotas) reports what write() did not. Only the file mkstemp made is settled (and then
+    renamed into place): a link or another file swapped in under its name, in a folder others can write,
+    is refused."""
+    descriptor = os.open(temporary, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
     try:
+        info = os.fstat(descriptor)
+        if (info.st_dev, info.st_ino) != (made.st_dev, made.st_ino):
+            raise OSError(errno.EEXIST, "the temporary file was replaced by another file while it was written")
+        umask = os.umask(0)
+        os.umask(umask)
+        os.fchmod(descriptor, 0o666 & ~umask)
         os.fsync(descriptor)
     finally:
         os.close(descriptor)
@@ -104,7 +111,7 @@ def write_bytes(target: str | Path, data: bytes, prefix: str | None = None) -> P
     """
     target = Path(target)
     with replaced_atomically(target, prefix or f".{target.stem}-") as temporary:
-        descriptor = os.open(temporary, os.O_WRONLY | os.O_TRUNC)
+        descriptor = os.open(temporary, os.O_WRONLY | os.O_TRUNC | os.O_NOFOLLOW)
         try:
             view = memoryview(data)
             while view:  # os.write may write less than asked; the next call then raises the reason
@@ -130,7 +137,7 @@ def os_reason(temporary: str | Path, fallback: str) -> OSError:
     """
     probe = b"\0" * (1 << 16)  # larger than any write buffer, so a full disk cannot absorb it in a partial block
     try:
-        descriptor = os.open(temporary, os.O_WRONLY | os.O_APPEND)
+        descriptor = os.open(temporary, os.O_WRONLY | os.O_APPEND | os.O_NOFOLLOW)
         try:
             os.write(descriptor, probe)
             os.fsync(descriptor)

@@ -228,6 +228,56 @@ def test_the_folder_lock_is_an_flock(tmp_path, five_scenes):
     assert sorted(p.name for p in out.iterdir()) == [batch.LOCK]
 
 
+@pytest.mark.parametrize("dangling", [False, True], ids=["to-a-file", "dangling"])
+def test_a_link_planted_as_the_lock_is_refused_and_never_written_through(tmp_path, five_scenes, dangling):
+    """`ln -s ~/precious out/.batch.lock` in a shared folder: the batch refuses the folder (exit 2, one line
+    naming the lock) and neither writes the link's target nor creates it."""
+    out, precious = tmp_path / "out", tmp_path / "precious"
+    out.mkdir()
+    if not dangling:
+        precious.write_bytes(b"keep me\n")
+    (out / batch.LOCK).symlink_to(precious)
+    result = run(str(five_scenes), "--out", str(out), "--jobs", "1")
+    assert result.exit_code == 2, result.stderr
+    assert result.stderr == (f"error: {out / batch.LOCK}: the batch lock is a symbolic link, which the batch does "
+                             "not write through; remove it, or use another --out\n")
+    assert (precious.read_bytes() == b"keep me\n") if not dangling else not precious.exists()
+    assert sorted(p.name for p in out.iterdir()) == [batch.LOCK] and (out / batch.LOCK).is_symlink()
+
+
+@pytest.mark.parametrize("kind", ["fifo", "hard link"])
+def test_a_lock_that_is_a_fifo_or_a_second_name_is_refused(tmp_path, five_scenes, kind):
+    out, precious = tmp_path / "out", tmp_path / "precious"
+    out.mkdir()
+    precious.write_bytes(b"keep me\n")
+    if kind == "fifo":
+        os.mkfifo(out / batch.LOCK)  # an O_RDWR open of a FIFO does not block; writing into it would
+        says = "the batch lock is not a regular file"
+    else:
+        os.link(precious, out / batch.LOCK)
+        says = "the batch lock is a file of 2 names"
+    result = run(str(five_scenes), "--out", str(out), "--jobs", "1")
+    assert result.exit_code == 2 and says in result.stderr and result.stderr.count("\n") == 1, result.stderr
+    assert precious.read_bytes() == b"keep me\n"
+
+
+def test_links_planted_at_the_batch_outputs_are_replaced_not_written_through(tmp_path, five_scenes):
+    """Links at the images, the manifest and a sweep's contact sheet (every other path a batch writes) are
+    replaced by the batch's own files, as a rename does; the files they aimed at keep their bytes."""
+    out = tmp_path / "out"
+    out.mkdir()
+    aimed = {}
+    for name in ("sphere0.png", "mesh.png", "manifest.json"):
+        aimed[name] = tmp_path / f"precious-{name}"
+        aimed[name].write_bytes(b"keep me\n")
+        (out / name).symlink_to(aimed[name])
+    result = run(str(five_scenes), "--out", str(out), "--jobs", "1")
+    assert result.exit_code == 1 and statuses(out)["sphere0"] == "rendered", result.stderr  # broken.toml fails
+    for name, target in aimed.items():
+        assert target.read_bytes() == b"keep me\n", name
+        assert not (out / name).is_symlink() and (out / name).stat().st_size > 8, name
+
+
 # ---------------------------------------------------------------- scene files that break the loader
 
 

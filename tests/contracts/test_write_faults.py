@@ -199,3 +199,21 @@ def test_batch_contact_sheet_under_a_file_size_limit(tmp_path):
     done = cli("batch", sweep, "--out", out, "--jobs", "1", "-q", "--force", limit=2500)
     assert_refused_write(done, sheet)
     assert sheet.read_bytes() == old and temporaries(out) == []
+
+
+def test_a_temporary_swapped_for_a_link_while_written_is_not_renamed_into_place(tmp_path):
+    """In a folder others can write, the temporary file may be swapped for a link (or another file) between
+    mkstemp and the rename: the write is refused, the old output and the link's target keep their bytes."""
+    from raycast_phong.io.atomic import WriteError, replaced_atomically
+    target, aimed, other = tmp_path / "out.txt", tmp_path / "precious", tmp_path / "other"
+    target.write_bytes(b"old")
+    aimed.write_bytes(b"keep me")
+    refused = (r"out.txt: write failed: (Too many levels of symbolic links|the temporary file was replaced by "
+               r"another file while it was written) \(the old file is unchanged\)")
+    for swap in (lambda: other.symlink_to(aimed), lambda: other.write_bytes(b"someone else's")):
+        with pytest.raises(WriteError, match=refused):
+            with replaced_atomically(target, prefix=".out-") as temporary:
+                swap()  # made while the temporary still exists: a new inode, then renamed over it
+                other.replace(temporary)
+        assert target.read_bytes() == b"old" and aimed.read_bytes() == b"keep me"
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["out.txt", "precious"]

@@ -87,8 +87,8 @@ HAND_MUTANTS = (
      "current = raw.setdefault(words[1], {})"),  # a material name with a space cut at the space
     ("renderer/budget", "rays = tile_rays * threads * (1 + shadow_lights) * RAY_BYTES",
      "rays = tile_rays * (1 + shadow_lights) * RAY_BYTES"),  # the memory estimate's thread term
-    ("io/atomic", "            _settle(temporary)\n            os.replace(temporary, target)\n",
-     "            os.replace(temporary, target)\n            _settle(str(target))\n"),  # fsync after the rename
+    ("io/atomic", "            _settle(temporary, made)\n            os.replace(temporary, target)\n",
+     "            os.replace(temporary, target)\n            _settle(str(target), made)\n"),  # fsync after the rename
 )
 
 OPERATOR_SWAPS = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,

@@ -1,13 +1,15 @@
 """A batch folder's bookkeeping: DIR/manifest.json (read, a corrupt one kept aside, rewritten atomically), the
-folder lock (flock on DIR/.batch.lock: one batch at a time per folder), and the temporaries a killed writer
-left.
+folder lock (flock on DIR/.batch.lock: one batch at a time per folder; never through a link, a FIFO or a
+second name someone planted there), and the temporaries a killed writer left.
 """
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import re
+import stat
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -77,10 +79,20 @@ def folder_lock(folder: Path) -> Iterator[None]:
     import fcntl
     path = folder / LOCK
     try:
-        descriptor = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+        # O_NOFOLLOW: a link planted in a shared folder must not aim the batch's writes at someone's file;
+        # O_NONBLOCK: a FIFO planted there opens at once (and is refused below) instead of waiting for a writer.
+        descriptor = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC, 0o666)
     except OSError as error:
+        if error.errno == errno.ELOOP:
+            raise BatchFolderError(f"{path}: the batch lock is a symbolic link, which the batch does not write "
+                                   "through; remove it, or use another --out") from None
         raise BatchFolderError(f"{path}: cannot create the batch lock ({error.strerror})") from None
     try:
+        info = os.fstat(descriptor)
+        if not stat.S_ISREG(info.st_mode) or info.st_nlink != 1:
+            what = "not a regular file" if not stat.S_ISREG(info.st_mode) else f"a file of {info.st_nlink} names"
+            raise BatchFolderError(f"{path}: the batch lock is {what}, which the batch does not write through; "
+                                   "remove it, or use another --out")
         try:
             fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
