@@ -31,6 +31,7 @@ from pydantic import (
 from ..codes import (
     IMAGE_SUFFIXES,
     LAYERS,
+    MAP_COLUMNS,
     MATERIAL_DEFAULTS,
     SHAPES,
     WRAP_MODES,
@@ -448,6 +449,17 @@ class Scene(_Strict):
     def resolve(self, path: str) -> Path:
         """A path from the scene file, relative to the file's folder."""
         return Path(self.folder) / Path(path).expanduser()
+
+    def named_files(self) -> dict[str, str]:
+        """Every file the scene names, by the key path that names it, as written: objects.N.path (meshes),
+        materials.M.kd_map.path (and ka_map, ke_map: textures) and output.path. A caller that must not let
+        its client choose files (the view's page) compares these before anything is opened."""
+        named = {f"objects.{index}.path": obj.path for index, obj in enumerate(self.objects) if obj.path}
+        named.update({f"materials.{name}.{key}.path": getattr(material, key).path
+                      for name, material in self.materials.items() for key in MAP_COLUMNS
+                      if getattr(material, key) is not None})
+        named["output.path"] = self.output.path
+        return named
 
 
 def brightness_problem(scene: Scene, inverse_square: dict[int, float] | None = None, why: str = "") -> tuple | None:

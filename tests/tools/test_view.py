@@ -168,6 +168,8 @@ def test_a_bad_value_gets_the_clis_one_line_message(scene_path, monkeypatch):
 @pytest.mark.parametrize(("settings", "says"), [
     ({"objects.0.path": "/etc/passwd"}, "does not change file paths"),
     ({"output.path": "x.png"}, "does not change file paths"),
+    ({"materials.red.kd_map": "/etc/passwd"}, "materials.red.kd_map: the view does not change file paths"),
+    ({"materials.red.ke_map.path": "x.png"}, "materials.red.ke_map.path: the view does not change file paths"),
     ({"render.width": 16384, "render.height": 16384}, "rays per frame"),
     ({"render..width": 3}, "not a key path"),
     ({"materials.red.shininess": "__import__('os')"}, "materials.red.shininess"),
@@ -184,6 +186,44 @@ def test_page_values_are_data_for_the_schema_only(scene_path, settings, says):
             ws.send_text(json.dumps({"type": "render", "id": 8, **malformed}))
             answer = json.loads(ws.receive_text())
             assert answer["type"] == "error" and "internal" not in answer["message"], (malformed, answer)
+
+
+def test_a_path_past_the_key_names_is_caught_in_the_validated_scene(scene_path, monkeypatch):
+    """The second guard: were a key that names a file missed by PATH_KEYS, the validated scene's named_files
+    still differ from the source's, and the settings are refused before any file is opened."""
+    from raycast_phong.tools.view import server
+    source = open_source(scene_path)
+    monkeypatch.setattr(server, "PATH_KEYS", server.re.compile("(?!)"))  # matches no key
+    for key, says in (("materials.red.kd_map", "materials.red.kd_map.path"),
+                      ("materials.red.ke_map.path", "materials.red.ke_map.path"),
+                      ("materials.blue.ka_map", "materials.blue.ka_map.path")):
+        with pytest.raises(server.ViewError, match=rf": {says}: the view does not change file paths"):
+            server.scene_with(source, {key: "/etc/passwd"})
+    assert server.scene_with(source, {"materials.red.shininess": 5.0}).materials["red"].shininess == 5.0
+
+
+def test_the_page_cannot_read_or_probe_files_through_textures(tmp_path):
+    """A texture path from the page is refused with the same line whatever is at it (an image outside the
+    scene's folder, nothing, a FIFO that would block the worker), so nothing is read, waited on or told."""
+    (tmp_path / "scene").mkdir()
+    scene_path = write_tiny_scene(tmp_path / "scene", 16, 12)
+    outside = tmp_path / "photo.png"
+    rp.write_image(outside, np.full((4, 4, 3), 0.5, np.float32))
+    fifo = tmp_path / "pipe.png"
+    os.mkfifo(fifo)
+    messages = []
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        for target in (outside, tmp_path / "missing.png", fifo):
+            for key in ("materials.red.kd_map", "materials.red.kd_map.path"):
+                ws.send_text(json.dumps({"type": "render", "id": 9, "settings": {key: str(target)}}))
+                answer = json.loads(ws.receive_text())
+                assert answer["type"] == "error", answer
+                messages.append(answer["message"].replace(str(target), "PATH"))
+        ws.send_text(json.dumps({"type": "render", "id": 10, "settings": {"render.shading": "flat"}}))
+        receive_frame(ws)  # the worker is free: nothing waited on the FIFO
+    assert len(set(messages[0::2])) == 1 and len(set(messages[1::2])) == 1, messages
+    assert "PATH" not in messages[0]  # the line does not even repeat the path
 
 
 # ---------------------------------------------------------------- frames

@@ -66,6 +66,7 @@ class Source:
     name: str
     folder: Path
     watched: Path | None = None
+    files: dict[str, str] = field(default_factory=dict)  # Scene.named_files(): the only files a page may use
 
 
 def open_source(path: str | Path | None) -> Source:
@@ -74,7 +75,7 @@ def open_source(path: str | Path | None) -> Source:
     path = Path(path) if path is not None else rp.default_scene_path()
     scene_file = path.suffix.lower() in (".toml", ".json")
     source = Source(read_scene_dict(path), str(path), path.parent, path if scene_file else None)
-    scene_with(source, {})
+    source.files = scene_with(source, {}).named_files()
     return source
 
 
@@ -91,8 +92,10 @@ def version(path: Path) -> tuple | None:
 
 
 KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.([A-Za-z0-9_-]+))*")
-# The page never changes a file path: a mesh path would let a page make the server read any file.
-PATH_KEYS = re.compile(r"(objects\.\d+\.path|output(\..*)?|folder)")
+# The page never changes a file path: a mesh or texture path would let a page make the server read (or probe
+# for) any file. These keys are refused by name; a path set any other way (a whole material or object table)
+# is caught by comparing the validated scene's named_files with the source's, before any file is opened.
+PATH_KEYS = re.compile(r"(objects\.\d+\.path|materials\.[^.]+\.k[ade]_map(\.path)?|output(\..*)?|folder)")
 
 
 def scene_with(source: Source, settings: dict) -> rp.Scene:
@@ -111,6 +114,12 @@ def scene_with(source: Source, settings: dict) -> rp.Scene:
                             "scene file instead")
         apply_override(data, f"{key}={toml_value(value)}", source=source.name)
     scene = rp.validate_scene(data, source=source.name, folder=source.folder)
+    if settings:
+        named = scene.named_files()
+        moved = next((key for key in named if source.files.get(key) != named[key]), None)
+        if moved is not None:
+            raise ViewError(f"{source.name}: {moved}: the view does not change file paths or outputs; edit the "
+                            "scene file instead")
     opts = scene.render
     if opts.width * opts.height * opts.samples ** 2 > MAX_VIEW_RAYS:
         raise ViewError(f"{source.name}: render.samples: {opts.width}×{opts.height} pixels × {opts.samples}² "
@@ -169,11 +178,12 @@ def settings_from(source: Source, text: str, name: str) -> dict:
         if len(getattr(theirs, kind)) != len(getattr(ours, kind)):
             raise ViewError(f"{name}: {len(getattr(theirs, kind))} {kind}, this view's scene has "
                             f"{len(getattr(ours, kind))}; open it with `raycast-phong view {name}` instead")
-    for index, (mine, other) in enumerate(zip(ours.objects, theirs.objects)):
-        where = lambda obj: None if obj.path is None else (source.folder / obj.path).resolve()
-        if where(mine) != where(other):
-            raise ViewError(f"{name}: objects.{index}.path is {other.path}, not this view's {mine.path}; the page "
-                            f"does not change files: open it with `raycast-phong view {name}` instead")
+    mine, other = ours.named_files(), theirs.named_files()
+    where = lambda files, key: None if key not in files else (source.folder / files[key]).resolve()
+    for key in sorted((mine.keys() | other.keys()) - {"output.path"}):
+        if where(mine, key) != where(other, key):
+            raise ViewError(f"{name}: {key} is {other.get(key)}, not this view's {mine.get(key)}; the page does "
+                            f"not change files: open it with `raycast-phong view {name}` instead")
     wanted = dump(theirs)
     current = dump(ours)
     settings = {key: value for key, value in wanted.items() if current.get(key, ...) != value}
