@@ -1,0 +1,43 @@
+"""The wheel holds every module and data file of the package: built from the tracked files alone (as a clean
+clone has them), not from an editable install, which finds modules a wheel leaves out."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+SHIPPED = (".py", ".toml", ".html", ".js", ".css")  # modules, the default scene, the view's page
+
+
+def tracked_files() -> list[str]:
+    try:
+        listed = subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, check=True, timeout=60)
+    except (OSError, subprocess.CalledProcessError):
+        pytest.skip("needs a git checkout to know which files a clean clone has")
+    return [name for name in listed.stdout.decode().split("\0") if name]
+
+
+@pytest.mark.slow
+def test_the_wheel_holds_every_module_and_data_file(tmp_path):
+    source = tmp_path / "clone"
+    for name in tracked_files():
+        if (ROOT / name).is_file():
+            (source / name).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(ROOT / name, source / name)
+    built = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q",
+                            "-w", str(tmp_path / "dist"), str(source)], capture_output=True, text=True, timeout=600)
+    assert built.returncode == 0, built.stderr[-2000:]
+    (wheel,) = (tmp_path / "dist").glob("raycast_phong-*.whl")
+    with zipfile.ZipFile(wheel) as archive:
+        shipped = {name for name in archive.namelist() if name.startswith("raycast_phong/")}
+    wanted = {path.relative_to(source).as_posix() for path in (source / "raycast_phong").rglob("*")
+              if path.suffix in SHIPPED and "__pycache__" not in path.parts}
+    assert wanted - shipped == set(), "tracked files the wheel leaves out"
+    assert "raycast_phong/tools/batch/manifest.py" in shipped  # the package a hand-written list once left out
+    assert not any(name.startswith(("tests/", "benchmarks/", "cli.py")) for name in archive.namelist())
