@@ -28,9 +28,11 @@ from pathlib import Path
 import numba
 from numba import njit
 from numba.core import environment
-from numba.core.caching import FunctionCache
+from numba.core.caching import FunctionCache, NullCache
 from numba.core.compiler_lock import global_compiler_lock
 from numba.core.runtime.nrt import rtsys
+
+from .compiles import compiling
 
 PACKAGE = Path(__file__).resolve().parent  # raycast_phong/: a kernel may import from anywhere in it
 OWN_CACHE = Path(__file__).resolve().parent / "__pycache__"
@@ -122,14 +124,16 @@ def kernel(**options):
         settings = {"nogil": True, "error_model": "numpy", **options}
         if folder is None:
             set_up()  # every first call compiles: numba's registries load then, without the BLAS probe
-            return njit(cache=False, **settings)(function)
+            dispatcher = njit(cache=False, **settings)(function)
+            dispatcher._cache = _NothingCached(function)  # each first call compiles, and is told so
+            return dispatcher
         previous = numba.config.CACHE_DIR
         numba.config.CACHE_DIR = str(folder)  # read once, when njit makes the function's cache locator
         try:
             dispatcher = njit(cache=True, **settings)(function)
-            if LIGHT_LOAD and isinstance(getattr(dispatcher, "_cache", None), FunctionCache):
+            if isinstance(getattr(dispatcher, "_cache", None), FunctionCache):
                 dispatcher._cache = _CacheLoadedAsIs(function)  # same folder, same files: only the load differs
-            else:
+            if not LIGHT_LOAD:
                 set_up()  # numba's own load refreshes the registries: without the BLAS probe
             return dispatcher
         finally:
@@ -156,19 +160,33 @@ class _CacheLoadedAsIs(FunctionCache):
     set_up(), so the BLAS probe is still skipped."""
 
     def load_overload(self, sig, target_context):
-        rtsys.initialize(target_context)  # what numba's refresh starts with (cpu.py); idempotent
-        loaded = None
-        # numba holds this lock around every load and compile; taken again (it is re-entrant) so that the
-        # unpickler's environment rebuild is swapped for this load alone, whoever calls.
-        with global_compiler_lock, self._guard_against_spurious_io_errors():  # numba's own (Windows: a busy file)
-            rebuild, environment._rebuild_env = environment._rebuild_env, _environment_as_is
-            try:
-                loaded = self._load_overload(sig, target_context)
-            finally:
-                environment._rebuild_env = rebuild
+        if not LIGHT_LOAD:
+            loaded = super().load_overload(sig, target_context)
+        else:
+            rtsys.initialize(target_context)  # what numba's refresh starts with (cpu.py); idempotent
+            loaded = None
+            # numba holds this lock around every load and compile; taken again (it is re-entrant) so that the
+            # unpickler's environment rebuild is swapped for this load alone, whoever calls.
+            with global_compiler_lock, self._guard_against_spurious_io_errors():  # numba's own (Windows: busy file)
+                rebuild, environment._rebuild_env = environment._rebuild_env, _environment_as_is
+                try:
+                    loaded = self._load_overload(sig, target_context)
+                finally:
+                    environment._rebuild_env = rebuild
         if loaded is None:
             set_up()  # numba is about to compile (and load its registries)
+            compiling(self._py_func.__name__, sig)
         return loaded
+
+
+class _NothingCached(NullCache):
+    """numba's cache of a kernel when no folder is writable: nothing is ever loaded, and each compile is told."""
+
+    def __init__(self, function):
+        self._py_func = function
+
+    def load_overload(self, sig, target_context):
+        compiling(self._py_func.__name__, sig)
 
 
 def _environment_as_is(module_name, consts, name):
@@ -212,10 +230,3 @@ def set_up() -> None:
     finally:
         if blocked and sys.modules.get("scipy.linalg", False) is None:
             del sys.modules["scipy.linalg"]
-
-
-def compiled_before(kernel_name: str) -> bool:
-    """Whether this source's cache already holds `kernel_name` (e.g. "_shade_rays") for some signature:
-    if not, the next process to call it compiles it (seconds), and the CLI says so before it starts."""
-    folder = cache_folder()
-    return folder is not None and any(folder.rglob(f"*.{kernel_name}-*.nbi"))

@@ -90,7 +90,7 @@ def kernels_ready(tmp_path_factory):
 
     A render on an empty cache says "compiling ..." first (renderer/warmup.py); tests that run the CLI check its
     exact output, so which of them came first on a fresh clone must not decide what they see. The tests of the
-    notice itself stand in for the cache (monkeypatch jit.compiled_before)."""
+    notice itself stand in for a cache miss (compiles.compiling, as numba's cache reports one)."""
     import trimesh
 
     from raycast_phong.renderer.warmup import ready_kernels

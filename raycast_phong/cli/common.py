@@ -60,8 +60,10 @@ class OneLineErrors(TyperGroup):
             sys.exit(2)
         if not standalone_mode:
             return super().main(*args, standalone_mode=False, **kwargs)
+        from raycast_phong import compiles
         try:
-            code = super().main(*args, standalone_mode=False, **kwargs)
+            with compiles.told(_say_compiling):  # any command's compile not announced by its own warm-up
+                code = super().main(*args, standalone_mode=False, **kwargs)
         except getattr(_click_errors, "NoArgsIsHelpError", ()):
             return super().main(*args, **kwargs)  # no arguments at all: typer shows the help, as it did
         except _click_errors.ClickException as error:
@@ -74,6 +76,12 @@ class OneLineErrors(TyperGroup):
             typer.secho("error: aborted", err=True, fg=typer.colors.RED)
             sys.exit(1)
         sys.exit(code if isinstance(code, int) else 0)  # a command's typer.Exit(code), else success
+
+
+def _say_compiling(name: str, signature: str) -> None:
+    """Told before a kernel compiles (compiles.told): one line, so a minute of compiling is never silent."""
+    typer.echo(f"compiling the renderer's kernels (from {name}), once after an install or an edit (up to a minute "
+               "or two on 2 cores)...", err=True)
 
 
 def _stdout_identity() -> tuple[int, int] | None:

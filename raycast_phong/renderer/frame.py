@@ -19,7 +19,7 @@ from .kernels.tile import render_band
 from .pack import film_rows
 from .prepare import NO_SHADOWS, TILE_RAYS, default_threads, prepare
 
-__all__ = ["TILE_RAYS", "default_threads", "render", "render_file", "tile_kernel", "warm_kernels",
+__all__ = ["TILE_RAYS", "default_threads", "render", "render_file", "warm_kernels",
            "warm_kernels_for"]
 
 
@@ -32,11 +32,6 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     """
     return prepare(scene, source=source, threads=threads, max_memory=max_memory, plan=plan,
                    progress=progress).render()
-
-
-def tile_kernel() -> str:
-    """The kernel a render runs its tiles in (for jit.compiled_before)."""
-    return "render_band"
 
 
 def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64)) -> None:

@@ -3,13 +3,14 @@ them compiles and no kernel loads inside the timed stages: the mesh preparation'
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 
 import numpy as np
 import trimesh
 
-from raycast_phong import jit
+from raycast_phong import compiles
 from raycast_phong.geometry import kernels
 from raycast_phong.geometry.mesh_repair import MESH_FILE_KERNELS
 from raycast_phong.geometry.normals import CREASE_KERNELS
@@ -22,11 +23,22 @@ def mesh_scene(tmp_path):
     return validate_scene({"objects": [{"shape": "mesh", "path": str(tmp_path / "ball.ply")}]}, source="t")
 
 
+def missing(monkeypatch, module, name: str, kernel: str) -> None:
+    """`module.name` (a warm-up) meets a cache miss of `kernel`, as numba's cache reports one (compiles.compiling)."""
+    warm = getattr(module, name)
+
+    def missed(*args):
+        compiles.compiling(kernel, "(float64, int64)")
+        return warm(*args)
+    monkeypatch.setattr(module, name, missed)
+
+
 def test_a_mesh_file_scene_is_told_it_compiles_when_only_its_preparation_kernels_are_missing(tmp_path, monkeypatch):
+    from raycast_phong.geometry import mesh_repair
     said = []
-    monkeypatch.setattr(jit, "compiled_before", lambda name: name not in MESH_FILE_KERNELS)  # the rest cached
+    missing(monkeypatch, mesh_repair, "warm_up", "merge_rows")  # the rest cached
     assert warmup.ready_kernels(mesh_scene(tmp_path), said.append)[0] == "compile" and len(said) == 1
-    assert "compiling the shading kernels" in said[0]
+    assert "compiling the float32 shading kernels" in said[0]
     said.clear()  # a scene of built-in shapes calls none of them: nothing to say
     shapes = validate_scene({"objects": [{"shape": "icosphere"}]}, source="t")
     assert warmup.ready_kernels(shapes, said.append)[0] == "kernels" and said == []
@@ -34,14 +46,36 @@ def test_a_mesh_file_scene_is_told_it_compiles_when_only_its_preparation_kernels
 
 def test_an_obj_scene_is_told_it_compiles_when_only_its_polygon_scan_is_missing(tmp_path, monkeypatch):
     """Reading an OBJ calls the polygon scan's kernels (io/obj_polygons.py); a PLY does not."""
-    from raycast_phong.io.obj_polygons import OBJ_KERNELS
+    from raycast_phong.io import obj_polygons
     said = []
-    monkeypatch.setattr(jit, "compiled_before", lambda name: name not in OBJ_KERNELS)  # the rest cached
+    missing(monkeypatch, obj_polygons, "warm_up", "_scan")  # the rest cached
     trimesh.creation.icosphere(1).export(tmp_path / "ball.obj")
     obj = validate_scene({"objects": [{"shape": "mesh", "path": str(tmp_path / "ball.obj")}]}, source="t")
     assert warmup.ready_kernels(obj, said.append)[0] == "compile" and len(said) == 1
     said.clear()
     assert warmup.ready_kernels(mesh_scene(tmp_path), said.append)[0] == "kernels" and said == []
+
+
+def test_a_kernel_compiled_for_float32_only_is_told_to_compile_for_float64(tmp_path):
+    """The cache holds a kernel per signature: a float64 call after float32 ones compiles, and is told so (it
+    was silent when the check asked for "some signature"). A kernel of its own in a fresh cache folder, in a
+    process of its own: three calls, three processes."""
+    module = tmp_path / "tiny_kernel.py"
+    module.write_text("from raycast_phong.jit import kernel\n\n@kernel()\ndef twice(x):\n    return x + x\n")
+    code = ("import sys, numpy as np; sys.path.insert(0, sys.argv[1]); from raycast_phong import compiles\n"
+            "with compiles.told(lambda name, sig: print('told', name, sig)) as heard:\n"
+            "    import tiny_kernel; tiny_kernel.twice(getattr(np, sys.argv[2])(1))\n"
+            "print('heard', heard)\n")
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    told = []
+    for precision in ("float32", "float32", "float64"):
+        done = subprocess.run([sys.executable, "-c", code, str(tmp_path), precision], capture_output=True, text=True,
+                              timeout=300, env=env)
+        assert done.returncode == 0, done.stderr
+        told.append(done.stdout)
+    assert told[0] == "told twice (float32,)\nheard ['twice']\n", told[0]  # first call: compiled, told first
+    assert told[1] == "heard []\n", told[1]  # the same signature again: loaded from the cache, nothing told
+    assert told[2] == "told twice (float64,)\nheard ['twice']\n", told[2]
 
 
 def test_the_warm_up_loads_the_mesh_preparation_kernels_with_the_types_a_file_gives_them(tmp_path):
@@ -77,15 +111,18 @@ def test_numba_s_set_up_leaves_scipy_linalg_unimported():
 
 
 def test_a_missing_mesh_file_is_refused_before_the_compiling_notice(tmp_path, monkeypatch):
-    """The first render after an install compiles for 10-40 s: a scene whose mesh file is missing is told so at
+    """The first render after an install compiles for a minute: a scene whose mesh file is missing is told so at
     once, in the read's own words, and never hears "compiling" first."""
     import pytest
 
     from raycast_phong.errors import SceneError
+    from raycast_phong.renderer import frame
     said = []
-    monkeypatch.setattr(jit, "compiled_before", lambda name: False)  # nothing cached: the notice would be said
+    missing(monkeypatch, frame, "warm_kernels_for", "render_band")  # nothing cached: the notice would be said
     scene = validate_scene({"objects": [{"shape": "icosphere"}, {"shape": "mesh", "path": str(tmp_path / "no.ply")}]},
                            source="t")
     with pytest.raises(SceneError, match=r"^s\.toml: objects\.1\.path: no such mesh file"):
         warmup.ready_kernels(scene, said.append, "s.toml")
     assert said == []
+    shapes = validate_scene({"objects": [{"shape": "icosphere"}]}, source="t")  # the control: it is said
+    assert warmup.ready_kernels(shapes, said.append, "s.toml")[0] == "compile" and len(said) == 1
