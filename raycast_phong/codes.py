@@ -1,5 +1,6 @@
 """The shared vocabularies, each named once: shading and specular models, viewer and mode, light kinds, mesh
-views, precisions, shapes, AOV layer names, file suffixes, and the numbers compiled code uses for them.
+views, precisions, shapes, plan stages, AOV layer names, file suffixes, and the numbers compiled code uses
+for them.
 
 The scene schema, the plan, the memory estimate, the film, the geometry stage, the CLI and the kernels'
 layout all derive from these, so a new model or layer is added here and nowhere else is a second list to
@@ -49,6 +50,31 @@ class View(str, Enum):
 class Precision(str, Enum):
     FLOAT32 = "float32"
     FLOAT64 = "float64"
+
+
+class StageName(str, Enum):
+    """The stages and terms a render plan keeps or leaves out (renderer/plan.py decides each, with its reason)."""
+    VERTEX_NORMALS = "vertex_normals"
+    CREASE_SPLIT = "crease_split"
+    EMISSION = "emission"
+    SCENE_AMBIENT = "scene_ambient"
+    LIGHT_AMBIENT = "light_ambient"
+    DIFFUSE = "diffuse"
+    SPECULAR = "specular"
+    ATTENUATION = "attenuation"
+    VIEW_VECTOR_PER_POINT = "view_vector_per_point"
+    SUPERSAMPLING = "supersampling"
+    SCREEN_INTERPOLATION = "screen_interpolation"
+    TWO_SIDED = "two_sided"
+    SHADOW_RAYS = "shadow_rays"
+    TERMINATOR_FIX = "terminator_fix"
+    AOV_GEOMETRY = "aov_geometry"
+    AOV_TERMS = "aov_terms"
+    SHADING_MODELS = "shading_models"
+    FLOAT64_SHADING = "float64_shading"
+    WINDING_REPAIR = "winding_repair"   # known once the geometry is (plan.diagnose)
+    TEXTURES = "textures"               # likewise
+    VERTEX_COLOURS = "vertex_colours"   # likewise
 
 
 def codes_of(enum: type[Enum]) -> dict:

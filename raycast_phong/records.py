@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .codes import MATERIAL_TABLE_WIDTH
+from .codes import MATERIAL_TABLE_WIDTH, StageName
 
 
 @dataclass(frozen=True, eq=False)
@@ -97,10 +97,14 @@ class ImageBuffers:
 
 @dataclass(frozen=True)
 class Stage:
-    """One line of a render plan: a stage or term, whether it runs, and why."""
+    """One line of a render plan: a stage or term, whether it runs, and why. `name` is one of codes.StageName
+    (kept as its plain string, which is what the CLI, the view and JSON show); another name raises ValueError."""
     name: str
     kept: bool
     reason: str
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "name", StageName(self.name).value)
 
 
 @dataclass(frozen=True)
@@ -113,11 +117,16 @@ class RenderPlan:
     warnings: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()     # what a mesh file's materials left out or approximated (geometry.file_notes)
 
-    def keeps(self, name: str) -> bool:
+    def keeps(self, name: StageName) -> bool:
         for stage in self.stages:
             if stage.name == name:
                 return stage.kept
         raise KeyError(name)
+
+    @property
+    def real(self) -> type:
+        """The shading precision's numpy type: np.float64 where the plan keeps float64 shading, else np.float32."""
+        return np.float64 if self.keeps(StageName.FLOAT64_SHADING) else np.float32
 
     def describe(self) -> str:
         width = max(len(stage.name) for stage in self.stages)

@@ -11,7 +11,7 @@ from typing import Annotated
 import typer
 
 import raycast_phong as rp
-from raycast_phong.codes import Mode, ShadingModel, SpecularModel
+from raycast_phong.codes import Mode, ShadingModel, SpecularModel, StageName
 
 from .common import (
     MaxMemoryOption,
@@ -90,7 +90,7 @@ def render(
     if srgb and Path(output).suffix.lower() == ".exr":  # said even with --quiet: the option did nothing
         typer.secho(f"warning: --srgb encodes a PNG; {output} is an EXR of linear float32 values, written "
                     "unencoded", err=True, fg=typer.colors.YELLOW)
-    if not quiet and not srgb and result.plan.keeps("textures") and Path(output).suffix.lower() == ".png":
+    if not quiet and not srgb and result.plan.keeps(StageName.TEXTURES) and Path(output).suffix.lower() == ".png":
         from raycast_phong.renderer.plan import TEXTURE_DISPLAY_HINT
         typer.echo(f"note: colour maps are decoded to linear values: {TEXTURE_DISPLAY_HINT}", err=True)
     if not quiet:

@@ -58,7 +58,7 @@ def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64)) -> None:
 def warm_kernels_for(plans: list[RenderPlan]) -> None:
     """warm_kernels with only the shading precisions these plans need."""
     if plans:
-        warm_kernels(tuple({np.float64 if plan.keeps("float64_shading") else np.float32 for plan in plans}))
+        warm_kernels(tuple({plan.real for plan in plans}))
 
 
 def render_file(path: str | Path, overrides: list[str] | tuple[str, ...] = (), *, view: str | None = None,

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..codes import WRAP_CODE
+from ..codes import WRAP_CODE, StageName
 from ..geometry.materials import material_rows
 from ..records import Frame, Geometry, ImageBuffers, RenderPlan, Texture
 from ..scene.schema import DEFAULT_MATERIAL, Scene, SpecularModel
@@ -120,13 +120,14 @@ def generate_rays(rig: CameraRig, frame: Frame, width: int, height: int, samples
 
 def plan_flags(plan: RenderPlan, scene: Scene) -> tuple[int, int]:
     """The shading kernel's flag bits and specular model for this plan."""
-    bits = {F_ATTENUATION: "attenuation", F_LIGHT_AMBIENT: "light_ambient", F_EMISSION: "emission",
-            F_SCENE_AMBIENT: "scene_ambient", F_DIFFUSE: "diffuse", F_VIEW_PER_POINT: "view_vector_per_point",
-            F_TWO_SIDED: "two_sided", F_SCREEN: "screen_interpolation", F_AOV_GEOMETRY: "aov_geometry",
-            F_AOV_TERMS: "aov_terms", F_SHADOWS: "shadow_rays", F_TEXTURES: "textures",
-            F_VERTEX_COLOURS: "vertex_colours"}
+    bits = {F_ATTENUATION: StageName.ATTENUATION, F_LIGHT_AMBIENT: StageName.LIGHT_AMBIENT,
+            F_EMISSION: StageName.EMISSION, F_SCENE_AMBIENT: StageName.SCENE_AMBIENT, F_DIFFUSE: StageName.DIFFUSE,
+            F_VIEW_PER_POINT: StageName.VIEW_VECTOR_PER_POINT, F_TWO_SIDED: StageName.TWO_SIDED,
+            F_SCREEN: StageName.SCREEN_INTERPOLATION, F_AOV_GEOMETRY: StageName.AOV_GEOMETRY,
+            F_AOV_TERMS: StageName.AOV_TERMS, F_SHADOWS: StageName.SHADOW_RAYS, F_TEXTURES: StageName.TEXTURES,
+            F_VERTEX_COLOURS: StageName.VERTEX_COLOURS}
     flags = sum(bit for bit, stage in bits.items() if plan.keeps(stage))
-    if not plan.keeps("specular"):
+    if not plan.keeps(StageName.SPECULAR):
         specular = SPECULAR_NONE
     else:
         specular = SPECULAR_PHONG if scene.render.specular == SpecularModel.PHONG else SPECULAR_BLINN

@@ -12,7 +12,7 @@ import re
 
 import numpy as np
 
-from ..codes import GEOMETRY_LAYERS, TERM_LAYERS, Mode, ShadingModel, SpecularModel, Viewer
+from ..codes import GEOMETRY_LAYERS, TERM_LAYERS, Mode, ShadingModel, SpecularModel, StageName, Viewer
 from ..records import RenderPlan, Stage
 from ..scene.kinds import object_kinds
 from ..scene.schema import MAX_SAMPLES, Material, Scene
@@ -57,12 +57,12 @@ def _term_stages(scene: Scene, kinds: list, smooth: list, optimize: bool) -> tup
         materials.append(FILE_MATERIALS)
     stages = []
 
-    def add(name: str, needed: bool, why_kept: str, why_left_out: str) -> None:
+    def add(name: StageName, needed: bool, why_kept: str, why_left_out: str) -> None:
         kept = needed or not optimize
         reason = why_kept if needed else (why_left_out if kept is False else f"kept for comparison: {why_left_out}")
         stages.append(Stage(name, kept, reason))
 
-    add("vertex_normals", bool(smooth),
+    add(StageName.VERTEX_NORMALS, bool(smooth),
         f"{sum(n for _, n in smooth)} object(s) with Gouraud or Phong shading",
         "every object is flat-shaded: face normals only")
     creased = sum(n for obj, n in smooth if obj.crease_angle < 180)
@@ -71,27 +71,28 @@ def _term_stages(scene: Scene, kinds: list, smooth: list, optimize: bool) -> tup
                 and "crease_angle" not in obj.model_fields_set)
     if maybe:
         from ..io.mesh_file import FILE_CREASE_ANGLE
-    add("crease_split", bool(creased or maybe),
+    add(StageName.CREASE_SPLIT, bool(creased or maybe),
         "; ".join(([f"{creased} smooth object(s) with crease_angle < 180°"] if creased else [])
                   + ([f"{maybe} mesh object(s) creased at {FILE_CREASE_ANGLE:g}° if the file stores no "
                       "normals (set crease_angle to choose)"] if maybe else [])),
         "no smooth object has a crease angle below 180°")
     own = [m for m in materials if m is not FILE_MATERIALS]
-    add("emission", _any_positive(m.ke for m in materials),
+    add(StageName.EMISSION, _any_positive(m.ke for m in materials),
         "some material has k_e > 0" if _any_positive(m.ke for m in own)
         else "a mesh file's own materials may have k_e > 0 (read with the geometry)", "every material's k_e is 0")
-    add("scene_ambient", max(scene.ambient) > 0 and _any_positive(m.ka for m in materials),
+    add(StageName.SCENE_AMBIENT, max(scene.ambient) > 0 and _any_positive(m.ka for m in materials),
         "I_a and some k_a are > 0", "I_a is 0 or every k_a is 0")
-    add("light_ambient", _any_positive(light.ambient for light in lights) and _any_positive(m.ka for m in materials),
+    add(StageName.LIGHT_AMBIENT,
+        _any_positive(light.ambient for light in lights) and _any_positive(m.ka for m in materials),
         "some light has its own ambient and some k_a > 0", "no light has its own ambient (or every k_a is 0)")
-    add("diffuse", _any_positive(light.diffuse for light in lights) and _any_positive(m.kd for m in materials),
+    add(StageName.DIFFUSE, _any_positive(light.diffuse for light in lights) and _any_positive(m.kd for m in materials),
         "some light's I_d and some k_d are > 0", "no light has I_d > 0 with a material whose k_d > 0")
     specular = _any_positive(light.specular for light in lights) and _any_positive(m.ks for m in materials)
     formula = "max(v·r, 0)^f" if render.specular == SpecularModel.PHONG else "max(n·h, 0)^f, h = normalize(l + v)"
-    add("specular", specular, f"{render.specular.value}: {formula}",
+    add(StageName.SPECULAR, specular, f"{render.specular.value}: {formula}",
         "every material's k_s or every light's I_s is 0")
     attenuating = [light for light in lights if light.type == "point" and light.attenuation != "none"]
-    add("attenuation", bool(attenuating), f"{len(attenuating)} point light(s) attenuate",
+    add(StageName.ATTENUATION, bool(attenuating), f"{len(attenuating)} point light(s) attenuate",
         "no point light attenuates: f_att = 1")
     return stages, specular
 
@@ -108,7 +109,7 @@ def _view_stage(scene: Scene, specular: bool) -> Stage:
         why = "infinite viewer: one view vector, −forward, for the whole image"
     else:
         why = "orthographic camera: the eye is at infinity, one view vector −forward"
-    return Stage("view_vector_per_point", per_point, why)
+    return Stage(StageName.VIEW_VECTOR_PER_POINT, per_point, why)
 
 
 def _sampling_stages(scene: Scene) -> list[Stage]:
@@ -116,13 +117,13 @@ def _sampling_stages(scene: Scene) -> list[Stage]:
     render = scene.render
     screen = render.interpolation == "screen"
     return [
-        Stage("supersampling", render.samples > 1,
+        Stage(StageName.SUPERSAMPLING, render.samples > 1,
               f"{render.samples}×{render.samples} rays per pixel, averaged" if render.samples > 1
               else "samples = 1: one ray through each pixel centre, no averaging loop"),
-        Stage("screen_interpolation", screen,
+        Stage(StageName.SCREEN_INTERPOLATION, screen,
               "interpolation = screen: weights linear in the image plane" if screen
               else "perspective-correct weights straight from Embree"),
-        Stage("two_sided", render.two_sided,
+        Stage(StageName.TWO_SIDED, render.two_sided,
               "back-facing hits are shaded with the normal flipped toward the viewer" if render.two_sided
               else "two_sided = false: back faces shaded with their own normal"),
     ]
@@ -148,7 +149,8 @@ def _shadow_stages(scene: Scene, smooth: list) -> list[Stage]:
         terminator_reason = "every object is flat-shaded: the facets are the surface"
     else:
         terminator_reason = 'terminator = "none": shadow rays start at the hit point'
-    return [Stage("shadow_rays", shadows, shadow_reason), Stage("terminator_fix", hanika, terminator_reason)]
+    return [Stage(StageName.SHADOW_RAYS, shadows, shadow_reason),
+            Stage(StageName.TERMINATOR_FIX, hanika, terminator_reason)]
 
 
 def _output_stages(scene: Scene) -> list[Stage]:
@@ -157,11 +159,11 @@ def _output_stages(scene: Scene) -> list[Stage]:
     term_aovs = sorted(set(TERM_LAYERS) & set(scene.output.aovs))
     models = {scene.shading_of(obj) for obj, _ in _kinds(scene)}
     return [
-        Stage("aov_geometry", bool(geometry_aovs),
+        Stage(StageName.AOV_GEOMETRY, bool(geometry_aovs),
               f"layers {', '.join(geometry_aovs)}" if geometry_aovs else "no depth/normal/face layer asked for"),
-        Stage("aov_terms", bool(term_aovs),
+        Stage(StageName.AOV_TERMS, bool(term_aovs),
               f"layers {', '.join(term_aovs)}" if term_aovs else "no per-term layer asked for"),
-        Stage("shading_models", True, ", ".join(sorted(m.value for m in models))),
+        Stage(StageName.SHADING_MODELS, True, ", ".join(sorted(m.value for m in models))),
     ]
 
 
@@ -177,7 +179,7 @@ def _precision_stage(scene: Scene, specular: bool) -> Stage:
                   "so this scene is shaded in float64")
     else:
         reason = "precision = float32"
-    return Stage("float64_shading", scene.render.precision == "float64" or bool(stiff), reason)
+    return Stage(StageName.FLOAT64_SHADING, scene.render.precision == "float64" or bool(stiff), reason)
 
 
 def surface_maps(geometry) -> list[Stage]:
@@ -188,10 +190,10 @@ def surface_maps(geometry) -> list[Stage]:
     maps = [texture.name for texture in geometry.textures]
     textured = bool(maps) and len(geometry.corner_uv) > 0
     shown = ", ".join(maps[:3]) + (f" and {len(maps) - 3} more" if len(maps) > 3 else "")
-    return [Stage("textures", textured,
+    return [Stage(StageName.TEXTURES, textured,
                   f"{len(maps)} colour map{'s' if len(maps) != 1 else ''} ({shown}), decoded to linear values: "
                   f"{TEXTURE_DISPLAY_HINT}" if textured else "no material has a colour map"),
-            Stage("vertex_colours", len(geometry.corner_colour) > 0,
+            Stage(StageName.VERTEX_COLOURS, len(geometry.corner_colour) > 0,
                   "vertex colours multiply k_a and k_d at each face corner" if len(geometry.corner_colour)
                   else "no face has vertex colours")]
 
@@ -217,12 +219,12 @@ def diagnose(plan: RenderPlan, scene: Scene, geometry) -> RenderPlan:
     with the same warning share one line (aggregate_warnings): 40,000 spheres give one line, not 40,000.
     """
     stages = list(plan.stages)
-    stages.append(Stage("winding_repair", bool(geometry.notes),
+    stages.append(Stage(StageName.WINDING_REPAIR, bool(geometry.notes),
                         "; ".join(aggregate_notes(geometry.notes)) if geometry.notes
                         else "no mesh file needed a winding repair"))
     stages += surface_maps(geometry)
     found: list[tuple[tuple, int, float]] = []  # (what the warning says, object, its measured figure)
-    if plan.keeps("specular"):
+    if plan.keeps(StageName.SPECULAR):
         found = [*gouraud_findings(scene, geometry), *subpixel_findings(scene, geometry)]
     from ..geometry.build import behind_camera  # geometry loads trimesh: only once a render has geometry
     behind = behind_camera(scene, geometry.vertices)

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..codes import StageName
 from ..geometry.build import build_geometry
 from ..geometry.normals import prep_threads
 from ..io.system import default_threads
@@ -56,7 +57,7 @@ class Prepared:
     @property
     def real(self) -> type:
         """The shading precision."""
-        return np.float64 if self.plan.keeps("float64_shading") else np.float32
+        return self.plan.real
 
     def build(self) -> Accelerator:
         """The BVH (starts Embree; committed before any thread uses it)."""
@@ -97,7 +98,7 @@ def prepare(scene: Scene, *, source: str = "<scene>", threads: int | None = None
     progress: called as progress(tiles_done, tiles_total) by render().
     """
     plan = plan or build_plan(scene)
-    if plan.keeps("shadow_rays") and len(scene.lights) > MAX_LIGHTS:
+    if plan.keeps(StageName.SHADOW_RAYS) and len(scene.lights) > MAX_LIGHTS:
         raise SceneError(f"{source}: lights: global mode handles at most {MAX_LIGHTS} lights, "
                          f"the scene has {len(scene.lights)}; use render.mode = \"local\" or fewer lights")
     width, height, samples = scene.render.width, scene.render.height, scene.render.samples
@@ -105,15 +106,15 @@ def prepare(scene: Scene, *, source: str = "<scene>", threads: int | None = None
     bands = tuple((row, min(row + rows_per_tile, height)) for row in range(0, height, rows_per_tile))
     threads = threads or default_threads()
     tile_rays = rows_per_tile * width * samples * samples
-    memory = check_memory(scene, source, max_memory, smooth=plan.keeps("vertex_normals"),
-                          float64=plan.keeps("float64_shading"),
-                          shadow_lights=len(scene.lights) if plan.keeps("shadow_rays") else 0,
+    memory = check_memory(scene, source, max_memory, smooth=plan.keeps(StageName.VERTEX_NORMALS),
+                          float64=plan.keeps(StageName.FLOAT64_SHADING),
+                          shadow_lights=len(scene.lights) if plan.keeps(StageName.SHADOW_RAYS) else 0,
                           tile_rays=tile_rays, threads=min(threads, len(bands)))
 
     start = time.perf_counter()
-    real = np.float64 if plan.keeps("float64_shading") else np.float32
+    real = plan.real
     with prep_threads(threads):  # a large mesh's preparation uses as many threads as its tiles
-        geometry = build_geometry(scene, source=source, vertex_normals=plan.keeps("vertex_normals"),
+        geometry = build_geometry(scene, source=source, vertex_normals=plan.keeps(StageName.VERTEX_NORMALS),
                                   normal_dtype=real)
     timings = {"geometry": time.perf_counter() - start}
     plan = diagnose(plan, scene, geometry)
@@ -123,7 +124,7 @@ def prepare(scene: Scene, *, source: str = "<scene>", threads: int | None = None
         scene=scene, source=source, plan=plan, memory=memory, geometry=geometry, frame=frame,
         rays=RayGenerator(rig, frame, width, height, samples, max_rays=tile_rays),
         shading=prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), real),
-        shadows=prepare_shadows(scene, geometry, frame) if plan.keeps("shadow_rays") else None,
+        shadows=prepare_shadows(scene, geometry, frame) if plan.keeps(StageName.SHADOW_RAYS) else None,
         bands=bands, threads=threads, progress=progress, timings=timings)
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 
+from ..codes import StageName
 from ..scene.schema import Scene
 
 
@@ -37,12 +38,12 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
             open_mesh_file(scene.resolve(obj.path), f"{source}: objects.{index}.path").close()
             meshes = True
             objs = objs or str(obj.path).lower().endswith(".obj")
-    creases = plan.keeps("vertex_normals") and (meshes or any(obj.crease_angle < 180 for _, obj in kinds))
-    real = np.float64 if plan.keeps("float64_shading") else np.float32
+    creases = plan.keeps(StageName.VERTEX_NORMALS) and (meshes or any(obj.crease_angle < 180 for _, obj in kinds))
+    real = plan.real
 
     def tell(name: str, signature: str) -> None:
         if announce is not None:
-            precision = "float64" if real == np.float64 else "float32"
+            precision = np.dtype(real).name
             announce(f"compiling the {precision} shading kernels (and the mesh preparation's), once after an "
                      "install or an edit (about 30-90 s on 2 cores)...")
 

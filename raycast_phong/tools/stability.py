@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..codes import StageName
 from ..geometry.build import build_geometry
 from ..records import RenderPlan, Stage
 from ..renderer.frame import render
@@ -70,7 +71,7 @@ def sphere_scene(shininess: float = 32.0, subdivisions: int = 4, size: int = 48,
 
 def with_precision(plan: RenderPlan, float64: bool) -> RenderPlan:
     """The plan with its shading precision forced (to measure what float32 would have done)."""
-    stages = tuple(Stage(s.name, float64, "forced by the stability suite") if s.name == "float64_shading" else s
+    stages = tuple(Stage(s.name, float64, "forced by the stability suite") if s.name == StageName.FLOAT64_SHADING else s
                    for s in plan.stages)
     return RenderPlan(stages, plan.warnings)
 
@@ -118,8 +119,8 @@ def float32_highlight_error(shininess: float) -> tuple[float, float]:
 @case
 def float32_shininess_limit() -> CaseResult:
     errors = {f: float32_highlight_error(f)[0] for f in (1e3, 1e4, F32_SHININESS_LIMIT, 1e6, 1e7)}
-    switched = build_plan(sphere_scene(1e6)).keeps("float64_shading")
-    stays = not build_plan(sphere_scene(1e3)).keeps("float64_shading")
+    switched = build_plan(sphere_scene(1e6)).keeps(StageName.FLOAT64_SHADING)
+    stays = not build_plan(sphere_scene(1e3)).keeps(StageName.FLOAT64_SHADING)
     figure = "forced float32 error near the highlight peak: " + ", ".join(f"{e:.0e} at f = {f:g}"
                                                                           for f, e in errors.items())
     return CaseResult("float32 and stiff highlights", f"above f = {F32_SHININESS_LIMIT:g} the plan shades in "
@@ -314,7 +315,7 @@ def inconsistent_winding() -> CaseResult:
             a = render(mesh_scene(clean, model)).image
             result = render(mesh_scene(mixed, model))
             worst = max(worst, float(np.abs(a - result.image).max()))
-            noted = result.plan.keeps("winding_repair")
+            noted = result.plan.keeps(StageName.WINDING_REPAIR)
     return CaseResult("inconsistent winding", "half the faces flipped: every model's image unchanged, "
                       "the plan says the winding was repaired", f"max change {worst:.1e}", worst < 1e-5 and noted)
 

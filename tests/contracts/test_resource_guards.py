@@ -20,6 +20,7 @@ import pytest
 import trimesh
 
 import raycast_phong as rp
+from raycast_phong.codes import StageName
 from raycast_phong.geometry.build import build_geometry
 from raycast_phong.io.mesh_header import mesh_file_triangles
 from raycast_phong.io.scene_file import MAX_SCENE_BYTES
@@ -324,7 +325,7 @@ def test_the_estimate_follows_the_measured_peak_of_a_mesh_file(tmp_path, shading
     measured = int(done.stdout.split()[-1])
     scene = rp.load_scene(path)
     plan = rp.build_plan(scene)
-    estimate = estimate_memory(scene, smooth=plan.keeps("vertex_normals"), tile_rays=64, threads=1)
+    estimate = estimate_memory(scene, smooth=plan.keeps(StageName.VERTEX_NORMALS), tile_rays=64, threads=1)
     assert measured <= estimate.total, (measured, estimate)
     assert estimate.total <= 1.6 * measured, (measured, estimate)
 

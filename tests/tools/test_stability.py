@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
+from raycast_phong.codes import StageName
 from raycast_phong.renderer.plan import F32_SHININESS_LIMIT
 from raycast_phong.tools import stability
 
@@ -55,7 +56,7 @@ def test_plan_warns_about_gouraud_and_suggests_the_subdivisions_that_resolve_it(
 
 def test_plan_switches_to_float64_and_says_so():
     plan = rp.build_plan(stability.sphere_scene(1e6))
-    assert plan.keeps("float64_shading")
+    assert plan.keeps(StageName.FLOAT64_SHADING)
     assert "shaded in float64" in plan.describe()
     assert rp.render(stability.sphere_scene(1e6, size=16)).image.dtype == np.float64
 

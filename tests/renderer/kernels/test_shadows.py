@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
+from raycast_phong.codes import StageName
 from raycast_phong.geometry.build import build_geometry
 from raycast_phong.renderer.intersect import Accelerator, unit_frame
 from raycast_phong.renderer.kernels.shadows import cast_shadows
@@ -207,7 +208,8 @@ def test_local_mode_casts_no_shadow_rays():
     """The tile kernel counts the shadow rays it casts: none in local mode, and (the same probe, the positive
     control) one per hit and light in global mode."""
     local, shadowed = two_light_scene(mode="local"), two_light_scene()
-    assert not rp.build_plan(local).keeps("shadow_rays") and rp.build_plan(shadowed).keeps("shadow_rays")
+    assert not rp.build_plan(local).keeps(StageName.SHADOW_RAYS)
+    assert rp.build_plan(shadowed).keeps(StageName.SHADOW_RAYS)
     assert rp.render(local).counts["shadow_rays"] == 0
     # The 8 × 8 plane fills the 6 × 3 view: every pixel is a hit, with a shadow ray to each of 2 lights.
     assert rp.render(shadowed).counts["shadow_rays"] == 120 * 60 * 2
