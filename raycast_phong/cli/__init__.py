@@ -6,6 +6,12 @@ schema). Importing them here, in this order, is what assembles the app and order
 program (the console script): app() and an exit without the interpreter's teardown (common.main).
 """
 
+import sys
+
+if sys.argv[1:2] == ["batch"]:  # the program, started as `raycast-phong batch`
+    from raycast_phong import stops
+    stops.listen()  # a signal in the first seconds (the imports below) is recorded, then acted on by the batch
+
 # isort: off
 from . import render, compare, accuracy, batch, view, scene  # noqa: F401  (each registers its commands)
 # isort: on

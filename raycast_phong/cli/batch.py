@@ -49,9 +49,11 @@ def batch(
     Ctrl-C or `kill` stops the workers at once; exit status 130 (SIGINT) or 143 (SIGTERM)."""
     import signal
 
+    from raycast_phong import stops
     from raycast_phong.tools import batch as batches
     # Ctrl-C, `kill` (SIGTERM), a closed terminal (SIGHUP) and SIGQUIT stop the batch: workers killed,
-    # temporaries removed, the manifest written.
+    # temporaries removed, the manifest written. One received while the program started (stops.listen, from
+    # cli/__init__.py) is acted on at the batch's first safe point.
     previous = {number: signal.signal(number, batches.interrupt) for number in batches.STOP_SIGNALS}
     try:
         with exit_codes():
@@ -64,6 +66,7 @@ def batch(
     finally:
         for number, handler in previous.items():
             signal.signal(number, handler)
+        stops.clear()
     for warning in report.warnings:
         typer.secho(f"warning: {warning}", err=True, fg=typer.colors.YELLOW)
     for outcome in report.failed:

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SceneError
+from .files import open_regular
 
 MAX_TEXTURE_SIZE = 2048
 # Bytes per texel of level 0 while a texture is in use: the decoded float32 RGB kept in the Geometry (12), the
@@ -80,10 +81,13 @@ def decode_pil(image) -> np.ndarray:
 
 
 def decode_scene_map(path: Path, where: str) -> np.ndarray:
-    """A scene material's map (kd_map, ...): one line, SceneError, when missing or not an image."""
-    if not path.is_file():
+    """A scene material's map (kd_map, ...): one line, SceneError, when missing, not a regular file (a FIFO, a
+    device, a folder: refused before any open that could block) or not an image."""
+    try:
+        open_regular(path, where, "texture file (PNG, JPEG, EXR, ...)").close()
+    except FileNotFoundError:
         raise SceneError(f"{where}: no such texture file {str(path)!r}; give an image file (PNG, JPEG, EXR, ...) "
-                         "relative to the scene file")
+                         "relative to the scene file") from None
     try:
         return decode_file(path)
     except Exception as error:  # noqa: BLE001 - any decoder failure is the file's
@@ -95,23 +99,30 @@ def decode_scene_map(path: Path, where: str) -> np.ndarray:
 # ---------------------------------------------------------------- sizes for the memory estimate
 
 def file_size(path: Path) -> tuple[int, int] | None:
-    """(height, width) of an image file from its header, or None when it is not one."""
+    """(height, width) of an image file from its header, or None when it is not one (nor a regular file: a FIFO
+    is never opened by a reader that would wait on it; the decode refuses it in its own words)."""
     try:
-        from PIL import Image
-        with Image.open(path) as image:
-            return image.height, image.width
-    except Exception:  # noqa: BLE001
+        handle = open_regular(path, str(path), "texture file")
+    except (SceneError, OSError):
+        return None
+    with handle:
         try:
-            import OpenImageIO as oiio
-            found = oiio.ImageInput.open(str(path))
-            if found is None:
-                oiio.geterror()  # retrieved, so OpenImageIO does not print it at exit
-                return None
-            spec = found.spec()
-            found.close()
-            return spec.height, spec.width
-        except Exception:  # noqa: BLE001
+            from PIL import Image
+            with Image.open(handle) as image:
+                return image.height, image.width
+        except Exception:  # noqa: BLE001 - not an image PIL reads (an EXR): OpenImageIO's header below
+            pass
+    try:
+        import OpenImageIO as oiio
+        found = oiio.ImageInput.open(str(path))
+        if found is None:
+            oiio.geterror()  # retrieved, so OpenImageIO does not print it at exit
             return None
+        spec = found.spec()
+        found.close()
+        return spec.height, spec.width
+    except Exception:  # noqa: BLE001
+        return None
 
 
 def texture_bytes(sizes) -> int:
@@ -138,8 +149,13 @@ def mesh_texture_sizes(path: Path) -> list[tuple[int, int]]:
 
 
 def _obj_sizes(path: Path) -> list[tuple[int, int]]:
+    return [size for size in map(file_size, _obj_maps(path)) if size]
+
+
+def _obj_maps(path: Path) -> list[Path]:
+    """The colour maps (map_Kd, map_Ka, map_Ke) an OBJ's .mtl names that exist, each once, in order."""
     from .mesh_file import _map_file, _texture_path, side_files
-    sizes, seen = [], set()
+    found_maps: list[Path] = []
     for mtl in side_files(path):
         if not mtl.is_file() or mtl.stat().st_size > 16 << 20:
             continue
@@ -147,12 +163,29 @@ def _obj_sizes(path: Path) -> list[tuple[int, int]]:
             words = line.split("#", 1)[0].split()
             if len(words) >= 2 and words[0].lower() in ("map_kd", "map_ka", "map_ke"):
                 found = _texture_path(mtl.parent, _map_file(words[1:]))
-                if found is not None and found not in seen:
-                    seen.add(found)
-                    size = file_size(found)
-                    if size:
-                        sizes.append(size)
-    return sizes
+                if found is not None and found not in found_maps:
+                    found_maps.append(found)
+    return found_maps
+
+
+def mesh_texture_files(path: Path) -> list[Path]:
+    """The image files outside a mesh file that its materials may read (an OBJ's .mtl maps, a .gltf's image
+    URIs other than data:), for batch's up-to-date rule: change one and the image changes. A .glb's images are
+    inside it. What cannot be read names nothing (the render reports it)."""
+    from urllib.parse import unquote
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".obj":
+            return _obj_maps(path)
+        if suffix == ".gltf" and path.stat().st_size <= 1 << 31:
+            with open_regular(path, str(path), "mesh file") as handle:
+                document = json.loads(handle.read())
+            return [path.parent / unquote(image["uri"]) for image in document.get("images", [])
+                    if isinstance(image, dict) and isinstance(image.get("uri"), str)
+                    and not image["uri"].startswith("data:")]
+    except (OSError, SceneError, ValueError, TypeError, AttributeError):
+        pass
+    return []
 
 
 def _gltf_sizes(path: Path) -> list[tuple[int, int]]:

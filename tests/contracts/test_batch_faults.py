@@ -410,3 +410,44 @@ def test_a_signal_inside_the_bookkeeping_of_a_finished_scene_still_lists_it(tmp_
     assert sorted(entries) == ["s00", "s01", "s02"]
     assert entries["s00"]["status"] == "rendered" and entries["s00"]["outputs"] == ["s00.png"]
     assert {entries["s01"]["status"], entries["s02"]["status"]} <= {"not started", "interrupted"}
+
+
+def test_a_signal_whose_raise_foreign_code_swallowed_still_stops_the_batch(tmp_path, five_scenes, monkeypatch):
+    """trimesh's imports catch BaseException, so a stop signal raised inside them was lost and the batch
+    rendered everything with exit 0. The handler records the signal; the next safe point acts on it: the
+    batch stops, and its manifest says what was done."""
+    from raycast_phong import stops
+    from raycast_phong.tools.batch import jobs, run
+    loaded = []
+
+    def prepare_with_a_swallowed_signal(job, *args, **kwargs):
+        if not loaded:
+            try:  # what trimesh's import guard does with the Interrupted our handler raises
+                jobs.interrupt(signal.SIGTERM, None)
+            except BaseException:  # noqa: BLE001
+                pass
+        loaded.append(job.name)
+        return jobs.prepare_job(job, *args, **kwargs)
+
+    monkeypatch.setattr(run, "prepare_job", prepare_with_a_swallowed_signal)
+    out = tmp_path / "out"
+    try:
+        with pytest.raises(batch.Interrupted) as stopped:
+            batch.run_batch(batch.find_jobs([five_scenes]), out, workers=1)
+    finally:
+        stops.clear()
+    assert stopped.value.signal == signal.SIGTERM and len(loaded) == 1  # stopped at the first safe point
+    assert set(statuses(out).values()) == {"not started"} and len(statuses(out)) == 5
+    assert images(out) == []
+
+
+def test_the_batch_records_stop_signals_from_its_first_imports():
+    """`raycast-phong batch` listens for stop signals before the imports of its first seconds (a SIGTERM there
+    killed it with -15, no line and no manifest); other commands keep Python's own handlers."""
+    probe = ("import signal, sys; sys.argv = ['raycast-phong', sys.argv[1]]; import raycast_phong.cli; "
+             "print(*(f'{h.__module__}.{h.__qualname__}' if callable(h) else str(h) "
+             "for h in map(signal.getsignal, (signal.SIGTERM, signal.SIGHUP))))")
+    listening, python_s = "raycast_phong.stops.record raycast_phong.stops.record", "0 0"  # 0: SIG_DFL
+    for command, expected in (("batch", listening), ("render", python_s)):
+        done = subprocess.run([sys.executable, "-c", probe, command], capture_output=True, text=True, timeout=120)
+        assert done.returncode == 0 and done.stdout.strip() == expected, (command, done.stdout, done.stderr)

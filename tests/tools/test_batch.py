@@ -152,6 +152,29 @@ def test_worker_processes_write_the_same_images(five_scenes, tmp_path):
     assert manifest(tmp_path / "two")["sphere0"]["threads"] == 2
 
 
+def test_a_changed_texture_renders_the_scene_again(tmp_path):
+    """Every file a render reads is an input of its entry: a scene's kd_map and an OBJ's .mtl map_Kd. Rewrite
+    either image (same size, so only its bytes tell) and that scene renders again; the other stays up to date."""
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    rp.write_image(folder / "wood.png", np.full((4, 4, 3), 0.25, np.float32))
+    rp.write_image(folder / "paint.png", np.full((4, 4, 3), 0.75, np.float32))
+    (folder / "mapped.toml").write_text(scene_text(shape="plane", extra="size = [1, 1]").replace(
+        "shininess = 32\n", 'shininess = 32\nkd_map = "wood.png"\n'))
+    (folder / "box.mtl").write_text("newmtl p\nKd 1 1 1\nmap_Kd paint.png\n")
+    (folder / "box.obj").write_text("mtllib box.mtl\nusemtl p\n" + TETRAHEDRON.replace("f 1 2 3", "vt 0 0\nf 1 2 3"))
+    (folder / "obj.toml").write_text(scene_text(shape="mesh", extra='path = "box.obj"').replace(
+        'material = "red"\n', ""))
+    out = tmp_path / "out"
+    assert run(str(folder / "mapped.toml"), str(folder / "obj.toml"), "--out", str(out)).exit_code == 0
+    assert run(str(folder / "mapped.toml"), str(folder / "obj.toml"), "--out", str(out)).exit_code == 0
+    assert statuses(out) == {"mapped": "up to date", "obj": "up to date"}
+    for image, stale in (("wood.png", "mapped"), ("paint.png", "obj")):
+        rp.write_image(folder / image, np.full((4, 4, 3), 0.5, np.float32))
+        assert run(str(folder / "mapped.toml"), str(folder / "obj.toml"), "--out", str(out)).exit_code == 0
+        assert statuses(out) == {"mapped": "up to date", "obj": "up to date", stale: "rendered"}, image
+
+
 def test_paths_globs_and_duplicate_names(five_scenes, tmp_path):
     found = batch.find_jobs([str(five_scenes / "sphere*.toml"), five_scenes / "mesh.toml"])
     assert [job.name for job in found] == ["sphere0", "sphere1", "sphere2", "mesh"]

@@ -15,6 +15,7 @@ import traceback
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
+from ... import stops
 from ...codes import SCENE_SUFFIXES
 from ...errors import ImageError, SceneError, WriteError
 from ...io.files import open_regular
@@ -23,6 +24,8 @@ from ...scene.load import load_scene
 from ...scene.schema import Scene
 from ..sweep import Job, is_sweep, load_sweep
 from .manifest import is_own_manifest
+
+STOP_SIGNALS = stops.STOP_SIGNALS
 
 # Statuses of a manifest entry: the last two only after an interrupt (SIGINT, SIGTERM).
 RENDERED, UP_TO_DATE, FAILED = "rendered", "up to date", "failed"
@@ -103,13 +106,19 @@ class Interrupted(KeyboardInterrupt):
 
 # The signals that stop a batch as Ctrl-C does: `kill`, and a closed terminal (SIGHUP) or Ctrl-\\ (SIGQUIT),
 # which would otherwise end it with no manifest written and its workers' temporary files left.
-STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP", "SIGQUIT")
-                     if hasattr(signal, name))
-
-
 def interrupt(number: int, frame) -> None:
-    """Signal handler (the `batch` command's, for STOP_SIGNALS): stop the batch as Ctrl-C would."""
+    """Signal handler (the `batch` command's, for STOP_SIGNALS): record the signal, and stop the batch as Ctrl-C
+    would; if code that catches BaseException swallows the raise, the next safe point (stop_if_received) acts."""
+    stops.record(number)
     raise Interrupted(number)
+
+
+def stop_if_received() -> None:
+    """A safe point of the batch: raise Interrupted for a stop signal received so far (one recorded while the
+    program started, or one whose raise someone else's code swallowed)."""
+    number = stops.received()
+    if number is not None:
+        raise Interrupted(number)
 
 
 MAX_LISTED_BYTES = 16 << 20  # `batch -`: a list of paths on stdin, at most as long as a scene file may be
@@ -190,14 +199,18 @@ def job_hash(job: Job, scene: Scene | None, settings: Settings) -> str:
 
 
 def input_paths(job: Job, scene: Scene | None) -> list[Path]:
-    """The files a job's image depends on: its scene file, then the mesh files the scene reads (resolved
-    against its folder) and their side files (mesh_file.side_files); the hash and the modification times
-    both cover exactly these."""
+    """The files a job's image depends on: its scene file, the colour maps its materials name, then the mesh
+    files the scene reads (resolved against its folder), their side files (mesh_file.side_files: an .obj's
+    .mtl, a .gltf's buffers) and the maps their materials name (io.textures.mesh_texture_files); the hash and
+    the modification times both cover exactly these."""
     if scene is None:
         return [job.scene]
-    from ...io.mesh_file import side_files  # an .obj's .mtl, a .gltf's buffers change the image too
+    from ...io.mesh_file import side_files
+    from ...io.textures import mesh_texture_files
+    maps = [scene.resolve(path) for key, path in scene.named_files().items() if key.startswith("materials.")]
     meshes = [scene.resolve(obj.path) for obj in scene.objects if obj.shape == "mesh" and obj.path]
-    return [job.scene, *meshes, *(side for mesh in meshes for side in side_files(mesh))]
+    return [job.scene, *maps, *meshes, *(side for mesh in meshes for side in side_files(mesh)),
+            *(image for mesh in meshes for image in mesh_texture_files(mesh))]
 
 
 def input_times(job: Job, scene: Scene | None) -> dict[str, int]:

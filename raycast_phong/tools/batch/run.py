@@ -27,6 +27,7 @@ from .jobs import (
     Task,
     new_entry,
     prepare_job,
+    stop_if_received,
 )
 from .manifest import folder_lock, is_own_manifest, open_manifest, remove_temporaries, write_manifest
 from .supervisor import in_process, process_pool, warm_up
@@ -111,6 +112,7 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
 
     def record(outcome: Outcome) -> None:
         nonlocal written
+        stop_if_received()  # a safe point: the outcome before it is recorded in full, this one after the stop
         outcomes[outcome.name] = outcome
         manifest["scenes"][outcome.name] = asdict(outcome)
         if time.perf_counter() - written >= MANIFEST_INTERVAL:
@@ -124,8 +126,10 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
                            warnings=[w for w in (warning, capped) if w])
 
     try:
+        stop_if_received()  # a signal while the program started: the manifest says every scene is not started
         for job in jobs:
             item = prepare_job(job, folder, settings, manifest["scenes"].get(job.name), force, max_memory)
+            stop_if_received()  # loading a mesh scene imports trimesh, whose import guards swallow a raise
             if isinstance(item, Task):
                 tasks.append(item)
             else:
@@ -136,6 +140,7 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
             max_memory = budget // max(processes, 1) if budget else None
         tasks = [replace(task, threads=threads, max_memory=max_memory) for task in tasks]
         startup = warm_up(tasks) if scheduler is None else 0.0
+        stop_if_received()
         executed = _executor(tasks, scheduler, processes, begun)
         for outcome in executed:
             record(outcome)

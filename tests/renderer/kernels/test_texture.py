@@ -146,6 +146,28 @@ def test_a_missing_or_broken_scene_texture_is_one_line(tmp_path):
         assert "\n" not in str(error.value)
 
 
+def test_a_texture_that_is_a_fifo_device_or_folder_is_refused_without_waiting(tmp_path):
+    """A FIFO as kd_map blocked in the memory estimate's header read (PIL.Image.open) before the decode's
+    is_file check, which then called a FIFO, a device or a folder "no such texture file". Now the estimate
+    skips it and the decode refuses it by its kind, in one line; a subprocess with a timeout, as a FIFO
+    that blocks would hang the test itself."""
+    import os
+    import subprocess
+    import sys
+    os.mkfifo(tmp_path / "pipe.png")
+    (tmp_path / "folder.png").mkdir()
+    for name, kind in (("pipe.png", "a named pipe (FIFO)"), ("/dev/zero", "a device"), ("folder.png", "a folder")):
+        scene = tmp_path / "s.toml"
+        scene.write_text(f'[materials.m]\nkd_map = "{name}"\n[[objects]]\nshape = "plane"\nmaterial = "m"\n')
+        done = subprocess.run([sys.executable, "-m", "raycast_phong.cli", "render", str(scene), "-o",
+                               str(tmp_path / "out.png"), "--width", "8", "--height", "8"], capture_output=True,
+                              text=True, timeout=120, stdin=subprocess.DEVNULL)
+        assert done.returncode == 2, done.stderr
+        assert done.stderr.count("\n") == 1 and "materials.m.kd_map" in done.stderr, done.stderr
+        assert f"is {kind}, not a regular file" in done.stderr and "no such texture" not in done.stderr
+    assert not (tmp_path / "out.png").exists()
+
+
 def ramp_exr(path, n: int = 64) -> None:
     y, x = np.mgrid[0:n, 0:n]
     pixels = ramp((x + 0.5) / n, 1 - (y + 0.5) / n).astype(np.float32)
