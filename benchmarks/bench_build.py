@@ -19,7 +19,8 @@ from types import SimpleNamespace
 import numpy as np
 
 import raycast_phong as rp
-from raycast_phong.geometry.build import build_geometry, plane_mesh
+from raycast_phong.geometry.build import build_geometry
+from raycast_phong.geometry.shapes import plane_mesh
 from raycast_phong.renderer import embree
 from raycast_phong.renderer.intersect import Accelerator, unit_frame
 

@@ -16,7 +16,7 @@ from ..errors import SceneError
 from ..records import Geometry, Texture, bounding_box
 from ..scene.kinds import object_kinds, placements
 from ..scene.messages import dotted
-from ..scene.schema import DEFAULT_MATERIAL, Object, Scene, brightness_problem
+from ..scene.schema import DEFAULT_MATERIAL, SHAPE_KEYS, Object, Scene, brightness_problem
 from ..tolerances import MIN_DISTANCE, MIN_EXTENT, POSITION_LIMIT
 from . import shapes
 from .materials import material_rows
@@ -125,8 +125,7 @@ def _group_key(obj: Object, index: int) -> tuple:
     A mesh file is never shared (its reading notes and materials belong to its object)."""
     if obj.shape == "mesh":
         return ("mesh", index)
-    return (obj.shape, obj.radius, obj.subdivisions, obj.segments, obj.size, obj.height, obj.major_radius,
-            obj.minor_radius, obj.normals, obj.crease_angle)
+    return (obj.shape, *(getattr(obj, key) for key in SHAPE_KEYS[obj.shape]), obj.normals, obj.crease_angle)
 
 
 def _group_part(scene: Scene, members: np.ndarray, template: ObjectMesh, exact: np.ndarray | None,
@@ -272,9 +271,6 @@ def behind_camera(scene: Scene, vertices: np.ndarray) -> str | None:
         return None
     return (f"every object is behind the camera (camera.position {list(scene.camera.position)} looks toward "
             f"look_at {list(scene.camera.look_at)}); the image will be only background")
-
-
-THIN = 2.0 ** -23  # float32's resolution: a tube thinner than this share of the shape collapses in Embree's frame
 
 
 class TextureBank:
@@ -449,59 +445,18 @@ def _corner_colours(scene: Scene, built: list, mesh) -> np.ndarray:
 
 
 def object_mesh(scene: Scene, obj: Object, index: int, source: str) -> ObjectMesh:
-    """The object's triangles in its own frame (a mesh file's with its materials, colours and normals)."""
+    """The object's triangles in its own frame (a mesh file's with its materials, colours and normals; a built-in
+    shape's from its kind, geometry/shapes/)."""
     if obj.shape == "mesh":
         return _load_mesh(scene, obj, index, source)
-    if obj.shape == "plane":
-        return ObjectMesh(*plane_mesh(obj.size or (2.0, 2.0), obj.segments or (1, 1)), None)
-    # Build at unit size and scale after, so a shape of radius 1e-20 or 1e15 has the same well-scaled triangles.
-    lengths = {"icosphere": (obj.radius,), "uv_sphere": (obj.radius,), "box": obj.size or (2.0, 2.0, 2.0),
-               "cylinder": (obj.radius, obj.height), "torus": (obj.major_radius, obj.minor_radius)}[obj.shape]
-    unit = max(lengths)
-    # A tube thinner than float32's resolution of the whole (Embree's precision) has nothing to hit.
-    thin = {"cylinder": obj.radius, "torus": obj.minor_radius}.get(obj.shape, unit)
-    if thin < THIN * unit:
-        raise SceneError(f"{source}: objects.{index}: a {obj.shape} with lengths {list(lengths)} has no triangles "
-                         f"Embree can hit: its {'radius' if obj.shape == 'cylinder' else 'minor_radius'} is below "
-                         f"float32's resolution of its size; allowed: at least {THIN:.3g} of the larger length")
-    if obj.shape == "icosphere":
-        vertices, faces = shapes.icosphere(obj.subdivisions)
-    elif obj.shape == "uv_sphere":
-        vertices, faces = shapes.uv_sphere(obj.segments or (32, 16))
-    elif obj.shape == "box":
-        vertices, faces = shapes.box([length / unit for length in lengths])
-    elif obj.shape == "cylinder":
-        vertices, faces = shapes.cylinder(obj.radius / unit, obj.height / unit, (obj.segments or (32, 1))[0])
-    else:
-        major, minor = obj.segments or (32, 16)
-        vertices, faces = shapes.torus(obj.major_radius / unit, obj.minor_radius / unit, major, minor)
-    return ObjectMesh(vertices * unit, faces, None)
+    return ObjectMesh(*shapes.KINDS[obj.shape].template(obj, index, source), None)
 
 
 def shape_uv(obj: Object, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray | None:
     """(F, 3, 2) texture coordinates of a built-in shape's template (object_mesh's vertices and faces), made
-    only when the scene has textures (a textured scene's geometry stage calls it): sphere longitude and
-    latitude, plane and box planar, cylinder and torus around their axes (shapes.py)."""
-    if obj.shape == "torus":
-        return shapes.torus_uv(vertices, faces, obj.major_radius)
-    found = {"icosphere": shapes.sphere_uv, "uv_sphere": shapes.sphere_uv, "box": shapes.box_uv,
-             "cylinder": shapes.cylinder_uv, "plane": shapes.planar_uv}.get(obj.shape)
-    return None if found is None else found(vertices, faces)
-
-
-def plane_mesh(size, segments) -> tuple[np.ndarray, np.ndarray]:
-    """A width × depth grid in the local x–z plane, centred, wound so its normal is +y."""
-    nx, nz = segments
-    xs = np.linspace(-size[0] / 2, size[0] / 2, nx + 1)
-    zs = np.linspace(-size[1] / 2, size[1] / 2, nz + 1)
-    x, z = np.meshgrid(xs, zs, indexing="ij")
-    vertices = np.column_stack([x.ravel(), np.zeros(x.size), z.ravel()])
-    i, k = np.meshgrid(np.arange(nx), np.arange(nz), indexing="ij")
-    a = (i * (nz + 1) + k).ravel()
-    b, c, d = a + (nz + 1), a + (nz + 1) + 1, a + 1  # (x+1, z), (x+1, z+1), (x, z+1)
-    # (a, d, c) and (a, c, b): counter-clockwise seen from +y, so the cross product points up.
-    faces = np.concatenate([np.column_stack([a, d, c]), np.column_stack([a, c, b])])
-    return vertices, faces
+    only when the scene has textures (a textured scene's geometry stage calls it); None for a mesh file."""
+    kind = shapes.kind_of(obj)
+    return None if kind is None else kind.uv(obj, vertices, faces)
 
 
 def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
@@ -599,29 +554,14 @@ def place_normals(normals: np.ndarray, scale: np.ndarray, rotation: np.ndarray) 
 
 def exact_corner_normals_local(obj: Object, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """`normals = "exact"`: the true surface normal of the built-in shape at every face corner (F, 3, 3),
-    placed in the world and in the corner order of place()'s faces.
-
-    From the shape's parameters in its own frame (vertices, faces as object_mesh gives them): sphere p/|p|;
-    torus p minus the nearest point of the tube's centre circle (radius major_radius in the x–y plane);
-    cylinder radial (x, y, 0) on the side faces and ±z on the caps, decided per face by its face normal (the
-    rim vertices are shared by both); box and plane the face normal, which is exact. The error of a vertex
-    normal then comes from the interpolation alone, so the shading orders are the textbook's.
+    in the corner order of place()'s faces, from the kind's closed form in its own frame (ShapeKind.exact_normals:
+    sphere p/|p|, torus and cylinder their own, flat faces the face normal). The error of a vertex normal then
+    comes from the interpolation alone, so the shading orders are the textbook's.
     """
     corners = vertices[faces]  # (F, 3, 3)
     unit, _ = face_normals(vertices, faces)
     flat = np.repeat(unit[:, None, :], 3, axis=1)
-    if obj.shape in ("icosphere", "uv_sphere"):
-        local = corners
-    elif obj.shape == "torus":
-        ring = np.hypot(corners[..., 0], corners[..., 1])
-        centre = obj.major_radius * corners[..., :2] / np.where(ring > 0, ring, 1.0)[..., None]
-        local = np.concatenate([corners[..., :2] - centre, corners[..., 2:]], axis=-1)
-    elif obj.shape == "cylinder":
-        radial = np.concatenate([corners[..., :2], np.zeros_like(corners[..., 2:])], axis=-1)
-        cap = np.abs(unit[:, 2]) > 0.5  # a cap face's normal is ±z, a side face's lies in the x–y plane
-        local = np.where(cap[:, None, None], np.sign(unit[:, None, 2:3]) * np.array([0.0, 0.0, 1.0]), radial)
-    else:  # box, plane: flat faces
-        local = flat
+    local = shapes.KINDS[obj.shape].exact_normals(obj, corners, flat)
     return _normalise_or(local, flat, np.linalg.norm(local, axis=-1, keepdims=True).max())
 
 

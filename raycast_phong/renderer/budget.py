@@ -15,6 +15,7 @@ from pathlib import Path
 
 from ..codes import GEOMETRY_LAYERS, TERM_LAYERS, ShadingModel
 from ..errors import SceneError
+from ..geometry.shapes import KINDS
 from ..io.mesh_header import MESH_FILE_BYTES, OTHER_MESH_FILE_BYTES, mesh_file_read_bytes, mesh_file_triangles
 from ..io.system import available_memory, count_text, format_bytes
 from ..scene.kinds import object_kinds
@@ -63,27 +64,13 @@ class MemoryEstimate:
 
 
 def shape_triangles(obj) -> int:
-    """Triangles trimesh makes for a built-in shape (tests compare with the real meshes)."""
-    if obj.shape == "icosphere":
-        return 20 * 4 ** obj.subdivisions
-    if obj.shape == "uv_sphere":
-        # trimesh rounds both counts up to even and doubles the second; 2 triangles fewer per meridian at the poles.
-        rings, sections = (c + c % 2 for c in (obj.segments or (32, 16)))
-        return 2 * (rings - 2) * 2 * sections
-    if obj.shape == "box":
-        return 12
-    if obj.shape == "cylinder":
-        return 4 * (obj.segments or (32, 1))[0]  # side quads and two cap fans
-    if obj.shape == "torus":
-        major, minor = obj.segments or (32, 16)
-        return 2 * major * minor
-    nx, nz = obj.segments or (1, 1)  # plane
-    return 2 * nx * nz
+    """Triangles a built-in shape makes (its kind's count; tests compare it with the built meshes)."""
+    return KINDS[obj.shape].triangles(obj)
 
 
 def size_key(obj) -> str:
     """The key that sets an object's triangle count."""
-    return {"icosphere": "subdivisions", "mesh": "path", "box": "shape"}.get(obj.shape, "segments")
+    return "path" if obj.shape == "mesh" else KINDS[obj.shape].size_key
 
 
 def estimate_memory(scene: Scene, source: str = "<scene>", *, smooth: bool = True, float64: bool = False,

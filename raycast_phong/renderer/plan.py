@@ -13,6 +13,7 @@ import re
 import numpy as np
 
 from ..codes import GEOMETRY_LAYERS, TERM_LAYERS, Mode, ShadingModel, SpecularModel, StageName, Viewer
+from ..geometry.shapes import kind_of, subdivided
 from ..records import RenderPlan, Stage
 from ..scene.kinds import object_kinds
 from ..scene.schema import MAX_SAMPLES, Material, Scene
@@ -260,8 +261,8 @@ def gouraud_findings(scene: Scene, geometry):
     for index in np.flatnonzero(wanted & (spacing > highlight)):
         obj, f = scene.objects[index], shininess[index]
         more = math.ceil(math.log2(spacing[index] / highlight[index]))
-        how = (f"subdivisions = {obj.subdivisions + more}" if obj.shape == "icosphere"
-               else f"{more} more subdivision(s) of each face (×{4 ** more} triangles)")
+        kind = kind_of(obj)
+        how = kind.finer(obj, more) if kind is not None else subdivided(more)
         yield ("gouraud", f, math.degrees(highlight[index]), how), int(index), math.degrees(spacing[index])
 
 
@@ -270,7 +271,7 @@ def subpixel_findings(scene: Scene, geometry):
     if scene.render.samples > 1:
         return
     wanted, shininess = _candidates(scene)
-    wanted &= _per_object(scene, lambda obj: obj.shape not in ("box", "plane"))
+    wanted &= _per_object(scene, lambda obj: obj.shape == "mesh" or kind_of(obj).curved)
     if not wanted.any():
         return
     # The vertices each object's faces use, grouped by object: objects own disjoint vertex ranges.

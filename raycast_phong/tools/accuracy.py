@@ -9,7 +9,6 @@ knows none of this.
 
 from __future__ import annotations
 
-import math
 import tempfile
 import time
 from pathlib import Path
@@ -19,6 +18,7 @@ import trimesh
 
 from ..errors import SceneError
 from ..geometry.build import object_mesh
+from ..geometry.shapes import kind_of
 from ..records import MeasuredResult, RenderResult
 from ..renderer.frame import render
 from ..renderer.prepare import Prepared, prepare
@@ -28,32 +28,17 @@ from .reference import ReferenceImage, analytic_reference
 
 
 def refined(obj: Object, level: int) -> dict:
-    """The keys that give an analytic object tessellation `level` (docs/accuracy.md, "Levels").
-
-    icosphere: subdivisions = L (20·4^L triangles); uv_sphere, torus: segments = [8·2^L, 4·2^L];
-    cylinder: segments = [8·2^L, its own second value]; plane: segments = [2^L, 2^L]; box: unchanged (12 flat faces are
-    exact). L = 2 is the format's default for every shape.
-    """
-    if obj.shape == "icosphere":
-        return {"subdivisions": level}
-    if obj.shape in ("uv_sphere", "torus"):
-        return {"segments": [8 * 2 ** level, 4 * 2 ** level]}
-    if obj.shape == "cylinder":  # the second value is unused, but the format asks for 3..4096
-        return {"segments": [8 * 2 ** level, (obj.segments or (32, 3))[1]]}
-    if obj.shape == "plane":
-        return {"segments": [2 ** level, 2 ** level]}
-    return {}
+    """The keys that give an analytic object tessellation `level` (docs/accuracy.md, "Levels"; its kind's rule:
+    icosphere subdivisions = L, uv_sphere and torus segments = [8·2^L, 4·2^L], cylinder [8·2^L, its own second
+    value], plane [2^L, 2^L], box unchanged since 12 flat faces are exact); {} for a mesh file."""
+    kind = kind_of(obj)
+    return {} if kind is None else kind.refined(obj, level)
 
 
 def level_of(obj: Object) -> int:
     """The level of an object as the scene gives it (the inverse of `refined`; 0 for a box or mesh)."""
-    if obj.shape == "icosphere":
-        return obj.subdivisions
-    if obj.shape in ("uv_sphere", "torus", "cylinder"):
-        return max(0, round(math.log2((obj.segments or (32, 16))[0] / 8)))
-    if obj.shape == "plane":
-        return max(0, round(math.log2((obj.segments or (1, 1))[0])))
-    return 0
+    kind = kind_of(obj)
+    return 0 if kind is None else kind.level_of(obj)
 
 
 def refine_entry(scene: Scene, index: int, entry: dict, level: int, iterations: int, folder: Path,
@@ -131,8 +116,9 @@ def fine_reference(scene: Scene, levels: int, source: str = "<scene>",
 
 
 def max_level(obj: Object) -> int:
-    """The finest level the scene format allows for the shape (subdivisions ≤ 8, segments ≤ 4096)."""
-    return 8 if obj.shape == "icosphere" else 9
+    """The finest level the scene format allows for the shape (subdivisions ≤ 8, segments ≤ 4096; a mesh: 9)."""
+    kind = kind_of(obj)
+    return 9 if kind is None else kind.max_level
 
 
 def reference_image(scene: Scene, source: str = "<scene>", fine: int | None = None,

@@ -9,8 +9,7 @@ import trimesh
 from prep_reference import _creased_sums, _creased_vertices
 
 import raycast_phong as rp
-from raycast_phong.geometry import build as geometry
-from raycast_phong.geometry import kernels, mesh_repair
+from raycast_phong.geometry import kernels, mesh_repair, shapes
 from raycast_phong.geometry import normals as normal_rules
 from raycast_phong.geometry.build import build_geometry
 from raycast_phong.geometry.mesh_repair import merge_duplicate_vertices, repair_winding
@@ -139,7 +138,7 @@ def test_each_closed_piece_is_turned_outward_by_its_own_volume():
 
 
 def test_an_open_mesh_keeps_the_orientation_most_of_its_faces_have(rng):
-    vertices, faces = geometry.plane_mesh((2.0, 2.0), (12, 12))
+    vertices, faces = shapes.plane_mesh((2.0, 2.0), (12, 12))
     flip = rng.random(len(faces)) < 0.2
     faces = faces.copy()
     faces[flip] = faces[flip, ::-1]

@@ -1,0 +1,36 @@
+"""The built-in kinds of object, one module each, and the registry every caller asks (`KINDS`, `kind_of`).
+
+Each kind builds the triangles trimesh.creation builds (same positions to float64 rounding, same faces and
+orientation, another order), so images rendered before keep their references; trimesh itself is imported only for
+mesh files. Nothing is cleaned afterwards: a point on the axis of revolution is one vertex by construction, and
+only the triangles that would join it to itself are left out (trimesh instead merges vertices closer than 1e-8
+and drops revolved triangles of area below 1e-8, which opens holes near the poles of a fine uv sphere). Every
+shape is centred on the origin; revolved shapes turn about z.
+
+Adding a kind: a module here with a ShapeKind subclass, its line in KINDS, and its keys in the scene schema
+(docs/scene-format.md shows a worked example).
+"""
+
+from __future__ import annotations
+
+from .box import Box, box, box_uv
+from .cylinder import Cylinder, cylinder, cylinder_uv
+from .icosphere import Icosphere, icosahedron, icosphere
+from .kind import THIN, ShapeKind, subdivided
+from .plane import Plane, planar_uv, plane_mesh
+from .surfaces import revolve, sphere_uv
+from .torus import Torus, torus, torus_uv
+from .uv_sphere import UvSphere, uv_sphere
+
+KINDS: dict[str, ShapeKind] = {kind.name: kind for kind in (Icosphere(), UvSphere(), Box(), Plane(), Cylinder(),
+                                                               Torus())}
+
+
+def kind_of(obj) -> ShapeKind | None:
+    """The kind of a scene object; None for a mesh file (shape = "mesh"), which is read, not built."""
+    return KINDS.get(obj.shape)
+
+
+__all__ = ["KINDS", "THIN", "ShapeKind", "box", "box_uv", "cylinder", "cylinder_uv", "icosahedron", "icosphere",
+           "kind_of", "planar_uv", "plane_mesh", "revolve", "sphere_uv", "subdivided", "torus", "torus_uv",
+           "uv_sphere"]
