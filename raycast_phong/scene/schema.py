@@ -14,8 +14,9 @@ import math
 import operator
 from itertools import chain, repeat
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, get_args
 
+import annotated_types
 import numpy as np
 from pydantic import (
     BaseModel,
@@ -282,14 +283,18 @@ SHAPE_KEYS = {"icosphere": ("radius", "subdivisions"), "uv_sphere": ("radius", "
               "torus": ("major_radius", "minor_radius", "segments"), "mesh": ("path",)}
 
 
+SEGMENTS = (3, 4096)  # each of an object's two segment counts, inclusive
+
+
 def _pair(value: Any) -> Any:
     sequence = _sequence(value)
     if sequence is None or len(sequence) != 2:
-        raise ValueError(f"must be two whole numbers [a, b] in [3, 4096], got {shown(value)}")
+        raise ValueError(f"must be two whole numbers [a, b] in [{SEGMENTS[0]}, {SEGMENTS[1]}], got {shown(value)}")
     return sequence
 
 
 NormalsRule = Literal["mean", "area", "angle", "file", "exact"]  # how an object's vertex normals are made
+SIZE_LENGTHS = {"box": 3, "plane": 2}  # how many numbers `size` has for the shapes that read it
 
 
 class Object(_Strict):
@@ -329,8 +334,8 @@ class Object(_Strict):
     @field_validator("segments")
     @classmethod
     def _segments(cls, value):
-        if value is not None and not all(3 <= s <= 4096 for s in value):
-            raise ValueError(f"segments must be two whole numbers in [3, 4096], got {list(value)}")
+        if value is not None and not all(SEGMENTS[0] <= s <= SEGMENTS[1] for s in value):
+            raise ValueError(f"segments must be two whole numbers in [{SEGMENTS[0]}, {SEGMENTS[1]}], got {list(value)}")
         return value
 
     @field_validator("size")
@@ -352,10 +357,8 @@ class Object(_Strict):
         if self.shape == "mesh" and self.normals == "exact":
             raise ValueError('normals = "exact" needs a built-in shape; a mesh file has no closed form (use "file", '
                              '"mean", "area" or "angle")')
-        if self.size is not None and self.shape == "box" and len(self.size) != 3:
-            raise ValueError("a box's size is [x, y, z]")
-        if self.size is not None and self.shape == "plane" and len(self.size) != 2:
-            raise ValueError("a plane's size is [width, depth]")
+        if self.size is not None and self.shape in SIZE_LENGTHS and len(self.size) != SIZE_LENGTHS[self.shape]:
+            raise ValueError("a box's size is [x, y, z]" if self.shape == "box" else "a plane's size is [width, depth]")
         return self
 
 
@@ -511,19 +514,35 @@ class _KeyError(RaycastPhongError):
 # normals = "file", an array from Python) is left to pydantic, so every message stays pydantic's, naming the
 # object's index and key. Scene._references then checks all objects in vectorised passes.
 
+def _bounds(model: type[BaseModel], key: str) -> tuple[float, bool, float]:
+    """(lowest, whether the lowest itself is allowed, highest) of a numeric field, read from its own
+    Field(gt= or ge=, le=): the one statement of the bound, which bulk checking uses too."""
+    low, allowed, high = -math.inf, True, math.inf
+    for constraint in model.model_fields[key].metadata:
+        if isinstance(constraint, annotated_types.Gt):
+            low, allowed = constraint.gt, False
+        elif isinstance(constraint, annotated_types.Ge):
+            low, allowed = constraint.ge, True
+        elif isinstance(constraint, annotated_types.Le):
+            high = constraint.le
+    return low, allowed, high
+
+
 _SHAPE_ONLY_KEYS = frozenset().union(*SHAPE_KEYS.values())
 _OBJECT_DEFAULTS = {key: field.default for key, field in Object.model_fields.items()}
 _NUMBER = frozenset({int, float})                 # exact types: a bool or a str is pydantic's to refuse
 _SEQUENCE = frozenset({list, tuple})
-_CHOICES = {"shape": frozenset(SHAPES) - {"mesh"}, "normals": frozenset({"mean", "area", "angle", "exact", None}),
+# The values bulk accepts for a choice: the field's own, but for a mesh and normals = "file" (pydantic's).
+_CHOICES = {"shape": frozenset(SHAPES) - {"mesh"}, "normals": frozenset(get_args(NormalsRule)) - {"file"} | {None},
             "shading": {model.value: model for model in ShadingModel} | {None: None}}
 _TEXT = {"name": frozenset({str, type(None)}), "material": frozenset({str})}
-_LENGTHS = {"radius": (False, POSITION_LIMIT), "height": (False, POSITION_LIMIT),   # (0 allowed, largest)
-            "major_radius": (False, POSITION_LIMIT), "minor_radius": (False, POSITION_LIMIT),
-            "crease_angle": (True, 180.0)}
+_WHOLE = {"subdivisions": _bounds(Object, "subdivisions")}
+_LENGTHS = {key: _bounds(Object, key) for key in ("radius", "height", "major_radius", "minor_radius", "crease_angle")}
 _VECTORS = ("translate", "rotate", "scale")
 _BULK_ROWS = 1 << 16  # objects checked at once: the columns' temporaries stay a few MB however many there are
-_BULK_KEYS = frozenset({"shape", "subdivisions", "segments", "size", *_CHOICES, *_TEXT, *_LENGTHS, *_VECTORS})
+_BULK_KEYS = frozenset({"shape", "segments", "size", *_CHOICES, *_TEXT, *_WHOLE, *_LENGTHS, *_VECTORS})
+# Every other key of Object is left to pydantic (an object with it is validated one at a time): a mesh's path.
+LEFT_TO_PYDANTIC = frozenset({"path"})
 
 
 def _first_misfit(scene: Scene) -> int | None:
@@ -590,21 +609,23 @@ def _check_column(key: str, column: list, shapes: list) -> tuple[np.ndarray, lis
         return good, column
     if key in _TEXT:
         return _typed(column, _TEXT[key]), column
-    if key == "subdivisions":
-        return np.fromiter((type(v) is int and 0 <= v <= 8 for v in column), bool, count), column
+    if key in _WHOLE:
+        low, allowed, high = _WHOLE[key]
+        return np.fromiter((type(v) is int and (low <= v if allowed else low < v) and v <= high for v in column),
+                           bool, count), column
     if key in _LENGTHS:
-        zero, largest = _LENGTHS[key]
+        low, allowed, high = _LENGTHS[key]
         good = _typed(column, _NUMBER)
         values = _numbers(column, good, 1.0)
-        good &= ((values >= 0) if zero else (values > 0)) & (values <= largest)
+        good &= ((values >= low) if allowed else (values > low)) & (values <= high)
         return good, column if set(map(type, column)) == {float} else values.tolist()
     if key == "segments":
         good = np.fromiter((value is None or (type(value) in _SEQUENCE and len(value) == 2 and all(
-            type(v) is int and 3 <= v <= 4096 for v in value)) for value in column), bool, count)
+            type(v) is int and SEGMENTS[0] <= v <= SEGMENTS[1] for v in value)) for value in column), bool, count)
         return good, [tuple(value) if ok and value is not None else value for value, ok in zip(column, good.tolist())]
     if key == "size":  # a box's three lengths or a plane's two; None or any other shape: pydantic's
         good, sizes = np.zeros(count, bool), list(column)
-        for shape, length in (("box", 3), ("plane", 2)):
+        for shape, length in SIZE_LENGTHS.items():
             rows = [index for index, name in enumerate(shapes) if name == shape]
             if rows:
                 made, passed, values = _sequences([column[index] for index in rows], length)

@@ -140,3 +140,25 @@ def test_valid_objects_do_not_go_through_pydantic_one_at_a_time():
     assert all(isinstance(obj, schema.Object) for obj in made[:-1])
     assert made[-1] is rows[-1]
     assert made[0] == schema.Object(shape="box", translate=[0, 0, 0])
+
+
+def test_every_object_key_is_checked_in_bulk_or_left_to_pydantic():
+    """One validator's rules: bulk checking knows every key of Object or names it as pydantic's alone, and its
+    bounds are read from the fields' own Field(...) (a bound changed there changes both)."""
+    assert set(schema.Object.model_fields) == schema._BULK_KEYS | schema.LEFT_TO_PYDANTIC
+    assert not schema._BULK_KEYS & schema.LEFT_TO_PYDANTIC
+    fields = schema.Object.model_fields
+    assert schema._LENGTHS["crease_angle"] == (0.0, True, 180.0) and schema._WHOLE["subdivisions"] == (0, True, 8)
+    assert schema._LENGTHS["radius"] == (0.0, False, schema.POSITION_LIMIT)
+    for key, (low, allowed, high) in {**schema._LENGTHS, **schema._WHOLE}.items():
+        for value, ok in ((low, allowed), (high, True), (high * 2 if high > 0 else 1, False)):
+            value = int(value) if key in schema._WHOLE else float(value)
+            row = {"shape": "cylinder" if key in ("radius", "height") else
+                   "torus" if "radius" in key else "icosphere", key: value}
+            bulk = schema._build_group(tuple(row), [row])[0] is not None
+            try:
+                schema.Object.model_validate(row)
+                single = True
+            except Exception:  # noqa: BLE001 - pydantic's refusal
+                single = False
+            assert bulk == single == ok, (key, value, fields[key].metadata)
