@@ -50,7 +50,9 @@ def _rgb(pixels: np.ndarray) -> np.ndarray:
 
 
 def decode_file(path: Path) -> np.ndarray:
-    """(H, W, 3) float32 linear RGB of an image file; ValueError when it is not an image OpenImageIO reads."""
+    """(H, W, 3) float32 linear RGB in [0, 1] of an image file; ValueError when it is not an image OpenImageIO
+    reads. A map multiplies a coefficient in [0, 1], so a float image's texels are clamped to [0, 1] too (NaN and
+    −inf to 0, +inf to 1): a NaN, infinite or negative texel would otherwise make such pixels of the image."""
     import OpenImageIO as oiio
     buffer = oiio.ImageBuf(str(path))
     spec = buffer.spec()
@@ -64,7 +66,9 @@ def decode_file(path: Path) -> np.ndarray:
         raise ValueError(buffer.geterror() or "cannot decode")
     pixels = _rgb(np.asarray(pixels).reshape(height, width, -1))
     linear = spec.format.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE)
-    return np.ascontiguousarray(pixels if linear else srgb_to_linear(np.clip(pixels, 0, 1)), np.float32)
+    if linear:
+        return np.ascontiguousarray(np.clip(np.nan_to_num(pixels, nan=0.0, posinf=1.0, neginf=0.0), 0, 1), np.float32)
+    return np.ascontiguousarray(srgb_to_linear(np.clip(pixels, 0, 1)), np.float32)
 
 
 def decode_pil(image) -> np.ndarray:

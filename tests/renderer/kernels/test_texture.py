@@ -168,6 +168,22 @@ def test_a_texture_that_is_a_fifo_device_or_folder_is_refused_without_waiting(tm
     assert not (tmp_path / "out.png").exists()
 
 
+def test_a_float_map_with_nan_inf_or_negative_texels_gives_a_finite_non_negative_image(tmp_path):
+    """An EXR map's NaN, ±inf and negative texels (through a scene's kd_map) made NaN, inf and negative pixels.
+    A map multiplies a coefficient in [0, 1]: its texels are clamped to [0, 1] (NaN and −inf to 0, +inf to 1)."""
+    texels = np.array([[np.nan, np.inf], [-np.inf, -3.0]], np.float32)[:, :, None].repeat(3, axis=2)
+    buffer = oiio.ImageBuf(oiio.ImageSpec(2, 2, 3, oiio.FLOAT))
+    buffer.set_pixels(oiio.ROI(0, 2, 0, 2, 0, 1, 0, 3), np.ascontiguousarray(texels))
+    assert buffer.write(str(tmp_path / "bad.exr"))
+    np.testing.assert_array_equal(decode_file(tmp_path / "bad.exr")[:, :, 0], [[0, 1], [0, 0]])
+    scene = rp.validate_scene({"render": {"width": 16, "height": 16}, "camera": {"position": [0, 3, 0.5]},
+                               "lights": [{"position": [0, 3, 1]}],
+                               "materials": {"m": {"kd_map": "bad.exr"}},
+                               "objects": [{"shape": "plane", "material": "m"}]}, folder=tmp_path)
+    image = rp.render(scene).image
+    assert np.isfinite(image).all() and image.min() >= 0 and image.max() > 0
+
+
 def ramp_exr(path, n: int = 64) -> None:
     y, x = np.mgrid[0:n, 0:n]
     pixels = ramp((x + 0.5) / n, 1 - (y + 0.5) / n).astype(np.float32)
