@@ -49,26 +49,70 @@ def _rgb(pixels: np.ndarray) -> np.ndarray:
     return pixels[:, :, :3]
 
 
+DECODE_BAND_BYTES = 32 << 20  # a larger map is read and shrunk a band of rows at a time: its peak stays this
+
+
 def decode_file(path: Path) -> np.ndarray:
     """(H, W, 3) float32 linear RGB in [0, 1] of an image file; ValueError when it is not an image OpenImageIO
     reads. A map multiplies a coefficient in [0, 1], so a float image's texels are clamped to [0, 1] too (NaN and
-    −inf to 0, +inf to 1): a NaN, infinite or negative texel would otherwise make such pixels of the image."""
+    −inf to 0, +inf to 1): a NaN, infinite or negative texel would otherwise make such pixels of the image.
+
+    A map larger than MAX_TEXTURE_SIZE is shrunk while it is read, a band of rows at a time (each texel of the
+    result the mean of the source texels it covers), so decoding a 12000² PNG costs a band, not the 1.7 GB of
+    its float texels at full size: the memory estimate counts the shrunk map only."""
     import OpenImageIO as oiio
-    buffer = oiio.ImageBuf(str(path))
-    spec = buffer.spec()
-    if buffer.has_error or spec.width <= 0 or spec.height <= 0:
-        raise ValueError(buffer.geterror() or "not an image")
-    height, width = capped(spec.height, spec.width)
-    if (height, width) != (spec.height, spec.width):
-        buffer = oiio.ImageBufAlgo.resize(buffer, roi=oiio.ROI(0, width, 0, height, 0, 1, 0, spec.nchannels))
-    pixels = buffer.get_pixels(oiio.FLOAT)
-    if pixels is None or buffer.has_error:
-        raise ValueError(buffer.geterror() or "cannot decode")
-    pixels = _rgb(np.asarray(pixels).reshape(height, width, -1))
+    found = oiio.ImageInput.open(str(path))
+    if found is None:
+        raise ValueError(oiio.geterror() or "not an image")
+    try:
+        spec = found.spec()
+        if spec.width <= 0 or spec.height <= 0 or spec.nchannels <= 0:
+            raise ValueError("not an image")
+        height, width = capped(spec.height, spec.width)
+        pixels = _read_shrunk(found, spec, height, width)
+    finally:
+        found.close()
+    pixels = _rgb(pixels)
     linear = spec.format.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE)
-    if linear:
-        return np.ascontiguousarray(np.clip(np.nan_to_num(pixels, nan=0.0, posinf=1.0, neginf=0.0), 0, 1), np.float32)
-    return np.ascontiguousarray(srgb_to_linear(np.clip(pixels, 0, 1)), np.float32)
+    out = np.empty(pixels.shape, np.float32)
+    step = max(1, (DECODE_BAND_BYTES >> 6) // max(1, pixels.shape[1] * 3))  # float64 temporaries of a band
+    for row in range(0, len(pixels), step):  # a band at a time: the curve's float64 temporaries stay small
+        band = pixels[row:row + step]
+        out[row:row + step] = (np.clip(np.nan_to_num(band, nan=0.0, posinf=1.0, neginf=0.0), 0, 1) if linear
+                               else srgb_to_linear(np.clip(band, 0, 1)))
+    return out
+
+
+def _read_shrunk(found, spec, height: int, width: int) -> np.ndarray:
+    """(height, width, channels) float32 of an open image: read whole if that is its size, else a band of source
+    rows at a time, each band averaged into the result's rows and columns it covers (box filter)."""
+    import OpenImageIO as oiio
+
+    eight_bit = spec.format.basetype == oiio.UINT8  # read as stored: a band of bytes is a quarter of its floats
+    scale = 1.0 / 255.0 if eight_bit else 1.0
+
+    def rows(begin: int, end: int) -> np.ndarray:
+        band = found.read_scanlines(0, 0, begin, end, 0, 0, spec.nchannels, oiio.UINT8 if eight_bit else oiio.FLOAT)
+        if band is None or found.has_error:
+            raise ValueError(found.geterror() or "cannot decode")
+        return np.asarray(band).reshape(end - begin, spec.width, spec.nchannels)
+
+    if (height, width) == (spec.height, spec.width):
+        return rows(0, spec.height).astype(np.float32) * np.float32(scale)
+
+    row_edges = np.linspace(0, spec.height, height + 1).round().astype(np.int64)
+    column_edges = np.linspace(0, spec.width, width + 1).round().astype(np.int64)
+    columns = np.diff(column_edges)
+    per_row = max(1, int(np.diff(row_edges).max()))
+    band_rows = max(1, DECODE_BAND_BYTES // (8 * spec.width * spec.nchannels * per_row))  # result rows a band
+    out = np.empty((height, width, spec.nchannels), np.float32)
+    for first in range(0, height, band_rows):
+        last = min(height, first + band_rows)
+        band = rows(int(row_edges[first]), int(row_edges[last]))
+        across = np.add.reduceat(band, column_edges[:-1], axis=1, dtype=np.float64) * (scale / columns[None, :, None])
+        starts = row_edges[first:last] - row_edges[first]
+        out[first:last] = np.add.reduceat(across, starts, axis=0) / np.diff(row_edges[first:last + 1])[:, None, None]
+    return out
 
 
 def decode_pil(image) -> np.ndarray:

@@ -95,3 +95,42 @@ def test_gltf_color_0_beside_a_material_multiplies_its_factor(tmp_path):
                                                       "lights=[]"]).image
     covered = image.max(axis=-1) > 0
     assert image[covered][:, 0].max() <= 128 / 255 + 1e-6 and image[covered][:, 1].max() > 0.8
+
+
+def test_a_large_map_is_shrunk_while_it_is_read_so_its_decode_stays_in_the_estimate(tmp_path):
+    """A 420 kB PNG of 12000² peaked at 1 GB while decoded at full size and shrunk after (issue 30, item 3; 871 MB
+    above the imports measured here). Now it is read a band of rows at a time, box-filtered to MAX_TEXTURE_SIZE,
+    and put through the sRGB curve a band at a time: here an 8000² PNG (a left half 64/255, a right half 255) in
+    a process of its own peaks within the memory estimate's term for it plus one band (the old code: ~770 MB of
+    float texels at full size), and the result is the box filter's: the halves' colours."""
+    import subprocess
+    import sys
+
+    import OpenImageIO as oiio
+    import pytest
+
+    from raycast_phong.io.textures import DECODE_BAND_BYTES, srgb_to_linear, texture_bytes
+    if not Path("/proc/self/clear_refs").exists():
+        pytest.skip("measures the peak with Linux's /proc/self/clear_refs and VmHWM")
+    path, side = tmp_path / "big.png", 8000
+    output = oiio.ImageOutput.create(str(path))
+    assert output.open(str(path), oiio.ImageSpec(side, side, 3, oiio.UINT8))
+    row = np.zeros((side, 3), np.uint8)
+    row[: side // 2], row[side // 2:] = 64, 255
+    for y in range(side):
+        assert output.write_scanline(y, 0, row)
+    assert output.close()
+    probe = ("import sys, numpy as np; from pathlib import Path; from raycast_phong.io.textures import decode_file; "
+             "import OpenImageIO\n"
+             "def kb(name):\n"
+             "    return next(int(line.split()[1]) for line in open('/proc/self/status') if line.startswith(name))\n"
+             "open('/proc/self/clear_refs', 'w').write('5'); before = kb('VmRSS')\n"
+             "t = decode_file(Path(sys.argv[1])); np.save(sys.argv[2], t); print((kb('VmHWM') - before) * 1024)\n")
+    done = subprocess.run([sys.executable, "-c", probe, str(path), str(tmp_path / "t.npy")], capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    texels = np.load(tmp_path / "t.npy")
+    assert texels.shape == (2048, 2048, 3)
+    assert int(done.stdout) < texture_bytes([(side, side)]) + DECODE_BAND_BYTES, int(done.stdout) >> 20
+    np.testing.assert_allclose(texels[:, :1023], srgb_to_linear(64 / 255), rtol=1e-6)
+    np.testing.assert_allclose(texels[:, 1025:], 1.0, rtol=1e-6)
