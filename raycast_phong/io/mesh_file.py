@@ -203,7 +203,7 @@ def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
             sources: list[TextureSource] = []
             points = _binary_stl_points(handle) if suffix == ".stl" else None
             if points is None:
-                source = _mesh_source(path, handle)
+                source = _mesh_source(path, handle, where)
                 library = _obj_materials(path, source["file_obj"], notes, sources) if suffix == ".obj" else None
                 loaded = trimesh.load(**source, process=False)
         if points is not None:  # the corners in file order, as trimesh's reader gives them (without its float64)
@@ -878,10 +878,12 @@ class _RegularFiles(trimesh.resolvers.FilePathResolver):
             return handle.read()
 
 
-def _mesh_source(path, handle) -> dict:
+def _mesh_source(path, handle, where: str) -> dict:
     """trimesh.load arguments for the open file `handle` of `path`; a text format that is not UTF-8 is
     read as Latin-1. The file already opened is read (not the path again), and files it names (an OBJ's
-    materials, a glTF's buffers) are found beside it.
+    materials, a glTF's buffers) are found beside it. An OBJ's relative face indices are made absolute
+    and its concave polygons cut (io/obj_polygons.py); an index 0 or one counting back past the file's
+    start is a SceneError naming the line.
 
     trimesh needs the optional charset_normalizer to guess an encoding, and fails without it, so
     decide here: every byte is a Latin-1 character, and the OBJ and OFF keywords are plain ASCII.
@@ -895,7 +897,10 @@ def _mesh_source(path, handle) -> dict:
         except UnicodeDecodeError:
             data = data.decode("latin-1").encode("utf-8")
         if suffix == ".obj":
-            from .obj_polygons import triangulate_concave
+            from .obj_polygons import absolute_indices, triangulate_concave
+            data, problem = absolute_indices(data)  # trimesh counts -1 back from the file's end, not the line
+            if problem:
+                raise SceneError(f"{where}: {str(path)!r} {problem}")
             data, _ = triangulate_concave(data)  # trimesh would fan a concave polygon over its hole
         source["file_obj"] = io.BytesIO(data)
     return source

