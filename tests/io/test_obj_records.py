@@ -86,3 +86,35 @@ def test_face_index_0_is_refused_naming_the_line(tmp_path, corner, kind):
     assert line.startswith(f"error: {tmp_path / 'zero.obj'}:") and "line 6" in line, line
     assert f"index 0 ({kind})" in line and "allowed: 1" in line, line
     assert not (tmp_path / "x.png").exists()
+
+
+def test_every_mtl_an_mtllib_names_is_read(tmp_path):
+    """`mtllib a.mtl b\\ c.mtl d\\ e.mtl` names three files (a backslash escapes a space); each defines a
+    material a `usemtl` group uses. A name also defined by an earlier file keeps the earlier definition."""
+    (tmp_path / "a.mtl").write_text("newmtl red\nKd 1 0 0\n")
+    (tmp_path / "b c.mtl").write_text("newmtl green\nKd 0 1 0\nnewmtl red\nKd 0 0 0\n")
+    (tmp_path / "d e.mtl").write_text("newmtl blue\nKd 0 0 1\n")
+    faces = "".join(f"usemtl {name}\nv {k} 0 0\nv {k + 1} 0 0\nv {k} 1 0\nf -3 -2 -1\n"
+                    for k, name in enumerate(("red", "green", "blue")))
+    (tmp_path / "three.obj").write_text("mtllib a.mtl b\\ c.mtl d\\ e.mtl\n" + faces)
+    mesh = read(tmp_path / "three.obj")
+    assert mesh.notes == () or not any("material file" in note for note in mesh.notes), mesh.notes
+    kd = {m.name: m.kd for m in mesh.materials}
+    assert kd == {"red": (1, 0, 0), "green": (0, 1, 0), "blue": (0, 0, 1)}, kd
+    for face, group in zip(mesh.faces, mesh.face_group):  # the face at x = k has the k-th material
+        assert mesh.materials[group].name == ("red", "green", "blue")[int(mesh.vertices[face][:, 0].min())]
+    assert mesh_file.side_files(tmp_path / "three.obj") == [tmp_path / n for n in ("a.mtl", "b c.mtl", "d e.mtl")]
+
+
+def test_an_mtllib_naming_one_file_with_a_space_and_several_lines_are_read(tmp_path):
+    """`mtllib my model.mtl` naming an existing file is that file (as read before); a second `mtllib` line
+    adds its materials; a missing one is one note and the others still count."""
+    (tmp_path / "my model.mtl").write_text("newmtl red\nKd 1 0 0\n")
+    (tmp_path / "more.mtl").write_text("newmtl green\nKd 0 1 0\n")
+    text = ("mtllib my model.mtl\nmtllib more.mtl gone.mtl\nusemtl red\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+            "usemtl green\nf 1 3 2\n")
+    (tmp_path / "two.obj").write_text(text)
+    mesh = read(tmp_path / "two.obj")
+    assert sorted(m.name for m in mesh.materials) == ["green", "red"]
+    assert [n for n in mesh.notes if "material file" in n] == [
+        f"{tmp_path / 'two.obj'}: its material file 'gone.mtl' is missing; the default material is used"]
