@@ -840,7 +840,9 @@ MAP_OPTIONS = {"-blendu": 1, "-blendv": 1, "-bm": 1, "-boost": 1, "-cc": 1, "-cl
 
 def _map_file(words: list[str]) -> str:
     """The file a map statement names: its options skipped (-o, -s and -t take up to 3 numbers), the rest,
-    spaces kept ("fuze uv.jpg"), backslashes read as folder separators (files written on Windows)."""
+    spaces kept ("fuze uv.jpg"), backslashes read as folder separators (files written on Windows). Options
+    come before the name (the .mtl specification), but some exporters write one after it (`wood.png -bm
+    0.5`): words from an option to the end that are all options with their values are not part of the name."""
     at = 0
     while at < len(words) and words[at].lower() in MAP_OPTIONS:
         count = MAP_OPTIONS[words[at].lower()]
@@ -851,7 +853,25 @@ def _map_file(words: list[str]) -> str:
                 at, taken = at + 1, taken + 1
             else:
                 break
-    return " ".join(words[at:]).replace("\\", "/")
+    end = next((i for i in range(at + 1, len(words)) if _only_options(words[i:])), len(words))
+    return " ".join(words[at:end]).replace("\\", "/")
+
+
+def _only_options(words: list[str]) -> bool:
+    """Whether `words` are map options to the end, each with its values: one word for a one-value option
+    (`-clamp on`, `-bm 0.5`), 1 to 3 numbers for -o, -s, -t, 1 or 2 for -mm."""
+    at = 0
+    while at < len(words):
+        count = MAP_OPTIONS.get(words[at].lower())
+        if count is None:
+            return False
+        at += 1
+        taken = 0
+        while taken < count and at < len(words) and (count == 1 or _is_number(words[at])):
+            at, taken = at + 1, taken + 1
+        if taken == 0:
+            return False
+    return True
 
 
 def _is_number(word: str) -> bool:

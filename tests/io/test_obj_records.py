@@ -118,3 +118,20 @@ def test_an_mtllib_naming_one_file_with_a_space_and_several_lines_are_read(tmp_p
     assert sorted(m.name for m in mesh.materials) == ["green", "red"]
     assert [n for n in mesh.notes if "material file" in n] == [
         f"{tmp_path / 'two.obj'}: its material file 'gone.mtl' is missing; the default material is used"]
+
+
+def test_a_map_option_after_the_file_name_is_not_part_of_the_name(tmp_path):
+    """`map_Kd wood.png -bm 0.5`: the name is wood.png (the .mtl specification puts options first, but
+    exporters write some after); `map_Bump -bm 1 n.png` skips -bm before the name as before."""
+    from PIL import Image
+    Image.new("RGB", (2, 2), (255, 255, 255)).save(tmp_path / "wood.png")
+    assert "-bm" in mesh_file.MAP_OPTIONS
+    notes: list[str] = []
+    sources: list = []
+    found = mesh_file.parse_mtl("newmtl w\nmap_Kd wood.png -bm 0.5\nmap_Bump -bm 1 n.png\n"
+                                "newmtl c\nmap_Kd wood.png -clamp on -s 1 1 1\n", tmp_path / "m.mtl", notes, sources)
+    assert found["w"].kd_map >= 0 and sources[found["w"].kd_map].source == tmp_path / "wood.png", notes
+    assert sources[found["c"].kd_map].wrap_s == "clamp"
+    assert not any("'wood.png" in note for note in notes), notes
+    assert any("not applied: map_bump n.png" in note for note in notes), notes
+    assert mesh_file._map_file(["my", "wood.png"]) == "my wood.png"  # spaces in a name stay
