@@ -210,7 +210,7 @@ def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
                 library = _obj_materials(path, source["file_obj"], notes, sources) if suffix == ".obj" else None
                 if library is not None:
                     source["resolver"] = _MaterialNames(path, library)
-                loaded = trimesh.load(**source, process=False)
+                loaded = _load_obj(source) if suffix == ".obj" else trimesh.load(**source, process=False)
         if points is not None:  # the corners in file order, as trimesh's reader gives them (without its float64)
             library, parts = None, [_Part(points, np.arange(len(points), dtype=np.int64).reshape(-1, 3), None, None)]
         else:
@@ -941,6 +941,18 @@ class _MaterialNames(_RegularFiles):
 
     def get(self, name):
         return self.text
+
+
+def _load_obj(source: dict):
+    """What trimesh.load gives for an OBJ, but `v x y z r g b` colours are kept beside a material or texture
+    coordinates: trimesh's reader hands them to a Trimesh whose TextureVisuals replaces them. They move to
+    the visual's `color` vertex attribute (where trimesh keeps glTF's COLOR_0 beside a material, which
+    _corner_colours reads), 8-bit as trimesh's ColorVisuals keeps them when there is no material."""
+    kwargs = trimesh.exchange.obj.load_obj(source["file_obj"], resolver=source["resolver"], process=False)
+    for mesh in (kwargs.get("geometry") or {}).values():
+        if mesh.get("vertex_colors") is not None and mesh.get("visual") is not None:
+            mesh["visual"].vertex_attributes["color"] = trimesh.visual.color.to_rgba(mesh.pop("vertex_colors"))
+    return trimesh.load_scene(kwargs)
 
 
 def _mesh_source(path, handle, where: str) -> dict:

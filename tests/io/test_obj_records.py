@@ -135,3 +135,42 @@ def test_a_map_option_after_the_file_name_is_not_part_of_the_name(tmp_path):
     assert not any("'wood.png" in note for note in notes), notes
     assert any("not applied: map_bump n.png" in note for note in notes), notes
     assert mesh_file._map_file(["my", "wood.png"]) == "my wood.png"  # spaces in a name stay
+
+
+def test_vertex_colours_are_kept_beside_usemtl_materials(tmp_path):
+    """`v x y z r g b` in a file whose faces have a `usemtl` material: both are kept (the colours multiply the
+    material's k_a and k_d, docs/meshes.md); they were dropped."""
+    (tmp_path / "m.mtl").write_text("newmtl grey\nKa 0.5 0.5 0.5\nKd 0.5 0.5 0.5\n")
+    text = ("mtllib m.mtl\nv 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nv 1 1 0 1 1 1\n"
+            "usemtl grey\nf 1 2 3\nf 2 4 3\n")
+    (tmp_path / "c.obj").write_text(text)
+    mesh = read(tmp_path / "c.obj")
+    assert [m.name for m in mesh.materials] == ["grey"] and (mesh.face_group == 0).all()
+    colour = {(1, 0, 0): (0, 0, 0), (0, 1, 0): (1, 0, 0), (0, 0, 1): (0, 1, 0), (1, 1, 1): (1, 1, 0)}
+    assert mesh.corner_colour is not None
+    for face, corners in zip(mesh.faces, mesh.corner_colour):
+        for vertex, rgb in zip(mesh.vertices[face], corners):
+            assert tuple(vertex) == colour[tuple(rgb.round(6))], (vertex, rgb)
+    # the same 8-bit values as the file without materials gives (0.3 is 76/255 either way)
+    shaded = text.replace("1 1 0 1 1 1", "1 1 0 0.3 0.3 0.3")
+    (tmp_path / "c.obj").write_text(shaded)
+    (tmp_path / "plain.obj").write_text(shaded.replace("mtllib m.mtl\n", "").replace("usemtl grey\n", ""))
+    with_material, plain = read(tmp_path / "c.obj"), read(tmp_path / "plain.obj")
+    assert plain.materials == () and with_material.materials
+    np.testing.assert_array_equal(with_material.corner_colour, plain.corner_colour)
+    assert np.isclose(with_material.corner_colour, 76 / 255).any()
+
+
+def test_vertex_colours_multiply_the_materials_ka(tmp_path):
+    """Lit by the ambient term alone (ambient 1, no lights), a red-vertex triangle with Ka 0.5 is k_a × red =
+    (0.5, 0, 0) at every pixel; it rendered grey (0.5, 0.5, 0.5) when the colours were dropped."""
+    import raycast_phong as rp
+    (tmp_path / "m.mtl").write_text("newmtl g\nKa 0.5 0.5 0.5\nKd 0.5 0.5 0.5\nKs 0 0 0\n")
+    (tmp_path / "t.obj").write_text("mtllib m.mtl\nv 0 0 0 1 0 0\nv 1 0 0 1 0 0\nv 0 1 0 1 0 0\nusemtl g\nf 1 2 3\n")
+    (tmp_path / "s.toml").write_text('ambient = 1.0\nlights = []\n[render]\nwidth = 32\nheight = 32\n[camera]\n'
+                                     'position = [0.3, 0.3, 2]\nlook_at = [0.3, 0.3, 0]\n'
+                                     '[[objects]]\nshape = "mesh"\npath = "t.obj"\n')
+    image = rp.render(rp.load_scene(tmp_path / "s.toml")).image
+    covered = image.max(axis=2) > 0
+    assert covered.sum() > 50
+    np.testing.assert_allclose(image[covered], np.broadcast_to([0.5, 0.0, 0.0], image[covered].shape), atol=1e-6)
