@@ -153,10 +153,10 @@ def _remember_bounds(identity: tuple, found: MeshFile) -> None:
 
 
 def side_files(path: Path) -> list[Path]:
-    """The files a mesh file names that change its image: an OBJ's .mtl (its first `mtllib`, as read), a .gltf's
-    external buffers. For `batch`'s up-to-date rule and the read cache's identity. The OBJ is scanned only up
-    to its `mtllib` line, but one without it is scanned whole (0.3 s for 78 MB), so the answer is kept per
-    version of the file (path, mtime, size, inode): framing, the render's read and batch scan it once."""
+    """The files a mesh file names that change its image: an OBJ's .mtl files (every one its `mtllib` lines
+    name, as read), a .gltf's external buffers. For `batch`'s up-to-date rule and the read cache's identity.
+    The OBJ is read whole (`mtllib` may come anywhere, and more than once), so the answer is kept per version
+    of the file (path, mtime, size, inode): framing, the render's read and batch scan it once."""
     try:
         version = file_version(path)
     except OSError:
@@ -170,12 +170,15 @@ def _side_files(path: Path) -> tuple[Path, ...]:
     try:
         if suffix == ".obj":
             with open_regular(path, str(path), "mesh file") as handle:
-                tail = b""
+                lines, carry = [], b""
                 for block in iter(lambda: handle.read(1 << 20), b""):
-                    found = re.search(rb"^[ \t]*mtllib[ \t]+([^\r\n]+)", tail + block, re.MULTILINE)
-                    if found:
-                        return (path.parent / found.group(1).decode("utf-8", "replace").strip(),)
-                    tail = block[-4096:]  # a line split between two blocks
+                    block = carry + block
+                    cut = block.rfind(b"\n") + 1  # whole lines only: a line split between two blocks waits
+                    if b"mtllib" in block[:cut]:  # find() at memory speed; the pattern only where it can match
+                        lines += MTLLIB.findall(block[:cut])
+                    carry = block[cut:][-4096:]  # an mtllib line is short: a longer remainder is no mtllib
+                lines += MTLLIB.findall(carry)
+            return tuple(path.parent / name for name in mtllib_names(lines, path.parent))
         elif suffix == ".gltf":
             import json
             with open_regular(path, str(path), "mesh file", MAX_SIDE_FILE) as handle:
@@ -203,9 +206,11 @@ def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
             sources: list[TextureSource] = []
             points = _binary_stl_points(handle) if suffix == ".stl" else None
             if points is None:
-                source = _mesh_source(path, handle)
+                source = _mesh_source(path, handle, where)
                 library = _obj_materials(path, source["file_obj"], notes, sources) if suffix == ".obj" else None
-                loaded = trimesh.load(**source, process=False)
+                if library is not None:
+                    source["resolver"] = _MaterialNames(path, library)
+                loaded = _load_obj(source) if suffix == ".obj" else trimesh.load(**source, process=False)
         if points is not None:  # the corners in file order, as trimesh's reader gives them (without its float64)
             library, parts = None, [_Part(points, np.arange(len(points), dtype=np.int64).reshape(-1, 3), None, None)]
         else:
@@ -682,28 +687,55 @@ def _rgb(values) -> tuple[float, float, float]:
 TEXTURE_KEYS = ("map_", "bump", "disp", "decal", "refl", "norm")
 
 
+MTLLIB = re.compile(rb"^[ \t]*mtllib[ \t]+([^\r\n]+)", re.MULTILINE)  # an OBJ's mtllib statement: its names
+
+
+def mtllib_names(lines: list[bytes], folder: Path) -> list[str]:
+    """The .mtl files named by an OBJ's `mtllib` statements (`lines`: each statement's text after `mtllib`),
+    in order, each once. The OBJ specification lets one statement name several files: they are separated by
+    blanks, a backslash escapes a space (`b\\ c.mtl` is "b c.mtl"), and a `#` word starts a comment. A
+    statement whose whole text names a file beside the OBJ is that one file (`mtllib my model.mtl`, which
+    exporters write unescaped and which was read so before)."""
+    names = []
+    for line in lines:
+        text = line.decode("utf-8", "replace").strip()
+        words = [word.replace("\\ ", " ") for word in re.split(r"(?<!\\)[ \t]+", text)]
+        words = words[:next((i for i, word in enumerate(words) if word.startswith("#")), len(words))]
+        whole = text.replace("\\ ", " ")
+        try:
+            if len(words) > 1 and (folder / whole).is_file():
+                words = [whole]
+        except OSError:
+            pass  # a name too long to be one file: the words
+        names += words
+    return list(dict.fromkeys(name for name in names if name))
+
+
 def _obj_materials(path: Path, text: io.BytesIO, notes: list[str],
                    sources: list[TextureSource] | None = None) -> dict[str, FileMaterial]:
-    """The materials of the .mtl an OBJ names (its first `mtllib`, as trimesh reads), by name; {} and a note
-    when it is missing or unreadable."""
+    """The materials of every .mtl an OBJ's `mtllib` lines name (mtllib_names), by name: a name defined by
+    several files keeps the first file's (the OBJ specification searches them in order). A missing or
+    unreadable file is a note, and the others still count; {} when there are none."""
     data = text.getvalue()
     text.seek(0)
     # The pattern tries every byte of a file without one (0.19 s at 40 MB); find() looks at memory speed first.
-    found = re.search(rb"^[ \t]*mtllib[ \t]+([^\r\n]+)", data, re.MULTILINE) if b"mtllib" in data else None
-    if found is None:
-        return {}
-    name = found.group(1).decode("utf-8", "replace").strip()
-    mtl = path.parent / name
-    try:
-        with open_regular(mtl, f"{path}: mtllib", "material file", MAX_SIDE_FILE) as handle:
-            content = handle.read(MAX_SIDE_FILE + 1).decode("utf-8", "replace")
-    except FileNotFoundError:
-        notes.append(f"{path}: its material file {name!r} is missing; the default material is used")
-        return {}
-    except (SceneError, OSError) as error:
-        notes.append(f"{path}: its material file {name!r} cannot be read ({error}); the default material is used")
-        return {}
-    return parse_mtl(content, mtl, notes, sources)
+    lines = MTLLIB.findall(data) if b"mtllib" in data else []
+    library: dict[str, FileMaterial] = {}
+    for name in mtllib_names(lines, path.parent):
+        mtl = path.parent / name
+        try:
+            with open_regular(mtl, f"{path}: mtllib", "material file", MAX_SIDE_FILE) as handle:
+                content = handle.read(MAX_SIDE_FILE + 1).decode("utf-8", "replace")
+        except FileNotFoundError:
+            notes.append(f"{path}: its material file {name!r} is missing; the default material is used")
+            continue
+        except (SceneError, OSError) as error:
+            notes.append(f"{path}: its material file {name!r} cannot be read ({error}); the default material is "
+                         "used")
+            continue
+        for key, material in parse_mtl(content, mtl, notes, sources).items():
+            library.setdefault(key, material)
+    return library
 
 
 def parse_mtl(content: str, mtl: Path, notes: list[str],
@@ -808,7 +840,9 @@ MAP_OPTIONS = {"-blendu": 1, "-blendv": 1, "-bm": 1, "-boost": 1, "-cc": 1, "-cl
 
 def _map_file(words: list[str]) -> str:
     """The file a map statement names: its options skipped (-o, -s and -t take up to 3 numbers), the rest,
-    spaces kept ("fuze uv.jpg"), backslashes read as folder separators (files written on Windows)."""
+    spaces kept ("fuze uv.jpg"), backslashes read as folder separators (files written on Windows). Options
+    come before the name (the .mtl specification), but some exporters write one after it (`wood.png -bm
+    0.5`): words from an option to the end that are all options with their values are not part of the name."""
     at = 0
     while at < len(words) and words[at].lower() in MAP_OPTIONS:
         count = MAP_OPTIONS[words[at].lower()]
@@ -819,7 +853,25 @@ def _map_file(words: list[str]) -> str:
                 at, taken = at + 1, taken + 1
             else:
                 break
-    return " ".join(words[at:]).replace("\\", "/")
+    end = next((i for i in range(at + 1, len(words)) if _only_options(words[i:])), len(words))
+    return " ".join(words[at:end]).replace("\\", "/")
+
+
+def _only_options(words: list[str]) -> bool:
+    """Whether `words` are map options to the end, each with its values: one word for a one-value option
+    (`-clamp on`, `-bm 0.5`), 1 to 3 numbers for -o, -s, -t, 1 or 2 for -mm."""
+    at = 0
+    while at < len(words):
+        count = MAP_OPTIONS.get(words[at].lower())
+        if count is None:
+            return False
+        at += 1
+        taken = 0
+        while taken < count and at < len(words) and (count == 1 or _is_number(words[at])):
+            at, taken = at + 1, taken + 1
+        if taken == 0:
+            return False
+    return True
 
 
 def _is_number(word: str) -> bool:
@@ -878,10 +930,37 @@ class _RegularFiles(trimesh.resolvers.FilePathResolver):
             return handle.read()
 
 
-def _mesh_source(path, handle) -> dict:
+class _MaterialNames(_RegularFiles):
+    """The .mtl trimesh is given for an OBJ, whatever name it asks for: a `newmtl` line per material read
+    here (_obj_materials), so trimesh tags each `usemtl` group with its material's name. trimesh reads only
+    the first `mtllib` line, as one file name; the materials themselves (and their maps) are read here."""
+
+    def __init__(self, path: Path, names):
+        super().__init__(path)
+        self.text = "".join(f"newmtl {name}\n" for name in names).encode("utf-8")
+
+    def get(self, name):
+        return self.text
+
+
+def _load_obj(source: dict):
+    """What trimesh.load gives for an OBJ, but `v x y z r g b` colours are kept beside a material or texture
+    coordinates: trimesh's reader hands them to a Trimesh whose TextureVisuals replaces them. They move to
+    the visual's `color` vertex attribute (where trimesh keeps glTF's COLOR_0 beside a material, which
+    _corner_colours reads), 8-bit as trimesh's ColorVisuals keeps them when there is no material."""
+    kwargs = trimesh.exchange.obj.load_obj(source["file_obj"], resolver=source["resolver"], process=False)
+    for mesh in (kwargs.get("geometry") or {}).values():
+        if mesh.get("vertex_colors") is not None and mesh.get("visual") is not None:
+            mesh["visual"].vertex_attributes["color"] = trimesh.visual.color.to_rgba(mesh.pop("vertex_colors"))
+    return trimesh.load_scene(kwargs)
+
+
+def _mesh_source(path, handle, where: str) -> dict:
     """trimesh.load arguments for the open file `handle` of `path`; a text format that is not UTF-8 is
     read as Latin-1. The file already opened is read (not the path again), and files it names (an OBJ's
-    materials, a glTF's buffers) are found beside it.
+    materials, a glTF's buffers) are found beside it. An OBJ's relative face indices are made absolute
+    and its concave polygons cut (io/obj_polygons.py); an index 0 or one counting back past the file's
+    start is a SceneError naming the line.
 
     trimesh needs the optional charset_normalizer to guess an encoding, and fails without it, so
     decide here: every byte is a Latin-1 character, and the OBJ and OFF keywords are plain ASCII.
@@ -895,7 +974,10 @@ def _mesh_source(path, handle) -> dict:
         except UnicodeDecodeError:
             data = data.decode("latin-1").encode("utf-8")
         if suffix == ".obj":
-            from .obj_polygons import triangulate_concave
+            from .obj_polygons import absolute_indices, triangulate_concave
+            data, problem = absolute_indices(data)  # trimesh counts -1 back from the file's end, not the line
+            if problem:
+                raise SceneError(f"{where}: {str(path)!r} {problem}")
             data, _ = triangulate_concave(data)  # trimesh would fan a concave polygon over its hole
         source["file_obj"] = io.BytesIO(data)
     return source

@@ -10,6 +10,11 @@ triangles are left to trimesh's fan, which is the same for them. Only files with
 The text is read once by a compiled scan (`_scan`: its lines, `v` and `f` records, the vertex number of each
 corner), so a file of a million quads costs a pass over its bytes and a vectorised convexity test, not a
 Python object per token. Lines end in LF or CRLF.
+
+Before that, relative face indices are made absolute (`absolute_indices`): `f -4 -3 -2 -1` names the four
+`v` lines above it (the OBJ specification), but trimesh counts a negative index back from the file's last
+vertex, so a file that defines each face after its own vertices (a Cornell box) collapsed onto its last
+quad. Index 0, which names nothing (indices start at 1), is found in the same pass and refused.
 """
 
 from __future__ import annotations
@@ -19,7 +24,7 @@ import numpy as np
 from ..jit import kernel
 
 SPACE, TAB, LF, CR, HASH, SLASH, MINUS, PLUS, ZERO = 32, 9, 10, 13, 35, 47, 45, 43, 48
-OBJ_KERNELS = ("_scan", "_concave")  # what reading an OBJ compiles (renderer/warmup.py loads them first)
+OBJ_KERNELS = ("_absolute", "_scan", "_concave")  # what reading an OBJ compiles (renderer/warmup.py loads them first)
 
 
 @kernel(inline="always")
@@ -32,6 +37,137 @@ def _blank(c):
 def _white(c):
     """Any whitespace byte (space, tab, LF, CR, FF, VT): where a coordinate word ends."""
     return c == SPACE or c == TAB or c == LF or c == CR or c == 12 or c == 11
+
+
+INDEX_KINDS = ("v", "vt", "vn")  # what the components of a face corner `v/vt/vn` count
+
+
+@kernel(inline="always")
+def _digits(value):
+    """How many decimal digits a positive integer has."""
+    count = 1
+    while value >= 10:
+        value //= 10
+        count += 1
+    return count
+
+
+@kernel()
+def _absolute(data):
+    """OBJ text `data` (uint8) with every relative (negative) face index made absolute, in two passes (find and
+    measure, then write). Returns (text, changed, problem, line, kind, value, above): problem 0 none, 1 an
+    index 0, 2 a relative index past the first record of its kind; line (1-based) of the face, kind
+    (INDEX_KINDS), value of the first such index and how many records of its kind are above the face; `text`
+    is empty when nothing changed or on a problem.
+
+    Records: blanks, a keyword, a blank; a backslash before the line's end continues the record on the next
+    line (trimesh joins such lines too). `v`, `vt` and `vn` records are counted; in an `f` record each corner's
+    `/`-separated components that are integers ([+-]digits) are checked, a negative one -k replaced by the
+    count of its kind above the record minus k plus 1. A `#` ends the record's words."""
+    n = data.shape[0]
+    out = np.empty(0, np.uint8)
+    size = n
+    changed = False
+    for fill in range(2):
+        if fill:
+            if not changed:
+                return out, False, 0, 0, 0, 0, 0
+            out = np.empty(size, np.uint8)
+        counts = np.zeros(3, np.int64)
+        size, copied, written, line, at = n, 0, 0, 1, 0
+        while at < n:
+            first_line = line
+            i = at
+            while i < n and _blank(data[i]):
+                i += 1
+            start = i
+            while i < n and not _white(data[i]):
+                i += 1
+            keyword = i - start
+            kind = -1
+            if keyword == 1 and data[start] == 118:  # v
+                kind = 0
+            elif keyword == 2 and data[start] == 118 and data[start + 1] == 116:  # vt
+                kind = 1
+            elif keyword == 2 and data[start] == 118 and data[start + 1] == 110:  # vn
+                kind = 2
+            face = keyword == 1 and data[start] == 102 and i < n and _blank(data[i])  # f and a blank
+            if kind >= 0 and i < n and _blank(data[i]):
+                counts[kind] += 1
+            # the record runs to an LF not continued by a backslash (before it, or before its CR)
+            comment = False
+            while i < n:
+                c = data[i]
+                if c == LF:
+                    line += 1
+                    if (i >= 1 and data[i - 1] == 92) or (i >= 2 and data[i - 1] == CR and data[i - 2] == 92):
+                        i += 1
+                        continue
+                    break
+                if c == HASH:
+                    comment = True
+                if not face or comment or _white(c) or c == 92:
+                    i += 1
+                    continue
+                # a corner: its components, each up to a `/`, the corner ending at whitespace, `#` or `\`
+                component = 0
+                while i < n and not _white(data[i]) and data[i] != HASH and data[i] != 92:
+                    k = i
+                    sign = 1
+                    if data[k] == MINUS or data[k] == PLUS:
+                        sign = -1 if data[k] == MINUS else 1
+                        k += 1
+                    value, digits = 0, 0
+                    while k < n and ZERO <= data[k] <= ZERO + 9 and digits < 18:
+                        value, digits = 10 * value + (data[k] - ZERO), digits + 1
+                        k += 1
+                    end = k
+                    while end < n and not _white(data[end]) and data[end] != SLASH and data[end] != HASH \
+                            and data[end] != 92:
+                        end += 1
+                    if digits and end == k and component < 3:  # an integer component
+                        if value == 0:
+                            return out, False, 1, first_line, component, 0, counts[component]
+                        if sign < 0:
+                            absolute = counts[component] - value + 1
+                            if absolute < 1:
+                                return out, False, 2, first_line, component, -value, counts[component]
+                            if fill:
+                                out[written:written + i - copied] = data[copied:i]
+                                written += i - copied
+                                places = _digits(absolute)
+                                for d in range(places):
+                                    out[written + places - 1 - d] = ZERO + absolute % 10
+                                    absolute //= 10
+                                written += places
+                                copied = end
+                            else:
+                                size += _digits(absolute) - (end - i)
+                                changed = True
+                    i = end
+                    if i < n and data[i] == SLASH:
+                        i += 1
+                        component += 1
+            at = i + 1
+        if fill:
+            out[written:written + n - copied] = data[copied:n]
+    return out, True, 0, 0, 0, 0, 0
+
+
+def absolute_indices(data: bytes) -> tuple[bytes, str | None]:
+    """The OBJ text with relative face indices made absolute (_absolute), and None; or the text unchanged and
+    what is wrong ("line 7: index 0 (`vt`) ..."), for the reader's one-line error."""
+    if b"f" not in data:
+        return data, None
+    text, changed, problem, line, kind, value, above = _absolute(np.frombuffer(data, np.uint8))
+    name = INDEX_KINDS[kind]
+    allowed = f"allowed: 1, 2, ... (the file's `{name}` lines in order) or -1, -2, ... (back from the face)"
+    if problem == 1:
+        return data, f"line {line}: face index 0 (`{name}`) names nothing; {allowed}"
+    if problem == 2:
+        return data, (f"line {line}: face index {value} (`{name}`) counts back past the first `{name}` line "
+                      f"({above} `{name}` line{'' if above == 1 else 's'} above it); {allowed}")
+    return (text.tobytes() if changed else data), None
 
 
 @kernel()
@@ -268,8 +404,8 @@ def triangulate_concave(data: bytes) -> tuple[bytes, int]:
 
 
 def warm_up() -> None:
-    """Load (or compile) OBJ_KERNELS: a concave pentagon, cut."""
-    triangulate_concave(b"v 0 0 0\nv 2 0 0\nv 2 2 0\nv 1 0.5 0\nv 0 2 0\nf 1 2 3 4 5\n")
+    """Load (or compile) OBJ_KERNELS: a concave pentagon with relative indices, made absolute and cut."""
+    triangulate_concave(absolute_indices(b"v 0 0 0\nv 2 0 0\nv 2 2 0\nv 1 0.5 0\nv 0 2 0\nf -5 -4 -3 -2 -1\n")[0])
 
 
 def _ear_clip(corners: np.ndarray) -> list[tuple[int, ...]] | None:

@@ -1,0 +1,176 @@
+"""OBJ records read as the OBJ and MTL specifications say (issue 33): relative face indices, several .mtl files on
+one `mtllib`, index 0 refused, a map option after its file name, vertex colours beside materials.
+
+Each case is a minimal file written here, checked against positions, names and colours worked out by hand.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from raycast_phong.cli import app
+from raycast_phong.io import mesh_file
+
+runner = CliRunner()
+pytestmark = pytest.mark.usefixtures("in_tmp_path")
+
+
+def read(path: Path) -> mesh_file.MeshFile:
+    return mesh_file.read_mesh(path, str(path))
+
+
+def triangles(mesh: mesh_file.MeshFile) -> list[tuple]:
+    """Each face's corner positions, in file order per face, sorted over faces (trimesh may group them)."""
+    return sorted(tuple(map(tuple, mesh.vertices[face].round(9).tolist())) for face in mesh.faces)
+
+
+SQUARE = "v 0 0 {z}\nv 1 0 {z}\nv 1 1 {z}\nv 0 1 {z}\n"
+
+
+def square(z: float) -> list[tuple]:
+    """The two triangles of the square at height z, fanned from its first corner as trimesh fans a quad."""
+    a, b, c, d = (0, 0, z), (1, 0, z), (1, 1, z), (0, 1, z)
+    return [(a, b, c), (c, d, a)]
+
+
+def test_relative_face_indices_count_back_from_their_own_line(tmp_path):
+    """`f -4 -3 -2 -1` names the four `v` lines above it, not the file's last four: two squares stay two
+    (a Cornell box collapsed onto one quad). Triangles, quads and a concave polygon alike."""
+    concave = "v 0 0 5\nv 4 0 5\nv 4 4 5\nv 2 1 5\nv 0 4 5\n"  # a dart: concave at its 4th corner
+    text = (SQUARE.format(z=0) + "f -4 -3 -2 -1\n" + SQUARE.format(z=1) + "f -4 -3 -2\n"
+            + concave + "f -5 -4 -3 -2 -1\n" + SQUARE.format(z=9))  # vertices after the faces: what -1 hit
+    (tmp_path / "rel.obj").write_text(text)
+    found = triangles(read(tmp_path / "rel.obj"))
+    dart = [(0, 0, 5), (4, 0, 5), (4, 4, 5), (2, 1, 5), (0, 4, 5)]
+    assert square(0)[0] in found and square(0)[1] in found
+    assert ((0, 0, 1), (1, 0, 1), (1, 1, 1)) in found
+    assert len(found) == 6 and all(corner in dart for face in found[3:] for corner in face), found
+    assert not any(corner[2] == 9 for face in found for corner in face)
+
+
+def test_relative_texture_and_normal_indices_count_back_from_their_own_line(tmp_path):
+    """vt and vn indices count back over the `vt` and `vn` lines above the face, each in its own list."""
+    from PIL import Image
+    Image.new("RGB", (2, 2), (255, 255, 255)).save(tmp_path / "t.png")
+    (tmp_path / "m.mtl").write_text("newmtl t\nmap_Kd t.png\n")
+    text = ("mtllib m.mtl\nusemtl t\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.1 0.2\nvt 0.3 0.4\nvt 0.5 0.6\n"
+            "vn 1 0 0\nvn 0 1 0\nvn 0 0 1\nf -3/-3/-3 -2/-2/-2 -1/-1/-1\n"
+            "vt 0.9 0.9\nvn 0 0 -1\n")  # defined after the face: a count from the file's end would take these
+    (tmp_path / "uv.obj").write_text(text)
+    mesh = read(tmp_path / "uv.obj")
+    [face] = mesh.faces.tolist()
+    assert mesh.vertices[face].tolist() == [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+    np.testing.assert_allclose(mesh.corner_uv[0], [[0.1, 0.2], [0.3, 0.4], [0.5, 0.6]], atol=1e-6)
+    np.testing.assert_allclose(mesh.normals[face], np.eye(3))
+
+
+def test_a_relative_index_before_the_first_vertex_is_one_line(tmp_path):
+    (tmp_path / "far.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 -3 -2\n")
+    done = runner.invoke(app, ["render", str(tmp_path / "far.obj"), "-o", str(tmp_path / "x.png")])
+    assert done.exit_code == 2, done.output
+    [line] = done.stderr.strip().splitlines()
+    assert "line 4" in line and "-4" in line and "3 `v` lines above it" in line and "allowed" in line, line
+
+
+@pytest.mark.parametrize(("corner", "kind"), [("0", "`v`"), ("1/0", "`vt`"), ("1//0", "`vn`")])
+def test_face_index_0_is_refused_naming_the_line(tmp_path, corner, kind):
+    """OBJ indices start at 1 (or count back from -1): 0 names nothing. trimesh read it as the first vertex."""
+    (tmp_path / "zero.obj").write_text(f"v 0 0 0\nvt 0 0\nvn 0 0 1\nv 1 0 0\nv 0 1 0\nf {corner} 2 3\n")
+    done = runner.invoke(app, ["render", str(tmp_path / "zero.obj"), "-o", str(tmp_path / "x.png")])
+    assert done.exit_code == 2, done.output
+    [line] = done.stderr.strip().splitlines()
+    assert line.startswith(f"error: {tmp_path / 'zero.obj'}:") and "line 6" in line, line
+    assert f"index 0 ({kind})" in line and "allowed: 1" in line, line
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_every_mtl_an_mtllib_names_is_read(tmp_path):
+    """`mtllib a.mtl b\\ c.mtl d\\ e.mtl` names three files (a backslash escapes a space); each defines a
+    material a `usemtl` group uses. A name also defined by an earlier file keeps the earlier definition."""
+    (tmp_path / "a.mtl").write_text("newmtl red\nKd 1 0 0\n")
+    (tmp_path / "b c.mtl").write_text("newmtl green\nKd 0 1 0\nnewmtl red\nKd 0 0 0\n")
+    (tmp_path / "d e.mtl").write_text("newmtl blue\nKd 0 0 1\n")
+    faces = "".join(f"usemtl {name}\nv {k} 0 0\nv {k + 1} 0 0\nv {k} 1 0\nf -3 -2 -1\n"
+                    for k, name in enumerate(("red", "green", "blue")))
+    (tmp_path / "three.obj").write_text("mtllib a.mtl b\\ c.mtl d\\ e.mtl\n" + faces)
+    mesh = read(tmp_path / "three.obj")
+    assert mesh.notes == () or not any("material file" in note for note in mesh.notes), mesh.notes
+    kd = {m.name: m.kd for m in mesh.materials}
+    assert kd == {"red": (1, 0, 0), "green": (0, 1, 0), "blue": (0, 0, 1)}, kd
+    for face, group in zip(mesh.faces, mesh.face_group):  # the face at x = k has the k-th material
+        assert mesh.materials[group].name == ("red", "green", "blue")[int(mesh.vertices[face][:, 0].min())]
+    assert mesh_file.side_files(tmp_path / "three.obj") == [tmp_path / n for n in ("a.mtl", "b c.mtl", "d e.mtl")]
+
+
+def test_an_mtllib_naming_one_file_with_a_space_and_several_lines_are_read(tmp_path):
+    """`mtllib my model.mtl` naming an existing file is that file (as read before); a second `mtllib` line
+    adds its materials; a missing one is one note and the others still count."""
+    (tmp_path / "my model.mtl").write_text("newmtl red\nKd 1 0 0\n")
+    (tmp_path / "more.mtl").write_text("newmtl green\nKd 0 1 0\n")
+    text = ("mtllib my model.mtl\nmtllib more.mtl gone.mtl\nusemtl red\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+            "usemtl green\nf 1 3 2\n")
+    (tmp_path / "two.obj").write_text(text)
+    mesh = read(tmp_path / "two.obj")
+    assert sorted(m.name for m in mesh.materials) == ["green", "red"]
+    assert [n for n in mesh.notes if "material file" in n] == [
+        f"{tmp_path / 'two.obj'}: its material file 'gone.mtl' is missing; the default material is used"]
+
+
+def test_a_map_option_after_the_file_name_is_not_part_of_the_name(tmp_path):
+    """`map_Kd wood.png -bm 0.5`: the name is wood.png (the .mtl specification puts options first, but
+    exporters write some after); `map_Bump -bm 1 n.png` skips -bm before the name as before."""
+    from PIL import Image
+    Image.new("RGB", (2, 2), (255, 255, 255)).save(tmp_path / "wood.png")
+    assert "-bm" in mesh_file.MAP_OPTIONS
+    notes: list[str] = []
+    sources: list = []
+    found = mesh_file.parse_mtl("newmtl w\nmap_Kd wood.png -bm 0.5\nmap_Bump -bm 1 n.png\n"
+                                "newmtl c\nmap_Kd wood.png -clamp on -s 1 1 1\n", tmp_path / "m.mtl", notes, sources)
+    assert found["w"].kd_map >= 0 and sources[found["w"].kd_map].source == tmp_path / "wood.png", notes
+    assert sources[found["c"].kd_map].wrap_s == "clamp"
+    assert not any("'wood.png" in note for note in notes), notes
+    assert any("not applied: map_bump n.png" in note for note in notes), notes
+    assert mesh_file._map_file(["my", "wood.png"]) == "my wood.png"  # spaces in a name stay
+
+
+def test_vertex_colours_are_kept_beside_usemtl_materials(tmp_path):
+    """`v x y z r g b` in a file whose faces have a `usemtl` material: both are kept (the colours multiply the
+    material's k_a and k_d, docs/meshes.md); they were dropped."""
+    (tmp_path / "m.mtl").write_text("newmtl grey\nKa 0.5 0.5 0.5\nKd 0.5 0.5 0.5\n")
+    text = ("mtllib m.mtl\nv 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nv 1 1 0 1 1 1\n"
+            "usemtl grey\nf 1 2 3\nf 2 4 3\n")
+    (tmp_path / "c.obj").write_text(text)
+    mesh = read(tmp_path / "c.obj")
+    assert [m.name for m in mesh.materials] == ["grey"] and (mesh.face_group == 0).all()
+    colour = {(1, 0, 0): (0, 0, 0), (0, 1, 0): (1, 0, 0), (0, 0, 1): (0, 1, 0), (1, 1, 1): (1, 1, 0)}
+    assert mesh.corner_colour is not None
+    for face, corners in zip(mesh.faces, mesh.corner_colour):
+        for vertex, rgb in zip(mesh.vertices[face], corners):
+            assert tuple(vertex) == colour[tuple(rgb.round(6))], (vertex, rgb)
+    # the same 8-bit values as the file without materials gives (0.3 is 76/255 either way)
+    shaded = text.replace("1 1 0 1 1 1", "1 1 0 0.3 0.3 0.3")
+    (tmp_path / "c.obj").write_text(shaded)
+    (tmp_path / "plain.obj").write_text(shaded.replace("mtllib m.mtl\n", "").replace("usemtl grey\n", ""))
+    with_material, plain = read(tmp_path / "c.obj"), read(tmp_path / "plain.obj")
+    assert plain.materials == () and with_material.materials
+    np.testing.assert_array_equal(with_material.corner_colour, plain.corner_colour)
+    assert np.isclose(with_material.corner_colour, 76 / 255).any()
+
+
+def test_vertex_colours_multiply_the_materials_ka(tmp_path):
+    """Lit by the ambient term alone (ambient 1, no lights), a red-vertex triangle with Ka 0.5 is k_a × red =
+    (0.5, 0, 0) at every pixel; it rendered grey (0.5, 0.5, 0.5) when the colours were dropped."""
+    import raycast_phong as rp
+    (tmp_path / "m.mtl").write_text("newmtl g\nKa 0.5 0.5 0.5\nKd 0.5 0.5 0.5\nKs 0 0 0\n")
+    (tmp_path / "t.obj").write_text("mtllib m.mtl\nv 0 0 0 1 0 0\nv 1 0 0 1 0 0\nv 0 1 0 1 0 0\nusemtl g\nf 1 2 3\n")
+    (tmp_path / "s.toml").write_text('ambient = 1.0\nlights = []\n[render]\nwidth = 32\nheight = 32\n[camera]\n'
+                                     'position = [0.3, 0.3, 2]\nlook_at = [0.3, 0.3, 0]\n'
+                                     '[[objects]]\nshape = "mesh"\npath = "t.obj"\n')
+    image = rp.render(rp.load_scene(tmp_path / "s.toml")).image
+    covered = image.max(axis=2) > 0
+    assert covered.sum() > 50
+    np.testing.assert_allclose(image[covered], np.broadcast_to([0.5, 0.0, 0.0], image[covered].shape), atol=1e-6)
