@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import sys
 import time
 from pathlib import Path
@@ -9,7 +10,21 @@ from typing import Annotated
 
 import typer
 
-from .common import MaxMemoryOption, app, exit_codes, one_line
+from .common import MaxMemoryOption, app, exit_codes, fail, one_line
+
+SCHEDULER = re.compile(r"(?:[a-z]+://)?(\[[0-9A-Fa-f:.]+\]|[^\s:/\[\]]+):(\d{1,5})")
+
+
+def _scheduler(address: str | None) -> str | None:
+    """--scheduler as Dask takes it, [PROTOCOL://]HOST:PORT; anything else exits 2 with one line here (Dask's
+    own parser raised a bare ValueError deep in its connection code: an internal error)."""
+    if address is None:
+        return None
+    found = SCHEDULER.fullmatch(address)
+    if found is None or not 0 < int(found[2]) < 65536:
+        fail(f"--scheduler {address[:80]!r}: not a Dask scheduler's address; allowed: tcp://HOST:PORT with a port "
+             "from 1 to 65535, e.g. tcp://127.0.0.1:8786")
+    return address
 
 
 @app.command(epilog="""
@@ -36,9 +51,9 @@ def batch(
                     "the N cores as threads. With 1, scenes render one after another in this process.")] = None,
     force: Annotated[bool, typer.Option("--force", help="Render every scene, even those whose outputs are "
                      "up to date.")] = False,
-    scheduler: Annotated[str | None, typer.Option(metavar="tcp://HOST:PORT", help="Run the renders on this "
-                         "Dask scheduler (pip install 'raycast-phong[distributed]'); scene files and the output "
-                         "folder must be at the same paths on its workers.")] = None,
+    scheduler: Annotated[str | None, typer.Option(metavar="tcp://HOST:PORT", callback=_scheduler, help="Run the "
+                         "renders on this Dask scheduler (pip install 'raycast-phong[distributed]'); scene files "
+                         "and the output folder must be at the same paths on its workers.")] = None,
     srgb: Annotated[bool, typer.Option("--srgb", help="Encode PNG outputs with the sRGB curve.")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress and no summary; failures are still "
                      "reported.")] = False,

@@ -225,6 +225,9 @@ def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
     if not parts:
         raise SceneError(f"{where}: {str(path)!r} holds no triangles; expected {READABLE}")
     vertices, faces, normals = _concatenate(parts)
+    if vertices.ndim != 2 or vertices.shape[1] != 3:  # an OBJ `v x y`, a glTF POSITION of VEC2
+        given = vertices.shape[1] if vertices.ndim == 2 else vertices.ndim
+        raise SceneError(f"{where}: {str(path)!r} gives its vertices {given} coordinate(s) each; allowed: 3 (x, y, z)")
     if faces.size and not (0 <= faces.min() and faces.max() < len(vertices)):
         bad = int(((faces < 0) | (faces >= len(vertices))).any(axis=1).sum())
         raise SceneError(f"{where}: {str(path)!r} has {bad} face(s) with a vertex index outside 0..{len(vertices) - 1} "

@@ -101,7 +101,7 @@ def check_environment() -> list[str]:
     about other NUMBA_* values it cannot parse, one line each, instead of its raw multi-line warnings."""
     from ..errors import OptionError
     threads = os.environ.get("NUMBA_NUM_THREADS", "").strip()
-    if threads and not (threads.isdigit() and 1 <= int(threads) <= 1024):
+    if threads and not (threads.isascii() and threads.isdigit() and 1 <= int(threads) <= 1024):  # not '¹
         raise OptionError(f"NUMBA_NUM_THREADS={threads[:20]!r}: numba's thread count; allowed: a whole number from 1 "
                           f"to 1024 (this machine has {os.cpu_count()} cores), or unset it")
     if os.environ.get("NUMBA_DISABLE_JIT", "").strip() not in ("", "0"):

@@ -419,3 +419,32 @@ def test_set_value_is_validated_like_the_file(tmp_path):
 def test_plan_refuses_bad_input_too(tmp_path):
     scene = write_scene(tmp_path, {"camera.fov": 180})
     run_refused(tmp_path, ["plan", str(scene)], "camera.fov: out of range", scene=scene)
+
+
+@pytest.mark.parametrize("address", ["notaurl", "tcp://host", "tcp://127.0.0.1:0", "tcp://127.0.0.1:99999",
+                                     "tcp://[::1]:8786x", "127.0.0.1 :8786"])
+def test_a_scheduler_that_is_not_an_address_is_one_line(tmp_path, address):
+    """`batch --scheduler notaurl` was an internal error (Dask's parser raised ValueError in its connection code)."""
+    (tmp_path / "s.toml").write_text('[[objects]]\nshape = "icosphere"\n')
+    result = runner.invoke(app, ["batch", str(tmp_path / "s.toml"), "--out", str(tmp_path / "out"),
+                                 "--scheduler", address])
+    assert result.exit_code == 2, result.output
+    assert result.stderr.count("\n") == 1 and "not a Dask scheduler's address" in result.stderr, result.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_numba_threads_that_only_look_like_digits_are_one_line(tmp_path):
+    """NUMBA_NUM_THREADS=¹ passed str.isdigit() and int() raised: a traceback for every command."""
+    result = runner.invoke(app, ["render", "--width", "8", "--height", "8", "-o", str(tmp_path / "x.png")],
+                           env={"NUMBA_NUM_THREADS": "¹"})
+    assert result.exit_code == 2 and "NUMBA_NUM_THREADS='¹'" in result.stderr, result.output
+    assert result.stderr.count("\n") == 1
+
+
+def test_an_obj_whose_vertices_have_two_coordinates_is_one_line(tmp_path):
+    """`v x y` records: an internal IndexError in the bounding box; now the file and what is allowed."""
+    (tmp_path / "flat.obj").write_text("v 0 0\nv 1 0\nv 0 1\nf 1 2 3\n")
+    result = runner.invoke(app, ["render", str(tmp_path / "flat.obj"), "-o", str(tmp_path / "x.png")])
+    assert result.exit_code == 2, result.output
+    assert "gives its vertices 2 coordinate(s) each; allowed: 3 (x, y, z)" in result.stderr
+    assert result.stderr.count("\n") == 1 and not (tmp_path / "x.png").exists()
