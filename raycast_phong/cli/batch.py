@@ -72,7 +72,10 @@ def batch(
     previous = {number: signal.signal(number, batches.interrupt) for number in batches.STOP_SIGNALS}
     try:
         with exit_codes():
-            listed = batches.listed_paths(sys.stdin.buffer) if "-" in paths else []
+            refused: list[str] = []
+            listed = batches.listed_paths(getattr(sys.stdin, "buffer", None), warnings=refused) if "-" in paths else []
+            for warning in refused:
+                typer.secho(f"warning: {one_line(warning)}", err=True, fg=typer.colors.YELLOW)
             found = batches.find_jobs(paths, out, listed)
             report = _batch_with_progress(found, out, jobs, force, batches.Settings(srgb=srgb), scheduler, quiet,
                                           max_memory)

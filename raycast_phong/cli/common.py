@@ -9,7 +9,9 @@ Exit status: 0 ok, 2 bad input (scene, mesh, option, output path) or an output t
 from __future__ import annotations
 
 import atexit
+import errno
 import gc
+import io
 import json
 import os
 import sys
@@ -84,6 +86,19 @@ def _say_compiling(name: str, signature: str) -> None:
                "or two on 2 cores)...", err=True)
 
 
+class _ClosedStdout(io.TextIOBase):
+    """stdout of a program started with it closed (`>&-`, where Python sets sys.stdout to None): a command that
+    prints fails as any write to a closed descriptor does (one line, exit 2); one that prints nothing succeeds."""
+
+    def writable(self) -> bool:
+        return True
+
+    def write(self, text: str) -> int:
+        error = OSError(errno.EBADF, "standard output is closed")
+        error.stream = "stdout"  # a failed output, for OneLineErrors' one line, not a bug of the command
+        raise error
+
+
 def _stdout_identity() -> tuple[int, int] | None:
     try:
         info = os.fstat(sys.stdout.fileno())
@@ -137,6 +152,8 @@ def main() -> None:
     command's own cyclic garbage is still found young."""
     os.environ.setdefault("PYDANTIC_DISABLE_PLUGINS", "__all__")
     gc.set_threshold(10_000, 10, 10)
+    if sys.stdout is None:  # started with stdout closed (`>&-`): what a command prints fails as a write to it
+        sys.stdout = _ClosedStdout()
     try:
         app()
         code = 0
@@ -257,11 +274,20 @@ def exit_codes():
         fail(str(error))
     except typer.Exit:
         raise
-    except Exception as error:  # anything else is our bug: one line, exit 1, the traceback in a log file
-        if _debug():
+    except OSError as error:
+        if getattr(error, "stream", None):  # stdout or stderr could not be written: OneLineErrors says so, exit 2
             raise
-        log = _traceback_log(error)
-        fail(f"internal error: {type(error).__name__}: {error}" + (f" (traceback in {log})" if log else ""), code=1)
+        _internal(error)
+    except Exception as error:  # noqa: BLE001 - anything else is our bug: one line, exit 1, the traceback logged
+        _internal(error)
+
+
+def _internal(error: Exception) -> None:
+    """An error that is our bug: one line, exit 1, the traceback in a log file (raised as is under debug)."""
+    if _debug():
+        raise error
+    log = _traceback_log(error)
+    fail(f"internal error: {type(error).__name__}: {error}" + (f" (traceback in {log})" if log else ""), code=1)
 
 
 ERROR_LOGS_VARIABLE = "RAYCAST_PHONG_ERROR_LOGS"

@@ -25,6 +25,8 @@ def read_scene_file(path: Path) -> dict:
     stdin = is_stdin(path)
     try:
         if stdin:  # a pipe: read to its end, one byte past the cap at most
+            if sys.stdin is None:  # the program was started with stdin closed (`<&-`)
+                raise SceneError(f"{path}: standard input is closed; pipe a scene to `-`, or give a scene file")
             data = sys.stdin.buffer.read(MAX_SCENE_BYTES + 1)
         else:
             with open_regular(path, str(path), "scene file", MAX_SCENE_BYTES) as handle:

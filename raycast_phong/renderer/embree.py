@@ -2,8 +2,9 @@
 bound to its addresses, and scenes built on buffers shared with it (kernels/embree.py queries them).
 
 This is the renderer's one engine: embreex's wheels link their own modules against the libembree4 they
-carry, so wherever embreex imports, this library loads. If it cannot (a missing file or symbol, or
-LIBRARY_VARIABLE naming a file that is not the library), `library()` raises one EmbreeError saying so.
+carry, so wherever embreex imports, this library loads. If it cannot (a missing file or symbol), `library()`
+raises one EmbreeError saying so; LIBRARY_VARIABLE naming a file that is not the library (or a FIFO, never
+opened) is the user's input: one OptionError naming the variable, exit 2.
 Layouts and constants follow include/embree4/rtcore_scene.h, rtcore_geometry.h and rtcore_device.h.
 """
 
@@ -12,13 +13,14 @@ from __future__ import annotations
 import ctypes
 import importlib.util
 import os
+import stat
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 from llvmlite import binding
 
-from ..errors import EmbreeError
+from ..errors import EmbreeError, OptionError
 from .kernels.embree import INTERSECT16, OCCLUDED16
 
 LIBRARY_VARIABLE = "RAYCAST_PHONG_EMBREE_LIBRARY"  # a path to use instead of embreex's own libembree4
@@ -81,11 +83,24 @@ class Library:
 def library() -> Library:
     """The loaded library with the kernels' symbols bound; EmbreeError if it cannot be loaded."""
     path = library_path()
+    chosen = os.environ.get(LIBRARY_VARIABLE)  # the user's choice: what is wrong with it is their input's fault
+    if chosen:
+        try:
+            regular = stat.S_ISREG(os.stat(path).st_mode)  # a FIFO would block dlopen for ever
+        except OSError as error:
+            raise OptionError(f"{LIBRARY_VARIABLE}={chosen[:200]}: {error.strerror}; name Embree 4's library "
+                              "(libembree4.so.4), or unset it to use embreex's") from None
+        if not regular:
+            raise OptionError(f"{LIBRARY_VARIABLE}={chosen[:200]}: not a regular file; name Embree 4's library "
+                              "(libembree4.so.4), or unset it to use embreex's")
     try:
         if path is None:
             raise OSError("embreex carries no libembree4")
         loaded = Library(path)
     except (OSError, AttributeError) as error:
+        if chosen:
+            raise OptionError(f"{LIBRARY_VARIABLE}={chosen[:200]}: not Embree 4's library ({str(error)[:200]}); "
+                              "name libembree4.so.4, or unset it to use embreex's") from None
         raise EmbreeError(f"Embree's C library could not be loaded from {path or 'embreex'} ({error}); "
                           "reinstall embreex") from None
     for name, address in loaded.query_addresses.items():

@@ -448,3 +448,59 @@ def test_an_obj_whose_vertices_have_two_coordinates_is_one_line(tmp_path):
     assert result.exit_code == 2, result.output
     assert "gives its vertices 2 coordinate(s) each; allowed: 3 (x, y, z)" in result.stderr
     assert result.stderr.count("\n") == 1 and not (tmp_path / "x.png").exists()
+
+
+@pytest.mark.parametrize("kind", ["not a library", "FIFO", "missing"])
+def test_an_embree_library_variable_that_names_no_library_is_one_line(tmp_path, kind):
+    """RAYCAST_PHONG_EMBREE_LIBRARY naming a non-Embree file was an internal error ("reinstall embreex"), and a
+    FIFO blocked dlopen for ever: the variable is the user's input, refused in one line naming it, exit 2. In a
+    process of its own (the library is loaded once per process) with a timeout."""
+    import os
+    import subprocess
+    import sys
+    target = tmp_path / "libfake.so"
+    if kind == "not a library":
+        target.write_bytes(b"not a shared object\n")
+    elif kind == "FIFO":
+        os.mkfifo(target)
+    env = {**os.environ, "RAYCAST_PHONG_EMBREE_LIBRARY": str(target)}
+    env.pop("RAYCAST_PHONG_DEBUG", None)
+    done = subprocess.run([sys.executable, "-m", "raycast_phong.cli", "render", "--width", "8", "--height", "8",
+                           "-o", str(tmp_path / "x.png")], env=env, capture_output=True, text=True, timeout=120,
+                          stdin=subprocess.DEVNULL)
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.startswith(f"error: RAYCAST_PHONG_EMBREE_LIBRARY={target}: ") and done.stderr.count("\n") == 1
+    assert "internal error" not in done.stderr and not (tmp_path / "x.png").exists()
+
+
+def test_stdin_or_stdout_closed_is_one_line(tmp_path):
+    """`render - <&-`, `batch - <&-` (an AttributeError on None) and `plan >&-` (the same at the final flush):
+    one line, exit 2; a command that prints nothing still succeeds with stdout closed."""
+    import subprocess
+    import sys
+    scene = tmp_path / "s.toml"
+    scene.write_text('[render]\nwidth = 8\nheight = 8\n[[objects]]\nshape = "icosphere"\n')
+    cli = f"{sys.executable} -m raycast_phong.cli"
+    cases = {f"{cli} render - -o {tmp_path / 'a.png'} <&-": (2, "standard input is closed"),
+             f"{cli} batch - --out {tmp_path / 'out'} <&-": (2, "standard input is closed"),
+             f"{cli} plan {scene} >&-": (2, "error: stdout: write failed: standard output is closed"),
+             f"{cli} render {scene} -q -o {tmp_path / 'b.png'} >&-": (0, "")}
+    for command, (code, says) in cases.items():
+        done = subprocess.run(["bash", "-c", command], capture_output=True, text=True, timeout=120)
+        assert done.returncode == code and says in done.stderr, (command, done.stderr)
+        assert done.stderr.count("\n") == (1 if code else 0), (command, done.stderr)
+    assert (tmp_path / "b.png").is_file() and not (tmp_path / "a.png").exists()
+
+
+def test_a_listed_path_with_a_nul_byte_is_left_out_and_the_batch_goes_on(tmp_path):
+    """`batch -` with a NUL byte in one line was an internal error for the whole batch (ValueError: embedded null
+    byte): that line is left out with a warning, the others render."""
+    import subprocess
+    import sys
+    scene = tmp_path / "s.toml"
+    scene.write_text('[render]\nwidth = 8\nheight = 8\n[[objects]]\nshape = "icosphere"\n')
+    done = subprocess.run([sys.executable, "-m", "raycast_phong.cli", "batch", "-", "--out", str(tmp_path / "out"),
+                           "-q"], input=f"{scene}\nbad\0name.toml\n".encode(), capture_output=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stderr.decode() == "warning: stdin: line 2: a path with a NUL byte names no file; left out\n"
+    assert (tmp_path / "out" / "s.png").is_file()
