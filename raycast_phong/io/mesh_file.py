@@ -185,8 +185,8 @@ def _side_files(path: Path) -> tuple[Path, ...]:
                 document = json.loads(handle.read(MAX_SIDE_FILE))
             return tuple(path.parent / b["uri"] for b in document.get("buffers", [])
                          if isinstance(b, dict) and isinstance(b.get("uri"), str) and not b["uri"].startswith("data:"))
-    except (OSError, SceneError, ValueError):
-        pass  # the render reports an unreadable file
+    except (OSError, SceneError, ValueError, RecursionError, TypeError, AttributeError):
+        pass  # the render reports an unreadable file (JSON nested too deep, buffers that are not a list, ...)
     return ()
 
 
@@ -366,6 +366,9 @@ def _check_gltf(path: Path, handle, where: str, notes: list[str]) -> dict:
         document = json.loads(text)
     except (ValueError, UnicodeDecodeError):
         document = {}  # trimesh words what is wrong with the file
+    except RecursionError:  # Python's parser recurses per level: no glTF is nested a thousand deep
+        raise SceneError(f"{where}: {str(path)!r}: its JSON is nested deeper than Python's parser reads; allowed: "
+                         "a glTF document (a few levels of objects and lists)") from None
     finally:
         handle.seek(0)
     if not isinstance(document, dict):

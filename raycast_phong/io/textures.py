@@ -191,8 +191,8 @@ def mesh_texture_sizes(path: Path) -> list[tuple[int, int]]:
             return _obj_sizes(path)
         if suffix in (".glb", ".gltf"):
             return _gltf_sizes(path)
-    except (OSError, ValueError, KeyError, TypeError, IndexError):
-        pass
+    except (OSError, ValueError, KeyError, TypeError, IndexError, AttributeError, RecursionError):
+        pass  # a file that is not what it says counts nothing here; its read refuses it in its own words
     return []
 
 
@@ -231,7 +231,7 @@ def mesh_texture_files(path: Path) -> list[Path]:
             return [path.parent / unquote(image["uri"]) for image in document.get("images", [])
                     if isinstance(image, dict) and isinstance(image.get("uri"), str)
                     and not image["uri"].startswith("data:")]
-    except (OSError, SceneError, ValueError, TypeError, AttributeError):
+    except (OSError, SceneError, ValueError, TypeError, AttributeError, RecursionError):
         pass
     return []
 

@@ -504,3 +504,19 @@ def test_a_listed_path_with_a_nul_byte_is_left_out_and_the_batch_goes_on(tmp_pat
     assert done.returncode == 0, done.stderr
     assert done.stderr.decode() == "warning: stdin: line 2: a path with a NUL byte names no file; left out\n"
     assert (tmp_path / "out" / "s.png").is_file()
+
+
+@pytest.mark.parametrize(("document", "says"), [
+    ('{"asset": {"version": "2.0"}, "x": ' + "[" * 100_000 + "]" * 100_000 + "}", "nested deeper"),
+    ('{"asset": {"version": "2.0"}, "buffers": 7, "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}]}',
+     "cannot read"),
+    ('{"asset": {"version": "2.0"}, "meshes": [{"primitives": 5}], "nodes": [{"mesh": 0}], '
+     '"scenes": [{"nodes": [0]}]}', "cannot read"),
+])
+def test_a_gltf_whose_json_is_not_a_gltf_document_is_one_line(tmp_path, document, says):
+    """A glTF nested 10⁵ deep (RecursionError) or whose buffer list is a number (TypeError in the side-file
+    scan) was an internal error; a primitive list that is a number is trimesh's to word."""
+    (tmp_path / "bad.gltf").write_text(document)
+    result = runner.invoke(app, ["render", str(tmp_path / "bad.gltf"), "-o", str(tmp_path / "x.png")])
+    assert result.exit_code == 2, result.output
+    assert says in result.stderr and result.stderr.count("\n") == 1 and "internal error" not in result.stderr
