@@ -188,6 +188,27 @@ def test_page_values_are_data_for_the_schema_only(scene_path, settings, says):
             assert answer["type"] == "error" and "internal" not in answer["message"], (malformed, answer)
 
 
+def test_numbers_and_nesting_past_the_parsers_limits_are_one_line_and_the_socket_stays(scene_path):
+    """A 5000-digit `id` or setting, and a message or loaded scene nested 20000 deep, dropped the socket with a
+    server traceback (ValueError: Python's 4300-digit limit; RecursionError): now the message's one line, and
+    the same socket goes on to render."""
+    digits = "1" * 5000
+    nested = "[" * 20_000 + "]" * 20_000
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        for text in ('{"type": "render", "id": ' + digits + "}",
+                     '{"type": "render", "id": 1, "settings": {"render.width": ' + digits + "}}",
+                     '{"type": "render", "id": ' + nested + "}",
+                     json.dumps({"type": "load", "id": 2, "name": "deep.toml", "text": "a = " + nested}),
+                     json.dumps({"type": "load", "id": 3, "name": "big.toml", "text": "a = " + digits})):
+            ws.send_text(text)
+            answer = json.loads(ws.receive_text())
+            assert answer["type"] == "error" and "\n" not in answer["message"], answer
+            assert "nested too deep" in answer["message"] or "more digits" in answer["message"], answer
+        ws.send_text(json.dumps({"type": "render", "id": 4, "settings": {"render.shading": "flat"}}))
+        receive_frame(ws)
+
+
 def test_a_path_past_the_key_names_is_caught_in_the_validated_scene(scene_path, monkeypatch):
     """The second guard: were a key that names a file missed by PATH_KEYS, the validated scene's named_files
     still differ from the source's, and the settings are refused before any file is opened."""

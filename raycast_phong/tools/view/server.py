@@ -43,6 +43,7 @@ import raycast_phong as rp
 from raycast_phong.codes import ShadingModel
 from raycast_phong.errors import SceneError, ViewError
 from raycast_phong.io.image_io import image_bytes
+from raycast_phong.io.scene_file import syntax_limit
 from raycast_phong.scene.load import read_scene_dict
 from raycast_phong.scene.overrides import apply_override
 from raycast_phong.tools.sweep import scene_toml, toml_value
@@ -166,6 +167,8 @@ def settings_from(source: Source, text: str, name: str) -> dict:
         data = json.loads(text) if is_json else tomllib.loads(text)
     except (json.JSONDecodeError, tomllib.TOMLDecodeError) as error:
         raise ViewError(f"{name}: not a {'JSON' if is_json else 'TOML'} scene: {error}") from None
+    except (RecursionError, ValueError) as error:  # nested thousands deep, an integer of 5000 digits
+        raise ViewError(f"{name}: {syntax_limit(error)}") from None
     if not isinstance(data, dict):
         raise ViewError(f"{name}: a scene file is a table of tables")
     theirs = rp.validate_scene(data, source=name, folder=source.folder)
@@ -615,6 +618,8 @@ def parse(text: str) -> dict:
         request = json.loads(text)
     except json.JSONDecodeError as error:
         raise ViewError(f"message is not JSON: {error}") from None
+    except (RecursionError, ValueError) as error:  # nested thousands deep, an `id` of 5000 digits
+        raise ViewError(f"message: {syntax_limit(error)}") from None
     if not isinstance(request, dict) or request.get("type", "render") not in ("render", "save", "load"):
         raise ViewError("message must be a table with type 'render', 'save' or 'load'")
     return request
