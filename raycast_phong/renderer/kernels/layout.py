@@ -74,11 +74,11 @@ C_SHADOW_RAYS = TERMS
 
 
 # The shading engine's scratch lanes (shading._shade_rays shades PACKET rays at a time). A group's hits give up to
-# CORNERS × PACKET evaluation points, where the model is evaluated: a flat hit its centroid, a Phong hit the hit
-# point, a Gouraud hit its three corners; point e is lane e % PACKET of block e // PACKET. Rows of the per-point
-# array (CORNERS blocks, POINT_LANES, PACKET): the side the ray sees (±1), the normal held unless renormalised (the
-# face normal; a Gouraud corner's vertex normal), the point, the mixed vertex normal and whether to renormalise it
-# (1: Phong; 0 else), and the unit shading normal.
+# CORNERS × PACKET evaluation points, where the model is evaluated: a flat hit its centroid, a Phong hit the hit point,
+# a Gouraud hit its three corners; corner c of ray j is lane j of block c (one block where no hit is Gouraud). Rows of
+# the per-point array (CORNERS blocks, POINT_LANES, PACKET): the side the ray sees (±1), the normal held unless
+# renormalised (the face normal; a Gouraud corner's vertex normal), the point, the mixed vertex normal and whether to
+# renormalise it (1: Phong; 0 else), and the unit shading normal.
 CORNERS = 3
 (E_SIDE, E_GX, E_GY, E_GZ, E_PX, E_PY, E_PZ, E_SX, E_SY, E_SZ, E_RENORMALISE, E_NX, E_NY, E_NZ,
  POINT_LANES) = range(15)

@@ -247,15 +247,18 @@ def _shade_rays(inputs, rays, film):
     """Shade every ray of a tile into the film rows (ShadingInputs, TileRays, FilmRows): one engine for every scene.
 
     PACKET rays at a time, in passes over named lanes (layout's E_*, R_* rows): A gathers each hit's evaluation
-    points (flat: the centroid; Phong: the hit point and its mixed normal; Gouraud: the three corners) and weights;
-    N gives each point its unit normal, B each point and light f_att, n·l and the highlight's cosine (both lane by
-    lane, which LLVM vectorises: vsqrtps, vdivps on zmm); C, in ray order, the material (textures and vertex
-    colours applied), the terms light by light (libm's powf stays scalar), a Gouraud hit's mix of its corners, the
-    run counting and the film, each written once. Every point gets the model's operations in the order of a
-    point shaded alone (k_e, I_a k_a, then each light's ambient, diffuse and specular parts; a Gouraud hit
-    0 + b0 I0 + b1 I1 + b2 I2). Sixteen misses only add the background. Arrays come out of their tuples once,
-    here: a field read per hit costs a reference count, and so does a row view such as directions[k] (it made
-    the frame 15–28 % slower until the scalars were passed).
+    points (flat: the centroid; Phong: the hit point and its mixed normal; Gouraud: the three corners, ray j's
+    corner c in lane j of block c, so sixteen flat or Phong hits are one block) and weights; N gives each point its
+    unit normal, B each point and light f_att, n·l and the highlight's cosine (both lane by lane, which LLVM
+    vectorises: vsqrtps, vdivps on zmm); C, in ray order, the material (textures and vertex colours applied), the
+    terms light by light (libm's powf stays scalar), a Gouraud hit's mix of its corners, the run counting and the
+    film, each written once. With one light and no vertex colours, a flat or Phong hit's terms are straight-line
+    code with the light's values read once per tile (through the loops over corners and lights,
+    ~45 live values, default Phong shading was 15–35 % slower). Every point gets the model's operations in the
+    order of a point shaded alone (k_e, I_a k_a, then each light's ambient, diffuse and specular parts; a Gouraud
+    hit 0 + b0 I0 + b1 I1 + b2 I2). Sixteen misses only add the background. Arrays come out of their tuples once,
+    here: a field read per hit costs a reference count, and so does a row view such as directions[k] (it made the
+    frame 15–28 % slower until the scalars were passed).
     """
     vertices, faces, face_normals = inputs.vertices, inputs.faces, inputs.face_normals
     corner_normals, face_material, face_model = inputs.corner_normals, inputs.face_material, inputs.face_model
@@ -288,8 +291,9 @@ def _shade_rays(inputs, rays, film):
     last_m, run_mask, run_length = -1, 0, 0
     base = Material(zero, zero, zero, zero, zero, zero, zero, zero, zero, zero, zero, zero, zero)
     n_lights = lights.shape[0]
-    # The lanes, in blocks of PACKET points (zeros: a pass over a whole block reads lanes no hit filled, harmlessly).
-    # Point e is lane e % PACKET of block e // PACKET: the lane loops count 0..PACKET-1, which LLVM vectorises.
+    # The lanes: point (c, j) is corner c of ray j, lane j of block c (a flat or Phong hit has only c = 0), so a
+    # block with no Gouraud hit is one block of PACKET lanes (zeros or a previous block's values where a ray missed:
+    # a pass over a whole block reads them harmlessly). The lane loops count 0..PACKET-1, which LLVM vectorises.
     points = np.zeros((CORNERS, POINT_LANES, PACKET), vertices.dtype)
     per_light = np.zeros((max(n_lights, 1), CORNERS, LIGHT_LANES, PACKET), vertices.dtype)
     weights = np.zeros((RAY_LANES, PACKET), vertices.dtype)
@@ -309,6 +313,15 @@ def _shade_rays(inputs, rays, film):
             fixed |= 1 << C_LIGHT_AMBIENT
     ex, ey, ez = view[V_EYE], view[V_EYE + 1], view[V_EYE + 2]
     floor = view[V_FLOOR]
+    # One light and no vertex colours (the default scene): a flat or Phong hit is one point lit by one light, shaded
+    # in pass C by straight-line code with the light's and the viewing row's values read once, here.
+    one_light = n_lights == 1 and not coloured
+    ambient_r, ambient_g, ambient_b = view[V_AMBIENT], view[V_AMBIENT + 1], view[V_AMBIENT + 2]
+    ia_r = ia_g = ia_b = id_r = id_g = id_b = is_r = is_g = is_b = zero
+    if n_lights > 0:
+        ia_r, ia_g, ia_b = lights[0, L_IA], lights[0, L_IA + 1], lights[0, L_IA + 2]
+        id_r, id_g, id_b = lights[0, L_ID], lights[0, L_ID + 1], lights[0, L_ID + 2]
+        is_r, is_g, is_b = lights[0, L_IS], lights[0, L_IS + 1], lights[0, L_IS + 2]
     for k in range(0, face.shape[0], PACKET):
         n = min(PACKET, face.shape[0] - k)
         missed = True
@@ -324,7 +337,7 @@ def _shade_rays(inputs, rays, film):
                         rgb[row, col, ch] += weight * background[ch]
             continue
         # Pass A: each hit's weights and evaluation points, in ray order.
-        used = 0
+        blocks = 1  # CORNERS if some hit is Gouraud
         for j in range(n):
             f = face[k + j]
             if f < 0:
@@ -341,35 +354,33 @@ def _shade_rays(inputs, rays, film):
                                two_sided, one)
             model = face_model[f]
             if model == GOURAUD:  # the corners, with their vertex normals
+                blocks = CORNERS
                 for c in range(CORNERS):
-                    v, block, e = faces[f, c], (used + c) // PACKET, (used + c) % PACKET
-                    points[block, E_SIDE, e] = side
-                    points[block, E_GX, e] = corner_normals[f, c, 0]
-                    points[block, E_GY, e] = corner_normals[f, c, 1]
-                    points[block, E_GZ, e] = corner_normals[f, c, 2]
-                    points[block, E_PX, e] = vertices[v, 0]
-                    points[block, E_PY, e] = vertices[v, 1]
-                    points[block, E_PZ, e] = vertices[v, 2]
-                    points[block, E_SX, e] = points[block, E_SY, e] = points[block, E_SZ, e] = zero
-                    points[block, E_RENORMALISE, e] = zero
-                used += CORNERS
+                    v = faces[f, c]
+                    points[c, E_SIDE, j] = side
+                    points[c, E_GX, j] = corner_normals[f, c, 0]
+                    points[c, E_GY, j] = corner_normals[f, c, 1]
+                    points[c, E_GZ, j] = corner_normals[f, c, 2]
+                    points[c, E_PX, j] = vertices[v, 0]
+                    points[c, E_PY, j] = vertices[v, 1]
+                    points[c, E_PZ, j] = vertices[v, 2]
+                    points[c, E_SX, j] = points[c, E_SY, j] = points[c, E_SZ, j] = zero
+                    points[c, E_RENORMALISE, j] = zero
                 continue
             w0, w1, w2 = (third, third, third) if model == FLAT else (b0, b1, b2)  # flat: the centroid
-            block, e = used // PACKET, used % PACKET
             px, py, pz = hit_point(vertices, faces, f, w0, w1, w2)
             sx = sy = sz = renormalise = zero
             if model == PHONG:
                 sx, sy, sz = _mixed_normal(corner_normals, f, b0, b1, b2)
                 renormalise = one
-            points[block, E_SIDE, e] = side
-            points[block, E_GX, e], points[block, E_GY, e], points[block, E_GZ, e] = gx, gy, gz
-            points[block, E_PX, e], points[block, E_PY, e], points[block, E_PZ, e] = px, py, pz
-            points[block, E_SX, e], points[block, E_SY, e], points[block, E_SZ, e] = sx, sy, sz
-            points[block, E_RENORMALISE, e] = renormalise
-            used += 1
+            points[0, E_SIDE, j] = side
+            points[0, E_GX, j], points[0, E_GY, j], points[0, E_GZ, j] = gx, gy, gz
+            points[0, E_PX, j], points[0, E_PY, j], points[0, E_PZ, j] = px, py, pz
+            points[0, E_SX, j], points[0, E_SY, j], points[0, E_SZ, j] = sx, sy, sz
+            points[0, E_RENORMALISE, j] = renormalise
         # Pass N: each point's unit normal, side × the held normal, or (Phong) the mixed normal renormalised; a mix
         # of unit normals with no length points nowhere in particular, and keeps the face normal.
-        for block in range((used + PACKET - 1) // PACKET):
+        for block in range(blocks):
             for e in range(PACKET):
                 side, sx, sy, sz = (points[block, E_SIDE, e], points[block, E_SX, e], points[block, E_SY, e],
                                     points[block, E_SZ, e])
@@ -385,7 +396,7 @@ def _shade_rays(inputs, rays, film):
             qx, qy, qz = lights[i, L_VEC], lights[i, L_VEC + 1], lights[i, L_VEC + 2]
             falloff = lights[i, L_ATT_KIND] if flags & F_ATTENUATION else ATTENUATION_NONE
             c0, c1, c2 = lights[i, L_ATT], lights[i, L_ATT + 1], lights[i, L_ATT + 2]
-            for block in range((used + PACKET - 1) // PACKET):
+            for block in range(blocks):
                 for e in range(PACKET):
                     px, py, pz = points[block, E_PX, e], points[block, E_PY, e], points[block, E_PZ, e]
                     nx, ny, nz = points[block, E_NX, e], points[block, E_NY, e], points[block, E_NZ, e]
@@ -398,7 +409,6 @@ def _shade_rays(inputs, rays, film):
                     per_light[i, block, E_N_DOT_L, e] = n_dot_l
                     per_light[i, block, E_COSINE, e] = cosine
         # Pass C: in ray order, the material, the terms light by light, the corners' mix, the counts and the film.
-        used = 0
         for j in range(n):
             sample, col, row = _next_sample(sample, col, row, per_pixel, width)
             f = face[k + j]
@@ -423,12 +433,31 @@ def _shade_rays(inputs, rays, film):
                 material = _textured_material(materials, texels, texture_table, corner_uv, uv_density, material, m, f,
                                               b0, b1, b2, footprint, one, cast)
             gouraud = model == GOURAUD
-            first = used  # the ray's first point
-            used += CORNERS if gouraud else 1
             ar = ag = ab = dr = dg = db = sr = sg = sb = er = eg = eb = zero
             mask = fixed
-            for c in range(CORNERS if gouraud else 1):
-                block, e = (first + c) // PACKET, (first + c) % PACKET
+            if one_light and not gouraud:  # one point, one light: the loops below written out, the same operations
+                if flags & F_EMISSION:
+                    er, eg, eb = material.ke_r, material.ke_g, material.ke_b
+                if flags & F_SCENE_AMBIENT:
+                    ar, ag, ab = ambient_r * material.ka_r, ambient_g * material.ka_g, ambient_b * material.ka_b
+                fall = per_light[0, 0, E_FALL, j]
+                if flags & F_LIGHT_AMBIENT:
+                    ar += fall * ia_r * material.ka_r
+                    ag += fall * ia_g * material.ka_g
+                    ab += fall * ia_b * material.ka_b
+                n_dot_l = per_light[0, 0, E_N_DOT_L, j]
+                if visible_k & 1 != 0 and n_dot_l > zero:
+                    if flags & F_DIFFUSE:
+                        mask |= 1 << C_DIFFUSE
+                        r, g, b = diffuse_terms(fall, n_dot_l, id_r, id_g, id_b, material, zero, one, two)
+                        dr, dg, db = dr + r, dg + g, db + b
+                    if specular != SPECULAR_NONE:
+                        mask |= 1 << C_SPECULAR
+                        r, g, b = specular_terms(fall, per_light[0, 0, E_COSINE, j], is_r, is_g, is_b, material,
+                                                 zero, one)
+                        sr, sg, sb = sr + r, sg + g, sb + b
+            for c in range(0 if one_light and not gouraud else (CORNERS if gouraud else 1)):
+                block, e = c, j
                 lit = material
                 if coloured:  # Gouraud lights each corner with its own colour, flat the mean of its corners
                     if gouraud:
@@ -490,9 +519,8 @@ def _shade_rays(inputs, rays, film):
                     terms[row, col, term, 1] += weight * g
                     terms[row, col, term, 2] += weight * b
             if geometry_layers and sample == centre_sample:
-                block, e = first // PACKET, first % PACKET
-                side = points[block, E_SIDE, e]
-                nx, ny, nz = points[block, E_NX, e], points[block, E_NY, e], points[block, E_NZ, e]
+                side = points[0, E_SIDE, j]
+                nx, ny, nz = points[0, E_NX, j], points[0, E_NY, j], points[0, E_NZ, j]
                 if gouraud:
                     sx, sy, sz = _mixed_normal(corner_normals, f, b0, b1, b2)
                     nx, ny, nz = side * sx, side * sy, side * sz
