@@ -5,8 +5,12 @@
 S = max(v·r, 0)^f with r = 2(l·n)n − l (Phong 1975), or max(n·h, 0)^f with h = normalize(l + v) (Blinn
 1977); S = 0 where l·n ≤ 0. f_att is 1, 1/d², or min(1, 1/(c + l·d + q·d²)); 1 for directional lights.
 The four terms are kept apart (ambient, diffuse, specular, emission) so they can be written as layers.
-All arithmetic happens in the dtype of the arrays passed in (the scene's `precision`): the constants
-0, 1, 2 arrive as scalars of that dtype (zero, one, two), never as Python literals, which numba would widen.
+The model is evaluated in two steps, as the shading engine (shading._shade_rays) runs it over its lanes: per
+point and light the geometry (`light_geometry`: l, f_att, n·l and the highlight's cosine; vectorised), then per
+point, light by light in the lights' order, the terms (`diffuse_terms`, `specular_terms`; libm's power, scalar)
+added to k_e and I_a k_a. All arithmetic happens in the dtype of the arrays passed in (the scene's `precision`):
+the constants 0, 1, 2 arrive as scalars of that dtype (zero, one, two), never as Python literals, which numba
+would widen.
 """
 
 from __future__ import annotations
@@ -16,35 +20,9 @@ import math
 from ...jit import kernel
 from .layout import (
     ATTENUATION_NONE,
-    C_ATTENUATION,
-    C_DIFFUSE,
-    C_EMISSION,
-    C_LIGHT_AMBIENT,
-    C_SCENE_AMBIENT,
-    C_SPECULAR,
-    C_VIEW,
-    F_ATTENUATION,
-    F_DIFFUSE,
-    F_EMISSION,
-    F_LIGHT_AMBIENT,
-    F_SCENE_AMBIENT,
-    F_VIEW_PER_POINT,
     INVERSE_SQUARE,
-    L_ATT,
-    L_ATT_KIND,
-    L_IA,
-    L_ID,
-    L_IS,
-    L_KIND,
-    L_VEC,
-    POINT,
     SPECULAR_NONE,
     SPECULAR_PHONG,
-    V_AMBIENT,
-    V_EYE,
-    V_FLOOR,
-    V_VIEW,
-    Lit,
 )
 from .surface import to_light
 
@@ -117,62 +95,16 @@ def specular_terms(weight, x, ir, ig, ib, material, zero, one):
 
 
 @kernel(inline="always")
-def illuminate(px, py, pz, nx, ny, nz, material, lights, view, flags, specular, visible, zero, one, two):
-    """The model at point p with unit normal n and one material (layout.Material: a row of the material table).
-
-    view: ShadingInputs.viewing as a tuple (layout.V_AMBIENT, V_EYE, V_VIEW, V_FLOOR). `visible` holds one
-    bit per light (global mode's shadow-ray answers; all bits set in local mode): a light whose bit is
-    clear adds only its ambient part. Returns a layout.Lit: the four terms (ambient, diffuse, specular,
-    emission; r, g, b each) and a bit mask of the optional terms evaluated (bit i = COUNTED_TERMS[i]).
-    Tuples and scalars, and one array: every array argument costs an atomic reference count per call,
-    which dominated the frame time of an earlier version.
-    A light's L_VEC is a point light's position, or a directional light's unit vector toward it.
-    """
-    ar = ag = ab = dr = dg = db = sr = sg = sb = er = eg = eb = zero
-    mask = 0
-    if flags & F_EMISSION:
-        mask |= 1 << C_EMISSION
-        er, eg, eb = material.ke_r, material.ke_g, material.ke_b
-    ka_r, ka_g, ka_b = material.ka_r, material.ka_g, material.ka_b
-    if flags & F_SCENE_AMBIENT:
-        mask |= 1 << C_SCENE_AMBIENT
-        ar, ag, ab = view[V_AMBIENT] * ka_r, view[V_AMBIENT + 1] * ka_g, view[V_AMBIENT + 2] * ka_b
-
-    vx, vy, vz = view[V_VIEW], view[V_VIEW + 1], view[V_VIEW + 2]
-    if specular != SPECULAR_NONE and flags & F_VIEW_PER_POINT:
-        mask |= 1 << C_VIEW
-        vx, vy, vz = view_direction(px, py, pz, view[V_EYE], view[V_EYE + 1], view[V_EYE + 2], zero)
-
-    for k in range(lights.shape[0]):
-        lx, ly, lz, d = to_light(lights[k, L_KIND] == POINT, lights[k, L_VEC], lights[k, L_VEC + 1],
-                                 lights[k, L_VEC + 2], px, py, pz, nx, ny, nz, view[V_FLOOR])
-
-        weight = one
-        if flags & F_ATTENUATION and lights[k, L_ATT_KIND] != ATTENUATION_NONE:
-            mask |= 1 << C_ATTENUATION
-            weight = attenuation(lights[k, L_ATT_KIND], lights[k, L_ATT], lights[k, L_ATT + 1], lights[k, L_ATT + 2],
-                                 d, view[V_FLOOR], one)
-
-        if flags & F_LIGHT_AMBIENT:
-            mask |= 1 << C_LIGHT_AMBIENT
-            ar += weight * lights[k, L_IA] * ka_r
-            ag += weight * lights[k, L_IA + 1] * ka_g
-            ab += weight * lights[k, L_IA + 2] * ka_b
-
-        if (visible >> k) & 1 == 0:
-            continue  # in shadow: vis = 0 removes the direct term only
-        n_dot_l = nx * lx + ny * ly + nz * lz
-        if n_dot_l <= zero:
-            continue  # no diffuse and no highlight on a side turned away from the light
-        if flags & F_DIFFUSE:
-            mask |= 1 << C_DIFFUSE
-            r, g, b = diffuse_terms(weight, n_dot_l, lights[k, L_ID], lights[k, L_ID + 1], lights[k, L_ID + 2],
-                                    material, zero, one, two)
-            dr, dg, db = dr + r, dg + g, db + b
-        if specular != SPECULAR_NONE:
-            mask |= 1 << C_SPECULAR
-            x = highlight_cosine(specular, n_dot_l, nx, ny, nz, lx, ly, lz, vx, vy, vz, zero, two)
-            r, g, b = specular_terms(weight, x, lights[k, L_IS], lights[k, L_IS + 1], lights[k, L_IS + 2], material,
-                                     zero, one)
-            sr, sg, sb = sr + r, sg + g, sb + b
-    return Lit(ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask)
+def light_geometry(point_light, qx, qy, qz, falloff, c0, c1, c2, px, py, pz, nx, ny, nz, vx, vy, vz, floor_squared,
+                   specular, zero, one, two):
+    """One light seen from point p with unit normal n and viewer direction v: f_att, n·l and the highlight's
+    cosine (zero without a highlight). (qx, qy, qz): the light's L_VEC; falloff its L_ATT_KIND, or
+    ATTENUATION_NONE where the scene attenuates nothing (f_att = 1); c0, c1, c2 its L_ATT. Scalars only: the
+    shading engine calls it lane by lane, and LLVM vectorises the loop (no call, no array)."""
+    lx, ly, lz, d = to_light(point_light, qx, qy, qz, px, py, pz, nx, ny, nz, floor_squared)
+    fall = attenuation(falloff, c0, c1, c2, d, floor_squared, one)
+    n_dot_l = nx * lx + ny * ly + nz * lz
+    cosine = zero
+    if specular != SPECULAR_NONE:
+        cosine = highlight_cosine(specular, n_dot_l, nx, ny, nz, lx, ly, lz, vx, vy, vz, zero, two)
+    return fall, n_dot_l, cosine

@@ -44,7 +44,7 @@ FLAT, GOURAUD, PHONG = (MODEL_CODE[m] for m in (ShadingModel.FLAT, ShadingModel.
 
 # Columns of the material table (M, 16): k_a, k_d, k_s, k_e (r, g, b each), f, then the texture-table rows of the
 # k_a, k_d and k_e maps (KA_MAP, KD_MAP, KE_MAP; -1 none), as codes.py names them.
-# geometry.materials.material_rows writes rows, pack.material_table the table, illumination.illuminate reads it.
+# geometry.materials.material_rows writes rows, pack.material_table the table, shading._shade_rays reads it.
 MATERIAL_COLUMNS = MATERIAL_TABLE_WIDTH
 # Columns of the texture table (T, 6) int64, written by pack.pack_textures: where a texture's mip pyramid starts
 # in the flat texel array (level 0, then each half-size level after it), its level-0 width and height, its
@@ -73,9 +73,24 @@ COUNTS = (*COUNTED_TERMS, "shadow_rays")
 C_SHADOW_RAYS = TERMS
 
 
+# The shading engine's scratch lanes (shading._shade_rays shades PACKET rays at a time). A group's hits give up to
+# CORNERS × PACKET evaluation points, where the model is evaluated: a flat hit its centroid, a Phong hit the hit point,
+# a Gouraud hit its three corners; corner c of ray j is lane j of block c (one block where no hit is Gouraud). Rows of
+# the per-point array (CORNERS blocks, POINT_LANES, PACKET): the side the ray sees (±1), the normal held unless
+# renormalised (the face normal; a Gouraud corner's vertex normal), the point, the mixed vertex normal and whether to
+# renormalise it (1: Phong; 0 else), and the unit shading normal.
+CORNERS = 3
+(E_SIDE, E_GX, E_GY, E_GZ, E_PX, E_PY, E_PZ, E_SX, E_SY, E_SZ, E_RENORMALISE, E_NX, E_NY, E_NZ,
+ POINT_LANES) = range(15)
+# Rows of the per-light array (lights, CORNERS blocks, LIGHT_LANES, PACKET): f_att, n·l and the highlight's cosine.
+E_FALL, E_N_DOT_L, E_COSINE, LIGHT_LANES = range(4)
+# Rows of the per-ray array (RAY_LANES, PACKET): the hit's interpolation weights (screen ones with F_SCREEN).
+R_B0, R_B1, R_B2, RAY_LANES = range(4)
+
+
 class Material(NamedTuple):
-    """One row of the material table as scalars, read by name in illumination.illuminate: scalars, not a row
-    view of the table, since every array argument costs an atomic reference count per call."""
+    """One row of the material table as scalars, read by name in shading._shade_rays and illumination's helpers:
+    scalars, not a row view of the table, since every array argument costs an atomic reference count per call."""
     ka_r: float
     ka_g: float
     ka_b: float
@@ -89,24 +104,6 @@ class Material(NamedTuple):
     ke_g: float
     ke_b: float
     shininess: float
-
-
-class Lit(NamedTuple):
-    """What illumination.illuminate returns: the four terms (r, g, b each), kept apart so they can be written as
-    layers, and a bit mask of the optional terms evaluated (bit i = COUNTED_TERMS[i])."""
-    ambient_r: float
-    ambient_g: float
-    ambient_b: float
-    diffuse_r: float
-    diffuse_g: float
-    diffuse_b: float
-    specular_r: float
-    specular_g: float
-    specular_b: float
-    emission_r: float
-    emission_g: float
-    emission_b: float
-    mask: int
 
 
 class ShadingInputs(NamedTuple):

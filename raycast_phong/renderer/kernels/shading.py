@@ -30,7 +30,7 @@ from numba.extending import intrinsic
 
 from ...jit import kernel
 from ...tolerances import NO_DIRECTION
-from .illumination import attenuation, diffuse_terms, highlight_cosine, illuminate, specular_terms, view_direction
+from .illumination import diffuse_terms, light_geometry, specular_terms, view_direction
 from .layout import (
     ATTENUATION_NONE,
     C_ATTENUATION,
@@ -44,6 +44,24 @@ from .layout import (
     CAM_ORTHOGRAPHIC,
     CAM_RIGHT,
     CAM_UP,
+    CORNERS,
+    E_COSINE,
+    E_FALL,
+    E_GX,
+    E_GY,
+    E_GZ,
+    E_N_DOT_L,
+    E_NX,
+    E_NY,
+    E_NZ,
+    E_PX,
+    E_PY,
+    E_PZ,
+    E_RENORMALISE,
+    E_SIDE,
+    E_SX,
+    E_SY,
+    E_SZ,
     F_AOV_GEOMETRY,
     F_AOV_TERMS,
     F_ATTENUATION,
@@ -73,8 +91,14 @@ from .layout import (
     L_IS,
     L_KIND,
     L_VEC,
+    LIGHT_LANES,
     PHONG,
     POINT,
+    POINT_LANES,
+    R_B0,
+    R_B1,
+    R_B2,
+    RAY_LANES,
     SHININESS,
     SPECULAR_NONE,
     TERMS,
@@ -84,12 +108,11 @@ from .layout import (
     V_VIEW,
     Material,
 )
-from .surface import facing_side, hit_point, to_light
+from .surface import facing_side, hit_point
 from .texture import sample
 
 AHEAD = 16  # rays between a face row's prefetch and its use (8: no better, ico6 1000²)
-PACKET = 16  # rays shaded together where the scene allows (_shade_rays)
-LANES = 16  # the packet's per-hit values between its passes
+PACKET = 16  # rays shaded together (_shade_rays): an Embree packet, and 16 float32 lanes fill a zmm register
 ALL_VISIBLE = -1  # every bit set: local mode, no light is ever shadowed
 
 
@@ -221,14 +244,21 @@ def _next_sample(sample, col, row, per_pixel, width):
 
 @kernel()
 def _shade_rays(inputs, rays, film):
-    """Shade every ray of a tile into the film rows (ShadingInputs, TileRays, FilmRows).
+    """Shade every ray of a tile into the film rows (ShadingInputs, TileRays, FilmRows): one engine for every scene.
 
-    Where the scene allows (see `packets` below) 16 rays are shaded together, their vector math in SIMD
-    lanes; every other ray goes through one loop, kept whole on purpose: moving the Gouraud corners, the
-    Phong normal and the film writes into inlined helpers measured 8–15 % more CPU time per tile
-    (thread_time, min of 40, 600² sphere). Arrays
-    come out of their tuples once, here: a field read per hit costs a reference count, and so does a
-    row view such as directions[k] (it made the frame 15–28 % slower until the scalars were passed).
+    PACKET rays at a time, in passes over named lanes (layout's E_*, R_* rows): A gathers each hit's evaluation
+    points (flat: the centroid; Phong: the hit point and its mixed normal; Gouraud: the three corners, ray j's
+    corner c in lane j of block c, so sixteen flat or Phong hits are one block) and weights; N gives each point its
+    unit normal, B each point and light f_att, n·l and the highlight's cosine (both lane by lane, which LLVM
+    vectorises: vsqrtps, vdivps on zmm); C, in ray order, the material (textures and vertex colours applied), the
+    terms light by light (libm's powf stays scalar), a Gouraud hit's mix of its corners, the run counting and the
+    film, each written once. With one light and no vertex colours, a flat or Phong hit's terms are straight-line
+    code with the light's values read once per tile (through the loops over corners and lights,
+    ~45 live values, default Phong shading was 15–35 % slower). Every point gets the model's operations in the
+    order of a point shaded alone (k_e, I_a k_a, then each light's ambient, diffuse and specular parts; a Gouraud
+    hit 0 + b0 I0 + b1 I1 + b2 I2). Sixteen misses only add the background. Arrays come out of their tuples once,
+    here: a field read per hit costs a reference count, and so does a row view such as directions[k] (it made the
+    frame 15–28 % slower until the scalars were passed).
     """
     vertices, faces, face_normals = inputs.vertices, inputs.faces, inputs.face_normals
     corner_normals, face_material, face_model = inputs.corner_normals, inputs.face_material, inputs.face_model
@@ -239,8 +269,6 @@ def _shade_rays(inputs, rays, film):
     rgb, terms, depth, normal, face_out, counts = film
     width = rgb.shape[1]
     eye = view[V_EYE:V_EYE + 3]
-    # The whole viewing row (layout.VIEWING_SIZE) as a tuple: illuminate reads it by layout's names.
-    view_tuple = (view[0], view[1], view[2], view[3], view[4], view[5], view[6], view[7], view[8], view[9])
     third = one / (one + one + one)
     per_pixel = samples * samples
     weight = one / (one * per_pixel)
@@ -262,23 +290,15 @@ def _shade_rays(inputs, rays, film):
     # run of hits of one material, and a run's mask is counted once when it ends (not 7 counters per hit).
     last_m, run_mask, run_length = -1, 0, 0
     base = Material(zero, zero, zero, zero, zero, zero, zero, zero, zero, zero, zero, zero, zero)
-    # Packets: with one light (point or directional, any attenuation, either highlight or none, any viewer) and
-    # no maps, colours or screen weights, PACKET rays whose hits are all Phong faces of one material (misses
-    # allowed) are shaded in three passes: their rows gathered (A); normal, view and light vectors, f_att, n·l
-    # and the highlight's cosine computed lane by lane, which LLVM vectorises (B: vsqrtps, vdivps on zmm); then,
-    # in ray order, the terms (powf stays scalar: an own vectorisable power measured slower on every other path,
-    # docs/performance.md), counts and film (C). Each hit gets illuminate's operations in its order, so the
-    # image is bit-identical to the one-hit-at-a-time loop below (tests: test_shading.py, one case per kind of
-    # light), 24-31 % less shading CPU time on ico6 1000². The rules stay illuminate's: this is its one-light
-    # case written out by lanes. A packet of sixteen misses, in any scene, only moves the pixel counters (and
-    # adds the background).
-    packets = not textured and not coloured and not screen and lights.shape[0] == 1
-    # The packet's light, as illuminate reads it: its kind, its attenuation (if the scene asks for any), and
-    # whether the viewer is per point (only the highlight reads v).
-    point_light = lights.shape[0] > 0 and lights[0, L_KIND] == POINT
-    falloff = lights[0, L_ATT_KIND] if packets and flags & F_ATTENUATION else ATTENUATION_NONE
+    n_lights = lights.shape[0]
+    # The lanes: point (c, j) is corner c of ray j, lane j of block c (a flat or Phong hit has only c = 0), so a
+    # block with no Gouraud hit is one block of PACKET lanes (zeros or a previous block's values where a ray missed:
+    # a pass over a whole block reads them harmlessly). The lane loops count 0..PACKET-1, which LLVM vectorises.
+    points = np.zeros((CORNERS, POINT_LANES, PACKET), vertices.dtype)
+    per_light = np.zeros((max(n_lights, 1), CORNERS, LIGHT_LANES, PACKET), vertices.dtype)
+    weights = np.zeros((RAY_LANES, PACKET), vertices.dtype)
+    # Whether the viewer is per point (only the highlight reads v), and the terms every hit evaluates.
     per_point = specular != SPECULAR_NONE and flags & F_VIEW_PER_POINT != 0
-    lane = np.empty((LANES, PACKET), vertices.dtype)
     fixed = 0
     if flags & F_EMISSION:
         fixed |= 1 << C_EMISSION
@@ -286,235 +306,230 @@ def _shade_rays(inputs, rays, film):
         fixed |= 1 << C_SCENE_AMBIENT
     if per_point:
         fixed |= 1 << C_VIEW
-    if falloff != ATTENUATION_NONE:
-        fixed |= 1 << C_ATTENUATION
-    if flags & F_LIGHT_AMBIENT:
-        fixed |= 1 << C_LIGHT_AMBIENT
-    done_until = 0
-    for k in range(face.shape[0]):
-        if k < done_until:
+    for i in range(n_lights):
+        if flags & F_ATTENUATION and lights[i, L_ATT_KIND] != ATTENUATION_NONE:
+            fixed |= 1 << C_ATTENUATION
+        if flags & F_LIGHT_AMBIENT:
+            fixed |= 1 << C_LIGHT_AMBIENT
+    ex, ey, ez = view[V_EYE], view[V_EYE + 1], view[V_EYE + 2]
+    floor = view[V_FLOOR]
+    # One light and no vertex colours (the default scene): a flat or Phong hit is one point lit by one light, shaded
+    # in pass C by straight-line code with the light's and the viewing row's values read once, here.
+    one_light = n_lights == 1 and not coloured
+    ambient_r, ambient_g, ambient_b = view[V_AMBIENT], view[V_AMBIENT + 1], view[V_AMBIENT + 2]
+    ia_r = ia_g = ia_b = id_r = id_g = id_b = is_r = is_g = is_b = zero
+    if n_lights > 0:
+        ia_r, ia_g, ia_b = lights[0, L_IA], lights[0, L_IA + 1], lights[0, L_IA + 2]
+        id_r, id_g, id_b = lights[0, L_ID], lights[0, L_ID + 1], lights[0, L_ID + 2]
+        is_r, is_g, is_b = lights[0, L_IS], lights[0, L_IS + 1], lights[0, L_IS + 2]
+    for k in range(0, face.shape[0], PACKET):
+        n = min(PACKET, face.shape[0] - k)
+        missed = True
+        for j in range(n):
+            if face[k + j] >= 0:
+                missed = False
+                break
+        if missed:  # sixteen misses (most of ico6's misses): the background at most, and the pixel counters
+            for _ in range(n):
+                sample, col, row = _next_sample(sample, col, row, per_pixel, width)
+                if has_background:
+                    for ch in range(3):
+                        rgb[row, col, ch] += weight * background[ch]
             continue
-        usable, first_m = False, -1
-        if k % PACKET == 0 and k + PACKET <= face.shape[0]:
-            # One scan of the sixteen: whether all miss, and (where the scene allows packets) whether their hits
-            # are all Phong faces of one material, first_m.
-            missed, usable = True, packets
-            for j in range(PACKET):
-                fj = face[k + j]
-                if fj >= 0:
-                    missed = False
-                    if not usable:
-                        break
-                    if face_model[fj] != PHONG or (first_m >= 0 and face_material[fj] != first_m):
-                        usable = False
-                        break
-                    first_m = face_material[fj]
-            if missed:  # sixteen misses (most of ico6's misses): the background at most, and the pixel counters
-                done_until = k + PACKET
-                for _ in range(PACKET):
-                    sample, col, row = _next_sample(sample, col, row, per_pixel, width)
-                    if has_background:
-                        for ch in range(3):
-                            rgb[row, col, ch] += weight * background[ch]
+        # Pass A: each hit's weights and evaluation points, in ray order.
+        blocks = 1  # CORNERS if some hit is Gouraud
+        for j in range(n):
+            f = face[k + j]
+            if f < 0:
                 continue
-        if usable:  # some hit, so first_m ≥ 0
-            done_until = k + PACKET
-            m = first_m
+            b1, b2 = one * bu[k + j], one * bv[k + j]
+            b0 = one - b1 - b2
+            if screen:
+                b0, b1, b2 = _screen_weights(b0, b1, b2, vertices, faces[f, 0], faces[f, 1], faces[f, 2], eye, camera,
+                                             one)
+            weights[R_B0, j], weights[R_B1, j], weights[R_B2, j] = b0, b1, b2
+            gx, gy, gz = face_normals[f, 0], face_normals[f, 1], face_normals[f, 2]
+            # Shade the side the viewer sees.
+            side = facing_side(gx, gy, gz, directions[k + j, 0], directions[k + j, 1], directions[k + j, 2],
+                               two_sided, one)
+            model = face_model[f]
+            if model == GOURAUD:  # the corners, with their vertex normals
+                blocks = CORNERS
+                for c in range(CORNERS):
+                    v = faces[f, c]
+                    points[c, E_SIDE, j] = side
+                    points[c, E_GX, j] = corner_normals[f, c, 0]
+                    points[c, E_GY, j] = corner_normals[f, c, 1]
+                    points[c, E_GZ, j] = corner_normals[f, c, 2]
+                    points[c, E_PX, j] = vertices[v, 0]
+                    points[c, E_PY, j] = vertices[v, 1]
+                    points[c, E_PZ, j] = vertices[v, 2]
+                    points[c, E_SX, j] = points[c, E_SY, j] = points[c, E_SZ, j] = zero
+                    points[c, E_RENORMALISE, j] = zero
+                continue
+            w0, w1, w2 = (third, third, third) if model == FLAT else (b0, b1, b2)  # flat: the centroid
+            px, py, pz = hit_point(vertices, faces, f, w0, w1, w2)
+            sx = sy = sz = renormalise = zero
+            if model == PHONG:
+                sx, sy, sz = _mixed_normal(corner_normals, f, b0, b1, b2)
+                renormalise = one
+            points[0, E_SIDE, j] = side
+            points[0, E_GX, j], points[0, E_GY, j], points[0, E_GZ, j] = gx, gy, gz
+            points[0, E_PX, j], points[0, E_PY, j], points[0, E_PZ, j] = px, py, pz
+            points[0, E_SX, j], points[0, E_SY, j], points[0, E_SZ, j] = sx, sy, sz
+            points[0, E_RENORMALISE, j] = renormalise
+        # Pass N: each point's unit normal, side × the held normal, or (Phong) the mixed normal renormalised; a mix
+        # of unit normals with no length points nowhere in particular, and keeps the face normal.
+        for block in range(blocks):
+            for e in range(PACKET):
+                side, sx, sy, sz = (points[block, E_SIDE, e], points[block, E_SX, e], points[block, E_SY, e],
+                                    points[block, E_SZ, e])
+                nx, ny, nz = (side * points[block, E_GX, e], side * points[block, E_GY, e],
+                              side * points[block, E_GZ, e])
+                length = math.sqrt(sx * sx + sy * sy + sz * sz)
+                if points[block, E_RENORMALISE, e] != zero and length > one * NO_DIRECTION:
+                    nx, ny, nz = side * sx / length, side * sy / length, side * sz / length
+                points[block, E_NX, e], points[block, E_NY, e], points[block, E_NZ, e] = nx, ny, nz
+        # Pass B: per light, each point's f_att, n·l and highlight cosine.
+        for i in range(n_lights):
+            point_light = lights[i, L_KIND] == POINT
+            qx, qy, qz = lights[i, L_VEC], lights[i, L_VEC + 1], lights[i, L_VEC + 2]
+            falloff = lights[i, L_ATT_KIND] if flags & F_ATTENUATION else ATTENUATION_NONE
+            c0, c1, c2 = lights[i, L_ATT], lights[i, L_ATT + 1], lights[i, L_ATT + 2]
+            for block in range(blocks):
+                for e in range(PACKET):
+                    px, py, pz = points[block, E_PX, e], points[block, E_PY, e], points[block, E_PZ, e]
+                    nx, ny, nz = points[block, E_NX, e], points[block, E_NY, e], points[block, E_NZ, e]
+                    vx, vy, vz = view[V_VIEW], view[V_VIEW + 1], view[V_VIEW + 2]
+                    if per_point:
+                        vx, vy, vz = view_direction(px, py, pz, ex, ey, ez, zero)
+                    fall, n_dot_l, cosine = light_geometry(point_light, qx, qy, qz, falloff, c0, c1, c2, px, py, pz,
+                                                           nx, ny, nz, vx, vy, vz, floor, specular, zero, one, two)
+                    per_light[i, block, E_FALL, e] = fall
+                    per_light[i, block, E_N_DOT_L, e] = n_dot_l
+                    per_light[i, block, E_COSINE, e] = cosine
+        # Pass C: in ray order, the material, the terms light by light, the corners' mix, the counts and the film.
+        for j in range(n):
+            sample, col, row = _next_sample(sample, col, row, per_pixel, width)
+            f = face[k + j]
+            if f < 0:
+                if has_background:
+                    for ch in range(3):
+                        rgb[row, col, ch] += weight * background[ch]
+                continue
+            visible_k = visible[k + j] if shadows else ALL_VISIBLE
+            b0, b1, b2 = weights[R_B0, j], weights[R_B1, j], weights[R_B2, j]
+            m = face_material[f]
             if m != last_m:
                 last_m = m
                 base = _material_row(materials, m)
             material = base
-            # Pass A: the hits' rows (a miss reads face 0's, and its lanes are ignored).
-            for j in range(PACKET):
-                f = max(face[k + j], 0)
-                b1, b2 = one * bu[k + j], one * bv[k + j]
-                b0 = one - b1 - b2
-                gx, gy, gz = face_normals[f, 0], face_normals[f, 1], face_normals[f, 2]
-                lane[0, j] = facing_side(gx, gy, gz, directions[k + j, 0], directions[k + j, 1],
-                                         directions[k + j, 2], two_sided, one)
-                lane[1, j], lane[2, j], lane[3, j] = gx, gy, gz
-                lane[4, j], lane[5, j], lane[6, j] = hit_point(vertices, faces, f, b0, b1, b2)
-                lane[7, j], lane[8, j], lane[9, j] = _mixed_normal(corner_normals, f, b0, b1, b2)
-            # Pass B: normal, view and light vectors, f_att, n·l and the highlight's cosine, lane by lane.
-            ex, ey, ez = view[V_EYE], view[V_EYE + 1], view[V_EYE + 2]
-            qx, qy, qz = lights[0, L_VEC], lights[0, L_VEC + 1], lights[0, L_VEC + 2]
-            c0, c1, c2 = lights[0, L_ATT], lights[0, L_ATT + 1], lights[0, L_ATT + 2]
-            floor = view[V_FLOOR]
-            for j in range(PACKET):
-                side, px, py, pz = lane[0, j], lane[4, j], lane[5, j], lane[6, j]
-                sx, sy, sz = lane[7, j], lane[8, j], lane[9, j]
-                nx, ny, nz = side * lane[1, j], side * lane[2, j], side * lane[3, j]
-                length = math.sqrt(sx * sx + sy * sy + sz * sz)
-                if length > one * NO_DIRECTION:
-                    nx, ny, nz = side * sx / length, side * sy / length, side * sz / length
-                vx, vy, vz = view[V_VIEW], view[V_VIEW + 1], view[V_VIEW + 2]
-                if per_point:
-                    vx, vy, vz = view_direction(px, py, pz, ex, ey, ez, zero)
-                lx, ly, lz, d = to_light(point_light, qx, qy, qz, px, py, pz, nx, ny, nz, floor)
-                fall = attenuation(falloff, c0, c1, c2, d, floor, one)
-                n_dot_l = nx * lx + ny * ly + nz * lz
-                lane[10, j], lane[11, j], lane[12, j] = nx, ny, nz
-                lane[13, j] = n_dot_l
-                lane[14, j] = zero
-                if specular != SPECULAR_NONE:
-                    lane[14, j] = highlight_cosine(specular, n_dot_l, nx, ny, nz, lx, ly, lz, vx, vy, vz, zero, two)
-                lane[15, j] = fall
-            # Pass C: the terms (powf stays scalar) and the film, in ray order.
-            for j in range(PACKET):
-                sample, col, row = _next_sample(sample, col, row, per_pixel, width)
-                f = face[k + j]
-                if f < 0:
-                    if has_background:
-                        for ch in range(3):
-                            rgb[row, col, ch] += weight * background[ch]
-                    continue
-                visible_k = visible[k + j] if shadows else ALL_VISIBLE
-                ar = ag = ab = dr = dg = db = sr = sg = sb = er = eg = eb = zero
-                mask = fixed
+            model = face_model[f]
+            if textured:
+                # The sample's world footprint: t × spread across the ray, stretched by 1/|cos θ| on the surface.
+                cosine = abs(face_normals[f, 0] * directions[k + j, 0] + face_normals[f, 1] * directions[k + j, 1]
+                             + face_normals[f, 2] * directions[k + j, 2])
+                footprint = (spread if orthographic else spread * tfar[k + j] * inputs.frame_scale) / max(cosine, 1e-3)
+                material = _textured_material(materials, texels, texture_table, corner_uv, uv_density, material, m, f,
+                                              b0, b1, b2, footprint, one, cast)
+            gouraud = model == GOURAUD
+            ar = ag = ab = dr = dg = db = sr = sg = sb = er = eg = eb = zero
+            mask = fixed
+            if one_light and not gouraud:  # one point, one light: the loops below written out, the same operations
                 if flags & F_EMISSION:
                     er, eg, eb = material.ke_r, material.ke_g, material.ke_b
                 if flags & F_SCENE_AMBIENT:
-                    ar = view[V_AMBIENT] * material.ka_r
-                    ag, ab = view[V_AMBIENT + 1] * material.ka_g, view[V_AMBIENT + 2] * material.ka_b
-                fall = lane[15, j]
+                    ar, ag, ab = ambient_r * material.ka_r, ambient_g * material.ka_g, ambient_b * material.ka_b
+                fall = per_light[0, 0, E_FALL, j]
                 if flags & F_LIGHT_AMBIENT:
-                    ar += fall * lights[0, L_IA] * material.ka_r
-                    ag += fall * lights[0, L_IA + 1] * material.ka_g
-                    ab += fall * lights[0, L_IA + 2] * material.ka_b
-                n_dot_l = lane[13, j]
+                    ar += fall * ia_r * material.ka_r
+                    ag += fall * ia_g * material.ka_g
+                    ab += fall * ia_b * material.ka_b
+                n_dot_l = per_light[0, 0, E_N_DOT_L, j]
                 if visible_k & 1 != 0 and n_dot_l > zero:
                     if flags & F_DIFFUSE:
                         mask |= 1 << C_DIFFUSE
-                        r, g, b = diffuse_terms(fall, n_dot_l, lights[0, L_ID], lights[0, L_ID + 1],
-                                                lights[0, L_ID + 2], material, zero, one, two)
+                        r, g, b = diffuse_terms(fall, n_dot_l, id_r, id_g, id_b, material, zero, one, two)
                         dr, dg, db = dr + r, dg + g, db + b
                     if specular != SPECULAR_NONE:
                         mask |= 1 << C_SPECULAR
-                        r, g, b = specular_terms(fall, lane[14, j], lights[0, L_IS], lights[0, L_IS + 1],
-                                                 lights[0, L_IS + 2], material, zero, one)
+                        r, g, b = specular_terms(fall, per_light[0, 0, E_COSINE, j], is_r, is_g, is_b, material,
+                                                 zero, one)
                         sr, sg, sb = sr + r, sg + g, sb + b
-                if mask != run_mask:
-                    for bit in range(TERMS):
-                        evaluated[bit] += run_length * ((run_mask >> bit) & 1)
-                    run_mask, run_length = mask, 0
-                run_length += 1
-                rgb[row, col, 0] += weight * (ar + dr + sr + er)
-                rgb[row, col, 1] += weight * (ag + dg + sg + eg)
-                rgb[row, col, 2] += weight * (ab + db + sb + eb)
-                if term_layers:
-                    for term, (r, g, b) in enumerate(((ar, ag, ab), (dr, dg, db), (sr, sg, sb), (er, eg, eb))):
-                        terms[row, col, term, 0] += weight * r
-                        terms[row, col, term, 1] += weight * g
-                        terms[row, col, term, 2] += weight * b
-                if geometry_layers and sample == centre_sample:
-                    nx, ny, nz = lane[10, j], lane[11, j], lane[12, j]
-                    depth[row, col] = tfar[k + j] * inputs.frame_scale
-                    face_out[row, col] = f
-                    length = math.sqrt(nx * nx + ny * ny + nz * nz)
-                    if length > 0:
-                        normal[row, col, 0], normal[row, col, 1], normal[row, col, 2] = (
-                            nx / length, ny / length, nz / length)
-            continue
-        sample, col, row = _next_sample(sample, col, row, per_pixel, width)
-        # The face rows (normal, corners, corner normals, vertices) of the hit AHEAD rays on: they are cache
-        # misses on a mesh larger than the cache, and one pass per hit is too long for the CPU to run that far.
-        if k + AHEAD < face.shape[0]:
-            ahead = face[k + AHEAD]
-            if ahead >= 0:
-                _prefetch(face_normals, 3 * ahead)
-                _prefetch(faces, 3 * ahead)
-                _prefetch(corner_normals, 9 * ahead)
-                _prefetch(vertices, 3 * faces[ahead, 0])
-                _prefetch(vertices, 3 * faces[ahead, 1])
-                _prefetch(vertices, 3 * faces[ahead, 2])
-        f = face[k]
-        visible_k = visible[k] if shadows else ALL_VISIBLE
-        if f < 0:
-            if has_background:
-                for ch in range(3):
-                    rgb[row, col, ch] += weight * background[ch]
-            continue
-
-        i0, i1, i2 = faces[f, 0], faces[f, 1], faces[f, 2]
-        b1, b2 = one * bu[k], one * bv[k]
-        b0 = one - b1 - b2
-        if screen:
-            b0, b1, b2 = _screen_weights(b0, b1, b2, vertices, i0, i1, i2, eye, camera, one)
-        gx, gy, gz = face_normals[f, 0], face_normals[f, 1], face_normals[f, 2]
-        # Shade the side the viewer sees.
-        side = facing_side(gx, gy, gz, directions[k, 0], directions[k, 1], directions[k, 2], two_sided, one)
-        m = face_material[f]
-        if m != last_m:
-            last_m = m
-            base = _material_row(materials, m)
-        material = base
-        model = face_model[f]
-        if textured:
-            # The sample's world footprint: t × spread across the ray, stretched by 1/|cos θ| on the surface.
-            cosine = abs(gx * directions[k, 0] + gy * directions[k, 1] + gz * directions[k, 2])
-            footprint = (spread if orthographic else spread * tfar[k] * inputs.frame_scale) / max(cosine, 1e-3)
-            material = _textured_material(materials, texels, texture_table, corner_uv, uv_density, material, m, f,
-                                          b0, b1, b2, footprint, one, cast)
-        if coloured and model != GOURAUD:  # Gouraud lights each corner with its own colour, below
-            w0, w1, w2 = (third, third, third) if model == FLAT else (b0, b1, b2)
-            material = _modulated(material, w0 * colours[f, 0, 0] + w1 * colours[f, 1, 0] + w2 * colours[f, 2, 0],
-                                  w0 * colours[f, 0, 1] + w1 * colours[f, 1, 1] + w2 * colours[f, 2, 1],
-                                  w0 * colours[f, 0, 2] + w1 * colours[f, 1, 2] + w2 * colours[f, 2, 2])
-        nx, ny, nz = side * gx, side * gy, side * gz
-        if model == FLAT:
-            px, py, pz = hit_point(vertices, faces, f, third, third, third)  # the centroid
-            ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask = illuminate(
-                px, py, pz, nx, ny, nz, material, lights, view_tuple, flags, specular, visible_k, zero, one, two)
-        elif model == GOURAUD:
-            ar = ag = ab = dr = dg = db = sr = sg = sb = er = eg = eb = zero
-            mask = 0
-            for j in range(3):
-                vj = faces[f, j]
-                bj = b0 if j == 0 else (b1 if j == 1 else b2)
-                corner_material = material
-                if coloured:
-                    corner_material = _modulated(material, colours[f, j, 0], colours[f, j, 1], colours[f, j, 2])
-                lit = illuminate(
-                    vertices[vj, 0], vertices[vj, 1], vertices[vj, 2], side * corner_normals[f, j, 0],
-                    side * corner_normals[f, j, 1], side * corner_normals[f, j, 2], corner_material, lights,
-                    view_tuple, flags, specular, visible_k, zero, one, two)
-                ar, ag, ab = ar + bj * lit.ambient_r, ag + bj * lit.ambient_g, ab + bj * lit.ambient_b
-                dr, dg, db = dr + bj * lit.diffuse_r, dg + bj * lit.diffuse_g, db + bj * lit.diffuse_b
-                sr, sg, sb = sr + bj * lit.specular_r, sg + bj * lit.specular_g, sb + bj * lit.specular_b
-                er, eg, eb = er + bj * lit.emission_r, eg + bj * lit.emission_g, eb + bj * lit.emission_b
-                mask |= lit.mask
-            if geometry_layers:
-                sx, sy, sz = _mixed_normal(corner_normals, f, b0, b1, b2)
-                nx, ny, nz = side * sx, side * sy, side * sz
-        else:
-            px, py, pz = hit_point(vertices, faces, f, b0, b1, b2)
-            sx, sy, sz = _mixed_normal(corner_normals, f, b0, b1, b2)
-            length = math.sqrt(sx * sx + sy * sy + sz * sz)
-            # A mix of unit normals with no length points nowhere in particular: keep the face normal.
-            if length > one * NO_DIRECTION:
-                nx, ny, nz = side * sx / length, side * sy / length, side * sz / length
-            ar, ag, ab, dr, dg, db, sr, sg, sb, er, eg, eb, mask = illuminate(
-                px, py, pz, nx, ny, nz, material, lights, view_tuple, flags, specular, visible_k, zero, one, two)
-
-        if mask != run_mask:
-            for bit in range(TERMS):
-                evaluated[bit] += run_length * ((run_mask >> bit) & 1)
-            run_mask, run_length = mask, 0
-        run_length += 1
-        rgb[row, col, 0] += weight * (ar + dr + sr + er)
-        rgb[row, col, 1] += weight * (ag + dg + sg + eg)
-        rgb[row, col, 2] += weight * (ab + db + sb + eb)
-        if term_layers:
-            for term, (r, g, b) in enumerate(((ar, ag, ab), (dr, dg, db), (sr, sg, sb), (er, eg, eb))):
-                terms[row, col, term, 0] += weight * r
-                terms[row, col, term, 1] += weight * g
-                terms[row, col, term, 2] += weight * b
-        if geometry_layers and sample == centre_sample:
-            depth[row, col] = tfar[k] * inputs.frame_scale
-            face_out[row, col] = f
-            length = math.sqrt(nx * nx + ny * ny + nz * nz)
-            if length > 0:
-                normal[row, col, 0], normal[row, col, 1], normal[row, col, 2] = nx / length, ny / length, nz / length
+            for c in range(0 if one_light and not gouraud else (CORNERS if gouraud else 1)):
+                block, e = c, j
+                lit = material
+                if coloured:  # Gouraud lights each corner with its own colour, flat the mean of its corners
+                    if gouraud:
+                        r, g, b = colours[f, c, 0], colours[f, c, 1], colours[f, c, 2]
+                    else:
+                        w0, w1, w2 = (third, third, third) if model == FLAT else (b0, b1, b2)
+                        r = w0 * colours[f, 0, 0] + w1 * colours[f, 1, 0] + w2 * colours[f, 2, 0]
+                        g = w0 * colours[f, 0, 1] + w1 * colours[f, 1, 1] + w2 * colours[f, 2, 1]
+                        b = w0 * colours[f, 0, 2] + w1 * colours[f, 1, 2] + w2 * colours[f, 2, 2]
+                    lit = _modulated(material, r, g, b)
+                # The model at point e: k_e, I_a k_a, then each light's ambient, diffuse and specular parts.
+                pa_r = pa_g = pa_b = pd_r = pd_g = pd_b = ps_r = ps_g = ps_b = pe_r = pe_g = pe_b = zero
+                if flags & F_EMISSION:
+                    pe_r, pe_g, pe_b = lit.ke_r, lit.ke_g, lit.ke_b
+                if flags & F_SCENE_AMBIENT:
+                    pa_r, pa_g, pa_b = view[V_AMBIENT] * lit.ka_r, view[V_AMBIENT + 1] * lit.ka_g, view[
+                        V_AMBIENT + 2] * lit.ka_b
+                for i in range(n_lights):
+                    fall = per_light[i, block, E_FALL, e]
+                    if flags & F_LIGHT_AMBIENT:
+                        pa_r += fall * lights[i, L_IA] * lit.ka_r
+                        pa_g += fall * lights[i, L_IA + 1] * lit.ka_g
+                        pa_b += fall * lights[i, L_IA + 2] * lit.ka_b
+                    if (visible_k >> i) & 1 == 0:
+                        continue  # in shadow: vis = 0 removes the direct term only
+                    n_dot_l = per_light[i, block, E_N_DOT_L, e]
+                    if n_dot_l <= zero:
+                        continue  # no diffuse and no highlight on a side turned away from the light
+                    if flags & F_DIFFUSE:
+                        mask |= 1 << C_DIFFUSE
+                        r, g, b = diffuse_terms(fall, n_dot_l, lights[i, L_ID], lights[i, L_ID + 1],
+                                                lights[i, L_ID + 2], lit, zero, one, two)
+                        pd_r, pd_g, pd_b = pd_r + r, pd_g + g, pd_b + b
+                    if specular != SPECULAR_NONE:
+                        mask |= 1 << C_SPECULAR
+                        r, g, b = specular_terms(fall, per_light[i, block, E_COSINE, e], lights[i, L_IS],
+                                                 lights[i, L_IS + 1], lights[i, L_IS + 2], lit, zero, one)
+                        ps_r, ps_g, ps_b = ps_r + r, ps_g + g, ps_b + b
+                if gouraud:  # 0 + b0 I0 + b1 I1 + b2 I2
+                    bc = b0 if c == 0 else (b1 if c == 1 else b2)
+                    ar, ag, ab = ar + bc * pa_r, ag + bc * pa_g, ab + bc * pa_b
+                    dr, dg, db = dr + bc * pd_r, dg + bc * pd_g, db + bc * pd_b
+                    sr, sg, sb = sr + bc * ps_r, sg + bc * ps_g, sb + bc * ps_b
+                    er, eg, eb = er + bc * pe_r, eg + bc * pe_g, eb + bc * pe_b
+                else:
+                    ar, ag, ab, dr, dg, db = pa_r, pa_g, pa_b, pd_r, pd_g, pd_b
+                    sr, sg, sb, er, eg, eb = ps_r, ps_g, ps_b, pe_r, pe_g, pe_b
+            if mask != run_mask:
+                for bit in range(TERMS):
+                    evaluated[bit] += run_length * ((run_mask >> bit) & 1)
+                run_mask, run_length = mask, 0
+            run_length += 1
+            rgb[row, col, 0] += weight * (ar + dr + sr + er)
+            rgb[row, col, 1] += weight * (ag + dg + sg + eg)
+            rgb[row, col, 2] += weight * (ab + db + sb + eb)
+            if term_layers:
+                for term, (r, g, b) in enumerate(((ar, ag, ab), (dr, dg, db), (sr, sg, sb), (er, eg, eb))):
+                    terms[row, col, term, 0] += weight * r
+                    terms[row, col, term, 1] += weight * g
+                    terms[row, col, term, 2] += weight * b
+            if geometry_layers and sample == centre_sample:
+                side = points[0, E_SIDE, j]
+                nx, ny, nz = points[0, E_NX, j], points[0, E_NY, j], points[0, E_NZ, j]
+                if gouraud:
+                    sx, sy, sz = _mixed_normal(corner_normals, f, b0, b1, b2)
+                    nx, ny, nz = side * sx, side * sy, side * sz
+                depth[row, col] = tfar[k + j] * inputs.frame_scale
+                face_out[row, col] = f
+                length = math.sqrt(nx * nx + ny * ny + nz * nz)
+                if length > 0:
+                    normal[row, col, 0], normal[row, col, 1], normal[row, col, 2] = (
+                        nx / length, ny / length, nz / length)
     for bit in range(TERMS):
         evaluated[bit] += run_length * ((run_mask >> bit) & 1)
     counts[:] = evaluated
