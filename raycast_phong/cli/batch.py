@@ -52,8 +52,9 @@ def batch(
     force: Annotated[bool, typer.Option("--force", help="Render every scene, even those whose outputs are "
                      "up to date.")] = False,
     scheduler: Annotated[str | None, typer.Option(metavar="tcp://HOST:PORT", callback=_scheduler, help="Run the "
-                         "renders on this Dask scheduler (pip install 'raycast-phong[distributed]'); scene files "
-                         "and the output folder must be at the same paths on its workers.")] = None,
+                         "renders on this Dask scheduler (pip install 'raycast-phong[distributed]'); paths are sent "
+                         "absolute, so the meshes and textures the scenes name and the output folder must be at "
+                         "the same absolute paths on its workers (a shared file system).")] = None,
     srgb: Annotated[bool, typer.Option("--srgb", help="Encode PNG outputs with the sRGB curve.")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress and no summary; failures are still "
                      "reported.")] = False,

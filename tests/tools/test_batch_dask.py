@@ -1,12 +1,22 @@
-"""`batch --scheduler`: the same renders on a Dask cluster (a LocalCluster on loopback here)."""
+"""`batch --scheduler`: the same renders on a Dask cluster (a LocalCluster on loopback here), and a batch given
+relative paths on a scheduler and a worker started as processes of their own in another folder."""
 
 from __future__ import annotations
 
 import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
 
+import numpy as np
 import pytest
-from test_batch import SWEEP, five_scenes, scene_text  # noqa: F401  (five_scenes is a fixture)
+from test_batch import ROOT, SWEEP, TETRAHEDRON, five_scenes, images, manifest, scene_text  # noqa: F401
 
+import raycast_phong as rp
 from raycast_phong.errors import OptionError
 from raycast_phong.tools import batch
 
@@ -46,3 +56,101 @@ def test_an_unreachable_scheduler_is_bad_input(five_scenes, tmp_path, monkeypatc
     monkeypatch.setattr(batch.cluster, "CONNECT_TIMEOUT", "0.5s")  # port 9 (discard) never answers; don't wait 10 s
     with pytest.raises(OptionError, match=r"--scheduler tcp://127\.0\.0\.1:9: cannot connect"):
         batch.run_batch(batch.find_jobs([five_scenes]), tmp_path / "out", scheduler="tcp://127.0.0.1:9")
+
+
+def free_port() -> int:
+    """A TCP port on 127.0.0.1 that nothing listens on now (the scheduler takes it a moment later)."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def stop_group(process: subprocess.Popen) -> None:
+    """End a process started with start_new_session=True and every process it started (a worker's nanny
+    starts the worker): SIGTERM to its group, SIGKILL after 10 s."""
+    for number, wait in ((signal.SIGTERM, 10), (signal.SIGKILL, 10)):
+        try:
+            os.killpg(process.pid, number)
+        except ProcessLookupError:
+            return
+        try:
+            process.wait(timeout=wait)
+            return
+        except subprocess.TimeoutExpired:
+            continue
+
+
+def wait_for_scheduler(address: str, port: int, processes: list[subprocess.Popen], logs: Path) -> None:
+    """Until the scheduler accepts connections and has one worker, at most 60 s each."""
+    deadline = time.monotonic() + 60
+    while True:
+        assert all(p.poll() is None for p in processes), tails(logs)
+        assert time.monotonic() < deadline, "the scheduler did not answer in 60 s\n" + tails(logs)
+        try:
+            socket.create_connection(("127.0.0.1", port), timeout=1).close()
+            break
+        except OSError:
+            time.sleep(0.2)
+    with distributed.Client(address, timeout="30s") as client:
+        client.wait_for_workers(1, timeout=60)
+
+
+def tails(logs: Path) -> str:
+    return "\n".join(f"{path.name}: {path.read_text()[-2000:]}" for path in sorted(logs.glob("*.log")))
+
+
+@pytest.mark.slow
+def test_a_cluster_started_elsewhere_renders_a_batch_given_relative_paths(tmp_path):
+    """`dask scheduler` and `dask worker` started as a user would, in a folder of their own, and a batch run
+    from a third folder with relative scene and output paths, whose scenes name a mesh (with its .mtl and
+    map_Kd image) and a colour map by relative paths: every path the workers use must be absolute, resolved
+    where the batch runs (the scene's own folder for the scene's paths), not in the worker's folder."""
+    cluster, user = tmp_path / "cluster", tmp_path / "user"
+    scenes = user / "in"
+    (scenes / "meshes").mkdir(parents=True)
+    (scenes / "textures").mkdir()
+    cluster.mkdir()
+    rp.write_image(scenes / "textures" / "wood.png", np.full((4, 4, 3), 0.25, np.float32))
+    rp.write_image(scenes / "meshes" / "paint.png", np.full((4, 4, 3), 0.75, np.float32))
+    (scenes / "meshes" / "box.mtl").write_text("newmtl p\nKd 1 1 1\nmap_Kd paint.png\n")
+    (scenes / "meshes" / "box.obj").write_text(
+        "mtllib box.mtl\nusemtl p\n" + TETRAHEDRON.replace("f 1 2 3", "vt 0 0\nf 1 2 3"))
+    (scenes / "mesh.toml").write_text(scene_text(shape="mesh", extra='path = "meshes/box.obj"').replace(
+        'material = "red"\n', ""))
+    (scenes / "mapped.toml").write_text(scene_text().replace(
+        "shininess = 32\n", 'shininess = 32\nkd_map = "textures/wood.png"\n'))
+    (scenes / "sphere.toml").write_text(scene_text())
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
+    port = free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    commands = {"scheduler": ["scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"],
+                "worker": ["worker", address, "--host", "127.0.0.1", "--nworkers", "1", "--nthreads", "1",
+                           "--no-dashboard", "--death-timeout", "60", "--local-directory", str(cluster)]}
+    processes: list[subprocess.Popen] = []
+    try:
+        for name, arguments in commands.items():
+            with open(cluster / f"{name}.log", "wb") as log:
+                processes.append(subprocess.Popen([sys.executable, "-m", "dask", *arguments], cwd=cluster, env=env,
+                                                  stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
+                                                  start_new_session=True))
+        wait_for_scheduler(address, port, processes, cluster)
+        result = subprocess.run([sys.executable, "-m", "raycast_phong.cli", "batch", "in", "--out", "renders",
+                                 "--scheduler", address], cwd=user, env=env, stdin=subprocess.DEVNULL,
+                                capture_output=True, text=True, timeout=600)
+    finally:
+        for process in reversed(processes):
+            stop_group(process)
+    assert result.returncode == 0, result.stderr + tails(cluster)
+    assert "3 scenes: 3 rendered, 0 up to date, 0 failed" in result.stdout, result.stdout
+    assert {name: entry["status"] for name, entry in manifest(user / "renders").items()} == \
+        {"mapped": "rendered", "mesh": "rendered", "sphere": "rendered"}
+    assert [path.name for path in images(user / "renders")] == ["mapped.png", "mesh.png", "sphere.png"]
+    assert not (cluster / "renders").exists()
+    # The same images as a local batch (so the cluster read the same texture and mesh files), and the colour
+    # map darkened the sphere it is on.
+    local = batch.run_batch(batch.find_jobs([scenes]), tmp_path / "local", workers=1)
+    assert local.count(batch.RENDERED) == 3
+    for path in images(user / "renders"):
+        assert path.read_bytes() == (tmp_path / "local" / path.name).read_bytes(), path.name
+    mapped, plain = (rp.read_image(user / "renders" / name)[0] for name in ("mapped.png", "sphere.png"))
+    assert mapped.max() < plain.max()

@@ -1,5 +1,7 @@
 """Running a batch's tasks on an existing Dask cluster (`--scheduler tcp://HOST:PORT`, the `distributed`
-extra); the scene files and the output folder must be at the same paths on its workers.
+extra). A Task's paths are absolute (prepare_job), so a worker's working folder does not matter; the meshes and
+textures the scenes name and the output folder must be at those same absolute paths on its workers (the
+scene files are read here only).
 """
 
 from __future__ import annotations
@@ -24,7 +26,8 @@ def cluster_outcome(future: Future, task: Task) -> Outcome:
 
 
 def on_cluster(tasks: list[Task], scheduler: str, started: set[str]) -> Iterator[Outcome]:
-    """Each task on an existing Dask cluster; the scene files and output folder must be at the same paths there."""
+    """Each task on an existing Dask cluster; the mesh and texture files and the output folder must be at the same
+    absolute paths there."""
     try:
         from distributed import Client, as_completed
     except ImportError:

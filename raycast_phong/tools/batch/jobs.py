@@ -42,10 +42,15 @@ class Settings:
 
 @dataclass(frozen=True)
 class Task:
-    """A job ready for a worker: the validated scene and where its image goes."""
+    """A job ready for a worker: the validated scene and where its image goes.
+
+    A worker may run in another working folder (a Dask worker on another machine), so every path it opens is
+    absolute, resolved where the batch runs when the task is made (prepare_job): `scene.folder`, against which
+    the scene's mesh and texture paths resolve, and `output`. `job.scene` stays as the user spelled it: on the
+    worker it only labels messages and the manifest entry, and is never opened."""
     job: Job
-    scene: Scene
-    output: Path
+    scene: Scene       # its folder absolute
+    output: Path       # absolute
     digest: str
     inputs: dict[str, int]  # input_times() when the scene was loaded
     settings: Settings
@@ -248,7 +253,7 @@ def prepare_job(job: Job, folder: Path, settings: Settings, previous: dict | Non
     start = time.perf_counter()
     entry = new_entry(job, FAILED)
     try:
-        scene = load_scene(job.scene, job.overrides, max_memory=max_memory)
+        scene = absolute_folder(load_scene(job.scene, job.overrides, max_memory=max_memory))
     except SceneError as error:
         entry.reason, entry.hash = reason_line(job, str(error)), job_hash(job, None, settings)
         return entry
@@ -259,9 +264,16 @@ def prepare_job(job: Job, folder: Path, settings: Settings, previous: dict | Non
     if not force and is_current(previous, digest, inputs, folder):
         return replace(entry, status=UP_TO_DATE, outputs=previous["outputs"], seconds=previous.get("seconds", {}),
                        rays_per_second=previous.get("rays_per_second"), hash=digest, inputs=inputs)
-    output = folder / f"{job.name}{Path(scene.output.path).suffix.lower()}"
+    output = Path(folder).absolute() / f"{job.name}{Path(scene.output.path).suffix.lower()}"
     return Task(job=job, scene=scene, output=output, digest=digest, inputs=inputs, settings=settings, threads=None,
                 load_seconds=load_seconds, before=file_identity(output))
+
+
+def absolute_folder(scene: Scene) -> Scene:
+    """`scene` with its folder absolute (this process's working folder joined, nothing else changed, as the
+    operating system would resolve the relative path here), so its relative mesh and texture paths name the same
+    files in a worker whose working folder is another."""
+    return scene.model_copy(update={"folder": str(Path(scene.folder).absolute())})
 
 
 def render_job(task: Task) -> Outcome:
