@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import os
+import stat
 import struct
 import tempfile
 import zlib
@@ -24,6 +25,7 @@ from ..codes import IMAGE_SUFFIXES
 from ..errors import ImageError
 from .atomic import os_reason, replaced_atomically
 from .encoding import to_8bit
+from .files import FILE_KINDS
 from .system import format_bytes
 
 LAYER_CHANNELS = {"depth": ("Z",), "normal": ("X", "Y", "Z"), "face": ("id",)}
@@ -186,11 +188,24 @@ def _part(name: str, layer: np.ndarray, origin: tuple[int, int],
     return spec, pixels
 
 
+def refuse_non_regular(path: str | Path) -> None:
+    """ImageError (one line) for an image path that is a FIFO, a device or a folder: OpenImageIO would wait on a
+    pipe for ever, or read a device without end. A missing or unreadable file is left to the read's own words."""
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):
+        return
+    if not stat.S_ISREG(mode):
+        kind = next((name for test, name in FILE_KINDS if test(mode)), "not a regular file")
+        raise ImageError(f"{path}: is {kind}, not a regular file; give an image file (PNG, EXR, ...)")
+
+
 def read_image(path: str | Path, part: int = 0) -> tuple[np.ndarray, tuple[str, ...]]:
     """All channels of one part of an image as (H, W, C) float32 (8-bit files scaled to [0, 1]) and their names.
 
     A part is read over its own data window: an extra part of write_image comes back at its own size.
     """
+    refuse_non_regular(path)
     buffer = oiio.ImageBuf(str(path), part, 0)
     if buffer.has_error:
         raise ImageError(f"{path}: cannot read ({buffer.geterror()})")
@@ -213,6 +228,7 @@ def read_layer(path: str | Path, layer: str | None = None) -> np.ndarray:
 
 
 def _part_count(path: str | Path) -> int:
+    refuse_non_regular(path)
     buffer = oiio.ImageBuf(str(path))
     count = buffer.nsubimages
     buffer.geterror()  # a missing file reports through read_image; drop the error here, unread
@@ -312,6 +328,7 @@ def _first_line(text: str) -> str:
 def image_header(path: str | Path) -> tuple[int, int, int] | None:
     """(width, height, channels) of an image's first part from its header alone, or None if it cannot be
     opened (the read reports why)."""
+    refuse_non_regular(path)
     source = oiio.ImageInput.open(str(path))
     if source is None:
         oiio.geterror()

@@ -167,3 +167,18 @@ def test_reference_fine_is_refused_before_it_refines_over_the_budget(tmp_path):
     assert result.exit_code == 2 and len(lines) == 1, result.output
     assert "--fine 6: the refined scene has 5.2M triangles" in lines[0], lines[0]
     assert not (tmp_path / "r.exr").exists()
+
+
+def test_compare_refuses_a_fifo_or_a_device_at_once(tmp_path):
+    """`compare a.png fifo.png` waited for ever inside OpenImageIO's open; a device read without end. Each is
+    refused by its kind before any open, one line, exit 2 (a subprocess with a timeout: the old code hung)."""
+    import numpy as np
+
+    import raycast_phong as rp
+    rp.write_image(tmp_path / "a.png", np.zeros((4, 4, 3), np.float32))
+    os.mkfifo(tmp_path / "pipe.png")
+    for other, kind in ((tmp_path / "pipe.png", "a named pipe (FIFO)"), (Path("/dev/zero"), "a device")):
+        done = subprocess.run([*CLI, "compare", str(tmp_path / "a.png"), str(other)], capture_output=True, text=True,
+                              timeout=120, stdin=subprocess.DEVNULL)
+        assert done.returncode == 2, done.stderr
+        assert done.stderr == f"error: {other}: is {kind}, not a regular file; give an image file (PNG, EXR, ...)\n"

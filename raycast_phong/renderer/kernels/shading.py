@@ -23,10 +23,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from llvmlite import ir
-from numba import types
-from numba.core import cgutils
-from numba.extending import intrinsic
 
 from ...jit import kernel
 from ...tolerances import NO_DIRECTION
@@ -111,25 +107,8 @@ from .layout import (
 from .surface import facing_side, hit_point
 from .texture import sample
 
-AHEAD = 16  # rays between a face row's prefetch and its use (8: no better, ico6 1000²)
 PACKET = 16  # rays shaded together (_shade_rays): an Embree packet, and 16 float32 lanes fill a zmm register
 ALL_VISIBLE = -1  # every bit set: local mode, no light is ever shadowed
-
-
-@intrinsic
-def _prefetch(typingctx, array, index):
-    """llvm.prefetch of the element at flat `index` of a C-contiguous array (read, keep in every cache level):
-    a hint to the CPU, no result and no fault (an index past the end is never read)."""
-    def codegen(context, builder, signature, args):
-        ary = context.make_array(signature.args[0])(context, builder, args[0])
-        byte = ir.IntType(8).as_pointer()
-        i32 = ir.IntType(32)
-        pointer = builder.bitcast(builder.gep(ary.data, [args[1]]), byte)
-        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [byte, i32, i32, i32]),
-                                            "llvm.prefetch.p0")
-        builder.call(fn, [pointer, i32(0), i32(3), i32(1)])
-        return context.get_dummy_value()
-    return types.void(array, types.intp), codegen
 
 
 @kernel()
