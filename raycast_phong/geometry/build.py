@@ -502,11 +502,6 @@ def file_crease_angle(obj: Object, stores_normals: bool) -> float | None:
     return FILE_CREASE_ANGLE
 
 
-def rotation_of(obj: Object) -> np.ndarray:
-    """3×3 rotation about x, then y, then z, by the object's angles in degrees."""
-    return rotations_of([obj.rotate])[0]
-
-
 def rotations_of(angles: list) -> np.ndarray:
     """(K, 3, 3) rotations about x, then y, then z, by K objects' angles in degrees. cos and sin come from the
     math module (the C library), whose bits numpy's vectorised ones need not share."""

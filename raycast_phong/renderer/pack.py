@@ -205,15 +205,6 @@ def pack_textures(textures: tuple[Texture, ...]) -> tuple[np.ndarray, np.ndarray
     return np.ascontiguousarray(texels, np.float32), table
 
 
-def pyramid_texels(height: int, width: int) -> int:
-    """Texels of mip_pyramid's levels for a (height, width) level 0 (the memory estimate's count)."""
-    total = height * width
-    while min(height, width) > MIP_FLOOR:
-        height, width = max(1, height // 2), max(1, width // 2)
-        total += height * width
-    return total
-
-
 def uv_density(geometry: Geometry) -> np.ndarray:
     """(F,) float32 sqrt(UV area / world area) per face: texels per world length divided by sqrt(w h)
     (0 on a face of no world area)."""
