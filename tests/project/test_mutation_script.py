@@ -22,7 +22,7 @@ def test_every_mutant_is_a_one_line_edit_that_parses_and_changes_the_code():
         source = (ROOT / "raycast_phong" / f"{module}.py").read_text(encoding="utf-8")
         lines = source.split("\n")
         mutants = mutate.generate(module)
-        assert len(mutants) > 100
+        assert len(mutants) > 80
         assert {m.kind for m in mutants} >= {"operator", "constant", "drop", "negate"}
         for m in mutants:
             line = lines[m.line - 1]
