@@ -18,7 +18,7 @@ from .common import SetOption, UpOption, ViewOption, _view, app, exit_codes
 
   raycast-phong scene model.obj > model.toml           # then edit it and render model.toml
 
-  raycast-phong scene model.glb --view front --up z -o model.toml   # mesh path written relative to model.toml
+  raycast-phong scene model.glb --view front --up z -o model.toml   # file paths written relative to model.toml
 
   raycast-phong scene model.ply --set render.width=1280 --set render.height=720
 """)
@@ -26,15 +26,16 @@ def scene_command(
     scene: Annotated[Path, typer.Argument(help="Mesh file (or a scene file, written out with every key).",
                                           show_default=False, dir_okay=False)],
     output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the TOML here (atomically) instead "
-                      "of to standard output; the mesh path is then relative to its folder.")] = None,
+                      "of to standard output; the files the scene names (meshes, texture maps) are then written "
+                      "relative to its folder.")] = None,
     set_: SetOption = [],
     view: ViewOption = None,
     up: UpOption = None,
 ) -> None:
     """Print the scene file a mesh file stands for: its materials, the framing camera, the key light and
     every other key with its value. `render` of that file gives the same image as `render` of the mesh."""
+    from raycast_phong.io.scene_toml import scene_toml
     from raycast_phong.scene.load import is_mesh_file
-    from raycast_phong.tools.sweep import scene_toml
     with exit_codes():
         loaded = rp.load_scene(scene, set_, view=_view(view), up=up)
         notes = ()

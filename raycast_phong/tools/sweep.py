@@ -18,7 +18,6 @@ from __future__ import annotations
 import itertools
 import json
 import math
-import os
 import re
 import tomllib
 from dataclasses import dataclass
@@ -30,6 +29,7 @@ import numpy as np
 from ..errors import ImageError, SceneError
 from ..io.encoding import srgb_encode
 from ..io.image_io import COMPARE_BYTES_PER_SAMPLE, image_header, read_layer, text_coverage, write_image
+from ..io.scene_toml import toml_value
 from ..io.system import format_bytes
 from .compare import BACKDROP, MIN_FONT, draw_text, fitting_size, layout, row_wording
 
@@ -138,55 +138,6 @@ def _leaves(table: dict, prefix: str = "") -> list[tuple[str, Any]]:
         else:
             out.append((f"{prefix}{key}", value))
     return out
-
-
-def toml_value(value: Any) -> str:
-    """A value as TOML text, as apply_override reads it: "flat", 8, 0.5, true, [1, 0, 0]."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (int, float)):
-        return repr(value)
-    if isinstance(value, list):
-        return "[" + ", ".join(toml_value(item) for item in value) + "]"
-    return json.dumps(value, ensure_ascii=False)  # a JSON string is a TOML basic string
-
-
-def toml_key(name: str) -> str:
-    """A TOML key: bare when it may be, else a quoted basic string."""
-    return name if re.fullmatch(r"[A-Za-z0-9_-]+", name) else json.dumps(name, ensure_ascii=False)
-
-
-VIEW_HEADER = "# Saved by `raycast-phong view`; render it with `raycast-phong render THIS.toml`."
-
-
-def scene_toml(scene, header: str = VIEW_HEADER, relative_to: Path | None = None) -> str:
-    """The validated scene as a scene file that load_scene reads back to the same Scene.
-
-    Every key is written with its value (defaults too, so the file does not depend on later defaults; an
-    unset key that means "decide from the file", such as a mesh's `normals`, stays unset). A mesh path is
-    written relative to the folder `relative_to` the file goes to, or absolute when that is not known.
-    """
-    data = scene.model_dump(mode="json", exclude={"folder"})
-    for obj, dumped in zip(scene.objects, data["objects"]):
-        if obj.path is not None:
-            mesh = scene.resolve(obj.path).resolve()
-            dumped["path"] = str(mesh if relative_to is None else Path(os.path.relpath(mesh, relative_to.resolve())))
-
-    def table(values: dict) -> list[str]:
-        return [f"{toml_key(k)} = {toml_value(v)}" for k, v in values.items() if v is not None]
-
-    lines = [*header.splitlines(), ""]
-    lines += table({"ambient": data["ambient"]})
-    for name in ("render", "camera"):
-        lines += ["", f"[{name}]", *table(data[name])]
-    for light in data["lights"]:
-        lines += ["", "[[lights]]", *table(light)]
-    for name, material in data["materials"].items():
-        lines += ["", f"[materials.{toml_key(name)}]", *table(material)]
-    for obj in data["objects"]:
-        lines += ["", "[[objects]]", *table(obj)]
-    lines += ["", "[output]", *table(data["output"])]
-    return "\n".join(lines) + "\n"
 
 
 def slug(text: str) -> str:

@@ -486,7 +486,7 @@ def test_a_full_frame_reports_its_progress(scene_path):
 
 
 def test_a_saved_scene_file_loads_back_as_the_settings_that_make_it(scene_path):
-    from raycast_phong.tools.sweep import scene_toml
+    from raycast_phong.io.scene_toml import scene_toml
     changes = {"render.shading": "flat", "lights.0.position": [1.0, -2.0, 3.5], "materials.red.shininess": 10.0,
                "camera.look_at": [0.25, 0.0, 0.0]}
     from raycast_phong.tools.view.server import ViewError, scene_with, settings_from

@@ -44,9 +44,9 @@ from raycast_phong.codes import ShadingModel
 from raycast_phong.errors import SceneError, ViewError
 from raycast_phong.io.image_io import image_bytes
 from raycast_phong.io.scene_file import syntax_limit
+from raycast_phong.io.scene_toml import scene_toml, toml_value
 from raycast_phong.scene.load import read_scene_dict
 from raycast_phong.scene.overrides import apply_override
-from raycast_phong.tools.sweep import scene_toml, toml_value
 
 STATIC = Path(__file__).parent / "static"
 MAX_MESSAGE_BYTES = 1 << 16   # a page message is a few hundred bytes of settings; refuse anything larger

@@ -1,0 +1,120 @@
+"""The scene writer: a validated Scene as a TOML scene file (`raycast-phong scene`, the view's "Save scene"),
+and one value as TOML text for a `--set KEY=VALUE` override (sweeps, the view's settings).
+
+The file is written by tomli-w and reads as a hand-written scene does: the header's comment lines,
+`ambient`, [render], [camera], one [[lights]] per light, [materials.NAME], one [[objects]] per object,
+[output]. Every file the scene names (Scene.named_files: meshes and texture maps) is rebased to the folder
+the file is written to; output.path is the render's output relative to the scene file, wherever that is,
+and is written as it is.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+from typing import Any
+
+import tomli_w
+
+VIEW_HEADER = "# Saved by `raycast-phong view`; render it with `raycast-phong render THIS.toml`."
+SECTIONS = ("ambient", "render", "camera", "lights", "materials", "objects", "output")  # in the file's order
+KEPT_AS_WRITTEN = "output.path"  # relative to the scene file's own folder, wherever the file goes
+
+
+def toml_value(value: Any) -> str:
+    """A value as one line of TOML text, as apply_override reads it: "flat", 8, 0.5, true, [1, 0, 0],
+    {path = "a.png", wrap = "clamp"}. A sweep's file names are made from this text, so it stays one line."""
+    if isinstance(value, list):
+        return "[" + ", ".join(toml_value(item) for item in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{toml_key(k)} = {toml_value(v)}" for k, v in value.items()) + "}"
+    return tomli_w.dumps({"v": value})[len("v = "):-1]  # a scalar: tomli-w's one line, quoted and escaped
+
+
+def toml_key(name: str) -> str:
+    """A TOML key: bare when it may be, else a quoted string (as tomli-w writes it)."""
+    return name if re.fullmatch(r"[A-Za-z0-9_-]+", name) else toml_value(name)
+
+
+def _without_none(value: Any) -> Any:
+    """An unset key (None: "decide from the file", such as a mesh's normals) is not written; TOML has no null."""
+    if isinstance(value, dict):
+        return {k: _without_none(v) for k, v in value.items() if v is not None}
+    if isinstance(value, list):
+        return [_without_none(item) for item in value]
+    return value
+
+
+def _locate(node: Any, parts: list[str]) -> tuple[Any, Any] | None:
+    """(container, key) of a key path's leaf in dumped data. A name may hold dots (materials."a.b"), so the
+    parts are joined until they name a key whose rest of the path is there too."""
+    if isinstance(node, list):
+        index = int(parts[0])
+        if len(parts) == 1:
+            return node, index
+        return _locate(node[index], parts[1:])
+    if not isinstance(node, dict):
+        return None
+    for end in range(1, len(parts) + 1):
+        key = ".".join(parts[:end])
+        if key in node:
+            if end == len(parts):
+                return node, key
+            found = _locate(node[key], parts[end:])
+            if found is not None:
+                return found
+    return None
+
+
+def rebased(path: Path, relative_to: Path | None) -> str:
+    """An absolute file path written relative to the folder `relative_to` (absolute when that is None, or
+    when no relative path leads there, as across Windows drives)."""
+    if relative_to is None:
+        return str(path)
+    try:
+        return os.path.relpath(path, relative_to.resolve())
+    except ValueError:
+        return str(path)
+
+
+def scene_data(scene, relative_to: Path | None = None) -> dict:
+    """The scene as the data of its TOML file: every key with its value (defaults too, so the file does not
+    depend on later defaults; an unset key stays unset) and every named file rebased to `relative_to`."""
+    data = scene.model_dump(mode="json", exclude={"folder"})
+    for key, path in scene.named_files().items():
+        if key == KEPT_AS_WRITTEN:
+            continue
+        found = _locate(data, key.split("."))
+        if found is None:  # named_files and model_dump disagree: a bug here, not in the scene
+            raise AssertionError(f"scene_toml: {key} is not in the dumped scene")
+        container, leaf = found
+        container[leaf] = rebased(scene.resolve(path).resolve(), relative_to)
+    return _without_none(data)
+
+
+# tomli-w writes every non-empty array one item a line. An array of plain items (numbers, booleans, strings: a
+# string never holds a raw newline here, tomli-w escapes it) is put back on one line, as a scene is written by
+# hand: `position = [0.0, 0.0, 4.0]`. Only whitespace inside the brackets changes, which TOML ignores.
+_ITEM = r'(?:[\w.+-]+|"(?:[^"\\\n]|\\.)*")'
+_PLAIN_ARRAY = re.compile(rf"\[\n((?: +{_ITEM},\n)+) *\]")
+
+
+def _one_line(match: re.Match) -> str:
+    return "[" + ", ".join(item.strip().removesuffix(",") for item in match.group(1).splitlines()) + "]"
+
+
+def scene_toml(scene, header: str = VIEW_HEADER, relative_to: Path | None = None) -> str:
+    """The validated scene as a scene file that load_scene reads back to the same Scene.
+
+    Every key is written with its value (defaults too; an unset key that means "decide from the file", such as
+    a mesh's `normals`, stays unset). Every file the scene names (meshes, texture maps) is written relative to
+    the folder `relative_to` the file goes to, or absolute when that is not known. tomli-w lays the tables out:
+    `ambient`, [render], [camera], [[lights]], [materials.NAME] (a texture map as [materials.NAME.kd_map]),
+    [[objects]], [output]; the header's lines come first as comments.
+    """
+    data = scene_data(scene, relative_to)
+    ordered = {key: data.pop(key) for key in SECTIONS if key in data} | data
+    body = _PLAIN_ARRAY.sub(_one_line, tomli_w.dumps(ordered))
+    comment = "".join(line if line.startswith("#") else f"# {line}" for line in header.splitlines(keepends=True))
+    return (comment.rstrip("\n") + "\n\n" if comment else "") + body

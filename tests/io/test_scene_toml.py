@@ -1,0 +1,98 @@
+"""The scene writer (issue 34 item 2): `raycast-phong scene` and the view's "Save scene" write TOML that
+tomllib parses and load_scene reads back to the same scene, with every file the scene names (meshes,
+texture maps) rebased to the folder the file is written to."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tomllib
+from pathlib import Path
+
+import pytest
+
+import raycast_phong as rp
+from raycast_phong.io.scene_toml import scene_toml, toml_value
+
+SCENES = Path(__file__).resolve().parents[2] / "scenes"
+EXAMPLES = sorted(SCENES.glob("*.toml")) + sorted(p for p in (SCENES / "meshes").iterdir()
+                                                  if p.suffix.lower() in {".obj", ".ply", ".glb"})
+
+
+def resolved(scene: rp.Scene) -> dict:
+    """The scene as JSON data with every file it names (but its own output, which is relative to the scene
+    file wherever that is) made absolute: two scenes naming the same files from different folders are equal."""
+    data = scene.model_dump(mode="json", exclude={"folder"})
+    for key, path in scene.named_files().items():
+        if key == "output.path":
+            continue
+        if key.startswith("objects."):
+            data["objects"][int(key.split(".")[1])]["path"] = str(scene.resolve(path).resolve())
+        else:  # materials.NAME.MAP.path, NAME may hold dots
+            name, column = key[len("materials."):-len(".path")].rsplit(".", 1)
+            data["materials"][name][column]["path"] = str(scene.resolve(path).resolve())
+    return data
+
+
+def round_trip(scene: rp.Scene, folder: Path) -> tuple[rp.Scene, dict]:
+    """Write the scene into `folder` as scene_toml does for `raycast-phong scene -o`; read it back."""
+    folder.mkdir(parents=True, exist_ok=True)
+    target = folder / "written.toml"
+    text = scene_toml(scene, "# a header", relative_to=folder)
+    parsed = tomllib.loads(text)  # valid TOML, not only to our own loader
+    target.write_text(text, encoding="utf-8")
+    return rp.load_scene(target), parsed
+
+
+@pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.name)
+def test_every_example_scene_reads_back_the_same_from_another_folder(path, tmp_path):
+    scene = rp.load_scene(path)
+    again, parsed = round_trip(scene, tmp_path / "elsewhere" / "deeper")
+    assert resolved(again) == resolved(scene)
+    for obj in parsed.get("objects", []):  # a mesh path is written relative to the new file's folder
+        if "path" in obj:
+            assert not os.path.isabs(obj["path"]), obj["path"]
+
+
+MAP_KEYS = ("ka_map", "kd_map", "ke_map")
+
+
+@pytest.mark.parametrize("key", ["objects.0.path", *(f"materials.m.{k}.path" for k in MAP_KEYS)])
+def test_each_key_that_names_a_file_is_rebased_and_reads_back(key, tmp_path):
+    source = tmp_path / "source"
+    (source / "textures").mkdir(parents=True)
+    shutil.copy(SCENES / "textures" / "checker.png", source / "textures" / "checker.png")
+    shutil.copy(SCENES / "meshes" / "torus_knot.ply", source / "knot.ply")
+    name = "brushed steel.v2"  # a material name that must be quoted, with a dot in it
+    material: dict = {"kd": [0.6, 0.5, 0.4], "shininess": 32}
+    obj: dict = {"shape": "uv_sphere", "material": name}
+    if key == "objects.0.path":
+        obj = {"shape": "mesh", "path": "knot.ply", "material": name}
+    else:
+        material[key.split(".")[2]] = {"path": "textures/checker.png", "wrap": "clamp"}
+    data = {"camera": {"position": [0, 0, 4]}, "lights": [{"position": [1, 2, 3]}],
+            "materials": {name: material}, "objects": [obj]}
+    scene = rp.validate_scene(data, source="generated", folder=source)
+    named = scene.named_files()
+    assert set(named) == {key.replace(".m.", f".{name}."), "output.path"}
+
+    again, parsed = round_trip(scene, tmp_path / "written" / "here")
+    assert resolved(again) == resolved(scene)
+    written = parsed["objects"][0]["path"] if key.startswith("objects.") else \
+        parsed["materials"][name][key.split(".")[2]]["path"]
+    expected = os.path.relpath(scene.resolve(next(iter(named.values()))), tmp_path / "written" / "here")
+    assert written == expected and written.startswith("../../source/")
+    if not key.startswith("objects."):
+        assert parsed["materials"][name][key.split(".")[2]]["wrap"] == "clamp"
+
+
+def test_the_file_reads_as_a_scene_written_by_hand_and_values_stay_one_line():
+    text = scene_toml(rp.load_scene(SCENES / "textured_sphere.toml"), "a header\n# its second line")
+    assert text.startswith("# a header\n# its second line\n\nambient = [0.1, 0.1, 0.1]\n")
+    for line in ("[render]", "[[lights]]", "position = [3.0, 4.0, 6.0]", "[materials.checker.kd_map]",
+                 "[[objects]]", "[output]", "aovs = []"):
+        assert f"\n{line}\n" in text, line
+    texture = {"path": "a b.png", "wrap": "clamp"}
+    assert "\n" not in toml_value(texture) and tomllib.loads(f"v = {toml_value(texture)}")["v"] == texture
+    assert tomllib.loads(f"v = {toml_value(['depth', 1.5, float('inf'), True])}")["v"] == ["depth", 1.5,
+                                                                                          float("inf"), True]
