@@ -45,7 +45,7 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
         if announce is not None:
             precision = np.dtype(real).name
             announce(f"compiling the {precision} shading kernels (and the mesh preparation's), once after an "
-                     "install or an edit (about 30-90 s on 2 cores)...")
+                     "install or an edit (about 25 s of CPU, twice that on a busy 2-core machine)...")
 
     started = time.perf_counter()
     with told(tell) as compiled:
