@@ -155,10 +155,14 @@ def file_size(path: Path) -> tuple[int, int] | None:
         return None
     with handle:
         try:
+            import warnings
+
             from PIL import Image
-            with Image.open(handle) as image:
-                return image.height, image.width
-        except Exception:  # noqa: BLE001 - not an image PIL reads (an EXR): OpenImageIO's header below
+            with warnings.catch_warnings():  # a header only: the decode shrinks a large map in bands (decode_file)
+                warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+                with Image.open(handle) as image:
+                    return image.height, image.width
+        except Exception:  # noqa: BLE001 - not an image PIL reads (an EXR), or past PIL's bomb limit: OIIO's header
             pass
     try:
         import OpenImageIO as oiio

@@ -134,3 +134,16 @@ def test_a_large_map_is_shrunk_while_it_is_read_so_its_decode_stays_in_the_estim
     assert int(done.stdout) < texture_bytes([(side, side)]) + DECODE_BAND_BYTES, int(done.stdout) >> 20
     np.testing.assert_allclose(texels[:, :1023], srgb_to_linear(64 / 255), rtol=1e-6)
     np.testing.assert_allclose(texels[:, 1025:], 1.0, rtol=1e-6)
+
+
+def test_a_large_maps_header_is_read_without_pils_bomb_warning(tmp_path, monkeypatch, recwarn):
+    """The memory estimate reads a map's header with PIL, which warned (a multi-line DecompressionBombWarning on
+    stderr) for a map of more than 89M pixels; the decode shrinks such a map in bands, so the header read says
+    nothing. PIL's limit is lowered here to stand for a 12000² map."""
+    from PIL import Image
+
+    from raycast_phong.io.textures import file_size
+    monkeypatch.setattr(Image, "MAX_IMAGE_PIXELS", 1000)
+    rp.write_image(tmp_path / "m.png", np.zeros((40, 50, 3), np.float32))  # 2000 pixels: past the limit, not 2×
+    assert file_size(tmp_path / "m.png") == (40, 50)
+    assert not [w for w in recwarn if issubclass(w.category, Image.DecompressionBombWarning)]
