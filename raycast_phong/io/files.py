@@ -61,6 +61,33 @@ def open_regular(path: Path, where: str, what: str, limit: int | None = None) ->
 
 
 
+# An image's first bytes, by the suffixes that promise its format: a file whose bytes are not its suffix's is
+# refused at once (OpenImageIO would try every reader it has on it, minutes for a 3 GiB file of something else).
+IMAGE_MAGIC = {".png": ("PNG", (b"\x89PNG\r\n\x1a\n",)), ".jpg": ("JPEG", (b"\xff\xd8\xff",)),
+               ".jpeg": ("JPEG", (b"\xff\xd8\xff",)), ".exr": ("OpenEXR", (b"\x76\x2f\x31\x01",)),
+               ".tif": ("TIFF", (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")),
+               ".tiff": ("TIFF", (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")), ".bmp": ("BMP", (b"BM",)),
+               ".gif": ("GIF", (b"GIF87a", b"GIF89a")), ".hdr": ("Radiance HDR", (b"#?",))}
+
+
+def image_suffix_mismatch(path: str | Path) -> str | None:
+    """What is wrong when a file whose suffix promises an image format starts with no image signature at all
+    ("not a PNG file: it starts with b'hello'"), else None. A misnamed image (a JPEG called .png, as exporters
+    write) passes: OpenImageIO reads it by its bytes. A suffix without a known signature, or a file that cannot
+    be read, is left to the reader."""
+    known = IMAGE_MAGIC.get(Path(path).suffix.lower())
+    if known is None:
+        return None
+    try:
+        with open(path, "rb") as handle:  # the caller checked it is a regular file
+            start = handle.read(8)
+    except OSError:
+        return None
+    if any(start.startswith(signature) for _, signatures in IMAGE_MAGIC.values() for signature in signatures):
+        return None
+    return f"not a {known[0]} file: it starts with {start!r}"
+
+
 def open_mesh_file(path: Path, where: str) -> BinaryIO:
     """open_regular for a mesh file, with a missing one worded: "{where}: no such mesh file 'PATH'"."""
     try:

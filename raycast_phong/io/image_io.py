@@ -25,7 +25,7 @@ from ..codes import IMAGE_SUFFIXES
 from ..errors import ImageError
 from .atomic import os_reason, replaced_atomically
 from .encoding import to_8bit
-from .files import FILE_KINDS
+from .files import FILE_KINDS, image_suffix_mismatch
 from .system import format_bytes
 
 LAYER_CHANNELS = {"depth": ("Z",), "normal": ("X", "Y", "Z"), "face": ("id",)}
@@ -189,8 +189,9 @@ def _part(name: str, layer: np.ndarray, origin: tuple[int, int],
 
 
 def refuse_non_regular(path: str | Path) -> None:
-    """ImageError (one line) for an image path that is a FIFO, a device or a folder: OpenImageIO would wait on a
-    pipe for ever, or read a device without end. A missing or unreadable file is left to the read's own words."""
+    """ImageError (one line) for an image path that is a FIFO, a device or a folder (OpenImageIO would wait on a
+    pipe for ever, or read a device without end), or whose first bytes are not its suffix's format (OpenImageIO
+    would try every reader on it). A missing or unreadable file is left to the read's own words."""
     try:
         mode = os.stat(path).st_mode
     except (OSError, ValueError):
@@ -198,6 +199,9 @@ def refuse_non_regular(path: str | Path) -> None:
     if not stat.S_ISREG(mode):
         kind = next((name for test, name in FILE_KINDS if test(mode)), "not a regular file")
         raise ImageError(f"{path}: is {kind}, not a regular file; give an image file (PNG, EXR, ...)")
+    mismatch = image_suffix_mismatch(path)
+    if mismatch:
+        raise ImageError(f"{path}: {mismatch}; give an image file (PNG, EXR, ...)")
 
 
 def read_image(path: str | Path, part: int = 0) -> tuple[np.ndarray, tuple[str, ...]]:

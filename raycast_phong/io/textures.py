@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SceneError
-from .files import open_regular
+from .files import image_suffix_mismatch, open_regular
 
 MAX_TEXTURE_SIZE = 2048
 # Bytes per texel of level 0 while a texture is in use: the decoded float32 RGB kept in the Geometry (12), the
@@ -136,6 +136,9 @@ def decode_scene_map(path: Path, where: str) -> np.ndarray:
     except FileNotFoundError:
         raise SceneError(f"{where}: no such texture file {str(path)!r}; give an image file (PNG, JPEG, EXR, ...) "
                          "relative to the scene file") from None
+    mismatch = image_suffix_mismatch(path)
+    if mismatch:
+        raise SceneError(f"{where}: {str(path)!r} is {mismatch}; give a PNG, JPEG, EXR or another image file")
     try:
         return decode_file(path)
     except Exception as error:  # noqa: BLE001 - any decoder failure is the file's

@@ -182,3 +182,20 @@ def test_compare_refuses_a_fifo_or_a_device_at_once(tmp_path):
                               timeout=120, stdin=subprocess.DEVNULL)
         assert done.returncode == 2, done.stderr
         assert done.stderr == f"error: {other}: is {kind}, not a regular file; give an image file (PNG, EXR, ...)\n"
+
+
+def test_a_file_named_as_an_image_that_starts_as_none_is_refused_from_its_first_bytes(tmp_path):
+    """A non-image named .png went to OpenImageIO, which tried every reader it has (over 90 s for 3 GiB): the
+    format is decided from the first bytes, in one line; a misnamed image (a JPEG called .png) still reads."""
+    import numpy as np
+
+    import raycast_phong as rp
+    rp.write_image(tmp_path / "a.png", np.zeros((4, 4, 3), np.float32))
+    (tmp_path / "text.png").write_bytes(b"hello, not an image\n" * 1000)
+    result = runner.invoke(app, ["compare", str(tmp_path / "a.png"), str(tmp_path / "text.png")])
+    assert result.exit_code == 2
+    assert result.stderr == (f"error: {tmp_path / 'text.png'}: not a PNG file: it starts with b'hello, n'; give an "
+                             "image file (PNG, EXR, ...)\n")
+    rp.write_image(tmp_path / "b.exr", np.zeros((4, 4, 3), np.float32))
+    (tmp_path / "b.exr").rename(tmp_path / "exr-called.png")  # an image under another format's suffix
+    assert runner.invoke(app, ["compare", str(tmp_path / "a.png"), str(tmp_path / "exr-called.png")]).exit_code == 0

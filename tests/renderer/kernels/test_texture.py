@@ -137,7 +137,9 @@ def test_a_textured_plane_matches_its_closed_form(tmp_path, shading):
 
 def test_a_missing_or_broken_scene_texture_is_one_line(tmp_path):
     (tmp_path / "notimage.png").write_text("hello")
-    for name, words in (("gone.png", "no such texture file"), ("notimage.png", "cannot be read as an image")):
+    (tmp_path / "truncated.png").write_bytes(b"\x89PNG\r\n\x1a\n" + b"\0" * 10)  # its format's bytes, then nothing
+    for name, words in (("gone.png", "no such texture file"), ("notimage.png", "is not a PNG file: it starts with"),
+                        ("truncated.png", "cannot be read as an image")):
         scene = rp.validate_scene({"materials": {"m": {"kd_map": name}},
                                    "objects": [{"shape": "plane", "material": "m"}]}, folder=tmp_path)
         with pytest.raises(SceneError) as error:
