@@ -93,6 +93,7 @@ TERM_LAYERS = ("ambient", "diffuse", "specular", "emission")
 LAYERS = GEOMETRY_LAYERS + TERM_LAYERS
 
 SCENE_SUFFIXES = (".toml", ".json")   # a scene file; any other suffix trimesh reads is a mesh file
+OUTPUT_PATH = ("output", "path")  # the key path of the one file a scene names that it writes (Scene.named_files)
 IMAGE_SUFFIXES = (".png", ".exr")     # what the renderer writes: 8-bit PNG, float32 EXR with layers
 
 # The default material (the scene format's [materials] defaults; a mesh file's .mtl omits keys to these).

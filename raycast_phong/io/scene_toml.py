@@ -17,9 +17,10 @@ from typing import Any
 
 import tomli_w
 
+from ..codes import OUTPUT_PATH
+
 VIEW_HEADER = "# Saved by `raycast-phong view`; render it with `raycast-phong render THIS.toml`."
 SECTIONS = ("ambient", "render", "camera", "lights", "materials", "objects", "output")  # in the file's order
-KEPT_AS_WRITTEN = "output.path"  # relative to the scene file's own folder, wherever the file goes
 
 
 def toml_value(value: Any) -> str:
@@ -46,27 +47,6 @@ def _without_none(value: Any) -> Any:
     return value
 
 
-def _locate(node: Any, parts: list[str]) -> tuple[Any, Any] | None:
-    """(container, key) of a key path's leaf in dumped data. A name may hold dots (materials."a.b"), so the
-    parts are joined until they name a key whose rest of the path is there too."""
-    if isinstance(node, list):
-        index = int(parts[0])
-        if len(parts) == 1:
-            return node, index
-        return _locate(node[index], parts[1:])
-    if not isinstance(node, dict):
-        return None
-    for end in range(1, len(parts) + 1):
-        key = ".".join(parts[:end])
-        if key in node:
-            if end == len(parts):
-                return node, key
-            found = _locate(node[key], parts[end:])
-            if found is not None:
-                return found
-    return None
-
-
 def rebased(path: Path, relative_to: Path | None) -> str:
     """An absolute file path written relative to the folder `relative_to` (absolute when that is None, or
     when no relative path leads there, as across Windows drives)."""
@@ -83,13 +63,11 @@ def scene_data(scene, relative_to: Path | None = None) -> dict:
     depend on later defaults; an unset key stays unset) and every named file rebased to `relative_to`."""
     data = scene.model_dump(mode="json", exclude={"folder"})
     for key, path in scene.named_files().items():
-        if key == KEPT_AS_WRITTEN:
-            continue
-        found = _locate(data, key.split("."))
-        if found is None:  # named_files and model_dump disagree: a bug here, not in the scene
-            raise AssertionError(f"scene_toml: {key} is not in the dumped scene")
-        container, leaf = found
-        container[leaf] = rebased(scene.resolve(path).resolve(), relative_to)
+        if key != OUTPUT_PATH:  # relative to the scene file's own folder, wherever the file goes
+            container = data
+            for part in key[:-1]:  # the key path walks the dumped tables and lists as it walked the scene's
+                container = container[part]
+            container[key[-1]] = rebased(scene.resolve(path).resolve(), relative_to)
     return _without_none(data)
 
 

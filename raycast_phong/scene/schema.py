@@ -34,6 +34,7 @@ from ..codes import (
     LAYERS,
     MAP_COLUMNS,
     MATERIAL_DEFAULTS,
+    OUTPUT_PATH,
     SHAPES,
     WRAP_MODES,
     LightKind,
@@ -453,15 +454,17 @@ class Scene(_Strict):
         """A path from the scene file, relative to the file's folder."""
         return Path(self.folder) / Path(path).expanduser()
 
-    def named_files(self) -> dict[str, str]:
-        """Every file the scene names, by the key path that names it, as written: objects.N.path (meshes),
-        materials.M.kd_map.path (and ka_map, ke_map: textures) and output.path. A caller that must not let
-        its client choose files (the view's page) compares these before anything is opened."""
-        named = {f"objects.{index}.path": obj.path for index, obj in enumerate(self.objects) if obj.path}
-        named.update({f"materials.{name}.{key}.path": getattr(material, key).path
+    def named_files(self) -> dict[tuple, str]:
+        """Every file the scene names, as written, by the key path that names it (a tuple, as error locations
+        are: messages.dotted words it): ("objects", N, "path") for meshes, ("materials", M, "kd_map", "path")
+        (and ka_map, ke_map) for textures, and OUTPUT_PATH. A caller that must not let its client choose files
+        (the view's page) compares these before anything is opened."""
+        named: dict[tuple, str] = {("objects", index, "path"): obj.path
+                                   for index, obj in enumerate(self.objects) if obj.path}
+        named.update({("materials", name, key, "path"): getattr(material, key).path
                       for name, material in self.materials.items() for key in MAP_COLUMNS
                       if getattr(material, key) is not None})
-        named["output.path"] = self.output.path
+        named[OUTPUT_PATH] = self.output.path
         return named
 
 

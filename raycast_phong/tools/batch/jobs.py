@@ -25,8 +25,6 @@ from ...scene.schema import Scene
 from ..sweep import Job, is_sweep, load_sweep
 from .manifest import is_own_manifest
 
-STOP_SIGNALS = stops.STOP_SIGNALS
-
 # Statuses of a manifest entry: the last two only after an interrupt (SIGINT, SIGTERM).
 RENDERED, UP_TO_DATE, FAILED = "rendered", "up to date", "failed"
 
@@ -219,7 +217,7 @@ def input_paths(job: Job, scene: Scene | None) -> list[Path]:
         return [job.scene]
     from ...io.mesh_file import side_files
     from ...io.textures import mesh_texture_files
-    maps = [scene.resolve(path) for key, path in scene.named_files().items() if key.startswith("materials.")]
+    maps = [scene.resolve(path) for key, path in scene.named_files().items() if key[0] == "materials"]
     meshes = [scene.resolve(obj.path) for obj in scene.objects if obj.shape == "mesh" and obj.path]
     return [job.scene, *maps, *meshes, *(side for mesh in meshes for side in side_files(mesh)),
             *(image for mesh in meshes for image in mesh_texture_files(mesh))]

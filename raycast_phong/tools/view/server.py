@@ -40,12 +40,13 @@ from starlette.staticfiles import StaticFiles
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
 import raycast_phong as rp
-from raycast_phong.codes import ShadingModel
+from raycast_phong.codes import OUTPUT_PATH, ShadingModel
 from raycast_phong.errors import SceneError, ViewError
 from raycast_phong.io.image_io import image_bytes
 from raycast_phong.io.scene_file import syntax_limit
 from raycast_phong.io.scene_toml import scene_toml, toml_value
 from raycast_phong.scene.load import read_scene_dict
+from raycast_phong.scene.messages import dotted
 from raycast_phong.scene.overrides import apply_override
 
 STATIC = Path(__file__).parent / "static"
@@ -67,7 +68,7 @@ class Source:
     name: str
     folder: Path
     watched: Path | None = None
-    files: dict[str, str] = field(default_factory=dict)  # Scene.named_files(): the only files a page may use
+    files: dict[tuple, str] = field(default_factory=dict)  # Scene.named_files(): the only files a page may use
 
 
 def open_source(path: str | Path | None) -> Source:
@@ -119,8 +120,8 @@ def scene_with(source: Source, settings: dict) -> rp.Scene:
         named = scene.named_files()
         moved = next((key for key in named if source.files.get(key) != named[key]), None)
         if moved is not None:
-            raise ViewError(f"{source.name}: {moved}: the view does not change file paths or outputs; edit the "
-                            "scene file instead")
+            raise ViewError(f"{source.name}: {dotted(moved)}: the view does not change file paths or outputs; "
+                            "edit the scene file instead")
     opts = scene.render
     if opts.width * opts.height * opts.samples ** 2 > MAX_VIEW_RAYS:
         raise ViewError(f"{source.name}: render.samples: {opts.width}×{opts.height} pixels × {opts.samples}² "
@@ -183,10 +184,10 @@ def settings_from(source: Source, text: str, name: str) -> dict:
                             f"{len(getattr(ours, kind))}; open it with `raycast-phong view {name}` instead")
     mine, other = ours.named_files(), theirs.named_files()
     where = lambda files, key: None if key not in files else (source.folder / files[key]).resolve()
-    for key in sorted((mine.keys() | other.keys()) - {"output.path"}):
+    for key in sorted((mine.keys() | other.keys()) - {OUTPUT_PATH}, key=dotted):
         if where(mine, key) != where(other, key):
-            raise ViewError(f"{name}: {key} is {other.get(key)}, not this view's {mine.get(key)}; the page does "
-                            f"not change files: open it with `raycast-phong view {name}` instead")
+            raise ViewError(f"{name}: {dotted(key)} is {other.get(key)}, not this view's {mine.get(key)}; the page "
+                            f"does not change files: open it with `raycast-phong view {name}` instead")
     wanted = dump(theirs)
     current = dump(ours)
     settings = {key: value for key, value in wanted.items() if current.get(key, ...) != value}
