@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from .kind import ShapeKind
+from .kind import ShapeKind, doublings
 from .surfaces import revolve, sphere_uv
 
 
@@ -58,4 +56,4 @@ class Cylinder(ShapeKind):
         return {"segments": [8 * 2 ** level, (obj.segments or (32, 3))[1]]}
 
     def level_of(self, obj):
-        return max(0, round(math.log2((obj.segments or (32, 16))[0] / 8)))
+        return doublings((obj.segments or (32, 16))[0], 8)

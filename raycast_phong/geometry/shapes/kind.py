@@ -5,6 +5,7 @@ the plan's advice and the accuracy study ask of a shape. Each kind is one module
 
 from __future__ import annotations
 
+import math
 from typing import ClassVar
 
 import numpy as np
@@ -69,6 +70,12 @@ class ShapeKind:
     def finer(self, obj, more: int) -> str:
         """How to make its triangles `more` subdivision steps finer (the plan's Gouraud advice)."""
         return subdivided(more)
+
+
+def doublings(count: int, first: int) -> int:
+    """The level L whose segment count first·2^L is nearest `count` (0 at the least): `refined`'s inverse for the
+    kinds whose levels double their first segment count."""
+    return max(0, round(math.log2(count / first)))
 
 
 def subdivided(more: int) -> str:

@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from .kind import ShapeKind
+from .kind import ShapeKind, doublings
 
 
 def plane_mesh(size, segments) -> tuple[np.ndarray, np.ndarray]:
@@ -51,4 +49,4 @@ class Plane(ShapeKind):
         return {"segments": [2 ** level, 2 ** level]}
 
     def level_of(self, obj):
-        return max(0, round(math.log2((obj.segments or (1, 1))[0])))
+        return doublings((obj.segments or (1, 1))[0], 1)

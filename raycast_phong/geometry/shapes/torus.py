@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from .kind import ShapeKind
+from .kind import ShapeKind, doublings
 from .surfaces import _seamless, revolve
 
 
@@ -56,4 +54,4 @@ class Torus(ShapeKind):
         return {"segments": [8 * 2 ** level, 4 * 2 ** level]}
 
     def level_of(self, obj):
-        return max(0, round(math.log2((obj.segments or (32, 16))[0] / 8)))
+        return doublings((obj.segments or (32, 16))[0], 8)

@@ -17,13 +17,13 @@ manifest (the manifest, the folder lock, temporaries), supervisor (this process 
 """
 
 from ...errors import BatchBusy, CorruptManifest  # raised here; defined with every other error
+from ...stops import STOP_SIGNALS  # the stop signals a batch acts on (one home: stops.py)
 from .cluster import CONNECT_TIMEOUT
 from .jobs import (
     FAILED,
     INTERRUPTED,
     NOT_STARTED,
     RENDERED,
-    STOP_SIGNALS,
     UP_TO_DATE,
     BatchReport,
     Interrupted,

@@ -17,7 +17,8 @@ from multiprocessing import connection
 
 from ...errors import SceneError
 from ...renderer.intersect import embree_started
-from .jobs import FAILED, RENDERED, STOP_SIGNALS, Outcome, Task, new_entry, reason_line, render_job
+from ...stops import STOP_SIGNALS
+from .jobs import FAILED, RENDERED, Outcome, Task, new_entry, reason_line, render_job
 from .manifest import remove_temporaries
 
 # Linux's prctl option that has the kernel send a signal to a process when its parent dies.
