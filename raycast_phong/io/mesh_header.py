@@ -57,7 +57,28 @@ def mesh_file_read_bytes(path: Path) -> int:
     suffix = path.suffix.lower()
     if suffix == ".stl" and _binary_stl(path, size):
         return size * BINARY_STL_READ_BYTES_PER_BYTE
-    return size * READ_BYTES_PER_BYTE.get(suffix, TEXT_READ_BYTES_PER_BYTE)
+    # A .gltf's external buffers are read whole, whatever its accessors claim to use of them.
+    buffers = sum(_size(buffer) for buffer in gltf_buffer_files(path)) if suffix == ".gltf" else 0
+    return size * READ_BYTES_PER_BYTE.get(suffix, TEXT_READ_BYTES_PER_BYTE) + buffers * BUFFER_READ_BYTES_PER_BYTE
+
+
+def _size(path: Path) -> int:
+    try:
+        return path.stat().st_size
+    except OSError:
+        return 0  # the loader reports a missing buffer
+
+
+def gltf_buffer_files(path: Path) -> tuple[Path, ...]:
+    """The external buffer files a .gltf names (not its `data:` URIs), from its JSON (at most JSON_LIMIT bytes
+    are read; () for a file that is not such a JSON)."""
+    try:
+        with open_regular(path, str(path), "mesh file", JSON_LIMIT) as handle:
+            document = json.loads(handle.read(JSON_LIMIT))
+        return tuple(path.parent / b["uri"] for b in document.get("buffers", [])
+                     if isinstance(b, dict) and isinstance(b.get("uri"), str) and not b["uri"].startswith("data:"))
+    except (OSError, SceneError, ValueError, RecursionError, TypeError, AttributeError):
+        return ()  # the loader reports an unreadable file (JSON nested too deep, buffers that are not a list, ...)
 
 
 def _binary_stl(path: Path, size: int) -> bool:
@@ -80,6 +101,9 @@ READ_BYTES_PER_BYTE = {".glb": 2}  # binary chunks are read as they are
 TEXT_READ_BYTES_PER_BYTE = 12      # a text file, or one that may be (PLY, an ASCII STL)
 # A binary STL's records (its size) and the points and faces copied out of them (72% and 48% of it).
 BINARY_STL_READ_BYTES_PER_BYTE = 3
+# A .gltf's external buffer is read whole into bytes (trimesh's resolver): a 600 MB buffer of which the accessors
+# use 36 bytes peaked 734 MB (interpreter included).
+BUFFER_READ_BYTES_PER_BYTE = 1
 JSON_LIMIT = 64 << 20  # a glTF's JSON above this is not parsed to count: the size bound counts it
 CHUNK = 1 << 20  # an OBJ is scanned this many bytes at a time (about 20 MB of index arrays), never a whole line
 
@@ -192,7 +216,9 @@ def check_mesh_read(path: Path, source: str, max_memory: int | None = None) -> N
     need = max(triangles * (MESH_READ_BYTES + MESH_FILE_BYTES.get(path.suffix.lower(), OTHER_MESH_FILE_BYTES)),
                floor)
     if available is not None and need > available:
-        what = f"{count_text(triangles)} triangles" if triangles else f"{format_bytes(path.stat().st_size)}"
+        buffers = sum(_size(buffer) for buffer in gltf_buffer_files(path)) if path.suffix.lower() == ".gltf" else 0
+        what = (f"{count_text(triangles)} triangles" if triangles else f"{format_bytes(path.stat().st_size)}"
+                + (f" and {format_bytes(buffers)} of buffers" if buffers else ""))
         raise SceneError(f"{source}: reading its {what} needs ≈ {format_bytes(need)} of memory, more than the "
                          f"{format_bytes(available)} available; allowed: a mesh whose size and triangles fit, "
                          "so decimate it or free memory")

@@ -70,6 +70,29 @@ def test_a_large_file_claiming_little_is_refused_before_it_is_read(tmp_path, nam
     assert seconds < 60
 
 
+def test_a_gltf_whose_accessors_use_little_of_a_large_buffer_is_refused_before_it_is_read(tmp_path):
+    """Issue 30 item 3: a .gltf whose accessors claim one triangle of a 512 MB external buffer, --max-memory
+    100M: the buffer is read whole (trimesh's resolver), so its size counts; one line naming the buffers, exit 2,
+    the buffer unread (before: 734 MB resident for a 600 MB buffer, exit 0)."""
+    import json
+    import struct
+    sparse(tmp_path / "big.bin", 512 << 20, struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0))
+    path = tmp_path / "lie.gltf"
+    path.write_text(json.dumps({
+        "asset": {"version": "2.0"}, "buffers": [{"uri": "big.bin", "byteLength": 512 << 20}],
+        "bufferViews": [{"buffer": 0, "byteLength": 36}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                       "min": [0, 0, 0], "max": [1, 1, 0]}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}], "nodes": [{"mesh": 0}]}))
+    done, peak, _ = run_measured(["render", str(path), "--max-memory", "100M", "-o", str(tmp_path / "o.png")],
+                                 tmp_path)
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and len(lines) == 1, done.stderr
+    assert lines[0].startswith(f"error: {path}: ") and "512 MB of buffers" in lines[0], lines[0]
+    assert peak < 400 << 20, f"{peak >> 20} MB resident to refuse it"
+    assert not (tmp_path / "o.png").exists()
+
+
 def test_the_read_floor_grows_with_the_size_and_not_the_claim(tmp_path):
     from raycast_phong.io.mesh_header import mesh_file_read_bytes
     small, large = sparse(tmp_path / "a.obj", 1 << 20), sparse(tmp_path / "b.obj", 1 << 30)
