@@ -188,6 +188,22 @@ def test_render_with_reference_prints_the_errors(tmp_path):
     assert result.exit_code == 0 and "against the analytic reference: RMSE" in result.output and "PSNR" in result.output
 
 
+def test_the_analytic_reference_is_refused_when_its_image_exceeds_the_budget(tmp_path):
+    """Issue 30 item 3: `reference` at 4096² under --max-memory 1G (≈ 1.4 GB of float64 images) is refused in
+    one line before any pixel, naming the keys and the budget (before: it ran, and 16384² passed 3 GB under 2G);
+    the same size within a larger budget is not refused by this check."""
+    from raycast_phong.tools.accuracy import REFERENCE_PIXEL_BYTES, check_reference_memory
+    out = tmp_path / "ref.exr"
+    result = runner.invoke(app, ["reference", "--set", "render.width=4096", "--set", "render.height=4096",
+                                 "--max-memory", "1G", "-o", str(out)])
+    assert result.exit_code == 2 and not out.exists(), result.output
+    line = result.output.strip().splitlines()[-1]
+    assert "render.width × render.height: 4096×4096 pixels need ≈ 1.38 GB" in line and "1 GB budget" in line, line
+    scene = raycast_phong.validate_scene({"render": {"width": 4096, "height": 4096},
+                                          "objects": [{"shape": "icosphere"}]}, source="s")
+    check_reference_memory(scene, "s", 4096 * 4096 * REFERENCE_PIXEL_BYTES)  # exactly the estimate: fits
+
+
 def test_reference_command_and_the_mesh_error(tmp_path):
     from typer.testing import CliRunner
 
