@@ -132,8 +132,9 @@ def _count_triangles(handle, suffix: str, size: int, key: str = "mesh file") -> 
         if suffix == ".ply":
             faces = re.search(rb"^element\s+face\s+(\d+)", head, re.M)
             points = re.search(rb"^element\s+vertex\s+(\d+)", head, re.M)
-            if faces:
-                return _weigh(int(faces[1]), int(points[1]) if points else 0)
+            listed = _ply_list_triangles(head, size)
+            if faces or listed is not None:
+                return _weigh(max(int(faces[1]) if faces else 0, listed or 0), int(points[1]) if points else 0)
         elif suffix == ".stl":
             binary = size >= 84 and (not head.lstrip().startswith(b"solid")
                                      or size == 84 + 50 * struct.unpack_from("<I", head, 80)[0])
@@ -165,6 +166,38 @@ def _count_triangles(handle, suffix: str, size: int, key: str = "mesh file") -> 
     except (ValueError, KeyError, IndexError, TypeError, struct.error, OSError, RecursionError):
         pass  # a malformed header: fall back to the size bound; the loader reports the real problem
     return size // 6
+
+
+PLY_SIZES = {"char": 1, "int8": 1, "uchar": 1, "uint8": 1, "short": 2, "int16": 2, "ushort": 2, "uint16": 2,
+             "int": 4, "int32": 4, "uint": 4, "uint32": 4, "float": 4, "float32": 4, "double": 8, "float64": 8}
+
+
+def _ply_list_triangles(head: bytes, size: int) -> int | None:
+    """The most triangles a binary PLY's lists (faces, strips) can make, from its size and its header's
+    types, whatever its counts claim: the bytes past the fixed-size properties hold at most that many list
+    entries of the smallest index type, and n entries of a polygon or strip make n − 2 triangles. Exact for
+    a file of triangles (a face of 3 M corners, header "1 face", is 3 M triangles). None for an ASCII PLY, a
+    header longer than `head`, or no list."""
+    end = head.find(b"end_header")
+    if end < 0 or head.find(b"\n", end) < 0 or re.search(rb"^format\s+ascii", head[:end], re.M):
+        return None
+    body = size - head.index(b"\n", end) - 1
+    elements = []  # [count, bytes of its fixed properties and list counts, smallest list entry or 0]
+    for words in (line.split() for line in head[:end].decode("ascii", "replace").splitlines()):
+        if words[:1] == ["element"] and len(words) == 3:
+            elements.append([int(words[2]), 0, 0])
+        elif words[:1] == ["property"] and elements and len(words) in (3, 5):
+            if words[1] == "list" and len(words) == 5:
+                entry = PLY_SIZES[words[3]]
+                elements[-1][1] += PLY_SIZES[words[2]]
+                elements[-1][2] = min(elements[-1][2] or entry, entry)
+            else:
+                elements[-1][1] += PLY_SIZES[words[1]]
+    lists = [(count, entry) for count, _, entry in elements if entry]
+    if not lists:
+        return None
+    entries = max(0, body - sum(count * fixed for count, fixed, _ in elements)) // min(e for _, e in lists)
+    return max(0, entries - 2 * sum(count for count, _ in lists))
 
 
 def _weigh(triangles: int, vertices: int) -> int:
