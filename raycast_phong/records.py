@@ -14,8 +14,8 @@ from .codes import MATERIAL_TABLE_WIDTH, StageName
 
 @dataclass(frozen=True, eq=False)
 class Texture:
-    """A colour map decoded into linear float32 RGB, the full-resolution level of its mip pyramid."""
-    pixels: np.ndarray   # (H, W, 3) float32 linear; row 0 is the top of the image (v = 1)
+    """A colour map decoded into float32 RGB (as render.colour asks), the full-resolution level of its mip pyramid."""
+    pixels: np.ndarray   # (H, W, 3) float32 in [0, 1]; row 0 is the top of the image (v = 1)
     wrap_s: str          # codes.WRAP_MODES, along u
     wrap_t: str          # along v
     name: str            # where it came from, for notes
@@ -116,6 +116,8 @@ class RenderPlan:
     stages: tuple[Stage, ...]
     warnings: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()     # what a mesh file's materials left out or approximated (geometry.file_notes)
+    colour: str = "display"         # the scene's render.colour: how maps are decoded and the PNG encoded
+    colour_reason: str = ""         # why: the scene files' default, a mesh format's, or set (plan.colour_line)
 
     def keeps(self, name: StageName) -> bool:
         for stage in self.stages:
@@ -131,6 +133,7 @@ class RenderPlan:
     def describe(self) -> str:
         width = max(len(stage.name) for stage in self.stages)
         lines = [f"{'kept' if s.kept else 'left out':8}  {s.name:{width}}  {s.reason}" for s in self.stages]
+        lines.append(f"{'colour':8}  {self.colour:{width}}  {self.colour_reason}")
         return "\n".join(lines + [f"warning   {warning}" for warning in self.warnings]
                          + [f"note      {note}" for note in self.notes])
 
@@ -138,7 +141,7 @@ class RenderPlan:
 @dataclass(frozen=True, eq=False)
 class RenderResult:
     """What render() returns: the image, its layers, and where the time went."""
-    image: np.ndarray                 # (H, W, 3) linear display values, unclamped; float32, or float64
+    image: np.ndarray                 # (H, W, 3) the model's values (in render.colour), unclamped; float32, or float64
                                       # when the plan shades in float64
     aovs: dict[str, np.ndarray]       # layer name -> (H, W, C) float32, only those the scene asks for
     timings: dict[str, float]         # seconds per stage: load, geometry, build, rays, shade, frame (and write)
@@ -146,6 +149,11 @@ class RenderResult:
     triangles: int
     rays: int
     counts: dict[str, int] = field(default_factory=dict)  # the kernel's term evaluations, and shadow_rays cast
+
+    @property
+    def colour(self) -> str:
+        """The render.colour the image is in: what write_image(..., colour=) needs to encode it."""
+        return self.plan.colour
 
     @property
     def rays_per_second(self) -> float:

@@ -57,7 +57,7 @@ def reference_command(
         started = time.perf_counter()
         exact = reference_image(loaded, str(path), fine=fine, max_memory=max_memory)
         seconds = time.perf_counter() - started
-        rp.write_image(output, exact.image.astype("float32"))
+        rp.write_image(output, exact.image.astype("float32"), colour=loaded.render.colour)
     h, w = exact.image.shape[:2]
     typer.echo(f"{output}: {w}×{h} {exact.kind} reference in {seconds:.3f}s")
 

@@ -10,7 +10,7 @@ from typing import Annotated
 
 import typer
 
-from .common import MaxMemoryOption, app, exit_codes, fail, one_line
+from .common import MaxMemoryOption, SrgbOption, app, exit_codes, fail, one_line
 
 SCHEDULER = re.compile(r"(?:[a-z]+://)?(\[[0-9A-Fa-f:.]+\]|[^\s:/\[\]]+):(\d{1,5})")
 
@@ -55,7 +55,7 @@ def batch(
                          "renders on this Dask scheduler (pip install 'raycast-phong[distributed]'); paths are sent "
                          "absolute, so the meshes and textures the scenes name and the output folder must be at "
                          "the same absolute paths on its workers (a shared file system).")] = None,
-    srgb: Annotated[bool, typer.Option("--srgb", help="Encode PNG outputs with the sRGB curve.")] = False,
+    srgb: SrgbOption = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress and no summary; failures are still "
                      "reported.")] = False,
     max_memory: MaxMemoryOption = None,

@@ -212,6 +212,12 @@ def _view(view: MeshView | None) -> str | None:
     return view.value if view is not None else None
 
 
+SrgbOption = Annotated[bool, typer.Option(
+    "--srgb", help="Shorthand for `--set render.colour=linear` (a render.colour given by --set or a sweep wins): "
+    "decode 8-bit colour maps from sRGB, light in linear values and encode PNGs with the sRGB curve, as glTF "
+    "specifies (a glTF file rendered directly already is). Scene files default to `display`: maps and colours "
+    "as stored, the PNG as it is.")]
+
 SetOption = Annotated[list[str], typer.Option(
     "--set", metavar="KEY.PATH=VALUE",
     help="Override a scene key, e.g. `render.width=320`, `lights.0.position=[1,2,3]`, "

@@ -68,8 +68,11 @@ def side_by_side(
         check_output_path(layers, inputs=(path,))
         from raycast_phong.renderer.budget import default_budget
         each = compare.render_budget(scenes, max_memory or default_budget(), str(path))
-        comparison = compare.compose([rp.render(variant, source=str(path), max_memory=each).image
-                                      for variant in scenes], key, values)
+        from raycast_phong.io.encoding import display_values
+        # Each panel as its PNG would show it (sRGB-encoded for render.colour = linear), so variants of different
+        # colour settings compare as seen; the differences are measured on those values too.
+        comparison = compare.compose([display_values(rp.render(variant, source=str(path), max_memory=each).image,
+                                                     variant.render.colour) for variant in scenes], key, values)
         rp.write_image(layers, comparison.image, parts=comparison.parts())
         if layers != output:
             rp.write_image(output, comparison.image)

@@ -11,12 +11,13 @@ from typing import Annotated
 import typer
 
 import raycast_phong as rp
-from raycast_phong.codes import Mode, ShadingModel, SpecularModel, StageName
+from raycast_phong.codes import Mode, ShadingModel, SpecularModel
 
 from .common import (
     MaxMemoryOption,
     SceneArgument,
     SetOption,
+    SrgbOption,
     UpOption,
     ViewOption,
     _view,
@@ -44,8 +45,9 @@ class ReferenceKind(str, Enum):
 """)
 def render(
     scene: SceneArgument = None,
-    output: Annotated[Path | None, typer.Option("--output", "-o", help="Image to write: .png (8-bit, clamped) or "
-                      ".exr (float32, with the scene's AOV layers). Default: the scene's output.path.")] = None,
+    output: Annotated[Path | None, typer.Option("--output", "-o", help="Image to write: .png (8-bit, clamped; "
+                      "through the sRGB curve when render.colour = linear) or .exr (float32, unencoded, with the "
+                      "scene's AOV layers). Default: the scene's output.path.")] = None,
     shading: Annotated[ShadingModel | None, typer.Option(help="render.shading (objects with their own "
                        "`shading` keep it).")] = None,
     specular: Annotated[SpecularModel | None, typer.Option(help="render.specular: phong (v·r) or "
@@ -55,8 +57,7 @@ def render(
     height: Annotated[int | None, typer.Option(help="render.height in pixels, 1..16384.")] = None,
     samples: Annotated[int | None, typer.Option(help="render.samples: n → n×n rays per pixel, 1..16.")] = None,
     set_: SetOption = [],
-    srgb: Annotated[bool, typer.Option("--srgb", help="Encode a PNG with the sRGB curve instead of "
-                    "storing the model's display values as they are.")] = False,
+    srgb: SrgbOption = False,
     threads: Annotated[int | None, typer.Option(min=1, max=64, help="Worker threads (default: cores).")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar and no summary line.")] = False,
     reference: Annotated[ReferenceKind | None, typer.Option(help="Also measure the render against the exact "
@@ -66,9 +67,10 @@ def render(
     up: UpOption = None,
 ) -> None:
     """Render a scene file, a mesh file or the built-in default scene to a PNG or EXR image."""
+    from raycast_phong.scene.overrides import SRGB_OVERRIDE
     overrides = [*scene_overrides({"render.shading": shading, "render.specular": specular, "render.mode": mode,
                                    "render.width": width, "render.height": height, "render.samples": samples}),
-                 *set_]
+                 *([SRGB_OVERRIDE] if srgb else []), *set_]
     with exit_codes():
         started = time.perf_counter()
         path = scene or rp.default_scene_path()
@@ -84,15 +86,9 @@ def render(
             from raycast_phong.tools.accuracy import measured
             result = measured(loaded, result, reference.value, 2, str(path))
         started = time.perf_counter()
-        rp.write_image(output, result.image, result.aovs, srgb=srgb)
+        rp.write_image(output, result.image, result.aovs, colour=loaded.render.colour)
         result.timings["write"] = time.perf_counter() - started
         result.timings["load"] = load_seconds
-    if srgb and Path(output).suffix.lower() == ".exr":  # said even with --quiet: the option did nothing
-        typer.secho(f"warning: --srgb encodes a PNG; {output} is an EXR of linear float32 values, written "
-                    "unencoded", err=True, fg=typer.colors.YELLOW)
-    if not quiet and not srgb and result.plan.keeps(StageName.TEXTURES) and Path(output).suffix.lower() == ".png":
-        from raycast_phong.renderer.plan import TEXTURE_DISPLAY_HINT
-        typer.echo(f"note: colour maps are decoded to linear values: {TEXTURE_DISPLAY_HINT}", err=True)
     if not quiet:
         for warning in result.plan.warnings:
             typer.secho(f"warning: {warning}", err=True, fg=typer.colors.YELLOW)

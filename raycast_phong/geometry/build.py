@@ -275,7 +275,8 @@ def behind_camera(scene: Scene, vertices: np.ndarray) -> str | None:
 
 class TextureBank:
     """The scene's decoded textures, each decoded once and only when a face's material uses it (a file's
-    unused maps are never decoded); a map that cannot be decoded is a note and its factor stands alone."""
+    unused maps are never decoded), as the scene's render.colour asks (io.textures: as stored, or decoded from
+    sRGB to linear values); a map that cannot be decoded is a note and its factor stands alone."""
 
     def __init__(self, scene: Scene, source: str):
         self.scene, self.source = scene, source
@@ -304,10 +305,11 @@ class TextureBank:
             return -1
         from ..io.textures import decode_file, decode_pil
         found = read.texture_sources[index]
+        colour = self.scene.render.colour
         if isinstance(found.source, Path):
-            key, decode = (str(found.source), found.wrap_s, found.wrap_t), lambda: decode_file(found.source)
+            key, decode = (str(found.source), found.wrap_s, found.wrap_t), lambda: decode_file(found.source, colour)
         else:
-            key, decode = (id(found.source), found.wrap_s, found.wrap_t), lambda: decode_pil(found.source)
+            key, decode = (id(found.source), found.wrap_s, found.wrap_t), lambda: decode_pil(found.source, colour)
         return self.add(key, decode, found.wrap_s, found.wrap_t, found.name)
 
     def scene_map(self, name: str, key: str) -> int:
@@ -320,7 +322,8 @@ class TextureBank:
         from ..io.textures import decode_scene_map
         path, wrap = self.scene.resolve(value.path), value.wrap
         where = f"{self.source}: materials.{name}.{key}"
-        return self.add((str(path), wrap, wrap), lambda: decode_scene_map(path, where), wrap, wrap, str(path))
+        return self.add((str(path), wrap, wrap), lambda: decode_scene_map(path, where, self.scene.render.colour),
+                        wrap, wrap, str(path))
 
     def maps_of(self, material, read: MeshFile | None = None) -> tuple[int, int, int]:
         """(ka, kd, ke) texture rows of a material: a FileMaterial of `read`, or a scene material by name;

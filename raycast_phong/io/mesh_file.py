@@ -29,6 +29,7 @@ from ..errors import SceneError
 from ..records import bounding_box
 from ..tolerances import POSITION_LIMIT
 from .files import VersionCache, file_version, open_mesh_file, open_regular
+from .mesh_header import gltf_buffer_files
 
 TRIMESH = Path(trimesh.__file__).resolve().parent  # an exception that passed through here: trimesh refused the file
 TEXT_FORMATS = (".obj", ".off")  # trimesh decodes these as text, guessing any non-UTF-8 encoding
@@ -180,11 +181,7 @@ def _side_files(path: Path) -> tuple[Path, ...]:
                 lines += MTLLIB.findall(carry)
             return tuple(path.parent / name for name in mtllib_names(lines, path.parent))
         elif suffix == ".gltf":
-            import json
-            with open_regular(path, str(path), "mesh file", MAX_SIDE_FILE) as handle:
-                document = json.loads(handle.read(MAX_SIDE_FILE))
-            return tuple(path.parent / b["uri"] for b in document.get("buffers", [])
-                         if isinstance(b, dict) and isinstance(b.get("uri"), str) and not b["uri"].startswith("data:"))
+            return gltf_buffer_files(path)
     except (OSError, SceneError, ValueError, RecursionError, TypeError, AttributeError):
         pass  # the render reports an unreadable file (JSON nested too deep, buffers that are not a list, ...)
     return ()

@@ -57,7 +57,42 @@ def mesh_file_read_bytes(path: Path) -> int:
     suffix = path.suffix.lower()
     if suffix == ".stl" and _binary_stl(path, size):
         return size * BINARY_STL_READ_BYTES_PER_BYTE
-    return size * READ_BYTES_PER_BYTE.get(suffix, TEXT_READ_BYTES_PER_BYTE)
+    if suffix == ".3mf":  # a zip: what it holds is read, decompressed (an 800 MB XML zips to 2 MB)
+        return size + _zip_content_bytes(path) * ZIP_XML_READ_BYTES_PER_BYTE
+    # A .gltf's external buffers are read whole, whatever its accessors claim to use of them.
+    buffers = sum(_size(buffer) for buffer in gltf_buffer_files(path)) if suffix == ".gltf" else 0
+    return size * READ_BYTES_PER_BYTE.get(suffix, TEXT_READ_BYTES_PER_BYTE) + buffers * BUFFER_READ_BYTES_PER_BYTE
+
+
+def _zip_content_bytes(path: Path) -> int:
+    """The sum of the sizes a zip's directory gives its members, uncompressed. Python's zipfile (trimesh's 3MF
+    reader uses it) stops a member at its stated size (a longer stream fails its check), so the sum bounds what a
+    read decompresses. 0 for a file that is not a zip (the loader reports it)."""
+    import zipfile
+    try:
+        with open_regular(path, str(path), "mesh file") as handle, zipfile.ZipFile(handle) as archive:
+            return sum(info.file_size for info in archive.infolist())
+    except (OSError, SceneError, zipfile.BadZipFile, ValueError, EOFError):
+        return 0
+
+
+def _size(path: Path) -> int:
+    try:
+        return path.stat().st_size
+    except OSError:
+        return 0  # the loader reports a missing buffer
+
+
+def gltf_buffer_files(path: Path) -> tuple[Path, ...]:
+    """The external buffer files a .gltf names (not its `data:` URIs), from its JSON (at most JSON_LIMIT bytes
+    are read; () for a file that is not such a JSON)."""
+    try:
+        with open_regular(path, str(path), "mesh file", JSON_LIMIT) as handle:
+            document = json.loads(handle.read(JSON_LIMIT))
+        return tuple(path.parent / b["uri"] for b in document.get("buffers", [])
+                     if isinstance(b, dict) and isinstance(b.get("uri"), str) and not b["uri"].startswith("data:"))
+    except (OSError, SceneError, ValueError, RecursionError, TypeError, AttributeError):
+        return ()  # the loader reports an unreadable file (JSON nested too deep, buffers that are not a list, ...)
 
 
 def _binary_stl(path: Path, size: int) -> bool:
@@ -80,6 +115,12 @@ READ_BYTES_PER_BYTE = {".glb": 2}  # binary chunks are read as they are
 TEXT_READ_BYTES_PER_BYTE = 12      # a text file, or one that may be (PLY, an ASCII STL)
 # A binary STL's records (its size) and the points and faces copied out of them (72% and 48% of it).
 BINARY_STL_READ_BYTES_PER_BYTE = 3
+# A .gltf's external buffer is read whole into bytes (trimesh's resolver): a 600 MB buffer of which the accessors
+# use 36 bytes peaked 734 MB (interpreter included).
+BUFFER_READ_BYTES_PER_BYTE = 1
+# A 3MF's XML, parsed by trimesh into a tree and lists: a 178 kB 3MF of 56.5 MB XML (500k triangles) peaked
+# 1.95 GB resident, 34.5 bytes a byte of XML.
+ZIP_XML_READ_BYTES_PER_BYTE = 36
 JSON_LIMIT = 64 << 20  # a glTF's JSON above this is not parsed to count: the size bound counts it
 CHUNK = 1 << 20  # an OBJ is scanned this many bytes at a time (about 20 MB of index arrays), never a whole line
 
@@ -192,7 +233,12 @@ def check_mesh_read(path: Path, source: str, max_memory: int | None = None) -> N
     need = max(triangles * (MESH_READ_BYTES + MESH_FILE_BYTES.get(path.suffix.lower(), OTHER_MESH_FILE_BYTES)),
                floor)
     if available is not None and need > available:
-        what = f"{count_text(triangles)} triangles" if triangles else f"{format_bytes(path.stat().st_size)}"
+        suffix = path.suffix.lower()
+        buffers = sum(_size(buffer) for buffer in gltf_buffer_files(path)) if suffix == ".gltf" else 0
+        unzipped = _zip_content_bytes(path) if suffix == ".3mf" else 0
+        what = (f"{count_text(triangles)} triangles" if triangles else f"{format_bytes(path.stat().st_size)}"
+                + (f" and {format_bytes(buffers)} of buffers" if buffers else "")
+                + (f" ({format_bytes(unzipped)} unzipped)" if unzipped else ""))
         raise SceneError(f"{source}: reading its {what} needs ≈ {format_bytes(need)} of memory, more than the "
                          f"{format_bytes(available)} available; allowed: a mesh whose size and triangles fit, "
                          "so decimate it or free memory")

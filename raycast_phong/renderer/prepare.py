@@ -94,10 +94,11 @@ def prepare(scene: Scene, *, source: str = "<scene>", threads: int | None = None
     threads: worker threads for the tiles (default: the machine's cores, at most 8).
     max_memory: the budget, bytes or a size such as "8G" (default: 3/4 of the memory available now); a scene
         whose estimate (budget.estimate_memory) exceeds it is refused with a SceneError before anything is built.
-    plan: the render plan; default build_plan(scene). build_plan(scene, optimize=False) keeps every stage.
+    plan: the render plan; default build_plan(scene, source=source). build_plan(scene, optimize=False) keeps
+        every stage.
     progress: called as progress(tiles_done, tiles_total) by render().
     """
-    plan = plan or build_plan(scene)
+    plan = plan or build_plan(scene, source=source)
     if plan.keeps(StageName.SHADOW_RAYS) and len(scene.lights) > MAX_LIGHTS:
         raise SceneError(f"{source}: lights: global mode handles at most {MAX_LIGHTS} lights, "
                          f"the scene has {len(scene.lights)}; use render.mode = \"local\" or fewer lights")

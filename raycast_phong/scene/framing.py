@@ -17,6 +17,7 @@ import numpy as np
 
 from ..codes import View
 from ..errors import SceneError
+from ..io.encoding import DISPLAY, LINEAR
 from ..tolerances import MIN_EXTENT
 from .overrides import apply_override
 
@@ -26,6 +27,23 @@ DEFAULT_UP = (0.0, 1.0, 0.0)  # most formats state no up axis; +Y is glTF's and 
 FILL = 0.9                    # the bounding sphere fills this share of the image's smaller half-extent
 # The three-quarter view: 30° round from the front toward the right, 20° above the horizon.
 AZIMUTH, ELEVATION = math.radians(30.0), math.radians(20.0)
+
+
+# render.colour of a mesh file rendered directly, by suffix (docs/meshes.md, "Colour"), with the reason `plan`
+# gives: glTF 2.0 specifies its pipeline (§3.9.2: colour textures are sRGB-encoded, factors and COLOR_0 linear,
+# lit in linear values and shown through the sRGB curve); no other format says, and fixed-function GL viewers
+# (MeshLab, the lecture's) show their colours and maps as stored. Any other suffix is DISPLAY.
+LINEAR_FORMATS = {".glb": "glTF", ".gltf": "glTF"}
+
+
+def mesh_colour(path: str | Path) -> tuple[str, str]:
+    """(render.colour, why) for a mesh file rendered directly: LINEAR for glTF, which specifies it, else
+    DISPLAY, as fixed-function viewers show the other formats."""
+    suffix = Path(path).suffix.lower()
+    if suffix in LINEAR_FORMATS:
+        return LINEAR, f"the default for a {LINEAR_FORMATS[suffix]} file rendered directly, as glTF 2.0 specifies"
+    return DISPLAY, (f"the default for a {suffix or 'mesh'} file rendered directly (the format names no colour "
+                     "space; fixed-function GL viewers show its colours as stored)")
 
 
 def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), view: str | None = None,
@@ -53,6 +71,7 @@ def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), vie
         "objects": [{"name": path.stem, "shape": "mesh", "path": path.name,
                      **({} if found.stores_normals else {"crease_angle": FILE_CREASE_ANGLE})}],
         "output": {"path": f"{path.stem}.png"},
+        "render": {"colour": mesh_colour(path)[0]},  # before the overrides: --set render.colour wins
     }
     data["camera"] = frame_camera(found.centre, found.radius, up_axis, view, (640.0, 480.0), 40.0, False)
     data["lights"] = [key_light(found.centre, data["camera"], up_axis)]

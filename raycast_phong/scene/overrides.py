@@ -18,6 +18,10 @@ from .messages import dotted, shorten, shown
 if TYPE_CHECKING:
     from .schema import Scene
 
+# What `render --srgb` and `batch --srgb` stand for: they predate render.colour, and decoded the maps and encoded
+# the PNG, which is what "linear" does.
+SRGB_OVERRIDE = "render.colour=linear"
+
 
 def apply_override(data: dict, assignment: str, source: str = "--set", option: str = "--set") -> None:
     """Set `key.path=value` in a parsed scene; the value is read as TOML, else as a plain string.

@@ -45,6 +45,7 @@ from ..codes import (
     Viewer,
 )
 from ..errors import RaycastPhongError, SceneError
+from ..io.encoding import COLOURS
 from ..tolerances import DIRECTION_RANGE, INTENSITY_LIMIT, POSITION_LIMIT
 from .kinds import object_kinds
 from .messages import describe_error, dotted, shown
@@ -156,6 +157,10 @@ class Render(_Strict):
     precision: Literal[tuple(p.value for p in Precision)] = "float32"  # type: ignore[valid-type]
     two_sided: Annotated[bool, Strict()] = True  # true or false, not "yes" or 1
     interpolation: Literal["perspective", "screen"] = "perspective"
+    # "display" (fixed-function GL's): maps and colours as stored, the PNG written as it is; "linear" (glTF's):
+    # 8-bit maps decoded from sRGB, the PNG through the sRGB curve. A mesh file rendered directly gets its
+    # format's choice (scene.framing.mesh_colour); a scene file, this default.
+    colour: Literal[COLOURS] = COLOURS[0]  # type: ignore[valid-type]
 
     _check_background = field_validator("background")(lambda v: _non_negative(v))
 

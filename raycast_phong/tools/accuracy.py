@@ -125,7 +125,30 @@ def reference_image(scene: Scene, source: str = "<scene>", fine: int | None = No
                     max_memory: int | None = None) -> ReferenceImage:
     """The analytic reference, or with `fine` the self-convergence one (the only choice for meshes), within
     `max_memory` bytes (default: the render's budget)."""
-    return analytic_reference(scene, source) if fine is None else fine_reference(scene, fine, source, max_memory)
+    if fine is not None:
+        return fine_reference(scene, fine, source, max_memory)
+    check_reference_memory(scene, source, max_memory)
+    return analytic_reference(scene, source)
+
+
+# The analytic reference holds float64 image, specular and coverage (56 bytes a pixel) and, written, a float32
+# copy and the file's buffers: `reference` of the default scene peaked 320 MB at 1024² and 570 MB at 2048²,
+# 81 bytes a pixel over ≈ 235 MB of interpreter, libraries and tiles (TILE_SAMPLES rays at a time).
+REFERENCE_PIXEL_BYTES = 88
+
+
+def check_reference_memory(scene: Scene, source: str, max_memory: int | None) -> None:
+    """Refuse (SceneError, one line) an analytic reference whose image does not fit the budget: `max_memory`
+    bytes, default the render's (renderer.budget.default_budget)."""
+    from ..io.system import format_bytes
+    from ..renderer.budget import default_budget
+    budget = default_budget() if max_memory is None else max_memory
+    render = scene.render
+    need = render.width * render.height * REFERENCE_PIXEL_BYTES
+    if budget is not None and need > budget:
+        raise SceneError(f"{source}: render.width × render.height: {render.width}×{render.height} pixels need ≈ "
+                         f"{format_bytes(need)} of memory for the analytic reference, above the "
+                         f"{format_bytes(budget)} budget; lower them or raise the budget (--max-memory)")
 
 
 def mesh_coverage(scene: Scene | Prepared, source: str = "<scene>") -> np.ndarray:

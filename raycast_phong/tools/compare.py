@@ -178,7 +178,8 @@ class Comparison:
     """The composed image and what it shows."""
     image: np.ndarray              # (layout.image_height, layout.image_width, 3) float32
     layout: Layout
-    variants: list[np.ndarray]     # the inputs, (H, W, 3) linear float32 (float64 from float64 renders), in order
+    variants: list[np.ndarray]     # the inputs, (H, W, 3) display values (io.encoding.display_values of each
+                                   # render) float32 (float64 from float64 renders), in order
     differences: list[np.ndarray]  # per variant, (H, W) against the last, in the variants' precision
     stats: list[VariantStats]      # per variant, against the last (the last: all zero)
     scale: float                   # the largest difference: the colour bar's top
@@ -213,7 +214,8 @@ def render_budget(scenes: list[Scene], budget: int | None, source: str) -> int |
 
 
 def compose(variants: list[np.ndarray], key: str, values: list[str]) -> Comparison:
-    """Variants (each (H, W, 3) linear, float32 or float64, in the order of `values`) → the labelled Comparison."""
+    """Variants (each (H, W, 3) display values, float32 or float64, in the order of `values`: a render in
+    render.colour = "linear" sRGB-encoded first, io.encoding.display_values) → the labelled Comparison."""
     height, width = variants[0].shape[:2]
     grid = layout(len(variants), width, height)
     rows = grid.rows

@@ -7,9 +7,10 @@ intersections (the ray taken into object space by the inverse affine map, the no
 inverse transpose), its own evaluation of the model; global mode casts analytic shadow rays. A bug in
 a stage therefore shows as a difference instead of being shared. It shares only the Scene record and
 the model's named tolerances. A mesh file has no closed form: accuracy.fine_reference is for those.
-Colour maps on planes and spheres are read with its own OpenImageIO call and sRGB decoding, and looked up
-bilinearly at the exact UVs of the exact hit (no mip level: the texture at the point itself), so the
-study and `accuracy` can measure a textured scene.
+Colour maps on planes and spheres are read with its own OpenImageIO call and, as the scene's render.colour
+says, its own sRGB decoding ("linear") or none ("display"), and looked up bilinearly at the exact UVs of the
+exact hit (no mip level: the texture at the point itself), so the study and `accuracy` can measure a textured
+scene in either setting.
 """
 
 from __future__ import annotations
@@ -481,9 +482,11 @@ def srgb_decode(values: np.ndarray) -> np.ndarray:
     return np.where(values <= 0.04045, values / 12.92, ((values + 0.055) / 1.055) ** 2.4)
 
 
-def read_map(path) -> np.ndarray:
-    """(H, W, 3) float64 linear RGB of an image file, read with OpenImageIO: 8-bit images are sRGB (the
-    scene format), float images linear. Its own reading: nothing of the renderer's decoding is shared."""
+def read_map(path, colour: str) -> np.ndarray:
+    """(H, W, 3) float64 RGB of an image file, read with OpenImageIO, for a scene whose render.colour is
+    `colour` (the scene format): an integer (8-bit) image is sRGB-encoded, so "linear" decodes it and "display"
+    takes it as stored; a float image is linear values, taken as stored either way. Its own reading: nothing
+    of the renderer's decoding is shared."""
     import OpenImageIO as oiio
     buffer = oiio.ImageBuf(str(path))
     spec = buffer.spec()
@@ -491,7 +494,9 @@ def read_map(path) -> np.ndarray:
     if pixels.shape[2] < 3:
         pixels = np.repeat(pixels[:, :, :1], 3, axis=2)
     pixels = pixels[:, :, :3]
-    return pixels if spec.format.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE) else srgb_decode(pixels)
+    if spec.format.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE) or colour != "linear":
+        return pixels
+    return srgb_decode(pixels)
 
 
 def scene_maps(scene: Scene, source: str = "<scene>") -> dict[int, dict]:
@@ -509,7 +514,7 @@ def scene_maps(scene: Scene, source: str = "<scene>") -> dict[int, dict]:
                 continue
             path = scene.resolve(value.path)
             if path not in cache:
-                cache[path] = read_map(path)
+                cache[path] = read_map(path, scene.render.colour)
             maps[key] = (cache[path], value.wrap)
         if maps and obj.shape not in ("plane", "icosphere", "uv_sphere"):
             raise SceneError(f"{source}: objects.{index}: the analytic reference has exact texture coordinates for "

@@ -73,7 +73,7 @@ def with_precision(plan: RenderPlan, float64: bool) -> RenderPlan:
     """The plan with its shading precision forced (to measure what float32 would have done)."""
     stages = tuple(Stage(s.name, float64, "forced by the stability suite") if s.name == StageName.FLOAT64_SHADING else s
                    for s in plan.stages)
-    return RenderPlan(stages, plan.warnings)
+    return replace(plan, stages=stages)
 
 
 # ---------------------------------------------------------------- 1. specular exponent

@@ -174,6 +174,7 @@ class Study:
     images: list[ErrorImage] = field(default_factory=list)
     levels_note: str = ""   # how the levels were chosen
     shininess: float = math.nan  # the first object's f, when the sweep keeps the scene's own (orders plot)
+    colour: str = "display"   # the scene's render.colour: how the report's pictures are encoded
 
 
 # ---------------------------------------------------------------- scenes of the sweep
@@ -358,7 +359,7 @@ def run_study(path: str | Path, overrides: list[str] | tuple[str, ...] = (), opt
                                for s in settings])
         study = Study(rows, fit_orders(rows, options.settle), sweep.source, options.target, noise,
                       levels_note=note, shininess=sweep.base.material_of(sweep.base.objects[0]).shininess
-                      if sweep.base.objects else math.nan)
+                      if sweep.base.objects else math.nan, colour=sweep.base.render.colour)
         study.images = error_images(sweep)
         if progress:
             progress(len(settings) * options.repeats, len(settings) * options.repeats, "done")

@@ -254,10 +254,10 @@ def error_figure(study: Study) -> bytes:
                                 squeeze=False)
     cmap = ListedColormap(heat_map(np.linspace(0, 1, 256)[None, :], 1.0)[0])
     for picture, (render_axes, reference_axes, error_axes) in zip(images, grid):
-        render_axes.imshow(to_8bit(picture.image), interpolation="nearest")
+        render_axes.imshow(to_8bit(picture.image, study.colour), interpolation="nearest")
         render_axes.set_title(f"{picture.model}, level {picture.level} ({picture.triangles:,} triangles)",
                               fontsize=9)
-        reference_axes.imshow(to_8bit(picture.reference), interpolation="nearest")
+        reference_axes.imshow(to_8bit(picture.reference, study.colour), interpolation="nearest")
         reference_axes.set_title("reference", fontsize=9)
         error_axes.imshow(heat_map(picture.difference, picture.scale), interpolation="nearest")
         error_axes.set_title(f"|error|, black 0 … yellow {picture.scale:.3g}", fontsize=9)

@@ -27,8 +27,15 @@ from typing import Any
 import numpy as np
 
 from ..errors import ImageError, SceneError
-from ..io.encoding import srgb_encode
-from ..io.image_io import COMPARE_BYTES_PER_SAMPLE, image_header, read_layer, text_coverage, write_image
+from ..io.encoding import DISPLAY, display_values
+from ..io.image_io import (
+    COMPARE_BYTES_PER_SAMPLE,
+    image_colour,
+    image_header,
+    read_layer,
+    text_coverage,
+    write_image,
+)
 from ..io.scene_toml import toml_value
 from ..io.system import format_bytes
 from .compare import BACKDROP, MIN_FONT, draw_text, fitting_size, layout, row_wording
@@ -255,12 +262,12 @@ def check_sheet_memory(path: Path, cells: list, outputs: list[Path | None], budg
                          "or raise the budget (--max-memory)")
 
 
-def write_contact_sheets(jobs: list, report, settings, force: bool, budget: int | None = None) -> dict[str, str]:
+def write_contact_sheets(jobs: list, report, force: bool, budget: int | None = None) -> dict[str, str]:
     """For each sweep in the batch, DIR/<sweep>-contact.png, rewritten when a cell rendered or it is missing.
 
     Returns sweep name → sheet file name. Cells are read back from their files: a PNG as stored, an EXR as the
-    PNG writer would show it (clamped, sRGB-encoded with --srgb). A sheet that would need more than `budget`
-    bytes is refused (check_sheet_memory) before its cells are read.
+    PNG writer would show it (clamped, sRGB-encoded when its header says render.colour = "linear"). A sheet
+    that would need more than `budget` bytes is refused (check_sheet_memory) before its cells are read.
     """
     by_name = {outcome.name: outcome for outcome in report.outcomes}
     sheets: dict[str, str] = {}
@@ -285,8 +292,8 @@ def write_contact_sheets(jobs: list, report, settings, force: bool, budget: int 
             except ImageError:
                 images.append(None)
                 continue
-            if output.suffix.lower() == ".exr" and settings.srgb:
-                image = srgb_encode(image)
+            if output.suffix.lower() == ".exr":
+                image = display_values(image, image_colour(output) or DISPLAY)
             images.append(np.clip(image, 0.0, 1.0))
         canvas, _ = compose_sheet([job.cell for job in members], images)
         write_image(path, canvas)

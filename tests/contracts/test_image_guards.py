@@ -111,11 +111,15 @@ def test_a_truncated_png_in_compare_is_our_one_line_only(tmp_path):
     assert lines[0].startswith(f"error: {cut}: cannot read (") and "\\n" not in lines[0], lines[0]
 
 
-def test_srgb_with_an_exr_output_says_it_does_nothing(tmp_path):
+def test_srgb_with_an_exr_output_renders_in_linear_colour_and_its_header_says_so(tmp_path):
+    """--srgb once warned it did nothing to an EXR; it now stands for render.colour = linear, which the EXR's
+    values are in (unencoded, as before) and its header says."""
+    from raycast_phong.io.image_io import image_colour
     result = runner.invoke(app, ["render", "-o", str(tmp_path / "x.exr"), "--srgb", "--width", "8", "--height", "8",
                                  "-q"])
     assert result.exit_code == 0, result.output
-    assert "warning: --srgb encodes a PNG" in result.output, result.output
+    assert "warning" not in result.output, result.output
+    assert image_colour(tmp_path / "x.exr") == "linear"
 
 
 def test_a_contact_sheet_over_the_budget_is_refused_before_its_cells_are_read(tmp_path):

@@ -19,9 +19,9 @@ def test_png_is_clamped_8bit_without_gamma(tmp_path):
     np.testing.assert_allclose(back, expected, atol=1e-6)
 
 
-def test_srgb_option_encodes_with_the_srgb_curve(tmp_path):
+def test_linear_colour_encodes_a_png_with_the_srgb_curve(tmp_path):
     image = np.full((1, 2, 3), 0.5, np.float32)
-    back, _ = rp.read_image(rp.write_image(tmp_path / "s.png", image, srgb=True))
+    back, _ = rp.read_image(rp.write_image(tmp_path / "s.png", image, colour="linear"))
     # sRGB(0.5) = 1.055 · 0.5^(1/2.4) − 0.055 = 0.7354 → byte 188.
     assert srgb_encode(np.float32(0.5)) == pytest.approx(0.735357, abs=1e-5)
     np.testing.assert_allclose(back, 188 / 255, atol=1e-6)

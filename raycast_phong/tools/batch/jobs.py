@@ -21,6 +21,7 @@ from ...errors import ImageError, SceneError, WriteError
 from ...io.files import open_regular
 from ...io.image_io import write_image
 from ...scene.load import load_scene
+from ...scene.overrides import SRGB_OVERRIDE
 from ...scene.schema import Scene
 from ..sweep import Job, is_sweep, load_sweep
 from .manifest import is_own_manifest
@@ -35,7 +36,11 @@ INTERRUPTED, NOT_STARTED = "interrupted", "not started"
 @dataclass(frozen=True)
 class Settings:
     """Options that change the bytes written, besides the scene: part of every job's hash."""
-    srgb: bool = False  # PNG outputs sRGB-encoded
+    srgb: bool = False  # --srgb: every scene loaded with render.colour = "linear" (before a sweep's overrides)
+
+    def overrides(self, job: Job) -> list[str]:
+        """The job's overrides as its scene is loaded: --srgb's first, so a sweep over render.colour still wins."""
+        return [SRGB_OVERRIDE, *job.overrides] if self.srgb else list(job.overrides)
 
 
 @dataclass(frozen=True)
@@ -192,10 +197,12 @@ def _is_scene(path: Path) -> bool:
 
 
 def job_hash(job: Job, scene: Scene | None, settings: Settings) -> str:
-    """sha256 of the package version, the settings, the overrides, the scene file and its meshes' bytes."""
+    """sha256 of the package version, the settings, the overrides, the scene's render.colour (a mesh file's
+    comes from its format, not its bytes), the scene file and its meshes' bytes."""
     from ... import __version__
     digest = hashlib.sha256()
-    header = {"package": __version__, "settings": asdict(settings), "overrides": list(job.overrides)}
+    header = {"package": __version__, "settings": asdict(settings), "overrides": list(job.overrides),
+              "colour": scene.render.colour if scene is not None else None}
     digest.update(json.dumps(header, sort_keys=True).encode())
     for path in input_paths(job, scene):
         digest.update(str(path.name).encode())
@@ -251,7 +258,7 @@ def prepare_job(job: Job, folder: Path, settings: Settings, previous: dict | Non
     start = time.perf_counter()
     entry = new_entry(job, FAILED)
     try:
-        scene = absolute_folder(load_scene(job.scene, job.overrides, max_memory=max_memory))
+        scene = absolute_folder(load_scene(job.scene, settings.overrides(job), max_memory=max_memory))
     except SceneError as error:
         entry.reason, entry.hash = reason_line(job, str(error)), job_hash(job, None, settings)
         return entry
@@ -285,7 +292,7 @@ def render_job(task: Task) -> Outcome:
     try:
         result = render(task.scene, threads=task.threads, source=str(task.job.scene), max_memory=task.max_memory)
         written = time.perf_counter()
-        write_image(task.output, result.image, result.aovs, srgb=task.settings.srgb)
+        write_image(task.output, result.image, result.aovs, colour=task.scene.render.colour)
         result.timings["write"] = time.perf_counter() - written
     except (SceneError, ImageError, WriteError) as error:  # a failed write is a failed scene, never rendered
         entry.reason = reason_line(task.job, str(error))
