@@ -138,6 +138,7 @@ def test_without_the_library_a_render_stops_with_one_clear_line(tmp_path, librar
     assert not (tmp_path / "x.png").exists()
 
 
+@pytest.mark.slow
 def test_a_cached_kernel_that_calls_embree_loads_without_compiling(cold_package, tmp_path):
     """The queries link by name (llvmlite add_symbol), so numba's cache serves a fresh process: no recompile.
     The shared copy's kernels were compiled by another process (its first `render`) into its own cache."""

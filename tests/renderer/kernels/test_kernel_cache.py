@@ -88,6 +88,7 @@ def test_the_cache_key_covers_every_module_a_kernel_reads_and_only_those(package
     assert run(KEY) != key
 
 
+@pytest.mark.slow
 def test_the_first_render_says_it_compiles_and_keeps_compilation_out_of_the_frame(cold_package):
     """After an install (an empty cache) `render` says it is compiling before it does, and reports those
     seconds apart: the frame, and the Mrays/s printed from it, hold none of them. The next run says nothing."""
@@ -109,6 +110,7 @@ def test_the_first_render_says_it_compiles_and_keeps_compilation_out_of_the_fram
     assert "compile " in wide.stdout and "kernels " not in wide.stdout, wide.stdout
 
 
+@pytest.mark.slow
 def test_an_edit_to_an_inlined_helper_reaches_the_cached_kernel(cold_package, tmp_path):
     """On the shared copy, alone with it while it is edited (ColdPackage.editing puts it back as it was)."""
     copy = cold_package.source
