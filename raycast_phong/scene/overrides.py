@@ -8,6 +8,7 @@ and the live view.
 from __future__ import annotations
 
 import tomllib
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from ..codes import ShadingModel
@@ -33,16 +34,29 @@ def apply_override(data: dict, assignment: str, source: str = "--set", option: s
     if "=" not in assignment:
         raise SceneError(f"{where}: expected KEY.PATH=VALUE, e.g. render.width=320 or lights.0.position=[1, 2, 3]")
     key, text = (part.strip() for part in assignment.split("=", 1))
-    parts = key.split(".")
-    if not all(parts):
-        raise SceneError(f"{where}: {key!r} is not a key path; expected names and list indices joined by dots, "
-                         "e.g. render.width")
+    key_parts(key, where)  # a bad key is said before a bad value
     try:
         value = tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         value = text
     except (RecursionError, ValueError) as error:
         raise SceneError(f"{where}: {syntax_limit(error)}") from None
+    assign(data, key, value, where)
+
+
+def key_parts(key: str, where: str) -> list[str]:
+    """The names and indices of the key path `key`; SceneError "{where}: ..." when it is not one."""
+    parts = key.split(".")
+    if not all(parts):
+        raise SceneError(f"{where}: {key!r} is not a key path; expected names and list indices joined by dots, "
+                         "e.g. render.width")
+    return parts
+
+
+def assign(data: dict, key: str, value: Any, where: str) -> None:
+    """Set the key path `key` (names and list indices joined by dots) of a parsed scene to `value`; SceneError
+    "{where}: ..." for a path that is not one. Tables on the way are made; list items must exist."""
+    parts = key_parts(key, where)
     node: Any = data
     for depth, part in enumerate(parts):
         node_path = ".".join(parts[:depth]) or "(top level)"
@@ -63,6 +77,18 @@ def apply_override(data: dict, assignment: str, source: str = "--set", option: s
             node = node.setdefault(part, [] if parts[depth + 1].isdigit() else {})
         else:
             node = node[index]
+
+
+def replaced(scene: Scene, changes: Mapping[str, Any], source: str = "Scene.replace") -> Scene:
+    """`scene` with `changes` (key path → Python value) applied and validated again, in the scene's folder, so
+    its relative files (meshes, maps) still resolve: Scene.replace."""
+    from .schema import validate_scene
+    data = scene.model_dump(mode="json", exclude={"folder"}, exclude_none=True)
+    for key, value in changes.items():
+        if not isinstance(key, str):
+            raise SceneError(f"{source}: {shown(key)} is not a key path; expected a string such as 'render.width'")
+        assign(data, key, value, f"{source}({key!r})")
+    return validate_scene(data, source=source, folder=scene.folder)
 
 
 def shaded(scene: Scene, model: ShadingModel) -> Scene:

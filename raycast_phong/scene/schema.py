@@ -12,6 +12,7 @@ import difflib
 import gc
 import math
 import operator
+from collections.abc import Mapping
 from itertools import chain, repeat
 from pathlib import Path
 from typing import Annotated, Any, Literal, get_args
@@ -448,6 +449,17 @@ class Scene(_Strict):
         if problem:
             raise _KeyError(*problem)
         return self
+
+    def replace(self, changes: Mapping[str, Any], /) -> Scene:
+        """A new scene with `changes` applied, validated as a scene file is, in this scene's folder (its meshes
+        and maps still resolve). Keys are the paths `--set` takes, values are Python values:
+
+            scene.replace({"render.width": 320, "lights.0.position": [1, 2, 3], "materials.red.kd": [1, 0, 0]})
+
+        Raises SceneError (one line naming the key path and what is allowed) for a change the format refuses.
+        A Scene is frozen; `model_copy(update=...)` would skip validation."""
+        from .overrides import replaced
+        return replaced(self, changes)
 
     def material_of(self, obj: Object) -> Material:
         return self.materials.get(obj.material, DEFAULT_MATERIAL)
