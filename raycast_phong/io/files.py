@@ -10,9 +10,13 @@ stage that reads a file asks the cache rather than receiving the result through 
 from __future__ import annotations
 
 import os
+import re
 import stat
+import sys
+import tempfile
 import threading
 from collections.abc import Callable
+from contextlib import contextmanager
 from pathlib import Path
 from typing import BinaryIO, Generic, TypeVar
 
@@ -141,3 +145,33 @@ class VersionCache(Generic[T]):
     def clear(self) -> None:
         with self._lock:
             self._values.clear()
+
+
+# Lines a native image library prints on the process's own stderr (fd 2) while it fails: libpng's default
+# error handler writes "libpng error: IDAT: Read error: ..." before OpenImageIO reports the same error, which
+# the caller then words in its one line.
+NATIVE_ERROR_LINE = re.compile(r"^libpng (error|warning): ")
+
+
+@contextmanager
+def native_errors_kept():
+    """Run the block with fd 2 captured; afterwards give back to stderr what it printed, less the native image
+    libraries' own error lines (NATIVE_ERROR_LINE), so that a failing read says one line, the caller's."""
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError, AttributeError):  # no fd 2 (closed, or a stream without one): nothing to keep
+        yield
+        return
+    with tempfile.TemporaryFile() as sink:
+        os.dup2(sink.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            sink.seek(0)
+            kept = [line for line in sink.read().decode("utf-8", "replace").splitlines(keepends=True)
+                    if not NATIVE_ERROR_LINE.match(line)]
+            if kept:
+                sys.stderr.write("".join(kept))

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import SceneError
 from .encoding import LINEAR
-from .files import image_suffix_mismatch, open_regular
+from .files import image_suffix_mismatch, native_errors_kept, open_regular
 
 MAX_TEXTURE_SIZE = 2048
 # Bytes per texel of level 0 while a texture is in use: the decoded float32 RGB kept in the Geometry (12), the
@@ -67,17 +67,18 @@ def decode_file(path: Path, colour: str) -> np.ndarray:
     result the mean of the source texels it covers), so decoding a 12000² PNG costs a band, not the 1.7 GB of
     its float texels at full size: the memory estimate counts the shrunk map only."""
     import OpenImageIO as oiio
-    found = oiio.ImageInput.open(str(path))
-    if found is None:
-        raise ValueError(oiio.geterror() or "not an image")
-    try:
-        spec = found.spec()
-        if spec.width <= 0 or spec.height <= 0 or spec.nchannels <= 0:
-            raise ValueError("not an image")
-        height, width = capped(spec.height, spec.width)
-        pixels = _read_shrunk(found, spec, height, width)
-    finally:
-        found.close()
+    with native_errors_kept():  # libpng prints its own "libpng error: ..." line; the caller words one line
+        found = oiio.ImageInput.open(str(path))
+        if found is None:
+            raise ValueError(oiio.geterror() or "not an image")
+        try:
+            spec = found.spec()
+            if spec.width <= 0 or spec.height <= 0 or spec.nchannels <= 0:
+                raise ValueError("not an image")
+            height, width = capped(spec.height, spec.width)
+            pixels = _read_shrunk(found, spec, height, width)
+        finally:
+            found.close()
     pixels = _rgb(pixels)
     floats = spec.format.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE)
     out = np.empty(pixels.shape, np.float32)
