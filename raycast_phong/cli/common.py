@@ -46,16 +46,14 @@ def _colour() -> bool | None:
 _RICH_COLOURS: list = []  # typer's help colours as the program found them, restored when NO_COLOR is unset
 
 
-def _plain_help(plain: bool) -> None:
-    """typer draws --help with rich, which under NO_COLOR drops colours but keeps bold and dim: with no colour
-    system at all it writes none of them. Only loads typer's rich module when it has to (NO_COLOR set)."""
-    rich_utils = sys.modules.get("typer.rich_utils")
-    if rich_utils is None and plain:
-        from typer import rich_utils
-    if rich_utils is not None:
-        if not _RICH_COLOURS:
-            _RICH_COLOURS.append(rich_utils.COLOR_SYSTEM)
-        rich_utils.COLOR_SYSTEM = None if plain else _RICH_COLOURS[0]
+def _plain_help() -> None:
+    """Before a help page: typer draws it with rich, which under NO_COLOR drops colours but keeps bold and dim;
+    with no colour system at all it writes none of them (plain_output). Called only when a help page is drawn,
+    so no other command loads typer's rich module for it."""
+    from typer import rich_utils
+    if not _RICH_COLOURS:
+        _RICH_COLOURS.append(rich_utils.COLOR_SYSTEM)
+    rich_utils.COLOR_SYSTEM = None if plain_output() else _RICH_COLOURS[0]
 
 
 def _plain_metavars(params: list) -> list:
@@ -81,10 +79,15 @@ def _plain_metavars(params: list) -> list:
 
 
 class PlainHelpCommand(TyperCommand):
-    """typer's command, with plain metavars in its --help (_plain_metavars)."""
+    """typer's command, with plain metavars in its --help (_plain_metavars), drawn without escape sequences
+    under NO_COLOR or TERM=dumb (_plain_help)."""
 
     def get_params(self, ctx):
         return _plain_metavars(super().get_params(ctx))
+
+    def format_help(self, ctx, formatter):
+        _plain_help()
+        return super().format_help(ctx, formatter)
 
 
 class App(typer.Typer):
@@ -103,6 +106,10 @@ class OneLineErrors(TyperGroup):
 
     def get_params(self, ctx):
         return _plain_metavars(super().get_params(ctx))
+
+    def format_help(self, ctx, formatter):
+        _plain_help()
+        return super().format_help(ctx, formatter)
 
     def main(self, *args, standalone_mode: bool = True, **kwargs):
         try:
@@ -125,7 +132,6 @@ class OneLineErrors(TyperGroup):
 
     def _main(self, *args, standalone_mode: bool = True, **kwargs):
         from raycast_phong.io.system import check_environment
-        _plain_help(plain_output())
         kwargs.setdefault("color", _colour())
         try:
             for warning in check_environment():

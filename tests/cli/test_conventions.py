@@ -127,11 +127,12 @@ def test_compare_quiet_prints_a_verdict_only_when_it_is_not_a_pass(tmp_path):
 
 # ---------------------------------------------------------------- NO_COLOR, TERM=dumb, progress on a terminal
 
-# In one process on a terminal: every help page, a usage error, a warning and a render's progress bar.
+# In one process on a terminal: every help page (the program's first: each sets the help's colours), a usage
+# error, a warning, a render's progress bar and the stability table.
 PROBE = """\
 import sys
 from raycast_phong.cli import app
-runs = [[name, "--help"] for name in sys.argv[1:]] + [["--help"], ["render", "--width", "5x"],
+runs = [["--help"]] + [[name, "--help"] for name in sys.argv[1:]] + [["render", "--width", "5x"],
         ["plan", "--set", "render.shading=phong"], ["render", "-o", "x.png", "--width", "64", "--height", "240"],
         ["stability", "--case", "watertightness"]]
 for args in runs:
