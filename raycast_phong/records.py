@@ -111,11 +111,13 @@ class Stage:
 class RenderPlan:
     """What this scene needs, decided before any ray is cast; shading reads its flags.
 
-    `warnings` are found once the geometry is known (plan.diagnose): results the user may not want.
+    `warnings` and `notes` are found once the geometry is known (plan.diagnose). A warning is a result the user
+    may not want (printed even under -q); a note is information: what a mesh file's materials left out or
+    approximated, or what an object's own choice of Gouraud shading misses.
     """
     stages: tuple[Stage, ...]
     warnings: tuple[str, ...] = ()
-    notes: tuple[str, ...] = ()     # what a mesh file's materials left out or approximated (geometry.file_notes)
+    notes: tuple[str, ...] = ()
     colour: str = "display"         # the scene's render.colour: how maps are decoded and the PNG encoded
     colour_reason: str = ""         # why: the scene files' default, a mesh format's, or set (plan.colour_line)
 

@@ -46,13 +46,20 @@ def case(function: Callable[[], CaseResult]) -> Callable[[], CaseResult]:
     return function
 
 
-def run_all(names: list[str] | None = None) -> list[CaseResult]:
-    """Run the named cases (all by default), timing each."""
+def run_all(names: list[str] | None = None,
+            progress: Callable[[int, int, str], None] | None = None) -> list[CaseResult]:
+    """Run the named cases (all by default), timing each; progress(done, total, name of the next case, or "done")
+    is called before each case and after the last."""
     results = []
-    for name in names or list(CASES):
+    names = names or list(CASES)
+    for done, name in enumerate(names):
+        if progress:
+            progress(done, len(names), name)
         start = time.perf_counter()
         result = CASES[name]()
         results.append(replace(result, seconds=time.perf_counter() - start))
+    if progress:
+        progress(len(names), len(names), "done")
     return results
 
 

@@ -317,20 +317,25 @@ class _Sweep:
                     first.normals, first.specular, first.precision, first.samples, first.shininess):
                 self.images[s] = (result.image, reference.image, coverage == 1, reference.coverage == 1)
 
-    def time_all(self, settings: list[Setting], repeats: int) -> tuple[dict, MachineNoise]:
+    def time_all(self, settings: list[Setting], repeats: int,
+                 progress: Callable[[int, int, str], None] | None = None) -> tuple[dict, MachineNoise]:
         """`repeats` rounds, every setting once per round, each round in its own shuffled order (seeded), so
-        a slow spell hits different neighbours every round and the minimum escapes it."""
+        a slow spell hits different neighbours every round and the minimum escapes it; progress(renders done,
+        renders in all, "timing round R of N") after each render."""
         scenes = {s: self.scene(s) for s in settings}
         runs: dict[Setting, list[tuple[float, dict]]] = {s: [] for s in settings}
         load_before, start = os.getloadavg(), time.perf_counter()
         for round_ in range(repeats):
-            for index in np.random.default_rng(round_).permutation(len(settings)):
+            for position, index in enumerate(np.random.default_rng(round_).permutation(len(settings)), 1):
                 s = settings[index]
                 begin, cpu = time.perf_counter(), time.process_time()
                 result = render(scenes[s], threads=self.options.threads, source=self.source,
                                 max_memory=self.options.max_memory)
                 wall = time.perf_counter() - begin
                 runs[s].append((wall, {**result.timings, "cpu": time.process_time() - cpu}))
+                if progress:
+                    progress(round_ * len(settings) + position, repeats * len(settings),
+                             f"timing round {round_ + 1} of {repeats}")
         spreads = [spread([wall for wall, _ in r]) for r in runs.values()]
         noise = MachineNoise(os.cpu_count() or 1, load_before, os.getloadavg(), statistics.median(spreads),
                              max(spreads), repeats, time.perf_counter() - start)
@@ -345,7 +350,9 @@ def spread(times: list[float]) -> float:
 
 def run_study(path: str | Path, overrides: list[str] | tuple[str, ...] = (), options: StudyOptions = StudyOptions(),
               progress: Callable[[int, int, str], None] | None = None) -> Study:
-    """Measure every setting at the given (or chosen) levels, then time them all in interleaved rounds."""
+    """Measure every setting at the given (or chosen) levels, then time them all in interleaved rounds;
+    progress(done, total, what) is called as each level starts ("level L": levels done of those known so far)
+    and after each timing render ("timing round R of N": renders done of all), then with "done"."""
     with tempfile.TemporaryDirectory(prefix="raycast-phong-study-") as folder:
         sweep = _Sweep(path, overrides, options, folder)
         sweep.warm_up()
@@ -353,7 +360,7 @@ def run_study(path: str | Path, overrides: list[str] | tuple[str, ...] = (), opt
         settings = [s for level in levels for s in sweep.settings(level)]
         if progress:
             progress(0, len(settings) * options.repeats, "timing")
-        runs, noise = sweep.time_all(settings, options.repeats)
+        runs, noise = sweep.time_all(settings, options.repeats, progress)
         pooled = pooled_minima(runs)
         rows = monotone_times([study_row(s, runs[s], *sweep.measured[s], sweep.meshes[s.samples, s.level][1], pooled)
                                for s in settings])
@@ -716,10 +723,10 @@ OUTPUTS = {"csv": "study.csv", "plot": "error_vs_time.png", "silhouette": "silho
 
 
 def check_study_folder(folder: Path, scene: str | Path) -> None:
-    """Refuse, before the first render, a --out that is a file or that holds a folder (or the scene) under
+    """Refuse, before the first render, an output folder (-o) that is a file or that holds a folder (or the scene) under
     one of the OUTPUTS' names. Raises OutputError (ImageError from check_output_file)."""
     if folder.exists() and not folder.is_dir():
-        raise OutputError(f"{folder}: --out must be a folder, but it is a file")
+        raise OutputError(f"{folder}: -o/--output must be a folder, but it is a file")
     if folder.is_dir():
         for name in OUTPUTS.values():
             check_output_file(folder / name, inputs=(scene,))

@@ -145,7 +145,9 @@ def test_srgb_with_an_exr_output_renders_in_linear_colour_and_its_header_says_so
     result = runner.invoke(app, ["render", "-o", str(tmp_path / "x.exr"), "--srgb", "--width", "8", "--height", "8",
                                  "-q"])
     assert result.exit_code == 0, result.output
-    assert "warning" not in result.output, result.output
+    # -q still prints the plan's warnings (an 8×8 image misses the highlight): none of them about --srgb
+    assert not [line for line in result.output.splitlines() if "srgb" in line.lower() or ".exr" in line], \
+        result.output
     assert image_colour(tmp_path / "x.exr") == "linear"
 
 

@@ -83,6 +83,12 @@ class Outcome:
     hash: str | None = None
     inputs: dict[str, int] = field(default_factory=dict)  # scene and mesh files → modification time (ns)
     traceback: str | None = None      # for an internal error (a bug, not bad input): where it was raised
+    warnings: list[str] = field(default_factory=list)  # the render plan's warnings (results one may not want)
+    notes: list[str] = field(default_factory=list)     # and its notes; an up-to-date scene keeps its last ones
+
+    def line(self, message: str) -> str:
+        """`message` about this scene as one line: its scene file first, and a sweep cell's name after."""
+        return _labelled(self.scene, self.name, bool(self.overrides), message)
 
 
 @dataclass
@@ -268,7 +274,8 @@ def prepare_job(job: Job, folder: Path, settings: Settings, previous: dict | Non
     digest, inputs = job_hash(job, scene, settings), input_times(job, scene)
     if not force and is_current(previous, digest, inputs, folder):
         return replace(entry, status=UP_TO_DATE, outputs=previous["outputs"], seconds=previous.get("seconds", {}),
-                       rays_per_second=previous.get("rays_per_second"), hash=digest, inputs=inputs)
+                       rays_per_second=previous.get("rays_per_second"), hash=digest, inputs=inputs,
+                       warnings=_lines(previous.get("warnings")), notes=_lines(previous.get("notes")))
     output = Path(folder).absolute() / f"{job.name}{Path(scene.output.path).suffix.lower()}"
     return Task(job=job, scene=scene, output=output, digest=digest, inputs=inputs, settings=settings, threads=None,
                 load_seconds=load_seconds, before=file_identity(output))
@@ -302,7 +309,13 @@ def render_job(task: Task) -> Outcome:
     seconds = {"load": task.load_seconds, **result.timings, "total": time.perf_counter() - start}
     return replace(entry, status=RENDERED, outputs=[task.output.name],
                    seconds={name: round(value, 6) for name, value in seconds.items()},
-                   rays_per_second=round(result.rays_per_second, 1), threads=task.threads)
+                   rays_per_second=round(result.rays_per_second, 1), threads=task.threads,
+                   warnings=list(result.plan.warnings), notes=list(result.plan.notes))
+
+
+def _lines(kept: object) -> list[str]:
+    """The warnings or notes a previous manifest entry kept: its strings (an edited manifest may hold others)."""
+    return [line for line in kept if isinstance(line, str)] if isinstance(kept, list) else []
 
 
 def new_entry(job: Job, status: str, **fields) -> Outcome:
@@ -318,9 +331,13 @@ def _internal_error(job: Job, entry: Outcome, error: BaseException) -> Outcome:
 
 def reason_line(job: Job, message: str) -> str:
     """One line that starts with the scene file (SceneError messages already do), and names a sweep cell's values."""
-    line = message.splitlines()[0] if message else "unknown error"
-    line = line if line.startswith(str(job.scene)) else f"{job.scene}: {line}"
-    return f"{line} (sweep cell {job.name})" if job.sweep else line
+    return _labelled(str(job.scene), job.name, bool(job.sweep), message.splitlines()[0] if message else
+                     "unknown error")
+
+
+def _labelled(scene: str, name: str, cell: bool, line: str) -> str:
+    line = line if line.startswith(scene) else f"{scene}: {line}"
+    return f"{line} (sweep cell {name})" if cell else line
 
 
 def file_identity(path: Path) -> tuple[int, int, int] | None:
