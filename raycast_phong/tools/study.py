@@ -686,8 +686,8 @@ def fits_table(study: Study) -> list[list[str]]:
 
 def rows_table(study: Study) -> list[list[str]]:
     rows = [["model", "normals", "specular", "precision", "spp", "f", "level", "triangles", "edge",
-             "ms to image, measured", "ms, monotone fit", "spread", "frame ms", "RMSE", "max", "PSNR dB", "silhouette RMSE", "image RMSE",
-             "highlight loss"]]
+             "ms to image, measured", "ms, monotone fit", "spread", "frame ms", "RMSE", "max", "PSNR dB",
+             "silhouette RMSE", "image RMSE", "highlight loss"]]
     for r in study.rows:
         rows.append([r.model, r.normals, r.specular, r.precision, str(r.samples), r.shininess, str(r.level),
                      f"{r.triangles:,}", f"{r.edge_length:.4f}", f"{r.seconds_total_measured * 1e3:.2f}",
