@@ -267,7 +267,9 @@ def test_small_study_writes_report_csv_plots_and_summary(tmp_path):
     assert int(row["silhouette_pixels"]) == errors.silhouette_pixels
     assert float(row["highlight_loss"]) == errors.highlight_loss
     assert int(row["triangles"]) == again.triangles == 448  # uv sphere, segments [16, 8]
-    assert 0 < float(row["seconds"]) <= float(row["seconds_total"]) <= float(row["seconds_total_median"])
+    # the frame within the whole, each stage's minimum within the median round (the monotone fit can be above
+    # one level's median: it pools levels measured in the wrong order)
+    assert 0 < float(row["seconds"]) <= float(row["seconds_total_measured"]) <= float(row["seconds_total_median"])
 
 
 def test_a_cylinder_scene_can_be_studied(tmp_path):
