@@ -16,7 +16,8 @@ from ..errors import SceneError
 from ..records import Geometry, Texture, bounding_box
 from ..scene.kinds import object_kinds, placements
 from ..scene.messages import dotted
-from ..scene.schema import DEFAULT_MATERIAL, SHAPE_KEYS, Object, Scene, brightness_problem
+from ..scene.objects import OWN_KEYS
+from ..scene.schema import DEFAULT_MATERIAL, Object, Scene, brightness_problem
 from ..tolerances import MIN_DISTANCE, MIN_EXTENT, POSITION_LIMIT
 from . import shapes
 from .materials import material_rows
@@ -125,7 +126,7 @@ def _group_key(obj: Object, index: int) -> tuple:
     A mesh file is never shared (its reading notes and materials belong to its object)."""
     if obj.shape == "mesh":
         return ("mesh", index)
-    return (obj.shape, *(getattr(obj, key) for key in SHAPE_KEYS[obj.shape]), obj.normals, obj.crease_angle)
+    return (obj.shape, *(getattr(obj, key) for key in OWN_KEYS[obj.shape]), obj.normals, obj.crease_angle)
 
 
 def _group_part(scene: Scene, members: np.ndarray, template: ObjectMesh, exact: np.ndarray | None,

@@ -36,11 +36,12 @@ FLOAT64_NORMAL_BYTES = 40  # corner normals in float64 (float64 shading, or glob
 # A mesh file with a crease angle: at worst every corner takes the pairwise test, whose compiled pass buckets the
 # corners by vertex (8 bytes a corner): the noisy icosphere-7 PLY whose every vertex it splits, 232 B/triangle.
 CREASED_FILE_BYTES = 360
-# Per object, whatever its triangles: its validated Object (a dict of 17 values, about 1 KB, and the column
-# temporaries of scene.schema.objects_in_bulk) and the per-object rows of the geometry (placement, material,
-# model, group). Validating and rendering planes of 2 triangles, peak above a warmed-up process: 30,000 at 64×48
-# 2.15 KB an object in all (tests/renderer/test_budget.py), 100,000 at 320×240 (bench_many_objects.py) 985 B
-# above what the triangles and the image were estimated; validation alone peaks at 1.3 KB an object.
+# Per object, whatever its triangles: its validated object (its kind's model: a dict of 10 to 12 values, under
+# 1 KB, and the column temporaries of scene.bulk.objects_in_bulk) and the per-object rows of the geometry
+# (placement, material, model, group). Validating and rendering planes of 2 triangles, peak above a warmed-up
+# process: 30,000 at 64×48 2.15 KB an object in all (tests/renderer/test_budget.py), 100,000 at 320×240
+# (bench_many_objects.py) 985 B above what the triangles and the image were estimated; validation alone peaks at
+# 1.3 KB an object (measured with the one model of every shape's keys; a kind's own model is smaller).
 OBJECT_BYTES = 2000
 # Per ray of a tile (origins, directions, hits, Embree's output): 8192 × 16² rays in one row took 117 MB.
 RAY_BYTES = 64

@@ -467,7 +467,7 @@ def textured_ambient_reference(scene: Scene, ka) -> tuple[np.ndarray, np.ndarray
     origins, directions = sample_rays(rig, width, height, 1, 0, height)
     _, which, points, _ = exact.closest(origins, directions)
     local = points - exact.translate[0]
-    uv = exact_uv("plane" if obj.shape == "plane" else "sphere", local, obj.size or (2.0, 2.0))
+    uv = exact_uv("plane", local, obj.size or (2.0, 2.0)) if obj.shape == "plane" else exact_uv("sphere", local)
     colour = np.asarray(scene.ambient) * np.asarray(ka) * ramp(uv[:, 0], uv[:, 1])
     hit = which >= 0
     colour[~hit] = 0
@@ -557,7 +557,7 @@ def textured_rows(scene: Scene, exact: ExactScene, maps: dict, rows: np.ndarray,
             continue
         obj = scene.objects[index]
         local = (points[here] - exact.translate[index]) @ exact.inverse[index].T
-        uv = exact_uv("plane" if obj.shape == "plane" else "sphere", local, obj.size or (2.0, 2.0))
+        uv = exact_uv("plane", local, obj.size or (2.0, 2.0)) if obj.shape == "plane" else exact_uv("sphere", local)
         for key, column in (("ka", 0), ("kd", 3), ("ke", 9)):
             if key in found:
                 texels, wrap = found[key]

@@ -38,14 +38,8 @@ from ..records import Geometry
 from ..renderer.frame import render
 from ..renderer.prepare import prepare
 from ..scene.load import read_scene_dict
-from ..scene.schema import (
-    NormalsRule,
-    Scene,
-    SceneError,
-    ShadingModel,
-    SpecularModel,
-    validate_scene,
-)
+from ..scene.objects import NormalsRule
+from ..scene.schema import Scene, SceneError, ShadingModel, SpecularModel, validate_scene
 from .accuracy import max_level, mesh_coverage, reference_image, refine_entry
 from .metrics import measure, rmse
 

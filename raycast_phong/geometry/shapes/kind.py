@@ -1,6 +1,6 @@
-"""The one interface every built-in kind of object has (`ShapeKind`): what the renderer, the memory estimate,
-the plan's advice and the accuracy study ask of a shape. Each kind is one module of this package; the registry
-(`shapes.KINDS`) is the only list of them.
+"""The one interface every built-in kind of object has (`ShapeKind`): its keys (the scene schema's model of them),
+and what the renderer, the memory estimate, the plan's advice and the accuracy study ask of a shape. Each kind is
+one module of this package; the registry (`shapes.KINDS`) is the only list of them.
 """
 
 from __future__ import annotations
@@ -11,14 +11,17 @@ from typing import ClassVar
 import numpy as np
 
 from ...errors import SceneError
+from ...scene.fields import KindKeys
 
 THIN = 2.0 ** -23  # float32's resolution: a tube thinner than this share of the shape collapses in Embree's frame
 
 
 class ShapeKind:
-    """A built-in kind of object. A subclass states its name and the keys that set its size, and builds its
-    triangles at unit size (`unit_mesh`); the rest has defaults that fit a closed, curved shape."""
+    """A built-in kind of object. A subclass states its name, its own keys (`keys`: their defaults and bounds, which
+    the scene schema validates), the key that sets its size, and builds its triangles at unit size (`unit_mesh`);
+    the rest has defaults that fit a closed, curved shape."""
     name: ClassVar[str]
+    keys: ClassVar[type[KindKeys]] = KindKeys  # the keys it alone reads (none: only the keys of every object)
     size_key: ClassVar[str] = "segments"   # the scene key that sets its triangle count (the memory advice)
     curved: ClassVar[bool] = True          # a highlight can be narrower than a pixel on it (flat faces: no)
     thin_key: ClassVar[str | None] = None  # the length that must stay above float32's resolution of the whole
