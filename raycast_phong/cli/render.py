@@ -98,8 +98,7 @@ def render(
             result = measured(loaded, result, reference.value, 2, str(path))
         started = time.perf_counter()
         rp.write_image(output, result.image, result.aovs, colour=loaded.render.colour)
-        result.timings["write"] = time.perf_counter() - started
-        result.timings["load"] = load_seconds
+        result = result.with_timings(write=time.perf_counter() - started, load=load_seconds)
     for warning in result.plan.warnings:  # a warning is said under -q too; a note is information
         warn(warning)
     if not quiet:
@@ -117,8 +116,7 @@ def _render_with_progress(scene: rp.Scene, source: str, threads: int | None, qui
     from raycast_phong.renderer.warmup import ready_kernels
     stage, seconds = ready_kernels(scene, None if quiet else lambda line: typer.echo(line, err=True), source)
     result = _render_shown(scene, source, threads, quiet, max_memory)
-    result.timings[stage] = seconds
-    return result
+    return result.with_timings(**{stage: seconds})
 
 
 def _render_shown(scene: rp.Scene, source: str, threads: int | None, quiet: bool,

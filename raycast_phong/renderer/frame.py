@@ -69,5 +69,4 @@ def render_file(path: str | Path, overrides: list[str] | tuple[str, ...] = (), *
     scene = load_scene(path, overrides, view=view, up=up, max_memory=options.get("max_memory"))
     loaded = time.perf_counter() - start
     result = render(scene, source=str(path), **options)
-    result.timings["load"] = loaded
-    return result
+    return result.with_timings(load=loaded)

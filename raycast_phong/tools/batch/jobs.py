@@ -300,7 +300,7 @@ def render_job(task: Task) -> Outcome:
         result = render(task.scene, threads=task.threads, source=str(task.job.scene), max_memory=task.max_memory)
         written = time.perf_counter()
         write_image(task.output, result.image, result.aovs, colour=task.scene.render.colour)
-        result.timings["write"] = time.perf_counter() - written
+        result = result.with_timings(write=time.perf_counter() - written)
     except (SceneError, ImageError, WriteError) as error:  # a failed write is a failed scene, never rendered
         entry.reason = reason_line(task.job, str(error))
         return entry
