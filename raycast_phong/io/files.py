@@ -20,15 +20,15 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import BinaryIO, Generic, TypeVar
 
-from ..errors import SceneError
+from ..errors import SceneError, Where
 
 FILE_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe (FIFO)"), (stat.S_ISCHR, "a device"),
               (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
 
 
-def open_regular(path: Path, where: str, what: str, limit: int | None = None) -> BinaryIO:
-    """Open `path` for binary reading if it is a regular file of at most `limit` bytes; else SceneError
-    "{where}: ..." naming `what` (a scene file, a mesh file). A missing file raises FileNotFoundError,
+def open_regular(path: Path, where: Where, what: str, limit: int | None = None) -> BinaryIO:
+    """Open `path` for binary reading if it is a regular file of at most `limit` bytes; else SceneError at
+    `where` naming `what` (a scene file, a mesh file). A missing file raises FileNotFoundError,
     for the caller to word.
 
     A FIFO would block the read forever and /dev/zero never ends, so the kind is checked with stat before
@@ -39,7 +39,7 @@ def open_regular(path: Path, where: str, what: str, limit: int | None = None) ->
         if not stat.S_ISREG(mode):
             kind = next((f"{name}, not a regular file" for test, name in FILE_KINDS if test(mode)),
                         "not a regular file")
-            raise SceneError(f"{where}: {str(path)!r} is {kind}; give a {what}")
+            raise SceneError(f"{str(path)!r} is {kind}; give a {what}", where)
 
     try:
         refuse_kind(os.stat(path).st_mode)
@@ -49,13 +49,13 @@ def open_regular(path: Path, where: str, what: str, limit: int | None = None) ->
     except FileNotFoundError:
         raise
     except OSError as error:
-        raise SceneError(f"{where}: cannot read the {what} {str(path)!r} ({error.strerror})") from None
+        raise SceneError(f"cannot read the {what} {str(path)!r} ({error.strerror})", where) from None
     try:
         info = os.fstat(descriptor)
         refuse_kind(info.st_mode)
         if limit is not None and info.st_size > limit:
-            raise SceneError(f"{where}: the {what} is {info.st_size:,} bytes, more than the {limit:,} "
-                             f"({limit >> 20} MiB) allowed")
+            raise SceneError(f"the {what} is {info.st_size:,} bytes, more than the {limit:,} "
+                             f"({limit >> 20} MiB) allowed", where)
         os.set_blocking(descriptor, True)
         return os.fdopen(descriptor, "rb")
     except BaseException:
@@ -92,12 +92,12 @@ def image_suffix_mismatch(path: str | Path) -> str | None:
     return f"not a {known[0]} file: it starts with {start!r}"
 
 
-def open_mesh_file(path: Path, where: str) -> BinaryIO:
-    """open_regular for a mesh file, with a missing one worded: "{where}: no such mesh file 'PATH'"."""
+def open_mesh_file(path: Path, where: Where) -> BinaryIO:
+    """open_regular for a mesh file, with a missing one worded: "WHERE: no such mesh file 'PATH'"."""
     try:
         return open_regular(path, where, "mesh file")  # never a FIFO, a device or a folder
     except FileNotFoundError:
-        raise SceneError(f"{where}: no such mesh file {str(path)!r}") from None
+        raise SceneError(f"no such mesh file {str(path)!r}", where) from None
 
 def file_version(path: str | Path, info: os.stat_result | None = None) -> tuple:
     """(resolved path, mtime, size, inode) of the file as it is now; OSError for a missing one. `info`: a

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import SceneError, Where
 from .files import VersionCache, file_version, open_regular
 from .system import available_memory, count_text, format_bytes
 
@@ -30,21 +30,22 @@ OTHER_MESH_FILE_BYTES = 550
 MESH_READ_BYTES = 270
 
 
-def mesh_file_triangles(path: Path, key: str) -> int:
+def mesh_file_triangles(path: Path, where: Where) -> int:
     """Triangles in a mesh file, read cheaply: PLY and OFF headers, binary STL's count, OBJ's face corners,
     glTF's accessor counts (a JSON above JSON_LIMIT is not parsed); other formats by file size (at least 6
     bytes per triangle). Where the file's vertices outnumber its triangles, its vertices (less 2):
     unused vertices cost memory too. 0 for a missing file (the loader reports it); a FIFO, device or folder is
     refused here, and so is a binary STL whose size does not match its header's count (SceneError)."""
     try:
-        handle = open_regular(path, key, "mesh file")
+        handle = open_regular(path, where, "mesh file")
     except FileNotFoundError:
         return 0
     with handle:
         info = os.fstat(handle.fileno())
         # An OBJ is counted in 1 MB pieces: once per version; framing and the render ask.
         suffix = path.suffix.lower()
-        return COUNTS.setdefault(file_version(path, info), lambda: _count_triangles(handle, suffix, info.st_size, key))
+        return COUNTS.setdefault(file_version(path, info),
+                                 lambda: _count_triangles(handle, suffix, info.st_size, where))
 
 
 def mesh_file_read_bytes(path: Path) -> int:
@@ -125,7 +126,7 @@ JSON_LIMIT = 64 << 20  # a glTF's JSON above this is not parsed to count: the si
 CHUNK = 1 << 20  # an OBJ is scanned this many bytes at a time (about 20 MB of index arrays), never a whole line
 
 
-def _count_triangles(handle, suffix: str, size: int, key: str = "mesh file") -> int:
+def _count_triangles(handle, suffix: str, size: int, where: Where = "mesh file") -> int:
     """Triangles' worth of the open file `handle` of `size` bytes (mesh_file_triangles, before the size bound)."""
     head = handle.read(4096)
     try:
@@ -141,9 +142,9 @@ def _count_triangles(handle, suffix: str, size: int, key: str = "mesh file") -> 
             if binary:
                 count = struct.unpack_from("<I", head, 80)[0]
                 if size != 84 + 50 * count:
-                    raise SceneError(f"{key}: a binary STL whose header counts {count:,} triangles "
+                    raise SceneError(f"a binary STL whose header counts {count:,} triangles "
                                      f"({84 + 50 * count:,} bytes) but which has {size:,} bytes: the file is "
-                                     "corrupt or cut short; allowed: 84 + 50 × its count bytes")
+                                     "corrupt or cut short; allowed: 84 + 50 × its count bytes", where)
                 return count
             return size // 86  # the shortest ASCII facet ("facet normal 0 0 0\nouter loop\n…") is 86 bytes
         elif suffix == ".off":
@@ -251,7 +252,7 @@ def _gltf_triangles(document: dict) -> int:
     return total
 
 
-def check_mesh_read(path: Path, source: str, max_memory: int | None = None) -> None:
+def check_mesh_read(path: Path, where: Where, max_memory: int | None = None) -> None:
     """Refuse (SceneError, one line) to read a mesh file for framing (scene.framing, before any render and
     so before renderer.budget.check_memory) when the read alone could not fit in the memory available now
     (io.system.available_memory: cgroup and `ulimit -v`; and `max_memory`, the command's --max-memory): the
@@ -262,7 +263,7 @@ def check_mesh_read(path: Path, source: str, max_memory: int | None = None) -> N
     if max_memory is not None:
         available = max_memory if available is None else min(available, max_memory)
     floor = mesh_file_read_bytes(path)  # from the size alone: a huge file is refused before any byte is read
-    triangles = 0 if available is not None and floor > available else mesh_file_triangles(path, source)
+    triangles = 0 if available is not None and floor > available else mesh_file_triangles(path, where)
     need = max(triangles * (MESH_READ_BYTES + MESH_FILE_BYTES.get(path.suffix.lower(), OTHER_MESH_FILE_BYTES)),
                floor)
     if available is not None and need > available:
@@ -272,6 +273,6 @@ def check_mesh_read(path: Path, source: str, max_memory: int | None = None) -> N
         what = (f"{count_text(triangles)} triangles" if triangles else f"{format_bytes(path.stat().st_size)}"
                 + (f" and {format_bytes(buffers)} of buffers" if buffers else "")
                 + (f" ({format_bytes(unzipped)} unzipped)" if unzipped else ""))
-        raise SceneError(f"{source}: reading its {what} needs ≈ {format_bytes(need)} of memory, more than the "
+        raise SceneError(f"reading its {what} needs ≈ {format_bytes(need)} of memory, more than the "
                          f"{format_bytes(available)} available; allowed: a mesh whose size and triangles fit, "
-                         "so decimate it or free memory")
+                         "so decimate it or free memory", where)

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import SceneError, Where
 from .encoding import LINEAR
 from .files import image_suffix_mismatch, native_errors_kept, open_regular
 
@@ -138,23 +138,23 @@ def decode_pil(image, colour: str) -> np.ndarray:
     return np.ascontiguousarray(srgb_to_linear(pixels) if colour == LINEAR else pixels, np.float32)
 
 
-def decode_scene_map(path: Path, where: str, colour: str) -> np.ndarray:
+def decode_scene_map(path: Path, where: Where, colour: str) -> np.ndarray:
     """A scene material's map (kd_map, ...): one line, SceneError, when missing, not a regular file (a FIFO, a
     device, a folder: refused before any open that could block) or not an image."""
     try:
         open_regular(path, where, "texture file (PNG, JPEG, EXR, ...)").close()
     except FileNotFoundError:
-        raise SceneError(f"{where}: no such texture file {str(path)!r}; give an image file (PNG, JPEG, EXR, ...) "
-                         "relative to the scene file") from None
+        raise SceneError(f"no such texture file {str(path)!r}; give an image file (PNG, JPEG, EXR, ...) "
+                         "relative to the scene file", where) from None
     mismatch = image_suffix_mismatch(path)
     if mismatch:
-        raise SceneError(f"{where}: {str(path)!r} is {mismatch}; give a PNG, JPEG, EXR or another image file")
+        raise SceneError(f"{str(path)!r} is {mismatch}; give a PNG, JPEG, EXR or another image file", where)
     try:
         return decode_file(path, colour)
     except Exception as error:  # noqa: BLE001 - any decoder failure is the file's
         reason = " ".join(str(error).split()) or "unknown"
-        raise SceneError(f"{where}: {str(path)!r} cannot be read as an image ({reason[:200]}); "
-                         "give a PNG, JPEG, EXR or another format OpenImageIO reads") from None
+        raise SceneError(f"{str(path)!r} cannot be read as an image ({reason[:200]}); "
+                         "give a PNG, JPEG, EXR or another format OpenImageIO reads", where) from None
 
 
 # ---------------------------------------------------------------- sizes for the memory estimate

@@ -1,5 +1,6 @@
 """The scene's error messages: one line per problem, in the scene file's words (file, key path, what is
-allowed), from pydantic's errors; and how a value or key path is spelled in them.
+allowed), from pydantic's errors; how a value or key path is spelled in them; and where a problem is
+(`Location`, the record every SceneError carries, worded here alone).
 
 Nothing here knows the scene's tables: describe_error walks whatever model it is given, so an edit to a
 message touches neither the schema nor anything that imports it.
@@ -7,8 +8,10 @@ message touches neither the schema nor anything that imports it.
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 from dataclasses import dataclass
+from numbers import Integral  # an index from numpy (int64) as well
 from typing import Annotated, Any, Literal, get_args, get_origin
 
 from pydantic import BaseModel, ValidationError
@@ -38,7 +41,29 @@ def shown(value: Any) -> str:
 def dotted(loc: tuple) -> str:
     """("lights", 0, "position") → lights.0.position; a key with a control character, a dot or a space is
     quoted with its escapes shown (a bell or a newline in a key must not reach the terminal raw)."""
-    return ".".join(str(part) if isinstance(part, int) or _plain(part) else shorten(repr(part)) for part in loc)
+    return ".".join(str(part) if isinstance(part, Integral) or _plain(part) else shorten(repr(part)) for part in loc)
+
+
+@dataclass(frozen=True)
+class Location:
+    """Where a problem is, as each message starts: the file (a scene or mesh file, "<scene>", "stdin"), what in it
+    when that is no key (a --set assignment, a line), and the key path. A SceneError carries it (errors.py) and
+    words it with str(), so a line is put together here alone: `scene.toml: objects.3.radius: ...`."""
+    file: str
+    key: tuple = ()
+    part: str = ""  # "--set 'render.width=x'", "line 3": said between the file and the key path
+
+    def at(self, *key: str | int) -> Location:
+        """The location of a key below this one."""
+        return dataclasses.replace(self, key=(*self.key, *key))
+
+    def __str__(self) -> str:
+        return ": ".join(text for text in (self.file, self.part, dotted(self.key)) if text)
+
+
+def located(source: str | Location) -> Location:
+    """`source` as a Location: a file's name (or "<scene>") from a caller, or a location already."""
+    return source if isinstance(source, Location) else Location(str(source))
 
 
 def _plain(key: str) -> bool:
@@ -121,9 +146,9 @@ def _place(root: type[BaseModel], loc: tuple) -> _Place:
     return _Place(tuple(path), owner, *owner_branch)
 
 
-def describe_error(error: ValidationError, data: dict, source: str, root: type[BaseModel]) -> str:
-    """One line for the first problem pydantic found validating `root`: file, key path, what is wrong, what is
-    allowed."""
+def describe_error(error: ValidationError, where: Location, root: type[BaseModel]) -> tuple[Location, str]:
+    """Where the first problem pydantic found validating `root` is (below `where`, the file) and what it is: what
+    is wrong, what is allowed."""
     first = error.errors()[0]
     loc = tuple(part for part in first["loc"] if not (isinstance(part, str) and "[" in part))
     # pydantic names union branches and validator functions in loc; keep only real keys.
@@ -132,16 +157,16 @@ def describe_error(error: ValidationError, data: dict, source: str, root: type[B
     kind = first["type"]
     value = first.get("input")
     if kind in ("union_tag_not_found", "union_tag_invalid") and place.union is not None:
-        return _kind_error(place, kind, value, source)
-    key = dotted(place.loc) or "(top level)"
+        return where.at(*place.loc, place.union.key), _kind_error(place, kind, value)
+    at = where.at(*place.loc) if place.loc else dataclasses.replace(where, part="(top level)")
     if kind == "extra_forbidden":
         valid = [name for name in (place.owner.model_fields if place.owner else {}) if name != "folder"]
         foreign = _foreign(place, str(loc[-1])) if loc else None
         if foreign:
-            return f"{source}: {key}: {foreign}"
+            return at, foreign
         close = difflib.get_close_matches(str(loc[-1]), valid, n=1, cutoff=0.6)
         hint = f" (did you mean {close[0]!r}?)" if close else ""
-        return f"{source}: {key}: unknown key{hint}; valid keys here: {', '.join(valid)}"
+        return at, f"unknown key{hint}; valid keys here: {', '.join(valid)}"
     message = first["msg"]
     if message.startswith("Value error, "):
         message = message[len("Value error, "):]
@@ -164,17 +189,16 @@ def describe_error(error: ValidationError, data: dict, source: str, root: type[B
         message = "must be true or false"
     said = "got " in message or (isinstance(value, str) and f'"{value}"' in message)  # the value is in the message
     got = "" if kind == "missing" or isinstance(value, dict) or said else f" (got {shown(value)})"
-    return f"{source}: {key}: {message}{got}"
+    return at, f"{message}{got}"
 
 
-def _kind_error(place: _Place, kind: str, value: Any, source: str) -> str:
-    """A table of a union whose kind key is missing or names no kind: the line names that key."""
+def _kind_error(place: _Place, kind: str, value: Any) -> str:
+    """A table of a union whose kind key is missing or names no kind: what that key allows."""
     union = place.union
-    key = dotted((*place.loc, union.key))
     if kind == "union_tag_not_found" or not isinstance(value, dict) or union.key not in value:
-        return f"{source}: {key}: this key is required; allowed: {', '.join(map(repr, union.models))}"
+        return f"this key is required; allowed: {', '.join(map(repr, union.models))}"
     *rest, last = map(repr, union.models)
-    return f"{source}: {key}: Input should be {', '.join(rest)} or {last} (got {shown(value[union.key])})"
+    return f"Input should be {', '.join(rest)} or {last} (got {shown(value[union.key])})"
 
 
 def _foreign(place: _Place, key: str) -> str | None:

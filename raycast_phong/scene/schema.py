@@ -50,7 +50,7 @@ from .fields import (
     unit_range,
 )
 from .kinds import object_kinds
-from .messages import describe_error, dotted, shown
+from .messages import Location, describe_error, located, shown
 from .objects import MESH, Object, without_written_defaults
 
 MAX_SIZE = 16384          # pixels per side, from the format
@@ -220,7 +220,7 @@ class Output(Table):
                             f"{self.path!r} (a PNG holds only RGB)")
         return self
 
-    def check_inside(self, source: str) -> None:
+    def check_inside(self, source: str | Location) -> None:
         """Refuse a path that leaves the scene's folder (absolute, ~ or '..'), before it is written to.
 
         A scene file is data, possibly someone else's: it may write beside itself or below, never over
@@ -229,8 +229,8 @@ class Output(Table):
         """
         path = Path(self.path)
         if path.is_absolute() or self.path.startswith("~") or ".." in path.parts:
-            raise SceneError(f"{source}: output.path: {self.path!r} leaves the scene's folder (an absolute path, ~ "
-                             "or '..'); give a path inside that folder, or choose the output with -o")
+            raise SceneError(f"{self.path!r} leaves the scene's folder (an absolute path, ~ or '..'); give a path "
+                             "inside that folder, or choose the output with -o", located(source).at("output", "path"))
 
 
 DEFAULT_MATERIAL = Material()
@@ -279,8 +279,14 @@ class Scene(Table):
 
         Raises SceneError (one line naming the key path and what is allowed) for a change the format refuses.
         A Scene is frozen; `model_copy(update=...)` would skip validation."""
-        from .overrides import replaced
-        return replaced(self, changes)
+        from .keypaths import assign
+        where = located("Scene.replace")
+        data = self.model_dump(mode="json", exclude={"folder"}, exclude_none=True)
+        for key, value in changes.items():
+            if not isinstance(key, str):
+                raise SceneError(f"{shown(key)} is not a key path; expected a string such as 'render.width'", where)
+            assign(data, key, value, where)
+        return validate_scene(data, source=str(where), folder=self.folder)
 
     def material_of(self, obj: Object) -> Material:
         return self.materials.get(obj.material, DEFAULT_MATERIAL)
@@ -357,18 +363,20 @@ class _KeyError(RaycastPhongError):
         self.message = message
 
 
-def validate_scene(data: dict, source: str = "<scene>", folder: str | Path = ".") -> Scene:
-    """Validate a parsed scene dictionary; errors name `source` and the key path."""
+def validate_scene(data: dict, source: str | Location = "<scene>", folder: str | Path = ".") -> Scene:
+    """Validate a parsed scene dictionary; errors name `source` (the file) and the key path."""
+    where = located(source)
     data = dict(data)
     if "folder" in data:
-        raise SceneError(f"{source}: folder: unknown key")
+        raise SceneError("unknown key", where.at("folder"))
     try:
         objects = {"objects": objects_in_bulk(data["objects"])} if "objects" in data else {}
         return Scene.model_validate({**data, **objects, "folder": str(folder)})
     except ValidationError as error:
-        raise SceneError(describe_error(error, data, source, Scene)) from None
+        at, problem = describe_error(error, where, Scene)
+        raise SceneError(problem, at) from None
     except _KeyError as error:
-        raise SceneError(f"{source}: {dotted(error.loc)}: {error.message}") from None
+        raise SceneError(error.message, where.at(*error.loc)) from None
 
 
 def default_scene_path() -> Path:

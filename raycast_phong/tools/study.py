@@ -38,6 +38,7 @@ from ..records import Geometry
 from ..renderer.frame import render
 from ..renderer.prepare import prepare
 from ..scene.load import read_scene_dict
+from ..scene.messages import Location, located
 from ..scene.objects import NormalsRule
 from ..scene.schema import Scene, SceneError, ShadingModel, SpecularModel, validate_scene
 from .accuracy import max_level, mesh_coverage, reference_image, refine_entry
@@ -222,16 +223,17 @@ class Setting:
         return asdict(self)
 
 
-def _check_options(base: Scene, options: StudyOptions, source: str) -> None:
+def _check_options(base: Scene, options: StudyOptions, source: str | Location) -> None:
     """A mesh needs a self-convergence reference (--fine); every axis needs a value."""
     if options.fine is None:
         for index, obj in enumerate(base.objects):
             if obj.shape == "mesh":
-                raise SceneError(f'{source}: objects.{index}.shape: "mesh" has no closed form; use --fine N')
+                raise SceneError('"mesh" has no closed form; use --fine N',
+                                 located(source).at("objects", index, "shape"))
     if options.repeats < 1 or (options.levels is not None and not options.levels) or not options.models:
-        raise SceneError(f"{source}: the study needs at least one level, one model and one repeat")
+        raise SceneError("the study needs at least one level, one model and one repeat", located(source))
     if not options.budget > 0:
-        raise SceneError(f"{source}: --budget must be a positive number of seconds, got {options.budget:g}")
+        raise SceneError(f"--budget must be a positive number of seconds, got {options.budget:g}", located(source))
 
 
 class _Sweep:

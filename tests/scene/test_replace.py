@@ -34,9 +34,9 @@ def test_an_empty_change_gives_an_equal_scene():
 
 @pytest.mark.parametrize("changes, message", [
     ({"render.width": -1}, "Scene.replace: render.width: out of range; allowed: 1 ≤ width ≤ 16384 (got -1)"),
-    ({"lights.9.position": [0, 0, 0]}, "Scene.replace('lights.9.position'): lights.9: lights is a list of 1 item; "
+    ({"lights.9.position": [0, 0, 0]}, "Scene.replace: lights.9: lights is a list of 1 item; "
                                        "allowed indices: 0 to 0"),
-    ({"render..width": 3}, "Scene.replace('render..width'): 'render..width' is not a key path"),
+    ({"render..width": 3}, "Scene.replace: 'render..width' is not a key path"),
     ({"nope": 1}, "Scene.replace: nope: unknown key"),
 ])
 def test_a_refused_change_is_one_line_naming_its_key(changes, message):

@@ -42,7 +42,7 @@ class Plane(ShapeKind):
     keys = PlaneKeys
     curved = False
 
-    def template(self, obj, index, source):
+    def template(self, obj, where):
         return plane_mesh(obj.size or (2.0, 2.0), obj.segments or (1, 1))
 
     def triangles(self, obj):

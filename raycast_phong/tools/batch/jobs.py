@@ -21,6 +21,7 @@ from ...errors import ImageError, SceneError, WriteError
 from ...io.files import open_regular
 from ...io.image_io import write_image
 from ...scene.load import load_scene
+from ...scene.messages import Location
 from ...scene.overrides import SRGB_OVERRIDE
 from ...scene.schema import Scene
 from ..sweep import Job, is_sweep, load_sweep
@@ -143,15 +144,17 @@ def listed_paths(stream, source: str = "stdin", warnings: list[str] | None = Non
     glob), blank lines skipped; at most MAX_LISTED_BYTES (`yes | batch -` must not fill the memory). A line with
     a NUL byte names no file on any system: it is left out, with a line in `warnings`, and the others go on."""
     if stream is None:  # the program was started with stdin closed (`<&-`)
-        raise SceneError(f"{source}: standard input is closed; pipe the scene paths to `batch -`, one a line")
+        raise SceneError("standard input is closed; pipe the scene paths to `batch -`, one a line", Location(source))
     data = stream.read(MAX_LISTED_BYTES + 1)
     if len(data) > MAX_LISTED_BYTES:
-        raise SceneError(f"{source}: the list of scene paths is more than the {MAX_LISTED_BYTES >> 20} MiB allowed")
+        raise SceneError(f"the list of scene paths is more than the {MAX_LISTED_BYTES >> 20} MiB allowed",
+                         Location(source))
     text = data.decode("utf-8", "surrogateescape") if isinstance(data, bytes) else data
     lines = [(number, line.removesuffix("\r")) for number, line in enumerate(text.split("\n"), 1) if line.strip()]
     for number, line in lines:
         if "\0" in line and warnings is not None:
-            warnings.append(f"{source}: line {number}: a path with a NUL byte names no file; left out")
+            where = Location(source, part=f"line {number}")
+            warnings.append(f"{where}: a path with a NUL byte names no file; left out")
     return [line for _, line in lines if "\0" not in line]
 
 
@@ -182,7 +185,7 @@ def find_jobs(paths: list[str | Path], out: str | Path | None = None, listed: li
                            if not Path(p).is_dir() and _is_scene(Path(p)))
         found = [p for p in found if out is None or not is_own_manifest(p, Path(out))]
         if not found:
-            raise SceneError(f"{given}: no such scene file, folder or matching glob")
+            raise SceneError("no such scene file, folder or matching glob", Location(given))
         files += [p for p in found if p not in files]
     jobs: list[Job] = []
     for path in files:
@@ -190,8 +193,8 @@ def find_jobs(paths: list[str | Path], out: str | Path | None = None, listed: li
     seen: dict[str, Job] = {}
     for job in jobs:
         if job.name in seen:
-            raise SceneError(f"{job.scene}: its output name {job.name!r} is also {seen[job.name].scene}'s; "
-                             "rename one of the files or run them in separate batches")
+            raise SceneError(f"its output name {job.name!r} is also {seen[job.name].scene}'s; rename one of the "
+                             "files or run them in separate batches", Location(str(job.scene)))
         seen[job.name] = job
     return jobs
 
