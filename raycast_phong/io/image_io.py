@@ -14,7 +14,6 @@ import stat
 import struct
 import tempfile
 import zlib
-from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,7 +24,7 @@ from ..codes import IMAGE_SUFFIXES
 from ..errors import ImageError
 from .atomic import os_reason, replaced_atomically
 from .encoding import COLOURS, DISPLAY, LINEAR, to_8bit
-from .files import FILE_KINDS, image_suffix_mismatch
+from .files import FILE_KINDS, image_suffix_mismatch, native_errors_kept
 from .system import format_bytes
 
 LAYER_CHANNELS = {"depth": ("Z",), "normal": ("X", "Y", "Z"), "face": ("id",)}
@@ -148,15 +147,8 @@ def write_image(path: str | Path, image: np.ndarray, aovs: dict[str, np.ndarray]
 def image_colour(path: str | Path) -> str | None:
     """The render.colour an EXR of write_image says its values are in (EXR_COLOUR_ATTRIBUTE), or None for a file
     that does not say (a PNG: its values are display values already; an EXR from elsewhere)."""
-    refuse_non_regular(path)
-    source = oiio.ImageInput.open(str(path))
-    if source is None:
-        oiio.geterror()
-        return None
-    try:
-        found = source.spec().get_string_attribute(EXR_COLOUR_ATTRIBUTE)
-    finally:
-        source.close()
+    spec = header_spec(path)
+    found = spec.get_string_attribute(EXR_COLOUR_ATTRIBUTE) if spec is not None else None
     return found if found in COLOURS else None
 
 
@@ -345,34 +337,13 @@ class ImageComparison:
 COMPARE_BYTES_PER_SAMPLE = 16
 
 
-@contextmanager
-def _library_lines():
-    """Hold what C libraries under OpenImageIO write straight to stderr (file descriptor 2) while a file is
-    read, and drop it: the read's own error, one line, says what went wrong."""
-    import sys
-    import tempfile
-    try:
-        sys.stderr.flush()
-        saved = os.dup(2)
-    except (OSError, ValueError):
-        yield
-        return
-    with tempfile.TemporaryFile() as held:
-        os.dup2(held.fileno(), 2)
-        try:
-            yield
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-
-
 def _first_line(text: str) -> str:
     """OpenImageIO's error text is several lines, the first the reason."""
     return next((line.strip() for line in str(text).splitlines() if line.strip()), "unknown reason")
 
 
-def image_header(path: str | Path) -> tuple[int, int, int] | None:
-    """(width, height, channels) of an image's first part from its header alone, or None if it cannot be
+def header_spec(path: str | Path):
+    """The OpenImageIO ImageSpec of an image's first part, from its header alone, or None if it cannot be
     opened (the read reports why)."""
     refuse_non_regular(path)
     source = oiio.ImageInput.open(str(path))
@@ -380,10 +351,15 @@ def image_header(path: str | Path) -> tuple[int, int, int] | None:
         oiio.geterror()
         return None
     try:
-        spec = source.spec()
-        return spec.width, spec.height, spec.nchannels
+        return source.spec()
     finally:
         source.close()
+
+
+def image_header(path: str | Path) -> tuple[int, int, int] | None:
+    """(width, height, channels) of an image's first part from its header alone (header_spec), or None."""
+    spec = header_spec(path)
+    return None if spec is None else (spec.width, spec.height, spec.nchannels)
 
 
 def check_image_reads(paths: tuple[str | Path, ...], budget: int | None, per_sample: int,
@@ -411,7 +387,7 @@ def compare_files(a: str | Path, b: str | Path, fail: float, warn: float,
     check_image_reads((a, b), budget, COMPARE_BYTES_PER_SAMPLE)
     buffers = []
     for path in (a, b):
-        with _library_lines():  # libpng prints "libpng error: …" on stderr itself; our line says it
+        with native_errors_kept():  # libpng prints "libpng error: …" on stderr itself; our line says it
             buffer = oiio.ImageBuf(str(path))
             unread = buffer.has_error or not buffer.read()
         if unread:
