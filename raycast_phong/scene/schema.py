@@ -23,6 +23,7 @@ from pydantic import (
     BeforeValidator,
     ConfigDict,
     Field,
+    PrivateAttr,
     Strict,
     ValidationError,
     field_validator,
@@ -416,6 +417,9 @@ class Scene(_Strict):
     objects: tuple[Object, ...] = ()
     output: Output = Output()
     folder: str = Field(".", exclude=True)  # the scene file's folder: relative paths start here
+    # The mesh files' io.mesh_source.MeshSource made while loading (framing a mesh file), by source_key: handed
+    # with the scene to prepare(), which reads no file twice. What was read, not part of the scene's value.
+    _mesh_sources: dict = PrivateAttr(default_factory=dict)
 
     _check_ambient = field_validator("ambient")(lambda v: _non_negative(v))
 
@@ -448,6 +452,20 @@ class Scene(_Strict):
         if problem:
             raise _KeyError(*problem)
         return self
+
+    def __eq__(self, other) -> bool:
+        """Equal keys (the mesh sources read while loading are not compared)."""
+        if not isinstance(other, Scene):
+            return NotImplemented
+        return self.__dict__ == other.__dict__
+
+    __hash__ = _Strict.__hash__
+
+    @property
+    def mesh_sources(self) -> dict:
+        """The MeshSources (io/mesh_source.py) made while this scene was loaded, by source_key; {} when none
+        were (a scene file: prepare() makes them)."""
+        return self._mesh_sources
 
     def material_of(self, obj: Object) -> Material:
         return self.materials.get(obj.material, DEFAULT_MATERIAL)
