@@ -30,7 +30,7 @@ from ..errors import SceneError
 from ..records import bounding_box
 from ..tolerances import POSITION_LIMIT
 from .files import VersionCache, open_mesh_file, open_regular
-from .gltf import check_document, from_pbr
+from .gltf import TRANSFORM, UNLIT, check_document, from_pbr, transform_uv, uri_file
 from .materials import FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, TextureSource
 from .mesh_content import READABLE, TEXT_FORMATS, check_content, check_file_content
 from .mesh_source import MeshSource, mesh_source
@@ -327,7 +327,8 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
         material = getattr(part.visual, "material", None)
         found = None
         if isinstance(material, trimesh.visual.material.PBRMaterial):
-            found, gltf = from_pbr(material, path, notes, sources, samplers), True
+            found = from_pbr(material, path, notes, sources, samplers)
+            gltf |= not samplers.get((material.name, UNLIT))  # an unlit material is the lecture's own: no approximation
         elif material is not None and library is not None:
             found = library.get(getattr(material, "name", None) or "")
         if found is not None:
@@ -342,8 +343,10 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
                 materials.append(found)
         groups.append(np.full(len(part.faces), index[found.name] if found is not None else -1, np.int32))
         uv = getattr(part.visual, "uv", None)
-        uvs.append(None if uv is None or len(uv) != len(part.vertices)
-                   else np.asarray(uv, np.float64)[:, :2][part.faces].astype(np.float32))
+        uv = None if uv is None or len(uv) != len(part.vertices) else np.asarray(uv, np.float64)[:, :2]
+        if uv is not None and isinstance(material, trimesh.visual.material.PBRMaterial):
+            uv = _transformed_uv(uv, material, samplers, path, notes)
+        uvs.append(None if uv is None else uv[part.faces].astype(np.float32))
         corner = _corner_colours(part)
         any_colour |= corner is not None
         corners.append(corner)
@@ -366,6 +369,24 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
         corner_uv = np.concatenate([u if u is not None else np.zeros((len(p.faces), 3, 2), np.float32)
                                     for u, p in zip(uvs, parts)])
     return np.concatenate(groups), tuple(materials), corner_uv, corner_colour
+
+
+def _transformed_uv(uv: np.ndarray, material, samplers: dict, path: Path, notes: list[str]) -> np.ndarray:
+    """A glTF part's texture coordinates through its colour maps' KHR_texture_transform (io.gltf.transform_uv):
+    the base colour map's, else the emissive map's. The renderer keeps one set of coordinates per corner, so
+    an emissive map transformed otherwise than the base colour map reads the base colour's (one note)."""
+    base = samplers.get((material.name, TRANSFORM, "baseColorTexture"))
+    emissive = samplers.get((material.name, TRANSFORM, "emissiveTexture"))
+    has_base = getattr(material, "baseColorTexture", None) is not None
+    has_emissive = getattr(material, "emissiveTexture", None) is not None
+    chosen = base if has_base else emissive
+    if has_base and has_emissive and (base or IDENTITY) != (emissive or IDENTITY):
+        notes.append(f"{path}: material {material.name!r}: its emissiveTexture's KHR_texture_transform differs "
+                     "from its baseColorTexture's; the base colour's texture coordinates are used for both")
+    return uv if chosen is None else transform_uv(uv, chosen)
+
+
+IDENTITY = ((0.0, 0.0), 0.0, (1.0, 1.0))  # KHR_texture_transform's defaults: no change
 
 
 def _corner_colours(part: _Part) -> np.ndarray | None:
@@ -416,10 +437,12 @@ def _raised_in_trimesh(error: BaseException) -> bool:
 
 class _RegularFiles(trimesh.resolvers.FilePathResolver):
     """trimesh's resolver for the files a mesh names (.mtl, textures, glTF buffers), but only regular files:
-    a FIFO named by `mtllib` would block the read forever."""
+    a FIFO named by `mtllib` would block the read forever. `uris`: the names are a glTF's URIs, percent-encoded."""
+
+    uris = False
 
     def get(self, name):
-        path = Path(self.parent) / name
+        path = uri_file(Path(self.parent), name) if self.uris else Path(self.parent) / name
         with open_regular(path, str(path), "file") as handle:
             return handle.read()
 
@@ -432,7 +455,9 @@ def _trimesh_arguments(path: Path, handle) -> dict:
     charset_normalizer to guess an encoding, and fails without it; every byte is a Latin-1 character, and the
     keywords are plain ASCII."""
     suffix = path.suffix.lower()
-    arguments = {"file_obj": handle, "file_type": suffix[1:], "resolver": _RegularFiles(path)}
+    resolver = _RegularFiles(path)
+    resolver.uris = suffix in (".gltf", ".glb")  # names are URIs, percent-encoded (io.gltf.uri_file)
+    arguments = {"file_obj": handle, "file_type": suffix[1:], "resolver": resolver}
     if suffix in TEXT_FORMATS:
         data = handle.read()
         try:

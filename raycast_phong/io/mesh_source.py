@@ -19,7 +19,7 @@ from pathlib import Path
 
 from ..errors import SceneError
 from .files import file_version, open_regular
-from .gltf import Document, buffer_files, image_uris, read_document
+from .gltf import Document, buffer_files, image_uris, read_document, uri_file
 from .mtl import ObjMaterials, mtllib_names, read_obj_materials, scan_mtllib
 
 
@@ -89,7 +89,7 @@ def mesh_source(path: Path) -> MeshSource:
     if suffix in (".gltf", ".glb"):
         document = read_document(path)
         side = buffer_files(document.tree, path.parent) if suffix == ".gltf" else ()
-        images = tuple(path.parent / uri for uri in image_uris(document.tree))
+        images = tuple(uri_file(path.parent, uri) for uri in image_uris(document.tree))
         return MeshSource(path, suffix, version, side, document, None, images, _stamps(side))
     return MeshSource(path, suffix, version)
 
