@@ -459,7 +459,7 @@ class Scene(_Strict):
             return NotImplemented
         return self.__dict__ == other.__dict__
 
-    __hash__ = _Strict.__hash__
+    __hash__ = None  # as before this __eq__: a Scene holds dicts (materials), so it was never hashable
 
     @property
     def mesh_sources(self) -> dict:
