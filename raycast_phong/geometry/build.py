@@ -15,8 +15,9 @@ from ..codes import MODEL_CODE
 from ..errors import SceneError
 from ..records import Geometry, Texture, bounding_box
 from ..scene.kinds import object_kinds, placements
-from ..scene.messages import dotted
-from ..scene.schema import DEFAULT_MATERIAL, SHAPE_KEYS, Object, Scene, brightness_problem
+from ..scene.messages import Location, located
+from ..scene.objects import OWN_KEYS
+from ..scene.schema import DEFAULT_MATERIAL, Object, Scene, brightness_problem
 from ..tolerances import MIN_DISTANCE, MIN_EXTENT, POSITION_LIMIT
 from . import shapes
 from .materials import material_rows
@@ -39,7 +40,7 @@ class ObjectMesh(NamedTuple):
 OBJECT_CHUNK_VERTICES = 1 << 20  # placed vertices per step of a group: ~25 MB of float64 temporaries
 
 
-def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool = True,
+def build_geometry(scene: Scene, source: str | Location = "<scene>", vertex_normals: bool = True,
                    normal_dtype: type = np.float64, sources: dict | None = None) -> Geometry:
     """Concatenate the scene's objects in world space, in the scene's order.
 
@@ -53,17 +54,18 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
     files' io.mesh_source.MeshSource by resolved path (prepare() passes those the budget used; made here when
     not given).
     """
+    where = located(source)
     if sources is None and any(obj.shape == "mesh" for obj in scene.objects):
         from ..io.mesh_source import mesh_sources
         sources = mesh_sources(scene)
     material_index = {name: i + 1 for i, name in enumerate(scene.materials)}  # 0 is the built-in default
     groups = _groups(scene)
-    bank = TextureBank(scene, source)
+    bank = TextureBank(scene, where)
     notes, file_notes, file_rows = [], [], FileRows(scene, material_index, bank)
     built = []  # (members, template, exact corner normals in the object frame, a mesh file's material rows)
     for members in groups:
         first = scene.objects[members[0]]
-        template = object_mesh(scene, first, members[0], source, sources)
+        template = object_mesh(scene, first, where.at("objects", members[0]), sources)
         exact = (exact_corner_normals_local(first, template.vertices, template.faces)
                  if vertex_normals and first.normals == "exact" else None)
         rows = None
@@ -93,7 +95,7 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
         step = max(1, OBJECT_CHUNK_VERTICES // max(1, len(template.vertices)))
         for at in range(0, len(members), step):
             mesh.write(_group_part(scene, members[at:at + step], template, exact, vertex_normals, normal_dtype,
-                                   source), rows)
+                                   where), rows)
     scene_maps = bank.scene_maps([o.material for o in object_kinds(scene).firsts(scene.objects)])
     textured = bank.textures and (len(scene_maps) or file_rows.mapped)
     corner_uv = _corner_uvs(scene, built, mesh) if textured else np.zeros((0, 3, 2), np.float32)
@@ -102,7 +104,7 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
     geometry = dataclasses.replace(geometry, corner_uv=corner_uv, corner_colour=corner_colour,
                                    textures=tuple(bank.textures) if textured else (),
                                    scene_maps=scene_maps if textured else np.full((0, 3), -1, np.int64))
-    check_float_range(scene, geometry.vertices, source)
+    check_float_range(scene, geometry.vertices, where)
     return geometry
 
 
@@ -130,11 +132,11 @@ def _group_key(obj: Object, index: int) -> tuple:
     A mesh file is never shared (its reading notes and materials belong to its object)."""
     if obj.shape == "mesh":
         return ("mesh", index)
-    return (obj.shape, *(getattr(obj, key) for key in SHAPE_KEYS[obj.shape]), obj.normals, obj.crease_angle)
+    return (obj.shape, *(getattr(obj, key) for key in OWN_KEYS[obj.shape]), obj.normals, obj.crease_angle)
 
 
 def _group_part(scene: Scene, members: np.ndarray, template: ObjectMesh, exact: np.ndarray | None,
-                vertex_normals: bool, normal_dtype: type, source: str) -> _Part:
+                vertex_normals: bool, normal_dtype: type, where: Location) -> _Part:
     """Place K objects that share `template` (its vertices and faces in the object frame) and give them face
     and corner normals: the per-object steps of the scene format, done for all K at once."""
     scale, rotate, translate = placements(scene.objects, members)
@@ -145,15 +147,15 @@ def _group_part(scene: Scene, members: np.ndarray, template: ObjectMesh, exact: 
     faces[mirrored] = faces[mirrored][:, :, ::-1]
     reach = np.abs(vertices).max(axis=(1, 2))
     for k in np.flatnonzero(~(reach <= POSITION_LIMIT)):  # NaN fails the comparison too
-        raise SceneError(f"{source}: objects.{members[k]}: placed (scale, rotate, translate), the object reaches a "
-                         f"coordinate of {reach[k]:.3g}; allowed: within ±{POSITION_LIMIT:g}, so distances squared "
-                         "stay finite in float32; lower scale, its size or translate")
+        raise SceneError(f"placed (scale, rotate, translate), the object reaches a coordinate of {reach[k]:.3g}; "
+                         f"allowed: within ±{POSITION_LIMIT:g}, so distances squared stay finite in float32; lower "
+                         "scale, its size or translate", where.at("objects", int(members[k])))
     extent = vertices.max(axis=1) - vertices.min(axis=1)
     for k in np.flatnonzero(~(extent != 0).any(axis=1)):
         obj = scene.objects[members[k]]
-        raise SceneError(f"{source}: objects.{members[k]}: placed, the object collapses to a single point (its scale "
-                         f"{list(obj.scale)} is below float64's resolution at translate {list(obj.translate)}); "
-                         "allowed: an object with some extent; raise scale or its size")
+        raise SceneError(f"placed, the object collapses to a single point (its scale {list(obj.scale)} is below "
+                         f"float64's resolution at translate {list(obj.translate)}); allowed: an object with some "
+                         "extent; raise scale or its size", where.at("objects", int(members[k])))
     count, n = len(members), len(template.vertices)
     flat_vertices = vertices.reshape(-1, 3)
     flat_faces = (faces + (np.arange(count) * n)[:, None, None]).reshape(-1, 3)
@@ -241,7 +243,7 @@ class _Mesh:
                         file_notes=file_notes)
 
 
-def check_float_range(scene: Scene, vertices: np.ndarray, source: str = "<scene>") -> None:
+def check_float_range(scene: Scene, vertices: np.ndarray, source: str | Location = "<scene>") -> None:
     """Refuse a scene whose placed extent or 1/d² lights would leave float32's range (SceneError).
 
     The half-extent must be at least MIN_EXTENT; a 1/d² light's f_att is at most 1/max(d, floor)², d its
@@ -251,9 +253,9 @@ def check_float_range(scene: Scene, vertices: np.ndarray, source: str = "<scene>
     low, high = bounding_box(vertices)
     extent = float((high - low).max()) / 2  # as intersect.unit_frame measures it
     if extent < MIN_EXTENT:
-        raise SceneError(f"{source}: objects: the whole scene spans only {2 * extent:.3g} (its largest bounding-box "
-                         f"side); allowed: at least {2 * MIN_EXTENT:g}, so the 1/d² floor and Embree's unit frame "
-                         "stay in float32's range; raise the objects' scale or size")
+        raise SceneError(f"the whole scene spans only {2 * extent:.3g} (its largest bounding-box side); allowed: at "
+                         f"least {2 * MIN_EXTENT:g}, so the 1/d² floor and Embree's unit frame stay in float32's "
+                         "range; raise the objects' scale or size", located(source).at("objects"))
     floor = MIN_DISTANCE * extent
     gains = {}
     for k, light in enumerate(scene.lights):
@@ -264,7 +266,7 @@ def check_float_range(scene: Scene, vertices: np.ndarray, source: str = "<scene>
     problem = brightness_problem(scene, gains, why="with 1/d² attenuation up to "
                                  f"{max(gains.values(), default=1.0):.3g} (the light at or near the scene), ")
     if problem:
-        raise SceneError(f"{source}: {dotted(problem[0])}: {problem[1]}")
+        raise SceneError(problem[1], located(source).at(*problem[0]))
 
 
 def behind_camera(scene: Scene, vertices: np.ndarray) -> str | None:
@@ -283,8 +285,8 @@ class TextureBank:
     unused maps are never decoded), as the scene's render.colour asks (io.textures: as stored, or decoded from
     sRGB to linear values); a map that cannot be decoded is a note and its factor stands alone."""
 
-    def __init__(self, scene: Scene, source: str):
-        self.scene, self.source = scene, source
+    def __init__(self, scene: Scene, where: Location):
+        self.scene, self.where = scene, where
         self.textures: list[Texture] = []
         self.notes: list[str] = []
         self.found: dict = {}
@@ -326,7 +328,7 @@ class TextureBank:
             return -1
         from ..io.textures import decode_scene_map
         path, wrap = self.scene.resolve(value.path), value.wrap
-        where = f"{self.source}: materials.{name}.{key}"
+        where = self.where.at("materials", name, key)
         return self.add((str(path), wrap, wrap), lambda: decode_scene_map(path, where, self.scene.render.colour),
                         wrap, wrap, str(path))
 
@@ -361,7 +363,7 @@ class FileRows:
 
     def __init__(self, scene: Scene, material_index: dict[str, int], bank: TextureBank | None = None):
         self.scene, self.material_index = scene, material_index
-        self.bank = bank if bank is not None else TextureBank(scene, "<scene>")
+        self.bank = bank if bank is not None else TextureBank(scene, Location("<scene>"))
         self.rows: list[np.ndarray] = []
         self.mapped = False
         self.first = 1 + len(scene.materials)  # row of the first file material: after the default and the scene's
@@ -452,12 +454,12 @@ def _corner_colours(scene: Scene, built: list, mesh) -> np.ndarray:
     return _object_corners(scene, built, mesh, colours, 3, 1.0)
 
 
-def object_mesh(scene: Scene, obj: Object, index: int, source: str, sources: dict | None = None) -> ObjectMesh:
+def object_mesh(scene: Scene, obj: Object, where: Location, sources: dict | None = None) -> ObjectMesh:
     """The object's triangles in its own frame (a mesh file's with its materials, colours and normals; a built-in
-    shape's from its kind, geometry/shapes/)."""
+    shape's from its kind, geometry/shapes/); `where` is the object's location (file: objects.N)."""
     if obj.shape == "mesh":
-        return _load_mesh(scene, obj, index, source, (sources or {}).get(scene.resolve(obj.path)))
-    return ObjectMesh(*shapes.KINDS[obj.shape].template(obj, index, source), None)
+        return _load_mesh(scene, obj, where, (sources or {}).get(scene.resolve(obj.path)))
+    return ObjectMesh(*shapes.KINDS[obj.shape].template(obj, where), None)
 
 
 def shape_uv(obj: Object, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray | None:
@@ -467,15 +469,15 @@ def shape_uv(obj: Object, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray
     return None if kind is None else kind.uv(obj, vertices, faces)
 
 
-def _load_mesh(scene: Scene, obj: Object, index: int, source: str, mesh=None):
+def _load_mesh(scene: Scene, obj: Object, where: Location, mesh=None):
     path = scene.resolve(obj.path)
     from ..io.mesh_file import read_mesh  # imports trimesh (0.2–0.3 s): only for mesh files
 
-    read = read_mesh(path, f"{source}: objects.{index}.path", source=mesh)
+    read = read_mesh(path, where.at("path"), source=mesh)
     normals = read.normals if obj.normals in (None, "file") else None  # unset: the file's, if it has them
     if obj.normals == "file" and normals is None:
-        raise SceneError(f'{source}: objects.{index}.normals: "file" but {str(path)!r} stores no vertex '
-                         'normals; use "mean", "area" or "angle"')
+        raise SceneError(f'"file" but {str(path)!r} stores no vertex normals; use "mean", "area" or "angle"',
+                         where.at("normals"))
     if normals is not None:  # keep the file's vertex order: its normals are per vertex
         return ObjectMesh(read.vertices, read.faces, normals, read, uv=read.corner_uv)
     # Otherwise merge what the file repeats (the faces and their order stay, so the per-face materials line up).

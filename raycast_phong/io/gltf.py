@@ -16,7 +16,7 @@ from urllib.parse import unquote
 import numpy as np
 
 from ..codes import GLTF_WRAP
-from ..errors import SceneError
+from ..errors import SceneError, Where
 from .files import open_regular
 from .materials import MAX_FILE_SHININESS, FileMaterial, TextureSource, specular_lobe
 from .materials import rgb as _rgb
@@ -105,12 +105,12 @@ def image_uris(document: dict) -> list[str]:
         return []
 
 
-def check_document(document: Document, path: Path, where: str, notes: list[str]) -> dict:
+def check_document(document: Document, path: Path, where: Where, notes: list[str]) -> dict:
     """Refuse a document the read cannot take (nested too deep) or whose required extensions are not supported,
     naming them; a note for each image file it names that is missing. Returns the wrap modes of each material's
     colour maps (gltf_samplers; trimesh drops them)."""
     if document.problem:
-        raise SceneError(f"{where}: {str(path)!r}: {document.problem}")
+        raise SceneError(f"{str(path)!r}: {document.problem}", where)
     tree = document.tree
     required = [e for e in tree.get("extensionsRequired", []) if isinstance(e, str)] \
         if isinstance(tree.get("extensionsRequired", []), list) else []
@@ -122,8 +122,8 @@ def check_document(document: Document, path: Path, where: str, notes: list[str])
             missing.insert(0, "KHR_draco_mesh_compression (Draco compression: pip install DracoPy)")
     if missing:
         named = [f"{e} ({NEEDS[e]})" if e in NEEDS else e for e in missing]
-        raise SceneError(f"{where}: {str(path)!r} requires the glTF extension(s) {', '.join(named)}, which this "
-                         f"renderer does not support; supported: {', '.join(SUPPORTED_REQUIRED)}")
+        raise SceneError(f"{str(path)!r} requires the glTF extension(s) {', '.join(named)}, which this "
+                         f"renderer does not support; supported: {', '.join(SUPPORTED_REQUIRED)}", where)
     for uri in image_uris(tree):
         if not uri_file(path.parent, uri).is_file():
             notes.append(f"{path}: texture {unquote(uri)!r} is missing")

@@ -89,6 +89,18 @@ EXR_COLOUR_ATTRIBUTE = "raycast_phong:colour"
 EXR_COLOR_SPACES = {DISPLAY: "srgb_rec709_scene", LINEAR: "lin_rec709_scene"}
 
 
+def image_array(image) -> np.ndarray:
+    """`image` as an (H, W, 3) array of real numbers, H, W ≥ 1 (a render's image, float32 or float64); else
+    ValueError saying what was given, before any file is touched."""
+    array = np.asarray(image) if isinstance(image, np.ndarray | list | tuple) else None
+    if array is None or array.dtype.kind not in "biuf" or array.ndim != 3 or array.shape[2] != 3 or 0 in array.shape:
+        got = (f"an array of shape {array.shape} and dtype {array.dtype}" if array is not None
+               else f"a {type(image).__name__}")
+        raise ValueError(f"write_image: the image must be an (H, W, 3) array of real RGB values with H, W ≥ 1, "
+                         f"as render() returns; got {got}")
+    return array
+
+
 def write_image(path: str | Path, image: np.ndarray, aovs: dict[str, np.ndarray] | None = None,
                 colour: str = DISPLAY, parts: dict[str, tuple[np.ndarray, tuple[int, int]]] | None = None) -> Path:
     """Write an (H, W, 3) image rendered in `colour` (the scene's render.colour, io.encoding): .png 8-bit
@@ -102,6 +114,7 @@ def write_image(path: str | Path, image: np.ndarray, aovs: dict[str, np.ndarray]
     """
     if colour not in COLOURS:
         raise ValueError(f"colour {colour!r}; allowed: {', '.join(COLOURS)}")
+    image = image_array(image)
     path = check_output_path(path)
     aovs = aovs or {}
     parts = parts or {}

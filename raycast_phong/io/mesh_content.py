@@ -7,7 +7,7 @@ import os
 import re
 from pathlib import Path
 
-from ..errors import SceneError
+from ..errors import SceneError, Where
 from .files import open_regular
 
 TEXT_FORMATS = (".obj", ".off")  # trimesh decodes these as text, guessing any non-UTF-8 encoding
@@ -39,7 +39,7 @@ def sniff(head: bytes) -> str | None:
     return None
 
 
-def check_file_content(path: Path, where: str) -> None:
+def check_file_content(path: Path, where: Where) -> None:
     """check_content on the file at `path` (framing calls it before the memory check reads a binary STL's
     triangle count from a header that may be an OBJ's first line). A file that cannot be opened is left to
     the read, which words it. Text formats are left to the read: their header count cannot be fooled so."""
@@ -53,17 +53,17 @@ def check_file_content(path: Path, where: str) -> None:
         check_content(path, handle, where)
 
 
-def check_content(path: Path, handle, where: str) -> None:
+def check_content(path: Path, handle, where: Where) -> None:
     """Refuse, in one line, a file whose content is not the format its suffix says (an OBJ named .stl was read
     as a binary STL of 433 GB), an archive or compressed file (decompress it first), or a glTF's sibling."""
     suffix = path.suffix.lower()
     if suffix in CONTAINERS:
-        raise SceneError(f"{where}: {str(path)!r} is {CONTAINERS[suffix]}; extract or decompress it and render the "
-                         "model file inside (OBJ, PLY, STL, OFF, GLB/glTF, ...)")
+        raise SceneError(f"{str(path)!r} is {CONTAINERS[suffix]}; extract or decompress it and render the "
+                         "model file inside (OBJ, PLY, STL, OFF, GLB/glTF, ...)", where)
     head = handle.read(512)
     handle.seek(0)
     if not head:
-        raise SceneError(f"{where}: {str(path)!r} is empty (0 bytes); expected {READABLE}")
+        raise SceneError(f"{str(path)!r} is empty (0 bytes); expected {READABLE}", where)
     found = sniff(head)
     if suffix == ".stl":
         size = os.fstat(handle.fileno()).st_size
@@ -77,6 +77,6 @@ def check_content(path: Path, handle, where: str) -> None:
     name = suffix[1:].upper().replace("GLTF", "glTF")
     said = (f"its content is {found}; rename it to that format's suffix" if found
             else f"its content does not start as a {name} file does; expected {READABLE}")
-    raise SceneError(f"{where}: cannot read {str(path)!r} as {name}: {said}")
+    raise SceneError(f"cannot read {str(path)!r} as {name}: {said}", where)
 
 

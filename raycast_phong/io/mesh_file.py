@@ -26,7 +26,7 @@ from typing import NamedTuple
 import numpy as np
 import trimesh
 
-from ..errors import SceneError
+from ..errors import SceneError, Where
 from ..records import bounding_box
 from ..tolerances import POSITION_LIMIT
 from .files import VersionCache, open_mesh_file, open_regular
@@ -74,7 +74,7 @@ KEPT: VersionCache[MeshFile] = VersionCache(1)     # identity → the file read 
 BOUNDS: VersionCache[MeshFile] = VersionCache(64)  # identity → a file stripped of its arrays (centre, radius, ...)
 
 
-def read_mesh(path: Path, where: str, keep: bool = False, source: MeshSource | None = None) -> MeshFile:
+def read_mesh(path: Path, where: Where, keep: bool = False, source: MeshSource | None = None) -> MeshFile:
     """The mesh file at `path`; `where` starts every error ("scene.toml: objects.0.path"); `source`: its
     MeshSource (made now when not given).
 
@@ -94,7 +94,7 @@ def read_mesh(path: Path, where: str, keep: bool = False, source: MeshSource | N
     return found
 
 
-def mesh_bounds(source: MeshSource, where: str) -> MeshFile:
+def mesh_bounds(source: MeshSource, where: Where) -> MeshFile:
     """The file's centre, radius, up axis, materials and notes (its arrays may be empty): from the small
     cache when this unchanged file was read before, else read (and kept for the render)."""
     found = BOUNDS.get(source.identity) if source.version is not None else None
@@ -109,7 +109,7 @@ def _remember_bounds(identity: tuple, found: MeshFile) -> None:
 
 # ---------------------------------------------------------------- reading
 
-def _read(path: Path, where: str, source: MeshSource, bounds: bool = True) -> MeshFile:
+def _read(path: Path, where: Where, source: MeshSource, bounds: bool = True) -> MeshFile:
     handle = open_mesh_file(path, where)
     notes: list[str] = []
     suffix = path.suffix.lower()
@@ -140,19 +140,19 @@ def _read(path: Path, where: str, source: MeshSource, bounds: bool = True) -> Me
     except Exception as error:
         if not _raised_in_trimesh(error):
             raise  # our own bug, not the file's: an internal error with its traceback
-        raise SceneError(f"{where}: cannot read {str(path)!r} as {READABLE} ({type(error).__name__}: "
-                         f"{error})") from None
+        raise SceneError(f"cannot read {str(path)!r} as {READABLE} ({type(error).__name__}: "
+                         f"{error})", where) from None
     if not parts:
-        raise SceneError(f"{where}: {str(path)!r} holds no triangles; expected {READABLE}")
+        raise SceneError(f"{str(path)!r} holds no triangles; expected {READABLE}", where)
     vertices, faces, normals = _concatenate(parts)
     if vertices.ndim != 2 or vertices.shape[1] != 3:  # an OBJ `v x y`, a glTF POSITION of VEC2
         given = vertices.shape[1] if vertices.ndim == 2 else vertices.ndim
-        raise SceneError(f"{where}: {str(path)!r} gives its vertices {given} coordinate(s) each; allowed: 3 (x, y, z)")
+        raise SceneError(f"{str(path)!r} gives its vertices {given} coordinate(s) each; allowed: 3 (x, y, z)", where)
     if faces.size and not (0 <= faces.min() and faces.max() < len(vertices)):
         bad = int(((faces < 0) | (faces >= len(vertices))).any(axis=1).sum())
-        raise SceneError(f"{where}: {str(path)!r} has {bad} face(s) with a vertex index outside 0..{len(vertices) - 1} "
+        raise SceneError(f"{str(path)!r} has {bad} face(s) with a vertex index outside 0..{len(vertices) - 1} "
                          f"(first: {faces[((faces < 0) | (faces >= len(vertices))).any(axis=1)][0].tolist()}); "
-                         "allowed: indices of the file's own vertices")
+                         "allowed: indices of the file's own vertices", where)
     mask = np.zeros(len(vertices), bool)
     mask[faces.ravel()] = True  # the vertices faces use: O(F), where np.unique would sort
     used = vertices if mask.all() else vertices[mask]
@@ -297,20 +297,20 @@ def _concatenate(parts: list[_Part]) -> tuple[np.ndarray, np.ndarray, np.ndarray
     return vertices, faces, normals
 
 
-def _check_values(coordinates: np.ndarray, path: Path, where: str) -> None:
+def _check_values(coordinates: np.ndarray, path: Path, where: Where) -> None:
     """Every vertex of a face (`coordinates`, (U, 3)) finite and within ±POSITION_LIMIT (trimesh squares
     coordinates)."""
     if (np.abs(coordinates) <= np.float64(POSITION_LIMIT)).all():  # one pass (float32 compared in float64); NaN fails
         return
     finite = np.isfinite(coordinates).all(axis=1)
     if not finite.all():
-        raise SceneError(f"{where}: {str(path)!r} has {int((~finite).sum())} vertex(es) with NaN or infinite "
-                         "coordinates; every vertex of a face must have finite coordinates")
+        raise SceneError(f"{str(path)!r} has {int((~finite).sum())} vertex(es) with NaN or infinite "
+                         "coordinates; every vertex of a face must have finite coordinates", where)
     huge = (np.abs(coordinates) > POSITION_LIMIT).any(axis=1)
     if huge.any():
-        raise SceneError(f"{where}: {str(path)!r} has {int(huge.sum())} vertex(es) with a coordinate beyond "
+        raise SceneError(f"{str(path)!r} has {int(huge.sum())} vertex(es) with a coordinate beyond "
                          f"±{POSITION_LIMIT:g} (largest {float(np.abs(coordinates).max()):.3g}); allowed: within "
-                         f"±{POSITION_LIMIT:g}, so lengths squared stay finite")
+                         f"±{POSITION_LIMIT:g}, so lengths squared stay finite", where)
 
 
 # ---------------------------------------------------------------- materials and colours

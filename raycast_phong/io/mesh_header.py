@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import SceneError, Where
 from .files import VersionCache, file_version, open_regular
 from .gltf import JSON_LIMIT, Document, gltf_buffer_files
 from .system import available_memory, count_text, format_bytes
@@ -32,7 +32,7 @@ OTHER_MESH_FILE_BYTES = 550
 MESH_READ_BYTES = 270
 
 
-def mesh_file_triangles(path: Path, key: str, document: Document | None = None) -> int:
+def mesh_file_triangles(path: Path, where: Where, document: Document | None = None) -> int:
     """Triangles in a mesh file, read cheaply: PLY and OFF headers, binary STL's count, OBJ's face corners,
     glTF's accessor counts (a JSON above JSON_LIMIT is not parsed); other formats by file size (at least 6
     bytes per triangle). Where the file's vertices outnumber its triangles, its vertices (less 2):
@@ -40,15 +40,15 @@ def mesh_file_triangles(path: Path, key: str, document: Document | None = None) 
     refused here, and so is a binary STL whose size does not match its header's count (SceneError). `document`:
     a glTF's, already parsed (MeshSource.document), so it is not parsed again."""
     try:
-        handle = open_regular(path, key, "mesh file")
+        handle = open_regular(path, where, "mesh file")
     except FileNotFoundError:
         return 0
     with handle:
         info = os.fstat(handle.fileno())
         # An OBJ is counted in 1 MB pieces: once per version; framing and the render ask.
         suffix = path.suffix.lower()
-        return COUNTS.setdefault(file_version(path, info), lambda: _count_triangles(handle, suffix, info.st_size, key,
-                                                                                    document))
+        return COUNTS.setdefault(file_version(path, info),
+                                 lambda: _count_triangles(handle, suffix, info.st_size, where, document))
 
 
 def mesh_file_read_bytes(path: Path, buffers: tuple[Path, ...] | None = None) -> int:
@@ -119,24 +119,26 @@ ZIP_XML_READ_BYTES_PER_BYTE = 36
 CHUNK = 1 << 20  # an OBJ is scanned this many bytes at a time (about 20 MB of index arrays), never a whole line
 
 
-def _count_triangles(handle, suffix: str, size: int, key: str = "mesh file", document: Document | None = None) -> int:
+def _count_triangles(handle, suffix: str, size: int, where: Where = "mesh file",
+                     document: Document | None = None) -> int:
     """Triangles' worth of the open file `handle` of `size` bytes (mesh_file_triangles, before the size bound)."""
     head = handle.read(4096)
     try:
         if suffix == ".ply":
             faces = re.search(rb"^element\s+face\s+(\d+)", head, re.M)
             points = re.search(rb"^element\s+vertex\s+(\d+)", head, re.M)
-            if faces:
-                return _weigh(int(faces[1]), int(points[1]) if points else 0)
+            listed = _ply_list_triangles(head, size)
+            if faces or listed is not None:
+                return _weigh(max(int(faces[1]) if faces else 0, listed or 0), int(points[1]) if points else 0)
         elif suffix == ".stl":
             binary = size >= 84 and (not head.lstrip().startswith(b"solid")
                                      or size == 84 + 50 * struct.unpack_from("<I", head, 80)[0])
             if binary:
                 count = struct.unpack_from("<I", head, 80)[0]
                 if size != 84 + 50 * count:
-                    raise SceneError(f"{key}: a binary STL whose header counts {count:,} triangles "
+                    raise SceneError(f"a binary STL whose header counts {count:,} triangles "
                                      f"({84 + 50 * count:,} bytes) but which has {size:,} bytes: the file is "
-                                     "corrupt or cut short; allowed: 84 + 50 × its count bytes")
+                                     "corrupt or cut short; allowed: 84 + 50 × its count bytes", where)
                 return count
             return size // 86  # the shortest ASCII facet ("facet normal 0 0 0\nouter loop\n…") is 86 bytes
         elif suffix == ".off":
@@ -162,6 +164,38 @@ def _count_triangles(handle, suffix: str, size: int, key: str = "mesh file", doc
     except (ValueError, KeyError, IndexError, TypeError, struct.error, OSError, RecursionError):
         pass  # a malformed header: fall back to the size bound; the loader reports the real problem
     return size // 6
+
+
+PLY_SIZES = {"char": 1, "int8": 1, "uchar": 1, "uint8": 1, "short": 2, "int16": 2, "ushort": 2, "uint16": 2,
+             "int": 4, "int32": 4, "uint": 4, "uint32": 4, "float": 4, "float32": 4, "double": 8, "float64": 8}
+
+
+def _ply_list_triangles(head: bytes, size: int) -> int | None:
+    """The most triangles a binary PLY's lists (faces, strips) can make, from its size and its header's
+    types, whatever its counts claim: the bytes past the fixed-size properties hold at most that many list
+    entries of the smallest index type, and n entries of a polygon or strip make n − 2 triangles. Exact for
+    a file of triangles (a face of 3 M corners, header "1 face", is 3 M triangles). None for an ASCII PLY, a
+    header longer than `head`, or no list."""
+    end = head.find(b"end_header")
+    if end < 0 or head.find(b"\n", end) < 0 or re.search(rb"^format\s+ascii", head[:end], re.M):
+        return None
+    body = size - head.index(b"\n", end) - 1
+    elements = []  # [count, bytes of its fixed properties and list counts, smallest list entry or 0]
+    for words in (line.split() for line in head[:end].decode("ascii", "replace").splitlines()):
+        if words[:1] == ["element"] and len(words) == 3:
+            elements.append([int(words[2]), 0, 0])
+        elif words[:1] == ["property"] and elements and len(words) in (3, 5):
+            if words[1] == "list" and len(words) == 5:
+                entry = PLY_SIZES[words[3]]
+                elements[-1][1] += PLY_SIZES[words[2]]
+                elements[-1][2] = min(elements[-1][2] or entry, entry)
+            else:
+                elements[-1][1] += PLY_SIZES[words[1]]
+    lists = [(count, entry) for count, _, entry in elements if entry]
+    if not lists:
+        return None
+    entries = max(0, body - sum(count * fixed for count, fixed, _ in elements)) // min(e for _, e in lists)
+    return max(0, entries - 2 * sum(count for count, _ in lists))
 
 
 def _weigh(triangles: int, vertices: int) -> int:
@@ -215,7 +249,7 @@ def _gltf_triangles(document: dict) -> int:
     return total
 
 
-def check_mesh_read(path: Path, source: str, max_memory: int | None = None, mesh=None) -> None:
+def check_mesh_read(path: Path, where: Where, max_memory: int | None = None, mesh=None) -> None:
     """Refuse (SceneError, one line) to read a mesh file for framing (scene.framing, before any render and
     so before renderer.budget.check_memory) when the read alone could not fit in the memory available now
     (io.system.available_memory: cgroup and `ulimit -v`; and `max_memory`, the command's --max-memory): the
@@ -228,7 +262,7 @@ def check_mesh_read(path: Path, source: str, max_memory: int | None = None, mesh
     if max_memory is not None:
         available = max_memory if available is None else min(available, max_memory)
     floor = mesh_file_read_bytes(path, buffers)  # from the size alone: a huge file is refused before any byte is read
-    triangles = 0 if available is not None and floor > available else mesh_file_triangles(path, source, document)
+    triangles = 0 if available is not None and floor > available else mesh_file_triangles(path, where, document)
     need = max(triangles * (MESH_READ_BYTES + MESH_FILE_BYTES.get(path.suffix.lower(), OTHER_MESH_FILE_BYTES)),
                floor)
     if available is not None and need > available:
@@ -240,6 +274,6 @@ def check_mesh_read(path: Path, source: str, max_memory: int | None = None, mesh
         what = (f"{count_text(triangles)} triangles" if triangles else f"{format_bytes(path.stat().st_size)}"
                 + (f" and {format_bytes(weight)} of buffers" if weight else "")
                 + (f" ({format_bytes(unzipped)} unzipped)" if unzipped else ""))
-        raise SceneError(f"{source}: reading its {what} needs ≈ {format_bytes(need)} of memory, more than the "
+        raise SceneError(f"reading its {what} needs ≈ {format_bytes(need)} of memory, more than the "
                          f"{format_bytes(available)} available; allowed: a mesh whose size and triangles fit, "
-                         "so decimate it or free memory")
+                         "so decimate it or free memory", where)

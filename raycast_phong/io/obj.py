@@ -9,10 +9,10 @@ from pathlib import Path
 
 import trimesh
 
-from ..errors import SceneError
+from ..errors import SceneError, Where
 
 
-def obj_text(data: bytes, path: Path, where: str) -> io.BytesIO:
+def obj_text(data: bytes, path: Path, where: Where) -> io.BytesIO:
     """The OBJ's bytes as trimesh is given them: UTF-8 (a file that is not is read as Latin-1: every byte is a
     Latin-1 character, and the keywords are plain ASCII; trimesh would need the optional charset_normalizer to
     guess), relative face indices made absolute and concave polygons cut. An index 0 or one counting back past
@@ -24,7 +24,7 @@ def obj_text(data: bytes, path: Path, where: str) -> io.BytesIO:
     from .obj_polygons import absolute_indices, triangulate_concave
     data, problem = absolute_indices(data)  # trimesh counts -1 back from the file's end, not the line
     if problem:
-        raise SceneError(f"{where}: {str(path)!r} {problem}")
+        raise SceneError(f"{str(path)!r} {problem}", where)
     data, _ = triangulate_concave(data)  # trimesh would fan a concave polygon over its hole
     return io.BytesIO(data)
 

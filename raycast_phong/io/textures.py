@@ -18,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import SceneError, Where
 from .encoding import LINEAR
-from .files import image_suffix_mismatch, open_regular
+from .files import image_suffix_mismatch, native_errors_kept, open_regular
 
 MAX_TEXTURE_SIZE = 2048
 # Bytes per texel of level 0 while a texture is in use: the decoded float32 RGB kept in the Geometry (12), the
@@ -66,17 +66,18 @@ def decode_file(path: Path, colour: str) -> np.ndarray:
     result the mean of the source texels it covers), so decoding a 12000² PNG costs a band, not the 1.7 GB of
     its float texels at full size: the memory estimate counts the shrunk map only."""
     import OpenImageIO as oiio
-    found = oiio.ImageInput.open(str(path))
-    if found is None:
-        raise ValueError(oiio.geterror() or "not an image")
-    try:
-        spec = found.spec()
-        if spec.width <= 0 or spec.height <= 0 or spec.nchannels <= 0:
-            raise ValueError("not an image")
-        height, width = capped(spec.height, spec.width)
-        pixels = _read_shrunk(found, spec, height, width)
-    finally:
-        found.close()
+    with native_errors_kept():  # libpng prints its own "libpng error: ..." line; the caller words one line
+        found = oiio.ImageInput.open(str(path))
+        if found is None:
+            raise ValueError(oiio.geterror() or "not an image")
+        try:
+            spec = found.spec()
+            if spec.width <= 0 or spec.height <= 0 or spec.nchannels <= 0:
+                raise ValueError("not an image")
+            height, width = capped(spec.height, spec.width)
+            pixels = _read_shrunk(found, spec, height, width)
+        finally:
+            found.close()
     pixels = _rgb(pixels)
     floats = spec.format.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE)
     out = np.empty(pixels.shape, np.float32)
@@ -136,23 +137,23 @@ def decode_pil(image, colour: str) -> np.ndarray:
     return np.ascontiguousarray(srgb_to_linear(pixels) if colour == LINEAR else pixels, np.float32)
 
 
-def decode_scene_map(path: Path, where: str, colour: str) -> np.ndarray:
+def decode_scene_map(path: Path, where: Where, colour: str) -> np.ndarray:
     """A scene material's map (kd_map, ...): one line, SceneError, when missing, not a regular file (a FIFO, a
     device, a folder: refused before any open that could block) or not an image."""
     try:
         open_regular(path, where, "texture file (PNG, JPEG, EXR, ...)").close()
     except FileNotFoundError:
-        raise SceneError(f"{where}: no such texture file {str(path)!r}; give an image file (PNG, JPEG, EXR, ...) "
-                         "relative to the scene file") from None
+        raise SceneError(f"no such texture file {str(path)!r}; give an image file (PNG, JPEG, EXR, ...) "
+                         "relative to the scene file", where) from None
     mismatch = image_suffix_mismatch(path)
     if mismatch:
-        raise SceneError(f"{where}: {str(path)!r} is {mismatch}; give a PNG, JPEG, EXR or another image file")
+        raise SceneError(f"{str(path)!r} is {mismatch}; give a PNG, JPEG, EXR or another image file", where)
     try:
         return decode_file(path, colour)
     except Exception as error:  # noqa: BLE001 - any decoder failure is the file's
         reason = " ".join(str(error).split()) or "unknown"
-        raise SceneError(f"{where}: {str(path)!r} cannot be read as an image ({reason[:200]}); "
-                         "give a PNG, JPEG, EXR or another format OpenImageIO reads") from None
+        raise SceneError(f"{str(path)!r} cannot be read as an image ({reason[:200]}); "
+                         "give a PNG, JPEG, EXR or another format OpenImageIO reads", where) from None
 
 
 # ---------------------------------------------------------------- sizes for the memory estimate

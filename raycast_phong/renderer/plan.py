@@ -232,8 +232,11 @@ def diagnose(plan: RenderPlan, scene: Scene, geometry) -> RenderPlan:
       than the highlight is wide (about 1/√f radians), the highlight is lost or smeared.
     - A highlight narrower than a pixel may fall between the pixel centres: supersample.
 
-    Every figure is computed for all objects at once (grouped by object, O(faces + objects)), and objects
-    with the same warning share one line (aggregate_warnings): 40,000 spheres give one line, not 40,000.
+    A Gouraud object whose own `shading` key chose Gouraud (the default figure's middle sphere) is shown so on
+    purpose: its finding is a note, which teaches the same advice, not a warning; Gouraud from render.shading
+    (or --shading) is a warning. Every figure is computed for all objects at once (grouped by object,
+    O(faces + objects)), and objects with the same finding share one line (aggregate_warnings): 40,000 spheres
+    give one line, not 40,000.
     """
     stages = list(plan.stages)
     stages.append(Stage(StageName.WINDING_REPAIR, bool(geometry.notes),
@@ -245,8 +248,10 @@ def diagnose(plan: RenderPlan, scene: Scene, geometry) -> RenderPlan:
         found = [*gouraud_findings(scene, geometry), *subpixel_findings(scene, geometry)]
     from ..geometry.build import behind_camera  # geometry loads trimesh: only once a render has geometry
     behind = behind_camera(scene, geometry.vertices)
-    return dataclasses.replace(plan, stages=tuple(stages), notes=geometry.file_notes,
-                               warnings=(*([behind] if behind else []), *aggregate_warnings(found)))
+    chosen = [item for item in found if item[0][0] == "gouraud" and item[0][-1]]
+    warned = [item for item in found if not (item[0][0] == "gouraud" and item[0][-1])]
+    return dataclasses.replace(plan, stages=tuple(stages), notes=(*aggregate_warnings(chosen), *geometry.file_notes),
+                               warnings=(*([behind] if behind else []), *aggregate_warnings(warned)))
 
 
 def _candidates(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
@@ -264,7 +269,8 @@ def _per_object(scene: Scene, test) -> np.ndarray:
 
 
 def gouraud_findings(scene: Scene, geometry):
-    """Gouraud objects whose vertex normals are further apart than their highlight is wide."""
+    """Gouraud objects whose vertex normals are further apart than their highlight is wide; the finding ends
+    with whether the object's own `shading` key chose Gouraud."""
     wanted, shininess = _candidates(scene)
     gouraud = _per_object(scene, lambda obj: scene.shading_of(obj) == ShadingModel.GOURAUD)
     wanted &= gouraud
@@ -279,7 +285,21 @@ def gouraud_findings(scene: Scene, geometry):
         more = math.ceil(math.log2(spacing[index] / highlight[index]))
         kind = kind_of(obj)
         how = kind.finer(obj, more) if kind is not None else subdivided(more)
-        yield ("gouraud", f, math.degrees(highlight[index]), how), int(index), math.degrees(spacing[index])
+        chosen = obj.shading == ShadingModel.GOURAUD
+        yield ("gouraud", f, math.degrees(highlight[index]), how, chosen), int(index), math.degrees(spacing[index])
+
+
+def own_shading(scene: Scene) -> tuple[str, int, bool] | None:
+    """The objects whose own `shading` key differs from render.shading, which therefore changes nothing for them:
+    (their key paths as aggregate_warnings words them, how many, whether no object follows render.shading at
+    all), or None if render.shading is every object's model. One pass per kind of object."""
+    model = scene.render.shading
+    differ = _per_object(scene, lambda obj: obj.shading is not None and obj.shading != model)
+    if not differ.any():
+        return None
+    follows = _per_object(scene, lambda obj: obj.shading is None)
+    indices = np.flatnonzero(differ).tolist()
+    return _objects(indices), len(indices), not follows.any()
 
 
 def subpixel_findings(scene: Scene, geometry):
@@ -354,8 +374,13 @@ def aggregate_warnings(found: list[tuple[tuple, int, float]]) -> tuple[str, ...]
         indices, figures = [m[0] for m in members], [m[1] for m in members]
         who = _objects(indices)
         if what[0] == "gouraud":
-            _, f, highlight, how = what
+            _, f, highlight, how, chosen = what
             spread = _span(min(figures), max(figures), ".1f")
+            if chosen:  # the scene asked for this object's Gouraud: say what it shows, and how to resolve it
+                lines.append(f"{who} (gouraud, its own `shading`): vertex normals {spread}° apart are wider than the "
+                             f"f = {f:g} highlight (about {highlight:.1f}°), so Gouraud shading misses or smears it, "
+                             f"as this object shows; {how}, or Phong shading, would resolve it")
+                continue
             lines.append(f"{who} (gouraud): vertex normals are {spread}° apart but the f = {f:g} highlight is about "
                          f"{highlight:.1f}° wide, so Gouraud shading will miss or smear it; use {how}, or Phong "
                          "shading")

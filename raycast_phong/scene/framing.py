@@ -20,6 +20,7 @@ from ..codes import View
 from ..errors import SceneError
 from ..io.encoding import DISPLAY, LINEAR
 from ..tolerances import MIN_EXTENT
+from .messages import Location
 from .overrides import apply_override
 
 VIEWS = tuple(view.value for view in View)  # the first is the default
@@ -55,10 +56,10 @@ def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), vie
     from ..io.mesh_file import FILE_CREASE_ANGLE, check_file_content, mesh_bounds  # trimesh: only for mesh files
     from ..io.mesh_header import check_mesh_read
     from ..io.mesh_source import mesh_source, source_key
-    where = str(path)
+    where = Location(str(path))
     view = view or VIEWS[0]
     if view not in VIEWS:
-        raise SceneError(f"{where}: --view {view!r}; allowed: {', '.join(VIEWS)}")
+        raise SceneError(f"--view {view!r}; allowed: {', '.join(VIEWS)}", where)
     check_file_content(path, where)  # an OBJ named .stl is no binary STL of 1702M triangles
     source = mesh_source(path)
     if sources is not None:
@@ -67,8 +68,8 @@ def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), vie
     found = mesh_bounds(source, where)
     if not found.radius >= MIN_EXTENT:  # every vertex at one point: nothing to frame (or to see)
         centre = [float(x) for x in found.centre]
-        raise SceneError(f"{where}: every vertex of the model lies within {found.radius:.3g} of {centre}; "
-                         f"allowed: a model at least {2 * MIN_EXTENT:g} across")
+        raise SceneError(f"every vertex of the model lies within {found.radius:.3g} of {centre}; "
+                         f"allowed: a model at least {2 * MIN_EXTENT:g} across", where)
     up_axis = parse_up(up, where) if up is not None else np.asarray(found.up or DEFAULT_UP)
     data: dict = {
         "materials": {m.name: m.as_scene() for m in found.materials},
@@ -98,11 +99,11 @@ def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), vie
     return data
 
 
-def parse_up(text: str, where: str) -> np.ndarray:
+def parse_up(text: str, where: Location) -> np.ndarray:
     """--up: x, y, z with an optional sign (+z, -y)."""
     sign, axis = (-1.0, text[1:]) if text.startswith("-") else (1.0, text.removeprefix("+"))
     if axis.lower() not in AXES:
-        raise SceneError(f"{where}: --up {text!r}; allowed: x, y, z, -x, -y, -z")
+        raise SceneError(f"--up {text!r}; allowed: x, y, z, -x, -y, -z", where)
     return sign * np.asarray(AXES[axis.lower()])
 
 

@@ -18,6 +18,7 @@ from ..errors import SceneError
 from ..io.image_io import label_font, text_coverage
 from ..io.system import format_bytes
 from ..scene.load import read_scene_dict
+from ..scene.messages import Location, located
 from ..scene.overrides import apply_override
 from ..scene.schema import Scene, validate_scene
 from .difference import colour_map, difference, heat_map
@@ -92,7 +93,8 @@ def load_variants(path: str | Path, fixed: list[str], key: str, values: list[str
     sizes = [(scene.render.width, scene.render.height) for scene in scenes]
     if len(set(sizes)) > 1:
         shown = ", ".join(f"{value} → {w}×{h}" for value, (w, h) in zip(values, sizes))
-        raise SceneError(f"{path}: --vary {key}: the variants must share one image size to be compared; got {shown}")
+        raise SceneError(f"--vary {key}: the variants must share one image size to be compared; got {shown}",
+                         Location(str(path)))
     return scenes
 
 
@@ -198,7 +200,7 @@ class Comparison:
 HELD_BYTES_PER_PIXEL = 96
 
 
-def render_budget(scenes: list[Scene], budget: int | None, source: str) -> int | None:
+def render_budget(scenes: list[Scene], budget: int | None, source: str | Location) -> int | None:
     """What is left of `budget` for each variant's render once every variant's image is held and composed;
     SceneError (one line) when holding them alone is over it. None: no budget."""
     if budget is None:
@@ -206,10 +208,10 @@ def render_budget(scenes: list[Scene], budget: int | None, source: str) -> int |
     render = scenes[0].render
     held = len(scenes) * render.width * render.height * HELD_BYTES_PER_PIXEL
     if held >= budget:
-        raise SceneError(f"{source}: --vary: {len(scenes)} variants of {render.width}×{render.height} pixels need "
+        raise SceneError(f"--vary: {len(scenes)} variants of {render.width}×{render.height} pixels need "
                          f"≈ {format_bytes(held)} of memory to hold and compose, above the "
                          f"{format_bytes(budget)} budget; use fewer values, a smaller render.width × "
-                         "render.height, or raise the budget (--max-memory)")
+                         "render.height, or raise the budget (--max-memory)", located(source))
     return budget - held
 
 

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..scene.messages import Location, located
 from ..scene.schema import Object, Scene, SceneError, SpecularModel, Viewer
 from ..tolerances import MIN_DISTANCE
 
@@ -214,10 +215,11 @@ NORMAL = {"icosphere": lambda p, obj: p, "uv_sphere": lambda p, obj: p, "box": _
 class ExactScene:
     """The scene's analytic objects, each with its world_from_object affine map."""
 
-    def __init__(self, scene: Scene, source: str = "<scene>"):
+    def __init__(self, scene: Scene, source: str | Location = "<scene>"):
         for index, obj in enumerate(scene.objects):
             if obj.shape == "mesh":
-                raise SceneError(f'{source}: objects.{index}.shape: "mesh" has no closed form; use --fine N')
+                raise SceneError('"mesh" has no closed form; use --fine N',
+                                 located(source).at("objects", index, "shape"))
         self.objects = scene.objects
         # world = linear · local + translate, linear = R S (geometry.place); rows map object → world.
         self.linear = [rotation(obj) @ np.diag(obj.scale) for obj in scene.objects]
@@ -358,7 +360,7 @@ def material_table(scene: Scene) -> np.ndarray:
     return np.array([[*m.ka, *m.kd, *m.ks, *m.ke, m.shininess] for m in map(scene.material_of, scene.objects)])
 
 
-def analytic_reference(scene: Scene, source: str = "<scene>") -> ReferenceImage:
+def analytic_reference(scene: Scene, source: str | Location = "<scene>") -> ReferenceImage:
     """The scene on its exact surfaces, float64: see the module docstring. SceneError for a mesh object."""
     exact = ExactScene(scene, source)
     rig = camera_frame(scene)
@@ -467,7 +469,7 @@ def textured_ambient_reference(scene: Scene, ka) -> tuple[np.ndarray, np.ndarray
     origins, directions = sample_rays(rig, width, height, 1, 0, height)
     _, which, points, _ = exact.closest(origins, directions)
     local = points - exact.translate[0]
-    uv = exact_uv("plane" if obj.shape == "plane" else "sphere", local, obj.size or (2.0, 2.0))
+    uv = exact_uv("plane", local, obj.size or (2.0, 2.0)) if obj.shape == "plane" else exact_uv("sphere", local)
     colour = np.asarray(scene.ambient) * np.asarray(ka) * ramp(uv[:, 0], uv[:, 1])
     hit = which >= 0
     colour[~hit] = 0
@@ -499,7 +501,7 @@ def read_map(path, colour: str) -> np.ndarray:
     return srgb_decode(pixels)
 
 
-def scene_maps(scene: Scene, source: str = "<scene>") -> dict[int, dict]:
+def scene_maps(scene: Scene, source: str | Location = "<scene>") -> dict[int, dict]:
     """object index → {"ka" | "kd" | "ke": ((H, W, 3) texels, wrap)} of the maps its material names (the k_a
     map is the k_d map unless given). SceneError for a textured shape with no closed-form UVs here."""
     found, cache = {}, {}
@@ -517,8 +519,8 @@ def scene_maps(scene: Scene, source: str = "<scene>") -> dict[int, dict]:
                 cache[path] = read_map(path, scene.render.colour)
             maps[key] = (cache[path], value.wrap)
         if maps and obj.shape not in ("plane", "icosphere", "uv_sphere"):
-            raise SceneError(f"{source}: objects.{index}: the analytic reference has exact texture coordinates for "
-                             f"planes and spheres only, not a textured {obj.shape}; use --fine N")
+            raise SceneError(f"the analytic reference has exact texture coordinates for planes and spheres only, not "
+                             f"a textured {obj.shape}; use --fine N", located(source).at("objects", index))
         found[index] = maps
     return found
 
@@ -557,7 +559,7 @@ def textured_rows(scene: Scene, exact: ExactScene, maps: dict, rows: np.ndarray,
             continue
         obj = scene.objects[index]
         local = (points[here] - exact.translate[index]) @ exact.inverse[index].T
-        uv = exact_uv("plane" if obj.shape == "plane" else "sphere", local, obj.size or (2.0, 2.0))
+        uv = exact_uv("plane", local, obj.size or (2.0, 2.0)) if obj.shape == "plane" else exact_uv("sphere", local)
         for key, column in (("ka", 0), ("kd", 3), ("ke", 9)):
             if key in found:
                 texels, wrap = found[key]

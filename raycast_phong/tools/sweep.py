@@ -38,6 +38,7 @@ from ..io.image_io import (
 )
 from ..io.scene_toml import toml_value
 from ..io.system import format_bytes
+from ..scene.messages import Location
 from .compare import BACKDROP, MIN_FONT, draw_text, fitting_size, layout, row_wording
 
 SWEEP_KEYS = ("scene", "set", "grid")
@@ -105,34 +106,36 @@ def is_sweep(path: Path) -> bool:
 def load_sweep(path: str | Path) -> Sweep:
     """Read and check a sweep file; every problem is one SceneError naming the file and the key."""
     path = Path(path)
+    where = Location(str(path))
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError) as error:
-        raise SceneError(f"{path}: cannot read the sweep file ({error})") from None
+        raise SceneError(f"cannot read the sweep file ({error})", where) from None
     except tomllib.TOMLDecodeError as error:
-        raise SceneError(f"{path}: TOML syntax error: {error}") from None
+        raise SceneError(f"TOML syntax error: {error}", where) from None
     unknown = [key for key in data if key not in SWEEP_KEYS]
     if unknown:
-        raise SceneError(f"{path}: {unknown[0]}: unknown key; a sweep file has {', '.join(SWEEP_KEYS)}")
+        raise SceneError(f"unknown key; a sweep file has {', '.join(SWEEP_KEYS)}", where.at(unknown[0]))
     if not isinstance(data.get("scene"), str):
-        raise SceneError(f"{path}: scene: must be the base scene file, a string relative to the sweep file")
+        raise SceneError("must be the base scene file, a string relative to the sweep file", where.at("scene"))
     fixed = data.get("set", [])
     if not isinstance(fixed, list) or not all(isinstance(item, str) and "=" in item for item in fixed):
-        raise SceneError(f'{path}: set: must be a list of "key.path=value" strings, e.g. ["render.width=160"]')
+        raise SceneError('must be a list of "key.path=value" strings, e.g. ["render.width=160"]', where.at("set"))
     if not isinstance(data["grid"], dict) or not data["grid"]:
-        raise SceneError(f'{path}: grid: must be a table of key paths and value lists, e.g. '
-                         'render.shading = ["flat", "phong"]')
+        raise SceneError('must be a table of key paths and value lists, e.g. render.shading = ["flat", "phong"]',
+                         where.at("grid"))
     axes = []
     for key, values in _leaves(data["grid"]):
         if not isinstance(values, list) or not values:
-            raise SceneError(f"{path}: grid.{key}: must be a non-empty list of values, got {json.dumps(values)}")
+            raise SceneError(f"must be a non-empty list of values, got {json.dumps(values)}",
+                             where.at("grid", *key.split(".")))
         axes.append((key, tuple(values)))
     cells = math.prod(len(values) for _, values in axes)
     if cells > MAX_SWEEP_CELLS:
         sizes = " × ".join(f"{len(values):,}" for _, values in axes)
-        raise SceneError(f"{path}: grid: {sizes} = {cells:,} cells, more than the {MAX_SWEEP_CELLS:,} a sweep "
-                         "renders (each is a render and a cell of the contact sheet); split the sweep or use "
-                         "fewer values")
+        raise SceneError(f"{sizes} = {cells:,} cells, more than the {MAX_SWEEP_CELLS:,} a sweep renders (each is a "
+                         "render and a cell of the contact sheet); split the sweep or use fewer values",
+                         where.at("grid"))
     return Sweep(path=path, scene=path.parent / data["scene"], fixed=tuple(fixed), axes=tuple(axes))
 
 

@@ -105,14 +105,16 @@ def test_plan_lists_each_stage_kept_or_left_out():
     result = runner.invoke(app, ["plan"])
     assert result.exit_code == 0, result.output
     lines = result.stdout.strip().splitlines()
-    warnings = [line for line in lines if line.startswith("warning ")]
+    told = [line for line in lines if line.startswith(("warning ", "note "))]
     colour = [line for line in lines if line.startswith("colour ")]
-    rows = [re.match(r"(kept|left out)\s+(\w+)\s+\S", line) for line in lines if line not in warnings + colour]
+    rows = [re.match(r"(kept|left out)\s+(\w+)\s+\S", line) for line in lines if line not in told + colour]
     assert all(rows), result.stdout  # every other line: status, stage, reason
     # One line for the colour setting, after the stages: the lecture's scene is in display colour by default.
     assert len(colour) == 1 and re.match(r"colour\s+display\s+the default for scene files", colour[0]), colour
-    # The lecture's point, found by the plan: the 80-face Gouraud sphere misses its f = 40 highlight.
-    assert len(warnings) == 1 and "objects.1 (gouraud)" in warnings[0] and "subdivisions = " in warnings[0]
+    # The lecture's point, found by the plan: the 80-face Gouraud sphere misses its f = 40 highlight. The object
+    # chose Gouraud itself (its own `shading` key), so the plan tells it as a note with the advice, not a warning.
+    assert len(told) == 1 and told[0].startswith("note      objects.1 (gouraud, its own `shading`)"), told
+    assert "subdivisions = 3" in told[0]
     stages = {row[2]: row[1] for row in rows}
     # The default figure: smooth objects need vertex normals; no material glows; no shadows in local mode.
     assert stages["vertex_normals"] == "kept"

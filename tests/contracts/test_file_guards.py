@@ -161,6 +161,39 @@ def test_unused_vertices_count(tmp_path):
     assert mesh_file_triangles(ply, "k") >= 999_000
 
 
+def binary_ply(path: Path, vertices: int, element: str, lists: list[list[int]], count: str = "uint") -> Path:
+    """A binary PLY of `vertices` zero vertices and one `element` (face, tristrips) a list, as the header says."""
+    import struct
+    header = (f"ply\nformat binary_little_endian 1.0\nelement vertex {vertices}\nproperty float x\n"
+              f"property float y\nproperty float z\nelement {element} {len(lists)}\n"
+              f"property list {count} int vertex_indices\nend_header\n").encode()
+    packed = {"uchar": "<B", "uint": "<I", "int": "<i"}[count]
+    body = b"".join(struct.pack(packed, len(entries)) + struct.pack(f"<{len(entries)}i", *entries)
+                    for entries in lists)
+    path.write_bytes(header + bytes(12 * vertices) + body)
+    return path
+
+
+def test_a_ply_s_lists_weigh_as_the_triangles_they_can_make(tmp_path):
+    """Issue 30 item 3: a PLY face of 3 M corners (header: 1 face) and one strip of 10⁶ indices count as the
+    3 M − 2 and 10⁶ − 2 triangles they make, not 1; so --max-memory 300M refuses the face before trimesh reads
+    it (before: the count was 1, and `plan` ran over 6 minutes at 745 MB). A file of triangles counts exactly."""
+    import random
+    face = binary_ply(tmp_path / "face.ply", 3, "face", [[i % 3 for i in range(3_000_000)]])
+    assert mesh_file_triangles(face, "k") == 3_000_000 - 2
+    strip = binary_ply(tmp_path / "strip.ply", 3, "tristrips", [[i % 3 for i in range(1_000_000)]], count="int")
+    assert mesh_file_triangles(strip, "k") == 1_000_000 - 2
+    rng = random.Random(1)
+    triangles = binary_ply(tmp_path / "t.ply", 500, "face", [rng.sample(range(500), 3) for _ in range(700)],
+                           count="uchar")
+    assert mesh_file_triangles(triangles, "k") == 700
+    done, peak, _ = run_measured(["render", str(face), "--max-memory", "300M", "-o", str(tmp_path / "o.png")],
+                                 tmp_path)
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and len(lines) == 1 and "3.0M triangles" in lines[0], done.stderr
+    assert peak < 400 << 20
+
+
 def reference_count(text: bytes) -> int:
     """An OBJ's triangles line by line, as the count was before (holding each line)."""
     faces = sum(max(len(line.split()) - 3, 0) for line in text.split(b"\n") if line[:2] in (b"f ", b"f\t"))
