@@ -56,7 +56,9 @@ def scene_command(
         notes = ()
         if is_mesh_file(scene):
             from raycast_phong.io.mesh_file import mesh_bounds
-            notes = mesh_bounds(scene, str(scene)).notes
+            from raycast_phong.io.mesh_source import mesh_source, source_key
+            source = loaded.mesh_sources.get(source_key(scene)) or mesh_source(scene)  # framing's, as loaded
+            notes = mesh_bounds(source, str(scene)).notes
         header = (f"# The scene `raycast-phong render {scene.name}` renders: written by `raycast-phong scene`.\n"
                   "# A [materials.NAME] table overrides the mesh file's material of that name; see docs/meshes.md.")
         if output is not None:

@@ -41,7 +41,7 @@ OBJECT_CHUNK_VERTICES = 1 << 20  # placed vertices per step of a group: ~25 MB o
 
 
 def build_geometry(scene: Scene, source: str | Location = "<scene>", vertex_normals: bool = True,
-                   normal_dtype: type = np.float64) -> Geometry:
+                   normal_dtype: type = np.float64, sources: dict | None = None) -> Geometry:
     """Concatenate the scene's objects in world space, in the scene's order.
 
     Built-in objects that share a shape and its parameters (and normal rule) form one group: their mesh is
@@ -50,9 +50,14 @@ def build_geometry(scene: Scene, source: str | Location = "<scene>", vertex_norm
     cases (a batched matmul gives each object the bits of its own), so a group changes no pixel.
     `vertex_normals=False` (the plan's choice for an all-flat scene) leaves corner_normals empty;
     `normal_dtype` is the corner normals' dtype: render() asks for float32 when it shades in float32 (the
-    kernel would round them so anyway), which halves the largest array of a smooth mesh.
+    kernel would round them so anyway), which halves the largest array of a smooth mesh. `sources`: the mesh
+    files' io.mesh_source.MeshSource by resolved path (prepare() passes those the budget used; made here when
+    not given).
     """
     where = located(source)
+    if sources is None and any(obj.shape == "mesh" for obj in scene.objects):
+        from ..io.mesh_source import mesh_sources
+        sources = mesh_sources(scene)
     material_index = {name: i + 1 for i, name in enumerate(scene.materials)}  # 0 is the built-in default
     groups = _groups(scene)
     bank = TextureBank(scene, where)
@@ -60,7 +65,7 @@ def build_geometry(scene: Scene, source: str | Location = "<scene>", vertex_norm
     built = []  # (members, template, exact corner normals in the object frame, a mesh file's material rows)
     for members in groups:
         first = scene.objects[members[0]]
-        template = object_mesh(scene, first, where.at("objects", members[0]))
+        template = object_mesh(scene, first, where.at("objects", members[0]), sources)
         exact = (exact_corner_normals_local(first, template.vertices, template.faces)
                  if vertex_normals and first.normals == "exact" else None)
         rows = None
@@ -449,11 +454,11 @@ def _corner_colours(scene: Scene, built: list, mesh) -> np.ndarray:
     return _object_corners(scene, built, mesh, colours, 3, 1.0)
 
 
-def object_mesh(scene: Scene, obj: Object, where: Location) -> ObjectMesh:
+def object_mesh(scene: Scene, obj: Object, where: Location, sources: dict | None = None) -> ObjectMesh:
     """The object's triangles in its own frame (a mesh file's with its materials, colours and normals; a built-in
     shape's from its kind, geometry/shapes/); `where` is the object's location (file: objects.N)."""
     if obj.shape == "mesh":
-        return _load_mesh(scene, obj, where)
+        return _load_mesh(scene, obj, where, (sources or {}).get(scene.resolve(obj.path)))
     return ObjectMesh(*shapes.KINDS[obj.shape].template(obj, where), None)
 
 
@@ -464,11 +469,11 @@ def shape_uv(obj: Object, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray
     return None if kind is None else kind.uv(obj, vertices, faces)
 
 
-def _load_mesh(scene: Scene, obj: Object, where: Location):
+def _load_mesh(scene: Scene, obj: Object, where: Location, mesh=None):
     path = scene.resolve(obj.path)
     from ..io.mesh_file import read_mesh  # imports trimesh (0.2–0.3 s): only for mesh files
 
-    read = read_mesh(path, where.at("path"))
+    read = read_mesh(path, where.at("path"), source=mesh)
     normals = read.normals if obj.normals in (None, "file") else None  # unset: the file's, if it has them
     if obj.normals == "file" and normals is None:
         raise SceneError(f'"file" but {str(path)!r} stores no vertex normals; use "mean", "area" or "angle"',
@@ -503,7 +508,7 @@ def file_crease_angle(obj: Object, stores_normals: bool) -> float | None:
     stores no normals: FILE_CREASE_ANGLE (a CAD part's edges stay sharp); None otherwise (the object's own)."""
     if stores_normals or obj.normals is not None or "crease_angle" in obj.model_fields_set:
         return None
-    from ..io.mesh_file import FILE_CREASE_ANGLE
+    from ..io.materials import FILE_CREASE_ANGLE
     return FILE_CREASE_ANGLE
 
 

@@ -3,6 +3,7 @@ a cheap scan in bounded pieces (OBJ's face corners), the least its read costs fr
 and whether reading it could fit in memory at all.
 
 Counts are kept per file version (io.files.VersionCache): framing's check and the render's estimate both ask.
+A glTF is counted from the document its io/mesh_source.MeshSource parsed, when the caller has one. No trimesh.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import numpy as np
 
 from ..errors import SceneError, Where
 from .files import VersionCache, file_version, open_regular
+from .gltf import JSON_LIMIT, Document, gltf_buffer_files
 from .system import available_memory, count_text, format_bytes
 
 # trimesh's load of a mesh file, above the render's own peak (the parse of a text file is larger). A binary STL
@@ -30,12 +32,13 @@ OTHER_MESH_FILE_BYTES = 550
 MESH_READ_BYTES = 270
 
 
-def mesh_file_triangles(path: Path, where: Where) -> int:
+def mesh_file_triangles(path: Path, where: Where, document: Document | None = None) -> int:
     """Triangles in a mesh file, read cheaply: PLY and OFF headers, binary STL's count, OBJ's face corners,
     glTF's accessor counts (a JSON above JSON_LIMIT is not parsed); other formats by file size (at least 6
     bytes per triangle). Where the file's vertices outnumber its triangles, its vertices (less 2):
     unused vertices cost memory too. 0 for a missing file (the loader reports it); a FIFO, device or folder is
-    refused here, and so is a binary STL whose size does not match its header's count (SceneError)."""
+    refused here, and so is a binary STL whose size does not match its header's count (SceneError). `document`:
+    a glTF's, already parsed (MeshSource.document), so it is not parsed again."""
     try:
         handle = open_regular(path, where, "mesh file")
     except FileNotFoundError:
@@ -45,12 +48,13 @@ def mesh_file_triangles(path: Path, where: Where) -> int:
         # An OBJ is counted in 1 MB pieces: once per version; framing and the render ask.
         suffix = path.suffix.lower()
         return COUNTS.setdefault(file_version(path, info),
-                                 lambda: _count_triangles(handle, suffix, info.st_size, where))
+                                 lambda: _count_triangles(handle, suffix, info.st_size, where, document))
 
 
-def mesh_file_read_bytes(path: Path) -> int:
+def mesh_file_read_bytes(path: Path, buffers: tuple[Path, ...] | None = None) -> int:
     """The least memory reading a mesh file costs, from its size and format alone (0 if it is not there):
-    the floor under the triangle count's estimate for a file that claims little and is large."""
+    the floor under the triangle count's estimate for a file that claims little and is large. `buffers`: a
+    .gltf's external buffer files (MeshSource.side_files), else read from its JSON."""
     try:
         size = path.stat().st_size
     except OSError:
@@ -61,8 +65,10 @@ def mesh_file_read_bytes(path: Path) -> int:
     if suffix == ".3mf":  # a zip: what it holds is read, decompressed (an 800 MB XML zips to 2 MB)
         return size + _zip_content_bytes(path) * ZIP_XML_READ_BYTES_PER_BYTE
     # A .gltf's external buffers are read whole, whatever its accessors claim to use of them.
-    buffers = sum(_size(buffer) for buffer in gltf_buffer_files(path)) if suffix == ".gltf" else 0
-    return size * READ_BYTES_PER_BYTE.get(suffix, TEXT_READ_BYTES_PER_BYTE) + buffers * BUFFER_READ_BYTES_PER_BYTE
+    if suffix == ".gltf" and buffers is None:
+        buffers = gltf_buffer_files(path)
+    weight = sum(_size(buffer) for buffer in buffers) if suffix == ".gltf" else 0
+    return size * READ_BYTES_PER_BYTE.get(suffix, TEXT_READ_BYTES_PER_BYTE) + weight * BUFFER_READ_BYTES_PER_BYTE
 
 
 def _zip_content_bytes(path: Path) -> int:
@@ -82,18 +88,6 @@ def _size(path: Path) -> int:
         return path.stat().st_size
     except OSError:
         return 0  # the loader reports a missing buffer
-
-
-def gltf_buffer_files(path: Path) -> tuple[Path, ...]:
-    """The external buffer files a .gltf names (not its `data:` URIs), from its JSON (at most JSON_LIMIT bytes
-    are read; () for a file that is not such a JSON)."""
-    try:
-        with open_regular(path, str(path), "mesh file", JSON_LIMIT) as handle:
-            document = json.loads(handle.read(JSON_LIMIT))
-        return tuple(path.parent / b["uri"] for b in document.get("buffers", [])
-                     if isinstance(b, dict) and isinstance(b.get("uri"), str) and not b["uri"].startswith("data:"))
-    except (OSError, SceneError, ValueError, RecursionError, TypeError, AttributeError):
-        return ()  # the loader reports an unreadable file (JSON nested too deep, buffers that are not a list, ...)
 
 
 def _binary_stl(path: Path, size: int) -> bool:
@@ -122,11 +116,11 @@ BUFFER_READ_BYTES_PER_BYTE = 1
 # A 3MF's XML, parsed by trimesh into a tree and lists: a 178 kB 3MF of 56.5 MB XML (500k triangles) peaked
 # 1.95 GB resident, 34.5 bytes a byte of XML.
 ZIP_XML_READ_BYTES_PER_BYTE = 36
-JSON_LIMIT = 64 << 20  # a glTF's JSON above this is not parsed to count: the size bound counts it
 CHUNK = 1 << 20  # an OBJ is scanned this many bytes at a time (about 20 MB of index arrays), never a whole line
 
 
-def _count_triangles(handle, suffix: str, size: int, where: Where = "mesh file") -> int:
+def _count_triangles(handle, suffix: str, size: int, where: Where = "mesh file",
+                     document: Document | None = None) -> int:
     """Triangles' worth of the open file `handle` of `size` bytes (mesh_file_triangles, before the size bound)."""
     head = handle.read(4096)
     try:
@@ -154,6 +148,9 @@ def _count_triangles(handle, suffix: str, size: int, where: Where = "mesh file")
         elif suffix == ".obj":
             handle.seek(0)
             return _obj_triangles(handle)
+        elif suffix in (".glb", ".gltf") and document is not None:
+            if document.tree:
+                return _gltf_triangles(document.tree)
         elif suffix == ".glb" and head[:4] == b"glTF":
             length = struct.unpack_from("<I", head, 12)[0]
             if length <= JSON_LIMIT:
@@ -252,26 +249,30 @@ def _gltf_triangles(document: dict) -> int:
     return total
 
 
-def check_mesh_read(path: Path, where: Where, max_memory: int | None = None) -> None:
+def check_mesh_read(path: Path, where: Where, max_memory: int | None = None, mesh=None) -> None:
     """Refuse (SceneError, one line) to read a mesh file for framing (scene.framing, before any render and
     so before renderer.budget.check_memory) when the read alone could not fit in the memory available now
     (io.system.available_memory: cgroup and `ulimit -v`; and `max_memory`, the command's --max-memory): the
     file's size × its parse (mesh_file_read_bytes, checked first, so a huge file is never scanned), or its
     triangles (from the header, mesh_file_triangles) × the flat render's bytes per triangle and the format's
-    parse."""
+    parse. `mesh`: the file's io.mesh_source.MeshSource (its glTF document and buffer files), if made."""
+    buffers = mesh.side_files if mesh is not None and path.suffix.lower() == ".gltf" else None
+    document = mesh.document if mesh is not None else None
     available = available_memory()
     if max_memory is not None:
         available = max_memory if available is None else min(available, max_memory)
-    floor = mesh_file_read_bytes(path)  # from the size alone: a huge file is refused before any byte is read
-    triangles = 0 if available is not None and floor > available else mesh_file_triangles(path, where)
+    floor = mesh_file_read_bytes(path, buffers)  # from the size alone: a huge file is refused before any byte is read
+    triangles = 0 if available is not None and floor > available else mesh_file_triangles(path, where, document)
     need = max(triangles * (MESH_READ_BYTES + MESH_FILE_BYTES.get(path.suffix.lower(), OTHER_MESH_FILE_BYTES)),
                floor)
     if available is not None and need > available:
         suffix = path.suffix.lower()
-        buffers = sum(_size(buffer) for buffer in gltf_buffer_files(path)) if suffix == ".gltf" else 0
+        if suffix == ".gltf" and buffers is None:
+            buffers = gltf_buffer_files(path)
+        weight = sum(_size(buffer) for buffer in buffers) if suffix == ".gltf" else 0
         unzipped = _zip_content_bytes(path) if suffix == ".3mf" else 0
         what = (f"{count_text(triangles)} triangles" if triangles else f"{format_bytes(path.stat().st_size)}"
-                + (f" and {format_bytes(buffers)} of buffers" if buffers else "")
+                + (f" and {format_bytes(weight)} of buffers" if weight else "")
                 + (f" ({format_bytes(unzipped)} unzipped)" if unzipped else ""))
         raise SceneError(f"reading its {what} needs ≈ {format_bytes(need)} of memory, more than the "
                          f"{format_bytes(available)} available; allowed: a mesh whose size and triangles fit, "

@@ -13,7 +13,6 @@ than that, and the memory stays bounded.
 
 from __future__ import annotations
 
-import json
 import re
 from pathlib import Path
 
@@ -197,101 +196,6 @@ def texture_bytes(sizes) -> int:
         h, w = capped(height, width)
         total += TEXTURE_BYTES_PER_TEXEL * h * w
     return total
-
-
-def mesh_texture_sizes(path: Path) -> list[tuple[int, int]]:
-    """(height, width) of each colour map a mesh file's materials name (OBJ: its .mtl's map_Kd, map_Ka,
-    map_Ke; glTF: baseColorTexture and emissiveTexture), from headers only; what cannot be read counts 0."""
-    suffix = path.suffix.lower()
-    try:
-        if suffix == ".obj":
-            return _obj_sizes(path)
-        if suffix in (".glb", ".gltf"):
-            return _gltf_sizes(path)
-    except (OSError, ValueError, KeyError, TypeError, IndexError, AttributeError, RecursionError):
-        pass  # a file that is not what it says counts nothing here; its read refuses it in its own words
-    return []
-
-
-def _obj_sizes(path: Path) -> list[tuple[int, int]]:
-    return [size for size in map(file_size, _obj_maps(path)) if size]
-
-
-def _obj_maps(path: Path) -> list[Path]:
-    """The colour maps (map_Kd, map_Ka, map_Ke) an OBJ's .mtl names that exist, each once, in order."""
-    from .mesh_file import _map_file, _texture_path, side_files
-    found_maps: list[Path] = []
-    for mtl in side_files(path):
-        if not mtl.is_file() or mtl.stat().st_size > 16 << 20:
-            continue
-        for line in mtl.read_text("utf-8", "replace").splitlines():
-            words = line.split("#", 1)[0].split()
-            if len(words) >= 2 and words[0].lower() in ("map_kd", "map_ka", "map_ke"):
-                found = _texture_path(mtl.parent, _map_file(words[1:]))
-                if found is not None and found not in found_maps:
-                    found_maps.append(found)
-    return found_maps
-
-
-def mesh_texture_files(path: Path) -> list[Path]:
-    """The image files outside a mesh file that its materials may read (an OBJ's .mtl maps, a .gltf's image
-    URIs other than data:), for batch's up-to-date rule: change one and the image changes. A .glb's images are
-    inside it. What cannot be read names nothing (the render reports it)."""
-    from urllib.parse import unquote
-    suffix = path.suffix.lower()
-    try:
-        if suffix == ".obj":
-            return _obj_maps(path)
-        if suffix == ".gltf" and path.stat().st_size <= 1 << 31:
-            with open_regular(path, str(path), "mesh file") as handle:
-                document = json.loads(handle.read())
-            return [path.parent / unquote(image["uri"]) for image in document.get("images", [])
-                    if isinstance(image, dict) and isinstance(image.get("uri"), str)
-                    and not image["uri"].startswith("data:")]
-    except (OSError, SceneError, ValueError, TypeError, AttributeError, RecursionError):
-        pass
-    return []
-
-
-def _gltf_sizes(path: Path) -> list[tuple[int, int]]:
-    import io
-    from urllib.parse import unquote
-    data = path.read_bytes() if path.stat().st_size <= 1 << 31 else b""
-    binary = b""
-    if path.suffix.lower() == ".glb":
-        length = int.from_bytes(data[12:16], "little")
-        document = json.loads(data[20:20 + length])
-        at = 20 + length
-        if len(data) >= at + 8 and data[at + 4:at + 8] == b"BIN\x00":
-            binary = data[at + 8:at + 8 + int.from_bytes(data[at:at + 4], "little")]
-    else:
-        document = json.loads(data)
-    images = set()
-    for material in document.get("materials", []):
-        for slot in ((material.get("pbrMetallicRoughness") or {}).get("baseColorTexture"),
-                     material.get("emissiveTexture")):
-            if isinstance(slot, dict) and "index" in slot:
-                texture = document["textures"][slot["index"]]
-                if "source" in texture:
-                    images.add(texture["source"])
-    from PIL import Image
-    sizes = []
-    for index in sorted(images):
-        image = document["images"][index]
-        try:
-            if "bufferView" in image:
-                view = document["bufferViews"][image["bufferView"]]
-                start = view.get("byteOffset", 0)
-                blob = io.BytesIO(binary[start:start + view["byteLength"]])
-                with Image.open(blob) as opened:
-                    sizes.append((opened.height, opened.width))
-            elif isinstance(image.get("uri"), str) and not image["uri"].startswith("data:"):
-                size = file_size(path.parent / unquote(image["uri"]))
-                if size:
-                    sizes.append(size)
-        except Exception:  # noqa: BLE001 - a broken image counts nothing; the read words it
-            continue
-    return sizes
 
 
 WRAP_OPTION = re.compile(r"-clamp\s+(on|off)", re.I)

@@ -76,12 +76,17 @@ def size_key(obj) -> str:
 
 
 def estimate_memory(scene: Scene, source: str | Location = "<scene>", *, smooth: bool = True, float64: bool = False,
-                    shadow_lights: int = 0, tile_rays: int = 1 << 15, threads: int = 1) -> MemoryEstimate:
+                    shadow_lights: int = 0, tile_rays: int = 1 << 15, threads: int = 1,
+                    sources: dict | None = None) -> MemoryEstimate:
     """The peak memory of rendering `scene`, from its keys and mesh-file headers only.
 
     smooth: the plan keeps vertex normals; float64: it shades in float64; shadow_lights: lights that
-    cast shadow rays (global mode); tile_rays × threads rays are in flight at once.
+    cast shadow rays (global mode); tile_rays × threads rays are in flight at once; sources: the mesh files'
+    io.mesh_source.MeshSource by resolved path (made here when not given).
     """
+    if sources is None and any(obj.shape == "mesh" for obj in scene.objects):
+        from ..io.mesh_source import mesh_sources
+        sources = mesh_sources(scene)
     files: dict[Path, int] = {}
     geometry, triangles, largest, largest_bytes = 0, 0, None, -1
     wide_normals = FLOAT64_NORMAL_BYTES if float64 or shadow_lights else 0
@@ -91,8 +96,9 @@ def estimate_memory(scene: Scene, source: str | Location = "<scene>", *, smooth:
         mesh_file = obj.shape == "mesh"
         if mesh_file:
             path = scene.resolve(obj.path)
+            mesh = sources[path]
             if path not in files:
-                files[path] = mesh_file_triangles(path, located(source).at("objects", index, "path"))
+                files[path] = mesh_file_triangles(path, located(source).at("objects", index, "path"), mesh.document)
             count, extra = files[path], MESH_FILE_BYTES.get(path.suffix.lower(), OTHER_MESH_FILE_BYTES)
         else:
             count, extra = shape_triangles(obj), 0
@@ -105,7 +111,7 @@ def estimate_memory(scene: Scene, source: str | Location = "<scene>", *, smooth:
                 per = max(per, CREASED_FILE_BYTES)
         size = count * (per + extra)
         if mesh_file:  # a large file that claims few triangles still costs its read (a one-line OBJ)
-            size = max(size, mesh_file_read_bytes(path))
+            size = max(size, mesh_file_read_bytes(path, mesh.side_files))
         triangles += count * objects
         geometry += size * objects
         if size > largest_bytes:  # the first object of the largest kind is the first of the largest objects
@@ -123,21 +129,22 @@ def estimate_memory(scene: Scene, source: str | Location = "<scene>", *, smooth:
                             + len(aovs & {"depth", "face"}))
     rays = tile_rays * threads * (1 + shadow_lights) * RAY_BYTES
     return MemoryEstimate(triangles, geometry, film + written + rays, largest, max(largest_bytes, 0),
-                          texture_estimate(scene, files))
+                          texture_estimate(scene, [sources[path] for path in files]))
 
 
-def texture_estimate(scene: Scene, files) -> int:
+def texture_estimate(scene: Scene, meshes) -> int:
     """The texture term: every colour map a used scene material names and every map the mesh files'
-    materials name, at the size it is decoded at, from image headers only (io.textures)."""
+    materials name (`meshes`: their MeshSources), at the size it is decoded at, from image headers only
+    (io.textures; a mesh file's sizes are its MeshSource's)."""
     used = {obj.material for obj in object_kinds(scene).firsts(scene.objects)}
     paths = [scene.resolve(m.path) for name, material in scene.materials.items() if name in used or name == "default"
              for m in (material.ka_map, material.kd_map, material.ke_map) if m is not None]
-    if not paths and not any(p.suffix.lower() in (".obj", ".glb", ".gltf") for p in files):
+    if not paths and not any(m.suffix in (".obj", ".glb", ".gltf") for m in meshes):
         return 0
-    from ..io.textures import file_size, mesh_texture_sizes, texture_bytes
+    from ..io.textures import file_size, texture_bytes
     sizes = [size for size in map(file_size, dict.fromkeys(paths)) if size]
-    for path in files:
-        sizes += mesh_texture_sizes(path)
+    for mesh in meshes:
+        sizes += mesh.texture_sizes
     return texture_bytes(sizes)
 
 

@@ -108,7 +108,11 @@ def prepare(scene: Scene, *, source: str | Location = "<scene>", threads: int | 
     bands = tuple((row, min(row + rows_per_tile, height)) for row in range(0, height, rows_per_tile))
     threads = threads or default_threads()
     tile_rays = rows_per_tile * width * samples * samples
-    memory = check_memory(scene, source, max_memory, smooth=plan.keeps(StageName.VERTEX_NORMALS),
+    sources = None
+    if any(obj.shape == "mesh" for obj in scene.objects):  # each mesh file's MeshSource, read once (the scene's)
+        from ..io.mesh_source import mesh_sources
+        sources = mesh_sources(scene)
+    memory = check_memory(scene, source, max_memory, sources=sources, smooth=plan.keeps(StageName.VERTEX_NORMALS),
                           float64=plan.keeps(StageName.FLOAT64_SHADING),
                           shadow_lights=len(scene.lights) if plan.keeps(StageName.SHADOW_RAYS) else 0,
                           tile_rays=tile_rays, threads=min(threads, len(bands)))
@@ -117,7 +121,7 @@ def prepare(scene: Scene, *, source: str | Location = "<scene>", threads: int | 
     real = plan.real
     with prep_threads(threads):  # a large mesh's preparation uses as many threads as its tiles
         geometry = build_geometry(scene, source=source, vertex_normals=plan.keeps(StageName.VERTEX_NORMALS),
-                                  normal_dtype=real)
+                                  normal_dtype=real, sources=sources)
     timings = {"geometry": time.perf_counter() - start}
     plan = diagnose(plan, scene, geometry)
     frame = unit_frame(geometry.vertices)

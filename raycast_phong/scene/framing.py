@@ -4,8 +4,9 @@ side, top or iso), a key light above and to the left of the camera, and the form
 (docs/meshes.md).
 
 `--set` overrides apply to that table exactly as to a TOML file's, before the camera is placed, so
-`--set render.width=300` or `--set camera.fov=20` still frames the model. The file is read once: io.mesh_file
-keeps the framing read in its file-version cache, where the render's read finds it.
+`--set render.width=300` or `--set camera.fov=20` still frames the model. The file is read once: its
+io.mesh_source.MeshSource is made here and handed on with the scene (load_scene), and io.mesh_file keeps the
+framing read in its file-version cache, where the render's read finds it.
 """
 
 from __future__ import annotations
@@ -48,19 +49,23 @@ def mesh_colour(path: str | Path) -> tuple[str, str]:
 
 
 def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), view: str | None = None,
-                    up: str | None = None, max_memory: int | None = None) -> dict:
+                    up: str | None = None, max_memory: int | None = None, sources: dict | None = None) -> dict:
     """A scene table showing one mesh file: its materials, a framing camera, a key light (docs/meshes.md).
     Reading the file to frame it keeps to `max_memory` bytes (the command's --max-memory) as well as to what
-    the machine has."""
+    the machine has. The file's MeshSource is put in `sources` (by io.mesh_source.source_key), if given."""
     from ..io.mesh_file import FILE_CREASE_ANGLE, check_file_content, mesh_bounds  # trimesh: only for mesh files
     from ..io.mesh_header import check_mesh_read
+    from ..io.mesh_source import mesh_source, source_key
     where = Location(str(path))
     view = view or VIEWS[0]
     if view not in VIEWS:
         raise SceneError(f"--view {view!r}; allowed: {', '.join(VIEWS)}", where)
     check_file_content(path, where)  # an OBJ named .stl is no binary STL of 1702M triangles
-    check_mesh_read(path, where, max_memory)  # the framing read comes before render()'s own memory check
-    found = mesh_bounds(path, where)
+    source = mesh_source(path)
+    if sources is not None:
+        sources[source_key(path)] = source
+    check_mesh_read(path, where, max_memory, source)  # the framing read comes before render()'s own memory check
+    found = mesh_bounds(source, where)
     if not found.radius >= MIN_EXTENT:  # every vertex at one point: nothing to frame (or to see)
         centre = [float(x) for x in found.centre]
         raise SceneError(f"every vertex of the model lies within {found.radius:.3g} of {centre}; "

@@ -28,9 +28,10 @@ def is_mesh_file(path: str | Path) -> bool:
 
 
 def read_scene_dict(path: str | Path, overrides: list[str] | tuple[str, ...] = (), view: str | None = None,
-                    up: str | None = None, max_memory: int | None = None) -> dict:
+                    up: str | None = None, max_memory: int | None = None, sources: dict | None = None) -> dict:
     """The table of a scene file, or of a mesh file made into a scene, with `overrides` applied; reading a
-    mesh file to frame it keeps to `max_memory` bytes (a command's --max-memory; None: what the machine has)."""
+    mesh file to frame it keeps to `max_memory` bytes (a command's --max-memory; None: what the machine has).
+    A mesh file's io.mesh_source.MeshSource is put in `sources`, if given."""
     path = Path(path)
     if not is_mesh_file(path):
         if view is not None or up is not None:
@@ -40,13 +41,18 @@ def read_scene_dict(path: str | Path, overrides: list[str] | tuple[str, ...] = (
         for assignment in overrides:
             apply_override(data, assignment, source=str(path))
         return data
-    return mesh_scene_dict(path, overrides, view, up, max_memory)
+    return mesh_scene_dict(path, overrides, view, up, max_memory, sources)
 
 
 def load_scene(path: str | Path, overrides: list[str] | tuple[str, ...] = (), view: str | None = None,
                up: str | None = None, max_memory: int | None = None) -> Scene:
     """Read, override (`key.path=value`, as `--set`), and validate a scene file or a mesh file; `max_memory`
-    caps the memory a mesh file's framing read may need (render() checks the render's own)."""
+    caps the memory a mesh file's framing read may need (render() checks the render's own). The scene carries
+    the MeshSource framing made (Scene.mesh_sources), which prepare() passes on: the file is not read again."""
     path = Path(path)
     folder = Path(".") if is_stdin(path) else path.parent  # a piped scene's paths are the working folder's
-    return validate_scene(read_scene_dict(path, overrides, view, up, max_memory), source=str(path), folder=folder)
+    sources: dict = {}
+    scene = validate_scene(read_scene_dict(path, overrides, view, up, max_memory, sources), source=str(path),
+                           folder=folder)
+    scene.mesh_sources.update(sources)
+    return scene

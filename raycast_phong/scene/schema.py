@@ -16,7 +16,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BeforeValidator, Field, Strict, ValidationError, field_validator, model_validator
+from pydantic import BeforeValidator, Field, PrivateAttr, Strict, ValidationError, field_validator, model_validator
 
 from ..codes import (
     IMAGE_SUFFIXES,
@@ -246,6 +246,9 @@ class Scene(Table):
     objects: Annotated[tuple[Object, ...], BeforeValidator(without_written_defaults)] = ()
     output: Output = Output()
     folder: str = Field(".", exclude=True)  # the scene file's folder: relative paths start here
+    # The mesh files' io.mesh_source.MeshSource made while loading (framing a mesh file), by source_key: handed
+    # with the scene to prepare(), which reads no file twice. What was read, not part of the scene's value.
+    _mesh_sources: dict = PrivateAttr(default_factory=dict)
 
     _check_ambient = field_validator("ambient")(lambda v: non_negative(v))
 
@@ -270,6 +273,20 @@ class Scene(Table):
         if problem:
             raise _KeyError(*problem)
         return self
+
+    def __eq__(self, other) -> bool:
+        """Equal keys (the mesh sources read while loading are not compared)."""
+        if not isinstance(other, Scene):
+            return NotImplemented
+        return self.__dict__ == other.__dict__
+
+    __hash__ = None  # as before this __eq__: a Scene holds dicts (materials), so it was never hashable
+
+    @property
+    def mesh_sources(self) -> dict:
+        """The MeshSources (io/mesh_source.py) made while this scene was loaded, by source_key; {} when none
+        were (a scene file: prepare() makes them)."""
+        return self._mesh_sources
 
     def replace(self, changes: Mapping[str, Any], /) -> Scene:
         """A new scene with `changes` applied, validated as a scene file is, in this scene's folder (its meshes

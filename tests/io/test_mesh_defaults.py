@@ -62,7 +62,7 @@ def test_mtl_ns_0_is_matte_not_a_uniform_highlight():
 
 
 def test_the_lobe_rule_keeps_narrow_lobes_and_lowers_wide_ones():
-    from raycast_phong.io.mesh_file import specular_lobe
+    from raycast_phong.io.materials import specular_lobe
     ks, f = specular_lobe([0.5, 0.5, 0.5], 80)
     assert f == 80 and ks.tolist() == [0.5] * 3  # narrower than the default's f = 32: as the file says
     ks, f = specular_lobe([1.0, 1.0, 1.0], 0)

@@ -277,7 +277,7 @@ def test_mtl_mapping_edge_cases_and_their_notes(tmp_path):
     """illum 0 is the colour only (k_e = Kd + Ke); one number is grey; a missing key takes the default's value;
     values outside [0, 1] are clamped; a value that is not a number keeps the default; Tr, illum 3 and maps
     are said once each, with the render going on."""
-    from raycast_phong.io.mesh_file import parse_mtl
+    from raycast_phong.io.mtl import parse_mtl
     notes: list[str] = []
     found = parse_mtl("newmtl flat\nKd 0.5 0.25 0.125\nKe 0.25 0 0\nillum 0\n"
                       "newmtl grey\nKa 0.3\nKd 1.5 0.5 -1\nKs nonsense\nTr 0.2\nillum 3\nbump b.png\n",
@@ -319,30 +319,26 @@ def test_a_model_whose_vertices_all_coincide_is_one_line_not_a_camera_error(tmp_
 
 
 def test_an_obj_is_scanned_for_its_mtllib_once_per_version(tmp_path, monkeypatch):
-    """The read cache's identity names an OBJ's .mtl, found by scanning the OBJ up to `mtllib` (all of it when
-    there is none: 0.3 s for 78 MB). Framing, the render's read and batch ask for it; it is scanned once per
-    version of the file, and a rewrite that names another .mtl is seen."""
+    """An OBJ's .mtl files are found by scanning the OBJ for `mtllib` (all of it when there is none: 0.3 s for
+    78 MB). Framing, the render's read and batch want them; the scan is the file's MeshSource's, made once when
+    the scene is loaded and handed on with it, and a rewrite that names another .mtl is seen."""
     import os
 
-    from raycast_phong.io import mesh_file
+    from raycast_phong.io import mesh_source as sources
+    from raycast_phong.io.mesh_source import mesh_source, mesh_sources
     path = tmp_path / "tri.obj"
     path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
-    opened = []
-    real = mesh_file.open_regular
-    from raycast_phong.io import files
-
-    def counted(*args, **kwargs):
-        opened.append(args[0])
-        return real(*args, **kwargs)
-    monkeypatch.setattr(mesh_file, "open_regular", counted)
-    monkeypatch.setattr(files, "open_regular", counted)  # the read's own open (files.open_mesh_file)
-    rp.render_file(path, ["render.width=16", "render.height=12"])
-    assert mesh_file.side_files(path) == []
-    scans = opened.count(path) - 1  # the one read of the mesh itself opens it too
-    assert scans == 1, opened
+    scans = []
+    real = sources.scan_mtllib
+    monkeypatch.setattr(sources, "scan_mtllib", lambda handle: scans.append(handle.name) or real(handle))
+    scene = rp.load_scene(path, ["render.width=16", "render.height=12"])
+    rp.render(scene)
+    assert [source.side_files for source in mesh_sources(scene).values()] == [()]
+    assert len(scans) == 1, scans
     path.write_text("mtllib other.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     os.utime(path, ns=(1, 1))  # a new version even on a coarse clock: the size and mtime differ
-    assert mesh_file.side_files(path) == [tmp_path / "other.mtl"]
+    assert [source.side_files for source in mesh_sources(scene).values()] == [(tmp_path / "other.mtl",)]
+    assert mesh_source(path).side_files == (tmp_path / "other.mtl",)
 
 
 def test_an_obj_is_counted_once_for_the_framing_check_and_the_render(tmp_path, monkeypatch):
@@ -380,7 +376,7 @@ def test_face_colours_drive_kd_and_ka_like_vertex_colours(tmp_path):
 def test_an_mtl_material_name_keeps_its_spaces(tmp_path):
     """`newmtl red paint` names the material "red paint" (as `usemtl red paint` refers to it): two names that
     share a first word stay two materials."""
-    from raycast_phong.io.mesh_file import parse_mtl
+    from raycast_phong.io.mtl import parse_mtl
     notes: list[str] = []
     materials = parse_mtl("newmtl red paint\nKd 1 0 0\nnewmtl red glaze\nKd 0 1 0\n", tmp_path / "m.mtl", notes)
     assert sorted(materials) == ["red glaze", "red paint"]

@@ -13,7 +13,8 @@ import pytest
 from typer.testing import CliRunner
 
 from raycast_phong.cli import app
-from raycast_phong.io import mesh_file
+from raycast_phong.io import mesh_file, mtl
+from raycast_phong.io.mesh_source import mesh_source
 
 runner = CliRunner()
 pytestmark = pytest.mark.usefixtures("in_tmp_path")
@@ -103,7 +104,8 @@ def test_every_mtl_an_mtllib_names_is_read(tmp_path):
     assert kd == {"red": (1, 0, 0), "green": (0, 1, 0), "blue": (0, 0, 1)}, kd
     for face, group in zip(mesh.faces, mesh.face_group):  # the face at x = k has the k-th material
         assert mesh.materials[group].name == ("red", "green", "blue")[int(mesh.vertices[face][:, 0].min())]
-    assert mesh_file.side_files(tmp_path / "three.obj") == [tmp_path / n for n in ("a.mtl", "b c.mtl", "d e.mtl")]
+    names = ("a.mtl", "b c.mtl", "d e.mtl")
+    assert list(mesh_source(tmp_path / "three.obj").side_files) == [tmp_path / n for n in names]
 
 
 def test_an_mtllib_naming_one_file_with_a_space_and_several_lines_are_read(tmp_path):
@@ -125,16 +127,16 @@ def test_a_map_option_after_the_file_name_is_not_part_of_the_name(tmp_path):
     exporters write some after); `map_Bump -bm 1 n.png` skips -bm before the name as before."""
     from PIL import Image
     Image.new("RGB", (2, 2), (255, 255, 255)).save(tmp_path / "wood.png")
-    assert "-bm" in mesh_file.MAP_OPTIONS
+    assert "-bm" in mtl.MAP_OPTIONS
     notes: list[str] = []
     sources: list = []
-    found = mesh_file.parse_mtl("newmtl w\nmap_Kd wood.png -bm 0.5\nmap_Bump -bm 1 n.png\n"
+    found = mtl.parse_mtl("newmtl w\nmap_Kd wood.png -bm 0.5\nmap_Bump -bm 1 n.png\n"
                                 "newmtl c\nmap_Kd wood.png -clamp on -s 1 1 1\n", tmp_path / "m.mtl", notes, sources)
     assert found["w"].kd_map >= 0 and sources[found["w"].kd_map].source == tmp_path / "wood.png", notes
     assert sources[found["c"].kd_map].wrap_s == "clamp"
     assert not any("'wood.png" in note for note in notes), notes
     assert any("not applied: map_bump n.png" in note for note in notes), notes
-    assert mesh_file._map_file(["my", "wood.png"]) == "my wood.png"  # spaces in a name stay
+    assert mtl.map_file(["my", "wood.png"]) == "my wood.png"  # spaces in a name stay
 
 
 def test_vertex_colours_are_kept_beside_usemtl_materials(tmp_path):

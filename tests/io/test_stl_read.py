@@ -1,4 +1,4 @@
-"""A binary STL is read by io/mesh_file.py itself (float32 corners straight from its records), an ASCII one by
+"""A binary STL is read by io/stl.py itself (float32 corners straight from its records), an ASCII one by
 trimesh; both give trimesh's points, and the memory guard's floor follows what each read costs."""
 
 from __future__ import annotations
@@ -9,6 +9,7 @@ import trimesh
 
 from raycast_phong.geometry.build import build_geometry
 from raycast_phong.io import mesh_file, mesh_header
+from raycast_phong.io.mesh_source import mesh_source
 from raycast_phong.scene.schema import validate_scene
 
 
@@ -36,7 +37,7 @@ def test_a_binary_stl_is_read_as_float32_corners_with_trimesh_values(stl_files):
     assert read.faces.dtype == np.int64 and read.normals is None and read.corner_colour is None
     assert (read.face_group == -1).all() and read.materials == ()
     # Framing's bounds in float64, as from trimesh's float64 points.
-    framed = mesh_file._read(binary, "t", bounds=True)
+    framed = mesh_file._read(binary, "t", mesh_source(binary), bounds=True)
     corners = theirs.vertices
     centre = (corners.min(axis=0) + corners.max(axis=0)) / 2
     assert framed.centre.dtype == np.float64 and np.array_equal(framed.centre, centre)
@@ -51,7 +52,7 @@ def test_a_binary_stl_prepares_the_geometry_trimesh_s_read_gave(stl_files, monke
     binary, _ = stl_files
     scene = validate_scene({"objects": [{"shape": "mesh", "path": str(binary)}]}, source=str(binary))
     ours = build_geometry(scene)
-    monkeypatch.setattr(mesh_file, "_binary_stl_points", lambda handle: None)  # trimesh reads it
+    monkeypatch.setattr(mesh_file, "binary_stl_points", lambda handle: None)  # trimesh reads it
     theirs = build_geometry(scene)
     for name in ("vertices", "faces", "face_normals", "corner_normals"):
         a, b = getattr(ours, name), getattr(theirs, name)

@@ -10,7 +10,9 @@ import numpy as np
 
 import raycast_phong as rp
 from raycast_phong.geometry.build import build_geometry
-from raycast_phong.io.mesh_file import _gltf_samplers, parse_mtl, read_mesh
+from raycast_phong.io.gltf import gltf_samplers
+from raycast_phong.io.mesh_file import read_mesh
+from raycast_phong.io.mtl import parse_mtl
 
 MODELS = Path(__file__).resolve().parents[1] / "data" / "models"
 
@@ -34,7 +36,7 @@ def test_gltf_sampler_codes_become_wrap_modes():
                 "materials": [{"name": "a", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}},
                                "emissiveTexture": {"index": 1}},
                               {"name": "b", "pbrMetallicRoughness": {"baseColorTexture": {"index": 2}}}]}
-    assert _gltf_samplers(document) == {("a", "baseColorTexture"): ("clamp", "mirror"),
+    assert gltf_samplers(document) == {("a", "baseColorTexture"): ("clamp", "mirror"),
                                         ("a", "emissiveTexture"): ("repeat", "repeat"),
                                         ("b", "baseColorTexture"): ("repeat", "repeat")}
 

@@ -208,12 +208,17 @@ def _is_scene(path: Path) -> bool:
 def job_hash(job: Job, scene: Scene | None, settings: Settings) -> str:
     """sha256 of the package version, the settings, the overrides, the scene's render.colour (a mesh file's
     comes from its format, not its bytes), the scene file and its meshes' bytes."""
+    return _hash(job, settings, scene.render.colour if scene is not None else None, input_paths(job, scene))
+
+
+def _hash(job: Job, settings: Settings, colour: str | None, paths: list[Path]) -> str:
+    """job_hash of a scene whose render.colour is `colour` and whose input_paths are `paths`."""
     from ... import __version__
     digest = hashlib.sha256()
     header = {"package": __version__, "settings": asdict(settings), "overrides": list(job.overrides),
-              "colour": scene.render.colour if scene is not None else None}
+              "colour": colour}
     digest.update(json.dumps(header, sort_keys=True).encode())
-    for path in input_paths(job, scene):
+    for path in paths:
         digest.update(str(path.name).encode())
         try:  # only a regular file (a FIFO would block), in blocks (a mesh file may be large)
             with open_regular(path, str(path), "file") as handle:
@@ -226,24 +231,32 @@ def job_hash(job: Job, scene: Scene | None, settings: Settings) -> str:
 
 def input_paths(job: Job, scene: Scene | None) -> list[Path]:
     """The files a job's image depends on: its scene file, the colour maps its materials name, then the mesh
-    files the scene reads (resolved against its folder), their side files (mesh_file.side_files: an .obj's
-    .mtl, a .gltf's buffers) and the maps their materials name (io.textures.mesh_texture_files); the hash and
-    the modification times both cover exactly these."""
+    files the scene reads (resolved against its folder), their side files (an .obj's .mtl, a .gltf's buffers)
+    and the images their materials name, as their io.mesh_source.MeshSource gives them (the one load_scene
+    made, so nothing is read again); the hash and the modification times both cover exactly these."""
     if scene is None:
         return [job.scene]
-    from ...io.mesh_file import side_files
-    from ...io.textures import mesh_texture_files
+    from ...io.mesh_source import mesh_sources
     maps = [scene.resolve(path) for key, path in scene.named_files().items() if key[0] == "materials"]
     meshes = [scene.resolve(obj.path) for obj in scene.objects if obj.shape == "mesh" and obj.path]
-    return [job.scene, *maps, *meshes, *(side for mesh in meshes for side in side_files(mesh)),
-            *(image for mesh in meshes for image in mesh_texture_files(mesh))]
+    return _paths(job, maps, meshes, list(mesh_sources(scene).values()))
+
+
+def _paths(job: Job, maps: list[Path], meshes: list[Path], sources) -> list[Path]:
+    """input_paths from the scene's maps, its mesh files and their MeshSources."""
+    return [job.scene, *maps, *meshes, *(side for mesh in sources for side in mesh.side_files),
+            *(image for mesh in sources for image in mesh.images)]
 
 
 def input_times(job: Job, scene: Scene | None) -> dict[str, int]:
     """Modification time (ns) of the scene file and of each mesh it reads, keyed by the resolved path (so
     `a.toml`, `./a.toml`, its absolute path and a symlink to it are one file); -1 for a missing file."""
+    return _times(input_paths(job, scene))
+
+
+def _times(paths: list[Path]) -> dict[str, int]:
     times = {}
-    for path in input_paths(job, scene):
+    for path in paths:
         try:
             times[str(path.resolve())] = path.stat().st_mtime_ns
         except OSError:
@@ -266,6 +279,12 @@ def prepare_job(job: Job, folder: Path, settings: Settings, previous: dict | Non
     A mesh file's framing read keeps to `max_memory` bytes (the batch's budget)."""
     start = time.perf_counter()
     entry = new_entry(job, FAILED)
+    if not force and previous is not None:
+        unframed = _unframed_mesh_job(job, settings)
+        if unframed is not None and is_current(previous, *unframed, folder):
+            return replace(entry, status=UP_TO_DATE, outputs=previous["outputs"],
+                           seconds=previous.get("seconds", {}), rays_per_second=previous.get("rays_per_second"),
+                           hash=unframed[0], inputs=unframed[1])
     try:
         scene = absolute_folder(load_scene(job.scene, settings.overrides(job), max_memory=max_memory))
     except SceneError as error:
@@ -282,6 +301,32 @@ def prepare_job(job: Job, folder: Path, settings: Settings, previous: dict | Non
     output = Path(folder).absolute() / f"{job.name}{Path(scene.output.path).suffix.lower()}"
     return Task(job=job, scene=scene, output=output, digest=digest, inputs=inputs, settings=settings, threads=None,
                 load_seconds=load_seconds, before=file_identity(output))
+
+
+def _unframed_mesh_job(job: Job, settings: Settings) -> tuple[str, dict[str, int]] | None:
+    """(job_hash, input_times) of a job that renders a mesh file directly, without framing it: a batch frames
+    (reads whole, through trimesh) only the meshes it will render. Neither depends on the framing: the inputs
+    are the file, its side files and images (its MeshSource), and render.colour is the format's default unless
+    an override sets it. None for a scene file, or overrides that could add inputs (keys outside render.*,
+    camera, lights, ambient and output): the job is loaded as before. A result that differs from the full
+    load's can only miss an up-to-date job, never call a stale one current: both hash the same header and
+    files, and a previous entry's hash was the full load's."""
+    from ...scene.framing import mesh_colour
+    from ...scene.load import is_mesh_file
+    if not is_mesh_file(job.scene):
+        return None
+    colour = mesh_colour(job.scene)[0]
+    for assignment in settings.overrides(job):
+        key, _, value = assignment.partition("=")
+        if key.strip() == "render.colour":
+            colour = value.strip().strip("\"'")
+        elif key.strip().split(".")[0] not in ("camera", "lights", "ambient", "output", "render") \
+                or key.strip() == "render":
+            return None  # a material map, an object's path: inputs the scene would name; a whole [render] table
+    from ...io.mesh_source import mesh_source
+    path = Path(job.scene)
+    paths = _paths(job, [], [path], [mesh_source(path)])
+    return _hash(job, settings, colour, paths), _times(paths)
 
 
 def absolute_folder(scene: Scene) -> Scene:

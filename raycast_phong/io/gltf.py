@@ -1,0 +1,272 @@
+"""glTF 2.0 files (.gltf, .glb): the JSON document, read and parsed once per file version (io/mesh_source.py
+keeps it for every stage that asks: the memory estimate, batch's side files, the read's checks), what it
+requires, the files and images it names, and its metallic-roughness materials on the lecture's model
+(docs/meshes.md). No trimesh: trimesh reads the geometry (io/mesh_file.py).
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+from pathlib import Path
+from typing import NamedTuple
+from urllib.parse import unquote
+
+import numpy as np
+
+from ..codes import GLTF_WRAP
+from ..errors import SceneError, Where
+from .files import open_regular
+from .materials import MAX_FILE_SHININESS, FileMaterial, TextureSource, specular_lobe
+from .materials import rgb as _rgb
+
+JSON_LIMIT = 64 << 20  # a glTF's JSON above this is not parsed here (the size bound weighs it; trimesh reads it)
+# Required glTF extensions read here; any other one in extensionsRequired is refused (glTF 2.0 §3.12: a loader
+# must not load a file whose required extensions it does not support). Draco needs DracoPy.
+SUPPORTED_REQUIRED = ("KHR_draco_mesh_compression", "KHR_materials_unlit", "KHR_materials_emissive_strength",
+                      "KHR_texture_transform")
+UNLIT, EMISSIVE_STRENGTH, TRANSFORM = "KHR_materials_unlit", "KHR_materials_emissive_strength", "KHR_texture_transform"
+# What an extension this renderer does not read asks of it, for the refusal (the file's need, in its words).
+NEEDS = {"KHR_mesh_quantization": "vertex data stored as (normalized) integers",
+         "EXT_meshopt_compression": "meshoptimizer-compressed buffers, as gltfpack -c and glTF-Transform write",
+         "KHR_materials_pbrSpecularGlossiness": "specular-glossiness materials",
+         "KHR_texture_basisu": "KTX2 (Basis Universal) textures", "EXT_texture_webp": "WebP textures"}
+
+
+class Document(NamedTuple):
+    """A glTF's JSON as read: the parsed document ({} when it is not JSON or too large to parse here),
+    where a .glb's binary chunk lies (offset, length; None for a .gltf or a .glb without one), and a problem
+    the read must refuse with (a JSON nested deeper than Python parses), else None."""
+    tree: dict
+    binary: tuple[int, int] | None
+    problem: str | None
+
+
+def read_document(path: Path) -> Document:
+    """The JSON of the glTF at `path` (a .glb's first chunk), at most JSON_LIMIT bytes of it; reading stops
+    there (a .glb's binary chunk is not read). A missing or unreadable file gives an empty document (the
+    read words the error)."""
+    binary = None
+    try:
+        with open_regular(path, str(path), "mesh file") as handle:
+            if path.suffix.lower() == ".glb":
+                header = handle.read(20)
+                length = int.from_bytes(header[12:16], "little")
+                if header[:4] != b"glTF" or header[16:20] != b"JSON" or length > JSON_LIMIT:
+                    return Document({}, None, None)
+                text = handle.read(length)
+                chunk = handle.read(8)
+                if len(text) == length and chunk[4:8] == b"BIN\x00":
+                    binary = (20 + length + 8, int.from_bytes(chunk[:4], "little"))
+            else:
+                text = handle.read(JSON_LIMIT + 1)
+                if len(text) > JSON_LIMIT:
+                    return Document({}, None, None)
+        tree = json.loads(text)
+    except (OSError, SceneError, ValueError, UnicodeDecodeError):
+        return Document({}, None, None)  # trimesh words what is wrong with the file
+    except RecursionError:  # Python's parser recurses per level: no glTF is nested a thousand deep
+        return Document({}, None, "its JSON is nested deeper than Python's parser reads; allowed: a glTF document "
+                                  "(a few levels of objects and lists)")
+    return Document(tree if isinstance(tree, dict) else {}, binary, None)
+
+
+def uri_file(folder: Path, uri: str) -> Path:
+    """The file a glTF's relative URI names: percent-decoded (glTF 2.0 §3.3.3: URIs are RFC 3986, so a space
+    is written %20), unless a file of the name as written exists (exporters that write spaces as they are)."""
+    written = folder / uri
+    if "%" not in uri or written.is_file():
+        return written
+    return folder / unquote(uri)
+
+
+def buffer_files(document: dict, folder: Path) -> tuple[Path, ...]:
+    """The external buffer files a glTF names (not its `data:` URIs), percent-decoded (uri_file)."""
+    try:
+        return tuple(uri_file(folder, b["uri"]) for b in document.get("buffers", [])
+                     if isinstance(b, dict) and isinstance(b.get("uri"), str) and not b["uri"].startswith("data:"))
+    except (TypeError, AttributeError):
+        return ()  # buffers that are not a list: the read reports it
+
+
+def gltf_buffer_files(path: Path) -> tuple[Path, ...]:
+    """buffer_files of the .gltf at `path`, read now (for a caller holding no MeshSource)."""
+    return buffer_files(read_document(path).tree, path.parent)
+
+
+def image_uris(document: dict) -> list[str]:
+    """The image files outside the glTF that it names: its URIs other than data:, as written (uri_file finds
+    the file)."""
+    try:
+        return [image["uri"] for image in document.get("images", []) if isinstance(image, dict)
+                and isinstance(image.get("uri"), str) and not image["uri"].startswith("data:")]
+    except (TypeError, AttributeError):
+        return []
+
+
+def check_document(document: Document, path: Path, where: Where, notes: list[str]) -> dict:
+    """Refuse a document the read cannot take (nested too deep) or whose required extensions are not supported,
+    naming them; a note for each image file it names that is missing. Returns the wrap modes of each material's
+    colour maps (gltf_samplers; trimesh drops them)."""
+    if document.problem:
+        raise SceneError(f"{str(path)!r}: {document.problem}", where)
+    tree = document.tree
+    required = [e for e in tree.get("extensionsRequired", []) if isinstance(e, str)] \
+        if isinstance(tree.get("extensionsRequired", []), list) else []
+    missing = [e for e in required if e not in SUPPORTED_REQUIRED]
+    if "KHR_draco_mesh_compression" in required:
+        try:
+            import DracoPy  # noqa: F401  (trimesh decodes Draco with it)
+        except ImportError:
+            missing.insert(0, "KHR_draco_mesh_compression (Draco compression: pip install DracoPy)")
+    if missing:
+        named = [f"{e} ({NEEDS[e]})" if e in NEEDS else e for e in missing]
+        raise SceneError(f"{str(path)!r} requires the glTF extension(s) {', '.join(named)}, which this "
+                         f"renderer does not support; supported: {', '.join(SUPPORTED_REQUIRED)}", where)
+    for uri in image_uris(tree):
+        if not uri_file(path.parent, uri).is_file():
+            notes.append(f"{path}: texture {unquote(uri)!r} is missing")
+    return gltf_samplers(tree)
+
+
+def texture_sizes(path: Path, document: Document, file_size) -> list[tuple[int, int]]:
+    """(height, width) of each colour map (baseColorTexture, emissiveTexture) the glTF's materials use, from
+    image headers only: an external file's (`file_size`, io.textures), a .glb's embedded image's from its own
+    bytes alone (the rest of the binary chunk is not read); what cannot be read counts nothing."""
+    tree = document.tree
+    images = set()
+    try:
+        for material in tree.get("materials", []):
+            for slot in ((material.get("pbrMetallicRoughness") or {}).get("baseColorTexture"),
+                         material.get("emissiveTexture")):
+                if isinstance(slot, dict) and "index" in slot:
+                    texture = tree["textures"][slot["index"]]
+                    if "source" in texture:
+                        images.add(texture["source"])
+    except (AttributeError, IndexError, KeyError, TypeError):
+        return []
+    from PIL import Image
+    sizes = []
+    for index in sorted(images):
+        try:
+            image = tree["images"][index]
+            if "bufferView" in image:
+                if document.binary is None:
+                    continue
+                view = tree["bufferViews"][image["bufferView"]]
+                start, length = view.get("byteOffset", 0), view["byteLength"]
+                if start + length > document.binary[1]:
+                    continue
+                with open_regular(path, str(path), "mesh file") as handle:
+                    handle.seek(document.binary[0] + start)
+                    blob = io.BytesIO(handle.read(length))
+                with Image.open(blob) as opened:
+                    sizes.append((opened.height, opened.width))
+            elif isinstance(image.get("uri"), str) and not image["uri"].startswith("data:"):
+                size = file_size(uri_file(path.parent, image["uri"]))
+                if size:
+                    sizes.append(size)
+        except Exception:  # noqa: BLE001 - a broken image counts nothing; the read words it
+            continue
+    return sizes
+
+
+def gltf_samplers(document: dict) -> dict:
+    """What the document says of each material that trimesh drops, by (material name, key): the wrap modes
+    (wrap_s, wrap_t) of its colour maps (key: the slot) from the glTF's samplers (10497 repeat, 33071 clamp,
+    33648 mirror; a texture without a sampler repeats, glTF 2.0 §5.26); True for (name, UNLIT) when it is
+    unlit; its emissive strength for (name, EMISSIVE_STRENGTH); a colour map's KHR_texture_transform for
+    (name, TRANSFORM, slot): (offset, rotation, scale) (transform_uv)."""
+    found = {}
+    try:
+        textures, samplers = document.get("textures", []), document.get("samplers", [])
+        for material in document.get("materials", []):
+            extensions = material.get("extensions") or {}
+            if isinstance(extensions, dict) and UNLIT in extensions:
+                found.setdefault((material.get("name"), UNLIT), True)
+            strength = (extensions.get(EMISSIVE_STRENGTH) or {}).get("emissiveStrength", 1.0) \
+                if isinstance(extensions, dict) else 1.0
+            if isinstance(strength, (int, float)) and not isinstance(strength, bool) and strength != 1.0:
+                found.setdefault((material.get("name"), EMISSIVE_STRENGTH), float(strength))
+            slots = {"baseColorTexture": (material.get("pbrMetallicRoughness") or {}).get("baseColorTexture"),
+                     "emissiveTexture": material.get("emissiveTexture")}
+            for slot, info in slots.items():
+                if not isinstance(info, dict) or not isinstance(info.get("index"), int):
+                    continue
+                transform = (info.get("extensions") or {}).get(TRANSFORM)
+                if isinstance(transform, dict):
+                    found.setdefault((material.get("name"), TRANSFORM, slot), (
+                        tuple(float(x) for x in transform.get("offset", (0.0, 0.0)))[:2],
+                        float(transform.get("rotation", 0.0)),
+                        tuple(float(x) for x in transform.get("scale", (1.0, 1.0)))[:2]))
+                sampler = textures[info["index"]].get("sampler")
+                modes = samplers[sampler] if isinstance(sampler, int) else {}
+                found.setdefault((material.get("name"), slot), (GLTF_WRAP.get(modes.get("wrapS"), "repeat"),
+                                                                GLTF_WRAP.get(modes.get("wrapT"), "repeat")))
+    except (AttributeError, IndexError, TypeError, ValueError):
+        pass  # a malformed table: every map repeats
+    return found
+
+
+def transform_uv(uv: np.ndarray, transform: tuple) -> np.ndarray:
+    """(N, 2) texture coordinates as trimesh gives them (v up: 1 − glTF's v) through a KHR_texture_transform
+    (offset, rotation, scale), in glTF's own coordinates (v down) as the extension defines it: uv' = T R S uv,
+    R turning the UVs counter-clockwise by `rotation` radians (u' = u cos r − v sin r, v' = u sin r + v cos r);
+    returned v up again."""
+    (ox, oy), rotation, (sx, sy) = transform
+    u, v = uv[:, 0] * sx, (1.0 - uv[:, 1]) * sy
+    c, s = math.cos(rotation), math.sin(rotation)
+    return np.column_stack([c * u - s * v + ox, 1.0 - (s * u + c * v + oy)])
+
+
+
+
+def from_pbr(material, path: Path, notes: list[str], sources: list[TextureSource], samplers: dict) -> FileMaterial:
+    """glTF 2.0 metallic-roughness → Phong: a stated approximation (docs/meshes.md).
+
+    k_d = k_a = base colour; k_s = F0 of the metallic workflow, lerp(0.04, base colour, metallic) (glTF
+    2.0 Appendix B); f = 2/α² − 2 with α = roughness², the Blinn-Phong exponent of the same lobe width
+    (Walter et al. 2007); both through specular_lobe, so roughness 1 is matte; k_e = emissive factor.
+    A baseColorTexture is the k_d map (and k_a's), an emissiveTexture the k_e map, each with its sampler's
+    wrap modes (decoded later, only if a face uses the material). glTF's defaults: base colour 1, metallic 1,
+    roughness 1, emissive 0. KHR_materials_emissive_strength multiplies the emissive factor (k_e is clamped
+    to 1, and said); KHR_materials_unlit is the lecture's emission-only material: k_e = base colour (its
+    baseColorTexture the k_e map), k_a = k_d = k_s = 0.
+    """
+    base = material.baseColorFactor
+    base = np.ones(4) if base is None else np.asarray(base, np.float64) / 255.0
+    metallic = 1.0 if material.metallicFactor is None else float(material.metallicFactor)
+    roughness = 1.0 if material.roughnessFactor is None else float(material.roughnessFactor)
+    emissive = np.zeros(3) if material.emissiveFactor is None else np.asarray(material.emissiveFactor, np.float64)
+    rgb = np.clip(base[:3], 0, 1)
+    metallic, roughness = min(max(metallic, 0.0), 1.0), min(max(roughness, 0.0), 1.0)
+    alpha = roughness * roughness
+    shininess = MAX_FILE_SHININESS if alpha == 0 else 2 / alpha**2 - 2
+    name = material.name or f"{path.stem}-material"
+    if base[3] < 1 or getattr(material, "alphaMode", None) in ("BLEND", "MASK"):
+        notes.append(f"{path}: material {name!r}: transparency (alpha {base[3]:.3g}) is ignored: surfaces are opaque")
+    maps = {}
+    for key in ("baseColorTexture", "emissiveTexture"):
+        image = getattr(material, key, None)
+        if image is None:
+            continue
+        wrap_s, wrap_t = samplers.get((material.name, key), ("repeat", "repeat"))
+        maps[key] = len(sources)
+        sources.append(TextureSource(image, wrap_s, wrap_t, f"{path}: material {name!r}: its {key}"))
+    ignored = [key for key in ("metallicRoughnessTexture", "normalTexture", "occlusionTexture")
+               if getattr(material, key, None) is not None]
+    if ignored:
+        notes.append(f"{path}: material {name!r}: {', '.join(ignored)} not applied; its factors are used")
+    if samplers.get((material.name, UNLIT)):
+        black = (0.0, 0.0, 0.0)
+        return FileMaterial(name, black, black, black, _rgb(rgb), MAX_FILE_SHININESS,
+                            ke_map=maps.get("baseColorTexture", -1))
+    emissive = emissive[:3] * samplers.get((material.name, EMISSIVE_STRENGTH), 1.0)
+    if emissive.max(initial=0.0) > 1:
+        notes.append(f"{path}: material {name!r}: emissive factor × strength {emissive.max():.3g} is clamped to 1, "
+                     "the lecture's largest k_e")
+    ks, shininess = specular_lobe(0.04 + (rgb - 0.04) * metallic, shininess)
+    return FileMaterial(name, _rgb(rgb), _rgb(rgb), _rgb(ks), _rgb(np.clip(emissive, 0, 1)), float(shininess),
+                        kd_map=maps.get("baseColorTexture", -1), ke_map=maps.get("emissiveTexture", -1))
+

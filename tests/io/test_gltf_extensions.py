@@ -1,0 +1,150 @@
+"""glTF files that are valid and were refused (issue 33, "Valid files refused"), each on a minimal file written
+here: a percent-encoded buffer and image URI, KHR_materials_unlit (the lecture's emission-only material),
+KHR_materials_emissive_strength, KHR_texture_transform; and the refusal of an extension still unsupported,
+in the renderer's words."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import raycast_phong as rp
+from raycast_phong.errors import SceneError
+from raycast_phong.io.mesh_file import read_mesh
+
+# Ambient light only, white: a surface shows k_a (and k_e); lights would add its diffuse and specular terms.
+AMBIENT = ["render.width=40", "render.height=30", "ambient=[1, 1, 1]", "lights=[]"]
+LIT = ["render.width=40", "render.height=30", "ambient=[0, 0, 0]"]
+
+
+def quad_gltf(folder: Path, material: dict, buffer: str = "quad.bin", uri: str | None = None,
+              images: list | None = None, required: tuple[str, ...] = ()) -> Path:
+    """A square of two triangles facing +Z (the framing's front), texture coordinates over the whole image,
+    its data in the external file `buffer` named by `uri` (default: the name as written)."""
+    positions = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float32)
+    uvs = np.array([[0, 1], [1, 1], [1, 0], [0, 0]], np.float32)  # glTF: v down from the image's top
+    indices = np.array([0, 1, 2, 0, 2, 3], np.uint16)
+    data = positions.tobytes() + uvs.tobytes() + indices.tobytes()
+    (folder / buffer).write_bytes(data)
+    document = {
+        "asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0}]}],
+        "materials": [material],
+        "buffers": [{"uri": uri or buffer, "byteLength": len(data)}],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48},
+                        {"buffer": 0, "byteOffset": 48, "byteLength": 32},
+                        {"buffer": 0, "byteOffset": 80, "byteLength": 12}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0],
+                       "max": [1, 1, 0]},
+                      {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"},
+                      {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}],
+    }
+    if images:
+        document["images"] = images
+        document["textures"] = [{"source": i} for i in range(len(images))]
+    used = sorted({*required, *(material.get("extensions") or {})})
+    if used:
+        document["extensionsUsed"] = used
+    if required:
+        document["extensionsRequired"] = list(required)
+    path = folder / "quad.gltf"
+    path.write_text(json.dumps(document), encoding="utf-8")
+    return path
+
+
+def covered(image: np.ndarray) -> np.ndarray:
+    return image[image.max(axis=-1) > 0]
+
+
+def solid_png(path: Path, rgb: tuple[int, int, int]) -> None:
+    from PIL import Image
+    Image.new("RGB", (4, 4), rgb).save(path)
+
+
+def test_percent_encoded_buffer_and_image_uris_are_decoded(tmp_path):
+    """glTF 2.0 §3.3.3: a URI is RFC 3986, so `a%20buffer.bin` names "a buffer.bin" (main: refused with trimesh's
+    FileNotFoundError). The map (pure red, as stored) colours the square; batch's inputs name the real files."""
+    solid_png(tmp_path / "the map.png", (255, 0, 0))
+    path = quad_gltf(tmp_path, {"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.0}},
+                     buffer="a buffer.bin", uri="a%20buffer.bin", images=[{"uri": "the%20map.png"}])
+    image = covered(rp.render_file(path, AMBIENT).image)
+    assert len(image) > 100
+    np.testing.assert_allclose(image, np.broadcast_to([1.0, 0.0, 0.0], image.shape), atol=1e-6)
+    from raycast_phong.io.mesh_source import mesh_source
+    source = mesh_source(path)
+    assert source.side_files == (tmp_path / "a buffer.bin",) and source.images == (tmp_path / "the map.png",)
+
+
+def test_an_unlit_material_is_emission_only_and_required_unlit_renders(tmp_path):
+    """KHR_materials_unlit (required here; main refused the file): k_e = base colour, k_a = k_d = k_s = 0, so
+    the square shows its colour whatever the lights (a light and no ambient here) — the lecture's emission."""
+    colour = [0.2, 0.6, 0.4, 1.0]
+    path = quad_gltf(tmp_path, {"pbrMetallicRoughness": {"baseColorFactor": colour},
+                                "extensions": {"KHR_materials_unlit": {}}}, required=("KHR_materials_unlit",))
+    [material] = read_mesh(path, "t").materials
+    assert material.ka == material.kd == material.ks == (0.0, 0.0, 0.0)
+    np.testing.assert_allclose(material.ke, colour[:3], atol=0.5 / 255)  # trimesh keeps the factor in 8 bits
+    image = covered(rp.render_file(path, LIT).image)
+    assert len(image) > 100
+    np.testing.assert_allclose(image, np.broadcast_to(material.ke, image.shape), atol=1e-6)
+
+
+def test_emissive_strength_multiplies_the_emissive_factor_and_is_clamped_to_1(tmp_path):
+    material = {"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0},
+                "emissiveFactor": [0.1, 0.2, 0.05],
+                "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}}}
+    path = quad_gltf(tmp_path, material)
+    np.testing.assert_allclose(read_mesh(path, "t").materials[0].ke, (0.4, 0.8, 0.2), atol=1e-12)
+    material["extensions"]["KHR_materials_emissive_strength"]["emissiveStrength"] = 10.0
+    other = tmp_path / "other"
+    other.mkdir()
+    read = read_mesh(quad_gltf(other, material), "t")
+    np.testing.assert_allclose(read.materials[0].ke, (1.0, 1.0, 0.5), atol=1e-12)
+    assert any("clamped to 1" in note for note in read.notes), read.notes
+
+
+@pytest.mark.parametrize(("extension", "words"), [
+    ("KHR_mesh_quantization", "vertex data stored as (normalized) integers"),
+    ("EXT_meshopt_compression", "meshoptimizer-compressed buffers, as gltfpack -c and glTF-Transform write")])
+def test_an_unsupported_required_extension_is_refused_in_the_renderer_s_words(tmp_path, extension, words):
+    path = quad_gltf(tmp_path, {}, required=(extension,))
+    with pytest.raises(SceneError) as caught:
+        rp.render_file(path, AMBIENT)
+    message = str(caught.value)
+    assert f"requires the glTF extension(s) {extension} ({words})" in message and "Error" not in message, message
+
+
+def quadrants_png(path: Path) -> None:
+    """64×64, a colour per quadrant: top-left red, top-right green, bottom-left blue, bottom-right white."""
+    from PIL import Image
+    pixels = np.zeros((64, 64, 3), np.uint8)
+    pixels[:32, :32], pixels[:32, 32:], pixels[32:, :32], pixels[32:, 32:] = (255, 0, 0), (0, 255, 0), (0, 0, 255), 255
+    Image.fromarray(pixels).save(path)
+
+
+@pytest.mark.parametrize("rotation", [0.0, math.pi / 2])
+def test_a_texture_transform_moves_the_uvs_of_its_map(tmp_path, rotation):
+    """KHR_texture_transform on the base colour map: scale ½ and an offset put the whole square in the map's
+    top-right quadrant (glTF's v runs down from the top). Without rotation the offset is (½, 0); turned by 90°
+    counter-clockwise (u, v) → (−v, u), so the offset (1, 0) does it. The wrong turn lands in the bottom-left
+    (blue) quadrant, no transform shows all four: the square is green."""
+    quadrants_png(tmp_path / "quadrants.png")
+    transform = {"offset": [0.5, 0.0] if rotation == 0 else [1.0, 0.0], "rotation": rotation, "scale": [0.5, 0.5]}
+    info = {"index": 0, "extensions": {"KHR_texture_transform": transform}}
+    path = quad_gltf(tmp_path, {"pbrMetallicRoughness": {"baseColorTexture": info, "metallicFactor": 0.0}},
+                     images=[{"uri": "quadrants.png"}], required=("KHR_texture_transform",))
+    read = read_mesh(path, "t")
+    # Corner (u, v) of glTF's [0, 1]² → ½(u, v) turned and offset: within u ∈ [½, 1], v ∈ [0, ½] (glTF's, v down).
+    glTF = 1.0 - read.corner_uv[..., 1]
+    assert read.corner_uv[..., 0].min() >= 0.5 - 1e-6 and read.corner_uv[..., 0].max() <= 1 + 1e-6
+    assert glTF.min() >= -1e-6 and glTF.max() <= 0.5 + 1e-6
+    image = covered(rp.render_file(path, AMBIENT).image)
+    # The map's quadrants meet at the square's edges (texels blend there, as the outline's pixels do): most of
+    # the square is green, and none of it the other quadrants' colours.
+    green = (image[:, 1] > 0.9) & (image[:, 0] < 0.1) & (image[:, 2] < 0.1)
+    others = (image[:, 0] > 0.5) | (image[:, 2] > 0.5)
+    assert len(image) > 100 and green.mean() > 0.8 and not others.any(), (green.mean(), others.mean())

@@ -1,0 +1,100 @@
+"""One read per file (issue 33): a mesh file's JSON and its .mtl are read and parsed once for one render,
+however many stages (framing, the memory estimate's counts and texture sizes, the read's checks, batch's side
+files) want what they say. On main before io/mesh_source.py: a .gltf's JSON was parsed 7 times for one render
+(6 by this renderer, 1 by trimesh), an OBJ's .mtl opened twice."""
+
+from __future__ import annotations
+
+import builtins
+import io
+import json
+import os
+import shutil
+from pathlib import Path
+
+import trimesh
+
+import raycast_phong as rp
+
+MODELS = Path(__file__).resolve().parents[1] / "data" / "models"
+SIZE = ["render.width=24", "render.height=18"]
+
+
+def _count_opens(monkeypatch, suffix: str) -> list[str]:
+    """Every open of a file ending in `suffix`, by os.open (io.files.open_regular) or io.open (Path.read_text)."""
+    opened: list[str] = []
+    real_os, real_io = os.open, io.open
+
+    def os_open(path, *args, **kwargs):
+        if str(path).endswith(suffix):
+            opened.append(str(path))
+        return real_os(path, *args, **kwargs)
+
+    def io_open(path, *args, **kwargs):
+        if isinstance(path, (str, Path)) and str(path).endswith(suffix):
+            opened.append(str(path))
+        return real_io(path, *args, **kwargs)
+    monkeypatch.setattr(os, "open", os_open)
+    monkeypatch.setattr(io, "open", io_open)
+    monkeypatch.setattr(builtins, "open", io_open)
+    return opened
+
+
+def test_a_textured_obj_s_mtl_is_read_once_for_one_render(tmp_path, monkeypatch):
+    for name in ("fuze.obj", "fuze.obj.mtl", "fuze uv.jpg"):
+        shutil.copy(MODELS / name, tmp_path / name)
+    opened = _count_opens(monkeypatch, ".mtl")
+    result = rp.render_file(tmp_path / "fuze.obj", SIZE)
+    assert result.image.max() > 0  # the model is there, textured
+    assert opened == [str(tmp_path / "fuze.obj.mtl")], opened
+
+
+def test_a_gltf_s_json_is_parsed_once_here_for_one_render(tmp_path, monkeypatch):
+    """Once by this renderer (its MeshSource), once by trimesh, which reads the geometry from its own parse."""
+    scene = trimesh.load(MODELS / "BoxTextured.glb")
+    for name, data in scene.export(file_type="gltf").items():
+        (tmp_path / name).write_bytes(data)
+    text = (tmp_path / "model.gltf").read_bytes()
+    parses = []
+    real = json.loads
+
+    def loads(value, *args, **kwargs):
+        if value in (text, text.decode("utf-8")):
+            parses.append(1)
+        return real(value, *args, **kwargs)
+    monkeypatch.setattr(json, "loads", loads)
+    result = rp.render_file(tmp_path / "model.gltf", SIZE)
+    assert result.image.max() > 0 and result.triangles == 12
+    assert len(parses) == 2, len(parses)
+
+
+def test_a_batch_frames_only_the_meshes_it_renders(tmp_path, monkeypatch):
+    """A mesh file rendered directly is framed (read whole, through trimesh) to place its camera; a batch whose
+    image of it is up to date does not read it so (its hash and inputs come from the MeshSource). An edited
+    .mtl makes it render again, with one read: framing's, which the render takes."""
+    import json as json_module
+
+    from typer.testing import CliRunner
+
+    from raycast_phong.cli import app
+    from raycast_phong.io import mesh_file
+    for name in ("fuze.obj", "fuze.obj.mtl", "fuze uv.jpg"):
+        shutil.copy(MODELS / name, tmp_path / name)
+    out, runner = tmp_path / "out", CliRunner()
+    command = ["batch", str(tmp_path / "fuze.obj"), "--out", str(out), "--jobs", "1", "--quiet"]
+
+    def status() -> str:
+        return json_module.loads((out / "manifest.json").read_text(encoding="utf-8"))["scenes"]["fuze"]["status"]
+    assert runner.invoke(app, command).exit_code == 0 and status() == "rendered"
+    reads = []
+    real = mesh_file._read
+    monkeypatch.setattr(mesh_file, "_read", lambda *a, **k: reads.append(a[0]) or real(*a, **k))
+    mesh_file.BOUNDS.clear()  # as a new process (a batch run again) starts: nothing kept from the first run
+    mesh_file.KEPT.clear()
+    assert runner.invoke(app, command).exit_code == 0 and status() == "up to date"
+    assert reads == []
+    mtl = tmp_path / "fuze.obj.mtl"
+    mtl.write_text(mtl.read_text(encoding="utf-8").replace("Kd ", "Kd 0.5 0.5 0.5 #", 1), encoding="utf-8")
+    os.utime(mtl, ns=(1, 1))
+    assert runner.invoke(app, command).exit_code == 0 and status() == "rendered"
+    assert reads == [tmp_path / "fuze.obj"]
