@@ -102,7 +102,7 @@ BOUNDS: VersionCache[MeshFile] = VersionCache(64)  # identity → a file strippe
 SIDE_FILES: VersionCache[tuple[Path, ...]] = VersionCache(64)  # a mesh file's version → the files it names
 
 
-def _identity(path: Path) -> tuple:
+def mesh_identity(path: Path) -> tuple:
     """The file as it is now: resolved path, mtime, size, inode (a rewrite changes at least one), and the same
     of its side files (an .mtl edited alone changes the materials)."""
     def stamp(file: Path) -> tuple:
@@ -121,7 +121,7 @@ def read_mesh(path: Path, where: str, keep: bool = False) -> MeshFile:
     takes it; so the render that follows a framing does not read the file again.
     """
     try:
-        identity = _identity(path)
+        identity = mesh_identity(path)
     except OSError:
         identity = None  # let the read word the error
     if identity is not None:
@@ -139,7 +139,7 @@ def mesh_bounds(path: Path, where: str) -> MeshFile:
     """The file's centre, radius, up axis, materials and notes (its arrays may be empty): from the small
     cache when this unchanged file was read before, else read (and kept for the render)."""
     try:
-        identity = _identity(path)
+        identity = mesh_identity(path)
     except OSError:
         identity = None
     found = BOUNDS.get(identity) if identity is not None else None
