@@ -117,7 +117,7 @@ def write_workload(kind: str, folder: Path, scenes: int) -> None:
 def run_batch(folder: Path, out: Path, jobs: int) -> dict[str, float]:
     """One whole `batch --force` command: whole, batch (as it reports) and steady (s per scene) seconds."""
     start = time.perf_counter()
-    done = subprocess.run([sys.executable, "-m", "cli", "batch", str(folder), "--out", str(out), "--jobs", str(jobs),
+    done = subprocess.run([sys.executable, "-m", "cli", "batch", str(folder), "-o", str(out), "--jobs", str(jobs),
                            "--force"], check=True, cwd=ROOT, capture_output=True, text=True)
     whole = time.perf_counter() - start
     finished = [float(t) for t in re.findall(r"^\[\d+/\d+ ([0-9.]+)s\]", done.stderr, re.M)]

@@ -56,7 +56,7 @@ render.warm_kernels((np.float32,))
 mark("load the shading kernel")
 result = render.render(scene)
 mark("render (frame %.3f s)" % result.timings["frame"])
-rp.write_image(OUTPUT, result.image)
+rp.write_image(OUTPUT, result.image, colour=result.colour)
 mark("write the PNG")
 last = start
 for name, at in marks:

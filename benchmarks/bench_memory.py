@@ -32,7 +32,7 @@ def main() -> None:
     seconds = time.perf_counter() - start
     after_render = peak_mib()
     if args.output:
-        rp.write_image(args.output, result.image)
+        rp.write_image(args.output, result.image, colour=result.colour)
     print(f"{args.size}×{args.size}: {seconds:.2f} s; peak RSS {baseline:.0f} MiB after imports, "
           f"{after_render:.0f} MiB after the render" + (f", {peak_mib():.0f} MiB after writing {args.output}"
                                                         if args.output else "")

@@ -152,6 +152,7 @@ def measure(path: Path, repeats: int, size: int, threads: int = 2) -> dict:
 
     import raycast_phong as rp
     from raycast_phong.geometry.build import build_geometry, object_mesh
+    from raycast_phong.scene.messages import Location
 
     scene = rp.validate_scene(scene_for(path, 8), source=str(path))
     triangles = rp.render(scene).triangles  # warm-up: kernels loaded, trimesh's lazy imports done
@@ -176,7 +177,7 @@ def measure(path: Path, repeats: int, size: int, threads: int = 2) -> dict:
         found["geometry"] = best(lambda: build_geometry(scene, str(path), normal_dtype=np.float32), repeats)
         found["geometry_cpu"] = best(lambda: build_geometry(scene, str(path), normal_dtype=np.float32), repeats,
                                      time.process_time)
-    found["read"] = best(lambda: object_mesh(scene, scene.objects[0], 0, str(path)), repeats)
+    found["read"] = best(lambda: object_mesh(scene, scene.objects[0], Location(str(path)).at("objects", 0)), repeats)
     return found
 
 

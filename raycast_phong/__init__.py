@@ -2,7 +2,7 @@
 
     scene = raycast_phong.load_scene("scenes/default.toml")
     result = raycast_phong.render(scene)                  # .image (H, W, 3) float32, .timings, .plan
-    raycast_phong.write_image("out.png", result.image)
+    raycast_phong.write_image("out.png", result.image, colour=result.colour)  # as render.colour says
 
 The names below load their module on first use (PEP 562), so `import raycast_phong` — and the pytest
 plugin, the CLI's --help and `compare` — do not pay for numba, trimesh and Embree (≈ 0.7 s) until

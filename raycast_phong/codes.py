@@ -85,8 +85,6 @@ def codes_of(enum: type[Enum]) -> dict:
 MODEL_CODE = codes_of(ShadingModel)          # flat 0, gouraud 1, phong 2
 LIGHT_CODE = codes_of(LightKind)             # point 0, directional 1
 
-SHAPES = ("icosphere", "uv_sphere", "box", "plane", "cylinder", "torus", "mesh")
-
 # AOV layers (output.aovs): per-pixel geometry, and the model's terms (the film stores them in this order).
 GEOMETRY_LAYERS = ("depth", "normal", "face")
 TERM_LAYERS = ("ambient", "diffuse", "specular", "emission")

@@ -34,8 +34,20 @@ class InputError(RaycastPhongError, ValueError):
     """Input the program refuses: the message is one line naming the file or option, the key and what is allowed."""
 
 
+Where = object  # where a problem is: a scene.messages.Location, or any value whose str() says it
+
+
 class SceneError(InputError):
-    """A scene the renderer refuses: the message is one line naming file, key and what is allowed."""
+    """A scene the renderer refuses: the message is one line naming file, key and what is allowed.
+
+    `where` is where the problem is: a scene.messages.Location (the file, the key path), which words itself, or
+    None when `problem` is the whole line. The line is `where: problem`.
+    """
+
+    def __init__(self, problem: str, where: Where | None = None):
+        self.problem, self.where = problem, where
+        super().__init__(problem if where is None else f"{where}: {problem}")
+
 
 
 class OptionError(InputError):

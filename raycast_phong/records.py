@@ -5,7 +5,9 @@ F faces, V vertices, K lights, H×W pixels. The Scene itself (validated keys, no
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from types import MappingProxyType
 
 import numpy as np
 
@@ -14,8 +16,8 @@ from .codes import MATERIAL_TABLE_WIDTH, StageName
 
 @dataclass(frozen=True, eq=False)
 class Texture:
-    """A colour map decoded into linear float32 RGB, the full-resolution level of its mip pyramid."""
-    pixels: np.ndarray   # (H, W, 3) float32 linear; row 0 is the top of the image (v = 1)
+    """A colour map decoded into float32 RGB (as render.colour asks), the full-resolution level of its mip pyramid."""
+    pixels: np.ndarray   # (H, W, 3) float32 in [0, 1]; row 0 is the top of the image (v = 1)
     wrap_s: str          # codes.WRAP_MODES, along u
     wrap_t: str          # along v
     name: str            # where it came from, for notes
@@ -111,11 +113,15 @@ class Stage:
 class RenderPlan:
     """What this scene needs, decided before any ray is cast; shading reads its flags.
 
-    `warnings` are found once the geometry is known (plan.diagnose): results the user may not want.
+    `warnings` and `notes` are found once the geometry is known (plan.diagnose). A warning is a result the user
+    may not want (printed even under -q); a note is information: what a mesh file's materials left out or
+    approximated, or what an object's own choice of Gouraud shading misses.
     """
     stages: tuple[Stage, ...]
     warnings: tuple[str, ...] = ()
-    notes: tuple[str, ...] = ()     # what a mesh file's materials left out or approximated (geometry.file_notes)
+    notes: tuple[str, ...] = ()
+    colour: str = "display"         # the scene's render.colour: how maps are decoded and the PNG encoded
+    colour_reason: str = ""         # why: the scene files' default, a mesh format's, or set (plan.colour_line)
 
     def keeps(self, name: StageName) -> bool:
         for stage in self.stages:
@@ -131,6 +137,7 @@ class RenderPlan:
     def describe(self) -> str:
         width = max(len(stage.name) for stage in self.stages)
         lines = [f"{'kept' if s.kept else 'left out':8}  {s.name:{width}}  {s.reason}" for s in self.stages]
+        lines.append(f"{'colour':8}  {self.colour:{width}}  {self.colour_reason}")
         return "\n".join(lines + [f"warning   {warning}" for warning in self.warnings]
                          + [f"note      {note}" for note in self.notes])
 
@@ -138,14 +145,28 @@ class RenderPlan:
 @dataclass(frozen=True, eq=False)
 class RenderResult:
     """What render() returns: the image, its layers, and where the time went."""
-    image: np.ndarray                 # (H, W, 3) linear display values, unclamped; float32, or float64
+    image: np.ndarray                 # (H, W, 3) the model's values (in render.colour), unclamped; float32, or float64
                                       # when the plan shades in float64
     aovs: dict[str, np.ndarray]       # layer name -> (H, W, C) float32, only those the scene asks for
-    timings: dict[str, float]         # seconds per stage: load, geometry, build, rays, shade, frame (and write)
+    timings: Mapping[str, float]      # seconds per stage: load, geometry, build, rays, shade, frame (and write);
+                                      # read-only: with_timings gives a result with more stages
     plan: RenderPlan
     triangles: int
     rays: int
     counts: dict[str, int] = field(default_factory=dict)  # the kernel's term evaluations, and shadow_rays cast
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "timings", MappingProxyType(dict(self.timings)))
+
+    def with_timings(self, **seconds: float) -> RenderResult:
+        """This result with more stages timed (load, write, compile, kernels: what its caller did around the
+        render), as a new record of the same type; this one, frozen, keeps its own."""
+        return replace(self, timings={**self.timings, **seconds})
+
+    @property
+    def colour(self) -> str:
+        """The render.colour the image is in: what write_image(..., colour=) needs to encode it."""
+        return self.plan.colour
 
     @property
     def rays_per_second(self) -> float:

@@ -8,6 +8,12 @@ plugin (raycast_phong/pytest_plugin.py, registered by the installed package's py
 
 from __future__ import annotations
 
+import os
+import shutil
+import subprocess
+import sys
+from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
@@ -84,20 +90,130 @@ def error_logs_in_the_session_folder(tmp_path_factory):
         os.environ["RAYCAST_PHONG_ERROR_LOGS"] = before
 
 
-@pytest.fixture(autouse=True, scope="session")
-def kernels_ready(tmp_path_factory):
+# The session's scenes: float32 and float64 with a mesh file that has no normals (the crease split's kernels
+# too), and an OBJ's polygon scan. Made ready in a fresh process each, as a user's first render would.
+WARM_UP = """
+import sys
+import trimesh
+from pathlib import Path
+from raycast_phong.renderer.warmup import ready_kernels
+from raycast_phong.scene.schema import validate_scene
+folder = Path(sys.argv[1])
+for precision, name in zip(sys.argv[2::2], sys.argv[3::2]):
+    trimesh.creation.icosphere(1).export(folder / name)
+    ready_kernels(validate_scene({"render": {"precision": precision},
+                                  "objects": [{"shape": "mesh", "path": str(folder / name)}]}, source="t"))
+"""
+WARM_UPS = (("float32", "ball.stl", "float32", "ball.obj"), ("float64", "ball.stl"))
+
+
+def pytest_configure(config):
     """Every kernel compiled (or loaded from the cache) before the first test, as after an install's first render.
 
     A render on an empty cache says "compiling ..." first (renderer/warmup.py); tests that run the CLI check its
     exact output, so which of them came first on a fresh clone must not decide what they see. The tests of the
-    notice itself stand in for a cache miss (compiles.compiling, as numba's cache reports one)."""
-    import trimesh
+    notice itself stand in for a cache miss (compiles.compiling, as numba's cache reports one).
+    The two precisions compile at once, in two processes (a compile is one core's work; numba writes each
+    kernel's cache atomically), once for the whole run: here, in the process that starts xdist's workers, before
+    they start."""
+    if hasattr(config, "workerinput") or config.option.collectonly or config.option.help:
+        return  # an xdist worker: the cache is ready
+    import tempfile
+    with tempfile.TemporaryDirectory() as folder:
+        runs = []
+        for n, pairs in enumerate(WARM_UPS):
+            Path(folder, str(n)).mkdir()
+            runs.append(subprocess.Popen([sys.executable, "-c", WARM_UP, str(Path(folder, str(n))), *pairs],
+                                         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True))
+        for run in runs:
+            output, _ = run.communicate()
+            if run.returncode:
+                raise pytest.UsageError(f"the kernels' warm-up failed:\n{output}")
 
-    from raycast_phong.renderer.warmup import ready_kernels
-    from raycast_phong.scene.schema import validate_scene
-    folder = tmp_path_factory.mktemp("warm")
-    trimesh.creation.icosphere(1).export(folder / "ball.stl")  # no normals: the crease split's kernels too
-    trimesh.creation.icosphere(1).export(folder / "ball.obj")  # an OBJ's polygon scan
-    for precision, name in (("float32", "ball.stl"), ("float64", "ball.stl"), ("float32", "ball.obj")):
-        ready_kernels(validate_scene({"render": {"precision": precision},
-                                      "objects": [{"shape": "mesh", "path": str(folder / name)}]}, source="t"))
+
+# The package as a fresh install meets it: a copy of its sources with an empty kernel cache, compiled once.
+# Three tests need kernels compiled in a fresh process (the first render's notice, a cached kernel that calls
+# Embree loading in another process, an edit reaching a cached kernel). Each compile of the renderer costs about
+# 25 s of CPU, so they share one copy, made once per run under a lock (under xdist, every worker finds the one
+# the first made): `render` runs into its empty cache once, and again; the tests read those two runs and go on
+# from the warm cache, under a shared lock; the edit takes it alone and leaves the copy as it found it.
+
+@dataclass(frozen=True)
+class ColdPackage:
+    """The copy (`source`, imported through `env`'s PYTHONPATH in `folder`) and its two `render` runs' output."""
+    folder: Path
+    source: Path
+    env: dict[str, str]
+    cold: dict[str, str]  # stdout, stderr of `render` into the empty cache: it compiles, and says so
+    warm: dict[str, str]  # the same command again: it loads what the first one cached
+    cli: str              # that command (`render` of the default scene, 32×12), as `python -c` code
+
+    def run(self, code: str, *args: str) -> subprocess.CompletedProcess:
+        """`python -c code args` importing the copy, with no lock; asserts it exits 0."""
+        done = subprocess.run([sys.executable, "-c", code, *args], env=self.env, cwd=self.folder,
+                              capture_output=True, text=True, timeout=900)
+        assert done.returncode == 0, done.stderr
+        return done
+
+    def python(self, code: str, *args: str) -> subprocess.CompletedProcess:
+        """`run`, while no edit is under way."""
+        with _locked(self.folder / "lock", shared=True):
+            return self.run(code, *args)
+
+    @contextmanager
+    def editing(self, *paths: Path):
+        """Alone with the copy while `paths` are edited; then their text and times, and the kernel cache as it
+        was, are put back (cache_folder removes other keys' folders from the package's own __pycache__)."""
+        with _locked(self.folder / "lock", shared=False):
+            kept = {path: (path.read_bytes(), path.stat()) for path in paths}
+            aside = self.folder / "aside"
+            caches = list((self.source / "__pycache__").glob("raycast-phong-kernels-*"))
+            aside.mkdir()
+            for cache in caches:
+                cache.rename(aside / cache.name)
+            try:
+                yield
+            finally:
+                for path, (text, info) in kept.items():
+                    path.write_bytes(text)
+                    os.utime(path, ns=(info.st_atime_ns, info.st_mtime_ns))
+                for cache in (self.source / "__pycache__").glob("raycast-phong-kernels-*"):
+                    shutil.rmtree(cache)
+                for cache in caches:
+                    (aside / cache.name).rename(cache)
+                aside.rmdir()
+
+
+@contextmanager
+def _locked(path: Path, shared: bool):
+    import fcntl
+    with open(path, "a+b") as handle:
+        fcntl.flock(handle, fcntl.LOCK_SH if shared else fcntl.LOCK_EX)
+        yield
+
+
+@pytest.fixture(scope="session")
+def cold_package(tmp_path_factory) -> ColdPackage:
+    import json
+
+    import raycast_phong
+    base = tmp_path_factory.getbasetemp()
+    folder = (base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / "cold-package"
+    folder.mkdir(exist_ok=True)
+    source = folder / "src" / "raycast_phong"
+    # The copy's own __pycache__ holds its kernels: no NUMBA_CACHE_DIR. cwd is the folder, so that `-c` code
+    # imports the copy (the working folder comes first on sys.path).
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "PYTHONPATH")}
+    env["PYTHONPATH"] = str(folder / "src")
+    cli = ("import sys; sys.argv = ['raycast-phong', 'render', '--width', '32', '--height', '12', '-o', "
+           f"{str(folder / 'x.png')!r}, *sys.argv[1:]]; from raycast_phong.cli import app; app()")
+    made = folder / "runs.json"
+    with _locked(folder / "lock", shared=False):
+        if not made.exists():
+            shutil.copytree(Path(raycast_phong.__file__).resolve().parent, source,
+                            ignore=shutil.ignore_patterns("__pycache__"))
+            package = ColdPackage(folder, source, env, {}, {}, cli)
+            runs = [package.run(cli) for _ in range(2)]
+            made.write_text(json.dumps([{"stdout": r.stdout, "stderr": r.stderr} for r in runs]))
+    cold, warm = json.loads(made.read_text())
+    return ColdPackage(folder, source, env, cold, warm, cli)

@@ -15,16 +15,22 @@ from raycast_phong.codes import ShadingModel, SpecularModel
 
 from .common import (
     MaxMemoryOption,
+    OldOutOption,
     SceneArgument,
     SetOption,
     UpOption,
     ViewOption,
     _view,
     app,
+    check_verbosity,
     exit_codes,
     fail,
+    output_or_old_spelling,
+    quiet_option,
     scene_overrides,
+    verbose_option,
 )
+from .progress import progress_bar
 
 
 @app.command("reference", epilog="""
@@ -45,38 +51,51 @@ def reference_command(
     max_memory: MaxMemoryOption = None,
     view: ViewOption = None,
     up: UpOption = None,
+    quiet: Annotated[bool, quiet_option("progress bar or summary line")] = False,
+    verbose: Annotated[bool, verbose_option("how much of the image the surfaces cover and the brightest "
+                       "specular value (what the error figures are measured over)")] = False,
 ) -> None:
     """Render the analytic reference: the same camera, lights, materials and model on the exact sphere,
     plane, box, cylinder and torus, in float64, with the true normal."""
     from raycast_phong.io.image_io import check_output_path
     from raycast_phong.tools.accuracy import reference_image
+    check_verbosity(quiet, verbose)
     with exit_codes():
         path = scene or rp.default_scene_path()
         loaded = rp.load_scene(path, set_, view=_view(view), up=up, max_memory=max_memory)
         check_output_path(output, inputs=(path,))
         started = time.perf_counter()
-        exact = reference_image(loaded, str(path), fine=fine, max_memory=max_memory)
+        with progress_bar(quiet) as bar:
+            bar.update(0, None, "computing the reference" if fine is None else "rendering the finer reference")
+            exact = reference_image(loaded, str(path), fine=fine, max_memory=max_memory)
         seconds = time.perf_counter() - started
-        rp.write_image(output, exact.image.astype("float32"))
+        rp.write_image(output, exact.image.astype("float32"), colour=loaded.render.colour)
+    if quiet:
+        return
     h, w = exact.image.shape[:2]
     typer.echo(f"{output}: {w}×{h} {exact.kind} reference in {seconds:.3f}s")
+    if verbose:
+        covered = (exact.coverage > 0).mean()
+        typer.echo(f"surfaces cover {covered:.1%} of the pixels ({(exact.coverage == 1).mean():.1%} fully); "
+                   f"brightest specular value {exact.specular.max():.4g}")
 
 
 @app.command(epilog="""
 **Examples**
 
-  raycast-phong study scenes/default.toml --out study/          # levels chosen until the orders settle
+  raycast-phong study scenes/default.toml -o study/          # levels chosen until the orders settle
 
-  raycast-phong study --levels 0,1,2,3,4 --precision float32,float64 --samples 1,2 --out study/
+  raycast-phong study --levels 0,1,2,3,4 --precision float32,float64 --samples 1,2 -o study/
 
-  raycast-phong study --normals mean,exact --budget 300 --out study/   # the icosphere's seams, measured
+  raycast-phong study --normals mean,exact --budget 300 -o study/   # the icosphere's seams, measured
 
-  raycast-phong study scenes/specular.toml --shininess 10,100,1000 --models gouraud,phong --out stiff/
+  raycast-phong study scenes/specular.toml --shininess 10,100,1000 --models gouraud,phong -o stiff/
 """)
 def study(
     scene: SceneArgument = None,
-    out: Annotated[Path, typer.Option("--out", help="Folder for report.html, study.csv, the PNG plots and "
-                   "summary.md.")] = Path("study"),
+    output: Annotated[Path | None, typer.Option("--output", "-o", show_default=False, help="Folder for "
+                      "report.html, study.csv, the PNG plots and summary.md. Default: study.")] = None,
+    out: OldOutOption = None,
     levels: Annotated[str, typer.Option(help="Tessellation levels (docs/accuracy.md: icosphere subdivisions, "
                       "segments 8·2^L, meshes Loop-subdivided L times), or auto: from level 1 up until every "
                       "fitted order settles or --budget is spent.")] = "auto",
@@ -102,12 +121,17 @@ def study(
     height: Annotated[int | None, typer.Option(help="render.height in pixels, 1..16384.")] = None,
     set_: SetOption = [],
     max_memory: MaxMemoryOption = None,
+    quiet: Annotated[bool, quiet_option("progress bar, fitted orders, advice or summary line")] = False,
+    verbose: Annotated[bool, verbose_option("each step as it starts (a level measured, a timing round), with "
+                       "the seconds since the start")] = False,
 ) -> None:
     """Work-precision study: measure every setting against the reference, time them all in interleaved rounds;
     write report.html (fronts, fitted orders, error images, advice, the machine's noise), study.csv and the plots."""
     from raycast_phong.codes import Precision
     from raycast_phong.tools import lists
     from raycast_phong.tools import study as sweep
+    check_verbosity(quiet, verbose)
+    out = output_or_old_spelling("study", output, out, Path("study"))
     with exit_codes():
         options = sweep.StudyOptions(
             levels=None if levels.strip() == "auto" else lists.numbers(levels, int, "--levels"),
@@ -121,9 +145,22 @@ def study(
     with exit_codes():
         path = scene or rp.default_scene_path()
         sweep.check_study_folder(out, path)
-        result = sweep.run_study(path, overrides, options)
-        from raycast_phong.tools.study_report import write_study
-        written = write_study(result, out)
+        with progress_bar(quiet) as bar:
+            started, step = time.perf_counter(), [""]
+
+            def advance(done: int, total: int, what: str) -> None:
+                if verbose and what != step[0]:  # a line per step, not per render of a timing round
+                    bar.echo(f"[{time.perf_counter() - started:.1f}s] {what}")
+                step[0] = what
+                bar.update(done, total, f"study: {what}")
+
+            bar.update(0, None, "study: loading the renderer")
+            result = sweep.run_study(path, overrides, options, progress=advance)
+            bar.update(0, None, "study: writing the report")
+            from raycast_phong.tools.study_report import write_study
+            written = write_study(result, out)
+    if quiet:
+        return
     typer.echo(result.levels_note)
     for fit in result.fits:
         typer.echo(f"{fit.model:8} {fit.group}: order {fit.order:.2f} over the last levels, {fit.order_all:.2f} over "
@@ -143,34 +180,52 @@ def study(
   raycast-phong stability --json > stability.json
 """)
 def stability(
-    case: Annotated[list[str], typer.Option("--case", help="Run only this case (repeatable); "
+    case: Annotated[list[str], typer.Option("--case", metavar="NAME", help="Run only this case (repeatable); "
                     "`--list` shows the names.")] = [],
     as_json: Annotated[bool, typer.Option("--json", help="One JSON object per case, for machines.")] = False,
     list_: Annotated[bool, typer.Option("--list", help="List the case names and exit.")] = False,
+    quiet: Annotated[bool, quiet_option("progress bar and no passing case: only the failing ones (with --json, "
+                     "the JSON as ever)")] = False,
+    verbose: Annotated[bool, verbose_option("a line per case as it finishes, with its seconds")] = False,
 ) -> None:
     """Run the numerical-stability suite on the installed package: stiff and extreme inputs, each a
     property that can fail. Exit status 1 if any case fails."""
     from raycast_phong.tools import stability as suite
+    check_verbosity(quiet, verbose)
     if list_:
         typer.echo("\n".join(suite.CASES))
         return
     unknown = [name for name in case if name not in suite.CASES]
     if unknown:
         fail(f"--case: unknown case {unknown[0]!r}; cases: {', '.join(suite.CASES)}")
-    with exit_codes():
-        results = suite.run_all(case or None)
+    with exit_codes(), progress_bar(quiet) as bar:
+        running = ["", time.perf_counter()]  # the case under way and when it started
+
+        def advance(done: int, total: int, name: str) -> None:
+            if verbose and done:
+                bar.echo(f"[{done}/{total}] {running[0]}: {time.perf_counter() - running[1]:.2f}s")
+            running[:] = [name, time.perf_counter()]
+            bar.update(done, total, f"stability: {name}")
+
+        results = suite.run_all(case or None, progress=advance)
+    failed = sum(not r.passed for r in results)
     if as_json:
         typer.echo(json.dumps([{"case": r.case, "property": r.property, "figure": r.figure, "passed": r.passed,
                                 "seconds": round(r.seconds, 3)} for r in results], indent=2, ensure_ascii=False))
-    else:
+    elif not quiet or failed:  # under -q only the failing cases
         from rich.console import Console
         from rich.table import Table
+
+        from .common import plain_output
         table = Table("case", "property", "measured", "", "s", show_lines=True)
         for r in results:
+            if r.passed and quiet:
+                continue
             table.add_row(r.case, r.property, r.figure, "[green]pass[/]" if r.passed else "[red]FAIL[/]",
                           f"{r.seconds:.2f}")
-        Console(width=max(140, Console().width)).print(table)
-        failed = sum(not r.passed for r in results)
+        # With no colour system the table is drawn with no escape sequence (NO_COLOR, TERM=dumb).
+        colours = {"color_system": None} if plain_output() else {}
+        Console(width=max(140, Console().width), **colours).print(table)
         typer.echo(f"{len(results) - failed} passed, {failed} failed")
-    if any(not r.passed for r in results):
+    if failed:
         raise typer.Exit(code=1)

@@ -10,7 +10,20 @@ from typing import Annotated
 
 import typer
 
-from .common import MaxMemoryOption, app, exit_codes, fail, one_line
+from .common import (
+    MaxMemoryOption,
+    OldOutOption,
+    SrgbOption,
+    app,
+    check_verbosity,
+    exit_codes,
+    fail,
+    one_line,
+    output_or_old_spelling,
+    quiet_option,
+    verbose_option,
+)
+from .progress import progress_bar, shows_progress
 
 SCHEDULER = re.compile(r"(?:[a-z]+://)?(\[[0-9A-Fa-f:.]+\]|[^\s:/\[\]]+):(\d{1,5})")
 
@@ -30,22 +43,23 @@ def _scheduler(address: str | None) -> str | None:
 @app.command(epilog="""
 **Examples**
 
-  raycast-phong batch scenes/ --out renders              # every scene in the folder, on all cores
+  raycast-phong batch scenes/ -o renders                 # every scene in the folder, on all cores
 
-  raycast-phong batch "scenes/*.toml" sweeps/shading.toml --out renders --jobs 2
+  raycast-phong batch "scenes/*.toml" sweeps/shading.toml -o renders --jobs 2
 
-  raycast-phong batch scenes/ --out renders --force      # render even the up-to-date ones
+  raycast-phong batch scenes/ -o renders --force         # render even the up-to-date ones
 
-  find . -name "*.toml" | raycast-phong batch - --out renders   # the paths on stdin, one a line
+  find . -name "*.toml" | raycast-phong batch - -o renders      # the paths on stdin, one a line
 
-  raycast-phong batch scenes/ --out renders --scheduler tcp://10.0.0.5:8786   # on a Dask cluster
+  raycast-phong batch scenes/ -o renders --scheduler tcp://10.0.0.5:8786   # on a Dask cluster
 """)
 def batch(
-    paths: Annotated[list[str], typer.Argument(metavar="PATHS...", show_default=False, help="Scene files, folders "
+    paths: Annotated[list[str], typer.Argument(metavar="PATHS", show_default=False, help="Scene files, folders "
                      "(their .toml and .json files), globs (quoted) and sweep files (see docs/batch.md); - reads "
                      "scene paths from stdin, one a line (as xargs).")],
-    out: Annotated[Path, typer.Option("--out", help="Output folder: one image per scene, named after it, and "
-                   "manifest.json.", show_default=False)],
+    output: Annotated[Path | None, typer.Option("--output", "-o", help="Output folder (required): one image per "
+                      "scene, named after it, and manifest.json.", show_default=False)] = None,
+    out: OldOutOption = None,
     jobs: Annotated[int | None, typer.Option("--jobs", "-j", min=1, max=256, help="Cores to use (default: all): "
                     "N scenes render at once, each in a worker process on one thread; fewer scenes than N share "
                     "the N cores as threads. With 1, scenes render one after another in this process.")] = None,
@@ -55,18 +69,23 @@ def batch(
                          "renders on this Dask scheduler (pip install 'raycast-phong[distributed]'); paths are sent "
                          "absolute, so the meshes and textures the scenes name and the output folder must be at "
                          "the same absolute paths on its workers (a shared file system).")] = None,
-    srgb: Annotated[bool, typer.Option("--srgb", help="Encode PNG outputs with the sRGB curve.")] = False,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress and no summary; failures are still "
-                     "reported.")] = False,
+    srgb: SrgbOption = False,
+    quiet: Annotated[bool, quiet_option("progress, notes or summary line (failures and warnings are still "
+                     "reported)")] = False,
+    verbose: Annotated[bool, verbose_option("a line per scene as it finishes, on a terminal too, with its frame "
+                       "time and Mrays/s")] = False,
     max_memory: MaxMemoryOption = None,
 ) -> None:
     """Render many scene files into one folder, in parallel; skip those whose outputs are up to date.
     A failing scene is reported (file and reason) and the others go on; exit status 1 if any failed.
-    Ctrl-C or `kill` stops the workers at once; exit status 130 (SIGINT) or 143 (SIGTERM)."""
+    A scene's render warnings and notes are printed as it finishes (once; an up-to-date scene's stay in its
+    manifest entry). Ctrl-C or `kill` stops the workers at once; exit status 130 (SIGINT) or 143 (SIGTERM)."""
     import signal
 
     from raycast_phong import stops
     from raycast_phong.tools import batch as batches
+    check_verbosity(quiet, verbose)
+    out = output_or_old_spelling("batch", output, out)
     # Ctrl-C, `kill` (SIGTERM), a closed terminal (SIGHUP) and SIGQUIT stop the batch: workers killed,
     # temporaries removed, the manifest written. One received while the program started (stops.listen, from
     # cli/__init__.py) is acted on at the batch's first safe point.
@@ -79,7 +98,7 @@ def batch(
                 typer.secho(f"warning: {one_line(warning)}", err=True, fg=typer.colors.YELLOW)
             found = batches.find_jobs(paths, out, listed)
             report = _batch_with_progress(found, out, jobs, force, batches.Settings(srgb=srgb), scheduler, quiet,
-                                          max_memory)
+                                          verbose, max_memory)
     except batches.Interrupted as stop:
         _report_interrupt(stop, out)
     finally:
@@ -92,9 +111,11 @@ def batch(
         typer.secho(f"failed: {one_line(outcome.reason)}", err=True, fg=typer.colors.RED)
     if not quiet:
         sheets = "".join(f"; contact sheet {out / name}" for name in report.sheets.values())
+        warned = sum(bool(outcome.warnings) for outcome in report.outcomes if outcome.status == batches.RENDERED)
+        warned = f"; {warned} rendered with warnings (above)" if warned else ""
         typer.echo(f"{len(report.outcomes)} scenes: {report.count(batches.RENDERED)} rendered, "
                    f"{report.count(batches.UP_TO_DATE)} up to date, {len(report.failed)} failed in "
-                   f"{report.seconds:.2f}s ({report.startup:.2f}s of it loading the renderer); "
+                   f"{report.seconds:.2f}s ({report.startup:.2f}s of it loading the renderer){warned}; "
                    f"manifest {out / batches.MANIFEST}{sheets}")
     if report.failed:
         raise typer.Exit(code=1)
@@ -118,26 +139,30 @@ def _report_interrupt(stop, out: Path) -> None:
 
 
 def _batch_with_progress(found, out: Path, jobs: int | None, force: bool, settings, scheduler: str | None,
-                         quiet: bool, max_memory: int | None = None):
-    """run_batch with a progress bar over the scenes on a terminal, one line per scene otherwise."""
-    from raycast_phong.tools.batch import run_batch
+                         quiet: bool, verbose: bool, max_memory: int | None = None):
+    """run_batch with, as each scene finishes, its render warnings (always) and notes (not under -q), and a
+    progress bar over the scenes on a terminal or one line per scene elsewhere (and on a terminal too with
+    --verbose); under -q neither."""
+    from raycast_phong.tools.batch import RENDERED, run_batch
     options = {"workers": jobs, "force": force, "settings": settings, "scheduler": scheduler, "max_memory": max_memory}
-    if quiet:
-        return run_batch(found, out, **options)
-    if not sys.stderr.isatty():
-        started = time.perf_counter()
+    started = time.perf_counter()
+    with progress_bar(quiet) as bar:
+        lines = not quiet and (verbose or not shows_progress(quiet))
 
-        def line(outcome, done: int, total: int) -> None:
-            typer.echo(f"[{done}/{total} {time.perf_counter() - started:.2f}s] {outcome.status}: "
-                       f"{one_line(outcome.name)}", err=True)  # a name with a newline stays on its line
-        return run_batch(found, out, progress=line, **options)
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
-    with Progress(*columns, console=Console(stderr=True), transient=True) as bar:
-        task = bar.add_task("scenes", total=len(found))
+        def finished(outcome, done: int, total: int) -> None:
+            if lines:
+                timing = ""
+                if verbose and outcome.status == RENDERED and "frame" in outcome.seconds:
+                    timing = f" (frame {outcome.seconds['frame']:.3f}s, {outcome.rays_per_second / 1e6:.1f} Mrays/s)"
+                # one_line: a name with a newline stays on its line
+                bar.echo(f"[{done}/{total} {time.perf_counter() - started:.2f}s] {outcome.status}: "
+                         f"{one_line(outcome.name)}{timing}")
+            if outcome.status == RENDERED:  # said once, when it renders; an up-to-date scene's are in the manifest
+                for warning in outcome.warnings:
+                    bar.echo(f"warning: {one_line(outcome.line(warning))}", fg=typer.colors.YELLOW)
+                for note in [] if quiet else outcome.notes:
+                    bar.echo(f"note: {one_line(outcome.line(note))}")
+            bar.update(done, total, f"{outcome.status}: {one_line(outcome.name)}")
 
-        def advance(outcome, done: int, total: int) -> None:
-            bar.update(task, completed=done, description=f"{outcome.status}: {one_line(outcome.name)}")
-
-        return run_batch(found, out, progress=advance, **options)
+        bar.update(0, len(found), "scenes")
+        return run_batch(found, out, progress=finished, **options)

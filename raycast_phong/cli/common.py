@@ -1,6 +1,7 @@
 """The `raycast-phong` app and what every command shares: one-line errors and exit codes, the scene argument and
-the options several commands take. Each command group is a module of this package; cli/__init__.py
-assembles them.
+the options several commands take (-q/--quiet and --verbose on all of them, -o/--output with --out as a hidden
+old spelling), warning and note lines, --version, shell completion, and output with no escape sequence under
+NO_COLOR or TERM=dumb. Each command group is a module of this package; cli/__init__.py assembles them.
 
 Exit status: 0 ok, 2 bad input (scene, mesh, option, output path) or an output that could not be written
 (a full disk, a file-size limit: the old file is unchanged), 1 internal error.
@@ -14,6 +15,7 @@ import gc
 import io
 import json
 import os
+import re
 import sys
 import threading
 from contextlib import contextmanager
@@ -21,7 +23,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from typer.core import TyperGroup
+from typer.core import TyperCommand, TyperGroup
 
 from raycast_phong.codes import View
 from raycast_phong.errors import InputError, OutputError
@@ -29,9 +31,85 @@ from raycast_phong.errors import InputError, OutputError
 _click_errors = sys.modules[typer.BadParameter.__module__]
 
 
+def plain_output() -> bool:
+    """Whether the program writes no escape sequence at all (no colour, no bold in the help, no cursor moves):
+    NO_COLOR set to anything but the empty string (no-color.org) or TERM=dumb."""
+    return bool(os.environ.get("NO_COLOR")) or os.environ.get("TERM") == "dumb"
+
+
+def _colour() -> bool | None:
+    """typer.secho's `color` outside a command's context: False (strip the styles) for plain output, else None
+    (click's own rule: styles on a terminal only). Inside a command the context says it (OneLineErrors)."""
+    return False if plain_output() else None
+
+
+_RICH_COLOURS: list = []  # typer's help colours as the program found them, restored when NO_COLOR is unset
+
+
+def _plain_help() -> None:
+    """Before a help page: typer draws it with rich, which under NO_COLOR drops colours but keeps bold and dim;
+    with no colour system at all it writes none of them (plain_output). Called only when a help page is drawn,
+    so no other command loads typer's rich module for it."""
+    from typer import rich_utils
+    if not _RICH_COLOURS:
+        _RICH_COLOURS.append(rich_utils.COLOR_SYSTEM)
+    rich_utils.COLOR_SYSTEM = None if plain_output() else _RICH_COLOURS[0]
+
+
+def _plain_metavars(params: list) -> list:
+    """The parameters' value column in --help without typer's type names for Python types: a flag takes no
+    value (no `<bool>`), and a repeatable option or a list argument shows its item (`<text>...`, not
+    `<list[str]>`). Each parameter's display is replaced once, on the parameter itself."""
+    for param in params:
+        shown = getattr(param, "display_type_rich", None)
+        if shown is None or getattr(shown, "plain", False):
+            continue
+
+        def plain(ctx, param=param, shown=shown) -> str | None:
+            if getattr(param, "is_flag", False) and not getattr(param, "count", False):
+                return None
+            text = shown(ctx)
+            if text and "list[" in text:
+                text = re.sub(r"list\[(.*?)\]", r"\1", text)
+                text = (text if text.endswith("...") else text + "...").replace("<str>", "<text>")
+            return text
+        plain.plain = True
+        param.display_type_rich = plain
+    return params
+
+
+class PlainHelpCommand(TyperCommand):
+    """typer's command, with plain metavars in its --help (_plain_metavars), drawn without escape sequences
+    under NO_COLOR or TERM=dumb (_plain_help)."""
+
+    def get_params(self, ctx):
+        return _plain_metavars(super().get_params(ctx))
+
+    def format_help(self, ctx, formatter):
+        _plain_help()
+        return super().format_help(ctx, formatter)
+
+
+class App(typer.Typer):
+    """typer's app whose commands are PlainHelpCommands (every @app.command of the program, unless it names
+    its own class)."""
+
+    def command(self, *args, cls=None, **kwargs):
+        return super().command(*args, cls=cls or PlainHelpCommand, **kwargs)
+
+
 class OneLineErrors(TyperGroup):
     """typer's command group, but a usage error (a bad --width, an unknown option or command) is one line on
-    stderr with exit 2, like every other error of the program, instead of rich's boxed message."""
+    stderr with exit 2, like every other error of the program, instead of rich's boxed message. Under NO_COLOR
+    or TERM=dumb (plain_output) nothing it or a command prints carries an escape sequence: the context's `color`
+    is False, which click's echo and secho obey, and the help is drawn without a colour system."""
+
+    def get_params(self, ctx):
+        return _plain_metavars(super().get_params(ctx))
+
+    def format_help(self, ctx, formatter):
+        _plain_help()
+        return super().format_help(ctx, formatter)
 
     def main(self, *args, standalone_mode: bool = True, **kwargs):
         try:
@@ -54,11 +132,12 @@ class OneLineErrors(TyperGroup):
 
     def _main(self, *args, standalone_mode: bool = True, **kwargs):
         from raycast_phong.io.system import check_environment
+        kwargs.setdefault("color", _colour())
         try:
             for warning in check_environment():
-                typer.secho(f"warning: {one_line(warning)}", err=True, fg=typer.colors.YELLOW)
+                typer.secho(f"warning: {one_line(warning)}", err=True, fg=typer.colors.YELLOW, color=_colour())
         except InputError as error:
-            typer.secho(f"error: {one_line(str(error))}", err=True, fg=typer.colors.RED)
+            typer.secho(f"error: {one_line(str(error))}", err=True, fg=typer.colors.RED, color=_colour())
             sys.exit(2)
         if not standalone_mode:
             return super().main(*args, standalone_mode=False, **kwargs)
@@ -72,18 +151,20 @@ class OneLineErrors(TyperGroup):
             command = error.ctx.command_path if getattr(error, "ctx", None) else None
             where = f"{command}: " if command else ""
             hint = f" (see {command} --help)" if command else ""
-            typer.secho(f"error: {one_line(where + error.format_message() + hint)}", err=True, fg=typer.colors.RED)
+            typer.secho(f"error: {one_line(where + error.format_message() + hint)}", err=True, fg=typer.colors.RED,
+                        color=_colour())
             sys.exit(error.exit_code)
         except typer.Abort:
-            typer.secho("error: aborted", err=True, fg=typer.colors.RED)
+            typer.secho("error: aborted", err=True, fg=typer.colors.RED, color=_colour())
             sys.exit(1)
         sys.exit(code if isinstance(code, int) else 0)  # a command's typer.Exit(code), else success
 
 
 def _say_compiling(name: str, signature: str) -> None:
     """Told before a kernel compiles (compiles.told): one line, so a minute of compiling is never silent."""
-    typer.echo(f"compiling the renderer's kernels (from {name}), once after an install or an edit (up to a minute "
-               "or two on 2 cores)...", err=True)
+    from .progress import say
+    say(f"compiling the renderer's kernels (from {name}), once after an install or an edit (up to a minute "
+        "or two on 2 cores)...")
 
 
 class _ClosedStdout(io.TextIOBase):
@@ -178,14 +259,74 @@ def main() -> None:
     os._exit(code & 0xFF)
 
 
-app = typer.Typer(
+app = App(
     cls=OneLineErrors,
-    help="Ray-cast flat, Gouraud and Phong shading with Intel Embree.",
+    help="Ray-cast flat, Gouraud and Phong shading with Intel Embree. Every command takes -q/--quiet (only "
+         "warnings, errors and the data it exists to print) and --verbose; NO_COLOR or TERM=dumb leave out "
+         "every colour and escape sequence.",
     no_args_is_help=True,
-    add_completion=False,
+    add_completion=True,  # --install-completion / --show-completion for bash, zsh, fish and PowerShell
     pretty_exceptions_enable=False,
     rich_markup_mode="markdown",
 )
+
+
+def _show_version(asked: bool) -> None:
+    if asked:
+        from raycast_phong import __version__
+        typer.echo(f"raycast-phong {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _program(version: Annotated[bool, typer.Option("--version", is_eager=True, callback=_show_version,
+                                                   help="Print the version and exit.")] = False) -> None:
+    """The program's own options, before the command."""
+
+
+def quiet_option(hides: str) -> object:
+    """-q/--quiet for one command, its help saying what it hides besides the progress bar (never a warning or
+    an error)."""
+    return typer.Option("--quiet", "-q", help=f"Print only warnings, errors and the command's data: no {hides}.")
+
+
+def verbose_option(adds: str) -> object:
+    """--verbose for one command, its help saying what it adds."""
+    return typer.Option("--verbose", help=f"Also print {adds}.")
+
+
+def check_verbosity(quiet: bool, verbose: bool) -> None:
+    """-q and --verbose ask for opposite things: exit 2 with one line if both are given."""
+    if quiet and verbose:
+        fail("-q/--quiet and --verbose: give one of them, not both")
+
+
+def output_or_old_spelling(command: str, output: Path | None, old: Path | None, default: Path | None = None) -> Path:
+    """-o/--output, or its old spelling --out (kept, hidden from --help, so that scripts still run); exit 2
+    with one line if both or (without a default) neither is given."""
+    if output is not None and old is not None:
+        fail(f"{command}: -o/--output and --out (its old spelling) both given; give -o/--output only")
+    chosen = output if output is not None else old if old is not None else default
+    if chosen is None:
+        fail(f"{command}: missing option -o/--output, the output folder (see {command} --help)")
+    return chosen
+
+
+OldOutOption = Annotated[Path | None, typer.Option("--out", hidden=True, show_default=False,
+                                                   help="The old spelling of -o/--output.")]
+
+
+def warn(message: str) -> None:
+    """One `warning:` line on stderr (in yellow where colour is allowed, above a progress bar); the commands
+    print it under -q too."""
+    from .progress import say
+    say(f"warning: {one_line(message)}", typer.colors.YELLOW)
+
+
+def note(message: str) -> None:
+    """One `note:` line on stderr (above a progress bar): information, which the commands leave out under -q."""
+    from .progress import say
+    say(f"note: {one_line(message)}")
 
 
 SceneArgument = Annotated[Path | None, typer.Argument(
@@ -211,6 +352,12 @@ UpOption = Annotated[str | None, typer.Option(
 def _view(view: MeshView | None) -> str | None:
     return view.value if view is not None else None
 
+
+SrgbOption = Annotated[bool, typer.Option(
+    "--srgb", help="Shorthand for `--set render.colour=linear` (a render.colour given by --set or a sweep wins): "
+    "decode 8-bit colour maps from sRGB, light in linear values and encode PNGs with the sRGB curve, as glTF "
+    "specifies (a glTF file rendered directly already is). Scene files default to `display`: maps and colours "
+    "as stored, the PNG as it is.")]
 
 SetOption = Annotated[list[str], typer.Option(
     "--set", metavar="KEY.PATH=VALUE",

@@ -18,9 +18,15 @@ from .common import (
     ViewOption,
     _view,
     app,
+    check_verbosity,
     exit_codes,
+    note,
+    quiet_option,
     scene_overrides,
+    verbose_option,
+    warn,
 )
+from .progress import progress_bar
 
 if TYPE_CHECKING:
     from raycast_phong.tools import compare
@@ -52,11 +58,17 @@ def side_by_side(
     max_memory: MaxMemoryOption = None,
     view: ViewOption = None,
     up: UpOption = None,
+    quiet: Annotated[bool, quiet_option("progress bar, per-variant lines, summary line or note")] = False,
+    verbose: Annotated[bool, verbose_option("each variant's render: size, triangles, rays, Mrays/s and seconds "
+                       "per stage")] = False,
 ) -> None:
     """Render a scene once per value of one key; write the variants side by side over heat maps of how
     much each differs from the last, and print the share of pixels changed, mean and max difference."""
     from raycast_phong.io.image_io import NO_FONT, check_output_path
     from raycast_phong.tools import compare  # only this command composes variants
+
+    from .render import summary_line
+    check_verbosity(quiet, verbose)
     with exit_codes():
         key, values = compare.parse_vary(vary)
         path = scene or rp.default_scene_path()
@@ -68,23 +80,52 @@ def side_by_side(
         check_output_path(layers, inputs=(path,))
         from raycast_phong.renderer.budget import default_budget
         each = compare.render_budget(scenes, max_memory or default_budget(), str(path))
-        comparison = compare.compose([rp.render(variant, source=str(path), max_memory=each).image
-                                      for variant in scenes], key, values)
+        results = []
+        with progress_bar(quiet) as bar:
+            for number, (variant, value) in enumerate(zip(scenes, values), 1):
+                label = f"{key} = {value} ({number}/{len(scenes)})"
+                bar.update(0, None, label)
+                results.append(rp.render(variant, source=str(path), max_memory=each,
+                                         progress=lambda done, total, label=label: bar.update(done, total, label)))
+        from raycast_phong.io.encoding import display_values
+        # Each panel as its PNG would show it (sRGB-encoded for render.colour = linear), so variants of different
+        # colour settings compare as seen; the differences are measured on those values too.
+        comparison = compare.compose([display_values(result.image, variant.render.colour)
+                                      for result, variant in zip(results, scenes)], key, values)
         rp.write_image(layers, comparison.image, parts=comparison.parts())
         if layers != output:
             rp.write_image(output, comparison.image)
+    if not comparison.labelled:
+        typer.secho(f"warning: the image has no labels: {NO_FONT}", err=True, fg=typer.colors.YELLOW)
+    for line in told_once(key, values, [result.plan.warnings for result in results]):
+        warn(line)
+    if quiet:
+        return
+    for line in told_once(key, values, [result.plan.notes for result in results]):
+        note(line)
+    if verbose:
+        for value, result in zip(values, results):
+            typer.echo(f"{key} = {value}: {summary_line(result, output).split(': ', 1)[1]}")
     for line in variant_lines(key, values, comparison.stats):
         typer.echo(line)
     grid = comparison.layout
     typer.echo(f"{output}: {len(values)} variants of {grid.width}×{grid.height} and their differences, "
                f"{grid.image_width}×{grid.image_height}; exact variants in {layers}")
-    if not comparison.labelled:
-        typer.secho(f"warning: the image has no labels: {NO_FONT}", err=True, fg=typer.colors.YELLOW)
     if comparison.scale == 0:
         own = key == "render.shading" and any(obj.shading for obj in scenes[0].objects)
         hint = " (objects with their own `shading` keep it)" if own else ""
         typer.secho(f"note: all {len(values)} variants are identical: {key} changes nothing in this scene{hint}",
                     err=True, fg=typer.colors.YELLOW)
+
+
+def told_once(key: str, values: list[str], told: list[tuple[str, ...]]) -> list[str]:
+    """The variants' render warnings (or notes), each said once: as it is when every variant has it, else after
+    the values of the variants that do (`render.shading = gouraud: objects.0 (gouraud): …`)."""
+    lines = []
+    for line in dict.fromkeys(line for lines_of_one in told for line in lines_of_one):
+        having = [value for value, lines_of_one in zip(values, told) if line in lines_of_one]
+        lines.append(line if len(having) == len(values) else f"{key} = {', '.join(having)}: {line}")
+    return lines
 
 
 def variant_lines(key: str, values: list[str], stats: list[compare.VariantStats]) -> list[str]:
@@ -119,11 +160,16 @@ def compare_images(
     fail_percent: Annotated[float, typer.Option("--fail-percent", min=0.0, max=100.0, help="The comparison fails "
                             "only when more than this percentage of pixels fail.")] = 0.0,
     max_memory: MaxMemoryOption = None,
+    quiet: Annotated[bool, quiet_option("error figures and no PASS line (a WARNING or FAILURE verdict is "
+                     "still printed)")] = False,
+    verbose: Annotated[bool, verbose_option("each image's size and channels, and the mean and largest "
+                       "difference of each channel")] = False,
 ) -> None:
     """Compare two images as idiff does: mean, RMS, PSNR, the largest error and where. Exit status 0 pass
     (warnings included), 1 fail, 2 unreadable input or different sizes."""
     from raycast_phong.io.image_io import check_output_path, compare_files
     from raycast_phong.tools.difference import difference_map
+    check_verbosity(quiet, verbose)
     with exit_codes():
         if diff is not None:
             check_output_path(diff, inputs=(a, b))  # before reading: --diff onto an input would replace it
@@ -132,8 +178,20 @@ def compare_images(
         if diff is not None:
             rp.write_image(diff, difference_map(found.a, found.b))
     (x, y), channel = found.max_at, found.max_channel
-    typer.echo(f"mean error {found.mean:.6g}, RMS error {found.rms:.6g}, PSNR {found.psnr:.2f} dB, "
-               f"max error {found.max:.6g} at pixel ({x}, {y}) channel {channel}")
+    if verbose:
+        height, width, channels = found.a.shape
+        typer.echo(f"{a} and {b}: {width}×{height}, {channels} channels")
+        import numpy as np
+        with np.errstate(invalid="ignore"):  # inf − inf: a non-finite pixel is counted below, left out here
+            error = np.abs(found.a.astype(np.float64) - found.b)
+        for c in range(channels):
+            finite = error[..., c][np.isfinite(error[..., c])]
+            figures = f"mean error {finite.mean():.6g}, max error {finite.max():.6g}" if finite.size else \
+                "no finite pixel"
+            typer.echo(f"channel {c}: {figures}")
+    if not quiet:
+        typer.echo(f"mean error {found.mean:.6g}, RMS error {found.rms:.6g}, PSNR {found.psnr:.2f} dB, "
+                   f"max error {found.max:.6g} at pixel ({x}, {y}) channel {channel}")
     nonfinite = dict.fromkeys(f"{name}: {nan} pixel{'s' * (nan != 1)} with NaN, {inf} with inf"
                               for name, nan, inf in zip((a, b), found.nan, found.inf) if nan or inf)
     if nonfinite:  # not a number is no measurement: the comparison fails whatever --fail-percent allows
@@ -147,4 +205,5 @@ def compare_images(
     if share > fail_percent:
         typer.secho(f"FAILURE: {counts} (allowed {fail_percent:g}%)", fg=typer.colors.RED)
         raise typer.Exit(code=1)
-    typer.echo(f"{'WARNING' if found.warned else 'PASS'}: {counts}")
+    if found.warned or not quiet:
+        typer.echo(f"{'WARNING' if found.warned else 'PASS'}: {counts}")

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 import time
 from enum import Enum
 from pathlib import Path
@@ -11,19 +10,26 @@ from typing import Annotated
 import typer
 
 import raycast_phong as rp
-from raycast_phong.codes import Mode, ShadingModel, SpecularModel, StageName
+from raycast_phong.codes import Mode, ShadingModel, SpecularModel
 
 from .common import (
     MaxMemoryOption,
     SceneArgument,
     SetOption,
+    SrgbOption,
     UpOption,
     ViewOption,
     _view,
     app,
+    check_verbosity,
     exit_codes,
+    note,
+    quiet_option,
     scene_overrides,
+    verbose_option,
+    warn,
 )
+from .progress import progress_bar
 
 
 class ReferenceKind(str, Enum):
@@ -44,8 +50,9 @@ class ReferenceKind(str, Enum):
 """)
 def render(
     scene: SceneArgument = None,
-    output: Annotated[Path | None, typer.Option("--output", "-o", help="Image to write: .png (8-bit, clamped) or "
-                      ".exr (float32, with the scene's AOV layers). Default: the scene's output.path.")] = None,
+    output: Annotated[Path | None, typer.Option("--output", "-o", help="Image to write: .png (8-bit, clamped; "
+                      "through the sRGB curve when render.colour = linear) or .exr (float32, unencoded, with the "
+                      "scene's AOV layers). Default: the scene's output.path.")] = None,
     shading: Annotated[ShadingModel | None, typer.Option(help="render.shading (objects with their own "
                        "`shading` keep it).")] = None,
     specular: Annotated[SpecularModel | None, typer.Option(help="render.specular: phong (v·r) or "
@@ -55,10 +62,11 @@ def render(
     height: Annotated[int | None, typer.Option(help="render.height in pixels, 1..16384.")] = None,
     samples: Annotated[int | None, typer.Option(help="render.samples: n → n×n rays per pixel, 1..16.")] = None,
     set_: SetOption = [],
-    srgb: Annotated[bool, typer.Option("--srgb", help="Encode a PNG with the sRGB curve instead of "
-                    "storing the model's display values as they are.")] = False,
+    srgb: SrgbOption = False,
     threads: Annotated[int | None, typer.Option(min=1, max=64, help="Worker threads (default: cores).")] = None,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar and no summary line.")] = False,
+    quiet: Annotated[bool, quiet_option("progress bar, notes, summary line or reference line")] = False,
+    verbose: Annotated[bool, verbose_option("the render plan: each stage kept or left out, and why (as `plan` "
+                       "prints it)")] = False,
     reference: Annotated[ReferenceKind | None, typer.Option(help="Also measure the render against the exact "
                          "surfaces (docs/accuracy.md): print RMSE, max error and PSNR beside the timing line.")] = None,
     max_memory: MaxMemoryOption = None,
@@ -66,13 +74,18 @@ def render(
     up: UpOption = None,
 ) -> None:
     """Render a scene file, a mesh file or the built-in default scene to a PNG or EXR image."""
+    from raycast_phong.scene.overrides import SRGB_OVERRIDE
     overrides = [*scene_overrides({"render.shading": shading, "render.specular": specular, "render.mode": mode,
                                    "render.width": width, "render.height": height, "render.samples": samples}),
-                 *set_]
+                 *([SRGB_OVERRIDE] if srgb else []), *set_]
+    check_verbosity(quiet, verbose)
     with exit_codes():
         started = time.perf_counter()
         path = scene or rp.default_scene_path()
-        loaded = rp.load_scene(path, overrides, view=_view(view), up=up, max_memory=max_memory)
+        with progress_bar(quiet) as bar:  # a large mesh file is read to frame it: seconds
+            bar.update(0, None, "loading the scene")
+            loaded = rp.load_scene(path, overrides, view=_view(view), up=up, max_memory=max_memory)
+        say_kept_shading(loaded, shading, set_, quiet)
         load_seconds = time.perf_counter() - started
         from raycast_phong.scene.output import render_output
         output = render_output(loaded, Path(path), output, builtin=scene is None)
@@ -84,20 +97,15 @@ def render(
             from raycast_phong.tools.accuracy import measured
             result = measured(loaded, result, reference.value, 2, str(path))
         started = time.perf_counter()
-        rp.write_image(output, result.image, result.aovs, srgb=srgb)
-        result.timings["write"] = time.perf_counter() - started
-        result.timings["load"] = load_seconds
-    if srgb and Path(output).suffix.lower() == ".exr":  # said even with --quiet: the option did nothing
-        typer.secho(f"warning: --srgb encodes a PNG; {output} is an EXR of linear float32 values, written "
-                    "unencoded", err=True, fg=typer.colors.YELLOW)
-    if not quiet and not srgb and result.plan.keeps(StageName.TEXTURES) and Path(output).suffix.lower() == ".png":
-        from raycast_phong.renderer.plan import TEXTURE_DISPLAY_HINT
-        typer.echo(f"note: colour maps are decoded to linear values: {TEXTURE_DISPLAY_HINT}", err=True)
+        rp.write_image(output, result.image, result.aovs, colour=loaded.render.colour)
+        result = result.with_timings(write=time.perf_counter() - started, load=load_seconds)
+    for warning in result.plan.warnings:  # a warning is said under -q too; a note is information
+        warn(warning)
     if not quiet:
-        for warning in result.plan.warnings:
-            typer.secho(f"warning: {warning}", err=True, fg=typer.colors.YELLOW)
-        for note in result.plan.notes:
-            typer.echo(f"note: {note}", err=True)
+        for line in result.plan.notes:
+            note(line)
+        if verbose:
+            typer.echo(result.plan.describe())
         typer.echo(summary_line(result, output))
         if reference is not None:
             typer.echo(error_line(result.errors, result.reference_seconds))
@@ -108,25 +116,35 @@ def _render_with_progress(scene: rp.Scene, source: str, threads: int | None, qui
     from raycast_phong.renderer.warmup import ready_kernels
     stage, seconds = ready_kernels(scene, None if quiet else lambda line: typer.echo(line, err=True), source)
     result = _render_shown(scene, source, threads, quiet, max_memory)
-    result.timings[stage] = seconds
-    return result
+    return result.with_timings(**{stage: seconds})
 
 
 def _render_shown(scene: rp.Scene, source: str, threads: int | None, quiet: bool,
                   max_memory: int | None) -> rp.RenderResult:
-    """render(), with a progress bar over the tiles on a terminal."""
-    if quiet or not sys.stderr.isatty():
-        return rp.render(scene, threads=threads, source=source, max_memory=max_memory)
-    from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
-    columns = (TextColumn("{task.description}"), BarColumn(), TimeRemainingColumn())
-    with Progress(*columns, console=Console(stderr=True), transient=True) as bar:
-        task = bar.add_task("building the BVH", total=None)
+    """render(), with a progress bar over the tiles on a terminal (cli.progress)."""
+    with progress_bar(quiet) as bar:
+        bar.update(0, None, "building the geometry and the BVH")
+        return rp.render(scene, threads=threads, source=source, max_memory=max_memory,
+                         progress=lambda done, total: bar.update(done, total, "rendering tiles"))
 
-        def advance(done: int, total: int) -> None:
-            bar.update(task, completed=done, total=total, description=f"rendering {done}/{total} tiles")
 
-        return rp.render(scene, threads=threads, source=source, progress=advance, max_memory=max_memory)
+def say_kept_shading(scene: rp.Scene, shading: ShadingModel | None, sets: list[str], quiet: bool) -> None:
+    """--shading (or --set render.shading=…) changes no object that has its own `shading` key: a warning when
+    that is every object (the option changed nothing: the image is the scene's own), else a note."""
+    if shading is None and not any(s.replace(" ", "").startswith("render.shading=") for s in sets):
+        return
+    from raycast_phong.renderer.plan import own_shading
+    kept = own_shading(scene)
+    if kept is None:
+        return
+    who, count, every = kept
+    model = scene.render.shading.value
+    asked = f"--shading {model}" if shading is not None else f"render.shading = {model}"
+    if every:
+        warn(f"{asked} changes nothing in this scene: every object keeps its own `shading` key, and {who} "
+             f"{'is' if count == 1 else 'are'} not {model}; set objects.N.shading to change one")
+    elif not quiet:
+        note(f"{asked}: {who} {'keeps its' if count == 1 else 'keep their'} own `shading` key")
 
 
 def summary_line(result: rp.RenderResult, output: Path) -> str:
@@ -156,12 +174,30 @@ def error_line(errors, seconds: float) -> str:
   raycast-phong plan scenes/attenuation.toml --set render.viewer=infinite
 """)
 def plan(scene: SceneArgument = None, set_: SetOption = [], max_memory: MaxMemoryOption = None,
-         view: ViewOption = None, up: UpOption = None) -> None:
+         view: ViewOption = None, up: UpOption = None,
+         quiet: Annotated[bool, quiet_option("stages or notes (only the plan's warnings)")] = False,
+         verbose: Annotated[bool, verbose_option("the geometry's size and how long preparing it took")] = False,
+         ) -> None:
     """Print the render plan: each stage and term, kept or left out, and why; then what the geometry
     tells (repaired windings, highlights the render would miss)."""
     from raycast_phong.renderer.prepare import prepare
+    check_verbosity(quiet, verbose)
     with exit_codes():
         path = scene or rp.default_scene_path()
         loaded = rp.load_scene(path, set_, view=_view(view), up=up, max_memory=max_memory)
+        say_kept_shading(loaded, None, set_, quiet)
+        started = time.perf_counter()
         # render's own preparation: the same memory check (before building anything), geometry and diagnosis.
-        typer.echo(prepare(loaded, source=str(path), max_memory=max_memory).plan.describe())
+        with progress_bar(quiet) as bar:
+            bar.update(0, None, "preparing the geometry")
+            ready = prepare(loaded, source=str(path), max_memory=max_memory)
+        seconds = time.perf_counter() - started
+    if quiet:
+        for warning in ready.plan.warnings:
+            typer.echo(f"warning   {warning}")
+        return
+    typer.echo(ready.plan.describe())
+    if verbose:
+        geometry = ready.geometry
+        typer.echo(f"geometry  {len(loaded.objects):,} objects, {len(geometry.faces):,} triangles, "
+                   f"{len(geometry.vertices):,} vertices; prepared in {seconds:.3f}s")

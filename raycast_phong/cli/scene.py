@@ -10,7 +10,18 @@ import typer
 
 import raycast_phong as rp
 
-from .common import SetOption, UpOption, ViewOption, _view, app, exit_codes
+from .common import (
+    SetOption,
+    UpOption,
+    ViewOption,
+    _view,
+    app,
+    check_verbosity,
+    exit_codes,
+    note,
+    quiet_option,
+    verbose_option,
+)
 
 
 @app.command("scene", epilog="""
@@ -31,11 +42,15 @@ def scene_command(
     set_: SetOption = [],
     view: ViewOption = None,
     up: UpOption = None,
+    quiet: Annotated[bool, quiet_option("notes on what the mesh file's materials left out")] = False,
+    verbose: Annotated[bool, verbose_option("the files the scene reads (meshes, colour maps): each key path "
+                       "and the file it resolves to")] = False,
 ) -> None:
     """Print the scene file a mesh file stands for: its materials, the framing camera, the key light and
     every other key with its value. `render` of that file gives the same image as `render` of the mesh."""
     from raycast_phong.io.scene_toml import scene_toml
     from raycast_phong.scene.load import is_mesh_file
+    check_verbosity(quiet, verbose)
     with exit_codes():
         loaded = rp.load_scene(scene, set_, view=_view(view), up=up)
         notes = ()
@@ -51,8 +66,15 @@ def scene_command(
         if output is not None:
             from raycast_phong.io.atomic import write_text
             write_text(output, text)
-    for note in notes:
-        typer.echo(f"note: {note}", err=True)
+    if not quiet:
+        for line in notes:
+            note(line)
+    if verbose:
+        from raycast_phong.codes import OUTPUT_PATH
+        from raycast_phong.scene.messages import dotted
+        for key, path in loaded.named_files().items():
+            if key != OUTPUT_PATH:  # the one file a scene names that it writes, not reads
+                typer.echo(f"reads {dotted(key)}: {loaded.resolve(path)}", err=True)
     if output is None:
         typer.echo(text, nl=False)
 
@@ -62,7 +84,13 @@ def scene_command(
 
   raycast-phong schema > scene.schema.json
 """)
-def schema() -> None:
+def schema(
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="Print only warnings and errors besides the schema "
+                     "(the schema is all it prints either way).")] = False,
+    verbose: Annotated[bool, typer.Option("--verbose", help="Nothing more to print: the schema is the whole "
+                       "output (taken so that every command takes it).")] = False,
+) -> None:
     """Print the JSON Schema of the scene format (the same as docs/scene.schema.json)."""
+    check_verbosity(quiet, verbose)
     from raycast_phong.scene.schema import scene_json_schema
     typer.echo(json.dumps(scene_json_schema(), indent=2, ensure_ascii=False))

@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from .common import app, exit_codes, fail
+from .common import app, check_verbosity, exit_codes, fail
 
 
 @app.command(epilog="""
@@ -27,9 +27,13 @@ def view(
     host: Annotated[str, typer.Option(help="Address to listen on. Anything but 127.0.0.1 lets other machines "
                     "reach the page (they still need the token).")] = "127.0.0.1",
     no_browser: Annotated[bool, typer.Option("--no-browser", help="Only print the URL.")] = False,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="Print only warnings, errors and the page's URL "
+                     "(the server logs nothing else either way).")] = False,
+    verbose: Annotated[bool, typer.Option("--verbose", help="Also log every request the server answers.")] = False,
 ) -> None:
     """Explore a scene live in the browser: switch shading models, drag the light, compare two settings
     (docs/view.md). Prints the page's URL with its access token; Ctrl-C stops the server."""
+    check_verbosity(quiet, verbose)
     try:
         from raycast_phong.tools import view as live
     except ImportError as error:
@@ -40,7 +44,8 @@ def view(
     with exit_codes():
         try:
             live.serve(scene, host=host, port=port, open_browser=not no_browser,
-                       announce=lambda url: typer.echo(f"raycast-phong view: open {url}"))
+                       announce=lambda url: typer.echo(f"raycast-phong view: open {url}"),
+                       log_level="info" if verbose else "warning")
         except OSError as error:
             fail(str(error))
         except KeyboardInterrupt:

@@ -16,8 +16,9 @@ from ..codes import MODEL_CODE
 from ..errors import SceneError
 from ..records import Geometry, Texture, bounding_box
 from ..scene.kinds import object_kinds, placements
-from ..scene.messages import dotted
-from ..scene.schema import DEFAULT_MATERIAL, SHAPE_KEYS, Object, Scene, brightness_problem
+from ..scene.messages import Location, located
+from ..scene.objects import OWN_KEYS
+from ..scene.schema import DEFAULT_MATERIAL, Object, Scene, brightness_problem
 from ..tolerances import MIN_DISTANCE, MIN_EXTENT, POSITION_LIMIT
 from . import shapes
 from .materials import material_rows
@@ -40,7 +41,7 @@ class ObjectMesh(NamedTuple):
 OBJECT_CHUNK_VERTICES = 1 << 20  # placed vertices per step of a group: ~25 MB of float64 temporaries
 
 
-def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool = True,
+def build_geometry(scene: Scene, source: str | Location = "<scene>", vertex_normals: bool = True,
                    normal_dtype: type = np.float64, memo: BuildMemo | None = None) -> Geometry:
     """Concatenate the scene's objects in world space, in the scene's order.
 
@@ -54,23 +55,24 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
     `memo` (a live view's frames of one changing scene) keeps what the last build made and gives back what this
     scene shares with it (BuildMemo); the Geometry is the one a build without it gives, array for array.
     """
-    whole = memo.begin(scene, source, vertex_normals, normal_dtype) if memo is not None else None
+    where = located(source)
+    whole = memo.begin(scene, where, vertex_normals, normal_dtype) if memo is not None else None
     if memo is not None and (kept := memo.geometry_for(whole)) is not None:
-        check_float_range(scene, kept.vertices, source)  # the lights it checks may be new
+        check_float_range(scene, kept.vertices, where)  # the lights it checks may be new
         return kept
     material_index = {name: i + 1 for i, name in enumerate(scene.materials)}  # 0 is the built-in default
     groups = _groups(scene)
-    bank = TextureBank(scene, source, memo)
+    bank = TextureBank(scene, where, memo)
     notes, file_notes, file_rows = [], [], FileRows(scene, material_index, bank)
     built = []  # (members, template, exact corner normals in the object frame, a mesh file's material rows)
     for members in groups:
         first = scene.objects[members[0]]
         wants_exact = vertex_normals and first.normals == "exact"
         if memo is None:
-            group = _group_template(scene, first, int(members[0]), source, wants_exact)
+            group = _group_template(scene, first, int(members[0]), where, wants_exact)
         else:
-            group = memo.template(_template_key(scene, first, int(members[0]), source, wants_exact),
-                                  partial(_group_template, scene, first, int(members[0]), source, wants_exact))
+            group = memo.template(_template_key(scene, first, int(members[0]), where, wants_exact),
+                                  partial(_group_template, scene, first, int(members[0]), where, wants_exact))
         file_notes += group.file_notes
         notes += group.notes
         rows = None
@@ -83,11 +85,11 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
         for at in range(0, len(members), step):
             chunk = members[at:at + step]
             if memo is None:
-                part = _group_part(scene, chunk, template, exact, vertex_normals, normal_dtype, source)
+                part = _group_part(scene, chunk, template, exact, vertex_normals, normal_dtype, where)
             else:
                 part = memo.part(scene, chunk, template, vertex_normals, normal_dtype,
                                  partial(_group_part, scene, chunk, template, exact, normal_dtype=normal_dtype,
-                                         source=source))
+                                         where=where))
             mesh.write(part, rows)
     scene_maps = bank.scene_maps([o.material for o in object_kinds(scene).firsts(scene.objects)])
     textured = bank.textures and (len(scene_maps) or file_rows.mapped)
@@ -97,7 +99,7 @@ def build_geometry(scene: Scene, source: str = "<scene>", vertex_normals: bool =
     geometry = dataclasses.replace(geometry, corner_uv=corner_uv, corner_colour=corner_colour,
                                    textures=tuple(bank.textures) if textured else (),
                                    scene_maps=scene_maps if textured else np.full((0, 3), -1, np.int64))
-    check_float_range(scene, geometry.vertices, source)
+    check_float_range(scene, geometry.vertices, where)
     if memo is not None:
         memo.keep(whole, geometry)
     return geometry
@@ -112,10 +114,10 @@ class _Template(NamedTuple):
     file_notes: tuple[str, ...]  # what reading the file said, and turned-over normals, for Geometry.file_notes
 
 
-def _group_template(scene: Scene, first: Object, index: int, source: str, wants_exact: bool) -> _Template:
+def _group_template(scene: Scene, first: Object, index: int, where: Location, wants_exact: bool) -> _Template:
     """The template of the group whose first object is `first` (scene.objects[index]): a shape's triangles, or
     a mesh file read, its winding repaired and its stored normals turned outward if they point inward."""
-    template = object_mesh(scene, first, index, source)
+    template = object_mesh(scene, first, where.at("objects", index))
     exact = exact_corner_normals_local(first, template.vertices, template.faces) if wants_exact else None
     read, notes, file_notes = template.file, [], []
     if template.file is not None:
@@ -139,12 +141,12 @@ def _group_template(scene: Scene, first: Object, index: int, source: str, wants_
     return _Template(template, exact, read, tuple(notes), tuple(file_notes))
 
 
-def _template_key(scene: Scene, first: Object, index: int, source: str, wants_exact: bool) -> tuple:
+def _template_key(scene: Scene, first: Object, index: int, where: Location, wants_exact: bool) -> tuple:
     """What _group_template reads: a shape's keys; a mesh file's object, its file as it is now (its version and
-    its side files', mesh_file.mesh_identity) and the object's number and source, which its notes name."""
+    its side files', mesh_file.mesh_identity) and the object's number and location, which its notes name."""
     if first.shape != "mesh":
         return ("shape", *_group_key(first, index), wants_exact)
-    return ("mesh", index, source, _mesh_stamp(scene.resolve(first.path)), first.normals, first.crease_angle,
+    return ("mesh", index, where, _mesh_stamp(scene.resolve(first.path)), first.normals, first.crease_angle,
             "crease_angle" in first.model_fields_set, wants_exact)
 
 
@@ -173,12 +175,13 @@ class BuildMemo:
 
     - the last Geometry, with the key of everything it was built from (whole_key) and the versions of the
       texture files it decoded: a scene that differs only in lights, camera or render settings other than
-      shading gets that Geometry back (the same object);
+      shading and colour gets that Geometry back (the same object);
     - each group's template (a shape's triangles, or a mesh file read, merged and mended), keyed by what it
       reads, the mesh file's version among it: a material or shading change, or a new placement, reads nothing;
     - each group's placed part (world vertices, face and corner normals), keyed by its template and its objects'
       placements: a new tessellation or placement of one kind rebuilds that kind's part only;
-    - the textures decoded, keyed by the file's version (or the image object a mesh file holds).
+    - the textures decoded, keyed by the file's version (or the image object a mesh file holds) and the
+      render.colour they were decoded for.
 
     Only what the last build used is kept (one scene's worth of geometry, and its parts: as much again for a
     scene of several objects, the parts' arrays being copied into one mesh). Not for two threads at once.
@@ -190,23 +193,23 @@ class BuildMemo:
         self._texture_stamps: dict[str, tuple] = {}  # texture files `_geometry` decoded → their versions then
         self._templates: dict[tuple, _Template] = {}
         self._parts: dict[tuple, _Part] = {}
-        self._textures: dict[tuple, tuple[object, np.ndarray]] = {}  # TextureBank key → (stamp, pixels)
+        self._textures: dict[tuple, tuple[object, np.ndarray]] = {}  # (TextureBank key, colour) → (stamp, pixels)
         self._used: tuple[set, set, set] = (set(), set(), set())  # templates, parts and textures of this build
 
-    def begin(self, scene: Scene, source: str, vertex_normals: bool, normal_dtype: type) -> tuple:
+    def begin(self, scene: Scene, where: Location, vertex_normals: bool, normal_dtype: type) -> tuple:
         """Start a build: the key of everything build_geometry reads from `scene` and the disk: every object's
         keys but placement (once per kind) and the placements' bits, the materials, the default shading, the
-        folder, the mesh files and maps as they are now; not the lights (check_float_range runs on every
-        build), the camera or the other render settings."""
+        colour the maps are decoded in (render.colour), the folder, the mesh files and maps as they are now; not
+        the lights (check_float_range runs on every build), the camera or the other render settings."""
         self._used = (set(), set(), set())
         kinds = object_kinds(scene)
         files = tuple(_mesh_stamp(scene.resolve(o.path)) for o in scene.objects if o.shape == "mesh")
         files += tuple(_file_stamp(scene.resolve(getattr(m, key).path)) for m in scene.materials.values()
                        for key in ("ka_map", "kd_map", "ke_map") if getattr(m, key) is not None)
-        where = tuple(array.tobytes() for array in placements(scene.objects))  # bits: -0.0 is not 0.0
-        return (source, scene.folder, vertex_normals, np.dtype(normal_dtype).str, scene.render.shading,
-                tuple(scene.materials.items()), tuple(kinds.firsts(scene.objects)), kinds.kind.tobytes(), where,
-                files)
+        placed = tuple(array.tobytes() for array in placements(scene.objects))  # bits: -0.0 is not 0.0
+        return (where, scene.folder, vertex_normals, np.dtype(normal_dtype).str, scene.render.shading,
+                scene.render.colour, tuple(scene.materials.items()), tuple(kinds.firsts(scene.objects)),
+                kinds.kind.tobytes(), placed, files)
 
     def geometry_for(self, whole: tuple) -> Geometry | None:
         """The last Geometry if `whole` is its key and the texture files it decoded are unchanged; else None."""
@@ -295,11 +298,11 @@ def _group_key(obj: Object, index: int) -> tuple:
     A mesh file is never shared (its reading notes and materials belong to its object)."""
     if obj.shape == "mesh":
         return ("mesh", index)
-    return (obj.shape, *(getattr(obj, key) for key in SHAPE_KEYS[obj.shape]), obj.normals, obj.crease_angle)
+    return (obj.shape, *(getattr(obj, key) for key in OWN_KEYS[obj.shape]), obj.normals, obj.crease_angle)
 
 
 def _group_part(scene: Scene, members: np.ndarray, template: ObjectMesh, exact: np.ndarray | None,
-                vertex_normals: bool, normal_dtype: type, source: str) -> _Part:
+                vertex_normals: bool, normal_dtype: type, where: Location) -> _Part:
     """Place K objects that share `template` (its vertices and faces in the object frame) and give them face
     and corner normals: the per-object steps of the scene format, done for all K at once."""
     scale, rotate, translate = placements(scene.objects, members)
@@ -310,15 +313,15 @@ def _group_part(scene: Scene, members: np.ndarray, template: ObjectMesh, exact: 
     faces[mirrored] = faces[mirrored][:, :, ::-1]
     reach = np.abs(vertices).max(axis=(1, 2))
     for k in np.flatnonzero(~(reach <= POSITION_LIMIT)):  # NaN fails the comparison too
-        raise SceneError(f"{source}: objects.{members[k]}: placed (scale, rotate, translate), the object reaches a "
-                         f"coordinate of {reach[k]:.3g}; allowed: within ±{POSITION_LIMIT:g}, so distances squared "
-                         "stay finite in float32; lower scale, its size or translate")
+        raise SceneError(f"placed (scale, rotate, translate), the object reaches a coordinate of {reach[k]:.3g}; "
+                         f"allowed: within ±{POSITION_LIMIT:g}, so distances squared stay finite in float32; lower "
+                         "scale, its size or translate", where.at("objects", int(members[k])))
     extent = vertices.max(axis=1) - vertices.min(axis=1)
     for k in np.flatnonzero(~(extent != 0).any(axis=1)):
         obj = scene.objects[members[k]]
-        raise SceneError(f"{source}: objects.{members[k]}: placed, the object collapses to a single point (its scale "
-                         f"{list(obj.scale)} is below float64's resolution at translate {list(obj.translate)}); "
-                         "allowed: an object with some extent; raise scale or its size")
+        raise SceneError(f"placed, the object collapses to a single point (its scale {list(obj.scale)} is below "
+                         f"float64's resolution at translate {list(obj.translate)}); allowed: an object with some "
+                         "extent; raise scale or its size", where.at("objects", int(members[k])))
     count, n = len(members), len(template.vertices)
     flat_vertices = vertices.reshape(-1, 3)
     flat_faces = (faces + (np.arange(count) * n)[:, None, None]).reshape(-1, 3)
@@ -406,7 +409,7 @@ class _Mesh:
                         file_notes=file_notes)
 
 
-def check_float_range(scene: Scene, vertices: np.ndarray, source: str = "<scene>") -> None:
+def check_float_range(scene: Scene, vertices: np.ndarray, source: str | Location = "<scene>") -> None:
     """Refuse a scene whose placed extent or 1/d² lights would leave float32's range (SceneError).
 
     The half-extent must be at least MIN_EXTENT; a 1/d² light's f_att is at most 1/max(d, floor)², d its
@@ -416,9 +419,9 @@ def check_float_range(scene: Scene, vertices: np.ndarray, source: str = "<scene>
     low, high = bounding_box(vertices)
     extent = float((high - low).max()) / 2  # as intersect.unit_frame measures it
     if extent < MIN_EXTENT:
-        raise SceneError(f"{source}: objects: the whole scene spans only {2 * extent:.3g} (its largest bounding-box "
-                         f"side); allowed: at least {2 * MIN_EXTENT:g}, so the 1/d² floor and Embree's unit frame "
-                         "stay in float32's range; raise the objects' scale or size")
+        raise SceneError(f"the whole scene spans only {2 * extent:.3g} (its largest bounding-box side); allowed: at "
+                         f"least {2 * MIN_EXTENT:g}, so the 1/d² floor and Embree's unit frame stay in float32's "
+                         "range; raise the objects' scale or size", located(source).at("objects"))
     floor = MIN_DISTANCE * extent
     gains = {}
     for k, light in enumerate(scene.lights):
@@ -429,7 +432,7 @@ def check_float_range(scene: Scene, vertices: np.ndarray, source: str = "<scene>
     problem = brightness_problem(scene, gains, why="with 1/d² attenuation up to "
                                  f"{max(gains.values(), default=1.0):.3g} (the light at or near the scene), ")
     if problem:
-        raise SceneError(f"{source}: {dotted(problem[0])}: {problem[1]}")
+        raise SceneError(problem[1], located(source).at(*problem[0]))
 
 
 def behind_camera(scene: Scene, vertices: np.ndarray) -> str | None:
@@ -445,10 +448,11 @@ def behind_camera(scene: Scene, vertices: np.ndarray) -> str | None:
 
 class TextureBank:
     """The scene's decoded textures, each decoded once and only when a face's material uses it (a file's
-    unused maps are never decoded); a map that cannot be decoded is a note and its factor stands alone."""
+    unused maps are never decoded), as the scene's render.colour asks (io.textures: as stored, or decoded from
+    sRGB to linear values); a map that cannot be decoded is a note and its factor stands alone."""
 
-    def __init__(self, scene: Scene, source: str, memo: BuildMemo | None = None):
-        self.scene, self.source, self.memo = scene, source, memo
+    def __init__(self, scene: Scene, where: Location, memo: BuildMemo | None = None):
+        self.scene, self.where, self.memo = scene, where, memo
         self.textures: list[Texture] = []
         self.notes: list[str] = []
         self.found: dict = {}
@@ -458,7 +462,8 @@ class TextureBank:
         `stamp` (a file's version, or the image object a mesh file holds) lets a memo keep the pixels."""
         if key not in self.found:
             try:
-                pixels = decode() if self.memo is None else self.memo.texture(key, stamp, decode)
+                pixels = (decode() if self.memo is None else
+                          self.memo.texture((*key, self.scene.render.colour), stamp, decode))
             except SceneError:
                 raise  # a scene's own map: the scene is wrong (one line, exit 2)
             except ValueError as error:
@@ -475,11 +480,12 @@ class TextureBank:
             return -1
         from ..io.textures import decode_file, decode_pil
         found = read.texture_sources[index]
+        colour = self.scene.render.colour
         if isinstance(found.source, Path):
-            key, decode = (str(found.source), found.wrap_s, found.wrap_t), lambda: decode_file(found.source)
+            key, decode = (str(found.source), found.wrap_s, found.wrap_t), lambda: decode_file(found.source, colour)
             stamp = _file_stamp(found.source) if self.memo is not None else None
         else:
-            key, decode = (id(found.source), found.wrap_s, found.wrap_t), lambda: decode_pil(found.source)
+            key, decode = (id(found.source), found.wrap_s, found.wrap_t), lambda: decode_pil(found.source, colour)
             stamp = found.source
         return self.add(key, decode, found.wrap_s, found.wrap_t, found.name, stamp)
 
@@ -492,9 +498,10 @@ class TextureBank:
             return -1
         from ..io.textures import decode_scene_map
         path, wrap = self.scene.resolve(value.path), value.wrap
-        where = f"{self.source}: materials.{name}.{key}"
+        where = self.where.at("materials", name, key)
         stamp = _file_stamp(path) if self.memo is not None else None
-        return self.add((str(path), wrap, wrap), lambda: decode_scene_map(path, where), wrap, wrap, str(path), stamp)
+        return self.add((str(path), wrap, wrap), lambda: decode_scene_map(path, where, self.scene.render.colour),
+                        wrap, wrap, str(path), stamp)
 
     def maps_of(self, material, read: MeshFile | None = None) -> tuple[int, int, int]:
         """(ka, kd, ke) texture rows of a material: a FileMaterial of `read`, or a scene material by name;
@@ -527,7 +534,7 @@ class FileRows:
 
     def __init__(self, scene: Scene, material_index: dict[str, int], bank: TextureBank | None = None):
         self.scene, self.material_index = scene, material_index
-        self.bank = bank if bank is not None else TextureBank(scene, "<scene>")
+        self.bank = bank if bank is not None else TextureBank(scene, Location("<scene>"))
         self.rows: list[np.ndarray] = []
         self.mapped = False
         self.first = 1 + len(scene.materials)  # row of the first file material: after the default and the scene's
@@ -622,12 +629,12 @@ def _corner_colours(scene: Scene, built: list, mesh, in_place: bool = True) -> n
     return _object_corners(scene, built, mesh, colours, 3, 1.0)
 
 
-def object_mesh(scene: Scene, obj: Object, index: int, source: str) -> ObjectMesh:
+def object_mesh(scene: Scene, obj: Object, where: Location) -> ObjectMesh:
     """The object's triangles in its own frame (a mesh file's with its materials, colours and normals; a built-in
-    shape's from its kind, geometry/shapes/)."""
+    shape's from its kind, geometry/shapes/); `where` is the object's location (file: objects.N)."""
     if obj.shape == "mesh":
-        return _load_mesh(scene, obj, index, source)
-    return ObjectMesh(*shapes.KINDS[obj.shape].template(obj, index, source), None)
+        return _load_mesh(scene, obj, where)
+    return ObjectMesh(*shapes.KINDS[obj.shape].template(obj, where), None)
 
 
 def shape_uv(obj: Object, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray | None:
@@ -637,15 +644,15 @@ def shape_uv(obj: Object, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray
     return None if kind is None else kind.uv(obj, vertices, faces)
 
 
-def _load_mesh(scene: Scene, obj: Object, index: int, source: str):
+def _load_mesh(scene: Scene, obj: Object, where: Location):
     path = scene.resolve(obj.path)
     from ..io.mesh_file import read_mesh  # imports trimesh (0.2–0.3 s): only for mesh files
 
-    read = read_mesh(path, f"{source}: objects.{index}.path")
+    read = read_mesh(path, where.at("path"))
     normals = read.normals if obj.normals in (None, "file") else None  # unset: the file's, if it has them
     if obj.normals == "file" and normals is None:
-        raise SceneError(f'{source}: objects.{index}.normals: "file" but {str(path)!r} stores no vertex '
-                         'normals; use "mean", "area" or "angle"')
+        raise SceneError(f'"file" but {str(path)!r} stores no vertex normals; use "mean", "area" or "angle"',
+                         where.at("normals"))
     if normals is not None:  # keep the file's vertex order: its normals are per vertex
         return ObjectMesh(read.vertices, read.faces, normals, read, uv=read.corner_uv)
     # Otherwise merge what the file repeats (the faces and their order stay, so the per-face materials line up).

@@ -10,21 +10,25 @@ stage that reads a file asks the cache rather than receiving the result through 
 from __future__ import annotations
 
 import os
+import re
 import stat
+import sys
+import tempfile
 import threading
 from collections.abc import Callable
+from contextlib import contextmanager
 from pathlib import Path
 from typing import BinaryIO, Generic, TypeVar
 
-from ..errors import SceneError
+from ..errors import SceneError, Where
 
 FILE_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe (FIFO)"), (stat.S_ISCHR, "a device"),
               (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
 
 
-def open_regular(path: Path, where: str, what: str, limit: int | None = None) -> BinaryIO:
-    """Open `path` for binary reading if it is a regular file of at most `limit` bytes; else SceneError
-    "{where}: ..." naming `what` (a scene file, a mesh file). A missing file raises FileNotFoundError,
+def open_regular(path: Path, where: Where, what: str, limit: int | None = None) -> BinaryIO:
+    """Open `path` for binary reading if it is a regular file of at most `limit` bytes; else SceneError at
+    `where` naming `what` (a scene file, a mesh file). A missing file raises FileNotFoundError,
     for the caller to word.
 
     A FIFO would block the read forever and /dev/zero never ends, so the kind is checked with stat before
@@ -35,7 +39,7 @@ def open_regular(path: Path, where: str, what: str, limit: int | None = None) ->
         if not stat.S_ISREG(mode):
             kind = next((f"{name}, not a regular file" for test, name in FILE_KINDS if test(mode)),
                         "not a regular file")
-            raise SceneError(f"{where}: {str(path)!r} is {kind}; give a {what}")
+            raise SceneError(f"{str(path)!r} is {kind}; give a {what}", where)
 
     try:
         refuse_kind(os.stat(path).st_mode)
@@ -45,13 +49,13 @@ def open_regular(path: Path, where: str, what: str, limit: int | None = None) ->
     except FileNotFoundError:
         raise
     except OSError as error:
-        raise SceneError(f"{where}: cannot read the {what} {str(path)!r} ({error.strerror})") from None
+        raise SceneError(f"cannot read the {what} {str(path)!r} ({error.strerror})", where) from None
     try:
         info = os.fstat(descriptor)
         refuse_kind(info.st_mode)
         if limit is not None and info.st_size > limit:
-            raise SceneError(f"{where}: the {what} is {info.st_size:,} bytes, more than the {limit:,} "
-                             f"({limit >> 20} MiB) allowed")
+            raise SceneError(f"the {what} is {info.st_size:,} bytes, more than the {limit:,} "
+                             f"({limit >> 20} MiB) allowed", where)
         os.set_blocking(descriptor, True)
         return os.fdopen(descriptor, "rb")
     except BaseException:
@@ -88,12 +92,12 @@ def image_suffix_mismatch(path: str | Path) -> str | None:
     return f"not a {known[0]} file: it starts with {start!r}"
 
 
-def open_mesh_file(path: Path, where: str) -> BinaryIO:
-    """open_regular for a mesh file, with a missing one worded: "{where}: no such mesh file 'PATH'"."""
+def open_mesh_file(path: Path, where: Where) -> BinaryIO:
+    """open_regular for a mesh file, with a missing one worded: "WHERE: no such mesh file 'PATH'"."""
     try:
         return open_regular(path, where, "mesh file")  # never a FIFO, a device or a folder
     except FileNotFoundError:
-        raise SceneError(f"{where}: no such mesh file {str(path)!r}") from None
+        raise SceneError(f"no such mesh file {str(path)!r}", where) from None
 
 def file_version(path: str | Path, info: os.stat_result | None = None) -> tuple:
     """(resolved path, mtime, size, inode) of the file as it is now; OSError for a missing one. `info`: a
@@ -141,3 +145,33 @@ class VersionCache(Generic[T]):
     def clear(self) -> None:
         with self._lock:
             self._values.clear()
+
+
+# Lines a native image library prints on the process's own stderr (fd 2) while it fails: libpng's default
+# error handler writes "libpng error: IDAT: Read error: ..." before OpenImageIO reports the same error, which
+# the caller then words in its one line.
+NATIVE_ERROR_LINE = re.compile(r"^libpng (error|warning): ")
+
+
+@contextmanager
+def native_errors_kept():
+    """Run the block with fd 2 captured; afterwards give back to stderr what it printed, less the native image
+    libraries' own error lines (NATIVE_ERROR_LINE), so that a failing read says one line, the caller's."""
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError, AttributeError):  # no fd 2 (closed, or a stream without one): nothing to keep
+        yield
+        return
+    with tempfile.TemporaryFile() as sink:
+        os.dup2(sink.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            sink.seek(0)
+            kept = [line for line in sink.read().decode("utf-8", "replace").splitlines(keepends=True)
+                    if not NATIVE_ERROR_LINE.match(line)]
+            if kept:
+                sys.stderr.write("".join(kept))

@@ -24,7 +24,7 @@ import OpenImageIO as oiio
 from ..codes import IMAGE_SUFFIXES
 from ..errors import ImageError
 from .atomic import os_reason, replaced_atomically
-from .encoding import to_8bit
+from .encoding import COLOURS, DISPLAY, LINEAR, to_8bit
 from .files import FILE_KINDS, image_suffix_mismatch
 from .system import format_bytes
 
@@ -81,15 +81,40 @@ def _same_file(a: Path, b: Path) -> bool:
         return a.resolve() == b.resolve()
 
 
+# An EXR says what its values are, for a reader that does not know this renderer: the colour setting itself,
+# and the colour space in OpenImageIO's attribute, named by the ASWF colour interop IDs that OpenImageIO 3
+# gives its own reads (a PNG reads as "srgb_rec709_scene"). "display" values are what an sRGB display shows
+# as they are, so they are sRGB-encoded values; "linear" values are linear Rec.709 (sRGB primaries).
+EXR_COLOUR_ATTRIBUTE = "raycast_phong:colour"
+EXR_COLOR_SPACES = {DISPLAY: "srgb_rec709_scene", LINEAR: "lin_rec709_scene"}
+
+
+def image_array(image) -> np.ndarray:
+    """`image` as an (H, W, 3) array of real numbers, H, W ≥ 1 (a render's image, float32 or float64); else
+    ValueError saying what was given, before any file is touched."""
+    array = np.asarray(image) if isinstance(image, np.ndarray | list | tuple) else None
+    if array is None or array.dtype.kind not in "biuf" or array.ndim != 3 or array.shape[2] != 3 or 0 in array.shape:
+        got = (f"an array of shape {array.shape} and dtype {array.dtype}" if array is not None
+               else f"a {type(image).__name__}")
+        raise ValueError(f"write_image: the image must be an (H, W, 3) array of real RGB values with H, W ≥ 1, "
+                         f"as render() returns; got {got}")
+    return array
+
+
 def write_image(path: str | Path, image: np.ndarray, aovs: dict[str, np.ndarray] | None = None,
-                srgb: bool = False, parts: dict[str, tuple[np.ndarray, tuple[int, int]]] | None = None) -> Path:
-    """Write an (H, W, 3) image: .png 8-bit clamped (sRGB-encoded if asked), .exr float32 unclamped.
+                colour: str = DISPLAY, parts: dict[str, tuple[np.ndarray, tuple[int, int]]] | None = None) -> Path:
+    """Write an (H, W, 3) image rendered in `colour` (the scene's render.colour, io.encoding): .png 8-bit
+    clamped (through the sRGB curve for "linear"), .exr float32 unclamped and unencoded, its header saying which
+    (EXR_COLOUR_ATTRIBUTE and OpenImageIO's "oiio:ColorSpace", EXR_COLOR_SPACES).
 
     `aovs` (EXR only) adds layers as channels `name.R/G/B` (terms), `depth.Z`, `normal.X/Y/Z`, `face.id`.
     `parts` (EXR only) maps name → ((h, w, 3) image, (x, y)): each becomes one more part of a multi-part
     EXR, with channels `name.R/G/B` and its data window at (x, y) in the main image's H×W display window
     (OpenEXR requires one display window for all parts; the data windows may differ in size).
     """
+    if colour not in COLOURS:
+        raise ValueError(f"colour {colour!r}; allowed: {', '.join(COLOURS)}")
+    image = image_array(image)
     path = check_output_path(path)
     aovs = aovs or {}
     parts = parts or {}
@@ -97,7 +122,7 @@ def write_image(path: str | Path, image: np.ndarray, aovs: dict[str, np.ndarray]
         if aovs or parts:
             raise ImageError(f"{path}: layers {sorted(aovs) + sorted(parts)} need an .exr output")
         # OpenImageIO's PNG writer needs C order; a strided view (e.g. from read_layer) writes no data.
-        pixels, names, fmt = np.ascontiguousarray(to_8bit(image, srgb)), ["R", "G", "B"], oiio.UINT8
+        pixels, names, fmt = np.ascontiguousarray(to_8bit(image, colour)), ["R", "G", "B"], oiio.UINT8
     else:
         planes, names = [np.asarray(image, np.float32)], ["R", "G", "B"]
         for name, layer in aovs.items():
@@ -109,6 +134,8 @@ def write_image(path: str | Path, image: np.ndarray, aovs: dict[str, np.ndarray]
     spec.channelnames = tuple(names)
     if path.suffix.lower() == ".exr":
         spec.attribute("compression", "zip")
+        spec.attribute(EXR_COLOUR_ATTRIBUTE, colour)
+        spec.attribute("oiio:ColorSpace", EXR_COLOR_SPACES[colour])
     extra = [_part(name, layer, origin, spec) for name, (layer, origin) in parts.items()]
     if extra:
         spec.attribute("name", "image")  # every part of a multi-part EXR needs a unique name
@@ -116,6 +143,21 @@ def write_image(path: str | Path, image: np.ndarray, aovs: dict[str, np.ndarray]
         specs = [spec, *(part_spec for part_spec, _ in extra)] if extra else spec
         _write_oiio(str(temporary_path), specs, pixels, extra)
     return path
+
+
+def image_colour(path: str | Path) -> str | None:
+    """The render.colour an EXR of write_image says its values are in (EXR_COLOUR_ATTRIBUTE), or None for a file
+    that does not say (a PNG: its values are display values already; an EXR from elsewhere)."""
+    refuse_non_regular(path)
+    source = oiio.ImageInput.open(str(path))
+    if source is None:
+        oiio.geterror()
+        return None
+    try:
+        found = source.spec().get_string_attribute(EXR_COLOUR_ATTRIBUTE)
+    finally:
+        source.close()
+    return found if found in COLOURS else None
 
 
 def _write_oiio(temporary: str, specs, pixels: np.ndarray, extra: list) -> None:
@@ -393,15 +435,16 @@ def compare_files(a: str | Path, b: str | Path, fail: float, warn: float,
                            a=pixels_a, b=pixels_b)
 
 
-def png_bytes(image: np.ndarray) -> bytes:
-    """An (H, W, 3) image as a PNG in memory, with the 8-bit values `raycast-phong render -o x.png` stores
-    (encoding.to_8bit: clamped, rounded). Written here, not by OpenImageIO, which writes only files: its route
-    (a scratch file, fsynced, read back) took 45 ms of a 640×360 frame and 240 ms of a 1280×720 one, this
-    takes the to_8bit pass and a zlib pass at level 1 (speed over size: the bytes cross a local socket).
+def png_bytes(image: np.ndarray, colour: str = DISPLAY) -> bytes:
+    """An (H, W, 3) image rendered in `colour` as a PNG in memory, with the 8-bit values `raycast-phong render
+    -o x.png` stores (encoding.to_8bit: clamped, the sRGB curve for "linear", rounded). Written here, not by
+    OpenImageIO, which writes only files: its route (a scratch file, fsynced, read back) took 45 ms of a
+    640×360 frame and 240 ms of a 1280×720 one, this takes the to_8bit pass and a zlib pass at level 1 (speed
+    over size: the bytes cross a local socket).
 
     PNG: signature, IHDR (8-bit RGB), one IDAT of zlib rows each led by filter 0, IEND (RFC 2083).
     """
-    rgb8 = to_8bit(image)
+    rgb8 = to_8bit(image, colour)
     height, width = rgb8.shape[:2]
     rows = np.zeros((height, 1 + 3 * width), np.uint8)  # column 0: each row's filter type, 0 = none
     rows[:, 1:] = rgb8.reshape(height, 3 * width)
@@ -413,13 +456,13 @@ def png_bytes(image: np.ndarray) -> bytes:
             + chunk(b"IEND", b""))
 
 
-def image_bytes(image, suffix: str = ".png", aovs: dict | None = None) -> bytes:
-    """An image as a file's bytes: a PNG with the pixels `raycast-phong render -o x.png` stores (png_bytes),
-    or the EXR it would write, layers and all (image_io writes only files: a scratch folder, removed at once).
-    The view's frames and saves use it too."""
+def image_bytes(image, suffix: str = ".png", aovs: dict | None = None, colour: str = DISPLAY) -> bytes:
+    """An image rendered in `colour` as a file's bytes: a PNG with the pixels `raycast-phong render -o x.png`
+    stores (png_bytes), or the EXR it would write, layers and all (image_io writes only files: a scratch folder,
+    removed at once). The view's frames and saves use it too."""
     if suffix == ".png" and not aovs:
-        return png_bytes(image)
+        return png_bytes(image, colour)
     with tempfile.TemporaryDirectory(prefix="raycast-phong-image-") as folder:
         path = Path(folder) / f"image{suffix}"
-        write_image(path, image, aovs)
+        write_image(path, image, aovs, colour)
         return path.read_bytes()

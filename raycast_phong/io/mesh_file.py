@@ -25,10 +25,11 @@ import numpy as np
 import trimesh
 
 from ..codes import GLTF_WRAP, MATERIAL_DEFAULTS
-from ..errors import SceneError
+from ..errors import SceneError, Where
 from ..records import bounding_box
 from ..tolerances import POSITION_LIMIT
 from .files import VersionCache, file_version, open_mesh_file, open_regular
+from .mesh_header import gltf_buffer_files
 
 TRIMESH = Path(trimesh.__file__).resolve().parent  # an exception that passed through here: trimesh refused the file
 TEXT_FORMATS = (".obj", ".off")  # trimesh decodes these as text, guessing any non-UTF-8 encoding
@@ -114,7 +115,7 @@ def mesh_identity(path: Path) -> tuple:
     return (stamp(path), *(stamp(side) for side in side_files(path)))
 
 
-def read_mesh(path: Path, where: str, keep: bool = False) -> MeshFile:
+def read_mesh(path: Path, where: Where, keep: bool = False) -> MeshFile:
     """The mesh file at `path`; `where` starts every error ("scene.toml: objects.0.path").
 
     keep=True (framing a camera) leaves the result for the next read of the same unchanged file, which
@@ -135,7 +136,7 @@ def read_mesh(path: Path, where: str, keep: bool = False) -> MeshFile:
     return found
 
 
-def mesh_bounds(path: Path, where: str) -> MeshFile:
+def mesh_bounds(path: Path, where: Where) -> MeshFile:
     """The file's centre, radius, up axis, materials and notes (its arrays may be empty): from the small
     cache when this unchanged file was read before, else read (and kept for the render)."""
     try:
@@ -180,11 +181,7 @@ def _side_files(path: Path) -> tuple[Path, ...]:
                 lines += MTLLIB.findall(carry)
             return tuple(path.parent / name for name in mtllib_names(lines, path.parent))
         elif suffix == ".gltf":
-            import json
-            with open_regular(path, str(path), "mesh file", MAX_SIDE_FILE) as handle:
-                document = json.loads(handle.read(MAX_SIDE_FILE))
-            return tuple(path.parent / b["uri"] for b in document.get("buffers", [])
-                         if isinstance(b, dict) and isinstance(b.get("uri"), str) and not b["uri"].startswith("data:"))
+            return gltf_buffer_files(path)
     except (OSError, SceneError, ValueError, RecursionError, TypeError, AttributeError):
         pass  # the render reports an unreadable file (JSON nested too deep, buffers that are not a list, ...)
     return ()
@@ -192,7 +189,7 @@ def _side_files(path: Path) -> tuple[Path, ...]:
 
 # ---------------------------------------------------------------- reading
 
-def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
+def _read(path: Path, where: Where, bounds: bool = True) -> MeshFile:
     handle = open_mesh_file(path, where)
     notes: list[str] = []
     suffix = path.suffix.lower()
@@ -220,19 +217,19 @@ def _read(path: Path, where: str, bounds: bool = True) -> MeshFile:
     except Exception as error:
         if not _raised_in_trimesh(error):
             raise  # our own bug, not the file's: an internal error with its traceback
-        raise SceneError(f"{where}: cannot read {str(path)!r} as {READABLE} ({type(error).__name__}: "
-                         f"{error})") from None
+        raise SceneError(f"cannot read {str(path)!r} as {READABLE} ({type(error).__name__}: "
+                         f"{error})", where) from None
     if not parts:
-        raise SceneError(f"{where}: {str(path)!r} holds no triangles; expected {READABLE}")
+        raise SceneError(f"{str(path)!r} holds no triangles; expected {READABLE}", where)
     vertices, faces, normals = _concatenate(parts)
     if vertices.ndim != 2 or vertices.shape[1] != 3:  # an OBJ `v x y`, a glTF POSITION of VEC2
         given = vertices.shape[1] if vertices.ndim == 2 else vertices.ndim
-        raise SceneError(f"{where}: {str(path)!r} gives its vertices {given} coordinate(s) each; allowed: 3 (x, y, z)")
+        raise SceneError(f"{str(path)!r} gives its vertices {given} coordinate(s) each; allowed: 3 (x, y, z)", where)
     if faces.size and not (0 <= faces.min() and faces.max() < len(vertices)):
         bad = int(((faces < 0) | (faces >= len(vertices))).any(axis=1).sum())
-        raise SceneError(f"{where}: {str(path)!r} has {bad} face(s) with a vertex index outside 0..{len(vertices) - 1} "
+        raise SceneError(f"{str(path)!r} has {bad} face(s) with a vertex index outside 0..{len(vertices) - 1} "
                          f"(first: {faces[((faces < 0) | (faces >= len(vertices))).any(axis=1)][0].tolist()}); "
-                         "allowed: indices of the file's own vertices")
+                         "allowed: indices of the file's own vertices", where)
     mask = np.zeros(len(vertices), bool)
     mask[faces.ravel()] = True  # the vertices faces use: O(F), where np.unique would sort
     used = vertices if mask.all() else vertices[mask]
@@ -305,7 +302,7 @@ def sniff(head: bytes) -> str | None:
     return None
 
 
-def check_file_content(path: Path, where: str) -> None:
+def check_file_content(path: Path, where: Where) -> None:
     """check_content on the file at `path` (framing calls it before the memory check reads a binary STL's
     triangle count from a header that may be an OBJ's first line). A file that cannot be opened is left to
     the read, which words it. Text formats are left to the read: their header count cannot be fooled so."""
@@ -319,17 +316,17 @@ def check_file_content(path: Path, where: str) -> None:
         check_content(path, handle, where)
 
 
-def check_content(path: Path, handle, where: str) -> None:
+def check_content(path: Path, handle, where: Where) -> None:
     """Refuse, in one line, a file whose content is not the format its suffix says (an OBJ named .stl was read
     as a binary STL of 433 GB), an archive or compressed file (decompress it first), or a glTF's sibling."""
     suffix = path.suffix.lower()
     if suffix in CONTAINERS:
-        raise SceneError(f"{where}: {str(path)!r} is {CONTAINERS[suffix]}; extract or decompress it and render the "
-                         "model file inside (OBJ, PLY, STL, OFF, GLB/glTF, ...)")
+        raise SceneError(f"{str(path)!r} is {CONTAINERS[suffix]}; extract or decompress it and render the "
+                         "model file inside (OBJ, PLY, STL, OFF, GLB/glTF, ...)", where)
     head = handle.read(512)
     handle.seek(0)
     if not head:
-        raise SceneError(f"{where}: {str(path)!r} is empty (0 bytes); expected {READABLE}")
+        raise SceneError(f"{str(path)!r} is empty (0 bytes); expected {READABLE}", where)
     found = sniff(head)
     if suffix == ".stl":
         size = os.fstat(handle.fileno()).st_size
@@ -343,7 +340,7 @@ def check_content(path: Path, handle, where: str) -> None:
     name = suffix[1:].upper().replace("GLTF", "glTF")
     said = (f"its content is {found}; rename it to that format's suffix" if found
             else f"its content does not start as a {name} file does; expected {READABLE}")
-    raise SceneError(f"{where}: cannot read {str(path)!r} as {name}: {said}")
+    raise SceneError(f"cannot read {str(path)!r} as {name}: {said}", where)
 
 
 # Required glTF extensions read here; any other one in extensionsRequired is refused (glTF 2.0 §3.12: a loader
@@ -351,7 +348,7 @@ def check_content(path: Path, handle, where: str) -> None:
 SUPPORTED_REQUIRED = ("KHR_draco_mesh_compression",)
 
 
-def _check_gltf(path: Path, handle, where: str, notes: list[str]) -> dict:
+def _check_gltf(path: Path, handle, where: Where, notes: list[str]) -> dict:
     """The glTF's JSON (a .glb's first chunk): refuse required extensions that are not supported, naming them;
     a note for each image file it names that is missing. Returns the wrap modes of each material's colour
     maps: {(material name, "baseColorTexture" or "emissiveTexture"): (wrap_s, wrap_t)} (trimesh drops them)."""
@@ -367,8 +364,8 @@ def _check_gltf(path: Path, handle, where: str, notes: list[str]) -> dict:
     except (ValueError, UnicodeDecodeError):
         document = {}  # trimesh words what is wrong with the file
     except RecursionError:  # Python's parser recurses per level: no glTF is nested a thousand deep
-        raise SceneError(f"{where}: {str(path)!r}: its JSON is nested deeper than Python's parser reads; allowed: "
-                         "a glTF document (a few levels of objects and lists)") from None
+        raise SceneError(f"{str(path)!r}: its JSON is nested deeper than Python's parser reads; allowed: "
+                         "a glTF document (a few levels of objects and lists)", where) from None
     finally:
         handle.seek(0)
     if not isinstance(document, dict):
@@ -381,8 +378,8 @@ def _check_gltf(path: Path, handle, where: str, notes: list[str]) -> dict:
         except ImportError:
             missing.insert(0, "KHR_draco_mesh_compression (Draco compression: pip install DracoPy)")
     if missing:
-        raise SceneError(f"{where}: {str(path)!r} requires the glTF extension(s) {', '.join(missing)}, which this "
-                         f"renderer does not support; supported: {', '.join(SUPPORTED_REQUIRED)}")
+        raise SceneError(f"{str(path)!r} requires the glTF extension(s) {', '.join(missing)}, which this "
+                         f"renderer does not support; supported: {', '.join(SUPPORTED_REQUIRED)}", where)
     from urllib.parse import unquote
     for image in document.get("images", []):
         uri = image.get("uri") if isinstance(image, dict) else None
@@ -535,20 +532,20 @@ def _concatenate(parts: list[_Part]) -> tuple[np.ndarray, np.ndarray, np.ndarray
     return vertices, faces, normals
 
 
-def _check_values(coordinates: np.ndarray, path: Path, where: str) -> None:
+def _check_values(coordinates: np.ndarray, path: Path, where: Where) -> None:
     """Every vertex of a face (`coordinates`, (U, 3)) finite and within ±POSITION_LIMIT (trimesh squares
     coordinates)."""
     if (np.abs(coordinates) <= np.float64(POSITION_LIMIT)).all():  # one pass (float32 compared in float64); NaN fails
         return
     finite = np.isfinite(coordinates).all(axis=1)
     if not finite.all():
-        raise SceneError(f"{where}: {str(path)!r} has {int((~finite).sum())} vertex(es) with NaN or infinite "
-                         "coordinates; every vertex of a face must have finite coordinates")
+        raise SceneError(f"{str(path)!r} has {int((~finite).sum())} vertex(es) with NaN or infinite "
+                         "coordinates; every vertex of a face must have finite coordinates", where)
     huge = (np.abs(coordinates) > POSITION_LIMIT).any(axis=1)
     if huge.any():
-        raise SceneError(f"{where}: {str(path)!r} has {int(huge.sum())} vertex(es) with a coordinate beyond "
+        raise SceneError(f"{str(path)!r} has {int(huge.sum())} vertex(es) with a coordinate beyond "
                          f"±{POSITION_LIMIT:g} (largest {float(np.abs(coordinates).max()):.3g}); allowed: within "
-                         f"±{POSITION_LIMIT:g}, so lengths squared stay finite")
+                         f"±{POSITION_LIMIT:g}, so lengths squared stay finite", where)
 
 
 # ---------------------------------------------------------------- materials and colours
@@ -961,7 +958,7 @@ def _load_obj(source: dict):
     return trimesh.load_scene(kwargs)
 
 
-def _mesh_source(path, handle, where: str) -> dict:
+def _mesh_source(path, handle, where: Where) -> dict:
     """trimesh.load arguments for the open file `handle` of `path`; a text format that is not UTF-8 is
     read as Latin-1. The file already opened is read (not the path again), and files it names (an OBJ's
     materials, a glTF's buffers) are found beside it. An OBJ's relative face indices are made absolute
@@ -983,7 +980,7 @@ def _mesh_source(path, handle, where: str) -> dict:
             from .obj_polygons import absolute_indices, triangulate_concave
             data, problem = absolute_indices(data)  # trimesh counts -1 back from the file's end, not the line
             if problem:
-                raise SceneError(f"{where}: {str(path)!r} {problem}")
+                raise SceneError(f"{str(path)!r} {problem}", where)
             data, _ = triangulate_concave(data)  # trimesh would fan a concave polygon over its hole
         source["file_obj"] = io.BytesIO(data)
     return source

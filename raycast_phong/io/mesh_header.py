@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import SceneError, Where
 from .files import VersionCache, file_version, open_regular
 from .system import available_memory, count_text, format_bytes
 
@@ -30,21 +30,22 @@ OTHER_MESH_FILE_BYTES = 550
 MESH_READ_BYTES = 270
 
 
-def mesh_file_triangles(path: Path, key: str) -> int:
+def mesh_file_triangles(path: Path, where: Where) -> int:
     """Triangles in a mesh file, read cheaply: PLY and OFF headers, binary STL's count, OBJ's face corners,
     glTF's accessor counts (a JSON above JSON_LIMIT is not parsed); other formats by file size (at least 6
     bytes per triangle). Where the file's vertices outnumber its triangles, its vertices (less 2):
     unused vertices cost memory too. 0 for a missing file (the loader reports it); a FIFO, device or folder is
     refused here, and so is a binary STL whose size does not match its header's count (SceneError)."""
     try:
-        handle = open_regular(path, key, "mesh file")
+        handle = open_regular(path, where, "mesh file")
     except FileNotFoundError:
         return 0
     with handle:
         info = os.fstat(handle.fileno())
         # An OBJ is counted in 1 MB pieces: once per version; framing and the render ask.
         suffix = path.suffix.lower()
-        return COUNTS.setdefault(file_version(path, info), lambda: _count_triangles(handle, suffix, info.st_size, key))
+        return COUNTS.setdefault(file_version(path, info),
+                                 lambda: _count_triangles(handle, suffix, info.st_size, where))
 
 
 def mesh_file_read_bytes(path: Path) -> int:
@@ -57,7 +58,42 @@ def mesh_file_read_bytes(path: Path) -> int:
     suffix = path.suffix.lower()
     if suffix == ".stl" and _binary_stl(path, size):
         return size * BINARY_STL_READ_BYTES_PER_BYTE
-    return size * READ_BYTES_PER_BYTE.get(suffix, TEXT_READ_BYTES_PER_BYTE)
+    if suffix == ".3mf":  # a zip: what it holds is read, decompressed (an 800 MB XML zips to 2 MB)
+        return size + _zip_content_bytes(path) * ZIP_XML_READ_BYTES_PER_BYTE
+    # A .gltf's external buffers are read whole, whatever its accessors claim to use of them.
+    buffers = sum(_size(buffer) for buffer in gltf_buffer_files(path)) if suffix == ".gltf" else 0
+    return size * READ_BYTES_PER_BYTE.get(suffix, TEXT_READ_BYTES_PER_BYTE) + buffers * BUFFER_READ_BYTES_PER_BYTE
+
+
+def _zip_content_bytes(path: Path) -> int:
+    """The sum of the sizes a zip's directory gives its members, uncompressed. Python's zipfile (trimesh's 3MF
+    reader uses it) stops a member at its stated size (a longer stream fails its check), so the sum bounds what a
+    read decompresses. 0 for a file that is not a zip (the loader reports it)."""
+    import zipfile
+    try:
+        with open_regular(path, str(path), "mesh file") as handle, zipfile.ZipFile(handle) as archive:
+            return sum(info.file_size for info in archive.infolist())
+    except (OSError, SceneError, zipfile.BadZipFile, ValueError, EOFError):
+        return 0
+
+
+def _size(path: Path) -> int:
+    try:
+        return path.stat().st_size
+    except OSError:
+        return 0  # the loader reports a missing buffer
+
+
+def gltf_buffer_files(path: Path) -> tuple[Path, ...]:
+    """The external buffer files a .gltf names (not its `data:` URIs), from its JSON (at most JSON_LIMIT bytes
+    are read; () for a file that is not such a JSON)."""
+    try:
+        with open_regular(path, str(path), "mesh file", JSON_LIMIT) as handle:
+            document = json.loads(handle.read(JSON_LIMIT))
+        return tuple(path.parent / b["uri"] for b in document.get("buffers", [])
+                     if isinstance(b, dict) and isinstance(b.get("uri"), str) and not b["uri"].startswith("data:"))
+    except (OSError, SceneError, ValueError, RecursionError, TypeError, AttributeError):
+        return ()  # the loader reports an unreadable file (JSON nested too deep, buffers that are not a list, ...)
 
 
 def _binary_stl(path: Path, size: int) -> bool:
@@ -80,28 +116,35 @@ READ_BYTES_PER_BYTE = {".glb": 2}  # binary chunks are read as they are
 TEXT_READ_BYTES_PER_BYTE = 12      # a text file, or one that may be (PLY, an ASCII STL)
 # A binary STL's records (its size) and the points and faces copied out of them (72% and 48% of it).
 BINARY_STL_READ_BYTES_PER_BYTE = 3
+# A .gltf's external buffer is read whole into bytes (trimesh's resolver): a 600 MB buffer of which the accessors
+# use 36 bytes peaked 734 MB (interpreter included).
+BUFFER_READ_BYTES_PER_BYTE = 1
+# A 3MF's XML, parsed by trimesh into a tree and lists: a 178 kB 3MF of 56.5 MB XML (500k triangles) peaked
+# 1.95 GB resident, 34.5 bytes a byte of XML.
+ZIP_XML_READ_BYTES_PER_BYTE = 36
 JSON_LIMIT = 64 << 20  # a glTF's JSON above this is not parsed to count: the size bound counts it
 CHUNK = 1 << 20  # an OBJ is scanned this many bytes at a time (about 20 MB of index arrays), never a whole line
 
 
-def _count_triangles(handle, suffix: str, size: int, key: str = "mesh file") -> int:
+def _count_triangles(handle, suffix: str, size: int, where: Where = "mesh file") -> int:
     """Triangles' worth of the open file `handle` of `size` bytes (mesh_file_triangles, before the size bound)."""
     head = handle.read(4096)
     try:
         if suffix == ".ply":
             faces = re.search(rb"^element\s+face\s+(\d+)", head, re.M)
             points = re.search(rb"^element\s+vertex\s+(\d+)", head, re.M)
-            if faces:
-                return _weigh(int(faces[1]), int(points[1]) if points else 0)
+            listed = _ply_list_triangles(head, size)
+            if faces or listed is not None:
+                return _weigh(max(int(faces[1]) if faces else 0, listed or 0), int(points[1]) if points else 0)
         elif suffix == ".stl":
             binary = size >= 84 and (not head.lstrip().startswith(b"solid")
                                      or size == 84 + 50 * struct.unpack_from("<I", head, 80)[0])
             if binary:
                 count = struct.unpack_from("<I", head, 80)[0]
                 if size != 84 + 50 * count:
-                    raise SceneError(f"{key}: a binary STL whose header counts {count:,} triangles "
+                    raise SceneError(f"a binary STL whose header counts {count:,} triangles "
                                      f"({84 + 50 * count:,} bytes) but which has {size:,} bytes: the file is "
-                                     "corrupt or cut short; allowed: 84 + 50 × its count bytes")
+                                     "corrupt or cut short; allowed: 84 + 50 × its count bytes", where)
                 return count
             return size // 86  # the shortest ASCII facet ("facet normal 0 0 0\nouter loop\n…") is 86 bytes
         elif suffix == ".off":
@@ -124,6 +167,38 @@ def _count_triangles(handle, suffix: str, size: int, key: str = "mesh file") -> 
     except (ValueError, KeyError, IndexError, TypeError, struct.error, OSError, RecursionError):
         pass  # a malformed header: fall back to the size bound; the loader reports the real problem
     return size // 6
+
+
+PLY_SIZES = {"char": 1, "int8": 1, "uchar": 1, "uint8": 1, "short": 2, "int16": 2, "ushort": 2, "uint16": 2,
+             "int": 4, "int32": 4, "uint": 4, "uint32": 4, "float": 4, "float32": 4, "double": 8, "float64": 8}
+
+
+def _ply_list_triangles(head: bytes, size: int) -> int | None:
+    """The most triangles a binary PLY's lists (faces, strips) can make, from its size and its header's
+    types, whatever its counts claim: the bytes past the fixed-size properties hold at most that many list
+    entries of the smallest index type, and n entries of a polygon or strip make n − 2 triangles. Exact for
+    a file of triangles (a face of 3 M corners, header "1 face", is 3 M triangles). None for an ASCII PLY, a
+    header longer than `head`, or no list."""
+    end = head.find(b"end_header")
+    if end < 0 or head.find(b"\n", end) < 0 or re.search(rb"^format\s+ascii", head[:end], re.M):
+        return None
+    body = size - head.index(b"\n", end) - 1
+    elements = []  # [count, bytes of its fixed properties and list counts, smallest list entry or 0]
+    for words in (line.split() for line in head[:end].decode("ascii", "replace").splitlines()):
+        if words[:1] == ["element"] and len(words) == 3:
+            elements.append([int(words[2]), 0, 0])
+        elif words[:1] == ["property"] and elements and len(words) in (3, 5):
+            if words[1] == "list" and len(words) == 5:
+                entry = PLY_SIZES[words[3]]
+                elements[-1][1] += PLY_SIZES[words[2]]
+                elements[-1][2] = min(elements[-1][2] or entry, entry)
+            else:
+                elements[-1][1] += PLY_SIZES[words[1]]
+    lists = [(count, entry) for count, _, entry in elements if entry]
+    if not lists:
+        return None
+    entries = max(0, body - sum(count * fixed for count, fixed, _ in elements)) // min(e for _, e in lists)
+    return max(0, entries - 2 * sum(count for count, _ in lists))
 
 
 def _weigh(triangles: int, vertices: int) -> int:
@@ -177,7 +252,7 @@ def _gltf_triangles(document: dict) -> int:
     return total
 
 
-def check_mesh_read(path: Path, source: str, max_memory: int | None = None) -> None:
+def check_mesh_read(path: Path, where: Where, max_memory: int | None = None) -> None:
     """Refuse (SceneError, one line) to read a mesh file for framing (scene.framing, before any render and
     so before renderer.budget.check_memory) when the read alone could not fit in the memory available now
     (io.system.available_memory: cgroup and `ulimit -v`; and `max_memory`, the command's --max-memory): the
@@ -188,11 +263,16 @@ def check_mesh_read(path: Path, source: str, max_memory: int | None = None) -> N
     if max_memory is not None:
         available = max_memory if available is None else min(available, max_memory)
     floor = mesh_file_read_bytes(path)  # from the size alone: a huge file is refused before any byte is read
-    triangles = 0 if available is not None and floor > available else mesh_file_triangles(path, source)
+    triangles = 0 if available is not None and floor > available else mesh_file_triangles(path, where)
     need = max(triangles * (MESH_READ_BYTES + MESH_FILE_BYTES.get(path.suffix.lower(), OTHER_MESH_FILE_BYTES)),
                floor)
     if available is not None and need > available:
-        what = f"{count_text(triangles)} triangles" if triangles else f"{format_bytes(path.stat().st_size)}"
-        raise SceneError(f"{source}: reading its {what} needs ≈ {format_bytes(need)} of memory, more than the "
+        suffix = path.suffix.lower()
+        buffers = sum(_size(buffer) for buffer in gltf_buffer_files(path)) if suffix == ".gltf" else 0
+        unzipped = _zip_content_bytes(path) if suffix == ".3mf" else 0
+        what = (f"{count_text(triangles)} triangles" if triangles else f"{format_bytes(path.stat().st_size)}"
+                + (f" and {format_bytes(buffers)} of buffers" if buffers else "")
+                + (f" ({format_bytes(unzipped)} unzipped)" if unzipped else ""))
+        raise SceneError(f"reading its {what} needs ≈ {format_bytes(need)} of memory, more than the "
                          f"{format_bytes(available)} available; allowed: a mesh whose size and triangles fit, "
-                         "so decimate it or free memory")
+                         "so decimate it or free memory", where)

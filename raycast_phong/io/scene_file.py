@@ -26,40 +26,40 @@ def read_scene_file(path: Path) -> dict:
     try:
         if stdin:  # a pipe: read to its end, one byte past the cap at most
             if sys.stdin is None:  # the program was started with stdin closed (`<&-`)
-                raise SceneError(f"{path}: standard input is closed; pipe a scene to `-`, or give a scene file")
+                raise SceneError("standard input is closed; pipe a scene to `-`, or give a scene file", path)
             data = sys.stdin.buffer.read(MAX_SCENE_BYTES + 1)
         else:
             with open_regular(path, str(path), "scene file", MAX_SCENE_BYTES) as handle:
                 # One byte over the cap tells a file that grew after fstat from one that fits.
                 data = handle.read(MAX_SCENE_BYTES + 1)
         if len(data) > MAX_SCENE_BYTES:
-            raise SceneError(f"{path}: the scene is more than the {MAX_SCENE_BYTES >> 20} MiB allowed")
+            raise SceneError(f"the scene is more than the {MAX_SCENE_BYTES >> 20} MiB allowed", path)
         text = data.decode("utf-8")
     except FileNotFoundError:
-        raise SceneError(f"{path}: no such scene file") from None
+        raise SceneError("no such scene file", path) from None
     except (OSError, UnicodeDecodeError) as error:
-        raise SceneError(f"{path}: cannot read the scene file ({error})") from None
+        raise SceneError(f"cannot read the scene file ({error})", path) from None
     text = text.removeprefix("\ufeff")  # a byte-order mark, as some Windows editors write, is no syntax error
     try:
         if path.suffix.lower() == ".json" or (stdin and text.lstrip("\ufeff \t\r\n").startswith("{")):
             data = json.loads(text, object_pairs_hook=_JSONObject)
             twice = _duplicate_key(data)
             if twice:
-                raise SceneError(f"{path}: {'.'.join(map(str, twice))}: the key is given twice in one object (JSON "
-                                 "would keep the last silently); allowed: each key once")
+                raise SceneError(f"{'.'.join(map(str, twice))}: the key is given twice in one object (JSON "
+                                 "would keep the last silently); allowed: each key once", path)
         else:
             data = tomllib.loads(text)
     except SceneError:
         raise
     except json.JSONDecodeError as error:
         where = f"line {error.lineno}, column {error.colno}"
-        raise SceneError(f"{path}: JSON syntax error at {where}: {error.msg}") from None
+        raise SceneError(f"JSON syntax error at {where}: {error.msg}", path) from None
     except tomllib.TOMLDecodeError as error:
-        raise SceneError(f"{path}: TOML syntax error: {error}") from None
+        raise SceneError(f"TOML syntax error: {error}", path) from None
     except (RecursionError, ValueError) as error:
-        raise SceneError(f"{path}: {syntax_limit(error)}") from None
+        raise SceneError(syntax_limit(error), path) from None
     if not isinstance(data, dict):
-        raise SceneError(f"{path}: the top level must be a table of keys")
+        raise SceneError("the top level must be a table of keys", path)
     return data
 
 

@@ -40,16 +40,14 @@ def available_memory() -> int | None:
     return found
 
 
-_CGROUP_ROOT = "/sys/fs/cgroup"
-# Tests point the cgroup tree elsewhere (a fake memory.max in a temporary folder) for a whole subprocess:
-_CGROUP_ROOT_VARIABLE = "RAYCAST_PHONG_TEST_CGROUP_ROOT"
+_CGROUP_ROOT = "/sys/fs/cgroup"  # tests/contracts/test_watchdog.py points it at a fake tree, from outside
 
 
 def _cgroup_room(root: str | Path | None = None, lines: list[str] | None = None) -> int | None:
     """What the tightest memory limit of this process's cgroup and its parents leaves (v2, else v1): the
     cgroup tree under `root` (default /sys/fs/cgroup), the process's cgroups from `lines` (default
     /proc/self/cgroup's)."""
-    root = Path(root or os.environ.get(_CGROUP_ROOT_VARIABLE) or _CGROUP_ROOT)
+    root = Path(root or _CGROUP_ROOT)
     room = None
     if lines is None:
         try:

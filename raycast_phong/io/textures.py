@@ -1,11 +1,14 @@
-"""Colour maps decoded into linear float32 RGB, and their sizes read from headers for the memory estimate.
+"""Colour maps decoded into float32 RGB, as the scene's render.colour asks, and their sizes read from headers
+for the memory estimate.
 
 A texture file (an .mtl's map_Kd, a scene's kd_map) is decoded with OpenImageIO; a glTF's embedded image
 arrives as the PIL image trimesh opened lazily (not yet decoded) and is decoded here, only when a material
-of a face uses it. 8-bit colour maps are sRGB (glTF 2.0 §3.9.2 says so for baseColor and emissive
-textures; .mtl colour maps are so by convention) and are decoded to linear values; float images (EXR, HDR)
-are taken as linear. A map larger than MAX_TEXTURE_SIZE on a side is shrunk to it (a box filter): no
-picture of this renderer shows more texels than that, and the memory stays bounded.
+of a face uses it. An 8-bit colour map holds sRGB-encoded values (glTF 2.0 §3.9.2 says so for baseColor and
+emissive textures; .mtl colour maps and PNGs are so by convention): render.colour = "display" uses them as
+stored (value / 255, as fixed-function GL does), "linear" decodes them to linear values (glTF's pipeline).
+Float images (EXR, HDR) hold linear values and are used as stored in both (clamped to [0, 1]). A map larger
+than MAX_TEXTURE_SIZE on a side is shrunk to it (a box filter): no picture of this renderer shows more texels
+than that, and the memory stays bounded.
 """
 
 from __future__ import annotations
@@ -16,8 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SceneError
-from .files import image_suffix_mismatch, open_regular
+from ..errors import SceneError, Where
+from .encoding import LINEAR
+from .files import image_suffix_mismatch, native_errors_kept, open_regular
 
 MAX_TEXTURE_SIZE = 2048
 # Bytes per texel of level 0 while a texture is in use: the decoded float32 RGB kept in the Geometry (12), the
@@ -52,34 +56,39 @@ def _rgb(pixels: np.ndarray) -> np.ndarray:
 DECODE_BAND_BYTES = 32 << 20  # a larger map is read and shrunk a band of rows at a time: its peak stays this
 
 
-def decode_file(path: Path) -> np.ndarray:
-    """(H, W, 3) float32 linear RGB in [0, 1] of an image file; ValueError when it is not an image OpenImageIO
-    reads. A map multiplies a coefficient in [0, 1], so a float image's texels are clamped to [0, 1] too (NaN and
-    −inf to 0, +inf to 1): a NaN, infinite or negative texel would otherwise make such pixels of the image.
+def decode_file(path: Path, colour: str) -> np.ndarray:
+    """(H, W, 3) float32 RGB in [0, 1] of an image file for a render in `colour` (an 8-bit image decoded from
+    sRGB for "linear", as stored for "display"; a float image as stored); ValueError when it is not an image
+    OpenImageIO reads. A map multiplies a coefficient in [0, 1], so a float image's texels are clamped to
+    [0, 1] too (NaN and −inf to 0, +inf to 1): a NaN, infinite or negative texel would otherwise make such
+    pixels of the image.
 
     A map larger than MAX_TEXTURE_SIZE is shrunk while it is read, a band of rows at a time (each texel of the
     result the mean of the source texels it covers), so decoding a 12000² PNG costs a band, not the 1.7 GB of
     its float texels at full size: the memory estimate counts the shrunk map only."""
     import OpenImageIO as oiio
-    found = oiio.ImageInput.open(str(path))
-    if found is None:
-        raise ValueError(oiio.geterror() or "not an image")
-    try:
-        spec = found.spec()
-        if spec.width <= 0 or spec.height <= 0 or spec.nchannels <= 0:
-            raise ValueError("not an image")
-        height, width = capped(spec.height, spec.width)
-        pixels = _read_shrunk(found, spec, height, width)
-    finally:
-        found.close()
+    with native_errors_kept():  # libpng prints its own "libpng error: ..." line; the caller words one line
+        found = oiio.ImageInput.open(str(path))
+        if found is None:
+            raise ValueError(oiio.geterror() or "not an image")
+        try:
+            spec = found.spec()
+            if spec.width <= 0 or spec.height <= 0 or spec.nchannels <= 0:
+                raise ValueError("not an image")
+            height, width = capped(spec.height, spec.width)
+            pixels = _read_shrunk(found, spec, height, width)
+        finally:
+            found.close()
     pixels = _rgb(pixels)
-    linear = spec.format.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE)
+    floats = spec.format.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE)
     out = np.empty(pixels.shape, np.float32)
     step = max(1, (DECODE_BAND_BYTES >> 6) // max(1, pixels.shape[1] * 3))  # float64 temporaries of a band
     for row in range(0, len(pixels), step):  # a band at a time: the curve's float64 temporaries stay small
         band = pixels[row:row + step]
-        out[row:row + step] = (np.clip(np.nan_to_num(band, nan=0.0, posinf=1.0, neginf=0.0), 0, 1) if linear
-                               else srgb_to_linear(np.clip(band, 0, 1)))
+        if floats:
+            out[row:row + step] = np.clip(np.nan_to_num(band, nan=0.0, posinf=1.0, neginf=0.0), 0, 1)
+        else:
+            out[row:row + step] = srgb_to_linear(np.clip(band, 0, 1)) if colour == LINEAR else np.clip(band, 0, 1)
     return out
 
 
@@ -115,9 +124,10 @@ def _read_shrunk(found, spec, height: int, width: int) -> np.ndarray:
     return out
 
 
-def decode_pil(image) -> np.ndarray:
-    """(H, W, 3) float32 linear RGB of a PIL image (an 8-bit sRGB colour map); ValueError when it cannot be
-    decoded. A large image is shrunk in place first (thumbnail: a JPEG decodes at the smaller scale)."""
+def decode_pil(image, colour: str) -> np.ndarray:
+    """(H, W, 3) float32 RGB of a PIL image (an 8-bit sRGB colour map) for a render in `colour`: decoded to
+    linear values for "linear", as stored for "display"; ValueError when it cannot be decoded. A large image is
+    shrunk in place first (thumbnail: a JPEG decodes at the smaller scale)."""
     try:
         height, width = capped(image.height, image.width)
         if (height, width) != (image.height, image.width):
@@ -125,26 +135,26 @@ def decode_pil(image) -> np.ndarray:
         pixels = np.asarray(image.convert("RGB"), np.float64) / 255.0
     except Exception as error:  # noqa: BLE001 - PIL raises many types on a corrupt image
         raise ValueError(f"{type(error).__name__}: {error}") from None
-    return np.ascontiguousarray(srgb_to_linear(pixels), np.float32)
+    return np.ascontiguousarray(srgb_to_linear(pixels) if colour == LINEAR else pixels, np.float32)
 
 
-def decode_scene_map(path: Path, where: str) -> np.ndarray:
+def decode_scene_map(path: Path, where: Where, colour: str) -> np.ndarray:
     """A scene material's map (kd_map, ...): one line, SceneError, when missing, not a regular file (a FIFO, a
     device, a folder: refused before any open that could block) or not an image."""
     try:
         open_regular(path, where, "texture file (PNG, JPEG, EXR, ...)").close()
     except FileNotFoundError:
-        raise SceneError(f"{where}: no such texture file {str(path)!r}; give an image file (PNG, JPEG, EXR, ...) "
-                         "relative to the scene file") from None
+        raise SceneError(f"no such texture file {str(path)!r}; give an image file (PNG, JPEG, EXR, ...) "
+                         "relative to the scene file", where) from None
     mismatch = image_suffix_mismatch(path)
     if mismatch:
-        raise SceneError(f"{where}: {str(path)!r} is {mismatch}; give a PNG, JPEG, EXR or another image file")
+        raise SceneError(f"{str(path)!r} is {mismatch}; give a PNG, JPEG, EXR or another image file", where)
     try:
-        return decode_file(path)
+        return decode_file(path, colour)
     except Exception as error:  # noqa: BLE001 - any decoder failure is the file's
         reason = " ".join(str(error).split()) or "unknown"
-        raise SceneError(f"{where}: {str(path)!r} cannot be read as an image ({reason[:200]}); "
-                         "give a PNG, JPEG, EXR or another format OpenImageIO reads") from None
+        raise SceneError(f"{str(path)!r} cannot be read as an image ({reason[:200]}); "
+                         "give a PNG, JPEG, EXR or another format OpenImageIO reads", where) from None
 
 
 # ---------------------------------------------------------------- sizes for the memory estimate

@@ -19,6 +19,7 @@ from ..geometry.shapes import KINDS
 from ..io.mesh_header import MESH_FILE_BYTES, OTHER_MESH_FILE_BYTES, mesh_file_read_bytes, mesh_file_triangles
 from ..io.system import available_memory, count_text, format_bytes
 from ..scene.kinds import object_kinds
+from ..scene.messages import Location, dotted, located
 from ..scene.schema import Scene
 
 # Peak bytes per triangle above a warmed-up process's baseline (VmHWM after /proc/self/clear_refs; one
@@ -36,11 +37,12 @@ FLOAT64_NORMAL_BYTES = 40  # corner normals in float64 (float64 shading, or glob
 # A mesh file with a crease angle: at worst every corner takes the pairwise test, whose compiled pass buckets the
 # corners by vertex (8 bytes a corner): the noisy icosphere-7 PLY whose every vertex it splits, 232 B/triangle.
 CREASED_FILE_BYTES = 360
-# Per object, whatever its triangles: its validated Object (a dict of 17 values, about 1 KB, and the column
-# temporaries of scene.schema.objects_in_bulk) and the per-object rows of the geometry (placement, material,
-# model, group). Validating and rendering planes of 2 triangles, peak above a warmed-up process: 30,000 at 64×48
-# 2.15 KB an object in all (tests/renderer/test_budget.py), 100,000 at 320×240 (bench_many_objects.py) 985 B
-# above what the triangles and the image were estimated; validation alone peaks at 1.3 KB an object.
+# Per object, whatever its triangles: its validated object (its kind's model: a dict of 10 to 12 values, under
+# 1 KB, and the column temporaries of scene.bulk.objects_in_bulk) and the per-object rows of the geometry
+# (placement, material, model, group). Validating and rendering planes of 2 triangles, peak above a warmed-up
+# process: 30,000 at 64×48 2.15 KB an object in all (tests/renderer/test_budget.py), 100,000 at 320×240
+# (bench_many_objects.py) 985 B above what the triangles and the image were estimated; validation alone peaks at
+# 1.3 KB an object (measured with the one model of every shape's keys; a kind's own model is smaller).
 OBJECT_BYTES = 2000
 # Per ray of a tile (origins, directions, hits, Embree's output): 8192 × 16² rays in one row took 117 MB.
 RAY_BYTES = 64
@@ -73,7 +75,7 @@ def size_key(obj) -> str:
     return "path" if obj.shape == "mesh" else KINDS[obj.shape].size_key
 
 
-def estimate_memory(scene: Scene, source: str = "<scene>", *, smooth: bool = True, float64: bool = False,
+def estimate_memory(scene: Scene, source: str | Location = "<scene>", *, smooth: bool = True, float64: bool = False,
                     shadow_lights: int = 0, tile_rays: int = 1 << 15, threads: int = 1) -> MemoryEstimate:
     """The peak memory of rendering `scene`, from its keys and mesh-file headers only.
 
@@ -90,7 +92,7 @@ def estimate_memory(scene: Scene, source: str = "<scene>", *, smooth: bool = Tru
         if mesh_file:
             path = scene.resolve(obj.path)
             if path not in files:
-                files[path] = mesh_file_triangles(path, f"{source}: objects.{index}.path")
+                files[path] = mesh_file_triangles(path, located(source).at("objects", index, "path"))
             count, extra = files[path], MESH_FILE_BYTES.get(path.suffix.lower(), OTHER_MESH_FILE_BYTES)
         else:
             count, extra = shape_triangles(obj), 0
@@ -159,7 +161,7 @@ def parse_size(text: str) -> int:
     return int(float(match[1]) * UNITS[match[2].lower()])
 
 
-def check_memory(scene: Scene, source: str, max_memory: int | str | None, **options) -> MemoryEstimate:
+def check_memory(scene: Scene, source: str | Location, max_memory: int | str | None, **options) -> MemoryEstimate:
     """Refuse (SceneError, one line) a scene whose estimate exceeds the budget: max_memory in bytes (or
     '8G'), default default_budget(). `options` go to estimate_memory. Returns the estimate."""
     budget = parse_size(max_memory) if isinstance(max_memory, str) else max_memory
@@ -179,15 +181,16 @@ def check_memory(scene: Scene, source: str, max_memory: int | str | None, **opti
         others = f", and {format_bytes(found.image)} for the image" if found.image * 20 > found.total else ""
         amount = f"≈ {need} of memory for geometry ({count_text(found.triangles)} triangles{others})"
         if found.largest_bytes * 2 >= found.geometry:  # one object is most of it: name its key
-            what = f"objects.{index}.{key}: {shown} needs {amount}"
+            at, what = located(source).at("objects", index, key), f"{shown} needs {amount}"
         else:
-            what = (f"objects: {len(scene.objects):,} objects need {amount}, the largest objects.{index}.{key} = "
+            at = located(source).at("objects")
+            what = (f"{len(scene.objects):,} objects need {amount}, the largest {dotted(('objects', index, key))} = "
                     f"{shown} {format_bytes(found.largest_bytes)}")
             raise_it = "use fewer or coarser objects or raise the budget (--max-memory, render(max_memory=...))"
-        raise SceneError(f"{source}: {what}, above the {limit} budget; {raise_it}")
+        raise SceneError(f"{what}, above the {limit} budget; {raise_it}", at)
     render = scene.render
     layers = f" and {len(scene.output.aovs)} layer(s) (output.aovs)" if scene.output.aovs else ""
     samples = f", {render.samples}² samples" if render.samples > 1 else ""
-    raise SceneError(f"{source}: render.width × render.height: {render.width}×{render.height} pixels{samples}"
-                     f"{layers} need ≈ {need} of memory, above the {limit} budget; lower them or raise the "
-                     "budget (--max-memory, render(max_memory=...))")
+    raise SceneError(f"render.width × render.height: {render.width}×{render.height} pixels{samples}{layers} need "
+                     f"≈ {need} of memory, above the {limit} budget; lower them or raise the budget (--max-memory, "
+                     "render(max_memory=...))", located(source))

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..records import RenderPlan, RenderResult
 from ..scene.load import load_scene
+from ..scene.messages import Location
 from ..scene.schema import Scene
 from . import embree
 from .film import allocate_film
@@ -24,7 +25,7 @@ __all__ = ["TILE_RAYS", "FrameCache", "default_threads", "render", "render_file"
 
 
 def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None = None,
-           progress: Callable[[int, int], None] | None = None, source: str = "<scene>",
+           progress: Callable[[int, int], None] | None = None, source: str | Location = "<scene>",
            max_memory: int | str | None = None, cache: FrameCache | None = None,
            cancelled: Callable[[], bool] | None = None) -> RenderResult:
     """Render a validated scene: prepare(scene, ...).render() (parameters and result: prepare.prepare and
@@ -72,5 +73,4 @@ def render_file(path: str | Path, overrides: list[str] | tuple[str, ...] = (), *
     scene = load_scene(path, overrides, view=view, up=up, max_memory=options.get("max_memory"))
     loaded = time.perf_counter() - start
     result = render(scene, source=str(path), **options)
-    result.timings["load"] = loaded
-    return result
+    return result.with_timings(load=loaded)

@@ -7,6 +7,7 @@ every optional stage, for tests that compare the two images.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 
@@ -20,9 +21,10 @@ from ..scene.schema import MAX_SAMPLES, Material, Scene
 from .pack import camera_rig
 
 
-def build_plan(scene: Scene, optimize: bool = True) -> RenderPlan:
+def build_plan(scene: Scene, optimize: bool = True, source: str | None = None) -> RenderPlan:
     """The stages of this scene's render, each kept or left out with its reason; decided per kind of object
-    (scene.kinds: objects that differ only in placement), so a million boxes cost one decision."""
+    (scene.kinds: objects that differ only in placement), so a million boxes cost one decision. `source` (the
+    file the scene was loaded from) words why render.colour is what it is (colour_reason)."""
     kinds = _kinds(scene)
     smooth = [(obj, n) for obj, n in kinds if scene.shading_of(obj) != ShadingModel.FLAT]
     stages, specular = _term_stages(scene, kinds, smooth, optimize)
@@ -31,7 +33,27 @@ def build_plan(scene: Scene, optimize: bool = True) -> RenderPlan:
     stages += _shadow_stages(scene, smooth)
     stages += _output_stages(scene)
     stages.append(_precision_stage(scene, specular))
-    return RenderPlan(tuple(stages))
+    return RenderPlan(tuple(stages), colour=scene.render.colour, colour_reason=colour_reason(scene, source))
+
+
+def colour_reason(scene: Scene, source: str | None) -> str:
+    """Why the scene renders in its render.colour, and what that means: the default of a mesh file's format
+    rendered directly (scene.framing.mesh_colour), a value set (in the file, by --set or --srgb), or the
+    scene files' default."""
+    colour = scene.render.colour
+    meaning = ("maps and colours used as stored, the PNG written as it is" if colour == "display" else
+               "8-bit maps decoded from sRGB, lit in linear values, the PNG encoded with the sRGB curve")
+    if source is not None:
+        from ..scene.load import is_mesh_file
+        if is_mesh_file(source):
+            from ..scene.framing import mesh_colour
+            default, why = mesh_colour(source)
+            if colour == default:
+                return f"{why}: {meaning}"
+    if "colour" in scene.render.model_fields_set:
+        return f"render.colour is set: {meaning}"
+    return (f"the default for scene files (the lecture's): {meaning}; render.colour = \"linear\" (or --srgb) "
+            "for glTF's pipeline")
 
 
 def _kinds(scene: Scene) -> list[tuple]:
@@ -183,25 +205,19 @@ def _precision_stage(scene: Scene, specular: bool) -> Stage:
     return Stage(StageName.FLOAT64_SHADING, scene.render.precision == "float64" or bool(stiff), reason)
 
 
-def surface_maps(geometry) -> list[Stage]:
-    """Whether shading samples colour maps and interpolates vertex colours: work only some scenes need.
-
-    A colour map's 8-bit texels are sRGB and are decoded to linear values (docs/meshes.md, Textures); a PNG
-    written with no curve (the default) then shows the map darker than its image, which the reason says."""
+def surface_maps(geometry, colour: str) -> list[Stage]:
+    """Whether shading samples colour maps and interpolates vertex colours: work only some scenes need. The
+    reason says how the maps were decoded for render.colour `colour` (docs/meshes.md, Textures)."""
     maps = [texture.name for texture in geometry.textures]
     textured = bool(maps) and len(geometry.corner_uv) > 0
     shown = ", ".join(maps[:3]) + (f" and {len(maps) - 3} more" if len(maps) > 3 else "")
+    how = "used as stored" if colour == "display" else "8-bit ones decoded from sRGB to linear values"
     return [Stage(StageName.TEXTURES, textured,
-                  f"{len(maps)} colour map{'s' if len(maps) != 1 else ''} ({shown}), decoded to linear values: "
-                  f"{TEXTURE_DISPLAY_HINT}" if textured else "no material has a colour map"),
+                  f"{len(maps)} colour map{'s' if len(maps) != 1 else ''} ({shown}), {how} (colour = {colour})"
+                  if textured else "no material has a colour map"),
             Stage(StageName.VERTEX_COLOURS, len(geometry.corner_colour) > 0,
                   "vertex colours multiply k_a and k_d at each face corner" if len(geometry.corner_colour)
                   else "no face has vertex colours")]
-
-
-# Said by `plan` and by `render` to a PNG without --srgb: the one surprise of decoding maps to linear values.
-TEXTURE_DISPLAY_HINT = ("a PNG written with no curve shows them darker than their images; "
-                        "render --srgb encodes with the sRGB curve and shows them as their images do")
 
 
 # Above this shininess one float32 rounding of the cosine x (relative 2^-24) changes x^f by about
@@ -263,23 +279,28 @@ def diagnose(plan: RenderPlan, scene: Scene, geometry, figures: ObjectFigures | 
       than the highlight is wide (about 1/√f radians), the highlight is lost or smeared.
     - A highlight narrower than a pixel may fall between the pixel centres: supersample.
 
-    Every figure is computed for all objects at once (grouped by object, O(faces + objects)), and objects
-    with the same warning share one line (aggregate_warnings): 40,000 spheres give one line, not 40,000.
-    `figures` (ObjectFigures of this geometry, kept by a FrameCache) holds what was measured on it before.
+    A Gouraud object whose own `shading` key chose Gouraud (the default figure's middle sphere) is shown so on
+    purpose: its finding is a note, which teaches the same advice, not a warning; Gouraud from render.shading
+    (or --shading) is a warning. Every figure is computed for all objects at once (grouped by object,
+    O(faces + objects)), and objects with the same finding share one line (aggregate_warnings): 40,000 spheres
+    give one line, not 40,000. `figures` (ObjectFigures of this geometry, kept by a FrameCache) holds what was
+    measured on it before.
     """
     figures = figures or ObjectFigures(geometry, len(scene.objects))
     stages = list(plan.stages)
     stages.append(Stage(StageName.WINDING_REPAIR, bool(geometry.notes),
                         "; ".join(aggregate_notes(geometry.notes)) if geometry.notes
                         else "no mesh file needed a winding repair"))
-    stages += surface_maps(geometry)
+    stages += surface_maps(geometry, plan.colour)
     found: list[tuple[tuple, int, float]] = []  # (what the warning says, object, its measured figure)
     if plan.keeps(StageName.SPECULAR):
         found = [*gouraud_findings(scene, geometry, figures), *subpixel_findings(scene, geometry, figures)]
     from ..geometry.build import behind_camera  # geometry loads trimesh: only once a render has geometry
     behind = behind_camera(scene, geometry.vertices)
-    return RenderPlan(tuple(stages), (*([behind] if behind else []), *aggregate_warnings(found)),
-                      notes=geometry.file_notes)
+    chosen = [item for item in found if item[0][0] == "gouraud" and item[0][-1]]
+    warned = [item for item in found if not (item[0][0] == "gouraud" and item[0][-1])]
+    return dataclasses.replace(plan, stages=tuple(stages), notes=(*aggregate_warnings(chosen), *geometry.file_notes),
+                               warnings=(*([behind] if behind else []), *aggregate_warnings(warned)))
 
 
 def _candidates(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
@@ -297,7 +318,8 @@ def _per_object(scene: Scene, test) -> np.ndarray:
 
 
 def gouraud_findings(scene: Scene, geometry, figures: ObjectFigures | None = None):
-    """Gouraud objects whose vertex normals are further apart than their highlight is wide."""
+    """Gouraud objects whose vertex normals are further apart than their highlight is wide; the finding ends
+    with whether the object's own `shading` key chose Gouraud."""
     wanted, shininess = _candidates(scene)
     gouraud = _per_object(scene, lambda obj: scene.shading_of(obj) == ShadingModel.GOURAUD)
     wanted &= gouraud
@@ -310,7 +332,21 @@ def gouraud_findings(scene: Scene, geometry, figures: ObjectFigures | None = Non
         more = math.ceil(math.log2(spacing[index] / highlight[index]))
         kind = kind_of(obj)
         how = kind.finer(obj, more) if kind is not None else subdivided(more)
-        yield ("gouraud", f, math.degrees(highlight[index]), how), int(index), math.degrees(spacing[index])
+        chosen = obj.shading == ShadingModel.GOURAUD
+        yield ("gouraud", f, math.degrees(highlight[index]), how, chosen), int(index), math.degrees(spacing[index])
+
+
+def own_shading(scene: Scene) -> tuple[str, int, bool] | None:
+    """The objects whose own `shading` key differs from render.shading, which therefore changes nothing for them:
+    (their key paths as aggregate_warnings words them, how many, whether no object follows render.shading at
+    all), or None if render.shading is every object's model. One pass per kind of object."""
+    model = scene.render.shading
+    differ = _per_object(scene, lambda obj: obj.shading is not None and obj.shading != model)
+    if not differ.any():
+        return None
+    follows = _per_object(scene, lambda obj: obj.shading is None)
+    indices = np.flatnonzero(differ).tolist()
+    return _objects(indices), len(indices), not follows.any()
 
 
 def subpixel_findings(scene: Scene, geometry, figures: ObjectFigures | None = None):
@@ -375,8 +411,13 @@ def aggregate_warnings(found: list[tuple[tuple, int, float]]) -> tuple[str, ...]
         indices, figures = [m[0] for m in members], [m[1] for m in members]
         who = _objects(indices)
         if what[0] == "gouraud":
-            _, f, highlight, how = what
+            _, f, highlight, how, chosen = what
             spread = _span(min(figures), max(figures), ".1f")
+            if chosen:  # the scene asked for this object's Gouraud: say what it shows, and how to resolve it
+                lines.append(f"{who} (gouraud, its own `shading`): vertex normals {spread}° apart are wider than the "
+                             f"f = {f:g} highlight (about {highlight:.1f}°), so Gouraud shading misses or smears it, "
+                             f"as this object shows; {how}, or Phong shading, would resolve it")
+                continue
             lines.append(f"{who} (gouraud): vertex normals are {spread}° apart but the f = {f:g} highlight is about "
                          f"{highlight:.1f}° wide, so Gouraud shading will miss or smear it; use {how}, or Phong "
                          "shading")

@@ -27,6 +27,7 @@ from ..geometry.build import build_geometry
 from ..geometry.normals import prep_threads
 from ..io.system import default_threads
 from ..records import Frame, Geometry, ImageBuffers, RenderPlan, RenderResult
+from ..scene.messages import Location, located
 from ..scene.schema import Scene, SceneError
 from .budget import MemoryEstimate, check_memory
 from .film import allocate_film, film_layers
@@ -46,7 +47,7 @@ class Prepared:
     """Everything a render of one scene needs before its BVH and tiles: the plan, the memory estimate that
     let it through, the geometry, the unit frame and the kernels' packed inputs. `.render()` runs the rest."""
     scene: Scene
-    source: str
+    source: str | Location
     plan: RenderPlan                 # diagnosed: with the geometry's warnings and notes
     memory: MemoryEstimate
     geometry: Geometry
@@ -94,7 +95,7 @@ class Prepared:
                             counts=dict(zip(COUNTS, counts.tolist())))
 
 
-def prepare(scene: Scene, *, source: str = "<scene>", threads: int | None = None,
+def prepare(scene: Scene, *, source: str | Location = "<scene>", threads: int | None = None,
             max_memory: int | str | None = None, plan: RenderPlan | None = None,
             progress: Callable[[int, int], None] | None = None, cache: FrameCache | None = None,
             cancelled: Callable[[], bool] | None = None) -> Prepared:
@@ -105,16 +106,17 @@ def prepare(scene: Scene, *, source: str = "<scene>", threads: int | None = None
     threads: worker threads for the tiles (default: the machine's cores, at most 8).
     max_memory: the budget, bytes or a size such as "8G" (default: 3/4 of the memory available now); a scene
         whose estimate (budget.estimate_memory) exceeds it is refused with a SceneError before anything is built.
-    plan: the render plan; default build_plan(scene). build_plan(scene, optimize=False) keeps every stage.
+    plan: the render plan; default build_plan(scene, source=source). build_plan(scene, optimize=False) keeps
+        every stage.
     progress: called as progress(tiles_done, tiles_total) by render().
     cache: a FrameCache whose geometry and BVH this scene may reuse, and which keeps this scene's for the next.
     cancelled: asked before each band by render(); when it answers True, the bands not yet started are skipped
         and render() raises RenderCancelled.
     """
-    plan = plan or build_plan(scene)
+    plan = plan or build_plan(scene, source=source)
     if plan.keeps(StageName.SHADOW_RAYS) and len(scene.lights) > MAX_LIGHTS:
-        raise SceneError(f"{source}: lights: global mode handles at most {MAX_LIGHTS} lights, "
-                         f"the scene has {len(scene.lights)}; use render.mode = \"local\" or fewer lights")
+        raise SceneError(f"global mode handles at most {MAX_LIGHTS} lights, the scene has {len(scene.lights)}; "
+                         'use render.mode = "local" or fewer lights', located(source).at("lights"))
     width, height, samples = scene.render.width, scene.render.height, scene.render.samples
     rows_per_tile = max(1, TILE_RAYS // (width * samples * samples))
     bands = tuple((row, min(row + rows_per_tile, height)) for row in range(0, height, rows_per_tile))

@@ -7,11 +7,12 @@ import time
 from collections.abc import Callable
 
 from ..codes import StageName
+from ..scene.messages import Location, located
 from ..scene.schema import Scene
 
 
 def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
-                  source: str = "scene") -> tuple[str, float]:
+                  source: str | Location = "scene") -> tuple[str, float]:
     """("compile", seconds) when any kernel this scene's render calls is not in the cache for the signature the
     scene gives it (the first render after an install or an edit, or of a new precision: float64 after
     float32 is a compile too), else ("kernels", seconds) for loading them from the cache (≈ 0.1 s, most of it
@@ -35,7 +36,7 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
     meshes = objs = False
     for index, obj in kinds:
         if obj.shape == "mesh":
-            open_mesh_file(scene.resolve(obj.path), f"{source}: objects.{index}.path").close()
+            open_mesh_file(scene.resolve(obj.path), located(source).at("objects", index, "path")).close()
             meshes = True
             objs = objs or str(obj.path).lower().endswith(".obj")
     creases = plan.keeps(StageName.VERTEX_NORMALS) and (meshes or any(obj.crease_angle < 180 for _, obj in kinds))

@@ -17,7 +17,9 @@ import numpy as np
 
 from ..codes import View
 from ..errors import SceneError
+from ..io.encoding import DISPLAY, LINEAR
 from ..tolerances import MIN_EXTENT
+from .messages import Location
 from .overrides import apply_override
 
 VIEWS = tuple(view.value for view in View)  # the first is the default
@@ -28,6 +30,23 @@ FILL = 0.9                    # the bounding sphere fills this share of the imag
 AZIMUTH, ELEVATION = math.radians(30.0), math.radians(20.0)
 
 
+# render.colour of a mesh file rendered directly, by suffix (docs/meshes.md, "Colour"), with the reason `plan`
+# gives: glTF 2.0 specifies its pipeline (§3.9.2: colour textures are sRGB-encoded, factors and COLOR_0 linear,
+# lit in linear values and shown through the sRGB curve); no other format says, and fixed-function GL viewers
+# (MeshLab, the lecture's) show their colours and maps as stored. Any other suffix is DISPLAY.
+LINEAR_FORMATS = {".glb": "glTF", ".gltf": "glTF"}
+
+
+def mesh_colour(path: str | Path) -> tuple[str, str]:
+    """(render.colour, why) for a mesh file rendered directly: LINEAR for glTF, which specifies it, else
+    DISPLAY, as fixed-function viewers show the other formats."""
+    suffix = Path(path).suffix.lower()
+    if suffix in LINEAR_FORMATS:
+        return LINEAR, f"the default for a {LINEAR_FORMATS[suffix]} file rendered directly, as glTF 2.0 specifies"
+    return DISPLAY, (f"the default for a {suffix or 'mesh'} file rendered directly (the format names no colour "
+                     "space; fixed-function GL viewers show its colours as stored)")
+
+
 def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), view: str | None = None,
                     up: str | None = None, max_memory: int | None = None) -> dict:
     """A scene table showing one mesh file: its materials, a framing camera, a key light (docs/meshes.md).
@@ -35,17 +54,17 @@ def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), vie
     the machine has."""
     from ..io.mesh_file import FILE_CREASE_ANGLE, check_file_content, mesh_bounds  # trimesh: only for mesh files
     from ..io.mesh_header import check_mesh_read
-    where = str(path)
+    where = Location(str(path))
     view = view or VIEWS[0]
     if view not in VIEWS:
-        raise SceneError(f"{where}: --view {view!r}; allowed: {', '.join(VIEWS)}")
+        raise SceneError(f"--view {view!r}; allowed: {', '.join(VIEWS)}", where)
     check_file_content(path, where)  # an OBJ named .stl is no binary STL of 1702M triangles
     check_mesh_read(path, where, max_memory)  # the framing read comes before render()'s own memory check
     found = mesh_bounds(path, where)
     if not found.radius >= MIN_EXTENT:  # every vertex at one point: nothing to frame (or to see)
         centre = [float(x) for x in found.centre]
-        raise SceneError(f"{where}: every vertex of the model lies within {found.radius:.3g} of {centre}; "
-                         f"allowed: a model at least {2 * MIN_EXTENT:g} across")
+        raise SceneError(f"every vertex of the model lies within {found.radius:.3g} of {centre}; "
+                         f"allowed: a model at least {2 * MIN_EXTENT:g} across", where)
     up_axis = parse_up(up, where) if up is not None else np.asarray(found.up or DEFAULT_UP)
     data: dict = {
         "materials": {m.name: m.as_scene() for m in found.materials},
@@ -53,6 +72,7 @@ def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), vie
         "objects": [{"name": path.stem, "shape": "mesh", "path": path.name,
                      **({} if found.stores_normals else {"crease_angle": FILE_CREASE_ANGLE})}],
         "output": {"path": f"{path.stem}.png"},
+        "render": {"colour": mesh_colour(path)[0]},  # before the overrides: --set render.colour wins
     }
     data["camera"] = frame_camera(found.centre, found.radius, up_axis, view, (640.0, 480.0), 40.0, False)
     data["lights"] = [key_light(found.centre, data["camera"], up_axis)]
@@ -74,11 +94,11 @@ def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), vie
     return data
 
 
-def parse_up(text: str, where: str) -> np.ndarray:
+def parse_up(text: str, where: Location) -> np.ndarray:
     """--up: x, y, z with an optional sign (+z, -y)."""
     sign, axis = (-1.0, text[1:]) if text.startswith("-") else (1.0, text.removeprefix("+"))
     if axis.lower() not in AXES:
-        raise SceneError(f"{where}: --up {text!r}; allowed: x, y, z, -x, -y, -z")
+        raise SceneError(f"--up {text!r}; allowed: x, y, z, -x, -y, -z", where)
     return sign * np.asarray(AXES[axis.lower()])
 
 

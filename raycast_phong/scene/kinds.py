@@ -17,6 +17,8 @@ from itertools import chain
 
 import numpy as np
 
+from .objects import MESH, OBJECT_MODELS
+
 PLACEMENT_KEYS = ("name", "translate", "rotate", "scale")  # keys that never change what an object is
 
 
@@ -59,16 +61,21 @@ def kinds_of(objects) -> ObjectKinds:
     count = len(objects)
     if not count:
         return ObjectKinds(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64))
-    fields = [key for key in type(objects[0]).model_fields if key not in PLACEMENT_KEYS]
+    models = list(map(type, objects))
+    distinct = dict.fromkeys(models)  # each kind of shape has its own model and keys (scene.objects)
     collecting = gc.isenabled()
     gc.disable()  # a million new key tuples would start as many collections of the growing heap (5× the time)
     try:
-        keys = list(map(operator.attrgetter(*fields), objects))
+        if len(distinct) == 1:
+            keys = list(map(_key_of(models[0]), objects))
+        else:  # each object's own keys; the shape, among them, keeps two models' tuples apart
+            getters = {model: _key_of(model) for model in distinct}
+            keys = [getters[model](obj) for model, obj in zip(models, objects)]
     finally:
         if collecting:
             gc.enable()
-    shape_at = fields.index("shape")
-    for index in [i for i, key in enumerate(keys) if key[shape_at] == "mesh"]:
+    mesh = OBJECT_MODELS[MESH]
+    for index in [i for i, model in enumerate(models) if model is mesh] if mesh in distinct else ():
         keys[index] = (index,)  # a mesh object is a kind of its own
     number = {key: k for k, key in enumerate(dict.fromkeys(keys))}
     kind = np.fromiter(map(number.__getitem__, keys), np.int64, count)
@@ -76,6 +83,11 @@ def kinds_of(objects) -> ObjectKinds:
     seen = np.maximum.accumulate(kind)  # kind k first appears where it exceeds every kind before it
     first = np.flatnonzero(np.concatenate(([True], kind[1:] > seen[:-1])))
     return ObjectKinds(kind, first, counts)
+
+
+def _key_of(model) -> operator.attrgetter:
+    """What an object of `model` is, placement aside: the tuple of its other keys' values."""
+    return operator.attrgetter(*(key for key in model.model_fields if key not in PLACEMENT_KEYS))
 
 
 def placements(objects, rows=None, keys=("scale", "rotate", "translate")) -> tuple[np.ndarray, ...]:

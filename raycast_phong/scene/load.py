@@ -12,6 +12,7 @@ from ..codes import SCENE_SUFFIXES
 from ..errors import SceneError
 from ..io.scene_file import is_stdin, read_scene_file
 from .framing import mesh_scene_dict
+from .messages import Location
 from .overrides import apply_override
 from .schema import Scene, validate_scene
 
@@ -33,7 +34,8 @@ def read_scene_dict(path: str | Path, overrides: list[str] | tuple[str, ...] = (
     path = Path(path)
     if not is_mesh_file(path):
         if view is not None or up is not None:
-            raise SceneError(f"{path}: --view and --up frame a mesh file; a scene file has its own [camera]")
+            raise SceneError("--view and --up frame a mesh file; a scene file has its own [camera]",
+                             Location(str(path)))
         data = read_scene_file(path)
         for assignment in overrides:
             apply_override(data, assignment, source=str(path))

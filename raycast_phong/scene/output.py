@@ -13,6 +13,7 @@ import os
 from pathlib import Path
 
 from ..errors import ImageError, SceneError
+from .messages import Location
 from .schema import Scene
 
 
@@ -22,9 +23,9 @@ def _check_real_path(scene: Scene, output: Path, source: Path) -> None:
     folder = Path(os.path.realpath(scene.folder))
     real = Path(os.path.realpath(output))
     if real != folder and folder not in real.parents:
-        raise SceneError(f"{source}: output.path: {scene.output.path!r} leaves the scene's folder through a "
-                         f"symbolic link (it is {real}); give a path inside that folder, or choose the output "
-                         "with -o")
+        raise SceneError(f"{scene.output.path!r} leaves the scene's folder through a symbolic link (it is {real}); "
+                         "give a path inside that folder, or choose the output with -o",
+                         Location(str(source)).at("output", "path"))
 
 
 def render_output(scene: Scene, source: Path, given: Path | None, builtin: bool) -> Path | str:
@@ -47,6 +48,6 @@ def render_output(scene: Scene, source: Path, given: Path | None, builtin: bool)
     except ImageError as error:
         raise ImageError(f"{source}: {option}: {error}") from None  # where the path came from: option or scene
     if scene.output.aovs and Path(output).suffix.lower() != ".exr":
-        raise SceneError(f"{source}: output.aovs: {list(scene.output.aovs)} need an .exr output, but -o {output} is "
-                         "a PNG (a PNG holds only RGB)")
+        raise SceneError(f"{list(scene.output.aovs)} need an .exr output, but -o {output} is a PNG (a PNG holds "
+                         "only RGB)", Location(str(source)).at("output", "aovs"))
     return output

@@ -7,58 +7,43 @@ and the live view.
 
 from __future__ import annotations
 
+import dataclasses
 import tomllib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from ..codes import ShadingModel
 from ..errors import SceneError
 from ..io.scene_file import syntax_limit
-from .messages import dotted, shorten, shown
+from .keypaths import assign, key_parts
+from .messages import Location, located, shorten
 
 if TYPE_CHECKING:
     from .schema import Scene
 
 
-def apply_override(data: dict, assignment: str, source: str = "--set", option: str = "--set") -> None:
+# What `render --srgb` and `batch --srgb` stand for: they predate render.colour, and decoded the maps and encoded
+# the PNG, which is what "linear" does.
+SRGB_OVERRIDE = "render.colour=linear"
+
+
+def apply_override(data: dict, assignment: str, source: str | Location = "--set", option: str = "--set") -> None:
     """Set `key.path=value` in a parsed scene; the value is read as TOML, else as a plain string.
 
     List items are addressed by index: `lights.0.position=[1, 2, 3]`, `objects.1.shading=flat`.
     `option` names the command-line option the assignment came from in error messages (--set, --vary).
     """
-    where = f"{source}: {option} {shorten(repr(assignment))}"
+    where = dataclasses.replace(located(source), part=f"{option} {shorten(repr(assignment))}")
     if "=" not in assignment:
-        raise SceneError(f"{where}: expected KEY.PATH=VALUE, e.g. render.width=320 or lights.0.position=[1, 2, 3]")
+        raise SceneError("expected KEY.PATH=VALUE, e.g. render.width=320 or lights.0.position=[1, 2, 3]", where)
     key, text = (part.strip() for part in assignment.split("=", 1))
-    parts = key.split(".")
-    if not all(parts):
-        raise SceneError(f"{where}: {key!r} is not a key path; expected names and list indices joined by dots, "
-                         "e.g. render.width")
+    key_parts(key, where)  # a bad key is said before a bad value
     try:
         value = tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         value = text
     except (RecursionError, ValueError) as error:
-        raise SceneError(f"{where}: {syntax_limit(error)}") from None
-    node: Any = data
-    for depth, part in enumerate(parts):
-        node_path = ".".join(parts[:depth]) or "(top level)"
-        if isinstance(node, list):
-            if not part.isdigit() or int(part) >= len(node):
-                allowed = f"0 to {len(node) - 1}" if node else "none, the list is empty"
-                raise SceneError(f"{where}: {dotted(parts[:depth + 1])}: {node_path} is a list of {len(node)} "
-                                 f"item{'s' if len(node) != 1 else ''}; allowed indices: {allowed}")
-            index: Any = int(part)
-        elif isinstance(node, dict):
-            index = part
-        else:
-            raise SceneError(f"{where}: {node_path} is the value {shown(node)}, not a table, so it has no key "
-                             f"{part!r}")
-        if depth == len(parts) - 1:
-            node[index] = value
-        elif isinstance(node, dict) and part not in node:
-            node = node.setdefault(part, [] if parts[depth + 1].isdigit() else {})
-        else:
-            node = node[index]
+        raise SceneError(syntax_limit(error), where) from None
+    assign(data, key, value, where)
 
 
 def shaded(scene: Scene, model: ShadingModel) -> Scene:

@@ -22,6 +22,7 @@ from ..geometry.shapes import kind_of
 from ..records import MeasuredResult, RenderResult
 from ..renderer.frame import render
 from ..renderer.prepare import Prepared, prepare
+from ..scene.messages import Location, located
 from ..scene.schema import Object, Scene, validate_scene
 from .metrics import measure
 from .reference import ReferenceImage, analytic_reference
@@ -42,7 +43,7 @@ def level_of(obj: Object) -> int:
 
 
 def refine_entry(scene: Scene, index: int, entry: dict, level: int, iterations: int, folder: Path,
-                 source: str) -> None:
+                 source: str | Location) -> None:
     """Set scene object `index`'s dict `entry` to tessellation `level` (analytic shapes), or, for a mesh,
     to its file Loop-subdivided `iterations` times (trimesh.remesh.subdivide_loop: it converges to a smooth
     limit surface, where midpoint subdivision would keep the same flat facets), written into `folder`."""
@@ -52,7 +53,7 @@ def refine_entry(scene: Scene, index: int, entry: dict, level: int, iterations: 
     elif iterations > 0:
         target = folder / f"object{index}-loop{iterations}.ply"
         if not target.exists():
-            vertices, faces, *_ = object_mesh(scene, obj, index, source)
+            vertices, faces, *_ = object_mesh(scene, obj, located(source).at("objects", index))
             vertices, faces = trimesh.remesh.subdivide_loop(vertices, faces, iterations=iterations)
             trimesh.Trimesh(vertices, faces, process=False).export(target)
         entry["path"] = str(target)
@@ -63,7 +64,7 @@ def refine_entry(scene: Scene, index: int, entry: dict, level: int, iterations: 
 LOOP_BYTES = 400  # per triangle trimesh's subdivide_loop makes (peak 293 B measured at 82k) and its PLY round trip
 
 
-def check_fine_memory(scene: Scene, data: dict, levels: int, source: str, max_memory: int | None) -> None:
+def check_fine_memory(scene: Scene, data: dict, levels: int, source: str | Location, max_memory: int | None) -> None:
     """Refuse (SceneError, one line) a fine reference whose refined scene would not fit in `max_memory` bytes
     (default: the render's budget), before a mesh is subdivided: the refined shapes' estimate
     (budget.estimate_memory of `data`, smooth, float64) and each mesh file's triangles × (4^levels − 1) more,
@@ -79,17 +80,18 @@ def check_fine_memory(scene: Scene, data: dict, levels: int, source: str, max_me
     need = found.total + extra_triangles * (SMOOTH_BYTES + FLOAT64_NORMAL_BYTES + LOOP_BYTES)
     if need > budget:
         triangles = count_text(found.triangles + extra_triangles)
-        raise SceneError(f"{source}: --fine {levels}: the refined scene has {triangles}"
-                         f" triangles and needs ≈ {format_bytes(need)} of memory, above the {format_bytes(budget)} "
-                         "budget; use a smaller --fine or raise the budget (--max-memory)")
+        raise SceneError(f"--fine {levels}: the refined scene has {triangles} triangles and needs ≈ "
+                         f"{format_bytes(need)} of memory, above the {format_bytes(budget)} budget; use a smaller "
+                         "--fine or raise the budget (--max-memory)", located(source))
 
 
-def _mesh_triangles(scene: Scene, index: int, source: str) -> int:
+def _mesh_triangles(scene: Scene, index: int, source: str | Location) -> int:
     from ..io.mesh_header import mesh_file_triangles
-    return mesh_file_triangles(scene.resolve(scene.objects[index].path), f"{source}: objects.{index}.path")
+    path = scene.resolve(scene.objects[index].path)
+    return mesh_file_triangles(path, located(source).at("objects", index, "path"))
 
 
-def fine_reference(scene: Scene, levels: int, source: str = "<scene>",
+def fine_reference(scene: Scene, levels: int, source: str | Location = "<scene>",
                    max_memory: int | None = None) -> ReferenceImage:
     """The scene refined `levels` times (refine_entry: meshes Loop-subdivided, analytic shapes `levels`
     tessellation levels up from their own), rendered with Phong shading in float64. Coverage comes from
@@ -121,14 +123,37 @@ def max_level(obj: Object) -> int:
     return 9 if kind is None else kind.max_level
 
 
-def reference_image(scene: Scene, source: str = "<scene>", fine: int | None = None,
+def reference_image(scene: Scene, source: str | Location = "<scene>", fine: int | None = None,
                     max_memory: int | None = None) -> ReferenceImage:
     """The analytic reference, or with `fine` the self-convergence one (the only choice for meshes), within
     `max_memory` bytes (default: the render's budget)."""
-    return analytic_reference(scene, source) if fine is None else fine_reference(scene, fine, source, max_memory)
+    if fine is not None:
+        return fine_reference(scene, fine, source, max_memory)
+    check_reference_memory(scene, source, max_memory)
+    return analytic_reference(scene, source)
 
 
-def mesh_coverage(scene: Scene | Prepared, source: str = "<scene>") -> np.ndarray:
+# The analytic reference holds float64 image, specular and coverage (56 bytes a pixel) and, written, a float32
+# copy and the file's buffers: `reference` of the default scene peaked 320 MB at 1024² and 570 MB at 2048²,
+# 81 bytes a pixel over ≈ 235 MB of interpreter, libraries and tiles (TILE_SAMPLES rays at a time).
+REFERENCE_PIXEL_BYTES = 88
+
+
+def check_reference_memory(scene: Scene, source: str, max_memory: int | None) -> None:
+    """Refuse (SceneError, one line) an analytic reference whose image does not fit the budget: `max_memory`
+    bytes, default the render's (renderer.budget.default_budget)."""
+    from ..io.system import format_bytes
+    from ..renderer.budget import default_budget
+    budget = default_budget() if max_memory is None else max_memory
+    render = scene.render
+    need = render.width * render.height * REFERENCE_PIXEL_BYTES
+    if budget is not None and need > budget:
+        raise SceneError(f"{source}: render.width × render.height: {render.width}×{render.height} pixels need ≈ "
+                         f"{format_bytes(need)} of memory for the analytic reference, above the "
+                         f"{format_bytes(budget)} budget; lower them or raise the budget (--max-memory)")
+
+
+def mesh_coverage(scene: Scene | Prepared, source: str | Location = "<scene>") -> np.ndarray:
     """(H, W) share of each pixel's samples whose ray hits the scene's triangles: the render's own rays and
     BVH (prepare, or a scene already prepared), cast band by band."""
     ready = scene if isinstance(scene, Prepared) else prepare(scene, source=source)
@@ -143,7 +168,7 @@ def mesh_coverage(scene: Scene | Prepared, source: str = "<scene>") -> np.ndarra
 
 
 def measured(scene: Scene, result: RenderResult, reference: str, fine: int = 2,
-             source: str = "<scene>") -> MeasuredResult:
+             source: str | Location = "<scene>") -> MeasuredResult:
     """`result` with its errors against the "analytic" (or "fine": `fine` levels finer) reference."""
     if reference not in ("analytic", "fine"):
         raise ValueError(f"reference must be 'analytic' or 'fine', got {reference!r}")

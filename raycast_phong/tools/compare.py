@@ -18,6 +18,7 @@ from ..errors import SceneError
 from ..io.image_io import label_font, text_coverage
 from ..io.system import format_bytes
 from ..scene.load import read_scene_dict
+from ..scene.messages import Location, located
 from ..scene.overrides import apply_override
 from ..scene.schema import Scene, validate_scene
 from .difference import colour_map, difference, heat_map
@@ -92,7 +93,8 @@ def load_variants(path: str | Path, fixed: list[str], key: str, values: list[str
     sizes = [(scene.render.width, scene.render.height) for scene in scenes]
     if len(set(sizes)) > 1:
         shown = ", ".join(f"{value} → {w}×{h}" for value, (w, h) in zip(values, sizes))
-        raise SceneError(f"{path}: --vary {key}: the variants must share one image size to be compared; got {shown}")
+        raise SceneError(f"--vary {key}: the variants must share one image size to be compared; got {shown}",
+                         Location(str(path)))
     return scenes
 
 
@@ -178,7 +180,8 @@ class Comparison:
     """The composed image and what it shows."""
     image: np.ndarray              # (layout.image_height, layout.image_width, 3) float32
     layout: Layout
-    variants: list[np.ndarray]     # the inputs, (H, W, 3) linear float32 (float64 from float64 renders), in order
+    variants: list[np.ndarray]     # the inputs, (H, W, 3) display values (io.encoding.display_values of each
+                                   # render) float32 (float64 from float64 renders), in order
     differences: list[np.ndarray]  # per variant, (H, W) against the last, in the variants' precision
     stats: list[VariantStats]      # per variant, against the last (the last: all zero)
     scale: float                   # the largest difference: the colour bar's top
@@ -197,7 +200,7 @@ class Comparison:
 HELD_BYTES_PER_PIXEL = 96
 
 
-def render_budget(scenes: list[Scene], budget: int | None, source: str) -> int | None:
+def render_budget(scenes: list[Scene], budget: int | None, source: str | Location) -> int | None:
     """What is left of `budget` for each variant's render once every variant's image is held and composed;
     SceneError (one line) when holding them alone is over it. None: no budget."""
     if budget is None:
@@ -205,15 +208,16 @@ def render_budget(scenes: list[Scene], budget: int | None, source: str) -> int |
     render = scenes[0].render
     held = len(scenes) * render.width * render.height * HELD_BYTES_PER_PIXEL
     if held >= budget:
-        raise SceneError(f"{source}: --vary: {len(scenes)} variants of {render.width}×{render.height} pixels need "
+        raise SceneError(f"--vary: {len(scenes)} variants of {render.width}×{render.height} pixels need "
                          f"≈ {format_bytes(held)} of memory to hold and compose, above the "
                          f"{format_bytes(budget)} budget; use fewer values, a smaller render.width × "
-                         "render.height, or raise the budget (--max-memory)")
+                         "render.height, or raise the budget (--max-memory)", located(source))
     return budget - held
 
 
 def compose(variants: list[np.ndarray], key: str, values: list[str]) -> Comparison:
-    """Variants (each (H, W, 3) linear, float32 or float64, in the order of `values`) → the labelled Comparison."""
+    """Variants (each (H, W, 3) display values, float32 or float64, in the order of `values`: a render in
+    render.colour = "linear" sRGB-encoded first, io.encoding.display_values) → the labelled Comparison."""
     height, width = variants[0].shape[:2]
     grid = layout(len(variants), width, height)
     rows = grid.rows

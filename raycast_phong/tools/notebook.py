@@ -32,7 +32,7 @@ def figure_html(result: RenderResult, title: str = "") -> str:
     """One render as HTML: the image at its own size, its title, and a small table of the frame's figures,
     with the plan (kept and left-out stages, and why) folded under it."""
     height, width = result.image.shape[:2]
-    png = base64.b64encode(image_bytes(result.image)).decode("ascii")
+    png = base64.b64encode(image_bytes(result.image, colour=result.colour)).decode("ascii")
     rows = [("frame", f"{1000 * result.timings.get('frame', 0.0):.1f} ms"),
             ("in all", f"{1000 * sum(result.timings.values()):.1f} ms ("
              + ", ".join(f"{k} {1000 * v:.1f}" for k, v in result.timings.items()) + ")"),

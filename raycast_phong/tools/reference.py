@@ -7,9 +7,10 @@ intersections (the ray taken into object space by the inverse affine map, the no
 inverse transpose), its own evaluation of the model; global mode casts analytic shadow rays. A bug in
 a stage therefore shows as a difference instead of being shared. It shares only the Scene record and
 the model's named tolerances. A mesh file has no closed form: accuracy.fine_reference is for those.
-Colour maps on planes and spheres are read with its own OpenImageIO call and sRGB decoding, and looked up
-bilinearly at the exact UVs of the exact hit (no mip level: the texture at the point itself), so the
-study and `accuracy` can measure a textured scene.
+Colour maps on planes and spheres are read with its own OpenImageIO call and, as the scene's render.colour
+says, its own sRGB decoding ("linear") or none ("display"), and looked up bilinearly at the exact UVs of the
+exact hit (no mip level: the texture at the point itself), so the study and `accuracy` can measure a textured
+scene in either setting.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..scene.messages import Location, located
 from ..scene.schema import Object, Scene, SceneError, SpecularModel, Viewer
 from ..tolerances import MIN_DISTANCE
 
@@ -213,10 +215,11 @@ NORMAL = {"icosphere": lambda p, obj: p, "uv_sphere": lambda p, obj: p, "box": _
 class ExactScene:
     """The scene's analytic objects, each with its world_from_object affine map."""
 
-    def __init__(self, scene: Scene, source: str = "<scene>"):
+    def __init__(self, scene: Scene, source: str | Location = "<scene>"):
         for index, obj in enumerate(scene.objects):
             if obj.shape == "mesh":
-                raise SceneError(f'{source}: objects.{index}.shape: "mesh" has no closed form; use --fine N')
+                raise SceneError('"mesh" has no closed form; use --fine N',
+                                 located(source).at("objects", index, "shape"))
         self.objects = scene.objects
         # world = linear · local + translate, linear = R S (geometry.place); rows map object → world.
         self.linear = [rotation(obj) @ np.diag(obj.scale) for obj in scene.objects]
@@ -357,7 +360,7 @@ def material_table(scene: Scene) -> np.ndarray:
     return np.array([[*m.ka, *m.kd, *m.ks, *m.ke, m.shininess] for m in map(scene.material_of, scene.objects)])
 
 
-def analytic_reference(scene: Scene, source: str = "<scene>") -> ReferenceImage:
+def analytic_reference(scene: Scene, source: str | Location = "<scene>") -> ReferenceImage:
     """The scene on its exact surfaces, float64: see the module docstring. SceneError for a mesh object."""
     exact = ExactScene(scene, source)
     rig = camera_frame(scene)
@@ -466,7 +469,7 @@ def textured_ambient_reference(scene: Scene, ka) -> tuple[np.ndarray, np.ndarray
     origins, directions = sample_rays(rig, width, height, 1, 0, height)
     _, which, points, _ = exact.closest(origins, directions)
     local = points - exact.translate[0]
-    uv = exact_uv("plane" if obj.shape == "plane" else "sphere", local, obj.size or (2.0, 2.0))
+    uv = exact_uv("plane", local, obj.size or (2.0, 2.0)) if obj.shape == "plane" else exact_uv("sphere", local)
     colour = np.asarray(scene.ambient) * np.asarray(ka) * ramp(uv[:, 0], uv[:, 1])
     hit = which >= 0
     colour[~hit] = 0
@@ -481,9 +484,11 @@ def srgb_decode(values: np.ndarray) -> np.ndarray:
     return np.where(values <= 0.04045, values / 12.92, ((values + 0.055) / 1.055) ** 2.4)
 
 
-def read_map(path) -> np.ndarray:
-    """(H, W, 3) float64 linear RGB of an image file, read with OpenImageIO: 8-bit images are sRGB (the
-    scene format), float images linear. Its own reading: nothing of the renderer's decoding is shared."""
+def read_map(path, colour: str) -> np.ndarray:
+    """(H, W, 3) float64 RGB of an image file, read with OpenImageIO, for a scene whose render.colour is
+    `colour` (the scene format): an integer (8-bit) image is sRGB-encoded, so "linear" decodes it and "display"
+    takes it as stored; a float image is linear values, taken as stored either way. Its own reading: nothing
+    of the renderer's decoding is shared."""
     import OpenImageIO as oiio
     buffer = oiio.ImageBuf(str(path))
     spec = buffer.spec()
@@ -491,10 +496,12 @@ def read_map(path) -> np.ndarray:
     if pixels.shape[2] < 3:
         pixels = np.repeat(pixels[:, :, :1], 3, axis=2)
     pixels = pixels[:, :, :3]
-    return pixels if spec.format.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE) else srgb_decode(pixels)
+    if spec.format.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE) or colour != "linear":
+        return pixels
+    return srgb_decode(pixels)
 
 
-def scene_maps(scene: Scene, source: str = "<scene>") -> dict[int, dict]:
+def scene_maps(scene: Scene, source: str | Location = "<scene>") -> dict[int, dict]:
     """object index → {"ka" | "kd" | "ke": ((H, W, 3) texels, wrap)} of the maps its material names (the k_a
     map is the k_d map unless given). SceneError for a textured shape with no closed-form UVs here."""
     found, cache = {}, {}
@@ -509,11 +516,11 @@ def scene_maps(scene: Scene, source: str = "<scene>") -> dict[int, dict]:
                 continue
             path = scene.resolve(value.path)
             if path not in cache:
-                cache[path] = read_map(path)
+                cache[path] = read_map(path, scene.render.colour)
             maps[key] = (cache[path], value.wrap)
         if maps and obj.shape not in ("plane", "icosphere", "uv_sphere"):
-            raise SceneError(f"{source}: objects.{index}: the analytic reference has exact texture coordinates for "
-                             f"planes and spheres only, not a textured {obj.shape}; use --fine N")
+            raise SceneError(f"the analytic reference has exact texture coordinates for planes and spheres only, not "
+                             f"a textured {obj.shape}; use --fine N", located(source).at("objects", index))
         found[index] = maps
     return found
 
@@ -552,7 +559,7 @@ def textured_rows(scene: Scene, exact: ExactScene, maps: dict, rows: np.ndarray,
             continue
         obj = scene.objects[index]
         local = (points[here] - exact.translate[index]) @ exact.inverse[index].T
-        uv = exact_uv("plane" if obj.shape == "plane" else "sphere", local, obj.size or (2.0, 2.0))
+        uv = exact_uv("plane", local, obj.size or (2.0, 2.0)) if obj.shape == "plane" else exact_uv("sphere", local)
         for key, column in (("ka", 0), ("kd", 3), ("ke", 9)):
             if key in found:
                 texels, wrap = found[key]

@@ -38,14 +38,9 @@ from ..records import Geometry
 from ..renderer.frame import render
 from ..renderer.prepare import prepare
 from ..scene.load import read_scene_dict
-from ..scene.schema import (
-    NormalsRule,
-    Scene,
-    SceneError,
-    ShadingModel,
-    SpecularModel,
-    validate_scene,
-)
+from ..scene.messages import Location, located
+from ..scene.objects import NormalsRule
+from ..scene.schema import Scene, SceneError, ShadingModel, SpecularModel, validate_scene
 from .accuracy import max_level, mesh_coverage, reference_image, refine_entry
 from .metrics import measure, rmse
 
@@ -174,6 +169,7 @@ class Study:
     images: list[ErrorImage] = field(default_factory=list)
     levels_note: str = ""   # how the levels were chosen
     shininess: float = math.nan  # the first object's f, when the sweep keeps the scene's own (orders plot)
+    colour: str = "display"   # the scene's render.colour: how the report's pictures are encoded
 
 
 # ---------------------------------------------------------------- scenes of the sweep
@@ -227,16 +223,17 @@ class Setting:
         return asdict(self)
 
 
-def _check_options(base: Scene, options: StudyOptions, source: str) -> None:
+def _check_options(base: Scene, options: StudyOptions, source: str | Location) -> None:
     """A mesh needs a self-convergence reference (--fine); every axis needs a value."""
     if options.fine is None:
         for index, obj in enumerate(base.objects):
             if obj.shape == "mesh":
-                raise SceneError(f'{source}: objects.{index}.shape: "mesh" has no closed form; use --fine N')
+                raise SceneError('"mesh" has no closed form; use --fine N',
+                                 located(source).at("objects", index, "shape"))
     if options.repeats < 1 or (options.levels is not None and not options.levels) or not options.models:
-        raise SceneError(f"{source}: the study needs at least one level, one model and one repeat")
+        raise SceneError("the study needs at least one level, one model and one repeat", located(source))
     if not options.budget > 0:
-        raise SceneError(f"{source}: --budget must be a positive number of seconds, got {options.budget:g}")
+        raise SceneError(f"--budget must be a positive number of seconds, got {options.budget:g}", located(source))
 
 
 class _Sweep:
@@ -316,20 +313,25 @@ class _Sweep:
                     first.normals, first.specular, first.precision, first.samples, first.shininess):
                 self.images[s] = (result.image, reference.image, coverage == 1, reference.coverage == 1)
 
-    def time_all(self, settings: list[Setting], repeats: int) -> tuple[dict, MachineNoise]:
+    def time_all(self, settings: list[Setting], repeats: int,
+                 progress: Callable[[int, int, str], None] | None = None) -> tuple[dict, MachineNoise]:
         """`repeats` rounds, every setting once per round, each round in its own shuffled order (seeded), so
-        a slow spell hits different neighbours every round and the minimum escapes it."""
+        a slow spell hits different neighbours every round and the minimum escapes it; progress(renders done,
+        renders in all, "timing round R of N") after each render."""
         scenes = {s: self.scene(s) for s in settings}
         runs: dict[Setting, list[tuple[float, dict]]] = {s: [] for s in settings}
         load_before, start = os.getloadavg(), time.perf_counter()
         for round_ in range(repeats):
-            for index in np.random.default_rng(round_).permutation(len(settings)):
+            for position, index in enumerate(np.random.default_rng(round_).permutation(len(settings)), 1):
                 s = settings[index]
                 begin, cpu = time.perf_counter(), time.process_time()
                 result = render(scenes[s], threads=self.options.threads, source=self.source,
                                 max_memory=self.options.max_memory)
                 wall = time.perf_counter() - begin
                 runs[s].append((wall, {**result.timings, "cpu": time.process_time() - cpu}))
+                if progress:
+                    progress(round_ * len(settings) + position, repeats * len(settings),
+                             f"timing round {round_ + 1} of {repeats}")
         spreads = [spread([wall for wall, _ in r]) for r in runs.values()]
         noise = MachineNoise(os.cpu_count() or 1, load_before, os.getloadavg(), statistics.median(spreads),
                              max(spreads), repeats, time.perf_counter() - start)
@@ -344,7 +346,9 @@ def spread(times: list[float]) -> float:
 
 def run_study(path: str | Path, overrides: list[str] | tuple[str, ...] = (), options: StudyOptions = StudyOptions(),
               progress: Callable[[int, int, str], None] | None = None) -> Study:
-    """Measure every setting at the given (or chosen) levels, then time them all in interleaved rounds."""
+    """Measure every setting at the given (or chosen) levels, then time them all in interleaved rounds;
+    progress(done, total, what) is called as each level starts ("level L": levels done of those known so far)
+    and after each timing render ("timing round R of N": renders done of all), then with "done"."""
     with tempfile.TemporaryDirectory(prefix="raycast-phong-study-") as folder:
         sweep = _Sweep(path, overrides, options, folder)
         sweep.warm_up()
@@ -352,13 +356,13 @@ def run_study(path: str | Path, overrides: list[str] | tuple[str, ...] = (), opt
         settings = [s for level in levels for s in sweep.settings(level)]
         if progress:
             progress(0, len(settings) * options.repeats, "timing")
-        runs, noise = sweep.time_all(settings, options.repeats)
+        runs, noise = sweep.time_all(settings, options.repeats, progress)
         pooled = pooled_minima(runs)
         rows = monotone_times([study_row(s, runs[s], *sweep.measured[s], sweep.meshes[s.samples, s.level][1], pooled)
                                for s in settings])
         study = Study(rows, fit_orders(rows, options.settle), sweep.source, options.target, noise,
                       levels_note=note, shininess=sweep.base.material_of(sweep.base.objects[0]).shininess
-                      if sweep.base.objects else math.nan)
+                      if sweep.base.objects else math.nan, colour=sweep.base.render.colour)
         study.images = error_images(sweep)
         if progress:
             progress(len(settings) * options.repeats, len(settings) * options.repeats, "done")
@@ -614,7 +618,9 @@ def monotone(curve: list[StudyRow], cost: str = "seconds_total") -> bool:
 
 
 def advice(study: Study, target: float | None = None) -> str:
-    """Per problem: the fastest setting to RMSE `target` (time to image), then each model's own fastest."""
+    """Per problem: the fastest setting to RMSE `target` (time to image), then each model's own fastest. The
+    fastest is chosen on the monotone fit (monotone_times: robust to a level measured in a slow spell); the
+    times said are the measured ones."""
     target = study.target if target is None else target
     groups = problems(study.rows)
     sentences = []
@@ -624,7 +630,8 @@ def advice(study: Study, target: float | None = None) -> str:
         if best is None:
             top = min(rows, key=lambda r: r.rmse)
             sentences.append(f"No setting reaches RMSE {target:g}{where}: the best is {setting_label(top)} with "
-                             f"{top.rmse:.4f} ({top.triangles:,} triangles, {top.seconds_total * 1e3:.1f} ms).")
+                             f"{top.rmse:.4f} ({top.triangles:,} triangles, {top.seconds_total_measured * 1e3:.1f} ms "
+                             "measured).")
             continue
         parts = []
         for model in dict.fromkeys(r.model for r in rows):
@@ -634,10 +641,11 @@ def advice(study: Study, target: float | None = None) -> str:
                 parts.append(f"{model} does not get there within the levels tried (best {top.rmse:.4f} at "
                              f"{top.triangles:,} triangles)")
             else:
-                parts.append(f"{model} {mine.seconds_total * 1e3:.1f} ms ({setting_label(mine)}, "
+                parts.append(f"{model} {mine.seconds_total_measured * 1e3:.1f} ms ({setting_label(mine)}, "
                              f"{mine.triangles:,} triangles)")
         sentences.append(f"Fastest to RMSE {target:g}{where}: {setting_label(best)}, {best.triangles:,} triangles, "
-                         f"{best.seconds_total * 1e3:.1f} ms to image (RMSE {best.rmse:.4f}). Per model: "
+                         f"{best.seconds_total_measured * 1e3:.1f} ms to image measured (RMSE {best.rmse:.4f}). "
+                         "Per model, measured: "
                          + "; ".join(parts) + ".")
     return "\n".join(sentences)
 
@@ -674,11 +682,12 @@ def fits_table(study: Study) -> list[list[str]]:
 
 def rows_table(study: Study) -> list[list[str]]:
     rows = [["model", "normals", "specular", "precision", "spp", "f", "level", "triangles", "edge",
-             "ms to image", "spread", "frame ms", "RMSE", "max", "PSNR dB", "silhouette RMSE", "image RMSE",
-             "highlight loss"]]
+             "ms to image, measured", "ms, monotone fit", "spread", "frame ms", "RMSE", "max", "PSNR dB",
+             "silhouette RMSE", "image RMSE", "highlight loss"]]
     for r in study.rows:
         rows.append([r.model, r.normals, r.specular, r.precision, str(r.samples), r.shininess, str(r.level),
-                     f"{r.triangles:,}", f"{r.edge_length:.4f}", f"{r.seconds_total * 1e3:.2f}",
+                     f"{r.triangles:,}", f"{r.edge_length:.4f}", f"{r.seconds_total_measured * 1e3:.2f}",
+                     f"{r.seconds_total * 1e3:.2f}",
                      f"{100 * r.seconds_total_spread:.0f} %", f"{r.seconds * 1e3:.2f}", f"{r.rmse:.2e}",
                      f"{r.max_error:.3g}", f"{r.psnr:.1f}", f"{r.silhouette_rmse:.3g}", f"{r.image_rmse:.3g}",
                      f"{r.highlight_loss:.3f}"])
@@ -697,7 +706,8 @@ def summary_markdown(study: Study, plots: dict) -> str:
     lines += ["\n\n".join(advice(study).splitlines()), "", "## Fitted convergence orders", "",
               "Slope of log RMSE against log mean edge length (least squares).", ""]
     lines += markdown_table(fits_table(study))
-    lines += ["", "## Settings", "", "Times are the minimum over the rounds; spread = (median − min) / min.", ""]
+    lines += ["", "## Settings", "", "Measured times are the minimum over the rounds (each stage's); spread = "
+              "(median − min) / min; the monotone fit is what the plots draw (monotone_times).", ""]
     lines += markdown_table(rows_table(study))
     lines += [""] + [f"![{key}]({plot.path.name})" for key, plot in plots.items()] + [""]
     return "\n".join(lines)
@@ -709,10 +719,10 @@ OUTPUTS = {"csv": "study.csv", "plot": "error_vs_time.png", "silhouette": "silho
 
 
 def check_study_folder(folder: Path, scene: str | Path) -> None:
-    """Refuse, before the first render, a --out that is a file or that holds a folder (or the scene) under
+    """Refuse, before the first render, an output folder (-o) that is a file or that holds a folder (or the scene) under
     one of the OUTPUTS' names. Raises OutputError (ImageError from check_output_file)."""
     if folder.exists() and not folder.is_dir():
-        raise OutputError(f"{folder}: --out must be a folder, but it is a file")
+        raise OutputError(f"{folder}: -o/--output must be a folder, but it is a file")
     if folder.is_dir():
         for name in OUTPUTS.values():
             check_output_file(folder / name, inputs=(scene,))

@@ -27,10 +27,18 @@ from typing import Any
 import numpy as np
 
 from ..errors import ImageError, SceneError
-from ..io.encoding import srgb_encode
-from ..io.image_io import COMPARE_BYTES_PER_SAMPLE, image_header, read_layer, text_coverage, write_image
+from ..io.encoding import DISPLAY, display_values
+from ..io.image_io import (
+    COMPARE_BYTES_PER_SAMPLE,
+    image_colour,
+    image_header,
+    read_layer,
+    text_coverage,
+    write_image,
+)
 from ..io.scene_toml import toml_value
 from ..io.system import format_bytes
+from ..scene.messages import Location
 from .compare import BACKDROP, MIN_FONT, draw_text, fitting_size, layout, row_wording
 
 SWEEP_KEYS = ("scene", "set", "grid")
@@ -98,34 +106,36 @@ def is_sweep(path: Path) -> bool:
 def load_sweep(path: str | Path) -> Sweep:
     """Read and check a sweep file; every problem is one SceneError naming the file and the key."""
     path = Path(path)
+    where = Location(str(path))
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError) as error:
-        raise SceneError(f"{path}: cannot read the sweep file ({error})") from None
+        raise SceneError(f"cannot read the sweep file ({error})", where) from None
     except tomllib.TOMLDecodeError as error:
-        raise SceneError(f"{path}: TOML syntax error: {error}") from None
+        raise SceneError(f"TOML syntax error: {error}", where) from None
     unknown = [key for key in data if key not in SWEEP_KEYS]
     if unknown:
-        raise SceneError(f"{path}: {unknown[0]}: unknown key; a sweep file has {', '.join(SWEEP_KEYS)}")
+        raise SceneError(f"unknown key; a sweep file has {', '.join(SWEEP_KEYS)}", where.at(unknown[0]))
     if not isinstance(data.get("scene"), str):
-        raise SceneError(f"{path}: scene: must be the base scene file, a string relative to the sweep file")
+        raise SceneError("must be the base scene file, a string relative to the sweep file", where.at("scene"))
     fixed = data.get("set", [])
     if not isinstance(fixed, list) or not all(isinstance(item, str) and "=" in item for item in fixed):
-        raise SceneError(f'{path}: set: must be a list of "key.path=value" strings, e.g. ["render.width=160"]')
+        raise SceneError('must be a list of "key.path=value" strings, e.g. ["render.width=160"]', where.at("set"))
     if not isinstance(data["grid"], dict) or not data["grid"]:
-        raise SceneError(f'{path}: grid: must be a table of key paths and value lists, e.g. '
-                         'render.shading = ["flat", "phong"]')
+        raise SceneError('must be a table of key paths and value lists, e.g. render.shading = ["flat", "phong"]',
+                         where.at("grid"))
     axes = []
     for key, values in _leaves(data["grid"]):
         if not isinstance(values, list) or not values:
-            raise SceneError(f"{path}: grid.{key}: must be a non-empty list of values, got {json.dumps(values)}")
+            raise SceneError(f"must be a non-empty list of values, got {json.dumps(values)}",
+                             where.at("grid", *key.split(".")))
         axes.append((key, tuple(values)))
     cells = math.prod(len(values) for _, values in axes)
     if cells > MAX_SWEEP_CELLS:
         sizes = " × ".join(f"{len(values):,}" for _, values in axes)
-        raise SceneError(f"{path}: grid: {sizes} = {cells:,} cells, more than the {MAX_SWEEP_CELLS:,} a sweep "
-                         "renders (each is a render and a cell of the contact sheet); split the sweep or use "
-                         "fewer values")
+        raise SceneError(f"{sizes} = {cells:,} cells, more than the {MAX_SWEEP_CELLS:,} a sweep renders (each is a "
+                         "render and a cell of the contact sheet); split the sweep or use fewer values",
+                         where.at("grid"))
     return Sweep(path=path, scene=path.parent / data["scene"], fixed=tuple(fixed), axes=tuple(axes))
 
 
@@ -255,12 +265,12 @@ def check_sheet_memory(path: Path, cells: list, outputs: list[Path | None], budg
                          "or raise the budget (--max-memory)")
 
 
-def write_contact_sheets(jobs: list, report, settings, force: bool, budget: int | None = None) -> dict[str, str]:
+def write_contact_sheets(jobs: list, report, force: bool, budget: int | None = None) -> dict[str, str]:
     """For each sweep in the batch, DIR/<sweep>-contact.png, rewritten when a cell rendered or it is missing.
 
     Returns sweep name → sheet file name. Cells are read back from their files: a PNG as stored, an EXR as the
-    PNG writer would show it (clamped, sRGB-encoded with --srgb). A sheet that would need more than `budget`
-    bytes is refused (check_sheet_memory) before its cells are read.
+    PNG writer would show it (clamped, sRGB-encoded when its header says render.colour = "linear"). A sheet
+    that would need more than `budget` bytes is refused (check_sheet_memory) before its cells are read.
     """
     by_name = {outcome.name: outcome for outcome in report.outcomes}
     sheets: dict[str, str] = {}
@@ -285,8 +295,8 @@ def write_contact_sheets(jobs: list, report, settings, force: bool, budget: int 
             except ImageError:
                 images.append(None)
                 continue
-            if output.suffix.lower() == ".exr" and settings.srgb:
-                image = srgb_encode(image)
+            if output.suffix.lower() == ".exr":
+                image = display_values(image, image_colour(output) or DISPLAY)
             images.append(np.clip(image, 0.0, 1.0))
         canvas, _ = compose_sheet([job.cell for job in members], images)
         write_image(path, canvas)

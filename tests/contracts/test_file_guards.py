@@ -70,6 +70,68 @@ def test_a_large_file_claiming_little_is_refused_before_it_is_read(tmp_path, nam
     assert seconds < 60
 
 
+def test_a_gltf_whose_accessors_use_little_of_a_large_buffer_is_refused_before_it_is_read(tmp_path):
+    """Issue 30 item 3: a .gltf whose accessors claim one triangle of a 512 MB external buffer, --max-memory
+    100M: the buffer is read whole (trimesh's resolver), so its size counts; one line naming the buffers, exit 2,
+    the buffer unread (before: 734 MB resident for a 600 MB buffer, exit 0)."""
+    import json
+    import struct
+    sparse(tmp_path / "big.bin", 512 << 20, struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0))
+    path = tmp_path / "lie.gltf"
+    path.write_text(json.dumps({
+        "asset": {"version": "2.0"}, "buffers": [{"uri": "big.bin", "byteLength": 512 << 20}],
+        "bufferViews": [{"buffer": 0, "byteLength": 36}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                       "min": [0, 0, 0], "max": [1, 1, 0]}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}], "nodes": [{"mesh": 0}]}))
+    done, peak, _ = run_measured(["render", str(path), "--max-memory", "100M", "-o", str(tmp_path / "o.png")],
+                                 tmp_path)
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and len(lines) == 1, done.stderr
+    assert lines[0].startswith(f"error: {path}: ") and "512 MB of buffers" in lines[0], lines[0]
+    assert peak < 400 << 20, f"{peak >> 20} MB resident to refuse it"
+    assert not (tmp_path / "o.png").exists()
+
+
+def three_mf(path: Path, copies: int) -> Path:
+    """A 3MF (a zip of XML) of one triangle's three vertices and one triangle, each written `copies` times."""
+    import zipfile
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as archive:
+        archive.writestr("[Content_Types].xml", '<?xml version="1.0" encoding="UTF-8"?><Types xmlns="http://schemas'
+                         '.openxmlformats.org/package/2006/content-types"><Default Extension="rels" ContentType="appl'
+                         'ication/vnd.openxmlformats-package.relationships+xml"/><Default Extension="model" ContentT'
+                         'ype="application/vnd.ms-package.3dmanufacturing-3dmodel+xml"/></Types>')
+        archive.writestr("_rels/.rels", '<?xml version="1.0" encoding="UTF-8"?><Relationships xmlns="http://schemas.'
+                         'openxmlformats.org/package/2006/relationships"><Relationship Target="/3D/3dmodel.model" '
+                         'Id="rel0" Type="http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"/>'
+                         '</Relationships>')
+        with archive.open("3D/3dmodel.model", "w") as model:
+            model.write(b'<?xml version="1.0" encoding="UTF-8"?><model unit="millimeter" xmlns="http://schemas.'
+                        b'microsoft.com/3dmanufacturing/core/2015/02"><resources><object id="1" type="model"><mesh>'
+                        b'<vertices>')
+            model.write(b'<vertex x="0" y="0" z="0"/><vertex x="1" y="0" z="0"/><vertex x="0" y="1" z="0"/>' * copies)
+            model.write(b'</vertices><triangles>' + b'<triangle v1="0" v2="1" v3="2"/>' * copies)
+            model.write(b'</triangles></mesh></object></resources><build><item objectid="1"/></build></model>')
+    return path
+
+
+def test_a_3mf_is_weighed_by_what_it_unzips_to(tmp_path):
+    """Issue 30 item 3: a 3MF whose 17 MB of XML zip to 60 kB, --max-memory 100M: refused from its zip
+    directory's sizes before any XML is parsed (one line, exit 2); before, its size alone counted and trimesh
+    parsed it (a 178 kB 3MF of 56.5 MB XML peaked 1.95 GB under --max-memory 300M). A small 3MF still renders."""
+    bomb = three_mf(tmp_path / "bomb.3mf", 150_000)
+    assert bomb.stat().st_size < 1 << 20
+    done, peak, _ = run_measured(["render", str(bomb), "--max-memory", "100M", "-o", str(tmp_path / "o.png")],
+                                 tmp_path)
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and len(lines) == 1, done.stderr
+    assert lines[0].startswith(f"error: {bomb}: ") and "unzipped" in lines[0] and "memory" in lines[0], lines[0]
+    assert peak < 400 << 20, f"{peak >> 20} MB resident to refuse it"
+    small = three_mf(tmp_path / "small.3mf", 1)
+    done, _, _ = run_measured(["render", str(small), "--max-memory", "100M", "-o", str(tmp_path / "s.png")], tmp_path)
+    assert done.returncode == 0 and (tmp_path / "s.png").exists(), done.stderr
+
+
 def test_the_read_floor_grows_with_the_size_and_not_the_claim(tmp_path):
     from raycast_phong.io.mesh_header import mesh_file_read_bytes
     small, large = sparse(tmp_path / "a.obj", 1 << 20), sparse(tmp_path / "b.obj", 1 << 30)
@@ -97,6 +159,39 @@ def test_unused_vertices_count(tmp_path):
                     b"property float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\n"
                     b"end_header\n")
     assert mesh_file_triangles(ply, "k") >= 999_000
+
+
+def binary_ply(path: Path, vertices: int, element: str, lists: list[list[int]], count: str = "uint") -> Path:
+    """A binary PLY of `vertices` zero vertices and one `element` (face, tristrips) a list, as the header says."""
+    import struct
+    header = (f"ply\nformat binary_little_endian 1.0\nelement vertex {vertices}\nproperty float x\n"
+              f"property float y\nproperty float z\nelement {element} {len(lists)}\n"
+              f"property list {count} int vertex_indices\nend_header\n").encode()
+    packed = {"uchar": "<B", "uint": "<I", "int": "<i"}[count]
+    body = b"".join(struct.pack(packed, len(entries)) + struct.pack(f"<{len(entries)}i", *entries)
+                    for entries in lists)
+    path.write_bytes(header + bytes(12 * vertices) + body)
+    return path
+
+
+def test_a_ply_s_lists_weigh_as_the_triangles_they_can_make(tmp_path):
+    """Issue 30 item 3: a PLY face of 3 M corners (header: 1 face) and one strip of 10⁶ indices count as the
+    3 M − 2 and 10⁶ − 2 triangles they make, not 1; so --max-memory 300M refuses the face before trimesh reads
+    it (before: the count was 1, and `plan` ran over 6 minutes at 745 MB). A file of triangles counts exactly."""
+    import random
+    face = binary_ply(tmp_path / "face.ply", 3, "face", [[i % 3 for i in range(3_000_000)]])
+    assert mesh_file_triangles(face, "k") == 3_000_000 - 2
+    strip = binary_ply(tmp_path / "strip.ply", 3, "tristrips", [[i % 3 for i in range(1_000_000)]], count="int")
+    assert mesh_file_triangles(strip, "k") == 1_000_000 - 2
+    rng = random.Random(1)
+    triangles = binary_ply(tmp_path / "t.ply", 500, "face", [rng.sample(range(500), 3) for _ in range(700)],
+                           count="uchar")
+    assert mesh_file_triangles(triangles, "k") == 700
+    done, peak, _ = run_measured(["render", str(face), "--max-memory", "300M", "-o", str(tmp_path / "o.png")],
+                                 tmp_path)
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and len(lines) == 1 and "3.0M triangles" in lines[0], done.stderr
+    assert peak < 400 << 20
 
 
 def reference_count(text: bytes) -> int:

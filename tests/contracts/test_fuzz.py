@@ -61,8 +61,10 @@ def from_schema(node: dict, defs: dict, key: str = "") -> st.SearchStrategy:
         return hostile_or(st.sampled_from(MESH_PATHS))
     if key == "material":
         return hostile_or(st.sampled_from(MATERIAL_NAMES))
-    if "anyOf" in node:
-        return st.one_of([from_schema(option, defs, key) for option in node["anyOf"]])
+    if "anyOf" in node or "oneOf" in node:  # oneOf: [[objects]], one table per kind told apart by `shape`
+        return st.one_of([from_schema(option, defs, key) for option in node.get("anyOf", node.get("oneOf"))])
+    if "const" in node:
+        return hostile_or(st.just(node["const"]))
     if "enum" in node:
         return hostile_or(st.sampled_from(node["enum"]))
     kind = node.get("type")
@@ -134,9 +136,12 @@ def leaves() -> dict[str, st.SearchStrategy]:
         if "$ref" in node:
             for key, sub in DEFS[node["$ref"].rsplit("/", 1)[1]]["properties"].items():
                 out[f"{name}.{key}"] = from_schema(sub, DEFS, key)
-        elif name in ("lights", "objects"):
-            for key, sub in DEFS[node["items"]["$ref"].rsplit("/", 1)[1]]["properties"].items():
-                out[f"{name}.0.{key}"] = from_schema(sub, DEFS, key)
+        elif name in ("lights", "objects"):  # every kind's keys for objects: most are another kind's, refused
+            for ref in [option["$ref"] for option in node["items"].get("oneOf", [node["items"]])]:
+                for key, sub in DEFS[ref.rsplit("/", 1)[1]]["properties"].items():
+                    strategy = from_schema(sub, DEFS, key)
+                    out[f"{name}.0.{key}"] = st.one_of(out[f"{name}.0.{key}"], strategy) \
+                        if f"{name}.0.{key}" in out else strategy
         elif name == "materials":
             for key, sub in DEFS["Material"]["properties"].items():
                 out[f"materials.m0.{key}"] = from_schema(sub, DEFS, key)

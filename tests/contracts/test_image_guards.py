@@ -111,11 +111,44 @@ def test_a_truncated_png_in_compare_is_our_one_line_only(tmp_path):
     assert lines[0].startswith(f"error: {cut}: cannot read (") and "\\n" not in lines[0], lines[0]
 
 
-def test_srgb_with_an_exr_output_says_it_does_nothing(tmp_path):
+def test_a_truncated_png_map_is_our_one_line_only(tmp_path):
+    """Issue 30 item 10: a truncated PNG as a scene's kd_map printed libpng's own `libpng error: IDAT: Read
+    error: …` line before ours (OpenImageIO's scanline reads let libpng's handler print on fd 2); now the read
+    runs with fd 2 captured and given back without libpng's lines."""
+    whole = tmp_path / "whole.png"
+    done = subprocess.run([*CLI, "render", "-o", str(whole), "--width", "64", "--height", "64", "-q"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    (tmp_path / "cut.png").write_bytes(whole.read_bytes()[:600])
+    scene = tmp_path / "s.toml"
+    scene.write_text('[materials.m]\nkd_map = "cut.png"\n[[objects]]\nshape = "uv_sphere"\nmaterial = "m"\n')
+    done = subprocess.run([*CLI, "render", str(scene), "-o", str(tmp_path / "o.png")], capture_output=True,
+                          text=True, timeout=300)
+    lines = [line for line in done.stderr.strip().splitlines() if not line.startswith("compiling")]
+    assert done.returncode == 2 and len(lines) == 1 and "libpng" not in done.stderr, done.stderr
+    assert lines[0].startswith(f"error: {scene}: materials.m.kd_map: '{tmp_path / 'cut.png'}' cannot be read as an "
+                               "image"), lines
+
+
+def test_what_else_a_block_prints_on_fd_2_is_given_back(capfd):
+    """native_errors_kept drops only the native libraries' own error lines."""
+    from raycast_phong.io.files import native_errors_kept
+    with native_errors_kept():
+        os.write(2, b"libpng error: IDAT: Read error\nsomething else\n")
+    assert capfd.readouterr().err == "something else\n"
+
+
+def test_srgb_with_an_exr_output_renders_in_linear_colour_and_its_header_says_so(tmp_path):
+    """--srgb once warned it did nothing to an EXR; it now stands for render.colour = linear, which the EXR's
+    values are in (unencoded, as before) and its header says."""
+    from raycast_phong.io.image_io import image_colour
     result = runner.invoke(app, ["render", "-o", str(tmp_path / "x.exr"), "--srgb", "--width", "8", "--height", "8",
                                  "-q"])
     assert result.exit_code == 0, result.output
-    assert "warning: --srgb encodes a PNG" in result.output, result.output
+    # -q still prints the plan's warnings (an 8×8 image misses the highlight): none of them about --srgb
+    assert not [line for line in result.output.splitlines() if "srgb" in line.lower() or ".exr" in line], \
+        result.output
+    assert image_colour(tmp_path / "x.exr") == "linear"
 
 
 def test_a_contact_sheet_over_the_budget_is_refused_before_its_cells_are_read(tmp_path):

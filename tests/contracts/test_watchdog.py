@@ -34,10 +34,21 @@ def fake_cgroup(folder: Path, limit: int, used: int = 0) -> Path:
     return folder
 
 
+def under_cgroup(cgroup: Path) -> dict[str, str]:
+    """The environment of processes (and their children) that read `cgroup` as their cgroup tree: a
+    sitecustomize beside it, first on PYTHONPATH, sets io.system's root at start-up. The program itself reads
+    no variable for this (issue 30 item 10: no test hook in production)."""
+    site = cgroup.parent / f"{cgroup.name}-site"
+    site.mkdir(exist_ok=True)
+    (site / "sitecustomize.py").write_text(f"import raycast_phong.io.system as system\n"
+                                           f"system._CGROUP_ROOT = {str(cgroup)!r}\n")
+    return {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(site), os.environ.get("PYTHONPATH")]))}
+
+
 def measured(args: list[str], cwd: Path, cgroup: Path) -> tuple[int, int, str]:
     """(exit status, peak resident bytes, stderr) of the CLI with `args` in a fresh process, under the fake
     cgroup; the wrapper is a process of its own, so ru_maxrss is this command's peak alone."""
-    env = {**os.environ, system._CGROUP_ROOT_VARIABLE: str(cgroup)}
+    env = under_cgroup(cgroup)
     done = subprocess.run([sys.executable, "-c", PROBE, *CLI, *args], cwd=cwd, env=env, capture_output=True,
                           text=True, timeout=300)
     code, peak = map(int, done.stdout.split()[-2:])
@@ -145,7 +156,7 @@ def test_the_budget_follows_a_cgroup_lower_than_free_memory(tmp_path):
     is refused by the default budget (3/4 of it) without --max-memory."""
     assert system.available_memory() > 1 << 30, "the test needs a machine with more than 1 GB free"
     cgroup = fake_cgroup(tmp_path / "cgroup", BUDGET)
-    env = {**os.environ, system._CGROUP_ROOT_VARIABLE: str(cgroup)}
+    env = under_cgroup(cgroup)
     probe = "from raycast_phong.io.system import available_memory; print(available_memory())"
     done = subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True, text=True, timeout=60,
                           check=True)

@@ -19,9 +19,9 @@ def test_png_is_clamped_8bit_without_gamma(tmp_path):
     np.testing.assert_allclose(back, expected, atol=1e-6)
 
 
-def test_srgb_option_encodes_with_the_srgb_curve(tmp_path):
+def test_linear_colour_encodes_a_png_with_the_srgb_curve(tmp_path):
     image = np.full((1, 2, 3), 0.5, np.float32)
-    back, _ = rp.read_image(rp.write_image(tmp_path / "s.png", image, srgb=True))
+    back, _ = rp.read_image(rp.write_image(tmp_path / "s.png", image, colour="linear"))
     # sRGB(0.5) = 1.055 · 0.5^(1/2.4) − 0.055 = 0.7354 → byte 188.
     assert srgb_encode(np.float32(0.5)) == pytest.approx(0.735357, abs=1e-5)
     np.testing.assert_allclose(back, 188 / 255, atol=1e-6)
@@ -98,3 +98,19 @@ def test_text_coverage_is_one_line_of_text_or_none_without_a_font(monkeypatch):
     monkeypatch.setattr(image_io, "LABEL_FONTS", ("NoSuchFont",))
     assert image_io.label_font() is None
     assert image_io.text_coverage("flat", 12) is None
+
+
+@pytest.mark.parametrize("image, got", [
+    (np.zeros((10, 10)), "an array of shape (10, 10) and dtype float64"),
+    (np.zeros((4, 4, 4), np.float32), "an array of shape (4, 4, 4) and dtype float32"),
+    (np.zeros((0, 5, 3)), "an array of shape (0, 5, 3)"),
+    (np.zeros((2, 2, 3), complex), "dtype complex128"),
+    ("pixels.png", "a str"),
+])
+def test_write_image_says_what_shape_it_wants(tmp_path, image, got):
+    """Issue 34 item 4: rp.write_image("g.png", np.zeros((10, 10))) failed unpacking a shape; now one line says
+    what it takes and what it got, and no file is written."""
+    with pytest.raises(ValueError) as raised:
+        rp.write_image(tmp_path / "g.png", image)
+    assert str(raised.value).startswith("write_image: the image must be an (H, W, 3) array of real RGB values")
+    assert got in str(raised.value) and not (tmp_path / "g.png").exists()

@@ -94,3 +94,15 @@ def test_the_file_reads_as_a_scene_written_by_hand_and_values_stay_one_line():
     assert "\n" not in toml_value(texture) and tomllib.loads(f"v = {toml_value(texture)}")["v"] == texture
     assert tomllib.loads(f"v = {toml_value(['depth', 1.5, float('inf'), True])}")["v"] == ["depth", 1.5,
                                                                                           float("inf"), True]
+
+
+@pytest.mark.parametrize("path, overrides, colour", [
+    (SCENES / "textured_sphere.toml", [], "display"), (SCENES / "textured_sphere.toml", ["render.colour=linear"],
+                                                       "linear"),
+    (SCENES / "meshes" / "still_life.glb", [], "linear"), (SCENES / "meshes" / "dice.obj", [], "display")])
+def test_the_colour_setting_is_written_and_reads_back(path, overrides, colour, tmp_path):
+    """render.colour is written with the other render keys: a glTF's scene (linear by its format) stays linear
+    once it is a scene file, whose own default is display."""
+    scene = rp.load_scene(path, overrides)
+    again, parsed = round_trip(scene, tmp_path)
+    assert scene.render.colour == parsed["render"]["colour"] == again.render.colour == colour

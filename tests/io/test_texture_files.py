@@ -61,7 +61,8 @@ def test_uv_seams_survive_the_merge_of_repeated_points(tmp_path):
 def test_a_mesh_painted_by_a_scene_material_decodes_none_of_its_maps(tmp_path, monkeypatch):
     import raycast_phong.io.textures as textures
     calls = []
-    monkeypatch.setattr(textures, "decode_pil", lambda image: calls.append(image) or np.zeros((1, 1, 3), np.float32))
+    monkeypatch.setattr(textures, "decode_pil",
+                        lambda image, colour: calls.append(image) or np.zeros((1, 1, 3), np.float32))
     (tmp_path / "s.toml").write_text(f'[materials.plain]\nkd = [0.5, 0.5, 0.5]\n[[objects]]\nshape = "mesh"\n'
                                      f'path = "{MODELS / "BoxTextured.glb"}"\nmaterial = "plain"\n')
     geometry = build_geometry(rp.load_scene(tmp_path / "s.toml"))
@@ -125,7 +126,8 @@ def test_a_large_map_is_shrunk_while_it_is_read_so_its_decode_stays_in_the_estim
              "def kb(name):\n"
              "    return next(int(line.split()[1]) for line in open('/proc/self/status') if line.startswith(name))\n"
              "open('/proc/self/clear_refs', 'w').write('5'); before = kb('VmRSS')\n"
-             "t = decode_file(Path(sys.argv[1])); np.save(sys.argv[2], t); print((kb('VmHWM') - before) * 1024)\n")
+             "t = decode_file(Path(sys.argv[1]), 'linear'); np.save(sys.argv[2], t)\n"
+             "print((kb('VmHWM') - before) * 1024)\n")
     done = subprocess.run([sys.executable, "-c", probe, str(path), str(tmp_path / "t.npy")], capture_output=True,
                           text=True, timeout=300)
     assert done.returncode == 0, done.stderr

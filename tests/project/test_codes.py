@@ -16,7 +16,6 @@ def test_the_integer_codes_follow_the_enums_order():
 
 
 def test_the_schema_offers_exactly_the_codes():
-    assert typing.get_args(schema.Object.model_fields["shape"].annotation) == codes.SHAPES
     aov = typing.get_args(schema.Output.model_fields["aovs"].annotation)[0]
     assert typing.get_args(aov) == codes.LAYERS == codes.GEOMETRY_LAYERS + codes.TERM_LAYERS
     assert typing.get_args(schema.Light.model_fields["type"].annotation) == tuple(k.value for k in codes.LightKind)

@@ -14,6 +14,7 @@ import ast
 import importlib
 import os
 import re
+import typing
 from pathlib import Path
 
 import pytest
@@ -124,20 +125,28 @@ def _resolves(dotted: str) -> bool:
     return False
 
 
+def _models_in(annotation) -> list:
+    """Every pydantic model an annotation holds: itself, a tuple's or a dict's items, each kind of a union."""
+    if hasattr(annotation, "model_fields"):
+        return [annotation]
+    return [model for argument in typing.get_args(annotation) for model in _models_in(argument)]
+
+
 def _is_scene_key(token: str) -> bool:
+    """A key path of the scene format; an upper-case placeholder or a digit stands for any entry of a table of
+    named entries ([materials.NAME]) or any item of a list ([[objects]], whose items are of several kinds)."""
     from raycast_phong.scene.schema import Scene
-    model, keyed = Scene, False
+    models, entries = [Scene], False
     for name in token.split("."):
-        if keyed:  # a table of named entries ([materials.NAME]): an upper-case placeholder or a digit stands for any
-            keyed = False
+        if entries:
+            entries = False
             if name.isupper() or name.isdigit():
                 continue
-        fields = getattr(model, "model_fields", None)
-        if fields is None or name not in fields:
+        found = [model.model_fields[name] for model in models if name in model.model_fields]
+        if not found:
             return False
-        annotation = fields[name].annotation
-        keyed = getattr(annotation, "__origin__", None) is dict
-        model = next((a for a in getattr(annotation, "__args__", ()) if hasattr(a, "model_fields")), annotation)
+        entries = any(typing.get_origin(field.annotation) in (dict, tuple) for field in found)
+        models = [model for field in found for model in _models_in(field.annotation)]
     return True
 
 

@@ -40,4 +40,5 @@ def test_the_wheel_holds_every_module_and_data_file(tmp_path):
               if path.suffix in SHIPPED and "__pycache__" not in path.parts}
     assert wanted - shipped == set(), "tracked files the wheel leaves out"
     assert "raycast_phong/tools/batch/manifest.py" in shipped  # the package a hand-written list once left out
+    assert "raycast_phong/py.typed" in shipped  # PEP 561: the annotations are public
     assert not any(name.startswith(("tests/", "benchmarks/", "cli.py")) for name in archive.namelist())

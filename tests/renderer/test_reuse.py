@@ -34,7 +34,8 @@ BASE = {
                 {"shape": "uv_sphere", "material": "checker", "translate": [0, 0, -2]}],
 }
 # (key path, value, whether the geometry is the one before): a change of lights, camera or the render's other
-# settings keeps it; materials, shading, placement, tessellation and precision (the normals' dtype) do not.
+# settings keeps it; materials, shading, placement, tessellation, precision (the normals' dtype) and colour (the
+# maps' decoding) do not.
 CHANGES = [
     (("lights", 0, "position"), [-3, 4, 6], True),
     (("camera", "position"), [1, 2, 8], True),
@@ -48,6 +49,7 @@ CHANGES = [
     (("objects", 0, "subdivisions"), 2, False),
     (("render", "precision"), "float64", False),
     (("objects", 3, "rotate"), [0, 30, 0], False),
+    (("render", "colour"), "linear", False),  # the maps are decoded anew, from sRGB (the checker has mid values)
 ]
 
 

@@ -1,5 +1,5 @@
-"""Many objects validated a key at a time (scene.schema.objects_in_bulk): the same Objects and the same
-one-line errors as pydantic gives one object at a time, and no object left to pydantic that it need not see."""
+"""Many objects validated a key at a time (scene.bulk.objects_in_bulk): the same objects and the same one-line
+errors as pydantic gives one object at a time, and no object left to pydantic that it need not see."""
 
 from __future__ import annotations
 
@@ -12,7 +12,9 @@ from hypothesis import strategies as st
 
 import raycast_phong as rp
 from raycast_phong.errors import SceneError
-from raycast_phong.scene import schema
+from raycast_phong.scene import bulk, schema
+from raycast_phong.scene.objects import MESH, OBJECT_MODELS, OWN_KEYS
+from raycast_phong.tolerances import POSITION_LIMIT
 
 INF, NAN = math.inf, math.nan
 LENGTH = [1, 0.5, 0, -1, 1e18, 2e18, INF, NAN, True, "1", None, 10**400, -0.0]
@@ -71,7 +73,7 @@ def objects(draw) -> dict:
     """Mostly valid objects (each key its shape reads, with a good value), some with one value of any kind."""
     shape = draw(st.sampled_from(VALUES["shape"][:6]))
     keys = ["translate", "rotate", "scale", "name", "material", "shading", "normals", "crease_angle",
-            *schema.SHAPE_KEYS[shape]]
+            *OWN_KEYS[shape]]
     obj = {"shape": shape}
     for key in draw(st.lists(st.sampled_from(keys), max_size=5, unique=True)):
         obj[key] = draw(st.sampled_from(GOOD[key]))
@@ -87,7 +89,7 @@ def group(draw) -> list[dict]:
     mostly good, some of any kind, so good and bad rows of one column meet."""
     shape = draw(st.sampled_from(VALUES["shape"][:6]))
     keys = draw(st.lists(st.sampled_from(["translate", "rotate", "scale", "name", "material", "shading", "normals",
-                                          "crease_angle", *schema.SHAPE_KEYS[shape]]), max_size=5, unique=True))
+                                          "crease_angle", *OWN_KEYS[shape]]), max_size=5, unique=True))
     rows = []
     for _ in range(draw(st.integers(1, 6))):
         rows.append({"shape": shape, **{key: draw(st.sampled_from(GOOD[key] if draw(st.integers(0, 3))
@@ -133,32 +135,44 @@ def test_an_error_in_the_last_of_many_objects_is_the_same_line(key, value):
 
 
 def test_valid_objects_do_not_go_through_pydantic_one_at_a_time():
-    """Every valid object of a group comes back an Object (made from the column checks), every invalid
+    """Every valid object of a group comes back its kind's model (made from the column checks), every invalid
     one as it was, for pydantic to word: validating 10⁶ objects one at a time took 12 s."""
     rows = [{"shape": "box", "translate": [i, 0, 0]} for i in range(1000)] + [{"shape": "box", "translate": "x"}]
-    made = schema.objects_in_bulk(rows)
-    assert all(isinstance(obj, schema.Object) for obj in made[:-1])
-    assert made[-1] is rows[-1]
-    assert made[0] == schema.Object(shape="box", translate=[0, 0, 0])
+    rows += [{"shape": "torus", "major_radius": 2, "segments": [8, 4]}] * 3
+    made = bulk.objects_in_bulk(rows)
+    assert all(isinstance(obj, OBJECT_MODELS["box"]) for obj in made[:1000])
+    assert made[1000] is rows[1000]
+    assert made[0] == OBJECT_MODELS["box"](shape="box", translate=[0, 0, 0])
+    assert made[-1] == OBJECT_MODELS["torus"](shape="torus", major_radius=2.0, segments=(8, 4))
 
 
 def test_every_object_key_is_checked_in_bulk_or_left_to_pydantic():
-    """One validator's rules: bulk checking knows every key of Object or names it as pydantic's alone, and its
-    bounds are read from the fields' own Field(...) (a bound changed there changes both)."""
-    assert set(schema.Object.model_fields) == schema._BULK_KEYS | schema.LEFT_TO_PYDANTIC
-    assert not schema._BULK_KEYS & schema.LEFT_TO_PYDANTIC
-    fields = schema.Object.model_fields
-    assert schema._LENGTHS["crease_angle"] == (0.0, True, 180.0) and schema._WHOLE["subdivisions"] == (0, True, 8)
-    assert schema._LENGTHS["radius"] == (0.0, False, schema.POSITION_LIMIT)
-    for key, (low, allowed, high) in {**schema._LENGTHS, **schema._WHOLE}.items():
-        for value, ok in ((low, allowed), (high, True), (high * 2 if high > 0 else 1, False)):
-            value = int(value) if key in schema._WHOLE else float(value)
-            row = {"shape": "cylinder" if key in ("radius", "height") else
-                   "torus" if "radius" in key else "icosphere", key: value}
-            bulk = schema._build_group(tuple(row), [row])[0] is not None
-            try:
-                schema.Object.model_validate(row)
-                single = True
-            except Exception:  # noqa: BLE001 - pydantic's refusal
-                single = False
-            assert bulk == single == ok, (key, value, fields[key].metadata)
+    """One validator's rules: for each built-in kind, bulk checking knows every key of its model or names it as
+    pydantic's alone (a mesh file is pydantic's), and the bounds it applies are read from the fields' own
+    Field(...) (a bound changed there changes both): at each bound, and past it, it accepts what pydantic does."""
+    assert set(bulk.PLANS) == set(OBJECT_MODELS) - {MESH}
+    for shape, plan in bulk.PLANS.items():
+        left = bulk.LEFT_TO_PYDANTIC.get(shape, frozenset())
+        assert set(OBJECT_MODELS[shape].model_fields) == set(plan) | left and not set(plan) & left, shape
+    fields = OBJECT_MODELS["icosphere"].model_fields
+    assert bulk.bounds(fields["crease_angle"].metadata)[:3] == (0.0, True, 180.0)
+    assert bulk.bounds(fields["subdivisions"].metadata)[:3] == (0, True, 8)
+    assert bulk.bounds(fields["radius"].metadata) == (0.0, False, POSITION_LIMIT, False)
+    checked = 0
+    for shape in bulk.PLANS:
+        for key, field in OBJECT_MODELS[shape].model_fields.items():
+            if field.annotation not in (int, float):
+                continue
+            low, allowed, high, _ = bulk.bounds(field.metadata)
+            for value, ok in ((low, allowed), (high, True), (high * 2 if high > 0 else 1, False)):
+                value = int(value) if field.annotation is int else float(value)
+                row = {"shape": shape, key: value}
+                made = bulk._build_group(shape, tuple(row), [row])[0] is not None
+                try:
+                    OBJECT_MODELS[shape].model_validate(row)
+                    single = True
+                except Exception:  # noqa: BLE001 - pydantic's refusal
+                    single = False
+                assert made == single == ok, (shape, key, value, field.metadata)
+                checked += 1
+    assert checked >= 3 * 9  # crease_angle of each kind, radius (3 kinds), subdivisions, height, the torus' two

@@ -191,11 +191,13 @@ def test_a_light_inside_the_distance_floor_is_head_on_in_the_reference_too(sidew
     np.testing.assert_allclose(ref.image[2, 2], expected, rtol=1e-12)
 
 
-def test_the_analytic_reference_applies_colour_maps_and_a_textured_sphere_converges(tmp_path):
-    """scenes/textured_sphere.toml with a smooth ramp k_d map (an 8-bit PNG: the sRGB decoding is on both
-    sides) against the analytic reference, which reads the map itself and looks it up at the exact UVs:
-    the RMSE falls as the sphere is refined (the UVs' and the normals' interpolation error), and without the
-    map in the reference it would be far off."""
+@pytest.mark.parametrize("colour", ["display", "linear"])
+def test_the_analytic_reference_applies_colour_maps_and_a_textured_sphere_converges(tmp_path, colour):
+    """scenes/textured_sphere.toml with a smooth ramp k_d map (an 8-bit PNG: its bytes used as stored in display
+    colour, decoded from sRGB in linear colour, on both sides) against the analytic reference, which reads the
+    map itself, decodes it (or not) itself and looks it up at the exact UVs: the RMSE falls as the sphere is
+    refined (the UVs' and the normals' interpolation error), and without the map in the reference, or with the
+    other colour setting's decoding, it would be far off."""
     import OpenImageIO as oiio
 
     from raycast_phong.tools.accuracy import measured
@@ -210,17 +212,23 @@ def test_the_analytic_reference_applies_colour_maps_and_a_textured_sphere_conver
     for segments in ("[16,32]", "[64,128]"):
         scene = rp.load_scene(SCENES / "textured_sphere.toml", ["render.width=160", "render.height=120",
                                                                 f"objects.0.segments={segments}",
-                                                                f'materials.checker.kd_map="{tmp_path / "ramp.png"}"'])
+                                                                f'materials.checker.kd_map="{tmp_path / "ramp.png"}"',
+                                                                f"render.colour={colour}"])
         errors.append(measured(scene, rp.render(scene), "analytic").errors.rmse)
     # Falls with the tessellation; what stays (~1e-3) is mostly the wrap seam, which coarser mip levels blur
     # wider than the reference's level-0 lookup.
     assert errors[1] < 0.75 * errors[0] and errors[1] < 0.002, errors
     plain = rp.load_scene(SCENES / "textured_sphere.toml", ["render.width=160", "render.height=120",
                                                             "objects.0.segments=[64,128]",
-                                                            f'materials.checker.kd_map="{tmp_path / "ramp.png"}"'])
+                                                            f'materials.checker.kd_map="{tmp_path / "ramp.png"}"',
+                                                            f"render.colour={colour}"])
     untextured = plain.model_copy(update={"materials": {"checker": plain.materials["checker"].model_copy(
         update={"kd_map": None})}})
     assert measured(plain, rp.render(untextured), "analytic").errors.rmse > 10 * errors[1]
+    # The oracle follows the setting on its own: the other setting's render is far from this one's reference.
+    other = plain.model_copy(update={"render": plain.render.model_copy(
+        update={"colour": "linear" if colour == "display" else "display"})})
+    assert measured(plain, rp.render(other), "analytic").errors.rmse > 10 * errors[1]
 
 
 def test_a_textured_shape_without_exact_uvs_is_refused_in_one_line(tmp_path):

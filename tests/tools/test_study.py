@@ -148,6 +148,28 @@ def test_monotone_times_pool_adjacent_violators():
     assert fitted == pytest.approx([2.0, 2.0, 2.0, 5.0])
 
 
+def test_the_tables_and_the_advice_say_the_measured_times_beside_the_fit():
+    """Issue 34 item 5: the settings table and the headline showed the monotone fit under a "minimum over the
+    rounds" caption (Phong L3 41.1 ms shown, 24.5 ms measured). Hand-made: measured 30, 10, 25 ms, fitted 20,
+    20, 20: the measured figures are what the tables' "measured" column and the advice say."""
+    import dataclasses
+
+    from raycast_phong.tools.study import Study, advice, rows_table
+    from raycast_phong.tools.study_report import fronts_table
+    row = next(iter(_tiny_rows()))
+    rows = [dataclasses.replace(row, level=level, seconds_total_measured=t / 1e3, seconds_total=0.020,
+                                rmse=err) for level, t, err in ((0, 30.0, 0.03), (1, 10.0, 0.02), (2, 25.0, 0.001))]
+    study = Study(rows=rows, target=0.01, noise=None)
+    table = rows_table(study)
+    column = table[0].index("ms to image, measured")
+    assert [line[column] for line in table[1:]] == ["30.00", "10.00", "25.00"]
+    assert [line[table[0].index("ms, monotone fit")] for line in table[1:]] == ["20.00"] * 3
+    fronts = fronts_table(study)
+    assert {line[fronts[0].index("ms to image, measured")] for line in fronts[1:]} <= {"30.00", "10.00", "25.00"}
+    text = advice(study)
+    assert "25.0 ms to image measured (RMSE 0.0010)" in text, text
+
+
 def test_the_front_and_the_advice_pick_the_fastest_setting_that_reaches_the_target(exact_sphere):
     rows = exact_sphere.rows
     front = pareto_front(rows)
@@ -245,7 +267,9 @@ def test_small_study_writes_report_csv_plots_and_summary(tmp_path):
     assert int(row["silhouette_pixels"]) == errors.silhouette_pixels
     assert float(row["highlight_loss"]) == errors.highlight_loss
     assert int(row["triangles"]) == again.triangles == 448  # uv sphere, segments [16, 8]
-    assert 0 < float(row["seconds"]) <= float(row["seconds_total"]) <= float(row["seconds_total_median"])
+    # the frame within the whole, each stage's minimum within the median round (the monotone fit can be above
+    # one level's median: it pools levels measured in the wrong order)
+    assert 0 < float(row["seconds"]) <= float(row["seconds_total_measured"]) <= float(row["seconds_total_median"])
 
 
 def test_a_cylinder_scene_can_be_studied(tmp_path):

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -55,8 +56,10 @@ def decode_png(data: bytes, folder: Path) -> np.ndarray:
 
 
 def rendered_png(scene: rp.Scene) -> np.ndarray:
-    """What `raycast-phong render -o x.png` stores for the scene: the 8-bit display values."""
-    return to_8bit(rp.render(scene).image)
+    """What `raycast-phong render -o x.png` stores for the scene: the 8-bit values, encoded as its render.colour
+    says."""
+    result = rp.render(scene)
+    return to_8bit(result.image, result.colour)
 
 
 def receive_frame(ws) -> tuple[dict, dict]:
@@ -602,6 +605,28 @@ def test_a_mesh_file_is_framed_lit_and_rendered(tmp_path):
     image = decode_png(parts["a"], tmp_path)
     covered = image.max(axis=2) > 0
     assert covered.any() and not (covered[0].any() or covered[-1].any() or covered[:, 0].any() or covered[:, -1].any())
+
+
+def test_the_colour_setting_is_a_control_and_a_frame_is_encoded_as_it_says(scene_path, tmp_path):
+    """render.colour (display or linear): the page has a control offering exactly the schema's values, the scene
+    it opens says which, and a linear frame is the PNG `render` writes for it (through the sRGB curve), not the
+    display one; a glTF opens in linear colour, as `render model.glb` does."""
+    from raycast_phong.io.encoding import COLOURS
+    page = Path(__file__).resolve().parents[2] / "raycast_phong" / "tools" / "view" / "static" / "index.html"
+    control = re.search(r'<select data-key="render\.colour".*?</select>', page.read_text(), re.S)
+    assert control and tuple(re.findall(r'value="(\w+)"', control[0])) == COLOURS
+    with connect(client_for(scene_path)) as ws:
+        assert json.loads(ws.receive_text())["scene"]["render"]["colour"] == "display"
+        ws.send_text(json.dumps({"type": "render", "id": 1, "settings": {"render.colour": "linear"}}))
+        _, linear = receive_frame(ws)
+        ws.send_text(json.dumps({"type": "render", "id": 2, "settings": {}}))
+        _, display = receive_frame(ws)
+    shown = decode_png(linear["a"], tmp_path)
+    np.testing.assert_array_equal(shown, rendered_png(rp.load_scene(scene_path, ["render.colour=linear"])))
+    assert (shown.astype(int) - decode_png(display["a"], tmp_path)).max() > 10  # the curve lifts the mid-tones
+    glb = Path(__file__).resolve().parents[2] / "scenes" / "meshes" / "still_life.glb"
+    with connect(client_for(glb)) as ws:
+        assert json.loads(ws.receive_text())["scene"]["render"]["colour"] == "linear"
 
 
 def test_view_command_on_a_busy_port_fails_in_one_line(monkeypatch):

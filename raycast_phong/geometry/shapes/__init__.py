@@ -7,8 +7,9 @@ only the triangles that would join it to itself are left out (trimesh instead me
 and drops revolved triangles of area below 1e-8, which opens holes near the poles of a fine uv sphere). Every
 shape is centred on the origin; revolved shapes turn about z.
 
-Adding a kind: a module here with a ShapeKind subclass, its line in KINDS, and its keys in the scene schema
-(docs/scene-format.md shows a worked example).
+Adding a kind: a module here with its keys (a scene.fields.KindKeys model: each key with its default and bounds)
+and a ShapeKind subclass naming them, and its line in KINDS; nothing else (docs/pipeline.md's worked cone). The
+scene schema gathers the keys from KINDS, so this package imports nothing of the scene but its value types.
 """
 
 from __future__ import annotations

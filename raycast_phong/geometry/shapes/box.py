@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...scene.fields import KindKeys, lengths
 from .kind import ShapeKind
 
 # A box's 12 triangles over its corners 4x + 2y + z (x, y, z ∈ {0, 1}): two per side, counter-clockwise
@@ -38,8 +39,13 @@ def box_uv(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
                      scaled[rows, np.arange(3)[None], second[:, None]]], axis=-1)
 
 
+class BoxKeys(KindKeys):
+    size: lengths(3, "[x, y, z]") | None = None  # (2, 2, 2)
+
+
 class Box(ShapeKind):
     name = "box"
+    keys = BoxKeys
     size_key = "shape"
     curved = False
 

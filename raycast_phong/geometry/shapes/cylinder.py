@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...scene.fields import KindKeys, Length, Segments
 from .kind import ShapeKind, doublings
 from .surfaces import revolve, sphere_uv
 
@@ -28,8 +29,15 @@ def cylinder_uv(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return np.stack([u, v], axis=-1)
 
 
+class CylinderKeys(KindKeys):
+    radius: Length = 1.0
+    height: Length = 2.0  # along the local z axis
+    segments: Segments | None = None  # (32, 1): sections around; the second is unused
+
+
 class Cylinder(ShapeKind):
     name = "cylinder"
+    keys = CylinderKeys
     thin_key = "radius"
 
     def lengths(self, obj):

@@ -5,7 +5,9 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
+from pydantic import Field
 
+from ...scene.fields import KindKeys, Length, Whole
 from .kind import ShapeKind
 from .surfaces import sphere_uv
 
@@ -53,10 +55,19 @@ def icosphere(subdivisions: int) -> tuple[np.ndarray, np.ndarray]:
     return vertices, faces
 
 
+MAX_SUBDIVISIONS = 8  # 20·4^8 = 1.3 M triangles an object: finer is a mesh file's job
+
+
+class IcosphereKeys(KindKeys):
+    radius: Length = 1.0
+    subdivisions: Whole = Field(2, ge=0, le=MAX_SUBDIVISIONS)
+
+
 class Icosphere(ShapeKind):
     name = "icosphere"
+    keys = IcosphereKeys
     size_key = "subdivisions"
-    max_level = 8  # subdivisions ≤ 8
+    max_level = MAX_SUBDIVISIONS
 
     def lengths(self, obj):
         return (obj.radius,)

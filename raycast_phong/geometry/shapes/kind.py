@@ -1,6 +1,6 @@
-"""The one interface every built-in kind of object has (`ShapeKind`): what the renderer, the memory estimate,
-the plan's advice and the accuracy study ask of a shape. Each kind is one module of this package; the registry
-(`shapes.KINDS`) is the only list of them.
+"""The one interface every built-in kind of object has (`ShapeKind`): its keys (the scene schema's model of them),
+and what the renderer, the memory estimate, the plan's advice and the accuracy study ask of a shape. Each kind is
+one module of this package; the registry (`shapes.KINDS`) is the only list of them.
 """
 
 from __future__ import annotations
@@ -11,14 +11,18 @@ from typing import ClassVar
 import numpy as np
 
 from ...errors import SceneError
+from ...scene.fields import KindKeys
+from ...scene.messages import Location
 
 THIN = 2.0 ** -23  # float32's resolution: a tube thinner than this share of the shape collapses in Embree's frame
 
 
 class ShapeKind:
-    """A built-in kind of object. A subclass states its name and the keys that set its size, and builds its
-    triangles at unit size (`unit_mesh`); the rest has defaults that fit a closed, curved shape."""
+    """A built-in kind of object. A subclass states its name, its own keys (`keys`: their defaults and bounds, which
+    the scene schema validates), the key that sets its size, and builds its triangles at unit size (`unit_mesh`);
+    the rest has defaults that fit a closed, curved shape."""
     name: ClassVar[str]
+    keys: ClassVar[type[KindKeys]] = KindKeys  # the keys it alone reads (none: only the keys of every object)
     size_key: ClassVar[str] = "segments"   # the scene key that sets its triangle count (the memory advice)
     curved: ClassVar[bool] = True          # a highlight can be narrower than a pixel on it (flat faces: no)
     thin_key: ClassVar[str | None] = None  # the length that must stay above float32's resolution of the whole
@@ -37,16 +41,16 @@ class ShapeKind:
         """How many triangles `template` makes (the memory estimate counts before building)."""
         raise NotImplementedError
 
-    def template(self, obj, index: int, source: str) -> tuple[np.ndarray, np.ndarray]:
-        """The object's triangles in its own frame, at its size; SceneError (one line) when a tube is too thin
-        for Embree's float32 to hit."""
+    def template(self, obj, where: Location) -> tuple[np.ndarray, np.ndarray]:
+        """The object's triangles in its own frame, at its size; SceneError (one line, at `where`: the object's
+        location) when a tube is too thin for Embree's float32 to hit."""
         lengths = self.lengths(obj)
         unit = max(lengths)
         thin = getattr(obj, self.thin_key) if self.thin_key else unit
         if thin < THIN * unit:
-            raise SceneError(f"{source}: objects.{index}: a {obj.shape} with lengths {list(lengths)} has no "
-                             f"triangles Embree can hit: its {self.thin_key} is below float32's resolution of its "
-                             f"size; allowed: at least {THIN:.3g} of the larger length")
+            raise SceneError(f"a {obj.shape} with lengths {list(lengths)} has no triangles Embree can hit: its "
+                             f"{self.thin_key} is below float32's resolution of its size; allowed: at least "
+                             f"{THIN:.3g} of the larger length", where)
         vertices, faces = self.unit_mesh(obj, unit)
         return vertices * unit, faces
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...scene.fields import KindKeys, Segments, lengths
 from .kind import ShapeKind, doublings
 
 
@@ -31,11 +32,17 @@ def planar_uv(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return np.stack([(corners[..., 0] - low[0]) / span[0], (high[2] - corners[..., 2]) / span[2]], axis=-1)
 
 
+class PlaneKeys(KindKeys):
+    size: lengths(2, "[width, depth]") | None = None  # (2, 2), in its local x–z plane
+    segments: Segments | None = None  # (1, 1): cells along x and z
+
+
 class Plane(ShapeKind):
     name = "plane"
+    keys = PlaneKeys
     curved = False
 
-    def template(self, obj, index, source):
+    def template(self, obj, where):
         return plane_mesh(obj.size or (2.0, 2.0), obj.segments or (1, 1))
 
     def triangles(self, obj):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...scene.fields import KindKeys, Length, Segments
 from .kind import ShapeKind, doublings
 from .surfaces import _seamless, revolve
 
@@ -26,8 +27,15 @@ def torus_uv(vertices: np.ndarray, faces: np.ndarray, major_radius: float) -> np
     return np.stack([_seamless(u), _seamless(v)], axis=-1)
 
 
+class TorusKeys(KindKeys):
+    major_radius: Length = 1.0  # of the tube's centre circle
+    minor_radius: Length = 0.25  # of the tube
+    segments: Segments | None = None  # (32, 16): steps around z, steps around the tube
+
+
 class Torus(ShapeKind):
     name = "torus"
+    keys = TorusKeys
     thin_key = "minor_radius"
 
     def lengths(self, obj):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...scene.fields import KindKeys, Length, Segments
 from .kind import ShapeKind, doublings
 from .surfaces import revolve, sphere_uv
 
@@ -18,8 +19,14 @@ def uv_sphere(segments) -> tuple[np.ndarray, np.ndarray]:
     return revolve(radius, -np.cos(theta), 2 * longitude)
 
 
+class UvSphereKeys(KindKeys):
+    radius: Length = 1.0
+    segments: Segments | None = None  # (32, 16): points from pole to pole, half the steps around
+
+
 class UvSphere(ShapeKind):
     name = "uv_sphere"
+    keys = UvSphereKeys
 
     def lengths(self, obj):
         return (obj.radius,)

@@ -21,6 +21,8 @@ from ...errors import ImageError, SceneError, WriteError
 from ...io.files import open_regular
 from ...io.image_io import write_image
 from ...scene.load import load_scene
+from ...scene.messages import Location
+from ...scene.overrides import SRGB_OVERRIDE
 from ...scene.schema import Scene
 from ..sweep import Job, is_sweep, load_sweep
 from .manifest import is_own_manifest
@@ -35,7 +37,11 @@ INTERRUPTED, NOT_STARTED = "interrupted", "not started"
 @dataclass(frozen=True)
 class Settings:
     """Options that change the bytes written, besides the scene: part of every job's hash."""
-    srgb: bool = False  # PNG outputs sRGB-encoded
+    srgb: bool = False  # --srgb: every scene loaded with render.colour = "linear" (before a sweep's overrides)
+
+    def overrides(self, job: Job) -> list[str]:
+        """The job's overrides as its scene is loaded: --srgb's first, so a sweep over render.colour still wins."""
+        return [SRGB_OVERRIDE, *job.overrides] if self.srgb else list(job.overrides)
 
 
 @dataclass(frozen=True)
@@ -78,6 +84,12 @@ class Outcome:
     hash: str | None = None
     inputs: dict[str, int] = field(default_factory=dict)  # scene and mesh files → modification time (ns)
     traceback: str | None = None      # for an internal error (a bug, not bad input): where it was raised
+    warnings: list[str] = field(default_factory=list)  # the render plan's warnings (results one may not want)
+    notes: list[str] = field(default_factory=list)     # and its notes; an up-to-date scene keeps its last ones
+
+    def line(self, message: str) -> str:
+        """`message` about this scene as one line: its scene file first, and a sweep cell's name after."""
+        return _labelled(self.scene, self.name, bool(self.overrides), message)
 
 
 @dataclass
@@ -132,15 +144,17 @@ def listed_paths(stream, source: str = "stdin", warnings: list[str] | None = Non
     glob), blank lines skipped; at most MAX_LISTED_BYTES (`yes | batch -` must not fill the memory). A line with
     a NUL byte names no file on any system: it is left out, with a line in `warnings`, and the others go on."""
     if stream is None:  # the program was started with stdin closed (`<&-`)
-        raise SceneError(f"{source}: standard input is closed; pipe the scene paths to `batch -`, one a line")
+        raise SceneError("standard input is closed; pipe the scene paths to `batch -`, one a line", Location(source))
     data = stream.read(MAX_LISTED_BYTES + 1)
     if len(data) > MAX_LISTED_BYTES:
-        raise SceneError(f"{source}: the list of scene paths is more than the {MAX_LISTED_BYTES >> 20} MiB allowed")
+        raise SceneError(f"the list of scene paths is more than the {MAX_LISTED_BYTES >> 20} MiB allowed",
+                         Location(source))
     text = data.decode("utf-8", "surrogateescape") if isinstance(data, bytes) else data
     lines = [(number, line.removesuffix("\r")) for number, line in enumerate(text.split("\n"), 1) if line.strip()]
     for number, line in lines:
         if "\0" in line and warnings is not None:
-            warnings.append(f"{source}: line {number}: a path with a NUL byte names no file; left out")
+            where = Location(source, part=f"line {number}")
+            warnings.append(f"{where}: a path with a NUL byte names no file; left out")
     return [line for _, line in lines if "\0" not in line]
 
 
@@ -171,7 +185,7 @@ def find_jobs(paths: list[str | Path], out: str | Path | None = None, listed: li
                            if not Path(p).is_dir() and _is_scene(Path(p)))
         found = [p for p in found if out is None or not is_own_manifest(p, Path(out))]
         if not found:
-            raise SceneError(f"{given}: no such scene file, folder or matching glob")
+            raise SceneError("no such scene file, folder or matching glob", Location(given))
         files += [p for p in found if p not in files]
     jobs: list[Job] = []
     for path in files:
@@ -179,8 +193,8 @@ def find_jobs(paths: list[str | Path], out: str | Path | None = None, listed: li
     seen: dict[str, Job] = {}
     for job in jobs:
         if job.name in seen:
-            raise SceneError(f"{job.scene}: its output name {job.name!r} is also {seen[job.name].scene}'s; "
-                             "rename one of the files or run them in separate batches")
+            raise SceneError(f"its output name {job.name!r} is also {seen[job.name].scene}'s; rename one of the "
+                             "files or run them in separate batches", Location(str(job.scene)))
         seen[job.name] = job
     return jobs
 
@@ -192,10 +206,12 @@ def _is_scene(path: Path) -> bool:
 
 
 def job_hash(job: Job, scene: Scene | None, settings: Settings) -> str:
-    """sha256 of the package version, the settings, the overrides, the scene file and its meshes' bytes."""
+    """sha256 of the package version, the settings, the overrides, the scene's render.colour (a mesh file's
+    comes from its format, not its bytes), the scene file and its meshes' bytes."""
     from ... import __version__
     digest = hashlib.sha256()
-    header = {"package": __version__, "settings": asdict(settings), "overrides": list(job.overrides)}
+    header = {"package": __version__, "settings": asdict(settings), "overrides": list(job.overrides),
+              "colour": scene.render.colour if scene is not None else None}
     digest.update(json.dumps(header, sort_keys=True).encode())
     for path in input_paths(job, scene):
         digest.update(str(path.name).encode())
@@ -251,7 +267,7 @@ def prepare_job(job: Job, folder: Path, settings: Settings, previous: dict | Non
     start = time.perf_counter()
     entry = new_entry(job, FAILED)
     try:
-        scene = absolute_folder(load_scene(job.scene, job.overrides, max_memory=max_memory))
+        scene = absolute_folder(load_scene(job.scene, settings.overrides(job), max_memory=max_memory))
     except SceneError as error:
         entry.reason, entry.hash = reason_line(job, str(error)), job_hash(job, None, settings)
         return entry
@@ -261,7 +277,8 @@ def prepare_job(job: Job, folder: Path, settings: Settings, previous: dict | Non
     digest, inputs = job_hash(job, scene, settings), input_times(job, scene)
     if not force and is_current(previous, digest, inputs, folder):
         return replace(entry, status=UP_TO_DATE, outputs=previous["outputs"], seconds=previous.get("seconds", {}),
-                       rays_per_second=previous.get("rays_per_second"), hash=digest, inputs=inputs)
+                       rays_per_second=previous.get("rays_per_second"), hash=digest, inputs=inputs,
+                       warnings=_lines(previous.get("warnings")), notes=_lines(previous.get("notes")))
     output = Path(folder).absolute() / f"{job.name}{Path(scene.output.path).suffix.lower()}"
     return Task(job=job, scene=scene, output=output, digest=digest, inputs=inputs, settings=settings, threads=None,
                 load_seconds=load_seconds, before=file_identity(output))
@@ -285,8 +302,8 @@ def render_job(task: Task) -> Outcome:
     try:
         result = render(task.scene, threads=task.threads, source=str(task.job.scene), max_memory=task.max_memory)
         written = time.perf_counter()
-        write_image(task.output, result.image, result.aovs, srgb=task.settings.srgb)
-        result.timings["write"] = time.perf_counter() - written
+        write_image(task.output, result.image, result.aovs, colour=task.scene.render.colour)
+        result = result.with_timings(write=time.perf_counter() - written)
     except (SceneError, ImageError, WriteError) as error:  # a failed write is a failed scene, never rendered
         entry.reason = reason_line(task.job, str(error))
         return entry
@@ -295,7 +312,13 @@ def render_job(task: Task) -> Outcome:
     seconds = {"load": task.load_seconds, **result.timings, "total": time.perf_counter() - start}
     return replace(entry, status=RENDERED, outputs=[task.output.name],
                    seconds={name: round(value, 6) for name, value in seconds.items()},
-                   rays_per_second=round(result.rays_per_second, 1), threads=task.threads)
+                   rays_per_second=round(result.rays_per_second, 1), threads=task.threads,
+                   warnings=list(result.plan.warnings), notes=list(result.plan.notes))
+
+
+def _lines(kept: object) -> list[str]:
+    """The warnings or notes a previous manifest entry kept: its strings (an edited manifest may hold others)."""
+    return [line for line in kept if isinstance(line, str)] if isinstance(kept, list) else []
 
 
 def new_entry(job: Job, status: str, **fields) -> Outcome:
@@ -311,9 +334,13 @@ def _internal_error(job: Job, entry: Outcome, error: BaseException) -> Outcome:
 
 def reason_line(job: Job, message: str) -> str:
     """One line that starts with the scene file (SceneError messages already do), and names a sweep cell's values."""
-    line = message.splitlines()[0] if message else "unknown error"
-    line = line if line.startswith(str(job.scene)) else f"{job.scene}: {line}"
-    return f"{line} (sweep cell {job.name})" if job.sweep else line
+    return _labelled(str(job.scene), job.name, bool(job.sweep), message.splitlines()[0] if message else
+                     "unknown error")
+
+
+def _labelled(scene: str, name: str, cell: bool, line: str) -> str:
+    line = line if line.startswith(scene) else f"{scene}: {line}"
+    return f"{line} (sweep cell {name})" if cell else line
 
 
 def file_identity(path: Path) -> tuple[int, int, int] | None:

@@ -85,20 +85,20 @@ def folder_lock(folder: Path) -> Iterator[None]:
     except OSError as error:
         if error.errno == errno.ELOOP:
             raise BatchFolderError(f"{path}: the batch lock is a symbolic link, which the batch does not write "
-                                   "through; remove it, or use another --out") from None
+                                   "through; remove it, or use another -o/--output") from None
         raise BatchFolderError(f"{path}: cannot create the batch lock ({error.strerror})") from None
     try:
         info = os.fstat(descriptor)
         if not stat.S_ISREG(info.st_mode) or info.st_nlink != 1:
             what = "not a regular file" if not stat.S_ISREG(info.st_mode) else f"a file of {info.st_nlink} names"
             raise BatchFolderError(f"{path}: the batch lock is {what}, which the batch does not write through; "
-                                   "remove it, or use another --out")
+                                   "remove it, or use another -o/--output")
         try:
             fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             holder = os.pread(descriptor, 32, 0).decode(errors="replace").strip()
             raise BatchBusy(f"{folder}: another batch{f' (process {holder})' if holder.isdigit() else ''} is "
-                             "writing into this folder; wait for it to finish, or use another --out") from None
+                             "writing into this folder; wait for it to finish, or use another -o/--output") from None
         try:
             os.ftruncate(descriptor, 0)
             os.pwrite(descriptor, f"{os.getpid()}\n".encode(), 0)  # for the message above; the lock is the flock

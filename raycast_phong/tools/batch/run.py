@@ -161,7 +161,7 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
         raise
     write_manifest(folder, manifest)
     done = report()
-    done.sheets = write_contact_sheets(jobs, done, settings, force, budget or max_memory)
+    done.sheets = write_contact_sheets(jobs, done, force, budget or max_memory)
     manifest["sheets"].update(done.sheets)
     done.seconds = time.perf_counter() - started
     manifest["batch"] = {"seconds": round(done.seconds, 6), "startup": round(startup, 6), "cores": cores,

@@ -89,12 +89,13 @@ def close(app) -> None:
     app.state.executor.shutdown(wait=False, cancel_futures=True)  # each page's own threads end with its socket
 
 
-def server_config(app):
+def server_config(app, log_level: str = "warning"):
+    """uvicorn's settings for the view; log_level "info" logs every request (`view --verbose`)."""
     import uvicorn
     # ws_max_size: the page's messages are small settings tables; refuse a flood at the protocol level.
     # lifespan off: the app has no start-up or shut-down events, and uvicorn's lifespan task logged a
     # traceback when Ctrl-C's KeyboardInterrupt cancelled it.
-    return uvicorn.Config(app, log_level="warning", ws_max_size=1 << 16, ws_ping_interval=None, lifespan="off")
+    return uvicorn.Config(app, log_level=log_level, ws_max_size=1 << 16, ws_ping_interval=None, lifespan="off")
 
 
 @contextmanager
@@ -120,9 +121,9 @@ def running(path: str | Path | None, host: str = "127.0.0.1", port: int = 0, tok
 
 
 def serve(path: str | Path | None, host: str = "127.0.0.1", port: int = 8765, open_browser: bool = True,
-          announce=print, token: str | None = None) -> None:
+          announce=print, token: str | None = None, log_level: str = "warning") -> None:
     """Serve the view of `path` (scene, mesh, or None for the default scene) until interrupted; the token is
-    remembered_token() unless given."""
+    remembered_token() unless given; uvicorn logs at `log_level` ("info": every request)."""
     import uvicorn
     source = open_source(path)
     sock = bind(host, port)
@@ -134,7 +135,7 @@ def serve(path: str | Path | None, host: str = "127.0.0.1", port: int = 8765, op
     if open_browser:
         webbrowser.open(url)
     try:
-        uvicorn.Server(server_config(app)).run(sockets=[sock])
+        uvicorn.Server(server_config(app, log_level)).run(sockets=[sock])
     finally:
         sock.close()
         close(app)

@@ -46,6 +46,7 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 import raycast_phong as rp
 from raycast_phong.codes import OUTPUT_PATH, ShadingModel
 from raycast_phong.errors import RenderCancelled, SceneError, ViewError
+from raycast_phong.io.encoding import DISPLAY, display_values
 from raycast_phong.io.image_io import image_bytes
 from raycast_phong.io.scene_file import syntax_limit
 from raycast_phong.io.scene_toml import scene_toml, toml_value
@@ -222,9 +223,9 @@ def settings_from(source: Source, text: str, name: str) -> dict:
 
 # ---------------------------------------------------------------- frames
 
-def encode(image: np.ndarray, suffix: str, aovs: dict | None = None) -> bytes:
-    """An image as the bytes of the file `raycast-phong render -o x.png|.exr` would write."""
-    return image_bytes(image, suffix, aovs)
+def encode(image: np.ndarray, suffix: str, aovs: dict | None = None, colour: str = DISPLAY) -> bytes:
+    """An image rendered in `colour` as the bytes of the file `raycast-phong render -o x.png|.exr` would write."""
+    return image_bytes(image, suffix, aovs, colour)
 
 
 def pack(header: dict, parts: list[tuple[str, bytes]]) -> bytes:
@@ -311,8 +312,8 @@ class Renderer:
                                  cancelled=cancelled)
             if name == "a" and quality == "full" and not request.get("models") and shown is not None:
                 shown["a"] = (request.get("id"), result)  # errors() measures this image, not a new one
-            images[name] = result.image
-            parts.append((name, encode(result.image, ".png")))
+            images[name] = display_values(result.image, result.colour)  # A and B compared as shown
+            parts.append((name, encode(result.image, ".png", colour=result.colour)))
             stats[name] = {"frame": result.timings["frame"], "rays_per_second": result.rays_per_second,
                            "rays": result.rays, "triangles": result.triangles, "left_out": left_out(result.plan),
                            "warnings": list(result.plan.warnings),
@@ -363,7 +364,7 @@ class Renderer:
             data = scene_toml(scene).encode("utf-8")
         elif what in ("png", "exr"):
             result = self.render(scene if what == "exr" else frame_of(scene), source=self.source.name, cache=cache)
-            data = encode(result.image, f".{what}", result.aovs if what == "exr" else None)
+            data = encode(result.image, f".{what}", result.aovs if what == "exr" else None, result.colour)
         else:
             raise ViewError(f"save: {what!r}; allowed: 'toml', 'png' or 'exr'")
         return pack({"type": "saved", "id": request.get("id"), "what": what, "filename": f"{stem}.{what}"},

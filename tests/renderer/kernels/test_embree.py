@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import ctypes
 import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -17,14 +16,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import raycast_phong
 import raycast_phong as rp
 from raycast_phong.geometry.build import build_geometry
 from raycast_phong.renderer import embree
 from raycast_phong.renderer.intersect import Accelerator, TileHits, unit_frame
 from raycast_phong.renderer.pack import camera_rig, generate_rays
 
-PACKAGE = Path(raycast_phong.__file__).resolve().parent
 SCENES = Path(__file__).resolve().parents[3] / "scenes"
 
 # Both paths run Embree's own float32 ray–triangle test (robust mode) on the same vertices and rays, but the
@@ -142,18 +139,14 @@ def test_without_the_library_a_render_stops_with_one_clear_line(tmp_path, librar
 
 
 @pytest.mark.slow
-def test_a_cached_kernel_that_calls_embree_loads_without_compiling(tmp_path):
-    """The queries link by name (llvmlite add_symbol), so numba's cache serves a fresh process: no recompile."""
-    shutil.copytree(PACKAGE, tmp_path / "src" / "raycast_phong", ignore=shutil.ignore_patterns("__pycache__"))
-    # The copy's own __pycache__ holds its kernels: no NUMBA_CACHE_DIR (as in test_kernel_cache.py).
-    env = {"PYTHONPATH": str(tmp_path / "src"), "NUMBA_CACHE_DIR": ""}
+def test_a_cached_kernel_that_calls_embree_loads_without_compiling(cold_package, tmp_path):
+    """The queries link by name (llvmlite add_symbol), so numba's cache serves a fresh process: no recompile.
+    The shared copy's kernels were compiled by another process (its first `render`) into its own cache."""
     scene = str(SCENES / "default.toml")
-    # cwd: tmp_path, so that `-c` code imports the copy (the working folder comes first on sys.path).
-    first = _run(RENDER, scene, str(tmp_path / "first.npy"), env=env, cwd=tmp_path).stdout.split()
-    again = _run(RENDER, scene, str(tmp_path / "again.npy"), env=env, cwd=tmp_path).stdout.split()
-    assert int(first[2]) > 0, "the first process should have compiled render_band into the copy's cache"
-    assert int(again[1]) > 0 and int(again[2]) == 0, f"hits, misses = {again[1:]}: the cached kernel recompiled"
-    np.testing.assert_array_equal(np.load(tmp_path / "again.npy"), np.load(tmp_path / "first.npy"))
+    fresh = cold_package.python(RENDER, scene, str(tmp_path / "fresh.npy")).stdout.split()
+    assert int(fresh[1]) > 0 and int(fresh[2]) == 0, f"hits, misses = {fresh[1:]}: the cached kernel recompiled"
+    here = rp.render_file(scene, ["render.width=48", "render.height=36"], threads=2).image  # this process's
+    np.testing.assert_array_equal(np.load(tmp_path / "fresh.npy"), here)
 
 
 OUT_OF_ADDRESS_SPACE = """

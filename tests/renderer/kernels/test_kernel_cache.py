@@ -66,25 +66,6 @@ def edit(path: Path, old: str, new: str) -> None:
     path.write_text(text.replace(old, new))
 
 
-@pytest.mark.slow
-def test_an_edit_to_an_inlined_helper_reaches_the_cached_kernel(package_copy, tmp_path):
-    copy, run = package_copy
-    assert str(copy.parent) in run("import raycast_phong; print(raycast_phong.__file__)")
-    first = json.loads(run(RENDER, str(tmp_path / "first.npy")))
-    again = json.loads(run(RENDER, str(tmp_path / "again.npy")))
-    assert first["misses"] > 0 and again == {"hits": again["hits"], "misses": 0} and again["hits"] > 0
-    # Double the diffuse term in illumination.py only: shading.py, where the cached kernel lives, is untouched.
-    edit(copy / "renderer" / "kernels" / "illumination.py", "lit = weight * n_dot_l\n",
-         "lit = two * weight * n_dot_l\n")
-    edited = json.loads(run(RENDER, str(tmp_path / "edited.npy")))
-    assert edited["misses"] > 0, "the cached _shade_rays was loaded although illuminate changed"
-    (before, diffuse), (after, _) = np.load(tmp_path / "first.npy"), np.load(tmp_path / "edited.npy")
-    np.testing.assert_array_equal(np.load(tmp_path / "again.npy")[0], before)
-    # image' = image + diffuse exactly, up to float32 rounding of the sum (a few ulps of the pixel).
-    assert diffuse.max() > 0.3
-    np.testing.assert_allclose(after, before + diffuse, rtol=1e-6, atol=1e-7)
-
-
 def test_the_cache_key_covers_every_module_a_kernel_reads_and_only_those(package_copy):
     copy, run = package_copy
     key = run(KEY)
@@ -97,9 +78,12 @@ def test_the_cache_key_covers_every_module_a_kernel_reads_and_only_those(package
     tool.write_text(tool.read_text() + "\n# an edit\n")
     assert run(KEY) == key
     # The scene schema is no kernel code (kernels read renderer/kernels/layout.py's tables): a new message
-    # there recompiles nothing. So is the packing of a Scene into those tables (renderer/pack.py).
-    edit(copy / "scene" / "schema.py", 'raise ValueError(f"must be a whole number, got {shown(value)}")',
+    # there recompiles nothing, nor does a kind's key. So is the packing of a Scene into those tables
+    # (renderer/pack.py).
+    edit(copy / "scene" / "fields.py", 'raise ValueError(f"must be a whole number, got {shown(value)}")',
          'raise ValueError(f"must be an integer, got {shown(value)}")')
+    edit(copy / "geometry" / "shapes" / "box.py", '    size: lengths(3, "[x, y, z]") | None = None',
+         '    size: lengths(3, "[x, y, z]") | None = None\n    bevel: float = 0.0')
     (copy / "renderer" / "pack.py").write_text((copy / "renderer" / "pack.py").read_text() + "\n# an edit\n")
     assert run(KEY) == key
     # ... while the layout the kernels read is.
@@ -108,30 +92,47 @@ def test_the_cache_key_covers_every_module_a_kernel_reads_and_only_those(package
 
 
 @pytest.mark.slow
-def test_the_first_render_says_it_compiles_and_keeps_compilation_out_of_the_frame(package_copy, tmp_path):
+def test_the_first_render_says_it_compiles_and_keeps_compilation_out_of_the_frame(cold_package):
     """After an install (an empty cache) `render` says it is compiling before it does, and reports those
     seconds apart: the frame, and the Mrays/s printed from it, hold none of them. The next run says nothing."""
-    del package_copy  # its copy of the package under tmp_path/src is what PYTHONPATH imports
-    cli = ("import sys; sys.argv = ['raycast-phong', 'render', '--width', '32', '--height', '12', '-o', "
-           f"{str(tmp_path / 'x.png')!r}]; from raycast_phong.cli import app; app()")
-    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "PYTHONPATH")}
-    env["PYTHONPATH"] = str(tmp_path / "src")
-
-    def render() -> tuple[str, str]:
-        done = subprocess.run([sys.executable, "-c", cli], env=env, cwd=tmp_path, capture_output=True, text=True,
-                              timeout=300)
-        assert done.returncode == 0, done.stderr
-        return done.stdout, done.stderr
-
-    out, err = render()
+    out, err = cold_package.cold["stdout"], cold_package.cold["stderr"]
     assert "compiling the float32 shading kernels" in err and err.count("compiling") == 1, err  # said once
     compile_s = float(out.split("compile ")[1].split("s")[0])
     frame_s = float(out.split("frame ")[1].split("s")[0])
     assert compile_s > frame_s, out  # seconds of compilation against milliseconds of a 32×12 frame
-    out, err = render()
+    out, err = cold_package.warm["stdout"], cold_package.warm["stderr"]
     assert "compiling" not in err and "compile " not in out, (out, err)
     # Loading the cached kernels (numba's set-up in a new process, ~0.25 s) is reported apart too: the frame
     # of 384 rays holds none of it.
     kernels_s = float(out.split("kernels ")[1].split("s")[0])
     frame_s = float(out.split("frame ")[1].split("s")[0])
     assert kernels_s > frame_s, out
+    # float64 after float32: the same kernels in another signature are a compile too, said as one.
+    wide = cold_package.python(cold_package.cli, "--set", "render.precision=float64")
+    assert "compiling the float64 shading kernels" in wide.stderr and wide.stderr.count("compiling") == 1, wide.stderr
+    assert "compile " in wide.stdout and "kernels " not in wide.stdout, wide.stdout
+
+
+@pytest.mark.slow
+def test_an_edit_to_an_inlined_helper_reaches_the_cached_kernel(cold_package, tmp_path):
+    """On the shared copy, alone with it while it is edited (ColdPackage.editing puts it back as it was)."""
+    copy = cold_package.source
+
+    def run(*args: str, alone: bool = False) -> dict:
+        done = (cold_package.run if alone else cold_package.python)(RENDER, *args)
+        return json.loads(done.stdout.strip().splitlines()[-1])
+
+    first = run(str(tmp_path / "first.npy"))
+    again = run(str(tmp_path / "again.npy"))
+    assert again == {"hits": again["hits"], "misses": 0} and again["hits"] > 0, (first, again)
+    # Double the diffuse term in illumination.py only: shading.py, where the cached kernel lives, is untouched.
+    illumination = copy / "renderer" / "kernels" / "illumination.py"
+    with cold_package.editing(illumination):
+        edit(illumination, "lit = weight * n_dot_l\n", "lit = two * weight * n_dot_l\n")
+        edited = run(str(tmp_path / "edited.npy"), alone=True)
+    assert edited["misses"] > 0, "the cached _shade_rays was loaded although illuminate changed"
+    (before, diffuse), (after, _) = np.load(tmp_path / "first.npy"), np.load(tmp_path / "edited.npy")
+    np.testing.assert_array_equal(np.load(tmp_path / "again.npy")[0], before)
+    # image' = image + diffuse exactly, up to float32 rounding of the sum (a few ulps of the pixel).
+    assert diffuse.max() > 0.3
+    np.testing.assert_allclose(after, before + diffuse, rtol=1e-6, atol=1e-7)

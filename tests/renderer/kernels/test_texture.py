@@ -46,10 +46,11 @@ def test_wrap_function_by_hand():
     assert [wrap(i, 4, WRAP_MIRROR) for i in (-1, 4, 5, 8)] == [0, 3, 2, 0]
 
 
-def test_an_srgb_texel_of_188_decodes_to_half(tmp_path):
+def test_an_srgb_texel_of_188_decodes_to_half_in_linear_colour_and_stays_188_in_display(tmp_path):
     assert float(srgb_to_linear(188 / 255)) == pytest.approx(0.5029, abs=1e-4)
     write_png(tmp_path / "t.png", np.full((2, 2, 3), 188, np.uint8))
-    np.testing.assert_allclose(decode_file(tmp_path / "t.png"), 0.5029, atol=1e-4)
+    np.testing.assert_allclose(decode_file(tmp_path / "t.png", "linear"), 0.5029, atol=1e-4)
+    np.testing.assert_array_equal(decode_file(tmp_path / "t.png", "display"), np.float32(188 / 255))
 
 
 def test_every_mip_level_of_a_linear_ramp_is_the_same_function_of_uv():
@@ -177,7 +178,8 @@ def test_a_float_map_with_nan_inf_or_negative_texels_gives_a_finite_non_negative
     buffer = oiio.ImageBuf(oiio.ImageSpec(2, 2, 3, oiio.FLOAT))
     buffer.set_pixels(oiio.ROI(0, 2, 0, 2, 0, 1, 0, 3), np.ascontiguousarray(texels))
     assert buffer.write(str(tmp_path / "bad.exr"))
-    np.testing.assert_array_equal(decode_file(tmp_path / "bad.exr")[:, :, 0], [[0, 1], [0, 0]])
+    for colour in ("display", "linear"):  # a float map's values are linear, used as stored in both
+        np.testing.assert_array_equal(decode_file(tmp_path / "bad.exr", colour)[:, :, 0], [[0, 1], [0, 0]])
     scene = rp.validate_scene({"render": {"width": 16, "height": 16}, "camera": {"position": [0, 3, 0.5]},
                                "lights": [{"position": [0, 3, 1]}],
                                "materials": {"m": {"kd_map": "bad.exr"}},

@@ -1,0 +1,109 @@
+"""An [[objects]] entry's keys: those every object has, each kind's own (declared in its module under
+geometry/shapes/ and found through the registry, shapes.KINDS), and the union of one model per kind,
+discriminated by `shape`, that the scene validates each object as.
+
+A kind's model is its keys between the keys every object has: name, shape, the kind's own keys, then material,
+shading, normals, crease_angle, translate, rotate, scale (the order a scene is written in and keys are listed).
+A mesh file (shape = "mesh") is the one kind read, not built: its model is here.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal, Union
+
+from pydantic import AfterValidator, Field, ValidationInfo, create_model, model_validator
+
+from ..codes import ShadingModel
+from ..geometry.shapes import KINDS
+from .fields import Angles, KindKeys, Number, Position, Scale, Table
+
+MESH = "mesh"  # the shape of an object read from a mesh file
+NormalsRule = Literal["mean", "area", "angle", "file", "exact"]  # how an object's vertex normals are made
+
+
+def _normals_fit(value: str | None, info: ValidationInfo) -> str | None:
+    """A mesh file's own normals need a mesh file; the closed form needs a built-in shape."""
+    shape = info.data.get("shape")
+    if shape != MESH and value == "file":
+        raise ValueError(f'normals = "file" needs a mesh file; shape = "{shape}" has no stored normals')
+    if shape == MESH and value == "exact":
+        raise ValueError('normals = "exact" needs a built-in shape; a mesh file has no closed form (use "file", '
+                         '"mean", "area" or "angle")')
+    return value
+
+
+class ObjectHead(Table):
+    """The keys every object starts with; each kind's model narrows `shape` to its own name."""
+    name: str | None = None
+    shape: str
+
+
+class ObjectKeys(Table):
+    """The keys every object has after its kind's own: its material, shading and normals, and its placement."""
+    material: str = "default"
+    shading: ShadingModel | None = None
+    # None: "file" if the mesh file stores vertex normals, else "mean"
+    normals: Annotated[NormalsRule | None, AfterValidator(_normals_fit)] = None
+    crease_angle: Number = Field(180.0, ge=0.0, le=180.0)
+    translate: Position = (0.0, 0.0, 0.0)
+    rotate: Angles = (0.0, 0.0, 0.0)
+    scale: Scale = (1.0, 1.0, 1.0)
+
+
+class MeshKeys(KindKeys):
+    """A mesh file's key: the file, relative to the scene file's folder (any format trimesh reads)."""
+    path: str | None = None
+
+    @model_validator(mode="after")
+    def _named(self) -> MeshKeys:
+        if not self.path:
+            raise ValueError('shape = "mesh" needs path = "file.obj" (any format trimesh reads)')
+        return self
+
+
+def object_model(shape: str, keys: type[KindKeys], title: str) -> type[Table]:
+    """The model of an object of one kind: name and shape (its name only), the kind's `keys`, then the keys of
+    every object."""
+    return create_model(title, __base__=(ObjectKeys, keys, ObjectHead), __module__=__name__,
+                        __doc__=f'An object of shape = "{shape}".', shape=(Literal[shape], ...))
+
+
+# One model per kind, in the registry's order, the mesh file last.
+OBJECT_MODELS: dict[str, type[Table]] = {name: object_model(name, kind.keys, type(kind).__name__)
+                                         for name, kind in KINDS.items()}
+OBJECT_MODELS[MESH] = object_model(MESH, MeshKeys, "Mesh")
+globals().update({model.__name__: model for model in OBJECT_MODELS.values()})  # pickle finds a class by its name
+Object = Annotated[Union[tuple(OBJECT_MODELS.values())], Field(discriminator="shape")]  # noqa: UP007
+
+_COMMON = frozenset.intersection(*(frozenset(model.model_fields) for model in OBJECT_MODELS.values()))
+OWN_KEYS = {shape: tuple(key for key in model.model_fields if key not in _COMMON)
+            for shape, model in OBJECT_MODELS.items()}  # the keys each kind alone reads, in its order
+# For each kind, the keys other kinds read, with the defaults they have there.
+_FOREIGN_DEFAULTS = {shape: {key: tuple(other.model_fields[key].default for other in OBJECT_MODELS.values()
+                                        if key in other.model_fields)
+                             for key in frozenset().union(*map(OWN_KEYS.get, OBJECT_MODELS)) - set(OWN_KEYS[shape])}
+                     for shape in OBJECT_MODELS}
+
+
+def _at_default(value: Any, defaults: tuple) -> bool:
+    if isinstance(value, list):
+        value = tuple(value)
+    return not isinstance(value, bool) and value in defaults  # true == 1 in Python, not in a scene file
+
+
+def without_written_defaults(objects: Any) -> Any:
+    """The object tables without the keys of other kinds that a scene file written by an earlier version holds
+    at their defaults (it wrote every key of every shape): such a file still reads. A key another kind reads,
+    set to anything else, stays, and is refused as not applying to the object's shape."""
+    if type(objects) not in (list, tuple):
+        return objects
+    return [_trimmed(obj) if type(obj) is dict else obj for obj in objects]
+
+
+def _trimmed(obj: dict) -> dict:
+    shape = obj.get("shape")
+    foreign = _FOREIGN_DEFAULTS.get(shape) if type(shape) is str else None
+    if not foreign:
+        return obj
+    drop = [key for key, value in obj.items() if key in foreign and _at_default(value, foreign[key])]
+    return {key: value for key, value in obj.items() if key not in drop} if drop else obj

@@ -1,0 +1,48 @@
+"""A SceneError carries where its problem is (scene.messages.Location: the file, what in it when that is no key,
+the key path), and its line is that location, worded in one place, then the problem."""
+
+from __future__ import annotations
+
+import pytest
+
+import raycast_phong as rp
+from raycast_phong.errors import SceneError
+from raycast_phong.geometry.build import build_geometry
+from raycast_phong.renderer.budget import check_memory
+from raycast_phong.scene.messages import Location, located
+from raycast_phong.scene.overrides import apply_override
+
+
+def caught(call) -> SceneError:
+    with pytest.raises(SceneError) as error:
+        call()
+    found = error.value
+    assert str(found) == f"{found.where}: {found.problem}"  # one line: the location, then the problem
+    return found
+
+
+def test_a_location_words_its_file_part_and_key_path():
+    assert str(Location("s.toml")) == "s.toml"
+    assert str(Location("s.toml").at("objects", 3, "radius")) == "s.toml: objects.3.radius"
+    assert str(Location("s.toml", part="--set 'a=1'").at("a")) == "s.toml: --set 'a=1': a"
+    assert str(Location("s.toml").at("materials", "my mat", "kd_map")) == "s.toml: materials.'my mat'.kd_map"
+    assert located("s.toml") == Location("s.toml") and located(Location("x")).file == "x"
+
+
+def test_each_stage_raises_at_the_key_it_refuses(tmp_path):
+    def scene(*objects, **tables):
+        return rp.validate_scene({"objects": list(objects), **tables}, source="s.toml", folder=tmp_path)
+
+    error = caught(lambda: scene({"shape": "box", "size": [1, 2]}))
+    assert error.where == Location("s.toml", ("objects", 0, "size")) and error.problem.startswith("must be 3")
+    data = {"objects": [{"shape": "box"}]}
+    error = caught(lambda: apply_override(data, "objects.5.size=[1, 2, 3]", source="s.toml"))
+    assert error.where == Location("s.toml", ("objects", "5"), part="--set 'objects.5.size=[1, 2, 3]'")
+    thin = scene({"shape": "box"}, {"shape": "torus", "minor_radius": 1e-12})
+    assert caught(lambda: build_geometry(thin, source="s.toml")).where == Location("s.toml", ("objects", 1))
+    missing = scene({"shape": "mesh", "path": "gone.obj"})
+    error = caught(lambda: build_geometry(missing, source="s.toml"))
+    assert error.where == Location("s.toml", ("objects", 0, "path")) and error.problem.startswith("no such mesh")
+    fine = scene({"shape": "icosphere", "subdivisions": 8})
+    error = caught(lambda: check_memory(fine, "s.toml", 1 << 20))
+    assert error.where == Location("s.toml", ("objects", 0, "subdivisions"))

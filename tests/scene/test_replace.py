@@ -1,0 +1,46 @@
+"""Scene.replace: a validated change of a loaded scene from Python, without CLI strings (issue 34 item 4)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import raycast_phong as rp
+
+SCENES = Path(__file__).resolve().parents[2] / "scenes"
+
+
+def test_a_change_is_validated_and_keeps_the_scene_s_folder():
+    """The change lands where its key path says, the rest is unchanged, and the scene's textures still resolve
+    (a dump-and-validate lost the folder: the map then named a file that is not there)."""
+    scene = rp.load_scene(SCENES / "textured_sphere.toml")
+    changed = scene.replace({"render.width": 32, "render.height": 24, "lights.0.position": [1, 2, 3]})
+    assert (changed.render.width, changed.render.height, changed.lights[0].position) == (32, 24, (1.0, 2.0, 3.0))
+    assert changed.folder == scene.folder and changed.materials == scene.materials
+    assert changed.objects == scene.objects and changed.camera == scene.camera
+    assert (scene.render.width, scene.lights[0].position) != (32, (1.0, 2.0, 3.0))  # the original is untouched
+    by_cli = rp.load_scene(SCENES / "textured_sphere.toml", ["render.width=32", "render.height=24",
+                                                            "lights.0.position=[1, 2, 3]"])
+    assert changed == by_cli
+    np.testing.assert_array_equal(rp.render(changed).image, rp.render(by_cli).image)
+
+
+def test_an_empty_change_gives_an_equal_scene():
+    scene = rp.load_scene(SCENES / "default.toml")
+    assert scene.replace({}) == scene
+
+
+@pytest.mark.parametrize("changes, message", [
+    ({"render.width": -1}, "Scene.replace: render.width: out of range; allowed: 1 ≤ width ≤ 16384 (got -1)"),
+    ({"lights.9.position": [0, 0, 0]}, "Scene.replace: lights.9: lights is a list of 1 item; "
+                                       "allowed indices: 0 to 0"),
+    ({"render..width": 3}, "Scene.replace: 'render..width' is not a key path"),
+    ({"nope": 1}, "Scene.replace: nope: unknown key"),
+])
+def test_a_refused_change_is_one_line_naming_its_key(changes, message):
+    scene = rp.load_scene(SCENES / "specular.toml")
+    with pytest.raises(rp.SceneError) as raised:
+        scene.replace(changes)
+    assert str(raised.value).startswith(message) and "\n" not in str(raised.value), str(raised.value)
