@@ -12,8 +12,9 @@
     │   ├── ImageError                  an image that cannot be written or read back, or a bad output path
     │   └── BatchFolderError            a batch folder whose manifest or lock cannot be read or made
     │       └── BatchBusy               a batch folder another batch is writing into (its lock is held)
-    └── EngineError (RuntimeError)      the engine underneath failed; an internal error, exit 1
-        └── EmbreeError                 Embree's library could not be loaded, or reported an error
+    ├── EngineError (RuntimeError)      the engine underneath failed; an internal error, exit 1
+    │   └── EmbreeError                 Embree's library could not be loaded, or reported an error
+    └── RenderCancelled                 render(cancelled=...) was told to stop: its caller wants another frame
 
 Outside the tree, on purpose: tools.batch.Interrupted, a KeyboardInterrupt carrying a batch's report when
 SIGINT or SIGTERM stops it; it stays a BaseException so no `except Exception` swallows the signal.
@@ -87,3 +88,12 @@ class EngineError(RaycastPhongError, RuntimeError):
 
 class EmbreeError(EngineError):
     """Embree reported an error (the kernel layer's own class is to derive from this one)."""
+
+
+class RenderCancelled(RaycastPhongError):
+    """A render stopped between two bands because its `cancelled()` said so (a live view's newer request made
+    the frame stale); `done` of `total` bands were rendered. Neither an input's fault nor an engine's."""
+
+    def __init__(self, done: int, total: int):
+        super().__init__(f"cancelled after {done} of {total} bands")
+        self.done, self.total = done, total

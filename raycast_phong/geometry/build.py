@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, NamedTuple
 
@@ -41,7 +42,8 @@ OBJECT_CHUNK_VERTICES = 1 << 20  # placed vertices per step of a group: ~25 MB o
 
 
 def build_geometry(scene: Scene, source: str | Location = "<scene>", vertex_normals: bool = True,
-                   normal_dtype: type = np.float64, sources: dict | None = None) -> Geometry:
+                   normal_dtype: type = np.float64, sources: dict | None = None,
+                   memo: BuildMemo | None = None) -> Geometry:
     """Concatenate the scene's objects in world space, in the scene's order.
 
     Built-in objects that share a shape and its parameters (and normal rule) form one group: their mesh is
@@ -53,59 +55,230 @@ def build_geometry(scene: Scene, source: str | Location = "<scene>", vertex_norm
     kernel would round them so anyway), which halves the largest array of a smooth mesh. `sources`: the mesh
     files' io.mesh_source.MeshSource by resolved path (prepare() passes those the budget used; made here when
     not given).
+    `memo` (a live view's frames of one changing scene) keeps what the last build made and gives back what this
+    scene shares with it (BuildMemo); the Geometry is the one a build without it gives, array for array.
     """
     where = located(source)
     if sources is None and any(obj.shape == "mesh" for obj in scene.objects):
         from ..io.mesh_source import mesh_sources
         sources = mesh_sources(scene)
+    whole = memo.begin(scene, where, vertex_normals, normal_dtype) if memo is not None else None
+    if memo is not None and (kept := memo.geometry_for(whole)) is not None:
+        check_float_range(scene, kept.vertices, where)  # the lights it checks may be new
+        return kept
     material_index = {name: i + 1 for i, name in enumerate(scene.materials)}  # 0 is the built-in default
     groups = _groups(scene)
-    bank = TextureBank(scene, where)
+    bank = TextureBank(scene, where, memo)
     notes, file_notes, file_rows = [], [], FileRows(scene, material_index, bank)
     built = []  # (members, template, exact corner normals in the object frame, a mesh file's material rows)
     for members in groups:
         first = scene.objects[members[0]]
-        template = object_mesh(scene, first, where.at("objects", members[0]), sources)
-        exact = (exact_corner_normals_local(first, template.vertices, template.faces)
-                 if vertex_normals and first.normals == "exact" else None)
+        wants_exact = vertex_normals and first.normals == "exact"
+        if memo is None:
+            group = _group_template(scene, first, int(members[0]), where, wants_exact, sources)
+        else:
+            group = memo.template(_template_key(scene, first, int(members[0]), where, wants_exact, sources),
+                                  partial(_group_template, scene, first, int(members[0]), where, wants_exact,
+                                          sources))
+        file_notes += group.file_notes
+        notes += group.notes
         rows = None
-        if template.file is not None:
-            file_notes += template.file.notes
-            if first.material == "default":  # the file's own materials; any other name paints the whole mesh
-                rows = file_rows.faces(template.file)
-            faces, flipped, outward = repair_winding(template.vertices, template.faces)
-            if flipped and template.uv is not None:  # the corner arrays follow each face's new corner order
-                template = template._replace(uv=_follow_corners(template.faces, faces, template.uv))
-            if flipped and template.file.corner_colour is not None:
-                template = template._replace(file=dataclasses.replace(
-                    template.file, corner_colour=_follow_corners(template.faces, faces, template.file.corner_colour)))
-            if flipped:
-                notes.append(f"objects.{members[0]}: the winding of {flipped} of {len(faces)} faces was repaired"
-                             + (" (and turned outward: the mesh is closed)" if outward else ""))
-            template = template._replace(faces=faces)
-            if template.normals is not None:
-                against = normals_against_winding(template.vertices, faces, template.normals)
-                if against > 0.5:
-                    template = template._replace(normals=-template.normals)
-                    file_notes.append(f"objects.{members[0]}: the vertex normals {first.path!r} stores point against "
-                                      f"its faces' winding on {against:.0%} of its area; they were turned over")
-        built.append((members, template, exact, rows))
+        if group.read is not None and first.material == "default":  # the file's own materials; any other name
+            rows = file_rows.faces(group.read)                      # paints the whole mesh
+        built.append((members, group.template, group.exact, rows))
     mesh = _Mesh.allocate(scene, built, vertex_normals, normal_dtype, material_index)
     for members, template, exact, rows in built:
         step = max(1, OBJECT_CHUNK_VERTICES // max(1, len(template.vertices)))
         for at in range(0, len(members), step):
-            mesh.write(_group_part(scene, members[at:at + step], template, exact, vertex_normals, normal_dtype,
-                                   where), rows)
+            chunk = members[at:at + step]
+            if memo is None:
+                part = _group_part(scene, chunk, template, exact, vertex_normals, normal_dtype, where)
+            else:
+                part = memo.part(scene, chunk, template, vertex_normals, normal_dtype,
+                                 partial(_group_part, scene, chunk, template, exact, normal_dtype=normal_dtype,
+                                         where=where))
+            mesh.write(part, rows)
     scene_maps = bank.scene_maps([o.material for o in object_kinds(scene).firsts(scene.objects)])
     textured = bank.textures and (len(scene_maps) or file_rows.mapped)
     corner_uv = _corner_uvs(scene, built, mesh) if textured else np.zeros((0, 3, 2), np.float32)
-    corner_colour = _corner_colours(scene, built, mesh)
+    corner_colour = _corner_colours(scene, built, mesh, in_place=memo is None)
     geometry = mesh.geometry(tuple(notes), file_rows.table(), tuple(dict.fromkeys(file_notes + bank.notes)))
     geometry = dataclasses.replace(geometry, corner_uv=corner_uv, corner_colour=corner_colour,
                                    textures=tuple(bank.textures) if textured else (),
                                    scene_maps=scene_maps if textured else np.full((0, 3), -1, np.int64))
     check_float_range(scene, geometry.vertices, where)
+    if memo is not None:
+        memo.keep(whole, geometry)
     return geometry
+
+
+class _Template(NamedTuple):
+    """A group's mesh in the object frame, as every object of the group shares it, and what reading it said."""
+    template: ObjectMesh         # mended: the winding repaired (and the corner arrays reordered with it)
+    exact: np.ndarray | None     # (F, 3, 3) exact corner normals in the object frame (normals = "exact")
+    read: MeshFile | None        # a mesh file as read, before the repair: its faces' material rows come from it
+    notes: tuple[str, ...]       # the winding repair, for Geometry.notes
+    file_notes: tuple[str, ...]  # what reading the file said, and turned-over normals, for Geometry.file_notes
+
+
+def _group_template(scene: Scene, first: Object, index: int, where: Location, wants_exact: bool,
+                    sources: dict | None = None) -> _Template:
+    """The template of the group whose first object is `first` (scene.objects[index]): a shape's triangles, or
+    a mesh file read, its winding repaired and its stored normals turned outward if they point inward."""
+    template = object_mesh(scene, first, where.at("objects", index), sources)
+    exact = exact_corner_normals_local(first, template.vertices, template.faces) if wants_exact else None
+    read, notes, file_notes = template.file, [], []
+    if template.file is not None:
+        file_notes += template.file.notes
+        faces, flipped, outward = repair_winding(template.vertices, template.faces)
+        if flipped and template.uv is not None:  # the corner arrays follow each face's new corner order
+            template = template._replace(uv=_follow_corners(template.faces, faces, template.uv))
+        if flipped and template.file.corner_colour is not None:
+            template = template._replace(file=dataclasses.replace(
+                template.file, corner_colour=_follow_corners(template.faces, faces, template.file.corner_colour)))
+        if flipped:
+            notes.append(f"objects.{index}: the winding of {flipped} of {len(faces)} faces was repaired"
+                         + (" (and turned outward: the mesh is closed)" if outward else ""))
+        template = template._replace(faces=faces)
+        if template.normals is not None:
+            against = normals_against_winding(template.vertices, faces, template.normals)
+            if against > 0.5:
+                template = template._replace(normals=-template.normals)
+                file_notes.append(f"objects.{index}: the vertex normals {first.path!r} stores point against "
+                                  f"its faces' winding on {against:.0%} of its area; they were turned over")
+    return _Template(template, exact, read, tuple(notes), tuple(file_notes))
+
+
+def _template_key(scene: Scene, first: Object, index: int, where: Location, wants_exact: bool,
+                  sources: dict | None = None) -> tuple:
+    """What _group_template reads: a shape's keys; a mesh file's object, its file as it is now (its version and
+    its side files', MeshSource.identity) and the object's number and location, which its notes name."""
+    if first.shape != "mesh":
+        return ("shape", *_group_key(first, index), wants_exact)
+    return ("mesh", index, where, _mesh_stamp(scene.resolve(first.path), sources), first.normals, first.crease_angle,
+            "crease_angle" in first.model_fields_set, wants_exact)
+
+
+def _mesh_stamp(path: Path, sources: dict | None = None) -> tuple:
+    """A mesh file's identity now (its version and its side files': its MeshSource, the one prepare() made when
+    given), or (path, None) when it cannot be read: then no key matches and the read words the error."""
+    from ..io.mesh_source import mesh_source
+    source = (sources or {}).get(path) or mesh_source(path)
+    return source.identity if source.version is not None else (str(path), None)
+
+
+def _file_stamp(path: Path) -> tuple:
+    """A file's version now (io.files.file_version), or (path, None) when it cannot be stat'ed."""
+    from ..io.files import file_version
+    try:
+        return file_version(path)
+    except OSError:
+        return (str(path), None)
+
+
+class BuildMemo:
+    """What build_geometry keeps between builds of one changing scene (a live view's frames of one page), so
+    that a frame rebuilds only what its change touched:
+
+    - the last Geometry, with the key of everything it was built from (whole_key) and the versions of the
+      texture files it decoded: a scene that differs only in lights, camera or render settings other than
+      shading and colour gets that Geometry back (the same object);
+    - each group's template (a shape's triangles, or a mesh file read, merged and mended), keyed by what it
+      reads, the mesh file's version among it: a material or shading change, or a new placement, reads nothing;
+    - each group's placed part (world vertices, face and corner normals), keyed by its template and its objects'
+      placements: a new tessellation or placement of one kind rebuilds that kind's part only;
+    - the textures decoded, keyed by the file's version (or the image object a mesh file holds) and the
+      render.colour they were decoded for.
+
+    Only what the last build used is kept (one scene's worth of geometry, and its parts: as much again for a
+    scene of several objects, the parts' arrays being copied into one mesh). Not for two threads at once.
+    """
+
+    def __init__(self):
+        self._whole: tuple | None = None            # whole_key of `_geometry`
+        self._geometry: Geometry | None = None
+        self._texture_stamps: dict[str, tuple] = {}  # texture files `_geometry` decoded → their versions then
+        self._templates: dict[tuple, _Template] = {}
+        self._parts: dict[tuple, _Part] = {}
+        self._textures: dict[tuple, tuple[object, np.ndarray]] = {}  # (TextureBank key, colour) → (stamp, pixels)
+        self._used: tuple[set, set, set] = (set(), set(), set())  # templates, parts and textures of this build
+
+    def begin(self, scene: Scene, where: Location, vertex_normals: bool, normal_dtype: type) -> tuple:
+        """Start a build: the key of everything build_geometry reads from `scene` and the disk: every object's
+        keys but placement (once per kind) and the placements' bits, the materials, the default shading, the
+        colour the maps are decoded in (render.colour), the folder, the mesh files and maps as they are now; not
+        the lights (check_float_range runs on every build), the camera or the other render settings."""
+        self._used = (set(), set(), set())
+        kinds = object_kinds(scene)
+        files = tuple(_mesh_stamp(scene.resolve(o.path)) for o in scene.objects if o.shape == "mesh")
+        files += tuple(_file_stamp(scene.resolve(getattr(m, key).path)) for m in scene.materials.values()
+                       for key in ("ka_map", "kd_map", "ke_map") if getattr(m, key) is not None)
+        placed = tuple(array.tobytes() for array in placements(scene.objects))  # bits: -0.0 is not 0.0
+        return (where, scene.folder, vertex_normals, np.dtype(normal_dtype).str, scene.render.shading,
+                scene.render.colour, tuple(scene.materials.items()), tuple(kinds.firsts(scene.objects)),
+                kinds.kind.tobytes(), placed, files)
+
+    def geometry_for(self, whole: tuple) -> Geometry | None:
+        """The last Geometry if `whole` is its key and the texture files it decoded are unchanged; else None."""
+        if self._geometry is None or whole != self._whole:
+            return None
+        if any(_file_stamp(Path(path)) != stamp for path, stamp in self._texture_stamps.items()):
+            return None
+        return self._geometry
+
+    def template(self, key: tuple, make) -> _Template:
+        found = self._templates.get(key)
+        if found is None:
+            found = self._templates[key] = make()
+        self._used[0].add(key)
+        return found
+
+    def part(self, scene: Scene, members: np.ndarray, template: ObjectMesh, vertex_normals: bool,
+             normal_dtype: type, make) -> _Part:
+        """The placed part of `members` sharing `template`: kept if the same template was placed the same way
+        (a part made with corner normals serves a build without them), else made by make(vertex_normals)."""
+        first = scene.objects[int(members[0])]
+        where = tuple(array.tobytes() for array in placements(scene.objects, members))
+        key = (id(template.vertices), id(template.faces), members.tobytes(), where, first.normals,
+               first.crease_angle, np.dtype(normal_dtype).str)
+        for normals in ((True, False) if not vertex_normals else (True,)):
+            found = self._parts.get((*key, normals))
+            if found is not None and found.template is template:
+                self._used[1].add((*key, normals))
+                return found.part if vertex_normals or found.part.corners is None else found.part._replace(corners=None)
+        part = make(vertex_normals)
+        self._parts[(*key, vertex_normals)] = _KeptPart(template, part)
+        self._used[1].add((*key, vertex_normals))
+        return part
+
+    def texture(self, key: tuple, stamp: object, decode) -> np.ndarray:
+        """The pixels of texture `key`, decoded again only when its stamp (a file's version, or the image object
+        a mesh file holds) is another."""
+        found = self._textures.get(key)
+        if found is None or not (found[0] is stamp or found[0] == stamp):
+            found = self._textures[key] = (stamp, decode())
+        self._used[2].add(key)
+        return found[1]
+
+    def keep(self, whole: tuple, geometry: Geometry) -> None:
+        """Remember this build's Geometry, and drop every template, part and texture it did not use."""
+        templates, parts, textures = self._used
+        self._templates = {k: v for k, v in self._templates.items() if k in templates}
+        self._parts = {k: v for k, v in self._parts.items() if k in parts}
+        self._textures = {k: v for k, v in self._textures.items() if k in textures}
+        self._texture_stamps = {key[0]: stamp for key, (stamp, _) in self._textures.items()
+                                if isinstance(stamp, tuple)}
+        self._whole, self._geometry = whole, geometry
+        self._used = (set(), set(), set())
+
+    def forget(self) -> None:
+        """Drop everything (a build failed half-way: its pieces are not all trustworthy)."""
+        self.__init__()
+
+
+class _KeptPart(NamedTuple):
+    template: ObjectMesh  # the template it was placed from (the key holds its arrays' ids: this keeps them alive)
+    part: _Part
 
 
 class _Part(NamedTuple):
@@ -285,17 +458,19 @@ class TextureBank:
     unused maps are never decoded), as the scene's render.colour asks (io.textures: as stored, or decoded from
     sRGB to linear values); a map that cannot be decoded is a note and its factor stands alone."""
 
-    def __init__(self, scene: Scene, where: Location):
-        self.scene, self.where = scene, where
+    def __init__(self, scene: Scene, where: Location, memo: BuildMemo | None = None):
+        self.scene, self.where, self.memo = scene, where, memo
         self.textures: list[Texture] = []
         self.notes: list[str] = []
         self.found: dict = {}
 
-    def add(self, key, decode, wrap_s: str, wrap_t: str, name: str) -> int:
-        """The texture row of `key`, decoded by `decode()` the first time; -1 (and a note) if it cannot be."""
+    def add(self, key, decode, wrap_s: str, wrap_t: str, name: str, stamp: object = None) -> int:
+        """The texture row of `key`, decoded by `decode()` the first time; -1 (and a note) if it cannot be.
+        `stamp` (a file's version, or the image object a mesh file holds) lets a memo keep the pixels."""
         if key not in self.found:
             try:
-                pixels = decode()
+                pixels = (decode() if self.memo is None else
+                          self.memo.texture((*key, self.scene.render.colour), stamp, decode))
             except SceneError:
                 raise  # a scene's own map: the scene is wrong (one line, exit 2)
             except ValueError as error:
@@ -315,9 +490,11 @@ class TextureBank:
         colour = self.scene.render.colour
         if isinstance(found.source, Path):
             key, decode = (str(found.source), found.wrap_s, found.wrap_t), lambda: decode_file(found.source, colour)
+            stamp = _file_stamp(found.source) if self.memo is not None else None
         else:
             key, decode = (id(found.source), found.wrap_s, found.wrap_t), lambda: decode_pil(found.source, colour)
-        return self.add(key, decode, found.wrap_s, found.wrap_t, found.name)
+            stamp = found.source
+        return self.add(key, decode, found.wrap_s, found.wrap_t, found.name, stamp)
 
     def scene_map(self, name: str, key: str) -> int:
         """The texture row of a scene material's map (its `kd_map`, ...), -1 for none; SceneError (one line)
@@ -329,8 +506,9 @@ class TextureBank:
         from ..io.textures import decode_scene_map
         path, wrap = self.scene.resolve(value.path), value.wrap
         where = self.where.at("materials", name, key)
+        stamp = _file_stamp(path) if self.memo is not None else None
         return self.add((str(path), wrap, wrap), lambda: decode_scene_map(path, where, self.scene.render.colour),
-                        wrap, wrap, str(path))
+                        wrap, wrap, str(path), stamp)
 
     def maps_of(self, material, read: MeshFile | None = None) -> tuple[int, int, int]:
         """(ka, kd, ke) texture rows of a material: a FileMaterial of `read`, or a scene material by name;
@@ -439,13 +617,17 @@ def _corner_uvs(scene: Scene, built: list, mesh) -> np.ndarray:
     return _object_corners(scene, built, mesh, uvs, 2, 0.0)
 
 
-def _corner_colours(scene: Scene, built: list, mesh) -> np.ndarray:
-    """(F, 3, 3) vertex colours per corner (1 where a face has none), or empty when no used file has any."""
+def _corner_colours(scene: Scene, built: list, mesh, in_place: bool = True) -> np.ndarray:
+    """(F, 3, 3) vertex colours per corner (1 where a face has none), or empty when no used file has any.
+    `in_place`: the file's own array is changed (no copy); not when a memo keeps the file for the next build,
+    whose material rows still tell the faces without colours by their -1."""
     def colours(members, template):
         read = template.file
         if read is None or read.corner_colour is None or scene.objects[members[0]].material != "default":
             return None
-        colours = read.corner_colour  # the file's own array: -1 (a part without colours) becomes 1 in place
+        colours = read.corner_colour  # the file's own array: -1 (a part without colours) becomes 1
+        if not in_place:
+            return np.where(colours < 0, np.float32(1), colours).astype(colours.dtype, copy=False)
         colours[colours < 0] = 1
         return colours
     if not any(t.file is not None and t.file.corner_colour is not None

@@ -18,21 +18,24 @@ from . import embree
 from .film import allocate_film
 from .kernels.tile import render_band
 from .pack import film_rows
-from .prepare import NO_SHADOWS, TILE_RAYS, default_threads, prepare
+from .prepare import NO_SHADOWS, TILE_RAYS, FrameCache, default_threads, prepare
 
-__all__ = ["TILE_RAYS", "default_threads", "render", "render_file", "warm_kernels",
+__all__ = ["TILE_RAYS", "FrameCache", "default_threads", "render", "render_file", "warm_kernels",
            "warm_kernels_for"]
 
 
 def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None = None,
            progress: Callable[[int, int], None] | None = None, source: str | Location = "<scene>",
-           max_memory: int | str | None = None) -> RenderResult:
+           max_memory: int | str | None = None, cache: FrameCache | None = None,
+           cancelled: Callable[[], bool] | None = None) -> RenderResult:
     """Render a validated scene: prepare(scene, ...).render() (parameters and result: prepare.prepare and
     prepare.Prepared.render). A scene above the memory budget is refused with a SceneError before anything
     is built. (accuracy.measured adds RMSE, max, PSNR, … against the analytic or a self-convergence reference.)
+    `cache` (a FrameCache) carries the geometry and BVH from one frame of a changing scene to the next;
+    `cancelled()`, asked before each band, stops the frame with RenderCancelled when it answers True.
     """
     return prepare(scene, source=source, threads=threads, max_memory=max_memory, plan=plan,
-                   progress=progress).render()
+                   progress=progress, cache=cache, cancelled=cancelled).render()
 
 
 def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64)) -> None:

@@ -219,11 +219,13 @@ def uv_density(geometry: Geometry) -> np.ndarray:
 
 
 def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Frame,
-                    flags: tuple[int, int], real: type = np.float32) -> ShadingInputs:
+                    flags: tuple[int, int], real: type = np.float32, kept: dict | None = None) -> ShadingInputs:
     """Pack the scene's numbers into tables of the shading precision `real` for the kernel.
 
     viewing[V_FLOOR] is the smallest distance 1/d² attenuation divides by, squared: MIN_DISTANCE of the
     scene's half-extent, so a light on the surface gives a large but finite f_att (≤ 1e12 / scale²).
+    `kept` (a FrameCache's reuse.Derived of this geometry) keeps the tables made from the geometry alone (its
+    vertices, normals, texels), so that the next frame of the same arrays packs only the lights and camera.
     """
     center = frame.center
     corner = geometry.corner_normals if len(geometry.corner_normals) else np.zeros((1, 3, 3))
@@ -231,12 +233,18 @@ def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Fra
     def table(values):
         return np.ascontiguousarray(np.asarray(values, np.float64), dtype=real)
 
+    def of_geometry(name: str, fields: tuple[str, ...], make):
+        """make(), computed from the Geometry `fields` alone (and the frame, made from its vertices), or what
+        it gave before for the same bits."""
+        return make() if kept is None else kept.get(("shading", name, np.dtype(real).str), fields, make)
+
     materials = material_table([DEFAULT_MATERIAL, *scene.materials.values()], real, geometry.file_materials,
                                geometry.scene_maps)
     bits = int(flags[0])
     if bits & F_TEXTURES:  # the plan's "textures" stage (plan.surface_maps) decided it
-        texels, texture_table = pack_textures(geometry.textures)
-        corner_uv, density = np.ascontiguousarray(geometry.corner_uv, np.float32), uv_density(geometry)
+        texels, texture_table = of_geometry("textures", ("textures",), lambda: pack_textures(geometry.textures))
+        corner_uv = np.ascontiguousarray(geometry.corner_uv, np.float32)
+        density = of_geometry("uv_density", ("vertices", "faces", "corner_uv"), lambda: uv_density(geometry))
     else:
         texels, texture_table = np.zeros((1, 3), np.float32), np.zeros((0, TEXTURE_COLUMNS), np.int64)
         corner_uv, density = np.zeros((1, 3, 2), np.float32), np.zeros(1, np.float32)
@@ -246,9 +254,9 @@ def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Fra
     spread = 2.0 * rig.half_height / (scene.render.height * scene.render.samples)
 
     return ShadingInputs(
-        vertices=table(geometry.vertices - center),
+        vertices=of_geometry("vertices", ("vertices",), lambda: table(geometry.vertices - center)),
         faces=np.ascontiguousarray(geometry.faces, np.int32),
-        face_normals=table(geometry.face_normals),
+        face_normals=of_geometry("face_normals", ("face_normals",), lambda: table(geometry.face_normals)),
         corner_normals=np.ascontiguousarray(corner, real),  # no copy when geometry made them in `real`
         face_material=np.ascontiguousarray(geometry.face_material, np.int32),
         face_model=np.ascontiguousarray(geometry.face_model, np.int8),

@@ -225,7 +225,54 @@ def surface_maps(geometry, colour: str) -> list[Stage]:
 F32_SHININESS_LIMIT = 2.0 ** 24 / 512
 
 
-def diagnose(plan: RenderPlan, scene: Scene, geometry) -> RenderPlan:
+class ObjectFigures:
+    """What diagnose measures on a geometry per object, whatever the scene's lights, camera and materials:
+    each object's bounding centre and radius, and the median spread of its faces' corner normals. Computed
+    when first asked; `kept` (a FrameCache's reuse.Derived of this geometry) keeps them for the next frames
+    (the same numbers, computed the same way, as without it)."""
+
+    def __init__(self, geometry, objects: int, kept=None):
+        self.geometry, self.objects, self.kept = geometry, objects, kept
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """(N, 3) centre of each object's bounding box and (N,) the largest distance of its vertices from it,
+        over the vertices its faces use (objects own disjoint vertex ranges)."""
+        if self.kept is not None:
+            return self.kept.get("object bounds", ("vertices", "faces", "face_object"), self._bounds)
+        return self._bounds()
+
+    def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        geometry = self.geometry
+        vertex_object = np.full(len(geometry.vertices), -1, np.int64)
+        vertex_object[geometry.faces] = geometry.face_object[:, None]
+        used = np.flatnonzero(vertex_object >= 0)
+        used = used[np.argsort(vertex_object[used], kind="stable")]
+        owner, points = vertex_object[used], geometry.vertices[used]
+        present, first = np.unique(owner, return_index=True)
+        centre = np.zeros((self.objects, 3))
+        centre[present] = (np.minimum.reduceat(points, first) + np.maximum.reduceat(points, first)) / 2
+        radius = np.zeros(self.objects)
+        radius[present] = np.maximum.reduceat(np.linalg.norm(points - centre[owner], axis=1), first)
+        return centre, radius
+
+    def spread(self, wanted: np.ndarray) -> np.ndarray:
+        """(N,) the median over each `wanted` object's faces of their corner normals' largest angle (radians;
+        0 elsewhere). Kept, every object is measured the first time (the median of one object's faces does not
+        depend on which other objects are measured with it), so that another choice of objects is free."""
+        if self.kept is not None:
+            every = self.kept.get("object normal spread", ("corner_normals", "face_object"),
+                                  lambda: self._spread(np.ones(self.objects, bool)))
+            return np.where(wanted, every, 0.0)
+        return self._spread(wanted)
+
+    def _spread(self, wanted: np.ndarray) -> np.ndarray:
+        geometry = self.geometry
+        picked = np.flatnonzero(wanted[geometry.face_object])
+        return group_median(face_normal_spread(geometry.corner_normals[picked]), geometry.face_object[picked],
+                            self.objects)
+
+
+def diagnose(plan: RenderPlan, scene: Scene, geometry, figures: ObjectFigures | None = None) -> RenderPlan:
     """The plan with what the geometry tells: repaired windings, and highlights the render will miss.
 
     - Gouraud samples the model only at vertices: when neighbouring vertex normals are further apart
@@ -236,8 +283,10 @@ def diagnose(plan: RenderPlan, scene: Scene, geometry) -> RenderPlan:
     purpose: its finding is a note, which teaches the same advice, not a warning; Gouraud from render.shading
     (or --shading) is a warning. Every figure is computed for all objects at once (grouped by object,
     O(faces + objects)), and objects with the same finding share one line (aggregate_warnings): 40,000 spheres
-    give one line, not 40,000.
+    give one line, not 40,000. `figures` (ObjectFigures of this geometry, kept by a FrameCache) holds what was
+    measured on it before.
     """
+    figures = figures or ObjectFigures(geometry, len(scene.objects))
     stages = list(plan.stages)
     stages.append(Stage(StageName.WINDING_REPAIR, bool(geometry.notes),
                         "; ".join(aggregate_notes(geometry.notes)) if geometry.notes
@@ -245,7 +294,7 @@ def diagnose(plan: RenderPlan, scene: Scene, geometry) -> RenderPlan:
     stages += surface_maps(geometry, plan.colour)
     found: list[tuple[tuple, int, float]] = []  # (what the warning says, object, its measured figure)
     if plan.keeps(StageName.SPECULAR):
-        found = [*gouraud_findings(scene, geometry), *subpixel_findings(scene, geometry)]
+        found = [*gouraud_findings(scene, geometry, figures), *subpixel_findings(scene, geometry, figures)]
     from ..geometry.build import behind_camera  # geometry loads trimesh: only once a render has geometry
     behind = behind_camera(scene, geometry.vertices)
     chosen = [item for item in found if item[0][0] == "gouraud" and item[0][-1]]
@@ -268,7 +317,7 @@ def _per_object(scene: Scene, test) -> np.ndarray:
     return np.array([bool(test(obj)) for obj, _ in _kinds(scene)], bool)[object_kinds(scene).kind]
 
 
-def gouraud_findings(scene: Scene, geometry):
+def gouraud_findings(scene: Scene, geometry, figures: ObjectFigures | None = None):
     """Gouraud objects whose vertex normals are further apart than their highlight is wide; the finding ends
     with whether the object's own `shading` key chose Gouraud."""
     wanted, shininess = _candidates(scene)
@@ -276,9 +325,7 @@ def gouraud_findings(scene: Scene, geometry):
     wanted &= gouraud
     if not wanted.any() or not len(geometry.corner_normals):
         return
-    picked = np.flatnonzero(wanted[geometry.face_object])
-    spacing = group_median(face_normal_spread(geometry.corner_normals[picked]), geometry.face_object[picked],
-                           len(scene.objects))
+    spacing = (figures or ObjectFigures(geometry, len(scene.objects))).spread(wanted)
     highlight = 1 / np.sqrt(np.where(wanted, shininess, 1.0))  # radians where S falls to ≈ e^-1/2
     for index in np.flatnonzero(wanted & (spacing > highlight)):
         obj, f = scene.objects[index], shininess[index]
@@ -302,7 +349,7 @@ def own_shading(scene: Scene) -> tuple[str, int, bool] | None:
     return _objects(indices), len(indices), not follows.any()
 
 
-def subpixel_findings(scene: Scene, geometry):
+def subpixel_findings(scene: Scene, geometry, figures: ObjectFigures | None = None):
     """Curved objects whose highlight is narrower than a pixel (with one sample per pixel)."""
     if scene.render.samples > 1:
         return
@@ -310,17 +357,7 @@ def subpixel_findings(scene: Scene, geometry):
     wanted &= _per_object(scene, lambda obj: obj.shape == "mesh" or kind_of(obj).curved)
     if not wanted.any():
         return
-    # The vertices each object's faces use, grouped by object: objects own disjoint vertex ranges.
-    vertex_object = np.full(len(geometry.vertices), -1, np.int64)
-    vertex_object[geometry.faces] = geometry.face_object[:, None]
-    used = np.flatnonzero(vertex_object >= 0)
-    used = used[np.argsort(vertex_object[used], kind="stable")]
-    owner, points = vertex_object[used], geometry.vertices[used]
-    present, first = np.unique(owner, return_index=True)
-    centre = np.zeros((len(scene.objects), 3))
-    centre[present] = (np.minimum.reduceat(points, first) + np.maximum.reduceat(points, first)) / 2
-    radius = np.zeros(len(scene.objects))
-    radius[present] = np.maximum.reduceat(np.linalg.norm(points - centre[owner], axis=1), first)
+    centre, radius = (figures or ObjectFigures(geometry, len(scene.objects))).bounds()
     highlight = 1 / np.sqrt(np.where(wanted, shininess, 1.0))
     width_px = highlight_width_pixels(scene, centre, radius, highlight)
     for index in np.flatnonzero(wanted & (width_px < 1)):

@@ -7,6 +7,9 @@ the same arguments for all) and on what the kernels get. Tiles are bands of rows
 each, shaded on a thread pool: Embree and the kernels release the GIL, so both cores work and memory stays
 flat whatever the image size. Every band writes only its own rows: the image is bit-identical for any
 number of threads.
+
+A FrameCache (a live view keeps one per page) carries the geometry and its committed BVH from one frame to
+the next, so that a frame rebuilds only what its change touched; `cancelled` stops a frame between bands.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..codes import StageName
+from ..errors import RenderCancelled
 from ..geometry.build import build_geometry
 from ..geometry.normals import prep_threads
 from ..io.system import default_threads
@@ -31,7 +35,8 @@ from .intersect import Accelerator, unit_frame
 from .kernels.layout import COUNTS, MAX_LIGHTS, ShadingInputs, ShadowInputs
 from .kernels.tile import render_band
 from .pack import RayGenerator, camera_rig, film_rows, no_shadows, plan_flags, prepare_shading, prepare_shadows
-from .plan import build_plan, diagnose
+from .plan import ObjectFigures, build_plan, diagnose
+from .reuse import FrameCache
 
 TILE_RAYS = 1 << 15  # 32k rays: large enough to amortise a call, small enough for ~10 MB per tile
 NO_SHADOWS = no_shadows()  # local mode's shadow inputs for the tile kernel (read only in global mode)
@@ -54,6 +59,8 @@ class Prepared:
     threads: int
     progress: Callable[[int, int], None] | None = None
     timings: dict[str, float] = field(default_factory=dict)  # geometry so far; render() adds the rest
+    cache: FrameCache | None = None  # the BVH comes from it (and goes into it)
+    cancelled: Callable[[], bool] | None = None  # asked before each band; True: stop (RenderCancelled)
 
     @property
     def real(self) -> type:
@@ -61,7 +68,9 @@ class Prepared:
         return self.plan.real
 
     def build(self) -> Accelerator:
-        """The BVH (starts Embree; committed before any thread uses it)."""
+        """The BVH (starts Embree; committed before any thread uses it), or the cache's if it is this one."""
+        if self.cache is not None:
+            return self.cache.accelerator(self.geometry, self.frame)
         return Accelerator(self.geometry, self.frame)
 
     def render(self) -> RenderResult:
@@ -70,6 +79,7 @@ class Prepared:
         Returns a RenderResult with .image (H, W, 3) in the shading precision, .aovs, .timings (seconds:
         geometry, build, rays, shadows (global mode), shade, frame; rays, shadows and shade are summed over
         the worker threads, frame is wall time) and .counts (terms evaluated, shadow rays cast).
+        RenderCancelled if `cancelled()` turned True before the last band started.
         """
         timings = dict(self.timings)
         start = time.perf_counter()
@@ -79,7 +89,7 @@ class Prepared:
         aovs = tuple(self.scene.output.aovs)
         tile = TileWork(self.rays, accelerator, self.shadows, self.shading,
                         allocate_film(render.width, render.height, aovs, self.real))
-        counts = run_tiles(tile, list(self.bands), self.threads, self.progress, timings)
+        counts = run_tiles(tile, list(self.bands), self.threads, self.progress, timings, self.cancelled)
         return RenderResult(image=tile.film.rgb, aovs=film_layers(tile.film, aovs), timings=timings, plan=self.plan,
                             triangles=self.geometry.triangles, rays=render.width * render.height * render.samples ** 2,
                             counts=dict(zip(COUNTS, counts.tolist())))
@@ -87,7 +97,8 @@ class Prepared:
 
 def prepare(scene: Scene, *, source: str | Location = "<scene>", threads: int | None = None,
             max_memory: int | str | None = None, plan: RenderPlan | None = None,
-            progress: Callable[[int, int], None] | None = None) -> Prepared:
+            progress: Callable[[int, int], None] | None = None, cache: FrameCache | None = None,
+            cancelled: Callable[[], bool] | None = None) -> Prepared:
     """Plan the render, check it fits the memory budget, build the geometry and pack the kernels' inputs.
 
     Parameters
@@ -98,6 +109,9 @@ def prepare(scene: Scene, *, source: str | Location = "<scene>", threads: int | 
     plan: the render plan; default build_plan(scene, source=source). build_plan(scene, optimize=False) keeps
         every stage.
     progress: called as progress(tiles_done, tiles_total) by render().
+    cache: a FrameCache whose geometry and BVH this scene may reuse, and which keeps this scene's for the next.
+    cancelled: asked before each band by render(); when it answers True, the bands not yet started are skipped
+        and render() raises RenderCancelled.
     """
     plan = plan or build_plan(scene, source=source)
     if plan.keeps(StageName.SHADOW_RAYS) and len(scene.lights) > MAX_LIGHTS:
@@ -120,18 +134,27 @@ def prepare(scene: Scene, *, source: str | Location = "<scene>", threads: int | 
     start = time.perf_counter()
     real = plan.real
     with prep_threads(threads):  # a large mesh's preparation uses as many threads as its tiles
-        geometry = build_geometry(scene, source=source, vertex_normals=plan.keeps(StageName.VERTEX_NORMALS),
-                                  normal_dtype=real, sources=sources)
+        if cache is None:
+            geometry = build_geometry(scene, source=source, vertex_normals=plan.keeps(StageName.VERTEX_NORMALS),
+                                      normal_dtype=real, sources=sources)
+        else:
+            with cache.lock:
+                geometry = build_geometry(scene, source=source, vertex_normals=plan.keeps(StageName.VERTEX_NORMALS),
+                                          normal_dtype=real, sources=sources, memo=cache.memo)
     timings = {"geometry": time.perf_counter() - start}
-    plan = diagnose(plan, scene, geometry)
-    frame = unit_frame(geometry.vertices)
+    derived = cache.derived(geometry) if cache is not None else None
+    plan = diagnose(plan, scene, geometry, ObjectFigures(geometry, len(scene.objects), derived))
+    if derived is None:
+        frame = unit_frame(geometry.vertices)
+    else:
+        frame = derived.get("frame", ("vertices",), lambda: unit_frame(geometry.vertices))
     rig = camera_rig(scene)
     return Prepared(
         scene=scene, source=source, plan=plan, memory=memory, geometry=geometry, frame=frame,
         rays=RayGenerator(rig, frame, width, height, samples, max_rays=tile_rays),
-        shading=prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), real),
+        shading=prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), real, kept=derived),
         shadows=prepare_shadows(scene, geometry, frame) if plan.keeps(StageName.SHADOW_RAYS) else None,
-        bands=bands, threads=threads, progress=progress, timings=timings)
+        bands=bands, threads=threads, progress=progress, timings=timings, cache=cache, cancelled=cancelled)
 
 
 @dataclass(frozen=True, eq=False)
@@ -154,20 +177,34 @@ class TileWork:
 
 
 def run_tiles(tile: TileWork, bands: list[tuple[int, int]], threads: int,
-              progress: Callable[[int, int], None] | None, timings: dict[str, float]) -> np.ndarray:
+              progress: Callable[[int, int], None] | None, timings: dict[str, float],
+              cancelled: Callable[[], bool] | None = None) -> np.ndarray:
     """Run `tile` over the bands on a pool of `threads` (the kernels and Embree release the GIL); add
-    frame (wall), rays, shade and, in global mode, shadows (summed over threads) to `timings`."""
+    frame (wall), rays, shade and, in global mode, shadows (summed over threads) to `timings`.
+    `cancelled()` is asked as each band starts: once it is True, the bands not started are skipped, and
+    RenderCancelled (with the bands done) is raised after the running ones end."""
     counts = np.zeros(len(COUNTS), np.int64)
     seconds = np.zeros(3)  # rays, shadows, shade
     start = time.perf_counter()
     if progress:
         progress(0, len(bands))
+
+    def band_unless_cancelled(band: tuple[int, int]):
+        return None if cancelled is not None and cancelled() else tile(band)
+
+    done = 0
     with ThreadPoolExecutor(max_workers=threads) as pool:
-        for done, (ray_s, shadow_s, shade_s, tile_counts) in enumerate(pool.map(tile, bands), start=1):
+        for result in pool.map(band_unless_cancelled, bands):
+            if result is None:
+                continue
+            ray_s, shadow_s, shade_s, tile_counts = result
+            done += 1
             seconds += (ray_s, shadow_s, shade_s)
             counts += tile_counts
             if progress:
                 progress(done, len(bands))
+    if done < len(bands):
+        raise RenderCancelled(done, len(bands))
     timings["frame"] = time.perf_counter() - start
     timings["rays"], timings["shade"] = float(seconds[0]), float(seconds[2])
     if tile.shadows is not None:

@@ -29,7 +29,7 @@ import raycast_phong as rp
 from raycast_phong.cli import app as cli_app
 from raycast_phong.io.encoding import to_8bit
 from raycast_phong.tools import accuracy
-from raycast_phong.tools.view.server import create_app, open_source, unpack
+from raycast_phong.tools.view.server import create_app, draft_of, open_source, scene_with, unpack
 
 TOKEN = "test-token"
 ORIGIN = "http://testserver"  # TestClient's own origin
@@ -657,3 +657,154 @@ def test_a_mesh_path_is_read_by_the_renderers_own_loader(tmp_path, kind):
     [line] = done.stderr.strip().splitlines()
     # A mesh file is the scene, so the line names the file itself (no objects.0.path of a scene file).
     assert line.startswith(f"error: {path}: ") and ("named pipe" in line if kind == "fifo" else "NaN" in line), line
+
+
+# ---------------------------------------------------------------- a page's frames reuse and cancel
+
+
+@pytest.fixture
+def counted(monkeypatch):
+    """Counts of the expensive steps a frame may take: mesh files read, groups placed (world vertices and
+    normals) and BVHs built (Embree scenes committed)."""
+    from raycast_phong.geometry import build
+    from raycast_phong.io import mesh_file
+    from raycast_phong.renderer import embree
+    counts = {"reads": 0, "placed": 0, "bvhs": 0}
+
+    def counting(name, function):
+        def wrapper(*args, **kwargs):
+            counts[name] += 1
+            return function(*args, **kwargs)
+        return wrapper
+    monkeypatch.setattr(mesh_file, "_read", counting("reads", mesh_file._read))
+    monkeypatch.setattr(build, "_group_part", counting("placed", build._group_part))
+    monkeypatch.setattr(embree, "EmbreeScene", counting("bvhs", embree.EmbreeScene))
+    return counts
+
+
+def frame_of_settings(ws, request_id: int, settings: dict, quality: str = "draft") -> tuple[dict, dict]:
+    ws.send_text(json.dumps({"type": "render", "id": request_id, "quality": quality, "settings": settings}))
+    header, parts = receive_frame(ws)
+    assert header["id"] == request_id
+    return header, parts
+
+
+def test_a_light_move_rebuilds_nothing_and_only_a_change_of_what_geometry_reads_rebuilds_it(tmp_path, counted):
+    """A page's second frame with only a light moved (or the camera, a material, the shading) reads no mesh
+    file, places no object and builds no BVH; moving the object places it and builds a BVH without reading the
+    file again; a rewritten file is read again. Every frame is the PNG render() gives for its settings."""
+    import shutil
+    mesh = tmp_path / "knot.ply"
+    shutil.copy(Path(__file__).resolve().parents[2] / "scenes" / "meshes" / "torus_knot.ply", mesh)
+    client = client_for(mesh)
+    client.app.state.warming.result(120)  # the server's own warm-up frame reads and builds too: not counted
+    size = {"render.width": 48, "render.height": 36}
+    light = {**size, "lights.0.position": [3.0, 4.0, 5.0]}
+    unchanged = [light, {**light, "camera.position": [0.5, 1.0, 6.0]}, {**light, "render.shading": "flat"},
+                 {**light, "render.shading": "gouraud"}, {**light, "materials.default.kd": [0.2, 0.4, 0.6]}]
+    moved = {**light, "objects.0.translate": [0.25, 0.0, 0.0]}
+    shown = []
+    with connect(client) as ws:
+        ws.receive_text()
+        before = dict(counted)
+        shown.append(frame_of_settings(ws, 1, size)[1]["a"])
+        first = dict(counted)
+        assert first["placed"] == before["placed"] + 1 and first["bvhs"] == before["bvhs"] + 1  # the page's own
+        for request_id, settings in enumerate(unchanged, start=2):
+            shown.append(frame_of_settings(ws, request_id, settings)[1]["a"])
+            assert counted == first, settings
+        shown.append(frame_of_settings(ws, 10, moved)[1]["a"])
+        assert counted == {**first, "placed": first["placed"] + 1, "bvhs": first["bvhs"] + 1}
+        data = mesh.read_bytes()
+        mesh.unlink()
+        mesh.write_bytes(data)  # the same bytes in a new file: read again, as render would
+        os.utime(mesh, ns=(10**9, 10**9))  # another mtime whatever the file system's clock and inode reuse
+        frame_of_settings(ws, 11, moved)
+        assert counted["reads"] == first["reads"] + 1
+    source = open_source(mesh)
+    for png, settings in zip(shown, [size, *unchanged, moved]):
+        np.testing.assert_array_equal(decode_png(png, tmp_path), rendered_png(draft_of(scene_with(source, settings))))
+
+
+def test_a_newer_request_cancels_a_running_full_frame_between_bands(scene_path, monkeypatch):
+    """A full frame of 8 × 8 samples (40 bands of 3 rows) is refined: a preview of one sample a pixel first, then
+    the full frame. A draft sent while the full frame's first bands run stops it: the bands already started end,
+    no other starts, the page is told how many were done, and the draft follows."""
+    from raycast_phong.renderer import prepare
+    asked, calls = {}, []
+
+    def render(scene, **options):
+        asked["cancelled"] = options.get("cancelled")
+        return rp.render(scene, **options)
+
+    band = prepare.TileWork.__call__
+
+    def held_band(tile, rows):
+        if tile.rays.samples > 1:  # the full frame's bands wait until the newer request has cancelled it
+            calls.append(rows)
+            deadline = asked.setdefault("deadline", time.monotonic() + 20)  # one wait for the frame, not per band
+            while not (asked.get("cancelled") and asked["cancelled"]()) and time.monotonic() < deadline:
+                time.sleep(0.01)
+        return band(tile, rows)
+    monkeypatch.setattr(prepare.TileWork, "__call__", held_band)
+    settings = {"render.width": 160, "render.height": 120, "render.samples": 8}
+    with connect(client_for(scene_path, render=render)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "full", "settings": settings}))
+        preview, _ = receive_frame(ws)
+        ws.send_text(json.dumps({"type": "render", "id": 2, "quality": "draft", "settings": settings}))
+        message = ws.receive()
+        while message.get("text") is not None and json.loads(message["text"])["type"] == "progress":
+            message = ws.receive()
+        told = json.loads(message["text"]) if message.get("text") is not None else unpack(message["bytes"])[0]
+        draft, _ = receive_frame(ws)
+    assert (preview["id"], preview["quality"], preview["stats"]["a"]["rays"]) == (1, "preview", 160 * 120)
+    assert told["type"] == "cancelled" and told["id"] == 1 and told["of"] == 40, told
+    # Only the bands the render threads had started when it was cancelled were rendered (one a thread).
+    assert told["done"] == len(calls) <= prepare.default_threads() < 40
+    assert (draft["id"], draft["quality"]) == (2, "draft")
+
+
+def test_a_full_frame_of_several_samples_is_refined_from_a_preview(scene_path, tmp_path):
+    """At rest a frame of 3 × 3 samples comes twice: a preview of one sample a pixel, then the full frame; each is
+    the PNG render() gives, and the exact errors follow the full frame only."""
+    settings = {"render.samples": 3}
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 4, "quality": "full", "settings": settings,
+                                 "reference": True}))
+        preview, first = receive_frame(ws)
+        full, last = receive_frame(ws)
+        errors = json.loads(ws.receive_text())
+    assert (preview["quality"], full["quality"], errors["type"], errors["id"]) == ("preview", "full", "errors", 4)
+    one = rp.load_scene(scene_path)
+    np.testing.assert_array_equal(decode_png(first["a"], tmp_path), rendered_png(one))
+    three = rp.load_scene(scene_path, ["render.samples=3"])
+    np.testing.assert_array_equal(decode_png(last["a"], tmp_path), rendered_png(three))
+
+
+def test_each_page_has_one_frame_cache_released_when_it_closes(scene_path, monkeypatch):
+    """A page's frames share one FrameCache (its geometry and BVH), and nothing holds it once the page closes."""
+    import gc
+    import weakref
+
+    from raycast_phong.tools.view import server
+    made = []
+
+    class Counted(server.FrameCache):
+        def __init__(self):
+            super().__init__()
+            made.append(weakref.ref(self))
+    monkeypatch.setattr(server, "FrameCache", Counted)
+    client = client_for(scene_path)
+    with connect(client) as one, connect(client) as two:
+        for ws in (one, two):
+            ws.receive_text()
+            for request_id in (1, 2):
+                frame_of_settings(ws, request_id, {"lights.0.position": [1.0, request_id, 3.0]})
+        assert len(made) == 2 and all(ref() is not None for ref in made)
+    deadline = time.monotonic() + 30
+    while any(ref() is not None for ref in made) and time.monotonic() < deadline:
+        gc.collect()
+        time.sleep(0.05)
+    assert all(ref() is None for ref in made)

@@ -152,6 +152,99 @@ def test_the_light_gizmo_turns_the_light_round_the_look_at_point(page, scene_pat
     assert float(page.input_value("#light-distance")) == pytest.approx(1.1 * math.sqrt(17), abs=1e-3)
 
 
+# Counts what the page does, independently of its own code: render requests on the socket, URL writes, redraws of
+# the light's gizmo, and the pointer moves the gizmo received.
+COUNTING = """() => {
+    const counts = window.counted = { sends: 0, urls: 0, redraws: 0, moves: 0 };
+    const send = WebSocket.prototype.send;
+    WebSocket.prototype.send = function (data) {
+        if (String(data).includes('"type":"render"')) counts.sends += 1;
+        return send.call(this, data);
+    };
+    const replace = history.replaceState;
+    history.replaceState = function (...args) { counts.urls += 1; return replace.apply(this, args); };
+    const gizmo = document.querySelector('#gizmo'), context = gizmo.getContext('2d'), clear = context.clearRect;
+    context.clearRect = function (...args) { counts.redraws += 1; return clear.apply(this, args); };
+    gizmo.addEventListener('pointermove', () => { counts.moves += 1; }, { capture: true });
+}"""
+
+# 60 pointer moves of half a pixel each, dispatched in one go (a hand's events, queued while the page was busy).
+BURST = """([x, y]) => {
+    const gizmo = document.querySelector('#gizmo');
+    for (let k = 1; k <= 60; k++) {
+        gizmo.dispatchEvent(new PointerEvent('pointermove', { pointerId: 1, pointerType: 'mouse', isPrimary: true,
+                                                              bubbles: true, buttons: 1, clientX: x + 1 + k / 2,
+                                                              clientY: y }));
+    }
+}"""
+ANSWERED = "() => window.view.asked && window.view.answered >= window.view.asked.id"  # every request answered
+
+
+def test_a_burst_of_pointer_events_makes_a_few_requests_and_one_url_write(page, scene_path):
+    """A drag's burst of 60 pointer moves: the page folds them into the newest state, sent once a display frame
+    with one request in flight; the gizmo is redrawn once a display frame, the URL written once, when the drag
+    ends. Every move counts: the light turns by the whole drag, and the image is render()'s of that light."""
+    page.evaluate(COUNTING)
+    box = page.locator("#gizmo").bounding_box()
+    x, y = round(box["x"] + box["width"] / 2), round(box["y"] + box["height"] / 2)
+    page.mouse.move(x, y)
+    page.mouse.down()
+    page.mouse.move(x + 1, y)  # a real move first: the gizmo has the pointer captured
+    page.wait_for_function(ANSWERED, timeout=60_000)
+    before = page.evaluate("({ ...window.counted })")
+    page.evaluate(BURST, [x, y])
+    page.wait_for_timeout(200)  # room for what the burst sends
+    page.wait_for_function(ANSWERED, timeout=60_000)
+    during = page.evaluate("({ ...window.counted })")
+    page.mouse.up()
+    wait_for_full_frame(page)
+    after = page.evaluate("({ ...window.counted })")
+    assert before["sends"] == 1 and during["moves"] - before["moves"] == 60
+    assert during["sends"] - before["sends"] <= 2, during  # one a display frame (one in flight), not 60
+    assert during["redraws"] - before["redraws"] <= 2, during
+    assert during["urls"] == 0 and after["urls"] == 1, (during, after)  # written when the drag ends
+    assert after["sends"] == during["sends"] + 1  # the full frame of the release
+    # 1 + 60 × 0.5 = 31 pixels to the right: 31/74 of a quarter turn round the camera's up axis.
+    position = page.evaluate("window.view.settings.a['lights.0.position']")
+    np.testing.assert_allclose(position, turned([2, 2, 3], [0, 1, 0], 31 / 74 * math.pi / 2), atol=1e-4)
+    moved = rp.load_scene(scene_path, [f"lights.0.position={position}"])
+    np.testing.assert_array_equal(page_image(page), to_8bit(rp.render(moved).image))
+
+
+def test_one_request_is_in_flight_while_a_draft_renders(browser, scene_path):
+    """While a draft is rendering, moves over many display frames send nothing; its answer lets the newest state
+    go, once."""
+    holding, release = threading.Event(), threading.Event()
+
+    def held(scene, **options):
+        if holding.is_set() and scene.render.width == WIDTH // 2:  # a draft
+            holding.clear()
+            release.wait(60)
+        return rp.render(scene, **options)
+
+    with opened(browser, scene_path, render=held) as tab:
+        tab.evaluate(COUNTING)
+        box = tab.locator("#gizmo").bounding_box()
+        x, y = round(box["x"] + box["width"] / 2), round(box["y"] + box["height"] / 2)
+        tab.mouse.move(x, y)
+        tab.mouse.down()
+        holding.set()
+        tab.mouse.move(x + 1, y)  # its draft is held in the server
+        tab.wait_for_function("() => window.counted.sends === 1", timeout=30_000)
+        for _ in range(3):  # three bursts, each several display frames apart
+            tab.evaluate(BURST, [x, y])
+            tab.wait_for_timeout(150)
+        waiting = tab.evaluate("({ ...window.counted })")
+        release.set()
+        tab.wait_for_function(ANSWERED, timeout=60_000)
+        tab.wait_for_timeout(200)
+        answered = tab.evaluate("({ ...window.counted })")
+        tab.mouse.up()
+        wait_for_full_frame(tab)
+    assert waiting["sends"] == 1 and waiting["moves"] >= 181, waiting
+    assert answered["sends"] == 2, answered
+
+
 def test_light_fields_place_the_light_its_marker_shows_it_and_reset_brings_it_back(page, scene_path):
     original = page_image(page)
     assert page.is_hidden("#marker-a")  # the scene's light (2, 2, 3) is outside the 40° view

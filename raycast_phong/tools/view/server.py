@@ -3,12 +3,16 @@
 The page sends settings as {dotted scene key: value}; each is applied to the scene file's table with
 scene.apply_override and the whole checked by validate_scene, exactly as `render --set` does, so a
 bad value is answered with the CLI's one-line message. Frames are rendered by rp.render on one worker
-thread and sent back as PNG (image_io.write_image, the CLI's own 8-bit encoding).
+thread per page and sent back as PNG (image_io.write_image, the CLI's own 8-bit encoding). Each page keeps a
+FrameCache: its frames reuse the geometry and the committed BVH, rebuilding only what a change touched (a light
+move rebuilds nothing). At rest a frame of several samples a pixel is refined: a preview of one sample, then
+the full frame; a newer request cancels a running preview or full frame between two bands.
 
 Security (as Jupyter): a random token in the URL (then a same-site cookie for the page's own files)
 and on the socket; the socket's Origin must be the page's; only files inside static/ are served;
 page values are data for the scene schema only (never code, never a file path); one client holds
-at most one running and one pending render (latest wins: a newer request replaces a waiting one).
+at most one running and one pending render (latest wins: a newer request replaces a waiting one, and
+cancels a running preview or full frame).
 """
 
 from __future__ import annotations
@@ -41,11 +45,12 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 
 import raycast_phong as rp
 from raycast_phong.codes import OUTPUT_PATH, ShadingModel
-from raycast_phong.errors import SceneError, ViewError
+from raycast_phong.errors import RenderCancelled, SceneError, ViewError
 from raycast_phong.io.encoding import DISPLAY, display_values
 from raycast_phong.io.image_io import image_bytes
 from raycast_phong.io.scene_file import syntax_limit
 from raycast_phong.io.scene_toml import scene_toml, toml_value
+from raycast_phong.renderer.reuse import FrameCache
 from raycast_phong.scene.load import read_scene_dict
 from raycast_phong.scene.messages import dotted
 from raycast_phong.scene.overrides import apply_override
@@ -142,6 +147,16 @@ def draft_of(scene: rp.Scene) -> rp.Scene:
 def frame_of(scene: rp.Scene) -> rp.Scene:
     """The scene as the view renders it at rest: every pixel and sample, no extra layers."""
     return scene.model_copy(update={"output": scene.output.model_copy(update={"aovs": ()})})
+
+
+def preview_of(scene: rp.Scene) -> rp.Scene:
+    """The first step of a full frame of several samples a pixel: every pixel, one sample, no layers."""
+    return frame_of(scene).model_copy(update={"render": scene.render.model_copy(update={"samples": 1})})
+
+
+# Each quality a frame is rendered at: draft while dragging; at rest, a preview (one sample a pixel, only when the
+# scene asks for more) and then the full frame. A newer request cancels a preview or a full frame mid-way.
+SHAPED = {"draft": draft_of, "preview": preview_of, "full": frame_of}
 
 
 def leaves(node: Any, prefix: str = "") -> dict[str, Any]:
@@ -253,30 +268,48 @@ class Renderer:
     def __post_init__(self):
         self.render = self.render or rp.render
 
-    def frame(self, request: dict, progress: Callable[[float], None] | None = None, shown: dict | None = None) -> bytes:
-        """Render settings A (and B, to compare) at the requested quality; the PNGs, the heat map, the figures.
-        `progress(share)` is told the share of the tiles done, 0..1 over A and B together; `shown` (the page's
-        own table) keeps (request id, RenderResult) of its last full frame A for errors()."""
-        started = time.perf_counter()
+    def scenes(self, request: dict) -> dict[str, rp.Scene]:
+        """The validated scenes of a render request: A, and B to compare (or A's three shading models)."""
         quality = request.get("quality", "full")
         if quality not in ("draft", "full"):
             raise ViewError(f"quality: {quality!r}; allowed: 'draft' or 'full'")
-        settings = settings_of(request)
-        header: dict = {"type": "frame", "id": request.get("id"), "quality": quality}
-        scenes = {"a": scene_with(self.source, settings)}
+        scenes = {"a": scene_with(self.source, settings_of(request))}
         if request.get("models"):
             # The lecture's figure: A in flat, Gouraud and Phong shading, as panels a, b and c.
             from raycast_phong.scene.overrides import shaded
             scenes = dict(zip("abc", (shaded(scenes["a"], model) for model in ShadingModel)))
         elif request.get("compare") is not None:
             scenes["b"] = scene_with(self.source, settings_of(request, "compare"))
-        shaped = draft_of if quality == "draft" else frame_of
+        return scenes
+
+    def steps(self, request: dict) -> list[str]:
+        """The qualities a request is rendered at, in order: a draft; or at rest the full frame, after a preview
+        of one sample a pixel when a scene asks for more (refined: the image comes at once, the samples after)."""
+        if request.get("quality", "full") == "draft":
+            return ["draft"]
+        many = any(scene.render.samples > 1 for scene in self.scenes(request).values())
+        return ["preview", "full"] if many else ["full"]
+
+    def frame(self, request: dict, progress: Callable[[float], None] | None = None, shown: dict | None = None,
+              cache: FrameCache | None = None, cancelled: Callable[[], bool] | None = None,
+              step: str | None = None) -> bytes:
+        """Render settings A (and B, to compare) at the requested quality (or at `step`, one of steps()); the
+        PNGs, the heat map, the figures. `progress(share)` is told the share of the tiles done, 0..1 over A and
+        B together; `shown` (the page's own table) keeps (request id, RenderResult) of its last full frame A for
+        errors(); `cache` is the page's FrameCache (geometry and BVH kept between its frames); `cancelled()`
+        answering True stops the frame between bands (RenderCancelled)."""
+        started = time.perf_counter()
+        scenes = self.scenes(request)
+        quality = step or request.get("quality", "full")
+        header: dict = {"type": "frame", "id": request.get("id"), "quality": quality}
+        shaped = SHAPED[quality]
         parts, images, stats = [], {}, {}
         for k, (name, scene) in enumerate(scenes.items()):
             told = None
             if progress is not None:
                 told = lambda done, total, k=k: progress((k + done / max(total, 1)) / len(scenes))
-            result = self.render(shaped(scene), source=self.source.name, progress=told)
+            result = self.render(shaped(scene), source=self.source.name, progress=told, cache=cache,
+                                 cancelled=cancelled)
             if name == "a" and quality == "full" and not request.get("models") and shown is not None:
                 shown["a"] = (request.get("id"), result)  # errors() measures this image, not a new one
             images[name] = display_values(result.image, result.colour)  # A and B compared as shown
@@ -318,8 +351,9 @@ class Renderer:
                 "psnr": finite(e.psnr), "highlight_loss": finite(e.highlight_loss),
                 "seconds": result.reference_seconds}
 
-    def save(self, request: dict) -> bytes:
-        """The current settings as a scene file (toml), or the full-resolution image (png, exr with layers)."""
+    def save(self, request: dict, cache: FrameCache | None = None) -> bytes:
+        """The current settings as a scene file (toml), or the full-resolution image (png, exr with layers);
+        `cache`: the page's FrameCache, whose geometry and BVH the image may reuse."""
         what = request.get("what")
         scene = scene_with(self.source, settings_of(request))
         side = request.get("side", "a")
@@ -329,7 +363,7 @@ class Renderer:
         if what == "toml":
             data = scene_toml(scene).encode("utf-8")
         elif what in ("png", "exr"):
-            result = self.render(scene if what == "exr" else frame_of(scene), source=self.source.name)
+            result = self.render(scene if what == "exr" else frame_of(scene), source=self.source.name, cache=cache)
             data = encode(result.image, f".{what}", result.aovs if what == "exr" else None, result.colour)
         else:
             raise ViewError(f"save: {what!r}; allowed: 'toml', 'png' or 'exr'")
@@ -343,8 +377,12 @@ class Renderer:
 class Client:
     """One socket's queue: at most one waiting render (latest wins), one waiting save, one waiting reference;
     its own render thread, so a page asking for a slow frame never holds another page's frames; its last full
-    frame A (for the exact errors: request ids are each page's own)."""
+    frame A (for the exact errors: request ids are each page's own); its FrameCache (the geometry and BVH its
+    frames share, released with the page); and the quality being rendered with the event that cancels it."""
     pending: dict | None = None
+    cache: FrameCache = field(default_factory=lambda: FrameCache())
+    running: str | None = None                # the quality of the frame being rendered ("draft", "preview", "full")
+    cancel: threading.Event = field(default_factory=threading.Event)  # set: the running frame stops between bands
     pending_save: dict | None = None
     wake: asyncio.Event = field(default_factory=asyncio.Event)
     dropped: int = 0
@@ -424,12 +462,17 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
                         client.dropped += 1
                         await websocket.send_text(json.dumps({"type": "dropped", "id": client.pending.get("id")}))
                     client.pending = request
+                    if client.running in ("preview", "full"):
+                        client.cancel.set()  # stale: stop it between bands (a draft ends within its ~frame time)
                 client.wake.set()
         except (WebSocketDisconnect, RuntimeError, KeyError):
             pass  # the page closed (or sent a binary frame: receive_text's KeyError); nothing is owed to it
         finally:
             pages.discard(websocket)
             worker.cancel()
+            # A frame still rendering stops at its next band; the page's FrameCache goes with the Client (nothing
+            # else holds it once that frame's thread lets go of it).
+            client.cancel.set()
             client.executor.shutdown(wait=False, cancel_futures=True)
             client.references.shutdown(wait=False, cancel_futures=True)
             if client.reference_task is not None:
@@ -478,30 +521,51 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
         while True:
             await client.wake.wait()
             client.wake.clear()
-            jobs = [(renderer.save, client.pending_save, False), (renderer.frame, client.pending, True)]
+            save, request = client.pending_save, client.pending
             client.pending_save = client.pending = None
-            for job, request, is_frame in jobs:
-                if request is None:
-                    continue
-                try:
-                    if is_frame:
-                        told = progress_to(websocket, loop, request.get("id"))
-                        reply = await loop.run_in_executor(client.executor, job, request, told, client.shown)
-                    else:
-                        reply = await loop.run_in_executor(client.executor, job, request)
-                except (ViewError, SceneError, rp.ImageError) as error:
-                    await websocket.send_text(json.dumps({"type": "error", "id": request.get("id"),
-                                                          "message": str(error)}))
-                    continue
-                except Exception as error:  # noqa: BLE001 — our bug: say so on the page in one line and keep serving
-                    await websocket.send_text(json.dumps({"type": "error", "id": request.get("id"), "message":
-                                                          f"internal error: {type(error).__name__}: {error}"}))
-                    continue
+            if save is not None:
+                saved = await answer(websocket, save, client.executor, renderer.save, save, client.cache)
+                if saved is not None:
+                    await websocket.send_bytes(saved)
+            if request is None:
+                continue
+            if request.get("quality", "full") == "draft":
+                steps = ["draft"]  # no hop to the render thread to be told so
+            else:  # a preview first if a scene asks for several samples: its scenes are validated to know
+                steps = await answer(websocket, request, client.executor, renderer.steps, request)
+            for step in steps or ():
+                if step != steps[0] and client.pending is not None:
+                    break  # a newer request came while the preview rendered: the full frame is stale
+                client.cancel.clear()
+                client.running = step
+                told = progress_to(websocket, loop, request.get("id"))
+                reply = await answer(websocket, request, client.executor, renderer.frame, request, told, client.shown,
+                                     client.cache, client.cancel.is_set, step)
+                client.running = None
+                if reply is None:
+                    break
                 await websocket.send_bytes(reply)
-                if is_frame and request.get("quality", "full") == "full" and request.get("reference"):
+            else:
+                if steps and steps[-1] == "full" and request.get("reference"):
                     client.reference_next = request  # latest wins here too
                     if client.reference_task is None or client.reference_task.done():
                         client.reference_task = asyncio.create_task(measure(websocket, client))
+
+    async def answer(websocket: WebSocket, request: dict, executor: ThreadPoolExecutor, job: Callable,
+                     *args) -> Any:
+        """job(*args) on the page's render thread; a refusal, a cancellation or our own bug is told to the page
+        in one line (and None returned), so the page's socket keeps serving."""
+        try:
+            return await asyncio.get_running_loop().run_in_executor(executor, job, *args)
+        except RenderCancelled as stop:  # a newer request made it stale: the page knows, it sent that one
+            message = {"type": "cancelled", "id": request.get("id"), "done": stop.done, "of": stop.total}
+        except (ViewError, SceneError, rp.ImageError) as error:
+            message = {"type": "error", "id": request.get("id"), "message": str(error)}
+        except Exception as error:  # noqa: BLE001 — our bug: say so on the page in one line and keep serving
+            message = {"type": "error", "id": request.get("id"),
+                       "message": f"internal error: {type(error).__name__}: {error}"}
+        await websocket.send_text(json.dumps(message))
+        return None
 
     async def measure(websocket: WebSocket, client: Client) -> None:
         """The exact errors of the newest full frame, on their own thread: the reference costs several frames'

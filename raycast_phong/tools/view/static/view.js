@@ -13,14 +13,19 @@ const state = {
   compare: "off",
   nextId: 1,
   shownId: 0,      // newest frame on screen; older replies are ignored
-  sentAt: {},      // request id → time sent, for the change → image latency
+  inputTimes: {},  // request id → time of the oldest input it answers, for the input → image latency
+  sendTimes: {},   // request id → time it was sent
   urls: {},        // object URLs on screen, revoked when replaced
   lastFrame: null, // header of the frame on screen (tests read it)
   connected: false,
-  painted: [],     // {id, quality, ms (change → on screen), server (ms in the server)} of the frames shown
+  painted: [],     // the frames shown: {id, quality, ms, sent, shown, server, at} (onFrame says which is which)
   answered: 0,     // newest request answered (by a frame or an error)
-  asked: null,     // {id, quality, at} of the newest request sent
+  asked: null,     // {id, quality, at} of the newest request (sent, or waiting to be)
   warming: false,  // the server is still loading or compiling its kernels
+  want: null,      // {id, quality}: the newest state, not yet sent (sent on the next display frame)
+  inputAt: null,   // time of the oldest input the next request sent will answer
+  inFlight: null,  // {id, quality} of the request sent and not yet answered: at most one at a time
+  previewed: 0,    // id of the request whose preview (one sample a pixel) is on screen
 };
 window.view = state;  // for the browser tests and the screenshot script
 
@@ -40,6 +45,7 @@ function connect() {
   };
   socket.onclose = (event) => {
     const wasOpen = state.connected;
+    state.inFlight = null;  // its answer will never come: the state is sent again on reconnecting
     connected(false, event.code === 1008
       ? "the server refused this page's token: open the URL the view command printed"
       : `the server is not answering (${wasOpen ? `closed, code ${event.code}` : "no connection"}); ` +
@@ -63,6 +69,7 @@ function connected(on, text) {
 }
 
 function onMessage(event) {
+  const arrived = performance.now();
   if (typeof event.data === "string") return onText(JSON.parse(event.data));
   const view = new DataView(event.data);
   const length = view.getUint32(0, true);
@@ -73,7 +80,7 @@ function onMessage(event) {
     parts[part.name] = new Uint8Array(event.data, at, part.length);
     at += part.length;
   }
-  if (header.type === "frame") onFrame(header, parts);
+  if (header.type === "frame") onFrame(header, parts, arrived);
   else if (header.type === "saved") download(header.filename, parts.file);
 }
 
@@ -91,7 +98,12 @@ function onText(message) {
     if (state.asked && message.id === state.asked.id) $("#busy-bar").value = message.done;
     return;
   }
+  if (message.type === "cancelled" || message.type === "dropped") {
+    settled(message.id);  // the newer request that made it stale is on its way
+    return;
+  }
   if (message.type === "error") {
+    settled(message.id);
     state.answered = Math.max(state.answered, message.id ?? 0);
     busy();
     if (message.id === null || message.id >= state.shownId) showError(message.message);
@@ -107,23 +119,72 @@ function send(message) {
   if (socket.readyState === WebSocket.OPEN) socket.send(JSON.stringify(message));
 }
 
+// Asking for a frame: the newest state is sent on the next display frame (requestAnimationFrame), and only
+// when no draft is in flight; inputs in between are folded into it (its settings are read when it is sent).
+// So a burst of pointer events makes one request a display frame at most, and fewer when the frames take
+// longer. A preview or full frame in flight does not hold a newer request: the server cancels it (stale).
+// The URL is written for full frames only, which a drag asks for when it ends, never per pointer event.
 function request(quality) {
   if (!state.connected) return null;  // the settings stay; the frame is asked for on reconnecting
-  permalink();
+  if (quality === "full") permalink();
   const id = state.nextId++;
-  state.sentAt[id] = performance.now();
+  const event = window.event;  // the input being handled: its time, not this handler's, starts the latency
+  const coalesced = event && event.getCoalescedEvents ? event.getCoalescedEvents() : [];
+  const at = event ? (coalesced.length ? coalesced[0].timeStamp : event.timeStamp) : performance.now();
+  if (state.inputAt === null) state.inputAt = Math.min(at, performance.now());
+  state.want = { id, quality };
   state.asked = { id, quality, at: performance.now() };
   $("#busy-bar").removeAttribute("value");  // indeterminate until the first tiles are done
-  const models = state.compare === "models";
-  send({
-    type: "render", id, quality, models,
-    settings: state.settings.a,
-    compare: state.compare === "off" || models ? null : state.settings.b,
-    reference: Boolean(state.hello && state.hello.analytic) && quality === "full" && !models,
-  });
+  nextDisplayFrame();
   return id;
 }
 state.request = request;
+
+// Once per display frame: the light's gizmo, fields and marker redrawn if a change asked for it, then the
+// newest state sent if nothing blocks it. A page the browser does not draw (a hidden tab, a notebook's frame
+// scrolled away) gets no animation frames: a timer stands in after 100 ms.
+let displayFrameAsked = false, redrawWanted = false;
+function nextDisplayFrame() {
+  if (displayFrameAsked) return;
+  displayFrameAsked = true;
+  let timer = null;
+  const run = () => {
+    if (!displayFrameAsked) return;  // the other of the two came first
+    displayFrameAsked = false;
+    clearTimeout(timer);
+    if (redrawWanted) { redrawWanted = false; refreshLight(); }
+    flush();
+  };
+  requestAnimationFrame(run);
+  timer = setTimeout(run, 100);
+}
+function redrawLight() { redrawWanted = true; nextDisplayFrame(); }
+
+function flush() {
+  const want = state.want;
+  if (!want || !state.connected || socket.readyState !== WebSocket.OPEN) return;
+  if (state.inFlight && state.inFlight.quality === "draft") return;  // its answer comes within a frame or two
+  state.want = null;
+  state.inFlight = want;
+  state.inputTimes[want.id] = state.inputAt ?? performance.now();
+  state.sendTimes[want.id] = performance.now();
+  state.inputAt = null;
+  const models = state.compare === "models";
+  send({
+    type: "render", id: want.id, quality: want.quality, models,
+    settings: state.settings.a,
+    compare: state.compare === "off" || models ? null : state.settings.b,
+    reference: Boolean(state.hello && state.hello.analytic) && want.quality === "full" && !models,
+  });
+}
+
+// The request `id` is answered (its final frame, an error, or cancelled): the next may go.
+function settled(id) {
+  if (state.inFlight && id === state.inFlight.id) {
+    state.inFlight = null;
+    if (state.want) nextDisplayFrame();
+  }
+}
 
 // ------------------------------------------------------------------ frames
 
@@ -134,10 +195,12 @@ function show(img, bytes) {
   img.src = url;
 }
 
-function onFrame(header, parts) {
+function onFrame(header, parts, arrived = performance.now()) {
+  const preview = header.quality === "preview";  // one sample a pixel; the full frame of the same request follows
+  if (!preview) settled(header.id);
   if (header.id < state.shownId) return;
   state.shownId = header.id;
-  state.answered = Math.max(state.answered, header.id);
+  if (preview) state.previewed = header.id; else state.answered = Math.max(state.answered, header.id);
   state.warming = false;
   busy();
   // A draft frame (half size) is shown at the full frame's size; side by side, each gets half the room.
@@ -165,18 +228,26 @@ function onFrame(header, parts) {
     ` (${header.quality}), ${(1000 * header.seconds).toFixed(1)} ms in all`;
   $("#rays").textContent = `${(a.rays_per_second / 1e6).toFixed(1)} M (${a.rays.toLocaleString()} rays, ` +
     `${a.triangles.toLocaleString()} triangles)`;
-  // Change → on screen: from the request (sent by the input's own handler) to the first animation frame
-  // after image A decoded, the frame the browser then paints. benchmarks/bench_view.py --browser reads these.
-  const sent = state.sentAt[header.id];
-  if (sent !== undefined) {
+  // Input → on screen: from the oldest input event the frame answers (its own time, as the browser stamped it)
+  // to the first animation frame after image A decoded, the frame the browser then paints (`ms`); `sent` counts
+  // from sending the request, `shown` from the frame's arrival, `server` is the server's own time.
+  // benchmarks/bench_view.py --browser reads these.
+  const input = state.inputTimes[header.id], sentAt = state.sendTimes[header.id];
+  if (input !== undefined) {
     $("#image-a").decode().then(() => requestAnimationFrame(() => {
-      const ms = performance.now() - sent;
+      const now = performance.now(), ms = now - input;
       $("#latency").textContent = `${ms.toFixed(0)} ms`;
-      state.painted.push({ id: header.id, quality: header.quality, ms, server: header.seconds * 1000 });
+      state.painted.push({ id: header.id, quality: header.quality, ms, sent: now - sentAt, shown: now - arrived,
+                           server: header.seconds * 1000, at: now });
       if (state.painted.length > 2000) state.painted.shift();
     }), () => {});  // a newer image replaced it before it decoded: that one is measured instead
   }
-  for (const id of Object.keys(state.sentAt)) if (Number(id) <= header.id) delete state.sentAt[id];
+  for (const id of Object.keys(state.inputTimes)) {
+    if (Number(id) < header.id || (Number(id) === header.id && !preview)) {  // a preview's full frame follows
+      delete state.inputTimes[id];
+      delete state.sendTimes[id];
+    }
+  }
   $("#left-out").textContent = a.left_out.map((s) => s.name).join(", ") || "nothing";
   $("#left-out").title = a.left_out.map((s) => `${s.name}: ${s.reason}`).join("\n");
   $("#warnings").replaceChildren(...a.warnings.map((w) => Object.assign(document.createElement("li"), { textContent: w })));
@@ -192,7 +263,8 @@ function busy() {
   const owed = state.asked && state.asked.id > state.answered && state.connected;
   const waited = owed ? (performance.now() - state.asked.at) / 1000 : 0;
   $("#busy").hidden = !owed || waited < 0.15;
-  $("#stage").classList.toggle("stale", Boolean(owed) && waited >= 0.15 && state.asked.quality === "full");
+  $("#stage").classList.toggle("stale", Boolean(owed) && waited >= 0.15 && state.asked.quality === "full" &&
+                              state.previewed !== state.asked.id);
   if (!owed) return;
   const what = state.warming ? "preparing the renderer (its kernels are compiled on the first run, then cached)"
     : `rendering the ${state.asked.quality} frame`;
@@ -340,11 +412,12 @@ function lightPlacement(side = state.editing, index = lightIndex()) {
   return { toLight: distance > 0 ? scale(offset, 1 / distance) : scale(rig.forward, -1), distance, rig };
 }
 
-// Move or turn a light in A and (while comparing) B alike, so that the two stay comparable.
+// Move or turn a light in A and (while comparing) B alike, so that the two stay comparable. The gizmo, the
+// fields and the marker are redrawn on the next display frame, once however many moves came before it.
 function setShared(values, quality) {
   for (const side of state.bStarted ? ["a", "b"] : ["a"]) Object.assign(state.settings[side], values);
   request(quality);
-  refreshLight();
+  redrawLight();
 }
 
 function placeLight(toLight, distance, quality) {

@@ -1,0 +1,173 @@
+"""A FrameCache (renderer/reuse.py) and build_geometry's BuildMemo: the frames of one changing scene reuse what
+its change did not touch, and every frame is what a render without them gives, bit for bit."""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import raycast_phong as rp
+from raycast_phong.codes import StageName
+from raycast_phong.geometry.build import BuildMemo, build_geometry
+from raycast_phong.renderer.frame import FrameCache
+from raycast_phong.renderer.reuse import same_bits
+
+SCENES = Path(__file__).resolve().parents[2] / "scenes"
+
+# Shapes of two kinds (two boxes share one), a mesh file with its own materials (.mtl), one with vertex colours,
+# and a texture map: every kind of piece the memo keeps.
+BASE = {
+    "render": {"width": 40, "height": 30},
+    "camera": {"position": [0, 3, 9], "look_at": [0, 0, 0]},
+    "lights": [{"position": [3, 4, 6]}],
+    "materials": {"red": {"kd": [0.9, 0.2, 0.2], "ks": [0.5, 0.5, 0.5]},
+                  "checker": {"kd_map": "textures/checker.png"}},
+    "objects": [{"shape": "icosphere", "subdivisions": 1, "material": "red", "translate": [-2, 0, 0]},
+                {"shape": "box", "translate": [2, 0, 0]}, {"shape": "box", "translate": [2, 1.5, 0]},
+                {"shape": "mesh", "path": "meshes/dice.obj", "translate": [0, -1, 0], "scale": [0.5, 0.5, 0.5]},
+                {"shape": "mesh", "path": "meshes/painted_knot.ply", "translate": [0, 1.5, 0]},
+                {"shape": "uv_sphere", "material": "checker", "translate": [0, 0, -2]}],
+}
+# (key path, value, whether the geometry is the one before): a change of lights, camera or the render's other
+# settings keeps it; materials, shading, placement, tessellation, precision (the normals' dtype) and colour (the
+# maps' decoding) do not.
+CHANGES = [
+    (("lights", 0, "position"), [-3, 4, 6], True),
+    (("camera", "position"), [1, 2, 8], True),
+    (("render", "samples"), 2, True),
+    (("ambient",), [0.2, 0.2, 0.2], True),
+    (("render", "mode"), "global", True),
+    (("materials", "red", "kd"), [0.1, 0.8, 0.1], False),
+    (("render", "shading"), "flat", False),
+    (("render", "shading"), "gouraud", False),
+    (("objects", 2, "translate"), [2, -1.5, 0], False),
+    (("objects", 0, "subdivisions"), 2, False),
+    (("render", "precision"), "float64", False),
+    (("objects", 3, "rotate"), [0, 30, 0], False),
+    (("render", "colour"), "linear", False),  # the maps are decoded anew, from sRGB (the checker has mid values)
+]
+
+
+def changed(table: dict, path: tuple, value) -> dict:
+    table = copy.deepcopy(table)
+    node = table
+    for key in path[:-1]:
+        node = node.setdefault(key, {}) if isinstance(key, str) else node[key]
+    node[path[-1]] = value
+    return table
+
+
+def scene_of(table: dict, folder: Path = SCENES) -> rp.Scene:
+    return rp.validate_scene(table, source="memo", folder=folder)
+
+
+def assert_same_geometry(got, fresh) -> None:
+    """Every field of two Geometry records holds the same bits (textures: the same pixels)."""
+    for field in dataclasses.fields(fresh):
+        a, b = getattr(got, field.name), getattr(fresh, field.name)
+        if isinstance(b, np.ndarray):
+            assert same_bits(a, b), field.name
+        elif field.name == "textures":
+            named = lambda texture: (texture.wrap_s, texture.wrap_t, texture.name)
+            assert len(a) == len(b)
+            assert all(same_bits(x.pixels, y.pixels) and named(x) == named(y) for x, y in zip(a, b))
+        else:
+            assert a == b, field.name
+
+
+def build(scene: rp.Scene, memo: BuildMemo | None = None):
+    """build_geometry as render() calls it: the plan decides the corner normals and their dtype."""
+    plan = rp.build_plan(scene)
+    return build_geometry(scene, "memo", vertex_normals=plan.keeps(StageName.VERTEX_NORMALS), normal_dtype=plan.real,
+                          memo=memo)
+
+
+def test_a_memo_gives_the_geometry_a_fresh_build_gives_and_keeps_it_when_nothing_it_reads_changed():
+    memo = BuildMemo()
+    table = BASE
+    built = build(scene_of(table), memo)
+    for path, value, kept in CHANGES:
+        table = changed(table, path, value)
+        before, built = built, build(scene_of(table), memo)
+        assert (built is before) == kept, path
+        assert_same_geometry(built, build(scene_of(table)))
+
+
+def test_frames_through_a_frame_cache_are_the_images_render_gives(tmp_path):
+    cache = FrameCache()
+    table = BASE
+    for path, value, _ in [((), None, None), *CHANGES, (("objects", 0, "subdivisions"), 1, False)]:
+        if path:
+            table = changed(table, path, value)
+        scene = scene_of(table)
+        got, fresh = rp.render(scene, cache=cache), rp.render(scene)
+        assert same_bits(got.image, fresh.image), path
+        assert got.plan == fresh.plan and got.counts == fresh.counts, path
+
+
+def test_a_mesh_file_or_map_changed_on_disk_is_read_again(tmp_path):
+    """The memo keys a mesh file and a map on their versions: rewritten, each is read anew."""
+    shutil.copytree(SCENES / "meshes", tmp_path / "meshes")
+    shutil.copytree(SCENES / "textures", tmp_path / "textures")
+    memo = BuildMemo()
+    first = build(scene_of(BASE, tmp_path), memo)
+    assert build(scene_of(BASE, tmp_path), memo) is first
+    dice = tmp_path / "meshes" / "dice.obj"
+    lines = dice.read_text().splitlines()
+    at = next(k for k, line in enumerate(lines) if line.startswith("v "))
+    x, y, z = (float(word) for word in lines[at].split()[1:4])
+    lines[at] = f"v {x + 0.25} {y} {z}"  # one vertex moved
+    dice.write_text("\n".join(lines) + "\n")
+    moved = build(scene_of(BASE, tmp_path), memo)
+    assert moved is not first and not same_bits(moved.vertices, first.vertices)
+    assert_same_geometry(moved, build(scene_of(BASE, tmp_path)))
+    from raycast_phong.io.image_io import write_image
+    write_image(tmp_path / "textures" / "checker.png", np.full((4, 4, 3), 0.5, np.float32))  # another image
+    repainted = build(scene_of(BASE, tmp_path), memo)
+    assert repainted is not moved
+    assert_same_geometry(repainted, build(scene_of(BASE, tmp_path)))
+    assert not same_bits(repainted.textures[0].pixels, moved.textures[0].pixels)
+
+
+def test_a_frame_cache_reuses_the_bvh_when_the_vertices_and_faces_are_the_same(monkeypatch):
+    from raycast_phong.renderer import embree
+    built = []
+    original = embree.EmbreeScene
+    monkeypatch.setattr(embree, "EmbreeScene", lambda *args: built.append(1) or original(*args))
+    cache = FrameCache()
+    table = BASE
+    for path, value, expected in [((), None, 1), (("lights", 0, "position"), [1, 1, 5], 1),
+                                  (("render", "shading"), "flat", 1), (("render", "precision"), "float64", 1),
+                                  (("objects", 1, "translate"), [2, 0, 1], 2)]:
+        if path:
+            table = changed(table, path, value)
+        rp.render(scene_of(table), cache=cache)
+        assert len(built) == expected, path
+
+
+@pytest.mark.parametrize("value", [0.0, -0.0])
+def test_same_bits_tells_minus_zero_from_zero(value):
+    assert same_bits(np.array([0.0]), np.array([value])) == (np.signbit(value) == np.signbit(0.0))
+
+
+def test_a_file_whose_parts_are_partly_coloured_keeps_its_material_rows_from_build_to_build(tmp_path):
+    """A part without vertex colours is marked -1 in the file's corner colours, which tell its faces' material
+    rows; the geometry's colours turn them into 1. Kept by a memo, the file must keep its -1 for the next build."""
+    import trimesh
+    coloured = trimesh.creation.box()
+    coloured.visual.vertex_colors = np.tile([200, 40, 40, 255], (len(coloured.vertices), 1)).astype(np.uint8)
+    plain = trimesh.creation.box()
+    plain.apply_translation([3, 0, 0])
+    trimesh.Scene([coloured, plain]).export(tmp_path / "two.glb")
+    table = {"camera": {"position": [1.5, 2, 8], "look_at": [1.5, 0, 0]}, "lights": [{"position": [3, 4, 6]}],
+             "render": {"width": 24, "height": 16}, "objects": [{"shape": "mesh", "path": "two.glb"}]}
+    memo = BuildMemo()
+    build(scene_of(table, tmp_path), memo)
+    for model in ("flat", "phong"):  # a shading change rebuilds the geometry from the kept file
+        table = changed(table, ("render", "shading"), model)
+        assert_same_geometry(build(scene_of(table, tmp_path), memo), build(scene_of(table, tmp_path)))
