@@ -12,18 +12,28 @@ Usage: python benchmarks/bench_view.py [SCENE] [--size 640x360] [--steps 20] [--
 
 --browser: the latency a user feels, in Playwright driving Debian's Chromium (issue 23's targets: draft ≤ 50 ms
 and full ≤ 100 ms at 640×360 while dragging, full ≤ 250 ms at 1280×720). The page records, for each frame it
-shows, the time from the request its input handler sent to the first animation frame after the image decoded
+shows, the time from the input event it answers to the first animation frame after the image decoded
 (window.view.painted). Three runs: `rest` (640×360 and 1280×720: press on the light gizmo, one move, wait for
 the draft on screen, release, wait for the full frame and its exact errors), and `dragging` at 640×360 (drags
 of --seconds / 3 at --rate Hz, each released into the next with no pause, so a release's exact-error job runs
 while the next drag's drafts are rendered). Median and 95th percentile.
+
+--browser --unpaced: strokes as a hand makes them, not paced to the page (Playwright's mouse waits for the page
+to take each event, so a busy page slows the input down and hides its own lag): --strokes strokes back to back
+(each released into the next), of --stroke seconds at --rate Hz, sent through the DevTools protocol without
+waiting for the page, over the light gizmo (`light`) and over the image (`orbit`). Reports input → paint of the
+drafts while dragging (from the oldest pointer event a frame answers to the first animation frame after it
+decoded), the frames painted per second while dragging, and the releases answered by a full frame (release →
+paint). The load average is printed beside the figures.
 """
 
 from __future__ import annotations
 
 import argparse
+import asyncio
 import json
 import math
+import os
 import statistics
 import time
 
@@ -120,6 +130,74 @@ def browser_benchmark(scene: str | None, steps: int, rate: float, seconds: float
         browser.close()
 
 
+def unpaced_benchmark(scene: str | None, size: str, rate: float, strokes: int, stroke: float) -> None:
+    """The `--browser --unpaced` runs (see the module docstring); prints one line per measure and target."""
+    width, height = (int(x) for x in size.lower().split("x"))
+    draft = f"{(width + 1) // 2}×{(height + 1) // 2}"
+    print(f"view of {scene or 'the default scene'} at {width}×{height} (drafts {draft}); "
+          f"{strokes} strokes of {stroke:g} s at {rate:g} Hz, back to back, not paced to the page; "
+          f"load average {os.getloadavg()[0]:.1f}")
+    with running(scene) as url:
+        results = asyncio.run(_unpaced(url, width, height, rate, strokes, stroke))
+    for target, found in results.items():
+        drafts, fulls, seconds = found["drafts"], found["fulls"], found["seconds"]
+        shown = (f"median {statistics.median(drafts):6.1f} ms   p95 {p95(drafts):6.1f} ms" if drafts else "none")
+        print(f"{target:6} drafts while dragging: input→paint {shown}   {len(drafts) / seconds:5.1f} frames/s "
+              f"painted (n = {len(drafts)})")
+        answered = (f"median {statistics.median(fulls):6.1f} ms   p95 {p95(fulls):6.1f} ms" if fulls else "none")
+        print(f"{target:6} full frame after a release: {len(fulls)} of {strokes} releases, release→paint {answered}")
+    print(f"load average after: {os.getloadavg()[0]:.1f}")
+
+
+async def _unpaced(url: str, width: int, height: int, rate: float, strokes: int, stroke: float) -> dict:
+    from urllib.parse import quote
+
+    from playwright.async_api import async_playwright
+
+    results = {}
+    async with async_playwright() as driver:
+        browser = await driver.chromium.launch(executable_path="/usr/bin/chromium", args=CHROMIUM_ARGS)
+        page = await browser.new_page(viewport={"width": 1700, "height": 1100})
+        kept = {"a": {"render.width": width, "render.height": height}, "compare": "off"}
+        await page.goto(f"{url}#view={quote(json.dumps(kept))}")  # the permalink sets the size
+        await page.wait_for_function("() => window.view.painted.some((p) => p.quality === 'full')", timeout=180_000)
+        protocol = await page.context.new_cdp_session(page)
+        loop = asyncio.get_running_loop()
+
+        def mouse(kind: str, x: float, y: float) -> asyncio.Task:
+            """One mouse event sent without waiting for the page to take it (as the OS queues a hand's)."""
+            event = {"type": kind, "x": x, "y": y, "button": "left", "buttons": 0 if kind == "mouseReleased" else 1,
+                     "clickCount": 1 if kind != "mouseMoved" else 0}
+            return asyncio.ensure_future(protocol.send("Input.dispatchMouseEvent", event))
+
+        for target, selector in (("light", "#gizmo"), ("orbit", "#image-a")):
+            box = await page.locator(selector).bounding_box()
+            x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+            reach = min(box["width"], box["height"]) / 4
+            await page.mouse.move(x, y)
+            await page.evaluate("window.view.painted.length = 0")
+            sent, moves = [], max(1, round(rate * stroke))
+            started = loop.time()
+            for k in range(strokes * moves):
+                await asyncio.sleep(max(0.0, started + k / rate - loop.time()))
+                turn = 2 * math.pi * (k % moves) / moves
+                point = (x + reach * math.sin(turn), y + reach / 3 * math.sin(2 * turn + k // moves))
+                if k % moves == 0:
+                    sent.append(mouse("mousePressed", *point))
+                sent.append(mouse("mouseMoved", *point))
+                if k % moves == moves - 1:
+                    sent.append(mouse("mouseReleased", *point))
+            seconds = loop.time() - started
+            await asyncio.gather(*sent)
+            await page.wait_for_function("() => window.view.asked && window.view.answered >= window.view.asked.id",
+                                         timeout=120_000)
+            painted = await page.evaluate("window.view.painted")
+            results[target] = {"drafts": [p["ms"] for p in painted if p["quality"] == "draft"],
+                               "fulls": [p["ms"] for p in painted if p["quality"] == "full"], "seconds": seconds}
+        await browser.close()
+    return results
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scene", nargs="?", default=None, help="scene file (default: the built-in figure)")
@@ -128,7 +206,13 @@ def main() -> None:
     parser.add_argument("--rate", type=float, default=60.0, help="pointer events per second in the drag test")
     parser.add_argument("--seconds", type=float, default=3.0, help="length of the drag test")
     parser.add_argument("--browser", action="store_true", help="the latency felt in Chromium instead (Playwright)")
+    parser.add_argument("--unpaced", action="store_true",
+                        help="with --browser: strokes not paced to the page, input → paint (see above)")
+    parser.add_argument("--strokes", type=int, default=10, help="strokes in each --unpaced run")
+    parser.add_argument("--stroke", type=float, default=0.5, help="seconds each --unpaced stroke lasts")
     args = parser.parse_args()
+    if args.browser and args.unpaced:
+        return unpaced_benchmark(args.scene, args.size, args.rate, args.strokes, args.stroke)
     if args.browser:
         return browser_benchmark(args.scene, args.steps, args.rate, args.seconds)
     width, height = (int(x) for x in args.size.lower().split("x"))
@@ -164,16 +248,18 @@ def main() -> None:
             print(f"view of {args.scene or 'the default scene'} at {width}×{height} "
                   f"(draft {(width + 1) // 2}×{(height + 1) // 2}), served at {origin}")
             for quality, reference in (("draft", False), ("full", False), ("full", True)):
-                latencies, renders = [], []
+                latencies, renders, cpu = [], [], []
                 for k in range(args.steps):
-                    started = time.perf_counter()
+                    started, used = time.perf_counter(), time.process_time()
                     ask(quality, point(k, args.steps), reference)
                     header = frame()
                     latencies.append(time.perf_counter() - started)
+                    cpu.append(time.process_time() - used)  # this process's CPU: the server runs on its threads
                     renders.append(header["stats"]["a"]["frame"])
                 name = f"{quality}{' + exact errors' if reference else ''}"
                 print(summary(f"step, {name}: change→image", latencies))
                 print(summary(f"step, {name}: render frame", renders))
+                print(summary(f"step, {name}: CPU (all threads)", cpu))
 
             # Drag: send at the pointer's rate without waiting; the server keeps only the newest waiting request.
             sent_at: dict[int, float] = {}

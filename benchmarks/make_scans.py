@@ -2,8 +2,9 @@
 subdivision, each step ×4 faces) and written as binary PLY, binary STL, GLB and OBJ into a cache folder
 outside the repository (~/.cache/raycast-phong/scans, or $RAYCAST_PHONG_SCANS); made once, then reused.
 
-Sources: the Stanford bunny (/work/corpus/bunny.ply, 16,301 faces; BUNNY to override) and the beast of
-alecjacobson/common-3d-test-models (data/beast.obj, 32,364 faces; BEAST to override, a path to the .obj).
+Sources: the Stanford bunny (/work/corpus/bunny.ply, 16,301 faces; BUNNY to override), and the beast and the
+full-resolution Stanford bunny of alecjacobson/common-3d-test-models (data/beast.obj, 32,364 faces; BEAST to
+override, a path to the .obj; data/stanford-bunny.obj, 69,451 faces).
 Usage: python benchmarks/make_scans.py [--scan bunny-1m bunny-4m ...] [--formats ply stl glb obj]
 """
 
@@ -18,6 +19,7 @@ SCANS = {  # name: (source, subdivision steps) → faces
     "bunny-1m": ("bunny", 3),   # 16,301 × 64 = 1,043,264
     "bunny-4m": ("bunny", 4),   # 16,301 × 256 = 4,173,056
     "beast-2m": ("beast", 3),   # 32,364 × 64 = 2,071,296
+    "stanford-bunny-1m": ("stanford-bunny", 2),  # 69,451 × 16 = 1,111,216 (docs/view.md's scan)
 }
 FORMATS = ("ply", "stl", "glb", "obj")
 
@@ -34,10 +36,11 @@ def _source(name: str):
     if name == "bunny":
         return trimesh.load(os.environ.get("BUNNY", "/work/corpus/bunny.ply"), process=False)
     path = os.environ.get("BEAST")
-    if path:
+    if path and name == "beast":
         return trimesh.load(path, process=False)
     repo = "/work/.mirror/alecjacobson+common-3d-test-models/repo"
-    text = subprocess.run(["git", "-C", repo, "show", "HEAD:data/beast.obj"], capture_output=True, check=True).stdout
+    text = subprocess.run(["git", "-C", repo, "show", f"HEAD:data/{name}.obj"], capture_output=True,
+                          check=True).stdout
     import io
     return trimesh.load(io.BytesIO(text), file_type="obj", process=False)
 

@@ -62,10 +62,25 @@ def build_geometry(scene: Scene, source: str | Location = "<scene>", vertex_norm
     if sources is None and any(obj.shape == "mesh" for obj in scene.objects):
         from ..io.mesh_source import mesh_sources
         sources = mesh_sources(scene)
-    whole = memo.begin(scene, where, vertex_normals, normal_dtype) if memo is not None else None
-    if memo is not None and (kept := memo.geometry_for(whole)) is not None:
+    if memo is None:
+        return _build(scene, where, vertex_normals, normal_dtype, None, sources)
+    whole = memo.begin(scene, where, vertex_normals, normal_dtype)
+    kept = memo.geometry_for(whole)
+    if kept is not None:
         check_float_range(scene, kept.vertices, where)  # the lights it checks may be new
         return kept
+    try:
+        geometry = _build(scene, where, vertex_normals, normal_dtype, memo, sources)
+    except BaseException:
+        memo.abandon()  # keep the last good build's pieces only, however often a scene is refused
+        raise
+    memo.keep(whole, geometry)
+    return geometry
+
+
+def _build(scene: Scene, where: Location, vertex_normals: bool, normal_dtype: type, memo: BuildMemo | None,
+           sources: dict | None) -> Geometry:
+    """build_geometry's work, each group's template and part from `memo` when it has them."""
     material_index = {name: i + 1 for i, name in enumerate(scene.materials)}  # 0 is the built-in default
     groups = _groups(scene)
     bank = TextureBank(scene, where, memo)
@@ -107,8 +122,6 @@ def build_geometry(scene: Scene, source: str | Location = "<scene>", vertex_norm
                                    textures=tuple(bank.textures) if textured else (),
                                    scene_maps=scene_maps if textured else np.full((0, 3), -1, np.int64))
     check_float_range(scene, geometry.vertices, where)
-    if memo is not None:
-        memo.keep(whole, geometry)
     return geometry
 
 
@@ -180,7 +193,7 @@ class BuildMemo:
     """What build_geometry keeps between builds of one changing scene (a live view's frames of one page), so
     that a frame rebuilds only what its change touched:
 
-    - the last Geometry, with the key of everything it was built from (whole_key) and the versions of the
+    - the last Geometry, with the key of everything it was built from (begin) and the versions of the
       texture files it decoded: a scene that differs only in lights, camera or render settings other than
       shading and colour gets that Geometry back (the same object);
     - each group's template (a shape's triangles, or a mesh file read, merged and mended), keyed by what it
@@ -202,6 +215,7 @@ class BuildMemo:
         self._parts: dict[tuple, _Part] = {}
         self._textures: dict[tuple, tuple[object, np.ndarray]] = {}  # (TextureBank key, colour) → (stamp, pixels)
         self._used: tuple[set, set, set] = (set(), set(), set())  # templates, parts and textures of this build
+        self._kept: tuple[set, set, set] = (set(), set(), set())  # those of the last build that succeeded
 
     def begin(self, scene: Scene, where: Location, vertex_normals: bool, normal_dtype: type) -> tuple:
         """Start a build: the key of everything build_geometry reads from `scene` and the disk: every object's
@@ -255,25 +269,30 @@ class BuildMemo:
         """The pixels of texture `key`, decoded again only when its stamp (a file's version, or the image object
         a mesh file holds) is another."""
         found = self._textures.get(key)
-        if found is None or not (found[0] is stamp or found[0] == stamp):
+        # A file's version is compared; an image object a mesh file holds must be the same object.
+        if found is None or not (found[0] is stamp or (isinstance(stamp, tuple) and found[0] == stamp)):
             found = self._textures[key] = (stamp, decode())
         self._used[2].add(key)
         return found[1]
 
     def keep(self, whole: tuple, geometry: Geometry) -> None:
         """Remember this build's Geometry, and drop every template, part and texture it did not use."""
-        templates, parts, textures = self._used
-        self._templates = {k: v for k, v in self._templates.items() if k in templates}
-        self._parts = {k: v for k, v in self._parts.items() if k in parts}
-        self._textures = {k: v for k, v in self._textures.items() if k in textures}
+        self._kept, self._used = self._used, (set(), set(), set())
+        self._prune()
         self._texture_stamps = {key[0]: stamp for key, (stamp, _) in self._textures.items()
                                 if isinstance(stamp, tuple)}
         self._whole, self._geometry = whole, geometry
-        self._used = (set(), set(), set())
 
-    def forget(self) -> None:
-        """Drop everything (a build failed half-way: its pieces are not all trustworthy)."""
-        self.__init__()
+    def abandon(self) -> None:
+        """A build failed (a refused scene): drop what it made, keep what the last good build used."""
+        self._used = (set(), set(), set())
+        self._prune()
+
+    def _prune(self) -> None:
+        templates, parts, textures = self._kept
+        self._templates = {k: v for k, v in self._templates.items() if k in templates}
+        self._parts = {k: v for k, v in self._parts.items() if k in parts}
+        self._textures = {k: v for k, v in self._textures.items() if k in textures}
 
 
 class _KeptPart(NamedTuple):

@@ -171,3 +171,19 @@ def test_a_file_whose_parts_are_partly_coloured_keeps_its_material_rows_from_bui
     for model in ("flat", "phong"):  # a shading change rebuilds the geometry from the kept file
         table = changed(table, ("render", "shading"), model)
         assert_same_geometry(build(scene_of(table, tmp_path), memo), build(scene_of(table, tmp_path)))
+
+
+def test_a_refused_scene_leaves_the_memo_as_the_last_good_build_left_it():
+    """A scene refused half-way through its build (an object placed past the coordinate limit) adds nothing to
+    the memo, however often it comes: it holds the last good build's pieces, which the next frame reuses."""
+    from raycast_phong.errors import SceneError
+    from raycast_phong.tolerances import POSITION_LIMIT
+    memo = BuildMemo()
+    good = build(scene_of(BASE), memo)
+    held = (len(memo._templates), len(memo._parts))
+    for k in range(3):
+        with pytest.raises(SceneError, match="reaches a coordinate"):
+            far = changed(BASE, ("objects", 0, "translate"), [POSITION_LIMIT, k, 0])
+            build(scene_of(changed(far, ("objects", 0, "radius"), POSITION_LIMIT)), memo)
+        assert (len(memo._templates), len(memo._parts)) == held
+    assert build(scene_of(BASE), memo) is good

@@ -621,3 +621,9 @@ def test_the_browser_benchmark_runs_in_a_reduced_form():
     for line in ("rest 640×360                 full", "rest 1280×720                full",
                  "dragging 640×360             draft"):
         assert line in done.stdout, done.stdout
+    unpaced = subprocess.run([sys.executable, str(root / "benchmarks" / "bench_view.py"), "--browser", "--unpaced",
+                              "--strokes", "2", "--stroke", "0.3"], capture_output=True, text=True, timeout=600)
+    assert unpaced.returncode == 0, unpaced.stderr
+    for line in ("light  drafts while dragging: input→paint median", "orbit  full frame after a release:",
+                 "load average after:"):
+        assert line in unpaced.stdout, unpaced.stdout
