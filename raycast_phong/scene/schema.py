@@ -169,7 +169,13 @@ class TextureMap(Table):
 
 
 def _map(value: Any) -> Any:
-    return {"path": value} if isinstance(value, str) else value  # kd_map = "wood.png" is the short form
+    """kd_map = "wood.png" is the short form of { path = "wood.png" }; a number or a list is neither (a file
+    named '5' was once looked for)."""
+    if isinstance(value, str):
+        return {"path": value}
+    if value is not None and not isinstance(value, dict):
+        raise ValueError('must be an image file name or a table { path = "...", wrap = "clamp" }')
+    return value
 
 
 MapKey = Annotated[TextureMap, BeforeValidator(_map)] | None

@@ -46,3 +46,14 @@ def test_each_stage_raises_at_the_key_it_refuses(tmp_path):
     fine = scene({"shape": "icosphere", "subdivisions": 8})
     error = caught(lambda: check_memory(fine, "s.toml", 1 << 20))
     assert error.where == Location("s.toml", ("objects", 0, "subdivisions"))
+
+
+@pytest.mark.parametrize("value", [5, [1, 2], True])
+def test_a_map_that_is_neither_a_file_name_nor_a_table_says_what_a_map_is(value):
+    """Issue 30 item 10: kd_map = 5 was once taken as the file '5', then called no table of keys; a map is a file
+    name or a table, and the line says so."""
+    with pytest.raises(rp.SceneError) as raised:
+        rp.validate_scene({"materials": {"m": {"kd_map": value}}, "objects": [{"shape": "uv_sphere", "material": "m"}]},
+                          source="s.toml")
+    assert str(raised.value).startswith('s.toml: materials.m.kd_map: must be an image file name or a table '
+                                        '{ path = "...", wrap = "clamp" }'), str(raised.value)
