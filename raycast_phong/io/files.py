@@ -13,7 +13,6 @@ import os
 import re
 import stat
 import sys
-import tempfile
 import threading
 from collections.abc import Callable
 from contextlib import contextmanager
@@ -163,6 +162,7 @@ def native_errors_kept():
     except (OSError, ValueError, AttributeError):  # no fd 2 (closed, or a stream without one): nothing to keep
         yield
         return
+    import tempfile  # here, not at start-up: 7 ms of imports (random, shutil) that only this needs
     with tempfile.TemporaryFile() as sink:
         os.dup2(sink.fileno(), 2)
         try:

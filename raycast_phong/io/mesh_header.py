@@ -62,13 +62,22 @@ def mesh_file_read_bytes(path: Path, buffers: tuple[Path, ...] | None = None) ->
     suffix = path.suffix.lower()
     if suffix == ".stl" and _binary_stl(path, size):
         return size * BINARY_STL_READ_BYTES_PER_BYTE
-    if suffix == ".3mf":  # a zip: what it holds is read, decompressed (an 800 MB XML zips to 2 MB)
-        return size + _zip_content_bytes(path) * ZIP_XML_READ_BYTES_PER_BYTE
-    # A .gltf's external buffers are read whole, whatever its accessors claim to use of them.
-    if suffix == ".gltf" and buffers is None:
-        buffers = gltf_buffer_files(path)
-    weight = sum(_size(buffer) for buffer in buffers) if suffix == ".gltf" else 0
-    return size * READ_BYTES_PER_BYTE.get(suffix, TEXT_READ_BYTES_PER_BYTE) + weight * BUFFER_READ_BYTES_PER_BYTE
+    external, unzipped = _held_bytes(path, buffers)
+    if suffix == ".3mf":
+        return size + unzipped * ZIP_XML_READ_BYTES_PER_BYTE
+    return size * READ_BYTES_PER_BYTE.get(suffix, TEXT_READ_BYTES_PER_BYTE) + external * BUFFER_READ_BYTES_PER_BYTE
+
+
+def _held_bytes(path: Path, buffers: tuple[Path, ...] | None = None) -> tuple[int, int]:
+    """What a read of the file decodes besides its own bytes: (a .gltf's external buffers, read whole whatever its
+    accessors claim to use of them; a 3MF's members unzipped: an 800 MB XML zips to 2 MB). `buffers`: the
+    .gltf's buffer files if known, else read from its JSON."""
+    suffix = path.suffix.lower()
+    if suffix == ".gltf":
+        return sum(_size(buffer) for buffer in (gltf_buffer_files(path) if buffers is None else buffers)), 0
+    if suffix == ".3mf":
+        return 0, _zip_content_bytes(path)
+    return 0, 0
 
 
 def _zip_content_bytes(path: Path) -> int:
@@ -266,13 +275,9 @@ def check_mesh_read(path: Path, where: Where, max_memory: int | None = None, mes
     need = max(triangles * (MESH_READ_BYTES + MESH_FILE_BYTES.get(path.suffix.lower(), OTHER_MESH_FILE_BYTES)),
                floor)
     if available is not None and need > available:
-        suffix = path.suffix.lower()
-        if suffix == ".gltf" and buffers is None:
-            buffers = gltf_buffer_files(path)
-        weight = sum(_size(buffer) for buffer in buffers) if suffix == ".gltf" else 0
-        unzipped = _zip_content_bytes(path) if suffix == ".3mf" else 0
+        external, unzipped = _held_bytes(path, buffers)  # said only when refused
         what = (f"{count_text(triangles)} triangles" if triangles else f"{format_bytes(path.stat().st_size)}"
-                + (f" and {format_bytes(weight)} of buffers" if weight else "")
+                + (f" and {format_bytes(external)} of buffers" if external else "")
                 + (f" ({format_bytes(unzipped)} unzipped)" if unzipped else ""))
         raise SceneError(f"reading its {what} needs ≈ {format_bytes(need)} of memory, more than the "
                          f"{format_bytes(available)} available; allowed: a mesh whose size and triangles fit, "

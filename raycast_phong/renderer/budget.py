@@ -168,12 +168,16 @@ def parse_size(text: str) -> int:
     return int(float(match[1]) * UNITS[match[2].lower()])
 
 
+def budget_of(max_memory: int | str | None) -> int | None:
+    """The bytes a command may use: `max_memory` (bytes, or '8G'), else default_budget(); None: no limit known."""
+    budget = parse_size(max_memory) if isinstance(max_memory, str) else max_memory
+    return default_budget() if budget is None else budget
+
+
 def check_memory(scene: Scene, source: str | Location, max_memory: int | str | None, **options) -> MemoryEstimate:
     """Refuse (SceneError, one line) a scene whose estimate exceeds the budget: max_memory in bytes (or
     '8G'), default default_budget(). `options` go to estimate_memory. Returns the estimate."""
-    budget = parse_size(max_memory) if isinstance(max_memory, str) else max_memory
-    if budget is None:
-        budget = default_budget()
+    budget = budget_of(max_memory)
     found = estimate_memory(scene, source, **options)
     if budget is None or found.total <= budget:
         return found

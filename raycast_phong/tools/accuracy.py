@@ -70,8 +70,8 @@ def check_fine_memory(scene: Scene, data: dict, levels: int, source: str | Locat
     (budget.estimate_memory of `data`, smooth, float64) and each mesh file's triangles × (4^levels − 1) more,
     at the render's bytes a triangle and the subdivision's."""
     from ..io.system import count_text, format_bytes
-    from ..renderer.budget import FLOAT64_NORMAL_BYTES, SMOOTH_BYTES, default_budget, estimate_memory
-    budget = max_memory if max_memory is not None else default_budget()
+    from ..renderer.budget import FLOAT64_NORMAL_BYTES, SMOOTH_BYTES, budget_of, estimate_memory
+    budget = budget_of(max_memory)
     if budget is None:
         return
     found = estimate_memory(validate_scene(data, source=source, folder=scene.folder), source, float64=True)
@@ -143,8 +143,8 @@ def check_reference_memory(scene: Scene, source: str, max_memory: int | None) ->
     """Refuse (SceneError, one line) an analytic reference whose image does not fit the budget: `max_memory`
     bytes, default the render's (renderer.budget.default_budget)."""
     from ..io.system import format_bytes
-    from ..renderer.budget import default_budget
-    budget = default_budget() if max_memory is None else max_memory
+    from ..renderer.budget import budget_of
+    budget = budget_of(max_memory)
     render = scene.render
     need = render.width * render.height * REFERENCE_PIXEL_BYTES
     if budget is not None and need > budget:
