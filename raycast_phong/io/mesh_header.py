@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import SceneError, Where
 from .files import VersionCache, file_version, open_regular
 from .gltf import JSON_LIMIT, Document, gltf_buffer_files
-from .system import available_memory, count_text, format_bytes
+from .system import count_text, format_bytes, memory_allowed
 
 # trimesh's load of a mesh file, above the render's own peak (the parse of a text file is larger). A binary STL
 # is read by io/mesh_file.py itself as float32 corners (its 50-byte records, then 36 + 24 bytes a triangle of
@@ -267,9 +267,7 @@ def check_mesh_read(path: Path, where: Where, max_memory: int | None = None, mes
     parse. `mesh`: the file's io.mesh_source.MeshSource (its glTF document and buffer files), if made."""
     buffers = mesh.side_files if mesh is not None and path.suffix.lower() == ".gltf" else None
     document = mesh.document if mesh is not None else None
-    available = available_memory()
-    if max_memory is not None:
-        available = max_memory if available is None else min(available, max_memory)
+    available = memory_allowed(max_memory)
     floor = mesh_file_read_bytes(path, buffers)  # from the size alone: a huge file is refused before any byte is read
     triangles = 0 if available is not None and floor > available else mesh_file_triangles(path, where, document)
     need = max(triangles * (MESH_READ_BYTES + MESH_FILE_BYTES.get(path.suffix.lower(), OTHER_MESH_FILE_BYTES)),

@@ -1,7 +1,8 @@
 """The syntax of a scene file: TOML, or JSON for .json, read safely into a dict (the schema judges the keys).
 `-` (or /dev/stdin) reads the scene from standard input: TOML, or JSON when it starts with `{`.
 
-Only a regular file of at most MAX_SCENE_BYTES is read; a JSON key given twice in one object is refused
+Only a regular file of at most MAX_SCENE_BYTES is read, and only when its parse fits in memory (SCENE_READ_BYTES
+a byte of text, under the command's --max-memory too); a JSON key given twice in one object is refused
 (JSON parsers keep the last silently); every problem is one SceneError naming the file.
 """
 
@@ -15,12 +16,17 @@ from typing import Any
 
 from ..errors import SceneError
 from .files import open_regular
+from .system import format_bytes, memory_allowed
 
 MAX_SCENE_BYTES = 16 << 20  # 16 MiB: a scene is keys and numbers; 40,000 objects take about 3.5 MiB of TOML
+# Memory a byte of scene text takes once parsed, the worst measured (tomllib, Python 3.11): nested empty lists
+# `[[]],` 35, empty tables or lists 25, `{shape="box"},` 25, floats 11, integers 5; so a 16 MiB scene ≈ 670 MB.
+SCENE_READ_BYTES = 40
 
 
-def read_scene_file(path: Path) -> dict:
-    """Parse the file's syntax only (TOML, or JSON for .json), with a one-line error on failure."""
+def read_scene_file(path: Path, max_memory: int | None = None) -> dict:
+    """Parse the file's syntax only (TOML, or JSON for .json), with a one-line error on failure; refused
+    before the parse when SCENE_READ_BYTES a byte would not fit in what io.system.memory_allowed leaves."""
     path = Path(path)
     stdin = is_stdin(path)
     try:
@@ -34,6 +40,12 @@ def read_scene_file(path: Path) -> dict:
                 data = handle.read(MAX_SCENE_BYTES + 1)
         if len(data) > MAX_SCENE_BYTES:
             raise SceneError(f"the scene is more than the {MAX_SCENE_BYTES >> 20} MiB allowed", path)
+        allowed = memory_allowed(max_memory)
+        if allowed is not None and len(data) * SCENE_READ_BYTES > allowed:
+            raise SceneError(f"reading its {format_bytes(len(data))} of text needs ≈ "
+                             f"{format_bytes(len(data) * SCENE_READ_BYTES)} of memory, more than the "
+                             f"{format_bytes(allowed)} available; allowed: a scene whose text fits, so split it or "
+                             "raise the budget (--max-memory)", path)
         text = data.decode("utf-8")
     except FileNotFoundError:
         raise SceneError("no such scene file", path) from None

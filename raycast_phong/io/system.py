@@ -40,6 +40,15 @@ def available_memory() -> int | None:
     return found
 
 
+def memory_allowed(max_memory: int | None) -> int | None:
+    """What a read may use: the memory available now (available_memory), capped by `max_memory` (a command's
+    --max-memory, bytes); None: no limit known."""
+    available = available_memory()
+    if max_memory is not None:
+        available = max_memory if available is None else min(available, max_memory)
+    return available
+
+
 _CGROUP_ROOT = "/sys/fs/cgroup"  # tests/contracts/test_watchdog.py points it at a fake tree, from outside
 
 

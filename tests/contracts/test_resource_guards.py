@@ -335,3 +335,36 @@ def test_the_framing_check_counts_the_render_bytes_per_triangle():
     from raycast_phong.io.mesh_header import MESH_READ_BYTES
     from raycast_phong.renderer.budget import FLAT_BYTES
     assert MESH_READ_BYTES == FLAT_BYTES
+
+
+def test_a_scene_whose_text_would_not_fit_once_parsed_is_refused_before_the_parse(tmp_path):
+    """Issue 30 item 3: a scene's parse costs up to SCENE_READ_BYTES a byte of text (nested empty lists,
+    measured 35×), so 977 kB of text under a 10 MB budget is refused before tomllib runs; the same text fits
+    a 100 MB one."""
+    from raycast_phong.errors import SceneError
+    from raycast_phong.io.scene_file import SCENE_READ_BYTES, read_scene_file
+    path = tmp_path / "lists.toml"
+    path.write_text("x = [" + "[[]]," * 200_000 + "]\n")
+    assert SCENE_READ_BYTES >= 35
+    with pytest.raises(SceneError, match=r"lists\.toml: reading its 977 kB of text needs ≈ 38.1 MB of memory, "
+                                         r"more than the 10 MB available"):
+        read_scene_file(path, max_memory=10 << 20)
+    assert len(read_scene_file(path, max_memory=100 << 20)["x"]) == 200_000
+
+
+def test_a_scene_whose_validation_would_not_fit_is_refused_before_it_is_validated(tmp_path, monkeypatch):
+    """Issue 30 item 3: validation takes up to VALIDATED_ITEM_BYTES an object, light or material (10⁶ boxes
+    grew 1.69 GB before the geometry estimate refused them), counted before it starts: 10,000 boxes and a
+    light under 10 MB are refused naming the counts, without a model made; under 100 MB they validate."""
+    from raycast_phong.errors import SceneError
+    from raycast_phong.scene import load, schema
+    path = tmp_path / "boxes.toml"
+    path.write_text("objects = [" + ",".join(['{shape="box"}'] * 10_000) + ']\n[[lights]]\ntype = "point"\n'
+                    "position = [0, 5, 5]\n")
+    made = []
+    monkeypatch.setattr(schema, "objects_in_bulk", lambda objects: made.append(1) or objects)
+    with pytest.raises(SceneError, match=r"boxes\.toml: validating its 10,000 objects, 1 light needs ≈ 14\.6 MB of "
+                                         r"memory, more than the 10 MB available"):
+        load.load_scene(path, max_memory=10 << 20)
+    assert not made
+    assert len(load.load_scene(path, max_memory=100 << 20).objects) == 10_000

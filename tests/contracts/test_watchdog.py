@@ -165,3 +165,121 @@ def test_the_budget_follows_a_cgroup_lower_than_free_memory(tmp_path):
     done = subprocess.run([*CLI, "plan", "big.toml"], cwd=tmp_path, env=env, capture_output=True, text=True,
                           timeout=120)
     assert done.returncode == 2 and "above the 150 MB budget" in done.stderr, done.stderr
+
+
+def textured_gltf(path: Path, png: bytes) -> Path:
+    """One textured triangle whose base colour map is `png`: in the GLB's binary chunk for .glb, a base64
+    `data:` URI for .gltf."""
+    import base64
+    import json
+    geometry = struct.pack("<9f6f", 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 1)
+    document = {
+        "asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "material": 0}]}],
+        "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+        "textures": [{"source": 0}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                       "min": [0, 0, 0], "max": [1, 1, 0]},
+                      {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"}],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36},
+                        {"buffer": 0, "byteOffset": 36, "byteLength": 24}]}
+    if path.suffix == ".gltf":
+        document["buffers"] = [{"byteLength": len(geometry), "uri": "data:application/octet-stream;base64,"
+                                + base64.b64encode(geometry).decode()}]
+        document["images"] = [{"uri": "data:image/png;base64," + base64.b64encode(png).decode()}]
+        path.write_text(json.dumps(document))
+        return path
+    binary = geometry + png + b"\0" * (-len(png) % 4)
+    document["buffers"] = [{"byteLength": len(binary)}]
+    document["bufferViews"].append({"buffer": 0, "byteOffset": len(geometry), "byteLength": len(png)})
+    document["images"] = [{"bufferView": 2, "mimeType": "image/png"}]
+    text = json.dumps(document).encode()
+    text += b" " * (-len(text) % 4)
+    chunks = (struct.pack("<I4s", len(text), b"JSON") + text + struct.pack("<I4s", len(binary), b"BIN\0") + binary)
+    path.write_bytes(struct.pack("<4sII", b"glTF", 2, 12 + len(chunks)) + chunks)
+    return path
+
+
+def ply_lists(path: Path, element: str, indices: int) -> Path:
+    """A binary PLY of three vertices and one `element` (face, tristrips) list of `indices` entries, as the
+    header's one element says."""
+    import numpy as np
+    header = (f"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+              f"property float z\nelement {element} 1\nproperty list int int vertex_indices\nend_header\n").encode()
+    body = struct.pack("<i", indices) + (np.arange(indices, dtype="<i4") % 3).tobytes()
+    path.write_bytes(header + struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0) + body)
+    return path
+
+
+HOSTILE_BUDGET = 300 << 20
+LIMIT_300 = ["--max-memory", "300M"]
+
+
+@pytest.fixture(scope="module")
+def hostile_files(tmp_path_factory) -> Path:
+    """Issue 30 item 3's inputs, each small on disk and each costing gigabytes if read as it claims: maps of
+    12000² and 20000² (a scene's kd_map, an MTL's map_Kd, a GLB's image, a glTF `data:` image), a 3MF of
+    47 MB of XML zipped small, a glTF whose accessors claim 3 vertices of a 2 GiB external buffer, a PLY face of
+    3 M corners and a PLY strip of 10⁷ indices (headers: one element each), 10⁶ boxes in a 14 MB scene; and a
+    fake cgroup of 300 MB over them all."""
+    folder = tmp_path_factory.mktemp("hostile-300")
+    map_12k = claiming_png(folder / "map12k.png", 12000).read_bytes()
+    claiming_png(folder / "map20k.png", 20000)
+    (folder / "texture.toml").write_text(
+        '[materials.m]\nkd_map = "map12k.png"\n[[objects]]\nshape = "plane"\nmaterial = "m"\n')
+    (folder / "textured.mtl").write_text("newmtl m\nmap_Kd map20k.png\n")
+    (folder / "textured.obj").write_text("mtllib textured.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n"
+                                         "usemtl m\nf 1/1 2/2 3/3\n")
+    textured_gltf(folder / "image.glb", (folder / "map20k.png").read_bytes())
+    textured_gltf(folder / "image.gltf", (folder / "map20k.png").read_bytes())
+    del map_12k
+    from test_file_guards import three_mf
+    three_mf(folder / "bomb.3mf", 200_000)  # ≈ 47 MB of XML, ≈ 1.7 GB to parse
+    with open(folder / "big.bin", "wb") as handle:
+        handle.write(struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0))
+        handle.truncate(2 << 30)
+    import json
+    (folder / "lie.gltf").write_text(json.dumps({
+        "asset": {"version": "2.0"}, "buffers": [{"uri": "big.bin", "byteLength": 2 << 30}],
+        "bufferViews": [{"buffer": 0, "byteLength": 36}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                       "min": [0, 0, 0], "max": [1, 1, 0]}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}], "nodes": [{"mesh": 0}]}))
+    ply_lists(folder / "corners.ply", "face", 3_000_000)
+    ply_lists(folder / "strips.ply", "tristrips", 10_000_000)
+    light = '[[lights]]\ntype = "point"\nposition = [0, 5, 5]\n'
+    (folder / "boxes.toml").write_text("objects = [" + ",".join(['{shape="box"}'] * 1_000_000) + "]\n" + light)
+    fake_cgroup(folder / "cgroup", HOSTILE_BUDGET)
+    return folder
+
+
+HOSTILE_RUNS = {  # input → a command line that reads it (the texture scene through every command that renders)
+    "kd_map 12000²": ["render", "texture.toml", *LIMIT_300, "-o", "o.png"],
+    "kd_map 12000², plan": ["plan", "texture.toml", *LIMIT_300],
+    "kd_map 12000², side-by-side": ["side-by-side", "texture.toml", "--vary", "render.shading=flat,phong",
+                                    *LIMIT_300, "-o", "s.png"],
+    "kd_map 12000², study": ["study", "texture.toml", "--levels", "1", *LIMIT_300, "--out", "study"],
+    "map_Kd 20000² (MTL)": ["render", "textured.obj", *LIMIT_300, "-o", "o.png"],
+    "GLB image 20000²": ["render", "image.glb", *LIMIT_300, "-o", "o.png"],
+    "glTF data: image 20000²": ["render", "image.gltf", *LIMIT_300, "-o", "o.png"],
+    "3MF of 47 MB XML": ["render", "bomb.3mf", *LIMIT_300, "-o", "o.png"],
+    "glTF claiming 3 vertices of 2 GiB": ["render", "lie.gltf", *LIMIT_300, "-o", "o.png"],
+    "PLY face of 3M corners": ["plan", "corners.ply", *LIMIT_300],
+    "PLY strip of 10⁷ indices": ["render", "strips.ply", *LIMIT_300, "-o", "o.png"],
+    "10⁶ boxes": ["render", "boxes.toml", *LIMIT_300, "-o", "o.png"],
+    "reference 16384²": ["reference", "--width", "16384", "--height", "16384", *LIMIT_300, "-o", "ref.exr"],
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", list(HOSTILE_RUNS))
+def test_every_hostile_input_of_issue_30_stays_within_300M(case, hostile_files, baseline):
+    """Each input is refused in one line (exit 2) or rendered (exit 0; a map shrunk as it is decoded), and the
+    peak resident size stays within the 300 MB budget above the process's own (issue 30: before, 1.0–3.6 GB)."""
+    code, peak, stderr = measured(HOSTILE_RUNS[case], hostile_files, hostile_files / "cgroup")
+    assert "Traceback" not in stderr and "Warning" not in stderr, stderr
+    assert code in (0, 2), (code, stderr)
+    if code == 2:
+        assert len([line for line in stderr.splitlines() if line.startswith("error")]) == 1, stderr
+    assert peak <= baseline + HOSTILE_BUDGET, (f"{case}: peak {peak >> 20} MB, above the {HOSTILE_BUDGET >> 20} MB "
+                                               f"budget over the process's own {baseline >> 20} MB")
