@@ -89,7 +89,8 @@ def _term_stages(scene: Scene, kinds: list, smooth: list, optimize: bool) -> tup
         f"{sum(n for _, n in smooth)} object(s) with Gouraud or Phong shading",
         "every object is flat-shaded: face normals only")
     creased = sum(n for obj, n in smooth if obj.crease_angle < 180)
-    # A mesh object leaving crease_angle and normals unset creases a file without normals (geometry.build).
+    # A mesh object leaving crease_angle and normals unset creases a file without normals
+    # (geometry.templates.file_crease_angle).
     maybe = sum(n for obj, n in smooth if obj.shape == "mesh" and obj.normals is None
                 and "crease_angle" not in obj.model_fields_set)
     if maybe:
@@ -295,7 +296,7 @@ def diagnose(plan: RenderPlan, scene: Scene, geometry, figures: ObjectFigures | 
     found: list[tuple[tuple, int, float]] = []  # (what the warning says, object, its measured figure)
     if plan.keeps(StageName.SPECULAR):
         found = [*gouraud_findings(scene, geometry, figures), *subpixel_findings(scene, geometry, figures)]
-    from ..geometry.build import behind_camera  # geometry loads trimesh: only once a render has geometry
+    from ..geometry.checks import behind_camera  # geometry loads trimesh: only once a render has geometry
     behind = behind_camera(scene, geometry.vertices)
     chosen = [item for item in found if item[0][0] == "gouraud" and item[0][-1]]
     warned = [item for item in found if not (item[0][0] == "gouraud" and item[0][-1])]
