@@ -96,7 +96,8 @@ def test_a_scene_of_many_objects_is_decided_once_per_kind(monkeypatch):
     """The plan, the memory estimate and the geometry look up materials and shading models per kind of
     object, not per object: 20,000 boxes of two materials cost the same number of look-ups as 200."""
     from raycast_phong.renderer.budget import estimate_memory
-    from raycast_phong.renderer.plan import build_plan, diagnose
+    from raycast_phong.renderer.diagnosis import diagnose
+    from raycast_phong.renderer.plan import build_plan
     counted = {"material_of": 0, "shading_of": 0}
     for name in counted:
         original = getattr(rp.Scene, name)
