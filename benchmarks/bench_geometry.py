@@ -7,7 +7,7 @@ Times build_geometry (shapes, placement, face and vertex normals, checks) on ben
 icosphere builder alone against trimesh.creation.icosphere. CPU time of this thread (time.thread_time),
 minimum of --repeats, the versions interleaved: other jobs on the machine barely move it.
 
---before REV loads geometry.py as it was at git revision REV (beside today's stages) and times it too.
+--before REV loads geometry/build.py as it was at git revision REV (beside today's stages) and times it too.
 Usage: python benchmarks/bench_geometry.py [--repeats 15] [--before REV]
 """
 
@@ -33,9 +33,9 @@ def geometry_at(revision: str):
     """geometry/build.py as of `revision`, as a module of today's package (its relative imports resolve)."""
     source = subprocess.run(["git", "show", f"{revision}:raycast_phong/geometry/build.py"], cwd=ROOT,
                             capture_output=True, text=True, check=True).stdout
-    name = f"raycast_phong.pipeline._geometry_{revision}"
+    name = f"raycast_phong.geometry._build_{revision}"
     module = importlib.util.module_from_spec(importlib.util.spec_from_loader(name, loader=None))
-    module.__package__ = "raycast_phong.pipeline"
+    module.__package__ = "raycast_phong.geometry"  # its relative imports: today's stages
     sys.modules[name] = module
     exec(compile(source, f"geometry.py@{revision}", "exec"), module.__dict__)
     return module
@@ -54,7 +54,7 @@ def best(function, repeats: int) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=15)
-    parser.add_argument("--before", help="a git revision whose geometry.py to time too")
+    parser.add_argument("--before", help="a git revision whose geometry/build.py to time too")
     args = parser.parse_args()
     versions = {"now": geometry}
     if args.before:

@@ -113,7 +113,7 @@ class Stage:
 class RenderPlan:
     """What this scene needs, decided before any ray is cast; shading reads its flags.
 
-    `warnings` and `notes` are found once the geometry is known (plan.diagnose). A warning is a result the user
+    `warnings` and `notes` are found once the geometry is known (diagnosis.diagnose). A warning is a result the user
     may not want (printed even under -q); a note is information: what a mesh file's materials left out or
     approximated, or what an object's own choice of Gouraud shading misses.
     """
@@ -121,7 +121,7 @@ class RenderPlan:
     warnings: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
     colour: str = "display"         # the scene's render.colour: how maps are decoded and the PNG encoded
-    colour_reason: str = ""         # why: the scene files' default, a mesh format's, or set (plan.colour_line)
+    colour_reason: str = ""         # why: the scene files' default, a mesh format's, or set (plan.colour_reason)
 
     def keeps(self, name: StageName) -> bool:
         for stage in self.stages:

@@ -133,7 +133,6 @@ def say_kept_shading(scene: rp.Scene, shading: ShadingModel | None, sets: list[s
     that is every object (the option changed nothing: the image is the scene's own), else a note."""
     if shading is None and not any(s.replace(" ", "").startswith("render.shading=") for s in sets):
         return
-    from raycast_phong.renderer.plan import own_shading
     kept = own_shading(scene)
     if kept is None:
         return
@@ -145,6 +144,22 @@ def say_kept_shading(scene: rp.Scene, shading: ShadingModel | None, sets: list[s
              f"{'is' if count == 1 else 'are'} not {model}; set objects.N.shading to change one")
     elif not quiet:
         note(f"{asked}: {who} {'keeps its' if count == 1 else 'keep their'} own `shading` key")
+
+
+def own_shading(scene: rp.Scene) -> tuple[str, int, bool] | None:
+    """The objects whose own `shading` key differs from render.shading, which therefore changes nothing for them:
+    (their key paths as the plan's warnings word them, how many, whether no object follows render.shading at
+    all), or None if render.shading is every object's model. One pass per kind of object."""
+    import numpy as np
+
+    from raycast_phong.renderer.diagnosis import named_objects, per_object
+    model = scene.render.shading
+    differ = per_object(scene, lambda obj: obj.shading is not None and obj.shading != model)
+    if not differ.any():
+        return None
+    follows = per_object(scene, lambda obj: obj.shading is None)
+    indices = np.flatnonzero(differ).tolist()
+    return named_objects(indices), len(indices), not follows.any()
 
 
 def summary_line(result: rp.RenderResult, output: Path) -> str:

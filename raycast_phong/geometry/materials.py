@@ -1,5 +1,5 @@
 """Rows of the kernels' material table from coefficient arrays: the one writer of the row order, for the
-scene's materials (renderer/pack.py) and a mesh file's (build.py).
+scene's materials (renderer/pack.py) and a mesh file's (file_materials.py).
 
 The order is k_a, k_d, k_s, k_e (r, g, b each), then f, then the texture rows of the k_a, k_d, k_e maps: the
 columns codes.py names (KA, KD, KS, KE, SHININESS, KA_MAP, KD_MAP, KE_MAP), which renderer/kernels/layout.py

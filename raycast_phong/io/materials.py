@@ -19,7 +19,7 @@ FILE_CREASE_ANGLE = 30.0
 
 
 class TextureSource(NamedTuple):
-    """A colour map a file's material names, not yet decoded (geometry.build decodes the ones faces use)."""
+    """A colour map a file's material names, not yet decoded (geometry.textures decodes the ones faces use)."""
     source: object   # a Path (decoded with OpenImageIO) or the PIL image trimesh opened (a glTF's embedded one)
     wrap_s: str      # codes.WRAP_MODES
     wrap_t: str

@@ -241,7 +241,7 @@ def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Fra
     materials = material_table([DEFAULT_MATERIAL, *scene.materials.values()], real, geometry.file_materials,
                                geometry.scene_maps)
     bits = int(flags[0])
-    if bits & F_TEXTURES:  # the plan's "textures" stage (plan.surface_maps) decided it
+    if bits & F_TEXTURES:  # the plan's "textures" stage (diagnosis.surface_maps) decided it
         texels, texture_table = of_geometry("textures", ("textures",), lambda: pack_textures(geometry.textures))
         corner_uv = np.ascontiguousarray(geometry.corner_uv, np.float32)
         density = of_geometry("uv_density", ("vertices", "faces", "corner_uv"), lambda: uv_density(geometry))

@@ -30,12 +30,13 @@ from ..records import Frame, Geometry, ImageBuffers, RenderPlan, RenderResult
 from ..scene.messages import Location, located
 from ..scene.schema import Scene, SceneError
 from .budget import MemoryEstimate, check_memory
+from .diagnosis import ObjectFigures, diagnose
 from .film import allocate_film, film_layers
 from .intersect import Accelerator, unit_frame
 from .kernels.layout import COUNTS, MAX_LIGHTS, ShadingInputs, ShadowInputs
 from .kernels.tile import render_band
 from .pack import RayGenerator, camera_rig, film_rows, no_shadows, plan_flags, prepare_shading, prepare_shadows
-from .plan import ObjectFigures, build_plan, diagnose
+from .plan import build_plan
 from .reuse import FrameCache
 
 TILE_RAYS = 1 << 15  # 32k rays: large enough to amortise a call, small enough for ~10 MB per tile

@@ -1,5 +1,5 @@
 """What the frames of one changing scene reuse (a live view keeps one FrameCache per page): the geometry and its
-groups' pieces (geometry.build.BuildMemo), the committed BVH, and what is computed from the geometry's arrays
+groups' pieces (geometry.memo.BuildMemo), the committed BVH, and what is computed from the geometry's arrays
 alone (Derived). Whatever is reused is what a frame without the cache would compute, bit for bit: every piece
 is keyed by what it was made from, and arrays are compared by their bits.
 """
@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from ..geometry.build import BuildMemo
+from ..geometry.memo import BuildMemo
 from ..records import Frame, Geometry
 from .intersect import Accelerator
 

@@ -17,8 +17,8 @@ import numpy as np
 import trimesh
 
 from ..errors import SceneError
-from ..geometry.build import object_mesh
 from ..geometry.shapes import kind_of
+from ..geometry.templates import object_mesh
 from ..records import MeasuredResult, RenderResult
 from ..renderer.frame import render
 from ..renderer.prepare import Prepared, prepare

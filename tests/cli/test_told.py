@@ -73,7 +73,7 @@ def test_an_option_that_changes_nothing_says_so_even_under_q(tmp_path):
 
 
 def test_own_shading_names_the_objects_render_shading_does_not_reach():
-    from raycast_phong.renderer.plan import own_shading
+    from raycast_phong.cli.render import own_shading
     scene = rp.load_scene(rp.default_scene_path(), ["render.shading=flat"])
     assert own_shading(scene) == ("objects 1, 2 (2 in all)", 2, True)
     assert own_shading(rp.load_scene(rp.default_scene_path(), ["render.shading=gouraud"])) == \

@@ -31,7 +31,7 @@ from raycast_phong.renderer.budget import (
     parse_size,
     shape_triangles,
 )
-from raycast_phong.renderer.plan import diagnose, group_median
+from raycast_phong.renderer.diagnosis import diagnose, group_median
 
 CLI = [sys.executable, str(Path(__file__).parents[2] / "cli.py")]
 ADDRESS_SPACE = 2 << 30  # plenty for the small renders here (measured: the default scene renders under it)

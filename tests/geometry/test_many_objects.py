@@ -8,6 +8,7 @@ import pytest
 
 import raycast_phong as rp
 import raycast_phong.geometry.build as build
+import raycast_phong.geometry.templates as templates
 
 LIGHT = {"type": "point", "position": [5, 6, 7]}
 MIXED = [  # shapes, rotations, scales (one mirroring), normal rules and creases, repeated so groups form
@@ -48,8 +49,8 @@ def test_objects_that_share_a_shape_are_built_once(monkeypatch):
     """Ten thousand boxes of two sizes cost two shape builds, not ten thousand (positive control: two
     different sizes are two builds), and each group of consecutive boxes lands where the scene puts it."""
     calls = []
-    original = build.object_mesh
-    monkeypatch.setattr(build, "object_mesh", lambda *a, **k: calls.append(a[2].key[-1]) or original(*a, **k))
+    original = templates.object_mesh
+    monkeypatch.setattr(templates, "object_mesh", lambda *a, **k: calls.append(a[2].key[-1]) or original(*a, **k))
     rng = np.random.default_rng(5)
     boxes = [{"shape": "box", "size": [0.1, 0.1, 0.2 if i < 5000 else 0.1], "translate": rng.uniform(-9, 9, 3).tolist(),
               "rotate": [0, float(rng.uniform(0, 90)), 0]} for i in range(10_000)]
@@ -95,7 +96,8 @@ def test_a_scene_of_many_objects_is_decided_once_per_kind(monkeypatch):
     """The plan, the memory estimate and the geometry look up materials and shading models per kind of
     object, not per object: 20,000 boxes of two materials cost the same number of look-ups as 200."""
     from raycast_phong.renderer.budget import estimate_memory
-    from raycast_phong.renderer.plan import build_plan, diagnose
+    from raycast_phong.renderer.diagnosis import diagnose
+    from raycast_phong.renderer.plan import build_plan
     counted = {"material_of": 0, "shading_of": 0}
     for name in counted:
         original = getattr(rp.Scene, name)

@@ -16,8 +16,9 @@ import numpy as np
 import pytest
 
 import raycast_phong
-from raycast_phong.geometry.build import build_geometry, exact_corner_normals_local, object_mesh, shape_uv
+from raycast_phong.geometry.build import build_geometry
 from raycast_phong.geometry.shapes import KINDS, kind_of
+from raycast_phong.geometry.templates import exact_corner_normals_local, object_mesh, shape_uv
 from raycast_phong.renderer.budget import shape_triangles, size_key
 from raycast_phong.scene import bulk, schema
 from raycast_phong.scene.messages import Location, _model_of

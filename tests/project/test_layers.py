@@ -153,3 +153,16 @@ def test_kernel_modules_import_neither_the_scene_schema_nor_pydantic():
                                                       "raycast_phong.compiles"))
                and m not in ("raycast_phong.renderer", "raycast_phong")]
     assert not outside, outside
+
+
+def test_each_stage_family_has_one_sequencer_and_the_plan_comes_before_the_geometry():
+    """geometry.build is the one function that sequences the geometry stages (grouping, templates, placing, ...):
+    no geometry module imports it. The plan is decided before any geometry exists, so renderer.plan imports no
+    geometry stage (the kinds' registry, geometry.shapes, is data about kinds) and not the diagnosis, which reads
+    the plan and the built geometry."""
+    graph = _package_imports()
+    assert {"geometry.build", "geometry.placing", "renderer.plan", "renderer.diagnosis"} <= set(graph)
+    assert not sorted(m for m, targets in graph.items() if m.startswith("geometry.") and "geometry.build" in targets)
+    plan = graph["renderer.plan"]
+    assert not sorted(t for t in plan if t.startswith("geometry.") and not t.startswith("geometry.shapes"))
+    assert "renderer.diagnosis" not in plan and "renderer.plan" in graph["renderer.diagnosis"]

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
-import raycast_phong.geometry.build as geometry
 import raycast_phong.geometry.normals as normals
+import raycast_phong.geometry.placing as placing
 import raycast_phong.scene.overrides
 from raycast_phong.renderer.kernels.layout import COUNTED_TERMS
 
@@ -71,7 +71,7 @@ def test_all_flat_scene_never_computes_vertex_normals(monkeypatch):
     def forbidden(*args, **kwargs):
         raise AssertionError("vertex normals computed for an all-flat scene")
 
-    monkeypatch.setattr(geometry, "compute_corner_normals", forbidden)
+    monkeypatch.setattr(placing, "compute_corner_normals", forbidden)
     result = rp.render(scene(render__shading='"flat"'))
     assert result.image.max() > 0.1
     with pytest.raises(AssertionError, match="vertex normals"):

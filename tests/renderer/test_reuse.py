@@ -13,7 +13,8 @@ import pytest
 
 import raycast_phong as rp
 from raycast_phong.codes import StageName
-from raycast_phong.geometry.build import BuildMemo, build_geometry
+from raycast_phong.geometry.build import build_geometry
+from raycast_phong.geometry.memo import BuildMemo
 from raycast_phong.renderer.frame import FrameCache
 from raycast_phong.renderer.reuse import same_bits
 

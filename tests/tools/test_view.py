@@ -677,7 +677,7 @@ def counted(monkeypatch):
             return function(*args, **kwargs)
         return wrapper
     monkeypatch.setattr(mesh_file, "_read", counting("reads", mesh_file._read))
-    monkeypatch.setattr(build, "_group_part", counting("placed", build._group_part))
+    monkeypatch.setattr(build, "place_group", counting("placed", build.place_group))
     monkeypatch.setattr(embree, "EmbreeScene", counting("bvhs", embree.EmbreeScene))
     return counts
 

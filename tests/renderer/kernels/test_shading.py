@@ -310,7 +310,7 @@ def test_screen_interpolation_stays_inside_the_vertex_values_on_a_floor_reaching
 def test_the_geometry_writes_the_columns_and_codes_the_kernels_read():
     """The material row order and the shading model codes have one home, codes.py, which the geometry stage
     writes with and the kernels' layout reads: each coefficient lands in the column layout names for it."""
-    from raycast_phong.geometry.build import MODEL_CODE
+    from raycast_phong.codes import MODEL_CODE
     from raycast_phong.geometry.materials import material_rows
     from raycast_phong.renderer.kernels import layout
     rows = material_rows(*(np.full((2, 3), value) for value in (1.0, 2.0, 3.0, 4.0)), np.full(2, 5.0))

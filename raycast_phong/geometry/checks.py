@@ -1,0 +1,49 @@
+"""Checks on the placed geometry: a scene that would leave float32's range (refused), and one that lies wholly
+behind the camera (a warning)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import SceneError
+from ..records import bounding_box
+from ..scene.messages import Location, located
+from ..scene.schema import Scene, brightness_problem
+from ..tolerances import MIN_DISTANCE, MIN_EXTENT
+
+
+def check_float_range(scene: Scene, vertices: np.ndarray, source: str | Location = "<scene>") -> None:
+    """Refuse a scene whose placed extent or 1/d² lights would leave float32's range (SceneError).
+
+    The half-extent must be at least MIN_EXTENT; a 1/d² light's f_att is at most 1/max(d, floor)², d its
+    distance to the scene's bounding box and floor tolerances.MIN_DISTANCE × the half-extent, and the lights
+    must keep every pixel channel below INTENSITY_LIMIT with that gain (scene.brightness_problem).
+    """
+    low, high = bounding_box(vertices)
+    extent = float((high - low).max()) / 2  # as intersect.unit_frame measures it
+    if extent < MIN_EXTENT:
+        raise SceneError(f"the whole scene spans only {2 * extent:.3g} (its largest bounding-box side); allowed: at "
+                         f"least {2 * MIN_EXTENT:g}, so the 1/d² floor and Embree's unit frame stay in float32's "
+                         "range; raise the objects' scale or size", located(source).at("objects"))
+    floor = MIN_DISTANCE * extent
+    gains = {}
+    for k, light in enumerate(scene.lights):
+        if light.type == "point" and light.attenuation == "inverse_square":
+            position = np.asarray(light.position)
+            d = float(np.linalg.norm(np.maximum(np.maximum(low - position, position - high), 0.0)))
+            gains[k] = 1.0 / max(d, floor) ** 2
+    problem = brightness_problem(scene, gains, why="with 1/d² attenuation up to "
+                                 f"{max(gains.values(), default=1.0):.3g} (the light at or near the scene), ")
+    if problem:
+        raise SceneError(problem[1], located(source).at(*problem[0]))
+
+
+def behind_camera(scene: Scene, vertices: np.ndarray) -> str | None:
+    """A one-line warning if every placed vertex lies behind the camera (or on its plane), else None:
+    no ray can hit anything, so the image is only background."""
+    eye = np.asarray(scene.camera.position)
+    forward = np.asarray(scene.camera.look_at) - eye
+    if (vertices @ forward).max() > eye @ forward:  # (v - eye)·forward > 0, without a (V, 3) temporary
+        return None
+    return (f"every object is behind the camera (camera.position {list(scene.camera.position)} looks toward "
+            f"look_at {list(scene.camera.look_at)}); the image will be only background")

@@ -1,0 +1,41 @@
+"""Which objects share one build: objects of one shape and parameters (and normal rule) form a group whose
+template is made once and placed for all of them; a mesh file is a group of its own.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..scene.kinds import object_kinds
+from ..scene.messages import Location
+from ..scene.objects import OWN_KEYS
+from ..scene.schema import Object, Scene
+from .memo import mesh_stamp
+
+
+def object_groups(scene: Scene) -> list[np.ndarray]:
+    """The objects (ascending indices) of each group of objects sharing one build (group_key), groups in the
+    order of their first object. Decided once per kind of object (scene.kinds), then spread to the objects."""
+    kinds = object_kinds(scene)
+    numbers: dict[tuple, int] = {}
+    kind_group = np.array([numbers.setdefault(group_key(scene.objects[i], i), len(numbers))
+                           for i in kinds.first.tolist()], np.int64)
+    return kinds.grouped(kind_group)
+
+
+def group_key(obj: Object, index: int) -> tuple:
+    """What makes two objects' meshes (and normals) the same before placement: equal keys share one build.
+    A mesh file is never shared (its reading notes and materials belong to its object)."""
+    if obj.shape == "mesh":
+        return ("mesh", index)
+    return (obj.shape, *(getattr(obj, key) for key in OWN_KEYS[obj.shape]), obj.normals, obj.crease_angle)
+
+
+def template_key(scene: Scene, first: Object, index: int, where: Location, wants_exact: bool,
+                  sources: dict | None = None) -> tuple:
+    """What group_template reads: a shape's keys; a mesh file's object, its file as it is now (its version and
+    its side files', MeshSource.identity) and the object's number and location, which its notes name."""
+    if first.shape != "mesh":
+        return ("shape", *group_key(first, index), wants_exact)
+    return ("mesh", index, where, mesh_stamp(scene.resolve(first.path), sources), first.normals, first.crease_angle,
+            "crease_angle" in first.model_fields_set, wants_exact)
