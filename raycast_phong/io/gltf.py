@@ -23,15 +23,14 @@ from .materials import rgb as _rgb
 
 JSON_LIMIT = 64 << 20  # a glTF's JSON above this is not parsed here (the size bound weighs it; trimesh reads it)
 # Required glTF extensions read here; any other one in extensionsRequired is refused (glTF 2.0 §3.12: a loader
-# must not load a file whose required extensions it does not support). Draco needs DracoPy.
+# must not load a file whose required extensions it does not support). Draco needs DracoPy, meshopt the meshopt
+# package; io/gltf_decode.py decodes the data ones before trimesh reads the file.
 SUPPORTED_REQUIRED = ("KHR_draco_mesh_compression", "KHR_materials_unlit", "KHR_materials_emissive_strength",
-                      "KHR_texture_transform")
+                      "KHR_texture_transform", "KHR_mesh_quantization", "EXT_meshopt_compression",
+                      "KHR_meshopt_compression", "EXT_mesh_gpu_instancing", "KHR_materials_pbrSpecularGlossiness")
 UNLIT, EMISSIVE_STRENGTH, TRANSFORM = "KHR_materials_unlit", "KHR_materials_emissive_strength", "KHR_texture_transform"
 # What an extension this renderer does not read asks of it, for the refusal (the file's need, in its words).
-NEEDS = {"KHR_mesh_quantization": "vertex data stored as (normalized) integers",
-         "EXT_meshopt_compression": "meshoptimizer-compressed buffers, as gltfpack -c and glTF-Transform write",
-         "KHR_materials_pbrSpecularGlossiness": "specular-glossiness materials",
-         "KHR_texture_basisu": "KTX2 (Basis Universal) textures", "EXT_texture_webp": "WebP textures"}
+NEEDS = {"KHR_texture_basisu": "KTX2 (Basis Universal) textures", "EXT_texture_webp": "WebP textures"}
 
 
 class Document(NamedTuple):
@@ -120,6 +119,13 @@ def check_document(document: Document, path: Path, where: Where, notes: list[str
             import DracoPy  # noqa: F401  (trimesh decodes Draco with it)
         except ImportError:
             missing.insert(0, "KHR_draco_mesh_compression (Draco compression: pip install DracoPy)")
+    for name in ("EXT_meshopt_compression", "KHR_meshopt_compression"):
+        if name in required:
+            try:
+                import meshopt  # noqa: F401  (io/gltf_decode.py decodes meshopt with it)
+            except ImportError:
+                missing.insert(0, f"{name} (meshoptimizer compression: pip install meshopt)")
+    check_node_transforms(tree, path, where)
     if missing:
         named = [f"{e} ({NEEDS[e]})" if e in NEEDS else e for e in missing]
         raise SceneError(f"{str(path)!r} requires the glTF extension(s) {', '.join(named)}, which this "
@@ -270,3 +276,30 @@ def from_pbr(material, path: Path, notes: list[str], sources: list[TextureSource
     return FileMaterial(name, _rgb(rgb), _rgb(rgb), _rgb(ks), _rgb(np.clip(emissive, 0, 1)), float(shininess),
                         kd_map=maps.get("baseColorTexture", -1), ke_map=maps.get("emissiveTexture", -1))
 
+
+TRS = (("matrix", 16), ("translation", 3), ("rotation", 4), ("scale", 3))
+
+
+def check_node_transforms(tree: dict, path: Path, where: Where) -> None:
+    """Refuse, in one line, a node whose matrix or translation, rotation or scale is not a list of finite numbers of
+    its length (a NaN matrix gave numpy's RuntimeWarnings and a blank image)."""
+    nodes = tree.get("nodes", [])
+    if not isinstance(nodes, list):
+        return  # trimesh words it
+    for n, node in enumerate(nodes):
+        if not isinstance(node, dict):
+            continue
+        for field, length in TRS:
+            if field not in node:
+                continue
+            value = node[field]
+            good = isinstance(value, list) and len(value) == length and all(
+                isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in value)
+            if not good:
+                raise SceneError(f"{str(path)!r}: nodes[{n}].{field} is {_short(value)}; allowed: {length} finite "
+                                 "numbers", where)
+
+
+def _short(value) -> str:
+    text = repr(value).replace("nan", "NaN").replace("inf", "Infinity")
+    return text if len(text) <= 80 else text[:77] + "..."
