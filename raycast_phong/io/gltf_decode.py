@@ -98,9 +98,37 @@ class _Decoder:
 
     # ------------------------------------------------------------ EXT/KHR_meshopt_compression
 
+    def read_extents(self) -> dict[int, int]:
+        """The bytes of each bufferView that accessors, sparse substitutions and images read (its used length)."""
+        extents: dict[int, int] = {}
+
+        def use(view, end) -> None:
+            if isinstance(view, int):
+                extents[view] = max(extents.get(view, 0), end)
+        views = self.tree.get("bufferViews", [])
+        for accessor in self.tree.get("accessors", []):
+            try:
+                size = np.dtype(DTYPES[accessor["componentType"]]).itemsize * WIDTHS[accessor["type"]]
+                view = accessor.get("bufferView")
+                stride = (views[view].get("byteStride") if isinstance(view, int) else None) or size
+                count = int(accessor["count"])
+                use(view, int(accessor.get("byteOffset", 0)) + (count - 1) * stride + size if count else 0)
+                sparse = accessor.get("sparse") or {}
+                if sparse:
+                    use(sparse["indices"]["bufferView"], 10**12)  # small, read whole
+                    use(sparse["values"]["bufferView"], 10**12)
+            except (AttributeError, IndexError, KeyError, TypeError, ValueError):
+                continue  # read_accessor words it
+        for image in self.tree.get("images", []):
+            use(image.get("bufferView") if isinstance(image, dict) else None, 10**12)
+        return extents
+
     def decode_meshopt(self) -> None:
-        """Each meshopt-compressed bufferView replaced by its decoded bytes (meshoptimizer's decoder, through
-        the `meshopt` package), its filter undone."""
+        """Each meshopt-compressed bufferView that something reads replaced by its decoded bytes (meshoptimizer's
+        decoder, through the `meshopt` package), its filter undone. A view is decoded to no more bytes than its
+        readers read (the memory estimate counts accessors, not what a view claims); one nothing reads is left
+        empty."""
+        extents = self.read_extents()
         for index, view in enumerate(self.tree.get("bufferViews", [])):
             extensions = view.get("extensions") if isinstance(view, dict) else None
             found = [name for name in MESHOPT if isinstance(extensions, dict) and name in extensions]
@@ -123,7 +151,13 @@ class _Decoder:
             if count * stride != int(view.get("byteLength", -1)):
                 raise self.refuse(key, f"decodes to {count} × {stride} bytes, but the bufferView's byteLength is "
                                        f"{view.get('byteLength')!r}; allowed: equal")
-            decoded = _meshopt_decode(bytes(data), count, stride, mode, kind, self.refuse, key)
+            if index not in extents:
+                decoded = b""
+            elif count * stride > extents[index] + stride + 3:
+                raise self.refuse(key, f"decodes to {count} × {stride} bytes, of which its accessors read "
+                                       f"{extents[index]}; allowed: no more than they read")
+            else:
+                decoded = _meshopt_decode(bytes(data), count, stride, mode, kind, self.refuse, key)
             view.pop("extensions")
             rest = {k: v for k, v in extensions.items() if k != name}
             if rest:

@@ -31,7 +31,7 @@ from ..errors import SceneError, Where
 from ..records import bounding_box
 from ..tolerances import POSITION_LIMIT
 from .files import VersionCache, open_mesh_file, open_regular
-from .gltf import TRANSFORM, UNLIT, check_document, from_pbr, transform_uv, uri_file
+from .gltf import SPECULAR_GLOSSINESS, TRANSFORM, UNLIT, check_document, from_pbr, transform_uv, uri_file
 from .gltf_decode import decode_gltf, needs_decoding
 from .materials import FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, TextureSource
 from .mesh_content import READABLE, TEXT_FORMATS, check_content, check_file_content
@@ -330,7 +330,8 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
         found = None
         if isinstance(material, trimesh.visual.material.PBRMaterial):
             found = from_pbr(material, path, notes, sources, samplers)
-            gltf |= not samplers.get((material.name, UNLIT))  # an unlit material is the lecture's own: no approximation
+            # An unlit material is the lecture's own (no approximation); a specular-glossiness one says its own.
+            gltf |= not samplers.get((material.name, UNLIT)) and (material.name, SPECULAR_GLOSSINESS) not in samplers
         elif material is not None and library is not None:
             found = library.get(getattr(material, "name", None) or "")
         if found is not None:
