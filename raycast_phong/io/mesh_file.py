@@ -443,10 +443,10 @@ class _RegularFiles(trimesh.resolvers.FilePathResolver):
     a FIFO named by `mtllib` would block the read forever. `uris`: the names are a glTF's URIs, percent-encoded."""
 
     uris = False
-    decoded: dict[str, bytes] = {}  # io.gltf_decode's buffers, by the names its rewritten document gives them
+    decoded: dict[str, bytes] | None = None  # io.gltf_decode's buffers, by the names its rewritten document gives
 
     def get(self, name):
-        if name in self.decoded:
+        if self.decoded and name in self.decoded:
             return self.decoded[name]
         path = uri_file(Path(self.parent), name) if self.uris else Path(self.parent) / name
         with open_regular(path, str(path), "file") as handle:

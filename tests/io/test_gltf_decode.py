@@ -128,7 +128,7 @@ def test_specular_glossiness_maps_diffuse_specular_and_glossiness_onto_the_lectu
     """The same box in both workflows (glTF-Transform's test files): k_d = k_a and the map are the diffuse
     ones, as the metallic-roughness box's base colour; k_s = specularFactor 0.2 and glossiness 1 the sharpest
     lobe (f = 1000). Lit by ambient light alone the two images are the same; lit, the specular-glossiness one
-    lacks at most the rough one's faint lobe. main took trimesh's conversion: k_s 0.0035, f = 1."""
+    lacks at most the rough one's faint lobe. main took trimesh's conversion: k_s 0.088, f = 1."""
     glossy = read_mesh(MODELS / "BoxTextured-specgloss" / "BoxTextured.gltf", "t")
     rough = read_mesh(MODELS / "BoxTextured.glb", "t")
     [material], [base] = glossy.materials, rough.materials
@@ -216,3 +216,51 @@ def test_corrupt_draco_data_is_one_line_naming_the_file(tmp_path, caplog):
     message = str(caught.value)
     assert "BoxDraco.gltf" in message and "Draco-compressed data could not be decoded" in message, message
     assert "within 0" not in message and not caplog.records, [r.getMessage() for r in caplog.records]
+
+
+@pytest.mark.parametrize(("component", "normalized", "stored", "expected"), [
+    (5120, True, [-128, -127, -1, 0, 127], [-1.0, -1.0, -1 / 127, 0.0, 1.0]),  # max(c / 127, −1)
+    (5121, True, [0, 1, 255], [0.0, 1 / 255, 1.0]),
+    (5122, True, [-32768, -32767, 16384, 32767], [-1.0, -1.0, 16384 / 32767, 1.0]),
+    (5123, True, [0, 65535, 1], [0.0, 1.0, 1 / 65535]),
+    (5123, False, [0, 7, 16383], [0.0, 7.0, 16383.0]),  # KHR_mesh_quantization: not normalized is the value
+    (5120, False, [-128, 5], [-128.0, 5.0])])
+def test_integer_accessors_decode_as_the_gltf_specification_says(component, normalized, stored, expected):
+    """glTF 2.0 §3.11 (and KHR_mesh_quantization): hand-computed values for each component type, with a
+    byteStride wider than the element (as gltfpack pads int8 VEC3 to 4 bytes) and a sparse substitution."""
+    from raycast_phong.io.gltf_decode import DTYPES, _Decoder
+    dtype = np.dtype(DTYPES[component]).newbyteorder("<")
+    stride = 4 * ((dtype.itemsize + 3) // 4)
+    data = bytearray(stride * len(stored))
+    for i, value in enumerate(stored):  # each element at the start of its stride, the rest padding (0xEE)
+        data[i * stride:(i + 1) * stride] = np.array([value], dtype).tobytes().ljust(stride, b"\xee")
+    sparse_at = np.array([len(stored) - 1], "<u2").tobytes() + b"\0\0"
+    sparse_value = np.array([stored[0]], dtype).tobytes().ljust(4, b"\0")
+    offset = len(data)
+    data += sparse_at + sparse_value
+    tree = {"buffers": [{"byteLength": len(data)}],
+            "bufferViews": [{"buffer": 0, "byteLength": offset, "byteStride": stride},
+                            {"buffer": 0, "byteOffset": offset, "byteLength": 4},
+                            {"buffer": 0, "byteOffset": offset + 4, "byteLength": 4}],
+            "accessors": [{"bufferView": 0, "componentType": component, "normalized": normalized,
+                           "count": len(stored), "type": "SCALAR"},
+                          {"bufferView": 0, "componentType": component, "normalized": normalized,
+                           "count": len(stored), "type": "SCALAR",
+                           "sparse": {"count": 1, "indices": {"bufferView": 1, "componentType": 5123},
+                                      "values": {"bufferView": 2}}}]}
+    decoder = _Decoder(tree, [bytes(data)], Path("t.glb"), "t")
+    np.testing.assert_array_equal(decoder.float_accessor(0, "k")[:, 0], expected)
+    np.testing.assert_array_equal(decoder.float_accessor(1, "k")[:, 0], [*expected[:-1], expected[0]])
+
+
+def test_an_instance_matrix_is_translation_rotation_scale_in_that_order():
+    """EXT_mesh_gpu_instancing: a point goes through S, then R, then T (hand-computed: x̂ scaled by 2 along x,
+    turned 90° about z by the quaternion (0, 0, sin 45°, cos 45°), moved by (1, 2, 3): (1, 4, 3); the other
+    order gives (1, 3, 3)); no rotation accessor is no rotation."""
+    from raycast_phong.io.gltf_decode import instance_matrices
+    half = np.sqrt(0.5)
+    [matrix] = instance_matrices(np.array([[1.0, 2.0, 3.0]]), np.array([[0.0, 0.0, half, half]]),
+                                 np.array([[2.0, 1.0, 1.0]]), 1)
+    np.testing.assert_allclose(matrix @ [1.0, 0.0, 0.0, 1.0], [1.0, 4.0, 3.0, 1.0], atol=1e-12)
+    [plain] = instance_matrices(np.array([[1.0, 2.0, 3.0]]), None, None, 1)
+    np.testing.assert_allclose(plain @ [1.0, 0.0, 0.0, 1.0], [2.0, 2.0, 3.0, 1.0], atol=1e-12)
