@@ -264,3 +264,25 @@ def test_an_instance_matrix_is_translation_rotation_scale_in_that_order():
     np.testing.assert_allclose(matrix @ [1.0, 0.0, 0.0, 1.0], [1.0, 4.0, 3.0, 1.0], atol=1e-12)
     [plain] = instance_matrices(np.array([[1.0, 2.0, 3.0]]), None, None, 1)
     np.testing.assert_allclose(plain @ [1.0, 0.0, 0.0, 1.0], [2.0, 2.0, 3.0, 1.0], atol=1e-12)
+
+
+def test_the_cli_says_a_nan_node_and_a_missing_meshopt_package_in_one_line_exit_2(tmp_path, monkeypatch):
+    """Through `raycast-phong render`: exit 2, one line on stderr (no RuntimeWarning lines); a meshopt file
+    without the meshopt package names the extension and the package to install."""
+    import sys
+
+    from typer.testing import CliRunner
+
+    from raycast_phong.cli import app
+    runner = CliRunner()
+    path = nan_quad(tmp_path, "rotation", [0, 0, float("nan"), 1])
+    done = runner.invoke(app, ["render", str(path), "-o", str(tmp_path / "x.png"), "--set", "render.width=40",
+                               "--set", "render.height=30"])
+    assert done.exit_code == 2, done.output
+    [line] = done.stderr.strip().splitlines()
+    assert "nodes[0].rotation is [0, 0, NaN, 1]; allowed: 4 finite numbers" in line, line
+    monkeypatch.setitem(sys.modules, "meshopt", None)  # import meshopt raises ImportError
+    done = runner.invoke(app, ["render", str(MODELS / "pirate.glb"), "-o", str(tmp_path / "y.png")])
+    assert done.exit_code == 2, done.output
+    [line] = done.stderr.strip().splitlines()
+    assert "EXT_meshopt_compression (meshoptimizer compression: pip install meshopt)" in line, line
