@@ -329,8 +329,10 @@ class _Decoder:
     # ------------------------------------------------------------ EXT_mesh_gpu_instancing
 
     def instance(self) -> None:
-        """Each instanced node's mesh moved onto one child node per instance, whose matrix is the instance's
-        T · R · S (EXT_mesh_gpu_instancing: instance transforms apply before the node's own, as children's do)."""
+        """Each instanced node's mesh placed once per instance at the instance's T · R · S (EXT_mesh_gpu_instancing:
+        instance transforms apply before the node's own): as one new mesh of every instance's triangles
+        (merged_instances: 20,000 child nodes took trimesh 7 s), else (a primitive that is not triangles) as one
+        child node per instance, whose matrix is the instance's."""
         nodes = self.tree.get("nodes", [])
         for n in range(len(nodes)):
             node = nodes[n]
@@ -355,10 +357,72 @@ class _Decoder:
                                        "names none of TRANSLATION, ROTATION, SCALE")
             matrices = instance_matrices(columns.get("TRANSLATION"), columns.get("ROTATION"),
                                          columns.get("SCALE"), counts.pop())
+            merged = self.merged_instances(node["mesh"], matrices, f"nodes[{n}]")
+            if merged is not None:
+                node["mesh"] = merged
+                continue
             first = len(nodes)
             nodes.extend({"mesh": node["mesh"], "matrix": m.T.reshape(-1).tolist()} for m in matrices)
             node.pop("mesh")
             node["children"] = [*node.get("children", []), *range(first, len(nodes))]
+
+    def merged_instances(self, mesh: int, matrices: np.ndarray, key: str) -> int | None:
+        """A new mesh holding mesh `mesh`'s triangle primitives once per instance (matrices (K, 4, 4)), placed:
+        positions by each matrix, normals by its inverse transpose (dropped if one is singular: the geometry
+        stage makes them), texture coordinates and colours repeated, each instance's faces after the previous
+        one's (turned over where the matrix mirrors). None when a primitive is not indexed-or-plain triangles."""
+        try:
+            primitives = self.tree["meshes"][mesh]["primitives"]
+        except (IndexError, KeyError, TypeError):
+            raise self.refuse(f"{key}.mesh", f"is {mesh!r}, not a mesh of the file with primitives") from None
+        if any(not isinstance(p, dict) or p.get("mode", 4) != 4 or "POSITION" not in (p.get("attributes") or {})
+               for p in primitives):
+            return None
+        linear, shift = matrices[:, :3, :3], matrices[:, :3, 3]
+        determinant = np.linalg.det(linear)
+        copies = len(matrices)
+        merged = []
+        for p, primitive in enumerate(primitives):
+            where = f"meshes[{mesh}].primitives[{p}]"
+            attributes = {}
+            positions = self.float_accessor(primitive["attributes"]["POSITION"], f"{where}.attributes.POSITION")
+            count = len(positions)
+            if copies * count >= 2**32:
+                raise self.refuse(key, f"places {copies:,} × {count:,} vertices; allowed: fewer than 2³²")
+            placed = np.einsum("kij,vj->kvi", linear, positions) + shift[:, None, :]
+            attributes["POSITION"] = self.new_accessor(placed.reshape(-1, 3))
+            for name, index in primitive["attributes"].items():
+                if name == "NORMAL" and (determinant != 0).all():
+                    normals = self.float_accessor(index, f"{where}.attributes.NORMAL")
+                    turned = np.einsum("vj,kji->kvi", normals, np.linalg.inv(linear))  # n · L⁻¹ = L⁻ᵀ n
+                    attributes[name] = self.new_accessor(turned.reshape(-1, 3))
+                elif name.startswith(("TEXCOORD_", "COLOR_")):
+                    values = self.float_accessor(index, f"{where}.attributes.{name}")
+                    attributes[name] = self.new_accessor(np.tile(values, (copies, 1)))
+            if "indices" in primitive:
+                faces = self.read_accessor(primitive["indices"], f"{where}.indices").astype(np.int64).reshape(-1, 3)
+                if faces.size and (faces.min() < 0 or faces.max() >= count):
+                    raise self.refuse(f"{where}.indices", f"reach {int(faces.max())}; allowed: 0..{count - 1}")
+            else:
+                faces = np.arange(count - count % 3, dtype=np.int64).reshape(-1, 3)
+            every = faces[None, :, :] + (np.arange(copies) * count)[:, None, None]
+            every = np.where((determinant < 0)[:, None, None], every[:, :, ::-1], every)  # a mirror keeps them outward
+            indices = self.append(every.reshape(-1).astype("<u4").tobytes())
+            self.tree["accessors"].append({"bufferView": indices, "componentType": 5125, "count": every.size,
+                                           "type": "SCALAR"})
+            merged.append({"attributes": attributes, "indices": len(self.tree["accessors"]) - 1, "mode": 4,
+                           **({"material": primitive["material"]} if "material" in primitive else {})})
+        self.tree["meshes"].append({"name": self.tree["meshes"][mesh].get("name", f"mesh {mesh}") + " instanced",
+                                    "primitives": merged})
+        return len(self.tree["meshes"]) - 1
+
+    def new_accessor(self, values: np.ndarray) -> int:
+        """A new float32 accessor of `values` (count, width) in the decoded buffer."""
+        types = {1: "SCALAR", 2: "VEC2", 3: "VEC3", 4: "VEC4"}
+        view = self.append(np.ascontiguousarray(values, "<f4").tobytes())
+        self.tree.setdefault("accessors", []).append({"bufferView": view, "componentType": 5126,
+                                                      "count": len(values), "type": types[values.shape[1]]})
+        return len(self.tree["accessors"]) - 1
 
     # ------------------------------------------------------------ KHR_materials_pbrSpecularGlossiness
 

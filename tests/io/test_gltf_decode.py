@@ -286,3 +286,43 @@ def test_the_cli_says_a_nan_node_and_a_missing_meshopt_package_in_one_line_exit_
     assert done.exit_code == 2, done.output
     [line] = done.stderr.strip().splitlines()
     assert "EXT_meshopt_compression (meshoptimizer compression: pip install meshopt)" in line, line
+
+
+def with_accessor(document: dict, values: np.ndarray) -> int:
+    """A float32 accessor of `values` (count, width) in a new data: URI buffer of `document`."""
+    import base64
+    data = np.ascontiguousarray(values, "<f4").tobytes()
+    document["buffers"].append({"uri": "data:application/octet-stream;base64," + base64.b64encode(data).decode(),
+                                "byteLength": len(data)})
+    document["bufferViews"].append({"buffer": len(document["buffers"]) - 1, "byteLength": len(data)})
+    document["accessors"].append({"bufferView": len(document["bufferViews"]) - 1, "componentType": 5126,
+                                  "count": len(values), "type": f"VEC{values.shape[1]}"})
+    return len(document["accessors"]) - 1
+
+
+def test_instances_keep_their_faces_outward_and_their_normals_perpendicular(tmp_path):
+    """A square in the plane y = z with its normals (0, −1, 1)/√2, instanced twice: once stretched and turned
+    (scale (1, 3, 1), then 45° about x), once mirrored (scale (−1, 1, 1)). Each instance's stored normals stay
+    perpendicular to its placed faces (the inverse transpose, not the matrix itself) and agree in sign with the
+    faces' winding (a mirrored instance's faces turned over), as one node with one child per instance would."""
+    from tests.io.test_gltf_extensions import quad_gltf
+    path = quad_gltf(tmp_path, {})
+    document = json.loads(path.read_text())
+    primitive = document["meshes"][0]["primitives"][0]
+    tilted = np.array([[-1.0, -1.0, -1.0], [1.0, -1.0, -1.0], [1.0, 1.0, 1.0], [-1.0, 1.0, 1.0]])
+    primitive["attributes"]["POSITION"] = with_accessor(document, tilted)
+    primitive["attributes"]["NORMAL"] = with_accessor(document, np.tile([0.0, -np.sqrt(0.5), np.sqrt(0.5)], (4, 1)))
+    turn = np.sin(np.pi / 8), np.cos(np.pi / 8)
+    attributes = {"ROTATION": with_accessor(document, np.array([[turn[0], 0, 0, turn[1]], [0, 0, 0, 1]])),
+                  "SCALE": with_accessor(document, np.array([[1.0, 3.0, 1.0], [-1.0, 1.0, 1.0]]))}
+    document["nodes"][0]["extensions"] = {"EXT_mesh_gpu_instancing": {"attributes": attributes}}
+    document["extensionsUsed"] = ["EXT_mesh_gpu_instancing"]
+    path.write_text(json.dumps(document))
+    read = read_mesh(path, "t")
+    assert read.faces.shape == (4, 3)
+    corners_ = read.vertices[read.faces]
+    winding = np.cross(corners_[:, 1] - corners_[:, 0], corners_[:, 2] - corners_[:, 0])
+    normals = read.normals[read.faces[:, 0]]
+    cosine = np.einsum("ij,ij->i", winding, normals) / np.linalg.norm(winding, axis=1) / np.linalg.norm(normals,
+                                                                                                         axis=1)
+    np.testing.assert_allclose(cosine, 1.0, atol=1e-12)
