@@ -141,6 +141,8 @@ class _Decoder:
                 count, stride = int(spec["count"]), int(spec["byteStride"])
                 mode, kind = spec.get("mode"), spec.get("filter", "NONE")
                 data = self.view_bytes_of(spec, key)
+            except SceneError:
+                raise  # a SceneError is a ValueError: it says its own problem
             except (KeyError, TypeError, ValueError):
                 raise self.refuse(key, "needs buffer, byteLength, byteStride, count and mode") from None
             if mode not in MODES:
@@ -226,6 +228,8 @@ class _Decoder:
                                int(where.get("byteOffset", 0))).astype(np.int64)
             new = np.frombuffer(self.view_bytes(stored["bufferView"], key), dtype, count * width,
                                 int(stored.get("byteOffset", 0))).reshape(count, width)
+        except SceneError:
+            raise  # a SceneError is a ValueError: it says its own problem
         except (KeyError, TypeError, ValueError):
             raise self.refuse(key, "needs count, indices (bufferView, componentType) and values (bufferView) "
                                    "within their bufferViews") from None
@@ -273,6 +277,8 @@ class _Decoder:
                 try:
                     data = bytes(self.view_bytes(spec["bufferView"], key))
                     ids = {int(v): k for k, v in spec["attributes"].items()}
+                except SceneError:
+                    raise  # a SceneError is a ValueError: it says its own problem
                 except (KeyError, TypeError, ValueError, AttributeError):
                     raise self.refuse(key, "needs a bufferView and attributes") from None
                 decoded = _draco_decode(data, self.path, self.where)

@@ -265,7 +265,11 @@ def _gltf_triangles(document: dict) -> int:
 def _instances(node: dict, accessors: list) -> int:
     """How many times a node places its mesh: its EXT_mesh_gpu_instancing accessors' count (the largest, if they
     disagree: the read refuses that), else 1."""
-    attributes = ((node.get("extensions") or {}).get("EXT_mesh_gpu_instancing") or {}).get("attributes") or {}
+    extensions = node.get("extensions")
+    found = extensions.get("EXT_mesh_gpu_instancing") if isinstance(extensions, dict) else None
+    attributes = found.get("attributes") if isinstance(found, dict) else None
+    if not isinstance(attributes, dict):
+        return 1  # not instanced, or malformed: the read words it
     return max((int(accessors[index]["count"]) for index in attributes.values()), default=1)
 
 
