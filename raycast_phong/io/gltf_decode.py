@@ -147,6 +147,14 @@ class _Decoder:
                 raise self.refuse(key, "needs buffer, byteLength, byteStride, count and mode") from None
             if mode not in MODES:
                 raise self.refuse(f"{key}.mode", f"is {mode!r}; allowed: {', '.join(MODES)}")
+            # The codec's own limits (EXT_meshopt_compression: attributes 4..256 bytes in fours, indices 2 or 4).
+            strides = range(4, 257, 4) if mode == "ATTRIBUTES" else (2, 4)
+            if stride not in strides:
+                allowed = "4 to 256, a multiple of 4" if mode == "ATTRIBUTES" else "2 or 4"
+                raise self.refuse(f"{key}.byteStride", f"is {stride}; allowed for {mode}: {allowed}")
+            if count < 0 or (mode == "TRIANGLES" and count % 3):
+                raise self.refuse(f"{key}.count", f"is {count}; allowed: 0 or more" + (", a multiple of 3"
+                                                                                      if mode == "TRIANGLES" else ""))
             if kind not in FILTERS[name]:
                 raise self.refuse(f"{key}.filter", f"is {kind!r}, which this renderer cannot decode; supported: "
                                                    f"{', '.join(FILTERS[name])}")
