@@ -18,20 +18,20 @@ import numpy as np
 from ..codes import GLTF_WRAP
 from ..errors import SceneError, Where
 from .files import open_regular
-from .materials import MAX_FILE_SHININESS, FileMaterial, TextureSource, specular_lobe
+from .materials import MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, TextureSource, specular_lobe
 from .materials import rgb as _rgb
 
 JSON_LIMIT = 64 << 20  # a glTF's JSON above this is not parsed here (the size bound weighs it; trimesh reads it)
 # Required glTF extensions read here; any other one in extensionsRequired is refused (glTF 2.0 §3.12: a loader
-# must not load a file whose required extensions it does not support). Draco needs DracoPy.
+# must not load a file whose required extensions it does not support). Draco needs DracoPy, meshopt the meshopt
+# package; io/gltf_decode.py decodes the data ones before trimesh reads the file.
 SUPPORTED_REQUIRED = ("KHR_draco_mesh_compression", "KHR_materials_unlit", "KHR_materials_emissive_strength",
-                      "KHR_texture_transform")
+                      "KHR_texture_transform", "KHR_mesh_quantization", "EXT_meshopt_compression",
+                      "KHR_meshopt_compression", "EXT_mesh_gpu_instancing", "KHR_materials_pbrSpecularGlossiness")
 UNLIT, EMISSIVE_STRENGTH, TRANSFORM = "KHR_materials_unlit", "KHR_materials_emissive_strength", "KHR_texture_transform"
+SPECULAR_GLOSSINESS = "KHR_materials_pbrSpecularGlossiness"
 # What an extension this renderer does not read asks of it, for the refusal (the file's need, in its words).
-NEEDS = {"KHR_mesh_quantization": "vertex data stored as (normalized) integers",
-         "EXT_meshopt_compression": "meshoptimizer-compressed buffers, as gltfpack -c and glTF-Transform write",
-         "KHR_materials_pbrSpecularGlossiness": "specular-glossiness materials",
-         "KHR_texture_basisu": "KTX2 (Basis Universal) textures", "EXT_texture_webp": "WebP textures"}
+NEEDS = {"KHR_texture_basisu": "KTX2 (Basis Universal) textures", "EXT_texture_webp": "WebP textures"}
 
 
 class Document(NamedTuple):
@@ -120,6 +120,13 @@ def check_document(document: Document, path: Path, where: Where, notes: list[str
             import DracoPy  # noqa: F401  (trimesh decodes Draco with it)
         except ImportError:
             missing.insert(0, "KHR_draco_mesh_compression (Draco compression: pip install DracoPy)")
+    for name in ("EXT_meshopt_compression", "KHR_meshopt_compression"):
+        if name in required:
+            try:
+                import meshopt  # noqa: F401  (io/gltf_decode.py decodes meshopt with it)
+            except ImportError:
+                missing.insert(0, f"{name} (meshoptimizer compression: pip install meshopt)")
+    check_node_transforms(tree, path, where)
     if missing:
         named = [f"{e} ({NEEDS[e]})" if e in NEEDS else e for e in missing]
         raise SceneError(f"{str(path)!r} requires the glTF extension(s) {', '.join(named)}, which this "
@@ -131,15 +138,17 @@ def check_document(document: Document, path: Path, where: Where, notes: list[str
 
 
 def texture_sizes(path: Path, document: Document, file_size) -> list[tuple[int, int]]:
-    """(height, width) of each colour map (baseColorTexture, emissiveTexture) the glTF's materials use, from
+    """(height, width) of each colour map (baseColorTexture, emissiveTexture, a specular-glossiness material's
+    diffuseTexture) the glTF's materials use, from
     image headers only: an external file's (`file_size`, io.textures), a .glb's embedded image's from its own
     bytes alone (the rest of the binary chunk is not read); what cannot be read counts nothing."""
     tree = document.tree
     images = set()
     try:
         for material in tree.get("materials", []):
+            glossy = (material.get("extensions") or {}).get(SPECULAR_GLOSSINESS) or {}
             for slot in ((material.get("pbrMetallicRoughness") or {}).get("baseColorTexture"),
-                         material.get("emissiveTexture")):
+                         material.get("emissiveTexture"), glossy.get("diffuseTexture")):
                 if isinstance(slot, dict) and "index" in slot:
                     texture = tree["textures"][slot["index"]]
                     if "source" in texture:
@@ -177,7 +186,9 @@ def gltf_samplers(document: dict) -> dict:
     (wrap_s, wrap_t) of its colour maps (key: the slot) from the glTF's samplers (10497 repeat, 33071 clamp,
     33648 mirror; a texture without a sampler repeats, glTF 2.0 §5.26); True for (name, UNLIT) when it is
     unlit; its emissive strength for (name, EMISSIVE_STRENGTH); a colour map's KHR_texture_transform for
-    (name, TRANSFORM, slot): (offset, rotation, scale) (transform_uv)."""
+    (name, TRANSFORM, slot): (offset, rotation, scale) (transform_uv); for a KHR_materials_pbrSpecularGlossiness
+    material, (name, SPECULAR_GLOSSINESS): (specular factor (3,), glossiness factor), and its diffuseTexture is
+    the baseColorTexture slot (io/gltf_decode.py hands it to trimesh so)."""
     found = {}
     try:
         textures, samplers = document.get("textures", []), document.get("samplers", [])
@@ -191,6 +202,13 @@ def gltf_samplers(document: dict) -> dict:
                 found.setdefault((material.get("name"), EMISSIVE_STRENGTH), float(strength))
             slots = {"baseColorTexture": (material.get("pbrMetallicRoughness") or {}).get("baseColorTexture"),
                      "emissiveTexture": material.get("emissiveTexture")}
+            glossy = extensions.get(SPECULAR_GLOSSINESS) if isinstance(extensions, dict) else None
+            if isinstance(glossy, dict):
+                specular = np.clip(np.asarray(glossy.get("specularFactor", (1.0, 1.0, 1.0)), np.float64)[:3], 0, 1)
+                found.setdefault((material.get("name"), SPECULAR_GLOSSINESS),
+                                 (specular, min(max(float(glossy.get("glossinessFactor", 1.0)), 0.0), 1.0),
+                                  "specularGlossinessTexture" in glossy))
+                slots["baseColorTexture"] = glossy.get("diffuseTexture")
             for slot, info in slots.items():
                 if not isinstance(info, dict) or not isinstance(info.get("index"), int):
                     continue
@@ -233,6 +251,11 @@ def from_pbr(material, path: Path, notes: list[str], sources: list[TextureSource
     roughness 1, emissive 0. KHR_materials_emissive_strength multiplies the emissive factor (k_e is clamped
     to 1, and said); KHR_materials_unlit is the lecture's emission-only material: k_e = base colour (its
     baseColorTexture the k_e map), k_a = k_d = k_s = 0.
+
+    KHR_materials_pbrSpecularGlossiness states the same lobe in other terms, mapped the same way: k_d = k_a =
+    diffuse factor (its diffuseTexture the k_d map, given here as the base colour), k_s = specular factor (the F0
+    the metallic workflow computes), roughness = 1 − glossiness, so f = 2/(1 − glossiness)⁴ − 2; through
+    specular_lobe too. Its defaults: diffuse 1, specular 1, glossiness 1.
     """
     base = material.baseColorFactor
     base = np.ones(4) if base is None else np.asarray(base, np.float64) / 255.0
@@ -241,6 +264,9 @@ def from_pbr(material, path: Path, notes: list[str], sources: list[TextureSource
     emissive = np.zeros(3) if material.emissiveFactor is None else np.asarray(material.emissiveFactor, np.float64)
     rgb = np.clip(base[:3], 0, 1)
     metallic, roughness = min(max(metallic, 0.0), 1.0), min(max(roughness, 0.0), 1.0)
+    glossy = samplers.get((material.name, SPECULAR_GLOSSINESS))
+    if glossy is not None:
+        roughness = 1.0 - glossy[1]
     alpha = roughness * roughness
     shininess = MAX_FILE_SHININESS if alpha == 0 else 2 / alpha**2 - 2
     name = material.name or f"{path.stem}-material"
@@ -256,6 +282,12 @@ def from_pbr(material, path: Path, notes: list[str], sources: list[TextureSource
         sources.append(TextureSource(image, wrap_s, wrap_t, f"{path}: material {name!r}: its {key}"))
     ignored = [key for key in ("metallicRoughnessTexture", "normalTexture", "occlusionTexture")
                if getattr(material, key, None) is not None]
+    if glossy is not None:
+        notes.append(f"{path}: specular-glossiness materials are mapped onto the Phong model: k_d = k_a = diffuse, "
+                     f"k_s = specular × min(1, (f + 2)/{WIDE_LOBE + 2:g}), f = 2/(1 − glossiness)⁴ − 2 in [1, "
+                     f"{MAX_FILE_SHININESS:g}], k_e = emissive (docs/meshes.md)")
+        if glossy[2]:
+            notes.append(f"{path}: material {name!r}: specularGlossinessTexture not applied; its factors are used")
     if ignored:
         notes.append(f"{path}: material {name!r}: {', '.join(ignored)} not applied; its factors are used")
     if samplers.get((material.name, UNLIT)):
@@ -266,7 +298,35 @@ def from_pbr(material, path: Path, notes: list[str], sources: list[TextureSource
     if emissive.max(initial=0.0) > 1:
         notes.append(f"{path}: material {name!r}: emissive factor × strength {emissive.max():.3g} is clamped to 1, "
                      "the lecture's largest k_e")
-    ks, shininess = specular_lobe(0.04 + (rgb - 0.04) * metallic, shininess)
+    f0 = glossy[0] if glossy is not None else 0.04 + (rgb - 0.04) * metallic  # the lobe's peak (F0)
+    ks, shininess = specular_lobe(f0, shininess)
     return FileMaterial(name, _rgb(rgb), _rgb(rgb), _rgb(ks), _rgb(np.clip(emissive, 0, 1)), float(shininess),
                         kd_map=maps.get("baseColorTexture", -1), ke_map=maps.get("emissiveTexture", -1))
 
+
+TRS = (("matrix", 16), ("translation", 3), ("rotation", 4), ("scale", 3))
+
+
+def check_node_transforms(tree: dict, path: Path, where: Where) -> None:
+    """Refuse, in one line, a node whose matrix or translation, rotation or scale is not a list of finite numbers of
+    its length (a NaN matrix gave numpy's RuntimeWarnings and a blank image)."""
+    nodes = tree.get("nodes", [])
+    if not isinstance(nodes, list):
+        return  # trimesh words it
+    for n, node in enumerate(nodes):
+        if not isinstance(node, dict):
+            continue
+        for field, length in TRS:
+            if field not in node:
+                continue
+            value = node[field]
+            good = isinstance(value, list) and len(value) == length and all(
+                isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in value)
+            if not good:
+                raise SceneError(f"{str(path)!r}: nodes[{n}].{field} is {_short(value)}; allowed: {length} finite "
+                                 "numbers", where)
+
+
+def _short(value) -> str:
+    text = repr(value).replace("nan", "NaN").replace("inf", "Infinity")
+    return text if len(text) <= 80 else text[:77] + "..."

@@ -17,6 +17,7 @@ copies); the bounds framing needs stay in BOUNDS, a small cache of their own.
 from __future__ import annotations
 
 import io
+import json
 import math
 import re
 from dataclasses import dataclass, replace
@@ -30,7 +31,8 @@ from ..errors import SceneError, Where
 from ..records import bounding_box
 from ..tolerances import POSITION_LIMIT
 from .files import VersionCache, open_mesh_file, open_regular
-from .gltf import TRANSFORM, UNLIT, check_document, from_pbr, transform_uv, uri_file
+from .gltf import SPECULAR_GLOSSINESS, TRANSFORM, UNLIT, check_document, from_pbr, transform_uv, uri_file
+from .gltf_decode import decode_gltf, needs_decoding
 from .materials import FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, TextureSource
 from .mesh_content import READABLE, TEXT_FORMATS, check_content, check_file_content
 from .mesh_source import MeshSource, mesh_source
@@ -130,7 +132,7 @@ def _read(path: Path, where: Where, source: MeshSource, bounds: bool = True) -> 
                 sources += source.materials.sources
                 loaded = load_obj(text, path, library)
             elif points is None:
-                loaded = trimesh.load(**_trimesh_arguments(path, handle), process=False)
+                loaded = trimesh.load(**_trimesh_arguments(path, handle, source, where), process=False)
         if points is not None:  # the corners in file order, as trimesh's reader gives them (without its float64)
             parts = [_Part(points, np.arange(len(points), dtype=np.int64).reshape(-1, 3), None, None)]
         else:
@@ -328,7 +330,8 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
         found = None
         if isinstance(material, trimesh.visual.material.PBRMaterial):
             found = from_pbr(material, path, notes, sources, samplers)
-            gltf |= not samplers.get((material.name, UNLIT))  # an unlit material is the lecture's own: no approximation
+            # An unlit material is the lecture's own (no approximation); a specular-glossiness one says its own.
+            gltf |= not samplers.get((material.name, UNLIT)) and (material.name, SPECULAR_GLOSSINESS) not in samplers
         elif material is not None and library is not None:
             found = library.get(getattr(material, "name", None) or "")
         if found is not None:
@@ -440,24 +443,31 @@ class _RegularFiles(trimesh.resolvers.FilePathResolver):
     a FIFO named by `mtllib` would block the read forever. `uris`: the names are a glTF's URIs, percent-encoded."""
 
     uris = False
+    decoded: dict[str, bytes] | None = None  # io.gltf_decode's buffers, by the names its rewritten document gives
 
     def get(self, name):
+        if self.decoded and name in self.decoded:
+            return self.decoded[name]
         path = uri_file(Path(self.parent), name) if self.uris else Path(self.parent) / name
         with open_regular(path, str(path), "file") as handle:
             return handle.read()
 
 
 
-def _trimesh_arguments(path: Path, handle) -> dict:
+def _trimesh_arguments(path: Path, handle, source: MeshSource, where: Where) -> dict:
     """trimesh.load arguments for the open file `handle` of `path` (any format but OBJ, io/obj.py's, and binary
     STL, io/stl.py's): the file already opened is read (not the path again), and files it names (a glTF's
     buffers) are found beside it. An OFF that is not UTF-8 is read as Latin-1: trimesh needs the optional
     charset_normalizer to guess an encoding, and fails without it; every byte is a Latin-1 character, and the
-    keywords are plain ASCII."""
+    keywords are plain ASCII. A glTF whose data trimesh would misread is given it rewritten as plain glTF
+    (io/gltf_decode.py: compressed, quantized or instanced data, specular-glossiness materials)."""
     suffix = path.suffix.lower()
     resolver = _RegularFiles(path)
     resolver.uris = suffix in (".gltf", ".glb")  # names are URIs, percent-encoded (io.gltf.uri_file)
     arguments = {"file_obj": handle, "file_type": suffix[1:], "resolver": resolver}
+    if source.document is not None and needs_decoding(source.document.tree):
+        tree, resolver.decoded = decode_gltf(path, source.document, where)
+        arguments.update(file_obj=io.BytesIO(json.dumps(tree).encode()), file_type="gltf")
     if suffix in TEXT_FORMATS:
         data = handle.read()
         try:

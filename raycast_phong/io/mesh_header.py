@@ -247,15 +247,30 @@ def _obj_triangles(handle) -> int:
 
 
 def _gltf_triangles(document: dict) -> int:
-    """Triangles over every node's mesh (each instance counts), from the accessors' counts."""
+    """Triangles over every node's mesh (each node counts, and each instance of an EXT_mesh_gpu_instancing node:
+    instances × the mesh's triangles), from the accessors' counts; or their vertices (less 2) where more (_weigh:
+    a compressed bufferView decodes to what its accessors read, io/gltf_decode.py)."""
     accessors, meshes = document.get("accessors", []), document.get("meshes", [])
-    uses = [node["mesh"] for node in document.get("nodes", []) if "mesh" in node] or range(len(meshes))
-    total = 0
-    for mesh in uses:
+    placed = [node for node in document.get("nodes", []) if "mesh" in node]
+    uses = [(node["mesh"], _instances(node, accessors)) for node in placed] or [(m, 1) for m in range(len(meshes))]
+    total = vertices = 0
+    for mesh, copies in uses:
         for primitive in meshes[mesh].get("primitives", []):
             indexed = primitive.get("indices", primitive.get("attributes", {}).get("POSITION"))
-            total += accessors[indexed]["count"] // 3
-    return total
+            total += copies * (accessors[indexed]["count"] // 3)
+            vertices += copies * int(accessors[primitive.get("attributes", {}).get("POSITION", indexed)]["count"])
+    return _weigh(total, vertices)
+
+
+def _instances(node: dict, accessors: list) -> int:
+    """How many times a node places its mesh: its EXT_mesh_gpu_instancing accessors' count (the largest, if they
+    disagree: the read refuses that), else 1."""
+    extensions = node.get("extensions")
+    found = extensions.get("EXT_mesh_gpu_instancing") if isinstance(extensions, dict) else None
+    attributes = found.get("attributes") if isinstance(found, dict) else None
+    if not isinstance(attributes, dict):
+        return 1  # not instanced, or malformed: the read words it
+    return max((int(accessors[index]["count"]) for index in attributes.values()), default=1)
 
 
 def check_mesh_read(path: Path, where: Where, max_memory: int | None = None, mesh=None) -> None:
