@@ -197,16 +197,21 @@ def _check_collada_images(path: Path, handle, notes: list[str]) -> None:
 
 
 Z_UP_RATIO = 1.5  # a model this many times longer along Z than along Y (and longest along Z) looks Z-up
+# A model whose Y extent is at most this share of its largest is flat in X-Z (float32 noise on a plane is
+# about 1e-7 of its size): a floor as +Y up shows it, or a drawing seen from the front as +Z up would; its
+# extents cannot tell, so no hint (a ratio to a zero extent read "2e+300× longer").
+FLAT_SHARE = 1e-6
 
 
 def up_hint(extent: np.ndarray, suffix: str) -> str | None:
     """A one-line hint when a format that states no up axis holds a model that looks Z-up: longest along Z
     and at least Z_UP_RATIO times longer along Z than along Y (a scanned statue, a standing figure from a
-    Z-up tool), which the default +Y up shows lying on its back. None otherwise (docs/meshes.md, "Up")."""
-    if suffix in STATED_UP or not extent[2] > 0:
+    Z-up tool), which the default +Y up shows lying on its back. None otherwise, and for a model flat in
+    X-Z (FLAT_SHARE), which either axis shows right side up (docs/meshes.md, "Up")."""
+    if suffix in STATED_UP or not extent[2] > 0 or extent[1] <= FLAT_SHARE * extent.max():
         return None
     if extent[2] >= extent.max() and extent[2] >= Z_UP_RATIO * extent[1]:
-        return (f"the model is {extent[2] / max(extent[1], 1e-300):.3g}× longer along Z than along Y, as models "
+        return (f"the model is {extent[2] / extent[1]:.3g}× longer along Z than along Y, as models "
                 "made Z-up are; the view takes +Y as up (the format states none), so if it lies on its back, "
                 "add --up z")
     return None

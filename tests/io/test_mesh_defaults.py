@@ -340,8 +340,18 @@ def test_a_model_that_looks_z_up_gets_a_one_line_hint_and_a_y_up_one_none(tmp_pa
     tall = trimesh.creation.box(extents=[1, 1, 3])
     tall.export(tmp_path / "tall.stl")
     trimesh.creation.box(extents=[1, 3, 1]).export(tmp_path / "upright.stl")
-    assert "add --up z" in runner.invoke(app, ["plan", "tall.stl"]).output
+    hint = " ".join(runner.invoke(app, ["plan", "tall.stl"]).output.split())
+    assert "add --up z" in hint and "is 3× longer along Z than along Y" in hint
     assert "--up z" not in runner.invoke(app, ["plan", "upright.stl"]).output
+
+
+@pytest.mark.parametrize("height", [0.0, 3e-8])  # exactly flat, and float32 noise on a 10-unit floor
+def test_a_flat_floor_plane_gets_no_z_up_hint(tmp_path, height):
+    """A floor in X-Z (no Y extent) is right side up with +Y up; its extents cannot say Z-up (the hint read
+    "2e+300× longer along Z" from a ratio to zero)."""
+    Path("floor.obj").write_text(f"v -5 0 -5\nv 5 {height} -5\nv 5 0 5\nv -5 0 5\nf 1 4 3 2\n")
+    output = " ".join(runner.invoke(app, ["plan", "floor.obj"]).output.split())
+    assert "--up z" not in output and "longer along Z" not in output, output
 
 
 # ---------------------------------------------------------------- 8: memory
