@@ -35,7 +35,7 @@ from .materials import FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMat
 from .mesh_content import READABLE, TEXT_FORMATS, check_content, check_file_content
 from .mesh_source import MeshSource, mesh_source
 from .mtl import MAX_SIDE_FILE
-from .obj import load_obj, obj_text
+from .obj import UV_LIMIT, load_obj, obj_text
 from .stl import binary_stl_points
 
 __all__ = ["FILE_CREASE_ANGLE", "MeshFile", "check_file_content", "mesh_bounds", "read_mesh"]
@@ -124,13 +124,17 @@ def _read(path: Path, where: Where, source: MeshSource, bounds: bool = True) -> 
             points = binary_stl_points(handle) if suffix == ".stl" else None
             library = None
             if points is None and suffix == ".obj":
-                text = obj_text(handle.read(), path, where)
+                data = handle.read()
+                text = obj_text(data, path, where)
                 library = source.materials.library
                 notes += source.materials.notes
                 sources += source.materials.sources
-                loaded = load_obj(text, path, library)
+                loaded = load_obj(text, path, library, where, data)
             elif points is None:
-                loaded = trimesh.load(**_trimesh_arguments(path, handle), process=False)
+                # A PLY float property beyond float32 (5e38) is cast to inf with numpy's warning; the values check
+                # below words it in one line.
+                with np.errstate(over="ignore", invalid="ignore"):
+                    loaded = trimesh.load(**_trimesh_arguments(path, handle), process=False)
         if points is not None:  # the corners in file order, as trimesh's reader gives them (without its float64)
             parts = [_Part(points, np.arange(len(points), dtype=np.int64).reshape(-1, 3), None, None)]
         else:
@@ -158,7 +162,7 @@ def _read(path: Path, where: Where, source: MeshSource, bounds: bool = True) -> 
     used = vertices if mask.all() else vertices[mask]
     _check_values(used, path, where)
     face_group, materials, corner_uv, corner_colour = _surfaces(parts, library, path, notes, sources,
-                                                                            samplers)
+                                                                samplers, where)
     centre, radius = np.full(3, np.nan), math.nan
     if bounds:  # only framing needs them: a render's own read skips the pass
         low, high = (side.astype(np.float64) for side in bounding_box(used))  # column by column (records says why)
@@ -321,7 +325,7 @@ def _check_values(coordinates: np.ndarray, path: Path, where: Where) -> None:
 # ---------------------------------------------------------------- materials and colours
 
 def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes: list[str],
-              sources: list[TextureSource], samplers: dict):
+              sources: list[TextureSource], samplers: dict, where: Where = ""):
     """Per face: its material (an index into the returned tuple, -1 for none); per corner: the texture
     coordinates (None unless some used material has a map) and the vertex colours (None unless some part
     has colours)."""
@@ -351,6 +355,10 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
         uv = None if uv is None or len(uv) != len(part.vertices) else np.asarray(uv, np.float64)[:, :2]
         if uv is not None and isinstance(material, trimesh.visual.material.PBRMaterial):
             uv = _transformed_uv(uv, material, samplers, path, notes)
+        if uv is not None and not (np.abs(uv) <= UV_LIMIT).all():  # NaN passes: the kernel reads it as 0
+            raise SceneError(f"{str(path)!r} has a texture coordinate beyond float32's range (largest "
+                             f"{float(np.nanmax(np.abs(uv))):.4g}); allowed: -{UV_LIMIT:.4g} .. {UV_LIMIT:.4g}",
+                             where)
         uvs.append(None if uv is None else uv[part.faces].astype(np.float32))
         corner = _corner_colours(part)
         any_colour |= corner is not None
