@@ -31,12 +31,14 @@ from ..records import bounding_box
 from ..tolerances import POSITION_LIMIT
 from .files import VersionCache, open_mesh_file, open_regular
 from .gltf import TRANSFORM, UNLIT, check_document, from_pbr, transform_uv, uri_file
-from .materials import FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, TextureSource
+from .materials import (FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, PartSurface,
+                        TextureSource)
 from .mesh_content import READABLE, TEXT_FORMATS, check_content, check_file_content
 from .mesh_source import MeshSource, mesh_source
 from .mtl import MAX_SIDE_FILE
 from .obj import UV_LIMIT, load_obj, obj_text
 from .stl import binary_stl_points
+from .threemf import read_3mf
 
 __all__ = ["FILE_CREASE_ANGLE", "MeshFile", "check_file_content", "mesh_bounds", "read_mesh"]
 
@@ -130,6 +132,8 @@ def _read(path: Path, where: Where, source: MeshSource, bounds: bool = True) -> 
                 notes += source.materials.notes
                 sources += source.materials.sources
                 loaded = load_obj(text, path, library, where, data)
+            elif suffix == ".3mf":
+                own = read_3mf(handle, path, where, notes, sources)
             elif points is None:
                 # A PLY float property beyond float32 (5e38) is cast to inf with numpy's warning; the values check
                 # below words it in one line.
@@ -137,6 +141,8 @@ def _read(path: Path, where: Where, source: MeshSource, bounds: bool = True) -> 
                     loaded = trimesh.load(**_trimesh_arguments(path, handle), process=False)
         if points is not None:  # the corners in file order, as trimesh's reader gives them (without its float64)
             parts = [_Part(points, np.arange(len(points), dtype=np.int64).reshape(-1, 3), None, None)]
+        elif suffix == ".3mf":
+            parts = [_Part(vertices, faces, None, surface) for vertices, faces, surface in own]
         else:
             parts = _parts(loaded) or _strip_parts(loaded)
     except SceneError:
@@ -333,8 +339,9 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
     index: dict[str, int] = {}
     groups, corners, uvs, any_colour, gltf = [], [], [], False, False
     for part in parts:
-        material = getattr(part.visual, "material", None)
-        found = None
+        own = part.visual if isinstance(part.visual, PartSurface) else None  # read by io/threemf.py, io/ply.py
+        material = None if own is not None else getattr(part.visual, "material", None)
+        found = None if own is None else own.material
         if isinstance(material, trimesh.visual.material.PBRMaterial):
             found = from_pbr(material, path, notes, sources, samplers)
             gltf |= not samplers.get((material.name, UNLIT))  # an unlit material is the lecture's own: no approximation
@@ -360,7 +367,9 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
                              f"{float(np.nanmax(np.abs(uv))):.4g}); allowed: -{UV_LIMIT:.4g} .. {UV_LIMIT:.4g}",
                              where)
         uvs.append(None if uv is None else uv[part.faces].astype(np.float32))
-        corner = _corner_colours(part)
+        if own is not None:
+            uvs[-1] = own.corner_uv
+        corner = _corner_colours(part) if own is None else own.corner_colour
         any_colour |= corner is not None
         corners.append(corner)
     if gltf:  # glTF's own materials, or a file whose materials trimesh reads as metallic-roughness (COLLADA)
