@@ -38,6 +38,7 @@ from .mesh_source import MeshSource, mesh_source
 from .mtl import MAX_SIDE_FILE
 from .obj import UV_LIMIT, load_obj, obj_text
 from .stl import binary_stl_points
+from .ply import HEADER_LIMIT, resolved, texture_names, trimesh_quiet
 from .threemf import read_3mf
 
 __all__ = ["FILE_CREASE_ANGLE", "MeshFile", "check_file_content", "mesh_bounds", "read_mesh"]
@@ -123,6 +124,7 @@ def _read(path: Path, where: Where, source: MeshSource, bounds: bool = True) -> 
             if suffix == ".dae":
                 _check_collada_images(path, handle, notes)
             sources: list[TextureSource] = []
+            textures: list[str] = []  # a PLY's TextureFile names, as found beside it
             points = binary_stl_points(handle) if suffix == ".stl" else None
             library = None
             if points is None and suffix == ".obj":
@@ -137,8 +139,10 @@ def _read(path: Path, where: Where, source: MeshSource, bounds: bool = True) -> 
             elif points is None:
                 # A PLY float property beyond float32 (5e38) is cast to inf with numpy's warning; the values check
                 # below words it in one line.
-                with np.errstate(over="ignore", invalid="ignore"):
+                with np.errstate(over="ignore", invalid="ignore"), trimesh_quiet():
                     loaded = trimesh.load(**_trimesh_arguments(path, handle), process=False)
+                if suffix == ".ply":
+                    textures = _ply_textures(path, handle, notes)
         if points is not None:  # the corners in file order, as trimesh's reader gives them (without its float64)
             parts = [_Part(points, np.arange(len(points), dtype=np.int64).reshape(-1, 3), None, None)]
         elif suffix == ".3mf":
@@ -168,7 +172,7 @@ def _read(path: Path, where: Where, source: MeshSource, bounds: bool = True) -> 
     used = vertices if mask.all() else vertices[mask]
     _check_values(used, path, where)
     face_group, materials, corner_uv, corner_colour = _surfaces(parts, library, path, notes, sources,
-                                                                samplers, where)
+                                                                samplers, where, textures)
     centre, radius = np.full(3, np.nan), math.nan
     if bounds:  # only framing needs them: a render's own read skips the pass
         low, high = (side.astype(np.float64) for side in bounding_box(used))  # column by column (records says why)
@@ -331,7 +335,7 @@ def _check_values(coordinates: np.ndarray, path: Path, where: Where) -> None:
 # ---------------------------------------------------------------- materials and colours
 
 def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes: list[str],
-              sources: list[TextureSource], samplers: dict, where: Where = ""):
+              sources: list[TextureSource], samplers: dict, where: Where = "", textures: list[str] = ()):
     """Per face: its material (an index into the returned tuple, -1 for none); per corner: the texture
     coordinates (None unless some used material has a map) and the vertex colours (None unless some part
     has colours)."""
@@ -347,6 +351,11 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
             gltf |= not samplers.get((material.name, UNLIT))  # an unlit material is the lecture's own: no approximation
         elif material is not None and library is not None:
             found = library.get(getattr(material, "name", None) or "")
+        elif textures and getattr(material, "image", None) is not None:  # a PLY's TextureFile (io/ply.py)
+            sources.append(TextureSource(material.image, "repeat", "repeat", textures[0]))
+            white = (1.0, 1.0, 1.0)
+            found = FileMaterial(Path(textures[0]).stem, white, white, (0.5, 0.5, 0.5), (0.0, 0.0, 0.0), 32.0,
+                                 kd_map=len(sources) - 1)
         if found is not None:
             # Two different materials under one name (glTF names are optional) each keep their own values.
             name, copy = found.name, 1
@@ -439,6 +448,22 @@ def _corner_colours(part: _Part) -> np.ndarray | None:
 
 # ---------------------------------------------------------------- trimesh's side of reading
 
+def _ply_textures(path: Path, handle, notes: list[str]) -> list[str]:
+    """A PLY's TextureFile names (io/ply.py), `<this>` replaced; a note for each missing image and for images
+    after the first (one map per file is read)."""
+    handle.seek(0)
+    names = [resolved(name, path) for name in texture_names(handle.read(HEADER_LIMIT))]
+    if not names:
+        return []
+    for name in names[:1]:
+        if not (path.parent / name).is_file():
+            notes.append(f"{path}: texture {name!r} is missing")
+    if len(names) > 1:
+        notes.append(f"{path}: names {len(names)} TextureFile images (a texture number per face); only the first, "
+                     f"{names[0]!r}, is read, for every face")
+    return names
+
+
 def _raised_in_trimesh(error: BaseException) -> bool:
     """Whether `error` came out of trimesh's own code, i.e. trimesh could not read the file.
 
@@ -462,8 +487,10 @@ class _RegularFiles(trimesh.resolvers.FilePathResolver):
     a FIFO named by `mtllib` would block the read forever. `uris`: the names are a glTF's URIs, percent-encoded."""
 
     uris = False
+    file: Path | None = None  # a PLY: its own path, for `<this>` in a TextureFile name
 
     def get(self, name):
+        name = resolved(name, self.file) if self.file is not None else name  # MeshLab's `<this>` in a PLY
         path = uri_file(Path(self.parent), name) if self.uris else Path(self.parent) / name
         with open_regular(path, str(path), "file") as handle:
             return handle.read()
@@ -479,6 +506,7 @@ def _trimesh_arguments(path: Path, handle) -> dict:
     suffix = path.suffix.lower()
     resolver = _RegularFiles(path)
     resolver.uris = suffix in (".gltf", ".glb")  # names are URIs, percent-encoded (io.gltf.uri_file)
+    resolver.file = path if suffix == ".ply" else None
     arguments = {"file_obj": handle, "file_type": suffix[1:], "resolver": resolver}
     if suffix in TEXT_FORMATS:
         data = handle.read()
