@@ -29,6 +29,7 @@ import trimesh
 from ..errors import SceneError, Where
 from ..records import bounding_box
 from ..tolerances import POSITION_LIMIT
+from .collada import collada_text
 from .files import VersionCache, open_mesh_file, open_regular
 from .gltf import TRANSFORM, UNLIT, check_document, from_pbr, transform_uv, uri_file
 from .materials import (FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, PartSurface,
@@ -139,8 +140,11 @@ def _read(path: Path, where: Where, source: MeshSource, bounds: bool = True) -> 
             elif points is None:
                 # A PLY float property beyond float32 (5e38) is cast to inf with numpy's warning; the values check
                 # below words it in one line.
+                arguments = _trimesh_arguments(path, handle)
+                if suffix == ".dae":  # skinned meshes and non-COMMON effects kept (io/collada.py)
+                    arguments["file_obj"] = io.BytesIO(collada_text(handle.read(), path, notes))
                 with np.errstate(over="ignore", invalid="ignore"), trimesh_quiet():
-                    loaded = trimesh.load(**_trimesh_arguments(path, handle), process=False)
+                    loaded = trimesh.load(**arguments, process=False)
                 if suffix == ".ply":
                     textures = _ply_textures(path, handle, notes)
         if points is not None:  # the corners in file order, as trimesh's reader gives them (without its float64)
