@@ -32,14 +32,13 @@ from ..tolerances import POSITION_LIMIT
 from .collada import collada_text
 from .files import VersionCache, open_mesh_file, open_regular
 from .gltf import TRANSFORM, UNLIT, check_document, from_pbr, transform_uv, uri_file
-from .materials import (FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, PartSurface,
-                        TextureSource)
+from .materials import FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, PartSurface, TextureSource
 from .mesh_content import READABLE, TEXT_FORMATS, check_content, check_file_content
 from .mesh_source import MeshSource, mesh_source
 from .mtl import MAX_SIDE_FILE
 from .obj import UV_LIMIT, load_obj, obj_text
-from .stl import binary_stl_points
 from .ply import HEADER_LIMIT, resolved, texture_names, trimesh_quiet
+from .stl import binary_stl_points
 from .threemf import read_3mf
 
 __all__ = ["FILE_CREASE_ANGLE", "MeshFile", "check_file_content", "mesh_bounds", "read_mesh"]

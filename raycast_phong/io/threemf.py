@@ -209,7 +209,7 @@ def _column(words, dtype, what: str, path: Path, where: Where, default: str | No
         text = " ".join(words)
     except TypeError:  # a None: the attribute is missing
         text = None
-    if text is not None and (dtype is np.float64 or "." not in text and "e" not in text.lower()):
+    if text is not None and (dtype is np.float64 or ("." not in text and "e" not in text.lower())):
         values = np.fromstring(text, dtype=dtype, sep=" ") if text else np.zeros(0, dtype)
         if len(values) == len(words):
             return values
@@ -455,7 +455,8 @@ def texture_sizes(path: Path) -> tuple[tuple[int, int], ...]:
     try:
         with open_regular(path, str(path), "mesh file") as handle, zipfile.ZipFile(handle) as archive:
             for info in archive.infolist():
-                if info.filename.lower().endswith((".png", ".jpg", ".jpeg")) and "thumbnail" not in info.filename.lower():
+                name = info.filename.lower()
+                if name.endswith((".png", ".jpg", ".jpeg")) and "thumbnail" not in name:
                     try:
                         with archive.open(info) as member, Image.open(member) as image:
                             sizes.append((image.height, image.width))

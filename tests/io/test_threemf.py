@@ -43,23 +43,17 @@ def read(path: Path) -> mesh_file.MeshFile:
     return mesh_file.read_mesh(path, str(path))
 
 
-def corner_colours_by_position(mesh: mesh_file.MeshFile) -> dict:
-    """{(x, y, z) of a corner: its colour as 8-bit}: each position's colour at every face corner there."""
-    found: dict = {}
-    for face, colours in zip(mesh.faces, mesh.corner_colour):
-        for vertex, colour in zip(face, colours):
-            found.setdefault(tuple(mesh.vertices[vertex].round(6)), set()).add(tuple(np.round(colour * 255).astype(int)))
-    return found
-
-
 def test_a_colour_group_gives_each_corner_its_colour(tmp_path):
     """p1, p2, p3 index a colorgroup per corner; a triangle with only p1 is one colour; #RRGGBBAA's alpha is not
     read. The two triangles share the square's diagonal, so its corners have one colour each."""
-    resources = '<m:colorgroup id="5"><m:color color="#FF0000"/><m:color color="#00FF00FF"/><m:color color="#0000FF80"/></m:colorgroup>'
-    triangles = '<triangle v1="0" v2="1" v3="2" pid="5" p1="0" p2="1" p3="2"/><triangle v1="0" v2="2" v3="3" pid="5" p1="1"/>'
+    resources = ('<m:colorgroup id="5"><m:color color="#FF0000"/><m:color color="#00FF00FF"/>'
+                 '<m:color color="#0000FF80"/></m:colorgroup>')
+    triangles = ('<triangle v1="0" v2="1" v3="2" pid="5" p1="0" p2="1" p3="2"/>'
+                 '<triangle v1="0" v2="2" v3="3" pid="5" p1="1"/>')
     mesh = read(write_3mf(tmp_path / "c.3mf", resources, triangles))
     assert mesh.face_group.tolist() == [-1, -1]  # no material: the colour replaces k_a and k_d
-    first = {tuple(mesh.vertices[v]): tuple(np.round(c * 255).astype(int)) for v, c in zip(mesh.faces[0], mesh.corner_colour[0])}
+    first = {tuple(mesh.vertices[v]): tuple(np.round(c * 255).astype(int))
+             for v, c in zip(mesh.faces[0], mesh.corner_colour[0])}
     assert first == {(0, 0, 0): (255, 0, 0), (10, 0, 0): (0, 255, 0), (10, 10, 0): (0, 0, 255)}
     assert (np.round(mesh.corner_colour[1] * 255) == [0, 255, 0]).all()
 
@@ -149,8 +143,8 @@ def test_the_consortiums_multiproperties_sample_renders_its_base_colour(tmp_path
 
 @pytest.mark.parametrize(("resources", "triangles", "says"), [
     ("", '<triangle v1="0" v2="1" v3="2" pid="7" p1="0"/>', "property group 7"),
-    ('<m:colorgroup id="2"><m:color color="#FF0000"/></m:colorgroup>', '<triangle v1="0" v2="1" v3="2" pid="2" p1="3"/>',
-     "property index 3"),
+    ('<m:colorgroup id="2"><m:color color="#FF0000"/></m:colorgroup>',
+     '<triangle v1="0" v2="1" v3="2" pid="2" p1="3"/>', "property index 3"),
     ('<m:colorgroup id="2"><m:color color="red"/></m:colorgroup>', '<triangle v1="0" v2="1" v3="9"/>', "colour 'red'"),
     ("", '<triangle v1="0" v2="1" v3="9"/>', "vertex index outside 0..3"),
     ("", '<triangle v1="0" v2="1" v3="2"/></triangles></mesh></object></resources></model', "not well-formed"),
