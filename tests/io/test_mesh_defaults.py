@@ -383,3 +383,24 @@ def test_an_empty_model_file_is_one_line_saying_so(tmp_path):
     assert done.exit_code == 2
     [line] = done.stderr.strip().splitlines()
     assert "is empty (0 bytes)" in line, line
+
+
+# ---------------------------------------------------------------- background
+
+def test_an_open_model_seen_from_its_unlit_side_shows_against_the_background(tmp_path):
+    """A sheet in the plane x = 0 facing +X with `Ka 0` (assimp's concave_polygon.obj, in short): the default view
+    sees its +X side, the key light (30° to the left) is behind the plane, so no term lights what is seen. Two-sided
+    shading (on by default) cannot help: the side seen is the front. On black it was black on black; a mesh file's
+    background is dark grey (51 in the PNG), so the sheet is a black silhouette. A scene file's stays black."""
+    Path("m.mtl").write_text("newmtl m\nKa 0 0 0\nKd 0.14 0.18 0.41\nKs 0 0 0\n")
+    Path("sheet.obj").write_text("mtllib m.mtl\nusemtl m\nv 0 0 0\nv 0 2 0\nv 0 2 2\nv 0 0 2\nf 1 2 3 4\n")
+    done = runner.invoke(app, ["render", "sheet.obj", "-o", "sheet.png", "--set", "render.width=64", "--set",
+                               "render.height=48"])
+    assert done.exit_code == 0, done.output
+    from PIL import Image
+    pixels = np.asarray(Image.open("sheet.png").convert("RGB"))
+    assert (pixels[0, 0] == 51).all() and (pixels[-1, -1] == 51).all()
+    assert (pixels.max(axis=2) == 0).mean() > 0.05  # the sheet: unlit, black, and now seen
+    assert rp.load_scene("sheet.obj").render.background == (0.2, 0.2, 0.2)
+    glb = pbr_sphere(tmp_path / "s.glb", 0.5)  # linear colour: decoded, so the sRGB curve writes 51 back
+    assert rp.load_scene(glb).render.background == pytest.approx((0.0331,) * 3, abs=1e-4)

@@ -30,7 +30,8 @@ def test_a_texture_file_comment_renders_its_image(tmp_path):
     """`<this>` is the PLY's own name (MeshLab's placeholder): sq.ply's map is sq_tex.png, a red image."""
     Image.new("RGB", (4, 4), (220, 20, 20)).save(tmp_path / "sq_tex.png")
     write_ply(tmp_path / "sq.ply", "<this>_tex.png")
-    image = rp.render_file(tmp_path / "sq.ply", ["render.width=40", "render.height=40", "lights.0.specular=[0,0,0]"],
+    image = rp.render_file(tmp_path / "sq.ply", ["render.width=40", "render.height=40", "lights.0.specular=[0,0,0]",
+                                                  "render.background=[0,0,0]"],
                            view="front").image
     covered = image.max(axis=2) > 0
     assert covered.mean() > 0.2 and (image[covered][:, 0] > 4 * image[covered][:, 1]).all()

@@ -95,7 +95,7 @@ def test_a_texture_group_maps_its_image_with_v_from_the_top(tmp_path):
     assert material.kd_map >= 0 and material.kd == (1.0, 1.0, 1.0)
     source = mesh.texture_sources[material.kd_map]
     assert (source.wrap_s, source.wrap_t) == ("clamp", "repeat")
-    image = rp.render_file(tmp_path / "t.3mf", ["render.width=60", "render.height=60", "lights.0.diffuse=[1,1,1]",
+    image = rp.render_file(tmp_path / "t.3mf", ["render.width=60", "render.height=60", "render.background=[0,0,0]",
                                               "lights.0.specular=[0,0,0]"], view="top").image
     covered = image.max(axis=2) > 0
     assert covered.any() and (image[covered][:, 0] > 4 * image[covered][:, 1]).all()  # red, as the texture
