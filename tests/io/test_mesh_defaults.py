@@ -23,7 +23,7 @@ from raycast_phong.geometry.build import build_geometry
 MODELS = Path(__file__).resolve().parents[1] / "data" / "models"
 runner = CliRunner()
 pytestmark = pytest.mark.usefixtures("in_tmp_path")
-SMALL = ["render.width=160", "render.height=120"]
+SMALL = ["render.width=160", "render.height=120", "render.background=[0, 0, 0]"]  # coverage: pixels > 0
 
 
 def saturated_share(image: np.ndarray) -> float:
