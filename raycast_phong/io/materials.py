@@ -45,6 +45,16 @@ class FileMaterial:
                 "shininess": self.shininess}
 
 
+@dataclass(frozen=True, eq=False)
+class PartSurface:
+    """What colours one part of a file read by this package's own readers (io/threemf.py, io/ply.py) rather than
+    through trimesh's visuals: its material and per-corner texture coordinates and colours."""
+    material: FileMaterial | None = None         # None: the faces use the `default` material
+    corner_uv: np.ndarray | None = None          # (F, 3, 2) float32, v up
+    corner_colour: np.ndarray | None = None      # (F, 3, 3) float32 in [0, 1]: multiplies k_a, k_d (replaces
+                                                 # them without a material)
+
+
 def specular_lobe(ks, shininess: float) -> tuple[np.ndarray, float]:
     """A file's (k_s, f) made into a highlight the lecture's lobe shows faithfully (docs/meshes.md, "Highlights").
 

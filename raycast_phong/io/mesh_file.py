@@ -30,15 +30,18 @@ import trimesh
 from ..errors import SceneError, Where
 from ..records import bounding_box
 from ..tolerances import POSITION_LIMIT
+from .collada import collada_text
 from .files import VersionCache, open_mesh_file, open_regular
 from .gltf import SPECULAR_GLOSSINESS, TRANSFORM, UNLIT, check_document, from_pbr, transform_uv, uri_file
 from .gltf_decode import decode_gltf, needs_decoding
-from .materials import FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, TextureSource
+from .materials import FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, PartSurface, TextureSource
 from .mesh_content import READABLE, TEXT_FORMATS, check_content, check_file_content
 from .mesh_source import MeshSource, mesh_source
 from .mtl import MAX_SIDE_FILE
-from .obj import load_obj, obj_text
+from .obj import UV_LIMIT, load_obj, obj_text
+from .ply import HEADER_LIMIT, resolved, texture_names, trimesh_quiet
 from .stl import binary_stl_points
+from .threemf import read_3mf
 
 __all__ = ["FILE_CREASE_ANGLE", "MeshFile", "check_file_content", "mesh_bounds", "read_mesh"]
 
@@ -123,18 +126,32 @@ def _read(path: Path, where: Where, source: MeshSource, bounds: bool = True) -> 
             if suffix == ".dae":
                 _check_collada_images(path, handle, notes)
             sources: list[TextureSource] = []
+            textures: list[str] = []  # a PLY's TextureFile names, as found beside it
             points = binary_stl_points(handle) if suffix == ".stl" else None
             library = None
             if points is None and suffix == ".obj":
-                text = obj_text(handle.read(), path, where)
+                data = handle.read()
+                text = obj_text(data, path, where)
                 library = source.materials.library
                 notes += source.materials.notes
                 sources += source.materials.sources
-                loaded = load_obj(text, path, library)
+                loaded = load_obj(text, path, library, where, data)
+            elif suffix == ".3mf":
+                own = read_3mf(handle, path, where, notes, sources)
             elif points is None:
-                loaded = trimesh.load(**_trimesh_arguments(path, handle, source, where), process=False)
+                # A PLY float property beyond float32 (5e38) is cast to inf with numpy's warning; the values check
+                # below words it in one line.
+                arguments = _trimesh_arguments(path, handle, source, where)
+                if suffix == ".dae":  # skinned meshes and non-COMMON effects kept (io/collada.py)
+                    arguments["file_obj"] = io.BytesIO(collada_text(handle.read(), path, notes))
+                with np.errstate(over="ignore", invalid="ignore"), trimesh_quiet():
+                    loaded = trimesh.load(**arguments, process=False)
+                if suffix == ".ply":
+                    textures = _ply_textures(path, handle, notes)
         if points is not None:  # the corners in file order, as trimesh's reader gives them (without its float64)
             parts = [_Part(points, np.arange(len(points), dtype=np.int64).reshape(-1, 3), None, None)]
+        elif suffix == ".3mf":
+            parts = [_Part(vertices, faces, None, surface) for vertices, faces, surface in own]
         else:
             parts = _parts(loaded) or _strip_parts(loaded)
     except SceneError:
@@ -160,7 +177,7 @@ def _read(path: Path, where: Where, source: MeshSource, bounds: bool = True) -> 
     used = vertices if mask.all() else vertices[mask]
     _check_values(used, path, where)
     face_group, materials, corner_uv, corner_colour = _surfaces(parts, library, path, notes, sources,
-                                                                            samplers)
+                                                                samplers, where, textures)
     centre, radius = np.full(3, np.nan), math.nan
     if bounds:  # only framing needs them: a render's own read skips the pass
         low, high = (side.astype(np.float64) for side in bounding_box(used))  # column by column (records says why)
@@ -199,16 +216,21 @@ def _check_collada_images(path: Path, handle, notes: list[str]) -> None:
 
 
 Z_UP_RATIO = 1.5  # a model this many times longer along Z than along Y (and longest along Z) looks Z-up
+# A model whose Y extent is at most this share of its largest is flat in X-Z (float32 noise on a plane is
+# about 1e-7 of its size): a floor as +Y up shows it, or a drawing seen from the front as +Z up would; its
+# extents cannot tell, so no hint (a ratio to a zero extent read "2e+300× longer").
+FLAT_SHARE = 1e-6
 
 
 def up_hint(extent: np.ndarray, suffix: str) -> str | None:
     """A one-line hint when a format that states no up axis holds a model that looks Z-up: longest along Z
     and at least Z_UP_RATIO times longer along Z than along Y (a scanned statue, a standing figure from a
-    Z-up tool), which the default +Y up shows lying on its back. None otherwise (docs/meshes.md, "Up")."""
-    if suffix in STATED_UP or not extent[2] > 0:
+    Z-up tool), which the default +Y up shows lying on its back. None otherwise, and for a model flat in
+    X-Z (FLAT_SHARE), which either axis shows right side up (docs/meshes.md, "Up")."""
+    if suffix in STATED_UP or not extent[2] > 0 or extent[1] <= FLAT_SHARE * extent.max():
         return None
     if extent[2] >= extent.max() and extent[2] >= Z_UP_RATIO * extent[1]:
-        return (f"the model is {extent[2] / max(extent[1], 1e-300):.3g}× longer along Z than along Y, as models "
+        return (f"the model is {extent[2] / extent[1]:.3g}× longer along Z than along Y, as models "
                 "made Z-up are; the view takes +Y as up (the format states none), so if it lies on its back, "
                 "add --up z")
     return None
@@ -318,7 +340,7 @@ def _check_values(coordinates: np.ndarray, path: Path, where: Where) -> None:
 # ---------------------------------------------------------------- materials and colours
 
 def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes: list[str],
-              sources: list[TextureSource], samplers: dict):
+              sources: list[TextureSource], samplers: dict, where: Where = "", textures: list[str] = ()):
     """Per face: its material (an index into the returned tuple, -1 for none); per corner: the texture
     coordinates (None unless some used material has a map) and the vertex colours (None unless some part
     has colours)."""
@@ -326,14 +348,20 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
     index: dict[str, int] = {}
     groups, corners, uvs, any_colour, gltf = [], [], [], False, False
     for part in parts:
-        material = getattr(part.visual, "material", None)
-        found = None
+        own = part.visual if isinstance(part.visual, PartSurface) else None  # read by io/threemf.py, io/ply.py
+        material = None if own is not None else getattr(part.visual, "material", None)
+        found = None if own is None else own.material
         if isinstance(material, trimesh.visual.material.PBRMaterial):
             found = from_pbr(material, path, notes, sources, samplers)
             # An unlit material is the lecture's own (no approximation); a specular-glossiness one says its own.
             gltf |= not samplers.get((material.name, UNLIT)) and (material.name, SPECULAR_GLOSSINESS) not in samplers
         elif material is not None and library is not None:
             found = library.get(getattr(material, "name", None) or "")
+        elif textures and getattr(material, "image", None) is not None:  # a PLY's TextureFile (io/ply.py)
+            sources.append(TextureSource(material.image, "repeat", "repeat", textures[0]))
+            white = (1.0, 1.0, 1.0)
+            found = FileMaterial(Path(textures[0]).stem, white, white, (0.5, 0.5, 0.5), (0.0, 0.0, 0.0), 32.0,
+                                 kd_map=len(sources) - 1)
         if found is not None:
             # Two different materials under one name (glTF names are optional) each keep their own values.
             name, copy = found.name, 1
@@ -349,8 +377,14 @@ def _surfaces(parts, library: dict[str, FileMaterial] | None, path: Path, notes:
         uv = None if uv is None or len(uv) != len(part.vertices) else np.asarray(uv, np.float64)[:, :2]
         if uv is not None and isinstance(material, trimesh.visual.material.PBRMaterial):
             uv = _transformed_uv(uv, material, samplers, path, notes)
+        if uv is not None and not (np.abs(uv) <= UV_LIMIT).all():  # NaN passes: the kernel reads it as 0
+            raise SceneError(f"{str(path)!r} has a texture coordinate beyond float32's range (largest "
+                             f"{float(np.nanmax(np.abs(uv))):.4g}); allowed: -{UV_LIMIT:.4g} .. {UV_LIMIT:.4g}",
+                             where)
         uvs.append(None if uv is None else uv[part.faces].astype(np.float32))
-        corner = _corner_colours(part)
+        if own is not None:
+            uvs[-1] = own.corner_uv
+        corner = _corner_colours(part) if own is None else own.corner_colour
         any_colour |= corner is not None
         corners.append(corner)
     if gltf:  # glTF's own materials, or a file whose materials trimesh reads as metallic-roughness (COLLADA)
@@ -420,6 +454,22 @@ def _corner_colours(part: _Part) -> np.ndarray | None:
 
 # ---------------------------------------------------------------- trimesh's side of reading
 
+def _ply_textures(path: Path, handle, notes: list[str]) -> list[str]:
+    """A PLY's TextureFile names (io/ply.py), `<this>` replaced; a note for each missing image and for images
+    after the first (one map per file is read)."""
+    handle.seek(0)
+    names = [resolved(name, path) for name in texture_names(handle.read(HEADER_LIMIT))]
+    if not names:
+        return []
+    for name in names[:1]:
+        if not (path.parent / name).is_file():
+            notes.append(f"{path}: texture {name!r} is missing")
+    if len(names) > 1:
+        notes.append(f"{path}: names {len(names)} TextureFile images (a texture number per face); only the first, "
+                     f"{names[0]!r}, is read, for every face")
+    return names
+
+
 def _raised_in_trimesh(error: BaseException) -> bool:
     """Whether `error` came out of trimesh's own code, i.e. trimesh could not read the file.
 
@@ -444,10 +494,12 @@ class _RegularFiles(trimesh.resolvers.FilePathResolver):
 
     uris = False
     decoded: dict[str, bytes] | None = None  # io.gltf_decode's buffers, by the names its rewritten document gives
+    file: Path | None = None  # a PLY: its own path, for `<this>` in a TextureFile name
 
     def get(self, name):
         if self.decoded and name in self.decoded:
             return self.decoded[name]
+        name = resolved(name, self.file) if self.file is not None else name  # MeshLab's `<this>` in a PLY
         path = uri_file(Path(self.parent), name) if self.uris else Path(self.parent) / name
         with open_regular(path, str(path), "file") as handle:
             return handle.read()
@@ -464,6 +516,7 @@ def _trimesh_arguments(path: Path, handle, source: MeshSource, where: Where) -> 
     suffix = path.suffix.lower()
     resolver = _RegularFiles(path)
     resolver.uris = suffix in (".gltf", ".glb")  # names are URIs, percent-encoded (io.gltf.uri_file)
+    resolver.file = path if suffix == ".ply" else None
     arguments = {"file_obj": handle, "file_type": suffix[1:], "resolver": resolver}
     if source.document is not None and needs_decoding(source.document.tree):
         tree, resolver.decoded = decode_gltf(path, source.document, where)

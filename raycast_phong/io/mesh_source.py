@@ -61,6 +61,9 @@ class MeshSource:
         if self.document is not None:
             from .gltf import texture_sizes
             return tuple(texture_sizes(self.path, self.document, file_size))
+        if self.suffix == ".3mf":  # its images, in its zip
+            from .threemf import texture_sizes
+            return texture_sizes(self.path)
         return ()
 
 

@@ -5,8 +5,10 @@ tagged with its material's name (the materials themselves are io/mtl.py's, parse
 from __future__ import annotations
 
 import io
+import re
 from pathlib import Path
 
+import numpy as np
 import trimesh
 
 from ..errors import SceneError, Where
@@ -42,14 +44,37 @@ class MaterialNames(trimesh.resolvers.FilePathResolver):
         return self.text
 
 
-def load_obj(text: io.BytesIO, path: Path, names):
+def load_obj(text: io.BytesIO, path: Path, names, where: Where = "", data: bytes = b""):
     """What trimesh.load gives for the OBJ `text` (obj_text) of `path` whose materials are `names`, but
     `v x y z r g b` colours are kept beside a material or texture coordinates: trimesh's reader hands them to
     a Trimesh whose TextureVisuals replaces them. They move to the visual's `color` vertex attribute (where
     trimesh keeps glTF's COLOR_0 beside a material, which io/mesh_file.py reads), 8-bit as trimesh's
-    ColorVisuals keeps them when there is no material."""
+    ColorVisuals keeps them when there is no material. A texture coordinate beyond float32's range (kept so
+    per corner) is a SceneError naming its line in `data`, the file's bytes as read."""
     kwargs = trimesh.exchange.obj.load_obj(text, resolver=MaterialNames(path, names), process=False)
     for mesh in (kwargs.get("geometry") or {}).values():
         if mesh.get("vertex_colors") is not None and mesh.get("visual") is not None:
             mesh["visual"].vertex_attributes["color"] = trimesh.visual.color.to_rgba(mesh.pop("vertex_colors"))
+        uv = getattr(mesh.get("visual"), "uv", None)
+        if uv is not None and not (np.abs(np.asarray(uv, np.float64)) <= UV_LIMIT).all():
+            _refuse_texture_coordinate(data or text.getvalue(), path, where)
     return trimesh.load_scene(kwargs)
+
+
+UV_LIMIT = float(np.finfo(np.float32).max)  # texture coordinates are kept as float32 per face corner
+
+
+def _refuse_texture_coordinate(data: bytes, path: Path, where: Where) -> None:
+    """The SceneError for the first `vt` line of `data` with a value beyond ±UV_LIMIT (NaN is not beyond)."""
+    for found in re.finditer(rb"^[ \t]*vt[ \t]+([^\r\n]*)", data, re.M):
+        for word in found[1].split():
+            try:
+                value = float(word)
+            except ValueError:
+                continue
+            if abs(value) > UV_LIMIT:
+                line = data.count(b"\n", 0, found.start()) + 1
+                raise SceneError(f"{str(path)!r} line {line}: texture coordinate {word.decode('latin-1')[:40]} "
+                                 f"is beyond float32's range; allowed: -{UV_LIMIT:.4g} .. {UV_LIMIT:.4g}", where)
+    raise SceneError(f"{str(path)!r} has a texture coordinate beyond float32's range; allowed: "
+                     f"-{UV_LIMIT:.4g} .. {UV_LIMIT:.4g}", where)

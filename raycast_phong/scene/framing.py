@@ -48,6 +48,20 @@ def mesh_colour(path: str | Path) -> tuple[str, str]:
                      "space; fixed-function GL viewers show its colours as stored)")
 
 
+# A mesh file's background: dark grey (PNG byte 51 in either colour setting), as viewers show models (f3d,
+# MeshLab, Blender), so a surface no light reaches (an open model seen from its unlit side with k_a = 0) shows
+# as a black silhouette instead of black on black (docs/meshes.md, "Background").
+BACKGROUND = 0.2
+
+
+def mesh_background(colour: str) -> list[float]:
+    """render.background for a mesh file in `colour`: BACKGROUND as written in the PNG (linear: decoded from sRGB,
+    so the sRGB curve writes it back as the same byte)."""
+    from ..io.textures import srgb_to_linear
+    value = float(srgb_to_linear(BACKGROUND)) if colour == LINEAR else BACKGROUND
+    return [value, value, value]
+
+
 def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), view: str | None = None,
                     up: str | None = None, max_memory: int | None = None, sources: dict | None = None) -> dict:
     """A scene table showing one mesh file: its materials, a framing camera, a key light (docs/meshes.md).
@@ -77,7 +91,8 @@ def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), vie
         "objects": [{"name": path.stem, "shape": "mesh", "path": path.name,
                      **({} if found.stores_normals else {"crease_angle": FILE_CREASE_ANGLE})}],
         "output": {"path": f"{path.stem}.png"},
-        "render": {"colour": mesh_colour(path)[0]},  # before the overrides: --set render.colour wins
+        # before the overrides: --set render.colour and render.background win
+        "render": {"colour": mesh_colour(path)[0], "background": mesh_background(mesh_colour(path)[0])},
     }
     data["camera"] = frame_camera(found.centre, found.radius, up_axis, view, (640.0, 480.0), 40.0, False)
     data["lights"] = [key_light(found.centre, data["camera"], up_axis)]

@@ -17,8 +17,8 @@ from raycast_phong.errors import SceneError
 from raycast_phong.io.mesh_file import read_mesh
 
 # Ambient light only, white: a surface shows k_a (and k_e); lights would add its diffuse and specular terms.
-AMBIENT = ["render.width=40", "render.height=30", "ambient=[1, 1, 1]", "lights=[]"]
-LIT = ["render.width=40", "render.height=30", "ambient=[0, 0, 0]"]
+AMBIENT = ["render.width=40", "render.height=30", "ambient=[1, 1, 1]", "lights=[]", "render.background=[0, 0, 0]"]
+LIT = ["render.width=40", "render.height=30", "ambient=[0, 0, 0]", "render.background=[0, 0, 0]"]
 
 
 def quad_gltf(folder: Path, material: dict, buffer: str = "quad.bin", uri: str | None = None,

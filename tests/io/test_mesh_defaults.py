@@ -23,7 +23,7 @@ from raycast_phong.geometry.build import build_geometry
 MODELS = Path(__file__).resolve().parents[1] / "data" / "models"
 runner = CliRunner()
 pytestmark = pytest.mark.usefixtures("in_tmp_path")
-SMALL = ["render.width=160", "render.height=120"]
+SMALL = ["render.width=160", "render.height=120", "render.background=[0, 0, 0]"]  # coverage: pixels > 0
 
 
 def saturated_share(image: np.ndarray) -> float:
@@ -340,8 +340,18 @@ def test_a_model_that_looks_z_up_gets_a_one_line_hint_and_a_y_up_one_none(tmp_pa
     tall = trimesh.creation.box(extents=[1, 1, 3])
     tall.export(tmp_path / "tall.stl")
     trimesh.creation.box(extents=[1, 3, 1]).export(tmp_path / "upright.stl")
-    assert "add --up z" in runner.invoke(app, ["plan", "tall.stl"]).output
+    hint = " ".join(runner.invoke(app, ["plan", "tall.stl"]).output.split())
+    assert "add --up z" in hint and "is 3× longer along Z than along Y" in hint
     assert "--up z" not in runner.invoke(app, ["plan", "upright.stl"]).output
+
+
+@pytest.mark.parametrize("height", [0.0, 3e-8])  # exactly flat, and float32 noise on a 10-unit floor
+def test_a_flat_floor_plane_gets_no_z_up_hint(tmp_path, height):
+    """A floor in X-Z (no Y extent) is right side up with +Y up; its extents cannot say Z-up (the hint read
+    "2e+300× longer along Z" from a ratio to zero)."""
+    Path("floor.obj").write_text(f"v -5 0 -5\nv 5 {height} -5\nv 5 0 5\nv -5 0 5\nf 1 4 3 2\n")
+    output = " ".join(runner.invoke(app, ["plan", "floor.obj"]).output.split())
+    assert "--up z" not in output and "longer along Z" not in output, output
 
 
 # ---------------------------------------------------------------- 8: memory
@@ -373,3 +383,24 @@ def test_an_empty_model_file_is_one_line_saying_so(tmp_path):
     assert done.exit_code == 2
     [line] = done.stderr.strip().splitlines()
     assert "is empty (0 bytes)" in line, line
+
+
+# ---------------------------------------------------------------- background
+
+def test_an_open_model_seen_from_its_unlit_side_shows_against_the_background(tmp_path):
+    """A sheet in the plane x = 0 facing +X with `Ka 0` (assimp's concave_polygon.obj, in short): the default view
+    sees its +X side, the key light (30° to the left) is behind the plane, so no term lights what is seen. Two-sided
+    shading (on by default) cannot help: the side seen is the front. On black it was black on black; a mesh file's
+    background is dark grey (51 in the PNG), so the sheet is a black silhouette. A scene file's stays black."""
+    Path("m.mtl").write_text("newmtl m\nKa 0 0 0\nKd 0.14 0.18 0.41\nKs 0 0 0\n")
+    Path("sheet.obj").write_text("mtllib m.mtl\nusemtl m\nv 0 0 0\nv 0 2 0\nv 0 2 2\nv 0 0 2\nf 1 2 3 4\n")
+    done = runner.invoke(app, ["render", "sheet.obj", "-o", "sheet.png", "--set", "render.width=64", "--set",
+                               "render.height=48"])
+    assert done.exit_code == 0, done.output
+    from PIL import Image
+    pixels = np.asarray(Image.open("sheet.png").convert("RGB"))
+    assert (pixels[0, 0] == 51).all() and (pixels[-1, -1] == 51).all()
+    assert (pixels.max(axis=2) == 0).mean() > 0.05  # the sheet: unlit, black, and now seen
+    assert rp.load_scene("sheet.obj").render.background == (0.2, 0.2, 0.2)
+    glb = pbr_sphere(tmp_path / "s.glb", 0.5)  # linear colour: decoded, so the sRGB curve writes 51 back
+    assert rp.load_scene(glb).render.background == pytest.approx((0.0331,) * 3, abs=1e-4)

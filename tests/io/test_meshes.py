@@ -141,7 +141,8 @@ def test_the_camera_frames_the_bounding_sphere(tmp_path, size, share):
     size given by --set is framed for that size."""
     trimesh.creation.icosphere(subdivisions=5, radius=2.0).apply_translation([10, -3, 5]).export(tmp_path / "s.stl")
     width, height = size
-    image = rp.render(rp.load_scene(tmp_path / "s.stl", [f"render.width={width}", f"render.height={height}"])).image
+    image = rp.render(rp.load_scene(tmp_path / "s.stl", [f"render.width={width}", f"render.height={height}",
+                                                                    "render.background=[0, 0, 0]"])).image
     covered = image.max(axis=2) > 0
     # The 20,480-face icosphere's outline is inside the true circle by < 0.1% of its area; pixels on the
     # outline add about 2 · 2πρ / (W H) of noise.

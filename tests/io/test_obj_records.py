@@ -176,3 +176,33 @@ def test_vertex_colours_multiply_the_materials_ka(tmp_path):
     covered = image.max(axis=2) > 0
     assert covered.sum() > 50
     np.testing.assert_allclose(image[covered], np.broadcast_to([0.5, 0.0, 0.0], image[covered].shape), atol=1e-6)
+
+
+@pytest.mark.parametrize("value", ["4e38", "-1e39", "inf"])
+def test_a_texture_coordinate_beyond_float32_is_one_line_naming_its_line(tmp_path, value):
+    """UVs are kept as float32 per corner: `vt 4e38 0` overflowed the cast with numpy's RuntimeWarning (issue 30,
+    item 10). Now one line: the file, the `vt` line (counted in the file as written, before a concave polygon
+    above it is cut into more lines), the value and the range."""
+    concave = "v 0 0 0\nv 4 0 0\nv 4 4 0\nv 2 1 0\nv 0 4 0\nvt 0 0\nf 1/1 2/1 3/1 4/1 5/1\n"  # cut into 3 lines
+    (tmp_path / "big.obj").write_text(concave + f"vt 1 {value}\nf 1/1 2/2 3/1\n")
+    done = runner.invoke(app, ["render", str(tmp_path / "big.obj"), "-o", str(tmp_path / "x.png")])
+    assert done.exit_code == 2, done.output
+    [line] = done.stderr.strip().splitlines()
+    assert line.startswith(f"error: {tmp_path / 'big.obj'}:") and "line 8" in line and value in line, line
+    assert "allowed: -3.403e+38 .. 3.403e+38" in line, line
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_a_ply_coordinate_beyond_float32_is_one_line_without_numpy_warnings(tmp_path):
+    """A `property float x` of 5e38 is infinite as float32: trimesh's cast warned before the one-line refusal."""
+    header = ("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+              "element face 1\nproperty list uchar int vertex_indices\nend_header\n")
+    (tmp_path / "big.ply").write_text(header + "0 0 0\n5e38 0 0\n0 1 0\n3 0 1 2\n")
+    import warnings
+    with warnings.catch_warnings(record=True) as warned:
+        warnings.simplefilter("always")
+        done = runner.invoke(app, ["render", str(tmp_path / "big.ply"), "-o", str(tmp_path / "x.png")])
+    assert done.exit_code == 2, done.output
+    [line] = done.stderr.strip().splitlines()
+    assert "infinite coordinates" in line, line
+    assert not [w for w in warned if issubclass(w.category, RuntimeWarning)], [str(w.message) for w in warned]

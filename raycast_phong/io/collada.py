@@ -1,0 +1,80 @@
+"""COLLADA (.dae) documents made readable by trimesh's reader (pycollada) where it would drop their geometry:
+a skinned or morphed mesh (`<instance_controller>`) is instanced as its source mesh in its bind-shape pose, and
+a material whose effect has no `<profile_COMMON>` (a GLSL or CG effect only, or a material the file does not
+define) is left out, so its triangles render with the default material instead of vanishing ("holds no
+triangles": pycollada drops a node whose material it cannot read). Each change is one note. A document that
+needs neither is passed on byte for byte."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+IDENTITY = " ".join(["1", "0", "0", "0", "0", "1", "0", "0", "0", "0", "1", "0", "0", "0", "0", "1"])
+
+
+def collada_text(data: bytes, path: Path, notes: list[str]) -> bytes:
+    """The document `data` with controller instances made geometry instances and unreadable material bindings
+    dropped (module docstring); `data` itself when neither occurs or it is not XML lxml reads (trimesh words
+    that)."""
+    if b"instance_controller" not in data and b"instance_material" not in data:
+        return data
+    from lxml import etree
+    try:
+        root = etree.fromstring(data, etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False,
+                                                      huge_tree=False))
+    except (etree.XMLSyntaxError, ValueError):
+        return data
+    namespace = root.tag[:root.tag.index("}") + 1] if root.tag.startswith("{") else ""
+    by_id = {element.get("id"): element for element in root.iter() if element.get("id")}
+    changed = False
+    skinned = 0
+    for instance in list(root.iter(f"{namespace}instance_controller")):
+        controller = by_id.get((instance.get("url") or "").lstrip("#"))
+        found = None if controller is None else next(
+            (c for c in controller if isinstance(c.tag, str) and c.tag in (f"{namespace}skin", f"{namespace}morph")),
+            None)
+        source = None if found is None else (found.get("source") or "").lstrip("#")
+        if source not in by_id or by_id[source].tag != f"{namespace}geometry":
+            continue
+        # The source mesh as bound: the skin's bind_shape_matrix (row-major, column vectors) under the instance.
+        matrix = found.find(f"{namespace}bind_shape_matrix")
+        geometry = etree.Element(f"{namespace}instance_geometry", url=f"#{source}")
+        geometry.extend(child for child in list(instance) if child.tag == f"{namespace}bind_material")
+        parent = instance.getparent()
+        if matrix is not None and " ".join((matrix.text or "").split()) not in ("", IDENTITY) and _matrix(matrix.text):
+            node = etree.Element(f"{namespace}node")
+            etree.SubElement(node, f"{namespace}matrix").text = " ".join(matrix.text.split())
+            node.append(geometry)
+            geometry = node
+        parent.replace(instance, geometry)
+        skinned += 1
+        changed = True
+    if skinned:
+        notes.append(f"{path}: {skinned} skinned or morphed mesh(es) (<instance_controller>) drawn in their "
+                     "bind-shape pose; the skeleton and animations are not applied")
+    dropped = set()
+    for binding in list(root.iter(f"{namespace}instance_material")):
+        target = (binding.get("target") or "").lstrip("#")
+        material = by_id.get(target)
+        effect = None
+        if material is not None:
+            reference = material.find(f"{namespace}instance_effect")
+            effect = by_id.get((reference.get("url") or "").lstrip("#")) if reference is not None else None
+        if effect is None or effect.find(f"{namespace}profile_COMMON") is None:
+            dropped.add(target or "?")
+            binding.getparent().remove(binding)
+            changed = True
+    if dropped:
+        notes.append(f"{path}: material(s) {', '.join(sorted(dropped))} not defined or without a profile_COMMON "
+                     "effect (the only one read); their triangles use the default material")
+    return etree.tostring(root, xml_declaration=True, encoding="utf-8") if changed else data
+
+
+def _matrix(text: str) -> bool:
+    try:
+        values = np.array(text.split(), np.float64)
+    except ValueError:
+        return False
+    return values.shape == (16,) and bool(np.isfinite(values).all())

@@ -1,0 +1,467 @@
+"""3MF (3D Manufacturing Format) read with its colours and textures: the core's meshes, components and build
+items, and the Materials and Properties extension's base materials (`displaycolor`), colour groups, 2-D texture
+groups and multiproperties, mapped onto the lecture's model (docs/meshes.md, "3MF").
+
+trimesh's reader keeps only the geometry (every model grey) and refuses a document whose XML uses a namespace
+prefix it never declares (two of the consortium's own three multiproperties samples: `ms:pbmetallic`). Here the
+XML is read by lxml in recover mode, so such a prefix is kept as written (one note) while a document that is
+not well-formed (cut short, bad syntax) is still refused in one line. Elements are matched by local name, so an
+element in the wrong namespace (`<multi>` in the core's) is read too. lib3mf, the consortium's library, refuses
+those files as well ("Could not get XML Namespace"), which is why it is not used.
+
+Elements are cleared as they are read, so a document's tree is never held whole: the memory estimate's
+io.mesh_header.ZIP_XML_READ_BYTES_PER_BYTE (measured on trimesh's reader) bounds this reader too.
+"""
+
+from __future__ import annotations
+
+import io
+import posixpath
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import SceneError, Where
+from .materials import FileMaterial, PartSurface, TextureSource, rgb
+from .obj import UV_LIMIT
+
+ROOT = "3D/3dmodel.model"  # the model part every producer writes (core §2.1); _rels/.rels may name another
+MODEL_RELATION = "http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"
+MAX_DEPTH = 32      # components nested deeper than this are a cycle or a hostile file
+TILE = {"wrap": "repeat", "mirror": "mirror", "clamp": "clamp", "none": "clamp"}  # m:texture2d tilestyleu/v
+# What a base material or a triangle of a texture group without its own colour gets besides its colour: the
+# .mtl defaults of a key it leaves out (k_s 0.5, f 32), no emission.
+SPECULAR, SHININESS = (0.5, 0.5, 0.5), 32.0
+
+
+@dataclass
+class _Model:
+    """One model part's resources, by id (ids are per part: a component's p:path names another part)."""
+    name: str
+    properties: dict = field(default_factory=dict)  # id → ("base", names, (n, 3)) | ("colour", (n, 3)) |
+                                                    # ("uv", texture id, (n, 2)) | ("texture", member, s, t) |
+                                                    # ("multi", pids, (n, k)) | ("other", tag)
+    objects: dict = field(default_factory=dict)     # id → _Mesh | list of (part name, object id, (4, 4))
+    build: list = field(default_factory=list)       # (part name, object id, (4, 4))
+
+
+@dataclass
+class _Mesh:
+    vertices: np.ndarray      # (V, 3) float64
+    faces: np.ndarray         # (F, 3) int64
+    pid: np.ndarray           # (F,) int64 property group of each triangle, -1 for none
+    p: np.ndarray             # (F, 3) int64 property index of each corner
+
+
+def read_3mf(handle, path: Path, where: Where, notes: list[str], sources: list[TextureSource]) -> list[tuple]:
+    """The triangle meshes the 3MF at the open `handle` builds, placed: (vertices (V, 3) float64, faces (F, 3)
+    int64, PartSurface) each, one per build instance and kind of surface. Colour maps are appended to `sources`
+    (their materials index into it); what is not read is a note. SceneError, one line, for a file that is not
+    a 3MF (not a zip, no model part, XML that is not well-formed, an index out of range)."""
+    try:
+        archive = zipfile.ZipFile(handle)
+    except (zipfile.BadZipFile, ValueError, EOFError) as error:
+        raise SceneError(f"cannot read {str(path)!r} as 3MF: not a zip archive ({error})", where) from None
+    with archive:
+        members = {info.filename.lstrip("/").lower(): info.filename for info in archive.infolist()}
+        root = _root_part(archive, members)
+        if root is None:
+            raise SceneError(f"cannot read {str(path)!r} as 3MF: it holds no model part ({ROOT}); allowed: a 3MF "
+                             "package with a 3D model", where)
+        models: dict[str, _Model] = {}
+        _parse(archive, members, root, models, path, where, notes)
+        # Components with a p:path name other parts (the Production extension): read each once.
+        wanted = {part for model in list(models.values()) for kind in model.objects.values()
+                  if isinstance(kind, list) for part, _, _ in kind} | {part for part, _, _ in models[root].build}
+        for part in sorted(wanted - set(models)):
+            if part.lower() in members:
+                _parse(archive, members, members[part.lower()], models, path, where, notes)
+        return _placed(archive, members, models, root, path, where, notes, sources)
+
+
+def _root_part(archive: zipfile.ZipFile, members: dict[str, str]) -> str | None:
+    """The model part _rels/.rels names (core §2.1), else 3D/3dmodel.model in any letter case."""
+    rels = members.get("_rels/.rels")
+    if rels is not None:
+        from lxml import etree
+        try:
+            tree = etree.fromstring(archive.read(rels), _parser())
+            for relation in tree.iter("{*}Relationship"):
+                target = relation.get("Target", "").lstrip("/").lower()
+                if relation.get("Type") == MODEL_RELATION and target in members:
+                    return members[target]
+        except (etree.XMLSyntaxError, ValueError, zipfile.BadZipFile, OSError, EOFError):
+            pass  # a broken relationships part: fall back on the usual name
+    return members.get(ROOT.lower())
+
+
+def _parser(**options):
+    """lxml options for a file from anywhere: no entities, no network, no DTD (billion laughs, XXE)."""
+    from lxml import etree
+    return etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, **options)
+
+
+def _local(tag) -> str:
+    return tag.rsplit("}", 1)[-1].rsplit(":", 1)[-1] if isinstance(tag, str) else ""
+
+
+BATCH = 8192  # vertices or triangles held as elements before they are dropped
+YIELDED = ("vertex", "triangle", "object", "item", "basematerials", "colorgroup", "texture2d", "texture2dgroup",
+           "multiproperties", "compositematerials")
+
+
+def _parse(archive, members, part: str, models: dict, path: Path, where: Where, notes: list[str]) -> None:
+    """Read one model part's resources, objects and build into models[part]."""
+    from lxml import etree
+    model = models[part] = _Model(part)
+    vertices: list = []
+    triangles: list = []
+    held = 0
+    stream = archive.open(part)
+    # Only the elements read yield (libxml2 filters the rest in C): every vertex and triangle is one Python step.
+    context = etree.iterparse(stream, events=("end",), tag=[f"{{*}}{name}" for name in YIELDED], recover=True,
+                              resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False)
+    try:
+        for _, element in context:
+            name = element.tag.rsplit("}", 1)[-1]
+            attrib = element.attrib
+            if name == "vertex" or name == "triangle":
+                if name == "vertex":
+                    vertices.append((attrib.get("x"), attrib.get("y"), attrib.get("z")))
+                else:
+                    triangles.append((attrib.get("v1"), attrib.get("v2"), attrib.get("v3"), attrib.get("pid"),
+                                      attrib.get("p1"), attrib.get("p2"), attrib.get("p3")))
+                held += 1
+                if held == BATCH:  # drop the ones read in one step: per element, the deletes cost 2× the read
+                    del element.getparent()[:-1]
+                    held = 0
+                continue
+            if name == "object":
+                _object(model, dict(attrib), vertices, triangles, element, path, where)
+                vertices, triangles = [], []
+            elif name == "item":
+                model.build.append((_path_of(attrib, part), attrib.get("objectid"), _transform(attrib, path, where)))
+            else:
+                _resource(model, name, element, path, where, notes)
+            element.clear()  # read: dropped with the siblings before it, so the tree is never held whole
+            parent = element.getparent()
+            while element.getprevious() is not None:
+                del parent[0]
+    except etree.XMLSyntaxError as error:
+        raise SceneError(f"cannot read {str(path)!r} as 3MF: {part} is not well-formed XML ({error})", where) \
+            from None
+    except (zipfile.BadZipFile, EOFError, OSError) as error:  # a member whose data is corrupt
+        raise SceneError(f"cannot read {str(path)!r} as 3MF: {part}: {error}", where) from None
+    fatal = [entry for entry in context.error_log if entry.level >= 3]  # libxml2's FATAL: cut short, bad syntax
+    if fatal:
+        raise SceneError(f"cannot read {str(path)!r} as 3MF: {part} is not well-formed XML ({fatal[0].message.strip()}"
+                         f", line {fatal[0].line})", where)
+    undeclared = [entry for entry in context.error_log if entry.domain_name == "NAMESPACE"]
+    if undeclared:
+        notes.append(f"{path}: {part} uses a namespace prefix it does not declare ({undeclared[0].message.strip()}, "
+                     f"line {undeclared[0].line}); read as written")
+
+
+def _path_of(attrib, part: str) -> str:
+    """The model part a component or build item's p:path names (the Production extension), else its own."""
+    for key, value in attrib.items():
+        if _local(key) == "path" and value:
+            return posixpath.normpath(value.lstrip("/"))
+    return part
+
+
+def _transform(attrib, path: Path, where: Where) -> np.ndarray:
+    """(4, 4) of a `transform` attribute: 12 numbers, the 3 × 3 matrix by rows then the translation, for row
+    vectors (core §3.4.1: p' = p · M), so the column-vector matrix is its transpose."""
+    matrix = np.eye(4)
+    text = attrib.get("transform")
+    if text is None:
+        return matrix
+    try:
+        values = np.array(text.split(), np.float64)
+    except ValueError:
+        values = np.zeros(0)
+    if values.shape != (12,) or not np.isfinite(values).all():
+        raise SceneError(f"{str(path)!r}: transform {text[:80]!r} is not 12 finite numbers; allowed: "
+                         "'m00 m01 m02 m10 m11 m12 m20 m21 m22 m30 m31 m32'", where)
+    matrix[:3, :4] = values.reshape(4, 3).T
+    return matrix
+
+
+def _numbers(values, dtype, what: str, path: Path, where: Where) -> np.ndarray:
+    try:
+        return np.array(values, dtype)
+    except (TypeError, ValueError):
+        raise SceneError(f"{str(path)!r}: a {what} that is not a number (or is missing); allowed: numbers as the "
+                         "3MF core specification writes them", where) from None
+
+
+def _column(words, dtype, what: str, path: Path, where: Where, default: str | None = None) -> np.ndarray:
+    """A flat array of attribute strings (None: `default`, else missing), parsed in one pass of numpy's text
+    reader: a million tuples of strings through np.array took 3× trimesh's whole read."""
+    if default is not None:
+        if all(word is None for word in words):
+            return np.full(len(words), int(default), dtype)
+        words = [default if word is None else word for word in words]
+    try:
+        text = " ".join(words)
+    except TypeError:  # a None: the attribute is missing
+        text = None
+    if text is not None and (dtype is np.float64 or ("." not in text and "e" not in text.lower())):
+        values = np.fromstring(text, dtype=dtype, sep=" ") if text else np.zeros(0, dtype)
+        if len(values) == len(words):
+            return values
+    return _numbers(list(words), dtype, what, path, where)  # words its error
+
+
+def _object(model: _Model, attrib: dict, vertices: list, triangles: list, element, path: Path,
+            where: Where) -> None:
+    """An <object>: a mesh (its vertices and triangles, each triangle's property group and indices, the
+    object's pid and pindex filling in) or components."""
+    identity = attrib.get("id")
+    components = [(_path_of(c.attrib, model.name), c.get("objectid"), _transform(c.attrib, path, where))
+                  for c in element.iter() if isinstance(c.tag, str) and c.tag.endswith("component")]
+    if components and not triangles:
+        model.objects[identity] = components
+        return
+    points = _column([word for vertex in vertices for word in vertex], np.float64, "vertex coordinate", path,
+                     where).reshape(-1, 3)
+    columns = list(zip(*triangles)) or [()] * 7
+    faces = _column([word for row in triangles for word in row[:3]], np.int64, "triangle's vertex index", path,
+                    where).reshape(-1, 3)
+    if faces.size and (faces.min() < 0 or faces.max() >= len(points)):
+        raise SceneError(f"{str(path)!r}: object {identity} has a triangle with a vertex index outside "
+                         f"0..{len(points) - 1}; allowed: indices of the object's own vertices", where)
+    pid = _column(list(columns[3]), np.int64, "property id", path, where, attrib.get("pid") or "-1")
+    pindex = attrib.get("pindex") if attrib.get("pid") is not None else None
+    first = _column(list(columns[4]), np.int64, "property index", path, where, pindex or "-1")
+    first = np.where((first < 0) & (pid >= 0), 0, first)  # a group without an index: its first entry
+    p = np.column_stack([first, _column(list(columns[5]), np.int64, "property index", path, where, "-1"),
+                         _column(list(columns[6]), np.int64, "property index", path, where, "-1")])
+    p[:, 1:] = np.where(p[:, 1:] < 0, first[:, None], p[:, 1:])  # p2, p3 default to p1 (materials §4.1)
+    model.objects[identity] = _Mesh(points, faces, pid, p)
+
+
+def _resource(model: _Model, name: str, element, path: Path, where: Where, notes: list[str]) -> None:
+    """A property resource of the Materials and Properties extension, kept by id."""
+    identity = element.get("id")
+    children = [child for child in element if isinstance(child.tag, str)]
+    if name == "basematerials":
+        bases = [child for child in children if _local(child.tag) == "base"]
+        colours = np.array([_colour(b.get("displaycolor", "#FFFFFF"), path, where) for b in bases]).reshape(-1, 3)
+        model.properties[identity] = ("base", [b.get("name") or f"base {identity}.{k}" for k, b in enumerate(bases)],
+                                      colours)
+    elif name == "colorgroup":
+        colours = [_colour(child.get("color", "#FFFFFF"), path, where) for child in children
+                   if _local(child.tag) == "color"]
+        model.properties[identity] = ("colour", np.array(colours, np.float64).reshape(-1, 3))
+    elif name == "texture2d":
+        model.properties[identity] = ("texture", posixpath.normpath((element.get("path") or "").lstrip("/")),
+                                      TILE.get(element.get("tilestyleu", "wrap"), "repeat"),
+                                      TILE.get(element.get("tilestylev", "wrap"), "repeat"))
+    elif name == "texture2dgroup":
+        uv = [(child.get("u"), child.get("v")) for child in children if _local(child.tag) == "tex2coord"]
+        uv = _numbers(uv, np.float64, "tex2coord", path, where).reshape(-1, 2)
+        if not (np.abs(uv) <= UV_LIMIT).all():  # kept as float32 per corner; NaN passes (the kernel reads 0)
+            raise SceneError(f"{str(path)!r}: texture2dgroup {identity} has a tex2coord beyond float32's range; "
+                             f"allowed: -{UV_LIMIT:.4g} .. {UV_LIMIT:.4g}", where)
+        # v counts down from the image's top row, as the consortium's own renders of its samples show (the
+        # sphere_logo sample's logo stands upright with +Z up only so); the renderer's v counts up.
+        model.properties[identity] = ("uv", element.get("texid"), np.column_stack([uv[:, 0], 1.0 - uv[:, 1]]))
+    elif name == "multiproperties":
+        layers = (element.get("pids") or "").split()
+        rows = [(child.get("pindices") or "").split() for child in children if _local(child.tag) == "multi"]
+        indices = np.zeros((len(rows), len(layers)), np.int64)  # a missing index is the layer's first entry
+        for k, row in enumerate(rows):
+            indices[k, :min(len(row), len(layers))] = _numbers(row[:len(layers)], np.int64, "pindices", path, where)
+        model.properties[identity] = ("multi", layers, indices)
+    else:
+        model.properties[identity] = ("other", name)
+
+
+def _colour(text: str, path: Path, where: Where) -> tuple[float, float, float]:
+    """An sRGB colour #RRGGBB or #RRGGBBAA (materials §2.1) as three values in [0, 1]; alpha is not read."""
+    digits = text.strip().lstrip("#")
+    try:
+        if len(digits) not in (6, 8):
+            raise ValueError
+        return tuple(int(digits[k:k + 2], 16) / 255.0 for k in (0, 2, 4))  # type: ignore[return-value]
+    except ValueError:
+        raise SceneError(f"{str(path)!r}: colour {text[:40]!r} is not #RRGGBB or #RRGGBBAA; allowed: hexadecimal "
+                         "sRGB as the 3MF materials extension writes it", where) from None
+
+
+# ---------------------------------------------------------------- the build, placed and coloured
+
+def _placed(archive, members, models: dict, root: str, path: Path, where: Where, notes: list[str],
+            sources: list[TextureSource]) -> list[tuple]:
+    """Every build item's meshes (through its components), placed, split by what colours them."""
+    textures: dict[tuple, int] = {}     # (part, texture id) → index into sources
+    materials: dict[tuple, FileMaterial] = {}
+    parts: list[tuple] = []
+    skipped: set[str] = set()
+
+    def visit(part: str, identity: str, transform: np.ndarray, depth: int) -> None:
+        model = models.get(part)
+        found = model.objects.get(identity) if model is not None else None
+        if found is None:
+            raise SceneError(f"{str(path)!r}: the build names object {identity} of {part}, which it does not "
+                             "define; allowed: the id of an <object> of that part", where)
+        if depth > MAX_DEPTH:
+            raise SceneError(f"{str(path)!r}: components nest deeper than {MAX_DEPTH} (a component that contains "
+                             "itself?); allowed: a tree of components", where)
+        if isinstance(found, list):
+            for child_part, child, local in found:
+                visit(child_part, child, transform @ local, depth + 1)
+            return
+        vertices = found.vertices @ transform[:3, :3].T + transform[:3, 3]
+        faces = found.faces if np.linalg.det(transform[:3, :3]) >= 0 else found.faces[:, ::-1]  # a mirror keeps
+        p = found.p if np.linalg.det(transform[:3, :3]) >= 0 else found.p[:, ::-1]            # faces outward
+        for pid in np.unique(found.pid).tolist():
+            chosen = found.pid == pid
+            parts.extend(_surfaces(model, str(pid), vertices, faces[chosen], p[chosen], path, where, textures,
+                                   materials, sources, skipped, archive, members))
+
+    for part, identity, transform in models[root].build:
+        visit(part, identity, transform, 0)
+    if skipped:
+        notes.append(f"{path}: not read: {'; '.join(sorted(skipped))}")
+    return parts
+
+
+def _surfaces(model: _Model, pid: str, vertices, faces, p, path: Path, where: Where, textures: dict,
+              materials: dict, sources: list, skipped: set, archive, members) -> list[tuple]:
+    """The parts of one mesh's triangles of property group `pid` ("-1": none): (vertices, faces, PartSurface)."""
+    if pid == "-1":
+        return [(vertices, faces, PartSurface())]
+    found = model.properties.get(pid)
+    if found is None:
+        raise SceneError(f"{str(path)!r}: a triangle names property group {pid}, which {model.name} does not "
+                         "define; allowed: the id of a basematerials, colorgroup, texture2dgroup or multiproperties",
+                         where)
+    kind = found[0]
+    if kind == "base":  # one material per base, the whole triangle its p1's (materials §4.1)
+        out = []
+        for index in np.unique(p[:, 0]).tolist():
+            _check_index(index, len(found[2]), pid, path, where)
+            chosen = p[:, 0] == index
+            out.append((vertices, faces[chosen], PartSurface(material=_base(found, index, pid, model, materials))))
+        return out
+    if kind == "colour":
+        _check_index(p, len(found[1]), pid, path, where)
+        return [(vertices, faces, PartSurface(corner_colour=found[1][p].astype(np.float32)))]
+    if kind == "uv":
+        _check_index(p, len(found[2]), pid, path, where)
+        material = _textured(model, found[1], path, textures, materials, sources, skipped, archive, members)
+        return [(vertices, faces, PartSurface(material=material, corner_uv=found[2][p].astype(np.float32)))]
+    if kind == "multi":
+        return [_multi(model, found, pid, vertices, faces, p, path, where, textures, materials, sources, skipped,
+                       archive, members)]
+    skipped.add(f"{found[1]} resources (their triangles use the default material)")
+    return [(vertices, faces, PartSurface())]
+
+
+def _check_index(index, count: int, pid: str, path: Path, where: Where) -> None:
+    index = np.asarray(index)
+    if index.size and (index.min() < 0 or index.max() >= count):
+        raise SceneError(f"{str(path)!r}: a triangle's property index {int(index.max())} is outside property group "
+                         f"{pid}'s 0..{count - 1}; allowed: an index of the group's entries", where)
+
+
+def _base(found, index: int, pid: str, model: _Model, materials: dict) -> FileMaterial:
+    """The file material of base `index` of basematerials `pid`: its displaycolor as k_a and k_d."""
+    key = (model.name, pid, index)
+    if key not in materials:
+        colour = rgb(found[2][index])
+        materials[key] = FileMaterial(found[1][index], colour, colour, SPECULAR, (0.0, 0.0, 0.0), SHININESS)
+    return materials[key]
+
+
+def _textured(model: _Model, texture: str, path: Path, textures: dict, materials: dict, sources: list,
+              skipped: set, archive, members) -> FileMaterial | None:
+    """The white material whose k_d map is texture2d `texture` (its image a PIL image of the zip member,
+    decoded only if used); None (one note) when the texture or its image is missing."""
+    key = (model.name, texture)
+    if key in materials:
+        return materials[key]
+    found = model.properties.get(texture)
+    member = members.get(found[1].lower()) if found is not None and found[0] == "texture" else None
+    material = None
+    if member is not None:
+        from PIL import Image
+        try:
+            image = Image.open(io.BytesIO(archive.read(member)))  # lazy: decoded by io.textures if a face uses it
+        except Exception:  # noqa: BLE001 - not an image PIL reads
+            image = None
+        if image is not None:
+            textures[key] = len(sources)
+            sources.append(TextureSource(image, found[2], found[3], f"{path.name}:{member}"))
+            white = (1.0, 1.0, 1.0)
+            material = FileMaterial(f"texture {posixpath.basename(member)}", white, white, SPECULAR, (0.0, 0.0, 0.0),
+                                    SHININESS, kd_map=textures[key])
+    if material is None:
+        name = found[1] if found is not None and found[0] == "texture" else f"texture2d {texture}"
+        skipped.add(f"{name!r}, missing or not an image (its triangles use the default material)")
+    materials[key] = material
+    return material
+
+
+def _multi(model: _Model, found, pid: str, vertices, faces, p, path: Path, where: Where, textures: dict,
+           materials: dict, sources: list, skipped: set, archive, members) -> tuple:
+    """Triangles of a multiproperties group: the colour layers (base materials' displaycolor, colour groups)
+    multiplied per corner, and the first texture layer's coordinates and map; other layers not read."""
+    layers, indices = found[1], found[2]
+    _check_index(p, len(indices), pid, path, where)
+    entry = indices[p]                                  # (F, 3, layers)
+    colour = None
+    material = uv = None
+    for k, layer in enumerate(layers):
+        resource = model.properties.get(layer)
+        kind = resource[0] if resource is not None else None
+        if kind in ("base", "colour"):
+            table = resource[2] if kind == "base" else resource[1]
+            _check_index(entry[:, :, k], len(table), layer, path, where)
+            colour = table[entry[:, :, k]] if colour is None else colour * table[entry[:, :, k]]
+        elif kind == "uv" and uv is None:
+            _check_index(entry[:, :, k], len(resource[2]), layer, path, where)
+            textured = _textured(model, resource[1], path, textures, materials, sources, skipped, archive, members)
+            if textured is not None and _has_alpha(sources[textured.kd_map].source):
+                skipped.add("multiproperties' texture layers with an alpha channel (a map here multiplies its "
+                            "colour; mixing layers by alpha is not modelled)")
+                continue
+            uv, material = resource[2][entry[:, :, k]].astype(np.float32), textured
+        elif kind == "uv":
+            skipped.add("multiproperties' texture layers after the first")
+        else:
+            skipped.add(f"multiproperties' {resource[1] if kind == 'other' else 'undefined'} layers")
+    return (vertices, faces, PartSurface(material=material, corner_uv=uv if material is not None else None,
+                                         corner_colour=None if colour is None else colour.astype(np.float32)))
+
+
+def _has_alpha(image) -> bool:
+    """Whether a PIL image (header read, not decoded) has an alpha channel or a transparent colour."""
+    return "A" in image.mode or "transparency" in image.info
+
+
+def texture_sizes(path: Path) -> tuple[tuple[int, int], ...]:
+    """(height, width) of each image in the 3MF's zip (its textures), from the image headers, for the memory
+    estimate; () when it cannot be read (the read words it)."""
+    from PIL import Image
+
+    from .files import open_regular
+    sizes = []
+    try:
+        with open_regular(path, str(path), "mesh file") as handle, zipfile.ZipFile(handle) as archive:
+            for info in archive.infolist():
+                name = info.filename.lower()
+                if name.endswith((".png", ".jpg", ".jpeg")) and "thumbnail" not in name:
+                    try:
+                        with archive.open(info) as member, Image.open(member) as image:
+                            sizes.append((image.height, image.width))
+                    except Exception:  # noqa: BLE001 - not an image: the read notes it
+                        pass
+    except (OSError, SceneError, zipfile.BadZipFile, ValueError, EOFError):
+        return ()
+    return tuple(sizes)

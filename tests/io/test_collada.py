@@ -1,0 +1,79 @@
+"""COLLADA files whose geometry trimesh's reader dropped ("holds no triangles", issue 33): a skinned mesh
+(`<instance_controller>`) renders in its bind-shape pose, and a material whose effect has no profile_COMMON
+renders with the default material. Minimal documents written here, after assimp's box_nested_animation.dae
+(a skinned cube from Blender) and cube_emptyTags.dae (a material it does not define)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from raycast_phong.cli import app
+from raycast_phong.io import mesh_file
+
+runner = CliRunner()
+pytestmark = pytest.mark.usefixtures("in_tmp_path")
+
+EFFECTS = {
+    "common": '<profile_COMMON><technique sid="t"><lambert><diffuse><color>1 0 0 1</color></diffuse></lambert>'
+              '</technique></profile_COMMON>',
+    "glsl": '<profile_GLSL><technique sid="t"><pass sid="p"/></technique></profile_GLSL>',
+}
+
+
+def write_dae(path: Path, effect: str, skinned: bool, bind_shape: str = "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1") -> Path:
+    """One triangle (0,0,0) (1,0,0) (0,1,0) bound to material `m`, instanced directly or through a skin."""
+    controller = ('<library_controllers><controller id="skin"><skin source="#tri">'
+                  f'<bind_shape_matrix>{bind_shape}</bind_shape_matrix></skin></controller></library_controllers>')
+    binding = ('<bind_material><technique_common><instance_material symbol="m" target="#mat"/>'
+               '</technique_common></bind_material>')
+    instance = (f'<instance_controller url="#skin">{binding}</instance_controller>' if skinned
+                else f'<instance_geometry url="#tri">{binding}</instance_geometry>')
+    path.write_text(
+        '<?xml version="1.0" encoding="utf-8"?>\n'
+        '<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">'
+        f'<library_effects><effect id="fx">{EFFECTS[effect]}</effect></library_effects>'
+        '<library_materials><material id="mat"><instance_effect url="#fx"/></material></library_materials>'
+        '<library_geometries><geometry id="tri"><mesh><source id="p"><float_array id="pa" count="9">'
+        '0 0 0 1 0 0 0 1 0</float_array><technique_common><accessor source="#pa" count="3" stride="3">'
+        '<param name="X" type="float"/><param name="Y" type="float"/><param name="Z" type="float"/></accessor>'
+        '</technique_common></source><vertices id="v"><input semantic="POSITION" source="#p"/></vertices>'
+        '<triangles material="m" count="1"><input semantic="VERTEX" source="#v" offset="0"/><p>0 1 2</p>'
+        f'</triangles></mesh></geometry></library_geometries>{controller if skinned else ""}'
+        f'<library_visual_scenes><visual_scene id="s"><node id="n">{instance}</node></visual_scene>'
+        '</library_visual_scenes><scene><instance_visual_scene url="#s"/></scene></COLLADA>')
+    return path
+
+
+def read(path: Path) -> mesh_file.MeshFile:
+    return mesh_file.read_mesh(path, str(path))
+
+
+def test_a_skinned_mesh_renders_in_its_bind_shape_pose(tmp_path):
+    """The skin's source triangle, moved by its bind_shape_matrix (translate x by 5), with its material."""
+    mesh = read(write_dae(tmp_path / "skin.dae", "common", True, "1 0 0 5 0 1 0 0 0 0 1 0 0 0 0 1"))
+    assert sorted(map(tuple, mesh.vertices[mesh.faces[0]].round(9).tolist())) == [(5, 0, 0), (5, 1, 0), (6, 0, 0)]
+    assert mesh.materials[mesh.face_group[0]].kd == pytest.approx((1, 0, 0))
+    assert any("bind-shape pose" in note for note in mesh.notes), mesh.notes
+
+
+def test_an_effect_without_profile_common_renders_with_the_default_material(tmp_path):
+    write_dae(tmp_path / "glsl.dae", "glsl", False)
+    done = runner.invoke(app, ["render", str(tmp_path / "glsl.dae"), "-o", str(tmp_path / "x.png"), "--set",
+                               "render.width=20", "--set", "render.height=20"])
+    assert done.exit_code == 0, done.output
+    assert "profile_COMMON" in " ".join(done.stderr.split())
+    mesh = read(tmp_path / "glsl.dae")
+    assert len(mesh.faces) == 1 and (mesh.face_group == -1).all()
+
+
+def test_a_document_that_needs_no_change_is_read_as_it_was(tmp_path):
+    """A plain instance with a profile_COMMON effect: the bytes go to trimesh unchanged, no note."""
+    from raycast_phong.io.collada import collada_text
+    data = write_dae(tmp_path / "plain.dae", "common", False).read_bytes()
+    notes: list[str] = []
+    assert collada_text(data, tmp_path / "plain.dae", notes) is data and notes == []
+    assert np.allclose(read(tmp_path / "plain.dae").vertices, [[0, 0, 0], [1, 0, 0], [0, 1, 0]])

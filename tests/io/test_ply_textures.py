@@ -1,0 +1,46 @@
+"""PLY texture comments (issue 33): MeshLab's `comment TextureFile NAME` with per-face `texcoord` lists renders
+its image (it rendered grey, and a missing image printed trimesh's 10-line traceback). Minimal files written here."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from PIL import Image
+from typer.testing import CliRunner
+
+import raycast_phong as rp
+from raycast_phong.cli import app
+
+runner = CliRunner()
+pytestmark = pytest.mark.usefixtures("in_tmp_path")
+
+
+def write_ply(path: Path, texture: str) -> Path:
+    """A unit square facing +Z, two triangles with per-face texcoord lists, as MeshLab writes it."""
+    path.write_text("ply\nformat ascii 1.0\ncomment VCGLIB generated\n"
+                    f"comment TextureFile {texture}\nelement vertex 4\nproperty float x\nproperty float y\n"
+                    "property float z\nelement face 2\nproperty list uchar int vertex_indices\n"
+                    "property list uchar float texcoord\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n"
+                    "3 0 1 2 6 0 0 1 0 1 1\n3 0 2 3 6 0 0 1 1 0 1\n")
+    return path
+
+
+def test_a_texture_file_comment_renders_its_image(tmp_path):
+    """`<this>` is the PLY's own name (MeshLab's placeholder): sq.ply's map is sq_tex.png, a red image."""
+    Image.new("RGB", (4, 4), (220, 20, 20)).save(tmp_path / "sq_tex.png")
+    write_ply(tmp_path / "sq.ply", "<this>_tex.png")
+    image = rp.render_file(tmp_path / "sq.ply", ["render.width=40", "render.height=40", "lights.0.specular=[0,0,0]",
+                                                  "render.background=[0,0,0]"],
+                           view="front").image
+    covered = image.max(axis=2) > 0
+    assert covered.mean() > 0.2 and (image[covered][:, 0] > 4 * image[covered][:, 1]).all()
+
+
+def test_a_missing_texture_file_is_one_note(tmp_path):
+    write_ply(tmp_path / "sq.ply", "gone.png")
+    done = runner.invoke(app, ["render", str(tmp_path / "sq.ply"), "-o", str(tmp_path / "x.png"), "--set",
+                               "render.width=20", "--set", "render.height=20"])
+    assert done.exit_code == 0, done.output
+    [line] = done.stderr.strip().splitlines()
+    assert line.startswith("note:") and "'gone.png' is missing" in line, done.stderr

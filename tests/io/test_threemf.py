@@ -1,0 +1,157 @@
+"""3MF colours and textures read (issue 33): colour groups, base materials' displaycolor, 2-D texture groups,
+multiproperties, and a document with an undeclared namespace prefix. Each minimal file is written here with values
+worked out by hand; three of the consortium's own samples are kept in tests/data/models (LICENSES.md). On main
+every one of them read grey (trimesh's reader keeps only the geometry), and multiprop-metallic.3mf was refused.
+"""
+
+from __future__ import annotations
+
+import io
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import raycast_phong as rp
+from raycast_phong.cli import app
+from raycast_phong.io import mesh_file
+
+MODELS = Path(__file__).resolve().parents[1] / "data" / "models"
+runner = CliRunner()
+pytestmark = pytest.mark.usefixtures("in_tmp_path")
+CORE = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"
+MATERIAL = "http://schemas.microsoft.com/3dmanufacturing/material/2015/02"
+SQUARE = ('<vertices><vertex x="0" y="0" z="0"/><vertex x="10" y="0" z="0"/><vertex x="10" y="10" z="0"/>'
+          '<vertex x="0" y="10" z="0"/></vertices>')
+
+
+def write_3mf(path: Path, resources: str, triangles: str, files: dict | None = None, extra_ns: str = "") -> Path:
+    """A 3MF package of one object (the square above, `triangles`) after `resources`, built once."""
+    model = (f'<?xml version="1.0" encoding="UTF-8"?>\n<model unit="millimeter" xmlns="{CORE}" xmlns:m="{MATERIAL}"'
+             f'{extra_ns}><resources>{resources}<object id="1" type="model"><mesh>{SQUARE}<triangles>{triangles}'
+             '</triangles></mesh></object></resources><build><item objectid="1"/></build></model>')
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("3D/3dmodel.model", model)
+        for name, data in (files or {}).items():
+            archive.writestr(name, data)
+    return path
+
+
+def read(path: Path) -> mesh_file.MeshFile:
+    return mesh_file.read_mesh(path, str(path))
+
+
+def test_a_colour_group_gives_each_corner_its_colour(tmp_path):
+    """p1, p2, p3 index a colorgroup per corner; a triangle with only p1 is one colour; #RRGGBBAA's alpha is not
+    read. The two triangles share the square's diagonal, so its corners have one colour each."""
+    resources = ('<m:colorgroup id="5"><m:color color="#FF0000"/><m:color color="#00FF00FF"/>'
+                 '<m:color color="#0000FF80"/></m:colorgroup>')
+    triangles = ('<triangle v1="0" v2="1" v3="2" pid="5" p1="0" p2="1" p3="2"/>'
+                 '<triangle v1="0" v2="2" v3="3" pid="5" p1="1"/>')
+    mesh = read(write_3mf(tmp_path / "c.3mf", resources, triangles))
+    assert mesh.face_group.tolist() == [-1, -1]  # no material: the colour replaces k_a and k_d
+    first = {tuple(mesh.vertices[v]): tuple(np.round(c * 255).astype(int))
+             for v, c in zip(mesh.faces[0], mesh.corner_colour[0])}
+    assert first == {(0, 0, 0): (255, 0, 0), (10, 0, 0): (0, 255, 0), (10, 10, 0): (0, 0, 255)}
+    assert (np.round(mesh.corner_colour[1] * 255) == [0, 255, 0]).all()
+
+
+def test_base_materials_become_named_materials_with_their_display_colour(tmp_path):
+    """A basematerials group: each base a material of its name, k_a = k_d = displaycolor; the object's pid and
+    pindex colour the triangles that name none."""
+    resources = ('<basematerials id="2"><base name="Red PLA" displaycolor="#FF0000"/>'
+                 '<base name="Blue" displaycolor="#3366CCFF"/></basematerials>')
+    triangles = '<triangle v1="0" v2="1" v3="2" pid="2" p1="1"/><triangle v1="0" v2="2" v3="3"/>'
+    path = write_3mf(tmp_path / "b.3mf", resources, triangles)
+    text = path.read_bytes()
+    with zipfile.ZipFile(io.BytesIO(text)) as archive:
+        model = archive.read("3D/3dmodel.model").decode().replace('<object id="1" type="model">',
+                                                                   '<object id="1" type="model" pid="2" pindex="0">')
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("3D/3dmodel.model", model)
+    mesh = read(path)
+    names = [mesh.materials[g].name for g in mesh.face_group]
+    assert sorted(names) == ["Blue", "Red PLA"]
+    blue = mesh.materials[names.index("Blue")]
+    assert blue.kd == blue.ka == pytest.approx((0x33 / 255, 0x66 / 255, 0xCC / 255))
+    assert mesh.corner_colour is None
+
+
+def test_a_texture_group_maps_its_image_with_v_from_the_top(tmp_path):
+    """A texture2dgroup's tex2coord per corner, its texture2d the k_d map (tilestyle clamp kept). 3MF's v counts
+    down from the image's top row (the consortium's renders of its samples); the renderer's counts up."""
+    from PIL import Image
+    png = io.BytesIO()
+    Image.new("RGB", (2, 2), (200, 10, 10)).save(png, "PNG")
+    resources = ('<m:texture2d id="3" path="/3D/Texture/t.png" contenttype="image/png" tilestyleu="clamp"/>'
+                 '<m:texture2dgroup id="4" texid="3"><m:tex2coord u="0" v="0"/><m:tex2coord u="1" v="0.25"/>'
+                 '<m:tex2coord u="1" v="1"/></m:texture2dgroup>')
+    triangles = '<triangle v1="0" v2="1" v3="2" pid="4" p1="0" p2="1" p3="2"/>'
+    mesh = read(write_3mf(tmp_path / "t.3mf", resources, triangles, {"3D/Texture/t.png": png.getvalue()}))
+    np.testing.assert_allclose(mesh.corner_uv[0], [[0, 1], [1, 0.75], [1, 0]])
+    material = mesh.materials[mesh.face_group[0]]
+    assert material.kd_map >= 0 and material.kd == (1.0, 1.0, 1.0)
+    source = mesh.texture_sources[material.kd_map]
+    assert (source.wrap_s, source.wrap_t) == ("clamp", "repeat")
+    image = rp.render_file(tmp_path / "t.3mf", ["render.width=60", "render.height=60", "render.background=[0,0,0]",
+                                              "lights.0.specular=[0,0,0]"], view="top").image
+    covered = image.max(axis=2) > 0
+    assert covered.any() and (image[covered][:, 0] > 4 * image[covered][:, 1]).all()  # red, as the texture
+
+
+def test_multiproperties_multiply_colour_layers_and_read_the_first_texture(tmp_path):
+    """A multiproperties of a base material and a colour group: per corner, displaycolor × colour; an undeclared
+    prefix elsewhere in the document (as in the consortium's samples) is one note, not a refusal."""
+    resources = ('<basematerials id="1"><base name="Grey" displaycolor="#808080"/></basematerials>'
+                 '<m:colorgroup id="2"><m:color color="#FF0000"/><m:color color="#FFFFFF"/></m:colorgroup>'
+                 '<m:multiproperties id="6" pids="1 2"><m:multi pindices="0 0"/><m:multi pindices="0 1"/>'
+                 '</m:multiproperties><m:pbmetallicdisplayproperties id="9"><ms:pbmetallic name="x" metallicness="1"/>'
+                 '</m:pbmetallicdisplayproperties>')
+    triangles = '<triangle v1="0" v2="1" v3="2" pid="6" p1="0" p2="1" p3="1"/>'
+    mesh = read(write_3mf(tmp_path / "m.3mf", resources, triangles))
+    np.testing.assert_allclose(mesh.corner_colour[0], np.array([[128, 0, 0], [128, 128, 128], [128, 128, 128]]) / 255,
+                               atol=1e-6)
+    assert any("namespace prefix" in note and "ms" in note for note in mesh.notes), mesh.notes
+
+
+@pytest.mark.parametrize(("name", "colours"), [("pyramid_vertexcolor.3mf", 4), ("rhombicuboctahedron_color.3mf", 5)])
+def test_the_consortiums_colour_samples_read_their_colours(name, colours):
+    """The samples' colour groups (4 corner colours; 5 face colours) all reach the corners."""
+    mesh = read(MODELS / name)
+    assert mesh.corner_colour is not None and mesh.up == (0.0, 0.0, 1.0)
+    assert len(np.unique(np.round(mesh.corner_colour.reshape(-1, 3) * 255), axis=0)) == colours
+
+
+def test_the_consortiums_multiproperties_sample_renders_its_base_colour(tmp_path):
+    """multiprop-metallic.3mf declares no `ms:` prefix (trimesh refused it with lxml's namespace error, lib3mf too):
+    its 12 triangles render in the base material's #C0C0C0; its texture layers carry alpha, which a map that
+    multiplies cannot mix (a note)."""
+    done = runner.invoke(app, ["render", str(MODELS / "multiprop-metallic.3mf"), "-o", str(tmp_path / "m.png"),
+                               "--set", "render.width=64", "--set", "render.height=48"])
+    assert done.exit_code == 0, done.output
+    notes = " ".join(done.stderr.split())
+    assert "namespace prefix" in notes and "alpha channel" in notes, notes
+    mesh = read(MODELS / "multiprop-metallic.3mf")
+    assert len(mesh.faces) == 12
+    metal = [mesh.materials[g] for g in mesh.face_group if g >= 0]
+    assert len(metal) == 10 and {m.name for m in metal} == {"Metal"} and metal[0].kd == pytest.approx((0xC0 / 255,) * 3)
+    layered = mesh.face_group < 0  # the two multiproperties triangles: the base's colour per corner
+    assert layered.sum() == 2 and np.allclose(mesh.corner_colour[layered], 0xC0 / 255)
+
+
+@pytest.mark.parametrize(("resources", "triangles", "says"), [
+    ("", '<triangle v1="0" v2="1" v3="2" pid="7" p1="0"/>', "property group 7"),
+    ('<m:colorgroup id="2"><m:color color="#FF0000"/></m:colorgroup>',
+     '<triangle v1="0" v2="1" v3="2" pid="2" p1="3"/>', "property index 3"),
+    ('<m:colorgroup id="2"><m:color color="red"/></m:colorgroup>', '<triangle v1="0" v2="1" v3="9"/>', "colour 'red'"),
+    ("", '<triangle v1="0" v2="1" v3="9"/>', "vertex index outside 0..3"),
+    ("", '<triangle v1="0" v2="1" v3="2"/></triangles></mesh></object></resources></model', "not well-formed"),
+])
+def test_a_broken_3mf_is_one_line(tmp_path, resources, triangles, says):
+    write_3mf(tmp_path / "bad.3mf", resources, triangles)
+    done = runner.invoke(app, ["render", str(tmp_path / "bad.3mf"), "-o", str(tmp_path / "x.png")])
+    assert done.exit_code == 2, done.output
+    [line] = done.stderr.strip().splitlines()
+    assert says in line, line
