@@ -169,9 +169,16 @@ def parse_size(text: str) -> int:
 
 
 def budget_of(max_memory: int | str | None) -> int | None:
-    """The bytes a command may use: `max_memory` (bytes, or '8G'), else default_budget(); None: no limit known."""
+    """The bytes a command may use: `max_memory` (bytes, or '8G'), else default_budget(); None: no limit known.
+
+    The one home of that rule (render, compare, batch, the references). A budget of 0 bytes or less is a
+    ValueError, never the default in disguise (`max_memory or default_budget()` turned 0 into 3/4 of the memory)."""
     budget = parse_size(max_memory) if isinstance(max_memory, str) else max_memory
-    return default_budget() if budget is None else budget
+    if budget is None:
+        return default_budget()
+    if isinstance(budget, bool) or not isinstance(budget, int | float) or not budget > 0:
+        raise ValueError(f"max_memory must be a positive number of bytes or a size such as '8G', got {budget!r}")
+    return int(budget)
 
 
 def check_memory(scene: Scene, source: str | Location, max_memory: int | str | None, **options) -> MemoryEstimate:
