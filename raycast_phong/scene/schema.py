@@ -352,7 +352,8 @@ class Scene(Table):
             scene.replace({"render.width": 320, "lights.0.position": [1, 2, 3], "materials.red.kd": [1, 0, 0]})
 
         Raises SceneError (one line naming the key path and what is allowed) for a change the format refuses.
-        A Scene is frozen; `model_copy(update=...)` would skip validation."""
+        A Scene is frozen; `model_copy(update=...)` would skip validation. The mesh sources read while loading
+        (and a mesh given as arrays, rp.mesh_scene) go with the new scene."""
         from .keypaths import assign
         where = located("Scene.replace")
         data = self.model_dump(mode="json", exclude={"folder"}, exclude_none=True)
@@ -360,7 +361,9 @@ class Scene(Table):
             if not isinstance(key, str):
                 raise SceneError(f"{shown(key)} is not a key path; expected a string such as 'render.width'", where)
             assign(data, key, value, where)
-        return validate_scene(data, source=str(where), folder=self.folder)
+        changed = validate_scene(data, source=str(where), folder=self.folder)
+        changed.mesh_sources.update(self.mesh_sources)
+        return changed
 
     def material_of(self, obj: Object) -> Material:
         return self.materials.get(obj.material, DEFAULT_MATERIAL)
