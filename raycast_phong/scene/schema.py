@@ -441,7 +441,16 @@ class _KeyError(RaycastPhongError):
 
 
 def validate_scene(data: dict, source: str | Location = "<scene>", folder: str | Path = ".") -> Scene:
-    """Validate a parsed scene dictionary; errors name `source` (the file) and the key path."""
+    """Validate a parsed scene table (a dict, as TOML or JSON gives it) into a Scene.
+
+    Parameters
+    ----------
+    data: the scene's keys (docs/scene-format.md); Python sequences and numpy arrays are taken where lists are.
+    source: the name each error starts with (the file). folder: where the scene's relative paths start.
+
+    Returns the validated, frozen Scene. Raises SceneError, one line naming `source`, the key path and what is
+    allowed.
+    """
     where = located(source)
     data = dict(data)
     if "folder" in data:
@@ -457,7 +466,9 @@ def validate_scene(data: dict, source: str | Location = "<scene>", folder: str |
 
 
 def default_scene_path() -> Path:
-    """The built-in default scene: the lecture's figure, one sphere in flat, Gouraud and Phong shading."""
+    """The built-in default scene: the lecture's figure, one sphere in flat, Gouraud and Phong shading.
+
+    Parameters: none. Returns the Path of raycast_phong/data/default.toml. Raises nothing."""
     return Path(__file__).parents[1] / "data" / "default.toml"  # raycast_phong/data
 
 
