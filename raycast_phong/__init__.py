@@ -24,6 +24,7 @@ _HOMES = {
     "render": "renderer.frame", "render_file": "renderer.frame",
     "ShadingModel": "codes", "SpecularModel": "codes",
     "Scene": "scene.schema", "default_scene_path": "scene.schema", "load_scene": "scene.load",
+    "mesh_scene": "scene.mesh_arrays",
     "validate_scene": "scene.schema",
     "show": "tools.notebook",
 }
@@ -37,6 +38,7 @@ if TYPE_CHECKING:
     from .renderer.frame import render, render_file
     from .renderer.plan import build_plan
     from .scene.load import load_scene
+    from .scene.mesh_arrays import mesh_scene
     from .scene.schema import Scene, default_scene_path, validate_scene
     from .tools.notebook import show
 

@@ -129,14 +129,14 @@ def study(
     write report.html (fronts, fitted orders, error images, advice, the machine's noise), study.csv and the plots."""
     from raycast_phong.codes import Precision
     from raycast_phong.tools import lists
-    from raycast_phong.tools import study as sweep
+    from raycast_phong.tools.study import NORMALS, StudyOptions, advice, check_study_folder, run_study
     check_verbosity(quiet, verbose)
     out = output_or_old_spelling("study", output, out, Path("study"))
     with exit_codes():
-        options = sweep.StudyOptions(
+        options = StudyOptions(
             levels=None if levels.strip() == "auto" else lists.numbers(levels, int, "--levels"),
             models=lists.choices(models, ShadingModel, "--models", ShadingModel), budget=budget,
-            error_level=error_level, normals=lists.choices(normals or None, sweep.NORMALS, "--normals"),
+            error_level=error_level, normals=lists.choices(normals or None, NORMALS, "--normals"),
             speculars=lists.choices(specular, SpecularModel, "--specular", SpecularModel),
             precisions=lists.choices(precision or None, Precision, "--precision"),
             samples=lists.numbers(samples, int, "--samples"), shininess=lists.numbers(shininess, float, "--shininess"),
@@ -144,7 +144,7 @@ def study(
     overrides = [*scene_overrides({"render.width": width, "render.height": height}), *set_]
     with exit_codes():
         path = scene or rp.default_scene_path()
-        sweep.check_study_folder(out, path)
+        check_study_folder(out, path)
         with progress_bar(quiet) as bar:
             started, step = time.perf_counter(), [""]
 
@@ -155,7 +155,7 @@ def study(
                 bar.update(done, total, f"study: {what}")
 
             bar.update(0, None, "study: loading the renderer")
-            result = sweep.run_study(path, overrides, options, progress=advance)
+            result = run_study(path, overrides, options, progress=advance)
             bar.update(0, None, "study: writing the report")
             from raycast_phong.tools.study_report import write_study
             written = write_study(result, out)
@@ -165,7 +165,7 @@ def study(
     for fit in result.fits:
         typer.echo(f"{fit.model:8} {fit.group}: order {fit.order:.2f} over the last levels, {fit.order_all:.2f} over "
                    f"all (theory {fit.theory:g}){'' if fit.settled else '; not settled'}")
-    typer.echo(sweep.advice(result))
+    typer.echo(advice(result))
     typer.echo(f"machine: {result.noise.sentence()}")
     typer.echo(f"{written['report']}: {len(result.rows)} settings; {written['csv']}, plots and summary.md beside it")
 

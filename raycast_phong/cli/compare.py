@@ -78,8 +78,8 @@ def side_by_side(
         check_output_path(output, inputs=(path,))
         layers = output if output.suffix.lower() == ".exr" else output.with_name(f"{output.stem}-variants.exr")
         check_output_path(layers, inputs=(path,))
-        from raycast_phong.renderer.budget import default_budget
-        each = compare.render_budget(scenes, max_memory or default_budget(), str(path))
+        from raycast_phong.renderer.budget import budget_of
+        each = compare.render_budget(scenes, budget_of(max_memory), str(path))
         results = []
         with progress_bar(quiet) as bar:
             for number, (variant, value) in enumerate(zip(scenes, values), 1):
@@ -173,8 +173,8 @@ def compare_images(
     with exit_codes():
         if diff is not None:
             check_output_path(diff, inputs=(a, b))  # before reading: --diff onto an input would replace it
-        from raycast_phong.renderer.budget import default_budget
-        found = compare_files(a, b, fail_, warn, max_memory or default_budget())
+        from raycast_phong.renderer.budget import budget_of
+        found = compare_files(a, b, fail_, warn, budget_of(max_memory))
         if diff is not None:
             rp.write_image(diff, difference_map(found.a, found.b))
     (x, y), channel = found.max_at, found.max_channel

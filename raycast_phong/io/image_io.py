@@ -110,6 +110,11 @@ def write_image(path: str | Path, image: np.ndarray, aovs: dict[str, np.ndarray]
     `parts` (EXR only) maps name → ((h, w, 3) image, (x, y)): each becomes one more part of a multi-part
     EXR, with channels `name.R/G/B` and its data window at (x, y) in the main image's H×W display window
     (OpenEXR requires one display window for all parts; the data windows may differ in size).
+
+    Parameters: `path` (.png or .exr), `image` (H, W, 3) real values, `aovs`, `colour` ("display" or "linear"),
+    `parts`, as above. Returns the Path written. Raises ValueError for an image that is not (H, W, 3) real values
+    or an unknown colour; ImageError for an output path that cannot be written (a folder, an input); WriteError
+    when the write fails (the old file is kept).
     """
     if colour not in COLOURS:
         raise ValueError(f"colour {colour!r}; allowed: {', '.join(COLOURS)}")
@@ -242,6 +247,9 @@ def read_image(path: str | Path, part: int = 0) -> tuple[np.ndarray, tuple[str, 
     """All channels of one part of an image as (H, W, C) float32 (8-bit files scaled to [0, 1]) and their names.
 
     A part is read over its own data window: an extra part of write_image comes back at its own size.
+
+    Parameters: `path`, an image file OpenImageIO reads; `part`, the part of a multi-part EXR (0: the first).
+    Returns (pixels (H, W, C) float32, channel names). Raises ImageError (one line) for a file that cannot be read.
     """
     refuse_non_regular(path)
     buffer = oiio.ImageBuf(str(path), part, 0)
@@ -254,7 +262,12 @@ def read_image(path: str | Path, part: int = 0) -> tuple[np.ndarray, tuple[str, 
 
 
 def read_layer(path: str | Path, layer: str | None = None) -> np.ndarray:
-    """The RGB image (layer None) or one named layer, in any part, of a file written by write_image."""
+    """The RGB image (layer None) or one named layer, in any part, of a file written by write_image.
+
+    Parameters: `path`, an image file; `layer`, a layer name (depth, normal, face, ambient, diffuse, specular,
+    emission, or an extra part's name) or None for R, G, B. Returns (H, W, C) float32. Raises ImageError for a
+    file that cannot be read or has no such layer (naming the channels it has).
+    """
     seen: list[str] = []
     for part in range(_part_count(path) if layer is not None else 1):
         pixels, names = read_image(path, part)

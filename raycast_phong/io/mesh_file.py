@@ -87,6 +87,9 @@ def read_mesh(path: Path, where: Where, keep: bool = False, source: MeshSource |
     takes it; so the render that follows a framing does not read the file again.
     """
     source = source or mesh_source(path)
+    held = getattr(source, "held", None)  # a mesh given as arrays (scene.mesh_arrays): already checked, never read
+    if held is not None:
+        return held
     identity = source.identity if source.version is not None else None  # missing: the read words the error
     if identity is not None:
         found = KEPT.get(identity) if keep else KEPT.take(identity)

@@ -25,17 +25,13 @@ SECTIONS = ("ambient", "render", "camera", "lights", "materials", "objects", "ou
 
 def toml_value(value: Any) -> str:
     """A value as one line of TOML text, as apply_override reads it: "flat", 8, 0.5, true, [1, 0, 0],
-    {path = "a.png", wrap = "clamp"}. A sweep's file names are made from this text, so it stays one line."""
-    if isinstance(value, list):
-        return "[" + ", ".join(toml_value(item) for item in value) + "]"
-    if isinstance(value, dict):
-        return "{" + ", ".join(f"{toml_key(k)} = {toml_value(v)}" for k, v in value.items()) + "}"
-    return tomli_w.dumps({"v": value})[len("v = "):-1]  # a scalar: tomli-w's one line, quoted and escaped
+    {path = "a.png", wrap = "clamp"}. A sweep's file names are made from this text, so it stays one line.
 
-
-def toml_key(name: str) -> str:
-    """A TOML key: bare when it may be, else a quoted string (as tomli-w writes it)."""
-    return name if re.fullmatch(r"[A-Za-z0-9_-]+", name) else toml_value(name)
+    tomli-w writes it, as the item of an array in an array (where a table is written inline, not as [[v]]); its
+    line breaks all fall between items (a string's own newlines are escaped), so joining them gives the same
+    value on one line."""
+    text = tomli_w.dumps({"v": [[value]]}, indent=0)[len("v = [\n[\n"):-len(",\n],\n]\n")]
+    return text.replace("[\n", "[").replace(",\n]", "]").replace(",\n", ", ")
 
 
 def _without_none(value: Any) -> Any:

@@ -93,12 +93,14 @@ def estimate_memory(scene: Scene, source: str | Location = "<scene>", *, smooth:
     kinds = object_kinds(scene)  # objects that differ only in placement cost the same: one estimate a kind
     for index, objects in zip(kinds.first.tolist(), kinds.count.tolist()):
         obj = scene.objects[index]
-        mesh_file = obj.shape == "mesh"
+        mesh_file, held = obj.shape == "mesh", None
         if mesh_file:
             path = scene.resolve(obj.path)
             mesh = sources[path]
+            held = getattr(mesh, "held", None)  # a mesh given as arrays (scene.mesh_arrays): counted, not read
             if path not in files:
-                files[path] = mesh_file_triangles(path, located(source).at("objects", index, "path"), mesh.document)
+                files[path] = len(held.faces) if held is not None else mesh_file_triangles(
+                    path, located(source).at("objects", index, "path"), mesh.document)
             count, extra = files[path], MESH_FILE_BYTES.get(path.suffix.lower(), OTHER_MESH_FILE_BYTES)
         else:
             count, extra = shape_triangles(obj), 0
@@ -110,7 +112,7 @@ def estimate_memory(scene: Scene, source: str | Location = "<scene>", *, smooth:
                 # A built-in shape is smooth but for a few edges and poles; a file may be noise everywhere.
                 per = max(per, CREASED_FILE_BYTES)
         size = count * (per + extra)
-        if mesh_file:  # a large file that claims few triangles still costs its read (a one-line OBJ)
+        if mesh_file and held is None:  # a large file that claims few triangles still costs its read (a one-line OBJ)
             size = max(size, mesh_file_read_bytes(path, mesh.side_files))
         triangles += count * objects
         geometry += size * objects
@@ -169,9 +171,16 @@ def parse_size(text: str) -> int:
 
 
 def budget_of(max_memory: int | str | None) -> int | None:
-    """The bytes a command may use: `max_memory` (bytes, or '8G'), else default_budget(); None: no limit known."""
+    """The bytes a command may use: `max_memory` (bytes, or '8G'), else default_budget(); None: no limit known.
+
+    The one home of that rule (render, compare, batch, the references). A budget of 0 bytes or less is a
+    ValueError, never the default in disguise (`max_memory or default_budget()` turned 0 into 3/4 of the memory)."""
     budget = parse_size(max_memory) if isinstance(max_memory, str) else max_memory
-    return default_budget() if budget is None else budget
+    if budget is None:
+        return default_budget()
+    if isinstance(budget, bool) or not isinstance(budget, int | float) or not budget > 0:
+        raise ValueError(f"max_memory must be a positive number of bytes or a size such as '8G', got {budget!r}")
+    return int(budget)
 
 
 def check_memory(scene: Scene, source: str | Location, max_memory: int | str | None, **options) -> MemoryEstimate:

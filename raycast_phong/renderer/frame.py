@@ -28,11 +28,27 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
            progress: Callable[[int, int], None] | None = None, source: str | Location = "<scene>",
            max_memory: int | str | None = None, cache: FrameCache | None = None,
            cancelled: Callable[[], bool] | None = None) -> RenderResult:
-    """Render a validated scene: prepare(scene, ...).render() (parameters and result: prepare.prepare and
-    prepare.Prepared.render). A scene above the memory budget is refused with a SceneError before anything
-    is built. (accuracy.measured adds RMSE, max, PSNR, … against the analytic or a self-convergence reference.)
-    `cache` (a FrameCache) carries the geometry and BVH from one frame of a changing scene to the next;
-    `cancelled()`, asked before each band, stops the frame with RenderCancelled when it answers True.
+    """Render a validated scene: prepare(scene, ...).render(). (accuracy.measured adds RMSE, max, PSNR, …
+    against the analytic or a self-convergence reference.)
+
+    Parameters
+    ----------
+    scene: a validated Scene (rp.load_scene, rp.validate_scene, Scene.replace, rp.mesh_scene).
+    threads: worker threads for the bands (default: the machine's cores). plan: a RenderPlan (rp.build_plan's,
+        default: made here). progress: progress(done, total), called as bands finish. source: the name errors
+        start with (a file name). max_memory: the memory budget in bytes or a size such as "8G" (default: 3/4 of
+        the memory available). cache: a FrameCache carrying the geometry and BVH from one frame of a changing
+        scene to the next. cancelled: asked before each band; True stops the frame with RenderCancelled.
+
+    Returns
+    -------
+    RenderResult: .image (H, W, 3) linear display values, unclamped, float32 (float64 when the plan shades in
+    float64); .aovs, .timings (seconds per stage), .plan, .colour, .triangles.
+
+    Raises
+    ------
+    SceneError (one line) when the scene needs more memory than the budget, before anything is built, or when
+    a mesh file it names cannot be read; ValueError for a budget of 0 or less.
     """
     return prepare(scene, source=source, threads=threads, max_memory=max_memory, plan=plan,
                    progress=progress, cache=cache, cancelled=cancelled).render()
@@ -67,8 +83,17 @@ def warm_kernels_for(plans: list[RenderPlan]) -> None:
 
 def render_file(path: str | Path, overrides: list[str] | tuple[str, ...] = (), *, view: str | None = None,
                 up: str | None = None, **options) -> RenderResult:
-    """Load a scene file or a mesh file (with `key.path=value` overrides; `view` and `up` frame a mesh file,
-    docs/meshes.md) and render it; timings include "load". `options` are render()'s."""
+    """Load a scene file or a mesh file and render it; timings include "load".
+
+    Parameters
+    ----------
+    path: a scene file (.toml, .json) or a mesh file (docs/meshes.md). overrides: `key.path=value` strings, as
+        --set. view, up: how a mesh file is framed (three_quarter, front, side, top, iso; "+z", ...).
+    options: render()'s keyword arguments (threads, progress, max_memory, ...).
+
+    Returns the RenderResult (see render). Raises SceneError (one line naming the file, the key path and what
+    is allowed) for a file that cannot be read or a value the format refuses.
+    """
     start = time.perf_counter()
     scene = load_scene(path, overrides, view=view, up=up, max_memory=options.get("max_memory"))
     loaded = time.perf_counter() - start

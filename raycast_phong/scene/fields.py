@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass
 from typing import Annotated, Any
 
-from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, WithJsonSchema
 
 from ..tolerances import DIRECTION_RANGE, INTENSITY_LIMIT, POSITION_LIMIT
 from .messages import shown
@@ -39,8 +39,33 @@ def check_whole(value: Any) -> Any:
 
 Number = Annotated[float, BeforeValidator(check_number)]
 Whole = Annotated[int, BeforeValidator(check_whole)]
-# A length of a shape: positive, and at most POSITION_LIMIT so the shape's coordinates stay finite in float64.
-Length = Annotated[Number, Field(gt=0.0, le=POSITION_LIMIT, allow_inf_nan=False)]
+# ---------------------------------------------------------------- the JSON Schema of each value type
+# Each type below states its JSON Schema beside its check, from the same constants: `raycast-phong schema` is
+# generated from these models (scene.schema.scene_json_schema) and accepts what they accept. JSON has no inf or
+# NaN, so a JSON number is finite; what no JSON Schema can say (a vector's length, one key against another) is
+# listed in scene.schema.BEYOND_THE_SCHEMA.
+
+def number_schema(low: float | None = None, high: float | None = None, above: bool = False,
+                  non_zero: bool = False) -> dict:
+    """A number's JSON Schema: at least `low` (more than it when `above`), at most `high`, never 0 if `non_zero`."""
+    node: dict = {"type": "number"}
+    if low is not None:
+        node["exclusiveMinimum" if above else "minimum"] = low
+    if high is not None:
+        node["maximum"] = high
+    if non_zero:
+        node["not"] = {"const": 0}
+    return node
+
+
+def triple_schema(item: dict) -> WithJsonSchema:
+    """Three numbers [a, b, c], each as `item` says, or one such number meaning all three (check_triple)."""
+    return WithJsonSchema({"anyOf": [item, {"type": "array", "items": item, "minItems": 3, "maxItems": 3}]})
+
+
+def list_schema(item: dict, count: int) -> WithJsonSchema:
+    """Exactly `count` values, each as `item` says."""
+    return WithJsonSchema({"type": "array", "items": item, "minItems": count, "maxItems": count})
 
 
 def check_triple(value: Any) -> Any:
@@ -114,11 +139,20 @@ def scale_factors(values: tuple[float, float, float]) -> tuple[float, float, flo
     return values
 
 
-Vec3 = Annotated[tuple[Number, Number, Number], BeforeValidator(check_triple)]
-Coefficient = Annotated[tuple[Number, Number, Number], BeforeValidator(check_triple)]
-Position = Annotated[Vec3, AfterValidator(position)]
+# A length of a shape: positive, and at most POSITION_LIMIT so the shape's coordinates stay finite in float64.
+# (Bounds behind a BeforeValidator reach the JSON Schema as pydantic's raw gt/le: the schema is stated here.)
+Length = Annotated[Number, Field(gt=0.0, le=POSITION_LIMIT, allow_inf_nan=False),
+                   WithJsonSchema(number_schema(0.0, POSITION_LIMIT, above=True))]
+Vec3 = Annotated[tuple[Number, Number, Number], BeforeValidator(check_triple), triple_schema(number_schema())]
+Coefficient = Annotated[tuple[Number, Number, Number], BeforeValidator(check_triple), AfterValidator(unit_range),
+                        triple_schema(number_schema(0.0, 1.0))]
+Intensity = Annotated[Vec3, AfterValidator(non_negative), triple_schema(number_schema(0.0, INTENSITY_LIMIT))]
+Position = Annotated[Vec3, AfterValidator(position), triple_schema(number_schema(-POSITION_LIMIT, POSITION_LIMIT))]
+# Its length is checked (DIRECTION_RANGE), which no JSON Schema can say: scene.schema.BEYOND_THE_SCHEMA.
+Direction = Annotated[Vec3, AfterValidator(direction)]
 Angles = Annotated[Vec3, AfterValidator(finite)]
-Scale = Annotated[Vec3, AfterValidator(scale_factors)]
+Scale = Annotated[Vec3, AfterValidator(scale_factors),
+                  triple_schema(number_schema(-POSITION_LIMIT, POSITION_LIMIT, non_zero=True))]
 
 
 SEGMENTS = (3, 4096)  # each of an object's two segment counts, inclusive
@@ -138,7 +172,8 @@ def segment_range(value: tuple[int, int]) -> tuple[int, int]:
 
 
 # Two counts of segments (their meaning is the kind's: around and along, x and z cells, ...).
-Segments = Annotated[tuple[Whole, Whole], BeforeValidator(check_pair), AfterValidator(segment_range)]
+Segments = Annotated[tuple[Whole, Whole], BeforeValidator(check_pair), AfterValidator(segment_range),
+                     list_schema({"type": "integer", "minimum": SEGMENTS[0], "maximum": SEGMENTS[1]}, 2)]
 
 
 @dataclass(frozen=True)
@@ -157,7 +192,8 @@ class Lengths:
 
 def lengths(count: int, spelled: str) -> Any:
     """The type of a key of `count` lengths, written `spelled` ("[x, y, z]")."""
-    return Annotated[tuple[Number, ...], AfterValidator(Lengths(count, spelled))]
+    return Annotated[tuple[Number, ...], AfterValidator(Lengths(count, spelled)),
+                     list_schema(number_schema(0.0, POSITION_LIMIT, above=True), count)]
 
 
 class KindKeys(Table):

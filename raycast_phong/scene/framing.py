@@ -67,19 +67,32 @@ def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), vie
     """A scene table showing one mesh file: its materials, a framing camera, a key light (docs/meshes.md).
     Reading the file to frame it keeps to `max_memory` bytes (the command's --max-memory) as well as to what
     the machine has. The file's MeshSource is put in `sources` (by io.mesh_source.source_key), if given."""
-    from ..io.mesh_file import FILE_CREASE_ANGLE, check_file_content, mesh_bounds  # trimesh: only for mesh files
+    from ..io.mesh_file import check_file_content, mesh_bounds  # trimesh: only for mesh files
     from ..io.mesh_header import check_mesh_read
     from ..io.mesh_source import mesh_source, source_key
     where = Location(str(path))
-    view = view or VIEWS[0]
-    if view not in VIEWS:
-        raise SceneError(f"--view {view!r}; allowed: {', '.join(VIEWS)}", where)
+    check_view(view, where)
     check_file_content(path, where)  # an OBJ named .stl is no binary STL of 1702M triangles
     source = mesh_source(path)
     if sources is not None:
         sources[source_key(path)] = source
     check_mesh_read(path, where, max_memory, source)  # the framing read comes before render()'s own memory check
     found = mesh_bounds(source, where)
+    return framed_dict(found, path.name, path.stem, mesh_colour(path)[0], overrides, view, up, where)
+
+
+def check_view(view: str | None, where: Location) -> None:
+    if view is not None and view not in VIEWS:
+        raise SceneError(f"--view {view!r}; allowed: {', '.join(VIEWS)}", where)
+
+
+def framed_dict(found, path: str, stem: str, colour: str, overrides: list[str] | tuple[str, ...] = (),
+                view: str | None = None, up: str | None = None, where: Location | None = None) -> dict:
+    """The scene table showing one mesh (`found`: its io.mesh_file.MeshFile, bounds and materials) at `path`,
+    named `stem`: its materials, a framing camera from `view`, a key light, `colour`, then `overrides`. A mesh
+    file's (mesh_scene_dict) and a mesh given as arrays' (scene.mesh_arrays) alike."""
+    from ..io.mesh_file import FILE_CREASE_ANGLE
+    view, where = view or VIEWS[0], where or Location("<mesh>")
     if not found.radius >= MIN_EXTENT:  # every vertex at one point: nothing to frame (or to see)
         centre = [float(x) for x in found.centre]
         raise SceneError(f"every vertex of the model lies within {found.radius:.3g} of {centre}; "
@@ -88,11 +101,11 @@ def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), vie
     data: dict = {
         "materials": {m.name: m.as_scene() for m in found.materials},
         # A file without normals is creased at the feature angle (docs/meshes.md, "Normals"): shown by `scene`.
-        "objects": [{"name": path.stem, "shape": "mesh", "path": path.name,
+        "objects": [{"name": stem, "shape": "mesh", "path": path,
                      **({} if found.stores_normals else {"crease_angle": FILE_CREASE_ANGLE})}],
-        "output": {"path": f"{path.stem}.png"},
+        "output": {"path": f"{stem}.png"},
         # before the overrides: --set render.colour and render.background win
-        "render": {"colour": mesh_colour(path)[0], "background": mesh_background(mesh_colour(path)[0])},
+        "render": {"colour": colour, "background": mesh_background(colour)},
     }
     data["camera"] = frame_camera(found.centre, found.radius, up_axis, view, (640.0, 480.0), 40.0, False)
     data["lights"] = [key_light(found.centre, data["camera"], up_axis)]
@@ -102,7 +115,7 @@ def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), vie
     touched = {tuple(a.split("=", 1)[0].strip().split(".")) for a in overrides}
     output = data.get("output")
     if isinstance(output, dict) and output.get("aovs") and ("output", "path") not in touched:
-        output["path"] = f"{path.stem}.exr"  # layers need EXR, as the format's own default path says
+        output["path"] = f"{stem}.exr"  # layers need EXR, as the format's own default path says
     camera, lights = data.get("camera"), data.get("lights")
     if isinstance(camera, dict) and ("camera",) not in touched:
         placed = frame_camera(found.centre, found.radius, up_axis, view, _render_size(data),

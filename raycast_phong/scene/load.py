@@ -67,9 +67,20 @@ def check_validation_memory(data: dict, path: str | Path, max_memory: int | None
 
 def load_scene(path: str | Path, overrides: list[str] | tuple[str, ...] = (), view: str | None = None,
                up: str | None = None, max_memory: int | None = None) -> Scene:
-    """Read, override (`key.path=value`, as `--set`), and validate a scene file or a mesh file; `max_memory`
-    caps the memory a mesh file's framing read may need (render() checks the render's own). The scene carries
-    the MeshSource framing made (Scene.mesh_sources), which prepare() passes on: the file is not read again."""
+    """Read, override and validate a scene file or a mesh file. The scene carries the MeshSource framing made
+    (Scene.mesh_sources), which prepare() passes on: the file is not read again.
+
+    Parameters
+    ----------
+    path: a scene file (.toml, or .json of the same structure), "-" for standard input, or a mesh file (any
+        format trimesh reads: one `mesh` object, a framing camera and a key light, docs/meshes.md).
+    overrides: `key.path=value` strings, applied before validation as --set applies them.
+    view, up: how a mesh file is framed (three_quarter, front, side, top, iso; its up axis "+z", "-y", ...).
+    max_memory: bytes (or "8G") a mesh file's framing read may need (render() checks the render's own).
+
+    Returns the validated, frozen Scene. Raises SceneError (one line naming the file, the key path and what is
+    allowed) for a file that cannot be read, a value the format refuses or an unknown key.
+    """
     path = Path(path)
     folder = Path(".") if is_stdin(path) else path.parent  # a piped scene's paths are the working folder's
     sources: dict = {}

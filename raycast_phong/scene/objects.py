@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal, Union
 
-from pydantic import AfterValidator, Field, ValidationInfo, create_model, model_validator
+from pydantic import AfterValidator, ConfigDict, Field, ValidationInfo, create_model, model_validator
 
 from ..codes import ShadingModel
 from ..geometry.shapes import KINDS
@@ -32,27 +32,60 @@ def _normals_fit(value: str | None, info: ValidationInfo) -> str | None:
     return value
 
 
+def _object_schema(schema: dict, model: type) -> None:
+    """A kind's JSON Schema says what its validators say: the normals rules it may use (_normals_fit), a mesh's
+    path required (MeshKeys._named), and the keys of other kinds that a file written by an earlier version holds
+    at their defaults (without_written_defaults), which are accepted, marked deprecated."""
+    shape = model.model_fields["shape"].annotation.__args__[0]
+    properties = schema["properties"]
+    refused = "exact" if shape == MESH else "file"
+    rules = properties["normals"]["anyOf"][0]
+    rules["enum"] = [rule for rule in rules["enum"] if rule != refused]
+    if shape == MESH:
+        schema["required"] = [*schema.get("required", ()), "path"]
+        properties["path"] = {"type": "string", "minLength": 1, "description": properties["path"]["description"]}
+    for key, defaults in sorted(_FOREIGN_DEFAULTS[shape].items()):
+        properties[key] = {"enum": sorted({json_value(value) for value in defaults}, key=repr), "deprecated": True,
+                           "description": "another shape's key, accepted at its default only (files written by "
+                                          "earlier versions held every key of every shape)"}
+
+
+def json_value(value: Any) -> Any:
+    """A default as JSON writes it (a tuple as a list; hashable for the set above: a list as a tuple again)."""
+    return tuple(value) if isinstance(value, (list, tuple)) else value
+
+
 class ObjectHead(Table):
     """The keys every object starts with; each kind's model narrows `shape` to its own name."""
-    name: str | None = None
-    shape: str
+    model_config = ConfigDict(json_schema_extra=_object_schema)
+    name: str | None = Field(None, description="a name for messages and the view; any text")
+    shape: str = Field(description="the kind of object: a built-in shape, or mesh for a mesh file")
 
 
 class ObjectKeys(Table):
     """The keys every object has after its kind's own: its material, shading and normals, and its placement."""
-    material: str = "default"
-    shading: ShadingModel | None = None
+    material: str = Field("default", description=(
+        'a material defined under [materials]; a mesh with "default" takes the file\'s own materials and colours'))
+    shading: ShadingModel | None = Field(None, description="overrides render.shading for this object")
     # None: "file" if the mesh file stores vertex normals, else "mean"
-    normals: Annotated[NormalsRule | None, AfterValidator(_normals_fit)] = None
-    crease_angle: Number = Field(180.0, ge=0.0, le=180.0)
-    translate: Position = (0.0, 0.0, 0.0)
-    rotate: Angles = (0.0, 0.0, 0.0)
-    scale: Scale = (1.0, 1.0, 1.0)
+    normals: Annotated[NormalsRule | None, AfterValidator(_normals_fit)] = Field(None, description=(
+        "vertex normal = normalize(Σ w_f n_f) over the adjacent faces, w = 1 (mean), the face area or the corner "
+        "angle; file: the mesh file's normals (mesh only); exact: the true surface normal of a built-in shape. "
+        'Unset: "file" for a mesh file that stores normals, else "mean"'))
+    crease_angle: Number = Field(180.0, ge=0.0, le=180.0, description=(
+        "faces meeting at more than this many degrees keep their own vertex normals at the shared edge; "
+        "180 = never split"))
+    translate: Position = Field((0.0, 0.0, 0.0), description="placement: world = T · Rz · Ry · Rx · S · local")
+    rotate: Angles = Field((0.0, 0.0, 0.0), description="degrees about x, then y, then z")
+    scale: Scale = Field((1.0, 1.0, 1.0), description=(
+        "a number or [sx, sy, sz], no zero factor; a negative product mirrors (the winding is reversed so faces "
+        "still point outward)"))
 
 
 class MeshKeys(KindKeys):
     """A mesh file's key: the file, relative to the scene file's folder (any format trimesh reads)."""
-    path: str | None = None
+    path: str | None = Field(None, description=(
+        "the mesh file (any format trimesh reads: OBJ, PLY, STL, OFF, glTF/GLB), relative to the scene file"))
 
     @model_validator(mode="after")
     def _named(self) -> MeshKeys:
@@ -65,7 +98,8 @@ def object_model(shape: str, keys: type[KindKeys], title: str) -> type[Table]:
     """The model of an object of one kind: name and shape (its name only), the kind's `keys`, then the keys of
     every object."""
     return create_model(title, __base__=(ObjectKeys, keys, ObjectHead), __module__=__name__,
-                        __doc__=f'An object of shape = "{shape}".', shape=(Literal[shape], ...))
+                        __doc__=f'An object of shape = "{shape}".',
+                        shape=(Literal[shape], Field(description=(keys.__doc__ or title).split("\n")[0])))
 
 
 # One model per kind, in the registry's order, the mesh file last.

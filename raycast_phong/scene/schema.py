@@ -16,7 +16,17 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BeforeValidator, Field, PrivateAttr, Strict, ValidationError, field_validator, model_validator
+from pydantic import (
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    Strict,
+    ValidationError,
+    WithJsonSchema,
+    field_validator,
+    model_validator,
+)
 
 from ..codes import (
     IMAGE_SUFFIXES,
@@ -38,16 +48,15 @@ from ..tolerances import DIRECTION_RANGE, INTENSITY_LIMIT, POSITION_LIMIT
 from .bulk import objects_in_bulk
 from .fields import (
     Coefficient,
+    Direction,
+    Intensity,
     Number,
+    Position,
     Table,
-    Vec3,
     Whole,
     check_number,
-    direction,
-    non_negative,
-    position,
+    number_schema,
     sequence_of,
-    unit_range,
 )
 from .kinds import object_kinds
 from .messages import Location, describe_error, located, shown
@@ -60,36 +69,52 @@ MAX_PIXEL_RAYS = 2**31 - 1  # embree indexes rays with int32 per call; beyond th
 # ---------------------------------------------------------------- tables
 
 class Render(Table):
-    width: Whole = Field(640, ge=1, le=MAX_SIZE)
-    height: Whole = Field(480, ge=1, le=MAX_SIZE)
-    shading: ShadingModel = ShadingModel.PHONG
-    specular: SpecularModel = SpecularModel.PHONG
-    viewer: Viewer = Viewer.LOCAL
-    mode: Mode = Mode.LOCAL
-    terminator: Literal["none", "hanika"] = "hanika"
-    samples: Whole = Field(1, ge=1, le=MAX_SAMPLES)
-    background: Vec3 = (0.0, 0.0, 0.0)
-    precision: Literal[tuple(p.value for p in Precision)] = "float32"  # type: ignore[valid-type]
-    two_sided: Annotated[bool, Strict()] = True  # true or false, not "yes" or 1
-    interpolation: Literal["perspective", "screen"] = "perspective"
+    """How the image is made: its size, the shading and specular models, the mode, sampling and precision."""
+    width: Whole = Field(640, ge=1, le=MAX_SIZE, description="image width in pixels")
+    height: Whole = Field(480, ge=1, le=MAX_SIZE, description="image height in pixels")
+    shading: ShadingModel = Field(ShadingModel.PHONG, description=(
+        "where the model is evaluated: flat at each face's centroid with its face normal, gouraud at the corners "
+        "with their vertex normals and mixed, phong at the hit with the mixed, renormalised normal"))
+    specular: SpecularModel = Field(SpecularModel.PHONG, description=(
+        "the specular term: phong max(v·r, 0)^f, or blinn max(n·h, 0)^f with h = normalize(l + v)"))
+    viewer: Viewer = Field(Viewer.LOCAL, description=(
+        "local: v toward the eye at each point; infinite: v = −forward everywhere"))
+    mode: Mode = Field(Mode.LOCAL, description=(
+        "global: a shadow ray from every hit to every light (at most 63 lights); see docs/global.md"))
+    terminator: Literal["none", "hanika"] = Field("hanika", description=(
+        "global mode, Gouraud/Phong faces: start shadow rays on the smooth surface of the vertex normals "
+        "(Hanika 2021), or at the hit point"))
+    samples: Whole = Field(1, ge=1, le=MAX_SAMPLES, description=(
+        "n: n×n rays per pixel on the centres of an n×n grid, equal weights"))
+    background: Intensity = Field((0.0, 0.0, 0.0), description="the colour of pixels that see nothing")
+    precision: Literal[tuple(p.value for p in Precision)] = Field(  # type: ignore[valid-type]
+        "float32", description="the arithmetic of the shading kernel")
+    two_sided: Annotated[bool, Strict()] = Field(True, description=(  # true or false, not "yes" or 1
+        "shade a back-facing hit with its normals flipped toward the viewer"))
+    interpolation: Literal["perspective", "screen"] = Field("perspective", description=(
+        "barycentric weights: the true point on the triangle (Embree's), or linear in the image plane like the "
+        "lecture's scanline formulas"))
     # "display" (fixed-function GL's): maps and colours as stored, the PNG written as it is; "linear" (glTF's):
     # 8-bit maps decoded from sRGB, the PNG through the sRGB curve. A mesh file rendered directly gets its
     # format's choice (scene.framing.mesh_colour); a scene file, this default.
-    colour: Literal[COLOURS] = COLOURS[0]  # type: ignore[valid-type]
-
-    _check_background = field_validator("background")(lambda v: non_negative(v))
+    colour: Literal[COLOURS] = Field(COLOURS[0], description=(  # type: ignore[valid-type]
+        "how colour values are taken and shown: display uses 8-bit maps as stored and writes the PNG as it is; "
+        "linear decodes 8-bit maps from sRGB and writes the PNG through the sRGB curve (a glTF file rendered "
+        "directly defaults to linear)"))
 
 
 class Camera(Table):
-    type: Literal["perspective", "orthographic"] = "perspective"
-    position: Vec3 = (0.0, 0.0, 4.0)
-    look_at: Vec3 = (0.0, 0.0, 0.0)
-    up: Vec3 = (0.0, 1.0, 0.0)
-    fov: Number = Field(40.0, gt=0.0, lt=180.0)
-    view_height: Number = Field(2.0, gt=0.0, le=POSITION_LIMIT, allow_inf_nan=False)
-
-    _check_position = field_validator("position", "look_at")(lambda v: position(v))
-    _check_up = field_validator("up")(lambda v: direction(v))
+    """The eye: where it is, where it looks, and its lens."""
+    type: Literal["perspective", "orthographic"] = Field("perspective", description="the projection")
+    position: Position = Field((0.0, 0.0, 4.0), description="the eye")
+    look_at: Position = Field((0.0, 0.0, 0.0), description=(
+        f"the point the camera looks at; at least {DIRECTION_RANGE[0]:g} from position"))
+    up: Direction = Field((0.0, 1.0, 0.0), description=(
+        f"the image's up direction; length in [{DIRECTION_RANGE[0]:g}, {DIRECTION_RANGE[1]:g}], not parallel to "
+        "look_at − position"))
+    fov: Number = Field(40.0, gt=0.0, lt=180.0, description="perspective: the vertical field of view, degrees")
+    view_height: Number = Field(2.0, gt=0.0, le=POSITION_LIMIT, allow_inf_nan=False, description=(
+        "orthographic: the height of the view in world units"))
 
     @model_validator(mode="after")
     def _frame(self) -> Camera:
@@ -136,19 +161,31 @@ def _attenuation(value: Any) -> Any:
     return (c, l, q)
 
 
-class Light(Table):
-    type: Literal[tuple(kind.value for kind in LightKind)] = "point"  # type: ignore[valid-type]
-    position: Vec3 | None = None
-    direction: Vec3 | None = None
-    diffuse: Vec3 = (0.8, 0.8, 0.8)
-    specular: Vec3 = (1.0, 1.0, 1.0)
-    ambient: Vec3 = (0.0, 0.0, 0.0)
-    attenuation: Annotated[Literal["none", "inverse_square"] | tuple[float, float, float],
-                           BeforeValidator(_attenuation)] = "none"
+ATTENUATION_SCHEMA = WithJsonSchema({"anyOf": [
+    {"enum": ["none", "inverse_square"]},
+    {"type": "array", "items": number_schema(0.0, INTENSITY_LIMIT), "minItems": 3, "maxItems": 3,
+     "not": {"const": [0, 0, 0]}}]})
 
-    _check_position = field_validator("position")(lambda v: v if v is None else position(v))
-    _check_direction = field_validator("direction")(lambda v: v if v is None else direction(v))
-    _check_intensity = field_validator("diffuse", "specular", "ambient")(lambda v: non_negative(v))
+
+class Light(Table):
+    """A point or directional light and its intensities."""
+    model_config = ConfigDict(json_schema_extra={  # _placement below: a light needs where it is, or its way
+        "if": {"properties": {"type": {"const": "directional"}}, "required": ["type"]},
+        "then": {"required": ["direction"], "properties": {"direction": {"not": {"type": "null"}}}},
+        "else": {"required": ["position"], "properties": {"position": {"not": {"type": "null"}}}}})
+    type: Literal[tuple(kind.value for kind in LightKind)] = Field(  # type: ignore[valid-type]
+        "point", description="point: at a position; directional: from a direction, at infinity")
+    position: Position | None = Field(None, description="where a point light is (required for a point light)")
+    direction: Direction | None = Field(None, description=(
+        f"the direction a directional light travels (required for one); length in [{DIRECTION_RANGE[0]:g}, "
+        f"{DIRECTION_RANGE[1]:g}]"))
+    diffuse: Intensity = Field((0.8, 0.8, 0.8), description="I_d, the diffuse intensity")
+    specular: Intensity = Field((1.0, 1.0, 1.0), description="I_s, the specular intensity")
+    ambient: Intensity = Field((0.0, 0.0, 0.0), description="the light's own ambient, added to I_a (times f_att)")
+    attenuation: Annotated[Literal["none", "inverse_square"] | tuple[float, float, float],
+                           BeforeValidator(_attenuation), ATTENUATION_SCHEMA] = Field("none", description=(
+                               "f_att = 1, 1/d², or min(1, 1/(c + l·d + q·d²)) for [c, l, q] (not all zero); "
+                               "always 1 for a directional light"))
 
     @model_validator(mode="after")
     def _placement(self) -> Light:
@@ -164,8 +201,9 @@ class Light(Table):
 
 class TextureMap(Table):
     """A colour map: an image file relative to the scene file, and how it repeats outside [0, 1]."""
-    path: str
-    wrap: Literal[WRAP_MODES] = "repeat"  # type: ignore[valid-type]
+    path: str = Field(description="the image file, relative to the scene file's folder")
+    wrap: Literal[WRAP_MODES] = Field("repeat", description=(  # type: ignore[valid-type]
+        "how texture coordinates outside [0, 1] are brought back"))
 
 
 def _map(value: Any) -> Any:
@@ -178,20 +216,25 @@ def _map(value: Any) -> Any:
     return value
 
 
-MapKey = Annotated[TextureMap, BeforeValidator(_map)] | None
+# "wood.png" or { path = "wood.png", wrap = "clamp" }, as the file may write it.
+MapKey = Annotated[TextureMap, BeforeValidator(_map, json_schema_input_type=str | TextureMap)] | None
 
 
 class Material(Table):
-    ka: Coefficient = MATERIAL_DEFAULTS["ka"]
-    kd: Coefficient = MATERIAL_DEFAULTS["kd"]
-    ks: Coefficient = MATERIAL_DEFAULTS["ks"]
-    ke: Coefficient = MATERIAL_DEFAULTS["ke"]
-    shininess: Number = MATERIAL_DEFAULTS["shininess"]
-    ka_map: MapKey = None  # multiplies k_a (the kd_map does when this is not given)
-    kd_map: MapKey = None  # multiplies k_d and k_a at the hit's texture coordinates
-    ke_map: MapKey = None  # multiplies k_e
-
-    _check_coefficients = field_validator("ka", "kd", "ks", "ke")(lambda v: unit_range(v))
+    """The Phong model's coefficients of a surface, and its colour maps."""
+    ka: Coefficient = Field(MATERIAL_DEFAULTS["ka"], description="k_a, the ambient reflection")
+    kd: Coefficient = Field(MATERIAL_DEFAULTS["kd"], description="k_d, the diffuse reflection")
+    ks: Coefficient = Field(MATERIAL_DEFAULTS["ks"], description="k_s, the specular reflection")
+    ke: Coefficient = Field(MATERIAL_DEFAULTS["ke"], description="k_e, the emission")
+    shininess: Annotated[Number, WithJsonSchema(number_schema(0.0, INTENSITY_LIMIT))] = Field(
+        MATERIAL_DEFAULTS["shininess"], description=(
+            "the exponent f; 0 is the limit f → 0⁺; a TOML file may write inf, the mirror limit"))
+    ka_map: MapKey = Field(None, description=(  # multiplies k_a (the kd_map does when this is not given)
+        "a colour map multiplying k_a instead of the kd_map"))
+    kd_map: MapKey = Field(None, description=(  # multiplies k_d and k_a at the hit's texture coordinates
+        "a colour map: its colour at the hit's texture coordinates multiplies k_d and k_a (the specular term is "
+        'never textured); an image file name, or a table { path = "...", wrap = "clamp" }'))
+    ke_map: MapKey = Field(None, description="a colour map multiplying k_e")
 
     @field_validator("shininess")
     @classmethod
@@ -205,8 +248,15 @@ class Material(Table):
 
 
 class Output(Table):
-    path: str = "out.png"
-    aovs: tuple[Literal[LAYERS], ...] = ()  # type: ignore[valid-type]
+    """The file `render` writes when no -o is given, and its extra layers."""
+    model_config = ConfigDict(json_schema_extra={  # the layers need an EXR (_format below)
+        "if": {"properties": {"aovs": {"minItems": 1}}, "required": ["aovs", "path"]},
+        "then": {"properties": {"path": {"pattern": r"\.[eE][xX][rR]$"}}}})
+    path: str = Field("out.png", json_schema_extra={"pattern": r"\.([pP][nN][gG]|[eE][xX][rR])$"}, description=(
+        '.png (8-bit) or .exr (float32), inside the scene\'s folder (no absolute path, ~ or ".."); "out.exr" '
+        "when aovs are asked for"))
+    aovs: tuple[Literal[LAYERS], ...] = Field((), description=(  # type: ignore[valid-type]
+        "extra EXR layers (an .exr path is required)"))
 
     @model_validator(mode="before")
     @classmethod
@@ -244,19 +294,20 @@ DEFAULT_MATERIAL = Material()
 
 class Scene(Table):
     """A validated scene: every key of the format with its value or default."""
+    model_config = ConfigDict(json_schema_extra={"required": ["objects"]})  # _references refuses a scene without
     render: Render = Render()
     camera: Camera = Camera()
-    ambient: Vec3 = (0.1, 0.1, 0.1)
-    lights: tuple[Light, ...] = ()
-    materials: dict[str, Material] = {}  # noqa: RUF012 - pydantic copies a default, not shares it
-    objects: Annotated[tuple[Object, ...], BeforeValidator(without_written_defaults)] = ()
+    ambient: Intensity = Field((0.1, 0.1, 0.1), description="I_a, the scene's ambient intensity")
+    lights: tuple[Light, ...] = Field((), description="the lights, any number")
+    materials: dict[str, Material] = Field({}, description=(  # pydantic copies a default, not shares it
+        'materials by name; an object without one uses the defaults (the material named "default")'))
+    objects: Annotated[tuple[Object, ...], BeforeValidator(without_written_defaults)] = Field(
+        (), json_schema_extra={"minItems": 1}, description="the objects, at least one")
     output: Output = Output()
     folder: str = Field(".", exclude=True)  # the scene file's folder: relative paths start here
     # The mesh files' io.mesh_source.MeshSource made while loading (framing a mesh file), by source_key: handed
     # with the scene to prepare(), which reads no file twice. What was read, not part of the scene's value.
     _mesh_sources: dict = PrivateAttr(default_factory=dict)
-
-    _check_ambient = field_validator("ambient")(lambda v: non_negative(v))
 
     @model_validator(mode="after")
     def _references(self) -> Scene:
@@ -301,7 +352,8 @@ class Scene(Table):
             scene.replace({"render.width": 320, "lights.0.position": [1, 2, 3], "materials.red.kd": [1, 0, 0]})
 
         Raises SceneError (one line naming the key path and what is allowed) for a change the format refuses.
-        A Scene is frozen; `model_copy(update=...)` would skip validation."""
+        A Scene is frozen; `model_copy(update=...)` would skip validation. The mesh sources read while loading
+        (and a mesh given as arrays, rp.mesh_scene) go with the new scene."""
         from .keypaths import assign
         where = located("Scene.replace")
         data = self.model_dump(mode="json", exclude={"folder"}, exclude_none=True)
@@ -309,7 +361,9 @@ class Scene(Table):
             if not isinstance(key, str):
                 raise SceneError(f"{shown(key)} is not a key path; expected a string such as 'render.width'", where)
             assign(data, key, value, where)
-        return validate_scene(data, source=str(where), folder=self.folder)
+        changed = validate_scene(data, source=str(where), folder=self.folder)
+        changed.mesh_sources.update(self.mesh_sources)
+        return changed
 
     def material_of(self, obj: Object) -> Material:
         return self.materials.get(obj.material, DEFAULT_MATERIAL)
@@ -387,7 +441,16 @@ class _KeyError(RaycastPhongError):
 
 
 def validate_scene(data: dict, source: str | Location = "<scene>", folder: str | Path = ".") -> Scene:
-    """Validate a parsed scene dictionary; errors name `source` (the file) and the key path."""
+    """Validate a parsed scene table (a dict, as TOML or JSON gives it) into a Scene.
+
+    Parameters
+    ----------
+    data: the scene's keys (docs/scene-format.md); Python sequences and numpy arrays are taken where lists are.
+    source: the name each error starts with (the file). folder: where the scene's relative paths start.
+
+    Returns the validated, frozen Scene. Raises SceneError, one line naming `source`, the key path and what is
+    allowed.
+    """
     where = located(source)
     data = dict(data)
     if "folder" in data:
@@ -403,13 +466,36 @@ def validate_scene(data: dict, source: str | Location = "<scene>", folder: str |
 
 
 def default_scene_path() -> Path:
-    """The built-in default scene: the lecture's figure, one sphere in flat, Gouraud and Phong shading."""
+    """The built-in default scene: the lecture's figure, one sphere in flat, Gouraud and Phong shading.
+
+    Parameters: none. Returns the Path of raycast_phong/data/default.toml. Raises nothing."""
     return Path(__file__).parents[1] / "data" / "default.toml"  # raycast_phong/data
 
 
+# What the loader checks and no JSON Schema can say: a vector's length, one key against another, the scene as a
+# whole, and the files a scene names. The schema accepts these scenes; the loader refuses them with one line.
+BEYOND_THE_SCHEMA = (
+    f"camera.up and a light's direction: a length in [{DIRECTION_RANGE[0]:g}, {DIRECTION_RANGE[1]:g}], not zero",
+    "camera.look_at at least 1e-150 from camera.position; camera.up not parallel to look_at − position",
+    "an object's material: defined under [materials] (or \"default\")",
+    "render: width × height × samples² at most 2³¹ − 1 rays",
+    "the lights together: 1 + ambient + Σ f_att (ambient + diffuse + specular) at most 1e38 in each channel",
+    "files: mesh files and maps exist and read; output.path stays inside the scene's folder; every placed "
+    "vertex within ±1e18 and the scene's half-extent at least 1e-12 (docs/scene-format.md, \"Number ranges\")",
+    "TOML's inf and nan, which JSON cannot write: only shininess = inf is accepted",
+)
+
+
 def scene_json_schema() -> dict:
-    """The JSON Schema of the scene format, published as docs/scene.schema.json."""
+    """The JSON Schema (draft 2020-12) of the scene format, published as docs/scene.schema.json.
+
+    Generated from the models above, so it accepts what the loader accepts, shorthands included (one number for
+    a triple, a map's file name alone); what it cannot say is BEYOND_THE_SCHEMA, written into its $comment."""
     schema = Scene.model_json_schema(mode="validation")
     schema["properties"].pop("folder", None)
-    schema["title"] = "raycast-phong scene, format version 1"
-    return schema
+    return {"$schema": "https://json-schema.org/draft/2020-12/schema",
+            "title": "raycast-phong scene, format version 1",
+            "description": "A scene file of raycast-phong (TOML, or JSON of the same structure); docs/scene-format.md "
+                           "is its reference.",
+            "$comment": "Checked by the loader, not by this schema: " + "; ".join(BEYOND_THE_SCHEMA) + ".",
+            **{key: value for key, value in schema.items() if key not in ("title", "description")}}

@@ -87,6 +87,10 @@ def show(what: RenderResult | Iterable[RenderResult] | Scene | str | Path | None
     Returns
     -------
     Figures: shown by Jupyter as the images with their timings; `.results` holds the RenderResults.
+
+    Raises
+    ------
+    SceneError for a scene or file that cannot be loaded or rendered (as load_scene and render).
     """
     if isinstance(what, RenderResult):
         return Figures([what])

@@ -713,9 +713,9 @@ def summary_markdown(study: Study, plots: dict) -> str:
     return "\n".join(lines)
 
 
-OUTPUTS = {"csv": "study.csv", "plot": "error_vs_time.png", "silhouette": "silhouette.png",
-           "highlight": "highlight.png", "orders": "orders.png", "errors": "error_images.png",
-           "summary": "summary.md", "report": "report.html"}
+OUTPUTS = {"csv": "study.csv", "plot": "error_vs_time.png", "convergence": "convergence.png",
+           "silhouette": "silhouette.png", "highlight": "highlight.png", "orders": "orders.png",
+           "errors": "error_images.png", "summary": "summary.md", "report": "report.html"}
 
 
 def check_study_folder(folder: Path, scene: str | Path) -> None:

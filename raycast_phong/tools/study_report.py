@@ -7,11 +7,15 @@ One figure per question (study.OUTPUTS names the files):
 - silhouette.png: silhouette RMSE against samples per pixel (one curve per level), and the whole-image
   error against time to image with its own front (samples trade cost for aliasing);
 - highlight.png: highlight loss against level, per model and shininess;
+- convergence.png: log shading RMSE against log edge length h, one curve per model and normals, each with its
+  fitted line (the order over the last FIT_WINDOW levels) and the reference slopes 1 and 2;
 - orders.png: the local order against the edge length in highlight widths (h √f), per model, normals and
   shininess: Gouraud's crossover to 2 once the edges are well below the highlight's width;
 - error_images.png: per model, the render, the reference and the per-pixel error (difference.heat_map).
 report.html embeds them (base64 PNG) with the tables, the fitted orders, the advice and the machine's noise.
 matplotlib (Agg: files only, never a window) is imported here only, so only the study pays for it.
+Every panel has its legend; a level axis has integer ticks; where the timing rounds were noise (the machine's
+median spread above NOISY_SPREAD) a time axis says so and no "fastest" star is drawn from it.
 """
 
 from __future__ import annotations
@@ -32,6 +36,7 @@ from .difference import heat_map
 from .study import (
     FIT_WINDOW,
     OUTPUTS,
+    THEORY,
     Study,
     StudyRow,
     advice,
@@ -45,19 +50,29 @@ from .study import (
     problems,
     rows_table,
     setting_label,
+    slope,
     summary_markdown,
     write_csv,
 )
 
 COLOURS = {"flat": "tab:blue", "gouraud": "tab:orange", "phong": "tab:green"}
+# A point's median run this much slower than its fastest (the median over the points): the order of the times
+# along an axis is then the machine's, not the settings', so no setting is starred as the fastest from them. A
+# quiet machine gives a few %; a study on a load of 9 over 2 cores gave 37 % with frame times out of order.
+NOISY_SPREAD = 0.25
 STYLES = ["-", "--", ":", "-."]
 CAPTIONS = {
     "plot": "Shading RMSE against time to image (left) and frame time (right). Coloured: one curve per model at "
             "the first value of the other axes, in level order; grey: every other setting; black: the Pareto "
-            "front of all settings, labelled; star: the fastest setting that reaches the target.",
-    "silhouette": "Left: silhouette RMSE (pixels either image covers only partly, against a supersampled "
-                  "reference) against samples per pixel side, one curve per level. Right: the whole image's "
-                  "RMSE against time to image, every setting, with its Pareto front.",
+            "front of all settings, labelled; star: the fastest setting that reaches the target (none where the "
+            "timing rounds were noise).",
+    "silhouette": "Left (when more than one sample count was swept): silhouette RMSE (pixels either image covers "
+                  "only partly, against a supersampled reference) against samples per pixel side, one curve per "
+                  "level. Right: the whole image's RMSE against time to image, every setting, with its Pareto "
+                  "front.",
+    "convergence": "Shading RMSE against the mean edge length h, log–log, one curve per model and normals; dashed: "
+                   f"the fitted line over the last {FIT_WINDOW} levels (its slope is the order in the table); grey: "
+                   "slopes 1 and 2 through the finest point of the first curve.",
     "highlight": "Highlight loss (share of the reference's specular peak the render misses) against level.",
     "orders": "Local convergence order (slope between successive levels) against the edge length measured in "
               "highlight widths, h·√f (for a unit radius). Theory: 1 for flat, 2 for Gouraud and Phong.",
@@ -81,6 +96,23 @@ def _pyplot():
     return plt
 
 
+def noisy(study: Study) -> bool:
+    """Whether the study's timing rounds were noise (NOISY_SPREAD)."""
+    return study.noise is not None and study.noise.median_spread > NOISY_SPREAD
+
+
+def _noise_note(axes, study: Study) -> None:
+    """Say on a time axis that its times are noise, with the figure the caption's machine line gives."""
+    axes.text(0.02, 0.98, f"timing noise: a point's median run {100 * study.noise.median_spread:.0f} % above its "
+              "fastest;\ntimes are not comparable, no fastest setting marked", transform=axes.transAxes,
+              fontsize=7, va="top", color="tab:red", bbox={"facecolor": "white", "alpha": 0.8, "lw": 0})
+
+
+def _integer_ticks(axis) -> None:
+    from matplotlib.ticker import MaxNLocator
+    axis.set_major_locator(MaxNLocator(integer=True))
+
+
 def _encode(figure) -> bytes:
     encoded = io.BytesIO()  # encode in memory: the file itself is written, checked and renamed by write_bytes
     figure.savefig(encoded, format="png")
@@ -98,7 +130,7 @@ def _is_base(row: StudyRow, base: tuple) -> bool:
     return (row.normals, row.precision, row.samples) == base
 
 
-def _front_axes(axes, rows: list[StudyRow], cost: str, target: float, label_front: bool) -> None:
+def _front_axes(axes, rows: list[StudyRow], cost: str, target: float, label_front: bool, noise: bool) -> None:
     base = _base(rows)
     others = [r for r in rows if not _is_base(r, base)]
     if others:
@@ -117,57 +149,70 @@ def _front_axes(axes, rows: list[StudyRow], cost: str, target: float, label_fron
                 axes.annotate(setting_label(r), (getattr(r, cost) * 1e3, r.rmse), textcoords="offset points",
                               xytext=(4, 3), fontsize=6)
     axes.axhline(target, color="tab:red", lw=0.8, ls="--", label=f"target {target:g}")
-    best = fastest(rows, target)
+    best = None if noise else fastest(rows, target)
     if best is not None:
-        axes.plot([getattr(best, cost) * 1e3], [best.rmse], "*", ms=13, color="tab:red", zorder=4)
+        axes.plot([getattr(best, cost) * 1e3], [best.rmse], "*", ms=13, color="tab:red", zorder=4,
+                  label="fastest to the target")
     axes.set_xscale("log")
     axes.set_yscale("log")
     axes.grid(True, which="both", alpha=0.3)
 
 
-def front_figure(study: Study) -> bytes:
+def front_figure(study: Study):
     plt = _pyplot()
     groups = list(problems(study.rows).values())
     figure, grid = plt.subplots(len(groups), 2, figsize=(11, 4.6 * len(groups)), dpi=100, squeeze=False)
     for rows, (left, right) in zip(groups, grid):
-        _front_axes(left, rows, "seconds_total", study.target, True)
-        _front_axes(right, rows, "seconds", study.target, False)
+        _front_axes(left, rows, "seconds_total", study.target, True, noisy(study))
+        _front_axes(right, rows, "seconds", study.target, False, noisy(study))
         left.set_xlabel("time to image, ms (stage minima, monotone fit)")
         right.set_xlabel("frame time, ms (rays + shading, min over the rounds)")
         left.set_ylabel("shading RMSE (pixels both cover)")
         left.set_title(f"{Path(study.scene).name}: {problem_label(rows[0])}", fontsize=9)
-        left.legend(fontsize=7, loc="lower left")
+        for axes in (left, right):
+            axes.legend(fontsize=7, loc="best")
+            if noisy(study):
+                _noise_note(axes, study)
     figure.tight_layout()
-    return _encode(figure)
+    return figure
 
 
-def silhouette_figure(study: Study) -> bytes:
+def silhouette_figure(study: Study):
     plt = _pyplot()
     rows = next(iter(problems(study.rows).values()))
     model = rows[-1].model  # the last model swept (phong by default): its shading error is smallest
     first = rows[0]
-    figure, (left, right) = plt.subplots(1, 2, figsize=(11, 4.4), dpi=100)
     mine = [r for r in rows if r.model == model and (r.normals, r.precision) == (first.normals, first.precision)]
-    levels = sorted({r.level for r in mine})
-    colours = plt.get_cmap("viridis")(np.linspace(0, 0.9, max(len(levels), 1)))
-    for colour, level in zip(colours, levels):
-        points = sorted((r for r in mine if r.level == level), key=lambda r: r.samples)
-        left.plot([r.samples for r in points], [r.silhouette_rmse for r in points], "-o", ms=4, color=colour,
-                  label=f"level {level} ({points[0].triangles:,} tri)")
-    left.set_xscale("log", base=2)
-    left.set_yscale("log")
-    left.set_xlabel("samples per pixel side (n × n rays per pixel)")
-    left.set_ylabel("silhouette RMSE")
-    left.set_title(f"{model}, {problem_label(first)}" + ("" if len({r.samples for r in mine}) > 1 else
-                                                         " (one sample count swept)"), fontsize=9)
-    left.legend(fontsize=7)
-    left.grid(True, which="both", alpha=0.3)
+    counts = sorted({r.samples for r in mine})
+    # A sweep over one sample count is one x value, no curve: the left panel is drawn only for a real sweep.
+    figure, panels = plt.subplots(1, 2 if len(counts) > 1 else 1, figsize=(11 if len(counts) > 1 else 6.5, 4.4),
+                                  dpi=100, squeeze=False)
+    *left, right = panels[0]
+    if left:
+        left = left[0]
+        levels = sorted({r.level for r in mine})
+        colours = plt.get_cmap("viridis")(np.linspace(0, 0.9, max(len(levels), 1)))
+        for colour, level in zip(colours, levels):
+            points = sorted((r for r in mine if r.level == level), key=lambda r: r.samples)
+            left.plot([r.samples for r in points], [r.silhouette_rmse for r in points], "-o", ms=4, color=colour,
+                      label=f"level {level} ({points[0].triangles:,} tri)")
+        left.set_xscale("log", base=2)
+        left.set_xticks(counts, [str(n) for n in counts])  # the sample counts swept, whole numbers
+        left.minorticks_off()
+        left.set_yscale("log")
+        left.set_xlabel("samples per pixel side (n × n rays per pixel)")
+        left.set_ylabel("silhouette RMSE")
+        left.set_title(f"{model}, {problem_label(first)}", fontsize=9)
+        left.legend(fontsize=7)
+        left.grid(True, which="both", alpha=0.3)
     finite = [r for r in rows if r.image_rmse > 0]
-    right.scatter([r.seconds_total * 1e3 for r in finite], [r.image_rmse for r in finite], s=10,
-                  c=[COLOURS.get(r.model, "black") for r in finite])
+    for name in dict.fromkeys(r.model for r in finite):
+        mine_model = [r for r in finite if r.model == name]
+        right.scatter([r.seconds_total * 1e3 for r in mine_model], [r.image_rmse for r in mine_model], s=10,
+                      color=COLOURS.get(name, "black"), label=name)
     front = [r for r in pareto_front(finite, error="image_rmse") if r.image_rmse > 0]
     right.step([r.seconds_total * 1e3 for r in front], [r.image_rmse for r in front], where="post", color="black",
-               lw=1.2)
+               lw=1.2, label="Pareto front")
     for r in front:
         right.annotate(setting_label(r), (r.seconds_total * 1e3, r.image_rmse), textcoords="offset points",
                        xytext=(4, 3), fontsize=6)
@@ -176,11 +221,16 @@ def silhouette_figure(study: Study) -> bytes:
     right.set_xlabel("time to image, ms")
     right.set_ylabel("whole-image RMSE against the supersampled reference")
     right.grid(True, which="both", alpha=0.3)
+    if len(counts) == 1:
+        right.set_title(f"one sample count ({counts[0]}): no silhouette sweep (study --samples 1,2,4)", fontsize=9)
+    right.legend(fontsize=7, loc="lower left")
+    if noisy(study):
+        _noise_note(right, study)
     figure.tight_layout()
-    return _encode(figure)
+    return figure
 
 
-def highlight_figure(study: Study) -> bytes:
+def highlight_figure(study: Study):
     plt = _pyplot()
     figure, axes = plt.subplots(figsize=(9.5, 4.6), dpi=100)
     base = _base(study.rows)
@@ -197,12 +247,13 @@ def highlight_figure(study: Study) -> bytes:
     axes.set_xlabel("tessellation level (triangles ×4 per level)")
     axes.set_ylabel("highlight loss (0 all delivered, 1 none)")
     axes.set_ylim(-0.02, 1.02)
+    _integer_ticks(axes.xaxis)
     axes.grid(True, alpha=0.3)
     axes.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
     axes.set_title(f"{Path(study.scene).name}: the specular peak, {base[0]} normals, {base[1]}, {base[2]} spp",
                    fontsize=9)
     figure.tight_layout()
-    return _encode(figure)
+    return figure
 
 
 def highlight_widths(row: StudyRow, scene_shininess: float) -> float:
@@ -211,7 +262,49 @@ def highlight_widths(row: StudyRow, scene_shininess: float) -> float:
     return row.edge_length * math.sqrt(f) if f > 0 and math.isfinite(f) else row.edge_length
 
 
-def orders_figure(study: Study) -> bytes:
+def convergence_figure(study: Study):
+    """log RMSE against log h per curve (model and normals, at the first precision, samples, specular and
+    shininess), with the fitted line of its order and the reference slopes 1 and 2."""
+    plt = _pyplot()
+    figure, axes = plt.subplots(figsize=(10, 4.8), dpi=100)
+    first = study.rows[0]
+    drawn = [(key, [r for r in curve if r.rmse > 0 and math.isfinite(r.rmse)]) for key, curve in curves(
+        [r for r in study.rows if (r.precision, r.samples, r.specular, r.shininess) ==
+         (first.precision, first.samples, first.specular, first.shininess)]).items()]
+    drawn = [(key, curve) for key, curve in drawn if len(curve) >= 2]
+    normals = list(dict.fromkeys(key[1] for key, _ in drawn))
+    markers = ["o", "s", "^", "D"]
+    for key, curve in drawn:
+        h = np.array([r.edge_length for r in curve])
+        error = np.array([r.rmse for r in curve])
+        colour = COLOURS.get(key[0], "black")
+        name = key[0] + ("" if key[1] == "scene" else f", {key[1]} normals")
+        axes.plot(h, error, "-", marker=markers[normals.index(key[1]) % 4], ms=4, lw=1, color=colour, label=name)
+        window = slice(-min(FIT_WINDOW, len(curve)), None)  # the fit's levels: the finest FIT_WINDOW
+        order = slope(curve[window])  # the order the table gives (fit_orders), and its least-squares intercept
+        intercept = float(np.mean(np.log(error[window]) - order * np.log(h[window])))
+        axes.plot(h[window], np.exp(intercept) * h[window] ** order, "--", lw=1.6, color=colour, alpha=0.8,
+                  label=f"{name}: fit, order {order:.2f} (theory {THEORY[key[0]]:g})")
+    if drawn:
+        h = np.array([r.edge_length for r in drawn[0][1]])
+        finest, error = h[-1], drawn[0][1][-1].rmse
+        for reference, style in ((1, ":"), (2, "-.")):
+            axes.plot(h, error * (h / finest) ** reference, style, color="0.5", lw=1, label=f"slope {reference}")
+    else:
+        axes.set_title("fewer than two levels with an error: no convergence to show", fontsize=9)
+    axes.set_xscale("log")
+    axes.set_yscale("log")
+    axes.invert_xaxis()  # finer to the right, as the orders plot
+    axes.set_xlabel("mean edge length h, world units (finer →)")
+    axes.set_ylabel("shading RMSE (pixels both cover)")
+    axes.grid(True, which="both", alpha=0.3)
+    if drawn:
+        axes.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
+    figure.tight_layout()
+    return figure
+
+
+def orders_figure(study: Study):
     plt = _pyplot()
     figure, axes = plt.subplots(figsize=(10, 4.8), dpi=100)
     first = study.rows[0]
@@ -240,10 +333,10 @@ def orders_figure(study: Study) -> bytes:
     else:
         axes.set_title("one level only: no order to show", fontsize=9)
     figure.tight_layout()
-    return _encode(figure)
+    return figure
 
 
-def error_figure(study: Study) -> bytes:
+def error_figure(study: Study):
     plt = _pyplot()
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import ListedColormap, Normalize
@@ -266,18 +359,19 @@ def error_figure(study: Study) -> bytes:
         axes.set_xticks([])
         axes.set_yticks([])
     figure.tight_layout()
-    return _encode(figure)
+    return figure
 
 
-FIGURES = {"plot": front_figure, "silhouette": silhouette_figure, "highlight": highlight_figure,
-           "orders": orders_figure, "errors": error_figure}
+# Each draws a matplotlib Figure (the tests read its panels); write_plots encodes and closes it.
+FIGURES = {"plot": front_figure, "convergence": convergence_figure, "silhouette": silhouette_figure,
+           "highlight": highlight_figure, "orders": orders_figure, "errors": error_figure}
 
 
 def write_plots(study: Study, paths: dict[str, Path]) -> dict[str, Plot]:
     """Every figure encoded in memory and written atomically, in FIGURES' order. Raises WriteError."""
     written = {}
     for key, draw in FIGURES.items():
-        png = draw(study)
+        png = _encode(draw(study))
         write_bytes(paths[key], png)
         written[key] = Plot(paths[key], png, CAPTIONS[key])
     return written
@@ -347,7 +441,7 @@ def report_html(study: Study, plots: dict[str, Plot]) -> str:
         "<h2>Fitted convergence orders</h2>",
         f"<p>Least-squares slope of log RMSE against log mean edge length over each curve's last {FIT_WINDOW} levels "
         "(the asymptotic order), the window one level coarser, and all levels.</p>",
-        _table(fits_table(study)), _figure(plots["orders"]),
+        _table(fits_table(study)), _figure(plots["convergence"]), _figure(plots["orders"]),
         "<h2>Silhouettes and samples</h2>", _figure(plots["silhouette"]),
         "<h2>Highlights</h2>", _figure(plots["highlight"]),
         "<h2>Where the error lives</h2>", _figure(plots["errors"]),
@@ -371,7 +465,7 @@ def write_study(study: Study, folder: Path) -> dict[str, Path]:
         raise OutputError(f"{folder}: cannot create the output folder ({error.strerror})") from None
     written = {key: folder / name for key, name in OUTPUTS.items()}
     write_csv(study, written["csv"])
-    plots = write_plots(study, {key: written[key] for key in ("plot", "silhouette", "highlight", "orders", "errors")})
+    plots = write_plots(study, {key: written[key] for key in FIGURES})
     write_text(written["summary"], summary_markdown(study, plots))
     write_text(written["report"], report_html(study, plots))
     return written

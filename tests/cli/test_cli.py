@@ -232,8 +232,8 @@ def test_study_command_writes_its_report_and_files(tmp_path):
                                       "--repeats", "1", "--normals", "mean,exact", "--out", str(tmp_path / "s")])
     assert result.exit_code == 0, result.output
     assert {p.name for p in (tmp_path / "s").iterdir()} == {
-        "study.csv", "error_vs_time.png", "silhouette.png", "highlight.png", "orders.png", "error_images.png",
-        "summary.md", "report.html"}
+        "study.csv", "error_vs_time.png", "convergence.png", "silhouette.png", "highlight.png", "orders.png",
+        "error_images.png", "summary.md", "report.html"}
     assert "order" in result.output and "RMSE 0.005" in result.output and "machine:" in result.output
     bad = CliRunner().invoke(app, ["study", "--normals", "file", "--out", str(tmp_path / "u")])
     assert bad.exit_code == 2 and "--normals: 'file' is not one of mean, area, angle, exact" in bad.output

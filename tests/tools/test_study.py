@@ -240,7 +240,7 @@ def test_small_study_writes_report_csv_plots_and_summary(tmp_path):
     rows = read_csv(written["csv"])
     assert set(REQUIRED) <= set(rows[0]) and list(rows[0]) == CSV_COLUMNS
     assert len(rows) == 3 * 3 * 2
-    for key in ("plot", "silhouette", "highlight", "orders", "errors"):
+    for key in ("plot", "convergence", "silhouette", "highlight", "orders", "errors"):
         assert written[key].read_bytes()[:8] == PNG and written[key].stat().st_size > 10_000
     summary = written["summary"].read_text()
     assert "order (last 3 levels)" in summary and "Fastest to RMSE" in summary and "error_vs_time.png" in summary
@@ -249,7 +249,7 @@ def test_small_study_writes_report_csv_plots_and_summary(tmp_path):
     page.feed(written["report"].read_text())
     page.close()
     assert page.open == [] and page.tables >= 4
-    assert len(page.images) == 5
+    assert len(page.images) == 6
     for source in page.images:
         assert source.startswith("data:image/png;base64,")
         assert base64.b64decode(source.split(",", 1)[1], validate=True)[:8] == PNG

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from pydantic import Field
 
 from ...scene.fields import KindKeys, lengths
 from .kind import ShapeKind
@@ -40,7 +41,8 @@ def box_uv(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 
 class BoxKeys(KindKeys):
-    size: lengths(3, "[x, y, z]") | None = None  # (2, 2, 2)
+    """A box centred on the origin, its sides along the axes."""
+    size: lengths(3, "[x, y, z]") | None = Field(None, description="[x, y, z], default [2, 2, 2]")
 
 
 class Box(ShapeKind):

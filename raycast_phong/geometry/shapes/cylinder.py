@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from pydantic import Field
 
 from ...scene.fields import KindKeys, Length, Segments
 from .kind import ShapeKind, doublings
@@ -30,9 +31,10 @@ def cylinder_uv(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 
 class CylinderKeys(KindKeys):
-    radius: Length = 1.0
-    height: Length = 2.0  # along the local z axis
-    segments: Segments | None = None  # (32, 1): sections around; the second is unused
+    """A closed cylinder about its local z axis, centred on the origin."""
+    radius: Length = Field(1.0, description="the radius")
+    height: Length = Field(2.0, description="along its local z axis")
+    segments: Segments | None = Field(None, description="[sections around, unused], default [32, 1]")
 
 
 class Cylinder(ShapeKind):

@@ -59,8 +59,10 @@ MAX_SUBDIVISIONS = 8  # 20·4^8 = 1.3 M triangles an object: finer is a mesh fil
 
 
 class IcosphereKeys(KindKeys):
-    radius: Length = 1.0
-    subdivisions: Whole = Field(2, ge=0, le=MAX_SUBDIVISIONS)
+    """A sphere from an icosahedron whose faces are subdivided and pushed onto the sphere."""
+    radius: Length = Field(1.0, description="the radius")
+    subdivisions: Whole = Field(2, ge=0, le=MAX_SUBDIVISIONS, description=(
+        "each subdivision splits every face of the icosahedron into four: 20·4^n faces"))
 
 
 class Icosphere(ShapeKind):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from pydantic import Field
 
 from ...scene.fields import KindKeys, Segments, lengths
 from .kind import ShapeKind, doublings
@@ -33,8 +34,10 @@ def planar_uv(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 
 class PlaneKeys(KindKeys):
-    size: lengths(2, "[width, depth]") | None = None  # (2, 2), in its local x–z plane
-    segments: Segments | None = None  # (1, 1): cells along x and z
+    """A flat grid in its local x–z plane, normal +y, one-sided as every face is."""
+    size: lengths(2, "[width, depth]") | None = Field(None, description=(
+        "[width, depth] in its local x–z plane (normal +y), default [2, 2]"))
+    segments: Segments | None = Field(None, description="[x, z] cells, default [1, 1]")
 
 
 class Plane(ShapeKind):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from pydantic import Field
 
 from ...scene.fields import KindKeys, Length, Segments
 from .kind import ShapeKind, doublings
@@ -28,9 +29,10 @@ def torus_uv(vertices: np.ndarray, faces: np.ndarray, major_radius: float) -> np
 
 
 class TorusKeys(KindKeys):
-    major_radius: Length = 1.0  # of the tube's centre circle
-    minor_radius: Length = 0.25  # of the tube
-    segments: Segments | None = None  # (32, 16): steps around z, steps around the tube
+    """A torus about its local z axis."""
+    major_radius: Length = Field(1.0, description="the radius of the tube's centre circle")
+    minor_radius: Length = Field(0.25, description="the radius of the tube")
+    segments: Segments | None = Field(None, description="[steps around z, steps around the tube], default [32, 16]")
 
 
 class Torus(ShapeKind):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from pydantic import Field
 
 from ...scene.fields import KindKeys, Length, Segments
 from .kind import ShapeKind, doublings
@@ -20,8 +21,11 @@ def uv_sphere(segments) -> tuple[np.ndarray, np.ndarray]:
 
 
 class UvSphereKeys(KindKeys):
-    radius: Length = 1.0
-    segments: Segments | None = None  # (32, 16): points from pole to pole, half the steps around
+    """A sphere of latitude and longitude lines, its poles on the local z axis."""
+    radius: Length = Field(1.0, description="the radius")
+    segments: Segments | None = Field(None, description=(
+        "[a, b]: a points from pole to pole, 2b steps around, each rounded up to even (trimesh's count); default "
+        "[32, 16]"))
 
 
 class UvSphere(ShapeKind):

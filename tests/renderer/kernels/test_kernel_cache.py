@@ -82,8 +82,8 @@ def test_the_cache_key_covers_every_module_a_kernel_reads_and_only_those(package
     # (renderer/pack.py).
     edit(copy / "scene" / "fields.py", 'raise ValueError(f"must be a whole number, got {shown(value)}")',
          'raise ValueError(f"must be an integer, got {shown(value)}")')
-    edit(copy / "geometry" / "shapes" / "box.py", '    size: lengths(3, "[x, y, z]") | None = None',
-         '    size: lengths(3, "[x, y, z]") | None = None\n    bevel: float = 0.0')
+    edit(copy / "geometry" / "shapes" / "box.py", '    """A box centred on the origin, its sides along the axes."""',
+         '    """A box centred on the origin, its sides along the axes."""\n    bevel: float = 0.0')
     (copy / "renderer" / "pack.py").write_text((copy / "renderer" / "pack.py").read_text() + "\n# an edit\n")
     assert run(KEY) == key
     # ... while the layout the kernels read is.

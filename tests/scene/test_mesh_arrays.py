@@ -1,0 +1,96 @@
+"""A mesh given as arrays or a trimesh.Trimesh (rp.mesh_scene) goes the way a mesh file goes, without a file: the
+same image as the same mesh written to a file and loaded, the same checks of its values, the memory estimate
+counting its triangles before anything is built, and no file looked for under its placeholder path."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+import raycast_phong as rp
+from raycast_phong.renderer.budget import estimate_memory
+
+SIZE = ["render.width=48", "render.height=36"]
+
+
+@pytest.fixture(scope="module")
+def sphere():
+    return trimesh.creation.icosphere(subdivisions=2)
+
+
+def test_arrays_render_as_the_same_mesh_read_from_a_file(sphere, tmp_path):
+    given = rp.mesh_scene(np.asarray(sphere.vertices), np.asarray(sphere.faces), overrides=SIZE)
+    also = rp.mesh_scene(sphere, overrides=SIZE)
+    path = tmp_path / "ball.ply"
+    sphere.export(path, encoding="ascii")
+    from_file = rp.load_scene(path, SIZE)
+    images = [rp.render(scene).image for scene in (given, also, from_file)]
+    np.testing.assert_array_equal(images[0], images[1])
+    np.testing.assert_allclose(images[0], images[2], atol=1e-5)  # the PLY's text rounds the coordinates
+    # framed as the file is (to the PLY's rounding of the bounds)
+    np.testing.assert_allclose(given.camera.position, from_file.camera.position, rtol=1e-6)
+    np.testing.assert_allclose(given.lights[0].position, from_file.lights[0].position, rtol=1e-6)
+    assert (images[0] > 0).any()
+
+
+def test_the_estimate_counts_the_held_triangles_and_refuses_past_the_budget():
+    fine = trimesh.creation.icosphere(subdivisions=5)
+    scene = rp.mesh_scene(fine, overrides=SIZE)
+    found = estimate_memory(scene)
+    assert found.triangles == len(fine.faces) == 20480 and found.geometry > found.image
+    with pytest.raises(rp.SceneError, match=r"objects\.0\.path: '<arrays \d+>' needs .* \(20,480 triangles"):
+        rp.render(scene, max_memory=found.geometry)
+
+
+def test_no_file_is_looked_for_and_replace_keeps_the_mesh(sphere, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # an empty folder: nothing named like the placeholder exists
+    scene = rp.mesh_scene(sphere, overrides=SIZE).replace({"render.width": 32, "materials.default.kd": 0.5})
+    assert scene.objects[0].path.startswith("<arrays ")
+    assert rp.render(scene).image.shape == (36, 32, 3)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_arrays_are_copied_when_the_scene_is_made(sphere):
+    vertices = np.array(sphere.vertices)
+    scene = rp.mesh_scene(vertices, np.asarray(sphere.faces), overrides=SIZE)
+    before = rp.render(scene).image
+    vertices *= 0.5
+    np.testing.assert_array_equal(rp.render(scene).image, before)
+
+
+@pytest.mark.parametrize(("vertices", "faces", "line"), [
+    ([[0, 0, 0], [1, 0, 0], [np.nan, 1, 0]], [[0, 1, 2]], "mesh_scene: vertices: 1 vertex(es) of a face with NaN"),
+    ([[0, 0, 0], [1, 0, 0], [0, 2e18, 0]], [[0, 1, 2]], "beyond ±1e+18"),
+    ([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 3]], "mesh_scene: faces: faces name vertex 3, but the mesh has 3"),
+    ([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.zeros((0, 3), int), "the mesh has no faces"),
+    ([[0, 0, 0], [0, 0, 0], [0, 0, 0]], [[0, 1, 2]], "every vertex of the model lies within"),
+])
+def test_values_a_file_would_be_refused_for_are_one_line(vertices, faces, line):
+    with pytest.raises(rp.SceneError) as error:
+        rp.mesh_scene(np.asarray(vertices, float), faces)
+    assert line in str(error.value) and "\n" not in str(error.value)
+
+
+@pytest.mark.parametrize(("vertices", "faces", "words"), [
+    (np.zeros((3, 2)), [[0, 1, 2]], "vertices must be an array of shape (N, 3) of real numbers, got shape (3, 2)"),
+    (np.eye(3), [[0.0, 1.0, 2.0]], "faces must be an array of shape (N, 3) of whole numbers"),
+    (np.eye(3), [0, 1, 2], "got shape (3,)"),
+])
+def test_arrays_of_the_wrong_shape_or_kind_say_what_is_wanted(vertices, faces, words):
+    with pytest.raises(ValueError, match=None) as error:
+        rp.mesh_scene(vertices, faces)
+    assert words in str(error.value)
+
+
+def test_given_normals_shade_as_a_files_own(sphere):
+    """Normals given with the arrays are the object's own ("file") normals: the sphere's exact ones shade as the
+    built-in icosphere of the same triangles with normals = "exact"."""
+    exact = np.asarray(sphere.vertices) / np.linalg.norm(sphere.vertices, axis=1)[:, None]
+    given = rp.mesh_scene(sphere, normals=exact, overrides=SIZE)
+    assert given.objects[0].crease_angle == 180  # a file that stores normals is not creased
+    built = given.replace({"objects.0": {"shape": "icosphere", "subdivisions": 2, "normals": "exact"}})
+    without = rp.mesh_scene(sphere, overrides=SIZE)
+    image = rp.render(given).image
+    np.testing.assert_allclose(image, rp.render(built).image, atol=2e-5)
+    assert np.abs(image - rp.render(without).image).max() > 1e-3  # the mean normals the mesh alone gets differ
