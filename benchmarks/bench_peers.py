@@ -31,8 +31,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_mesh import cpu  # noqa: E402  (the CPU line every benchmark prints)
-from make_scans import scan  # noqa: E402
+from bench_mesh import cpu  # the CPU line every benchmark prints
+from make_scans import scan
 
 
 def timed(step) -> tuple[float, float]:

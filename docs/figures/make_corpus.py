@@ -6,6 +6,8 @@ Each `[[model]]` of the manifest names a repository, a commit and the file's pat
 OUT/PATH with the side files it needs to render as its authors meant: for an OBJ its `mtllib` files and the maps
 they name, for a .gltf its buffers and images (relative `uri`s, percent-decoded), and for every model the files
 beside it whose suffix is a side file's (.mtl, .bin, images). Files over 50 MB are skipped, with a line saying so.
+`--report` prints instead the person's check the manifest records (each model's `verdict` and `why`): the counts
+and the models rendered wrong or refused, as the Markdown docs/meshes.md shows.
 The snapshots are bare git directories (`MIRRORS/OWNER+NAME/repo`), read with `git show COMMIT:PATH`: nothing is
 downloaded. The corpus lives outside the repository (its licences vary; the manifest names each one).
 """
@@ -55,7 +57,7 @@ def referenced(snap: Snapshot, path: str) -> set[str]:
         for line in text.splitlines():
             if line.startswith("mtllib"):
                 names = [name.replace("\\ ", " ") for name in re.split(r"(?<!\\)\s+", line[6:].strip()) if name]
-                found.update(posixpath.normpath(posixpath.join(folder, n)) for n in names + [line[6:].strip()])
+                found.update(posixpath.normpath(posixpath.join(folder, n)) for n in [*names, line[6:].strip()])
         for mtl in [p for p in found if p in snap.sizes and 0 <= snap.sizes[p] < LIMIT]:
             for line in snap.read(mtl).decode("utf-8", "replace").splitlines():
                 if match := MAP.match(line):
@@ -102,12 +104,33 @@ def build(manifest: Path, mirrors: Path, out: Path) -> int:
     return written
 
 
+def report(manifest: Path) -> None:
+    """The manifest's verdicts as Markdown: the counts, then each model that is not right, by verdict."""
+    models = tomllib.loads(manifest.read_text())["model"]
+    counts = {v: sum(m.get("verdict") == v for m in models)
+              for v in ("right", "wrong", "refused-wrongly", "refused-correctly")}
+    valid = counts["right"] + counts["wrong"] + counts["refused-wrongly"]
+    print(f"{len(models)} models from {len({m['repo'] for m in models})} projects: {counts['right']} right, "
+          f"{counts['wrong']} wrong, {counts['refused-wrongly']} valid files refused, {counts['refused-correctly']} "
+          f"broken files refused correctly; {counts['right']} of {valid} valid files right "
+          f"({100 * counts['right'] / valid:.1f} %).")
+    for verdict in ("wrong", "refused-wrongly", "refused-correctly"):
+        print(f"\n{verdict}:\n")
+        for k, m in enumerate(models):
+            if m.get("verdict") == verdict:
+                print(f"- {k} `{m['path'].split('+', 1)[1]}` ({m['repo'].split('/')[0]}): {m.get('why', '')}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--manifest", type=Path, default=MANIFEST)
     parser.add_argument("--mirrors", type=Path, default=Path("/work/.mirror"))
     parser.add_argument("--out", type=Path, default=Path("/work/corpus"))
+    parser.add_argument("--report", action="store_true")
     args = parser.parse_args()
+    if args.report:
+        report(args.manifest)
+        return
     build(args.manifest, args.mirrors, args.out)
 
 

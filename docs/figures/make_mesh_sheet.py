@@ -4,13 +4,14 @@
     .venv/bin/python docs/figures/make_mesh_sheet.py --manifest docs/figures/corpus.toml [--root /work/corpus]
         [OUT.png] [--tiles DIR] [--table docs/meshes/corpus.csv] [--parts DIR]
 
-Each model is rendered by `raycast-phong render MODEL` (its own materials, the framing camera, the key
-light) at 200 × 150, one after another, in this process (the CLI's app; `--processes`: a new process each), and labelled with its number and file name and, when it is
-refused, the start of the one-line error. With `--manifest` (docs/figures/corpus.toml, the public corpus of
-issue 33, rebuilt by docs/figures/make_corpus.py) the models are the manifest's, in its order; `--table`
-writes one row per model (number, path, format, exit status, seconds, the last line the command printed
-to stderr) and `--tiles` keeps each picture and its row (NNN.png and NNN.json, the number of the row; `--resume` keeps
-those made); `--parts` writes the sheet again in pages of 24 tiles, for a person's check.
+Each model is rendered by `raycast-phong render MODEL` (its own materials, the framing camera, the key light) at
+200 × 150, one after another, in this process (the CLI's app; `--processes`: a new process each), and labelled
+with its number and file name and, when it is refused, the start of the one-line error. With `--manifest`
+(docs/figures/corpus.toml, the public corpus of issue 33, rebuilt by docs/figures/make_corpus.py) the models are
+the manifest's, in its order; `--table` writes one row per model (number, path, format, exit status, seconds, the
+last line the command printed to stderr) and `--tiles` keeps each picture and its row (NNN.png and NNN.json, the
+number of the row; `--resume` keeps those made); `--parts` writes the sheet again in pages of 24 tiles, for a
+person's check.
 `FOLDER = tests/data/models` gives the sheet of the models the tests keep.
 """
 
@@ -152,7 +153,7 @@ def main() -> None:
             writer.writerow(["number", "path", "format", "exit", "seconds", "message"])
             writer.writerows(rows)
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    sheet(tiles, labels, args.columns).save(args.out, optimize=True)
+    sheet(tiles, labels, args.columns).save(args.out, optimize=True)  # full colour: a palette shifts hues
     if args.parts:
         args.parts.mkdir(parents=True, exist_ok=True)
         for start in range(0, len(tiles), 24):
