@@ -93,7 +93,8 @@ def build(manifest: Path, mirrors: Path, out: Path) -> int:
         for path in sorted({source} | beside | referenced(snap, source)):
             target = root / path
             if snap.sizes[path] < 0 or snap.sizes[path] > LIMIT:
-                print(f"skipped {model['repo']}:{path} ({snap.sizes[path]} bytes)", file=sys.stderr)
+                why = "absent from the snapshot" if snap.sizes[path] < 0 else f"{snap.sizes[path]} bytes, over 50 MB"
+                print(f"skipped {model['repo']}:{path} ({why})", file=sys.stderr)
                 continue
             if target.is_file() and target.stat().st_size == snap.sizes[path]:
                 continue
