@@ -2,9 +2,10 @@
 subdivision, each step ×4 faces) and written as binary PLY, binary STL, GLB and OBJ into a cache folder
 outside the repository (~/.cache/raycast-phong/scans, or $RAYCAST_PHONG_SCANS); made once, then reused.
 
-Sources: the Stanford bunny (/work/corpus/bunny.ply, 16,301 faces; BUNNY to override), and the beast and the
-full-resolution Stanford bunny of alecjacobson/common-3d-test-models (data/beast.obj, 32,364 faces; BEAST to
-override, a path to the .obj; data/stanford-bunny.obj, 69,451 faces).
+Sources: the Stanford bunny (trimesh's models/bunny.ply in the corpus of docs/figures/make_corpus.py,
+/work/corpus/mikedh+trimesh/models/bunny.ply, or /work/corpus/bunny.ply; 16,301 faces; BUNNY to override), and the
+beast and the full-resolution Stanford bunny of alecjacobson/common-3d-test-models (data/beast.obj, 32,364 faces;
+BEAST to override, a path to the .obj; data/stanford-bunny.obj, 69,451 faces).
 Usage: python benchmarks/make_scans.py [--scan bunny-1m bunny-4m ...] [--formats ply stl glb obj]
 """
 
@@ -34,7 +35,9 @@ def _source(name: str):
     import trimesh
 
     if name == "bunny":
-        return trimesh.load(os.environ.get("BUNNY", "/work/corpus/bunny.ply"), process=False)
+        corpus = Path("/work/corpus/mikedh+trimesh/models/bunny.ply")
+        default = corpus if corpus.is_file() else Path("/work/corpus/bunny.ply")
+        return trimesh.load(os.environ.get("BUNNY", str(default)), process=False)
     path = os.environ.get("BEAST")
     if path and name == "beast":
         return trimesh.load(path, process=False)

@@ -270,10 +270,14 @@ def covered_colours(path, *extra) -> np.ndarray:
 def test_the_duck_is_yellow_not_white():
     """Duck.glb's base colour is all in its texture (factor 1): the body must be yellow (red and green well
     above blue) and the beak orange, as the texture shows, not white or one mean colour."""
-    colours = covered_colours(MODELS.parent / "corpus" / "Duck.glb") if (MODELS.parent / "corpus").is_dir() \
-        else covered_colours(Path("/work/corpus/Duck.glb")) if Path("/work/corpus/Duck.glb").is_file() else None
-    if colours is None:
+    # trimesh's Duck.glb: a corpus folder beside tests/data/models, or the public corpus docs/figures/make_corpus.py
+    # builds (docs/meshes.md), in its layout or the flat one of issue 20's corpus.
+    found = [path for path in (MODELS.parent / "corpus" / "Duck.glb",
+                               Path("/work/corpus/mikedh+trimesh/models/Duck.glb"), Path("/work/corpus/Duck.glb"))
+             if path.is_file()]
+    if not found:
         pytest.skip("Duck.glb not available")
+    colours = covered_colours(found[0])
     median = np.median(colours, axis=0)
     assert median[0] > 2 * median[2] and median[1] > 2 * median[2], median
     # The texture per pixel: an orange-red beak (r > 2 g) beside the yellow body. The stand-in before it
