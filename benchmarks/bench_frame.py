@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 import raycast_phong as rp
-from raycast_phong.renderer.embree import device_report, library, picked_target
+from raycast_phong.renderer.embree_library import device_report, library, picked_target
 from raycast_phong.renderer.film import allocate_film
 from raycast_phong.renderer.intersect import packed_rays
 from raycast_phong.renderer.kernels.camera import fill_rows

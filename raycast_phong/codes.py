@@ -72,7 +72,7 @@ class StageName(str, Enum):
     AOV_TERMS = "aov_terms"
     SHADING_MODELS = "shading_models"
     FLOAT64_SHADING = "float64_shading"
-    WINDING_REPAIR = "winding_repair"   # known once the geometry is (plan.diagnose)
+    WINDING_REPAIR = "winding_repair"   # known once the geometry is (diagnosis.diagnose)
     TEXTURES = "textures"               # likewise
     VERTEX_COLOURS = "vertex_colours"   # likewise
 

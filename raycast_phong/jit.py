@@ -1,7 +1,7 @@
 """The one decorator for compiled kernels: numba's njit, cached under a key of every kernel module's source.
 
 numba's on-disk cache checks only the source file a function is defined in, but a kernel compiles in
-the helpers it calls from other modules (`illuminate` from illumination.py inside shading's
+the helpers it calls from other modules (illumination.py's `diffuse_terms`, `specular_terms` inside shading's
 `_shade_rays`): edit illumination.py and the cached `_shade_rays` would keep running the old model.
 So every kernel of the package is cached in a folder named after a hash of all the package's
 kernel modules (every .py file here that uses `@kernel`) and of the package modules they import:

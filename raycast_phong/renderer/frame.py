@@ -14,7 +14,7 @@ from ..records import RenderPlan, RenderResult
 from ..scene.load import load_scene
 from ..scene.messages import Location
 from ..scene.schema import Scene
-from . import embree
+from . import embree_library
 from .film import allocate_film
 from .kernels.tile import render_band
 from .pack import film_rows
@@ -63,7 +63,7 @@ def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64)) -> None:
     first dispatch. The kernel is typed by its arguments, so it is called on a prepared 2×2 scene.
     """
     from ..scene.schema import validate_scene
-    embree.library()  # binds the names the kernel links against (EmbreeError if it cannot be loaded)
+    embree_library.library()  # binds the names the kernel links against (EmbreeError if it cannot be loaded)
     for real in reals:
         precision = "float64" if real == np.float64 else "float32"
         scene = validate_scene({"render": {"width": 2, "height": 2, "mode": "global", "precision": precision},

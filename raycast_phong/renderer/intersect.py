@@ -1,4 +1,4 @@
-"""Build the BVH once, answer closest-hit and occlusion queries in float32: Embree's C API (embree.py)
+"""Build the BVH once, answer closest-hit and occlusion queries in float32: Embree's C API (embree_library.py)
 through numba kernels on packets of 16 rays, the renderer's one engine.
 
 Embree works in float32, so the scene is moved and scaled to unit size in float64 first (Frame):
@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..records import Frame, Geometry, bounding_box
-from . import embree
-from .kernels import embree as kernels_embree
+from . import embree_library
+from .kernels import ray_queries
 
 _started = False  # has this process created an Embree scene (and so Embree's worker threads)?
 
@@ -46,7 +46,7 @@ class TileHits:
 class Accelerator:
     """Embree BVH over one Geometry, built (committed) in the constructor so threads may share it.
 
-    `embree_scene.scene` is the C API's scene: kernels query it directly (embree.py's rtc_intersect16 /
+    `embree_scene.scene` is the C API's scene: kernels query it directly (ray_queries.py's rtc_intersect16 /
     rtc_occluded16) while this object lives. EmbreeError if Embree's library cannot be loaded.
     """
 
@@ -55,7 +55,7 @@ class Accelerator:
         _started = True
         self.frame = frame or unit_frame(geometry.vertices)
         # Robust mode (as embreex's robust=True): watertight edges, no cracks between faces.
-        self.embree_scene = embree.EmbreeScene(embree.library(), self.frame.to_unit(geometry.vertices),
+        self.embree_scene = embree_library.EmbreeScene(embree_library.library(), self.frame.to_unit(geometry.vertices),
                                                geometry.faces)
 
     def closest_hits(self, origins: np.ndarray, directions: np.ndarray, row_rays: int = 4) -> TileHits:
@@ -64,18 +64,18 @@ class Accelerator:
         count = len(origins)
         hits = TileHits(face=np.empty(count, np.int32), u=np.empty(count, np.float32),
                         v=np.empty(count, np.float32), t=np.empty(count, np.float32))
-        kernels_embree.intersect_rays(self.embree_scene.scene, _f32(origins), _f32(directions), row_rays,
+        ray_queries.intersect_rays(self.embree_scene.scene, _f32(origins), _f32(directions), row_rays,
                               hits.face, hits.u, hits.v, hits.t)
         return hits
 
     def cast_packets(self, packets: np.ndarray, valid: np.ndarray) -> None:
         """rtcIntersect16 on prepared packets (packed_rays), hits left in them: Embree's own cost of the rays."""
-        kernels_embree.cast_packets(self.embree_scene.scene, packets, valid)
+        ray_queries.cast_packets(self.embree_scene.scene, packets, valid)
 
     def occluded(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> np.ndarray:
         """(N,) bool: something lies on the ray within (0, t_max], t_max (N,) float32."""
         blocked = np.empty(len(origins), np.bool_)
-        kernels_embree.occluded_rays(self.embree_scene.scene, _f32(origins), _f32(directions), _f32(t_max, 1), blocked)
+        ray_queries.occluded_rays(self.embree_scene.scene, _f32(origins), _f32(directions), _f32(t_max, 1), blocked)
         return blocked
 
 
@@ -84,9 +84,9 @@ def packed_rays(origins: np.ndarray, directions: np.ndarray, row_rays: int = 4) 
     64-byte aligned, in closest_hits' 4 × 4 blocks of an image of rows row_rays long (for cast_packets)."""
     rows = -(-len(origins) // row_rays)
     blocks = -(-rows // 4) * -(-row_rays // 4)
-    packets = _aligned((blocks, kernels_embree.PACKET_WORDS), np.float32)
+    packets = _aligned((blocks, ray_queries.PACKET_WORDS), np.float32)
     valid = _aligned((blocks, 16), np.int32)
-    kernels_embree.fill_packets(_f32(origins), _f32(directions), row_rays, packets, valid)
+    ray_queries.fill_packets(_f32(origins), _f32(directions), row_rays, packets, valid)
     return packets, valid
 
 

@@ -291,7 +291,7 @@ def illuminate_exact(scene: Scene, points, normals, to_viewer, material_rows, vi
 
         I = k_e + I_a k_a + Σ_lights f_att [ I_a,light k_a + vis (I_d k_d max(l·n, 0) + I_s k_s S) ]
 
-    as illumination.illuminate evaluates it (scene format, "Meaning"). material_rows (M, 13): ka, kd,
+    as the shading kernel evaluates it (illumination.py; scene format, "Meaning"). material_rows (M, 13): ka, kd,
     ks, ke, f; visible (M, K) bool (all True in local mode); normals already flipped toward the viewer.
     """
     ka, kd, ks, ke, f = (material_rows[:, 0:3], material_rows[:, 3:6], material_rows[:, 6:9],

@@ -48,9 +48,10 @@ REPO = Path(__file__).resolve().parents[2]
 PACKAGE = "raycast_phong"  # modules are named by their path below it, e.g. renderer/kernels/shading
 CORE_MODULES = (  # where a pixel's value is decided: the kernels and the stages feeding them
 "renderer/kernels/illumination", "renderer/kernels/shading", "renderer/kernels/shadows",
-                "renderer/kernels/camera", "renderer/film", "geometry/build", "renderer/intersect", "renderer/frame",
-                "renderer/plan", "geometry/normals", "geometry/mesh_repair", "geometry/shapes/icosphere",
-                "geometry/shapes/surfaces", "renderer/kernels/tile", "renderer/kernels/embree")
+                "renderer/kernels/camera", "renderer/film", "geometry/build", "geometry/templates", "geometry/placing",
+                "geometry/scene_mesh", "renderer/intersect", "renderer/frame", "renderer/plan", "geometry/normals",
+                "geometry/mesh_repair", "geometry/shapes/icosphere", "geometry/shapes/surfaces",
+                "renderer/kernels/tile", "renderer/kernels/ray_queries")
 EXTRA_TESTS = {"renderer": ("tests/image",), "geometry": ("tests/image",), "io": ("tests/contracts",),
                "scene": ("tests/contracts", "tests/cli"), "cli": ("tests/contracts",), "tools": (),
                "": ("tests/project", "tests/renderer", "tests/io")}  # "": the package's top-level modules

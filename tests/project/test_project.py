@@ -74,7 +74,8 @@ def test_render_benchmark_runs_or_says_how_to_install_open3d(tmp_path):
     (fake / "__init__.py").write_text("raise ImportError('no open3d here')\n", encoding="utf-8")
     script = str(ROOT / "benchmarks" / "bench_render.py")
     done = subprocess.run([sys.executable, script, "--size", "32", "--repeats", "1"], capture_output=True, text=True,
-                          timeout=600, env={**os.environ, "PYTHONPATH": str(tmp_path)})
+                          timeout=600, env={**os.environ, "PYTHONPATH": os.pathsep.join(
+                              filter(None, (str(tmp_path), os.environ.get("PYTHONPATH"))))})
     assert done.returncode == 1 and "pip install -e '.[bench]'" in done.stderr, done.stderr
     pytest.importorskip("open3d")
     done = subprocess.run([sys.executable, script, "--size", "32", "--repeats", "1"], capture_output=True,

@@ -136,7 +136,7 @@ def test_a_mesh_file_or_map_changed_on_disk_is_read_again(tmp_path):
 
 
 def test_a_frame_cache_reuses_the_bvh_when_the_vertices_and_faces_are_the_same(monkeypatch):
-    from raycast_phong.renderer import embree
+    from raycast_phong.renderer import embree_library as embree
     built = []
     original = embree.EmbreeScene
     monkeypatch.setattr(embree, "EmbreeScene", lambda *args: built.append(1) or original(*args))

@@ -668,7 +668,7 @@ def counted(monkeypatch):
     normals) and BVHs built (Embree scenes committed)."""
     from raycast_phong.geometry import build
     from raycast_phong.io import mesh_file
-    from raycast_phong.renderer import embree
+    from raycast_phong.renderer import embree_library as embree
     counts = {"reads": 0, "placed": 0, "bvhs": 0}
 
     def counting(name, function):

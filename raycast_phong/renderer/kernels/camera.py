@@ -4,7 +4,7 @@ the camera's RayParams come from renderer/pack.py).
 Pixel (column i, row j) with samples = n gets n×n rays through the centres of an n×n grid of cells:
 raster (i + (a + ½)/n, j + (b + ½)/n). Row 0 is the top row. Ray k of a tile belongs to pixel k // n²
 and sub-cell k % n² (b = row of the cell, a = column). The formulas live here once: fill_rows writes the
-rays into arrays, embree.camera_hits straight into Embree's packets, with the same operations (same bits).
+rays into arrays, ray_queries.camera_hits straight into Embree's packets, with the same operations (same bits).
 """
 
 from __future__ import annotations

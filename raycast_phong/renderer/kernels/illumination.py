@@ -81,8 +81,8 @@ def highlight_cosine(specular, n_dot_l, nx, ny, nz, lx, ly, lz, vx, vy, vz, zero
 
 
 @kernel(inline="always")
-def diffuse_terms(weight, n_dot_l, ir, ig, ib, material, zero, one, two):
-    """f_att I_d k_d (l·n) of one light, r, g, b (l·n > 0); zero, one, two as illuminate's."""
+def diffuse_terms(weight, n_dot_l, ir, ig, ib, material):
+    """f_att I_d k_d (l·n) of one light, r, g, b (l·n > 0; `weight` is f_att)."""
     lit = weight * n_dot_l
     return lit * ir * material.kd_r, lit * ig * material.kd_g, lit * ib * material.kd_b
 

@@ -39,7 +39,7 @@ F_TEXTURES = 1 << 11       # some material has a colour map: sample it at the hi
 F_VERTEX_COLOURS = 1 << 12 # some face has vertex colours: they multiply k_a and k_d per corner
 SPECULAR_NONE, SPECULAR_PHONG, SPECULAR_BLINN = 0, 1, 2     # ShadingInputs.specular
 
-# Shading model codes of ShadingInputs.face_model (geometry.build writes codes.MODEL_CODE).
+# Shading model codes of ShadingInputs.face_model (geometry.scene_mesh writes codes.MODEL_CODE).
 FLAT, GOURAUD, PHONG = (MODEL_CODE[m] for m in (ShadingModel.FLAT, ShadingModel.GOURAUD, ShadingModel.PHONG))
 
 # Columns of the material table (M, 16): k_a, k_d, k_s, k_e (r, g, b each), f, then the texture-table rows of the

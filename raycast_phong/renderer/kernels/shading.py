@@ -428,7 +428,7 @@ def _shade_rays(inputs, rays, film):
                 if visible_k & 1 != 0 and n_dot_l > zero:
                     if flags & F_DIFFUSE:
                         mask |= 1 << C_DIFFUSE
-                        r, g, b = diffuse_terms(fall, n_dot_l, id_r, id_g, id_b, material, zero, one, two)
+                        r, g, b = diffuse_terms(fall, n_dot_l, id_r, id_g, id_b, material)
                         dr, dg, db = dr + r, dg + g, db + b
                     if specular != SPECULAR_NONE:
                         mask |= 1 << C_SPECULAR
@@ -468,7 +468,7 @@ def _shade_rays(inputs, rays, film):
                     if flags & F_DIFFUSE:
                         mask |= 1 << C_DIFFUSE
                         r, g, b = diffuse_terms(fall, n_dot_l, lights[i, L_ID], lights[i, L_ID + 1],
-                                                lights[i, L_ID + 2], lit, zero, one, two)
+                                                lights[i, L_ID + 2], lit)
                         pd_r, pd_g, pd_b = pd_r + r, pd_g + g, pd_b + b
                     if specular != SPECULAR_NONE:
                         mask |= 1 << C_SPECULAR

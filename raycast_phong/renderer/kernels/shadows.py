@@ -20,8 +20,8 @@ import numpy as np
 
 from ...jit import kernel
 from ...tolerances import MIN_DISTANCE
-from .embree import occluded_rays
 from .layout import POINT
+from .ray_queries import occluded_rays
 from .surface import facing_side, hit_point, to_light
 
 INT_SCALE = 256.0        # Wächter & Binder: ulps of offset per unit of normal
@@ -35,7 +35,7 @@ FLOOR_SQUARED = MIN_DISTANCE ** 2  # the unit frame's half-extent is 1: a light 
 @kernel()
 def cast_shadows(scene, inputs, face, u, v, directions, row_rays, visible):
     """Shadow rays from every hit of a tile toward every light, on Embree's C API scene
-    (embree.EmbreeScene.scene): visible (N,) int64 light bits written in place (bit j set: light j is
+    (embree_library.EmbreeScene.scene): visible (N,) int64 light bits written in place (bit j set: light j is
     visible; 0 for a miss). Returns the number of shadow rays cast.
 
     The hits are taken in the primary packets' 4 × 4 blocks of an image row_rays rays wide, so that a
@@ -48,6 +48,8 @@ def cast_shadows(scene, inputs, face, u, v, directions, row_rays, visible):
         hits += face[k] >= 0
     hit_rays = np.empty(hits, np.int64)
     h = 0
+    # The primary packets' 4 × 4 lane order, walked as ray_queries.fill_packets walks it: three loops inline
+    # in each kernel (a helper taking the arrays costs a reference count per call; see ray_queries.camera_hits).
     for r0 in range(0, -(-count // row_rays), 4):
         for c0 in range(0, row_rays, 4):
             for lane in range(16):

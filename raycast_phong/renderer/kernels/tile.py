@@ -1,10 +1,10 @@
 """One band of image rows in one compiled loop: rays → Embree packets → [shadow rays] → shading, no Python between.
 
-Each stage keeps its home (embree.camera_hits: rays generated straight into Embree's packets, with camera.py's
+Each stage keeps its home (ray_queries.camera_hits: rays generated straight into Embree's packets, with camera.py's
 formulas; shadows.cast_shadows; shading._shade_rays);
 this kernel only runs them in turn on CHUNK_ROWS image rows at a time, so a chunk's rays, hits and shadow
 rays stay in the CPU's cache and its buffers are allocated once per band. It needs Embree's C API
-(embree.py), the renderer's one engine.
+(ray_queries.py), the renderer's one engine.
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ from numba import types
 
 from ...jit import kernel
 from .camera import screen_columns
-from .embree import camera_hits
 from .layout import C_SHADOW_RAYS, F_SHADOWS, FilmRows, TileRays
+from .ray_queries import camera_hits
 from .shading import _shade_rays
 from .shadows import cast_shadows
 
@@ -62,7 +62,7 @@ def _touch(face, faces, vertices, face_normals, corner_normals, per_face):
 @kernel()
 def render_band(scene, row0, row1, params, shared_origins, shadows, inputs, film, seconds):
     """Render image rows [row0, row1) into `film` (FilmRows of those rows; its counts are set: the terms
-    shading._shade_rays evaluated, and the shadow rays cast). scene: embree.EmbreeScene.scene; params:
+    shading._shade_rays evaluated, and the shadow rays cast). scene: embree_library.EmbreeScene.scene; params:
     camera.RayParams; shared_origins: the RayGenerator's (perspective); shadows: ShadowInputs (read in global
     mode only); inputs: ShadingInputs.
     seconds (3,) float64 gets the time of rays (generation + cast), shadow rays and shading added."""

@@ -1,5 +1,5 @@
-"""The band kernel's fused ray generation and cast (embree.camera_hits) against the two stages it replaced:
-camera.fill_rows into arrays, then embree.intersect_rays on them. Both compute each ray with camera.py's
+"""The band kernel's fused ray generation and cast (ray_queries.camera_hits) against the two stages it replaced:
+camera.fill_rows into arrays, then ray_queries.intersect_rays on them. Both compute each ray with camera.py's
 formulas and cast the same 4 × 4 blocks, so directions and hits must agree bit for bit, for either camera,
 any sample count, image sizes that leave partial packets, and bands cut at any row."""
 
@@ -10,7 +10,7 @@ import pytest
 
 import raycast_phong as rp
 from raycast_phong.renderer.kernels.camera import fill_rows, screen_columns
-from raycast_phong.renderer.kernels.embree import camera_hits, intersect_rays
+from raycast_phong.renderer.kernels.ray_queries import camera_hits, intersect_rays
 from raycast_phong.renderer.prepare import prepare
 
 

@@ -1,8 +1,9 @@
-"""Embree's C API (renderer/kernels/embree.py) against embreex's own API, its kernel cache and its errors.
+"""Embree's C API (renderer/embree_library.py, renderer/kernels/ray_queries.py) against embreex's own API, its
+kernel cache and its errors.
 
 embreex renders nothing (docs/pipeline.md, Backends): it stays here only as the independent cross-check.
 The same library answers the same rays through its one-ray API, so a future embreex or Embree whose layout
-no longer matches embree.py's structs shows here as different hits.
+no longer matches ray_queries.py's structs shows here as different hits.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import pytest
 
 import raycast_phong as rp
 from raycast_phong.geometry.build import build_geometry
-from raycast_phong.renderer import embree
+from raycast_phong.renderer import embree_library as embree
 from raycast_phong.renderer.intersect import Accelerator, TileHits, unit_frame
 from raycast_phong.renderer.pack import camera_rig, generate_rays
 
@@ -105,7 +106,7 @@ RENDER = """
 import sys
 import numpy as np
 import raycast_phong as rp
-from raycast_phong.renderer import embree
+from raycast_phong.renderer import embree_library as embree
 from raycast_phong.renderer.kernels import tile
 result = rp.render_file(sys.argv[1], ["render.width=48", "render.height=36"], threads=2)
 np.save(sys.argv[2], result.image)
@@ -152,7 +153,7 @@ def test_a_cached_kernel_that_calls_embree_loads_without_compiling(cold_package,
 OUT_OF_ADDRESS_SPACE = """
 import re, resource, sys
 import raycast_phong as rp
-from raycast_phong.renderer import embree
+from raycast_phong.renderer import embree_library as embree
 from raycast_phong.geometry.build import build_geometry
 from raycast_phong.renderer.intersect import Accelerator
 geometry = build_geometry(rp.load_scene(sys.argv[1]))
@@ -246,7 +247,7 @@ def test_prepared_packets_cast_alone_give_the_hits_closest_hits_gives():
     blocks of an image 37 rays wide, partial blocks at the edges), so the hits left in them are the same bits;
     cast twice, as the benchmark repeats it, they stay so (tfar and geomID are reset before each cast)."""
     from raycast_phong.renderer.intersect import packed_rays
-    from raycast_phong.renderer.kernels import embree as kernels
+    from raycast_phong.renderer.kernels import ray_queries as kernels
     scene = rp.load_scene(SCENES / "default.toml", ["render.width=37", "render.height=23"])
     geometry = build_geometry(scene)
     frame = unit_frame(geometry.vertices)

@@ -128,9 +128,9 @@ def test_an_edit_to_an_inlined_helper_reaches_the_cached_kernel(cold_package, tm
     # Double the diffuse term in illumination.py only: shading.py, where the cached kernel lives, is untouched.
     illumination = copy / "renderer" / "kernels" / "illumination.py"
     with cold_package.editing(illumination):
-        edit(illumination, "lit = weight * n_dot_l\n", "lit = two * weight * n_dot_l\n")
+        edit(illumination, "lit = weight * n_dot_l\n", "lit = (weight + weight) * n_dot_l\n")  # 2w, exactly
         edited = run(str(tmp_path / "edited.npy"), alone=True)
-    assert edited["misses"] > 0, "the cached _shade_rays was loaded although illuminate changed"
+    assert edited["misses"] > 0, "the cached _shade_rays was loaded although diffuse_terms changed"
     (before, diffuse), (after, _) = np.load(tmp_path / "first.npy"), np.load(tmp_path / "edited.npy")
     np.testing.assert_array_equal(np.load(tmp_path / "again.npy")[0], before)
     # image' = image + diffuse exactly, up to float32 rounding of the sum (a few ulps of the pixel).

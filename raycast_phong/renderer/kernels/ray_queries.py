@@ -1,6 +1,6 @@
 """Embree 4's queries inside numba kernels: rtcIntersect16 / rtcOccluded16 on packets of 16 rays.
 
-The queries are declared to numba by *name* (numba.types.ExternalFunction); renderer/embree.py binds the
+The queries are declared to numba by *name* (numba.types.ExternalFunction); renderer/embree_library.py binds the
 names to the library's addresses with llvmlite's `add_symbol` when it loads the library, before any kernel
 is compiled or loaded: the cached machine code links by name, so a warm process loads it without compiling
 (a ctypes function pointer would freeze a per-process address into the code and defeat numba's cache).

@@ -1,5 +1,5 @@
 """Embree 4's C library, from the one embreex installs: loaded through ctypes, the kernels' query names
-bound to its addresses, and scenes built on buffers shared with it (kernels/embree.py queries them).
+bound to its addresses, and scenes built on buffers shared with it (kernels/ray_queries.py queries them).
 
 This is the renderer's one engine: embreex's wheels link their own modules against the libembree4 they
 carry, so wherever embreex imports, this library loads. If it cannot (a missing file or symbol), `library()`
@@ -21,7 +21,7 @@ import numpy as np
 from llvmlite import binding
 
 from ..errors import EmbreeError, OptionError
-from .kernels.embree import INTERSECT16, OCCLUDED16
+from .kernels.ray_queries import INTERSECT16, OCCLUDED16
 
 LIBRARY_VARIABLE = "RAYCAST_PHONG_EMBREE_LIBRARY"  # a path to use instead of embreex's own libembree4
 
@@ -32,8 +32,8 @@ RTC_FORMAT_UINT3, RTC_FORMAT_FLOAT3 = 0x5003, 0x9003
 RTC_SCENE_FLAG_COMPACT = 1 << 1         # a BVH of about 40 B a triangle instead of 95 (rtcore_scene.h)
 RTC_SCENE_FLAG_ROBUST = 1 << 2          # watertight edges, no cracks between faces (as embreex's robust=True)
 # From this many triangles the BVH is built compact: measured on 10⁶ boxes (12M triangles), 462 MB and 3.8 s of
-# CPU to build against 1125 MB and 5.9–8.8 s, the same hits (tests/renderer/test_embree.py); below it the default
-# layout's faster traversal is worth its memory (docs/performance.md, "Many objects").
+# CPU to build against 1125 MB and 5.9–8.8 s, the same hits (tests/renderer/kernels/test_embree.py); below it the
+# default layout's faster traversal is worth its memory (docs/performance.md, "Many objects").
 COMPACT_FACES = 1 << 22
 ERRORS = {1: "unknown error", 2: "invalid argument", 3: "invalid operation", 4: "out of memory",
           5: "unsupported CPU", 6: "cancelled"}
