@@ -856,6 +856,7 @@ function turntable(on) {
   turning = requestAnimationFrame(step);
 }
 const stopTurntable = () => { if (turning) turntable(false); };
+const VIEW_KEYS = { 1: "front", 3: "side", 7: "top", 9: "iso", i: "iso" };  // f3d's and Blender's digits
 
 function wireCamera() {
   let last = null, settle = null;
@@ -913,23 +914,20 @@ function wireCamera() {
     }, { passive: false });
   }
   $("#stage").addEventListener("keydown", (event) => {
-    if (!state.connected) return;
+    if (!state.connected || event.ctrlKey || event.metaKey || event.altKey) return;  // the browser's own keys
     const arrow = { ArrowLeft: [-1, 0], ArrowRight: [1, 0], ArrowUp: [0, -1], ArrowDown: [0, 1] }[event.key];
     const pixels = $("#image-a").getBoundingClientRect().height;
-    if (arrow && event.shiftKey) pan(arrow[0] * pixels / 20, arrow[1] * pixels / 20, pixels, "full");  // 5 % of the view
-    else if (arrow) glide(orbited(arrow[0], arrow[1], Math.PI / 36));  // 5° a press
-    else if (event.key === "+" || event.key === "=") glide(zoomed(1 / 1.1) || {});
-    else if (event.key === "-") glide(zoomed(1.1) || {});
-    else if (event.key === "r" || event.key === "R" || event.key === "Home") resetCamera();
-    else if (event.key === "f" || event.key === "F") glide(fitted() || {});
-    else if ({ 1: "front", 3: "side", 7: "top", i: "iso", I: "iso" }[event.key]) {
-      glide(standardView({ 1: "front", 3: "side", 7: "top", i: "iso", I: "iso" }[event.key]));
-    } else if (event.key === "t" || event.key === "T") turntable(!turning);
-    else if (event.key === "p" || event.key === "P") pixelPeeping(!$("#pixels").checked);
-    else if (event.key === "c" || event.key === "C") capture();
-    else return;
-    if (!["t", "T"].includes(event.key)) stopTurntable();
+    const key = event.key.length === 1 ? event.key.toLowerCase() : event.key;
+    const other = { t: () => turntable(!turning), p: () => pixelPeeping(!$("#pixels").checked), c: capture }[key];
+    const move = arrow && event.shiftKey ? () => pan(arrow[0] * pixels / 20, arrow[1] * pixels / 20, pixels, "full")  // 5 %
+      : arrow ? () => glide(orbited(arrow[0], arrow[1], Math.PI / 36))  // 5° a press
+      : { "+": () => glide(zoomed(1 / 1.1) || {}), "=": () => glide(zoomed(1 / 1.1) || {}),
+          "-": () => glide(zoomed(1.1) || {}), r: resetCamera, Home: resetCamera, Enter: resetCamera,
+          f: () => glide(fitted() || {}) }[key]
+        || (VIEW_KEYS[key] && (() => glide(standardView(VIEW_KEYS[key]))));
+    if (!move && !other) return;
     event.preventDefault();
+    if (move) { stopTurntable(); move(); } else other();
   });
   $("#camera-reset").addEventListener("click", () => { stopTurntable(); resetCamera(); });
   $("#camera-fit").addEventListener("click", () => { stopTurntable(); glide(fitted() || {}); });
