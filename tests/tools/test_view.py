@@ -831,3 +831,16 @@ def test_each_page_has_one_frame_cache_released_when_it_closes(scene_path, monke
         gc.collect()
         time.sleep(0.05)
     assert all(ref() is None for ref in made)
+
+
+def test_capture_asks_for_two_saves_at_once_and_gets_both(scene_path):
+    """The page's capture sends a PNG save and a TOML save back to back: both are answered."""
+    client = client_for(scene_path)
+    with connect(client) as ws:
+        ws.receive_text()
+        for request_id, what in ((1, "png"), (2, "toml")):
+            ws.send_text(json.dumps({"type": "save", "id": request_id, "what": what, "settings": {}}))
+        ws.send_text(json.dumps({"type": "render", "id": 3, "quality": "draft"}))  # answered after the saves
+        got = [unpack(ws.receive_bytes())[0] for _ in range(2)]
+        assert [(h["type"], h["what"]) for h in got] == [("saved", "png"), ("saved", "toml")]
+        assert receive_frame(ws)[0]["id"] == 3

@@ -106,6 +106,11 @@ def test_results_have_a_png_and_a_one_line_repr(tmp_path):
     (tmp_path / "shown.png").write_bytes(result._repr_png_())
     shown = np.round(rp.read_image(tmp_path / "shown.png")[0] * 255).astype(np.uint8)
     np.testing.assert_array_equal(shown, to_8bit(result.image))
+    linear = rp.render(rp.load_scene(path, ['render.colour="linear"']))  # encoded through the sRGB curve
+    (tmp_path / "linear.png").write_bytes(linear._repr_png_())
+    shown = np.round(rp.read_image(tmp_path / "linear.png")[0] * 255).astype(np.uint8)
+    np.testing.assert_array_equal(shown, to_8bit(linear.image, "linear"))
+    assert (shown != to_8bit(linear.image)).any()
     text = repr(result)
     assert text.startswith("<RenderResult 40×30 float32, frame ") and "\n" not in text and "array(" not in text
     assert f"{result.rays:,} rays" in text and len(text) < 120

@@ -14,6 +14,7 @@ import json
 import os
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import suppress
@@ -35,6 +36,7 @@ REFERENCE_THREADS = 1   # exact references at once (at nice 19: they use what th
 REFERENCE_REST = 0.3    # seconds without a newer request before the exact errors of a full frame are computed
 WATCH_EVERY = 0.5       # seconds between looks at the scene file: an edit shows within a second, the disk idle
 PROGRESS_EVERY = 0.1    # seconds between progress messages: the page's bar moves smoothly, the socket stays quiet
+SAVES_WAITING = 2       # saves a page may have waiting (capture asks for the image and the scene at once)
 WARM_AFTER = 1.0        # seconds after the app is made that the kernels' warm-up starts if no page came first
 
 
@@ -71,7 +73,7 @@ def version(path) -> tuple | None:
 
 @dataclass
 class Client:
-    """One socket's queue: at most one waiting render (latest wins), one waiting save, one waiting reference;
+    """One socket's queue: at most one waiting render (latest wins), two waiting saves, one waiting reference;
     the threads its frames and references run on (the server's, shared by every page); its last full frame A
     (for the exact errors: request ids are each page's own); its FrameCache (the geometry and BVH its frames
     share, released with the page); and the quality being rendered with the event that cancels it."""
@@ -79,7 +81,7 @@ class Client:
     cache: FrameCache = field(default_factory=lambda: frame_cache())
     running: str | None = None                # the quality of the frame being rendered ("draft", "preview", "full")
     cancel: threading.Event = field(default_factory=threading.Event)  # set: the running frame stops between bands
-    pending_save: dict | None = None
+    saves: deque = field(default_factory=lambda: deque(maxlen=SAVES_WAITING))  # the newest saves asked for
     wake: asyncio.Event = field(default_factory=asyncio.Event)
     dropped: int = 0
     reference_next: dict | None = None        # the newest full frame whose exact errors are still owed
@@ -187,7 +189,7 @@ class Session:
                 if request.get("type") == "load":
                     await self.send(view.loaded(request))
                 elif request.get("type") == "save":
-                    client.pending_save = request
+                    client.saves.append(request)
                 else:
                     if client.pending is not None:  # a newer request replaces the one still waiting
                         client.dropped += 1
@@ -216,9 +218,9 @@ class Session:
         while True:
             await client.wake.wait()
             client.wake.clear()
-            save, request = client.pending_save, client.pending
-            client.pending_save = client.pending = None
-            if save is not None:
+            request, client.pending = client.pending, None
+            while client.saves:
+                save = client.saves.popleft()
                 saved = await self.answer(save, client.executor, renderer.save, save, client.cache)
                 if saved is not None:
                     await self.websocket.send_bytes(saved)
