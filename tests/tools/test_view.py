@@ -844,3 +844,46 @@ def test_capture_asks_for_two_saves_at_once_and_gets_both(scene_path):
         got = [unpack(ws.receive_bytes())[0] for _ in range(2)]
         assert [(h["type"], h["what"]) for h in got] == [("saved", "png"), ("saved", "toml")]
         assert receive_frame(ws)[0]["id"] == 3
+
+
+def test_every_page_renders_on_the_servers_few_threads(scene_path):
+    """Work is bounded per server: four pages' frames run on the server's FRAME_THREADS render threads, not on a
+    thread per page (twelve pages used to make 42 threads)."""
+    from raycast_phong.tools.view import session
+    threads = set()
+
+    def noted(scene, **options):
+        threads.add((threading.get_ident(), threading.current_thread().name))
+        return rp.render(scene, **options)
+
+    client = client_for(scene_path, render=noted)
+    with connect(client) as a, connect(client) as b, connect(client) as c, connect(client) as d:
+        pages = (a, b, c, d)
+        for ws in pages:
+            ws.receive_text()
+            ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "draft"}))
+        for ws in pages:
+            receive_frame(ws)
+    assert 1 <= len(threads) <= session.FRAME_THREADS == 2  # the pages stay open: no thread id is reused
+    assert all(name.startswith("view-render") for _, name in threads)
+
+
+def test_the_page_is_served_before_the_renderer_is_loaded(scene_path, monkeypatch):
+    """Start-up: making the app imports neither numba nor OpenImageIO (the first frame does), and the kernels'
+    warm-up waits for the first page (or WARM_AFTER seconds), so the HTML is not queued behind them."""
+    made = subprocess.run([sys.executable, "-c", f"""
+import sys
+from raycast_phong.tools.view import create_app, open_source
+create_app(open_source({str(scene_path)!r}), "t" * 40, ["http://testserver"])
+print(sorted(name for name in ("numba", "OpenImageIO", "raycast_phong.renderer.frame") if name in sys.modules))
+"""], capture_output=True, text=True, timeout=120, env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[2])})
+    assert made.returncode == 0 and made.stdout.strip() == "[]", made.stdout + made.stderr
+    from raycast_phong.tools.view import server, session
+    started = threading.Event()
+    monkeypatch.setattr(session, "WARM_AFTER", 60)
+    monkeypatch.setattr(server, "warm", lambda source: started.set())
+    client = client_for(scene_path)
+    assert not started.wait(0.5)  # nothing asked for a page yet
+    assert client.get(f"/?token={TOKEN}").status_code == 200
+    assert started.wait(30)
+    client.app.state.warming.result(30)
