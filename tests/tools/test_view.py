@@ -352,6 +352,10 @@ def test_an_edited_scene_file_is_reloaded_and_a_broken_one_kept_out(scene_path, 
             assert json.loads(late.receive_text())["problem"] == error["message"]
         scene_path.write_text(text)
         fixed = json.loads(ws.receive_text())
+        for _ in range(3):  # the watcher may catch the file between its truncation and its write: one more error
+            if fixed["type"] == "hello":
+                break
+            fixed = json.loads(ws.receive_text())
         assert fixed["scene"]["ambient"] == [0.1, 0.1, 0.1] and fixed["problem"] is None
 
 
