@@ -180,9 +180,10 @@ class RenderResult:
         return raycast_phong.show(self)._repr_html_()
 
     def _repr_png_(self) -> bytes:
-        """The image as the PNG `raycast-phong render -o x.png` writes, for front ends that show PNGs only."""
-        from raycast_phong.io.image_io import image_bytes
-        return image_bytes(self.image, colour=self.colour)
+        """The image's 8-bit values as `raycast-phong render -o x.png` writes them, for front ends that show PNGs
+        only; drawn by tools/notebook.py, reached by the package's public name as _repr_html_ does."""
+        import raycast_phong
+        return raycast_phong.show(self)._repr_png_()
 
     def __repr__(self) -> str:
         """One line: size, precision, where the time went, the work done, and the errors when measured (not

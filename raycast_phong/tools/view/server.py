@@ -45,12 +45,11 @@ from raycast_phong.scene.messages import dotted
 from raycast_phong.scene.overrides import apply_override
 
 from .access import Access, Guard, host_of
-from .session import Client, View, lowest_priority, version  # noqa: F401 (Client, lowest_priority: tests)
+from .session import Client, View, lowest_priority, parse, version  # noqa: F401 (Client, lowest_priority, parse: tests)
 
 if TYPE_CHECKING:
     from raycast_phong.renderer.reuse import FrameCache
 
-MAX_MESSAGE_BYTES = 1 << 16   # a page message is a few hundred bytes of settings; refuse anything larger
 MAX_SETTINGS = 256            # keys per request: far more than the page has controls
 MAX_VIEW_RAYS = 1920 * 1080 * 16  # rays per frame: ~2 s here; a larger frame is a batch job, not a view
 LEVELS = range(7)          # tessellation levels the page offers (reference.refined: level 6 = 81,920 faces)
@@ -427,21 +426,6 @@ def warm(source: Source) -> None:
     from raycast_phong.renderer.frame import warm_kernels
     warm_kernels((np.float32, np.float64))
     rp.render(draft_of(scene_with(source, {})), source=source.name)
-
-
-def parse(text: str) -> dict:
-    """One page message: a JSON table with type 'render', 'save' or 'load', bounded in size."""
-    if len(text) > MAX_MESSAGE_BYTES:
-        raise ViewError(f"message of {len(text)} characters; allowed: at most {MAX_MESSAGE_BYTES}")
-    try:
-        request = json.loads(text)
-    except json.JSONDecodeError as error:
-        raise ViewError(f"message is not JSON: {error}") from None
-    except (RecursionError, ValueError) as error:  # nested thousands deep, an `id` of 5000 digits
-        raise ViewError(f"message: {syntax_limit(error)}") from None
-    if not isinstance(request, dict) or request.get("type", "render") not in ("render", "save", "load"):
-        raise ViewError("message must be a table with type 'render', 'save' or 'load'")
-    return request
 
 
 def hello(source: Source) -> dict:

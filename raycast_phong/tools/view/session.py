@@ -25,6 +25,7 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 
 import raycast_phong as rp
 from raycast_phong.errors import RenderCancelled, SceneError, ViewError
+from raycast_phong.io.scene_file import syntax_limit
 
 from .access import Access
 
@@ -35,6 +36,7 @@ FRAME_THREADS = 2       # frames rendered at once by one server, over all its pa
 REFERENCE_THREADS = 1   # exact references at once (at nice 19: they use what the frames leave)
 REFERENCE_REST = 0.3    # seconds without a newer request before the exact errors of a full frame are computed
 WATCH_EVERY = 0.5       # seconds between looks at the scene file: an edit shows within a second, the disk idle
+MAX_MESSAGE_BYTES = 1 << 16  # a page message is a few hundred bytes of settings; refuse anything larger
 PROGRESS_EVERY = 0.1    # seconds between progress messages: the page's bar moves smoothly, the socket stays quiet
 SAVES_WAITING = 2       # saves a page may have waiting (capture asks for the image and the scene at once)
 WARM_AFTER = 1.0        # seconds after the app is made that the kernels' warm-up starts if no page came first
@@ -172,7 +174,6 @@ class Session:
         await self.websocket.send_text(json.dumps(message))
 
     async def run(self) -> None:
-        from .server import parse
         view, client = self.view, self.client
         view.pages.add(self.websocket)
         view.watcher.start()
@@ -318,6 +319,21 @@ class Watcher:
             for page in list(view.pages):
                 with suppress(Exception):  # a page closing meanwhile: nothing is owed to it
                     await page.send_text(json.dumps(message))
+
+
+def parse(text: str) -> dict:
+    """One page message: a JSON table with type 'render', 'save' or 'load', bounded in size."""
+    if len(text) > MAX_MESSAGE_BYTES:
+        raise ViewError(f"message of {len(text)} characters; allowed: at most {MAX_MESSAGE_BYTES}")
+    try:
+        request = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise ViewError(f"message is not JSON: {error}") from None
+    except (RecursionError, ValueError) as error:  # nested thousands deep, an `id` of 5000 digits
+        raise ViewError(f"message: {syntax_limit(error)}") from None
+    if not isinstance(request, dict) or request.get("type", "render") not in ("render", "save", "load"):
+        raise ViewError("message must be a table with type 'render', 'save' or 'load'")
+    return request
 
 
 def progress_to(websocket: WebSocket, loop: asyncio.AbstractEventLoop, request_id) -> Callable[[float], None]:
