@@ -179,6 +179,22 @@ class RenderResult:
         import raycast_phong
         return raycast_phong.show(self)._repr_html_()
 
+    def _repr_png_(self) -> bytes:
+        """The image's 8-bit values as `raycast-phong render -o x.png` writes them, for front ends that show PNGs
+        only; drawn by tools/notebook.py, reached by the package's public name as _repr_html_ does."""
+        import raycast_phong
+        return raycast_phong.show(self)._repr_png_()
+
+    def __repr__(self) -> str:
+        """One line: size, precision, where the time went, the work done, and the errors when measured (not
+        the arrays: a million numbers help no one at a prompt)."""
+        height, width = self.image.shape[:2]
+        errors = getattr(self, "errors", None)
+        measured = "" if errors is None else f", RMSE {errors.rmse:.4g} ({errors.reference})"
+        return (f"<{type(self).__name__} {width}×{height} {self.image.dtype}, frame "
+                f"{1000 * self.timings.get('frame', 0.0):.1f} ms, {self.rays:,} rays, {self.triangles:,} triangles"
+                f"{measured}>")
+
 
 @dataclass(frozen=True)
 class ImageErrors:
@@ -193,7 +209,7 @@ class ImageErrors:
     reference: str = "analytic"  # "analytic" or "fine N"
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)  # RenderResult's one-line repr, with the errors
 class MeasuredResult(RenderResult):
     """A RenderResult that also carries its errors against a reference (accuracy.measured)."""
     errors: ImageErrors | None = None

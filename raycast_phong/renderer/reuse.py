@@ -89,6 +89,12 @@ class FrameCache:
                 self._derived = Derived(geometry, self._derived)
             return self._derived
 
+    @property
+    def geometry(self) -> Geometry | None:
+        """The Geometry of the newest frame that derived values from it (None before the first frame)."""
+        with self.lock:
+            return None if self._derived is None else self._derived.geometry
+
     def clear(self) -> None:
         """Release the geometry, its pieces, the BVH and the derived values."""
         with self.lock:

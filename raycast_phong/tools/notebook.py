@@ -25,6 +25,7 @@ from raycast_phong.scene.overrides import shaded
 from raycast_phong.scene.schema import Scene, ShadingModel
 
 MODELS = tuple(ShadingModel)  # flat, Gouraud, Phong: the lecture's order
+GAP = 8  # pixels between the images of Figures' PNG
 MODEL_NAMES = {ShadingModel.FLAT: "flat", ShadingModel.GOURAUD: "Gouraud", ShadingModel.PHONG: "Phong"}
 
 
@@ -50,7 +51,9 @@ def figure_html(result: RenderResult, title: str = "") -> str:
     warnings = "".join(f"<li>{html.escape(w)}</li>" for w in result.plan.warnings)
     left_out = sum(not s.kept for s in result.plan.stages)
     caption = f"<b>{html.escape(title)}</b><br>" if title else ""
-    return (f"<figure style='display:inline-block;margin:0 1em 1em 0;vertical-align:top'>"
+    # The figure is as wide as its image (the caption wraps under it): three of them fit side by side in a
+    # JupyterLab output, where a wide table used to push each onto its own line.
+    return (f"<figure style='flex:0 0 auto;width:{width}px;margin:0 1em 1em 0;vertical-align:top'>"
             f"<img src='data:image/png;base64,{png}' width='{width}' height='{height}' alt='{html.escape(title)}'>"
             f"<figcaption style='font-size:smaller'>{caption}<table>{table}</table>"
             f"<details><summary>plan: {len(result.plan.stages) - left_out} stages kept, {left_out} left out"
@@ -66,8 +69,31 @@ class Figures:
 
     def _repr_html_(self) -> str:
         titles = self.titles or [""] * len(self.results)
-        return ("<div style='display:flex;flex-wrap:wrap;align-items:flex-start'>"
+        # One row, scrolled sideways when the cell is narrower: the models are compared side by side.
+        return ("<div style='display:flex;flex-wrap:nowrap;overflow-x:auto;align-items:flex-start'>"
                 + "".join(figure_html(r, t) for r, t in zip(self.results, titles)) + "</div>")
+
+    def _repr_png_(self) -> bytes:
+        """The images in one PNG, left to right with GAP pixels of white between, top-aligned (for front ends
+        that show PNGs only); each image's 8-bit values as `render -o x.png` stores them."""
+        import numpy as np
+
+        from raycast_phong.io.encoding import DISPLAY, to_8bit
+        images = [to_8bit(r.image, r.colour) for r in self.results]
+        height = max(image.shape[0] for image in images)
+        width = sum(image.shape[1] for image in images) + GAP * (len(images) - 1)
+        row = np.full((height, width, 3), 255, np.uint8)
+        at = 0
+        for image in images:
+            row[:image.shape[0], at:at + image.shape[1]] = image
+            at += image.shape[1] + GAP
+        return image_bytes(row.astype(np.float32) / 255, colour=DISPLAY)
+
+    def __repr__(self) -> str:
+        titles = self.titles or [f"#{k}" for k in range(len(self.results))]
+        return f"<Figures: {', '.join(titles)}: " + "; ".join(
+            f"{r.image.shape[1]}×{r.image.shape[0]}, frame {1000 * r.timings.get('frame', 0.0):.1f} ms"
+            for r in self.results) + ">"
 
     def __getitem__(self, index: int) -> RenderResult:
         return self.results[index]

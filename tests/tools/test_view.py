@@ -140,15 +140,31 @@ def test_host_names_in_brackets_and_wildcard_addresses(scene_path):
 
 def test_every_response_keeps_the_page_to_itself(scene_path):
     client = client_for(scene_path)
-    for url, status in ((f"/?token={TOKEN}", 200), ("/static/view.js", 200), ("/?token=wrong", 403)):
+    for url, status in ((f"/?token={TOKEN}", 200), ("/", 200), ("/static/view.js", 200), ("/?token=wrong", 403)):
         response = client.get(url)
         assert response.status_code == status
         policy = response.headers["content-security-policy"]
         assert "default-src 'none'" in policy and "script-src 'self'" in policy
         assert "connect-src 'self' blob: ws://testserver" in policy  # blob: the page's own frames and downloads
-        assert "frame-ancestors 'self' http://localhost:*" in policy
-        assert response.headers["referrer-policy"] == "no-referrer"  # the URL holds the token
+        assert "[::1]" not in policy  # CSP has no IPv6 literal: Chromium refused it and logged an error each load
+        assert response.headers["referrer-policy"] == "no-referrer"
         assert response.headers["x-content-type-options"] == "nosniff"
+        framers = policy.split("frame-ancestors ", 1)[1].split(";")[0]
+        if url == f"/?token={TOKEN}":  # a notebook's frame names the token: loopback pages may frame it
+            assert framers == "http://localhost:* http://127.0.0.1:* https://localhost:* https://127.0.0.1:*"
+            assert "x-frame-options" not in response.headers
+        else:  # opened by its cookie: framed by no page (another port of 127.0.0.1 is the same site)
+            assert framers == "'none'" and response.headers["x-frame-options"] == "DENY", url
+
+
+def test_the_page_can_ask_whether_its_token_is_refused(scene_path):
+    """A socket refused before its upgrade reaches a browser as close code 1006, as a server that is down does;
+    /access tells the two apart: 403 for a token or cookie the server refuses, 204 for a good one."""
+    client = client_for(scene_path)
+    assert client.get("/access").status_code == 403 and client.get("/access?token=wrong").status_code == 403
+    assert client.get(f"/access?token={TOKEN}").status_code == 204
+    assert client.get(f"/?token={TOKEN}").status_code == 200
+    assert client.get("/access").status_code == 204  # the cookie the page's first load set
 
 
 # ---------------------------------------------------------------- the scene schema's messages
@@ -311,10 +327,11 @@ def test_the_three_models_of_a_in_one_frame(scene_path, tmp_path):
 
 
 def test_an_edited_scene_file_is_reloaded_and_a_broken_one_kept_out(scene_path, tmp_path, monkeypatch):
-    from raycast_phong.tools.view import server
-    monkeypatch.setattr(server, "WATCH_EVERY", 0.05)
+    from raycast_phong.tools.view import session
+    monkeypatch.setattr(session, "WATCH_EVERY", 0.05)
     text = scene_path.read_text()
-    with connect(client_for(scene_path)) as ws:
+    client = client_for(scene_path)
+    with connect(client) as ws:
         ws.receive_text()
         scene_path.write_text(text.replace("ambient = [0.1, 0.1, 0.1]", "ambient = [0.5, 0.2, 0.1]"))
         hello = json.loads(ws.receive_text())
@@ -327,11 +344,19 @@ def test_an_edited_scene_file_is_reloaded_and_a_broken_one_kept_out(scene_path, 
         error = json.loads(ws.receive_text())
         assert error["type"] == "error" and "objects.0.subdivisions" in error["message"]
         assert "\n" not in error["message"] and "keeps the scene as it was" in error["message"]
+        assert error["file"] is True  # the page keeps it on screen until the file is valid again
         ws.send_text(json.dumps({"type": "render", "id": 2, "quality": "full", "settings": SHADING}))
         _, parts = receive_frame(ws)
         np.testing.assert_array_equal(decode_png(parts["a"], tmp_path), rendered_png(edited))  # the last good one
+        with connect(client) as late:  # a page opened meanwhile is told too
+            assert json.loads(late.receive_text())["problem"] == error["message"]
         scene_path.write_text(text)
-        assert json.loads(ws.receive_text())["scene"]["ambient"] == [0.1, 0.1, 0.1]
+        fixed = json.loads(ws.receive_text())
+        for _ in range(3):  # the watcher may catch the file between its truncation and its write: one more error
+            if fixed["type"] == "hello":
+                break
+            fixed = json.loads(ws.receive_text())
+        assert fixed["scene"]["ambient"] == [0.1, 0.1, 0.1] and fixed["problem"] is None
 
 
 def test_latest_wins_while_a_render_runs(scene_path):
@@ -788,14 +813,16 @@ def test_each_page_has_one_frame_cache_released_when_it_closes(scene_path, monke
     import gc
     import weakref
 
-    from raycast_phong.tools.view import server
+    from raycast_phong.tools.view import session
     made = []
 
-    class Counted(server.FrameCache):
+    from raycast_phong.renderer.reuse import FrameCache
+
+    class Counted(FrameCache):
         def __init__(self):
             super().__init__()
             made.append(weakref.ref(self))
-    monkeypatch.setattr(server, "FrameCache", Counted)
+    monkeypatch.setattr(session, "frame_cache", Counted)
     client = client_for(scene_path)
     with connect(client) as one, connect(client) as two:
         for ws in (one, two):
@@ -808,3 +835,59 @@ def test_each_page_has_one_frame_cache_released_when_it_closes(scene_path, monke
         gc.collect()
         time.sleep(0.05)
     assert all(ref() is None for ref in made)
+
+
+def test_capture_asks_for_two_saves_at_once_and_gets_both(scene_path):
+    """The page's capture sends a PNG save and a TOML save back to back: both are answered."""
+    client = client_for(scene_path)
+    with connect(client) as ws:
+        ws.receive_text()
+        for request_id, what in ((1, "png"), (2, "toml")):
+            ws.send_text(json.dumps({"type": "save", "id": request_id, "what": what, "settings": {}}))
+        ws.send_text(json.dumps({"type": "render", "id": 3, "quality": "draft"}))  # answered after the saves
+        got = [unpack(ws.receive_bytes())[0] for _ in range(2)]
+        assert [(h["type"], h["what"]) for h in got] == [("saved", "png"), ("saved", "toml")]
+        assert receive_frame(ws)[0]["id"] == 3
+
+
+def test_every_page_renders_on_the_servers_few_threads(scene_path):
+    """Work is bounded per server: four pages' frames run on the server's FRAME_THREADS render threads, not on a
+    thread per page (twelve pages used to make 42 threads)."""
+    from raycast_phong.tools.view import session
+    threads = set()
+
+    def noted(scene, **options):
+        threads.add((threading.get_ident(), threading.current_thread().name))
+        return rp.render(scene, **options)
+
+    client = client_for(scene_path, render=noted)
+    with connect(client) as a, connect(client) as b, connect(client) as c, connect(client) as d:
+        pages = (a, b, c, d)
+        for ws in pages:
+            ws.receive_text()
+            ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "draft"}))
+        for ws in pages:
+            receive_frame(ws)
+    assert 1 <= len(threads) <= session.FRAME_THREADS == 2  # the pages stay open: no thread id is reused
+    assert all(name.startswith("view-render") for _, name in threads)
+
+
+def test_the_page_is_served_before_the_renderer_is_loaded(scene_path, monkeypatch):
+    """Start-up: making the app imports neither numba nor OpenImageIO (the first frame does), and the kernels'
+    warm-up waits for the first page (or WARM_AFTER seconds), so the HTML is not queued behind them."""
+    made = subprocess.run([sys.executable, "-c", f"""
+import sys
+from raycast_phong.tools.view import create_app, open_source
+create_app(open_source({str(scene_path)!r}), "t" * 40, ["http://testserver"])
+print(sorted(name for name in ("numba", "OpenImageIO", "raycast_phong.renderer.frame") if name in sys.modules))
+"""], capture_output=True, text=True, timeout=120, env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[2])})
+    assert made.returncode == 0 and made.stdout.strip() == "[]", made.stdout + made.stderr
+    from raycast_phong.tools.view import server, session
+    started = threading.Event()
+    monkeypatch.setattr(session, "WARM_AFTER", 60)
+    monkeypatch.setattr(server, "warm", lambda source: started.set())
+    client = client_for(scene_path)
+    assert not started.wait(0.5)  # nothing asked for a page yet
+    assert client.get(f"/?token={TOKEN}").status_code == 200
+    assert started.wait(30)
+    client.app.state.warming.result(30)

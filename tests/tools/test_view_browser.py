@@ -54,19 +54,21 @@ def page(browser, scene_path):
 def opened(browser, path: Path, **options):
     """A tab on a view of `path`, showing its first full frame; no script error may occur meanwhile."""
     with running(path, **options) as url:
-        tab = browser.new_page(viewport={"width": 1000, "height": 800})
+        context = browser.new_context(viewport={"width": 1000, "height": 800})  # its tabs share the cookie
+        tab = context.new_page()
         errors: list[str] = []
         tab.on("pageerror", lambda error: errors.append(str(error)))
         tab.goto(url)
         wait_for_full_frame(tab)
         tab.url_with_token = url
         yield tab
-        tab.close()
+        context.close()
         assert not errors, errors
 
 
 def wait_for_full_frame(tab) -> None:
-    """Wait until image A shows the full frame of the newest request sent."""
+    """Wait until image A shows the full frame of the newest request sent (after any camera glide's end)."""
+    tab.wait_for_function("() => !window.view.gliding", timeout=30_000)
     sent = tab.evaluate("window.view.nextId - 1")
     tab.wait_for_function("""(sent) => { const img = document.querySelector('#image-a');
         return img.dataset.quality === 'full' && Number(img.dataset.id) >= sent && img.complete; }""",
@@ -341,6 +343,7 @@ def test_the_camera_orbits_pans_zooms_and_resets(page, scene_path, tmp_path):
     np.testing.assert_allclose(page.evaluate("window.view.settings.a['camera.position']"),
                                turned([0, 0, 4], [0, 1, 0], math.pi / 36), atol=1e-5)
     page.click("#camera-reset")
+    wait_for_full_frame(page)  # the camera glides back
     # Shift-drag pans: eye and look_at move together; 1/8 of the height right moves them left by
     # 1/8 of the view's height at the look_at point's depth, 2 · 4 · tan 20°.
     drag(page, "#image-a", height / 8, 0, modifier="Shift")
@@ -419,7 +422,7 @@ def test_the_url_is_a_permalink_of_the_settings(page, scene_path):
     link = page.url
     assert "#view=" in link and page.get_attribute("#permalink", "href") in link
     shown_a, shown_b = page_image(page), page_image(page, "#image-b")
-    other = page.context.browser.new_page()  # a bookmark opened later, elsewhere: only the URL is shared
+    other = page.context.new_page()  # a bookmark opened later in this browser: only the URL is shared
     try:
         other.goto(link)
         wait_for_full_frame(other)
@@ -432,7 +435,7 @@ def test_the_url_is_a_permalink_of_the_settings(page, scene_path):
         np.testing.assert_array_equal(shown_a, to_8bit(rp.render(moved).image))
     finally:
         other.close()
-    damaged = page.context.browser.new_page()  # a damaged link: the scene as it is
+    damaged = page.context.new_page()  # a damaged link: the scene as it is
     try:
         damaged.goto(link.split("#")[0] + "#view=%7Bnot-json")
         wait_for_full_frame(damaged)
@@ -627,3 +630,299 @@ def test_the_browser_benchmark_runs_in_a_reduced_form():
     for line in ("light  drafts while dragging: input→paint median", "orbit  full frame after a release:",
                  "load average after:"):
         assert line in unpaced.stdout, unpaced.stdout
+
+
+# ---------------------------------------------------------------- access: settings apart from the token (issue 35)
+
+def test_the_token_leaves_the_address_bar_and_a_shared_permalink_opens_nothing(page, browser):
+    page.select_option("#shading", "flat")
+    wait_for_full_frame(page)
+    link = page.url
+    assert "#view=" in link and "token" not in link and "token" not in page.get_attribute("#permalink", "href")
+    again = page.context.new_page()  # this browser (it holds the cookie): the permalink reopens the view
+    try:
+        again.goto(link)
+        wait_for_full_frame(again)
+        assert again.input_value("#shading") == "flat"
+    finally:
+        again.close()
+    stranger = browser.new_context()  # someone the link was sent to
+    try:
+        assert stranger.new_page().goto(link).status == 403
+    finally:
+        stranger.close()
+
+
+def test_another_page_on_loopback_cannot_frame_the_view(page):
+    """127.0.0.1 on another port is the same site, so it would send the cookie: a page loaded by its cookie
+    refuses every frame (frame-ancestors 'none')."""
+    bare = page.url.split("#", 1)[0]
+    framing = (f"<!doctype html><title>framing</title><iframe src='{bare}' "
+               "onload=\"document.title = 'loaded'\"></iframe>").encode()
+    with other_origin(framing) as other:
+        tab = page.context.new_page()  # the cookie is in this context
+        try:
+            tab.goto(other)
+            tab.wait_for_function("document.title === 'loaded'", timeout=30_000)
+            tab.wait_for_timeout(500)
+            framed = [frame for frame in tab.frames if frame != tab.main_frame]
+            assert framed and all(frame.locator("#controls").count() == 0 for frame in framed)
+        finally:
+            tab.close()
+
+
+def test_a_restarted_server_with_another_token_says_the_token_is_refused(browser, scene_path):
+    tab = browser.new_page(viewport={"width": 1000, "height": 800})
+    try:
+        with running(scene_path, token="first-" + "x" * 40) as url:
+            port = int(url.split(":")[2].split("/")[0])
+            tab.goto(url)
+            wait_for_full_frame(tab)
+        with running(scene_path, port=port, token="second-" + "y" * 40):
+            tab.wait_for_function("() => document.querySelector('#lost').textContent.includes('refused')",
+                                  timeout=30_000)
+            assert tab.is_visible("#lost") and "printed" in tab.text_content("#lost")
+    finally:
+        tab.close()
+
+
+# ---------------------------------------------------------------- robust to the file (issue 35 item 6)
+
+SECOND_SPHERE = '\n[[objects]]\nshape = "icosphere"\nsubdivisions = 1\nradius = 0.4\nmaterial = "red"\n' \
+                'translate = [1.2, 0, 0]\n'
+
+
+def test_a_scene_file_that_loses_an_object_keeps_the_page_and_its_old_links_working(browser, tmp_path):
+    path = write_tiny_scene(tmp_path, WIDTH, HEIGHT, SECOND_SPHERE)
+    with opened(browser, path) as tab:
+        tab.select_option("#shading", "flat")  # sets objects.0.shading and objects.1.shading
+        wait_for_full_frame(tab)
+        old_link = tab.url
+        assert "objects.1.shading" in tab.evaluate("Object.keys(window.view.settings.a).join()")
+        path.write_text(path.read_text().replace(SECOND_SPHERE, ""))
+        tab.wait_for_selector("#note:not([hidden])", timeout=30_000)
+        assert "objects.1.shading" in tab.text_content("#note")
+        wait_for_full_frame(tab)
+        one = rp.load_scene(path, shading("flat"))
+        np.testing.assert_array_equal(page_image(tab), to_8bit(rp.render(one).image))
+        assert tab.is_hidden("#error")
+        fresh = tab.context.new_page()  # the link made before the edit still opens the view
+        try:
+            fresh.goto(old_link)
+            wait_for_full_frame(fresh)
+            assert fresh.is_visible("#note") and fresh.is_hidden("#error")
+            np.testing.assert_array_equal(page_image(fresh), to_8bit(rp.render(one).image))
+        finally:
+            fresh.close()
+
+
+def test_a_message_about_an_invalid_file_stays_until_the_file_is_fixed(page, scene_path):
+    good = scene_path.read_text()
+    scene_path.write_text(good.replace("subdivisions = 1", "subdivisions = -4"))
+    page.wait_for_selector("#file-error:not([hidden])", timeout=30_000)
+    assert "subdivisions" in page.text_content("#file-error")
+    page.select_option("#shading", "flat")  # a new frame of the scene as it was
+    wait_for_full_frame(page)
+    assert page.is_visible("#file-error") and "subdivisions" in page.text_content("#file-error")
+    scene_path.write_text(good.replace("ambient = [0.1, 0.1, 0.1]", "ambient = [0.2, 0.2, 0.2]"))
+    page.wait_for_selector("#file-error", state="hidden", timeout=30_000)
+
+
+# ---------------------------------------------------------------- gestures (issue 35 item 4)
+
+def wheel(tab, **init) -> None:
+    """A wheel event on image A, as a browser makes it (Playwright's mouse.wheel has no deltaMode or ctrlKey)."""
+    tab.evaluate("""(init) => { const img = document.querySelector('#image-a'); const box = img.getBoundingClientRect();
+        img.dispatchEvent(new WheelEvent('wheel', { bubbles: true, cancelable: true, clientX: box.x + box.width / 2,
+                                                    clientY: box.y + box.height / 2, ...init })); }""", init)
+
+
+def eye_distance(tab) -> float:
+    position = tab.evaluate("window.view.settings.a['camera.position'] || window.view.hello.scene.camera.position")
+    look_at = tab.evaluate("window.view.settings.a['camera.look_at'] || window.view.hello.scene.camera.look_at")
+    return float(np.linalg.norm(np.subtract(position, look_at)))
+
+
+def test_the_wheel_zooms_in_proportion_pinch_zooms_and_two_fingers_pan(page):
+    start = eye_distance(page)  # 4: the tiny scene's camera
+    wheel(page, deltaY=10)  # a trackpad's small step: a tenth of a notch
+    assert eye_distance(page) == pytest.approx(start * 1.1 ** 0.1, rel=1e-5)
+    wheel(page, deltaY=90)
+    assert eye_distance(page) == pytest.approx(start * 1.1, rel=1e-5)
+    wheel(page, deltaY=-3, deltaMode=1)  # Firefox counts lines: 3 lines are a notch
+    assert eye_distance(page) == pytest.approx(start * 1.1 * 1.1 ** -0.99, rel=1e-5)
+    before = eye_distance(page)
+    wheel(page, deltaY=-20, ctrlKey=True)  # a pinch: the fingers spread, the view comes closer
+    assert eye_distance(page) == pytest.approx(before * math.exp(-0.2), rel=1e-5)
+    look_at = page.evaluate("window.view.settings.a['camera.look_at'] || [0, 0, 0]")
+    before = eye_distance(page)
+    wheel(page, deltaX=30)  # two fingers sideways: a pan; the distance stays
+    moved = page.evaluate("window.view.settings.a['camera.look_at']")
+    assert moved[0] > look_at[0] + 1e-3 and eye_distance(page) == pytest.approx(before, rel=1e-6)
+    wait_for_full_frame(page)
+
+
+def test_zoom_stops_outside_the_object(page):
+    wait_for_full_frame(page)
+    radius = page.evaluate("window.view.lastFrame.spheres[0][3]")
+    assert 0.9 < radius <= 1.0 + 1e-6  # the unit icosphere's bounding sphere
+    for _ in range(60):
+        wheel(page, deltaY=-400)
+    assert radius * 1.04 < eye_distance(page) < radius * 1.06  # the sphere is centred on look_at
+    wait_for_full_frame(page)
+
+
+def test_keys_glide_the_camera_through_drafts_to_the_exact_step(page):
+    page.focus("#stage")
+    sent = page.evaluate("window.view.nextId")
+    page.keyboard.press("+")
+    wait_for_full_frame(page)
+    assert page.evaluate("window.view.nextId") - sent > 3  # drafts on the way, then the full frame
+    assert eye_distance(page) == pytest.approx(4 / 1.1, rel=1e-5)
+
+
+# ---------------------------------------------------------------- layout (issue 35 item 5)
+
+def test_the_page_fits_a_phone_and_the_image_takes_the_room_there_is(browser, scene_path):
+    with running(scene_path) as url:
+        for width, height in ((390, 844), (1000, 800)):
+            context = browser.new_context(viewport={"width": width, "height": height})
+            try:
+                tab = context.new_page()
+                tab.goto(url)
+                wait_for_full_frame(tab)
+                box = tab.locator("#image-a").bounding_box()
+                assert box["x"] >= 0 and box["x"] + box["width"] <= width + 0.5
+                if width == 390:  # a phone: the image across the screen, above the controls
+                    assert box["width"] >= 350 and box["y"] < tab.locator("#controls").bounding_box()["y"]
+                else:  # the room beside the controls (the scene file's 160 pixels are not a limit)
+                    assert box["width"] > 2 * WIDTH and box["height"] <= height
+                smoothing = "getComputedStyle(document.querySelector('#image-a')).imageRendering"
+                assert tab.evaluate(smoothing) != "pixelated"
+                tab.focus("#stage")
+                tab.keyboard.press("p")  # pixel peeping
+                assert tab.evaluate(smoothing) == "pixelated"
+            finally:
+                context.close()
+
+
+def test_the_image_is_an_early_tab_stop(page):
+    page.evaluate("document.activeElement.blur()")
+    stops = []
+    while len(stops) < 3 and "stage" not in stops:  # the stage within the first three Tab stops
+        page.keyboard.press("Tab")
+        stops.append(page.evaluate("document.activeElement.id"))
+    assert "stage" in stops, stops
+
+
+def test_the_busy_bar_never_moves_the_image(browser, scene_path):
+    holding, release = threading.Event(), threading.Event()
+
+    def held(scene, **options):
+        if holding.is_set() and options.get("progress") is not None:
+            release.wait(60)
+        return rp.render(scene, **options)
+
+    with opened(browser, scene_path, render=held) as tab:
+        before = tab.locator("#image-a").bounding_box()
+        holding.set()
+        tab.select_option("#shading", "flat")
+        tab.wait_for_selector("#busy:not([hidden])", timeout=30_000)
+        assert tab.locator("#image-a").bounding_box() == before
+        release.set()
+        wait_for_full_frame(tab)
+
+
+# ---------------------------------------------------------------- what viewers people like have (item 8)
+
+def test_standard_views_fit_and_the_turntable(page):
+    page.click("[data-view=top]")
+    wait_for_full_frame(page)
+    position = np.asarray(page.evaluate("window.view.settings.a['camera.position']"))
+    assert np.linalg.norm(position) == pytest.approx(4, rel=1e-5)  # the distance kept, look_at at the origin
+    assert math.degrees(math.acos(position[1] / 4)) == pytest.approx(1, abs=1e-3)  # a degree off straight down
+    page.click("[data-view=front]")
+    wait_for_full_frame(page)
+    np.testing.assert_allclose(page.evaluate("window.view.settings.a['camera.position']"), [0, 0, 4], atol=1e-5)
+    page.focus("#stage")
+    for _ in range(5):
+        page.keyboard.press("-")
+        wait_for_full_frame(page)
+    radius = page.evaluate("window.view.lastFrame.spheres[0][3]")
+    page.keyboard.press("f")  # the sphere round the scene fills the narrower side (the height) with 10 % spare
+    wait_for_full_frame(page)
+    half = math.tan(math.radians(20))
+    assert eye_distance(page) == pytest.approx(1.1 * radius / math.sin(math.atan(half)), rel=1e-4)
+    page.check("#turntable")
+    page.wait_for_function("() => window.view.nextId > 8 + window.view.answered", timeout=30_000)
+    page.uncheck("#turntable")
+    wait_for_full_frame(page)
+    x, _, z = page.evaluate("window.view.settings.a['camera.position']")
+    assert abs(x) > 1e-3 and math.hypot(x, z) == pytest.approx(eye_distance(page), rel=1e-5)  # turned round up
+
+
+def test_capture_gives_the_image_on_screen_and_its_scene(page, tmp_path):
+    page.select_option("#shading", "flat")
+    wait_for_full_frame(page)
+    downloads = []
+    page.on("download", lambda download: downloads.append(download))
+    page.click("#capture")  # one click, two files
+    for _ in range(200):
+        if len(downloads) >= 2:
+            break
+        page.wait_for_timeout(50)
+    files = {download.suggested_filename: download for download in downloads}
+    assert sorted(files) == ["tiny-view-A.png", "tiny-view-A.toml"]
+    files["tiny-view-A.png"].save_as(tmp_path / "shown.png")
+    files["tiny-view-A.toml"].save_as(tmp_path / "shown.toml")
+    shown = np.round(rp.read_image(tmp_path / "shown.png")[0] * 255).astype(np.uint8)
+    np.testing.assert_array_equal(shown, page_image(page))
+    np.testing.assert_array_equal(shown, to_8bit(rp.render(rp.load_scene(tmp_path / "shown.toml")).image))
+
+
+def test_undo_and_the_keys_list(page):
+    page.select_option("#shading", "flat")
+    wait_for_full_frame(page)
+    page.select_option("[data-key='render.specular']", "blinn")
+    wait_for_full_frame(page)
+    page.focus("#stage")
+    page.keyboard.press("Control+z")
+    wait_for_full_frame(page)
+    settings = page.evaluate("window.view.settings.a")
+    assert "render.specular" not in settings and settings["render.shading"] == "flat"
+    page.keyboard.press("Control+z")
+    wait_for_full_frame(page)
+    assert page.evaluate("window.view.settings.a") == {} and page.input_value("#shading") == ""
+    assert page.is_disabled("#undo")
+    page.keyboard.press("?")
+    assert page.is_visible("#help") and "turntable" in page.text_content("#help")
+    page.keyboard.press("Escape")
+    assert page.is_hidden("#help")
+
+
+def test_compared_both_figures_show_and_a_mesh_promises_no_exact_error(page, browser, tmp_path):
+    page.select_option("#compare", "side")
+    wait_for_full_frame(page)
+    assert page.text_content("#frame-time").startswith("A: ") and "; B: " in page.text_content("#frame-time")
+    assert "; B: " in page.text_content("#rays")
+    assert page.is_visible("#exact-row")
+    mesh = tmp_path / "tri.obj"
+    mesh.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    with opened(browser, mesh) as tab:
+        assert tab.is_disabled("#level") and "no curved shapes" in tab.get_attribute("#level", "title")
+        assert tab.is_hidden("#exact-row")
+
+
+def test_show_lays_the_three_models_side_by_side_in_a_narrow_cell(browser, tmp_path):
+    """rp.show() in a JupyterLab-wide output (about 900 px): the three models in one row, their figures under
+    their images, where the wide table of timings used to push each onto its own line."""
+    path = write_tiny_scene(tmp_path, 200, 150)
+    html = rp.show(path)._repr_html_()
+    context = browser.new_context(viewport={"width": 900, "height": 800})
+    try:
+        tab = context.new_page()
+        tab.set_content(f"<!doctype html><body style='margin:0;width:860px'>{html}</body>")
+        boxes = [tab.locator("img").nth(k).bounding_box() for k in range(3)]
+        assert len({round(box["y"]) for box in boxes}) == 1 and boxes[0]["x"] < boxes[1]["x"] < boxes[2]["x"]
+    finally:
+        context.close()

@@ -77,6 +77,12 @@ def test_the_tutorial_runs_from_top_to_bottom():
     assert sum(page.count("data:image/png;base64,") for page in html) >= 3 + 3 + 2  # renders, shininess, models
     printed = "".join(out.get("text", "") for cell in code for out in cell.get("outputs", []))
     assert "highlight lost" in printed and "triangles" in printed
+    # The closing sentence is the run's own: the model it names has the lowest error the run printed.
+    said = re.search(r"In this run (\w+) shading reached the lowest error", printed)
+    lowest = {model: float(rmse) for model, rmse in re.findall(r"^(\w+) +lowest RMSE ([0-9.]+)", printed, re.M)}
+    assert said and lowest and said[1] == min(lowest, key=lowest.get), printed
+    plot = next(cell.source for cell in code if "loglog" in cell.source)
+    assert "pooled" in plot and "seconds_total_measured" in plot  # it says which times it draws
     assert any("image/png" in out.get("data", {}) for cell in code for out in cell.get("outputs", []))  # the plot
     assert "skip-execution" in code[-1].metadata.get("tags", [])  # the live page needs a browser
 
@@ -91,3 +97,31 @@ def test_png_bytes_hold_the_8bit_values_render_stores(tmp_path):
         path = tmp_path / "frame.png"
         path.write_bytes(png_bytes(image))
         np.testing.assert_array_equal(np.round(rp.read_image(path)[0] * 255).astype(np.uint8), to_8bit(image))
+
+
+def test_results_have_a_png_and_a_one_line_repr(tmp_path):
+    """Front ends that want a PNG get the one `render -o x.png` stores; a prompt gets one line, not a numpy dump."""
+    path = write_tiny_scene(tmp_path, 40, 30)
+    result = rp.render(rp.load_scene(path))
+    (tmp_path / "shown.png").write_bytes(result._repr_png_())
+    shown = np.round(rp.read_image(tmp_path / "shown.png")[0] * 255).astype(np.uint8)
+    np.testing.assert_array_equal(shown, to_8bit(result.image))
+    linear = rp.render(rp.load_scene(path, ['render.colour="linear"']))  # encoded through the sRGB curve
+    (tmp_path / "linear.png").write_bytes(linear._repr_png_())
+    shown = np.round(rp.read_image(tmp_path / "linear.png")[0] * 255).astype(np.uint8)
+    np.testing.assert_array_equal(shown, to_8bit(linear.image, "linear"))
+    assert (shown != to_8bit(linear.image)).any()
+    text = repr(result)
+    assert text.startswith("<RenderResult 40×30 float32, frame ") and "\n" not in text and "array(" not in text
+    assert f"{result.rays:,} rays" in text and len(text) < 120
+    from raycast_phong.tools.accuracy import measured
+    exact = measured(rp.load_scene(path), result, "analytic")
+    assert repr(exact).startswith("<MeasuredResult 40×30") and "RMSE" in repr(exact) and "array(" not in repr(exact)
+    figures = rp.show(path, overrides=["render.width=40", "render.height=30"])
+    assert repr(figures).startswith("<Figures: flat, Gouraud, Phong: 40×30") and "array(" not in repr(figures)
+    (tmp_path / "figures.png").write_bytes(figures._repr_png_())
+    row = np.round(rp.read_image(tmp_path / "figures.png")[0] * 255).astype(np.uint8)
+    assert row.shape == (30, 3 * 40 + 2 * 8, 3)  # side by side, 8 white pixels between
+    for k, one in enumerate(figures.results):
+        np.testing.assert_array_equal(row[:, k * 48:k * 48 + 40], to_8bit(one.image))
+    assert (row[:, 40:48] == 255).all()

@@ -85,8 +85,9 @@ def page_url(host: str, port: int, token: str) -> str:
 
 
 def close(app) -> None:
-    """Stop the app's render threads."""
-    app.state.executor.shutdown(wait=False, cancel_futures=True)  # each page's own threads end with its socket
+    """Stop the app's warm-up, render and reference threads."""
+    app.state.executor.shutdown(wait=False, cancel_futures=True)
+    app.state.view.shutdown()
 
 
 def server_config(app, log_level: str = "warning"):

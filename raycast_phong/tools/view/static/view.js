@@ -2,7 +2,16 @@
 // The server validates every value with the scene schema and renders; this page only shows what it gets.
 "use strict";
 
+// The token opens the page once: the server sets its cookie, and the token leaves the address bar, so that a
+// copied URL or permalink carries settings only (sharing a view never shares access). A page framed by a
+// notebook keeps it: its frame's URL is nobody's to copy, and a notebook of another site gets no cookie.
 const token = new URLSearchParams(location.search).get("token") || "";
+if (token && window.top === window) {
+  const query = new URLSearchParams(location.search);
+  query.delete("token");
+  history.replaceState(null, "", `${location.pathname}${query.size ? `?${query}` : ""}${location.hash}`);
+}
+const withToken = (path) => (token ? `${path}?token=${encodeURIComponent(token)}` : path);
 const $ = (selector) => document.querySelector(selector);
 const state = {
   hello: null,
@@ -37,24 +46,37 @@ window.view = state;  // for the browser tests and the screenshot script
 let socket = null;
 let retries = 0;
 function connect() {
-  socket = new WebSocket(`ws://${location.host}/socket?token=${encodeURIComponent(token)}`);
+  socket = new WebSocket(`ws://${location.host}${withToken("/socket")}`);
   socket.binaryType = "arraybuffer";
   socket.onopen = () => {
     retries = 0;
     connected(true, "connected");
   };
-  socket.onclose = (event) => {
+  socket.onclose = async (event) => {
     const wasOpen = state.connected;
     state.inFlight = null;  // its answer will never come: the state is sent again on reconnecting
-    connected(false, event.code === 1008
-      ? "the server refused this page's token: open the URL the view command printed"
+    // A socket refused before its upgrade reaches the page as 1006, like a server that is down: ask why.
+    const refused = event.code === 1008 || (!wasOpen && await tokenRefused());
+    state.refused = refused;
+    connected(false, refused
+      ? "the server refused this page's token (a server started with another one?): open the URL the view " +
+        "command printed"
       : `the server is not answering (${wasOpen ? `closed, code ${event.code}` : "no connection"}); ` +
         "the controls are off until it is back; trying again…");
     retries += 1;
-    // 1008: a server with another token; asking again cannot help until the page is opened anew.
-    if (event.code !== 1008) setTimeout(connect, Math.min(2000, 250 * 2 ** retries));
+    // Refused: a server with another token; asking again cannot help until the page is opened anew.
+    if (!refused) setTimeout(connect, Math.min(2000, 250 * 2 ** retries));
   };
   socket.onmessage = onMessage;
+}
+
+// True when the server answers and refuses this page's token (or cookie); false when it does not answer.
+async function tokenRefused() {
+  try {
+    return (await fetch(withToken("/access"), { cache: "no-store" })).status === 403;
+  } catch (error) {
+    return false;
+  }
 }
 
 function connected(on, text) {
@@ -102,6 +124,12 @@ function onText(message) {
     settled(message.id);  // the newer request that made it stale is on its way
     return;
   }
+  if (message.type === "error" && message.file) {
+    // The scene file is invalid: said until the file is valid again (the next hello), whatever frames come.
+    $("#file-error").textContent = message.message;
+    $("#file-error").hidden = false;
+    return;
+  }
   if (message.type === "error") {
     settled(message.id);
     state.answered = Math.max(state.answered, message.id ?? 0);
@@ -126,7 +154,7 @@ function send(message) {
 // The URL is written for full frames only, which a drag asks for when it ends, never per pointer event.
 function request(quality) {
   if (!state.connected) return null;  // the settings stay; the frame is asked for on reconnecting
-  if (quality === "full") permalink();
+  if (quality === "full") { permalink(); remember(); }
   const id = state.nextId++;
   const event = window.event;  // the input being handled: its time, not this handler's, starts the latency
   const coalesced = event && event.getCoalescedEvents ? event.getCoalescedEvents() : [];
@@ -203,12 +231,11 @@ function onFrame(header, parts, arrived = performance.now()) {
   if (preview) state.previewed = header.id; else state.answered = Math.max(state.answered, header.id);
   state.warming = false;
   busy();
-  // A draft frame (half size) is shown at the full frame's size; side by side, each gets half the room.
-  const displayWidth = state.hello.scene.render.width;
+  // The images fill the room there is (the stylesheet), as tall as the window allows; a draft (half size) is
+  // shown at the full frame's size; side by side, each gets its share.
   const panels = { side: 2, models: 3 }[state.compare] || 1;
-  const stageWidth = `${panels * displayWidth + 8 * (panels - 1)}px`;
-  $("#stage").style.maxWidth = stageWidth;
-  $("#wipe").style.maxWidth = stageWidth;
+  $("#stage").style.setProperty("--aspect", valueOf("render.width") / valueOf("render.height"));
+  $("#stage").style.setProperty("--panels", panels);
   for (const name of ["a", "b", "c"]) {
     if (!parts[name]) continue;
     const img = $(`#image-${name}`);
@@ -224,10 +251,15 @@ function onFrame(header, parts, arrived = performance.now()) {
     $("#heat-caption").textContent = header.difference.note || "";
   }
   const a = header.stats.a;
-  $("#frame-time").textContent = `${(1000 * a.frame).toFixed(1)} ms render of ${a.width}×${a.height}` +
+  // Compared, each panel's figures: A and B (or the three models), one line each.
+  const names = Object.keys(header.stats);
+  const label = (name) => (names.length === 1 ? "" : `${$(`#tag-${name}`).textContent}: `);
+  $("#frame-time").textContent = names.map((name) => { const f = header.stats[name];
+    return `${label(name)}${(1000 * f.frame).toFixed(1)} ms render of ${f.width}×${f.height}`; }).join("; ") +
     ` (${header.quality}), ${(1000 * header.seconds).toFixed(1)} ms in all`;
-  $("#rays").textContent = `${(a.rays_per_second / 1e6).toFixed(1)} M (${a.rays.toLocaleString()} rays, ` +
-    `${a.triangles.toLocaleString()} triangles)`;
+  $("#rays").textContent = names.map((name) => { const f = header.stats[name];
+    return `${label(name)}${(f.rays_per_second / 1e6).toFixed(1)} M (${f.rays.toLocaleString()} rays, ` +
+      `${f.triangles.toLocaleString()} triangles)`; }).join("; ");
   // Input → on screen: from the oldest input event the frame answers (its own time, as the browser stamped it)
   // to the first animation frame after image A decoded, the frame the browser then paints (`ms`); `sent` counts
   // from sending the request, `shown` from the frame's arrival, `server` is the server's own time.
@@ -251,7 +283,9 @@ function onFrame(header, parts, arrived = performance.now()) {
   $("#left-out").textContent = a.left_out.map((s) => s.name).join(", ") || "nothing";
   $("#left-out").title = a.left_out.map((s) => `${s.name}: ${s.reason}`).join("\n");
   $("#warnings").replaceChildren(...a.warnings.map((w) => Object.assign(document.createElement("li"), { textContent: w })));
-  if (header.quality === "draft") $("#exact").textContent = "(when the pointer rests)";
+  if (header.quality === "draft" && state.hello.analytic && state.compare !== "models") {
+    $("#exact").textContent = "(when the pointer rests)";
+  }
   state.lastFrame = header;
   drawMarkers();
   hideError();
@@ -345,14 +379,45 @@ function onHello(message) {
   state.warming = Boolean(message.warming);
   const light = $("#light").value, material = $("#material").value;
   state.hello = message;
+  $("#file-error").textContent = message.problem || "";
+  $("#file-error").hidden = !message.problem;
+  dropStale();
   $("#source").textContent = message.source;
   if (message.reloaded) $("#source").textContent += ` (reloaded ${new Date().toLocaleTimeString()})`;
   $("#material").replaceChildren(...message.materials.map((name) => new Option(name, name)));
   $("#light").replaceChildren(...message.scene.lights.map((light, index) =>
     new Option(`${index + 1}: ${light.type}`, String(index))));
-  if (again) { $("#light").value = light; $("#material").value = material; }
+  if (again && message.scene.lights[Number(light)]) $("#light").value = light;
+  if (again && message.materials.includes(material)) $("#material").value = material;
+  // An exact error exists for analytic shapes only: no promise of a figure that will never come.
+  $("#exact-row").hidden = !message.analytic;
+  // Meshes have no tessellation level: the slider would change nothing.
+  const curved = Object.keys(message.levels[2] || {}).length > 0;
+  $("#level").disabled = !curved;
+  $("#level").title = curved ? "" : "the scene has no curved shapes to tessellate (meshes are drawn as they are)";
   refreshControls();
   request("full");
+}
+
+// Settings the scene no longer has (an object, a light or a material gone from an edited file, or a permalink
+// made for another version of it) are dropped, with a note: sent, each frame would be refused.
+function applies(key) {
+  const found = /^materials\.(.+)\.[^.]+$/.exec(key);
+  if (found && state.hello.materials.includes(found[1])) return true;
+  return sceneValue(key) !== undefined;
+}
+function dropStale() {
+  const dropped = new Set();
+  for (const side of ["a", "b"]) {
+    for (const key of Object.keys(state.settings[side])) {
+      if (!applies(key)) { delete state.settings[side][key]; dropped.add(key); }
+    }
+  }
+  if (!dropped.size) return;
+  const names = [...dropped].sort();
+  $("#note").textContent = `settings that no longer apply to ${state.hello.source} were dropped: ` +
+    `${names.slice(0, 4).join(", ")}${names.length > 4 ? ` and ${names.length - 4} more` : ""}`;
+  $("#note").hidden = false;
 }
 
 // ------------------------------------------------------------------ geometry (camera.py's conventions)
@@ -626,7 +691,8 @@ const CAMERA_KEYS = ["camera.position", "camera.look_at", "camera.view_height"];
 
 // Orbit round look_at: (dx, dy) pixels turn the eye round the scene's up axis and the camera's right
 // axis, `perPixel` radians a pixel, as if the object were turned with the pointer (f3d, three.js).
-function orbit(dx, dy, perPixel, quality) {
+function orbit(dx, dy, perPixel, quality) { setShared(orbited(dx, dy, perPixel), quality); }
+function orbited(dx, dy, perPixel) {
   const rig = rigOf(state.editing);
   const worldUp = unit(valueOf("camera.up"));
   let offset = rotate(sub(rig.eye, rig.target), worldUp, -dx * perPixel);
@@ -635,7 +701,7 @@ function orbit(dx, dy, perPixel, quality) {
   // Stop a degree short of the poles: looking along `up` leaves the camera without a frame.
   const fromUp = Math.acos(Math.max(-1, Math.min(1, dot(unit(pitched), worldUp))));
   if (fromUp > Math.PI / 180 && fromUp < Math.PI - Math.PI / 180) offset = pitched;
-  setShared({ "camera.position": rounded(add(rig.target, offset)) }, quality);
+  return { "camera.position": rounded(add(rig.target, offset)) };
 }
 
 // Pan: eye and look_at move together in the image plane, so the point under the pointer follows it
@@ -649,66 +715,227 @@ function pan(dx, dy, pixels, quality) {
             quality);
 }
 
-// Zoom by `factor` (> 1: away): a perspective eye moves along its view axis, an orthographic view widens.
-function zoom(factor, quality) {
-  const rig = rigOf(state.editing);
-  if (rig.orthographic) {
-    setShared({ "camera.view_height": Number((valueOf("camera.view_height") * factor).toPrecision(6)) }, quality);
-  } else {
-    const offset = scale(sub(rig.eye, rig.target), factor);
-    if (norm(offset) > 1e-3) setShared({ "camera.position": rounded(add(rig.target, offset)) }, quality);
+// The near limit: how close to look_at the eye may come along the unit `towardsEye` without entering an object.
+// The frames name each object's bounding sphere (a little margin added); the eye stops at the outer side of
+// every sphere its path to look_at crosses, except one it is inside already (a room seen from within).
+function nearLimit(rig, towardsEye) {
+  let near = 0;
+  for (const [x, y, z, radius] of (state.lastFrame && state.lastFrame.spheres) || []) {
+    const centre = [x, y, z], r = 1.05 * radius;
+    if (norm(sub(rig.eye, centre)) < radius) continue;
+    const b = dot(towardsEye, sub(centre, rig.target));
+    const inside = b * b - (dot(sub(rig.target, centre), sub(rig.target, centre)) - r * r);
+    if (inside >= 0) near = Math.max(near, b + Math.sqrt(inside));
   }
+  return near;
+}
+
+// Zoom by `factor` (> 1: away): a perspective eye moves along its view axis (never into an object: nearLimit),
+// an orthographic view widens.
+function zoomed(factor, side = state.editing) {
+  const rig = rigOf(side);
+  if (rig.orthographic) {
+    return { "camera.view_height": Number((valueIn(side, "camera.view_height") * factor).toPrecision(6)) };
+  }
+  const offset = sub(rig.eye, rig.target), distance = norm(offset), towardsEye = scale(offset, 1 / distance);
+  let wanted = distance * factor;
+  if (factor < 1) wanted = Math.max(wanted, Math.min(distance, nearLimit(rig, towardsEye)));
+  if (wanted < 1e-3 || Math.abs(wanted - distance) < 1e-9) return null;
+  return { "camera.position": rounded(add(rig.target, scale(towardsEye, wanted))) };
+}
+function zoom(factor, quality) {
+  const values = zoomed(factor);
+  if (values) setShared(values, quality);
+}
+
+// A wheel's movement in CSS pixels, whatever unit it came in (Firefox counts lines, a page key counts pages).
+function wheelPixels(event, delta) {
+  return delta * ({ 1: 33, 2: $("#stage").clientHeight }[event.deltaMode] ?? 1);
+}
+const NOTCH = 100;                // pixels of one mouse-wheel notch in Chromium
+const PER_NOTCH = Math.log(1.1);  // a notch zooms 10 %; a trackpad's small steps zoom as little as they move
+
+// The camera glides to a new place (a key, a standard view, fit, reset) over GLIDE ms of drafts, then a full
+// frame: a jump loses the eye's sense of where it went. Eye and look-at move in a straight line, the distance
+// between them eased.
+const GLIDE = 240;
+let gliding = null;
+function glide(values, after = null) {
+  const from = {}, to = {};
+  for (const key of Object.keys(values)) { from[key] = valueOf(key); to[key] = values[key]; }
+  if (gliding) cancelAnimationFrame(gliding);
+  const start = performance.now();
+  const step = (now) => {
+    const t = Math.min(1, (now - start) / GLIDE), eased = t * t * (3 - 2 * t);
+    const at = {};
+    for (const key of Object.keys(to)) {
+      at[key] = Array.isArray(to[key]) ? rounded(to[key].map((x, i) => from[key][i] + (x - from[key][i]) * eased))
+        : Number((from[key] + (to[key] - from[key]) * eased).toPrecision(6));
+    }
+    if (t < 1) { setShared(at, "draft"); gliding = requestAnimationFrame(step); return; }
+    gliding = null;
+    state.gliding = false;
+    if (after) after(); else setShared(to, "full");
+  };
+  state.gliding = true;  // the tests wait for the glide's end
+  gliding = requestAnimationFrame(step);
 }
 
 function resetCamera() {
-  for (const side of ["a", "b"]) for (const key of CAMERA_KEYS) delete state.settings[side][key];
-  refreshLight();
-  request("full");
+  const scene = Object.fromEntries(CAMERA_KEYS.map((key) => [key, sceneValue(key)]));
+  glide(scene, () => {
+    for (const side of ["a", "b"]) for (const key of CAMERA_KEYS) delete state.settings[side][key];
+    refreshLight();
+    request("full");
+  });
 }
+
+// The sphere round every object of the newest frame (null before the first frame).
+function sceneSphere() {
+  const spheres = (state.lastFrame && state.lastFrame.spheres) || [];
+  if (!spheres.length) return null;
+  const low = [0, 1, 2].map((i) => Math.min(...spheres.map((s) => s[i] - s[3])));
+  const high = [0, 1, 2].map((i) => Math.max(...spheres.map((s) => s[i] + s[3])));
+  const centre = scale(add(low, high), 0.5);
+  return { centre, radius: Math.max(...spheres.map((s) => norm(sub(s.slice(0, 3), centre)) + s[3])) };
+}
+
+// Where the camera goes to look at the whole scene from `direction` (unit, from look_at towards the eye; the
+// current one if not given): look_at at the scene's centre, the eye far enough for the sphere round it to fit
+// the narrower side of the image with a 10 % margin (an orthographic view: its height).
+function fitted(direction = null) {
+  const sphere = sceneSphere();
+  if (!sphere) return null;
+  const rig = rigOf(state.editing);
+  const towardsEye = direction || unit(sub(rig.eye, rig.target));
+  const narrower = Math.min(rig.halfHeight, rig.halfWidth);
+  const values = { "camera.look_at": rounded(sphere.centre) };
+  if (rig.orthographic) {
+    values["camera.view_height"] = Number((2.2 * sphere.radius * rig.halfHeight / narrower).toPrecision(6));
+    values["camera.position"] = rounded(add(sphere.centre, scale(towardsEye, 3 * sphere.radius)));
+  } else {
+    const distance = (1.1 * sphere.radius) / Math.sin(Math.atan(narrower));
+    values["camera.position"] = rounded(add(sphere.centre, scale(towardsEye, distance)));
+  }
+  return values;
+}
+
+// The standard views, in the scene's own frame: `up` is camera.up; front looks along −Z (the axis least along
+// up), side from +X, top from above (tilted a degree: looking straight along up leaves the camera no frame),
+// iso from the corner between the three. The scene keeps its distance; look_at stays.
+function standardView(name) {
+  const rig = rigOf(state.editing);
+  const up = unit(valueOf("camera.up"));
+  const axis = Math.abs(up[2]) < 0.9 ? [0, 0, 1] : [0, 1, 0];
+  const front = unit(sub(axis, scale(up, dot(axis, up))));
+  const side = cross(up, front);
+  const tilt = Math.PI / 180;
+  const direction = { front, side, iso: unit(add(add(front, side), up)),
+                      top: add(scale(up, Math.cos(tilt)), scale(front, Math.sin(tilt))) }[name];
+  const distance = norm(sub(rig.eye, rig.target));
+  return { "camera.position": rounded(add(rig.target, scale(direction, distance))) };
+}
+
+// Turntable: the eye turns round look_at about the scene's up axis, 30° a second, in drafts; a full frame when
+// it stops. Any drag or key stops it.
+const TURN_PER_SECOND = Math.PI / 6;
+let turning = null;
+function turntable(on) {
+  $("#turntable").checked = on;
+  if (turning) cancelAnimationFrame(turning);
+  turning = null;
+  if (!on) { request("full"); return; }
+  let last = performance.now();
+  const step = (now) => {
+    const angle = TURN_PER_SECOND * (now - last) / 1000;
+    last = now;
+    const rig = rigOf(state.editing);
+    setShared({ "camera.position": rounded(add(rig.target, rotate(sub(rig.eye, rig.target), unit(valueOf("camera.up")), angle))) }, "draft");
+    turning = requestAnimationFrame(step);
+  };
+  turning = requestAnimationFrame(step);
+}
+const stopTurntable = () => { if (turning) turntable(false); };
+const VIEW_KEYS = { 1: "front", 3: "side", 7: "top", 9: "iso", i: "iso" };  // f3d's and Blender's digits
 
 function wireCamera() {
   let last = null, settle = null;
+  const touches = new Map();  // the pointers down on the image: two on a touch screen pan and pinch
   const later = () => { clearTimeout(settle); settle = setTimeout(() => request("full"), 250); };
   for (const img of [$("#image-a"), $("#image-b"), $("#image-c")]) {
     img.addEventListener("contextmenu", (event) => event.preventDefault());  // the right button pans
     img.addEventListener("pointerdown", (event) => {
+      stopTurntable();
       img.setPointerCapture(event.pointerId);
+      touches.set(event.pointerId, { x: event.clientX, y: event.clientY });
       last = { x: event.clientX, y: event.clientY, pan: event.shiftKey || event.button !== 0 };
       $("#stage").focus({ preventScroll: true });
     });
     img.addEventListener("pointermove", (event) => {
       if (!last || !img.hasPointerCapture(event.pointerId)) return;
+      if (touches.size === 2) {  // two fingers on a touch screen: pan with their middle, pinch to zoom
+        const before = [...touches.values()];
+        touches.set(event.pointerId, { x: event.clientX, y: event.clientY });
+        const after = [...touches.values()];
+        const middle = (p) => ({ x: (p[0].x + p[1].x) / 2, y: (p[0].y + p[1].y) / 2 });
+        const spread = (p) => Math.hypot(p[0].x - p[1].x, p[0].y - p[1].y) || 1;
+        const [m0, m1] = [middle(before), middle(after)];
+        pan(m1.x - m0.x, m1.y - m0.y, img.getBoundingClientRect().height, "draft");
+        zoom(spread(before) / spread(after), "draft");
+        return;
+      }
+      touches.set(event.pointerId, { x: event.clientX, y: event.clientY });
       const dx = event.clientX - last.x, dy = event.clientY - last.y;
       const pixels = img.getBoundingClientRect().height;
       // Dragging across the image's height is half a turn.
       if (last.pan) pan(dx, dy, pixels, "draft"); else orbit(dx, dy, Math.PI / pixels, "draft");
       Object.assign(last, { x: event.clientX, y: event.clientY });
     });
-    img.addEventListener("pointerup", (event) => {
+    const lift = (event) => {
+      touches.delete(event.pointerId);
       if (!last) return;
       img.releasePointerCapture(event.pointerId);
+      if (touches.size) { const [p] = touches.values(); Object.assign(last, p); return; }  // one finger stays
       last = null;
       request("full");
-    });
+    };
+    img.addEventListener("pointerup", lift);
+    img.addEventListener("pointercancel", lift);
+    // The wheel zooms in proportion to how far it turned (a trackpad's small steps, a notch's 10 %); a pinch
+    // (a wheel with ctrlKey, as browsers report it) zooms as the fingers spread; two fingers moving sideways on
+    // a trackpad, or Shift with the wheel, pan.
     img.addEventListener("wheel", (event) => {
       event.preventDefault();
-      zoom(1.1 ** Math.sign(event.deltaY), "draft");  // 10 % a notch; scrolling down moves away
+      const dx = wheelPixels(event, event.deltaX), dy = wheelPixels(event, event.deltaY);
+      if (event.ctrlKey) zoom(Math.exp(dy / NOTCH), "draft");
+      else if (event.shiftKey || dx !== 0) pan(-(dx || dy), event.shiftKey ? 0 : -dy, img.getBoundingClientRect().height, "draft");
+      else zoom(Math.exp((dy / NOTCH) * PER_NOTCH), "draft");  // scrolling down moves away
       later();
     }, { passive: false });
   }
   $("#stage").addEventListener("keydown", (event) => {
-    if (!state.connected) return;
+    if (!state.connected || event.ctrlKey || event.metaKey || event.altKey) return;  // the browser's own keys
     const arrow = { ArrowLeft: [-1, 0], ArrowRight: [1, 0], ArrowUp: [0, -1], ArrowDown: [0, 1] }[event.key];
     const pixels = $("#image-a").getBoundingClientRect().height;
-    if (arrow && event.shiftKey) pan(arrow[0] * pixels / 20, arrow[1] * pixels / 20, pixels, "full");  // 5 % of the view
-    else if (arrow) orbit(arrow[0], arrow[1], Math.PI / 36, "full");  // 5° a press
-    else if (event.key === "+" || event.key === "=") zoom(1 / 1.1, "full");
-    else if (event.key === "-") zoom(1.1, "full");
-    else if (event.key === "r" || event.key === "R" || event.key === "Home") resetCamera();
-    else return;
+    const key = event.key.length === 1 ? event.key.toLowerCase() : event.key;
+    const other = { t: () => turntable(!turning), p: () => pixelPeeping(!$("#pixels").checked), c: capture }[key];
+    const move = arrow && event.shiftKey ? () => pan(arrow[0] * pixels / 20, arrow[1] * pixels / 20, pixels, "full")  // 5 %
+      : arrow ? () => glide(orbited(arrow[0], arrow[1], Math.PI / 36))  // 5° a press
+      : { "+": () => glide(zoomed(1 / 1.1) || {}), "=": () => glide(zoomed(1 / 1.1) || {}),
+          "-": () => glide(zoomed(1.1) || {}), r: resetCamera, Home: resetCamera, Enter: resetCamera,
+          f: () => glide(fitted() || {}) }[key]
+        || (VIEW_KEYS[key] && (() => glide(standardView(VIEW_KEYS[key]))));
+    if (!move && !other) return;
     event.preventDefault();
+    if (move) { stopTurntable(); move(); } else other();
   });
-  $("#camera-reset").addEventListener("click", resetCamera);
+  $("#camera-reset").addEventListener("click", () => { stopTurntable(); resetCamera(); });
+  $("#camera-fit").addEventListener("click", () => { stopTurntable(); glide(fitted() || {}); });
+  for (const button of document.querySelectorAll("[data-view]")) {
+    button.addEventListener("click", () => { stopTurntable(); glide(standardView(button.dataset.view)); });
+  }
+  $("#turntable").addEventListener("change", () => turntable($("#turntable").checked));
+  $("#pixels").addEventListener("change", () => pixelPeeping($("#pixels").checked));
 }
 
 function wire() {
@@ -738,6 +965,7 @@ function wire() {
   level.addEventListener("change", () => applyLevel("full"));
   wireLight();
   wireCamera();
+  wireExtras();
   $("#material").addEventListener("change", refreshControls);
   for (const input of document.querySelectorAll("[data-coefficient]")) {
     input.addEventListener("input", () => set({ [materialKey(input.dataset.coefficient)]: fromHex(input.value) }, "draft"));
@@ -763,6 +991,7 @@ function wire() {
     if (!on || state.compare === "models") { state.editing = "a"; $("#editing").value = "a"; refreshControls(); }
     request("full");
   });
+  $("#note").addEventListener("click", () => { $("#note").hidden = true; });
   $("#editing").addEventListener("change", () => { state.editing = $("#editing").value; refreshControls(); });
   $("#wipe").addEventListener("input", wipe);
   $("#load").addEventListener("change", async () => {
@@ -776,6 +1005,77 @@ function wire() {
     button.addEventListener("click", () => send({ type: "save", id: state.nextId++, what: button.dataset.save,
                                                    side: state.editing, settings: state.settings[state.editing] }));
   }
+}
+
+// Pixels 1:1: the frame's pixels as squares, unsmoothed, for pixel peeping; otherwise the browser smooths the
+// image to the room it has.
+function pixelPeeping(on) {
+  $("#pixels").checked = on;
+  $("#stage").classList.toggle("pixels", on);
+  $("#heat-box").classList.toggle("pixels", on);
+}
+
+// Capture: what is on screen, in one click: image A as shown (the full frame's PNG bytes, the very file
+// `raycast-phong render` writes for these settings) and the scene TOML that makes it. A draft on screen is not
+// kept: the full frame is rendered for the file instead.
+function capture() {
+  const img = $("#image-a");
+  const stem = `${(state.hello.source.split("/").pop() || "scene").replace(/\.[^.]*$/, "")}-view-A`;
+  if (img.dataset.quality === "full" && state.urls["image-a"]) {
+    const link = Object.assign(document.createElement("a"), { href: state.urls["image-a"], download: `${stem}.png` });
+    document.body.append(link);
+    link.click();
+    link.remove();
+  } else {
+    send({ type: "save", id: state.nextId++, what: "png", side: "a", settings: state.settings.a });
+  }
+  send({ type: "save", id: state.nextId++, what: "toml", side: "a", settings: state.settings.a });
+}
+
+// Undo: each committed change (a full frame asked for: a release, a key, a field) keeps the state before it;
+// Ctrl+Z (or the button) goes back one step, up to UNDO_STEPS.
+const UNDO_STEPS = 50;
+const undoStack = [];
+let committed = null;
+const snapshot = () => JSON.stringify({ a: state.settings.a, b: state.settings.b, level: state.level,
+                                        compare: state.compare, bStarted: state.bStarted });
+function remember() {
+  const now = snapshot();
+  if (committed !== null && now !== committed) {
+    undoStack.push(committed);
+    if (undoStack.length > UNDO_STEPS) undoStack.shift();
+  }
+  committed = now;
+  $("#undo").disabled = !undoStack.length;
+}
+function undo() {
+  if (!undoStack.length) return;
+  const before = JSON.parse(undoStack.pop());
+  Object.assign(state, { settings: { a: before.a, b: before.b }, level: before.level, compare: before.compare,
+                         bStarted: before.bStarted });
+  committed = snapshot();
+  $("#undo").disabled = !undoStack.length;
+  layoutCompare();
+  refreshControls();
+  request("full");
+}
+
+function wireExtras() {
+  $("#capture").addEventListener("click", capture);
+  $("#undo").addEventListener("click", undo);
+  $("#help-open").addEventListener("click", () => $("#help").showModal());
+  $("#help-close").addEventListener("click", () => $("#help").close());
+  document.addEventListener("keydown", (event) => {
+    const typing = ["INPUT", "SELECT", "TEXTAREA"].includes(event.target.tagName) && event.target.type !== "range"
+      && event.target.type !== "checkbox";
+    if (event.key === "?" && !typing) {
+      event.preventDefault();
+      if ($("#help").open) $("#help").close(); else $("#help").showModal();
+    } else if ((event.ctrlKey || event.metaKey) && event.key === "z" && !typing) {
+      event.preventDefault();
+      undo();
+    }
+  });
 }
 
 function layoutCompare() {
@@ -798,13 +1098,14 @@ function layoutCompare() {
 // ------------------------------------------------------------------ permalink: the settings in the URL
 
 // The URL's fragment carries the settings (A, B, the comparison, the tessellation levels): never sent to the
-// server, kept by a reload, the history and a bookmark. The token stays in the query, as the server needs it.
+// server, kept by a reload, the history and a bookmark. It carries no access: the link opens for whoever has the
+// server's cookie (this browser), and asks anyone else for the printed URL.
 function permalink() {
   const kept = { a: state.settings.a, compare: state.compare, level: state.level };
   if (state.bStarted) kept.b = state.settings.b;
-  const url = `${location.pathname}${location.search}#view=${encodeURIComponent(JSON.stringify(kept))}`;
-  history.replaceState(null, "", url);
-  $("#permalink").href = url;
+  const fragment = `#view=${encodeURIComponent(JSON.stringify(kept))}`;
+  history.replaceState(null, "", `${location.pathname}${location.search}${fragment}`);  // framed: its token kept
+  $("#permalink").href = `${location.pathname}${fragment}`;
 }
 
 function restore() {
