@@ -243,10 +243,7 @@ def object_spheres(cache: FrameCache, objects: int) -> list[list[float]]:
     """[x, y, z, radius] of each object's bounding sphere in the newest frame's geometry (the values the plan's
     diagnosis keeps in the cache), or one round them all past MAX_SPHERES: the page's near limit, so that a
     zoom stops outside the object it walks towards."""
-    try:  # renderer/diagnosis.py since plan.py's split (issue 32 item 5, another branch); plan.py before it
-        from raycast_phong.renderer.diagnosis import ObjectFigures
-    except ImportError:
-        from raycast_phong.renderer.plan import ObjectFigures
+    from raycast_phong.renderer.diagnosis import ObjectFigures
     geometry = cache.geometry
     if geometry is None or not len(geometry.faces):
         return []
