@@ -25,6 +25,18 @@ FILE_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe (FIFO)")
               (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
 
 
+SHOWN_NAME_CHARACTERS = 100  # a file name echoed in a message: its start and its end, never 5,000 characters
+
+
+def shown_name(name: str | Path) -> str:
+    """`name` quoted for a one-line message: a long one keeps its first and last SHOWN_NAME_CHARACTERS / 2
+    characters (the folder it starts in, the file it ends with) and says how many it leaves out."""
+    text, half = repr(str(name)), SHOWN_NAME_CHARACTERS // 2
+    if len(text) <= SHOWN_NAME_CHARACTERS:
+        return text
+    return f"{text[:half]}…({len(text) - 2 * half:,} characters)…{text[-half:]}"
+
+
 def open_regular(path: Path, where: Where, what: str, limit: int | None = None) -> BinaryIO:
     """Open `path` for binary reading if it is a regular file of at most `limit` bytes; else SceneError at
     `where` naming `what` (a scene file, a mesh file). A missing file raises FileNotFoundError,

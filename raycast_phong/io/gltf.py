@@ -17,7 +17,7 @@ import numpy as np
 
 from ..codes import GLTF_WRAP
 from ..errors import SceneError, Where
-from .files import open_regular
+from .files import open_regular, shown_name
 from .materials import MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, TextureSource, specular_lobe
 from .materials import rgb as _rgb
 
@@ -133,7 +133,7 @@ def check_document(document: Document, path: Path, where: Where, notes: list[str
                          f"renderer does not support; supported: {', '.join(SUPPORTED_REQUIRED)}", where)
     for uri in image_uris(tree):
         if not uri_file(path.parent, uri).is_file():
-            notes.append(f"{path}: texture {unquote(uri)!r} is missing")
+            notes.append(f"{path}: texture {shown_name(unquote(uri))} is missing")
     return gltf_samplers(tree)
 
 

@@ -31,7 +31,7 @@ from ..errors import SceneError, Where
 from ..records import bounding_box
 from ..tolerances import POSITION_LIMIT
 from .collada import collada_text
-from .files import VersionCache, open_mesh_file, open_regular
+from .files import VersionCache, open_mesh_file, open_regular, shown_name
 from .gltf import SPECULAR_GLOSSINESS, TRANSFORM, UNLIT, check_document, from_pbr, transform_uv, uri_file
 from .gltf_decode import decode_gltf, needs_decoding
 from .materials import FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, PartSurface, TextureSource
@@ -214,7 +214,7 @@ def _check_collada_images(path: Path, handle, notes: list[str]) -> None:
         uri = urlparse(found[1])
         name = str(PurePosixPath(unquote(uri.path))) if uri.scheme in ("", "file") else found[1]
         if uri.scheme in ("", "file") and not (path.parent / name).is_file():
-            notes.append(f"{path}: texture {name!r} is missing")
+            notes.append(f"{path}: texture {shown_name(name)} is missing")
 
 
 
@@ -466,7 +466,7 @@ def _ply_textures(path: Path, handle, notes: list[str]) -> list[str]:
         return []
     for name in names[:1]:
         if not (path.parent / name).is_file():
-            notes.append(f"{path}: texture {name!r} is missing")
+            notes.append(f"{path}: texture {shown_name(name)} is missing")
     if len(names) > 1:
         notes.append(f"{path}: names {len(names)} TextureFile images (a texture number per face); only the first, "
                      f"{names[0]!r}, is read, for every face")

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..codes import MATERIAL_DEFAULTS
 from ..errors import SceneError
-from .files import open_regular
+from .files import open_regular, shown_name
 from .materials import FileMaterial, TextureSource, specular_lobe
 from .materials import rgb as _rgb
 
@@ -186,7 +186,7 @@ def parse_mtl(content: str, mtl: Path, notes: list[str],
     if textures:
         missing = sorted({file for _, _, file in textures if file and texture_path(mtl.parent, file) is None})
         for file in missing:
-            notes.append(f"{mtl}: texture {file!r} is missing")
+            notes.append(f"{mtl}: texture {shown_name(file)} is missing")
         others = [f"{key} {file}" for _, key, file in textures if key not in ("map_kd", "map_ka", "map_ke")]
         if others:
             shown = ", ".join(others[:3]) + (", ..." if len(others) > 3 else "")

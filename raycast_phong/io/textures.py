@@ -20,7 +20,7 @@ import numpy as np
 
 from ..errors import SceneError, Where
 from .encoding import LINEAR
-from .files import image_suffix_mismatch, native_errors_kept, open_regular
+from .files import image_suffix_mismatch, native_errors_kept, open_regular, shown_name
 
 MAX_TEXTURE_SIZE = 2048
 # Bytes per texel of level 0 while a texture is in use: the decoded float32 RGB kept in the Geometry (12), the
@@ -143,11 +143,11 @@ def decode_scene_map(path: Path, where: Where, colour: str) -> np.ndarray:
     try:
         open_regular(path, where, "texture file (PNG, JPEG, EXR, ...)").close()
     except FileNotFoundError:
-        raise SceneError(f"no such texture file {str(path)!r}; give an image file (PNG, JPEG, EXR, ...) "
+        raise SceneError(f"no such texture file {shown_name(path)}; give an image file (PNG, JPEG, EXR, ...) "
                          "relative to the scene file", where) from None
     mismatch = image_suffix_mismatch(path)
     if mismatch:
-        raise SceneError(f"{str(path)!r} is {mismatch}; give a PNG, JPEG, EXR or another image file", where)
+        raise SceneError(f"{shown_name(path)} is {mismatch}; give a PNG, JPEG, EXR or another image file", where)
     try:
         return decode_file(path, colour)
     except Exception as error:  # noqa: BLE001 - any decoder failure is the file's

@@ -151,3 +151,24 @@ def test_a_large_maps_header_is_read_without_pils_bomb_warning(tmp_path, monkeyp
     rp.write_image(tmp_path / "m.png", np.zeros((40, 50, 3), np.float32))  # 2000 pixels: past the limit, not 2×
     assert file_size(tmp_path / "m.png") == (40, 50)
     assert not [w for w in recwarn if issubclass(w.category, Image.DecompressionBombWarning)]
+
+
+def test_a_long_map_name_is_shown_by_its_start_and_end_in_one_short_line(tmp_path):
+    """Issue 30 item 10: a 4,000-character map name (a note for an MTL's map_Kd, an error for a scene's kd_map)
+    was echoed whole (a 5,047-character line); now its first and last 50 characters and the count left out."""
+    import pytest
+
+    from raycast_phong.errors import SceneError
+    name = "d" * 200 + "/" + ("e" * 200 + "/") * 19 + "missing.png"
+    (tmp_path / "l.mtl").write_text(f"newmtl m\nmap_Kd {name}\n")
+    (tmp_path / "l.obj").write_text("mtllib l.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl m\n"
+                                    "f 1/1 2/2 3/3\n")
+    notes = read_mesh(tmp_path / "l.obj", "l.obj").notes
+    [note] = [n for n in notes if "missing.png" in n]
+    assert len(note) < 300 and "'dddd" in note and "/missing.png' is missing" in note, note
+    assert f"{len(repr(name)) - 100:,} characters" in note
+    (tmp_path / "l.toml").write_text(f'[materials.m]\nkd_map = "{name}"\n[[objects]]\nshape = "plane"\n'
+                                     'material = "m"\n')
+    with pytest.raises(SceneError) as refused:
+        rp.render(rp.load_scene(tmp_path / "l.toml", ["render.width=8", "render.height=8"]))
+    assert len(str(refused.value)) < 300 and "/missing.png'" in str(refused.value), str(refused.value)
