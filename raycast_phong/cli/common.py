@@ -369,7 +369,7 @@ def _max_memory(text: str | None) -> int | None:
     """--max-memory SIZE in bytes; a malformed size exits 2 with one line."""
     if text is None:
         return None
-    from raycast_phong.renderer.budget import parse_size  # its module is light: no numba, no trimesh
+    from raycast_phong.io.system import parse_size  # a light module: no numba, no trimesh
     try:
         budget = parse_size(text)
     except ValueError as error:

@@ -40,9 +40,22 @@ def available_memory() -> int | None:
     return found
 
 
-def memory_allowed(max_memory: int | None) -> int | None:
+UNITS = {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30, "t": 1 << 40}
+
+
+def parse_size(text: str) -> int:
+    """'8G', '500M', '1.5GiB', '2048' (bytes) → bytes; K, M, G, T are powers of 1024. ValueError otherwise."""
+    match = re.fullmatch(r"\s*(\d+(?:\.\d*)?|\.\d+)\s*([kmgt]?)(?:i?b)?\s*", str(text), re.I)
+    if not match or float(match[1]) <= 0:
+        raise ValueError(f"expected a size such as 8G, 500M or 1.5GiB (K, M, G, T: powers of 1024), got {text!r}")
+    return int(float(match[1]) * UNITS[match[2].lower()])
+
+
+def memory_allowed(max_memory: int | str | None) -> int | None:
     """What a read may use: the memory available now (available_memory), capped by `max_memory` (a command's
-    --max-memory, bytes); None: no limit known."""
+    --max-memory: bytes, or '8G' as parse_size reads it); None: no limit known."""
+    if isinstance(max_memory, str):
+        max_memory = parse_size(max_memory)
     available = available_memory()
     if max_memory is not None:
         available = max_memory if available is None else min(available, max_memory)

@@ -9,7 +9,6 @@ render(max_memory=...)).
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -17,7 +16,7 @@ from ..codes import GEOMETRY_LAYERS, TERM_LAYERS, ShadingModel
 from ..errors import SceneError
 from ..geometry.shapes import KINDS
 from ..io.mesh_header import MESH_FILE_BYTES, OTHER_MESH_FILE_BYTES, mesh_file_read_bytes, mesh_file_triangles
-from ..io.system import available_memory, count_text, format_bytes
+from ..io.system import available_memory, count_text, format_bytes, parse_size
 from ..scene.kinds import object_kinds
 from ..scene.messages import Location, dotted, located
 from ..scene.schema import Scene
@@ -157,17 +156,6 @@ def default_budget() -> int | None:
     """BUDGET_SHARE of the available memory; None (no limit) where the platform tells nothing."""
     available = available_memory()
     return None if available is None else int(available * BUDGET_SHARE)
-
-
-UNITS = {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30, "t": 1 << 40}
-
-
-def parse_size(text: str) -> int:
-    """'8G', '500M', '1.5GiB', '2048' (bytes) → bytes; K, M, G, T are powers of 1024. ValueError otherwise."""
-    match = re.fullmatch(r"\s*(\d+(?:\.\d*)?|\.\d+)\s*([kmgt]?)(?:i?b)?\s*", str(text), re.I)
-    if not match or float(match[1]) <= 0:
-        raise ValueError(f"expected a size such as 8G, 500M or 1.5GiB (K, M, G, T: powers of 1024), got {text!r}")
-    return int(float(match[1]) * UNITS[match[2].lower()])
 
 
 def budget_of(max_memory: int | str | None) -> int | None:

@@ -368,3 +368,15 @@ def test_a_scene_whose_validation_would_not_fit_is_refused_before_it_is_validate
         load.load_scene(path, max_memory=10 << 20)
     assert not made
     assert len(load.load_scene(path, max_memory=100 << 20).objects) == 10_000
+
+
+def test_a_budget_given_as_text_caps_the_scene_read_as_bytes_do(tmp_path):
+    """render(max_memory='8G') and load_scene(max_memory='1M') take the CLI's spelling: the scene-file read's
+    check reads it with the one parse_size (a str compared with an int was a TypeError)."""
+    from raycast_phong.errors import SceneError
+    from raycast_phong.scene.load import load_scene
+    path = tmp_path / "boxes.toml"
+    path.write_text("objects = [" + ",".join(['{shape="box"}'] * 1000) + "]\n")
+    assert len(load_scene(path, max_memory="8G").objects) == 1000
+    with pytest.raises(SceneError, match="more than the 1 MB available"):
+        load_scene(path, max_memory="1M")
