@@ -230,12 +230,15 @@ def gltf_samplers(document: dict) -> dict:
 def transform_uv(uv: np.ndarray, transform: tuple) -> np.ndarray:
     """(N, 2) texture coordinates as trimesh gives them (v up: 1 − glTF's v) through a KHR_texture_transform
     (offset, rotation, scale), in glTF's own coordinates (v down) as the extension defines it: uv' = T R S uv,
-    R turning the UVs counter-clockwise by `rotation` radians (u' = u cos r − v sin r, v' = u sin r + v cos r);
-    returned v up again."""
+    R turning the UVs counter-clockwise by `rotation` radians as seen in UV space, whose v points down:
+    u' = u cos r + v sin r, v' = −u sin r + v cos r. The spec's GLSL listing reads as the opposite sign
+    (glTF issue #1563); its own example (offset (0, 1), rotation π/2, scale 0.5: the lower left quadrant),
+    the TextureTransformTest sample's green marker and three.js, Babylon.js and Blender take this one.
+    Returned v up again."""
     (ox, oy), rotation, (sx, sy) = transform
     u, v = uv[:, 0] * sx, (1.0 - uv[:, 1]) * sy
     c, s = math.cos(rotation), math.sin(rotation)
-    return np.column_stack([c * u - s * v + ox, 1.0 - (s * u + c * v + oy)])
+    return np.column_stack([c * u + s * v + ox, 1.0 - (-s * u + c * v + oy)])
 
 
 

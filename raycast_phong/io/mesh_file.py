@@ -231,6 +231,8 @@ def _parts(loaded) -> list[_Part]:
     elif isinstance(loaded, trimesh.Scene):
         instances = [(np.asarray(loaded.graph[node][0], np.float64), loaded.geometry[loaded.graph[node][1]])
                      for node in loaded.graph.nodes_geometry]
+        if not instances:  # a glTF without nodes (a library of meshes, glTF 2.0 §3.5.1): each mesh once, unplaced
+            instances = [(np.eye(4), mesh) for mesh in loaded.geometry.values()]
     else:
         instances = []
     parts = []

@@ -1,0 +1,80 @@
+"""glTF files of the public corpus (issue 33) that rendered wrong or were refused wrongly, each on a minimal file
+written here after the real one (docs/figures/corpus.toml names them): COLOR_0 of normalized unsigned shorts
+(glTF-Blender-IO's 22_vertex_color), accessors without a bufferView and a file without nodes (glTF-Validator's
+mesh/valid.gltf and uv.gltf). Each test fails on the main branch before this change (noted per test)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from raycast_phong.io.mesh_file import read_mesh
+
+from test_gltf_extensions import quad_gltf
+
+
+def with_colour(path: Path, colour: dict, data: bytes = b"") -> Path:
+    """The quad of quad_gltf with a COLOR_0 accessor `colour` over `data` appended to its buffer (at byte 92)."""
+    document = json.loads(path.read_text())
+    binary = (path.parent / "quad.bin").read_bytes()  # 92 bytes: positions, uvs, indices
+    if data:
+        document["bufferViews"].append({"buffer": 0, "byteOffset": len(binary), "byteLength": len(data)})
+        colour = {**colour, "bufferView": len(document["bufferViews"]) - 1}
+        (path.parent / "quad.bin").write_bytes(binary + data)
+        document["buffers"][0]["byteLength"] = len(binary) + len(data)
+    document["accessors"].append(colour)
+    document["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = len(document["accessors"]) - 1
+    path.write_text(json.dumps(document))
+    return path
+
+
+def test_normalized_unsigned_short_colours_read_as_their_fraction_of_65535(tmp_path):
+    """22_vertex_color stores COLOR_0 as normalized uint16 VEC4 without KHR_mesh_quantization: each channel is
+    c / 65535 (glTF 2.0 §3.11). main handed it to trimesh, which ignores `normalized` and scaled by 255 after
+    a uint8 cast: pastel colours, the corners' green, blue and salmon lost."""
+    stored = np.array([[0, 65535, 0, 65535], [0, 0, 65535, 65535], [65535, 32768, 16384, 65535],
+                       [13107, 26214, 39321, 65535]], "<u2")
+    path = with_colour(quad_gltf(tmp_path, {}),
+                       {"componentType": 5123, "normalized": True, "count": 4, "type": "VEC4"}, stored.tobytes())
+    document = json.loads(path.read_text())
+    del document["meshes"][0]["primitives"][0]["material"]  # as in 22_vertex_color: colours alone
+    path.write_text(json.dumps(document))
+    read = read_mesh(path, "t")
+    expected = (stored[:, :3] / 65535.0)[read.faces]
+    np.testing.assert_allclose(read.corner_colour, expected, atol=0.5 / 255 + 1e-6)  # trimesh keeps 8 bits
+
+
+def test_a_file_without_buffers_reads_its_accessors_as_zeros(tmp_path):
+    """glTF 2.0 §3.6.2.1: an accessor without a bufferView holds zeros; glTF-Validator's mesh/valid.gltf and
+    uv.gltf have no buffers at all. Read here: indices, positions and colours all zero (the render then refuses
+    the model for its zero size, in its own words). main: trimesh raised UnboundLocalError (it builds its
+    accessors only when the file has buffers), shown as the refusal."""
+    path = quad_gltf(tmp_path, {})
+    document = json.loads(path.read_text())
+    for key in ("buffers", "bufferViews"):
+        document.pop(key)
+    document["accessors"] = [{"componentType": 5126, "count": 4, "type": "VEC3"},
+                             {"componentType": 5126, "count": 4, "type": "VEC2"},
+                             {"componentType": 5123, "count": 3, "type": "SCALAR"},
+                             {"componentType": 5121, "normalized": True, "count": 4, "type": "VEC4"}]
+    document["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = 3
+    path.write_text(json.dumps(document))
+    read = read_mesh(path, "t")
+    np.testing.assert_array_equal(read.faces, [[0, 0, 0]])
+    np.testing.assert_array_equal(read.vertices, np.zeros((4, 3)))
+    np.testing.assert_array_equal(read.corner_colour, np.zeros((1, 3, 3)))
+
+
+def test_a_file_without_nodes_shows_each_mesh_once(tmp_path):
+    """A file with meshes but no scene or nodes (glTF 2.0 §3.5.1: a library of meshes, as glTF-Validator's
+    valid.gltf and uv.gltf) shows each mesh once, unplaced. main: 'holds no triangles'."""
+    path = quad_gltf(tmp_path, {})
+    document = json.loads(path.read_text())
+    for key in ("scene", "scenes", "nodes"):
+        document.pop(key)
+    path.write_text(json.dumps(document))
+    read = read_mesh(path, "t")
+    assert read.faces.shape == (2, 3)
+    np.testing.assert_array_equal(read.vertices, [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]])
