@@ -30,6 +30,12 @@ SUPPORTED_REQUIRED = ("KHR_draco_mesh_compression", "KHR_materials_unlit", "KHR_
                       "KHR_meshopt_compression", "EXT_mesh_gpu_instancing", "KHR_materials_pbrSpecularGlossiness")
 UNLIT, EMISSIVE_STRENGTH, TRANSFORM = "KHR_materials_unlit", "KHR_materials_emissive_strength", "KHR_texture_transform"
 SPECULAR_GLOSSINESS = "KHR_materials_pbrSpecularGlossiness"
+# Required material extensions that change only how a surface looks, not its geometry or the data read: the file
+# is drawn in its base material (metallic-roughness, mapped as docs/meshes.md says), with a note naming each.
+LOOK_ONLY = {"KHR_materials_transmission": "transmission", "KHR_materials_volume": "volume (thickness, attenuation)",
+             "KHR_materials_clearcoat": "clear coat", "KHR_materials_sheen": "sheen", "KHR_materials_ior": "index of "
+             "refraction", "KHR_materials_specular": "specular strength and colour",
+             "KHR_materials_iridescence": "iridescence"}
 # What an extension this renderer does not read asks of it, for the refusal (the file's need, in its words).
 NEEDS = {"KHR_texture_basisu": "KTX2 (Basis Universal) textures", "EXT_texture_webp": "WebP textures"}
 
@@ -107,14 +113,19 @@ def image_uris(document: dict) -> list[str]:
 
 def check_document(document: Document, path: Path, where: Where, notes: list[str]) -> dict:
     """Refuse a document the read cannot take (nested too deep) or whose required extensions are not supported,
-    naming them; a note for each image file it names that is missing. Returns the wrap modes of each material's
+    naming them (a required material extension that changes only the look, LOOK_ONLY, is a note); a note for
+    each image file it names that is missing. Returns the wrap modes of each material's
     colour maps (gltf_samplers; trimesh drops them)."""
     if document.problem:
         raise SceneError(f"{str(path)!r}: {document.problem}", where)
     tree = document.tree
     required = [e for e in tree.get("extensionsRequired", []) if isinstance(e, str)] \
         if isinstance(tree.get("extensionsRequired", []), list) else []
-    missing = [e for e in required if e not in SUPPORTED_REQUIRED]
+    missing = [e for e in required if e not in SUPPORTED_REQUIRED and e not in LOOK_ONLY]
+    for e in required:
+        if e in LOOK_ONLY:
+            notes.append(f"{path}: requires {e}; its {LOOK_ONLY[e]} is not drawn: its materials are drawn in "
+                         "their base colour, metallic and roughness")
     if "KHR_draco_mesh_compression" in required:
         try:
             import DracoPy  # noqa: F401  (trimesh decodes Draco with it)
@@ -130,7 +141,8 @@ def check_document(document: Document, path: Path, where: Where, notes: list[str
     if missing:
         named = [f"{e} ({NEEDS[e]})" if e in NEEDS else e for e in missing]
         raise SceneError(f"{str(path)!r} requires the glTF extension(s) {', '.join(named)}, which this "
-                         f"renderer does not support; supported: {', '.join(SUPPORTED_REQUIRED)}", where)
+                         f"renderer does not support; supported: {', '.join(SUPPORTED_REQUIRED)} (and, drawn in "
+                         f"the base material: {', '.join(LOOK_ONLY)})", where)
     for uri in image_uris(tree):
         if not uri_file(path.parent, uri).is_file():
             notes.append(f"{path}: texture {unquote(uri)!r} is missing")

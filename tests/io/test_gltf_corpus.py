@@ -1,7 +1,7 @@
 """glTF files of the public corpus (issue 33) that rendered wrong or were refused wrongly, each on a minimal file
 written here after the real one (docs/figures/corpus.toml names them): COLOR_0 of normalized unsigned shorts
 (glTF-Blender-IO's 22_vertex_color), accessors without a bufferView and a file without nodes (glTF-Validator's
-mesh/valid.gltf and uv.gltf). Each test fails on the main branch before this change (noted per test)."""
+mesh/valid.gltf and uv.gltf), required extensions that change only the look (15_transmission). Each test fails on the main branch before this change (noted per test)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,10 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 
+from raycast_phong.errors import SceneError
+from raycast_phong.io.gltf import LOOK_ONLY
 from raycast_phong.io.mesh_file import read_mesh
 
 from test_gltf_extensions import quad_gltf
@@ -78,3 +81,20 @@ def test_a_file_without_nodes_shows_each_mesh_once(tmp_path):
     read = read_mesh(path, "t")
     assert read.faces.shape == (2, 3)
     np.testing.assert_array_equal(read.vertices, [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]])
+
+
+@pytest.mark.parametrize("extension", sorted(LOOK_ONLY))
+def test_a_required_extension_that_changes_only_the_look_is_a_note(tmp_path, extension):
+    """15_transmission requires KHR_materials_transmission: the spec lets a viewer refuse, but drawing the base
+    material with a note is friendlier; so for each required extension that changes only the look. main: refused."""
+    material = {"pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.4, 0.6, 1.0], "metallicFactor": 0.0},
+                "extensions": {extension: {}}}
+    read = read_mesh(quad_gltf(tmp_path, material, required=(extension,)), "t")
+    assert read.materials[0].kd == pytest.approx((0.2, 0.4, 0.6))
+    assert any(extension in note and "base colour" in note for note in read.notes), read.notes
+
+
+def test_a_required_extension_that_changes_the_data_is_still_refused(tmp_path):
+    """KHR_texture_basisu stores textures this renderer cannot decode: refused, naming it and what it needs."""
+    with pytest.raises(SceneError, match=r"KHR_texture_basisu \(KTX2"):
+        read_mesh(quad_gltf(tmp_path, {}, required=("KHR_texture_basisu",)), "t")
