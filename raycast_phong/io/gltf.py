@@ -70,7 +70,12 @@ def read_document(path: Path) -> Document:
                 if len(text) > JSON_LIMIT:
                     return Document({}, None, None)
         tree = json.loads(text)
-    except (OSError, SceneError, ValueError, UnicodeDecodeError):
+    except json.JSONDecodeError as error:  # trimesh read it otherwise, and named a file it then looked for
+        return Document({}, None, f"its JSON does not parse (line {error.lineno}, column {error.colno}: "
+                                  f"{error.msg}); allowed: a glTF 2.0 document in JSON")
+    except UnicodeDecodeError:
+        return Document({}, None, "its JSON is not UTF-8 text; allowed: a glTF 2.0 document in UTF-8 JSON")
+    except (OSError, SceneError, ValueError):
         return Document({}, None, None)  # trimesh words what is wrong with the file
     except RecursionError:  # Python's parser recurses per level: no glTF is nested a thousand deep
         return Document({}, None, "its JSON is nested deeper than Python's parser reads; allowed: a glTF document "
@@ -138,6 +143,7 @@ def check_document(document: Document, path: Path, where: Where, notes: list[str
             except ImportError:
                 missing.insert(0, f"{name} (meshoptimizer compression: pip install meshopt)")
     check_node_transforms(tree, path, where)
+    check_references(tree, path, where)
     if missing:
         named = [f"{e} ({NEEDS[e]})" if e in NEEDS else e for e in missing]
         raise SceneError(f"{str(path)!r} requires the glTF extension(s) {', '.join(named)}, which this "
@@ -285,7 +291,12 @@ def from_pbr(material, path: Path, notes: list[str], sources: list[TextureSource
     alpha = roughness * roughness
     shininess = MAX_FILE_SHININESS if alpha == 0 else 2 / alpha**2 - 2
     name = material.name or f"{path.stem}-material"
-    if base[3] < 1 or getattr(material, "alphaMode", None) in ("BLEND", "MASK"):
+    mode = getattr(material, "alphaMode", None)
+    if mode == "MASK":  # cutting texels away would need the ray to pass on through the hit (an Embree filter)
+        cutoff = getattr(material, "alphaCutoff", None)
+        notes.append(f"{path}: material {name!r}: alphaMode MASK (alphaCutoff {0.5 if cutoff is None else cutoff:.3g})"
+                     " is ignored: the texels it would cut away are drawn; surfaces are opaque")
+    elif base[3] < 1 or mode == "BLEND":
         notes.append(f"{path}: material {name!r}: transparency (alpha {base[3]:.3g}) is ignored: surfaces are opaque")
     maps = {}
     for key in ("baseColorTexture", "emissiveTexture"):
@@ -317,6 +328,30 @@ def from_pbr(material, path: Path, notes: list[str], sources: list[TextureSource
     ks, shininess = specular_lobe(f0, shininess)
     return FileMaterial(name, _rgb(rgb), _rgb(rgb), _rgb(ks), _rgb(np.clip(emissive, 0, 1)), float(shininess),
                         kd_map=maps.get("baseColorTexture", -1), ke_map=maps.get("emissiveTexture", -1))
+
+
+def check_references(tree: dict, path: Path, where: Where) -> None:
+    """Refuse, in one line, a bufferView naming a buffer the file does not have, an accessor naming a bufferView it
+    does not have, and an external buffer file that is missing (trimesh raised IndexError or FileNotFoundError)."""
+    def table(key: str) -> list:
+        value = tree.get(key, [])
+        return value if isinstance(value, list) else []
+    buffers, views = table("buffers"), table("bufferViews")
+    for b, buffer in enumerate(buffers):
+        uri = buffer.get("uri") if isinstance(buffer, dict) else None
+        if isinstance(uri, str) and not uri.startswith("data:") and not uri_file(path.parent, uri).is_file():
+            raise SceneError(f"{str(path)!r}: buffers[{b}].uri names {unquote(uri)!r}, which is missing; allowed: "
+                             f"a file in {str(path.parent)!r}", where)
+    for kind, rows, field, size in (("bufferViews", views, "buffer", len(buffers)),
+                                    ("accessors", table("accessors"), "bufferView", len(views)),
+                                    ("images", table("images"), "bufferView", len(views))):
+        for n, row in enumerate(rows):
+            if not isinstance(row, dict) or field not in row:
+                continue
+            value = row[field]
+            if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value < size:
+                allowed = f"0..{size - 1}" if size else f"none: the file has no {field}s"
+                raise SceneError(f"{str(path)!r}: {kind}[{n}].{field} is {_short(value)}; allowed: {allowed}", where)
 
 
 TRS = (("matrix", 16), ("translation", 3), ("rotation", 4), ("scale", 3))
