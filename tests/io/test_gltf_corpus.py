@@ -1,7 +1,9 @@
 """glTF files of the public corpus (issue 33) that rendered wrong or were refused wrongly, each on a minimal file
 written here after the real one (docs/figures/corpus.toml names them): COLOR_0 of normalized unsigned shorts
 (glTF-Blender-IO's 22_vertex_color), accessors without a bufferView and a file without nodes (glTF-Validator's
-mesh/valid.gltf and uv.gltf), required extensions that change only the look (15_transmission). Each test fails on the main branch before this change (noted per test)."""
+mesh/valid.gltf and uv.gltf), required extensions that change only the look (15_transmission), an alpha mask,
+and broken files refused in the renderer's words. Each test fails on the main branch before this change (noted
+per test)."""
 
 from __future__ import annotations
 
@@ -10,12 +12,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_gltf_extensions import quad_gltf
 
 from raycast_phong.errors import SceneError
 from raycast_phong.io.gltf import LOOK_ONLY
 from raycast_phong.io.mesh_file import read_mesh
-
-from test_gltf_extensions import quad_gltf
 
 
 def with_colour(path: Path, colour: dict, data: bytes = b"") -> Path:
