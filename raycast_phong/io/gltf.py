@@ -30,6 +30,12 @@ SUPPORTED_REQUIRED = ("KHR_draco_mesh_compression", "KHR_materials_unlit", "KHR_
                       "KHR_meshopt_compression", "EXT_mesh_gpu_instancing", "KHR_materials_pbrSpecularGlossiness")
 UNLIT, EMISSIVE_STRENGTH, TRANSFORM = "KHR_materials_unlit", "KHR_materials_emissive_strength", "KHR_texture_transform"
 SPECULAR_GLOSSINESS = "KHR_materials_pbrSpecularGlossiness"
+# Required material extensions that change only how a surface looks, not its geometry or the data read: the file
+# is drawn in its base material (metallic-roughness, mapped as docs/meshes.md says), with a note naming each.
+LOOK_ONLY = {"KHR_materials_transmission": "transmission", "KHR_materials_volume": "volume (thickness, attenuation)",
+             "KHR_materials_clearcoat": "clear coat", "KHR_materials_sheen": "sheen", "KHR_materials_ior": "index of "
+             "refraction", "KHR_materials_specular": "specular strength and colour",
+             "KHR_materials_iridescence": "iridescence"}
 # What an extension this renderer does not read asks of it, for the refusal (the file's need, in its words).
 NEEDS = {"KHR_texture_basisu": "KTX2 (Basis Universal) textures", "EXT_texture_webp": "WebP textures"}
 
@@ -64,7 +70,12 @@ def read_document(path: Path) -> Document:
                 if len(text) > JSON_LIMIT:
                     return Document({}, None, None)
         tree = json.loads(text)
-    except (OSError, SceneError, ValueError, UnicodeDecodeError):
+    except json.JSONDecodeError as error:  # trimesh read it otherwise, and named a file it then looked for
+        return Document({}, None, f"its JSON does not parse (line {error.lineno}, column {error.colno}: "
+                                  f"{error.msg}); allowed: a glTF 2.0 document in JSON")
+    except UnicodeDecodeError:
+        return Document({}, None, "its JSON is not UTF-8 text; allowed: a glTF 2.0 document in UTF-8 JSON")
+    except (OSError, SceneError, ValueError):
         return Document({}, None, None)  # trimesh words what is wrong with the file
     except RecursionError:  # Python's parser recurses per level: no glTF is nested a thousand deep
         return Document({}, None, "its JSON is nested deeper than Python's parser reads; allowed: a glTF document "
@@ -107,14 +118,19 @@ def image_uris(document: dict) -> list[str]:
 
 def check_document(document: Document, path: Path, where: Where, notes: list[str]) -> dict:
     """Refuse a document the read cannot take (nested too deep) or whose required extensions are not supported,
-    naming them; a note for each image file it names that is missing. Returns the wrap modes of each material's
+    naming them (a required material extension that changes only the look, LOOK_ONLY, is a note); a note for
+    each image file it names that is missing. Returns the wrap modes of each material's
     colour maps (gltf_samplers; trimesh drops them)."""
     if document.problem:
         raise SceneError(f"{str(path)!r}: {document.problem}", where)
     tree = document.tree
     required = [e for e in tree.get("extensionsRequired", []) if isinstance(e, str)] \
         if isinstance(tree.get("extensionsRequired", []), list) else []
-    missing = [e for e in required if e not in SUPPORTED_REQUIRED]
+    missing = [e for e in required if e not in SUPPORTED_REQUIRED and e not in LOOK_ONLY]
+    for e in required:
+        if e in LOOK_ONLY:
+            notes.append(f"{path}: requires {e}; its {LOOK_ONLY[e]} is not drawn: its materials are drawn in "
+                         "their base colour, metallic and roughness")
     if "KHR_draco_mesh_compression" in required:
         try:
             import DracoPy  # noqa: F401  (trimesh decodes Draco with it)
@@ -127,10 +143,12 @@ def check_document(document: Document, path: Path, where: Where, notes: list[str
             except ImportError:
                 missing.insert(0, f"{name} (meshoptimizer compression: pip install meshopt)")
     check_node_transforms(tree, path, where)
+    check_references(tree, path, where)
     if missing:
         named = [f"{e} ({NEEDS[e]})" if e in NEEDS else e for e in missing]
         raise SceneError(f"{str(path)!r} requires the glTF extension(s) {', '.join(named)}, which this "
-                         f"renderer does not support; supported: {', '.join(SUPPORTED_REQUIRED)}", where)
+                         f"renderer does not support; supported: {', '.join(SUPPORTED_REQUIRED)} (and, drawn in "
+                         f"the base material: {', '.join(LOOK_ONLY)})", where)
     for uri in image_uris(tree):
         if not uri_file(path.parent, uri).is_file():
             notes.append(f"{path}: texture {shown_name(unquote(uri))} is missing")
@@ -230,12 +248,15 @@ def gltf_samplers(document: dict) -> dict:
 def transform_uv(uv: np.ndarray, transform: tuple) -> np.ndarray:
     """(N, 2) texture coordinates as trimesh gives them (v up: 1 − glTF's v) through a KHR_texture_transform
     (offset, rotation, scale), in glTF's own coordinates (v down) as the extension defines it: uv' = T R S uv,
-    R turning the UVs counter-clockwise by `rotation` radians (u' = u cos r − v sin r, v' = u sin r + v cos r);
-    returned v up again."""
+    R turning the UVs counter-clockwise by `rotation` radians as seen in UV space, whose v points down:
+    u' = u cos r + v sin r, v' = −u sin r + v cos r. The spec's GLSL listing reads as the opposite sign
+    (glTF issue #1563); its own example (offset (0, 1), rotation π/2, scale 0.5: the lower left quadrant),
+    the TextureTransformTest sample's green marker and three.js, Babylon.js and Blender take this one.
+    Returned v up again."""
     (ox, oy), rotation, (sx, sy) = transform
     u, v = uv[:, 0] * sx, (1.0 - uv[:, 1]) * sy
     c, s = math.cos(rotation), math.sin(rotation)
-    return np.column_stack([c * u - s * v + ox, 1.0 - (s * u + c * v + oy)])
+    return np.column_stack([c * u + s * v + ox, 1.0 - (-s * u + c * v + oy)])
 
 
 
@@ -270,7 +291,12 @@ def from_pbr(material, path: Path, notes: list[str], sources: list[TextureSource
     alpha = roughness * roughness
     shininess = MAX_FILE_SHININESS if alpha == 0 else 2 / alpha**2 - 2
     name = material.name or f"{path.stem}-material"
-    if base[3] < 1 or getattr(material, "alphaMode", None) in ("BLEND", "MASK"):
+    mode = getattr(material, "alphaMode", None)
+    if mode == "MASK":  # cutting texels away would need the ray to pass on through the hit (an Embree filter)
+        cutoff = getattr(material, "alphaCutoff", None)
+        notes.append(f"{path}: material {name!r}: alphaMode MASK (alphaCutoff {0.5 if cutoff is None else cutoff:.3g})"
+                     " is ignored: the texels it would cut away are drawn; surfaces are opaque")
+    elif base[3] < 1 or mode == "BLEND":
         notes.append(f"{path}: material {name!r}: transparency (alpha {base[3]:.3g}) is ignored: surfaces are opaque")
     maps = {}
     for key in ("baseColorTexture", "emissiveTexture"):
@@ -302,6 +328,30 @@ def from_pbr(material, path: Path, notes: list[str], sources: list[TextureSource
     ks, shininess = specular_lobe(f0, shininess)
     return FileMaterial(name, _rgb(rgb), _rgb(rgb), _rgb(ks), _rgb(np.clip(emissive, 0, 1)), float(shininess),
                         kd_map=maps.get("baseColorTexture", -1), ke_map=maps.get("emissiveTexture", -1))
+
+
+def check_references(tree: dict, path: Path, where: Where) -> None:
+    """Refuse, in one line, a bufferView naming a buffer the file does not have, an accessor naming a bufferView it
+    does not have, and an external buffer file that is missing (trimesh raised IndexError or FileNotFoundError)."""
+    def table(key: str) -> list:
+        value = tree.get(key, [])
+        return value if isinstance(value, list) else []
+    buffers, views = table("buffers"), table("bufferViews")
+    for b, buffer in enumerate(buffers):
+        uri = buffer.get("uri") if isinstance(buffer, dict) else None
+        if isinstance(uri, str) and not uri.startswith("data:") and not uri_file(path.parent, uri).is_file():
+            raise SceneError(f"{str(path)!r}: buffers[{b}].uri names {unquote(uri)!r}, which is missing; allowed: "
+                             f"a file in {str(path.parent)!r}", where)
+    for kind, rows, field, size in (("bufferViews", views, "buffer", len(buffers)),
+                                    ("accessors", table("accessors"), "bufferView", len(views)),
+                                    ("images", table("images"), "bufferView", len(views))):
+        for n, row in enumerate(rows):
+            if not isinstance(row, dict) or field not in row:
+                continue
+            value = row[field]
+            if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value < size:
+                allowed = f"0..{size - 1}" if size else f"none: the file has no {field}s"
+                raise SceneError(f"{str(path)!r}: {kind}[{n}].{field} is {_short(value)}; allowed: {allowed}", where)
 
 
 TRS = (("matrix", 16), ("translation", 3), ("rotation", 4), ("scale", 3))

@@ -39,7 +39,9 @@ DECODED_URI = "raycast-phong-decoded:"  # the buffers handed to trimesh by name 
 
 def needs_decoding(tree: dict) -> bool:
     """Whether trimesh would misread the document's data: compressed buffer views or primitives, integer
-    positions, normals or texture coordinates, instanced nodes, specular-glossiness materials."""
+    positions, normals, texture coordinates or colours, an accessor of a primitive without a bufferView (all
+    zeros, glTF 2.0 §3.6.2.1: trimesh raised UnboundLocalError), instanced nodes, specular-glossiness
+    materials."""
     used = tree.get("extensionsUsed")
     used = set(used) if isinstance(used, list) and all(isinstance(e, str) for e in used) else set()
     if used & {*MESHOPT, DRACO, INSTANCING, SPECULAR_GLOSSINESS}:
@@ -49,9 +51,11 @@ def needs_decoding(tree: dict) -> bool:
         for mesh in tree.get("meshes", []):
             for primitive in mesh.get("primitives", []):
                 for name, index in primitive.get("attributes", {}).items():
-                    if name.startswith(("POSITION", "NORMAL", "TEXCOORD_")) \
-                            and accessors[index].get("componentType", 5126) != 5126:
+                    if "bufferView" not in accessors[index] or (
+                            name.startswith(NUMERIC) and accessors[index].get("componentType", 5126) != 5126):
                         return True
+                if "indices" in primitive and "bufferView" not in accessors[primitive["indices"]]:
+                    return True
     except (AttributeError, IndexError, KeyError, TypeError):
         return False  # a malformed document: trimesh words it
     return False
@@ -262,13 +266,19 @@ class _Decoder:
     def store_floats(self, index: int, values: np.ndarray) -> None:
         """Accessor `index` rewritten as float32 `values` (count, width) in the decoded buffer, tightly packed."""
         accessor = self.tree["accessors"][index]
-        accessor.pop("sparse", None)
-        accessor.pop("byteOffset", None)
         accessor.pop("normalized", None)
         accessor["componentType"] = 5126
-        accessor["bufferView"] = self.append(np.ascontiguousarray(values, "<f4").tobytes())
+        self.store_values(index, values.astype("<f4"))
         accessor.pop("min", None)  # the stored integers' bounds; trimesh does not need them
         accessor.pop("max", None)
+
+    def store_values(self, index: int, values: np.ndarray) -> None:
+        """Accessor `index` rewritten as `values` (count, width), of its component type, in the decoded buffer,
+        tightly packed, its sparse substitutions applied."""
+        accessor = self.tree["accessors"][index]
+        accessor.pop("sparse", None)
+        accessor.pop("byteOffset", None)
+        accessor["bufferView"] = self.append(np.ascontiguousarray(values, values.dtype.newbyteorder("<")).tobytes())
 
     # ------------------------------------------------------------ KHR_draco_mesh_compression
 
@@ -322,22 +332,32 @@ class _Decoder:
     # ------------------------------------------------------------ KHR_mesh_quantization
 
     def dequantize(self) -> None:
-        """Every integer POSITION, NORMAL, TEXCOORD_n and COLOR_n accessor a primitive uses, as float32: the
-        node transforms (gltfpack's dequantizing scale and offset) stay as they are, trimesh applies them."""
+        """Every integer POSITION, NORMAL, TEXCOORD_n and COLOR_n accessor a primitive uses, as float32 (trimesh
+        ignores `normalized`: a COLOR_0 of normalized uint16 came out pastel), whether or not the file uses
+        KHR_mesh_quantization: the node transforms (gltfpack's dequantizing scale and offset) stay as they are,
+        trimesh applies them. An attribute or index accessor without a bufferView (zeros, glTF 2.0 §3.6.2.1, and
+        its sparse values) is written out as stored."""
         done = set()
         accessors = self.tree.get("accessors", [])
         for m, mesh in enumerate(self.tree.get("meshes", [])):
             for p, primitive in enumerate(mesh.get("primitives", [])):
-                for name, index in (primitive.get("attributes") or {}).items():
-                    if index in done or not name.startswith(NUMERIC):
+                used = list((primitive.get("attributes") or {}).items())
+                if "indices" in primitive:
+                    used.append(("indices", primitive["indices"]))
+                for name, index in used:
+                    if index in done:
                         continue
                     try:
-                        integer = accessors[index].get("componentType", 5126) != 5126
+                        accessor = accessors[index]
+                        integer = name.startswith(NUMERIC) and accessor.get("componentType", 5126) != 5126
+                        empty = "bufferView" not in accessor
                     except (IndexError, TypeError, AttributeError):
                         continue  # trimesh words it
+                    key = f"meshes[{m}].primitives[{p}]." + (name if name == "indices" else f"attributes.{name}")
                     if integer:
-                        key = f"meshes[{m}].primitives[{p}].attributes.{name}"
                         self.store_floats(index, self.float_accessor(index, key))
+                    elif empty:
+                        self.store_values(index, self.read_accessor(index, key))
                     done.add(index)
 
     # ------------------------------------------------------------ EXT_mesh_gpu_instancing

@@ -162,8 +162,12 @@ def _read(path: Path, where: Where, source: MeshSource, bounds: bool = True) -> 
     except Exception as error:
         if not _raised_in_trimesh(error):
             raise  # our own bug, not the file's: an internal error with its traceback
-        raise SceneError(f"cannot read {str(path)!r} as {READABLE} ({type(error).__name__}: "
-                         f"{error})", where) from None
+        # The renderer's words, not the library's exception text (issue 33): a KeyError of three NUL bytes or
+        # numpy's "could not be read to its end" says nothing a user can act on.
+        name = path.suffix[1:].upper().replace("GLTF", "glTF").replace("DAE", "COLLADA") or "a mesh"
+        raise SceneError(f"cannot read {str(path)!r} as {name}: its content does not follow the {name} format where "
+                         f"the reader stopped (the file is corrupt, cut short, or another format); allowed: "
+                         f"{READABLE}", where) from None
     if not parts:
         raise SceneError(f"{str(path)!r} holds no triangles; expected {READABLE}", where)
     vertices, faces, normals = _concatenate(parts)
@@ -256,6 +260,8 @@ def _parts(loaded) -> list[_Part]:
     elif isinstance(loaded, trimesh.Scene):
         instances = [(np.asarray(loaded.graph[node][0], np.float64), loaded.geometry[loaded.graph[node][1]])
                      for node in loaded.graph.nodes_geometry]
+        if not instances:  # a glTF without nodes (a library of meshes, glTF 2.0 §3.5.1): each mesh once, unplaced
+            instances = [(np.eye(4), mesh) for mesh in loaded.geometry.values()]
     else:
         instances = []
     parts = []

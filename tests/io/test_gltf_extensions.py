@@ -129,10 +129,11 @@ def quadrants_png(path: Path) -> None:
 def test_a_texture_transform_moves_the_uvs_of_its_map(tmp_path, rotation):
     """KHR_texture_transform on the base colour map: scale ½ and an offset put the whole square in the map's
     top-right quadrant (glTF's v runs down from the top). Without rotation the offset is (½, 0); turned by 90°
-    counter-clockwise (u, v) → (−v, u), so the offset (1, 0) does it. The wrong turn lands in the bottom-left
-    (blue) quadrant, no transform shows all four: the square is green."""
+    counter-clockwise in UV space, whose v runs down, (u, v) → (v, −u), so the offset (½, ½) does it. The wrong
+    turn, (u, v) → (−v, u) as the spec's GLSL listing reads, lands in the bottom-left (blue) quadrant; no
+    transform shows all four: the square is green."""
     quadrants_png(tmp_path / "quadrants.png")
-    transform = {"offset": [0.5, 0.0] if rotation == 0 else [1.0, 0.0], "rotation": rotation, "scale": [0.5, 0.5]}
+    transform = {"offset": [0.5, 0.0] if rotation == 0 else [0.5, 0.5], "rotation": rotation, "scale": [0.5, 0.5]}
     info = {"index": 0, "extensions": {"KHR_texture_transform": transform}}
     path = quad_gltf(tmp_path, {"pbrMetallicRoughness": {"baseColorTexture": info, "metallicFactor": 0.0}},
                      images=[{"uri": "quadrants.png"}], required=("KHR_texture_transform",))
@@ -147,3 +148,23 @@ def test_a_texture_transform_moves_the_uvs_of_its_map(tmp_path, rotation):
     green = (image[:, 1] > 0.9) & (image[:, 0] < 0.1) & (image[:, 2] < 0.1)
     others = (image[:, 0] > 0.5) | (image[:, 2] > 0.5)
     assert len(image) > 100 and green.mean() > 0.8 and not others.any(), (green.mean(), others.mean())
+
+
+@pytest.mark.parametrize("transform, gltf_uv, expected", [
+    # The extension's own example: offset (0, 1), rotation π/2, scale ½ reads the image's lower left quadrant.
+    (((0.0, 1.0), math.pi / 2, (0.5, 0.5)), [(0, 0), (1, 0), (1, 1), (0, 1)],
+     [(0, 1), (0, 0.5), (0.5, 0.5), (0.5, 1)]),
+    # 09_texture_transform's 0.3 rad alone: (1, 0) → (cos 0.3, −sin 0.3), (0, 1) → (sin 0.3, cos 0.3).
+    (((0.0, 0.0), 0.3, (1.0, 1.0)), [(1, 0), (0, 1)],
+     [(0.955336489, -0.295520207), (0.295520207, 0.955336489)]),
+    # T · R · S: scale (2, 1) first, then the turn, then the offset: (1, 0) → (2, 0) → (0, −2) → (0.25, −1.75).
+    (((0.25, 0.25), math.pi / 2, (2.0, 1.0)), [(1, 0)], [(0.25, -1.75)]),
+])
+def test_texture_transform_turns_uvs_as_the_extensions_example_and_sample_do(transform, gltf_uv, expected):
+    """KHR_texture_transform by hand, in glTF's UV coordinates (v down): u' = u cos r + v sin r, v' = −u sin r +
+    v cos r, after the scale and before the offset (glTF issue #1563: the GLSL listing's sign is the wrong one,
+    its example JSON and the TextureTransformTest sample the right one). transform_uv takes and gives v up."""
+    from raycast_phong.io.gltf import transform_uv
+    given = np.array(gltf_uv, np.float64)
+    found = transform_uv(np.column_stack([given[:, 0], 1.0 - given[:, 1]]), transform)
+    np.testing.assert_allclose(np.column_stack([found[:, 0], 1.0 - found[:, 1]]), expected, atol=1e-9)
