@@ -38,7 +38,7 @@ from .materials import FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMat
 from .mesh_content import READABLE, TEXT_FORMATS, check_content, check_file_content
 from .mesh_source import MeshSource, mesh_source
 from .mtl import MAX_SIDE_FILE
-from .obj import UV_LIMIT, load_obj, obj_text
+from .obj import UV_LIMIT, bom_decoded, load_obj, obj_text
 from .ply import HEADER_LIMIT, resolved, texture_names, trimesh_quiet
 from .stl import binary_stl_points
 from .threemf import read_3mf
@@ -135,7 +135,7 @@ def _read(path: Path, where: Where, source: MeshSource, bounds: bool = True) -> 
             library = None
             up = STATED_UP.get(suffix)
             if points is None and suffix == ".obj":
-                data = handle.read()
+                data = bom_decoded(handle.read(), path, where)  # a UTF-16 OBJ (its BOM) as UTF-8
                 text = obj_text(data, path, where)
                 library = source.materials.library
                 notes += source.materials.notes

@@ -14,6 +14,27 @@ import trimesh
 from ..errors import SceneError, Where
 
 
+BOMS = ((b"\xef\xbb\xbf", "utf-8"), (b"\xff\xfe", "utf-16-le"), (b"\xfe\xff", "utf-16-be"))
+
+
+def bom_decoded(data: bytes, path: Path, where: Where) -> bytes:
+    """An OBJ's bytes as UTF-8 without its byte-order mark, when it starts with one (assimp's box_UTF16BE.obj:
+    read as bytes, its keywords interleaved with NULs gave "holds no triangles"); else `data` itself. A file
+    that its BOM says is UTF-16 but is not is a SceneError; after a UTF-8 mark, obj_text's Latin-1 fallback
+    holds as without one."""
+    for mark, encoding in BOMS:
+        if data.startswith(mark):
+            if encoding == "utf-8":
+                return data[len(mark):]
+            try:
+                return data[len(mark):].decode(encoding).encode("utf-8")
+            except UnicodeDecodeError as error:
+                raise SceneError(f"{str(path)!r} starts with a {encoding.upper()} byte-order mark but byte "
+                                 f"{error.start + len(mark)} is not {encoding.upper()}; allowed: an OBJ in UTF-8, "
+                                 "Latin-1, or UTF-16 with its byte-order mark", where) from None
+    return data
+
+
 def obj_text(data: bytes, path: Path, where: Where) -> io.BytesIO:
     """The OBJ's bytes as trimesh is given them: UTF-8 (a file that is not is read as Latin-1: every byte is a
     Latin-1 character, and the keywords are plain ASCII; trimesh would need the optional charset_normalizer to
