@@ -38,9 +38,9 @@ from .materials import FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMat
 from .mesh_content import READABLE, TEXT_FORMATS, check_content, check_file_content
 from .mesh_source import MeshSource, mesh_source
 from .mtl import MAX_SIDE_FILE
-from .obj import UV_LIMIT, bom_decoded, load_obj, obj_text
-from .ply import HEADER_LIMIT, resolved, texture_names, trimesh_quiet
-from .stl import binary_stl_points
+from .obj import UV_LIMIT, bom_decoded, load_obj, obj_problem, obj_text
+from .ply import HEADER_LIMIT, ply_problem, resolved, texture_names, trimesh_quiet
+from .stl import ascii_stl_problem, binary_stl_points
 from .threemf import read_3mf
 
 __all__ = ["FILE_CREASE_ANGLE", "MeshFile", "check_file_content", "mesh_bounds", "read_mesh"]
@@ -166,6 +166,9 @@ def _read(path: Path, where: Where, source: MeshSource, bounds: bool = True) -> 
     except Exception as error:
         if not _raised_in_trimesh(error):
             raise  # our own bug, not the file's: an internal error with its traceback
+        problem = _explained(path, suffix, where)
+        if problem:
+            raise SceneError(f"{str(path)!r} {problem}", where) from None
         raise SceneError(f"cannot read {str(path)!r} as {READABLE} ({type(error).__name__}: "
                          f"{error})", where) from None
     if not parts:
@@ -482,6 +485,19 @@ def _ply_textures(path: Path, handle, notes: list[str]) -> list[str]:
         notes.append(f"{path}: names {len(names)} TextureFile images (a texture number per face); only the first, "
                      f"{names[0]!r}, is read, for every face")
     return names
+
+
+def _explained(path: Path, suffix: str, where: Where) -> str | None:
+    """What is wrong with a file trimesh could not read, in the renderer's words, when a check of the format's
+    own finds it (a line, a header line); None to word trimesh's exception instead."""
+    with open_mesh_file(path, where) as handle:
+        if suffix == ".obj":
+            return obj_problem(bom_decoded(handle.read(), path, where))
+        if suffix == ".stl":
+            return ascii_stl_problem(handle.read())
+        if suffix == ".ply":
+            return ply_problem(handle.read(HEADER_LIMIT))
+    return None
 
 
 def _raised_in_trimesh(error: BaseException) -> bool:

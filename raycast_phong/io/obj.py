@@ -35,6 +35,24 @@ def bom_decoded(data: bytes, path: Path, where: Where) -> bytes:
     return data
 
 
+NUMBER_RECORDS = re.compile(rb"^[ \t]*(v|vn|vt|vp)[ \t]+([^\r\n]*)", re.M)
+
+
+def obj_problem(data: bytes) -> str | None:
+    """What stops an OBJ (UTF-8 `data`) being read, in words naming its line, when trimesh could not read it: the
+    first `v`, `vn`, `vt` or `vp` value that is not a number (tinyobjloader's test-nan.obj writes MSVC's
+    `1.#IND`); None when none is found."""
+    for found in NUMBER_RECORDS.finditer(data):
+        for word in re.split(rb"(?:^|[ \t])#", found[2])[0].split():  # a comment, not `1.#IND`
+            try:
+                float(word)
+            except ValueError:
+                line = data.count(b"\n", 0, found.start()) + 1
+                return (f"line {line}: {found[1].decode()} value {word.decode('latin-1')[:40]!r} is not a number; "
+                        "allowed: decimal numbers (1.5, -2e-3, nan, inf)")
+    return None
+
+
 def obj_text(data: bytes, path: Path, where: Where) -> io.BytesIO:
     """The OBJ's bytes as trimesh is given them: UTF-8 (a file that is not is read as Latin-1: every byte is a
     Latin-1 character, and the keywords are plain ASCII; trimesh would need the optional charset_normalizer to
