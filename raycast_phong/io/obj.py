@@ -13,7 +13,6 @@ import trimesh
 
 from ..errors import SceneError, Where
 
-
 BOMS = ((b"\xef\xbb\xbf", "utf-8"), (b"\xff\xfe", "utf-16-le"), (b"\xfe\xff", "utf-16-be"))
 
 
