@@ -2,23 +2,43 @@
 a skinned or morphed mesh (`<instance_controller>`) is instanced as its source mesh in its bind-shape pose, and
 a material whose effect has no `<profile_COMMON>` (a GLSL or CG effect only, or a material the file does not
 define) is left out, so its triangles render with the default material instead of vanishing ("holds no
-triangles": pycollada drops a node whose material it cannot read). Each change is one note. A document that
-needs neither is passed on byte for byte."""
+triangles": pycollada drops a node whose material it cannot read), and numbers written with a decimal comma
+(`0,5`, by exporters run under a comma locale; assimp reads them) get a decimal point, where pycollada would
+drop every array and colour that holds one. Each change is one note. A document that needs none of these is
+passed on byte for byte. `collada_up` reads the up axis the document states (`<asset><up_axis>`)."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
 
 IDENTITY = " ".join(["1", "0", "0", "0", "0", "1", "0", "0", "0", "0", "1", "0", "0", "0", "0", "1"])
+# Elements whose text is a whitespace-separated list of floats (COLLADA 1.4.1 schema), where a comma between
+# two digits can only be a decimal comma.
+FLOAT_LISTS = ("float_array", "float", "color", "translate", "rotate", "scale", "matrix", "lookat", "skew",
+               "bind_shape_matrix")
+DECIMAL_COMMA = re.compile(r"(?<=\d),(?=\d)")
+# <asset><up_axis> (COLLADA 1.4.1 §5: X_UP, Y_UP (the default) or Z_UP); the asset comes first in a document.
+UP_AXIS = re.compile(rb"<(?:\w+:)?up_axis>\s*([XYZ])_UP\s*</(?:\w+:)?up_axis>")
+UP_VECTORS = {b"X": (1.0, 0.0, 0.0), b"Y": (0.0, 1.0, 0.0), b"Z": (0.0, 0.0, 1.0)}
+ASSET_LIMIT = 1 << 16  # bytes searched for the up axis
+
+
+def collada_up(data: bytes) -> tuple[float, float, float] | None:
+    """The up axis the document's `<asset><up_axis>` states, as a unit vector; None when it states none (or is
+    not UTF-8 or ASCII text: a UTF-16 document is read with +Y up, COLLADA's default)."""
+    found = UP_AXIS.search(data, 0, ASSET_LIMIT)
+    return UP_VECTORS[found.group(1)] if found else None
 
 
 def collada_text(data: bytes, path: Path, notes: list[str]) -> bytes:
     """The document `data` with controller instances made geometry instances and unreadable material bindings
     dropped (module docstring); `data` itself when neither occurs or it is not XML lxml reads (trimesh words
     that)."""
-    if b"instance_controller" not in data and b"instance_material" not in data:
+    if (b"instance_controller" not in data and b"instance_material" not in data
+            and re.search(rb"\d,\d", data) is None):
         return data
     from lxml import etree
     try:
@@ -54,6 +74,14 @@ def collada_text(data: bytes, path: Path, notes: list[str]) -> bytes:
     if skinned:
         notes.append(f"{path}: {skinned} skinned or morphed mesh(es) (<instance_controller>) drawn in their "
                      "bind-shape pose; the skeleton and animations are not applied")
+    commas = 0
+    for element in root.iter(*(f"{namespace}{tag}" for tag in FLOAT_LISTS)):
+        if element.text and "," in element.text:
+            element.text, count = DECIMAL_COMMA.subn(".", element.text)
+            commas += count
+    if commas:
+        notes.append(f"{path}: {commas} number(s) written with a decimal comma (as 0,5) read as decimal points")
+        changed = True
     dropped = set()
     for binding in list(root.iter(f"{namespace}instance_material")):
         target = (binding.get("target") or "").lstrip("#")

@@ -30,7 +30,7 @@ import trimesh
 from ..errors import SceneError, Where
 from ..records import bounding_box
 from ..tolerances import POSITION_LIMIT
-from .collada import collada_text
+from .collada import collada_text, collada_up
 from .files import VersionCache, open_mesh_file, open_regular, shown_name
 from .gltf import SPECULAR_GLOSSINESS, TRANSFORM, UNLIT, check_document, from_pbr, transform_uv, uri_file
 from .gltf_decode import decode_gltf, needs_decoding
@@ -38,15 +38,16 @@ from .materials import FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMat
 from .mesh_content import READABLE, TEXT_FORMATS, check_content, check_file_content
 from .mesh_source import MeshSource, mesh_source
 from .mtl import MAX_SIDE_FILE
-from .obj import UV_LIMIT, load_obj, obj_text
-from .ply import HEADER_LIMIT, resolved, texture_names, trimesh_quiet
-from .stl import binary_stl_points
+from .obj import UV_LIMIT, bom_decoded, load_obj, obj_problem, obj_text
+from .ply import HEADER_LIMIT, ply_problem, resolved, texture_names, trimesh_quiet
+from .stl import ascii_stl_problem, binary_stl_points
 from .threemf import read_3mf
 
 __all__ = ["FILE_CREASE_ANGLE", "MeshFile", "check_file_content", "mesh_bounds", "read_mesh"]
 
 TRIMESH = Path(trimesh.__file__).resolve().parent  # an exception that passed through here: trimesh refused the file
-# Up axes the formats' specifications state (glTF 2.0 §3.4: +Y up; 3MF core §3.4: +Z up); others say nothing.
+# Up axes the formats' specifications state (glTF 2.0 §3.4: +Y up; 3MF core §3.4: +Z up); a COLLADA document
+# states its own (io/collada.py, collada_up); others say nothing.
 STATED_UP = {".gltf": (0.0, 1.0, 0.0), ".glb": (0.0, 1.0, 0.0), ".3mf": (0.0, 0.0, 1.0)}
 
 
@@ -132,8 +133,9 @@ def _read(path: Path, where: Where, source: MeshSource, bounds: bool = True) -> 
             textures: list[str] = []  # a PLY's TextureFile names, as found beside it
             points = binary_stl_points(handle) if suffix == ".stl" else None
             library = None
+            up = STATED_UP.get(suffix)
             if points is None and suffix == ".obj":
-                data = handle.read()
+                data = bom_decoded(handle.read(), path, where)  # a UTF-16 OBJ (its BOM) as UTF-8
                 text = obj_text(data, path, where)
                 library = source.materials.library
                 notes += source.materials.notes
@@ -145,8 +147,10 @@ def _read(path: Path, where: Where, source: MeshSource, bounds: bool = True) -> 
                 # A PLY float property beyond float32 (5e38) is cast to inf with numpy's warning; the values check
                 # below words it in one line.
                 arguments = _trimesh_arguments(path, handle, source, where)
-                if suffix == ".dae":  # skinned meshes and non-COMMON effects kept (io/collada.py)
-                    arguments["file_obj"] = io.BytesIO(collada_text(handle.read(), path, notes))
+                if suffix == ".dae":  # skinned meshes, non-COMMON effects, decimal commas kept (io/collada.py)
+                    data = handle.read()
+                    up = collada_up(data)
+                    arguments["file_obj"] = io.BytesIO(collada_text(data, path, notes))
                 with np.errstate(over="ignore", invalid="ignore"), trimesh_quiet():
                     loaded = trimesh.load(**arguments, process=False)
                 if suffix == ".ply":
@@ -162,6 +166,9 @@ def _read(path: Path, where: Where, source: MeshSource, bounds: bool = True) -> 
     except Exception as error:
         if not _raised_in_trimesh(error):
             raise  # our own bug, not the file's: an internal error with its traceback
+        problem = _explained(path, suffix, where)
+        if problem:
+            raise SceneError(f"{str(path)!r} {problem}", where) from None
         # The renderer's words, not the library's exception text (issue 33): a KeyError of three NUL bytes or
         # numpy's "could not be read to its end" says nothing a user can act on.
         name = path.suffix[1:].upper().replace("GLTF", "glTF").replace("DAE", "COLLADA") or "a mesh"
@@ -190,10 +197,10 @@ def _read(path: Path, where: Where, source: MeshSource, bounds: bool = True) -> 
         low, high = (side.astype(np.float64) for side in bounding_box(used))  # column by column (records says why)
         centre = (low + high) / 2
         radius = float(np.sqrt(((used - centre) ** 2).sum(axis=1).max()))
-        hint = up_hint(high - low, suffix)
+        hint = None if up is not None else up_hint(high - low, suffix)
         if hint:
             notes.append(f"{path}: {hint}")
-    return MeshFile(vertices, faces, normals, face_group, materials, STATED_UP.get(suffix),
+    return MeshFile(vertices, faces, normals, face_group, materials, up,
                     tuple(dict.fromkeys(notes)), centre, radius, normals is not None, corner_uv, corner_colour,
                     tuple(sources))
 
@@ -249,6 +256,8 @@ class _Part(NamedTuple):
     faces: np.ndarray             # (F, 3) int64
     normals: np.ndarray | None    # (V, 3) the normals the file stores, transformed with the vertices
     visual: object                # trimesh's visual: its material, its colours
+    colours: np.ndarray | None = None  # (V, 3|4) vertex colours kept on the mesh beside a material (a COLLADA
+                                       # COLOR input: trimesh stores them there, not on the visual)
 
 
 def _parts(loaded) -> list[_Part]:
@@ -279,7 +288,10 @@ def _parts(loaded) -> list[_Part]:
             normals = None if normals is None or np.linalg.det(linear) == 0 else normals @ np.linalg.inv(linear)
             if np.linalg.det(linear) < 0:
                 faces = faces[:, ::-1]  # a mirroring node keeps the faces outward
-        parts.append(_Part(vertices, faces, normals, mesh.visual))
+        colours = None
+        if not isinstance(mesh.visual, trimesh.visual.ColorVisuals):
+            colours = mesh.vertex_attributes.get("color")
+        parts.append(_Part(vertices, faces, normals, mesh.visual, colours))
     return parts
 
 
@@ -437,7 +449,8 @@ IDENTITY = ((0.0, 0.0), 0.0, (1.0, 1.0))  # KHR_texture_transform's defaults: no
 
 def _corner_colours(part: _Part) -> np.ndarray | None:
     """(F, 3, 3) float32 colour in [0, 1] at each face corner: vertex colours (8-bit /255), a face's colour
-    at its three corners, or glTF's COLOR_0 beside a material (trimesh keeps it as a vertex attribute);
+    at its three corners, or glTF's COLOR_0 or COLLADA's COLOR beside a material (trimesh keeps them as vertex
+    attributes);
     None when the part has none. Taken as stored (glTF's COLOR_0 is linear; PLY and OFF colours say nothing,
     and are read as linear too, as before)."""
     visual = part.visual
@@ -450,6 +463,7 @@ def _corner_colours(part: _Part) -> np.ndarray | None:
         return np.repeat(rgb[:, None, :], 3, axis=1)
     attributes = getattr(visual, "vertex_attributes", None) or {}
     raw = attributes.get("color") if hasattr(attributes, "get") else None
+    raw = part.colours if raw is None else raw
     if raw is None or len(raw) != len(part.vertices):
         return None
     raw = np.asarray(raw)
@@ -477,6 +491,19 @@ def _ply_textures(path: Path, handle, notes: list[str]) -> list[str]:
         notes.append(f"{path}: names {len(names)} TextureFile images (a texture number per face); only the first, "
                      f"{names[0]!r}, is read, for every face")
     return names
+
+
+def _explained(path: Path, suffix: str, where: Where) -> str | None:
+    """What is wrong with a file trimesh could not read, in the renderer's words, when a check of the format's
+    own finds it (a line, a header line); None to word trimesh's exception instead."""
+    with open_mesh_file(path, where) as handle:
+        if suffix == ".obj":
+            return obj_problem(bom_decoded(handle.read(), path, where))
+        if suffix == ".stl":
+            return ascii_stl_problem(handle.read())
+        if suffix == ".ply":
+            return ply_problem(handle.read(HEADER_LIMIT))
+    return None
 
 
 def _raised_in_trimesh(error: BaseException) -> bool:

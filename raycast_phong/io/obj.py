@@ -13,6 +13,44 @@ import trimesh
 
 from ..errors import SceneError, Where
 
+BOMS = ((b"\xef\xbb\xbf", "utf-8"), (b"\xff\xfe", "utf-16-le"), (b"\xfe\xff", "utf-16-be"))
+
+
+def bom_decoded(data: bytes, path: Path, where: Where) -> bytes:
+    """An OBJ's bytes as UTF-8 without its byte-order mark, when it starts with one (assimp's box_UTF16BE.obj:
+    read as bytes, its keywords interleaved with NULs gave "holds no triangles"); else `data` itself. A file
+    that its BOM says is UTF-16 but is not is a SceneError; after a UTF-8 mark, obj_text's Latin-1 fallback
+    holds as without one."""
+    for mark, encoding in BOMS:
+        if data.startswith(mark):
+            if encoding == "utf-8":
+                return data[len(mark):]
+            try:
+                return data[len(mark):].decode(encoding).encode("utf-8")
+            except UnicodeDecodeError as error:
+                raise SceneError(f"{str(path)!r} starts with a {encoding.upper()} byte-order mark but byte "
+                                 f"{error.start + len(mark)} is not {encoding.upper()}; allowed: an OBJ in UTF-8, "
+                                 "Latin-1, or UTF-16 with its byte-order mark", where) from None
+    return data
+
+
+NUMBER_RECORDS = re.compile(rb"^[ \t]*(v|vn|vt|vp)[ \t]+([^\r\n]*)", re.M)
+
+
+def obj_problem(data: bytes) -> str | None:
+    """What stops an OBJ (UTF-8 `data`) being read, in words naming its line, when trimesh could not read it: the
+    first `v`, `vn`, `vt` or `vp` value that is not a number (tinyobjloader's test-nan.obj writes MSVC's
+    `1.#IND`); None when none is found."""
+    for found in NUMBER_RECORDS.finditer(data):
+        for word in re.split(rb"(?:^|[ \t])#", found[2])[0].split():  # a comment, not `1.#IND`
+            try:
+                float(word)
+            except ValueError:
+                line = data.count(b"\n", 0, found.start()) + 1
+                return (f"line {line}: {found[1].decode()} value {word.decode('latin-1')[:40]!r} is not a number; "
+                        "allowed: decimal numbers (1.5, -2e-3, nan, inf)")
+    return None
+
 
 def obj_text(data: bytes, path: Path, where: Where) -> io.BytesIO:
     """The OBJ's bytes as trimesh is given them: UTF-8 (a file that is not is read as Latin-1: every byte is a

@@ -1,8 +1,10 @@
-"""Binary STL, read here rather than by trimesh: its records straight into float32 corner points."""
+"""Binary STL, read here rather than by trimesh: its records straight into float32 corner points. An ASCII STL
+trimesh cannot read has its first bad `vertex` line named (ascii_stl_problem)."""
 
 from __future__ import annotations
 
 import os
+import re
 
 import numpy as np
 
@@ -30,3 +32,29 @@ def binary_stl_points(handle) -> np.ndarray | None:
         return None  # the file shrank under us: let trimesh word it
     return np.ascontiguousarray(records["points"], np.float32).reshape(-1, 3)
 
+
+
+VERTEX_LINES = re.compile(rb"^[ \t]*vertex(?![^ \t\r\n])([^\n]*)", re.M | re.I)
+
+
+def ascii_stl_problem(data: bytes) -> str | None:
+    """What stops an ASCII STL being read, in words naming its line, when trimesh could not read it: the first
+    `vertex` line that is not three numbers (openscad's invalidvertex.stl: `vertex 0 0 blah`; unparseable.stl: a
+    control byte among them); None when every vertex line is three numbers."""
+    for found in VERTEX_LINES.finditer(data):
+        words = found[1].split()
+        bad = next((word for word in words if not _number(word)), None)
+        if bad is not None or len(words) != 3:
+            line = data.count(b"\n", 0, found.start()) + 1
+            given = (f"{bad.decode('latin-1')[:40]!r} is not a number" if bad is not None
+                     else f"it gives {len(words)} number(s)")
+            return f"line {line}: a vertex needs three numbers (x y z), and {given}"
+    return None
+
+
+def _number(word: bytes) -> bool:
+    try:
+        float(word)
+    except ValueError:
+        return False
+    return True

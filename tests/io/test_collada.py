@@ -77,3 +77,66 @@ def test_a_document_that_needs_no_change_is_read_as_it_was(tmp_path):
     notes: list[str] = []
     assert collada_text(data, tmp_path / "plain.dae", notes) is data and notes == []
     assert np.allclose(read(tmp_path / "plain.dae").vertices, [[0, 0, 0], [1, 0, 0], [0, 1, 0]])
+
+
+def write_triangle(path: Path, positions: str = "0 0 0 1 0 0 0 1 0", asset: str = "", colours: str = "") -> Path:
+    """One triangle: `positions` as the float_array's text, `asset` inside <asset>, and `colours` (three RGB
+    triples) as a COLOR input beside the VERTEX one when given, then with a white material `m` (trimesh keeps
+    colours beside a material elsewhere than without one)."""
+    colour_source = ('<source id="c"><float_array id="ca" count="9">' f'{colours}</float_array><technique_common>'
+                     '<accessor source="#ca" count="3" stride="3"><param name="R" type="float"/>'
+                     '<param name="G" type="float"/><param name="B" type="float"/></accessor></technique_common>'
+                     '</source>') if colours else ""
+    colour_input = '<input semantic="COLOR" source="#c" offset="1" set="0"/>' if colours else ""
+    indices = "0 0 1 1 2 2" if colours else "0 1 2"
+    library = ('<library_effects><effect id="fx"><profile_COMMON><technique sid="t"><lambert><diffuse><color>'
+               '1 1 1 1</color></diffuse></lambert></technique></profile_COMMON></effect></library_effects>'
+               '<library_materials><material id="mat"><instance_effect url="#fx"/></material></library_materials>'
+               ) if colours else ""
+    binding = ('<bind_material><technique_common><instance_material symbol="m" target="#mat"/>'
+               '</technique_common></bind_material>') if colours else ""
+    bound = 'material="m" ' if colours else ""
+    path.write_text(
+        '<?xml version="1.0" encoding="utf-8"?>\n'
+        '<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">'
+        f'<asset>{asset}</asset>{library}'
+        '<library_geometries><geometry id="tri"><mesh><source id="p"><float_array id="pa" count="9">'
+        f'{positions}</float_array><technique_common><accessor source="#pa" count="3" stride="3">'
+        '<param name="X" type="float"/><param name="Y" type="float"/><param name="Z" type="float"/></accessor>'
+        f'</technique_common></source>{colour_source}<vertices id="v"><input semantic="POSITION" source="#p"/>'
+        f'</vertices><triangles {bound}count="1">'
+        '<input semantic="VERTEX" source="#v" offset="0"/>'
+        f'{colour_input}<p>{indices}</p></triangles></mesh></geometry></library_geometries>'
+        '<library_visual_scenes><visual_scene id="s"><node id="n"><instance_geometry url="#tri">'
+        f'{binding}</instance_geometry></node>'
+        '</visual_scene></library_visual_scenes><scene><instance_visual_scene url="#s"/></scene></COLLADA>')
+    return path
+
+
+def test_decimal_commas_are_read_as_decimal_points(tmp_path):
+    """assimp's teapots.DAE and earthCylindrical.DAE write `0,5` (a comma locale): pycollada dropped every such
+    array ("holds no triangles"); the triangle (0,0,0) (1.5,0,0) (0,2.25,0) is read with a note."""
+    mesh = read(write_triangle(tmp_path / "comma.dae", "0 0 0 1,5 0 0 0 2,25 0"))
+    assert sorted(map(tuple, mesh.vertices[mesh.faces[0]].tolist())) == [(0, 0, 0), (0, 2.25, 0), (1.5, 0, 0)]
+    assert any("decimal comma" in note for note in mesh.notes), mesh.notes
+
+
+def test_a_stated_up_axis_is_the_framing_up(tmp_path):
+    """<up_axis>Z_UP</up_axis> makes +Z the up (as 3MF's is; teapot_instancenodes.DAE was seen from above),
+    X_UP +X; none, or Y_UP, leaves +Y (COLLADA's default)."""
+    for axis, up in (("Z", (0, 0, 1)), ("X", (1, 0, 0)), ("Y", (0, 1, 0))):
+        assert read(write_triangle(tmp_path / f"{axis}.dae", asset=f"<up_axis>{axis}_UP</up_axis>")).up == up
+    assert read(write_triangle(tmp_path / "none.dae")).up is None
+    done = runner.invoke(app, ["scene", str(tmp_path / "Z.dae")])
+    assert done.exit_code == 0, done.output
+    assert "up = [0.0, 0.0, 1.0]" in done.stdout, done.stdout
+
+
+def test_a_colour_input_gives_vertex_colours(tmp_path):
+    """A COLOR input beside a material (kwxport_test_vcolors.dae rendered white): red, green, blue at the
+    three corners."""
+    mesh = read(write_triangle(tmp_path / "colours.dae", colours="1 0 0 0 1 0 0 0 1"))
+    assert mesh.corner_colour is not None
+    corners = {tuple(mesh.vertices[v].tolist()): tuple(mesh.corner_colour[0, k].tolist())
+               for k, v in enumerate(mesh.faces[0])}
+    assert corners == {(0, 0, 0): (1, 0, 0), (1, 0, 0): (0, 1, 0), (0, 1, 0): (0, 0, 1)}

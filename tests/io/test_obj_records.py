@@ -206,3 +206,20 @@ def test_a_ply_coordinate_beyond_float32_is_one_line_without_numpy_warnings(tmp_
     [line] = done.stderr.strip().splitlines()
     assert "infinite coordinates" in line, line
     assert not [w for w in warned if issubclass(w.category, RuntimeWarning)], [str(w.message) for w in warned]
+
+
+@pytest.mark.parametrize("encoding, mark", [("utf-16-be", b"\xfe\xff"), ("utf-16-le", b"\xff\xfe"),
+                                            ("utf-8", b"\xef\xbb\xbf")])
+def test_an_obj_with_a_byte_order_mark_is_decoded(tmp_path, encoding, mark):
+    """assimp's box_UTF16BE.obj: UTF-16 with its BOM read as bytes gave "holds no triangles"."""
+    text = "# é\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+    (tmp_path / "bom.obj").write_bytes(mark + text.encode(encoding))
+    assert triangles(read(tmp_path / "bom.obj")) == [((0, 0, 0), (1, 0, 0), (0, 1, 0))]
+
+
+def test_a_utf16_mark_before_bytes_that_are_not_utf16_is_one_line(tmp_path):
+    (tmp_path / "odd.obj").write_bytes(b"\xff\xfe" + "v 0 0 0\n".encode("utf-16-le") + b"v")
+    done = runner.invoke(app, ["render", str(tmp_path / "odd.obj"), "-o", str(tmp_path / "x.png")])
+    assert done.exit_code == 2, done.output
+    message = " ".join(done.stderr.split())
+    assert "UTF-16-LE byte-order mark but byte 18 is not UTF-16-LE" in message and "Traceback" not in done.output

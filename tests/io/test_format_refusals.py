@@ -1,0 +1,39 @@
+"""Broken files trimesh cannot read are refused in the renderer's words, naming the line, never with trimesh's or
+numpy's exception text (issue 33). Minimal files written here, after openscad's invalidvertex.stl and
+unparseable.stl, tinyobjloader's test-nan.obj and assimp's fuzzed crash-*.ply."""
+
+from __future__ import annotations
+
+import pytest
+from typer.testing import CliRunner
+
+from raycast_phong.cli import app
+
+runner = CliRunner()
+pytestmark = pytest.mark.usefixtures("in_tmp_path")
+
+STL = ("solid s\n facet normal 0 0 1\n  outer loop\n   vertex 0 0 0\n   vertex 1 0 0\n   {third}\n  endloop\n"
+       " endfacet\nendsolid s\n")
+PLY_HEAD = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+
+CASES = {
+    "word.stl": (STL.format(third="vertex 0 1 blah").encode(), "line 6: a vertex needs three numbers (x y z), "
+                 "and 'blah' is not a number"),
+    "control.stl": (STL.format(third="vertex 0 \x10 1").encode(), "line 6: a vertex needs three numbers (x y z), "
+                    "and '\\x10' is not a number"),
+    "ind.obj": (b"v 0 0 0\nv 1 0 0 # a comment\nv 1.#IND 1 0\nf 1 2 3\n",
+                "line 3: v value '1.#IND' is not a number; allowed: decimal numbers"),
+    "fuzzed.ply": (PLY_HEAD + b"property \x00\x00\x00\t\x07\x00\x00\x00\x03",
+                   "header line 5: property type '\\x00\\x00\\x00' is not a PLY type"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_a_broken_file_is_refused_naming_its_line(tmp_path, name):
+    data, expected = CASES[name]
+    (tmp_path / name).write_bytes(data)
+    done = runner.invoke(app, ["render", str(tmp_path / name), "-o", str(tmp_path / "x.png")])
+    assert done.exit_code == 2, done.output
+    message = " ".join(done.stderr.split())
+    assert f"{name}' {expected}" in message, message
+    assert "Error" not in message and "Traceback" not in done.output and not (tmp_path / "x.png").exists()
