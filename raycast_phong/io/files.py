@@ -50,7 +50,7 @@ def open_regular(path: Path, where: Where, what: str, limit: int | None = None) 
         if not stat.S_ISREG(mode):
             kind = next((f"{name}, not a regular file" for test, name in FILE_KINDS if test(mode)),
                         "not a regular file")
-            raise SceneError(f"{str(path)!r} is {kind}; give a {what}", where)
+            raise SceneError(f"{shown_name(path)} is {kind}; give a {what}", where)
 
     try:
         refuse_kind(os.stat(path).st_mode)
@@ -60,7 +60,7 @@ def open_regular(path: Path, where: Where, what: str, limit: int | None = None) 
     except FileNotFoundError:
         raise
     except OSError as error:
-        raise SceneError(f"cannot read the {what} {str(path)!r} ({error.strerror})", where) from None
+        raise SceneError(f"cannot read the {what} {shown_name(path)} ({error.strerror})", where) from None
     try:
         info = os.fstat(descriptor)
         refuse_kind(info.st_mode)

@@ -43,10 +43,14 @@ def test_version_prints_the_package_version():
     assert result.stdout == f"raycast-phong {raycast_phong.__version__}\n"
 
 
-def test_shell_completion_is_on_and_completes_commands_options_and_choices():
+def test_shell_completion_is_on_and_completes_commands_options_and_choices(monkeypatch):
     helped = runner.invoke(app, ["--help"])
     assert "--install-completion" in helped.stdout and "--show-completion" in helped.stdout
-    script = runner.invoke(app, ["--show-completion", "bash"], prog_name="raycast-phong")
+    # --show-completion names the shell it detects from the process tree (shellingham): a pytest-xdist worker's
+    # ancestors may hold none typer knows (exit 1 in the full suite, under load), so the test says it is bash.
+    import shellingham
+    monkeypatch.setattr(shellingham, "detect_shell", lambda *args, **kwargs: ("bash", "/bin/bash"))
+    script = runner.invoke(app, ["--show-completion"], prog_name="raycast-phong")
     assert script.exit_code == 0 and "complete -o default -F _raycast_phong_completion raycast-phong" in script.stdout
 
     def complete(words: str) -> list[str]:
