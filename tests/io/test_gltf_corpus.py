@@ -113,20 +113,19 @@ def test_broken_files_are_refused_in_the_renderers_words(tmp_path):
     path = quad_gltf(tmp_path, {}, buffer="gone.bin")
     (tmp_path / "gone.bin").unlink()
     cases.append((path, r"buffers\[0\]\.uri names 'gone\.bin', which is missing"))
-    second = tmp_path / "second"
-    second.mkdir()
-    path = quad_gltf(second, {})
-    document = json.loads(path.read_text())
-    document["bufferViews"][1]["buffer"] = 1
-    path.write_text(json.dumps(document))
-    cases.append((path, r"bufferViews\[1\]\.buffer is 1; allowed: 0\.\.0"))
-    third = tmp_path / "third"
-    third.mkdir()
-    path = quad_gltf(third, {})
-    document = json.loads(path.read_text())
-    document["accessors"][2]["bufferView"] = 7
-    path.write_text(json.dumps(document))
-    cases.append((path, r"accessors\[2\]\.bufferView is 7; allowed: 0\.\.2"))
+
+    def edited(folder: str, key: str, index: int, field: str, value: int) -> Path:
+        """The quad's glTF in its own folder, with document[key][index][field] = value."""
+        (tmp_path / folder).mkdir()
+        path = quad_gltf(tmp_path / folder, {})
+        document = json.loads(path.read_text())
+        document[key][index][field] = value
+        path.write_text(json.dumps(document))
+        return path
+
+    cases.append((edited("second", "bufferViews", 1, "buffer", 1), r"bufferViews\[1\]\.buffer is 1; allowed: 0\.\.0"))
+    cases.append((edited("third", "accessors", 2, "bufferView", 7),
+                  r"accessors\[2\]\.bufferView is 7; allowed: 0\.\.2"))
     for path, words in cases:
         with pytest.raises(SceneError, match=words) as raised:
             read_mesh(path, "t")
