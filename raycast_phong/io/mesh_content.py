@@ -80,3 +80,11 @@ def check_content(path: Path, handle, where: Where) -> None:
     raise SceneError(f"cannot read {str(path)!r} as {name}: {said}", where)
 
 
+def is_number(word: str | bytes) -> bool:
+    """Whether a word of a text mesh file (OBJ, MTL, ASCII STL) reads as a number, as Python's float() does
+    (1.5, -2e-3, nan, inf); MSVC's `1.#IND` and a control byte do not."""
+    try:
+        float(word)
+    except ValueError:
+        return False
+    return True

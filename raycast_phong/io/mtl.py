@@ -16,6 +16,7 @@ from ..errors import SceneError
 from .files import open_regular, shown_name
 from .materials import FileMaterial, TextureSource, specular_lobe
 from .materials import rgb as _rgb
+from .mesh_content import is_number
 
 MAX_SIDE_FILE = 16 << 20  # an .mtl is text of a few kB; refuse to read more than a scene file may be
 TEXTURE_KEYS = ("map_", "bump", "disp", "decal", "refl", "norm")
@@ -210,7 +211,7 @@ def map_file(words: list[str]) -> str:
         at += 1
         taken = 0
         while taken < count and at < len(words) - 1:
-            if count == 1 or _is_number(words[at]):
+            if count == 1 or is_number(words[at]):
                 at, taken = at + 1, taken + 1
             else:
                 break
@@ -228,18 +229,10 @@ def _only_options(words: list[str]) -> bool:
             return False
         at += 1
         taken = 0
-        while taken < count and at < len(words) and (count == 1 or _is_number(words[at])):
+        while taken < count and at < len(words) and (count == 1 or is_number(words[at])):
             at, taken = at + 1, taken + 1
         if taken == 0:
             return False
-    return True
-
-
-def _is_number(word: str) -> bool:
-    try:
-        float(word)
-    except ValueError:
-        return False
     return True
 
 

@@ -12,6 +12,7 @@ import numpy as np
 import trimesh
 
 from ..errors import SceneError, Where
+from .mesh_content import is_number
 
 BOMS = ((b"\xef\xbb\xbf", "utf-8"), (b"\xff\xfe", "utf-16-le"), (b"\xfe\xff", "utf-16-be"))
 
@@ -43,9 +44,7 @@ def obj_problem(data: bytes) -> str | None:
     `1.#IND`); None when none is found."""
     for found in NUMBER_RECORDS.finditer(data):
         for word in re.split(rb"(?:^|[ \t])#", found[2])[0].split():  # a comment, not `1.#IND`
-            try:
-                float(word)
-            except ValueError:
+            if not is_number(word):
                 line = data.count(b"\n", 0, found.start()) + 1
                 return (f"line {line}: {found[1].decode()} value {word.decode('latin-1')[:40]!r} is not a number; "
                         "allowed: decimal numbers (1.5, -2e-3, nan, inf)")

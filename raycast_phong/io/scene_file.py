@@ -40,12 +40,11 @@ def read_scene_file(path: Path, max_memory: int | None = None) -> dict:
                 data = handle.read(MAX_SCENE_BYTES + 1)
         if len(data) > MAX_SCENE_BYTES:
             raise SceneError(f"the scene is more than the {MAX_SCENE_BYTES >> 20} MiB allowed", path)
-        allowed = memory_allowed(max_memory)
-        if allowed is not None and len(data) * SCENE_READ_BYTES > allowed:
-            raise SceneError(f"reading its {format_bytes(len(data))} of text needs ≈ "
-                             f"{format_bytes(len(data) * SCENE_READ_BYTES)} of memory, more than the "
-                             f"{format_bytes(allowed)} available; allowed: a scene whose text fits, so split it or "
-                             "raise the budget (--max-memory)", path)
+        need, allowed = len(data) * SCENE_READ_BYTES, memory_allowed(max_memory)
+        if allowed is not None and need > allowed:
+            raise SceneError(f"reading its {format_bytes(len(data))} of text needs ≈ {format_bytes(need)} of memory, "
+                             f"more than the {format_bytes(allowed)} available; allowed: a scene whose text fits, so "
+                             "split it or raise the budget (--max-memory)", path)
         text = data.decode("utf-8")
     except FileNotFoundError:
         raise SceneError("no such scene file", path) from None

@@ -8,6 +8,8 @@ import re
 
 import numpy as np
 
+from .mesh_content import is_number
+
 STL_RECORD = np.dtype([("normal", "<f4", 3), ("points", "<f4", (3, 3)), ("attribute", "<u2")])  # 50 bytes
 
 
@@ -43,7 +45,7 @@ def ascii_stl_problem(data: bytes) -> str | None:
     control byte among them); None when every vertex line is three numbers."""
     for found in VERTEX_LINES.finditer(data):
         words = found[1].split()
-        bad = next((word for word in words if not _number(word)), None)
+        bad = next((word for word in words if not is_number(word)), None)
         if bad is not None or len(words) != 3:
             line = data.count(b"\n", 0, found.start()) + 1
             given = (f"{bad.decode('latin-1')[:40]!r} is not a number" if bad is not None
@@ -51,10 +53,3 @@ def ascii_stl_problem(data: bytes) -> str | None:
             return f"line {line}: a vertex needs three numbers (x y z), and {given}"
     return None
 
-
-def _number(word: bytes) -> bool:
-    try:
-        float(word)
-    except ValueError:
-        return False
-    return True

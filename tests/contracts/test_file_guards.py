@@ -13,6 +13,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -168,8 +169,7 @@ def binary_ply(path: Path, vertices: int, element: str, lists: list[list[int]], 
               f"property float y\nproperty float z\nelement {element} {len(lists)}\n"
               f"property list {count} int vertex_indices\nend_header\n").encode()
     packed = {"uchar": "<B", "uint": "<I", "int": "<i"}[count]
-    body = b"".join(struct.pack(packed, len(entries)) + struct.pack(f"<{len(entries)}i", *entries)
-                    for entries in lists)
+    body = b"".join(struct.pack(packed, len(entries)) + np.asarray(entries, "<i4").tobytes() for entries in lists)
     path.write_bytes(header + bytes(12 * vertices) + body)
     return path
 

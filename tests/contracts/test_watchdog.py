@@ -200,17 +200,6 @@ def textured_gltf(path: Path, png: bytes) -> Path:
     return path
 
 
-def ply_lists(path: Path, element: str, indices: int) -> Path:
-    """A binary PLY of three vertices and one `element` (face, tristrips) list of `indices` entries, as the
-    header's one element says."""
-    import numpy as np
-    header = (f"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-              f"property float z\nelement {element} 1\nproperty list int int vertex_indices\nend_header\n").encode()
-    body = struct.pack("<i", indices) + (np.arange(indices, dtype="<i4") % 3).tobytes()
-    path.write_bytes(header + struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0) + body)
-    return path
-
-
 HOSTILE_BUDGET = 300 << 20
 LIMIT_300 = ["--max-memory", "300M"]
 
@@ -233,7 +222,8 @@ def hostile_files(tmp_path_factory) -> Path:
     textured_gltf(folder / "image.glb", (folder / "map20k.png").read_bytes())
     textured_gltf(folder / "image.gltf", (folder / "map20k.png").read_bytes())
     del map_12k
-    from test_file_guards import three_mf
+    import numpy as np
+    from test_file_guards import binary_ply, three_mf
     three_mf(folder / "bomb.3mf", 200_000)  # ≈ 47 MB of XML, ≈ 1.7 GB to parse
     with open(folder / "big.bin", "wb") as handle:
         handle.write(struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0))
@@ -245,8 +235,8 @@ def hostile_files(tmp_path_factory) -> Path:
         "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
                        "min": [0, 0, 0], "max": [1, 1, 0]}],
         "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}], "nodes": [{"mesh": 0}]}))
-    ply_lists(folder / "corners.ply", "face", 3_000_000)
-    ply_lists(folder / "strips.ply", "tristrips", 10_000_000)
+    binary_ply(folder / "corners.ply", 3, "face", [np.arange(3_000_000) % 3], count="int")
+    binary_ply(folder / "strips.ply", 3, "tristrips", [np.arange(10_000_000) % 3], count="int")
     light = '[[lights]]\ntype = "point"\nposition = [0, 5, 5]\n'
     (folder / "boxes.toml").write_text("objects = [" + ",".join(['{shape="box"}'] * 1_000_000) + "]\n" + light)
     fake_cgroup(folder / "cgroup", HOSTILE_BUDGET)
