@@ -885,7 +885,9 @@ print(sorted(name for name in ("numba", "OpenImageIO", "raycast_phong.renderer.f
     from raycast_phong.tools.view import server, session
     started = threading.Event()
     monkeypatch.setattr(session, "WARM_AFTER", 60)
-    monkeypatch.setattr(server, "warm", lambda source: started.set())
+    # Only this app's warm-up counts: an earlier test's app in this worker still has its WARM_AFTER timer, which
+    # would call the patched warm (that set the event at once in a full fresh-clone run).
+    monkeypatch.setattr(server, "warm", lambda source: source.folder == scene_path.parent and started.set())
     client = client_for(scene_path)
     assert not started.wait(0.5)  # nothing asked for a page yet
     assert client.get(f"/?token={TOKEN}").status_code == 200
