@@ -22,6 +22,7 @@ import shutil
 import sys
 import tempfile
 import weakref
+from collections.abc import Callable
 from functools import lru_cache
 from pathlib import Path
 
@@ -160,23 +161,71 @@ class _CacheLoadedAsIs(FunctionCache):
     set_up(), so the BLAS probe is still skipped."""
 
     def load_overload(self, sig, target_context):
-        if not LIGHT_LOAD:
-            loaded = super().load_overload(sig, target_context)
-        else:
-            rtsys.initialize(target_context)  # what numba's refresh starts with (cpu.py); idempotent
-            loaded = None
-            # numba holds this lock around every load and compile; taken again (it is re-entrant) so that the
-            # unpickler's environment rebuild is swapped for this load alone, whoever calls.
-            with global_compiler_lock, self._guard_against_spurious_io_errors():  # numba's own (Windows: busy file)
-                rebuild, environment._rebuild_env = environment._rebuild_env, _environment_as_is
-                try:
-                    loaded = self._load_overload(sig, target_context)
-                finally:
-                    environment._rebuild_env = rebuild
+        loaded = super().load_overload(sig, target_context) if not LIGHT_LOAD else self._light_load(sig, target_context)
+        if loaded is None and LIGHT_LOAD:
+            wait = compiled_elsewhere.pop(kernel_name(self._py_func), None)
+            if wait is not None:  # another process is compiling this kernel into the cache: wait, then load it
+                wait()
+                loaded = self._light_load(sig, target_context)
         if loaded is None:
             set_up()  # numba is about to compile (and load its registries)
             compiling(self._py_func.__name__, sig)
         return loaded
+
+    def _light_load(self, sig, target_context):
+        """The cached kernel for `sig`, loaded without numba's registries, or None."""
+        rtsys.initialize(target_context)  # what numba's refresh starts with (cpu.py); idempotent
+        # numba holds this lock around every load and compile; taken again (it is re-entrant) so that the
+        # unpickler's environment rebuild is swapped for this load alone, whoever calls.
+        with global_compiler_lock, self._guard_against_spurious_io_errors():  # numba's own (Windows: busy file)
+            rebuild, environment._rebuild_env = environment._rebuild_env, _environment_as_is
+            try:
+                return self._load_overload(sig, target_context)
+            finally:
+                environment._rebuild_env = rebuild
+
+    def holds(self, sig, target_context) -> bool:
+        """Whether the cache has an entry for `sig` (its index only: nothing is loaded)."""
+        return self._cache_file._load_index().get(self._index_key(sig, target_context.codegen())) is not None
+
+
+# Kernels (kernel_name) another process is compiling into the cache, each with a function that returns once it is
+# done (or gave up): a miss for one waits for it and loads the result instead of compiling (split_compile.py). Taken
+# out at the first miss, so a kernel is waited for once; if it is still missing then, it compiles here as usual.
+compiled_elsewhere: dict[str, Callable[[], object]] = {}
+
+
+def kernel_name(function) -> str:
+    """module.qualified_name of a kernel (its dispatcher or its Python function)."""
+    function = getattr(function, "py_func", function)
+    return f"{function.__module__}.{function.__qualname__}"
+
+
+def cached(dispatcher, arguments: tuple) -> bool:
+    """Whether `dispatcher` has code for these arguments' types, in the process or in its cache (True also when
+    that cannot be told: the caller then simply goes on as if it were)."""
+    from numba import typeof
+    signature = tuple(typeof(argument) for argument in arguments)
+    if signature in dispatcher.overloads:
+        return True
+    cache = getattr(dispatcher, "_cache", None)
+    if not isinstance(cache, _CacheLoadedAsIs) or not LIGHT_LOAD:
+        return True
+    try:
+        return cache.holds(signature, dispatcher.targetctx)
+    except (AttributeError, OSError, ValueError):  # numba's internals moved: behave as if cached
+        return True
+
+
+def cached_at_all(dispatcher) -> bool:
+    """Whether `dispatcher`'s cache holds code for any signature (True also when that cannot be told)."""
+    cache = getattr(dispatcher, "_cache", None)
+    if not isinstance(cache, _CacheLoadedAsIs) or not LIGHT_LOAD:
+        return True
+    try:
+        return bool(cache._cache_file._load_index())
+    except (AttributeError, OSError, ValueError):  # numba's internals moved: behave as if cached
+        return True
 
 
 class _NothingCached(NullCache):

@@ -148,17 +148,18 @@ class ColdPackage:
     warm: dict[str, str]  # the same command again: it loads what the first one cached
     cli: str              # that command (`render` of the default scene, 32×12), as `python -c` code
 
-    def run(self, code: str, *args: str) -> subprocess.CompletedProcess:
-        """`python -c code args` importing the copy, with no lock; asserts it exits 0."""
-        done = subprocess.run([sys.executable, "-c", code, *args], env=self.env, cwd=self.folder,
-                              capture_output=True, text=True, timeout=900)
+    def run(self, code: str, *args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess:
+        """`python -c code args` importing the copy (with `env` added to its environment), with no lock; asserts
+        it exits 0."""
+        done = subprocess.run([sys.executable, "-c", code, *args], env={**self.env, **(env or {})},
+                              cwd=self.folder, capture_output=True, text=True, timeout=900)
         assert done.returncode == 0, done.stderr
         return done
 
-    def python(self, code: str, *args: str) -> subprocess.CompletedProcess:
+    def python(self, code: str, *args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess:
         """`run`, while no edit is under way."""
         with _locked(self.folder / "lock", shared=True):
-            return self.run(code, *args)
+            return self.run(code, *args, env=env)
 
     @contextmanager
     def editing(self, *paths: Path):

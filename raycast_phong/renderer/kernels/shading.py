@@ -511,4 +511,5 @@ def _shade_rays(inputs, rays, film):
                         nx / length, ny / length, nz / length)
     for bit in range(TERMS):
         evaluated[bit] += run_length * ((run_mask >> bit) & 1)
-    counts[:] = evaluated
+    for bit in range(len(counts)):  # not counts[:] = evaluated: its shape check's message compiled in 2 s of 18
+        counts[bit] = evaluated[bit]

@@ -42,6 +42,9 @@ print(json.dumps({"hits": sum(stats.cache_hits.values()), "misses": sum(stats.ca
 """
 
 KEY = "from raycast_phong import jit; print(jit.source_key())"
+# How many signatures of each named kernel (module.function) the kernel cache holds.
+CACHED = ("import json, sys; from raycast_phong import jit; print(json.dumps({name: "
+          "len(list(jit.cache_folder().rglob(name + '-*.nbc'))) for name in sys.argv[1:]}))")
 
 
 @pytest.fixture
@@ -107,10 +110,25 @@ def test_the_first_render_says_it_compiles_and_keeps_compilation_out_of_the_fram
     kernels_s = float(out.split("kernels ")[1].split("s")[0])
     frame_s = float(out.split("frame ")[1].split("s")[0])
     assert kernels_s > frame_s, out
-    # float64 after float32: the same kernels in another signature are a compile too, said as one.
-    wide = cold_package.python(cold_package.cli, "--set", "render.precision=float64")
+    # float64 after float32: the same kernels in another signature are a compile too, said as one. numba says
+    # which kernels this process saves to its cache and which it loads (NUMBA_DEBUG_CACHE, on stdout).
+    wide = cold_package.python(cold_package.cli, "--set", "render.precision=float64", env={"NUMBA_DEBUG_CACHE": "1"})
     assert "compiling the float64 shading kernels" in wide.stderr and wide.stderr.count("compiling") == 1, wide.stderr
     assert "compile " in wide.stdout and "kernels " not in wide.stdout, wide.stdout
+    # On two cores the shading kernel compiles in a helper process (split_compile.py): this one loads it, and
+    # compiles the two callees the helper loads. Each kernel is compiled once, in one signature per precision.
+    saved = [line for line in wide.stdout.splitlines() if "data saved" in line]
+    loaded = [line for line in wide.stdout.splitlines() if "data loaded" in line]
+    shade_saved = any("shading._shade_rays" in line for line in saved)
+    if len(os.sched_getaffinity(0)) >= 2:
+        assert not shade_saved and any("shading._shade_rays" in line for line in loaded), wide.stdout
+        assert all(any(name in line for line in saved) for name in ("texture.sample", "shading._screen_weights"))
+    else:
+        assert shade_saved, wide.stdout
+    # (Counted by the copy itself, under the shared lock: the edit test moves the cache aside while it runs.)
+    counts = json.loads(cold_package.python(CACHED, "shading._shade_rays", "texture.sample", "shading._screen_weights",
+                                            "tile.render_band").stdout)
+    assert counts == dict.fromkeys(counts, 2) and len(counts) == 4, counts
 
 
 @pytest.mark.slow

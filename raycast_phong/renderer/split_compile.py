@@ -1,0 +1,168 @@
+"""A first compile of the frame kernel on two cores at once.
+
+numba compiles one kernel at a time in a process, and a fresh cache compiles tile.render_band with every kernel it
+calls: about 18 s of one core's CPU for the default scene, 10 of them the shading kernel (shading._shade_rays and the
+texture sampler it calls). Here a helper process compiles _shade_rays into the same kernel cache while this process
+compiles two of its callees (which the helper then loads) and then render_band's other callees; when render_band's
+compile reaches _shade_rays, this process waits for the helper and loads its result (jit.compiled_elsewhere).
+The kernels and the cache files are numba's own either way: a helper that fails, or a signature that differs, only
+means this process compiles that kernel itself, as it would alone.
+
+The helper is given the arguments render_band passes _shade_rays, for a band of no rays: whole empty arrays type as
+the slices render_band makes (a slice of a C-contiguous array along its first axis is C-contiguous).
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+from .. import jit
+from .kernels import shading, texture
+from .kernels.layout import TileRays
+
+SHADE = jit.kernel_name(shading._shade_rays)
+HELPER = "import sys; from raycast_phong.renderer.split_compile import helper; helper(*sys.argv[1:])"
+PREPARED = "prepared"  # what the helper hears once the warm-up scene is prepared (its geometry kernels cached)
+
+
+def cores() -> int:
+    """The cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
+
+
+def shading_arguments(ready) -> tuple:
+    """(ShadingInputs, TileRays, FilmRows) as render_band passes them to _shade_rays, for a band of no rays
+    (`ready`: prepare()'s result for a warm-up scene)."""
+    from .film import allocate_film
+    from .pack import film_rows
+    film = film_rows(allocate_film(2, 2, (), ready.real).rows(0, 0))
+    rays = TileRays(np.empty(0, np.int32), np.empty(0, np.float32), np.empty(0, np.float32),
+                    np.empty(0, np.float32), np.empty((0, 3), np.float32), np.empty(0, np.int64),
+                    ready.rays.params.samples)
+    return ready.shading, rays, film
+
+
+def callee_signatures(inputs) -> dict:
+    """The kernels _shade_rays calls that this process compiles first, each with its argument types as _shade_rays
+    calls it: _screen_weights (three weights, the vertices, a face's three vertex rows, the eye, the camera, 1), in
+    the order the helper meets them, then texture.sample (the texels and the table, a map's row, u and v, the
+    footprint in float64). The helper waits for each (its file in the shared folder) instead of compiling it."""
+    from numba import typeof, types
+    real = typeof(inputs.one)
+    return {shading._screen_weights: (real, real, real, typeof(inputs.vertices), types.int32, types.int32,
+                                      types.int32, typeof(inputs.viewing), typeof(inputs.camera), real),
+            texture.sample: (typeof(inputs.texels), typeof(inputs.texture_table), types.int64, real, real,
+                             types.float64)}
+
+
+class Aside:
+    """The helper of one precision's compile (shading_compiled_aside), if one runs. It hears on its standard input
+    the name of each kernel this process has put in the cache for it (a pipe: nothing to remove afterwards)."""
+
+    def __init__(self, precision: str):
+        self.precision = precision
+        self.process: subprocess.Popen | None = None
+        if cores() >= 2 and jit.cache_folder() is not None and not jit.cached_at_all(shading._shade_rays):
+            self.start()  # a cache with no shading kernel at all: a compile is certain, start at once
+
+    def start(self) -> None:
+        package_parent = str(Path(__file__).resolve().parents[2])
+        env = dict(os.environ,
+                   PYTHONPATH=os.pathsep.join(filter(None, [package_parent, os.environ.get("PYTHONPATH")])))
+        try:
+            self.process = subprocess.Popen([sys.executable, "-c", HELPER, self.precision, str(os.getpid())],
+                                            stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
+                                            stderr=subprocess.DEVNULL, env=env, text=True)
+        except OSError:  # no interpreter to start (an embedded Python): everything compiles here, as alone
+            self.process = None
+        if self.process is not None:
+            jit.compiled_elsewhere[SHADE] = self.process.wait
+
+    def tell(self, name: str) -> None:
+        """Tell the helper that `name` is in the cache (a helper that has ended hears nothing)."""
+        try:
+            self.process.stdin.write(name + "\n")
+            self.process.stdin.flush()
+        except OSError:
+            pass
+
+    def prepared(self, ready) -> None:
+        """The warm-up scene is prepared (its geometry kernels are in the cache): start the helper if
+        _shade_rays is missing for `ready`'s types, then compile the callees it will wait for."""
+        if self.process is None and cores() >= 2 and jit.cache_folder() is not None \
+                and not jit.cached(shading._shade_rays, shading_arguments(ready)):
+            self.start()
+        if self.process is not None:
+            self.tell(PREPARED)
+            for kernel, signature in callee_signatures(ready.shading).items():
+                kernel.compile(signature)
+                self.tell(jit.kernel_name(kernel))
+
+    def close(self) -> None:
+        jit.compiled_elsewhere.pop(SHADE, None)
+        if self.process is not None:
+            if self.process.poll() is None:
+                self.process.kill()
+            self.process.wait()
+            try:
+                self.process.stdin.close()
+            except OSError:
+                pass
+
+
+@contextmanager
+def shading_compiled_aside(precision: str) -> Iterator[Aside]:
+    """Within the block, a compile of _shade_rays in `precision` (a cache miss) waits for a helper process that
+    compiles it, while this process compiles two of its callees and goes on with the rest. The helper starts at
+    once on a cache that holds no shading kernel, else when the block says the warm-up scene is prepared
+    (Aside.prepared) and _shade_rays is missing for it; none on one core or without a kernel cache.
+    The helper is stopped when the block ends, however it ends, and ends itself if this process goes away."""
+    aside = Aside(precision)
+    try:
+        yield aside
+    finally:
+        aside.close()
+
+
+def helper(precision: str, parent: str) -> None:
+    """The helper's work: _shade_rays for `precision` into the kernel cache, the callees the parent compiles
+    (callee_signatures) loaded from it once the parent says they are there. Ends at once if the parent goes away
+    (its pipe closes, or the process is gone)."""
+    parent_id = int(parent)
+
+    def watch() -> None:
+        while os.getppid() == parent_id:
+            time.sleep(0.2)
+        os._exit(3)
+
+    threading.Thread(target=watch, daemon=True).start()
+    heard: set[str] = set()
+
+    def told(name: str) -> Callable[[], None]:
+        def wait() -> None:
+            while name not in heard:
+                line = sys.stdin.readline()
+                if not line:  # the parent is gone
+                    os._exit(3)
+                heard.add(line.strip())
+        return wait
+
+    from .frame import warm_scene
+    from .prepare import prepare
+    told(PREPARED)()  # the parent compiles the geometry kernels the preparation runs
+    prepared = prepare(warm_scene(precision), source="warm-up")
+    for kernel in callee_signatures(prepared.shading):
+        jit.compiled_elsewhere[jit.kernel_name(kernel)] = told(jit.kernel_name(kernel))
+    shading._shade_rays(*shading_arguments(prepared))

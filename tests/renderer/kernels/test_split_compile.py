@@ -1,0 +1,90 @@
+"""A first compile split over two processes (renderer/split_compile.py, jit.compiled_elsewhere): a kernel another
+process compiles into the cache is waited for and loaded, never compiled twice; the helper never outlives its block.
+(The split of a real cold compile is checked on the cold package's float64 run: test_kernel_cache.py.)"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from raycast_phong import jit
+from raycast_phong.renderer import split_compile
+
+KERNELS = textwrap.dedent("""
+    from raycast_phong.jit import kernel
+
+    @kernel()
+    def plus_one(x):
+        return x + 1
+""")
+
+# The main process: plus_one is "compiled elsewhere" by a second interpreter; the first call waits for it, loads
+# its code and compiles nothing (compiles.told hears every kernel numba is about to compile here).
+MAIN = textwrap.dedent("""
+    import subprocess, sys
+    import tiny
+    from raycast_phong import jit
+    from raycast_phong.compiles import told
+    other = "import tiny; tiny.plus_one(1)" if sys.argv[1] == "compiles" else "pass"
+    jit.compiled_elsewhere[jit.kernel_name(tiny.plus_one)] = (
+        lambda: subprocess.run([sys.executable, "-c", other], check=True))
+    with told(lambda name, signature: None) as heard:
+        answer = tiny.plus_one(41)
+    print(answer, heard, jit.compiled_elsewhere)
+""")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("elsewhere", ["compiles", "fails"])
+def test_a_kernel_compiled_elsewhere_is_waited_for_and_loaded(tmp_path, elsewhere):
+    (tmp_path / "tiny.py").write_text(KERNELS)
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"),
+               PYTHONPATH=os.pathsep.join([str(tmp_path), os.environ.get("PYTHONPATH", "")]))
+    done = subprocess.run([sys.executable, "-c", MAIN, elsewhere], env=env, cwd=tmp_path, capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    # The other process compiled it: loaded here, nothing compiled. It did not: compiled here, as alone.
+    heard = "[]" if elsewhere == "compiles" else "['plus_one']"
+    assert done.stdout.split() == ["42", heard, "{}"], done.stdout
+
+
+@pytest.fixture
+def helper_sleeps(monkeypatch):
+    """A helper that only sleeps, on a cache said to hold no shading kernel, on two cores."""
+    monkeypatch.setattr(split_compile, "HELPER", "import time; time.sleep(60)")
+    monkeypatch.setattr(split_compile, "cores", lambda: 2)
+    monkeypatch.setattr(jit, "cached_at_all", lambda dispatcher: False)
+
+
+def test_the_helper_is_stopped_however_the_block_ends(helper_sleeps):
+    with pytest.raises(KeyboardInterrupt):
+        with split_compile.shading_compiled_aside("float32") as aside:
+            assert aside.process is not None and aside.process.poll() is None  # started at once: no cache
+            assert jit.compiled_elsewhere == {split_compile.SHADE: aside.process.wait}
+            raise KeyboardInterrupt  # Ctrl-C during the compile
+    assert aside.process.poll() is not None and jit.compiled_elsewhere == {}
+
+
+def test_no_helper_on_one_core(helper_sleeps, monkeypatch):
+    monkeypatch.setattr(split_compile, "cores", lambda: 1)
+    with split_compile.shading_compiled_aside("float32") as aside:
+        assert aside.process is None and jit.compiled_elsewhere == {}
+
+
+def test_the_helper_is_given_the_types_render_band_gives_the_shading_kernel():
+    """shading_arguments' whole empty arrays type as render_band's slices (C-contiguous along the first axis),
+    so the helper's _shade_rays is the one render_band asks for."""
+    import numpy as np
+    from numba import njit, typeof
+
+    @njit
+    def slices(face, directions, rgb, n):
+        return face[:n], directions[:n], rgb[0:n]
+
+    whole = (np.empty(4, np.int32), np.empty((4, 3), np.float32), np.empty((4, 2, 3), np.float32))
+    slices(*whole, 2)
+    assert slices.nopython_signatures[0].return_type == typeof(whole)
