@@ -136,7 +136,9 @@ def bucket_half_edges(faces, start, key, edge, low, high):
                 key[j + 1], edge[j + 1] = k, e
         else:
             order = np.argsort(key[first:last], kind="mergesort")  # stable
-            key[first:last], edge[first:last] = key[first:last][order], edge[first:last][order]
+            keys, edges = key[first:last][order], edge[first:last][order]
+            for i in range(last - first):  # not a slice assignment: its shape check's message compiles in 2.5 s
+                key[first + i], edge[first + i] = keys[i], edges[i]
         at = first
         while at < last:
             run = at + 1

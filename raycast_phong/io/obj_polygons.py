@@ -52,6 +52,16 @@ def _digits(value):
     return count
 
 
+@kernel(inline="always")
+def _copy(out, written, data, start, end):
+    """data[start:end] into out from `written` on; returns the new end of out's text (a loop, not a slice
+    assignment: numba compiles the latter's shape-mismatch message, 1.5 s of the reader's first compile)."""
+    for k in range(start, end):
+        out[written] = data[k]
+        written += 1
+    return written
+
+
 @kernel()
 def _absolute(data):
     """OBJ text `data` (uint8) with every relative (negative) face index made absolute, in two passes (find and
@@ -133,8 +143,7 @@ def _absolute(data):
                             if absolute < 1:
                                 return out, False, 2, first_line, component, -value, counts[component]
                             if fill:
-                                out[written:written + i - copied] = data[copied:i]
-                                written += i - copied
+                                written = _copy(out, written, data, copied, i)
                                 places = _digits(absolute)
                                 for d in range(places):
                                     out[written + places - 1 - d] = ZERO + absolute % 10
@@ -150,7 +159,7 @@ def _absolute(data):
                         component += 1
             at = i + 1
         if fill:
-            out[written:written + n - copied] = data[copied:n]
+            _copy(out, written, data, copied, n)
     return out, True, 0, 0, 0, 0, 0
 
 
