@@ -169,7 +169,7 @@ class _CacheLoadedAsIs(FunctionCache):
                 loaded = self._light_load(sig, target_context)
         if loaded is None:
             set_up()  # numba is about to compile (and load its registries)
-            compiling(self._py_func.__name__, sig)
+            compiling(kernel_name(self._py_func), sig)
         return loaded
 
     def _light_load(self, sig, target_context):
@@ -235,7 +235,7 @@ class _NothingCached(NullCache):
         self._py_func = function
 
     def load_overload(self, sig, target_context):
-        compiling(self._py_func.__name__, sig)
+        compiling(kernel_name(self._py_func), sig)
 
 
 def _environment_as_is(module_name, consts, name):

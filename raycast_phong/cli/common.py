@@ -161,10 +161,14 @@ class OneLineErrors(TyperGroup):
 
 
 def _say_compiling(name: str, signature: str) -> None:
-    """Told before a kernel compiles (compiles.told): one line, so a minute of compiling is never silent."""
+    """Told before a kernel compiles (compiles.told, `name` module.function): one line naming the part of the
+    program whose kernels compile, so no compile is silent. CPU of a fresh compile (docs/performance.md): the mesh
+    readers' 2-4 s, the mesh preparation's about 6 s, the renderer's about 20 s (its frame kernels on 2 cores)."""
     from .progress import say
-    say(f"compiling the renderer's kernels (from {name}), once after an install or an edit (up to a minute "
-        "or two on 2 cores)...")
+    part, seconds = (("the mesh reader's", "a few seconds") if ".io." in name else
+                      ("the mesh preparation's", "a few seconds") if ".geometry." in name else
+                      ("the renderer's", "10-20 s"))
+    say(f"compiling {part} kernels, once after an install or an edit ({seconds})...")
 
 
 class _ClosedStdout(io.TextIOBase):

@@ -46,7 +46,8 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
         if announce is not None:
             precision = np.dtype(real).name
             announce(f"compiling the {precision} shading kernels (and the mesh preparation's), once after an "
-                     "install or an edit (about 25 s of CPU, twice that on a busy 2-core machine)...")
+                     "install or an edit (about 20 s of CPU shared by two processes: 10-12 s on an idle 2-core "
+                     "machine)...")
 
     started = time.perf_counter()
     with told(tell) as compiled:

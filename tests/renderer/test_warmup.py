@@ -76,9 +76,10 @@ def test_a_kernel_compiled_for_float32_only_is_told_to_compile_for_float64(tmp_p
                               text=True, timeout=300, env=env)
         assert done.returncode == 0, done.stderr
         told.append(done.stdout)
-    assert told[0] == "told twice (float32,)\nheard ['twice']\n", told[0]  # first call: compiled, told first
+    # the first call: compiled, and told first
+    assert told[0] == "told tiny_kernel.twice (float32,)\nheard ['tiny_kernel.twice']\n", told[0]
     assert told[1] == "heard []\n", told[1]  # the same signature again: loaded from the cache, nothing told
-    assert told[2] == "told twice (float64,)\nheard ['twice']\n", told[2]
+    assert told[2] == "told tiny_kernel.twice (float64,)\nheard ['tiny_kernel.twice']\n", told[2]
     assert told[3] == "heard []\n", told[3]
 
 

@@ -48,7 +48,7 @@ def test_a_kernel_compiled_elsewhere_is_waited_for_and_loaded(tmp_path, elsewher
                           text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     # The other process compiled it: loaded here, nothing compiled. It did not: compiled here, as alone.
-    heard = "[]" if elsewhere == "compiles" else "['plus_one']"
+    heard = "[]" if elsewhere == "compiles" else "['tiny.plus_one']"
     assert done.stdout.split() == ["42", heard, "{}"], done.stdout
 
 
