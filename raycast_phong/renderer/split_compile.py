@@ -30,6 +30,7 @@ from .kernels import shading, texture
 from .kernels.layout import TileRays
 
 SHADE = jit.kernel_name(shading._shade_rays)
+PROCESSES = "RAYCAST_PHONG_COMPILE_PROCESSES"  # 1: compile in this process alone; 2: always with the helper
 HELPER = "import sys; from raycast_phong.renderer.split_compile import helper; helper(*sys.argv[1:])"
 PREPARED = "prepared"  # what the helper hears once the warm-up scene is prepared (its geometry kernels cached)
 
@@ -40,6 +41,22 @@ def cores() -> int:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # not Linux
         return os.cpu_count() or 1
+
+
+def two_processes() -> bool:
+    """Whether a first compile may start its helper: RAYCAST_PHONG_COMPILE_PROCESSES=1 never, =2 whenever there is
+    a kernel cache; otherwise when this process may run on two cores or more and the machine's load over the last
+    minute leaves one of them free (below cores - 0.5). The two processes spend about 15 % more CPU than one (each
+    compiles numba's own helpers, and the helper starts Python): on a busy machine that only makes the compile
+    longer."""
+    setting = os.environ.get(PROCESSES, "").strip()
+    if setting in ("1", "2"):
+        return setting == "2"
+    try:
+        busy = os.getloadavg()[0]
+    except (AttributeError, OSError):  # no load average (Windows)
+        busy = 0.0
+    return cores() >= 2 and busy < cores() - 0.5
 
 
 def shading_arguments(ready) -> tuple:
@@ -74,7 +91,7 @@ class Aside:
     def __init__(self, precision: str):
         self.precision = precision
         self.process: subprocess.Popen | None = None
-        if cores() >= 2 and jit.cache_folder() is not None and not jit.cached_at_all(shading._shade_rays):
+        if two_processes() and jit.cache_folder() is not None and not jit.cached_at_all(shading._shade_rays):
             self.start()  # a cache with no shading kernel at all: a compile is certain, start at once
 
     def start(self) -> None:
@@ -101,7 +118,7 @@ class Aside:
     def prepared(self, ready) -> None:
         """The warm-up scene is prepared (its geometry kernels are in the cache): start the helper if
         _shade_rays is missing for `ready`'s types, then compile the callees it will wait for."""
-        if self.process is None and cores() >= 2 and jit.cache_folder() is not None \
+        if self.process is None and two_processes() and jit.cache_folder() is not None \
                 and not jit.cached(shading._shade_rays, shading_arguments(ready)):
             self.start()
         if self.process is not None:
@@ -127,7 +144,8 @@ def shading_compiled_aside(precision: str) -> Iterator[Aside]:
     """Within the block, a compile of _shade_rays in `precision` (a cache miss) waits for a helper process that
     compiles it, while this process compiles two of its callees and goes on with the rest. The helper starts at
     once on a cache that holds no shading kernel, else when the block says the warm-up scene is prepared
-    (Aside.prepared) and _shade_rays is missing for it; none on one core or without a kernel cache.
+    (Aside.prepared) and _shade_rays is missing for it; none without a kernel cache, nor when two_processes() says
+    no (one core, a busy machine, RAYCAST_PHONG_COMPILE_PROCESSES=1).
     The helper is stopped when the block ends, however it ends, and ends itself if this process goes away."""
     aside = Aside(precision)
     try:

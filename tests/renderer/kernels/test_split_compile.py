@@ -56,7 +56,7 @@ def test_a_kernel_compiled_elsewhere_is_waited_for_and_loaded(tmp_path, elsewher
 def helper_sleeps(monkeypatch):
     """A helper that only sleeps, on a cache said to hold no shading kernel, on two cores."""
     monkeypatch.setattr(split_compile, "HELPER", "import time; time.sleep(60)")
-    monkeypatch.setattr(split_compile, "cores", lambda: 2)
+    monkeypatch.setattr(split_compile, "two_processes", lambda: True)
     monkeypatch.setattr(jit, "cached_at_all", lambda dispatcher: False)
 
 
@@ -69,10 +69,21 @@ def test_the_helper_is_stopped_however_the_block_ends(helper_sleeps):
     assert aside.process.poll() is not None and jit.compiled_elsewhere == {}
 
 
-def test_no_helper_on_one_core(helper_sleeps, monkeypatch):
-    monkeypatch.setattr(split_compile, "cores", lambda: 1)
+def test_no_helper_when_two_processes_would_not_help(helper_sleeps, monkeypatch):
+    monkeypatch.setattr(split_compile, "two_processes", lambda: False)
     with split_compile.shading_compiled_aside("float32") as aside:
         assert aside.process is None and jit.compiled_elsewhere == {}
+
+
+@pytest.mark.parametrize(("setting", "cores", "load", "helper"), [
+    ("", 2, 0.2, True), ("", 2, 1.6, False), ("", 1, 0.0, False), ("", 8, 6.0, True),
+    ("1", 8, 0.0, False), ("2", 1, 9.0, True), ("3", 2, 0.2, True)])
+def test_a_helper_when_a_core_is_free_or_the_user_says(monkeypatch, setting, cores, load, helper):
+    """Two processes spend ~15 % more CPU than one: only worth it with a core free (load below cores - 0.5)."""
+    monkeypatch.setenv(split_compile.PROCESSES, setting)
+    monkeypatch.setattr(split_compile, "cores", lambda: cores)
+    monkeypatch.setattr(os, "getloadavg", lambda: (load, load, load))
+    assert split_compile.two_processes() is helper
 
 
 def test_the_helper_is_given_the_types_render_band_gives_the_shading_kernel():
