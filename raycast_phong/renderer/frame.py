@@ -62,7 +62,7 @@ def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64)) -> None:
     spend ~0.15 s loading them from numba's cache, most of it numba's one-time set-up on a process's
     first dispatch. The kernel is typed by its arguments, so it is called on a prepared 2×2 scene.
     """
-    from .split_compile import shading_compiled_aside
+    from .split_compile import shading_compiled_aside, warm_scene
     embree_library.library()  # binds the names the kernel links against (EmbreeError if it cannot be loaded)
     for real in reals:
         precision = "float64" if real == np.float64 else "float32"
@@ -72,14 +72,6 @@ def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64)) -> None:
             film = film_rows(allocate_film(2, 2, (), ready.real).rows(0, 0))
             render_band(0, 0, 0, ready.rays.params, ready.rays.shared_origins, NO_SHADOWS, ready.shading, film,
                         np.zeros(3))
-
-
-def warm_scene(precision: str) -> Scene:
-    """The 2×2 scene the kernels are typed with: global mode, one point light, an icosahedron."""
-    from ..scene.schema import validate_scene
-    return validate_scene({"render": {"width": 2, "height": 2, "mode": "global", "precision": precision},
-                           "lights": [{"type": "point", "position": [2, 2, 3]}],
-                           "objects": [{"shape": "icosphere", "subdivisions": 0}]}, source="warm-up")
 
 
 def warm_kernels_for(plans: list[RenderPlan]) -> None:

@@ -59,6 +59,14 @@ def two_processes() -> bool:
     return cores() >= 2 and busy < cores() - 0.5
 
 
+def warm_scene(precision: str):
+    """The 2×2 scene the kernels are typed with: global mode, one point light, an icosahedron."""
+    from ..scene.schema import validate_scene
+    return validate_scene({"render": {"width": 2, "height": 2, "mode": "global", "precision": precision},
+                           "lights": [{"type": "point", "position": [2, 2, 3]}],
+                           "objects": [{"shape": "icosphere", "subdivisions": 0}]}, source="warm-up")
+
+
 def shading_arguments(ready) -> tuple:
     """(ShadingInputs, TileRays, FilmRows) as render_band passes them to _shade_rays, for a band of no rays
     (`ready`: prepare()'s result for a warm-up scene)."""
@@ -177,7 +185,6 @@ def helper(precision: str, parent: str) -> None:
                 heard.add(line.strip())
         return wait
 
-    from .frame import warm_scene
     from .prepare import prepare
     told(PREPARED)()  # the parent compiles the geometry kernels the preparation runs
     prepared = prepare(warm_scene(precision), source="warm-up")
