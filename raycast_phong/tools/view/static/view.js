@@ -242,10 +242,12 @@ function show(img, bytes) {
   img.src = url;
 }
 
-// A full frame (or preview) is painted before any later frame replaces it: frames that arrive while its PNG
-// decodes wait (`held`) until the display frame that paints it has been drawn (a task after its animation frame
-// callbacks: the browser draws that frame between the two), and a draft among them is skipped when a newer frame
-// waits behind it.
+// What is on screen is each panel's canvas: a draft's raw pixels go into it at once; a full frame's (or a
+// preview's) PNG is decoded off the main thread (createImageBitmap) and drawn into it. The <img> under it (transparent:
+// it gives the panel its box and takes the pointer) holds the newest full frame's PNG, which capture saves.
+// A full frame is painted before any later frame replaces it: frames that arrive while it decodes wait (`held`)
+// until the display frame that shows it has been drawn (a task after its animation frame callbacks: the browser
+// draws that frame between the two), and a draft among them is skipped when a newer frame waits behind it.
 let holding = false;
 const held = [];
 function painted() {
@@ -257,14 +259,20 @@ function painted() {
   }
 }
 
-// A draft's raw pixels (RGBA rows, top first) into the panel's canvas, which lies over its image; shown at once.
-function paintDraft(name, header, bytes) {
+// One panel's frame into its canvas: raw RGBA rows (top first) of a draft, or a decoded full frame.
+function paintPanel(name, header, image) {
   const canvas = $(`#draft-${name}`);
   const { width, height } = header.stats[name];
   if (canvas.width !== width) canvas.width = width;
   if (canvas.height !== height) canvas.height = height;
-  const pixels = new Uint8ClampedArray(bytes.buffer, bytes.byteOffset, bytes.length);
-  canvas.getContext("2d").putImageData(new ImageData(pixels, width, height), 0, 0);
+  const context = canvas.getContext("2d");
+  if (image instanceof Uint8Array) {
+    const pixels = new Uint8ClampedArray(image.buffer, image.byteOffset, image.length);
+    context.putImageData(new ImageData(pixels, width, height), 0, 0);
+  } else {
+    context.drawImage(image, 0, 0);
+    image.close();
+  }
   canvas.hidden = false;
 }
 
@@ -283,35 +291,34 @@ function onFrame(header, parts, arrived = performance.now()) {
   $("#stage").style.setProperty("--aspect", valueOf("render.width") / valueOf("render.height"));
   $("#stage").style.setProperty("--panels", panels);
   const raw = header.pixels === "rgba";
-  const shown = [];
-  for (const name of ["a", "b", "c"]) {
-    if (!parts[name]) continue;
+  const panelsSent = ["a", "b", "c"].filter((name) => parts[name]);
+  for (const name of panelsSent) {
     const img = $(`#image-${name}`);
-    if (raw) paintDraft(name, header, parts[name]);
-    else { show(img, parts[name]); shown.push(name); }
+    if (!raw) show(img, parts[name]);
     img.dataset.id = header.id;
     img.dataset.quality = header.quality;
   }
-  // A PNG frame: its canvases (the last draft) are hidden once the images decoded, so the old draft stays until
-  // the new image can take its place; later frames wait until it has been painted.
-  const decoded = raw ? Promise.resolve() : Promise.all(shown.map((name) => $(`#image-${name}`).decode()))
-    .then(() => { for (const name of ["a", "b", "c"]) $(`#draft-${name}`).hidden = true; });
+  const images = raw ? Promise.resolve(panelsSent.map((name) => parts[name]))
+    : Promise.all(panelsSent.map((name) => createImageBitmap(new Blob([parts[name]], { type: "image/png" }))));
   if (!raw) holding = true;
   // Input → on screen: from the oldest input event the frame answers (its own time, as the browser stamped it)
-  // to the first animation frame after image A decoded (or its draft was put in the canvas), the frame the
-  // browser then paints (`ms`); `sent` counts from sending the request, `shown` from the frame's arrival,
-  // `server` is the server's own time, `decode` from arrival to decoded. benchmarks/bench_view.py --browser
-  // reads these.
+  // to the first animation frame after its pixels are in the canvas, the frame the browser then paints (`ms`);
+  // `sent` counts from sending the request, `shown` from the frame's arrival, `server` is the server's own time,
+  // `decode` from arrival to drawn. benchmarks/bench_view.py --browser reads these.
   const input = state.inputTimes[header.id], sentAt = state.sendTimes[header.id];
-  decoded.then(() => { const at = performance.now(); requestAnimationFrame(() => {
-    if (!raw) setTimeout(painted, 0);
-    if (input === undefined) return;
-    const now = performance.now(), ms = now - input;
-    $("#latency").textContent = `${ms.toFixed(0)} ms`;
-    state.painted.push({ id: header.id, quality: header.quality, ms, sent: now - sentAt, shown: now - arrived,
-                         server: header.seconds * 1000, at: now, decode: at - arrived, wait: sentAt - input });
-    if (state.painted.length > 2000) state.painted.shift();
-  }); }, painted);  // a newer image replaced it before it decoded (or it failed): the frames after it go on
+  images.then((decoded) => {
+    panelsSent.forEach((name, k) => paintPanel(name, header, decoded[k]));
+    const at = performance.now();
+    requestAnimationFrame(() => {
+      if (!raw) setTimeout(painted, 0);
+      if (input === undefined) return;
+      const now = performance.now(), ms = now - input;
+      $("#latency").textContent = `${ms.toFixed(0)} ms`;
+      state.painted.push({ id: header.id, quality: header.quality, ms, sent: now - sentAt, shown: now - arrived,
+                           server: header.seconds * 1000, at: now, decode: at - arrived, wait: sentAt - input });
+      if (state.painted.length > 2000) state.painted.shift();
+    });
+  }, painted);  // it could not be decoded: the frames after it go on
   for (const id of Object.keys(state.inputTimes)) {
     if (Number(id) < header.id || (Number(id) === header.id && !preview)) {  // a preview's full frame follows
       delete state.inputTimes[id];
