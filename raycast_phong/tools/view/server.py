@@ -4,11 +4,11 @@ The page sends settings as {dotted scene key: value}; each is applied to the sce
 scene.apply_override and the whole checked by validate_scene, exactly as `render --set` does, so a
 bad value is answered with the CLI's one-line message. Frames are rendered by rp.render on the server's render
 threads (session.py: at most one job of each page at a time) and sent back as PNG (image_io.write_image, the CLI's
-own 8-bit encoding), or a draft as the same 8-bit values raw (RGBA rows, when the page asks: it paints them into a
-canvas, nothing to decode). Each page keeps a FrameCache: its frames reuse the geometry and the committed BVH, rebuilding
-only what a change touched (a light move rebuilds nothing). At rest a frame of several samples a pixel is refined:
-a preview of one sample, then the full frame; a newer request cancels that full frame between two bands. A full
-request (a release) is never coalesced away by a later draft, nor its first full-size frame cancelled.
+own 8-bit encoding), or a draft as the same 8-bit values raw (RGBA rows, when the page asks: it paints them into
+a canvas, nothing to decode). Each page keeps a FrameCache: its frames reuse the geometry and the committed BVH,
+rebuilding only what a change touched (a light move rebuilds nothing). At rest a frame of several samples a pixel
+is refined: a preview of one sample, then the full frame; a newer request cancels that full frame between two
+bands. A full request (a release) is never coalesced away by a later draft, nor its first full-size frame cancelled.
 
 Security (access.py): a random token opens the page once and is then a Strict, HttpOnly cookie (the permalink
 holds settings only); the socket's Origin must be the page's; only files inside static/ are served;

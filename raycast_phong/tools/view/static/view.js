@@ -261,7 +261,7 @@ function painted() {
 
 // One panel's frame into its canvas: raw RGBA rows (top first) of a draft, or a decoded full frame.
 function paintPanel(name, header, image) {
-  const canvas = $(`#draft-${name}`);
+  const canvas = $(`#canvas-${name}`);
   const { width, height } = header.stats[name];
   if (canvas.width !== width) canvas.width = width;
   if (canvas.height !== height) canvas.height = height;
@@ -1190,7 +1190,7 @@ function restore() {
 
 function wipe() {
   const share = Number($("#wipe").value);
-  for (const id of ["#image-b", "#draft-b"]) $(id).style.clipPath = state.compare === "wipe" ? `inset(0 0 0 ${share}%)` : "";
+  for (const id of ["#image-b", "#canvas-b"]) $(id).style.clipPath = state.compare === "wipe" ? `inset(0 0 0 ${share}%)` : "";
   $("#wipe-line").hidden = state.compare !== "wipe";
   $("#wipe-line").style.left = `${share}%`;
 }
