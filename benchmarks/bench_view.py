@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import json
 import math
 import os
@@ -152,6 +153,7 @@ def unpaced_benchmark(scene: str | None, size: str, rate: float, strokes: int, s
 async def _unpaced(url: str, width: int, height: int, rate: float, strokes: int, stroke: float) -> dict:
     from urllib.parse import quote
 
+    from playwright.async_api import TimeoutError as PlaywrightTimeout
     from playwright.async_api import async_playwright
 
     results = {}
@@ -191,6 +193,10 @@ async def _unpaced(url: str, width: int, height: int, rate: float, strokes: int,
             await asyncio.gather(*sent)
             await page.wait_for_function("() => window.view.asked && window.view.answered >= window.view.asked.id",
                                          timeout=120_000)
+            # ... and painted: the last release's frame is answered when it arrives, painted a display frame later
+            with contextlib.suppress(PlaywrightTimeout):  # a page that never paints it: counted as not answered
+                await page.wait_for_function("() => window.view.painted.some((p) => p.id === window.view.asked.id)",
+                                             timeout=10_000)
             painted = await page.evaluate("window.view.painted")
             results[target] = {"drafts": [p["ms"] for p in painted if p["quality"] == "draft"],
                                "fulls": [p["ms"] for p in painted if p["quality"] == "full"], "seconds": seconds}

@@ -382,6 +382,86 @@ def test_latest_wins_while_a_render_runs(scene_path):
     assert (first["id"], last["id"]) == (1, 4)
 
 
+def test_a_release_is_never_coalesced_away_by_the_next_strokes_drafts(scene_path, tmp_path):
+    """Strokes back to back (issue 35): a release's full frame (2) sent while a draft (1) renders, then the next
+    stroke's drafts (3, 4) at once. Latest wins among the drafts only: the full frame is rendered next, with the
+    settings it was sent with, then the newest draft; only draft 3 is dropped."""
+    started, release = threading.Event(), threading.Event()
+
+    def held_render(scene, **options):
+        if not started.is_set():
+            started.set()
+            release.wait(60)
+        return rp.render(scene, **options)
+
+    light = lambda x: {"lights.0.position": [x, 2, 3]}
+    with connect(client_for(scene_path, render=held_render)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "draft", "settings": light(0)}))
+        assert started.wait(60)
+        ws.send_text(json.dumps({"type": "render", "id": 2, "quality": "full", "settings": light(1)}))
+        for request_id in (3, 4):
+            ws.send_text(json.dumps({"type": "render", "id": request_id, "quality": "draft",
+                                     "settings": light(request_id)}))
+        dropped = json.loads(ws.receive_text())
+        release.set()
+        frames = [receive_frame(ws) for _ in range(3)]
+    assert dropped == {"type": "dropped", "id": 3}
+    assert [(header["id"], header["quality"]) for header, _ in frames] == [(1, "draft"), (2, "full"), (4, "draft")]
+    full = rp.load_scene(scene_path, ["lights.0.position=[1, 2, 3]"])
+    np.testing.assert_array_equal(decode_png(frames[1][1]["a"], tmp_path), rendered_png(full))
+
+
+def test_a_draft_does_not_cancel_a_releases_frame_only_its_refinement(scene_path, monkeypatch):
+    """A draft sent while a release's first full-size frame renders (one sample a pixel: the full frame itself, 5
+    bands of 51 rows) waits for it: that frame is not cancelled, it is sent, and the draft follows."""
+    from raycast_phong.renderer import prepare
+    running, go = threading.Event(), threading.Event()
+    band = prepare.TileWork.__call__
+
+    def held_band(tile, rows):
+        if tile.film.rgb.shape[1] == 640:  # the full frame's first bands wait until the draft has been sent
+            running.set()
+            go.wait(30)
+        return band(tile, rows)
+    monkeypatch.setattr(prepare.TileWork, "__call__", held_band)
+    settings = {"render.width": 640, "render.height": 240}
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "full", "settings": settings}))
+        assert running.wait(60)
+        ws.send_text(json.dumps({"type": "render", "id": 2, "quality": "draft", "settings": settings}))
+        time.sleep(0.2)  # the draft is queued (or, on the old server, has cancelled the frame) before it goes on
+        go.set()
+        full, _ = receive_frame(ws)
+        draft, _ = receive_frame(ws)
+    assert (full["id"], full["quality"], full["stats"]["a"]["width"]) == (1, "full", 640)
+    assert (draft["id"], draft["quality"]) == (2, "draft")
+
+
+def test_a_draft_asked_as_rgba_is_the_pngs_pixels_raw(scene_path, tmp_path):
+    """The page asks for drafts as raw RGBA (painted into a canvas, nothing to decode): the PNG's 8-bit values with
+    an opaque alpha, rows top first; full frames stay PNG (capture saves them); another format is refused."""
+    settings = {"lights.0.position": [0, 1, 4]}
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        frames = {}
+        for request_id, quality, pixels in ((1, "draft", "png"), (2, "draft", "rgba"), (3, "full", "rgba")):
+            ws.send_text(json.dumps({"type": "render", "id": request_id, "quality": quality, "settings": settings,
+                                     "pixels": pixels}))
+            frames[request_id] = receive_frame(ws)
+        ws.send_text(json.dumps({"type": "render", "id": 4, "quality": "draft", "pixels": "jpeg"}))
+        refused = json.loads(ws.receive_text())
+    (png_header, png), (raw_header, raw), (full_header, full) = frames[1], frames[2], frames[3]
+    assert (png_header["pixels"], raw_header["pixels"], full_header["pixels"]) == ("png", "rgba", "png")
+    height, width = raw_header["stats"]["a"]["height"], raw_header["stats"]["a"]["width"]
+    rgba = np.frombuffer(raw["a"], np.uint8).reshape(height, width, 4)
+    np.testing.assert_array_equal(rgba[..., :3], decode_png(png["a"], tmp_path))
+    assert (rgba[..., 3] == 255).all()
+    assert full["a"].startswith(b"\x89PNG")
+    assert refused == {"type": "error", "id": 4, "message": "pixels: 'jpeg'; allowed: 'png' or 'rgba'"}
+
+
 def test_exact_errors_follow_a_full_frame_of_an_analytic_scene(scene_path):
     with connect(client_for(scene_path)) as ws:
         ws.receive_text()

@@ -247,6 +247,44 @@ def test_one_request_is_in_flight_while_a_draft_renders(browser, scene_path):
     assert answered["sends"] == 2, answered
 
 
+def test_every_release_is_painted_even_when_the_next_stroke_starts_at_once(browser, scene_path):
+    """Strokes back to back (issue 35): a release while a draft renders, and the next stroke at once. The release's
+    full frame is sent at once, not folded into the next stroke's draft; the server renders it before that draft,
+    and the page paints it before the draft replaces it."""
+    holding, release = threading.Event(), threading.Event()
+
+    def held(scene, **options):
+        if holding.is_set() and scene.render.width == WIDTH // 2:  # a draft
+            holding.clear()
+            release.wait(60)
+        return rp.render(scene, **options)
+
+    with opened(browser, scene_path, render=held) as tab:
+        tab.evaluate(COUNTING)
+        box = tab.locator("#gizmo").bounding_box()
+        x, y = round(box["x"] + box["width"] / 2), round(box["y"] + box["height"] / 2)
+        tab.evaluate("window.view.painted.length = 0")
+        tab.mouse.move(x, y)
+        tab.mouse.down()
+        holding.set()
+        tab.mouse.move(x + 1, y)  # its draft is held in the server
+        tab.wait_for_function("() => window.counted.sends === 1", timeout=30_000)
+        tab.mouse.up()
+        released = tab.evaluate("window.view.asked")
+        tab.mouse.down()  # the next stroke, at once
+        tab.mouse.move(x + 9, y)
+        tab.mouse.move(x + 17, y)
+        release.set()
+        tab.wait_for_function("(id) => window.view.painted.some((p) => p.quality === 'draft' && p.id > id)",
+                              arg=released["id"], timeout=60_000)
+        painted = tab.evaluate("window.view.painted.map((p) => [p.id, p.quality])")
+        tab.mouse.up()
+        wait_for_full_frame(tab)
+    assert released["quality"] == "full"
+    assert [released["id"], "full"] in painted, painted
+    assert [frame_id for frame_id, _ in painted] == sorted(frame_id for frame_id, _ in painted), painted  # in turn
+
+
 def test_light_fields_place_the_light_its_marker_shows_it_and_reset_brings_it_back(page, scene_path):
     original = page_image(page)
     assert page.is_hidden("#marker-a")  # the scene's light (2, 2, 3) is outside the 40° view

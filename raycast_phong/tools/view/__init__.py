@@ -96,7 +96,8 @@ def server_config(app, log_level: str = "warning"):
     # ws_max_size: the page's messages are small settings tables; refuse a flood at the protocol level.
     # lifespan off: the app has no start-up or shut-down events, and uvicorn's lifespan task logged a
     # traceback when Ctrl-C's KeyboardInterrupt cancelled it.
-    return uvicorn.Config(app, log_level=log_level, ws_max_size=1 << 16, ws_ping_interval=None, lifespan="off")
+    return uvicorn.Config(app, log_level=log_level, ws_max_size=1 << 16, ws_ping_interval=None, lifespan="off",
+                          ws_per_message_deflate=False)
 
 
 @contextmanager

@@ -4,16 +4,17 @@ The page sends settings as {dotted scene key: value}; each is applied to the sce
 scene.apply_override and the whole checked by validate_scene, exactly as `render --set` does, so a
 bad value is answered with the CLI's one-line message. Frames are rendered by rp.render on the server's render
 threads (session.py: at most one job of each page at a time) and sent back as PNG (image_io.write_image, the CLI's
-own 8-bit encoding). Each page keeps a FrameCache: its frames reuse the geometry and the committed BVH, rebuilding
-only what a change touched (a light move rebuilds nothing). At rest a frame of several samples a pixel is refined:
-a preview of one sample, then the full frame; a newer request cancels a running preview or full frame between two
-bands.
+own 8-bit encoding), or a draft as the same 8-bit values raw (RGBA rows, when the page asks: it paints them into
+a canvas, nothing to decode). Each page keeps a FrameCache: its frames reuse the geometry and the committed BVH,
+rebuilding only what a change touched (a light move rebuilds nothing). At rest a frame of several samples a pixel
+is refined: a preview of one sample, then the full frame; a newer request cancels that full frame between two
+bands. A full request (a release) is never coalesced away by a later draft, nor its first full-size frame cancelled.
 
 Security (access.py): a random token opens the page once and is then a Strict, HttpOnly cookie (the permalink
 holds settings only); the socket's Origin must be the page's; only files inside static/ are served;
 page values are data for the scene schema only (never code, never a file path); one client holds
-at most one running and one pending render (latest wins: a newer request replaces a waiting one, and
-cancels a running preview or full frame).
+at most one running render, one waiting draft and one waiting full request (latest wins in each; a newer request
+cancels a running refinement, the full frame after a preview).
 """
 
 from __future__ import annotations
@@ -209,6 +210,21 @@ def encode(image: np.ndarray, suffix: str, aovs: dict | None = None, colour: str
     return image_bytes(image, suffix, aovs, colour)
 
 
+def rgba_bytes(image: np.ndarray, colour: str = DISPLAY) -> bytes:
+    """A draft's pixels as the page paints them into its canvas (ImageData: rows of R, G, B, A, top row first):
+    the 8-bit values the PNG would hold (encoding.to_8bit), opaque. No compression: a 320×180 draft is 230 kB on
+    a local socket, and the page neither inflates nor decodes it (issue 35: a PNG's decode through an <img> was
+    ~18 ms of a draft's ~100 ms on the page)."""
+    from raycast_phong.io.encoding import to_8bit
+    rgb8 = to_8bit(image, colour)
+    rgba = np.full((*rgb8.shape[:2], 4), 255, np.uint8)
+    rgba[..., :3] = rgb8
+    return rgba.tobytes()
+
+
+PIXELS = ("png", "rgba")  # how a frame's panels are sent: PNG files, or (drafts, asked by the page) raw RGBA
+
+
 def pack(header: dict, parts: list[tuple[str, bytes]]) -> bytes:
     """One binary socket message: uint32 LE header length, the JSON header (with each part's name and
     length), then the parts' bytes in order."""
@@ -308,7 +324,12 @@ class Renderer:
         started = time.perf_counter()
         scenes = self.scenes(request)
         quality = step or request.get("quality", "full")
-        header: dict = {"type": "frame", "id": request.get("id"), "quality": quality}
+        pixels = request.get("pixels", "png")
+        if pixels not in PIXELS:
+            raise ViewError(f"pixels: {pixels!r}; allowed: 'png' or 'rgba'")
+        raw = pixels == "rgba" and quality == "draft"  # a full frame stays the PNG that capture saves
+        header: dict = {"type": "frame", "id": request.get("id"), "quality": quality,
+                        "pixels": "rgba" if raw else "png"}
         shaped = SHAPED[quality]
         parts, images, stats = [], {}, {}
         for k, (name, scene) in enumerate(scenes.items()):
@@ -320,7 +341,8 @@ class Renderer:
             if name == "a" and quality == "full" and not request.get("models") and shown is not None:
                 shown["a"] = (request.get("id"), result)  # errors() measures this image, not a new one
             images[name] = display_values(result.image, result.colour)  # A and B compared as shown
-            parts.append((name, encode(result.image, ".png", colour=result.colour)))
+            parts.append((name, rgba_bytes(result.image, result.colour) if raw
+                          else encode(result.image, ".png", colour=result.colour)))
             stats[name] = {"frame": result.timings["frame"], "rays_per_second": result.rays_per_second,
                            "rays": result.rays, "triangles": result.triangles, "left_out": left_out(result.plan),
                            "warnings": list(result.plan.warnings),

@@ -75,13 +75,17 @@ def version(path) -> tuple | None:
 
 @dataclass
 class Client:
-    """One socket's queue: at most one waiting render (latest wins), two waiting saves, one waiting reference;
-    the threads its frames and references run on (the server's, shared by every page); its last full frame A
-    (for the exact errors: request ids are each page's own); its FrameCache (the geometry and BVH its frames
-    share, released with the page); and the quality being rendered with the event that cancels it."""
-    pending: dict | None = None
+    """One socket's queue: at most one waiting draft (latest wins) and one waiting committed frame (a full
+    request: a release, a key, a field; the newest wins, and a draft never replaces it), two waiting saves, one
+    waiting reference; the threads its frames and references run on (the server's, shared by every page); its
+    last full frame A (for the exact errors: request ids are each page's own); its FrameCache (the geometry and
+    BVH its frames share, released with the page); and the quality being rendered with the event that cancels
+    it, and whether it may be cancelled (a committed request's first full-size frame may not)."""
+    pending: dict | None = None               # the newest waiting draft
+    committed: dict | None = None             # the newest waiting full request: rendered before a waiting draft
     cache: FrameCache = field(default_factory=lambda: frame_cache())
     running: str | None = None                # the quality of the frame being rendered ("draft", "preview", "full")
+    cancellable: bool = False                 # the running frame is a refinement a newer request makes stale
     cancel: threading.Event = field(default_factory=threading.Event)  # set: the running frame stops between bands
     saves: deque = field(default_factory=lambda: deque(maxlen=SAVES_WAITING))  # the newest saves asked for
     wake: asyncio.Event = field(default_factory=asyncio.Event)
@@ -192,12 +196,7 @@ class Session:
                 elif request.get("type") == "save":
                     client.saves.append(request)
                 else:
-                    if client.pending is not None:  # a newer request replaces the one still waiting
-                        client.dropped += 1
-                        await self.send({"type": "dropped", "id": client.pending.get("id")})
-                    client.pending = request
-                    if client.running in ("preview", "full"):
-                        client.cancel.set()  # stale: stop it between bands (a draft ends within its ~frame time)
+                    await self.queue(request)
                 client.wake.set()
         except (WebSocketDisconnect, RuntimeError, KeyError):
             pass  # the page closed (or sent a binary frame: receive_text's KeyError); nothing is owed to it
@@ -210,6 +209,36 @@ class Session:
             if client.reference_task is not None:
                 client.reference_task.cancel()
 
+    async def queue(self, request: dict) -> None:
+        """Latest wins, but a committed frame is never coalesced away: a newer draft replaces only the waiting
+        draft (the committed frame waiting goes first: it is older), a newer full request replaces both. A
+        running refinement (the samples after a preview) is cancelled between bands; a committed request's first
+        full-size frame is not (issue 35: every release is answered by a full frame, even when the next stroke
+        starts at once; a draft waits for it, ~one frame's time)."""
+        client = self.client
+        full = request.get("quality", "full") != "draft"
+        stale = [client.pending, client.committed] if full else [client.pending]
+        for old in stale:
+            if old is not None:
+                client.dropped += 1
+                await self.send({"type": "dropped", "id": old.get("id")})
+        client.pending = None
+        if full:
+            client.committed = request
+        else:
+            client.pending = request
+        if client.cancellable:
+            client.cancel.set()  # stale: stop it between bands
+
+    def next_request(self) -> dict | None:
+        """The committed frame waiting, else the draft waiting (the committed one is always the older)."""
+        client = self.client
+        if client.committed is not None:
+            request, client.committed = client.committed, None
+        else:
+            request, client.pending = client.pending, None
+        return request
+
     async def work(self) -> None:
         view, client, renderer = self.view, self.client, self.view.renderer
         loop = asyncio.get_running_loop()
@@ -219,7 +248,9 @@ class Session:
         while True:
             await client.wake.wait()
             client.wake.clear()
-            request, client.pending = client.pending, None
+            request = self.next_request()
+            if client.pending is not None or client.committed is not None:
+                client.wake.set()  # a draft waits behind the committed frame: this loop comes back for it
             while client.saves:
                 save = client.saves.popleft()
                 saved = await self.answer(save, client.executor, renderer.save, save, client.cache)
@@ -232,14 +263,18 @@ class Session:
             else:  # a preview first if a scene asks for several samples: its scenes are validated to know
                 steps = await self.answer(request, client.executor, renderer.steps, request)
             for step in steps or ():
-                if step != steps[0] and client.pending is not None:
+                waiting = client.pending is not None or client.committed is not None
+                if step != steps[0] and waiting:
                     break  # a newer request came while the preview rendered: the full frame is stale
                 client.cancel.clear()
                 client.running = step
+                # A draft ends within its ~frame time, and a committed request's first frame must be shown: only
+                # a refinement (the samples after a preview) is cancelled by a newer request.
+                client.cancellable = step != steps[0]
                 told = progress_to(self.websocket, loop, request.get("id"))
                 reply = await self.answer(request, client.executor, renderer.frame, request, told, client.shown,
                                           client.cache, client.cancel.is_set, step)
-                client.running = None
+                client.running, client.cancellable = None, False
                 if reply is None:
                     break
                 await self.websocket.send_bytes(reply)
@@ -271,7 +306,7 @@ class Session:
         while client.reference_next is not None:
             # Start only once the page has rested a moment: a drag that goes on makes it stale before it starts.
             await asyncio.sleep(REFERENCE_REST)
-            if client.pending is not None:
+            if client.pending is not None or client.committed is not None:
                 continue  # a newer frame is on its way, and brings its own reference request
             request, client.reference_next = client.reference_next, None
             try:

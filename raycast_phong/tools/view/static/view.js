@@ -33,7 +33,7 @@ const state = {
   warming: false,  // the server is still loading or compiling its kernels
   want: null,      // {id, quality}: the newest state, not yet sent (sent on the next display frame)
   inputAt: null,   // time of the oldest input the next request sent will answer
-  inFlight: null,  // {id, quality} of the request sent and not yet answered: at most one at a time
+  inFlight: [],    // {id, quality} of the requests sent and not yet answered: DRAFTS_IN_FLIGHT drafts at most
   previewed: 0,    // id of the request whose preview (one sample a pixel) is on screen
 };
 window.view = state;  // for the browser tests and the screenshot script
@@ -54,7 +54,7 @@ function connect() {
   };
   socket.onclose = async (event) => {
     const wasOpen = state.connected;
-    state.inFlight = null;  // its answer will never come: the state is sent again on reconnecting
+    state.inFlight = [];  // their answers will never come: the state is sent again on reconnecting
     // A socket refused before its upgrade reaches the page as 1006, like a server that is down: ask why.
     const refused = event.code === 1008 || (!wasOpen && await tokenRefused());
     state.refused = refused;
@@ -147,22 +147,36 @@ function send(message) {
   if (socket.readyState === WebSocket.OPEN) socket.send(JSON.stringify(message));
 }
 
-// Asking for a frame: the newest state is sent on the next display frame (requestAnimationFrame), and only
-// when no draft is in flight; inputs in between are folded into it (its settings are read when it is sent).
-// So a burst of pointer events makes one request a display frame at most, and fewer when the frames take
-// longer. A preview or full frame in flight does not hold a newer request: the server cancels it (stale).
+// Asking for a frame. A draft (while dragging): the newest state is sent on the next display frame
+// (requestAnimationFrame), and only while no draft is unanswered (DRAFTS_IN_FLIGHT; two, the server keeping the
+// next state waiting, measured no better on this 2-core machine: docs/view.md); inputs in between are folded into
+// it (its settings are read when it is sent), and it goes as soon as the draft in flight is answered. So a burst
+// of pointer events makes one request a display frame at most, and fewer when the frames take longer.
+// A full frame (a release, a key, a field: a committed change) is sent at once, whatever is in flight, and is
+// never folded into a later draft: the server renders it before a draft that follows, and the page paints it
+// before that draft (issue 35: every release is seen, even when the next stroke starts at once).
 // The URL is written for full frames only, which a drag asks for when it ends, never per pointer event.
+const DRAFTS_IN_FLIGHT = 1;
 function request(quality) {
   if (!state.connected) return null;  // the settings stay; the frame is asked for on reconnecting
   if (quality === "full") { permalink(); remember(); }
   const id = state.nextId++;
   const event = window.event;  // the input being handled: its time, not this handler's, starts the latency
   const coalesced = event && event.getCoalescedEvents ? event.getCoalescedEvents() : [];
-  const at = event ? (coalesced.length ? coalesced[0].timeStamp : event.timeStamp) : performance.now();
-  if (state.inputAt === null) state.inputAt = Math.min(at, performance.now());
-  state.want = { id, quality };
+  const at = Math.min(event ? (coalesced.length ? coalesced[0].timeStamp : event.timeStamp) : performance.now(),
+                      performance.now());
   state.asked = { id, quality, at: performance.now() };
   $("#busy-bar").removeAttribute("value");  // indeterminate until the first tiles are done
+  if (quality === "full") {
+    // The draft not yet sent is answered by this frame (its settings are in it); the latency counts from the
+    // release (or key, or field) itself.
+    state.want = null;
+    state.inputAt = null;
+    if (socket.readyState === WebSocket.OPEN) sendRequest({ id, quality }, at);
+    return id;
+  }
+  if (state.inputAt === null) state.inputAt = at;
+  state.want = { id, quality };
   nextDisplayFrame();
   return id;
 }
@@ -191,27 +205,32 @@ function redrawLight() { redrawWanted = true; nextDisplayFrame(); }
 function flush() {
   const want = state.want;
   if (!want || !state.connected || socket.readyState !== WebSocket.OPEN) return;
-  if (state.inFlight && state.inFlight.quality === "draft") return;  // its answer comes within a frame or two
+  if (state.inFlight.filter((r) => r.quality === "draft").length >= DRAFTS_IN_FLIGHT) return;  // one comes soon
   state.want = null;
-  state.inFlight = want;
-  state.inputTimes[want.id] = state.inputAt ?? performance.now();
-  state.sendTimes[want.id] = performance.now();
+  sendRequest(want, state.inputAt ?? performance.now());
   state.inputAt = null;
+}
+
+function sendRequest(want, inputAt) {
+  state.inFlight.push(want);
+  state.inputTimes[want.id] = inputAt;
+  state.sendTimes[want.id] = performance.now();
   const models = state.compare === "models";
   send({
     type: "render", id: want.id, quality: want.quality, models,
     settings: state.settings.a,
     compare: state.compare === "off" || models ? null : state.settings.b,
     reference: Boolean(state.hello && state.hello.analytic) && want.quality === "full" && !models,
+    pixels: want.quality === "draft" ? "rgba" : "png",  // a draft's raw pixels go straight into its canvas
   });
 }
 
-// The request `id` is answered (its final frame, an error, or cancelled): the next may go.
+// The request `id` is answered (its final frame, an error, dropped or cancelled): the newest state may go, at
+// once (a display frame later would leave the server idle meanwhile).
 function settled(id) {
-  if (state.inFlight && id === state.inFlight.id) {
-    state.inFlight = null;
-    if (state.want) nextDisplayFrame();
-  }
+  const before = state.inFlight.length;
+  state.inFlight = state.inFlight.filter((r) => r.id !== id);
+  if (state.inFlight.length < before && state.want) flush();
 }
 
 // ------------------------------------------------------------------ frames
@@ -223,10 +242,45 @@ function show(img, bytes) {
   img.src = url;
 }
 
+// What is on screen is each panel's canvas: a draft's raw pixels go into it at once; a full frame's (or a
+// preview's) PNG is decoded off the main thread (createImageBitmap) and drawn into it. The <img> under it (transparent:
+// it gives the panel its box and takes the pointer) holds the newest full frame's PNG, which capture saves.
+// A full frame is painted before any later frame replaces it: frames that arrive while it decodes wait (`held`)
+// until the display frame that shows it has been drawn (a task after its animation frame callbacks: the browser
+// draws that frame between the two), and a draft among them is skipped when a newer frame waits behind it.
+let holding = false;
+const held = [];
+function painted() {
+  holding = false;
+  while (!holding && held.length) {
+    const next = held.shift();
+    if (next[0].pixels === "rgba" && held.length) continue;  // a newer frame waits: this draft is stale
+    onFrame(...next);
+  }
+}
+
+// One panel's frame into its canvas: raw RGBA rows (top first) of a draft, or a decoded full frame.
+function paintPanel(name, header, image) {
+  const canvas = $(`#canvas-${name}`);
+  const { width, height } = header.stats[name];
+  if (canvas.width !== width) canvas.width = width;
+  if (canvas.height !== height) canvas.height = height;
+  const context = canvas.getContext("2d");
+  if (image instanceof Uint8Array) {
+    const pixels = new Uint8ClampedArray(image.buffer, image.byteOffset, image.length);
+    context.putImageData(new ImageData(pixels, width, height), 0, 0);
+  } else {
+    context.drawImage(image, 0, 0);
+    image.close();
+  }
+  canvas.hidden = false;
+}
+
 function onFrame(header, parts, arrived = performance.now()) {
   const preview = header.quality === "preview";  // one sample a pixel; the full frame of the same request follows
   if (!preview) settled(header.id);
   if (header.id < state.shownId) return;
+  if (holding) { held.push([header, parts, arrived]); return; }
   state.shownId = header.id;
   if (preview) state.previewed = header.id; else state.answered = Math.max(state.answered, header.id);
   state.warming = false;
@@ -236,12 +290,40 @@ function onFrame(header, parts, arrived = performance.now()) {
   const panels = { side: 2, models: 3 }[state.compare] || 1;
   $("#stage").style.setProperty("--aspect", valueOf("render.width") / valueOf("render.height"));
   $("#stage").style.setProperty("--panels", panels);
-  for (const name of ["a", "b", "c"]) {
-    if (!parts[name]) continue;
+  const raw = header.pixels === "rgba";
+  const panelsSent = ["a", "b", "c"].filter((name) => parts[name]);
+  for (const name of panelsSent) {
     const img = $(`#image-${name}`);
-    show(img, parts[name]);
+    if (!raw) show(img, parts[name]);
     img.dataset.id = header.id;
     img.dataset.quality = header.quality;
+  }
+  const images = raw ? Promise.resolve(panelsSent.map((name) => parts[name]))
+    : Promise.all(panelsSent.map((name) => createImageBitmap(new Blob([parts[name]], { type: "image/png" }))));
+  if (!raw) holding = true;
+  // Input → on screen: from the oldest input event the frame answers (its own time, as the browser stamped it)
+  // to the first animation frame after its pixels are in the canvas, the frame the browser then paints (`ms`);
+  // `sent` counts from sending the request, `shown` from the frame's arrival, `server` is the server's own time,
+  // `decode` from arrival to drawn. benchmarks/bench_view.py --browser reads these.
+  const input = state.inputTimes[header.id], sentAt = state.sendTimes[header.id];
+  images.then((decoded) => {
+    panelsSent.forEach((name, k) => paintPanel(name, header, decoded[k]));
+    const at = performance.now();
+    requestAnimationFrame(() => {
+      if (!raw) setTimeout(painted, 0);
+      if (input === undefined) return;
+      const now = performance.now(), ms = now - input;
+      $("#latency").textContent = `${ms.toFixed(0)} ms`;
+      state.painted.push({ id: header.id, quality: header.quality, ms, sent: now - sentAt, shown: now - arrived,
+                           server: header.seconds * 1000, at: now, decode: at - arrived, wait: sentAt - input });
+      if (state.painted.length > 2000) state.painted.shift();
+    });
+  }, painted);  // it could not be decoded: the frames after it go on
+  for (const id of Object.keys(state.inputTimes)) {
+    if (Number(id) < header.id || (Number(id) === header.id && !preview)) {  // a preview's full frame follows
+      delete state.inputTimes[id];
+      delete state.sendTimes[id];
+    }
   }
   if (parts.heat) {
     show($("#heat"), parts.heat);
@@ -260,26 +342,6 @@ function onFrame(header, parts, arrived = performance.now()) {
   $("#rays").textContent = names.map((name) => { const f = header.stats[name];
     return `${label(name)}${(f.rays_per_second / 1e6).toFixed(1)} M (${f.rays.toLocaleString()} rays, ` +
       `${f.triangles.toLocaleString()} triangles)`; }).join("; ");
-  // Input → on screen: from the oldest input event the frame answers (its own time, as the browser stamped it)
-  // to the first animation frame after image A decoded, the frame the browser then paints (`ms`); `sent` counts
-  // from sending the request, `shown` from the frame's arrival, `server` is the server's own time.
-  // benchmarks/bench_view.py --browser reads these.
-  const input = state.inputTimes[header.id], sentAt = state.sendTimes[header.id];
-  if (input !== undefined) {
-    $("#image-a").decode().then(() => requestAnimationFrame(() => {
-      const now = performance.now(), ms = now - input;
-      $("#latency").textContent = `${ms.toFixed(0)} ms`;
-      state.painted.push({ id: header.id, quality: header.quality, ms, sent: now - sentAt, shown: now - arrived,
-                           server: header.seconds * 1000, at: now });
-      if (state.painted.length > 2000) state.painted.shift();
-    }), () => {});  // a newer image replaced it before it decoded: that one is measured instead
-  }
-  for (const id of Object.keys(state.inputTimes)) {
-    if (Number(id) < header.id || (Number(id) === header.id && !preview)) {  // a preview's full frame follows
-      delete state.inputTimes[id];
-      delete state.sendTimes[id];
-    }
-  }
   $("#left-out").textContent = a.left_out.map((s) => s.name).join(", ") || "nothing";
   $("#left-out").title = a.left_out.map((s) => `${s.name}: ${s.reason}`).join("\n");
   $("#warnings").replaceChildren(...a.warnings.map((w) => Object.assign(document.createElement("li"), { textContent: w })));
@@ -1128,7 +1190,7 @@ function restore() {
 
 function wipe() {
   const share = Number($("#wipe").value);
-  $("#image-b").style.clipPath = state.compare === "wipe" ? `inset(0 0 0 ${share}%)` : "";
+  for (const id of ["#image-b", "#canvas-b"]) $(id).style.clipPath = state.compare === "wipe" ? `inset(0 0 0 ${share}%)` : "";
   $("#wipe-line").hidden = state.compare !== "wipe";
   $("#wipe-line").style.left = `${share}%`;
 }
