@@ -282,24 +282,22 @@ def renumber(faces, new_of_old, out):
 
 
 @kernel()
-def creased_vertices(faces, unit, vertex_normal, vague, least, split, low, high):
-    """Into split (V,) bool, for the vertices v in [low, high): whether a crease may split v, vague or with a face
-    normal n_f whose cosine with the vertex normal is below `least` (or NaN): normals._creased_vertices' rule,
-    its cosines added in the same order."""
-    lowest = np.full(high - low, np.inf)
+def gather_corners_creased(vertex_normal, vague, faces, unit, least, corners, apart):
+    """gather_corners, and in the same pass the crease test of normals._creased_vertices' rule: apart (V,) bool
+    (the caller's, False) is set at each vertex with a corner whose face normal n_f has a cosine with the vertex
+    normal below `least` (or NaN), its products added in that rule's order. Any rows of faces, unit and corners
+    (a thread's slice); each thread its own `apart`, OR-ed by the caller (with the vague vertices: the split)."""
     for f in range(faces.shape[0]):
         for k in range(3):
             v = faces[f, k]
-            if v < low or v >= high:
-                continue
+            for i in range(3):
+                corners[f, k, i] = unit[f, i] if vague[v] else vertex_normal[v, i]
             cosine = 0.0
             cosine += unit[f, 0] * vertex_normal[v, 0]
             cosine += unit[f, 1] * vertex_normal[v, 1]
             cosine += unit[f, 2] * vertex_normal[v, 2]
-            if cosine != cosine or cosine < lowest[v - low]:  # np.minimum: a NaN stays
-                lowest[v - low] = cosine
-    for v in range(low, high):
-        split[v] = vague[v] or not lowest[v - low] >= least
+            if not cosine >= least:  # NaN too
+                apart[v] = True
 
 
 @kernel()
