@@ -150,7 +150,6 @@ def compute_corner_normals(vertices: np.ndarray, faces: np.ndarray, weighting: s
     run_parts(lambda low, high: gather_corners_creased(vertex_normal, vague, faces[low:high], unit[low:high], half,
                                                        corners[low:high], apart[ranges.index((low, high))]), ranges)
     split = np.logical_or.reduce([vague, *apart])
-    del apart
     if split.any():  # each range's corners bucketed and summed by its thread: cut by the split vertices
         least = math.cos(math.radians(crease_angle)) - 1e-12
         run_parts(lambda low, high: creased_corners(faces, unit, weights, weighted, split, least, NO_DIRECTION,

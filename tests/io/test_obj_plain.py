@@ -109,7 +109,7 @@ def test_every_way_of_writing_a_coordinate_reads_as_trimesh_read_it(tmp_path, mo
     """Coordinates in and beyond the compiled reader's exact path (more than 2^53, exponents past ±22, subnormal),
     and one file wholly inside it: the bits trimesh's reader gave."""
     faces = "f 1 2 3\nf 2 3 4\n"
-    for words in (WORDS, WORDS[:8] + ["0.12794000", "-0.03783000", "1e0", "42"]):
+    for words in (WORDS, [*WORDS[:8], "0.12794000", "-0.03783000", "1e0", "42"]):
         rows = [words[i:i + 3] + ["1"] * (3 - len(words[i:i + 3])) for i in range(0, len(words), 3)]
         path = tmp_path / f"words{len(words)}.obj"
         path.write_text("".join(f"v {' '.join(row)}\n" for row in rows) + faces)
