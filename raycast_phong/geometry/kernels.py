@@ -284,24 +284,22 @@ def renumber(faces, new_of_old, out):
 
 
 @kernel()
-def creased_vertices(faces, unit, vertex_normal, vague, least, split, low, high):
-    """Into split (V,) bool, for the vertices v in [low, high): whether a crease may split v, vague or with a face
-    normal n_f whose cosine with the vertex normal is below `least` (or NaN): normals._creased_vertices' rule,
-    its cosines added in the same order."""
-    lowest = np.full(high - low, np.inf)
+def gather_corners_creased(vertex_normal, vague, faces, unit, least, corners, apart):
+    """gather_corners, and in the same pass the crease test of normals._creased_vertices' rule: apart (V,) bool
+    (the caller's, False) is set at each vertex with a corner whose face normal n_f has a cosine with the vertex
+    normal below `least` (or NaN), its products added in that rule's order. Any rows of faces, unit and corners
+    (a thread's slice); each thread its own `apart`, OR-ed by the caller (with the vague vertices: the split)."""
     for f in range(faces.shape[0]):
         for k in range(3):
             v = faces[f, k]
-            if v < low or v >= high:
-                continue
+            for i in range(3):
+                corners[f, k, i] = unit[f, i] if vague[v] else vertex_normal[v, i]
             cosine = 0.0
             cosine += unit[f, 0] * vertex_normal[v, 0]
             cosine += unit[f, 1] * vertex_normal[v, 1]
             cosine += unit[f, 2] * vertex_normal[v, 2]
-            if cosine != cosine or cosine < lowest[v - low]:  # np.minimum: a NaN stays
-                lowest[v - low] = cosine
-    for v in range(low, high):
-        split[v] = vague[v] or not lowest[v - low] >= least
+            if not cosine >= least:  # NaN too
+                apart[v] = True
 
 
 @kernel()
@@ -353,3 +351,41 @@ def creased_corners(faces, unit, weights, weighted, split, least, no_direction, 
                 corners[f, k, 0], corners[f, k, 1], corners[f, k, 2] = unit[f, 0], unit[f, 1], unit[f, 2]
             else:
                 corners[f, k, 0], corners[f, k, 1], corners[f, k, 2] = s0 / size, s1 / size, s2 / size
+
+
+@kernel()
+def object_bounds(vertices, faces, face_object, centre, radius):
+    """Each object's bounding-box centre (into centre (N, 3)) and the largest distance of its vertices from it
+    (into radius (N,)), over the vertices its faces use (objects own disjoint vertices); both zeroed by the
+    caller, and left so for an object without faces. The numbers of diagnosis' numpy code (min and max per
+    coordinate, then √(dx² + dy² + dz²) added in that order), in three passes and no (V, 3) temporaries."""
+    objects = centre.shape[0]
+    owner = np.full(vertices.shape[0], -1, np.int64)
+    for f in range(faces.shape[0]):
+        for k in range(3):
+            owner[faces[f, k]] = face_object[f]
+    low, high = np.empty((objects, 3)), np.empty((objects, 3))
+    present = np.zeros(objects, np.bool_)
+    for v in range(vertices.shape[0]):
+        o = owner[v]
+        if o < 0:
+            continue
+        for i in range(3):
+            x = vertices[v, i]
+            if not present[o] or x < low[o, i]:
+                low[o, i] = x
+            if not present[o] or x > high[o, i]:
+                high[o, i] = x
+        present[o] = True
+    for o in range(objects):
+        if present[o]:
+            for i in range(3):
+                centre[o, i] = (low[o, i] + high[o, i]) / 2
+    for v in range(vertices.shape[0]):
+        o = owner[v]
+        if o < 0:
+            continue
+        dx, dy, dz = vertices[v, 0] - centre[o, 0], vertices[v, 1] - centre[o, 1], vertices[v, 2] - centre[o, 2]
+        distance = math.sqrt(dx * dx + dy * dy + dz * dz)
+        if distance > radius[o]:
+            radius[o] = distance

@@ -20,9 +20,9 @@ from ..io.system import default_threads
 from ..tolerances import NO_DIRECTION
 from .kernels import (
     creased_corners,
-    creased_vertices,
     face_normals_into,
     gather_corners,
+    gather_corners_creased,
     normalise_sums,
     vertex_normal_sums,
 )
@@ -126,7 +126,7 @@ def compute_corner_normals(vertices: np.ndarray, faces: np.ndarray, weighting: s
     A vertex whose sum vanishes falls back to the face normal. `normals`: face_normals(vertices, faces)
     if the caller has them. The sums are per vertex, (V, 4) float64, and only the result is per corner
     (36 bytes a triangle in float32, 72 in float64); only corners at a vertex a crease may split pay
-    for the pairwise test (kernels.creased_vertices, kernels.creased_corners).
+    for the pairwise test (kernels.gather_corners_creased, kernels.creased_corners).
     """
     unit, doubled_area = normals if normals is not None else face_normals(vertices, faces)
     weights = corner_weights(vertices, faces, doubled_area, weighting)
@@ -136,22 +136,25 @@ def compute_corner_normals(vertices: np.ndarray, faces: np.ndarray, weighting: s
     weighted, weights = weights is not None, np.empty((0, 3)) if weights is None else weights
     count = len(vertices)
     vertex_normal, vague = _vertex_normals(faces, unit, weights, weighted, count)  # vague: take the face normal
-    corners = _corners_of(vertex_normal, vague, faces, unit, dtype)
-    if crease_angle < 180.0:
-        # Corners at a vertex with a crease: each gathers only the faces within the angle of its own. A vertex
-        # whose face normals all lie within half the angle of its mean normal is not split: any two are then
-        # within the angle (triangle inequality on the sphere), so each of its corners gathers every face, the
-        # uncreased sum bit for bit. The margin sends a vertex at the bound through the pairwise test instead
-        # (the small slack keeps a face and its exact coplanar neighbour together despite rounding).
-        split = np.empty(count, bool)
-        half = math.cos(math.radians(crease_angle) / 2) + 1e-9
-        run_parts(lambda low, high: creased_vertices(faces, unit, vertex_normal, vague, half, split, low, high),
-                  parts(count, len(faces)))
-        if split.any():  # each range's corners bucketed and summed by its thread: cut by the split vertices
-            least = math.cos(math.radians(crease_angle)) - 1e-12
-            run_parts(lambda low, high: creased_corners(faces, unit, weights, weighted, split, least, NO_DIRECTION,
-                                                        corners, low, high),
-                      parts(count, len(faces), lambda: np.r_[0, np.cumsum(split)]))
+    if crease_angle >= 180.0:
+        return _corners_of(vertex_normal, vague, faces, unit, dtype)
+    # Corners at a vertex with a crease: each gathers only the faces within the angle of its own. A vertex whose
+    # face normals all lie within half the angle of its mean normal is not split: any two are then within the
+    # angle (triangle inequality on the sphere), so each of its corners gathers every face, the uncreased sum bit
+    # for bit. The margin sends a vertex at the bound through the pairwise test instead (the small slack keeps a
+    # face and its exact coplanar neighbour together despite rounding). The test runs in the gather's pass.
+    half = math.cos(math.radians(crease_angle) / 2) + 1e-9
+    corners = np.empty((len(faces), 3, 3), dtype)
+    ranges = parts(len(faces), len(faces))
+    apart = [np.zeros(count, bool) for _ in ranges]  # one per thread: each sets only its own
+    run_parts(lambda low, high: gather_corners_creased(vertex_normal, vague, faces[low:high], unit[low:high], half,
+                                                       corners[low:high], apart[ranges.index((low, high))]), ranges)
+    split = np.logical_or.reduce([vague, *apart])
+    if split.any():  # each range's corners bucketed and summed by its thread: cut by the split vertices
+        least = math.cos(math.radians(crease_angle)) - 1e-12
+        run_parts(lambda low, high: creased_corners(faces, unit, weights, weighted, split, least, NO_DIRECTION,
+                                                    corners, low, high),
+                  parts(count, len(faces), lambda: np.r_[0, np.cumsum(split)]))
     return corners
 
 
@@ -198,7 +201,7 @@ def _normalise_or(vectors: np.ndarray, fallback: np.ndarray, reach: np.ndarray |
 
 # The compiled passes of a crease split: a smooth object with a crease angle below 180°, and a mesh file that
 # stores no normals (its crease angle is mesh_file.FILE_CREASE_ANGLE unless the scene sets one).
-CREASE_KERNELS = ("creased_vertices", "creased_corners")
+CREASE_KERNELS = ("gather_corners_creased", "creased_corners")
 
 
 def warm_up_creases(dtype: type) -> None:

@@ -39,6 +39,7 @@ from .mesh_content import READABLE, TEXT_FORMATS, check_content, check_file_cont
 from .mesh_source import MeshSource, mesh_source
 from .mtl import MAX_SIDE_FILE
 from .obj import UV_LIMIT, bom_decoded, load_obj, obj_problem, obj_text
+from .obj_plain import plain_obj
 from .ply import HEADER_LIMIT, ply_problem, resolved, texture_names, trimesh_quiet
 from .stl import ascii_stl_problem, binary_stl_points
 from .threemf import read_3mf
@@ -136,11 +137,13 @@ def _read(path: Path, where: Where, source: MeshSource, bounds: bool = True) -> 
             up = STATED_UP.get(suffix)
             if points is None and suffix == ".obj":
                 data = bom_decoded(handle.read(), path, where)  # a UTF-16 OBJ (its BOM) as UTF-8
-                text = obj_text(data, path, where)
+                loaded = plain_obj(data, path)  # only v and f lines: one compiled pass (io/obj_plain.py)
+                text = obj_text(data, path, where) if loaded is None else None
                 library = source.materials.library
                 notes += source.materials.notes
                 sources += source.materials.sources
-                loaded = load_obj(text, path, library, where, data)
+                if loaded is None:
+                    loaded = load_obj(text, path, library, where, data)
             elif suffix == ".3mf":
                 own = read_3mf(handle, path, where, notes, sources)
             elif points is None:

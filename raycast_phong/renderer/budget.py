@@ -36,6 +36,10 @@ FLOAT64_NORMAL_BYTES = 40  # corner normals in float64 (float64 shading, or glob
 # A mesh file with a crease angle: at worst every corner takes the pairwise test, whose compiled pass buckets the
 # corners by vertex (8 bytes a corner): the noisy icosphere-7 PLY whose every vertex it splits, 232 B/triangle.
 CREASED_FILE_BYTES = 360
+# From embree_library.MORTON_FACES triangles in all, Embree builds the BVH by its Morton builder on the compact
+# layout: less BVH and fewer build temporaries. icosphere 7 as a PLY (327,680 triangles), 8×8, one thread: phong
+# 206 B/triangle (281 with the SAH build), flat 176; as STL, OBJ, GLB 194-254. The per-triangle figures above less:
+MORTON_SAVING_BYTES = 50
 # Per object, whatever its triangles: its validated object (its kind's model: a dict of 10 to 12 values, under
 # 1 KB, and the column temporaries of scene.bulk.objects_in_bulk) and the per-object rows of the geometry
 # (placement, material, model, group). Validating and rendering planes of 2 triangles, peak above a warmed-up
@@ -90,9 +94,10 @@ def estimate_memory(scene: Scene, source: str | Location = "<scene>", *, smooth:
     geometry, triangles, largest, largest_bytes = 0, 0, None, -1
     wide_normals = FLOAT64_NORMAL_BYTES if float64 or shadow_lights else 0
     kinds = object_kinds(scene)  # objects that differ only in placement cost the same: one estimate a kind
+    costs = []  # per kind: (first object, objects, triangles, bytes a triangle, the least its read takes)
     for index, objects in zip(kinds.first.tolist(), kinds.count.tolist()):
         obj = scene.objects[index]
-        mesh_file, held = obj.shape == "mesh", None
+        mesh_file, held, floor = obj.shape == "mesh", None, 0
         if mesh_file:
             path = scene.resolve(obj.path)
             mesh = sources[path]
@@ -101,6 +106,8 @@ def estimate_memory(scene: Scene, source: str | Location = "<scene>", *, smooth:
                 files[path] = len(held.faces) if held is not None else mesh_file_triangles(
                     path, located(source).at("objects", index, "path"), mesh.document)
             count, extra = files[path], MESH_FILE_BYTES.get(path.suffix.lower(), OTHER_MESH_FILE_BYTES)
+            if held is None:  # a large file that claims few triangles still costs its read (a one-line OBJ)
+                floor = mesh_file_read_bytes(path, mesh.side_files)
         else:
             count, extra = shape_triangles(obj), 0
         smooth_here = smooth and scene.shading_of(obj) != ShadingModel.FLAT
@@ -110,10 +117,12 @@ def estimate_memory(scene: Scene, source: str | Location = "<scene>", *, smooth:
             if obj.crease_angle < 180 and mesh_file:
                 # A built-in shape is smooth but for a few edges and poles; a file may be noise everywhere.
                 per = max(per, CREASED_FILE_BYTES)
-        size = count * (per + extra)
-        if mesh_file and held is None:  # a large file that claims few triangles still costs its read (a one-line OBJ)
-            size = max(size, mesh_file_read_bytes(path, mesh.side_files))
+        costs.append((index, objects, count, per + extra, floor))
         triangles += count * objects
+    from .embree_library import MORTON_FACES  # (ctypes and llvmlite: only when a scene is estimated)
+    saving = MORTON_SAVING_BYTES if triangles >= MORTON_FACES else 0
+    for index, objects, count, per, floor in costs:
+        size = max(count * (per - saving), floor)
         geometry += size * objects
         if size > largest_bytes:  # the first object of the largest kind is the first of the largest objects
             largest, largest_bytes = index, size

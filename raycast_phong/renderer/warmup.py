@@ -19,7 +19,7 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
     numba's one-time set-up in a process). `announce` is told once, when numba is about to compile the first
     of them (compiles.told hears the cache miss), so no compile is ever silent. The kernels are the
     frame's in the scene's precision, the geometry stage's and, for a scene with a mesh file, its
-    preparation's (merge, winding: mesh_repair.warm_up; an OBJ's polygon scan: obj_polygons.warm_up), and
+    preparation's (merge, winding: mesh_repair.warm_up; an OBJ's scans: obj_plain.warm_up, obj_polygons.warm_up), and
     the crease split's where an object may be creased (normals.warm_up_creases).
     A mesh file that cannot be opened is refused first (one line, naming `source`): before any compile."""
     import numpy as np
@@ -55,7 +55,8 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
         if meshes:
             warm_up()
         if objs:
-            from ..io import obj_polygons
+            from ..io import obj_plain, obj_polygons
+            obj_plain.warm_up()
             obj_polygons.warm_up()
         if creases:  # in the corner normals' dtype: the shading precision (render() asks build_geometry for it)
             warm_up_creases(real)

@@ -274,6 +274,43 @@ def test_the_grouped_median_is_numpys_median_per_group(rng):
         assert medians[group] == (np.median(inside) if len(inside) else 0.0)
 
 
+def numpy_object_bounds(vertices, faces, face_object, objects):
+    """ObjectFigures' bounds as numpy computed them before the compiled pass (the oracle)."""
+    vertex_object = np.full(len(vertices), -1, np.int64)
+    vertex_object[faces] = face_object[:, None]
+    used = np.flatnonzero(vertex_object >= 0)
+    used = used[np.argsort(vertex_object[used], kind="stable")]
+    owner, points = vertex_object[used], vertices[used]
+    present, first = np.unique(owner, return_index=True)
+    centre = np.zeros((objects, 3))
+    centre[present] = (np.minimum.reduceat(points, first) + np.maximum.reduceat(points, first)) / 2
+    radius = np.zeros(objects)
+    radius[present] = np.maximum.reduceat(np.linalg.norm(points - centre[owner], axis=1), first)
+    return centre, radius
+
+
+def test_object_bounds_are_the_numpy_figures_bit_for_bit(rng):
+    """Each object's bounding centre and radius over the vertices its faces use (diagnosis' object bounds), from the
+    compiled pass: numpy's numbers, with objects in any order, unused vertices, and objects without faces."""
+    from raycast_phong.geometry.kernels import object_bounds
+    for objects in (1, 5):
+        sizes = rng.integers(3, 40, size=objects)
+        vertices = rng.normal(size=(int(sizes.sum()), 3)) * rng.uniform(0.1, 1e3) + rng.normal(size=3) * 1e4
+        faces, face_object = [], []
+        for o, (start, size) in enumerate(zip(np.cumsum(sizes) - sizes, sizes)):
+            if objects > 1 and o == 2:
+                continue  # an object with no faces: centre and radius stay 0
+            faces.append(start + rng.integers(0, size - 1, size=(int(size), 3)))  # its last vertex unused
+            face_object.append(np.full(int(size), o, np.int32))
+        faces, face_object = np.concatenate(faces).astype(np.int32), np.concatenate(face_object)
+        order = rng.permutation(len(faces))
+        faces, face_object = faces[order], face_object[order]
+        centre, radius = np.zeros((objects, 3)), np.zeros(objects)
+        object_bounds(vertices, faces, face_object, centre, radius)
+        expected = numpy_object_bounds(vertices, faces, face_object, objects)
+        assert centre.tobytes() == expected[0].tobytes() and radius.tobytes() == expected[1].tobytes()
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(10)

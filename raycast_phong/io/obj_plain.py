@@ -1,0 +1,200 @@
+"""A plain OBJ (only `v x y z` and `f a b c` lines, comments and blank lines: how scanners and trimesh write a
+scan) read in one compiled pass, into what trimesh's reader gives for it.
+
+trimesh's OBJ reader spends Python per face line (split, strip, a check of every line's width): 2.5 s of the
+3 s bunny-1m's 1.1M faces took. Here one compiled scan (`_records`) proves the file plain, gathers the `v` lines'
+text and reads the face indices (decimal integers: exact); the coordinates are converted by the very numpy call
+trimesh's reader makes (np.fromstring of the `v` lines' text), so they carry its bits; the vertices no face
+names are dropped and the faces renumbered as trimesh does. Any other record (`vt`, `vn`, `usemtl`, `o`, `g`,
+`s`, polygons, `v/vt` corners, relative or zero indices, a coordinate that is not a plain number) leaves the
+file to the full reader (io/obj.py), which words every problem.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ..jit import kernel
+
+SPACE, TAB, LF, CR, HASH = 32, 9, 10, 13, 35
+PLAIN_KERNELS = ("_records",)  # what reading a plain OBJ compiles (renderer/warmup.py loads it first)
+
+
+POWERS = np.array([10.0 ** k for k in range(23)])  # 1e0 .. 1e22: every one exact in float64
+EXACT = 1 << 53  # integers up to this are exact in float64
+
+
+@kernel(inline="always")
+def _numeric(c):
+    """A byte a plain decimal coordinate is written with: digits, sign, point, exponent."""
+    return (48 <= c <= 57) or c == 43 or c == 45 or c == 46 or c == 101 or c == 69
+
+
+@kernel()
+def _decimal(data, start, stop, powers):
+    """(value, exact) of the word data[start:stop]: [+-] digits [. digits] [(e|E) [+-] digits] with a digit
+    before the exponent, read as m × 10^e with m below 2^53 and |e| ≤ 22: then m and 10^|e| are exact in float64
+    and one product or quotient rounds the decimal's exact value correctly, the value every correct reader
+    (numpy's, Python's float) gives (Clinger's fast path). exact False: another word, or one outside that path."""
+    i, negative = start, False
+    if i < stop and (data[i] == 43 or data[i] == 45):
+        negative = data[i] == 45
+        i += 1
+    mantissa, digits, scale, point = 0, 0, 0, False
+    while i < stop:
+        c = data[i]
+        if 48 <= c <= 57:
+            if mantissa >= EXACT // 10:  # one more digit could pass 2^53 (a trailing zero is left to the slow path)
+                return 0.0, False
+            mantissa = 10 * mantissa + (c - 48)
+            digits += 1
+            if point:
+                scale -= 1
+        elif c == 46 and not point:
+            point = True
+        else:
+            break
+        i += 1
+    if digits == 0:
+        return 0.0, False
+    if i < stop:
+        if data[i] != 101 and data[i] != 69:
+            return 0.0, False
+        i += 1
+        sign = 1
+        if i < stop and (data[i] == 43 or data[i] == 45):
+            sign = -1 if data[i] == 45 else 1
+            i += 1
+        if i == stop:
+            return 0.0, False
+        exponent = 0
+        while i < stop:
+            c = data[i]
+            if c < 48 or c > 57 or exponent > 1000:
+                return 0.0, False
+            exponent = 10 * exponent + (c - 48)
+            i += 1
+        scale += sign * exponent
+    if scale > 22 or scale < -22:
+        return 0.0, False
+    value = float(mantissa) * powers[scale] if scale >= 0 else float(mantissa) / powers[-scale]
+    return (-value if negative else value), True
+
+
+@kernel()
+def _records(data, mode, powers, points, vertex_text, faces):
+    """One pass over OBJ text `data` (uint8). Returns (plain, vertices, faces, text bytes, exact): whether every
+    line is blank, a comment (`#` first), `v` + a space + three words of _numeric bytes, or `f` + a space + three
+    decimal integers of at most 18 digits, words separated by spaces or tabs (lines end in LF or CRLF); the
+    counts; and whether every coordinate was read exactly by _decimal. mode 0 counts; 1 also reads each face's
+    indices, less one, into faces (F, 3) int64 and the coordinates into points (V, 3) float64; 2 instead copies
+    each `v` line's text after its `v` (its leading space included) into vertex_text, for numpy to read."""
+    n = data.shape[0]
+    vertices = count = written = 0
+    exact = True
+    at = 0
+    while at < n:
+        end = at
+        while end < n and data[end] != LF:
+            end += 1
+        stop = end - 1 if end > at and data[end - 1] == CR else end
+        if stop > at and data[at] != HASH:
+            if stop - at < 2 or data[at + 1] != SPACE:
+                return False, vertices, count, written, exact
+            kind = data[at]
+            if kind != 118 and kind != 102:  # neither "v" nor "f"
+                return False, vertices, count, written, exact
+            i, words = at + 2, 0
+            while True:
+                while i < stop and (data[i] == SPACE or data[i] == TAB):
+                    i += 1
+                if i == stop:
+                    break
+                start, value = i, 0
+                while i < stop and data[i] != SPACE and data[i] != TAB:
+                    c = data[i]
+                    if kind == 118:
+                        if not _numeric(c):
+                            return False, vertices, count, written, exact
+                    elif c < 48 or c > 57 or i - start >= 18:
+                        return False, vertices, count, written, exact
+                    else:
+                        value = 10 * value + (c - 48)
+                    i += 1
+                if words == 3:
+                    return False, vertices, count, written, exact
+                if kind == 102:
+                    if value == 0:  # index 0 names nothing: the full reader refuses it in words
+                        return False, vertices, count, written, exact
+                    if mode == 1:
+                        faces[count, words] = value - 1
+                elif mode == 1 and exact:
+                    number, exact = _decimal(data, start, i, powers)
+                    points[vertices, words] = number
+                words += 1
+            if words != 3:
+                return False, vertices, count, written, exact
+            if kind == 118:
+                if mode == 2:
+                    vertex_text[written:written + stop - at - 1] = data[at + 1:stop]
+                written += stop - at - 1
+                vertices += 1
+            else:
+                count += 1
+        at = end + 1
+    return True, vertices, count, written, exact
+
+
+def plain_obj(data: bytes, path: Path):
+    """trimesh's Scene for a plain OBJ's bytes `data` (module docstring), as io/obj.load_obj gives it for the same
+    file (which names no materials); None for any other OBJ (the full reader's)."""
+    if b"f" not in data or b"\\" in data or b"usemtl" in data or b"mtllib" in data:
+        return None  # a line continued, or a material named (in a comment too, trimesh's reader acts on it)
+    text = np.frombuffer(data, np.uint8)
+    no_points, no_text, no_faces = np.empty((0, 3)), np.empty(0, np.uint8), np.empty((0, 3), np.int64)
+    plain, vertex_count, face_count, size, _ = _records(text, 0, POWERS, no_points, no_text, no_faces)
+    if not plain or not face_count:
+        return None
+    points, faces = np.empty((vertex_count, 3)), np.empty((face_count, 3), np.int64)
+    exact = _records(text, 1, POWERS, points, no_text, faces)[4]
+    if not exact:  # a coordinate beyond the fast path: numpy reads them all, as trimesh's reader did
+        points = _numpy_points(text, size, vertex_count)
+        if points is None:
+            return None
+    if not faces.max() < vertex_count:
+        return None
+    import trimesh
+
+    from .obj import MaterialNames
+    used = np.zeros(vertex_count, dtype=bool)
+    used[faces] = True
+    inverse = np.zeros(vertex_count, dtype=np.int64)
+    inverse[used] = np.arange(used.sum())
+    name = trimesh.util.unique_name(MaterialNames(path, ()).file_name, {})
+    mesh = {"process": False, "faces": inverse[faces], "vertices": points[used].copy(), "visual": None}
+    return trimesh.load_scene({"geometry": {name: mesh}, "graph": [{"geometry": name, "frame_to": name}]})
+
+
+def _numpy_points(text: np.ndarray, size: int, count: int) -> np.ndarray | None:
+    """The `v` lines' coordinates (count, 3) by the numpy call trimesh's reader makes; None where that reader
+    would read other numbers (it rewrites `+e` and `-e`) or numpy stops short of them."""
+    vertex_text = np.empty(size, np.uint8)
+    _records(text, 2, POWERS, np.empty((0, 3)), vertex_text, np.empty((0, 3), np.int64))
+    vertex_text = vertex_text.tobytes()
+    if b"+e" in vertex_text or b"-e" in vertex_text:
+        return None
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # a word that is not a number stops numpy short: counted below
+            values = np.fromstring(vertex_text, sep=" ", dtype=np.float64)
+    except ValueError:  # numpy 2 raises where it stops
+        return None
+    return values.reshape(-1, 3) if len(values) == 3 * count else None
+
+
+def warm_up() -> None:
+    """Load (or compile) PLAIN_KERNELS: a plain triangle, counted and filled."""
+    plain_obj(b"# a triangle\nv 0 0 0\nv 1 0 0\r\nv 0 1 0\n\nf 1 2 3\n", Path("warm-up.obj"))
