@@ -148,11 +148,20 @@ def _records(data, mode, powers, points, vertex_text, faces):
     return True, vertices, count, written, exact
 
 
+HEAD = 1 << 20  # bytes of a file's start the warm-up looks at (renderer/warmup.py)
+
+
+def may_be_plain(data: bytes) -> bool:
+    """False when `data` (a whole OBJ, or its start) continues a line or names a material (in a comment too:
+    trimesh's reader acts on it): the full reader's file, with no compiled scan here."""
+    return not (b"\\" in data or b"usemtl" in data or b"mtllib" in data)
+
+
 def plain_obj(data: bytes, path: Path):
     """trimesh's Scene for a plain OBJ's bytes `data` (module docstring), as io/obj.load_obj gives it for the same
     file (which names no materials); None for any other OBJ (the full reader's)."""
-    if b"f" not in data or b"\\" in data or b"usemtl" in data or b"mtllib" in data:
-        return None  # a line continued, or a material named (in a comment too, trimesh's reader acts on it)
+    if b"f" not in data or not may_be_plain(data):
+        return None
     text = np.frombuffer(data, np.uint8)
     no_points, no_text, no_faces = np.empty((0, 3)), np.empty(0, np.uint8), np.empty((0, 3), np.int64)
     plain, vertex_count, face_count, size, _ = _records(text, 0, POWERS, no_points, no_text, no_faces)

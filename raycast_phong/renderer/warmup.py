@@ -19,7 +19,8 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
     numba's one-time set-up in a process). `announce` is told once, when numba is about to compile the first
     of them (compiles.told hears the cache miss), so no compile is ever silent. The kernels are the
     frame's in the scene's precision, the geometry stage's and, for a scene with a mesh file, its
-    preparation's (merge, winding: mesh_repair.warm_up; an OBJ's scans: obj_plain.warm_up, obj_polygons.warm_up), and
+    preparation's (merge, winding: mesh_repair.warm_up; an OBJ's scans: obj_polygons.warm_up, and obj_plain.warm_up
+    unless its first MB names a material library: then the plain reader's scan never runs), and
     the crease split's where an object may be creased (normals.warm_up_creases).
     A mesh file that cannot be opened is refused first (one line, naming `source`): before any compile."""
     import numpy as np
@@ -33,12 +34,16 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
     from ..io.files import open_mesh_file
     from ..scene.kinds import object_kinds
     kinds = [(index, scene.objects[index]) for index in object_kinds(scene).first.tolist()]  # a mesh: its own kind
-    meshes = objs = False
+    meshes = objs = plain = False
     for index, obj in kinds:
         if obj.shape == "mesh":
-            open_mesh_file(scene.resolve(obj.path), located(source).at("objects", index, "path")).close()
+            handle = open_mesh_file(scene.resolve(obj.path), located(source).at("objects", index, "path"))
+            with handle:
+                if str(obj.path).lower().endswith(".obj"):
+                    from ..io.obj_plain import HEAD, may_be_plain
+                    objs = True
+                    plain = plain or may_be_plain(handle.read(HEAD))  # no mtllib ahead: its scan may run
             meshes = True
-            objs = objs or str(obj.path).lower().endswith(".obj")
     creases = plan.keeps(StageName.VERTEX_NORMALS) and (meshes or any(obj.crease_angle < 180 for _, obj in kinds))
     real = plan.real
 
@@ -56,7 +61,8 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
             warm_up()
         if objs:
             from ..io import obj_plain, obj_polygons
-            obj_plain.warm_up()
+            if plain:
+                obj_plain.warm_up()
             obj_polygons.warm_up()
         if creases:  # in the corner normals' dtype: the shading precision (render() asks build_geometry for it)
             warm_up_creases(real)

@@ -131,3 +131,19 @@ def test_a_missing_mesh_file_is_refused_before_the_compiling_notice(tmp_path, mo
     assert said == []
     shapes = validate_scene({"objects": [{"shape": "icosphere"}]}, source="t")  # the control: it is said
     assert warmup.ready_kernels(shapes, said.append, "s.toml")[0] == "compile" and len(said) == 1
+
+
+def test_the_plain_obj_scan_is_warmed_only_for_an_obj_it_may_read(tmp_path, monkeypatch):
+    """io/obj_plain.py's scan runs on an OBJ that names no material library; one that does (its first MB says
+    `mtllib`) never reaches it, so its first render does not compile it (leave out what a scene does not need)."""
+    from raycast_phong.io import obj_plain
+    warmed = []
+    monkeypatch.setattr(obj_plain, "warm_up", lambda: warmed.append(True))
+    mesh = trimesh.creation.icosphere(1)
+    mesh.export(tmp_path / "plain.obj")
+    (tmp_path / "named.obj").write_text("mtllib named.mtl\n" + (tmp_path / "plain.obj").read_text())
+    for name, expected in (("named.obj", []), ("plain.obj", [True])):
+        warmed.clear()
+        warmup.ready_kernels(validate_scene({"objects": [{"shape": "mesh", "path": str(tmp_path / name)}]},
+                                            source="t"))
+        assert warmed == expected, name
