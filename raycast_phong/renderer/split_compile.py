@@ -45,18 +45,36 @@ def cores() -> int:
 
 def two_processes() -> bool:
     """Whether a first compile may start its helper: RAYCAST_PHONG_COMPILE_PROCESSES=1 never, =2 whenever there is
-    a kernel cache; otherwise when this process may run on two cores or more and the machine's load over the last
-    minute leaves one of them free (below cores - 0.5). The two processes spend about 15 % more CPU than one (each
-    compiles numba's own helpers, and the helper starts Python): on a busy machine that only makes the compile
-    longer."""
+    a kernel cache; otherwise when this process may run on two cores or more and one of them is free now (idle_cores:
+    the machine's idle time over a tenth of a second, not the load average, which still counts a job that ended
+    a minute ago, such as the pip install before a first render). The two processes spend about 15 % more CPU than
+    one (each compiles numba's own helpers, and the helper starts Python): on a busy machine that only makes the
+    compile longer."""
     setting = os.environ.get(PROCESSES, "").strip()
     if setting in ("1", "2"):
         return setting == "2"
+    return cores() >= 2 and idle_cores() >= 0.75
+
+
+def idle_cores(seconds: float = 0.1) -> float:
+    """How many of the machine's cores were idle over the last `seconds` (Linux's /proc/stat); elsewhere the cores
+    less the load average over the last minute."""
+    def idle_and_total() -> tuple[int, int]:
+        with open("/proc/stat") as stat:
+            fields = [int(value) for value in stat.readline().split()[1:]]
+        return fields[3] + (fields[4] if len(fields) > 4 else 0), sum(fields)  # idle + iowait, all
+
     try:
-        busy = os.getloadavg()[0]
-    except (AttributeError, OSError):  # no load average (Windows)
-        busy = 0.0
-    return cores() >= 2 and busy < cores() - 0.5
+        idle, total = idle_and_total()
+        time.sleep(seconds)
+        idle_after, total_after = idle_and_total()
+        share = (idle_after - idle) / max(total_after - total, 1)
+        return share * (os.cpu_count() or 1)
+    except (OSError, ValueError, IndexError):
+        try:
+            return max(0.0, (os.cpu_count() or 1) - os.getloadavg()[0])
+        except (AttributeError, OSError):  # no load average (Windows)
+            return float(cores())
 
 
 def warm_scene(precision: str):

@@ -75,15 +75,34 @@ def test_no_helper_when_two_processes_would_not_help(helper_sleeps, monkeypatch)
         assert aside.process is None and jit.compiled_elsewhere == {}
 
 
-@pytest.mark.parametrize(("setting", "cores", "load", "helper"), [
-    ("", 2, 0.2, True), ("", 2, 1.6, False), ("", 1, 0.0, False), ("", 8, 6.0, True),
-    ("1", 8, 0.0, False), ("2", 1, 9.0, True), ("3", 2, 0.2, True)])
-def test_a_helper_when_a_core_is_free_or_the_user_says(monkeypatch, setting, cores, load, helper):
-    """Two processes spend ~15 % more CPU than one: only worth it with a core free (load below cores - 0.5)."""
+@pytest.mark.parametrize(("setting", "cores", "idle", "helper"), [
+    ("", 2, 1.9, True), ("", 2, 0.5, False), ("", 1, 1.0, False), ("", 8, 2.0, True),
+    ("1", 8, 8.0, False), ("2", 1, 0.0, True), ("3", 2, 1.9, True)])
+def test_a_helper_when_a_core_is_free_or_the_user_says(monkeypatch, setting, cores, idle, helper):
+    """Two processes spend ~15 % more CPU than one: only worth it with a core free now."""
     monkeypatch.setenv(split_compile.PROCESSES, setting)
     monkeypatch.setattr(split_compile, "cores", lambda: cores)
-    monkeypatch.setattr(os, "getloadavg", lambda: (load, load, load))
+    monkeypatch.setattr(split_compile, "idle_cores", lambda: idle)
     assert split_compile.two_processes() is helper
+
+
+def test_idle_cores_are_the_idle_share_of_the_machine_now(monkeypatch):
+    """From two readings of /proc/stat's first line: the idle and iowait ticks over all ticks, times the cores."""
+    import io
+    readings = iter(["cpu  100 0 100 200 0 0 0 0 0 0\n", "cpu  150 0 100 290 10 0 0 0 0 0\n"])
+    monkeypatch.setattr(split_compile, "open", lambda path: io.StringIO(next(readings)), raising=False)
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    # ticks 400 -> 550: 150, of which idle 90 and iowait 10: two thirds of the machine's two cores idle
+    assert split_compile.idle_cores(0.0) == pytest.approx(2 * 100 / 150)
+
+
+def test_idle_cores_fall_back_to_the_load_average(monkeypatch):
+    def no_stat(path):
+        raise FileNotFoundError(path)
+    monkeypatch.setattr(split_compile, "open", no_stat, raising=False)
+    monkeypatch.setattr(os, "cpu_count", lambda: 4)
+    monkeypatch.setattr(os, "getloadavg", lambda: (2.5, 1.0, 1.0))
+    assert split_compile.idle_cores(0.0) == 1.5
 
 
 def test_the_helper_is_given_the_types_render_band_gives_the_shading_kernel():
