@@ -213,9 +213,8 @@ def test_a_burst_of_pointer_events_makes_a_few_requests_and_one_url_write(page, 
     np.testing.assert_array_equal(page_image(page), to_8bit(rp.render(moved).image))
 
 
-def test_one_request_is_in_flight_while_a_draft_renders(browser, scene_path):
-    """While a draft is rendering, moves over many display frames send nothing; its answer lets the newest state
-    go, once."""
+def held_draft():
+    """(holding, release, render): once `holding` is set, the next draft the server renders waits for `release`."""
     holding, release = threading.Event(), threading.Event()
 
     def held(scene, **options):
@@ -224,10 +223,21 @@ def test_one_request_is_in_flight_while_a_draft_renders(browser, scene_path):
             release.wait(60)
         return rp.render(scene, **options)
 
+    return holding, release, held
+
+
+def gizmo_centre(tab) -> tuple[int, int]:
+    box = tab.locator("#gizmo").bounding_box()
+    return round(box["x"] + box["width"] / 2), round(box["y"] + box["height"] / 2)
+
+
+def test_one_request_is_in_flight_while_a_draft_renders(browser, scene_path):
+    """While a draft is rendering, moves over many display frames send nothing; its answer lets the newest state
+    go, once."""
+    holding, release, held = held_draft()
     with opened(browser, scene_path, render=held) as tab:
         tab.evaluate(COUNTING)
-        box = tab.locator("#gizmo").bounding_box()
-        x, y = round(box["x"] + box["width"] / 2), round(box["y"] + box["height"] / 2)
+        x, y = gizmo_centre(tab)
         tab.mouse.move(x, y)
         tab.mouse.down()
         holding.set()
@@ -251,18 +261,10 @@ def test_every_release_is_painted_even_when_the_next_stroke_starts_at_once(brows
     """Strokes back to back (issue 35): a release while a draft renders, and the next stroke at once. The release's
     full frame is sent at once, not folded into the next stroke's draft; the server renders it before that draft,
     and the page paints it before the draft replaces it."""
-    holding, release = threading.Event(), threading.Event()
-
-    def held(scene, **options):
-        if holding.is_set() and scene.render.width == WIDTH // 2:  # a draft
-            holding.clear()
-            release.wait(60)
-        return rp.render(scene, **options)
-
+    holding, release, held = held_draft()
     with opened(browser, scene_path, render=held) as tab:
         tab.evaluate(COUNTING)
-        box = tab.locator("#gizmo").bounding_box()
-        x, y = round(box["x"] + box["width"] / 2), round(box["y"] + box["height"] / 2)
+        x, y = gizmo_centre(tab)
         tab.evaluate("window.view.painted.length = 0")
         tab.mouse.move(x, y)
         tab.mouse.down()
