@@ -26,6 +26,9 @@ def settle(page, errors: bool = False) -> None:
                            arg=sent, timeout=120_000)
     if errors:
         page.wait_for_function("() => document.querySelector('#exact').textContent.startsWith('RMSE')", timeout=120_000)
+    # The frame is painted into the panel's canvas after it decodes (createImageBitmap), over the <img>: two
+    # display frames later it is on screen.
+    page.evaluate("() => new Promise(done => requestAnimationFrame(() => requestAnimationFrame(done)))")
 
 
 def animation(page, path: Path) -> None:

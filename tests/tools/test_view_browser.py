@@ -893,8 +893,9 @@ def test_standard_views_fit_and_the_turntable(page):
     wait_for_full_frame(page)
     half = math.tan(math.radians(20))
     assert eye_distance(page) == pytest.approx(1.1 * radius / math.sin(math.atan(half)), rel=1e-4)
-    page.check("#turntable")
-    page.wait_for_function("() => window.view.nextId > 8 + window.view.answered", timeout=30_000)
+    answered = page.evaluate("window.view.answered")
+    page.check("#turntable")  # it turns on by itself: eight more frames answered with no input
+    page.wait_for_function("(before) => window.view.answered > before + 8", arg=answered, timeout=30_000)
     page.uncheck("#turntable")
     wait_for_full_frame(page)
     x, _, z = page.evaluate("window.view.settings.a['camera.position']")
