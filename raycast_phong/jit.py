@@ -185,8 +185,10 @@ class _CacheLoadedAsIs(FunctionCache):
                 environment._rebuild_env = rebuild
 
     def holds(self, sig, target_context) -> bool:
-        """Whether the cache has an entry for `sig` (its index only: nothing is loaded)."""
-        return self._cache_file._load_index().get(self._index_key(sig, target_context.codegen())) is not None
+        """Whether the cache has an entry for `sig`, or for any signature when `sig` is None (its index only:
+        nothing is loaded)."""
+        index = self._cache_file._load_index()
+        return bool(index) if sig is None else index.get(self._index_key(sig, target_context.codegen())) is not None
 
 
 # Kernels (kernel_name) another process is compiling into the cache, each with a function that returns once it is
@@ -201,29 +203,19 @@ def kernel_name(function) -> str:
     return f"{function.__module__}.{function.__qualname__}"
 
 
-def cached(dispatcher, arguments: tuple) -> bool:
-    """Whether `dispatcher` has code for these arguments' types, in the process or in its cache (True also when
-    that cannot be told: the caller then simply goes on as if it were)."""
+def cached(dispatcher, arguments: tuple | None = None) -> bool:
+    """Whether `dispatcher` has code for these arguments' types (None: for any signature), in the process or in its
+    cache (True also when that cannot be told: the caller then simply goes on as if it were). Only the cache's
+    index is read: nothing is loaded."""
     from numba import typeof
-    signature = tuple(typeof(argument) for argument in arguments)
-    if signature in dispatcher.overloads:
+    signature = None if arguments is None else tuple(typeof(argument) for argument in arguments)
+    if dispatcher.overloads if signature is None else signature in dispatcher.overloads:
         return True
     cache = getattr(dispatcher, "_cache", None)
     if not isinstance(cache, _CacheLoadedAsIs) or not LIGHT_LOAD:
         return True
     try:
         return cache.holds(signature, dispatcher.targetctx)
-    except (AttributeError, OSError, ValueError):  # numba's internals moved: behave as if cached
-        return True
-
-
-def cached_at_all(dispatcher) -> bool:
-    """Whether `dispatcher`'s cache holds code for any signature (True also when that cannot be told)."""
-    cache = getattr(dispatcher, "_cache", None)
-    if not isinstance(cache, _CacheLoadedAsIs) or not LIGHT_LOAD:
-        return True
-    try:
-        return bool(cache._cache_file._load_index())
     except (AttributeError, OSError, ValueError):  # numba's internals moved: behave as if cached
         return True
 

@@ -101,7 +101,7 @@ def callee_signatures(inputs) -> dict:
     """The kernels _shade_rays calls that this process compiles first, each with its argument types as _shade_rays
     calls it: _screen_weights (three weights, the vertices, a face's three vertex rows, the eye, the camera, 1), in
     the order the helper meets them, then texture.sample (the texels and the table, a map's row, u and v, the
-    footprint in float64). The helper waits for each (its file in the shared folder) instead of compiling it."""
+    footprint in float64). The helper waits to hear each is cached (Aside.tell) instead of compiling it."""
     from numba import typeof, types
     real = typeof(inputs.one)
     return {shading._screen_weights: (real, real, real, typeof(inputs.vertices), types.int32, types.int32,
@@ -117,7 +117,9 @@ class Aside:
     def __init__(self, precision: str):
         self.precision = precision
         self.process: subprocess.Popen | None = None
-        if two_processes() and jit.cache_folder() is not None and not jit.cached_at_all(shading._shade_rays):
+        # The cache's index first: two_processes() watches the machine for a tenth of a second, and a warm start
+        # (the kernels cached) must not pay for it.
+        if jit.cache_folder() is not None and not jit.cached(shading._shade_rays) and two_processes():
             self.start()  # a cache with no shading kernel at all: a compile is certain, start at once
 
     def start(self) -> None:
@@ -144,8 +146,8 @@ class Aside:
     def prepared(self, ready) -> None:
         """The warm-up scene is prepared (its geometry kernels are in the cache): start the helper if
         _shade_rays is missing for `ready`'s types, then compile the callees it will wait for."""
-        if self.process is None and two_processes() and jit.cache_folder() is not None \
-                and not jit.cached(shading._shade_rays, shading_arguments(ready)):
+        if self.process is None and jit.cache_folder() is not None \
+                and not jit.cached(shading._shade_rays, shading_arguments(ready)) and two_processes():
             self.start()
         if self.process is not None:
             self.tell(PREPARED)

@@ -57,7 +57,7 @@ def helper_sleeps(monkeypatch):
     """A helper that only sleeps, on a cache said to hold no shading kernel, on two cores."""
     monkeypatch.setattr(split_compile, "HELPER", "import time; time.sleep(60)")
     monkeypatch.setattr(split_compile, "two_processes", lambda: True)
-    monkeypatch.setattr(jit, "cached_at_all", lambda dispatcher: False)
+    monkeypatch.setattr(jit, "cached", lambda dispatcher, arguments=None: False)
 
 
 def test_the_helper_is_stopped_however_the_block_ends(helper_sleeps):
@@ -118,3 +118,16 @@ def test_the_helper_is_given_the_types_render_band_gives_the_shading_kernel():
     whole = (np.empty(4, np.int32), np.empty((4, 3), np.float32), np.empty((4, 2, 3), np.float32))
     slices(*whole, 2)
     assert slices.nopython_signatures[0].return_type == typeof(whole)
+
+
+def test_a_warm_start_does_not_stop_to_look_at_the_machine(monkeypatch):
+    """With the shading kernel cached, no helper is considered: two_processes() (a tenth of a second watching the
+    machine's idle time) is never asked, so a warm start does not pay for it."""
+    from types import SimpleNamespace
+    looked = []
+    monkeypatch.setattr(split_compile, "two_processes", lambda: looked.append(True) or True)
+    monkeypatch.setattr(jit, "cached", lambda dispatcher, arguments=None: True)
+    monkeypatch.setattr(split_compile, "shading_arguments", lambda ready: ())
+    with split_compile.shading_compiled_aside("float32") as aside:
+        aside.prepared(SimpleNamespace(shading=None))
+    assert looked == [] and aside.process is None
