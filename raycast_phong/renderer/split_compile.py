@@ -26,12 +26,16 @@ from pathlib import Path
 import numpy as np
 
 from .. import jit
+from ..io.system import available_memory
 from .kernels import shading, texture
 from .kernels.layout import TileRays
 
 SHADE = jit.kernel_name(shading._shade_rays)
 PROCESSES = "RAYCAST_PHONG_COMPILE_PROCESSES"  # 1: compile in this process alone; 2: always with the helper
 HELPER = "import sys; from raycast_phong.renderer.split_compile import helper; helper(*sys.argv[1:])"
+# The helper's own memory: its peak resident size compiling the default scene's shading kernel was 258 MB (the
+# command's own, 253 MB); on a machine with less available it is not started (the command compiles alone).
+HELPER_BYTES = 400 << 20
 PREPARED = "prepared"  # what the helper hears once the warm-up scene is prepared (its geometry kernels cached)
 
 
@@ -47,13 +51,15 @@ def two_processes() -> bool:
     """Whether a first compile may start its helper: RAYCAST_PHONG_COMPILE_PROCESSES=1 never, =2 whenever there is
     a kernel cache; otherwise when this process may run on two cores or more and one of them is free now (idle_cores:
     the machine's idle time over a tenth of a second, not the load average, which still counts a job that ended
-    a minute ago, such as the pip install before a first render). The two processes spend about 15 % more CPU than
+    a minute ago, such as the pip install before a first render), with HELPER_BYTES of memory available for the
+    helper. The two processes spend about 15 % more CPU than
     one (each compiles numba's own helpers, and the helper starts Python): on a busy machine that only makes the
     compile longer."""
     setting = os.environ.get(PROCESSES, "").strip()
     if setting in ("1", "2"):
         return setting == "2"
-    return cores() >= 2 and idle_cores() >= 0.75
+    room = available_memory()
+    return cores() >= 2 and (room is None or room >= HELPER_BYTES) and idle_cores() >= 0.75
 
 
 def idle_cores(seconds: float = 0.1) -> float:

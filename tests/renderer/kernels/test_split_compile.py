@@ -75,14 +75,18 @@ def test_no_helper_when_two_processes_would_not_help(helper_sleeps, monkeypatch)
         assert aside.process is None and jit.compiled_elsewhere == {}
 
 
-@pytest.mark.parametrize(("setting", "cores", "idle", "helper"), [
-    ("", 2, 1.9, True), ("", 2, 0.5, False), ("", 1, 1.0, False), ("", 8, 2.0, True),
-    ("1", 8, 8.0, False), ("2", 1, 0.0, True), ("3", 2, 1.9, True)])
-def test_a_helper_when_a_core_is_free_or_the_user_says(monkeypatch, setting, cores, idle, helper):
-    """Two processes spend ~15 % more CPU than one: only worth it with a core free now."""
+@pytest.mark.parametrize(("setting", "cores", "idle", "room", "helper"), [
+    ("", 2, 1.9, 8 << 30, True), ("", 2, 0.5, 8 << 30, False), ("", 1, 1.0, 8 << 30, False),
+    ("", 8, 2.0, None, True), ("", 2, 1.9, 200 << 20, False),
+    ("1", 8, 8.0, 8 << 30, False), ("2", 1, 0.0, 8 << 30, True), ("3", 2, 1.9, 8 << 30, True)])
+def test_a_helper_when_a_core_and_its_memory_are_free_or_the_user_says(monkeypatch, setting, cores, idle, room,
+                                                                         helper):
+    """Two processes spend ~15 % more CPU than one: only worth it with a core free now, and the helper's memory
+    (HELPER_BYTES) available (None: not known)."""
     monkeypatch.setenv(split_compile.PROCESSES, setting)
     monkeypatch.setattr(split_compile, "cores", lambda: cores)
     monkeypatch.setattr(split_compile, "idle_cores", lambda: idle)
+    monkeypatch.setattr(split_compile, "available_memory", lambda: room)
     assert split_compile.two_processes() is helper
 
 
