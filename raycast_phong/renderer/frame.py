@@ -66,9 +66,8 @@ def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64)) -> None:
     embree_library.library()  # binds the names the kernel links against (EmbreeError if it cannot be loaded)
     for real in reals:
         precision = "float64" if real == np.float64 else "float32"
-        with shading_compiled_aside(precision) as aside:  # on a cache miss, the shading kernel compiles aside
+        with shading_compiled_aside(precision):  # on a cache miss, the shading kernel compiles aside
             ready = prepare(warm_scene(precision), source="warm-up")
-            aside.prepared(ready)
             film = film_rows(allocate_film(2, 2, (), ready.real).rows(0, 0))
             render_band(0, 0, 0, ready.rays.params, ready.rays.shared_origins, NO_SHADOWS, ready.shading, film,
                         np.zeros(3))

@@ -9,7 +9,9 @@ The kernels and the cache files are numba's own either way: a helper that fails,
 means this process compiles that kernel itself, as it would alone.
 
 The helper is given the arguments render_band passes _shade_rays, for a band of no rays: whole empty arrays type as
-the slices render_band makes (a slice of a C-contiguous array along its first axis is C-contiguous).
+the slices render_band makes (a slice of a C-contiguous array along its first axis is C-contiguous), and the
+shading inputs are packed from a geometry of no faces (unprepared_shading), so the helper starts compiling as soon
+as it has imported numba, without waiting for this process's geometry kernels.
 """
 
 from __future__ import annotations
@@ -36,7 +38,6 @@ HELPER = "import sys; from raycast_phong.renderer.split_compile import helper; h
 # The helper's own memory: its peak resident size compiling the default scene's shading kernel was 258 MB (the
 # command's own, 253 MB); on a machine with less available it is not started (the command compiles alone).
 HELPER_BYTES = 400 << 20
-PREPARED = "prepared"  # what the helper hears once the warm-up scene is prepared (its geometry kernels cached)
 
 
 def cores() -> int:
@@ -91,16 +92,31 @@ def warm_scene(precision: str):
                            "objects": [{"shape": "icosphere", "subdivisions": 0}]}, source="warm-up")
 
 
-def shading_arguments(ready) -> tuple:
+def unprepared_shading(precision: str):
+    """The warm-up scene's ShadingInputs packed from a geometry of no faces: pack.prepare_shading gives every array
+    its dtype and rank whatever it holds, so these type as prepare()'s, and neither process waits for the geometry
+    kernels (the icosahedron's normals) before the shading kernel's compile can start."""
+    from ..records import Frame, Geometry
+    from .pack import camera_rig, prepare_shading
+    from .plan import build_plan
+    scene = warm_scene(precision)
+    plan = build_plan(scene)
+    none = Geometry(vertices=np.zeros((0, 3)), faces=np.zeros((0, 3), np.int32), face_normals=np.zeros((0, 3)),
+                    corner_normals=np.zeros((0, 3, 3)), face_material=np.zeros(0, np.int32),
+                    face_model=np.zeros(0, np.int8), face_object=np.zeros(0, np.int32))
+    no_flags = (0, 0)  # the flags are values, not types (prepare_shading packs empty maps alike)
+    return prepare_shading(scene, none, camera_rig(scene), Frame(np.zeros(3), 1.0), no_flags, plan.real)
+
+
+def shading_arguments(inputs) -> tuple:
     """(ShadingInputs, TileRays, FilmRows) as render_band passes them to _shade_rays, for a band of no rays
-    (`ready`: prepare()'s result for a warm-up scene)."""
+    (`inputs`: a ShadingInputs)."""
     from .film import allocate_film
     from .pack import film_rows
-    film = film_rows(allocate_film(2, 2, (), ready.real).rows(0, 0))
+    film = film_rows(allocate_film(2, 2, (), inputs.one.dtype.type).rows(0, 0))
     rays = TileRays(np.empty(0, np.int32), np.empty(0, np.float32), np.empty(0, np.float32),
-                    np.empty(0, np.float32), np.empty((0, 3), np.float32), np.empty(0, np.int64),
-                    ready.rays.params.samples)
-    return ready.shading, rays, film
+                    np.empty(0, np.float32), np.empty((0, 3), np.float32), np.empty(0, np.int64), 1)
+    return inputs, rays, film
 
 
 def callee_signatures(inputs) -> dict:
@@ -123,10 +139,18 @@ class Aside:
     def __init__(self, precision: str):
         self.precision = precision
         self.process: subprocess.Popen | None = None
+        if jit.cache_folder() is None:
+            return
+        inputs = unprepared_shading(precision)
         # The cache's index first: two_processes() watches the machine for a tenth of a second, and a warm start
         # (the kernels cached) must not pay for it.
-        if jit.cache_folder() is not None and not jit.cached(shading._shade_rays) and two_processes():
-            self.start()  # a cache with no shading kernel at all: a compile is certain, start at once
+        if jit.cached(shading._shade_rays, shading_arguments(inputs)) or not two_processes():
+            return
+        self.start()
+        if self.process is not None:  # meanwhile its callees here, before anything else: the helper loads them
+            for kernel, signature in callee_signatures(inputs).items():
+                kernel.compile(signature)
+                self.tell(jit.kernel_name(kernel))
 
     def start(self) -> None:
         package_parent = str(Path(__file__).resolve().parents[2])
@@ -149,18 +173,6 @@ class Aside:
         except OSError:
             pass
 
-    def prepared(self, ready) -> None:
-        """The warm-up scene is prepared (its geometry kernels are in the cache): start the helper if
-        _shade_rays is missing for `ready`'s types, then compile the callees it will wait for."""
-        if self.process is None and jit.cache_folder() is not None \
-                and not jit.cached(shading._shade_rays, shading_arguments(ready)) and two_processes():
-            self.start()
-        if self.process is not None:
-            self.tell(PREPARED)
-            for kernel, signature in callee_signatures(ready.shading).items():
-                kernel.compile(signature)
-                self.tell(jit.kernel_name(kernel))
-
     def close(self) -> None:
         jit.compiled_elsewhere.pop(SHADE, None)
         if self.process is not None:
@@ -177,9 +189,8 @@ class Aside:
 def shading_compiled_aside(precision: str) -> Iterator[Aside]:
     """Within the block, a compile of _shade_rays in `precision` (a cache miss) waits for a helper process that
     compiles it, while this process compiles two of its callees and goes on with the rest. The helper starts at
-    once on a cache that holds no shading kernel, else when the block says the warm-up scene is prepared
-    (Aside.prepared) and _shade_rays is missing for it; none without a kernel cache, nor when two_processes() says
-    no (one core, a busy machine, RAYCAST_PHONG_COMPILE_PROCESSES=1).
+    once when _shade_rays is missing for the types prepare() gives it (unprepared_shading); none without a kernel
+    cache, nor when two_processes() says no (one core, a busy machine, RAYCAST_PHONG_COMPILE_PROCESSES=1).
     The helper is stopped when the block ends, however it ends, and ends itself if this process goes away."""
     aside = Aside(precision)
     try:
@@ -211,9 +222,7 @@ def helper(precision: str, parent: str) -> None:
                 heard.add(line.strip())
         return wait
 
-    from .prepare import prepare
-    told(PREPARED)()  # the parent compiles the geometry kernels the preparation runs
-    prepared = prepare(warm_scene(precision), source="warm-up")
-    for kernel in callee_signatures(prepared.shading):
+    inputs = unprepared_shading(precision)
+    for kernel in callee_signatures(inputs):
         jit.compiled_elsewhere[jit.kernel_name(kernel)] = told(jit.kernel_name(kernel))
-    shading._shade_rays(*shading_arguments(prepared))
+    shading._shade_rays(*shading_arguments(inputs))

@@ -127,11 +127,24 @@ def test_the_helper_is_given_the_types_render_band_gives_the_shading_kernel():
 def test_a_warm_start_does_not_stop_to_look_at_the_machine(monkeypatch):
     """With the shading kernel cached, no helper is considered: two_processes() (a tenth of a second watching the
     machine's idle time) is never asked, so a warm start does not pay for it."""
-    from types import SimpleNamespace
     looked = []
     monkeypatch.setattr(split_compile, "two_processes", lambda: looked.append(True) or True)
     monkeypatch.setattr(jit, "cached", lambda dispatcher, arguments=None: True)
-    monkeypatch.setattr(split_compile, "shading_arguments", lambda ready: ())
     with split_compile.shading_compiled_aside("float32") as aside:
-        aside.prepared(SimpleNamespace(shading=None))
+        pass
     assert looked == [] and aside.process is None
+
+
+@pytest.mark.parametrize("precision", ["float32", "float64"])
+def test_the_helper_types_the_shading_kernel_as_prepare_does(precision):
+    """unprepared_shading packs the warm-up scene's inputs from a geometry of no faces, so that the helper need not
+    wait for the geometry kernels: every field types as prepare()'s (a differing type would make the command
+    compile _shade_rays itself, after waiting for the helper)."""
+    from numba import typeof
+
+    from raycast_phong.renderer.prepare import prepare
+    ready = prepare(split_compile.warm_scene(precision), source="warm-up")
+    specimen = split_compile.unprepared_shading(precision)
+    assert [typeof(value) for value in specimen] == [typeof(value) for value in ready.shading]
+    assert typeof(split_compile.shading_arguments(specimen)) == typeof(
+        split_compile.shading_arguments(ready.shading))
