@@ -29,8 +29,8 @@ import numpy as np
 
 from .. import jit
 from ..io.system import available_memory
-from .kernels import shading, texture
-from .kernels.layout import TileRays
+from .kernels import shading
+from .kernels.layout import Material, TileRays
 
 SHADE = jit.kernel_name(shading._shade_rays)
 PROCESSES = "RAYCAST_PHONG_COMPILE_PROCESSES"  # 1: compile in this process alone; 2: always with the helper
@@ -121,15 +121,20 @@ def shading_arguments(inputs) -> tuple:
 
 def callee_signatures(inputs) -> dict:
     """The kernels _shade_rays calls that this process compiles first, each with its argument types as _shade_rays
-    calls it: _screen_weights (three weights, the vertices, a face's three vertex rows, the eye, the camera, 1), in
-    the order the helper meets them, then texture.sample (the texels and the table, a map's row, u and v, the
-    footprint in float64). The helper waits to hear each is cached (Aside.tell) instead of compiling it."""
+    calls it, in the order the helper meets them: _screen_weights (three weights, the vertices, a face's three
+    vertex rows, the eye, the camera, 1), then _textured_material (the material table, the texels, their table, the
+    corner UVs and densities, a Material, its row and the face (int32), three weights, the footprint in float64,
+    1, the (3,) cast; it compiles texture.sample). The helper waits to hear each is cached (Aside.tell) instead of
+    compiling it."""
     from numba import typeof, types
     real = typeof(inputs.one)
+    material = typeof(Material(*[inputs.one] * len(Material._fields)))
     return {shading._screen_weights: (real, real, real, typeof(inputs.vertices), types.int32, types.int32,
                                       types.int32, typeof(inputs.viewing), typeof(inputs.camera), real),
-            texture.sample: (typeof(inputs.texels), typeof(inputs.texture_table), types.int64, real, real,
-                             types.float64)}
+            shading._textured_material: (typeof(inputs.materials), typeof(inputs.texels),
+                                         typeof(inputs.texture_table), typeof(inputs.corner_uv),
+                                         typeof(inputs.uv_density), material, types.int32, types.int32, real, real,
+                                         real, types.float64, real, typeof(np.zeros(3, inputs.materials.dtype)))}
 
 
 class Aside:
