@@ -3,7 +3,7 @@
 numba compiles one kernel at a time in a process, and a fresh cache compiles tile.render_band with every kernel it
 calls: about 18 s of one core's CPU for the default scene, 10 of them the shading kernel (shading._shade_rays and the
 texture sampler it calls). Here a helper process compiles _shade_rays into the same kernel cache while this process
-compiles two of its callees (which the helper then loads) and then render_band's other callees; when render_band's
+compiles one of its callees (which the helper then loads) and then render_band's other callees; when render_band's
 compile reaches _shade_rays, this process waits for the helper and loads its result (jit.compiled_elsewhere).
 The kernels and the cache files are numba's own either way: a helper that fails, or a signature that differs, only
 means this process compiles that kernel itself, as it would alone.
@@ -121,17 +121,15 @@ def shading_arguments(inputs) -> tuple:
 
 def callee_signatures(inputs) -> dict:
     """The kernels _shade_rays calls that this process compiles first, each with its argument types as _shade_rays
-    calls it, in the order the helper meets them: _screen_weights (three weights, the vertices, a face's three
-    vertex rows, the eye, the camera, 1), then _textured_material (the material table, the texels, their table, the
-    corner UVs and densities, a Material, its row and the face (int32), three weights, the footprint in float64,
-    1, the (3,) cast; it compiles texture.sample). The helper waits to hear each is cached (Aside.tell) instead of
-    compiling it."""
+    calls it: _textured_material (the material table, the texels, their table, the corner UVs and densities, a
+    Material, its row and the face (int32), three weights, the footprint in float64, 1, the (3,) cast), which
+    compiles texture.sample. The helper waits to hear each is cached (Aside.tell) instead of compiling it.
+    Only these ~1.4 s of CPU: this process then compiles the warm-up scene's geometry kernels and render_band's
+    other callees, ~6 s more, which is about what the helper spends on _shade_rays (its other callees too)."""
     from numba import typeof, types
     real = typeof(inputs.one)
     material = typeof(Material(*[inputs.one] * len(Material._fields)))
-    return {shading._screen_weights: (real, real, real, typeof(inputs.vertices), types.int32, types.int32,
-                                      types.int32, typeof(inputs.viewing), typeof(inputs.camera), real),
-            shading._textured_material: (typeof(inputs.materials), typeof(inputs.texels),
+    return {shading._textured_material: (typeof(inputs.materials), typeof(inputs.texels),
                                          typeof(inputs.texture_table), typeof(inputs.corner_uv),
                                          typeof(inputs.uv_density), material, types.int32, types.int32, real, real,
                                          real, types.float64, real, typeof(np.zeros(3, inputs.materials.dtype)))}
