@@ -474,6 +474,31 @@ def test_exact_errors_follow_a_full_frame_of_an_analytic_scene(scene_path):
     assert errors["rmse"] == pytest.approx(measured.rmse) and errors["max_error"] == pytest.approx(measured.max_error)
 
 
+def test_the_exact_reference_waits_until_the_page_rests(scene_path):
+    """A drag keeps one draft in flight and none waiting: the exact errors of the full frame before it are not
+    computed while the drag goes on (they used to start REFERENCE_REST after it, mid-drag, on the server's CPU),
+    and follow once the page rests."""
+    from raycast_phong.tools.view.session import REFERENCE_REST
+    seen = []
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "full", "reference": True}))
+        receive_frame(ws)
+        request_id, end = 1, time.monotonic() + 4 * REFERENCE_REST
+        while time.monotonic() < end:  # the drag: the next draft goes when the last is answered
+            request_id += 1
+            ws.send_text(json.dumps({"type": "render", "id": request_id, "quality": "draft",
+                                     "settings": {"lights.0.position": [request_id / 100, 2, 3]}}))
+            message = ws.receive()
+            while message.get("bytes") is None:
+                seen.append(json.loads(message["text"])["type"])
+                message = ws.receive()
+            time.sleep(0.02)
+        assert "errors" not in seen and request_id > 5, seen
+        errors = json.loads(ws.receive_text())  # the page rests
+    assert errors["type"] == "errors" and errors["id"] == 1
+
+
 def test_a_slow_page_does_not_hold_another_pages_frames(scene_path):
     """Each page renders on its own thread: while one page's frame is held, another page gets its frames."""
     started, release, finished = threading.Event(), threading.Event(), threading.Event()

@@ -90,6 +90,7 @@ class Client:
     saves: deque = field(default_factory=lambda: deque(maxlen=SAVES_WAITING))  # the newest saves asked for
     wake: asyncio.Event = field(default_factory=asyncio.Event)
     dropped: int = 0
+    asked_at: float = 0.0                     # time.monotonic() of the page's newest render request
     reference_next: dict | None = None        # the newest full frame whose exact errors are still owed
     reference_task: asyncio.Task | None = None
     executor: ThreadPoolExecutor = field(default_factory=frame_threads)
@@ -216,6 +217,7 @@ class Session:
         full-size frame is not (issue 35: every release is answered by a full frame, even when the next stroke
         starts at once; a draft waits for it, ~one frame's time)."""
         client = self.client
+        client.asked_at = time.monotonic()
         full = request.get("quality", "full") != "draft"
         stale = [client.pending, client.committed] if full else [client.pending]
         for old in stale:
@@ -305,9 +307,13 @@ class Session:
         client, loop = self.client, asyncio.get_running_loop()
         while client.reference_next is not None:
             # Start only once the page has rested a moment: a drag that goes on makes it stale before it starts.
-            await asyncio.sleep(REFERENCE_REST)
-            if client.pending is not None or client.committed is not None:
-                continue  # a newer frame is on its way, and brings its own reference request
+            # Rested: no request for REFERENCE_REST seconds and no frame running. (Nothing waiting was not enough:
+            # a drag keeps one draft in flight and none waiting, so references ran mid-drag, ~30 % of the server's
+            # CPU in an unpaced drag, numpy's BLAS threads spinning beside the frames at normal priority.)
+            await asyncio.sleep(max(0.05, client.asked_at + REFERENCE_REST - time.monotonic()))
+            if (client.pending is not None or client.committed is not None or client.running is not None
+                    or time.monotonic() - client.asked_at < REFERENCE_REST):
+                continue  # a newer frame is on its way (a full one brings its own reference request)
             request, client.reference_next = client.reference_next, None
             try:
                 errors = await loop.run_in_executor(client.references, self.view.renderer.errors, request,
