@@ -977,6 +977,48 @@ def test_every_page_renders_on_the_servers_few_threads(scene_path):
     assert all(name.startswith("view-render") for _, name in threads)
 
 
+def test_the_bands_of_every_frame_run_on_the_servers_band_threads_which_stop_with_it(scene_path, monkeypatch):
+    """A frame's bands run on threads the server keeps for all its frames (a pool started for each frame was ~1 ms
+    of a 6 ms draft's CPU), at most the renderer's default number, shared by its pages; they end with the server.
+    Frames stay the PNGs render() gives."""
+    from websockets.sync.client import connect as socket_to
+
+    from raycast_phong.renderer import prepare
+    from raycast_phong.tools.view import running
+    seen = []
+    band = prepare.TileWork.__call__
+
+    def noted(tile, rows):
+        if tile.film.rgb.shape[1] == 320:  # the pages' drafts (not the server's own warm-up frame)
+            seen.append(threading.current_thread())
+        return band(tile, rows)
+    monkeypatch.setattr(prepare.TileWork, "__call__", noted)
+    settings = {"render.width": 640, "render.height": 480}
+    with running(scene_path) as url:
+        origin = url.split("/?", 1)[0]
+        address = origin.replace("http://", "ws://") + "/socket?token=" + url.split("token=", 1)[1]
+        with socket_to(address, origin=origin, max_size=None) as one, socket_to(address, origin=origin,
+                                                                                max_size=None) as two:
+            for ws in (one, two):
+                json.loads(ws.recv())
+            for request_id in range(1, 4):
+                for ws in (one, two):
+                    ws.send(json.dumps({"type": "render", "id": request_id, "quality": "draft",
+                                        "settings": {**settings, "lights.0.position": [request_id, 2, 3]}}))
+                    message = ws.recv()
+                    while not isinstance(message, bytes):
+                        message = ws.recv()
+                    png = unpack(message)[1]["a"]
+        threads = set(seen)
+    assert len(seen) >= 6 * 2 and all(thread.name.startswith("view-bands") for thread in threads), threads
+    assert len({thread.ident for thread in threads}) <= prepare.default_threads()
+    for thread in threads:
+        thread.join(10)
+    assert not any(thread.is_alive() for thread in threads)
+    scene = draft_of(scene_with(open_source(scene_path), {**settings, "lights.0.position": [3, 2, 3]}))
+    np.testing.assert_array_equal(decode_png(png, scene_path.parent), rendered_png(scene))
+
+
 def test_the_page_is_served_before_the_renderer_is_loaded(scene_path, monkeypatch):
     """Start-up: making the app imports neither numba nor OpenImageIO (the first frame does), and the kernels'
     warm-up waits for the first page (or WARM_AFTER seconds), so the HTML is not queued behind them."""

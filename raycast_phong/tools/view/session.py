@@ -33,6 +33,8 @@ if TYPE_CHECKING:
     from raycast_phong.renderer.reuse import FrameCache
 
 FRAME_THREADS = 2       # frames rendered at once by one server, over all its pages (each frame uses every core)
+# The frames' bands run on the server's band threads (io.system.default_threads(): the cores, at most 8), kept
+# for its life and shared by its frames: a pool started for every frame cost ~1 ms of a 6 ms draft's CPU.
 REFERENCE_THREADS = 1   # exact references at once (at nice 19: they use what the frames leave)
 REFERENCE_REST = 0.3    # seconds without a newer request before the exact errors of a full frame are computed
 WATCH_EVERY = 0.5       # seconds between looks at the scene file: an edit shows within a second, the disk idle
@@ -58,6 +60,11 @@ def frame_cache() -> FrameCache:
 
 def frame_threads() -> ThreadPoolExecutor:
     return ThreadPoolExecutor(FRAME_THREADS, "view-render")
+
+
+def band_threads() -> ThreadPoolExecutor:
+    from raycast_phong.io.system import default_threads
+    return ThreadPoolExecutor(default_threads(), "view-bands")
 
 
 def reference_threads() -> ThreadPoolExecutor:
@@ -94,6 +101,7 @@ class Client:
     reference_next: dict | None = None        # the newest full frame whose exact errors are still owed
     reference_task: asyncio.Task | None = None
     executor: ThreadPoolExecutor = field(default_factory=frame_threads)
+    bands: ThreadPoolExecutor = field(default_factory=band_threads)  # the bands of its frames (the server's)
     references: ThreadPoolExecutor = field(default_factory=reference_threads)
     shown: dict = field(default_factory=dict)
 
@@ -106,7 +114,7 @@ class View:
         self.source, self.renderer, self.access = source, renderer, access
         self.origins, self.any_host = origins, any_host
         self.hello, self.loaded = hello, loaded
-        self.frames, self.references = frame_threads(), reference_threads()
+        self.frames, self.bands, self.references = frame_threads(), band_threads(), reference_threads()
         self.pages: set[WebSocket] = set()   # the open pages, told when the scene file changes
         self.watcher = Watcher(self, open_source)
         self.warming: Future | None = None    # the kernels' warm-up: a page's first frame waits for it
@@ -164,7 +172,10 @@ class View:
         await Session(self, websocket).run()
 
     def shutdown(self) -> None:
+        """Stop the render, band and reference threads: waiting jobs are dropped, idle threads end at once; a
+        frame still running ends at its band (its bands not started are cancelled)."""
         self.frames.shutdown(wait=False, cancel_futures=True)
+        self.bands.shutdown(wait=False, cancel_futures=True)
         self.references.shutdown(wait=False, cancel_futures=True)
 
 
@@ -173,7 +184,7 @@ class Session:
 
     def __init__(self, view: View, websocket: WebSocket):
         self.view, self.websocket = view, websocket
-        self.client = Client(executor=view.frames, references=view.references)
+        self.client = Client(executor=view.frames, bands=view.bands, references=view.references)
 
     async def send(self, message: dict) -> None:
         await self.websocket.send_text(json.dumps(message))
@@ -255,7 +266,7 @@ class Session:
                 client.wake.set()  # a draft waits behind the committed frame: this loop comes back for it
             while client.saves:
                 save = client.saves.popleft()
-                saved = await self.answer(save, client.executor, renderer.save, save, client.cache)
+                saved = await self.answer(save, client.executor, renderer.save, save, client.cache, client.bands)
                 if saved is not None:
                     await self.websocket.send_bytes(saved)
             if request is None:
@@ -275,7 +286,7 @@ class Session:
                 client.cancellable = step != steps[0]
                 told = progress_to(self.websocket, loop, request.get("id"))
                 reply = await self.answer(request, client.executor, renderer.frame, request, told, client.shown,
-                                          client.cache, client.cancel.is_set, step)
+                                          client.cache, client.cancel.is_set, step, client.bands)
                 client.running, client.cancellable = None, False
                 if reply is None:
                     break
