@@ -115,8 +115,8 @@ def prepare(scene: Scene, *, source: str | Location = "<scene>", threads: int | 
     cancelled: asked before each band by render(); when it answers True, the bands not yet started are skipped
         and render() raises RenderCancelled.
     pool: the executor render() runs the bands on, owned by the caller (a live view keeps one for all its frames:
-        starting a pool's threads for every frame was ~1 ms of a 6 ms draft); default: a pool of `threads` made
-        and shut down by each render().
+        a new pool waited 1-2 ms for its threads to start, on a default draft of ~6 ms); default: a pool of
+        `threads` made and shut down by each render().
     """
     plan = plan or build_plan(scene, source=source)
     if plan.keeps(StageName.SHADOW_RAYS) and len(scene.lights) > MAX_LIGHTS:
