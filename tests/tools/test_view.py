@@ -736,6 +736,35 @@ def test_the_servers_cpu_benchmark_runs_in_a_reduced_form():
     assert "light moved, draft" in done.stdout and "orbit, draft" in done.stdout and "ms a frame" in done.stdout
 
 
+def test_the_view_command_gives_numpys_blas_one_thread(scene_path):
+    """The frames run on the server's band threads; OpenBLAS's own threads spun after each product at the server's
+    priority (the exact reference's, which itself runs at nice 19). `view` starts numpy with one BLAS thread unless
+    OPENBLAS_NUM_THREADS says otherwise; asked of the OpenBLAS numpy loaded, when the server would start serving."""
+    code = f"""
+import ctypes, os, sys
+import uvicorn
+def run(self, sockets=None):
+    import numpy
+    path = next((line.split()[-1] for line in open('/proc/self/maps') if 'openblas' in line.lower()), None)
+    asked = [getattr(ctypes.CDLL(path), name, None) for name in
+             ('scipy_openblas_get_num_threads64_', 'openblas_get_num_threads64_', 'openblas_get_num_threads')]
+    print('BLAS threads', next(f() for f in asked if f is not None) if path else 'no OpenBLAS')
+uvicorn.Server.run = run
+from raycast_phong.cli import app
+sys.argv = ['raycast-phong', 'view', {str(scene_path)!r}, '--port', '0', '--no-browser', '-q']
+app()
+"""
+    for chosen, expected in ((None, "1"), *((("2", "2"),) if (os.cpu_count() or 1) >= 2 else ())):
+        env = {key: value for key, value in os.environ.items() if key != "OPENBLAS_NUM_THREADS"}
+        if chosen:
+            env["OPENBLAS_NUM_THREADS"] = chosen
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=env)
+        line = next((line for line in done.stdout.splitlines() if line.startswith("BLAS threads")), done.stderr)
+        if "no OpenBLAS" in line:
+            pytest.skip("numpy is not linked against OpenBLAS here")
+        assert line == f"BLAS threads {expected}", (chosen, line)
+
+
 def test_a_mesh_file_is_framed_lit_and_rendered(tmp_path):
     """`view MESH`: the camera looks at the mesh's bounding box centre and the whole mesh is in the frame."""
     mesh = Path(__file__).resolve().parents[2] / "scenes" / "meshes" / "torus_knot.ply"
