@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from types import MappingProxyType
 
 import numpy as np
@@ -54,6 +55,15 @@ class Geometry:
     @property
     def triangles(self) -> int:
         return len(self.faces)
+
+    @cached_property
+    def box(self) -> tuple[np.ndarray, np.ndarray]:
+        """bounding_box(vertices), read only, computed once per Geometry: a live view's frames reuse one Geometry,
+        and the float-range check and the behind-the-camera warning ask for its box on every frame (5-7 ms
+        each on a 1.11M-triangle scan)."""
+        low, high = bounding_box(self.vertices)
+        low.flags.writeable = high.flags.writeable = False
+        return low, high
 
 
 def bounding_box(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

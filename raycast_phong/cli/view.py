@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import sys
 from pathlib import Path
 from typing import Annotated
 
@@ -34,6 +36,11 @@ def view(
     """Explore a scene live in the browser: switch shading models, drag the light, compare two settings
     (docs/view.md). Prints the page's URL with its access token; Ctrl-C stops the server."""
     check_verbosity(quiet, verbose)
+    if "numpy" not in sys.modules:  # read once, when numpy loads OpenBLAS
+        # The frames' bands run on the server's own threads. OpenBLAS would start threads of its own, at the
+        # server's priority, that spin for a while after each product: the exact reference's products (at nice 19)
+        # then kept a core busy at full priority beside the frames. One BLAS thread, unless the user chose.
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     try:
         from raycast_phong.tools import view as live
     except ImportError as error:

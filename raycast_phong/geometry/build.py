@@ -56,7 +56,7 @@ def build_geometry(scene: Scene, source: str | Location = "<scene>", vertex_norm
     whole = memo.begin(scene, where, vertex_normals, normal_dtype)
     kept = memo.geometry_for(whole)
     if kept is not None:
-        check_float_range(scene, kept.vertices, where)  # the lights it checks may be new
+        check_float_range(scene, kept, where)  # the lights it checks may be new (kept's box is kept)
         return kept
     try:
         geometry = _build(scene, where, vertex_normals, normal_dtype, memo, sources)
@@ -110,5 +110,5 @@ def _build(scene: Scene, where: Location, vertex_normals: bool, normal_dtype: ty
     geometry = dataclasses.replace(geometry, corner_uv=corner_uv, corner_colour=corner_colour,
                                    textures=tuple(bank.textures) if textured else (),
                                    scene_maps=scene_maps if textured else np.full((0, 3), -1, np.int64))
-    check_float_range(scene, geometry.vertices, where)
+    check_float_range(scene, geometry, where)
     return geometry

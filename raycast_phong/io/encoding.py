@@ -35,9 +35,13 @@ def to_8bit(image: np.ndarray, colour: str = DISPLAY, rows_per_band: int = 256) 
         raise ValueError(f"colour {colour!r}; allowed: {', '.join(COLOURS)}")
     out = np.empty(image.shape, np.uint8)
     for row in range(0, image.shape[0], rows_per_band):
-        band = np.asarray(image[row:row + rows_per_band], np.float32)
-        values = np.clip(display_values(band, colour), 0.0, 1.0)
-        # NaN would cast to an arbitrary byte; the renderer never produces one, but a caller's array might.
-        values = np.nan_to_num(values, nan=0.0)
-        out[row:row + rows_per_band] = np.round(values * 255.0)
+        values = display_values(np.asarray(image[row:row + rows_per_band], np.float32), colour)
+        # Clamped by fmax and fmin, which (unlike clip) take the number over a NaN: a NaN would cast to an
+        # arbitrary byte; the renderer never produces one, but a caller's array might. In place after the first
+        # pass: the bytes clip + nan_to_num gave, 7x faster (nan_to_num's isposinf/isneginf passes were most of
+        # a draft's encoding in the live view).
+        values = np.fmax(values, 0.0)
+        np.fmin(values, 1.0, out=values)
+        np.multiply(values, 255.0, out=values)
+        out[row:row + rows_per_band] = np.round(values, out=values)
     return out

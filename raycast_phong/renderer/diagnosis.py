@@ -84,7 +84,7 @@ def diagnose(plan: RenderPlan, scene: Scene, geometry, figures: ObjectFigures | 
     found: list[tuple[tuple, int, float]] = []  # (what the warning says, object, its measured figure)
     if plan.keeps(StageName.SPECULAR):
         found = [*gouraud_findings(scene, geometry, figures), *subpixel_findings(scene, geometry, figures)]
-    behind = behind_camera(scene, geometry.vertices)
+    behind = behind_camera(scene, geometry)
     chosen = [item for item in found if item[0][0] == "gouraud" and item[0][-1]]
     warned = [item for item in found if not (item[0][0] == "gouraud" and item[0][-1])]
     return dataclasses.replace(plan, stages=tuple(stages), notes=(*aggregate_warnings(chosen), *geometry.file_notes),

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from concurrent.futures import Executor
 from pathlib import Path
 
 import numpy as np
@@ -27,7 +28,7 @@ __all__ = ["TILE_RAYS", "FrameCache", "default_threads", "render", "render_file"
 def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None = None,
            progress: Callable[[int, int], None] | None = None, source: str | Location = "<scene>",
            max_memory: int | str | None = None, cache: FrameCache | None = None,
-           cancelled: Callable[[], bool] | None = None) -> RenderResult:
+           cancelled: Callable[[], bool] | None = None, pool: Executor | None = None) -> RenderResult:
     """Render a validated scene: prepare(scene, ...).render(). (accuracy.measured adds RMSE, max, PSNR, …
     against the analytic or a self-convergence reference.)
 
@@ -38,7 +39,8 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
         default: made here). progress: progress(done, total), called as bands finish. source: the name errors
         start with (a file name). max_memory: the memory budget in bytes or a size such as "8G" (default: 3/4 of
         the memory available). cache: a FrameCache carrying the geometry and BVH from one frame of a changing
-        scene to the next. cancelled: asked before each band; True stops the frame with RenderCancelled.
+        scene to the next. cancelled: asked before each band; True stops the frame with RenderCancelled. pool: an
+        executor the caller owns and keeps, to run the bands on (default: threads started for this frame only).
 
     Returns
     -------
@@ -51,7 +53,7 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     a mesh file it names cannot be read; ValueError for a budget of 0 or less.
     """
     return prepare(scene, source=source, threads=threads, max_memory=max_memory, plan=plan,
-                   progress=progress, cache=cache, cancelled=cancelled).render()
+                   progress=progress, cache=cache, cancelled=cancelled, pool=pool).render()
 
 
 def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64)) -> None:

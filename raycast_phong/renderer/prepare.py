@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Executor, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -62,6 +62,7 @@ class Prepared:
     timings: dict[str, float] = field(default_factory=dict)  # geometry so far; render() adds the rest
     cache: FrameCache | None = None  # the BVH comes from it (and goes into it)
     cancelled: Callable[[], bool] | None = None  # asked before each band; True: stop (RenderCancelled)
+    pool: Executor | None = None     # runs the bands (a live view's, kept across frames); None: one per frame
 
     @property
     def real(self) -> type:
@@ -90,7 +91,7 @@ class Prepared:
         aovs = tuple(self.scene.output.aovs)
         tile = TileWork(self.rays, accelerator, self.shadows, self.shading,
                         allocate_film(render.width, render.height, aovs, self.real))
-        counts = run_tiles(tile, list(self.bands), self.threads, self.progress, timings, self.cancelled)
+        counts = run_tiles(tile, list(self.bands), self.threads, self.progress, timings, self.cancelled, self.pool)
         return RenderResult(image=tile.film.rgb, aovs=film_layers(tile.film, aovs), timings=timings, plan=self.plan,
                             triangles=self.geometry.triangles, rays=render.width * render.height * render.samples ** 2,
                             counts=dict(zip(COUNTS, counts.tolist())))
@@ -99,7 +100,7 @@ class Prepared:
 def prepare(scene: Scene, *, source: str | Location = "<scene>", threads: int | None = None,
             max_memory: int | str | None = None, plan: RenderPlan | None = None,
             progress: Callable[[int, int], None] | None = None, cache: FrameCache | None = None,
-            cancelled: Callable[[], bool] | None = None) -> Prepared:
+            cancelled: Callable[[], bool] | None = None, pool: Executor | None = None) -> Prepared:
     """Plan the render, check it fits the memory budget, build the geometry and pack the kernels' inputs.
 
     Parameters
@@ -113,6 +114,9 @@ def prepare(scene: Scene, *, source: str | Location = "<scene>", threads: int | 
     cache: a FrameCache whose geometry and BVH this scene may reuse, and which keeps this scene's for the next.
     cancelled: asked before each band by render(); when it answers True, the bands not yet started are skipped
         and render() raises RenderCancelled.
+    pool: the executor render() runs the bands on, owned by the caller (a live view keeps one for all its frames:
+        a new pool waited 1-2 ms for its threads to start, on a default draft of ~6 ms); default: a pool of
+        `threads` made and shut down by each render().
     """
     plan = plan or build_plan(scene, source=source)
     if plan.keeps(StageName.SHADOW_RAYS) and len(scene.lights) > MAX_LIGHTS:
@@ -155,7 +159,8 @@ def prepare(scene: Scene, *, source: str | Location = "<scene>", threads: int | 
         rays=RayGenerator(rig, frame, width, height, samples, max_rays=tile_rays),
         shading=prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), real, kept=derived),
         shadows=prepare_shadows(scene, geometry, frame) if plan.keeps(StageName.SHADOW_RAYS) else None,
-        bands=bands, threads=threads, progress=progress, timings=timings, cache=cache, cancelled=cancelled)
+        bands=bands, threads=threads, progress=progress, timings=timings, cache=cache, cancelled=cancelled,
+        pool=pool)
 
 
 @dataclass(frozen=True, eq=False)
@@ -179,11 +184,16 @@ class TileWork:
 
 def run_tiles(tile: TileWork, bands: list[tuple[int, int]], threads: int,
               progress: Callable[[int, int], None] | None, timings: dict[str, float],
-              cancelled: Callable[[], bool] | None = None) -> np.ndarray:
-    """Run `tile` over the bands on a pool of `threads` (the kernels and Embree release the GIL); add
-    frame (wall), rays, shade and, in global mode, shadows (summed over threads) to `timings`.
-    `cancelled()` is asked as each band starts: once it is True, the bands not started are skipped, and
-    RenderCancelled (with the bands done) is raised after the running ones end."""
+              cancelled: Callable[[], bool] | None = None, pool: Executor | None = None) -> np.ndarray:
+    """Run `tile` over the bands on `pool` (default: a pool of `threads` made for this frame; the kernels and
+    Embree release the GIL); add frame (wall), rays, shade and, in global mode, shadows (summed over threads) to
+    `timings`. `cancelled()` is asked as each band starts: once it is True, the bands not started are skipped,
+    and RenderCancelled (with the bands done) is raised after the running ones end. On any exception (an
+    interrupt included) the bands not started are dropped and the running ones waited for, so no band outlives
+    the frame's film and BVH."""
+    if pool is None:
+        with ThreadPoolExecutor(max_workers=threads) as own:
+            return run_tiles(tile, bands, threads, progress, timings, cancelled, own)
     counts = np.zeros(len(COUNTS), np.int64)
     seconds = np.zeros(3)  # rays, shadows, shade
     start = time.perf_counter()
@@ -194,8 +204,10 @@ def run_tiles(tile: TileWork, bands: list[tuple[int, int]], threads: int,
         return None if cancelled is not None and cancelled() else tile(band)
 
     done = 0
-    with ThreadPoolExecutor(max_workers=threads) as pool:
-        for result in pool.map(band_unless_cancelled, bands):
+    futures = [pool.submit(band_unless_cancelled, band) for band in bands]
+    try:
+        for future in futures:
+            result = future.result()
             if result is None:
                 continue
             ray_s, shadow_s, shade_s, tile_counts = result
@@ -204,6 +216,11 @@ def run_tiles(tile: TileWork, bands: list[tuple[int, int]], threads: int,
             counts += tile_counts
             if progress:
                 progress(done, len(bands))
+    except BaseException:
+        for future in futures:
+            future.cancel()
+        wait(futures)
+        raise
     if done < len(bands):
         raise RenderCancelled(done, len(bands))
     timings["frame"] = time.perf_counter() - start

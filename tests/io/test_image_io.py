@@ -114,3 +114,18 @@ def test_write_image_says_what_shape_it_wants(tmp_path, image, got):
         rp.write_image(tmp_path / "g.png", image)
     assert str(raised.value).startswith("write_image: the image must be an (H, W, 3) array of real RGB values")
     assert got in str(raised.value) and not (tmp_path / "g.png").exists()
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("colour", ["display", "linear"])
+def test_eight_bit_values_are_clamped_rounded_and_nan_is_zero(dtype, colour):
+    """to_8bit (the live view's every frame) gives the bytes of the plain formula written here: clamp to [0, 1], a
+    NaN 0, ±inf clamped, the sRGB curve for "linear", × 255 rounded to nearest even, in float32; ties included."""
+    rng = np.random.default_rng(7)
+    image = rng.normal(0.5, 0.6, (300, 257, 3)).astype(dtype)
+    flat = image.reshape(-1)
+    flat[::5] = (np.arange(flat.size)[::5] % 256 + 0.5) / 255  # halfway between two bytes
+    flat[::97], flat[::101], flat[::103], flat[::107] = np.nan, np.inf, -np.inf, -0.0
+    values = image.astype(np.float32)
+    values = np.nan_to_num(np.clip(srgb_encode(values) if colour == "linear" else values, 0.0, 1.0), nan=0.0)
+    np.testing.assert_array_equal(to_8bit(image, colour, rows_per_band=64), np.round(values * 255.0).astype(np.uint8))

@@ -188,3 +188,47 @@ def test_a_refused_scene_leaves_the_memo_as_the_last_good_build_left_it():
             build(scene_of(changed(far, ("objects", 0, "radius"), POSITION_LIMIT)), memo)
         assert (len(memo._templates), len(memo._parts)) == held
     assert build(scene_of(BASE), memo) is good
+
+
+def test_a_light_or_camera_change_measures_the_geometrys_box_once(monkeypatch):
+    """The float-range check and the behind-the-camera warning ask for the geometry's bounding box on every frame:
+    it is measured once per Geometry (Geometry.box), so a page's frames that move a light or the camera reduce no
+    vertices (each such pass took 5-7 ms a frame on a 1.11M-triangle scan, and the camera's product with the
+    vertices woke numpy's threaded BLAS, which then spun a core beside the frame's bands)."""
+    from raycast_phong import records
+    from raycast_phong.geometry import checks
+    measured = []
+    original = records.bounding_box
+    counting = lambda vertices: measured.append(len(vertices)) or original(vertices)
+    monkeypatch.setattr(records, "bounding_box", counting)
+    monkeypatch.setattr(checks, "bounding_box", counting, raising=False)
+    cache, table = FrameCache(), BASE
+    rp.render(scene_of(table), cache=cache)
+    first = len(measured)
+    for path, value in [(("lights", 0, "position"), [1, 1, 5]), (("camera", "position"), [1, 2, 8]),
+                        (("lights", 0, "position"), [-2, 3, 5])]:
+        table = changed(table, path, value)
+        rp.render(scene_of(table), cache=cache)
+    assert first >= 1 and len(measured) == first, measured
+
+
+def test_the_behind_the_camera_warning_from_the_box_is_the_vertices_own():
+    """Whether every vertex is behind the camera's plane, answered from the box where the plane misses it and
+    from the vertices where it cuts it (a box whose corner is in front while every vertex is behind)."""
+    from raycast_phong.geometry.checks import behind_camera
+    from raycast_phong.records import Geometry
+    vertices = np.array([[0.0, 0.0, 0.0], [2.0, 2.0, 0.0]])
+    empty = np.zeros((0, 3))
+    geometry = Geometry(vertices, np.zeros((0, 3), np.int32), empty, np.zeros((0, 3, 3)), np.zeros(0, np.int32),
+                        np.zeros(0, np.int8), np.zeros(0, np.int32))
+    for eye, look_at in [((1.5, 0.5, 0.0), (2.5, -0.5, 0.0)),   # the plane cuts the box, both vertices behind
+                         ((1.5, 0.5, 0.0), (0.5, 1.5, 0.0)),    # the plane cuts it, both in front
+                         ((-5.0, 1.0, 0.0), (0.0, 1.0, 0.0)),   # the box in front
+                         ((5.0, 1.0, 0.0), (9.0, 1.0, 0.0)),    # the box behind
+                         ((2.0, 1.0, 0.0), (3.0, 1.0, 0.0)),    # the plane through the far vertex: on it, behind
+                         ((1.0, 1.0, 5.0), (1.0, 1.0, 4.0))]:   # the plane holds the whole (flat) box
+        scene = rp.validate_scene({"camera": {"position": list(eye), "look_at": list(look_at)},
+                                   "objects": [{"shape": "icosphere"}]})
+        forward = np.subtract(look_at, eye)
+        exact = not (vertices @ forward).max() > np.asarray(eye) @ forward
+        assert (behind_camera(scene, geometry) is not None) == exact, (eye, look_at)

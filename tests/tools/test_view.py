@@ -474,6 +474,31 @@ def test_exact_errors_follow_a_full_frame_of_an_analytic_scene(scene_path):
     assert errors["rmse"] == pytest.approx(measured.rmse) and errors["max_error"] == pytest.approx(measured.max_error)
 
 
+def test_the_exact_reference_waits_until_the_page_rests(scene_path):
+    """A drag keeps one draft in flight and none waiting: the exact errors of the full frame before it are not
+    computed while the drag goes on (they used to start REFERENCE_REST after it, mid-drag, on the server's CPU),
+    and follow once the page rests."""
+    from raycast_phong.tools.view.session import REFERENCE_REST
+    seen = []
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "full", "reference": True}))
+        receive_frame(ws)
+        request_id, end = 1, time.monotonic() + 4 * REFERENCE_REST
+        while time.monotonic() < end:  # the drag: the next draft goes when the last is answered
+            request_id += 1
+            ws.send_text(json.dumps({"type": "render", "id": request_id, "quality": "draft",
+                                     "settings": {"lights.0.position": [request_id / 100, 2, 3]}}))
+            message = ws.receive()
+            while message.get("bytes") is None:
+                seen.append(json.loads(message["text"])["type"])
+                message = ws.receive()
+            time.sleep(0.02)
+        assert "errors" not in seen and request_id > 5, seen
+        errors = json.loads(ws.receive_text())  # the page rests
+    assert errors["type"] == "errors" and errors["id"] == 1
+
+
 def test_a_slow_page_does_not_hold_another_pages_frames(scene_path):
     """Each page renders on its own thread: while one page's frame is held, another page gets its frames."""
     started, release, finished = threading.Event(), threading.Event(), threading.Event()
@@ -697,6 +722,47 @@ def test_benchmark_script_runs_in_a_reduced_form():
     assert done.returncode == 0, done.stderr
     assert "at 64×36 (draft 32×18)" in done.stdout and "step, draft: change→image" in done.stdout
     assert "10 moves at 20 Hz" in done.stdout
+
+
+@pytest.mark.slow
+def test_the_servers_cpu_benchmark_runs_in_a_reduced_form():
+    """bench_view_cpu.py (the server's CPU a frame, from /proc) is not a timed test; this keeps it working."""
+    if not Path("/proc/self/stat").exists():
+        pytest.skip("reads /proc")
+    root = Path(__file__).resolve().parents[2]
+    done = subprocess.run([sys.executable, str(root / "benchmarks" / "bench_view_cpu.py"), "--size", "64x36",
+                           "--frames", "3"], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "light moved, draft" in done.stdout and "orbit, draft" in done.stdout and "ms a frame" in done.stdout
+
+
+def test_the_view_command_gives_numpys_blas_one_thread(scene_path):
+    """The frames run on the server's band threads; OpenBLAS's own threads spun after each product at the server's
+    priority (the exact reference's, which itself runs at nice 19). `view` starts numpy with one BLAS thread unless
+    OPENBLAS_NUM_THREADS says otherwise; asked of the OpenBLAS numpy loaded, when the server would start serving."""
+    code = f"""
+import ctypes, os, sys
+import uvicorn
+def run(self, sockets=None):
+    import numpy
+    path = next((line.split()[-1] for line in open('/proc/self/maps') if 'openblas' in line.lower()), None)
+    asked = [getattr(ctypes.CDLL(path), name, None) for name in
+             ('scipy_openblas_get_num_threads64_', 'openblas_get_num_threads64_', 'openblas_get_num_threads')]
+    print('BLAS threads', next(f() for f in asked if f is not None) if path else 'no OpenBLAS')
+uvicorn.Server.run = run
+from raycast_phong.cli import app
+sys.argv = ['raycast-phong', 'view', {str(scene_path)!r}, '--port', '0', '--no-browser', '-q']
+app()
+"""
+    for chosen, expected in ((None, "1"), *((("2", "2"),) if (os.cpu_count() or 1) >= 2 else ())):
+        env = {key: value for key, value in os.environ.items() if key != "OPENBLAS_NUM_THREADS"}
+        if chosen:
+            env["OPENBLAS_NUM_THREADS"] = chosen
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=env)
+        line = next((line for line in done.stdout.splitlines() if line.startswith("BLAS threads")), done.stderr)
+        if "no OpenBLAS" in line:
+            pytest.skip("numpy is not linked against OpenBLAS here")
+        assert line == f"BLAS threads {expected}", (chosen, line)
 
 
 def test_a_mesh_file_is_framed_lit_and_rendered(tmp_path):
@@ -950,6 +1016,48 @@ def test_every_page_renders_on_the_servers_few_threads(scene_path):
             receive_frame(ws)
     assert 1 <= len(threads) <= session.FRAME_THREADS == 2  # the pages stay open: no thread id is reused
     assert all(name.startswith("view-render") for _, name in threads)
+
+
+def test_the_bands_of_every_frame_run_on_the_servers_band_threads_which_stop_with_it(scene_path, monkeypatch):
+    """A frame's bands run on threads the server keeps for all its frames (a pool started for each frame waited 1-2 ms
+    for its threads), at most the renderer's default number, shared by its pages; they end with the server.
+    Frames stay the PNGs render() gives."""
+    from websockets.sync.client import connect as socket_to
+
+    from raycast_phong.renderer import prepare
+    from raycast_phong.tools.view import running
+    seen = []
+    band = prepare.TileWork.__call__
+
+    def noted(tile, rows):
+        if tile.film.rgb.shape[1] == 320:  # the pages' drafts (not the server's own warm-up frame)
+            seen.append(threading.current_thread())
+        return band(tile, rows)
+    monkeypatch.setattr(prepare.TileWork, "__call__", noted)
+    settings = {"render.width": 640, "render.height": 480}
+    with running(scene_path) as url:
+        origin = url.split("/?", 1)[0]
+        address = origin.replace("http://", "ws://") + "/socket?token=" + url.split("token=", 1)[1]
+        with socket_to(address, origin=origin, max_size=None) as one, socket_to(address, origin=origin,
+                                                                                max_size=None) as two:
+            for ws in (one, two):
+                json.loads(ws.recv())
+            for request_id in range(1, 4):
+                for ws in (one, two):
+                    ws.send(json.dumps({"type": "render", "id": request_id, "quality": "draft",
+                                        "settings": {**settings, "lights.0.position": [request_id, 2, 3]}}))
+                    message = ws.recv()
+                    while not isinstance(message, bytes):
+                        message = ws.recv()
+                    png = unpack(message)[1]["a"]
+        threads = set(seen)
+    assert len(seen) >= 6 * 2 and all(thread.name.startswith("view-bands") for thread in threads), threads
+    assert len({thread.ident for thread in threads}) <= prepare.default_threads()
+    for thread in threads:
+        thread.join(10)
+    assert not any(thread.is_alive() for thread in threads)
+    scene = draft_of(scene_with(open_source(scene_path), {**settings, "lights.0.position": [3, 2, 3]}))
+    np.testing.assert_array_equal(decode_png(png, scene_path.parent), rendered_png(scene))
 
 
 def test_the_page_is_served_before_the_renderer_is_loaded(scene_path, monkeypatch):

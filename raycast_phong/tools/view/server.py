@@ -26,7 +26,7 @@ import re
 import struct
 import time
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Executor, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -315,12 +315,13 @@ class Renderer:
 
     def frame(self, request: dict, progress: Callable[[float], None] | None = None, shown: dict | None = None,
               cache: FrameCache | None = None, cancelled: Callable[[], bool] | None = None,
-              step: str | None = None) -> bytes:
+              step: str | None = None, pool: Executor | None = None) -> bytes:
         """Render settings A (and B, to compare) at the requested quality (or at `step`, one of steps()); the
         PNGs, the heat map, the figures. `progress(share)` is told the share of the tiles done, 0..1 over A and
         B together; `shown` (the page's own table) keeps (request id, RenderResult) of its last full frame A for
         errors(); `cache` is the page's FrameCache (geometry and BVH kept between its frames); `cancelled()`
-        answering True stops the frame between bands (RenderCancelled)."""
+        answering True stops the frame between bands (RenderCancelled); `pool` runs the bands (the server's band
+        threads, kept across frames)."""
         started = time.perf_counter()
         scenes = self.scenes(request)
         quality = step or request.get("quality", "full")
@@ -337,7 +338,7 @@ class Renderer:
             if progress is not None:
                 told = lambda done, total, k=k: progress((k + done / max(total, 1)) / len(scenes))
             result = self.render(shaped(scene), source=self.source.name, progress=told, cache=cache,
-                                 cancelled=cancelled)
+                                 cancelled=cancelled, pool=pool)
             if name == "a" and quality == "full" and not request.get("models") and shown is not None:
                 shown["a"] = (request.get("id"), result)  # errors() measures this image, not a new one
             images[name] = display_values(result.image, result.colour)  # A and B compared as shown
@@ -382,9 +383,9 @@ class Renderer:
                 "psnr": finite(e.psnr), "highlight_loss": finite(e.highlight_loss),
                 "seconds": result.reference_seconds}
 
-    def save(self, request: dict, cache: FrameCache | None = None) -> bytes:
+    def save(self, request: dict, cache: FrameCache | None = None, pool: Executor | None = None) -> bytes:
         """The current settings as a scene file (toml), or the full-resolution image (png, exr with layers);
-        `cache`: the page's FrameCache, whose geometry and BVH the image may reuse."""
+        `cache`: the page's FrameCache, whose geometry and BVH the image may reuse; `pool`: the band threads."""
         what = request.get("what")
         scene = scene_with(self.source, settings_of(request))
         side = request.get("side", "a")
@@ -394,7 +395,8 @@ class Renderer:
         if what == "toml":
             data = scene_toml(scene).encode("utf-8")
         elif what in ("png", "exr"):
-            result = self.render(scene if what == "exr" else frame_of(scene), source=self.source.name, cache=cache)
+            result = self.render(scene if what == "exr" else frame_of(scene), source=self.source.name, cache=cache,
+                                 pool=pool)
             data = encode(result.image, f".{what}", result.aovs if what == "exr" else None, result.colour)
         else:
             raise ViewError(f"save: {what!r}; allowed: 'toml', 'png' or 'exr'")

@@ -33,6 +33,8 @@ if TYPE_CHECKING:
     from raycast_phong.renderer.reuse import FrameCache
 
 FRAME_THREADS = 2       # frames rendered at once by one server, over all its pages (each frame uses every core)
+# The frames' bands run on the server's band threads (io.system.default_threads(): the cores, at most 8), kept
+# for its life and shared by its frames: a pool started for every frame waited 1-2 ms for its threads to start.
 REFERENCE_THREADS = 1   # exact references at once (at nice 19: they use what the frames leave)
 REFERENCE_REST = 0.3    # seconds without a newer request before the exact errors of a full frame are computed
 WATCH_EVERY = 0.5       # seconds between looks at the scene file: an edit shows within a second, the disk idle
@@ -58,6 +60,11 @@ def frame_cache() -> FrameCache:
 
 def frame_threads() -> ThreadPoolExecutor:
     return ThreadPoolExecutor(FRAME_THREADS, "view-render")
+
+
+def band_threads() -> ThreadPoolExecutor:
+    from raycast_phong.io.system import default_threads
+    return ThreadPoolExecutor(default_threads(), "view-bands")
 
 
 def reference_threads() -> ThreadPoolExecutor:
@@ -90,9 +97,11 @@ class Client:
     saves: deque = field(default_factory=lambda: deque(maxlen=SAVES_WAITING))  # the newest saves asked for
     wake: asyncio.Event = field(default_factory=asyncio.Event)
     dropped: int = 0
+    asked_at: float = 0.0                     # time.monotonic() of the page's newest render request
     reference_next: dict | None = None        # the newest full frame whose exact errors are still owed
     reference_task: asyncio.Task | None = None
     executor: ThreadPoolExecutor = field(default_factory=frame_threads)
+    bands: ThreadPoolExecutor = field(default_factory=band_threads)  # the bands of its frames (the server's)
     references: ThreadPoolExecutor = field(default_factory=reference_threads)
     shown: dict = field(default_factory=dict)
 
@@ -105,7 +114,7 @@ class View:
         self.source, self.renderer, self.access = source, renderer, access
         self.origins, self.any_host = origins, any_host
         self.hello, self.loaded = hello, loaded
-        self.frames, self.references = frame_threads(), reference_threads()
+        self.frames, self.bands, self.references = frame_threads(), band_threads(), reference_threads()
         self.pages: set[WebSocket] = set()   # the open pages, told when the scene file changes
         self.watcher = Watcher(self, open_source)
         self.warming: Future | None = None    # the kernels' warm-up: a page's first frame waits for it
@@ -163,7 +172,10 @@ class View:
         await Session(self, websocket).run()
 
     def shutdown(self) -> None:
+        """Stop the render, band and reference threads: waiting jobs are dropped, idle threads end at once; a
+        frame still running ends at its band (its bands not started are cancelled)."""
         self.frames.shutdown(wait=False, cancel_futures=True)
+        self.bands.shutdown(wait=False, cancel_futures=True)
         self.references.shutdown(wait=False, cancel_futures=True)
 
 
@@ -172,7 +184,7 @@ class Session:
 
     def __init__(self, view: View, websocket: WebSocket):
         self.view, self.websocket = view, websocket
-        self.client = Client(executor=view.frames, references=view.references)
+        self.client = Client(executor=view.frames, bands=view.bands, references=view.references)
 
     async def send(self, message: dict) -> None:
         await self.websocket.send_text(json.dumps(message))
@@ -216,6 +228,7 @@ class Session:
         full-size frame is not (issue 35: every release is answered by a full frame, even when the next stroke
         starts at once; a draft waits for it, ~one frame's time)."""
         client = self.client
+        client.asked_at = time.monotonic()
         full = request.get("quality", "full") != "draft"
         stale = [client.pending, client.committed] if full else [client.pending]
         for old in stale:
@@ -253,7 +266,7 @@ class Session:
                 client.wake.set()  # a draft waits behind the committed frame: this loop comes back for it
             while client.saves:
                 save = client.saves.popleft()
-                saved = await self.answer(save, client.executor, renderer.save, save, client.cache)
+                saved = await self.answer(save, client.executor, renderer.save, save, client.cache, client.bands)
                 if saved is not None:
                     await self.websocket.send_bytes(saved)
             if request is None:
@@ -273,7 +286,7 @@ class Session:
                 client.cancellable = step != steps[0]
                 told = progress_to(self.websocket, loop, request.get("id"))
                 reply = await self.answer(request, client.executor, renderer.frame, request, told, client.shown,
-                                          client.cache, client.cancel.is_set, step)
+                                          client.cache, client.cancel.is_set, step, client.bands)
                 client.running, client.cancellable = None, False
                 if reply is None:
                     break
@@ -305,9 +318,13 @@ class Session:
         client, loop = self.client, asyncio.get_running_loop()
         while client.reference_next is not None:
             # Start only once the page has rested a moment: a drag that goes on makes it stale before it starts.
-            await asyncio.sleep(REFERENCE_REST)
-            if client.pending is not None or client.committed is not None:
-                continue  # a newer frame is on its way, and brings its own reference request
+            # Rested: no request for REFERENCE_REST seconds and no frame running. (Nothing waiting was not enough:
+            # a drag keeps one draft in flight and none waiting, so references ran mid-drag, ~30 % of the server's
+            # CPU in an unpaced drag, numpy's BLAS threads spinning beside the frames at normal priority.)
+            await asyncio.sleep(max(0.05, client.asked_at + REFERENCE_REST - time.monotonic()))
+            if (client.pending is not None or client.committed is not None or client.running is not None
+                    or time.monotonic() - client.asked_at < REFERENCE_REST):
+                continue  # a newer frame is on its way (a full one brings its own reference request)
             request, client.reference_next = client.reference_next, None
             try:
                 errors = await loop.run_in_executor(client.references, self.view.renderer.errors, request,

@@ -235,16 +235,20 @@ function settled(id) {
 
 // ------------------------------------------------------------------ frames
 
-function show(img, bytes) {
+// A panel's newest full-frame PNG, kept as an object URL (`state.urls`, by the panel's <img> id) for capture. It is
+// not the <img>'s src: that image (transparent, under the canvas) only takes the pointer and gives the panel its
+// box (--aspect), and as its src Chromium decoded every full frame a second time beside createImageBitmap
+// (issue 35: arrival → canvas 13–22 ms → 6–10 ms for a 1.11M-triangle scan's release).
+function keep(id, bytes) {
   const url = URL.createObjectURL(new Blob([bytes], { type: "image/png" }));
-  if (state.urls[img.id]) URL.revokeObjectURL(state.urls[img.id]);
-  state.urls[img.id] = url;
-  img.src = url;
+  if (state.urls[id]) URL.revokeObjectURL(state.urls[id]);
+  state.urls[id] = url;
+  return url;
 }
+function show(img, bytes) { img.src = keep(img.id, bytes); }  // the heat map: an <img> on screen
 
 // What is on screen is each panel's canvas: a draft's raw pixels go into it at once; a full frame's (or a
-// preview's) PNG is decoded off the main thread (createImageBitmap) and drawn into it. The <img> under it (transparent:
-// it gives the panel its box and takes the pointer) holds the newest full frame's PNG, which capture saves.
+// preview's) PNG is decoded off the main thread (createImageBitmap) and drawn into it, and kept for capture (keep).
 // A full frame is painted before any later frame replaces it: frames that arrive while it decodes wait (`held`)
 // until the display frame that shows it has been drawn (a task after its animation frame callbacks: the browser
 // draws that frame between the two), and a draft among them is skipped when a newer frame waits behind it.
@@ -294,7 +298,7 @@ function onFrame(header, parts, arrived = performance.now()) {
   const panelsSent = ["a", "b", "c"].filter((name) => parts[name]);
   for (const name of panelsSent) {
     const img = $(`#image-${name}`);
-    if (!raw) show(img, parts[name]);
+    if (!raw) keep(img.id, parts[name]);
     img.dataset.id = header.id;
     img.dataset.quality = header.quality;
   }
