@@ -186,7 +186,7 @@ class BuildAhead:
     def __init__(self):
         self.frame: Frame | None = None  # unit_frame of the vertices, once started
         self._thread: threading.Thread | None = None
-        self._built: Accelerator | BaseException | None = None
+        self._built: Accelerator | Exception | None = None
 
     @property
     def started(self) -> bool:
@@ -202,14 +202,14 @@ class BuildAhead:
     def _build(self, vertices: np.ndarray, faces: np.ndarray, frame: Frame) -> None:
         try:
             self._built = Accelerator.of_mesh(vertices, faces, frame)
-        except BaseException as error:  # raised again by take(), on the thread that renders
+        except Exception as error:  # noqa: BLE001 — raised again by take(), on the thread that renders
             self._built = error
 
     def take(self) -> Accelerator | None:
         """The BVH, once built (waits); given once (None after: the caller keeps it only as long as it renders)."""
         self._thread.join()
         built, self._built = self._built, None
-        if isinstance(built, BaseException):
+        if isinstance(built, Exception):
             raise built
         return built
 
