@@ -43,7 +43,9 @@ def behind_camera(scene: Scene, vertices: np.ndarray) -> str | None:
     no ray can hit anything, so the image is only background."""
     eye = np.asarray(scene.camera.position)
     forward = np.asarray(scene.camera.look_at) - eye
-    if (vertices @ forward).max() > eye @ forward:  # (v - eye)·forward > 0, without a (V, 3) temporary
+    # (v - eye)·forward > 0, without a (V, 3) temporary. einsum, not `vertices @ forward`: that is OpenBLAS's threaded
+    # gemv, whose worker then spins for tens of ms and takes a core from the frame's tiles that start right after.
+    if np.einsum("ij,j->i", vertices, forward).max() > eye @ forward:
         return None
     return (f"every object is behind the camera (camera.position {list(scene.camera.position)} looks toward "
             f"look_at {list(scene.camera.look_at)}); the image will be only background")
