@@ -11,6 +11,7 @@ keeps a live view's pieces between builds.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from functools import partial
 
 import numpy as np
@@ -32,7 +33,8 @@ from .textures import TextureBank
 
 def build_geometry(scene: Scene, source: str | Location = "<scene>", vertex_normals: bool = True,
                    normal_dtype: type = np.float64, sources: dict | None = None,
-                   memo: BuildMemo | None = None) -> Geometry:
+                   memo: BuildMemo | None = None,
+                   positions: Callable[[np.ndarray, np.ndarray], None] | None = None) -> Geometry:
     """Concatenate the scene's objects in world space, in the scene's order.
 
     Built-in objects that share a shape and its parameters (and normal rule) form one group: their mesh is
@@ -46,13 +48,16 @@ def build_geometry(scene: Scene, source: str | Location = "<scene>", vertex_norm
     not given).
     `memo` (a live view's frames of one changing scene) keeps what the last build made and gives back what this
     scene shares with it (BuildMemo); the Geometry is the one a build without it gives, array for array.
+    `positions(vertices, faces)` (without a memo) is told the Geometry's own vertices (V, 3) float64 and faces
+    (F, 3) int32 once they are final: for a scene of one object (a mesh file) before its normals are made, else
+    once every object is placed. prepare() starts the BVH then, while the normals are made.
     """
     where = located(source)
     if sources is None and any(obj.shape == "mesh" for obj in scene.objects):
         from ..io.mesh_source import mesh_sources
         sources = mesh_sources(scene)
     if memo is None:
-        return _build(scene, where, vertex_normals, normal_dtype, None, sources)
+        return _build(scene, where, vertex_normals, normal_dtype, None, sources, positions)
     whole = memo.begin(scene, where, vertex_normals, normal_dtype)
     kept = memo.geometry_for(whole)
     if kept is not None:
@@ -68,7 +73,7 @@ def build_geometry(scene: Scene, source: str | Location = "<scene>", vertex_norm
 
 
 def _build(scene: Scene, where: Location, vertex_normals: bool, normal_dtype: type, memo: BuildMemo | None,
-           sources: dict | None) -> Geometry:
+           sources: dict | None, positions: Callable[[np.ndarray, np.ndarray], None] | None = None) -> Geometry:
     """build_geometry's work, each group's template and part from `memo` when it has them."""
     material_index = {name: i + 1 for i, name in enumerate(scene.materials)}  # 0 is the built-in default
     groups = object_groups(scene)
@@ -96,12 +101,15 @@ def _build(scene: Scene, where: Location, vertex_normals: bool, normal_dtype: ty
         for at in range(0, len(members), step):
             chunk = members[at:at + step]
             if memo is None:
-                part = place_group(scene, chunk, template, exact, vertex_normals, normal_dtype, where)
+                part = place_group(scene, chunk, template, exact, vertex_normals, normal_dtype, where,
+                                   mesh.placed_whole(positions) if mesh.single and positions else None)
             else:
                 part = memo.part(scene, chunk, template, vertex_normals, normal_dtype,
                                  partial(place_group, scene, chunk, template, exact, normal_dtype=normal_dtype,
                                          where=where))
             mesh.write(part, rows)
+    if positions is not None and not mesh.single:
+        positions(mesh.vertices, mesh.faces)
     scene_maps = bank.scene_maps([o.material for o in object_kinds(scene).firsts(scene.objects)])
     textured = bank.textures and (len(scene_maps) or file_rows.mapped)
     corner_uv = corner_uvs(scene, built, mesh) if textured else np.zeros((0, 3, 2), np.float32)

@@ -56,7 +56,10 @@ def behind_camera(scene: Scene, geometry: Geometry) -> str | None:
     margin = 1e-9 * (abs(plane) + float(np.maximum(abs(low), abs(high)) @ abs(forward)))
     if nearest > plane + margin:  # the whole box in front
         return None
-    if farthest >= plane - margin and (geometry.vertices @ forward).max() > plane:  # the plane cuts the box:
-        return None  # (v - eye)·forward > 0 for some vertex, without a (V, 3) temporary
+    # The plane cuts the box: (v - eye)·forward > 0 for some vertex, without a (V, 3) temporary. einsum, not
+    # `vertices @ forward`: that is OpenBLAS's threaded gemv, whose worker then spins for tens of ms and takes a core
+    # from the frame's tiles that start right after.
+    if farthest >= plane - margin and np.einsum("ij,j->i", geometry.vertices, forward).max() > plane:
+        return None
     return (f"every object is behind the camera (camera.position {list(scene.camera.position)} looks toward "
             f"look_at {list(scene.camera.look_at)}); the image will be only background")

@@ -284,6 +284,25 @@ def renumber(faces, new_of_old, out):
 
 
 @kernel()
+def first_use_numbers(faces, new_of_old, first, out):
+    """Vertices numbered in the order the faces first use them (corner order 3f + k): out (F, 3) := the new number
+    of each corner's vertex; new_of_old (V,) the caller's, -1 everywhere, gets each used vertex's new number, and
+    first[:K] each new number's old vertex. Returns K, the vertices used."""
+    count = 0
+    for f in range(faces.shape[0]):
+        for k in range(3):
+            old = faces[f, k]
+            new = new_of_old[old]
+            if new < 0:
+                new = count
+                new_of_old[old] = new
+                first[new] = old
+                count += 1
+            out[f, k] = new
+    return count
+
+
+@kernel()
 def gather_corners_creased(vertex_normal, vague, faces, unit, least, corners, apart):
     """gather_corners, and in the same pass the crease test of normals._creased_vertices' rule: apart (V,) bool
     (the caller's, False) is set at each vertex with a corner whose face normal n_f has a cosine with the vertex

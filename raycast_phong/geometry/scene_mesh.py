@@ -36,6 +36,7 @@ class SceneMesh:
             mesh.corners = np.empty((faces if vertex_normals else 0, 3, 3), normal_dtype)
         else:
             mesh.corners = np.zeros((0, 3, 3), normal_dtype)
+            mesh.faces = None  # the part's, in int32 (write, or placed_whole before its normals)
         mesh.face_object = np.repeat(np.arange(objects, dtype=np.int32), mesh.face_count)
         kinds = object_kinds(scene)  # material and shading are decided per kind of object
         firsts = kinds.firsts(scene.objects)
@@ -45,6 +46,14 @@ class SceneMesh:
         mesh.face_model = object_model[mesh.face_object]
         return mesh
 
+    def placed_whole(self, positions):
+        """For placing.place_group of the one object (`single`): a callback that takes its placed vertices and faces
+        as the mesh's own (the faces in int32, made once) and tells `positions(vertices, faces)` of them."""
+        def placed(vertices: np.ndarray, faces: np.ndarray) -> None:
+            self.vertices, self.faces = vertices, faces.astype(np.int32)
+            positions(self.vertices, self.faces)
+        return placed
+
     def write(self, part: Part, rows: np.ndarray | None) -> None:
         """Copy a part's objects into their places; `rows`: a mesh file's own material rows for its faces."""
         members = part.members
@@ -53,7 +62,8 @@ class SceneMesh:
             self.face_material[start:start + len(rows)] = rows
         if self.single:
             self.vertices, self.unit = part.vertices[0], part.unit[0]
-            self.faces = part.faces[0].astype(np.int32)
+            if self.faces is None:  # else placed_whole's (the same numbers)
+                self.faces = part.faces[0].astype(np.int32)
             if part.corners is not None:
                 self.corners = part.corners[0]
             return

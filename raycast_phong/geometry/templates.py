@@ -15,13 +15,17 @@ from ..errors import SceneError
 from ..scene.messages import Location
 from ..scene.schema import Object, Scene
 from . import shapes
-from .mesh_repair import merge_duplicate_vertices, repair_winding
-from .normals import _normalise_or, face_normals
+from .mesh_repair import merge_duplicate_vertices, number_by_first_use, repair_winding
+from .normals import PARALLEL_FACES, _normalise_or, face_normals
 
 if TYPE_CHECKING:  # mesh_file imports trimesh: only a scene with a mesh file loads it
     from ..io.mesh_file import MeshFile
 
 OBJECT_CHUNK_VERTICES = 1 << 20  # placed vertices per step of a group: ~25 MB of float64 temporaries
+# A mesh file of this many faces or more whose merge kept every point as it is (an indexed PLY, OBJ or glTF) has its
+# vertices numbered in the order its faces first use them (mesh_repair.number_by_first_use): the passes after
+# then read neighbouring vertices together. Smaller meshes keep the file's order (their passes fit in the cache).
+FIRST_USE_FACES = PARALLEL_FACES
 
 
 class ObjectMesh(NamedTuple):
@@ -100,6 +104,8 @@ def _load_mesh(scene: Scene, obj: Object, where: Location, mesh=None):
     # Otherwise merge what the file repeats (the faces and their order stay, so the per-face materials line up).
     # The scene named a rule, so the file's normals neither shade nor keep its points apart.
     vertices, faces = merge_duplicate_vertices(read.vertices, read.faces)
+    if len(vertices) == len(read.vertices) and len(faces) >= FIRST_USE_FACES:  # nothing merged or dropped
+        vertices, faces = number_by_first_use(vertices, faces)
     # The merged arrays replace the file's: an STL's raw (3F, 3) points need not live through the normals.
     crease = file_crease_angle(obj, read.stores_normals)
     read = dataclasses.replace(read, vertices=read.vertices[:0].copy(), faces=read.faces[:0].copy())  # no views: freed

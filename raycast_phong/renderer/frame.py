@@ -53,7 +53,7 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     a mesh file it names cannot be read; ValueError for a budget of 0 or less.
     """
     return prepare(scene, source=source, threads=threads, max_memory=max_memory, plan=plan,
-                   progress=progress, cache=cache, cancelled=cancelled, pool=pool).render()
+                   progress=progress, cache=cache, cancelled=cancelled, pool=pool, build_ahead=True).render()
 
 
 def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64)) -> None:

@@ -51,12 +51,21 @@ class Accelerator:
     """
 
     def __init__(self, geometry: Geometry, frame: Frame | None = None):
+        self._commit(geometry.vertices, geometry.faces, frame)
+
+    @classmethod
+    def of_mesh(cls, vertices: np.ndarray, faces: np.ndarray, frame: Frame | None = None) -> Accelerator:
+        """The BVH of a Geometry's vertices (V, 3) and faces (F, 3) given apart (before its normals exist)."""
+        accelerator = cls.__new__(cls)
+        accelerator._commit(vertices, faces, frame)
+        return accelerator
+
+    def _commit(self, vertices: np.ndarray, faces: np.ndarray, frame: Frame | None) -> None:
         global _started
         _started = True
-        self.frame = frame or unit_frame(geometry.vertices)
+        self.frame = frame or unit_frame(vertices)
         # Robust mode (as embreex's robust=True): watertight edges, no cracks between faces.
-        self.embree_scene = embree_library.EmbreeScene(embree_library.library(), self.frame.to_unit(geometry.vertices),
-                                               geometry.faces)
+        self.embree_scene = embree_library.EmbreeScene(embree_library.library(), self.frame.to_unit(vertices), faces)
 
     def closest_hits(self, origins: np.ndarray, directions: np.ndarray, row_rays: int = 4) -> TileHits:
         """Closest hit along each ray; origins and unit directions (N, 3) float32 in the unit frame.
