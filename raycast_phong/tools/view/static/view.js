@@ -292,8 +292,9 @@ function onFrame(header, parts, arrived = performance.now()) {
   // The images fill the room there is (the stylesheet), as tall as the window allows; a draft (half size) is
   // shown at the full frame's size; side by side, each gets its share.
   const panels = { side: 2, models: 3 }[state.compare] || 1;
-  $("#stage").style.setProperty("--aspect", valueOf("render.width") / valueOf("render.height"));
-  $("#stage").style.setProperty("--panels", panels);
+  const stage = $("#stage").style, aspect = String(valueOf("render.width") / valueOf("render.height"));
+  if (stage.getPropertyValue("--aspect") !== aspect) stage.setProperty("--aspect", aspect);  // restyles the stage
+  if (stage.getPropertyValue("--panels") !== String(panels)) stage.setProperty("--panels", panels);
   const raw = header.pixels === "rgba";
   const panelsSent = ["a", "b", "c"].filter((name) => parts[name]);
   for (const name of panelsSent) {
@@ -317,7 +318,10 @@ function onFrame(header, parts, arrived = performance.now()) {
       if (!raw) setTimeout(painted, 0);
       if (input === undefined) return;
       const now = performance.now(), ms = now - input;
-      $("#latency").textContent = `${ms.toFixed(0)} ms`;
+      if (header.quality !== "draft" || now - latencyAt >= READOUT_MS) {  // as the frame's figures (readouts)
+        latencyAt = now;
+        setText("#latency", `${ms.toFixed(0)} ms`);
+      }
       state.painted.push({ id: header.id, quality: header.quality, ms, sent: now - sentAt, shown: now - arrived,
                            server: header.seconds * 1000, at: now, decode: at - arrived, wait: sentAt - input });
       if (state.painted.length > 2000) state.painted.shift();
@@ -336,25 +340,49 @@ function onFrame(header, parts, arrived = performance.now()) {
   } else if (header.difference) {
     $("#heat-caption").textContent = header.difference.note || "";
   }
-  const a = header.stats.a;
-  // Compared, each panel's figures: A and B (or the three models), one line each.
-  const names = Object.keys(header.stats);
-  const label = (name) => (names.length === 1 ? "" : `${$(`#tag-${name}`).textContent}: `);
-  $("#frame-time").textContent = names.map((name) => { const f = header.stats[name];
-    return `${label(name)}${(1000 * f.frame).toFixed(1)} ms render of ${f.width}×${f.height}`; }).join("; ") +
-    ` (${header.quality}), ${(1000 * header.seconds).toFixed(1)} ms in all`;
-  $("#rays").textContent = names.map((name) => { const f = header.stats[name];
-    return `${label(name)}${(f.rays_per_second / 1e6).toFixed(1)} M (${f.rays.toLocaleString()} rays, ` +
-      `${f.triangles.toLocaleString()} triangles)`; }).join("; ");
-  $("#left-out").textContent = a.left_out.map((s) => s.name).join(", ") || "nothing";
-  $("#left-out").title = a.left_out.map((s) => `${s.name}: ${s.reason}`).join("\n");
-  $("#warnings").replaceChildren(...a.warnings.map((w) => Object.assign(document.createElement("li"), { textContent: w })));
+  readouts(header);
   if (header.quality === "draft" && state.hello.analytic && state.compare !== "models") {
-    $("#exact").textContent = "(when the pointer rests)";
+    setText("#exact", "(when the pointer rests)");
   }
   state.lastFrame = header;
   drawMarkers();
   hideError();
+}
+
+// A readout's text is written only when it changes: each changed text is laid out and painted again, on the page's
+// main thread and in software, beside 30 frames a second of a drag.
+function setText(selector, text) {
+  const element = $(selector);
+  if (element.textContent !== text) element.textContent = text;
+}
+
+// The frame's figures (render time, rays, what the plan left out, its warnings). While dragging, the two that change
+// with every frame (the times) are written at most every READOUT_MS: a full frame always writes them.
+const READOUT_MS = 250;
+let readoutAt = -Infinity, latencyAt = -Infinity;
+function readouts(header) {
+  const a = header.stats.a;
+  const now = performance.now();
+  if (header.quality !== "draft" || now - readoutAt >= READOUT_MS) {
+    readoutAt = now;
+    // Compared, each panel's figures: A and B (or the three models), one line each.
+    const names = Object.keys(header.stats);
+    const label = (name) => (names.length === 1 ? "" : `${$(`#tag-${name}`).textContent}: `);
+    setText("#frame-time", names.map((name) => { const f = header.stats[name];
+      return `${label(name)}${(1000 * f.frame).toFixed(1)} ms render of ${f.width}×${f.height}`; }).join("; ") +
+      ` (${header.quality}), ${(1000 * header.seconds).toFixed(1)} ms in all`);
+    setText("#rays", names.map((name) => { const f = header.stats[name];
+      return `${label(name)}${(f.rays_per_second / 1e6).toFixed(1)} M (${f.rays.toLocaleString()} rays, ` +
+        `${f.triangles.toLocaleString()} triangles)`; }).join("; "));
+  }
+  setText("#left-out", a.left_out.map((s) => s.name).join(", ") || "nothing");
+  const reasons = a.left_out.map((s) => `${s.name}: ${s.reason}`).join("\n");
+  if ($("#left-out").title !== reasons) $("#left-out").title = reasons;
+  const warnings = $("#warnings");
+  if (warnings.children.length !== a.warnings.length
+      || a.warnings.some((w, k) => warnings.children[k].textContent !== w)) {
+    warnings.replaceChildren(...a.warnings.map((w) => Object.assign(document.createElement("li"), { textContent: w })));
+  }
 }
 
 // While a change waits for its image: a bar (the share of tiles done, for full frames), what is being done
