@@ -28,7 +28,11 @@ def embree_started() -> bool:
 
 def unit_frame(vertices: np.ndarray) -> Frame:
     """Centre and half-extent of the bounding box: unit = (world − center) / scale spans ≈ [−1, 1]."""
-    low, high = bounding_box(vertices)
+    return frame_of_box(*bounding_box(vertices))
+
+
+def frame_of_box(low: np.ndarray, high: np.ndarray) -> Frame:
+    """unit_frame of vertices whose bounding box is (low, high) (a Geometry's: Geometry.box, measured once)."""
     extent = float((high - low).max()) / 2
     # A single point or a degenerate scene still needs a non-zero scale.
     return Frame(center=(low + high) / 2, scale=extent if extent > 0 else 1.0)

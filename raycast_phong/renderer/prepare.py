@@ -33,7 +33,7 @@ from ..scene.schema import Scene, SceneError
 from .budget import MemoryEstimate, check_memory
 from .diagnosis import ObjectFigures, diagnose
 from .film import allocate_film, film_layers
-from .intersect import Accelerator, unit_frame
+from .intersect import Accelerator, frame_of_box, unit_frame
 from .kernels.layout import COUNTS, MAX_LIGHTS, ShadingInputs, ShadowInputs
 from .kernels.tile import render_band
 from .pack import RayGenerator, camera_rig, film_rows, no_shadows, plan_flags, prepare_shading, prepare_shadows
@@ -171,9 +171,9 @@ def prepare(scene: Scene, *, source: str | Location = "<scene>", threads: int | 
     if ahead is not None and ahead.started:
         frame = ahead.frame  # unit_frame of the same vertices
     elif derived is None:
-        frame = unit_frame(geometry.vertices)
+        frame = frame_of_box(*geometry.box)  # the box the geometry's checks measured
     else:
-        frame = derived.get("frame", ("vertices",), lambda: unit_frame(geometry.vertices))
+        frame = derived.get("frame", ("vertices",), lambda: frame_of_box(*geometry.box))
     rig = camera_rig(scene)
     return Prepared(
         scene=scene, source=source, plan=plan, memory=memory, geometry=geometry, frame=frame,

@@ -191,7 +191,7 @@ class Aside:
 @contextmanager
 def shading_compiled_aside(precision: str) -> Iterator[Aside]:
     """Within the block, a compile of _shade_rays in `precision` (a cache miss) waits for a helper process that
-    compiles it, while this process compiles two of its callees and goes on with the rest. The helper starts at
+    compiles it, while this process compiles one of its callees and goes on with the rest. The helper starts at
     once when _shade_rays is missing for the types prepare() gives it (unprepared_shading); none without a kernel
     cache, nor when two_processes() says no (one core, a busy machine, RAYCAST_PHONG_COMPILE_PROCESSES=1).
     The helper is stopped when the block ends, however it ends, and ends itself if this process goes away."""
