@@ -318,10 +318,7 @@ function onFrame(header, parts, arrived = performance.now()) {
       if (!raw) setTimeout(painted, 0);
       if (input === undefined) return;
       const now = performance.now(), ms = now - input;
-      if (header.quality !== "draft" || now - latencyAt >= READOUT_MS) {  // as the frame's figures (readouts)
-        latencyAt = now;
-        setText("#latency", `${ms.toFixed(0)} ms`);
-      }
+      if (readoutDue("latency", header.quality)) setText("#latency", `${ms.toFixed(0)} ms`);
       state.painted.push({ id: header.id, quality: header.quality, ms, sent: now - sentAt, shown: now - arrived,
                            server: header.seconds * 1000, at: now, decode: at - arrived, wait: sentAt - input });
       if (state.painted.length > 2000) state.painted.shift();
@@ -356,15 +353,21 @@ function setText(selector, text) {
   if (element.textContent !== text) element.textContent = text;
 }
 
-// The frame's figures (render time, rays, what the plan left out, its warnings). While dragging, the two that change
-// with every frame (the times) are written at most every READOUT_MS: a full frame always writes them.
+// Whether a readout that changes with every frame (the times) is written for this one: always for a full frame,
+// and at most every READOUT_MS while drafts come.
 const READOUT_MS = 250;
-let readoutAt = -Infinity, latencyAt = -Infinity;
+const writtenAt = {};
+function readoutDue(name, quality) {
+  const now = performance.now();
+  if (quality === "draft" && now - (writtenAt[name] ?? -Infinity) < READOUT_MS) return false;
+  writtenAt[name] = now;
+  return true;
+}
+
+// The frame's figures (render time, rays, what the plan left out, its warnings), the times as readoutDue says.
 function readouts(header) {
   const a = header.stats.a;
-  const now = performance.now();
-  if (header.quality !== "draft" || now - readoutAt >= READOUT_MS) {
-    readoutAt = now;
+  if (readoutDue("figures", header.quality)) {
     // Compared, each panel's figures: A and B (or the three models), one line each.
     const names = Object.keys(header.stats);
     const label = (name) => (names.length === 1 ? "" : `${$(`#tag-${name}`).textContent}: `);
