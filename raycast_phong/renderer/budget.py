@@ -29,6 +29,9 @@ from ..scene.schema import Scene
 #   OBJ 331, GLB 347, STL 573, OFF 797 (flat the same but PLY 245, GLB 310: trimesh's own parse is the peak).
 #   A noisy 1.31M-triangle PLY whose every vertex the crease splits, crease_angle 30: 692 (232 on the 327,680
 #   triangles of icosphere 7 since the crease split is a compiled pass, 2026-12).
+# On two threads a large mesh's BVH is built while its normals are made (prepare.BuildAhead), so both peaks overlap:
+#   the 1.11M-triangle bunny, 8×8, phong with the files' crease angle 30: PLY 306 (254 on one thread), GLB 276 (237),
+#   OBJ 260 (124), STL 238 (131); estimated 350, 384, 490, 344 (2026-12).
 # The constants round these up; bench_mesh.py measures the whole render at 1000×1000 and 2M triangles.
 FLAT_BYTES = 270       # vertices, faces, face normals, Embree's BVH, the shading copies, freed heap kept by malloc
 SMOOTH_BYTES = 330     # + float32 corner normals (36 B) and their per-vertex sums
