@@ -220,6 +220,49 @@ def cached(dispatcher, arguments: tuple | None = None) -> bool:
         return True
 
 
+class ByAddress:
+    """A kernel handed to another kernel as an argument and called there through its address (numba's first-class
+    function type), for one signature: the caller's compile needs only the signature, not the callee's code.
+
+    Called by name, a kernel is linked into its caller: numba compiles the callee first, then adds its code to
+    the caller's and has LLVM optimise and generate all of it again (1.5-2 s of CPU for tile.render_band over
+    shading._shade_rays), and the caller's compile must wait for the callee's. By address, the two compile
+    apart (in two processes: split_compile.py) and each is generated once; the call goes through the callee's C
+    wrapper, so an exception raised inside it is printed, not raised (none of the kernels called so raises).
+    The address is asked when the caller is called (its argument is unpacked), which loads or compiles the
+    callee then; numba reads the type from `_numba_type_`."""
+
+    def __init__(self, dispatcher, arguments: tuple, returns=None):
+        """`dispatcher` for these arguments' types (example values), returning `returns` (a numba type; None:
+        nothing). The kernel's own return type is checked against it when its address is asked."""
+        import numba.experimental.function_type  # noqa: F401  numba's first-class function types
+        from numba import typeof, types
+        self.dispatcher = dispatcher
+        self._signature = (returns or types.none)(*(typeof(argument) for argument in arguments))
+        self._numba_type_ = types.FunctionType(self._signature)
+        self._address: int | None = None
+
+    def signature(self):
+        return self._signature
+
+    def __wrapper_address__(self) -> int:
+        """The address of the callee's C wrapper for the signature (numba's function_type asks it)."""
+        return self.ready()
+
+    def ready(self) -> int:
+        """Load (or compile) the callee for the signature; its C wrapper's address."""
+        if self._address is None:
+            arguments = self._signature.args  # a tuple, as a call compiles it: the cache's index key is the same
+            if arguments not in self.dispatcher.overloads:
+                self.dispatcher.compile(arguments)
+            result = self.dispatcher.overloads[arguments]
+            if result.signature.return_type != self._signature.return_type:  # the call would read garbage
+                raise TypeError(f"{kernel_name(self.dispatcher)} returns {result.signature.return_type}, "
+                                f"not {self._signature.return_type}")
+            self._address = result.library.get_pointer_to_function(result.fndesc.llvm_cfunc_wrapper_name)
+        return self._address
+
+
 class _NothingCached(NullCache):
     """numba's cache of a kernel when no folder is writable: nothing is ever loaded, and each compile is told."""
 

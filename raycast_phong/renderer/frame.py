@@ -11,11 +11,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ..codes import StageName
 from ..records import RenderPlan, RenderResult
 from ..scene.load import load_scene
 from ..scene.messages import Location
 from ..scene.schema import Scene
 from . import embree_library
+from .by_address import shader, shadow_caster
 from .film import allocate_film
 from .kernels.tile import render_band
 from .pack import film_rows
@@ -56,9 +58,10 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
                    progress=progress, cache=cache, cancelled=cancelled, pool=pool, build_ahead=True).render()
 
 
-def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64)) -> None:
-    """Load (or compile) the tile kernel (tile.render_band, which holds global mode's shadow rays too) in the
-    `reals` precisions, without starting Embree: called on no rows, it reaches Embree only per chunk of rows.
+def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bool = True) -> None:
+    """Load (or compile) the tile kernel (tile.render_band) and the kernels it calls by address (by_address.py:
+    the shading kernel, and global mode's shadow rays when `shadows`) in the `reals` precisions, without starting
+    Embree: called on no rows, it reaches Embree only per chunk of rows.
 
     A process that forks workers afterwards hands them ready kernels (batch.py): each would otherwise
     spend ~0.15 s loading them from numba's cache, most of it numba's one-time set-up on a process's
@@ -66,19 +69,23 @@ def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64)) -> None:
     """
     from .split_compile import shading_compiled_aside, warm_scene
     embree_library.library()  # binds the names the kernel links against (EmbreeError if it cannot be loaded)
-    for real in reals:
+    for index, real in enumerate(reals):
         precision = "float64" if real == np.float64 else "float32"
         with shading_compiled_aside(precision):  # on a cache miss, the shading kernel compiles aside
+            shadow_caster(False).ready()  # local mode's stand-in, then global mode's shadow rays (one kernel for
+            if shadows and index == 0:  # every precision: its inputs are float64), while the helper compiles
+                shadow_caster(True).ready()
             ready = prepare(warm_scene(precision), source="warm-up")
             film = film_rows(allocate_film(2, 2, (), ready.real).rows(0, 0))
             render_band(0, 0, 0, ready.rays.params, ready.rays.shared_origins, NO_SHADOWS, ready.shading, film,
-                        np.zeros(3))
+                        np.zeros(3), shader(ready.shading), shadow_caster(False))
 
 
 def warm_kernels_for(plans: list[RenderPlan]) -> None:
-    """warm_kernels with only the shading precisions these plans need."""
+    """warm_kernels with only the shading precisions these plans need, and shadow rays if one is in global mode."""
     if plans:
-        warm_kernels(tuple({plan.real for plan in plans}))
+        warm_kernels(tuple({plan.real for plan in plans}),
+                     shadows=any(plan.keeps(StageName.SHADOW_RAYS) for plan in plans))
 
 
 def render_file(path: str | Path, overrides: list[str] | tuple[str, ...] = (), *, view: str | None = None,

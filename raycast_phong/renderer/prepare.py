@@ -31,6 +31,7 @@ from ..records import Frame, Geometry, ImageBuffers, RenderPlan, RenderResult
 from ..scene.messages import Location, located
 from ..scene.schema import Scene, SceneError
 from .budget import MemoryEstimate, check_memory
+from .by_address import shader, shadow_caster
 from .diagnosis import ObjectFigures, diagnose
 from .film import allocate_film, film_layers
 from .intersect import Accelerator, frame_of_box, unit_frame
@@ -228,6 +229,12 @@ class TileWork:
     shadows: ShadowInputs | None   # None in local mode
     shading: ShadingInputs
     film: ImageBuffers
+    shade: object = field(init=False)  # shading._shade_rays for these inputs, by address (by_address.py)
+    cast: object = field(init=False)   # shadows.cast_shadows in global mode, else no_shadow_rays, by address
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "shade", shader(self.shading))
+        object.__setattr__(self, "cast", shadow_caster(self.shadows is not None))
 
     def __call__(self, band: tuple[int, int]) -> tuple[float, float, float, np.ndarray]:
         """Rays, closest hits, [shadow rays,] shading of rows [row0, row1) into the film, in one kernel
@@ -235,7 +242,7 @@ class TileWork:
         row0, row1 = band
         film, seconds = film_rows(self.film.rows(row0, row1)), np.zeros(3)
         render_band(self.accelerator.embree_scene.scene, row0, row1, self.rays.params, self.rays.shared_origins,
-                    self.shadows or NO_SHADOWS, self.shading, film, seconds)
+                    self.shadows or NO_SHADOWS, self.shading, film, seconds, self.shade, self.cast)
         return seconds[0], seconds[1], seconds[2], film.counts
 
 

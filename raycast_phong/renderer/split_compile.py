@@ -1,17 +1,17 @@
-"""A first compile of the frame kernel on two cores at once.
+"""A first compile of the frame kernels on two cores at once.
 
-numba compiles one kernel at a time in a process, and a fresh cache compiles tile.render_band with every kernel it
-calls: about 18 s of one core's CPU for the default scene, 10 of them the shading kernel (shading._shade_rays and the
-texture sampler it calls). Here a helper process compiles _shade_rays into the same kernel cache while this process
-compiles one of its callees (which the helper then loads) and then render_band's other callees; when render_band's
-compile reaches _shade_rays, this process waits for the helper and loads its result (jit.compiled_elsewhere).
+numba compiles one kernel at a time in a process: a fresh cache compiles the default scene's kernels in about 13 s
+of one core's CPU, 5-6 of them the shading kernel (shading._shade_rays). tile.render_band calls it by address
+(by_address.py), so render_band compiles without it. Here a helper process compiles _shade_rays into the same
+kernel cache while this process compiles two of its callees (which the helper then loads), the warm-up scene's
+geometry kernels and render_band; when render_band is first called it asks for the shading kernel's address, and
+this process waits for the helper and loads its result (jit.compiled_elsewhere).
 The kernels and the cache files are numba's own either way: a helper that fails, or a signature that differs, only
 means this process compiles that kernel itself, as it would alone.
 
-The helper is given the arguments render_band passes _shade_rays, for a band of no rays: whole empty arrays type as
-the slices render_band makes (a slice of a C-contiguous array along its first axis is C-contiguous), and the
-shading inputs are packed from a geometry of no faces (unprepared_shading), so the helper starts compiling as soon
-as it has imported numba, without waiting for this process's geometry kernels.
+The helper is given the arguments render_band passes _shade_rays, for a band of no rays (by_address.shading_arguments),
+and shading inputs packed from a geometry of no faces (unprepared_shading), so it starts compiling as soon as it has
+imported numba, without waiting for this process's geometry kernels.
 """
 
 from __future__ import annotations
@@ -29,8 +29,9 @@ import numpy as np
 
 from .. import jit
 from ..io.system import available_memory
+from .by_address import shading_arguments
 from .kernels import shading
-from .kernels.layout import Material, TileRays
+from .kernels.layout import Material
 
 SHADE = jit.kernel_name(shading._shade_rays)
 PROCESSES = "RAYCAST_PHONG_COMPILE_PROCESSES"  # 1: compile in this process alone; 2: always with the helper
@@ -108,31 +109,23 @@ def unprepared_shading(precision: str):
     return prepare_shading(scene, none, camera_rig(scene), Frame(np.zeros(3), 1.0), no_flags, plan.real)
 
 
-def shading_arguments(inputs) -> tuple:
-    """(ShadingInputs, TileRays, FilmRows) as render_band passes them to _shade_rays, for a band of no rays
-    (`inputs`: a ShadingInputs)."""
-    from .film import allocate_film
-    from .pack import film_rows
-    film = film_rows(allocate_film(2, 2, (), inputs.one.dtype.type).rows(0, 0))
-    rays = TileRays(np.empty(0, np.int32), np.empty(0, np.float32), np.empty(0, np.float32),
-                    np.empty(0, np.float32), np.empty((0, 3), np.float32), np.empty(0, np.int64), 1)
-    return inputs, rays, film
-
-
 def callee_signatures(inputs) -> dict:
     """The kernels _shade_rays calls that this process compiles first, each with its argument types as _shade_rays
     calls it: _textured_material (the material table, the texels, their table, the corner UVs and densities, a
     Material, its row and the face (int32), three weights, the footprint in float64, 1, the (3,) cast), which
-    compiles texture.sample. The helper waits to hear each is cached (Aside.tell) instead of compiling it.
-    Only these ~1.4 s of CPU: this process then compiles the warm-up scene's geometry kernels and render_band's
-    other callees, ~6 s more, which is about what the helper spends on _shade_rays (its other callees too)."""
+    compiles texture.sample, and _screen_weights (three weights, the vertices, a face's three corners (int32), the
+    eye (a slice of the view row), the camera, 1). The helper waits to hear each is cached (Aside.tell) instead of
+    compiling it. These are ~1.6 s of CPU: this process then compiles the warm-up scene's geometry kernels and
+    render_band, ~4.5 s more, which with them is about what the helper spends on the rest of _shade_rays."""
     from numba import typeof, types
     real = typeof(inputs.one)
     material = typeof(Material(*[inputs.one] * len(Material._fields)))
     return {shading._textured_material: (typeof(inputs.materials), typeof(inputs.texels),
                                          typeof(inputs.texture_table), typeof(inputs.corner_uv),
                                          typeof(inputs.uv_density), material, types.int32, types.int32, real, real,
-                                         real, types.float64, real, typeof(np.zeros(3, inputs.materials.dtype)))}
+                                         real, types.float64, real, typeof(np.zeros(3, inputs.materials.dtype))),
+            shading._screen_weights: (real, real, real, typeof(inputs.vertices), types.int32, types.int32,
+                                      types.int32, typeof(inputs.viewing[0:3]), typeof(inputs.camera), real)}
 
 
 class Aside:

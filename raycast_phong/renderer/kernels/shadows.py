@@ -33,6 +33,12 @@ FLOOR_SQUARED = MIN_DISTANCE ** 2  # the unit frame's half-extent is 1: a light 
 
 
 @kernel()
+def no_shadow_rays(scene, inputs, face, u, v, directions, row_rays, visible):
+    """Local mode's stand-in for cast_shadows, which render_band never calls there: no shadow rays cast."""
+    return row_rays * 0
+
+
+@kernel()
 def cast_shadows(scene, inputs, face, u, v, directions, row_rays, visible):
     """Shadow rays from every hit of a tile toward every light, on Embree's C API scene
     (embree_library.EmbreeScene.scene): visible (N,) int64 light bits written in place (bit j set: light j is

@@ -18,8 +18,6 @@ from ...jit import kernel
 from .camera import screen_columns
 from .layout import C_SHADOW_RAYS, F_SHADOWS, FilmRows, TileRays
 from .ray_queries import camera_hits
-from .shading import _shade_rays
-from .shadows import cast_shadows
 
 CHUNK_ROWS = 16  # image rows per pass: 4 rows of Embree's 4 × 4 packets (4: 3-7 % more CPU time, ico6 1000²)
 TOUCH_FACES = 1 << 17  # meshes of this many faces or more load the hits' face rows first (_touch): 1.6x less
@@ -60,12 +58,14 @@ def _touch(face, faces, vertices, face_normals, corner_normals, per_face):
 
 
 @kernel()
-def render_band(scene, row0, row1, params, shared_origins, shadows, inputs, film, seconds):
+def render_band(scene, row0, row1, params, shared_origins, shadows, inputs, film, seconds, shade, cast):
     """Render image rows [row0, row1) into `film` (FilmRows of those rows; its counts are set: the terms
     shading._shade_rays evaluated, and the shadow rays cast). scene: embree_library.EmbreeScene.scene; params:
     camera.RayParams; shared_origins: the RayGenerator's (perspective); shadows: ShadowInputs (read in global
     mode only); inputs: ShadingInputs.
-    seconds (3,) float64 gets the time of rays (generation + cast), shadow rays and shading added."""
+    seconds (3,) float64 gets the time of rays (generation + cast), shadow rays and shading added. shade, cast:
+    shading._shade_rays and shadows.cast_shadows by their addresses (by_address.py): called, not linked in, so
+    this kernel compiles without them."""
     row_rays = params.width * params.samples * params.samples
     capacity = min(CHUNK_ROWS, row1 - row0) * row_rays  # a band of one very wide row needs one row's buffers
     directions = np.empty((capacity, 3), np.float32)
@@ -87,12 +87,12 @@ def render_band(scene, row0, row1, params, shared_origins, shadows, inputs, film
         start = _now(timespec)
         camera_hits(scene, params, screen_x, cell_row, row, end, shared_origins, directions[:n], face[:n], u[:n],
                     v[:n], t[:n])
-        cast = _now(timespec)
+        traced = _now(timespec)
         if global_mode:
             if shadows.faces.shape[0] >= TOUCH_FACES:
                 touched += _touch(face[:n], shadows.faces, shadows.vertices, shadows.face_normals,
                                   shadows.corner_normals, shadows.smooth)
-            counts[C_SHADOW_RAYS] += cast_shadows(scene, shadows, face[:n], u[:n], v[:n], directions[:n],
+            counts[C_SHADOW_RAYS] += cast(scene, shadows, face[:n], u[:n], v[:n], directions[:n],
                                                   row_rays, visible[:n])
         shadowed = _now(timespec)
         if inputs.faces.shape[0] >= TOUCH_FACES:
@@ -100,11 +100,11 @@ def render_band(scene, row0, row1, params, shared_origins, shadows, inputs, film
                               inputs.face_material)
         # Film rows of this chunk, relative to the band; a layer not asked for is empty and stays so.
         a, b = row - row0, end - row0
-        _shade_rays(inputs, TileRays(face[:n], u[:n], v[:n], t[:n], directions[:n], visible[:n], params.samples),
+        shade(inputs, TileRays(face[:n], u[:n], v[:n], t[:n], directions[:n], visible[:n], params.samples),
                     FilmRows(rgb[a:b], terms[a:b], depth[a:b], normal[a:b], face_out[a:b], chunk_counts))
         counts += chunk_counts
         done = _now(timespec)
-        seconds[0] += cast - start
-        seconds[1] += shadowed - cast
+        seconds[0] += traced - start
+        seconds[1] += shadowed - traced
         seconds[2] += done - shadowed
     seconds[2] += 0.0 * touched  # a finite sum: adds nothing, but the loads it came from must be made

@@ -148,3 +148,16 @@ def test_the_helper_types_the_shading_kernel_as_prepare_does(precision):
     assert [typeof(value) for value in specimen] == [typeof(value) for value in ready.shading]
     assert typeof(split_compile.shading_arguments(specimen)) == typeof(
         split_compile.shading_arguments(ready.shading))
+
+
+def test_a_kernel_called_by_address_must_return_what_its_caller_reads():
+    """jit.ByAddress checks the callee's return type when its address is asked: a caller reading another type
+    through the pointer would read garbage. The shadow rays' stand-in returns int64, as cast_shadows does."""
+    from numba import types
+
+    from raycast_phong.renderer import by_address
+    from raycast_phong.renderer.kernels import shadows
+    assert by_address.shadow_caster(False).ready() > 0
+    wrong = jit.ByAddress(shadows.no_shadow_rays, by_address.shadow_arguments(), types.float64)
+    with pytest.raises(TypeError, match="returns int64, not float64"):
+        wrong.ready()

@@ -1,0 +1,56 @@
+"""tile.render_band's two largest callees, handed to it by address (jit.ByAddress) instead of linked in: the shading
+kernel (shading._shade_rays, one handle per type of shading inputs: precision, maps) and global mode's shadow rays
+(shadows.cast_shadows; a scene in local mode gets shadows.no_shadow_rays, so it never compiles them). render_band then
+compiles without either, the shading kernel beside it in a helper process on a first run (split_compile.py), and
+neither's code is generated twice."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import types
+
+from .. import jit
+from .kernels import shading, shadows
+from .kernels.layout import TileRays
+
+_handles: dict[object, jit.ByAddress] = {}
+
+
+def shading_arguments(inputs) -> tuple:
+    """(ShadingInputs, TileRays, FilmRows) as render_band passes them to _shade_rays, for a band of no rays
+    (`inputs`: a ShadingInputs): whole empty arrays type as render_band's slices (a slice of a C-contiguous array
+    along its first axis is C-contiguous)."""
+    from .film import allocate_film
+    from .pack import film_rows
+    film = film_rows(allocate_film(2, 2, (), inputs.one.dtype.type).rows(0, 0))
+    rays = TileRays(np.empty(0, np.int32), np.empty(0, np.float32), np.empty(0, np.float32),
+                    np.empty(0, np.float32), np.empty((0, 3), np.float32), np.empty(0, np.int64), 1)
+    return inputs, rays, film
+
+
+def shader(inputs) -> jit.ByAddress:
+    """The handle render_band calls _shade_rays through, for these shading inputs' types."""
+    from numba import typeof
+    key = typeof(inputs)
+    handle = _handles.get(key)
+    if handle is None:
+        handle = _handles[key] = jit.ByAddress(shading._shade_rays, shading_arguments(inputs))
+    return handle
+
+
+def shadow_arguments() -> tuple:
+    """(scene, ShadowInputs, face, u, v, directions, row_rays, visible) as render_band passes them to
+    cast_shadows, for a band of no rays (every ShadowInputs has the types pack.no_shadows gives)."""
+    from .pack import no_shadows
+    rays = np.empty(0, np.float32)
+    return 0, no_shadows(), np.empty(0, np.int32), rays, rays, np.empty((0, 3), np.float32), 1, np.empty(0, np.int64)
+
+
+def shadow_caster(global_mode: bool) -> jit.ByAddress:
+    """The handle render_band casts shadow rays through: shadows.cast_shadows in global mode, else
+    shadows.no_shadow_rays (render_band calls it only in global mode: a local scene never compiles the other)."""
+    handle = _handles.get(global_mode)
+    if handle is None:
+        kernel = shadows.cast_shadows if global_mode else shadows.no_shadow_rays
+        handle = _handles[global_mode] = jit.ByAddress(kernel, shadow_arguments(), types.int64)
+    return handle
