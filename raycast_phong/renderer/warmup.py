@@ -20,7 +20,9 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
     of them (compiles.told hears the cache miss), so no compile is ever silent. The kernels are the
     frame's in the scene's precision, the geometry stage's and, for a scene with a mesh file, its
     preparation's (merge, winding: mesh_repair.warm_up; an OBJ's scans: obj_polygons.warm_up, and obj_plain.warm_up
-    unless its first MB names a material library: then the plain reader's scan never runs), and
+    unless its first MB names a material library: then the plain reader's scan never runs; none for an OBJ
+    already read in this process and waiting for its render, as a mesh file given on the command line is, whose
+    read compiled what it needed: its render does not read it again), and
     the crease split's where an object may be creased (normals.warm_up_creases).
     A mesh file that cannot be opened is refused first (one line, naming `source`): before any compile."""
     import numpy as np
@@ -37,9 +39,10 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
     meshes = objs = plain = False
     for index, obj in kinds:
         if obj.shape == "mesh":
-            handle = open_mesh_file(scene.resolve(obj.path), located(source).at("objects", index, "path"))
+            path = scene.resolve(obj.path)
+            handle = open_mesh_file(path, located(source).at("objects", index, "path"))
             with handle:
-                if str(obj.path).lower().endswith(".obj"):
+                if str(obj.path).lower().endswith(".obj") and not read_already(scene, path):
                     from ..io.obj_plain import HEAD, may_be_plain
                     objs = True
                     plain = plain or may_be_plain(handle.read(HEAD))  # no mtllib ahead: its scan may run
@@ -67,3 +70,12 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
         if creases:  # in the corner normals' dtype: the shading precision (render() asks build_geometry for it)
             warm_up_creases(real)
     return ("compile" if compiled else "kernels"), time.perf_counter() - started
+
+
+def read_already(scene: Scene, path) -> bool:
+    """Whether the mesh file at `path` was read in this process (framing the camera of a mesh file given alone) and
+    that read waits for the render (io.mesh_file.KEPT): the render takes it and does not read the file again."""
+    from ..io.mesh_file import KEPT
+    from ..io.mesh_source import source_key
+    found = scene.mesh_sources.get(source_key(path))
+    return found is not None and found.version is not None and KEPT.get(found.identity) is not None

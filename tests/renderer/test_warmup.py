@@ -147,3 +147,20 @@ def test_the_plain_obj_scan_is_warmed_only_for_an_obj_it_may_read(tmp_path, monk
         warmup.ready_kernels(validate_scene({"objects": [{"shape": "mesh", "path": str(tmp_path / name)}]},
                                             source="t"))
         assert warmed == expected, name
+
+
+def test_an_obj_given_alone_is_not_warmed_again_after_its_framing_read(tmp_path, monkeypatch):
+    """A mesh file given alone is read to frame its camera (load_scene), and that read, which compiled the reader
+    kernels it needed, waits for the render (io.mesh_file.KEPT): the warm-up leaves the OBJ reader alone (a file
+    of triangles never needs the concave-polygon test, 1.5 s of compile). A scene file that names the OBJ is read
+    only in the render: then the reader is warmed first."""
+    import raycast_phong as rp
+    from raycast_phong.io import obj_polygons
+    warmed = []
+    monkeypatch.setattr(obj_polygons, "warm_up", lambda: warmed.append(True))
+    trimesh.creation.icosphere(1).export(tmp_path / "ball.obj")
+    warmup.ready_kernels(rp.load_scene(tmp_path / "ball.obj"))
+    assert warmed == []
+    warmup.ready_kernels(validate_scene({"objects": [{"shape": "mesh", "path": str(tmp_path / "ball.obj")}]},
+                                        source="t"))
+    assert warmed == [True]
