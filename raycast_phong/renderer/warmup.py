@@ -54,7 +54,7 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
         if announce is not None:
             precision = np.dtype(real).name
             announce(f"compiling the {precision} shading kernels (and the mesh preparation's), once after an "
-                     "install or an edit (about 17-20 s of CPU shared by two processes: 9-12 s on an idle 2-core "
+                     "install or an edit (about 13-18 s of CPU shared by two processes: 6-9 s on an idle 2-core "
                      "machine)...")
 
     started = time.perf_counter()
