@@ -164,3 +164,28 @@ def test_an_obj_given_alone_is_not_warmed_again_after_its_framing_read(tmp_path,
     warmup.ready_kernels(validate_scene({"objects": [{"shape": "mesh", "path": str(tmp_path / "ball.obj")}]},
                                         source="t"))
     assert warmed == [True]
+
+
+WARM_MODE = """
+import sys
+import raycast_phong as rp
+from raycast_phong.renderer.kernels import shadows
+from raycast_phong.renderer.warmup import ready_kernels
+scene = rp.validate_scene({"render": {"mode": sys.argv[1]}, "lights": [{"type": "point", "position": [2, 2, 3]}],
+                           "objects": [{"shape": "icosphere"}]}, source="t")
+ready_kernels(scene)
+print(len(shadows.cast_shadows.overloads), len(shadows.no_shadow_rays.overloads))
+"""
+
+
+def test_global_mode_s_shadow_rays_are_made_ready_only_for_a_scene_in_global_mode():
+    """The tile kernel calls the shadow rays by address (renderer/by_address.py), so its own warm-up does not bring
+    them: ready_kernels does, for a scene in global mode (their compile is then announced and kept out of the frame),
+    and leaves them out for a local one, which gets the stand-in."""
+    counts = {}
+    for mode in ("local", "global"):
+        done = subprocess.run([sys.executable, "-c", WARM_MODE, mode], capture_output=True, text=True, timeout=300,
+                              env={k: v for k, v in os.environ.items() if k != "RAYCAST_PHONG_COMPILE_PROCESSES"})
+        assert done.returncode == 0, done.stderr
+        counts[mode] = done.stdout.split()
+    assert counts == {"local": ["0", "1"], "global": ["1", "1"]}, counts
