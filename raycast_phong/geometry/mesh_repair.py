@@ -211,13 +211,44 @@ MESH_FILE_KERNELS = ("merge_rows", "renumber", "first_use_numbers", "count_half_
 
 def warm_up() -> None:
     """Load (or compile) MESH_FILE_KERNELS with the argument types a mesh file's preparation gives them (float64
-    vertices, int64 faces, int32 tables): a tetrahedron that repeats a point (the merge), closed and consistent
-    (the volume's sign), then with one face turned (the orientation)."""
+    vertices, int64 faces, int32 tables): warm_up_merge, then warm_up_winding."""
+    warm_up_merge()
+    warm_up_winding()
+
+
+def warm_up_merge() -> None:
+    """The merge's and the renumbering's kernels: a tetrahedron that repeats a point, as float32 (a binary STL's
+    points) and float64."""
     points = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 0.0]])
     faces = np.array([[4, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
-    merge_duplicate_vertices(points.astype(np.float32), faces)  # a binary STL's points
+    merge_duplicate_vertices(points.astype(np.float32), faces)
     vertices, faces = merge_duplicate_vertices(points, faces)
-    vertices, faces = number_by_first_use(vertices, faces)
+    number_by_first_use(vertices, faces)
+
+
+def winding_signatures() -> dict:
+    """The winding's kernels, each with the argument types repair_winding gives them (float64 vertices and centre,
+    int64 faces and bucket starts, int32 keys and edges while they fit, int64 bounds and counts): compiled by
+    signature, without
+    running them, so that their compile can be shared out (split_compile.py: the helper compiles
+    WINDING_KERNELS, the command the rest; warm_up_winding then loads them)."""
+    from numba import typeof, types
+    faces, start, key = typeof(np.zeros((1, 3), np.int64)), typeof(np.zeros(1, np.int64)), typeof(np.zeros(1, np.int32))
+    return {count_half_edges: (faces, start, types.int64, types.int64),
+            bucket_half_edges: (faces, start, key, key, types.int64, types.int64),
+            orient_pieces: (start, key, key, types.int64),
+            signed_volume: (typeof(np.zeros((1, 3))), faces, typeof(np.zeros(3)))}
+
+
+# The winding kernels a helper process compiles while the command compiles the rest (split_compile.py).
+WINDING_KERNELS = (bucket_half_edges, signed_volume)
+
+
+def warm_up_winding() -> None:
+    """The winding's kernels (WINDING_KERNELS): the merged tetrahedron as number_by_first_use gives it (float64
+    vertices, int64 faces), closed and consistent (the volume's sign), then with one face turned (the orientation)."""
+    vertices = np.array([[0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    faces = np.array([[0, 1, 2], [0, 2, 3], [0, 3, 1], [2, 1, 3]], np.int64)
     repair_winding(vertices, faces)
     faces[0] = faces[0, ::-1]
     repair_winding(vertices, faces)

@@ -58,10 +58,14 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
                    progress=progress, cache=cache, cancelled=cancelled, pool=pool, build_ahead=True).render()
 
 
-def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bool = True) -> None:
+def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bool = True,
+                 scene_kernels: Callable[[], None] | None = None, winding: bool = False) -> None:
     """Load (or compile) the tile kernel (tile.render_band) and the kernels it calls by address (by_address.py:
     the shading kernel, and global mode's shadow rays when `shadows`) in the `reals` precisions, without starting
-    Embree: called on no rows, it reaches Embree only per chunk of rows.
+    Embree: called on no rows, it reaches Embree only per chunk of rows. `scene_kernels` (a scene's own
+    preparation kernels: a mesh file's merge, an OBJ's reader, the crease split) and, with `winding`, the mesh
+    winding's kernels are made ready with the first precision: on a first compile the shading kernel, then the
+    winding's, compile in a helper process meanwhile (split_compile.py).
 
     A process that forks workers afterwards hands them ready kernels (batch.py): each would otherwise
     spend ~0.15 s loading them from numba's cache, most of it numba's one-time set-up on a process's
@@ -71,21 +75,29 @@ def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bo
     embree_library.library()  # binds the names the kernel links against (EmbreeError if it cannot be loaded)
     for index, real in enumerate(reals):
         precision = "float64" if real == np.float64 else "float32"
-        with shading_compiled_aside(precision):  # on a cache miss, the shading kernel compiles aside
+        first = index == 0
+        with shading_compiled_aside(precision, winding and first):  # on a cache miss, these compile aside
             shadow_caster(False).ready()  # local mode's stand-in, then global mode's shadow rays (one kernel for
-            if shadows and index == 0:  # every precision: its inputs are float64), while the helper compiles
+            if shadows and first:  # every precision: its inputs are float64), while the helper compiles
                 shadow_caster(True).ready()
+            if scene_kernels is not None and first:
+                scene_kernels()
             ready = prepare(warm_scene(precision), source="warm-up")
             film = film_rows(allocate_film(2, 2, (), ready.real).rows(0, 0))
             render_band(0, 0, 0, ready.rays.params, ready.rays.shared_origins, NO_SHADOWS, ready.shading, film,
                         np.zeros(3), shader(ready.shading), shadow_caster(False))
+            if winding and first:  # the helper's second task: by now done, or waited for
+                from ..geometry.mesh_repair import warm_up_winding
+                warm_up_winding()
 
 
-def warm_kernels_for(plans: list[RenderPlan]) -> None:
+def warm_kernels_for(plans: list[RenderPlan], scene_kernels: Callable[[], None] | None = None,
+                     winding: bool = False) -> None:
     """warm_kernels with only the shading precisions these plans need, and shadow rays if one is in global mode."""
     if plans:
         warm_kernels(tuple({plan.real for plan in plans}),
-                     shadows=any(plan.keeps(StageName.SHADOW_RAYS) for plan in plans))
+                     shadows=any(plan.keeps(StageName.SHADOW_RAYS) for plan in plans),
+                     scene_kernels=scene_kernels, winding=winding)
 
 
 def render_file(path: str | Path, overrides: list[str] | tuple[str, ...] = (), *, view: str | None = None,

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import jit
+from ..geometry.mesh_repair import WINDING_KERNELS
 from ..io.system import available_memory
 from .by_address import shading_arguments
 from .kernels import shading
@@ -130,36 +131,57 @@ def callee_signatures(inputs) -> dict:
 
 class Aside:
     """The helper of one precision's compile (shading_compiled_aside), if one runs. It hears on its standard input
-    the name of each kernel this process has put in the cache for it (a pipe: nothing to remove afterwards)."""
+    the name of each kernel this process has put in the cache for it, and says on its standard output each task it
+    has finished ("shade", "winding"): pipes, nothing to remove afterwards."""
 
-    def __init__(self, precision: str):
+    def __init__(self, precision: str, winding: bool = False):
         self.precision = precision
         self.process: subprocess.Popen | None = None
+        self.finished: set[str] = set()
+        self.waits: list[str] = []
         if jit.cache_folder() is None:
             return
         inputs = unprepared_shading(precision)
         # The cache's index first: two_processes() watches the machine for a tenth of a second, and a warm start
         # (the kernels cached) must not pay for it.
-        if jit.cached(shading._shade_rays, shading_arguments(inputs)) or not two_processes():
+        tasks = [task for task, needed in (
+            ("shade", not jit.cached(shading._shade_rays, shading_arguments(inputs))),
+            ("winding", winding and not all(jit.cached(kernel) for kernel in WINDING_KERNELS))) if needed]
+        if not tasks or not two_processes():
             return
-        self.start()
-        if self.process is not None:  # meanwhile its callees here, before anything else: the helper loads them
+        self.start(tasks)
+        if self.process is not None and "shade" in tasks:  # meanwhile its callees here, first: the helper loads them
             for kernel, signature in callee_signatures(inputs).items():
                 kernel.compile(signature)
                 self.tell(jit.kernel_name(kernel))
 
-    def start(self) -> None:
+    def start(self, tasks: list[str]) -> None:
         package_parent = str(Path(__file__).resolve().parents[2])
         env = dict(os.environ,
                    PYTHONPATH=os.pathsep.join(filter(None, [package_parent, os.environ.get("PYTHONPATH")])))
         try:
-            self.process = subprocess.Popen([sys.executable, "-c", HELPER, self.precision, str(os.getpid())],
-                                            stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
+            self.process = subprocess.Popen([sys.executable, "-c", HELPER, self.precision, str(os.getpid()),
+                                             ",".join(tasks)],
+                                            stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                             stderr=subprocess.DEVNULL, env=env, text=True)
         except OSError:  # no interpreter to start (an embedded Python): everything compiles here, as alone
             self.process = None
-        if self.process is not None:
-            jit.compiled_elsewhere[SHADE] = self.process.wait
+        if self.process is None:
+            return
+        names = ([SHADE] if "shade" in tasks else []) + (
+            [jit.kernel_name(kernel) for kernel in WINDING_KERNELS] if "winding" in tasks else [])
+        for name in names:
+            task = "shade" if name == SHADE else "winding"
+            jit.compiled_elsewhere[name] = lambda task=task: self.wait_for(task)
+        self.waits = names
+
+    def wait_for(self, task: str) -> None:
+        """Return once the helper says it has finished `task`, or has ended."""
+        while task not in self.finished:
+            line = self.process.stdout.readline()
+            if not line:  # the helper has ended (or failed): what it did not cache compiles here
+                return
+            self.finished.add(line.strip())
 
     def tell(self, name: str) -> None:
         """Tell the helper that `name` is in the cache (a helper that has ended hears nothing)."""
@@ -170,35 +192,40 @@ class Aside:
             pass
 
     def close(self) -> None:
-        jit.compiled_elsewhere.pop(SHADE, None)
+        for name in self.waits:
+            jit.compiled_elsewhere.pop(name, None)
         if self.process is not None:
             if self.process.poll() is None:
                 self.process.kill()
             self.process.wait()
-            try:
-                self.process.stdin.close()
-            except OSError:
-                pass
+            for stream in (self.process.stdin, self.process.stdout):
+                try:
+                    stream.close()
+                except OSError:
+                    pass
 
 
 @contextmanager
-def shading_compiled_aside(precision: str) -> Iterator[Aside]:
+def shading_compiled_aside(precision: str, winding: bool = False) -> Iterator[Aside]:
     """Within the block, a compile of _shade_rays in `precision` (a cache miss) waits for a helper process that
-    compiles it, while this process compiles one of its callees and goes on with the rest. The helper starts at
-    once when _shade_rays is missing for the types prepare() gives it (unprepared_shading); none without a kernel
-    cache, nor when two_processes() says no (one core, a busy machine, RAYCAST_PHONG_COMPILE_PROCESSES=1).
+    compiles it, while this process compiles two of its callees and goes on with the rest; with `winding` (a scene
+    with a mesh file), the helper then compiles the winding's kernels (mesh_repair.WINDING_KERNELS), which a miss
+    here waits for too. The helper starts at once when one of them is missing (for _shade_rays: for the types
+    prepare() gives it, unprepared_shading); none without a kernel cache, nor when two_processes() says no (one
+    core, a busy machine, RAYCAST_PHONG_COMPILE_PROCESSES=1).
     The helper is stopped when the block ends, however it ends, and ends itself if this process goes away."""
-    aside = Aside(precision)
+    aside = Aside(precision, winding)
     try:
         yield aside
     finally:
         aside.close()
 
 
-def helper(precision: str, parent: str) -> None:
-    """The helper's work: _shade_rays for `precision` into the kernel cache, the callees the parent compiles
-    (callee_signatures) loaded from it once the parent says they are there. Ends at once if the parent goes away
-    (its pipe closes, or the process is gone)."""
+def helper(precision: str, parent: str, tasks: str = "shade") -> None:
+    """The helper's work, its `tasks` in turn (comma-separated), each said on standard output when done: "shade",
+    _shade_rays for `precision` into the kernel cache, the callees the parent compiles (callee_signatures) loaded
+    from it once the parent says they are there; "winding", mesh_repair.WINDING_KERNELS. Ends at once if the
+    parent goes away (its pipe closes, or the process is gone)."""
     parent_id = int(parent)
 
     def watch() -> None:
@@ -218,7 +245,15 @@ def helper(precision: str, parent: str) -> None:
                 heard.add(line.strip())
         return wait
 
-    inputs = unprepared_shading(precision)
-    for kernel in callee_signatures(inputs):
-        jit.compiled_elsewhere[jit.kernel_name(kernel)] = told(jit.kernel_name(kernel))
-    shading._shade_rays(*shading_arguments(inputs))
+    for task in tasks.split(","):
+        if task == "shade":
+            inputs = unprepared_shading(precision)
+            for kernel in callee_signatures(inputs):
+                jit.compiled_elsewhere[jit.kernel_name(kernel)] = told(jit.kernel_name(kernel))
+            shading._shade_rays(*shading_arguments(inputs))
+        elif task == "winding":
+            from ..geometry.mesh_repair import winding_signatures
+            for kernel, signature in winding_signatures().items():
+                if kernel in WINDING_KERNELS:
+                    kernel.compile(signature)
+        print(task, flush=True)

@@ -19,16 +19,16 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
     numba's one-time set-up in a process). `announce` is told once, when numba is about to compile the first
     of them (compiles.told hears the cache miss), so no compile is ever silent. The kernels are the
     frame's in the scene's precision, the geometry stage's and, for a scene with a mesh file, its
-    preparation's (merge, winding: mesh_repair.warm_up; an OBJ's scans: obj_polygons.warm_up, and obj_plain.warm_up
-    unless its first MB names a material library: then the plain reader's scan never runs; none for an OBJ
-    already read in this process and waiting for its render, as a mesh file given on the command line is, whose
-    read compiled what it needed: its render does not read it again), and
+    preparation's (mesh_repair.warm_up_merge, and warm_up_winding, which a helper may compile meanwhile; an OBJ's
+    scans: obj_polygons.warm_up, and obj_plain.warm_up unless its first MB names a material library: then the plain
+    reader's scan never runs; none for an OBJ already read in this process and waiting for its render, as a mesh
+    file given on the command line is, whose read compiled what it needed: its render does not read it again), and
     the crease split's where an object may be creased (normals.warm_up_creases).
     A mesh file that cannot be opened is refused first (one line, naming `source`): before any compile."""
     import numpy as np
 
     from ..compiles import told
-    from ..geometry.mesh_repair import warm_up
+    from ..geometry.mesh_repair import WINDING_KERNELS, warm_up_merge, winding_signatures
     from ..geometry.normals import warm_up_creases
     from .frame import warm_kernels_for
     from .plan import build_plan
@@ -57,11 +57,12 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
                      "install or an edit (about 13-18 s of CPU shared by two processes: 6-9 s on an idle 2-core "
                      "machine)...")
 
-    started = time.perf_counter()
-    with told(tell) as compiled:
-        warm_kernels_for([plan])
+    def scene_kernels() -> None:  # this scene's own preparation: compiled here while a helper compiles the rest
         if meshes:
-            warm_up()
+            warm_up_merge()
+            for kernel, signature in winding_signatures().items():  # a helper may be compiling the others
+                if kernel not in WINDING_KERNELS:
+                    kernel.compile(signature)
         if objs:
             from ..io import obj_plain, obj_polygons
             if plain:
@@ -69,6 +70,10 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
             obj_polygons.warm_up()
         if creases:  # in the corner normals' dtype: the shading precision (render() asks build_geometry for it)
             warm_up_creases(real)
+
+    started = time.perf_counter()
+    with told(tell) as compiled:
+        warm_kernels_for([plan], scene_kernels, winding=meshes)
     return ("compile" if compiled else "kernels"), time.perf_counter() - started
 
 

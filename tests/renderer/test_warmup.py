@@ -27,16 +27,16 @@ def missing(monkeypatch, module, name: str, kernel: str) -> None:
     """`module.name` (a warm-up) meets a cache miss of `kernel`, as numba's cache reports one (compiles.compiling)."""
     warm = getattr(module, name)
 
-    def missed(*args):
+    def missed(*args, **options):
         compiles.compiling(kernel, "(float64, int64)")
-        return warm(*args)
+        return warm(*args, **options)
     monkeypatch.setattr(module, name, missed)
 
 
 def test_a_mesh_file_scene_is_told_it_compiles_when_only_its_preparation_kernels_are_missing(tmp_path, monkeypatch):
     from raycast_phong.geometry import mesh_repair
     said = []
-    missing(monkeypatch, mesh_repair, "warm_up", "merge_rows")  # the rest cached
+    missing(monkeypatch, mesh_repair, "warm_up_merge", "merge_rows")  # the rest cached
     assert warmup.ready_kernels(mesh_scene(tmp_path), said.append)[0] == "compile" and len(said) == 1
     assert "compiling the float32 shading kernels" in said[0]
     said.clear()  # a scene of built-in shapes calls none of them: nothing to say

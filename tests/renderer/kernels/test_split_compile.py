@@ -64,7 +64,7 @@ def test_the_helper_is_stopped_however_the_block_ends(helper_sleeps):
     with pytest.raises(KeyboardInterrupt):
         with split_compile.shading_compiled_aside("float32") as aside:
             assert aside.process is not None and aside.process.poll() is None  # started at once: no cache
-            assert jit.compiled_elsewhere == {split_compile.SHADE: aside.process.wait}
+            assert list(jit.compiled_elsewhere) == [split_compile.SHADE]
             raise KeyboardInterrupt  # Ctrl-C during the compile
     assert aside.process.poll() is not None and jit.compiled_elsewhere == {}
 
@@ -161,3 +161,21 @@ def test_a_kernel_called_by_address_must_return_what_its_caller_reads():
     wrong = jit.ByAddress(shadows.no_shadow_rays, by_address.shadow_arguments(), types.float64)
     with pytest.raises(TypeError, match="returns int64, not float64"):
         wrong.ready()
+
+
+def test_the_winding_kernels_are_shared_out_with_the_types_a_mesh_file_gives_them():
+    """mesh_repair.winding_signatures are the signatures repair_winding calls the kernels with (a merged mesh file's
+    float64 vertices and int64 faces), so what the helper (WINDING_KERNELS) and the command compile by signature
+    is what the render loads, and the helper's task leaves the others to the command."""
+    import numpy as np
+
+    from raycast_phong.geometry import mesh_repair
+    vertices = np.array([[0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    faces = np.array([[0, 1, 2], [0, 2, 3], [0, 3, 1], [2, 1, 3]])  # closed and consistent: the volume's sign
+    mesh_repair.repair_winding(vertices, faces)
+    faces[3] = faces[3, ::-1]  # one face turned: the orientation
+    mesh_repair.repair_winding(vertices, faces)
+    signatures = mesh_repair.winding_signatures()
+    for kernel, signature in signatures.items():
+        assert tuple(signature) in kernel.signatures, (kernel, kernel.signatures)
+    assert set(mesh_repair.WINDING_KERNELS) < set(signatures)
