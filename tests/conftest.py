@@ -98,13 +98,22 @@ import trimesh
 from pathlib import Path
 from raycast_phong.renderer.warmup import ready_kernels
 from raycast_phong.scene.schema import validate_scene
-folder = Path(sys.argv[1])
-for precision, name in zip(sys.argv[2::2], sys.argv[3::2]):
-    trimesh.creation.icosphere(1).export(folder / name)
-    ready_kernels(validate_scene({"render": {"precision": precision},
-                                  "objects": [{"shape": "mesh", "path": str(folder / name)}]}, source="t"))
+folder, precision, mode, mesh = Path(sys.argv[1]), *sys.argv[2:5]
+objects = [{"shape": "icosphere", "crease_angle": 30}]  # creased: the crease split in this precision
+if mesh != "-":
+    trimesh.creation.icosphere(1).export(folder / mesh)
+    objects.append({"shape": "mesh", "path": str(folder / mesh)})  # a mesh file's merge and winding
+ready_kernels(validate_scene({"render": {"precision": precision, "mode": mode},
+                              "lights": [{"type": "point", "position": [2, 2, 3]}], "objects": objects}, source="t"))
+if "obj" in sys.argv[5:]:  # the OBJ reader's kernels, without the mesh preparation the other process compiles
+    from raycast_phong.io import obj_plain, obj_polygons
+    obj_plain.warm_up()
+    obj_polygons.warm_up()
 """
-WARM_UPS = (("float32", "ball.stl", "float32", "ball.obj"), ("float64", "ball.stl"))
+# (precision, mode, mesh file or "-", [obj]): between them every kernel a test may call, each compiled by one of the
+# two: float32 with global mode's shadow rays (called by address: only a scene in global mode brings them) and the
+# OBJ reader; float64 with a mesh file's preparation (merge, winding; the same kernels in either precision).
+WARM_UPS = (("float32", "global", "-", "obj"), ("float64", "local", "ball.stl"))
 
 
 def pytest_configure(config):
@@ -121,10 +130,10 @@ def pytest_configure(config):
     import tempfile
     with tempfile.TemporaryDirectory() as folder:
         runs = []
-        for n, pairs in enumerate(WARM_UPS):
+        for n, specification in enumerate(WARM_UPS):
             Path(folder, str(n)).mkdir()
             # Already one process a core: no compile helpers besides (renderer/split_compile.py).
-            runs.append(subprocess.Popen([sys.executable, "-c", WARM_UP, str(Path(folder, str(n))), *pairs],
+            runs.append(subprocess.Popen([sys.executable, "-c", WARM_UP, str(Path(folder, str(n))), *specification],
                                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                                          env={**os.environ, "RAYCAST_PHONG_COMPILE_PROCESSES": "1"}))
         for run in runs:
