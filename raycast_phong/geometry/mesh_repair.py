@@ -229,9 +229,8 @@ def warm_up_merge() -> None:
 def winding_signatures() -> dict:
     """The winding's kernels, each with the argument types repair_winding gives them (float64 vertices and centre,
     int64 faces and bucket starts, int32 keys and edges while they fit, int64 bounds and counts): compiled by
-    signature, without
-    running them, so that their compile can be shared out (split_compile.py: the helper compiles
-    WINDING_KERNELS, the command the rest; warm_up_winding then loads them)."""
+    signature, without running them, so that their compile can be shared out (split_compile.py: the helper
+    compiles WINDING_KERNELS, the command the rest; warm_up_winding then loads them)."""
     from numba import typeof, types
     faces, start, key = typeof(np.zeros((1, 3), np.int64)), typeof(np.zeros(1, np.int64)), typeof(np.zeros(1, np.int32))
     return {count_half_edges: (faces, start, types.int64, types.int64),

@@ -16,16 +16,19 @@ from .kernels.layout import TileRays
 _handles: dict[object, jit.ByAddress] = {}
 
 
+def no_rays() -> TileRays:
+    """A band of no rays, typed as render_band's slices of its buffers: whole empty arrays (a slice of a
+    C-contiguous array along its first axis is C-contiguous)."""
+    return TileRays(np.empty(0, np.int32), np.empty(0, np.float32), np.empty(0, np.float32),
+                    np.empty(0, np.float32), np.empty((0, 3), np.float32), np.empty(0, np.int64), 1)
+
+
 def shading_arguments(inputs) -> tuple:
     """(ShadingInputs, TileRays, FilmRows) as render_band passes them to _shade_rays, for a band of no rays
-    (`inputs`: a ShadingInputs): whole empty arrays type as render_band's slices (a slice of a C-contiguous array
-    along its first axis is C-contiguous)."""
+    (`inputs`: a ShadingInputs)."""
     from .film import allocate_film
     from .pack import film_rows
-    film = film_rows(allocate_film(2, 2, (), inputs.one.dtype.type).rows(0, 0))
-    rays = TileRays(np.empty(0, np.int32), np.empty(0, np.float32), np.empty(0, np.float32),
-                    np.empty(0, np.float32), np.empty((0, 3), np.float32), np.empty(0, np.int64), 1)
-    return inputs, rays, film
+    return inputs, no_rays(), film_rows(allocate_film(2, 2, (), inputs.one.dtype.type).rows(0, 0))
 
 
 def shader(inputs) -> jit.ByAddress:
@@ -42,8 +45,8 @@ def shadow_arguments() -> tuple:
     """(scene, ShadowInputs, face, u, v, directions, row_rays, visible) as render_band passes them to
     cast_shadows, for a band of no rays (every ShadowInputs has the types pack.no_shadows gives)."""
     from .pack import no_shadows
-    rays = np.empty(0, np.float32)
-    return 0, no_shadows(), np.empty(0, np.int32), rays, rays, np.empty((0, 3), np.float32), 1, np.empty(0, np.int64)
+    rays = no_rays()
+    return 0, no_shadows(), rays.face, rays.u, rays.v, rays.directions, 1, rays.visible
 
 
 def shadow_caster(global_mode: bool) -> jit.ByAddress:

@@ -168,12 +168,11 @@ class Aside:
             self.process = None
         if self.process is None:
             return
-        names = ([SHADE] if "shade" in tasks else []) + (
-            [jit.kernel_name(kernel) for kernel in WINDING_KERNELS] if "winding" in tasks else [])
-        for name in names:
-            task = "shade" if name == SHADE else "winding"
-            jit.compiled_elsewhere[name] = lambda task=task: self.wait_for(task)
-        self.waits = names
+        kernels = {"shade": [SHADE], "winding": [jit.kernel_name(kernel) for kernel in WINDING_KERNELS]}
+        for task in tasks:
+            for name in kernels[task]:
+                jit.compiled_elsewhere[name] = lambda task=task: self.wait_for(task)
+                self.waits.append(name)
 
     def wait_for(self, task: str) -> None:
         """Return once the helper says it has finished `task`, or has ended."""

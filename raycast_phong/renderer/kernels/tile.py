@@ -92,8 +92,8 @@ def render_band(scene, row0, row1, params, shared_origins, shadows, inputs, film
             if shadows.faces.shape[0] >= TOUCH_FACES:
                 touched += _touch(face[:n], shadows.faces, shadows.vertices, shadows.face_normals,
                                   shadows.corner_normals, shadows.smooth)
-            counts[C_SHADOW_RAYS] += cast(scene, shadows, face[:n], u[:n], v[:n], directions[:n],
-                                                  row_rays, visible[:n])
+            counts[C_SHADOW_RAYS] += cast(scene, shadows, face[:n], u[:n], v[:n], directions[:n], row_rays,
+                                          visible[:n])
         shadowed = _now(timespec)
         if inputs.faces.shape[0] >= TOUCH_FACES:
             touched += _touch(face[:n], inputs.faces, inputs.vertices, inputs.face_normals, inputs.corner_normals,
@@ -101,7 +101,7 @@ def render_band(scene, row0, row1, params, shared_origins, shadows, inputs, film
         # Film rows of this chunk, relative to the band; a layer not asked for is empty and stays so.
         a, b = row - row0, end - row0
         shade(inputs, TileRays(face[:n], u[:n], v[:n], t[:n], directions[:n], visible[:n], params.samples),
-                    FilmRows(rgb[a:b], terms[a:b], depth[a:b], normal[a:b], face_out[a:b], chunk_counts))
+              FilmRows(rgb[a:b], terms[a:b], depth[a:b], normal[a:b], face_out[a:b], chunk_counts))
         counts += chunk_counts
         done = _now(timespec)
         seconds[0] += traced - start
