@@ -1,13 +1,14 @@
-"""The one decorator for compiled kernels: numba's njit, cached under a key of every kernel module's source.
+"""The one decorator for compiled kernels: numba's njit, cached under a key of the sources each kernel compiles in.
 
 numba's on-disk cache checks only the source file a function is defined in, but a kernel compiles in
 the helpers it calls from other modules (illumination.py's `diffuse_terms`, `specular_terms` inside shading's
 `_shade_rays`): edit illumination.py and the cached `_shade_rays` would keep running the old model.
-So every kernel of the package is cached in a folder named after a hash of all the package's
-kernel modules (every .py file here that uses `@kernel`) and of the package modules they import:
-any edit to any of them starts a fresh folder, and stale folders are removed. Only numba's documented
-cache directory setting (`numba.config.CACHE_DIR`, the NUMBA_CACHE_DIR variable) is used, set for the
-moment a kernel is decorated and restored at once, so other numba code in the process is unaffected.
+So each kernel module (a .py file here that uses `@kernel`) is cached in a folder of its own, named after a hash
+of its text and of the package modules it imports, transitively: an edit starts fresh folders for the modules
+that read the edited one, and only those (an edit to illumination.py recompiles shading.py's kernels, not the
+tile's, the camera's or the mesh preparation's); stale folders are removed. Only numba's documented cache
+directory setting (`numba.config.CACHE_DIR`, the NUMBA_CACHE_DIR variable) is used, set for the moment a kernel
+is decorated and restored at once, so other numba code in the process is unaffected.
 Each kernel's cache is numba's own with a lighter load (`_CacheLoadedAsIs`: no typing or lowering registries
 for a kernel that is already compiled, nor imports of the numba modules whose implementations it holds), or
 numba's unchanged where its internals differ.
@@ -23,7 +24,7 @@ import sys
 import tempfile
 import weakref
 from collections.abc import Callable
-from functools import lru_cache
+from functools import cache, lru_cache
 from pathlib import Path
 
 import numba
@@ -37,35 +38,53 @@ from .compiles import compiling
 
 PACKAGE = Path(__file__).resolve().parent  # raycast_phong/: a kernel may import from anywhere in it
 OWN_CACHE = Path(__file__).resolve().parent / "__pycache__"
-MARK = "@kernel("          # how a module declares a kernel; such a module is part of the key
-PREFIX = "raycast-phong-kernels-"
+MARK = "@kernel("          # how a module declares a kernel; such a module is cached under its own key
+CACHE = "raycast-phong-kernels"  # the cache under its base: a folder <module>-<key> per kernel module
+OUTSIDE = "outside."       # the folders of kernels defined outside the package (a test's, a user's)
 RELATIVE_IMPORT = re.compile(rb"^from (\.+)([\w.]*) import (\([^)]*\)|[^\n]*)", re.MULTILINE)
 
 
 @lru_cache(maxsize=1)
-def source_key() -> str:
-    """sha256 (16 hex digits) of numba's version and the text of every kernel module and of every package
-    module they import, transitively (a kernel also freezes in the constants it reads, e.g. tolerances.py)."""
+def kernel_keys() -> dict[str, str]:
+    """Each kernel module's key, by its dotted name in the package (`renderer.kernels.shading`): sha256 (16 hex
+    digits) of numba's version and of the text of the module and of every package module it imports, transitively
+    (a kernel also freezes in the constants it reads, e.g. tolerances.py, and compiles in the helpers it calls)."""
     texts = {path: path.read_bytes() for path in PACKAGE.rglob("*.py")}
-    keyed = {path for path, text in texts.items() if MARK.encode() in text and path.name != "jit.py"}
-    pending = list(keyed)
-    while pending:
-        importer = pending.pop()
-        # Relative imports ("from .x import …", "from ..x.y import …", "from . import x, y") read off the
-        # text: parsing every module with ast would cost 10× more at each start-up.
-        for dots, module, names in RELATIVE_IMPORT.findall(texts[importer]):
-            folder = importer.parents[len(dots) - 1]
-            targets = [module] if module else re.findall(rb"\w+", names)
-            for target in targets:
-                base = folder.joinpath(*target.decode().split("."))
-                for path in (base.with_suffix(".py"), base / "__init__.py"):
-                    if path in texts and path not in keyed:
-                        keyed.add(path)
-                        pending.append(path)
-    digest = hashlib.sha256(numba.__version__.encode())
-    for path in sorted(keyed):
-        digest.update(path.relative_to(PACKAGE).as_posix().encode() + b"\0" + texts[path] + b"\0")
-    return digest.hexdigest()[:16]
+    imported: dict[Path, list[Path]] = {}
+
+    def imports(importer: Path) -> list[Path]:
+        """The package modules `importer` imports, read off its relative imports ("from .x import …",
+        "from ..x.y import …", "from . import x, y"): parsing every module with ast would cost 10× more at
+        each start-up."""
+        if importer not in imported:
+            found = []
+            for dots, module, names in RELATIVE_IMPORT.findall(texts[importer]):
+                folder = importer.parents[len(dots) - 1]
+                for target in [module] if module else re.findall(rb"\w+", names):
+                    base = folder.joinpath(*target.decode().split("."))
+                    found += [path for path in (base.with_suffix(".py"), base / "__init__.py") if path in texts]
+            imported[importer] = found
+        return imported[importer]
+
+    keys = {}
+    for module, text in texts.items():
+        if MARK.encode() not in text or module.name == "jit.py":
+            continue
+        read, pending = {module}, [module]
+        while pending:
+            for path in imports(pending.pop()):
+                if path not in read:
+                    read.add(path)
+                    pending.append(path)
+        digest = hashlib.sha256(numba.__version__.encode())
+        for path in sorted(read):
+            digest.update(path.relative_to(PACKAGE).as_posix().encode() + b"\0" + texts[path] + b"\0")
+        keys[_dotted(module)] = digest.hexdigest()[:16]
+    return keys
+
+
+def _dotted(module: Path) -> str:
+    return ".".join(module.relative_to(PACKAGE).with_suffix("").parts)
 
 
 def _writable(folder: Path) -> bool:
@@ -79,24 +98,59 @@ def _writable(folder: Path) -> bool:
 
 @lru_cache(maxsize=1)
 def cache_folder() -> Path | None:
-    """This source's kernel cache: under NUMBA_CACHE_DIR if the user set one, else the package's
-    __pycache__, else the user's cache folder, else a private folder in the temporary folder; None if none
-    is writable (kernels then compile per process).
-    In the package's own __pycache__, folders of other keys are removed: they belong to sources of this
-    tree that no longer exist (a shared folder may hold other installs' keys, so it is left alone)."""
-    bases = [Path(numba.config.CACHE_DIR)] if numba.config.CACHE_DIR else []  # NUMBA_CACHE_DIR
-    bases += [OWN_CACHE, Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "raycast-phong"]
-    for base in bases:
-        folder = base / f"{PREFIX}{source_key()}"
+    """The kernel cache, holding a folder per kernel module and key (`kernel_folder`): under NUMBA_CACHE_DIR if
+    the user set one, else the package's __pycache__, else the user's cache folder, else a private folder in the
+    temporary folder; None if none is writable (kernels then compile per process).
+    In the package's own __pycache__, folders of other keys are removed: they belong to sources of this tree that
+    no longer exist (a shared folder may hold other installs' keys, so it is left alone)."""
+    for base in _bases():
+        folder = base / CACHE
         if _writable(folder):
             if base == OWN_CACHE:
-                for stale in base.glob(f"{PREFIX}*"):
-                    if stale != folder:
-                        shutil.rmtree(stale, ignore_errors=True)  # another process may be removing it too
+                _remove_stale(folder)
             return folder
+    return None
+
+
+def _bases():
+    """Where the cache may go, in order (the private temporary folder made only if it comes to that)."""
+    if numba.config.CACHE_DIR:  # NUMBA_CACHE_DIR
+        yield Path(numba.config.CACHE_DIR)
+    yield OWN_CACHE
+    yield Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "raycast-phong"
     private = _private_temporary()  # last: a read-only install and home would otherwise compile every run
-    folder = private / f"{PREFIX}{source_key()}" if private is not None else None
-    return folder if folder is not None and _writable(folder) else None
+    if private is not None:
+        yield private
+
+
+def _remove_stale(folder: Path) -> None:
+    """Remove the folders of keys this tree no longer has (and the cache as it was laid out before, one folder
+    for all kernels, named after a key of them all)."""
+    current = {f"{name}-{key}" for name, key in kernel_keys().items()}
+    stale = list(folder.parent.glob(f"{CACHE}-*"))
+    stale += [path for path in folder.iterdir() if path.name not in current and not path.name.startswith(OUTSIDE)]
+    for path in stale:
+        shutil.rmtree(path, ignore_errors=True)  # another process may be removing it too
+
+
+def kernel_folder(function) -> Path | None:
+    """The cache folder of the kernel module `function` is defined in (made if need be); None if there is no
+    cache. A kernel defined outside the package gets a folder of its own file (numba checks that file)."""
+    return _module_folder(Path(function.__code__.co_filename).resolve())
+
+
+@cache
+def _module_folder(source: Path) -> Path | None:
+    root = cache_folder()
+    if root is None:
+        return None
+    try:
+        name = _dotted(source)
+        folder = root / f"{name}-{kernel_keys()[name]}"
+    except (ValueError, KeyError):  # not a kernel module of the package
+        key = hashlib.sha256(numba.__version__.encode() + str(source).encode()).hexdigest()[:16]
+        folder = root / f"{OUTSIDE}{source.stem}-{key}"
+    return folder if _writable(folder) else None
 
 
 def _private_temporary() -> Path | None:
@@ -121,7 +175,7 @@ def kernel(**options):
     check in every division of the hot loop.
     """
     def decorate(function):
-        folder = cache_folder()
+        folder = kernel_folder(function)
         settings = {"nogil": True, "error_model": "numpy", **options}
         if folder is None:
             set_up()  # every first call compiles: numba's registries load then, without the BLAS probe

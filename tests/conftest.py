@@ -175,25 +175,20 @@ class ColdPackage:
     @contextmanager
     def editing(self, *paths: Path):
         """Alone with the copy while `paths` are edited; then their text and times, and the kernel cache as it
-        was, are put back (cache_folder removes other keys' folders from the package's own __pycache__)."""
+        was, are put back (cache_folder removes the folders of other keys from the package's own __pycache__:
+        the edited run would remove those of the modules it reads edited)."""
         with _locked(self.folder / "lock", shared=False):
             kept = {path: (path.read_bytes(), path.stat()) for path in paths}
-            aside = self.folder / "aside"
-            caches = list((self.source / "__pycache__").glob("raycast-phong-kernels-*"))
-            aside.mkdir()
-            for cache in caches:
-                cache.rename(aside / cache.name)
+            cache, aside = self.source / "__pycache__" / "raycast-phong-kernels", self.folder / "aside"
+            shutil.copytree(cache, aside)
             try:
                 yield
             finally:
                 for path, (text, info) in kept.items():
                     path.write_bytes(text)
                     os.utime(path, ns=(info.st_atime_ns, info.st_mtime_ns))
-                for cache in (self.source / "__pycache__").glob("raycast-phong-kernels-*"):
-                    shutil.rmtree(cache)
-                for cache in caches:
-                    (aside / cache.name).rename(cache)
-                aside.rmdir()
+                shutil.rmtree(cache)
+                aside.rename(cache)
 
 
 @contextmanager

@@ -2,7 +2,7 @@
 
 The kernels see arrays and these names only, never the scene schema: renderer/pack.py is the one writer
 (Scene → these records), the kernels the readers. So an edit to the scene's schema or its messages changes
-no kernel module and recompiles nothing (jit.source_key covers the kernel modules and what they import).
+no kernel module and recompiles nothing (jit.kernel_keys: each kernel module's key covers it and what it imports).
 The role of pbrt-v4's wavefront/workitems.h. Imports numpy and the shared codes (codes.py: the model, light
 and material-column numbers that the geometry stage writes too, named there once).
 """

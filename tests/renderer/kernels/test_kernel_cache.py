@@ -36,12 +36,17 @@ scene = rp.validate_scene({
 })
 result = rp.render(scene, threads=1)
 np.save(sys.argv[1], np.stack([result.image, result.aovs["diffuse"]]))
-# The shading kernel (the tile kernel calls it by address), which compiles illuminate into itself.
-stats = shading._shade_rays.stats
-print(json.dumps({"hits": sum(stats.cache_hits.values()), "misses": sum(stats.cache_misses.values())}))
+# The shading kernel, which compiles illumination's helpers into itself, and the tile kernel, which calls it by
+# address (its module reads no illumination.py).
+from raycast_phong.renderer.kernels import tile
+counts = {}
+for name, dispatcher in (("shade", shading._shade_rays), ("tile", tile.render_band)):
+    stats = dispatcher.stats
+    counts[name] = {"hits": sum(stats.cache_hits.values()), "misses": sum(stats.cache_misses.values())}
+print(json.dumps(counts))
 """
 
-KEY = "from raycast_phong import jit; print(jit.source_key())"
+KEYS = "import json; from raycast_phong import jit; print(json.dumps(jit.kernel_keys()))"
 # How many signatures of each named kernel (module.function) the kernel cache holds.
 CACHED = ("import json, sys; from raycast_phong import jit; print(json.dumps({name: "
           "len(list(jit.cache_folder().rglob(name + '-*.nbc'))) for name in sys.argv[1:]}))")
@@ -69,17 +74,26 @@ def edit(path: Path, old: str, new: str) -> None:
     path.write_text(text.replace(old, new))
 
 
-def test_the_cache_key_covers_every_module_a_kernel_reads_and_only_those(package_copy):
+def test_each_kernel_module_s_key_covers_every_module_it_reads_and_only_those(package_copy):
     copy, run = package_copy
-    key = run(KEY)
-    # tolerances.py holds constants the kernels freeze in; no kernel is defined there.
+    keys = json.loads(run(KEYS))
+    assert {"renderer.kernels.shading", "renderer.kernels.tile", "renderer.kernels.camera", "geometry.kernels",
+            "io.obj_plain"} <= keys.keys(), keys
+
+    def changed() -> set[str]:
+        nonlocal keys
+        before, keys = keys, json.loads(run(KEYS))
+        assert keys.keys() == before.keys()
+        return {name for name in keys if keys[name] != before[name]}
+
+    # tolerances.py holds constants the kernels freeze in; no kernel is defined there. shading.py and shadows.py
+    # read it; the camera, the tile and the mesh preparation do not.
     edit(copy / "tolerances.py", "NO_DIRECTION = 1e-6", "NO_DIRECTION = 2e-6")
-    assert run(KEY) != key
-    key = run(KEY)
+    assert changed() == {"renderer.kernels.shading", "renderer.kernels.shadows"}
     # batch/ is a tool on top of the pipeline: editing it must not throw away compiled kernels.
     tool = copy / "tools" / "batch" / "run.py"
     tool.write_text(tool.read_text() + "\n# an edit\n")
-    assert run(KEY) == key
+    assert changed() == set()
     # The scene schema is no kernel code (kernels read renderer/kernels/layout.py's tables): a new message
     # there recompiles nothing, nor does a kind's key. So is the packing of a Scene into those tables
     # (renderer/pack.py).
@@ -88,10 +102,29 @@ def test_the_cache_key_covers_every_module_a_kernel_reads_and_only_those(package
     edit(copy / "geometry" / "shapes" / "box.py", '    """A box centred on the origin, its sides along the axes."""',
          '    """A box centred on the origin, its sides along the axes."""\n    bevel: float = 0.0')
     (copy / "renderer" / "pack.py").write_text((copy / "renderer" / "pack.py").read_text() + "\n# an edit\n")
-    assert run(KEY) == key
-    # ... while the layout the kernels read is.
+    assert changed() == set()
+    # ... while the layout the kernels read is, for the modules that read it (through illumination.py too).
     edit(copy / "renderer" / "kernels" / "layout.py", "MAX_LIGHTS = 63", "MAX_LIGHTS = 62")
-    assert run(KEY) != key
+    reading_layout = {f"renderer.kernels.{name}" for name in ("illumination", "shading", "shadows", "texture", "tile")}
+    assert changed() == reading_layout
+    # ... and what the layout itself imports (codes.py's material columns), transitively.
+    (copy / "codes.py").write_text((copy / "codes.py").read_text() + "\n# an edit\n")
+    assert changed() == reading_layout
+    # A helper inlined into shading's kernel: shading.py's key, not the tile's that calls it by address.
+    edit(copy / "renderer" / "kernels" / "illumination.py", "lit = weight * n_dot_l\n", "lit = weight * n_dot_l \n")
+    assert changed() == {"renderer.kernels.illumination", "renderer.kernels.shading"}
+    # In the package's own __pycache__ the cache keeps a folder per module and key: the folders of keys the tree
+    # no longer has are removed (and the older layout's, one folder for all), a kernel's from outside the
+    # package is kept.
+    cache = copy / "__pycache__" / "raycast-phong-kernels"
+    current = cache / f"renderer.kernels.tile-{keys['renderer.kernels.tile']}"
+    older = copy / "__pycache__" / "raycast-phong-kernels-0123456789abcdef"
+    for folder in (cache / "renderer.kernels.tile-0123456789abcdef", older, cache / "outside.mine-0123456789abcdef",
+                   current):
+        folder.mkdir(parents=True)
+    assert run("from raycast_phong import jit; print(jit.cache_folder())") == str(cache)
+    assert sorted(cache.parent.glob("raycast-phong-kernels*")) == [cache]
+    assert sorted(path.name for path in cache.iterdir()) == ["outside.mine-0123456789abcdef", current.name]
 
 
 @pytest.mark.slow
@@ -126,7 +159,7 @@ def test_the_first_render_says_it_compiles_and_keeps_compilation_out_of_the_fram
     assert any("shading._shade_rays" in line for line in loaded), wide.stdout
     assert all(any(name in line for line in saved) for name in (
         "texture.sample", "shading._textured_material", "shading._screen_weights", "tile.render_band"))
-    # (Counted by the copy itself, under the shared lock: the edit test moves the cache aside while it runs.)
+    # (Counted by the copy itself, under the shared lock: the edit test's run removes shading's folder.)
     counts = json.loads(cold_package.python(CACHED, "shading._shade_rays", "texture.sample", "shading._screen_weights",
                                             "shading._textured_material", "tile.render_band",
                                             "shadows.cast_shadows").stdout)
@@ -145,13 +178,16 @@ def test_an_edit_to_an_inlined_helper_reaches_the_cached_kernel(cold_package, tm
 
     first = run(str(tmp_path / "first.npy"))
     again = run(str(tmp_path / "again.npy"))
-    assert again == {"hits": again["hits"], "misses": 0} and again["hits"] > 0, (first, again)
+    for kernel in ("shade", "tile"):
+        assert again[kernel]["misses"] == 0 and again[kernel]["hits"] > 0, (first, again)
     # Double the diffuse term in illumination.py only: shading.py, where the cached kernel lives, is untouched.
     illumination = copy / "renderer" / "kernels" / "illumination.py"
     with cold_package.editing(illumination):
         edit(illumination, "lit = weight * n_dot_l\n", "lit = (weight + weight) * n_dot_l\n")  # 2w, exactly
         edited = run(str(tmp_path / "edited.npy"), alone=True)
-    assert edited["misses"] > 0, "the cached _shade_rays was loaded although diffuse_terms changed"
+    assert edited["shade"]["misses"] > 0, "the cached _shade_rays was loaded although diffuse_terms changed"
+    # ... and only the kernels that read illumination.py compile again: the tile kernel is loaded as it was.
+    assert edited["tile"] == again["tile"], edited
     (before, diffuse), (after, _) = np.load(tmp_path / "first.npy"), np.load(tmp_path / "edited.npy")
     np.testing.assert_array_equal(np.load(tmp_path / "again.npy")[0], before)
     # image' = image + diffuse exactly, up to float32 rounding of the sum (a few ulps of the pixel).
