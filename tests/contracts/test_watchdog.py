@@ -12,10 +12,10 @@ import os
 import struct
 import subprocess
 import sys
-import zlib
 from pathlib import Path
 
 import pytest
+from test_image_guards import claiming_png
 
 from raycast_phong.io import system
 
@@ -55,17 +55,6 @@ def measured(args: list[str], cwd: Path, cgroup: Path) -> tuple[int, int, str]:
     return code, peak * 1024, done.stderr
 
 
-def claiming_png(path: Path, side: int) -> Path:
-    """A PNG whose header claims side × side RGB pixels, of zlib'd zeros (about side²/1000 bytes)."""
-    def chunk(kind: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
-    packer, row = zlib.compressobj(9), b"\0" * (1 + 3 * side)
-    data = b"".join(packer.compress(row) for _ in range(side)) + packer.flush()
-    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", side, side, 8, 2, 0, 0, 0))
-                     + chunk(b"IDAT", data) + chunk(b"IEND", b""))
-    return path
-
-
 @pytest.fixture(scope="module")
 def hostile(tmp_path_factory) -> Path:
     """A 512 MB sparse OBJ that claims one vertex, a scene of four icospheres of subdivision 8 (≈ 3.3 GB to
@@ -75,8 +64,8 @@ def hostile(tmp_path_factory) -> Path:
         handle.write(b"v 0 0 0\n")
         handle.truncate(512 << 20)
     (folder / "bomb.toml").write_text('[[objects]]\nshape = "icosphere"\nsubdivisions = 8\n' * 4)
-    claiming_png(folder / "a.png", 20000)
-    claiming_png(folder / "b.png", 20000)
+    claiming_png(folder / "a.png", 20000, 20000)
+    claiming_png(folder / "b.png", 20000, 20000)
     (folder / "in").mkdir()
     (folder / "in" / "bomb.toml").write_text((folder / "bomb.toml").read_text())
     (folder / "in" / "huge.obj").symlink_to(folder / "huge.obj")
@@ -212,8 +201,8 @@ def hostile_files(tmp_path_factory) -> Path:
     3 M corners and a PLY strip of 10⁷ indices (headers: one element each), 10⁶ boxes in a 14 MB scene; and a
     fake cgroup of 300 MB over them all."""
     folder = tmp_path_factory.mktemp("hostile-300")
-    map_12k = claiming_png(folder / "map12k.png", 12000).read_bytes()
-    claiming_png(folder / "map20k.png", 20000)
+    claiming_png(folder / "map12k.png", 12000, 12000)
+    claiming_png(folder / "map20k.png", 20000, 20000)
     (folder / "texture.toml").write_text(
         '[materials.m]\nkd_map = "map12k.png"\n[[objects]]\nshape = "plane"\nmaterial = "m"\n')
     (folder / "textured.mtl").write_text("newmtl m\nmap_Kd map20k.png\n")
@@ -221,7 +210,6 @@ def hostile_files(tmp_path_factory) -> Path:
                                          "usemtl m\nf 1/1 2/2 3/3\n")
     textured_gltf(folder / "image.glb", (folder / "map20k.png").read_bytes())
     textured_gltf(folder / "image.gltf", (folder / "map20k.png").read_bytes())
-    del map_12k
     import numpy as np
     from test_file_guards import binary_ply, three_mf
     three_mf(folder / "bomb.3mf", 200_000)  # ≈ 47 MB of XML, ≈ 1.7 GB to parse
