@@ -137,24 +137,8 @@ def prepare(scene: Scene, *, source: str | Location = "<scene>", threads: int | 
         made, when `threads` is 2 or more and there is no `cache` (render() asks for it; a prepare() that is not
         rendered starts no Embree).
     """
-    plan = plan or build_plan(scene, source=source)
-    if plan.keeps(StageName.SHADOW_RAYS) and len(scene.lights) > MAX_LIGHTS:
-        raise SceneError(f"global mode handles at most {MAX_LIGHTS} lights, the scene has {len(scene.lights)}; "
-                         'use render.mode = "local" or fewer lights', located(source).at("lights"))
+    plan, bands, threads, tile_rays, sources, memory = _fitted(scene, source, threads, max_memory, plan)
     width, height, samples = scene.render.width, scene.render.height, scene.render.samples
-    rows_per_tile = max(1, TILE_RAYS // (width * samples * samples))
-    bands = tuple((row, min(row + rows_per_tile, height)) for row in range(0, height, rows_per_tile))
-    threads = threads or default_threads()
-    tile_rays = rows_per_tile * width * samples * samples
-    sources = None
-    if any(obj.shape == "mesh" for obj in scene.objects):  # each mesh file's MeshSource, read once (the scene's)
-        from ..io.mesh_source import mesh_sources
-        sources = mesh_sources(scene)
-    memory = check_memory(scene, source, max_memory, sources=sources, smooth=plan.keeps(StageName.VERTEX_NORMALS),
-                          float64=plan.keeps(StageName.FLOAT64_SHADING),
-                          shadow_lights=len(scene.lights) if plan.keeps(StageName.SHADOW_RAYS) else 0,
-                          tile_rays=tile_rays, threads=min(threads, len(bands)))
-
     start = time.perf_counter()
     real = plan.real
     ahead = BuildAhead() if build_ahead and cache is None and threads > 1 else None
@@ -183,6 +167,37 @@ def prepare(scene: Scene, *, source: str | Location = "<scene>", threads: int | 
         shadows=prepare_shadows(scene, geometry, frame) if plan.keeps(StageName.SHADOW_RAYS) else None,
         bands=bands, threads=threads, progress=progress, timings=timings, cache=cache, cancelled=cancelled,
         pool=pool, ahead=ahead)
+
+
+def check_fits(scene: Scene, *, source: str | Location = "<scene>", threads: int | None = None,
+               max_memory: int | str | None = None) -> MemoryEstimate:
+    """prepare()'s plan and memory check alone, building nothing: a SceneError if the scene is over the budget
+    (the study checks every level it is given so, before it measures the first)."""
+    return _fitted(scene, source, threads, max_memory, None)[-1]
+
+
+def _fitted(scene: Scene, source: str | Location, threads: int | None, max_memory: int | str | None,
+            plan: RenderPlan | None) -> tuple:
+    """(plan, bands, threads, tile_rays, mesh sources, MemoryEstimate): the plan, the bands and the memory check
+    that come before anything is built."""
+    plan = plan or build_plan(scene, source=source)
+    if plan.keeps(StageName.SHADOW_RAYS) and len(scene.lights) > MAX_LIGHTS:
+        raise SceneError(f"global mode handles at most {MAX_LIGHTS} lights, the scene has {len(scene.lights)}; "
+                         'use render.mode = "local" or fewer lights', located(source).at("lights"))
+    width, height, samples = scene.render.width, scene.render.height, scene.render.samples
+    rows_per_tile = max(1, TILE_RAYS // (width * samples * samples))
+    bands = tuple((row, min(row + rows_per_tile, height)) for row in range(0, height, rows_per_tile))
+    threads = threads or default_threads()
+    tile_rays = rows_per_tile * width * samples * samples
+    sources = None
+    if any(obj.shape == "mesh" for obj in scene.objects):  # each mesh file's MeshSource, read once (the scene's)
+        from ..io.mesh_source import mesh_sources
+        sources = mesh_sources(scene)
+    memory = check_memory(scene, source, max_memory, sources=sources, smooth=plan.keeps(StageName.VERTEX_NORMALS),
+                          float64=plan.keeps(StageName.FLOAT64_SHADING),
+                          shadow_lights=len(scene.lights) if plan.keeps(StageName.SHADOW_RAYS) else 0,
+                          tile_rays=tile_rays, threads=min(threads, len(bands)))
+    return plan, bands, threads, tile_rays, sources, memory
 
 
 class BuildAhead:

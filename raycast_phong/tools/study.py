@@ -36,7 +36,7 @@ from ..io.atomic import write_text
 from ..io.image_io import check_output_file
 from ..records import Geometry
 from ..renderer.frame import render
-from ..renderer.prepare import prepare
+from ..renderer.prepare import check_fits, prepare
 from ..scene.load import read_scene_dict
 from ..scene.messages import Location, located
 from ..scene.objects import NormalsRule
@@ -279,6 +279,12 @@ class _Sweep:
             data["render"].update(width=8, height=8)
             render(validate_scene(data, source=self.source, folder=warm.folder))
 
+    def check_fits(self, level: int) -> None:
+        """Refuse (SceneError) a level whose renders are over the memory budget, before anything is measured."""
+        for s in self.settings(level):
+            check_fits(self.scene(s), source=self.source, threads=self.options.threads,
+                       max_memory=self.options.max_memory)
+
     def measure_level(self, level: int, keep_images: bool) -> None:
         """Render every setting at `level` once and measure it (the references are computed once per problem)."""
         for s in self.settings(level):
@@ -351,6 +357,8 @@ def run_study(path: str | Path, overrides: list[str] | tuple[str, ...] = (), opt
     and after each timing render ("timing round R of N": renders done of all), then with "done"."""
     with tempfile.TemporaryDirectory(prefix="raycast-phong-study-") as folder:
         sweep = _Sweep(path, overrides, options, folder)
+        for level in sorted(set(options.levels or ()), reverse=True):  # a given level over the budget: refused
+            sweep.check_fits(level)                                    # before anything compiles or is measured
         sweep.warm_up()
         levels, note = choose_levels(sweep, progress)
         settings = [s for level in levels for s in sweep.settings(level)]
@@ -402,6 +410,7 @@ def choose_levels(sweep: _Sweep, progress) -> tuple[list[int], str]:
                 break
         if progress:
             progress(len(levels), len(levels) + 1, f"level {level}")
+        sweep.check_fits(level)
         sweep.measure_level(level, keep_images=True)
         levels.append(level)
         level += 1

@@ -192,6 +192,20 @@ def test_levels_are_chosen_until_the_orders_settle_or_the_budget_is_spent(tmp_pa
     assert sorted({r.level for r in spent.rows}) == [1] and "budget" in spent.levels_note
 
 
+def test_a_given_level_over_the_memory_budget_is_refused_before_anything_is_measured(tmp_path, monkeypatch):
+    """Levels 1 and 7 of the sphere at a 20 MB budget: level 7 (≈ 330k triangles a render) is over it, so the
+    study stops with the memory message before it compiles or renders anything, or computes a reference (before,
+    after level 1's references and renders: seconds, and minutes for a large image)."""
+    from raycast_phong.tools import study
+
+    def not_now(*args, **kwargs):
+        raise AssertionError("the study measured before it checked every level's memory")
+    for name in ("reference_image", "render", "prepare"):
+        monkeypatch.setattr(study, name, not_now)
+    with pytest.raises(rp.SceneError, match="above the 20 MB budget"):
+        run_study(sphere_file(tmp_path, size=16), options=StudyOptions(levels=(1, 7), max_memory=20 << 20))
+
+
 def test_gouraud_error_grows_with_shininess_and_highlight_loss(tmp_path):
     """The stiff case: the highlight narrows like 1/√f, below Gouraud's vertex spacing."""
     study = run_study(sphere_file(tmp_path, shape="uv_sphere", normals="mean"), options=StudyOptions(
