@@ -123,23 +123,54 @@ def pytest_configure(config):
     exact output, so which of them came first on a fresh clone must not decide what they see. The tests of the
     notice itself stand in for a cache miss (compiles.compiling, as numba's cache reports one).
     The two precisions compile at once, in two processes (a compile is one core's work; numba writes each
-    kernel's cache atomically), once for the whole run: here, in the process that starts xdist's workers, before
-    they start."""
+    kernel's cache atomically), once for the whole run, started here, in the process that starts xdist's workers:
+    the workers collect the tests meanwhile (about 11 s of CPU each, most of it pytest rewriting asserts; no test
+    module calls a kernel when it is imported), and no test starts before both are done (pytest_runtestloop)."""
     if hasattr(config, "workerinput") or config.option.collectonly or config.option.help:
         return  # an xdist worker: the cache is ready
     import tempfile
-    with tempfile.TemporaryDirectory() as folder:
-        runs = []
-        for n, specification in enumerate(WARM_UPS):
-            Path(folder, str(n)).mkdir()
-            # Already one process a core: no compile helpers besides (renderer/split_compile.py).
-            runs.append(subprocess.Popen([sys.executable, "-c", WARM_UP, str(Path(folder, str(n))), *specification],
-                                         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                                         env={**os.environ, "RAYCAST_PHONG_COMPILE_PROCESSES": "1"}))
+    folder = tempfile.TemporaryDirectory()
+    runs = []
+    for n, specification in enumerate(WARM_UPS):
+        Path(folder.name, str(n)).mkdir()
+        # Already one process a core: no compile helpers besides (renderer/split_compile.py).
+        runs.append(subprocess.Popen([sys.executable, "-c", WARM_UP, str(Path(folder.name, str(n))), *specification],
+                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                                     env={**os.environ, "RAYCAST_PHONG_COMPILE_PROCESSES": "1"}))
+    config.stash[WARMING] = (folder, runs)
+
+
+WARMING = pytest.StashKey[tuple]()
+
+
+@pytest.hookimpl(wrapper=True, tryfirst=True)
+def pytest_runtestloop(session):
+    """Wait for the warm-up (pytest_configure) before the first test: here, xdist's workers have collected or are
+    collecting (under -n 0, this process has)."""
+    folder, runs = session.config.stash.get(WARMING, (None, []))
+    try:
         for run in runs:
             output, _ = run.communicate()
             if run.returncode:
                 raise pytest.UsageError(f"the kernels' warm-up failed:\n{output}")
+    finally:
+        for run in runs:
+            run.kill()  # on an error (or ^C) the other one is not left compiling
+            run.wait()
+        if folder is not None:
+            folder.cleanup()
+    return (yield)
+
+
+def pytest_unconfigure(config):
+    """A run that ends before its test loop (a collection error, ^C) leaves no warm-up behind."""
+    folder, runs = config.stash.get(WARMING, (None, []))
+    for run in runs:
+        if run.poll() is None:
+            run.kill()
+            run.wait()
+    if folder is not None:
+        folder.cleanup()
 
 
 # The package as a fresh install meets it: a copy of its sources with an empty kernel cache, compiled once.
