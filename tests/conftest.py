@@ -136,8 +136,22 @@ def pytest_configure(config):
         # Already one process a core: no compile helpers besides (renderer/split_compile.py).
         runs.append(subprocess.Popen([sys.executable, "-c", WARM_UP, str(Path(folder.name, str(n))), *specification],
                                      stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                                     env={**os.environ, "RAYCAST_PHONG_COMPILE_PROCESSES": "1"}))
+                                     env={**os.environ, "RAYCAST_PHONG_COMPILE_PROCESSES": "1"},
+                                     preexec_fn=_killed_with_parent()))
     config.stash[WARMING] = (folder, runs)
+
+
+def _killed_with_parent():
+    """Linux: a function for Popen's preexec_fn that has the child killed when pytest ends, however it ends (a
+    SIGTERM leaves pytest no clean-up); None elsewhere (^C still stops it: pytest_runtestloop, pytest_unconfigure).
+    libc is looked up here, in the parent: the child only calls prctl."""
+    import ctypes
+    import signal
+    try:
+        prctl = ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):
+        return None
+    return lambda: prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
 
 
 WARMING = pytest.StashKey[tuple]()
