@@ -161,23 +161,25 @@ WARMING = pytest.StashKey[tuple]()
 def pytest_runtestloop(session):
     """Wait for the warm-up (pytest_configure) before the first test: here, xdist's workers have collected or are
     collecting (under -n 0, this process has)."""
-    folder, runs = session.config.stash.get(WARMING, (None, []))
+    runs = session.config.stash.get(WARMING, (None, []))[1]
+    if session.testsfailed and not session.config.option.continue_on_collection_errors:
+        runs = []  # pytest is about to stop on its collection errors (-n 0): nothing to wait for
     try:
         for run in runs:
             output, _ = run.communicate()
             if run.returncode:
                 raise pytest.UsageError(f"the kernels' warm-up failed:\n{output}")
     finally:
-        for run in runs:
-            run.kill()  # on an error (or ^C) the other one is not left compiling
-            run.wait()
-        if folder is not None:
-            folder.cleanup()
+        _stop_warm_up(session.config)  # on an error (or ^C) the other one is not left compiling
     return (yield)
 
 
 def pytest_unconfigure(config):
     """A run that ends before its test loop (a collection error, ^C) leaves no warm-up behind."""
+    _stop_warm_up(config)
+
+
+def _stop_warm_up(config) -> None:
     folder, runs = config.stash.get(WARMING, (None, []))
     for run in runs:
         if run.poll() is None:
