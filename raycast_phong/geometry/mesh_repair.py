@@ -209,13 +209,6 @@ MESH_FILE_KERNELS = ("merge_rows", "renumber", "first_use_numbers", "count_half_
                      "orient_pieces", "signed_volume")
 
 
-def warm_up() -> None:
-    """Load (or compile) MESH_FILE_KERNELS with the argument types a mesh file's preparation gives them (float64
-    vertices, int64 faces, int32 tables): warm_up_merge, then warm_up_winding."""
-    warm_up_merge()
-    warm_up_winding()
-
-
 def warm_up_merge() -> None:
     """The merge's and the renumbering's kernels: a tetrahedron that repeats a point, as float32 (a binary STL's
     points) and float64."""

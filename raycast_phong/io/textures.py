@@ -125,7 +125,7 @@ def _read_shrunk(found, spec, height: int, width: int) -> np.ndarray:
         for k in range(last - first):
             np.sum(band[edges[k]:edges[k + 1]], axis=0, dtype=down.dtype, out=down[k])
         sums = np.add.reduceat(down, column_edges[:-1], axis=1, dtype=np.float64)
-        counts = np.diff(row_edges[first:last + 1])[:, None, None] * columns[None, :, None]
+        counts = np.diff(edges)[:, None, None] * columns[None, :, None]
         out[first:last] = sums * (scale / counts)
     return out
 

@@ -19,6 +19,7 @@ import time
 from collections.abc import Callable
 from concurrent.futures import Executor, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -173,13 +174,22 @@ def check_fits(scene: Scene, *, source: str | Location = "<scene>", threads: int
                max_memory: int | str | None = None) -> MemoryEstimate:
     """prepare()'s plan and memory check alone, building nothing: a SceneError if the scene is over the budget
     (the study checks every level it is given so, before it measures the first)."""
-    return _fitted(scene, source, threads, max_memory, None)[-1]
+    return _fitted(scene, source, threads, max_memory, None).memory
+
+
+class _Fitted(NamedTuple):
+    """What prepare() settles before anything is built."""
+    plan: RenderPlan
+    bands: tuple[tuple[int, int], ...]  # rows [row0, row1) of each tile
+    threads: int
+    tile_rays: int                      # the rays of a full tile
+    sources: dict | None                # each mesh file's MeshSource (None: the scene has none)
+    memory: MemoryEstimate
 
 
 def _fitted(scene: Scene, source: str | Location, threads: int | None, max_memory: int | str | None,
-            plan: RenderPlan | None) -> tuple:
-    """(plan, bands, threads, tile_rays, mesh sources, MemoryEstimate): the plan, the bands and the memory check
-    that come before anything is built."""
+            plan: RenderPlan | None) -> _Fitted:
+    """The plan, the bands and the memory check (a SceneError over the budget)."""
     plan = plan or build_plan(scene, source=source)
     if plan.keeps(StageName.SHADOW_RAYS) and len(scene.lights) > MAX_LIGHTS:
         raise SceneError(f"global mode handles at most {MAX_LIGHTS} lights, the scene has {len(scene.lights)}; "
@@ -197,7 +207,7 @@ def _fitted(scene: Scene, source: str | Location, threads: int | None, max_memor
                           float64=plan.keeps(StageName.FLOAT64_SHADING),
                           shadow_lights=len(scene.lights) if plan.keeps(StageName.SHADOW_RAYS) else 0,
                           tile_rays=tile_rays, threads=min(threads, len(bands)))
-    return plan, bands, threads, tile_rays, sources, memory
+    return _Fitted(plan, bands, threads, tile_rays, sources, memory)
 
 
 class BuildAhead:
