@@ -3,7 +3,7 @@
 For each scan of make_scans.py (public scans subdivided to millions of triangles: bunny-1m, bunny-4m,
 beast-2m) in each format (binary PLY, binary STL, GLB, OBJ), a fresh subprocess measures:
   trimesh     trimesh.load(path, process=False): the raw parse, the reference of the ratio
-  geometry    build_geometry of a scene holding the file: read (io/mesh_file.py), merge repeated points,
+  geometry    build_geometry of a scene holding the file: read (io/meshes/read.py), merge repeated points,
               winding check (and repair), placing, face and corner normals — load + geometry; with the corner
               normals in float32, as render() asks for them (it shades in float32); wall, and CPU of the
               process (all its threads: a large mesh's preparation runs on --threads threads)

@@ -106,7 +106,7 @@ if mesh != "-":
 ready_kernels(validate_scene({"render": {"precision": precision, "mode": mode},
                               "lights": [{"type": "point", "position": [2, 2, 3]}], "objects": objects}, source="t"))
 if "obj" in sys.argv[5:]:  # the OBJ reader's kernels, without the mesh preparation the other process compiles
-    from raycast_phong.io import obj_plain, obj_polygons
+    from raycast_phong.io.meshes import obj_plain, obj_polygons
     obj_plain.warm_up()
     obj_polygons.warm_up()
 """

@@ -55,10 +55,9 @@ def scene_command(
         loaded = rp.load_scene(scene, set_, view=_view(view), up=up)
         notes = ()
         if is_mesh_file(scene):
-            from raycast_phong.io.mesh_file import mesh_bounds
-            from raycast_phong.io.mesh_source import mesh_source, source_key
+            from raycast_phong.io.meshes.source import mesh_source, source_key
             source = loaded.mesh_sources.get(source_key(scene)) or mesh_source(scene)  # framing's, as loaded
-            notes = mesh_bounds(source, str(scene)).notes
+            notes = source.bounds(str(scene)).notes
         header = (f"# The scene `raycast-phong render {scene.name}` renders: written by `raycast-phong scene`.\n"
                   "# A [materials.NAME] table overrides the mesh file's material of that name; see docs/meshes.md.")
         if output is not None:

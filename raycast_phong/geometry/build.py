@@ -2,7 +2,7 @@
 
 The stages, each in its own module: group the objects that share a mesh (grouping.py), make each group's
 template in the object frame (templates.py: a shape's triangles from shapes/, or a mesh file read by
-io/mesh_file.py and mended by mesh_repair.py), place the group's objects and give them face and corner normals
+io/meshes/read.py and mended by mesh_repair.py), place the group's objects and give them face and corner normals
 (placing.py, normals.py), write the parts into one mesh (scene_mesh.py), give it material rows (file_materials.py),
 textures (textures.py) and per-corner UVs and colours (corners.py), and check its range (checks.py). memo.py
 keeps a live view's pieces between builds.
@@ -44,7 +44,7 @@ def build_geometry(scene: Scene, source: str | Location = "<scene>", vertex_norm
     `vertex_normals=False` (the plan's choice for an all-flat scene) leaves corner_normals empty;
     `normal_dtype` is the corner normals' dtype: render() asks for float32 when it shades in float32 (the
     kernel would round them so anyway), which halves the largest array of a smooth mesh. `sources`: the mesh
-    files' io.mesh_source.MeshSource by resolved path (prepare() passes those the budget used; made here when
+    files' io.meshes.source.MeshSource by resolved path (prepare() passes those the budget used; made here when
     not given).
     `memo` (a live view's frames of one changing scene) keeps what the last build made and gives back what this
     scene shares with it (BuildMemo); the Geometry is the one a build without it gives, array for array.
@@ -54,7 +54,7 @@ def build_geometry(scene: Scene, source: str | Location = "<scene>", vertex_norm
     """
     where = located(source)
     if sources is None and any(obj.shape == "mesh" for obj in scene.objects):
-        from ..io.mesh_source import mesh_sources
+        from ..io.meshes.source import mesh_sources
         sources = mesh_sources(scene)
     if memo is None:
         return _build(scene, where, vertex_normals, normal_dtype, None, sources, positions)

@@ -12,7 +12,7 @@ from .materials import material_rows
 from .textures import TextureBank
 
 if TYPE_CHECKING:
-    from ..io.mesh_file import MeshFile
+    from ..io.meshes.read import MeshFile
 
 
 class FileRows:

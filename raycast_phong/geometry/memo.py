@@ -21,7 +21,7 @@ if TYPE_CHECKING:
 def mesh_stamp(path: Path, sources: dict | None = None) -> tuple:
     """A mesh file's identity now (its version and its side files': its MeshSource, the one prepare() made when
     given), or (path, None) when it cannot be read: then no key matches and the read words the error."""
-    from ..io.mesh_source import mesh_source
+    from ..io.meshes.source import mesh_source
     source = (sources or {}).get(path) or mesh_source(path)
     return source.identity if source.version is not None else (str(path), None)
 

@@ -1,5 +1,5 @@
 """A group's template: an object's triangles in its own frame (a built-in shape's from its kind, geometry/shapes/;
-a mesh file's read by io/mesh_file.py, with its materials, colours and normals), its winding mended
+a mesh file's read by io/meshes/read.py, with its materials, colours and normals), its winding mended
 (mesh_repair.py), its stored normals turned outward, and a built-in shape's UVs and exact corner normals.
 Every object of a group is placed from it (placing.py).
 """
@@ -19,7 +19,7 @@ from .mesh_repair import merge_duplicate_vertices, number_by_first_use, repair_w
 from .normals import PARALLEL_FACES, _normalise_or, face_normals
 
 if TYPE_CHECKING:  # mesh_file imports trimesh: only a scene with a mesh file loads it
-    from ..io.mesh_file import MeshFile
+    from ..io.meshes.read import MeshFile
 
 OBJECT_CHUNK_VERTICES = 1 << 20  # placed vertices per step of a group: ~25 MB of float64 temporaries
 # A mesh file of this many faces or more whose merge kept every point as it is (an indexed PLY, OBJ or glTF) has its
@@ -92,9 +92,10 @@ def shape_uv(obj: Object, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray
 
 def _load_mesh(scene: Scene, obj: Object, where: Location, mesh=None):
     path = scene.resolve(obj.path)
-    from ..io.mesh_file import read_mesh  # imports trimesh (0.2–0.3 s): only for mesh files
-
-    read = read_mesh(path, where.at("path"), source=mesh)
+    if mesh is None:
+        from ..io.meshes.source import mesh_source
+        mesh = mesh_source(path)
+    read = mesh.read(where.at("path"))  # imports trimesh (0.2–0.3 s): only for mesh files
     normals = read.normals if obj.normals in (None, "file") else None  # unset: the file's, if it has them
     if obj.normals == "file" and normals is None:
         raise SceneError(f'"file" but {str(path)!r} stores no vertex normals; use "mean", "area" or "angle"',
@@ -131,7 +132,7 @@ def file_crease_angle(obj: Object, stores_normals: bool) -> float | None:
     stores no normals: FILE_CREASE_ANGLE (a CAD part's edges stay sharp); None otherwise (the object's own)."""
     if stores_normals or obj.normals is not None or "crease_angle" in obj.model_fields_set:
         return None
-    from ..io.materials import FILE_CREASE_ANGLE
+    from ..io.meshes.materials import FILE_CREASE_ANGLE
     return FILE_CREASE_ANGLE
 
 

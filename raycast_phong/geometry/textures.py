@@ -14,7 +14,7 @@ from ..scene.schema import Scene
 from .memo import file_stamp
 
 if TYPE_CHECKING:
-    from ..io.mesh_file import MeshFile
+    from ..io.meshes.read import MeshFile
     from .memo import BuildMemo
 
 

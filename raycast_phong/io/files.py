@@ -1,10 +1,6 @@
-"""Reading input files safely, and the one cache of what was read from them, keyed on the file's version.
-
-open_regular opens only a regular file (never a FIFO, a device or a folder) of at most a given size.
-VersionCache remembers a value per version of a file, (resolved path, mtime, size, inode): a rewrite changes
-at least one, so a stale answer is never given. Every cache over file contents lives in one of these (the
-mesh read kept from framing for the render, mesh bounds, triangle counts, an OBJ's side files), so each
-stage that reads a file asks the cache rather than receiving the result through a module global.
+"""Reading input files safely: open_regular opens only a regular file (never a FIFO, a device or a folder) of
+at most a given size; file_version names a version of a file, (resolved path, mtime, size, inode): a rewrite
+changes at least one, so what was learnt of one version is never taken for another's.
 """
 
 from __future__ import annotations
@@ -13,11 +9,9 @@ import os
 import re
 import stat
 import sys
-import threading
-from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
-from typing import BinaryIO, Generic, TypeVar
+from typing import BinaryIO
 
 from ..errors import SceneError, Where
 
@@ -115,47 +109,6 @@ def file_version(path: str | Path, info: os.stat_result | None = None) -> tuple:
     stat (or fstat of an open handle) already made."""
     info = os.stat(path) if info is None else info
     return (str(Path(path).resolve()), info.st_mtime_ns, info.st_size, info.st_ino)
-
-
-T = TypeVar("T")
-
-
-class VersionCache(Generic[T]):
-    """At most `size` values, each keyed on file versions (file_version tuples), the oldest dropped first.
-    Thread-safe: the renderer's threads and a batch's in-process jobs may ask at once."""
-
-    def __init__(self, size: int):
-        self.size = size
-        self._values: dict[tuple, T] = {}
-        self._lock = threading.Lock()
-
-    def get(self, key: tuple) -> T | None:
-        with self._lock:
-            return self._values.get(key)
-
-    def put(self, key: tuple, value: T) -> None:
-        with self._lock:
-            self._values.pop(key, None)
-            while len(self._values) >= self.size:
-                self._values.pop(next(iter(self._values)))
-            self._values[key] = value
-
-    def take(self, key: tuple) -> T | None:
-        """The value for `key`, removed from the cache (a hand-over: the taker owns it now)."""
-        with self._lock:
-            return self._values.pop(key, None)
-
-    def setdefault(self, key: tuple, make: Callable[[], T]) -> T:
-        """The value for `key`, made (outside the lock) and kept when it is not there yet."""
-        found = self.get(key)
-        if found is None:
-            found = make()
-            self.put(key, found)
-        return found
-
-    def clear(self) -> None:
-        with self._lock:
-            self._values.clear()
 
 
 # Lines a native image library prints on the process's own stderr (fd 2) while it fails: libpng's default

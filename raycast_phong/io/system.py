@@ -19,7 +19,7 @@ def default_threads() -> int:
 def available_memory() -> int | None:
     """Bytes the machine can give this process now: MemAvailable (Linux), capped by its cgroup's limit (v2 or
     v1, its own cgroup and every parent) and by the address space `ulimit -v` (RLIMIT_AS) leaves; else free
-    pages. A command's --max-memory is its caller's to apply (io.mesh_header.check_mesh_read's max_memory)."""
+    pages. A command's --max-memory is its caller's to apply (io.meshes.size.check_mesh_read's max_memory)."""
     found = None
     try:
         with open("/proc/meminfo", "rb") as meminfo:

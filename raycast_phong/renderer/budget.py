@@ -15,7 +15,6 @@ from pathlib import Path
 from ..codes import GEOMETRY_LAYERS, TERM_LAYERS, ShadingModel
 from ..errors import SceneError
 from ..geometry.shapes import KINDS
-from ..io.mesh_header import MESH_FILE_BYTES, OTHER_MESH_FILE_BYTES, mesh_file_read_bytes, mesh_file_triangles
 from ..io.system import available_memory, count_text, format_bytes, parse_size
 from ..scene.kinds import object_kinds
 from ..scene.messages import Location, dotted, located
@@ -88,10 +87,10 @@ def estimate_memory(scene: Scene, source: str | Location = "<scene>", *, smooth:
 
     smooth: the plan keeps vertex normals; float64: it shades in float64; shadow_lights: lights that
     cast shadow rays (global mode); tile_rays × threads rays are in flight at once; sources: the mesh files'
-    io.mesh_source.MeshSource by resolved path (made here when not given).
+    io.meshes.source.MeshSource by resolved path (made here when not given).
     """
     if sources is None and any(obj.shape == "mesh" for obj in scene.objects):
-        from ..io.mesh_source import mesh_sources
+        from ..io.meshes.source import mesh_sources
         sources = mesh_sources(scene)
     files: dict[Path, int] = {}
     geometry, triangles, largest, largest_bytes = 0, 0, None, -1
@@ -100,17 +99,14 @@ def estimate_memory(scene: Scene, source: str | Location = "<scene>", *, smooth:
     costs = []  # per kind: (first object, objects, triangles, bytes a triangle, the least its read takes)
     for index, objects in zip(kinds.first.tolist(), kinds.count.tolist()):
         obj = scene.objects[index]
-        mesh_file, held, floor = obj.shape == "mesh", None, 0
+        mesh_file, floor = obj.shape == "mesh", 0
         if mesh_file:
             path = scene.resolve(obj.path)
             mesh = sources[path]
-            held = getattr(mesh, "held", None)  # a mesh given as arrays (scene.mesh_arrays): counted, not read
             if path not in files:
-                files[path] = len(held.faces) if held is not None else mesh_file_triangles(
-                    path, located(source).at("objects", index, "path"), mesh.document)
-            count, extra = files[path], MESH_FILE_BYTES.get(path.suffix.lower(), OTHER_MESH_FILE_BYTES)
-            if held is None:  # a large file that claims few triangles still costs its read (a one-line OBJ)
-                floor = mesh_file_read_bytes(path, mesh.side_files)
+                files[path] = mesh.triangles(located(source).at("objects", index, "path"))
+            count, extra = files[path], mesh.format.parse_bytes
+            floor = mesh.read_floor()  # a large file that claims few triangles still costs its read (a one-line OBJ)
         else:
             count, extra = shape_triangles(obj), 0
         smooth_here = smooth and scene.shading_of(obj) != ShadingModel.FLAT
@@ -152,13 +148,11 @@ def texture_estimate(scene: Scene, meshes) -> int:
     used = {obj.material for obj in object_kinds(scene).firsts(scene.objects)}
     paths = [scene.resolve(m.path) for name, material in scene.materials.items() if name in used or name == "default"
              for m in (material.ka_map, material.kd_map, material.ke_map) if m is not None]
-    if not paths and not any(m.suffix in (".obj", ".glb", ".gltf") for m in meshes):
+    sizes = [size for mesh in meshes for size in mesh.texture_sizes]
+    if not paths and not sizes:
         return 0
     from ..io.textures import file_size, texture_bytes
-    sizes = [size for size in map(file_size, dict.fromkeys(paths)) if size]
-    for mesh in meshes:
-        sizes += mesh.texture_sizes
-    return texture_bytes(sizes)
+    return texture_bytes([size for size in map(file_size, dict.fromkeys(paths)) if size] + sizes)
 
 
 # ---------------------------------------------------------------- the budget

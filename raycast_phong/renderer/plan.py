@@ -86,7 +86,7 @@ def _term_stages(scene: Scene, kinds: list, smooth: list, optimize: bool) -> tup
     maybe = sum(n for obj, n in smooth if obj.shape == "mesh" and obj.normals is None
                 and "crease_angle" not in obj.model_fields_set)
     if maybe:
-        from ..io.materials import FILE_CREASE_ANGLE
+        from ..io.meshes.materials import FILE_CREASE_ANGLE
     add(StageName.CREASE_SPLIT, bool(creased or maybe),
         "; ".join(([f"{creased} smooth object(s) with crease_angle < 180°"] if creased else [])
                   + ([f"{maybe} mesh object(s) creased at {FILE_CREASE_ANGLE:g}° if the file stores no "

@@ -201,7 +201,7 @@ def _fitted(scene: Scene, source: str | Location, threads: int | None, max_memor
     tile_rays = rows_per_tile * width * samples * samples
     sources = None
     if any(obj.shape == "mesh" for obj in scene.objects):  # each mesh file's MeshSource, read once (the scene's)
-        from ..io.mesh_source import mesh_sources
+        from ..io.meshes.source import mesh_sources
         sources = mesh_sources(scene)
     memory = check_memory(scene, source, max_memory, sources=sources, smooth=plan.keeps(StageName.VERTEX_NORMALS),
                           float64=plan.keeps(StageName.FLOAT64_SHADING),

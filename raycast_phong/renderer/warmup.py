@@ -19,11 +19,11 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
     numba's one-time set-up in a process). `announce` is told once, when numba is about to compile the first
     of them (compiles.told hears the cache miss), so no compile is ever silent. The kernels are the
     frame's in the scene's precision, the geometry stage's and, for a scene with a mesh file, its
-    preparation's (mesh_repair.warm_up_merge, and warm_up_winding, which a helper may compile meanwhile; an OBJ's
-    scans: obj_polygons.warm_up, and obj_plain.warm_up unless its first MB names a material library: then the plain
-    reader's scan never runs; none for an OBJ already read in this process and waiting for its render, as a mesh
-    file given on the command line is, whose read compiled what it needed: its render does not read it again), and
-    the crease split's where an object may be creased (normals.warm_up_creases).
+    preparation's (mesh_repair.warm_up_merge, and warm_up_winding, which a helper may compile meanwhile; the
+    kernels its format's reader will run (MeshFormat.warm_up: an OBJ's scans), none for a file already read in
+    this process and waiting for its render, as a mesh file given on the command line is, whose read compiled
+    what it needed: its render does not read it again), and the crease split's where an object may be creased
+    (normals.warm_up_creases).
     A mesh file that cannot be opened is refused first (one line, naming `source`): before any compile."""
     import numpy as np
 
@@ -36,16 +36,18 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
     from ..io.files import open_mesh_file
     from ..scene.kinds import object_kinds
     kinds = [(index, scene.objects[index]) for index in object_kinds(scene).first.tolist()]  # a mesh: its own kind
-    meshes = objs = plain = False
+    from ..io.meshes import format_of
+    from ..io.meshes.source import source_key
+    meshes, readers = False, {}
     for index, obj in kinds:
         if obj.shape == "mesh":
             path = scene.resolve(obj.path)
             handle = open_mesh_file(path, located(source).at("objects", index, "path"))
+            waiting = scene.mesh_sources.get(source_key(path))
+            warm_up = format_of(path).warm_up
             with handle:
-                if str(obj.path).lower().endswith(".obj") and not read_already(scene, path):
-                    from ..io.obj_plain import HEAD, may_be_plain
-                    objs = True
-                    plain = plain or may_be_plain(handle.read(HEAD))  # no mtllib ahead: its scan may run
+                if warm_up is not None and not (waiting is not None and waiting.holds_read()):
+                    readers.update(dict.fromkeys(warm_up(handle)))
             meshes = True
     creases = plan.keeps(StageName.VERTEX_NORMALS) and (meshes or any(obj.crease_angle < 180 for _, obj in kinds))
     real = plan.real
@@ -63,11 +65,8 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
             for kernel, signature in winding_signatures().items():  # a helper may be compiling the others
                 if kernel not in WINDING_KERNELS:
                     kernel.compile(signature)
-        if objs:
-            from ..io import obj_plain, obj_polygons
-            if plain:
-                obj_plain.warm_up()
-            obj_polygons.warm_up()
+        for warm in readers:
+            warm()
         if creases:  # in the corner normals' dtype: the shading precision (render() asks build_geometry for it)
             warm_up_creases(real)
 
@@ -75,12 +74,3 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
     with told(tell) as compiled:
         warm_kernels_for([plan], scene_kernels, winding=meshes)
     return ("compile" if compiled else "kernels"), time.perf_counter() - started
-
-
-def read_already(scene: Scene, path) -> bool:
-    """Whether the mesh file at `path` was read in this process (framing the camera of a mesh file given alone) and
-    that read waits for the render (io.mesh_file.KEPT): the render takes it and does not read the file again."""
-    from ..io.mesh_file import KEPT
-    from ..io.mesh_source import source_key
-    found = scene.mesh_sources.get(source_key(path))
-    return found is not None and found.version is not None and KEPT.get(found.identity) is not None

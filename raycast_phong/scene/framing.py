@@ -5,8 +5,8 @@ side, top or iso), a key light above and to the left of the camera, and the form
 
 `--set` overrides apply to that table exactly as to a TOML file's, before the camera is placed, so
 `--set render.width=300` or `--set camera.fov=20` still frames the model. The file is read once: its
-io.mesh_source.MeshSource is made here and handed on with the scene (load_scene), and io.mesh_file keeps the
-framing read in its file-version cache, where the render's read finds it.
+io.meshes.source.MeshSource is made here and handed on with the scene (load_scene); it keeps the framing read
+for the render's.
 """
 
 from __future__ import annotations
@@ -31,19 +31,16 @@ FILL = 0.9                    # the bounding sphere fills this share of the imag
 AZIMUTH, ELEVATION = math.radians(30.0), math.radians(20.0)
 
 
-# render.colour of a mesh file rendered directly, by suffix (docs/meshes.md, "Colour"), with the reason `plan`
-# gives: glTF 2.0 specifies its pipeline (§3.9.2: colour textures are sRGB-encoded, factors and COLOR_0 linear,
-# lit in linear values and shown through the sRGB curve); no other format says, and fixed-function GL viewers
-# (MeshLab, the lecture's) show their colours and maps as stored. Any other suffix is DISPLAY.
-LINEAR_FORMATS = {".glb": "glTF", ".gltf": "glTF"}
-
-
 def mesh_colour(path: str | Path) -> tuple[str, str]:
-    """(render.colour, why) for a mesh file rendered directly: LINEAR for glTF, which specifies it, else
-    DISPLAY, as fixed-function viewers show the other formats."""
+    """(render.colour, why) for a mesh file rendered directly (docs/meshes.md, "Colour"): LINEAR for a format whose
+    specification says its colours are linear (glTF 2.0 §3.9.2: colour textures are sRGB-encoded, factors and
+    COLOR_0 linear, lit in linear values and shown through the sRGB curve), else DISPLAY: no other format says,
+    and fixed-function GL viewers (MeshLab, the lecture's) show their colours and maps as stored."""
+    from ..io.meshes import format_of
     suffix = Path(path).suffix.lower()
-    if suffix in LINEAR_FORMATS:
-        return LINEAR, f"the default for a {LINEAR_FORMATS[suffix]} file rendered directly, as glTF 2.0 specifies"
+    kind = format_of(path)
+    if kind.linear:
+        return LINEAR, f"the default for a {kind.names[0]} file rendered directly, as {kind.linear} specifies"
     return DISPLAY, (f"the default for a {suffix or 'mesh'} file rendered directly (the format names no colour "
                      "space; fixed-function GL viewers show its colours as stored)")
 
@@ -66,18 +63,18 @@ def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), vie
                     up: str | None = None, max_memory: int | None = None, sources: dict | None = None) -> dict:
     """A scene table showing one mesh file: its materials, a framing camera, a key light (docs/meshes.md).
     Reading the file to frame it keeps to `max_memory` bytes (the command's --max-memory) as well as to what
-    the machine has. The file's MeshSource is put in `sources` (by io.mesh_source.source_key), if given."""
-    from ..io.mesh_file import check_file_content, mesh_bounds  # trimesh: only for mesh files
-    from ..io.mesh_header import check_mesh_read
-    from ..io.mesh_source import mesh_source, source_key
+    the machine has. The file's MeshSource is put in `sources` (by io.meshes.source.source_key), if given."""
+    from ..io.meshes.content import check_file_content
+    from ..io.meshes.size import check_mesh_read
+    from ..io.meshes.source import mesh_source, source_key
     where = Location(str(path))
     check_view(view, where)
-    check_file_content(path, where)  # an OBJ named .stl is no binary STL of 1702M triangles
     source = mesh_source(path)
+    check_file_content(path, source.format, where)  # an OBJ named .stl is no binary STL of 1702M triangles
     if sources is not None:
         sources[source_key(path)] = source
-    check_mesh_read(path, where, max_memory, source)  # the framing read comes before render()'s own memory check
-    found = mesh_bounds(source, where)
+    check_mesh_read(source, where, max_memory)  # the framing read comes before render()'s own memory check
+    found = source.bounds(where)  # trimesh: only for mesh files
     return framed_dict(found, path.name, path.stem, mesh_colour(path)[0], overrides, view, up, where)
 
 
@@ -88,10 +85,10 @@ def check_view(view: str | None, where: Location) -> None:
 
 def framed_dict(found, path: str, stem: str, colour: str, overrides: list[str] | tuple[str, ...] = (),
                 view: str | None = None, up: str | None = None, where: Location | None = None) -> dict:
-    """The scene table showing one mesh (`found`: its io.mesh_file.MeshFile, bounds and materials) at `path`,
+    """The scene table showing one mesh (`found`: its io.meshes.read.MeshFile, bounds and materials) at `path`,
     named `stem`: its materials, a framing camera from `view`, a key light, `colour`, then `overrides`. A mesh
     file's (mesh_scene_dict) and a mesh given as arrays' (scene.mesh_arrays) alike."""
-    from ..io.mesh_file import FILE_CREASE_ANGLE
+    from ..io.meshes.read import FILE_CREASE_ANGLE
     view, where = view or VIEWS[0], where or Location("<mesh>")
     if not found.radius >= MIN_EXTENT:  # every vertex at one point: nothing to frame (or to see)
         centre = [float(x) for x in found.centre]

@@ -23,20 +23,19 @@ VALIDATED_ITEM_BYTES = 1536
 
 
 def is_mesh_file(path: str | Path) -> bool:
-    """Whether `path` names a mesh file rather than a scene file, by its suffix: one trimesh reads (.obj,
-    .ply, .stl, .off, .glb, .gltf, ...). Any other is a scene file: TOML, or JSON for .json."""
-    suffix = Path(path).suffix.lower()
-    if suffix in SCENE_SUFFIXES or not suffix:
-        return False  # the common case answers without importing trimesh
-    import trimesh
-    return suffix[1:] in trimesh.available_formats()
+    """Whether `path` names a mesh file rather than a scene file, by its suffix (io.meshes.is_mesh_file). Any
+    other is a scene file: TOML, or JSON for .json."""
+    if Path(path).suffix.lower() in SCENE_SUFFIXES:
+        return False  # the common case answers without importing the formats
+    from ..io.meshes import is_mesh_file as mesh_suffix
+    return mesh_suffix(path)
 
 
 def read_scene_dict(path: str | Path, overrides: list[str] | tuple[str, ...] = (), view: str | None = None,
                     up: str | None = None, max_memory: int | None = None, sources: dict | None = None) -> dict:
     """The table of a scene file, or of a mesh file made into a scene, with `overrides` applied; reading a
     mesh file to frame it keeps to `max_memory` bytes (a command's --max-memory; None: what the machine has).
-    A mesh file's io.mesh_source.MeshSource is put in `sources`, if given."""
+    A mesh file's io.meshes.source.MeshSource is put in `sources`, if given."""
     path = Path(path)
     if not is_mesh_file(path):
         if view is not None or up is not None:

@@ -1,12 +1,12 @@
 """A mesh given as arrays (numpy, or a trimesh.Trimesh) instead of a file: the same object a file becomes.
 
 `held_mesh` checks the arrays as a mesh file's read checks its vertices (finite, within ±POSITION_LIMIT) and its
-faces (whole numbers indexing the vertices), and holds them as the io.mesh_file.MeshFile a read would give, in an
-`ArraySource`: the io.mesh_source.MeshSource of a file that is never read. A scene names it with a placeholder
-path (`<arrays N>`) and carries it in Scene.mesh_sources, as it carries a framed file's; prepare() passes it on,
-the memory estimate counts its triangles (renderer.budget), and the geometry stage's read returns the held
-MeshFile (io.mesh_file.read_mesh). So the arrays go through the same validation, estimate and renderer as a file,
-and nothing is written. `mesh_scene` (rp.mesh_scene) frames one, as `render model.obj` frames a file.
+faces (whole numbers indexing the vertices), and holds them as the io.meshes.read.MeshFile a read would give, in an
+`ArraySource`: a io.meshes.source.MeshSource whose file is never read. A scene names it with a placeholder path
+(`<arrays N>`) and carries it in Scene.mesh_sources, as it carries a framed file's; prepare() passes it on, the
+memory estimate asks it its triangles (renderer.budget), and the geometry stage's read gets the held MeshFile
+from it. So the arrays go through the same validation, estimate and renderer as a file, and nothing is written.
+`mesh_scene` (rp.mesh_scene) frames one, as `render model.obj` frames a file.
 """
 
 from __future__ import annotations
@@ -19,7 +19,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import SceneError
-from ..io.mesh_source import MeshSource
+from ..io.meshes import format_of
+from ..io.meshes.source import MeshSource
 from ..tolerances import POSITION_LIMIT
 from .messages import Location
 
@@ -29,8 +30,8 @@ _NUMBERS = itertools.count(1)  # each held mesh's own version: its identity, nev
 @dataclass(frozen=True, eq=False)
 class ArraySource(MeshSource):
     """The MeshSource of a mesh given as arrays: its MeshFile, held. Always current (arrays do not change under
-    a scene: they were checked and copied when held)."""
-    held: Any = None  # io.mesh_file.MeshFile
+    a scene: they were checked and copied when held); its read costs nothing beyond the arrays counted."""
+    held: Any = None  # io.meshes.read.MeshFile
 
     def current(self) -> bool:
         return True
@@ -38,6 +39,21 @@ class ArraySource(MeshSource):
     @property
     def texture_sizes(self) -> tuple:
         return ()
+
+    def triangles(self, where) -> int:
+        return len(self.held.faces)
+
+    def read_floor(self) -> int:
+        return 0
+
+    def bounds(self, where):
+        return self.held
+
+    def read(self, where):
+        return self.held
+
+    def holds_read(self) -> bool:
+        return True
 
 
 def placeholder(number: int) -> str:
@@ -56,7 +72,7 @@ def held_mesh(vertices: Any, faces: Any = None, normals: Any = None, where: str 
     SceneError (one line at `where`) for values a mesh file would be refused for: a NaN, infinite or too large
     coordinate, a face naming a vertex that does not exist, no face at all.
     """
-    from ..io.mesh_file import MeshFile  # imports trimesh: only when a mesh is held
+    from ..io.meshes.read import MeshFile  # imports trimesh: only when a mesh is held
     where = where if isinstance(where, Location) else Location(str(where))
     if faces is None and hasattr(vertices, "faces") and hasattr(vertices, "vertices"):  # a trimesh.Trimesh
         mesh = vertices
@@ -89,7 +105,7 @@ def held_mesh(vertices: Any, faces: Any = None, normals: Any = None, where: str 
     path = placeholder(number)
     held = MeshFile(points, np.array(corners, np.int64), stored, np.full(len(corners), -1, np.int32), (), None, (),
                     centre, radius, stored is not None)
-    return path, ArraySource(Path(folder) / path, "", ("arrays", number), held=held)
+    return path, ArraySource(Path(folder) / path, format_of(path), ("arrays", number), held=held)
 
 
 def _array(value: Any, name: str, shape: tuple, *kinds) -> np.ndarray:
@@ -132,13 +148,13 @@ def mesh_scene(vertices: Any, faces: Any = None, *, normals: Any = None, name: s
     large coordinate, a face index out of range, no faces, a model of no size, or an override the format refuses.
     """
     from ..io.encoding import DISPLAY
-    from ..io.mesh_source import source_key
+    from ..io.meshes.source import source_key
     from .framing import check_view, framed_dict
     from .schema import validate_scene
     where = Location("mesh_scene")
     check_view(view, where)
     path, source = held_mesh(vertices, faces, normals, where, folder)
-    data = framed_dict(source.held, path, name, DISPLAY, overrides, view, up, where)
+    data = framed_dict(source.bounds(where), path, name, DISPLAY, overrides, view, up, where)
     scene = validate_scene(data, source=where, folder=folder)
     scene.mesh_sources[source_key(scene.resolve(path))] = source
     return scene

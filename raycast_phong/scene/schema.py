@@ -305,7 +305,7 @@ class Scene(Table):
         (), json_schema_extra={"minItems": 1}, description="the objects, at least one")
     output: Output = Output()
     folder: str = Field(".", exclude=True)  # the scene file's folder: relative paths start here
-    # The mesh files' io.mesh_source.MeshSource made while loading (framing a mesh file), by source_key: handed
+    # The mesh files' io.meshes.source.MeshSource made while loading (framing a mesh file), by source_key: handed
     # with the scene to prepare(), which reads no file twice. What was read, not part of the scene's value.
     _mesh_sources: dict = PrivateAttr(default_factory=dict)
 
@@ -341,7 +341,7 @@ class Scene(Table):
 
     @property
     def mesh_sources(self) -> dict:
-        """The MeshSources (io/mesh_source.py) made while this scene was loaded, by source_key; {} when none
+        """The MeshSources (io/meshes/source.py) made while this scene was loaded, by source_key; {} when none
         were (a scene file: prepare() makes them)."""
         return self._mesh_sources
 

@@ -86,9 +86,9 @@ def check_fine_memory(scene: Scene, data: dict, levels: int, source: str | Locat
 
 
 def _mesh_triangles(scene: Scene, index: int, source: str | Location) -> int:
-    from ..io.mesh_header import mesh_file_triangles
+    from ..io.meshes.source import mesh_sources
     path = scene.resolve(scene.objects[index].path)
-    return mesh_file_triangles(path, located(source).at("objects", index, "path"))
+    return mesh_sources(scene)[path].triangles(located(source).at("objects", index, "path"))
 
 
 def fine_reference(scene: Scene, levels: int, source: str | Location = "<scene>",

@@ -20,8 +20,8 @@ from hypothesis import strategies as st
 
 import raycast_phong as rp
 from raycast_phong.errors import SceneError
-from raycast_phong.io import mesh_header
-from raycast_phong.io.mesh_header import mesh_file_triangles
+from raycast_phong.io.meshes import obj as obj_format
+from raycast_phong.io.meshes.source import mesh_source
 
 CLI = [sys.executable, str(Path(__file__).parents[2] / "cli.py")]
 
@@ -134,32 +134,31 @@ def test_a_3mf_is_weighed_by_what_it_unzips_to(tmp_path):
 
 
 def test_the_read_floor_grows_with_the_size_and_not_the_claim(tmp_path):
-    from raycast_phong.io.mesh_header import mesh_file_read_bytes
     small, large = sparse(tmp_path / "a.obj", 1 << 20), sparse(tmp_path / "b.obj", 1 << 30)
-    assert mesh_file_read_bytes(large) == 1024 * mesh_file_read_bytes(small) >= 1 << 33
-    assert mesh_file_read_bytes(tmp_path / "missing.obj") == 0
+    assert mesh_source(large).read_floor() == 1024 * mesh_source(small).read_floor() >= 1 << 33
+    assert mesh_source(tmp_path / "missing.obj").read_floor() == 0
 
 
 def test_a_binary_stl_whose_size_does_not_match_its_count_is_corrupt(tmp_path):
     path = tmp_path / "cut.stl"
     path.write_bytes(b"\0" * 80 + (1000).to_bytes(4, "little") + b"\0" * 50 * 10)  # counts 1000, holds 10
     with pytest.raises(SceneError, match=r"cut\.stl.*binary STL.*1,000 triangles.*corrupt"):
-        mesh_file_triangles(path, f"{path}")
+        mesh_source(path).triangles(f"{path}")
     big = sparse(tmp_path / "zeros.stl", 1 << 30)  # a multi-GiB STL of zeros counts 0 but is 1 GiB
     with pytest.raises(SceneError, match="corrupt"):
-        mesh_file_triangles(big, str(big))
+        mesh_source(big).triangles(str(big))
 
 
 def test_unused_vertices_count(tmp_path):
     """A million vertices and one face weigh as what they hold (before: one triangle)."""
     obj = tmp_path / "points.obj"
     obj.write_bytes(b"v 0 0 0\n" * 1_000_000 + b"f 1 2 3\n")
-    assert mesh_file_triangles(obj, "k") >= 999_000
+    assert mesh_source(obj).triangles("k") >= 999_000
     ply = tmp_path / "points.ply"
     ply.write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 1000000\nproperty float x\n"
                     b"property float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\n"
                     b"end_header\n")
-    assert mesh_file_triangles(ply, "k") >= 999_000
+    assert mesh_source(ply).triangles("k") >= 999_000
 
 
 def binary_ply(path: Path, vertices: int, element: str, lists: list[list[int]], count: str = "uint") -> Path:
@@ -180,13 +179,13 @@ def test_a_ply_s_lists_weigh_as_the_triangles_they_can_make(tmp_path):
     it (before: the count was 1, and `plan` ran over 6 minutes at 745 MB). A file of triangles counts exactly."""
     import random
     face = binary_ply(tmp_path / "face.ply", 3, "face", [[i % 3 for i in range(3_000_000)]])
-    assert mesh_file_triangles(face, "k") == 3_000_000 - 2
+    assert mesh_source(face).triangles("k") == 3_000_000 - 2
     strip = binary_ply(tmp_path / "strip.ply", 3, "tristrips", [[i % 3 for i in range(1_000_000)]], count="int")
-    assert mesh_file_triangles(strip, "k") == 1_000_000 - 2
+    assert mesh_source(strip).triangles("k") == 1_000_000 - 2
     rng = random.Random(1)
     triangles = binary_ply(tmp_path / "t.ply", 500, "face", [rng.sample(range(500), 3) for _ in range(700)],
                            count="uchar")
-    assert mesh_file_triangles(triangles, "k") == 700
+    assert mesh_source(triangles).triangles("k") == 700
     done, peak, _ = run_measured(["render", str(face), "--max-memory", "300M", "-o", str(tmp_path / "o.png")],
                                  tmp_path)
     lines = done.stderr.strip().splitlines()
@@ -216,12 +215,12 @@ def test_an_obj_is_counted_the_same_in_any_pieces(lines, chunk, newline):
     if any(b"\n" in line or b"\r" in line for line in lines):
         text = b"\n".join(line.replace(b"\r", b" ").replace(b"\n", b" ") for line in lines)
     expected = reference_count(text)
-    saved = mesh_header.CHUNK
+    saved = obj_format.CHUNK
     try:
-        mesh_header.CHUNK = chunk
-        assert mesh_header._obj_triangles(io.BytesIO(text)) == max(expected, 0)
+        obj_format.CHUNK = chunk
+        assert obj_format.count(io.BytesIO(text), len(text), None, "k") == max(expected, 0)
     finally:
-        mesh_header.CHUNK = saved
+        obj_format.CHUNK = saved
 
 
 def test_a_one_line_obj_is_counted_in_bounded_memory(tmp_path):
@@ -233,7 +232,7 @@ def test_a_one_line_obj_is_counted_in_bounded_memory(tmp_path):
     path.write_bytes(b"f" + b" 1" * corners)
     tracemalloc.start()
     try:
-        count = mesh_file_triangles(path, "k")
+        count = mesh_source(path).triangles("k")
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()

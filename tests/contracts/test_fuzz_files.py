@@ -17,7 +17,7 @@ from typer.testing import CliRunner
 
 from raycast_phong.cli import app
 from raycast_phong.errors import SceneError
-from raycast_phong.io.mesh_header import mesh_file_read_bytes, mesh_file_triangles
+from raycast_phong.io.meshes.source import mesh_source
 
 runner = CliRunner()
 CLI = [sys.executable, str(Path(__file__).parents[2] / "cli.py")]
@@ -54,12 +54,12 @@ def write(folder: Path, suffix: str, head: bytes, size: int) -> Path:
 def test_a_hostile_mesh_header_gives_a_count_or_one_line(tmp_path, file):
     path = write(tmp_path, *file)
     try:
-        count = mesh_file_triangles(path, str(path))
+        count = mesh_source(path).triangles(str(path))
     except SceneError as error:
         assert "\n" not in str(error) and str(path) in str(error)
     else:
         assert isinstance(count, int) and count >= 0
-    assert mesh_file_read_bytes(path) >= path.stat().st_size
+    assert mesh_source(path).read_floor() >= path.stat().st_size
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

@@ -22,7 +22,7 @@ import trimesh
 import raycast_phong as rp
 from raycast_phong.codes import StageName
 from raycast_phong.geometry.build import build_geometry
-from raycast_phong.io.mesh_header import mesh_file_triangles
+from raycast_phong.io.meshes.source import mesh_source
 from raycast_phong.io.scene_file import MAX_SCENE_BYTES
 from raycast_phong.renderer.budget import (
     check_memory,
@@ -89,19 +89,19 @@ def test_mesh_file_triangles_are_read_from_the_header(tmp_path, suffix, options)
     mesh = trimesh.creation.icosphere(subdivisions=2)  # 320 triangles
     path = tmp_path / f"sphere{suffix}"
     mesh.export(path, **options)
-    assert mesh_file_triangles(path, "key") == 320
+    assert mesh_source(path).triangles("key") == 320
 
 
 def test_an_ascii_stl_is_bounded_by_its_size(tmp_path):
     path = tmp_path / "sphere.stl"
     trimesh.creation.icosphere(subdivisions=2).export(path, file_type="stl_ascii")
-    assert 320 <= mesh_file_triangles(path, "key") <= path.stat().st_size // 86
+    assert 320 <= mesh_source(path).triangles("key") <= path.stat().st_size // 86
 
 
 def test_an_obj_polygon_counts_its_fan_of_triangles(tmp_path):
     path = tmp_path / "quads.obj"
     path.write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\nf 1 2 3 4\nf 1 2 3 4 5\nf\t1 2 3\n")
-    assert mesh_file_triangles(path, "key") == 2 + 3 + 1
+    assert mesh_source(path).triangles("key") == 2 + 3 + 1
 
 
 @pytest.mark.parametrize("text, expected", [("8G", 8 << 30), ("500M", 500 << 20), ("1.5GiB", 3 << 29),
@@ -368,8 +368,8 @@ def test_the_estimate_follows_the_measured_peak_of_a_mesh_file(tmp_path, shading
 
 
 def test_the_framing_check_counts_the_render_bytes_per_triangle():
-    """io.mesh_header checks a framing read below the renderer with its own copy of the measured figure."""
-    from raycast_phong.io.mesh_header import MESH_READ_BYTES
+    """io.meshes.size checks a framing read below the renderer with its own copy of the measured figure."""
+    from raycast_phong.io.meshes.size import MESH_READ_BYTES
     from raycast_phong.renderer.budget import FLAT_BYTES
     assert MESH_READ_BYTES == FLAT_BYTES
 

@@ -1,4 +1,4 @@
-"""The regular-expression reading of an OBJ's concave polygons that io/obj_polygons.py's compiled scan replaced,
+"""The regular-expression reading of an OBJ's concave polygons that io/meshes/obj_polygons.py's compiled scan replaced,
 kept as the tests' oracle: for LF text of well-formed records, the scan must find the same concave polygons and
 cut them into the same lines. The ear clipping both share (unchanged) is imported from the package."""
 
@@ -8,7 +8,7 @@ import re
 
 import numpy as np
 
-from raycast_phong.io.obj_polygons import _ear_clip
+from raycast_phong.io.meshes.obj_polygons import _ear_clip
 
 POLYGON = re.compile(rb"^[ \t]*f(?:[ \t]+[^ \t\r\n#]+){4,}[ \t]*(?:#[^\r\n]*)?$", re.MULTILINE)
 VERTEX = re.compile(rb"^[ \t]*v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)", re.MULTILINE)

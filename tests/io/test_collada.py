@@ -12,7 +12,8 @@ import pytest
 from typer.testing import CliRunner
 
 from raycast_phong.cli import app
-from raycast_phong.io import mesh_file
+from raycast_phong.io.meshes import read as mesh_file
+from raycast_phong.io.meshes.source import read_mesh
 
 runner = CliRunner()
 pytestmark = pytest.mark.usefixtures("in_tmp_path")
@@ -49,7 +50,7 @@ def write_dae(path: Path, effect: str, skinned: bool, bind_shape: str = "1 0 0 0
 
 
 def read(path: Path) -> mesh_file.MeshFile:
-    return mesh_file.read_mesh(path, str(path))
+    return read_mesh(path, str(path))
 
 
 def test_a_skinned_mesh_renders_in_its_bind_shape_pose(tmp_path):
@@ -72,7 +73,7 @@ def test_an_effect_without_profile_common_renders_with_the_default_material(tmp_
 
 def test_a_document_that_needs_no_change_is_read_as_it_was(tmp_path):
     """A plain instance with a profile_COMMON effect: the bytes go to trimesh unchanged, no note."""
-    from raycast_phong.io.collada import collada_text
+    from raycast_phong.io.meshes.collada import collada_text
     data = write_dae(tmp_path / "plain.dae", "common", False).read_bytes()
     notes: list[str] = []
     assert collada_text(data, tmp_path / "plain.dae", notes) is data and notes == []

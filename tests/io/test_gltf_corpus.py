@@ -15,8 +15,8 @@ import pytest
 from test_gltf_extensions import quad_gltf
 
 from raycast_phong.errors import SceneError
-from raycast_phong.io.gltf import LOOK_ONLY
-from raycast_phong.io.mesh_file import read_mesh
+from raycast_phong.io.meshes.gltf import LOOK_ONLY
+from raycast_phong.io.meshes.source import read_mesh
 
 
 def with_colour(path: Path, colour: dict, data: bytes = b"") -> Path:
@@ -149,7 +149,7 @@ def test_a_reader_that_stops_on_a_corrupt_file_is_refused_without_its_exception_
     """A PLY header whose property type is three NUL bytes (the assimp fuzzer's crash file): trimesh raised
     KeyError('\\x00\\x00\\x00'), an ASCII STL with a vertex line that does not parse gave numpy's ValueError text
     (openscad's invalidvertex.stl). Now the renderer's words: the line and what it should hold where the reader
-    can tell (io.mesh_file._explained), else the format and what the file may be. main: the exception's type and
+    can tell (io.meshes.read._explained), else the format and what the file may be. main: the exception's type and
     text."""
     (tmp_path / "crash.ply").write_bytes(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty \0\0\0 x\nend_header\n1\n")
     (tmp_path / "bad.stl").write_text("solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 x\nvertex 1 0 0\n"

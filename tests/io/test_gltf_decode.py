@@ -1,4 +1,4 @@
-"""glTF data that trimesh misreads, decoded by io/gltf_decode.py, checked on real files against a reference
+"""glTF data that trimesh misreads, decoded by io/meshes/gltf_decode.py, checked on real files against a reference
 (tests/data/models/LICENSES.md says where each comes from):
 
 - KHR_mesh_quantization and EXT/KHR_meshopt_compression: gltfpack's output of BoxTextured (-c, -c -ce khr,
@@ -28,7 +28,7 @@ from scipy.spatial import cKDTree
 
 import raycast_phong as rp
 from raycast_phong.errors import SceneError
-from raycast_phong.io.mesh_file import read_mesh
+from raycast_phong.io.meshes.source import read_mesh
 
 MODELS = Path(__file__).resolve().parents[1] / "data" / "models"
 SMALL = ["render.width=160", "render.height=120"]
@@ -118,17 +118,18 @@ def test_instances_are_each_placed_and_counted_before_the_read(tmp_path):
     filters) land where gltfpack -noq's 501 nodes put them: main drew one cube and counted 12 triangles.
     Rotations are 16-bit: a corner moves at most 2 × 4 components × ½/32767 × its distance from the instance's
     centre (√3 × scale ≤ 2 here), 1e-3 with the 14-bit cube besides."""
-    from raycast_phong.io.mesh_header import check_mesh_read, mesh_file_triangles
+    from raycast_phong.io.meshes.size import check_mesh_read
+    from raycast_phong.io.meshes.source import mesh_source
     packed = read_mesh(MODELS / "many-cubes-instanced.glb", "t")
     reference = read_mesh(MODELS / "many-cubes-float.glb", "t")
     assert len(packed.faces) == len(reference.faces) == 501 * 12
     distance, _ = cKDTree(reference.vertices).query(packed.vertices[packed.faces].reshape(-1, 3))
     assert distance.max() < 1e-3, distance.max()
     # The estimate counts every instance's triangles (and vertices) before any data is decoded.
-    counted = mesh_file_triangles(MODELS / "many-cubes-instanced.glb", "t")
-    assert counted == mesh_file_triangles(MODELS / "many-cubes-float.glb", "t") >= 501 * 12
+    counted = mesh_source(MODELS / "many-cubes-instanced.glb").triangles("t")
+    assert counted == mesh_source(MODELS / "many-cubes-float.glb").triangles("t") >= 501 * 12
     with pytest.raises(SceneError, match="triangles needs"):  # 12 triangles' worth fits; 501 × 12 do not
-        check_mesh_read(MODELS / "many-cubes-instanced.glb", "t", max_memory=1 << 20)
+        check_mesh_read(mesh_source(MODELS / "many-cubes-instanced.glb"), "t", max_memory=1 << 20)
     image, expected = (rp.render_file(MODELS / n, SMALL).image
                        for n in ("many-cubes-instanced.glb", "many-cubes-float.glb"))
     assert differing(image, expected, 0.02) < 0.005
@@ -233,7 +234,7 @@ def test_corrupt_draco_data_is_one_line_naming_the_file(tmp_path, caplog):
 def test_integer_accessors_decode_as_the_gltf_specification_says(component, normalized, stored, expected):
     """glTF 2.0 §3.11 (and KHR_mesh_quantization): hand-computed values for each component type, with a
     byteStride wider than the element (as gltfpack pads int8 VEC3 to 4 bytes) and a sparse substitution."""
-    from raycast_phong.io.gltf_decode import DTYPES, _Decoder
+    from raycast_phong.io.meshes.gltf_decode import DTYPES, _Decoder
     dtype = np.dtype(DTYPES[component]).newbyteorder("<")
     stride = 4 * ((dtype.itemsize + 3) // 4)
     data = bytearray(stride * len(stored))
@@ -262,7 +263,7 @@ def test_an_instance_matrix_is_translation_rotation_scale_in_that_order():
     """EXT_mesh_gpu_instancing: a point goes through S, then R, then T (hand-computed: x̂ scaled by 2 along x,
     turned 90° about z by the quaternion (0, 0, sin 45°, cos 45°), moved by (1, 2, 3): (1, 4, 3); the other
     order gives (1, 3, 3)); no rotation accessor is no rotation."""
-    from raycast_phong.io.gltf_decode import instance_matrices
+    from raycast_phong.io.meshes.gltf_decode import instance_matrices
     half = np.sqrt(0.5)
     [matrix] = instance_matrices(np.array([[1.0, 2.0, 3.0]]), np.array([[0.0, 0.0, half, half]]),
                                  np.array([[2.0, 1.0, 1.0]]), 1)

@@ -14,7 +14,7 @@ import pytest
 
 import raycast_phong as rp
 from raycast_phong.errors import SceneError
-from raycast_phong.io.mesh_file import read_mesh
+from raycast_phong.io.meshes.source import read_mesh
 
 # Ambient light only, white: a surface shows k_a (and k_e); lights would add its diffuse and specular terms.
 AMBIENT = ["render.width=40", "render.height=30", "ambient=[1, 1, 1]", "lights=[]", "render.background=[0, 0, 0]"]
@@ -74,7 +74,7 @@ def test_percent_encoded_buffer_and_image_uris_are_decoded(tmp_path):
     image = covered(rp.render_file(path, AMBIENT).image)
     assert len(image) > 100
     np.testing.assert_allclose(image, np.broadcast_to([1.0, 0.0, 0.0], image.shape), atol=1e-6)
-    from raycast_phong.io.mesh_source import mesh_source
+    from raycast_phong.io.meshes.source import mesh_source
     source = mesh_source(path)
     assert source.side_files == (tmp_path / "a buffer.bin",) and source.images == (tmp_path / "the map.png",)
 
@@ -164,7 +164,7 @@ def test_texture_transform_turns_uvs_as_the_extensions_example_and_sample_do(tra
     """KHR_texture_transform by hand, in glTF's UV coordinates (v down): u' = u cos r + v sin r, v' = −u sin r +
     v cos r, after the scale and before the offset (glTF issue #1563: the GLSL listing's sign is the wrong one,
     its example JSON and the TextureTransformTest sample the right one). transform_uv takes and gives v up."""
-    from raycast_phong.io.gltf import transform_uv
+    from raycast_phong.io.meshes.gltf import transform_uv
     given = np.array(gltf_uv, np.float64)
     found = transform_uv(np.column_stack([given[:, 0], 1.0 - given[:, 1]]), transform)
     np.testing.assert_allclose(np.column_stack([found[:, 0], 1.0 - found[:, 1]]), expected, atol=1e-9)

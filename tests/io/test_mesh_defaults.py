@@ -62,7 +62,7 @@ def test_mtl_ns_0_is_matte_not_a_uniform_highlight():
 
 
 def test_the_lobe_rule_keeps_narrow_lobes_and_lowers_wide_ones():
-    from raycast_phong.io.materials import specular_lobe
+    from raycast_phong.io.meshes.materials import specular_lobe
     ks, f = specular_lobe([0.5, 0.5, 0.5], 80)
     assert f == 80 and ks.tolist() == [0.5] * 3  # narrower than the default's f = 32: as the file says
     ks, f = specular_lobe([1.0, 1.0, 1.0], 0)
@@ -174,7 +174,7 @@ def test_a_ply_of_triangle_strips_is_read():
               "element tristrips 1\nproperty list int int vertex_indices\nend_header\n")
     points = "0 0 0\n1 0 0\n0 1 0\n1 1 0\n0 0 1\n1 0 1\n0 1 1\n"
     Path("strips.ply").write_text(header + points + "8 0 1 2 3 -1 4 5 6\n")
-    from raycast_phong.io.mesh_file import read_mesh
+    from raycast_phong.io.meshes.source import read_mesh
     found = read_mesh(Path("strips.ply"), "strips.ply")
     assert found.faces.tolist() == [[0, 1, 2], [2, 1, 3], [4, 5, 6]]
     normals = np.cross(found.vertices[found.faces[:, 1]] - found.vertices[found.faces[:, 0]],
@@ -299,7 +299,7 @@ def test_boxtextured_shows_both_of_its_texture_colours_and_no_note_says_otherwis
 
 
 def test_corner_colours_are_read_per_corner_without_a_note(tmp_path):
-    from raycast_phong.io.mesh_file import read_mesh
+    from raycast_phong.io.meshes.source import read_mesh
     painted = trimesh.creation.icosphere(subdivisions=1)
     painted.visual.vertex_colors = np.random.default_rng(0).integers(0, 255, (len(painted.vertices), 4), np.uint8)
     painted.export("painted.ply")
@@ -371,7 +371,7 @@ def test_a_texture_is_decoded_at_the_size_its_use_needs(tmp_path):
     buffer = io.BytesIO()
     Image.fromarray(pixels).save(buffer, "JPEG", quality=50)
     pbr_sphere(tmp_path / "big.glb", 0.5, 0.0, baseColorTexture=Image.open(io.BytesIO(buffer.getvalue())))
-    code = ("import resource, sys; from pathlib import Path; from raycast_phong.io.mesh_file import read_mesh;"
+    code = ("import resource, sys; from pathlib import Path; from raycast_phong.io.meshes.source import read_mesh;"
             "import trimesh, PIL.Image; before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss;"
             "read_mesh(Path(sys.argv[1]), 'x');"
             "print((resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before) / 1024)")

@@ -1,6 +1,6 @@
 """One read per file (issue 33): a mesh file's JSON and its .mtl are read and parsed once for one render,
 however many stages (framing, the memory estimate's counts and texture sizes, the read's checks, batch's side
-files) want what they say. On main before io/mesh_source.py: a .gltf's JSON was parsed 7 times for one render
+files) want what they say. On main before io/meshes/source.py: a .gltf's JSON was parsed 7 times for one render
 (6 by this renderer, 1 by trimesh), an OBJ's .mtl opened twice."""
 
 from __future__ import annotations
@@ -77,7 +77,7 @@ def test_a_batch_frames_only_the_meshes_it_renders(tmp_path, monkeypatch):
     from typer.testing import CliRunner
 
     from raycast_phong.cli import app
-    from raycast_phong.io import mesh_file
+    from raycast_phong.io.meshes import read as mesh_file
     for name in ("fuze.obj", "fuze.obj.mtl", "fuze uv.jpg"):
         shutil.copy(MODELS / name, tmp_path / name)
     out, runner = tmp_path / "out", CliRunner()
@@ -87,10 +87,8 @@ def test_a_batch_frames_only_the_meshes_it_renders(tmp_path, monkeypatch):
         return json_module.loads((out / "manifest.json").read_text(encoding="utf-8"))["scenes"]["fuze"]["status"]
     assert runner.invoke(app, command).exit_code == 0 and status() == "rendered"
     reads = []
-    real = mesh_file._read
-    monkeypatch.setattr(mesh_file, "_read", lambda *a, **k: reads.append(a[0]) or real(*a, **k))
-    mesh_file.BOUNDS.clear()  # as a new process (a batch run again) starts: nothing kept from the first run
-    mesh_file.KEPT.clear()
+    real = mesh_file.read_file
+    monkeypatch.setattr(mesh_file, "read_file", lambda *a, **k: reads.append(a[0].path) or real(*a, **k))
     assert runner.invoke(app, command).exit_code == 0 and status() == "up to date"
     assert reads == []
     mtl = tmp_path / "fuze.obj.mtl"

@@ -18,7 +18,7 @@ from typer.testing import CliRunner
 import raycast_phong as rp
 from raycast_phong.cli import app
 from raycast_phong.geometry.build import build_geometry
-from raycast_phong.io import mesh_file
+from raycast_phong.io.meshes.source import read_mesh
 
 MESHES = Path(__file__).resolve().parents[2] / "scenes" / "meshes"
 SHIPPED = ("dice.obj", "painted_knot.ply", "still_life.glb")
@@ -218,11 +218,10 @@ def test_a_mesh_file_that_is_not_one_is_one_line_naming_it(tmp_path):
 
 def test_a_mesh_file_is_read_once_for_framing_and_render(monkeypatch):
     """load_scene reads the file to frame it; the render takes that reading instead of a second one."""
-    from raycast_phong.io import mesh_file
+    from raycast_phong.io.meshes import read as mesh_file
     reads = []
-    real = mesh_file._read
-    monkeypatch.setattr(mesh_file, "_read", lambda *a, **k: reads.append(a) or real(*a, **k))
-    mesh_file.BOUNDS.clear()
+    real = mesh_file.read_file
+    monkeypatch.setattr(mesh_file, "read_file", lambda *a, **k: reads.append(a) or real(*a, **k))
     rp.render_file(MESHES / "painted_knot.ply", ["render.width=16", "render.height=12"])
     assert len(reads) == 1
 
@@ -278,7 +277,7 @@ def test_mtl_mapping_edge_cases_and_their_notes(tmp_path):
     """illum 0 is the colour only (k_e = Kd + Ke); one number is grey; a missing key takes the default's value;
     values outside [0, 1] are clamped; a value that is not a number keeps the default; Tr, illum 3 and maps
     are said once each, with the render going on."""
-    from raycast_phong.io.mtl import parse_mtl
+    from raycast_phong.io.meshes.mtl import parse_mtl
     notes: list[str] = []
     found = parse_mtl("newmtl flat\nKd 0.5 0.25 0.125\nKe 0.25 0 0\nillum 0\n"
                       "newmtl grey\nKa 0.3\nKd 1.5 0.5 -1\nKs nonsense\nTr 0.2\nillum 3\nbump b.png\n",
@@ -297,11 +296,11 @@ def test_mtl_mapping_edge_cases_and_their_notes(tmp_path):
 def test_a_mesh_file_too_large_to_read_for_framing_is_one_line_before_any_read(tmp_path, monkeypatch):
     """Framing reads the file before render()'s memory check: a PLY whose header promises 10¹² faces is
     refused from its header (the read would try to allocate them), one line naming the file, exit 2."""
-    from raycast_phong.io import mesh_file
+    from raycast_phong.io.meshes import read as mesh_file
     header = ("ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
               "property float z\nelement face 1000000000000\nproperty list uchar int vertex_indices\nend_header\n")
     (tmp_path / "huge.ply").write_bytes(header.encode() + bytes(64))
-    monkeypatch.setattr(mesh_file, "read_mesh", lambda *a, **k: pytest.fail("the file was read"))
+    monkeypatch.setattr(mesh_file, "read_file", lambda *a, **k: pytest.fail("the file was read"))
     done = runner.invoke(app, ["render", str(tmp_path / "huge.ply"), "-o", str(tmp_path / "x.png")])
     assert done.exit_code == 2, done.output
     [line] = done.stderr.strip().splitlines()
@@ -325,13 +324,13 @@ def test_an_obj_is_scanned_for_its_mtllib_once_per_version(tmp_path, monkeypatch
     the scene is loaded and handed on with it, and a rewrite that names another .mtl is seen."""
     import os
 
-    from raycast_phong.io import mesh_source as sources
-    from raycast_phong.io.mesh_source import mesh_source, mesh_sources
+    from raycast_phong.io.meshes import obj as obj_format
+    from raycast_phong.io.meshes.source import mesh_source, mesh_sources
     path = tmp_path / "tri.obj"
     path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     scans = []
-    real = sources.scan_mtllib
-    monkeypatch.setattr(sources, "scan_mtllib", lambda handle: scans.append(handle.name) or real(handle))
+    real = obj_format.scan_mtllib
+    monkeypatch.setattr(obj_format, "scan_mtllib", lambda handle: scans.append(handle.name) or real(handle))
     scene = rp.load_scene(path, ["render.width=16", "render.height=12"])
     rp.render(scene)
     assert [source.side_files for source in mesh_sources(scene).values()] == [()]
@@ -343,21 +342,22 @@ def test_an_obj_is_scanned_for_its_mtllib_once_per_version(tmp_path, monkeypatch
 
 
 def test_an_obj_is_counted_once_for_the_framing_check_and_the_render(tmp_path, monkeypatch):
-    """io.mesh_header.mesh_file_triangles counts an OBJ's face lines (0.37 s for 78 MB); the framing's memory check
-    and render()'s estimate both ask, and the count is made once per version of the file."""
+    """A MeshSource counts an OBJ's face lines (0.37 s for 78 MB) once: the framing's memory check and render()'s
+    estimate both ask the source the scene carries, and a new version of the file is counted again."""
     import os
 
-    from raycast_phong.io import mesh_header as memory
+    from raycast_phong.io.meshes import size as memory
+    from raycast_phong.io.meshes.source import mesh_source
     path = tmp_path / "tri.obj"
     path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     counted = []
-    real = memory._count_triangles
-    monkeypatch.setattr(memory, "_count_triangles", lambda *a: counted.append(a[1]) or real(*a))
+    real = memory.count_triangles
+    monkeypatch.setattr(memory, "count_triangles", lambda *a: counted.append(a[0].path.suffix) or real(*a))
     rp.render_file(path, ["render.width=16", "render.height=12"])
     assert counted == [".obj"]
     path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n")
     os.utime(path, ns=(1, 1))
-    assert memory.mesh_file_triangles(path, "tri.obj") == 2 and counted == [".obj", ".obj"]
+    assert mesh_source(path).triangles("tri.obj") == 2 and counted == [".obj", ".obj"]
 
 
 def test_face_colours_drive_kd_and_ka_like_vertex_colours(tmp_path):
@@ -377,7 +377,7 @@ def test_face_colours_drive_kd_and_ka_like_vertex_colours(tmp_path):
 def test_an_mtl_material_name_keeps_its_spaces(tmp_path):
     """`newmtl red paint` names the material "red paint" (as `usemtl red paint` refers to it): two names that
     share a first word stay two materials."""
-    from raycast_phong.io.mtl import parse_mtl
+    from raycast_phong.io.meshes.mtl import parse_mtl
     notes: list[str] = []
     materials = parse_mtl("newmtl red paint\nKd 1 0 0\nnewmtl red glaze\nKd 0 1 0\n", tmp_path / "m.mtl", notes)
     assert sorted(materials) == ["red glaze", "red paint"]
@@ -430,7 +430,7 @@ def test_a_collada_files_missing_texture_is_a_note(tmp_path, present):
     (tmp_path / "tri.dae").write_text(COLLADA.replace("MAP", "duck%20map.tga"))
     if present:
         (tmp_path / "duck map.tga").write_bytes(b"")
-    notes = mesh_file.read_mesh(tmp_path / "tri.dae", "scene.toml: objects.0.path").notes
+    notes = read_mesh(tmp_path / "tri.dae", "scene.toml: objects.0.path").notes
     said = [note for note in notes if "duck map.tga" in note]
     assert said == ([] if present else [f"{tmp_path / 'tri.dae'}: texture 'duck map.tga' is missing"])
     assert not any("glTF" in note for note in notes)  # trimesh reads its materials as PBR: the note says so

@@ -1,4 +1,4 @@
-"""A plain OBJ (v and f lines only) read by one compiled pass (io/obj_plain.py) gives what trimesh's reader gave:
+"""A plain OBJ (v and f lines only) read by one compiled pass (io/meshes/obj_plain.py) gives what trimesh's reader gave:
 the same MeshFile, array for array and bit for bit; every other OBJ is left to the full reader."""
 
 from __future__ import annotations
@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 import trimesh
 
-from raycast_phong.io import mesh_file
-from raycast_phong.io.mesh_source import mesh_source
-from raycast_phong.io.obj_plain import plain_obj
+from raycast_phong.io.meshes import obj_plain
+from raycast_phong.io.meshes import read as mesh_file
+from raycast_phong.io.meshes.obj_plain import plain_obj
+from raycast_phong.io.meshes.source import mesh_source, read_mesh
 
 pytestmark = pytest.mark.usefixtures("in_tmp_path")
 
@@ -20,8 +21,8 @@ pytestmark = pytest.mark.usefixtures("in_tmp_path")
 def read(path: Path, plain: bool, monkeypatch) -> mesh_file.MeshFile:
     with monkeypatch.context() as patch:
         if not plain:
-            patch.setattr(mesh_file, "plain_obj", lambda data, path: None)
-        return mesh_file._read(path, str(path), mesh_source(path), bounds=True)  # no cache: read each time
+            patch.setattr(obj_plain, "plain_obj", lambda data, path: None)
+        return mesh_file.read_file(mesh_source(path), str(path), bounds=True)  # no cache: read each time
 
 
 def assert_same_mesh_file(a: mesh_file.MeshFile, b: mesh_file.MeshFile) -> None:
@@ -69,7 +70,7 @@ def test_a_plain_obj_does_not_go_through_trimeshs_text_reader(tmp_path, monkeypa
         raise AssertionError("trimesh's OBJ reader was called for a plain file")
 
     monkeypatch.setattr(trimesh.exchange.obj, "load_obj", refuse)
-    assert len(mesh_file.read_mesh(path, str(path)).faces) == 2
+    assert len(read_mesh(path, str(path)).faces) == 2
 
 
 @pytest.mark.parametrize("text", [
@@ -119,7 +120,7 @@ def test_every_way_of_writing_a_coordinate_reads_as_trimesh_read_it(tmp_path, mo
 
 def test_the_exact_path_reads_what_python_reads(monkeypatch):
     """_decimal's value is float()'s wherever it answers, over random words."""
-    from raycast_phong.io.obj_plain import POWERS, _decimal
+    from raycast_phong.io.meshes.obj_plain import POWERS, _decimal
     rng = np.random.default_rng(5)
     answered = 0
     for _ in range(3000):

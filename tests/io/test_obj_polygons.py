@@ -1,6 +1,6 @@
-"""An OBJ's concave polygons are found by one compiled scan (io/obj_polygons.py) and cut as the regular-expression
-reading did (obj_polygons_reference.py, the oracle); CRLF files as LF ones; numbers read within a few units in the
-last place; and a polygon with a bad corner or vertex is left to the reader."""
+"""An OBJ's concave polygons are found by one compiled scan (io/meshes/obj_polygons.py) and cut as the
+regular-expression reading did (obj_polygons_reference.py, the oracle); CRLF files as LF ones; numbers read within
+a few units in the last place; and a polygon with a bad corner or vertex is left to the reader."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from obj_polygons_reference import triangulate_concave as reference
 
-from raycast_phong.io.obj_polygons import _number, triangulate_concave
+from raycast_phong.io.meshes.obj_polygons import _number, triangulate_concave
 
 
 def random_obj(seed: int) -> bytes:
@@ -106,7 +106,7 @@ def test_records_that_prove_not_to_be_vertices_or_polygons_write_inside_the_scan
     """The scan's second pass writes a line's words before it knows the line is a polygon (or a vertex): an
     "f" line of three corners, or a "v" line of two numbers, after the last real one must not write past the
     arrays the first pass sized. Run with numba's bounds checks on (an index past the end raises)."""
-    code = ("import sys\nfrom raycast_phong.io.obj_polygons import _scan\nimport numpy as np\n"
+    code = ("import sys\nfrom raycast_phong.io.meshes.obj_polygons import _scan\nimport numpy as np\n"
             "data = b'v 0 0 0\\nv 2 0 0\\nv 2 2 0\\nv 1 0.5 0\\nv 0 2 0\\nf 1 2 3 4 5\\n"
             "f 1 2 3\\nf 1 2 3 4 x\\rq\\nv 1 2\\nv 1\\n'\n"
             "points, line, first, count, before, whole, word, index = _scan(np.frombuffer(data, np.uint8))\n"

@@ -13,15 +13,16 @@ import pytest
 from typer.testing import CliRunner
 
 from raycast_phong.cli import app
-from raycast_phong.io import mesh_file, mtl
-from raycast_phong.io.mesh_source import mesh_source
+from raycast_phong.io.meshes import mtl
+from raycast_phong.io.meshes import read as mesh_file
+from raycast_phong.io.meshes.source import mesh_source, read_mesh
 
 runner = CliRunner()
 pytestmark = pytest.mark.usefixtures("in_tmp_path")
 
 
 def read(path: Path) -> mesh_file.MeshFile:
-    return mesh_file.read_mesh(path, str(path))
+    return read_mesh(path, str(path))
 
 
 def triangles(mesh: mesh_file.MeshFile) -> list[tuple]:

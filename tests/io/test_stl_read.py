@@ -1,4 +1,4 @@
-"""A binary STL is read by io/stl.py itself (float32 corners straight from its records), an ASCII one by
+"""A binary STL is read by io/meshes/stl.py itself (float32 corners straight from its records), an ASCII one by
 trimesh; both give trimesh's points, and the memory guard's floor follows what each read costs."""
 
 from __future__ import annotations
@@ -8,8 +8,10 @@ import pytest
 import trimesh
 
 from raycast_phong.geometry.build import build_geometry
-from raycast_phong.io import mesh_file, mesh_header
-from raycast_phong.io.mesh_source import mesh_source
+from raycast_phong.io.meshes import read as mesh_file
+from raycast_phong.io.meshes import stl
+from raycast_phong.io.meshes.format import TEXT_READ_BYTES_PER_BYTE
+from raycast_phong.io.meshes.source import mesh_source, read_mesh
 from raycast_phong.scene.schema import validate_scene
 
 
@@ -29,7 +31,7 @@ def stl_files(tmp_path):
 
 def test_a_binary_stl_is_read_as_float32_corners_with_trimesh_values(stl_files):
     binary, ascii_file = stl_files
-    read = mesh_file.read_mesh(binary, "t")
+    read = read_mesh(binary, "t")
     theirs = trimesh.load(binary, process=False)
     assert read.vertices.dtype == np.float32  # trimesh's float64 copy is 72 bytes a triangle, this one 36
     np.testing.assert_array_equal(read.vertices.astype(np.float64), theirs.vertices)
@@ -37,13 +39,13 @@ def test_a_binary_stl_is_read_as_float32_corners_with_trimesh_values(stl_files):
     assert read.faces.dtype == np.int64 and read.normals is None and read.corner_colour is None
     assert (read.face_group == -1).all() and read.materials == ()
     # Framing's bounds in float64, as from trimesh's float64 points.
-    framed = mesh_file._read(binary, "t", mesh_source(binary), bounds=True)
+    framed = mesh_file.read_file(mesh_source(binary), "t", bounds=True)
     corners = theirs.vertices
     centre = (corners.min(axis=0) + corners.max(axis=0)) / 2
     assert framed.centre.dtype == np.float64 and np.array_equal(framed.centre, centre)
     assert framed.radius == float(np.sqrt(((corners - centre) ** 2).sum(axis=1).max()))
     # An ASCII STL is trimesh's to read (float64).
-    assert mesh_file.read_mesh(ascii_file, "t").vertices.dtype == np.float64
+    assert read_mesh(ascii_file, "t").vertices.dtype == np.float64
 
 
 def test_a_binary_stl_prepares_the_geometry_trimesh_s_read_gave(stl_files, monkeypatch):
@@ -52,7 +54,7 @@ def test_a_binary_stl_prepares_the_geometry_trimesh_s_read_gave(stl_files, monke
     binary, _ = stl_files
     scene = validate_scene({"objects": [{"shape": "mesh", "path": str(binary)}]}, source=str(binary))
     ours = build_geometry(scene)
-    monkeypatch.setattr(mesh_file, "binary_stl_points", lambda handle: None)  # trimesh reads it
+    monkeypatch.setattr(stl, "binary_stl_points", lambda handle: None)  # trimesh reads it
     theirs = build_geometry(scene)
     for name in ("vertices", "faces", "face_normals", "corner_normals"):
         a, b = getattr(ours, name), getattr(theirs, name)
@@ -62,10 +64,10 @@ def test_a_binary_stl_prepares_the_geometry_trimesh_s_read_gave(stl_files, monke
 def test_the_read_floor_of_a_binary_stl_is_its_records_and_copies_of_an_ascii_one_its_parse(stl_files):
     binary, ascii_file = stl_files
     size = binary.stat().st_size
-    assert mesh_header.mesh_file_read_bytes(binary) == size * mesh_header.BINARY_STL_READ_BYTES_PER_BYTE
-    assert (mesh_header.mesh_file_read_bytes(ascii_file)
-            == ascii_file.stat().st_size * mesh_header.TEXT_READ_BYTES_PER_BYTE)
+    assert mesh_source(binary).read_floor() == size * stl.BINARY_STL_READ_BYTES_PER_BYTE
+    assert (mesh_source(ascii_file).read_floor()
+            == ascii_file.stat().st_size * TEXT_READ_BYTES_PER_BYTE)
     # A file named .stl whose size does not match its header's count is not taken for a binary STL.
     odd = binary.with_name("odd.stl")
     odd.write_bytes(binary.read_bytes() + b"\0")
-    assert mesh_header.mesh_file_read_bytes(odd) == odd.stat().st_size * mesh_header.TEXT_READ_BYTES_PER_BYTE
+    assert mesh_source(odd).read_floor() == odd.stat().st_size * TEXT_READ_BYTES_PER_BYTE

@@ -10,9 +10,9 @@ import numpy as np
 
 import raycast_phong as rp
 from raycast_phong.geometry.build import build_geometry
-from raycast_phong.io.gltf import gltf_samplers
-from raycast_phong.io.mesh_file import read_mesh
-from raycast_phong.io.mtl import parse_mtl
+from raycast_phong.io.meshes.gltf import gltf_samplers
+from raycast_phong.io.meshes.mtl import parse_mtl
+from raycast_phong.io.meshes.source import read_mesh
 
 MODELS = Path(__file__).resolve().parents[1] / "data" / "models"
 

@@ -16,7 +16,8 @@ from typer.testing import CliRunner
 
 import raycast_phong as rp
 from raycast_phong.cli import app
-from raycast_phong.io import mesh_file
+from raycast_phong.io.meshes import read as mesh_file
+from raycast_phong.io.meshes.source import read_mesh
 
 MODELS = Path(__file__).resolve().parents[1] / "data" / "models"
 runner = CliRunner()
@@ -40,7 +41,7 @@ def write_3mf(path: Path, resources: str, triangles: str, files: dict | None = N
 
 
 def read(path: Path) -> mesh_file.MeshFile:
-    return mesh_file.read_mesh(path, str(path))
+    return read_mesh(path, str(path))
 
 
 def test_a_colour_group_gives_each_corner_its_colour(tmp_path):

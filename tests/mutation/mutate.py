@@ -82,9 +82,9 @@ WORK = Path(os.environ.get("TMPDIR", "/tmp")) / "raycast-phong-mutation"
 # Bugs written by hand (issue 19's independent sample, outside the kernels): (module, original text, mutated
 # text), each text found exactly once in the module; --hand runs them against tests_for(module).
 HAND_MUTANTS = (
-    ("io/mesh_file", "rgb = np.asarray(visual.face_colors)[:, :3].astype(np.float32) / 255.0",
+    ("io/meshes/read", "rgb = np.asarray(visual.face_colors)[:, :3].astype(np.float32) / 255.0",
      "rgb = np.asarray(visual.face_colors)[:, :3].astype(np.float32) / 765.0"),  # a face colour summed over 3 corners
-    ("io/mtl", 'current = raw.setdefault(" ".join(words[1:]), {})',
+    ("io/meshes/mtl", 'current = raw.setdefault(" ".join(words[1:]), {})',
      "current = raw.setdefault(words[1], {})"),  # a material name with a space cut at the space
     ("renderer/budget", "rays = tile_rays * threads * (1 + shadow_lights) * RAY_BYTES",
      "rays = tile_rays * (1 + shadow_lights) * RAY_BYTES"),  # the memory estimate's thread term

@@ -25,10 +25,10 @@ def test_a_binary_stl_whose_header_says_solid_is_counted_from_its_header(tmp_pat
     tells it from an ASCII one, whose count would otherwise be bounded by its size (86 bytes a facet)."""
     import struct
 
-    from raycast_phong.renderer.budget import mesh_file_triangles
+    from raycast_phong.io.meshes.source import mesh_source
     path = tmp_path / "binary.stl"
     path.write_bytes(b"solid exported".ljust(80, b" ") + struct.pack("<I", 10) + bytes(50 * 10))
-    assert mesh_file_triangles(path, "objects.0.path") == 10
+    assert mesh_source(path).triangles("objects.0.path") == 10
 
 
 def test_every_object_adds_its_own_bytes_whatever_its_triangles():

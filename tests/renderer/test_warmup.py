@@ -45,8 +45,8 @@ def test_a_mesh_file_scene_is_told_it_compiles_when_only_its_preparation_kernels
 
 
 def test_an_obj_scene_is_told_it_compiles_when_only_its_polygon_scan_is_missing(tmp_path, monkeypatch):
-    """Reading an OBJ calls the polygon scan's kernels (io/obj_polygons.py); a PLY does not."""
-    from raycast_phong.io import obj_polygons
+    """Reading an OBJ calls the polygon scan's kernels (io/meshes/obj_polygons.py); a PLY does not."""
+    from raycast_phong.io.meshes import obj_polygons
     said = []
     missing(monkeypatch, obj_polygons, "warm_up", "_scan")  # the rest cached
     trimesh.creation.icosphere(1).export(tmp_path / "ball.obj")
@@ -134,9 +134,9 @@ def test_a_missing_mesh_file_is_refused_before_the_compiling_notice(tmp_path, mo
 
 
 def test_the_plain_obj_scan_is_warmed_only_for_an_obj_it_may_read(tmp_path, monkeypatch):
-    """io/obj_plain.py's scan runs on an OBJ that names no material library; one that does (its first MB says
+    """io/meshes/obj_plain.py's scan runs on an OBJ that names no material library; one that does (its first MB says
     `mtllib`) never reaches it, so its first render does not compile it (leave out what a scene does not need)."""
-    from raycast_phong.io import obj_plain
+    from raycast_phong.io.meshes import obj_plain
     warmed = []
     monkeypatch.setattr(obj_plain, "warm_up", lambda: warmed.append(True))
     mesh = trimesh.creation.icosphere(1)
@@ -151,11 +151,11 @@ def test_the_plain_obj_scan_is_warmed_only_for_an_obj_it_may_read(tmp_path, monk
 
 def test_an_obj_given_alone_is_not_warmed_again_after_its_framing_read(tmp_path, monkeypatch):
     """A mesh file given alone is read to frame its camera (load_scene), and that read, which compiled the reader
-    kernels it needed, waits for the render (io.mesh_file.KEPT): the warm-up leaves the OBJ reader alone (a file
+    kernels it needed, waits for the render (its MeshSource holds it): the warm-up leaves the OBJ reader alone (a file
     of triangles never needs the concave-polygon test, 1.5 s of compile). A scene file that names the OBJ is read
     only in the render: then the reader is warmed first."""
     import raycast_phong as rp
-    from raycast_phong.io import obj_polygons
+    from raycast_phong.io.meshes import obj_polygons
     warmed = []
     monkeypatch.setattr(obj_polygons, "warm_up", lambda: warmed.append(True))
     trimesh.creation.icosphere(1).export(tmp_path / "ball.obj")

@@ -838,7 +838,7 @@ def counted(monkeypatch):
     """Counts of the expensive steps a frame may take: mesh files read, groups placed (world vertices and
     normals) and BVHs built (Embree scenes committed)."""
     from raycast_phong.geometry import build
-    from raycast_phong.io import mesh_file
+    from raycast_phong.io.meshes import read as mesh_file
     from raycast_phong.renderer import embree_library as embree
     counts = {"reads": 0, "placed": 0, "bvhs": 0}
 
@@ -847,7 +847,7 @@ def counted(monkeypatch):
             counts[name] += 1
             return function(*args, **kwargs)
         return wrapper
-    monkeypatch.setattr(mesh_file, "_read", counting("reads", mesh_file._read))
+    monkeypatch.setattr(mesh_file, "read_file", counting("reads", mesh_file.read_file))
     monkeypatch.setattr(build, "place_group", counting("placed", build.place_group))
     monkeypatch.setattr(embree, "EmbreeScene", counting("bvhs", embree.EmbreeScene))
     return counts

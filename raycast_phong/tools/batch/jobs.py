@@ -232,11 +232,11 @@ def _hash(job: Job, settings: Settings, colour: str | None, paths: list[Path]) -
 def input_paths(job: Job, scene: Scene | None) -> list[Path]:
     """The files a job's image depends on: its scene file, the colour maps its materials name, then the mesh
     files the scene reads (resolved against its folder), their side files (an .obj's .mtl, a .gltf's buffers)
-    and the images their materials name, as their io.mesh_source.MeshSource gives them (the one load_scene
+    and the images their materials name, as their io.meshes.source.MeshSource gives them (the one load_scene
     made, so nothing is read again); the hash and the modification times both cover exactly these."""
     if scene is None:
         return [job.scene]
-    from ...io.mesh_source import mesh_sources
+    from ...io.meshes.source import mesh_sources
     maps = [scene.resolve(path) for key, path in scene.named_files().items() if key[0] == "materials"]
     meshes = [scene.resolve(obj.path) for obj in scene.objects if obj.shape == "mesh" and obj.path]
     return _paths(job, maps, meshes, list(mesh_sources(scene).values()))
@@ -323,7 +323,7 @@ def _unframed_mesh_job(job: Job, settings: Settings) -> tuple[str, dict[str, int
         elif key.strip().split(".")[0] not in ("camera", "lights", "ambient", "output", "render") \
                 or key.strip() == "render":
             return None  # a material map, an object's path: inputs the scene would name; a whole [render] table
-    from ...io.mesh_source import mesh_source
+    from ...io.meshes.source import mesh_source
     path = Path(job.scene)
     paths = _paths(job, [], [path], [mesh_source(path)])
     return _hash(job, settings, colour, paths), _times(paths)

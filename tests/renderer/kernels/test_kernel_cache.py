@@ -78,7 +78,7 @@ def test_each_kernel_module_s_key_covers_every_module_it_reads_and_only_those(pa
     copy, run = package_copy
     keys = json.loads(run(KEYS))
     assert {"renderer.kernels.shading", "renderer.kernels.tile", "renderer.kernels.camera", "geometry.kernels",
-            "io.obj_plain"} <= keys.keys(), keys
+            "io.meshes.obj_plain"} <= keys.keys(), keys
 
     def changed() -> set[str]:
         nonlocal keys

@@ -1,7 +1,8 @@
-"""glTF 2.0 files (.gltf, .glb): the JSON document, read and parsed once per file version (io/mesh_source.py
-keeps it for every stage that asks: the memory estimate, batch's side files, the read's checks), what it
-requires, the files and images it names, and its metallic-roughness materials on the lecture's model
-(docs/meshes.md). No trimesh: trimesh reads the geometry (io/mesh_file.py).
+"""glTF 2.0 files (.gltf, .glb): the JSON document, read and parsed once per file version (its MeshSource keeps
+it for every stage that asks: the memory estimate, batch's side files, the read's checks), what it requires, the
+files and images it names, and its metallic-roughness materials on the lecture's model (docs/meshes.md). trimesh
+reads the geometry (`read`), from the file itself or, for data it would misread, from the document rewritten by
+io/meshes/gltf_decode.py.
 """
 
 from __future__ import annotations
@@ -10,18 +11,18 @@ import io
 import json
 import math
 from pathlib import Path
-from typing import NamedTuple
 from urllib.parse import unquote
 
 import numpy as np
 
-from ..codes import GLTF_WRAP
-from ..errors import SceneError, Where
-from .files import open_regular, shown_name
+from ...codes import GLTF_WRAP
+from ...errors import SceneError, Where
+from ..files import open_regular, shown_name
+from .format import TEXT_READ_BYTES_PER_BYTE, Loaded, MeshFormat, Reading, weigh
+from .gltf_json import Document, buffer_files, image_uris, read_document, uri_file
 from .materials import MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, TextureSource, specular_lobe
 from .materials import rgb as _rgb
 
-JSON_LIMIT = 64 << 20  # a glTF's JSON above this is not parsed here (the size bound weighs it; trimesh reads it)
 # Required glTF extensions read here; any other one in extensionsRequired is refused (glTF 2.0 §3.12: a loader
 # must not load a file whose required extensions it does not support). Draco needs DracoPy, meshopt the meshopt
 # package; io/gltf_decode.py decodes the data ones before trimesh reads the file.
@@ -38,82 +39,6 @@ LOOK_ONLY = {"KHR_materials_transmission": "transmission", "KHR_materials_volume
              "KHR_materials_iridescence": "iridescence"}
 # What an extension this renderer does not read asks of it, for the refusal (the file's need, in its words).
 NEEDS = {"KHR_texture_basisu": "KTX2 (Basis Universal) textures", "EXT_texture_webp": "WebP textures"}
-
-
-class Document(NamedTuple):
-    """A glTF's JSON as read: the parsed document ({} when it is not JSON or too large to parse here),
-    where a .glb's binary chunk lies (offset, length; None for a .gltf or a .glb without one), and a problem
-    the read must refuse with (a JSON nested deeper than Python parses), else None."""
-    tree: dict
-    binary: tuple[int, int] | None
-    problem: str | None
-
-
-def read_document(path: Path) -> Document:
-    """The JSON of the glTF at `path` (a .glb's first chunk), at most JSON_LIMIT bytes of it; reading stops
-    there (a .glb's binary chunk is not read). A missing or unreadable file gives an empty document (the
-    read words the error)."""
-    binary = None
-    try:
-        with open_regular(path, str(path), "mesh file") as handle:
-            if path.suffix.lower() == ".glb":
-                header = handle.read(20)
-                length = int.from_bytes(header[12:16], "little")
-                if header[:4] != b"glTF" or header[16:20] != b"JSON" or length > JSON_LIMIT:
-                    return Document({}, None, None)
-                text = handle.read(length)
-                chunk = handle.read(8)
-                if len(text) == length and chunk[4:8] == b"BIN\x00":
-                    binary = (20 + length + 8, int.from_bytes(chunk[:4], "little"))
-            else:
-                text = handle.read(JSON_LIMIT + 1)
-                if len(text) > JSON_LIMIT:
-                    return Document({}, None, None)
-        tree = json.loads(text)
-    except json.JSONDecodeError as error:  # trimesh read it otherwise, and named a file it then looked for
-        return Document({}, None, f"its JSON does not parse (line {error.lineno}, column {error.colno}: "
-                                  f"{error.msg}); allowed: a glTF 2.0 document in JSON")
-    except UnicodeDecodeError:
-        return Document({}, None, "its JSON is not UTF-8 text; allowed: a glTF 2.0 document in UTF-8 JSON")
-    except (OSError, SceneError, ValueError):
-        return Document({}, None, None)  # trimesh words what is wrong with the file
-    except RecursionError:  # Python's parser recurses per level: no glTF is nested a thousand deep
-        return Document({}, None, "its JSON is nested deeper than Python's parser reads; allowed: a glTF document "
-                                  "(a few levels of objects and lists)")
-    return Document(tree if isinstance(tree, dict) else {}, binary, None)
-
-
-def uri_file(folder: Path, uri: str) -> Path:
-    """The file a glTF's relative URI names: percent-decoded (glTF 2.0 §3.3.3: URIs are RFC 3986, so a space
-    is written %20), unless a file of the name as written exists (exporters that write spaces as they are)."""
-    written = folder / uri
-    if "%" not in uri or written.is_file():
-        return written
-    return folder / unquote(uri)
-
-
-def buffer_files(document: dict, folder: Path) -> tuple[Path, ...]:
-    """The external buffer files a glTF names (not its `data:` URIs), percent-decoded (uri_file)."""
-    try:
-        return tuple(uri_file(folder, b["uri"]) for b in document.get("buffers", [])
-                     if isinstance(b, dict) and isinstance(b.get("uri"), str) and not b["uri"].startswith("data:"))
-    except (TypeError, AttributeError):
-        return ()  # buffers that are not a list: the read reports it
-
-
-def gltf_buffer_files(path: Path) -> tuple[Path, ...]:
-    """buffer_files of the .gltf at `path`, read now (for a caller holding no MeshSource)."""
-    return buffer_files(read_document(path).tree, path.parent)
-
-
-def image_uris(document: dict) -> list[str]:
-    """The image files outside the glTF that it names: its URIs other than data:, as written (uri_file finds
-    the file)."""
-    try:
-        return [image["uri"] for image in document.get("images", []) if isinstance(image, dict)
-                and isinstance(image.get("uri"), str) and not image["uri"].startswith("data:")]
-    except (TypeError, AttributeError):
-        return []
 
 
 def check_document(document: Document, path: Path, where: Where, notes: list[str]) -> dict:
@@ -139,7 +64,7 @@ def check_document(document: Document, path: Path, where: Where, notes: list[str
     for name in ("EXT_meshopt_compression", "KHR_meshopt_compression"):
         if name in required:
             try:
-                import meshopt  # noqa: F401  (io/gltf_decode.py decodes meshopt with it)
+                import meshopt  # noqa: F401  (io/meshes/gltf_decode.py decodes meshopt with it)
             except ImportError:
                 missing.insert(0, f"{name} (meshoptimizer compression: pip install meshopt)")
     check_node_transforms(tree, path, where)
@@ -380,3 +305,98 @@ def check_node_transforms(tree: dict, path: Path, where: Where) -> None:
 def _short(value) -> str:
     text = repr(value).replace("nan", "NaN").replace("inf", "Infinity")
     return text if len(text) <= 80 else text[:77] + "..."
+
+
+def read(reading: Reading) -> Loaded:
+    """The document checked (what it requires, the images it names), then the geometry through trimesh, which
+    is given the document rewritten as plain glTF where it would misread the data (compressed, quantized or
+    instanced data, specular-glossiness materials: io/meshes/gltf_decode.py)."""
+    from .gltf_decode import decode_gltf, needs_decoding
+    from .trimesh_parts import RegularFiles, load, parts
+    path, document = reading.path, reading.source.document
+    samplers = check_document(document, path, reading.where, reading.notes)
+    resolver = RegularFiles(path)
+    resolver.locate = uri_file  # names are URIs, percent-encoded
+    if needs_decoding(document.tree):
+        tree, resolver.decoded = decode_gltf(path, document, reading.where)
+        loaded = load(reading, io.BytesIO(json.dumps(tree).encode()), "gltf", resolver)
+    else:
+        loaded = load(reading, resolver=resolver)
+    return Loaded(parts(loaded), samplers=samplers)
+
+
+def count(handle, size: int, source, where: Where) -> int | None:
+    """Triangles over every node's mesh (each node counts, and each instance of an EXT_mesh_gpu_instancing node:
+    instances × the mesh's triangles), from the accessors' counts in the parsed document; or their vertices
+    (less 2) where more (format.weigh: a compressed bufferView decodes to what its accessors read,
+    io/meshes/gltf_decode.py). None for a document too large to parse here."""
+    document = source.document.tree
+    if not document:
+        return None
+    accessors, meshes = document.get("accessors", []), document.get("meshes", [])
+    placed = [node for node in document.get("nodes", []) if "mesh" in node]
+    uses = [(node["mesh"], _instances(node, accessors)) for node in placed] or [(m, 1) for m in range(len(meshes))]
+    total = vertices = 0
+    for mesh, copies in uses:
+        for primitive in meshes[mesh].get("primitives", []):
+            indexed = primitive.get("indices", primitive.get("attributes", {}).get("POSITION"))
+            total += copies * (accessors[indexed]["count"] // 3)
+            vertices += copies * int(accessors[primitive.get("attributes", {}).get("POSITION", indexed)]["count"])
+    return weigh(total, vertices)
+
+
+def _instances(node: dict, accessors: list) -> int:
+    """How many times a node places its mesh: its EXT_mesh_gpu_instancing accessors' count (the largest, if they
+    disagree: the read refuses that), else 1."""
+    extensions = node.get("extensions")
+    found = extensions.get("EXT_mesh_gpu_instancing") if isinstance(extensions, dict) else None
+    attributes = found.get("attributes") if isinstance(found, dict) else None
+    if not isinstance(attributes, dict):
+        return 1  # not instanced, or malformed: the read words it
+    return max((int(accessors[index]["count"]) for index in attributes.values()), default=1)
+
+
+GLB_READ_BYTES_PER_BYTE = 2  # a .glb's binary chunks are read as they are
+# A .gltf's external buffer is read whole into bytes (trimesh's resolver): a 600 MB buffer of which the accessors
+# use 36 bytes peaked 734 MB (interpreter included).
+BUFFER_READ_BYTES_PER_BYTE = 1
+
+
+def held(path: Path, source) -> tuple[int, int]:
+    """A .gltf's external buffers, read whole whatever its accessors claim to use of them."""
+    return sum(_size(buffer) for buffer in source.side_files), 0
+
+
+def _size(path: Path) -> int:
+    try:
+        return path.stat().st_size
+    except OSError:
+        return 0  # the read reports a missing buffer
+
+
+def floor(path: Path, size: int, source) -> int:
+    per_byte = GLB_READ_BYTES_PER_BYTE if path.suffix.lower() == ".glb" else TEXT_READ_BYTES_PER_BYTE
+    return size * per_byte + held(path, source)[0] * BUFFER_READ_BYTES_PER_BYTE
+
+
+def describe(path: Path) -> dict:
+    """Its JSON document, parsed (at most JSON_LIMIT), a .gltf's external buffer files (side files) and the image
+    files its URIs name."""
+    document = read_document(path)
+    glb = path.suffix.lower() == ".glb"
+    return {"document": document, "side_files": () if glb else buffer_files(document.tree, path.parent),
+            "images": tuple(uri_file(path.parent, uri) for uri in image_uris(document.tree))}
+
+
+def _texture_sizes(source) -> tuple[tuple[int, int], ...]:
+    from ..textures import file_size
+    return tuple(texture_sizes(source.path, source.document, file_size))
+
+
+FORMAT = MeshFormat(
+    names=("glTF", "GLB"), suffixes=(".gltf", ".glb"), read=read, count=count, floor=floor, held=held,
+    describe=describe, texture_sizes=_texture_sizes, parse_bytes=70,
+    content=lambda head, found, size, suffix: found == ("GLB" if suffix == ".glb" else "JSON"),
+    up=(0.0, 1.0, 0.0),  # glTF 2.0 §3.4: +Y up
+    # glTF 2.0 §3.9.2: colour textures are sRGB-encoded, factors and COLOR_0 linear, lit in linear values
+    linear="glTF 2.0", pbr="glTF metallic-roughness")

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..jit import kernel
+from ...jit import kernel
 
 SPACE, TAB, LF, CR, HASH = 32, 9, 10, 13, 35
 PLAIN_KERNELS = ("_records",)  # what reading a plain OBJ compiles (renderer/warmup.py loads it first)
@@ -177,12 +177,11 @@ def plain_obj(data: bytes, path: Path):
         return None
     import trimesh
 
-    from .obj import MaterialNames
     used = np.zeros(vertex_count, dtype=bool)
     used[faces] = True
     inverse = np.zeros(vertex_count, dtype=np.int64)
     inverse[used] = np.arange(used.sum())
-    name = trimesh.util.unique_name(MaterialNames(path, ()).file_name, {})
+    name = trimesh.util.unique_name(Path(path).name, {})  # as trimesh names an OBJ's mesh
     mesh = {"process": False, "faces": inverse[faces], "vertices": points[used].copy(), "visual": None}
     return trimesh.load_scene({"geometry": {name: mesh}, "graph": [{"geometry": name, "frame_to": name}]})
 

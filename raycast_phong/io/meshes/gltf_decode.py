@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SceneError, Where
-from .files import open_regular
-from .gltf import Document, uri_file
+from ...errors import SceneError, Where
+from ..files import open_regular
+from .gltf_json import Document, uri_file
 
 MESHOPT = ("EXT_meshopt_compression", "KHR_meshopt_compression")
 DRACO = "KHR_draco_mesh_compression"

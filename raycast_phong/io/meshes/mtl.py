@@ -11,12 +11,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..codes import MATERIAL_DEFAULTS
-from ..errors import SceneError
-from .files import open_regular, shown_name
+from ...codes import MATERIAL_DEFAULTS
+from ...errors import SceneError
+from ..files import open_regular, shown_name
+from .content import is_number
 from .materials import FileMaterial, TextureSource, specular_lobe
 from .materials import rgb as _rgb
-from .mesh_content import is_number
 
 MAX_SIDE_FILE = 16 << 20  # an .mtl is text of a few kB; refuse to read more than a scene file may be
 TEXTURE_KEYS = ("map_", "bump", "disp", "decal", "refl", "norm")

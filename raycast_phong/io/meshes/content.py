@@ -7,18 +7,15 @@ import os
 import re
 from pathlib import Path
 
-from ..errors import SceneError, Where
-from .files import open_regular
+from ...errors import SceneError, Where
+from ..files import open_regular
 
-TEXT_FORMATS = (".obj", ".off")  # trimesh decodes these as text, guessing any non-UTF-8 encoding
 READABLE = "a mesh file trimesh reads (OBJ, PLY, STL, OFF, GLB)"
 
 SIGNATURES = ((b"ply", "PLY"), (b"glTF", "GLB"), (b"PK\x03\x04", "a zip archive"), (b"BZh", "bzip2-compressed"),
               (b"\x1f\x8b", "gzip-compressed"), (b"\xfd7zXZ", "xz-compressed"), (b"<?xml", "XML"),
               (b"<COLLADA", "COLLADA (XML)"), (b"{", "JSON"))
-# What a suffix's content starts with (a binary STL is told by its size instead); formats not listed are
-# left to trimesh.
-EXPECTED = {".ply": ("PLY",), ".glb": ("GLB",), ".gltf": ("JSON",), ".3mf": ("a zip archive",)}
+# Suffixes of containers, not mesh formats (trimesh opens some): refused with what to do instead.
 CONTAINERS = {".zip": "a zip archive", ".bz2": "bzip2-compressed", ".gz": "gzip-compressed", ".xz": "xz-compressed",
               ".tar": "a tar archive", ".7z": "a 7z archive"}
 
@@ -39,23 +36,22 @@ def sniff(head: bytes) -> str | None:
     return None
 
 
-def check_file_content(path: Path, where: Where) -> None:
+def check_file_content(path: Path, kind, where: Where) -> None:
     """check_content on the file at `path` (framing calls it before the memory check reads a binary STL's
     triangle count from a header that may be an OBJ's first line). A file that cannot be opened is left to
-    the read, which words it. Text formats are left to the read: their header count cannot be fooled so."""
-    if path.suffix.lower() in TEXT_FORMATS:
-        return
+    the read, which words it."""
     try:
         handle = open_regular(path, where, "mesh file")
     except (OSError, SceneError):
         return
     with handle:
-        check_content(path, handle, where)
+        check_content(path, handle, kind, where)
 
 
-def check_content(path: Path, handle, where: Where) -> None:
+def check_content(path: Path, handle, kind, where: Where) -> None:
     """Refuse, in one line, a file whose content is not the format its suffix says (an OBJ named .stl was read
-    as a binary STL of 433 GB), an archive or compressed file (decompress it first), or a glTF's sibling."""
+    as a binary STL of 433 GB: `kind`, its MeshFormat, says what fits), an archive or compressed file (decompress
+    it first)."""
     suffix = path.suffix.lower()
     if suffix in CONTAINERS:
         raise SceneError(f"{str(path)!r} is {CONTAINERS[suffix]}; extract or decompress it and render the "
@@ -65,16 +61,9 @@ def check_content(path: Path, handle, where: Where) -> None:
     if not head:
         raise SceneError(f"{str(path)!r} is empty (0 bytes); expected {READABLE}", where)
     found = sniff(head)
-    if suffix == ".stl":
-        size = os.fstat(handle.fileno()).st_size
-        if (size >= 84 and size == 84 + 50 * int.from_bytes(head[80:84], "little")) or found in ("ASCII STL", None):
-            return
-    elif suffix in (".obj", ".off"):
-        if found in (None, "OBJ", "OFF", "ASCII STL"):
-            return  # text formats whose first lines may look like each other's
-    elif suffix not in EXPECTED or found in EXPECTED[suffix]:
+    if kind.content(head, found, os.fstat(handle.fileno()).st_size, suffix):
         return
-    name = suffix[1:].upper().replace("GLTF", "glTF")
+    name = kind.name(suffix)
     said = (f"its content is {found}; rename it to that format's suffix" if found
             else f"its content does not start as a {name} file does; expected {READABLE}")
     raise SceneError(f"cannot read {str(path)!r} as {name}: {said}", where)

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..jit import kernel
+from ...jit import kernel
 
 SPACE, TAB, LF, CR, HASH, SLASH, MINUS, PLUS, ZERO = 32, 9, 10, 13, 35, 47, 45, 43, 48
 OBJ_KERNELS = ("_absolute", "_scan", "_concave")  # what reading an OBJ compiles (renderer/warmup.py loads them first)

@@ -1,0 +1,117 @@
+"""The one interface every mesh file format fills: a MeshFormat record, made once in the format's own module
+(io/meshes/obj.py, ply.py, ...) and listed in the registry (io/meshes/__init__.py). Nothing outside io/meshes/
+names a suffix: a stage asks the file's format (MeshSource.format) what it wants to know.
+
+No trimesh: the registry, the memory estimate and framing's checks stay light; a format's `read` imports what
+it reads with.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, BinaryIO, NamedTuple
+
+from ...errors import Where
+
+MeshSource = Any  # io/meshes/source.py's, which imports the registry: named here without importing it
+
+# Reading a file that may be text costs this many bytes a byte of it at least, whatever its header claims: the
+# text, its decoded str and its split tokens (trimesh 4, peak RSS over the interpreter's: an icosphere-7 OBJ of
+# 12.8 MB 93 MB; a 100 MB OBJ of vertex lines 1.0 GB, of one line 1.9 GB, of face lines 2.0 GB).
+TEXT_READ_BYTES_PER_BYTE = 12
+# trimesh's load of a file of a format with no measured figure, above the render's own peak, a triangle.
+OTHER_PARSE_BYTES = 550
+
+
+class Reading(NamedTuple):
+    """What a format's `read` is given: the file open at its start, where errors point, what was learnt of
+    the file before (its MeshSource), and the lists its notes and texture sources are added to."""
+    path: Path
+    handle: BinaryIO
+    where: Where
+    source: MeshSource
+    notes: list[str]
+    textures: list                 # materials.TextureSource each
+
+
+@dataclass(frozen=True)
+class Loaded:
+    """What a format's `read` gives io/meshes/read.py to finish into a MeshFile."""
+    parts: list                                    # read.Part each: one placed triangle mesh
+    up: tuple[float, float, float] | None = None   # the up axis the file itself states (COLLADA's <up_axis>)
+    library: dict | None = None                    # an OBJ's materials by name (its .mtl files)
+    samplers: dict = field(default_factory=dict)   # a glTF's material extensions and samplers (io.meshes.gltf)
+    images: tuple[str, ...] = ()                   # a PLY's TextureFile names, as found beside it
+
+
+def weigh(triangles: int, vertices: int) -> int:
+    """Triangles, or the vertices less 2 where those are more: a closed surface has T/2 + 2 vertices and an
+    open one a few more, so only vertices far beyond what the faces need (millions unused) raise the count.
+    A vertex read costs about 130 bytes (7.5M vertex lines of OBJ: 1.0 GB), a triangle's worth more."""
+    return max(triangles, vertices - 2)
+
+
+def _any_content(head: bytes, found: str | None, size: int, suffix: str) -> bool:
+    return True
+
+
+def _no_count(handle: BinaryIO, size: int, source: MeshSource, where: Where) -> int | None:
+    return None
+
+
+def _text_floor(path: Path, size: int, source: MeshSource) -> int:
+    return size * TEXT_READ_BYTES_PER_BYTE
+
+
+def _no_held(path: Path, source: MeshSource) -> tuple[int, int]:
+    return 0, 0
+
+
+def _nothing(handle: BinaryIO, path: Path, where: Where) -> None:
+    return None
+
+
+def _described(path: Path) -> dict[str, Any]:
+    return {}
+
+
+def _no_sizes(source: MeshSource) -> tuple[tuple[int, int], ...]:
+    return ()
+
+
+@dataclass(frozen=True)
+class MeshFormat:
+    """Everything the renderer does that depends on a mesh file's format, in one record.
+
+    Only `names`, `suffixes` and `read` are required; the defaults are those of a text file read whole by
+    trimesh with nothing beside it."""
+    names: tuple[str, ...]             # how messages name it, one per suffix ("glTF", "GLB")
+    suffixes: tuple[str, ...]          # lower case, with the dot
+    read: Callable[[Reading], Loaded]  # the open file into placed parts
+    # Whether a file's first bytes (`head`) fit this format: `found` is what content.sniff calls them, `size`
+    # the file's size, `suffix` its suffix; a file that does not fit is refused in one line before any reader.
+    content: Callable[[bytes, str | None, int, str], bool] = _any_content
+    # Triangles from the header or a cheap scan (size.count_triangles weighs them); None: the size bound.
+    count: Callable[[BinaryIO, int, MeshSource, Where], int | None] = _no_count
+    # The least memory reading the file costs, from its size (and side files' sizes) alone.
+    floor: Callable[[Path, int, MeshSource], int] = _text_floor
+    # What a read decodes besides the file's bytes, for the refusal's words: (external buffers, unzipped bytes).
+    held: Callable[[Path, MeshSource], tuple[int, int]] = _no_held
+    parse_bytes: int = OTHER_PARSE_BYTES  # a read's bytes a triangle above the render's own peak
+    # What is wrong with a file its reader refused, in the renderer's words naming the line (the file open at
+    # its start, its path, where errors point); None to word the reader's refusal.
+    explain: Callable[[BinaryIO, Path, Where], str | None] = _nothing
+    # What the file names beside it, made into MeshSource fields (side_files, document, materials, images).
+    describe: Callable[[Path], dict[str, Any]] = _described
+    texture_sizes: Callable[[MeshSource], tuple[tuple[int, int], ...]] = _no_sizes  # (height, width) of each map
+    up: tuple[float, float, float] | None = None  # the up axis its specification states
+    linear: str | None = None          # the specification that says its colours are linear (render.colour)
+    pbr: str = "metallic-roughness (PBR)"  # how the note on approximated PBR materials names them
+    # Kernels a read of this file will compile, from its first bytes (renderer/warmup.py runs them first).
+    warm_up: Callable[[BinaryIO], tuple[Callable[[], None], ...]] | None = None
+
+    def name(self, suffix: str) -> str:
+        """How messages name the format of a file with `suffix`."""
+        return self.names[self.suffixes.index(suffix)] if suffix in self.suffixes else self.names[0]

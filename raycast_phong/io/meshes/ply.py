@@ -1,0 +1,178 @@
+"""PLY, read by trimesh, with what trimesh leaves out: triangle strips (a `tristrips` element), and texture
+comments (MeshLab's `comment TextureFile NAME`, with per-face `texcoord` lists or per-vertex
+`s t` / `texture_u texture_v`): the image beside the file becomes the k_d map of a white material, as a viewer
+shows it. trimesh reads the first TextureFile and the coordinates, but hands the image on as a plain material
+this package did not map, and logs a 10-line traceback when the image is missing (MeshLab writes `<this>` for
+the PLY's own name, which trimesh looks for literally). Here `<this>` is the file's stem, a missing image is one
+note, and a file naming several images (`texnumber` per face) uses the first (one note). A header trimesh cannot
+read has its first bad line named (ply_problem)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..files import shown_name
+from .format import Loaded, MeshFormat, Reading, weigh
+
+HEADER_LIMIT = 1 << 16  # a header is a few hundred bytes; the texture comments come before `end_header`
+
+
+def texture_names(head: bytes) -> list[str]:
+    """The TextureFile names of a PLY header (`head`: the file's first bytes), `<this>` not yet replaced."""
+    end = head.find(b"end_header")
+    header = head[:end if end >= 0 else len(head)].decode("latin-1")
+    return [found.strip() for found in re.findall(r"^comment\s+TextureFile\s+(.+?)\s*$", header, re.M)]
+
+
+# The PLY property types (Paul Bourke's PLY format, and the sized names rply and MeshLab write).
+PLY_TYPES = ("char", "uchar", "short", "ushort", "int", "uint", "float", "double", "int8", "uint8", "int16",
+             "uint16", "int32", "uint32", "float32", "float64")
+
+
+def ply_problem(head: bytes) -> str | None:
+    """What is wrong with a PLY header (`head`: the file's first bytes) trimesh could not read, in words naming
+    the header line: a property whose type is not a PLY type (assimp's fuzzed crash-*.ply: binary bytes where
+    the type goes), an element without a count, or no `end_header`; None when the header looks right."""
+    lines = head.split(b"\n")
+    for number, raw in enumerate(lines, 1):
+        words = raw.decode("latin-1").split()
+        if words == ["end_header"]:
+            return None
+        if words[:1] == ["property"]:
+            types = words[2:4] if words[1:2] == ["list"] else words[1:2]
+            wanted = 4 if words[1:2] == ["list"] else 2
+            bad = next((kind for kind in types if kind not in PLY_TYPES), None)
+            if bad is not None or len(types) < wanted - 1 or len(words) < wanted + 1:
+                shown = repr(bad[:40]) if bad is not None else repr(" ".join(words)[:60])
+                return (f"header line {number}: property type {shown} is not a PLY type, or the property has no "
+                        f"name; allowed: property TYPE NAME or property list TYPE TYPE NAME, TYPE one of "
+                        f"{', '.join(PLY_TYPES[:8])}")
+        if words[:1] == ["element"] and (len(words) != 3 or not words[2].isdigit()):
+            return (f"header line {number}: {' '.join(words)[:60]!r} is not an element; allowed: element NAME "
+                    "COUNT, COUNT a whole number")
+    return f"has no end_header line in its first {len(head)} bytes; allowed: a PLY header ending in end_header"
+
+
+def resolved(name: str, path: Path) -> str:
+    """A TextureFile name as MeshLab means it: `<this>` stands for the PLY's own name without its suffix."""
+    return name.replace("<this>", path.stem)
+
+
+def read(reading: Reading) -> Loaded:
+    """The geometry through trimesh (its triangle strips made triangles where it read only the vertices), and
+    the TextureFile names beside it."""
+    from .trimesh_parts import RegularFiles, load, parts
+    resolver = RegularFiles(reading.path)
+    resolver.locate = lambda folder, name: folder / resolved(name, reading.path)  # `<this>` in a TextureFile name
+    loaded = load(reading, resolver=resolver)
+    images = _textures(reading.path, reading.handle, reading.notes)
+    return Loaded(parts(loaded) or strip_parts(loaded), images=tuple(images))
+
+
+def strip_parts(loaded) -> list:
+    """A PLY that stores triangle strips (a `tristrips` element, -1 between strips) as triangles: trimesh
+    reads only its vertices. Strip triangle i is (s_i, s_i+1, s_i+2), every other one reversed to keep the
+    winding; triangles that repeat a vertex (the strips' joins) are dropped."""
+    raw = getattr(loaded, "metadata", {}).get("_ply_raw") if hasattr(loaded, "metadata") else None
+    if not raw or "tristrips" not in raw or "vertex" not in raw:
+        return []
+    data = raw["tristrips"]["data"]
+    try:
+        field = data["vertex_indices"]
+        rows = field["f1"] if field.dtype.names else field
+        strips = np.concatenate([np.append(np.asarray(row, np.int64).ravel(), -1) for row in np.atleast_1d(rows)])
+    except (KeyError, ValueError, TypeError, IndexError):
+        return []
+    vertex = raw["vertex"]["data"]
+    try:
+        vertices = np.column_stack([np.asarray(vertex[k], np.float64).ravel() for k in ("x", "y", "z")])
+    except (KeyError, ValueError, TypeError, IndexError):
+        return []
+    if len(strips) < 3:
+        return []
+    windows = np.lib.stride_tricks.sliding_window_view(strips, 3)
+    restart = np.flatnonzero(strips < 0)
+    start = np.zeros(len(strips), np.int64)  # where each position's strip starts
+    start[restart[restart + 1 < len(strips)] + 1] = restart[restart + 1 < len(strips)] + 1
+    start = np.maximum.accumulate(start)[: len(windows)]
+    odd = (np.arange(len(windows)) - start) % 2 == 1
+    keep = ((windows >= 0).all(axis=1) & (windows[:, 0] != windows[:, 1]) & (windows[:, 1] != windows[:, 2])
+            & (windows[:, 0] != windows[:, 2]))
+    faces = np.where(odd[:, None], windows[:, [1, 0, 2]], windows)[keep]
+    if not len(faces):
+        return []
+    import trimesh
+
+    from .trimesh_parts import Part
+    return [Part(vertices, faces, None, trimesh.visual.ColorVisuals())]
+
+
+def _textures(path: Path, handle, notes: list[str]) -> list[str]:
+    """A PLY's TextureFile names , `<this>` replaced; a note for each missing image and for images
+    after the first (one map per file is read)."""
+    handle.seek(0)
+    names = [resolved(name, path) for name in texture_names(handle.read(HEADER_LIMIT))]
+    if not names:
+        return []
+    for name in names[:1]:
+        if not (path.parent / name).is_file():
+            notes.append(f"{path}: texture {shown_name(name)} is missing")
+    if len(names) > 1:
+        notes.append(f"{path}: names {len(names)} TextureFile images (a texture number per face); only the first, "
+                     f"{names[0]!r}, is read, for every face")
+    return names
+
+
+def explain(handle, path: Path, where) -> str | None:
+    return ply_problem(handle.read(HEADER_LIMIT))
+
+
+def count(handle, size: int, source, where) -> int | None:
+    """The header's face count, or the most triangles its lists can make from the file's size (binary), or its
+    vertices less 2 where more (format.weigh); None for a header without faces or lists."""
+    head = handle.read(4096)
+    faces = re.search(rb"^element\s+face\s+(\d+)", head, re.M)
+    points = re.search(rb"^element\s+vertex\s+(\d+)", head, re.M)
+    listed = _list_triangles(head, size)
+    if faces or listed is not None:
+        return weigh(max(int(faces[1]) if faces else 0, listed or 0), int(points[1]) if points else 0)
+    return None
+
+
+PLY_SIZES = {"char": 1, "int8": 1, "uchar": 1, "uint8": 1, "short": 2, "int16": 2, "ushort": 2, "uint16": 2,
+             "int": 4, "int32": 4, "uint": 4, "uint32": 4, "float": 4, "float32": 4, "double": 8, "float64": 8}
+
+
+def _list_triangles(head: bytes, size: int) -> int | None:
+    """The most triangles a binary PLY's lists (faces, strips) can make, from its size and its header's
+    types, whatever its counts claim: the bytes past the fixed-size properties hold at most that many list
+    entries of the smallest index type, and n entries of a polygon or strip make n − 2 triangles. Exact for
+    a file of triangles (a face of 3 M corners, header "1 face", is 3 M triangles). None for an ASCII PLY, a
+    header longer than `head`, or no list."""
+    end = head.find(b"end_header")
+    if end < 0 or head.find(b"\n", end) < 0 or re.search(rb"^format\s+ascii", head[:end], re.M):
+        return None
+    body = size - head.index(b"\n", end) - 1
+    elements = []  # [count, bytes of its fixed properties and list counts, smallest list entry or 0]
+    for words in (line.split() for line in head[:end].decode("ascii", "replace").splitlines()):
+        if words[:1] == ["element"] and len(words) == 3:
+            elements.append([int(words[2]), 0, 0])
+        elif words[:1] == ["property"] and elements and len(words) in (3, 5):
+            if words[1] == "list" and len(words) == 5:
+                entry = PLY_SIZES[words[3]]
+                elements[-1][1] += PLY_SIZES[words[2]]
+                elements[-1][2] = min(elements[-1][2] or entry, entry)
+            else:
+                elements[-1][1] += PLY_SIZES[words[1]]
+    lists = [(count, entry) for count, _, entry in elements if entry]
+    if not lists:
+        return None
+    entries = max(0, body - sum(count * fixed for count, fixed, _ in elements)) // min(e for _, e in lists)
+    return max(0, entries - 2 * sum(count for count, _ in lists))
+
+
+FORMAT = MeshFormat(names=("PLY",), suffixes=(".ply",), read=read, count=count, explain=explain, parse_bytes=30,
+                    content=lambda head, found, size, suffix: found == "PLY")

@@ -1,0 +1,121 @@
+"""Every format in the registry (io/meshes/__init__.py, FORMATS) held to one contract: a small file of it reads to
+its triangles, is counted and weighed before the read, is read once for framing and render, and bad input (empty,
+cut short, noise, another format's bytes under its suffix) is one line, never a traceback. And nothing outside
+io/meshes/ names a mesh suffix: a format has one home."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+import raycast_phong as rp
+from raycast_phong.errors import SceneError
+from raycast_phong.io.meshes import FORMATS, format_of, is_mesh_file
+from raycast_phong.io.meshes import read as mesh_read
+from raycast_phong.io.meshes.source import mesh_source
+
+PACKAGE = Path(rp.__file__).parent
+SUFFIXES = [suffix for kind in FORMATS for suffix in kind.suffixes]
+# A tetrahedron wound outward: 4 triangles, every format can hold it.
+TETRA = trimesh.Trimesh([[1, 1, 1], [-1, -1, 1], [-1, 1, -1], [1, -1, -1]],
+                        [[0, 1, 3], [0, 2, 1], [0, 3, 2], [1, 2, 3]], process=False)
+SMALL = ["render.width=24", "render.height=18"]
+
+
+def write(folder: Path, suffix: str) -> Path:
+    """The tetrahedron in the format of `suffix`, written by trimesh's exporters (an independent writer)."""
+    path = folder / f"tetra{suffix}"
+    data = TETRA.export(file_type=suffix[1:])
+    if isinstance(data, dict):  # a .gltf and its buffer files
+        for name, content in data.items():
+            (path if name.endswith(suffix) else folder / name).write_bytes(content)
+    else:
+        path.write_bytes(data if isinstance(data, bytes) else data.encode())
+    return path
+
+
+def test_the_registry_claims_each_suffix_once_and_names_it():
+    assert len(SUFFIXES) == len(set(SUFFIXES))
+    for kind in FORMATS:
+        assert len(kind.names) == len(kind.suffixes) and all(s == s.lower() and s[0] == "." for s in kind.suffixes)
+        for suffix in kind.suffixes:
+            assert format_of(Path(f"x{suffix.upper()}")) is kind and is_mesh_file(f"a/b{suffix}")
+    assert not is_mesh_file("scene.toml") and not is_mesh_file("noext")
+
+
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_a_small_file_of_each_format_reads_counts_and_renders(tmp_path, suffix):
+    path = write(tmp_path, suffix)
+    source = mesh_source(path)
+    read = source.read("t")
+    assert len(read.faces) == 4 and read.vertices.shape[1] == 3
+    corners = np.asarray(read.vertices)[read.faces]
+    area = np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1).sum() / 2
+    assert area == pytest.approx(TETRA.area, rel=1e-6)  # the same surface, placed as written
+    # Counted before the read: at least the triangles (never fewer, or the estimate under-counts), at most the
+    # size bound; the read floor at least the file's own bytes.
+    assert 4 <= mesh_source(path).triangles("t") <= max(4, path.stat().st_size)
+    assert source.read_floor() >= path.stat().st_size
+    scene = rp.load_scene(path, SMALL)
+    result = rp.render(scene)  # drawn: some pixel is not the background (trimesh writes a COLLADA material black)
+    assert result.triangles == 4 and (np.abs(result.image - np.float32(scene.render.background)) > 0.05).any()
+
+
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_a_file_is_read_once_for_framing_and_render(tmp_path, suffix, monkeypatch):
+    path = write(tmp_path, suffix)
+    reads = []
+    real = mesh_read.read_file
+    monkeypatch.setattr(mesh_read, "read_file", lambda *a, **k: reads.append(a[0].path) or real(*a, **k))
+    rp.render(rp.load_scene(path, SMALL))
+    assert reads == [path]
+
+
+NOISE = bytes(np.random.default_rng(7).integers(0, 256, 700, dtype=np.uint8))
+
+
+@pytest.mark.parametrize("suffix", SUFFIXES)
+@pytest.mark.parametrize("bad", ["empty", "cut", "noise", "other"])
+def test_bad_bytes_of_each_format_are_one_line(tmp_path, suffix, bad):
+    good = write(tmp_path, suffix).read_bytes()
+    other = write(tmp_path, ".ply" if suffix != ".ply" else ".obj").read_bytes()
+    data = {"empty": b"", "cut": good[: len(good) // 3], "noise": NOISE, "other": other}[bad]
+    path = tmp_path / f"bad{suffix}"
+    path.write_bytes(data)
+    try:
+        read = mesh_source(path).read("scene.toml: objects.0.path")
+    except SceneError as error:
+        text = str(error)
+        assert "\n" not in text and text.startswith("scene.toml: objects.0.path: ") and str(path) in text, text
+        return
+    # A reader may still find triangles in a file cut short or in noise (an OBJ's first lines): then they are
+    # whole, finite triangles of the file's own vertices.
+    assert bad in ("cut", "noise") and len(read.faces) and np.isfinite(read.vertices[read.faces]).all()
+
+
+def test_no_module_outside_io_meshes_names_a_mesh_suffix():
+    """A format's suffixes are its record's (MeshFormat.suffixes); a stage that compares a suffix is a format
+    rule without its home. Scene and image suffixes are not mesh formats."""
+    named = []
+    for path in PACKAGE.rglob("*.py"):
+        if path.parent.name == "meshes":
+            continue
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        names = {id(part) for node in ast.walk(tree) if isinstance(node, ast.JoinedStr) for part in node.values}
+        for node in ast.walk(tree):  # a constant, not a file name written in an f-string (f"{stem}.obj")
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value.lower() in SUFFIXES \
+                    and id(node) not in names:
+                named.append(f"{path.relative_to(PACKAGE)}:{node.lineno}: {node.value!r}")
+    assert not named
+
+
+def test_another_format_s_bytes_are_refused_before_any_reader(tmp_path):
+    """An OBJ named .stl is refused as what it is before the STL reader (a header count of 1702M) sees it."""
+    path = tmp_path / "tetra.stl"
+    path.write_bytes(write(tmp_path, ".obj").read_bytes())
+    with pytest.raises(SceneError, match="its content is OBJ; rename it"):
+        mesh_source(path).read("t")
