@@ -113,9 +113,16 @@ def test_no_module_outside_io_meshes_names_a_mesh_suffix():
     assert not named
 
 
-def test_another_format_s_bytes_are_refused_before_any_reader(tmp_path):
-    """An OBJ named .stl is refused as what it is before the STL reader (a header count of 1702M) sees it."""
-    path = tmp_path / "tetra.stl"
-    path.write_bytes(write(tmp_path, ".obj").read_bytes())
-    with pytest.raises(SceneError, match="its content is OBJ; rename it"):
+# Another format's bytes under each suffix, and what they are called: a binary file announces itself (PLY, GLB,
+# a zip); every format but COLLADA (XML, whose reader says what is wrong) refuses them before its reader runs
+# (an OBJ named .stl was read as a binary STL of 433 GB).
+IMPOSTORS = {".ply": (".glb", "GLB")}
+
+
+@pytest.mark.parametrize("suffix", [s for s in SUFFIXES if s != ".dae"])
+def test_another_format_s_bytes_are_refused_before_any_reader(tmp_path, suffix):
+    other, name = IMPOSTORS.get(suffix, (".ply", "PLY"))
+    path = tmp_path / f"impostor{suffix}"
+    path.write_bytes(write(tmp_path, other).read_bytes())
+    with pytest.raises(SceneError, match=f"its content is {name}; rename it"):
         mesh_source(path).read("t")
