@@ -113,7 +113,9 @@ def render(
 
 def _render_with_progress(scene: rp.Scene, source: str, threads: int | None, quiet: bool,
                           max_memory: int | None = None) -> rp.RenderResult:
+    from raycast_phong.renderer.prepare import check_fits
     from raycast_phong.renderer.warmup import ready_kernels
+    check_fits(scene, source=source, threads=threads, max_memory=max_memory)  # a refused scene compiles nothing
     stage, seconds = ready_kernels(scene, None if quiet else lambda line: typer.echo(line, err=True), source)
     result = _render_shown(scene, source, threads, quiet, max_memory)
     return result.with_timings(**{stage: seconds})

@@ -126,3 +126,36 @@ def test_another_format_s_bytes_are_refused_before_any_reader(tmp_path, suffix):
     path.write_bytes(write(tmp_path, other).read_bytes())
     with pytest.raises(SceneError, match=f"its content is {name}; rename it"):
         mesh_source(path).read("t")
+
+
+def test_a_sparse_file_too_large_to_read_is_refused_from_its_size_alone(tmp_path, monkeypatch):
+    """A 3 GiB one-line OBJ (sparse: no disk) is refused from `stat` and its format's read floor, before its
+    `mtllib` scan, its triangle count or any read (all three made fail here): it cost 7.5 s of CPU to refuse."""
+    from raycast_phong.io.meshes import obj as obj_format
+    from raycast_phong.io.meshes import size
+    path = tmp_path / "huge.obj"
+    with open(path, "wb") as handle:
+        handle.write(b"v 0 0 0\n")
+        handle.truncate(3 << 30)
+    fail = lambda *a, **k: pytest.fail("the file was scanned, counted or read")  # noqa: E731
+    for module, name in ((obj_format, "scan_mtllib"), (size, "count_triangles"), (mesh_read, "read_file")):
+        monkeypatch.setattr(module, name, fail)
+    with pytest.raises(SceneError, match="needs ≈ .* of memory, more than the 1 GB available"):
+        rp.load_scene(path, max_memory=1 << 30)
+
+
+def test_a_scene_over_the_budget_is_refused_before_any_kernel_is_made_ready(tmp_path, monkeypatch):
+    """`render` checks the memory before it loads or compiles a kernel: with an empty cache a refused scene
+    compiled for 27 s first."""
+    from typer.testing import CliRunner
+
+    from raycast_phong.cli import app
+    from raycast_phong.renderer import warmup
+    write(tmp_path, ".ply")
+    (tmp_path / "scene.toml").write_text('[[objects]]\nshape = "mesh"\npath = "tetra.ply"\n'
+                                         '[[objects]]\nshape = "icosphere"\nsubdivisions = 8\n', encoding="utf-8")
+    monkeypatch.setattr(warmup, "ready_kernels", lambda *a, **k: pytest.fail("kernels made ready"))
+    done = CliRunner().invoke(app, ["render", str(tmp_path / "scene.toml"), "-o", str(tmp_path / "x.png"),
+                                    "--max-memory", "20M"])
+    assert done.exit_code == 2, done.output
+    assert "above the 20 MB budget" in done.stderr and "\n" not in done.stderr.strip()

@@ -31,18 +31,44 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True, eq=False)
 class MeshSource:
-    """A mesh file as it is now, before its geometry is read."""
+    """A mesh file as it is now, before its geometry is read. What the file names beside it is read when first
+    asked (its format's `describe`), so a file refused from its size alone is never scanned (a 3 GiB OBJ's
+    `mtllib` scan reads all of it)."""
     path: Path
     format: MeshFormat
     version: tuple | None              # io.files.file_version; None for a missing file (the read words it)
-    side_files: tuple[Path, ...] = ()  # the files it names that change its image: an OBJ's .mtl files (every one
-                                       # its `mtllib` lines name, in order), a .gltf's external buffers
-    document: Document | None = None   # a glTF's JSON, parsed (io/meshes/gltf.py); None for other formats
-    materials: ObjMaterials | None = None  # an OBJ's .mtl files, read and parsed (io/meshes/mtl.py); None otherwise
-    images: tuple[Path, ...] = ()      # image files outside it that its materials read (an OBJ's colour maps that
-                                       # exist, a glTF's image URIs)
-    side_versions: tuple = field(default=(), repr=False)  # each side file's version when this was made
     _memo: dict[str, Any] = field(default_factory=dict, repr=False)  # what was read: triangles, bounds, read
+
+    @cached_property
+    def _described(self) -> dict[str, Any]:
+        described = self.format.describe(self.path) if self.version is not None else {}
+        return {**described, "side_versions": _stamps(described.get("side_files", ()))}
+
+    @property
+    def side_files(self) -> tuple[Path, ...]:
+        """The files it names that change its image: an OBJ's .mtl files (every one its `mtllib` lines name, in
+        order), a .gltf's external buffers."""
+        return self._described.get("side_files", ())
+
+    @property
+    def document(self) -> Document | None:
+        """A glTF's JSON, parsed (io/meshes/gltf_json.py); None for other formats."""
+        return self._described.get("document")
+
+    @property
+    def materials(self) -> ObjMaterials | None:
+        """An OBJ's .mtl files, read and parsed (io/meshes/mtl.py); None otherwise."""
+        return self._described.get("materials")
+
+    @property
+    def images(self) -> tuple[Path, ...]:
+        """Image files outside it that its materials read (an OBJ's colour maps that exist, a glTF's image URIs)."""
+        return self._described.get("images", ())
+
+    @property
+    def side_versions(self) -> tuple:
+        """Each side file's version when it was described."""
+        return self._described["side_versions"]
 
     @property
     def identity(self) -> tuple:
@@ -104,17 +130,14 @@ class MeshSource:
 
 
 def mesh_source(path: Path) -> MeshSource:
-    """The MeshSource of the file at `path` as it is now, with what its format reads beside it (describe): only
-    what is small. A file that cannot be read gives a source with what could be (the read words the error)."""
+    """The MeshSource of the file at `path` as it is now (its version; what it names beside it is read when
+    asked). A file that cannot be read gives a source with what could be (the read words the error)."""
     path = Path(path)
-    kind = format_of(path)
     try:
         version = file_version(path)
     except OSError:
-        return MeshSource(path, kind, None)
-    described = kind.describe(path)
-    side = described.get("side_files", ())
-    return MeshSource(path, kind, version, **described, side_versions=_stamps(side))
+        version = None
+    return MeshSource(path, format_of(path), version)
 
 
 def read_mesh(path: Path, where: Where) -> MeshFile:
