@@ -137,10 +137,10 @@ def test_a_sparse_file_too_large_to_read_is_refused_from_its_size_alone(tmp_path
     with open(path, "wb") as handle:
         handle.write(b"v 0 0 0\n")
         handle.truncate(3 << 30)
-    fail = lambda *a, **k: pytest.fail("the file was scanned, counted or read")  # noqa: E731
+    fail = lambda *a, **k: pytest.fail("the file was scanned, counted or read")
     for module, name in ((obj_format, "scan_mtllib"), (size, "count_triangles"), (mesh_read, "read_file")):
         monkeypatch.setattr(module, name, fail)
-    with pytest.raises(SceneError, match="needs ≈ .* of memory, more than the 1 GB available"):
+    with pytest.raises(SceneError, match=r"needs ≈ .* of memory, more than the 1 GB available"):
         rp.load_scene(path, max_memory=1 << 30)
 
 
