@@ -16,6 +16,7 @@ from functools import partial
 
 import numpy as np
 
+from ..geometry.shapes import from_file
 from ..records import Geometry
 from ..scene.kinds import object_kinds
 from ..scene.messages import Location, located
@@ -53,7 +54,7 @@ def build_geometry(scene: Scene, source: str | Location = "<scene>", vertex_norm
     once every object is placed. prepare() starts the BVH then, while the normals are made.
     """
     where = located(source)
-    if sources is None and any(obj.shape == "mesh" for obj in scene.objects):
+    if sources is None and any(map(from_file, scene.objects)):
         from ..io.meshes.source import mesh_sources
         sources = mesh_sources(scene)
     if memo is None:

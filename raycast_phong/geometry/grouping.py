@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..geometry.shapes import from_file
 from ..scene.kinds import object_kinds
 from ..scene.messages import Location
 from ..scene.objects import OWN_KEYS
@@ -26,8 +27,8 @@ def object_groups(scene: Scene) -> list[np.ndarray]:
 def group_key(obj: Object, index: int) -> tuple:
     """What makes two objects' meshes (and normals) the same before placement: equal keys share one build.
     A mesh file is never shared (its reading notes and materials belong to its object)."""
-    if obj.shape == "mesh":
-        return ("mesh", index)
+    if from_file(obj):
+        return (obj.shape, index)
     return (obj.shape, *(getattr(obj, key) for key in OWN_KEYS[obj.shape]), obj.normals, obj.crease_angle)
 
 
@@ -35,7 +36,7 @@ def template_key(scene: Scene, first: Object, index: int, where: Location, wants
                   sources: dict | None = None) -> tuple:
     """What group_template reads: a shape's keys; a mesh file's object, its file as it is now (its version and
     its side files', MeshSource.identity) and the object's number and location, which its notes name."""
-    if first.shape != "mesh":
+    if not from_file(first):
         return ("shape", *group_key(first, index), wants_exact)
-    return ("mesh", index, where, mesh_stamp(scene.resolve(first.path), sources), first.normals, first.crease_angle,
-            "crease_angle" in first.model_fields_set, wants_exact)
+    return (first.shape, index, where, mesh_stamp(scene.resolve(first.path), sources), first.normals,
+            first.crease_angle, "crease_angle" in first.model_fields_set, wants_exact)

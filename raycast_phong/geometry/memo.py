@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
+from ..geometry.shapes import from_file
 from ..records import Geometry
 from ..scene.kinds import object_kinds, placements
 from ..scene.messages import Location
@@ -70,7 +71,7 @@ class BuildMemo:
         the lights (check_float_range runs on every build), the camera or the other render settings."""
         self._used = (set(), set(), set())
         kinds = object_kinds(scene)
-        files = tuple(mesh_stamp(scene.resolve(o.path)) for o in scene.objects if o.shape == "mesh")
+        files = tuple(mesh_stamp(scene.resolve(o.path)) for o in scene.objects if from_file(o))
         files += tuple(file_stamp(scene.resolve(getattr(m, key).path)) for m in scene.materials.values()
                        for key in ("ka_map", "kd_map", "ke_map") if getattr(m, key) is not None)
         placed = tuple(array.tobytes() for array in placements(scene.objects))  # bits: -0.0 is not 0.0

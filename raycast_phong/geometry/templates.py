@@ -78,7 +78,7 @@ def group_template(scene: Scene, first: Object, index: int, where: Location, wan
 def object_mesh(scene: Scene, obj: Object, where: Location, sources: dict | None = None) -> ObjectMesh:
     """The object's triangles in its own frame (a mesh file's with its materials, colours and normals; a built-in
     shape's from its kind, geometry/shapes/); `where` is the object's location (file: objects.N)."""
-    if obj.shape == "mesh":
+    if shapes.from_file(obj):
         return _load_mesh(scene, obj, where, (sources or {}).get(scene.resolve(obj.path)))
     return ObjectMesh(*shapes.KINDS[obj.shape].template(obj, where), None)
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from ..codes import GEOMETRY_LAYERS, TERM_LAYERS, ShadingModel
 from ..errors import SceneError
-from ..geometry.shapes import KINDS
+from ..geometry.shapes import KINDS, from_file
 from ..io.system import available_memory, count_text, format_bytes, parse_size
 from ..scene.kinds import object_kinds
 from ..scene.messages import Location, dotted, located
@@ -77,7 +77,7 @@ def shape_triangles(obj) -> int:
 
 def size_key(obj) -> str:
     """The key that sets an object's triangle count."""
-    return "path" if obj.shape == "mesh" else KINDS[obj.shape].size_key
+    return KINDS[obj.shape].size_key
 
 
 def estimate_memory(scene: Scene, source: str | Location = "<scene>", *, smooth: bool = True, float64: bool = False,
@@ -89,7 +89,7 @@ def estimate_memory(scene: Scene, source: str | Location = "<scene>", *, smooth:
     cast shadow rays (global mode); tile_rays × threads rays are in flight at once; sources: the mesh files'
     io.meshes.source.MeshSource by resolved path (made here when not given).
     """
-    if sources is None and any(obj.shape == "mesh" for obj in scene.objects):
+    if sources is None and any(map(from_file, scene.objects)):
         from ..io.meshes.source import mesh_sources
         sources = mesh_sources(scene)
     files: dict[Path, int] = {}
@@ -99,7 +99,7 @@ def estimate_memory(scene: Scene, source: str | Location = "<scene>", *, smooth:
     costs = []  # per kind: (first object, objects, triangles, bytes a triangle, the least its read takes)
     for index, objects in zip(kinds.first.tolist(), kinds.count.tolist()):
         obj = scene.objects[index]
-        mesh_file, floor = obj.shape == "mesh", 0
+        mesh_file, floor = from_file(obj), 0
         if mesh_file:
             path = scene.resolve(obj.path)
             mesh = sources[path]

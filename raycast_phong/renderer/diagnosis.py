@@ -129,7 +129,7 @@ def subpixel_findings(scene: Scene, geometry, figures: ObjectFigures | None = No
     if scene.render.samples > 1:
         return
     wanted, shininess = _candidates(scene)
-    wanted &= per_object(scene, lambda obj: obj.shape == "mesh" or kind_of(obj).curved)
+    wanted &= per_object(scene, lambda obj: kind_of(obj).curved)
     if not wanted.any():
         return
     centre, radius = (figures or ObjectFigures(geometry, len(scene.objects))).bounds()

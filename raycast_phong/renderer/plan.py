@@ -8,6 +8,7 @@ every optional stage, for tests that compare the two images.
 from __future__ import annotations
 
 from ..codes import GEOMETRY_LAYERS, TERM_LAYERS, Mode, ShadingModel, SpecularModel, StageName, Viewer
+from ..geometry.shapes import from_file
 from ..records import RenderPlan, Stage
 from ..scene.kinds import object_kinds
 from ..scene.schema import Material, Scene
@@ -67,7 +68,7 @@ def _term_stages(scene: Scene, kinds: list, smooth: list, optimize: bool) -> tup
     (`optimize=False` keeps the optional ones anyway); and whether the specular term is needed. `kinds` and
     `smooth` (the smooth-shaded ones) are (object, count) pairs."""
     materials, lights, render = [scene.material_of(obj) for obj, _ in kinds], scene.lights, scene.render
-    if any(obj.shape == "mesh" and obj.material == "default" for obj, _ in kinds):
+    if any(from_file(obj) and obj.material == "default" for obj, _ in kinds):
         # A mesh file may bring its own materials (read with the geometry, after this plan): keep every term.
         materials.append(FILE_MATERIALS)
     stages = []
@@ -83,7 +84,7 @@ def _term_stages(scene: Scene, kinds: list, smooth: list, optimize: bool) -> tup
     creased = sum(n for obj, n in smooth if obj.crease_angle < 180)
     # A mesh object leaving crease_angle and normals unset creases a file without normals
     # (geometry.templates.file_crease_angle).
-    maybe = sum(n for obj, n in smooth if obj.shape == "mesh" and obj.normals is None
+    maybe = sum(n for obj, n in smooth if from_file(obj) and obj.normals is None
                 and "crease_angle" not in obj.model_fields_set)
     if maybe:
         from ..io.meshes.materials import FILE_CREASE_ANGLE

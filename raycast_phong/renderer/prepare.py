@@ -27,6 +27,7 @@ from ..codes import StageName
 from ..errors import RenderCancelled
 from ..geometry.build import build_geometry
 from ..geometry.normals import PARALLEL_FACES, prep_threads
+from ..geometry.shapes import from_file
 from ..io.system import default_threads
 from ..records import Frame, Geometry, ImageBuffers, RenderPlan, RenderResult
 from ..scene.messages import Location, located
@@ -200,7 +201,7 @@ def _fitted(scene: Scene, source: str | Location, threads: int | None, max_memor
     threads = threads or default_threads()
     tile_rays = rows_per_tile * width * samples * samples
     sources = None
-    if any(obj.shape == "mesh" for obj in scene.objects):  # each mesh file's MeshSource, read once (the scene's)
+    if any(map(from_file, scene.objects)):  # each mesh file's MeshSource, read once (the scene's)
         from ..io.meshes.source import mesh_sources
         sources = mesh_sources(scene)
     memory = check_memory(scene, source, max_memory, sources=sources, smooth=plan.keeps(StageName.VERTEX_NORMALS),

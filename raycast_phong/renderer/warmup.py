@@ -33,6 +33,7 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
     from .frame import warm_kernels_for
     from .plan import build_plan
     plan = build_plan(scene)
+    from ..geometry.shapes import from_file
     from ..io.files import open_mesh_file
     from ..scene.kinds import object_kinds
     kinds = [(index, scene.objects[index]) for index in object_kinds(scene).first.tolist()]  # a mesh: its own kind
@@ -40,7 +41,7 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
     from ..io.meshes.source import source_key
     meshes, readers = False, {}
     for index, obj in kinds:
-        if obj.shape == "mesh":
+        if from_file(obj):
             path = scene.resolve(obj.path)
             handle = open_mesh_file(path, located(source).at("objects", index, "path"))
             waiting = scene.mesh_sources.get(source_key(path))

@@ -26,9 +26,10 @@ import numpy as np
 from pydantic import AfterValidator, BeforeValidator
 from pydantic.fields import FieldInfo
 
+from ..geometry.shapes import KINDS
 from ..tolerances import POSITION_LIMIT
 from . import fields
-from .objects import MESH, OBJECT_MODELS, _normals_fit
+from .objects import OBJECT_MODELS, _normals_fit
 
 _NUMBER = frozenset({int, float})                 # exact types: a bool or a str is pydantic's to refuse
 _SEQUENCE = frozenset({list, tuple})
@@ -235,7 +236,8 @@ def _plan(model) -> dict[str, Check]:
     return plan
 
 
-PLANS = {shape: _plan(model) for shape, model in OBJECT_MODELS.items() if shape != MESH}  # a mesh file: pydantic's
+# Plans for the built kinds; an object read from a file (a mesh) is validated by pydantic's own model.
+PLANS = {shape: _plan(model) for shape, model in OBJECT_MODELS.items() if not KINDS[shape].from_file}
 _DEFAULTS = {shape: {key: field.default for key, field in OBJECT_MODELS[shape].model_fields.items()}
              for shape in PLANS}
 

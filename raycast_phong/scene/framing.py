@@ -37,12 +37,12 @@ def mesh_colour(path: str | Path) -> tuple[str, str]:
     COLOR_0 linear, lit in linear values and shown through the sRGB curve), else DISPLAY: no other format says,
     and fixed-function GL viewers (MeshLab, the lecture's) show their colours and maps as stored."""
     from ..io.meshes import format_of
-    suffix = Path(path).suffix.lower()
     kind = format_of(path)
     if kind.linear:
         return LINEAR, f"the default for a {kind.names[0]} file rendered directly, as {kind.linear} specifies"
-    return DISPLAY, (f"the default for a {suffix or 'mesh'} file rendered directly (the format names no colour "
-                     "space; fixed-function GL viewers show its colours as stored)")
+    file = f"{Path(path).suffix.lower()} file" if Path(path).suffix else "mesh file"
+    return DISPLAY, (f"the default for a {file} rendered directly (the format names no colour space; "
+                     "fixed-function GL viewers show its colours as stored)")
 
 
 # A mesh file's background: dark grey (PNG byte 51 in either colour setting), as viewers show models (f3d,

@@ -17,7 +17,8 @@ from itertools import chain
 
 import numpy as np
 
-from .objects import MESH, OBJECT_MODELS
+from ..geometry.shapes import KINDS
+from .objects import OBJECT_MODELS
 
 PLACEMENT_KEYS = ("name", "translate", "rotate", "scale")  # keys that never change what an object is
 
@@ -74,9 +75,9 @@ def kinds_of(objects) -> ObjectKinds:
     finally:
         if collecting:
             gc.enable()
-    mesh = OBJECT_MODELS[MESH]
-    for index in [i for i, model in enumerate(models) if model is mesh] if mesh in distinct else ():
-        keys[index] = (index,)  # a mesh object is a kind of its own
+    read = {OBJECT_MODELS[name] for name, kind in KINDS.items() if kind.from_file} & distinct.keys()
+    for index in [i for i, model in enumerate(models) if model in read] if read else ():
+        keys[index] = (index,)  # an object read from a file is a kind of its own
     number = {key: k for k, key in enumerate(dict.fromkeys(keys))}
     kind = np.fromiter(map(number.__getitem__, keys), np.int64, count)
     counts = np.bincount(kind, minlength=len(number))

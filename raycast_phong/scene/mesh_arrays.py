@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import SceneError
+from ..geometry.shapes import MESH
 from ..io.meshes import format_of
 from ..io.meshes.source import MeshSource
 from ..tolerances import POSITION_LIMIT
@@ -127,7 +128,7 @@ def _shape(shape: tuple) -> str:
     return "(" + ", ".join("N" if size is None else str(size) for size in shape) + ")"
 
 
-def mesh_scene(vertices: Any, faces: Any = None, *, normals: Any = None, name: str = "mesh",
+def mesh_scene(vertices: Any, faces: Any = None, *, normals: Any = None, name: str = MESH.name,
                view: str | None = None, up: str | None = None, overrides: list[str] | tuple[str, ...] = (),
                folder: str | Path = ".") -> Any:
     """A Scene showing a mesh given as arrays, framed as `raycast-phong render model.obj` frames a file: one

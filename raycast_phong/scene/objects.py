@@ -4,29 +4,29 @@ discriminated by `shape`, that the scene validates each object as.
 
 A kind's model is its keys between the keys every object has: name, shape, the kind's own keys, then material,
 shading, normals, crease_angle, translate, rotate, scale (the order a scene is written in and keys are listed).
-A mesh file (shape = "mesh") is the one kind read, not built: its model is here.
+A mesh file (shape = "mesh") is a kind too, the one read rather than built (ShapeKind.from_file).
 """
 
 from __future__ import annotations
 
 from typing import Annotated, Any, Literal, Union
 
-from pydantic import AfterValidator, ConfigDict, Field, ValidationInfo, create_model, model_validator
+from pydantic import AfterValidator, ConfigDict, Field, ValidationInfo, create_model
 
 from ..codes import ShadingModel
 from ..geometry.shapes import KINDS
 from .fields import Angles, KindKeys, Number, Position, Scale, Table
 
-MESH = "mesh"  # the shape of an object read from a mesh file
 NormalsRule = Literal["mean", "area", "angle", "file", "exact"]  # how an object's vertex normals are made
 
 
 def _normals_fit(value: str | None, info: ValidationInfo) -> str | None:
     """A mesh file's own normals need a mesh file; the closed form needs a built-in shape."""
     shape = info.data.get("shape")
-    if shape != MESH and value == "file":
+    read = shape in KINDS and KINDS[shape].from_file
+    if not read and value == "file":
         raise ValueError(f'normals = "file" needs a mesh file; shape = "{shape}" has no stored normals')
-    if shape == MESH and value == "exact":
+    if read and value == "exact":
         raise ValueError('normals = "exact" needs a built-in shape; a mesh file has no closed form (use "file", '
                          '"mean", "area" or "angle")')
     return value
@@ -34,14 +34,15 @@ def _normals_fit(value: str | None, info: ValidationInfo) -> str | None:
 
 def _object_schema(schema: dict, model: type) -> None:
     """A kind's JSON Schema says what its validators say: the normals rules it may use (_normals_fit), a mesh's
-    path required (MeshKeys._named), and the keys of other kinds that a file written by an earlier version holds
-    at their defaults (without_written_defaults), which are accepted, marked deprecated."""
+    path required (shapes.mesh.MeshKeys._named), and the keys of other kinds that a file written by an earlier
+    version holds at their defaults (without_written_defaults), which are accepted, marked deprecated."""
     shape = model.model_fields["shape"].annotation.__args__[0]
     properties = schema["properties"]
-    refused = "exact" if shape == MESH else "file"
+    read = KINDS[shape].from_file
+    refused = "exact" if read else "file"
     rules = properties["normals"]["anyOf"][0]
     rules["enum"] = [rule for rule in rules["enum"] if rule != refused]
-    if shape == MESH:
+    if read:
         schema["required"] = [*schema.get("required", ()), "path"]
         properties["path"] = {"type": "string", "minLength": 1, "description": properties["path"]["description"]}
     for key, defaults in sorted(_FOREIGN_DEFAULTS[shape].items()):
@@ -82,18 +83,6 @@ class ObjectKeys(Table):
         "still point outward)"))
 
 
-class MeshKeys(KindKeys):
-    """A mesh file's key: the file, relative to the scene file's folder (any format trimesh reads)."""
-    path: str | None = Field(None, description=(
-        "the mesh file (any format trimesh reads: OBJ, PLY, STL, OFF, glTF/GLB), relative to the scene file"))
-
-    @model_validator(mode="after")
-    def _named(self) -> MeshKeys:
-        if not self.path:
-            raise ValueError('shape = "mesh" needs path = "file.obj" (any format trimesh reads)')
-        return self
-
-
 def object_model(shape: str, keys: type[KindKeys], title: str) -> type[Table]:
     """The model of an object of one kind: name and shape (its name only), the kind's `keys`, then the keys of
     every object."""
@@ -102,10 +91,9 @@ def object_model(shape: str, keys: type[KindKeys], title: str) -> type[Table]:
                         shape=(Literal[shape], Field(description=(keys.__doc__ or title).split("\n")[0])))
 
 
-# One model per kind, in the registry's order, the mesh file last.
+# One model per kind, in the registry's order, the kinds read from a file (a mesh) after those built.
 OBJECT_MODELS: dict[str, type[Table]] = {name: object_model(name, kind.keys, type(kind).__name__)
-                                         for name, kind in KINDS.items()}
-OBJECT_MODELS[MESH] = object_model(MESH, MeshKeys, "Mesh")
+                                         for name, kind in sorted(KINDS.items(), key=lambda item: item[1].from_file)}
 globals().update({model.__name__: model for model in OBJECT_MODELS.values()})  # pickle finds a class by its name
 Object = Annotated[Union[tuple(OBJECT_MODELS.values())], Field(discriminator="shape")]  # noqa: UP007
 

@@ -43,6 +43,7 @@ from ..codes import (
     Viewer,
 )
 from ..errors import RaycastPhongError, SceneError
+from ..geometry.shapes import from_file
 from ..io.encoding import COLOURS
 from ..tolerances import DIRECTION_RANGE, INTENSITY_LIMIT, POSITION_LIMIT
 from .bulk import objects_in_bulk
@@ -60,7 +61,7 @@ from .fields import (
 )
 from .kinds import object_kinds
 from .messages import Location, describe_error, located, shown
-from .objects import MESH, Object, without_written_defaults
+from .objects import Object, without_written_defaults
 
 MAX_SIZE = 16384          # pixels per side, from the format
 MAX_SAMPLES = 16          # 16×16 = 256 rays per pixel is already a reference-quality render
@@ -375,13 +376,17 @@ class Scene(Table):
         """A path from the scene file, relative to the file's folder."""
         return Path(self.folder) / Path(path).expanduser()
 
+    def mesh_paths(self) -> list[Path]:
+        """The file each object read from a file (a mesh) names, resolved, in the objects' order."""
+        return [self.resolve(obj.path) for obj in self.objects if from_file(obj) and obj.path]
+
     def named_files(self) -> dict[tuple, str]:
         """Every file the scene names, as written, by the key path that names it (a tuple, as error locations
         are: messages.dotted words it): ("objects", N, "path") for meshes, ("materials", M, "kd_map", "path")
         (and ka_map, ke_map) for textures, and OUTPUT_PATH. A caller that must not let its client choose files
         (the view's page) compares these before anything is opened."""
         named: dict[tuple, str] = {("objects", index, "path"): obj.path
-                                   for index, obj in enumerate(self.objects) if obj.shape == MESH}
+                                   for index, obj in enumerate(self.objects) if from_file(obj)}
         named.update({("materials", name, key, "path"): getattr(material, key).path
                       for name, material in self.materials.items() for key in MAP_COLUMNS
                       if getattr(material, key) is not None})

@@ -17,7 +17,7 @@ import numpy as np
 import trimesh
 
 from ..errors import SceneError
-from ..geometry.shapes import kind_of
+from ..geometry.shapes import from_file, kind_of
 from ..geometry.templates import object_mesh
 from ..records import MeasuredResult, RenderResult
 from ..renderer.frame import render
@@ -48,7 +48,7 @@ def refine_entry(scene: Scene, index: int, entry: dict, level: int, iterations: 
     to its file Loop-subdivided `iterations` times (trimesh.remesh.subdivide_loop: it converges to a smooth
     limit surface, where midpoint subdivision would keep the same flat facets), written into `folder`."""
     obj = scene.objects[index]
-    if obj.shape != "mesh":
+    if not from_file(obj):
         entry.update(refined(obj, level))
     elif iterations > 0:
         target = folder / f"object{index}-loop{iterations}.ply"
@@ -76,7 +76,7 @@ def check_fine_memory(scene: Scene, data: dict, levels: int, source: str | Locat
         return
     found = estimate_memory(validate_scene(data, source=source, folder=scene.folder), source, float64=True)
     extra_triangles = sum(found_triangles * (4 ** levels - 1) for found_triangles in (
-        _mesh_triangles(scene, index, source) for index, obj in enumerate(scene.objects) if obj.shape == "mesh"))
+        _mesh_triangles(scene, index, source) for index, obj in enumerate(scene.objects) if from_file(obj)))
     need = found.total + extra_triangles * (SMOOTH_BYTES + FLOAT64_NORMAL_BYTES + LOOP_BYTES)
     if need > budget:
         triangles = count_text(found.triangles + extra_triangles)
@@ -102,7 +102,7 @@ def fine_reference(scene: Scene, levels: int, source: str | Location = "<scene>"
     data["output"] = {"path": "reference.exr", "aovs": ["specular"]}
     for index, obj in enumerate(scene.objects):
         data["objects"][index]["shading"] = "phong"
-        if obj.shape != "mesh":
+        if not from_file(obj):
             data["objects"][index].update(refined(obj, min(level_of(obj) + levels, max_level(obj))))
     check_fine_memory(scene, data, levels, source, max_memory)
     with tempfile.TemporaryDirectory(prefix="raycast-phong-fine-") as folder:

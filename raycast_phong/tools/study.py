@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import OutputError
+from ..geometry.shapes import from_file
 from ..io.atomic import write_text
 from ..io.image_io import check_output_file
 from ..records import Geometry
@@ -186,7 +187,7 @@ def variant(base: Scene, data: dict, *, model: str, specular: str, precision: st
     data["objects"] = [dict(entry) for entry in data.get("objects", [])]
     for index, entry in enumerate(data["objects"]):
         entry["shading"] = model  # an object's own shading would otherwise keep it out of the sweep
-        if normals is not None and base.objects[index].shape != "mesh":
+        if normals is not None and not from_file(base.objects[index]):
             entry["normals"] = normals
         refine_entry(base, index, entry, level, level, Path(folder), source)
     if shininess is not None:
@@ -227,7 +228,7 @@ def _check_options(base: Scene, options: StudyOptions, source: str | Location) -
     """A mesh needs a self-convergence reference (--fine); every axis needs a value."""
     if options.fine is None:
         for index, obj in enumerate(base.objects):
-            if obj.shape == "mesh":
+            if from_file(obj):
                 raise SceneError('"mesh" has no closed form; use --fine N',
                                  located(source).at("objects", index, "shape"))
     if options.repeats < 1 or (options.levels is not None and not options.levels) or not options.models:

@@ -7,6 +7,8 @@ only the triangles that would join it to itself are left out (trimesh instead me
 and drops revolved triangles of area below 1e-8, which opens holes near the poles of a fine uv sphere). Every
 shape is centred on the origin; revolved shapes turn about z.
 
+A mesh file (mesh.py) is a kind too, the one read rather than built (ShapeKind.from_file).
+
 Adding a kind: a module here with its keys (a scene.fields.KindKeys model: each key with its default and bounds)
 and a ShapeKind subclass naming them, and its line in KINDS; nothing else (docs/pipeline.md's worked cone). The
 scene schema gathers the keys from KINDS, so this package imports nothing of the scene but its value types.
@@ -18,20 +20,27 @@ from .box import Box, box, box_uv
 from .cylinder import Cylinder, cylinder, cylinder_uv
 from .icosphere import Icosphere, icosahedron, icosphere
 from .kind import THIN, ShapeKind, subdivided
+from .mesh import Mesh
 from .plane import Plane, planar_uv, plane_mesh
 from .surfaces import revolve, sphere_uv
 from .torus import Torus, torus, torus_uv
 from .uv_sphere import UvSphere, uv_sphere
 
+MESH = Mesh()  # the one kind read from a file, not built (last: the scene format lists it after the shapes)
 KINDS: dict[str, ShapeKind] = {kind.name: kind for kind in (Icosphere(), UvSphere(), Box(), Plane(), Cylinder(),
-                                                               Torus())}
+                                                               Torus(), MESH)}
 
 
-def kind_of(obj) -> ShapeKind | None:
-    """The kind of a scene object; None for a mesh file (shape = "mesh"), which is read, not built."""
-    return KINDS.get(obj.shape)
+def kind_of(obj) -> ShapeKind:
+    """The kind of a scene object."""
+    return KINDS[obj.shape]
 
 
-__all__ = ["KINDS", "THIN", "ShapeKind", "box", "box_uv", "cylinder", "cylinder_uv", "icosahedron", "icosphere",
-           "kind_of", "planar_uv", "plane_mesh", "revolve", "sphere_uv", "subdivided", "torus", "torus_uv",
-           "uv_sphere"]
+def from_file(obj) -> bool:
+    """Whether a scene object is read from a file (its kind's from_file: a mesh), not built."""
+    return KINDS[obj.shape].from_file
+
+
+__all__ = ["KINDS", "MESH", "THIN", "Mesh", "ShapeKind", "box", "box_uv", "cylinder", "cylinder_uv", "from_file",
+           "icosahedron", "icosphere", "kind_of", "planar_uv", "plane_mesh", "revolve", "sphere_uv", "subdivided",
+           "torus", "torus_uv", "uv_sphere"]

@@ -27,6 +27,7 @@ class ShapeKind:
     curved: ClassVar[bool] = True          # a highlight can be narrower than a pixel on it (flat faces: no)
     thin_key: ClassVar[str | None] = None  # the length that must stay above float32's resolution of the whole
     max_level: ClassVar[int] = 9           # the finest tessellation level the scene format allows (segments ≤ 4096)
+    from_file: ClassVar[bool] = False      # read from a file (shapes/mesh.py), not built: no closed form, no levels
 
     def lengths(self, obj) -> tuple[float, ...]:
         """Its lengths: it is built at unit size (the largest length) and scaled after, so a shape of radius 1e-20

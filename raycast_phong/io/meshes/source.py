@@ -159,10 +159,7 @@ def mesh_sources(scene, given: dict | None = None) -> dict[Path, MeshSource]:
     those `given` (or the scene's own, Scene.mesh_sources) that are still current, the others made now."""
     given = scene.mesh_sources if given is None else given
     found: dict[Path, MeshSource] = {}
-    for obj in scene.objects:
-        if obj.shape != "mesh" or not obj.path:
-            continue
-        path = scene.resolve(obj.path)
+    for path in scene.mesh_paths():
         if path in found:
             continue
         source = given.get(source_key(path))

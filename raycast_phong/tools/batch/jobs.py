@@ -238,7 +238,7 @@ def input_paths(job: Job, scene: Scene | None) -> list[Path]:
         return [job.scene]
     from ...io.meshes.source import mesh_sources
     maps = [scene.resolve(path) for key, path in scene.named_files().items() if key[0] == "materials"]
-    meshes = [scene.resolve(obj.path) for obj in scene.objects if obj.shape == "mesh" and obj.path]
+    meshes = scene.mesh_paths()
     return _paths(job, maps, meshes, list(mesh_sources(scene).values()))
 
 
