@@ -205,3 +205,41 @@ def test_every_name_in_the_docs_exists():
     wrong = {(path.name, token) for path in DOCS for token in names_in(path.read_text()) if unresolved(token)}
     assert not sorted(wrong - PENDING), sorted(wrong - PENDING)
     assert not sorted(PENDING - wrong), "fixed: remove from PENDING " + str(sorted(PENDING - wrong))
+
+
+# A commit id: 7 to 40 hex digits holding a digit and a letter a-f (so neither "decade" nor "1000000" is one). A
+# clock time: two-digit hours and minutes (09:16, 23:42–23:47), not an aspect ratio (16:9) or a range of scores.
+COMMIT = re.compile(r"(?<![\w#./-])(?=[0-9a-f]*[0-9])(?=[0-9a-f]*[a-f])[0-9a-f]{7,40}(?![\w-])")
+CLOCK = re.compile(r"(?<![\d:.])(?:[01]\d|2[0-3]):[0-5]\d(?::[0-5]\d)?(?![\d:])")
+DATE = re.compile(r"\b20\d\d-[01]\d-[0-3]\d\b")
+
+
+def _diary(text: str) -> list[str]:
+    """What a reference has no use for: commit ids, clock times and dates, outside fenced blocks (a how-to may print
+    a hash)."""
+    prose = re.sub(r"^```.*?^```", "", text, flags=re.S | re.M)
+    return [found.group() for pattern in (COMMIT, CLOCK, DATE) for found in pattern.finditer(prose)]
+
+
+def test_the_diary_check_sees_a_commit_id_a_clock_time_and_a_date():
+    """The control: the words a session's diary leaves."""
+    assert _diary("measured at 016e3ef (09:16 and 23:42–23:47 UTC, 2026-12-03)") == \
+        ["016e3ef", "09:16", "23:42", "23:47", "2026-12-03"]
+    assert _diary("a 16:9 frame, 1000000 boxes, a decade, bunny-1m, sha256 in `x.py`, 1:1, 12:345") == []
+
+
+def test_the_docs_are_a_reference_not_a_diary():
+    """docs/*.md say what holds now and how to re-measure it: how a figure was reached belongs in a commit message
+    (issue 44: 23 commit ids and 4 clock times had crept back)."""
+    found = {path.name: _diary(path.read_text(encoding="utf-8")) for path in DOCS}
+    assert not {name: words for name, words in found.items() if words}
+
+
+def test_performance_is_a_page_and_meshes_opens_with_its_formats():
+    """performance.md stays a page a reader reads (it had grown to 415 lines of dated tables); meshes.md opens with
+    the formats and what each reads, its first table."""
+    assert len((ROOT / "docs" / "performance.md").read_text(encoding="utf-8").splitlines()) <= 300
+    meshes = (ROOT / "docs" / "meshes.md").read_text(encoding="utf-8")
+    first_section = re.search(r"^## (.+)$", meshes, re.M).group(1)
+    first_table = re.search(r"^\| *(\w+) *\|", meshes, re.M).group(1)
+    assert first_section == "Formats" and first_table == "format"
