@@ -109,6 +109,11 @@ from .texture import sample
 
 PACKET = 16  # rays shaded together (_shade_rays): an Embree packet, and 16 float32 lanes fill a zmm register
 ALL_VISIBLE = -1  # every bit set: local mode, no light is ever shadowed
+# The least |cos θ| between a ray and the face it hits that the texture footprint is stretched by: a sample's world
+# footprint grows as 1/|cos θ| toward grazing incidence, and is held at 1/GRAZING_COSINE = 1000× the face-on one
+# (θ ≈ 89.94°). A ray in the face's own plane (cos θ = 0) would make it infinite, and on a face whose UVs have no
+# area (texels per length 0) inf · 0 = NaN, which the mip level reads as level 0: the sharpest, aliasing level.
+GRAZING_COSINE = 1e-3
 
 
 @kernel()
@@ -223,23 +228,87 @@ def _next_sample(sample, col, row, per_pixel, width):
     return sample, col, row
 
 
+@kernel(inline="always")
+def _unit_normals(points, blocks, zero, one):
+    """Pass N: each point's unit normal, side × the held normal, or (Phong) the mixed normal renormalised; a mix of
+    unit normals with no length points nowhere in particular, and keeps the face normal. Lane by lane (vectorised)."""
+    for block in range(blocks):
+        for e in range(PACKET):
+            side, sx, sy, sz = (points[block, E_SIDE, e], points[block, E_SX, e], points[block, E_SY, e],
+                                points[block, E_SZ, e])
+            nx, ny, nz = side * points[block, E_GX, e], side * points[block, E_GY, e], side * points[block, E_GZ, e]
+            length = math.sqrt(sx * sx + sy * sy + sz * sz)
+            if points[block, E_RENORMALISE, e] != zero and length > one * NO_DIRECTION:
+                nx, ny, nz = side * sx / length, side * sy / length, side * sz / length
+            points[block, E_NX, e], points[block, E_NY, e], points[block, E_NZ, e] = nx, ny, nz
+
+
+@kernel(inline="always")
+def _light_geometry(points, per_light, blocks, lights, n_lights, view, per_point, flags, specular, ex, ey, ez, floor,
+                    zero, one, two):
+    """Pass B: per light, each point's f_att, n·l and highlight cosine (illumination.light_geometry), lane by lane
+    (vectorised); the viewer's direction per point where the highlight needs it (`per_point`), else the view's."""
+    for i in range(n_lights):
+        point_light = lights[i, L_KIND] == POINT
+        qx, qy, qz = lights[i, L_VEC], lights[i, L_VEC + 1], lights[i, L_VEC + 2]
+        falloff = lights[i, L_ATT_KIND] if flags & F_ATTENUATION else ATTENUATION_NONE
+        c0, c1, c2 = lights[i, L_ATT], lights[i, L_ATT + 1], lights[i, L_ATT + 2]
+        for block in range(blocks):
+            for e in range(PACKET):
+                px, py, pz = points[block, E_PX, e], points[block, E_PY, e], points[block, E_PZ, e]
+                nx, ny, nz = points[block, E_NX, e], points[block, E_NY, e], points[block, E_NZ, e]
+                vx, vy, vz = view[V_VIEW], view[V_VIEW + 1], view[V_VIEW + 2]
+                if per_point:
+                    vx, vy, vz = view_direction(px, py, pz, ex, ey, ez, zero)
+                fall, n_dot_l, cosine = light_geometry(point_light, qx, qy, qz, falloff, c0, c1, c2, px, py, pz, nx, ny,
+                                                       nz, vx, vy, vz, floor, specular, zero, one, two)
+                per_light[i, block, E_FALL, e] = fall
+                per_light[i, block, E_N_DOT_L, e] = n_dot_l
+                per_light[i, block, E_COSINE, e] = cosine
+
+
+@kernel(inline="always")
+def _light_terms(fall, n_dot_l, cosine, visible, ia_r, ia_g, ia_b, id_r, id_g, id_b, is_r, is_g, is_b, lit, flags,
+                 specular, zero, one):
+    """One light's part of the model at a point, r, g, b each: f_att I_a k_a whether or not the light reaches it;
+    where it does (`visible`: not in shadow, and l·n > 0), f_att I_d k_d (l·n) and f_att I_s k_s S; a term not
+    evaluated is +0, which leaves a sum as it was (the sums start at +0). With the evaluated terms as layout's C_*
+    bits."""
+    ar = ag = ab = dr = dg = db = sr = sg = sb = zero
+    mask = 0
+    if flags & F_LIGHT_AMBIENT:
+        ar, ag, ab = fall * ia_r * lit.ka_r, fall * ia_g * lit.ka_g, fall * ia_b * lit.ka_b
+    if visible and n_dot_l > zero:  # no diffuse and no highlight on a side turned away from the light
+        if flags & F_DIFFUSE:
+            mask |= 1 << C_DIFFUSE
+            dr, dg, db = diffuse_terms(fall, n_dot_l, id_r, id_g, id_b, lit)
+        if specular != SPECULAR_NONE:
+            mask |= 1 << C_SPECULAR
+            sr, sg, sb = specular_terms(fall, cosine, is_r, is_g, is_b, lit, zero, one)
+    return ar, ag, ab, dr, dg, db, sr, sg, sb, mask
+
+
 @kernel()
 def _shade_rays(inputs, rays, film):
     """Shade every ray of a tile into the film rows (ShadingInputs, TileRays, FilmRows): one engine for every scene.
 
-    PACKET rays at a time, in passes over named lanes (layout's E_*, R_* rows): A gathers each hit's evaluation
-    points (flat: the centroid; Phong: the hit point and its mixed normal; Gouraud: the three corners, ray j's
-    corner c in lane j of block c, so sixteen flat or Phong hits are one block) and weights; N gives each point its
-    unit normal, B each point and light f_att, n·l and the highlight's cosine (both lane by lane, which LLVM
-    vectorises: vsqrtps, vdivps on zmm); C, in ray order, the material (textures and vertex colours applied), the
-    terms light by light (libm's powf stays scalar), a Gouraud hit's mix of its corners, the run counting and the
-    film, each written once. With one light and no vertex colours, a flat or Phong hit's terms are straight-line
-    code with the light's values read once per tile (through the loops over corners and lights,
-    ~45 live values, default Phong shading was 15–35 % slower). Every point gets the model's operations in the
-    order of a point shaded alone (k_e, I_a k_a, then each light's ambient, diffuse and specular parts; a Gouraud
-    hit 0 + b0 I0 + b1 I1 + b2 I2). Sixteen misses only add the background. Arrays come out of their tuples once,
-    here: a field read per hit costs a reference count, and so does a row view such as directions[k] (it made the
-    frame 15–28 % slower until the scalars were passed).
+    PACKET rays at a time, in four passes over named lanes (layout's E_*, R_* rows):
+      A  (here) each hit's weights and evaluation points: flat, the centroid; Phong, the hit point and its mixed
+         normal; Gouraud, the three corners (ray j's corner c in lane j of block c, so sixteen flat or Phong hits
+         are one block);
+      N  _unit_normals: each point's unit normal;
+      B  _light_geometry: each point and light's f_att, n·l and highlight cosine (N and B lane by lane, which LLVM
+         vectorises: vsqrtps, vdivps on zmm);
+      C  (here) in ray order: the material (textures and vertex colours applied), each light's terms
+         (_light_terms, the one helper for one light and many; libm's powf stays scalar), a Gouraud hit's mix of its
+         corners, the run counting and the film, each written once.
+    With one light and no vertex colours, a flat or Phong hit skips the corner and light loops and reads the light's
+    values once per tile (through the loops, ~45 live values, default Phong shading was 15–35 % slower). Every
+    point gets the model's operations in the order of a point shaded alone (k_e, I_a k_a, then each light's ambient,
+    diffuse and specular parts; a Gouraud hit 0 + b0 I0 + b1 I1 + b2 I2). Sixteen misses only add the background.
+    Arrays come out of their tuples once, here, and passes A and C stay in this body: each array handed to a helper
+    costs a reference count per call (pass A as a helper of 13 arrays: shading 8–15 % slower), as does a row view
+    such as directions[k] (the frame was 15–28 % slower until the scalars were passed).
     """
     vertices, faces, face_normals = inputs.vertices, inputs.faces, inputs.face_normals
     corner_normals, face_material, face_model = inputs.corner_normals, inputs.face_material, inputs.face_model
@@ -359,36 +428,9 @@ def _shade_rays(inputs, rays, film):
             points[0, E_PX, j], points[0, E_PY, j], points[0, E_PZ, j] = px, py, pz
             points[0, E_SX, j], points[0, E_SY, j], points[0, E_SZ, j] = sx, sy, sz
             points[0, E_RENORMALISE, j] = renormalise
-        # Pass N: each point's unit normal, side × the held normal, or (Phong) the mixed normal renormalised; a mix
-        # of unit normals with no length points nowhere in particular, and keeps the face normal.
-        for block in range(blocks):
-            for e in range(PACKET):
-                side, sx, sy, sz = (points[block, E_SIDE, e], points[block, E_SX, e], points[block, E_SY, e],
-                                    points[block, E_SZ, e])
-                nx, ny, nz = (side * points[block, E_GX, e], side * points[block, E_GY, e],
-                              side * points[block, E_GZ, e])
-                length = math.sqrt(sx * sx + sy * sy + sz * sz)
-                if points[block, E_RENORMALISE, e] != zero and length > one * NO_DIRECTION:
-                    nx, ny, nz = side * sx / length, side * sy / length, side * sz / length
-                points[block, E_NX, e], points[block, E_NY, e], points[block, E_NZ, e] = nx, ny, nz
-        # Pass B: per light, each point's f_att, n·l and highlight cosine.
-        for i in range(n_lights):
-            point_light = lights[i, L_KIND] == POINT
-            qx, qy, qz = lights[i, L_VEC], lights[i, L_VEC + 1], lights[i, L_VEC + 2]
-            falloff = lights[i, L_ATT_KIND] if flags & F_ATTENUATION else ATTENUATION_NONE
-            c0, c1, c2 = lights[i, L_ATT], lights[i, L_ATT + 1], lights[i, L_ATT + 2]
-            for block in range(blocks):
-                for e in range(PACKET):
-                    px, py, pz = points[block, E_PX, e], points[block, E_PY, e], points[block, E_PZ, e]
-                    nx, ny, nz = points[block, E_NX, e], points[block, E_NY, e], points[block, E_NZ, e]
-                    vx, vy, vz = view[V_VIEW], view[V_VIEW + 1], view[V_VIEW + 2]
-                    if per_point:
-                        vx, vy, vz = view_direction(px, py, pz, ex, ey, ez, zero)
-                    fall, n_dot_l, cosine = light_geometry(point_light, qx, qy, qz, falloff, c0, c1, c2, px, py, pz,
-                                                           nx, ny, nz, vx, vy, vz, floor, specular, zero, one, two)
-                    per_light[i, block, E_FALL, e] = fall
-                    per_light[i, block, E_N_DOT_L, e] = n_dot_l
-                    per_light[i, block, E_COSINE, e] = cosine
+        _unit_normals(points, blocks, zero, one)  # pass N
+        _light_geometry(points, per_light, blocks, lights, n_lights, view, per_point, flags, specular, ex, ey, ez,
+                        floor, zero, one, two)  # pass B
         # Pass C: in ray order, the material, the terms light by light, the corners' mix, the counts and the film.
         for j in range(n):
             sample, col, row = _next_sample(sample, col, row, per_pixel, width)
@@ -410,33 +452,24 @@ def _shade_rays(inputs, rays, film):
                 # The sample's world footprint: t × spread across the ray, stretched by 1/|cos θ| on the surface.
                 cosine = abs(face_normals[f, 0] * directions[k + j, 0] + face_normals[f, 1] * directions[k + j, 1]
                              + face_normals[f, 2] * directions[k + j, 2])
-                footprint = (spread if orthographic else spread * tfar[k + j] * inputs.frame_scale) / max(cosine, 1e-3)
+                world = spread if orthographic else spread * tfar[k + j] * inputs.frame_scale
+                footprint = world / max(cosine, GRAZING_COSINE)
                 material = _textured_material(materials, texels, texture_table, corner_uv, uv_density, material, m, f,
                                               b0, b1, b2, footprint, one, cast)
             gouraud = model == GOURAUD
             ar = ag = ab = dr = dg = db = sr = sg = sb = er = eg = eb = zero
             mask = fixed
-            if one_light and not gouraud:  # one point, one light: the loops below written out, the same operations
+            if one_light and not gouraud:  # one point, one light: the light's values read once a tile, no loops
                 if flags & F_EMISSION:
                     er, eg, eb = material.ke_r, material.ke_g, material.ke_b
                 if flags & F_SCENE_AMBIENT:
                     ar, ag, ab = ambient_r * material.ka_r, ambient_g * material.ka_g, ambient_b * material.ka_b
-                fall = per_light[0, 0, E_FALL, j]
-                if flags & F_LIGHT_AMBIENT:
-                    ar += fall * ia_r * material.ka_r
-                    ag += fall * ia_g * material.ka_g
-                    ab += fall * ia_b * material.ka_b
-                n_dot_l = per_light[0, 0, E_N_DOT_L, j]
-                if visible_k & 1 != 0 and n_dot_l > zero:
-                    if flags & F_DIFFUSE:
-                        mask |= 1 << C_DIFFUSE
-                        r, g, b = diffuse_terms(fall, n_dot_l, id_r, id_g, id_b, material)
-                        dr, dg, db = dr + r, dg + g, db + b
-                    if specular != SPECULAR_NONE:
-                        mask |= 1 << C_SPECULAR
-                        r, g, b = specular_terms(fall, per_light[0, 0, E_COSINE, j], is_r, is_g, is_b, material,
-                                                 zero, one)
-                        sr, sg, sb = sr + r, sg + g, sb + b
+                la_r, la_g, la_b, ld_r, ld_g, ld_b, ls_r, ls_g, ls_b, bits = _light_terms(
+                    per_light[0, 0, E_FALL, j], per_light[0, 0, E_N_DOT_L, j], per_light[0, 0, E_COSINE, j],
+                    visible_k & 1 != 0, ia_r, ia_g, ia_b, id_r, id_g, id_b, is_r, is_g, is_b, material, flags,
+                    specular, zero, one)
+                ar, ag, ab, dr, dg, db = ar + la_r, ag + la_g, ab + la_b, dr + ld_r, dg + ld_g, db + ld_b
+                sr, sg, sb, mask = sr + ls_r, sg + ls_g, sb + ls_b, mask | bits
             for c in range(0 if one_light and not gouraud else (CORNERS if gouraud else 1)):
                 block, e = c, j
                 lit = material
@@ -456,27 +489,16 @@ def _shade_rays(inputs, rays, film):
                 if flags & F_SCENE_AMBIENT:
                     pa_r, pa_g, pa_b = view[V_AMBIENT] * lit.ka_r, view[V_AMBIENT + 1] * lit.ka_g, view[
                         V_AMBIENT + 2] * lit.ka_b
-                for i in range(n_lights):
-                    fall = per_light[i, block, E_FALL, e]
-                    if flags & F_LIGHT_AMBIENT:
-                        pa_r += fall * lights[i, L_IA] * lit.ka_r
-                        pa_g += fall * lights[i, L_IA + 1] * lit.ka_g
-                        pa_b += fall * lights[i, L_IA + 2] * lit.ka_b
-                    if (visible_k >> i) & 1 == 0:
-                        continue  # in shadow: vis = 0 removes the direct term only
-                    n_dot_l = per_light[i, block, E_N_DOT_L, e]
-                    if n_dot_l <= zero:
-                        continue  # no diffuse and no highlight on a side turned away from the light
-                    if flags & F_DIFFUSE:
-                        mask |= 1 << C_DIFFUSE
-                        r, g, b = diffuse_terms(fall, n_dot_l, lights[i, L_ID], lights[i, L_ID + 1],
-                                                lights[i, L_ID + 2], lit)
-                        pd_r, pd_g, pd_b = pd_r + r, pd_g + g, pd_b + b
-                    if specular != SPECULAR_NONE:
-                        mask |= 1 << C_SPECULAR
-                        r, g, b = specular_terms(fall, per_light[i, block, E_COSINE, e], lights[i, L_IS],
-                                                 lights[i, L_IS + 1], lights[i, L_IS + 2], lit, zero, one)
-                        ps_r, ps_g, ps_b = ps_r + r, ps_g + g, ps_b + b
+                for i in range(n_lights):  # in shadow (vis = 0) the direct terms go, the light's ambient stays
+                    la_r, la_g, la_b, ld_r, ld_g, ld_b, ls_r, ls_g, ls_b, bits = _light_terms(
+                        per_light[i, block, E_FALL, e], per_light[i, block, E_N_DOT_L, e],
+                        per_light[i, block, E_COSINE, e], (visible_k >> i) & 1 != 0, lights[i, L_IA],
+                        lights[i, L_IA + 1], lights[i, L_IA + 2], lights[i, L_ID], lights[i, L_ID + 1],
+                        lights[i, L_ID + 2], lights[i, L_IS], lights[i, L_IS + 1], lights[i, L_IS + 2], lit, flags,
+                        specular, zero, one)
+                    pa_r, pa_g, pa_b, pd_r, pd_g, pd_b = (pa_r + la_r, pa_g + la_g, pa_b + la_b, pd_r + ld_r,
+                                                          pd_g + ld_g, pd_b + ld_b)
+                    ps_r, ps_g, ps_b, mask = ps_r + ls_r, ps_g + ls_g, ps_b + ls_b, mask | bits
                 if gouraud:  # 0 + b0 I0 + b1 I1 + b2 I2
                     bc = b0 if c == 0 else (b1 if c == 1 else b2)
                     ar, ag, ab = ar + bc * pa_r, ag + bc * pa_g, ab + bc * pa_b
