@@ -12,11 +12,18 @@ is decorated and restored at once, so other numba code in the process is unaffec
 Each kernel's cache is numba's own with a lighter load (`_CacheLoadedAsIs`: no typing or lowering registries
 for a kernel that is already compiled, nor imports of the numba modules whose implementations it holds), or
 numba's unchanged where its internals differ.
+
+The fast paths on numba's internals, each with its plain fallback, behind one switch (PLAIN:
+RAYCAST_PHONG_PLAIN_NUMBA=1 turns every one off; each is also off by itself where what it relies on is missing):
+  LIGHT_LOAD   a cached kernel loaded without numba's registries       else numba's own load
+  BY_ADDRESS   a callee handed to its caller by address (`callee`)     else the dispatcher, linked into the caller
+  two processes for a first compile (renderer/split_compile.py)        else one (it relies on both above)
 """
 
 from __future__ import annotations
 
 import hashlib
+import importlib.util
 import os
 import re
 import shutil
@@ -196,10 +203,14 @@ def kernel(**options):
     return decorate
 
 
+PLAIN = os.environ.get("RAYCAST_PHONG_PLAIN_NUMBA", "").strip() == "1"  # every fast path off (module docstring)
 # The numba internals _CacheLoadedAsIs relies on (checked with numba 0.68); without them numba's own load is kept.
-LIGHT_LOAD = (all(hasattr(FunctionCache, name) for name in ("_load_overload", "_guard_against_spurious_io_errors"))
-              and all(hasattr(environment, name) for name in ("_rebuild_env", "lookup_environment"))
-              and isinstance(getattr(environment.Environment, "_memo", None), dict | weakref.WeakValueDictionary))
+LIGHT_LOAD = not PLAIN and (
+    all(hasattr(FunctionCache, name) for name in ("_load_overload", "_guard_against_spurious_io_errors"))
+    and all(hasattr(environment, name) for name in ("_rebuild_env", "lookup_environment"))
+    and isinstance(getattr(environment.Environment, "_memo", None), dict | weakref.WeakValueDictionary))
+# numba's first-class function type (numba.experimental), which ByAddress hands callees through.
+BY_ADDRESS = not PLAIN and importlib.util.find_spec("numba.experimental.function_type") is not None
 
 
 class _CacheLoadedAsIs(FunctionCache):
@@ -272,6 +283,20 @@ def cached(dispatcher, arguments: tuple | None = None) -> bool:
         return cache.holds(signature, dispatcher.targetctx)
     except (AttributeError, OSError, ValueError):  # numba's internals moved: behave as if cached
         return True
+
+
+def callee(dispatcher, arguments: tuple, returns=None):
+    """`dispatcher` as another kernel receives it to call, for these arguments' types (example values) returning
+    `returns` (a numba type; None: nothing): by address (ByAddress) where numba's first-class functions are there,
+    else the dispatcher itself, which numba links into the caller (its code generated again in the caller's
+    compile, and the caller not cached: numba caches no kernel that takes a dispatcher)."""
+    return ByAddress(dispatcher, arguments, returns) if BY_ADDRESS else dispatcher
+
+
+def ready(handle) -> None:
+    """Load (or compile) now a callee handed by address (`callee`); a linked one compiles with its caller."""
+    if isinstance(handle, ByAddress):
+        handle.ready()
 
 
 class ByAddress:

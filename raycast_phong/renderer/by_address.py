@@ -1,8 +1,9 @@
-"""tile.render_band's two largest callees, handed to it by address (jit.ByAddress) instead of linked in: the shading
+"""tile.render_band's two largest callees, handed to it by address (jit.callee) instead of linked in: the shading
 kernel (shading._shade_rays, one handle per type of shading inputs: precision, maps) and global mode's shadow rays
 (shadows.cast_shadows; a scene in local mode gets shadows.no_shadow_rays, so it never compiles them). render_band then
 compiles without either, the shading kernel beside it in a helper process on a first run (split_compile.py), and
-neither's code is generated twice."""
+neither's code is generated twice. Without numba's first-class functions (jit.BY_ADDRESS) each handle is the kernel's
+dispatcher, linked into render_band."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ from .. import jit
 from .kernels import shading, shadows
 from .kernels.layout import TileRays
 
-_handles: dict[object, jit.ByAddress] = {}
+_handles: dict[object, object] = {}
 
 
 def no_rays() -> TileRays:
@@ -31,13 +32,13 @@ def shading_arguments(inputs) -> tuple:
     return inputs, no_rays(), film_rows(allocate_film(2, 2, (), inputs.one.dtype.type).rows(0, 0))
 
 
-def shader(inputs) -> jit.ByAddress:
+def shader(inputs):
     """The handle render_band calls _shade_rays through, for these shading inputs' types."""
     from numba import typeof
     key = typeof(inputs)
     handle = _handles.get(key)
     if handle is None:
-        handle = _handles[key] = jit.ByAddress(shading._shade_rays, shading_arguments(inputs))
+        handle = _handles[key] = jit.callee(shading._shade_rays, shading_arguments(inputs))
     return handle
 
 
@@ -49,11 +50,11 @@ def shadow_arguments() -> tuple:
     return 0, no_shadows(), rays.face, rays.u, rays.v, rays.directions, 1, rays.visible
 
 
-def shadow_caster(global_mode: bool) -> jit.ByAddress:
+def shadow_caster(global_mode: bool):
     """The handle render_band casts shadow rays through: shadows.cast_shadows in global mode, else
     shadows.no_shadow_rays (render_band calls it only in global mode: a local scene never compiles the other)."""
     handle = _handles.get(global_mode)
     if handle is None:
         kernel = shadows.cast_shadows if global_mode else shadows.no_shadow_rays
-        handle = _handles[global_mode] = jit.ByAddress(kernel, shadow_arguments(), types.int64)
+        handle = _handles[global_mode] = jit.callee(kernel, shadow_arguments(), types.int64)
     return handle

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import jit
 from ..codes import StageName
 from ..records import RenderPlan, RenderResult
 from ..scene.load import load_scene
@@ -77,9 +78,9 @@ def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bo
         precision = "float64" if real == np.float64 else "float32"
         first = index == 0
         with shading_compiled_aside(precision, winding and first):  # on a cache miss, these compile aside
-            shadow_caster(False).ready()  # local mode's stand-in, then global mode's shadow rays (one kernel for
+            jit.ready(shadow_caster(False))  # local mode's stand-in, then global mode's shadow rays (one kernel for
             if shadows and first:  # every precision: its inputs are float64), while the helper compiles
-                shadow_caster(True).ready()
+                jit.ready(shadow_caster(True))
             if scene_kernels is not None and first:
                 scene_kernels()
             ready = prepare(warm_scene(precision), source="warm-up")

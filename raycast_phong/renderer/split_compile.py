@@ -58,6 +58,8 @@ def two_processes() -> bool:
     helper. The two processes spend about 15 % more CPU than
     one (each compiles numba's own helpers, and the helper starts Python): on a busy machine that only makes the
     compile longer."""
+    if not (jit.LIGHT_LOAD and jit.BY_ADDRESS):  # the helper's result is waited for and loaded through both
+        return False
     setting = os.environ.get(PROCESSES, "").strip()
     if setting in ("1", "2"):
         return setting == "2"

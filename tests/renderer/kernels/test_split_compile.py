@@ -8,11 +8,14 @@ import os
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import pytest
 
 from raycast_phong import jit
 from raycast_phong.renderer import split_compile
+
+ROOT = Path(__file__).resolve().parents[3]
 
 KERNELS = textwrap.dedent("""
     from raycast_phong.jit import kernel
@@ -179,3 +182,40 @@ def test_the_winding_kernels_are_shared_out_with_the_types_a_mesh_file_gives_the
     for kernel, signature in signatures.items():
         assert tuple(signature) in kernel.signatures, (kernel, kernel.signatures)
     assert set(mesh_repair.WINDING_KERNELS) < set(signatures)
+
+
+PLAIN = textwrap.dedent("""
+    import hashlib, sys
+    import raycast_phong as rp
+    from raycast_phong import jit
+    from raycast_phong.renderer import by_address
+    from raycast_phong.renderer.kernels import shading, shadows
+    from raycast_phong.renderer.warmup import ready_kernels
+    scene = rp.load_scene(sys.argv[1], ["render.width=40", "render.height=30"])
+    print(jit.PLAIN, jit.LIGHT_LOAD, jit.BY_ADDRESS)
+    print(ready_kernels(scene, lambda line: print("announced"))[0])
+    print(by_address.shadow_caster(True) is shadows.cast_shadows)
+    print(hashlib.sha256(rp.render(scene).image.tobytes()).hexdigest())
+""")
+
+
+@pytest.mark.slow
+def test_with_the_fast_paths_off_the_callees_are_linked_and_the_image_is_the_same(tmp_path):
+    """RAYCAST_PHONG_PLAIN_NUMBA=1 turns off every fast path on numba's internals (jit.PLAIN): numba's own cache
+    load, callees linked into render_band instead of handed by address, one compile process. A global-mode scene
+    (both callees) then compiles with plain numba, announced, and gives the bits the fast paths give; the second
+    process compiles render_band again (numba caches no kernel taking a dispatcher), announced too."""
+    import hashlib
+
+    import raycast_phong as rp
+    scene = str(ROOT / "scenes" / "shadows.toml")
+    env = {**os.environ, "RAYCAST_PHONG_PLAIN_NUMBA": "1", "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    runs = [subprocess.run([sys.executable, "-c", PLAIN, scene], capture_output=True, text=True, env=env,
+                           timeout=600) for _ in range(2)]
+    for run in runs:
+        assert run.returncode == 0 and not run.stderr, run.stderr
+    first, second = (run.stdout.split("\n") for run in runs)
+    assert first[0] == "True False False" and first[-3] == "True"  # the shadow rays' handle is the dispatcher
+    assert first[1:3] == second[1:3] == ["announced", "compile"]
+    fast = rp.render(rp.load_scene(scene, ["render.width=40", "render.height=30"])).image
+    assert first[-2] == second[-2] == hashlib.sha256(fast.tobytes()).hexdigest()
