@@ -20,9 +20,9 @@ import numpy as np
 
 import raycast_phong as rp
 from raycast_phong.geometry.build import build_geometry
-from raycast_phong.geometry.shapes import plane_mesh
 from raycast_phong.renderer import embree_library as embree
 from raycast_phong.renderer.intersect import Accelerator, unit_frame
+from raycast_phong.shapes import plane_mesh
 
 
 def meshes() -> dict[str, SimpleNamespace]:

@@ -23,8 +23,8 @@ from pathlib import Path
 from bench_frame import benchmark_scene
 
 import raycast_phong as rp
+from raycast_phong import shapes
 from raycast_phong.geometry import build as geometry
-from raycast_phong.geometry import shapes
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -153,7 +153,7 @@ def measure(path: Path, repeats: int, size: int, threads: int = 2) -> dict:
     import raycast_phong as rp
     from raycast_phong.geometry.build import build_geometry
     from raycast_phong.geometry.templates import object_mesh
-    from raycast_phong.scene.messages import Location
+    from raycast_phong.values.messages import Location
 
     scene = rp.validate_scene(scene_for(path, 8), source=str(path))
     triangles = rp.render(scene).triangles  # warm-up: kernels loaded, trimesh's lazy imports done

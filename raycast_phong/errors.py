@@ -34,13 +34,13 @@ class InputError(RaycastPhongError, ValueError):
     """Input the program refuses: the message is one line naming the file or option, the key and what is allowed."""
 
 
-Where = object  # where a problem is: a scene.messages.Location, or any value whose str() says it
+Where = object  # where a problem is: a values.messages.Location, or any value whose str() says it
 
 
 class SceneError(InputError):
     """A scene the renderer refuses: the message is one line naming file, key and what is allowed.
 
-    `where` is where the problem is: a scene.messages.Location (the file, the key path), which words itself, or
+    `where` is where the problem is: a values.messages.Location (the file, the key path), which words itself, or
     None when `problem` is the whole line. The line is `where: problem`.
     """
 

@@ -72,7 +72,7 @@ def scene_command(
             note(line)
     if verbose:
         from raycast_phong.codes import OUTPUT_PATH
-        from raycast_phong.scene.messages import dotted
+        from raycast_phong.values.messages import dotted
         for key, path in loaded.named_files().items():
             if key != OUTPUT_PATH:  # the one file a scene names that it writes, not reads
                 typer.echo(f"reads {dotted(key)}: {loaded.resolve(path)}", err=True)

@@ -16,11 +16,11 @@ from functools import partial
 
 import numpy as np
 
-from ..geometry.shapes import from_file
 from ..records import Geometry
 from ..scene.kinds import object_kinds
-from ..scene.messages import Location, located
 from ..scene.schema import Scene
+from ..shapes import from_file
+from ..values.messages import Location, located
 from .checks import check_float_range
 from .corners import corner_colours, corner_uvs
 from .file_materials import FileRows

@@ -7,9 +7,9 @@ import numpy as np
 
 from ..errors import SceneError
 from ..records import Geometry
-from ..scene.messages import Location, located
 from ..scene.schema import Scene, brightness_problem
 from ..tolerances import MIN_DISTANCE, MIN_EXTENT
+from ..values.messages import Location, located
 
 
 def check_float_range(scene: Scene, geometry: Geometry, source: str | Location = "<scene>") -> None:

@@ -6,8 +6,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..scene.messages import Location
 from ..scene.schema import DEFAULT_MATERIAL, Scene
+from ..values.messages import Location
 from .materials import material_rows
 from .textures import TextureBank
 

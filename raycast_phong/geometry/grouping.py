@@ -6,11 +6,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.shapes import from_file
 from ..scene.kinds import object_kinds
-from ..scene.messages import Location
 from ..scene.objects import OWN_KEYS
 from ..scene.schema import Object, Scene
+from ..shapes import from_file
+from ..values.messages import Location
 from .memo import mesh_stamp
 
 

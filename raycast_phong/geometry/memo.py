@@ -8,11 +8,11 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from ..geometry.shapes import from_file
 from ..records import Geometry
 from ..scene.kinds import object_kinds, placements
-from ..scene.messages import Location
 from ..scene.schema import Scene
+from ..shapes import from_file
+from ..values.messages import Location
 
 if TYPE_CHECKING:
     from .placing import Part

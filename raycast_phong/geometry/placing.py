@@ -12,9 +12,9 @@ import numpy as np
 
 from ..errors import SceneError
 from ..scene.kinds import placements
-from ..scene.messages import Location
 from ..scene.schema import Scene
 from ..tolerances import POSITION_LIMIT
+from ..values.messages import Location
 from .normals import _normalise_or, compute_corner_normals, face_normals, file_corner_normals
 from .templates import ObjectMesh
 

@@ -1,4 +1,4 @@
-"""A group's template: an object's triangles in its own frame (a built-in shape's from its kind, geometry/shapes/;
+"""A group's template: an object's triangles in its own frame (a built-in shape's from its kind, shapes/;
 a mesh file's read by io/meshes/read.py, with its materials, colours and normals), its winding mended
 (mesh_repair.py), its stored normals turned outward, and a built-in shape's UVs and exact corner normals.
 Every object of a group is placed from it (placing.py).
@@ -11,10 +11,10 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
+from .. import shapes
 from ..errors import SceneError
-from ..scene.messages import Location
 from ..scene.schema import Object, Scene
-from . import shapes
+from ..values.messages import Location
 from .mesh_repair import merge_duplicate_vertices, number_by_first_use, repair_winding
 from .normals import PARALLEL_FACES, _normalise_or, face_normals
 
@@ -77,7 +77,7 @@ def group_template(scene: Scene, first: Object, index: int, where: Location, wan
 
 def object_mesh(scene: Scene, obj: Object, where: Location, sources: dict | None = None) -> ObjectMesh:
     """The object's triangles in its own frame (a mesh file's with its materials, colours and normals; a built-in
-    shape's from its kind, geometry/shapes/); `where` is the object's location (file: objects.N)."""
+    shape's from its kind, shapes/); `where` is the object's location (file: objects.N)."""
     if shapes.from_file(obj):
         return _load_mesh(scene, obj, where, (sources or {}).get(scene.resolve(obj.path)))
     return ObjectMesh(*shapes.KINDS[obj.shape].template(obj, where), None)

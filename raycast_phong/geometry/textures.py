@@ -9,8 +9,8 @@ import numpy as np
 
 from ..errors import SceneError
 from ..records import Texture
-from ..scene.messages import Location
 from ..scene.schema import Scene
+from ..values.messages import Location
 from .memo import file_stamp
 
 if TYPE_CHECKING:

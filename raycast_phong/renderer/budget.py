@@ -14,11 +14,11 @@ from pathlib import Path
 
 from ..codes import GEOMETRY_LAYERS, TERM_LAYERS, ShadingModel
 from ..errors import SceneError
-from ..geometry.shapes import KINDS, from_file
 from ..io.system import available_memory, count_text, format_bytes, parse_size
 from ..scene.kinds import object_kinds
-from ..scene.messages import Location, dotted, located
 from ..scene.schema import Scene
+from ..shapes import KINDS, from_file
+from ..values.messages import Location, dotted, located
 
 # Peak bytes per triangle above a warmed-up process's baseline (VmHWM after /proc/self/clear_refs; one
 # object, 8×8 image, one thread; trimesh 4, numpy 2; measured 2026-11 on the project's x86-64 machine):

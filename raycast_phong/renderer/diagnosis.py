@@ -14,10 +14,10 @@ import numpy as np
 from ..codes import ShadingModel, StageName
 from ..geometry.checks import behind_camera
 from ..geometry.kernels import object_bounds
-from ..geometry.shapes import kind_of, subdivided
 from ..records import RenderPlan, Stage
 from ..scene.kinds import object_kinds
 from ..scene.schema import MAX_SAMPLES, Scene
+from ..shapes import kind_of, subdivided
 from .pack import camera_rig
 from .plan import kinds_of
 

@@ -15,8 +15,8 @@ from .. import jit
 from ..codes import StageName
 from ..records import RenderPlan, RenderResult
 from ..scene.load import load_scene
-from ..scene.messages import Location
 from ..scene.schema import Scene
+from ..values.messages import Location
 from . import embree_library
 from .by_address import shader, shadow_caster
 from .film import allocate_film

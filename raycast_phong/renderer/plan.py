@@ -8,10 +8,10 @@ every optional stage, for tests that compare the two images.
 from __future__ import annotations
 
 from ..codes import GEOMETRY_LAYERS, TERM_LAYERS, Mode, ShadingModel, SpecularModel, StageName, Viewer
-from ..geometry.shapes import from_file
 from ..records import RenderPlan, Stage
 from ..scene.kinds import object_kinds
 from ..scene.schema import Material, Scene
+from ..shapes import from_file
 
 
 def build_plan(scene: Scene, optimize: bool = True, source: str | None = None) -> RenderPlan:

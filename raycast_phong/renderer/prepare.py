@@ -27,11 +27,11 @@ from ..codes import StageName
 from ..errors import RenderCancelled
 from ..geometry.build import build_geometry
 from ..geometry.normals import PARALLEL_FACES, prep_threads
-from ..geometry.shapes import from_file
 from ..io.system import default_threads
 from ..records import Frame, Geometry, ImageBuffers, RenderPlan, RenderResult
-from ..scene.messages import Location, located
 from ..scene.schema import Scene, SceneError
+from ..shapes import from_file
+from ..values.messages import Location, located
 from .budget import MemoryEstimate, check_memory
 from .by_address import shader, shadow_caster
 from .diagnosis import ObjectFigures, diagnose

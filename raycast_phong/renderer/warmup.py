@@ -7,8 +7,8 @@ import time
 from collections.abc import Callable
 
 from ..codes import StageName
-from ..scene.messages import Location, located
 from ..scene.schema import Scene
+from ..values.messages import Location, located
 
 
 def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
@@ -33,9 +33,9 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
     from .frame import warm_kernels_for
     from .plan import build_plan
     plan = build_plan(scene)
-    from ..geometry.shapes import from_file
     from ..io.files import open_mesh_file
     from ..scene.kinds import object_kinds
+    from ..shapes import from_file
     kinds = [(index, scene.objects[index]) for index in object_kinds(scene).first.tolist()]  # a mesh: its own kind
     from ..io.meshes import format_of
     from ..io.meshes.source import source_key

@@ -3,7 +3,7 @@
 pydantic costs about 12 µs an object, 12 s for a million boxes. Objects of one kind with the same keys are
 checked here a key at a time instead: a structural check of the column (each value's type, with
 set(map(type, ...))), then numpy for the numbers. What each column allows is read from the kind's model (its
-fields' types, their Field(gt=, ge=, le=) bounds and their validators, scene.fields), never restated: a bound
+fields' types, their Field(gt=, ge=, le=) bounds and their validators, values.fields), never restated: a bound
 changed there changes both. A row that passes becomes its kind's model with exactly the values pydantic would
 give it; a row that does not (or a key whose rules are not read here, a mesh file, an array from Python) is left
 to pydantic, so every message stays pydantic's, naming the object's index and key. Scene._references then checks
@@ -26,9 +26,9 @@ import numpy as np
 from pydantic import AfterValidator, BeforeValidator
 from pydantic.fields import FieldInfo
 
-from ..geometry.shapes import KINDS
+from ..shapes import KINDS
 from ..tolerances import POSITION_LIMIT
-from . import fields
+from ..values import fields
 from .objects import OBJECT_MODELS, _normals_fit
 
 _NUMBER = frozenset({int, float})                 # exact types: a bool or a str is pydantic's to refuse
@@ -129,7 +129,7 @@ def _number(low: float, allowed: bool, high: float, special: bool) -> Check:
     return check
 
 
-_VECTOR_RULES = {  # an object's triples (scene.fields) and what their validators allow, per row
+_VECTOR_RULES = {  # an object's triples (values.fields) and what their validators allow, per row
     fields.position: lambda values: np.all(np.abs(values) <= POSITION_LIMIT, axis=1),
     fields.finite: lambda values: np.all(np.isfinite(values), axis=1),
     fields.scale_factors: lambda values: np.all(np.isfinite(values) & (values != 0)

@@ -20,7 +20,7 @@ from ..codes import View
 from ..errors import SceneError
 from ..io.encoding import DISPLAY, LINEAR
 from ..tolerances import MIN_EXTENT
-from .messages import Location
+from ..values.messages import Location
 from .overrides import apply_override
 
 VIEWS = tuple(view.value for view in View)  # the first is the default

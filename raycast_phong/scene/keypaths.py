@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..errors import SceneError
-from .messages import Location, shown
+from ..values.messages import Location, shown
 
 
 def key_parts(key: str, where: Location) -> list[str]:

@@ -17,7 +17,7 @@ from itertools import chain
 
 import numpy as np
 
-from ..geometry.shapes import KINDS
+from ..shapes import KINDS
 from .objects import OBJECT_MODELS
 
 PLACEMENT_KEYS = ("name", "translate", "rotate", "scale")  # keys that never change what an object is

@@ -12,8 +12,8 @@ from ..codes import SCENE_SUFFIXES
 from ..errors import SceneError
 from ..io.scene_file import is_stdin, read_scene_file
 from ..io.system import count_text, format_bytes, memory_allowed
+from ..values.messages import Location
 from .framing import mesh_scene_dict
-from .messages import Location
 from .overrides import apply_override
 from .schema import Scene, validate_scene
 

@@ -19,11 +19,11 @@ from typing import Any
 import numpy as np
 
 from ..errors import SceneError
-from ..geometry.shapes import MESH
 from ..io.meshes import format_of
 from ..io.meshes.source import MeshSource
+from ..shapes import MESH
 from ..tolerances import POSITION_LIMIT
-from .messages import Location
+from ..values.messages import Location
 
 _NUMBERS = itertools.count(1)  # each held mesh's own version: its identity, never a file's
 

@@ -1,5 +1,5 @@
 """An [[objects]] entry's keys: those every object has, each kind's own (declared in its module under
-geometry/shapes/ and found through the registry, shapes.KINDS), and the union of one model per kind,
+shapes/ and found through the registry, shapes.KINDS), and the union of one model per kind,
 discriminated by `shape`, that the scene validates each object as.
 
 A kind's model is its keys between the keys every object has: name, shape, the kind's own keys, then material,
@@ -14,8 +14,8 @@ from typing import Annotated, Any, Literal, Union
 from pydantic import AfterValidator, ConfigDict, Field, ValidationInfo, create_model
 
 from ..codes import ShadingModel
-from ..geometry.shapes import KINDS
-from .fields import Angles, KindKeys, Number, Position, Scale, Table
+from ..shapes import KINDS
+from ..values.fields import Angles, KindKeys, Number, Position, Scale, Table
 
 NormalsRule = Literal["mean", "area", "angle", "file", "exact"]  # how an object's vertex normals are made
 

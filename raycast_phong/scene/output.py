@@ -13,7 +13,7 @@ import os
 from pathlib import Path
 
 from ..errors import ImageError, SceneError
-from .messages import Location
+from ..values.messages import Location
 from .schema import Scene
 
 

@@ -14,8 +14,8 @@ from typing import TYPE_CHECKING
 from ..codes import ShadingModel
 from ..errors import SceneError
 from ..io.scene_file import syntax_limit
+from ..values.messages import Location, located, shorten
 from .keypaths import assign, key_parts
-from .messages import Location, located, shorten
 
 if TYPE_CHECKING:
     from .schema import Scene

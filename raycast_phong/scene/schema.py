@@ -2,7 +2,7 @@
 
 The scene format is version 1; docs/scene-format.md lists every key with its default and allowed range.
 Every problem becomes one SceneError naming the file, the key path and what is allowed (worded by
-scene.messages), so the CLI can print one line and exit 2. An object's keys are its kind's (scene.objects, from
+values.messages), so the CLI can print one line and exit 2. An object's keys are its kind's (scene.objects, from
 the registry of kinds), many objects are checked in bulk first (scene.bulk). Reading files is scene.load's
 (through io.scene_file), `--set` is scene.overrides'.
 """
@@ -43,11 +43,10 @@ from ..codes import (
     Viewer,
 )
 from ..errors import RaycastPhongError, SceneError
-from ..geometry.shapes import from_file
 from ..io.encoding import COLOURS
+from ..shapes import from_file
 from ..tolerances import DIRECTION_RANGE, INTENSITY_LIMIT, POSITION_LIMIT
-from .bulk import objects_in_bulk
-from .fields import (
+from ..values.fields import (
     Coefficient,
     Direction,
     Intensity,
@@ -59,8 +58,9 @@ from .fields import (
     number_schema,
     sequence_of,
 )
+from ..values.messages import Location, describe_error, located, shown
+from .bulk import objects_in_bulk
 from .kinds import object_kinds
-from .messages import Location, describe_error, located, shown
 from .objects import Object, without_written_defaults
 
 MAX_SIZE = 16384          # pixels per side, from the format

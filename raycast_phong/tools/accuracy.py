@@ -17,13 +17,13 @@ import numpy as np
 import trimesh
 
 from ..errors import SceneError
-from ..geometry.shapes import from_file, kind_of
 from ..geometry.templates import object_mesh
 from ..records import MeasuredResult, RenderResult
 from ..renderer.frame import render
 from ..renderer.prepare import Prepared, prepare
-from ..scene.messages import Location, located
 from ..scene.schema import Object, Scene, validate_scene
+from ..shapes import from_file, kind_of
+from ..values.messages import Location, located
 from .metrics import measure
 from .reference import ReferenceImage, analytic_reference
 

@@ -18,9 +18,9 @@ from ..errors import SceneError
 from ..io.image_io import label_font, text_coverage
 from ..io.system import format_bytes
 from ..scene.load import read_scene_dict
-from ..scene.messages import Location, located
 from ..scene.overrides import apply_override
 from ..scene.schema import Scene, validate_scene
+from ..values.messages import Location, located
 from .difference import colour_map, difference, heat_map
 
 # A pixel "changed" when its difference exceeds this: about 8 float32 steps at 1, so above rounding noise, and

@@ -20,9 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene.messages import Location, located
 from ..scene.schema import Object, Scene, SceneError, SpecularModel, Viewer
 from ..tolerances import MIN_DISTANCE
+from ..values.messages import Location, located
 
 TILE_SAMPLES = 1 << 16  # rays per tile: the torus's 4×4 eigenproblems stay a few MB
 SHADOW_OFFSET = 1e-9    # × the scene's half-extent: float64 exact hits sit ~1e-15 off the surface

@@ -25,8 +25,8 @@ from ..records import RenderPlan, Stage
 from ..renderer.frame import render
 from ..renderer.intersect import Accelerator, unit_frame
 from ..renderer.plan import F32_SHININESS_LIMIT, build_plan
-from ..scene.messages import dotted
 from ..scene.schema import Scene, SceneError, validate_scene
+from ..values.messages import dotted
 
 
 @dataclass(frozen=True)

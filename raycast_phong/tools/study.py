@@ -32,16 +32,16 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import OutputError
-from ..geometry.shapes import from_file
 from ..io.atomic import write_text
 from ..io.image_io import check_output_file
 from ..records import Geometry
 from ..renderer.frame import render
 from ..renderer.prepare import check_fits, prepare
 from ..scene.load import read_scene_dict
-from ..scene.messages import Location, located
 from ..scene.objects import NormalsRule
 from ..scene.schema import Scene, SceneError, ShadingModel, SpecularModel, validate_scene
+from ..shapes import from_file
+from ..values.messages import Location, located
 from .accuracy import max_level, mesh_coverage, reference_image, refine_entry
 from .metrics import measure, rmse
 

@@ -38,7 +38,7 @@ from ..io.image_io import (
 )
 from ..io.scene_toml import toml_value
 from ..io.system import format_bytes
-from ..scene.messages import Location
+from ..values.messages import Location
 from .compare import BACKDROP, MIN_FONT, draw_text, fitting_size, layout, row_wording
 
 SWEEP_KEYS = ("scene", "set", "grid")

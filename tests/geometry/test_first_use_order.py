@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
-from raycast_phong.geometry import shapes, templates
+from raycast_phong import shapes
+from raycast_phong.geometry import templates
 from raycast_phong.geometry.build import build_geometry
 from raycast_phong.geometry.mesh_repair import number_by_first_use
 

@@ -9,7 +9,7 @@ import trimesh
 import raycast_phong as rp
 from raycast_phong.geometry.build import build_geometry
 from raycast_phong.geometry.normals import compute_corner_normals, face_normals
-from raycast_phong.geometry.shapes import plane_mesh
+from raycast_phong.shapes import plane_mesh
 
 
 def test_icosphere_vertex_normals_are_the_unit_positions_to_first_order():

@@ -9,7 +9,8 @@ import trimesh
 from prep_reference import _creased_sums, _creased_vertices
 
 import raycast_phong as rp
-from raycast_phong.geometry import kernels, mesh_repair, shapes
+from raycast_phong import shapes
+from raycast_phong.geometry import kernels, mesh_repair
 from raycast_phong.geometry import normals as normal_rules
 from raycast_phong.geometry.build import build_geometry
 from raycast_phong.geometry.mesh_repair import merge_duplicate_vertices, repair_winding

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
-from raycast_phong.geometry import mesh_repair, normals, shapes
+from raycast_phong import shapes
+from raycast_phong.geometry import mesh_repair, normals
 from raycast_phong.geometry.mesh_repair import merge_duplicate_vertices, repair_winding, winding_state
 from raycast_phong.geometry.normals import PARALLEL_FACES, compute_corner_normals, face_normals, parts, prep_threads
 

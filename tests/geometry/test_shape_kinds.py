@@ -1,4 +1,4 @@
-"""Every built-in kind of object (geometry/shapes/, one module each) against one interface: parametrised over the
+"""Every built-in kind of object (shapes/, one module each) against one interface: parametrised over the
 registry, so a new kind is checked by adding it there. The closed form of each kind's geometry is tested in
 test_shapes.py (against trimesh.creation) and test_exact_normals.py; here, what every kind must have, and that the
 registry is the only list of kinds: the schema, the bulk validator and the messages follow it, and a kind added
@@ -17,13 +17,13 @@ import pytest
 
 import raycast_phong
 from raycast_phong.geometry.build import build_geometry
-from raycast_phong.geometry.shapes import KINDS, kind_of
 from raycast_phong.geometry.templates import exact_corner_normals_local, object_mesh, shape_uv
 from raycast_phong.renderer.budget import shape_triangles, size_key
 from raycast_phong.scene import bulk, schema
-from raycast_phong.scene.messages import Location, _model_of
 from raycast_phong.scene.objects import OBJECT_MODELS, OWN_KEYS
+from raycast_phong.shapes import KINDS, kind_of
 from raycast_phong.tools.accuracy import level_of, refined
+from raycast_phong.values.messages import Location, _model_of
 
 ROOT = Path(__file__).resolve().parents[2]
 # Each kind at its defaults, and the kinds below also at other values of their own keys.
@@ -55,14 +55,14 @@ def test_the_schema_takes_its_kinds_and_their_keys_from_the_registry():
 
 
 def _literals_outside_the_kinds() -> list[str]:
-    """Where a module outside geometry/shapes/ spells a kind's name as a string: a list or comparison of kinds
+    """Where a module outside shapes/ spells a kind's name as a string: a list or comparison of kinds
     kept by hand. A scene table written in code ({"shape": "plane", ...}) names one, which is fine; so does the
     analytic oracle, which stays apart on purpose (a kind it does not know has no analytic reference)."""
     found = []
     package = Path(raycast_phong.__file__).parent
     for path in sorted(package.rglob("*.py")):
         relative = path.relative_to(package).as_posix()
-        if relative.startswith(("geometry/shapes/", "io/")) or relative == "tools/reference.py":
+        if relative.startswith(("shapes/", "io/")) or relative == "tools/reference.py":
             continue  # io/ reads file formats, whose documents have keys of these names (a glTF node's "mesh")
         tree = ast.parse(path.read_text(encoding="utf-8"))
         tables = {id(value) for node in ast.walk(tree) if isinstance(node, ast.Dict)
@@ -92,7 +92,7 @@ def test_a_kind_added_to_the_registry_alone_is_validated_estimated_and_rendered(
     section = text[text.index("## Adding a built-in kind of object"):]
     example = re.search(r"^```python\n(.*?)^```", section, re.S | re.M).group(1)
     checks = """
-from raycast_phong.geometry import shapes
+from raycast_phong import shapes
 shapes.KINDS["cone"] = Cone()
 import numpy as np
 import raycast_phong as rp

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from raycast_phong.geometry import shapes
-from raycast_phong.geometry.shapes import plane_mesh
+from raycast_phong import shapes
+from raycast_phong.shapes import plane_mesh
 
 
 def test_sphere_uv_is_longitude_and_latitude_without_a_seam_jump():

@@ -1,4 +1,4 @@
-"""The numpy shapes (geometry/shapes.py) build trimesh.creation's triangles, closed and wound outward.
+"""The numpy shapes (shapes.py) build trimesh.creation's triangles, closed and wound outward.
 
 Two meshes are compared as sets of oriented triangles over matched vertices: each vertex of one lies within
 a tolerance of exactly one vertex of the other, and the triangles, each read from its smallest vertex on in
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from raycast_phong.geometry import shapes
+from raycast_phong import shapes
 
 EPS = np.finfo(np.float64).eps
 # Revolved shapes and the box: the same products and sums as trimesh's on the same inputs; the tolerance

@@ -50,10 +50,11 @@ CORE_MODULES = (  # where a pixel's value is decided: the kernels and the stages
 "renderer/kernels/illumination", "renderer/kernels/shading", "renderer/kernels/shadows",
                 "renderer/kernels/camera", "renderer/film", "geometry/build", "geometry/templates", "geometry/placing",
                 "geometry/scene_mesh", "renderer/intersect", "renderer/frame", "renderer/plan", "geometry/normals",
-                "geometry/mesh_repair", "geometry/shapes/icosphere", "geometry/shapes/surfaces",
+                "geometry/mesh_repair", "shapes/icosphere", "shapes/surfaces",
                 "renderer/kernels/tile", "renderer/kernels/ray_queries")
 EXTRA_TESTS = {"renderer": ("tests/image",), "geometry": ("tests/image",), "io": ("tests/contracts",),
                "scene": ("tests/contracts", "tests/cli"), "cli": ("tests/contracts",), "tools": (),
+               "shapes": ("tests/geometry", "tests/scene"), "values": ("tests/scene", "tests/contracts"),
                "": ("tests/project", "tests/renderer", "tests/io")}  # "": the package's top-level modules
 MODULE_TESTS = {"renderer/budget": ("tests/contracts/test_resource_guards.py",),  # the memory guard's own tests
                 "pytest_plugin": ("tests/image",)}  # the reference images match through it, edges and all

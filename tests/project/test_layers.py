@@ -8,9 +8,6 @@ import sys
 
 # The pipeline stages whose bugs the analytic reference exists to catch: it may import none of them.
 STAGES = ("raycast_phong.geometry", "raycast_phong.renderer")
-# Loaded with the scene schema, which gathers each kind's keys from its module (geometry/shapes/<kind>.py): the
-# oracle reads a Scene, never a kind's triangles, which the second check holds.
-KINDS_PACKAGE = ("raycast_phong.geometry.shapes", "raycast_phong.geometry")
 
 
 def test_the_oracle_imports_no_stage_of_the_renderer():
@@ -20,7 +17,7 @@ def test_the_oracle_imports_no_stage_of_the_renderer():
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
     loaded = json.loads(done.stdout)
     assert "raycast_phong.tools.reference" in loaded
-    stages = [m for m in loaded if m.startswith(STAGES) and not (m in KINDS_PACKAGE or m.startswith(KINDS_PACKAGE[0]))]
+    stages = [m for m in loaded if m.startswith(STAGES)]  # the kinds (shapes/) load with the schema: data, no stage
     assert not stages and not [m for m in loaded if m.startswith(("numba", "embreex"))], loaded
     assert not {t for t in _package_imports()["tools.reference"] if t.startswith(("geometry", "renderer"))}
 
@@ -79,31 +76,24 @@ def test_the_package_has_no_import_cycles():
     assert not cycles, cycles
 
 
-# The layers, top to bottom: a module may import its own layer and those below it, never one above.
-# renderer.kernels is a layer of its own: compiled code sees arrays and named layouts, never the scene schema.
-# geometry.shapes (one module a kind of object: its keys and its triangles) sits below the scene, whose schema
-# gathers the kinds' keys from their registry; the kinds declare their keys with the format's value types and
-# wording (scene.fields, scene.messages), which sit below them.
-LAYERS = ("cli", "tools", "renderer", "renderer.kernels", "geometry", "scene", "geometry.shapes", "scene.values",
-          "io", "base")
-BASE = {"errors", "codes", "records", "tolerances", "jit", "compiles", "stops"}  # vocabularies, records, jit
-VALUES = {"scene.fields", "scene.messages"}  # the scene format's value types and their wording
+# The layers, top to bottom, each a folder of the package (base: the modules at its root): a module may import its
+# own layer and those below it, never one above. renderer.kernels is the renderer's compiled part: it sees arrays and
+# named layouts, never the scene schema. shapes (one module a kind of object: its keys and its triangles) sits below
+# the scene, whose schema gathers the kinds' keys from their registry; the kinds declare their keys with the format's
+# value types and wording (values), which sit below them.
+LAYERS = ("cli", "tools", "renderer", "renderer.kernels", "geometry", "scene", "shapes", "values", "io", "base")
 # What compiled code may import from the package.
 KERNEL_ALLOWED = {"renderer.kernels.", "tolerances", "codes", "jit", "compiles"}
 
 
 def _layer(module: str) -> str:
-    if module in BASE:
-        return "base"
-    if module in VALUES:
-        return "scene.values"
-    if module.startswith("geometry.shapes."):
-        return "geometry.shapes"
+    if "." not in module:
+        return "base"  # errors, codes, records, tolerances, jit, compiles, stops
     return "renderer.kernels" if module.startswith("renderer.kernels.") else module.split(".")[0]
 
 
 def test_imports_point_down_the_layers():
-    """cli → tools → renderer → renderer.kernels → geometry → scene → geometry.shapes → scene.values → io → base:
+    """cli → tools → renderer → renderer.kernels → geometry → scene → shapes → scene.values → io → base:
     nothing imports upward, and a kernel module imports only other kernel modules, the tolerances, the codes and
     the errors (so an edit to the scene schema or a message recompiles no kernel). The folders show the layers,
     and this keeps them true."""
@@ -158,11 +148,11 @@ def test_kernel_modules_import_neither_the_scene_schema_nor_pydantic():
 def test_each_stage_family_has_one_sequencer_and_the_plan_comes_before_the_geometry():
     """geometry.build is the one function that sequences the geometry stages (grouping, templates, placing, ...):
     no geometry module imports it. The plan is decided before any geometry exists, so renderer.plan imports no
-    geometry stage (the kinds' registry, geometry.shapes, is data about kinds) and not the diagnosis, which reads
+    geometry stage (the kinds' registry, shapes, is data about kinds) and not the diagnosis, which reads
     the plan and the built geometry."""
     graph = _package_imports()
     assert {"geometry.build", "geometry.placing", "renderer.plan", "renderer.diagnosis"} <= set(graph)
     assert not sorted(m for m, targets in graph.items() if m.startswith("geometry.") and "geometry.build" in targets)
     plan = graph["renderer.plan"]
-    assert not sorted(t for t in plan if t.startswith("geometry.") and not t.startswith("geometry.shapes"))
+    assert not sorted(t for t in plan if t.startswith("geometry."))
     assert "renderer.diagnosis" not in plan and "renderer.plan" in graph["renderer.diagnosis"]

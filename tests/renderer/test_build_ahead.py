@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import raycast_phong as rp
+from raycast_phong import shapes
 from raycast_phong.errors import EmbreeError
-from raycast_phong.geometry import shapes
 from raycast_phong.renderer import prepare as module
 from raycast_phong.renderer.intersect import Accelerator
 

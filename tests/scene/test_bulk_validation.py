@@ -12,9 +12,9 @@ from hypothesis import strategies as st
 
 import raycast_phong as rp
 from raycast_phong.errors import SceneError
-from raycast_phong.geometry.shapes import MESH
 from raycast_phong.scene import bulk, schema
 from raycast_phong.scene.objects import OBJECT_MODELS, OWN_KEYS
+from raycast_phong.shapes import MESH
 from raycast_phong.tolerances import POSITION_LIMIT
 
 INF, NAN = math.inf, math.nan

@@ -1,4 +1,4 @@
-"""A SceneError carries where its problem is (scene.messages.Location: the file, what in it when that is no key,
+"""A SceneError carries where its problem is (values.messages.Location: the file, what in it when that is no key,
 the key path), and its line is that location, worded in one place, then the problem."""
 
 from __future__ import annotations
@@ -9,8 +9,8 @@ import raycast_phong as rp
 from raycast_phong.errors import SceneError
 from raycast_phong.geometry.build import build_geometry
 from raycast_phong.renderer.budget import check_memory
-from raycast_phong.scene.messages import Location, located
 from raycast_phong.scene.overrides import apply_override
+from raycast_phong.values.messages import Location, located
 
 
 def caught(call) -> SceneError:

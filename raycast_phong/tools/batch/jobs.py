@@ -21,9 +21,9 @@ from ...errors import ImageError, SceneError, WriteError
 from ...io.files import open_regular
 from ...io.image_io import write_image
 from ...scene.load import load_scene
-from ...scene.messages import Location
 from ...scene.overrides import SRGB_OVERRIDE
 from ...scene.schema import Scene
+from ...values.messages import Location
 from ..sweep import Job, is_sweep, load_sweep
 from .manifest import is_own_manifest
 

@@ -42,8 +42,8 @@ from raycast_phong.io.encoding import DISPLAY, display_values
 from raycast_phong.io.scene_file import syntax_limit
 from raycast_phong.io.scene_toml import scene_toml, toml_value
 from raycast_phong.scene.load import read_scene_dict
-from raycast_phong.scene.messages import dotted
 from raycast_phong.scene.overrides import apply_override
+from raycast_phong.values.messages import dotted
 
 from .access import Access, Guard, host_of
 from .session import Client, View, lowest_priority, parse, version  # noqa: F401 (Client, lowest_priority, parse: tests)

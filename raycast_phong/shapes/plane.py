@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from pydantic import Field
 
-from ...scene.fields import KindKeys, Segments, lengths
+from ..values.fields import KindKeys, Segments, lengths
 from .kind import ShapeKind, doublings
 
 

@@ -10,9 +10,9 @@ from typing import ClassVar
 
 import numpy as np
 
-from ...errors import SceneError
-from ...scene.fields import KindKeys
-from ...scene.messages import Location
+from ..errors import SceneError
+from ..values.fields import KindKeys
+from ..values.messages import Location
 
 THIN = 2.0 ** -23  # float32's resolution: a tube thinner than this share of the shape collapses in Embree's frame
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from pydantic import Field
 
-from ...scene.fields import KindKeys, Length, Segments
+from ..values.fields import KindKeys, Length, Segments
 from .kind import ShapeKind, doublings
 from .surfaces import _seamless, revolve
 

@@ -1,7 +1,7 @@
 """The scene format's value types: what a key's value may be (a number, a whole number, a triple, lengths, a
 segment pair), each with its check and its one-line wording, and `KindKeys`, the base of a kind's own keys.
 
-They sit below the kinds of object (geometry/shapes/), which declare their keys with them, and below the schema,
+They sit below the kinds of object (shapes/), which declare their keys with them, and below the schema,
 which gathers those keys from the registry; they know no table of the scene.
 """
 
@@ -198,5 +198,5 @@ def lengths(count: int, spelled: str) -> Any:
 
 class KindKeys(Table):
     """A kind of object's own keys, each with its default and bounds, declared in the kind's module
-    (geometry/shapes/<kind>.py) with the types above. The schema adds `shape` and the keys every object has
+    (shapes/<kind>.py) with the types above. The schema adds `shape` and the keys every object has
     (scene.objects), so a kind writes only what it alone reads."""

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pydantic import Field, model_validator
 
-from ...scene.fields import KindKeys
+from ..values.fields import KindKeys
 from .kind import ShapeKind
 
 

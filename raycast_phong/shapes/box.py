@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from pydantic import Field
 
-from ...scene.fields import KindKeys, lengths
+from ..values.fields import KindKeys, lengths
 from .kind import ShapeKind
 
 # A box's 12 triangles over its corners 4x + 2y + z (x, y, z ∈ {0, 1}): two per side, counter-clockwise

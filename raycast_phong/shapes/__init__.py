@@ -9,7 +9,7 @@ shape is centred on the origin; revolved shapes turn about z.
 
 A mesh file (mesh.py) is a kind too, the one read rather than built (ShapeKind.from_file).
 
-Adding a kind: a module here with its keys (a scene.fields.KindKeys model: each key with its default and bounds)
+Adding a kind: a module here with its keys (a values.fields.KindKeys model: each key with its default and bounds)
 and a ShapeKind subclass naming them, and its line in KINDS; nothing else (docs/pipeline.md's worked cone). The
 scene schema gathers the keys from KINDS, so this package imports nothing of the scene but its value types.
 """

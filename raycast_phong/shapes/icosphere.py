@@ -7,7 +7,7 @@ from functools import lru_cache
 import numpy as np
 from pydantic import Field
 
-from ...scene.fields import KindKeys, Length, Whole
+from ..values.fields import KindKeys, Length, Whole
 from .kind import ShapeKind
 from .surfaces import sphere_uv
 
