@@ -85,7 +85,7 @@ def side_by_side(
             for number, (variant, value) in enumerate(zip(scenes, values), 1):
                 label = f"{key} = {value} ({number}/{len(scenes)})"
                 bar.update(0, None, label)
-                results.append(rp.render(variant, source=str(path), max_memory=each,
+                results.append(rp.render(variant, max_memory=each,
                                          progress=lambda done, total, label=label: bar.update(done, total, label)))
         from raycast_phong.io.encoding import display_values
         # Each panel as its PNG would show it (sRGB-encoded for render.colour = linear), so variants of different

@@ -92,7 +92,7 @@ def render(
         if reference is not None:
             from raycast_phong.tools.reference import ExactScene
             ExactScene(loaded, str(path))  # a mesh has no closed form: refuse before rendering
-        result = _render_with_progress(loaded, str(path), threads, quiet, max_memory)
+        result = _render_with_progress(loaded, threads, quiet, max_memory)
         if reference is not None:
             from raycast_phong.tools.accuracy import measured
             result = measured(loaded, result, reference.value, 2, str(path))
@@ -111,22 +111,21 @@ def render(
             typer.echo(error_line(result.errors, result.reference_seconds))
 
 
-def _render_with_progress(scene: rp.Scene, source: str, threads: int | None, quiet: bool,
+def _render_with_progress(scene: rp.Scene, threads: int | None, quiet: bool,
                           max_memory: int | None = None) -> rp.RenderResult:
     from raycast_phong.renderer.prepare import check_fits
     from raycast_phong.renderer.warmup import ready_kernels
-    check_fits(scene, source=source, threads=threads, max_memory=max_memory)  # a refused scene compiles nothing
-    stage, seconds = ready_kernels(scene, None if quiet else lambda line: typer.echo(line, err=True), source)
-    result = _render_shown(scene, source, threads, quiet, max_memory)
+    check_fits(scene, threads=threads, max_memory=max_memory)  # a refused scene compiles nothing
+    stage, seconds = ready_kernels(scene, None if quiet else lambda line: typer.echo(line, err=True))
+    result = _render_shown(scene, threads, quiet, max_memory)
     return result.with_timings(**{stage: seconds})
 
 
-def _render_shown(scene: rp.Scene, source: str, threads: int | None, quiet: bool,
-                  max_memory: int | None) -> rp.RenderResult:
+def _render_shown(scene: rp.Scene, threads: int | None, quiet: bool, max_memory: int | None) -> rp.RenderResult:
     """render(), with a progress bar over the tiles on a terminal (cli.progress)."""
     with progress_bar(quiet) as bar:
         bar.update(0, None, "building the geometry and the BVH")
-        return rp.render(scene, threads=threads, source=source, max_memory=max_memory,
+        return rp.render(scene, threads=threads, max_memory=max_memory,
                          progress=lambda done, total: bar.update(done, total, "rendering tiles"))
 
 
@@ -207,7 +206,7 @@ def plan(scene: SceneArgument = None, set_: SetOption = [], max_memory: MaxMemor
         # render's own preparation: the same memory check (before building anything), geometry and diagnosis.
         with progress_bar(quiet) as bar:
             bar.update(0, None, "preparing the geometry")
-            ready = prepare(loaded, source=str(path), max_memory=max_memory)
+            ready = prepare(loaded, max_memory=max_memory)
         seconds = time.perf_counter() - started
     if quiet:
         for warning in ready.plan.warnings:

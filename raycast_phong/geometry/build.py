@@ -20,7 +20,7 @@ from ..records import Geometry
 from ..scene.kinds import object_kinds
 from ..scene.schema import Scene
 from ..shapes import from_file
-from ..values.messages import Location, located
+from ..values.messages import Location
 from .checks import check_float_range
 from .corners import corner_colours, corner_uvs
 from .file_materials import FileRows
@@ -32,7 +32,7 @@ from .templates import OBJECT_CHUNK_VERTICES, group_template
 from .textures import TextureBank
 
 
-def build_geometry(scene: Scene, source: str | Location = "<scene>", vertex_normals: bool = True,
+def build_geometry(scene: Scene, vertex_normals: bool = True,
                    normal_dtype: type = np.float64, sources: dict | None = None,
                    memo: BuildMemo | None = None,
                    positions: Callable[[np.ndarray, np.ndarray], None] | None = None) -> Geometry:
@@ -53,7 +53,7 @@ def build_geometry(scene: Scene, source: str | Location = "<scene>", vertex_norm
     (F, 3) int32 once they are final: for a scene of one object (a mesh file) before its normals are made, else
     once every object is placed. prepare() starts the BVH then, while the normals are made.
     """
-    where = located(source)
+    where = scene.origin
     if sources is None and any(map(from_file, scene.objects)):
         from ..io.meshes.source import mesh_sources
         sources = mesh_sources(scene)

@@ -18,7 +18,7 @@ from ..io.system import available_memory, count_text, format_bytes, parse_size
 from ..scene.kinds import object_kinds
 from ..scene.schema import Scene
 from ..shapes import KINDS, from_file
-from ..values.messages import Location, dotted, located
+from ..values.messages import dotted
 
 # Peak bytes per triangle above a warmed-up process's baseline (VmHWM after /proc/self/clear_refs; one
 # object, 8×8 image, one thread; trimesh 4, numpy 2; measured 2026-11 on the project's x86-64 machine):
@@ -80,7 +80,7 @@ def size_key(obj) -> str:
     return KINDS[obj.shape].size_key
 
 
-def estimate_memory(scene: Scene, source: str | Location = "<scene>", *, smooth: bool = True, float64: bool = False,
+def estimate_memory(scene: Scene, *, smooth: bool = True, float64: bool = False,
                     shadow_lights: int = 0, tile_rays: int = 1 << 15, threads: int = 1,
                     sources: dict | None = None) -> MemoryEstimate:
     """The peak memory of rendering `scene`, from its keys and mesh-file headers only.
@@ -104,7 +104,7 @@ def estimate_memory(scene: Scene, source: str | Location = "<scene>", *, smooth:
             path = scene.resolve(obj.path)
             mesh = sources[path]
             if path not in files:
-                files[path] = mesh.triangles(located(source).at("objects", index, "path"))
+                files[path] = mesh.triangles(scene.origin.at("objects", index, "path"))
             count, extra = files[path], mesh.format.parse_bytes
             floor = mesh.read_floor()  # a large file that claims few triangles still costs its read (a one-line OBJ)
         else:
@@ -177,11 +177,11 @@ def budget_of(max_memory: int | str | None) -> int | None:
     return int(budget)
 
 
-def check_memory(scene: Scene, source: str | Location, max_memory: int | str | None, **options) -> MemoryEstimate:
+def check_memory(scene: Scene, max_memory: int | str | None, **options) -> MemoryEstimate:
     """Refuse (SceneError, one line) a scene whose estimate exceeds the budget: max_memory in bytes (or
     '8G'), default default_budget(). `options` go to estimate_memory. Returns the estimate."""
     budget = budget_of(max_memory)
-    found = estimate_memory(scene, source, **options)
+    found = estimate_memory(scene, **options)
     if budget is None or found.total <= budget:
         return found
     need, limit = format_bytes(found.total), format_bytes(budget)
@@ -195,9 +195,9 @@ def check_memory(scene: Scene, source: str | Location, max_memory: int | str | N
         others = f", and {format_bytes(found.image)} for the image" if found.image * 20 > found.total else ""
         amount = f"≈ {need} of memory for geometry ({count_text(found.triangles)} triangles{others})"
         if found.largest_bytes * 2 >= found.geometry:  # one object is most of it: name its key
-            at, what = located(source).at("objects", index, key), f"{shown} needs {amount}"
+            at, what = scene.origin.at("objects", index, key), f"{shown} needs {amount}"
         else:
-            at = located(source).at("objects")
+            at = scene.origin.at("objects")
             what = (f"{len(scene.objects):,} objects need {amount}, the largest {dotted(('objects', index, key))} = "
                     f"{shown} {format_bytes(found.largest_bytes)}")
             raise_it = "use fewer or coarser objects or raise the budget (--max-memory, render(max_memory=...))"
@@ -207,4 +207,4 @@ def check_memory(scene: Scene, source: str | Location, max_memory: int | str | N
     samples = f", {render.samples}² samples" if render.samples > 1 else ""
     raise SceneError(f"render.width × render.height: {render.width}×{render.height} pixels{samples}{layers} need "
                      f"≈ {need} of memory, above the {limit} budget; lower them or raise the budget (--max-memory, "
-                     "render(max_memory=...))", located(source))
+                     "render(max_memory=...))", scene.origin)

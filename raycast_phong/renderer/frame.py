@@ -16,7 +16,6 @@ from ..codes import StageName
 from ..records import RenderPlan, RenderResult
 from ..scene.load import load_scene
 from ..scene.schema import Scene
-from ..values.messages import Location
 from . import embree_library
 from .by_address import shader, shadow_caster
 from .film import allocate_film
@@ -29,9 +28,9 @@ __all__ = ["TILE_RAYS", "FrameCache", "default_threads", "render", "render_file"
 
 
 def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None = None,
-           progress: Callable[[int, int], None] | None = None, source: str | Location = "<scene>",
-           max_memory: int | str | None = None, cache: FrameCache | None = None,
-           cancelled: Callable[[], bool] | None = None, pool: Executor | None = None) -> RenderResult:
+           progress: Callable[[int, int], None] | None = None, max_memory: int | str | None = None,
+           cache: FrameCache | None = None, cancelled: Callable[[], bool] | None = None,
+           pool: Executor | None = None) -> RenderResult:
     """Render a validated scene: prepare(scene, ...).render(). (accuracy.measured adds RMSE, max, PSNR, …
     against the analytic or a self-convergence reference.)
 
@@ -55,7 +54,7 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     SceneError (one line) when the scene needs more memory than the budget, before anything is built, or when
     a mesh file it names cannot be read; ValueError for a budget of 0 or less.
     """
-    return prepare(scene, source=source, threads=threads, max_memory=max_memory, plan=plan,
+    return prepare(scene, threads=threads, max_memory=max_memory, plan=plan,
                    progress=progress, cache=cache, cancelled=cancelled, pool=pool, build_ahead=True).render()
 
 
@@ -83,7 +82,7 @@ def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bo
                 jit.ready(shadow_caster(True))
             if scene_kernels is not None and first:
                 scene_kernels()
-            ready = prepare(warm_scene(precision), source="warm-up")
+            ready = prepare(warm_scene(precision))
             film = film_rows(allocate_film(2, 2, (), ready.real).rows(0, 0))
             render_band(0, 0, 0, ready.rays.params, ready.rays.shared_origins, NO_SHADOWS, ready.shading, film,
                         np.zeros(3), shader(ready.shading), shadow_caster(False))
@@ -117,5 +116,5 @@ def render_file(path: str | Path, overrides: list[str] | tuple[str, ...] = (), *
     start = time.perf_counter()
     scene = load_scene(path, overrides, view=view, up=up, max_memory=options.get("max_memory"))
     loaded = time.perf_counter() - start
-    result = render(scene, source=str(path), **options)
+    result = render(scene, **options)
     return result.with_timings(load=loaded)

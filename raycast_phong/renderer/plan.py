@@ -14,10 +14,10 @@ from ..scene.schema import Material, Scene
 from ..shapes import from_file
 
 
-def build_plan(scene: Scene, optimize: bool = True, source: str | None = None) -> RenderPlan:
+def build_plan(scene: Scene, optimize: bool = True) -> RenderPlan:
     """The stages of this scene's render, each kept or left out with its reason; decided per kind of object
-    (scene.kinds: objects that differ only in placement), so a million boxes cost one decision. `source` (the
-    file the scene was loaded from) words why render.colour is what it is (colour_reason)."""
+    (scene.kinds: objects that differ only in placement), so a million boxes cost one decision. The scene's origin
+    (the file it was loaded from) words why render.colour is what it is (colour_reason)."""
     kinds = kinds_of(scene)
     smooth = [(obj, n) for obj, n in kinds if scene.shading_of(obj) != ShadingModel.FLAT]
     stages, specular = _term_stages(scene, kinds, smooth, optimize)
@@ -26,7 +26,7 @@ def build_plan(scene: Scene, optimize: bool = True, source: str | None = None) -
     stages += _shadow_stages(scene, smooth)
     stages += _output_stages(scene)
     stages.append(_precision_stage(scene, specular))
-    return RenderPlan(tuple(stages), colour=scene.render.colour, colour_reason=colour_reason(scene, source))
+    return RenderPlan(tuple(stages), colour=scene.render.colour, colour_reason=colour_reason(scene, scene.origin.file))
 
 
 def colour_reason(scene: Scene, source: str | None) -> str:

@@ -31,7 +31,6 @@ from ..io.system import default_threads
 from ..records import Frame, Geometry, ImageBuffers, RenderPlan, RenderResult
 from ..scene.schema import Scene, SceneError
 from ..shapes import from_file
-from ..values.messages import Location, located
 from .budget import MemoryEstimate, check_memory
 from .by_address import shader, shadow_caster
 from .diagnosis import ObjectFigures, diagnose
@@ -58,7 +57,6 @@ class Prepared:
     """Everything a render of one scene needs before its BVH and tiles: the plan, the memory estimate that
     let it through, the geometry, the unit frame and the kernels' packed inputs. `.render()` runs the rest."""
     scene: Scene
-    source: str | Location
     plan: RenderPlan                 # diagnosed: with the geometry's warnings and notes
     memory: MemoryEstimate
     geometry: Geometry
@@ -114,7 +112,7 @@ class Prepared:
                             counts=dict(zip(COUNTS, counts.tolist())))
 
 
-def prepare(scene: Scene, *, source: str | Location = "<scene>", threads: int | None = None,
+def prepare(scene: Scene, *, threads: int | None = None,
             max_memory: int | str | None = None, plan: RenderPlan | None = None,
             progress: Callable[[int, int], None] | None = None, cache: FrameCache | None = None,
             cancelled: Callable[[], bool] | None = None, pool: Executor | None = None,
@@ -126,7 +124,7 @@ def prepare(scene: Scene, *, source: str | Location = "<scene>", threads: int | 
     threads: worker threads for the tiles (default: the machine's cores, at most 8).
     max_memory: the budget, bytes or a size such as "8G" (default: 3/4 of the memory available now); a scene
         whose estimate (budget.estimate_memory) exceeds it is refused with a SceneError before anything is built.
-    plan: the render plan; default build_plan(scene, source=source). build_plan(scene, optimize=False) keeps
+    plan: the render plan; default build_plan(scene). build_plan(scene, optimize=False) keeps
         every stage.
     progress: called as progress(tiles_done, tiles_total) by render().
     cache: a FrameCache whose geometry and BVH this scene may reuse, and which keeps this scene's for the next.
@@ -139,18 +137,18 @@ def prepare(scene: Scene, *, source: str | Location = "<scene>", threads: int | 
         made, when `threads` is 2 or more and there is no `cache` (render() asks for it; a prepare() that is not
         rendered starts no Embree).
     """
-    plan, bands, threads, tile_rays, sources, memory = _fitted(scene, source, threads, max_memory, plan)
+    plan, bands, threads, tile_rays, sources, memory = _fitted(scene, threads, max_memory, plan)
     width, height, samples = scene.render.width, scene.render.height, scene.render.samples
     start = time.perf_counter()
     real = plan.real
     ahead = BuildAhead() if build_ahead and cache is None and threads > 1 else None
     with prep_threads(threads):  # a large mesh's preparation uses as many threads as its tiles
         if cache is None:
-            geometry = build_geometry(scene, source=source, vertex_normals=plan.keeps(StageName.VERTEX_NORMALS),
+            geometry = build_geometry(scene, vertex_normals=plan.keeps(StageName.VERTEX_NORMALS),
                                       normal_dtype=real, sources=sources, positions=ahead)
         else:
             with cache.lock:
-                geometry = build_geometry(scene, source=source, vertex_normals=plan.keeps(StageName.VERTEX_NORMALS),
+                geometry = build_geometry(scene, vertex_normals=plan.keeps(StageName.VERTEX_NORMALS),
                                           normal_dtype=real, sources=sources, memo=cache.memo)
     timings = {"geometry": time.perf_counter() - start}
     derived = cache.derived(geometry) if cache is not None else None
@@ -163,7 +161,7 @@ def prepare(scene: Scene, *, source: str | Location = "<scene>", threads: int | 
         frame = derived.get("frame", ("vertices",), lambda: frame_of_box(*geometry.box))
     rig = camera_rig(scene)
     return Prepared(
-        scene=scene, source=source, plan=plan, memory=memory, geometry=geometry, frame=frame,
+        scene=scene, plan=plan, memory=memory, geometry=geometry, frame=frame,
         rays=RayGenerator(rig, frame, width, height, samples, max_rays=tile_rays),
         shading=prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), real, kept=derived),
         shadows=prepare_shadows(scene, geometry, frame) if plan.keeps(StageName.SHADOW_RAYS) else None,
@@ -171,11 +169,10 @@ def prepare(scene: Scene, *, source: str | Location = "<scene>", threads: int | 
         pool=pool, ahead=ahead)
 
 
-def check_fits(scene: Scene, *, source: str | Location = "<scene>", threads: int | None = None,
-               max_memory: int | str | None = None) -> MemoryEstimate:
+def check_fits(scene: Scene, *, threads: int | None = None, max_memory: int | str | None = None) -> MemoryEstimate:
     """prepare()'s plan and memory check alone, building nothing: a SceneError if the scene is over the budget
     (the study checks every level it is given so, before it measures the first)."""
-    return _fitted(scene, source, threads, max_memory, None).memory
+    return _fitted(scene, threads, max_memory, None).memory
 
 
 class _Fitted(NamedTuple):
@@ -188,13 +185,12 @@ class _Fitted(NamedTuple):
     memory: MemoryEstimate
 
 
-def _fitted(scene: Scene, source: str | Location, threads: int | None, max_memory: int | str | None,
-            plan: RenderPlan | None) -> _Fitted:
+def _fitted(scene: Scene, threads: int | None, max_memory: int | str | None, plan: RenderPlan | None) -> _Fitted:
     """The plan, the bands and the memory check (a SceneError over the budget)."""
-    plan = plan or build_plan(scene, source=source)
+    plan = plan or build_plan(scene)
     if plan.keeps(StageName.SHADOW_RAYS) and len(scene.lights) > MAX_LIGHTS:
         raise SceneError(f"global mode handles at most {MAX_LIGHTS} lights, the scene has {len(scene.lights)}; "
-                         'use render.mode = "local" or fewer lights', located(source).at("lights"))
+                         'use render.mode = "local" or fewer lights', scene.origin.at("lights"))
     width, height, samples = scene.render.width, scene.render.height, scene.render.samples
     rows_per_tile = max(1, TILE_RAYS // (width * samples * samples))
     bands = tuple((row, min(row + rows_per_tile, height)) for row in range(0, height, rows_per_tile))
@@ -204,7 +200,7 @@ def _fitted(scene: Scene, source: str | Location, threads: int | None, max_memor
     if any(map(from_file, scene.objects)):  # each mesh file's MeshSource, read once (the scene's)
         from ..io.meshes.source import mesh_sources
         sources = mesh_sources(scene)
-    memory = check_memory(scene, source, max_memory, sources=sources, smooth=plan.keeps(StageName.VERTEX_NORMALS),
+    memory = check_memory(scene, max_memory, sources=sources, smooth=plan.keeps(StageName.VERTEX_NORMALS),
                           float64=plan.keeps(StageName.FLOAT64_SHADING),
                           shadow_lights=len(scene.lights) if plan.keeps(StageName.SHADOW_RAYS) else 0,
                           tile_rays=tile_rays, threads=min(threads, len(bands)))

@@ -8,11 +8,9 @@ from collections.abc import Callable
 
 from ..codes import StageName
 from ..scene.schema import Scene
-from ..values.messages import Location, located
 
 
-def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
-                  source: str | Location = "scene") -> tuple[str, float]:
+def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None) -> tuple[str, float]:
     """("compile", seconds) when any kernel this scene's render calls is not in the cache for the signature the
     scene gives it (the first render after an install or an edit, or of a new precision: float64 after
     float32 is a compile too), else ("kernels", seconds) for loading them from the cache (≈ 0.1 s, most of it
@@ -24,7 +22,7 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
     this process and waiting for its render, as a mesh file given on the command line is, whose read compiled
     what it needed: its render does not read it again), and the crease split's where an object may be creased
     (normals.warm_up_creases).
-    A mesh file that cannot be opened is refused first (one line, naming `source`): before any compile."""
+    A mesh file that cannot be opened is refused first (one line, naming the scene's file): before any compile."""
     import numpy as np
 
     from ..compiles import told
@@ -43,7 +41,7 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None,
     for index, obj in kinds:
         if from_file(obj):
             path = scene.resolve(obj.path)
-            handle = open_mesh_file(path, located(source).at("objects", index, "path"))
+            handle = open_mesh_file(path, scene.origin.at("objects", index, "path"))
             waiting = scene.mesh_sources.get(source_key(path))
             warm_up = format_of(path).warm_up
             with handle:

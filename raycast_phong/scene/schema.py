@@ -309,6 +309,8 @@ class Scene(Table):
     # The mesh files' io.meshes.source.MeshSource made while loading (framing a mesh file), by source_key: handed
     # with the scene to prepare(), which reads no file twice. What was read, not part of the scene's value.
     _mesh_sources: dict = PrivateAttr(default_factory=dict)
+    # Where the scene came from (the file, "mesh_scene", "<scene>"): every later stage's message starts there.
+    _origin: Location = PrivateAttr(default_factory=lambda: Location("<scene>"))
 
     @model_validator(mode="after")
     def _references(self) -> Scene:
@@ -341,6 +343,12 @@ class Scene(Table):
     __hash__ = None  # as before this __eq__: a Scene holds dicts (materials), so it was never hashable
 
     @property
+    def origin(self) -> Location:
+        """Where the scene came from (validate_scene's `source`: the file): a stage's error about the scene is
+        located from it (`scene.origin.at("objects", 3, "path")`), so no stage is told it again."""
+        return self._origin
+
+    @property
     def mesh_sources(self) -> dict:
         """The MeshSources (io/meshes/source.py) made while this scene was loaded, by source_key; {} when none
         were (a scene file: prepare() makes them)."""
@@ -364,6 +372,7 @@ class Scene(Table):
             assign(data, key, value, where)
         changed = validate_scene(data, source=str(where), folder=self.folder)
         changed.mesh_sources.update(self.mesh_sources)
+        changed._origin = self._origin  # the same file, changed: later stages still name it
         return changed
 
     def material_of(self, obj: Object) -> Material:
@@ -462,7 +471,9 @@ def validate_scene(data: dict, source: str | Location = "<scene>", folder: str |
         raise SceneError("unknown key", where.at("folder"))
     try:
         objects = {"objects": objects_in_bulk(data["objects"])} if "objects" in data else {}
-        return Scene.model_validate({**data, **objects, "folder": str(folder)})
+        scene = Scene.model_validate({**data, **objects, "folder": str(folder)})
+        scene._origin = where
+        return scene
     except ValidationError as error:
         at, problem = describe_error(error, where, Scene)
         raise SceneError(problem, at) from None

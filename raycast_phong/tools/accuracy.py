@@ -74,7 +74,7 @@ def check_fine_memory(scene: Scene, data: dict, levels: int, source: str | Locat
     budget = budget_of(max_memory)
     if budget is None:
         return
-    found = estimate_memory(validate_scene(data, source=source, folder=scene.folder), source, float64=True)
+    found = estimate_memory(validate_scene(data, source=source, folder=scene.folder), float64=True)
     extra_triangles = sum(found_triangles * (4 ** levels - 1) for found_triangles in (
         _mesh_triangles(scene, index, source) for index, obj in enumerate(scene.objects) if from_file(obj)))
     need = found.total + extra_triangles * (SMOOTH_BYTES + FLOAT64_NORMAL_BYTES + LOOP_BYTES)
@@ -111,7 +111,7 @@ def fine_reference(scene: Scene, levels: int, source: str | Location = "<scene>"
             refine_entry(scene, index, data["objects"][index], min(level_of(obj) + levels, max_level(obj)), levels,
                          Path(folder), source)
         fine = validate_scene(data, source=source, folder=scene.folder)
-        result = render(fine, source=source, max_memory=max_memory)
+        result = render(fine, max_memory=max_memory)
         coverage = mesh_coverage(fine, source)
     return ReferenceImage(result.image.astype(np.float64), result.aovs["specular"].astype(np.float64),
                           coverage, f"fine {levels}")
@@ -156,7 +156,7 @@ def check_reference_memory(scene: Scene, source: str, max_memory: int | None) ->
 def mesh_coverage(scene: Scene | Prepared, source: str | Location = "<scene>") -> np.ndarray:
     """(H, W) share of each pixel's samples whose ray hits the scene's triangles: the render's own rays and
     BVH (prepare, or a scene already prepared), cast band by band."""
-    ready = scene if isinstance(scene, Prepared) else prepare(scene, source=source)
+    ready = scene if isinstance(scene, Prepared) else prepare(scene)
     scene = ready.scene
     accelerator = ready.build()
     width, n = scene.render.width, scene.render.samples

@@ -122,14 +122,12 @@ def show(what: RenderResult | Iterable[RenderResult] | Scene | str | Path | None
         return Figures([what])
     if isinstance(what, Iterable) and not isinstance(what, (str, Path, Scene)):
         return Figures(list(what))
-    source = "<scene>"
     if isinstance(what, Scene):
         scene = what
     else:
-        path = Path(what) if what is not None else rp.default_scene_path()
-        scene, source = rp.load_scene(path, list(overrides)), str(path)
+        scene = rp.load_scene(Path(what) if what is not None else rp.default_scene_path(), list(overrides))
     chosen = [ShadingModel(m) for m in models]
-    results = [rp.render(shaded(scene, model), source=source) for model in chosen]
+    results = [rp.render(shaded(scene, model)) for model in chosen]
     return Figures(results, [MODEL_NAMES[m] for m in chosen])
 
 

@@ -446,7 +446,7 @@ def non_finite_input() -> CaseResult:
         path = Path(folder) / "nan.obj"
         path.write_text("v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n")
         try:
-            build_geometry(mesh_scene(path), source=str(path))
+            build_geometry(mesh_scene(path))
         except SceneError as error:
             named += getattr(error.where, "key", ()) == ("objects", 0, "path")
     return CaseResult("non-finite input", "NaN or inf in a mesh file, transform, light, camera or ambient is an "

@@ -283,7 +283,7 @@ class _Sweep:
     def check_fits(self, level: int) -> None:
         """Refuse (SceneError) a level whose renders are over the memory budget, before anything is measured."""
         for s in self.settings(level):
-            check_fits(self.scene(s), source=self.source, threads=self.options.threads,
+            check_fits(self.scene(s), threads=self.options.threads,
                        max_memory=self.options.max_memory)
 
     def measure_level(self, level: int, keep_images: bool) -> None:
@@ -299,12 +299,12 @@ class _Sweep:
                     self.scene(s, samples=self.supersampling), self.source, fine=self.options.fine)
             if (s.samples, level) not in self.meshes:
                 # One prepare (plan, memory check, geometry) serves both: the render's own triangles.
-                ready = prepare(scene, source=self.source, threads=self.options.threads,
+                ready = prepare(scene, threads=self.options.threads,
                                 max_memory=self.options.max_memory)
                 self.meshes[s.samples, level] = (mesh_coverage(ready), mean_edge_length(ready.geometry))
             coverage, _ = self.meshes[s.samples, level]
             began = time.perf_counter()
-            result = render(scene, threads=self.options.threads, source=self.source,
+            result = render(scene, threads=self.options.threads,
                             max_memory=self.options.max_memory)
             self.render_seconds[level] = self.render_seconds.get(level, 0.0) + time.perf_counter() - began
             reference = self.references[s.specular, s.samples, s.shininess]
@@ -332,7 +332,7 @@ class _Sweep:
             for position, index in enumerate(np.random.default_rng(round_).permutation(len(settings)), 1):
                 s = settings[index]
                 begin, cpu = time.perf_counter(), time.process_time()
-                result = render(scenes[s], threads=self.options.threads, source=self.source,
+                result = render(scenes[s], threads=self.options.threads,
                                 max_memory=self.options.max_memory)
                 wall = time.perf_counter() - begin
                 runs[s].append((wall, {**result.timings, "cpu": time.process_time() - cpu}))

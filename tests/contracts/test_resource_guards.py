@@ -136,13 +136,13 @@ def test_image_bytes_grow_with_the_pixels_and_the_layers():
 
 
 def test_a_scene_over_the_budget_is_refused_in_python_naming_the_key():
-    scene = rp.validate_scene({"objects": [{"shape": "icosphere", "subdivisions": 8}]})
+    scene = rp.validate_scene({"objects": [{"shape": "icosphere", "subdivisions": 8}]}, source="s.toml")
     with pytest.raises(rp.SceneError) as refused:
-        rp.render(scene, source="s.toml", max_memory="64M")
+        rp.render(scene, max_memory="64M")  # the message names the scene's own file
     message = str(refused.value)
     assert message.startswith("s.toml: objects.0.subdivisions: 8 needs ≈ ")
     assert "1.3M triangles" in message and "64 MB budget" in message and "--max-memory" in message
-    assert check_memory(scene, "s.toml", "8G").triangles == 20 * 4 ** 8  # a larger budget lets it through
+    assert check_memory(scene, "8G").triangles == 20 * 4 ** 8  # a larger budget lets it through
 
 
 def test_the_cli_refuses_a_tessellation_over_the_budget_before_building_it(tmp_path):

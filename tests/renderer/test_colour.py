@@ -187,7 +187,7 @@ def test_an_obj_rendered_directly_is_in_display_colour():
     for path in (SCENES / "meshes" / "dice.obj", SCENES / "meshes" / "painted_knot.ply"):
         scene = rp.load_scene(path)
         assert scene.render.colour == "display"
-        assert rp.build_plan(scene, source=str(path)).colour_reason.startswith(
+        assert rp.build_plan(scene).colour_reason.startswith(  # the scene knows its file (Scene.origin)
             f"the default for a {path.suffix} file rendered directly")
 
 

@@ -107,7 +107,7 @@ def test_the_plan_command_and_render_agree_on_whether_a_scene_fits_near_the_budg
                     '[output]\naovs = ["depth", "diffuse"]\npath = "x.exr"\n'
                     '[[lights]]\ntype = "point"\nposition = [2, 2, 3]\n'
                     '[[objects]]\nshape = "icosphere"\nsubdivisions = 5\n')
-    total = prepare(rp.load_scene(path), source=str(path)).memory.total
+    total = prepare(rp.load_scene(path)).memory.total
     runner = CliRunner()
     for budget, fits in ((total, True), (total - 1, False)):
         plan = runner.invoke(app, ["plan", str(path), "--max-memory", str(budget)])

@@ -84,7 +84,7 @@ def assert_same_geometry(got, fresh) -> None:
 def build(scene: rp.Scene, memo: BuildMemo | None = None):
     """build_geometry as render() calls it: the plan decides the corner normals and their dtype."""
     plan = rp.build_plan(scene)
-    return build_geometry(scene, "memo", vertex_normals=plan.keeps(StageName.VERTEX_NORMALS), normal_dtype=plan.real,
+    return build_geometry(scene, vertex_normals=plan.keeps(StageName.VERTEX_NORMALS), normal_dtype=plan.real,
                           memo=memo)
 
 

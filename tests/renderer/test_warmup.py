@@ -125,12 +125,12 @@ def test_a_missing_mesh_file_is_refused_before_the_compiling_notice(tmp_path, mo
     said = []
     missing(monkeypatch, frame, "warm_kernels_for", "render_band")  # nothing cached: the notice would be said
     scene = validate_scene({"objects": [{"shape": "icosphere"}, {"shape": "mesh", "path": str(tmp_path / "no.ply")}]},
-                           source="t")
+                           source="s.toml")
     with pytest.raises(SceneError, match=r"^s\.toml: objects\.1\.path: no such mesh file"):
-        warmup.ready_kernels(scene, said.append, "s.toml")
+        warmup.ready_kernels(scene, said.append)
     assert said == []
     shapes = validate_scene({"objects": [{"shape": "icosphere"}]}, source="t")  # the control: it is said
-    assert warmup.ready_kernels(shapes, said.append, "s.toml")[0] == "compile" and len(said) == 1
+    assert warmup.ready_kernels(shapes, said.append)[0] == "compile" and len(said) == 1
 
 
 def test_the_plain_obj_scan_is_warmed_only_for_an_obj_it_may_read(tmp_path, monkeypatch):

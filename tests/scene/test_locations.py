@@ -39,12 +39,12 @@ def test_each_stage_raises_at_the_key_it_refuses(tmp_path):
     error = caught(lambda: apply_override(data, "objects.5.size=[1, 2, 3]", source="s.toml"))
     assert error.where == Location("s.toml", ("objects", "5"), part="--set 'objects.5.size=[1, 2, 3]'")
     thin = scene({"shape": "box"}, {"shape": "torus", "minor_radius": 1e-12})
-    assert caught(lambda: build_geometry(thin, source="s.toml")).where == Location("s.toml", ("objects", 1))
+    assert caught(lambda: build_geometry(thin)).where == Location("s.toml", ("objects", 1))
     missing = scene({"shape": "mesh", "path": "gone.obj"})
-    error = caught(lambda: build_geometry(missing, source="s.toml"))
+    error = caught(lambda: build_geometry(missing))  # located from the scene's origin
     assert error.where == Location("s.toml", ("objects", 0, "path")) and error.problem.startswith("no such mesh")
     fine = scene({"shape": "icosphere", "subdivisions": 8})
-    error = caught(lambda: check_memory(fine, "s.toml", 1 << 20))
+    error = caught(lambda: check_memory(fine, 1 << 20))
     assert error.where == Location("s.toml", ("objects", 0, "subdivisions"))
 
 

@@ -345,7 +345,7 @@ def render_job(task: Task) -> Outcome:
     start = time.perf_counter()
     entry = new_entry(task.job, FAILED, hash=task.digest, inputs=task.inputs)
     try:
-        result = render(task.scene, threads=task.threads, source=str(task.job.scene), max_memory=task.max_memory)
+        result = render(task.scene, threads=task.threads, max_memory=task.max_memory)
         written = time.perf_counter()
         write_image(task.output, result.image, result.aovs, colour=task.scene.render.colour)
         result = result.with_timings(write=time.perf_counter() - written)

@@ -337,7 +337,7 @@ class Renderer:
             told = None
             if progress is not None:
                 told = lambda done, total, k=k: progress((k + done / max(total, 1)) / len(scenes))
-            result = self.render(shaped(scene), source=self.source.name, progress=told, cache=cache,
+            result = self.render(shaped(scene), progress=told, cache=cache,
                                  cancelled=cancelled, pool=pool)
             if name == "a" and quality == "full" and not request.get("models") and shown is not None:
                 shown["a"] = (request.get("id"), result)  # errors() measures this image, not a new one
@@ -375,7 +375,7 @@ class Renderer:
             return None
         shown_id, image = (shown or {}).get("a", (None, None))
         if shown_id != request.get("id"):
-            image = self.render(scene, source=self.source.name)
+            image = self.render(scene)
         result = measured(scene, image, "analytic", 2, self.source.name)
         e = result.errors
         finite = lambda x: None if x is None or not math.isfinite(x) else x  # JSON has no nan or inf
@@ -395,7 +395,7 @@ class Renderer:
         if what == "toml":
             data = scene_toml(scene).encode("utf-8")
         elif what in ("png", "exr"):
-            result = self.render(scene if what == "exr" else frame_of(scene), source=self.source.name, cache=cache,
+            result = self.render(scene if what == "exr" else frame_of(scene), cache=cache,
                                  pool=pool)
             data = encode(result.image, f".{what}", result.aovs if what == "exr" else None, result.colour)
         else:
@@ -446,7 +446,7 @@ def warm(source: Source) -> None:
     """warm_kernels for both precisions with shadows, then one draft frame (geometry, BVH and the PNG path)."""
     from raycast_phong.renderer.frame import warm_kernels
     warm_kernels((np.float32, np.float64))
-    rp.render(draft_of(scene_with(source, {})), source=source.name)
+    rp.render(draft_of(scene_with(source, {})))
 
 
 def hello(source: Source) -> dict:

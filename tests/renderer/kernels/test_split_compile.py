@@ -146,7 +146,7 @@ def test_the_helper_types_the_shading_kernel_as_prepare_does(precision):
     from numba import typeof
 
     from raycast_phong.renderer.prepare import prepare
-    ready = prepare(split_compile.warm_scene(precision), source="warm-up")
+    ready = prepare(split_compile.warm_scene(precision))
     specimen = split_compile.unprepared_shading(precision)
     assert [typeof(value) for value in specimen] == [typeof(value) for value in ready.shading]
     assert typeof(split_compile.shading_arguments(specimen)) == typeof(
