@@ -200,7 +200,7 @@ def _normalise_or(vectors: np.ndarray, fallback: np.ndarray, reach: np.ndarray |
 
 
 # The compiled passes of a crease split: a smooth object with a crease angle below 180°, and a mesh file that
-# stores no normals (its crease angle is mesh_file.FILE_CREASE_ANGLE unless the scene sets one).
+# stores no normals (its crease angle is io.meshes.materials.FILE_CREASE_ANGLE unless the scene sets one).
 CREASE_KERNELS = ("gather_corners_creased", "creased_corners")
 
 

@@ -18,7 +18,7 @@ from ..values.messages import Location
 from .mesh_repair import merge_duplicate_vertices, number_by_first_use, repair_winding
 from .normals import PARALLEL_FACES, _normalise_or, face_normals
 
-if TYPE_CHECKING:  # mesh_file imports trimesh: only a scene with a mesh file loads it
+if TYPE_CHECKING:  # io.meshes.read imports trimesh: only a scene with a mesh file loads it
     from ..io.meshes.read import MeshFile
 
 OBJECT_CHUNK_VERTICES = 1 << 20  # placed vertices per step of a group: ~25 MB of float64 temporaries

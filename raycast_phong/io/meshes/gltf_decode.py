@@ -34,7 +34,7 @@ DTYPES = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: 
 WIDTHS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
 # The vertex attributes read as numbers (the others, joints and weights, are not used by the renderer).
 NUMERIC = ("POSITION", "NORMAL", "TEXCOORD_", "COLOR_")
-DECODED_URI = "raycast-phong-decoded:"  # the buffers handed to trimesh by name (io.mesh_file's resolver)
+DECODED_URI = "raycast-phong-decoded:"  # the buffers handed to trimesh by name (trimesh_parts.RegularFiles)
 
 
 def needs_decoding(tree: dict) -> bool:

@@ -10,7 +10,7 @@ element in the wrong namespace (`<multi>` in the core's) is read too. lib3mf, th
 those files as well ("Could not get XML Namespace"), which is why it is not used.
 
 Elements are cleared as they are read, so a document's tree is never held whole: the memory estimate's
-io.mesh_header.ZIP_XML_READ_BYTES_PER_BYTE (measured on trimesh's reader) bounds this reader too.
+ZIP_XML_READ_BYTES_PER_BYTE (below; measured on trimesh's reader) bounds this reader too.
 """
 
 from __future__ import annotations
