@@ -57,7 +57,7 @@ def scene_command(
         if is_mesh_file(scene):
             from raycast_phong.io.meshes.source import mesh_source, source_key
             source = loaded.mesh_sources.get(source_key(scene)) or mesh_source(scene)  # framing's, as loaded
-            notes = source.bounds(str(scene)).notes
+            notes = source.bounds().notes
         header = (f"# The scene `raycast-phong render {scene.name}` renders: written by `raycast-phong scene`.\n"
                   "# A [materials.NAME] table overrides the mesh file's material of that name; see docs/meshes.md.")
         if output is not None:

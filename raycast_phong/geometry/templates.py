@@ -94,8 +94,8 @@ def _load_mesh(scene: Scene, obj: Object, where: Location, mesh=None):
     path = scene.resolve(obj.path)
     if mesh is None:
         from ..io.meshes.source import mesh_source
-        mesh = mesh_source(path)
-    read = mesh.read(where.at("path"))  # imports trimesh (0.2–0.3 s): only for mesh files
+        mesh = mesh_source(path, where.at("path"))
+    read = mesh.read()  # imports trimesh (0.2–0.3 s): only for mesh files; errors at the object naming the file
     normals = read.normals if obj.normals in (None, "file") else None  # unset: the file's, if it has them
     if obj.normals == "file" and normals is None:
         raise SceneError(f'"file" but {str(path)!r} stores no vertex normals; use "mean", "area" or "angle"',

@@ -104,7 +104,7 @@ def estimate_memory(scene: Scene, *, smooth: bool = True, float64: bool = False,
             path = scene.resolve(obj.path)
             mesh = sources[path]
             if path not in files:
-                files[path] = mesh.triangles(scene.origin.at("objects", index, "path"))
+                files[path] = mesh.triangles()
             count, extra = files[path], mesh.format.parse_bytes
             floor = mesh.read_floor()  # a large file that claims few triangles still costs its read (a one-line OBJ)
         else:

@@ -69,12 +69,12 @@ def mesh_scene_dict(path: Path, overrides: list[str] | tuple[str, ...] = (), vie
     from ..io.meshes.source import mesh_source, source_key
     where = Location(str(path))
     check_view(view, where)
-    source = mesh_source(path)
+    source = mesh_source(path, where)
     check_file_content(path, source.format, where)  # an OBJ named .stl is no binary STL of 1702M triangles
     if sources is not None:
         sources[source_key(path)] = source
-    check_mesh_read(source, where, max_memory)  # the framing read comes before render()'s own memory check
-    found = source.bounds(where)  # trimesh: only for mesh files
+    check_mesh_read(source, max_memory)  # the framing read comes before render()'s own memory check
+    found = source.bounds()  # trimesh: only for mesh files
     return framed_dict(found, path.name, path.stem, mesh_colour(path)[0], overrides, view, up, where)
 
 

@@ -41,16 +41,16 @@ class ArraySource(MeshSource):
     def texture_sizes(self) -> tuple:
         return ()
 
-    def triangles(self, where) -> int:
+    def triangles(self) -> int:
         return len(self.held.faces)
 
     def read_floor(self) -> int:
         return 0
 
-    def bounds(self, where):
+    def bounds(self):
         return self.held
 
-    def read(self, where):
+    def read(self):
         return self.held
 
     def holds_read(self) -> bool:
@@ -155,7 +155,7 @@ def mesh_scene(vertices: Any, faces: Any = None, *, normals: Any = None, name: s
     where = Location("mesh_scene")
     check_view(view, where)
     path, source = held_mesh(vertices, faces, normals, where, folder)
-    data = framed_dict(source.bounds(where), path, name, DISPLAY, overrides, view, up, where)
+    data = framed_dict(source.bounds(), path, name, DISPLAY, overrides, view, up, where)
     scene = validate_scene(data, source=where, folder=folder)
     scene.mesh_sources[source_key(scene.resolve(path))] = source
     return scene

@@ -385,9 +385,14 @@ class Scene(Table):
         """A path from the scene file, relative to the file's folder."""
         return Path(self.folder) / Path(path).expanduser()
 
+    def mesh_objects(self) -> list[tuple[int, Path]]:
+        """(index, file) of each object read from a file (a mesh), the file resolved, in the objects' order."""
+        return [(index, self.resolve(obj.path)) for index, obj in enumerate(self.objects)
+                if from_file(obj) and obj.path]
+
     def mesh_paths(self) -> list[Path]:
         """The file each object read from a file (a mesh) names, resolved, in the objects' order."""
-        return [self.resolve(obj.path) for obj in self.objects if from_file(obj) and obj.path]
+        return [path for _, path in self.mesh_objects()]
 
     def named_files(self) -> dict[tuple, str]:
         """Every file the scene names, as written, by the key path that names it (a tuple, as error locations

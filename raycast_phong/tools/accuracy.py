@@ -88,7 +88,7 @@ def check_fine_memory(scene: Scene, data: dict, levels: int, source: str | Locat
 def _mesh_triangles(scene: Scene, index: int, source: str | Location) -> int:
     from ..io.meshes.source import mesh_sources
     path = scene.resolve(scene.objects[index].path)
-    return mesh_sources(scene)[path].triangles(located(source).at("objects", index, "path"))
+    return mesh_sources(scene)[path].triangles()
 
 
 def fine_reference(scene: Scene, levels: int, source: str | Location = "<scene>",

@@ -143,22 +143,22 @@ def test_a_binary_stl_whose_size_does_not_match_its_count_is_corrupt(tmp_path):
     path = tmp_path / "cut.stl"
     path.write_bytes(b"\0" * 80 + (1000).to_bytes(4, "little") + b"\0" * 50 * 10)  # counts 1000, holds 10
     with pytest.raises(SceneError, match=r"cut\.stl.*binary STL.*1,000 triangles.*corrupt"):
-        mesh_source(path).triangles(f"{path}")
+        mesh_source(path).triangles()
     big = sparse(tmp_path / "zeros.stl", 1 << 30)  # a multi-GiB STL of zeros counts 0 but is 1 GiB
     with pytest.raises(SceneError, match="corrupt"):
-        mesh_source(big).triangles(str(big))
+        mesh_source(big).triangles()
 
 
 def test_unused_vertices_count(tmp_path):
     """A million vertices and one face weigh as what they hold (before: one triangle)."""
     obj = tmp_path / "points.obj"
     obj.write_bytes(b"v 0 0 0\n" * 1_000_000 + b"f 1 2 3\n")
-    assert mesh_source(obj).triangles("k") >= 999_000
+    assert mesh_source(obj).triangles() >= 999_000
     ply = tmp_path / "points.ply"
     ply.write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 1000000\nproperty float x\n"
                     b"property float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\n"
                     b"end_header\n")
-    assert mesh_source(ply).triangles("k") >= 999_000
+    assert mesh_source(ply).triangles() >= 999_000
 
 
 def binary_ply(path: Path, vertices: int, element: str, lists: list[list[int]], count: str = "uint") -> Path:
@@ -179,13 +179,13 @@ def test_a_ply_s_lists_weigh_as_the_triangles_they_can_make(tmp_path):
     it (before: the count was 1, and `plan` ran over 6 minutes at 745 MB). A file of triangles counts exactly."""
     import random
     face = binary_ply(tmp_path / "face.ply", 3, "face", [[i % 3 for i in range(3_000_000)]])
-    assert mesh_source(face).triangles("k") == 3_000_000 - 2
+    assert mesh_source(face).triangles() == 3_000_000 - 2
     strip = binary_ply(tmp_path / "strip.ply", 3, "tristrips", [[i % 3 for i in range(1_000_000)]], count="int")
-    assert mesh_source(strip).triangles("k") == 1_000_000 - 2
+    assert mesh_source(strip).triangles() == 1_000_000 - 2
     rng = random.Random(1)
     triangles = binary_ply(tmp_path / "t.ply", 500, "face", [rng.sample(range(500), 3) for _ in range(700)],
                            count="uchar")
-    assert mesh_source(triangles).triangles("k") == 700
+    assert mesh_source(triangles).triangles() == 700
     done, peak, _ = run_measured(["render", str(face), "--max-memory", "300M", "-o", str(tmp_path / "o.png")],
                                  tmp_path)
     lines = done.stderr.strip().splitlines()
@@ -218,7 +218,7 @@ def test_an_obj_is_counted_the_same_in_any_pieces(lines, chunk, newline):
     saved = obj_format.CHUNK
     try:
         obj_format.CHUNK = chunk
-        assert obj_format.count(io.BytesIO(text), len(text), None, "k") == max(expected, 0)
+        assert obj_format.count(io.BytesIO(text), len(text), None) == max(expected, 0)
     finally:
         obj_format.CHUNK = saved
 
@@ -232,7 +232,7 @@ def test_a_one_line_obj_is_counted_in_bounded_memory(tmp_path):
     path.write_bytes(b"f" + b" 1" * corners)
     tracemalloc.start()
     try:
-        count = mesh_source(path).triangles("k")
+        count = mesh_source(path).triangles()
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()

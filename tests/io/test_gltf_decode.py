@@ -126,10 +126,10 @@ def test_instances_are_each_placed_and_counted_before_the_read(tmp_path):
     distance, _ = cKDTree(reference.vertices).query(packed.vertices[packed.faces].reshape(-1, 3))
     assert distance.max() < 1e-3, distance.max()
     # The estimate counts every instance's triangles (and vertices) before any data is decoded.
-    counted = mesh_source(MODELS / "many-cubes-instanced.glb").triangles("t")
-    assert counted == mesh_source(MODELS / "many-cubes-float.glb").triangles("t") >= 501 * 12
+    counted = mesh_source(MODELS / "many-cubes-instanced.glb").triangles()
+    assert counted == mesh_source(MODELS / "many-cubes-float.glb").triangles() >= 501 * 12
     with pytest.raises(SceneError, match="triangles needs"):  # 12 triangles' worth fits; 501 × 12 do not
-        check_mesh_read(mesh_source(MODELS / "many-cubes-instanced.glb"), "t", max_memory=1 << 20)
+        check_mesh_read(mesh_source(MODELS / "many-cubes-instanced.glb", "t"), max_memory=1 << 20)
     image, expected = (rp.render_file(MODELS / n, SMALL).image
                        for n in ("many-cubes-instanced.glb", "many-cubes-float.glb"))
     assert differing(image, expected, 0.02) < 0.005

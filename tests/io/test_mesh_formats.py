@@ -51,14 +51,14 @@ def test_the_registry_claims_each_suffix_once_and_names_it():
 def test_a_small_file_of_each_format_reads_counts_and_renders(tmp_path, suffix):
     path = write(tmp_path, suffix)
     source = mesh_source(path)
-    read = source.read("t")
+    read = source.read()
     assert len(read.faces) == 4 and read.vertices.shape[1] == 3
     corners = np.asarray(read.vertices)[read.faces]
     area = np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1).sum() / 2
     assert area == pytest.approx(TETRA.area, rel=1e-6)  # the same surface, placed as written
     # Counted before the read: at least the triangles (never fewer, or the estimate under-counts), at most the
     # size bound; the read floor at least the file's own bytes.
-    assert 4 <= mesh_source(path).triangles("t") <= max(4, path.stat().st_size)
+    assert 4 <= mesh_source(path).triangles() <= max(4, path.stat().st_size)
     assert source.read_floor() >= path.stat().st_size
     scene = rp.load_scene(path, SMALL)
     result = rp.render(scene)  # drawn: some pixel is not the background (trimesh writes a COLLADA material black)
@@ -87,7 +87,7 @@ def test_bad_bytes_of_each_format_are_one_line(tmp_path, suffix, bad):
     path = tmp_path / f"bad{suffix}"
     path.write_bytes(data)
     try:
-        read = mesh_source(path).read("scene.toml: objects.0.path")
+        read = mesh_source(path, "scene.toml: objects.0.path").read()
     except SceneError as error:
         text = str(error)
         assert "\n" not in text and text.startswith("scene.toml: objects.0.path: ") and str(path) in text, text
@@ -125,7 +125,7 @@ def test_another_format_s_bytes_are_refused_before_any_reader(tmp_path, suffix):
     path = tmp_path / f"impostor{suffix}"
     path.write_bytes(write(tmp_path, other).read_bytes())
     with pytest.raises(SceneError, match=f"its content is {name}; rename it"):
-        mesh_source(path).read("t")
+        mesh_source(path, "t").read()
 
 
 def test_a_sparse_file_too_large_to_read_is_refused_from_its_size_alone(tmp_path, monkeypatch):

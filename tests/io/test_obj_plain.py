@@ -22,7 +22,7 @@ def read(path: Path, plain: bool, monkeypatch) -> mesh_file.MeshFile:
     with monkeypatch.context() as patch:
         if not plain:
             patch.setattr(obj_plain, "plain_obj", lambda data, path: None)
-        return mesh_file.read_file(mesh_source(path), str(path), bounds=True)  # no cache: read each time
+        return mesh_file.read_file(mesh_source(path), bounds=True)  # no cache: read each time
 
 
 def assert_same_mesh_file(a: mesh_file.MeshFile, b: mesh_file.MeshFile) -> None:

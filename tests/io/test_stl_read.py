@@ -39,7 +39,7 @@ def test_a_binary_stl_is_read_as_float32_corners_with_trimesh_values(stl_files):
     assert read.faces.dtype == np.int64 and read.normals is None and read.corner_colour is None
     assert (read.face_group == -1).all() and read.materials == ()
     # Framing's bounds in float64, as from trimesh's float64 points.
-    framed = mesh_file.read_file(mesh_source(binary), "t", bounds=True)
+    framed = mesh_file.read_file(mesh_source(binary, "t"), bounds=True)
     corners = theirs.vertices
     centre = (corners.min(axis=0) + corners.max(axis=0)) / 2
     assert framed.centre.dtype == np.float64 and np.array_equal(framed.centre, centre)

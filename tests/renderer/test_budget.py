@@ -28,7 +28,7 @@ def test_a_binary_stl_whose_header_says_solid_is_counted_from_its_header(tmp_pat
     from raycast_phong.io.meshes.source import mesh_source
     path = tmp_path / "binary.stl"
     path.write_bytes(b"solid exported".ljust(80, b" ") + struct.pack("<I", 10) + bytes(50 * 10))
-    assert mesh_source(path).triangles("objects.0.path") == 10
+    assert mesh_source(path).triangles() == 10
 
 
 def test_every_object_adds_its_own_bytes_whatever_its_triangles():

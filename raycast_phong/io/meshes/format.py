@@ -57,7 +57,7 @@ def _any_content(head: bytes, found: str | None, size: int, suffix: str) -> bool
     return True
 
 
-def _no_count(handle: BinaryIO, size: int, source: MeshSource, where: Where) -> int | None:
+def _no_count(handle: BinaryIO, size: int, source: MeshSource) -> int | None:
     return None
 
 
@@ -69,7 +69,7 @@ def _no_held(path: Path, source: MeshSource) -> tuple[int, int]:
     return 0, 0
 
 
-def _nothing(handle: BinaryIO, path: Path, where: Where) -> None:
+def _nothing(handle: BinaryIO, source: MeshSource) -> None:
     return None
 
 
@@ -94,15 +94,15 @@ class MeshFormat:
     # the file's size, `suffix` its suffix; a file that does not fit is refused in one line before any reader.
     content: Callable[[bytes, str | None, int, str], bool] = _any_content
     # Triangles from the header or a cheap scan (size.count_triangles weighs them); None: the size bound.
-    count: Callable[[BinaryIO, int, MeshSource, Where], int | None] = _no_count
+    count: Callable[[BinaryIO, int, MeshSource], int | None] = _no_count
     # The least memory reading the file costs, from its size (and side files' sizes) alone.
     floor: Callable[[Path, int, MeshSource], int] = _text_floor
     # What a read decodes besides the file's bytes, for the refusal's words: (external buffers, unzipped bytes).
     held: Callable[[Path, MeshSource], tuple[int, int]] = _no_held
     parse_bytes: int = OTHER_PARSE_BYTES  # a read's bytes a triangle above the render's own peak
     # What is wrong with a file its reader refused, in the renderer's words naming the line (the file open at
-    # its start, its path, where errors point); None to word the reader's refusal.
-    explain: Callable[[BinaryIO, Path, Where], str | None] = _nothing
+    # its start, its MeshSource); None to word the reader's refusal.
+    explain: Callable[[BinaryIO, MeshSource], str | None] = _nothing
     # What the file names beside it, made into MeshSource fields (side_files, document, materials, images).
     describe: Callable[[Path], dict[str, Any]] = _described
     texture_sizes: Callable[[MeshSource], tuple[tuple[int, int], ...]] = _no_sizes  # (height, width) of each map

@@ -325,7 +325,7 @@ def read(reading: Reading) -> Loaded:
     return Loaded(parts(loaded), samplers=samplers)
 
 
-def count(handle, size: int, source, where: Where) -> int | None:
+def count(handle, size: int, source) -> int | None:
     """Triangles over every node's mesh (each node counts, and each instance of an EXT_mesh_gpu_instancing node:
     instances × the mesh's triangles), from the accessors' counts in the parsed document; or their vertices
     (less 2) where more (format.weigh: a compressed bufferView decodes to what its accessors read,

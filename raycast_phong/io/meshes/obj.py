@@ -138,14 +138,14 @@ def read(reading: Reading) -> Loaded:
     return Loaded(parts(loaded), library=materials.library)
 
 
-def explain(handle, path: Path, where: Where) -> str | None:
-    return obj_problem(bom_decoded(handle.read(), path, where))
+def explain(handle, source) -> str | None:
+    return obj_problem(bom_decoded(handle.read(), source.path, source.where))
 
 
 CHUNK = 1 << 20  # an OBJ is scanned this many bytes at a time (about 20 MB of index arrays), never a whole line
 
 
-def count(handle, size: int, source, where: Where) -> int:
+def count(handle, size: int, source) -> int:
     """An OBJ's triangles (a face of k corners is k − 2), or its vertices where more (format.weigh), scanned in
     CHUNK-byte pieces with numpy: a line is never held whole, so a one-line 1 GB file costs about 20 MB here.
 

@@ -11,7 +11,7 @@ def read(reading: Reading) -> Loaded:
     return Loaded(parts(load(reading, latin1_text(reading.handle))))
 
 
-def count(handle, size: int, source, where) -> int | None:
+def count(handle, size: int, source) -> int | None:
     """The faces and vertices of the header's counts line (the first line after `OFF` that is not a comment)."""
     head = handle.read(4096)
     numbers = [line.split() for line in head.splitlines()[1:] if line.strip() and not line.startswith(b"#")]

@@ -126,11 +126,11 @@ def _textures(path: Path, handle, notes: list[str]) -> list[str]:
     return names
 
 
-def explain(handle, path: Path, where) -> str | None:
+def explain(handle, source) -> str | None:
     return ply_problem(handle.read(HEADER_LIMIT))
 
 
-def count(handle, size: int, source, where) -> int | None:
+def count(handle, size: int, source) -> int | None:
     """The header's face count, or the most triangles its lists can make from the file's size (binary), or its
     vertices less 2 where more (format.weigh); None for a header without faces or lists."""
     head = handle.read(4096)

@@ -54,11 +54,11 @@ class MeshFile:
 
 
 
-def read_file(source, where: Where, bounds: bool = True) -> MeshFile:
-    """The file of `source` (its MeshSource), read by its format and finished here; `where` starts every error
-    ("scene.toml: objects.0.path"). bounds: also measure the centre and radius framing needs (a render's own
+def read_file(source, bounds: bool = True) -> MeshFile:
+    """The file of `source` (its MeshSource), read by its format and finished here; its `where` starts every
+    error ("scene.toml: objects.0.path"). bounds: also measure the centre and radius framing needs (a render's own
     read skips the pass)."""
-    path, kind = source.path, source.format
+    path, kind, where = source.path, source.format, source.where
     handle = open_mesh_file(path, where)
     notes: list[str] = []
     textures: list[TextureSource] = []
@@ -72,7 +72,7 @@ def read_file(source, where: Where, bounds: bool = True) -> MeshFile:
         if not raised_in_trimesh(error):
             raise  # our own bug, not the file's: an internal error with its traceback
         with open_mesh_file(path, where) as handle:
-            problem = kind.explain(handle, path, where)
+            problem = kind.explain(handle, source)
         if problem:
             raise SceneError(f"{str(path)!r} {problem}", where) from None
         # The renderer's words, not the library's exception text (issue 33): a KeyError of three NUL bytes or

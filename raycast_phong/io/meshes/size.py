@@ -8,7 +8,7 @@ from __future__ import annotations
 import os
 import struct
 
-from ...errors import SceneError, Where
+from ...errors import SceneError
 from ..files import open_regular
 from ..system import count_text, format_bytes, memory_allowed
 
@@ -18,20 +18,20 @@ MESH_READ_BYTES = 270
 SMALLEST_TRIANGLE = 6  # bytes a triangle takes at least in any format: the size bound of a file not counted
 
 
-def count_triangles(source, where: Where) -> int:
+def count_triangles(source) -> int:
     """Triangles in the mesh file of `source` (a MeshSource), read cheaply by its format (PLY and OFF headers,
     binary STL's count, OBJ's face corners, glTF's accessor counts), else by file size (SMALLEST_TRIANGLE);
     where the file's vertices outnumber its triangles, its vertices (less 2): unused vertices cost memory too.
     0 for a missing file (the read reports it); a FIFO, device or folder is refused here, and so is a binary
     STL whose size does not match its header's count (SceneError)."""
     try:
-        handle = open_regular(source.path, where, "mesh file")
+        handle = open_regular(source.path, source.where, "mesh file")
     except FileNotFoundError:
         return 0
     with handle:
         size = os.fstat(handle.fileno()).st_size
         try:
-            found = source.format.count(handle, size, source, where)
+            found = source.format.count(handle, size, source)
         except SceneError:
             raise
         except (ValueError, KeyError, IndexError, TypeError, struct.error, OSError, RecursionError):
@@ -49,7 +49,7 @@ def read_floor(source) -> int:
     return source.format.floor(source.path, size, source)
 
 
-def check_mesh_read(source, where: Where, max_memory: int | None = None) -> None:
+def check_mesh_read(source, max_memory: int | None = None) -> None:
     """Refuse (SceneError, one line) to read a mesh file (`source`: its MeshSource) for framing (scene.framing,
     before any render and so before renderer.budget.check_memory) when the read alone could not fit in the
     memory available now (io.system.available_memory: cgroup and `ulimit -v`; and `max_memory`, the command's
@@ -57,7 +57,7 @@ def check_mesh_read(source, where: Where, max_memory: int | None = None) -> None
     its triangles (from the header) × the flat render's bytes per triangle and the format's parse."""
     available = memory_allowed(max_memory)
     floor = read_floor(source)  # from the size alone: a huge file is refused before any byte is read
-    triangles = 0 if available is not None and floor > available else source.triangles(where)
+    triangles = 0 if available is not None and floor > available else source.triangles()
     need = max(triangles * (MESH_READ_BYTES + source.format.parse_bytes), floor)
     if available is not None and need > available:
         external, unzipped = source.format.held(source.path, source)  # said only when refused
@@ -66,4 +66,4 @@ def check_mesh_read(source, where: Where, max_memory: int | None = None) -> None
                 + (f" ({format_bytes(unzipped)} unzipped)" if unzipped else ""))
         raise SceneError(f"reading its {what} needs ≈ {format_bytes(need)} of memory, more than the "
                          f"{format_bytes(available)} available; allowed: a mesh whose size and triangles fit, "
-                         "so decimate it or free memory", where)
+                         "so decimate it or free memory", source.where)

@@ -37,6 +37,8 @@ class MeshSource:
     path: Path
     format: MeshFormat
     version: tuple | None              # io.files.file_version; None for a missing file (the read words it)
+    where: Where = ""                  # where its errors point: the first object naming it (scene.toml:
+                                       # objects.2.path), else the file itself
     _memo: dict[str, Any] = field(default_factory=dict, repr=False)  # what was read: triangles, bounds, read
 
     @cached_property
@@ -90,11 +92,11 @@ class MeshSource:
         the memory estimate."""
         return self.format.texture_sizes(self)
 
-    def triangles(self, where: Where) -> int:
+    def triangles(self) -> int:
         """Its triangles, counted cheaply once (io/meshes/size.py): framing's check and the render's estimate ask."""
         if "triangles" not in self._memo:
             from .size import count_triangles
-            self._memo["triangles"] = count_triangles(self, where)
+            self._memo["triangles"] = count_triangles(self)
         return self._memo["triangles"]
 
     def read_floor(self) -> int:
@@ -102,12 +104,12 @@ class MeshSource:
         from .size import read_floor
         return read_floor(self)
 
-    def bounds(self, where: Where) -> MeshFile:
+    def bounds(self) -> MeshFile:
         """Its centre, radius, up axis, materials and notes (the arrays empty), for framing: read once, and the
         whole read kept for the render that follows (`read` takes it), so a framed file is read once."""
         if "bounds" not in self._memo:
             from .read import read_file
-            found = read_file(self, where, bounds=True)
+            found = read_file(self, bounds=True)
             if self.version is not None:
                 self._memo["read"] = found
             empty = found.vertices[:0]
@@ -115,34 +117,35 @@ class MeshSource:
                                            face_group=found.face_group[:0], corner_uv=None, corner_colour=None)
         return self._memo["bounds"]
 
-    def read(self, where: Where) -> MeshFile:
+    def read(self) -> MeshFile:
         """The file's geometry and surfaces (io/meshes/read.py): the read framing kept, taken (the caller owns
         it now), else read now."""
         found = self._memo.pop("read", None)
         if found is not None:
             return found
         from .read import read_file
-        return read_file(self, where, bounds=False)
+        return read_file(self, bounds=False)
 
     def holds_read(self) -> bool:
         """Whether a read waits here for its render (framing read the file in this process)."""
         return "read" in self._memo
 
 
-def mesh_source(path: Path) -> MeshSource:
+def mesh_source(path: Path, where: Where | None = None) -> MeshSource:
     """The MeshSource of the file at `path` as it is now (its version; what it names beside it is read when
-    asked). A file that cannot be read gives a source with what could be (the read words the error)."""
+    asked); `where` starts its errors (default: the file). A file that cannot be read gives a source with what
+    could be (the read words the error)."""
     path = Path(path)
     try:
         version = file_version(path)
     except OSError:
         version = None
-    return MeshSource(path, format_of(path), version)
+    return MeshSource(path, format_of(path), version, str(path) if where is None else where)
 
 
-def read_mesh(path: Path, where: Where) -> MeshFile:
+def read_mesh(path: Path, where: Where | None = None) -> MeshFile:
     """The mesh file at `path`, read now (its MeshSource made now); `where` starts every error."""
-    return mesh_source(path).read(where)
+    return mesh_source(path, where).read()
 
 
 def _stamps(files) -> tuple:
@@ -159,11 +162,12 @@ def mesh_sources(scene, given: dict | None = None) -> dict[Path, MeshSource]:
     those `given` (or the scene's own, Scene.mesh_sources) that are still current, the others made now."""
     given = scene.mesh_sources if given is None else given
     found: dict[Path, MeshSource] = {}
-    for path in scene.mesh_paths():
+    for index, path in scene.mesh_objects():
         if path in found:
             continue
         source = given.get(source_key(path))
-        found[path] = source if source is not None and source.current() else mesh_source(path)
+        where = scene.origin.at("objects", index, "path")
+        found[path] = source if source is not None and source.current() else mesh_source(path, where)
     return found
 
 
