@@ -45,6 +45,11 @@ def read_scene_file(path: Path, max_memory: int | None = None) -> dict:
             raise SceneError(f"reading its {format_bytes(len(data))} of text needs ≈ {format_bytes(need)} of memory, "
                              f"more than the {format_bytes(allowed)} available; allowed: a scene whose text fits, so "
                              "split it or raise the budget (--max-memory)", path)
+        if b"\0" in data[:4096] or (not data[:4096].isascii() and _not_utf8(data)):
+            from .meshes import unread  # a binary file under a scene's name: say what it is, not a decode error
+            reason = unread(Path(""), data[:64])
+            if reason is not None:
+                raise SceneError(reason, path)
         text = data.decode("utf-8")
     except FileNotFoundError:
         raise SceneError("no such scene file", path) from None
@@ -72,6 +77,14 @@ def read_scene_file(path: Path, max_memory: int | None = None) -> dict:
     if not isinstance(data, dict):
         raise SceneError("the top level must be a table of keys", path)
     return data
+
+
+def _not_utf8(data: bytes) -> bool:
+    try:
+        data.decode("utf-8")
+    except UnicodeDecodeError:
+        return True
+    return False
 
 
 STDIN_NAMES = ("-", "/dev/stdin")  # a scene piped in: TOML, or JSON when it starts with "{" (TOML cannot)

@@ -38,6 +38,10 @@ def read_scene_dict(path: str | Path, overrides: list[str] | tuple[str, ...] = (
     A mesh file's io.meshes.source.MeshSource is put in `sources`, if given."""
     path = Path(path)
     if not is_mesh_file(path):
+        from ..io.meshes import unread
+        reason = unread(path)
+        if reason is not None:  # an FBX, a Blender file: not a scene file to read as TOML
+            raise SceneError(reason, Location(str(path)))
         if view is not None or up is not None:
             raise SceneError("--view and --up frame a mesh file; a scene file has its own [camera]",
                              Location(str(path)))

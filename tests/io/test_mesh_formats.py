@@ -159,3 +159,27 @@ def test_a_scene_over_the_budget_is_refused_before_any_kernel_is_made_ready(tmp_
                                     "--max-memory", "20M"])
     assert done.exit_code == 2, done.output
     assert "above the 20 MB budget" in done.stderr and "\n" not in done.stderr.strip()
+
+
+@pytest.mark.parametrize("name, content, said", [
+    ("model.fbx", b"; FBX 7.4.0 project file\nFBXHeaderExtension:  {\n", "its format is FBX"),  # ASCII FBX
+    ("model.fbx", b"Kaydara FBX Binary  \x00\x1a\x00\xe8\x1c\x00\x00", "its format is FBX"),
+    ("chair.blend", b"BLENDER-v300REND", "its format is Blender"),
+    ("scene.toml", (Path(__file__).parents[2] / "docs" / "images" / "default.png").read_bytes()[:4096],
+     "its format is a PNG image"),
+    ("scene.toml", b"BLENDER-v300REND\x00\x00", "its format is Blender"),
+])
+def test_a_format_not_read_is_named_with_those_that_are_not_read_as_toml(tmp_path, name, content, said):
+    """An FBX (what students download most) said "TOML syntax error ... line 1, column 7", a PNG named .toml a
+    utf-8 decode error: each is now one line naming its format, the formats read and, for a model, how to convert."""
+    from typer.testing import CliRunner
+
+    from raycast_phong.cli import app
+    path = tmp_path / name
+    path.write_bytes(content)
+    done = CliRunner().invoke(app, ["render", str(path), "-o", str(tmp_path / "x.png")])
+    assert done.exit_code == 2, done.output
+    [line] = done.stderr.strip().splitlines()
+    assert line.startswith(f"error: {path}: {said}, which this renderer does not read; it reads scene files"), line
+    assert "OBJ, PLY, STL, OFF, glTF/GLB, 3MF, COLLADA" in line and not (tmp_path / "x.png").exists()
+    assert ("convert it to glTF" in line) == (said != "its format is a PNG image")
