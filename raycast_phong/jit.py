@@ -226,16 +226,36 @@ class _CacheLoadedAsIs(FunctionCache):
     set_up(), so the BLAS probe is still skipped."""
 
     def load_overload(self, sig, target_context):
-        loaded = super().load_overload(sig, target_context) if not LIGHT_LOAD else self._light_load(sig, target_context)
+        loaded = self._checked_load(sig, target_context)
         if loaded is None and LIGHT_LOAD:
             wait = compiled_elsewhere.pop(kernel_name(self._py_func), None)
             if wait is not None:  # another process is compiling this kernel into the cache: wait, then load it
                 wait()
-                loaded = self._light_load(sig, target_context)
+                loaded = self._checked_load(sig, target_context)
         if loaded is None:
             set_up()  # numba is about to compile (and load its registries)
             compiling(kernel_name(self._py_func), sig)
         return loaded
+
+    def _checked_load(self, sig, target_context):
+        """The cached kernel for `sig`, or None. The cache is input like any file: an entry that cannot be loaded
+        (truncated, empty, random bytes, another version's) is removed, so the kernel compiles over it, and a
+        corrupt cache never breaks every later render."""
+        try:
+            return super().load_overload(sig, target_context) if not LIGHT_LOAD else \
+                self._light_load(sig, target_context)
+        except Exception:  # noqa: BLE001 - whatever the bytes make the unpickler or numba raise
+            self.drop()
+            return None
+
+    def drop(self) -> None:
+        """Remove this kernel's cache entry: its index and data files (numba writes them afresh on the compile)."""
+        index = Path(self._cache_file._index_path)
+        for path in index.parent.glob(f"{index.stem}.*"):
+            try:
+                path.unlink()
+            except OSError:
+                pass  # another process removed or replaced it
 
     def _light_load(self, sig, target_context):
         """The cached kernel for `sig`, loaded without numba's registries, or None."""
@@ -281,8 +301,8 @@ def cached(dispatcher, arguments: tuple | None = None) -> bool:
         return True
     try:
         return cache.holds(signature, dispatcher.targetctx)
-    except (AttributeError, OSError, ValueError):  # numba's internals moved: behave as if cached
-        return True
+    except Exception:  # noqa: BLE001 - numba's internals moved, or a corrupt index: behave as if cached (the load
+        return True    # then removes a corrupt entry and compiles)
 
 
 def callee(dispatcher, arguments: tuple, returns=None):

@@ -50,3 +50,49 @@ def test_the_usual_folder_comes_first(tmp_path, monkeypatch):
         assert Path(jit.cache_folder()).parent == tmp_path / "mine"
     finally:
         jit.cache_folder.cache_clear()
+
+
+TINY = """
+from raycast_phong.jit import kernel
+
+
+@kernel()
+def plus_one(x):
+    return x + 1
+"""
+CALL = """
+import sys
+sys.path.insert(0, sys.argv[1])
+from raycast_phong.compiles import told
+import tiny
+with told(lambda name, signature: print("compiling", name)):
+    print(tiny.plus_one(41))
+"""
+
+
+@pytest.mark.slow
+def test_a_corrupt_kernel_cache_is_compiled_over_and_then_loaded(tmp_path):
+    """The kernel cache is input: a truncated data file, an empty index or random bytes gave `internal error` on
+    every later run, for good (issue 50). Now the entry that does not load is removed and the kernel compiles over
+    it, announced; the next process loads the new entry."""
+    import subprocess
+    import sys
+    (tmp_path / "tiny.py").write_text(TINY, encoding="utf-8")
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+
+    def run() -> list[str]:
+        done = subprocess.run([sys.executable, "-c", CALL, str(tmp_path)], capture_output=True, text=True, env=env,
+                              timeout=300)
+        assert done.returncode == 0 and not done.stderr, done.stderr
+        return done.stdout.split()
+
+    assert run() == ["compiling", "tiny.plus_one", "42"]  # the first run compiles
+    assert run() == ["42"]  # the control: loaded
+    damages = {"truncated data": lambda path: path.write_bytes(path.read_bytes()[:100]) if path.suffix == ".nbc" else 0,
+               "empty index": lambda path: path.write_bytes(b"") if path.suffix == ".nbi" else 0,
+               "random bytes": lambda path: path.write_bytes(os.urandom(3000))}
+    for damage, spoil in damages.items():
+        for path in (tmp_path / "cache").rglob("tiny.plus_one-*"):
+            spoil(path)
+        assert run() == ["compiling", "tiny.plus_one", "42"], damage
+        assert run() == ["42"], damage
