@@ -39,7 +39,7 @@ class Reading(NamedTuple):
 @dataclass(frozen=True)
 class Loaded:
     """What a format's `read` gives io/meshes/read.py to finish into a MeshFile."""
-    parts: list                                    # read.Part each: one placed triangle mesh
+    parts: list                                    # trimesh_parts.Part each: one placed triangle mesh
     up: tuple[float, float, float] | None = None   # the up axis the file itself states (COLLADA's <up_axis>)
     library: dict | None = None                    # an OBJ's materials by name (its .mtl files)
     samplers: dict = field(default_factory=dict)   # a glTF's material extensions and samplers (io.meshes.gltf)
