@@ -385,7 +385,8 @@ def test_an_unreadable_manifest_is_refused(five_scenes, tmp_path):
     (out / "manifest.json").mkdir(parents=True)
     result = run(str(five_scenes), "--out", str(out), "--jobs", "1")
     assert result.exit_code == 2
-    assert result.stderr == f"error: {out / 'manifest.json'}: cannot read the batch manifest (Is a directory)\n"
+    assert result.stderr == (f"error: {out / 'manifest.json'}: {str(out / 'manifest.json')!r} is a folder, not a "
+                             "regular file; give a batch manifest\n")
     assert images(out) == []
 
 
@@ -457,3 +458,27 @@ def test_the_batch_records_stop_signals_from_its_first_imports():
     for command, expected in (("batch", listening), ("render", python_s)):
         done = subprocess.run([sys.executable, "-c", probe, command], capture_output=True, text=True, timeout=120)
         assert done.returncode == 0 and done.stdout.strip() == expected, (command, done.stdout, done.stderr)
+
+
+@pytest.mark.parametrize("plant", ["fifo", "dev-zero"])
+def test_a_planted_manifest_that_is_no_regular_file_is_one_line_not_a_hang(tmp_path, plant):
+    """Anyone who can write a shared output folder could plant manifest.json as a FIFO (the batch waited for a
+    writer forever) or as a link to /dev/zero (it read 3.6 GB in 5 s under a 300M budget): refused in one line,
+    exit 2, before anything renders."""
+    import shutil
+    import subprocess
+    import sys
+    scene = tmp_path / "default.toml"
+    shutil.copy(ROOT / "scenes" / "default.toml", scene)
+    out = tmp_path / "out"
+    out.mkdir()
+    if plant == "fifo":
+        os.mkfifo(out / "manifest.json")
+    else:
+        os.symlink("/dev/zero", out / "manifest.json")
+    done = subprocess.run([sys.executable, "-m", "raycast_phong.cli", "batch", str(scene), "-o", str(out), "--jobs",
+                           "1", "-q"], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2, done.stderr
+    [line] = done.stderr.strip().splitlines()
+    assert "manifest.json" in line and "not a regular file" in line, line
+    assert not (out / "default.png").exists()

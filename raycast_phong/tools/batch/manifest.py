@@ -14,8 +14,9 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from ...errors import BatchBusy, BatchFolderError, CorruptManifest
+from ...errors import BatchBusy, BatchFolderError, CorruptManifest, SceneError
 from ...io.atomic import write_text
+from ...io.files import open_regular
 
 MANIFEST = "manifest.json"
 
@@ -31,19 +32,29 @@ def is_own_manifest(path: Path, folder: Path) -> bool:
     return path.resolve() == (folder / MANIFEST).resolve()
 
 
+MANIFEST_LIMIT = 64 << 20  # bytes: entries of about 100,000 scenes; a larger file is no manifest of a batch's
+
+
 def read_manifest(folder: Path) -> dict:
     """DIR/manifest.json, or an empty manifest if there is none.
 
-    Raises CorruptManifest for a file that is not a batch manifest (format MANIFEST_FORMAT), BatchFolderError for
-    one that cannot be read (BatchFolderError; e.g. a folder of that name).
+    Raises CorruptManifest for a file that is not a batch manifest (format MANIFEST_FORMAT, at most
+    MANIFEST_LIMIT bytes), BatchFolderError for one that cannot be read or is not a regular file (a folder, a FIFO
+    that would block the batch forever, a link to /dev/zero that never ends: anyone who can write a shared output
+    folder could plant one).
     """
     path = folder / MANIFEST
     try:
-        text = path.read_bytes()
+        with open_regular(path, str(path), "batch manifest") as handle:
+            text = handle.read(MANIFEST_LIMIT + 1)
     except FileNotFoundError:
         return {"format": MANIFEST_FORMAT, "scenes": {}, "sheets": {}}
+    except SceneError as error:  # not a regular file
+        raise BatchFolderError(str(error)) from None
     except OSError as error:
         raise BatchFolderError(f"{path}: cannot read the batch manifest ({error.strerror})") from None
+    if len(text) > MANIFEST_LIMIT:
+        raise CorruptManifest(f"more than the {MANIFEST_LIMIT >> 20} MiB a batch's manifest takes")
     try:
         data = json.loads(text)
     except (ValueError, RecursionError) as error:  # not UTF-8, not JSON, or nested too deep
