@@ -124,7 +124,12 @@ def _bases():
     if numba.config.CACHE_DIR:  # NUMBA_CACHE_DIR
         yield Path(numba.config.CACHE_DIR)
     yield OWN_CACHE
-    yield Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "raycast-phong"
+    try:
+        user = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    except RuntimeError:  # no home folder known at all
+        user = None
+    if user is not None and user.parent.is_dir():  # never made: a missing home folder (a user whose HOME is gone)
+        yield user / "raycast-phong"
     private = _private_temporary()  # last: a read-only install and home would otherwise compile every run
     if private is not None:
         yield private

@@ -96,3 +96,24 @@ def test_a_corrupt_kernel_cache_is_compiled_over_and_then_loaded(tmp_path):
             spoil(path)
         assert run() == ["compiling", "tiny.plus_one", "42"], damage
         assert run() == ["42"], damage
+
+
+def test_a_missing_home_folder_is_not_made_for_the_cache(tmp_path, monkeypatch):
+    """Run as a user whose HOME does not exist, the cache's fallback made that home folder (its
+    .cache/raycast-phong with parents=True, issue 50): nothing is made outside the user's own cache folder, and the
+    private temporary folder serves instead."""
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    monkeypatch.setattr(jit, "OWN_CACHE", blocker / "pycache")  # the package's own cache unwritable
+    monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
+    monkeypatch.setenv("HOME", str(tmp_path / "gone" / "home"))
+    monkeypatch.setattr(jit.numba.config, "CACHE_DIR", "")
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "tmp"))
+    (tmp_path / "tmp").mkdir()
+    jit.cache_folder.cache_clear()
+    try:
+        folder = jit.cache_folder()
+        assert folder is not None and folder.parent == tmp_path / "tmp" / f"raycast-phong-{os.getuid()}"
+        assert not (tmp_path / "gone").exists()
+    finally:
+        jit.cache_folder.cache_clear()
