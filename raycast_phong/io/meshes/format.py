@@ -26,14 +26,20 @@ OTHER_PARSE_BYTES = 550
 
 
 class Reading(NamedTuple):
-    """What a format's `read` is given: the file open at its start, where errors point, what was learnt of
-    the file before (its MeshSource), and the lists its notes and texture sources are added to."""
-    path: Path
+    """What a format's `read` is given: the file open at its start, what was learnt of the file before (its
+    MeshSource: its path, where errors point), and the lists its notes and texture sources are added to."""
     handle: BinaryIO
-    where: Where
     source: MeshSource
     notes: list[str]
     textures: list                 # materials.TextureSource each
+
+    @property
+    def path(self) -> Path:
+        return self.source.path
+
+    @property
+    def where(self) -> Where:
+        return self.source.where
 
 
 @dataclass(frozen=True)

@@ -65,7 +65,7 @@ def read_file(source, bounds: bool = True) -> MeshFile:
     try:
         with handle:
             check_content(path, handle, kind, where)
-            loaded = kind.read(Reading(path, handle, where, source, notes, textures))
+            loaded = kind.read(Reading(handle, source, notes, textures))
     except SceneError:
         raise
     except Exception as error:
