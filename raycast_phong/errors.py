@@ -46,7 +46,20 @@ class SceneError(InputError):
 
     def __init__(self, problem: str, where: Where | None = None):
         self.problem, self.where = problem, where
-        super().__init__(problem if where is None else f"{where}: {problem}")
+        super().__init__(problem if where is None else f"{where}: {_once(problem, str(where))}")
+
+
+def _once(problem: str, where: str) -> str:
+    """`problem` with its own quoted copy of `where` (a mesh file's path, when the file is what was given) said
+    once: the line starts with `where:` already."""
+    quoted = repr(where)
+    if quoted not in problem:
+        return problem
+    for start in (f"{quoted}: ", f"{quoted} "):
+        if problem.startswith(start):
+            problem = problem[len(start):]
+            break
+    return problem.replace(quoted, "the file")
 
 
 

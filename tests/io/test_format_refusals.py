@@ -35,5 +35,6 @@ def test_a_broken_file_is_refused_naming_its_line(tmp_path, name):
     done = runner.invoke(app, ["render", str(tmp_path / name), "-o", str(tmp_path / "x.png")])
     assert done.exit_code == 2, done.output
     message = " ".join(done.stderr.split())
-    assert f"{name}' {expected}" in message, message
+    assert f"{name}: {expected}" in message, message  # the path once (issue 45), then the line
+    assert message.count(name) == 1, message
     assert "Error" not in message and "Traceback" not in done.output and not (tmp_path / "x.png").exists()

@@ -9,12 +9,14 @@ read has its first bad line named (ply_problem)."""
 
 from __future__ import annotations
 
+import io
 import re
 from pathlib import Path
 
 import numpy as np
 
 from ..files import shown_name
+from . import ply_lists
 from .format import Loaded, MeshFormat, Reading, weigh
 
 HEADER_LIMIT = 1 << 16  # a header is a few hundred bytes; the texture comments come before `end_header`
@@ -27,9 +29,7 @@ def texture_names(head: bytes) -> list[str]:
     return [found.strip() for found in re.findall(r"^comment\s+TextureFile\s+(.+?)\s*$", header, re.M)]
 
 
-# The PLY property types (Paul Bourke's PLY format, and the sized names rply and MeshLab write).
-PLY_TYPES = ("char", "uchar", "short", "ushort", "int", "uint", "float", "double", "int8", "uint8", "int16",
-             "uint16", "int32", "uint32", "float32", "float64")
+PLY_TYPES = tuple(ply_lists.PLY_DTYPES)  # the PLY property types
 
 
 def ply_problem(head: bytes) -> str | None:
@@ -42,10 +42,10 @@ def ply_problem(head: bytes) -> str | None:
         if words == ["end_header"]:
             return None
         if words[:1] == ["property"]:
-            types = words[2:4] if words[1:2] == ["list"] else words[1:2]
-            wanted = 4 if words[1:2] == ["list"] else 2
+            listed = words[1:2] == ["list"]
+            types = words[2:4] if listed else words[1:2]
             bad = next((kind for kind in types if kind not in PLY_TYPES), None)
-            if bad is not None or len(types) < wanted - 1 or len(words) < wanted + 1:
+            if bad is not None or len(words) != (5 if listed else 3):
                 shown = repr(bad[:40]) if bad is not None else repr(" ".join(words)[:60])
                 return (f"header line {number}: property type {shown} is not a PLY type, or the property has no "
                         f"name; allowed: property TYPE NAME or property list TYPE TYPE NAME, TYPE one of "
@@ -67,7 +67,9 @@ def read(reading: Reading) -> Loaded:
     from .trimesh_parts import RegularFiles, load, parts
     resolver = RegularFiles(reading.path)
     resolver.locate = lambda folder, name: folder / resolved(name, reading.path)  # `<this>` in a TextureFile name
-    loaded = load(reading, resolver=resolver)
+    evened = ply_lists.evened(reading.handle.read(), reading.notes)  # lists of uneven length (a quad, a triangle)
+    reading.handle.seek(0)
+    loaded = load(reading, file_obj=None if evened is None else io.BytesIO(evened), resolver=resolver)
     images = _textures(reading.path, reading.handle, reading.notes)
     return Loaded(parts(loaded) or strip_parts(loaded), images=tuple(images))
 
@@ -142,8 +144,7 @@ def count(handle, size: int, source) -> int | None:
     return None
 
 
-PLY_SIZES = {"char": 1, "int8": 1, "uchar": 1, "uint8": 1, "short": 2, "int16": 2, "ushort": 2, "uint16": 2,
-             "int": 4, "int32": 4, "uint": 4, "uint32": 4, "float": 4, "float32": 4, "double": 8, "float64": 8}
+PLY_SIZES = {name: np.dtype(kind).itemsize for name, kind in ply_lists.PLY_DTYPES.items()}
 
 
 def _list_triangles(head: bytes, size: int) -> int | None:

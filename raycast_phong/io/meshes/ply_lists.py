@@ -1,0 +1,261 @@
+"""A binary PLY whose lists differ in length from row to row (a quad beside a triangle), made into one trimesh reads.
+
+PLY lets every row of a list property hold its own count (Greg Turk's PLY format: "property list uchar int
+vertex_indices", one polygon per face of any size). trimesh's binary reader takes the first row's count for
+every row, so a mesh of quads and triangles is refused as "unexpected length" (or, where the sizes happen to
+add up, misread). Here such a file is rewritten before trimesh reads it: one compiled walk (`_walk`) finds
+every row's start and counts, then the `face` element becomes triangles, each polygon a fan from its first
+corner as trimesh cuts an ASCII PLY's polygons, each triangle keeping its face's other properties and its
+corners' entries of per-corner lists (`texcoord`: two per corner). A `tristrips` element becomes one strip
+(its rows joined by the -1 that separates strips). Any other element with uneven lists is left out, noted.
+Files whose lists are even (almost all) are not touched and compile nothing."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...jit import kernel
+
+# The PLY scalar types (Paul Bourke's PLY format, and the sized names rply and MeshLab write), as numpy kinds.
+PLY_DTYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
+              "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+              "float": "f4", "float32": "f4", "double": "f8", "float64": "f8"}
+POLYGON = ("vertex_indices", "vertex_index")  # the face list the specification names (and its common variant)
+
+
+@dataclass(frozen=True)
+class Property:
+    name: str
+    type: str                  # a PLY_DTYPES key: the value's, or a list entry's
+    count: str | None = None   # a list's count type; None for a scalar
+
+
+@dataclass(frozen=True)
+class Element:
+    name: str
+    rows: int
+    properties: tuple[Property, ...]
+    lines: tuple[bytes, ...]   # its header lines, as written
+
+
+@dataclass(frozen=True)
+class Header:
+    format: str                # "ascii", "binary_little_endian" or "binary_big_endian"
+    elements: tuple[Element, ...]
+    before: bytes              # the header's lines before the first element (ply, format, comments)
+    body: int                  # where the data starts
+
+
+def header(data: bytes) -> Header | None:
+    """The header of a PLY (`data`: the file, or its start), or None when it does not parse: ply_problem then
+    names the bad line."""
+    end = data.find(b"end_header")
+    stop = data.find(b"\n", end)
+    if end < 0 or stop < 0:
+        return None
+    form, before, elements = None, [], []
+    for raw in data[:end].split(b"\n"):
+        words = raw.decode("latin-1").split()
+        if words[:1] == ["format"] and len(words) >= 2:
+            form = words[1]
+        if words[:1] == ["element"]:
+            if len(words) != 3 or not words[2].isdigit():
+                return None
+            elements.append((words[1], int(words[2]), [], [raw]))
+        elif words[:1] == ["property"] and elements:
+            scalar = len(words) == 3 and words[1] in PLY_DTYPES
+            listed = len(words) == 5 and words[1] == "list" and words[2] in PLY_DTYPES and words[3] in PLY_DTYPES
+            if not (scalar or listed):
+                return None
+            elements[-1][2].append(Property(words[2], words[1]) if scalar else Property(words[4], words[3], words[2]))
+            elements[-1][3].append(raw)
+        elif not elements:
+            before.append(raw)
+    if form not in ("ascii", "binary_little_endian", "binary_big_endian"):
+        return None
+    return Header(form, tuple(Element(name, rows, tuple(props), tuple(lines)) for name, rows, props, lines in elements),
+                  b"\n".join(before), stop + 1)
+
+
+def _dtype(kind: str, big: bool) -> np.dtype:
+    return np.dtype(PLY_DTYPES[kind]).newbyteorder(">" if big else "<")
+
+
+def _even(element: Element, body: memoryview, at: int, big: bool) -> tuple[np.ndarray, int] | None:
+    """The element's rows as trimesh would read them (every list as long as its first row's), with where it
+    ends, when every row's counts are indeed the first row's; None when they differ or the data is short."""
+    fields, offset = [], 0
+    for k, prop in enumerate(element.properties):
+        if prop.count is None:
+            fields.append((f"p{k}", _dtype(prop.type, big)))
+            offset += fields[-1][1].itemsize
+            continue
+        size = np.dtype(PLY_DTYPES[prop.count]).itemsize
+        if at + offset + size > len(body):
+            return None
+        first = int(np.frombuffer(body, _dtype(prop.count, big), 1, at + offset)[0])
+        if first < 0:
+            return None
+        fields += [(f"c{k}", _dtype(prop.count, big)), (f"p{k}", _dtype(prop.type, big), (first,))]
+        offset += size + first * fields[-1][1].itemsize
+    row = np.dtype(fields)
+    if at + element.rows * row.itemsize > len(body):
+        return None
+    rows = np.frombuffer(body, row, element.rows, at)
+    if any(name.startswith("c") and not (rows[name] == rows[name][:1]).all() for name in row.names):
+        return None
+    return rows, at + element.rows * row.itemsize
+
+
+@kernel()
+def _walk(data, at, rows, sizes, counts, entries, signed, big, starts, found):
+    """Every row's start (starts, rows + 1 of them) and every list's count (found, rows × lists) of a binary
+    PLY element from byte `at` of `data` (uint8). Property k is a scalar of sizes[k] bytes when counts[k] is
+    0, else a list: a count of counts[k] bytes (signed[k]: two's complement), then that many entries of
+    entries[k] bytes; `big`: big-endian. Returns False when a count is negative or the rows run past the data."""
+    n = data.shape[0]
+    for row in range(rows):
+        starts[row] = at
+        listed = 0
+        for k in range(sizes.shape[0]):
+            if counts[k] == 0:
+                at += sizes[k]
+                continue
+            width = counts[k]
+            if at + width > n:
+                return False
+            value = 0
+            for b in range(width):
+                byte = data[at + (width - 1 - b if not big else b)]
+                value = value * 256 + byte
+            if signed[k] and value >= 1 << (8 * width - 1):
+                value -= 1 << (8 * width)
+            if value < 0:
+                return False
+            found[row, listed] = value
+            listed += 1
+            at += width + value * entries[k]
+        if at > n:
+            return False
+    starts[rows] = at
+    return True
+
+
+def _columns(element: Element, data: np.ndarray, at: int, big: bool):
+    """The element's row starts and list counts, by _walk; None when its rows do not fit the data."""
+    props = element.properties
+    sizes = np.array([np.dtype(PLY_DTYPES[p.type]).itemsize if p.count is None else 0 for p in props], np.int64)
+    counts = np.array([0 if p.count is None else np.dtype(PLY_DTYPES[p.count]).itemsize for p in props], np.int64)
+    entries = np.array([np.dtype(PLY_DTYPES[p.type]).itemsize for p in props], np.int64)
+    signed = np.array([p.count is not None and PLY_DTYPES[p.count][0] == "i" for p in props], np.bool_)
+    starts = np.empty(element.rows + 1, np.int64)
+    found = np.zeros((element.rows, max(1, int((counts > 0).sum()))), np.int64)
+    if not _walk(data, at, element.rows, sizes, counts, entries, signed, big, starts, found):
+        return None
+    return starts, found
+
+
+def _gather(data: np.ndarray, starts: np.ndarray, width: int) -> np.ndarray:
+    """`width` bytes from each of `starts` (rows × width uint8)."""
+    return data[starts[:, None] + np.arange(width)]
+
+
+def _triangles(element: Element, data: np.ndarray, starts: np.ndarray, found: np.ndarray, big: bool,
+               notes: list[str]) -> tuple[tuple[bytes, ...], bytes] | None:
+    """The face element as triangles: each polygon a fan from its first corner; None when it has no polygon
+    list. Scalars are repeated per triangle; a list of one or two entries per corner keeps its triangle's
+    corners'; any other list is left out, noted."""
+    props = element.properties
+    lists = [k for k, p in enumerate(props) if p.count is not None]
+    polygon = next((k for k in lists if props[k].name in POLYGON), None)
+    if polygon is None:
+        return None
+    corners = found[:, lists.index(polygon)]
+    fans = np.maximum(corners - 2, 0)
+    row = np.repeat(np.arange(len(corners)), fans)
+    step = np.arange(len(row)) - np.repeat(np.cumsum(fans) - fans, fans)  # the triangle's number in its fan
+    picks = np.column_stack([np.zeros_like(step), step + 1, step + 2])  # corners (0, j+1, j+2)
+    offsets = starts[:-1].copy()  # where each row's next property starts
+    columns, kept = [], []
+    for k, prop in enumerate(props):
+        entry = np.dtype(PLY_DTYPES[prop.type]).itemsize
+        if prop.count is None:
+            columns.append(_gather(data, offsets[row], entry))
+            kept.append(element.lines[1 + k])
+            offsets += entry
+            continue
+        width = np.dtype(PLY_DTYPES[prop.count]).itemsize
+        length = found[:, lists.index(k)]
+        per = length // np.maximum(corners, 1)
+        each = int(per[0]) if len(per) else 1
+        if each in (1, 2) and (length == each * corners).all():
+            count = np.array(3 * each, _dtype(prop.count, big)).tobytes()
+            first = offsets[row] + width  # the row's first entry
+            at = (first[:, None, None] + (picks * each * entry)[:, :, None] + np.arange(each * entry)).reshape(len(row), -1)
+            columns += [np.frombuffer(count * len(row), np.uint8).reshape(len(row), width), data[at]]
+            kept.append(element.lines[1 + k])
+        else:
+            notes.append(f"its face list {prop.name!r} is not one or two entries a corner; it is left out")
+        offsets += width + length * entry
+    body = np.concatenate(columns, axis=1) if columns else np.zeros((len(row), 0), np.uint8)
+    return (f"element {element.name} {len(row)}".encode(), *kept), body.tobytes()
+
+
+def _strip(element: Element, data: np.ndarray, starts: np.ndarray, found: np.ndarray,
+           big: bool) -> tuple[tuple[bytes, ...], bytes] | None:
+    """A tristrips element of uneven rows as one row: the strips joined by -1 (the specification's separator),
+    its count an int. None when it is not one list of indices."""
+    if len(element.properties) != 1 or element.properties[0].count is None or not element.rows:
+        return None
+    prop = element.properties[0]
+    entry = _dtype(prop.type, big)
+    width = np.dtype(PLY_DTYPES[prop.count]).itemsize
+    pieces = []
+    for row in range(element.rows):  # a strips element has a few rows (one, usually)
+        values = np.frombuffer(data, entry, int(found[row, 0]), int(starts[row]) + width).astype(np.int64)
+        pieces += [values, np.array([-1], np.int64)]
+    joined = np.concatenate(pieces[:-1]).astype(_dtype("int", big))
+    lines = (f"element {element.name} 1".encode(), f"property list int int {prop.name}".encode())
+    return lines, np.array(len(joined), _dtype("int", big)).tobytes() + joined.tobytes()
+
+
+def evened(data: bytes, notes: list[str]) -> bytes | None:
+    """`data`, a binary PLY, rewritten so every list of an element has one length (module docstring); None when
+    it needs no rewriting (ASCII, no lists, even lists) or its rows do not fit its size (the reader then says
+    so). Notes name what was left out."""
+    found = header(data)
+    if found is None or found.format == "ascii" or not any(p.count for e in found.elements for p in e.properties):
+        return None
+    big = found.format == "binary_big_endian"
+    view, raw = memoryview(data), np.frombuffer(data, np.uint8)
+    at, uneven, parts = found.body, False, []
+    for element in found.elements:
+        even = _even(element, view, at, big)
+        if even is not None:
+            parts.append((element.lines, data[at:even[1]]))
+            at = even[1]
+            continue
+        walked = _columns(element, raw, at, big)
+        if walked is None:
+            return None
+        uneven, (starts, counts) = True, walked
+        made = (_triangles(element, raw, starts, counts, big, notes) if element.name == "face"
+                else _strip(element, raw, starts, counts, big) if element.name == "tristrips" else None)
+        if made is None:
+            notes.append(f"its element {element.name!r} has lists of uneven length; it is left out")
+        else:
+            parts.append(made)
+        at = int(starts[-1])
+    if not uneven:
+        return None
+    lines = [found.before] + [line for element_lines, _ in parts for line in element_lines]
+    return b"\n".join(lines + [b"end_header", b""]) + b"".join(body for _, body in parts)
+
+
+def warm_up() -> None:
+    """Load (or compile) _walk: a quad and a triangle."""
+    head = (b"ply\nformat binary_little_endian 1.0\nelement vertex 0\nproperty float x\nelement face 2\n"
+            b"property list uchar int vertex_indices\nend_header\n")
+    evened(head + bytes([4, 0, 0, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0, 3, 0, 0, 0, 3, 0, 0, 0, 0, 2, 0, 0, 0, 3, 0, 0, 0]), [])

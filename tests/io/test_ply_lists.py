@@ -1,0 +1,110 @@
+"""PLY lists of any length (issue 45): a binary PLY whose faces mix pentagons, quads and triangles was refused
+("unexpected length", blaming a valid header line). The files here are written from the PLY specification in
+several list types and both byte orders; what each triangle should get (its fan, its corners' coordinates, its
+face's colour) is worked out here by hand."""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from raycast_phong.errors import SceneError
+from raycast_phong.io.meshes import ply_lists
+from raycast_phong.io.meshes.source import mesh_source
+
+# A house: a square wall (a quad), a roof (a triangle) and a floor pentagon, convex each.
+POINTS = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0.5, 1.8, 0), (0, 0, 1), (1, 0, 1), (1.3, 0, 0.5)]
+FACES = [(0, 1, 2, 3), (3, 2, 4), (0, 5, 6, 7, 1)]
+COLOURS = [(200, 10, 10), (10, 200, 10), (10, 10, 200)]
+# The fan from each polygon's first corner, by hand.
+FANS = {(0, 1, 2), (0, 2, 3), (3, 2, 4), (0, 5, 6), (0, 6, 7), (0, 7, 1)}
+CODES = {"uchar": "B", "char": "b", "ushort": "H", "short": "h", "uint": "I", "int": "i", "float": "f"}
+HEAD = ("ply\nformat {form} 1.0\n{comment}element vertex 8\nproperty float x\nproperty float y\n"
+        "property float z\nelement face 3\nproperty list {count} {index} vertex_indices\n"
+        "{texcoord}property uchar red\nproperty uchar green\nproperty uchar blue\n"
+        "end_header\n")
+
+
+def uv(point) -> tuple[float, float]:
+    return point[0] / 2, point[1] / 2 + point[2] / 4
+
+
+def write_binary(path: Path, order: str, count: str, index: str, texture: bool = False) -> Path:
+    """The house in binary PLY; `texture`: with per-corner texcoord lists and a TextureFile (a white image)."""
+    end = "<" if order == "little" else ">"
+    texcoord = f"property list {count} float texcoord\n" if texture else ""
+    comment = "comment TextureFile house.png\n" if texture else ""
+    data = HEAD.format(form=f"binary_{order}_endian", count=count, index=index, texcoord=texcoord,
+                       comment=comment).encode()
+    data += b"".join(struct.pack(end + "3f", *p) for p in POINTS)
+    for face, colour in zip(FACES, COLOURS):
+        coords = [c for k in face for c in uv(POINTS[k])]
+        data += struct.pack(f"{end}{CODES[count]}{len(face)}{CODES[index]}", len(face), *face)
+        if texture:
+            data += struct.pack(f"{end}{CODES[count]}{len(coords)}f", len(coords), *coords)
+        data += struct.pack("3B", *colour)
+    path.write_bytes(data)
+    if texture:
+        Image.new("RGB", (4, 4), (255, 255, 255)).save(path.parent / "house.png")
+    return path
+
+
+def turned(face) -> tuple[int, ...]:
+    """A triangle's corners from its smallest on, its winding kept."""
+    face = list(face)
+    k = face.index(min(face))
+    return tuple(face[k:] + face[:k])
+
+
+@pytest.mark.parametrize("order", ["little", "big"])
+@pytest.mark.parametrize("count,index", [("uchar", "int"), ("uchar", "uint"), ("ushort", "ushort"),
+                                         ("char", "short"), ("uint", "uint")])
+def test_polygons_of_any_size_are_fans_with_their_face_s_colour(tmp_path, order, count, index):
+    read = mesh_source(write_binary(tmp_path / "house.ply", order, count, index)).read()
+    assert np.allclose(read.vertices, POINTS)
+    faces = [turned(f) for f in read.faces.tolist()]
+    assert sorted(faces) == sorted(turned(f) for f in FANS)  # each polygon a fan from its first corner
+    for face, colour in zip(faces, read.corner_colour[:, 0]):
+        polygon = next(k for k, p in enumerate(FACES) if set(face) <= set(p))
+        assert np.argmax(colour) == np.argmax(COLOURS[polygon])  # the face's colour, on each of its triangles
+
+
+@pytest.mark.parametrize("order", ["little", "big"])
+def test_per_corner_texture_coordinates_follow_their_corners(tmp_path, order):
+    read = mesh_source(write_binary(tmp_path / "house.ply", order, "uchar", "int", texture=True)).read()
+    assert sorted(turned(f) for f in read.faces.tolist()) == sorted(turned(f) for f in FANS)
+    assert np.allclose(read.corner_uv, [[uv(POINTS[k]) for k in face] for face in read.faces])
+
+
+def test_even_lists_are_left_to_trimesh_and_walk_nothing(tmp_path, monkeypatch):
+    monkeypatch.setattr(ply_lists, "_walk", None)  # called: a TypeError
+    data = write_binary(tmp_path / "h.ply", "little", "uchar", "int").read_bytes()
+    quad = data.replace(b"element face 3", b"element face 1")[: data.index(b"end_header\n") + 11 + 8 * 12 + 1 + 16 + 3]
+    assert ply_lists.evened(quad, []) is None  # one quad: every list has its first row's length
+    ascii_ = HEAD.format(form="ascii", count="uchar", index="int", texcoord="", comment="").encode()
+    assert ply_lists.evened(ascii_ + b"0 0 0\n" * 8 + b"4 0 1 2 3 1 1 1\n3 3 2 4 1 1 1\n5 0 5 6 7 1 1 1\n", []) is None
+
+
+def test_a_strip_element_of_uneven_rows_is_joined_into_one_strip(tmp_path):
+    """Two strips of 4 and 3 indices: joined by -1, then cut as strips (triangles (0,1,2), (2,1,3), (3,2,4))."""
+    head = (b"ply\nformat binary_little_endian 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
+            b"property float z\nelement tristrips 2\nproperty list uchar int vertex_indices\nend_header\n")
+    body = b"".join(struct.pack("<3f", *p) for p in POINTS[:5])
+    body += struct.pack("<B4i", 4, 0, 1, 2, 3) + struct.pack("<B3i", 3, 2, 3, 4)
+    (tmp_path / "s.ply").write_bytes(head + body)
+    read = mesh_source(tmp_path / "s.ply").read()
+    assert sorted(map(tuple, read.faces.tolist())) == sorted([(0, 1, 2), (2, 1, 3), (2, 3, 4)])
+
+
+@pytest.mark.parametrize("cut", [1, 7, 20])
+def test_uneven_lists_cut_short_are_one_line_naming_no_valid_header_line(tmp_path, cut):
+    data = write_binary(tmp_path / "h.ply", "little", "uchar", "int").read_bytes()
+    (tmp_path / "cut.ply").write_bytes(data[:-cut])
+    with pytest.raises(SceneError) as error:
+        mesh_source(tmp_path / "cut.ply").read()
+    text = str(error.value)
+    assert "\n" not in text and "header line" not in text and "cut.ply" in text
