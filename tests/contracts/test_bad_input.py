@@ -265,7 +265,8 @@ def test_unreadable_mesh_file(tmp_path, name):
     (tmp_path / name).write_bytes(bytes(range(256)) * 4)
     refuse_scene(tmp_path, {"objects.0.shape": "mesh", "objects.0.subdivisions": DELETE, "objects.0.path": name},
                  "objects.0.path:",
-                 str(tmp_path / name), "a mesh file trimesh reads (OBJ, PLY, STL, OFF, GLB)")
+                 str(tmp_path / name), "a mesh file of a format read here (OBJ, PLY, STL, OFF, glTF/GLB, 3MF, COLLADA)"
+                 if name.endswith(".obj") else "its content does not start as a PLY file does")
 
 
 def test_mesh_file_with_nan_vertices(tmp_path):

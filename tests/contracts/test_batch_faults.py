@@ -385,8 +385,8 @@ def test_an_unreadable_manifest_is_refused(five_scenes, tmp_path):
     (out / "manifest.json").mkdir(parents=True)
     result = run(str(five_scenes), "--out", str(out), "--jobs", "1")
     assert result.exit_code == 2
-    assert result.stderr == (f"error: {out / 'manifest.json'}: {str(out / 'manifest.json')!r} is a folder, not a "
-                             "regular file; give a batch manifest\n")
+    assert result.stderr == (f"error: {out / 'manifest.json'}: is a folder, not a regular file; give a batch "
+                             "manifest\n")
     assert images(out) == []
 
 

@@ -10,8 +10,6 @@ from pathlib import Path
 from ...errors import SceneError, Where
 from ..files import open_regular
 
-READABLE = "a mesh file trimesh reads (OBJ, PLY, STL, OFF, GLB)"
-
 SIGNATURES = ((b"ply", "PLY"), (b"glTF", "GLB"), (b"PK\x03\x04", "a zip archive"), (b"BZh", "bzip2-compressed"),
               (b"\x1f\x8b", "gzip-compressed"), (b"\xfd7zXZ", "xz-compressed"), (b"<?xml", "XML"),
               (b"<COLLADA", "COLLADA (XML)"), (b"{", "JSON"))
@@ -58,14 +56,14 @@ def check_content(path: Path, handle, kind, where: Where) -> None:
                          "model file inside (OBJ, PLY, STL, OFF, GLB/glTF, ...)", where)
     head = handle.read(512)
     handle.seek(0)
+    name = kind.name(suffix)
     if not head:
-        raise SceneError(f"{str(path)!r} is empty (0 bytes); expected {READABLE}", where)
+        raise SceneError(f"{str(path)!r} is empty (0 bytes); expected a {name} file", where)
     found = sniff(head)
     if kind.content(head, found, os.fstat(handle.fileno()).st_size, suffix):
         return
-    name = kind.name(suffix)
     said = (f"its content is {found}; rename it to that format's suffix" if found
-            else f"its content does not start as a {name} file does; expected {READABLE}")
+            else f"its content does not start as a {name} file does")
     raise SceneError(f"cannot read {str(path)!r} as {name}: {said}", where)
 
 

@@ -28,7 +28,11 @@ from .materials import rgb as _rgb
 # package; io/gltf_decode.py decodes the data ones before trimesh reads the file.
 SUPPORTED_REQUIRED = ("KHR_draco_mesh_compression", "KHR_materials_unlit", "KHR_materials_emissive_strength",
                       "KHR_texture_transform", "KHR_mesh_quantization", "EXT_meshopt_compression",
-                      "KHR_meshopt_compression", "EXT_mesh_gpu_instancing", "KHR_materials_pbrSpecularGlossiness")
+                      "KHR_meshopt_compression", "EXT_mesh_gpu_instancing", "KHR_materials_pbrSpecularGlossiness",
+                      "EXT_texture_webp", "KHR_lights_punctual")
+WEBP, LIGHTS = "EXT_texture_webp", "KHR_lights_punctual"
+# glTF 2.0 §3.7.2.1 primitive modes that draw no surface: points and lines.
+NOT_SURFACES = {0: "points", 1: "lines", 2: "line loops", 3: "line strips"}
 UNLIT, EMISSIVE_STRENGTH, TRANSFORM = "KHR_materials_unlit", "KHR_materials_emissive_strength", "KHR_texture_transform"
 SPECULAR_GLOSSINESS = "KHR_materials_pbrSpecularGlossiness"
 # Required material extensions that change only how a surface looks, not its geometry or the data read: the file
@@ -38,7 +42,7 @@ LOOK_ONLY = {"KHR_materials_transmission": "transmission", "KHR_materials_volume
              "refraction", "KHR_materials_specular": "specular strength and colour",
              "KHR_materials_iridescence": "iridescence"}
 # What an extension this renderer does not read asks of it, for the refusal (the file's need, in its words).
-NEEDS = {"KHR_texture_basisu": "KTX2 (Basis Universal) textures", "EXT_texture_webp": "WebP textures"}
+NEEDS = {"KHR_texture_basisu": "KTX2 (Basis Universal) textures"}
 
 
 def check_document(document: Document, path: Path, where: Where, notes: list[str]) -> dict:
@@ -74,10 +78,31 @@ def check_document(document: Document, path: Path, where: Where, notes: list[str
         raise SceneError(f"{str(path)!r} requires the glTF extension(s) {', '.join(named)}, which this "
                          f"renderer does not support; supported: {', '.join(SUPPORTED_REQUIRED)} (and, drawn in "
                          f"the base material: {', '.join(LOOK_ONLY)})", where)
+    _note_unread(tree, path, notes)
     for uri in image_uris(tree):
         if not uri_file(path.parent, uri).is_file():
             notes.append(f"{path}: texture {shown_name(unquote(uri))} is missing")
     return gltf_samplers(tree)
+
+
+def _note_unread(tree: dict, path: Path, notes: list[str]) -> None:
+    """A note for what the file holds that is not drawn: its point and line primitives (only triangles are
+    surfaces) and its own lights (KHR_lights_punctual: the scene's lights light it)."""
+    modes: dict[str, int] = {}
+    try:
+        for mesh in tree.get("meshes", []):
+            for primitive in mesh.get("primitives", []):
+                kind = NOT_SURFACES.get(primitive.get("mode", 4))
+                if kind:
+                    modes[kind] = modes.get(kind, 0) + 1
+        lights = ((tree.get("extensions") or {}).get(LIGHTS) or {}).get("lights") or []
+    except (AttributeError, TypeError):
+        return  # a malformed document: the read words it
+    if modes:
+        said = ", ".join(f"{count} primitive(s) of {kind}" for kind, count in modes.items())
+        notes.append(f"{path}: not drawn, as only triangles are surfaces: {said}")
+    if isinstance(lights, list) and lights:
+        notes.append(f"{path}: its {len(lights)} light(s) ({LIGHTS}) are not used: the scene's lights light it")
 
 
 def texture_sizes(path: Path, document: Document, file_size) -> list[tuple[int, int]]:
@@ -94,8 +119,9 @@ def texture_sizes(path: Path, document: Document, file_size) -> list[tuple[int, 
                          material.get("emissiveTexture"), glossy.get("diffuseTexture")):
                 if isinstance(slot, dict) and "index" in slot:
                     texture = tree["textures"][slot["index"]]
-                    if "source" in texture:
-                        images.add(texture["source"])
+                    source = ((texture.get("extensions") or {}).get(WEBP) or {}).get("source", texture.get("source"))
+                    if source is not None:
+                        images.add(source)
     except (AttributeError, IndexError, KeyError, TypeError):
         return []
     from PIL import Image
@@ -318,7 +344,7 @@ def read(reading: Reading) -> Loaded:
     resolver = RegularFiles(path)
     resolver.locate = uri_file  # names are URIs, percent-encoded
     if needs_decoding(document.tree):
-        tree, resolver.decoded = decode_gltf(path, document, reading.where)
+        tree, resolver.decoded = decode_gltf(path, document, reading.where, reading.notes)
         loaded = load(reading, io.BytesIO(json.dumps(tree).encode()), "gltf", resolver)
     else:
         loaded = load(reading, resolver=resolver)

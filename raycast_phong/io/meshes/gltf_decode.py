@@ -34,14 +34,15 @@ DTYPES = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: 
 WIDTHS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
 # The vertex attributes read as numbers (the others, joints and weights, are not used by the renderer).
 NUMERIC = ("POSITION", "NORMAL", "TEXCOORD_", "COLOR_")
+FAN = 6  # glTF 2.0 §3.7.2.1: TRIANGLE_FAN
 DECODED_URI = "raycast-phong-decoded:"  # the buffers handed to trimesh by name (trimesh_parts.RegularFiles)
 
 
 def needs_decoding(tree: dict) -> bool:
     """Whether trimesh would misread the document's data: compressed buffer views or primitives, integer
     positions, normals, texture coordinates or colours, an accessor of a primitive without a bufferView (all
-    zeros, glTF 2.0 §3.6.2.1: trimesh raised UnboundLocalError), instanced nodes, specular-glossiness
-    materials."""
+    zeros, glTF 2.0 §3.6.2.1: trimesh raised UnboundLocalError), triangle fans (trimesh drops them), instanced
+    nodes, specular-glossiness materials."""
     used = tree.get("extensionsUsed")
     used = set(used) if isinstance(used, list) and all(isinstance(e, str) for e in used) else set()
     if used & {*MESHOPT, DRACO, INSTANCING, SPECULAR_GLOSSINESS}:
@@ -50,6 +51,8 @@ def needs_decoding(tree: dict) -> bool:
         accessors = tree.get("accessors", [])
         for mesh in tree.get("meshes", []):
             for primitive in mesh.get("primitives", []):
+                if primitive.get("mode") == FAN:
+                    return True
                 for name, index in primitive.get("attributes", {}).items():
                     if "bufferView" not in accessors[index] or (
                             name.startswith(NUMERIC) and accessors[index].get("componentType", 5126) != 5126):
@@ -64,8 +67,8 @@ def needs_decoding(tree: dict) -> bool:
 class _Decoder:
     """The document being rewritten: its buffers as bytes, and the new buffer the decoded data is appended to."""
 
-    def __init__(self, tree: dict, buffers: list[bytes], path: Path, where: Where):
-        self.tree, self.buffers, self.path, self.where = tree, buffers, path, where
+    def __init__(self, tree: dict, buffers: list[bytes], path: Path, where: Where, notes: list[str]):
+        self.tree, self.buffers, self.path, self.where, self.notes = tree, buffers, path, where, notes
         self.new = bytearray()  # the decoded buffer: its index is len(buffers)
 
     def refuse(self, key: str, problem: str) -> SceneError:
@@ -312,10 +315,11 @@ class _Decoder:
                     accessor = self.tree["accessors"][attributes[name]]
                     dtype = np.dtype(DTYPES.get(accessor.get("componentType"), np.float32)).newbyteorder("<")
                     values = values.reshape(len(values), -1)
-                    if len(values) != accessor.get("count"):
-                        raise SceneError(f"{str(self.path)!r}: {key}: its Draco data decodes to {len(values)} "
-                                         f"{name} values where the accessor counts {accessor.get('count')!r}; "
-                                         "the Draco data could not be decoded as the file describes it", self.where)
+                    if len(values) != accessor.get("count"):  # what the stream holds is drawn, as f3d does
+                        self.notes.append(f"{self.path}: {key}: its Draco data decodes to {len(values)} {name} "
+                                          f"values where the accessor counts {accessor.get('count')!r}; the "
+                                          "decoded values are drawn")
+                        accessor["count"] = len(values)
                     accessor.pop("byteOffset", None)
                     accessor["bufferView"] = self.append(np.ascontiguousarray(values, dtype).tobytes())
                 faces = getattr(decoded, "faces", None)
@@ -328,6 +332,27 @@ class _Decoder:
                 extensions.pop(DRACO)
                 if not extensions:
                     primitive.pop("extensions")
+
+    # ------------------------------------------------------------ TRIANGLE_FAN
+
+    def fans(self) -> None:
+        """Each TRIANGLE_FAN primitive as indexed triangles: fan triangle i is (v_i+1, v_i+2, v_0) (glTF 2.0
+        §3.7.2.1), wound as (v_0, v_i+1, v_i+2); its vertices in index order, or in order without indices."""
+        for m, mesh in enumerate(self.tree.get("meshes", [])):
+            for p, primitive in enumerate(mesh.get("primitives", [])):
+                if primitive.get("mode") != FAN:
+                    continue
+                key = f"meshes[{m}].primitives[{p}]"
+                if "indices" in primitive:
+                    order = self.read_accessor(primitive["indices"], f"{key}.indices").astype(np.int64).reshape(-1)
+                else:
+                    order = np.arange(int(self.tree["accessors"][primitive["attributes"]["POSITION"]]["count"]))
+                step = np.arange(1, max(len(order) - 1, 1))
+                faces = np.column_stack([np.full(len(step), order[:1].sum()), order[step], order[step + 1]]) \
+                    if len(order) >= 3 else np.zeros((0, 3), np.int64)
+                self.tree["accessors"].append({"bufferView": self.append(faces.astype("<u4").tobytes()),
+                                               "componentType": 5125, "count": faces.size, "type": "SCALAR"})
+                primitive.update(indices=len(self.tree["accessors"]) - 1, mode=4)
 
     # ------------------------------------------------------------ KHR_mesh_quantization
 
@@ -549,13 +574,15 @@ def read_buffers(tree: dict, path: Path, document: Document, where: Where) -> li
     return found
 
 
-def decode_document(tree: dict, buffers: list[bytes], path: Path, where: Where) -> tuple[dict, dict[str, bytes]]:
+def decode_document(tree: dict, buffers: list[bytes], path: Path, where: Where,
+                    notes: list[str]) -> tuple[dict, dict[str, bytes]]:
     """The document rewritten as plain glTF for trimesh, with the buffers it names (DECODED_URI + index): every
     buffer given to trimesh by name, the decoded data in one more. `tree` is changed in place (pass a copy)."""
-    decoder = _Decoder(tree, buffers, path, where)
+    decoder = _Decoder(tree, buffers, path, where, notes)
     decoder.decode_meshopt()
     decoder.decode_draco()
     decoder.dequantize()
+    decoder.fans()
     decoder.instance()
     decoder.specular_glossiness()
     named = {}
@@ -572,13 +599,13 @@ def decode_document(tree: dict, buffers: list[bytes], path: Path, where: Where) 
     return tree, named
 
 
-def decode_gltf(path: Path, document: Document, where: Where) -> tuple[dict, dict[str, bytes]]:
+def decode_gltf(path: Path, document: Document, where: Where, notes: list[str]) -> tuple[dict, dict[str, bytes]]:
     """The glTF at `path` (its parsed `document`) as plain glTF for trimesh: the rewritten document and the
     buffers it names (decode_document). A document too malformed to decode is refused in one line."""
     tree = copy.deepcopy(document.tree)
     buffers = read_buffers(tree, path, document, where)
     try:
-        return decode_document(tree, buffers, path, where)
+        return decode_document(tree, buffers, path, where, notes)
     except (AttributeError, IndexError, KeyError, TypeError, ValueError) as error:
         if isinstance(error, SceneError):
             raise

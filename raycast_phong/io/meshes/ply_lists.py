@@ -193,7 +193,8 @@ def _triangles(element: Element, data: np.ndarray, starts: np.ndarray, found: np
         if each in (1, 2) and (length == each * corners).all():
             count = np.array(3 * each, _dtype(prop.count, big)).tobytes()
             first = offsets[row] + width  # the row's first entry
-            at = (first[:, None, None] + (picks * each * entry)[:, :, None] + np.arange(each * entry)).reshape(len(row), -1)
+            at = first[:, None, None] + (picks * each * entry)[:, :, None] + np.arange(each * entry)
+            at = at.reshape(len(row), -1)
             columns += [np.frombuffer(count * len(row), np.uint8).reshape(len(row), width), data[at]]
             kept.append(element.lines[1 + k])
         else:
@@ -250,8 +251,8 @@ def evened(data: bytes, notes: list[str]) -> bytes | None:
         at = int(starts[-1])
     if not uneven:
         return None
-    lines = [found.before] + [line for element_lines, _ in parts for line in element_lines]
-    return b"\n".join(lines + [b"end_header", b""]) + b"".join(body for _, body in parts)
+    lines = [found.before, *(line for element_lines, _ in parts for line in element_lines), b"end_header", b""]
+    return b"\n".join(lines) + b"".join(body for _, body in parts)
 
 
 def warm_up() -> None:

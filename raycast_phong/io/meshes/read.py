@@ -21,7 +21,8 @@ from ...errors import SceneError, Where
 from ...records import bounding_box
 from ...tolerances import POSITION_LIMIT
 from ..files import open_mesh_file
-from .content import READABLE, check_content
+from . import read_names
+from .content import check_content
 from .format import Reading
 from .gltf import SPECULAR_GLOSSINESS, TRANSFORM, UNLIT, from_pbr, transform_uv
 from .materials import FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, PartSurface, TextureSource
@@ -54,6 +55,9 @@ class MeshFile:
 
 
 
+READABLE = f"a mesh file of a format read here ({read_names()})"
+
+
 def read_file(source, bounds: bool = True) -> MeshFile:
     """The file of `source` (its MeshSource), read by its format and finished here; its `where` starts every
     error ("scene.toml: objects.0.path"). bounds: also measure the centre and radius framing needs (a render's own
@@ -83,7 +87,9 @@ def read_file(source, bounds: bool = True) -> MeshFile:
                          f"{READABLE}", where) from None
     parts = loaded.parts
     if not parts:
-        raise SceneError(f"{str(path)!r} holds no triangles; expected {READABLE}", where)
+        why = "; ".join(note.removeprefix(f"{path}: ") for note in notes)  # what the read left out, if anything
+        raise SceneError(f"{str(path)!r} holds no triangles{f' ({why})' if why else ''}; expected {READABLE}",
+                         where)
     vertices, faces, normals = _concatenate(parts)
     if vertices.ndim != 2 or vertices.shape[1] != 3:  # an OBJ `v x y`, a glTF POSITION of VEC2
         given = vertices.shape[1] if vertices.ndim == 2 else vertices.ndim

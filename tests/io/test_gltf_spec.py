@@ -1,0 +1,143 @@
+"""Parts of the glTF 2.0 specification no sample file held (issue 45), each in a file written here from the
+specification: the primitive modes (§3.7.2.1: fans and strips are triangles; points and lines draw no
+surface), a required extension the read honours (EXT_texture_webp) or that adds nothing to the surface
+(KHR_lights_punctual), and Draco data that decodes to another count than its accessor's."""
+
+from __future__ import annotations
+
+import base64
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import raycast_phong as rp
+from raycast_phong.errors import SceneError
+from raycast_phong.io.meshes.source import mesh_source, read_mesh
+
+MODELS = Path(__file__).resolve().parents[1] / "data" / "models"
+# A pentagon in the z = 0 plane, convex, counter-clockwise seen from +Z.
+PENTAGON = np.array([[np.cos(a), np.sin(a), 0.0] for a in np.linspace(0, 2 * np.pi, 6)[:-1] + 0.3], np.float32)
+AMBIENT = ["render.width=40", "render.height=30", "ambient=[1, 1, 1]", "lights=[]", "render.background=[0, 0, 0]"]
+
+
+def write(path: Path, primitives: list[dict], points=PENTAGON, indices=None, uvs=None, **document) -> Path:
+    """A glTF of one mesh whose primitives share POSITION (accessor 0), TEXCOORD_0 (1, when `uvs`) and indices
+    (the last accessor, when `indices`), its buffer a data: URI."""
+    blob = np.asarray(points, np.float32).tobytes()
+    views = [{"buffer": 0, "byteOffset": 0, "byteLength": len(blob)}]
+    accessors = [{"bufferView": 0, "componentType": 5126, "count": len(points), "type": "VEC3",
+                  "min": np.min(points, 0).tolist(), "max": np.max(points, 0).tolist()}]
+    for values, kind, component, dtype in ((uvs, "VEC2", 5126, np.float32), (indices, "SCALAR", 5123, np.uint16)):
+        if values is not None:
+            data = np.asarray(values, dtype).tobytes()
+            views.append({"buffer": 0, "byteOffset": len(blob), "byteLength": len(data)})
+            accessors.append({"bufferView": len(views) - 1, "componentType": component, "count": len(values),
+                              "type": kind})
+            blob += data + b"\0" * (-len(data) % 4)
+    tree = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": primitives}], "accessors": accessors, "bufferViews": views,
+            "buffers": [{"byteLength": len(blob),
+                         "uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode()}],
+            **document}
+    path.write_text(json.dumps(tree))
+    return path
+
+
+def triangles(read) -> set[tuple[int, ...]]:
+    """The read's triangles, each from its smallest corner on, winding kept."""
+    found = set()
+    for face in read.faces.tolist():
+        k = face.index(min(face))
+        found.add(tuple(face[k:] + face[:k]))
+    return found
+
+
+def facing(read) -> np.ndarray:
+    """Each triangle's normal's z: +1 where it is wound counter-clockwise seen from +Z."""
+    corners = read.vertices[read.faces]
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    return normal[:, 2] / np.linalg.norm(normal, axis=1)
+
+
+@pytest.mark.parametrize("indexed", [False, True])
+def test_a_triangle_fan_is_its_triangles(tmp_path, indexed):
+    """§3.7.2.1: fan triangle i is (v_i+1, v_i+2, v_0); the pentagon's 5 vertices make 3 triangles, all facing +Z.
+    Indexed, the fan runs through the indices (here the vertices in reverse: facing −Z)."""
+    order = [4, 3, 2, 1, 0]
+    primitive = {"attributes": {"POSITION": 0}, "mode": 6, **({"indices": 1} if indexed else {})}
+    path = write(tmp_path / "fan.gltf", [primitive], indices=order if indexed else None)
+    read = read_mesh(path, "t")
+    v = order if indexed else list(range(5))
+    expected = {tuple(np.roll(t, -int(np.argmin(t)))) for t in ([v[0], v[i], v[i + 1]] for i in range(1, 4))}
+    assert triangles(read) == expected
+    assert np.allclose(facing(read), -1.0 if indexed else 1.0)
+    corners = read.vertices[read.faces]
+    area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1).sum()
+    assert area == pytest.approx(2.5 * np.sin(2 * np.pi / 5), rel=1e-6)  # the regular pentagon's area
+
+
+def test_a_triangle_strip_alternates_its_winding_to_keep_facing(tmp_path):
+    """§3.7.2.1: strip triangle i is (v_i, v_i+1+i%2, v_i+2−i%2): every one faces the same way."""
+    points = [[0, 0, 0], [0, 1, 0], [1, 0, 0], [1, 1, 0], [2, 0, 0], [2, 1, 0]]
+    read = read_mesh(write(tmp_path / "strip.gltf", [{"attributes": {"POSITION": 0}, "mode": 5}], points=points), "t")
+    assert len(read.faces) == 4 and np.allclose(facing(read), facing(read)[0])
+
+
+def test_points_and_lines_are_noted_and_a_file_of_only_them_says_why_it_holds_no_triangles(tmp_path):
+    mixed = write(tmp_path / "mixed.gltf", [{"attributes": {"POSITION": 0}, "mode": 6},
+                                            {"attributes": {"POSITION": 0}, "mode": 0},
+                                            {"attributes": {"POSITION": 0}, "mode": 3}])
+    read = read_mesh(mixed, "t")
+    assert len(read.faces) == 3
+    assert any("1 primitive(s) of points, 1 primitive(s) of line strips" in note for note in read.notes), read.notes
+    only = write(tmp_path / "only.gltf", [{"attributes": {"POSITION": 0}, "mode": 1}])
+    with pytest.raises(SceneError) as caught:
+        read_mesh(only, "t")
+    assert "holds no triangles" in str(caught.value) and "1 primitive(s) of lines" in str(caught.value)
+
+
+def test_required_lights_render_with_a_note_naming_them(tmp_path):
+    """KHR_lights_punctual adds lights, no surface: a file that requires it renders (it was refused)."""
+    lights = {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 5.0}, {"type": "directional"}]}}
+    path = write(tmp_path / "lit.gltf", [{"attributes": {"POSITION": 0}, "mode": 6}], extensions=lights,
+                 extensionsUsed=["KHR_lights_punctual"], extensionsRequired=["KHR_lights_punctual"])
+    read = read_mesh(path, "t")
+    assert len(read.faces) == 3 and any("2 light(s) (KHR_lights_punctual)" in note for note in read.notes)
+
+
+def test_a_required_webp_texture_is_read(tmp_path):
+    """EXT_texture_webp: the texture's image is the extension's `source` (here the only one)."""
+    from PIL import Image
+    Image.new("RGB", (8, 8), (30, 200, 40)).save(tmp_path / "green.webp", lossless=True)
+    square = [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]
+    webp = {"extensionsUsed": ["EXT_texture_webp"], "extensionsRequired": ["EXT_texture_webp"],
+            "images": [{"uri": "green.webp"}],
+            "textures": [{"extensions": {"EXT_texture_webp": {"source": 0}}}],
+            "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.0}}]}
+    path = write(tmp_path / "webp.gltf", [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2,
+                                           "material": 0}],
+                 points=square, uvs=[[0, 1], [1, 1], [1, 0], [0, 0]], indices=[0, 1, 2, 0, 2, 3], **webp)
+    source = mesh_source(path)
+    assert source.format.texture_sizes(source) == ((8, 8),)  # the memory estimate counts the WebP map
+    image = rp.render_file(path, AMBIENT).image
+    seen = image[image.max(axis=-1) > 0]
+    assert len(seen) > 100 and (seen[:, 1] > 3 * seen[:, 0]).all() and (seen[:, 1] > 3 * seen[:, 2]).all()
+
+
+def test_draco_data_that_decodes_to_another_count_is_drawn_with_a_note(tmp_path):
+    """A known quirk of published samples: the accessor's count is not the decoded stream's. f3d draws the
+    decoded data; so does the read, saying so."""
+    pytest.importorskip("DracoPy")
+    shutil.copytree(MODELS / "BoxDraco", tmp_path / "box")
+    path = tmp_path / "box" / "BoxDraco.gltf"
+    intact = read_mesh(path, "t")
+    tree = json.loads(path.read_text())
+    position = tree["meshes"][0]["primitives"][0]["attributes"]["POSITION"]
+    tree["accessors"][position]["count"] += 5
+    path.write_text(json.dumps(tree))
+    read = read_mesh(path, "t")
+    assert np.array_equal(read.faces, intact.faces) and np.allclose(read.vertices, intact.vertices)
+    assert any("decodes to" in note and "the decoded values are drawn" in note for note in read.notes), read.notes
