@@ -27,7 +27,7 @@ def sniff(head: bytes) -> str | None:
             return name
     if re.match(rb"(\s*(#[^\n]*)?\n)*\s*(v|vn|vt|f|o|g|mtllib|usemtl)\s", head):
         return "OBJ"
-    if re.match(rb"\s*[CN]?[ST]?OFF\b", head):
+    if re.match(rb"(\s*(#[^\n]*)?\n)*\s*(ST)?C?N?4?n?OFF\b", head):  # Geomview's [ST][C][N][4][n]OFF
         return "OFF"
     if stripped[:5].lower() == b"solid":
         return "ASCII STL"

@@ -143,7 +143,7 @@ def _walk(data, at, rows, sizes, counts, entries, signed, big, starts, found):
     return True
 
 
-def _columns(element: Element, data: np.ndarray, at: int, big: bool):
+def element_rows(element: Element, data: np.ndarray, at: int, big: bool):
     """The element's row starts and list counts, by _walk; None when its rows do not fit the data."""
     props = element.properties
     sizes = np.array([np.dtype(PLY_DTYPES[p.type]).itemsize if p.count is None else 0 for p in props], np.int64)
@@ -238,7 +238,7 @@ def evened(data: bytes, notes: list[str]) -> bytes | None:
             parts.append((element.lines, data[at:even[1]]))
             at = even[1]
             continue
-        walked = _columns(element, raw, at, big)
+        walked = element_rows(element, raw, at, big)
         if walked is None:
             return None
         uneven, (starts, counts) = True, walked

@@ -1,0 +1,118 @@
+"""OFF read from Geomview's specification (issue 45): the header keyword's prefixes (C colours, N normals, ST),
+the optional keyword, polygons of any size, face colours, comments anywhere and `OFF BINARY`. Each file is
+written here; what each triangle gets is worked out by hand, and a plain file is checked against trimesh's
+own OFF reader (a reader apart from this one)."""
+
+from __future__ import annotations
+
+import io
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from raycast_phong.errors import SceneError
+from raycast_phong.io.meshes.source import mesh_source
+
+POINTS = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0.5, 1.8, 0), (2, 0, 0), (2, 1, 0)]
+FACES = [(0, 1, 2, 3), (3, 2, 4), (1, 5, 6, 2)]
+FANS = {(0, 1, 2), (0, 2, 3), (2, 4, 3), (1, 5, 6), (1, 6, 2)}  # each from its smallest corner, winding kept
+
+
+def turned(face) -> tuple[int, ...]:
+    face = list(face)
+    k = face.index(min(face))
+    return tuple(face[k:] + face[:k])
+
+
+def text(header: str, vertex=lambda k, p: " ".join(map(str, p)),
+         face=lambda k, f: f"{len(f)} {' '.join(map(str, f))}") -> bytes:
+    """The mesh as OFF text under `header`, a comment line and a trailing comment on the counts line."""
+    lines = [header] if header else []
+    lines += ["# a comment line", f"{len(POINTS)} {len(FACES)} 0  # counts, then a comment"]
+    lines += [vertex(k, p) for k, p in enumerate(POINTS)] + [face(k, f) for k, f in enumerate(FACES)]
+    return ("\n".join(lines) + "\n").encode()
+
+
+def read(tmp_path: Path, data: bytes):
+    path = tmp_path / "m.off"
+    path.write_bytes(data)
+    return mesh_source(path).read()
+
+
+@pytest.mark.parametrize("header", ["OFF", "", "# made by hand\nOFF"])
+def test_polygons_are_fans_and_the_keyword_is_optional(tmp_path, header):
+    found = read(tmp_path, text(header))
+    assert np.allclose(found.vertices, POINTS) and {turned(f) for f in found.faces.tolist()} == FANS
+    assert found.normals is None and found.corner_colour is None
+
+
+def test_a_file_of_triangles_reads_as_trimesh_s_reader_reads_it(tmp_path):
+    mesh = trimesh.creation.icosphere(2)
+    data = trimesh.exchange.off.export_off(mesh).encode()
+    ours = read(tmp_path, data)
+    theirs = trimesh.load(io.BytesIO(data), file_type="off", process=False)
+    assert np.allclose(ours.vertices, theirs.vertices) and np.array_equal(ours.faces, theirs.faces)
+
+
+@pytest.mark.parametrize("scale", [255, 1.0])
+def test_vertex_colours_of_coff_in_either_form(tmp_path, scale):
+    """C: r g b a after x y z, 0..255 integers or 0..1 floats: vertex k is red, green or blue by k % 3."""
+    rgb = [(0.9, 0.3, 0.1, 1), (0.1, 0.9, 0.3, 1), (0.3, 0.1, 0.9, 1)]  # read as 0..255 if floats, all clip white
+    data = text("COFF", vertex=lambda k, p: " ".join(map(str, [*p, *(round(c * scale, 3) for c in rgb[k % 3])])))
+    found = read(tmp_path, data)
+    for face, colours in zip(found.faces, found.corner_colour):
+        assert [np.argmax(c) for c in colours] == [k % 3 for k in face]
+
+
+def test_face_colours_colour_their_fans(tmp_path):
+    rgb = [(200, 0, 0), (0, 200, 0), (0, 0, 200)]
+    data = text("OFF", face=lambda k, f: f"{len(f)} {' '.join(map(str, f))} {' '.join(map(str, rgb[k]))}")
+    found = read(tmp_path, data)
+    for face, colours in zip(found.faces.tolist(), found.corner_colour):
+        polygon = next(k for k, f in enumerate(FACES) if set(face) <= set(f))
+        assert all(np.argmax(c) == polygon for c in colours)
+
+
+def test_noff_keeps_the_file_s_normals(tmp_path):
+    normal = np.array([0.0, 0.6, 0.8])
+    found = read(tmp_path, text("NOFF", vertex=lambda k, p: " ".join(map(str, [*p, *normal]))))
+    assert found.normals is not None and np.allclose(found.normals, normal)
+
+
+def binary(colours: bool) -> bytes:
+    """OFF BINARY: big-endian counts, float32 vertices, per face Nv, indices, Nc and Nc float32 colours."""
+    body = struct.pack(">3i", len(POINTS), len(FACES), 0) + b"".join(struct.pack(">3f", *p) for p in POINTS)
+    for k, face in enumerate(FACES):
+        colour = [float(k == 0), float(k == 1), float(k == 2), 1.0] if colours else []
+        body += struct.pack(f">{len(face) + 1}i", len(face), *face)
+        body += struct.pack(">i", len(colour)) + struct.pack(f">{len(colour)}f", *colour)
+    return b"OFF BINARY\n" + body
+
+
+@pytest.mark.parametrize("colours", [False, True])
+def test_off_binary(tmp_path, colours):
+    found = read(tmp_path, binary(colours))
+    assert np.allclose(found.vertices, POINTS) and {turned(f) for f in found.faces.tolist()} == FANS
+    if colours:
+        for face, corner in zip(found.faces.tolist(), found.corner_colour):
+            polygon = next(k for k, f in enumerate(FACES) if set(face) <= set(f))
+            assert all(np.argmax(c) == polygon for c in corner)
+    path = tmp_path / "m.off"
+    with path.open("rb") as handle:
+        assert mesh_source(path).format.count(handle, path.stat().st_size, None) >= len(FANS)
+
+
+@pytest.mark.parametrize(("data", "said"), [
+    (text("OFF")[:-30], "cut short"),
+    (text("OFF").replace(b"0.5 1.8 0", b"0.5 1.x8 0"), "'1.x8', which is not a number"),
+    (text("OFF").replace(b"3 3 2 4", b"3 3 2 9"), "face index outside 0..6"),
+    (text("OFF").replace(b"3 3 2 4", b"5 3 2 4"), "indices where it counts 5"),
+    (binary(False)[:-9], "cut short"),
+])
+def test_a_broken_file_is_one_line_saying_what(tmp_path, data, said):
+    with pytest.raises(SceneError) as caught:
+        read(tmp_path, data)
+    assert said in str(caught.value) and "\n" not in str(caught.value), str(caught.value)
