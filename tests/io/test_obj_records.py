@@ -224,3 +224,19 @@ def test_a_utf16_mark_before_bytes_that_are_not_utf16_is_one_line(tmp_path):
     assert done.exit_code == 2, done.output
     message = " ".join(done.stderr.split())
     assert "UTF-16-LE byte-order mark but byte 18 is not UTF-16-LE" in message and "Traceback" not in done.output
+
+
+def test_a_hash_inside_a_material_name_is_part_of_it(tmp_path):
+    """Godot 4 names materials `StandardMaterial3D#-92`: `#` starts a comment only at the start of a word (issue
+    45). Two names that differ only after their `#` stay two materials; trailing comments are dropped, on
+    `usemtl` lines too (trimesh kept the space before one in the name, and lost the material)."""
+    (tmp_path / "m.mtl").write_text("# Godot 4\nnewmtl StandardMaterial3D#-92\nKd 0.9 0.1 0.1 # red\n"
+                                    "newmtl StandardMaterial3D#-93   # its twin\nKd 0.1 0.1 0.9\n")
+    (tmp_path / "m.obj").write_text("mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
+                                    "usemtl StandardMaterial3D#-92 # a comment\nf 1 2 3\n"
+                                    "usemtl StandardMaterial3D#-93\nf 1 3 4\n")
+    read = read_mesh(tmp_path / "m.obj", "t")
+    assert sorted(m.name for m in read.materials) == ["StandardMaterial3D#-92", "StandardMaterial3D#-93"]
+    for face, group in zip(read.faces, read.face_group):
+        red = np.allclose(read.vertices[face][:, 0].sum(), 2.0)  # (0,0), (1,0), (1,1): the first face
+        assert read.materials[group].kd == ((0.9, 0.1, 0.1) if red else (0.1, 0.1, 0.9))

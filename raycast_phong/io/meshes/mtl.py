@@ -24,6 +24,15 @@ TEXTURE_KEYS = ("map_", "bump", "disp", "decal", "refl", "norm")
 MTLLIB = re.compile(rb"^[ \t]*mtllib[ \t]+([^\r\n]+)", re.MULTILINE)  # an OBJ's mtllib statement: its names
 
 
+
+def uncommented(words: list) -> list:
+    """A line's words before its comment: `#` starts one only at the start of a word, so a name holding `#`
+    (Godot 4 writes `newmtl StandardMaterial3D#-92`) is whole, as in the OBJ specification's examples."""
+    for k, word in enumerate(words):
+        if word.startswith("#" if isinstance(word, str) else b"#"):
+            return words[:k]
+    return words
+
 def mtllib_names(lines: list[bytes], folder: Path) -> list[str]:
     """The .mtl files named by an OBJ's `mtllib` statements (`lines`: each statement's text after `mtllib`),
     in order, each once. The OBJ specification lets one statement name several files: they are separated by
@@ -114,7 +123,7 @@ def parse_mtl(content: str, mtl: Path, notes: list[str],
     raw: dict[str, dict[str, list[str]]] = {}
     current = None
     for line in content.splitlines():
-        words = line.split("#", 1)[0].split()
+        words = uncommented(line.split())
         if len(words) < 2:
             continue
         key = words[0].lower()

@@ -68,7 +68,27 @@ def obj_text(data: bytes, path: Path, where: Where) -> io.BytesIO:
     if problem:
         raise SceneError(f"{str(path)!r} {problem}", where)
     data, _ = triangulate_concave(data)  # trimesh would fan a concave polygon over its hole
-    return io.BytesIO(data)
+    return io.BytesIO(kept_hashes(data))
+
+
+IN_NAME = "\ue000"  # stands for a `#` inside a material name while trimesh reads (it cuts every line at `#`)
+USEMTL_HASH = re.compile(rb"^[ \t]*usemtl[ \t][^\n]*#[^\n]*", re.M)
+
+
+def kept_hashes(data: bytes) -> bytes:
+    """`usemtl` lines holding `#` as mtl.uncommented reads them: a trailing comment dropped (trimesh kept the
+    space before it in the name, and lost the material), each `#` inside a word as IN_NAME, so trimesh's
+    comment cut leaves the name whole. Files without such a line are returned as they are."""
+    if not USEMTL_HASH.search(data):
+        return data
+    from .mtl import uncommented
+    marker = IN_NAME.encode()
+    return USEMTL_HASH.sub(lambda line: b" ".join(uncommented(line[0].split())).replace(b"#", marker), data)
+
+
+def hashed(name: str) -> str:
+    """A material name as trimesh is given it (kept_hashes)."""
+    return name.replace("#", IN_NAME)
 
 
 def material_names(path: Path, names):
@@ -82,7 +102,7 @@ def material_names(path: Path, names):
             return self.text
 
     resolver = MaterialNames(path)
-    resolver.text = "".join(f"newmtl {name}\n" for name in names).encode("utf-8")
+    resolver.text = "".join(f"newmtl {hashed(name)}\n" for name in names).encode("utf-8")
     return resolver
 
 
@@ -135,7 +155,8 @@ def read(reading: Reading) -> Loaded:
     reading.textures.extend(materials.sources)
     if loaded is None:
         loaded = load_obj(obj_text(data, path, where), path, materials.library, where, data)
-    return Loaded(parts(loaded), library=materials.library)
+    library = materials.library and {hashed(name): material for name, material in materials.library.items()}
+    return Loaded(parts(loaded), library=library)
 
 
 def explain(handle, source) -> str | None:
