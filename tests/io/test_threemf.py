@@ -16,6 +16,7 @@ from typer.testing import CliRunner
 
 import raycast_phong as rp
 from raycast_phong.cli import app
+from raycast_phong.errors import SceneError
 from raycast_phong.io.meshes import read as mesh_file
 from raycast_phong.io.meshes.source import read_mesh
 
@@ -156,3 +157,66 @@ def test_a_broken_3mf_is_one_line(tmp_path, resources, triangles, says):
     assert done.exit_code == 2, done.output
     [line] = done.stderr.strip().splitlines()
     assert says in line, line
+
+
+SLICE = "http://schemas.microsoft.com/3dmanufacturing/slice/2015/07"
+BEAMS = "http://schemas.microsoft.com/3dmanufacturing/beamlattice/2017/02"
+SECURE = "http://schemas.microsoft.com/3dmanufacturing/securecontent/2019/04"
+TWO = '<triangle v1="0" v2="1" v3="2"/><triangle v1="0" v2="2" v3="3"/>'
+
+
+@pytest.mark.parametrize(("extra_ns", "says"), [
+    (f' xmlns:s="{SLICE}" requiredextensions="s"', "Slice (the model as stacks of 2-D slices)"),
+    (f' xmlns:b="{BEAMS}" requiredextensions="b"', "Beam Lattice"),
+    (f' xmlns:sc="{SECURE}" requiredextensions="sc"', "Secure Content (encrypted parts)"),
+    (' xmlns:x="http://example.com/x/2030/01" requiredextensions="x"', "http://example.com/x/2030/01"),
+    (' requiredextensions="q"', "'q' (a prefix the model does not declare)"),
+])
+def test_a_required_extension_not_read_is_refused_naming_it(tmp_path, extra_ns, says):
+    """Core §2.3.1: a consumer must not read a file whose required extensions it does not support."""
+    write_3mf(tmp_path / "r.3mf", "", TWO, extra_ns=extra_ns)
+    with pytest.raises(SceneError) as caught:
+        read(tmp_path / "r.3mf")
+    assert f"requires the 3MF extension(s) {says}" in str(caught.value), str(caught.value)
+
+
+def test_a_required_extension_that_is_read_reads(tmp_path):
+    mesh = read(write_3mf(tmp_path / "m.3mf", "", TWO, extra_ns=' requiredextensions="m"'))
+    assert len(mesh.faces) == 2
+
+
+def test_a_slice_stack_s_2d_vertices_are_not_the_mesh_s(tmp_path):
+    """A slice stack before the object: its <s:vertex x y> are 2-D (they were read as mesh vertices, NaN z)."""
+    stack = ('<s:slicestack id="9" zbottom="0"><s:slice ztop="1"><s:vertices><s:vertex x="1" y="2"/>'
+             '<s:vertex x="3" y="4"/></s:vertices><s:polygon startv="0"><s:segment v2="1"/></s:polygon></s:slice>'
+             '</s:slicestack>')
+    mesh = read(write_3mf(tmp_path / "s.3mf", stack, TWO, extra_ns=f' xmlns:s="{SLICE}"'))
+    assert len(mesh.faces) == 2 and np.allclose(np.ptp(mesh.vertices, axis=0), [10, 10, 0])
+    assert any("slice stack" in note for note in mesh.notes), mesh.notes
+
+
+def test_a_beam_lattice_is_noted_with_its_beams(tmp_path):
+    lattice = ('<b:beamlattice minlength="0.1" radius="1"><b:beams><b:beam v1="0" v2="2"/><b:beam v1="1" v2="3"/>'
+               '</b:beams></b:beamlattice>')
+    path = tmp_path / "b.3mf"
+    write_3mf(path, "", TWO, extra_ns=f' xmlns:b="{BEAMS}"')
+    with zipfile.ZipFile(path) as archive:
+        model = archive.read("3D/3dmodel.model").decode()
+    model = model.replace("</triangles></mesh>", f"</triangles>{lattice}</mesh>")
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("3D/3dmodel.model", model)
+    mesh = read(path)
+    assert len(mesh.faces) == 2 and any("beam lattice of 2 beam(s)" in note for note in mesh.notes), mesh.notes
+
+
+def test_a_0_93_draft_model_s_colours_are_noted(tmp_path):
+    """The 0.93 draft (namespace 2013/01) coloured triangles by `colorid`; they are not read, and said."""
+    path = tmp_path / "d.3mf"
+    model = ('<?xml version="1.0" encoding="UTF-8"?>\n<model unit="millimeter" '
+             'xmlns="http://schemas.microsoft.com/3dmanufacturing/2013/01"><resources><color id="5" value="#FF0000"/>'
+             f'<object id="1" type="model"><mesh>{SQUARE}<triangles><triangle v1="0" v2="1" v3="2" colorid="5"/>'
+             '</triangles></mesh></object></resources><build><item objectid="1"/></build></model>')
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("3D/3dmodel.model", model)
+    mesh = read(path)
+    assert len(mesh.faces) == 1 and any("0.93 draft" in note for note in mesh.notes), mesh.notes

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import io
 import posixpath
+import re
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -111,12 +112,46 @@ def _local(tag) -> str:
 
 BATCH = 8192  # vertices or triangles held as elements before they are dropped
 YIELDED = ("vertex", "triangle", "object", "item", "basematerials", "colorgroup", "texture2d", "texture2dgroup",
-           "multiproperties", "compositematerials")
+           "multiproperties", "compositematerials", "beamlattice", "slicestack")
+# The 3MF Consortium's extensions, told by a word of their namespace URI: those read (a triangle set only
+# groups triangles), and what each other one adds, for the refusal of a file that requires it (core §2.3.1: a
+# consumer must not read a file whose required extensions it does not support) or the note of one that uses it.
+READ_EXTENSIONS = ("/core/", "/material/", "/production/", "/trianglesets/")
+EXTENSIONS = {"/slice/": "Slice (the model as stacks of 2-D slices)", "/beamlattice/": "Beam Lattice (beams "
+              "between vertices)", "/securecontent/": "Secure Content (encrypted parts)", "/volumetric/":
+              "Volumetric", "/displacement/": "Displacement", "/implicit/": "Implicit", "/booleanoperations/":
+              "Boolean Operations"}
+MODEL_TAG = re.compile(r"<(?:[\w.-]+:)?model\b([^>]*)>")
+ATTRIBUTE = re.compile(r"([\w.:-]+)\s*=\s*(?:\"([^\"]*)\"|'([^']*)')")
+
+
+def _check_required(archive, part: str, path: Path, where: Where) -> str:
+    """Refuse a model part whose <model> requires an extension not read (naming it: core §2.3.1); returns its
+    default namespace (the 2013/01 draft's is told apart)."""
+    with archive.open(part) as stream:
+        head = stream.read(1 << 16).decode("utf-8", "replace")
+    found = MODEL_TAG.search(head)
+    if found is None:
+        return ""
+    attributes = {match[1]: match[2] if match[2] is not None else match[3] for match in ATTRIBUTE.finditer(found[1])}
+    missing = []
+    for prefix in (attributes.get("requiredextensions") or "").split():
+        uri = attributes.get(f"xmlns:{prefix}")
+        if uri is None:
+            missing.append(f"{prefix!r} (a prefix the model does not declare)")
+        elif not any(word in uri for word in READ_EXTENSIONS):
+            missing.append(next((name for word, name in EXTENSIONS.items() if word in uri), uri))
+    if missing:
+        raise SceneError(f"{str(path)!r}: {part} requires the 3MF extension(s) {', '.join(missing)}, which this "
+                         "renderer does not read; read: core, Materials and Properties, Production, Triangle "
+                         "Sets", where)
+    return attributes.get("xmlns", "")
 
 
 def _parse(archive, members, part: str, models: dict, path: Path, where: Where, notes: list[str]) -> None:
     """Read one model part's resources, objects and build into models[part]."""
     from lxml import etree
+    namespace = _check_required(archive, part, path, where)
     model = models[part] = _Model(part)
     vertices: list = []
     triangles: list = []
@@ -129,6 +164,8 @@ def _parse(archive, members, part: str, models: dict, path: Path, where: Where, 
         for _, element in context:
             name = element.tag.rsplit("}", 1)[-1]
             attrib = element.attrib
+            if name == "vertex" and SLICE in element.tag:  # a slice's 2-D vertex (x, y), not the mesh's
+                continue
             if name == "vertex" or name == "triangle":
                 if name == "vertex":
                     vertices.append((attrib.get("x"), attrib.get("y"), attrib.get("z")))
@@ -143,6 +180,8 @@ def _parse(archive, members, part: str, models: dict, path: Path, where: Where, 
             if name == "object":
                 _object(model, dict(attrib), vertices, triangles, element, path, where)
                 vertices, triangles = [], []
+            elif name in ("beamlattice", "slicestack"):
+                _unread_geometry(name, element, part, path, notes)
             elif name == "item":
                 model.build.append((_path_of(attrib, part), attrib.get("objectid"), _transform(attrib, path, where)))
             else:
@@ -160,10 +199,39 @@ def _parse(archive, members, part: str, models: dict, path: Path, where: Where, 
     if fatal:
         raise SceneError(f"cannot read {str(path)!r} as 3MF: {part} is not well-formed XML ({fatal[0].message.strip()}"
                          f", line {fatal[0].line})", where)
+    if namespace == DRAFT and _draft_colours(archive, part):
+        notes.append(f"{path}: {part} is a 3MF 0.93 draft model whose colours and textures (colorid, texture "
+                     "elements) are not read; it is drawn grey")
     undeclared = [entry for entry in context.error_log if entry.domain_name == "NAMESPACE"]
     if undeclared:
         notes.append(f"{path}: {part} uses a namespace prefix it does not declare ({undeclared[0].message.strip()}, "
                      f"line {undeclared[0].line}); read as written")
+
+
+SLICE = "/slice/"  # the Slice extension's namespace word: its <s:vertex> elements are 2-D
+DRAFT = "http://schemas.microsoft.com/3dmanufacturing/2013/01"  # the 0.93 draft's namespace (core 1.0's is later)
+
+
+def _unread_geometry(name: str, element, part: str, path: Path, notes: list[str]) -> None:
+    """A note for a beam lattice (its beams are not drawn) or a slice stack (its slices are not: the mesh is)."""
+    if name == "beamlattice":
+        beams = sum(1 for child in element.iter() if isinstance(child.tag, str) and _local(child.tag) == "beam")
+        notes.append(f"{path}: {part} holds a beam lattice of {beams} beam(s) (the Beam Lattice extension), which is "
+                     "not drawn: only its mesh's triangles are")
+    else:
+        notes.append(f"{path}: {part} holds a slice stack (the Slice extension), which is not read: its objects' "
+                     "meshes are drawn")
+
+
+def _draft_colours(archive, part: str) -> bool:
+    """Whether a 0.93 draft model part colours its triangles (`colorid`) or names textures."""
+    with archive.open(part) as stream:
+        tail = b""
+        while chunk := stream.read(1 << 20):
+            if re.search(rb"colorid=|<(?:\w+:)?texture\b", tail + chunk):
+                return True
+            tail = chunk[-64:]
+    return False
 
 
 def _path_of(attrib, part: str) -> str:
