@@ -14,6 +14,7 @@ than that, and the memory stays bounded.
 from __future__ import annotations
 
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -138,7 +139,9 @@ def decode_pil(image, colour: str) -> np.ndarray:
         height, width = capped(image.height, image.width)
         if (height, width) != (image.height, image.width):
             image.thumbnail((width, height))
-        pixels = np.asarray(image.convert("RGB"), np.float64) / 255.0
+        with warnings.catch_warnings():  # PIL's advice on a palette's transparency (two lines on stderr): the
+            warnings.simplefilter("ignore", UserWarning)  # colour is what is read; alpha is not drawn
+            pixels = np.asarray(image.convert("RGB"), np.float64) / 255.0
     except Exception as error:  # noqa: BLE001 - PIL raises many types on a corrupt image
         raise ValueError(f"{type(error).__name__}: {error}") from None
     return np.ascontiguousarray(srgb_to_linear(pixels) if colour == LINEAR else pixels, np.float32)

@@ -84,15 +84,18 @@ def test_a_file_without_nodes_shows_each_mesh_once(tmp_path):
     np.testing.assert_array_equal(read.vertices, [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]])
 
 
+@pytest.mark.parametrize("required", [True, False])
 @pytest.mark.parametrize("extension", sorted(LOOK_ONLY))
-def test_a_required_extension_that_changes_only_the_look_is_a_note(tmp_path, extension):
+def test_an_extension_that_changes_only_the_look_is_a_note(tmp_path, extension, required):
     """15_transmission requires KHR_materials_transmission: the spec lets a viewer refuse, but drawing the base
-    material with a note is friendlier; so for each required extension that changes only the look. main: refused."""
+    material with a note is friendlier; so for each extension that changes only the look, required or only
+    used (issue 45: a used one was dropped with no note)."""
     material = {"pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.4, 0.6, 1.0], "metallicFactor": 0.0},
                 "extensions": {extension: {}}}
-    read = read_mesh(quad_gltf(tmp_path, material, required=(extension,)), "t")
+    read = read_mesh(quad_gltf(tmp_path, material, required=(extension,) if required else ()), "t")
     assert read.materials[0].kd == pytest.approx((0.2, 0.4, 0.6))
-    assert any(extension in note and "base colour" in note for note in read.notes), read.notes
+    said = f"{'requires' if required else 'uses'} {extension}"
+    assert any(said in note and "base colour" in note for note in read.notes), read.notes
 
 
 def test_a_required_extension_that_changes_the_data_is_still_refused(tmp_path):

@@ -172,3 +172,17 @@ def test_a_long_map_name_is_shown_by_its_start_and_end_in_one_short_line(tmp_pat
     with pytest.raises(SceneError) as refused:
         rp.render(rp.load_scene(tmp_path / "l.toml", ["render.width=8", "render.height=8"]))
     assert len(str(refused.value)) < 300 and "/missing.png'" in str(refused.value), str(refused.value)
+
+
+def test_a_palette_map_with_byte_transparency_decodes_without_pil_s_warning(tmp_path, recwarn):
+    """PIL warns in two lines on stderr that such an image 'should be converted to RGBA' (issue 45): the colour
+    is what is read, so the advice is not passed on."""
+    from PIL import Image
+
+    from raycast_phong.io.textures import decode_pil
+    image = Image.new("P", (4, 4))
+    image.putpalette([255, 0, 0] * 256)
+    image.save(tmp_path / "p.png", transparency=bytes([0, 128, 255]))
+    with Image.open(tmp_path / "p.png") as opened:
+        pixels = decode_pil(opened, "display")
+    assert np.allclose(pixels, [1, 0, 0]) and not [w for w in recwarn if "Palette" in str(w.message)]

@@ -56,10 +56,11 @@ def check_document(document: Document, path: Path, where: Where, notes: list[str
     required = [e for e in tree.get("extensionsRequired", []) if isinstance(e, str)] \
         if isinstance(tree.get("extensionsRequired", []), list) else []
     missing = [e for e in required if e not in SUPPORTED_REQUIRED and e not in LOOK_ONLY]
-    for e in required:
+    used = tree.get("extensionsUsed") if isinstance(tree.get("extensionsUsed"), list) else []
+    for e in dict.fromkeys([*required, *(e for e in used if isinstance(e, str))]):
         if e in LOOK_ONLY:
-            notes.append(f"{path}: requires {e}; its {LOOK_ONLY[e]} is not drawn: its materials are drawn in "
-                         "their base colour, metallic and roughness")
+            notes.append(f"{path}: {'requires' if e in required else 'uses'} {e}; its {LOOK_ONLY[e]} is not "
+                         "drawn: its materials are drawn in their base colour, metallic and roughness")
     if "KHR_draco_mesh_compression" in required:
         try:
             import DracoPy  # noqa: F401  (trimesh decodes Draco with it)

@@ -67,11 +67,26 @@ def read(reading: Reading) -> Loaded:
     from .trimesh_parts import RegularFiles, load, parts
     resolver = RegularFiles(reading.path)
     resolver.locate = lambda folder, name: folder / resolved(name, reading.path)  # `<this>` in a TextureFile name
-    evened = ply_lists.evened(reading.handle.read(), reading.notes)  # lists of uneven length (a quad, a triangle)
+    data = reading.handle.read()
+    evened = ply_lists.evened(data, reading.notes)  # lists of uneven length (a quad, a triangle)
+    _note_points(data, reading.path, reading.notes)
     reading.handle.seek(0)
     loaded = load(reading, file_obj=None if evened is None else io.BytesIO(evened), resolver=resolver)
     images = _textures(reading.path, reading.handle, reading.notes)
     return Loaded(parts(loaded) or strip_parts(loaded), images=tuple(images))
+
+
+def _note_points(data: bytes, path: Path, notes: list[str]) -> None:
+    """A note for a PLY of points and no faces (a scan's point cloud, a Gaussian splat file): nothing of it
+    is a surface, which the no-triangles refusal then says."""
+    header = ply_lists.header(data[:HEADER_LIMIT])
+    if header is None or any(element.name in ("face", "tristrips") for element in header.elements):
+        return
+    vertex = next((element for element in header.elements if element.name == "vertex"), None)
+    if vertex is not None:
+        names = {prop.name for prop in vertex.properties}
+        kind = "Gaussian splats" if {"f_dc_0", "opacity"} <= names else "points"
+        notes.append(f"{path}: a point cloud of {vertex.rows:,} {kind}, no face element: only surfaces are drawn")
 
 
 def strip_parts(loaded) -> list:
