@@ -272,3 +272,15 @@ def test_performance_is_a_page_and_meshes_opens_with_its_formats():
     suffixes = {suffix for row in body for suffix in re.findall(r"`(\.\w+)`", row[1])}
     for kind in FORMATS:
         assert set(kind.suffixes) <= suffixes, f"{kind.names[0]}: {kind.suffixes} not in the formats table"
+
+
+def test_every_test_the_specification_table_names_exists():
+    """docs/meshes.md's "What each specification says" names the test holding each rule: each exists (a renamed
+    or deleted test would leave the row unproven)."""
+    text = (ROOT / "docs" / "meshes.md").read_text(encoding="utf-8")
+    section = text.split("## What each specification says", 1)[1].split("\n## ", 1)[0]
+    named = re.findall(r"`(tests/[\w/]+\.py)::(\w+)`", section)
+    assert len(named) >= 25, named
+    for path, name in named:
+        source = (ROOT / path).read_text(encoding="utf-8")
+        assert re.search(rf"^def {name}\(", source, re.M), f"{path}::{name} is named in docs/meshes.md but not defined"
