@@ -13,7 +13,7 @@ import pytest
 from PIL import Image
 
 from raycast_phong.errors import SceneError
-from raycast_phong.io.meshes import ply_lists
+from raycast_phong.io.meshes import ply_lists, ply_rows
 from raycast_phong.io.meshes.source import mesh_source
 
 # A house: a square wall (a quad), a roof (a triangle) and a floor pentagon, convex each.
@@ -81,7 +81,7 @@ def test_per_corner_texture_coordinates_follow_their_corners(tmp_path, order):
 
 
 def test_even_lists_are_left_to_trimesh_and_walk_nothing(tmp_path, monkeypatch):
-    monkeypatch.setattr(ply_lists, "_walk", None)  # called: a TypeError
+    monkeypatch.setattr(ply_rows, "walk_rows", None)  # called: a TypeError
     data = write_binary(tmp_path / "h.ply", "little", "uchar", "int").read_bytes()
     quad = data.replace(b"element face 3", b"element face 1")[: data.index(b"end_header\n") + 11 + 8 * 12 + 1 + 16 + 3]
     assert ply_lists.evened(quad, []) is None  # one quad: every list has its first row's length

@@ -42,17 +42,13 @@ def _start(data: bytes) -> int:
         at = end + 1
 
 
-class _Refused(ValueError):
-    """A problem in the file, in words naming where."""
-
-
 def read(reading: Reading) -> Loaded:
     from .trimesh_parts import Part
     data = reading.handle.read()
     try:
         vertices, faces, normals, colours, per_face = parse(data, reading.notes, str(reading.path))
-    except _Refused as problem:
-        raise SceneError(f"{str(reading.path)!r} {problem}", reading.where) from None
+    except SceneError as refused:  # the problem alone (parse knows no path): worded here with the file
+        raise SceneError(f"{str(reading.path)!r} {refused.problem}", reading.where) from None
     return Loaded([Part(vertices, faces, normals, _visual(colours, per_face))])
 
 
@@ -80,7 +76,7 @@ def parse(data: bytes, notes: list[str], name: str):
     width = 3
     if dimensions:
         if not lines:
-            raise _Refused("is cut short before its dimension line; allowed: nOFF, then Ndim")
+            raise SceneError("is cut short before its dimension line; allowed: nOFF, then Ndim")
         width = _integers(lines.pop(0), "the dimension line (nOFF's Ndim)", 1)[0]
         notes.append(f"{name}: is {'4' if four else ''}nOFF ({width}-dimensional vertices); the first three "
                      "coordinates are drawn")
@@ -88,17 +84,17 @@ def parse(data: bytes, notes: list[str], name: str):
         notes.append(f"{name}: is 4OFF (homogeneous 4-D vertices); x, y, z are drawn without the fourth")
     width += 1 if four else 0
     if not lines:
-        raise _Refused("has no counts line; allowed: NVertices NFaces NEdges after the header")
+        raise SceneError("has no counts line; allowed: NVertices NFaces NEdges after the header")
     counts = _integers(lines[0], "the counts line", 2)
     vertex_count, face_count = counts[0], counts[1]
     if len(lines) < 1 + vertex_count + face_count:
-        raise _Refused(f"holds {len(lines) - 1:,} vertex and face lines where its counts line says "
+        raise SceneError(f"holds {len(lines) - 1:,} vertex and face lines where its counts line says "
                        f"{vertex_count:,} + {face_count:,}; the file is cut short")
     block = _numbers(lines[1:1 + vertex_count], "a vertex line")
     per_line = block.size // max(vertex_count, 1)
     wanted = width + 3 * normals + 2 * texture
     if block.size != per_line * vertex_count or per_line < wanted:
-        raise _Refused(f"has vertex lines of {per_line if block.size == per_line * vertex_count else 'differing'} "
+        raise SceneError(f"has vertex lines of {per_line if block.size == per_line * vertex_count else 'differing'} "
                        f"numbers; allowed: the same count on every line, at least {wanted} for its header "
                        f"({found[0].decode() if found else 'OFF'})")
     block = block.reshape(vertex_count, per_line)
@@ -122,9 +118,9 @@ def _integers(line: bytes, what: str, least: int) -> list[int]:
     try:
         values = [int(word) for word in words]
     except ValueError:
-        raise _Refused(f"has {what} {line[:60].decode('latin-1')!r}, which is not whole numbers") from None
+        raise SceneError(f"has {what} {line[:60].decode('latin-1')!r}, which is not whole numbers") from None
     if len(values) < least or min(values) < 0:
-        raise _Refused(f"has {what} {line[:60].decode('latin-1')!r}; allowed: {least} or more whole numbers ≥ 0")
+        raise SceneError(f"has {what} {line[:60].decode('latin-1')!r}; allowed: {least} or more whole numbers ≥ 0")
     return values
 
 
@@ -141,9 +137,9 @@ def _numbers(lines: list[bytes], what: str) -> np.ndarray:
                     try:
                         float(word)
                     except ValueError:
-                        raise _Refused(f"has {what} with {word[:40].decode('latin-1')!r}, which is not a number; "
+                        raise SceneError(f"has {what} with {word[:40].decode('latin-1')!r}, which is not a number; "
                                        "allowed: decimal numbers") from None
-            raise _Refused(f"has {what} numpy cannot read; allowed: decimal numbers") from None
+            raise SceneError(f"has {what} numpy cannot read; allowed: decimal numbers") from None
 
 
 def _text_faces(lines: list[bytes], vertex_count: int) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
@@ -152,16 +148,16 @@ def _text_faces(lines: list[bytes], vertex_count: int) -> tuple[np.ndarray, tupl
     words = np.array([len(line.split()) for line in lines], np.int64)
     values = _numbers(lines, "a face line")
     if values.size != words.sum():
-        raise _Refused("has a face line numpy reads differently from its words; allowed: decimal numbers")
+        raise SceneError("has a face line numpy reads differently from its words; allowed: decimal numbers")
     start = np.cumsum(words) - words
     corners = values[start].astype(np.int64) if len(lines) else np.zeros(0, np.int64)
     if (corners < 0).any() or (corners + 1 > words).any():
         bad = int(np.flatnonzero((corners < 0) | (corners + 1 > words))[0])
-        raise _Refused(f"has face {bad} (line {bad + 1} of the faces) of {words[bad] - 1} indices where it counts "
+        raise SceneError(f"has face {bad} (line {bad + 1} of the faces) of {words[bad] - 1} indices where it counts "
                        f"{corners[bad]}; allowed: Nv then Nv vertex indices")
     faces, row = _fans(values, start + 1, corners)
     if faces.size and (faces.min() < 0 or faces.max() >= vertex_count):
-        raise _Refused(f"has a face index outside 0..{vertex_count - 1}; allowed: indices of its own vertices")
+        raise SceneError(f"has a face index outside 0..{vertex_count - 1}; allowed: indices of its own vertices")
     spec = words - 1 - corners
     if not (spec >= 3).any():
         return faces, None
@@ -182,7 +178,7 @@ def _fans(values: np.ndarray, first: np.ndarray, corners: np.ndarray) -> tuple[n
     base = first[row]
     faces = np.column_stack([values[base], values[base + step + 1], values[base + step + 2]])
     if faces.size and not (faces == np.round(faces)).all():
-        raise _Refused("has a face index that is not a whole number; allowed: vertex indices 0, 1, ...")
+        raise SceneError("has a face index that is not a whole number; allowed: vertex indices 0, 1, ...")
     return faces.astype(np.int64).reshape(-1, 3), row
 
 
@@ -204,11 +200,11 @@ def _binary(body: bytes, normals: bool, coloured: bool, texture: bool, four: boo
     int32 Nc and Nc float32 colour values."""
     from .ply_lists import Element, Property, element_rows
     if len(body) < 12:
-        raise _Refused("is cut short before its binary counts; allowed: three big-endian int32 counts")
+        raise SceneError("is cut short before its binary counts; allowed: three big-endian int32 counts")
     vertex_count, face_count, _ = (int(v) for v in np.frombuffer(body, ">i4", 3))
     width = (4 if four else 3) + 3 * normals + 4 * coloured + 2 * texture
     if vertex_count < 0 or face_count < 0 or 12 + 4 * width * vertex_count > len(body):
-        raise _Refused(f"counts {vertex_count:,} vertices and {face_count:,} faces, more than its "
+        raise SceneError(f"counts {vertex_count:,} vertices and {face_count:,} faces, more than its "
                        f"{len(body):,} bytes hold; the file is cut short or its header is wrong")
     block = np.frombuffer(body, ">f4", width * vertex_count, 12).reshape(vertex_count, width).astype(np.float64)
     at = 12 + 4 * width * vertex_count
@@ -216,14 +212,14 @@ def _binary(body: bytes, normals: bool, coloured: bool, texture: bool, four: boo
                                            Property("colour", "float", "int")), ())  # a PLY element's two lists
     walked = element_rows(element, np.frombuffer(body, np.uint8), at, True)
     if walked is None:
-        raise _Refused(f"has {face_count:,} binary face records that run past its end or count below 0; the file "
+        raise SceneError(f"has {face_count:,} binary face records that run past its end or count below 0; the file "
                        "is cut short")
     starts, found = walked
     whole = np.frombuffer(body[: len(body) - len(body) % 4], ">i4")
     first = (starts[:-1] + 4) // 4  # the word of each face's first index
     faces, row = _fans(whole.astype(np.float64), first, found[:, 0])
     if faces.size and (faces.min() < 0 or faces.max() >= vertex_count):
-        raise _Refused(f"has a face index outside 0..{vertex_count - 1}; allowed: indices of its own vertices")
+        raise SceneError(f"has a face index outside 0..{vertex_count - 1}; allowed: indices of its own vertices")
     colours, per_face = None, False
     base = (4 if four else 3) + 3 * normals
     if coloured:

@@ -3,7 +3,7 @@
 PLY lets every row of a list property hold its own count (Greg Turk's PLY format: "property list uchar int
 vertex_indices", one polygon per face of any size). trimesh's binary reader takes the first row's count for
 every row, so a mesh of quads and triangles is refused as "unexpected length" (or, where the sizes happen to
-add up, misread). Here such a file is rewritten before trimesh reads it: one compiled walk (`_walk`) finds
+add up, misread). Here such a file is rewritten before trimesh reads it: one compiled walk (ply_rows.py) finds
 every row's start and counts, then the `face` element becomes triangles, each polygon a fan from its first
 corner as trimesh cuts an ASCII PLY's polygons, each triangle keeping its face's other properties and its
 corners' entries of per-corner lists (`texcoord`: two per corner). A `tristrips` element becomes one strip
@@ -15,8 +15,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from ...jit import kernel
 
 # The PLY scalar types (Paul Bourke's PLY format, and the sized names rply and MeshLab write), as numpy kinds.
 PLY_DTYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
@@ -109,42 +107,8 @@ def _even(element: Element, body: memoryview, at: int, big: bool) -> tuple[np.nd
     return rows, at + element.rows * row.itemsize
 
 
-@kernel()
-def _walk(data, at, rows, sizes, counts, entries, signed, big, starts, found):
-    """Every row's start (starts, rows + 1 of them) and every list's count (found, rows × lists) of a binary
-    PLY element from byte `at` of `data` (uint8). Property k is a scalar of sizes[k] bytes when counts[k] is
-    0, else a list: a count of counts[k] bytes (signed[k]: two's complement), then that many entries of
-    entries[k] bytes; `big`: big-endian. Returns False when a count is negative or the rows run past the data."""
-    n = data.shape[0]
-    for row in range(rows):
-        starts[row] = at
-        listed = 0
-        for k in range(sizes.shape[0]):
-            if counts[k] == 0:
-                at += sizes[k]
-                continue
-            width = counts[k]
-            if at + width > n:
-                return False
-            value = 0
-            for b in range(width):
-                byte = data[at + (width - 1 - b if not big else b)]
-                value = value * 256 + byte
-            if signed[k] and value >= 1 << (8 * width - 1):
-                value -= 1 << (8 * width)
-            if value < 0:
-                return False
-            found[row, listed] = value
-            listed += 1
-            at += width + value * entries[k]
-        if at > n:
-            return False
-    starts[rows] = at
-    return True
-
-
 def element_rows(element: Element, data: np.ndarray, at: int, big: bool):
-    """The element's row starts and list counts, by _walk; None when its rows do not fit the data."""
+    """The element's row starts and list counts, by ply_rows.walk_rows; None when its rows do not fit the data."""
     props = element.properties
     sizes = np.array([np.dtype(PLY_DTYPES[p.type]).itemsize if p.count is None else 0 for p in props], np.int64)
     counts = np.array([0 if p.count is None else np.dtype(PLY_DTYPES[p.count]).itemsize for p in props], np.int64)
@@ -152,7 +116,8 @@ def element_rows(element: Element, data: np.ndarray, at: int, big: bool):
     signed = np.array([p.count is not None and PLY_DTYPES[p.count][0] == "i" for p in props], np.bool_)
     starts = np.empty(element.rows + 1, np.int64)
     found = np.zeros((element.rows, max(1, int((counts > 0).sum()))), np.int64)
-    if not _walk(data, at, element.rows, sizes, counts, entries, signed, big, starts, found):
+    from .ply_rows import walk_rows  # compiled: imported only for a file that needs it (numba's import is slow)
+    if not walk_rows(data, at, element.rows, sizes, counts, entries, signed, big, starts, found):
         return None
     return starts, found
 
@@ -254,9 +219,3 @@ def evened(data: bytes, notes: list[str]) -> bytes | None:
     lines = [found.before, *(line for element_lines, _ in parts for line in element_lines), b"end_header", b""]
     return b"\n".join(lines) + b"".join(body for _, body in parts)
 
-
-def warm_up() -> None:
-    """Load (or compile) _walk: a quad and a triangle."""
-    head = (b"ply\nformat binary_little_endian 1.0\nelement vertex 0\nproperty float x\nelement face 2\n"
-            b"property list uchar int vertex_indices\nend_header\n")
-    evened(head + bytes([4, 0, 0, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0, 3, 0, 0, 0, 3, 0, 0, 0, 0, 2, 0, 0, 0, 3, 0, 0, 0]), [])
