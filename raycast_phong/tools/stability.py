@@ -366,6 +366,36 @@ def scale_and_position() -> CaseResult:
 
 # ---------------------------------------------------------------- 8. watertightness
 
+def far_scene(distance: float, projection: str) -> Scene:
+    """A sphere seen from `distance` × its radius along (0.3, 0.2, 1), framed the same at every distance: a
+    perspective camera's field of view shrinks with the distance, an orthographic view stays 2.6 high."""
+    camera = {"type": projection, "position": [0.3 * distance, 0.2 * distance, distance], "look_at": [0, 0, 0]}
+    if projection == "perspective":
+        camera["fov"] = math.degrees(2 * math.atan(1.3 / (distance * math.sqrt(1.13))))
+    else:
+        camera["view_height"] = 2.6
+    return validate_scene({"render": {"width": 64, "height": 64}, "camera": camera,
+                           "objects": [{"shape": "icosphere", "subdivisions": 4}],
+                           "lights": [{"type": "point", "position": [3, 4, 6]}]}, source="stability")
+
+
+FAR = (1e3, 1e5, 1e6, 1e7, 1e9)
+
+
+@case
+def far_camera() -> CaseResult:
+    """A sphere from 1e3 to 1e9 radii away, perspective and orthographic, against the orthographic view from 1e3:
+    the largest pixel difference (a float32 origin 1e6 sizes away merged the sphere's front and back)."""
+    reference = render(far_scene(1e3, "orthographic")).image
+    worst = {(d, p): float(np.abs(render(far_scene(d, p)).image - reference).max())
+             for d in FAR for p in ("perspective", "orthographic")}
+    far = max(value for (d, p), value in worst.items() if d > 1e3 or p == "orthographic")
+    return CaseResult("far camera", "the camera 1e3 … 1e9 scene sizes away (perspective and orthographic): no pixel "
+                      "off by more than 0.01 from the near orthographic view",
+                      f"largest difference {far:.1e} (perspective at 1e3, the projection's own: "
+                      f"{worst[(1e3, 'perspective')]:.1e})", far <= 0.01)
+
+
 @case
 def watertightness() -> CaseResult:
     scene = validate_scene({"objects": [{"shape": "icosphere", "subdivisions": 4}]}, source="stability")

@@ -113,6 +113,10 @@ def camera_hits(scene, params, screen_x, cell_row, row0, row1, eye, directions, 
     words, ints, valid, arguments = _packet()
     orthographic = params.orthographic
     forward, right, up = params.forward, params.right, params.up
+    start = far_start(params)
+    eye_x = (params.eye[0] - params.center[0]) * params.inv_scale  # float64: the far rays' origins start here
+    eye_y = (params.eye[1] - params.center[1]) * params.inv_scale
+    eye_z = (params.eye[2] - params.center[2]) * params.inv_scale
     fx, fy, fz, rx, ry, rz, ux, uy, uz = (forward[0], forward[1], forward[2], right[0], right[1], right[2],
                                           up[0], up[1], up[2])
     row_rays, samples = screen_x.shape[0], params.samples
@@ -144,13 +148,21 @@ def camera_hits(scene, params, screen_x, cell_row, row0, row1, eye, directions, 
             # Branch-free over the 16 lanes, so that it runs in vector registers.
             if orthographic:
                 for lane in range(16):
-                    words[ORG_X + lane] = ortho_origin(params, 0, lane_x[lane], lane_y[lane])
-                    words[ORG_Y + lane] = ortho_origin(params, 1, lane_x[lane], lane_y[lane])
-                    words[ORG_Z + lane] = ortho_origin(params, 2, lane_x[lane], lane_y[lane])
+                    words[ORG_X + lane] = ortho_origin(params, 0, lane_x[lane], lane_y[lane]) + start * fx
+                    words[ORG_Y + lane] = ortho_origin(params, 1, lane_x[lane], lane_y[lane]) + start * fy
+                    words[ORG_Z + lane] = ortho_origin(params, 2, lane_x[lane], lane_y[lane]) + start * fz
             else:
                 for lane in range(16):
                     dx, dy, dz = direction(fx, fy, fz, rx, ry, rz, ux, uy, uz, lane_x[lane], lane_y[lane])
                     words[DIR_X + lane], words[DIR_Y + lane], words[DIR_Z + lane] = dx, dy, dz
+                if start > 0.0:
+                    # From a point near the scene on the float64 ray: the float32 direction's angle (6e-8)
+                    # over the eye's distance would move the ray by 0.06 scene sizes at 1e6 (far_start).
+                    for lane in range(16):
+                        dx, dy, dz = direction(fx, fy, fz, rx, ry, rz, ux, uy, uz, lane_x[lane], lane_y[lane])
+                        words[ORG_X + lane] = eye_x + start * dx
+                        words[ORG_Y + lane] = eye_y + start * dy
+                        words[ORG_Z + lane] = eye_z + start * dz
             rtc_intersect16(valid.ctypes.data, scene, words.ctypes.data, arguments.ctypes.data)
             for lane in range(16):
                 if valid[lane] == 0:
@@ -165,7 +177,30 @@ def camera_hits(scene, params, screen_x, cell_row, row0, row1, eye, directions, 
                     face[k], u[k], v[k], t[k] = -1, 0, 0, NO_LIMIT
                 else:
                     face[k], u[k], v[k] = ints[PRIM_ID + lane], words[HIT_U + lane], words[HIT_V + lane]
-                    t[k] = words[TFAR + lane]
+                    t[k] = words[TFAR + lane] + start if start > 0.0 else words[TFAR + lane]
+
+
+# A camera this many unit-frame radii from the scene's centre (the scene lies within √3 of it) or farther starts
+# its primary rays near the scene: a float32 origin 1e6 scene sizes away rounds to about 0.06 of the scene, so
+# Embree, which tests triangles relative to the origin, merged a sphere's front and back (issue 47). Nearer
+# cameras keep their rays as they are (every render's bits unchanged).
+FAR_EYE = 4096.0
+SCENE_RADIUS = 2.0  # > √3: the unit frame's scene lies inside this sphere about its centre
+
+
+@kernel(inline="always")
+def far_start(params):
+    """How far along every primary ray it may start without passing any scene point: 0 for a camera nearer than
+    FAR_EYE, else its distance to the scene's bounding sphere (perspective: from the eye; orthographic: from
+    the eye's plane along the view)."""
+    ex = (params.eye[0] - params.center[0]) * params.inv_scale
+    ey = (params.eye[1] - params.center[1]) * params.inv_scale
+    ez = (params.eye[2] - params.center[2]) * params.inv_scale
+    if params.orthographic:
+        distance = -(ex * params.forward[0] + ey * params.forward[1] + ez * params.forward[2])
+    else:
+        distance = np.sqrt(ex * ex + ey * ey + ez * ez)
+    return distance - SCENE_RADIUS if distance > FAR_EYE else 0.0
 
 
 @kernel()
