@@ -236,3 +236,45 @@ def test_a_textured_shape_without_exact_uvs_is_refused_in_one_line(tmp_path):
     scene = rp.load_scene(SCENES / "textured_sphere.toml", ["objects.0.shape=\"cylinder\""])
     with pytest.raises(SceneError, match="planes and spheres only"):
         analytic_reference(scene)
+
+
+def _exact_sphere_t(origin, direction, radius=1.0):
+    """The nearer root of |o + t d|² = r² in 60-digit decimal arithmetic (inf on a miss), and the discriminant
+    over a r² (how far from grazing): a reference apart from the float64 code it checks."""
+    from decimal import Decimal, localcontext
+    with localcontext() as context:
+        context.prec = 60
+        o = [Decimal(float(x)) for x in origin]
+        d = [Decimal(float(x)) for x in direction]
+        a = sum(x * x for x in d)
+        b = sum(x * y for x, y in zip(o, d))
+        c = sum(x * x for x in o) - Decimal(radius) ** 2
+        disc = b * b - a * c
+        return (math.inf if disc < 0 else float((-b - disc.sqrt()) / a)), float(disc / (a * Decimal(radius) ** 2))
+
+
+@pytest.mark.parametrize("distance", [1e3, 1e7, 1e9])
+def test_the_oracle_s_sphere_is_exact_at_any_distance(distance):
+    """Rays from `distance` radii away aimed across the limb (issue 47): at 1e7 the old discriminant b² − ac was
+    rounding alone and 193 pixels of a render's reference were wrong. Hit or miss and t agree with 60 digits,
+    but for rays grazing within float64's rounding of the limb (|disc| < 1e-9 a r²)."""
+    from raycast_phong.tools.reference import _sphere
+    rng = np.random.default_rng(5)
+    eye = np.array([0.3, 0.2, 1.0]) * distance / math.sqrt(1.13)
+    targets = rng.uniform(-1.2, 1.2, (400, 3)) * [1, 1, 0]  # across the sphere's disc and past its limb
+    directions = targets - eye
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    origins = np.broadcast_to(eye, directions.shape).copy()
+    t, _ = _sphere(origins, directions, type("Sphere", (), {"radius": 1.0}), 0.0)
+    hits = 0
+    for k in range(len(t)):
+        exact, disc = _exact_sphere_t(origins[k], directions[k])
+        if abs(disc) < 1e-9:
+            continue
+        hits += math.isfinite(exact)
+        assert math.isfinite(t[k]) == math.isfinite(exact), (k, disc)
+        if math.isfinite(exact):
+            # p = o − (b/a) d is good to about ε|o| a coordinate, so √disc to ε|o|/√disc: t's bound follows.
+            eps = np.finfo(np.float64).eps
+            assert abs(t[k] - exact) <= 8 * eps * distance / math.sqrt(disc) + 4 * eps * exact, (k, disc)
+    assert 100 < hits < 390  # both hits and misses were checked
