@@ -21,10 +21,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scene.schema import Object, Scene, SceneError, SpecularModel, Viewer
-from ..tolerances import MIN_DISTANCE
+from ..tolerances import LIT_ROUNDINGS, MIN_DISTANCE
 from ..values.messages import Location, located
 
 TILE_SAMPLES = 1 << 16  # rays per tile: the torus's 4×4 eigenproblems stay a few MB
+UNLIT = LIT_ROUNDINGS * 2.0 ** -53  # n·l of float64 rounding alone: 0, as the kernels take it in their precision
 SHADOW_OFFSET = 1e-9    # × the scene's half-extent: float64 exact hits sit ~1e-15 off the surface
 
 
@@ -328,7 +329,7 @@ def illuminate_exact(scene: Scene, points, normals, to_viewer, material_rows, vi
             weight = 1 / np.maximum(1.0, c + l * distance + q * distance ** 2)
         ambient = ambient + weight[:, None] * np.asarray(light.ambient) * ka
         n_dot_l = np.einsum("ij,ij->i", normals, to_light)
-        lit = (n_dot_l > 0) & visible[:, k]  # S = 0 (and no diffuse) where l·n ≤ 0 or in shadow
+        lit = (n_dot_l > UNLIT) & visible[:, k]  # S = 0 (and no diffuse) where l·n ≤ 0 (to rounding) or in shadow
         diffuse += np.where(lit, weight * n_dot_l, 0)[:, None] * np.asarray(light.diffuse) * kd
         if scene.render.specular == SpecularModel.PHONG:
             reflected = 2 * n_dot_l[:, None] * normals - to_light

@@ -238,7 +238,9 @@ def grazing_light() -> CaseResult:
     beyond = values[angles >= 90.0]
     exact = bool(np.allclose(beyond, 0.1 + 0.05, atol=1e-7))
     # A step of 2/80 degrees moves l·n by ≈ 4.4e-4: continuity means no jump much larger than that.
-    return CaseResult("grazing light", "continuous through l·n = 0, never negative, ambient + emission exactly past it",
+    return CaseResult("grazing light", "a viewer along the normal (there the highlight is 0 at l·n = 0): continuous "
+                      "through l·n = 0, never negative, ambient + emission exactly past it; an oblique viewer sees the "
+                      "model's own step, its highlight cut at l·n = 0",
                       f"largest step {jump:.1e} per 0.025°", jump < 2e-3 and values.min() >= 0 and exact)
 
 
@@ -394,6 +396,35 @@ def far_camera() -> CaseResult:
                       "off by more than 0.01 from the near orthographic view",
                       f"largest difference {far:.1e} (perspective at 1e3, the projection's own: "
                       f"{worst[(1e3, 'perspective')]:.1e})", far <= 0.01)
+
+
+def light_in_plane_scene(precision: str, side: float = -1.0) -> Scene:
+    """A plane tilted 30° about x, its point light exactly in its plane (3 along it, 0.5 across), shininess 1:
+    n·l is rounding alone. side −1 puts the light beyond the plane from the viewer, where a highlight would show."""
+    tilt = math.radians(30.0)
+    along = np.array([0.0, -math.sin(tilt), math.cos(tilt)])  # in the plane rotate = [30, 0, 0] makes
+    light = (side * 3.0 * along + [0.5, 0.0, 0.0]).tolist()
+    return validate_scene({"render": {"width": 64, "height": 64, "precision": precision},
+                           "camera": {"position": [0, 3, 4], "look_at": [0, 0, 0], "fov": 40}, "ambient": 0.1,
+                           "materials": {"m": {"ka": 1, "kd": 0.7, "ks": 0.5, "shininess": 1}},
+                           "lights": [{"type": "point", "position": light}],
+                           "objects": [{"shape": "plane", "material": "m", "size": [3, 3], "rotate": [30, 0, 0]}]},
+                          source="stability")
+
+
+@case
+def light_in_the_surface_plane() -> CaseResult:
+    """A light in the surface's plane lights nothing (n·l within LIT_ROUNDINGS units of rounding is 0): the largest
+    departure from the ambient term, in both precisions and on both sides."""
+    worst = 0.0
+    for precision in ("float32", "float64"):
+        for side in (-1.0, 1.0):
+            image = render(light_in_plane_scene(precision, side)).image
+            covered = image.max(axis=2) > 0.0
+            worst = max(worst, float(np.abs(image[covered] - 0.1).max()))
+    return CaseResult("light in the surface's plane", "a point light exactly in a tilted plane's plane, shininess 1, "
+                      "both precisions: every pixel the ambient term within 1e-6 (n·l is rounding alone)",
+                      f"largest departure {worst:.1e}", worst <= 1e-6)
 
 
 @case

@@ -278,3 +278,16 @@ def test_the_oracle_s_sphere_is_exact_at_any_distance(distance):
             eps = np.finfo(np.float64).eps
             assert abs(t[k] - exact) <= 8 * eps * distance / math.sqrt(disc) + 4 * eps * exact, (k, disc)
     assert 100 < hits < 390  # both hits and misses were checked
+
+
+def test_the_oracle_lights_nothing_from_a_light_in_the_surface_s_plane():
+    """As the kernels (tolerances.LIT_ROUNDINGS): n·l of rounding alone is 0, so the reference is flat ambient
+    where the old rule (l·n > 0) speckled it with highlights of up to +0.3 (issue 47)."""
+    from raycast_phong.tools.stability import light_in_plane_scene
+    for precision in ("float32", "float64"):
+        scene = light_in_plane_scene(precision)
+        reference = analytic_reference(scene)
+        covered = reference.coverage > 0.999
+        assert covered.sum() > 1000 and np.abs(reference.image[covered] - 0.1).max() < 1e-12
+        image = rp.render(scene).image
+        assert np.abs(image[covered] - reference.image[covered]).max() < 1e-6

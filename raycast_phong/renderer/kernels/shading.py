@@ -25,7 +25,7 @@ import math
 import numpy as np
 
 from ...jit import kernel
-from ...tolerances import NO_DIRECTION
+from ...tolerances import LIT_ROUNDINGS, NO_DIRECTION
 from .illumination import diffuse_terms, light_geometry, specular_terms, view_direction
 from .layout import (
     ATTENUATION_NONE,
@@ -269,16 +269,17 @@ def _light_geometry(points, per_light, blocks, lights, n_lights, view, per_point
 
 @kernel(inline="always")
 def _light_terms(fall, n_dot_l, cosine, visible, ia_r, ia_g, ia_b, id_r, id_g, id_b, is_r, is_g, is_b, lit, flags,
-                 specular, zero, one):
+                 specular, zero, one, unlit):
     """One light's part of the model at a point, r, g, b each: f_att I_a k_a whether or not the light reaches it;
-    where it does (`visible`: not in shadow, and l·n > 0), f_att I_d k_d (l·n) and f_att I_s k_s S; a term not
+    where it does (`visible`: not in shadow, and l·n > `unlit`, LIT_ROUNDINGS units of rounding: a light in the
+    surface's plane lights nothing), f_att I_d k_d (l·n) and f_att I_s k_s S; a term not
     evaluated is +0, which leaves a sum as it was (the sums start at +0). With the evaluated terms as layout's C_*
     bits."""
     ar = ag = ab = dr = dg = db = sr = sg = sb = zero
     mask = 0
     if flags & F_LIGHT_AMBIENT:
         ar, ag, ab = fall * ia_r * lit.ka_r, fall * ia_g * lit.ka_g, fall * ia_b * lit.ka_b
-    if visible and n_dot_l > zero:  # no diffuse and no highlight on a side turned away from the light
+    if visible and n_dot_l > unlit:  # no diffuse and no highlight on a side turned away from the light
         if flags & F_DIFFUSE:
             mask |= 1 << C_DIFFUSE
             dr, dg, db = diffuse_terms(fall, n_dot_l, id_r, id_g, id_b, lit)
@@ -315,6 +316,9 @@ def _shade_rays(inputs, rays, film):
     materials, lights, view = inputs.materials, inputs.lights, inputs.viewing
     camera, background = inputs.camera, inputs.background
     flags, specular, zero, one, two = inputs.flags, inputs.specular, inputs.zero, inputs.one, inputs.two
+    unlit = zero  # n·l of rounding alone (tolerances.LIT_ROUNDINGS), in the shading's own type (sums, not a product:
+    for _ in range(LIT_ROUNDINGS):  # float32 × int is float64 in numba)
+        unlit += one - np.nextafter(one, zero)
     face, bu, bv, tfar, directions, visible, samples = rays
     rgb, terms, depth, normal, face_out, counts = film
     width = rgb.shape[1]
@@ -467,7 +471,7 @@ def _shade_rays(inputs, rays, film):
                 la_r, la_g, la_b, ld_r, ld_g, ld_b, ls_r, ls_g, ls_b, bits = _light_terms(
                     per_light[0, 0, E_FALL, j], per_light[0, 0, E_N_DOT_L, j], per_light[0, 0, E_COSINE, j],
                     visible_k & 1 != 0, ia_r, ia_g, ia_b, id_r, id_g, id_b, is_r, is_g, is_b, material, flags,
-                    specular, zero, one)
+                    specular, zero, one, unlit)
                 ar, ag, ab, dr, dg, db = ar + la_r, ag + la_g, ab + la_b, dr + ld_r, dg + ld_g, db + ld_b
                 sr, sg, sb, mask = sr + ls_r, sg + ls_g, sb + ls_b, mask | bits
             for c in range(0 if one_light and not gouraud else (CORNERS if gouraud else 1)):
@@ -495,7 +499,7 @@ def _shade_rays(inputs, rays, film):
                         per_light[i, block, E_COSINE, e], (visible_k >> i) & 1 != 0, lights[i, L_IA],
                         lights[i, L_IA + 1], lights[i, L_IA + 2], lights[i, L_ID], lights[i, L_ID + 1],
                         lights[i, L_ID + 2], lights[i, L_IS], lights[i, L_IS + 1], lights[i, L_IS + 2], lit, flags,
-                        specular, zero, one)
+                        specular, zero, one, unlit)
                     pa_r, pa_g, pa_b, pd_r, pd_g, pd_b = (pa_r + la_r, pa_g + la_g, pa_b + la_b, pd_r + ld_r,
                                                           pd_g + ld_g, pd_b + ld_b)
                     ps_r, ps_g, ps_b, mask = ps_r + ls_r, ps_g + ls_g, ps_b + ls_b, mask | bits
