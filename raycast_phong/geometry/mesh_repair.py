@@ -139,6 +139,53 @@ def merge_duplicate_vertices(vertices: np.ndarray, faces: np.ndarray,
     return np.asarray(vertices[first], np.float64), remapped
 
 
+# A mesh whose exactly merged vertices outnumber its faces this many times over is a soup: its triangles share
+# no point (a closed surface has about half a vertex a face, a sheet with seams rarely more than one).
+SOUP_VERTICES_PER_FACE = 1.5
+# A soup's copies of a point are welded within this share of the model's largest extent: exporters that write each
+# triangle alone round its corners apart (1e-12 of the size from float64 arithmetic, 1e-7 through float32), which
+# the exact merge keeps apart, so the vertex normals saw one face each (faceted) and the winding could not be
+# made consistent (normals facing away). trimesh merges within 1e-8 absolute; MeshLab's "merge close vertices"
+# takes a share of the bounding box's diagonal, as this does.
+WELD_SHARE = 1e-6
+
+
+def weld_soup(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """A triangle soup's (SOUP_VERTICES_PER_FACE) vertices within WELD_SHARE of the model's size welded into one,
+    the first of each group kept; returns the vertices, the faces and how many vertices went. Any other mesh is
+    returned as it is, at no cost.
+
+    Points are binned on a grid of that step eight times, the grid moved by half a step along each combination of
+    axes, and grouped by the cell they share in any of them (repeated until no group grows): two points closer
+    than half a step on every axis fall in one cell of at least one of the eight grids."""
+    if len(vertices) <= SOUP_VERTICES_PER_FACE * len(faces) or not len(faces):
+        return vertices, faces, 0
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    step = WELD_SHARE * float((high - low).max())
+    if not step > 0:
+        return vertices, faces, 0
+    scaled = (vertices - low) / step
+    label = np.arange(len(vertices))
+    while True:
+        before = label.copy()
+        for offset in np.ndindex(2, 2, 2):
+            cells = np.floor(scaled + 0.5 * np.asarray(offset)).astype(np.int64)  # ≤ 1e6 + 1: 21 bits each
+            key = (cells[:, 0] << 42) | (cells[:, 1] << 21) | cells[:, 2]
+            _, cell = np.unique(key, return_inverse=True)
+            smallest = np.full(cell.max() + 1, len(vertices))
+            np.minimum.at(smallest, cell, label)
+            label = smallest[cell]
+        label = label[label]  # a group's first vertex may itself have joined an earlier group
+        if np.array_equal(label, before):
+            break
+    kept = np.flatnonzero(label == np.arange(len(vertices)))
+    if len(kept) == len(vertices):
+        return vertices, faces, 0
+    number = np.full(len(vertices), -1, np.int64)
+    number[kept] = np.arange(len(kept))
+    return vertices[kept], number[label][faces], len(vertices) - len(kept)
+
+
 def number_by_first_use(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The mesh with its vertices numbered in the order its faces first use them (kernels.first_use_numbers; one
     pass), those no face uses dropped: the same surface, corner for corner, and the same faces in the same order.

@@ -15,7 +15,7 @@ from .. import shapes
 from ..errors import SceneError
 from ..scene.schema import Object, Scene
 from ..values.messages import Location
-from .mesh_repair import merge_duplicate_vertices, number_by_first_use, repair_winding
+from .mesh_repair import WELD_SHARE, merge_duplicate_vertices, number_by_first_use, repair_winding, weld_soup
 from .normals import PARALLEL_FACES, _normalise_or, face_normals
 
 if TYPE_CHECKING:  # io.meshes.read imports trimesh: only a scene with a mesh file loads it
@@ -105,7 +105,12 @@ def _load_mesh(scene: Scene, obj: Object, where: Location, mesh=None):
     # Otherwise merge what the file repeats (the faces and their order stay, so the per-face materials line up).
     # The scene named a rule, so the file's normals neither shade nor keep its points apart.
     vertices, faces = merge_duplicate_vertices(read.vertices, read.faces)
-    if len(vertices) == len(read.vertices) and len(faces) >= FIRST_USE_FACES:  # nothing merged or dropped
+    vertices, faces, welded = weld_soup(vertices, faces)  # a soup's copies of a point, rounded apart
+    if welded:
+        read = dataclasses.replace(read, notes=(*read.notes, f"{path}: a triangle soup: {welded:,} copies of "
+                                                f"points within {WELD_SHARE:g} of the model's size welded, so "
+                                                "its faces share their corners (smooth normals, one winding)"))
+    elif len(vertices) == len(read.vertices) and len(faces) >= FIRST_USE_FACES:  # nothing merged or dropped
         vertices, faces = number_by_first_use(vertices, faces)
     # The merged arrays replace the file's: an STL's raw (3F, 3) points need not live through the normals.
     crease = file_crease_angle(obj, read.stores_normals)
