@@ -330,6 +330,41 @@ def inconsistent_winding() -> CaseResult:
                       "the plan says the winding was repaired", f"max change {worst:.1e}", worst < 1e-5 and noted)
 
 
+def hovering_sheet_scene(height: float) -> Scene:
+    """Global mode: a 1 × 1 sheet `height` above an 8 × 8 plane, a directional light 89° from the vertical. Seen
+    from above, the row spans the sheet's edge (its first quarter), the strip of the plane the sheet shadows
+    beyond it (tan 89° × height long: the middle half) and lit plane (the last quarter)."""
+    angle = math.radians(89.0)
+    band = height * math.tan(angle)
+    centre = 0.5 + band / 2
+    return validate_scene({"render": {"width": 64, "height": 4, "mode": "global"},
+                           "camera": {"type": "orthographic", "position": [centre, 10, 0], "look_at": [centre, 0, 0],
+                                      "up": [0, 0, -1], "view_height": band / 8},
+                           "ambient": 0.1, "lights": [{"type": "directional",
+                                                       "direction": [math.sin(angle), -math.cos(angle), 0]}],
+                           "objects": [{"shape": "plane", "size": [8, 8]},
+                                       {"shape": "plane", "size": [1, 1], "translate": [0, height, 0]}]},
+                          source="stability")
+
+
+@case
+def hovering_sheet() -> CaseResult:
+    """The shadow of a sheet 1e-3 down to 1e-6 of the scene's size above a plane: the share of the row in shadow
+    (darker than the lit sheet and plane at either end), which is ½."""
+    shares = {}
+    for share in (1e-3, 1e-4, 1e-5, 1e-6):
+        row = render(hovering_sheet_scene(8.0 * share)).image[2, :, 0]  # the scene is 8 across
+        lit = max(float(row[0]), float(row[-1]))
+        shares[share] = float((row < lit - 1e-3).mean())
+    # The origin's offset (8 float32 roundings of the unit frame, 4.8e-7) lowers the sheet as the shadow ray sees
+    # it by that much: at 1e-6 of the size (2e-6 in the unit frame) the strip is 76 % of its length.
+    right = all(abs(v - 0.5) <= 2 / 64 for k, v in shares.items() if k >= 1e-5)
+    return CaseResult("hovering sheet", "global mode, a sheet 1e-3 … 1e-6 of the scene's size above a plane, the light "
+                      "89° from the vertical: its shadow strip is half the row (within 2 of 64 pixels) down to 1e-5, "
+                      "and at least ¾ of that at 1e-6 (the origin's offset is a quarter of the height there)",
+                      ", ".join(f"{k:g}: {v:.2f}" for k, v in shares.items()), right and shares[1e-6] >= 0.375)
+
+
 @case
 def triangle_soup() -> CaseResult:
     """An icosphere written as a soup (every triangle its own corners, rounded apart by 1e-12 and by 1e-7 of the

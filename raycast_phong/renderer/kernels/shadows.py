@@ -4,11 +4,12 @@ For hit ray k the answer is a bit mask (bit j set: light j is visible), which th
 applies to light j's direct term (diffuse + specular) for every shading model, per pixel sample.
 
 Two decisions keep shadows honest at any scale, both made in Embree's unit frame:
-- *No self-shadowing* (Wächter & Binder, "A Fast and Robust Method for Avoiding Self-Intersection",
-  Ray Tracing Gems, ch. 6): Embree starts every ray at t = 0, so the origin is moved off the surface
-  along the geometric normal, to the light's side, by 256 float32 ulps of each coordinate (a fixed
-  1/65536 near the origin, where ulps vanish). The offset follows the magnitude of the coordinates,
-  not a fixed epsilon.
+- *No self-shadowing*: Embree starts every ray at t = 0, so the origin is moved off the surface along the
+  geometric normal, to the light's side, by OFFSET_ROUNDINGS float32 roundings of the largest coordinate
+  involved (the face's corners, the origin): what Embree's float32 copy of the face and the stored origin can
+  be off by, a few times over. The offset follows the hit's own rounding, not the scene's size: Wächter and
+  Binder's 256 ulps (a fixed 1/65536 near the origin) left a sheet 1e-5 of the scene above a plane without
+  its shadow (issue 47).
 - *The shadow terminator* (Hanika, "Hacking the Shadow Terminator", Ray Tracing Gems II, ch. 4): for
   Gouraud and Phong faces with `terminator = "hanika"`, the origin first moves to where the smooth
   surface described by the vertex normals would be, so coarse facets do not shadow their own lit side.
@@ -24,10 +25,8 @@ from .layout import POINT
 from .ray_queries import occluded_rays
 from .surface import facing_side, hit_point, to_light
 
-INT_SCALE = 256.0        # Wächter & Binder: ulps of offset per unit of normal
-FLOAT_SCALE = 1.0 / 65536.0
-ORIGIN = 1.0 / 32.0      # below this magnitude a coordinate gets the fixed offset
-ULP_FACTOR = 2.0 ** -23  # |x| · 2^-23 is one to two float32 ulps of x
+OFFSET_ROUNDINGS = 8.0   # the shadow ray's origin leaves the surface by this many float32 roundings of `reach`
+F32_ROUNDING = 2.0 ** -24  # float32's unit roundoff: a coordinate of magnitude x is stored within x · 2^-24
 SHORT_OF_LIGHT = 1e-4    # embreex counts a hit exactly at tfar: stop this fraction short of a point light
 FLOOR_SQUARED = MIN_DISTANCE ** 2  # the unit frame's half-extent is 1: a light this close is head-on
 
@@ -75,18 +74,6 @@ def cast_shadows(scene, inputs, face, u, v, directions, row_rays, visible):
 
 
 @kernel()
-def _offset(x, n):
-    """Move coordinate x by 256–512 float32 ulps in the direction of n (a fixed 1/65536 near zero).
-
-    |x| · 2^-23 lies between one and two float32 ulps of x: Wächter & Binder's integer ulp step,
-    in magnitude form, without reading the float's bits.
-    """
-    if abs(x) < ORIGIN:
-        return x + FLOAT_SCALE * n
-    return x + n * INT_SCALE * abs(x) * ULP_FACTOR
-
-
-@kernel()
 def shadow_rays(inputs, hit_rays, face, bu, bv, directions, origins, toward, t_max):
     """One shadow ray per hit and light (layout.ShadowInputs; the hits' face, u, v and ray directions): origins,
     unit directions toward (M, 3) float32 and t_max (M,) float32 in the unit frame written in place, for the
@@ -105,6 +92,10 @@ def shadow_rays(inputs, hit_rays, face, bu, bv, directions, origins, toward, t_m
         # The viewer may see the back of a two-sided face: its smooth surface bulges toward the back.
         side = facing_side(gx, gy, gz, directions[k, 0], directions[k, 1], directions[k, 2], two_sided, 1.0)
         px, py, pz = hit_point(vertices, faces, f, b0, b1, b2)
+        reach = 0.0  # the largest coordinate of the face's corners and of the origin (below)
+        for j in range(3):
+            vj = faces[f, j]
+            reach = max(reach, abs(vertices[vj, 0]), abs(vertices[vj, 1]), abs(vertices[vj, 2]))
         if smooth[f]:
             # Hanika 2021: p' = Σ_j b_j (v_j + t_j), t_j = (p − v_j) with its part below corner j's tangent
             # plane removed; as Σ b_j (p − v_j) = 0 this is p − Σ_j b_j min(0, (p − v_j)·n_j) n_j.
@@ -118,16 +109,17 @@ def shadow_rays(inputs, hit_rays, face, bu, bv, directions, origins, toward, t_m
                             + (pz - vertices[vj, 2]) * n2)
                 qx, qy, qz = qx - bj * below * n0, qy - bj * below * n1, qz - bj * below * n2
             px, py, pz = qx, qy, qz
+        reach = max(reach, abs(px), abs(py), abs(pz))
         for j in range(lights):
             r = h * lights + j
             point = light_kind[j] == POINT
             lx, ly, lz, _ = to_light(point, light_vec[j, 0], light_vec[j, 1], light_vec[j, 2], px, py, pz,
                                      gx, gy, gz, FLOOR_SQUARED)
-            # Leave the surface on the light's side of the geometric normal.
+            # Leave the surface on the light's side of the geometric normal, by OFFSET_ROUNDINGS float32 roundings
+            # of the largest coordinate the hit's rounding involves (its face's corners, the point itself).
             toward_side = offset_scale if gx * lx + gy * ly + gz * lz >= 0 else -offset_scale
-            ox = _offset(px, toward_side * gx)
-            oy = _offset(py, toward_side * gy)
-            oz = _offset(pz, toward_side * gz)
+            step = toward_side * OFFSET_ROUNDINGS * F32_ROUNDING * reach
+            ox, oy, oz = px + step * gx, py + step * gy, pz + step * gz
             t_max[r] = 1e37  # embreex's own "no limit"
             if point:
                 lx, ly, lz, d = to_light(point, light_vec[j, 0], light_vec[j, 1], light_vec[j, 2], ox, oy, oz,

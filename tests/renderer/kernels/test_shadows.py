@@ -323,8 +323,8 @@ def test_hanika_origin_is_the_mean_of_the_corners_tangent_plane_points(weights, 
     """Hanika 2021, as written in the paper: p' = Σ_j b_j (v_j + t_j), t_j = (p − v_j) minus its part below
     corner j's tangent plane, min(0, (p − v_j)·n_j) n_j. One triangle in the unit frame, corner normals
     tilted 30° outward (a bulge of ~0.1), a light straight above: the shadow ray's origin is p' plus the
-    Wächter–Binder offset along +z, 256 |z| 2^-23 (256–512 float32 ulps of z, as |z| ≥ 1/32 here), each
-    to the float32 rounding of the stored origin (2 ulps of 0.6: 1.2e-7). Seen from below with two-sided
+    offset along +z, 8 float32 roundings (2^-24) of the largest coordinate of the corners and of p' (1 here),
+    each to the float32 rounding of the stored origin (2 ulps of 0.6: 1.2e-7). Seen from below with two-sided
     shading (light below too, normals tilted inward so the back is the convex side), every normal turns
     over and the surface bulges downward."""
     from raycast_phong.renderer.kernels.layout import ShadowInputs
@@ -349,6 +349,6 @@ def test_hanika_origin_is_the_mean_of_the_corners_tangent_plane_points(weights, 
     expected = sum(bj * (v + t) for bj, v, t in zip(b, vertices, tangent))
     assert side * (expected[2] - p[2]) > 0.05  # the smooth surface bulges well out of the facet
     np.testing.assert_allclose(origins[0, :2], expected[:2], rtol=0, atol=1.2e-7)
-    offset = side * 256 * abs(expected[2]) * 2.0 ** -23
+    offset = side * 8 * max(np.abs(vertices).max(), np.abs(expected).max()) * 2.0 ** -24
     np.testing.assert_allclose(origins[0, 2] - expected[2], offset, rtol=0, atol=1.2e-7)
     np.testing.assert_allclose(toward[0], [0, 0, side])
