@@ -46,10 +46,12 @@ def interpolation_figure() -> None:
 def main() -> None:
     stiff_gouraud_figure()
     interpolation_figure()
-    print("| case | property | measured | result |")
-    print("|---|---|---|---|")
+    print("| case | property | measured | checked | margin | result |")
+    print("|---|---|---|---|---|---|")
     for r in stability.run_all():
-        print(f"| {r.case} | {r.property} | {r.figure} | {'pass' if r.passed else 'FAIL'} |")
+        checked = "—" if r.value is None else f"{r.value:.3g} {'≥' if r.at_least else '≤'} {r.limit:.3g}"
+        margin = "—" if r.margin is None else ("∞" if r.margin == float("inf") else f"{r.margin:.3g}×")
+        print(f"| {r.case} | {r.property} | {r.figure} | {checked} | {margin} | {'pass' if r.passed else 'FAIL'} |")
 
 
 if __name__ == "__main__":

@@ -4,6 +4,7 @@ suite (docs/accuracy.md)."""
 from __future__ import annotations
 
 import json
+import math
 import time
 from pathlib import Path
 from typing import Annotated
@@ -211,21 +212,31 @@ def stability(
     failed = sum(not r.passed for r in results)
     if as_json:
         typer.echo(json.dumps([{"case": r.case, "property": r.property, "figure": r.figure, "passed": r.passed,
+                                "value": r.value, "limit": r.limit, "at_least": r.at_least,
+                                "margin": None if r.margin is None else (r.margin if math.isfinite(r.margin) else None),
                                 "seconds": round(r.seconds, 3)} for r in results], indent=2, ensure_ascii=False))
     elif not quiet or failed:  # under -q only the failing cases
         from rich.console import Console
         from rich.table import Table
 
         from .common import plain_output
-        table = Table("case", "property", "measured", "", "s", show_lines=True)
+        table = Table(show_lines=True)
+        for name, ratio in (("case", 1), ("property", 3), ("measured", 2)):
+            table.add_column(name, ratio=ratio, overflow="fold")  # a word too long for its column breaks, never cut
+        for name in ("checked", "margin", ""):
+            table.add_column(name, no_wrap=True)
+        table.add_column("s", no_wrap=True)
         for r in results:
             if r.passed and quiet:
                 continue
-            table.add_row(r.case, r.property, r.figure, "[green]pass[/]" if r.passed else "[red]FAIL[/]",
-                          f"{r.seconds:.2f}")
-        # With no colour system the table is drawn with no escape sequence (NO_COLOR, TERM=dumb).
+            checked = "—" if r.value is None else f"{r.value:.3g} {'≥' if r.at_least else '≤'} {r.limit:.3g}"
+            margin = "—" if r.margin is None else ("∞" if math.isinf(r.margin) else f"{r.margin:.3g}×")
+            table.add_row(r.case, r.property, r.figure, checked, margin,
+                          "[green]pass[/]" if r.passed else "[red]FAIL[/]", f"{r.seconds:.2f}")
+        # With no colour system the table is drawn with no escape sequence (NO_COLOR, TERM=dumb). The terminal's
+        # own width: rich wraps each column's text within it (a forced 140 wrapped the lines of an 80-column one).
         colours = {"color_system": None} if plain_output() else {}
-        Console(width=max(140, Console().width), **colours).print(table)
+        Console(**colours).print(table)
         typer.echo(f"{len(results) - failed} passed, {failed} failed")
     if failed:
         raise typer.Exit(code=1)

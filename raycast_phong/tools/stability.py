@@ -26,17 +26,31 @@ from ..renderer.frame import render
 from ..renderer.intersect import Accelerator, unit_frame
 from ..renderer.plan import F32_SHININESS_LIMIT, build_plan
 from ..scene.schema import Scene, SceneError, validate_scene
+from ..tolerances import INTENSITY_LIMIT
 from ..values.messages import dotted
 
 
 @dataclass(frozen=True)
 class CaseResult:
-    """One row of the report."""
+    """One row of the report: the property, what was measured, and the number the verdict rests on against its
+    limit (value ≤ limit, or ≥ when `at_least`); None for a property that is a yes or no (a warning given)."""
     case: str
     property: str
     figure: str
     passed: bool
     seconds: float = 0.0
+    value: float | None = None
+    limit: float | None = None
+    at_least: bool = False
+
+    @property
+    def margin(self) -> float | None:
+        """How many times the value is within its limit (limit / value, or value / limit for `at_least`): 1 at the
+        limit, below 1 failing, inf for a value of 0 under a limit."""
+        if self.value is None or self.limit is None:
+            return None
+        top, bottom = (self.value, self.limit) if self.at_least else (self.limit, self.value)
+        return math.inf if bottom == 0 else top / bottom
 
 
 CASES: dict[str, Callable[[], CaseResult]] = {}
@@ -96,7 +110,8 @@ def specular_exponent() -> CaseResult:
     near_mirror = int((np.abs(images[1e6] - images[math.inf]).max(axis=2) > 1e-3).sum())
     return CaseResult("specular exponent", "every f in {0, 1e-6, 1, 128, 1e3, 1e4, 1e6, inf}: finite, ≥ 0; "
                       "f = 1e6 and inf differ on ≤ 5 pixels",
-                      f"{near_mirror} pixel(s) differ between f = 1e6 and inf", finite and near_mirror <= 5)
+                      f"{near_mirror} pixel(s) differ between f = 1e6 and inf", finite and near_mirror <= 5,
+                      value=near_mirror, limit=5)
 
 
 def float32_highlight_error(shininess: float) -> tuple[float, float]:
@@ -133,7 +148,7 @@ def float32_shininess_limit() -> CaseResult:
                                                                           for f, e in errors.items())
     return CaseResult("float32 and stiff highlights", f"above f = {F32_SHININESS_LIMIT:g} the plan shades in "
                       "float64; below it float32 stays within half an 8-bit step (1/512)", figure,
-                      switched and stays and errors[1e4] < 1 / 512)
+                      switched and stays and errors[1e4] < 1 / 512, value=errors[1e4], limit=1 / 512)
 
 
 # ---------------------------------------------------------------- 2. stiff highlights under Gouraud
@@ -160,7 +175,8 @@ def stiff_gouraud() -> CaseResult:
     figure = ", ".join(f"f = {f:g}: {r:.2g}" for f, r in ratios.items()) + " (Gouraud/Phong peak, 80 faces)"
     return CaseResult("stiff highlights under Gouraud", "the peak ratio falls with f and the plan warns with a "
                       "subdivision count when vertex normals are wider apart than 1/√f",
-                      figure, ratios[10.0] > ratios[100.0] > ratios[1000.0] and all(warned.values()))
+                      figure, ratios[10.0] > ratios[100.0] > ratios[1000.0] and all(warned.values()),
+                      value=max(ratios[100.0] / ratios[10.0], ratios[1000.0] / ratios[100.0]), limit=1.0)
 
 
 @case
@@ -207,7 +223,7 @@ def light_on_the_surface() -> CaseResult:
     return CaseResult("light at, on or inside the surface", "d ∈ {0, 1e-30, ±1e-12}, on the axis and 6e-7 "
                       "sideways, every attenuation, both precisions: finite, ≥ 0; inside the 1/d² floor (1e-6 of "
                       "the scene size) the light is head-on, so the centre pixel is f_att (k_d + k_s) on any CPU",
-                      f"largest pixel {worst:.3g}", finite and head_on)
+                      f"largest pixel {worst:.3g}", finite and head_on, value=worst, limit=INTENSITY_LIMIT)
 
 
 # f_att (I_d k_d + I_s k_s) with l = n = v: the floor d = 1e-6 × the plane's half-extent 2, the default light
@@ -241,7 +257,8 @@ def grazing_light() -> CaseResult:
     return CaseResult("grazing light", "a viewer along the normal (there the highlight is 0 at l·n = 0): continuous "
                       "through l·n = 0, never negative, ambient + emission exactly past it; an oblique viewer sees the "
                       "model's own step, its highlight cut at l·n = 0",
-                      f"largest step {jump:.1e} per 0.025°", jump < 2e-3 and values.min() >= 0 and exact)
+                      f"largest step {jump:.1e} per 0.025°", jump < 2e-3 and values.min() >= 0 and exact,
+                      value=jump, limit=2e-3)
 
 
 @case
@@ -265,7 +282,7 @@ def grazing_view() -> CaseResult:
     jump = float(np.abs(np.diff(values, axis=0)).max())
     return CaseResult("grazing view", "the eye at 80° … 89.99° from the normal: finite, ≥ 0, continuous",
                       f"largest step {jump:.1e} per 0.17°", bool(np.isfinite(values).all()) and values.min() >= 0
-                      and jump < 0.02)
+                      and jump < 0.02, value=jump, limit=0.02)
 
 
 # ---------------------------------------------------------------- 5. degenerate geometry
@@ -305,7 +322,8 @@ def degenerate_geometry() -> CaseResult:
             finite &= bool(np.isfinite(b).all())
             worst = max(worst, float(np.abs(a - b).max()))
     return CaseResult("degenerate geometry", "zero-area faces, a 1e-9 needle, duplicate vertices: no NaN, "
-                      "no hole, the image of the clean mesh", f"max change {worst:.1e}", finite and worst < 1e-5)
+                      "no hole, the image of the clean mesh", f"max change {worst:.1e}", finite and worst < 1e-5,
+                      value=worst, limit=1e-5)
 
 
 # ---------------------------------------------------------------- 6. inconsistent winding
@@ -327,7 +345,8 @@ def inconsistent_winding() -> CaseResult:
             worst = max(worst, float(np.abs(a - result.image).max()))
             noted = result.plan.keeps(StageName.WINDING_REPAIR)
     return CaseResult("inconsistent winding", "half the faces flipped: every model's image unchanged, "
-                      "the plan says the winding was repaired", f"max change {worst:.1e}", worst < 1e-5 and noted)
+                      "the plan says the winding was repaired", f"max change {worst:.1e}", worst < 1e-5 and noted,
+                      value=worst, limit=1e-5)
 
 
 def hovering_sheet_scene(height: float) -> Scene:
@@ -362,7 +381,8 @@ def hovering_sheet() -> CaseResult:
     return CaseResult("hovering sheet", "global mode, a sheet 1e-3 … 1e-6 of the scene's size above a plane, the light "
                       "89° from the vertical: its shadow strip is half the row (within 2 of 64 pixels) down to 1e-5, "
                       "and at least ¾ of that at 1e-6 (the origin's offset is a quarter of the height there)",
-                      ", ".join(f"{k:g}: {v:.2f}" for k, v in shares.items()), right and shares[1e-6] >= 0.375)
+                      ", ".join(f"{k:g}: {v:.2f}" for k, v in shares.items()), right and shares[1e-6] >= 0.375,
+                      value=max(abs(v - 0.5) for k, v in shares.items() if k >= 1e-5), limit=2 / 64)
 
 
 @case
@@ -391,7 +411,7 @@ def triangle_soup() -> CaseResult:
                     noted &= any("triangle soup" in note for note in result.plan.notes)
     return CaseResult("triangle soup", "a soup whose copies of a point differ by 1e-12 or 1e-7 of the size, every "
                       "third face flipped or none: the welded mesh's image within 1e-3, and a note",
-                      f"max change {worst:.1e}", worst < 1e-3 and noted)
+                      f"max change {worst:.1e}", worst < 1e-3 and noted, value=worst, limit=1e-3)
 
 
 # ---------------------------------------------------------------- 7. scale and position
@@ -427,7 +447,7 @@ def scale_and_position() -> CaseResult:
     return CaseResult("scale and position", "s from 1e-6 to 1e6, shifts up to 1e6 × the scene size, local and "
                       "global: ≤ 1 % of pixels (silhouettes, shadow edges) off by more than 1e-3",
                       f"{worst_share:.2%} of pixels off by > 1e-3; largest difference {worst:.1e}",
-                      worst_share <= 0.01)
+                      worst_share <= 0.01, value=worst_share, limit=0.01)
 
 
 # ---------------------------------------------------------------- 8. watertightness
@@ -459,7 +479,7 @@ def far_camera() -> CaseResult:
     return CaseResult("far camera", "the camera 1e3 … 1e9 scene sizes away (perspective and orthographic): no pixel "
                       "off by more than 0.01 from the near orthographic view",
                       f"largest difference {far:.1e} (perspective at 1e3, the projection's own: "
-                      f"{worst[(1e3, 'perspective')]:.1e})", far <= 0.01)
+                      f"{worst[(1e3, 'perspective')]:.1e})", far <= 0.01, value=far, limit=0.01)
 
 
 def light_in_plane_scene(precision: str, side: float = -1.0) -> Scene:
@@ -488,7 +508,7 @@ def light_in_the_surface_plane() -> CaseResult:
             worst = max(worst, float(np.abs(image[covered] - 0.1).max()))
     return CaseResult("light in the surface's plane", "a point light exactly in a tilted plane's plane, shininess 1, "
                       "both precisions: every pixel the ambient term within 1e-6 (n·l is rounding alone)",
-                      f"largest departure {worst:.1e}", worst <= 1e-6)
+                      f"largest departure {worst:.1e}", worst <= 1e-6, value=worst, limit=1e-6)
 
 
 @case
@@ -518,7 +538,8 @@ def watertightness() -> CaseResult:
     passed = rates["edge midpoints"] == 0 and rates["random edge points"] == 0 and rates["vertices"] < 0.01
     return CaseResult("watertightness", "rays through every edge midpoint and random edge points of a closed "
                       "mesh all hit; through exact vertices < 1 % miss",
-                      ", ".join(f"{k}: {v:.2%} miss" for k, v in rates.items()), passed)
+                      ", ".join(f"{k}: {v:.2%} miss" for k, v in rates.items()), passed, value=rates["vertices"],
+                      limit=0.01)
 
 
 # ---------------------------------------------------------------- 9. HDR linearity
@@ -545,7 +566,7 @@ def hdr_linearity() -> CaseResult:
     clamps = bool(bright.max() == 1.0 and (bright[base.max(axis=2) > 1e-3] == 1.0).all())
     return CaseResult("HDR linearity", "lights × k (1e-6 … 1e6) scale the linear image by k within 1e-6; "
                       "the PNG clamps at 1 and never wraps", f"worst relative deviation {worst:.1e}",
-                      worst < 1e-6 and clamps)
+                      worst < 1e-6 and clamps, value=worst, limit=1e-6)
 
 
 # ---------------------------------------------------------------- 10. non-finite input
@@ -576,7 +597,7 @@ def non_finite_input() -> CaseResult:
             named += getattr(error.where, "key", ()) == ("objects", 0, "path")
     return CaseResult("non-finite input", "NaN or inf in a mesh file, transform, light, camera or ambient is an "
                       "input error naming the field", f"{named} of {len(bad) + 1} refused with the key named",
-                      named == len(bad) + 1)
+                      named == len(bad) + 1, value=named, limit=len(bad) + 1, at_least=True)
 
 
 # ---------------------------------------------------------------- 11. float32 against float64
@@ -603,7 +624,7 @@ def float32_against_float64() -> CaseResult:
                       "the float32 deviation of each case's scene is reported (relative to its largest pixel)",
                       f"float64 error {error64:.1e}; float32: "
                       + ", ".join(f"{k} {v:.0e}" for k, v in deviations.items()),
-                      error64 < 1e-12)
+                      error64 < 1e-12, value=error64, limit=1e-12)
 
 
 def float32_deviation(make: Callable[[str], Scene]) -> float:
@@ -672,7 +693,8 @@ def interpolation_difference(ratio: float) -> tuple[float, float]:
 @case
 def perspective_against_screen() -> CaseResult:
     rows = [(ratio, *interpolation_difference(ratio)) for ratio in (2.0, 4.0, 16.0)]
-    agree = all(abs(measured - predicted) < 0.05 for _, measured, predicted in rows)
+    off = max(abs(measured - predicted) for _, measured, predicted in rows)
+    agree = off < 0.05
     figure = ", ".join(f"r = {r:g}: {m:.3f} (theory {p:.3f})" for r, m, p in rows)
     return CaseResult("perspective vs screen interpolation", "the difference on a receding edge follows "
-                      "(√r − 1)/(√r + 1) of the attribute's range", figure, agree)
+                      "(√r − 1)/(√r + 1) of the attribute's range", figure, agree, value=off, limit=0.05)

@@ -21,7 +21,7 @@ def test_json_for_chosen_cases():
 def test_table_ends_with_the_counts():
     result = runner.invoke(app, ["stability", "--case", "non_finite_input"])
     assert result.exit_code == 0
-    assert "non-finite input" in result.stdout and result.stdout.strip().endswith("1 passed, 0 failed")
+    assert "non-finite" in result.stdout and result.stdout.strip().endswith("1 passed, 0 failed")
 
 
 def test_a_failing_case_exits_1(monkeypatch):
@@ -40,3 +40,31 @@ def test_unknown_case_is_bad_input():
 def test_list_names_every_case():
     result = runner.invoke(app, ["stability", "--list"])
     assert result.stdout.split() == list(stability.CASES)
+
+
+def test_every_measured_case_gives_its_number_and_the_limit_it_was_checked_against():
+    """A referee's question (issue 47): the value, the limit and the margin, in the table and in --json. Only
+    yes-or-no properties (a warning given) have none; a passing case's margin is at least 1."""
+    result = runner.invoke(app, ["stability", "--json"])
+    rows = json.loads(result.stdout)
+    qualitative = {"sub-pixel highlight"}
+    for row in rows:
+        if row["case"] in qualitative:
+            continue
+        assert isinstance(row["value"], (int, float)) and isinstance(row["limit"], (int, float)), row
+        assert row["margin"] is None or not row["passed"] or row["margin"] >= 1, row
+    assert sum(row["value"] is not None for row in rows) >= len(rows) - len(qualitative)
+
+
+def test_the_table_fits_an_80_column_terminal():
+    result = runner.invoke(app, ["stability", "--case", "far_camera", "--case", "grazing_light"],
+                           env={"COLUMNS": "80", "NO_COLOR": "1"})
+    lines = result.stdout.splitlines()
+    assert max(len(line) for line in lines) <= 80 and any("≤ 0.01" in line for line in lines), result.stdout
+
+
+def test_the_margin_is_the_limit_over_the_value():
+    row = stability.CaseResult("c", "p", "f", True, value=0.25, limit=1.0)
+    assert row.margin == 4.0
+    assert stability.CaseResult("c", "p", "f", True, value=6, limit=3, at_least=True).margin == 2.0
+    assert stability.CaseResult("c", "p", "f", True, value=0.0, limit=1.0).margin == float("inf")
