@@ -32,10 +32,18 @@ from .common import (
   raycast-phong scene model.glb --view front --up z -o model.toml   # file paths written relative to model.toml
 
   raycast-phong scene model.ply --set render.width=1280 --set render.height=720
+
+  raycast-phong scene -o default.toml                  # the built-in default scene, to edit
+
+  raycast-phong scene --example mesh -o mesh.toml      # an example scene; --example list names them all
 """)
 def scene_command(
-    scene: Annotated[Path, typer.Argument(help="Mesh file (or a scene file, written out with every key).",
-                                          show_default=False, dir_okay=False)],
+    scene: Annotated[Path | None, typer.Argument(help="Mesh file (or a scene file, written out with every key); "
+                                                 "none: the built-in default scene.", show_default=False,
+                                                 dir_okay=False)] = None,
+    example: Annotated[str | None, typer.Option("--example", metavar="NAME", help="An example scene shipped with "
+                       "the package instead of SCENE (`--example list` names them); its meshes and maps are "
+                       "named where the package keeps them, or relative to -o's folder.")] = None,
     output: Annotated[Path | None, typer.Option("--output", "-o", help="Write the TOML here (atomically) instead "
                       "of to standard output; the files the scene names (meshes, texture maps) are then written "
                       "relative to its folder.")] = None,
@@ -52,6 +60,9 @@ def scene_command(
     from raycast_phong.scene.load import is_mesh_file
     check_verbosity(quiet, verbose)
     with exit_codes():
+        scene = _chosen(scene, example)
+        if scene is None:  # --example list
+            return
         loaded = rp.load_scene(scene, set_, view=_view(view), up=up)
         notes = ()
         if is_mesh_file(scene):
@@ -95,3 +106,23 @@ def schema(
     check_verbosity(quiet, verbose)
     from raycast_phong.scene.schema import scene_json_schema
     typer.echo(json.dumps(scene_json_schema(), indent=2, ensure_ascii=False))
+
+
+def _chosen(scene: Path | None, example: str | None) -> Path | None:
+    """The scene file to write: SCENE, an example's, or the default's; None after printing `--example list`."""
+    from raycast_phong.errors import OptionError
+    from raycast_phong.scene.schema import example_names, examples_folder
+    if example is None:
+        return scene if scene is not None else rp.default_scene_path()
+    if scene is not None:
+        raise OptionError(f"--example {example!r} and the scene {str(scene)!r}: give one of them")
+    names = example_names()
+    if example == "list":
+        typer.echo("\n".join(names))
+        return None
+    if example not in names:
+        import difflib
+        close = difflib.get_close_matches(example, names, n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise OptionError(f"--example: no example scene {example!r}{hint}; examples: {', '.join(names)}")
+    return examples_folder() / f"{example}.toml"

@@ -486,11 +486,23 @@ def validate_scene(data: dict, source: str | Location = "<scene>", folder: str |
         raise SceneError(error.message, where.at(*error.loc)) from None
 
 
+def examples_folder() -> Path:
+    """The example scenes, their meshes and textures: in a wheel raycast_phong/data/scenes (setup.py copies them
+    there), in a source checkout the top-level scenes/, their one home."""
+    packaged = Path(__file__).parents[1] / "data" / "scenes"
+    return packaged if packaged.is_dir() else Path(__file__).parents[2] / "scenes"
+
+
+def example_names() -> list[str]:
+    """The example scenes by name (`raycast-phong scene --example NAME`): each .toml of examples_folder()."""
+    return sorted(path.stem for path in examples_folder().glob("*.toml"))
+
+
 def default_scene_path() -> Path:
     """The built-in default scene: the lecture's figure, one sphere in flat, Gouraud and Phong shading.
 
-    Parameters: none. Returns the Path of raycast_phong/data/default.toml. Raises nothing."""
-    return Path(__file__).parents[1] / "data" / "default.toml"  # raycast_phong/data
+    Parameters: none. Returns the Path of the example scene default.toml (examples_folder). Raises nothing."""
+    return examples_folder() / "default.toml"
 
 
 # What the loader checks and no JSON Schema can say: a vector's length, one key against another, the scene as a

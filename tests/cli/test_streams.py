@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 CLI = [sys.executable, str(Path(__file__).parents[2] / "cli.py")]
-DEFAULT = Path(__file__).parents[2] / "raycast_phong" / "data" / "default.toml"
+DEFAULT = Path(__file__).parents[2] / "scenes" / "default.toml"
 SMALL = ["--width", "16", "--height", "16"]
 
 

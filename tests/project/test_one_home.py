@@ -59,7 +59,7 @@ def test_a_budget_of_zero_is_refused_not_made_the_default(monkeypatch):
 def test_batch_and_compare_ask_budget_of(tmp_path):
     """`max_memory or default_budget()` gave a batch with max_memory=0 the whole default budget."""
     from raycast_phong.tools import batch
-    jobs = batch.find_jobs([PACKAGE / "data" / "default.toml"])
+    jobs = batch.find_jobs([PACKAGE.parent / "scenes" / "default.toml"])
     with pytest.raises(ValueError, match="positive number of bytes"):
         batch.run_batch(jobs, tmp_path / "out", workers=1, max_memory=0)
     for path in (PACKAGE / "cli" / "compare.py", PACKAGE / "tools" / "batch" / "run.py"):

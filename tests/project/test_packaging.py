@@ -42,3 +42,11 @@ def test_the_wheel_holds_every_module_and_data_file(tmp_path):
     assert "raycast_phong/tools/batch/manifest.py" in shipped  # the package a hand-written list once left out
     assert "raycast_phong/py.typed" in shipped  # PEP 561: the annotations are public
     assert not any(name.startswith(("tests/", "benchmarks/", "cli.py")) for name in archive.namelist())
+    # The example scenes with their meshes and maps (setup.py), so the default scene and --example work anywhere.
+    examples = {path.relative_to(source / "scenes").as_posix() for path in (source / "scenes").rglob("*")
+                if path.is_file() and path.suffix != ".py"}
+    assert {f"raycast_phong/data/scenes/{name}" for name in examples} <= shipped
+    with zipfile.ZipFile(wheel) as archive:
+        metadata = archive.read(next(n for n in archive.namelist() if n.endswith(".dist-info/METADATA"))).decode()
+        licence = [n for n in archive.namelist() if n.endswith("licenses/LICENSE")]
+    assert "License-Expression: MIT" in metadata and licence, metadata[:600]

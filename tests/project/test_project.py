@@ -38,6 +38,13 @@ def test_scenes_default_is_the_packaged_default():
     assert (ROOT / "scenes" / "default.toml").read_bytes() == rp.default_scene_path().read_bytes()
 
 
+def test_scenes_holds_no_symlink_and_the_licence_is_there():
+    """Issue 48: scenes/default.toml was a link into the package, dangling when scenes/ was copied alone; the
+    project had no licence file."""
+    assert not [path for path in (ROOT / "scenes").rglob("*") if path.is_symlink()]
+    assert (ROOT / "LICENSE").read_text().startswith("MIT License")
+
+
 def test_every_example_scene_loads_and_is_documented():
     readme = (ROOT / "README.md").read_text()
     scenes = sorted((ROOT / "scenes").glob("*.toml"))

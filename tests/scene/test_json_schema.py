@@ -23,7 +23,7 @@ from raycast_phong.scene.schema import BEYOND_THE_SCHEMA, scene_json_schema
 ROOT = Path(__file__).resolve().parents[2]
 SCHEMA = scene_json_schema()
 VALIDATOR = jsonschema.Draft202012Validator(SCHEMA)
-SHIPPED = [*sorted((ROOT / "scenes").rglob("*.toml")), ROOT / "raycast_phong" / "data" / "default.toml"]
+SHIPPED = sorted((ROOT / "scenes").rglob("*.toml"))
 
 # Values at and past the format's bounds (±1e18 positions, [0, 1] coefficients, 1e38 intensities, 3..4096 segments,
 # 0..8 subdivisions, 1..16384 pixels, (0, 180) degrees), of the wrong type, and in the shorthands.
