@@ -266,6 +266,9 @@ def cold_package(tmp_path_factory) -> ColdPackage:
         if not made.exists():
             shutil.copytree(Path(raycast_phong.__file__).resolve().parent, source,
                             ignore=shutil.ignore_patterns("__pycache__"))
+            # The example scenes where a wheel has them (setup.py's build step): the default scene is one.
+            shutil.copytree(Path(raycast_phong.__file__).resolve().parents[1] / "scenes", source / "data" / "scenes",
+                            ignore=shutil.ignore_patterns("__pycache__", "*.py"))
             package = ColdPackage(folder, source, env, {}, {}, cli)
             runs = [package.run(cli) for _ in range(2)]
             made.write_text(json.dumps([{"stdout": r.stdout, "stderr": r.stderr} for r in runs]))
