@@ -1006,3 +1006,45 @@ def test_a_drag_rewrites_no_unchanged_readout_and_the_times_four_times_a_second(
     # Each write of a text is one mutation (its child replaced); 20 drafts or more were shown meanwhile.
     for readout in ("frame-time", "rays"):
         assert counted[readout] <= counted["ms"] / 250 + 2, counted
+
+
+def test_a_phone_lays_the_page_out_at_its_own_width(browser, scene_path):
+    """Issue 49: without a viewport tag a phone laid the page out 980 px wide at 0.4× (5.6 px text) and the narrow
+    layout never applied. Emulated as a phone is (is_mobile: the browser then honours or ignores the tag)."""
+    with running(scene_path) as url:
+        context = browser.new_context(viewport={"width": 390, "height": 844}, device_scale_factor=3, is_mobile=True,
+                                      has_touch=True)
+        try:
+            tab = context.new_page()
+            tab.goto(url)
+            wait_for_full_frame(tab)
+            assert tab.evaluate("document.documentElement.clientWidth") == 390
+            assert tab.evaluate("getComputedStyle(document.querySelector('main')).flexDirection") == "column"
+            assert tab.evaluate("parseFloat(getComputedStyle(document.body).fontSize)") >= 12
+        finally:
+            context.close()
+
+
+def test_a_trackpad_scroll_with_sideways_jitter_zooms_and_does_not_pan(page):
+    """Issue 49: any deltaX ≠ 0 took the pan branch, so a trackpad's vertical scroll (±1 px sideways) crept the
+    view. Ten events of 12 px up and 1 px sideways zoom in by 1.1^(-120/100), along the view axis."""
+    box = page.locator("#image-a").bounding_box()
+    page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+    for k in range(10):
+        page.mouse.wheel(1 if k % 2 else -1, -12)
+    wait_for_full_frame(page)
+    settings = page.evaluate("window.view.settings.a")
+    assert "camera.look_at" not in settings or settings["camera.look_at"] == [0, 0, 0], settings
+    np.testing.assert_allclose(settings["camera.position"], [0, 0, 4 * 1.1 ** -1.2], atol=1e-4)
+
+
+def test_small_wheel_steps_move_the_light_as_little_as_they_turn(page):
+    """Issue 49: the gizmo moved the light 10 % an event whatever its size, so 30 trackpad steps of 3 px put it
+    inside the object. Now 90 px in all: 1.1^(-0.9) of its distance."""
+    box = page.locator("#gizmo").bounding_box()
+    page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+    for _ in range(30):
+        page.mouse.wheel(0, -3)
+    wait_for_full_frame(page)
+    position = page.evaluate("window.view.settings.a['lights.0.position']")
+    np.testing.assert_allclose(position, 1.1 ** -0.9 * np.array([2, 2, 3]), atol=1e-4)

@@ -728,7 +728,8 @@ function wireLight() {
     event.preventDefault();
     const { toLight, distance } = lightPlacement();
     if (distance === null) return;
-    placeLight(toLight, distance * 1.1 ** Math.sign(event.deltaY), "draft");  // 10 % a notch, away when scrolled down
+    // As far as the wheel turned: 10 % a notch, a trackpad's small steps as little as they move; away when scrolled down.
+    placeLight(toLight, distance * Math.exp((wheelPixels(event, event.deltaY) / NOTCH) * PER_NOTCH), "draft");
     clearTimeout(settle);
     settle = setTimeout(() => request("full"), 250);
   }, { passive: false });
@@ -999,13 +1000,14 @@ function wireCamera() {
     img.addEventListener("pointerup", lift);
     img.addEventListener("pointercancel", lift);
     // The wheel zooms in proportion to how far it turned (a trackpad's small steps, a notch's 10 %); a pinch
-    // (a wheel with ctrlKey, as browsers report it) zooms as the fingers spread; two fingers moving sideways on
-    // a trackpad, or Shift with the wheel, pan.
+    // (a wheel with ctrlKey, as browsers report it) zooms as the fingers spread; two fingers moving mostly
+    // sideways on a trackpad, or Shift with the wheel, pan. By the dominant axis: a trackpad's vertical scroll
+    // jitters a pixel or two sideways, which must not turn a zoom into a pan.
     img.addEventListener("wheel", (event) => {
       event.preventDefault();
       const dx = wheelPixels(event, event.deltaX), dy = wheelPixels(event, event.deltaY);
       if (event.ctrlKey) zoom(Math.exp(dy / NOTCH), "draft");
-      else if (event.shiftKey || dx !== 0) pan(-(dx || dy), event.shiftKey ? 0 : -dy, img.getBoundingClientRect().height, "draft");
+      else if (event.shiftKey || Math.abs(dx) > Math.abs(dy)) pan(-(event.shiftKey ? dx || dy : dx), event.shiftKey ? 0 : -dy, img.getBoundingClientRect().height, "draft");
       else zoom(Math.exp((dy / NOTCH) * PER_NOTCH), "draft");  // scrolling down moves away
       later();
     }, { passive: false });
