@@ -5,16 +5,38 @@ a float64 call after float32 ones is a miss too. No numba import here: the CLI l
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
 _listeners: list[Callable[[str, str], None]] = []
+# Seconds spent compiling in this process: from a kernel's cache miss to its compiled code's save, a compile that
+# compiles its callees within it counted once (the outermost). A command reports it as `compile`, whatever stage
+# it happened in (a mesh reader's kernels compile while the scene loads).
+_open = [0, 0.0]  # compiles under way, and when the outermost began
+_spent = [0.0]
 
 
 def compiling(name: str, signature: object) -> None:
     """Kernel `name` is about to compile for `signature` (it is not in the cache): tell the innermost listener."""
+    if _open[0] == 0:
+        _open[1] = time.perf_counter()
+    _open[0] += 1
     if _listeners:
         _listeners[-1](name, str(signature))
+
+
+def compiled() -> None:
+    """A kernel's compile finished (numba saves it to the cache)."""
+    if _open[0] > 0:
+        _open[0] -= 1
+        if _open[0] == 0:
+            _spent[0] += time.perf_counter() - _open[1]
+
+
+def seconds_compiling() -> float:
+    """Seconds this process has spent compiling kernels so far (compiling ... compiled)."""
+    return _spent[0]
 
 
 @contextmanager

@@ -41,7 +41,7 @@ from numba.core.caching import FunctionCache, NullCache
 from numba.core.compiler_lock import global_compiler_lock
 from numba.core.runtime.nrt import rtsys
 
-from .compiles import compiling
+from .compiles import compiled, compiling
 
 PACKAGE = Path(__file__).resolve().parent  # raycast_phong/: a kernel may import from anywhere in it
 OWN_CACHE = Path(__file__).resolve().parent / "__pycache__"
@@ -242,6 +242,10 @@ class _CacheLoadedAsIs(FunctionCache):
             compiling(kernel_name(self._py_func), sig)
         return loaded
 
+    def save_overload(self, sig, data):
+        super().save_overload(sig, data)
+        compiled()  # the compile told by load_overload is done (compiles.seconds_compiling)
+
     def _checked_load(self, sig, target_context):
         """The cached kernel for `sig`, or None. The cache is input like any file: an entry that cannot be loaded
         (truncated, empty, random bytes, another version's) is removed, so the kernel compiles over it, and a
@@ -375,6 +379,9 @@ class _NothingCached(NullCache):
 
     def load_overload(self, sig, target_context):
         compiling(kernel_name(self._py_func), sig)
+
+    def save_overload(self, sig, data):
+        compiled()
 
 
 def _environment_as_is(module_name, consts, name):
