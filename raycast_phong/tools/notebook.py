@@ -134,9 +134,13 @@ def show(what: RenderResult | Iterable[RenderResult] | Scene | str | Path | None
 @dataclass
 class Live:
     """A running `raycast-phong view` server framed in a cell; stop() ends it (the kernel's exit does too)."""
-    url: str
-    height: int
+    url: str  # carries the page's token: never in a text output a notebook saves or shares (__repr__)
+    height: int = 760
     _server: object = None
+
+    def __repr__(self) -> str:
+        address = self.url.split("?", 1)[0]
+        return f"Live(view at {address}, {'running' if self._server is not None else 'stopped'}; .url has its token)"
 
     def _repr_html_(self) -> str:
         return (f"<iframe src='{html.escape(self.url)}' width='100%' height='{self.height}' "

@@ -1048,3 +1048,13 @@ def test_small_wheel_steps_move_the_light_as_little_as_they_turn(page):
     wait_for_full_frame(page)
     position = page.evaluate("window.view.settings.a['lights.0.position']")
     np.testing.assert_allclose(position, 1.1 ** -0.9 * np.array([2, 2, 3]), atol=1e-4)
+
+
+def test_a_light_distance_of_0_is_said_and_the_light_stays(page):
+    """Issue 49: a distance of 0 (or less) was ignored silently; now one line on the page, the field restored."""
+    before = page.evaluate("window.view.settings.a['lights.0.position'] ?? null")
+    page.fill("#light-distance", "0")
+    page.dispatch_event("#light-distance", "change")
+    assert page.is_visible("#error") and "greater than 0" in page.text_content("#error")
+    assert page.evaluate("window.view.settings.a['lights.0.position'] ?? null") == before
+    assert float(page.input_value("#light-distance")) == pytest.approx(math.sqrt(17), abs=1e-3)

@@ -125,3 +125,12 @@ def test_results_have_a_png_and_a_one_line_repr(tmp_path):
     for k, one in enumerate(figures.results):
         np.testing.assert_array_equal(row[:, k * 48:k * 48 + 40], to_8bit(one.image))
     assert (row[:, 40:48] == 255).all()
+
+
+def test_a_live_view_s_text_repr_does_not_carry_its_token():
+    """Issue 49: a notebook saves a cell's text output; the Live object's repr carried the tokenised URL."""
+    from raycast_phong.tools.notebook import Live
+    live = Live("http://127.0.0.1:8123/?token=s3cr3t-t0ken", 700)
+    text = repr(live)
+    assert "s3cr3t" not in text and "http://127.0.0.1:8123/" in text and "stopped" in text
+    assert "s3cr3t" in live._repr_html_()  # the frame itself needs it to connect

@@ -749,8 +749,15 @@ function wireLight() {
     });
   }
   $("#light-distance").addEventListener("change", () => {
-    const distance = Number($("#light-distance").value);
-    if (distance > 0) placeLight(lightPlacement().toLight, distance, "full");
+    const given = $("#light-distance").value, distance = Number(given);
+    if (distance > 0 && Number.isFinite(distance)) {
+      hideError();
+      placeLight(lightPlacement().toLight, distance, "full");
+    } else {  // said, not ignored: the field goes back to the light's distance
+      showError(`light distance ${JSON.stringify(given)}: give a number greater than 0 (the light's distance from look_at)`);
+      const { distance: kept } = lightPlacement();
+      $("#light-distance").value = kept === null ? "" : Number(kept.toFixed(4));
+    }
   });
   $("#light-reset").addEventListener("click", () => {
     const prefix = `lights.${lightIndex()}.`;
