@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import base64
 import json
+import math
 import shutil
 from pathlib import Path
 
@@ -141,3 +142,43 @@ def test_draco_data_that_decodes_to_another_count_is_drawn_with_a_note(tmp_path)
     read = read_mesh(path, "t")
     assert np.array_equal(read.faces, intact.faces) and np.allclose(read.vertices, intact.vertices)
     assert any("decodes to" in note and "the decoded values are drawn" in note for note in read.notes), read.notes
+
+
+def test_a_skinned_mesh_is_drawn_in_the_pose_its_joints_hold(tmp_path):
+    """§3.7.3: v' = Σ_k w_k (G(joint_k) · IBM_k) v, the skinned node's own transform ignored. A square: its
+    bottom corners follow joint 0 (bound at y = 1, now at y = 2: +1 in y), its top corners joint 1 (bound at the
+    origin, now turned 90° about z: (x, y) → (−y, x)); the mesh node's translation (100, 0, 0) is not applied.
+    trimesh drew the bind pose (the square as stored)."""
+    square = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], np.float32)
+    joints = np.array([[0, 0, 0, 0], [0, 0, 0, 0], [1, 0, 0, 0], [1, 0, 0, 0]], np.uint16)
+    weights = np.array([[1, 0, 0, 0]] * 4, np.float32)
+    bind = np.eye(4)
+    bind[1, 3] = -1.0  # the inverse of joint 0's bind transform, a translation by (0, 1, 0)
+    inverse = np.stack([bind, np.eye(4)]).transpose(0, 2, 1).astype(np.float32)  # column by column
+    blob = b"".join(a.tobytes() for a in (square, joints, weights, inverse))
+    sizes = [square.nbytes, joints.nbytes, weights.nbytes, inverse.nbytes]
+    offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]]).tolist()
+    tree = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0, 1, 2]}],
+            "nodes": [{"mesh": 0, "skin": 0, "translation": [100, 0, 0]},
+                      {"translation": [0, 2, 0]},
+                      {"rotation": [0, 0, math.sin(math.pi / 4), math.cos(math.pi / 4)]}],
+            "skins": [{"joints": [1, 2], "inverseBindMatrices": 3}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "JOINTS_0": 1, "WEIGHTS_0": 2},
+                                        "indices": 4}]}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+                           "min": [0, 0, 0], "max": [1, 1, 0]},
+                          {"bufferView": 1, "componentType": 5123, "count": 4, "type": "VEC4"},
+                          {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC4"},
+                          {"bufferView": 3, "componentType": 5126, "count": 2, "type": "MAT4"},
+                          {"bufferView": 4, "componentType": 5123, "count": 6, "type": "SCALAR"}],
+            "bufferViews": [{"buffer": 0, "byteOffset": o, "byteLength": n} for o, n in zip(offsets, sizes)]
+            + [{"buffer": 0, "byteOffset": len(blob), "byteLength": 12}]}
+    blob += np.array([0, 1, 2, 0, 2, 3], np.uint16).tobytes()
+    tree["buffers"] = [{"byteLength": len(blob),
+                        "uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode()}]
+    path = tmp_path / "skinned.gltf"
+    path.write_text(json.dumps(tree))
+    read = read_mesh(path, "t")
+    expected = {(0.0, 1.0, 0.0), (1.0, 1.0, 0.0), (-1.0, 1.0, 0.0), (-1.0, 0.0, 0.0)}
+    found = {tuple(np.round(v, 6) + 0.0) for v in read.vertices[np.unique(read.faces)]}
+    assert found == expected, found

@@ -41,12 +41,15 @@ DECODED_URI = "raycast-phong-decoded:"  # the buffers handed to trimesh by name 
 def needs_decoding(tree: dict) -> bool:
     """Whether trimesh would misread the document's data: compressed buffer views or primitives, integer
     positions, normals, texture coordinates or colours, an accessor of a primitive without a bufferView (all
-    zeros, glTF 2.0 §3.6.2.1: trimesh raised UnboundLocalError), triangle fans (trimesh drops them), instanced
-    nodes, specular-glossiness materials."""
+    zeros, glTF 2.0 §3.6.2.1: trimesh raised UnboundLocalError), triangle fans (trimesh drops them), skinned
+    meshes, instanced nodes, specular-glossiness materials."""
     used = tree.get("extensionsUsed")
     used = set(used) if isinstance(used, list) and all(isinstance(e, str) for e in used) else set()
     if used & {*MESHOPT, DRACO, INSTANCING, SPECULAR_GLOSSINESS}:
         return True
+    nodes = tree.get("nodes")
+    if isinstance(nodes, list) and any(isinstance(n, dict) and "skin" in n and "mesh" in n for n in nodes):
+        return True  # a skinned mesh: trimesh draws its bind pose, not the pose its joints hold
     try:
         accessors = tree.get("accessors", [])
         for mesh in tree.get("meshes", []):
@@ -354,6 +357,72 @@ class _Decoder:
                                                "componentType": 5125, "count": faces.size, "type": "SCALAR"})
                 primitive.update(indices=len(self.tree["accessors"]) - 1, mode=4)
 
+    # ------------------------------------------------------------ skins
+
+    def skins(self) -> None:
+        """Each skinned mesh in the pose its joints' nodes hold (glTF 2.0 §3.7.3): a vertex moves to
+        Σ_k w_k (G(joint_k) · IBM_k) v, G a node's global transform and IBM the skin's inverse bind matrix
+        (identity without one), its normal by each such matrix's inverse transpose (the geometry stage makes its
+        length 1). The result is in the scene's frame (the spec ignores the skinned node's own transform), so
+        the mesh moves to a new root node without one; the skin and its animations are not read further."""
+        nodes = self.tree.get("nodes", [])
+        skinned = [i for i, node in enumerate(nodes) if isinstance(node, dict) and "skin" in node and "mesh" in node]
+        if not skinned:
+            return
+        placed = node_globals(nodes)
+        scene = self.tree.setdefault("scenes", [{"nodes": []}])[self.tree.get("scene", 0)]
+        for i in skinned:
+            node, key = nodes[i], f"nodes[{i}]"
+            try:
+                skin = self.tree["skins"][node["skin"]]
+                joints = np.asarray(skin["joints"], np.int64)
+                primitives = self.tree["meshes"][node["mesh"]]["primitives"]
+            except (IndexError, KeyError, TypeError):
+                raise self.refuse(f"{key}.skin", "names a skin with joints and a mesh the file does not define") \
+                    from None
+            if joints.size == 0 or joints.min() < 0 or joints.max() >= len(nodes):
+                raise self.refuse(f"skins[{node['skin']}].joints", f"allowed: node indices 0..{len(nodes) - 1}")
+            inverse = np.tile(np.eye(4), (len(joints), 1, 1))
+            if "inverseBindMatrices" in skin:  # MAT4 stored column by column
+                stored = self.float_accessor(skin["inverseBindMatrices"], f"skins[{node['skin']}].inverseBindMatrices")
+                inverse[:len(stored)] = stored.reshape(-1, 4, 4).transpose(0, 2, 1)[:len(joints)]
+            pose = placed[joints] @ inverse  # (J, 4, 4)
+            posed = []
+            for p, primitive in enumerate(primitives):
+                posed.append(self.posed(primitive, pose, f"meshes[{node['mesh']}].primitives[{p}]"))
+            self.tree["meshes"].append({"name": f"{self.tree['meshes'][node['mesh']].get('name', 'mesh')} posed",
+                                        "primitives": posed})
+            node.pop("mesh")
+            node.pop("skin")
+            nodes.append({"mesh": len(self.tree["meshes"]) - 1, "name": f"{node.get('name', key)} posed"})
+            scene.setdefault("nodes", []).append(len(nodes) - 1)
+
+    def posed(self, primitive: dict, pose: np.ndarray, key: str) -> dict:
+        """A skinned primitive's copy with POSITION and NORMAL moved by its vertices' joint mix (skins())."""
+        attributes = primitive.get("attributes", {})
+        positions = self.float_accessor(attributes["POSITION"], f"{key}.attributes.POSITION")
+        mix = np.zeros((len(positions), 4, 4))
+        for set_ in range(8):
+            if f"JOINTS_{set_}" not in attributes or f"WEIGHTS_{set_}" not in attributes:
+                break
+            joint = self.read_accessor(attributes[f"JOINTS_{set_}"], f"{key}.attributes.JOINTS_{set_}").astype(np.int64)
+            weight = self.float_accessor(attributes[f"WEIGHTS_{set_}"], f"{key}.attributes.WEIGHTS_{set_}")
+            if len(joint) != len(positions) or len(weight) != len(positions) or (joint < 0).any() \
+                    or (joint >= len(pose)).any():
+                raise self.refuse(f"{key}.attributes.JOINTS_{set_}", f"allowed: one row per vertex of joint numbers "
+                                                                     f"0..{len(pose) - 1}")
+            mix += np.einsum("vk,vkij->vij", weight, pose[joint])
+        moved = np.einsum("vij,vj->vi", mix[:, :3, :3], positions) + mix[:, :3, 3]
+        copy = {**primitive, "attributes": {name: index for name, index in attributes.items()
+                                            if not name.startswith(("JOINTS_", "WEIGHTS_"))}}
+        copy["attributes"]["POSITION"] = self.new_accessor(moved)
+        if "NORMAL" in attributes:
+            normals = self.float_accessor(attributes["NORMAL"], f"{key}.attributes.NORMAL")
+            linear = mix[:, :3, :3]
+            turned = np.einsum("vji,vj->vi", np.linalg.pinv(linear), normals)  # n · L⁻¹ = L⁻ᵀ n
+            copy["attributes"]["NORMAL"] = self.new_accessor(turned)
+        return copy
+
     # ------------------------------------------------------------ KHR_mesh_quantization
 
     def dequantize(self) -> None:
@@ -501,6 +570,37 @@ class _Decoder:
             material["pbrMetallicRoughness"] = base
 
 
+def node_globals(nodes: list) -> np.ndarray:
+    """(N, 4, 4) every node's global transform: its parents' local transforms, outermost first, times its own
+    (a `matrix`, stored column by column, or T · R · S). A node in a cycle or under two parents is refused by the
+    read's checks before this (gltf.check_references)."""
+    local = np.tile(np.eye(4), (len(nodes), 1, 1))
+    parent = np.full(len(nodes), -1)
+    for i, node in enumerate(nodes):
+        if not isinstance(node, dict):
+            continue
+        if "matrix" in node:
+            local[i] = np.asarray(node["matrix"], np.float64).reshape(4, 4).T
+        else:
+            t, r, s = (np.asarray(node[k], np.float64)[None] if k in node else None
+                       for k in ("translation", "rotation", "scale"))
+            local[i] = instance_matrices(t, r, s, 1)[0]
+        for child in node.get("children", []):
+            if isinstance(child, int) and 0 <= child < len(nodes):
+                parent[child] = i
+    placed = np.empty_like(local)
+    for i in range(len(nodes)):
+        chain, at = [], i
+        while at >= 0 and len(chain) <= len(nodes):
+            chain.append(at)
+            at = parent[at]
+        matrix = np.eye(4)
+        for k in reversed(chain):
+            matrix = matrix @ local[k]
+        placed[i] = matrix
+    return placed
+
+
 def instance_matrices(translation, rotation, scale, count: int) -> np.ndarray:
     """(count, 4, 4) T · R · S of each instance, R from a unit quaternion (x, y, z, w) (glTF 2.0 §3.5.2); a
     quaternion that is not unit is normalised, a zero one is no rotation."""
@@ -583,6 +683,7 @@ def decode_document(tree: dict, buffers: list[bytes], path: Path, where: Where,
     decoder.decode_draco()
     decoder.dequantize()
     decoder.fans()
+    decoder.skins()
     decoder.instance()
     decoder.specular_glossiness()
     named = {}
