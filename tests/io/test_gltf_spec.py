@@ -101,12 +101,15 @@ def test_points_and_lines_are_noted_and_a_file_of_only_them_says_why_it_holds_no
 
 
 def test_required_lights_render_with_a_note_naming_them(tmp_path):
-    """KHR_lights_punctual adds lights, no surface: a file that requires it renders (it was refused)."""
+    """KHR_lights_punctual adds lights, no surface: a file that requires it renders (it was refused); its lights
+    and cameras are named in a note."""
     lights = {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 5.0}, {"type": "directional"}]}}
     path = write(tmp_path / "lit.gltf", [{"attributes": {"POSITION": 0}, "mode": 6}], extensions=lights,
-                 extensionsUsed=["KHR_lights_punctual"], extensionsRequired=["KHR_lights_punctual"])
+                 extensionsUsed=["KHR_lights_punctual"], extensionsRequired=["KHR_lights_punctual"],
+                 cameras=[{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}])
     read = read_mesh(path, "t")
     assert len(read.faces) == 3 and any("2 light(s) (KHR_lights_punctual)" in note for note in read.notes)
+    assert any("1 camera(s) are not used" in note for note in read.notes), read.notes
 
 
 def test_a_required_webp_texture_is_read(tmp_path):

@@ -88,7 +88,8 @@ def check_document(document: Document, path: Path, where: Where, notes: list[str
 
 def _note_unread(tree: dict, path: Path, notes: list[str]) -> None:
     """A note for what the file holds that is not drawn: its point and line primitives (only triangles are
-    surfaces) and its own lights (KHR_lights_punctual: the scene's lights light it)."""
+    surfaces), its own lights (KHR_lights_punctual: the scene's lights light it) and cameras (the framing's is
+    used)."""
     modes: dict[str, int] = {}
     try:
         for mesh in tree.get("meshes", []):
@@ -97,6 +98,7 @@ def _note_unread(tree: dict, path: Path, notes: list[str]) -> None:
                 if kind:
                     modes[kind] = modes.get(kind, 0) + 1
         lights = ((tree.get("extensions") or {}).get(LIGHTS) or {}).get("lights") or []
+        cameras = tree.get("cameras") or []
     except (AttributeError, TypeError):
         return  # a malformed document: the read words it
     if modes:
@@ -104,6 +106,8 @@ def _note_unread(tree: dict, path: Path, notes: list[str]) -> None:
         notes.append(f"{path}: not drawn, as only triangles are surfaces: {said}")
     if isinstance(lights, list) and lights:
         notes.append(f"{path}: its {len(lights)} light(s) ({LIGHTS}) are not used: the scene's lights light it")
+    if isinstance(cameras, list) and cameras:
+        notes.append(f"{path}: its {len(cameras)} camera(s) are not used: the framing camera (or the scene's) is")
 
 
 def texture_sizes(path: Path, document: Document, file_size) -> list[tuple[int, int]]:
