@@ -104,7 +104,10 @@ KA, KD, KS, KE, SHININESS, MATERIAL_WIDTH = 0, 3, 6, 9, 12, 13
 # After those, the row of the texture table each colour map uses (-1: none): the map that multiplies k_a, the
 # one that multiplies k_d, the one that multiplies k_e; the kernels read them only when the scene has textures.
 MAP_COLUMNS = ("ka_map", "kd_map", "ke_map")
-KA_MAP, KD_MAP, KE_MAP, MATERIAL_TABLE_WIDTH = 13, 14, 15, 16
+KA_MAP, KD_MAP, KE_MAP = 13, 14, 15
+# Then alpha as glTF's alphaMode MASK cuts with it (ray_queries.camera_hits): the cutoff (-1: opaque, nothing is
+# cut), the alpha factor, and the texture row of its alpha map (an image's alpha channel; -1: none).
+ALPHA_CUTOFF, ALPHA, ALPHA_MAP, MATERIAL_TABLE_WIDTH = 16, 17, 18, 19
 # Texture wrap modes (glTF sampler codes 10497, 33071, 33648 and OBJ "-clamp on" map onto them).
 WRAP_MODES = ("repeat", "clamp", "mirror")
 WRAP_CODE = {name: index for index, name in enumerate(WRAP_MODES)}

@@ -38,7 +38,7 @@ class Geometry:
     face_object: np.ndarray     # (F,) int32, index of the scene object the face belongs to
     notes: tuple[str, ...] = () # what loading changed, e.g. a repaired winding (shown by the plan)
     file_materials: np.ndarray = field(default_factory=lambda: np.zeros((0, MATERIAL_TABLE_WIDTH)))
-                                # (M, 16) float64 material-table rows read from mesh files (their .mtl, glTF
+                                # (M, 19) float64 material-table rows read from mesh files (their .mtl, glTF
                                 # materials, colours); face_material counts them after the scene's materials
     file_notes: tuple[str, ...] = ()  # what the mesh files' materials left out (textures, transparency, ...)
     corner_uv: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 2), np.float32))

@@ -6,6 +6,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..codes import ALPHA, ALPHA_CUTOFF, ALPHA_MAP
 from ..scene.schema import DEFAULT_MATERIAL, Scene
 from ..values.messages import Location
 from .materials import material_rows
@@ -46,7 +47,13 @@ class FileRows:
             coloured = (read.face_group < 0) & (read.corner_colour[:, 0, 0] >= 0)
             group = np.where(coloured, len(named) - 1, group)
         self.mapped |= any(r >= 0 for m in maps for r in m)
-        self.rows.append(self._rows(named, np.asarray(maps, np.int64).reshape(-1, 3)))
+        rows = self._rows(named, np.asarray(maps, np.int64).reshape(-1, 3))
+        for row, own in enumerate(read.materials):  # an alpha mask the file gives (glTF alphaMode MASK)
+            if own.alpha_cutoff >= 0:
+                rows[row, ALPHA_CUTOFF], rows[row, ALPHA] = own.alpha_cutoff, own.alpha
+                rows[row, ALPHA_MAP] = self.bank.file_map(read, own.alpha_map)
+                self.mapped |= rows[row, ALPHA_MAP] >= 0
+        self.rows.append(rows)
         return (self.first + sum(len(r) for r in self.rows[:-1]) + group).astype(np.int32)
 
     @staticmethod

@@ -10,14 +10,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..codes import KA, KA_MAP, KD, KE, KE_MAP, KS, MATERIAL_TABLE_WIDTH, SHININESS
+from ..codes import ALPHA, ALPHA_CUTOFF, ALPHA_MAP, KA, KA_MAP, KD, KE, KE_MAP, KS, MATERIAL_TABLE_WIDTH, SHININESS
 
 
 def material_rows(ka, kd, ks, ke, shininess, maps=None) -> np.ndarray:
     """(M, MATERIAL_TABLE_WIDTH) float64 rows of the material table from (M, 3) coefficients, (M,) or (M, 1)
-    f, and (M, 3) texture rows of the ka, kd and ke maps (-1: none; all -1 when `maps` is None)."""
+    f, and (M, 3) texture rows of the ka, kd and ke maps (-1: none; all -1 when `maps` is None); opaque."""
     table = np.zeros((len(ka), MATERIAL_TABLE_WIDTH))
     table[:, KA:KA + 3], table[:, KD:KD + 3], table[:, KS:KS + 3], table[:, KE:KE + 3] = ka, kd, ks, ke
     table[:, SHININESS] = np.reshape(shininess, -1)
     table[:, KA_MAP:KE_MAP + 1] = -1 if maps is None else np.reshape(maps, (-1, 3))
+    table[:, ALPHA_CUTOFF], table[:, ALPHA], table[:, ALPHA_MAP] = -1.0, 1.0, -1.0  # opaque (FileRows sets a mask)
     return table

@@ -52,12 +52,14 @@ class TextureBank:
             return -1
         from ..io.textures import decode_file, decode_pil
         found = read.texture_sources[index]
-        colour = self.scene.render.colour
+        colour, channel = self.scene.render.colour, found.channel
         if isinstance(found.source, Path):
-            key, decode = (str(found.source), found.wrap_s, found.wrap_t), lambda: decode_file(found.source, colour)
+            key = (str(found.source), found.wrap_s, found.wrap_t, channel)
+            decode = lambda: decode_file(found.source, colour, channel)
             stamp = file_stamp(found.source) if self.memo is not None else None
         else:
-            key, decode = (id(found.source), found.wrap_s, found.wrap_t), lambda: decode_pil(found.source, colour)
+            key = (id(found.source), found.wrap_s, found.wrap_t, channel)
+            decode = lambda: decode_pil(found.source, colour, channel)
             stamp = found.source
         return self.add(key, decode, found.wrap_s, found.wrap_t, found.name, stamp)
 

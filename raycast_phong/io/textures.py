@@ -44,10 +44,14 @@ def capped(height: int, width: int) -> tuple[int, int]:
     return max(1, round(height * scale)), max(1, round(width * scale))
 
 
-def _rgb(pixels: np.ndarray) -> np.ndarray:
-    """(H, W, C) → (H, W, 3): grey repeated, alpha dropped."""
+def _rgb(pixels: np.ndarray, channel: str = "rgb") -> np.ndarray:
+    """(H, W, C) → (H, W, 3): grey repeated, alpha dropped; for channel "alpha" the alpha channel repeated (the
+    last of 2 or 4 channels; 1 where the image has none)."""
     if pixels.ndim == 2:
         pixels = pixels[:, :, None]
+    if channel == "alpha":
+        alpha = pixels[:, :, -1:] if pixels.shape[2] in (2, 4) else np.ones_like(pixels[:, :, :1])
+        return np.repeat(alpha, 3, axis=2)
     if pixels.shape[2] < 3:
         pixels = np.repeat(pixels[:, :, :1], 3, axis=2)
     return pixels[:, :, :3]
@@ -56,7 +60,7 @@ def _rgb(pixels: np.ndarray) -> np.ndarray:
 DECODE_BAND_BYTES = 32 << 20  # a larger map is read and shrunk a band of rows at a time: its peak stays this
 
 
-def decode_file(path: Path, colour: str) -> np.ndarray:
+def decode_file(path: Path, colour: str, channel: str = "rgb") -> np.ndarray:
     """(H, W, 3) float32 RGB in [0, 1] of an image file for a render in `colour` (an 8-bit image decoded from
     sRGB for "linear", as stored for "display"; a float image as stored); ValueError when it is not an image
     OpenImageIO reads. A map multiplies a coefficient in [0, 1], so a float image's texels are clamped to
@@ -79,8 +83,8 @@ def decode_file(path: Path, colour: str) -> np.ndarray:
             pixels = _read_shrunk(found, spec, height, width)
         finally:
             found.close()
-    pixels = _rgb(pixels)
-    floats = spec.format.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE)
+    pixels = _rgb(pixels, channel)
+    floats = spec.format.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE) or channel == "alpha"  # alpha is linear
     out = np.empty(pixels.shape, np.float32)
     step = max(1, (DECODE_BAND_BYTES >> 6) // max(1, pixels.shape[1] * 3))  # float64 temporaries of a band
     for row in range(0, len(pixels), step):  # a band at a time: the curve's float64 temporaries stay small
@@ -131,9 +135,10 @@ def _read_shrunk(found, spec, height: int, width: int) -> np.ndarray:
     return out
 
 
-def decode_pil(image, colour: str) -> np.ndarray:
+def decode_pil(image, colour: str, channel: str = "rgb") -> np.ndarray:
     """(H, W, 3) float32 RGB of a PIL image (an 8-bit sRGB colour map) for a render in `colour`: decoded to
-    linear values for "linear", as stored for "display"; ValueError when it cannot be decoded. A large image is
+    linear values for "linear", as stored for "display"; for channel "alpha" its alpha (linear), repeated;
+    ValueError when it cannot be decoded. A large image is
     shrunk in place first (thumbnail: a JPEG decodes at the smaller scale)."""
     try:
         height, width = capped(image.height, image.width)
@@ -141,6 +146,9 @@ def decode_pil(image, colour: str) -> np.ndarray:
             image.thumbnail((width, height))
         with warnings.catch_warnings():  # PIL's advice on a palette's transparency (two lines on stderr): the
             warnings.simplefilter("ignore", UserWarning)  # colour is what is read; alpha is not drawn
+            if channel == "alpha":  # linear, as stored: 1 where the image has no alpha
+                pixels = np.asarray(image.convert("RGBA"), np.float64)[:, :, 3:] / 255.0
+                return np.ascontiguousarray(np.repeat(pixels, 3, axis=2), np.float32)
             pixels = np.asarray(image.convert("RGB"), np.float64) / 255.0
     except Exception as error:  # noqa: BLE001 - PIL raises many types on a corrupt image
         raise ValueError(f"{type(error).__name__}: {error}") from None

@@ -1,6 +1,7 @@
-"""tile.render_band's two largest callees, handed to it by address (jit.callee) instead of linked in: the shading
+"""tile.render_band's largest callees, handed to it by address (jit.callee) instead of linked in: the shading
 kernel (shading._shade_rays, one handle per type of shading inputs: precision, maps) and global mode's shadow rays
-(shadows.cast_shadows; a scene in local mode gets shadows.no_shadow_rays, so it never compiles them). render_band then
+(shadows.cast_shadows; a scene in local mode gets shadows.no_shadow_rays, so it never compiles them) and alpha masks'
+cut (ray_queries.cut_masked; a scene without one gets ray_queries.no_cut). render_band then
 compiles without either, the shading kernel beside it in a helper process on a first run (split_compile.py), and
 neither's code is generated twice. Without numba's first-class functions (jit.BY_ADDRESS) each handle is the kernel's
 dispatcher, linked into render_band."""
@@ -11,8 +12,8 @@ import numpy as np
 from numba import types
 
 from .. import jit
-from .kernels import shading, shadows
-from .kernels.layout import TileRays
+from .kernels import ray_queries, shading, shadows
+from .kernels.layout import F_ALPHA_MASK, TileRays
 
 _handles: dict[object, object] = {}
 
@@ -57,4 +58,21 @@ def shadow_caster(global_mode: bool):
     if handle is None:
         kernel = shadows.cast_shadows if global_mode else shadows.no_shadow_rays
         handle = _handles[global_mode] = jit.callee(kernel, shadow_arguments(), types.int64)
+    return handle
+
+
+def cutter(params, inputs):
+    """The handle render_band casts on past alpha-masked hits through, for these ray parameters and shading inputs:
+    ray_queries.cut_masked when a material has a mask (layout.F_ALPHA_MASK), else ray_queries.no_cut (render_band
+    calls it only with the flag: a scene without masks never compiles the other)."""
+    from numba import typeof
+    masked = bool(inputs.flags & F_ALPHA_MASK)
+    key = ("cut", masked, typeof(inputs))
+    handle = _handles.get(key)
+    if handle is None:
+        rays = no_rays()
+        screen = np.zeros(1), np.zeros(1, np.int64)
+        arguments = (0, params, *screen, 0, np.zeros((0, 3), np.float32), rays.directions, rays.face, rays.u, rays.v,
+                     rays.t, inputs)
+        handle = _handles[key] = jit.callee(ray_queries.cut_masked if masked else ray_queries.no_cut, arguments)
     return handle

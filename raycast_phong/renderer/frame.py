@@ -17,7 +17,7 @@ from ..records import RenderPlan, RenderResult
 from ..scene.load import load_scene
 from ..scene.schema import Scene
 from . import embree_library
-from .by_address import shader, shadow_caster
+from .by_address import cutter, shader, shadow_caster
 from .film import allocate_film
 from .kernels.tile import render_band
 from .pack import film_rows
@@ -85,7 +85,8 @@ def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bo
             ready = prepare(warm_scene(precision))
             film = film_rows(allocate_film(2, 2, (), ready.real).rows(0, 0))
             render_band(0, 0, 0, ready.rays.params, ready.rays.shared_origins, NO_SHADOWS, ready.shading, film,
-                        np.zeros(3), shader(ready.shading), shadow_caster(False))
+                        np.zeros(3), shader(ready.shading), shadow_caster(False), cutter(ready.rays.params,
+                                                                                       ready.shading))
             if winding and first:  # the helper's second task: by now done, or waited for
                 from ..geometry.mesh_repair import warm_up_winding
                 warm_up_winding()

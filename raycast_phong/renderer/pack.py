@@ -18,10 +18,12 @@ from ..scene.schema import DEFAULT_MATERIAL, Scene, SpecularModel
 from ..tolerances import MIN_DISTANCE
 from .kernels.camera import fill_rows
 from .kernels.layout import (
+    ALPHA_CUTOFF,
     ATTENUATION_NONE,
     CLQ,
     COUNTS,
     DIRECTIONAL,
+    F_ALPHA_MASK,
     F_AOV_GEOMETRY,
     F_AOV_TERMS,
     F_ATTENUATION,
@@ -241,6 +243,8 @@ def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Fra
     materials = material_table([DEFAULT_MATERIAL, *scene.materials.values()], real, geometry.file_materials,
                                geometry.scene_maps)
     bits = int(flags[0])
+    if (materials[:, ALPHA_CUTOFF] >= 0).any():  # a material cuts away where its alpha is below a cutoff
+        bits |= F_ALPHA_MASK
     if bits & F_TEXTURES:  # the plan's "textures" stage (diagnosis.surface_maps) decided it
         texels, texture_table = of_geometry("textures", ("textures",), lambda: pack_textures(geometry.textures))
         corner_uv = np.ascontiguousarray(geometry.corner_uv, np.float32)

@@ -32,7 +32,7 @@ from ..records import Frame, Geometry, ImageBuffers, RenderPlan, RenderResult
 from ..scene.schema import Scene, SceneError
 from ..shapes import from_file
 from .budget import MemoryEstimate, check_memory
-from .by_address import shader, shadow_caster
+from .by_address import cutter, shader, shadow_caster
 from .diagnosis import ObjectFigures, diagnose
 from .film import allocate_film, film_layers
 from .intersect import Accelerator, frame_of_box, unit_frame
@@ -253,10 +253,12 @@ class TileWork:
     film: ImageBuffers
     shade: object = field(init=False)  # shading._shade_rays for these inputs, by address (by_address.py)
     cast: object = field(init=False)   # shadows.cast_shadows in global mode, else no_shadow_rays, by address
+    cut: object = field(init=False)    # ray_queries.cut_masked with alpha masks, else no_cut, by address
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "shade", shader(self.shading))
         object.__setattr__(self, "cast", shadow_caster(self.shadows is not None))
+        object.__setattr__(self, "cut", cutter(self.rays.params, self.shading))
 
     def __call__(self, band: tuple[int, int]) -> tuple[float, float, float, np.ndarray]:
         """Rays, closest hits, [shadow rays,] shading of rows [row0, row1) into the film, in one kernel
@@ -264,7 +266,7 @@ class TileWork:
         row0, row1 = band
         film, seconds = film_rows(self.film.rows(row0, row1)), np.zeros(3)
         render_band(self.accelerator.embree_scene.scene, row0, row1, self.rays.params, self.rays.shared_origins,
-                    self.shadows or NO_SHADOWS, self.shading, film, seconds, self.shade, self.cast)
+                    self.shadows or NO_SHADOWS, self.shading, film, seconds, self.shade, self.cast, self.cut)
         return seconds[0], seconds[1], seconds[2], film.counts
 
 

@@ -135,17 +135,18 @@ def test_broken_files_are_refused_in_the_renderers_words(tmp_path):
         assert "Error" not in str(raised.value), str(raised.value)
 
 
-def test_an_alpha_mask_is_said_to_be_ignored_with_its_cutoff(tmp_path):
-    """01_alpha_mask: alphaMode MASK is not drawn (the lecture's model is opaque; cutting texels away needs the ray
-    to pass through a hit): the note names the mask and its cutoff, not a transparency of alpha 1. BLEND keeps
-    the transparency note. main: 'transparency (alpha 1) is ignored' for the mask."""
+def test_an_alpha_mask_is_said_with_its_cutoff_and_blend_is_said_to_be_ignored(tmp_path):
+    """01_alpha_mask: alphaMode MASK cuts away (tests/io/test_gltf_spec.py draws it); the note names the mask and
+    its cutoff, not a transparency of alpha 1. BLEND keeps the transparency note."""
     read = read_mesh(quad_gltf(tmp_path, {"alphaMode": "MASK", "alphaCutoff": 0.3}), "t")
-    assert any("alphaMode MASK (alphaCutoff 0.3) is ignored" in note for note in read.notes), read.notes
+    assert any("alphaMode MASK cuts the surface away where alpha < 0.3" in note for note in read.notes), read.notes
+    assert read.materials[0].alpha_cutoff == 0.3
     blend = tmp_path / "blend"
     blend.mkdir()
     read = read_mesh(quad_gltf(blend, {"alphaMode": "BLEND", "pbrMetallicRoughness": {
         "baseColorFactor": [1, 1, 1, 0.4]}}), "t")
     assert any("transparency (alpha 0.4) is ignored" in note for note in read.notes), read.notes
+    assert read.materials[0].alpha_cutoff < 0  # opaque
 
 
 def test_a_reader_that_stops_on_a_corrupt_file_is_refused_without_its_exception_text(tmp_path):

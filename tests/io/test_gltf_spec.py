@@ -185,3 +185,88 @@ def test_a_skinned_mesh_is_drawn_in_the_pose_its_joints_hold(tmp_path):
     expected = {(0.0, 1.0, 0.0), (1.0, 1.0, 0.0), (-1.0, 1.0, 0.0), (-1.0, 0.0, 0.0)}
     found = {tuple(np.round(v, 6) + 0.0) for v in read.vertices[np.unique(read.faces)]}
     assert found == expected, found
+
+
+def masked_quads(folder: Path, alpha_pixels, factor: float = 1.0, cutoff=0.5, layers: int = 1) -> Path:
+    """`layers` unit squares at z = 0.5, 0.25, ... with alphaMode MASK over a red wall at z = -0.5, all facing
+    the camera. The squares' map is 2 × 2 green texels with the given alphas (row by row, top first)."""
+    from PIL import Image
+    image = Image.new("RGBA", (2, 2))
+    image.putdata([(0, 200, 0, a) for a in alpha_pixels])
+    image.save(folder / "mask.png")
+    squares = [np.array([[-1, -1, z], [1, -1, z], [1, 1, z], [-1, 1, z]], np.float32)
+               for z in (0.5 - 0.25 * k for k in range(layers))]
+    wall = np.array([[-2, -2, -0.5], [2, -2, -0.5], [2, 2, -0.5], [-2, 2, -0.5]], np.float32)
+    uv = np.array([[0, 1], [1, 1], [1, 0], [0, 0]], np.float32)
+    indices = np.array([0, 1, 2, 0, 2, 3], np.uint16)
+    parts = [*squares, wall, uv, indices]
+    blob, views = b"", []
+    for part in parts:
+        views.append({"buffer": 0, "byteOffset": len(blob), "byteLength": part.nbytes})
+        blob += part.tobytes()
+    n = len(squares)
+    accessors = [{"bufferView": k, "componentType": 5126, "count": 4, "type": "VEC3",
+                  "min": part.min(0).tolist(), "max": part.max(0).tolist()} for k, part in enumerate([*squares, wall])]
+    accessors += [{"bufferView": n + 1, "componentType": 5126, "count": 4, "type": "VEC2"},
+                  {"bufferView": n + 2, "componentType": 5123, "count": 6, "type": "SCALAR"}]
+    leaf = {"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "baseColorFactor": [1, 1, 1, factor],
+                                     "metallicFactor": 0}, "alphaMode": "MASK", "name": "leaf"}
+    if cutoff is not None:
+        leaf["alphaCutoff"] = cutoff
+    meshes = [{"primitives": [{"attributes": {"POSITION": k, "TEXCOORD_0": n + 1}, "indices": n + 2, "material": 0}]}
+              for k in range(n)]
+    meshes.append({"primitives": [{"attributes": {"POSITION": n}, "indices": n + 2, "material": 1}]})
+    tree = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": list(range(n + 1))}],
+            "nodes": [{"mesh": k} for k in range(n + 1)], "meshes": meshes,
+            "materials": [leaf, {"pbrMetallicRoughness": {"baseColorFactor": [1, 0, 0, 1], "metallicFactor": 0},
+                                 "name": "wall"}],
+            "textures": [{"source": 0, "sampler": 0}], "samplers": [{"magFilter": 9728, "minFilter": 9728}],
+            "images": [{"uri": "mask.png"}], "accessors": accessors, "bufferViews": views,
+            "buffers": [{"byteLength": len(blob),
+                         "uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode()}]}
+    path = folder / "masked.gltf"
+    path.write_text(json.dumps(tree))
+    return path
+
+
+FLAT_LIGHT = ["render.width=64", "render.height=64", "camera.position=[0,0,6]", "camera.look_at=[0,0,0]",
+              "camera.fov=30", "lights=[]", "ambient=[1,1,1]"]
+QUARTERS = {"top left": (20, 20), "top right": (20, 44), "bottom left": (44, 20), "bottom right": (44, 44)}
+
+
+def seen(path: Path, *extra: str) -> dict:
+    """Which surface each quarter of the square shows: "leaf" (green), "wall" (red) or "none"."""
+    image = rp.render_file(path, [*FLAT_LIGHT, *extra]).image
+    return {name: "leaf" if image[y, x, 1] > 0.3 else "wall" if image[y, x, 0] > 0.5 else "none"
+            for name, (y, x) in QUARTERS.items()}
+
+
+@pytest.mark.parametrize("mode", ["local", "global"])
+def test_alpha_mask_cuts_the_texels_below_its_cutoff_away(tmp_path, mode):
+    """§3.9.4: MASK draws a point where alpha ≥ alphaCutoff and nothing elsewhere; the wall behind shows through
+    the two texels of alpha 0 (nearest filtering: each texel a quarter of the square)."""
+    path = masked_quads(tmp_path, [0, 255, 255, 0])
+    assert seen(path, f"render.mode={mode}") == {"top left": "wall", "top right": "leaf", "bottom left": "leaf",
+                                                  "bottom right": "wall"}
+    assert any("alphaMode MASK cuts" in note for note in read_mesh(path, "t").notes)
+
+
+def test_alpha_mask_multiplies_the_factor_and_defaults_its_cutoff_to_a_half(tmp_path):
+    """alpha = factor × texel: 0.7 × 200/255 = 0.55 is kept under the default cutoff 0.5, 0.7 × 100/255 cut."""
+    path = masked_quads(tmp_path, [200, 100, 100, 200], factor=0.7, cutoff=None)
+    assert seen(path) == {"top left": "leaf", "top right": "wall", "bottom left": "wall", "bottom right": "leaf"}
+
+
+def test_a_ray_passes_through_every_cut_away_layer(tmp_path):
+    """Three masked squares, one behind the other: the cut quarters show the wall through all three."""
+    path = masked_quads(tmp_path, [0, 255, 255, 0], layers=3)
+    assert seen(path)["top left"] == "wall" and seen(path)["top right"] == "leaf"
+
+
+def test_a_cutoff_above_1_cuts_everything_and_0_nothing(tmp_path):
+    """Alpha is at most 1: a cutoff of 1.1 leaves nothing of the masked surface (the Asset Generator's
+    Material_AlphaMask_03), a cutoff of 0 keeps all of it."""
+    everything = masked_quads(tmp_path, [0, 255, 255, 0], cutoff=1.1)
+    assert set(seen(everything).values()) == {"wall"}
+    nothing = masked_quads(tmp_path, [0, 255, 255, 0], cutoff=0.0)
+    assert set(seen(nothing).values()) == {"leaf"}

@@ -64,7 +64,7 @@ def test_a_mesh_painted_by_a_scene_material_decodes_none_of_its_maps(tmp_path, m
     import raycast_phong.io.textures as textures
     calls = []
     monkeypatch.setattr(textures, "decode_pil",
-                        lambda image, colour: calls.append(image) or np.zeros((1, 1, 3), np.float32))
+                        lambda image, colour, channel="rgb": calls.append(image) or np.zeros((1, 1, 3), np.float32))
     (tmp_path / "s.toml").write_text(f'[materials.plain]\nkd = [0.5, 0.5, 0.5]\n[[objects]]\nshape = "mesh"\n'
                                      f'path = "{MODELS / "BoxTextured.glb"}"\nmaterial = "plain"\n')
     geometry = build_geometry(rp.load_scene(tmp_path / "s.toml"))

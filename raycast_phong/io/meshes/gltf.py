@@ -248,10 +248,18 @@ def from_pbr(material, path: Path, notes: list[str], sources: list[TextureSource
     shininess = MAX_FILE_SHININESS if alpha == 0 else 2 / alpha**2 - 2
     name = material.name or f"{path.stem}-material"
     mode = getattr(material, "alphaMode", None)
-    if mode == "MASK":  # cutting texels away would need the ray to pass on through the hit (an Embree filter)
+    mask = {}
+    if mode == "MASK":  # cut away where alpha < alphaCutoff (glTF 2.0 §3.9.4): ray_queries.camera_hits
         cutoff = getattr(material, "alphaCutoff", None)
-        notes.append(f"{path}: material {name!r}: alphaMode MASK (alphaCutoff {0.5 if cutoff is None else cutoff:.3g})"
-                     " is ignored: the texels it would cut away are drawn; surfaces are opaque")
+        mask = {"alpha_cutoff": 0.5 if cutoff is None else max(float(cutoff), 0.0), "alpha": float(base[3])}
+        notes.append(f"{path}: material {name!r}: alphaMode MASK cuts the surface away where alpha < "
+                     f"{mask['alpha_cutoff']:.3g}; a shadow ray (global mode) still sees the whole surface")
+        image = getattr(material, "baseColorTexture", None)
+        if image is not None:
+            wrap_s, wrap_t = samplers.get((material.name, "baseColorTexture"), ("repeat", "repeat"))
+            mask["alpha_map"] = len(sources)
+            sources.append(TextureSource(image, wrap_s, wrap_t, f"{path}: material {name!r}: its baseColorTexture's "
+                                         "alpha", channel="alpha"))
     elif base[3] < 1 or mode == "BLEND":
         notes.append(f"{path}: material {name!r}: transparency (alpha {base[3]:.3g}) is ignored: surfaces are opaque")
     maps = {}
@@ -275,7 +283,7 @@ def from_pbr(material, path: Path, notes: list[str], sources: list[TextureSource
     if samplers.get((material.name, UNLIT)):
         black = (0.0, 0.0, 0.0)
         return FileMaterial(name, black, black, black, _rgb(rgb), MAX_FILE_SHININESS,
-                            ke_map=maps.get("baseColorTexture", -1))
+                            ke_map=maps.get("baseColorTexture", -1), **mask)
     emissive = emissive[:3] * samplers.get((material.name, EMISSIVE_STRENGTH), 1.0)
     if emissive.max(initial=0.0) > 1:
         notes.append(f"{path}: material {name!r}: emissive factor × strength {emissive.max():.3g} is clamped to 1, "
@@ -283,7 +291,7 @@ def from_pbr(material, path: Path, notes: list[str], sources: list[TextureSource
     f0 = glossy[0] if glossy is not None else 0.04 + (rgb - 0.04) * metallic  # the lobe's peak (F0)
     ks, shininess = specular_lobe(f0, shininess)
     return FileMaterial(name, _rgb(rgb), _rgb(rgb), _rgb(ks), _rgb(np.clip(emissive, 0, 1)), float(shininess),
-                        kd_map=maps.get("baseColorTexture", -1), ke_map=maps.get("emissiveTexture", -1))
+                        kd_map=maps.get("baseColorTexture", -1), ke_map=maps.get("emissiveTexture", -1), **mask)
 
 
 def check_references(tree: dict, path: Path, where: Where) -> None:

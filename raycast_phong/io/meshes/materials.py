@@ -24,6 +24,7 @@ class TextureSource(NamedTuple):
     wrap_s: str      # codes.WRAP_MODES
     wrap_t: str
     name: str        # for notes
+    channel: str = "rgb"  # "alpha": the image's alpha channel, as a grey map (an alpha mask's)
 
 
 @dataclass(frozen=True)
@@ -38,6 +39,9 @@ class FileMaterial:
     ka_map: int = -1  # index into MeshFile.texture_sources of the map multiplying k_a (-1: none)
     kd_map: int = -1  # ... k_d (and k_a when ka_map is -1)
     ke_map: int = -1  # ... k_e
+    alpha_cutoff: float = -1.0  # glTF alphaMode MASK: a point whose alpha is below this is cut away; -1 opaque
+    alpha: float = 1.0          # the alpha factor (glTF baseColorFactor's fourth value)
+    alpha_map: int = -1         # texture source of the alpha (channel "alpha"), multiplying the factor
 
     def as_scene(self) -> dict:
         """The keys of a [materials.NAME] table with these values."""

@@ -13,6 +13,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ...codes import ALPHA as ALPHA
+from ...codes import ALPHA_CUTOFF as ALPHA_CUTOFF
+from ...codes import ALPHA_MAP as ALPHA_MAP
 from ...codes import KA as KA  # the material columns, re-exported for the kernels (`X as X`: on purpose)
 from ...codes import KA_MAP as KA_MAP
 from ...codes import KD as KD
@@ -37,13 +40,15 @@ F_AOV_TERMS = 1 << 9       # write the per-term layers
 F_SHADOWS = 1 << 10        # global mode: per-ray light visibility masks are given
 F_TEXTURES = 1 << 11       # some material has a colour map: sample it at the hit's UV (texture.sample)
 F_VERTEX_COLOURS = 1 << 12 # some face has vertex colours: they multiply k_a and k_d per corner
+F_ALPHA_MASK = 1 << 13     # some material cuts away where its alpha is below a cutoff (ray_queries.cut_masked)
 SPECULAR_NONE, SPECULAR_PHONG, SPECULAR_BLINN = 0, 1, 2     # ShadingInputs.specular
 
 # Shading model codes of ShadingInputs.face_model (geometry.scene_mesh writes codes.MODEL_CODE).
 FLAT, GOURAUD, PHONG = (MODEL_CODE[m] for m in (ShadingModel.FLAT, ShadingModel.GOURAUD, ShadingModel.PHONG))
 
-# Columns of the material table (M, 16): k_a, k_d, k_s, k_e (r, g, b each), f, then the texture-table rows of the
-# k_a, k_d and k_e maps (KA_MAP, KD_MAP, KE_MAP; -1 none), as codes.py names them.
+# Columns of the material table (M, 19): k_a, k_d, k_s, k_e (r, g, b each), f, then the texture-table rows of the
+# k_a, k_d and k_e maps (KA_MAP, KD_MAP, KE_MAP; -1 none), then the alpha mask's cutoff (-1: opaque), alpha factor
+# and alpha map (ALPHA_CUTOFF, ALPHA, ALPHA_MAP), as codes.py names them.
 # geometry.materials.material_rows writes rows, pack.material_table the table, shading._shade_rays reads it.
 MATERIAL_COLUMNS = MATERIAL_TABLE_WIDTH
 # Columns of the texture table (T, 6) int64, written by pack.pack_textures: where a texture's mip pyramid starts

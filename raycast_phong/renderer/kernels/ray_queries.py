@@ -17,6 +17,8 @@ from numba import types
 
 from ...jit import kernel
 from .camera import direction, ortho_origin, screen_y
+from .layout import ALPHA, ALPHA_CUTOFF, ALPHA_MAP, F_ALPHA_MASK
+from .texture import sample
 
 RTC_RAY_QUERY_FLAG_COHERENT = 1 << 16   # neighbouring pixels: Embree may traverse the packet together
 RTC_FEATURE_FLAG_ALL = -1               # 0xffffffff as int32
@@ -201,6 +203,115 @@ def far_start(params):
     else:
         distance = np.sqrt(ex * ex + ey * ey + ez * ez)
     return distance - SCENE_RADIUS if distance > FAR_EYE else 0.0
+
+
+MAX_LAYERS = 16       # a ray passes through at most this many cut-away surfaces (leaves behind leaves)
+PAST_HIT = 2.0 ** -19  # a ray cast on past a cut-away hit starts this share of its t beyond it (16 float32 ulps)
+
+
+@kernel(inline="always")
+def _cut_away(k, face, u, v, inputs):
+    """Whether hit k lies where its material's alpha mask cuts the surface away: alpha (the factor times its map
+    at the hit's UV, the finest level) below the cutoff (glTF 2.0 §3.9.4, alphaMode MASK)."""
+    f = face[k]
+    if f < 0:
+        return False
+    materials = inputs.materials
+    m = inputs.face_material[f]
+    cutoff = materials[m, ALPHA_CUTOFF]
+    if cutoff < 0:
+        return False
+    alpha = float(materials[m, ALPHA])
+    index = int(materials[m, ALPHA_MAP])
+    uvs, table = inputs.corner_uv, inputs.texture_table
+    if 0 <= index < table.shape[0] and f < uvs.shape[0]:
+        b1, b2 = float(u[k]), float(v[k])
+        b0 = 1.0 - b1 - b2
+        s = b0 * uvs[f, 0, 0] + b1 * uvs[f, 1, 0] + b2 * uvs[f, 2, 0]
+        t = b0 * uvs[f, 0, 1] + b1 * uvs[f, 1, 1] + b2 * uvs[f, 2, 1]
+        a, _, _ = sample(inputs.texels, table, index, s, t, 1.0)
+        alpha *= a
+    return alpha < cutoff
+
+
+@kernel()
+def no_cut(scene, params, screen_x, cell_row, row0, eye, directions, face, u, v, t, inputs):
+    """A scene without alpha masks' stand-in for cut_masked, which render_band never calls then."""
+    return
+
+
+@kernel()
+def cut_masked(scene, params, screen_x, cell_row, row0, eye, directions, face, u, v, t, inputs):
+    """The primary hits of rows from row0 (camera_hits' arrays) that an alpha mask cuts away, cast on past
+    themselves until they reach a surface that is kept, or nothing (at most MAX_LAYERS times): the same rays,
+    from the same origins camera_hits gave them (the far start included), with tnear just past the hit."""
+    if inputs.flags & F_ALPHA_MASK == 0:
+        return
+    count = face.shape[0]
+    pending = np.empty(count, np.int64)
+    waiting = 0
+    for k in range(count):
+        if _cut_away(k, face, u, v, inputs):
+            pending[waiting] = k
+            waiting += 1
+    if waiting == 0:
+        return
+    words, ints, valid, arguments = _packet()
+    start = far_start(params)
+    eye_x = (params.eye[0] - params.center[0]) * params.inv_scale
+    eye_y = (params.eye[1] - params.center[1]) * params.inv_scale
+    eye_z = (params.eye[2] - params.center[2]) * params.inv_scale
+    forward, right, up = params.forward, params.right, params.up
+    row_rays = screen_x.shape[0]
+    for _ in range(MAX_LAYERS):
+        for first in range(0, waiting, 16):
+            lanes = min(16, waiting - first)
+            for lane in range(16):
+                valid[lane] = 0
+                if lane >= lanes:
+                    continue
+                k = pending[first + lane]
+                c, r = k % row_rays, k // row_rays
+                sx, sy = screen_x[c], screen_y(params, row0 + r, cell_row[c])
+                valid[lane] = -1
+                if params.orthographic:
+                    words[ORG_X + lane] = ortho_origin(params, 0, sx, sy) + start * forward[0]
+                    words[ORG_Y + lane] = ortho_origin(params, 1, sx, sy) + start * forward[1]
+                    words[ORG_Z + lane] = ortho_origin(params, 2, sx, sy) + start * forward[2]
+                elif start > 0.0:
+                    dx, dy, dz = direction(forward[0], forward[1], forward[2], right[0], right[1], right[2], up[0],
+                                           up[1], up[2], sx, sy)
+                    words[ORG_X + lane], words[ORG_Y + lane], words[ORG_Z + lane] = (
+                        eye_x + start * dx, eye_y + start * dy, eye_z + start * dz)
+                else:
+                    words[ORG_X + lane], words[ORG_Y + lane], words[ORG_Z + lane] = eye[0, 0], eye[0, 1], eye[0, 2]
+                words[DIR_X + lane], words[DIR_Y + lane], words[DIR_Z + lane] = (
+                    directions[k, 0], directions[k, 1], directions[k, 2])
+                beyond = t[k] - start if start > 0.0 else t[k]
+                words[TNEAR + lane] = beyond * (1.0 + PAST_HIT)
+                words[TFAR + lane] = NO_LIMIT
+                ints[GEOM_ID + lane] = INVALID_ID
+                ints[PRIM_ID + lane] = INVALID_ID
+            rtc_intersect16(valid.ctypes.data, scene, words.ctypes.data, arguments.ctypes.data)
+            for lane in range(lanes):
+                k = pending[first + lane]
+                if ints[GEOM_ID + lane] == INVALID_ID:
+                    face[k], u[k], v[k], t[k] = -1, 0, 0, NO_LIMIT
+                else:
+                    face[k], u[k], v[k] = ints[PRIM_ID + lane], words[HIT_U + lane], words[HIT_V + lane]
+                    t[k] = words[TFAR + lane] + start if start > 0.0 else words[TFAR + lane]
+        kept = 0
+        for i in range(waiting):
+            k = pending[i]
+            if _cut_away(k, face, u, v, inputs):
+                pending[kept] = k
+                kept += 1
+        waiting = kept
+        if waiting == 0:
+            return
+    for i in range(waiting):  # still cut after MAX_LAYERS surfaces: seen through to the background
+        k = pending[i]
+        face[k], u[k], v[k], t[k] = -1, 0, 0, NO_LIMIT
 
 
 @kernel()

@@ -16,7 +16,7 @@ from numba import types
 
 from ...jit import kernel
 from .camera import screen_columns
-from .layout import C_SHADOW_RAYS, F_SHADOWS, FilmRows, TileRays
+from .layout import C_SHADOW_RAYS, F_ALPHA_MASK, F_SHADOWS, FilmRows, TileRays
 from .ray_queries import camera_hits
 
 CHUNK_ROWS = 16  # image rows per pass: 4 rows of Embree's 4 × 4 packets (4: 3-7 % more CPU time, ico6 1000²)
@@ -58,14 +58,14 @@ def _touch(face, faces, vertices, face_normals, corner_normals, per_face):
 
 
 @kernel()
-def render_band(scene, row0, row1, params, shared_origins, shadows, inputs, film, seconds, shade, cast):
+def render_band(scene, row0, row1, params, shared_origins, shadows, inputs, film, seconds, shade, cast, cut):
     """Render image rows [row0, row1) into `film` (FilmRows of those rows; its counts are set: the terms
     shading._shade_rays evaluated, and the shadow rays cast). scene: embree_library.EmbreeScene.scene; params:
     camera.RayParams; shared_origins: the RayGenerator's (perspective); shadows: ShadowInputs (read in global
     mode only); inputs: ShadingInputs.
-    seconds (3,) float64 gets the time of rays (generation + cast), shadow rays and shading added. shade, cast:
-    shading._shade_rays and shadows.cast_shadows by their addresses (by_address.py): called, not linked in, so
-    this kernel compiles without them."""
+    seconds (3,) float64 gets the time of rays (generation + cast), shadow rays and shading added. shade, cast,
+    cut: shading._shade_rays, shadows.cast_shadows and ray_queries.cut_masked (hits an alpha mask cuts away, cast
+    on past) by their addresses (by_address.py): called, not linked in, so this kernel compiles without them."""
     row_rays = params.width * params.samples * params.samples
     capacity = min(CHUNK_ROWS, row1 - row0) * row_rays  # a band of one very wide row needs one row's buffers
     directions = np.empty((capacity, 3), np.float32)
@@ -87,6 +87,9 @@ def render_band(scene, row0, row1, params, shared_origins, shadows, inputs, film
         start = _now(timespec)
         camera_hits(scene, params, screen_x, cell_row, row, end, shared_origins, directions[:n], face[:n], u[:n],
                     v[:n], t[:n])
+        if inputs.flags & F_ALPHA_MASK:  # surfaces an alpha mask cuts away: cast on past them
+            cut(scene, params, screen_x, cell_row, row, shared_origins, directions[:n], face[:n], u[:n], v[:n],
+                t[:n], inputs)
         traced = _now(timespec)
         if global_mode:
             if shadows.faces.shape[0] >= TOUCH_FACES:

@@ -105,7 +105,8 @@ def test_each_kernel_module_s_key_covers_every_module_it_reads_and_only_those(pa
     assert changed() == set()
     # ... while the layout the kernels read is, for the modules that read it (through illumination.py too).
     edit(copy / "renderer" / "kernels" / "layout.py", "MAX_LIGHTS = 63", "MAX_LIGHTS = 62")
-    reading_layout = {f"renderer.kernels.{name}" for name in ("illumination", "shading", "shadows", "texture", "tile")}
+    reading_layout = {f"renderer.kernels.{name}"
+                      for name in ("illumination", "ray_queries", "shading", "shadows", "texture", "tile")}
     assert changed() == reading_layout
     # ... and what the layout itself imports (codes.py's material columns), transitively.
     (copy / "codes.py").write_text((copy / "codes.py").read_text() + "\n# an edit\n")
