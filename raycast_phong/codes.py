@@ -105,9 +105,11 @@ KA, KD, KS, KE, SHININESS, MATERIAL_WIDTH = 0, 3, 6, 9, 12, 13
 # one that multiplies k_d, the one that multiplies k_e; the kernels read them only when the scene has textures.
 MAP_COLUMNS = ("ka_map", "kd_map", "ke_map")
 KA_MAP, KD_MAP, KE_MAP = 13, 14, 15
-# Then alpha as glTF's alphaMode MASK cuts with it (ray_queries.camera_hits): the cutoff (-1: opaque, nothing is
-# cut), the alpha factor, and the texture row of its alpha map (an image's alpha channel; -1: none).
+# Then alpha as glTF's alphaMode cuts with it (ray_queries.cut_masked): the cutoff (MASK: 0 or more; OPAQUE_ALPHA:
+# nothing is cut; BLENDED_ALPHA: each ray sample is cut with probability 1 − alpha), the alpha factor, and the
+# texture row of its alpha map (an image's alpha channel; -1: none).
 ALPHA_CUTOFF, ALPHA, ALPHA_MAP, MATERIAL_TABLE_WIDTH = 16, 17, 18, 19
+OPAQUE_ALPHA, BLENDED_ALPHA = -1.0, -2.0
 # Texture wrap modes (glTF sampler codes 10497, 33071, 33648 and OBJ "-clamp on" map onto them).
 WRAP_MODES = ("repeat", "clamp", "mirror")
 WRAP_CODE = {name: index for index, name in enumerate(WRAP_MODES)}

@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..codes import ALPHA, ALPHA_CUTOFF, ALPHA_MAP
+from ..codes import ALPHA, ALPHA_CUTOFF, ALPHA_MAP, OPAQUE_ALPHA
 from ..scene.schema import DEFAULT_MATERIAL, Scene
 from ..values.messages import Location
 from .materials import material_rows
@@ -48,8 +48,8 @@ class FileRows:
             group = np.where(coloured, len(named) - 1, group)
         self.mapped |= any(r >= 0 for m in maps for r in m)
         rows = self._rows(named, np.asarray(maps, np.int64).reshape(-1, 3))
-        for row, own in enumerate(read.materials):  # an alpha mask the file gives (glTF alphaMode MASK)
-            if own.alpha_cutoff >= 0:
+        for row, own in enumerate(read.materials):  # alpha the file gives (glTF alphaMode MASK or BLEND)
+            if own.alpha_cutoff != OPAQUE_ALPHA:
                 rows[row, ALPHA_CUTOFF], rows[row, ALPHA] = own.alpha_cutoff, own.alpha
                 rows[row, ALPHA_MAP] = self.bank.file_map(read, own.alpha_map)
                 self.mapped |= rows[row, ALPHA_MAP] >= 0

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..codes import WRAP_CODE, StageName
+from ..codes import OPAQUE_ALPHA, WRAP_CODE, StageName
 from ..geometry.materials import material_rows
 from ..records import Frame, Geometry, ImageBuffers, RenderPlan, Texture
 from ..scene.schema import DEFAULT_MATERIAL, Scene, SpecularModel
@@ -243,7 +243,7 @@ def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Fra
     materials = material_table([DEFAULT_MATERIAL, *scene.materials.values()], real, geometry.file_materials,
                                geometry.scene_maps)
     bits = int(flags[0])
-    if (materials[:, ALPHA_CUTOFF] >= 0).any():  # a material cuts away where its alpha is below a cutoff
+    if (materials[:, ALPHA_CUTOFF] != OPAQUE_ALPHA).any():  # a material's alpha cuts (MASK) or covers (BLEND)
         bits |= F_ALPHA_MASK
     if bits & F_TEXTURES:  # the plan's "textures" stage (diagnosis.surface_maps) decided it
         texels, texture_table = of_geometry("textures", ("textures",), lambda: pack_textures(geometry.textures))

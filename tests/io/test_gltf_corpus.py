@@ -135,18 +135,20 @@ def test_broken_files_are_refused_in_the_renderers_words(tmp_path):
         assert "Error" not in str(raised.value), str(raised.value)
 
 
-def test_an_alpha_mask_is_said_with_its_cutoff_and_blend_is_said_to_be_ignored(tmp_path):
+def test_alpha_mask_and_blend_are_said_with_their_cutoff_and_coverage(tmp_path):
     """01_alpha_mask: alphaMode MASK cuts away (tests/io/test_gltf_spec.py draws it); the note names the mask and
-    its cutoff, not a transparency of alpha 1. BLEND keeps the transparency note."""
+    its cutoff, not a transparency of alpha 1. BLEND is drawn as coverage, said so; OPAQUE ignores alpha."""
+    from raycast_phong.codes import BLENDED_ALPHA, OPAQUE_ALPHA
     read = read_mesh(quad_gltf(tmp_path, {"alphaMode": "MASK", "alphaCutoff": 0.3}), "t")
     assert any("alphaMode MASK cuts the surface away where alpha < 0.3" in note for note in read.notes), read.notes
     assert read.materials[0].alpha_cutoff == 0.3
-    blend = tmp_path / "blend"
-    blend.mkdir()
-    read = read_mesh(quad_gltf(blend, {"alphaMode": "BLEND", "pbrMetallicRoughness": {
-        "baseColorFactor": [1, 1, 1, 0.4]}}), "t")
-    assert any("transparency (alpha 0.4) is ignored" in note for note in read.notes), read.notes
-    assert read.materials[0].alpha_cutoff < 0  # opaque
+    for mode, cutoff in (("BLEND", BLENDED_ALPHA), ("OPAQUE", OPAQUE_ALPHA)):
+        folder = tmp_path / mode
+        folder.mkdir()
+        read = read_mesh(quad_gltf(folder, {"alphaMode": mode, "pbrMetallicRoughness": {
+            "baseColorFactor": [1, 1, 1, 0.4]}}), "t")
+        assert read.materials[0].alpha_cutoff == cutoff
+        assert any("alphaMode BLEND is drawn as coverage" in note for note in read.notes) == (mode == "BLEND")
 
 
 def test_a_reader_that_stops_on_a_corrupt_file_is_refused_without_its_exception_text(tmp_path):

@@ -270,3 +270,20 @@ def test_a_cutoff_above_1_cuts_everything_and_0_nothing(tmp_path):
     assert set(seen(everything).values()) == {"wall"}
     nothing = masked_quads(tmp_path, [0, 255, 255, 0], cutoff=0.0)
     assert set(seen(nothing).values()) == {"leaf"}
+
+
+def test_alpha_blend_covers_a_share_alpha_of_a_pixel_s_samples(tmp_path):
+    """BLEND, drawn as coverage (screen-door): with 8 × 8 samples a pixel of a square of alpha 0.3 over the red
+    wall is 0.3 of the square's colour and 0.7 of the wall's, within the sampling's spread (64 samples: ±3σ =
+    ±0.17 of the share). Opaque before (the square's colour alone)."""
+    path = masked_quads(tmp_path, [255, 255, 255, 255], factor=0.3)
+    tree = json.loads(path.read_text())
+    tree["materials"][0]["alphaMode"] = "BLEND"
+    path.write_text(json.dumps(tree))
+    image = rp.render_file(path, [*FLAT_LIGHT, "render.samples=8"]).image
+    leaf = np.array([0.0, 200 / 255, 0.0]) ** 2.2  # roughly, ambient 1: the leaf's k_a (sRGB decoded)
+    centre = image[24:40, 24:40].reshape(-1, 3)
+    green_share = centre[:, 1] / max(float(leaf[1]), 1e-6)
+    red_share = centre[:, 0]
+    assert abs(float(np.median(red_share)) - 0.7) < 0.17 and abs(float(np.median(green_share)) - 0.3) < 0.17
+    assert any("alphaMode BLEND is drawn as coverage" in note for note in read_mesh(path, "t").notes)

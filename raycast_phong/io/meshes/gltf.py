@@ -15,7 +15,7 @@ from urllib.parse import unquote
 
 import numpy as np
 
-from ...codes import GLTF_WRAP
+from ...codes import BLENDED_ALPHA, GLTF_WRAP
 from ...errors import SceneError, Where
 from ..files import open_regular, shown_name
 from .format import TEXT_READ_BYTES_PER_BYTE, Loaded, MeshFormat, Reading, weigh
@@ -260,8 +260,17 @@ def from_pbr(material, path: Path, notes: list[str], sources: list[TextureSource
             mask["alpha_map"] = len(sources)
             sources.append(TextureSource(image, wrap_s, wrap_t, f"{path}: material {name!r}: its baseColorTexture's "
                                          "alpha", channel="alpha"))
-    elif base[3] < 1 or mode == "BLEND":
-        notes.append(f"{path}: material {name!r}: transparency (alpha {base[3]:.3g}) is ignored: surfaces are opaque")
+    elif mode == "BLEND":  # screen-door coverage: a sample sees the surface with probability alpha
+        mask = {"alpha_cutoff": BLENDED_ALPHA, "alpha": float(base[3])}
+        image = getattr(material, "baseColorTexture", None)
+        if image is not None:
+            wrap_s, wrap_t = samplers.get((material.name, "baseColorTexture"), ("repeat", "repeat"))
+            mask["alpha_map"] = len(sources)
+            sources.append(TextureSource(image, wrap_s, wrap_t, f"{path}: material {name!r}: its baseColorTexture's "
+                                         "alpha", channel="alpha"))
+        notes.append(f"{path}: material {name!r}: alphaMode BLEND is drawn as coverage: each ray sample sees the "
+                     "surface with probability alpha (render.samples = 4 or more averages it to a blend); a shadow "
+                     "ray (global mode) still sees the whole surface")
     maps = {}
     for key in ("baseColorTexture", "emissiveTexture"):
         image = getattr(material, key, None)

@@ -39,7 +39,8 @@ class FileMaterial:
     ka_map: int = -1  # index into MeshFile.texture_sources of the map multiplying k_a (-1: none)
     kd_map: int = -1  # ... k_d (and k_a when ka_map is -1)
     ke_map: int = -1  # ... k_e
-    alpha_cutoff: float = -1.0  # glTF alphaMode MASK: a point whose alpha is below this is cut away; -1 opaque
+    alpha_cutoff: float = -1.0  # MASK: a point whose alpha is below this is cut away; codes.OPAQUE_ALPHA (-1),
+                                # codes.BLENDED_ALPHA (-2): BLEND, drawn as coverage
     alpha: float = 1.0          # the alpha factor (glTF baseColorFactor's fourth value)
     alpha_map: int = -1         # texture source of the alpha (channel "alpha"), multiplying the factor
 

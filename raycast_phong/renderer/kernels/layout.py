@@ -16,6 +16,7 @@ import numpy as np
 from ...codes import ALPHA as ALPHA
 from ...codes import ALPHA_CUTOFF as ALPHA_CUTOFF
 from ...codes import ALPHA_MAP as ALPHA_MAP
+from ...codes import BLENDED_ALPHA as BLENDED_ALPHA
 from ...codes import KA as KA  # the material columns, re-exported for the kernels (`X as X`: on purpose)
 from ...codes import KA_MAP as KA_MAP
 from ...codes import KD as KD

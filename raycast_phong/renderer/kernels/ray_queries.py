@@ -17,7 +17,7 @@ from numba import types
 
 from ...jit import kernel
 from .camera import direction, ortho_origin, screen_y
-from .layout import ALPHA, ALPHA_CUTOFF, ALPHA_MAP, F_ALPHA_MASK
+from .layout import ALPHA, ALPHA_CUTOFF, ALPHA_MAP, BLENDED_ALPHA, F_ALPHA_MASK
 from .texture import sample
 
 RTC_RAY_QUERY_FLAG_COHERENT = 1 << 16   # neighbouring pixels: Embree may traverse the packet together
@@ -210,16 +210,29 @@ PAST_HIT = 2.0 ** -19  # a ray cast on past a cut-away hit starts this share of 
 
 
 @kernel(inline="always")
-def _cut_away(k, face, u, v, inputs):
-    """Whether hit k lies where its material's alpha mask cuts the surface away: alpha (the factor times its map
-    at the hit's UV, the finest level) below the cutoff (glTF 2.0 §3.9.4, alphaMode MASK)."""
+def _coverage_threshold(ray, layer):
+    """A number in [0, 1) for a ray sample and the surface layer it reached, spread as if at random (a 64-bit
+    mix of the two): a BLEND surface covers the sample when its alpha exceeds it."""
+    x = np.uint64(ray) * np.uint64(0x9E3779B97F4A7C15) + np.uint64(layer) * np.uint64(0xD1B54A32D192ED03)
+    x ^= x >> np.uint64(31)
+    x *= np.uint64(0xBF58476D1CE4E5B9)
+    x ^= x >> np.uint64(29)
+    return float(x >> np.uint64(11)) * (1.0 / 9007199254740992.0)
+
+
+@kernel(inline="always")
+def _cut_away(k, face, u, v, inputs, ray, layer):
+    """Whether hit k lies where its material's alpha cuts the surface away: MASK, alpha (the factor times its map
+    at the hit's UV, the finest level) below the cutoff (glTF 2.0 §3.9.4); BLEND, alpha below this sample's
+    coverage threshold (`ray`: the sample's number in the image, `layer`: how many surfaces it passed), so a
+    surface covers a share alpha of a pixel's samples (screen-door transparency)."""
     f = face[k]
     if f < 0:
         return False
     materials = inputs.materials
     m = inputs.face_material[f]
     cutoff = materials[m, ALPHA_CUTOFF]
-    if cutoff < 0:
+    if cutoff < 0 and cutoff != BLENDED_ALPHA:
         return False
     alpha = float(materials[m, ALPHA])
     index = int(materials[m, ALPHA_MAP])
@@ -231,6 +244,8 @@ def _cut_away(k, face, u, v, inputs):
         t = b0 * uvs[f, 0, 1] + b1 * uvs[f, 1, 1] + b2 * uvs[f, 2, 1]
         a, _, _ = sample(inputs.texels, table, index, s, t, 1.0)
         alpha *= a
+    if cutoff == BLENDED_ALPHA:
+        return alpha <= _coverage_threshold(ray, layer)
     return alpha < cutoff
 
 
@@ -250,8 +265,9 @@ def cut_masked(scene, params, screen_x, cell_row, row0, eye, directions, face, u
     count = face.shape[0]
     pending = np.empty(count, np.int64)
     waiting = 0
+    first_ray = row0 * screen_x.shape[0]  # ray k's number in the image: a sample's own coverage thresholds
     for k in range(count):
-        if _cut_away(k, face, u, v, inputs):
+        if _cut_away(k, face, u, v, inputs, first_ray + k, 0):
             pending[waiting] = k
             waiting += 1
     if waiting == 0:
@@ -263,7 +279,7 @@ def cut_masked(scene, params, screen_x, cell_row, row0, eye, directions, face, u
     eye_z = (params.eye[2] - params.center[2]) * params.inv_scale
     forward, right, up = params.forward, params.right, params.up
     row_rays = screen_x.shape[0]
-    for _ in range(MAX_LAYERS):
+    for layer in range(1, MAX_LAYERS + 1):
         for first in range(0, waiting, 16):
             lanes = min(16, waiting - first)
             for lane in range(16):
@@ -303,7 +319,7 @@ def cut_masked(scene, params, screen_x, cell_row, row0, eye, directions, face, u
         kept = 0
         for i in range(waiting):
             k = pending[i]
-            if _cut_away(k, face, u, v, inputs):
+            if _cut_away(k, face, u, v, inputs, first_ray + k, layer):
                 pending[kept] = k
                 kept += 1
         waiting = kept
