@@ -249,28 +249,21 @@ def from_pbr(material, path: Path, notes: list[str], sources: list[TextureSource
     name = material.name or f"{path.stem}-material"
     mode = getattr(material, "alphaMode", None)
     mask = {}
-    if mode == "MASK":  # cut away where alpha < alphaCutoff (glTF 2.0 §3.9.4): ray_queries.camera_hits
+    if mode in ("MASK", "BLEND"):  # glTF 2.0 §3.9.4: alpha = factor × the base colour map's alpha
         cutoff = getattr(material, "alphaCutoff", None)
-        mask = {"alpha_cutoff": 0.5 if cutoff is None else max(float(cutoff), 0.0), "alpha": float(base[3])}
-        notes.append(f"{path}: material {name!r}: alphaMode MASK cuts the surface away where alpha < "
-                     f"{mask['alpha_cutoff']:.3g}; a shadow ray (global mode) still sees the whole surface")
+        cutoff = 0.5 if cutoff is None else max(float(cutoff), 0.0)
+        mask = {"alpha_cutoff": BLENDED_ALPHA if mode == "BLEND" else cutoff, "alpha": float(base[3])}
         image = getattr(material, "baseColorTexture", None)
         if image is not None:
             wrap_s, wrap_t = samplers.get((material.name, "baseColorTexture"), ("repeat", "repeat"))
             mask["alpha_map"] = len(sources)
             sources.append(TextureSource(image, wrap_s, wrap_t, f"{path}: material {name!r}: its baseColorTexture's "
                                          "alpha", channel="alpha"))
-    elif mode == "BLEND":  # screen-door coverage: a sample sees the surface with probability alpha
-        mask = {"alpha_cutoff": BLENDED_ALPHA, "alpha": float(base[3])}
-        image = getattr(material, "baseColorTexture", None)
-        if image is not None:
-            wrap_s, wrap_t = samplers.get((material.name, "baseColorTexture"), ("repeat", "repeat"))
-            mask["alpha_map"] = len(sources)
-            sources.append(TextureSource(image, wrap_s, wrap_t, f"{path}: material {name!r}: its baseColorTexture's "
-                                         "alpha", channel="alpha"))
-        notes.append(f"{path}: material {name!r}: alphaMode BLEND is drawn as coverage: each ray sample sees the "
-                     "surface with probability alpha (render.samples = 4 or more averages it to a blend); a shadow "
-                     "ray (global mode) still sees the whole surface")
+        # MASK cuts away (ray_queries.cut_masked); BLEND is screen-door coverage: seen with probability alpha
+        said = (f"alphaMode MASK cuts the surface away where alpha < {mask['alpha_cutoff']:.3g}" if mode == "MASK" else
+                "alphaMode BLEND is drawn as coverage: each ray sample sees the surface with probability alpha "
+                "(render.samples = 4 or more averages it to a blend)")
+        notes.append(f"{path}: material {name!r}: {said}; a shadow ray (global mode) still sees the whole surface")
     maps = {}
     for key in ("baseColorTexture", "emissiveTexture"):
         image = getattr(material, key, None)

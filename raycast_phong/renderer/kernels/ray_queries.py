@@ -309,13 +309,12 @@ def cut_masked(scene, params, screen_x, cell_row, row0, eye, directions, face, u
                 ints[GEOM_ID + lane] = INVALID_ID
                 ints[PRIM_ID + lane] = INVALID_ID
             rtc_intersect16(valid.ctypes.data, scene, words.ctypes.data, arguments.ctypes.data)
-            for lane in range(lanes):
+            for lane in range(lanes):  # the new hit, or a miss (no face) that leaves the sample to the background
                 k = pending[first + lane]
-                if ints[GEOM_ID + lane] == INVALID_ID:
-                    face[k], u[k], v[k], t[k] = -1, 0, 0, NO_LIMIT
-                else:
-                    face[k], u[k], v[k] = ints[PRIM_ID + lane], words[HIT_U + lane], words[HIT_V + lane]
-                    t[k] = words[TFAR + lane] + start if start > 0.0 else words[TFAR + lane]
+                hit = ints[GEOM_ID + lane] != INVALID_ID
+                face[k] = ints[PRIM_ID + lane] if hit else -1
+                u[k], v[k] = (words[HIT_U + lane], words[HIT_V + lane]) if hit else (0, 0)
+                t[k] = (words[TFAR + lane] + start if start > 0.0 else words[TFAR + lane]) if hit else NO_LIMIT
         kept = 0
         for i in range(waiting):
             k = pending[i]
