@@ -87,8 +87,30 @@ def diagnose(plan: RenderPlan, scene: Scene, geometry, figures: ObjectFigures | 
     behind = behind_camera(scene, geometry)
     chosen = [item for item in found if item[0][0] == "gouraud" and item[0][-1]]
     warned = [item for item in found if not (item[0][0] == "gouraud" and item[0][-1])]
+    dither = blend_dither(scene, geometry)
     return dataclasses.replace(plan, stages=tuple(stages), notes=(*aggregate_warnings(chosen), *geometry.file_notes),
-                               warnings=(*([behind] if behind else []), *aggregate_warnings(warned)))
+                               warnings=(*([behind] if behind else []), *aggregate_warnings(warned),
+                                         *([dither] if dither else [])))
+
+
+BLEND_SAMPLES = 4  # samples a pixel at which BLEND's coverage reads as a blend (±0.25 of alpha at most, 1σ)
+
+
+def blend_dither(scene: Scene, geometry) -> str | None:
+    """A warning when a face's material is alphaMode BLEND (drawn as coverage: a sample sees it with probability
+    alpha) and a pixel has fewer than BLEND_SAMPLES² samples: the surface then shows as a dither."""
+    from ..codes import ALPHA_CUTOFF, BLENDED_ALPHA
+    rows = geometry.file_materials
+    if scene.render.samples >= BLEND_SAMPLES or not len(rows) or not (rows[:, ALPHA_CUTOFF] == BLENDED_ALPHA).any():
+        return None
+    first = 1 + len(scene.materials)  # the file materials' rows come after the default and the scene's
+    used = np.unique(geometry.face_material) - first
+    used = used[(used >= 0) & (used < len(rows))]
+    if not (rows[used, ALPHA_CUTOFF] == BLENDED_ALPHA).any():
+        return None
+    return (f"a mesh file's alphaMode BLEND is drawn as coverage (a sample sees the surface with probability alpha): "
+            f"at render.samples = {scene.render.samples} it shows as a dither; use render.samples = {BLEND_SAMPLES} "
+            "or more")
 
 
 def _candidates(scene: Scene) -> tuple[np.ndarray, np.ndarray]:

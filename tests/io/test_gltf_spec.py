@@ -287,3 +287,15 @@ def test_alpha_blend_covers_a_share_alpha_of_a_pixel_s_samples(tmp_path):
     red_share = centre[:, 0]
     assert abs(float(np.median(red_share)) - 0.7) < 0.17 and abs(float(np.median(green_share)) - 0.3) < 0.17
     assert any("alphaMode BLEND is drawn as coverage" in note for note in read_mesh(path, "t").notes)
+
+
+def test_blend_at_one_sample_a_pixel_warns_with_the_samples_it_needs(tmp_path):
+    """Coverage reads as a blend only with several samples a pixel: at 1 the plan says so, at 4 it is quiet."""
+    path = masked_quads(tmp_path, [255, 255, 255, 255], factor=0.3)
+    tree = json.loads(path.read_text())
+    tree["materials"][0]["alphaMode"] = "BLEND"
+    path.write_text(json.dumps(tree))
+    one = rp.render_file(path, FLAT_LIGHT)
+    assert any("use render.samples = 4 or more" in warning for warning in one.plan.warnings), one.plan.warnings
+    four = rp.render_file(path, [*FLAT_LIGHT, "render.samples=4"])
+    assert not any("alphaMode BLEND" in warning for warning in four.plan.warnings)
