@@ -121,8 +121,7 @@ def _chosen(scene: Path | None, example: str | None) -> Path | None:
         typer.echo("\n".join(names))
         return None
     if example not in names:
-        import difflib
-        close = difflib.get_close_matches(example, names, n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise OptionError(f"--example: no example scene {example!r}{hint}; examples: {', '.join(names)}")
+        from raycast_phong.values.messages import did_you_mean
+        raise OptionError(f"--example: no example scene {example!r}{did_you_mean(example, names)}; examples: "
+                          f"{', '.join(names)}")
     return examples_folder() / f"{example}.toml"

@@ -9,7 +9,6 @@ the registry of kinds), many objects are checked in bulk first (scene.bulk). Rea
 
 from __future__ import annotations
 
-import difflib
 import math
 import operator
 from collections.abc import Mapping
@@ -58,7 +57,7 @@ from ..values.fields import (
     number_schema,
     sequence_of,
 )
-from ..values.messages import Location, describe_error, located, shown
+from ..values.messages import Location, describe_error, did_you_mean, located, shown
 from .bulk import objects_in_bulk
 from .kinds import object_kinds
 from .objects import Object, without_written_defaults
@@ -320,11 +319,10 @@ class Scene(Table):
         index = _undefined_material(self)
         if index is not None:
             name = self.objects[index].material
-            close = difflib.get_close_matches(name, list(self.materials), n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
             defined = ", ".join(sorted(self.materials)) or "none"
             raise _KeyError(("objects", index, "material"),
-                            f"material {name!r} is not defined{hint}; defined: {defined}")
+                            f"material {name!r} is not defined{did_you_mean(name, self.materials)}; defined: "
+                            f"{defined}")
         width, height, samples = self.render.width, self.render.height, self.render.samples
         if width * height * samples * samples > MAX_PIXEL_RAYS:
             raise _KeyError(("render", "samples"), f"{width}×{height} pixels × {samples}² samples is more "

@@ -164,9 +164,7 @@ def describe_error(error: ValidationError, where: Location, root: type[BaseModel
         foreign = _foreign(place, str(loc[-1])) if loc else None
         if foreign:
             return at, foreign
-        close = difflib.get_close_matches(str(loc[-1]), valid, n=1, cutoff=0.6)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        return at, f"unknown key{hint}; valid keys here: {', '.join(valid)}"
+        return at, f"unknown key{did_you_mean(str(loc[-1]), valid)}; valid keys here: {', '.join(valid)}"
     message = first["msg"]
     if message.startswith("Value error, "):
         message = message[len("Value error, "):]
@@ -246,3 +244,9 @@ def _allowed_range(place: _Place) -> str:
             if getattr(item, name, None) is not None:
                 high = f" {symbol} {getattr(item, name)}"
     return f"{low or ''}{place.loc[-1]}{high or ''}"
+
+
+def did_you_mean(given: str, choices, cutoff: float = 0.6) -> str:
+    """" (did you mean 'NAME'?)" for the choice closest to `given` (difflib, at least `cutoff` alike), else ""."""
+    close = difflib.get_close_matches(given, list(choices), n=1, cutoff=cutoff)
+    return f" (did you mean {close[0]!r}?)" if close else ""

@@ -24,7 +24,6 @@ TEXTURE_KEYS = ("map_", "bump", "disp", "decal", "refl", "norm")
 MTLLIB = re.compile(rb"^[ \t]*mtllib[ \t]+([^\r\n]+)", re.MULTILINE)  # an OBJ's mtllib statement: its names
 
 
-
 def uncommented(words: list) -> list:
     """A line's words before its comment: `#` starts one only at the start of a word, so a name holding `#`
     (Godot 4 writes `newmtl StandardMaterial3D#-92`) is whole, as in the OBJ specification's examples."""
@@ -32,6 +31,7 @@ def uncommented(words: list) -> list:
         if word.startswith("#" if isinstance(word, str) else b"#"):
             return words[:k]
     return words
+
 
 def mtllib_names(lines: list[bytes], folder: Path) -> list[str]:
     """The .mtl files named by an OBJ's `mtllib` statements (`lines`: each statement's text after `mtllib`),

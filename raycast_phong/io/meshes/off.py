@@ -23,6 +23,7 @@ import numpy as np
 
 from ...errors import SceneError
 from .format import Loaded, MeshFormat, Reading, weigh
+from .ply_lists import fan_corners
 
 HEADER = re.compile(rb"(ST)?(C)?(N)?(4)?(n)?OFF")
 COMMENT = re.compile(rb"#[^\n]*")
@@ -172,9 +173,7 @@ def _text_faces(lines: list[bytes], vertex_count: int) -> tuple[np.ndarray, tupl
 def _fans(values: np.ndarray, first: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Triangles (v0, v_k, v_k+1) of polygons whose corner indices start at values[first] (`corners` each), and
     each triangle's polygon."""
-    fans = np.maximum(corners - 2, 0)
-    row = np.repeat(np.arange(len(corners)), fans)
-    step = np.arange(len(row)) - np.repeat(np.cumsum(fans) - fans, fans)
+    row, step = fan_corners(corners)
     base = first[row]
     faces = np.column_stack([values[base], values[base + step + 1], values[base + step + 2]])
     if faces.size and not (faces == np.round(faces)).all():
@@ -198,7 +197,7 @@ def _colours(values: np.ndarray, name: str, notes: list[str]) -> np.ndarray | No
 def _binary(body: bytes, normals: bool, coloured: bool, texture: bool, four: bool, notes: list[str], name: str):
     """OFF BINARY: big-endian int32 counts, float32 vertex records, then per face int32 Nv, Nv int32 indices,
     int32 Nc and Nc float32 colour values."""
-    from .ply_lists import Element, Property, element_rows
+    from .ply_lists import Element, Property, element_rows  # a binary face record is a PLY row of two lists
     if len(body) < 12:
         raise SceneError("is cut short before its binary counts; allowed: three big-endian int32 counts")
     vertex_count, face_count, _ = (int(v) for v in np.frombuffer(body, ">i4", 3))

@@ -122,6 +122,14 @@ def element_rows(element: Element, data: np.ndarray, at: int, big: bool):
     return starts, found
 
 
+def fan_corners(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Polygons of `corners` corners each, cut as fans from their first corner: each triangle's polygon, and
+    its number j in its fan (the triangle is corners 0, j + 1, j + 2); none for a polygon of fewer than 3."""
+    fans = np.maximum(corners - 2, 0)
+    row = np.repeat(np.arange(len(corners)), fans)
+    return row, np.arange(len(row)) - np.repeat(np.cumsum(fans) - fans, fans)
+
+
 def _gather(data: np.ndarray, starts: np.ndarray, width: int) -> np.ndarray:
     """`width` bytes from each of `starts` (rows × width uint8)."""
     return data[starts[:, None] + np.arange(width)]
@@ -138,9 +146,7 @@ def _triangles(element: Element, data: np.ndarray, starts: np.ndarray, found: np
     if polygon is None:
         return None
     corners = found[:, lists.index(polygon)]
-    fans = np.maximum(corners - 2, 0)
-    row = np.repeat(np.arange(len(corners)), fans)
-    step = np.arange(len(row)) - np.repeat(np.cumsum(fans) - fans, fans)  # the triangle's number in its fan
+    row, step = fan_corners(corners)
     picks = np.column_stack([np.zeros_like(step), step + 1, step + 2])  # corners (0, j+1, j+2)
     offsets = starts[:-1].copy()  # where each row's next property starts
     columns, kept = [], []
