@@ -84,9 +84,10 @@ def test_even_lists_are_left_to_trimesh_and_walk_nothing(tmp_path, monkeypatch):
     monkeypatch.setattr(ply_rows, "walk_rows", None)  # called: a TypeError
     data = write_binary(tmp_path / "h.ply", "little", "uchar", "int").read_bytes()
     quad = data.replace(b"element face 3", b"element face 1")[: data.index(b"end_header\n") + 11 + 8 * 12 + 1 + 16 + 3]
-    assert ply_lists.evened(quad, []) is None  # one quad: every list has its first row's length
+    assert ply_lists.evened(quad, ply_lists.header(quad), []) is None  # one quad: every list as long as the first
     ascii_ = HEAD.format(form="ascii", count="uchar", index="int", texcoord="", comment="").encode()
-    assert ply_lists.evened(ascii_ + b"0 0 0\n" * 8 + b"4 0 1 2 3 1 1 1\n3 3 2 4 1 1 1\n5 0 5 6 7 1 1 1\n", []) is None
+    ascii_ += b"0 0 0\n" * 8 + b"4 0 1 2 3 1 1 1\n3 3 2 4 1 1 1\n5 0 5 6 7 1 1 1\n"
+    assert ply_lists.evened(ascii_, ply_lists.header(ascii_), []) is None
 
 
 def test_a_strip_element_of_uneven_rows_is_joined_into_one_strip(tmp_path):

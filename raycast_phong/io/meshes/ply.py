@@ -67,19 +67,18 @@ def read(reading: Reading) -> Loaded:
     from .trimesh_parts import RegularFiles, load, parts
     resolver = RegularFiles(reading.path)
     resolver.locate = lambda folder, name: folder / resolved(name, reading.path)  # `<this>` in a TextureFile name
-    data = reading.handle.read()
-    evened = ply_lists.evened(data, reading.notes)  # lists of uneven length (a quad, a triangle)
-    _note_points(data, reading.path, reading.notes)
-    reading.handle.seek(0)
-    loaded = load(reading, file_obj=None if evened is None else io.BytesIO(evened), resolver=resolver)
-    images = _textures(reading.path, reading.handle, reading.notes)
+    data = reading.handle.read()  # read once: trimesh reads these bytes (or their rewrite), not the file again
+    header = ply_lists.header(data)
+    evened = ply_lists.evened(data, header, reading.notes)  # lists of uneven length (a quad, a triangle)
+    _note_points(header, reading.path, reading.notes)
+    loaded = load(reading, file_obj=io.BytesIO(data if evened is None else evened), resolver=resolver)
+    images = _textures(reading.path, data[:HEADER_LIMIT], reading.notes)
     return Loaded(parts(loaded) or strip_parts(loaded), images=tuple(images))
 
 
-def _note_points(data: bytes, path: Path, notes: list[str]) -> None:
+def _note_points(header: ply_lists.Header | None, path: Path, notes: list[str]) -> None:
     """A note for a PLY of points and no faces (a scan's point cloud, a Gaussian splat file): nothing of it
     is a surface, which the no-triangles refusal then says."""
-    header = ply_lists.header(data[:HEADER_LIMIT])
     if header is None or any(element.name in ("face", "tristrips") for element in header.elements):
         return
     vertex = next((element for element in header.elements if element.name == "vertex"), None)
@@ -127,11 +126,10 @@ def strip_parts(loaded) -> list:
     return [Part(vertices, faces, None, trimesh.visual.ColorVisuals())]
 
 
-def _textures(path: Path, handle, notes: list[str]) -> list[str]:
+def _textures(path: Path, head: bytes, notes: list[str]) -> list[str]:
     """A PLY's TextureFile names , `<this>` replaced; a note for each missing image and for images
     after the first (one map per file is read)."""
-    handle.seek(0)
-    names = [resolved(name, path) for name in texture_names(handle.read(HEADER_LIMIT))]
+    names = [resolved(name, path) for name in texture_names(head)]
     if not names:
         return []
     for name in names[:1]:
@@ -167,25 +165,23 @@ def _list_triangles(head: bytes, size: int) -> int | None:
     types, whatever its counts claim: the bytes past the fixed-size properties hold at most that many list
     entries of the smallest index type, and n entries of a polygon or strip make n − 2 triangles. Exact for
     a file of triangles (a face of 3 M corners, header "1 face", is 3 M triangles). None for an ASCII PLY, a
-    header longer than `head`, or no list."""
+    header longer than `head`, or no list; ValueError for a header that does not parse (the size bound then
+    stands, size.count_triangles)."""
     end = head.find(b"end_header")
     if end < 0 or head.find(b"\n", end) < 0 or re.search(rb"^format\s+ascii", head[:end], re.M):
         return None
-    body = size - head.index(b"\n", end) - 1
-    elements = []  # [count, bytes of its fixed properties and list counts, smallest list entry or 0]
-    for words in (line.split() for line in head[:end].decode("ascii", "replace").splitlines()):
-        if words[:1] == ["element"] and len(words) == 3:
-            elements.append([int(words[2]), 0, 0])
-        elif words[:1] == ["property"] and elements and len(words) in (3, 5):
-            if words[1] == "list" and len(words) == 5:
-                entry = PLY_SIZES[words[3]]
-                elements[-1][1] += PLY_SIZES[words[2]]
-                elements[-1][2] = min(elements[-1][2] or entry, entry)
-            else:
-                elements[-1][1] += PLY_SIZES[words[1]]
+    found = ply_lists.header(head)
+    if found is None:
+        raise ValueError("a PLY header that does not parse")
+    elements = []  # (count, bytes of its fixed properties and list counts, smallest list entry or 0)
+    for element in found.elements:
+        fixed = sum(PLY_SIZES[p.count if p.count else p.type] for p in element.properties)
+        smallest = min((PLY_SIZES[p.type] for p in element.properties if p.count), default=0)
+        elements.append((element.rows, fixed, smallest))
     lists = [(count, entry) for count, _, entry in elements if entry]
     if not lists:
         return None
+    body = size - found.body
     entries = max(0, body - sum(count * fixed for count, fixed, _ in elements)) // min(e for _, e in lists)
     return max(0, entries - 2 * sum(count for count, _ in lists))
 

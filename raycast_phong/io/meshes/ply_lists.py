@@ -193,11 +193,10 @@ def _strip(element: Element, data: np.ndarray, starts: np.ndarray, found: np.nda
     return lines, np.array(len(joined), _dtype("int", big)).tobytes() + joined.tobytes()
 
 
-def evened(data: bytes, notes: list[str]) -> bytes | None:
-    """`data`, a binary PLY, rewritten so every list of an element has one length (module docstring); None when
-    it needs no rewriting (ASCII, no lists, even lists) or its rows do not fit its size (the reader then says
-    so). Notes name what was left out."""
-    found = header(data)
+def evened(data: bytes, found: Header | None, notes: list[str]) -> bytes | None:
+    """`data`, a binary PLY (its parsed `found` header), rewritten so every list of an element has one length
+    (module docstring); None when it needs no rewriting (ASCII, no lists, even lists) or its rows do not fit
+    its size (the reader then says so). Notes name what was left out."""
     if found is None or found.format == "ascii" or not any(p.count for e in found.elements for p in e.properties):
         return None
     big = found.format == "binary_big_endian"
