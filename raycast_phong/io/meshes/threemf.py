@@ -125,14 +125,14 @@ MODEL_TAG = re.compile(r"<(?:[\w.-]+:)?model\b([^>]*)>")
 ATTRIBUTE = re.compile(r"([\w.:-]+)\s*=\s*(?:\"([^\"]*)\"|'([^']*)')")
 
 
-def _check_required(archive, part: str, path: Path, where: Where) -> str:
+def _check_required(archive, part: str, path: Path, where: Where) -> tuple[str, bool]:
     """Refuse a model part whose <model> requires an extension not read (naming it: core §2.3.1); returns its
-    default namespace (the 2013/01 draft's is told apart)."""
+    default namespace (the 2013/01 draft's is told apart) and whether it declares the Slice extension's."""
     with archive.open(part) as stream:
         head = stream.read(1 << 16).decode("utf-8", "replace")
     found = MODEL_TAG.search(head)
     if found is None:
-        return ""
+        return "", False
     attributes = {match[1]: match[2] if match[2] is not None else match[3] for match in ATTRIBUTE.finditer(found[1])}
     missing = []
     for prefix in (attributes.get("requiredextensions") or "").split():
@@ -145,13 +145,13 @@ def _check_required(archive, part: str, path: Path, where: Where) -> str:
         raise SceneError(f"{str(path)!r}: {part} requires the 3MF extension(s) {', '.join(missing)}, which this "
                          "renderer does not read; read: core, Materials and Properties, Production, Triangle "
                          "Sets", where)
-    return attributes.get("xmlns", "")
+    return attributes.get("xmlns", ""), any(SLICE in uri for uri in attributes.values())
 
 
 def _parse(archive, members, part: str, models: dict, path: Path, where: Where, notes: list[str]) -> None:
     """Read one model part's resources, objects and build into models[part]."""
     from lxml import etree
-    namespace = _check_required(archive, part, path, where)
+    namespace, slices = _check_required(archive, part, path, where)
     model = models[part] = _Model(part)
     vertices: list = []
     triangles: list = []
@@ -164,7 +164,7 @@ def _parse(archive, members, part: str, models: dict, path: Path, where: Where, 
         for _, element in context:
             name = element.tag.rsplit("}", 1)[-1]
             attrib = element.attrib
-            if name == "vertex" and SLICE in element.tag:  # a slice's 2-D vertex (x, y), not the mesh's
+            if slices and name == "vertex" and SLICE in element.tag:  # a slice's 2-D vertex (x, y), not the mesh's
                 continue
             if name == "vertex" or name == "triangle":
                 if name == "vertex":
