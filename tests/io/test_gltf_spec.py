@@ -299,3 +299,16 @@ def test_blend_at_one_sample_a_pixel_warns_with_the_samples_it_needs(tmp_path):
     assert any("use render.samples = 4 or more" in warning for warning in one.plan.warnings), one.plan.warnings
     four = rp.render_file(path, [*FLAT_LIGHT, "render.samples=4"])
     assert not any("alphaMode BLEND" in warning for warning in four.plan.warnings)
+
+
+def test_the_memory_estimate_counts_an_alpha_map_apart_from_its_colour(tmp_path):
+    """MASK and BLEND decode the base colour map's alpha channel as a texture of its own: the estimate counts
+    the image twice; an opaque material once."""
+    path = masked_quads(tmp_path, [0, 255, 255, 0])
+    source = mesh_source(path)
+    assert source.format.texture_sizes(source) == ((2, 2), (2, 2))
+    tree = json.loads(path.read_text())
+    tree["materials"][0]["alphaMode"] = "OPAQUE"
+    path.write_text(json.dumps(tree))
+    source = mesh_source(path)
+    assert source.format.texture_sizes(source) == ((2, 2),)

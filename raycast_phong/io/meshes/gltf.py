@@ -112,26 +112,29 @@ def _note_unread(tree: dict, path: Path, notes: list[str]) -> None:
 
 def texture_sizes(path: Path, document: Document, file_size) -> list[tuple[int, int]]:
     """(height, width) of each colour map (baseColorTexture, emissiveTexture, a specular-glossiness material's
-    diffuseTexture) the glTF's materials use, from
+    diffuseTexture) the glTF's materials use, and of each alpha map (a MASK or BLEND material's baseColorTexture
+    again: its alpha channel is decoded apart), from
     image headers only: an external file's (`file_size`, io.textures), a .glb's embedded image's from its own
     bytes alone (the rest of the binary chunk is not read); what cannot be read counts nothing."""
     tree = document.tree
-    images = set()
+    images = set()  # (image, channel): a MASK or BLEND material decodes its base colour map's alpha apart too
     try:
         for material in tree.get("materials", []):
             glossy = (material.get("extensions") or {}).get(SPECULAR_GLOSSINESS) or {}
-            for slot in ((material.get("pbrMetallicRoughness") or {}).get("baseColorTexture"),
-                         material.get("emissiveTexture"), glossy.get("diffuseTexture")):
+            base = (material.get("pbrMetallicRoughness") or {}).get("baseColorTexture")
+            for slot in (base, material.get("emissiveTexture"), glossy.get("diffuseTexture")):
                 if isinstance(slot, dict) and "index" in slot:
                     texture = tree["textures"][slot["index"]]
                     source = ((texture.get("extensions") or {}).get(WEBP) or {}).get("source", texture.get("source"))
                     if source is not None:
-                        images.add(source)
+                        images.add((source, "rgb"))
+                        if slot is base and material.get("alphaMode") in ("MASK", "BLEND"):
+                            images.add((source, "alpha"))
     except (AttributeError, IndexError, KeyError, TypeError):
         return []
     from PIL import Image
     sizes = []
-    for index in sorted(images):
+    for index, _ in sorted(images):
         try:
             image = tree["images"][index]
             if "bufferView" in image:
