@@ -16,6 +16,11 @@ if TYPE_CHECKING:
     from ..io.meshes.read import MeshFile
 
 
+def first_file_row(scene: Scene) -> int:
+    """The material table's row of the first file material: after the default's and the scene's own."""
+    return 1 + len(scene.materials)
+
+
 class FileRows:
     """The material table's rows after the scene's own: one per file material of the mesh files' faces, and
     for faces with vertex colours but no material one whose k_a = k_d = 1 (the colours, which multiply k_a
@@ -27,7 +32,7 @@ class FileRows:
         self.bank = bank if bank is not None else TextureBank(scene, Location("<scene>"))
         self.rows: list[np.ndarray] = []
         self.mapped = False
-        self.first = 1 + len(scene.materials)  # row of the first file material: after the default and the scene's
+        self.first = first_file_row(scene)
 
     def faces(self, read: MeshFile) -> np.ndarray:
         """(F,) int32 material rows for the faces of one mesh file."""

@@ -100,11 +100,11 @@ def blend_dither(scene: Scene, geometry) -> str | None:
     """A warning when a face's material is alphaMode BLEND (drawn as coverage: a sample sees it with probability
     alpha) and a pixel has fewer than BLEND_SAMPLES² samples: the surface then shows as a dither."""
     from ..codes import ALPHA_CUTOFF, BLENDED_ALPHA
+    from ..geometry.file_materials import first_file_row
     rows = geometry.file_materials
     if scene.render.samples >= BLEND_SAMPLES or not len(rows) or not (rows[:, ALPHA_CUTOFF] == BLENDED_ALPHA).any():
         return None
-    first = 1 + len(scene.materials)  # the file materials' rows come after the default and the scene's
-    used = np.unique(geometry.face_material) - first
+    used = np.unique(geometry.face_material) - first_file_row(scene)
     used = used[(used >= 0) & (used < len(rows))]
     if not (rows[used, ALPHA_CUTOFF] == BLENDED_ALPHA).any():
         return None
