@@ -51,6 +51,14 @@ def direction(fx, fy, fz, rx, ry, rz, ux, uy, uz, sx, sy):
 
 
 @kernel(inline="always")
+def unit_eye(params):
+    """The eye in the unit frame, float64: (eye − center) × inv_scale, each coordinate."""
+    return ((params.eye[0] - params.center[0]) * params.inv_scale,
+            (params.eye[1] - params.center[1]) * params.inv_scale,
+            (params.eye[2] - params.center[2]) * params.inv_scale)
+
+
+@kernel(inline="always")
 def ortho_origin(params, i, sx, sy):
     """Coordinate i of an orthographic ray's origin, eye + sx right + sy up, in the unit frame."""
     return (params.eye[i] + sx * params.right[i] + sy * params.up[i] - params.center[i]) * params.inv_scale

@@ -16,7 +16,7 @@ import numpy as np
 from numba import types
 
 from ...jit import kernel
-from .camera import direction, ortho_origin, screen_y
+from .camera import direction, ortho_origin, screen_y, unit_eye
 from .layout import ALPHA, ALPHA_CUTOFF, ALPHA_MAP, BLENDED_ALPHA, F_ALPHA_MASK
 from .texture import sample
 
@@ -116,9 +116,7 @@ def camera_hits(scene, params, screen_x, cell_row, row0, row1, eye, directions, 
     orthographic = params.orthographic
     forward, right, up = params.forward, params.right, params.up
     start = far_start(params)
-    eye_x = (params.eye[0] - params.center[0]) * params.inv_scale  # float64: the far rays' origins start here
-    eye_y = (params.eye[1] - params.center[1]) * params.inv_scale
-    eye_z = (params.eye[2] - params.center[2]) * params.inv_scale
+    eye_x, eye_y, eye_z = unit_eye(params)  # float64: the far rays' origins start here
     fx, fy, fz, rx, ry, rz, ux, uy, uz = (forward[0], forward[1], forward[2], right[0], right[1], right[2],
                                           up[0], up[1], up[2])
     row_rays, samples = screen_x.shape[0], params.samples
@@ -195,9 +193,7 @@ def far_start(params):
     """How far along every primary ray it may start without passing any scene point: 0 for a camera nearer than
     FAR_EYE, else its distance to the scene's bounding sphere (perspective: from the eye; orthographic: from
     the eye's plane along the view)."""
-    ex = (params.eye[0] - params.center[0]) * params.inv_scale
-    ey = (params.eye[1] - params.center[1]) * params.inv_scale
-    ez = (params.eye[2] - params.center[2]) * params.inv_scale
+    ex, ey, ez = unit_eye(params)
     if params.orthographic:
         distance = -(ex * params.forward[0] + ey * params.forward[1] + ez * params.forward[2])
     else:
@@ -274,9 +270,7 @@ def cut_masked(scene, params, screen_x, cell_row, row0, eye, directions, face, u
         return
     words, ints, valid, arguments = _packet()
     start = far_start(params)
-    eye_x = (params.eye[0] - params.center[0]) * params.inv_scale
-    eye_y = (params.eye[1] - params.center[1]) * params.inv_scale
-    eye_z = (params.eye[2] - params.center[2]) * params.inv_scale
+    eye_x, eye_y, eye_z = unit_eye(params)
     forward, right, up = params.forward, params.right, params.up
     row_rays = screen_x.shape[0]
     for layer in range(1, MAX_LAYERS + 1):
