@@ -122,3 +122,16 @@ def test_a_point_cloud_is_refused_saying_it_is_one(tmp_path, extra, kind):
     with pytest.raises(SceneError) as caught:
         mesh_source(tmp_path / "p.ply").read()
     assert f"holds no triangles (a point cloud of 3 {kind}, no face element" in str(caught.value), str(caught.value)
+
+
+@pytest.mark.parametrize("texture", [False, True])
+def test_faces_rewritten_a_few_at_a_time_give_the_same_triangles(tmp_path, monkeypatch, texture):
+    """The rewrite works FACE_CHUNK faces at a time (its index arrays stay small): one face a chunk gives the
+    same triangles, colours and texture coordinates as all at once."""
+    whole = mesh_source(write_binary(tmp_path / "a.ply", "little", "uchar", "int", texture)).read()
+    monkeypatch.setattr(ply_lists, "FACE_CHUNK", 1)
+    chunked = mesh_source(write_binary(tmp_path / "b.ply", "little", "uchar", "int", texture)).read()
+    assert np.array_equal(whole.faces, chunked.faces)
+    for name in ("corner_colour", "corner_uv"):
+        a, b = getattr(whole, name), getattr(chunked, name)
+        assert (a is None and b is None) or np.array_equal(a, b)

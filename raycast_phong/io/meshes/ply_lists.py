@@ -135,44 +135,61 @@ def _gather(data: np.ndarray, starts: np.ndarray, width: int) -> np.ndarray:
     return data[starts[:, None] + np.arange(width)]
 
 
+FACE_CHUNK = 1 << 18  # faces rewritten at a time: the gathers' int64 index arrays stay tens of MB
+
+
 def _triangles(element: Element, data: np.ndarray, starts: np.ndarray, found: np.ndarray, big: bool,
                notes: list[str]) -> tuple[tuple[bytes, ...], bytes] | None:
     """The face element as triangles: each polygon a fan from its first corner; None when it has no polygon
     list. Scalars are repeated per triangle; a list of one or two entries per corner keeps its triangle's
-    corners'; any other list is left out, noted."""
+    corners'; any other list is left out, noted. FACE_CHUNK faces at a time."""
     props = element.properties
     lists = [k for k, p in enumerate(props) if p.count is not None]
     polygon = next((k for k in lists if props[k].name in POLYGON), None)
     if polygon is None:
         return None
     corners = found[:, lists.index(polygon)]
+    kept, chunks = [], []
+    for k, prop in enumerate(props):
+        length = found[:, lists.index(k)] if prop.count is not None else None
+        each = int(length[0] // max(int(corners[0]), 1)) if length is not None and len(length) else 1
+        if prop.count is None or (each in (1, 2) and (length == each * corners).all()):
+            kept.append(k)
+        else:
+            notes.append(f"its face list {prop.name!r} is not one or two entries a corner; it is left out")
+    for first in range(0, len(corners), FACE_CHUNK):
+        rows = slice(first, first + FACE_CHUNK)
+        chunks.append(_fan_rows(props, kept, lists, data, starts[:-1][rows], found[rows], corners[rows], big))
+    triangles = int(np.maximum(corners - 2, 0).sum())
+    lines = (f"element {element.name} {triangles}".encode(), *(element.lines[1 + k] for k in kept))
+    return lines, b"".join(chunks)
+
+
+def _fan_rows(props, kept: list[int], lists: list[int], data: np.ndarray, starts: np.ndarray, found: np.ndarray,
+              corners: np.ndarray, big: bool) -> bytes:
+    """The bytes of the triangles of some faces (their row `starts`, list counts `found` and `corners`): each
+    kept property of each face, for each triangle of its fan (_triangles)."""
     row, step = fan_corners(corners)
     picks = np.column_stack([np.zeros_like(step), step + 1, step + 2])  # corners (0, j+1, j+2)
-    offsets = starts[:-1].copy()  # where each row's next property starts
-    columns, kept = [], []
+    offsets = starts.copy()  # where each row's next property starts
+    columns = []
     for k, prop in enumerate(props):
         entry = np.dtype(PLY_DTYPES[prop.type]).itemsize
         if prop.count is None:
-            columns.append(_gather(data, offsets[row], entry))
-            kept.append(element.lines[1 + k])
+            if k in kept:
+                columns.append(_gather(data, offsets[row], entry))
             offsets += entry
             continue
         width = np.dtype(PLY_DTYPES[prop.count]).itemsize
         length = found[:, lists.index(k)]
-        per = length // np.maximum(corners, 1)
-        each = int(per[0]) if len(per) else 1
-        if each in (1, 2) and (length == each * corners).all():
+        if k in kept:
+            each = int(length[0] // max(int(corners[0]), 1)) if len(length) else 1
             count = np.array(3 * each, _dtype(prop.count, big)).tobytes()
-            first = offsets[row] + width  # the row's first entry
-            at = first[:, None, None] + (picks * each * entry)[:, :, None] + np.arange(each * entry)
-            at = at.reshape(len(row), -1)
-            columns += [np.frombuffer(count * len(row), np.uint8).reshape(len(row), width), data[at]]
-            kept.append(element.lines[1 + k])
-        else:
-            notes.append(f"its face list {prop.name!r} is not one or two entries a corner; it is left out")
+            at = (offsets[row] + width)[:, None, None] + (picks * each * entry)[:, :, None] + np.arange(each * entry)
+            columns += [np.frombuffer(count * len(row), np.uint8).reshape(len(row), width),
+                        data[at.reshape(len(row), -1)]]
         offsets += width + length * entry
-    body = np.concatenate(columns, axis=1) if columns else np.zeros((len(row), 0), np.uint8)
-    return (f"element {element.name} {len(row)}".encode(), *kept), body.tobytes()
+    return (np.concatenate(columns, axis=1) if columns else np.zeros((len(row), 0), np.uint8)).tobytes()
 
 
 def _strip(element: Element, data: np.ndarray, starts: np.ndarray, found: np.ndarray,
