@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, BinaryIO, NamedTuple
 
+import numpy as np
+
 from ...errors import Where
 
 MeshSource = Any  # io/meshes/source.py's, which imports the registry: named here without importing it
@@ -23,6 +25,17 @@ MeshSource = Any  # io/meshes/source.py's, which imports the registry: named her
 TEXT_READ_BYTES_PER_BYTE = 12
 # trimesh's load of a file of a format with no measured figure, above the render's own peak, a triangle.
 OTHER_PARSE_BYTES = 550
+
+
+class Part(NamedTuple):
+    """One placed triangle mesh of a file."""
+    vertices: np.ndarray          # (V, 3) float64, placed by its node's transform
+    faces: np.ndarray             # (F, 3) int64
+    normals: np.ndarray | None    # (V, 3) the normals the file stores, transformed with the vertices
+    visual: object                # trimesh's visual (its material, its colours), a materials.PartSurface
+                                  # (the formats read here), or None (no colours, no material)
+    colours: np.ndarray | None = None  # (V, 3|4) vertex colours kept on the mesh beside a material (a COLLADA
+                                       # COLOR input: trimesh stores them there, not on the visual)
 
 
 class Reading(NamedTuple):

@@ -147,16 +147,16 @@ def read(reading: Reading) -> Loaded:
     """The OBJ's geometry (a UTF-16 OBJ, told by its byte-order mark, as UTF-8), with its .mtl materials as its
     MeshSource read them (their notes and maps added to the reading's)."""
     from .obj_plain import plain_obj
-    from .trimesh_parts import parts
     path, where, materials = reading.path, reading.where, reading.source.materials
     data = bom_decoded(reading.handle.read(), path, where)
-    loaded = plain_obj(data, path)  # only v and f lines: one compiled pass
+    plain = plain_obj(data, path)  # only v and f lines: one compiled pass
     reading.notes.extend(materials.notes)
     reading.textures.extend(materials.sources)
-    if loaded is None:
-        loaded = load_obj(obj_text(data, path, where), path, materials.library, where, data)
     library = materials.library and {hashed(name): material for name, material in materials.library.items()}
-    return Loaded(parts(loaded), library=library)
+    if plain is not None:
+        return Loaded([plain], library=library)
+    from .trimesh_parts import parts
+    return Loaded(parts(load_obj(obj_text(data, path, where), path, materials.library, where, data)), library=library)
 
 
 def explain(handle, source) -> str | None:

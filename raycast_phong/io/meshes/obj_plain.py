@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ...jit import kernel
+from .format import Part
 
 SPACE, TAB, LF, CR, HASH = 32, 9, 10, 13, 35
 PLAIN_KERNELS = ("_records",)  # what reading a plain OBJ compiles (renderer/warmup.py loads it first)
@@ -158,8 +159,8 @@ def may_be_plain(data: bytes) -> bool:
 
 
 def plain_obj(data: bytes, path: Path):
-    """trimesh's Scene for a plain OBJ's bytes `data` (module docstring), as io/obj.load_obj gives it for the same
-    file (which names no materials); None for any other OBJ (the full reader's)."""
+    """The one Part of a plain OBJ's bytes `data` (module docstring), as io/obj.load_obj gives it for the same
+    file (which names no materials): no trimesh; None for any other OBJ (the full reader's)."""
     if b"f" not in data or not may_be_plain(data):
         return None
     text = np.frombuffer(data, np.uint8)
@@ -175,15 +176,11 @@ def plain_obj(data: bytes, path: Path):
             return None
     if not faces.max() < vertex_count:
         return None
-    import trimesh
-
     used = np.zeros(vertex_count, dtype=bool)
     used[faces] = True
     inverse = np.zeros(vertex_count, dtype=np.int64)
     inverse[used] = np.arange(used.sum())
-    name = trimesh.util.unique_name(Path(path).name, {})  # as trimesh names an OBJ's mesh
-    mesh = {"process": False, "faces": inverse[faces], "vertices": points[used].copy(), "visual": None}
-    return trimesh.load_scene({"geometry": {name: mesh}, "graph": [{"geometry": name, "frame_to": name}]})
+    return Part(points[used], inverse[faces], None, None)  # the vertices faces use, as trimesh's reader keeps them
 
 
 def _numpy_points(text: np.ndarray, size: int, count: int) -> np.ndarray | None:

@@ -22,7 +22,8 @@ import warnings
 import numpy as np
 
 from ...errors import SceneError
-from .format import Loaded, MeshFormat, Reading, weigh
+from .format import Loaded, MeshFormat, Part, Reading, weigh
+from .materials import PartSurface
 from .ply_lists import fan_corners
 
 HEADER = re.compile(rb"(ST)?(C)?(N)?(4)?(n)?OFF")
@@ -44,21 +45,20 @@ def _start(data: bytes) -> int:
 
 
 def read(reading: Reading) -> Loaded:
-    from .trimesh_parts import Part
     data = reading.handle.read()
     try:
         vertices, faces, normals, colours, per_face = parse(data, reading.notes, str(reading.path))
     except SceneError as refused:  # the problem alone (parse knows no path): worded here with the file
         raise SceneError(f"{str(reading.path)!r} {refused.problem}", reading.where) from None
-    return Loaded([Part(vertices, faces, normals, _visual(colours, per_face))])
+    return Loaded([Part(vertices, faces, normals, _visual(colours, per_face, faces))])
 
 
-def _visual(colours: np.ndarray | None, per_face: bool):
-    """trimesh's colour visual for vertex or face colours (RGBA, 0..255), as the other readers give them."""
-    import trimesh
+def _visual(colours: np.ndarray | None, per_face: bool, faces: np.ndarray) -> PartSurface | None:
+    """The colours as every reader gives them: RGB in [0, 1] at each face corner (8-bit / 255)."""
     if colours is None:
-        return trimesh.visual.ColorVisuals()
-    return trimesh.visual.ColorVisuals(**{"face_colors" if per_face else "vertex_colors": colours})
+        return None
+    rgb = colours[:, :3].astype(np.float32) / 255.0
+    return PartSurface(corner_colour=np.repeat(rgb[:, None, :], 3, axis=1) if per_face else rgb[faces])
 
 
 def parse(data: bytes, notes: list[str], name: str):

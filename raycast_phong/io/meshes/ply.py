@@ -17,7 +17,8 @@ import numpy as np
 
 from ..files import shown_name
 from . import ply_lists
-from .format import Loaded, MeshFormat, Reading, weigh
+from .format import Loaded, MeshFormat, Part, Reading, weigh
+from .materials import PartSurface
 
 HEADER_LIMIT = 1 << 16  # a header is a few hundred bytes; the texture comments come before `end_header`
 
@@ -62,18 +63,67 @@ def resolved(name: str, path: Path) -> str:
 
 
 def read(reading: Reading) -> Loaded:
-    """The geometry through trimesh (its triangle strips made triangles where it read only the vertices), and
-    the TextureFile names beside it."""
-    from .trimesh_parts import RegularFiles, load, parts
-    resolver = RegularFiles(reading.path)
-    resolver.locate = lambda folder, name: folder / resolved(name, reading.path)  # `<this>` in a TextureFile name
+    """A plain binary PLY by plain_part (no trimesh); any other through trimesh (its triangle strips made
+    triangles where it read only the vertices), with the TextureFile names beside it."""
     data = reading.handle.read()  # read once: trimesh reads these bytes (or their rewrite), not the file again
     header = ply_lists.header(data)
     evened = ply_lists.evened(data, header, reading.notes)  # lists of uneven length (a quad, a triangle)
     _note_points(header, reading.path, reading.notes)
+    plain = plain_part(data if evened is None else evened, header if evened is None else ply_lists.header(evened))
+    if plain is not None:
+        return Loaded([plain])
+    from .trimesh_parts import RegularFiles, load, parts
+    resolver = RegularFiles(reading.path)
+    resolver.locate = lambda folder, name: folder / resolved(name, reading.path)  # `<this>` in a TextureFile name
     loaded = load(reading, file_obj=io.BytesIO(data if evened is None else evened), resolver=resolver)
     images = _textures(reading.path, data[:HEADER_LIMIT], reading.notes)
     return Loaded(parts(loaded) or strip_parts(loaded), images=tuple(images))
+
+
+COLOURS = ("red", "green", "blue")
+UV_NAMES = {"texture_u", "texture_v", "u", "v", "s", "t"}  # the per-vertex coordinates trimesh reads as UVs
+
+
+def plain_part(data: bytes, header: ply_lists.Header | None) -> Part | None:
+    """The Part trimesh's reader gives for a binary PLY of a `vertex` element (float x, y, z; optionally nx, ny,
+    nz and 8-bit red, green, blue, alpha; other scalars ignored, as trimesh keeps them aside) and a `face`
+    element of one list of three indices per row, read by numpy views of the bytes; None for any other PLY
+    (texture coordinates or files, face properties, polygons, strips, other elements, ASCII, short data),
+    which trimesh reads. Same arrays, same dtypes: vertices and normals float64, faces int64, colours as
+    every reader gives them (8-bit / 255 at each corner)."""
+    if header is None or header.format == "ascii" or texture_names(data[:HEADER_LIMIT]):
+        return None
+    if [element.name for element in header.elements] not in (["vertex", "face"], ["face", "vertex"]):
+        return None
+    big, view, at, rows = header.format == "binary_big_endian", memoryview(data), header.body, {}
+    for element in header.elements:
+        even = ply_lists._even(element, view, at, big)
+        if even is None or not element.rows:
+            return None
+        rows[element.name], at = even
+    vertex, face = (next(e for e in header.elements if e.name == name) for name in ("vertex", "face"))
+    names = {prop.name: f"p{k}" for k, prop in enumerate(vertex.properties) if prop.count is None}
+    if (len(face.properties) != 1 or face.properties[0].name not in ply_lists.POLYGON
+            or rows["face"]["p0"].shape[1:] != (3,) or not {"x", "y", "z"} <= names.keys() or UV_NAMES & names.keys()
+            or any(prop.count is not None for prop in vertex.properties)
+            or any(prop.type[0] not in "fd" for prop in vertex.properties if prop.name in "xyz")):
+        return None
+    coloured = [name for name in (*COLOURS, "alpha") if name in names]
+    if coloured and (not set(COLOURS) <= set(coloured)
+                     or any(next(p for p in vertex.properties if p.name == name).type not in ("uchar", "uint8")
+                            for name in coloured)):
+        return None
+    table = rows["vertex"]
+    vertices = np.column_stack([table[names[axis]] for axis in "xyz"]).astype(np.float64)
+    faces = rows["face"]["p0"].astype(np.int64)
+    normals = None
+    if {"nx", "ny", "nz"} <= names.keys():
+        normals = np.column_stack([table[names[axis]] for axis in ("nx", "ny", "nz")]).astype(np.float64)
+    surface = None
+    if coloured:
+        rgb = np.column_stack([table[names[name]] for name in COLOURS]).astype(np.float32) / 255.0
+        surface = PartSurface(corner_colour=rgb[faces])
+    return Part(vertices, faces, normals, surface)
 
 
 def _note_points(header: ply_lists.Header | None, path: Path, notes: list[str]) -> None:
@@ -120,10 +170,7 @@ def strip_parts(loaded) -> list:
     faces = np.where(odd[:, None], windows[:, [1, 0, 2]], windows)[keep]
     if not len(faces):
         return []
-    import trimesh
-
-    from .trimesh_parts import Part
-    return [Part(vertices, faces, None, trimesh.visual.ColorVisuals())]
+    return [Part(vertices, faces, None, None)]
 
 
 def _textures(path: Path, head: bytes, notes: list[str]) -> list[str]:

@@ -11,11 +11,11 @@ SceneError, one line. The file's MeshSource calls read_file, and keeps a read ma
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
-import trimesh
 
 from ...errors import SceneError, Where
 from ...records import bounding_box
@@ -23,11 +23,10 @@ from ...tolerances import POSITION_LIMIT
 from ..files import open_mesh_file
 from . import read_names
 from .content import check_content
-from .format import Reading
+from .format import Part, Reading
 from .gltf import SPECULAR_GLOSSINESS, TRANSFORM, UNLIT, from_pbr, transform_uv
 from .materials import FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, PartSurface, TextureSource
 from .obj import UV_LIMIT
-from .trimesh_parts import Part, raised_in_trimesh
 
 __all__ = ["FILE_CREASE_ANGLE", "MeshFile", "read_file"]
 
@@ -73,7 +72,7 @@ def read_file(source, bounds: bool = True) -> MeshFile:
     except SceneError:
         raise
     except Exception as error:
-        if not raised_in_trimesh(error):
+        if not _raised_in_trimesh(error):
             raise  # our own bug, not the file's: an internal error with its traceback
         with open_mesh_file(path, where) as handle:
             problem = kind.explain(handle, source)
@@ -183,7 +182,7 @@ def _surfaces(parts, loaded, pbr: str, path: Path, notes: list[str], sources: li
         own = part.visual if isinstance(part.visual, PartSurface) else None  # read by io/meshes/threemf.py
         material = None if own is not None else getattr(part.visual, "material", None)
         found = None if own is None else own.material
-        if isinstance(material, trimesh.visual.material.PBRMaterial):
+        if _is_pbr(material):
             found = from_pbr(material, path, notes, sources, samplers)
             # An unlit material is the lecture's own (no approximation); a specular-glossiness one says its own.
             gltf |= not samplers.get((material.name, UNLIT)) and (material.name, SPECULAR_GLOSSINESS) not in samplers
@@ -207,7 +206,7 @@ def _surfaces(parts, loaded, pbr: str, path: Path, notes: list[str], sources: li
         groups.append(np.full(len(part.faces), index[found.name] if found is not None else -1, np.int32))
         uv = getattr(part.visual, "uv", None)
         uv = None if uv is None or len(uv) != len(part.vertices) else np.asarray(uv, np.float64)[:, :2]
-        if uv is not None and isinstance(material, trimesh.visual.material.PBRMaterial):
+        if uv is not None and _is_pbr(material):
             uv = _transformed_uv(uv, material, samplers, path, notes)
         if uv is not None and not (np.abs(uv) <= UV_LIMIT).all():  # NaN passes: the kernel reads it as 0
             raise SceneError(f"{str(path)!r} has a texture coordinate beyond float32's range (largest "
@@ -257,6 +256,21 @@ def _transformed_uv(uv: np.ndarray, material, samplers: dict, path: Path, notes:
 IDENTITY = ((0.0, 0.0), 0.0, (1.0, 1.0))  # KHR_texture_transform's defaults: no change
 
 
+def _is_pbr(material) -> bool:
+    """Whether a part's material is trimesh's PBRMaterial (a glTF's, a COLLADA's); only a file trimesh read has
+    one, so a file read here alone does not import trimesh for the question."""
+    trimesh = sys.modules.get("trimesh")
+    return trimesh is not None and isinstance(material, trimesh.visual.material.PBRMaterial)
+
+
+def _raised_in_trimesh(error: BaseException) -> bool:
+    """trimesh_parts.raised_in_trimesh, without importing trimesh for a file read without it."""
+    if "trimesh" not in sys.modules:
+        return False
+    from .trimesh_parts import raised_in_trimesh
+    return raised_in_trimesh(error)
+
+
 def _corner_colours(part: Part) -> np.ndarray | None:
     """(F, 3, 3) float32 colour in [0, 1] at each face corner: vertex colours (8-bit /255), a face's colour
     at its three corners, or glTF's COLOR_0 or COLLADA's COLOR beside a material (trimesh keeps them as vertex
@@ -264,6 +278,9 @@ def _corner_colours(part: Part) -> np.ndarray | None:
     None when the part has none. Taken as stored (glTF's COLOR_0 is linear; PLY and OFF colours say nothing,
     and are read as linear too, as before)."""
     visual = part.visual
+    if visual is None and part.colours is None:  # a part of a format read here, without colours
+        return None
+    import trimesh
     kind = getattr(visual, "kind", None)
     if isinstance(visual, trimesh.visual.ColorVisuals) and kind == "vertex":
         rgb = np.asarray(visual.vertex_colors)[:, :3].astype(np.float32) / 255.0

@@ -11,7 +11,7 @@ import numpy as np
 
 from ...errors import SceneError
 from .content import is_number
-from .format import TEXT_READ_BYTES_PER_BYTE, Loaded, MeshFormat, Reading
+from .format import TEXT_READ_BYTES_PER_BYTE, Loaded, MeshFormat, Part, Reading
 
 STL_RECORD = np.dtype([("normal", "<f4", 3), ("points", "<f4", (3, 3)), ("attribute", "<u2")])  # 50 bytes
 
@@ -60,9 +60,9 @@ def ascii_stl_problem(data: bytes) -> str | None:
 def read(reading: Reading) -> Loaded:
     """A binary STL's corners in file order, as trimesh's reader gives them (without its float64); an ASCII STL
     through trimesh."""
-    from .trimesh_parts import Part, load, parts
     points = binary_stl_points(reading.handle)
     if points is None:
+        from .trimesh_parts import load, parts
         return Loaded(parts(load(reading)))
     return Loaded([Part(points, np.arange(len(points), dtype=np.int64).reshape(-1, 3), None, None)])
 

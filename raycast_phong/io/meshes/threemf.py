@@ -537,7 +537,7 @@ def texture_sizes(source) -> tuple[tuple[int, int], ...]:
 
 
 def read(reading: Reading) -> Loaded:
-    from .trimesh_parts import Part
+    from .format import Part
     own = read_3mf(reading.handle, reading.path, reading.where, reading.notes, reading.textures)
     return Loaded([Part(vertices, faces, None, surface) for vertices, faces, surface in own])
 

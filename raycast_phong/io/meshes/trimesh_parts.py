@@ -8,25 +8,14 @@ import io
 import logging
 from contextlib import contextmanager
 from pathlib import Path
-from typing import NamedTuple
 
 import numpy as np
 import trimesh
 
 from ..files import open_regular
-from .format import Reading
+from .format import Part, Reading
 
 TRIMESH = Path(trimesh.__file__).resolve().parent  # an exception that passed through here: trimesh refused the file
-
-
-class Part(NamedTuple):
-    """One placed triangle mesh of a file."""
-    vertices: np.ndarray          # (V, 3) float64, placed by its node's transform
-    faces: np.ndarray             # (F, 3) int64
-    normals: np.ndarray | None    # (V, 3) the normals the file stores, transformed with the vertices
-    visual: object                # trimesh's visual (its material, its colours), or a materials.PartSurface
-    colours: np.ndarray | None = None  # (V, 3|4) vertex colours kept on the mesh beside a material (a COLLADA
-                                       # COLOR input: trimesh stores them there, not on the visual)
 
 
 class RegularFiles(trimesh.resolvers.FilePathResolver):

@@ -1,0 +1,155 @@
+"""A plain binary PLY is read by numpy views of its bytes (io/meshes/ply.plain_part), without trimesh, into the very
+MeshFile trimesh's reader gave; every other PLY still goes to trimesh. The files are written here from the PLY
+specification (header lines, then rows of each element in order, either endianness)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_obj_plain import assert_same_mesh_file
+
+from raycast_phong.io.meshes import ply
+from raycast_phong.io.meshes import read as mesh_file
+from raycast_phong.io.meshes.source import mesh_source
+
+pytestmark = pytest.mark.usefixtures("in_tmp_path")
+
+RNG = np.random.default_rng(7)
+POINTS = RNG.normal(size=(9, 3))
+FACES = np.array([[0, 1, 2], [2, 3, 4], [4, 5, 6], [6, 7, 8], [8, 0, 4]])
+
+
+def write_ply(path: Path, vertex: dict[str, tuple[str, np.ndarray]], faces=FACES, *, big: bool = False,
+              face_first: bool = False, index_name: str = "vertex_indices", comments: tuple[str, ...] = (),
+              face_extra: dict[str, tuple[str, np.ndarray]] | None = None) -> Path:
+    """A binary PLY of one `vertex` element (name: (PLY type, values)) and one `face` element of triangles."""
+    kinds = {"float": "f4", "double": "f8", "uchar": "u1", "int": "i4", "ushort": "u2"}
+    order = ">" if big else "<"
+    vertex_rows = np.zeros(len(POINTS), [(name, order + kinds[kind]) for name, (kind, _) in vertex.items()])
+    for name, (_, values) in vertex.items():
+        vertex_rows[name] = values
+    extra = face_extra or {}
+    face_rows = np.zeros(len(faces), [("n", "u1"), ("i", order + "i4", (faces.shape[1],)),
+                                      *[(name, order + kinds[kind]) for name, (kind, _) in extra.items()]])
+    face_rows["n"], face_rows["i"] = faces.shape[1], faces
+    for name, (_, values) in extra.items():
+        face_rows[name] = values
+    vertex_lines = [f"element vertex {len(POINTS)}", *(f"property {kind} {name}" for name, (kind, _) in vertex.items())]
+    face_lines = [f"element face {len(faces)}", f"property list uchar int {index_name}",
+                  *(f"property {kind} {name}" for name, (kind, _) in extra.items())]
+    blocks = [(face_lines, face_rows), (vertex_lines, vertex_rows)] if face_first else \
+        [(vertex_lines, vertex_rows), (face_lines, face_rows)]
+    header = ["ply", f"format binary_{'big' if big else 'little'}_endian 1.0", *comments,
+              *[line for lines, _ in blocks for line in lines], "end_header"]
+    path.write_bytes(("\n".join(header) + "\n").encode() + b"".join(rows.tobytes() for _, rows in blocks))
+    return path
+
+
+def xyz(kind: str = "float") -> dict:
+    return {axis: (kind, POINTS[:, k]) for k, axis in enumerate("xyz")}
+
+
+NORMALS = {f"n{axis}": ("float", POINTS[:, k] / np.linalg.norm(POINTS, axis=1)) for k, axis in enumerate("xyz")}
+COLOURS = {name: ("uchar", RNG.integers(0, 256, len(POINTS))) for name in ("red", "green", "blue", "alpha")}
+PLAIN = {
+    "float": {"vertex": xyz()},
+    "double": {"vertex": xyz("double")},
+    "big-endian": {"vertex": xyz(), "big": True},
+    "normals": {"vertex": {**xyz(), **NORMALS}},
+    "rgb": {"vertex": {**xyz(), **{k: COLOURS[k] for k in ("red", "green", "blue")}}},
+    "rgba, big-endian": {"vertex": {**xyz(), **COLOURS}, "big": True},
+    "another scalar": {"vertex": {**xyz(), "quality": ("float", RNG.normal(size=len(POINTS)))}},
+    "face element first": {"vertex": xyz(), "face_first": True},
+    "vertex_index": {"vertex": xyz(), "index_name": "vertex_index"},
+}
+TRIMESH_READS = {
+    "uv per vertex": {"vertex": {**xyz(), "s": ("float", POINTS[:, 0]), "t": ("float", POINTS[:, 1])}},
+    "texture file": {"vertex": xyz(), "comments": ("comment TextureFile missing.png",)},
+    "face colours": {"vertex": xyz(), "face_extra": {k: ("uchar", np.arange(len(FACES))) for k in ("red", "green",
+                                                                                                  "blue")}},
+    "16-bit colours": {"vertex": {**xyz(), **{k: ("ushort", COLOURS[k][1] * 200) for k in ("red", "green",
+                                                                                             "blue")}}},
+    "red and green only": {"vertex": {**xyz(), **{k: COLOURS[k] for k in ("red", "green")}}},
+    "integer coordinates": {"vertex": {axis: ("int", np.arange(len(POINTS)) * (k + 1)) for k, axis in
+                                        enumerate("xyz")}},
+    "quads": {"vertex": xyz(), "faces": np.array([[0, 1, 2, 3], [4, 5, 6, 7]])},
+}
+
+
+def read(path: Path, plain: bool, monkeypatch) -> mesh_file.MeshFile:
+    with monkeypatch.context() as patch:
+        if not plain:
+            patch.setattr(ply, "plain_part", lambda data, header: None)
+        return mesh_file.read_file(mesh_source(path), bounds=True)
+
+
+@pytest.mark.parametrize("case", PLAIN)
+def test_a_plain_binary_ply_reads_without_trimesh_as_trimesh_read_it(case, tmp_path, monkeypatch):
+    path = write_ply(tmp_path / "plain.ply", **PLAIN[case])
+    data = path.read_bytes()
+    assert ply.plain_part(data, ply.ply_lists.header(data)) is not None
+    assert_same_mesh_file(read(path, True, monkeypatch), read(path, False, monkeypatch))
+
+
+@pytest.mark.parametrize("case", TRIMESH_READS)
+def test_any_other_ply_is_left_to_trimesh(case, tmp_path, monkeypatch):
+    path = write_ply(tmp_path / "other.ply", **TRIMESH_READS[case])
+    data = path.read_bytes()
+    assert ply.plain_part(data, ply.ply_lists.header(data)) is None
+
+
+def test_the_colours_and_normals_of_a_plain_ply_are_the_file_s(tmp_path, monkeypatch):
+    """Hand-checked against the values written: 8-bit colour / 255 at each face corner, normals as stored."""
+    path = write_ply(tmp_path / "c.ply", **PLAIN["normals"] | {"vertex": {**xyz(), **NORMALS, **COLOURS}})
+    read_back = read(path, True, monkeypatch)
+    rgb = np.column_stack([COLOURS[k][1] for k in ("red", "green", "blue")]).astype(np.float32) / 255
+    np.testing.assert_array_equal(read_back.corner_colour, rgb[FACES])
+    np.testing.assert_array_equal(read_back.normals, np.column_stack([NORMALS[k][1] for k in ("nx", "ny", "nz")])
+                                  .astype(np.float32).astype(np.float64))
+    np.testing.assert_array_equal(read_back.faces, FACES)
+
+
+def test_a_mixed_polygon_ply_is_read_without_trimesh_after_its_fans(tmp_path, monkeypatch):
+    """A quad beside a triangle (uneven lists): rewritten as fans (ply_lists), then read plainly, as trimesh read
+    the rewrite."""
+    rows = np.zeros(len(POINTS), [(axis, "<f4") for axis in "xyz"])
+    for k, axis in enumerate("xyz"):
+        rows[axis] = POINTS[:, k]
+    body = rows.tobytes() + bytes([4]) + np.array([0, 1, 2, 3], "<i4").tobytes() + bytes([3]) + \
+        np.array([4, 5, 6], "<i4").tobytes()
+    header = (f"ply\nformat binary_little_endian 1.0\nelement vertex {len(POINTS)}\nproperty float x\n"
+              "property float y\nproperty float z\nelement face 2\nproperty list uchar int vertex_indices\n"
+              "end_header\n")
+    path = tmp_path / "mixed.ply"
+    path.write_bytes(header.encode() + body)
+    plain = read(path, True, monkeypatch)
+    assert_same_mesh_file(plain, read(path, False, monkeypatch))
+    np.testing.assert_array_equal(plain.faces, [[0, 1, 2], [0, 2, 3], [4, 5, 6]])
+
+
+@pytest.mark.parametrize("suffix", ["ply", "stl", "off", "obj"])
+def test_reading_a_plain_mesh_file_does_not_import_trimesh(suffix, tmp_path):
+    """trimesh's import (with SciPy's) is 0.3-0.7 s of a process: only a file it alone reads pays for it."""
+    path = tmp_path / f"plain.{suffix}"
+    if suffix == "ply":
+        write_ply(path, vertex=xyz())
+    elif suffix == "stl":
+        corners = POINTS[FACES].astype("<f4")
+        records = np.zeros(len(FACES), [("normal", "<f4", 3), ("corners", "<f4", (3, 3)), ("spare", "<u2")])
+        records["corners"] = corners
+        path.write_bytes(bytes(80) + np.uint32(len(FACES)).tobytes() + records.tobytes())
+    else:
+        points = "".join(f"{'v ' if suffix == 'obj' else ''}{x} {y} {z}\n" for x, y, z in POINTS)
+        faces = "".join(f"f {a + 1} {b + 1} {c + 1}\n" if suffix == "obj" else f"3 {a} {b} {c}\n" for a, b, c in FACES)
+        head = "" if suffix == "obj" else f"OFF\n{len(POINTS)} {len(FACES)} 0\n"
+        path.write_text(head + points + faces)
+    code = ("import sys; from raycast_phong.io.meshes.source import read_mesh; "
+            f"mesh = read_mesh(__import__('pathlib').Path({str(path)!r})); "
+            "assert len(mesh.faces) == 5, mesh.faces; print('trimesh' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "False"
