@@ -355,10 +355,15 @@ def read(reading: Reading) -> Loaded:
     """The document checked (what it requires, the images it names), then the geometry through trimesh, which
     is given the document rewritten as plain glTF where it would misread the data (compressed, quantized or
     instanced data, specular-glossiness materials: io/meshes/gltf_decode.py)."""
-    from .gltf_decode import decode_gltf, needs_decoding
-    from .trimesh_parts import RegularFiles, load, parts
+    from .gltf_decode import decode_gltf, needs_decoding, plain_part, read_buffers
     path, document = reading.path, reading.source.document
     samplers = check_document(document, path, reading.where, reading.notes)
+    if not needs_decoding(document.tree) and _may_be_plain(document.tree):
+        plain = plain_part(document.tree, read_buffers(document.tree, path, document, reading.where), path,
+                           reading.where)
+        if plain is not None:
+            return Loaded([plain], samplers=samplers)
+    from .trimesh_parts import RegularFiles, load, parts
     resolver = RegularFiles(path)
     resolver.locate = uri_file  # names are URIs, percent-encoded
     if needs_decoding(document.tree):
@@ -367,6 +372,13 @@ def read(reading: Reading) -> Loaded:
     else:
         loaded = load(reading, resolver=resolver)
     return Loaded(parts(loaded), samplers=samplers)
+
+
+def _may_be_plain(tree: dict) -> bool:
+    """Cheap first test for gltf_decode.plain_part (before its buffers are read): no materials, images or
+    extensions, one mesh."""
+    return not any(tree.get(key) for key in ("materials", "images", "extensionsUsed", "skins")) and \
+        isinstance(tree.get("meshes"), list) and len(tree["meshes"]) == 1
 
 
 def count(handle, size: int, source) -> int | None:

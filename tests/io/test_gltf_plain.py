@@ -1,0 +1,136 @@
+"""A plain glTF (one node, one indexed triangle primitive of float positions and normals, no material, transform or
+extension: a scan as exporters write it) is read by numpy views of its buffers (gltf_decode.plain_part), without
+trimesh, into the very MeshFile trimesh's reader gave; any other document still goes to trimesh. The files are
+written here from the glTF 2.0 specification (a GLB's JSON and BIN chunks, §4.4)."""
+
+from __future__ import annotations
+
+import base64
+import json
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_obj_plain import assert_same_mesh_file
+
+from raycast_phong.io.meshes import gltf_decode, trimesh_parts
+from raycast_phong.io.meshes import read as mesh_file
+from raycast_phong.io.meshes.source import mesh_source
+
+pytestmark = pytest.mark.usefixtures("in_tmp_path")
+
+RNG = np.random.default_rng(11)
+POINTS = RNG.normal(size=(9, 3)).astype(np.float32)
+NORMALS = (POINTS / np.linalg.norm(POINTS, axis=1, keepdims=True)).astype(np.float32)
+FACES = np.array([[0, 1, 2], [2, 3, 4], [4, 5, 6], [6, 7, 8], [8, 0, 4]])
+
+
+def document(index_type: int = 5125, normals: bool = True, interleaved: bool = False, **changes) -> tuple[dict, bytes]:
+    """A glTF document of one node, one mesh, one primitive, and its binary buffer."""
+    index_dtype = {5121: "<u1", 5123: "<u2", 5125: "<u4"}[index_type]
+    indices = FACES.astype(index_dtype).tobytes()
+    indices += bytes(-len(indices) % 4)
+    if interleaved:
+        vertex_bytes = np.hstack([POINTS, NORMALS]).astype("<f4").tobytes()
+        views = [{"buffer": 0, "byteOffset": 0, "byteLength": len(indices)},
+                 {"buffer": 0, "byteOffset": len(indices), "byteLength": len(vertex_bytes), "byteStride": 24}]
+        accessors = [{"bufferView": 1, "componentType": 5126, "type": "VEC3", "count": len(POINTS)},
+                     {"bufferView": 1, "byteOffset": 12, "componentType": 5126, "type": "VEC3", "count": len(POINTS)}]
+    else:
+        vertex_bytes = POINTS.astype("<f4").tobytes() + NORMALS.astype("<f4").tobytes()
+        views = [{"buffer": 0, "byteOffset": 0, "byteLength": len(indices)},
+                 {"buffer": 0, "byteOffset": len(indices), "byteLength": POINTS.nbytes},
+                 {"buffer": 0, "byteOffset": len(indices) + POINTS.nbytes, "byteLength": NORMALS.nbytes}]
+        accessors = [{"bufferView": 1, "componentType": 5126, "type": "VEC3", "count": len(POINTS)},
+                     {"bufferView": 2, "componentType": 5126, "type": "VEC3", "count": len(POINTS)}]
+    accessors[0] |= {"min": POINTS.min(axis=0).tolist(), "max": POINTS.max(axis=0).tolist()}
+    accessors.append({"bufferView": 0, "componentType": index_type, "type": "SCALAR", "count": FACES.size})
+    attributes = {"POSITION": 0, "NORMAL": 1} if normals else {"POSITION": 0}
+    data = indices + vertex_bytes
+    tree = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
+            "nodes": [{"children": [1]}, {"mesh": 0}],
+            "meshes": [{"primitives": [{"attributes": attributes, "indices": 2, "mode": 4}]}],
+            "accessors": accessors, "bufferViews": views, "buffers": [{"byteLength": len(data)}]}
+    for key, value in changes.items():
+        tree[key] = value(tree) if callable(value) else value
+    return tree, data
+
+
+def write_glb(path: Path, tree: dict, data: bytes) -> Path:
+    text = json.dumps(tree).encode()
+    text += b" " * (-len(text) % 4)
+    data += bytes(-len(data) % 4)
+    chunks = struct.pack("<II", len(text), 0x4E4F534A) + text + struct.pack("<II", len(data), 0x004E4942) + data
+    path.write_bytes(struct.pack("<III", 0x46546C67, 2, 12 + len(chunks)) + chunks)
+    return path
+
+
+def write_gltf(path: Path, tree: dict, data: bytes) -> Path:
+    tree["buffers"][0]["uri"] = "data:application/octet-stream;base64," + base64.b64encode(data).decode()
+    path.write_text(json.dumps(tree))
+    return path
+
+
+def nested(key: str, value):
+    """A change of one node's, mesh's or primitive's key (a path of keys and indices) to `value`."""
+    def change(tree: dict):
+        *parents, last = key
+        at = tree
+        for part in parents:
+            at = at[part]
+        at[last] = value
+        return tree[key[0]]
+    return change
+
+
+PLAIN = {
+    "uint32 indices": {},
+    "uint16 indices": {"index_type": 5123},
+    "uint8 indices": {"index_type": 5121},
+    "no normals": {"normals": False},
+    "interleaved": {"interleaved": True},
+}
+TRIMESH_READS = {
+    "a material": {"meshes": nested(("meshes", 0, "primitives", 0, "material"), 0),
+                   "materials": [{"pbrMetallicRoughness": {"baseColorFactor": [1, 0, 0, 1]}}]},
+    "a translation": {"nodes": nested(("nodes", 0, "translation"), [1.0, 2.0, 3.0])},
+    "a rotation on the mesh's node": {"nodes": nested(("nodes", 1, "rotation"), [0.0, 0.0, 0.6, 0.8])},
+    "two nodes place it": {"nodes": nested(("nodes", 0, "children"), [1, 2]),
+                           "scenes": [{"nodes": [0]}], "extras": None},
+    "texture coordinates": {"meshes": nested(("meshes", 0, "primitives", 0, "attributes", "TEXCOORD_0"), 0)},
+    "no indices": {"meshes": nested(("meshes", 0, "primitives", 0), {"attributes": {"POSITION": 0}})},
+}
+
+
+def no_trimesh(*arguments, **keywords):
+    raise AssertionError("a plain glTF went to trimesh")
+
+
+def read(path: Path, plain: bool, monkeypatch) -> mesh_file.MeshFile:
+    with monkeypatch.context() as patch:
+        if not plain:
+            patch.setattr(gltf_decode, "plain_part", lambda *arguments: None)
+        return mesh_file.read_file(mesh_source(path), bounds=True)
+
+
+@pytest.mark.parametrize("container", ["glb", "gltf"])
+@pytest.mark.parametrize("case", PLAIN)
+def test_a_plain_gltf_reads_without_trimesh_as_trimesh_read_it(case, container, tmp_path, monkeypatch):
+    tree, data = document(**PLAIN[case])
+    path = (write_glb if container == "glb" else write_gltf)(tmp_path / f"plain.{container}", tree, data)
+    with monkeypatch.context() as patch:
+        patch.setattr(trimesh_parts, "load", no_trimesh)
+        plain = mesh_file.read_file(mesh_source(path), bounds=True)
+    assert_same_mesh_file(plain, read(path, False, monkeypatch))
+    np.testing.assert_array_equal(plain.faces, FACES)
+    np.testing.assert_array_equal(plain.vertices, POINTS.astype(np.float64))
+
+
+@pytest.mark.parametrize("case", TRIMESH_READS)
+def test_any_other_gltf_is_left_to_trimesh(case, tmp_path):
+    changes = dict(TRIMESH_READS[case])
+    if case == "two nodes place it":
+        changes["nodes"] = [{"children": [1, 2]}, {"mesh": 0}, {"mesh": 0}]
+    tree, data = document(**changes)
+    assert gltf_decode.plain_part(tree, [data], tmp_path / "x.glb", "x.glb") is None
