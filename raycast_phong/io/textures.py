@@ -155,9 +155,11 @@ def decode_pil(image, colour: str, channel: str = "rgb") -> np.ndarray:
     return np.ascontiguousarray(srgb_to_linear(pixels) if colour == LINEAR else pixels, np.float32)
 
 
-def decode_scene_map(path: Path, where: Where, colour: str) -> np.ndarray:
-    """A scene material's map (kd_map, ...): one line, SceneError, when missing, not a regular file (a FIFO, a
-    device, a folder: refused before any open that could block) or not an image."""
+def check_map_file(path: Path, where: Where) -> None:
+    """A scene material's map file refused in one line (SceneError) when missing, not a regular file (a FIFO, a
+    device, a folder: refused before any open that could block) or not the image its suffix promises (a 3 GiB
+    file of zeros named .png: OpenImageIO would try every reader on it). The memory estimate checks it so,
+    before anything is compiled or decoded."""
     try:
         open_regular(path, where, "texture file (PNG, JPEG, EXR, ...)").close()
     except FileNotFoundError:
@@ -166,6 +168,12 @@ def decode_scene_map(path: Path, where: Where, colour: str) -> np.ndarray:
     mismatch = image_suffix_mismatch(path)
     if mismatch:
         raise SceneError(f"{shown_name(path)} is {mismatch}; give a PNG, JPEG, EXR or another image file", where)
+
+
+def decode_scene_map(path: Path, where: Where, colour: str) -> np.ndarray:
+    """A scene material's map (kd_map, ...), checked (check_map_file) and decoded; one line, SceneError, when it
+    is not an image."""
+    check_map_file(path, where)
     try:
         return decode_file(path, colour)
     except Exception as error:  # noqa: BLE001 - any decoder failure is the file's
@@ -182,6 +190,9 @@ def file_size(path: Path) -> tuple[int, int] | None:
     try:
         handle = open_regular(path, str(path), "texture file")
     except (SceneError, OSError):
+        return None
+    if image_suffix_mismatch(path):  # no image's signature where its suffix promises one: no reader probes it
+        handle.close()
         return None
     with handle:
         try:

@@ -146,13 +146,16 @@ def texture_estimate(scene: Scene, meshes) -> int:
     materials name (`meshes`: their MeshSources), at the size it is decoded at, from image headers only
     (io.textures; a mesh file's sizes are its MeshSource's)."""
     used = {obj.material for obj in object_kinds(scene).firsts(scene.objects)}
-    paths = [scene.resolve(m.path) for name, material in scene.materials.items() if name in used or name == "default"
-             for m in (material.ka_map, material.kd_map, material.ke_map) if m is not None]
+    maps = {scene.resolve(getattr(material, key).path): scene.origin.at("materials", name, key)
+            for name, material in scene.materials.items() if name in used or name == "default"
+            for key in ("ka_map", "kd_map", "ke_map") if getattr(material, key) is not None}
     sizes = [size for mesh in meshes for size in mesh.texture_sizes]
-    if not paths and not sizes:
+    if not maps and not sizes:
         return 0
-    from ..io.textures import file_size, texture_bytes
-    return texture_bytes([size for size in map(file_size, dict.fromkeys(paths)) if size] + sizes)
+    from ..io.textures import check_map_file, file_size, texture_bytes
+    for path, where in maps.items():
+        check_map_file(path, where)  # a file no reader should probe is refused before any does
+    return texture_bytes([size for size in map(file_size, maps) if size] + sizes)
 
 
 # ---------------------------------------------------------------- the budget

@@ -244,3 +244,32 @@ def test_a_file_named_as_an_image_that_starts_as_none_is_refused_from_its_first_
     rp.write_image(tmp_path / "b.exr", np.zeros((4, 4, 3), np.float32))
     (tmp_path / "b.exr").rename(tmp_path / "exr-called.png")  # an image under another format's suffix
     assert runner.invoke(app, ["compare", str(tmp_path / "a.png"), str(tmp_path / "exr-called.png")]).exit_code == 0
+
+
+def test_a_scene_map_that_is_no_image_is_refused_by_the_memory_check_before_any_reader_probes_it(tmp_path,
+                                                                                                   monkeypatch):
+    """A 3 GiB file of zeros named .png as a kd_map: OpenImageIO tried every reader on it in the memory estimate
+    (over 90 s). It is refused from its first bytes when the estimate looks at it, before any compile or
+    decode; a mesh file's map of that kind gets no size (its read notes it) without a reader opening it."""
+    import OpenImageIO as oiio
+    import pytest
+
+    import raycast_phong as rp
+    from raycast_phong.io.textures import file_size
+    from raycast_phong.renderer.prepare import check_fits
+
+    with open(tmp_path / "zeros.png", "wb") as handle:
+        handle.truncate(64 << 20)  # sparse: no disk
+    (tmp_path / "s.toml").write_text('[[objects]]\nshape = "icosphere"\nmaterial = "m"\n\n'
+                                     '[materials.m]\nkd_map = "zeros.png"\n')
+
+    probes = []
+    monkeypatch.setattr(oiio.ImageInput, "open", lambda *arguments: probes.append(arguments))
+    scene = rp.load_scene(tmp_path / "s.toml")
+    with pytest.raises(rp.SceneError) as refused:
+        check_fits(scene)
+    assert str(refused.value) == (f"{tmp_path / 's.toml'}: materials.m.kd_map: '{tmp_path / 'zeros.png'}' is not "
+                                  "a PNG file: it starts with b'\\x00\\x00\\x00\\x00\\x00\\x00\\x00\\x00'; give a PNG, JPEG, EXR "
+                                  "or another image file")
+    assert file_size(tmp_path / "zeros.png") is None
+    assert probes == []
