@@ -94,9 +94,9 @@ def batch(
         with exit_codes():
             refused: list[str] = []
             listed = batches.listed_paths(getattr(sys.stdin, "buffer", None), warnings=refused) if "-" in paths else []
+            found = batches.find_jobs(paths, out, listed, refused)
             for warning in refused:
                 typer.secho(f"warning: {one_line(warning)}", err=True, fg=typer.colors.YELLOW)
-            found = batches.find_jobs(paths, out, listed)
             report = _batch_with_progress(found, out, jobs, force, batches.Settings(srgb=srgb), scheduler, quiet,
                                           verbose, max_memory)
     except batches.Interrupted as stop:

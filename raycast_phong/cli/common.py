@@ -453,7 +453,8 @@ def _traceback_log(error: BaseException) -> str | None:
     try:
         descriptor, path = tempfile.mkstemp(prefix="raycast-phong-error-", suffix=".log",
                                             dir=os.environ.get(ERROR_LOGS_VARIABLE) or None)
-        with os.fdopen(descriptor, "w", encoding="utf-8") as log:
+        # backslashreplace: a traceback that quotes a file name which is not UTF-8 must still be written
+        with os.fdopen(descriptor, "w", encoding="utf-8", errors="backslashreplace") as log:
             log.write("".join(traceback.format_exception(error)))
         return path
     except OSError:

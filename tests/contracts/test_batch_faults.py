@@ -25,6 +25,7 @@ from test_batch import ROOT, TETRAHEDRON, five_scenes, images, manifest, run, sc
 
 import raycast_phong as rp
 from raycast_phong.tools import batch
+from raycast_phong.values.messages import shorten
 
 LINUX_PROC = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="finds processes through /proc")
 SIZE = 192  # 192×192 with 3×3 samples: ~0.1-0.3 s a scene, so a signal lands mid-batch
@@ -306,6 +307,36 @@ def test_each_broken_scene_file_fails_only_itself(tmp_path):
         # A bug is told apart from bad input: "internal error", and its traceback kept in the manifest.
         assert (entry["traceback"] is not None) == ("internal error" in entry["reason"]), entry
         assert f"failed: {entry['reason']}" in result.stderr
+
+
+def test_a_scene_whose_file_name_is_not_utf8_is_left_out_and_the_others_render(tmp_path):
+    """Its name reaches the image's, the manifest and every message: it was an internal error that stopped the
+    whole batch. Now one warning, and the rest of the folder renders; binary junk piped to `batch -` likewise."""
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    (folder / "good.toml").write_text(scene_text())
+    bad = folder / os.fsdecode(b"bad\xff\xfe.toml")
+    bad.write_text(scene_text())
+    out = tmp_path / "out"
+    result = run(str(folder), "--out", str(out), "--jobs", "1")
+    assert result.exit_code == 0, result.stderr
+    left_out = [line for line in result.stderr.splitlines() if "not UTF-8" in line]
+    assert left_out == [f"warning: {shorten(repr(os.fsencode(bad)))}: a file name that is not UTF-8; left out "
+                        "(rename it)"]
+    assert list(manifest(out)) == ["good"]
+    junk = bytes(range(1, 10)) + b"\xff\xfe\n" + bytes(range(128, 256)) + b"\n"
+    done = subprocess.run([sys.executable, "-m", "raycast_phong.cli", "batch", "-", "--out", str(tmp_path / "b")],
+                          input=junk, capture_output=True, timeout=120)
+    assert b"Traceback" not in done.stderr and done.returncode == 0, done.stderr
+    assert done.stderr.count(b"a file name that is not UTF-8; left out") == 2
+
+
+def test_an_internal_error_that_quotes_a_file_name_not_utf8_keeps_its_traceback(tmp_path, monkeypatch):
+    """The log of an internal error is written whatever its text holds (the logger itself crashed)."""
+    from raycast_phong.cli import common
+    monkeypatch.setenv(common.ERROR_LOGS_VARIABLE, str(tmp_path))
+    log = common._traceback_log(ValueError(os.fsdecode(b"no\xff")))
+    assert log is not None and "no\\udcff" in Path(log).read_text()
 
 
 def test_an_internal_error_keeps_its_traceback_and_the_batch_goes_on(five_scenes, tmp_path, monkeypatch):

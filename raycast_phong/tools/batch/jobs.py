@@ -9,6 +9,7 @@ from __future__ import annotations
 import glob
 import hashlib
 import json
+import os
 import signal
 import time
 import traceback
@@ -23,7 +24,7 @@ from ...io.image_io import write_image
 from ...scene.load import load_scene
 from ...scene.overrides import SRGB_OVERRIDE
 from ...scene.schema import Scene
-from ...values.messages import Location
+from ...values.messages import Location, shorten
 from ..sweep import Job, is_sweep, load_sweep
 from .manifest import is_own_manifest
 
@@ -158,13 +159,25 @@ def listed_paths(stream, source: str = "stdin", warnings: list[str] | None = Non
     return [line for _, line in lines if "\0" not in line]
 
 
-def find_jobs(paths: list[str | Path], out: str | Path | None = None, listed: list[str] = ()) -> list[Job]:
+def _utf8(text: str) -> bool:
+    """Whether `text` (a path as Python decodes it: undecodable bytes as lone surrogates) is valid UTF-8 text."""
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
+def find_jobs(paths: list[str | Path], out: str | Path | None = None, listed: list[str] = (),
+              warnings: list[str] | None = None) -> list[Job]:
     """Scene files, folders (their *.toml and *.json, not recursive, not hidden), globs and sweep files → Jobs,
     in order; never the manifest of the output folder `out` (a batch may write into a folder it reads).
 
     A sweep file (a TOML with a `grid` table, see sweep.py) stands for its product of overrides. `-` among the
     paths stands for `listed` (`batch -`: the paths read from stdin, listed_paths): each is a scene file, and
     one that is missing or not a scene becomes a job that fails when loaded, reported as any other scene.
+    A file whose name is not UTF-8 (its output image, the manifest and every message name it) is left out, with
+    a line in `warnings`, and the others go on.
     Raises SceneError when a given path matches nothing or two jobs would write the same output name.
     """
     files: list[Path] = []
@@ -189,6 +202,11 @@ def find_jobs(paths: list[str | Path], out: str | Path | None = None, listed: li
         files += [p for p in found if p not in files]
     jobs: list[Job] = []
     for path in files:
+        if not _utf8(str(path)):
+            if warnings is not None:
+                shown = shorten(repr(os.fsencode(path)))
+                warnings.append(f"{shown}: a file name that is not UTF-8; left out (rename it)")
+            continue
         jobs += load_sweep(path).jobs() if is_sweep(path) else [Job(name=path.stem, scene=path)]
     seen: dict[str, Job] = {}
     for job in jobs:
