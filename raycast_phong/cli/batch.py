@@ -25,7 +25,8 @@ from .common import (
 )
 from .progress import progress_bar, shows_progress
 
-SCHEDULER = re.compile(r"(?:[a-z]+://)?(\[[0-9A-Fa-f:.]+\]|[^\s:/\[\]]+):(\d{1,5})")
+SCHEDULER = re.compile(r"(?:(tcp)://)?(\[[0-9A-Fa-f:.]+\]|[^\s:/\[\]]+):(\d{1,5})")
+HOST_CHARACTERS, LABEL_CHARACTERS = 253, 63  # a DNS name's limits (RFC 1035 §2.3.4): longer ones no resolver takes
 
 
 def _scheduler(address: str | None) -> str | None:
@@ -34,9 +35,11 @@ def _scheduler(address: str | None) -> str | None:
     if address is None:
         return None
     found = SCHEDULER.fullmatch(address)
-    if found is None or not 0 < int(found[2]) < 65536:
-        fail(f"--scheduler {address[:80]!r}: not a Dask scheduler's address; allowed: tcp://HOST:PORT with a port "
-             "from 1 to 65535, e.g. tcp://127.0.0.1:8786")
+    if (found is None or not 0 < int(found[3]) < 65536 or len(found[2]) > HOST_CHARACTERS
+            or any(len(label) > LABEL_CHARACTERS for label in found[2].split("."))):
+        fail(f"--scheduler {address[:80]!r}: not a Dask scheduler's address; allowed: tcp://HOST:PORT with a host "
+             f"name of at most {HOST_CHARACTERS} characters and a port from 1 to 65535, e.g. tcp://127.0.0.1:8786 "
+             "(tls:// and other protocols need settings this command does not take)")
     return address
 
 

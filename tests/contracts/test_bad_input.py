@@ -423,9 +423,11 @@ def test_plan_refuses_bad_input_too(tmp_path):
 
 
 @pytest.mark.parametrize("address", ["notaurl", "tcp://host", "tcp://127.0.0.1:0", "tcp://127.0.0.1:99999",
-                                     "tcp://[::1]:8786x", "127.0.0.1 :8786"])
+                                     "tcp://[::1]:8786x", "127.0.0.1 :8786", "tls://127.0.0.1:8786",
+                                     "tcp://" + "a" * 10_000 + ":8786", "tcp://" + "a" * 64 + ".org:8786"])
 def test_a_scheduler_that_is_not_an_address_is_one_line(tmp_path, address):
-    """`batch --scheduler notaurl` was an internal error (Dask's parser raised ValueError in its connection code)."""
+    """`batch --scheduler notaurl` was an internal error (Dask's parser raised ValueError in its connection code);
+    so were tls:// (Dask wants an SSL context) and a host name past DNS's limits (the idna codec refuses it)."""
     (tmp_path / "s.toml").write_text('[[objects]]\nshape = "icosphere"\n')
     result = runner.invoke(app, ["batch", str(tmp_path / "s.toml"), "--out", str(tmp_path / "out"),
                                  "--scheduler", address])
