@@ -7,9 +7,9 @@ limit, a quota, an I/O error at fsync) raises WriteError with one line naming th
 removes the temporary file and leaves the old file as it was. No write follows a link: the temporary file is
 made new (O_EXCL), reopened with O_NOFOLLOW, and a link at the target is replaced, never written through.
 
-SIGTERM and SIGINT are held back while the temporary file exists (their handlers run right after),
-so a `kill` cannot land between creating it and removing or renaming it — the window that left a
-stray `.manifest-XXXXXXXX.json` behind in one CI run.
+The stop signals (SIGINT, SIGTERM, SIGHUP, SIGQUIT: stops.STOP_SIGNALS) are held back while the temporary
+file exists (their handlers run right after), so a `kill` or a closed terminal cannot land between creating
+it and removing or renaming it — the window that left a stray `.manifest-XXXXXXXX.json` behind in one CI run.
 """
 
 from __future__ import annotations
@@ -24,13 +24,14 @@ from contextlib import contextmanager, suppress
 from pathlib import Path
 
 from ..errors import WriteError
+from ..stops import STOP_SIGNALS
 
-DEFERRED = (signal.SIGTERM, signal.SIGINT)
+DEFERRED = STOP_SIGNALS
 
 
 @contextmanager
 def signals_deferred() -> Iterator[None]:
-    """Hold SIGTERM and SIGINT until the block ends, then deliver them (main thread only: elsewhere
+    """Hold the stop signals until the block ends, then deliver them (main thread only: elsewhere
     Python runs no signal handlers anyway)."""
     if threading.current_thread() is not threading.main_thread():
         yield

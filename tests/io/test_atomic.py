@@ -35,3 +35,24 @@ def test_the_file_is_synced_before_it_is_renamed(tmp_path, monkeypatch):
     atomic.write_bytes(tmp_path / "a.bin", b"data")
     assert events == ["fsync", "replace"]
     assert (tmp_path / "a.bin").read_bytes() == b"data"
+
+
+@pytest.mark.parametrize("name", ["SIGINT", "SIGTERM", "SIGHUP", "SIGQUIT"])
+def test_a_stop_signal_during_a_write_waits_for_it_and_leaves_no_temporary(tmp_path, name):
+    """A closed terminal (SIGHUP) during render's write left its hidden temporary file: every stop signal is
+    held while the temporary exists, then delivered (the process ends by it, the file whole in place)."""
+    import signal
+    import subprocess
+    import sys
+    number = getattr(signal, name)
+    code = ("import os, signal\nfrom pathlib import Path\nfrom raycast_phong.io.atomic import replaced_atomically\n"
+            f"signal.signal({number}, signal.SIG_DFL)\n"
+            f"with replaced_atomically(Path({str(tmp_path / 'out.txt')!r}), '.out-') as temporary:\n"
+            "    temporary.write_text('whole')\n"
+            f"    os.kill(os.getpid(), {number})\n"
+            "print('after the signal')\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.returncode == -number, (done.returncode, done.stderr)
+    assert "after the signal" not in done.stdout
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.txt"]
+    assert (tmp_path / "out.txt").read_text() == "whole"
