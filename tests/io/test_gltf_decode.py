@@ -254,7 +254,7 @@ def test_integer_accessors_decode_as_the_gltf_specification_says(component, norm
                            "count": len(stored), "type": "SCALAR",
                            "sparse": {"count": 1, "indices": {"bufferView": 1, "componentType": 5123},
                                       "values": {"bufferView": 2}}}]}
-    decoder = _Decoder(tree, [bytes(data)], Path("t.glb"), "t", [])
+    decoder = _Decoder(tree, [bytes(data)], Path("t.glb"), [])
     np.testing.assert_array_equal(decoder.float_accessor(0, "k")[:, 0], expected)
     np.testing.assert_array_equal(decoder.float_accessor(1, "k")[:, 0], [*expected[:-1], expected[0]])
 

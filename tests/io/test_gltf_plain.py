@@ -133,4 +133,4 @@ def test_any_other_gltf_is_left_to_trimesh(case, tmp_path):
     if case == "two nodes place it":
         changes["nodes"] = [{"children": [1, 2]}, {"mesh": 0}, {"mesh": 0}]
     tree, data = document(**changes)
-    assert gltf_decode.plain_part(tree, [data], tmp_path / "x.glb", "x.glb") is None
+    assert gltf_decode.plain_part(tree, [data], tmp_path / "x.glb") is None

@@ -16,9 +16,8 @@ from urllib.parse import unquote
 import numpy as np
 
 from ...codes import BLENDED_ALPHA, GLTF_WRAP
-from ...errors import SceneError, Where
 from ..files import open_regular, shown_name
-from .format import TEXT_READ_BYTES_PER_BYTE, Loaded, MeshFormat, Reading, weigh
+from .format import TEXT_READ_BYTES_PER_BYTE, FileProblem, Loaded, MeshFormat, Reading, weigh
 from .gltf_json import Document, buffer_files, image_uris, read_document, uri_file
 from .materials import MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, TextureSource, specular_lobe
 from .materials import rgb as _rgb
@@ -45,13 +44,13 @@ LOOK_ONLY = {"KHR_materials_transmission": "transmission", "KHR_materials_volume
 NEEDS = {"KHR_texture_basisu": "KTX2 (Basis Universal) textures"}
 
 
-def check_document(document: Document, path: Path, where: Where, notes: list[str]) -> dict:
+def check_document(document: Document, path: Path, notes: list[str]) -> dict:
     """Refuse a document the read cannot take (nested too deep) or whose required extensions are not supported,
     naming them (a required material extension that changes only the look, LOOK_ONLY, is a note); a note for
     each image file it names that is missing. Returns the wrap modes of each material's
     colour maps (gltf_samplers; trimesh drops them)."""
     if document.problem:
-        raise SceneError(f"{str(path)!r}: {document.problem}", where)
+        raise FileProblem(f"{str(path)!r}: {document.problem}")
     tree = document.tree
     required = [e for e in tree.get("extensionsRequired", []) if isinstance(e, str)] \
         if isinstance(tree.get("extensionsRequired", []), list) else []
@@ -72,13 +71,13 @@ def check_document(document: Document, path: Path, where: Where, notes: list[str
                 import meshopt  # noqa: F401  (io/meshes/gltf_decode.py decodes meshopt with it)
             except ImportError:
                 missing.insert(0, f"{name} (meshoptimizer compression: pip install meshopt)")
-    check_node_transforms(tree, path, where)
-    check_references(tree, path, where)
+    check_node_transforms(tree, path)
+    check_references(tree, path)
     if missing:
         named = [f"{e} ({NEEDS[e]})" if e in NEEDS else e for e in missing]
-        raise SceneError(f"{str(path)!r} requires the glTF extension(s) {', '.join(named)}, which this "
-                         f"renderer does not support; supported: {', '.join(SUPPORTED_REQUIRED)} (and, drawn in "
-                         f"the base material: {', '.join(LOOK_ONLY)})", where)
+        raise FileProblem(f"{str(path)!r} requires the glTF extension(s) {', '.join(named)}, which this "
+                          f"renderer does not support; supported: {', '.join(SUPPORTED_REQUIRED)} (and, drawn in "
+                          f"the base material: {', '.join(LOOK_ONLY)})")
     _note_unread(tree, path, notes)
     for uri in image_uris(tree):
         if not uri_file(path.parent, uri).is_file():
@@ -299,7 +298,7 @@ def from_pbr(material, path: Path, notes: list[str], sources: list[TextureSource
                         kd_map=maps.get("baseColorTexture", -1), ke_map=maps.get("emissiveTexture", -1), **mask)
 
 
-def check_references(tree: dict, path: Path, where: Where) -> None:
+def check_references(tree: dict, path: Path) -> None:
     """Refuse, in one line, a bufferView naming a buffer the file does not have, an accessor naming a bufferView it
     does not have, and an external buffer file that is missing (trimesh raised IndexError or FileNotFoundError)."""
     def table(key: str) -> list:
@@ -309,8 +308,8 @@ def check_references(tree: dict, path: Path, where: Where) -> None:
     for b, buffer in enumerate(buffers):
         uri = buffer.get("uri") if isinstance(buffer, dict) else None
         if isinstance(uri, str) and not uri.startswith("data:") and not uri_file(path.parent, uri).is_file():
-            raise SceneError(f"{str(path)!r}: buffers[{b}].uri names {unquote(uri)!r}, which is missing; allowed: "
-                             f"a file in {str(path.parent)!r}", where)
+            raise FileProblem(f"{str(path)!r}: buffers[{b}].uri names {unquote(uri)!r}, which is missing; allowed: "
+                              f"a file in {str(path.parent)!r}")
     for kind, rows, field, size in (("bufferViews", views, "buffer", len(buffers)),
                                     ("accessors", table("accessors"), "bufferView", len(views)),
                                     ("images", table("images"), "bufferView", len(views))):
@@ -320,13 +319,13 @@ def check_references(tree: dict, path: Path, where: Where) -> None:
             value = row[field]
             if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value < size:
                 allowed = f"0..{size - 1}" if size else f"none: the file has no {field}s"
-                raise SceneError(f"{str(path)!r}: {kind}[{n}].{field} is {_short(value)}; allowed: {allowed}", where)
+                raise FileProblem(f"{str(path)!r}: {kind}[{n}].{field} is {_short(value)}; allowed: {allowed}")
 
 
 TRS = (("matrix", 16), ("translation", 3), ("rotation", 4), ("scale", 3))
 
 
-def check_node_transforms(tree: dict, path: Path, where: Where) -> None:
+def check_node_transforms(tree: dict, path: Path) -> None:
     """Refuse, in one line, a node whose matrix or translation, rotation or scale is not a list of finite numbers of
     its length (a NaN matrix gave numpy's RuntimeWarnings and a blank image)."""
     nodes = tree.get("nodes", [])
@@ -342,8 +341,8 @@ def check_node_transforms(tree: dict, path: Path, where: Where) -> None:
             good = isinstance(value, list) and len(value) == length and all(
                 isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in value)
             if not good:
-                raise SceneError(f"{str(path)!r}: nodes[{n}].{field} is {_short(value)}; allowed: {length} finite "
-                                 "numbers", where)
+                raise FileProblem(f"{str(path)!r}: nodes[{n}].{field} is {_short(value)}; allowed: {length} finite "
+                                  "numbers")
 
 
 def _short(value) -> str:
@@ -357,10 +356,9 @@ def read(reading: Reading) -> Loaded:
     instanced data, specular-glossiness materials: io/meshes/gltf_decode.py)."""
     from .gltf_decode import decode_gltf, needs_decoding, plain_part, read_buffers
     path, document = reading.path, reading.source.document
-    samplers = check_document(document, path, reading.where, reading.notes)
+    samplers = check_document(document, path, reading.notes)
     if not needs_decoding(document.tree) and _may_be_plain(document.tree):
-        plain = plain_part(document.tree, read_buffers(document.tree, path, document, reading.where), path,
-                           reading.where)
+        plain = plain_part(document.tree, read_buffers(document.tree, path, document, reading.where), path)
         if plain is not None:
             return Loaded([plain], samplers=samplers)
     from .trimesh_parts import RegularFiles, load, parts

@@ -19,6 +19,7 @@ import numpy as np
 
 from ...errors import SceneError, Where
 from ..files import open_regular
+from .format import FileProblem
 from .gltf_json import Document, uri_file
 
 MESHOPT = ("EXT_meshopt_compression", "KHR_meshopt_compression")
@@ -70,12 +71,12 @@ def needs_decoding(tree: dict) -> bool:
 class _Decoder:
     """The document being rewritten: its buffers as bytes, and the new buffer the decoded data is appended to."""
 
-    def __init__(self, tree: dict, buffers: list[bytes], path: Path, where: Where, notes: list[str]):
-        self.tree, self.buffers, self.path, self.where, self.notes = tree, buffers, path, where, notes
+    def __init__(self, tree: dict, buffers: list[bytes], path: Path, notes: list[str]):
+        self.tree, self.buffers, self.path, self.notes = tree, buffers, path, notes
         self.new = bytearray()  # the decoded buffer: its index is len(buffers)
 
     def refuse(self, key: str, problem: str) -> SceneError:
-        return SceneError(f"{str(self.path)!r}: {key}: {problem}", self.where)
+        return FileProblem(f"{str(self.path)!r}: {key}: {problem}")
 
     def place(self, data: bytes) -> tuple[int, int, int]:
         """`data` appended to the decoded buffer (4-byte aligned, as vertex data must be): buffer, offset, length."""
@@ -305,7 +306,7 @@ class _Decoder:
                     raise  # a SceneError is a ValueError: it says its own problem
                 except (KeyError, TypeError, ValueError, AttributeError):
                     raise self.refuse(key, "needs a bufferView and attributes") from None
-                decoded = _draco_decode(data, self.path, self.where)
+                decoded = _draco_decode(data, self.path)
                 attributes = primitive.get("attributes", {})
                 found = {}
                 for attribute in getattr(decoded, "attributes", []):
@@ -574,7 +575,7 @@ PLAIN_ATTRIBUTES = {"POSITION", "NORMAL"}
 INDEX_TYPES = (5121, 5123, 5125)  # glTF 2.0 §3.7.2.1: unsigned byte, short and int indices
 
 
-def plain_part(tree: dict, buffers: list[bytes], path: Path, where: Where):
+def plain_part(tree: dict, buffers: list[bytes], path: Path):
     """The one Part of a plain glTF, read by numpy views of its buffers without trimesh: one node places one mesh
     of one indexed TRIANGLES primitive of float positions (and normals), no transform on its way from the
     scene's root, no material, no extension, nothing sparse (a scan as exporters write it). What trimesh's
@@ -615,7 +616,7 @@ def plain_part(tree: dict, buffers: list[bytes], path: Path, where: Where):
                 return None
     except (AttributeError, IndexError, KeyError, TypeError):
         return None  # a malformed document: trimesh's read words it
-    decoder = _Decoder(tree, buffers, path, where, [])
+    decoder = _Decoder(tree, buffers, path, [])
     vertices = decoder.read_accessor(attributes["POSITION"], "POSITION").astype(np.float64)
     indices = decoder.read_accessor(primitive["indices"], "indices").ravel()
     if len(indices) % 3 or not len(indices) or indices.max() >= len(vertices):
@@ -693,17 +694,17 @@ def _meshopt_decode(data: bytes, count: int, stride: int, mode: str, kind: str, 
     return np.ascontiguousarray(decoded).tobytes()
 
 
-def _draco_decode(data: bytes, path: Path, where: Where):
+def _draco_decode(data: bytes, path: Path):
     try:
         import DracoPy
     except ImportError:
-        raise SceneError(f"{str(path)!r}: decoding its Draco-compressed meshes needs DracoPy: pip install DracoPy",
-                         where) from None
+        raise FileProblem(f"{str(path)!r}: decoding its Draco-compressed meshes needs DracoPy: pip install "
+                          "DracoPy") from None
     try:
         return DracoPy.decode(data)
     except Exception as error:  # noqa: BLE001 - DracoPy raises its own types (and ValueError) on a bad stream
-        raise SceneError(f"{str(path)!r}: its Draco-compressed data could not be decoded "
-                         f"({type(error).__name__}); the file is corrupt or cut short", where) from None
+        raise FileProblem(f"{str(path)!r}: its Draco-compressed data could not be decoded "
+                          f"({type(error).__name__}); the file is corrupt or cut short") from None
 
 
 def read_buffers(tree: dict, path: Path, document: Document, where: Where) -> list[bytes]:
@@ -716,7 +717,7 @@ def read_buffers(tree: dict, path: Path, document: Document, where: Where) -> li
             try:
                 found.append(base64.b64decode(uri.partition(",")[2], validate=False))
             except ValueError:
-                raise SceneError(f"{str(path)!r}: buffers[{index}].uri is a data: URI that is not base64", where) \
+                raise FileProblem(f"{str(path)!r}: buffers[{index}].uri is a data: URI that is not base64") \
                     from None
         elif isinstance(uri, str):
             file = uri_file(path.parent, uri)
@@ -731,11 +732,11 @@ def read_buffers(tree: dict, path: Path, document: Document, where: Where) -> li
     return found
 
 
-def decode_document(tree: dict, buffers: list[bytes], path: Path, where: Where,
+def decode_document(tree: dict, buffers: list[bytes], path: Path,
                     notes: list[str]) -> tuple[dict, dict[str, bytes]]:
     """The document rewritten as plain glTF for trimesh, with the buffers it names (DECODED_URI + index): every
     buffer given to trimesh by name, the decoded data in one more. `tree` is changed in place (pass a copy)."""
-    decoder = _Decoder(tree, buffers, path, where, notes)
+    decoder = _Decoder(tree, buffers, path, notes)
     decoder.decode_meshopt()
     decoder.decode_draco()
     decoder.dequantize()
@@ -763,10 +764,10 @@ def decode_gltf(path: Path, document: Document, where: Where, notes: list[str]) 
     tree = copy.deepcopy(document.tree)
     buffers = read_buffers(tree, path, document, where)
     try:
-        return decode_document(tree, buffers, path, where, notes)
+        return decode_document(tree, buffers, path, notes)
     except (AttributeError, IndexError, KeyError, TypeError, ValueError) as error:
         if isinstance(error, SceneError):
             raise
-        raise SceneError(f"{str(path)!r}: its document is malformed where its compressed, quantized or instanced "
-                         f"data is described ({type(error).__name__}: {error}); allowed: a glTF 2.0 document",
-                         where) from None
+        raise FileProblem(f"{str(path)!r}: its document is malformed where its compressed, quantized or "
+                          f"instanced data is described ({type(error).__name__}: {error}); allowed: a glTF 2.0 "
+                          "document") from None

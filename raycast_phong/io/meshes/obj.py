@@ -11,16 +11,16 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import SceneError, Where
+from ...errors import SceneError
 from ..files import open_regular
 from .content import is_number
-from .format import Loaded, MeshFormat, Reading, weigh
+from .format import FileProblem, Loaded, MeshFormat, Reading, weigh
 from .mtl import mtllib_names, read_obj_materials, scan_mtllib
 
 BOMS = ((b"\xef\xbb\xbf", "utf-8"), (b"\xff\xfe", "utf-16-le"), (b"\xfe\xff", "utf-16-be"))
 
 
-def bom_decoded(data: bytes, path: Path, where: Where) -> bytes:
+def bom_decoded(data: bytes, path: Path) -> bytes:
     """An OBJ's bytes as UTF-8 without its byte-order mark, when it starts with one (assimp's box_UTF16BE.obj:
     read as bytes, its keywords interleaved with NULs gave "holds no triangles"); else `data` itself. A file
     that its BOM says is UTF-16 but is not is a SceneError; after a UTF-8 mark, obj_text's Latin-1 fallback
@@ -32,9 +32,9 @@ def bom_decoded(data: bytes, path: Path, where: Where) -> bytes:
             try:
                 return data[len(mark):].decode(encoding).encode("utf-8")
             except UnicodeDecodeError as error:
-                raise SceneError(f"{str(path)!r} starts with a {encoding.upper()} byte-order mark but byte "
-                                 f"{error.start + len(mark)} is not {encoding.upper()}; allowed: an OBJ in UTF-8, "
-                                 "Latin-1, or UTF-16 with its byte-order mark", where) from None
+                raise FileProblem(f"{str(path)!r} starts with a {encoding.upper()} byte-order mark but byte "
+                                  f"{error.start + len(mark)} is not {encoding.upper()}; allowed: an OBJ in UTF-8, "
+                                  "Latin-1, or UTF-16 with its byte-order mark") from None
     return data
 
 
@@ -54,7 +54,7 @@ def obj_problem(data: bytes) -> str | None:
     return None
 
 
-def obj_text(data: bytes, path: Path, where: Where) -> io.BytesIO:
+def obj_text(data: bytes, path: Path) -> io.BytesIO:
     """The OBJ's bytes as trimesh is given them: UTF-8 (a file that is not is read as Latin-1: every byte is a
     Latin-1 character, and the keywords are plain ASCII; trimesh would need the optional charset_normalizer to
     guess), relative face indices made absolute and concave polygons cut. An index 0 or one counting back past
@@ -66,7 +66,7 @@ def obj_text(data: bytes, path: Path, where: Where) -> io.BytesIO:
     from .obj_polygons import absolute_indices, triangulate_concave
     data, problem = absolute_indices(data)  # trimesh counts -1 back from the file's end, not the line
     if problem:
-        raise SceneError(f"{str(path)!r} {problem}", where)
+        raise FileProblem(f"{str(path)!r} {problem}")
     data, _ = triangulate_concave(data)  # trimesh would fan a concave polygon over its hole
     return io.BytesIO(kept_hashes(data))
 
@@ -106,7 +106,7 @@ def material_names(path: Path, names):
     return resolver
 
 
-def load_obj(text: io.BytesIO, path: Path, names, where: Where = "", data: bytes = b""):
+def load_obj(text: io.BytesIO, path: Path, names, data: bytes = b""):
     """What trimesh.load gives for the OBJ `text` (obj_text) of `path` whose materials are `names`, but
     `v x y z r g b` colours are kept beside a material or texture coordinates: trimesh's reader hands them to
     a Trimesh whose TextureVisuals replaces them. They move to the visual's `color` vertex attribute (where
@@ -120,14 +120,14 @@ def load_obj(text: io.BytesIO, path: Path, names, where: Where = "", data: bytes
             mesh["visual"].vertex_attributes["color"] = trimesh.visual.color.to_rgba(mesh.pop("vertex_colors"))
         uv = getattr(mesh.get("visual"), "uv", None)
         if uv is not None and not (np.abs(np.asarray(uv, np.float64)) <= UV_LIMIT).all():
-            _refuse_texture_coordinate(data or text.getvalue(), path, where)
+            _refuse_texture_coordinate(data or text.getvalue(), path)
     return trimesh.load_scene(kwargs)
 
 
 UV_LIMIT = float(np.finfo(np.float32).max)  # texture coordinates are kept as float32 per face corner
 
 
-def _refuse_texture_coordinate(data: bytes, path: Path, where: Where) -> None:
+def _refuse_texture_coordinate(data: bytes, path: Path) -> None:
     """The SceneError for the first `vt` line of `data` with a value beyond ±UV_LIMIT (NaN is not beyond)."""
     for found in re.finditer(rb"^[ \t]*vt[ \t]+([^\r\n]*)", data, re.M):
         for word in found[1].split():
@@ -137,18 +137,18 @@ def _refuse_texture_coordinate(data: bytes, path: Path, where: Where) -> None:
                 continue
             if abs(value) > UV_LIMIT:
                 line = data.count(b"\n", 0, found.start()) + 1
-                raise SceneError(f"{str(path)!r} line {line}: texture coordinate {word.decode('latin-1')[:40]} "
-                                 f"is beyond float32's range; allowed: -{UV_LIMIT:.4g} .. {UV_LIMIT:.4g}", where)
-    raise SceneError(f"{str(path)!r} has a texture coordinate beyond float32's range; allowed: "
-                     f"-{UV_LIMIT:.4g} .. {UV_LIMIT:.4g}", where)
+                raise FileProblem(f"{str(path)!r} line {line}: texture coordinate {word.decode('latin-1')[:40]} "
+                                  f"is beyond float32's range; allowed: -{UV_LIMIT:.4g} .. {UV_LIMIT:.4g}")
+    raise FileProblem(f"{str(path)!r} has a texture coordinate beyond float32's range; allowed: "
+                      f"-{UV_LIMIT:.4g} .. {UV_LIMIT:.4g}")
 
 
 def read(reading: Reading) -> Loaded:
     """The OBJ's geometry (a UTF-16 OBJ, told by its byte-order mark, as UTF-8), with its .mtl materials as its
     MeshSource read them (their notes and maps added to the reading's)."""
     from .obj_plain import plain_obj
-    path, where, materials = reading.path, reading.where, reading.source.materials
-    data = bom_decoded(reading.handle.read(), path, where)
+    path, materials = reading.path, reading.source.materials
+    data = bom_decoded(reading.handle.read(), path)
     plain = plain_obj(data, path)  # only v and f lines: one compiled pass
     reading.notes.extend(materials.notes)
     reading.textures.extend(materials.sources)
@@ -156,11 +156,11 @@ def read(reading: Reading) -> Loaded:
     if plain is not None:
         return Loaded([plain], library=library)
     from .trimesh_parts import parts
-    return Loaded(parts(load_obj(obj_text(data, path, where), path, materials.library, where, data)), library=library)
+    return Loaded(parts(load_obj(obj_text(data, path), path, materials.library, data)), library=library)
 
 
 def explain(handle, source) -> str | None:
-    return obj_problem(bom_decoded(handle.read(), source.path, source.where))
+    return obj_problem(bom_decoded(handle.read(), source.path))
 
 
 CHUNK = 1 << 20  # an OBJ is scanned this many bytes at a time (about 20 MB of index arrays), never a whole line

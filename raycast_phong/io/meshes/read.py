@@ -23,7 +23,7 @@ from ...tolerances import POSITION_LIMIT
 from ..files import open_mesh_file
 from . import read_names
 from .content import check_content
-from .format import Part, Reading
+from .format import FileProblem, Part, Reading
 from .gltf import SPECULAR_GLOSSINESS, TRANSFORM, UNLIT, from_pbr, transform_uv
 from .materials import FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, PartSurface, TextureSource
 from .obj import UV_LIMIT
@@ -59,8 +59,15 @@ READABLE = f"a mesh file of a format read here ({read_names()})"
 
 def read_file(source, bounds: bool = True) -> MeshFile:
     """The file of `source` (its MeshSource), read by its format and finished here; its `where` starts every
-    error ("scene.toml: objects.0.path"). bounds: also measure the centre and radius framing needs (a render's own
-    read skips the pass)."""
+    error ("scene.toml: objects.0.path"): the readers' FileProblems get it here, their one boundary. bounds: also
+    measure the centre and radius framing needs (a render's own read skips the pass)."""
+    try:
+        return _read_file(source, bounds)
+    except FileProblem as problem:
+        raise SceneError(problem.problem, source.where) from None
+
+
+def _read_file(source, bounds: bool) -> MeshFile:
     path, kind, where = source.path, source.format, source.where
     handle = open_mesh_file(path, where)
     notes: list[str] = []

@@ -24,9 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import SceneError, Where
+from ...errors import SceneError
 from ..files import open_regular
-from .format import Loaded, MeshFormat, Reading
+from .format import FileProblem, Loaded, MeshFormat, Reading
 from .materials import FileMaterial, PartSurface, TextureSource, rgb
 from .obj import UV_LIMIT
 
@@ -58,7 +58,7 @@ class _Mesh:
     p: np.ndarray             # (F, 3) int64 property index of each corner
 
 
-def read_3mf(handle, path: Path, where: Where, notes: list[str], sources: list[TextureSource]) -> list[tuple]:
+def read_3mf(handle, path: Path, notes: list[str], sources: list[TextureSource]) -> list[tuple]:
     """The triangle meshes the 3MF at the open `handle` builds, placed: (vertices (V, 3) float64, faces (F, 3)
     int64, PartSurface) each, one per build instance and kind of surface. Colour maps are appended to `sources`
     (their materials index into it); what is not read is a note. SceneError, one line, for a file that is not
@@ -66,22 +66,22 @@ def read_3mf(handle, path: Path, where: Where, notes: list[str], sources: list[T
     try:
         archive = zipfile.ZipFile(handle)
     except (zipfile.BadZipFile, ValueError, EOFError) as error:
-        raise SceneError(f"cannot read {str(path)!r} as 3MF: not a zip archive ({error})", where) from None
+        raise FileProblem(f"cannot read {str(path)!r} as 3MF: not a zip archive ({error})") from None
     with archive:
         members = {info.filename.lstrip("/").lower(): info.filename for info in archive.infolist()}
         root = _root_part(archive, members)
         if root is None:
-            raise SceneError(f"cannot read {str(path)!r} as 3MF: it holds no model part ({ROOT}); allowed: a 3MF "
-                             "package with a 3D model", where)
+            raise FileProblem(f"cannot read {str(path)!r} as 3MF: it holds no model part ({ROOT}); allowed: a 3MF "
+                              "package with a 3D model")
         models: dict[str, _Model] = {}
-        _parse(archive, members, root, models, path, where, notes)
+        _parse(archive, members, root, models, path, notes)
         # Components with a p:path name other parts (the Production extension): read each once.
         wanted = {part for model in list(models.values()) for kind in model.objects.values()
                   if isinstance(kind, list) for part, _, _ in kind} | {part for part, _, _ in models[root].build}
         for part in sorted(wanted - set(models)):
             if part.lower() in members:
-                _parse(archive, members, members[part.lower()], models, path, where, notes)
-        return _placed(archive, members, models, root, path, where, notes, sources)
+                _parse(archive, members, members[part.lower()], models, path, notes)
+        return _placed(archive, members, models, root, path, notes, sources)
 
 
 def _root_part(archive: zipfile.ZipFile, members: dict[str, str]) -> str | None:
@@ -125,7 +125,7 @@ MODEL_TAG = re.compile(r"<(?:[\w.-]+:)?model\b([^>]*)>")
 ATTRIBUTE = re.compile(r"([\w.:-]+)\s*=\s*(?:\"([^\"]*)\"|'([^']*)')")
 
 
-def _check_required(archive, part: str, path: Path, where: Where) -> tuple[str, bool]:
+def _check_required(archive, part: str, path: Path) -> tuple[str, bool]:
     """Refuse a model part whose <model> requires an extension not read (naming it: core §2.3.1); returns its
     default namespace (the 2013/01 draft's is told apart) and whether it declares the Slice extension's."""
     with archive.open(part) as stream:
@@ -142,16 +142,16 @@ def _check_required(archive, part: str, path: Path, where: Where) -> tuple[str, 
         elif not any(word in uri for word in READ_EXTENSIONS):
             missing.append(next((name for word, name in EXTENSIONS.items() if word in uri), uri))
     if missing:
-        raise SceneError(f"{str(path)!r}: {part} requires the 3MF extension(s) {', '.join(missing)}, which this "
-                         "renderer does not read; read: core, Materials and Properties, Production, Triangle "
-                         "Sets", where)
+        raise FileProblem(f"{str(path)!r}: {part} requires the 3MF extension(s) {', '.join(missing)}, which this "
+                          "renderer does not read; read: core, Materials and Properties, Production, Triangle "
+                          "Sets")
     return attributes.get("xmlns", ""), any(SLICE in uri for uri in attributes.values())
 
 
-def _parse(archive, members, part: str, models: dict, path: Path, where: Where, notes: list[str]) -> None:
+def _parse(archive, members, part: str, models: dict, path: Path, notes: list[str]) -> None:
     """Read one model part's resources, objects and build into models[part]."""
     from lxml import etree
-    namespace, slices = _check_required(archive, part, path, where)
+    namespace, slices = _check_required(archive, part, path)
     model = models[part] = _Model(part)
     vertices: list = []
     triangles: list = []
@@ -178,27 +178,27 @@ def _parse(archive, members, part: str, models: dict, path: Path, where: Where, 
                     held = 0
                 continue
             if name == "object":
-                _object(model, dict(attrib), vertices, triangles, element, path, where)
+                _object(model, dict(attrib), vertices, triangles, element, path)
                 vertices, triangles = [], []
             elif name in ("beamlattice", "slicestack"):
                 _unread_geometry(name, element, part, path, notes)
             elif name == "item":
-                model.build.append((_path_of(attrib, part), attrib.get("objectid"), _transform(attrib, path, where)))
+                model.build.append((_path_of(attrib, part), attrib.get("objectid"), _transform(attrib, path)))
             else:
-                _resource(model, name, element, path, where, notes)
+                _resource(model, name, element, path, notes)
             element.clear()  # read: dropped with the siblings before it, so the tree is never held whole
             parent = element.getparent()
             while element.getprevious() is not None:
                 del parent[0]
     except etree.XMLSyntaxError as error:
-        raise SceneError(f"cannot read {str(path)!r} as 3MF: {part} is not well-formed XML ({error})", where) \
+        raise FileProblem(f"cannot read {str(path)!r} as 3MF: {part} is not well-formed XML ({error})") \
             from None
     except (zipfile.BadZipFile, EOFError, OSError) as error:  # a member whose data is corrupt
-        raise SceneError(f"cannot read {str(path)!r} as 3MF: {part}: {error}", where) from None
+        raise FileProblem(f"cannot read {str(path)!r} as 3MF: {part}: {error}") from None
     fatal = [entry for entry in context.error_log if entry.level >= 3]  # libxml2's FATAL: cut short, bad syntax
     if fatal:
-        raise SceneError(f"cannot read {str(path)!r} as 3MF: {part} is not well-formed XML ({fatal[0].message.strip()}"
-                         f", line {fatal[0].line})", where)
+        raise FileProblem(f"cannot read {str(path)!r} as 3MF: {part} is not well-formed XML ({fatal[0].message.strip()}"
+                          f", line {fatal[0].line})")
     if namespace == DRAFT and _draft_colours(archive, part):
         notes.append(f"{path}: {part} is a 3MF 0.93 draft model whose colours and textures (colorid, texture "
                      "elements) are not read; it is drawn grey")
@@ -242,7 +242,7 @@ def _path_of(attrib, part: str) -> str:
     return part
 
 
-def _transform(attrib, path: Path, where: Where) -> np.ndarray:
+def _transform(attrib, path: Path) -> np.ndarray:
     """(4, 4) of a `transform` attribute: 12 numbers, the 3 × 3 matrix by rows then the translation, for row
     vectors (core §3.4.1: p' = p · M), so the column-vector matrix is its transpose."""
     matrix = np.eye(4)
@@ -254,21 +254,21 @@ def _transform(attrib, path: Path, where: Where) -> np.ndarray:
     except ValueError:
         values = np.zeros(0)
     if values.shape != (12,) or not np.isfinite(values).all():
-        raise SceneError(f"{str(path)!r}: transform {text[:80]!r} is not 12 finite numbers; allowed: "
-                         "'m00 m01 m02 m10 m11 m12 m20 m21 m22 m30 m31 m32'", where)
+        raise FileProblem(f"{str(path)!r}: transform {text[:80]!r} is not 12 finite numbers; allowed: "
+                          "'m00 m01 m02 m10 m11 m12 m20 m21 m22 m30 m31 m32'")
     matrix[:3, :4] = values.reshape(4, 3).T
     return matrix
 
 
-def _numbers(values, dtype, what: str, path: Path, where: Where) -> np.ndarray:
+def _numbers(values, dtype, what: str, path: Path) -> np.ndarray:
     try:
         return np.array(values, dtype)
     except (TypeError, ValueError):
-        raise SceneError(f"{str(path)!r}: a {what} that is not a number (or is missing); allowed: numbers as the "
-                         "3MF core specification writes them", where) from None
+        raise FileProblem(f"{str(path)!r}: a {what} that is not a number (or is missing); allowed: numbers as the "
+                          "3MF core specification writes them") from None
 
 
-def _column(words, dtype, what: str, path: Path, where: Where, default: str | None = None) -> np.ndarray:
+def _column(words, dtype, what: str, path: Path, default: str | None = None) -> np.ndarray:
     """A flat array of attribute strings (None: `default`, else missing), parsed in one pass of numpy's text
     reader: a million tuples of strings through np.array took 3× trimesh's whole read."""
     if default is not None:
@@ -283,48 +283,47 @@ def _column(words, dtype, what: str, path: Path, where: Where, default: str | No
         values = np.fromstring(text, dtype=dtype, sep=" ") if text else np.zeros(0, dtype)
         if len(values) == len(words):
             return values
-    return _numbers(list(words), dtype, what, path, where)  # words its error
+    return _numbers(list(words), dtype, what, path)  # words its error
 
 
-def _object(model: _Model, attrib: dict, vertices: list, triangles: list, element, path: Path,
-            where: Where) -> None:
+def _object(model: _Model, attrib: dict, vertices: list, triangles: list, element, path: Path) -> None:
     """An <object>: a mesh (its vertices and triangles, each triangle's property group and indices, the
     object's pid and pindex filling in) or components."""
     identity = attrib.get("id")
-    components = [(_path_of(c.attrib, model.name), c.get("objectid"), _transform(c.attrib, path, where))
+    components = [(_path_of(c.attrib, model.name), c.get("objectid"), _transform(c.attrib, path))
                   for c in element.iter() if isinstance(c.tag, str) and c.tag.endswith("component")]
     if components and not triangles:
         model.objects[identity] = components
         return
-    points = _column([word for vertex in vertices for word in vertex], np.float64, "vertex coordinate", path,
-                     where).reshape(-1, 3)
+    points = _column([word for vertex in vertices for word in vertex], np.float64, "vertex coordinate",
+                     path).reshape(-1, 3)
     columns = list(zip(*triangles)) or [()] * 7
-    faces = _column([word for row in triangles for word in row[:3]], np.int64, "triangle's vertex index", path,
-                    where).reshape(-1, 3)
+    faces = _column([word for row in triangles for word in row[:3]], np.int64, "triangle's vertex index",
+                    path).reshape(-1, 3)
     if faces.size and (faces.min() < 0 or faces.max() >= len(points)):
-        raise SceneError(f"{str(path)!r}: object {identity} has a triangle with a vertex index outside "
-                         f"0..{len(points) - 1}; allowed: indices of the object's own vertices", where)
-    pid = _column(list(columns[3]), np.int64, "property id", path, where, attrib.get("pid") or "-1")
+        raise FileProblem(f"{str(path)!r}: object {identity} has a triangle with a vertex index outside "
+                          f"0..{len(points) - 1}; allowed: indices of the object's own vertices")
+    pid = _column(list(columns[3]), np.int64, "property id", path, attrib.get("pid") or "-1")
     pindex = attrib.get("pindex") if attrib.get("pid") is not None else None
-    first = _column(list(columns[4]), np.int64, "property index", path, where, pindex or "-1")
+    first = _column(list(columns[4]), np.int64, "property index", path, pindex or "-1")
     first = np.where((first < 0) & (pid >= 0), 0, first)  # a group without an index: its first entry
-    p = np.column_stack([first, _column(list(columns[5]), np.int64, "property index", path, where, "-1"),
-                         _column(list(columns[6]), np.int64, "property index", path, where, "-1")])
+    p = np.column_stack([first, _column(list(columns[5]), np.int64, "property index", path, "-1"),
+                         _column(list(columns[6]), np.int64, "property index", path, "-1")])
     p[:, 1:] = np.where(p[:, 1:] < 0, first[:, None], p[:, 1:])  # p2, p3 default to p1 (materials §4.1)
     model.objects[identity] = _Mesh(points, faces, pid, p)
 
 
-def _resource(model: _Model, name: str, element, path: Path, where: Where, notes: list[str]) -> None:
+def _resource(model: _Model, name: str, element, path: Path, notes: list[str]) -> None:
     """A property resource of the Materials and Properties extension, kept by id."""
     identity = element.get("id")
     children = [child for child in element if isinstance(child.tag, str)]
     if name == "basematerials":
         bases = [child for child in children if _local(child.tag) == "base"]
-        colours = np.array([_colour(b.get("displaycolor", "#FFFFFF"), path, where) for b in bases]).reshape(-1, 3)
+        colours = np.array([_colour(b.get("displaycolor", "#FFFFFF"), path) for b in bases]).reshape(-1, 3)
         model.properties[identity] = ("base", [b.get("name") or f"base {identity}.{k}" for k, b in enumerate(bases)],
                                       colours)
     elif name == "colorgroup":
-        colours = [_colour(child.get("color", "#FFFFFF"), path, where) for child in children
+        colours = [_colour(child.get("color", "#FFFFFF"), path) for child in children
                    if _local(child.tag) == "color"]
         model.properties[identity] = ("colour", np.array(colours, np.float64).reshape(-1, 3))
     elif name == "texture2d":
@@ -333,10 +332,10 @@ def _resource(model: _Model, name: str, element, path: Path, where: Where, notes
                                       TILE.get(element.get("tilestylev", "wrap"), "repeat"))
     elif name == "texture2dgroup":
         uv = [(child.get("u"), child.get("v")) for child in children if _local(child.tag) == "tex2coord"]
-        uv = _numbers(uv, np.float64, "tex2coord", path, where).reshape(-1, 2)
+        uv = _numbers(uv, np.float64, "tex2coord", path).reshape(-1, 2)
         if not (np.abs(uv) <= UV_LIMIT).all():  # kept as float32 per corner; NaN passes (the kernel reads 0)
-            raise SceneError(f"{str(path)!r}: texture2dgroup {identity} has a tex2coord beyond float32's range; "
-                             f"allowed: -{UV_LIMIT:.4g} .. {UV_LIMIT:.4g}", where)
+            raise FileProblem(f"{str(path)!r}: texture2dgroup {identity} has a tex2coord beyond float32's range; "
+                              f"allowed: -{UV_LIMIT:.4g} .. {UV_LIMIT:.4g}")
         # v counts down from the image's top row, as the consortium's own renders of its samples show (the
         # sphere_logo sample's logo stands upright with +Z up only so); the renderer's v counts up.
         model.properties[identity] = ("uv", element.get("texid"), np.column_stack([uv[:, 0], 1.0 - uv[:, 1]]))
@@ -345,13 +344,13 @@ def _resource(model: _Model, name: str, element, path: Path, where: Where, notes
         rows = [(child.get("pindices") or "").split() for child in children if _local(child.tag) == "multi"]
         indices = np.zeros((len(rows), len(layers)), np.int64)  # a missing index is the layer's first entry
         for k, row in enumerate(rows):
-            indices[k, :min(len(row), len(layers))] = _numbers(row[:len(layers)], np.int64, "pindices", path, where)
+            indices[k, :min(len(row), len(layers))] = _numbers(row[:len(layers)], np.int64, "pindices", path)
         model.properties[identity] = ("multi", layers, indices)
     else:
         model.properties[identity] = ("other", name)
 
 
-def _colour(text: str, path: Path, where: Where) -> tuple[float, float, float]:
+def _colour(text: str, path: Path) -> tuple[float, float, float]:
     """An sRGB colour #RRGGBB or #RRGGBBAA (materials §2.1) as three values in [0, 1]; alpha is not read."""
     digits = text.strip().lstrip("#")
     try:
@@ -359,13 +358,13 @@ def _colour(text: str, path: Path, where: Where) -> tuple[float, float, float]:
             raise ValueError
         return tuple(int(digits[k:k + 2], 16) / 255.0 for k in (0, 2, 4))  # type: ignore[return-value]
     except ValueError:
-        raise SceneError(f"{str(path)!r}: colour {text[:40]!r} is not #RRGGBB or #RRGGBBAA; allowed: hexadecimal "
-                         "sRGB as the 3MF materials extension writes it", where) from None
+        raise FileProblem(f"{str(path)!r}: colour {text[:40]!r} is not #RRGGBB or #RRGGBBAA; allowed: hexadecimal "
+                          "sRGB as the 3MF materials extension writes it") from None
 
 
 # ---------------------------------------------------------------- the build, placed and coloured
 
-def _placed(archive, members, models: dict, root: str, path: Path, where: Where, notes: list[str],
+def _placed(archive, members, models: dict, root: str, path: Path, notes: list[str],
             sources: list[TextureSource]) -> list[tuple]:
     """Every build item's meshes (through its components), placed, split by what colours them."""
     textures: dict[tuple, int] = {}     # (part, texture id) → index into sources
@@ -377,11 +376,11 @@ def _placed(archive, members, models: dict, root: str, path: Path, where: Where,
         model = models.get(part)
         found = model.objects.get(identity) if model is not None else None
         if found is None:
-            raise SceneError(f"{str(path)!r}: the build names object {identity} of {part}, which it does not "
-                             "define; allowed: the id of an <object> of that part", where)
+            raise FileProblem(f"{str(path)!r}: the build names object {identity} of {part}, which it does not "
+                              "define; allowed: the id of an <object> of that part")
         if depth > MAX_DEPTH:
-            raise SceneError(f"{str(path)!r}: components nest deeper than {MAX_DEPTH} (a component that contains "
-                             "itself?); allowed: a tree of components", where)
+            raise FileProblem(f"{str(path)!r}: components nest deeper than {MAX_DEPTH} (a component that contains "
+                              "itself?); allowed: a tree of components")
         if isinstance(found, list):
             for child_part, child, local in found:
                 visit(child_part, child, transform @ local, depth + 1)
@@ -391,7 +390,7 @@ def _placed(archive, members, models: dict, root: str, path: Path, where: Where,
         p = found.p if np.linalg.det(transform[:3, :3]) >= 0 else found.p[:, ::-1]            # faces outward
         for pid in np.unique(found.pid).tolist():
             chosen = found.pid == pid
-            parts.extend(_surfaces(model, str(pid), vertices, faces[chosen], p[chosen], path, where, textures,
+            parts.extend(_surfaces(model, str(pid), vertices, faces[chosen], p[chosen], path, textures,
                                    materials, sources, skipped, archive, members))
 
     for part, identity, transform in models[root].build:
@@ -401,43 +400,42 @@ def _placed(archive, members, models: dict, root: str, path: Path, where: Where,
     return parts
 
 
-def _surfaces(model: _Model, pid: str, vertices, faces, p, path: Path, where: Where, textures: dict,
+def _surfaces(model: _Model, pid: str, vertices, faces, p, path: Path, textures: dict,
               materials: dict, sources: list, skipped: set, archive, members) -> list[tuple]:
     """The parts of one mesh's triangles of property group `pid` ("-1": none): (vertices, faces, PartSurface)."""
     if pid == "-1":
         return [(vertices, faces, PartSurface())]
     found = model.properties.get(pid)
     if found is None:
-        raise SceneError(f"{str(path)!r}: a triangle names property group {pid}, which {model.name} does not "
-                         "define; allowed: the id of a basematerials, colorgroup, texture2dgroup or multiproperties",
-                         where)
+        raise FileProblem(f"{str(path)!r}: a triangle names property group {pid}, which {model.name} does not "
+                          "define; allowed: the id of a basematerials, colorgroup, texture2dgroup or multiproperties")
     kind = found[0]
     if kind == "base":  # one material per base, the whole triangle its p1's (materials §4.1)
         out = []
         for index in np.unique(p[:, 0]).tolist():
-            _check_index(index, len(found[2]), pid, path, where)
+            _check_index(index, len(found[2]), pid, path)
             chosen = p[:, 0] == index
             out.append((vertices, faces[chosen], PartSurface(material=_base(found, index, pid, model, materials))))
         return out
     if kind == "colour":
-        _check_index(p, len(found[1]), pid, path, where)
+        _check_index(p, len(found[1]), pid, path)
         return [(vertices, faces, PartSurface(corner_colour=found[1][p].astype(np.float32)))]
     if kind == "uv":
-        _check_index(p, len(found[2]), pid, path, where)
+        _check_index(p, len(found[2]), pid, path)
         material = _textured(model, found[1], path, textures, materials, sources, skipped, archive, members)
         return [(vertices, faces, PartSurface(material=material, corner_uv=found[2][p].astype(np.float32)))]
     if kind == "multi":
-        return [_multi(model, found, pid, vertices, faces, p, path, where, textures, materials, sources, skipped,
+        return [_multi(model, found, pid, vertices, faces, p, path, textures, materials, sources, skipped,
                        archive, members)]
     skipped.add(f"{found[1]} resources (their triangles use the default material)")
     return [(vertices, faces, PartSurface())]
 
 
-def _check_index(index, count: int, pid: str, path: Path, where: Where) -> None:
+def _check_index(index, count: int, pid: str, path: Path) -> None:
     index = np.asarray(index)
     if index.size and (index.min() < 0 or index.max() >= count):
-        raise SceneError(f"{str(path)!r}: a triangle's property index {int(index.max())} is outside property group "
-                         f"{pid}'s 0..{count - 1}; allowed: an index of the group's entries", where)
+        raise FileProblem(f"{str(path)!r}: a triangle's property index {int(index.max())} is outside property group "
+                          f"{pid}'s 0..{count - 1}; allowed: an index of the group's entries")
 
 
 def _base(found, index: int, pid: str, model: _Model, materials: dict) -> FileMaterial:
@@ -478,12 +476,12 @@ def _textured(model: _Model, texture: str, path: Path, textures: dict, materials
     return material
 
 
-def _multi(model: _Model, found, pid: str, vertices, faces, p, path: Path, where: Where, textures: dict,
+def _multi(model: _Model, found, pid: str, vertices, faces, p, path: Path, textures: dict,
            materials: dict, sources: list, skipped: set, archive, members) -> tuple:
     """Triangles of a multiproperties group: the colour layers (base materials' displaycolor, colour groups)
     multiplied per corner, and the first texture layer's coordinates and map; other layers not read."""
     layers, indices = found[1], found[2]
-    _check_index(p, len(indices), pid, path, where)
+    _check_index(p, len(indices), pid, path)
     entry = indices[p]                                  # (F, 3, layers)
     colour = None
     material = uv = None
@@ -492,10 +490,10 @@ def _multi(model: _Model, found, pid: str, vertices, faces, p, path: Path, where
         kind = resource[0] if resource is not None else None
         if kind in ("base", "colour"):
             table = resource[2] if kind == "base" else resource[1]
-            _check_index(entry[:, :, k], len(table), layer, path, where)
+            _check_index(entry[:, :, k], len(table), layer, path)
             colour = table[entry[:, :, k]] if colour is None else colour * table[entry[:, :, k]]
         elif kind == "uv" and uv is None:
-            _check_index(entry[:, :, k], len(resource[2]), layer, path, where)
+            _check_index(entry[:, :, k], len(resource[2]), layer, path)
             textured = _textured(model, resource[1], path, textures, materials, sources, skipped, archive, members)
             if textured is not None and _has_alpha(sources[textured.kd_map].source):
                 skipped.add("multiproperties' texture layers with an alpha channel (a map here multiplies its "
@@ -538,7 +536,7 @@ def texture_sizes(source) -> tuple[tuple[int, int], ...]:
 
 def read(reading: Reading) -> Loaded:
     from .format import Part
-    own = read_3mf(reading.handle, reading.path, reading.where, reading.notes, reading.textures)
+    own = read_3mf(reading.handle, reading.path, reading.notes, reading.textures)
     return Loaded([Part(vertices, faces, None, surface) for vertices, faces, surface in own])
 
 
