@@ -68,7 +68,7 @@ def reference_command(
         started = time.perf_counter()
         with progress_bar(quiet) as bar:
             bar.update(0, None, "computing the reference" if fine is None else "rendering the finer reference")
-            exact = reference_image(loaded, str(path), fine=fine, max_memory=max_memory)
+            exact = reference_image(loaded, fine=fine, max_memory=max_memory)
         seconds = time.perf_counter() - started
         rp.write_image(output, exact.image.astype("float32"), colour=loaded.render.colour)
     if quiet:

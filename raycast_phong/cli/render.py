@@ -94,11 +94,11 @@ def render(
         output = render_output(loaded, Path(path), output, builtin=scene is None)
         if reference is not None:
             from raycast_phong.tools.reference import ExactScene
-            ExactScene(loaded, str(path))  # a mesh has no closed form: refuse before rendering
+            ExactScene(loaded)  # a mesh has no closed form: refuse before rendering
         result = _render_with_progress(loaded, threads, quiet, max_memory)
         if reference is not None:
             from raycast_phong.tools.accuracy import measured
-            result = measured(loaded, result, reference.value, 2, str(path))
+            result = measured(loaded, result, reference.value, 2)
         started = time.perf_counter()
         rp.write_image(output, result.image, result.aovs, colour=loaded.render.colour)
         result = result.with_timings(write=time.perf_counter() - started, load=load_seconds)

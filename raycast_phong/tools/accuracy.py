@@ -23,7 +23,6 @@ from ..renderer.frame import render
 from ..renderer.prepare import Prepared, prepare
 from ..scene.schema import Object, Scene, validate_scene
 from ..shapes import from_file, kind_of
-from ..values.messages import Location, located
 from .metrics import measure
 from .reference import ReferenceImage, analytic_reference
 
@@ -42,8 +41,7 @@ def level_of(obj: Object) -> int:
     return 0 if kind is None else kind.level_of(obj)
 
 
-def refine_entry(scene: Scene, index: int, entry: dict, level: int, iterations: int, folder: Path,
-                 source: str | Location) -> None:
+def refine_entry(scene: Scene, index: int, entry: dict, level: int, iterations: int, folder: Path) -> None:
     """Set scene object `index`'s dict `entry` to tessellation `level` (analytic shapes), or, for a mesh,
     to its file Loop-subdivided `iterations` times (trimesh.remesh.subdivide_loop: it converges to a smooth
     limit surface, where midpoint subdivision would keep the same flat facets), written into `folder`."""
@@ -53,7 +51,7 @@ def refine_entry(scene: Scene, index: int, entry: dict, level: int, iterations: 
     elif iterations > 0:
         target = folder / f"object{index}-loop{iterations}.ply"
         if not target.exists():
-            vertices, faces, *_ = object_mesh(scene, obj, located(source).at("objects", index))
+            vertices, faces, *_ = object_mesh(scene, obj, scene.origin.at("objects", index))
             vertices, faces = trimesh.remesh.subdivide_loop(vertices, faces, iterations=iterations)
             trimesh.Trimesh(vertices, faces, process=False).export(target)
         entry["path"] = str(target)
@@ -64,7 +62,7 @@ def refine_entry(scene: Scene, index: int, entry: dict, level: int, iterations: 
 LOOP_BYTES = 400  # per triangle trimesh's subdivide_loop makes (peak 293 B measured at 82k) and its PLY round trip
 
 
-def check_fine_memory(scene: Scene, data: dict, levels: int, source: str | Location, max_memory: int | None) -> None:
+def check_fine_memory(scene: Scene, data: dict, levels: int, max_memory: int | None) -> None:
     """Refuse (SceneError, one line) a fine reference whose refined scene would not fit in `max_memory` bytes
     (default: the render's budget), before a mesh is subdivided: the refined shapes' estimate
     (budget.estimate_memory of `data`, smooth, float64) and each mesh file's triangles × (4^levels − 1) more,
@@ -74,25 +72,24 @@ def check_fine_memory(scene: Scene, data: dict, levels: int, source: str | Locat
     budget = budget_of(max_memory)
     if budget is None:
         return
-    found = estimate_memory(validate_scene(data, source=source, folder=scene.folder), float64=True)
+    found = estimate_memory(validate_scene(data, source=scene.origin, folder=scene.folder), float64=True)
     extra_triangles = sum(found_triangles * (4 ** levels - 1) for found_triangles in (
-        _mesh_triangles(scene, index, source) for index, obj in enumerate(scene.objects) if from_file(obj)))
+        _mesh_triangles(scene, index) for index, obj in enumerate(scene.objects) if from_file(obj)))
     need = found.total + extra_triangles * (SMOOTH_BYTES + FLOAT64_NORMAL_BYTES + LOOP_BYTES)
     if need > budget:
         triangles = count_text(found.triangles + extra_triangles)
         raise SceneError(f"--fine {levels}: the refined scene has {triangles} triangles and needs ≈ "
                          f"{format_bytes(need)} of memory, above the {format_bytes(budget)} budget; use a smaller "
-                         "--fine or raise the budget (--max-memory)", located(source))
+                         "--fine or raise the budget (--max-memory)", scene.origin)
 
 
-def _mesh_triangles(scene: Scene, index: int, source: str | Location) -> int:
+def _mesh_triangles(scene: Scene, index: int) -> int:
     from ..io.meshes.source import mesh_sources
     path = scene.resolve(scene.objects[index].path)
     return mesh_sources(scene)[path].triangles()
 
 
-def fine_reference(scene: Scene, levels: int, source: str | Location = "<scene>",
-                   max_memory: int | None = None) -> ReferenceImage:
+def fine_reference(scene: Scene, levels: int, max_memory: int | None = None) -> ReferenceImage:
     """The scene refined `levels` times (refine_entry: meshes Loop-subdivided, analytic shapes `levels`
     tessellation levels up from their own), rendered with Phong shading in float64. Coverage comes from
     the same Embree cast as the render's. Refused (check_fine_memory) before anything is refined when it
@@ -104,15 +101,15 @@ def fine_reference(scene: Scene, levels: int, source: str | Location = "<scene>"
         data["objects"][index]["shading"] = "phong"
         if not from_file(obj):
             data["objects"][index].update(refined(obj, min(level_of(obj) + levels, max_level(obj))))
-    check_fine_memory(scene, data, levels, source, max_memory)
+    check_fine_memory(scene, data, levels, max_memory)
     with tempfile.TemporaryDirectory(prefix="raycast-phong-fine-") as folder:
         for index, obj in enumerate(scene.objects):
             data["objects"][index]["shading"] = "phong"
             refine_entry(scene, index, data["objects"][index], min(level_of(obj) + levels, max_level(obj)), levels,
-                         Path(folder), source)
-        fine = validate_scene(data, source=source, folder=scene.folder)
+                         Path(folder))
+        fine = validate_scene(data, source=scene.origin, folder=scene.folder)
         result = render(fine, max_memory=max_memory)
-        coverage = mesh_coverage(fine, source)
+        coverage = mesh_coverage(fine)
     return ReferenceImage(result.image.astype(np.float64), result.aovs["specular"].astype(np.float64),
                           coverage, f"fine {levels}")
 
@@ -123,14 +120,13 @@ def max_level(obj: Object) -> int:
     return 9 if kind is None else kind.max_level
 
 
-def reference_image(scene: Scene, source: str | Location = "<scene>", fine: int | None = None,
-                    max_memory: int | None = None) -> ReferenceImage:
+def reference_image(scene: Scene, fine: int | None = None, max_memory: int | None = None) -> ReferenceImage:
     """The analytic reference, or with `fine` the self-convergence one (the only choice for meshes), within
     `max_memory` bytes (default: the render's budget)."""
     if fine is not None:
-        return fine_reference(scene, fine, source, max_memory)
-    check_reference_memory(scene, source, max_memory)
-    return analytic_reference(scene, source)
+        return fine_reference(scene, fine, max_memory)
+    check_reference_memory(scene, max_memory)
+    return analytic_reference(scene)
 
 
 # The analytic reference holds float64 image, specular and coverage (56 bytes a pixel) and, written, a float32
@@ -139,7 +135,7 @@ def reference_image(scene: Scene, source: str | Location = "<scene>", fine: int 
 REFERENCE_PIXEL_BYTES = 88
 
 
-def check_reference_memory(scene: Scene, source: str, max_memory: int | None) -> None:
+def check_reference_memory(scene: Scene, max_memory: int | None) -> None:
     """Refuse (SceneError, one line) an analytic reference whose image does not fit the budget: `max_memory`
     bytes, default the render's (renderer.budget.default_budget)."""
     from ..io.system import format_bytes
@@ -148,12 +144,12 @@ def check_reference_memory(scene: Scene, source: str, max_memory: int | None) ->
     render = scene.render
     need = render.width * render.height * REFERENCE_PIXEL_BYTES
     if budget is not None and need > budget:
-        raise SceneError(f"{source}: render.width × render.height: {render.width}×{render.height} pixels need ≈ "
+        raise SceneError(f"{scene.origin}: render.width × render.height: {render.width}×{render.height} pixels need ≈ "
                          f"{format_bytes(need)} of memory for the analytic reference, above the "
                          f"{format_bytes(budget)} budget; lower them or raise the budget (--max-memory)")
 
 
-def mesh_coverage(scene: Scene | Prepared, source: str | Location = "<scene>") -> np.ndarray:
+def mesh_coverage(scene: Scene | Prepared) -> np.ndarray:
     """(H, W) share of each pixel's samples whose ray hits the scene's triangles: the render's own rays and
     BVH (prepare, or a scene already prepared), cast band by band."""
     ready = scene if isinstance(scene, Prepared) else prepare(scene)
@@ -167,13 +163,12 @@ def mesh_coverage(scene: Scene | Prepared, source: str | Location = "<scene>") -
     return coverage
 
 
-def measured(scene: Scene, result: RenderResult, reference: str, fine: int = 2,
-             source: str | Location = "<scene>") -> MeasuredResult:
+def measured(scene: Scene, result: RenderResult, reference: str, fine: int = 2) -> MeasuredResult:
     """`result` with its errors against the "analytic" (or "fine": `fine` levels finer) reference."""
     if reference not in ("analytic", "fine"):
         raise ValueError(f"reference must be 'analytic' or 'fine', got {reference!r}")
     start = time.perf_counter()
-    exact = reference_image(scene, source, fine=fine if reference == "fine" else None)
-    errors = measure(result.image, mesh_coverage(scene, source), exact)
+    exact = reference_image(scene, fine=fine if reference == "fine" else None)
+    errors = measure(result.image, mesh_coverage(scene), exact)
     fields = {name: getattr(result, name) for name in RenderResult.__dataclass_fields__}
     return MeasuredResult(**fields, errors=errors, reference_seconds=time.perf_counter() - start)

@@ -22,7 +22,6 @@ import numpy as np
 
 from ..scene.schema import Object, Scene, SceneError, SpecularModel, Viewer
 from ..tolerances import LIT_ROUNDINGS, MIN_DISTANCE
-from ..values.messages import Location, located
 
 TILE_SAMPLES = 1 << 16  # rays per tile: the torus's 4×4 eigenproblems stay a few MB
 UNLIT = LIT_ROUNDINGS * 2.0 ** -53  # n·l of float64 rounding alone: 0, as the kernels take it in their precision
@@ -225,11 +224,11 @@ NORMAL = {"icosphere": lambda p, obj: p, "uv_sphere": lambda p, obj: p, "box": _
 class ExactScene:
     """The scene's analytic objects, each with its world_from_object affine map."""
 
-    def __init__(self, scene: Scene, source: str | Location = "<scene>"):
+    def __init__(self, scene: Scene):
         for index, obj in enumerate(scene.objects):
             if obj.shape not in INTERSECT:  # a mesh file: the oracle knows the closed forms it was written for
                 raise SceneError(f'"{obj.shape}" has no closed form; use --fine N',
-                                 located(source).at("objects", index, "shape"))
+                                 scene.origin.at("objects", index, "shape"))
         self.objects = scene.objects
         # world = linear · local + translate, linear = R S (geometry.place); rows map object → world.
         self.linear = [rotation(obj) @ np.diag(obj.scale) for obj in scene.objects]
@@ -370,15 +369,15 @@ def material_table(scene: Scene) -> np.ndarray:
     return np.array([[*m.ka, *m.kd, *m.ks, *m.ke, m.shininess] for m in map(scene.material_of, scene.objects)])
 
 
-def analytic_reference(scene: Scene, source: str | Location = "<scene>") -> ReferenceImage:
+def analytic_reference(scene: Scene) -> ReferenceImage:
     """The scene on its exact surfaces, float64: see the module docstring. SceneError for a mesh object."""
-    exact = ExactScene(scene, source)
+    exact = ExactScene(scene)
     rig = camera_frame(scene)
     opts = scene.render
     width, height, n = opts.width, opts.height, opts.samples
     per_pixel = n * n
     materials = material_table(scene)
-    maps = scene_maps(scene, source)
+    maps = scene_maps(scene)
     textured = any(maps.values())
     image = np.zeros((height, width, 3))
     specular_image = np.zeros((height, width, 3))
@@ -511,7 +510,7 @@ def read_map(path, colour: str) -> np.ndarray:
     return srgb_decode(pixels)
 
 
-def scene_maps(scene: Scene, source: str | Location = "<scene>") -> dict[int, dict]:
+def scene_maps(scene: Scene) -> dict[int, dict]:
     """object index → {"ka" | "kd" | "ke": ((H, W, 3) texels, wrap)} of the maps its material names (the k_a
     map is the k_d map unless given). SceneError for a textured shape with no closed-form UVs here."""
     found, cache = {}, {}
@@ -530,7 +529,7 @@ def scene_maps(scene: Scene, source: str | Location = "<scene>") -> dict[int, di
             maps[key] = (cache[path], value.wrap)
         if maps and obj.shape not in ("plane", "icosphere", "uv_sphere"):
             raise SceneError(f"the analytic reference has exact texture coordinates for planes and spheres only, not "
-                             f"a textured {obj.shape}; use --fine N", located(source).at("objects", index))
+                             f"a textured {obj.shape}; use --fine N", scene.origin.at("objects", index))
         found[index] = maps
     return found
 

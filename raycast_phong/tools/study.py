@@ -41,7 +41,6 @@ from ..scene.load import read_scene_dict
 from ..scene.objects import NormalsRule
 from ..scene.schema import Scene, SceneError, ShadingModel, SpecularModel, validate_scene
 from ..shapes import from_file
-from ..values.messages import Location, located
 from .accuracy import max_level, mesh_coverage, reference_image, refine_entry
 from .metrics import measure, rmse
 
@@ -189,7 +188,7 @@ def variant(base: Scene, data: dict, *, model: str, specular: str, precision: st
         entry["shading"] = model  # an object's own shading would otherwise keep it out of the sweep
         if normals is not None and not from_file(base.objects[index]):
             entry["normals"] = normals
-        refine_entry(base, index, entry, level, level, Path(folder), source)
+        refine_entry(base, index, entry, level, level, Path(folder))
     if shininess is not None:
         materials = {name: dict(values) for name, values in data.get("materials", {}).items()}
         for values in materials.values():
@@ -224,17 +223,17 @@ class Setting:
         return asdict(self)
 
 
-def _check_options(base: Scene, options: StudyOptions, source: str | Location) -> None:
+def _check_options(base: Scene, options: StudyOptions) -> None:
     """A mesh needs a self-convergence reference (--fine); every axis needs a value."""
     if options.fine is None:
         for index, obj in enumerate(base.objects):
             if from_file(obj):
                 raise SceneError('"mesh" has no closed form; use --fine N',
-                                 located(source).at("objects", index, "shape"))
+                                 base.origin.at("objects", index, "shape"))
     if options.repeats < 1 or (options.levels is not None and not options.levels) or not options.models:
-        raise SceneError("the study needs at least one level, one model and one repeat", located(source))
+        raise SceneError("the study needs at least one level, one model and one repeat", base.origin)
     if not options.budget > 0:
-        raise SceneError(f"--budget must be a positive number of seconds, got {options.budget:g}", located(source))
+        raise SceneError(f"--budget must be a positive number of seconds, got {options.budget:g}", base.origin)
 
 
 class _Sweep:
@@ -244,7 +243,7 @@ class _Sweep:
         self.source = str(path)
         self.data = read_scene_dict(path, overrides, max_memory=options.max_memory)  # validated later, per combination
         self.base = validate_scene(self.data, source=self.source, folder=Path(path).parent)
-        _check_options(self.base, options, self.source)
+        _check_options(self.base, options)
         self.options, self.folder = options, folder
         value = lambda v: v.value if hasattr(v, "value") else v
         self.models = [value(m) for m in options.models]
@@ -292,11 +291,10 @@ class _Sweep:
             scene = self.scene(s)
             if (s.specular, s.samples, s.shininess) not in self.references:
                 # The reference depends on neither the model, the normals, the precision nor the level.
-                self.references[s.specular, s.samples, s.shininess] = reference_image(scene, self.source,
-                                                                                      fine=self.options.fine)
+                self.references[s.specular, s.samples, s.shininess] = reference_image(scene, fine=self.options.fine)
             if (s.specular, self.supersampling, s.shininess) not in self.references:
                 self.references[s.specular, self.supersampling, s.shininess] = reference_image(
-                    self.scene(s, samples=self.supersampling), self.source, fine=self.options.fine)
+                    self.scene(s, samples=self.supersampling), fine=self.options.fine)
             if (s.samples, level) not in self.meshes:
                 # One prepare (plan, memory check, geometry) serves both: the render's own triangles.
                 ready = prepare(scene, threads=self.options.threads,

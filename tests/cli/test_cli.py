@@ -203,7 +203,7 @@ def test_the_analytic_reference_is_refused_when_its_image_exceeds_the_budget(tmp
     assert "render.width × render.height: 4096×4096 pixels need ≈ 1.38 GB" in line and "1 GB budget" in line, line
     scene = raycast_phong.validate_scene({"render": {"width": 4096, "height": 4096},
                                           "objects": [{"shape": "icosphere"}]}, source="s")
-    check_reference_memory(scene, "s", 4096 * 4096 * REFERENCE_PIXEL_BYTES)  # exactly the estimate: fits
+    check_reference_memory(scene, 4096 * 4096 * REFERENCE_PIXEL_BYTES)  # exactly the estimate: fits
 
 
 def test_reference_command_and_the_mesh_error(tmp_path):

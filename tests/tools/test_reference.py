@@ -161,7 +161,7 @@ def test_samples_average_the_sub_pixel_rays():
 def test_a_mesh_object_has_no_closed_form(tmp_path):
     s = rp.validate_scene({"objects": [{"shape": "mesh", "path": "x.ply"}]}, source="scene.toml")
     with pytest.raises(rp.SceneError, match=r'^scene.toml: objects.0.shape: "mesh" has no closed form; use --fine N$'):
-        analytic_reference(s, source="scene.toml")
+        analytic_reference(s)
 
 
 def test_fine_phong_mesh_converges_to_the_analytic_reference():

@@ -370,13 +370,13 @@ class Renderer:
         from raycast_phong.tools.reference import ExactScene
         scene = frame_of(scene_with(self.source, settings_of(request)))
         try:
-            ExactScene(scene, self.source.name)
+            ExactScene(scene)
         except SceneError:
             return None
         shown_id, image = (shown or {}).get("a", (None, None))
         if shown_id != request.get("id"):
             image = self.render(scene)
-        result = measured(scene, image, "analytic", 2, self.source.name)
+        result = measured(scene, image, "analytic", 2)
         e = result.errors
         finite = lambda x: None if x is None or not math.isfinite(x) else x  # JSON has no nan or inf
         return {"type": "errors", "id": request.get("id"), "rmse": finite(e.rmse), "max_error": finite(e.max_error),
@@ -455,7 +455,7 @@ def hello(source: Source) -> dict:
     from raycast_phong.tools.reference import ExactScene
     scene = rp.validate_scene(copy.deepcopy(source.data), source=source.name, folder=source.folder)
     try:
-        ExactScene(scene, source.name)
+        ExactScene(scene)
         analytic = True
     except SceneError:
         analytic = False
