@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import SceneError, Where
+from ...errors import SceneError
 from ...records import bounding_box
 from ...tolerances import POSITION_LIMIT
 from ..files import open_mesh_file
@@ -108,9 +108,8 @@ def _read_file(source, bounds: bool) -> MeshFile:
     mask = np.zeros(len(vertices), bool)
     mask[faces.ravel()] = True  # the vertices faces use: O(F), where np.unique would sort
     used = vertices if mask.all() else vertices[mask]
-    _check_values(used, path, where)
-    face_group, materials, corner_uv, corner_colour = _surfaces(parts, loaded, kind.pbr, path, notes, textures,
-                                                                where)
+    _check_values(used, path)
+    face_group, materials, corner_uv, corner_colour = _surfaces(parts, loaded, kind.pbr, path, notes, textures)
     up = loaded.up or kind.up
     centre, radius = np.full(3, np.nan), math.nan
     if bounds:
@@ -158,25 +157,25 @@ def _concatenate(parts: list[Part]) -> tuple[np.ndarray, np.ndarray, np.ndarray 
     return vertices, faces, normals
 
 
-def _check_values(coordinates: np.ndarray, path: Path, where: Where) -> None:
+def _check_values(coordinates: np.ndarray, path: Path) -> None:
     """Every vertex of a face (`coordinates`, (U, 3)) finite and within ±POSITION_LIMIT (trimesh squares
     coordinates)."""
     if (np.abs(coordinates) <= np.float64(POSITION_LIMIT)).all():  # one pass (float32 compared in float64); NaN fails
         return
     finite = np.isfinite(coordinates).all(axis=1)
     if not finite.all():
-        raise SceneError(f"{str(path)!r} has {int((~finite).sum())} vertex(es) with NaN or infinite "
-                         "coordinates; every vertex of a face must have finite coordinates", where)
+        raise FileProblem(f"{str(path)!r} has {int((~finite).sum())} vertex(es) with NaN or infinite "
+                          "coordinates; every vertex of a face must have finite coordinates")
     huge = (np.abs(coordinates) > POSITION_LIMIT).any(axis=1)
     if huge.any():
-        raise SceneError(f"{str(path)!r} has {int(huge.sum())} vertex(es) with a coordinate beyond "
-                         f"±{POSITION_LIMIT:g} (largest {float(np.abs(coordinates).max()):.3g}); allowed: within "
-                         f"±{POSITION_LIMIT:g}, so lengths squared stay finite", where)
+        raise FileProblem(f"{str(path)!r} has {int(huge.sum())} vertex(es) with a coordinate beyond "
+                          f"±{POSITION_LIMIT:g} (largest {float(np.abs(coordinates).max()):.3g}); allowed: within "
+                          f"±{POSITION_LIMIT:g}, so lengths squared stay finite")
 
 
 # ---------------------------------------------------------------- materials and colours
 
-def _surfaces(parts, loaded, pbr: str, path: Path, notes: list[str], sources: list[TextureSource], where: Where):
+def _surfaces(parts, loaded, pbr: str, path: Path, notes: list[str], sources: list[TextureSource]):
     """Per face: its material (an index into the returned tuple, -1 for none); per corner: the texture
     coordinates (None unless some used material has a map) and the vertex colours (None unless some part
     has colours). `loaded`: the format's Loaded (an OBJ's library, a glTF's samplers, a PLY's images); `pbr`:
@@ -216,9 +215,8 @@ def _surfaces(parts, loaded, pbr: str, path: Path, notes: list[str], sources: li
         if uv is not None and _is_pbr(material):
             uv = _transformed_uv(uv, material, samplers, path, notes)
         if uv is not None and not (np.abs(uv) <= UV_LIMIT).all():  # NaN passes: the kernel reads it as 0
-            raise SceneError(f"{str(path)!r} has a texture coordinate beyond float32's range (largest "
-                             f"{float(np.nanmax(np.abs(uv))):.4g}); allowed: -{UV_LIMIT:.4g} .. {UV_LIMIT:.4g}",
-                             where)
+            raise FileProblem(f"{str(path)!r} has a texture coordinate beyond float32's range (largest "
+                              f"{float(np.nanmax(np.abs(uv))):.4g}); allowed: -{UV_LIMIT:.4g} .. {UV_LIMIT:.4g}")
         uvs.append(None if uv is None else uv[part.faces].astype(np.float32))
         if own is not None:
             uvs[-1] = own.corner_uv
