@@ -49,7 +49,9 @@ def open_regular(path: Path, where: Where, what: str, limit: int | None = None) 
     try:
         refuse_kind(os.stat(path).st_mode)
         descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
-    except NotADirectoryError:
+    except SceneError:  # refuse_kind's (a ValueError too)
+        raise
+    except (NotADirectoryError, ValueError):  # ValueError: a NUL byte, which no file's name holds
         raise FileNotFoundError(path) from None
     except FileNotFoundError:
         raise

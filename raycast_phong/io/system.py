@@ -5,6 +5,7 @@ how byte and triangle counts are written in messages.
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import sys
@@ -46,9 +47,12 @@ UNITS = {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30, "t": 1 << 40}
 def parse_size(text: str) -> int:
     """'8G', '500M', '1.5GiB', '2048' (bytes) → bytes; K, M, G, T are powers of 1024. ValueError otherwise."""
     match = re.fullmatch(r"\s*(\d+(?:\.\d*)?|\.\d+)\s*([kmgt]?)(?:i?b)?\s*", str(text), re.I)
-    if not match or float(match[1]) <= 0:
-        raise ValueError(f"expected a size such as 8G, 500M or 1.5GiB (K, M, G, T: powers of 1024), got {text!r}")
-    return int(float(match[1]) * UNITS[match[2].lower()])
+    size = float(match[1]) * UNITS[match[2].lower()] if match else math.nan  # 400 digits: inf
+    if not 0 < size < math.inf:
+        shown = repr(text)
+        shown = shown if len(shown) <= 60 else f"{shown[:60]}… ({len(shown) - 60:,} more characters)"
+        raise ValueError(f"expected a size such as 8G, 500M or 1.5GiB (K, M, G, T: powers of 1024), got {shown}")
+    return int(size)
 
 
 def memory_allowed(max_memory: int | str | None) -> int | None:

@@ -207,7 +207,8 @@ def file_size(path: Path) -> tuple[int, int] | None:
             pass
     try:
         import OpenImageIO as oiio
-        found = oiio.ImageInput.open(str(path))
+        with native_errors_kept():  # libpng's own "IHDR: Read error" line: the decode words one line
+            found = oiio.ImageInput.open(str(path))
         if found is None:
             oiio.geterror()  # retrieved, so OpenImageIO does not print it at exit
             return None

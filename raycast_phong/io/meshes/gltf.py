@@ -387,6 +387,13 @@ def count(handle, size: int, source) -> int | None:
     document = source.document.tree
     if not document:
         return None
+    try:
+        return _count(document)
+    except (AttributeError, IndexError, KeyError, TypeError, ValueError):
+        return None  # a malformed document (a primitive that is a number): the size bound stands; the read words it
+
+
+def _count(document: dict) -> int:
     accessors, meshes = document.get("accessors", []), document.get("meshes", [])
     placed = [node for node in document.get("nodes", []) if "mesh" in node]
     uses = [(node["mesh"], _instances(node, accessors)) for node in placed] or [(m, 1) for m in range(len(meshes))]

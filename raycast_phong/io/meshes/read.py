@@ -214,7 +214,7 @@ def _surfaces(parts, loaded, pbr: str, path: Path, notes: list[str], sources: li
         uv = None if uv is None or len(uv) != len(part.vertices) else np.asarray(uv, np.float64)[:, :2]
         if uv is not None and _is_pbr(material):
             uv = _transformed_uv(uv, material, samplers, path, notes)
-        if uv is not None and not (np.abs(uv) <= UV_LIMIT).all():  # NaN passes: the kernel reads it as 0
+        if uv is not None and (np.abs(uv) > UV_LIMIT).any():  # NaN passes: the kernel reads it as 0
             raise FileProblem(f"{str(path)!r} has a texture coordinate beyond float32's range (largest "
                               f"{float(np.nanmax(np.abs(uv))):.4g}); allowed: -{UV_LIMIT:.4g} .. {UV_LIMIT:.4g}")
         uvs.append(None if uv is None else uv[part.faces].astype(np.float32))

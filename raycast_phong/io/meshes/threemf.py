@@ -19,6 +19,7 @@ import io
 import posixpath
 import re
 import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -67,21 +68,32 @@ def read_3mf(handle, path: Path, notes: list[str], sources: list[TextureSource])
         archive = zipfile.ZipFile(handle)
     except (zipfile.BadZipFile, ValueError, EOFError) as error:
         raise FileProblem(f"cannot read {str(path)!r} as 3MF: not a zip archive ({error})") from None
-    with archive:
-        members = {info.filename.lstrip("/").lower(): info.filename for info in archive.infolist()}
-        root = _root_part(archive, members)
-        if root is None:
-            raise FileProblem(f"cannot read {str(path)!r} as 3MF: it holds no model part ({ROOT}); allowed: a 3MF "
-                              "package with a 3D model")
-        models: dict[str, _Model] = {}
-        _parse(archive, members, root, models, path, notes)
-        # Components with a p:path name other parts (the Production extension): read each once.
-        wanted = {part for model in list(models.values()) for kind in model.objects.values()
-                  if isinstance(kind, list) for part, _, _ in kind} | {part for part, _, _ in models[root].build}
-        for part in sorted(wanted - set(models)):
-            if part.lower() in members:
-                _parse(archive, members, members[part.lower()], models, path, notes)
-        return _placed(archive, members, models, root, path, notes, sources)
+    try:
+        with archive:
+            return _read_archive(archive, path, notes, sources)
+    except (RuntimeError, NotImplementedError, zipfile.BadZipFile, zlib.error, EOFError) as error:
+        # zipfile's refusals of a member: encrypted, a compression method it lacks, a corrupt stream
+        raise FileProblem(f"cannot read {str(path)!r} as 3MF: a part of its zip archive cannot be read "
+                          f"({' '.join(str(error).split())[:160]}); allowed: a 3MF package whose parts are stored "
+                          "or deflated, not encrypted") from None
+
+
+def _read_archive(archive: zipfile.ZipFile, path: Path, notes: list[str], sources: list[TextureSource]) -> list:
+    """read_3mf's model parts of the open archive, parsed and placed."""
+    members = {info.filename.lstrip("/").lower(): info.filename for info in archive.infolist()}
+    root = _root_part(archive, members)
+    if root is None:
+        raise FileProblem(f"cannot read {str(path)!r} as 3MF: it holds no model part ({ROOT}); allowed: a 3MF "
+                          "package with a 3D model")
+    models: dict[str, _Model] = {}
+    _parse(archive, members, root, models, path, notes)
+    # Components with a p:path name other parts (the Production extension): read each once.
+    wanted = {part for model in list(models.values()) for kind in model.objects.values()
+              if isinstance(kind, list) for part, _, _ in kind} | {part for part, _, _ in models[root].build}
+    for part in sorted(wanted - set(models)):
+        if part.lower() in members:
+            _parse(archive, members, members[part.lower()], models, path, notes)
+    return _placed(archive, members, models, root, path, notes, sources)
 
 
 def _root_part(archive: zipfile.ZipFile, members: dict[str, str]) -> str | None:
@@ -280,8 +292,11 @@ def _column(words, dtype, what: str, path: Path, default: str | None = None) -> 
     except TypeError:  # a None: the attribute is missing
         text = None
     if text is not None and (dtype is np.float64 or ("." not in text and "e" not in text.lower())):
-        values = np.fromstring(text, dtype=dtype, sep=" ") if text else np.zeros(0, dtype)
-        if len(values) == len(words):
+        try:
+            values = np.fromstring(text, dtype=dtype, sep=" ") if text else np.zeros(0, dtype)
+        except ValueError:  # numpy 2: a word that is not a number stops it; _numbers words it
+            values = None
+        if values is not None and len(values) == len(words):
             return values
     return _numbers(list(words), dtype, what, path)  # words its error
 
@@ -385,7 +400,8 @@ def _placed(archive, members, models: dict, root: str, path: Path, notes: list[s
             for child_part, child, local in found:
                 visit(child_part, child, transform @ local, depth + 1)
             return
-        vertices = found.vertices @ transform[:3, :3].T + transform[:3, 3]
+        with np.errstate(invalid="ignore", over="ignore"):  # an infinite vertex: read.py's values check words it
+            vertices = found.vertices @ transform[:3, :3].T + transform[:3, 3]
         faces = found.faces if np.linalg.det(transform[:3, :3]) >= 0 else found.faces[:, ::-1]  # a mirror keeps
         p = found.p if np.linalg.det(transform[:3, :3]) >= 0 else found.p[:, ::-1]            # faces outward
         for pid in np.unique(found.pid).tolist():

@@ -1,0 +1,125 @@
+"""Hostile files each reader met in an audit (issue 50): every one is exit 2 and one line naming the file, or a
+render, and never an internal error, a traceback or a library's own line on stderr. Each runs as a process, as a
+user runs it, because the native libraries print to the process's stderr (fd 2), not to Python's."""
+
+from __future__ import annotations
+
+import json
+import struct
+import subprocess
+import sys
+import zipfile
+import zlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+CORE = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"
+LIGHT = '[[lights]]\ntype = "point"\nposition = [3, 4, 6]\n'
+
+
+def model_xml(vertices: list[tuple]) -> str:
+    points = "".join(f'<vertex x="{x}" y="{y}" z="{z}"/>' for x, y, z in vertices)
+    return (f'<?xml version="1.0" encoding="UTF-8"?>\n<model unit="millimeter" xmlns="{CORE}"><resources>'
+            f'<object id="1" type="model"><mesh><vertices>{points}</vertices><triangles><triangle v1="0" v2="1" '
+            'v3="2"/></triangles></mesh></object></resources><build><item objectid="1"/></build></model>')
+
+
+TRIANGLE = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+
+
+def three_mf(path: Path, model: str, compress: int = zipfile.ZIP_DEFLATED, flags: int = 0) -> Path:
+    """A 3MF of one model part; `compress` and `flags` are written into its local and central headers as given
+    (a method zipfile cannot read, the encrypted bit), the data left as deflate wrote it."""
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as archive:
+        archive.writestr("3D/3dmodel.model", model)
+    data = bytearray(path.read_bytes())
+    for signature, at in ((b"PK\x03\x04", 6), (b"PK\x01\x02", 8)):  # local header, central directory entry
+        start = data.find(signature)
+        struct.pack_into("<HH", data, start + at, flags | struct.unpack_from("<H", data, start + at)[0], compress)
+    path.write_bytes(bytes(data))
+    return path
+
+
+def gltf(path: Path, primitives: list, uv: np.ndarray | None = None) -> Path:
+    """A .gltf of one triangle (positions, texture coordinates `uv`, indices) in a data: URI buffer."""
+    import base64
+    points = np.array(TRIANGLE, "<f4")
+    uv = np.zeros((3, 2), "<f4") if uv is None else uv.astype("<f4")
+    data = points.tobytes() + uv.tobytes() + np.array([0, 1, 2], "<u2").tobytes()
+    tree = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": primitives}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0],
+                           "max": [1, 1, 0]},
+                          {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"},
+                          {"bufferView": 2, "componentType": 5123, "count": 3, "type": "SCALAR"}],
+            "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36},
+                            {"buffer": 0, "byteOffset": 36, "byteLength": 24},
+                            {"buffer": 0, "byteOffset": 60, "byteLength": 6}],
+            "materials": [{"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1]}}],
+            "buffers": [{"byteLength": len(data),
+                         "uri": "data:application/octet-stream;base64," + base64.b64encode(data).decode()}]}
+    path.write_text(json.dumps(tree))
+    return path
+
+
+def truncated_png(path: Path) -> Path:
+    """A PNG cut inside its IHDR chunk."""
+    header = struct.pack(">IIBBBBB", 64, 64, 8, 2, 0, 0, 0)
+    chunk = struct.pack(">I", len(header)) + b"IHDR" + header + struct.pack(">I", zlib.crc32(b"IHDR" + header))
+    path.write_bytes((b"\x89PNG\r\n\x1a\n" + chunk)[:20])
+    return path
+
+
+def textured_scene(path: Path, map_name: str) -> Path:
+    path.write_text(f'[render]\nwidth = 32\nheight = 24\n\n[materials.m]\nkd_map = {json.dumps(map_name)}\n\n'
+                    f'[[objects]]\nshape = "uv_sphere"\nmaterial = "m"\n\n{LIGHT}')
+    return path
+
+
+def run(*arguments: str, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "raycast_phong.cli", *arguments], cwd=cwd, capture_output=True,
+                          text=True, timeout=180)
+
+
+REFUSED = {  # case: (make the input in a folder → the file to render, words the line must hold)
+    "3MF with an encrypted part": (lambda d: three_mf(d / "e.3mf", model_xml(TRIANGLE), flags=1),
+                                   "is encrypted, password required"),
+    "3MF with an unknown compression": (lambda d: three_mf(d / "c.3mf", model_xml(TRIANGLE), compress=99),
+                                        "compression method is not supported"),
+    "3MF coordinate 'abc'": (lambda d: three_mf(d / "a.3mf", model_xml([("abc", 0, 0), *TRIANGLE[1:]])),
+                             "a vertex coordinate that is not a number"),
+    "3MF infinite vertex": (lambda d: three_mf(d / "i.3mf", model_xml([("1e999", 0, 0), *TRIANGLE[1:]])),
+                            "NaN or infinite coordinates"),
+    "glTF primitive that is a number": (lambda d: gltf(d / "p.gltf", [5]), "cannot read the file as glTF"),
+    "kd_map with a NUL byte": (lambda d: textured_scene(d / "s.toml", "tex\0.png"), "no such texture file"),
+    "truncated PNG map": (lambda d: textured_scene(d / "s.toml", truncated_png(d / "cut.png").name),
+                          "cannot be read as an image"),
+}
+
+
+@pytest.mark.parametrize("case", REFUSED)
+def test_a_hostile_file_is_one_line_and_exit_2(case, tmp_path):
+    make, words = REFUSED[case]
+    given = make(tmp_path)
+    done = run("render", given.name, "-o", "out.png", cwd=tmp_path)
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.count("\n") == 1 and done.stderr.startswith(f"error: {given.name}: "), done.stderr
+    assert words in done.stderr, done.stderr
+    assert not (tmp_path / "out.png").exists()
+
+
+def test_nan_texture_coordinates_render_without_numpy_s_warning(tmp_path):
+    """NaN UVs are read as 0 by the kernel (they rendered before a check's nanmax warned 'All-NaN slice')."""
+    primitives = [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0}]
+    gltf(tmp_path / "n.gltf", primitives, uv=np.full((3, 2), np.nan))
+    done = run("render", "n.gltf", "-o", "out.png", "-q", cwd=tmp_path)
+    assert done.returncode == 0 and done.stderr == "", done.stderr
+    assert (tmp_path / "out.png").is_file()
+
+
+def test_a_400_digit_memory_budget_is_one_line(tmp_path):
+    done = run("render", "-o", "out.png", "--max-memory", "9" * 400, cwd=tmp_path)
+    assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
+    assert "--max-memory" in done.stderr and "more characters" in done.stderr, done.stderr
