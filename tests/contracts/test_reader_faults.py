@@ -83,6 +83,19 @@ def run(*arguments: str, cwd: Path) -> subprocess.CompletedProcess:
                           text=True, timeout=180)
 
 
+def nested_boxes(path: Path, levels: int) -> Path:
+    """A 3MF whose object k + 1 holds ten components of object k, `levels` deep: 10^levels triangles."""
+    objects = ('<object id="1" type="model"><mesh><vertices><vertex x="0" y="0" z="0"/><vertex x="1" y="0" z="0"/>'
+               '<vertex x="0" y="1" z="0"/></vertices><triangles><triangle v1="0" v2="1" v3="2"/></triangles></mesh>'
+               '</object>')
+    for k in range(2, levels + 2):
+        objects += (f'<object id="{k}" type="model"><components>'
+                    + f'<component objectid="{k - 1}"/>' * 10 + '</components></object>')
+    model = (f'<?xml version="1.0" encoding="UTF-8"?>\n<model unit="millimeter" xmlns="{CORE}"><resources>{objects}'
+             f'</resources><build><item objectid="{levels + 1}"/></build></model>')
+    return three_mf(path, model)
+
+
 REFUSED = {  # case: (make the input in a folder → the file to render, words the line must hold)
     "3MF with an encrypted part": (lambda d: three_mf(d / "e.3mf", model_xml(TRIANGLE), flags=1),
                                    "is encrypted, password required"),
@@ -108,6 +121,15 @@ def test_a_hostile_file_is_one_line_and_exit_2(case, tmp_path):
     assert done.stderr.count("\n") == 1 and done.stderr.startswith(f"error: {given.name}: "), done.stderr
     assert words in done.stderr, done.stderr
     assert not (tmp_path / "out.png").exists()
+
+
+def test_a_3mf_of_nested_components_is_refused_from_what_it_builds(tmp_path):
+    """A 2 kB file of 10^6 triangles (ten components a level, six levels) passed the memory check, which weighed
+    the parsed file: it grew past 3.5 GB at 10^8. Its count is now what it builds."""
+    nested_boxes(tmp_path / "n.3mf", 6)
+    done = run("render", "n.3mf", "-o", "out.png", "--max-memory", "300M", cwd=tmp_path)
+    assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
+    assert "reading its 1.0M triangles needs" in done.stderr, done.stderr
 
 
 def test_nan_texture_coordinates_render_without_numpy_s_warning(tmp_path):

@@ -561,6 +561,83 @@ def read(reading: Reading) -> Loaded:
 ZIP_XML_READ_BYTES_PER_BYTE = 36
 
 
+OBJECT = re.compile(rb"<(?:[\w.-]+:)?object\b([^>]*)>")
+COMPONENT = re.compile(rb"<(?:[\w.-]+:)?(?:component|item)\b([^>]*)>")
+SCANNED_ATTRIBUTE = re.compile(rb"([\w.:-]+)\s*=\s*(?:\"([^\"]*)\"|'([^']*)')")
+
+
+def count(handle, size: int, source) -> int | None:
+    """The triangles the 3MF builds: each object's <triangle> elements times the times the build places it,
+    through its components (10 components each, 8 levels deep, make a 2 kB file of 10^8 boxes: this count is
+    what the memory check weighs, before any is read). A scan of the model parts' bytes, not an XML parse;
+    None for a file that is not a 3MF package (the read words it)."""
+    try:
+        with zipfile.ZipFile(handle) as archive:
+            return _built_triangles(archive)
+    except (zipfile.BadZipFile, ValueError, EOFError, RuntimeError, NotImplementedError, zlib.error):
+        return None  # not a zip, or a part zipfile cannot read (encrypted): the read words it
+
+
+def _built_triangles(archive: zipfile.ZipFile) -> int | None:
+    """count's sum over the build of the archive's root part."""
+    members = {info.filename.lstrip("/").lower(): info.filename for info in archive.infolist()}
+    root = _root_part(archive, members)
+    if root is None:
+        return None
+    parts: dict[str, dict] = {}  # part → object id → its triangles, or its components [(part, id)]
+
+    def objects(part: str) -> dict:
+        if part not in parts:
+            parts[part] = {}
+            name = members.get(part.lower())
+            if name is not None:
+                parts[part] = _scanned_objects(archive.read(name), part)
+        return parts[part]
+
+    totals: dict[tuple[str, str], int] = {}
+
+    def placed(part: str, identity: str, depth: int) -> int:
+        key = (part, identity)
+        if key not in totals:
+            totals[key] = 0  # meanwhile: a component that contains itself adds nothing (the read refuses it)
+            found = objects(part).get(identity, 0)
+            totals[key] = 0 if depth > MAX_DEPTH else found if isinstance(found, int) else \
+                sum(placed(child_part, child, depth + 1) for child_part, child in found)
+        return totals[key]
+
+    return sum(placed(part, identity, 0) for part, identity in objects(root).get(None, []))
+
+
+def _scanned_objects(data: bytes, part: str) -> dict:
+    """Object id → its triangles (a mesh) or its components [(part, object id)]; None → the build's items."""
+    found: dict = {}
+    starts = [(match.start(), _attributes(match[1])) for match in OBJECT.finditer(data)]
+    for k, (start, attributes) in enumerate(starts):
+        end = starts[k + 1][0] if k + 1 < len(starts) else len(data)
+        build = data.find(b"build", start, end)
+        end = build if build >= 0 else end
+        components = [_target(match[1], part) for match in COMPONENT.finditer(data, start, end)]
+        triangles = (data.count(b"<triangle", start, end) + data.count(b":triangle", start, end)
+                     - data.count(b"<triangles", start, end) - data.count(b":triangles", start, end))
+        found[attributes.get("id")] = components or triangles
+    build = max(data.rfind(b"<build"), data.rfind(b":build"))
+    found[None] = [_target(match[1], part) for match in COMPONENT.finditer(data, build)] if build >= 0 else []
+    return found
+
+
+def _attributes(text: bytes) -> dict[str, str]:
+    return {key.decode("latin-1").rpartition(":")[2] if key.endswith(b"path") else key.decode("latin-1"):
+            (double if double is not None else single).decode("latin-1") for key, double, single in
+            ((m[1], m[2], m[3]) for m in SCANNED_ATTRIBUTE.finditer(text))}
+
+
+def _target(text: bytes, part: str) -> tuple[str, str]:
+    """(part, object id) a component or build item names (its p:path, else its own part)."""
+    attributes = _attributes(text)
+    path = attributes.get("path")
+    return (posixpath.normpath(path.lstrip("/")) if path else part), attributes.get("objectid")
+
+
 def _unzipped(path: Path) -> int:
     """The sum of the sizes a zip's directory gives its members, uncompressed. Python's zipfile (read_3mf uses
     it) stops a member at its stated size (a longer stream fails its check), so the sum bounds what a
@@ -573,7 +650,7 @@ def _unzipped(path: Path) -> int:
 
 
 FORMAT = MeshFormat(
-    names=("3MF",), suffixes=(".3mf",), read=read, texture_sizes=texture_sizes,
+    names=("3MF",), suffixes=(".3mf",), read=read, count=count, texture_sizes=texture_sizes,
     floor=lambda path, size, source: size + _unzipped(path) * ZIP_XML_READ_BYTES_PER_BYTE,
     held=lambda path, source: (0, _unzipped(path)),  # an 800 MB XML zips to 2 MB
     content=lambda head, found, size, suffix: found == "a zip archive",
