@@ -5,15 +5,17 @@ renders with the default material. Minimal documents written here, after assimp'
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+import raycast_phong as rp
 from raycast_phong.cli import app
 from raycast_phong.io.meshes import read as mesh_file
-from raycast_phong.io.meshes.source import read_mesh
+from raycast_phong.io.meshes.source import mesh_source, read_mesh
 
 runner = CliRunner()
 pytestmark = pytest.mark.usefixtures("in_tmp_path")
@@ -141,3 +143,33 @@ def test_a_colour_input_gives_vertex_colours(tmp_path):
     corners = {tuple(mesh.vertices[v].tolist()): tuple(mesh.corner_colour[0, k].tolist())
                for k, v in enumerate(mesh.faces[0])}
     assert corners == {(0, 0, 0): (1, 0, 0), (1, 0, 0): (0, 1, 0), (0, 1, 0): (0, 0, 1)}
+
+
+@pytest.mark.parametrize(("positions", "indices", "words"), [
+    ("0 0 0 1 NaN 0 0 1 0", "0 1 2", "positions pa hold NaN or infinite numbers"),
+    ("0 0 0 1 0 0 0 INF 0", "0 1 2", "positions pa hold NaN or infinite numbers"),
+    ("0 0 0 1 0 0 0 1 0", "0 1 -1", "a <p> list holds a negative index (-1)"),
+])
+def test_what_pycollada_reads_silently_wrong_is_refused(tmp_path, positions, indices, words):
+    """pycollada read NaN as 0 and numpy wrapped index -1 to the last vertex, silently."""
+    path = write_triangle(tmp_path / "t.dae", positions)
+    path.write_text(path.read_text().replace("<p>0 1 2</p>", f"<p>{indices}</p>"))
+    with pytest.raises(rp.SceneError, match=re.escape(words)):
+        read(path)
+
+
+def test_the_count_the_memory_check_weighs_is_what_instance_nodes_build(tmp_path):
+    """A node placing the triangle, a library node instancing it three times and the scene instancing that twice
+    beside one more triangle: 1 × 3 × 2 + 1 = 7 triangles, counted before trimesh expands them (a 2 kB
+    document of instance_nodes ten wide and eight deep places 10^8 boxes)."""
+    path = write_triangle(tmp_path / "t.dae")
+    text = path.read_text()
+    library = ('<library_nodes><node id="one"><instance_geometry url="#tri"/></node><node id="three">'
+               + '<node><instance_node url="#one"/></node>' * 3 + '</node></library_nodes>')
+    text = text.replace("<library_visual_scenes>", library + "<library_visual_scenes>")
+    text = text.replace('<node id="n"><instance_geometry url="#tri"></instance_geometry></node>',
+                        '<node><instance_node url="#three"/></node><node><instance_node url="#three"/></node>'
+                        '<node><instance_geometry url="#tri"/></node>')
+    path.write_text(text)
+    assert mesh_source(path).triangles() == 7
+    assert len(read(path).faces) == 7

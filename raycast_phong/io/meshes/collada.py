@@ -17,7 +17,7 @@ from urllib.parse import unquote, urlparse
 import numpy as np
 
 from ..files import shown_name
-from .format import Loaded, MeshFormat, Reading
+from .format import FileProblem, Loaded, MeshFormat, Reading
 from .mtl import MAX_SIDE_FILE
 
 IDENTITY = " ".join(["1", "0", "0", "0", "0", "1", "0", "0", "0", "0", "1", "0", "0", "0", "0", "1"])
@@ -115,11 +115,15 @@ def _matrix(text: str) -> bool:
 
 
 def read(reading: Reading) -> Loaded:
-    """A note for each image file it names that is missing, then the document (made readable: collada_text)
-    through trimesh, with the up axis it states."""
+    """A note for each image file it names that is missing, the values trimesh would take silently refused
+    (check_values), then the document (made readable: collada_text) through trimesh, with the up axis it
+    states."""
     from .trimesh_parts import load, parts
     _check_images(reading.path, reading.handle, reading.notes)
     data = reading.handle.read()
+    root = _tree(data)
+    if root is not None:
+        check_values(root, reading.path)
     text = io.BytesIO(collada_text(data, reading.path, reading.notes))
     return Loaded(parts(load(reading, text)), up=collada_up(data))
 
@@ -144,4 +148,93 @@ def _check_images(path: Path, handle, notes: list[str]) -> None:
             notes.append(f"{path}: texture {shown_name(name)} is missing")
 
 
-FORMAT = MeshFormat(names=("COLLADA",), suffixes=(".dae",), read=read)
+# ---------------------------------------------------------------- what the document builds, before it is read
+
+NOT_FINITE = re.compile(r"(?i)\b(nan|inf|infinity)\b")
+INDEX_LISTS = ("p", "v", "vcount")
+
+
+def _tree(data: bytes):
+    """The document's element tree (lxml, no entities, no network, no DTD), or None when lxml cannot parse it
+    (trimesh words that)."""
+    from lxml import etree
+    try:
+        return etree.fromstring(data, etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False,
+                                                      huge_tree=False))
+    except (etree.XMLSyntaxError, ValueError):
+        return None
+
+
+def _local(tag) -> str:
+    return tag.rpartition("}")[2] if isinstance(tag, str) else ""
+
+
+def check_values(root, path: Path) -> None:
+    """Refuse what pycollada reads silently wrong: a position that is NaN or infinite (read as 0) and a negative
+    vertex index (numpy wraps -1 to the last vertex)."""
+    by_id = {element.get("id"): element for element in root.iter() if element.get("id")}
+    for element in root.iter():
+        name = _local(element.tag)
+        if name in INDEX_LISTS and element.text and "-" in element.text:
+            raise FileProblem(f"{str(path)!r}: a <{name}> list holds a negative index "
+                              f"({next(w for w in element.text.split() if w.startswith('-'))[:20]}); allowed: "
+                              "indices 0 or more")
+        if name == "input" and element.get("semantic") == "POSITION":
+            source = by_id.get((element.get("source") or "").lstrip("#"))
+            values = None if source is None else next(
+                (child for child in source if _local(child.tag) == "float_array"), None)
+            if values is not None and values.text and NOT_FINITE.search(values.text):
+                raise FileProblem(f"{str(path)!r}: positions {values.get('id') or ''} hold NaN or infinite "
+                                  "numbers; every vertex must have finite coordinates")
+
+
+def count(handle, size: int, source) -> int | None:
+    """The triangles the document builds: each geometry's triangles (a polylist's from its vcount) times the
+    times its scene places it, through <instance_node> (a 2 kB document can place one box 10^8 times: this
+    count is what the memory check weighs, before trimesh expands it). None for a document lxml cannot parse."""
+    root = _tree(handle.read())
+    if root is None:
+        return None
+    by_id = {element.get("id"): element for element in root.iter() if element.get("id")}
+    totals: dict[int, int] = {}
+
+    def geometry(element) -> int:
+        total = 0
+        for primitive in element.iter():
+            name = _local(primitive.tag)
+            if name == "polylist":
+                vcount = next((c for c in primitive if _local(c.tag) == "vcount"), None)
+                sides = np.fromstring(vcount.text or "", dtype=np.int64, sep=" ") if vcount is not None else []
+                total += int(np.maximum(np.asarray(sides) - 2, 0).sum())
+            elif name in ("triangles", "polygons", "trifans", "tristrips"):
+                total += int(primitive.get("count") or 0)
+        return total
+
+    def node(element) -> int:
+        key = id(element)
+        if key not in totals:
+            totals[key] = 0  # meanwhile: a node that instances itself adds nothing (the read refuses it)
+            total = 0
+            for child in element:
+                name = _local(child.tag)
+                target = by_id.get((child.get("url") or "").lstrip("#"))
+                if name == "instance_controller" and target is not None:  # drawn as its skin's or morph's mesh
+                    found = next((c for c in target if _local(c.tag) in ("skin", "morph")), None)
+                    target = None if found is None else by_id.get((found.get("source") or "").lstrip("#"))
+                    name = "instance_geometry"
+                if name == "instance_geometry" and target is not None:
+                    total += geometry(target)
+                elif name == "instance_node" and target is not None:
+                    total += node(target)
+                elif name == "node":
+                    total += node(child)
+            totals[key] = total
+        return totals[key]
+
+    scenes = [by_id.get((e.get("url") or "").lstrip("#")) for e in root.iter()
+              if _local(e.tag) == "instance_visual_scene"]
+    scenes = [s for s in scenes if s is not None] or [e for e in root.iter() if _local(e.tag) == "visual_scene"]
+    return sum(node(scene) for scene in scenes)
+
+
+FORMAT = MeshFormat(names=("COLLADA",), suffixes=(".dae",), read=read, count=count)
