@@ -132,6 +132,45 @@ def test_a_3mf_of_nested_components_is_refused_from_what_it_builds(tmp_path):
     assert "reading its 1.0M triangles needs" in done.stderr, done.stderr
 
 
+def glb_with_image(path: Path, image: bytes) -> Path:
+    """A .glb of one textured triangle whose base colour map is `image`, stored in its binary chunk."""
+    points, uv = np.array(TRIANGLE, "<f4").tobytes(), np.zeros((3, 2), "<f4").tobytes()
+    indices = np.array([0, 1, 2, 0], "<u2").tobytes()
+    data = points + uv + indices + image + bytes(-len(image) % 4)
+    views = [(0, 36), (36, 24), (60, 6), (68, len(image))]
+    tree = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2,
+                                        "material": 0}]}],
+            "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+            "textures": [{"source": 0}], "images": [{"bufferView": 3, "mimeType": "image/png"}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0],
+                           "max": [1, 1, 0]},
+                          {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"},
+                          {"bufferView": 2, "componentType": 5123, "count": 3, "type": "SCALAR"}],
+            "bufferViews": [{"buffer": 0, "byteOffset": at, "byteLength": length} for at, length in views],
+            "buffers": [{"byteLength": len(data)}]}
+    text = json.dumps(tree).encode()
+    text += b" " * (-len(text) % 4)
+    chunks = struct.pack("<II", len(text), 0x4E4F534A) + text + struct.pack("<II", len(data), 0x004E4942) + data
+    path.write_bytes(struct.pack("<III", 0x46546C67, 2, 12 + len(chunks)) + chunks)
+    return path
+
+
+def test_an_embedded_map_is_weighed_at_the_size_it_is_decoded_whole(tmp_path):
+    """A 12000² PNG in a .glb's buffer (between PIL's warning and error sizes) was decoded whole, 999 MB under a
+    300 MB budget, with PIL's DecompressionBombWarning on stderr: its header's texels are now the read's."""
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+
+    header = struct.pack(">IIBBBBB", 12000, 12000, 8, 2, 0, 0, 0)  # its header is what is weighed
+    png = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(bytes(1000))) + \
+        chunk(b"IEND", b"")
+    glb_with_image(tmp_path / "big.glb", png)
+    done = run("render", "big.glb", "-o", "out.png", "--max-memory", "300M", cwd=tmp_path)
+    assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
+    assert "needs ≈ 1.07 GB of memory, more than the 300 MB available" in done.stderr, done.stderr
+
+
 def test_nan_texture_coordinates_render_without_numpy_s_warning(tmp_path):
     """NaN UVs are read as 0 by the kernel (they rendered before a check's nanmax warned 'All-NaN slice')."""
     primitives = [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0}]

@@ -10,6 +10,7 @@ from __future__ import annotations
 import io
 import json
 import math
+import warnings
 from pathlib import Path
 from urllib.parse import unquote
 
@@ -109,12 +110,13 @@ def _note_unread(tree: dict, path: Path, notes: list[str]) -> None:
         notes.append(f"{path}: its {len(cameras)} camera(s) are not used: the framing camera (or the scene's) is")
 
 
-def texture_sizes(path: Path, document: Document, file_size) -> list[tuple[int, int]]:
+def texture_sizes(path: Path, document: Document, file_size, embedded: bool = False) -> list[tuple[int, int]]:
     """(height, width) of each colour map (baseColorTexture, emissiveTexture, a specular-glossiness material's
     diffuseTexture) the glTF's materials use, and of each alpha map (a MASK or BLEND material's baseColorTexture
     again: its alpha channel is decoded apart), from
     image headers only: an external file's (`file_size`, io.textures), a .glb's embedded image's from its own
-    bytes alone (the rest of the binary chunk is not read); what cannot be read counts nothing."""
+    bytes alone (the rest of the binary chunk is not read); what cannot be read counts nothing. `embedded`:
+    only the images in the file's own buffers (trimesh decodes those whole: floor counts them)."""
     tree = document.tree
     images = set()  # (image, channel): a MASK or BLEND material decodes its base colour map's alpha apart too
     try:
@@ -146,8 +148,12 @@ def texture_sizes(path: Path, document: Document, file_size) -> list[tuple[int, 
                 with open_regular(path, str(path), "mesh file") as handle:
                     handle.seek(document.binary[0] + start)
                     blob = io.BytesIO(handle.read(length))
-                with Image.open(blob) as opened:
-                    sizes.append((opened.height, opened.width))
+                with warnings.catch_warnings():  # a header past PIL's bomb warning: the memory check weighs it
+                    warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+                    with Image.open(blob) as opened:
+                        sizes.append((opened.height, opened.width))
+            elif embedded:
+                continue
             elif isinstance(image.get("uri"), str) and not image["uri"].startswith("data:"):
                 size = file_size(uri_file(path.parent, image["uri"]))
                 if size:
@@ -435,9 +441,18 @@ def _size(path: Path) -> int:
         return 0  # the read reports a missing buffer
 
 
+# An image in a .glb's buffer is decoded whole by trimesh (PIL: 4 bytes a texel as RGBA) before it is shrunk to
+# the map's size (a copy of as much): a 12000² PNG peaked 999 MB under a 300 MB budget.
+EMBEDDED_IMAGE_BYTES_PER_TEXEL = 8
+
+
 def floor(path: Path, size: int, source) -> int:
+    """The file's bytes as read, a .gltf's buffers, and its embedded images decoded whole."""
+    from ..textures import file_size
     per_byte = GLB_READ_BYTES_PER_BYTE if path.suffix.lower() == ".glb" else TEXT_READ_BYTES_PER_BYTE
-    return size * per_byte + held(path, source)[0] * BUFFER_READ_BYTES_PER_BYTE
+    images = sum(h * w for h, w in texture_sizes(path, source.document, file_size, embedded=True))
+    return size * per_byte + held(path, source)[0] * BUFFER_READ_BYTES_PER_BYTE + \
+        images * EMBEDDED_IMAGE_BYTES_PER_TEXEL
 
 
 def describe(path: Path) -> dict:

@@ -6,11 +6,13 @@ from __future__ import annotations
 
 import io
 import logging
+import warnings
 from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 import trimesh
+from PIL.Image import DecompressionBombWarning
 
 from ..files import open_regular
 from .format import Part, Reading
@@ -57,7 +59,8 @@ def load(reading: Reading, file_obj=None, file_type: str | None = None, resolver
     the read's values check words it in one line."""
     resolver = resolver or RegularFiles(reading.path)
     file_type = file_type or reading.path.suffix.lower()[1:]
-    with np.errstate(over="ignore", invalid="ignore"), trimesh_quiet():
+    with np.errstate(over="ignore", invalid="ignore"), trimesh_quiet(), warnings.catch_warnings():
+        warnings.simplefilter("ignore", DecompressionBombWarning)  # an embedded map's size is weighed before
         return trimesh.load(file_obj=reading.handle if file_obj is None else file_obj, file_type=file_type,
                             resolver=resolver, process=False)
 
