@@ -3,6 +3,7 @@
     RaycastPhongError                   the base: `except RaycastPhongError` catches every refusal
     ├── InputError (ValueError)         bad input; the CLI prints one line and exits 2
     │   ├── SceneError                  a scene, a mesh file or a scene key the renderer refuses
+    │   │   └── FileProblem             a mesh file's own problem, said before the read knows its scene key
     │   ├── OptionError                 a command-line option that cannot be honoured (--scheduler
     │   │                               without Dask, or a cluster that does not answer)
     │   ├── CorruptManifest             a batch folder's manifest.json that is no manifest of this version
@@ -61,6 +62,15 @@ def _once(problem: str, where: str) -> str:
             break
     return problem.replace(quoted, "the file")
 
+
+
+class FileProblem(SceneError):
+    """A problem of the mesh file being read, said without where it is: the read's one boundary
+    (io.meshes.read.read_file) raises it again as a SceneError at the file's own location (its scene key), so
+    no reader is handed a `where` to thread through its functions. Uncaught, it is still one line."""
+
+    def __init__(self, problem: str):
+        super().__init__(problem)
 
 
 class OptionError(InputError):

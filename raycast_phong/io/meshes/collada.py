@@ -16,8 +16,9 @@ from urllib.parse import unquote, urlparse
 
 import numpy as np
 
+from ...errors import FileProblem
 from ..files import shown_name
-from .format import FileProblem, Loaded, MeshFormat, Reading
+from .format import Loaded, MeshFormat, Reading
 from .mtl import MAX_SIDE_FILE
 
 IDENTITY = " ".join(["1", "0", "0", "0", "0", "1", "0", "0", "0", "0", "1", "0", "0", "0", "0", "1"])

@@ -15,7 +15,7 @@ from typing import Any, BinaryIO, NamedTuple
 
 import numpy as np
 
-from ...errors import SceneError, Where
+from ...errors import Where
 
 MeshSource = Any  # io/meshes/source.py's, which imports the registry: named here without importing it
 
@@ -25,15 +25,6 @@ MeshSource = Any  # io/meshes/source.py's, which imports the registry: named her
 TEXT_READ_BYTES_PER_BYTE = 12
 # trimesh's load of a file of a format with no measured figure, above the render's own peak, a triangle.
 OTHER_PARSE_BYTES = 550
-
-
-class FileProblem(SceneError):
-    """A problem of the mesh file being read, said without where it is: the read's one boundary
-    (read.read_file) raises it again as a SceneError at the file's own location (its scene key), so no reader
-    is handed a `where` to thread through its functions. Uncaught, it is still one line."""
-
-    def __init__(self, problem: str):
-        super().__init__(problem)
 
 
 class Part(NamedTuple):

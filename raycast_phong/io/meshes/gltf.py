@@ -17,8 +17,9 @@ from urllib.parse import unquote
 import numpy as np
 
 from ...codes import BLENDED_ALPHA, GLTF_WRAP
+from ...errors import FileProblem
 from ..files import open_regular, shown_name
-from .format import TEXT_READ_BYTES_PER_BYTE, FileProblem, Loaded, MeshFormat, Reading, weigh
+from .format import TEXT_READ_BYTES_PER_BYTE, Loaded, MeshFormat, Reading, weigh
 from .gltf_json import Document, buffer_files, image_uris, read_document, uri_file
 from .materials import MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, TextureSource, specular_lobe
 from .materials import rgb as _rgb

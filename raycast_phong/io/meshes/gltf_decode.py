@@ -17,9 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import SceneError, Where
+from ...errors import FileProblem, SceneError, Where
 from ..files import open_regular
-from .format import FileProblem
 from .gltf_json import Document, uri_file
 
 MESHOPT = ("EXT_meshopt_compression", "KHR_meshopt_compression")

@@ -11,10 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import SceneError
+from ...errors import FileProblem, SceneError
 from ..files import open_regular
 from .content import is_number
-from .format import FileProblem, Loaded, MeshFormat, Reading, weigh
+from .format import Loaded, MeshFormat, Reading, weigh
 from .mtl import mtllib_names, read_obj_materials, scan_mtllib
 
 BOMS = ((b"\xef\xbb\xbf", "utf-8"), (b"\xff\xfe", "utf-16-le"), (b"\xfe\xff", "utf-16-be"))

@@ -17,13 +17,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import SceneError
+from ...errors import FileProblem, SceneError
 from ...records import bounding_box
 from ...tolerances import POSITION_LIMIT
 from ..files import open_mesh_file
 from . import read_names
 from .content import check_content
-from .format import FileProblem, Part, Reading
+from .format import Part, Reading
 from .gltf import SPECULAR_GLOSSINESS, TRANSFORM, UNLIT, from_pbr, transform_uv
 from .materials import FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, PartSurface, TextureSource
 from .obj import UV_LIMIT

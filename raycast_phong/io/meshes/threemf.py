@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import SceneError
+from ...errors import FileProblem, SceneError
 from ..files import open_regular
-from .format import FileProblem, Loaded, MeshFormat, Reading
+from .format import Loaded, MeshFormat, Reading
 from .materials import FileMaterial, PartSurface, TextureSource, rgb
 from .obj import UV_LIMIT
 
