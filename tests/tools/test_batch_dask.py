@@ -52,6 +52,15 @@ def test_a_dask_batch_writes_the_same_images_bit_for_bit(five_scenes, tmp_path, 
     assert entries["broken"]["status"] == "failed" and entries["sphere0"]["hash"].startswith("sha256:")
 
 
+def test_a_scheduler_without_workers_is_bad_input_not_a_hang(five_scenes, tmp_path, monkeypatch):
+    """Its tasks would wait for ever: the batch waits WORKER_WAIT seconds for a worker, then says so."""
+    monkeypatch.setattr(batch.cluster, "WORKER_WAIT", 1.0)
+    with distributed.LocalCluster(n_workers=0, processes=False, protocol="tcp", host="127.0.0.1",
+                                  dashboard_address=None) as empty:
+        with pytest.raises(OptionError, match=r"the scheduler has no worker, or stopped answering \(waited 1 s\)"):
+            batch.run_batch(batch.find_jobs([five_scenes]), tmp_path / "out", scheduler=empty.scheduler_address)
+
+
 def test_an_unreachable_scheduler_is_bad_input(five_scenes, tmp_path, monkeypatch):
     monkeypatch.setattr(batch.cluster, "CONNECT_TIMEOUT", "0.5s")  # port 9 (discard) never answers; don't wait 10 s
     with pytest.raises(OptionError, match=r"--scheduler tcp://127\.0\.0\.1:9: cannot connect"):

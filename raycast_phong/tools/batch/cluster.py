@@ -6,14 +6,18 @@ scene files are read here only).
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterator
 from concurrent.futures import Future
+from contextlib import contextmanager
 
 from ...errors import OptionError
 from .jobs import FAILED, Outcome, Task, new_entry, reason_line, render_job
 
-# A Dask client gives up on an unreachable scheduler after this long rather than hanging the batch.
+# A Dask client gives up on an unreachable scheduler after this long rather than hanging the batch, and on a
+# scheduler with no worker after WORKER_WAIT seconds (its tasks would wait for ever).
 CONNECT_TIMEOUT = "10s"
+WORKER_WAIT = 30.0
 
 
 def cluster_outcome(future: Future, task: Task) -> Outcome:
@@ -23,6 +27,22 @@ def cluster_outcome(future: Future, task: Task) -> Outcome:
     except Exception as error:  # noqa: BLE001
         reason = reason_line(task.job, f"worker failed: {type(error).__name__}: {error}")
         return new_entry(task.job, FAILED, reason=reason, hash=task.digest, inputs=task.inputs)
+
+
+@contextmanager
+def _dask_quiet() -> Iterator[None]:
+    """Dask's own loggers silenced while the batch uses the cluster: a scheduler that dies mid-batch made them
+    print a 30-line traceback; each task it took down fails with one line in the report instead."""
+    names = [name for name in logging.root.manager.loggerDict if name.split(".")[0] == "distributed"]
+    loggers = [logging.getLogger(name) for name in ("distributed", "tornado", "asyncio", *names)]
+    before = [logger.level for logger in loggers]
+    for logger in loggers:
+        logger.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        for logger, level in zip(loggers, before):
+            logger.setLevel(level)
 
 
 def on_cluster(tasks: list[Task], scheduler: str, started: set[str]) -> Iterator[Outcome]:
@@ -37,7 +57,12 @@ def on_cluster(tasks: list[Task], scheduler: str, started: set[str]) -> Iterator
         client = Client(scheduler, timeout=CONNECT_TIMEOUT)
     except (OSError, TimeoutError) as error:
         raise OptionError(f"--scheduler {scheduler}: cannot connect ({error})") from None
-    with client:
+    with _dask_quiet(), client:  # quiet until the client has closed
+        try:
+            client.wait_for_workers(1, timeout=WORKER_WAIT)
+        except (TimeoutError, OSError):
+            raise OptionError(f"--scheduler {scheduler}: the scheduler has no worker, or stopped answering "
+                              f"(waited {WORKER_WAIT:g} s); start one there: dask worker {scheduler}") from None
         # pure=False: a re-run must render again, not reuse a result the cluster remembers.
         futures = {client.submit(render_job, task, pure=False): task for task in tasks}
         started.update(task.job.name for task in tasks)
