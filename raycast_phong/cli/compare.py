@@ -78,7 +78,7 @@ def side_by_side(
         check_output_path(output, inputs=(path,))
         layers = output if output.suffix.lower() == ".exr" else output.with_name(f"{output.stem}-variants.exr")
         check_output_path(layers, inputs=(path,))
-        from raycast_phong.renderer.budget import budget_of
+        from raycast_phong.io.system import budget_of
         each = compare.render_budget(scenes, budget_of(max_memory), str(path))
         results = []
         with progress_bar(quiet) as bar:
@@ -173,7 +173,7 @@ def compare_images(
     with exit_codes():
         if diff is not None:
             check_output_path(diff, inputs=(a, b))  # before reading: --diff onto an input would replace it
-        from raycast_phong.renderer.budget import budget_of
+        from raycast_phong.io.system import budget_of
         found = compare_files(a, b, fail_, warn, budget_of(max_memory))
         if diff is not None:
             rp.write_image(diff, difference_map(found.a, found.b))

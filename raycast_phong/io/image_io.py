@@ -25,7 +25,7 @@ from ..errors import ImageError
 from .atomic import os_reason, replaced_atomically
 from .encoding import COLOURS, DISPLAY, LINEAR, to_8bit
 from .files import FILE_KINDS, image_suffix_mismatch, native_errors_kept
-from .system import format_bytes
+from .system import budget_of, format_bytes
 
 LAYER_CHANNELS = {"depth": ("Z",), "normal": ("X", "Y", "Z"), "face": ("id",)}
 
@@ -243,22 +243,40 @@ def refuse_non_regular(path: str | Path) -> None:
         raise ImageError(f"{path}: {mismatch}; give an image file (PNG, EXR, ...)")
 
 
-def read_image(path: str | Path, part: int = 0) -> tuple[np.ndarray, tuple[str, ...]]:
+def read_image(path: str | Path, part: int = 0,
+               max_memory: int | str | None = None) -> tuple[np.ndarray, tuple[str, ...]]:
     """All channels of one part of an image as (H, W, C) float32 (8-bit files scaled to [0, 1]) and their names.
 
-    A part is read over its own data window: an extra part of write_image comes back at its own size.
+    A part is read over its own data window: an extra part of write_image comes back at its own size. Its size
+    is checked from the header before a pixel is decoded: a 1 MB PNG may hold 20000² pixels (6.4 GB as float32).
 
-    Parameters: `path`, an image file OpenImageIO reads; `part`, the part of a multi-part EXR (0: the first).
-    Returns (pixels (H, W, C) float32, channel names). Raises ImageError (one line) for a file that cannot be read.
+    Parameters: `path`, an image file OpenImageIO reads; `part`, the part of a multi-part EXR (0: the first);
+    `max_memory`, the bytes the read may use (or '8G'; default: the commands' budget, a share of the memory
+    available). Returns (pixels (H, W, C) float32, channel names). Raises ImageError (one line) for a file
+    that cannot be read or would exceed the budget.
     """
     refuse_non_regular(path)
+    budget = budget_of(max_memory)
     buffer = oiio.ImageBuf(str(path), part, 0)
+    spec = buffer.spec()  # the header alone: ImageBuf decodes the pixels when they are asked for
     if buffer.has_error:
         raise ImageError(f"{path}: cannot read ({buffer.geterror()})")
+    needed = _read_bytes(spec)
+    if budget is not None and needed > budget:
+        raise ImageError(f"{path}: a {spec.width}×{spec.height} image of {spec.nchannels} channel(s) needs about "
+                         f"{format_bytes(needed)} to read, over the budget of {format_bytes(budget)}; allowed: "
+                         "read_image(..., max_memory=...) above it")
     pixels = buffer.get_pixels(oiio.FLOAT)
     if pixels is None or pixels.size == 0:
         raise ImageError(f"{path}: cannot read ({buffer.geterror()})")
     return np.asarray(pixels, np.float32), tuple(buffer.spec().channelnames)
+
+
+def _read_bytes(spec) -> int:
+    """Peak bytes of reading a part whole: the file's pixels decoded, ImageBuf's float copy and the array handed
+    back (a 20000² RGB PNG: 10.6 GB at peak, 8.8 bytes a value; this says 9)."""
+    values = max(spec.width, 0) * max(spec.height, 0) * max(spec.depth, 1) * max(spec.nchannels, 0)
+    return values * (2 * 4 + max(spec.format.size(), 1))
 
 
 def read_layer(path: str | Path, layer: str | None = None) -> np.ndarray:

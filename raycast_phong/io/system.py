@@ -55,6 +55,28 @@ def parse_size(text: str) -> int:
     return int(size)
 
 
+BUDGET_SHARE = 0.75  # of the memory available now: the rest is for the OS and other programs
+
+
+def default_budget() -> int | None:
+    """BUDGET_SHARE of the available memory; None (no limit) where the platform tells nothing."""
+    available = available_memory()
+    return None if available is None else int(available * BUDGET_SHARE)
+
+
+def budget_of(max_memory: int | str | None) -> int | None:
+    """The bytes a command may use: `max_memory` (bytes, or '8G'), else default_budget(); None: no limit known.
+
+    The one home of that rule (render, compare, batch, the references). A budget of 0 bytes or less is a
+    ValueError, never the default in disguise (`max_memory or default_budget()` turned 0 into 3/4 of the memory)."""
+    budget = parse_size(max_memory) if isinstance(max_memory, str) else max_memory
+    if budget is None:
+        return default_budget()
+    if isinstance(budget, bool) or not isinstance(budget, int | float) or not budget > 0:
+        raise ValueError(f"max_memory must be a positive number of bytes or a size such as '8G', got {budget!r}")
+    return int(budget)
+
+
 def memory_allowed(max_memory: int | str | None) -> int | None:
     """What a read may use: the memory available now (available_memory), capped by `max_memory` (a command's
     --max-memory: bytes, or '8G' as parse_size reads it); None: no limit known."""

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from ..codes import GEOMETRY_LAYERS, TERM_LAYERS, ShadingModel
 from ..errors import SceneError
-from ..io.system import available_memory, count_text, format_bytes, parse_size
+from ..io.system import budget_of, count_text, format_bytes
 from ..scene.kinds import object_kinds
 from ..scene.schema import Scene
 from ..shapes import KINDS, from_file
@@ -51,7 +51,6 @@ MORTON_SAVING_BYTES = 50
 OBJECT_BYTES = 2000
 # Per ray of a tile (origins, directions, hits, Embree's output): 8192 × 16² rays in one row took 117 MB.
 RAY_BYTES = 64
-BUDGET_SHARE = 0.75    # of the memory available now: the rest is for the OS and other programs
 GB = 1 << 30
 
 
@@ -159,25 +158,6 @@ def texture_estimate(scene: Scene, meshes) -> int:
 
 
 # ---------------------------------------------------------------- the budget
-
-
-def default_budget() -> int | None:
-    """BUDGET_SHARE of the available memory; None (no limit) where the platform tells nothing."""
-    available = available_memory()
-    return None if available is None else int(available * BUDGET_SHARE)
-
-
-def budget_of(max_memory: int | str | None) -> int | None:
-    """The bytes a command may use: `max_memory` (bytes, or '8G'), else default_budget(); None: no limit known.
-
-    The one home of that rule (render, compare, batch, the references). A budget of 0 bytes or less is a
-    ValueError, never the default in disguise (`max_memory or default_budget()` turned 0 into 3/4 of the memory)."""
-    budget = parse_size(max_memory) if isinstance(max_memory, str) else max_memory
-    if budget is None:
-        return default_budget()
-    if isinstance(budget, bool) or not isinstance(budget, int | float) or not budget > 0:
-        raise ValueError(f"max_memory must be a positive number of bytes or a size such as '8G', got {budget!r}")
-    return int(budget)
 
 
 def check_memory(scene: Scene, max_memory: int | str | None, **options) -> MemoryEstimate:

@@ -67,8 +67,8 @@ def check_fine_memory(scene: Scene, data: dict, levels: int, max_memory: int | N
     (default: the render's budget), before a mesh is subdivided: the refined shapes' estimate
     (budget.estimate_memory of `data`, smooth, float64) and each mesh file's triangles × (4^levels − 1) more,
     at the render's bytes a triangle and the subdivision's."""
-    from ..io.system import count_text, format_bytes
-    from ..renderer.budget import FLOAT64_NORMAL_BYTES, SMOOTH_BYTES, budget_of, estimate_memory
+    from ..io.system import budget_of, count_text, format_bytes
+    from ..renderer.budget import FLOAT64_NORMAL_BYTES, SMOOTH_BYTES, estimate_memory
     budget = budget_of(max_memory)
     if budget is None:
         return
@@ -137,9 +137,8 @@ REFERENCE_PIXEL_BYTES = 88
 
 def check_reference_memory(scene: Scene, max_memory: int | None) -> None:
     """Refuse (SceneError, one line) an analytic reference whose image does not fit the budget: `max_memory`
-    bytes, default the render's (renderer.budget.default_budget)."""
-    from ..io.system import format_bytes
-    from ..renderer.budget import budget_of
+    bytes, default the render's (io.system.default_budget)."""
+    from ..io.system import budget_of, format_bytes
     budget = budget_of(max_memory)
     render = scene.render
     need = render.width * render.height * REFERENCE_PIXEL_BYTES

@@ -24,13 +24,8 @@ from raycast_phong.codes import StageName
 from raycast_phong.geometry.build import build_geometry
 from raycast_phong.io.meshes.source import mesh_source
 from raycast_phong.io.scene_file import MAX_SCENE_BYTES
-from raycast_phong.renderer.budget import (
-    check_memory,
-    default_budget,
-    estimate_memory,
-    parse_size,
-    shape_triangles,
-)
+from raycast_phong.io.system import default_budget, parse_size
+from raycast_phong.renderer.budget import check_memory, estimate_memory, shape_triangles
 from raycast_phong.renderer.diagnosis import diagnose, group_median
 
 CLI = [sys.executable, str(Path(__file__).parents[2] / "cli.py")]

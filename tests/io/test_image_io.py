@@ -129,3 +129,20 @@ def test_eight_bit_values_are_clamped_rounded_and_nan_is_zero(dtype, colour):
     values = image.astype(np.float32)
     values = np.nan_to_num(np.clip(srgb_encode(values) if colour == "linear" else values, 0.0, 1.0), nan=0.0)
     np.testing.assert_array_equal(to_8bit(image, colour, rows_per_band=64), np.round(values * 255.0).astype(np.uint8))
+
+
+def test_read_image_checks_its_budget_from_the_header_before_decoding(tmp_path, monkeypatch):
+    """A 1 MB PNG may hold 20000² pixels: the read weighs width × height × channels × (two float32 copies and
+    the file's own values, 9 bytes for 8-bit) first. 2000 × 1000 RGB 8-bit: 54 MB."""
+    from raycast_phong.io import system
+    path = tmp_path / "wide.png"
+    rp.write_image(path, np.zeros((1000, 2000, 3), np.float32))
+    refusal = r"2000×1000 image of 3 channel.*over the budget.*max_memory"
+    with pytest.raises(rp.errors.ImageError, match=refusal) as refused:
+        rp.read_image(path, max_memory=50_000_000)
+    assert "\n" not in str(refused.value)
+    pixels, names = rp.read_image(path, max_memory=60_000_000)
+    assert pixels.shape == (1000, 2000, 3) and names == ("R", "G", "B")
+    monkeypatch.setattr(system, "default_budget", lambda: 50_000_000)  # no max_memory: the commands' budget
+    with pytest.raises(rp.errors.ImageError, match="over the budget"):
+        rp.read_image(path)

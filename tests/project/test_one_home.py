@@ -1,5 +1,5 @@
 """Issue 32's leftovers, held: a module keeps its name where it is imported, TOML is written by tomli-w only, and
-the memory budget has one home (renderer.budget.budget_of), where a budget of 0 is refused, not made the default."""
+the memory budget has one home (io.system.budget_of), where a budget of 0 is refused, not made the default."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pytest
 
 import raycast_phong
 from raycast_phong.io.scene_toml import toml_value
-from raycast_phong.renderer.budget import budget_of
+from raycast_phong.io.system import budget_of
 
 PACKAGE = Path(raycast_phong.__file__).parent
 
@@ -47,7 +47,7 @@ def test_a_value_is_one_line_of_toml_that_reads_back(value):
 
 
 def test_a_budget_of_zero_is_refused_not_made_the_default(monkeypatch):
-    from raycast_phong.renderer import budget
+    from raycast_phong.io import system as budget
     monkeypatch.setattr(budget, "default_budget", lambda: 12345)  # the memory available moves while tests run
     assert budget_of(None) == 12345
     assert budget_of("1K") == 1024 and budget_of(5000) == 5000

@@ -99,7 +99,7 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
     remove_temporaries(folder, [job.name for job in jobs])
     budget = None
     if scheduler is None:
-        from ...renderer.budget import budget_of
+        from ...io.system import budget_of
         budget = budget_of(max_memory)
     cores, capped = worker_count(workers, budget) if scheduler is None else (workers or os.cpu_count() or 1, None)
     outcomes: dict[str, Outcome] = {}
