@@ -17,6 +17,7 @@ imported numba, without waiting for this process's geometry kernels.
 from __future__ import annotations
 
 import os
+import queue
 import subprocess
 import sys
 import threading
@@ -40,6 +41,11 @@ HELPER = "import sys; from raycast_phong.renderer.split_compile import helper; h
 # The helper's own memory: its peak resident size compiling the default scene's shading kernel was 258 MB (the
 # command's own, 253 MB); on a machine with less available it is not started (the command compiles alone).
 HELPER_BYTES = 400 << 20
+# A helper whose CPU time stands still this long while it is waited for is stopped (SIGSTOP) or stuck: it is
+# ended and the kernel compiles here. A compiling helper spends CPU every tick, even on a machine at load 16;
+# where its CPU time cannot be read, ten times as long without a word from it.
+STALL_SECONDS = 10.0
+POLL_SECONDS = 0.5
 
 
 def cores() -> int:
@@ -170,6 +176,8 @@ class Aside:
             self.process = None
         if self.process is None:
             return
+        self.lines: queue.Queue[str] = queue.Queue()
+        threading.Thread(target=_read_lines, args=(self.process.stdout, self.lines), daemon=True).start()
         kernels = {"shade": [SHADE], "winding": [jit.kernel_name(kernel) for kernel in WINDING_KERNELS]}
         for task in tasks:
             for name in kernels[task]:
@@ -177,11 +185,24 @@ class Aside:
                 self.waits.append(name)
 
     def wait_for(self, task: str) -> None:
-        """Return once the helper says it has finished `task`, or has ended."""
+        """Return once the helper says it has finished `task`, has ended, or has stalled (stopped by SIGSTOP, or
+        stuck: its CPU time still for STALL_SECONDS): a stalled helper is ended, and what it did not cache compiles
+        here, as alone."""
+        moved, cpu = time.monotonic(), _cpu_seconds(self.process.pid)
         while task not in self.finished:
-            line = self.process.stdout.readline()
+            try:
+                line = self.lines.get(timeout=POLL_SECONDS)
+            except queue.Empty:
+                now, spent = time.monotonic(), _cpu_seconds(self.process.pid)
+                if spent is not None and spent != cpu:
+                    moved, cpu = now, spent
+                if now - moved >= (STALL_SECONDS if spent is not None else 10 * STALL_SECONDS):
+                    self.process.kill()
+                    return
+                continue
             if not line:  # the helper has ended (or failed): what it did not cache compiles here
                 return
+            moved = time.monotonic()
             self.finished.add(line.strip())
 
     def tell(self, name: str) -> None:
@@ -204,6 +225,27 @@ class Aside:
                     stream.close()
                 except OSError:
                     pass
+
+
+def _read_lines(stream, lines: queue.Queue) -> None:
+    """Each line the helper says, then "" when it has ended: wait_for waits on the queue with a timeout, which a
+    pipe's readline has not."""
+    try:
+        for line in stream:
+            lines.put(line)
+    except (OSError, ValueError):  # closed under the thread by Aside.close
+        pass
+    lines.put("")
+
+
+def _cpu_seconds(pid: int) -> float | None:
+    """The process's CPU time so far (Linux's /proc/PID/stat, in clock ticks), or None where it cannot be read."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as stat:
+            fields = stat.read().rsplit(b")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return None
 
 
 @contextmanager

@@ -5,9 +5,11 @@ process compiles into the cache is waited for and loaded, never compiled twice; 
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 import textwrap
+import time
 from pathlib import Path
 
 import pytest
@@ -70,6 +72,31 @@ def test_the_helper_is_stopped_however_the_block_ends(helper_sleeps):
             assert list(jit.compiled_elsewhere) == [split_compile.SHADE]
             raise KeyboardInterrupt  # Ctrl-C during the compile
     assert aside.process.poll() is not None and jit.compiled_elsewhere == {}
+
+
+BUSY = "import sys, time\nstart = time.monotonic()\nwhile time.monotonic() - start < {seconds}: pass\n" \
+       "print('shade', flush=True)\ntime.sleep(60)"
+
+
+@pytest.mark.parametrize("stopped", [False, True])
+def test_a_stopped_helper_is_ended_and_a_busy_one_waited_for(helper_sleeps, monkeypatch, stopped):
+    """A helper stopped by SIGSTOP never answers: the wait ends once its CPU time has stood still for
+    STALL_SECONDS (the command then compiles the kernel itself). A helper that computes is waited for as long as
+    it takes, though it says nothing meanwhile."""
+    monkeypatch.setattr(split_compile, "STALL_SECONDS", 1.0)
+    monkeypatch.setattr(split_compile, "POLL_SECONDS", 0.1)
+    monkeypatch.setattr(split_compile, "HELPER", BUSY.format(seconds=600 if stopped else 3))
+    with split_compile.shading_compiled_aside("float32") as aside:
+        if stopped:
+            time.sleep(0.5)  # started: its CPU time moves
+            aside.process.send_signal(signal.SIGSTOP)
+        start = time.monotonic()
+        jit.compiled_elsewhere[split_compile.SHADE]()
+        waited = time.monotonic() - start
+        if stopped:
+            assert 1.0 <= waited < 30 and aside.process.wait(timeout=30) is not None
+        else:
+            assert aside.finished == {"shade"} and aside.process.poll() is None, waited
 
 
 def test_no_helper_when_two_processes_would_not_help(helper_sleeps, monkeypatch):
