@@ -25,6 +25,7 @@ from .common import (
 )
 from .progress import progress_bar, shows_progress
 
+MAX_LEFT_OUT = 20  # warnings for paths left out, then one line counting the rest (binary on stdin: thousands)
 SCHEDULER = re.compile(r"(?:(tcp)://)?(\[[0-9A-Fa-f:.]+\]|[^\s:/\[\]]+):(\d{1,5})")
 HOST_CHARACTERS, LABEL_CHARACTERS = 253, 63  # a DNS name's limits (RFC 1035 §2.3.4): longer ones no resolver takes
 
@@ -97,9 +98,14 @@ def batch(
         with exit_codes():
             refused: list[str] = []
             listed = batches.listed_paths(getattr(sys.stdin, "buffer", None), warnings=refused) if "-" in paths else []
-            found = batches.find_jobs(paths, out, listed, refused)
-            for warning in refused:
-                typer.secho(f"warning: {one_line(warning)}", err=True, fg=typer.colors.YELLOW)
+            try:
+                found = batches.find_jobs(paths, out, listed, refused)
+            finally:  # before a refusal too: it says why nothing was left
+                for warning in refused[:MAX_LEFT_OUT]:
+                    typer.secho(f"warning: {one_line(warning)}", err=True, fg=typer.colors.YELLOW)
+                if len(refused) > MAX_LEFT_OUT:
+                    typer.secho(f"warning: and {len(refused) - MAX_LEFT_OUT:,} more path(s) left out", err=True,
+                                fg=typer.colors.YELLOW)
             report = _batch_with_progress(found, out, jobs, force, batches.Settings(srgb=srgb), scheduler, quiet,
                                           verbose, max_memory)
     except batches.Interrupted as stop:

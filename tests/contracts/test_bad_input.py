@@ -523,3 +523,22 @@ def test_a_gltf_whose_json_is_not_a_gltf_document_is_one_line(tmp_path, document
     result = runner.invoke(app, ["render", str(tmp_path / "bad.gltf"), "-o", str(tmp_path / "x.png")])
     assert result.exit_code == 2, result.output
     assert says in result.stderr and result.stderr.count("\n") == 1 and "internal error" not in result.stderr
+
+
+@pytest.mark.parametrize(("given", "lines"), [(b"", 0), (b"a\0b\n\x00\x01\n" * 15, 30)])
+def test_a_batch_left_with_no_scene_is_bad_input(tmp_path, given, lines):
+    """`batch -` given nothing, or only lines it leaves out (binary input), rendered nothing and said exit 0:
+    now exit 2 with one error line, after at most MAX_LEFT_OUT warnings and a count of the rest."""
+    import subprocess
+    import sys
+
+    from raycast_phong.cli.batch import MAX_LEFT_OUT
+    done = subprocess.run([sys.executable, "-m", "raycast_phong.cli", "batch", "-", "--out", str(tmp_path / "out")],
+                          input=given, capture_output=True, timeout=300)
+    assert done.returncode == 2, done.stderr
+    said = done.stderr.decode().splitlines()
+    assert said[-1].startswith("error: stdin: no scene to render") and "internal error" not in done.stderr.decode()
+    assert len(said) == 1 + min(lines, MAX_LEFT_OUT) + (lines > MAX_LEFT_OUT), said
+    if lines > MAX_LEFT_OUT:
+        assert said[-2] == f"warning: and {lines - MAX_LEFT_OUT} more path(s) left out"
+    assert not (tmp_path / "out").exists()

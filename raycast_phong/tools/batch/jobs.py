@@ -178,7 +178,8 @@ def find_jobs(paths: list[str | Path], out: str | Path | None = None, listed: li
     one that is missing or not a scene becomes a job that fails when loaded, reported as any other scene.
     A file whose name is not UTF-8 (its output image, the manifest and every message name it) is left out, with
     a line in `warnings`, and the others go on.
-    Raises SceneError when a given path matches nothing or two jobs would write the same output name.
+    Raises SceneError when a given path matches nothing, no job is left, or two jobs would write the same output
+    name.
     """
     files: list[Path] = []
     for given in map(str, paths):
@@ -208,6 +209,10 @@ def find_jobs(paths: list[str | Path], out: str | Path | None = None, listed: li
                 warnings.append(f"{shown}: a file name that is not UTF-8; left out (rename it)")
             continue
         jobs += load_sweep(path).jobs() if is_sweep(path) else [Job(name=path.stem, scene=path)]
+    if not jobs:  # `batch -` given nothing, or only lines and names it leaves out: nothing done is no success
+        left = f" (every path it named was left out: {len(warnings)} line(s) above)" if warnings else ""
+        raise SceneError(f"no scene to render{left}; allowed: scene files, folders or globs, or `-` with scene "
+                         "paths on stdin, one a line", Location(" ".join("stdin" if str(p) == "-" else str(p) for p in paths) or "batch"))
     seen: dict[str, Job] = {}
     for job in jobs:
         if job.name in seen:
