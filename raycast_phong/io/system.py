@@ -140,6 +140,10 @@ def _address_space_room() -> int | None:
         return None
 
 
+# NUMBA_* settings whose values need no numba to check: validated below, or a string numba takes as it is.
+PARSED_HERE = {"NUMBA_NUM_THREADS", "NUMBA_DISABLE_JIT", "NUMBA_CACHE_DIR"}
+
+
 def check_environment() -> list[str]:
     """Refuse (OptionError) NUMBA_* settings the renderer cannot run under, before numba is imported:
     NUMBA_NUM_THREADS that is not a whole number from 1 (numba's import fails on it) and NUMBA_DISABLE_JIT
@@ -153,8 +157,8 @@ def check_environment() -> list[str]:
     if os.environ.get("NUMBA_DISABLE_JIT", "").strip() not in ("", "0"):
         raise OptionError("NUMBA_DISABLE_JIT is set: the renderer's kernels call Embree only when compiled, so "
                           "without numba's compiler the image would be wrong; allowed: 0 or unset")
-    if not any(name.startswith("NUMBA_") for name in os.environ) or "numba" in sys.modules:
-        return []
+    if all(name in PARSED_HERE for name in os.environ if name.startswith("NUMBA_")) or "numba" in sys.modules:
+        return []  # numba (and numpy under it) not imported ahead of the command: `view` sets BLAS's threads first
     import warnings
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

@@ -241,17 +241,24 @@ def test_study_command_writes_its_report_and_files(tmp_path):
     assert bad.exit_code == 2 and "--models: 'smooth' is not one of flat, gouraud, phong" in bad.output
 
 
-def test_help_of_every_command_loads_no_array_or_image_library():
+@pytest.mark.parametrize("cache", [None, "kernels"])
+def test_help_of_every_command_loads_no_array_or_image_library(tmp_path, cache):
     """The CLI modules parse and print: `--help` of any command imports neither numpy nor numba, trimesh, Embree
-    or OpenImageIO (each command imports what it runs inside its body)."""
+    or OpenImageIO (each command imports what it runs inside its body); NUMBA_CACHE_DIR set (a string numba
+    cannot fail to read) changes nothing: it imported numba and numpy ahead of every command."""
+    import os
     import subprocess
     import sys
+    env = {name: value for name, value in os.environ.items() if not name.startswith("NUMBA_")}
+    if cache:
+        env["NUMBA_CACHE_DIR"] = str(tmp_path / cache)
     names = [command.name or command.callback.__name__ for command in app.registered_commands]
     probe = ("import sys\nfrom raycast_phong.cli import app\n"
              "for name in sys.argv[1:]:\n"
              "    try:\n        app([name, '--help'])\n    except SystemExit:\n        pass\n"
              "print([m for m in ('numpy', 'numba', 'trimesh', 'embreex', 'OpenImageIO') if m in sys.modules])")
-    done = subprocess.run([sys.executable, "-c", probe, *names], capture_output=True, text=True, timeout=120)
+    done = subprocess.run([sys.executable, "-c", probe, *names], capture_output=True, text=True, timeout=120,
+                          env=env)
     assert len(names) == 11 and done.stdout.strip().splitlines()[-1] == "[]", done.stdout[-500:] + done.stderr
 
 
