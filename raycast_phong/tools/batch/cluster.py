@@ -7,6 +7,7 @@ scene files are read here only).
 from __future__ import annotations
 
 import logging
+import time
 from collections.abc import Iterator
 from concurrent.futures import Future
 from contextlib import contextmanager
@@ -58,11 +59,15 @@ def on_cluster(tasks: list[Task], scheduler: str, started: set[str]) -> Iterator
     except (OSError, TimeoutError) as error:
         raise OptionError(f"--scheduler {scheduler}: cannot connect ({error})") from None
     with _dask_quiet(), client:  # quiet until the client has closed
+        start = time.monotonic()
         try:
             client.wait_for_workers(1, timeout=WORKER_WAIT)
         except (TimeoutError, OSError):
-            raise OptionError(f"--scheduler {scheduler}: the scheduler has no worker, or stopped answering "
-                              f"(waited {WORKER_WAIT:g} s); start one there: dask worker {scheduler}") from None
+            waited = time.monotonic() - start
+            why = (f"has no worker (waited {WORKER_WAIT:g} s); start one there: dask worker {scheduler}"
+                   if waited >= WORKER_WAIT * 0.9 else
+                   f"stopped answering after {waited:.0f} s, before any worker joined; is it still running?")
+            raise OptionError(f"--scheduler {scheduler}: the scheduler {why}") from None
         # pure=False: a re-run must render again, not reuse a result the cluster remembers.
         futures = {client.submit(render_job, task, pure=False): task for task in tasks}
         started.update(task.job.name for task in tasks)
