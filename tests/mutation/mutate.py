@@ -57,6 +57,8 @@ EXTRA_TESTS = {"renderer": ("tests/image",), "geometry": ("tests/image",), "io":
                "shapes": ("tests/geometry", "tests/scene"), "values": ("tests/scene", "tests/contracts"),
                "": ("tests/project", "tests/renderer", "tests/io")}  # "": the package's top-level modules
 MODULE_TESTS = {"renderer/budget": ("tests/contracts/test_resource_guards.py",),  # the memory guard's own tests
+                "tools/batch/jobs": ("tests/contracts/test_bad_input.py",),  # `batch -`'s input faults
+                "tools/batch/cluster": ("tests/contracts",),
                 "pytest_plugin": ("tests/image",)}  # the reference images match through it, edges and all
 
 
@@ -91,6 +93,31 @@ HAND_MUTANTS = (
      "rays = tile_rays * (1 + shadow_lights) * RAY_BYTES"),  # the memory estimate's thread term
     ("io/atomic", "            _settle(temporary, made)\n            os.replace(temporary, target)\n",
      "            os.replace(temporary, target)\n            _settle(str(target), made)\n"),  # fsync after the rename
+    # issue 50's guards, written by hand as the bugs a reviewer would plant
+    ("io/meshes/collada", 'if name in INDEX_LISTS and element.text and "-" in element.text:',
+     'if name in INDEX_LISTS and element.text and element.text.lstrip().startswith("-"):'),  # the first index only
+    ("io/meshes/collada", "if values is not None and values.text and NOT_FINITE.search(values.text):",
+     "if values is not None and values.text and NOT_FINITE.match(values.text):"),  # NaN only as the first value
+    ("io/meshes/gltf", "        images * EMBEDDED_IMAGE_BYTES_PER_TEXEL", "        images"),  # texels, not bytes
+    ("io/meshes/threemf", "sum(placed(child_part, child, depth + 1) for child_part, child in found)",
+     "max((placed(child_part, child, depth + 1) for child_part, child in found), default=0)"),  # one component
+    ("io/meshes/read", "        raise SceneError(problem.problem, source.where) from None",
+     "        raise SceneError(problem.problem) from None"),  # a reader's problem without the scene key
+    ("io/meshes/stl", "return len(head) >= 84 and size == 84 + 50 * int.from_bytes(head[80:84], \"little\")",
+     "return len(head) >= 84 and size >= 84 + 50 * int.from_bytes(head[80:84], \"little\")"),  # trailing bytes
+    ("io/textures", "    mismatch = image_suffix_mismatch(path)\n    if mismatch:",
+     "    mismatch = None\n    if mismatch:"),  # the suffix believed: OpenImageIO tries every reader
+    ("io/image_io", "    return values * (2 * 4 + max(spec.format.size(), 1))", "    return values * 4"),  # one copy
+    ("io/system", "    if not 0 < size < math.inf:", "    if not 0 < size:"),  # 400 digits: int(inf)
+    ("io/atomic", "DEFERRED = STOP_SIGNALS", "DEFERRED = (signal.SIGINT, signal.SIGTERM)"),  # SIGHUP mid-write
+    ("tools/batch/jobs", '        text.encode("utf-8")', '        text.encode("utf-8", "surrogateescape")'),
+    ("tools/batch/jobs", "    return [line for _, line in lines if \"\\0\" not in line]",
+     "    return [line for _, line in lines]"),  # a NUL byte kept in a path
+    ("tools/batch/jobs", "    if not jobs:  #", "    if not jobs and not warnings:  #"),  # refused only when silent
+    ("tools/batch/cluster", "    with _dask_quiet(), client:", "    with client:"),  # Dask's loggers on stderr
+    ("renderer/split_compile", "                    self.process.kill()\n                    return",
+     "                    return"),  # a stalled helper left running
+    ("cli/batch", "HOST_CHARACTERS, LABEL_CHARACTERS = 253, 63", "HOST_CHARACTERS, LABEL_CHARACTERS = 253, 253"),
 )
 
 OPERATOR_SWAPS = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,
