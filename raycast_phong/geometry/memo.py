@@ -66,17 +66,22 @@ class BuildMemo:
 
     def begin(self, scene: Scene, where: Location, vertex_normals: bool, normal_dtype: type) -> tuple:
         """Start a build: the key of everything build_geometry reads from `scene` and the disk: every object's
-        keys but placement (once per kind) and the placements' bits, the materials, the default shading, the
-        colour the maps are decoded in (render.colour), the folder, the mesh files and maps as they are now; not
-        the lights (check_float_range runs on every build), the camera or the other render settings."""
+        keys but placement (once per kind, and whether it set crease_angle) and the placements' bits, the
+        materials, the default shading, the colour the maps are decoded in (render.colour), the folder, the mesh
+        files and maps as they are now; not the lights (check_float_range runs on every build), the camera or the
+        other render settings."""
         self._used = (set(), set(), set())
         kinds = object_kinds(scene)
         files = tuple(mesh_stamp(scene.resolve(o.path)) for o in scene.objects if from_file(o))
         files += tuple(file_stamp(scene.resolve(getattr(m, key).path)) for m in scene.materials.values()
                        for key in ("ka_map", "kd_map", "ke_map") if getattr(m, key) is not None)
         placed = tuple(array.tobytes() for array in placements(scene.objects))  # bits: -0.0 is not 0.0
+        firsts = kinds.firsts(scene.objects)
+        # Objects compare by their values alone, but a mesh file's crease default depends on whether
+        # crease_angle was set at all (templates.file_crease_angle): an unset 180 and a set one differ.
+        creases = tuple("crease_angle" in o.model_fields_set for o in firsts)
         return (where, scene.folder, vertex_normals, np.dtype(normal_dtype).str, scene.render.shading,
-                scene.render.colour, tuple(scene.materials.items()), tuple(kinds.firsts(scene.objects)),
+                scene.render.colour, tuple(scene.materials.items()), tuple(firsts), creases,
                 kinds.kind.tobytes(), placed, files)
 
     def geometry_for(self, whole: tuple) -> Geometry | None:

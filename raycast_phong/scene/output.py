@@ -23,8 +23,8 @@ def _check_real_path(scene: Scene, output: Path, source: Path) -> None:
     folder = Path(os.path.realpath(scene.folder))
     real = Path(os.path.realpath(output))
     if real != folder and folder not in real.parents:
-        raise SceneError(f"{scene.output.path!r} leaves the scene's folder through a symbolic link (it is {real}); "
-                         "give a path inside that folder, or choose the output with -o",
+        raise SceneError(f"{scene.output.path!r} leaves the scene's folder through a symbolic link (it is "
+                         f"{str(real)!r}); give a path inside that folder, or choose the output with -o",
                          Location(str(source)).at("output", "path"))
 
 

@@ -96,3 +96,39 @@ def test_a_batch_frames_only_the_meshes_it_renders(tmp_path, monkeypatch):
     os.utime(mtl, ns=(1, 1))
     assert runner.invoke(app, command).exit_code == 0 and status() == "rendered"
     assert reads == [tmp_path / "fuze.obj"]
+
+
+def _obj_with_mtl(folder: Path, kd: str) -> tuple[Path, Path]:
+    obj, mtl = folder / "m.obj", folder / "m.mtl"
+    obj.write_text("mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl own\nf 1 2 3\n", encoding="utf-8")
+    mtl.write_text(f"newmtl own\nKd {kd}\n", encoding="utf-8")
+    return obj, mtl
+
+
+def _edit(path: Path, text: str) -> None:
+    """Rewrite `path` with `text` of the same size, its mtime a second later: only the version tells."""
+    before = path.stat()
+    assert len(text.encode()) == before.st_size
+    path.write_text(text, encoding="utf-8")
+    os.utime(path, ns=(before.st_atime_ns, before.st_mtime_ns + 1_000_000_000))
+
+
+def test_an_edited_mtl_makes_the_obj_s_source_stale(tmp_path):
+    """Catches MeshSource.current() (and identity) checking the .obj alone: an .mtl edited since is not seen."""
+    from raycast_phong.geometry.build import build_geometry
+    from raycast_phong.geometry.memo import BuildMemo
+    from raycast_phong.io.meshes.source import mesh_source, mesh_sources
+    obj, mtl = _obj_with_mtl(tmp_path, "0.9 0.1 0.1")
+    source = mesh_source(obj)
+    assert source.side_files == (mtl,) and source.current()
+    scene = rp.validate_scene({"objects": [{"shape": "mesh", "path": "m.obj"}]}, folder=tmp_path)
+    memo = BuildMemo()
+    assert build_geometry(scene, memo=memo).file_materials[0, 3:6].tolist() == [0.9, 0.1, 0.1]
+    _edit(mtl, "newmtl own\nKd 0.1 0.9 0.1\n")
+    assert not source.current()
+    assert mesh_source(obj).identity != source.identity
+    fresh = mesh_sources(scene, {str(obj.resolve()): source})[obj]
+    assert fresh is not source and fresh.current()
+    assert build_geometry(scene, memo=memo).file_materials[0, 3:6].tolist() == [0.1, 0.9, 0.1]
+    mtl.unlink()
+    assert not fresh.current()

@@ -135,3 +135,35 @@ def test_faces_rewritten_a_few_at_a_time_give_the_same_triangles(tmp_path, monke
     for name in ("corner_colour", "corner_uv"):
         a, b = getattr(whole, name), getattr(chunked, name)
         assert (a is None and b is None) or np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("form", ["ascii", "binary_little_endian", "binary_big_endian"])
+@pytest.mark.parametrize(("vertex_extra", "face_list", "line"), [
+    ("property float\n", "property list uchar int vertex_indices\n", 7),  # a scalar with no name
+    ("", "property list uchar int\n", 8),  # a list with no name
+    ("", "property list uchar\n", 8),  # a list with neither an entry type nor a name
+])
+def test_a_nameless_property_is_refused_in_one_line_naming_its_header_line(tmp_path, form, vertex_extra, face_list,
+                                                                            line):
+    """Catches a header parse that takes `property float` or `property list uchar int` without a name (an
+    IndexError, exit 1) or lets trimesh read it (before: an ASCII file's nameless scalar was taken silently, the
+    next property read from its column), instead of refusing it as bad input naming the line."""
+    from typer.testing import CliRunner
+
+    from raycast_phong.cli import app
+    head = (f"ply\nformat {form} 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+            f"{vertex_extra}element face 1\n{face_list}end_header\n").encode()
+    width = 3 + bool(vertex_extra)
+    if form == "ascii":
+        body = "".join(" ".join(["1"] * width) + "\n" for _ in range(3)).encode() + b"3 0 1 2\n"
+    else:
+        end = "<" if "little" in form else ">"
+        body = struct.pack(f"{end}{3 * width}f", *range(3 * width)) + struct.pack(f"{end}B3i", 3, 0, 1, 2)
+    (tmp_path / "p.ply").write_bytes(head + body)
+    assert ply_lists.header(head + body) is None
+    with pytest.raises(SceneError) as caught:
+        mesh_source(tmp_path / "p.ply").read()
+    assert f"header line {line}: " in str(caught.value) and "no name" in str(caught.value), str(caught.value)
+    done = CliRunner().invoke(app, ["render", str(tmp_path / "p.ply"), "-o", str(tmp_path / "p.png")])
+    lines = done.stderr.strip().splitlines()
+    assert done.exit_code == 2 and len(lines) == 1 and f"header line {line}: " in lines[0], done.output

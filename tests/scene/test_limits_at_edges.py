@@ -1,0 +1,103 @@
+"""The scene's limits at their edges (docs/scene-format.md): the ray limit counts width × height × samples² rays,
+the brightness bound adds the lights' and the scene's ambient terms, and a path in a message is quoted, so a
+line feed in it keeps the message one line. Expectations are the format's numbers, worked out by hand."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+import raycast_phong as rp
+from raycast_phong.errors import SceneError
+from raycast_phong.geometry.build import build_geometry
+
+SPHERE = [{"shape": "icosphere", "subdivisions": 0}]
+
+
+def scene(**keys) -> rp.Scene:
+    return rp.validate_scene({"objects": SPHERE, **keys})
+
+
+def test_the_ray_limit_counts_samples_squared():
+    """Catches a ray count of width × height × samples (16384² × 3 = 0.8e9 passes; × 3² = 2.4e9 > 2³¹ − 1)."""
+    big = {"width": 16384, "height": 16384}
+    assert scene(render={**big, "samples": 2}).render.samples == 2  # 16384² × 4 = 2³⁰ rays: allowed
+    with pytest.raises(SceneError, match=r"render\.samples: .*rays per frame"):
+        scene(render={**big, "samples": 3})
+    with pytest.raises(SceneError, match="rays per frame"):
+        scene(render={"width": 16384, "height": 8193, "samples": 4})  # 2.15e9: over by a column of pixels
+    assert scene(render={"width": 16384, "height": 8191, "samples": 4}).render.samples == 4
+
+
+@pytest.mark.parametrize(("ambient", "light"), [
+    ([0, 0, 0], {"ambient": [6e37, 0, 0], "diffuse": [5e37, 0, 0], "specular": 0}),  # 1.1e38 in red
+    ([0, 0, 0], {"ambient": [0, 0, 1e38], "diffuse": 0, "specular": [0, 0, 1e37]}),  # 1.1e38 in blue
+    ([0, 6e37, 0], {"ambient": 0, "diffuse": [0, 5e37, 0], "specular": 0}),  # the scene's I_a: 1.1e38 in green
+])
+def test_the_brightness_bound_counts_the_ambient_terms(ambient, light):
+    """Catches a bound 1 + I_a + Σ f_att (I_a,k + I_d,k + I_s,k) that leaves out the light's or scene's ambient."""
+    lit = {"type": "directional", "direction": [0, 0, -1], **light}
+    with pytest.raises(SceneError, match=r"lights\.0: a pixel channel could reach 1\.1e\+38"):
+        scene(ambient=ambient, lights=[lit])
+    lower = {key: [v / 2 for v in value] if isinstance(value, list) else value for key, value in light.items()}
+    scene(ambient=[v / 2 for v in ambient], lights=[{**lit, **lower}])  # 5.5e37: allowed
+
+
+def test_an_inverse_square_light_s_ambient_alone_is_refused_once_the_geometry_gives_its_gain():
+    """Catches the 1/d² bound (geometry's check) leaving out a light's ambient: a light inside the sphere's box has
+    the floor's gain, 1/(1e-6 × half-extent 0.85)² = 1.4e12, times ambient 1e27."""
+    light = {"position": [0, 0, 0], "attenuation": "inverse_square", "ambient": 1e27, "diffuse": 0, "specular": 0}
+    loaded = scene(lights=[light])  # at validation a 1/d² light's gain is not known yet
+    with pytest.raises(SceneError, match=r"lights\.0: with 1/d² attenuation up to 1\.38e\+12"):
+        build_geometry(loaded)
+    build_geometry(scene(lights=[{**light, "ambient": 1e25}]))  # 1e37: allowed
+
+
+def one_line_refusal(make) -> str:
+    with pytest.raises(SceneError) as refused:
+        make()
+    assert "\n" not in str(refused.value), str(refused.value)
+    return str(refused.value)
+
+
+def test_a_line_feed_in_an_output_path_stays_quoted(tmp_path):
+    """Catches an output path written into a message unquoted (its line feed then splits the line)."""
+    assert r"'a\nb.txt' must end in .png" in one_line_refusal(lambda: scene(output={"path": "a\nb.txt"}))
+    assert r"'a\nb.png' (a PNG" in one_line_refusal(lambda: scene(output={"path": "a\nb.png", "aovs": ["depth"]}))
+    outside = scene(output={"path": "../a\nb.png"}).output
+    assert r"'../a\nb.png' leaves" in one_line_refusal(lambda: outside.check_inside("s.toml"))
+
+
+def test_a_line_feed_in_a_symbolic_link_s_target_stays_quoted(tmp_path):
+    """Catches the real path an output.path leads to written unquoted (before: a raw line feed in the message)."""
+    from raycast_phong.scene.output import render_output
+    (tmp_path / "scenes").mkdir()
+    (tmp_path / "else\nwhere").mkdir()
+    (tmp_path / "scenes" / "out").symlink_to(tmp_path / "else\nwhere")
+    loaded = rp.validate_scene({"objects": SPHERE, "output": {"path": "out/x.png"}}, folder=tmp_path / "scenes")
+    message = one_line_refusal(lambda: render_output(loaded, tmp_path / "scenes" / "s.toml", None, False))
+    assert r"else\nwhere" in message and "symbolic link" in message
+
+
+def test_a_line_feed_in_a_mesh_path_stays_quoted_where_it_lacks_normals(tmp_path):
+    """Catches the mesh path of a normals = "file" refusal written unquoted."""
+    (tmp_path / "a\nb.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    loaded = rp.validate_scene({"objects": [{"shape": "mesh", "path": "a\nb.obj", "normals": "file"}]},
+                               folder=tmp_path)
+    assert "stores no vertex normals" in one_line_refusal(lambda: build_geometry(loaded))
+
+
+def test_replace_keeps_an_unset_crease_angle_unset(tmp_path):
+    """Catches Scene.replace setting every object's crease_angle (180), which smoothed a mesh file without normals
+    that is creased at 30° while the key is unset (before: any replace made the cube smooth)."""
+    (tmp_path / "cube.obj").write_text("".join(f"v {x} {y} {z}\n" for x in (-1, 1) for y in (-1, 1) for z in (-1, 1))
+                                       + "f 1 2 4\nf 1 4 3\nf 5 7 8\nf 5 8 6\nf 1 5 6\nf 1 6 2\n"
+                                       + "f 3 4 8\nf 3 8 7\nf 1 3 7\nf 1 7 5\nf 2 6 8\nf 2 8 4\n")
+    loaded = rp.validate_scene({"objects": [{"shape": "mesh", "path": "cube.obj"}]}, folder=Path(tmp_path))
+    changed = loaded.replace({"render.width": 32})
+    assert "crease_angle" not in changed.objects[0].model_fields_set
+    g = build_geometry(changed)
+    flat = g.face_normals[:, None].repeat(3, axis=1)
+    assert abs(g.corner_normals - flat).max() < 1e-9  # creased at 30°: every corner its face's normal
+    assert changed.replace({"objects.0.crease_angle": 180}).objects[0].crease_angle == 180
