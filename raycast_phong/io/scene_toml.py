@@ -57,7 +57,7 @@ def rebased(path: Path, relative_to: Path | None) -> str:
 def scene_data(scene, relative_to: Path | None = None) -> dict:
     """The scene as the data of its TOML file: every key with its value (defaults too, so the file does not
     depend on later defaults; an unset key stays unset) and every named file rebased to `relative_to`."""
-    data = scene.model_dump(mode="json", exclude={"folder"})
+    data = scene.data(mode="json")
     for key, path in scene.named_files().items():
         if key != OUTPUT_PATH:  # relative to the scene file's own folder, wherever the file goes
             container = data

@@ -352,6 +352,16 @@ class Scene(Table):
         were (a scene file: prepare() makes them)."""
         return self._mesh_sources
 
+    def data(self, mode: str = "python", exclude_none: bool = False) -> dict:
+        """The scene's keys as a dict that validates back to this scene (model_dump without the folder), a key
+        left unset that means "decide from the file" kept unset: an object's crease_angle, unset, creases a mesh
+        file without normals at 30° (geometry.templates.file_crease_angle); dumped, it would read 180."""
+        data = self.model_dump(mode=mode, exclude={"folder"}, exclude_none=exclude_none)
+        for obj, dumped in zip(self.objects, data["objects"]):
+            if "crease_angle" not in obj.model_fields_set:
+                dumped.pop("crease_angle", None)
+        return data
+
     def replace(self, changes: Mapping[str, Any], /) -> Scene:
         """A new scene with `changes` applied, validated as a scene file is, in this scene's folder (its meshes
         and maps still resolve). Keys are the paths `--set` takes, values are Python values:
@@ -363,7 +373,7 @@ class Scene(Table):
         (and a mesh given as arrays, rp.mesh_scene) go with the new scene."""
         from .keypaths import assign
         where = located("Scene.replace")
-        data = self.model_dump(mode="json", exclude={"folder"}, exclude_none=True)
+        data = self.data(mode="json", exclude_none=True)
         for key, value in changes.items():
             if not isinstance(key, str):
                 raise SceneError(f"{shown(key)} is not a key path; expected a string such as 'render.width'", where)

@@ -94,7 +94,7 @@ def fine_reference(scene: Scene, levels: int, max_memory: int | None = None) -> 
     tessellation levels up from their own), rendered with Phong shading in float64. Coverage comes from
     the same Embree cast as the render's. Refused (check_fine_memory) before anything is refined when it
     would need more than `max_memory` bytes (default: the render's budget)."""
-    data = scene.model_dump(exclude={"folder"})
+    data = scene.data()
     data["render"].update(shading="phong", precision="float64")
     data["output"] = {"path": "reference.exr", "aovs": ["specular"]}
     for index, obj in enumerate(scene.objects):

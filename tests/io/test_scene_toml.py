@@ -106,3 +106,19 @@ def test_the_colour_setting_is_written_and_reads_back(path, overrides, colour, t
     scene = rp.load_scene(path, overrides)
     again, parsed = round_trip(scene, tmp_path)
     assert scene.render.colour == parsed["render"]["colour"] == again.render.colour == colour
+
+
+def test_an_unset_crease_angle_stays_unset_so_a_file_without_normals_stays_creased(tmp_path):
+    """Written out, an object's unset crease_angle read 180: a mesh file without normals, creased at 30° in
+    the scene, came back smoothed. Set ones are kept."""
+    mesh = tmp_path / "m.obj"
+    mesh.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    (tmp_path / "s.toml").write_text('[[objects]]\nshape = "mesh"\npath = "m.obj"\n')
+    scene = rp.load_scene(tmp_path / "s.toml")
+    written = tmp_path / "back.toml"
+    written.write_text(scene_toml(scene, relative_to=tmp_path))
+    again = rp.load_scene(written)
+    assert "crease_angle" not in tomllib.loads(written.read_text())["objects"][0]
+    assert "crease_angle" not in again.objects[0].model_fields_set
+    creased = scene.replace({"objects.0.crease_angle": 45})
+    assert tomllib.loads(scene_toml(creased, relative_to=tmp_path))["objects"][0]["crease_angle"] == 45
