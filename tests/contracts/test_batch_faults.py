@@ -311,7 +311,8 @@ def test_each_broken_scene_file_fails_only_itself(tmp_path):
 
 def test_a_scene_whose_file_name_is_not_utf8_is_left_out_and_the_others_render(tmp_path):
     """Its name reaches the image's, the manifest and every message: it was an internal error that stopped the
-    whole batch. Now one warning, and the rest of the folder renders; binary junk piped to `batch -` likewise."""
+    whole batch. Now one warning, and the rest of the folder renders; binary junk piped to `batch -` likewise, and
+    when nothing is left the batch says so (exit 2)."""
     folder = tmp_path / "scenes"
     folder.mkdir()
     (folder / "good.toml").write_text(scene_text())
@@ -327,8 +328,9 @@ def test_a_scene_whose_file_name_is_not_utf8_is_left_out_and_the_others_render(t
     junk = bytes(range(1, 10)) + b"\xff\xfe\n" + bytes(range(128, 256)) + b"\n"
     done = subprocess.run([sys.executable, "-m", "raycast_phong.cli", "batch", "-", "--out", str(tmp_path / "b")],
                           input=junk, capture_output=True, timeout=120)
-    assert b"Traceback" not in done.stderr and done.returncode == 0, done.stderr
+    assert b"Traceback" not in done.stderr and done.returncode == 2, done.stderr  # nothing left: no success
     assert done.stderr.count(b"a file name that is not UTF-8; left out") == 2
+    assert done.stderr.splitlines()[-1].startswith(b"error: stdin: no scene to render")
 
 
 def test_an_internal_error_that_quotes_a_file_name_not_utf8_keeps_its_traceback(tmp_path, monkeypatch):
