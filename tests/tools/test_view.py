@@ -14,6 +14,7 @@ import threading
 import time
 import urllib.error
 import urllib.request
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -226,6 +227,85 @@ def test_numbers_and_nesting_past_the_parsers_limits_are_one_line_and_the_socket
             assert "nested too deep" in answer["message"] or "more digits" in answer["message"], answer
         ws.send_text(json.dumps({"type": "render", "id": 4, "settings": {"render.shading": "flat"}}))
         receive_frame(ws)
+
+
+@contextmanager
+def served_socket(scene_path: Path, monkeypatch):
+    """A socket to a real uvicorn view of `scene_path` (its own message size limits), without the kernels' warm-up;
+    recv(timeout=…) fails rather than waits when the server drops it."""
+    from websockets.sync.client import connect as socket_to
+
+    from raycast_phong.tools.view import running, server
+    monkeypatch.setattr(server, "warm", lambda source: None)
+    with running(scene_path) as url:
+        origin = url.split("/?", 1)[0]
+        address = origin.replace("http://", "ws://") + "/socket?token=" + url.split("token=", 1)[1]
+        with socket_to(address, origin=origin, max_size=None) as ws:
+            yield ws
+
+
+def test_a_loaded_file_naming_a_symlink_loop_is_one_line_and_the_socket_stays(scene_path, monkeypatch):
+    """A texture path of an opened file that links to itself: Path.resolve raised RuntimeError (Python 3.11) and
+    the socket was dropped without a word; now the line names the key and the path, and the socket goes on."""
+    (scene_path.parent / "loop.png").symlink_to("loop.png")
+    text = scene_path.read_text().replace("[materials.red]\n", '[materials.red]\nkd_map = "loop.png"\n')
+    with served_socket(scene_path, monkeypatch) as ws:
+        ws.recv(timeout=30)
+        ws.send(json.dumps({"type": "load", "id": 1, "name": "loop.toml", "text": text}))
+        answer = json.loads(ws.recv(timeout=30))
+        assert answer["type"] == "error" and answer["id"] == 1, answer
+        assert answer["message"] == "loop.toml: materials.red.kd_map.path: loop.png: a symlink loop", answer
+        ws.send(json.dumps({"type": "load", "id": 2, "name": "same.toml", "text": scene_path.read_text()}))
+        assert json.loads(ws.recv(timeout=30)) == {"type": "loaded", "id": 2, "settings": {}}
+
+
+def test_a_scene_the_page_opens_fits_the_socket_up_to_the_documented_size(scene_path, monkeypatch):
+    """docs/view.md: a scene file the page opens is at most 60,000 bytes. A 57 kB one, its quotes and newlines
+    escaped as JSON, was cut by the socket's 64 KiB (closed, 1009, nothing said); now any text of that size fits
+    escaped (6 bytes a control character at worst), a larger scene or message is one line, and the socket stays."""
+    from raycast_phong.tools.view import session
+    note = '# a "quoted" note\n'
+    quoted = scene_path.read_text() + note * ((57_000 - len(scene_path.read_text())) // len(note))
+    worst = "\x01" * session.MAX_SCENE_BYTES  # no scene, but as large as the page lets through, escaped 6×
+    sent = {"quoted.toml": quoted, "worst.toml": worst, "big.toml": quoted + note * 250}
+    with served_socket(scene_path, monkeypatch) as ws:
+        assert json.loads(ws.recv(timeout=30))["limits"] == {"scene_bytes": 60_000, "message_bytes": 1 << 19}
+        replies = {}
+        for request_id, (name, text) in enumerate(sent.items()):
+            ws.send(json.dumps({"type": "load", "id": request_id, "name": name, "text": text}))
+            replies[name] = json.loads(ws.recv(timeout=30))
+        ws.send(json.dumps({"type": "render", "id": 9, "pad": "x" * session.MAX_MESSAGE_BYTES}))
+        too_large = json.loads(ws.recv(timeout=30))
+        ws.send(json.dumps({"type": "load", "id": 10, "name": "same.toml", "text": scene_path.read_text()}))
+        assert json.loads(ws.recv(timeout=30))["type"] == "loaded"
+    assert len(json.dumps({"text": quoted})) > 1 << 16 and len(json.dumps({"text": worst})) > 6 * 60_000
+    assert replies["quoted.toml"] == {"type": "loaded", "id": 0, "settings": {}}, replies
+    assert replies["worst.toml"]["type"] == "error" and "not a TOML scene" in replies["worst.toml"]["message"]
+    assert replies["big.toml"]["message"] == (f"big.toml: {len(sent['big.toml']):,} bytes; a scene file the page "
+                                              "opens is at most 60,000 bytes"), replies
+    assert too_large["type"] == "error" and re.fullmatch(r"message of [\d,]+ bytes; allowed: at most 524,288",
+                                                         too_large["message"]), too_large
+
+
+def test_the_view_refuses_more_lights_than_it_allows_in_one_line(scene_path, tmp_path):
+    """2,500 lights set from the page held a render thread over a minute at the largest frame, with no limit said:
+    the view allows MAX_VIEW_LIGHTS (63, what global mode can), and more is one line naming the count and the
+    range, from a page setting or in the scene the view starts with; as many as allowed render."""
+    from raycast_phong.tools.view.server import MAX_VIEW_LIGHTS, ViewError
+    assert MAX_VIEW_LIGHTS == 63
+    light = {"position": [3, 4, 6]}
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 1, "settings": {"lights": [light] * 2500}}))
+        answer = json.loads(ws.receive_text())
+        assert answer == {"type": "error", "id": 1, "message": f"{scene_path}: lights: 2,500 lights; allowed: 0 to "
+                          "63 in the view; render it with `raycast-phong render` instead"}, answer
+        ws.send_text(json.dumps({"type": "render", "id": 2, "quality": "draft",
+                                 "settings": {"lights": [light] * MAX_VIEW_LIGHTS}}))
+        assert receive_frame(ws)[0]["id"] == 2
+    many = write_tiny_scene(tmp_path, 16, 12, "[[lights]]\nposition = [0, 0, 5]\n" * MAX_VIEW_LIGHTS)
+    with pytest.raises(ViewError, match=r"tiny.toml: lights: 64 lights; allowed: 0 to 63 in the view"):
+        open_source(many)
 
 
 def test_a_path_past_the_key_names_is_caught_in_the_validated_scene(scene_path, monkeypatch):

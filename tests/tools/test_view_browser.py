@@ -6,6 +6,7 @@ from __future__ import annotations
 import base64
 import http.server
 import math
+import re
 import threading
 from contextlib import contextmanager
 from pathlib import Path
@@ -527,6 +528,25 @@ def test_a_saved_scene_file_opens_back_on_the_page(page, scene_path, tmp_path):
     assert page.input_value("#shading") == "gouraud" and page.input_value("#light-xyz input[data-axis='1']") == "-1"
     np.testing.assert_array_equal(page_image(page), shown)
     np.testing.assert_array_equal(shown, to_8bit(rp.render(rp.load_scene(saved)).image))
+
+
+def test_a_file_or_message_larger_than_the_server_takes_is_one_line_on_the_page(page, tmp_path):
+    """The page checks the sizes hello gives (a scene file it opens, a message) before sending: a larger one is
+    its one-line message, the socket is not closed under it, and the page goes on."""
+    big = tmp_path / "big.toml"
+    big.write_text("# note\n" * 9000)  # 63,000 bytes
+    page.set_input_files("#load", str(big))
+    page.wait_for_selector("#error:not([hidden])", timeout=30_000)
+    assert page.text_content("#error") == "big.toml: 63,000 bytes; a scene file the page opens is at most 60,000 bytes"
+    page.evaluate("window.view.settings.a['materials.red.name'] = 'x'.repeat(600000)")
+    page.select_option("#shading", "flat")
+    page.wait_for_function("() => document.querySelector('#error').textContent.startsWith('message of ')",
+                           timeout=30_000)
+    assert re.fullmatch(r"message of [\d,]+ bytes; allowed: at most 524,288", page.text_content("#error"))
+    page.evaluate("delete window.view.settings.a['materials.red.name']")
+    page.select_option("#shading", "gouraud")
+    wait_for_full_frame(page)
+    assert page.is_hidden("#error")
 
 
 def test_a_bad_value_shows_the_one_line_message(page):

@@ -13,6 +13,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from .server import Source, create_app, open_source
+from .session import SOCKET_MAX_BYTES
 
 __all__ = ["Source", "bind", "create_app", "open_source", "remembered_token", "running", "serve"]
 
@@ -93,10 +94,10 @@ def close(app) -> None:
 def server_config(app, log_level: str = "warning"):
     """uvicorn's settings for the view; log_level "info" logs every request (`view --verbose`)."""
     import uvicorn
-    # ws_max_size: the page's messages are small settings tables; refuse a flood at the protocol level.
+    # ws_max_size: refuse a flood at the protocol level, above the limit parse() answers in one line.
     # lifespan off: the app has no start-up or shut-down events, and uvicorn's lifespan task logged a
     # traceback when Ctrl-C's KeyboardInterrupt cancelled it.
-    return uvicorn.Config(app, log_level=log_level, ws_max_size=1 << 16, ws_ping_interval=None, lifespan="off",
+    return uvicorn.Config(app, log_level=log_level, ws_max_size=SOCKET_MAX_BYTES, ws_ping_interval=None, lifespan="off",
                           ws_per_message_deflate=False)
 
 

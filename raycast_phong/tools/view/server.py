@@ -20,6 +20,7 @@ cancels a running refinement, the full frame after a preview).
 from __future__ import annotations
 
 import copy
+import errno
 import json
 import math
 import re
@@ -41,12 +42,15 @@ from raycast_phong.errors import SceneError, ViewError
 from raycast_phong.io.encoding import DISPLAY, display_values
 from raycast_phong.io.scene_file import syntax_limit
 from raycast_phong.io.scene_toml import scene_toml, toml_value
+from raycast_phong.renderer.kernels.layout import MAX_LIGHTS
 from raycast_phong.scene.load import read_scene_dict
 from raycast_phong.scene.overrides import apply_override
 from raycast_phong.values.messages import dotted
 
 from .access import Access, Guard, host_of
-from .session import Client, View, lowest_priority, parse, version  # noqa: F401 (Client, lowest_priority, parse: tests)
+from .session import MAX_MESSAGE_BYTES, MAX_SCENE_BYTES, Client, View, lowest_priority, parse, version  # noqa: F401
+
+# (Client, lowest_priority, parse and version: imported from here by the tests.)
 
 if TYPE_CHECKING:
     from raycast_phong.renderer.reuse import FrameCache
@@ -54,6 +58,9 @@ if TYPE_CHECKING:
 MAX_SETTINGS = 256            # keys per request: far more than the page has controls
 MAX_VIEW_RAYS = 1920 * 1080 * 16  # rays per frame: ~2 s here; a larger frame is a batch job, not a view
 LEVELS = range(7)          # tessellation levels the page offers (reference.refined: level 6 = 81,920 faces)
+# Lights per scene: each is shaded at every hit, so 2,500 held a render thread over a minute at the largest frame. The
+# view allows what global mode can (renderer.kernels.layout.MAX_LIGHTS, 63): the page's mode switch always applies.
+MAX_VIEW_LIGHTS = MAX_LIGHTS
 
 
 # ---------------------------------------------------------------- scenes from page settings
@@ -108,6 +115,9 @@ def scene_with(source: Source, settings: dict) -> rp.Scene:
         if moved is not None:
             raise ViewError(f"{source.name}: {dotted(moved)}: the view does not change file paths or outputs; "
                             "edit the scene file instead")
+    if len(scene.lights) > MAX_VIEW_LIGHTS:
+        raise ViewError(f"{source.name}: lights: {len(scene.lights):,} lights; allowed: 0 to {MAX_VIEW_LIGHTS} in the "
+                        "view; render it with `raycast-phong render` instead")
     opts = scene.render
     if opts.width * opts.height * opts.samples ** 2 > MAX_VIEW_RAYS:
         raise ViewError(f"{source.name}: render.samples: {opts.width}×{opts.height} pixels × {opts.samples}² "
@@ -179,7 +189,17 @@ def settings_from(source: Source, text: str, name: str) -> dict:
             raise ViewError(f"{name}: {len(getattr(theirs, kind))} {kind}, this view's scene has "
                             f"{len(getattr(ours, kind))}; open it with `raycast-phong view {name}` instead")
     mine, other = ours.named_files(), theirs.named_files()
-    where = lambda files, key: None if key not in files else (source.folder / files[key]).resolve()
+
+    def where(files: dict, key: tuple) -> Path | None:
+        """The file a key names, its links followed; one that cannot be followed (a symlink loop: RuntimeError on
+        Python 3.11, OSError later) is refused in one line naming it, not a dropped socket."""
+        try:
+            return None if key not in files else (source.folder / files[key]).resolve()
+        except (OSError, RuntimeError) as error:
+            loop = not isinstance(error, OSError) or error.errno == errno.ELOOP
+            why = "a symlink loop" if loop else error.strerror or str(error)
+            raise ViewError(f"{name}: {dotted(key)}: {files[key]}: {why}") from None
+
     for key in sorted((mine.keys() | other.keys()) - {OUTPUT_PATH}, key=dotted):
         if where(mine, key) != where(other, key):
             raise ViewError(f"{name}: {dotted(key)} is {other.get(key)}, not this view's {mine.get(key)}; the page "
@@ -437,9 +457,14 @@ def loaded(source: Source, request: dict) -> dict:
         if not isinstance(text, str) or not isinstance(name, str):
             raise ViewError("load: text and name must be strings")
         name = Path(name).name  # a name for messages only: nothing is read from the disk by it
+        size = len(text.encode("utf-8", "surrogatepass"))
+        if size > MAX_SCENE_BYTES:
+            raise ViewError(f"{name}: {size:,} bytes; a scene file the page opens is at most {MAX_SCENE_BYTES:,} bytes")
         return {"type": "loaded", "id": request.get("id"), "settings": settings_from(source, text, name)}
     except (ViewError, SceneError) as error:
         return {"type": "error", "id": request.get("id"), "message": str(error)}
+    except Exception as error:  # noqa: BLE001 — our bug: one line on the page, and its socket keeps serving
+        return {"type": "error", "id": request.get("id"), "message": f"internal error: {type(error).__name__}: {error}"}
 
 
 def warm(source: Source) -> None:
@@ -450,7 +475,8 @@ def warm(source: Source) -> None:
 
 
 def hello(source: Source) -> dict:
-    """What the page needs to build its controls: the scene's own settings and the choices it offers."""
+    """What the page needs to build its controls: the scene's own settings, the choices it offers and the sizes
+    the server takes (the page refuses a larger file or message in one line rather than have its socket closed)."""
     from raycast_phong.tools.accuracy import refined
     from raycast_phong.tools.reference import ExactScene
     scene = rp.validate_scene(copy.deepcopy(source.data), source=source.name, folder=source.folder)
@@ -466,5 +492,6 @@ def hello(source: Source) -> dict:
     used = sorted({obj.material for obj in scene.objects})
     return {"type": "hello", "source": source.name, "analytic": analytic, "levels": levels,
             "scene": scene.model_dump(mode="json", exclude={"folder"}), "materials": used,
+            "limits": {"scene_bytes": MAX_SCENE_BYTES, "message_bytes": MAX_MESSAGE_BYTES},
             "material_values": {name: scene.material_of(next(o for o in scene.objects if o.material == name))
                                 .model_dump(mode="json") for name in used}}

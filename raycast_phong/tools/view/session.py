@@ -38,7 +38,12 @@ FRAME_THREADS = 2       # frames rendered at once by one server, over all its pa
 REFERENCE_THREADS = 1   # exact references at once (at nice 19: they use what the frames leave)
 REFERENCE_REST = 0.3    # seconds without a newer request before the exact errors of a full frame are computed
 WATCH_EVERY = 0.5       # seconds between looks at the scene file: an edit shows within a second, the disk idle
-MAX_MESSAGE_BYTES = 1 << 16  # a page message is a few hundred bytes of settings; refuse anything larger
+MAX_SCENE_BYTES = 60_000     # a scene file the page opens (`load`), in UTF-8 bytes: docs/view.md's 60 kB
+# A page message: a render request is a few hundred bytes of settings; a load carries its scene escaped as JSON,
+# at worst 6 bytes a byte (a control character is \u0001), so a scene of MAX_SCENE_BYTES always fits. The socket
+# takes twice as much (SOCKET_MAX_BYTES), so that a message past this limit gets parse's one line, not a close.
+MAX_MESSAGE_BYTES = 1 << 19
+SOCKET_MAX_BYTES = 2 * MAX_MESSAGE_BYTES  # uvicorn's ws_max_size: larger messages close the socket (1009) unread
 PROGRESS_EVERY = 0.1    # seconds between progress messages: the page's bar moves smoothly, the socket stays quiet
 SAVES_WAITING = 2       # saves a page may have waiting (capture asks for the image and the scene at once)
 WARM_AFTER = 1.0        # seconds after the app is made that the kernels' warm-up starts if no page came first
@@ -375,8 +380,9 @@ class Watcher:
 
 def parse(text: str) -> dict:
     """One page message: a JSON table with type 'render', 'save' or 'load', bounded in size."""
-    if len(text) > MAX_MESSAGE_BYTES:
-        raise ViewError(f"message of {len(text)} characters; allowed: at most {MAX_MESSAGE_BYTES}")
+    size = len(text.encode("utf-8", "surrogatepass"))  # bytes, as the socket and the page count them
+    if size > MAX_MESSAGE_BYTES:
+        raise ViewError(f"message of {size:,} bytes; allowed: at most {MAX_MESSAGE_BYTES:,}")
     try:
         request = json.loads(text)
     except json.JSONDecodeError as error:

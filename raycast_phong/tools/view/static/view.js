@@ -143,8 +143,15 @@ function onText(message) {
   }
 }
 
+// A message larger than the server takes (hello's limits) is answered here in one line, as the server would.
 function send(message) {
-  if (socket.readyState === WebSocket.OPEN) socket.send(JSON.stringify(message));
+  if (socket.readyState !== WebSocket.OPEN) return;
+  const text = JSON.stringify(message), most = state.hello?.limits.message_bytes ?? Infinity;
+  const size = new TextEncoder().encode(text).length;
+  if (size > most) {
+    return onText({ type: "error", id: message.id ?? null, message: `message of ${grouped(size)} bytes; allowed: at most ${grouped(most)}` });
+  }
+  socket.send(text);
 }
 
 // Asking for a frame. A draft (while dragging): the newest state is sent on the next display frame
@@ -408,6 +415,7 @@ function showError(message) {
   $("#error").hidden = false;
 }
 function hideError() { $("#error").hidden = true; }
+const grouped = (x) => x.toLocaleString("en-US");  // 60,000: a size as the server's messages say it
 
 function download(filename, bytes) {
   const link = document.createElement("a");
@@ -1103,7 +1111,10 @@ function wire() {
   $("#load").addEventListener("change", async () => {
     const file = $("#load").files[0];
     if (!file) return;
-    if (file.size > 60000) return showError(`${file.name}: ${file.size} bytes; a scene file the page opens is at most 60 kB`);
+    const most = state.hello?.limits.scene_bytes ?? Infinity;
+    if (file.size > most) {
+      return showError(`${file.name}: ${grouped(file.size)} bytes; a scene file the page opens is at most ${grouped(most)} bytes`);
+    }
     send({ type: "load", id: state.nextId++, name: file.name, text: await file.text() });
     $("#load").value = "";  // the same file can be opened again
   });
