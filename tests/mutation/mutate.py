@@ -57,7 +57,7 @@ EXTRA_TESTS = {"renderer": ("tests/image",), "geometry": ("tests/image",), "io":
                "shapes": ("tests/geometry", "tests/scene"), "values": ("tests/scene", "tests/contracts"),
                "": ("tests/project", "tests/renderer", "tests/io")}  # "": the package's top-level modules
 MODULE_TESTS = {"renderer/budget": ("tests/contracts/test_resource_guards.py",),  # the memory guard's own tests
-                "tools/batch/jobs": ("tests/contracts/test_bad_input.py",),  # `batch -`'s input faults
+                "tools/batch/jobs": ("tests/contracts/test_bad_input.py", "tests/contracts/test_batch_faults.py"),
                 "tools/batch/cluster": ("tests/contracts",),
                 "pytest_plugin": ("tests/image",)}  # the reference images match through it, edges and all
 

@@ -9,6 +9,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -59,6 +60,41 @@ def test_a_scheduler_without_workers_is_bad_input_not_a_hang(five_scenes, tmp_pa
                                   dashboard_address=None) as empty:
         with pytest.raises(OptionError, match=r"the scheduler has no worker \(waited 1 s\); start one there"):
             batch.run_batch(batch.find_jobs([five_scenes]), tmp_path / "out", scheduler=empty.scheduler_address)
+
+
+def test_a_scheduler_that_dies_before_a_worker_joins_is_one_line_and_dask_says_nothing(five_scenes, tmp_path,
+                                                                                       monkeypatch):
+    """Dask's client logs an error (mid-batch, a 30-line traceback) on stderr when its scheduler goes away; the
+    batch keeps its loggers quiet and says one line of its own. (Heard by a handler on Dask's client logger:
+    Dask's own handler writes to the stderr it found at import, which pytest's capture does not see.)"""
+    import logging
+    heard: list[logging.LogRecord] = []
+    listener = logging.Handler()
+    listener.emit = heard.append
+    logging.getLogger("distributed.client").addHandler(listener)
+    monkeypatch.setattr(batch.cluster, "WORKER_WAIT", 60.0)
+    monkeypatch.setattr(batch.cluster, "CONNECT_TIMEOUT", "2s")
+    port = free_port()
+    scheduler = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
+                                  "--port", str(port), "--no-dashboard"], stdout=subprocess.DEVNULL,
+                                 stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:  # until it listens
+            try:
+                socket.create_connection(("127.0.0.1", port), timeout=1).close()
+                break
+            except OSError:
+                time.sleep(0.2)
+        killer = threading.Timer(2.0, scheduler.kill)
+        killer.start()
+        with pytest.raises(OptionError, match="the scheduler stopped answering after"):
+            batch.run_batch(batch.find_jobs([five_scenes]), tmp_path / "out", scheduler=f"tcp://127.0.0.1:{port}")
+    finally:
+        scheduler.kill()
+        scheduler.wait()
+        logging.getLogger("distributed.client").removeHandler(listener)
+    assert [record.getMessage() for record in heard if record.levelno >= logging.WARNING] == []
 
 
 def test_an_unreachable_scheduler_is_bad_input(five_scenes, tmp_path, monkeypatch):
