@@ -5,8 +5,9 @@ pixel, and (as different problems) the specular model and the shininess. Each se
 for its errors against the reference (metrics.measure: the shading error over the pixels both cover, the
 highlight loss; and against a supersampled reference, the silhouette and whole-image error), then timed:
 every setting once per round in a shuffled order, `repeats` rounds, so a slow spell of the machine hits
-different settings each round; a point's time to image is the sum of its stages' minima (the geometry and
-BVH stages pooled over every setting that repeats the same work), the spread of the rounds is recorded.
+different settings each round. A point's time to image is what was measured: the minimum and the median of
+its whole render() calls (the Pareto front and the advice separate two points only when these ranges do not
+overlap); the sum of its stages' minima is kept as a labelled lower bound.
 
 The levels are either given or chosen (`levels=None`): one more level at a time until every curve's
 fitted order (the slope of log RMSE against log edge length over its last three levels) has settled,
@@ -21,7 +22,11 @@ import io
 import itertools
 import math
 import os
+import platform
+import shlex
 import statistics
+import subprocess
+import sys
 import tempfile
 import time
 import typing
@@ -71,6 +76,7 @@ class StudyOptions:
     error_level: int | None = None              # the level of the error images (default: the middle one)
     threads: int | None = None
     max_memory: int | None = None               # render()'s memory budget, bytes (default: its own)
+    process_start: bool = True                  # time one command-line render in a new process (the advice)
 
 
 @dataclass(frozen=True)
@@ -85,17 +91,21 @@ class StudyRow:
     level: int
     triangles: int
     edge_length: float      # mean length of the scene mesh's edges, world units
-    seconds_total: float    # time to image along its curve, made non-decreasing in the level (monotone_times)
-    seconds_total_measured: float  # geometry + BVH + frame + the rest of render(), each stage's minimum
-                            # (geometry and BVH pooled over the settings that repeat them: study_row)
-    seconds_total_wall: float    # the plain minimum of the whole render() call over the rounds
-    seconds_total_median: float  # the median of the whole call
+    seconds_total: float    # seconds_total_measured made non-decreasing along its curve (monotone_times): a
+                            # trend line for callers; the report draws and advises on the measured times
+    seconds_total_measured: float  # time to image: the minimum of the whole render() call over the rounds
+    seconds_total_median: float  # the median of the whole call: [measured, median] is the point's time range
     seconds_total_spread: float  # (median − min) / min of the whole call: how disturbed this point's runs were
+    seconds_total_bound: float   # a lower bound, not a run: the sum of the stages' minima (study_row)
     cpu_seconds: float      # CPU time of the render() call over all its threads, min over the rounds
     seconds: float          # frame time (rays + shading), min over the rounds: the cost of one more frame
+    seconds_median: float   # the frame time's median
     seconds_spread: float
-    geometry_seconds: float  # pooled minimum (see seconds_total); the stages below: min over the rounds
+    geometry_seconds: float  # pooled minimum (pooled_minima); the stages below: min over the rounds
     build_seconds: float
+    diagnosis_seconds: float  # the plan's diagnosis: the Gouraud and sub-pixel highlight checks (prepare's timing)
+    rest_seconds: float     # the rest of the call: plan, memory check, shading inputs, film; negative when the BVH
+                            # was built alongside the normals (prepare's build_ahead), overlapping the geometry
     rays_seconds: float     # summed over worker threads, like RenderResult.timings
     shade_seconds: float
     repeats: int
@@ -136,6 +146,7 @@ class ErrorImage:
     model: str
     level: int
     triangles: int
+    problem: str            # problem_label of its row: one error image per model and problem
     image: np.ndarray
     reference: np.ndarray
     difference: np.ndarray  # (H, W) max over RGB of |render − reference|
@@ -159,6 +170,58 @@ class MachineNoise:
                 f" % slower than its fastest (median over the points; worst {100 * self.worst_spread:.0f} %)")
 
 
+@dataclass(frozen=True)
+class Machine:
+    """What a reader needs to reproduce the times: the CPU, the package, the command and the cost of a process
+    start (None: not measured)."""
+    cpu: str
+    cores: int
+    usable_cores: int       # the cores this process may run on (affinity)
+    version: str
+    python: str
+    command: str            # the process's command line, shell-quoted
+    folder: str             # the working directory the command ran in
+    process_start: float | None = None  # seconds of one command-line render of an 8 × 8 image (process_start)
+
+    def sentence(self) -> str:
+        return (f"{self.cpu}, {self.cores} cores ({self.usable_cores} usable); raycast-phong {self.version}, "
+                f"Python {self.python}; command: {self.command} (in {self.folder})")
+
+
+def cpu_model() -> str:
+    """The CPU's model name (/proc/cpuinfo on Linux, else platform's guess)."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine() or "unknown CPU"
+
+
+def this_machine(process_start: float | None = None) -> Machine:
+    """This process's Machine: the CPU, the cores, the versions, its command line and folder."""
+    from .. import __version__
+    usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    return Machine(cpu_model(), os.cpu_count() or 1, usable, __version__, platform.python_version(),
+                   shlex.join(sys.argv), os.getcwd(), process_start)
+
+
+def process_start(folder: str | Path) -> float | None:
+    """Seconds of one `raycast-phong render` of an 8 × 8 image in a new process: the interpreter, the imports and
+    the kernels' loading that every command-line render pays beyond the in-process times of the study (None when
+    it fails)."""
+    scene = Path(folder) / "process-start.toml"
+    scene.write_text('[render]\nwidth = 8\nheight = 8\n[[objects]]\nshape = "icosphere"\n')
+    began = time.perf_counter()
+    try:
+        done = subprocess.run([sys.executable, "-m", "raycast_phong.cli", "render", str(scene), "-q", "-o",
+                               str(Path(folder) / "process-start.png")], capture_output=True, timeout=600)
+    except (OSError, subprocess.TimeoutExpired):
+        return None
+    return time.perf_counter() - began if done.returncode == 0 else None
+
+
 @dataclass
 class Study:
     rows: list[StudyRow]
@@ -170,6 +233,8 @@ class Study:
     levels_note: str = ""   # how the levels were chosen
     shininess: float = math.nan  # the first object's f, when the sweep keeps the scene's own (orders plot)
     colour: str = "display"   # the scene's render.colour: how the report's pictures are encoded
+    machine: Machine | None = None
+    objects: tuple[tuple[str, str], ...] = ()  # (shape, normals rule) of each object of the scene (order_reason)
 
 
 # ---------------------------------------------------------------- scenes of the sweep
@@ -313,9 +378,8 @@ class _Sweep:
             everywhere = np.ones(coverage.shape, bool)
             self.measured[s] = (errors, rmse(result.image, fine.image, everywhere),
                                 rmse(result.image, fine.image, ~both_full & ~both_empty), result.triangles)
-            first = self.settings(level)[0]
-            if keep_images and (s.normals, s.specular, s.precision, s.samples, s.shininess) == (
-                    first.normals, first.specular, first.precision, first.samples, first.shininess):
+            first = self.settings(level)[0]  # every problem's images: at the first of the user's other choices
+            if keep_images and (s.normals, s.precision, s.samples) == (first.normals, first.precision, first.samples):
                 self.images[s] = (result.image, reference.image, coverage == 1, reference.coverage == 1)
 
     def time_all(self, settings: list[Setting], repeats: int,
@@ -330,8 +394,7 @@ class _Sweep:
             for position, index in enumerate(np.random.default_rng(round_).permutation(len(settings)), 1):
                 s = settings[index]
                 begin, cpu = time.perf_counter(), time.process_time()
-                result = render(scenes[s], threads=self.options.threads,
-                                max_memory=self.options.max_memory)
+                result = render(scenes[s], threads=self.options.threads, max_memory=self.options.max_memory)
                 wall = time.perf_counter() - begin
                 runs[s].append((wall, {**result.timings, "cpu": time.process_time() - cpu}))
                 if progress:
@@ -367,9 +430,12 @@ def run_study(path: str | Path, overrides: list[str] | tuple[str, ...] = (), opt
         pooled = pooled_minima(runs)
         rows = monotone_times([study_row(s, runs[s], *sweep.measured[s], sweep.meshes[s.samples, s.level][1], pooled)
                                for s in settings])
+        started = process_start(folder) if options.process_start else None  # after the rounds: not among them
         study = Study(rows, fit_orders(rows, options.settle), sweep.source, options.target, noise,
                       levels_note=note, shininess=sweep.base.material_of(sweep.base.objects[0]).shininess
-                      if sweep.base.objects else math.nan, colour=sweep.base.render.colour)
+                      if sweep.base.objects else math.nan, colour=sweep.base.render.colour,
+                      machine=this_machine(started),
+                      objects=tuple((obj.shape, obj.normals or "mean") for obj in sweep.base.objects))
         study.images = error_images(sweep)
         if progress:
             progress(len(settings) * options.repeats, len(settings) * options.repeats, "done")
@@ -448,14 +514,10 @@ def pooled_minima(runs: dict[Setting, list[tuple[float, dict]]]) -> dict[tuple, 
 
 
 def monotone_times(rows: list[StudyRow]) -> list[StudyRow]:
-    """Each curve's time to image made non-decreasing in the level: the least-squares monotone fit of the
-    measured times (pool adjacent violators), in the curve's level order.
-
-    More triangles never take less work (the geometry and the BVH grow with them, the frame does not shrink),
-    but below ~15,000 triangles the levels differ by a few ms, less than a busy machine's noise in the frame
-    time, and the measured minima can come out in the wrong order. Pooling the violators averages them
-    instead of inventing a speed-up; seconds_total_measured keeps what was measured.
-    """
+    """seconds_total: each curve's measured time to image made non-decreasing in the level (the least-squares
+    monotone fit, pool adjacent violators), a trend line for callers (docs/tutorial.ipynb). More triangles never
+    take less work, but levels a few ms apart can be measured in the wrong order; the report draws and advises
+    on the measured times (seconds_total_measured and its median), never on this fit."""
     fitted: dict[int, float] = {}
     for curve in curves(rows).values():
         blocks: list[list] = []  # [mean, count] per pooled block
@@ -474,29 +536,32 @@ def study_row(s: Setting, runs: list[tuple[float, dict]], errors, image_rmse: fl
               triangles: int, edge_length: float, pooled: dict[tuple, float] | None = None) -> StudyRow:
     """One row: a setting's timed runs and its errors.
 
-    Time to image = the pooled minima of the geometry and BVH stages (pooled_minima) + this setting's own
-    minimum frame + its minimum of the rest of the call (plan, memory check, film); the plain minimum of
-    the whole call is kept as seconds_total_wall.
+    Time to image = the minimum (and the median) of the whole render() call over the rounds: what a run took.
+    The stages' minima are kept, with their sum as seconds_total_bound: the geometry and BVH pooled over the
+    settings that repeat them (pooled_minima), the diagnosis, the frame and the rest of the call. Each minimum
+    comes from its own round, so the sum is a lower bound no run reached (220 ms where no call was under 340);
+    the rest is each run's wall less its named stages, minimised, so the bound never exceeds the fastest call.
     """
     walls = [wall for wall, _ in runs]
     frames = [t.get("frame", 0.0) for _, t in runs]
-    stage = {name: min(t.get(name, 0.0) for _, t in runs) for name in ("geometry", "build", "rays", "shade", "cpu")}
-    rest = min(wall - sum(t.get(name, 0.0) for name in ("geometry", "build", "frame")) for wall, t in runs)
+    named = ("geometry", "build", "diagnosis", "frame")
+    stage = {name: min(t.get(name, 0.0) for _, t in runs)
+             for name in ("geometry", "build", "diagnosis", "rays", "shade", "cpu")}
+    rest = min(wall - sum(t.get(name, 0.0) for name in named) for wall, t in runs)  # < 0: BVH built alongside
     pooled = pooled or {}
     geometry = pooled.get(("geometry", s.level, s.normals, s.model == "flat"), stage["geometry"])
     build = pooled.get(("build", s.level), stage["build"])
     return StudyRow(model=s.model, normals=s.normals or "scene", specular=s.specular, precision=s.precision,
                     samples=s.samples, shininess="scene" if s.shininess is None else f"{s.shininess:g}",
                     level=s.level, triangles=triangles, edge_length=edge_length,
-                    seconds_total=geometry + build + min(frames) + max(rest, 0.0),
-                    seconds_total_measured=geometry + build + min(frames) + max(rest, 0.0),
-                    seconds_total_wall=min(walls),
+                    seconds_total=min(walls), seconds_total_measured=min(walls),
                     seconds_total_median=statistics.median(walls),
-                    seconds_total_spread=spread(walls) if min(walls) > 0 else 0.0, cpu_seconds=stage["cpu"],
-                    seconds=min(frames),
+                    seconds_total_spread=spread(walls) if min(walls) > 0 else 0.0,
+                    seconds_total_bound=geometry + build + stage["diagnosis"] + min(frames) + rest,
+                    cpu_seconds=stage["cpu"], seconds=min(frames), seconds_median=statistics.median(frames),
                     seconds_spread=spread(frames) if min(frames) > 0 else 0.0,
-                    geometry_seconds=geometry, build_seconds=build,
-                    rays_seconds=stage["rays"], shade_seconds=stage["shade"], repeats=len(runs),
+                    geometry_seconds=geometry, build_seconds=build, diagnosis_seconds=stage["diagnosis"],
+                    rest_seconds=rest, rays_seconds=stage["rays"], shade_seconds=stage["shade"], repeats=len(runs),
                     rmse=errors.rmse, max_error=errors.max_error, psnr=errors.psnr, mae=errors.mae,
                     silhouette_pixels=errors.silhouette_pixels, highlight_loss=errors.highlight_loss,
                     compared_pixels=errors.compared_pixels, image_rmse=image_rmse, silhouette_rmse=silhouette_rmse,
@@ -504,7 +569,8 @@ def study_row(s: Setting, runs: list[tuple[float, dict]], errors, image_rmse: fl
 
 
 def error_images(sweep: _Sweep) -> list[ErrorImage]:
-    """Per model, at the kept level and the first value of every other axis: render, reference, difference."""
+    """Per problem and model, at the kept level and the first of the user's other choices: render, reference,
+    difference."""
     from .difference import difference
     out = []
     for s, (image, reference, covered, reference_covered) in sweep.images.items():
@@ -512,7 +578,9 @@ def error_images(sweep: _Sweep) -> list[ErrorImage]:
         both = covered & reference_covered
         scale = float(diff[both].max()) if both.any() else float(diff.max())
         crop = _crop(covered | reference_covered | (diff > 0))
-        out.append(ErrorImage(s.model, s.level, sweep.measured[s][3], np.asarray(image, np.float64)[crop],
+        shininess = "scene" if s.shininess is None else f"{s.shininess:g}"
+        out.append(ErrorImage(s.model, s.level, sweep.measured[s][3], _problem_text(s.specular, shininess),
+                              np.asarray(image, np.float64)[crop],
                               np.asarray(reference, np.float64)[crop], diff[crop], scale))
     return out
 
@@ -545,7 +613,11 @@ def group_label(row: StudyRow) -> str:
 
 
 def problem_label(row: StudyRow) -> str:
-    return f"{row.specular} specular" + ("" if row.shininess == "scene" else f", f = {row.shininess}")
+    return _problem_text(row.specular, row.shininess)
+
+
+def _problem_text(specular: str, shininess: str) -> str:
+    return f"{specular} specular" + ("" if shininess == "scene" else f", f = {shininess}")
 
 
 def setting_label(row: StudyRow) -> str:
@@ -596,14 +668,30 @@ def local_orders(curve: list[StudyRow]) -> list[tuple[StudyRow, float]]:
     return out
 
 
-def pareto_front(rows: list[StudyRow], error: str = "rmse", cost: str = "seconds_total") -> list[StudyRow]:
-    """The settings no other setting beats on both cost and error, fastest first."""
-    front: list[StudyRow] = []
-    for row in sorted((r for r in rows if math.isfinite(getattr(r, error))),
-                      key=lambda r: (getattr(r, cost), getattr(r, error))):
-        if not front or getattr(row, error) < getattr(front[-1], error):
-            front.append(row)
-    return front
+RANGES = {"seconds_total_measured": "seconds_total_median", "seconds": "seconds_median"}  # cost -> its median
+
+
+def time_range(row: StudyRow, cost: str = "seconds_total_measured") -> tuple[float, float]:
+    """A point's measured time as a range: its fastest run to its median run (RANGES)."""
+    low = getattr(row, cost)
+    return low, max(low, getattr(row, RANGES.get(cost, cost)))
+
+
+def clearly_faster(a: StudyRow, b: StudyRow, cost: str = "seconds_total_measured") -> bool:
+    """Whether a's median run beat b's fastest: their time ranges do not overlap, the order is the settings'."""
+    return time_range(a, cost)[1] < time_range(b, cost)[0]
+
+
+def pareto_front(rows: list[StudyRow], error: str = "rmse", cost: str = "seconds_total_measured") -> list[StudyRow]:
+    """The settings no other setting beats in error while being clearly faster (clearly_faster), fastest first.
+
+    Two points whose time ranges overlap are not ordered in time, so neither drops the other: a front of minima
+    alone ranked settings 0.1 ms apart inside a spread of several ms.
+    """
+    usable = [r for r in rows if math.isfinite(getattr(r, error))]
+    front = [r for r in usable if not any(q is not r and getattr(q, error) <= getattr(r, error)
+                                          and clearly_faster(q, r, cost) for q in usable)]
+    return sorted(front, key=lambda r: (getattr(r, cost), getattr(r, error)))
 
 
 def problems(rows: list[StudyRow]) -> dict[tuple, list[StudyRow]]:
@@ -614,21 +702,44 @@ def problems(rows: list[StudyRow]) -> dict[tuple, list[StudyRow]]:
 
 
 def fastest(rows: list[StudyRow], target: float) -> StudyRow | None:
-    """The setting with the shortest time to image whose shading RMSE is at most `target`."""
+    """The setting with the shortest measured time to image (its fastest run) whose shading RMSE is at most
+    `target`; as_fast gives those the timing rounds cannot tell from it."""
     reaching = [r for r in rows if r.rmse <= target]
-    return min(reaching, key=lambda r: r.seconds_total) if reaching else None
+    return min(reaching, key=lambda r: r.seconds_total_measured) if reaching else None
 
 
-def monotone(curve: list[StudyRow], cost: str = "seconds_total") -> bool:
-    """Whether the curve's cost rises with its level."""
-    values = [getattr(r, cost) for r in curve]
-    return all(b > a for a, b in itertools.pairwise(values))
+def as_fast(rows: list[StudyRow], best: StudyRow, target: float) -> list[StudyRow]:
+    """The other settings reaching `target` whose time range overlaps best's: as fast within the spread."""
+    return [r for r in rows if r is not best and r.rmse <= target and not clearly_faster(best, r)]
+
+
+def ms(row: StudyRow, cost: str = "seconds_total_measured") -> str:
+    """A point's time range in ms, '10.0–11.2 ms' (min–median of its runs)."""
+    low, high = (1e3 * t for t in time_range(row, cost))
+    digits = 0 if low >= 100 else 1
+    return f"{low:.{digits}f}–{high:.{digits}f} ms"
+
+
+STALL = 0.8     # the whole-image RMSE "stops falling" when a level keeps more than this share of it (aliasing)
+
+
+def aliasing(rows: list[StudyRow]) -> tuple[StudyRow, StudyRow] | None:
+    """At 1 sample per pixel, on the curve with the lowest finest shading error: the first two successive levels
+    where the whole-image RMSE keeps more than STALL of itself while the shading RMSE still falls by a third.
+    What is left is the aliasing of the silhouette, which a finer mesh does not remove."""
+    ones = [c for c in curves([r for r in rows if r.samples == 1]).values() if len(c) >= 2]
+    if not ones:
+        return None
+    curve = min(ones, key=lambda c: c[-1].rmse)
+    return next(((a, b) for a, b in itertools.pairwise(curve)
+                 if b.image_rmse > STALL * a.image_rmse and b.rmse < 2 / 3 * a.rmse), None)
 
 
 def advice(study: Study, target: float | None = None) -> str:
-    """Per problem: the fastest setting to RMSE `target` (time to image), then each model's own fastest. The
-    fastest is chosen on the monotone fit (monotone_times: robust to a level measured in a slow spell); the
-    times said are the measured ones."""
+    """What a user acts on, per problem: the fastest setting to RMSE `target` and those the timing rounds cannot
+    tell from it, each model's own fastest (times as measured: min–median of the whole call, no difference
+    smaller than the spread quoted), where more levels stop helping the whole image (aliasing), the Gouraud
+    check's own cost, and what a command-line render pays on top (a process start)."""
     target = study.target if target is None else target
     groups = problems(study.rows)
     sentences = []
@@ -638,24 +749,92 @@ def advice(study: Study, target: float | None = None) -> str:
         if best is None:
             top = min(rows, key=lambda r: r.rmse)
             sentences.append(f"No setting reaches RMSE {target:g}{where}: the best is {setting_label(top)} with "
-                             f"{top.rmse:.4f} ({top.triangles:,} triangles, {top.seconds_total_measured * 1e3:.1f} ms "
-                             "measured).")
-            continue
-        parts = []
-        for model in dict.fromkeys(r.model for r in rows):
-            mine = fastest([r for r in rows if r.model == model], target)
-            if mine is None:
-                top = min((r for r in rows if r.model == model), key=lambda r: r.rmse)
-                parts.append(f"{model} does not get there within the levels tried (best {top.rmse:.4f} at "
-                             f"{top.triangles:,} triangles)")
-            else:
-                parts.append(f"{model} {mine.seconds_total_measured * 1e3:.1f} ms ({setting_label(mine)}, "
-                             f"{mine.triangles:,} triangles)")
-        sentences.append(f"Fastest to RMSE {target:g}{where}: {setting_label(best)}, {best.triangles:,} triangles, "
-                         f"{best.seconds_total_measured * 1e3:.1f} ms to image measured (RMSE {best.rmse:.4f}). "
-                         "Per model, measured: "
-                         + "; ".join(parts) + ".")
+                             f"{top.rmse:.4f} ({top.triangles:,} triangles, {ms(top)} to image).")
+        else:
+            parts = []
+            for model in dict.fromkeys(r.model for r in rows):
+                mine = fastest([r for r in rows if r.model == model], target)
+                if mine is None:
+                    top = min((r for r in rows if r.model == model), key=lambda r: r.rmse)
+                    parts.append(f"{model} does not get there within the levels tried (best {top.rmse:.4f} at "
+                                 f"{top.triangles:,} triangles)")
+                else:
+                    tie = " (as fast, within the spread)" if mine is not best and not clearly_faster(best, mine) \
+                        else ""
+                    parts.append(f"{model} {ms(mine)} ({setting_label(mine)}, {mine.triangles:,} triangles){tie}")
+            ties = as_fast(rows, best, target)
+            tied = "" if not ties else (
+                f"; as fast within the timing spread: {', '.join(setting_label(r) for r in ties[:4])}"
+                + (f" and {len(ties) - 4} more" if len(ties) > 4 else ""))
+            sentences.append(f"Fastest to RMSE {target:g}{where}: {setting_label(best)}, {best.triangles:,} triangles, "
+                             f"{ms(best)} to image (RMSE {best.rmse:.4f}){tied}. Per model: " + "; ".join(parts) + ".")
+        stalled = aliasing(rows)
+        if stalled:
+            a, b = stalled
+            sentences.append(
+                f"At 1 sample per pixel{where} the whole-image RMSE stops falling after level {a.level} "
+                f"({a.model}: {a.image_rmse:.2g} at level {a.level}, {b.image_rmse:.2g} at level {b.level}) while the "
+                f"shading RMSE still falls ({a.rmse:.2g} → {b.rmse:.2g}): what is left is the silhouette's aliasing, "
+                "which a finer mesh does not remove; more samples per pixel do (render.samples, study --samples 1,2).")
+    gouraud = [r for r in study.rows if r.model == "gouraud"]
+    if gouraud:
+        top = max(gouraud, key=lambda r: (r.level, -r.samples))
+        others = [r for r in study.rows if r.model != "gouraud" and curve_key(r)[1:] == curve_key(top)[1:]
+                  and r.level == top.level]
+        beside = "; " + ", ".join(f"{r.model}'s {r.diagnosis_seconds * 1e3:.1f} ms" for r in others) if others else ""
+        sentences.append("Gouraud's times include the plan's Gouraud check (the diagnosis that warns when the vertex "
+                         f"normals are farther apart than the highlight is wide): {top.diagnosis_seconds * 1e3:.1f} ms "
+                         f"of {ms(top)} at level {top.level} ({top.triangles:,} triangles){beside}.")
+    started = study.machine.process_start if study.machine else None
+    sentences.append("Every time here is in-process: a render() call with the kernels already compiled. A command-line "
+                     "render also pays a process start (the interpreter, the imports, the kernels' loading): "
+                     + (f"{started:.2f} s for one `raycast-phong render` of an 8 × 8 image on this machine."
+                        if started is not None else "not measured in this study."))
     return "\n".join(sentences)
+
+
+FAR = 0.15       # an order this far from theory is explained beside it (order_reason)
+CROSSOVER = 0.4  # h·√f below which the edges resolve the highlight (docs/accuracy.md, Gouraud's crossover)
+
+
+def highlight_widths(row: StudyRow, scene_shininess: float) -> float:
+    """The edge length in highlight widths: h √f (the highlight is about 1/√f radians wide on a unit sphere)."""
+    f = scene_shininess if row.shininess == "scene" else float(row.shininess)
+    return row.edge_length * math.sqrt(f) if f > 0 and math.isfinite(f) else row.edge_length
+
+
+def order_reason(fit: Fit, study: Study) -> str:
+    """Why a fitted order is more than FAR from theory, from what the study knows (docs/accuracy.md has each
+    measurement): a highlight narrower than the edges, averaged normals at an icosahedron's seams, samples
+    averaging facets, or an order still moving; empty when the order is near theory."""
+    if not math.isfinite(fit.order) or abs(fit.order - fit.theory) <= FAR:
+        return ""
+    finest = curves(study.rows)[fit.key][-1] if fit.key else None
+    if finest is None:
+        return ""
+    widths = highlight_widths(finest, study.shininess)
+    rules = {finest.normals} if finest.normals != "scene" else {rule for _, rule in study.objects}
+    averaged = sorted(rules - {"exact"})
+    if fit.model != "phong" and fit.order < fit.theory and widths > CROSSOVER:
+        return (f"pre-asymptotic: the highlight (about 1/√f wide) is still narrower than the edges, h·√f = "
+                f"{widths:.2f} at the finest level, and {fit.model} sees it only through "
+                f"{'vertices' if fit.model == 'gouraud' else 'one normal per facet'}; the order reaches theory once "
+                f"h·√f is below about {CROSSOVER:g} (more levels)")
+    if fit.model != "flat" and fit.order < fit.theory and averaged \
+            and any(shape == "icosphere" for shape, _ in study.objects):
+        return (f"averaged vertex normals (normals = {', '.join(averaged)}) are first-order along the icosahedron's "
+                "seams, a strip one edge wide, so the RMSE falls like h^1.5; --normals exact gives 2")
+    if fit.model == "flat" and fit.order > fit.theory and finest.samples > 1:
+        return (f"{finest.samples} × {finest.samples} samples average several facets in a pixel at fine levels, a "
+                "better estimate than one facet's colour")
+    if averaged and fit.model != "flat" and fit.order < fit.theory:
+        return (f"averaged vertex normals (normals = {', '.join(averaged)}) carry an error of their own; "
+                "--normals exact removes it")
+    if not fit.settled:
+        moving = (f"{fit.levels} levels, too few to see it settle" if math.isnan(fit.previous)
+                  else f"the order still moves between windows ({fit.previous:.2f} → {fit.order:.2f})")
+        return f"not settled, pre-asymptotic: {moving}; add levels"
+    return "no cause known to the study; see docs/accuracy.md"
 
 
 # ---------------------------------------------------------------- output
@@ -679,27 +858,37 @@ def read_csv(path: Path) -> list[dict[str, str]]:
 
 
 def fits_table(study: Study) -> list[list[str]]:
-    """Header and rows of the fitted-order table (summary.md and report.html)."""
-    rows = [["model", "curve", f"order (last {FIT_WINDOW} levels)", "window before", "all levels", "theory",
-             "levels", "settled"]]
+    """Header and rows of the fitted-order table (summary.md and report.html), each order far from theory with
+    its reason (order_reason)."""
+    rows = [["model", "curve", f"order (last {FIT_WINDOW} levels)", "theory", "why not theory", "window before",
+             "all levels", "levels", "settled"]]
     for f in study.fits:
-        rows.append([f.model, f.group, f"{f.order:.2f}", "–" if math.isnan(f.previous) else f"{f.previous:.2f}",
-                     f"{f.order_all:.2f}", f"{f.theory:g}", str(f.levels), "yes" if f.settled else "no"])
+        rows.append([f.model, f.group, f"{f.order:.2f}", f"{f.theory:g}", order_reason(f, study) or "–",
+                     "–" if math.isnan(f.previous) else f"{f.previous:.2f}", f"{f.order_all:.2f}", str(f.levels),
+                     "yes" if f.settled else "no"])
     return rows
 
 
 def rows_table(study: Study) -> list[list[str]]:
     rows = [["model", "normals", "specular", "precision", "spp", "f", "level", "triangles", "edge",
-             "ms to image, measured", "ms, monotone fit", "spread", "frame ms", "RMSE", "max", "PSNR dB",
-             "silhouette RMSE", "image RMSE", "highlight loss"]]
+             "ms to image, min", "median", "spread", "diagnosis ms", "frame ms", "rest ms",
+             "lower bound ms (Σ stage minima)", "RMSE", "max", "PSNR dB", "silhouette RMSE", "image RMSE",
+             "highlight loss"]]
     for r in study.rows:
         rows.append([r.model, r.normals, r.specular, r.precision, str(r.samples), r.shininess, str(r.level),
                      f"{r.triangles:,}", f"{r.edge_length:.4f}", f"{r.seconds_total_measured * 1e3:.2f}",
-                     f"{r.seconds_total * 1e3:.2f}",
-                     f"{100 * r.seconds_total_spread:.0f} %", f"{r.seconds * 1e3:.2f}", f"{r.rmse:.2e}",
-                     f"{r.max_error:.3g}", f"{r.psnr:.1f}", f"{r.silhouette_rmse:.3g}", f"{r.image_rmse:.3g}",
-                     f"{r.highlight_loss:.3f}"])
+                     f"{r.seconds_total_median * 1e3:.2f}", f"{100 * r.seconds_total_spread:.0f} %",
+                     f"{r.diagnosis_seconds * 1e3:.2f}", f"{r.seconds * 1e3:.2f}", f"{r.rest_seconds * 1e3:.2f}",
+                     f"{r.seconds_total_bound * 1e3:.2f}", f"{r.rmse:.2e}", f"{r.max_error:.3g}", f"{r.psnr:.1f}",
+                     f"{r.silhouette_rmse:.3g}", f"{r.image_rmse:.3g}", f"{r.highlight_loss:.3f}"])
     return rows
+
+
+TIMES = ("Times to image are the whole render() call as measured: its minimum and median over the rounds "
+         "(spread = (median − min) / min). Its parts: geometry, BVH, diagnosis (the plan's Gouraud and sub-pixel "
+         "highlight checks), frame (rays and shading) and the rest (plan, memory check, shading inputs, film; "
+         "negative when the BVH was built alongside the normals). "
+         "The lower bound sums each stage's minimum from different rounds: no run took that little.")
 
 
 def markdown_table(rows: list[list[str]]) -> list[str]:
@@ -709,13 +898,14 @@ def markdown_table(rows: list[list[str]]) -> list[str]:
 
 def summary_markdown(study: Study, plots: dict) -> str:
     lines = [f"# Error against run time: {study.scene}", "", study.levels_note + ".", ""]
+    if study.machine:
+        lines += [f"Machine: {study.machine.sentence()}.", ""]
     if study.noise:
-        lines += [f"Machine: {study.noise.sentence()}.", ""]
+        lines += [f"Timing: {study.noise.sentence()}.", ""]
     lines += ["\n\n".join(advice(study).splitlines()), "", "## Fitted convergence orders", "",
               "Slope of log RMSE against log mean edge length (least squares).", ""]
     lines += markdown_table(fits_table(study))
-    lines += ["", "## Settings", "", "Measured times are the minimum over the rounds (each stage's); spread = "
-              "(median − min) / min; the monotone fit is what the plots draw (monotone_times).", ""]
+    lines += ["", "## Settings", "", TIMES, ""]
     lines += markdown_table(rows_table(study))
     lines += [""] + [f"![{key}]({plot.path.name})" for key, plot in plots.items()] + [""]
     return "\n".join(lines)
