@@ -820,16 +820,13 @@ def order_reason(fit: Fit, study: Study) -> str:
                 f"{widths:.2f} at the finest level, and {fit.model} sees it only through "
                 f"{'vertices' if fit.model == 'gouraud' else 'one normal per facet'}; the order reaches theory once "
                 f"h·√f is below about {CROSSOVER:g} (more levels)")
-    if fit.model != "flat" and fit.order < fit.theory and averaged \
-            and any(shape == "icosphere" for shape, _ in study.objects):
-        return (f"averaged vertex normals (normals = {', '.join(averaged)}) are first-order along the icosahedron's "
-                "seams, a strip one edge wide, so the RMSE falls like h^1.5; --normals exact gives 2")
+    if fit.model != "flat" and fit.order < fit.theory and averaged:
+        return (f"averaged vertex normals (normals = {', '.join(averaged)}) are first-order where the facets change "
+                "size or shape (an icosphere's seams, a strip one edge wide: the RMSE falls like h^1.5); --normals "
+                "exact gives 2")
     if fit.model == "flat" and fit.order > fit.theory and finest.samples > 1:
         return (f"{finest.samples} × {finest.samples} samples average several facets in a pixel at fine levels, a "
                 "better estimate than one facet's colour")
-    if averaged and fit.model != "flat" and fit.order < fit.theory:
-        return (f"averaged vertex normals (normals = {', '.join(averaged)}) carry an error of their own; "
-                "--normals exact removes it")
     if not fit.settled:
         moving = (f"{fit.levels} levels, too few to see it settle" if math.isnan(fit.previous)
                   else f"the order still moves between windows ({fit.previous:.2f} → {fit.order:.2f})")

@@ -249,7 +249,7 @@ def test_every_order_far_from_theory_says_why_beside_it():
     table = fits_table(_study_of(rows, objects=(("icosphere", "mean"),)))
     reason = {(line[0], line[1].split(",")[0]): line[table[0].index("why not theory")] for line in table[1:]}
     assert table[0].index("why not theory") == table[0].index("theory") + 1
-    assert "icosahedron's seams" in reason["phong", "mean normals"] and "--normals exact" in reason[
+    assert "icosphere's seams" in reason["phong", "mean normals"] and "--normals exact" in reason[
         "phong", "mean normals"]
     assert reason["phong", "exact normals"] == "–"
     assert "h·√f" in reason["gouraud", "exact normals"] and "0.4" in reason["gouraud", "exact normals"]
