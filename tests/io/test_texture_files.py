@@ -186,3 +186,57 @@ def test_a_palette_map_with_byte_transparency_decodes_without_pil_s_warning(tmp_
     with Image.open(tmp_path / "p.png") as opened:
         pixels = decode_pil(opened, "display")
     assert np.allclose(pixels, [1, 0, 0]) and not [w for w in recwarn if "Palette" in str(w.message)]
+
+
+def _write(path: Path, pixels: np.ndarray, kind) -> Path:
+    """An image file of `pixels` (H, W, C) written by OpenImageIO as `kind` (oiio.UINT8, oiio.FLOAT)."""
+    import OpenImageIO as oiio
+    output = oiio.ImageOutput.create(str(path))
+    assert output.open(str(path), oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], kind))
+    assert output.write_image(pixels) and output.close()
+    return path
+
+
+def test_a_float_map_is_linear_already_and_an_8_bit_map_is_decoded_from_srgb(tmp_path):
+    """render.colour = "linear": an 8-bit PNG of 188, 64, 255 becomes 0.5029, 0.0513, 1 (IEC 61966-2-1,
+    ((c + 0.055) / 1.055)^2.4 by hand), a float EXR of 0.5, 0.2, 0.04 stays so; "display" keeps both as stored
+    (188 / 255 = 0.7373). Catches the float map put through the sRGB curve too (0.5 → 0.214) and the curve applied
+    under the wrong mode."""
+    import OpenImageIO as oiio
+    png = _write(tmp_path / "m.png", np.array([[[188, 64, 255]]] * 2, np.uint8), oiio.UINT8)
+    exr = _write(tmp_path / "m.exr", np.array([[[0.5, 0.2, 0.04]]] * 2, np.float32), oiio.FLOAT)
+    expected = {("linear", "png"): [0.5029, 0.0513, 1.0], ("linear", "exr"): [0.5, 0.2, 0.04],
+                ("display", "png"): [188 / 255, 64 / 255, 1.0], ("display", "exr"): [0.5, 0.2, 0.04]}
+    for colour in ("linear", "display"):
+        (tmp_path / "s.toml").write_text(
+            f'[render]\ncolour = "{colour}"\n[materials.a]\nkd_map = "{png.name}"\n[materials.b]\nkd_map = '
+            f'"{exr.name}"\n[[objects]]\nshape = "plane"\nmaterial = "a"\n[[objects]]\nshape = "plane"\n'
+            'material = "b"\ntranslate = [3, 0, 0]\n')
+        textures = build_geometry(rp.load_scene(tmp_path / "s.toml")).textures
+        found = {Path(texture.name).suffix[1:]: texture.pixels for texture in textures}
+        for kind in ("png", "exr"):
+            np.testing.assert_allclose(found[kind], np.broadcast_to(expected[colour, kind], (2, 1, 3)), atol=1e-4,
+                                       err_msg=f"{kind} under {colour}")
+
+
+def test_a_long_map_is_shrunk_to_2048_on_its_longer_side_keeping_its_shape(tmp_path):
+    """An 8192 × 1024 map (an embedded image, opened lazily as a glTF's or 3MF's is; and a file) is decoded at
+    2048 × 256, a quarter on each side, as the memory estimate weighs it (52 B a texel); a box or thumbnail filter
+    keeps a uniform colour. Catches a shrink rule that goes too far (or not at all) on a non-square map."""
+    import io
+
+    import OpenImageIO as oiio
+    from PIL import Image
+
+    from raycast_phong.io.textures import decode_file, decode_pil, texture_bytes
+    pixels = np.full((1024, 8192, 3), (200, 100, 50), np.uint8)
+    embedded = io.BytesIO()
+    Image.fromarray(pixels).save(embedded, "PNG")
+    with Image.open(io.BytesIO(embedded.getvalue())) as image:
+        shrunk = decode_pil(image, "display")
+    assert shrunk.shape == (256, 2048, 3)
+    np.testing.assert_allclose(shrunk, np.broadcast_to([200 / 255, 100 / 255, 50 / 255], shrunk.shape), atol=1e-6)
+    read = decode_file(_write(tmp_path / "long.png", pixels, oiio.UINT8), "display")
+    assert read.shape == (256, 2048, 3)
+    np.testing.assert_allclose(read, np.broadcast_to([200 / 255, 100 / 255, 50 / 255], read.shape), atol=1e-6)
+    assert texture_bytes([(1024, 8192)]) == 256 * 2048 * 52

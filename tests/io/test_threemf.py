@@ -242,3 +242,76 @@ def test_the_count_the_memory_check_weighs_is_what_components_and_items_build(tm
         archive.writestr("3D/3dmodel.model", model)
     assert mesh_source(path).triangles() == 30
     assert len(read(path).faces) == 30
+
+
+# ---------------------------------------------------------------- placement: transforms, components, mirrors
+# 3MF core §3.4.1: transform="m00 m01 m02 m10 m11 m12 m20 m21 m22 m30 m31 m32" places a point as the row vector
+# (x y z 1) times the 4 × 3 matrix of those rows: p' = (x·m00 + y·m10 + z·m20 + m30, x·m01 + ..., ...). Every
+# expectation below is that product worked out by hand.
+MODEL_RELATION = "http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"
+TURN_Z = "0 1 0 -1 0 0 0 0 1"  # rows (0 1 0), (-1 0 0), (0 0 1): (x, y, z) → (-y, x, z), +90° about +Z
+CONTENT_TYPES = ('<?xml version="1.0" encoding="UTF-8"?>\n<Types xmlns="http://schemas.openxmlformats.org/package/'
+                 '2006/content-types"><Default Extension="rels" ContentType="application/vnd.openxmlformats-package.'
+                 'relationships+xml"/><Default Extension="model" ContentType="application/vnd.ms-package.3dmanufac'
+                 'turing-3dmodel+xml"/></Types>')
+RELS = ('<?xml version="1.0" encoding="UTF-8"?>\n<Relationships xmlns="http://schemas.openxmlformats.org/package/2006/'
+        f'relationships"><Relationship Target="/3D/3dmodel.model" Id="rel0" Type="{MODEL_RELATION}"/></Relationships>')
+ONE = '<triangle v1="0" v2="1" v3="2"/>'  # the square's (0 0 0), (10 0 0), (10 10 0)
+
+
+def write_package(path: Path, resources: str, build: str) -> Path:
+    """A full 3MF package (content types, relationships, model part) of `resources` and `build`."""
+    model = (f'<?xml version="1.0" encoding="UTF-8"?>\n<model unit="millimeter" xmlns="{CORE}" xmlns:m="{MATERIAL}">'
+             f'<resources>{resources}</resources><build>{build}</build></model>')
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("[Content_Types].xml", CONTENT_TYPES)
+        archive.writestr("_rels/.rels", RELS)
+        archive.writestr("3D/3dmodel.model", model)
+    return path
+
+
+def mesh_object(identity: int, triangles: str = ONE) -> str:
+    return f'<object id="{identity}" type="model"><mesh>{SQUARE}<triangles>{triangles}</triangles></mesh></object>'
+
+
+def corners(mesh) -> list[list[tuple]]:
+    """Each face's corners as positions, rounded (the read's vertex numbering is its own)."""
+    return [[tuple(np.round(mesh.vertices[v], 9) + 0.0) for v in face] for face in mesh.faces]
+
+
+
+def test_a_build_item_s_transform_places_its_object_as_row_vector_times_matrix(tmp_path):
+    """Item transform TURN_Z + (5, 6, 7): (x, y, z) → (5 - y, 6 + x, 7 + z). Catches the 3 × 3 applied transposed
+    (a turn the wrong way: (10, 0, 0) → (5, -4, 7))."""
+    mesh = read(write_package(tmp_path / "t.3mf", mesh_object(1), f'<item objectid="1" transform="{TURN_Z} 5 6 7"/>'))
+    assert corners(mesh) == [[(5, 6, 7), (5, 16, 7), (-5, 16, 7)]]
+
+
+def test_nested_components_compose_child_first_then_parent_then_item(tmp_path):
+    """Object 3 holds object 2 translated by (10, 0, 0); object 2 holds object 1 turned by TURN_Z; the item scales
+    x by 2: p' = p · B · A · I, so (10, 0, 0) → (0, 10, 0) → (10, 10, 0) → (20, 10, 0). Catches the composition
+    parent after child reversed ((10, 0, 0) → (0, 30, 0)) at either level."""
+    resources = (mesh_object(1)
+                 + f'<object id="2" type="model"><components><component objectid="1" transform="{TURN_Z} 0 0 0"/>'
+                 '</components></object><object id="3" type="model"><components>'
+                 '<component objectid="2" transform="1 0 0 0 1 0 0 0 1 10 0 0"/></components></object>')
+    mesh = read(write_package(tmp_path / "n.3mf", resources,
+                              '<item objectid="3" transform="2 0 0 0 1 0 0 0 1 0 0 0"/><item objectid="2"/>'))
+    assert corners(mesh) == [[(20, 0, 0), (20, 10, 0), (0, 10, 0)],   # item 1: B, then A, then I
+                             [(0, 0, 0), (0, 10, 0), (-10, 10, 0)]]    # item 2: B alone
+
+
+def test_a_mirrored_item_flips_the_winding_and_its_corner_colours_stay_at_their_corners(tmp_path):
+    """An item mirrored in x (determinant -1) with p1 p2 p3 = red, green, blue at (0 0 0), (10 0 0), (10 10 0):
+    the placed corners (0 0 0), (-10 0 0), (-10 10 0) keep red, green, blue, and the winding is reversed so the
+    face still faces +Z. Catches the colours left in file order while the corners are reversed (red at -10 10 0)
+    and the winding kept (the face turned to -Z)."""
+    resources = ('<m:colorgroup id="5"><m:color color="#FF0000"/><m:color color="#00FF00"/><m:color color="#0000FF"/>'
+                 '</m:colorgroup>' + mesh_object(1, '<triangle v1="0" v2="1" v3="2" pid="5" p1="0" p2="1" p3="2"/>'))
+    mesh = read(write_package(tmp_path / "m.3mf", resources,
+                              '<item objectid="1" transform="-1 0 0 0 1 0 0 0 1 0 0 0"/>'))
+    [face] = corners(mesh)
+    colour = {corner: tuple(np.round(c * 255).astype(int).tolist()) for corner, c in zip(face, mesh.corner_colour[0])}
+    assert colour == {(0, 0, 0): (255, 0, 0), (-10, 0, 0): (0, 255, 0), (-10, 10, 0): (0, 0, 255)}
+    a, b, c = (np.array(corner) for corner in face)
+    assert np.cross(b - a, c - a)[2] > 0  # counter-clockwise seen from +Z: the mirrored face still faces up

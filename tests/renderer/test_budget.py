@@ -75,3 +75,88 @@ def test_many_small_objects_stay_within_the_estimate():
     assert done.returncode == 0, done.stderr[-2000:]
     peak, estimate = map(int, done.stdout.split())
     assert peak <= estimate, f"peak {peak / 2**20:.0f} MB above the estimate {estimate / 2**20:.0f} MB"
+
+
+# ---------------------------------------------------------------- the refusal as render() applies it
+# prepare.check_fits is prepare()'s plan and memory check alone (render() runs the same _fitted), building nothing.
+MiB = 1 << 20
+
+
+def _checked(scene, budget):
+    from raycast_phong.renderer.prepare import check_fits
+    return check_fits(scene, threads=1, max_memory=budget)
+
+
+def test_a_large_colour_map_alone_is_refused_under_a_budget_it_exceeds(tmp_path):
+    """A 2048² kd_map decodes to 2048² × 52 B (float32 RGB 12, its mip pyramid 16, the level means 24) = 208 MiB,
+    while the plane and a 32² image take under 16 MiB: refused at 200 MiB, accepted at 250 MiB. Catches the
+    texture term left out of the estimate or of its total (the scene passed at 16 MiB)."""
+    from PIL import Image
+
+    from raycast_phong.errors import SceneError
+    Image.new("RGB", (2048, 2048), (90, 120, 30)).save(tmp_path / "big.png")
+    for name, key in (("plain", ""), ("mapped", 'kd_map = "big.png"\n')):
+        (tmp_path / f"{name}.toml").write_text(f'[render]\nwidth = 32\nheight = 32\n[materials.m]\nkd = 0.5\n{key}'
+                                               '[[objects]]\nshape = "plane"\nmaterial = "m"\n')
+    assert _checked(rp.load_scene(tmp_path / "plain.toml"), 16 * MiB).total < 16 * MiB  # the rest is small
+    scene = rp.load_scene(tmp_path / "mapped.toml")
+    with pytest.raises(SceneError, match="budget"):
+        _checked(scene, 200 * MiB)
+    found = _checked(scene, 250 * MiB)
+    assert found.textures == 2048 * 2048 * 52 and 208 * MiB < found.total < 224 * MiB
+
+
+def test_global_mode_s_shadow_rays_are_in_the_estimate_render_checks():
+    """Global mode casts a shadow ray per light from every hit: each tile of 2^15 rays (prepare.TILE_RAYS) holds
+    1 + lights rays of 64 bytes each, so 9 lights rather than 1 add 8 × 2^15 × 64 B = 16 MiB to the image term.
+    Catches prepare() passing no shadow lights to the estimate (the two estimates equal)."""
+    def scene(lights):
+        return rp.validate_scene({"render": {"width": 64, "height": 64, "mode": "global"},
+                                  "lights": [{"type": "point", "position": [k, 5, 5]} for k in range(lights)],
+                                  "objects": [{"shape": "plane"}]})
+    one, nine = _checked(scene(1), None), _checked(scene(9), None)
+    assert nine.image - one.image == 8 * (1 << 15) * 64
+    assert nine.image == (1 + 9) * (1 << 15) * 64 + 64 * 64 * (12 + 12)  # rays; float32 RGB film and its copy
+
+
+def test_a_large_one_line_obj_costs_its_read_whatever_triangles_it_claims(tmp_path):
+    """A 256 MiB OBJ of one comment line (sparse: written in no time) has no face, but reading text costs 12 bytes
+    a byte at least (io/meshes/format.py's measurement): 3 GiB, refused under a 2 GiB budget. Catches the read
+    floor dropped from the estimate (the scene then weighed 9 MB: the image and one object)."""
+    from raycast_phong.errors import SceneError
+    path = tmp_path / "one.obj"
+    with open(path, "wb") as handle:
+        handle.write(b"# one line")
+        handle.truncate(256 * MiB)
+    scene = rp.validate_scene({"objects": [{"shape": "mesh", "path": str(path)}]})
+    with pytest.raises(SceneError, match=r"needs ≈ 3\.01 GB of memory for geometry \(0 triangles\)"):
+        _checked(scene, "2G")
+    assert estimate_memory(scene).geometry == 256 * MiB * 12 + 2000  # the read floor, and the object's own bytes
+
+
+def test_a_3mf_s_textures_are_in_the_estimate(tmp_path):
+    """A 3MF whose texture2d is a 1024 × 512 PNG in its zip: 1024 × 512 × 52 B = 26 MiB (27.3 MB) of texture term,
+    read from the image's header; its thumbnail is not a texture. Catches a texture term of 0 for a 3MF (the
+    estimate counted OBJ and glTF maps only)."""
+    import io
+    import zipfile
+
+    from PIL import Image
+    png, thumbnail = io.BytesIO(), io.BytesIO()
+    Image.new("RGB", (1024, 512), (200, 10, 10)).save(png, "PNG")
+    Image.new("RGB", (256, 256)).save(thumbnail, "PNG")
+    model = ('<?xml version="1.0" encoding="UTF-8"?>\n<model unit="millimeter" xmlns="http://schemas.microsoft.com/'
+             '3dmanufacturing/core/2015/02" xmlns:m="http://schemas.microsoft.com/3dmanufacturing/material/2015/02">'
+             '<resources><m:texture2d id="3" path="/3D/Texture/t.png" contenttype="image/png"/>'
+             '<m:texture2dgroup id="4" texid="3"><m:tex2coord u="0" v="0"/><m:tex2coord u="1" v="0"/>'
+             '<m:tex2coord u="1" v="1"/></m:texture2dgroup><object id="1" type="model"><mesh><vertices>'
+             '<vertex x="0" y="0" z="0"/><vertex x="10" y="0" z="0"/><vertex x="10" y="10" z="0"/></vertices>'
+             '<triangles><triangle v1="0" v2="1" v3="2" pid="4" p1="0" p2="1" p3="2"/></triangles></mesh></object>'
+             '</resources><build><item objectid="1"/></build></model>')
+    path = tmp_path / "t.3mf"
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("3D/3dmodel.model", model)
+        archive.writestr("3D/Texture/t.png", png.getvalue())
+        archive.writestr("Metadata/thumbnail.png", thumbnail.getvalue())
+    scene = rp.validate_scene({"objects": [{"shape": "mesh", "path": str(path)}]})
+    assert estimate_memory(scene).textures == 1024 * 512 * 52
