@@ -153,3 +153,23 @@ def test_reading_a_plain_mesh_file_does_not_import_trimesh(suffix, tmp_path):
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "False"
+
+
+@pytest.mark.parametrize("end", [b"\r", b"\r\n"])
+@pytest.mark.parametrize("form", ["ascii", "binary_little_endian"])
+def test_a_header_of_carriage_return_terminated_lines_is_read(tmp_path, form, end):
+    """The PLY description says "carriage-return terminated lines"; Rhino 6 writes CR alone (its end_header
+    `\\r\\n`), and the file was refused as having no end_header. The body follows the header's last byte."""
+    from raycast_phong.io.meshes.source import read_mesh
+    corners = np.array([[0, 0, 0], [1, 0, 0], [0, 2, 0]], np.float32)
+    lines = [b"ply", f"format {form} 1.0".encode(), b"element vertex 3", b"property float x", b"property float y",
+             b"property float z", b"element face 1", b"property list uchar int vertex_indices"]
+    head = b"\r".join(lines) + b"\rend_header" + end
+    if form == "ascii":
+        body = b"\r".join(" ".join(f"{v:g}" for v in row).encode() for row in corners) + b"\r3 0 1 2\r"
+    else:
+        body = corners.tobytes() + bytes([3]) + np.array([0, 1, 2], "<i4").tobytes()
+    path = tmp_path / "cr.ply"
+    path.write_bytes(head + body)
+    mesh = read_mesh(path)
+    assert np.array_equal(mesh.vertices[mesh.faces[0]], corners)

@@ -81,7 +81,7 @@ def resolved(name: str, path: Path) -> str:
 def read(reading: Reading) -> Loaded:
     """A plain binary PLY by plain_part (no trimesh); any other through trimesh (its triangle strips made
     triangles where it read only the vertices), with the TextureFile names beside it."""
-    data = reading.handle.read()  # read once: trimesh reads these bytes (or their rewrite), not the file again
+    data = line_feeds(reading.handle.read())  # read once: trimesh reads these bytes (or their rewrite), not again
     header = ply_lists.header(data)
     if header is None:  # trimesh's ASCII reader skips a property without a name, and reads the next in its column
         nameless = nameless_property(data[:HEADER_LIMIT])
@@ -209,13 +209,28 @@ def _textures(path: Path, head: bytes, notes: list[str]) -> list[str]:
 
 
 def explain(handle, source) -> str | None:
-    return ply_problem(handle.read(HEADER_LIMIT))
+    return ply_problem(line_feeds(handle.read(HEADER_LIMIT)))
+
+
+def line_feeds(data: bytes) -> bytes:
+    """A PLY whose lines end in a carriage return alone (Rhino 6, classic Mac; the PLY description says
+    "carriage-return terminated lines") with its header's CRs made line feeds, and an ASCII body's too; the same
+    length, so a binary body starts where it did. Any other file unchanged."""
+    if not data.startswith(b"ply\r") or data.startswith(b"ply\r\n"):
+        return data
+    end = data.find(b"end_header\r")
+    if end < 0:
+        return re.sub(rb"\r(?!\n)", b"\n", data)  # the start of a file (explain, count): its header only
+    stop = end + len(b"end_header\r") + (data[end + 11:end + 12] == b"\n")  # Rhino ends it `\r\n`
+    head = re.sub(rb"\r(?!\n)", b"\n", data[:stop])
+    ascii_body = re.search(rb"^format\s+ascii", head, re.M) is not None
+    return head + (re.sub(rb"\r(?!\n)", b"\n", data[stop:]) if ascii_body else data[stop:])
 
 
 def count(handle, size: int, source) -> int | None:
     """The header's face count, or the most triangles its lists can make from the file's size (binary), or its
     vertices less 2 where more (format.weigh); None for a header without faces or lists."""
-    head = handle.read(4096)
+    head = line_feeds(handle.read(4096))
     faces = re.search(rb"^element\s+face\s+(\d+)", head, re.M)
     points = re.search(rb"^element\s+vertex\s+(\d+)", head, re.M)
     listed = _list_triangles(head, size)
