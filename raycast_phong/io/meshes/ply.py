@@ -5,8 +5,8 @@ shows it. trimesh reads the first TextureFile and the coordinates, but hands the
 this package did not map, and logs a 10-line traceback when the image is missing (MeshLab writes `<this>` for
 the PLY's own name, which trimesh looks for literally). Here `<this>` is the file's stem, a missing image is one
 note, and a file naming several images (`texnumber` per face) uses the first (one note). A header trimesh cannot
-read has its first bad line named (ply_problem); so has a property without a name, which trimesh's ASCII reader
-would take silently (nameless_property)."""
+read has its first bad line named (ply_problem), before trimesh is asked: its ASCII reader takes a property without
+a name silently."""
 
 from __future__ import annotations
 
@@ -59,20 +59,6 @@ def ply_problem(head: bytes) -> str | None:
     return f"has no end_header line in its first {len(head)} bytes; allowed: a PLY header ending in end_header"
 
 
-def nameless_property(head: bytes) -> str | None:
-    """What is wrong with the first property line of a PLY header (`head`: the file's first bytes) that has no
-    name (`property float`, `property list uchar int`), naming the line; None when every one has a name. trimesh's
-    ASCII reader takes such a line without a word, reading the next property from its column (x from the
-    nameless one's), so the read refuses it before trimesh is asked."""
-    end = head.find(b"end_header")
-    for number, raw in enumerate(head[:end if end >= 0 else len(head)].split(b"\n"), 1):
-        words = raw.decode("latin-1").split()
-        if words[:1] == ["property"] and len(words) < (5 if words[1:2] == ["list"] else 3):
-            return (f"header line {number}: property {' '.join(words[1:])[:60]!r} has no name; allowed: property "
-                    "TYPE NAME or property list TYPE TYPE NAME")
-    return None
-
-
 def resolved(name: str, path: Path) -> str:
     """A TextureFile name as MeshLab means it: `<this>` stands for the PLY's own name without its suffix."""
     return name.replace("<this>", path.stem)
@@ -83,10 +69,10 @@ def read(reading: Reading) -> Loaded:
     triangles where it read only the vertices), with the TextureFile names beside it."""
     data = line_feeds(reading.handle.read())  # read once: trimesh reads these bytes (or their rewrite), not again
     header = ply_lists.header(data)
-    if header is None:  # trimesh's ASCII reader skips a property without a name, and reads the next in its column
-        nameless = nameless_property(data[:HEADER_LIMIT])
-        if nameless:
-            raise FileProblem(f"{str(reading.path)!r} {nameless}")
+    if header is None:  # a header that does not parse: its bad line named before trimesh, whose ASCII reader
+        problem = ply_problem(data[:HEADER_LIMIT])  # takes a nameless property and reads the next in its column
+        if problem:
+            raise FileProblem(f"{str(reading.path)!r} {problem}")
     evened = ply_lists.evened(data, header, reading.notes)  # lists of uneven length (a quad, a triangle)
     _note_points(header, reading.path, reading.notes)
     plain = plain_part(data if evened is None else evened, header if evened is None else ply_lists.header(evened))
