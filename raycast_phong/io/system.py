@@ -17,6 +17,14 @@ def default_threads() -> int:
     return max(1, min(os.cpu_count() or 1, 8))
 
 
+def usable_cores() -> int:
+    """The cores this process may run on (its affinity, on Linux), else the machine's."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
+
+
 def available_memory() -> int | None:
     """Bytes the machine can give this process now: MemAvailable (Linux), capped by its cgroup's limit (v2 or
     v1, its own cgroup and every parent) and by the address space `ulimit -v` (RLIMIT_AS) leaves; else free

@@ -30,7 +30,7 @@ import numpy as np
 
 from .. import jit
 from ..geometry.mesh_repair import WINDING_KERNELS
-from ..io.system import available_memory
+from ..io.system import available_memory, usable_cores
 from .by_address import shading_arguments
 from .kernels import shading
 from .kernels.layout import Material
@@ -48,12 +48,7 @@ STALL_SECONDS = 10.0
 POLL_SECONDS = 0.5
 
 
-def cores() -> int:
-    """The cores this process may run on."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not Linux
-        return os.cpu_count() or 1
+cores = usable_cores  # the cores this process may run on (tests set it)
 
 
 def two_processes() -> bool:

@@ -39,6 +39,7 @@ import numpy as np
 from ..errors import OutputError
 from ..io.atomic import write_text
 from ..io.image_io import check_output_file
+from ..io.system import usable_cores
 from ..records import Geometry
 from ..renderer.frame import render
 from ..renderer.prepare import check_fits, prepare
@@ -202,24 +203,24 @@ def cpu_model() -> str:
 def this_machine(process_start: float | None = None) -> Machine:
     """This process's Machine: the CPU, the cores, the versions, its command line and folder."""
     from .. import __version__
-    usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-    return Machine(cpu_model(), os.cpu_count() or 1, usable, __version__, platform.python_version(),
+    return Machine(cpu_model(), os.cpu_count() or 1, usable_cores(), __version__, platform.python_version(),
                    shlex.join(sys.argv), os.getcwd(), process_start)
 
 
-def process_start(folder: str | Path) -> float | None:
+def process_start() -> float | None:
     """Seconds of one `raycast-phong render` of an 8 × 8 image in a new process: the interpreter, the imports and
     the kernels' loading that every command-line render pays beyond the in-process times of the study (None when
-    it fails)."""
-    scene = Path(folder) / "process-start.toml"
-    scene.write_text('[render]\nwidth = 8\nheight = 8\n[[objects]]\nshape = "icosphere"\n')
-    began = time.perf_counter()
-    try:
-        done = subprocess.run([sys.executable, "-m", "raycast_phong.cli", "render", str(scene), "-q", "-o",
-                               str(Path(folder) / "process-start.png")], capture_output=True, timeout=600)
-    except (OSError, subprocess.TimeoutExpired):
-        return None
-    return time.perf_counter() - began if done.returncode == 0 else None
+    it fails). Its scene and image go to a temporary folder, not the study's."""
+    with tempfile.TemporaryDirectory(prefix="raycast-phong-start-") as folder:
+        scene = Path(folder) / "start.toml"
+        scene.write_text('[render]\nwidth = 8\nheight = 8\n[[objects]]\nshape = "icosphere"\n')
+        began = time.perf_counter()
+        try:
+            done = subprocess.run([sys.executable, "-m", "raycast_phong.cli", "render", str(scene), "-q", "-o",
+                                   str(Path(folder) / "start.png")], capture_output=True, timeout=600)
+        except (OSError, subprocess.TimeoutExpired):
+            return None
+        return time.perf_counter() - began if done.returncode == 0 else None
 
 
 @dataclass
@@ -430,7 +431,7 @@ def run_study(path: str | Path, overrides: list[str] | tuple[str, ...] = (), opt
         pooled = pooled_minima(runs)
         rows = monotone_times([study_row(s, runs[s], *sweep.measured[s], sweep.meshes[s.samples, s.level][1], pooled)
                                for s in settings])
-        started = process_start(folder) if options.process_start else None  # after the rounds: not among them
+        started = process_start() if options.process_start else None  # after the rounds: not among them
         study = Study(rows, fit_orders(rows, options.settle), sweep.source, options.target, noise,
                       levels_note=note, shininess=sweep.base.material_of(sweep.base.objects[0]).shininess
                       if sweep.base.objects else math.nan, colour=sweep.base.render.colour,
