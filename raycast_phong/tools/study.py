@@ -211,16 +211,17 @@ def process_start() -> float | None:
     """Seconds of one `raycast-phong render` of an 8 × 8 image in a new process: the interpreter, the imports and
     the kernels' loading that every command-line render pays beyond the in-process times of the study (None when
     it fails). Its scene and image go to a temporary folder, not the study's."""
-    with tempfile.TemporaryDirectory(prefix="raycast-phong-start-") as folder:
-        scene = Path(folder) / "start.toml"
-        scene.write_text('[render]\nwidth = 8\nheight = 8\n[[objects]]\nshape = "icosphere"\n')
-        began = time.perf_counter()
-        try:
+    try:
+        with tempfile.TemporaryDirectory(prefix="raycast-phong-start-") as folder:
+            scene = Path(folder) / "start.toml"
+            scene.write_text('[render]\nwidth = 8\nheight = 8\n[[objects]]\nshape = "icosphere"\n')
+            began = time.perf_counter()
             done = subprocess.run([sys.executable, "-m", "raycast_phong.cli", "render", str(scene), "-q", "-o",
                                    str(Path(folder) / "start.png")], capture_output=True, timeout=600)
-        except (OSError, subprocess.TimeoutExpired):
-            return None
-        return time.perf_counter() - began if done.returncode == 0 else None
+            took = time.perf_counter() - began
+    except (OSError, subprocess.TimeoutExpired):  # no temporary folder, a full disk: the advice says "not measured"
+        return None
+    return took if done.returncode == 0 else None
 
 
 @dataclass

@@ -428,3 +428,15 @@ def test_a_cylinder_scene_can_be_studied(tmp_path):
         'normals = "exact"', 'normals = "exact"\nrotate = [30, 20, 0]'))
     study = run_study(path, options=StudyOptions(levels=(0, 1), models=(rp.ShadingModel.PHONG,), repeats=1))
     assert sorted(r.triangles for r in study.rows) == [32, 64]
+
+
+def test_a_process_start_that_cannot_be_measured_is_none_not_an_error(monkeypatch):
+    """No temporary folder (a full disk): the advice says "not measured"; the study does not stop."""
+    import tempfile
+
+    from raycast_phong.tools import study
+
+    def full(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+    monkeypatch.setattr(tempfile, "TemporaryDirectory", full)
+    assert study.process_start() is None
