@@ -8,7 +8,7 @@ import re
 
 import numpy as np
 
-from raycast_phong.io.meshes.obj_polygons import _ear_clip
+from raycast_phong.io.meshes.polygons import ear_clip
 
 POLYGON = re.compile(rb"^[ \t]*f(?:[ \t]+[^ \t\r\n#]+){4,}[ \t]*(?:#[^\r\n]*)?$", re.MULTILINE)
 VERTEX = re.compile(rb"^[ \t]*v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)", re.MULTILINE)
@@ -47,7 +47,7 @@ def triangulate_concave(data: bytes) -> tuple[bytes, int]:
         concave.update({members[i]: index[i] for i in np.flatnonzero(bent)})
     pieces, at, cut = [], 0, 0
     for k in sorted(concave):
-        triangles = _ear_clip(points[concave[k]])
+        triangles = ear_clip(points[concave[k]])
         if triangles is None:
             continue
         match = polygons[k]

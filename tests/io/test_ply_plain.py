@@ -115,10 +115,12 @@ def test_the_colours_and_normals_of_a_plain_ply_are_the_file_s(tmp_path, monkeyp
 
 def test_a_mixed_polygon_ply_is_read_without_trimesh_after_its_fans(tmp_path, monkeypatch):
     """A quad beside a triangle (uneven lists): rewritten as fans (ply_lists), then read plainly, as trimesh read
-    the rewrite."""
-    rows = np.zeros(len(POINTS), [(axis, "<f4") for axis in "xyz"])
+    the rewrite. The quad is a convex square (a twisted one is ear-clipped: tests/io/test_polygons.py)."""
+    points = POINTS.copy()
+    points[:4] = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]
+    rows = np.zeros(len(points), [(axis, "<f4") for axis in "xyz"])
     for k, axis in enumerate("xyz"):
-        rows[axis] = POINTS[:, k]
+        rows[axis] = points[:, k]
     body = rows.tobytes() + bytes([4]) + np.array([0, 1, 2, 3], "<i4").tobytes() + bytes([3]) + \
         np.array([4, 5, 6], "<i4").tobytes()
     header = (f"ply\nformat binary_little_endian 1.0\nelement vertex {len(POINTS)}\nproperty float x\n"

@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...jit import kernel
+from .polygons import ear_clip
 
 SPACE, TAB, LF, CR, HASH, SLASH, MINUS, PLUS, ZERO = 32, 9, 10, 13, 35, 47, 45, 43, 48
 OBJ_KERNELS = ("_absolute", "_scan", "_concave")  # what reading an OBJ compiles (renderer/warmup.py loads them first)
@@ -399,7 +400,7 @@ def triangulate_concave(data: bytes) -> tuple[bytes, int]:
     pieces, at, cut = [], 0, 0
     for k in np.flatnonzero(concave).tolist():
         corner = index[first[k]:first[k] + count[k]]
-        triangles = _ear_clip(position[np.where(corner < 0, before[k] + corner, corner - 1)])
+        triangles = ear_clip(position[np.where(corner < 0, before[k] + corner, corner - 1)])
         if triangles is None:
             continue
         tokens = [data[start:end] for start, end in word[first[k]:first[k] + count[k]].tolist()]
@@ -416,24 +417,3 @@ def warm_up() -> None:
     """Load (or compile) OBJ_KERNELS: a concave pentagon with relative indices, made absolute and cut."""
     triangulate_concave(absolute_indices(b"v 0 0 0\nv 2 0 0\nv 2 2 0\nv 1 0.5 0\nv 0 2 0\nf -5 -4 -3 -2 -1\n")[0])
 
-
-def _ear_clip(corners: np.ndarray) -> list[tuple[int, ...]] | None:
-    """Triangles (corner numbers, wound as the polygon) of a concave polygon (n, 3), or None when it cannot
-    be cut (no plane, or earcut leaves it: trimesh's fan then stays)."""
-    import mapbox_earcut
-
-    normal = np.cross(corners - corners.mean(axis=0), np.roll(corners, -1, axis=0) - corners.mean(axis=0)).sum(axis=0)
-    length = np.linalg.norm(normal)
-    if not length > 0:
-        return None
-    normal /= length
-    u = np.cross(normal, [1.0, 0.0, 0.0] if abs(normal[0]) < 0.9 else [0.0, 1.0, 0.0])
-    u /= np.linalg.norm(u)
-    flat = np.column_stack([corners @ u, corners @ np.cross(normal, u)])  # counter-clockwise about the normal
-    found = mapbox_earcut.triangulate_float64(flat, np.array([len(flat)], np.uint32)).reshape(-1, 3)
-    if not len(found):
-        return None
-    a, b, c = flat[found[:, 0]], flat[found[:, 1]], flat[found[:, 2]]
-    clockwise = ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])) < 0
-    found[clockwise] = found[clockwise][:, ::-1]  # wound as the polygon: counter-clockwise about its normal
-    return [tuple(int(k) for k in triangle) for triangle in found]

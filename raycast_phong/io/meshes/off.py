@@ -7,7 +7,7 @@
     Nv v[0] ... v[Nv-1] [colorspec]           a face line: a polygon of any size; colorspec to the end of the line
                                               is none, a colormap index, or 3-4 numbers (0..255, or 0..1 floats)
 
-Faces are cut as fans from their first corner. Vertex colours (C) and face colours (3 or 4 numbers) become the
+A face is cut as a fan from its first corner, or by ear clipping when concave (polygons.py). Vertex colours (C) and face colours (3 or 4 numbers) become the
 file's colours; normals (N) are kept. `BINARY`: the same records as big-endian int32 and float32, a face's
 colour as a count then that many floats. A 4OFF or nOFF file (vertices in 4 or n dimensions) and texture
 coordinates without a texture are read without what they add, with a note. trimesh's reader read only `OFF`
@@ -24,7 +24,7 @@ import numpy as np
 from ...errors import SceneError
 from .format import Loaded, MeshFormat, Part, Reading, weigh
 from .materials import PartSurface
-from .ply_lists import fan_corners
+from .polygons import cut
 
 HEADER = re.compile(rb"(ST)?(C)?(N)?(4)?(n)?OFF")
 COMMENT = re.compile(rb"#[^\n]*")
@@ -107,7 +107,7 @@ def parse(data: bytes, notes: list[str], name: str):
         colours = _colours(block[:, width + 3 * normals:width + 3 * normals + min(spare, 4)], name, notes)
     if texture:
         notes.append(f"{name}: its texture coordinates (ST) are not used: OFF names no texture image")
-    faces, face_colours = _text_faces(lines[1 + vertex_count:1 + vertex_count + face_count], vertex_count)
+    faces, face_colours = _text_faces(lines[1 + vertex_count:1 + vertex_count + face_count], vertices)
     if colours is None and face_colours is not None:
         colours, per_face = _colours(face_colours[0], name, notes), True
         colours = colours[face_colours[1]] if colours is not None else None
@@ -143,8 +143,8 @@ def _numbers(lines: list[bytes], what: str) -> np.ndarray:
             raise SceneError(f"has {what} numpy cannot read; allowed: decimal numbers") from None
 
 
-def _text_faces(lines: list[bytes], vertex_count: int) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
-    """The face lines' triangles (fans), and their colorspecs (the distinct numbers, each triangle's row) if any
+def _text_faces(lines: list[bytes], points: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
+    """The face lines' triangles (_polygons), and their colorspecs (the distinct numbers, each triangle's row) if any
     face has one of 3 or 4 numbers."""
     words = np.array([len(line.split()) for line in lines], np.int64)
     values = _numbers(lines, "a face line")
@@ -156,7 +156,8 @@ def _text_faces(lines: list[bytes], vertex_count: int) -> tuple[np.ndarray, tupl
         bad = int(np.flatnonzero((corners < 0) | (corners + 1 > words))[0])
         raise SceneError(f"has face {bad} (line {bad + 1} of the faces) of {words[bad] - 1} indices where it counts "
                        f"{corners[bad]}; allowed: Nv then Nv vertex indices")
-    faces, row = _fans(values, start + 1, corners)
+    faces, row = _polygons(values, start + 1, corners, points)
+    vertex_count = len(points)
     if faces.size and (faces.min() < 0 or faces.max() >= vertex_count):
         raise SceneError(f"has a face index outside 0..{vertex_count - 1}; allowed: indices of its own vertices")
     spec = words - 1 - corners
@@ -170,12 +171,16 @@ def _text_faces(lines: list[bytes], vertex_count: int) -> tuple[np.ndarray, tupl
     return faces, (table, row)
 
 
-def _fans(values: np.ndarray, first: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Triangles (v0, v_k, v_k+1) of polygons whose corner indices start at values[first] (`corners` each), and
-    each triangle's polygon."""
-    row, step = fan_corners(corners)
-    base = first[row]
-    faces = np.column_stack([values[base], values[base + step + 1], values[base + step + 2]])
+def _polygons(values: np.ndarray, first: np.ndarray, corners: np.ndarray, points: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Triangles of polygons whose corner indices start at values[first] (`corners` each), each polygon a
+    fan or, when concave, ear-clipped (polygons.cut), and each triangle's polygon."""
+    def vertex_of(polygons: np.ndarray, k: int) -> np.ndarray:
+        index = values[first[polygons] + k]
+        return np.where(np.abs(index) <= len(points), index, -1).astype(np.int64)  # -1: not a vertex, not cut
+
+    row, picks = cut(corners, vertex_of, points)
+    faces = values[first[row][:, None] + picks]  # every corner is in some triangle, whichever the cut
     if faces.size and not (faces == np.round(faces)).all():
         raise SceneError("has a face index that is not a whole number; allowed: vertex indices 0, 1, ...")
     return faces.astype(np.int64).reshape(-1, 3), row
@@ -194,36 +199,52 @@ def _colours(values: np.ndarray, name: str, notes: list[str]) -> np.ndarray | No
     return np.clip(np.round(rgba * (255 if floats else 1)), 0, 255).astype(np.uint8)
 
 
+def byte_order(counts: bytes, width: int, size: int) -> tuple[bool, int, int] | None:
+    """(big-endian, vertices, faces) of a binary body whose first 12 bytes are `counts`, `size` bytes long,
+    `width` floats a vertex: Geomview's big-endian form when its counts fit the size, else the little-endian
+    dialect pmp-library and OpenMesh write (told apart the way pmp's reader does: by the size); None when
+    neither fits (cut short, or a wrong header)."""
+    for big in (True, False):
+        vertices, faces, _ = (int(v) for v in np.frombuffer(counts, ">i4" if big else "<i4", 3))
+        if vertices >= 0 and faces >= 0 and 12 + 4 * width * vertices + 4 * faces <= size:
+            return big, vertices, faces
+    return None
+
+
 def _binary(body: bytes, normals: bool, coloured: bool, texture: bool, four: bool, notes: list[str], name: str):
-    """OFF BINARY: big-endian int32 counts, float32 vertex records, then per face int32 Nv, Nv int32 indices,
-    int32 Nc and Nc float32 colour values."""
-    from .ply_lists import Element, Property, element_rows  # a binary face record is a PLY row of two lists
+    """OFF BINARY: int32 counts, float32 vertex records, then per face int32 Nv and Nv int32 indices; in
+    Geomview's big-endian form then int32 Nc and Nc float32 colour values, in the little-endian dialect
+    (byte_order) nothing more."""
+    from .ply_lists import Element, Property, element_rows  # a binary face record is a PLY row of lists
     if len(body) < 12:
         raise SceneError("is cut short before its binary counts; allowed: three big-endian int32 counts")
-    vertex_count, face_count, _ = (int(v) for v in np.frombuffer(body, ">i4", 3))
     width = (4 if four else 3) + 3 * normals + 4 * coloured + 2 * texture
-    if vertex_count < 0 or face_count < 0 or 12 + 4 * width * vertex_count > len(body):
+    order = byte_order(body[:12], width, len(body))
+    if order is None:
+        vertex_count, face_count, _ = (int(v) for v in np.frombuffer(body, ">i4", 3))
         raise SceneError(f"counts {vertex_count:,} vertices and {face_count:,} faces, more than its "
-                       f"{len(body):,} bytes hold; the file is cut short or its header is wrong")
-    block = np.frombuffer(body, ">f4", width * vertex_count, 12).reshape(vertex_count, width).astype(np.float64)
+                         f"{len(body):,} bytes hold; the file is cut short or its header is wrong")
+    big, vertex_count, face_count = order
+    word = ">" if big else "<"
+    block = np.frombuffer(body, word + "f4", width * vertex_count, 12).reshape(vertex_count, width).astype(np.float64)
     at = 12 + 4 * width * vertex_count
-    element = Element("face", face_count, (Property("vertex_indices", "int", "int"),
-                                           Property("colour", "float", "int")), ())  # a PLY element's two lists
-    walked = element_rows(element, np.frombuffer(body, np.uint8), at, True)
+    lists = (Property("vertex_indices", "int", "int"), Property("colour", "float", "int"))
+    element = Element("face", face_count, lists if big else lists[:1], ())  # a PLY element of one or two lists
+    walked = element_rows(element, np.frombuffer(body, np.uint8), at, big)
     if walked is None:
         raise SceneError(f"has {face_count:,} binary face records that run past its end or count below 0; the file "
                        "is cut short")
     starts, found = walked
-    whole = np.frombuffer(body[: len(body) - len(body) % 4], ">i4")
+    whole = np.frombuffer(body[: len(body) - len(body) % 4], word + "i4")
     first = (starts[:-1] + 4) // 4  # the word of each face's first index
-    faces, row = _fans(whole.astype(np.float64), first, found[:, 0])
+    faces, row = _polygons(whole.astype(np.float64), first, found[:, 0], block[:, :3])
     if faces.size and (faces.min() < 0 or faces.max() >= vertex_count):
         raise SceneError(f"has a face index outside 0..{vertex_count - 1}; allowed: indices of its own vertices")
     colours, per_face = None, False
     base = (4 if four else 3) + 3 * normals
     if coloured:
         colours = _colours(block[:, base:base + 4], name, notes)
-    elif (found[:, 1] >= 3).any():
+    elif big and (found[:, 1] >= 3).any():
         floats = np.frombuffer(body[: len(body) - len(body) % 4], ">f4").astype(np.float64)
         table = np.full((face_count, 4), np.nan)
         offset = (starts[:-1] + 8) // 4 + found[:, 0]  # the word after the face's count of colours
@@ -239,22 +260,25 @@ def _binary(body: bytes, normals: bool, coloured: bool, texture: bool, four: boo
 
 def count(handle, size: int, source) -> int | None:
     """The faces and vertices of the counts line (the first line after the header that is not a comment; a
-    binary file's three int32)."""
+    binary file's three int32), or None where they claim more than the file's `size` can hold."""
     head = handle.read(4096)
     found = HEADER.match(head, _start(head))
     at = found.end() if found else 0
     if found and head[at:at + 80].split(b"\n", 1)[0].split()[:1] == [b"BINARY"]:
-        body = head[at + head[at:].find(b"\n") + 1:]
-        if len(body) >= 12:
-            vertices, faces, _ = (int(v) for v in np.frombuffer(body, ">i4", 3))
-            return weigh(faces, vertices)
-        return None
+        start = at + head[at:].find(b"\n") + 1
+        if len(head) < start + 12:
+            return None
+        width = (4 if found[4] else 3) + 3 * bool(found[3]) + 4 * bool(found[2]) + 2 * bool(found[1])
+        order = byte_order(head[start:start + 12], width, size - start)
+        return None if order is None else weigh(order[2], order[1])  # None: the reader says what is wrong
     lines = [line.split() for line in COMMENT.sub(b"", head[at:]).splitlines() if line.strip()]
     if found and found[5] and lines:
         lines = lines[1:]  # nOFF's dimension line
     if lines and len(lines[0]) >= 2 and all(word.isdigit() for word in lines[0][:2]):
-        return weigh(int(lines[0][1]), int(lines[0][0]))
-    return None
+        vertices, faces = int(lines[0][0]), int(lines[0][1])
+        if 6 * vertices + 8 * faces <= size:  # "0 0 0" and "3 0 1 2", each with its line feed, at the least
+            return weigh(faces, vertices)
+    return None  # counts more than the file holds: the reader says it is cut short
 
 
 def is_off(head: bytes, found, size: int, suffix: str) -> bool:

@@ -4,17 +4,20 @@ PLY lets every row of a list property hold its own count (Greg Turk's PLY format
 vertex_indices", one polygon per face of any size). trimesh's binary reader takes the first row's count for
 every row, so a mesh of quads and triangles is refused as "unexpected length" (or, where the sizes happen to
 add up, misread). Here such a file is rewritten before trimesh reads it: one compiled walk (ply_rows.py) finds
-every row's start and counts, then the `face` element becomes triangles, each polygon a fan from its first
-corner as trimesh cuts an ASCII PLY's polygons, each triangle keeping its face's other properties and its
-corners' entries of per-corner lists (`texcoord`: two per corner). A `tristrips` element becomes one strip
+every row's start and counts, then the `face` element becomes triangles, each polygon cut by polygons.cut (a
+fan from its first corner, or ear clipping when concave), each triangle keeping its face's other properties and
+its corners' entries of per-corner lists (`texcoord`: two per corner). A `tristrips` element becomes one strip
 (its rows joined by the -1 that separates strips). Any other element with uneven lists is left out, noted.
-Files whose lists are even (almost all) are not touched and compile nothing."""
+Files whose lists are even (almost all) are not touched and compile nothing, unless they hold a concave
+polygon (their polygons of four or more corners are tested: a few numpy passes)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
+
+from .polygons import cut
 
 # The PLY scalar types (Paul Bourke's PLY format, and the sized names rply and MeshLab write), as numpy kinds.
 PLY_DTYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
@@ -122,14 +125,6 @@ def element_rows(element: Element, data: np.ndarray, at: int, big: bool):
     return starts, found
 
 
-def fan_corners(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Polygons of `corners` corners each, cut as fans from their first corner: each triangle's polygon, and
-    its number j in its fan (the triangle is corners 0, j + 1, j + 2); none for a polygon of fewer than 3."""
-    fans = np.maximum(corners - 2, 0)
-    row = np.repeat(np.arange(len(corners)), fans)
-    return row, np.arange(len(row)) - np.repeat(np.cumsum(fans) - fans, fans)
-
-
 def _gather(data: np.ndarray, starts: np.ndarray, width: int) -> np.ndarray:
     """`width` bytes from each of `starts` (rows × width uint8)."""
     return data[starts[:, None] + np.arange(width)]
@@ -139,8 +134,9 @@ FACE_CHUNK = 1 << 18  # faces rewritten at a time: the gathers' int64 index arra
 
 
 def _triangles(element: Element, data: np.ndarray, starts: np.ndarray, found: np.ndarray, big: bool,
-               notes: list[str]) -> tuple[tuple[bytes, ...], bytes] | None:
-    """The face element as triangles: each polygon a fan from its first corner; None when it has no polygon
+               notes: list[str], points: np.ndarray | None) -> tuple[tuple[bytes, ...], bytes] | None:
+    """The face element as triangles: each polygon cut by polygons.cut (a fan, or ear-clipped when concave and
+    the vertex `points` are known); None when it has no polygon
     list. Scalars are repeated per triangle; a list of one or two entries per corner keeps its triangle's
     corners'; any other list is left out, noted. FACE_CHUNK faces at a time."""
     props = element.properties
@@ -159,18 +155,28 @@ def _triangles(element: Element, data: np.ndarray, starts: np.ndarray, found: np
             notes.append(f"its face list {prop.name!r} is not one or two entries a corner; it is left out")
     for first in range(0, len(corners), FACE_CHUNK):
         rows = slice(first, first + FACE_CHUNK)
-        chunks.append(_fan_rows(props, kept, lists, data, starts[:-1][rows], found[rows], corners[rows], big))
+        chunks.append(_fan_rows(props, kept, lists, data, starts[:-1][rows], found[rows], corners[rows], big, points))
     triangles = int(np.maximum(corners - 2, 0).sum())
     lines = (f"element {element.name} {triangles}".encode(), *(element.lines[1 + k] for k in kept))
     return lines, b"".join(chunks)
 
 
 def _fan_rows(props, kept: list[int], lists: list[int], data: np.ndarray, starts: np.ndarray, found: np.ndarray,
-              corners: np.ndarray, big: bool) -> bytes:
+              corners: np.ndarray, big: bool, points: np.ndarray | None) -> bytes:
     """The bytes of the triangles of some faces (their row `starts`, list counts `found` and `corners`): each
-    kept property of each face, for each triangle of its fan (_triangles)."""
-    row, step = fan_corners(corners)
-    picks = np.column_stack([np.zeros_like(step), step + 1, step + 2])  # corners (0, j+1, j+2)
+    kept property of each face, for each of its triangles (_triangles)."""
+    polygon = next(k for k in lists if props[k].name in POLYGON)
+    at = starts.copy()  # where the polygon list starts in each row
+    for k, prop in enumerate(props[:polygon]):
+        at += (np.dtype(PLY_DTYPES[prop.type]).itemsize if prop.count is None else
+               np.dtype(PLY_DTYPES[prop.count]).itemsize + found[:, lists.index(k)] * np.dtype(PLY_DTYPES[prop.type]).itemsize)
+    at += np.dtype(PLY_DTYPES[props[polygon].count]).itemsize
+    entry = _dtype(props[polygon].type, big)
+
+    def vertex_of(faces: np.ndarray, k: int) -> np.ndarray:
+        return _gather(data, at[faces] + k * entry.itemsize, entry.itemsize).view(entry)[:, 0].astype(np.int64)
+
+    row, picks = cut(corners, vertex_of, points)
     offsets = starts.copy()  # where each row's next property starts
     columns = []
     for k, prop in enumerate(props):
@@ -190,6 +196,26 @@ def _fan_rows(props, kept: list[int], lists: list[int], data: np.ndarray, starts
                         data[at.reshape(len(row), -1)]]
         offsets += width + length * entry
     return (np.concatenate(columns, axis=1) if columns else np.zeros((len(row), 0), np.uint8)).tobytes()
+
+
+def _points(element: Element, rows: np.ndarray) -> np.ndarray | None:
+    """(V, 3) float64 x, y, z of an even vertex element's rows, or None when it has no such scalars."""
+    names = {prop.name: f"p{k}" for k, prop in enumerate(element.properties) if prop.count is None}
+    if not {"x", "y", "z"} <= names.keys():
+        return None
+    return np.column_stack([rows[names[axis]] for axis in "xyz"]).astype(np.float64)
+
+
+def _concave(element: Element, rows: np.ndarray, points: np.ndarray | None) -> bool:
+    """Whether an even face element (its `rows`) holds a concave polygon of 4 or more corners."""
+    polygon = next((k for k, p in enumerate(element.properties) if p.count is not None and p.name in POLYGON), None)
+    if points is None or polygon is None or rows[f"p{polygon}"].ndim < 2 or rows[f"p{polygon}"].shape[1] < 4:
+        return False
+    corners = rows[f"p{polygon}"]
+    row, picks = cut(np.full(len(corners), corners.shape[1]),
+                     lambda faces, k: corners[faces, k].astype(np.int64), points)
+    step = np.arange(len(row)) % max(corners.shape[1] - 2, 1)
+    return bool((picks[:, 1] != step + 1).any() or (picks[:, 2] != step + 2).any() or picks[:, 0].any())
 
 
 def _strip(element: Element, data: np.ndarray, starts: np.ndarray, found: np.ndarray,
@@ -212,24 +238,26 @@ def _strip(element: Element, data: np.ndarray, starts: np.ndarray, found: np.nda
 
 def evened(data: bytes, found: Header | None, notes: list[str]) -> bytes | None:
     """`data`, a binary PLY (its parsed `found` header), rewritten so every list of an element has one length
-    (module docstring); None when it needs no rewriting (ASCII, no lists, even lists) or its rows do not fit
+    and every concave polygon is ear-clipped (polygons.cut, with the vertex positions when the vertex element
+    comes first and is even) (module docstring); None when it needs no rewriting (ASCII, no lists, even lists) or its rows do not fit
     its size (the reader then says so). Notes name what was left out."""
     if found is None or found.format == "ascii" or not any(p.count for e in found.elements for p in e.properties):
         return None
     big = found.format == "binary_big_endian"
     view, raw = memoryview(data), np.frombuffer(data, np.uint8)
-    at, uneven, parts = found.body, False, []
+    at, uneven, parts, points = found.body, False, [], None
     for element in found.elements:
         even = _even(element, view, at, big)
-        if even is not None:
+        if even is not None and not (element.name == "face" and _concave(element, even[0], points)):
             parts.append((element.lines, data[at:even[1]]))
             at = even[1]
+            points = _points(element, even[0]) if element.name == "vertex" else points
             continue
         walked = element_rows(element, raw, at, big)
         if walked is None:
             return None
         uneven, (starts, counts) = True, walked
-        made = (_triangles(element, raw, starts, counts, big, notes) if element.name == "face"
+        made = (_triangles(element, raw, starts, counts, big, notes, points) if element.name == "face"
                 else _strip(element, raw, starts, counts, big) if element.name == "tristrips" else None)
         if made is None:
             notes.append(f"its element {element.name!r} has lists of uneven length; it is left out")

@@ -1,0 +1,111 @@
+"""One rule for polygons in every reader (io/meshes/polygons.py): a concave polygon is cut by ear clipping, not
+as a fan that fills its notch (Geomview's OFF: "The polygons may be concave"; pmp-library's L.off was drawn
+half filled). The L-shaped hexagon below, written in each format from its specification and started at each of
+its six corners: its triangles must be wound as the polygon (a fan from any corner but the reflex one makes one
+turn the other way) and cover exactly its area, 3."""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from raycast_phong.io.meshes.source import mesh_source
+
+L = [(0, 0, 0), (2, 0, 0), (2, 2, 0), (1, 2, 0), (1, 1, 0), (0, 1, 0)]  # counter-clockwise about +z; corner 4 reflex
+AREA = 3.0
+TRIANGLE = [(3, 0, 0), (4, 0, 0), (3, 1, 0)]  # beside it, in the uneven files: a PLY of mixed list lengths
+
+
+def off_text(path: Path, start: int) -> None:
+    corners = [(start + k) % 6 for k in range(6)]
+    lines = ["OFF", "6 1 0", *(" ".join(map(str, p)) for p in L), "6 " + " ".join(map(str, corners))]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def off_binary(path: Path, start: int, big: bool) -> None:
+    """Geomview's big-endian form (a colour count after each face) or pmp-library's little-endian one (none)."""
+    end = ">" if big else "<"
+    corners = [(start + k) % 6 for k in range(6)]
+    body = struct.pack(end + "3i", 6, 1, 0) + b"".join(struct.pack(end + "3f", *p) for p in L)
+    body += struct.pack(end + "7i", 6, *corners) + (struct.pack(end + "i", 0) if big else b"")
+    path.write_bytes(b"OFF BINARY\n" + body)
+
+
+def ply_binary(path: Path, start: int, big: bool, uneven: bool) -> None:
+    end = ">" if big else "<"
+    points = L + (TRIANGLE if uneven else [])
+    faces = [[(start + k) % 6 for k in range(6)]] + ([[6, 7, 8]] if uneven else [])
+    head = (f"ply\nformat binary_{'big' if big else 'little'}_endian 1.0\nelement vertex {len(points)}\n"
+            "property float x\nproperty float y\nproperty float z\n"
+            f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n").encode()
+    body = b"".join(struct.pack(end + "3f", *p) for p in points)
+    body += b"".join(struct.pack(f"{end}B{len(f)}i", len(f), *f) for f in faces)
+    path.write_bytes(head + body)
+
+
+def obj(path: Path, start: int) -> None:
+    corners = [(start + k) % 6 + 1 for k in range(6)]
+    path.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in L) + "f " + " ".join(map(str, corners)) + "\n")
+
+
+WRITERS = {
+    "off": ("m.off", off_text),
+    "off-binary-geomview": ("m.off", lambda path, start: off_binary(path, start, True)),
+    "off-binary-little-endian": ("m.off", lambda path, start: off_binary(path, start, False)),
+    "ply-even-little": ("m.ply", lambda path, start: ply_binary(path, start, False, False)),
+    "ply-even-big": ("m.ply", lambda path, start: ply_binary(path, start, True, False)),
+    "ply-uneven-little": ("m.ply", lambda path, start: ply_binary(path, start, False, True)),
+    "ply-uneven-big": ("m.ply", lambda path, start: ply_binary(path, start, True, True)),
+    "obj": ("m.obj", obj),
+}
+
+
+@pytest.mark.parametrize("start", range(6))
+@pytest.mark.parametrize("form", WRITERS)
+def test_a_concave_polygon_is_cut_into_triangles_wound_as_it_covering_its_area(tmp_path, form, start):
+    name, write = WRITERS[form]
+    write(tmp_path / name, start)
+    found = mesh_source(tmp_path / name).read()
+    corners = found.vertices[found.faces]
+    lying = np.linalg.norm(corners[:, :, :2] - [3.5, 0.5], axis=2).max(axis=1) > 1  # the L's, not the triangle's
+    assert lying.sum() == 4  # n − 2: ear clipping cuts as many triangles as a fan
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])[lying]
+    assert (normal[:, 2] > 0).all(), normal  # every triangle turns as the polygon does
+    assert np.isclose(0.5 * normal[:, 2].sum(), AREA)
+
+
+def test_convex_polygons_keep_their_fans(tmp_path):
+    """A file without concave polygons reads to the fan it always had (0, j+1, j+2), from its first corner."""
+    square = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0.5, -0.5, 0)]
+    path = tmp_path / "m.off"
+    path.write_text("OFF\n5 1 0\n" + "".join(" ".join(map(str, p)) + "\n" for p in square) + "5 4 1 2 3 0\n")
+    assert mesh_source(path).read().faces.tolist() == [[4, 1, 2], [4, 2, 3], [4, 3, 0]]
+
+
+@pytest.mark.parametrize("big", [True, False])
+def test_binary_off_counts_are_weighed_in_the_byte_order_the_reader_reads(tmp_path, big):
+    """The memory check weighs the counts the reader will read: pmp-library's little-endian file was weighed
+    as 67M triangles (the counts read big-endian) and refused as needing 51 GB in a 135-byte file."""
+    off_binary(tmp_path / "m.off", 0, big)
+    path = tmp_path / "m.off"
+    with path.open("rb") as handle:
+        assert mesh_source(path).format.count(handle, path.stat().st_size, None) == 4  # weigh(1 face, 6 vertices)
+
+
+@pytest.mark.parametrize("data", [
+    b"OFF\n90000000 90000000 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",          # text counts far beyond 60 bytes
+    b"OFF BINARY\n" + struct.pack(">3i", 90_000_000, 90_000_000, 0) + bytes(40),  # neither byte order fits
+])
+def test_counts_a_small_file_cannot_hold_are_called_cut_short_not_weighed(tmp_path, data):
+    """The memory check weighed what a header claimed: a 216 kB OFF was refused as 'needing 1.49 TB ...
+    decimate it'. Counts beyond the file's size leave the weight to the size, and the reader says what is wrong."""
+    from typer.testing import CliRunner
+
+    from raycast_phong.cli import app
+    (tmp_path / "m.off").write_bytes(data)
+    result = CliRunner().invoke(app, ["render", str(tmp_path / "m.off"), "-q", "-o", str(tmp_path / "m.png"),
+                                      "--max-memory", "2G"])
+    assert result.exit_code == 2 and "cut short" in result.output and "memory" not in result.output, result.output
