@@ -173,3 +173,11 @@ def test_the_count_the_memory_check_weighs_is_what_instance_nodes_build(tmp_path
     path.write_text(text)
     assert mesh_source(path).triangles() == 7
     assert len(read(path).faces) == 7
+
+
+def test_the_material_note_names_collada_s_own_effects_not_a_workflow_the_file_does_not_use(tmp_path):
+    """A lambert (or phong) effect reaches us as trimesh's metallic-roughness material; the note said
+    "metallic-roughness (PBR) materials are approximated", naming a workflow the file does not use."""
+    mesh = read(write_dae(tmp_path / "lambert.dae", "common", False))
+    said = " ".join(note for note in mesh.notes if "approximated" in note)
+    assert "COLLADA (phong, blinn and lambert effects" in said and "(PBR)" not in said, mesh.notes

@@ -113,15 +113,17 @@ def test_uneven_lists_cut_short_are_one_line_naming_no_valid_header_line(tmp_pat
 
 @pytest.mark.parametrize(("extra", "kind"), [("", "points"), ("property float f_dc_0\nproperty float opacity\n",
                                                               "Gaussian splats")])
-def test_a_point_cloud_is_refused_saying_it_is_one(tmp_path, extra, kind):
-    """A scan's points or a splat file: no faces. It was 'holds no triangles' (or 'corrupt'), with no reason."""
+@pytest.mark.parametrize("faces", ["", "element face 0\nproperty list uchar int vertex_indices\n"])
+def test_a_point_cloud_is_refused_saying_it_is_one(tmp_path, extra, kind, faces):
+    """A scan's points or a splat file: no faces, or an empty face element (draco's point clouds). It was
+    'holds no triangles' (or 'corrupt'), with no reason."""
     head = ("ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-            f"property float z\n{extra}end_header\n").encode()
+            f"property float z\n{extra}{faces}end_header\n").encode()
     width = 3 + extra.count("property")
     (tmp_path / "p.ply").write_bytes(head + np.arange(3 * width, dtype="<f4").tobytes())
     with pytest.raises(SceneError) as caught:
         mesh_source(tmp_path / "p.ply").read()
-    assert f"holds no triangles (a point cloud of 3 {kind}, no face element" in str(caught.value), str(caught.value)
+    assert f"holds no triangles (a point cloud of 3 {kind}, no faces" in str(caught.value), str(caught.value)
 
 
 @pytest.mark.parametrize("texture", [False, True])

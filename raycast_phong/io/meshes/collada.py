@@ -238,4 +238,7 @@ def count(handle, size: int, source) -> int | None:
     return sum(node(scene) for scene in scenes)
 
 
-FORMAT = MeshFormat(names=("COLLADA",), suffixes=(".dae",), read=read, count=count)
+FORMAT = MeshFormat(names=("COLLADA",), suffixes=(".dae",), read=read, count=count,
+                    # trimesh turns every effect (phong, blinn, lambert) into metallic-roughness; the note says so
+                    pbr="COLLADA (phong, blinn and lambert effects, which trimesh reads as metallic-roughness: their "
+                        "specular and ambient colours are not kept)")

@@ -135,13 +135,13 @@ def plain_part(data: bytes, header: ply_lists.Header | None) -> Part | None:
 def _note_points(header: ply_lists.Header | None, path: Path, notes: list[str]) -> None:
     """A note for a PLY of points and no faces (a scan's point cloud, a Gaussian splat file): nothing of it
     is a surface, which the no-triangles refusal then says."""
-    if header is None or any(element.name in ("face", "tristrips") for element in header.elements):
-        return
+    if header is None or any(element.name in ("face", "tristrips") and element.rows for element in header.elements):
+        return  # an empty face element (`element face 0`, as point-cloud writers put it) holds no surface either
     vertex = next((element for element in header.elements if element.name == "vertex"), None)
     if vertex is not None:
         names = {prop.name for prop in vertex.properties}
         kind = "Gaussian splats" if {"f_dc_0", "opacity"} <= names else "points"
-        notes.append(f"{path}: a point cloud of {vertex.rows:,} {kind}, no face element: only surfaces are drawn")
+        notes.append(f"{path}: a point cloud of {vertex.rows:,} {kind}, no faces: only surfaces are drawn")
 
 
 def strip_parts(loaded) -> list:
