@@ -46,6 +46,18 @@ def ply_binary(path: Path, start: int, big: bool, uneven: bool) -> None:
     path.write_bytes(head + body)
 
 
+def ply_ascii(path: Path, start: int) -> None:
+    """With the triangle beside it and a colour per face (scalars after the polygon list, kept per triangle)."""
+    points = L + TRIANGLE
+    faces = [[(start + k) % 6 for k in range(6)], [6, 7, 8]]
+    head = (f"ply\nformat ascii 1.0\nelement vertex {len(points)}\nproperty float x\nproperty float y\n"
+            "property float z\nelement face 2\nproperty list uchar int vertex_indices\nproperty uchar red\n"
+            "property uchar green\nproperty uchar blue\nend_header\n")
+    rows = [" ".join(map(str, p)) for p in points]
+    rows += [f"{len(f)} {' '.join(map(str, f))} {colour}" for f, colour in zip(faces, ("255 0 0", "0 0 255"))]
+    path.write_text(head + "\n".join(rows) + "\n")
+
+
 def obj(path: Path, start: int) -> None:
     corners = [(start + k) % 6 + 1 for k in range(6)]
     path.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in L) + "f " + " ".join(map(str, corners)) + "\n")
@@ -59,6 +71,7 @@ WRITERS = {
     "ply-even-big": ("m.ply", lambda path, start: ply_binary(path, start, True, False)),
     "ply-uneven-little": ("m.ply", lambda path, start: ply_binary(path, start, False, True)),
     "ply-uneven-big": ("m.ply", lambda path, start: ply_binary(path, start, True, True)),
+    "ply-ascii": ("m.ply", ply_ascii),
     "obj": ("m.obj", obj),
 }
 
@@ -75,6 +88,8 @@ def test_a_concave_polygon_is_cut_into_triangles_wound_as_it_covering_its_area(t
     normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])[lying]
     assert (normal[:, 2] > 0).all(), normal  # every triangle turns as the polygon does
     assert np.isclose(0.5 * normal[:, 2].sum(), AREA)
+    if form == "ply-ascii":  # its face colours: red for the L, blue for the triangle, on every triangle
+        assert found.corner_colour is not None and np.allclose(found.corner_colour[lying], (1, 0, 0)) and np.allclose(found.corner_colour[~lying], (0, 0, 1))
 
 
 def test_convex_polygons_keep_their_fans(tmp_path):

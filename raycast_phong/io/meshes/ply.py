@@ -73,6 +73,9 @@ def read(reading: Reading) -> Loaded:
         problem = ply_problem(data[:HEADER_LIMIT])  # takes a nameless property and reads the next in its column
         if problem:
             raise FileProblem(f"{str(reading.path)!r} {problem}")
+    cut = ply_lists.ascii_cut(data, header)  # an ASCII file's concave polygons, each made its triangles' lines
+    if cut is not None:
+        data, header = cut, ply_lists.header(cut)
     evened = ply_lists.evened(data, header, reading.notes)  # lists of uneven length (a quad, a triangle)
     _note_points(header, reading.path, reading.notes)
     plain = plain_part(data if evened is None else evened, header if evened is None else ply_lists.header(evened))

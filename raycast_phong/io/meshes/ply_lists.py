@@ -13,6 +13,8 @@ polygon (their polygons of four or more corners are tested: a few numpy passes).
 
 from __future__ import annotations
 
+import re
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -269,3 +271,62 @@ def evened(data: bytes, found: Header | None, notes: list[str]) -> bytes | None:
     lines = [found.before, *(line for element_lines, _ in parts for line in element_lines), b"end_header", b""]
     return b"\n".join(lines) + b"".join(body for _, body in parts)
 
+
+
+def ascii_cut(data: bytes, found: Header | None) -> bytes | None:
+    """`data`, an ASCII PLY (its parsed `found` header), with each concave polygon's line replaced by one line
+    per triangle (polygons.cut), the face count raised to match; None when there is none or the file is not
+    the plain form this reads (a vertex element of scalars with x, y, z, then a face element whose first
+    property is the polygon list and the rest scalars, one row a line). trimesh reads the rest, fanning the
+    convex polygons as polygons.cut would."""
+    if found is None or found.format != "ascii" or [e.name for e in found.elements][:2] != ["vertex", "face"]:
+        return None
+    vertex, face = found.elements[:2]
+    props = face.properties
+    if (any(p.count for p in vertex.properties) or not props or props[0].count is None
+            or props[0].name not in POLYGON or any(p.count for p in props[1:]) or not vertex.rows or not face.rows):
+        return None
+    body = data[found.body:]
+    feeds = np.flatnonzero(np.frombuffer(body, np.uint8) == 10)
+    if len(feeds) < vertex.rows:
+        return None
+    start = int(feeds[vertex.rows - 1]) + 1
+    stop = int(feeds[vertex.rows + face.rows - 1]) if len(feeds) >= vertex.rows + face.rows else len(body)
+    section = body[start:stop]
+    if not re.search(rb"(?m)^[ \t]*(?!3[ \t\r]|3$)\d", section):
+        return None  # triangles only: nothing to cut (a text scan, no parse)
+    names = [p.name for p in vertex.properties]
+    if not {"x", "y", "z"} <= set(names):
+        return None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # a word that is not a number: left to trimesh, which says so
+        table = np.fromstring(body[:start], sep=" ")
+        values = np.fromstring(section, sep=" ")
+    lines = section.split(b"\n")
+    words = np.array([len(line.split()) for line in lines], np.int64)
+    if table.size != vertex.rows * len(names) or values.size != words.sum() or len(lines) != face.rows:
+        return None
+    points = table.reshape(vertex.rows, len(names))[:, [names.index(axis) for axis in "xyz"]]
+    first = np.cumsum(words) - words
+    corners = values[first].astype(np.int64)
+    if (corners < 0).any() or (corners + 1 > words).any() or not np.isfinite(values).all():
+        return None
+
+    def vertex_of(polygons: np.ndarray, k: int) -> np.ndarray:
+        index = values[first[polygons] + 1 + k]
+        return np.where(np.abs(index) <= len(points), index, -1).astype(np.int64)
+
+    row, picks = cut(corners, vertex_of, points)
+    fan = np.column_stack([np.zeros(len(row), np.int64), *(np.arange(len(row)) - (np.cumsum(np.maximum(
+        corners - 2, 0)) - np.maximum(corners - 2, 0))[row] + k for k in (1, 2))])
+    concave = np.unique(row[(picks != fan).any(axis=1)])
+    if not len(concave):
+        return None
+    for polygon in concave.tolist()[::-1]:
+        tokens = lines[polygon].split()
+        corner, rest = tokens[1:1 + corners[polygon]], b" ".join(tokens[1 + corners[polygon]:])
+        lines[polygon] = b"\n".join(b" ".join([b"3", *(corner[c] for c in triangle), rest]).rstrip()
+                                    for triangle in picks[row == polygon].tolist())
+    added = int((corners[concave] - 3).sum())
+    head = data[:found.body].replace(face.lines[0], f"element face {face.rows + added}".encode(), 1)
+    return head + body[:start] + b"\n".join(lines) + body[stop:]
