@@ -163,9 +163,12 @@ def study(
     if quiet:
         return
     typer.echo(result.levels_note)
+    from raycast_phong.tools.study import order_reason
     for fit in result.fits:
+        reason = order_reason(fit, result)  # the report's "why not theory", so the terminal says it too
         typer.echo(f"{fit.model:8} {fit.group}: order {fit.order:.2f} over the last levels, {fit.order_all:.2f} over "
-                   f"all (theory {fit.theory:g}){'' if fit.settled else '; not settled'}")
+                   f"all (theory {fit.theory:g}){'' if fit.settled else '; not settled'}"
+                   f"{f'. Why not {fit.theory:g}: {reason}' if reason else ''}")
     typer.echo(advice(result))
     typer.echo(f"machine: {result.noise.sentence()}")
     typer.echo(f"{written['report']}: {len(result.rows)} settings; {written['csv']}, plots and summary.md beside it")

@@ -235,6 +235,11 @@ def test_study_command_writes_its_report_and_files(tmp_path):
         "study.csv", "error_vs_time.png", "convergence.png", "silhouette.png", "highlight.png", "orders.png",
         "error_images.png", "summary.md", "report.html"}
     assert "order" in result.output and "RMSE 0.005" in result.output and "machine:" in result.output
+    # Each order far from theory says why in the terminal too, the report's words (two levels: all are far).
+    reasons = [line.split("|")[5].strip() for line in (tmp_path / "s" / "summary.md").read_text().splitlines()
+               if line.count("|") == 10 and " normals, " in line.split("|")[2]]  # the fitted-order table's rows
+    assert reasons and all(reason != "–" and "Why not" in result.output and reason in result.output
+                           for reason in reasons), (reasons, result.output)
     bad = CliRunner().invoke(app, ["study", "--normals", "file", "--out", str(tmp_path / "u")])
     assert bad.exit_code == 2 and "--normals: 'file' is not one of mean, area, angle, exact" in bad.output
     bad = CliRunner().invoke(app, ["study", "--models", "flat,smooth", "--out", str(tmp_path / "t")])
