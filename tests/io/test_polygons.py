@@ -89,7 +89,8 @@ def test_a_concave_polygon_is_cut_into_triangles_wound_as_it_covering_its_area(t
     assert (normal[:, 2] > 0).all(), normal  # every triangle turns as the polygon does
     assert np.isclose(0.5 * normal[:, 2].sum(), AREA)
     if form == "ply-ascii":  # its face colours: red for the L, blue for the triangle, on every triangle
-        assert found.corner_colour is not None and np.allclose(found.corner_colour[lying], (1, 0, 0)) and np.allclose(found.corner_colour[~lying], (0, 0, 1))
+        colour = found.corner_colour
+        assert colour is not None and np.allclose(colour[lying], (1, 0, 0)) and np.allclose(colour[~lying], (0, 0, 1))
 
 
 def test_convex_polygons_keep_their_fans(tmp_path):

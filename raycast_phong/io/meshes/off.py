@@ -7,11 +7,13 @@
     Nv v[0] ... v[Nv-1] [colorspec]           a face line: a polygon of any size; colorspec to the end of the line
                                               is none, a colormap index, or 3-4 numbers (0..255, or 0..1 floats)
 
-A face is cut as a fan from its first corner, or by ear clipping when concave (polygons.py). Vertex colours (C) and face colours (3 or 4 numbers) become the
-file's colours; normals (N) are kept. `BINARY`: the same records as big-endian int32 and float32, a face's
-colour as a count then that many floats. A 4OFF or nOFF file (vertices in 4 or n dimensions) and texture
-coordinates without a texture are read without what they add, with a note. trimesh's reader read only `OFF`
-and `COFF` (not the header-less form, NOFF's normals, colours or `OFF BINARY`) at about 9 µs a triangle.
+A face is cut as a fan from its first corner, or by ear clipping when concave (polygons.py). Vertex colours
+(C) and face colours (3 or 4 numbers) become the file's colours; normals (N) are kept. `BINARY`: the same
+records as big-endian int32 and float32, a face's colour as a count then that many floats, or the
+little-endian dialect without the colour count (byte_order). A 4OFF or nOFF file (vertices in 4 or n
+dimensions) and texture coordinates without a texture are read without what they add, with a note.
+trimesh's reader read only `OFF` and `COFF` (not the header-less form, NOFF's normals, colours or
+`OFF BINARY`) at about 9 µs a triangle.
 """
 
 from __future__ import annotations

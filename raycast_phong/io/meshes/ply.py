@@ -228,7 +228,7 @@ def count(handle, size: int, source) -> int | None:
     return None
 
 
-PLY_SIZES = {name: np.dtype(kind).itemsize for name, kind in ply_lists.PLY_DTYPES.items()}
+PLY_SIZES = ply_lists.PLY_SIZES
 
 
 def _list_triangles(head: bytes, size: int) -> int | None:

@@ -25,6 +25,7 @@ from .polygons import cut
 PLY_DTYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
               "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
               "float": "f4", "float32": "f4", "double": "f8", "float64": "f8"}
+PLY_SIZES = {name: np.dtype(kind).itemsize for name, kind in PLY_DTYPES.items()}
 POLYGON = ("vertex_indices", "vertex_index")  # the face list the specification names (and its common variant)
 
 
@@ -170,9 +171,9 @@ def _fan_rows(props, kept: list[int], lists: list[int], data: np.ndarray, starts
     polygon = next(k for k in lists if props[k].name in POLYGON)
     at = starts.copy()  # where the polygon list starts in each row
     for k, prop in enumerate(props[:polygon]):
-        at += (np.dtype(PLY_DTYPES[prop.type]).itemsize if prop.count is None else
-               np.dtype(PLY_DTYPES[prop.count]).itemsize + found[:, lists.index(k)] * np.dtype(PLY_DTYPES[prop.type]).itemsize)
-    at += np.dtype(PLY_DTYPES[props[polygon].count]).itemsize
+        size = np.dtype(PLY_DTYPES[prop.type]).itemsize
+        at += size if prop.count is None else PLY_SIZES[prop.count] + found[:, lists.index(k)] * size
+    at += PLY_SIZES[props[polygon].count]
     entry = _dtype(props[polygon].type, big)
 
     def vertex_of(faces: np.ndarray, k: int) -> np.ndarray:
@@ -241,8 +242,8 @@ def _strip(element: Element, data: np.ndarray, starts: np.ndarray, found: np.nda
 def evened(data: bytes, found: Header | None, notes: list[str]) -> bytes | None:
     """`data`, a binary PLY (its parsed `found` header), rewritten so every list of an element has one length
     and every concave polygon is ear-clipped (polygons.cut, with the vertex positions when the vertex element
-    comes first and is even) (module docstring); None when it needs no rewriting (ASCII, no lists, even lists) or its rows do not fit
-    its size (the reader then says so). Notes name what was left out."""
+    comes first and is even) (module docstring); None when it needs no rewriting (ASCII, no lists, even
+    convex lists) or its rows do not fit its size (the reader then says so). Notes name what was left out."""
     if found is None or found.format == "ascii" or not any(p.count for e in found.elements for p in e.properties):
         return None
     big = found.format == "binary_big_endian"
