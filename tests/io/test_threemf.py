@@ -81,9 +81,9 @@ def test_base_materials_become_named_materials_with_their_display_colour(tmp_pat
     assert mesh.corner_colour is None
 
 
-def test_a_texture_group_maps_its_image_with_v_from_the_top(tmp_path):
-    """A texture2dgroup's tex2coord per corner, its texture2d the k_d map (tilestyle clamp kept). 3MF's v counts
-    down from the image's top row (the consortium's renders of its samples); the renderer's counts up."""
+def test_a_texture_group_maps_its_image_with_v_up_from_the_lower_left(tmp_path):
+    """A texture2dgroup's tex2coord per corner, its texture2d the k_d map (tilestyle clamp kept). Materials §3.1:
+    v runs up from the image's lower left corner, as the renderer's does: read as written."""
     from PIL import Image
     png = io.BytesIO()
     Image.new("RGB", (2, 2), (200, 10, 10)).save(png, "PNG")
@@ -92,7 +92,7 @@ def test_a_texture_group_maps_its_image_with_v_from_the_top(tmp_path):
                  '<m:tex2coord u="1" v="1"/></m:texture2dgroup>')
     triangles = '<triangle v1="0" v2="1" v3="2" pid="4" p1="0" p2="1" p3="2"/>'
     mesh = read(write_3mf(tmp_path / "t.3mf", resources, triangles, {"3D/Texture/t.png": png.getvalue()}))
-    np.testing.assert_allclose(mesh.corner_uv[0], [[0, 1], [1, 0.75], [1, 0]])
+    np.testing.assert_allclose(mesh.corner_uv[0], [[0, 0], [1, 0.25], [1, 1]])
     material = mesh.materials[mesh.face_group[0]]
     assert material.kd_map >= 0 and material.kd == (1.0, 1.0, 1.0)
     source = mesh.texture_sources[material.kd_map]
@@ -101,6 +101,66 @@ def test_a_texture_group_maps_its_image_with_v_from_the_top(tmp_path):
                                               "lights.0.specular=[0,0,0]"], view="top").image
     covered = image.max(axis=2) > 0
     assert covered.any() and (image[covered][:, 0] > 4 * image[covered][:, 1]).all()  # red, as the texture
+
+
+def test_the_image_s_top_row_is_drawn_where_v_is_1(tmp_path):
+    """A 2 × 2 image, top row red and bottom row blue, on the square with v along +y: seen from the top (+y up
+    the picture), red is at the top. lib3mf's smiley box, ladybug and lettered cube were drawn upside down when
+    v was read from the image's top. filter="nearest" is said to be sampled bilinearly (one note)."""
+    from PIL import Image
+    png = io.BytesIO()
+    image = Image.new("RGB", (2, 2), (0, 0, 255))
+    image.putpixel((0, 0), (255, 0, 0))
+    image.putpixel((1, 0), (255, 0, 0))
+    image.save(png, "PNG")
+    resources = ('<m:texture2d id="3" path="/3D/Texture/t.png" contenttype="image/png" filter="nearest" '
+                 'tilestylev="clamp"/>'
+                 '<m:texture2dgroup id="4" texid="3"><m:tex2coord u="0" v="0"/><m:tex2coord u="1" v="0"/>'
+                 '<m:tex2coord u="1" v="1"/><m:tex2coord u="0" v="1"/></m:texture2dgroup>')
+    triangles = ('<triangle v1="0" v2="1" v3="2" pid="4" p1="0" p2="1" p3="2"/>'
+                 '<triangle v1="0" v2="2" v3="3" pid="4" p1="0" p2="2" p3="3"/>')
+    path = write_3mf(tmp_path / "v.3mf", resources, triangles, {"3D/Texture/t.png": png.getvalue()})
+    assert any("nearest filter" in note for note in read(path).notes)
+    picture = rp.render_file(path, ["render.width=40", "render.height=40", "render.background=[0,0,0]",
+                                    "lights.0.specular=[0,0,0]"], view="top").image
+    rows = np.flatnonzero(picture.max(axis=(1, 2)) > 0)  # the square's rows: a quarter down is the top texel's
+    top, bottom = (picture[rows[len(rows) * k // 4]].max(axis=0) for k in (1, 3))
+    assert top[0] > 4 * top[2] and bottom[2] > 4 * bottom[0], (top, bottom)
+
+
+@pytest.mark.parametrize(("values", "expected"), [
+    ("0.5 0.5", (0.735, 0, 0.735)),     # mixed in linear RGB, then sRGB again
+    ("0.2 0.2", (0.735, 0, 0.735)),     # divided by the sum
+    ("0 0", (0.735, 0, 0.735)),         # a zero sum: equal shares
+    ("1", (1, 0, 0)),                   # a value not given is 0
+])
+def test_composite_materials_mix_their_bases_display_colours(tmp_path, values, expected):
+    """Materials §4: for visualization the bases' displaycolors SHOULD be mixed in the composite's proportions
+    (it was drawn in the default grey, noted)."""
+    resources = ('<basematerials id="1"><base name="Red" displaycolor="#FF0000"/>'
+                 '<base name="Blue" displaycolor="#0000FF"/></basematerials>'
+                 f'<m:compositematerials id="2" matid="1" matindices="0 1"><m:composite values="{values}"/>'
+                 '</m:compositematerials>')
+    triangles = '<triangle v1="0" v2="1" v3="2" pid="2" p1="0"/>'
+    mesh = read(write_3mf(tmp_path / "c.3mf", resources, triangles))
+    np.testing.assert_allclose(mesh.corner_colour[0], [expected] * 3, atol=1e-3)
+
+
+@pytest.mark.parametrize(("resources", "said"), [
+    ('<basematerials id="1"><base name="Red" displaycolor="#FF0000"/></basematerials>'
+     '<m:compositematerials id="2" matid="1" matindices="0 3"><m:composite values="0.5 0.5"/></m:compositematerials>',
+     "property index 3 is outside property group 1's 0..0"),
+    ('<m:colorgroup id="1"><m:color color="#FF0000"/></m:colorgroup>'
+     '<m:compositematerials id="2" matid="1" matindices="0"><m:composite values="1"/></m:compositematerials>',
+     "names matid 1, which is not a basematerials group"),
+    ('<basematerials id="1"><base name="Red" displaycolor="#FF0000"/></basematerials>'
+     '<m:compositematerials id="2" matid="1" matindices="0"><m:composite values="-1"/></m:compositematerials>',
+     "composite value outside 0..1"),
+])
+def test_a_bad_composite_is_one_line_naming_it(tmp_path, resources, said):
+    with pytest.raises(SceneError) as caught:
+        read(write_3mf(tmp_path / "c.3mf", resources, '<triangle v1="0" v2="1" v3="2" pid="2" p1="0"/>'))
+    assert said in str(caught.value) and "\n" not in str(caught.value), str(caught.value)
 
 
 def test_multiproperties_multiply_colour_layers_and_read_the_first_texture(tmp_path):

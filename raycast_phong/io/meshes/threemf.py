@@ -26,7 +26,9 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import FileProblem, SceneError
+from ..encoding import srgb_encode
 from ..files import open_regular
+from ..textures import srgb_to_linear
 from .format import Loaded, MeshFormat, Reading
 from .materials import FileMaterial, PartSurface, TextureSource, rgb
 from .obj import UV_LIMIT
@@ -342,6 +344,8 @@ def _resource(model: _Model, name: str, element, path: Path, notes: list[str]) -
                    if _local(child.tag) == "color"]
         model.properties[identity] = ("colour", np.array(colours, np.float64).reshape(-1, 3))
     elif name == "texture2d":
+        if element.get("filter") == "nearest":
+            notes.append(f"{path}: texture2d {identity} asks for the nearest filter; textures are sampled bilinearly")
         model.properties[identity] = ("texture", posixpath.normpath((element.get("path") or "").lstrip("/")),
                                       TILE.get(element.get("tilestyleu", "wrap"), "repeat"),
                                       TILE.get(element.get("tilestylev", "wrap"), "repeat"))
@@ -351,9 +355,20 @@ def _resource(model: _Model, name: str, element, path: Path, notes: list[str]) -
         if not (np.abs(uv) <= UV_LIMIT).all():  # kept as float32 per corner; NaN passes (the kernel reads 0)
             raise FileProblem(f"{str(path)!r}: texture2dgroup {identity} has a tex2coord beyond float32's range; "
                               f"allowed: -{UV_LIMIT:.4g} .. {UV_LIMIT:.4g}")
-        # v counts down from the image's top row, as the consortium's own renders of its samples show (the
-        # sphere_logo sample's logo stands upright with +Z up only so); the renderer's v counts up.
-        model.properties[identity] = ("uv", element.get("texid"), np.column_stack([uv[:, 0], 1.0 - uv[:, 1]]))
+        # Materials §3.1: u runs right and v up from the texture's lower left corner, as the renderer's v does:
+        # read as written (lib3mf's smiley box, ladybug and lettered cube stand upright only so).
+        model.properties[identity] = ("uv", element.get("texid"), uv)
+    elif name == "compositematerials":
+        indices = _numbers((element.get("matindices") or "").split(), np.int64, "matindices", path)
+        rows = [(child.get("values") or "").split() for child in children if _local(child.tag) == "composite"]
+        values = np.zeros((len(rows), len(indices)))  # a value not given is 0; extra ones are ignored (§4.1)
+        for k, row in enumerate(rows):
+            values[k, :min(len(row), len(indices))] = _numbers(row[:len(indices)], np.float64, "composite values",
+                                                                path)
+        if not (np.isfinite(values) & (values >= 0) & (values <= 1)).all():
+            raise FileProblem(f"{str(path)!r}: compositematerials {identity} has a composite value outside 0..1; "
+                              "allowed: fractions 0 to 1 (materials §4.1)")
+        model.properties[identity] = ("composite", element.get("matid"), indices, values)
     elif name == "multiproperties":
         layers = (element.get("pids") or "").split()
         rows = [(child.get("pindices") or "").split() for child in children if _local(child.tag) == "multi"]
@@ -433,9 +448,10 @@ def _surfaces(model: _Model, pid: str, vertices, faces, p, path: Path, textures:
             chosen = p[:, 0] == index
             out.append((vertices, faces[chosen], PartSurface(material=_base(found, index, pid, model, materials))))
         return out
-    if kind == "colour":
-        _check_index(p, len(found[1]), pid, path)
-        return [(vertices, faces, PartSurface(corner_colour=found[1][p].astype(np.float32)))]
+    if kind in ("colour", "composite"):
+        table = _colours(model, found, pid, path)
+        _check_index(p, len(table), pid, path)
+        return [(vertices, faces, PartSurface(corner_colour=table[p].astype(np.float32)))]
     if kind == "uv":
         _check_index(p, len(found[2]), pid, path)
         material = _textured(model, found[1], path, textures, materials, sources, skipped, archive, members)
@@ -445,6 +461,25 @@ def _surfaces(model: _Model, pid: str, vertices, faces, p, path: Path, textures:
                        archive, members)]
     skipped.add(f"{found[1]} resources (their triangles use the default material)")
     return [(vertices, faces, PartSurface())]
+
+
+def _colours(model: _Model, found: tuple, pid: str, path: Path) -> np.ndarray:
+    """(N, 3) sRGB colours of a property group that colours: a colorgroup's colours, a basematerials group's
+    displaycolors, or a compositematerials group's mixtures of its base group's displaycolors (materials §4: in
+    the composite's proportions, each row divided by its sum, equal shares where it is 0; mixed in linear RGB, as
+    §5 says blending is done, so 50 % red and 50 % blue is (0.735, 0, 0.735), not (0.5, 0, 0.5))."""
+    if found[0] == "colour":
+        return found[1]
+    if found[0] == "base":
+        return found[2]
+    base = model.properties.get(found[1])
+    if base is None or base[0] != "base":
+        raise FileProblem(f"{str(path)!r}: compositematerials {pid} names matid {found[1]}, which is not a "
+                          "basematerials group; allowed: the id of a <basematerials> (materials §4)")
+    _check_index(found[2], len(base[2]), found[1], path)
+    total = found[3].sum(axis=1, keepdims=True)
+    shares = np.where(total > 0, found[3] / np.where(total > 0, total, 1), 1 / max(found[3].shape[1], 1))
+    return srgb_encode(shares @ srgb_to_linear(base[2][found[2]]))
 
 
 def _check_index(index, count: int, pid: str, path: Path) -> None:
@@ -504,8 +539,8 @@ def _multi(model: _Model, found, pid: str, vertices, faces, p, path: Path, textu
     for k, layer in enumerate(layers):
         resource = model.properties.get(layer)
         kind = resource[0] if resource is not None else None
-        if kind in ("base", "colour"):
-            table = resource[2] if kind == "base" else resource[1]
+        if kind in ("base", "colour", "composite"):
+            table = _colours(model, resource, layer, path)
             _check_index(entry[:, :, k], len(table), layer, path)
             colour = table[entry[:, :, k]] if colour is None else colour * table[entry[:, :, k]]
         elif kind == "uv" and uv is None:
