@@ -269,17 +269,79 @@ def test_a_beam_lattice_is_noted_with_its_beams(tmp_path):
     assert len(mesh.faces) == 2 and any("beam lattice of 2 beam(s)" in note for note in mesh.notes), mesh.notes
 
 
-def test_a_0_93_draft_model_s_colours_are_noted(tmp_path):
-    """The 0.93 draft (namespace 2013/01) coloured triangles by `colorid`; they are not read, and said."""
-    path = tmp_path / "d.3mf"
+DRAFT_SQUARE = SQUARE + ('<texturevertices><texturevertex u="0" v="0"/><texturevertex u="1" v="0"/>'
+                         '<texturevertex u="1" v="1"/><texturevertex u="0" v="1"/></texturevertices>')
+
+
+def write_draft(path: Path, resources: str, triangles: str, object_attributes: str = "", files=None) -> Path:
+    """A 0.93 draft package (namespace 2013/01): the square with texture vertices at its corners."""
     model = ('<?xml version="1.0" encoding="UTF-8"?>\n<model unit="millimeter" '
-             'xmlns="http://schemas.microsoft.com/3dmanufacturing/2013/01"><resources><color id="5" value="#FF0000"/>'
-             f'<object id="1" type="model"><mesh>{SQUARE}<triangles><triangle v1="0" v2="1" v3="2" colorid="5"/>'
-             '</triangles></mesh></object></resources><build><item objectid="1"/></build></model>')
+             f'xmlns="http://schemas.microsoft.com/3dmanufacturing/2013/01"><resources>{resources}'
+             f'<object id="9" type="model"{object_attributes}><mesh>{DRAFT_SQUARE}<triangles>{triangles}</triangles>'
+             '</mesh></object></resources><build><item objectid="9"/></build></model>')
     with zipfile.ZipFile(path, "w") as archive:
         archive.writestr("3D/3dmodel.model", model)
+        for name, data in (files or {}).items():
+            archive.writestr(name, data)
+    return path
+
+
+DRAFT_COLOURS = ('<color id="5" value="#FF0000"/><color id="6" value="#00FF00"/><color id="7" value="#0000FF"/>'
+                 '<material id="3" name="Green ABS" colorid="6" type="ABS"/>')
+
+
+def test_a_0_93_draft_model_s_colours_and_materials_are_read(tmp_path):
+    """The draft (lib3mf's 3mfbase2_material093, its own samples) colours a triangle by `colorid` (one id, or
+    "a,b,c" per corner) or `materialid` (a <material> shown in its colorid), or the object's; they were drawn
+    grey, noted."""
+    triangles = ('<triangle v1="0" v2="1" v3="2" colorid="5"/><triangle v1="0" v2="2" v3="3" colorid="5,6,7"/>'
+                 '<triangle v1="1" v2="2" v3="3" materialid="3"/><triangle v1="0" v2="1" v3="3"/>')
+    mesh = read(write_draft(tmp_path / "d.3mf", DRAFT_COLOURS, triangles, ' colorid="7"'))
+    colour = np.round(mesh.corner_colour * 255).astype(int)  # -1: a triangle of a material (its k_d)
+    corner = {(0, 0): 0, (10, 0): 1, (10, 10): 2, (0, 10): 3}  # the square's vertex numbers, by position
+    number = [[corner[tuple(int(x) for x in mesh.vertices[v][:2])] for v in face] for face in mesh.faces]
+    by_corners = {tuple(sorted(face)): k for k, face in enumerate(number)}
+    assert (colour[by_corners[(0, 1, 2)]] == (255, 0, 0)).all()
+    first = by_corners[(0, 2, 3)]
+    assert {v: tuple(c) for v, c in zip(number[first], colour[first])} == {
+        0: (255, 0, 0), 2: (0, 255, 0), 3: (0, 0, 255)}
+    assert (colour[by_corners[(0, 1, 3)]] == (0, 0, 255)).all()  # the object's colorid
+    material = mesh.materials[mesh.face_group[by_corners[(1, 2, 3)]]]
+    assert material.name == "Green ABS" and material.kd == pytest.approx((0, 1, 0))
+    assert not any("0.93" in note for note in mesh.notes), mesh.notes
+
+
+def test_a_0_93_draft_texture_maps_its_texture_vertices(tmp_path):
+    """A colour "tex(T)" names texture T; a triangle of that colour takes cv1..cv3 of its object's texture
+    vertices (v up, as 1.0's tex2coord): the 2 × 2 image's red top row is at the square's +y side."""
+    from PIL import Image
+    png = io.BytesIO()
+    image = Image.new("RGB", (2, 2), (0, 0, 255))
+    image.putpixel((0, 0), (255, 0, 0))
+    image.putpixel((1, 0), (255, 0, 0))
+    image.save(png, "PNG")
+    resources = '<texture id="1" path="/3D/Texture/t.texture" contenttype="image/png"/><color id="2" value="tex(1)"/>'
+    triangles = ('<triangle v1="0" v2="1" v3="2" colorid="2" cv1="0" cv2="1" cv3="2"/>'
+                 '<triangle v1="0" v2="2" v3="3" colorid="2" cv1="0" cv2="2" cv3="3"/>')
+    path = write_draft(tmp_path / "t.3mf", resources, triangles, files={"3D/Texture/t.texture": png.getvalue()})
     mesh = read(path)
-    assert len(mesh.faces) == 1 and any("0.93 draft" in note for note in mesh.notes), mesh.notes
+    np.testing.assert_allclose(mesh.corner_uv, mesh.vertices[mesh.faces][:, :, :2] / 10)
+    assert mesh.materials[mesh.face_group[0]].kd_map >= 0
+    # The memory check weighs the map though its name has no image suffix (the samples' "0000.texture").
+    assert mesh_source(path).format.texture_sizes(mesh_source(path)) == ((2, 2),)
+
+
+@pytest.mark.parametrize(("triangle", "said"), [
+    ('colorid="8"', "colorid '8' names no plain colour"),
+    ('colorid="5,6"', "colorid '5,6' names no plain colour"),
+    ('colorid="tex(x)"', "names id 'x'"),
+    ('materialid="99999999999"', "names id '99999999999'"),
+])
+def test_a_bad_0_93_draft_reference_is_one_line(tmp_path, triangle, said):
+    path = write_draft(tmp_path / "b.3mf", DRAFT_COLOURS, f'<triangle v1="0" v2="1" v3="2" {triangle}/>')
+    with pytest.raises(SceneError) as caught:
+        read(path)
+    assert said in str(caught.value) and "\n" not in str(caught.value), str(caught.value)
 
 
 def test_the_count_the_memory_check_weighs_is_what_components_and_items_build(tmp_path):

@@ -29,6 +29,7 @@ from ...errors import FileProblem, SceneError
 from ..encoding import srgb_encode
 from ..files import open_regular
 from ..textures import srgb_to_linear
+from . import threemf_draft
 from .format import Loaded, MeshFormat, Reading
 from .materials import FileMaterial, PartSurface, TextureSource, rgb
 from .obj import UV_LIMIT
@@ -167,12 +168,16 @@ def _parse(archive, members, part: str, models: dict, path: Path, notes: list[st
     from lxml import etree
     namespace, slices = _check_required(archive, part, path)
     model = models[part] = _Model(part)
+    draft = threemf_draft.Draft(path) if namespace == threemf_draft.NAMESPACE else None
+    tags = [f"{{*}}{name}" for name in YIELDED]
+    if draft is not None:  # the draft's colours, materials, textures and texture vertices (threemf_draft.py)
+        tags += [f"{{{threemf_draft.NAMESPACE}}}{name}" for name in threemf_draft.TAGS]
     vertices: list = []
     triangles: list = []
     held = 0
     stream = archive.open(part)
     # Only the elements read yield (libxml2 filters the rest in C): every vertex and triangle is one Python step.
-    context = etree.iterparse(stream, events=("end",), tag=[f"{{*}}{name}" for name in YIELDED], recover=True,
+    context = etree.iterparse(stream, events=("end",), tag=tags, recover=True,
                               resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False)
     try:
         for _, element in context:
@@ -180,22 +185,28 @@ def _parse(archive, members, part: str, models: dict, path: Path, notes: list[st
             attrib = element.attrib
             if slices and name == "vertex" and SLICE in element.tag:  # a slice's 2-D vertex (x, y), not the mesh's
                 continue
-            if name == "vertex" or name == "triangle":
+            if name == "vertex" or name == "triangle" or name == "texturevertex":
                 if name == "vertex":
                     vertices.append((attrib.get("x"), attrib.get("y"), attrib.get("z")))
+                elif name == "texturevertex":
+                    draft.texture_vertex(attrib)  # yielded only for a draft part
                 else:
-                    triangles.append((attrib.get("v1"), attrib.get("v2"), attrib.get("v3"), attrib.get("pid"),
-                                      attrib.get("p1"), attrib.get("p2"), attrib.get("p3")))
+                    triangles.append((attrib.get("v1"), attrib.get("v2"), attrib.get("v3"),
+                                      *(draft.triangle(attrib) if draft is not None else
+                                        (attrib.get("pid"), attrib.get("p1"), attrib.get("p2"), attrib.get("p3")))))
                 held += 1
                 if held == BATCH:  # drop the ones read in one step: per element, the deletes cost 2× the read
                     del element.getparent()[:-1]
                     held = 0
                 continue
             if name == "object":
-                _object(model, dict(attrib), vertices, triangles, element, path)
+                found = dict(attrib) if draft is None else draft.object_end(model.properties, dict(attrib), _numbers)
+                _object(model, found, vertices, triangles, element, path)
                 vertices, triangles = [], []
             elif name in ("beamlattice", "slicestack"):
                 _unread_geometry(name, element, part, path, notes)
+            elif draft is not None and name in threemf_draft.TAGS:
+                draft.resource(model.properties, name, attrib, _colour)
             elif name == "item":
                 model.build.append((_path_of(attrib, part), attrib.get("objectid"), _transform(attrib, path)))
             else:
@@ -213,9 +224,6 @@ def _parse(archive, members, part: str, models: dict, path: Path, notes: list[st
     if fatal:
         raise FileProblem(f"cannot read {str(path)!r} as 3MF: {part} is not well-formed XML ({fatal[0].message.strip()}"
                           f", line {fatal[0].line})")
-    if namespace == DRAFT and _draft_colours(archive, part):
-        notes.append(f"{path}: {part} is a 3MF 0.93 draft model whose colours and textures (colorid, texture "
-                     "elements) are not read; it is drawn grey")
     undeclared = [entry for entry in context.error_log if entry.domain_name == "NAMESPACE"]
     if undeclared:
         notes.append(f"{path}: {part} uses a namespace prefix it does not declare ({undeclared[0].message.strip()}, "
@@ -223,7 +231,6 @@ def _parse(archive, members, part: str, models: dict, path: Path, notes: list[st
 
 
 SLICE = "/slice/"  # the Slice extension's namespace word: its <s:vertex> elements are 2-D
-DRAFT = "http://schemas.microsoft.com/3dmanufacturing/2013/01"  # the 0.93 draft's namespace (core 1.0's is later)
 
 
 def _unread_geometry(name: str, element, part: str, path: Path, notes: list[str]) -> None:
@@ -235,17 +242,6 @@ def _unread_geometry(name: str, element, part: str, path: Path, notes: list[str]
     else:
         notes.append(f"{path}: {part} holds a slice stack (the Slice extension), which is not read: its objects' "
                      "meshes are drawn")
-
-
-def _draft_colours(archive, part: str) -> bool:
-    """Whether a 0.93 draft model part colours its triangles (`colorid`) or names textures."""
-    with archive.open(part) as stream:
-        tail = b""
-        while chunk := stream.read(1 << 20):
-            if re.search(rb"colorid=|<(?:\w+:)?texture\b", tail + chunk):
-                return True
-            tail = chunk[-64:]
-    return False
 
 
 def _path_of(attrib, part: str) -> str:
@@ -574,7 +570,8 @@ def texture_sizes(source) -> tuple[tuple[int, int], ...]:
         with open_regular(path, str(path), "mesh file") as handle, zipfile.ZipFile(handle) as archive:
             for info in archive.infolist():
                 name = info.filename.lower()
-                if name.endswith((".png", ".jpg", ".jpeg")) and "thumbnail" not in name:
+                # an image by its suffix, or any member of a texture folder (the 0.93 samples' "0000.texture")
+                if (name.endswith((".png", ".jpg", ".jpeg")) or "/texture/" in name) and "thumbnail" not in name:
                     try:
                         with archive.open(info) as member, Image.open(member) as image:
                             sizes.append((image.height, image.width))
