@@ -515,3 +515,19 @@ def test_a_planted_manifest_that_is_no_regular_file_is_one_line_not_a_hang(tmp_p
     [line] = done.stderr.strip().splitlines()
     assert "manifest.json" in line and "not a regular file" in line, line
     assert not (out / "default.png").exists()
+
+
+def test_a_manifest_larger_than_the_limit_is_refused_as_too_large_not_read_in_part(tmp_path, monkeypatch):
+    """A manifest is read up to MANIFEST_LIMIT + 1 bytes; one byte over the limit is refused as too large (a
+    check one byte off would parse the first MANIFEST_LIMIT + 1 bytes of a larger file as its text)."""
+    from raycast_phong.tools.batch import manifest
+    monkeypatch.setattr(manifest, "MANIFEST_LIMIT", 100)
+    text = json.dumps({"format": manifest.MANIFEST_FORMAT, "scenes": {}, "sheets": {}, "pad": ""})
+    for size, refused in ((100, False), (101, True)):
+        (tmp_path / "manifest.json").write_text(text[:-2] + "x" * (size - len(text)) + '"}')
+        assert (tmp_path / "manifest.json").stat().st_size == size
+        if refused:
+            with pytest.raises(manifest.CorruptManifest, match="more than the"):
+                manifest.read_manifest(tmp_path)
+        else:
+            assert manifest.read_manifest(tmp_path)["scenes"] == {}

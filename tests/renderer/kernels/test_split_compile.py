@@ -94,7 +94,9 @@ def test_a_stopped_helper_is_ended_and_a_busy_one_waited_for(helper_sleeps, monk
         jit.compiled_elsewhere[split_compile.SHADE]()
         waited = time.monotonic() - start
         if stopped:
-            assert 1.0 <= waited < 30 and aside.process.wait(timeout=30) is not None
+            # Ended one STALL_SECONDS after its CPU time stopped, plus polls; below the 10 × STALL_SECONDS it waits
+            # only where the CPU time cannot be read (no /proc), with room for a slow machine.
+            assert 1.0 <= waited < 6 and aside.process.wait(timeout=30) is not None, waited
         else:
             assert aside.finished == {"shade"} and aside.process.poll() is None, waited
 
