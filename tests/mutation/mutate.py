@@ -59,10 +59,10 @@ EXTRA_TESTS = {"renderer": ("tests/image",), "geometry": ("tests/image",), "io":
 MODULE_TESTS = {"renderer/budget": ("tests/contracts/test_resource_guards.py",),  # the memory guard's own tests
                 "tools/batch/jobs": ("tests/contracts/test_bad_input.py", "tests/contracts/test_batch_faults.py"),
                 "tools/batch/cluster": ("tests/contracts",),
-                "pytest_plugin": ("tests/image",),
+                "pytest_plugin": ("tests/image",),  # the reference images match through it, edges and all
                 "io/system": ("tests/project/test_one_home.py",),  # the budget rule's one home
                 "tools/batch/manifest": ("tests/contracts/test_batch_faults.py",),
-                "jit": ("tests/contracts/test_kernel_cache_fallback.py",)}  # the reference images match through it, edges and all
+                "jit": ("tests/contracts/test_kernel_cache_fallback.py",)}
 
 
 def _has_code(path: Path) -> bool:
