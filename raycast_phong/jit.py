@@ -22,6 +22,7 @@ RAYCAST_PHONG_PLAIN_NUMBA=1 turns every one off; each is also off by itself wher
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib.util
 import os
@@ -243,19 +244,47 @@ class _CacheLoadedAsIs(FunctionCache):
         return loaded
 
     def save_overload(self, sig, data):
-        super().save_overload(sig, data)
+        with self._locked(exclusive=True):
+            super().save_overload(sig, data)
         compiled()  # the compile told by load_overload is done (compiles.seconds_compiling)
+
+    @contextlib.contextmanager
+    def _locked(self, exclusive: bool):
+        """This kernel's cache entries held against other processes: numba names a new entry's data file by the
+        index it read (the next free number), so two processes compiling two signatures at once (pytest's
+        workers, the split compile's helper) both wrote `.1.nbc` and left one signature's index entry pointing at
+        the other's code: every later call failed with numba's "can't unbox array". Writers take the lock
+        alone, loads share it. Where files cannot be locked (no fcntl, a read-only cache) nothing is held."""
+        try:
+            import fcntl
+            index = Path(self._cache_file._index_path)
+            handle = open(index.parent / f"{index.stem}-lock", "a+b")  # not `stem.*`: drop() leaves it
+        except (ImportError, OSError, AttributeError):
+            yield
+            return
+        with handle:
+            try:
+                fcntl.flock(handle, fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH)
+            except OSError:
+                pass  # a file system without locks: as numba alone
+            yield
 
     def _checked_load(self, sig, target_context):
         """The cached kernel for `sig`, or None. The cache is input like any file: an entry that cannot be loaded
         (truncated, empty, random bytes, another version's) is removed, so the kernel compiles over it, and a
         corrupt cache never breaks every later render."""
         try:
-            return super().load_overload(sig, target_context) if not LIGHT_LOAD else \
-                self._light_load(sig, target_context)
+            with self._locked(exclusive=False):
+                loaded = super().load_overload(sig, target_context) if not LIGHT_LOAD else \
+                    self._light_load(sig, target_context)
         except Exception:  # noqa: BLE001 - whatever the bytes make the unpickler or numba raise
             self.drop()
             return None
+        found = getattr(getattr(loaded, "signature", None), "args", None)
+        if loaded is not None and found is not None and tuple(found) != tuple(sig):
+            self.drop()  # an entry whose code is another signature's (written by a race, or swapped): compile over
+            return None
+        return loaded
 
     def drop(self) -> None:
         """Remove this kernel's cache entry: its index and data files (numba writes them afresh on the compile)."""

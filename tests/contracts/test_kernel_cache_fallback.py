@@ -70,6 +70,45 @@ with told(lambda name, signature: print("compiling", name)):
 """
 
 
+TWO = """
+import sys
+sys.path.insert(0, sys.argv[1])
+import numpy as np
+from raycast_phong.compiles import told
+import tiny
+with told(lambda name, signature: print("compiling", name)):
+    print(tiny.plus_one(np.arange(3)).tolist(), tiny.plus_one(np.full(2, 0.5, np.float32)).tolist())
+"""
+
+
+@pytest.mark.slow
+def test_an_entry_holding_another_signature_s_code_is_compiled_over(tmp_path):
+    """Two processes compiling two signatures of a kernel at once (pytest's workers, the split compile's helper)
+    both named their data file `.1.nbc` from the index each had read, so one signature's entry held the other's
+    code, and every later call failed with numba's "can't unbox array" (a fresh clone's CI: 89 tests). Here the
+    two data files are swapped by hand, as the race leaves them: the entries are compiled over, then loaded."""
+    import subprocess
+    import sys
+    (tmp_path / "tiny.py").write_text(TINY, encoding="utf-8")
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+
+    def run() -> str:
+        done = subprocess.run([sys.executable, "-c", TWO, str(tmp_path)], capture_output=True, text=True, env=env,
+                              timeout=300)
+        assert done.returncode == 0 and not done.stderr, done.stderr
+        return done.stdout
+
+    assert "compiling" in run()
+    data = sorted((tmp_path / "cache").rglob("tiny.plus_one-*.nbc"))
+    assert len(data) == 2
+    first, second = (path.read_bytes() for path in data)
+    data[0].write_bytes(second)
+    data[1].write_bytes(first)
+    out = run()
+    assert "compiling" in out and out.strip().endswith("[1, 2, 3] [1.5, 1.5]"), out
+    assert run().strip() == "[1, 2, 3] [1.5, 1.5]"  # loaded, as compiled over
+
+
 @pytest.mark.slow
 def test_a_corrupt_kernel_cache_is_compiled_over_and_then_loaded(tmp_path):
     """The kernel cache is input: a truncated data file, an empty index or random bytes gave `internal error` on
