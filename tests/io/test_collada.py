@@ -24,6 +24,15 @@ EFFECTS = {
     "common": '<profile_COMMON><technique sid="t"><lambert><diffuse><color>1 0 0 1</color></diffuse></lambert>'
               '</technique></profile_COMMON>',
     "glsl": '<profile_GLSL><technique sid="t"><pass sid="p"/></technique></profile_GLSL>',
+    "phong": '<profile_COMMON><technique sid="t"><phong><emission><color>0 0 0.25 1</color></emission>'
+             '<ambient><color>0.1 0.2 0.3 1</color></ambient><diffuse><color>0.8 0.2 0.2 1</color></diffuse>'
+             '<specular><color>0.5 0.5 0.5 1</color></specular><shininess><float>20</float></shininess>'
+             '</phong></technique></profile_COMMON>',
+    "shiny": '<profile_COMMON><technique sid="t"><blinn><diffuse><color>0.8 0.2 0.2 1</color></diffuse>'
+             '<specular><color>0.5 0.5 0.5 1</color></specular><shininess><float>200</float></shininess>'
+             '</blinn></technique></profile_COMMON>',
+    "constant": '<profile_COMMON><technique sid="t"><constant><emission><color>0 1 0 1</color></emission>'
+                '</constant></technique></profile_COMMON>',
 }
 
 
@@ -175,9 +184,21 @@ def test_the_count_the_memory_check_weighs_is_what_instance_nodes_build(tmp_path
     assert len(read(path).faces) == 7
 
 
-def test_the_material_note_names_collada_s_own_effects_not_a_workflow_the_file_does_not_use(tmp_path):
-    """A lambert (or phong) effect reaches us as trimesh's metallic-roughness material; the note said
-    "metallic-roughness (PBR) materials are approximated", naming a workflow the file does not use."""
-    mesh = read(write_dae(tmp_path / "lambert.dae", "common", False))
-    said = " ".join(note for note in mesh.notes if "approximated" in note)
-    assert "COLLADA (phong, blinn and lambert effects" in said and "(PBR)" not in said, mesh.notes
+@pytest.mark.parametrize(("effect", "ka", "kd", "ks", "shininess", "ke"), [
+    # phong: f = 20 is wider than the scene's lobe (32), so k_s is lowered by (20 + 2)/(32 + 2) (docs/meshes.md)
+    ("phong", (0.1, 0.2, 0.3), (0.8, 0.2, 0.2), (0.5 * 22 / 34,) * 3, 20.0, (0, 0, 0.25)),
+    ("shiny", (0.8, 0.2, 0.2), (0.8, 0.2, 0.2), (0.5,) * 3, 200.0, (0, 0, 0)),  # no ambient: k_a = k_d
+    ("common", (1, 0, 0), (1, 0, 0), (0, 0, 0), None, (0, 0, 0)),  # lambert: no specular term
+    ("constant", (0, 0, 0), (0, 0, 0), (0, 0, 0), None, (0, 1, 0)),  # emission only
+])
+def test_collada_s_own_effects_are_the_lecture_s_model_read_as_written(tmp_path, effect, ka, kd, ks, shininess, ke):
+    """<profile_COMMON>'s phong, blinn, lambert and constant are the lecture's model: trimesh turned them into
+    metallic-roughness (specular and ambient dropped, s = 20 read back as f = 240, k_s = 0.04), and the note named
+    a workflow the file does not use. Now read as written, with no approximation note."""
+    mesh = read(write_dae(tmp_path / f"{effect}.dae", effect, False))
+    material = mesh.materials[mesh.face_group[0]]
+    assert material.ka == pytest.approx(ka, abs=2e-3) and material.kd == pytest.approx(kd, abs=2e-3)
+    assert material.ks == pytest.approx(ks, abs=1e-6) and material.ke == pytest.approx(ke, abs=1e-6)
+    if shininess is not None:
+        assert material.shininess == pytest.approx(shininess)
+    assert not any("approximated" in note for note in mesh.notes), mesh.notes

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import io
 import re
+from dataclasses import dataclass, replace
 from pathlib import Path, PurePosixPath
 from urllib.parse import unquote, urlparse
 
@@ -19,6 +20,7 @@ import numpy as np
 from ...errors import FileProblem
 from ..files import shown_name
 from .format import Loaded, MeshFormat, Reading
+from .materials import FileMaterial, specular_lobe
 from .mtl import MAX_SIDE_FILE
 
 IDENTITY = " ".join(["1", "0", "0", "0", "0", "1", "0", "0", "0", "0", "1", "0", "0", "0", "0", "1"])
@@ -126,7 +128,99 @@ def read(reading: Reading) -> Loaded:
     if root is not None:
         check_values(root, reading.path)
     text = io.BytesIO(collada_text(data, reading.path, reading.notes))
-    return Loaded(parts(load(reading, text)), up=collada_up(data))
+    effects = common_effects(root) if root is not None else []
+    return Loaded(parts(load(reading, text)), up=collada_up(data),
+                  own_material=(lambda material, built: _as_effect(effects, material, built)) if effects else None)
+
+
+@dataclass(frozen=True)
+class CommonEffect:
+    """A <profile_COMMON> technique's values (COLLADA 1.4.1 §8): the lecture's own model, which trimesh turns
+    into metallic-roughness (specular and ambient dropped, shininess s made roughness √(2/(2 + s)))."""
+    shading: str                                    # phong, blinn, lambert or constant
+    emission: tuple[float, float, float] | None
+    ambient: tuple[float, float, float] | None
+    diffuse: tuple[float, float, float, float] | None  # None: a texture (or none)
+    specular: tuple[float, float, float] | None
+    shininess: float | None
+    alpha: float                                    # trimesh's: the <transparent> colour's alpha, else diffuse's
+
+
+TECHNIQUES = ("phong", "blinn", "lambert", "constant")
+
+
+def common_effects(root) -> list[CommonEffect]:
+    """The <profile_COMMON> technique of every <effect> a <material> instances, in document order."""
+    by_id = {element.get("id"): element for element in root.iter() if element.get("id")}
+    found = []
+    for material in (element for element in root.iter() if _local(element.tag) == "material"):
+        instance = next((child for child in material if _local(child.tag) == "instance_effect"), None)
+        effect = by_id.get((instance.get("url") or "").lstrip("#")) if instance is not None else None
+        technique = None if effect is None else next(
+            (element for element in effect.iter() if _local(element.tag) in TECHNIQUES
+             and _local(element.getparent().tag) == "technique"
+             and _local(element.getparent().getparent().tag) == "profile_COMMON"), None)
+        if technique is None:
+            continue
+        values = {_local(child.tag): _value(child) for child in technique}
+        diffuse = values.get("diffuse")
+        transparent = values.get("transparent")
+        alpha = transparent[3] if transparent is not None and len(transparent) == 4 else \
+            diffuse[3] if diffuse is not None and len(diffuse) == 4 else 1.0
+        found.append(CommonEffect(_local(technique.tag), _rgb(values.get("emission")), _rgb(values.get("ambient")),
+                                  None if diffuse is None else (*_rgb(diffuse), alpha),
+                                  _rgb(values.get("specular")), _first(values.get("shininess")), alpha))
+    return found
+
+
+def _value(element) -> tuple[float, ...] | None:
+    """The numbers of a <color> or <float> child (None for a <texture> or a <param> reference)."""
+    child = next((c for c in element if _local(c.tag) in ("color", "float")), None)
+    try:
+        values = tuple(float(word) for word in (child.text or "").split()) if child is not None else None
+    except ValueError:
+        return None
+    return values if values and all(np.isfinite(values)) else None
+
+
+def _rgb(values) -> tuple[float, float, float] | None:
+    return None if values is None or len(values) < 3 else tuple(min(max(v, 0.0), 1.0) for v in values[:3])
+
+
+def _first(values) -> float | None:
+    return None if not values else values[0]
+
+
+def _as_effect(effects: list[CommonEffect], material, built: FileMaterial) -> FileMaterial | None:
+    """`built` (the glTF rule's reading of trimesh's material: its k_d, maps and alpha) with the values of the
+    effect trimesh made `material` from: k_a = ambient (k_d where none), k_s and f = specular and shininess
+    through specular_lobe (lambert: no specular; constant: emission only), k_e = emission. None when no effect
+    makes this material (it keeps the glTF rule, noted)."""
+    effect = next((e for e in effects if _makes(e, material)), None)
+    if effect is None:
+        return None
+    black = (0.0, 0.0, 0.0)
+    emission = effect.emission or black
+    if effect.shading == "constant":
+        return replace(built, ka=black, kd=black, ks=black, ke=emission, ka_map=-1, kd_map=-1)
+    ka = effect.ambient if effect.ambient is not None else built.kd
+    if effect.shading == "lambert" or effect.specular is None:
+        return replace(built, ka=ka, ks=black, ke=emission)
+    ks, shininess = specular_lobe(effect.specular, effect.shininess if effect.shininess is not None else 0.0)
+    return replace(built, ka=ka, ks=tuple(float(v) for v in ks), shininess=shininess, ke=emission)
+
+
+def _makes(effect: CommonEffect, material) -> bool:
+    """Whether trimesh's reader (exchange/dae.py _parse_material) makes `material` from `effect`: base colour =
+    diffuse (white under a texture) with the alpha above, emissive = emission, roughness = √(2/(2 + s))."""
+    base = np.asarray(material.baseColorFactor if material.baseColorFactor is not None else [255] * 4, np.float64)
+    wanted = np.array(effect.diffuse if effect.diffuse is not None else (1.0, 1.0, 1.0, effect.alpha)) * 255
+    emissive = np.asarray(material.emissiveFactor if material.emissiveFactor is not None else np.zeros(3), np.float64)
+    roughness = 1.0 if effect.shininess is None or 2 + effect.shininess <= 0 else np.sqrt(2 / (2 + effect.shininess))
+    return (base.shape == (4,) and bool(np.all(np.abs(base - wanted) <= 1.0))
+            and np.allclose(emissive, effect.emission or (0.0, 0.0, 0.0), atol=1e-6)
+            and abs(float(material.roughnessFactor if material.roughnessFactor is not None else 1.0) - roughness)
+            <= 1e-6)
 
 
 def _check_images(path: Path, handle, notes: list[str]) -> None:

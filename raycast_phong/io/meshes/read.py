@@ -190,8 +190,12 @@ def _surfaces(parts, loaded, pbr: str, path: Path, notes: list[str], sources: li
         found = None if own is None else own.material
         if _is_pbr(material):
             found = from_pbr(material, path, notes, sources, samplers)
-            # An unlit material is the lecture's own (no approximation); a specular-glossiness one says its own.
-            gltf |= not samplers.get((material.name, UNLIT)) and (material.name, SPECULAR_GLOSSINESS) not in samplers
+            read_so = loaded.own_material(material, found) if loaded.own_material is not None else None
+            # An unlit material is the lecture's own (no approximation); a specular-glossiness one says its own;
+            # a format's own reading (COLLADA's effects) is no approximation either.
+            gltf |= (read_so is None and not samplers.get((material.name, UNLIT))
+                     and (material.name, SPECULAR_GLOSSINESS) not in samplers)
+            found = read_so if read_so is not None else found
         elif material is not None and library is not None:
             found = library.get(getattr(material, "name", None) or "")
         elif textures and getattr(material, "image", None) is not None:  # a PLY's TextureFile (io/meshes/ply.py)
