@@ -157,12 +157,17 @@ def test_a_colour_input_gives_vertex_colours(tmp_path):
 @pytest.mark.parametrize(("positions", "indices", "words"), [
     ("0 0 0 1 NaN 0 0 1 0", "0 1 2", "positions pa hold NaN or infinite numbers"),
     ("0 0 0 1 0 0 0 INF 0", "0 1 2", "positions pa hold NaN or infinite numbers"),
-    ("0 0 0 1 0 0 0 1 0", "0 1 -1", "a <p> list holds a negative index (-1)"),
+    ("0 0 0 1 0 0 0 1 0", "<p>0 1 -1</p>", "a <p> list holds a negative index (-1)"),
+    ("0 0 0 1 0 0 0 1 0", "<vcount>-3</vcount><p>0 1 2</p>", "a <vcount> list holds a negative index (-3)"),
 ])
 def test_what_pycollada_reads_silently_wrong_is_refused(tmp_path, positions, indices, words):
-    """pycollada read NaN as 0 and numpy wrapped index -1 to the last vertex, silently."""
+    """pycollada read NaN as 0 and numpy wrapped index -1 to the last vertex, silently (a polygon's negative
+    corner count in a <polylist>'s <vcount> too)."""
     path = write_triangle(tmp_path / "t.dae", positions)
-    path.write_text(path.read_text().replace("<p>0 1 2</p>", f"<p>{indices}</p>"))
+    text = path.read_text().replace("<p>0 1 2</p>", indices)
+    if "<vcount>" in indices:
+        text = text.replace("<triangles ", "<polylist ").replace("</triangles>", "</polylist>")
+    path.write_text(text)
     with pytest.raises(rp.SceneError, match=re.escape(words)):
         read(path)
 

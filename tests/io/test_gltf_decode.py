@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import logging
+import re
 import shutil
 import struct
 import warnings
@@ -363,3 +364,36 @@ def test_khr_meshopt_colour_filter_and_version_1_vertex_codec_decode_vertex_colo
     found = read.corner_colour.reshape(-1, 3)
     expected = colours[read.faces.reshape(-1), :3]
     np.testing.assert_allclose(found, expected, atol=1.5 / 255)
+
+
+def test_a_byte_stride_shorter_than_its_elements_is_refused_naming_the_buffer_view(tmp_path):
+    """glTF 2.0 §3.6.2.4: an element must fit in the stride. A float VEC3 (12 bytes) every 4 bytes would read
+    overlapping positions, inside the bufferView's 48 bytes (trimesh did, silently): refused in one line naming
+    the bufferView."""
+    from tests.io.test_gltf_extensions import quad_gltf
+    path = quad_gltf(tmp_path, {})
+    document = json.loads(path.read_text())
+    document["bufferViews"][0]["byteStride"] = 4
+    path.write_text(json.dumps(document))
+    with pytest.raises(SceneError, match=re.escape("bufferViews[0].byteStride is 4, less than the 12 bytes of "
+                                                   "accessors[0]'s elements; allowed: 12 or more")):
+        read_mesh(path, "t")
+    document["bufferViews"][0]["byteStride"] = 12
+    path.write_text(json.dumps(document))
+    assert len(read_mesh(path, "t").faces) == 2
+
+
+def test_instances_times_vertices_beyond_32_bits_are_refused_before_placing_them(tmp_path):
+    """65,536 instances of a primitive of 65,536 vertices place 2³² vertices (96 GiB as float64): refused
+    before the placement allocates. Accessors without a bufferView hold zeros (glTF 2.0 §3.6.2.3), so the
+    file stays a few hundred bytes."""
+    from tests.io.test_gltf_extensions import quad_gltf
+    path = quad_gltf(tmp_path, {})
+    document = json.loads(path.read_text())
+    document["accessors"][0] = {"componentType": 5126, "count": 65_536, "type": "VEC3"}
+    document["accessors"].append({"componentType": 5126, "count": 65_536, "type": "VEC3"})
+    document["nodes"][0]["extensions"] = {"EXT_mesh_gpu_instancing": {"attributes": {"TRANSLATION": 3}}}
+    document["extensionsUsed"] = ["EXT_mesh_gpu_instancing"]
+    path.write_text(json.dumps(document))
+    with pytest.raises(SceneError, match=re.escape("places 65,536 × 65,536 vertices; allowed: fewer than 2³²")):
+        read_mesh(path, "t")

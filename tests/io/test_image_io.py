@@ -2,6 +2,7 @@
 
 import os
 import stat
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -146,3 +147,68 @@ def test_read_image_checks_its_budget_from_the_header_before_decoding(tmp_path, 
     monkeypatch.setattr(system, "default_budget", lambda: 50_000_000)  # no max_memory: the commands' budget
     with pytest.raises(rp.errors.ImageError, match="over the budget"):
         rp.read_image(path)
+
+
+def test_an_output_path_as_long_as_path_max_is_refused_and_one_byte_shorter_is_not(tmp_path):
+    """PATH_MAX counts the terminating NUL (POSIX), so a path of exactly PATH_MAX bytes is one open() refuses
+    with ENAMETOOLONG: the check refuses it before rendering, and lets one byte less through."""
+    from raycast_phong.errors import ImageError
+    from raycast_phong.io.image_io import _check_name_length
+    limit = os.pathconf(tmp_path, "PC_PATH_MAX")
+
+    def path_of(length: int) -> Path:
+        """ "/ddd…" folders of 200 bytes, then the rest, then "/x.png": `length` bytes in all."""
+        folders, rest = divmod(length - len("/x.png"), 200)
+        assert rest >= 2, rest  # a last folder of one byte or more after its "/"
+        return Path(("/" + "d" * 199) * folders + "/" + "d" * (rest - 1) + "/x.png")
+
+    assert len(os.fsencode(str(path_of(limit)))) == limit
+    with pytest.raises(ImageError, match=f"path is {limit:,} bytes, longer than the {limit:,}"):
+        _check_name_length(path_of(limit), tmp_path)
+    _check_name_length(path_of(limit - 1), tmp_path)
+
+
+def test_a_file_name_is_measured_in_bytes_not_characters(tmp_path):
+    """NAME_MAX is bytes: 200 "é" and ".png" are 404 bytes in UTF-8, over the 255 most file systems allow,
+    though only 204 characters; 125 "é" (254 bytes with ".png") pass, and the file system takes them."""
+    from raycast_phong.errors import ImageError
+    from raycast_phong.io.image_io import _check_name_length
+    with pytest.raises(ImageError, match="file name is 404 bytes, longer than the"):
+        _check_name_length(tmp_path / ("é" * 200 + ".png"), tmp_path)
+    _check_name_length(tmp_path / ("é" * 125 + ".png"), tmp_path)
+    assert len(os.fsencode("é" * 125 + ".png")) == 254 and len(("é" * 200 + ".png").encode()) == 404
+    assert os.pathconf(tmp_path, "PC_NAME_MAX") < 404
+    (tmp_path / ("é" * 125 + ".png")).write_bytes(b"")
+
+
+def test_images_read_together_are_weighed_together(tmp_path):
+    """compare reads both images: each alone fits the budget, the two together do not, so it is refused
+    (10 × 10 × 3 samples at 4 bytes: 1,200 bytes each, 2,400 both, against 2,000)."""
+    from raycast_phong.errors import ImageError
+    from raycast_phong.io.image_io import check_image_reads
+    a, b = (rp.write_image(tmp_path / f"{name}.png", np.zeros((10, 10, 3), np.float32)) for name in "ab")
+    check_image_reads((a,), 2_000, 4)
+    check_image_reads((b,), 2_000, 4)
+    with pytest.raises(ImageError, match=r"reading the images needs ≈ 2\.34 kB"):
+        check_image_reads((a, b), 2_000, 4)
+    check_image_reads((a, b), 2_400, 4)
+
+
+def test_a_multi_part_exr_cut_short_in_its_last_part_is_not_whole(tmp_path):
+    """The writer's close can lose its last flush without saying so (see io.image_io._complete): every part's
+    last scanline is read back, so a file whose last part lost its last bytes is not taken as written, though
+    its first part reads whole."""
+    import OpenImageIO as oiio
+
+    from raycast_phong.io.image_io import _complete
+    image = np.random.default_rng(2).uniform(size=(32, 48, 3)).astype(np.float32)
+    part = np.random.default_rng(3).uniform(size=(16, 16, 3)).astype(np.float32)
+    path = rp.write_image(tmp_path / "p.exr", image, parts={"extra": (part, (0, 0))})
+    assert _complete(str(path), 2)
+    data = path.read_bytes()
+    path.write_bytes(data[:-8])
+    first = oiio.ImageInput.open(str(path))
+    spec = first.spec()
+    assert first.read_scanline(spec.y + spec.height - 1, 0, oiio.FLOAT) is not None  # part 0 still reads
+    first.close()
+    assert not _complete(str(path), 2)

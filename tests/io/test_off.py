@@ -116,3 +116,35 @@ def test_a_broken_file_is_one_line_saying_what(tmp_path, data, said):
     with pytest.raises(SceneError) as caught:
         read(tmp_path, data)
     assert said in str(caught.value) and "\n" not in str(caught.value), str(caught.value)
+
+
+def test_the_read_check_weighs_the_format_s_parse_beside_the_render_s_bytes(tmp_path):
+    """An OFF of N triangles is read through trimesh (its parse: OFF's parse_bytes a triangle) and then held for
+    the render (MESH_READ_BYTES a triangle): a budget between N × MESH_READ_BYTES and N × both is refused, one
+    above both is not. The file's own size floor stays under both budgets."""
+    from raycast_phong.io.meshes.size import MESH_READ_BYTES, check_mesh_read, read_floor
+    side = 100
+    points = [f"{x} {y} 0" for y in range(side + 1) for x in range(side + 1)]
+    faces = [f"3 {a} {a + 1} {a + side + 2}\n3 {a} {a + side + 2} {a + side + 1}"
+             for a in (y * (side + 1) + x for y in range(side) for x in range(side))]
+    path = tmp_path / "grid.off"
+    path.write_text(f"OFF\n{len(points)} {2 * side * side} 0\n" + "\n".join(points + faces) + "\n")
+    source = mesh_source(path, "grid")
+    triangles = source.triangles()
+    assert triangles == 2 * side * side
+    parse = source.format.parse_bytes
+    assert parse > 0
+    between, above = triangles * (MESH_READ_BYTES + parse // 2), triangles * (MESH_READ_BYTES + parse) + 1
+    assert read_floor(source) < between
+    with pytest.raises(SceneError, match="triangles needs"):
+        check_mesh_read(source, max_memory=between)
+    check_mesh_read(source, max_memory=above)
+
+
+def test_a_header_that_does_not_parse_is_weighed_by_the_file_s_size(tmp_path):
+    """A malformed count (no number) is not 0 triangles: the estimate falls back to the size bound, a triangle
+    for every SMALLEST_TRIANGLE bytes, so a large malformed file is still weighed before the read words it."""
+    from raycast_phong.io.meshes.size import SMALLEST_TRIANGLE
+    path = tmp_path / "bad.off"
+    path.write_text("OFF\nabc 2 0\n" + "0 0 0\n" * 100)
+    assert mesh_source(path).triangles() == path.stat().st_size // SMALLEST_TRIANGLE > 0

@@ -240,3 +240,18 @@ def test_a_long_map_is_shrunk_to_2048_on_its_longer_side_keeping_its_shape(tmp_p
     assert read.shape == (256, 2048, 3)
     np.testing.assert_allclose(read, np.broadcast_to([200 / 255, 100 / 255, 50 / 255], read.shape), atol=1e-6)
     assert texture_bytes([(1024, 8192)]) == 256 * 2048 * 52
+
+
+def test_the_memory_estimate_skips_a_map_that_is_missing_or_unreadable(tmp_path):
+    """file_size gives None (no size to weigh; the decode words the problem) for a map that is missing, a
+    folder, or a file it may not open, instead of raising from the memory estimate."""
+    import os
+
+    from raycast_phong.io.textures import file_size
+    assert file_size(tmp_path / "missing.png") is None
+    assert file_size(tmp_path) is None
+    rp.write_image(tmp_path / "shut.png", np.zeros((4, 6, 3), np.float32))
+    assert file_size(tmp_path / "shut.png") == (4, 6)
+    if os.geteuid() != 0:  # root opens anything
+        (tmp_path / "shut.png").chmod(0)
+        assert file_size(tmp_path / "shut.png") is None

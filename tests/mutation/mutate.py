@@ -144,6 +144,20 @@ HAND_MUTANTS = (
     ("renderer/split_compile", "if now - moved >= (STALL_SECONDS if spent is not None else 10 * STALL_SECONDS):",
      "if now - moved >= 10 * STALL_SECONDS:"),  # a stopped helper waited for as if its CPU time were unknown
     ("io/meshes/ply", "and element.rows for element in header.elements):", "for element in header.elements):"),
+    # issue 50's guards, a third set: an independent replay's survivors, each with the test written for it
+    ("io/image_io", "whole >= path_max", "whole > path_max"),  # PATH_MAX counts the NUL
+    ("io/image_io", "need = sum(w * h * c for w, h, c in filter(None, sizes.values())) * per_sample",
+     "need = max((w * h * c for w, h, c in filter(None, sizes.values())), default=0) * per_sample"),
+    ("io/image_io", "for part in range(parts):", "for part in range(1):"),  # a cut last EXR part
+    ("io/image_io", "len(os.fsencode(path.name)), len(os.fsencode(str(path)))", "len(path.name), len(str(path))"),
+    ("io/textures", "    except (SceneError, OSError):\n        return None\n    if image_suffix_mismatch",
+     "    except SceneError:\n        return None\n    if image_suffix_mismatch"),  # a missing map raises
+    ("io/meshes/collada", 'INDEX_LISTS = ("p", "v", "vcount")', 'INDEX_LISTS = ("p",)'),
+    ("io/meshes/gltf", "and stride < element:", "and stride < 0:"),  # overlapping elements read
+    ("io/meshes/gltf_decode", "if copies * count >= 2**32:", "if count >= 2**32:"),
+    ("io/meshes/size", "triangles * (MESH_READ_BYTES + source.format.parse_bytes)", "triangles * MESH_READ_BYTES"),
+    ("io/meshes/size", "return size // SMALLEST_TRIANGLE if found is None else found", "return found or 0"),
+    ("tools/view/server", 'size = len(text.encode("utf-8", "surrogatepass"))', "size = len(text)"),  # characters
 )
 
 OPERATOR_SWAPS = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,

@@ -1161,3 +1161,16 @@ print(sorted(name for name in ("numba", "OpenImageIO", "raycast_phong.renderer.f
     assert client.get(f"/?token={TOKEN}").status_code == 200
     assert started.wait(30)
     client.app.state.warming.result(30)
+
+
+def test_a_scene_the_page_opens_is_measured_in_utf8_bytes_not_characters():
+    """The 60,000 the page allows are bytes, what the socket carries: 40,000 "é" are 80,000 bytes (refused,
+    said in bytes) though 40,000 characters; 29,999 "é" and 2 ASCII bytes (60,000 bytes) reach the TOML parser."""
+    from raycast_phong.tools.view import session
+    from raycast_phong.tools.view.server import loaded
+    assert session.MAX_SCENE_BYTES == 60_000
+    refused = loaded(None, {"type": "load", "id": 3, "name": "accents.toml", "text": "é" * 40_000})
+    assert refused == {"type": "error", "id": 3, "message": "accents.toml: 80,000 bytes; a scene file the page "
+                                                            "opens is at most 60,000 bytes"}, refused
+    parsed = loaded(None, {"type": "load", "id": 4, "name": "fits.toml", "text": "é" * 29_999 + "=1"})
+    assert parsed["type"] == "error" and "not a TOML scene" in parsed["message"], parsed

@@ -307,7 +307,8 @@ def from_pbr(material, path: Path, notes: list[str], sources: list[TextureSource
 
 def check_references(tree: dict, path: Path) -> None:
     """Refuse, in one line, a bufferView naming a buffer the file does not have, an accessor naming a bufferView it
-    does not have, and an external buffer file that is missing (trimesh raised IndexError or FileNotFoundError)."""
+    does not have, an external buffer file that is missing (trimesh raised IndexError or FileNotFoundError), and a
+    byteStride shorter than an accessor's elements (read overlapping, silently)."""
     def table(key: str) -> list:
         value = tree.get(key, [])
         return value if isinstance(value, list) else []
@@ -327,6 +328,16 @@ def check_references(tree: dict, path: Path) -> None:
             if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value < size:
                 allowed = f"0..{size - 1}" if size else f"none: the file has no {field}s"
                 raise FileProblem(f"{str(path)!r}: {kind}[{n}].{field} is {_short(value)}; allowed: {allowed}")
+    from .gltf_decode import DTYPES, WIDTHS
+    for n, accessor in enumerate(table("accessors")):  # an element fits its stride (§3.6.2.4); trimesh overlapped them
+        try:
+            stride = views[accessor["bufferView"]].get("byteStride")
+            element = DTYPES[accessor["componentType"]]().itemsize * WIDTHS[accessor["type"]]
+        except (AttributeError, KeyError, TypeError):
+            continue  # no bufferView, or a malformed accessor: the read words it
+        if isinstance(stride, int) and not isinstance(stride, bool) and stride < element:
+            raise FileProblem(f"{str(path)!r}: bufferViews[{accessor['bufferView']}].byteStride is {stride}, less "
+                              f"than the {element} bytes of accessors[{n}]'s elements; allowed: {element} or more")
 
 
 TRS = (("matrix", 16), ("translation", 3), ("rotation", 4), ("scale", 3))

@@ -220,7 +220,11 @@ class _Decoder:
             stride = int(view.get("byteStride") or element)
             start = int(accessor.get("byteOffset", 0))
             end = start + (count - 1) * stride + element if count else start
-            if start < 0 or stride < element or end > len(data):
+            if stride < element:  # elements would overlap: not "within the bufferView" but its stride
+                raise self.refuse(f"bufferViews[{accessor['bufferView']}].byteStride",
+                                  f"is {stride}, less than the {element} bytes of accessors[{index}]'s elements; "
+                                  f"allowed: {element} or more")
+            if start < 0 or end > len(data):
                 raise self.refuse(f"accessors[{index}]", f"its {count} element(s) of {element} bytes every "
                                                          f"{stride} from byte {start} overrun its bufferView of "
                                                          f"{len(data)} bytes; allowed: within the bufferView")
