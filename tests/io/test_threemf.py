@@ -146,10 +146,19 @@ def test_composite_materials_mix_their_bases_display_colours(tmp_path, values, e
     np.testing.assert_allclose(mesh.corner_colour[0], [expected] * 3, atol=1e-3)
 
 
+RED_BASE = '<basematerials id="1"><base name="Red" displaycolor="#FF0000"/></basematerials>'
+
+
 @pytest.mark.parametrize(("resources", "said"), [
-    ('<basematerials id="1"><base name="Red" displaycolor="#FF0000"/></basematerials>'
-     '<m:compositematerials id="2" matid="1" matindices="0 3"><m:composite values="0.5 0.5"/></m:compositematerials>',
-     "property index 3 is outside property group 1's 0..0"),
+    (RED_BASE + '<m:compositematerials id="2" matid="1" matindices="0 3"><m:composite values="0.5 0.5"/>'
+     '</m:compositematerials>', "compositematerials 2 has matindices '0 3'; allowed: one or more indices of "
+     "basematerials 1's bases, 0..0"),
+    (RED_BASE + '<m:compositematerials id="2" matid="1" matindices="-1 0"><m:composite values="0.5 0.5"/>'
+     '</m:compositematerials>', "compositematerials 2 has matindices '-1 0'"),
+    (RED_BASE + '<m:compositematerials id="2" matid="1"><m:composite values="1"/></m:compositematerials>',
+     "compositematerials 2 has matindices ''"),  # required (§4): it mixed nothing, black
+    (RED_BASE + '<m:compositematerials id="2" matid="1" matindices="0"><m:composite values="nan"/>'
+     '</m:compositematerials>', "composite value outside 0..1"),
     ('<m:colorgroup id="1"><m:color color="#FF0000"/></m:colorgroup>'
      '<m:compositematerials id="2" matid="1" matindices="0"><m:composite values="1"/></m:compositematerials>',
      "names matid 1, which is not a basematerials group"),
@@ -208,6 +217,9 @@ def test_the_consortiums_multiproperties_sample_renders_its_base_colour(tmp_path
     ('<m:colorgroup id="2"><m:color color="#FF0000"/></m:colorgroup>',
      '<triangle v1="0" v2="1" v3="2" pid="2" p1="3"/>', "property index 3"),
     ('<m:colorgroup id="2"><m:color color="red"/></m:colorgroup>', '<triangle v1="0" v2="1" v3="9"/>', "colour 'red'"),
+    ('<m:colorgroup id="2"><m:color color="#FF0000"/></m:colorgroup><m:multiproperties id="6" pids="2">'
+     '<m:multi pindices="-1"/><m:multi pindices="0"/></m:multiproperties>',
+     '<triangle v1="0" v2="1" v3="2" pid="6" p1="0" p2="1"/>', "property index -1 is outside"),  # not 0's
     ("", '<triangle v1="0" v2="1" v3="9"/>', "vertex index outside 0..3"),
     ("", '<triangle v1="0" v2="1" v3="2"/></triangles></mesh></object></resources></model', "not well-formed"),
 ])

@@ -472,16 +472,23 @@ def _colours(model: _Model, found: tuple, pid: str, path: Path) -> np.ndarray:
     if base is None or base[0] != "base":
         raise FileProblem(f"{str(path)!r}: compositematerials {pid} names matid {found[1]}, which is not a "
                           "basematerials group; allowed: the id of a <basematerials> (materials §4)")
-    _check_index(found[2], len(base[2]), found[1], path)
+    indices, count = found[2], len(base[2])
+    if not indices.size or indices.min() < 0 or indices.max() >= count:
+        raise FileProblem(f"{str(path)!r}: compositematerials {pid} has matindices "
+                          f"{' '.join(str(k) for k in indices.tolist())[:60]!r}; allowed: one or more indices of "
+                          f"basematerials {found[1]}'s bases, 0..{count - 1} (materials §4)")
     total = found[3].sum(axis=1, keepdims=True)
     shares = np.where(total > 0, found[3] / np.where(total > 0, total, 1), 1 / max(found[3].shape[1], 1))
     return srgb_encode(shares @ srgb_to_linear(base[2][found[2]]))
 
 
 def _check_index(index, count: int, pid: str, path: Path) -> None:
+    """Refuse property indices outside group `pid`'s 0..count - 1, naming the lowest if it is negative, else the
+    highest."""
     index = np.asarray(index)
     if index.size and (index.min() < 0 or index.max() >= count):
-        raise FileProblem(f"{str(path)!r}: a triangle's property index {int(index.max())} is outside property group "
+        bad = int(index.min()) if index.min() < 0 else int(index.max())
+        raise FileProblem(f"{str(path)!r}: a triangle's property index {bad} is outside property group "
                           f"{pid}'s 0..{count - 1}; allowed: an index of the group's entries")
 
 
