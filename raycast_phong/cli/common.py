@@ -151,13 +151,26 @@ class OneLineErrors(TyperGroup):
             command = error.ctx.command_path if getattr(error, "ctx", None) else None
             where = f"{command}: " if command else ""
             hint = f" (see {command} --help)" if command else ""
-            typer.secho(f"error: {one_line(where + error.format_message() + hint)}", err=True, fg=typer.colors.RED,
-                        color=_colour())
+            typer.secho(f"error: {one_line(where + _worded(error.format_message()) + hint)}", err=True,
+                        fg=typer.colors.RED, color=_colour())
             sys.exit(error.exit_code)
         except typer.Abort:
             typer.secho("error: aborted", err=True, fg=typer.colors.RED, color=_colour())
             sys.exit(1)
         sys.exit(code if isinstance(code, int) else 0)  # a command's typer.Exit(code), else success
+
+
+def _worded(message: str) -> str:
+    """A usage error in the program's words: without the "Value error, " typer's coercion puts before a choice's
+    message, and with the closest choice offered ("'phongg' is not one of 'flat', 'gouraud', 'phong' (did you
+    mean 'phong'?)")."""
+    message = message.replace("Value error, ", "")
+    found = re.search(r"'([^']*)' is not one of ((?:'[^']*'(?:, )?)+)", message)
+    if found:
+        from raycast_phong.values.messages import did_you_mean
+        end = found.end()
+        message = message[:end] + did_you_mean(found[1], re.findall(r"'([^']*)'", found[2])) + message[end:]
+    return message
 
 
 def _say_compiling(name: str, signature: str) -> None:

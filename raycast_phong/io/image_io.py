@@ -34,6 +34,8 @@ def check_output_path(path: str | Path, inputs: tuple[str | Path, ...] = ()) -> 
     """Refuse, before rendering, an output whose folder is missing, whose format is unknown, that is a
     folder, or that is one of the command's `inputs` (writing it would destroy what is being read)."""
     path = Path(path)
+    if path.is_dir():  # before the suffix: a folder has none, and "no extension" would not say why
+        raise ImageError(f"{path}: the output is a folder; give a file name in it, e.g. {path / 'render.png'}")
     if path.suffix.lower() not in IMAGE_SUFFIXES:
         got = f"not {path.suffix!r}" if path.suffix else "it has no extension"
         raise ImageError(f"{path}: the output must end in .png (8-bit) or .exr (float32), {got}")
@@ -260,7 +262,7 @@ def read_image(path: str | Path, part: int = 0,
     buffer = oiio.ImageBuf(str(path), part, 0)
     spec = buffer.spec()  # the header alone: ImageBuf decodes the pixels when they are asked for
     if buffer.has_error:
-        raise ImageError(f"{path}: cannot read ({buffer.geterror()})")
+        raise _cannot_read(path, buffer.geterror())
     needed = _read_bytes(spec)
     if budget is not None and needed > budget:
         raise ImageError(f"{path}: a {spec.width}×{spec.height} image of {spec.nchannels} channel(s) needs about "
@@ -268,7 +270,7 @@ def read_image(path: str | Path, part: int = 0,
                          "read_image(..., max_memory=...) above it")
     pixels = buffer.get_pixels(oiio.FLOAT)
     if pixels is None or pixels.size == 0:
-        raise ImageError(f"{path}: cannot read ({buffer.geterror()})")
+        raise _cannot_read(path, buffer.geterror())
     return np.asarray(pixels, np.float32), tuple(buffer.spec().channelnames)
 
 
@@ -368,6 +370,14 @@ class ImageComparison:
 COMPARE_BYTES_PER_SAMPLE = 16
 
 
+def _cannot_read(path: str | Path, said: str) -> ImageError:
+    """The one line for an image OpenImageIO could not read: "no such file" for a missing one (its own words
+    repeat themselves: 'Could not open file: Could not open file "x.png"'), else the first line of what it said."""
+    if not os.path.lexists(path):
+        return ImageError(f"{path}: no such file")
+    return ImageError(f"{path}: cannot read ({_first_line(said)})")
+
+
 def _first_line(text: str) -> str:
     """OpenImageIO's error text is several lines, the first the reason."""
     return next((line.strip() for line in str(text).splitlines() if line.strip()), "unknown reason")
@@ -422,7 +432,7 @@ def compare_files(a: str | Path, b: str | Path, fail: float, warn: float,
             buffer = oiio.ImageBuf(str(path))
             unread = buffer.has_error or not buffer.read()
         if unread:
-            raise ImageError(f"{path}: cannot read ({_first_line(buffer.geterror() or oiio.geterror())})")
+            raise _cannot_read(path, buffer.geterror() or oiio.geterror())
         buffers.append(buffer)
     specs = [buffer.spec() for buffer in buffers]
     shapes = [(spec.width, spec.height, spec.nchannels) for spec in specs]

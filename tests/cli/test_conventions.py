@@ -280,3 +280,18 @@ def test_a_warning_said_while_a_bar_is_up_goes_above_it(monkeypatch):
     drawn = "rendering tiles [######..................] 1/4"
     assert stream.getvalue() == (f"\r{drawn}\r{' ' * len(drawn)}\rwarning: something to know\n\r{drawn}"
                                  f"\r{' ' * len(drawn)}\r")
+
+
+@pytest.mark.parametrize(("args", "said"), [
+    (["render", "--shading", "phongg"], "Invalid value for '--shading': 'phongg' is not one of 'flat', 'gouraud', "
+                                        "'phong' (did you mean 'phong'?)"),
+    (["render", "--mode", "globl"], "'globl' is not one of 'local', 'global' (did you mean 'global'?)"),
+    (["render", "--specular", "xyz"], "'xyz' is not one of 'phong', 'blinn'. (see"),  # nothing close: no guess
+])
+def test_a_mistyped_choice_is_one_line_in_the_program_s_words_with_the_closest_choice(args, said):
+    """typer's coercion said "Value error, 'phongg' is not one of ..." (pydantic's prefix) and offered nothing."""
+    done = runner.invoke(app, [*args, "-o", "never.png"])
+    assert done.exit_code == 2, done.output
+    line = done.output.strip()
+    assert "\n" not in line and line.startswith("error: ") and "Value error" not in line, line
+    assert said in line, line

@@ -70,12 +70,16 @@ def scene(tmp_path) -> Path:
     ["reference", "{scene}", "-o", "{folder}"],
     ["side-by-side", "{scene}", "--vary", "render.shading=flat,phong", "-o", "{folder}"],
 ])
-def test_an_output_that_is_a_folder_is_refused_before_rendering(scene, tmp_path, no_render, command):
-    folder = tmp_path / "looks-like.png"
+@pytest.mark.parametrize("name", ["looks-like.png", "outdir"])
+def test_an_output_that_is_a_folder_is_refused_before_rendering(scene, tmp_path, no_render, command, name):
+    """Named like an image or not: a folder is said to be one (`-o outdir` said "it has no extension"), with a
+    file name in it to give instead."""
+    folder = tmp_path / name
     folder.mkdir()
     (folder / "kept.txt").write_text("inside")
     args = [part.format(scene=scene, folder=folder) for part in command]
-    refused(tmp_path, args, str(folder), "is a folder")
+    said = refused(tmp_path, args, str(folder), "is a folder")
+    assert "extension" not in said, said
     assert folder.is_dir()
 
 

@@ -212,3 +212,20 @@ def test_a_multi_part_exr_cut_short_in_its_last_part_is_not_whole(tmp_path):
     assert first.read_scanline(spec.y + spec.height - 1, 0, oiio.FLOAT) is not None  # part 0 still reads
     first.close()
     assert not _complete(str(path), 2)
+
+
+def test_a_missing_image_is_said_to_be_missing_once(tmp_path):
+    """OpenImageIO says 'Could not open file: Could not open file "x.png"'; a missing image is "no such file",
+    from read_image and from compare (both files checked by the same rule)."""
+    from typer.testing import CliRunner
+
+    from raycast_phong.cli import app
+    from raycast_phong.errors import ImageError
+    missing = tmp_path / "missing.png"
+    with pytest.raises(ImageError) as refused:
+        rp.read_image(missing)
+    assert str(refused.value) == f"{missing}: no such file"
+    present = rp.write_image(tmp_path / "present.png", np.zeros((2, 2, 3), np.float32))
+    for args in ([missing, present], [present, missing]):
+        done = CliRunner().invoke(app, ["compare", *map(str, args)])
+        assert done.exit_code == 2 and done.output.strip() == f"error: {missing}: no such file", done.output
