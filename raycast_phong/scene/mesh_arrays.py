@@ -39,7 +39,9 @@ class ArraySource(MeshSource):
 
     @property
     def texture_sizes(self) -> tuple:
-        return ()
+        """(height, width) of each image a Trimesh's material holds (a PIL image's size is (width, height))."""
+        return tuple((size[1], size[0]) for size in (getattr(t.source, "size", None) for t in
+                                                     self.held.texture_sources) if size is not None)
 
     def triangles(self) -> int:
         return len(self.held.faces)
@@ -75,9 +77,10 @@ def held_mesh(vertices: Any, faces: Any = None, normals: Any = None, where: str 
     """
     from ..io.meshes.read import MeshFile  # imports trimesh: only when a mesh is held
     where = where if isinstance(where, Location) else Location(str(where))
+    visual = None
     if faces is None and hasattr(vertices, "faces") and hasattr(vertices, "vertices"):  # a trimesh.Trimesh
         mesh = vertices
-        faces = mesh.faces
+        faces, visual = mesh.faces, getattr(mesh, "visual", None)
         if normals is None and "vertex_normals" in getattr(mesh, "_cache", {}):
             normals = mesh.vertex_normals
         vertices = mesh.vertices
@@ -104,8 +107,15 @@ def held_mesh(vertices: Any, faces: Any = None, normals: Any = None, where: str 
     radius = float(np.linalg.norm(used - centre, axis=1).max())
     number = next(_NUMBERS)
     path = placeholder(number)
-    held = MeshFile(points, np.array(corners, np.int64), stored, np.full(len(corners), -1, np.int32), (), None, (),
-                    centre, radius, stored is not None)
+    corners = np.array(corners, np.int64)
+    surface: tuple = (np.full(len(corners), -1, np.int32), (), None, None, (), ())
+    if visual is not None and getattr(visual, "kind", None) is not None:  # colours, a material, UVs
+        from ..io.meshes.format import Part
+        from ..io.meshes.read import held_surfaces
+        surface = held_surfaces(Part(points, corners, stored, visual), Path(str(where)))
+    group, materials, corner_uv, corner_colour, textures, notes = surface
+    held = MeshFile(points, corners, stored, group, materials, None, notes, centre, radius, stored is not None,
+                    corner_uv, corner_colour, textures)
     return path, ArraySource(Path(folder) / path, format_of(path), ("arrays", number), held=held)
 
 
@@ -137,7 +147,8 @@ def mesh_scene(vertices: Any, faces: Any = None, *, normals: Any = None, name: s
 
     Parameters
     ----------
-    vertices: (V, 3) real numbers, or a trimesh.Trimesh (then `faces` stays None).
+    vertices: (V, 3) real numbers, or a trimesh.Trimesh (then `faces` stays None; its colours, material and
+        texture coordinates are kept, read as a file's are).
     faces: (F, 3) whole numbers, each a vertex index, counter-clockwise seen from outside.
     normals: (V, 3) vertex normals to shade with (used as a mesh file's own normals: normals = "file").
     name: the object's name (and the stem of output.path).

@@ -94,3 +94,55 @@ def test_given_normals_shade_as_a_files_own(sphere):
     image = rp.render(given).image
     np.testing.assert_allclose(image, rp.render(built).image, atol=2e-5)
     assert np.abs(image - rp.render(without).image).max() > 1e-3  # the mean normals the mesh alone gets differ
+
+
+MODELS = __import__("pathlib").Path(__file__).resolve().parents[1] / "data" / "models"
+
+
+def _as_file_frames(mesh, path, size=SIZE):
+    """(the Trimesh's scene, the file's scene) with the file's colour encoding and background (a glTF's colours
+    are linear; arrays say nothing, so they are framed for display unless told)."""
+    from_file = rp.load_scene(path, size)
+    colour = getattr(from_file.render.colour, "value", from_file.render.colour)
+    given = rp.mesh_scene(mesh, overrides=[*size, f"render.colour={colour}",
+                                           f"render.background={list(from_file.render.background)}"])
+    return given, from_file
+
+
+@pytest.mark.parametrize("name", ["BoxTextured.glb", "cubevc.glb"])
+def test_a_trimesh_keeps_its_material_texture_and_colours_as_its_file_does(name):
+    """issue 48: mesh_scene(trimesh) dropped the visual (a red box rendered grey). A Trimesh trimesh loaded from a
+    textured glTF (metallic-roughness, a base colour map, UVs) or one with vertex colours renders as the file
+    itself does, read by the renderer's own reader."""
+    mesh = trimesh.load(MODELS / name, force="mesh")
+    given, from_file = _as_file_frames(mesh, MODELS / name)
+    image, expected = rp.render(given).image, rp.render(from_file).image
+    assert np.abs(expected - expected[0, 0]).max() > 0.1  # not a blank frame
+    np.testing.assert_allclose(image, expected, atol=1e-6)
+
+
+def test_a_face_coloured_trimesh_renders_as_its_ply(tmp_path):
+    """A box whose faces trimesh colours red, given as the Trimesh and as the PLY trimesh writes of it."""
+    box = trimesh.creation.box()
+    box.visual.face_colors = [255, 0, 0, 255]
+    path = tmp_path / "red.ply"
+    box.export(path)
+    given, from_file = _as_file_frames(box, path)
+    image = rp.render(given).image
+    np.testing.assert_allclose(image, rp.render(from_file).image, atol=1e-6)
+    covered = np.abs(image - image[0, 0]).max(axis=-1) > 1e-3
+    assert covered.sum() > 100 and (image[covered, 0] > 2 * image[covered, 1]).mean() > 0.9  # red, not grey
+
+
+def test_a_trimesh_s_simple_material_is_read_as_its_mtl_is(tmp_path):
+    """trimesh reads an OBJ's .mtl into a SimpleMaterial (8-bit colours, glossiness, an image): on the lecture's
+    model it gives the .mtl's own reading (k_a, k_d, k_s through the lobe rule, f), and its image is the k_d map,
+    weighed by the memory estimate at its size."""
+    from PIL import Image
+    mesh = trimesh.load(MODELS / "fuze.obj", force="mesh", process=False)
+    given = rp.mesh_scene(mesh)
+    assert dict(given.materials) == dict(rp.load_scene(MODELS / "fuze.obj").materials)
+    (source,) = given.mesh_sources.values()
+    with Image.open(MODELS / "fuze uv.jpg") as image:
+        assert source.texture_sizes == ((image.height, image.width),)
+    assert [m.kd_map for m in source.read().materials] == [0]

@@ -26,6 +26,7 @@ from .content import check_content
 from .format import Part, Reading
 from .gltf import SPECULAR_GLOSSINESS, TRANSFORM, UNLIT, from_pbr, transform_uv
 from .materials import FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, PartSurface, TextureSource
+from .materials import rgb as _rgb
 from .obj import UV_LIMIT
 
 __all__ = ["FILE_CREASE_ANGLE", "MeshFile", "read_file"]
@@ -198,6 +199,8 @@ def _surfaces(parts, loaded, pbr: str, path: Path, notes: list[str], sources: li
             found = read_so if read_so is not None else found
         elif material is not None and library is not None:
             found = library.get(getattr(material, "name", None) or "")
+        elif _is_simple(material):  # a trimesh.Trimesh's own (rp.mesh_scene), or a file only trimesh reads
+            found = from_simple(material, path, sources)
         elif textures and getattr(material, "image", None) is not None:  # a PLY's TextureFile (io/meshes/ply.py)
             sources.append(TextureSource(material.image, "repeat", "repeat", textures[0]))
             white = (1.0, 1.0, 1.0)
@@ -263,6 +266,42 @@ def _transformed_uv(uv: np.ndarray, material, samplers: dict, path: Path, notes:
 
 
 IDENTITY = ((0.0, 0.0), 0.0, (1.0, 1.0))  # KHR_texture_transform's defaults: no change
+
+
+def held_surfaces(part: Part, path: Path) -> tuple:
+    """(face_group, materials, corner_uv, corner_colour, texture sources, notes) of a mesh given as a
+    trimesh.Trimesh (rp.mesh_scene; `part` holds its visual), read by the rule a file's parts are read by, so its
+    colours, material and texture coordinates colour it as they would in a file; notes start with `path`."""
+    from .format import Loaded
+    notes: list[str] = []
+    sources: list[TextureSource] = []
+    found = _surfaces([part], Loaded([part]), "the Trimesh's metallic-roughness (PBR)", path, notes, sources)
+    return (*found, tuple(sources), tuple(dict.fromkeys(notes)))
+
+
+def from_simple(material, path: Path, sources: list[TextureSource]) -> FileMaterial:
+    """trimesh's SimpleMaterial (the .mtl's terms, 8-bit) on the lecture's model as an .mtl is read
+    (io/meshes/mtl.py): k_a = ambient, k_d = diffuse, k_s = specular through specular_lobe, f = glossiness (its
+    Ns); its image the k_d map, repeating."""
+    from .materials import specular_lobe
+
+    def colour(value) -> tuple[float, float, float]:
+        return _rgb(np.clip(np.asarray(value, np.float64).ravel()[:3] / 255.0, 0, 1))
+    name = getattr(material, "name", None) or f"{path.stem}-material"
+    glossiness = getattr(material, "glossiness", None)
+    ks, shininess = specular_lobe(colour(material.specular), 32.0 if glossiness is None else float(glossiness))
+    kd_map = -1
+    if getattr(material, "image", None) is not None:
+        kd_map = len(sources)
+        sources.append(TextureSource(material.image, "repeat", "repeat", f"{path}: material {name!r}: its image"))
+    return FileMaterial(name, colour(material.ambient), colour(material.diffuse), _rgb(ks), (0.0, 0.0, 0.0),
+                        float(shininess), kd_map=kd_map)
+
+
+def _is_simple(material) -> bool:
+    """Whether a part's material is trimesh's SimpleMaterial (without importing trimesh to ask)."""
+    trimesh = sys.modules.get("trimesh")
+    return trimesh is not None and isinstance(material, trimesh.visual.material.SimpleMaterial)
 
 
 def _is_pbr(material) -> bool:
