@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import os
+import signal
 import sys
 from pathlib import Path
 from typing import Annotated
 
 import typer
+
+from raycast_phong import stops
 
 from .common import app, check_verbosity, exit_codes, fail
 
@@ -48,12 +51,26 @@ def view(
     if host not in ("127.0.0.1", "localhost", "::1"):
         typer.secho(f"warning: --host {host}: the page is reachable from other machines; anyone with the URL's "
                     "token can use it", err=True, fg=typer.colors.YELLOW)
+    # Ctrl-C and `kill` stop the server (uvicorn shuts it down, then raises the signal again): recorded here, so
+    # the command ends with the status a stopped program has, after its clean-up, not an exit as if finished.
+    previous = {number: signal.signal(number, stops.record) for number in (signal.SIGINT, signal.SIGTERM)}
     with exit_codes():
         try:
             live.serve(scene, host=host, port=port, open_browser=not no_browser,
                        announce=lambda url: typer.echo(f"raycast-phong view: open {url}"),
-                       log_level="info" if verbose else "warning")
+                       log_level="info" if verbose else "warning",
+                       stopped=lambda number: typer.secho(f"raycast-phong view: stopped by "
+                                                          f"{signal.Signals(number).name}", err=True))
         except OSError as error:
             fail(str(error))
-        except KeyboardInterrupt:
-            pass
+        except KeyboardInterrupt:  # a SIGINT no handler of ours recorded (raised while it started)
+            stops.record(signal.SIGINT)
+            typer.secho("raycast-phong view: stopped by SIGINT", err=True)
+        finally:
+            if stops.received() is None:  # stopping: a second Ctrl-C while it ends is recorded, not raised
+                for number, handler in previous.items():
+                    signal.signal(number, handler)
+    stopped = stops.received()
+    if stopped is not None:  # stopped, not finished: 128 + the signal's number, as batch and every shell say it
+        stops.clear()
+        raise typer.Exit(code=128 + stopped)

@@ -124,9 +124,10 @@ def running(path: str | Path | None, host: str = "127.0.0.1", port: int = 0, tok
 
 
 def serve(path: str | Path | None, host: str = "127.0.0.1", port: int = 8765, open_browser: bool = True,
-          announce=print, token: str | None = None, log_level: str = "warning") -> None:
+          announce=print, token: str | None = None, log_level: str = "warning", stopped=None) -> None:
     """Serve the view of `path` (scene, mesh, or None for the default scene) until interrupted; the token is
-    remembered_token() unless given; uvicorn logs at `log_level` ("info": every request)."""
+    remembered_token() unless given; uvicorn logs at `log_level` ("info": every request). `stopped(number)` is
+    told the stop signal the caller recorded (stops.record), once the server has shut down."""
     import uvicorn
     source = open_source(path)
     sock = bind(host, port)
@@ -138,10 +139,15 @@ def serve(path: str | Path | None, host: str = "127.0.0.1", port: int = 8765, op
     if open_browser:
         webbrowser.open(url)
     try:
-        uvicorn.Server(server_config(app, log_level)).run(sockets=[sock])
+        from ... import stops
+        if stops.received() is None:  # not stopped while it started (the command records SIGINT and SIGTERM)
+            uvicorn.Server(server_config(app, log_level)).run(sockets=[sock])
     finally:
         sock.close()
         close(app)
+        from ... import stops
+        if stops.received() is not None and stopped is not None:
+            stopped(stops.received())
         leave_if_rendering()
 
 
@@ -152,6 +158,8 @@ def leave_if_rendering() -> None:
     is owed to the disk: frames and saves go to the browser only."""
     others = [t for t in threading.enumerate() if t is not threading.current_thread() and not t.daemon]
     if any(t.is_alive() for t in others):
+        from ... import stops
         sys.stdout.flush()
         sys.stderr.flush()
-        os._exit(0)
+        stopped = stops.received()
+        os._exit(0 if stopped is None else 128 + stopped)  # a signal's exit status, as the command's own
