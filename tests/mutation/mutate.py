@@ -59,7 +59,7 @@ EXTRA_TESTS = {"renderer": ("tests/image",), "geometry": ("tests/image",), "io":
 MODULE_TESTS = {"renderer/budget": ("tests/contracts/test_resource_guards.py",),  # the memory guard's own tests
                 "tools/batch/jobs": ("tests/contracts/test_bad_input.py", "tests/contracts/test_batch_faults.py"),
                 "tools/batch/cluster": ("tests/contracts",),
-                "pytest_plugin": ("tests/image",),  # the reference images match through it, edges and all
+                "pytest_plugin": ("tests/image", "tests/project/test_pytest_plugin.py"),  # its own, and the references
                 "io/system": ("tests/project/test_one_home.py",),  # the budget rule's one home
                 "tools/batch/manifest": ("tests/contracts/test_batch_faults.py",),
                 "jit": ("tests/contracts/test_kernel_cache_fallback.py",)}
