@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import operator
+import sys
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -60,7 +61,7 @@ from ..values.fields import (
 from ..values.messages import Location, describe_error, did_you_mean, located, shown
 from .bulk import objects_in_bulk
 from .kinds import object_kinds
-from .objects import Object, without_written_defaults
+from .objects import Object, ObjectHead, without_written_defaults
 
 MAX_SIZE = 16384          # pixels per side, from the format
 MAX_SAMPLES = 16          # 16×16 = 256 rays per pixel is already a reference-quality render
@@ -220,13 +221,21 @@ def _map(value: Any) -> Any:
 MapKey = Annotated[TextureMap, BeforeValidator(_map, json_schema_input_type=str | TextureMap)] | None
 
 
+# shininess = inf (the mirror limit) as validators see a TOML inf: a number above the largest finite float where
+# numbers are doubles (Python's tomllib and json, JavaScript), null in taplo (Even Better TOML), whose serde_json
+# has no inf and turns it into null; TOML has no null, so there null is inf (or nan). A "maximum" alone refuses both.
+SHININESS_SCHEMA = WithJsonSchema({"anyOf": [number_schema(0.0, INTENSITY_LIMIT),
+                                             {"type": "number", "exclusiveMinimum": sys.float_info.max},
+                                             {"type": "null"}]})
+
+
 class Material(Table):
     """The Phong model's coefficients of a surface, and its colour maps."""
     ka: Coefficient = Field(MATERIAL_DEFAULTS["ka"], description="k_a, the ambient reflection")
     kd: Coefficient = Field(MATERIAL_DEFAULTS["kd"], description="k_d, the diffuse reflection")
     ks: Coefficient = Field(MATERIAL_DEFAULTS["ks"], description="k_s, the specular reflection")
     ke: Coefficient = Field(MATERIAL_DEFAULTS["ke"], description="k_e, the emission")
-    shininess: Annotated[Number, WithJsonSchema(number_schema(0.0, INTENSITY_LIMIT))] = Field(
+    shininess: Annotated[Number, SHININESS_SCHEMA] = Field(
         MATERIAL_DEFAULTS["shininess"], description=(
             "the exponent f; 0 is the limit f → 0⁺; a TOML file may write inf, the mirror limit"))
     ka_map: MapKey = Field(None, description=(  # multiplies k_a (the kd_map does when this is not given)
@@ -524,6 +533,7 @@ BEYOND_THE_SCHEMA = (
     "files: mesh files and maps exist and read; output.path stays inside the scene's folder; every placed "
     "vertex within ±1e18 and the scene's half-extent at least 1e-12 (docs/scene-format.md, \"Number ranges\")",
     "TOML's inf and nan, which JSON cannot write: only shininess = inf is accepted",
+    "a material's shininess = null in a JSON file, which the schema lets through as taplo's reading of TOML's inf",
 )
 
 
@@ -531,12 +541,31 @@ def scene_json_schema() -> dict:
     """The JSON Schema (draft 2020-12) of the scene format, published as docs/scene.schema.json.
 
     Generated from the models above, so it accepts what the loader accepts, shorthands included (one number for
-    a triple, a map's file name alone); what it cannot say is BEYOND_THE_SCHEMA, written into its $comment."""
+    a triple, a map's file name alone), an [[objects]] entry keyed on its shape (_objects_by_shape); what it cannot
+    say is BEYOND_THE_SCHEMA, written into its $comment."""
     schema = Scene.model_json_schema(mode="validation")
     schema["properties"].pop("folder", None)
+    objects = schema["properties"]["objects"]
+    objects["items"] = _objects_by_shape(objects["items"])
     return {"$schema": "https://json-schema.org/draft/2020-12/schema",
             "title": "raycast-phong scene, format version 1",
             "description": "A scene file of raycast-phong (TOML, or JSON of the same structure); docs/scene-format.md "
                            "is its reference.",
             "$comment": "Checked by the loader, not by this schema: " + "; ".join(BEYOND_THE_SCHEMA) + ".",
             **{key: value for key, value in schema.items() if key not in ("title", "description")}}
+
+
+def _objects_by_shape(union: dict) -> dict:
+    """An [[objects]] entry as one `if`/`then` per kind keyed on `shape`, in place of pydantic's `oneOf` of the
+    kinds with a discriminator: validators ignore the discriminator, so under `oneOf` a sphere's wrong radius would
+    be "not valid under any of the given schemas" at the whole object. Here the kind's table applies as such and an
+    editor marks the key; a shape no kind has is marked at `shape`. Same meaning: `shape` required, one of the
+    kinds, and the object that kind's table (each `if` asks for a table too, or anything else would meet every
+    `then` and be refused once per kind)."""
+    shape_of = {ref: shape for shape, ref in union["discriminator"]["mapping"].items()}
+    kinds = [(shape_of[option["$ref"]], option["$ref"]) for option in union["oneOf"]]  # the registry's order
+    return {"type": "object", "required": ["shape"],
+            "properties": {"shape": {"enum": [shape for shape, _ in kinds],
+                                     "description": ObjectHead.model_fields["shape"].description}},
+            "allOf": [{"if": {"type": "object", "properties": {"shape": {"const": shape}}, "required": ["shape"]},
+                       "then": {"$ref": ref}} for shape, ref in kinds]}

@@ -61,7 +61,9 @@ def from_schema(node: dict, defs: dict, key: str = "") -> st.SearchStrategy:
         return hostile_or(st.sampled_from(MESH_PATHS))
     if key == "material":
         return hostile_or(st.sampled_from(MATERIAL_NAMES))
-    if "anyOf" in node or "oneOf" in node:  # oneOf: [[objects]], one table per kind told apart by `shape`
+    if "allOf" in node:  # [[objects]]: one table per kind, an if/then on `shape` each
+        return st.one_of([from_schema(part["then"], defs, key) for part in node["allOf"]])
+    if "anyOf" in node or "oneOf" in node:
         return st.one_of([from_schema(option, defs, key) for option in node.get("anyOf", node.get("oneOf"))])
     if "const" in node:
         return hostile_or(st.just(node["const"]))
@@ -137,7 +139,7 @@ def leaves() -> dict[str, st.SearchStrategy]:
             for key, sub in DEFS[node["$ref"].rsplit("/", 1)[1]]["properties"].items():
                 out[f"{name}.{key}"] = from_schema(sub, DEFS, key)
         elif name in ("lights", "objects"):  # every kind's keys for objects: most are another kind's, refused
-            for ref in [option["$ref"] for option in node["items"].get("oneOf", [node["items"]])]:
+            for ref in [part["then"]["$ref"] for part in node["items"].get("allOf", [{"then": node["items"]}])]:
                 for key, sub in DEFS[ref.rsplit("/", 1)[1]]["properties"].items():
                     strategy = from_schema(sub, DEFS, key)
                     out[f"{name}.0.{key}"] = st.one_of(out[f"{name}.0.{key}"], strategy) \

@@ -3,13 +3,16 @@
 Every shipped scene passes both. Then every key of the format, in every table and every kind of object, is set to
 values at and past its bounds, of the wrong type and in the documented shorthands: where the schema refuses, the
 loader refuses; where the loader refuses and the schema does not, the loader's line is one of the checks no JSON
-Schema can state (scene.schema.BEYOND_THE_SCHEMA: a vector's length, one key against another).
+Schema can state (scene.schema.BEYOND_THE_SCHEMA: a vector's length, one key against another). An editor marks the
+schema's errors where their paths point: a wrong key of an [[objects]] entry at that key, not at the whole entry.
 """
 
 from __future__ import annotations
 
 import copy
 import json
+import math
+import sys
 import tomllib
 from pathlib import Path
 
@@ -38,7 +41,7 @@ VALUES = [0, -0.0, 1e-9, -1e-9, 0.5, 1, 1.0000001, 2, -1, 3, 8, 9, 16, 17, 179.9
 # A line of the loader for each check in BEYOND_THE_SCHEMA: what the schema may accept and the loader refuse.
 BEYOND = ("allowed: 1e-150 ≤ length", "the zero vector", "direction is the zero vector", "is parallel to",
           "is the camera position too", "from camera.position", "is not defined", "rays per frame",
-          "a pixel channel could reach")
+          "a pixel channel could reach", "shininess: must be a number, got None")
 
 
 def base(shape: str = "icosphere") -> dict:
@@ -164,6 +167,76 @@ def test_values_past_the_bounds_fail_both(path, value):
 def test_an_objects_keys_past_their_kinds_rules_fail_both(shape, path, value):
     changed = with_value(base(shape), path, value)
     assert not VALIDATOR.is_valid(changed) and loader_line(changed) is not None
+
+
+def error_paths(scene: dict) -> set[tuple]:
+    """Where the schema's errors for `scene` point: the keys an editor marks."""
+    return {tuple(error.absolute_path) for error in VALIDATOR.iter_errors(scene)}
+
+
+@pytest.mark.parametrize("shape", ["icosphere", "uv_sphere"])
+def test_a_spheres_radius_out_of_range_is_reported_at_radius(shape):
+    changed = with_value(base(shape), ("objects", 0, "radius"), -1)
+    assert error_paths(changed) == {("objects", 0, "radius")}
+    best = jsonschema.exceptions.best_match(VALIDATOR.iter_errors(changed))
+    assert tuple(best.absolute_path) == ("objects", 0, "radius") and "-1" in best.message
+    assert "s.json: objects.0.radius: " in loader_line(changed)
+
+
+def test_an_unknown_shape_is_reported_at_shape():
+    changed = with_value(base(), ("objects", 0, "shape"), "sphere")
+    assert error_paths(changed) == {("objects", 0, "shape")}
+    best = jsonschema.exceptions.best_match(VALIDATOR.iter_errors(changed))
+    assert "'sphere' is not one of" in best.message and all(f"'{shape}'" in best.message for shape in OBJECT_MODELS)
+    assert "s.json: objects.0.shape: " in loader_line(changed)
+
+
+@pytest.mark.parametrize(("shape", "key"), [(shape, key) for shape, own in OWN_KEYS.items() for key in own])
+def test_a_wrong_type_in_a_kinds_own_key_is_reported_at_that_key(shape, key):
+    changed = with_value(base(shape), ("objects", 0, key), True)  # true where a number, a list or a file belongs
+    assert error_paths(changed) == {("objects", 0, key)}
+    assert f"s.json: objects.0.{key}: " in loader_line(changed)
+
+
+def test_every_refused_value_of_an_objects_key_is_reported_at_that_key():
+    """keys() × VALUES on the objects: wherever the schema refuses, each of its errors is at the key set."""
+    wrong = []
+    for shape, path in keys():
+        if path[0] != "objects":
+            continue
+        for value in VALUES:
+            paths = error_paths(with_value(base(shape), path, value))
+            if paths - {path}:
+                wrong.append(f"{shape}: {'.'.join(map(str, path))} = {json.dumps(value)}: errors at {sorted(paths)}")
+    assert not wrong, "\n".join(wrong[:40]) + f"\n({len(wrong)} in all)"
+
+
+MIRROR = """[materials.mirror]
+shininess = inf
+
+[[objects]]
+shape = "icosphere"
+material = "mirror"
+"""
+
+
+def test_shininess_inf_passes_the_schema_as_it_loads(tmp_path):
+    """The documented mirror limit: a float inf as tomllib gives it, and null as taplo (Even Better TOML) hands it to
+    its validator, its serde_json having no inf."""
+    path = tmp_path / "mirror.toml"
+    path.write_text(MIRROR, encoding="utf-8")
+    data = tomllib.loads(MIRROR)
+    assert data["materials"]["mirror"]["shininess"] == math.inf
+    assert [error.message for error in VALIDATOR.iter_errors(data)] == []
+    assert rp.load_scene(path).materials["mirror"].shininess == math.inf
+    assert VALIDATOR.is_valid(with_value(data, ("materials", "mirror", "shininess"), None))
+
+
+@pytest.mark.parametrize("value", [1.01e38, sys.float_info.max, -math.inf])
+def test_shininess_finite_past_1e38_or_minus_inf_fails_both(value):
+    changed = with_value(base(), ("materials", "m", "shininess"), value)
+    assert error_paths(changed) == {("materials", "m", "shininess")}
+    assert "s.json: materials.m.shininess: " in loader_line(changed)
 
 
 def documented_keys() -> dict[str, set[str]]:
