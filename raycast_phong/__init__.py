@@ -28,19 +28,32 @@ _HOMES = {
     "validate_scene": "scene.schema",
     "show": "tools.notebook",
 }
-__all__ = sorted(_HOMES)
+# Spelled out (not sorted(_HOMES)) so type checkers see the public names; tests/project keeps the two equal.
+__all__ = ["ImageError", "RaycastPhongError", "RenderPlan", "RenderResult", "Scene", "SceneError", "ShadingModel",
+           "SpecularModel", "WriteError", "build_plan", "default_scene_path", "load_scene", "mesh_scene", "read_image",
+           "read_layer", "render", "render_file", "show", "validate_scene", "write_image"]
 
-if TYPE_CHECKING:
-    from .codes import ShadingModel, SpecularModel
-    from .errors import ImageError, RaycastPhongError, SceneError, WriteError
-    from .io.image_io import read_image, read_layer, write_image
-    from .records import RenderPlan, RenderResult
-    from .renderer.frame import render, render_file
-    from .renderer.plan import build_plan
-    from .scene.load import load_scene
-    from .scene.mesh_arrays import mesh_scene
-    from .scene.schema import Scene, default_scene_path, validate_scene
-    from .tools.notebook import show
+if TYPE_CHECKING:  # `X as X`: an explicit re-export (mypy --strict, pyright)
+    from .codes import ShadingModel as ShadingModel
+    from .codes import SpecularModel as SpecularModel
+    from .errors import ImageError as ImageError
+    from .errors import RaycastPhongError as RaycastPhongError
+    from .errors import SceneError as SceneError
+    from .errors import WriteError as WriteError
+    from .io.image_io import read_image as read_image
+    from .io.image_io import read_layer as read_layer
+    from .io.image_io import write_image as write_image
+    from .records import RenderPlan as RenderPlan
+    from .records import RenderResult as RenderResult
+    from .renderer.frame import render as render
+    from .renderer.frame import render_file as render_file
+    from .renderer.plan import build_plan as build_plan
+    from .scene.load import load_scene as load_scene
+    from .scene.mesh_arrays import mesh_scene as mesh_scene
+    from .scene.schema import Scene as Scene
+    from .scene.schema import default_scene_path as default_scene_path
+    from .scene.schema import validate_scene as validate_scene
+    from .tools.notebook import show as show
 
 
 def __getattr__(name: str):

@@ -9,10 +9,14 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from types import MappingProxyType
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .codes import MATERIAL_TABLE_WIDTH, StageName
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
 
 
 @dataclass(frozen=True, eq=False)
@@ -155,8 +159,8 @@ class RenderPlan:
 @dataclass(frozen=True, eq=False)
 class RenderResult:
     """What render() returns: the image, its layers, and where the time went."""
-    image: np.ndarray                 # (H, W, 3) the model's values (in render.colour), unclamped; float32, or float64
-                                      # when the plan shades in float64
+    image: NDArray[np.float32] | NDArray[np.float64]  # (H, W, 3) the model's values (in render.colour),
+                                      # unclamped; float32, or float64 when the plan shades in float64
     aovs: dict[str, np.ndarray]       # layer name -> (H, W, C) float32, only those the scene asks for
     timings: Mapping[str, float]      # seconds per stage: load, geometry, build, rays, shade, frame (and write);
                                       # read-only: with_timings gives a result with more stages

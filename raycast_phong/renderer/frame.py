@@ -38,11 +38,11 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     ----------
     scene: a validated Scene (rp.load_scene, rp.validate_scene, Scene.replace, rp.mesh_scene).
     threads: worker threads for the bands (default: the machine's cores). plan: a RenderPlan (rp.build_plan's,
-        default: made here). progress: progress(done, total), called as bands finish. source: the name errors
-        start with (a file name). max_memory: the memory budget in bytes or a size such as "8G" (default: 3/4 of
-        the memory available). cache: a FrameCache carrying the geometry and BVH from one frame of a changing
-        scene to the next. cancelled: asked before each band; True stops the frame with RenderCancelled. pool: an
-        executor the caller owns and keeps, to run the bands on (default: threads started for this frame only).
+        default: made here). progress: progress(done, total), called as bands finish. max_memory: the memory
+        budget in bytes or a size such as "8G" (default: 3/4 of the memory available). cache: a FrameCache
+        carrying the geometry and BVH from one frame of a changing scene to the next. cancelled: asked before
+        each band; True stops the frame with RenderCancelled. pool: an executor the caller owns and keeps, to
+        run the bands on (default: threads started for this frame only).
 
     Returns
     -------

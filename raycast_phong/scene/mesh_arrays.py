@@ -14,7 +14,7 @@ from __future__ import annotations
 import itertools
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -24,6 +24,9 @@ from ..io.meshes.source import MeshSource
 from ..shapes import MESH
 from ..tolerances import POSITION_LIMIT
 from ..values.messages import Location
+
+if TYPE_CHECKING:
+    from .schema import Scene  # imported when a scene is made (mesh_scene), not with this module
 
 _NUMBERS = itertools.count(1)  # each held mesh's own version: its identity, never a file's
 
@@ -140,7 +143,7 @@ def _shape(shape: tuple) -> str:
 
 def mesh_scene(vertices: Any, faces: Any = None, *, normals: Any = None, name: str = MESH.name,
                view: str | None = None, up: str | None = None, overrides: list[str] | tuple[str, ...] = (),
-               folder: str | Path = ".") -> Any:
+               folder: str | Path = ".") -> Scene:
     """A Scene showing a mesh given as arrays, framed as `raycast-phong render model.obj` frames a file: one
     `mesh` object, a camera on its bounding sphere from `view` (three_quarter, front, side, top, iso), a key light,
     the default material; then `overrides` (`key.path=value`, as --set). Nothing is written.
