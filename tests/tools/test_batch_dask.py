@@ -199,3 +199,43 @@ def test_a_cluster_started_elsewhere_renders_a_batch_given_relative_paths(tmp_pa
         assert path.read_bytes() == (tmp_path / "local" / path.name).read_bytes(), path.name
     mapped, plain = (rp.read_image(user / "renders" / name)[0] for name in ("mapped.png", "sphere.png"))
     assert mapped.max() < plain.max()
+
+
+def slow_render_job(task):
+    """render_job a second later: a batch long enough to lose a worker in (run by in-process workers)."""
+    time.sleep(1.0)
+    return batch.jobs.render_job(task)
+
+
+@pytest.mark.parametrize("left", [1, 0])
+def test_a_worker_lost_mid_batch_is_said_and_none_left_fails_the_rest_not_a_hang(five_scenes, tmp_path,
+                                                                                  monkeypatch, left):
+    """Two workers, one scene a second each; 1.5 s in, the cluster shrinks to `left` workers. One left: every
+    scene renders (Dask runs the lost worker's again) and the report says which worker left. None left: the
+    scenes not rendered fail after WORKER_WAIT, each with one line, instead of the batch waiting for ever."""
+    monkeypatch.setattr(batch.cluster, "render_job", slow_render_job)
+    monkeypatch.setattr(batch.cluster, "WORKER_WAIT", 1.0)
+    monkeypatch.setattr(batch.cluster, "WATCH_SECONDS", 0.2)
+    jobs = [job for job in batch.find_jobs([five_scenes]) if job.name != "broken"]
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, protocol="tcp",
+                                  host="127.0.0.1", dashboard_address=None) as local:
+        shrink = threading.Timer(1.5, local.scale, (left,))
+        shrink.start()
+        started, reports = time.monotonic(), []
+        running = threading.Thread(target=lambda: reports.append(
+            batch.run_batch(jobs, tmp_path / "out", scheduler=local.scheduler_address)), daemon=True)
+        running.start()
+        running.join(60)  # a batch that waits for ever fails here, not by hanging the suite
+        shrink.cancel()
+        assert not running.is_alive(), "the batch still waits 60 s after its workers left"
+        (report,) = reports
+    took = time.monotonic() - started
+    lost = [w for w in report.warnings if "left the cluster" in w]
+    assert len(lost) == 2 - left and all(w.startswith(f"--scheduler {local.scheduler_address}: worker tcp://")
+                                         for w in lost), (report.warnings, took)
+    if left:
+        assert report.count(batch.RENDERED) == 4, [(o.name, o.status, o.reason) for o in report.outcomes]
+    else:
+        failed = [o for o in report.outcomes if o.status == batch.FAILED]
+        assert failed and all("no worker left on the scheduler for 1 s" in o.reason for o in failed), failed
+        assert report.count(batch.RENDERED) + len(failed) == 4 and took < 30, took

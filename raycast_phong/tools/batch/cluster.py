@@ -46,11 +46,14 @@ def _dask_quiet() -> Iterator[None]:
             logger.setLevel(level)
 
 
-def on_cluster(tasks: list[Task], scheduler: str, started: set[str]) -> Iterator[Outcome]:
+def on_cluster(tasks: list[Task], scheduler: str, started: set[str],
+               warnings: list[str] | None = None) -> Iterator[Outcome]:
     """Each task on an existing Dask cluster; the mesh and texture files and the output folder must be at the same
-    absolute paths there."""
+    absolute paths there. A worker that leaves mid-batch is a line in `warnings` (Dask runs its scenes again on
+    another); with no worker left for WORKER_WAIT seconds, the scenes not finished fail, each with one line,
+    instead of waiting for ever."""
     try:
-        from distributed import Client, as_completed
+        from distributed import Client, wait
     except ImportError:
         raise OptionError(f"--scheduler {scheduler}: Dask is not installed; pip install 'raycast-phong[distributed]'") \
             from None
@@ -71,5 +74,40 @@ def on_cluster(tasks: list[Task], scheduler: str, started: set[str]) -> Iterator
         # pure=False: a re-run must render again, not reuse a result the cluster remembers.
         futures = {client.submit(render_job, task, pure=False): task for task in tasks}
         started.update(task.job.name for task in tasks)
-        for future in as_completed(futures):
-            yield cluster_outcome(future, futures[future])
+        pending, known, alone = set(futures), _workers(client) or set(), None
+        while pending:
+            try:
+                wait(pending, timeout=WATCH_SECONDS, return_when="FIRST_COMPLETED")
+            except Exception:  # noqa: BLE001 - a timeout, or futures a dying scheduler cancelled: their state says
+                pass
+            done = {future for future in pending if future.done()}
+            pending -= done
+            for future in sorted(done, key=lambda f: futures[f].job.name):
+                yield cluster_outcome(future, futures[future])
+            now = _workers(client)
+            if now is None:  # the scheduler did not answer this time: nothing learnt
+                continue
+            said = [] if warnings is None else warnings
+            said += [f"--scheduler {scheduler}: worker {address} left the cluster ({len(now)} left); Dask runs the "
+                     "scenes it held again on another" for address in sorted(known - now)]
+            known = now
+            alone = None if now else alone if alone is not None else time.monotonic()
+            if pending and alone is not None and time.monotonic() - alone >= WORKER_WAIT:
+                for future in sorted(pending, key=lambda f: futures[f].job.name):
+                    future.cancel()
+                    reason = reason_line(futures[future].job, f"no worker left on the scheduler for "
+                                                              f"{WORKER_WAIT:g} s; not rendered")
+                    yield new_entry(futures[future].job, FAILED, reason=reason, hash=futures[future].digest,
+                                    inputs=futures[future].inputs)
+                return
+
+
+WATCH_SECONDS = 2.0  # how often a batch on a cluster looks at its workers while scenes render
+
+
+def _workers(client) -> set[str] | None:
+    """The addresses of the cluster's workers now, or None when the scheduler does not answer."""
+    try:
+        return set(client.scheduler_info(n_workers=-1).get("workers", {}))
+    except (OSError, TimeoutError):
+        return None

@@ -105,6 +105,7 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
     outcomes: dict[str, Outcome] = {}
     tasks: list[Task] = []
     begun: set[str] = set()  # names the executor has started
+    said: list[str] = []  # what the executor tells on its way (a cluster's lost workers)
     written = time.perf_counter()
     processes = threads = 0
     startup = 0.0
@@ -123,7 +124,7 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
 
     def report() -> BatchReport:
         return BatchReport(folder=folder, outcomes=[outcomes[job.name] for job in jobs], startup=startup,
-                           warnings=[w for w in (warning, capped) if w])
+                           warnings=[w for w in (warning, capped, *said) if w])
 
     try:
         stop_if_received()  # a signal while the program started: the manifest says every scene is not started
@@ -141,7 +142,7 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
         tasks = [replace(task, threads=threads, max_memory=max_memory) for task in tasks]
         startup = warm_up(tasks) if scheduler is None else 0.0
         stop_if_received()
-        executed = _executor(tasks, scheduler, processes, begun)
+        executed = _executor(tasks, scheduler, processes, begun, said)
         for outcome in executed:
             record(outcome)
     except (KeyboardInterrupt, SystemExit) as stop:
@@ -170,10 +171,12 @@ def _run_locked(jobs: list[Job], folder: Path, workers: int | None, force: bool,
     return done
 
 
-def _executor(tasks: list[Task], scheduler: str | None, processes: int, begun: set[str]) -> Iterator[Outcome]:
-    """The tasks' outcomes as they finish: on a Dask cluster, in this process, or on worker processes."""
+def _executor(tasks: list[Task], scheduler: str | None, processes: int, begun: set[str],
+              warnings: list[str]) -> Iterator[Outcome]:
+    """The tasks' outcomes as they finish: on a Dask cluster (its lost workers said in `warnings`), in this
+    process, or on worker processes."""
     if scheduler is not None:
-        return on_cluster(tasks, scheduler, begun)
+        return on_cluster(tasks, scheduler, begun, warnings)
     if processes <= 1:
         return in_process(tasks, begun)
     return process_pool(tasks, processes, begun)
