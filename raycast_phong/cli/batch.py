@@ -167,11 +167,21 @@ def _batch_with_progress(found, out: Path, jobs: int | None, force: bool, settin
                 bar.echo(f"[{done}/{total} {time.perf_counter() - started:.2f}s] {outcome.status}: "
                          f"{one_line(outcome.name)}{timing}")
             if outcome.status == RENDERED:  # said once, when it renders; an up-to-date scene's are in the manifest
-                for warning in outcome.warnings:
-                    bar.echo(f"warning: {one_line(outcome.line(warning))}", fg=typer.colors.YELLOW)
-                for note in [] if quiet else outcome.notes:
-                    bar.echo(f"note: {one_line(outcome.line(note))}")
+                for kind, message in [*(("warning", w) for w in outcome.warnings),
+                                      *(("note", n) for n in ([] if quiet else outcome.notes))]:
+                    if (outcome.scene, message) in said:  # another cell of one sweep: the same line again
+                        said[(outcome.scene, message)] += 1
+                        continue
+                    said[(outcome.scene, message)] = 0
+                    bar.echo(f"{kind}: {one_line(outcome.line(message))}",
+                             **({"fg": typer.colors.YELLOW} if kind == "warning" else {}))
             bar.update(done, total, f"{outcome.status}: {one_line(outcome.name)}")
 
+        said: dict[tuple[str, str], int] = {}  # (scene, warning or note) → times it came again
         bar.update(0, len(found), "scenes")
-        return run_batch(found, out, progress=finished, **options)
+        report = run_batch(found, out, progress=finished, **options)
+        again = sum(1 for count in said.values() if count)
+        if again and not quiet:
+            bar.echo(f"note: {again} of the lines above came again in other sweep cells of the same scene: each said "
+                     "once (every scene's own are in the manifest)")
+        return report

@@ -136,7 +136,21 @@ def load_sweep(path: str | Path) -> Sweep:
         raise SceneError(f"{sizes} = {cells:,} cells, more than the {MAX_SWEEP_CELLS:,} a sweep renders (each is a "
                          "render and a cell of the contact sheet); split the sweep or use fewer values",
                          where.at("grid"))
-    return Sweep(path=path, scene=path.parent / data["scene"], fixed=tuple(fixed), axes=tuple(axes))
+    return Sweep(path=path, scene=_base_scene(path.parent, data["scene"]), fixed=tuple(fixed), axes=tuple(axes))
+
+
+def _base_scene(folder: Path, name: str) -> Path:
+    """The base scene a sweep names, relative to the sweep's folder, said as the user would say it: without `..`
+    steps (docs/figures/../../scenes/x.toml is scenes/x.toml), relative to the working folder when it is below it,
+    else absolute; `..` is taken on the real path (symbolic links followed), as the file system takes it."""
+    joined = folder / name
+    if ".." not in joined.parts:
+        return joined
+    real = joined.resolve()
+    try:
+        return real.relative_to(Path.cwd())
+    except ValueError:
+        return real
 
 
 def _leaves(table: dict, prefix: str = "") -> list[tuple[str, Any]]:

@@ -362,3 +362,25 @@ def test_batch_reads_scene_paths_from_stdin(tmp_path):
 def test_batch_help_says_how_to_pipe_paths_in():
     result = runner.invoke(app, ["batch", "--help"])
     assert "- reads scene paths from stdin" in " ".join(result.output.replace("│", " ").split()), result.output
+
+
+def test_a_sweeps_cells_say_a_shared_warning_once_with_the_base_scene_s_plain_path(tmp_path, monkeypatch):
+    """Every cell of a sweep over scenes/specular.toml warns of the sub-pixel highlight: said once (with the first
+    cell's name), then a note that lines came again; the base scene, named "../scenes/specular.toml" from the
+    sweep's folder, is said as scenes/specular.toml from the working folder, not sweeps/../scenes/specular.toml."""
+    (tmp_path / "scenes").mkdir()
+    (tmp_path / "sweeps").mkdir()
+    (tmp_path / "scenes" / "specular.toml").write_text((ROOT / "scenes" / "specular.toml").read_text())
+    (tmp_path / "sweeps" / "s.toml").write_text('scene = "../scenes/specular.toml"\n'
+                                                'set = ["render.width=240", "render.height=90"]\n\n'
+                                                '[grid]\nrender.shading = ["flat", "phong"]\n')
+    monkeypatch.chdir(tmp_path)
+    done = run("sweeps/s.toml", "--out", "out", "--jobs", "1")
+    assert done.exit_code == 0, done.output
+    warned = [line for line in done.output.splitlines() if line.startswith("warning: ")]
+    highlight = [line for line in warned if "may fall between pixel centres" in line]
+    assert len(highlight) == 1 and highlight[0].startswith("warning: scenes/specular.toml: "), warned
+    assert ".." not in "".join(warned), warned
+    assert "came again in other sweep cells of the same scene: each said once" in done.output, done.output
+    entries = manifest(tmp_path / "out")
+    assert all(any("pixel centres" in w for w in entry["warnings"]) for entry in entries.values()), entries
