@@ -34,7 +34,7 @@ def check_output_path(path: str | Path, inputs: tuple[str | Path, ...] = ()) -> 
     """Refuse, before rendering, an output whose folder is missing, whose format is unknown, that is a
     folder, or that is one of the command's `inputs` (writing it would destroy what is being read)."""
     path = Path(path)
-    if path.is_dir():  # before the suffix: a folder has none, and "no extension" would not say why
+    if os.path.isdir(path):  # before the suffix: a folder has none, and "no extension" would not say why
         raise ImageError(f"{path}: the output is a folder; give a file name in it, e.g. {path / 'render.png'}")
     if path.suffix.lower() not in IMAGE_SUFFIXES:
         got = f"not {path.suffix!r}" if path.suffix else "it has no extension"

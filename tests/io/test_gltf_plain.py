@@ -1,7 +1,7 @@
-"""A plain glTF (one node, one indexed triangle primitive of float positions and normals, no material, transform or
-extension: a scan as exporters write it) is read by numpy views of its buffers (gltf_decode.plain_part), without
-trimesh, into the very MeshFile trimesh's reader gave; any other document still goes to trimesh. The files are
-written here from the glTF 2.0 specification (a GLB's JSON and BIN chunks, §4.4)."""
+"""A glTF of float triangle primitives placed by nodes, with materials, texture coordinates and images, is read by
+numpy views of its buffers (io/meshes/gltf_parts.py), without trimesh, into the very MeshFile trimesh's reader
+gave; what it leaves (vertex colours, strips, cameras, ...) still goes to trimesh. The files are written here from
+the glTF 2.0 specification (a GLB's JSON and BIN chunks, §4.4)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from test_obj_plain import assert_same_mesh_file
 
-from raycast_phong.io.meshes import gltf_decode, trimesh_parts
+from raycast_phong.io.meshes import gltf_parts, trimesh_parts
 from raycast_phong.io.meshes import read as mesh_file
 from raycast_phong.io.meshes.source import mesh_source
 
@@ -84,53 +84,94 @@ def nested(key: str, value):
     return change
 
 
-PLAIN = {
+def png_uri(colour: tuple[int, int, int]) -> str:
+    """A 2 × 2 PNG of one colour as a data: URI."""
+    import io
+
+    from PIL import Image
+    out = io.BytesIO()
+    Image.new("RGB", (2, 2), colour).save(out, format="PNG")
+    return "data:image/png;base64," + base64.b64encode(out.getvalue()).decode()
+
+
+def with_uv(tree: dict) -> list:
+    """TEXCOORD_0: the positions' first floats read as (u, v) pairs, a VEC2 accessor on their bufferView."""
+    tree["accessors"].append({"bufferView": 1, "componentType": 5126, "type": "VEC2", "count": len(POINTS)})
+    primitive = tree["meshes"][0]["primitives"][0]
+    primitive["attributes"]["TEXCOORD_0"], primitive["material"] = len(tree["accessors"]) - 1, 0
+    return tree["meshes"]
+
+
+TEXTURED = {"meshes": with_uv,
+            "materials": [{"name": "wood", "pbrMetallicRoughness": {
+                "baseColorFactor": [0.8, 0.5, 0.2, 1], "metallicFactor": 0.1, "roughnessFactor": 0.7,
+                "baseColorTexture": {"index": 0}}, "emissiveFactor": [0.1, 0, 0]}],
+            "textures": [{"source": 0}], "images": [{"uri": png_uri((200, 120, 40))}]}
+READ_HERE = {
     "uint32 indices": {},
     "uint16 indices": {"index_type": 5123},
     "uint8 indices": {"index_type": 5121},
     "no normals": {"normals": False},
     "interleaved": {"interleaved": True},
-}
-TRIMESH_READS = {
     "a material": {"meshes": nested(("meshes", 0, "primitives", 0, "material"), 0),
                    "materials": [{"pbrMetallicRoughness": {"baseColorFactor": [1, 0, 0, 1]}}]},
+    "a textured material": TEXTURED,
     "a translation": {"nodes": nested(("nodes", 0, "translation"), [1.0, 2.0, 3.0])},
     "a rotation on the mesh's node": {"nodes": nested(("nodes", 1, "rotation"), [0.0, 0.0, 0.6, 0.8])},
-    "two nodes place it": {"nodes": nested(("nodes", 0, "children"), [1, 2]),
-                           "scenes": [{"nodes": [0]}], "extras": None},
-    "texture coordinates": {"meshes": nested(("meshes", 0, "primitives", 0, "attributes", "TEXCOORD_0"), 0)},
+    "T, R and S under a matrix": {"nodes": [{"children": [1], "matrix": [2, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 1, 2, 3,
+                                                                          1]},
+                                            {"mesh": 0, "translation": [0.5, 0, 0], "rotation": [0.6, 0, 0, 0.8],
+                                             "scale": [1, -2, 1]}]},
+    "two nodes place it": {"nodes": [{"children": [1, 2]}, {"mesh": 0}, {"mesh": 0, "translation": [3, 0, 0]}]},
+    "two roots": {"nodes": [{"mesh": 0}, {"mesh": 0, "scale": [2, 2, 2]}], "scenes": [{"nodes": [1, 0]}]},
     "no indices": {"meshes": nested(("meshes", 0, "primitives", 0), {"attributes": {"POSITION": 0}})},
+}
+TRIMESH_READS = {
+    "vertex colours": {"meshes": nested(("meshes", 0, "primitives", 0, "attributes", "COLOR_0"), 1)},
+    "texture coordinates of three values": {"meshes": nested(("meshes", 0, "primitives", 0, "attributes",
+                                                               "TEXCOORD_0"), 0)},
+    "a triangle strip": {"meshes": nested(("meshes", 0, "primitives", 0, "mode"), 5)},
+    "a camera": {"nodes": nested(("nodes", 0, "camera"), 0), "cameras": [{"type": "perspective", "perspective": {
+        "yfov": 1.0, "znear": 0.1}}]},
+    "a texture's source in an extension": {**TEXTURED, "textures": [{"extensions": {"EXT_texture_webp": {
+        "source": 0}}}]},
 }
 
 
 def no_trimesh(*arguments, **keywords):
-    raise AssertionError("a plain glTF went to trimesh")
+    raise AssertionError("a glTF this package reads went to trimesh")
 
 
-def read(path: Path, plain: bool, monkeypatch) -> mesh_file.MeshFile:
+def read(path: Path, here: bool, monkeypatch) -> mesh_file.MeshFile:
     with monkeypatch.context() as patch:
-        if not plain:
-            patch.setattr(gltf_decode, "plain_part", lambda *arguments: None)
+        if not here:
+            patch.setattr(gltf_parts, "gltf_parts", lambda *arguments: None)
         return mesh_file.read_file(mesh_source(path), bounds=True)
 
 
 @pytest.mark.parametrize("container", ["glb", "gltf"])
-@pytest.mark.parametrize("case", PLAIN)
-def test_a_plain_gltf_reads_without_trimesh_as_trimesh_read_it(case, container, tmp_path, monkeypatch):
-    tree, data = document(**PLAIN[case])
-    path = (write_glb if container == "glb" else write_gltf)(tmp_path / f"plain.{container}", tree, data)
+@pytest.mark.parametrize("case", READ_HERE)
+def test_a_gltf_reads_without_trimesh_as_trimesh_read_it(case, container, tmp_path, monkeypatch):
+    """Bit for bit: vertices placed by the same products (a node's matrix, then T, R, S; a parent's before a
+    child's), faces turned where a node mirrors, normals, v-up coordinates, materials and their images."""
+    tree, data = document(**READ_HERE[case])
+    path = (write_glb if container == "glb" else write_gltf)(tmp_path / f"here.{container}", tree, data)
     with monkeypatch.context() as patch:
         patch.setattr(trimesh_parts, "load", no_trimesh)
-        plain = mesh_file.read_file(mesh_source(path), bounds=True)
-    assert_same_mesh_file(plain, read(path, False, monkeypatch))
-    np.testing.assert_array_equal(plain.faces, FACES)
-    np.testing.assert_array_equal(plain.vertices, POINTS.astype(np.float64))
+        here = mesh_file.read_file(mesh_source(path), bounds=True)
+    assert_same_mesh_file(here, read(path, False, monkeypatch))
+    if case in ("uint32 indices", "no normals"):
+        np.testing.assert_array_equal(here.faces, FACES)
+        np.testing.assert_array_equal(here.vertices, POINTS.astype(np.float64))
+    if case == "a textured material":
+        (material,) = here.materials
+        assert material.name == "wood" and material.kd == (204 / 255, 128 / 255, 51 / 255)  # 8 bits, as trimesh
+        assert here.texture_sources[material.kd_map].source.size == (2, 2)
+        np.testing.assert_array_equal(here.corner_uv[:, :, 1], (1 - POINTS.reshape(-1)[:18].reshape(9, 2)[:, 1])[
+            FACES].astype(np.float32))  # v up: 1 - v
 
 
 @pytest.mark.parametrize("case", TRIMESH_READS)
-def test_any_other_gltf_is_left_to_trimesh(case, tmp_path):
-    changes = dict(TRIMESH_READS[case])
-    if case == "two nodes place it":
-        changes["nodes"] = [{"children": [1, 2]}, {"mesh": 0}, {"mesh": 0}]
-    tree, data = document(**changes)
-    assert gltf_decode.plain_part(tree, [data], tmp_path / "x.glb") is None
+def test_what_it_does_not_read_is_left_to_trimesh(case, tmp_path):
+    tree, data = document(**TRIMESH_READS[case])
+    assert gltf_parts.gltf_parts(tree, [data], tmp_path / "x.glb") is None

@@ -369,16 +369,18 @@ def _short(value) -> str:
 
 
 def read(reading: Reading) -> Loaded:
-    """The document checked (what it requires, the images it names), then the geometry through trimesh, which
-    is given the document rewritten as plain glTF where it would misread the data (compressed, quantized or
-    instanced data, specular-glossiness materials: io/meshes/gltf_decode.py)."""
-    from .gltf_decode import decode_gltf, needs_decoding, plain_part, read_buffers
+    """The document checked (what it requires, the images it names), then the geometry: by numpy views of its
+    buffers where it holds what io/meshes/gltf_parts.py reads (most files: trimesh's import is half a small file's
+    process), else through trimesh, given the document rewritten as plain glTF where it would misread the data
+    (compressed, quantized or instanced data, specular-glossiness materials: io/meshes/gltf_decode.py)."""
+    from .gltf_decode import decode_gltf, needs_decoding, read_buffers
+    from .gltf_parts import gltf_parts
     path, document = reading.path, reading.source.document
     samplers = check_document(document, path, reading.notes)
-    if not needs_decoding(document.tree) and _may_be_plain(document.tree):
-        plain = plain_part(document.tree, read_buffers(document.tree, path, document, reading.where), path)
-        if plain is not None:
-            return Loaded([plain], samplers=samplers)
+    if not needs_decoding(document.tree):
+        found = gltf_parts(document.tree, read_buffers(document.tree, path, document, reading.where), path)
+        if found is not None:
+            return Loaded(found, samplers=samplers)
     from .trimesh_parts import RegularFiles, load, parts
     resolver = RegularFiles(path)
     resolver.locate = uri_file  # names are URIs, percent-encoded
@@ -388,13 +390,6 @@ def read(reading: Reading) -> Loaded:
     else:
         loaded = load(reading, resolver=resolver)
     return Loaded(parts(loaded), samplers=samplers)
-
-
-def _may_be_plain(tree: dict) -> bool:
-    """Cheap first test for gltf_decode.plain_part (before its buffers are read): no materials, images or
-    extensions, one mesh."""
-    return not any(tree.get(key) for key in ("materials", "images", "extensionsUsed", "skins")) and \
-        isinstance(tree.get("meshes"), list) and len(tree["meshes"]) == 1
 
 
 def count(handle, size: int, source) -> int | None:

@@ -574,61 +574,7 @@ class _Decoder:
             material["pbrMetallicRoughness"] = base
 
 
-PLAIN_ATTRIBUTES = {"POSITION", "NORMAL"}
 INDEX_TYPES = (5121, 5123, 5125)  # glTF 2.0 §3.7.2.1: unsigned byte, short and int indices
-
-
-def plain_part(tree: dict, buffers: list[bytes], path: Path):
-    """The one Part of a plain glTF, read by numpy views of its buffers without trimesh: one node places one mesh
-    of one indexed TRIANGLES primitive of float positions (and normals), no transform on its way from the
-    scene's root, no material, no extension, nothing sparse (a scan as exporters write it). What trimesh's
-    reader gives for it: vertices and normals float64, faces int64, no colours. None for any other document
-    (trimesh reads it)."""
-    from .format import Part
-    try:
-        if tree.get("extensionsUsed") or tree.get("extensionsRequired") or tree.get("skins"):
-            return None
-        nodes, scenes = tree.get("nodes", []), tree.get("scenes", [])
-        scene = scenes[tree.get("scene", 0)]
-        chain, placed, stack = {}, [], [(root, None) for root in scene.get("nodes", [])]
-        while stack:  # the scene's nodes, each with its parent (check_references refused cycles)
-            at, parent = stack.pop()
-            chain[at] = parent
-            placed += [at] if "mesh" in nodes[at] else []
-            stack += [(child, at) for child in nodes[at].get("children", [])]
-        if len(placed) != 1:
-            return None
-        at = placed[0]
-        while at is not None:
-            if any(key in nodes[at] for key in ("matrix", "translation", "rotation", "scale", "extensions")):
-                return None
-            at = chain[at]
-        primitives = tree["meshes"][nodes[placed[0]]["mesh"]]["primitives"]
-        if len(primitives) != 1:
-            return None
-        primitive, accessors = primitives[0], tree["accessors"]
-        attributes = primitive["attributes"]
-        if (primitive.get("mode", 4) != 4 or set(primitive) - {"attributes", "indices", "mode"}
-                or not {"POSITION"} <= set(attributes) <= PLAIN_ATTRIBUTES or "indices" not in primitive):
-            return None
-        for name, index in (*attributes.items(), ("indices", primitive["indices"])):
-            accessor = accessors[index]
-            plain = (accessor.get("componentType") in INDEX_TYPES and accessor.get("type") == "SCALAR"
-                     if name == "indices" else accessor.get("componentType") == 5126 and accessor.get("type") == "VEC3")
-            if not plain or "sparse" in accessor or "bufferView" not in accessor or accessor.get("normalized"):
-                return None
-    except (AttributeError, IndexError, KeyError, TypeError):
-        return None  # a malformed document: trimesh's read words it
-    decoder = _Decoder(tree, buffers, path, [])
-    vertices = decoder.read_accessor(attributes["POSITION"], "POSITION").astype(np.float64)
-    indices = decoder.read_accessor(primitive["indices"], "indices").ravel()
-    if len(indices) % 3 or not len(indices) or indices.max() >= len(vertices):
-        return None
-    normals = None
-    if "NORMAL" in attributes:
-        normals = decoder.read_accessor(attributes["NORMAL"], "NORMAL").astype(np.float64)
-        normals = normals if len(normals) == len(vertices) else None
-    return Part(vertices, indices.astype(np.int64).reshape(-1, 3), normals, None)
 
 
 def node_globals(nodes: list) -> np.ndarray:

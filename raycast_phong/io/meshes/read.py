@@ -25,6 +25,7 @@ from . import read_names
 from .content import check_content
 from .format import Part, Reading
 from .gltf import SPECULAR_GLOSSINESS, TRANSFORM, UNLIT, from_pbr, transform_uv
+from .gltf_parts import GltfMaterial
 from .materials import FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, PartSurface, TextureSource
 from .materials import rgb as _rgb
 from .obj import UV_LIMIT
@@ -305,8 +306,10 @@ def _is_simple(material) -> bool:
 
 
 def _is_pbr(material) -> bool:
-    """Whether a part's material is trimesh's PBRMaterial (a glTF's, a COLLADA's); only a file trimesh read has
-    one, so a file read here alone does not import trimesh for the question."""
+    """Whether a part's material is a glTF's metallic-roughness one: read here (gltf_parts.GltfMaterial) or
+    trimesh's PBRMaterial (a glTF's, a COLLADA's); a file read without trimesh does not import it to ask."""
+    if isinstance(material, GltfMaterial):
+        return True
     trimesh = sys.modules.get("trimesh")
     return trimesh is not None and isinstance(material, trimesh.visual.material.PBRMaterial)
 
@@ -326,7 +329,7 @@ def _corner_colours(part: Part) -> np.ndarray | None:
     None when the part has none. Taken as stored (glTF's COLOR_0 is linear; PLY and OFF colours say nothing,
     and are read as linear too, as before)."""
     visual = part.visual
-    if visual is None and part.colours is None:  # a part of a format read here, without colours
+    if part.colours is None and (visual is None or "trimesh" not in sys.modules):  # read here, without colours
         return None
     import trimesh
     kind = getattr(visual, "kind", None)
