@@ -1182,3 +1182,24 @@ def test_a_scene_the_page_opens_is_measured_in_utf8_bytes_not_characters():
                                                             "opens is at most 60,000 bytes"}, refused
     parsed = loaded(None, {"type": "load", "id": 4, "name": "fits.toml", "text": "é" * 29_999 + "=1"})
     assert parsed["type"] == "error" and "not a TOML scene" in parsed["message"], parsed
+
+
+def test_a_deleted_scene_file_is_said_once_and_its_return_reloads(scene_path, monkeypatch):
+    """The watched file removed (not an editor's quick replace, which GONE_AFTER waits past): every page is told once
+    in one line, the last scene kept; put back, it is read again. A replace faster than GONE_AFTER says nothing."""
+    from raycast_phong.tools.view import session
+    monkeypatch.setattr(session, "WATCH_EVERY", 0.05)
+    monkeypatch.setattr(session, "GONE_AFTER", 0.3)
+    text = scene_path.read_text()
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        scene_path.unlink()
+        gone = json.loads(ws.receive_text())
+        assert gone["type"] == "error" and gone["file"] is True, gone
+        assert gone["message"] == (f"{scene_path.name}: the scene file is gone (deleted or moved); the page keeps the "
+                                   "scene as it was until the file is back")
+        time.sleep(0.5)  # still gone: not said again
+        scene_path.write_text(text.replace("ambient = [0.1, 0.1, 0.1]", "ambient = [0.5, 0.2, 0.1]"))
+        back = json.loads(ws.receive_text())
+        assert back["type"] == "hello" and back["reloaded"] and back["problem"] is None, back
+        assert back["scene"]["ambient"] == [0.5, 0.2, 0.1]

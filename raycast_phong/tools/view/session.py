@@ -19,6 +19,7 @@ from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import suppress
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from starlette.websockets import WebSocket, WebSocketDisconnect
@@ -38,6 +39,7 @@ FRAME_THREADS = 2       # frames rendered at once by one server, over all its pa
 REFERENCE_THREADS = 1   # exact references at once (at nice 19: they use what the frames leave)
 REFERENCE_REST = 0.3    # seconds without a newer request before the exact errors of a full frame are computed
 WATCH_EVERY = 0.5       # seconds between looks at the scene file: an edit shows within a second, the disk idle
+GONE_AFTER = 2.0        # a scene file missing this long is said to be gone (an editor's save replaces it faster)
 MAX_SCENE_BYTES = 60_000     # a scene file the page opens (`load`), in UTF-8 bytes: docs/view.md's 60 kB
 # A page message: a render request is a few hundred bytes of settings; a load carries its scene escaped as JSON,
 # at worst 6 bytes a byte (a control character is \u0001), so a scene of MAX_SCENE_BYTES always fits. The socket
@@ -358,24 +360,39 @@ class Watcher:
     async def watch(self) -> None:
         view = self.view
         path, seen = view.source.watched, version(view.source.watched)
+        gone = 0.0  # seconds the file has been missing
         while view.pages:
             await asyncio.sleep(WATCH_EVERY)
             now = version(path)
-            if now == seen or now is None:  # gone: an editor between its delete and its write, or removed
-                continue
-            seen = now
-            try:
-                fresh = await asyncio.get_running_loop().run_in_executor(None, self.open_source, path)
-            except (SceneError, ViewError, OSError, ValueError) as error:
-                self.problem = f"{error} (the page keeps the scene as it was until the file is valid)"
+            if now is None:  # an editor between its delete and its write, or removed: said once it stays away
+                gone += WATCH_EVERY
+                if gone < GONE_AFTER or seen is None:
+                    continue
+                seen = None
+                self.problem = (f"{path.name}: the scene file is gone (deleted or moved); the page keeps the scene "
+                                "as it was until the file is back")
                 message = {"type": "error", "id": None, "file": True, "message": self.problem}
+            elif now == seen:
+                gone = 0.0
+                continue
             else:
-                view.source.data, view.source.files = fresh.data, fresh.files  # scene_with copies per request
-                self.problem = None
-                message = {**view.greeting(), "reloaded": True}
+                gone, seen = 0.0, now
+                message = await self.reread(path)
             for page in list(view.pages):
                 with suppress(Exception):  # a page closing meanwhile: nothing is owed to it
                     await page.send_text(json.dumps(message))
+
+    async def reread(self, path: Path) -> dict:
+        """The file read again: the new hello for every page, or the one-line message of what is wrong with it."""
+        view = self.view
+        try:
+            fresh = await asyncio.get_running_loop().run_in_executor(None, self.open_source, path)
+        except (SceneError, ViewError, OSError, ValueError) as error:
+            self.problem = f"{error} (the page keeps the scene as it was until the file is valid)"
+            return {"type": "error", "id": None, "file": True, "message": self.problem}
+        view.source.data, view.source.files = fresh.data, fresh.files  # scene_with copies per request
+        self.problem = None
+        return {**view.greeting(), "reloaded": True}
 
 
 def parse(text: str) -> dict:
