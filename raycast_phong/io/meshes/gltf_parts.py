@@ -52,23 +52,21 @@ class GltfVisual(NamedTuple):
     material: GltfMaterial
 
 
-class _Unread(Exception):
-    """Something this reader leaves to trimesh."""
-
-
 def gltf_parts(tree: dict, buffers: list[bytes], path: Path) -> list[Part] | None:
     """The placed Parts of the document `tree` whose buffers are `buffers`, or None (trimesh reads it). Data that
     breaks the specification is refused in the decoder's words (FileProblem: the accessor and what is wrong)."""
     try:
         return _parts(tree, buffers, path)
-    except (_Unread, AttributeError, IndexError, KeyError, TypeError, ValueError, OSError):
-        return None  # trimesh reads it, and words what is wrong with it
+    except NotImplementedError:  # raised here for what this reader leaves to trimesh
+        return None
+    except (AttributeError, IndexError, KeyError, TypeError, ValueError, OSError):
+        return None  # a malformed document or a missing file: trimesh reads it, and words what is wrong
 
 
 def _parts(tree: dict, buffers: list[bytes], path: Path) -> list[Part]:
     nodes = tree.get("nodes", [])
     if tree.get("skins") or any("camera" in node or "extensions" in node for node in nodes):
-        raise _Unread
+        raise NotImplementedError
     decoder = _Decoder(tree, buffers, path, [])
     images = _images(tree, decoder, path)
     materials = [_material(material, tree, images) for material in tree.get("materials", [])]
@@ -95,7 +93,7 @@ def _placed(tree: dict) -> list[tuple[np.ndarray, int]]:
     nodes = tree.get("nodes", [])
     scenes = tree.get("scenes")
     if not scenes:
-        raise _Unread  # trimesh: each mesh once, unplaced
+        raise NotImplementedError  # trimesh: each mesh once, unplaced
     stack = [(None, root) for root in scenes[tree.get("scene", 0)].get("nodes", [])]
     world: dict[int, np.ndarray] = {}
     placed, seen = [], set()
@@ -104,7 +102,7 @@ def _placed(tree: dict) -> list[tuple[np.ndarray, int]]:
         if (parent, at) in seen:
             continue
         if at in world:
-            raise _Unread  # a node under two parents: trimesh's graph keeps one
+            raise NotImplementedError  # a node under two parents: trimesh's graph keeps one
         seen.add((parent, at))
         node = nodes[at]
         stack.extend((at, child) for child in node.get("children", []))
@@ -150,7 +148,7 @@ def _primitive(primitive: dict, decoder: _Decoder, materials: list[GltfMaterial]
     attributes = primitive["attributes"]
     if primitive.get("mode", 4) != 4 or set(primitive) - {"attributes", "indices", "mode", "material", "extras"} \
             or not {"POSITION"} <= set(attributes) <= set(ATTRIBUTES):
-        raise _Unread
+        raise NotImplementedError
     for name, index in (*attributes.items(), *((("indices", primitive["indices"]),) if "indices" in primitive
                                               else ())):
         accessor = decoder.tree["accessors"][index]
@@ -158,7 +156,7 @@ def _primitive(primitive: dict, decoder: _Decoder, materials: list[GltfMaterial]
                  if name == "indices" else accessor.get("componentType") == 5126 and accessor.get("type") ==
                  ATTRIBUTES[name])
         if not plain or "sparse" in accessor or "bufferView" not in accessor or accessor.get("normalized"):
-            raise _Unread
+            raise NotImplementedError
     vertices = decoder.read_accessor(attributes["POSITION"], "POSITION").astype(np.float64)
     if "indices" in primitive:
         faces = decoder.read_accessor(primitive["indices"], "indices").reshape(-1, 3).astype(np.int64)
@@ -179,7 +177,7 @@ def _primitive(primitive: dict, decoder: _Decoder, materials: list[GltfMaterial]
 
 def _material(material: dict, tree: dict, images: list) -> GltfMaterial:
     if TRIMESH_READS in (material.get("extensions") or {}):
-        raise _Unread
+        raise NotImplementedError
     rough = material.get("pbrMetallicRoughness") or {}
 
     def number(table: dict, key: str) -> float | None:
@@ -187,7 +185,7 @@ def _material(material: dict, tree: dict, images: list) -> GltfMaterial:
         if value is None:
             return None
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise _Unread
+            raise NotImplementedError
         return float(value)
 
     def image(table: dict, key: str):
@@ -196,23 +194,23 @@ def _material(material: dict, tree: dict, images: list) -> GltfMaterial:
             return None
         texture = tree["textures"][info["index"]]
         if texture.get("extensions") or not isinstance(texture.get("source"), int):
-            raise _Unread
+            raise NotImplementedError
         return images[texture["source"]]
 
     base = rough.get("baseColorFactor")
     if base is not None:  # trimesh's to_rgba: 8 bits, rounded, non-finite values 0
         base = np.asarray(base, np.float64)
         if base.shape != (4,):
-            raise _Unread
+            raise NotImplementedError
         base = np.clip(np.where(np.isfinite(base), base, 0.0) * 255, 0, 255).round().astype(np.uint8)
     emissive = material.get("emissiveFactor")
     if emissive is not None:
         emissive = np.asarray(emissive, np.float64).reshape(3)
         if emissive.min() < 0:
-            raise _Unread
+            raise NotImplementedError
     mode = material.get("alphaMode")
     if mode is not None and mode not in ("OPAQUE", "MASK", "BLEND"):
-        raise _Unread
+        raise NotImplementedError
     return GltfMaterial(material.get("name"), base, number(rough, "metallicFactor"), number(rough, "roughnessFactor"),
                         emissive, mode, number(material, "alphaCutoff"), image(rough, "baseColorTexture"),
                         image(material, "emissiveTexture"), image(rough, "metallicRoughnessTexture"),
@@ -225,7 +223,7 @@ def _images(tree: dict, decoder: _Decoder, path: Path) -> list:
         return []
     import PIL.Image
 
-    from .gltf import uri_file
+    from .gltf_json import uri_file
     opened = []
     for entry in tree["images"]:
         if "bufferView" in entry:
@@ -237,11 +235,11 @@ def _images(tree: dict, decoder: _Decoder, path: Path) -> list:
             with open_regular(file, str(file), "image file") as handle:  # not a FIFO, not a device
                 data = handle.read()
         else:
-            raise _Unread
+            raise NotImplementedError
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", PIL.Image.DecompressionBombWarning)  # its size is weighed before
                 opened.append(PIL.Image.open(io.BytesIO(data)))
         except Exception as error:  # any image PIL cannot open: trimesh notes it its own way
-            raise _Unread from error
+            raise NotImplementedError from error
     return opened
