@@ -17,7 +17,15 @@ class BuildWithScenes(build_py):
         target = Path(self.build_lib) / "raycast_phong" / "data" / "scenes"
         if target.exists():
             shutil.rmtree(target)
-        shutil.copytree(source, target, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.py"))
+        code = shutil.ignore_patterns("__pycache__", "*.pyc", "*.py")
+
+        def ignored(folder: str, names: list[str]) -> set[str]:
+            """Code, and beside the scenes the images a render wrote there (`render scenes/x.toml` writes x.png)."""
+            skip = set(code(folder, names))
+            if Path(folder) == source:
+                skip |= {name for name in names if Path(name).suffix.lower() in (".png", ".exr")}
+            return skip
+        shutil.copytree(source, target, ignore=ignored)
 
 
 setup(cmdclass={"build_py": BuildWithScenes})

@@ -60,6 +60,8 @@ def _once(problem: str, where: str) -> str:
         if problem.startswith(start):
             problem = problem[len(start):]
             break
+    if problem.endswith(f" {quoted}"):  # "no such mesh file 'm.obj'" at m.obj: "m.obj: no such mesh file"
+        problem = problem[:-len(quoted) - 1]
     return problem.replace(quoted, "the file")
 
 

@@ -71,6 +71,10 @@ def read_scene_file(path: Path, max_memory: int | None = None) -> dict:
         where = f"line {error.lineno}, column {error.colno}"
         raise SceneError(f"JSON syntax error at {where}: {error.msg}", path) from None
     except tomllib.TOMLDecodeError as error:
+        if not stdin and path.suffix.lower() not in ("", ".toml"):  # README.md, notes.txt: not a scene at all
+            from .meshes import read_names
+            raise SceneError(f"not a scene file (read as TOML: {error}); allowed: a scene file (.toml, .json) or "
+                             f"a mesh file ({read_names()})", path) from None
         raise SceneError(f"TOML syntax error: {error}", path) from None
     except (RecursionError, ValueError) as error:
         raise SceneError(syntax_limit(error), path) from None

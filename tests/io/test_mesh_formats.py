@@ -183,3 +183,23 @@ def test_a_format_not_read_is_named_with_those_that_are_not_read_as_toml(tmp_pat
     assert line.startswith(f"error: {path}: {said}, which this renderer does not read; it reads scene files"), line
     assert "OBJ, PLY, STL, OFF, glTF/GLB, 3MF, COLLADA" in line and not (tmp_path / "x.png").exists()
     assert ("convert it to glTF" in line) == (said != "its format is a PNG image")
+
+
+@pytest.mark.parametrize(("name", "text", "said"), [
+    ("README.md", "# A title\n\nSome text, not a scene.\n", "not a scene file (read as TOML: "),
+    ("scene.toml", "a = \n", "TOML syntax error: "),  # a scene with a mistake: said as one
+    ("scene", "a = \n", "TOML syntax error: "),  # no suffix: a scene, as TOML
+])
+def test_a_text_file_that_is_no_scene_is_said_to_be_none(tmp_path, name, text, said):
+    """`render README.md` said "TOML syntax error: Expected '=' ..." as if the file were a broken scene; a file of
+    another suffix that is not TOML is said to be no scene, with what is read. A .toml keeps its syntax error."""
+    from typer.testing import CliRunner
+
+    from raycast_phong.cli import app
+    path = tmp_path / name
+    path.write_text(text)
+    done = CliRunner().invoke(app, ["render", str(path), "-o", str(tmp_path / "x.png")])
+    assert done.exit_code == 2, done.output
+    [line] = done.stderr.strip().splitlines()
+    assert line.startswith(f"error: {path}: {said}"), line
+    assert ("allowed: a scene file (.toml, .json) or a mesh file (OBJ, PLY" in line) == (name == "README.md"), line

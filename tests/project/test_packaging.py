@@ -30,6 +30,7 @@ def test_the_wheel_holds_every_module_and_data_file(tmp_path):
         if (ROOT / name).is_file():
             (source / name).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(ROOT / name, source / name)
+    (source / "scenes" / "default.png").write_bytes(b"a render README's examples write beside the scene")
     built = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q",
                             "-w", str(tmp_path / "dist"), str(source)], capture_output=True, text=True, timeout=600)
     assert built.returncode == 0, built.stderr[-2000:]
@@ -44,8 +45,10 @@ def test_the_wheel_holds_every_module_and_data_file(tmp_path):
     assert not any(name.startswith(("tests/", "benchmarks/", "cli.py")) for name in archive.namelist())
     # The example scenes with their meshes and maps (setup.py), so the default scene and --example work anywhere.
     examples = {path.relative_to(source / "scenes").as_posix() for path in (source / "scenes").rglob("*")
-                if path.is_file() and path.suffix != ".py"}
+                if path.is_file() and path.suffix != ".py" and path.name != "default.png"}
     assert {f"raycast_phong/data/scenes/{name}" for name in examples} <= shipped
+    assert "raycast_phong/data/scenes/default.png" not in shipped  # a render's output is no example
+    assert "raycast_phong/data/scenes/textures/checker.png" in shipped  # a map is
     with zipfile.ZipFile(wheel) as archive:
         metadata = archive.read(next(n for n in archive.namelist() if n.endswith(".dist-info/METADATA"))).decode()
         licence = [n for n in archive.namelist() if n.endswith("licenses/LICENSE")]
