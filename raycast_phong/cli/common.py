@@ -376,8 +376,18 @@ SrgbOption = Annotated[bool, typer.Option(
     "specifies (a glTF file rendered directly already is). Scene files default to `display`: maps and colours "
     "as stored, the PNG as it is.")]
 
+def _assignments(values: list[str] | None) -> list[str] | None:
+    """--set's values checked for their `=` while the command line is parsed, before the scene is read: written
+    `--set render.width 320`, the 320 was taken for the scene file ("320: no such scene file")."""
+    for value in values or ():
+        if "=" not in value:
+            raise typer.BadParameter(f"{value!r} has no '='; expected KEY.PATH=VALUE, e.g. render.width=320 (the "
+                                     "value after '=', not after a space)")
+    return values
+
+
 SetOption = Annotated[list[str], typer.Option(
-    "--set", metavar="KEY.PATH=VALUE",
+    "--set", metavar="KEY.PATH=VALUE", callback=_assignments,
     help="Override a scene key, e.g. `render.width=320`, `lights.0.position=[1,2,3]`, "
          "`materials.red.shininess=8`. Repeatable.")]
 

@@ -295,3 +295,14 @@ def test_a_mistyped_choice_is_one_line_in_the_program_s_words_with_the_closest_c
     line = done.output.strip()
     assert "\n" not in line and line.startswith("error: ") and "Value error" not in line, line
     assert said in line, line
+
+
+@pytest.mark.parametrize("command", ["render", "plan", "scene"])
+def test_a_set_without_its_equals_sign_is_said_before_the_scene_is_read(command):
+    """`--set render.width 320` took 320 for the scene file ("320: no such scene file"): the assignment's missing
+    '=' is said first, whatever follows it."""
+    done = runner.invoke(app, [command, "--set", "render.width", "320"])
+    assert done.exit_code == 2, done.output
+    line = done.output.strip()
+    assert "\n" not in line and "'render.width' has no '='; expected KEY.PATH=VALUE" in line, line
+    assert "no such scene file" not in line

@@ -401,8 +401,7 @@ def test_aovs_without_an_output_path_default_to_exr(tmp_path):
 
 # ---------------------------------------------------------------- --set
 
-@pytest.mark.parametrize(("assignment", "expected"), [
-    ("render.width", "expected KEY.PATH=VALUE, e.g. render.width=320"),
+@pytest.mark.parametrize(("assignment", "expected"), [  # one without '=': tests/cli/test_conventions.py
     ("lights.5.position=[1, 1, 1]", "lights.5: lights is a list of 1 item; allowed indices: 0 to 0"),
     ("objects.first.shape=box", "objects.first: objects is a list of 1 item; allowed indices: 0 to 0"),
     ("render.width.x=3", "render.width is the value 16, not a table, so it has no key 'x'"),
