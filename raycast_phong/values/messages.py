@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import re
 from dataclasses import dataclass
 from numbers import Integral  # an index from numpy (int64) as well
 from typing import Annotated, Any, Literal, get_args, get_origin
@@ -185,9 +186,12 @@ def describe_error(error: ValidationError, where: Location, root: type[BaseModel
                    else "must be a list")
     elif kind == "bool_type":
         message = "must be true or false"
+    guess = ""
+    if kind in ("enum", "literal_error") and isinstance(value, str):  # a mistyped choice: the closest offered
+        guess = did_you_mean(value, re.findall(r"'([^']*)'", str((first.get("ctx") or {}).get("expected", ""))))
     said = "got " in message or (isinstance(value, str) and f'"{value}"' in message)  # the value is in the message
     got = "" if kind == "missing" or isinstance(value, dict) or said else f" (got {shown(value)})"
-    return at, f"{message}{got}"
+    return at, f"{message}{got}{guess}"
 
 
 def _kind_error(place: _Place, kind: str, value: Any) -> str:

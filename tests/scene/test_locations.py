@@ -57,3 +57,17 @@ def test_a_map_that_is_neither_a_file_name_nor_a_table_says_what_a_map_is(value)
                           source="s.toml")
     assert str(raised.value).startswith('s.toml: materials.m.kd_map: must be an image file name or a table '
                                         '{ path = "...", wrap = "clamp" }'), str(raised.value)
+
+
+@pytest.mark.parametrize(("table", "said"), [
+    ({"render": {"shading": "phon"}}, "render.shading: Input should be 'flat', 'gouraud' or 'phong' (got the string "
+                                      "'phon') (did you mean 'phong'?)"),
+    ({"render": {"terminator": "hanikka"}}, "(did you mean 'hanika'?)"),
+    ({"render": {"shading": "xyz"}}, "(got the string 'xyz')"),  # nothing close: no guess
+])
+def test_a_mistyped_choice_in_a_scene_offers_the_closest_one(table, said):
+    """As on the command line (`--shading phongg`): pydantic's "Input should be ..." and the closest choice."""
+    with pytest.raises(rp.SceneError) as refused:
+        rp.validate_scene(table)
+    assert str(refused.value).endswith(said), str(refused.value)
+    assert ("did you mean" in str(refused.value)) == ("xyz" not in said)
