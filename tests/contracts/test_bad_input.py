@@ -422,6 +422,7 @@ def test_plan_refuses_bad_input_too(tmp_path):
 
 
 @pytest.mark.parametrize("address", ["notaurl", "tcp://host", "tcp://127.0.0.1:0", "tcp://127.0.0.1:99999",
+                                     "tcp://127.0.0.1:65536",  # one past the largest port
                                      "tcp://[::1]:8786x", "127.0.0.1 :8786", "tls://127.0.0.1:8786",
                                      "tcp://" + "a" * 10_000 + ":8786", "tcp://" + "a" * 64 + ".org:8786"])
 def test_a_scheduler_that_is_not_an_address_is_one_line(tmp_path, address):
@@ -492,6 +493,21 @@ def test_stdin_or_stdout_closed_is_one_line(tmp_path):
         assert done.returncode == code and says in done.stderr, (command, done.stderr)
         assert done.stderr.count("\n") == (1 if code else 0), (command, done.stderr)
     assert (tmp_path / "b.png").is_file() and not (tmp_path / "a.png").exists()
+
+
+def test_a_list_of_paths_one_byte_over_the_limit_is_refused_not_cut(monkeypatch):
+    """`batch -` reads one byte past MAX_LISTED_BYTES to know a list is too long: one that is is refused, never
+    read in part (its last paths dropped silently); one exactly at the limit is read whole."""
+    import io
+
+    from raycast_phong.errors import SceneError
+    from raycast_phong.tools.batch import jobs
+    monkeypatch.setattr(jobs, "MAX_LISTED_BYTES", 2 << 20)
+    line = b"s" * 1023 + b"\n"
+    exact = line * 2048  # 2 MiB
+    assert len(jobs.listed_paths(io.BytesIO(exact))) == 2048
+    with pytest.raises(SceneError, match="the list of scene paths is more than the 2 MiB allowed"):
+        jobs.listed_paths(io.BytesIO(exact + b"t"))
 
 
 def test_a_listed_path_with_a_nul_byte_is_left_out_and_the_batch_goes_on(tmp_path):

@@ -284,3 +284,15 @@ def test_an_obj_of_a_polygon_and_no_vertices_is_one_line(tmp_path):
     done = CliRunner().invoke(app, ["plan", str(tmp_path / "h.obj"), "--max-memory", "50M"])
     assert done.exit_code == 2 and len(done.output.strip().splitlines()) == 1, done.output
     assert "holds no triangles" in done.output
+
+
+def test_a_file_of_exactly_the_limit_opens_and_one_byte_more_is_refused(tmp_path):
+    """open_regular's `limit` is the most bytes allowed: a file that long opens, one byte longer is one line."""
+    from raycast_phong.errors import SceneError
+    from raycast_phong.io.files import open_regular
+    path = tmp_path / "s.toml"
+    path.write_bytes(b"#" * 4096)
+    with open_regular(path, "s.toml", "scene file", limit=4096) as handle:
+        assert len(handle.read()) == 4096
+    with pytest.raises(SceneError, match=r"the scene file is 4,096 bytes, more than the 4,095"):
+        open_regular(path, "s.toml", "scene file", limit=4095)

@@ -187,6 +187,10 @@ def test_the_count_the_memory_check_weighs_is_what_instance_nodes_build(tmp_path
     path.write_text(text)
     assert mesh_source(path).triangles() == 7
     assert len(read(path).faces) == 7
+    # Two instance_nodes side by side in one node add up too (2 × 3 + 1).
+    path.write_text(text.replace('<node><instance_node url="#three"/></node><node><instance_node url="#three"/></node>',
+                                 '<node><instance_node url="#three"/><instance_node url="#three"/></node>'))
+    assert mesh_source(path).triangles() == 7
 
 
 @pytest.mark.parametrize(("effect", "ka", "kd", "ks", "shininess", "ke"), [

@@ -397,3 +397,23 @@ def test_instances_times_vertices_beyond_32_bits_are_refused_before_placing_them
     path.write_text(json.dumps(document))
     with pytest.raises(SceneError, match=re.escape("places 65,536 × 65,536 vertices; allowed: fewer than 2³²")):
         read_mesh(path, "t")
+
+
+def test_a_compressed_view_decoding_to_more_than_its_accessors_read_is_refused_before_decoding(tmp_path):
+    """A meshopt bufferView's count × byteStride is what its decode allocates: a 2 kB file may claim gigabytes.
+    BoxMeshopt's vertex view claims twice what its accessors read: refused, naming both, before the decoder runs."""
+    path = MODELS / "BoxMeshopt.glb"
+    data = path.read_bytes()
+    tree = glb_document(path)
+    start = 20 + struct.unpack_from("<I", data, 12)[0]
+    binary = data[start + 8:start + 8 + struct.unpack_from("<I", data, start)[0]]
+    index, view = next((k, v) for k, v in enumerate(tree["bufferViews"])
+                       if (v.get("extensions") or {}).get("EXT_meshopt_compression", {}).get("mode") == "ATTRIBUTES")
+    spec = view["extensions"]["EXT_meshopt_compression"]
+    spec["count"] *= 2
+    view["byteLength"] = spec["count"] * spec["byteStride"]
+    bloated = write_glb(tmp_path / "bloated.glb", tree, binary)
+    with pytest.raises(SceneError, match=re.escape(f"bufferViews[{index}].extensions.EXT_meshopt_compression: decodes "
+                                                   f"to {spec['count']} × {spec['byteStride']} bytes, of which its "
+                                                   "accessors read")):
+        read_mesh(bloated, "t")

@@ -109,6 +109,7 @@ def test_off_binary(tmp_path, colours):
     (text("OFF")[:-30], "cut short"),
     (text("OFF").replace(b"0.5 1.8 0", b"0.5 1.x8 0"), "'1.x8', which is not a number"),
     (text("OFF").replace(b"3 3 2 4", b"3 3 2 9"), "face index outside 0..6"),
+    (text("OFF").replace(b"4 0 1 2 3", b"4 0 1 7 3"), "face index outside 0..6"),  # a quad's: the cut skips it
     (text("OFF").replace(b"3 3 2 4", b"5 3 2 4"), "indices where it counts 5"),
     (binary(False)[:-9], "cut short"),
 ])

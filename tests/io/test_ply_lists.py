@@ -169,3 +169,22 @@ def test_a_nameless_property_is_refused_in_one_line_naming_its_header_line(tmp_p
     done = CliRunner().invoke(app, ["render", str(tmp_path / "p.ply"), "-o", str(tmp_path / "p.png")])
     lines = done.stderr.strip().splitlines()
     assert done.exit_code == 2 and len(lines) == 1 and f"header line {line}: " in lines[0], done.output
+
+
+def test_a_texcoord_list_uneven_on_a_later_face_is_left_out_with_a_note(tmp_path):
+    """Every face's list must hold two values a corner, not only the first face's: a file whose third polygon has
+    one value fewer (9 for 5 corners) keeps its faces and colours, and leaves the texture coordinates out, said."""
+    path = write_binary(tmp_path / "house.ply", "little", "uchar", "int", texture=True)
+    data = path.read_bytes()
+    head, body = data.split(b"end_header\n", 1)
+    face = FACES[2]
+    coords = [c for k in face for c in uv(POINTS[k])]
+    whole = struct.pack(f"<B{len(coords)}f", len(coords), *coords)
+    cut = struct.pack(f"<B{len(coords) - 1}f", len(coords) - 1, *coords[:-1])
+    assert body.count(whole) == 1
+    path.write_bytes(head + b"end_header\n" + body.replace(whole, cut))
+    read = mesh_source(path).read()
+    assert sorted(turned(f) for f in read.faces.tolist()) == sorted(turned(f) for f in FANS)
+    assert read.corner_uv is None  # left out: not a misread uv on every face after the short one
+    assert any("its face list 'texcoord' is not one or two entries a corner" in note for note in read.notes), \
+        read.notes

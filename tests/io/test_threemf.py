@@ -348,6 +348,7 @@ def test_a_0_93_draft_texture_maps_its_texture_vertices(tmp_path):
     ('colorid="5,6"', "colorid '5,6' names no plain colour"),
     ('colorid="tex(x)"', "names id 'x'"),
     ('materialid="99999999999"', "names id '99999999999'"),
+    ('materialid="2147483648"', "names id '2147483648'; allowed: a resource id 0 .. 2147483647"),  # 2^31
 ])
 def test_a_bad_0_93_draft_reference_is_one_line(tmp_path, triangle, said):
     path = write_draft(tmp_path / "b.3mf", DRAFT_COLOURS, f'<triangle v1="0" v2="1" v3="2" {triangle}/>')

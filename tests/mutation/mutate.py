@@ -158,6 +158,21 @@ HAND_MUTANTS = (
     ("io/meshes/size", "triangles * (MESH_READ_BYTES + source.format.parse_bytes)", "triangles * MESH_READ_BYTES"),
     ("io/meshes/size", "return size // SMALLEST_TRIANGLE if found is None else found", "return found or 0"),
     ("tools/view/server", 'size = len(text.encode("utf-8", "surrogatepass"))', "size = len(text)"),  # characters
+    # a fourth set, by a session that saw none of the above: its survivors, each with the test written for it
+    ("io/files", "if limit is not None and info.st_size > limit:", "if limit is not None and info.st_size >= limit:"),
+    ("io/meshes/collada", "                    total += node(target)\n",
+     "                    total = max(total, node(target))\n"),  # instance_nodes side by side
+    ("io/meshes/gltf_decode", "elif count * stride > extents[index] + stride + 3:",
+     "elif count * stride > 10 * extents[index] + stride + 3:"),  # a meshopt view decoding 10x its accessors
+    ("io/meshes/threemf_draft", "int(word) < 1 << 31):", "int(word) <= 1 << 31):"),
+    ("io/meshes/ply_lists", "if prop.count is None or (each in (1, 2) and (length == each * corners).all()):",
+     "if prop.count is None or (each in (1, 2) and (length[:1] == each * corners[:1]).all()):"),
+    ("io/meshes/polygons", "usable = ((vertices >= 0) & (vertices < len(points))).all(axis=1)",
+     "usable = ((vertices >= 0) & (vertices <= len(points))).all(axis=1)"),  # a quad's index V: IndexError
+    ("tools/batch/jobs", "data = stream.read(MAX_LISTED_BYTES + 1)", "data = stream.read(MAX_LISTED_BYTES)"),
+    ("cli/batch", "not 0 < int(found[3]) < 65536", "not 0 < int(found[3]) <= 65536"),
+    ("tools/view/server", "if opts.width * opts.height * opts.samples ** 2 > MAX_VIEW_RAYS:",
+     "if opts.width * opts.height * opts.samples > MAX_VIEW_RAYS:"),
 )
 
 OPERATOR_SWAPS = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,

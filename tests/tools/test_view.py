@@ -191,6 +191,7 @@ def test_a_bad_value_gets_the_clis_one_line_message(scene_path, monkeypatch):
     ({"materials.red.kd_map": "/etc/passwd"}, "materials.red.kd_map: the view does not change file paths"),
     ({"materials.red.ke_map.path": "x.png"}, "materials.red.ke_map.path: the view does not change file paths"),
     ({"render.width": 16384, "render.height": 16384}, "rays per frame"),
+    ({"render.width": 1920, "render.height": 1080, "render.samples": 5}, "1920×1080 pixels × 5² samples"),  # 5² > 16
     ({"render..width": 3}, "not a key path"),
     ({"materials.red.shininess": "__import__('os')"}, "materials.red.shininess"),
 ])
