@@ -161,6 +161,18 @@ def test_a_scene_over_the_budget_is_refused_before_any_kernel_is_made_ready(tmp_
     assert "above the 20 MB budget" in done.stderr and "\n" not in done.stderr.strip()
 
 
+def refused_render(path: Path) -> str:
+    """`render PATH -o x.png` beside it: exit 2, no image, and its one stderr line."""
+    from typer.testing import CliRunner
+
+    from raycast_phong.cli import app
+    done = CliRunner().invoke(app, ["render", str(path), "-o", str(path.parent / "x.png")])
+    assert done.exit_code == 2, done.output
+    [line] = done.stderr.strip().splitlines()
+    assert not (path.parent / "x.png").exists()
+    return line
+
+
 @pytest.mark.parametrize("name, content, said", [
     ("model.fbx", b"; FBX 7.4.0 project file\nFBXHeaderExtension:  {\n", "its format is FBX"),  # ASCII FBX
     ("model.fbx", b"Kaydara FBX Binary  \x00\x1a\x00\xe8\x1c\x00\x00", "its format is FBX"),
@@ -172,16 +184,11 @@ def test_a_scene_over_the_budget_is_refused_before_any_kernel_is_made_ready(tmp_
 def test_a_format_not_read_is_named_with_those_that_are_not_read_as_toml(tmp_path, name, content, said):
     """An FBX (what students download most) said "TOML syntax error ... line 1, column 7", a PNG named .toml a
     utf-8 decode error: each is now one line naming its format, the formats read and, for a model, how to convert."""
-    from typer.testing import CliRunner
-
-    from raycast_phong.cli import app
     path = tmp_path / name
     path.write_bytes(content)
-    done = CliRunner().invoke(app, ["render", str(path), "-o", str(tmp_path / "x.png")])
-    assert done.exit_code == 2, done.output
-    [line] = done.stderr.strip().splitlines()
+    line = refused_render(path)
     assert line.startswith(f"error: {path}: {said}, which this renderer does not read; it reads scene files"), line
-    assert "OBJ, PLY, STL, OFF, glTF/GLB, 3MF, COLLADA" in line and not (tmp_path / "x.png").exists()
+    assert "OBJ, PLY, STL, OFF, glTF/GLB, 3MF, COLLADA" in line
     assert ("convert it to glTF" in line) == (said != "its format is a PNG image")
 
 
@@ -193,13 +200,8 @@ def test_a_format_not_read_is_named_with_those_that_are_not_read_as_toml(tmp_pat
 def test_a_text_file_that_is_no_scene_is_said_to_be_none(tmp_path, name, text, said):
     """`render README.md` said "TOML syntax error: Expected '=' ..." as if the file were a broken scene; a file of
     another suffix that is not TOML is said to be no scene, with what is read. A .toml keeps its syntax error."""
-    from typer.testing import CliRunner
-
-    from raycast_phong.cli import app
     path = tmp_path / name
     path.write_text(text)
-    done = CliRunner().invoke(app, ["render", str(path), "-o", str(tmp_path / "x.png")])
-    assert done.exit_code == 2, done.output
-    [line] = done.stderr.strip().splitlines()
+    line = refused_render(path)
     assert line.startswith(f"error: {path}: {said}"), line
     assert ("allowed: a scene file (.toml, .json) or a mesh file (OBJ, PLY" in line) == (name == "README.md"), line
