@@ -9,6 +9,15 @@ from collections.abc import Callable
 from ..codes import StageName
 from ..scene.schema import Scene
 
+# The compiles that are not the shading kernels': by the first kernel's module and name, what the compile notice
+# calls them. The shading kernels compile before these when they compile at all, but after the shadow rays' (so a
+# first global render's notice names both).
+SMALLER_COMPILES = (("renderer.kernels.shadows", "the shadow rays' kernels (global mode), and the shading kernels if "
+                                                 "they are not compiled yet"),
+                    ("crease", "the crease split's kernels"),
+                    ("geometry.", "the mesh preparation's kernels (merge, winding)"),
+                    (".io.", "the mesh reader's kernels"))
+
 
 def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None) -> tuple[str, float]:
     """("compile", seconds) when any kernel this scene's render calls is not in the cache for the signature the
@@ -52,11 +61,17 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None) -
     real = plan.real
 
     def tell(name: str, signature: str) -> None:
-        if announce is not None:
-            precision = np.dtype(real).name
-            announce(f"compiling the {precision} shading kernels (and the mesh preparation's), once after an "
-                     "install or an edit (about 13-18 s of CPU shared by two processes: 6-9 s on an idle 2-core "
-                     "machine)...")
+        """Said once, before the first compile: what compiles, named by its first kernel, and how long it takes."""
+        if announce is None:
+            return
+        smaller = next((what for key, what in SMALLER_COMPILES if key in name), None)
+        if smaller is None:
+            announce(f"compiling the {np.dtype(real).name} shading kernels, the first time after an install or an "
+                     "edit (about 13-18 s of CPU shared by two processes: 6-9 s on an idle 2-core machine)...")
+        else:
+            shading = ", 13-18 s of CPU with the shading kernels" if "shading" in smaller else ""
+            announce(f"compiling {smaller}, the first time a scene needs them after an install or an edit (a few "
+                     f"seconds{shading})...")
 
     def scene_kernels() -> None:  # this scene's own preparation: compiled here while a helper compiles the rest
         if meshes:
