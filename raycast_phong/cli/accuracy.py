@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import textwrap
 import time
 from pathlib import Path
 from typing import Annotated
@@ -220,26 +221,40 @@ def stability(
                                 "seconds": round(r.seconds, 3)} for r in results], indent=2, ensure_ascii=False))
     elif not quiet or failed:  # under -q only the failing cases
         from rich.console import Console
-        from rich.table import Table
 
         from .common import plain_output
-        table = Table(show_lines=True)
-        for name, ratio in (("case", 1), ("property", 3), ("measured", 2)):
-            table.add_column(name, ratio=ratio, overflow="fold")  # a word too long for its column breaks, never cut
-        for name in ("checked", "margin", ""):
-            table.add_column(name, no_wrap=True)
-        table.add_column("s", no_wrap=True)
-        for r in results:
-            if r.passed and quiet:
-                continue
-            checked = "—" if r.value is None else f"{r.value:.3g} {'≥' if r.at_least else '≤'} {r.limit:.3g}"
-            margin = "—" if r.margin is None else ("∞" if math.isinf(r.margin) else f"{r.margin:.3g}×")
-            table.add_row(r.case, r.property, r.figure, checked, margin,
-                          "[green]pass[/]" if r.passed else "[red]FAIL[/]", f"{r.seconds:.2f}")
-        # With no colour system the table is drawn with no escape sequence (NO_COLOR, TERM=dumb). The terminal's
-        # own width: rich wraps each column's text within it (a forced 140 wrapped the lines of an 80-column one).
-        colours = {"color_system": None} if plain_output() else {}
-        Console(**colours).print(table)
+        shown = [r for r in results if not (r.passed and quiet)]
+        rows = [(r, "—" if r.value is None else f"{r.value:.3g} {'≥' if r.at_least else '≤'} {r.limit:.3g}",
+                 "—" if r.margin is None else ("∞" if math.isinf(r.margin) else f"{r.margin:.3g}×")) for r in shown]
+        # With no colour system the output holds no escape sequence (NO_COLOR, TERM=dumb). The terminal's own width
+        # (80 when piped): a table below WIDE_TABLE columns broke its words ("propert y"), so a block per case then.
+        console = Console(**({"color_system": None} if plain_output() else {}))
+        if console.width >= WIDE_TABLE:
+            console.print(_stability_table(rows))
+        else:
+            for r, checked, margin in rows:
+                verdict = typer.style("pass", fg="green") if r.passed else typer.style("FAIL", fg="red")
+                typer.echo(f"{r.case}: {verdict} ({checked}, margin {margin}, {r.seconds:.2f} s)")  # styles: a tty
+                for label, text in (("property", r.property), ("measured", r.figure)):
+                    typer.echo("\n".join(textwrap.wrap(f"{label}: {text}", console.width, initial_indent="  ",
+                                                        subsequent_indent="    ", break_long_words=False)))
         typer.echo(f"{len(results) - failed} passed, {failed} failed")
     if failed:
         raise typer.Exit(code=1)
+
+
+WIDE_TABLE = 120  # columns from which the stability table keeps its words whole
+
+
+def _stability_table(rows):
+    """The stability results as a rich table: case, property, measured, checked, margin, result, seconds."""
+    from rich.table import Table
+    table = Table(show_lines=True)
+    for name, ratio in (("case", 1), ("property", 3), ("measured", 2)):
+        table.add_column(name, ratio=ratio, overflow="fold")  # a word too long for its column breaks, never cut
+    for name in ("checked", "margin", "result", "s"):
+        table.add_column(name, no_wrap=True)
+    for r, checked, margin in rows:
+        table.add_row(r.case, r.property, r.figure, checked, margin,
+                      "[green]pass[/]" if r.passed else "[red]FAIL[/]", f"{r.seconds:.2f}")
+    return table
