@@ -156,3 +156,15 @@ def test_a_missing_home_folder_is_not_made_for_the_cache(tmp_path, monkeypatch):
         assert not (tmp_path / "gone").exists()
     finally:
         jit.cache_folder.cache_clear()
+
+
+@pytest.mark.parametrize(("mode", "used"), [(0o700, True), (0o755, True), (0o770, False), (0o707, False),
+                                            (0o777, False)])
+def test_the_private_cache_folder_is_used_only_if_no_one_else_can_write_it(tmp_path, monkeypatch, mode, used):
+    """numba's cache holds code this process loads: a raycast-phong-<uid> folder that the group or others may
+    write (made so before this user's first run, or changed since) is never used."""
+    monkeypatch.setattr(jit.tempfile, "gettempdir", lambda: str(tmp_path))
+    folder = tmp_path / f"raycast-phong-{os.getuid()}"
+    folder.mkdir()
+    folder.chmod(mode)
+    assert (jit._private_temporary() == folder) is used

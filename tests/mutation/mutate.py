@@ -173,6 +173,7 @@ HAND_MUTANTS = (
     ("cli/batch", "not 0 < int(found[3]) < 65536", "not 0 < int(found[3]) <= 65536"),
     ("tools/view/server", "if opts.width * opts.height * opts.samples ** 2 > MAX_VIEW_RAYS:",
      "if opts.width * opts.height * opts.samples > MAX_VIEW_RAYS:"),
+    ("jit", "and not info.st_mode & 0o022:", "and not info.st_mode & 0o002:"),  # a group-writable cache used
 )
 
 OPERATOR_SWAPS = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,
