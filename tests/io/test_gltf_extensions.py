@@ -107,9 +107,10 @@ def test_emissive_strength_multiplies_the_emissive_factor_and_is_clamped_to_1(tm
     assert any("clamped to 1" in note for note in read.notes), read.notes
 
 
+@pytest.mark.parametrize("before", [(), ("KHR_materials_unlit",)])  # the unread one first, or after one it reads
 @pytest.mark.parametrize(("extension", "words"), [("KHR_texture_basisu", "KTX2 (Basis Universal) textures")])
-def test_an_unsupported_required_extension_is_refused_in_the_renderer_s_words(tmp_path, extension, words):
-    path = quad_gltf(tmp_path, {}, required=(extension,))
+def test_an_unsupported_required_extension_is_refused_in_the_renderer_s_words(tmp_path, extension, words, before):
+    path = quad_gltf(tmp_path, {}, required=(*before, extension))
     with pytest.raises(SceneError) as caught:
         rp.render_file(path, AMBIENT)
     message = str(caught.value)

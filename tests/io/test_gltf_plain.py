@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from test_obj_plain import assert_same_mesh_file
 
+from raycast_phong.errors import SceneError
 from raycast_phong.io.meshes import gltf_parts, trimesh_parts
 from raycast_phong.io.meshes import read as mesh_file
 from raycast_phong.io.meshes.source import mesh_source
@@ -175,3 +176,15 @@ def test_a_gltf_reads_without_trimesh_as_trimesh_read_it(case, container, tmp_pa
 def test_what_it_does_not_read_is_left_to_trimesh(case, tmp_path):
     tree, data = document(**TRIMESH_READS[case])
     assert gltf_parts.gltf_parts(tree, [data], tmp_path / "x.glb") is None
+
+
+def test_an_index_equal_to_the_vertex_count_is_one_line(tmp_path):
+    """glTF's indices are read as stored: one naming vertex V of V vertices is refused by the read's one check
+    (read.py: the face and the allowed range), not an IndexError later."""
+    tree, data = document()
+    faces = FACES.copy()
+    faces[1, 2] = len(POINTS)  # 9, of vertices 0..8
+    data = faces.astype("<u4").tobytes() + data[FACES.size * 4:]
+    path = write_glb(tmp_path / "over.glb", tree, data)
+    with pytest.raises(SceneError, match=r"has 1 face\(s\) with a vertex index outside 0\.\.8 \(first: \[2, 3, 9\]\)"):
+        mesh_file.read_file(mesh_source(path))

@@ -149,3 +149,17 @@ def test_a_header_that_does_not_parse_is_weighed_by_the_file_s_size(tmp_path):
     path = tmp_path / "bad.off"
     path.write_text("OFF\nabc 2 0\n" + "0 0 0\n" * 100)
     assert mesh_source(path).triangles() == path.stat().st_size // SMALLEST_TRIANGLE > 0
+
+
+def test_counts_more_than_the_file_can_hold_are_weighed_by_its_size(tmp_path):
+    """An ASCII OFF writes a vertex in 6 bytes and a triangle in 8 at the least: a 71-byte file that claims 20
+    triangles (178 bytes at the least) is weighed by its size (the read says it is cut short), not by its claim;
+    one whose claim fits is weighed by it."""
+    from raycast_phong.io.meshes.size import SMALLEST_TRIANGLE
+    path = tmp_path / "claims.off"
+    path.write_text("OFF\n3 20 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n" + "#" * 30 + "\n")
+    size = path.stat().st_size
+    assert size < 6 * 3 + 8 * 20 < 3 * size
+    assert mesh_source(path).triangles() == size // SMALLEST_TRIANGLE
+    path.write_text("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
+    assert mesh_source(path).triangles() == 1
