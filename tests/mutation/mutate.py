@@ -182,6 +182,8 @@ HAND_MUTANTS = (
     ("io/meshes/read", "if faces.size and not (0 <= faces.min() and faces.max() < len(vertices)):",
      "if faces.size and not (0 <= faces.min() and faces.max() <= len(vertices)):"),
     ("io/meshes/off", "if 6 * vertices + 8 * faces <= size:", "if 6 * vertices + 8 * faces <= size * 10:"),
+    ("tools/view/session", '    size = len(text.encode("utf-8", "surrogatepass"))  # bytes, as the socket',
+     "    size = len(text)  # bytes, as the socket"),  # a page message in characters
 )
 
 OPERATOR_SWAPS = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,

@@ -1205,3 +1205,15 @@ def test_a_deleted_scene_file_is_said_once_and_its_return_reloads(scene_path, mo
         back = json.loads(ws.receive_text())
         assert back["type"] == "hello" and back["reloaded"] and back["problem"] is None, back
         assert back["scene"]["ambient"] == [0.5, 0.2, 0.1]
+
+
+def test_a_page_message_is_measured_in_utf8_bytes_not_characters():
+    """The socket carries bytes: 300,000 "é" are 600,038 bytes of message, over MAX_MESSAGE_BYTES though fewer
+    characters; refused in one line in bytes, as an ASCII message of that size is."""
+    from raycast_phong.errors import ViewError
+    from raycast_phong.tools.view import session
+    text = '{"type": "render", "id": 9, "pad": "' + "é" * 300_000 + '"}'
+    assert len(text) < session.MAX_MESSAGE_BYTES < len(text.encode())
+    with pytest.raises(ViewError, match=r"^message of 600,038 bytes; allowed: at most 524,288$"):
+        session.parse(text)
+    assert session.parse('{"type": "render", "id": 9, "pad": "' + "é" * 200_000 + '"}')["id"] == 9
