@@ -126,9 +126,15 @@ READ_HERE = {
     "two nodes place it": {"nodes": [{"children": [1, 2]}, {"mesh": 0}, {"mesh": 0, "translation": [3, 0, 0]}]},
     "two roots": {"nodes": [{"mesh": 0}, {"mesh": 0, "scale": [2, 2, 2]}], "scenes": [{"nodes": [1, 0]}]},
     "no indices": {"meshes": nested(("meshes", 0, "primitives", 0), {"attributes": {"POSITION": 0}})},
+    # COLOR_0: the normals' floats, of either sign (clipped), as colours; 8 bits without a material, as trimesh
+    "vertex colours": {"meshes": nested(("meshes", 0, "primitives", 0, "attributes", "COLOR_0"), 1)},
+    "vertex colours beside a material": {"meshes": lambda tree: (nested(("meshes", 0, "primitives", 0, "attributes",
+                                                                        "COLOR_0"), 1)(tree),
+                                                                 nested(("meshes", 0, "primitives", 0, "material"),
+                                                                        0)(tree))[1],
+                                         "materials": [{"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1]}}]},
 }
 TRIMESH_READS = {
-    "vertex colours": {"meshes": nested(("meshes", 0, "primitives", 0, "attributes", "COLOR_0"), 1)},
     "texture coordinates of three values": {"meshes": nested(("meshes", 0, "primitives", 0, "attributes",
                                                                "TEXCOORD_0"), 0)},
     "a triangle strip": {"meshes": nested(("meshes", 0, "primitives", 0, "mode"), 5)},

@@ -4,7 +4,7 @@ io/meshes/trimesh_parts.parts made of it: its nodes in trimesh's order, each pla
 each triangle primitive a part with its normals, its v-up texture coordinates and its material as trimesh's
 PBRMaterial holds it), so the rest of the read (read._surfaces, gltf.from_pbr) is the same code either way.
 
-None for what it leaves to trimesh: vertex colours, strips, fans, points and lines, sparse or integer attributes,
+None for what it leaves to trimesh: strips, fans, points and lines, sparse or integer attributes,
 morph targets, a camera, a node or primitive with extensions, a texture without a plain image source, an image PIL
 cannot open, a buffer or image file that is not there. Material extensions trimesh has no reader for are read
 from the document by gltf.gltf_samplers (unlit, emissive strength) or noted (LOOK_ONLY), the same either way.
@@ -26,7 +26,7 @@ from .gltf_decode import INDEX_TYPES, _Decoder
 
 # The one material extension trimesh reads into its material (the document goes to gltf_decode first anyway).
 TRIMESH_READS = "KHR_materials_pbrSpecularGlossiness"
-ATTRIBUTES = {"POSITION": "VEC3", "NORMAL": "VEC3", "TEXCOORD_0": "VEC2"}
+ATTRIBUTES = {"POSITION": ("VEC3",), "NORMAL": ("VEC3",), "TEXCOORD_0": ("VEC2",), "COLOR_0": ("VEC3", "VEC4")}
 
 
 class GltfMaterial(NamedTuple):
@@ -74,7 +74,7 @@ def _parts(tree: dict, buffers: list[bytes], path: Path) -> list[Part]:
               for mesh in tree.get("meshes", [])]
     found = []
     for matrix, mesh in _placed(tree):
-        for vertices, faces, normals, visual in meshes[mesh]:
+        for vertices, faces, normals, visual, colours in meshes[mesh]:
             if not len(faces):
                 continue
             if not np.array_equal(matrix, np.eye(4)):  # as trimesh_parts.parts places a part
@@ -83,7 +83,7 @@ def _parts(tree: dict, buffers: list[bytes], path: Path) -> list[Part]:
                 normals = None if normals is None or np.linalg.det(linear) == 0 else normals @ np.linalg.inv(linear)
                 if np.linalg.det(linear) < 0:
                     faces = faces[:, ::-1]
-            found.append(Part(vertices, faces, normals, visual, None))
+            found.append(Part(vertices, faces, normals, visual, colours))
     return found
 
 
@@ -144,7 +144,8 @@ def _rotation(xyzw: np.ndarray) -> np.ndarray:
 
 
 def _primitive(primitive: dict, decoder: _Decoder, materials: list[GltfMaterial]):
-    """(vertices float64, faces int64, normals or None, visual or None) of one triangle primitive."""
+    """(vertices float64, faces int64, normals or None, visual or None, colours or None) of one triangle
+    primitive, as trimesh's reader and trimesh_parts.parts gave them."""
     attributes = primitive["attributes"]
     if primitive.get("mode", 4) != 4 or set(primitive) - {"attributes", "indices", "mode", "material", "extras"} \
             or not {"POSITION"} <= set(attributes) <= set(ATTRIBUTES):
@@ -153,7 +154,7 @@ def _primitive(primitive: dict, decoder: _Decoder, materials: list[GltfMaterial]
                                               else ())):
         accessor = decoder.tree["accessors"][index]
         plain = (accessor.get("componentType") in INDEX_TYPES and accessor.get("type") == "SCALAR"
-                 if name == "indices" else accessor.get("componentType") == 5126 and accessor.get("type") ==
+                 if name == "indices" else accessor.get("componentType") == 5126 and accessor.get("type") in
                  ATTRIBUTES[name])
         if not plain or "sparse" in accessor or "bufferView" not in accessor or accessor.get("normalized"):
             raise NotImplementedError
@@ -165,14 +166,21 @@ def _primitive(primitive: dict, decoder: _Decoder, materials: list[GltfMaterial]
     normals = None
     if "NORMAL" in attributes:
         normals = decoder.read_accessor(attributes["NORMAL"], "NORMAL").astype(np.float64)
-    visual = None
+    visual = colours = None
     if "material" in primitive:
         uv = None
         if "TEXCOORD_0" in attributes:
             uv = decoder.read_accessor(attributes["TEXCOORD_0"], "TEXCOORD_0").copy()
             uv[:, 1] = 1.0 - uv[:, 1]  # glTF's v runs down the image; trimesh's and ours up
         visual = GltfVisual(uv, materials[primitive["material"]])
-    return vertices, faces, normals, visual
+    if "COLOR_0" in attributes:  # float colours (integer ones go through gltf_decode), one a vertex, else none
+        colours = decoder.read_accessor(attributes["COLOR_0"], "COLOR_0")
+        if len(colours) != len(vertices):
+            colours = None
+        elif visual is None:  # trimesh kept them as its vertex colours: 8 bits, rounded, non-finite values 0
+            colours = (np.clip(np.where(np.isfinite(colours), colours, 0.0) * 255, 0, 255).round()
+                       .astype(np.uint8))
+    return vertices, faces, normals, visual, colours
 
 
 def _material(material: dict, tree: dict, images: list) -> GltfMaterial:

@@ -328,15 +328,15 @@ def _corner_colours(part: Part) -> np.ndarray | None:
     attributes);
     None when the part has none. Taken as stored (glTF's COLOR_0 is linear; PLY and OFF colours say nothing,
     and are read as linear too, as before)."""
-    visual = part.visual
-    if part.colours is None and (visual is None or "trimesh" not in sys.modules):  # read here, without colours
+    visual, trimesh = part.visual, sys.modules.get("trimesh")  # a trimesh visual only where trimesh read the file
+    if part.colours is None and (visual is None or trimesh is None):  # read here, without colours
         return None
-    import trimesh
     kind = getattr(visual, "kind", None)
-    if isinstance(visual, trimesh.visual.ColorVisuals) and kind == "vertex":
+    colour_visual = trimesh is not None and isinstance(visual, trimesh.visual.ColorVisuals)
+    if colour_visual and kind == "vertex":
         rgb = np.asarray(visual.vertex_colors)[:, :3].astype(np.float32) / 255.0
         return rgb[part.faces]
-    if isinstance(visual, trimesh.visual.ColorVisuals) and kind == "face":
+    if colour_visual and kind == "face":
         rgb = np.asarray(visual.face_colors)[:, :3].astype(np.float32) / 255.0
         return np.repeat(rgb[:, None, :], 3, axis=1)
     attributes = getattr(visual, "vertex_attributes", None) or {}
