@@ -587,10 +587,16 @@ def test_flat_gouraud_and_phong_side_by_side_in_one_view(page, scene_path):
     wait_for_full_frame(page)
     assert [page.text_content(f"#tag-{p}") for p in "abc"] == ["flat", "Gouraud", "Phong"]
     assert page.is_hidden("#heat-box") and page.is_hidden("#editing-label")
+    left = []
     for panel, model in zip("abc", ("flat", "gouraud", "phong")):
-        expected = rp.load_scene(scene_path, [*shading(model), 'render.specular="blinn"'])
-        np.testing.assert_array_equal(page_image(page, f"#image-{panel}"), to_8bit(rp.render(expected).image))
+        expected = rp.render(rp.load_scene(scene_path, [*shading(model), 'render.specular="blinn"']))
+        np.testing.assert_array_equal(page_image(page, f"#image-{panel}"), to_8bit(expected.image))
+        left.append(", ".join(s.name for s in expected.plan.stages if not s.kept) or "nothing")
     assert page.evaluate("window.view.lastFrame.stats.c.width") == WIDTH
+    # Each model's plan leaves out its own stages: said panel by panel (it was the flat panel's alone).
+    assert len(set(left)) > 1, left
+    assert page.text_content("#left-out") == "; ".join(f"{tag}: {stages}" for tag, stages in
+                                                       zip(("flat", "Gouraud", "Phong"), left))
     page.select_option("#compare", "side")
     wait_for_full_frame(page)
     assert [page.text_content(f"#tag-{p}") for p in "ab"] == ["A", "B"] and page.is_hidden("#panel-c")

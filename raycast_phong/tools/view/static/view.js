@@ -374,10 +374,10 @@ function readoutDue(name, quality) {
 // The frame's figures (render time, rays, what the plan left out, its warnings), the times as readoutDue says.
 function readouts(header) {
   const a = header.stats.a;
+  // Compared, each panel's figures: A and B (or the three models), one line each.
+  const names = Object.keys(header.stats);
+  const label = (name) => (names.length === 1 ? "" : `${$(`#tag-${name}`).textContent}: `);
   if (readoutDue("figures", header.quality)) {
-    // Compared, each panel's figures: A and B (or the three models), one line each.
-    const names = Object.keys(header.stats);
-    const label = (name) => (names.length === 1 ? "" : `${$(`#tag-${name}`).textContent}: `);
     setText("#frame-time", names.map((name) => { const f = header.stats[name];
       return `${label(name)}${(1000 * f.frame).toFixed(1)} ms render of ${f.width}×${f.height}`; }).join("; ") +
       ` (${header.quality}), ${(1000 * header.seconds).toFixed(1)} ms in all`);
@@ -385,8 +385,13 @@ function readouts(header) {
       return `${label(name)}${(f.rays_per_second / 1e6).toFixed(1)} M (${f.rays.toLocaleString()} rays, ` +
         `${f.triangles.toLocaleString()} triangles)`; }).join("; "));
   }
-  setText("#left-out", a.left_out.map((s) => s.name).join(", ") || "nothing");
-  const reasons = a.left_out.map((s) => `${s.name}: ${s.reason}`).join("\n");
+  // What each panel's plan left out: said once when the panels agree, else panel by panel (the three models'
+  // plans differ: flat leaves out the vertex normals Phong needs).
+  const lists = names.map((name) => header.stats[name].left_out.map((s) => s.name).join(", ") || "nothing");
+  const agree = lists.every((list) => list === lists[0]);
+  setText("#left-out", agree ? lists[0] : names.map((name, k) => `${label(name)}${lists[k]}`).join("; "));
+  const reasons = (agree ? ["a"] : names).map((name) => header.stats[name].left_out
+    .map((s) => `${agree ? "" : label(name)}${s.name}: ${s.reason}`).join("\n")).filter(Boolean).join("\n");
   if ($("#left-out").title !== reasons) $("#left-out").title = reasons;
   const warnings = $("#warnings");
   if (warnings.children.length !== a.warnings.length
