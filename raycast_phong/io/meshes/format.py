@@ -38,6 +38,20 @@ class Part(NamedTuple):
                                        # COLOR input: trimesh stores them there, not on the visual)
 
 
+def placed(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray | None,
+           matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """A part's (vertices, faces, normals) placed by a node's (4, 4) matrix: vertices by it, normals by its
+    inverse transpose (dropped if it is singular: their length is set by the geometry stage), faces turned over
+    where it mirrors, so they stay outward. The identity leaves the arrays as they are (most files)."""
+    if np.array_equal(matrix, np.eye(4)):
+        return vertices, faces, normals
+    linear = matrix[:3, :3]
+    determinant = np.linalg.det(linear)
+    vertices = vertices @ linear.T + matrix[:3, 3]
+    normals = None if normals is None or determinant == 0 else normals @ np.linalg.inv(linear)
+    return vertices, faces[:, ::-1] if determinant < 0 else faces, normals
+
+
 class Reading(NamedTuple):
     """What a format's `read` is given: the file open at its start, what was learnt of the file before (its
     MeshSource: its path, where errors point), and the lists its notes and texture sources are added to."""

@@ -328,7 +328,7 @@ def check_references(tree: dict, path: Path) -> None:
             if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value < size:
                 allowed = f"0..{size - 1}" if size else f"none: the file has no {field}s"
                 raise FileProblem(f"{str(path)!r}: {kind}[{n}].{field} is {_short(value)}; allowed: {allowed}")
-    from .gltf_decode import DTYPES, WIDTHS
+    from .gltf_decode import DTYPES, WIDTHS, short_stride
     for n, accessor in enumerate(table("accessors")):  # an element fits its stride (§3.6.2.4); trimesh overlapped them
         try:
             stride = views[accessor["bufferView"]].get("byteStride")
@@ -336,8 +336,7 @@ def check_references(tree: dict, path: Path) -> None:
         except (AttributeError, KeyError, TypeError):
             continue  # no bufferView, or a malformed accessor: the read words it
         if isinstance(stride, int) and not isinstance(stride, bool) and stride < element:
-            raise FileProblem(f"{str(path)!r}: bufferViews[{accessor['bufferView']}].byteStride is {stride}, less "
-                              f"than the {element} bytes of accessors[{n}]'s elements; allowed: {element} or more")
+            raise FileProblem(f"{str(path)!r}: {short_stride(accessor['bufferView'], stride, n, element)}")
 
 
 TRS = (("matrix", 16), ("translation", 3), ("rotation", 4), ("scale", 3))

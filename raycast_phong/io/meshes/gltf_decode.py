@@ -220,10 +220,8 @@ class _Decoder:
             stride = int(view.get("byteStride") or element)
             start = int(accessor.get("byteOffset", 0))
             end = start + (count - 1) * stride + element if count else start
-            if stride < element:  # elements would overlap: not "within the bufferView" but its stride
-                raise self.refuse(f"bufferViews[{accessor['bufferView']}].byteStride",
-                                  f"is {stride}, less than the {element} bytes of accessors[{index}]'s elements; "
-                                  f"allowed: {element} or more")
+            if stride < element:  # a decoded view's stride (gltf.check_references sees the file's own)
+                raise FileProblem(f"{str(self.path)!r}: {short_stride(accessor['bufferView'], stride, index, element)}")
             if start < 0 or end > len(data):
                 raise self.refuse(f"accessors[{index}]", f"its {count} element(s) of {element} bytes every "
                                                          f"{stride} from byte {start} overrun its bufferView of "
@@ -572,6 +570,13 @@ class _Decoder:
             if "diffuseTexture" in spec:
                 base["baseColorTexture"] = spec["diffuseTexture"]
             material["pbrMetallicRoughness"] = base
+
+
+def short_stride(view: int, stride: int, accessor: int, element: int) -> str:
+    """The problem of a bufferView whose byteStride is shorter than an accessor's elements (glTF 2.0 §3.6.2.4:
+    an element fits its stride): read so, the elements would overlap."""
+    return (f"bufferViews[{view}].byteStride is {stride}, less than the {element} bytes of accessors[{accessor}]'s "
+            f"elements; allowed: {element} or more")
 
 
 INDEX_TYPES = (5121, 5123, 5125)  # glTF 2.0 §3.7.2.1: unsigned byte, short and int indices

@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..files import open_regular
-from .format import Part
+from .format import Part, placed
 from .gltf_decode import INDEX_TYPES, _Decoder
 
 # The one material extension trimesh reads into its material (the document goes to gltf_decode first anyway).
@@ -75,15 +75,8 @@ def _parts(tree: dict, buffers: list[bytes], path: Path) -> list[Part]:
     found = []
     for matrix, mesh in _placed(tree):
         for vertices, faces, normals, visual, colours in meshes[mesh]:
-            if not len(faces):
-                continue
-            if not np.array_equal(matrix, np.eye(4)):  # as trimesh_parts.parts places a part
-                linear = matrix[:3, :3]
-                vertices = vertices @ linear.T + matrix[:3, 3]
-                normals = None if normals is None or np.linalg.det(linear) == 0 else normals @ np.linalg.inv(linear)
-                if np.linalg.det(linear) < 0:
-                    faces = faces[:, ::-1]
-            found.append(Part(vertices, faces, normals, visual, colours))
+            if len(faces):
+                found.append(Part(*placed(vertices, faces, normals, matrix), visual, colours))
     return found
 
 
@@ -177,9 +170,8 @@ def _primitive(primitive: dict, decoder: _Decoder, materials: list[GltfMaterial]
         colours = decoder.read_accessor(attributes["COLOR_0"], "COLOR_0")
         if len(colours) != len(vertices):
             colours = None
-        elif visual is None:  # trimesh kept them as its vertex colours: 8 bits, rounded, non-finite values 0
-            colours = (np.clip(np.where(np.isfinite(colours), colours, 0.0) * 255, 0, 255).round()
-                       .astype(np.uint8))
+        elif visual is None:  # trimesh kept them as its vertex colours, in 8 bits
+            colours = _eight_bits(colours)
     return vertices, faces, normals, visual, colours
 
 
@@ -206,11 +198,11 @@ def _material(material: dict, tree: dict, images: list) -> GltfMaterial:
         return images[texture["source"]]
 
     base = rough.get("baseColorFactor")
-    if base is not None:  # trimesh's to_rgba: 8 bits, rounded, non-finite values 0
+    if base is not None:
         base = np.asarray(base, np.float64)
         if base.shape != (4,):
             raise NotImplementedError
-        base = np.clip(np.where(np.isfinite(base), base, 0.0) * 255, 0, 255).round().astype(np.uint8)
+        base = _eight_bits(base)
     emissive = material.get("emissiveFactor")
     if emissive is not None:
         emissive = np.asarray(emissive, np.float64).reshape(3)
@@ -223,6 +215,12 @@ def _material(material: dict, tree: dict, images: list) -> GltfMaterial:
                         emissive, mode, number(material, "alphaCutoff"), image(rough, "baseColorTexture"),
                         image(material, "emissiveTexture"), image(rough, "metallicRoughnessTexture"),
                         image(material, "normalTexture"), image(material, "occlusionTexture"))
+
+
+def _eight_bits(values: np.ndarray) -> np.ndarray:
+    """Colour values in [0, 1] as trimesh stores a material's factor and vertex colours (its to_rgba): uint8,
+    round(255 x) clipped to 0..255, a NaN or infinite value 0."""
+    return np.clip(np.where(np.isfinite(values), values, 0.0) * 255, 0, 255).round().astype(np.uint8)
 
 
 def _images(tree: dict, decoder: _Decoder, path: Path) -> list:

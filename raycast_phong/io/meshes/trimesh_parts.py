@@ -15,7 +15,7 @@ import trimesh
 from PIL.Image import DecompressionBombWarning
 
 from ..files import open_regular
-from .format import Part, Reading
+from .format import Part, Reading, placed
 
 TRIMESH = Path(trimesh.__file__).resolve().parent  # an exception that passed through here: trimesh refused the file
 
@@ -94,17 +94,10 @@ def parts(loaded) -> list[Part]:
     for transform, mesh in instances:
         if not isinstance(mesh, trimesh.Trimesh) or not len(mesh.faces):
             continue
-        linear, faces = transform[:3, :3], np.asarray(mesh.faces, np.int64)
-        vertices = np.asarray(mesh.vertices, np.float64)
         # The raw dict, not `in mesh._cache`: that re-hashes the arrays to validate the cache (slow without xxhash).
         normals = mesh._cache.cache.get("vertex_normals")
-        normals = None if normals is None else np.asarray(normals, np.float64)
-        if not np.array_equal(transform, np.eye(4)):  # most files: one part, placed as it is
-            vertices = vertices @ linear.T + transform[:3, 3]
-            # Normals transform with the inverse transpose; their length is set by the geometry stage.
-            normals = None if normals is None or np.linalg.det(linear) == 0 else normals @ np.linalg.inv(linear)
-            if np.linalg.det(linear) < 0:
-                faces = faces[:, ::-1]  # a mirroring node keeps the faces outward
+        vertices, faces, normals = placed(np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64),
+                                          None if normals is None else np.asarray(normals, np.float64), transform)
         colours = None
         if not isinstance(mesh.visual, trimesh.visual.ColorVisuals):
             colours = mesh.vertex_attributes.get("color")
