@@ -35,7 +35,7 @@ def check_output_path(path: str | Path, inputs: tuple[str | Path, ...] = ()) -> 
     folder, or that is one of the command's `inputs` (writing it would destroy what is being read)."""
     path = Path(path)
     if os.path.isdir(path):  # before the suffix: a folder has none, and "no extension" would not say why
-        raise ImageError(f"{path}: the output is a folder; give a file name in it, e.g. {path / 'render.png'}")
+        check_output_file(path, inputs)  # which says it is a folder
     if path.suffix.lower() not in IMAGE_SUFFIXES:
         got = f"not {path.suffix!r}" if path.suffix else "it has no extension"
         raise ImageError(f"{path}: the output must end in .png (8-bit) or .exr (float32), {got}")
@@ -51,7 +51,7 @@ def check_output_file(path: Path, inputs: tuple[str | Path, ...] = ()) -> None:
         raise ImageError(f"{path}: the output folder {str(folder)!r} does not exist; create it or choose an "
                          "existing folder")
     if path.is_dir():
-        raise ImageError(f"{path}: the output is a folder; give a file name in it")
+        raise ImageError(f"{path}: the output is a folder; give a file name in it, e.g. {path / 'render.png'}")
     for given in inputs:
         if _same_file(path, Path(given)):
             raise ImageError(f"{path}: the output is the input {given}; writing it would replace what is read")
