@@ -151,13 +151,13 @@ def write_diagnostics(folder: Path, name: str, image: np.ndarray, reference: np.
 @dataclass(frozen=True)
 class SideBySide:
     """Where write_previews puts the three W×H panels "actual | reference | difference", in pixels (x to the
-    right, y down). Font size f = clamp(round(H / 10), 10, 32), gap g = f // 2, label strip s = f + f // 2:
+    right, y down). Font size f = io.labels.panel_font(H) (clamp(round(H / 10), 10, 32), as compare's), gap g =
+    f // 2, label strip s = f + f // 2:
 
         y = g        the labels, height s, each over its panel
         y = g + s    the panels, height H, at x = g, 2g + W, 3g + 2W
 
-    Size: width 3W + 4g, height H + s + 2g; BACKDROP grey around the panels (the font's size and the gaps
-    follow compare --vary's layout)."""
+    Size: width 3W + 4g, height H + s + 2g; io.labels.BACKDROP grey around the panels."""
     width: int   # W, one panel
     height: int  # H
     font: int    # f
@@ -166,7 +166,8 @@ class SideBySide:
 
     @classmethod
     def of(cls, width: int, height: int) -> SideBySide:
-        font = min(max(round(height / 10), 10), 32)
+        from .io.labels import panel_font
+        font = panel_font(height)
         return cls(width, height, font, font // 2, font + font // 2)
 
     @property
@@ -178,8 +179,6 @@ class SideBySide:
         return self.gap + index * (self.width + self.gap)
 
 
-BACKDROP = 0.18  # compare --vary's grey: a black panel keeps a visible edge, and white text reads on it
-MIN_FONT = 8     # a label shrinks to fit down to this size; below it, it is cut at its panel's edge
 
 
 def write_previews(folder: Path, name: str, image: np.ndarray, reference: np.ndarray | None) -> list[Path]:
@@ -200,8 +199,9 @@ def write_previews(folder: Path, name: str, image: np.ndarray, reference: np.nda
 
 def side_by_side(image: np.ndarray, reference: np.ndarray) -> np.ndarray:
     """Two (H, W, 3) images of one size → the SideBySide picture, float32: actual, reference and their
-    difference heat map (tools.difference.difference_map, as `compare --diff` writes it), each labelled."""
-    from .io.image_io import text_coverage
+    difference heat map (tools.difference.difference_map, as `compare --diff` writes it), each labelled as
+    compare's panels are (io.labels: the longer wording where every label fits, else the shorter)."""
+    from .io.labels import BACKDROP, draw_text, row_wording
     from .tools.difference import difference, difference_map
     grid = SideBySide.of(image.shape[1], image.shape[0])
     width, height = grid.size
@@ -211,24 +211,12 @@ def side_by_side(image: np.ndarray, reference: np.ndarray) -> np.ndarray:
     finite = error[np.isfinite(error)]
     scale = f"difference, max {float(finite.max()):.3g}" if finite.size else "difference"
     top = grid.gap + grid.strip
-    panels = ((image, ("actual",)), (reference, ("reference",)),
-              (difference_map(image, reference), (scale, "difference")))
-    for index, (panel, labels) in enumerate(panels):
-        x = grid.column(index)
-        canvas[top:top + grid.height, x:x + grid.width] = panel
-        # The first wording that fits the panel at the font's size or smaller (down to MIN_FONT), else the last cut.
-        for text in labels:
-            coverage = text_coverage(text, grid.font)
-            if coverage is not None and coverage.shape[1] > grid.width:  # text width grows about with the size
-                coverage = text_coverage(text, max(MIN_FONT, grid.font * grid.width // coverage.shape[1]))
-            if coverage is None or coverage.shape[1] <= grid.width:
-                break
-        if coverage is None:
-            continue  # no font: the strip stays blank
-        h, w = min(coverage.shape[0], grid.strip), min(coverage.shape[1], grid.width)
-        y = grid.gap + (grid.strip - h) // 2
-        alpha = coverage[:h, :w, None]
-        canvas[y:y + h, x:x + w] = canvas[y:y + h, x:x + w] * (1 - alpha) + alpha  # white text
+    for index, panel in enumerate((image, reference, difference_map(image, reference))):
+        canvas[top:top + grid.height, grid.column(index):grid.column(index) + grid.width] = panel
+    texts, size = row_wording([("actual", "actual"), ("reference", "reference"), (scale, "difference")], grid.font,
+                              grid.width)
+    for index, text in enumerate(texts):  # without a font, nothing is drawn: the strips stay blank
+        draw_text(canvas, text, (grid.column(index), grid.gap, grid.width, grid.strip), size)
     return canvas
 
 

@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SceneError
-from ..io.image_io import label_font, text_coverage
+from ..io.image_io import label_font
+from ..io.labels import BACKDROP, draw_text, fitting_size, panel_font, row_wording
 from ..io.system import format_bytes
 from ..scene.load import read_scene_dict
 from ..scene.overrides import apply_override
@@ -163,17 +164,12 @@ class Layout:
 
 def layout(count: int, width: int, height: int) -> Layout:
     """The Layout for `count` panels of width × height pixels."""
-    font = min(max(round(height / 10), 10), 32)  # 10 px is the smallest that stays legible; 32 is plenty
+    font = panel_font(height)
     return Layout(count=count, width=width, height=height, font=font, gap=font // 2, strip=font + font // 2,
                   bar=font)
 
 
 # ---------------------------------------------------------------- composition
-
-BACKDROP = 0.18  # mid-dark grey behind the panels: their black backgrounds keep a visible edge, white text reads
-TEXT_RGB = (1.0, 1.0, 1.0)
-MIN_FONT = 8     # labels shrink to fit down to this size; below it they are cut at the panel's edge
-
 
 @dataclass(frozen=True, eq=False)
 class Comparison:
@@ -265,39 +261,4 @@ def _draw_labels(canvas: np.ndarray, grid: Layout, key: str, values: list[str], 
 CAPTION = "max over RGB of |variant - reference|, linear"  # ASCII: the bundled font has no Δ or − glyph
 
 
-def row_wording(wordings: list[tuple[str, ...]], size: int, width: int) -> tuple[list[str], int]:
-    """One row's labels: the first wording that fits every label in `width` at MIN_FONT or larger, and the
-    largest size up to `size` at which all of them fit; if none fits, the last wording at MIN_FONT."""
-    for choice in range(len(wordings[0])):
-        sizes = [fitting_size(wording[choice], size, width) for wording in wordings]
-        if None not in sizes:
-            return [wording[choice] for wording in wordings], min(sizes)
-    return [wording[-1] for wording in wordings], MIN_FONT
 
-
-def fitting_size(text: str, size: int, width: int) -> int | None:
-    """The largest font size from `size` down to MIN_FONT at which `text` is at most `width` wide, or None."""
-    while size >= MIN_FONT:
-        drawn = text_coverage(text, size)
-        if drawn is None or drawn.shape[1] <= width:
-            return size if drawn is not None else None
-        # Text width grows about linearly with the size: jump to near the fit, then step down.
-        size = min(size - 1, size * width // drawn.shape[1])
-    return None
-
-
-def draw_text(canvas: np.ndarray, text: str, box: tuple[int, int, int, int], size: int,
-               align: str = "left") -> int:
-    """Blend one line of white text into box = (x, y, width, height) of the canvas, centred vertically and cut
-    at the box's edges. Returns the width drawn in pixels (0 without a font)."""
-    x, y, width, height = box
-    coverage = text_coverage(text, size)
-    if coverage is None or width <= 0:
-        return 0
-    h, w = min(coverage.shape[0], height), min(coverage.shape[1], width)
-    left = x + {"left": 0, "center": (width - w) // 2, "right": width - w}[align]
-    top = y + (height - h) // 2
-    alpha = coverage[:h, :w, None]
-    region = canvas[top:top + h, left:left + w]
-    region[:] = region * (1 - alpha) + np.asarray(TEXT_RGB, np.float32) * alpha
-    return w

@@ -36,10 +36,11 @@ from ..io.image_io import (
     text_coverage,
     write_image,
 )
+from ..io.labels import BACKDROP, MIN_FONT, draw_text, fitting_size, row_wording
 from ..io.scene_toml import toml_value
 from ..io.system import format_bytes
 from ..values.messages import Location
-from .compare import BACKDROP, MIN_FONT, draw_text, fitting_size, layout, row_wording
+from .compare import layout
 
 SWEEP_KEYS = ("scene", "set", "grid")
 # A sweep's product is rendered and shown on one sheet: a million cells would run for hours without a word.
