@@ -10,11 +10,22 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
 _listeners: list[Callable[[str, str], None]] = []
+# What a compile notice calls the kernels of a first kernel that misses the cache, by its module and name (the
+# first match); the shading kernels' (the renderer's, 13-18 s of CPU) are the rest: `part(name)` is None for them.
+PARTS = (("renderer.kernels.shadows", "the shadow rays' kernels (global mode)"),
+         ("crease", "the crease split's kernels"),
+         ("geometry.", "the mesh preparation's kernels (merge, winding)"),
+         (".io.", "the mesh reader's kernels"))
 # Seconds spent compiling in this process: from a kernel's cache miss to its compiled code's save, a compile that
 # compiles its callees within it counted once (the outermost). A command reports it as `compile`, whatever stage
 # it happened in (a mesh reader's kernels compile while the scene loads).
 _open = [0, 0.0]  # compiles under way, and when the outermost began
 _spent = [0.0]
+
+
+def part(name: str) -> str | None:
+    """PARTS' words for kernel `name` (module.function), or None for the renderer's shading kernels."""
+    return next((words for key, words in PARTS if key in name), None)
 
 
 def compiling(name: str, signature: object) -> None:

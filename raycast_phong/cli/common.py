@@ -177,11 +177,11 @@ def _say_compiling(name: str, signature: str) -> None:
     """Told before a kernel compiles (compiles.told, `name` module.function): one line naming the part of the
     program whose kernels compile, so no compile is silent. CPU of a fresh compile (docs/performance.md): the mesh
     readers' 2-4 s, the mesh preparation's about 6 s, the renderer's about 20 s (its frame kernels on 2 cores)."""
+    from raycast_phong.compiles import part
+
     from .progress import say
-    part, seconds = (("the mesh reader's", "a few seconds") if ".io." in name else
-                      ("the mesh preparation's", "a few seconds") if ".geometry." in name else
-                      ("the renderer's", "10-20 s"))
-    say(f"compiling {part} kernels, once after an install or an edit ({seconds})...")
+    what, seconds = (part(name), "a few seconds") if part(name) else ("the renderer's kernels", "10-20 s")
+    say(f"compiling {what}, once after an install or an edit ({seconds})...")
 
 
 class _ClosedStdout(io.TextIOBase):

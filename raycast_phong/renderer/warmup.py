@@ -9,15 +9,6 @@ from collections.abc import Callable
 from ..codes import StageName
 from ..scene.schema import Scene
 
-# The compiles that are not the shading kernels': by the first kernel's module and name, what the compile notice
-# calls them. The shading kernels compile before these when they compile at all, but after the shadow rays' (so a
-# first global render's notice names both).
-SMALLER_COMPILES = (("renderer.kernels.shadows", "the shadow rays' kernels (global mode), and the shading kernels if "
-                                                 "they are not compiled yet"),
-                    ("crease", "the crease split's kernels"),
-                    ("geometry.", "the mesh preparation's kernels (merge, winding)"),
-                    (".io.", "the mesh reader's kernels"))
-
 
 def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None) -> tuple[str, float]:
     """("compile", seconds) when any kernel this scene's render calls is not in the cache for the signature the
@@ -34,7 +25,7 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None) -
     A mesh file that cannot be opened is refused first (one line, naming the scene's file): before any compile."""
     import numpy as np
 
-    from ..compiles import told
+    from ..compiles import part, told
     from ..geometry.mesh_repair import WINDING_KERNELS, warm_up_merge, winding_signatures
     from ..geometry.normals import warm_up_creases
     from .frame import warm_kernels_for
@@ -64,7 +55,9 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None) -
         """Said once, before the first compile: what compiles, named by its first kernel, and how long it takes."""
         if announce is None:
             return
-        smaller = next((what for key, what in SMALLER_COMPILES if key in name), None)
+        smaller = part(name)
+        if smaller is not None and "shadows" in name:  # they compile before the shading kernels, which may follow
+            smaller += ", and the shading kernels if they are not compiled yet"
         if smaller is None:
             announce(f"compiling the {np.dtype(real).name} shading kernels, the first time after an install or an "
                      "edit (about 13-18 s of CPU shared by two processes: 6-9 s on an idle 2-core machine)...")
