@@ -75,6 +75,7 @@ def on_cluster(tasks: list[Task], scheduler: str, started: set[str],
         futures = {client.submit(render_job, task, pure=False): task for task in tasks}
         started.update(task.job.name for task in tasks)
         pending, known, alone = set(futures), _workers(client) or set(), None
+        warnings = [] if warnings is None else warnings
         while pending:
             try:
                 wait(pending, timeout=WATCH_SECONDS, return_when="FIRST_COMPLETED")
@@ -87,9 +88,8 @@ def on_cluster(tasks: list[Task], scheduler: str, started: set[str],
             now = _workers(client)
             if now is None:  # the scheduler did not answer this time: nothing learnt
                 continue
-            said = [] if warnings is None else warnings
-            said += [f"--scheduler {scheduler}: worker {address} left the cluster ({len(now)} left); Dask runs the "
-                     "scenes it held again on another" for address in sorted(known - now)]
+            warnings += [f"--scheduler {scheduler}: worker {address} left the cluster ({len(now)} left); Dask runs "
+                         "the scenes it held again on another" for address in sorted(known - now)]
             known = now
             alone = None if now else alone if alone is not None else time.monotonic()
             if pending and alone is not None and time.monotonic() - alone >= WORKER_WAIT:

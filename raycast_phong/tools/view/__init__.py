@@ -12,6 +12,7 @@ import webbrowser
 from contextlib import contextmanager
 from pathlib import Path
 
+from ... import stops
 from .server import Source, create_app, open_source
 from .session import SOCKET_MAX_BYTES
 
@@ -139,13 +140,11 @@ def serve(path: str | Path | None, host: str = "127.0.0.1", port: int = 8765, op
     if open_browser:
         webbrowser.open(url)
     try:
-        from ... import stops
         if stops.received() is None:  # not stopped while it started (the command records SIGINT and SIGTERM)
             uvicorn.Server(server_config(app, log_level)).run(sockets=[sock])
     finally:
         sock.close()
         close(app)
-        from ... import stops
         if stops.received() is not None and stopped is not None:
             stopped(stops.received())
         leave_if_rendering()
@@ -158,7 +157,6 @@ def leave_if_rendering() -> None:
     is owed to the disk: frames and saves go to the browser only."""
     others = [t for t in threading.enumerate() if t is not threading.current_thread() and not t.daemon]
     if any(t.is_alive() for t in others):
-        from ... import stops
         sys.stdout.flush()
         sys.stderr.flush()
         stopped = stops.received()
