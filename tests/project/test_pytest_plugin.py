@@ -44,8 +44,18 @@ def test_update_writes_the_reference_then_the_same_image_passes(pytester):
 
 
 def written_paths(text: str) -> list[Path]:
-    """The paths a failure message lists, one a line, indented, after "written:"."""
-    return [Path(line.strip()) for line in text.split("written:\n", 1)[1].splitlines() if line.startswith("  /")]
+    """The paths the first failure message lists, one a line, indented, after "written:".
+
+    Only the first list: where the environment variable CI is set, pytest's short summary repeats the
+    whole message, so the list appears twice.
+    """
+    lines = text.split("written:\n", 1)[1].splitlines()
+    paths = []
+    for line in lines:
+        if not line.startswith("  /"):
+            break
+        paths.append(Path(line.strip()))
+    return paths
 
 
 def test_a_different_image_fails_with_metrics_and_its_images(pytester):
