@@ -153,13 +153,12 @@ def measure(path: Path, repeats: int, size: int, threads: int = 2) -> dict:
     import raycast_phong as rp
     from raycast_phong.geometry.build import build_geometry
     from raycast_phong.geometry.templates import object_mesh
-    from raycast_phong.values.messages import Location
 
     scene = rp.validate_scene(scene_for(path, 8), source=str(path))
     triangles = rp.render(scene).triangles  # warm-up: kernels loaded, trimesh's lazy imports done
     baseline = vm("VmRSS")
     Path("/proc/self/clear_refs").write_text("5")  # VmHWM := VmRSS now
-    geometry = build_geometry(scene, str(path), normal_dtype=np.float32)
+    geometry = build_geometry(scene, normal_dtype=np.float32)
     found = {"file": path.name, "triangles": triangles, "peak_bytes_per_triangle": (vm("VmHWM") - baseline) / triangles}
     del geometry
     if size:
@@ -175,10 +174,10 @@ def measure(path: Path, repeats: int, size: int, threads: int = 2) -> dict:
         found["open3d"] = open3d_cast(path, size, repeats)
     found["trimesh"] = best(lambda: trimesh.load(str(path), process=False), repeats)
     with prep_threads(threads):
-        found["geometry"] = best(lambda: build_geometry(scene, str(path), normal_dtype=np.float32), repeats)
-        found["geometry_cpu"] = best(lambda: build_geometry(scene, str(path), normal_dtype=np.float32), repeats,
+        found["geometry"] = best(lambda: build_geometry(scene, normal_dtype=np.float32), repeats)
+        found["geometry_cpu"] = best(lambda: build_geometry(scene, normal_dtype=np.float32), repeats,
                                      time.process_time)
-    found["read"] = best(lambda: object_mesh(scene, scene.objects[0], Location(str(path)).at("objects", 0)), repeats)
+    found["read"] = best(lambda: object_mesh(scene, 0), repeats)
     return found
 
 

@@ -3,7 +3,8 @@
     RaycastPhongError                   the base: `except RaycastPhongError` catches every refusal
     ├── InputError (ValueError)         bad input; the CLI prints one line and exits 2
     │   ├── SceneError                  a scene, a mesh file or a scene key the renderer refuses
-    │   │   └── FileProblem             a mesh file's own problem, said before the read knows its scene key
+    │   │   └── Problem                 said without where: the boundary that knows the scene key adds it
+    │   │       └── FileProblem         a mesh file's own problem
     │   ├── OptionError                 a command-line option that cannot be honoured (--scheduler
     │   │                               without Dask, or a cluster that does not answer)
     │   ├── CorruptManifest             a batch folder's manifest.json that is no manifest of this version
@@ -66,13 +67,17 @@ def _once(problem: str, where: str) -> str:
 
 
 
-class FileProblem(SceneError):
-    """A problem of the mesh file being read, said without where it is: the read's one boundary
-    (io.meshes.read.read_file) raises it again as a SceneError at the file's own location (its scene key), so
-    no reader is handed a `where` to thread through its functions. Uncaught, it is still one line."""
+class Problem(SceneError):
+    """A problem said without where it is (a shape's, a mesh reader's): the one boundary that knows the scene
+    key (geometry.templates.object_mesh, io.meshes.read.read_file) raises it again as a SceneError there, so
+    no function below is handed a `where` to thread through. Uncaught, it is still one line."""
 
     def __init__(self, problem: str):
         super().__init__(problem)
+
+
+class FileProblem(Problem):
+    """A problem of the mesh file being read (io.meshes.read.read_file places it at the file's scene key)."""
 
 
 class OptionError(InputError):

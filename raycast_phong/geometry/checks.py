@@ -9,10 +9,9 @@ from ..errors import SceneError
 from ..records import Geometry
 from ..scene.schema import Scene, brightness_problem
 from ..tolerances import MIN_DISTANCE, MIN_EXTENT
-from ..values.messages import Location, located
 
 
-def check_float_range(scene: Scene, geometry: Geometry, source: str | Location = "<scene>") -> None:
+def check_float_range(scene: Scene, geometry: Geometry) -> None:
     """Refuse a scene whose placed extent or 1/d² lights would leave float32's range (SceneError), from the
     geometry's bounding box (Geometry.box, computed once per geometry: the lights may change every frame).
 
@@ -25,7 +24,7 @@ def check_float_range(scene: Scene, geometry: Geometry, source: str | Location =
     if extent < MIN_EXTENT:
         raise SceneError(f"the whole scene spans only {2 * extent:.3g} (its largest bounding-box side); allowed: at "
                          f"least {2 * MIN_EXTENT:g}, so the 1/d² floor and Embree's unit frame stay in float32's "
-                         "range; raise the objects' scale or size", located(source).at("objects"))
+                         "range; raise the objects' scale or size", scene.origin.at("objects"))
     floor = MIN_DISTANCE * extent
     gains = {}
     for k, light in enumerate(scene.lights):
@@ -36,7 +35,7 @@ def check_float_range(scene: Scene, geometry: Geometry, source: str | Location =
     problem = brightness_problem(scene, gains, why="with 1/d² attenuation up to "
                                  f"{max(gains.values(), default=1.0):.3g} (the light at or near the scene), ")
     if problem:
-        raise SceneError(problem[1], located(source).at(*problem[0]))
+        raise SceneError(problem[1], scene.origin.at(*problem[0]))
 
 
 def behind_camera(scene: Scene, geometry: Geometry) -> str | None:

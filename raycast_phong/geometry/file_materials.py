@@ -8,7 +8,6 @@ import numpy as np
 
 from ..codes import ALPHA, ALPHA_CUTOFF, ALPHA_MAP, OPAQUE_ALPHA
 from ..scene.schema import DEFAULT_MATERIAL, Scene
-from ..values.messages import Location
 from .materials import material_rows
 from .textures import TextureBank
 
@@ -29,7 +28,7 @@ class FileRows:
 
     def __init__(self, scene: Scene, material_index: dict[str, int], bank: TextureBank | None = None):
         self.scene, self.material_index = scene, material_index
-        self.bank = bank if bank is not None else TextureBank(scene, Location("<scene>"))
+        self.bank = bank if bank is not None else TextureBank(scene)
         self.rows: list[np.ndarray] = []
         self.mapped = False
         self.first = first_file_row(scene)

@@ -10,7 +10,6 @@ from ..scene.kinds import object_kinds
 from ..scene.objects import OWN_KEYS
 from ..scene.schema import Object, Scene
 from ..shapes import from_file
-from ..values.messages import Location
 from .memo import mesh_stamp
 
 
@@ -32,11 +31,12 @@ def group_key(obj: Object, index: int) -> tuple:
     return (obj.shape, *(getattr(obj, key) for key in OWN_KEYS[obj.shape]), obj.normals, obj.crease_angle)
 
 
-def template_key(scene: Scene, first: Object, index: int, where: Location, wants_exact: bool,
-                  sources: dict | None = None) -> tuple:
-    """What group_template reads: a shape's keys; a mesh file's object, its file as it is now (its version and
-    its side files', MeshSource.identity) and the object's number and location, which its notes name."""
+def template_key(scene: Scene, index: int, wants_exact: bool, sources: dict | None = None) -> tuple:
+    """What group_template reads of the group whose first object is scene.objects[index]: a shape's keys; a
+    mesh file's object, its file as it is now (its version and its side files', MeshSource.identity) and the
+    object's number and the scene's origin, which its notes name."""
+    first = scene.objects[index]
     if not from_file(first):
         return ("shape", *group_key(first, index), wants_exact)
-    return (first.shape, index, where, mesh_stamp(scene.resolve(first.path), sources), first.normals,
+    return (first.shape, index, scene.origin, mesh_stamp(scene.resolve(first.path), sources), first.normals,
             first.crease_angle, "crease_angle" in first.model_fields_set, wants_exact)

@@ -1,10 +1,12 @@
-"""What build_geometry keeps between builds of one changing scene (a live view's frames), and the stamps
-(a file's version now) its keys hold."""
+"""Which pieces build_geometry makes afresh: all of them (FRESH, a single render), or only those a change
+touched (a BuildMemo, kept between the live view's frames of one changing scene), and the stamps (a file's
+version now) a BuildMemo's keys hold."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, NamedTuple, TypeVar
 
 import numpy as np
 
@@ -12,7 +14,8 @@ from ..records import Geometry
 from ..scene.kinds import object_kinds, placements
 from ..scene.schema import Scene
 from ..shapes import from_file
-from ..values.messages import Location
+
+T = TypeVar("T")
 
 if TYPE_CHECKING:
     from .placing import Part
@@ -36,7 +39,39 @@ def file_stamp(path: Path) -> tuple:
         return (str(path), None)
 
 
-class BuildMemo:
+class Memo:
+    """Which pieces build_geometry makes afresh, asked for each template, part and texture: this one (FRESH, a
+    single render's) makes every one and keeps none, so they may be changed in place; a BuildMemo keeps them."""
+
+    shares = False  # whether what it hands out outlives the build (then nothing may change it in place)
+
+    def begin(self, scene: Scene, vertex_normals: bool, normal_dtype: type) -> None:
+        return None
+
+    def geometry_for(self, whole: tuple | None) -> Geometry | None:
+        return None
+
+    def template(self, key: Callable[[], tuple], make: Callable[[], T]) -> T:
+        return make()
+
+    def part(self, scene: Scene, members: np.ndarray, template: ObjectMesh, vertex_normals: bool,
+             normal_dtype: type, make: Callable[[bool], Part]) -> Part:
+        return make(vertex_normals)
+
+    def texture(self, key: tuple, stamp: Callable[[], object], decode: Callable[[], np.ndarray]) -> np.ndarray:
+        return decode()
+
+    def keep(self, whole: tuple | None, geometry: Geometry) -> None:
+        pass
+
+    def abandon(self) -> None:
+        pass
+
+
+FRESH = Memo()
+
+
+class BuildMemo(Memo):
     """What build_geometry keeps between builds of one changing scene (a live view's frames of one page), so
     that a frame rebuilds only what its change touched:
 
@@ -54,6 +89,8 @@ class BuildMemo:
     scene of several objects, the parts' arrays being copied into one mesh). Not for two threads at once.
     """
 
+    shares = True
+
     def __init__(self):
         self._whole: tuple | None = None            # whole_key of `_geometry`
         self._geometry: Geometry | None = None
@@ -64,7 +101,7 @@ class BuildMemo:
         self._used: tuple[set, set, set] = (set(), set(), set())  # templates, parts and textures of this build
         self._kept: tuple[set, set, set] = (set(), set(), set())  # those of the last build that succeeded
 
-    def begin(self, scene: Scene, where: Location, vertex_normals: bool, normal_dtype: type) -> tuple:
+    def begin(self, scene: Scene, vertex_normals: bool, normal_dtype: type) -> tuple:
         """Start a build: the key of everything build_geometry reads from `scene` and the disk: every object's
         keys but placement (once per kind, and whether it set crease_angle) and the placements' bits, the
         materials, the default shading, the colour the maps are decoded in (render.colour), the folder, the mesh
@@ -80,11 +117,11 @@ class BuildMemo:
         # Objects compare by their values alone, but a mesh file's crease default depends on whether
         # crease_angle was set at all (templates.file_crease_angle): an unset 180 and a set one differ.
         creases = tuple("crease_angle" in o.model_fields_set for o in firsts)
-        return (where, scene.folder, vertex_normals, np.dtype(normal_dtype).str, scene.render.shading,
+        return (scene.origin, scene.folder, vertex_normals, np.dtype(normal_dtype).str, scene.render.shading,
                 scene.render.colour, tuple(scene.materials.items()), tuple(firsts), creases,
                 kinds.kind.tobytes(), placed, files)
 
-    def geometry_for(self, whole: tuple) -> Geometry | None:
+    def geometry_for(self, whole: tuple | None) -> Geometry | None:
         """The last Geometry if `whole` is its key and the texture files it decoded are unchanged; else None."""
         if self._geometry is None or whole != self._whole:
             return None
@@ -92,7 +129,9 @@ class BuildMemo:
             return None
         return self._geometry
 
-    def template(self, key: tuple, make) -> Template:
+    def template(self, key: Callable[[], tuple], make: Callable[[], T]) -> T:
+        """The template `key()` names, made by make() if this memo has none."""
+        key = key()
         found = self._templates.get(key)
         if found is None:
             found = self._templates[key] = make()
@@ -100,7 +139,7 @@ class BuildMemo:
         return found
 
     def part(self, scene: Scene, members: np.ndarray, template: ObjectMesh, vertex_normals: bool,
-             normal_dtype: type, make) -> Part:
+             normal_dtype: type, make: Callable[[bool], Part]) -> Part:
         """The placed part of `members` sharing `template`: kept if the same template was placed the same way
         (a part made with corner normals serves a build without them), else made by make(vertex_normals)."""
         first = scene.objects[int(members[0])]
@@ -117,9 +156,10 @@ class BuildMemo:
         self._used[1].add((*key, vertex_normals))
         return part
 
-    def texture(self, key: tuple, stamp: object, decode) -> np.ndarray:
-        """The pixels of texture `key`, decoded again only when its stamp (a file's version, or the image object
-        a mesh file holds) is another."""
+    def texture(self, key: tuple, stamp: Callable[[], object], decode: Callable[[], np.ndarray]) -> np.ndarray:
+        """The pixels of texture `key`, decoded again only when its stamp() (a file's version, or the image
+        object a mesh file holds) is another."""
+        stamp = stamp()
         found = self._textures.get(key)
         # A file's version is compared; an image object a mesh file holds must be the same object.
         if found is None or not (found[0] is stamp or (isinstance(stamp, tuple) and found[0] == stamp)):
@@ -127,7 +167,7 @@ class BuildMemo:
         self._used[2].add(key)
         return found[1]
 
-    def keep(self, whole: tuple, geometry: Geometry) -> None:
+    def keep(self, whole: tuple | None, geometry: Geometry) -> None:
         """Remember this build's Geometry, and drop every template, part and texture it did not use."""
         self._kept, self._used = self._used, (set(), set(), set())
         self._prune()

@@ -14,7 +14,6 @@ from ..errors import SceneError
 from ..scene.kinds import placements
 from ..scene.schema import Scene
 from ..tolerances import POSITION_LIMIT
-from ..values.messages import Location
 from .normals import _normalise_or, compute_corner_normals, face_normals, file_corner_normals
 from .templates import ObjectMesh
 
@@ -29,7 +28,7 @@ class Part(NamedTuple):
 
 
 def place_group(scene: Scene, members: np.ndarray, template: ObjectMesh, exact: np.ndarray | None,
-                vertex_normals: bool, normal_dtype: type, where: Location,
+                vertex_normals: bool, normal_dtype: type,
                 placed: Callable[[np.ndarray, np.ndarray], None] | None = None) -> Part:
     """Place K objects that share `template` (its vertices and faces in the object frame) and give them face
     and corner normals: the per-object steps of the scene format, done for all K at once. `placed(vertices,
@@ -52,13 +51,13 @@ def place_group(scene: Scene, members: np.ndarray, template: ObjectMesh, exact: 
     for k in np.flatnonzero(~(reach <= POSITION_LIMIT)):  # NaN fails the comparison too
         raise SceneError(f"placed (scale, rotate, translate), the object reaches a coordinate of {reach[k]:.3g}; "
                          f"allowed: within ±{POSITION_LIMIT:g}, so distances squared stay finite in float32; lower "
-                         "scale, its size or translate", where.at("objects", int(members[k])))
+                         "scale, its size or translate", scene.origin.at("objects", int(members[k])))
     extent = highest - lowest
     for k in np.flatnonzero(~(extent != 0).any(axis=1)):
         obj = scene.objects[members[k]]
         raise SceneError(f"placed, the object collapses to a single point (its scale {list(obj.scale)} is below "
                          f"float64's resolution at translate {list(obj.translate)}); allowed: an object with some "
-                         "extent; raise scale or its size", where.at("objects", int(members[k])))
+                         "extent; raise scale or its size", scene.origin.at("objects", int(members[k])))
     count, n = len(members), len(template.vertices)
     flat_vertices = vertices.reshape(-1, 3)
     flat_faces = faces[0] if count == 1 else (faces + (np.arange(count) * n)[:, None, None]).reshape(-1, 3)

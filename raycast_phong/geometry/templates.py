@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from .. import shapes
-from ..errors import SceneError
+from ..errors import Problem, SceneError
 from ..scene.schema import Object, Scene
 from ..values.messages import Location
 from .mesh_repair import WELD_SHARE, merge_duplicate_vertices, number_by_first_use, repair_winding, weld_soup
@@ -47,11 +47,11 @@ class Template(NamedTuple):
     file_notes: tuple[str, ...]  # what reading the file said, and turned-over normals, for Geometry.file_notes
 
 
-def group_template(scene: Scene, first: Object, index: int, where: Location, wants_exact: bool,
-                    sources: dict | None = None) -> Template:
-    """The template of the group whose first object is `first` (scene.objects[index]): a shape's triangles, or
-    a mesh file read, its winding repaired and its stored normals turned outward if they point inward."""
-    template = object_mesh(scene, first, where.at("objects", index), sources)
+def group_template(scene: Scene, index: int, wants_exact: bool, sources: dict | None = None) -> Template:
+    """The template of the group whose first object is scene.objects[index]: a shape's triangles, or a mesh
+    file read, its winding repaired and its stored normals turned outward if they point inward."""
+    first = scene.objects[index]
+    template = object_mesh(scene, index, sources)
     exact = exact_corner_normals_local(first, template.vertices, template.faces) if wants_exact else None
     read, notes, file_notes = template.file, [], []
     if template.file is not None:
@@ -75,12 +75,16 @@ def group_template(scene: Scene, first: Object, index: int, where: Location, wan
     return Template(template, exact, read, tuple(notes), tuple(file_notes))
 
 
-def object_mesh(scene: Scene, obj: Object, where: Location, sources: dict | None = None) -> ObjectMesh:
-    """The object's triangles in its own frame (a mesh file's with its materials, colours and normals; a built-in
-    shape's from its kind, shapes/); `where` is the object's location (file: objects.N)."""
+def object_mesh(scene: Scene, index: int, sources: dict | None = None) -> ObjectMesh:
+    """Object `index`'s triangles in its own frame (a mesh file's with its materials, colours and normals; a
+    built-in shape's from its kind, shapes/); its errors are placed at the object (file: objects.N)."""
+    obj, where = scene.objects[index], scene.origin.at("objects", index)
     if shapes.from_file(obj):
         return _load_mesh(scene, obj, where, (sources or {}).get(scene.resolve(obj.path)))
-    return ObjectMesh(*shapes.KINDS[obj.shape].template(obj, where), None)
+    try:
+        return ObjectMesh(*shapes.KINDS[obj.shape].template(obj), None)
+    except Problem as problem:
+        raise SceneError(problem.problem, where) from None
 
 
 def shape_uv(obj: Object, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray | None:

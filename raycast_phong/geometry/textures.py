@@ -10,12 +10,10 @@ import numpy as np
 from ..errors import SceneError
 from ..records import Texture
 from ..scene.schema import Scene
-from ..values.messages import Location
-from .memo import file_stamp
+from .memo import FRESH, Memo, file_stamp
 
 if TYPE_CHECKING:
     from ..io.meshes.read import MeshFile
-    from .memo import BuildMemo
 
 
 class TextureBank:
@@ -23,19 +21,18 @@ class TextureBank:
     unused maps are never decoded), as the scene's render.colour asks (io.textures: as stored, or decoded from
     sRGB to linear values); a map that cannot be decoded is a note and its factor stands alone."""
 
-    def __init__(self, scene: Scene, where: Location, memo: BuildMemo | None = None):
-        self.scene, self.where, self.memo = scene, where, memo
+    def __init__(self, scene: Scene, memo: Memo = FRESH):
+        self.scene, self.memo = scene, memo
         self.textures: list[Texture] = []
         self.notes: list[str] = []
         self.found: dict = {}
 
-    def add(self, key, decode, wrap_s: str, wrap_t: str, name: str, stamp: object = None) -> int:
+    def add(self, key, decode, wrap_s: str, wrap_t: str, name: str, stamp) -> int:
         """The texture row of `key`, decoded by `decode()` the first time; -1 (and a note) if it cannot be.
-        `stamp` (a file's version, or the image object a mesh file holds) lets a memo keep the pixels."""
+        `stamp()` (a file's version, or the image object a mesh file holds) lets a memo keep the pixels."""
         if key not in self.found:
             try:
-                pixels = (decode() if self.memo is None else
-                          self.memo.texture((*key, self.scene.render.colour), stamp, decode))
+                pixels = self.memo.texture((*key, self.scene.render.colour), stamp, decode)
             except SceneError:
                 raise  # a scene's own map: the scene is wrong (one line, exit 2)
             except ValueError as error:
@@ -56,11 +53,11 @@ class TextureBank:
         if isinstance(found.source, Path):
             key = (str(found.source), found.wrap_s, found.wrap_t, channel)
             decode = lambda: decode_file(found.source, colour, channel)
-            stamp = file_stamp(found.source) if self.memo is not None else None
+            stamp = lambda: file_stamp(found.source)
         else:
             key = (id(found.source), found.wrap_s, found.wrap_t, channel)
             decode = lambda: decode_pil(found.source, colour, channel)
-            stamp = found.source
+            stamp = lambda: found.source
         return self.add(key, decode, found.wrap_s, found.wrap_t, found.name, stamp)
 
     def scene_map(self, name: str, key: str) -> int:
@@ -72,10 +69,9 @@ class TextureBank:
             return -1
         from ..io.textures import decode_scene_map
         path, wrap = self.scene.resolve(value.path), value.wrap
-        where = self.where.at("materials", name, key)
-        stamp = file_stamp(path) if self.memo is not None else None
+        where = self.scene.origin.at("materials", name, key)
         return self.add((str(path), wrap, wrap), lambda: decode_scene_map(path, where, self.scene.render.colour),
-                        wrap, wrap, str(path), stamp)
+                        wrap, wrap, str(path), lambda: file_stamp(path))
 
     def maps_of(self, material, read: MeshFile | None = None) -> tuple[int, int, int]:
         """(ka, kd, ke) texture rows of a material: a FileMaterial of `read`, or a scene material by name;

@@ -14,6 +14,7 @@ the next, so that a frame rebuilds only what its change touched; `cancelled` sto
 
 from __future__ import annotations
 
+import contextlib
 import threading
 import time
 from collections.abc import Callable
@@ -26,6 +27,7 @@ import numpy as np
 from ..codes import StageName
 from ..errors import RenderCancelled
 from ..geometry.build import build_geometry
+from ..geometry.memo import FRESH
 from ..geometry.normals import PARALLEL_FACES, prep_threads
 from ..io.system import default_threads
 from ..records import Frame, Geometry, ImageBuffers, RenderPlan, RenderResult
@@ -143,13 +145,10 @@ def prepare(scene: Scene, *, threads: int | None = None,
     real = plan.real
     ahead = BuildAhead() if build_ahead and cache is None and threads > 1 else None
     with prep_threads(threads):  # a large mesh's preparation uses as many threads as its tiles
-        if cache is None:
+        with cache.lock if cache is not None else contextlib.nullcontext():
             geometry = build_geometry(scene, vertex_normals=plan.keeps(StageName.VERTEX_NORMALS),
-                                      normal_dtype=real, sources=sources, positions=ahead)
-        else:
-            with cache.lock:
-                geometry = build_geometry(scene, vertex_normals=plan.keeps(StageName.VERTEX_NORMALS),
-                                          normal_dtype=real, sources=sources, memo=cache.memo)
+                                      normal_dtype=real, sources=sources, positions=ahead,
+                                      memo=cache.memo if cache is not None else FRESH)
     timings = {"geometry": time.perf_counter() - start}
     derived = cache.derived(geometry) if cache is not None else None
     start = time.perf_counter()

@@ -10,9 +10,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import Problem
 from ..values.fields import KindKeys
-from ..values.messages import Location
 
 THIN = 2.0 ** -23  # float32's resolution: a tube thinner than this share of the shape collapses in Embree's frame
 
@@ -42,16 +41,16 @@ class ShapeKind:
         """How many triangles `template` makes (the memory estimate counts before building)."""
         raise NotImplementedError
 
-    def template(self, obj, where: Location) -> tuple[np.ndarray, np.ndarray]:
-        """The object's triangles in its own frame, at its size; SceneError (one line, at `where`: the object's
-        location) when a tube is too thin for Embree's float32 to hit."""
+    def template(self, obj) -> tuple[np.ndarray, np.ndarray]:
+        """The object's triangles in its own frame, at its size; a Problem (one line; geometry.templates places
+        it at the object) when a tube is too thin for Embree's float32 to hit."""
         lengths = self.lengths(obj)
         unit = max(lengths)
         thin = getattr(obj, self.thin_key) if self.thin_key else unit
         if thin < THIN * unit:
-            raise SceneError(f"a {obj.shape} with lengths {list(lengths)} has no triangles Embree can hit: its "
-                             f"{self.thin_key} is below float32's resolution of its size; allowed: at least "
-                             f"{THIN:.3g} of the larger length", where)
+            raise Problem(f"a {obj.shape} with lengths {list(lengths)} has no triangles Embree can hit: its "
+                          f"{self.thin_key} is below float32's resolution of its size; allowed: at least "
+                          f"{THIN:.3g} of the larger length")
         vertices, faces = self.unit_mesh(obj, unit)
         return vertices * unit, faces
 

@@ -28,7 +28,7 @@ class Mesh(ShapeKind):
     size_key = "path"
     from_file = True  # curved: a file's surface may be (ShapeKind.curved's default)
 
-    def template(self, obj, where):
+    def template(self, obj):
         raise TypeError("a mesh object is read from its file (geometry.templates), not built")
 
     def triangles(self, obj):

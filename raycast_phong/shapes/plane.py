@@ -45,7 +45,7 @@ class Plane(ShapeKind):
     keys = PlaneKeys
     curved = False
 
-    def template(self, obj, where):
+    def template(self, obj):
         return plane_mesh(obj.size or (2.0, 2.0), obj.segments or (1, 1))
 
     def triangles(self, obj):

@@ -51,7 +51,7 @@ def refine_entry(scene: Scene, index: int, entry: dict, level: int, iterations: 
     elif iterations > 0:
         target = folder / f"object{index}-loop{iterations}.ply"
         if not target.exists():
-            vertices, faces, *_ = object_mesh(scene, obj, scene.origin.at("objects", index))
+            vertices, faces, *_ = object_mesh(scene, index)
             vertices, faces = trimesh.remesh.subdivide_loop(vertices, faces, iterations=iterations)
             trimesh.Trimesh(vertices, faces, process=False).export(target)
         entry["path"] = str(target)

@@ -50,7 +50,7 @@ def test_objects_that_share_a_shape_are_built_once(monkeypatch):
     different sizes are two builds), and each group of consecutive boxes lands where the scene puts it."""
     calls = []
     original = templates.object_mesh
-    monkeypatch.setattr(templates, "object_mesh", lambda *a, **k: calls.append(a[2].key[-1]) or original(*a, **k))
+    monkeypatch.setattr(templates, "object_mesh", lambda *a, **k: calls.append(a[1]) or original(*a, **k))
     rng = np.random.default_rng(5)
     boxes = [{"shape": "box", "size": [0.1, 0.1, 0.2 if i < 5000 else 0.1], "translate": rng.uniform(-9, 9, 3).tolist(),
               "rotate": [0, float(rng.uniform(0, 90)), 0]} for i in range(10_000)]

@@ -23,7 +23,7 @@ from raycast_phong.scene import bulk, schema
 from raycast_phong.scene.objects import OBJECT_MODELS, OWN_KEYS
 from raycast_phong.shapes import KINDS, kind_of
 from raycast_phong.tools.accuracy import level_of, refined
-from raycast_phong.values.messages import Location, _model_of
+from raycast_phong.values.messages import _model_of
 
 ROOT = Path(__file__).resolve().parents[2]
 # Each kind at its defaults, and the kinds below also at other values of their own keys.
@@ -136,7 +136,7 @@ print("cone rendered")
 def test_a_kind_builds_what_it_counts_closed_and_wound_outward(name, keys):
     scene = scene_of(name, keys)
     obj = scene.objects[0]
-    vertices, faces = object_mesh(scene, obj, Location("t").at("objects", 0))[:2]
+    vertices, faces = object_mesh(scene, 0)[:2]
     assert shape_triangles(obj) == KINDS[name].triangles(obj) == len(faces) == build_geometry(scene).triangles
     assert size_key(obj) in (*OWN_KEYS[name], "shape")
     assert np.isfinite(vertices).all() and faces.min() >= 0 and faces.max() < len(vertices)
@@ -156,7 +156,7 @@ def test_a_kind_builds_what_it_counts_closed_and_wound_outward(name, keys):
 def test_a_kind_gives_uvs_in_range_and_exact_normals_of_unit_length(name, keys):
     scene = scene_of(name, keys)
     obj = scene.objects[0]
-    vertices, faces = object_mesh(scene, obj, Location("t").at("objects", 0))[:2]
+    vertices, faces = object_mesh(scene, 0)[:2]
     uv = shape_uv(obj, vertices, faces)
     assert uv.shape == (len(faces), 3, 2) and np.isfinite(uv).all()
     # u may pass 1 by less than one face's width where a face crosses the seam (shapes.surfaces._seamless).

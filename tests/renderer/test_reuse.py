@@ -14,7 +14,7 @@ import pytest
 import raycast_phong as rp
 from raycast_phong.codes import StageName
 from raycast_phong.geometry.build import build_geometry
-from raycast_phong.geometry.memo import BuildMemo
+from raycast_phong.geometry.memo import FRESH, BuildMemo, Memo
 from raycast_phong.renderer.frame import FrameCache
 from raycast_phong.renderer.reuse import same_bits
 
@@ -81,7 +81,7 @@ def assert_same_geometry(got, fresh) -> None:
             assert a == b, field.name
 
 
-def build(scene: rp.Scene, memo: BuildMemo | None = None):
+def build(scene: rp.Scene, memo: Memo = FRESH):
     """build_geometry as render() calls it: the plan decides the corner normals and their dtype."""
     plan = rp.build_plan(scene)
     return build_geometry(scene, vertex_normals=plan.keeps(StageName.VERTEX_NORMALS), normal_dtype=plan.real,
