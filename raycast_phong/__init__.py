@@ -21,7 +21,7 @@ _HOMES = {
     "ImageError": "errors", "RaycastPhongError": "errors", "SceneError": "errors", "WriteError": "errors",
     "build_plan": "renderer.plan",
     "RenderPlan": "records", "RenderResult": "records",
-    "render": "renderer.frame", "render_file": "renderer.frame",
+    "render": "renderer.frame", "render_file": "renderer.frame", "Renderer": "renderer.prepare",
     "ShadingModel": "codes", "SpecularModel": "codes",
     "Scene": "scene.schema", "default_scene_path": "scene.schema", "load_scene": "scene.load",
     "mesh_scene": "scene.mesh_arrays",
@@ -29,9 +29,10 @@ _HOMES = {
     "show": "tools.notebook",
 }
 # Spelled out (not sorted(_HOMES)) so type checkers see the public names; tests/project keeps the two equal.
-__all__ = ["ImageError", "RaycastPhongError", "RenderPlan", "RenderResult", "Scene", "SceneError", "ShadingModel",
-           "SpecularModel", "WriteError", "build_plan", "default_scene_path", "load_scene", "mesh_scene", "read_image",
-           "read_layer", "render", "render_file", "show", "validate_scene", "write_image"]
+__all__ = ["ImageError", "RaycastPhongError", "RenderPlan", "RenderResult", "Renderer", "Scene", "SceneError",
+           "ShadingModel", "SpecularModel", "WriteError", "build_plan", "default_scene_path", "load_scene",
+           "mesh_scene", "read_image", "read_layer", "render", "render_file", "show", "validate_scene",
+           "write_image"]
 
 if TYPE_CHECKING:  # `X as X`: an explicit re-export (mypy --strict, pyright)
     from .codes import ShadingModel as ShadingModel
@@ -48,6 +49,7 @@ if TYPE_CHECKING:  # `X as X`: an explicit re-export (mypy --strict, pyright)
     from .renderer.frame import render as render
     from .renderer.frame import render_file as render_file
     from .renderer.plan import build_plan as build_plan
+    from .renderer.prepare import Renderer as Renderer
     from .scene.load import load_scene as load_scene
     from .scene.mesh_arrays import mesh_scene as mesh_scene
     from .scene.schema import Scene as Scene

@@ -80,13 +80,13 @@ def side_by_side(
         check_output_path(layers, inputs=(path,))
         from raycast_phong.io.system import budget_of
         each = compare.render_budget(scenes, budget_of(max_memory), str(path))
-        results = []
+        results, session = [], rp.Renderer(max_memory=each)
         with progress_bar(quiet) as bar:
             for number, (variant, value) in enumerate(zip(scenes, values), 1):
                 label = f"{key} = {value} ({number}/{len(scenes)})"
                 bar.update(0, None, label)
-                results.append(rp.render(variant, max_memory=each,
-                                         progress=lambda done, total, label=label: bar.update(done, total, label)))
+                results.append(session.render(variant, progress=lambda done, total, label=label:
+                                              bar.update(done, total, label)))
         from raycast_phong.io.encoding import display_values
         # Each panel as its PNG would show it (sRGB-encoded for render.colour = linear), so variants of different
         # colour settings compare as seen; the differences are measured on those values too.

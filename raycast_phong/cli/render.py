@@ -118,20 +118,15 @@ def render(
 
 def _render_with_progress(scene: rp.Scene, threads: int | None, quiet: bool,
                           max_memory: int | None = None) -> rp.RenderResult:
-    from raycast_phong.renderer.prepare import check_fits
+    from raycast_phong.renderer.prepare import Renderer
     from raycast_phong.renderer.warmup import ready_kernels
-    check_fits(scene, threads=threads, max_memory=max_memory)  # a refused scene compiles nothing
+    session = Renderer(threads=threads, max_memory=max_memory)
+    session.check_fits(scene)  # a refused scene compiles nothing
     stage, seconds = ready_kernels(scene, None if quiet else lambda line: typer.echo(line, err=True))
-    result = _render_shown(scene, threads, quiet, max_memory)
-    return result.with_timings(**{stage: seconds})
-
-
-def _render_shown(scene: rp.Scene, threads: int | None, quiet: bool, max_memory: int | None) -> rp.RenderResult:
-    """render(), with a progress bar over the tiles on a terminal (cli.progress)."""
-    with progress_bar(quiet) as bar:
+    with progress_bar(quiet) as bar:  # over the tiles, on a terminal (cli.progress)
         bar.update(0, None, "building the geometry and the BVH")
-        return rp.render(scene, threads=threads, max_memory=max_memory,
-                         progress=lambda done, total: bar.update(done, total, "rendering tiles"))
+        result = session.render(scene, progress=lambda done, total: bar.update(done, total, "rendering tiles"))
+    return result.with_timings(**{stage: seconds})
 
 
 def say_kept_shading(scene: rp.Scene, shading: ShadingModel | None, sets: list[str], quiet: bool) -> None:
@@ -201,7 +196,7 @@ def plan(scene: SceneArgument = None, set_: SetOption = [], max_memory: MaxMemor
          ) -> None:
     """Print the render plan: each stage and term, kept or left out, and why; then what the geometry
     tells (repaired windings, highlights the render would miss)."""
-    from raycast_phong.renderer.prepare import prepare
+    from raycast_phong.renderer.prepare import Renderer
     check_verbosity(quiet, verbose)
     with exit_codes():
         path = scene or rp.default_scene_path()
@@ -211,7 +206,7 @@ def plan(scene: SceneArgument = None, set_: SetOption = [], max_memory: MaxMemor
         # render's own preparation: the same memory check (before building anything), geometry and diagnosis.
         with progress_bar(quiet) as bar:
             bar.update(0, None, "preparing the geometry")
-            ready = prepare(loaded, max_memory=max_memory)
+            ready = Renderer(max_memory=max_memory).prepare(loaded)
         seconds = time.perf_counter() - started
     if quiet:
         for warning in ready.plan.warnings:

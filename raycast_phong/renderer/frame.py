@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from concurrent.futures import Executor
 from pathlib import Path
 
 import numpy as np
@@ -21,28 +20,26 @@ from .by_address import cutter, shader, shadow_caster
 from .film import allocate_film
 from .kernels.tile import render_band
 from .pack import film_rows
-from .prepare import NO_SHADOWS, TILE_RAYS, FrameCache, default_threads, prepare
+from .prepare import NO_SHADOWS, TILE_RAYS, FrameCache, Renderer, default_threads, prepare
 
-__all__ = ["TILE_RAYS", "FrameCache", "default_threads", "render", "render_file", "warm_kernels",
+__all__ = ["TILE_RAYS", "FrameCache", "Renderer", "default_threads", "render", "render_file", "warm_kernels",
            "warm_kernels_for"]
 
 
 def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None = None,
            progress: Callable[[int, int], None] | None = None, max_memory: int | str | None = None,
-           cache: FrameCache | None = None, cancelled: Callable[[], bool] | None = None,
-           pool: Executor | None = None) -> RenderResult:
-    """Render a validated scene: prepare(scene, ...).render(). (accuracy.measured adds RMSE, max, PSNR, …
-    against the analytic or a self-convergence reference.)
+           cancelled: Callable[[], bool] | None = None) -> RenderResult:
+    """Render a validated scene: Renderer(threads=threads, max_memory=max_memory).render(scene, plan, ...), a
+    one-off session's render (an application rendering frame after frame keeps a Renderer). (accuracy.measured
+    adds RMSE, max, PSNR, … against the analytic or a self-convergence reference.)
 
     Parameters
     ----------
     scene: a validated Scene (rp.load_scene, rp.validate_scene, Scene.replace, rp.mesh_scene).
     threads: worker threads for the bands (default: the machine's cores). plan: a RenderPlan (rp.build_plan's,
         default: made here). progress: progress(done, total), called as bands finish. max_memory: the memory
-        budget in bytes or a size such as "8G" (default: 3/4 of the memory available). cache: a FrameCache
-        carrying the geometry and BVH from one frame of a changing scene to the next. cancelled: asked before
-        each band; True stops the frame with RenderCancelled. pool: an executor the caller owns and keeps, to
-        run the bands on (default: threads started for this frame only).
+        budget in bytes or a size such as "8G" (default: 3/4 of the memory available). cancelled: asked before
+        each band; True stops the frame with RenderCancelled.
 
     Returns
     -------
@@ -54,8 +51,8 @@ def render(scene: Scene, *, threads: int | None = None, plan: RenderPlan | None 
     SceneError (one line) when the scene needs more memory than the budget, before anything is built, or when
     a mesh file it names cannot be read; ValueError for a budget of 0 or less.
     """
-    return prepare(scene, threads=threads, max_memory=max_memory, plan=plan,
-                   progress=progress, cache=cache, cancelled=cancelled, pool=pool, build_ahead=True).render()
+    return Renderer(threads=threads, max_memory=max_memory).render(scene, plan, progress=progress,
+                                                                   cancelled=cancelled)
 
 
 def warm_kernels(reals: tuple[type, ...] = (np.float32, np.float64), shadows: bool = True,

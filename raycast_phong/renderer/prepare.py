@@ -1,15 +1,18 @@
-"""The one place the stages are sequenced: prepare() = plan → memory check → geometry → diagnosis → packing;
-Prepared.render() = BVH → tiles (rays → hits → [shadow rays] → shading, in one kernel per band) → film.
+"""The one place the stages are sequenced: Renderer.prepare() = plan → memory check → geometry → diagnosis →
+packing; Prepared.render() = BVH → tiles (rays → hits → [shadow rays] → shading, in one kernel per band) → film.
 
-render(), render_file(), warm_kernels, the `plan` command, accuracy.mesh_coverage and the study all go
-through prepare(), so they agree on the plan, on whether a scene fits its memory budget (one check, with
-the same arguments for all) and on what the kernels get. Tiles are bands of rows, about TILE_RAYS rays
-each, shaded on a thread pool: Embree and the kernels release the GIL, so both cores work and memory stays
-flat whatever the image size. Every band writes only its own rows: the image is bit-identical for any
-number of threads.
+A Renderer is a session: what stays the same from one render to the next (threads, the memory budget, the
+pool the bands run on, and for the frames of one changing scene a FrameCache), given once, as an httpx
+Client or Open3D's RaycastingScene is. render(), render_file(), warm_kernels, the `plan` command,
+accuracy.mesh_coverage, the study, batches and the live view all go through Renderer.prepare(), so they
+agree on the plan, on whether a scene fits its memory budget (one check, with the same arguments for all)
+and on what the kernels get. Tiles are bands of rows, about TILE_RAYS rays each, shaded on a thread pool:
+Embree and the kernels release the GIL, so both cores work and memory stays flat whatever the image size.
+Every band writes only its own rows: the image is bit-identical for any number of threads.
 
-A FrameCache (a live view keeps one per page) carries the geometry and its committed BVH from one frame to
-the next, so that a frame rebuilds only what its change touched; `cancelled` stops a frame between bands.
+A FrameCache (a live view's page keeps one in its Renderer) carries the geometry and its committed BVH from
+one frame to the next, so that a frame rebuilds only what its change touched; `cancelled` stops a frame
+between bands.
 """
 
 from __future__ import annotations
@@ -67,12 +70,11 @@ class Prepared:
     shading: ShadingInputs
     shadows: ShadowInputs | None     # None in local mode
     bands: tuple[tuple[int, int], ...]  # the tiles: image rows [row0, row1)
-    threads: int
+    threads: int                     # the session's, or the machine's cores
+    session: Renderer                # its cache gives the BVH (and keeps it); its pool runs the bands
     progress: Callable[[int, int], None] | None = None
     timings: dict[str, float] = field(default_factory=dict)  # geometry so far; render() adds the rest
-    cache: FrameCache | None = None  # the BVH comes from it (and goes into it)
     cancelled: Callable[[], bool] | None = None  # asked before each band; True: stop (RenderCancelled)
-    pool: Executor | None = None     # runs the bands (a live view's, kept across frames); None: one per frame
     ahead: BuildAhead | None = None  # the BVH, building since the geometry's positions were final
 
     @property
@@ -87,8 +89,8 @@ class Prepared:
             built = self.ahead.take()
             if built is not None:
                 return built
-        if self.cache is not None:
-            return self.cache.accelerator(self.geometry, self.frame)
+        if self.session.cache is not None:
+            return self.session.cache.accelerator(self.geometry, self.frame)
         return Accelerator(self.geometry, self.frame)
 
     def render(self) -> RenderResult:
@@ -108,72 +110,108 @@ class Prepared:
         aovs = tuple(self.scene.output.aovs)
         tile = TileWork(self.rays, accelerator, self.shadows, self.shading,
                         allocate_film(render.width, render.height, aovs, self.real))
-        counts = run_tiles(tile, list(self.bands), self.threads, self.progress, timings, self.cancelled, self.pool)
+        counts = run_tiles(tile, list(self.bands), self.threads, self.progress, timings, self.cancelled,
+                           self.session.pool)
         return RenderResult(image=tile.film.rgb, aovs=film_layers(tile.film, aovs), timings=timings, plan=self.plan,
                             triangles=self.geometry.triangles, rays=render.width * render.height * render.samples ** 2,
                             counts=dict(zip(COUNTS, counts.tolist())))
 
 
-def prepare(scene: Scene, *, threads: int | None = None,
-            max_memory: int | str | None = None, plan: RenderPlan | None = None,
-            progress: Callable[[int, int], None] | None = None, cache: FrameCache | None = None,
-            cancelled: Callable[[], bool] | None = None, pool: Executor | None = None,
-            build_ahead: bool = False) -> Prepared:
-    """Plan the render, check it fits the memory budget, build the geometry and pack the kernels' inputs.
+@dataclass(frozen=True, eq=False)
+class Renderer:
+    """A renderer session: what stays the same from one render to the next, given once.
 
-    Parameters
-    ----------
-    threads: worker threads for the tiles (default: the machine's cores, at most 8).
-    max_memory: the budget, bytes or a size such as "8G" (default: 3/4 of the memory available now); a scene
-        whose estimate (budget.estimate_memory) exceeds it is refused with a SceneError before anything is built.
-    plan: the render plan; default build_plan(scene). build_plan(scene, optimize=False) keeps
-        every stage.
-    progress: called as progress(tiles_done, tiles_total) by render().
-    cache: a FrameCache whose geometry and BVH this scene may reuse, and which keeps this scene's for the next.
-    cancelled: asked before each band by render(); when it answers True, the bands not yet started are skipped
-        and render() raises RenderCancelled.
-    pool: the executor render() runs the bands on, owned by the caller (a live view keeps one for all its frames:
-        a new pool waited 1-2 ms for its threads to start, on a default draft of ~6 ms); default: a pool of
-        `threads` made and shut down by each render().
-    build_ahead: a mesh of BUILD_AHEAD_FACES or more has its BVH built on a thread of its own while the normals are
-        made, when `threads` is 2 or more and there is no `cache` (render() asks for it; a prepare() that is not
-        rendered starts no Embree).
+    threads: worker threads for the bands (default: the machine's cores, at most 8). max_memory: the budget,
+    bytes or a size such as "8G" (default: 3/4 of the memory available at each render); a scene whose estimate
+    (budget.estimate_memory) exceeds it is refused with a SceneError before anything is built. pool: an
+    executor the caller owns and keeps, to run the bands on (a live view's band threads: a new pool waited 1-2
+    ms for its threads to start, on a default draft of ~6 ms); default: `threads` threads made and shut down
+    by each render. cache: a FrameCache for the frames of one changing scene (a live view's page): each reuses
+    the geometry and BVH of the one before where its change left them, and keeps its own for the next.
     """
-    plan, bands, threads, tile_rays, sources, memory = _fitted(scene, threads, max_memory, plan)
-    width, height, samples = scene.render.width, scene.render.height, scene.render.samples
-    start = time.perf_counter()
-    real = plan.real
-    ahead = BuildAhead() if build_ahead and cache is None and threads > 1 else None
-    with prep_threads(threads):  # a large mesh's preparation uses as many threads as its tiles
-        with cache.lock if cache is not None else contextlib.nullcontext():
-            geometry = build_geometry(scene, vertex_normals=plan.keeps(StageName.VERTEX_NORMALS),
-                                      normal_dtype=real, sources=sources, positions=ahead,
-                                      memo=cache.memo if cache is not None else FRESH)
-    timings = {"geometry": time.perf_counter() - start}
-    derived = cache.derived(geometry) if cache is not None else None
-    start = time.perf_counter()
-    plan = diagnose(plan, scene, geometry, ObjectFigures(geometry, len(scene.objects), derived))
-    timings["diagnosis"] = time.perf_counter() - start  # the plan's Gouraud and highlight checks: ms at 10^5 faces
-    if ahead is not None and ahead.started:
-        frame = ahead.frame  # unit_frame of the same vertices
-    elif derived is None:
-        frame = frame_of_box(*geometry.box)  # the box the geometry's checks measured
-    else:
-        frame = derived.get("frame", ("vertices",), lambda: frame_of_box(*geometry.box))
-    rig = camera_rig(scene)
-    return Prepared(
-        scene=scene, plan=plan, memory=memory, geometry=geometry, frame=frame,
-        rays=RayGenerator(rig, frame, width, height, samples, max_rays=tile_rays),
-        shading=prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), real, kept=derived),
-        shadows=prepare_shadows(scene, geometry, frame) if plan.keeps(StageName.SHADOW_RAYS) else None,
-        bands=bands, threads=threads, progress=progress, timings=timings, cache=cache, cancelled=cancelled,
-        pool=pool, ahead=ahead)
+    threads: int | None = None
+    max_memory: int | str | None = None
+    pool: Executor | None = None
+    cache: FrameCache | None = None
+
+    def render(self, scene: Scene, plan: RenderPlan | None = None, *,
+               progress: Callable[[int, int], None] | None = None,
+               cancelled: Callable[[], bool] | None = None) -> RenderResult:
+        """prepare(...).render(), the BVH of a large mesh built ahead (BuildAhead)."""
+        return self.prepare(scene, plan, progress=progress, cancelled=cancelled, build_ahead=True).render()
+
+    def prepare(self, scene: Scene, plan: RenderPlan | None = None, *,
+                progress: Callable[[int, int], None] | None = None,
+                cancelled: Callable[[], bool] | None = None, build_ahead: bool = False) -> Prepared:
+        """Plan the render, check it fits the memory budget, build the geometry and pack the kernels' inputs.
+
+        plan: the render plan; default build_plan(scene) (build_plan(scene, optimize=False) keeps every stage).
+        progress: called as progress(tiles_done, tiles_total) by render(). cancelled: asked before each band by
+        render(); when it answers True, the bands not yet started are skipped and render() raises
+        RenderCancelled. build_ahead: a mesh of BUILD_AHEAD_FACES or more has its BVH built on a thread of its
+        own while the normals are made, on 2 threads or more and without a cache (render() asks for it; a
+        prepare() that is not rendered starts no Embree).
+        """
+        plan, bands, threads, tile_rays, sources, memory = self._fitted(scene, plan)
+        width, height, samples = scene.render.width, scene.render.height, scene.render.samples
+        start = time.perf_counter()
+        real, cache = plan.real, self.cache
+        ahead = BuildAhead() if build_ahead and cache is None and threads > 1 else None
+        with prep_threads(threads):  # a large mesh's preparation uses as many threads as its tiles
+            with cache.lock if cache is not None else contextlib.nullcontext():
+                geometry = build_geometry(scene, vertex_normals=plan.keeps(StageName.VERTEX_NORMALS),
+                                          normal_dtype=real, sources=sources, positions=ahead,
+                                          memo=cache.memo if cache is not None else FRESH)
+        timings = {"geometry": time.perf_counter() - start}
+        derived = cache.derived(geometry) if cache is not None else None
+        start = time.perf_counter()
+        plan = diagnose(plan, scene, geometry, ObjectFigures(geometry, len(scene.objects), derived))
+        timings["diagnosis"] = time.perf_counter() - start  # the plan's Gouraud and highlight checks: ms at 10^5 faces
+        if ahead is not None and ahead.started:
+            frame = ahead.frame  # unit_frame of the same vertices
+        elif derived is None:
+            frame = frame_of_box(*geometry.box)  # the box the geometry's checks measured
+        else:
+            frame = derived.get("frame", ("vertices",), lambda: frame_of_box(*geometry.box))
+        rig = camera_rig(scene)
+        return Prepared(
+            scene=scene, plan=plan, memory=memory, geometry=geometry, frame=frame,
+            rays=RayGenerator(rig, frame, width, height, samples, max_rays=tile_rays),
+            shading=prepare_shading(scene, geometry, rig, frame, plan_flags(plan, scene), real, kept=derived),
+            shadows=prepare_shadows(scene, geometry, frame) if plan.keeps(StageName.SHADOW_RAYS) else None,
+            bands=bands, threads=threads, session=self, progress=progress, timings=timings, cancelled=cancelled,
+            ahead=ahead)
+
+    def check_fits(self, scene: Scene) -> MemoryEstimate:
+        """prepare()'s plan and memory check alone, building nothing: a SceneError if the scene is over the
+        budget (the CLI refuses before any kernel compiles; the study checks every level before it measures)."""
+        return self._fitted(scene, None).memory
+
+    def _fitted(self, scene: Scene, plan: RenderPlan | None) -> _Fitted:
+        """The plan, the bands and the memory check (a SceneError over the budget)."""
+        plan = plan or build_plan(scene)
+        if plan.keeps(StageName.SHADOW_RAYS) and len(scene.lights) > MAX_LIGHTS:
+            raise SceneError(f"global mode handles at most {MAX_LIGHTS} lights, the scene has {len(scene.lights)}; "
+                             'use render.mode = "local" or fewer lights', scene.origin.at("lights"))
+        width, height, samples = scene.render.width, scene.render.height, scene.render.samples
+        rows_per_tile = max(1, TILE_RAYS // (width * samples * samples))
+        bands = tuple((row, min(row + rows_per_tile, height)) for row in range(0, height, rows_per_tile))
+        threads = self.threads or default_threads()
+        tile_rays = rows_per_tile * width * samples * samples
+        sources = None
+        if any(map(from_file, scene.objects)):  # each mesh file's MeshSource, read once (the scene's)
+            from ..io.meshes.source import mesh_sources
+            sources = mesh_sources(scene)
+        memory = check_memory(scene, self.max_memory, sources=sources, smooth=plan.keeps(StageName.VERTEX_NORMALS),
+                              float64=plan.keeps(StageName.FLOAT64_SHADING),
+                              shadow_lights=len(scene.lights) if plan.keeps(StageName.SHADOW_RAYS) else 0,
+                              tile_rays=tile_rays, threads=min(threads, len(bands)))
+        return _Fitted(plan, bands, threads, tile_rays, sources, memory)
 
 
-def check_fits(scene: Scene, *, threads: int | None = None, max_memory: int | str | None = None) -> MemoryEstimate:
-    """prepare()'s plan and memory check alone, building nothing: a SceneError if the scene is over the budget
-    (the study checks every level it is given so, before it measures the first)."""
-    return _fitted(scene, threads, max_memory, None).memory
+def prepare(scene: Scene, plan: RenderPlan | None = None) -> Prepared:
+    """A default session's prepare() (the plan command's, the warm-up's): Renderer().prepare(scene, plan)."""
+    return Renderer().prepare(scene, plan)
 
 
 class _Fitted(NamedTuple):
@@ -184,28 +222,6 @@ class _Fitted(NamedTuple):
     tile_rays: int                      # the rays of a full tile
     sources: dict | None                # each mesh file's MeshSource (None: the scene has none)
     memory: MemoryEstimate
-
-
-def _fitted(scene: Scene, threads: int | None, max_memory: int | str | None, plan: RenderPlan | None) -> _Fitted:
-    """The plan, the bands and the memory check (a SceneError over the budget)."""
-    plan = plan or build_plan(scene)
-    if plan.keeps(StageName.SHADOW_RAYS) and len(scene.lights) > MAX_LIGHTS:
-        raise SceneError(f"global mode handles at most {MAX_LIGHTS} lights, the scene has {len(scene.lights)}; "
-                         'use render.mode = "local" or fewer lights', scene.origin.at("lights"))
-    width, height, samples = scene.render.width, scene.render.height, scene.render.samples
-    rows_per_tile = max(1, TILE_RAYS // (width * samples * samples))
-    bands = tuple((row, min(row + rows_per_tile, height)) for row in range(0, height, rows_per_tile))
-    threads = threads or default_threads()
-    tile_rays = rows_per_tile * width * samples * samples
-    sources = None
-    if any(map(from_file, scene.objects)):  # each mesh file's MeshSource, read once (the scene's)
-        from ..io.meshes.source import mesh_sources
-        sources = mesh_sources(scene)
-    memory = check_memory(scene, max_memory, sources=sources, smooth=plan.keeps(StageName.VERTEX_NORMALS),
-                          float64=plan.keeps(StageName.FLOAT64_SHADING),
-                          shadow_lights=len(scene.lights) if plan.keeps(StageName.SHADOW_RAYS) else 0,
-                          tile_rays=tile_rays, threads=min(threads, len(bands)))
-    return _Fitted(plan, bands, threads, tile_rays, sources, memory)
 
 
 class BuildAhead:

@@ -42,7 +42,7 @@ from ..io.image_io import check_output_file
 from ..io.system import usable_cores
 from ..records import Geometry
 from ..renderer.frame import render
-from ..renderer.prepare import check_fits, prepare
+from ..renderer.prepare import Renderer
 from ..scene.load import read_scene_dict
 from ..scene.objects import NormalsRule
 from ..scene.schema import Scene, SceneError, ShadingModel, SpecularModel, validate_scene
@@ -312,6 +312,7 @@ class _Sweep:
         self.base = validate_scene(self.data, source=self.source, folder=Path(path).parent)
         _check_options(self.base, options)
         self.options, self.folder = options, folder
+        self.renderer = Renderer(threads=options.threads, max_memory=options.max_memory)  # every measured render's
         value = lambda v: v.value if hasattr(v, "value") else v
         self.models = [value(m) for m in options.models]
         self.problems = [(value(s), f) for f in (options.shininess or (None,))
@@ -349,8 +350,7 @@ class _Sweep:
     def check_fits(self, level: int) -> None:
         """Refuse (SceneError) a level whose renders are over the memory budget, before anything is measured."""
         for s in self.settings(level):
-            check_fits(self.scene(s), threads=self.options.threads,
-                       max_memory=self.options.max_memory)
+            self.renderer.check_fits(self.scene(s))
 
     def measure_level(self, level: int, keep_images: bool) -> None:
         """Render every setting at `level` once and measure it (the references are computed once per problem)."""
@@ -364,13 +364,11 @@ class _Sweep:
                     self.scene(s, samples=self.supersampling), fine=self.options.fine)
             if (s.samples, level) not in self.meshes:
                 # One prepare (plan, memory check, geometry) serves both: the render's own triangles.
-                ready = prepare(scene, threads=self.options.threads,
-                                max_memory=self.options.max_memory)
+                ready = self.renderer.prepare(scene)
                 self.meshes[s.samples, level] = (mesh_coverage(ready), mean_edge_length(ready.geometry))
             coverage, _ = self.meshes[s.samples, level]
             began = time.perf_counter()
-            result = render(scene, threads=self.options.threads,
-                            max_memory=self.options.max_memory)
+            result = self.renderer.render(scene)
             self.render_seconds[level] = self.render_seconds.get(level, 0.0) + time.perf_counter() - began
             reference = self.references[s.specular, s.samples, s.shininess]
             errors = measure(result.image, coverage, reference)
@@ -396,7 +394,7 @@ class _Sweep:
             for position, index in enumerate(np.random.default_rng(round_).permutation(len(settings)), 1):
                 s = settings[index]
                 begin, cpu = time.perf_counter(), time.process_time()
-                result = render(scenes[s], threads=self.options.threads, max_memory=self.options.max_memory)
+                result = self.renderer.render(scenes[s])
                 wall = time.perf_counter() - begin
                 runs[s].append((wall, {**result.timings, "cpu": time.process_time() - cpu}))
                 if progress:

@@ -159,7 +159,8 @@ def test_no_arguments_shows_help():
 def test_internal_error_exits_1_with_one_line(tiny_scene, tmp_path, monkeypatch, error_logs_in_the_session_folder):
     def broken_render(*args, **kwargs):
         raise RuntimeError("kernel exploded")
-    monkeypatch.setattr(raycast_phong, "render", broken_render)
+    from raycast_phong.renderer.prepare import Renderer
+    monkeypatch.setattr(Renderer, "render", broken_render)
     output = tmp_path / "out.png"
     output.write_bytes(b"an earlier image")
     result = runner.invoke(app, ["render", str(tiny_scene), "-o", str(output)])

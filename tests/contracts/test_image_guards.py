@@ -256,7 +256,7 @@ def test_a_scene_map_that_is_no_image_is_refused_by_the_memory_check_before_any_
 
     import raycast_phong as rp
     from raycast_phong.io.textures import file_size
-    from raycast_phong.renderer.prepare import check_fits
+    from raycast_phong.renderer.prepare import Renderer
 
     with open(tmp_path / "zeros.png", "wb") as handle:
         handle.truncate(64 << 20)  # sparse: no disk
@@ -267,7 +267,7 @@ def test_a_scene_map_that_is_no_image_is_refused_by_the_memory_check_before_any_
     monkeypatch.setattr(oiio.ImageInput, "open", lambda *arguments: probes.append(arguments))
     scene = rp.load_scene(tmp_path / "s.toml")
     with pytest.raises(rp.SceneError) as refused:
-        check_fits(scene)
+        Renderer().check_fits(scene)
     assert str(refused.value) == (f"{tmp_path / 's.toml'}: materials.m.kd_map: '{tmp_path / 'zeros.png'}' is not "
                                   "a PNG file: it starts with b'" + "\\x00" * 8 + "'; give a PNG, JPEG, EXR or "
                                   "another image file")

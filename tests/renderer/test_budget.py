@@ -78,13 +78,13 @@ def test_many_small_objects_stay_within_the_estimate():
 
 
 # ---------------------------------------------------------------- the refusal as render() applies it
-# prepare.check_fits is prepare()'s plan and memory check alone (render() runs the same _fitted), building nothing.
+# Renderer.check_fits is prepare()'s plan and memory check alone (render() runs the same _fitted), building nothing.
 MiB = 1 << 20
 
 
 def _checked(scene, budget):
-    from raycast_phong.renderer.prepare import check_fits
-    return check_fits(scene, threads=1, max_memory=budget)
+    from raycast_phong.renderer.prepare import Renderer
+    return Renderer(threads=1, max_memory=budget).check_fits(scene)
 
 
 def test_a_large_colour_map_alone_is_refused_under_a_budget_it_exceeds(tmp_path):

@@ -53,10 +53,10 @@ SCENES = {
 @pytest.mark.parametrize("name", SCENES)
 def test_the_bvh_built_ahead_gives_the_image_of_the_one_built_after(low_threshold, name):
     scene = SCENES[name]()
-    ahead = module.prepare(scene, threads=2, build_ahead=True)
+    ahead = module.Renderer(threads=2).prepare(scene, build_ahead=True)
     assert ahead.ahead is not None and ahead.ahead.started
     image = ahead.render().image
-    after = module.prepare(scene, threads=2)
+    after = module.Renderer(threads=2).prepare(scene)
     assert after.ahead is None
     expected = after.render().image
     assert (expected > 0).any()
@@ -70,7 +70,7 @@ def test_the_build_ahead_gets_the_placed_vertices_and_the_geometrys_faces(low_th
     seen = []
     monkeypatch.setattr(Accelerator, "of_mesh", classmethod(
         lambda cls, vertices, faces, frame: seen.append((vertices, faces, frame)) or Accelerator.__new__(cls)))
-    ready = module.prepare(SCENES["one mesh, placed"](), threads=2, build_ahead=True)
+    ready = module.Renderer(threads=2).prepare(SCENES["one mesh, placed"](), build_ahead=True)
     ready.ahead.take()
     (vertices, faces, frame), = seen
     geometry = ready.geometry
@@ -90,14 +90,14 @@ def test_an_error_of_the_build_ahead_reaches_the_caller(low_threshold, monkeypat
 
 def test_nothing_is_built_ahead_unless_a_render_on_two_threads_asks_for_it(low_threshold):
     scene = bumpy_mesh_scene()
-    assert module.prepare(scene, threads=2).ahead is None  # the plan command, the accuracy tools, the warm-up
-    assert module.prepare(scene, threads=1, build_ahead=True).ahead is None  # a batch worker's one thread
-    assert not module.prepare(spheres_scene(), threads=2, build_ahead=False).ahead
+    assert module.Renderer(threads=2).prepare(scene).ahead is None  # the plan command, the accuracy tools, the warm-up
+    assert module.Renderer(threads=1).prepare(scene, build_ahead=True).ahead is None  # a batch worker's one thread
+    assert not module.Renderer(threads=2).prepare(spheres_scene(), build_ahead=False).ahead
 
 
 def test_a_mesh_below_the_threshold_builds_after():
     scene = bumpy_mesh_scene()
     assert len(scene.mesh_sources) == 1 and module.BUILD_AHEAD_FACES > 5120
-    ready = module.prepare(scene, threads=2, build_ahead=True)
+    ready = module.Renderer(threads=2).prepare(scene, build_ahead=True)
     assert not ready.ahead.started
     assert (ready.render().image > 0).any()

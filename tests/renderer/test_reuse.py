@@ -100,13 +100,13 @@ def test_a_memo_gives_the_geometry_a_fresh_build_gives_and_keeps_it_when_nothing
 
 
 def test_frames_through_a_frame_cache_are_the_images_render_gives(tmp_path):
-    cache = FrameCache()
+    cached = rp.Renderer(cache=FrameCache())
     table = BASE
     for path, value, _ in [((), None, None), *CHANGES, (("objects", 0, "subdivisions"), 1, False)]:
         if path:
             table = changed(table, path, value)
         scene = scene_of(table)
-        got, fresh = rp.render(scene, cache=cache), rp.render(scene)
+        got, fresh = cached.render(scene), rp.render(scene)
         assert same_bits(got.image, fresh.image), path
         assert got.plan == fresh.plan and got.counts == fresh.counts, path
 
@@ -140,14 +140,14 @@ def test_a_frame_cache_reuses_the_bvh_when_the_vertices_and_faces_are_the_same(m
     built = []
     original = embree.EmbreeScene
     monkeypatch.setattr(embree, "EmbreeScene", lambda *args: built.append(1) or original(*args))
-    cache = FrameCache()
+    cached = rp.Renderer(cache=FrameCache())
     table = BASE
     for path, value, expected in [((), None, 1), (("lights", 0, "position"), [1, 1, 5], 1),
                                   (("render", "shading"), "flat", 1), (("render", "precision"), "float64", 1),
                                   (("objects", 1, "translate"), [2, 0, 1], 2)]:
         if path:
             table = changed(table, path, value)
-        rp.render(scene_of(table), cache=cache)
+        cached.render(scene_of(table))
         assert len(built) == expected, path
 
 
@@ -202,13 +202,13 @@ def test_a_light_or_camera_change_measures_the_geometrys_box_once(monkeypatch):
     counting = lambda vertices: measured.append(len(vertices)) or original(vertices)
     monkeypatch.setattr(records, "bounding_box", counting)
     monkeypatch.setattr(checks, "bounding_box", counting, raising=False)
-    cache, table = FrameCache(), BASE
-    rp.render(scene_of(table), cache=cache)
+    cached, table = rp.Renderer(cache=FrameCache()), BASE
+    cached.render(scene_of(table))
     first = len(measured)
     for path, value in [(("lights", 0, "position"), [1, 1, 5]), (("camera", "position"), [1, 2, 8]),
                         (("lights", 0, "position"), [-2, 3, 5])]:
         table = changed(table, path, value)
-        rp.render(scene_of(table), cache=cache)
+        cached.render(scene_of(table))
     assert first >= 1 and len(measured) == first, measured
 
 

@@ -328,8 +328,10 @@ def test_a_given_level_over_the_memory_budget_is_refused_before_anything_is_meas
 
     def not_now(*args, **kwargs):
         raise AssertionError("the study measured before it checked every level's memory")
-    for name in ("reference_image", "render", "prepare"):
+    for name in ("reference_image", "render"):
         monkeypatch.setattr(study, name, not_now)
+    for name in ("render", "prepare"):  # the study's session's
+        monkeypatch.setattr(study.Renderer, name, not_now)
     with pytest.raises(rp.SceneError, match="above the 20 MB budget"):
         run_study(sphere_file(tmp_path, size=16), options=StudyOptions(levels=(1, 7), max_memory=20 << 20))
 

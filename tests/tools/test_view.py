@@ -30,7 +30,7 @@ import raycast_phong as rp
 from raycast_phong.cli import app as cli_app
 from raycast_phong.io.encoding import to_8bit
 from raycast_phong.tools import accuracy
-from raycast_phong.tools.view.server import create_app, draft_of, open_source, scene_with, unpack
+from raycast_phong.tools.view.server import create_app, draft_of, open_source, scene_with, session_render, unpack
 
 TOKEN = "test-token"
 ORIGIN = "http://testserver"  # TestClient's own origin
@@ -445,10 +445,10 @@ def test_latest_wins_while_a_render_runs(scene_path):
     """Requests that arrive while a render runs replace one another: only the newest is rendered."""
     started, release = threading.Event(), threading.Event()
 
-    def held_render(scene, **options):
+    def held_render(session, scene, **options):
         started.set()
         release.wait(60)
-        return rp.render(scene, **options)
+        return session_render(session, scene, **options)
 
     with connect(client_for(scene_path, render=held_render)) as ws:
         ws.receive_text()
@@ -470,11 +470,11 @@ def test_a_release_is_never_coalesced_away_by_the_next_strokes_drafts(scene_path
     settings it was sent with, then the newest draft; only draft 3 is dropped."""
     started, release = threading.Event(), threading.Event()
 
-    def held_render(scene, **options):
+    def held_render(session, scene, **options):
         if not started.is_set():
             started.set()
             release.wait(60)
-        return rp.render(scene, **options)
+        return session_render(session, scene, **options)
 
     light = lambda x: {"lights.0.position": [x, 2, 3]}
     with connect(client_for(scene_path, render=held_render)) as ws:
@@ -585,12 +585,12 @@ def test_a_slow_page_does_not_hold_another_pages_frames(scene_path):
     """Each page renders on its own thread: while one page's frame is held, another page gets its frames."""
     started, release, finished = threading.Event(), threading.Event(), threading.Event()
 
-    def held_render(scene, **options):
+    def held_render(session, scene, **options):
         if scene.render.width == 31:  # the slow page's draft (of 61 pixels across)
             started.set()
             release.wait(30)
             finished.set()
-        return rp.render(scene, **options)
+        return session_render(session, scene, **options)
 
     client = client_for(scene_path, render=held_render)
     try:
@@ -994,9 +994,9 @@ def test_a_newer_request_cancels_a_running_full_frame_between_bands(scene_path, 
     from raycast_phong.renderer import prepare
     asked, calls = {}, []
 
-    def render(scene, **options):
+    def render(session, scene, **options):
         asked["cancelled"] = options.get("cancelled")
-        return rp.render(scene, **options)
+        return session_render(session, scene, **options)
 
     band = prepare.TileWork.__call__
 
@@ -1092,9 +1092,9 @@ def test_every_page_renders_on_the_servers_few_threads(scene_path):
     from raycast_phong.tools.view import session
     threads = set()
 
-    def noted(scene, **options):
+    def noted(session, scene, **options):
         threads.add((threading.get_ident(), threading.current_thread().name))
-        return rp.render(scene, **options)
+        return session_render(session, scene, **options)
 
     client = client_for(scene_path, render=noted)
     with connect(client) as a, connect(client) as b, connect(client) as c, connect(client) as d:

@@ -24,6 +24,7 @@ from conftest import write_tiny_scene
 import raycast_phong as rp
 from raycast_phong.io.encoding import to_8bit
 from raycast_phong.tools.view import running
+from raycast_phong.tools.view.server import session_render
 
 # Headless, and nothing that reaches out: no updates, sync or first-run pages.
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
@@ -219,11 +220,11 @@ def held_draft():
     """(holding, release, render): once `holding` is set, the next draft the server renders waits for `release`."""
     holding, release = threading.Event(), threading.Event()
 
-    def held(scene, **options):
+    def held(session, scene, **options):
         if holding.is_set() and scene.render.width == WIDTH // 2:  # a draft
             holding.clear()
             release.wait(60)
-        return rp.render(scene, **options)
+        return session_render(session, scene, **options)
 
     return holding, release, held
 
@@ -433,12 +434,12 @@ def test_a_lost_server_turns_the_page_off_and_it_reconnects_to_the_restarted_one
 def test_the_page_shows_that_it_is_rendering_and_how_far(browser, scene_path):
     holding, release = threading.Event(), threading.Event()
 
-    def held(scene, **options):
+    def held(session, scene, **options):
         """Once `holding` is set, a full frame reports a quarter of its tiles done and waits for `release`."""
         if holding.is_set() and options.get("progress") is not None:
             options["progress"](1, 4)
             release.wait(60)
-        return rp.render(scene, **options)
+        return session_render(session, scene, **options)
 
     with opened(browser, scene_path, render=held) as tab:
         assert tab.is_hidden("#busy")
@@ -885,10 +886,10 @@ def test_the_image_is_an_early_tab_stop(page):
 def test_the_busy_bar_never_moves_the_image(browser, scene_path):
     holding, release = threading.Event(), threading.Event()
 
-    def held(scene, **options):
+    def held(session, scene, **options):
         if holding.is_set() and options.get("progress") is not None:
             release.wait(60)
-        return rp.render(scene, **options)
+        return session_render(session, scene, **options)
 
     with opened(browser, scene_path, render=held) as tab:
         before = tab.locator("#image-a").bounding_box()

@@ -27,7 +27,7 @@ import re
 import struct
 import time
 from collections.abc import Callable
-from concurrent.futures import Executor, ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -297,19 +297,20 @@ def left_out(plan) -> list[dict]:
     return [{"name": s.name, "reason": s.reason} for s in plan.stages if not s.kept]
 
 
-def render_lazily(*args, **options):
-    """rp.render, its module (and numba with it) imported by the first frame, not when the app is made."""
-    return rp.render(*args, **options)
+def session_render(session: rp.Renderer | None, scene: rp.Scene, **options) -> rp.RenderResult:
+    """session.render(scene, ...), or a one-off session's (rp.render) where there is none."""
+    return session.render(scene, **options) if session is not None else rp.render(scene, **options)
 
 
 @dataclass
-class Renderer:
+class Replies:
     """Turns one request into one reply; runs on the view's worker thread."""
     source: Source
-    render: Callable[..., Any] = None  # rp.render; a test may wrap it (to hold a render while it sends more)
+    # session_render; a test may wrap it (to hold a render while it sends more)
+    render: Callable[..., Any] = None
 
     def __post_init__(self):
-        self.render = self.render or render_lazily
+        self.render = self.render or session_render
 
     def scenes(self, request: dict) -> dict[str, rp.Scene]:
         """The validated scenes of a render request: A, and B to compare (or A's three shading models)."""
@@ -333,15 +334,15 @@ class Renderer:
         many = any(scene.render.samples > 1 for scene in self.scenes(request).values())
         return ["preview", "full"] if many else ["full"]
 
-    def frame(self, request: dict, progress: Callable[[float], None] | None = None, shown: dict | None = None,
-              cache: FrameCache | None = None, cancelled: Callable[[], bool] | None = None,
-              step: str | None = None, pool: Executor | None = None) -> bytes:
+    def frame(self, request: dict, session: rp.Renderer | None = None,
+              progress: Callable[[float], None] | None = None, shown: dict | None = None,
+              cancelled: Callable[[], bool] | None = None, step: str | None = None) -> bytes:
         """Render settings A (and B, to compare) at the requested quality (or at `step`, one of steps()); the
-        PNGs, the heat map, the figures. `progress(share)` is told the share of the tiles done, 0..1 over A and
-        B together; `shown` (the page's own table) keeps (request id, RenderResult) of its last full frame A for
-        errors(); `cache` is the page's FrameCache (geometry and BVH kept between its frames); `cancelled()`
-        answering True stops the frame between bands (RenderCancelled); `pool` runs the bands (the server's band
-        threads, kept across frames)."""
+        PNGs, the heat map, the figures. `session` is the page's renderer (its FrameCache keeps the geometry and
+        BVH between its frames; its bands run on the server's band threads); `progress(share)` is told the
+        share of the tiles done, 0..1 over A and B together; `shown` (the page's own table) keeps (request id,
+        RenderResult) of its last full frame A for errors(); `cancelled()` answering True stops the frame between
+        bands (RenderCancelled)."""
         started = time.perf_counter()
         scenes = self.scenes(request)
         quality = step or request.get("quality", "full")
@@ -357,8 +358,7 @@ class Renderer:
             told = None
             if progress is not None:
                 told = lambda done, total, k=k: progress((k + done / max(total, 1)) / len(scenes))
-            result = self.render(shaped(scene), progress=told, cache=cache,
-                                 cancelled=cancelled, pool=pool)
+            result = self.render(session, shaped(scene), progress=told, cancelled=cancelled)
             if name == "a" and quality == "full" and not request.get("models") and shown is not None:
                 shown["a"] = (request.get("id"), result)  # errors() measures this image, not a new one
             images[name] = display_values(result.image, result.colour)  # A and B compared as shown
@@ -378,8 +378,8 @@ class Renderer:
             else:
                 header["difference"] = {"note": "A and B differ in size; no heat map"}
         header["stats"] = stats
-        if cache is not None:
-            header["spheres"] = object_spheres(cache, len(scenes["a"].objects))
+        if session is not None and session.cache is not None:
+            header["spheres"] = object_spheres(session.cache, len(scenes["a"].objects))
         header["seconds"] = time.perf_counter() - started
         return pack(header, parts)
 
@@ -395,7 +395,7 @@ class Renderer:
             return None
         shown_id, image = (shown or {}).get("a", (None, None))
         if shown_id != request.get("id"):
-            image = self.render(scene)
+            image = self.render(None, scene)
         result = measured(scene, image, "analytic", 2)
         e = result.errors
         finite = lambda x: None if x is None or not math.isfinite(x) else x  # JSON has no nan or inf
@@ -403,9 +403,9 @@ class Renderer:
                 "psnr": finite(e.psnr), "highlight_loss": finite(e.highlight_loss),
                 "seconds": result.reference_seconds}
 
-    def save(self, request: dict, cache: FrameCache | None = None, pool: Executor | None = None) -> bytes:
+    def save(self, request: dict, session: rp.Renderer | None = None) -> bytes:
         """The current settings as a scene file (toml), or the full-resolution image (png, exr with layers);
-        `cache`: the page's FrameCache, whose geometry and BVH the image may reuse; `pool`: the band threads."""
+        `session`: the page's renderer, whose geometry and BVH the image may reuse."""
         what = request.get("what")
         scene = scene_with(self.source, settings_of(request))
         side = request.get("side", "a")
@@ -415,8 +415,7 @@ class Renderer:
         if what == "toml":
             data = scene_toml(scene).encode("utf-8")
         elif what in ("png", "exr"):
-            result = self.render(scene if what == "exr" else frame_of(scene), cache=cache,
-                                 pool=pool)
+            result = self.render(session, scene if what == "exr" else frame_of(scene))
             data = encode(result.image, f".{what}", result.aovs if what == "exr" else None, result.colour)
         else:
             raise ViewError(f"save: {what!r}; allowed: 'toml', 'png' or 'exr'")
@@ -432,7 +431,7 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
     `any_host` (served on 0.0.0.0 or ::): any Host name, and then the socket's Origin must be that host's page.
     `executor` runs the warm-up (tests pass one); the pages' frames run on the server's own render threads."""
     access = Access(token, on_page=lambda: view.start_warming())
-    renderer = Renderer(source, render)
+    renderer = Replies(source, render)
     view = View(source, renderer, access, origins, any_host, hello, open_source,
                 lambda request: loaded(source, request))
     routes = [Route("/", access.index), Route("/access", access.access), Mount("/static", app=access.static),

@@ -31,6 +31,7 @@ from raycast_phong.io.scene_file import syntax_limit
 from .access import Access
 
 if TYPE_CHECKING:
+    from raycast_phong.renderer.prepare import Renderer
     from raycast_phong.renderer.reuse import FrameCache
 
 FRAME_THREADS = 2       # frames rendered at once by one server, over all its pages (each frame uses every core)
@@ -65,6 +66,13 @@ def frame_cache() -> FrameCache:
     return FrameCache()
 
 
+def page_renderer(bands: ThreadPoolExecutor) -> Renderer:
+    """A page's renderer session: its FrameCache (the geometry and BVH its frames share, released with the
+    page), its frames' bands on the server's band threads."""
+    from raycast_phong.renderer.prepare import Renderer
+    return Renderer(pool=bands, cache=frame_cache())
+
+
 def frame_threads() -> ThreadPoolExecutor:
     return ThreadPoolExecutor(FRAME_THREADS, "view-render")
 
@@ -92,12 +100,11 @@ class Client:
     """One socket's queue: at most one waiting draft (latest wins) and one waiting committed frame (a full
     request: a release, a key, a field; the newest wins, and a draft never replaces it), two waiting saves, one
     waiting reference; the threads its frames and references run on (the server's, shared by every page); its
-    last full frame A (for the exact errors: request ids are each page's own); its FrameCache (the geometry and
-    BVH its frames share, released with the page); and the quality being rendered with the event that cancels
+    last full frame A (for the exact errors: request ids are each page's own); its renderer session (its
+    FrameCache, the bands on the server's threads); and the quality being rendered with the event that cancels
     it, and whether it may be cancelled (a committed request's first full-size frame may not)."""
     pending: dict | None = None               # the newest waiting draft
     committed: dict | None = None             # the newest waiting full request: rendered before a waiting draft
-    cache: FrameCache = field(default_factory=lambda: frame_cache())
     running: str | None = None                # the quality of the frame being rendered ("draft", "preview", "full")
     cancellable: bool = False                 # the running frame is a refinement a newer request makes stale
     cancel: threading.Event = field(default_factory=threading.Event)  # set: the running frame stops between bands
@@ -111,6 +118,15 @@ class Client:
     bands: ThreadPoolExecutor = field(default_factory=band_threads)  # the bands of its frames (the server's)
     references: ThreadPoolExecutor = field(default_factory=reference_threads)
     shown: dict = field(default_factory=dict)
+    _renderer: Renderer | None = None
+
+    @property
+    def renderer(self) -> Renderer:
+        """The page's renderer session, made at its first frame or save (after the kernels' warm-up has
+        imported the renderer), so that the server answers before numba is loaded."""
+        if self._renderer is None:
+            self._renderer = page_renderer(self.bands)
+        return self._renderer
 
 
 class View:
@@ -273,7 +289,7 @@ class Session:
                 client.wake.set()  # a draft waits behind the committed frame: this loop comes back for it
             while client.saves:
                 save = client.saves.popleft()
-                saved = await self.answer(save, client.executor, renderer.save, save, client.cache, client.bands)
+                saved = await self.answer(save, client.executor, renderer.save, save, client.renderer)
                 if saved is not None:
                     await self.websocket.send_bytes(saved)
             if request is None:
@@ -292,8 +308,8 @@ class Session:
                 # a refinement (the samples after a preview) is cancelled by a newer request.
                 client.cancellable = step != steps[0]
                 told = progress_to(self.websocket, loop, request.get("id"))
-                reply = await self.answer(request, client.executor, renderer.frame, request, told, client.shown,
-                                          client.cache, client.cancel.is_set, step, client.bands)
+                reply = await self.answer(request, client.executor, renderer.frame, request, client.renderer, told,
+                                          client.shown, client.cancel.is_set, step)
                 client.running, client.cancellable = None, False
                 if reply is None:
                     break
