@@ -21,6 +21,8 @@ CALLS = {
     "rp.validate_scene({})": "raycast_phong.scene.schema.Scene",
     "rp.mesh_scene(np.zeros((3, 3)), np.array([[0, 1, 2]]))": "raycast_phong.scene.schema.Scene",
     "rp.render(rp.load_scene(rp.default_scene_path()))": "raycast_phong.records.RenderResult",
+    'rp.Renderer(threads=2, max_memory="1G").render(rp.load_scene(rp.default_scene_path()))':
+        "raycast_phong.records.RenderResult",
     'rp.render_file("model.obj")': "raycast_phong.records.RenderResult",
     "rp.build_plan(rp.load_scene(rp.default_scene_path()))": "raycast_phong.records.RenderPlan",
     'rp.write_image("x.png", np.zeros((2, 2, 3), np.float32))': "pathlib.Path",
