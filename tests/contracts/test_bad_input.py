@@ -137,7 +137,9 @@ def no_render(monkeypatch):
     """Fail the test if the CLI gets as far as rendering (and allocating the image)."""
     def render(*args, **kwargs):
         pytest.fail("the scene reached the renderer; it should have been refused while loading")
+    from raycast_phong.renderer.prepare import Renderer
     monkeypatch.setattr(raycast_phong, "render", render)
+    monkeypatch.setattr(Renderer, "prepare", render)  # every render goes through a session's prepare()
 
 
 # ---------------------------------------------------------------- the control

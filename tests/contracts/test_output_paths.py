@@ -35,7 +35,9 @@ def no_render(monkeypatch):
 
     def render(*args, **kwargs):
         pytest.fail("the command reached the renderer; the output should have been refused first")
+    from raycast_phong.renderer.prepare import Renderer
     monkeypatch.setattr(raycast_phong, "render", render)
+    monkeypatch.setattr(Renderer, "prepare", render)  # every render goes through a session's prepare()
     monkeypatch.setattr("raycast_phong.tools.accuracy.reference_image", render)
     monkeypatch.setattr("raycast_phong.tools.study.run_study", render)
 
@@ -61,6 +63,19 @@ def refused(folder: Path, args: list[str], *expected: str) -> str:
 @pytest.fixture
 def scene(tmp_path) -> Path:
     return write_tiny_scene(tmp_path, 16, 16)
+
+
+@pytest.mark.parametrize("command", [
+    ["render", "{scene}", "-o", "{tmp}/out.png"],
+    ["reference", "{scene}", "-o", "{tmp}/out.png"],
+    ["side-by-side", "{scene}", "--vary", "render.shading=flat,phong", "-o", "{tmp}/out.png"],
+])
+def test_no_render_stops_a_command_that_reaches_the_renderer(scene, tmp_path, no_render, command):
+    """The control for the tests that use `no_render`: with a good output, each command does reach a patched
+    name (so a refusal below is one made before rendering, not a command the patch never sees)."""
+    args = [part.format(scene=scene, tmp=tmp_path) for part in command]
+    with pytest.raises(pytest.fail.Exception, match="reached the renderer"):
+        runner.invoke(app, args, catch_exceptions=False)
 
 
 # ---------------------------------------------------------------- a folder as the output

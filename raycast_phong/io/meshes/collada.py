@@ -283,7 +283,7 @@ def check_values(root, path: Path) -> None:
                                   "numbers; every vertex must have finite coordinates")
 
 
-def count(handle, size: int, source) -> int | None:
+def count(handle, size: int, mesh) -> int | None:
     """The triangles the document builds: each geometry's triangles (a polylist's from its vcount) times the
     times its scene places it, through <instance_node> (a 2 kB document can place one box 10^8 times: this
     count is what the memory check weighs, before trimesh expands it). None for a document lxml cannot parse."""
@@ -315,7 +315,7 @@ def count(handle, size: int, source) -> int | None:
                 target = by_id.get((child.get("url") or "").lstrip("#"))
                 if name == "instance_controller" and target is not None:  # drawn as its skin's or morph's mesh
                     found = next((c for c in target if _local(c.tag) in ("skin", "morph")), None)
-                    target = None if found is None else by_id.get((found.get("source") or "").lstrip("#"))
+                    target = None if found is None else by_id.get((found.get("mesh") or "").lstrip("#"))
                     name = "instance_geometry"
                 if name == "instance_geometry" and target is not None:
                     total += geometry(target)

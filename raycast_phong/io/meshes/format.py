@@ -93,19 +93,19 @@ def _any_content(head: bytes, found: str | None, size: int, suffix: str) -> bool
     return True
 
 
-def _no_count(handle: BinaryIO, size: int, source: MeshSource) -> int | None:
+def _no_count(handle: BinaryIO, size: int, mesh: MeshSource) -> int | None:
     return None
 
 
-def _text_floor(path: Path, size: int, source: MeshSource) -> int:
+def _text_floor(path: Path, size: int, mesh: MeshSource) -> int:
     return size * TEXT_READ_BYTES_PER_BYTE
 
 
-def _no_held(path: Path, source: MeshSource) -> tuple[int, int]:
+def _no_held(path: Path, mesh: MeshSource) -> tuple[int, int]:
     return 0, 0
 
 
-def _nothing(handle: BinaryIO, source: MeshSource) -> None:
+def _nothing(handle: BinaryIO, mesh: MeshSource) -> None:
     return None
 
 
@@ -113,7 +113,7 @@ def _described(path: Path) -> dict[str, Any]:
     return {}
 
 
-def _no_sizes(source: MeshSource) -> tuple[tuple[int, int], ...]:
+def _no_sizes(mesh: MeshSource) -> tuple[tuple[int, int], ...]:
     return ()
 
 

@@ -391,12 +391,12 @@ def read(reading: Reading) -> Loaded:
     return Loaded(parts(loaded), samplers=samplers)
 
 
-def count(handle, size: int, source) -> int | None:
+def count(handle, size: int, mesh) -> int | None:
     """Triangles over every node's mesh (each node counts, and each instance of an EXT_mesh_gpu_instancing node:
     instances × the mesh's triangles), from the accessors' counts in the parsed document; or their vertices
     (less 2) where more (format.weigh: a compressed bufferView decodes to what its accessors read,
     io/meshes/gltf_decode.py). None for a document too large to parse here."""
-    document = source.document.tree
+    document = mesh.document.tree
     if not document:
         return None
     try:
@@ -435,9 +435,9 @@ GLB_READ_BYTES_PER_BYTE = 2  # a .glb's binary chunks are read as they are
 BUFFER_READ_BYTES_PER_BYTE = 1
 
 
-def held(path: Path, source) -> tuple[int, int]:
+def held(path: Path, mesh) -> tuple[int, int]:
     """A .gltf's external buffers, read whole whatever its accessors claim to use of them."""
-    return sum(_size(buffer) for buffer in source.side_files), 0
+    return sum(_size(buffer) for buffer in mesh.side_files), 0
 
 
 def _size(path: Path) -> int:
@@ -452,12 +452,12 @@ def _size(path: Path) -> int:
 EMBEDDED_IMAGE_BYTES_PER_TEXEL = 8
 
 
-def floor(path: Path, size: int, source) -> int:
+def floor(path: Path, size: int, mesh) -> int:
     """The file's bytes as read, a .gltf's buffers, and its embedded images decoded whole."""
     from ..textures import file_size
     per_byte = GLB_READ_BYTES_PER_BYTE if path.suffix.lower() == ".glb" else TEXT_READ_BYTES_PER_BYTE
-    images = sum(h * w for h, w in texture_sizes(path, source.document, file_size, embedded=True))
-    return size * per_byte + held(path, source)[0] * BUFFER_READ_BYTES_PER_BYTE + \
+    images = sum(h * w for h, w in texture_sizes(path, mesh.document, file_size, embedded=True))
+    return size * per_byte + held(path, mesh)[0] * BUFFER_READ_BYTES_PER_BYTE + \
         images * EMBEDDED_IMAGE_BYTES_PER_TEXEL
 
 
@@ -470,9 +470,9 @@ def describe(path: Path) -> dict:
             "images": tuple(uri_file(path.parent, uri) for uri in image_uris(document.tree))}
 
 
-def _texture_sizes(source) -> tuple[tuple[int, int], ...]:
+def _texture_sizes(mesh) -> tuple[tuple[int, int], ...]:
     from ..textures import file_size
-    return tuple(texture_sizes(source.path, source.document, file_size))
+    return tuple(texture_sizes(mesh.path, mesh.document, file_size))
 
 
 FORMAT = MeshFormat(

@@ -159,14 +159,14 @@ def read(reading: Reading) -> Loaded:
     return Loaded(parts(load_obj(obj_text(data, path), path, materials.library, data)), library=library)
 
 
-def explain(handle, source) -> str | None:
-    return obj_problem(bom_decoded(handle.read(), source.path))
+def explain(handle, mesh) -> str | None:
+    return obj_problem(bom_decoded(handle.read(), mesh.path))
 
 
 CHUNK = 1 << 20  # an OBJ is scanned this many bytes at a time (about 20 MB of index arrays), never a whole line
 
 
-def count(handle, size: int, source) -> int:
+def count(handle, size: int, mesh) -> int:
     """An OBJ's triangles (a face of k corners is k − 2), or its vertices where more (format.weigh), scanned in
     CHUNK-byte pieces with numpy: a line is never held whole, so a one-line 1 GB file costs about 20 MB here.
 
@@ -212,9 +212,9 @@ def describe(path: Path) -> dict:
     return {"side_files": tuple(path.parent / name for name in names), "materials": materials, "images": images}
 
 
-def texture_sizes(source) -> tuple[tuple[int, int], ...]:
+def texture_sizes(mesh) -> tuple[tuple[int, int], ...]:
     from ..textures import file_size
-    return tuple(size for size in map(file_size, source.images) if size)
+    return tuple(size for size in map(file_size, mesh.images) if size)
 
 
 def warm_up(handle) -> tuple:

@@ -260,7 +260,7 @@ def _binary(body: bytes, normals: bool, coloured: bool, texture: bool, four: boo
     return block[:, :3].copy(), faces, block[:, base - 3:base].copy() if normals else None, colours, per_face
 
 
-def count(handle, size: int, source) -> int | None:
+def count(handle, size: int, mesh) -> int | None:
     """The faces and vertices of the counts line (the first line after the header that is not a comment; a
     binary file's three int32), or None where they claim more than the file's `size` can hold."""
     head = handle.read(4096)

@@ -197,7 +197,7 @@ def _textures(path: Path, head: bytes, notes: list[str]) -> list[str]:
     return names
 
 
-def explain(handle, source) -> str | None:
+def explain(handle, mesh) -> str | None:
     return ply_problem(line_feeds(handle.read(HEADER_LIMIT)))
 
 
@@ -216,7 +216,7 @@ def line_feeds(data: bytes) -> bytes:
     return head + (re.sub(rb"\r(?!\n)", b"\n", data[stop:]) if ascii_body else data[stop:])
 
 
-def count(handle, size: int, source) -> int | None:
+def count(handle, size: int, mesh) -> int | None:
     """The header's face count, or the most triangles its lists can make from the file's size (binary), or its
     vertices less 2 where more (format.weigh); None for a header without faces or lists."""
     head = line_feeds(handle.read(4096))

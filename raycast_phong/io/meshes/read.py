@@ -59,32 +59,32 @@ class MeshFile:
 READABLE = f"a mesh file of a format read here ({read_names()})"
 
 
-def read_file(source, bounds: bool = True) -> MeshFile:
-    """The file of `source` (its MeshSource), read by its format and finished here; its `where` starts every
+def read_file(mesh, bounds: bool = True) -> MeshFile:
+    """The file of `mesh` (its MeshSource), read by its format and finished here; its `where` starts every
     error ("scene.toml: objects.0.path"): the readers' FileProblems get it here, their one boundary. bounds: also
     measure the centre and radius framing needs (a render's own read skips the pass)."""
     try:
-        return _read_file(source, bounds)
+        return _read_file(mesh, bounds)
     except FileProblem as problem:
-        raise SceneError(problem.problem, source.where) from None
+        raise SceneError(problem.problem, mesh.where) from None
 
 
-def _read_file(source, bounds: bool) -> MeshFile:
-    path, kind, where = source.path, source.format, source.where
+def _read_file(mesh, bounds: bool) -> MeshFile:
+    path, kind, where = mesh.path, mesh.format, mesh.where
     handle = open_mesh_file(path, where)
     notes: list[str] = []
     textures: list[TextureSource] = []
     try:
         with handle:
             check_content(path, handle, kind, where)
-            loaded = kind.read(Reading(handle, source, notes, textures))
+            loaded = kind.read(Reading(handle, mesh, notes, textures))
     except SceneError:
         raise
     except Exception as error:
         if not _raised_in_trimesh(error):
             raise  # our own bug, not the file's: an internal error with its traceback
         with open_mesh_file(path, where) as handle:
-            problem = kind.explain(handle, source)
+            problem = kind.explain(handle, mesh)
         if problem:
             raise SceneError(f"{str(path)!r} {problem}", where) from None
         # The renderer's words, not the library's exception text (issue 33): a KeyError of three NUL bytes or

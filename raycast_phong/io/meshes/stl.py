@@ -72,7 +72,7 @@ def is_binary(head: bytes, size: int) -> bool:
     return len(head) >= 84 and size == 84 + 50 * int.from_bytes(head[80:84], "little")
 
 
-def count(handle, size: int, source) -> int:
+def count(handle, size: int, mesh) -> int:
     """A binary STL's header count (a size that does not match it is refused: corrupt or cut short), or an
     ASCII STL's most facets: the shortest ("facet normal 0 0 0\nouter loop\n…") is 86 bytes."""
     head = handle.read(4096)
@@ -81,7 +81,7 @@ def count(handle, size: int, source) -> int:
         if size != 84 + 50 * triangles:
             raise SceneError(f"a binary STL whose header counts {triangles:,} triangles ({84 + 50 * triangles:,} "
                              f"bytes) but which has {size:,} bytes: the file is corrupt or cut short; allowed: "
-                             "84 + 50 × its count bytes", source.where)
+                             "84 + 50 × its count bytes", mesh.where)
         return triangles
     return size // 86
 
@@ -90,7 +90,7 @@ def count(handle, size: int, source) -> int:
 BINARY_STL_READ_BYTES_PER_BYTE = 3
 
 
-def floor(path, size: int, source) -> int:
+def floor(path, size: int, mesh) -> int:
     from ..files import open_regular
     try:
         with open_regular(path, str(path), "mesh file") as handle:
@@ -100,7 +100,7 @@ def floor(path, size: int, source) -> int:
     return size * (BINARY_STL_READ_BYTES_PER_BYTE if is_binary(head, size) else TEXT_READ_BYTES_PER_BYTE)
 
 
-def explain(handle, source) -> str | None:
+def explain(handle, mesh) -> str | None:
     return ascii_stl_problem(handle.read())
 
 

@@ -567,11 +567,11 @@ def _has_alpha(image) -> bool:
     return "A" in image.mode or "transparency" in image.info
 
 
-def texture_sizes(source) -> tuple[tuple[int, int], ...]:
+def texture_sizes(mesh) -> tuple[tuple[int, int], ...]:
     """(height, width) of each image in the 3MF's zip (its textures), from the image headers, for the memory
     estimate; () when it cannot be read (the read words it)."""
     from PIL import Image
-    path = source.path
+    path = mesh.path
     sizes = []
     try:
         with open_regular(path, str(path), "mesh file") as handle, zipfile.ZipFile(handle) as archive:
@@ -605,7 +605,7 @@ COMPONENT = re.compile(rb"<(?:[\w.-]+:)?(?:component|item)\b([^>]*)>")
 SCANNED_ATTRIBUTE = re.compile(rb"([\w.:-]+)\s*=\s*(?:\"([^\"]*)\"|'([^']*)')")
 
 
-def count(handle, size: int, source) -> int | None:
+def count(handle, size: int, mesh) -> int | None:
     """The triangles the 3MF builds: each object's <triangle> elements times the times the build places it,
     through its components (10 components each, 8 levels deep, make a 2 kB file of 10^8 boxes: this count is
     what the memory check weighs, before any is read). A scan of the model parts' bytes, not an XML parse;
