@@ -79,7 +79,7 @@ def side_by_side(
         layers = output if output.suffix.lower() == ".exr" else output.with_name(f"{output.stem}-variants.exr")
         check_output_path(layers, inputs=(path,))
         from raycast_phong.io.system import budget_of
-        each = compare.render_budget(scenes, budget_of(max_memory), str(path))
+        each = compare.render_budget(scenes, budget_of(max_memory))
         results, session = [], rp.Renderer(max_memory=each)
         with progress_bar(quiet) as bar:
             for number, (variant, value) in enumerate(zip(scenes, values), 1):

@@ -26,16 +26,17 @@ def build_plan(scene: Scene, optimize: bool = True) -> RenderPlan:
     stages += _shadow_stages(scene, smooth)
     stages += _output_stages(scene)
     stages.append(_precision_stage(scene, specular))
-    return RenderPlan(tuple(stages), colour=scene.render.colour, colour_reason=colour_reason(scene, scene.origin.file))
+    return RenderPlan(tuple(stages), colour=scene.render.colour, colour_reason=colour_reason(scene))
 
 
-def colour_reason(scene: Scene, source: str | None) -> str:
+def colour_reason(scene: Scene) -> str:
     """Why the scene renders in its render.colour, and what that means: the default of a mesh file's format
     rendered directly (scene.framing.mesh_colour), a value set (in the file, by --set or --srgb), or the
     scene files' default."""
     colour = scene.render.colour
     meaning = ("maps and colours used as stored, the PNG written as it is" if colour == "display" else
                "8-bit maps decoded from sRGB, lit in linear values, the PNG encoded with the sRGB curve")
+    source = scene.origin.file  # the file the scene came from: a mesh file rendered directly, or a scene file
     if source is not None:
         from ..scene.load import is_mesh_file
         if is_mesh_file(source):

@@ -21,7 +21,7 @@ from ..io.system import format_bytes
 from ..scene.load import read_scene_dict
 from ..scene.overrides import apply_override
 from ..scene.schema import Scene, validate_scene
-from ..values.messages import Location, located
+from ..values.messages import Location
 from .difference import colour_map, difference, heat_map
 
 # A pixel "changed" when its difference exceeds this: about 8 float32 steps at 1, so above rounding noise, and
@@ -196,7 +196,7 @@ class Comparison:
 HELD_BYTES_PER_PIXEL = 96
 
 
-def render_budget(scenes: list[Scene], budget: int | None, source: str | Location) -> int | None:
+def render_budget(scenes: list[Scene], budget: int | None) -> int | None:
     """What is left of `budget` for each variant's render once every variant's image is held and composed;
     SceneError (one line) when holding them alone is over it. None: no budget."""
     if budget is None:
@@ -207,7 +207,7 @@ def render_budget(scenes: list[Scene], budget: int | None, source: str | Locatio
         raise SceneError(f"--vary: {len(scenes)} variants of {render.width}×{render.height} pixels need "
                          f"≈ {format_bytes(held)} of memory to hold and compose, above the "
                          f"{format_bytes(budget)} budget; use fewer values, a smaller render.width × "
-                         "render.height, or raise the budget (--max-memory)", located(source))
+                         "render.height, or raise the budget (--max-memory)", scenes[0].origin)
     return budget - held
 
 

@@ -275,7 +275,7 @@ def test_bad_set_and_bad_output_exit_2(tiny_scene):
 def test_internal_error_exits_1_with_one_line(tiny_scene, tmp_path, monkeypatch):
     def broken_render(*args, **kwargs):
         raise RuntimeError("kernel exploded")
-    monkeypatch.setattr(rp, "render", broken_render)
+    monkeypatch.setattr(rp.Renderer, "render", broken_render)  # the command's session renders its variants
     result = runner.invoke(app, ["side-by-side", str(tiny_scene), "--vary", "render.shading=flat,phong"])
     assert result.exit_code == 1, result.output
     [line] = result.output.strip().splitlines()
@@ -289,3 +289,17 @@ def test_help_has_examples():
     assert "Examples" in result.output
     assert "raycast-phong side-by-side scenes/specular.toml --vary" in result.output
     assert "NAME-variants.exr" in result.output  # where a PNG's exact variants go
+
+
+def test_variants_held_at_the_budget_are_refused_at_the_scene_one_byte_under_it_they_fit(tiny_scene):
+    """render_budget: N variants of W×H pixels hold N·W·H·HELD_BYTES_PER_PIXEL bytes; a budget of exactly that
+    leaves nothing for the renders and is refused in one line starting with the scene's file, a byte more
+    leaves that byte to each render."""
+    scenes = [rp.load_scene(tiny_scene, [f"render.shading={model}"]) for model in ("flat", "phong", "gouraud")]
+    render = scenes[0].render
+    held = 3 * render.width * render.height * compare.HELD_BYTES_PER_PIXEL
+    assert compare.render_budget(scenes, held + 1) == 1
+    assert compare.render_budget(scenes, None) is None
+    with pytest.raises(rp.SceneError) as refused:
+        compare.render_budget(scenes, held)
+    assert str(refused.value).startswith(f"{tiny_scene}: --vary: 3 variants of {render.width}×{render.height} ")
