@@ -4,6 +4,7 @@ line feed in it keeps the message one line. Expectations are the format's number
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pytest
@@ -101,3 +102,99 @@ def test_replace_keeps_an_unset_crease_angle_unset(tmp_path):
     flat = g.face_normals[:, None].repeat(3, axis=1)
     assert abs(g.corner_normals - flat).max() < 1e-9  # creased at 30°: every corner its face's normal
     assert changed.replace({"objects.0.crease_angle": 180}).objects[0].crease_angle == 180
+
+
+# ---------------------------------------------------------------- each bound at its value and one step past it
+# The tests above cross a bound by a wide margin; these take the documented value itself (accepted) and the next
+# value (refused), so a bound moved by one step, or `≤` made `<`, is caught. Each pair is absolute, not the schema's
+# word against the loader's (tests/scene/test_json_schema.py), which move together when a Field's bound moves.
+
+def refusal(make) -> str:
+    with pytest.raises(SceneError) as refused:
+        make()
+    return str(refused.value)
+
+
+@pytest.mark.parametrize("side", ["width", "height"])
+def test_an_image_side_of_16384_pixels_is_accepted_and_16385_refused(side):
+    """docs/scene-format.md: width, height 1..16384. Catches either side's bound moved by one, or made exclusive."""
+    other = "height" if side == "width" else "width"
+    assert getattr(scene(render={side: 16384, other: 1}).render, side) == 16384
+    assert refusal(lambda: scene(render={side: 16385, other: 1})) == (
+        f"<scene>: render.{side}: out of range; allowed: 1 ≤ {side} ≤ 16384 (got 16385)")
+    assert getattr(scene(render={side: 1}).render, side) == 1
+    assert f"render.{side}: out of range" in refusal(lambda: scene(render={side: 0}))
+
+
+def test_sixteen_samples_are_accepted_and_seventeen_refused():
+    """docs/scene-format.md: samples 1..16 (16² = 256 rays a pixel). Catches the bound moved by one or made `<`."""
+    assert scene(render={"width": 4, "height": 4, "samples": 16}).render.samples == 16
+    assert refusal(lambda: scene(render={"samples": 17})) == (
+        "<scene>: render.samples: out of range; allowed: 1 ≤ samples ≤ 16 (got 17)")
+    assert "render.samples: out of range" in refusal(lambda: scene(render={"samples": 0}))
+
+
+def test_a_frame_of_exactly_2_to_the_31_rays_is_one_past_the_limit():
+    """2³¹ − 1 is prime, so no frame casts exactly that many rays: 16384 × 8192 × 4² = 2³¹ is the first count past
+    it (the test above stops at 16384 × 8191 × 4²). Catches a limit of 2³¹ in place of 2³¹ − 1."""
+    assert refusal(lambda: scene(render={"width": 16384, "height": 8192, "samples": 4})) == (
+        "<scene>: render.samples: 16384×8192 pixels × 4² samples is more than 2147483647 rays per frame")
+    assert "8192×16384 pixels × 4² samples" in refusal(lambda: scene(render={"width": 8192, "height": 16384,
+                                                                             "samples": 4}))
+    assert scene(render={"width": 16384, "height": 8192, "samples": 2}).render.samples == 2  # 2²⁹ rays
+
+
+def test_a_field_of_view_just_below_180_degrees_is_accepted_and_180_refused():
+    """0 < fov < 180, both ends open. Catches `lt` made `le` (180 would look backward) or `gt` made `ge`."""
+    assert scene(camera={"fov": math.nextafter(180.0, 0.0)}).camera.fov < 180.0
+    assert "camera.fov: out of range; allowed: 0.0 < fov < 180.0 (got 180)" in refusal(
+        lambda: scene(camera={"fov": 180}))
+    assert scene(camera={"fov": 5e-324}).camera.fov > 0.0
+    assert "camera.fov: out of range" in refusal(lambda: scene(camera={"fov": 0}))
+
+
+def test_a_view_height_of_1e18_is_accepted_and_the_next_float_refused():
+    """Lengths are in (0, 1e18]. Catches view_height's bound made exclusive or moved past 1e18."""
+    ortho = {"type": "orthographic"}
+    assert scene(camera={**ortho, "view_height": 1e18}).camera.view_height == 1e18
+    assert "camera.view_height: out of range; allowed: 0.0 < view_height ≤ 1e+18" in refusal(
+        lambda: scene(camera={**ortho, "view_height": math.nextafter(1e18, math.inf)}))
+    assert "camera.view_height: out of range" in refusal(lambda: scene(camera={**ortho, "view_height": 0}))
+
+
+@pytest.mark.parametrize(("key", "at_limit", "past"), [
+    ("crease_angle", 180, math.nextafter(180.0, math.inf)),
+    ("crease_angle", 0, -5e-324),
+    ("subdivisions", 8, 9),
+])
+def test_an_objects_bound_holds_on_a_later_object_of_a_bulk_checked_group(key, at_limit, past):
+    """Three icospheres with the same keys are one group checked a column at a time (scene/bulk.py); the value at
+    the bound is accepted in every row, and the value past it in the last row is refused naming objects.2. Catches
+    a bound moved by one or made exclusive in the model or in bulk's column check, and a check of the first row."""
+    objects = [{"shape": "icosphere", "subdivisions": 0, key: at_limit} for _ in range(3)]
+    assert [getattr(obj, key) for obj in rp.validate_scene({"objects": objects}).objects] == [at_limit] * 3
+    objects[2] = {**objects[2], key: past}
+    assert refusal(lambda: rp.validate_scene({"objects": objects})).startswith(
+        f"<scene>: objects.2.{key}: out of range; allowed: 0")
+
+
+def test_segments_of_4096_are_accepted_and_4097_in_either_place_of_a_later_object_refused():
+    """Each of the two counts is in 3..4096. Catches a pair check that looks only at its first count, or at the first
+    object of a group (bulk), and the bound moved by one."""
+    spheres = [{"shape": "uv_sphere", "segments": [4096, 4096]}] * 3
+    assert [obj.segments for obj in rp.validate_scene({"objects": spheres}).objects] == [(4096, 4096)] * 3
+    for bad in ([3, 4097], [4097, 3], [3, 2]):
+        changed = [*spheres[:2], {"shape": "uv_sphere", "segments": bad}]
+        assert refusal(lambda: rp.validate_scene({"objects": changed})) == (
+            f"<scene>: objects.2.segments: segments must be two whole numbers in [3, 4096], got {bad}")
+
+
+def test_the_brightness_bound_allows_exactly_1e38_and_names_the_brightest_of_several_lights():
+    """1 + I_a + Σ ... ≤ 1e38: a light's ambient of 1e38 alone (1 + 1e38 rounds to 1e38) is at the bound and
+    accepted; a fourth light adding 1e31 is past it, and the line names the brightest light, the third. Catches the
+    bound made strict, a sum of the first light only, and a message that always names lights.0."""
+    dark = {"type": "directional", "direction": [0, 0, -1], "ambient": 0, "diffuse": 0, "specular": 0}
+    lights = [dict(dark), dict(dark), {**dark, "ambient": 1e38}]
+    assert scene(ambient=0, lights=lights).lights[2].ambient == (1e38,) * 3
+    message = refusal(lambda: scene(ambient=0, lights=[*lights, {**dark, "specular": [1e31, 0, 0]}]))
+    assert message.startswith("<scene>: lights.2: a pixel channel could reach 1e+38 ="), message
