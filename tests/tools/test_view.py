@@ -1217,3 +1217,54 @@ def test_a_page_message_is_measured_in_utf8_bytes_not_characters():
     with pytest.raises(ViewError, match=r"^message of 600,038 bytes; allowed: at most 524,288$"):
         session.parse(text)
     assert session.parse('{"type": "render", "id": 9, "pad": "' + "é" * 200_000 + '"}')["id"] == 9
+
+
+# ---------------------------------------------------------------- the view's limits at their value and one past
+
+def test_a_page_message_of_exactly_the_limit_is_parsed_and_one_byte_more_refused():
+    """MAX_MESSAGE_BYTES is the most a message may be: one of exactly 524,288 bytes is read, one byte more is one
+    line (the tests above are far past it). Catches `>` made `>=`, and the limit moved by a byte."""
+    from raycast_phong.errors import ViewError
+    from raycast_phong.tools.view import session
+    head, tail = '{"type": "render", "id": 9, "pad": "', '"}'
+    exact = head + "x" * (session.MAX_MESSAGE_BYTES - len(head) - len(tail)) + tail
+    assert len(exact.encode()) == 524_288 and session.parse(exact)["id"] == 9
+    with pytest.raises(ViewError, match=r"^message of 524,289 bytes; allowed: at most 524,288$"):
+        session.parse(exact.replace('"x', '"xx', 1))
+
+
+def test_a_scene_the_page_opens_of_one_byte_past_60000_is_refused():
+    """60,000 bytes reach the TOML parser (test above); 60,001 are the size's one line. Catches the limit moved by
+    one byte, which the far larger texts above let through."""
+    from raycast_phong.tools.view.server import loaded
+    refused = loaded(None, {"type": "load", "id": 5, "name": "a.toml", "text": "#" * 60_001})
+    assert refused == {"type": "error", "id": 5, "message": "a.toml: 60,001 bytes; a scene file the page opens is "
+                                                            "at most 60,000 bytes"}, refused
+
+
+def test_the_view_takes_256_settings_and_refuses_257(scene_path):
+    """MAX_SETTINGS keys per request: 256 apply, 257 are one line naming the count. Catches `>` made `>=` and the
+    limit moved by one (no test sent that many keys)."""
+    from raycast_phong.tools.view.server import MAX_SETTINGS, ViewError
+    source = open_source(scene_path)
+    settings = {f"materials.m{i}.kd": 0.5 for i in range(MAX_SETTINGS)}
+    assert MAX_SETTINGS == 256 and len(scene_with(source, settings).materials) == 257  # red and 256 more
+    with pytest.raises(ViewError, match=r"^settings: 257 keys; allowed: at most 256$"):
+        scene_with(source, {**settings, "materials.extra.kd": 0.5})
+
+
+def test_the_view_s_ray_limit_holds_at_its_value(scene_path, monkeypatch):
+    """MAX_VIEW_RAYS (1920 × 1080 × 4²) is allowed and the nearest frame past it (2404 × 13801 × 1², 1920·1080·16 + 1
+    being prime) refused; with the limit set to the tiny scene's 64 × 48 rays, that frame passes and one ray fewer
+    refuses it. Catches `>` made `>=` and the limit moved by a ray."""
+    from raycast_phong.tools.view import server
+    source = open_source(scene_path)
+    full = {"render.width": 1920, "render.height": 1080, "render.samples": 4}
+    assert scene_with(source, full).render.samples == 4
+    with pytest.raises(server.ViewError, match=r"render\.samples: 2404×13801 pixels × 1² samples is more than"):
+        scene_with(source, {"render.width": 2404, "render.height": 13801})
+    monkeypatch.setattr(server, "MAX_VIEW_RAYS", 64 * 48)
+    assert scene_with(source, {}).render.width == 64
+    monkeypatch.setattr(server, "MAX_VIEW_RAYS", 64 * 48 - 1)
+    with pytest.raises(server.ViewError, match=r"64×48 pixels × 1² samples is more than the view's 3,071 rays"):
+        scene_with(source, {})
