@@ -250,6 +250,17 @@ def test_global_mode_refuses_more_lights_than_its_bit_masks_hold():
         rp.render(scene)
 
 
+def test_global_mode_renders_exactly_as_many_lights_as_its_bit_masks_hold():
+    """63 lights, the most an int64 mask of visibility bits holds, render in global mode (the test above takes 64).
+    Catches the limit checked with `>=` or moved down by one, which would refuse a scene the docs allow."""
+    scene = rp.validate_scene({
+        "render": {"width": 4, "height": 4, "mode": "global"},
+        "lights": [{"type": "point", "position": [i, 2, 3], "diffuse": 0.01, "specular": 0} for i in range(63)],
+        "objects": [{"shape": "icosphere", "subdivisions": 0}],
+    })
+    assert np.isfinite(rp.render(scene).image).all()
+
+
 # A point light off to one side between a plane and a second sphere: sphere A (below the light) shadows
 # the plane; sphere B (above the light) must not, as shadow rays stop at a point light. The light sits
 # below the centre of the scene's box (y 0 to 3.3, centre 1.65), so its position read as a vector from
