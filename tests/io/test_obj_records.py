@@ -240,3 +240,21 @@ def test_a_hash_inside_a_material_name_is_part_of_it(tmp_path):
     for face, group in zip(read.faces, read.face_group):
         red = np.allclose(read.vertices[face][:, 0].sum(), 2.0)  # (0,0), (1,0), (1,1): the first face
         assert read.materials[group].kd == ((0.9, 0.1, 0.1) if red else (0.1, 0.1, 0.9))
+
+
+@pytest.mark.parametrize("faces", ["f 1/1 2/2 3/1\n", "f 1/1 2/2 3/1 4/1\n"], ids=["triangle", "quad"])
+def test_a_texture_coordinate_of_exactly_float32_s_largest_reads_and_the_next_float_is_refused(tmp_path, faces):
+    """UV_LIMIT is float32's largest finite value, allowed itself: `vt 1 3.4028234663852886e+38` (the second value
+    of the second `vt`) reads and renders; the next float64 above it is refused naming its line. Catches `≤` made `<`
+    in the OBJ reader's or the common reader's check, and a line search that stops at the first `vt` or value."""
+    import raycast_phong as rp
+    largest = float(np.finfo(np.float32).max)
+    square = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 {}\n" + faces
+    (tmp_path / "at.obj").write_text(square.format(repr(largest)))
+    assert np.isfinite(rp.render_file(tmp_path / "at.obj", ["render.width=8", "render.height=8"]).image).all()
+    past = repr(float(np.nextafter(largest, np.inf)))
+    (tmp_path / "past.obj").write_text(square.format(past))
+    done = runner.invoke(app, ["render", str(tmp_path / "past.obj"), "-o", str(tmp_path / "x.png")])
+    assert done.exit_code == 2, done.output
+    [line] = done.stderr.strip().splitlines()
+    assert f"line 6: texture coordinate {past} is beyond float32's range" in line, line
