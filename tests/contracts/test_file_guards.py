@@ -296,3 +296,27 @@ def test_a_file_of_exactly_the_limit_opens_and_one_byte_more_is_refused(tmp_path
         assert len(handle.read()) == 4096
     with pytest.raises(SceneError, match=r"the scene file is 4,096 bytes, more than the 4,095"):
         open_regular(path, "s.toml", "scene file", limit=4095)
+
+
+@pytest.mark.parametrize("piped", [False, True], ids=["file", "stdin"])
+def test_a_scene_of_exactly_max_scene_bytes_reads_and_one_byte_more_is_refused(tmp_path, monkeypatch, piped):
+    """read_scene_file's own cap, for a file and for `-` (standard input, which no fstat measures): a scene of
+    exactly MAX_SCENE_BYTES (here patched to 4 KiB) parses, one byte more is one line. Catches its `>` made `>=` and
+    stdin read only MAX_SCENE_BYTES bytes (a longer scene then cut to the limit and parsed), and a file's size
+    checked against a larger limit than its read (refused then only after reading, without its size)."""
+    from raycast_phong.io import scene_file
+    monkeypatch.setattr(scene_file, "MAX_SCENE_BYTES", 4096)
+    text = b'[render]\nwidth = 8\n'
+    exact = text + b"#" * (4096 - len(text))
+
+    def read(data: bytes) -> dict:
+        if not piped:
+            (tmp_path / "s.toml").write_bytes(data)
+            return scene_file.read_scene_file(tmp_path / "s.toml")
+        monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(data)))
+        return scene_file.read_scene_file(Path("-"))
+
+    assert read(exact) == {"render": {"width": 8}}
+    said = r"the scene is more than the" if piped else r"the scene file is 4,097 bytes, more than the 4,096"
+    with pytest.raises(SceneError, match=said):  # a file is measured before it is read, and its size said
+        read(exact + b"#")
