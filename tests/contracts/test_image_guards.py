@@ -109,6 +109,30 @@ def test_a_sweep_of_a_million_cells_is_refused_at_once(tmp_path):
     assert "1,000 × 1,000 = 1,000,000 cells" in lines[0], lines[0]
 
 
+def test_a_sweep_of_exactly_4096_cells_loads_and_one_more_cell_on_its_last_axis_is_refused(tmp_path):
+    """MAX_SWEEP_CELLS is the most a sweep renders: 64 × 64 cells load (nothing is rendered by load_sweep), and a
+    third axis of 2 × 2049 = 4098 past the limit only through its later axis is refused naming all three sizes.
+    Catches `>` made `>=`, the limit moved by one, and a count of the first axis only."""
+    import pytest
+
+    from raycast_phong.errors import SceneError
+    from raycast_phong.tools.sweep import MAX_SWEEP_CELLS, load_sweep
+    (tmp_path / "base.toml").write_text('[[objects]]\nshape = "box"\n')
+
+    def sweep(*sizes: int) -> Path:
+        axes = ("render.width", "render.height", "camera.fov")
+        grid = "".join(f'"{axis}" = [{", ".join(str(1 + i) for i in range(size))}]\n'
+                       for axis, size in zip(axes, sizes))
+        (tmp_path / "sweep.toml").write_text(f'scene = "base.toml"\n[grid]\n{grid}')
+        return tmp_path / "sweep.toml"
+
+    assert MAX_SWEEP_CELLS == 4096 and len(load_sweep(sweep(64, 64)).jobs()) == 4096
+    with pytest.raises(SceneError, match=r"grid: 1 × 2 × 2,049 = 4,098 cells, more than the 4,096"):
+        load_sweep(sweep(1, 2, 2049))
+    with pytest.raises(SceneError, match=r"grid: 4,097 = 4,097 cells, more than the 4,096"):
+        load_sweep(sweep(4097))
+
+
 def test_a_truncated_png_in_compare_is_our_one_line_only(tmp_path):
     """libpng wrote its own `libpng error: …` line on stderr beside ours (issue 21, item 9)."""
     whole = tmp_path / "whole.png"
