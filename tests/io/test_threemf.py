@@ -379,6 +379,33 @@ def test_the_count_the_memory_check_weighs_is_what_components_and_items_build(tm
     assert len(read(path).faces) == 30
 
 
+def chain_3mf(path: Path, objects: int) -> Path:
+    """Object 1 the two-triangle square, each object k + 1 one component placing object k, the build the last:
+    the square is reached through objects − 1 nested components."""
+    model = (f'<?xml version="1.0" encoding="UTF-8"?>\n<model unit="millimeter" xmlns="{CORE}"><resources>'
+             f'<object id="1" type="model"><mesh>{SQUARE}<triangles><triangle v1="0" v2="1" v3="2"/>'
+             '<triangle v1="0" v2="2" v3="3"/></triangles></mesh></object>'
+             + "".join(f'<object id="{k + 1}" type="model"><components><component objectid="{k}"/></components>'
+                       "</object>" for k in range(1, objects)) +
+             f'</resources><build><item objectid="{objects}"/></build></model>')
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("3D/3dmodel.model", model)
+    return path
+
+
+def test_components_nested_32_deep_read_and_33_deep_are_refused(tmp_path):
+    """MAX_DEPTH (32) nested components are a tree: read, and counted by the memory check's scan; one level more is
+    refused in one line by the read, and weighs nothing in the scan. Catches `>` made `>=` in either the read or
+    the scan, and the limit moved by one."""
+    deep = chain_3mf(tmp_path / "deep.3mf", 33)
+    assert mesh_source(deep).triangles() == 2
+    assert len(read(deep).faces) == 2
+    deeper = chain_3mf(tmp_path / "deeper.3mf", 34)
+    assert mesh_source(deeper).triangles() == 0
+    with pytest.raises(SceneError, match=r"components nest deeper than 32 \(a component that contains itself\?\)"):
+        read(deeper)
+
+
 # ---------------------------------------------------------------- placement: transforms, components, mirrors
 # 3MF core §3.4.1: transform="m00 m01 m02 m10 m11 m12 m20 m21 m22 m30 m31 m32" places a point as the row vector
 # (x y z 1) times the 4 × 3 matrix of those rows: p' = (x·m00 + y·m10 + z·m20 + m30, x·m01 + ..., ...). Every
