@@ -559,3 +559,18 @@ def test_a_batch_left_with_no_scene_is_bad_input(tmp_path, given, lines):
     if lines > MAX_LEFT_OUT:
         assert said[-2] == f"warning: and {lines - MAX_LEFT_OUT} more path(s) left out"
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("lines", [20, 21])
+def test_paths_left_out_are_each_said_up_to_20_and_the_21st_is_counted(tmp_path, lines):
+    """MAX_LEFT_OUT (20) warnings are printed whole: 20 left-out lines are 20 warnings and no count (not "and 0
+    more"), 21 are 20 warnings and "and 1 more". Catches `>` made `>=` and the limit or the slice moved by one
+    (the test above gives 30 lines, far past it)."""
+    from raycast_phong.cli.batch import MAX_LEFT_OUT
+    done = runner.invoke(app, ["batch", "-", "--out", str(tmp_path / "out")], input=b"a\0b\n" * lines)
+    assert done.exit_code == 2, done.output
+    said = done.stderr.splitlines()
+    warned = [line for line in said if line.startswith("warning: stdin: line ")]
+    assert MAX_LEFT_OUT == 20 and len(warned) == 20 and warned[-1].startswith("warning: stdin: line 20:"), said
+    counted = [line for line in said if "more path(s) left out" in line]
+    assert counted == (["warning: and 1 more path(s) left out"] if lines == 21 else []), said
