@@ -184,6 +184,55 @@ HAND_MUTANTS = (
     ("io/meshes/off", "if 6 * vertices + 8 * faces <= size:", "if 6 * vertices + 8 * faces <= size * 10:"),
     ("tools/view/session", '    size = len(text.encode("utf-8", "surrogatepass"))  # bytes, as the socket',
      "    size = len(text)  # bytes, as the socket"),  # a page message in characters
+    # issue 50's limits at their value and one past (each killed by a test beside its area's, by hand)
+    ("scene/schema", 'le=MAX_SIZE, description="image height',
+     'le=MAX_SIZE + 1, description="image height'),  # height's bound one past 16384
+    ("scene/schema", "MAX_SAMPLES = 16 ",
+     "MAX_SAMPLES = 17 "),  # samples' bound one past 16
+    ("scene/schema", "MAX_PIXEL_RAYS = 2**31 - 1",
+     "MAX_PIXEL_RAYS = 2**31"),  # the ray limit one past 2³¹ − 1
+    ("scene/schema", "gt=0.0, lt=180.0",
+     "gt=0.0, le=180.0"),  # fov 180 allowed
+    ("scene/schema", "gt=0.0, le=POSITION_LIMIT",
+     "gt=0.0, lt=POSITION_LIMIT"),  # view_height 1e18 refused
+    ("scene/schema", "if not total <= INTENSITY_LIMIT",
+     "if not total < INTENSITY_LIMIT"),  # the brightness bound strict
+    ("scene/schema", "sum(term[c] for term in terms)",
+     "sum(term[c] for term in terms[:1])"),  # the first light's brightness only
+    ("scene/schema", 'return (("lights", k),',
+     'return (("lights", 0),'),  # the brightness line always naming lights.0
+    ("scene/bulk", "good &= passed",
+     "good &= passed[0]"),  # a bulk column judged by its first row
+    ("scene/bulk", "low < v) and v <= high",
+     "low < v) and v <= high + 1"),  # bulk's whole-number bound one past
+    ("values/fields", "for s in value)",
+     "for s in value[:1])"),  # segments' first count checked only
+    ("tools/view/session", "if size > MAX_MESSAGE_BYTES:",
+     "if size >= MAX_MESSAGE_BYTES:"),  # a message of exactly the limit refused
+    ("tools/view/server", "len(settings) > MAX_SETTINGS",
+     "len(settings) > MAX_SETTINGS + 1"),  # 257 settings taken
+    ("tools/view/server", "samples ** 2 > MAX_VIEW_RAYS",
+     "samples ** 2 >= MAX_VIEW_RAYS"),  # the view's largest frame refused
+    ("tools/view/server", "if size > MAX_SCENE_BYTES:",
+     "if size > MAX_SCENE_BYTES + 1:"),  # a page-opened scene of 60,001 bytes read
+    ("renderer/prepare", "len(scene.lights) > MAX_LIGHTS",
+     "len(scene.lights) >= MAX_LIGHTS"),  # global mode refusing 63 lights
+    ("io/meshes/obj", "np.float64)) <= UV_LIMIT).all()",
+     "np.float64)) < UV_LIMIT).all()"),  # float32's largest uv refused
+    ("io/meshes/read", "(np.abs(uv) > UV_LIMIT).any()",
+     "(np.abs(uv) >= UV_LIMIT).any()"),  # the same in the common reader
+    ("io/scene_file", "data = sys.stdin.buffer.read(MAX_SCENE_BYTES + 1)",
+     "data = sys.stdin.buffer.read(MAX_SCENE_BYTES)"),  # a piped scene cut at the limit
+    ("io/scene_file", "if len(data) > MAX_SCENE_BYTES:",
+     "if len(data) >= MAX_SCENE_BYTES:"),  # a scene of exactly the limit refused
+    ("tools/sweep", "if cells > MAX_SWEEP_CELLS:",
+     "if cells >= MAX_SWEEP_CELLS:"),  # a sweep of exactly 4096 cells refused
+    ("io/meshes/threemf", "        if depth > MAX_DEPTH:",
+     "        if depth >= MAX_DEPTH:"),  # components 32 deep refused
+    ("io/meshes/threemf", "0 if depth > MAX_DEPTH else",
+     "0 if depth >= MAX_DEPTH else"),  # the scan's count of 32 deep
+    ("cli/batch", "if len(refused) > MAX_LEFT_OUT:",
+     "if len(refused) >= MAX_LEFT_OUT:"),  # 'and 0 more' after 20 warnings
 )
 
 OPERATOR_SWAPS = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,

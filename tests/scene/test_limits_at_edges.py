@@ -185,7 +185,7 @@ def test_segments_of_4096_are_accepted_and_4097_in_either_place_of_a_later_objec
     assert [obj.segments for obj in rp.validate_scene({"objects": spheres}).objects] == [(4096, 4096)] * 3
     for bad in ([3, 4097], [4097, 3], [3, 2]):
         changed = [*spheres[:2], {"shape": "uv_sphere", "segments": bad}]
-        assert refusal(lambda: rp.validate_scene({"objects": changed})) == (
+        assert refusal(lambda changed=changed: rp.validate_scene({"objects": changed})) == (
             f"<scene>: objects.2.segments: segments must be two whole numbers in [3, 4096], got {bad}")
 
 
