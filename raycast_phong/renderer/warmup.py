@@ -35,11 +35,11 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None) -
     from ..scene.kinds import object_kinds
     from ..shapes import from_file
     kinds = [(index, scene.objects[index]) for index in object_kinds(scene).first.tolist()]  # a mesh: its own kind
-    from ..io.meshes import format_of
-    from ..io.meshes.source import source_key
     meshes, readers = False, {}
     for index, obj in kinds:
         if from_file(obj):
+            from ..io.meshes import format_of  # the format registry: only for a scene with a mesh file
+            from ..io.meshes.source import source_key
             path = scene.resolve(obj.path)
             handle = open_mesh_file(path, scene.origin.at("objects", index, "path"))
             waiting = scene.mesh_sources.get(source_key(path))

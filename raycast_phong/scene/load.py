@@ -25,8 +25,9 @@ VALIDATED_ITEM_BYTES = 1536
 def is_mesh_file(path: str | Path) -> bool:
     """Whether `path` names a mesh file rather than a scene file, by its suffix (io.meshes.is_mesh_file). Any
     other is a scene file: TOML, or JSON for .json."""
-    if Path(path).suffix.lower() in SCENE_SUFFIXES:
-        return False  # the common case answers without importing the formats
+    suffix = Path(path).suffix.lower()
+    if suffix in SCENE_SUFFIXES or not suffix:
+        return False  # the common cases (and a name with no suffix, "-", "warm-up") answer without the formats
     from ..io.meshes import is_mesh_file as mesh_suffix
     return mesh_suffix(path)
 
@@ -38,10 +39,11 @@ def read_scene_dict(path: str | Path, overrides: list[str] | tuple[str, ...] = (
     A mesh file's io.meshes.source.MeshSource is put in `sources`, if given."""
     path = Path(path)
     if not is_mesh_file(path):
-        from ..io.meshes import unread
-        reason = unread(path)
-        if reason is not None:  # an FBX, a Blender file: not a scene file to read as TOML
-            raise SceneError(reason, Location(str(path)))
+        if path.suffix.lower() not in SCENE_SUFFIXES:  # a .toml or .json is read as one: no format registry
+            from ..io.meshes import unread
+            reason = unread(path)
+            if reason is not None:  # an FBX, a Blender file: not a scene file to read as TOML
+                raise SceneError(reason, Location(str(path)))
         if view is not None or up is not None:
             raise SceneError("--view and --up frame a mesh file; a scene file has its own [camera]",
                              Location(str(path)))

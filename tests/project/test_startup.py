@@ -4,6 +4,7 @@ after the command (cli.main). Each is checked in a fresh process, where it happe
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -101,3 +102,29 @@ def test_the_program_ends_without_the_interpreter_s_teardown_after_its_exit_hand
     assert waited.returncode == 0, waited.stderr
     words = waited.stdout.split()
     assert words[-9:] == ["thread", "done", "atexit", "ran", "plugins", "False", "10000", "torn", "down"], words
+
+
+# Modules a warm render of the default scene never needs (issue 46): each was, or could be, imported on its way.
+NOT_ON_THE_DEFAULT_PATH = (
+    "raycast_phong.io.meshes",  # the mesh formats' registry: a .toml scene is no mesh file, nor is "warm-up"
+    "raycast_phong.io.meshes.source",
+    "raycast_phong.io.textures",
+    "trimesh", "PIL", "scipy.linalg", "matplotlib",
+)
+LOADED = ("import atexit, json, sys\n"
+          "atexit.register(lambda: print(json.dumps(sorted(sys.modules))))\n"
+          "from raycast_phong.cli import main\nsys.argv[0] = 'raycast-phong'\nmain()\n")
+
+
+def test_a_render_of_the_default_scene_imports_none_of_what_it_does_not_use(tmp_path):
+    """The modules a default render had no use for stay out of the process (each costs start-up): a fresh process
+    renders the default scene (warm, after a first render: the path a user waits for) and none of
+    NOT_ON_THE_DEFAULT_PATH is in sys.modules at its exit; the control is that the render happened."""
+    output = tmp_path / "d.png"
+    command = ["render", "scenes/default.toml", "-q", "-o", str(output)]
+    for _ in range(2):  # the first may compile (a fresh cache): the second is the warm start
+        run = python(LOADED, *command)
+        assert run.returncode == 0, run.stderr
+    loaded = json.loads(run.stdout.splitlines()[-1])
+    assert output.stat().st_size > 0 and "raycast_phong.renderer.kernels.tile" in loaded
+    assert [name for name in NOT_ON_THE_DEFAULT_PATH if name in loaded] == []
