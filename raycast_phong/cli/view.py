@@ -12,7 +12,7 @@ import typer
 
 from raycast_phong import stops
 
-from .common import app, check_verbosity, exit_codes, fail
+from .common import _max_memory, app, check_verbosity, exit_codes, fail
 
 
 @app.command(epilog="""
@@ -35,6 +35,11 @@ def view(
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="Print only warnings, errors and the page's URL "
                      "(the server logs nothing else either way).")] = False,
     verbose: Annotated[bool, typer.Option("--verbose", help="Also log every request the server answers.")] = False,
+    max_memory: Annotated[str | None, typer.Option(
+        "--max-memory", metavar="SIZE", callback=_max_memory, show_default=False,
+        help="The server's memory budget, e.g. 8G or 500M, shared by the frames it renders at once (2): a page's "
+             "scene whose frame needs more than its share is refused on the page. Default: 3/4 of the memory "
+             "available when it starts.")] = None,
 ) -> None:
     """Explore a scene live in the browser: switch shading models, drag the light, compare two settings
     (docs/view.md). Prints the page's URL with its access token; Ctrl-C stops the server."""
@@ -58,7 +63,7 @@ def view(
         try:
             live.serve(scene, host=host, port=port, open_browser=not no_browser,
                        announce=lambda url: typer.echo(f"raycast-phong view: open {url}"),
-                       log_level="info" if verbose else "warning",
+                       log_level="info" if verbose else "warning", max_memory=max_memory,
                        stopped=lambda number: typer.secho(f"raycast-phong view: stopped by "
                                                           f"{signal.Signals(number).name}", err=True))
         except OSError as error:

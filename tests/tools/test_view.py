@@ -1268,3 +1268,30 @@ def test_the_view_s_ray_limit_holds_at_its_value(scene_path, monkeypatch):
     monkeypatch.setattr(server, "MAX_VIEW_RAYS", 64 * 48 - 1)
     with pytest.raises(server.ViewError, match=r"64×48 pixels × 1² samples is more than the view's 3,071 rays"):
         scene_with(source, {})
+
+
+def test_a_frame_over_its_share_of_the_servers_memory_budget_is_refused_on_the_page(scene_path):
+    """`view --max-memory B`: each frame may use B // FRAME_THREADS (the frames that render at once, over all the
+    pages, share the server's budget). A full frame whose estimate is exactly its share renders; with a budget two
+    bytes smaller (a share one byte short) the page is told the memory line, and the next page's frame of a
+    smaller scene still renders. Before, a page's frame had the whole default budget, so frames at once could
+    ask for twice the memory there is."""
+    from raycast_phong.io.system import format_bytes
+    from raycast_phong.tools.view.server import frame_of
+    from raycast_phong.tools.view.session import FRAME_THREADS
+    need = rp.Renderer().check_fits(frame_of(scene_with(open_source(scene_path), {}))).total
+    with connect(client_for(scene_path, max_memory=FRAME_THREADS * need)) as ws:
+        ws.receive_text()
+        header, parts = frame_of_settings(ws, 1, {}, quality="full")
+        assert header["quality"] == "full" and parts["a"][:8] == b"\x89PNG\r\n\x1a\n"
+    with connect(client_for(scene_path, max_memory=FRAME_THREADS * need - FRAME_THREADS + 1)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 2, "quality": "full", "settings": {}}))
+        answer = json.loads(ws.receive_text())
+        while answer["type"] == "progress":
+            answer = json.loads(ws.receive_text())
+        assert answer["type"] == "error" and answer["id"] == 2, answer
+        assert f"above the {format_bytes(need - 1)} budget" in answer["message"], answer
+        assert "\n" not in answer["message"]
+        smaller = {"render.width": 32, "render.height": 24}
+        assert frame_of_settings(ws, 3, smaller, quality="full")[0]["quality"] == "full"

@@ -125,16 +125,18 @@ def running(path: str | Path | None, host: str = "127.0.0.1", port: int = 0, tok
 
 
 def serve(path: str | Path | None, host: str = "127.0.0.1", port: int = 8765, open_browser: bool = True,
-          announce=print, token: str | None = None, log_level: str = "warning", stopped=None) -> None:
+          announce=print, token: str | None = None, log_level: str = "warning", stopped=None,
+          max_memory: int | None = None) -> None:
     """Serve the view of `path` (scene, mesh, or None for the default scene) until interrupted; the token is
     remembered_token() unless given; uvicorn logs at `log_level` ("info": every request). `stopped(number)` is
-    told the stop signal the caller recorded (stops.record), once the server has shut down."""
+    told the stop signal the caller recorded (stops.record), once the server has shut down. `max_memory`: the
+    server's memory budget (create_app)."""
     import uvicorn
     source = open_source(path)
     sock = bind(host, port)
     port = sock.getsockname()[1]
     token = token or remembered_token()
-    app = create_app(source, token, origins_for(host, port), any_host=host in WILDCARDS)
+    app = create_app(source, token, origins_for(host, port), any_host=host in WILDCARDS, max_memory=max_memory)
     url = page_url(host, port, token)
     announce(url)
     if open_browser:

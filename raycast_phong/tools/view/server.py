@@ -48,7 +48,7 @@ from raycast_phong.scene.overrides import apply_override
 from raycast_phong.values.messages import dotted
 
 from .access import Access, Guard, host_of
-from .session import MAX_MESSAGE_BYTES, MAX_SCENE_BYTES, Client, View, lowest_priority, parse, version  # noqa: F401
+from .session import MAX_MESSAGE_BYTES, MAX_SCENE_BYTES, Client, View, frame_budget, lowest_priority, parse, version  # noqa: F401
 
 # (Client, lowest_priority, parse and version: imported from here by the tests.)
 
@@ -308,6 +308,7 @@ class Replies:
     source: Source
     # session_render; a test may wrap it (to hold a render while it sends more)
     render: Callable[..., Any] = None
+    budget: int | None = None  # each frame's memory budget (session.frame_budget); None: no limit known
 
     def __post_init__(self):
         self.render = self.render or session_render
@@ -395,7 +396,7 @@ class Replies:
             return None
         shown_id, image = (shown or {}).get("a", (None, None))
         if shown_id != request.get("id"):
-            image = self.render(None, scene)
+            image = self.render(rp.Renderer(max_memory=self.budget), scene)
         result = measured(scene, image, "analytic", 2)
         e = result.errors
         finite = lambda x: None if x is None or not math.isfinite(x) else x  # JSON has no nan or inf
@@ -426,12 +427,15 @@ class Replies:
 # ---------------------------------------------------------------- the app
 
 def create_app(source: Source, token: str, origins: list[str], *, render: Callable | None = None,
-               executor: ThreadPoolExecutor | None = None, any_host: bool = False) -> Starlette:
+               executor: ThreadPoolExecutor | None = None, any_host: bool = False,
+               max_memory: int | None = None) -> Starlette:
     """The view's Starlette app. `origins` are the page's own (scheme://host:port); the socket accepts no other.
     `any_host` (served on 0.0.0.0 or ::): any Host name, and then the socket's Origin must be that host's page.
-    `executor` runs the warm-up (tests pass one); the pages' frames run on the server's own render threads."""
+    `executor` runs the warm-up (tests pass one); the pages' frames run on the server's own render threads.
+    `max_memory`: the server's memory budget in bytes (default: 3/4 of the memory available now), shared by the
+    frames that may render at once (session.frame_budget)."""
     access = Access(token, on_page=lambda: view.start_warming())
-    renderer = Replies(source, render)
+    renderer = Replies(source, render, frame_budget(max_memory))
     view = View(source, renderer, access, origins, any_host, hello, open_source,
                 lambda request: loaded(source, request))
     routes = [Route("/", access.index), Route("/access", access.access), Mount("/static", app=access.static),

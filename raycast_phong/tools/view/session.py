@@ -66,11 +66,20 @@ def frame_cache() -> FrameCache:
     return FrameCache()
 
 
-def page_renderer(bands: ThreadPoolExecutor) -> Renderer:
+def page_renderer(bands: ThreadPoolExecutor, budget: int | None) -> Renderer:
     """A page's renderer session: its FrameCache (the geometry and BVH its frames share, released with the
-    page), its frames' bands on the server's band threads."""
+    page), its frames' bands on the server's band threads, each frame within `budget` (frame_budget)."""
     from raycast_phong.renderer.prepare import Renderer
-    return Renderer(pool=bands, cache=frame_cache())
+    return Renderer(max_memory=budget, pool=bands, cache=frame_cache())
+
+
+def frame_budget(max_memory: int | None) -> int | None:
+    """The memory budget of each frame the server renders: the server's (`view --max-memory`, else 3/4 of the
+    memory available when it starts) shared by the FRAME_THREADS frames that may render at once, over all its
+    pages; None where the platform tells nothing. A page's scene over it is refused on the page in one line."""
+    from raycast_phong.io.system import budget_of
+    budget = budget_of(max_memory)
+    return None if budget is None else budget // FRAME_THREADS
 
 
 def frame_threads() -> ThreadPoolExecutor:
@@ -118,6 +127,7 @@ class Client:
     bands: ThreadPoolExecutor = field(default_factory=band_threads)  # the bands of its frames (the server's)
     references: ThreadPoolExecutor = field(default_factory=reference_threads)
     shown: dict = field(default_factory=dict)
+    budget: int | None = None                 # each frame's memory budget (frame_budget: the server's share)
     _renderer: Renderer | None = None
 
     @property
@@ -125,7 +135,7 @@ class Client:
         """The page's renderer session, made at its first frame or save (after the kernels' warm-up has
         imported the renderer), so that the server answers before numba is loaded."""
         if self._renderer is None:
-            self._renderer = page_renderer(self.bands)
+            self._renderer = page_renderer(self.bands, self.budget)
         return self._renderer
 
 
@@ -207,7 +217,8 @@ class Session:
 
     def __init__(self, view: View, websocket: WebSocket):
         self.view, self.websocket = view, websocket
-        self.client = Client(executor=view.frames, bands=view.bands, references=view.references)
+        self.client = Client(executor=view.frames, bands=view.bands, references=view.references,
+                             budget=view.renderer.budget)
 
     async def send(self, message: dict) -> None:
         await self.websocket.send_text(json.dumps(message))
