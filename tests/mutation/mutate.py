@@ -104,7 +104,7 @@ HAND_MUTANTS = (
     ("io/meshes/gltf", "        images * EMBEDDED_IMAGE_BYTES_PER_TEXEL", "        images"),  # texels, not bytes
     ("io/meshes/threemf", "sum(placed(child_part, child, depth + 1) for child_part, child in found)",
      "max((placed(child_part, child, depth + 1) for child_part, child in found), default=0)"),  # one component
-    ("io/meshes/read", "        raise SceneError(problem.problem, source.where) from None",
+    ("io/meshes/read", "        raise SceneError(problem.problem, mesh.where) from None",
      "        raise SceneError(problem.problem) from None"),  # a reader's problem without the scene key
     ("io/meshes/stl", "return len(head) >= 84 and size == 84 + 50 * int.from_bytes(head[80:84], \"little\")",
      "return len(head) >= 84 and size >= 84 + 50 * int.from_bytes(head[80:84], \"little\")"),  # trailing bytes
@@ -155,7 +155,7 @@ HAND_MUTANTS = (
     ("io/meshes/collada", 'INDEX_LISTS = ("p", "v", "vcount")', 'INDEX_LISTS = ("p",)'),
     ("io/meshes/gltf", "and stride < element:", "and stride < 0:"),  # overlapping elements read
     ("io/meshes/gltf_decode", "if copies * count >= 2**32:", "if count >= 2**32:"),
-    ("io/meshes/size", "triangles * (MESH_READ_BYTES + source.format.parse_bytes)", "triangles * MESH_READ_BYTES"),
+    ("io/meshes/size", "triangles * (MESH_READ_BYTES + mesh.format.parse_bytes)", "triangles * MESH_READ_BYTES"),
     ("io/meshes/size", "return size // SMALLEST_TRIANGLE if found is None else found", "return found or 0"),
     ("tools/view/server", 'size = len(text.encode("utf-8", "surrogatepass"))', "size = len(text)"),  # characters
     # a fourth set, by a session that saw none of the above: its survivors, each with the test written for it
