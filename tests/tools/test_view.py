@@ -1295,3 +1295,28 @@ def test_a_frame_over_its_share_of_the_servers_memory_budget_is_refused_on_the_p
         assert "\n" not in answer["message"]
         smaller = {"render.width": 32, "render.height": 24}
         assert frame_of_settings(ws, 3, smaller, quality="full")[0]["quality"] == "full"
+
+
+def test_a_pages_work_is_queued_at_what_each_step_costs(scene_path, monkeypatch):
+    """The frame threads order work by its cost (tools/view/frame_queue.py): a draft is queued at a draft's cost,
+    a full request's steps (validation) at a draft's and its preview and full frame at theirs, a save at a full
+    frame's. Recorded from the queue's one entry point."""
+    from raycast_phong.tools.view import frame_queue
+    queued = []
+    submit_at = frame_queue.FrameQueue.submit_at
+
+    def recorded(self, cost, fn, *args, **kwargs):
+        queued.append((getattr(fn, "__name__", "?"), args[-1] if fn.__name__ == "frame" else None, cost))
+        return submit_at(self, cost, fn, *args, **kwargs)
+    monkeypatch.setattr(frame_queue.FrameQueue, "submit_at", recorded)
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        frame_of_settings(ws, 1, {}, quality="draft")
+        ws.send_text(json.dumps({"type": "render", "id": 2, "quality": "full", "settings": {"render.samples": 2}}))
+        assert receive_frame(ws)[0]["quality"] == "preview" and receive_frame(ws)[0]["quality"] == "full"
+        ws.send_text(json.dumps({"type": "save", "id": 3, "what": "toml", "settings": {}}))
+        ws.receive_bytes()
+    cost = frame_queue.COST
+    assert queued == [("frame", "draft", cost["draft"]), ("steps", None, cost["draft"]),
+                      ("frame", "preview", cost["preview"]), ("frame", "full", cost["full"]),
+                      ("save", None, cost["full"])], queued

@@ -4,7 +4,8 @@ Split by job: `Client` is one page's state; `View` owns what the pages share (th
 server's render and reference threads, the open pages) and answers a socket; `Session` runs one page (its
 receive loop, its render loop, its reference loop); `Watcher` re-reads the scene file while a page is open.
 Work is bounded per server: every page's frames run on the server's FRAME_THREADS threads and its exact
-references on REFERENCE_THREADS, whatever the number of pages; each page keeps at most one job on them.
+references on REFERENCE_THREADS, whatever the number of pages; each page keeps at most one job on them, and
+the frame threads take the cheapest and the oldest job by turns (frame_queue.py).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Executor, Future, ThreadPoolExecutor
 from contextlib import suppress
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,6 +30,7 @@ from raycast_phong.errors import RenderCancelled, SceneError, ViewError
 from raycast_phong.io.scene_file import syntax_limit
 
 from .access import Access
+from .frame_queue import COST, FrameQueue
 
 if TYPE_CHECKING:
     from raycast_phong.renderer.prepare import Renderer
@@ -82,8 +84,8 @@ def frame_budget(max_memory: int | None) -> int | None:
     return None if budget is None else budget // FRAME_THREADS
 
 
-def frame_threads() -> ThreadPoolExecutor:
-    return ThreadPoolExecutor(FRAME_THREADS, "view-render")
+def frame_threads() -> FrameQueue:
+    return FrameQueue(FRAME_THREADS, "view-render")
 
 
 def band_threads() -> ThreadPoolExecutor:
@@ -123,7 +125,7 @@ class Client:
     asked_at: float = 0.0                     # time.monotonic() of the page's newest render request
     reference_next: dict | None = None        # the newest full frame whose exact errors are still owed
     reference_task: asyncio.Task | None = None
-    executor: ThreadPoolExecutor = field(default_factory=frame_threads)
+    executor: FrameQueue = field(default_factory=frame_threads)  # the server's frame threads, cheapest or oldest first
     bands: ThreadPoolExecutor = field(default_factory=band_threads)  # the bands of its frames (the server's)
     references: ThreadPoolExecutor = field(default_factory=reference_threads)
     shown: dict = field(default_factory=dict)
@@ -300,7 +302,8 @@ class Session:
                 client.wake.set()  # a draft waits behind the committed frame: this loop comes back for it
             while client.saves:
                 save = client.saves.popleft()
-                saved = await self.answer(save, client.executor, renderer.save, save, client.renderer)
+                saved = await self.answer(save, client.executor.at(COST["full"]), renderer.save, save,
+                                          client.renderer)
                 if saved is not None:
                     await self.websocket.send_bytes(saved)
             if request is None:
@@ -308,7 +311,7 @@ class Session:
             if request.get("quality", "full") == "draft":
                 steps = ["draft"]  # no hop to the render thread to be told so
             else:  # a preview first if a scene asks for several samples: its scenes are validated to know
-                steps = await self.answer(request, client.executor, renderer.steps, request)
+                steps = await self.answer(request, client.executor.at(COST["draft"]), renderer.steps, request)
             for step in steps or ():
                 waiting = client.pending is not None or client.committed is not None
                 if step != steps[0] and waiting:
@@ -319,8 +322,8 @@ class Session:
                 # a refinement (the samples after a preview) is cancelled by a newer request.
                 client.cancellable = step != steps[0]
                 told = progress_to(self.websocket, loop, request.get("id"))
-                reply = await self.answer(request, client.executor, renderer.frame, request, client.renderer, told,
-                                          client.shown, client.cancel.is_set, step)
+                reply = await self.answer(request, client.executor.at(COST[step]), renderer.frame, request,
+                                          client.renderer, told, client.shown, client.cancel.is_set, step)
                 client.running, client.cancellable = None, False
                 if reply is None:
                     break
@@ -331,7 +334,7 @@ class Session:
                     if client.reference_task is None or client.reference_task.done():
                         client.reference_task = asyncio.create_task(self.measure())
 
-    async def answer(self, request: dict, executor: ThreadPoolExecutor, job: Callable, *args) -> Any:
+    async def answer(self, request: dict, executor: Executor, job: Callable, *args) -> Any:
         """job(*args) on a render thread; a refusal, a cancellation or our own bug is told to the page in one
         line (and None returned), so the page's socket keeps serving."""
         try:
