@@ -1124,7 +1124,7 @@ def test_the_bands_of_every_frame_run_on_the_servers_band_threads_which_stop_wit
             seen.append(threading.current_thread())
         return band(tile, rows)
     monkeypatch.setattr(prepare.TileWork, "__call__", noted)
-    settings = {"render.width": 640, "render.height": 480}
+    settings = {"render.width": 640, "render.height": 360}  # drafts of 320×180: two bands each
     with running(scene_path) as url:
         origin = url.split("/?", 1)[0]
         address = origin.replace("http://", "ws://") + "/socket?token=" + url.split("token=", 1)[1]
@@ -1320,3 +1320,17 @@ def test_a_pages_work_is_queued_at_what_each_step_costs(scene_path, monkeypatch)
     assert queued == [("frame", "draft", cost["draft"]), ("steps", None, cost["draft"]),
                       ("frame", "preview", cost["preview"]), ("frame", "full", cost["full"]),
                       ("save", None, cost["full"])], queued
+
+
+@pytest.mark.parametrize(("size", "draft"), [((640, 360), (320, 180)), ((639, 359), (320, 180)), ((641, 361), (319, 180)), ((64, 48), (32, 24)),
+                                             ((1280, 720), (320, 180)), ((1920, 1080), (320, 180)),
+                                             ((16384, 1), (8192, 1)), ((16384, 64), (3840, 15))])
+def test_a_draft_is_half_each_side_and_at_most_a_640_by_360_frames_pixels(scene_path, size, draft):
+    """A frame up to 640×360 drafts at half each side (an odd side rounds up); a larger one at the same share of
+    each side, down to DRAFT_PIXELS (320×180): a 1280×720 frame's drafts cost what a 640×360 frame's do."""
+    from raycast_phong.tools.view.server import DRAFT_PIXELS
+    scene = scene_with(open_source(scene_path), {"render.width": size[0], "render.height": size[1],
+                                                "render.samples": 4})
+    shaped = draft_of(scene).render
+    assert (shaped.width, shaped.height, shaped.samples) == (*draft, 1)
+    assert shaped.width * shaped.height <= max(DRAFT_PIXELS, ((size[0] + 1) // 2) * ((size[1] + 1) // 2))

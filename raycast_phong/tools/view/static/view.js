@@ -296,7 +296,7 @@ function onFrame(header, parts, arrived = performance.now()) {
   if (preview) state.previewed = header.id; else state.answered = Math.max(state.answered, header.id);
   state.warming = false;
   busy();
-  // The images fill the room there is (the stylesheet), as tall as the window allows; a draft (half size) is
+  // The images fill the room there is (the stylesheet), as tall as the window allows; a draft (fewer pixels) is
   // shown at the full frame's size; side by side, each gets its share.
   const panels = { side: 2, models: 3 }[state.compare] || 1;
   const stage = $("#stage").style, aspect = String(valueOf("render.width") / valueOf("render.height"));
