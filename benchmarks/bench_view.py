@@ -147,7 +147,8 @@ def unpaced_benchmark(scene: str | None, size: str, rate: float, strokes: int, s
         shown = (f"median {statistics.median(drafts):6.1f} ms   p95 {p95(drafts):6.1f} ms" if drafts else "none")
         print(f"{target:6} drafts while dragging: input→paint {shown}   {len(drafts) / seconds:5.1f} frames/s "
               f"painted (n = {len(drafts)})")
-        answered = (f"median {statistics.median(fulls):6.1f} ms   p95 {p95(fulls):6.1f} ms" if fulls else "none")
+        answered = (f"median {statistics.median(fulls):6.1f} ms   p95 {p95(fulls):6.1f} ms   "
+                    f"worst {max(fulls):6.1f} ms, {sum(ms > 100 for ms in fulls)} over 100 ms" if fulls else "none")
         print(f"{target:6} full frame after a release: {len(fulls)} of {strokes} releases, release→paint {answered}")
     print(f"load average after: {os.getloadavg()[0]:.1f}")
 

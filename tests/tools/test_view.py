@@ -30,7 +30,15 @@ import raycast_phong as rp
 from raycast_phong.cli import app as cli_app
 from raycast_phong.io.encoding import to_8bit
 from raycast_phong.tools import accuracy
-from raycast_phong.tools.view.server import create_app, draft_of, open_source, scene_with, session_render, unpack
+from raycast_phong.tools.view.server import (
+    create_app,
+    draft_of,
+    frame_of,
+    open_source,
+    scene_with,
+    session_render,
+    unpack,
+)
 
 TOKEN = "test-token"
 ORIGIN = "http://testserver"  # TestClient's own origin
@@ -521,26 +529,31 @@ def test_a_draft_does_not_cancel_a_releases_frame_only_its_refinement(scene_path
     assert (draft["id"], draft["quality"]) == (2, "draft")
 
 
-def test_a_draft_asked_as_rgba_is_the_pngs_pixels_raw(scene_path, tmp_path):
-    """The page asks for drafts as raw RGBA (painted into a canvas, nothing to decode): the PNG's 8-bit values with
-    an opaque alpha, rows top first; full frames stay PNG (capture saves them); another format is refused."""
+def test_a_frame_asked_as_rgba_is_the_pngs_pixels_raw(scene_path, tmp_path):
+    """The page asks for drafts as raw RGBA (painted into a canvas, nothing to decode), and full frames too from
+    this machine: the PNG's 8-bit values with an opaque alpha, rows top first; a full frame asked as PNG is the
+    PNG render writes; another format is refused."""
     settings = {"lights.0.position": [0, 1, 4]}
     with connect(client_for(scene_path)) as ws:
         ws.receive_text()
         frames = {}
-        for request_id, quality, pixels in ((1, "draft", "png"), (2, "draft", "rgba"), (3, "full", "rgba")):
+        for request_id, quality, pixels in ((1, "draft", "png"), (2, "draft", "rgba"), (3, "full", "rgba"),
+                                            (5, "full", "png")):
             ws.send_text(json.dumps({"type": "render", "id": request_id, "quality": quality, "settings": settings,
                                      "pixels": pixels}))
             frames[request_id] = receive_frame(ws)
         ws.send_text(json.dumps({"type": "render", "id": 4, "quality": "draft", "pixels": "jpeg"}))
         refused = json.loads(ws.receive_text())
-    (png_header, png), (raw_header, raw), (full_header, full) = frames[1], frames[2], frames[3]
-    assert (png_header["pixels"], raw_header["pixels"], full_header["pixels"]) == ("png", "rgba", "png")
-    height, width = raw_header["stats"]["a"]["height"], raw_header["stats"]["a"]["width"]
-    rgba = np.frombuffer(raw["a"], np.uint8).reshape(height, width, 4)
-    np.testing.assert_array_equal(rgba[..., :3], decode_png(png["a"], tmp_path))
-    assert (rgba[..., 3] == 255).all()
-    assert full["a"].startswith(b"\x89PNG")
+    png, full_png = frames[1][1], frames[5][1]
+    assert [frames[k][0]["pixels"] for k in (1, 2, 3, 5)] == ["png", "rgba", "rgba", "png"]
+    for (header, pixels), reference in ((frames[2], png), (frames[3], full_png)):
+        height, width = header["stats"]["a"]["height"], header["stats"]["a"]["width"]
+        rgba = np.frombuffer(pixels["a"], np.uint8).reshape(height, width, 4)
+        np.testing.assert_array_equal(rgba[..., :3], decode_png(reference["a"], tmp_path))
+        assert (rgba[..., 3] == 255).all()
+    assert full_png["a"].startswith(b"\x89PNG")
+    scene = frame_of(scene_with(open_source(scene_path), settings))
+    np.testing.assert_array_equal(decode_png(full_png["a"], tmp_path), rendered_png(scene))
     assert refused == {"type": "error", "id": 4, "message": "pixels: 'jpeg'; allowed: 'png' or 'rgba'"}
 
 
@@ -1322,7 +1335,8 @@ def test_a_pages_work_is_queued_at_what_each_step_costs(scene_path, monkeypatch)
                       ("save", None, cost["full"])], queued
 
 
-@pytest.mark.parametrize(("size", "draft"), [((640, 360), (320, 180)), ((639, 359), (320, 180)), ((641, 361), (319, 180)), ((64, 48), (32, 24)),
+@pytest.mark.parametrize(("size", "draft"), [((640, 360), (320, 180)), ((639, 359), (320, 180)),
+                                             ((641, 361), (319, 180)), ((64, 48), (32, 24)),
                                              ((1280, 720), (320, 180)), ((1920, 1080), (320, 180)),
                                              ((16384, 1), (8192, 1)), ((16384, 64), (3840, 15))])
 def test_a_draft_is_half_each_side_and_at_most_a_640_by_360_frames_pixels(scene_path, size, draft):

@@ -248,7 +248,7 @@ def rgba_bytes(image: np.ndarray, colour: str = DISPLAY) -> bytes:
     return rgba.tobytes()
 
 
-PIXELS = ("png", "rgba")  # how a frame's panels are sent: PNG files, or (drafts, asked by the page) raw RGBA
+PIXELS = ("png", "rgba")  # how a frame's panels are sent: PNG files, or raw RGBA rows (the page's, from this machine)
 
 
 def pack(header: dict, parts: list[tuple[str, bytes]]) -> bytes:
@@ -356,7 +356,7 @@ class Replies:
         pixels = request.get("pixels", "png")
         if pixels not in PIXELS:
             raise ViewError(f"pixels: {pixels!r}; allowed: 'png' or 'rgba'")
-        raw = pixels == "rgba" and quality == "draft"  # a full frame stays the PNG that capture saves
+        raw = pixels == "rgba"  # the page asks so for every frame from this machine (capture then asks a save)
         header: dict = {"type": "frame", "id": request.get("id"), "quality": quality,
                         "pixels": "rgba" if raw else "png"}
         shaped = SHAPED[quality]

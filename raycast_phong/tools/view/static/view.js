@@ -228,9 +228,14 @@ function sendRequest(want, inputAt) {
     settings: state.settings.a,
     compare: state.compare === "off" || models ? null : state.settings.b,
     reference: Boolean(state.hello && state.hello.analytic) && want.quality === "full" && !models,
-    pixels: want.quality === "draft" ? "rgba" : "png",  // a draft's raw pixels go straight into its canvas
+    pixels: want.quality === "draft" || LOCAL ? "rgba" : "png",  // raw pixels go straight into the canvas
   });
 }
+
+// Every frame as raw pixels when the server is on this machine: a full frame's PNG cost the server ~7 ms to
+// encode and the page 21-32 ms from arrival to paint (createImageBitmap) against under a millisecond raw, a
+// release's wait. From another machine a full frame stays a PNG (640×360 raw is 0.9 MB, 74 ms on 100 Mbit/s).
+const LOCAL = ["127.0.0.1", "localhost", "[::1]"].includes(location.hostname);
 
 // The request `id` is answered (its final frame, an error, dropped or cancelled): the newest state may go, at
 // once (a display frame later would leave the server idle meanwhile).
@@ -242,7 +247,8 @@ function settled(id) {
 
 // ------------------------------------------------------------------ frames
 
-// A panel's newest full-frame PNG, kept as an object URL (`state.urls`, by the panel's <img> id) for capture. It is
+// A panel's newest full-frame PNG, kept as an object URL (`state.urls`, by the panel's <img> id) for capture (a raw
+// full frame keeps none: capture then asks the server for the PNG, forget). It is
 // not the <img>'s src: that image (transparent, under the canvas) only takes the pointer and gives the panel its
 // box (--aspect), and as its src Chromium decoded every full frame a second time beside createImageBitmap
 // (issue 35: arrival → canvas 13–22 ms → 6–10 ms for a 1.11M-triangle scan's release).
@@ -252,20 +258,24 @@ function keep(id, bytes) {
   state.urls[id] = url;
   return url;
 }
+function forget(id) {
+  if (state.urls[id]) URL.revokeObjectURL(state.urls[id]);
+  delete state.urls[id];
+}
 function show(img, bytes) { img.src = keep(img.id, bytes); }  // the heat map: an <img> on screen
 
-// What is on screen is each panel's canvas: a draft's raw pixels go into it at once; a full frame's (or a
-// preview's) PNG is decoded off the main thread (createImageBitmap) and drawn into it, and kept for capture (keep).
-// A full frame is painted before any later frame replaces it: frames that arrive while it decodes wait (`held`)
-// until the display frame that shows it has been drawn (a task after its animation frame callbacks: the browser
-// draws that frame between the two), and a draft among them is skipped when a newer frame waits behind it.
+// What is on screen is each panel's canvas: raw pixels go into it at once; a full frame's (or a preview's) PNG
+// is decoded off the main thread (createImageBitmap) and drawn into it, and kept for capture (keep).
+// A full frame (or a preview) is painted before any later frame replaces it: frames that arrive meanwhile wait
+// (`held`) until the display frame that shows it has been drawn (a task after its animation frame callbacks: the
+// browser draws that frame between the two), and a draft among them is skipped when a newer frame waits behind it.
 let holding = false;
 const held = [];
 function painted() {
   holding = false;
   while (!holding && held.length) {
     const next = held.shift();
-    if (next[0].pixels === "rgba" && held.length) continue;  // a newer frame waits: this draft is stale
+    if (next[0].quality === "draft" && held.length) continue;  // a newer frame waits: this draft is stale
     onFrame(...next);
   }
 }
@@ -307,12 +317,14 @@ function onFrame(header, parts, arrived = performance.now()) {
   for (const name of panelsSent) {
     const img = $(`#image-${name}`);
     if (!raw) keep(img.id, parts[name]);
+    else if (header.quality !== "draft") forget(img.id);  // capture asks the server for this frame's PNG
     img.dataset.id = header.id;
     img.dataset.quality = header.quality;
   }
   const images = raw ? Promise.resolve(panelsSent.map((name) => parts[name]))
     : Promise.all(panelsSent.map((name) => createImageBitmap(new Blob([parts[name]], { type: "image/png" }))));
-  if (!raw) holding = true;
+  const kept = header.quality !== "draft";  // painted before any later frame replaces it
+  if (kept) holding = true;
   // Input → on screen: from the oldest input event the frame answers (its own time, as the browser stamped it)
   // to the first animation frame after its pixels are in the canvas, the frame the browser then paints (`ms`);
   // `sent` counts from sending the request, `shown` from the frame's arrival, `server` is the server's own time,
@@ -322,7 +334,7 @@ function onFrame(header, parts, arrived = performance.now()) {
     panelsSent.forEach((name, k) => paintPanel(name, header, decoded[k]));
     const at = performance.now();
     requestAnimationFrame(() => {
-      if (!raw) setTimeout(painted, 0);
+      if (kept) setTimeout(painted, 0);
       if (input === undefined) return;
       const now = performance.now(), ms = now - input;
       if (readoutDue("latency", header.quality)) setText("#latency", `${ms.toFixed(0)} ms`);
