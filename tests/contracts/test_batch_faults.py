@@ -168,6 +168,29 @@ def test_killing_the_batch_with_sigkill_leaves_no_worker_behind(tmp_path, start_
 
 
 @LINUX_PROC
+@pytest.mark.parametrize("number", [signal.SIGTERM, signal.SIGINT])
+def test_a_signal_stops_the_scenes_being_rendered_not_after_them(tmp_path, start_batch, number):
+    """Both workers are mid-way through a scene of ~36 M rays (seconds on one thread) when the batch is told to
+    stop: it ends within seconds with neither of those images, their scenes said to be interrupted, and the rest
+    not started. Catches a stop that waits for the scenes in flight to finish (the signal recorded but not acted
+    on until the next scene), which the test above allows for its small scenes."""
+    folder, out = tmp_path / "scenes", tmp_path / "out"
+    folder.mkdir()
+    (folder / "a.toml").write_text(scene_text())  # the first image: then both workers are on a large scene
+    for index in range(3):
+        (folder / f"b{index}.toml").write_text(scene_text(extra="subdivisions = 3", size=2000, samples=3))
+    process = start_batch(folder, out, jobs=2)
+    wait_for_first_image(process, out)
+    os.kill(process.pid, number)
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 128 + number, stderr
+    assert images(out) == [out / "a.png"], stderr
+    statuses = {name: entry["status"] for name, entry in manifest(out).items()}
+    assert statuses["a"] == "rendered" and sorted(statuses.values()).count("interrupted") >= 1, statuses
+    assert set(statuses.values()) <= {"rendered", "interrupted", "not started"}, statuses
+
+
+@LINUX_PROC
 @pytest.mark.slow
 def test_a_killed_worker_fails_only_its_scene_and_is_replaced(tmp_path, start_batch):
     """The out-of-memory killer, simulated: SIGKILL to one worker mid-batch."""

@@ -67,6 +67,18 @@ def test_vertex_colours_of_coff_in_either_form(tmp_path, scale):
         assert [np.argmax(c) for c in colours] == [k % 3 for k in face]
 
 
+@pytest.mark.parametrize("top", ["1", "1.0", "255"])
+def test_a_colour_channel_at_the_top_of_either_form_is_full(tmp_path, top):
+    """Colours whose channels reach 1 and no more are the 0..1 form (1 is full), those that pass 1 the 0..255 form
+    (255 is full): primaries written 1 0 0 or 255 0 0 read as full red, exactly. Catches the two forms told
+    apart at the boundary the wrong way (1 read as 1/255)."""
+    primaries = [(top, "0", "0"), ("0", top, "0"), ("0", "0", top)]
+    data = text("COFF", vertex=lambda k, p: " ".join([*map(str, p), *primaries[k % 3], top]))
+    found = read(tmp_path, data)
+    for face, colours in zip(found.faces, found.corner_colour):
+        np.testing.assert_array_equal(colours, np.eye(3)[[k % 3 for k in face]])
+
+
 def test_face_colours_colour_their_fans(tmp_path):
     rgb = [(200, 0, 0), (0, 200, 0), (0, 0, 200)]
     data = text("OFF", face=lambda k, f: f"{len(f)} {' '.join(map(str, f))} {' '.join(map(str, rgb[k]))}")

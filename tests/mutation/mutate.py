@@ -233,6 +233,23 @@ HAND_MUTANTS = (
      "0 if depth >= MAX_DEPTH else"),  # the scan's count of 32 deep
     ("cli/batch", "if len(refused) > MAX_LEFT_OUT:",
      "if len(refused) >= MAX_LEFT_OUT:"),  # 'and 0 more' after 20 warnings
+    # Issue 50's sixth independent set: the seven it left alive, and a default only the schema's text held.
+    ("renderer/kernels/illumination", "return one if x >= one else zero",
+     "return one if x > one else zero"),  # f = inf loses the exact mirror direction
+    ("io/meshes/off", "floats = not (rgba[:, :3] > 1).any()",
+     "floats = not (rgba[:, :3] >= 1).any()"),  # OFF's 0..1 colours of 1 read as 0..255
+    ("renderer/budget", "wide_normals = FLOAT64_NORMAL_BYTES if float64 or shadow_lights else 0",
+     "wide_normals = FLOAT64_NORMAL_BYTES if float64 else 0"),  # global mode's float64 normals unweighed
+    ("renderer/budget", "if size > largest_bytes:",
+     "if size >= largest_bytes:"),  # a tie for the largest named by the later object
+    ("tools/batch/jobs", "    stops.record(number)\n    raise Interrupted(number)",
+     "    stops.record(number)"),  # a stop signal that waits for the scenes in flight
+    ("tools/study", "reaching = [r for r in rows if r.rmse <= target]",
+     "reaching = [r for r in rows if r.rmse < target]"),  # an RMSE exactly at the target not reaching it
+    ("renderer/reuse", "if same_bits(vertices, geometry.vertices) and same_bits(faces, geometry.faces):",
+     "if same_bits(vertices, geometry.vertices):"),  # the BVH kept when only the faces change
+    ("scene/schema", "two_sided: Annotated[bool, Strict()] = Field(True,",
+     "two_sided: Annotated[bool, Strict()] = Field(False,"),  # one-sided by default
 )
 
 OPERATOR_SWAPS = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,

@@ -119,6 +119,36 @@ def test_global_mode_s_shadow_rays_are_in_the_estimate_render_checks():
     assert nine.image == (1 + 9) * (1 << 15) * 64 + 64 * 64 * (12 + 12)  # rays; float32 RGB film and its copy
 
 
+def test_global_mode_weighs_the_float64_copy_of_the_corner_normals_of_a_smooth_object():
+    """Global mode keeps a float64 copy of the corner normals for its shadow rays' origins (FLOAT64_NORMAL_BYTES a
+    triangle), as float64 shading does: a smooth sphere's geometry term grows by exactly that, a flat one's not.
+    Catches the copy weighed for float64 shading only."""
+    from raycast_phong.renderer.budget import FLOAT64_NORMAL_BYTES, shape_triangles
+
+    def estimate(mode, shading):
+        return _checked(rp.validate_scene({"render": {"width": 8, "height": 8, "mode": mode, "shading": shading},
+                                           "lights": [{"type": "point", "position": [0, 5, 5]}],
+                                           "objects": [{"shape": "icosphere", "subdivisions": 4}]}), None)
+    triangles = shape_triangles(rp.validate_scene({"objects": [{"shape": "icosphere", "subdivisions": 4}]}).objects[0])
+    grown = estimate("global", "phong").geometry - estimate("local", "phong").geometry
+    assert grown == triangles * FLOAT64_NORMAL_BYTES
+    assert estimate("global", "flat").geometry == estimate("local", "flat").geometry  # no corner normals to copy
+
+
+def test_of_two_objects_that_weigh_the_same_the_refusal_names_the_first():
+    """Two icospheres of subdivision 8 that differ in their material (two kinds, the same bytes) are refused
+    together; the line names the largest by the first of them, objects.0, as documented (the first object of the
+    largest kind). Catches a tie given to the later object."""
+    from raycast_phong.errors import SceneError
+    scene = rp.validate_scene({"materials": {"red": {"kd": [1, 0, 0]}, "blue": {"kd": [0, 0, 1]}},
+                               "objects": [{"shape": "icosphere", "subdivisions": 8, "material": "red"},
+                                           {"shape": "icosphere", "subdivisions": 8, "material": "blue",
+                                            "translate": [3, 0, 0]}]})
+    with pytest.raises(SceneError) as refused:
+        _checked(scene, 64 * MiB)
+    assert "the largest objects.0.subdivisions = 8" in str(refused.value), refused.value
+
+
 def test_a_large_one_line_obj_costs_its_read_whatever_triangles_it_claims(tmp_path):
     """A 256 MiB OBJ of one comment line (sparse: written in no time) has no face, but reading text costs 12 bytes
     a byte at least (io/meshes/format.py's measurement): 3 GiB, refused under a 2 GiB budget. Catches the read

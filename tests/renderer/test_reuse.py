@@ -232,3 +232,18 @@ def test_the_behind_the_camera_warning_from_the_box_is_the_vertices_own():
         forward = np.subtract(look_at, eye)
         exact = not (vertices @ forward).max() > np.asarray(eye) @ forward
         assert (behind_camera(scene, geometry) is not None) == exact, (eye, look_at)
+
+
+def test_a_frame_cache_builds_a_new_bvh_when_only_the_faces_change():
+    """A bent quad (one corner raised) split along either diagonal: the same vertices to the bit, other faces,
+    another surface. Rendered through one cached session after each other, each frame is the image a fresh render
+    gives. Catches the cache's BVH kept for the same vertices whatever the faces."""
+    vertices = np.array([[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.8], [-1.0, 1.0, 0.0]])
+    splits = [np.array([[0, 1, 2], [0, 2, 3]]), np.array([[0, 1, 3], [1, 2, 3]])]
+    scenes = [rp.mesh_scene(vertices, faces, overrides=["render.width=32", "render.height=24",
+                                                        "render.shading=flat"]) for faces in splits]
+    fresh = [rp.render(scene).image for scene in scenes]
+    assert not same_bits(fresh[0], fresh[1])  # the control: the two splits look different
+    cached = rp.Renderer(cache=FrameCache())
+    for scene, image in zip(scenes + scenes[:1], fresh + fresh[:1]):
+        assert same_bits(cached.render(scene).image, image)

@@ -226,3 +226,15 @@ def test_the_slope_guides_sit_beside_every_curve():
             assert any(guide.get_label().lstrip("_") == f"slope {slope}" and guide.get_xdata()[0] == h[-2]
                        and error[-2] / 3 <= guide.get_ydata()[0] < error[-2] for guide in guides), (curve.get_label(),
                                                                                                      slope)
+
+
+def test_a_setting_whose_rmse_is_exactly_the_target_reaches_it():
+    """fastest and as_fast take the settings whose RMSE is *at most* the target: one exactly at it is the fastest
+    when it is quickest, and is as fast as the best when their times overlap. Catches `<` for `<=`."""
+    from raycast_phong.tools.study import as_fast, fastest
+    exact = row(model="gouraud", rmse=0.01, seconds_total_measured=0.010, seconds_total_median=0.011)
+    slower = row(model="phong", rmse=0.001, seconds_total_measured=0.020, seconds_total_median=0.021)
+    overlapping = row(model="flat", rmse=0.01, seconds_total_measured=0.0105, seconds_total_median=0.0115)
+    assert fastest([exact, slower], 0.01) is exact
+    assert fastest([exact, slower], math.nextafter(0.01, 0)) is slower
+    assert as_fast([exact, slower, overlapping], exact, 0.01) == [overlapping]

@@ -117,3 +117,13 @@ def test_float32_precision_agrees_with_float64():
     scene = plane_scene([AT_60], MATERIAL)
     single = rp.render(scene.model_copy(update={"render": scene.render.model_copy(update={"precision": "float32"})}))
     np.testing.assert_allclose(single.image[1, 1], centre(scene), atol=1e-6)
+
+
+@pytest.mark.parametrize("shading", ["flat", "phong"])
+def test_an_infinite_shininess_keeps_the_exact_mirror_direction(shading):
+    """f = inf: S = 1 where v·r = 1 exactly and 0 elsewhere. Head on (l = n = v, a plane whose normal the
+    rotation gives exactly) v·r = 1, so I = I_s k_s: the one direction f = inf keeps, at its boundary."""
+    light = {**HEAD_ON, "diffuse": 0}
+    material = {**MATERIAL, "shininess": math.inf}
+    expected = np.multiply(HEAD_ON["specular"], MATERIAL["ks"])
+    np.testing.assert_allclose(centre(plane_scene([light], material, shading=shading)), expected, atol=1e-6)

@@ -125,6 +125,17 @@ def test_plane_seen_from_below_with_two_sided_shading_looks_as_from_above():
     np.testing.assert_allclose(below[:, ::-1], above, atol=1e-6)
 
 
+def test_a_plane_is_two_sided_unless_the_scene_says_otherwise():
+    """docs/scene-format.md: render.two_sided defaults to true: a scene that does not set it sees a plane from
+    below as from above. Catches the default turned to one-sided (only the published schema's text changed)."""
+    scene = plane_view(-2.0, True)
+    data = scene.data()
+    del data["render"]["two_sided"]
+    unset = rp.validate_scene(data)
+    assert "two_sided" not in unset.render.model_fields_set
+    np.testing.assert_array_equal(rp.render(unset).image, rp.render(scene).image)
+
+
 def test_plane_seen_from_below_one_sided_gets_no_direct_light():
     below = rp.render(plane_view(-2.0, False)).image
     ambient_only = 0.1 * MATERIAL["ka"]
