@@ -4,7 +4,6 @@ and what it loaded as placed parts (Part). The formats that read through trimesh
 
 from __future__ import annotations
 
-import io
 import logging
 import warnings
 from contextlib import contextmanager
@@ -63,18 +62,6 @@ def load(reading: Reading, file_obj=None, file_type: str | None = None, resolver
         warnings.simplefilter("ignore", DecompressionBombWarning)  # an embedded map's size is weighed before
         return trimesh.load(file_obj=reading.handle if file_obj is None else file_obj, file_type=file_type,
                             resolver=resolver, process=False)
-
-
-def latin1_text(handle) -> io.BytesIO:
-    """A text file's content as UTF-8: a file that is not UTF-8 is read as Latin-1. trimesh needs the optional
-    charset_normalizer to guess an encoding, and fails without it; every byte is a Latin-1 character, and the
-    keywords are plain ASCII."""
-    data = handle.read()
-    try:
-        data.decode("utf-8")
-    except UnicodeDecodeError:
-        data = data.decode("latin-1").encode("utf-8")
-    return io.BytesIO(data)
 
 
 def parts(loaded) -> list[Part]:
