@@ -149,17 +149,24 @@ def test_a_signal_stops_the_workers_at_once_and_the_manifest_tells_the_truth(tmp
     assert len(images(out)) == count
 
 
-@LINUX_PROC
-def test_killing_the_batch_with_sigkill_leaves_no_worker_behind(tmp_path, start_batch):
-    """Each worker is mid-way through a scene of ~36 M rays (seconds on one thread) when the batch is killed:
-    they must die with it, not finish their scenes (nor wait for work) first."""
+def large_scenes_in_flight(tmp_path: Path, start_batch) -> tuple[subprocess.Popen, Path]:
+    """A batch of two workers, once its first (small) scene's image is written: each worker is then on a scene of
+    ~36 M rays (seconds on one thread), with one more waiting. The batch process and its output folder."""
     folder, out = tmp_path / "scenes", tmp_path / "out"
     folder.mkdir()
-    (folder / "a.toml").write_text(scene_text())  # the first image: then both workers are on a large scene
+    (folder / "a.toml").write_text(scene_text())
     for index in range(3):
         (folder / f"b{index}.toml").write_text(scene_text(extra="subdivisions = 3", size=2000, samples=3))
     process = start_batch(folder, out, jobs=2)
     wait_for_first_image(process, out)
+    return process, out
+
+
+@LINUX_PROC
+def test_killing_the_batch_with_sigkill_leaves_no_worker_behind(tmp_path, start_batch):
+    """Each worker is mid-way through a scene of ~36 M rays (seconds on one thread) when the batch is killed:
+    they must die with it, not finish their scenes (nor wait for work) first."""
+    process, out = large_scenes_in_flight(tmp_path, start_batch)
     assert len(session_processes(process.pid)) == 3  # the command and its two workers
     os.kill(process.pid, signal.SIGKILL)
     process.wait(timeout=60)  # not communicate(): a worker left behind would hold its pipes open
@@ -174,13 +181,7 @@ def test_a_signal_stops_the_scenes_being_rendered_not_after_them(tmp_path, start
     stop: it ends within seconds with neither of those images, their scenes said to be interrupted, and the rest
     not started. Catches a stop that waits for the scenes in flight to finish (the signal recorded but not acted
     on until the next scene), which the test above allows for its small scenes."""
-    folder, out = tmp_path / "scenes", tmp_path / "out"
-    folder.mkdir()
-    (folder / "a.toml").write_text(scene_text())  # the first image: then both workers are on a large scene
-    for index in range(3):
-        (folder / f"b{index}.toml").write_text(scene_text(extra="subdivisions = 3", size=2000, samples=3))
-    process = start_batch(folder, out, jobs=2)
-    wait_for_first_image(process, out)
+    process, out = large_scenes_in_flight(tmp_path, start_batch)
     os.kill(process.pid, number)
     _, stderr = process.communicate(timeout=60)
     assert process.returncode == 128 + number, stderr
