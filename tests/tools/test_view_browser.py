@@ -1128,3 +1128,21 @@ def test_a_page_from_another_machine_gets_full_frames_as_png(browser, scene_path
             assert not errors, errors
         finally:
             context.close()
+
+
+def test_a_frame_over_its_share_of_the_servers_budget_is_said_on_the_page(browser, scene_path):
+    """`view --max-memory`: the page's first frame fits its share (half the server's budget: two frames render
+    at once); the tessellation slider at level 6 asks for a sphere whose frame does not, and the page says the
+    memory line render gives, while the last frame stays on screen."""
+    from raycast_phong.tools.view.server import frame_of, open_source, scene_with
+    source = open_source(scene_path)
+    small = rp.Renderer().check_fits(frame_of(scene_with(source, {}))).total
+    large = rp.Renderer().check_fits(frame_of(scene_with(source, {"objects.0.subdivisions": 6}))).total
+    assert large > small
+    with opened(browser, scene_path, max_memory=small + large) as tab:  # a share of (small + large) / 2
+        tab.fill("#level", "6")
+        tab.dispatch_event("#level", "change")
+        tab.wait_for_selector("#error:not([hidden])", timeout=30_000)
+        said = tab.text_content("#error")
+        assert "objects.0.subdivisions" in said and "budget" in said, said
+        assert tab.evaluate("document.querySelector('#image-a').dataset.quality") == "full"
