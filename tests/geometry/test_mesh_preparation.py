@@ -243,3 +243,19 @@ def test_chunked_steps_give_the_one_chunk_answers_at_any_chunk_size(monkeypatch,
     for found, expected in zip(normals(), whole_normals):
         np.testing.assert_array_equal(found, expected)
     np.testing.assert_allclose(volumes(), whole_volumes, rtol=0, atol=len(faces) ** 2 * np.finfo(float).eps)
+
+
+@pytest.mark.parametrize("weighting", ["mean", "area", "angle"])
+def test_faces_meeting_at_exactly_the_crease_angle_are_not_split(weighting):
+    """docs/scene-format.md: faces meeting at *more than* crease_angle are split. A cube's faces meet at 90°: at
+    crease_angle = 90 every corner gathers every face round its vertex (the uncreased normals), at 89.9 every
+    corner is its face's normal. Catches the comparison's slack turned the wrong way (a cube at 90 faceted)."""
+    cube = trimesh.creation.box()
+    vertices, faces = np.asarray(cube.vertices), np.asarray(cube.faces)
+    smooth = compute_corner_normals(vertices, faces, weighting, crease_angle=90.0)
+    uncreased = compute_corner_normals(vertices, faces, weighting, crease_angle=180.0)
+    assert (np.abs(uncreased) > 0.3).all()  # the control: no corner is a face's normal ((0, 0, ±1) and so on)
+    np.testing.assert_allclose(smooth, uncreased, rtol=0, atol=1e-12)
+    creased = compute_corner_normals(vertices, faces, weighting, crease_angle=89.9)
+    unit, _ = face_normals(vertices, faces)
+    np.testing.assert_allclose(creased, np.repeat(unit[:, None], 3, axis=1), rtol=0, atol=1e-12)

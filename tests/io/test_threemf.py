@@ -221,6 +221,9 @@ def test_the_consortiums_multiproperties_sample_renders_its_base_colour(tmp_path
      '<m:multi pindices="-1"/><m:multi pindices="0"/></m:multiproperties>',
      '<triangle v1="0" v2="1" v3="2" pid="6" p1="0" p2="1"/>', "property index -1 is outside"),  # not 0's
     ("", '<triangle v1="0" v2="1" v3="9"/>', "vertex index outside 0..3"),
+    # An index equal to the vertex count (one past the last): 3MF's own line, naming the object.
+    ("", '<triangle v1="0" v2="4" v3="2"/>', "object 1 has a triangle with a vertex index outside 0..3"),
+    ("", '<triangle v1="-1" v2="1" v3="2"/>', "object 1 has a triangle with a vertex index outside 0..3"),
     ("", '<triangle v1="0" v2="1" v3="2"/></triangles></mesh></object></resources></model', "not well-formed"),
 ])
 def test_a_broken_3mf_is_one_line(tmp_path, resources, triangles, says):

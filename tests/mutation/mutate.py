@@ -250,6 +250,13 @@ HAND_MUTANTS = (
      "if same_bits(vertices, geometry.vertices):"),  # the BVH kept when only the faces change
     ("scene/schema", "two_sided: Annotated[bool, Strict()] = Field(True,",
      "two_sided: Annotated[bool, Strict()] = Field(False,"),  # one-sided by default
+    # Issue 50's seventh independent set: the three it left alive.
+    ("io/meshes/threemf", "faces.max() >= len(points)):",
+     "faces.max() > len(points)):"),  # 3MF's own index check one past (read.py's then words it)
+    ("geometry/normals", "least = math.cos(math.radians(crease_angle)) - 1e-12",
+     "least = math.cos(math.radians(crease_angle)) + 1e-12"),  # faces at exactly crease_angle split
+    ("tools/study", "if options.repeats < 1 or",
+     "if options.repeats < 0 or"),  # run_study of no repeat: a raw ValueError
 )
 
 OPERATOR_SWAPS = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,

@@ -442,3 +442,12 @@ def test_a_process_start_that_cannot_be_measured_is_none_not_an_error(monkeypatc
         raise OSError(28, "No space left on device")
     monkeypatch.setattr(tempfile, "TemporaryDirectory", full)
     assert study.process_start() is None
+
+
+@pytest.mark.parametrize("options", [{"repeats": 0}, {"levels": ()}, {"models": ()}])
+def test_a_study_of_nothing_is_one_line_from_the_api_too(tmp_path, options):
+    """run_study from Python (a notebook) with no repeat, level or model: the SceneError the command gives, not a
+    ValueError of an empty min() deep in the timing (the command's --repeats has min=1 of its own). One repeat is
+    the least that runs (checked by the tests above)."""
+    with pytest.raises(rp.SceneError, match="at least one level, one model and one repeat"):
+        run_study(sphere_file(tmp_path, size=8), options=StudyOptions(**{"levels": (1,), **options}))
