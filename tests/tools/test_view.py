@@ -474,8 +474,9 @@ def test_latest_wins_while_a_render_runs(scene_path):
 
 def test_a_release_is_never_coalesced_away_by_the_next_strokes_drafts(scene_path, tmp_path):
     """Strokes back to back (issue 35): a release's full frame (2) sent while a draft (1) renders, then the next
-    stroke's drafts (3, 4) at once. Latest wins among the drafts only: the full frame is rendered next, with the
-    settings it was sent with, then the newest draft; only draft 3 is dropped."""
+    stroke's drafts (3, 4) at once. Latest wins among the drafts only: the running draft is cancelled (its state
+    is stale), the full frame is rendered next, with the settings it was sent with, then the newest draft; draft
+    3 is dropped."""
     started, release = threading.Event(), threading.Event()
 
     def held_render(session, scene, **options):
@@ -495,11 +496,18 @@ def test_a_release_is_never_coalesced_away_by_the_next_strokes_drafts(scene_path
                                      "settings": light(request_id)}))
         dropped = json.loads(ws.receive_text())
         release.set()
-        frames = [receive_frame(ws) for _ in range(3)]
+        told, frames = [], []
+        while len(frames) < 2:
+            message = ws.receive()
+            if message.get("text") is not None:
+                told.append(json.loads(message["text"]))
+            else:
+                frames.append(unpack(message["bytes"]))
     assert dropped == {"type": "dropped", "id": 3}
-    assert [(header["id"], header["quality"]) for header, _ in frames] == [(1, "draft"), (2, "full"), (4, "draft")]
+    assert [m for m in told if m["type"] != "progress"] == [{"type": "cancelled", "id": 1, "done": 0, "of": 1}]
+    assert [(header["id"], header["quality"]) for header, _ in frames] == [(2, "full"), (4, "draft")]
     full = rp.load_scene(scene_path, ["lights.0.position=[1, 2, 3]"])
-    np.testing.assert_array_equal(decode_png(frames[1][1]["a"], tmp_path), rendered_png(full))
+    np.testing.assert_array_equal(decode_png(frames[0][1]["a"], tmp_path), rendered_png(full))
 
 
 def test_a_draft_does_not_cancel_a_releases_frame_only_its_refinement(scene_path, monkeypatch):
@@ -1037,6 +1045,45 @@ def test_a_newer_request_cancels_a_running_full_frame_between_bands(scene_path, 
     # Only the bands the render threads had started when it was cancelled were rendered (one a thread).
     assert told["done"] == len(calls) <= prepare.default_threads() < 40
     assert (draft["id"], draft["quality"]) == (2, "draft")
+
+
+def test_a_full_request_stops_a_running_draft_between_bands(scene_path, monkeypatch):
+    """A release's full request while the drag's last draft renders: the draft stops at its next band (the page is
+    told it was cancelled, with the bands done) and the full frame follows, instead of waiting for a draft of a
+    stale state that the page would paint first."""
+    from raycast_phong.renderer import prepare
+    asked, calls = {}, []
+
+    def render(session, scene, **options):
+        asked["cancelled"] = options.get("cancelled")
+        return session_render(session, scene, **options)
+
+    band = prepare.TileWork.__call__
+
+    def held_band(tile, rows):
+        if tile.film.rgb.shape[1] == 320:  # the draft's bands (of 320 × 180) wait until the full request came
+            calls.append(rows)
+            deadline = asked.setdefault("deadline", time.monotonic() + 20)
+            while not (asked.get("cancelled") and asked["cancelled"]()) and time.monotonic() < deadline:
+                time.sleep(0.01)
+        return band(tile, rows)
+    monkeypatch.setattr(prepare.TileWork, "__call__", held_band)
+    from raycast_phong.io import system
+    monkeypatch.setattr(system, "default_threads", lambda: 1)  # one band thread: the second band is not started
+    settings = {"render.width": 640, "render.height": 360}
+    with connect(client_for(scene_path, render=render)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "draft", "settings": settings}))
+        deadline = time.monotonic() + 20
+        while not calls and time.monotonic() < deadline:
+            time.sleep(0.01)
+        ws.send_text(json.dumps({"type": "render", "id": 2, "quality": "full", "settings": settings}))
+        told = json.loads(ws.receive_text())
+        while told["type"] == "progress":
+            told = json.loads(ws.receive_text())
+        full, _ = receive_frame(ws)
+    assert told["type"] == "cancelled" and told["id"] == 1 and told["done"] < told["of"] == 2, told
+    assert (full["id"], full["quality"]) == (2, "full")
 
 
 def test_a_full_frame_of_several_samples_is_refined_from_a_preview(scene_path, tmp_path):

@@ -260,9 +260,10 @@ class Session:
     async def queue(self, request: dict) -> None:
         """Latest wins, but a committed frame is never coalesced away: a newer draft replaces only the waiting
         draft (the committed frame waiting goes first: it is older), a newer full request replaces both. A
-        running refinement (the samples after a preview) is cancelled between bands; a committed request's first
-        full-size frame is not (issue 35: every release is answered by a full frame, even when the next stroke
-        starts at once; a draft waits for it, ~one frame's time)."""
+        running refinement (the samples after a preview) is cancelled between bands, and so is a running draft
+        when a full request comes (a release's frame waits for no stale draft, nor does the page paint one); a
+        committed request's first full-size frame is not (issue 35: every release is answered by a full frame,
+        even when the next stroke starts at once; a draft waits for it, ~one frame's time)."""
         client = self.client
         client.asked_at = time.monotonic()
         full = request.get("quality", "full") != "draft"
@@ -276,7 +277,7 @@ class Session:
             client.committed = request
         else:
             client.pending = request
-        if client.cancellable:
+        if client.cancellable or (full and client.running == "draft"):
             client.cancel.set()  # stale: stop it between bands
 
     def next_request(self) -> dict | None:
