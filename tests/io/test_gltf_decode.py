@@ -417,3 +417,25 @@ def test_a_compressed_view_decoding_to_more_than_its_accessors_read_is_refused_b
                                                    f"to {spec['count']} × {spec['byteStride']} bytes, of which its "
                                                    "accessors read")):
         read_mesh(bloated, "t")
+
+
+@pytest.mark.parametrize(("index", "refused"), [(2, False), (3, True)])
+def test_a_sparse_index_equal_to_the_accessors_count_is_refused_in_words(index, refused):
+    """An integer accessor of 3 elements with one sparse substitute: at index 2 (its last) it replaces that element,
+    at index 3 (the count) it is refused naming `sparse.indices` and the count, not an IndexError."""
+    from raycast_phong.io.meshes.gltf_decode import _Decoder
+    data = np.array([10, 20, 30], "<u2").tobytes() + b"\0\0" + np.array([index], "<u2").tobytes() + b"\0\0"
+    data += np.array([99], "<u2").tobytes() + b"\0\0"
+    tree = {"buffers": [{"byteLength": len(data)}],
+            "bufferViews": [{"buffer": 0, "byteLength": 6}, {"buffer": 0, "byteOffset": 8, "byteLength": 2},
+                            {"buffer": 0, "byteOffset": 12, "byteLength": 2}],
+            "accessors": [{"bufferView": 0, "componentType": 5123, "count": 3, "type": "SCALAR",
+                           "sparse": {"count": 1, "indices": {"bufferView": 1, "componentType": 5123},
+                                      "values": {"bufferView": 2}}}]}
+    decoder = _Decoder(tree, [bytes(data)], Path("t.glb"), [])
+    if not refused:
+        np.testing.assert_array_equal(decoder.float_accessor(0, "k")[:, 0], [10, 20, 99])
+        return
+    with pytest.raises(SceneError) as caught:
+        decoder.float_accessor(0, "k")
+    assert "sparse.indices" in str(caught.value) and "below the accessor's count 3" in str(caught.value)

@@ -44,3 +44,17 @@ def test_a_refused_change_is_one_line_naming_its_key(changes, message):
     with pytest.raises(rp.SceneError) as raised:
         scene.replace(changes)
     assert str(raised.value).startswith(message) and "\n" not in str(raised.value), str(raised.value)
+
+
+def test_a_list_index_equal_to_the_lists_length_is_one_line():
+    """A key path one past a list's last item (lights.1 with one light) is the key path's refusal, naming the
+    allowed indices, from --set as from Scene.replace; lights.0 is the last that takes. Catches the bound at the
+    length itself (an IndexError)."""
+    path = rp.default_scene_path()
+    assert len(rp.load_scene(path).lights) == 1
+    assert rp.load_scene(path, ["lights.0.position=[1, 2, 3]"]).lights[0].position == (1.0, 2.0, 3.0)
+    with pytest.raises(rp.SceneError) as refused:
+        rp.load_scene(path, ["lights.1.position=[1, 2, 3]"])
+    assert str(refused.value).endswith("lights.1: lights is a list of 1 item; allowed indices: 0 to 0")
+    with pytest.raises(rp.SceneError, match="allowed indices: 0 to 0"):
+        rp.load_scene(path).replace({"lights.1.position": [1, 2, 3]})

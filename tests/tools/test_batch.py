@@ -384,3 +384,53 @@ def test_a_sweeps_cells_say_a_shared_warning_once_with_the_base_scene_s_plain_pa
     assert "came again in other sweep cells of the same scene: each said once" in done.output, done.output
     entries = manifest(tmp_path / "out")
     assert all(any("pixel centres" in w for w in entry["warnings"]) for entry in entries.values()), entries
+
+
+def test_an_obj_s_mtl_changed_alone_renders_its_scene_again(tmp_path):
+    """The up-to-date rule weighs a mesh's side files: an OBJ scene batched once is up to date, and after its .mtl
+    alone changes (the OBJ, the scene and the image as they were) it renders again, in the new colour."""
+    folder, out = tmp_path / "scenes", tmp_path / "out"
+    folder.mkdir()
+    (folder / "tri.obj").write_text("mtllib tri.mtl\nv -1 -1 0\nv 1 -1 0\nv 0 1 0\nusemtl m\nf 1 2 3\n")
+    (folder / "tri.mtl").write_text("newmtl m\nKd 0.9 0.1 0.1\n")
+    (folder / "s.toml").write_text('[render]\nwidth = 16\nheight = 16\n[camera]\nposition = [0, 0, 3]\n'
+                                   '[[lights]]\nposition = [0, 0, 3]\n[[objects]]\nshape = "mesh"\npath = "tri.obj"\n')
+    assert run(str(folder), "--out", str(out), "--jobs", "1").exit_code == 0
+    red = rp.read_image(out / "s.png")[0][8, 8]
+    assert run(str(folder), "--out", str(out), "--jobs", "1").exit_code == 0
+    assert statuses(out) == {"s": "up to date"}
+    (folder / "tri.mtl").write_text("newmtl m\nKd 0.1 0.1 0.9\n")
+    assert run(str(folder), "--out", str(out), "--jobs", "1").exit_code == 0
+    assert statuses(out) == {"s": "rendered"}
+    blue = rp.read_image(out / "s.png")[0][8, 8]
+    assert red[0] > red[2] and blue[2] > blue[0], (red, blue)
+
+
+def test_a_sweep_whose_fixed_settings_change_renders_its_cells_again(tmp_path):
+    """A sweep's `set` list is part of every cell (the cells keep their names): batched once, its cells are up to
+    date; with the list changed (the scene as it was) they render again at the new size."""
+    (tmp_path / "base.toml").write_text(scene_text())
+    sweep = tmp_path / "s.toml"
+    sweep.write_text('scene = "base.toml"\nset = ["render.width=12", "render.height=10"]\n\n[grid]\n'
+                     'render.shading = ["flat", "phong"]\n')
+    out = tmp_path / "out"
+    for _ in range(2):
+        assert run(str(sweep), "--out", str(out), "--jobs", "1").exit_code == 0
+    assert set(statuses(out).values()) == {"up to date"}
+    sweep.write_text(sweep.read_text().replace("render.width=12", "render.width=14"))
+    assert run(str(sweep), "--out", str(out), "--jobs", "1").exit_code == 0
+    assert set(statuses(out).values()) == {"rendered"}
+    assert {rp.read_image(path)[0].shape for path in out.glob("s--*.png")} == {(10, 14, 3)}
+
+
+def test_sweep_axes_that_share_a_last_part_are_named_by_their_whole_key_paths(tmp_path):
+    """docs/batch.md: a cell is named by each axis's last key part, or its whole path where two axes share one
+    (two materials' shininess), so the names stay distinct; an axis whose last part is its own keeps it."""
+    (tmp_path / "base.toml").write_text(scene_text() + '\n[materials.blue]\nkd = [0.2, 0.2, 0.9]\n')
+    (tmp_path / "s.toml").write_text('scene = "base.toml"\n\n[grid]\nmaterials.red.shininess = [8, 64]\n'
+                                     'materials.blue.shininess = [8, 64]\nrender.shading = ["flat"]\n')
+    sweep = load_sweep(tmp_path / "s.toml")
+    assert sweep.labels() == ["materials.red.shininess", "materials.blue.shininess", "shading"]
+    names = [job.name for job in sweep.jobs()]
+    assert len(set(names)) == 4
+    assert names[0] == "s--materials.red.shininess=8--materials.blue.shininess=8--shading=flat"

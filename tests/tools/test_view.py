@@ -96,6 +96,10 @@ def test_page_and_its_files_need_the_token(scene_path):
     # Its own script comes with the token in its URL too: framed by a notebook of another site, it has no cookie.
     assert f'src="static/view.js?token={TOKEN}"' in page.text
     assert client.get("/static/view.js").status_code == 200  # the page's files come with its cookie
+    # The cookie: HttpOnly (no script reads it) and SameSite=Strict (no other site's page sends it), as
+    # docs/view.md's Security says.
+    attributes = [part.strip().lower() for part in page.headers["set-cookie"].split(";")]
+    assert "httponly" in attributes and "samesite=strict" in attributes, attributes
 
 
 def test_socket_without_the_token_or_from_another_origin_is_closed(scene_path):
