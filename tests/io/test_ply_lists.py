@@ -188,3 +188,22 @@ def test_a_texcoord_list_uneven_on_a_later_face_is_left_out_with_a_note(tmp_path
     assert read.corner_uv is None  # left out: not a misread uv on every face after the short one
     assert any("its face list 'texcoord' is not one or two entries a corner" in note for note in read.notes), \
         read.notes
+
+
+@pytest.mark.parametrize(("count", "byte", "listed"), [("char", 0x7F, 127), ("char", 0x80, None),
+                                                       ("short", 0x7FFF, 32767), ("short", 0x8000, None),
+                                                       ("uchar", 0x80, 128)])
+def test_a_signed_list_count_at_its_sign_bit_is_negative(count, byte, listed):
+    """The row walk reads a list's count in two's complement when its type is signed: a char count byte of 0x7F
+    is 127 entries, 0x80 is -128 (no rows fit: the file is refused), while a uchar 0x80 is 128. Catches the sign
+    taken from the next value up (0x80 read as +128)."""
+    from raycast_phong.io.meshes.ply_rows import walk_rows
+    width = {"char": 1, "uchar": 1, "short": 2}[count]
+    head = byte.to_bytes(width, "little")
+    data = np.frombuffer(head + bytes(4 * (listed or byte)), np.uint8)  # room for +byte entries: only the sign refuses
+    starts, found = np.empty(2, np.int64), np.zeros((1, 1), np.int64)
+    fits = walk_rows(data, 0, 1, np.array([0], np.int64), np.array([width], np.int64), np.array([4], np.int64),
+                     np.array([count != "uchar"], np.bool_), False, starts, found)
+    assert fits == (listed is not None)
+    if listed is not None:
+        assert found[0, 0] == listed and starts.tolist() == [0, width + 4 * listed]

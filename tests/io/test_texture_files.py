@@ -255,3 +255,24 @@ def test_the_memory_estimate_skips_a_map_that_is_missing_or_unreadable(tmp_path)
     if os.geteuid() != 0:  # root opens anything
         (tmp_path / "shut.png").chmod(0)
         assert file_size(tmp_path / "shut.png") is None
+
+
+def test_an_alpha_map_is_the_last_channel_of_a_grey_and_alpha_image_as_of_an_rgba_one(tmp_path):
+    """A map's alpha (glTF's baseColorTexture for MASK and BLEND, an OBJ's map_d) is its last channel when the
+    image has one: RGBA and grey + alpha (LA) alike; an RGB or grey image has none (alpha 1). Values by hand:
+    alpha 0, 128 and 255 of an 8-bit image, as PIL and OpenImageIO store them."""
+    from PIL import Image
+
+    from raycast_phong.io.textures import decode_file, decode_pil
+    alpha = np.array([[0, 128, 255]], np.uint8)
+    grey = np.full_like(alpha, 200)
+    images = {"LA": np.stack([grey, alpha], axis=2), "RGBA": np.stack([grey, grey, grey, alpha], axis=2),
+              "L": grey, "RGB": np.stack([grey] * 3, axis=2)}
+    for mode, pixels in images.items():
+        image = Image.fromarray(pixels, mode)
+        image.save(tmp_path / f"{mode}.png")
+        expected = alpha / 255 if mode in ("LA", "RGBA") else np.ones(alpha.shape)
+        for decoded in (decode_file(tmp_path / f"{mode}.png", "display", "alpha"),
+                        decode_pil(image, "display", "alpha")):
+            np.testing.assert_allclose(decoded[..., 0], expected, atol=1e-6, err_msg=mode)
+            assert (decoded[..., 0] == decoded[..., 2]).all()

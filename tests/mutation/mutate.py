@@ -257,6 +257,25 @@ HAND_MUTANTS = (
      "least = math.cos(math.radians(crease_angle)) + 1e-12"),  # faces at exactly crease_angle split
     ("tools/study", "if options.repeats < 1 or",
      "if options.repeats < 0 or"),  # run_study of no repeat: a raw ValueError
+    # Issue 50's eighth independent set: the nine it left alive.
+    ("io/meshes/ply_rows", "if signed[k] and value >= 1 << (8 * width - 1):",
+     "if signed[k] and value > 1 << (8 * width - 1):"),  # a char count of 0x80 read as +128
+    ("io/meshes/gltf_decode", "if count and (at.min() < 0 or at.max() >= len(values)):",
+     "if count and (at.min() < 0 or at.max() > len(values)):"),  # a sparse index equal to the count
+    ("io/textures", "if pixels.shape[2] in (2, 4) else",
+     "if pixels.shape[2] == 4 else"),  # a grey + alpha map's alpha read as 1
+    ("renderer/pack", "spread = 2.0 * rig.half_height / (scene.render.height * scene.render.samples)",
+     "spread = 2.0 * rig.half_height / scene.render.height"),  # mip level of the pixel, not the sample
+    ("tools/batch/jobs", "*(side for mesh in sources for side in mesh.side_files),",
+     "*(side for mesh in sources for side in mesh.side_files[:0]),"),  # an .mtl changed alone is up to date
+    ("tools/batch/jobs", '"overrides": list(job.overrides),',
+     '"overrides": [],'),  # a sweep's set list changed is up to date
+    ("tools/view/access", 'httponly=True, samesite="strict")',
+     'httponly=True, samesite="lax")'),  # the page's cookie sent by other sites' links
+    ("scene/keypaths", "if not part.isdigit() or int(part) >= len(node):",
+     "if not part.isdigit() or int(part) > len(node):"),  # lights.1 of one light: an IndexError
+    ("tools/sweep", "return [part if last.count(part) == 1 else key",
+     "return [part if last.count(part) >= 1 else key"),  # axes sharing a last part named alike
 )
 
 OPERATOR_SWAPS = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,

@@ -221,3 +221,20 @@ def test_a_textured_sphere_matches_the_analytic_reference(tmp_path):
     assert inside.sum() > 2000
     np.testing.assert_allclose(image[inside], expected[inside], atol=0.6 / 512 + 0.5 / 128)
     assert exact_uv("sphere", np.array([[0.0, 1.0, 0.0]]))[0] == pytest.approx([0.25, 0.5])
+
+
+def test_supersampling_filters_a_texture_as_the_finer_image_does(tmp_path):
+    """render.samples = 2 casts the rays of a render at twice the size, and each sample's texture footprint is that
+    render's pixel (the mip level follows the samples' spacing, not the pixel's): the image is the mean of the 2×2
+    blocks of the 2× render, on a noise texture whose every mip level differs. Catches a footprint of the whole
+    pixel (a level too coarse with supersampling)."""
+    rng = np.random.default_rng(5)
+    write_png(tmp_path / "noise.png", rng.integers(0, 256, (256, 256, 3), dtype=np.uint8))
+    scene = checker_scene(tmp_path, 2.5)
+    scene["materials"]["c"]["kd_map"] = "noise.png"
+
+    def render(size, samples):
+        return rp.render(rp.validate_scene({**scene, "render": {**scene["render"], "width": size, "height": size,
+                                                                 "samples": samples}}, folder=tmp_path)).image
+    coarse, fine = render(32, 2), render(64, 1)
+    np.testing.assert_allclose(coarse, fine.reshape(32, 2, 32, 2, 3).mean(axis=(1, 3)), atol=1e-6)
