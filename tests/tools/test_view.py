@@ -1012,10 +1012,9 @@ def test_a_light_move_rebuilds_nothing_and_only_a_change_of_what_geometry_reads_
         np.testing.assert_array_equal(decode_png(png, tmp_path), rendered_png(draft_of(scene_with(source, settings))))
 
 
-def test_a_newer_request_cancels_a_running_full_frame_between_bands(scene_path, monkeypatch):
-    """A full frame of 8 × 8 samples (40 bands of 3 rows) is refined: a preview of one sample a pixel first, then
-    the full frame. A draft sent while the full frame's first bands run stops it: the bands already started end,
-    no other starts, the page is told how many were done, and the draft follows."""
+def held_until_cancelled(monkeypatch, held) -> tuple:
+    """A render hook for client_for that notes each frame's cancelled(), and the bands of the tiles `held(tile)`
+    picks wait (at most 20 s for the frame) until it answers True: (the hook, the rows of the bands held)."""
     from raycast_phong.renderer import prepare
     asked, calls = {}, []
 
@@ -1026,13 +1025,23 @@ def test_a_newer_request_cancels_a_running_full_frame_between_bands(scene_path, 
     band = prepare.TileWork.__call__
 
     def held_band(tile, rows):
-        if tile.rays.samples > 1:  # the full frame's bands wait until the newer request has cancelled it
+        if held(tile):
             calls.append(rows)
             deadline = asked.setdefault("deadline", time.monotonic() + 20)  # one wait for the frame, not per band
             while not (asked.get("cancelled") and asked["cancelled"]()) and time.monotonic() < deadline:
                 time.sleep(0.01)
         return band(tile, rows)
     monkeypatch.setattr(prepare.TileWork, "__call__", held_band)
+    return render, calls
+
+
+def test_a_newer_request_cancels_a_running_full_frame_between_bands(scene_path, monkeypatch):
+    """A full frame of 8 × 8 samples (40 bands of 3 rows) is refined: a preview of one sample a pixel first, then
+    the full frame. A draft sent while the full frame's first bands run stops it: the bands already started end,
+    no other starts, the page is told how many were done, and the draft follows."""
+    from raycast_phong.renderer import prepare
+    # The full frame's bands wait until the newer request has cancelled it.
+    render, calls = held_until_cancelled(monkeypatch, lambda tile: tile.rays.samples > 1)
     settings = {"render.width": 160, "render.height": 120, "render.samples": 8}
     with connect(client_for(scene_path, render=render)) as ws:
         ws.receive_text()
@@ -1055,23 +1064,8 @@ def test_a_full_request_stops_a_running_draft_between_bands(scene_path, monkeypa
     """A release's full request while the drag's last draft renders: the draft stops at its next band (the page is
     told it was cancelled, with the bands done) and the full frame follows, instead of waiting for a draft of a
     stale state that the page would paint first."""
-    from raycast_phong.renderer import prepare
-    asked, calls = {}, []
-
-    def render(session, scene, **options):
-        asked["cancelled"] = options.get("cancelled")
-        return session_render(session, scene, **options)
-
-    band = prepare.TileWork.__call__
-
-    def held_band(tile, rows):
-        if tile.film.rgb.shape[1] == 320:  # the draft's bands (of 320 × 180) wait until the full request came
-            calls.append(rows)
-            deadline = asked.setdefault("deadline", time.monotonic() + 20)
-            while not (asked.get("cancelled") and asked["cancelled"]()) and time.monotonic() < deadline:
-                time.sleep(0.01)
-        return band(tile, rows)
-    monkeypatch.setattr(prepare.TileWork, "__call__", held_band)
+    # The draft's bands (of 320 × 180) wait until the full request has cancelled it.
+    render, calls = held_until_cancelled(monkeypatch, lambda tile: tile.film.rgb.shape[1] == 320)
     from raycast_phong.io import system
     monkeypatch.setattr(system, "default_threads", lambda: 1)  # one band thread: the second band is not started
     settings = {"render.width": 640, "render.height": 360}
