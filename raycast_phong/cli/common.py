@@ -180,7 +180,8 @@ def _say_compiling(name: str, signature: str) -> None:
     from raycast_phong.compiles import part
 
     from .progress import say
-    what, seconds = (part(name), "a few seconds") if part(name) else ("the renderer's kernels", "10-20 s")
+    what = part(name)
+    what, seconds = (what, "a few seconds") if what else ("the renderer's kernels", "10-20 s")
     say(f"compiling {what}, once after an install or an edit ({seconds})...")
 
 

@@ -56,15 +56,15 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None) -
         if announce is None:
             return
         smaller = part(name)
-        if smaller is not None and "shadows" in name:  # they compile before the shading kernels, which may follow
-            smaller += ", and the shading kernels if they are not compiled yet"
         if smaller is None:
             announce(f"compiling the {np.dtype(real).name} shading kernels, the first time after an install or an "
                      "edit (about 13-18 s of CPU shared by two processes: 6-9 s on an idle 2-core machine)...")
-        else:
-            shading = ", 13-18 s of CPU with the shading kernels" if "shading" in smaller else ""
-            announce(f"compiling {smaller}, the first time a scene needs them after an install or an edit (a few "
-                     f"seconds{shading})...")
+            return
+        # The shadow rays' kernels compile before the shading kernels, which may follow.
+        also, shading = ((", and the shading kernels if they are not compiled yet",
+                          ", 13-18 s of CPU with the shading kernels") if "shadows" in name else ("", ""))
+        announce(f"compiling {smaller}{also}, the first time a scene needs them after an install or an edit (a few "
+                 f"seconds{shading})...")
 
     def scene_kernels() -> None:  # this scene's own preparation: compiled here while a helper compiles the rest
         if meshes:

@@ -65,7 +65,7 @@ class FrameQueue(Executor):
         return future
 
     def _take(self) -> _Work:
-        """The next work (the lock held, something waiting): the cheapest on odd turns, the oldest on even."""
+        """The next work (the lock held, something waiting): the cheapest, then the oldest, turn about."""
         cheapest = next(self._turns) % 2 == 0
         work = min(self._waiting) if cheapest else min(self._waiting, key=lambda w: w.number)
         self._waiting.remove(work)

@@ -323,8 +323,8 @@ function onFrame(header, parts, arrived = performance.now()) {
   }
   const images = raw ? Promise.resolve(panelsSent.map((name) => parts[name]))
     : Promise.all(panelsSent.map((name) => createImageBitmap(new Blob([parts[name]], { type: "image/png" }))));
-  const kept = header.quality !== "draft";  // painted before any later frame replaces it
-  if (kept) holding = true;
+  const holds = header.quality !== "draft";  // painted before any later frame replaces it
+  if (holds) holding = true;
   // Input → on screen: from the oldest input event the frame answers (its own time, as the browser stamped it)
   // to the first animation frame after its pixels are in the canvas, the frame the browser then paints (`ms`);
   // `sent` counts from sending the request, `shown` from the frame's arrival, `server` is the server's own time,
@@ -334,7 +334,7 @@ function onFrame(header, parts, arrived = performance.now()) {
     panelsSent.forEach((name, k) => paintPanel(name, header, decoded[k]));
     const at = performance.now();
     requestAnimationFrame(() => {
-      if (kept) setTimeout(painted, 0);
+      if (holds) setTimeout(painted, 0);
       if (input === undefined) return;
       const now = performance.now(), ms = now - input;
       if (readoutDue("latency", header.quality)) setText("#latency", `${ms.toFixed(0)} ms`);
