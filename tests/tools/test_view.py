@@ -827,6 +827,20 @@ def test_view_command_warns_when_not_bound_to_loopback(monkeypatch):
     assert result.exit_code == 0 and "reachable from other machines" in result.output
 
 
+def test_view_command_gives_its_max_memory_to_the_server_and_refuses_a_bad_one(monkeypatch):
+    """`view --max-memory 500M` reaches serve() as bytes (create_app shares it between the frames); a size that is
+    none is one line naming the option, exit 2, before any server starts."""
+    import raycast_phong.tools.view as live
+    given = {}
+    monkeypatch.setattr(live, "serve", lambda *args, **kwargs: given.update(kwargs))
+    result = CliRunner().invoke(cli_app, ["view", "--max-memory", "500M", "--no-browser"])
+    assert result.exit_code == 0 and given["max_memory"] == 500 << 20, (result.output, given)
+    given.clear()
+    result = CliRunner().invoke(cli_app, ["view", "--max-memory", "lots", "--no-browser"])
+    assert result.exit_code == 2 and "--max-memory" in result.output and given == {}, result.output
+    assert result.output.strip().count("\n") == 0
+
+
 @pytest.mark.slow
 def test_benchmark_script_runs_in_a_reduced_form():
     """bench_view.py is not a timed test; this keeps the script working (tiny frame, few requests)."""
