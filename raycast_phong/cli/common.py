@@ -446,7 +446,7 @@ def exit_codes():
     try:
         yield
     except (InputError, OutputError) as error:
-        fail(str(error))
+        fail(_built_in_named(str(error)))
     except typer.Exit:
         raise
     except OSError as error:
@@ -455,6 +455,14 @@ def exit_codes():
         _internal(error)
     except Exception as error:  # noqa: BLE001 - anything else is our bug: one line, exit 1, the traceback logged
         _internal(error)
+
+
+def _built_in_named(message: str) -> str:
+    """`message` with the built-in scene's path (deep in site-packages from a wheel) said as a user names it,
+    "the built-in scene (default.toml)": what render, plan, view and the others read with no scene argument."""
+    from ..scene.schema import default_scene_path
+    path = str(default_scene_path())
+    return message.replace(path, f"the built-in scene ({Path(path).name})") if path in message else message
 
 
 def _internal(error: Exception) -> None:

@@ -36,3 +36,12 @@ def test_example_list_and_a_misspelt_name():
 def test_an_example_and_a_scene_together_are_refused(tmp_path):
     done = runner.invoke(app, ["scene", "x.obj", "--example", "mesh"])
     assert done.exit_code == 2 and "give one of them" in done.output
+
+
+def test_an_error_in_the_built_in_scene_names_it_not_its_installed_path(tmp_path):
+    """With no scene argument the built-in scene is read from deep inside the package (site-packages from a
+    wheel): its errors name it as a user would, "the built-in scene (default.toml)", the path nowhere."""
+    done = runner.invoke(app, ["render", "--set", "camera.fov=500", "-o", str(tmp_path / "a.png")])
+    assert done.exit_code == 2
+    assert done.output.startswith("error: the built-in scene (default.toml): camera.fov: out of range"), done.output
+    assert str(rp.default_scene_path()) not in done.output
