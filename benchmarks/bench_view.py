@@ -134,8 +134,8 @@ def browser_benchmark(scene: str | None, steps: int, rate: float, seconds: float
 def unpaced_benchmark(scene: str | None, size: str, rate: float, strokes: int, stroke: float) -> None:
     """The `--browser --unpaced` runs (see the module docstring); prints one line per measure and target."""
     width, height = (int(x) for x in size.lower().split("x"))
-    from raycast_phong.tools.view.server import draft_of, open_source, scene_with
-    shaped = draft_of(scene_with(open_source(scene), {"render.width": width, "render.height": height})).render
+    from raycast_phong.tools.view.server import draft_of, open_scene, scene_with
+    shaped = draft_of(scene_with(open_scene(scene), {"render.width": width, "render.height": height})).render
     draft = f"{shaped.width}×{shaped.height}"
     print(f"view of {scene or 'the default scene'} at {width}×{height} (drafts {draft}); "
           f"{strokes} strokes of {stroke:g} s at {rate:g} Hz, back to back, not paced to the page; "

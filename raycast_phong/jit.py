@@ -153,16 +153,16 @@ def kernel_folder(function) -> Path | None:
 
 
 @cache
-def _module_folder(source: Path) -> Path | None:
+def _module_folder(module_file: Path) -> Path | None:
     root = cache_folder()
     if root is None:
         return None
     try:
-        name = _dotted(source)
+        name = _dotted(module_file)
         folder = root / f"{name}-{kernel_keys()[name]}"
     except (ValueError, KeyError):  # not a kernel module of the package
-        key = hashlib.sha256(numba.__version__.encode() + str(source).encode()).hexdigest()[:16]
-        folder = root / f"{OUTSIDE}{source.stem}-{key}"
+        key = hashlib.sha256(numba.__version__.encode() + str(module_file).encode()).hexdigest()[:16]
+        folder = root / f"{OUTSIDE}{module_file.stem}-{key}"
     return folder if _writable(folder) else None
 
 

@@ -13,41 +13,51 @@ import os
 from pathlib import Path
 
 from ..errors import ImageError, SceneError
-from ..values.messages import Location
 from .schema import Scene
 
 
-def _check_real_path(scene: Scene, output: Path, source: Path) -> None:
+def _check_inside(scene: Scene) -> None:
+    """Refuse an output.path that leaves the scene's folder (absolute, ~ or '..'), before it is written to: a
+    scene file is data, possibly someone else's; it may write beside itself or below, never over ~/.x.png or
+    ../../x.png. An output elsewhere is the user's choice, made with -o."""
+    path = Path(scene.output.path)
+    if path.is_absolute() or scene.output.path.startswith("~") or ".." in path.parts:
+        raise SceneError(f"{scene.output.path!r} leaves the scene's folder (an absolute path, ~ or '..'); give a "
+                         "path inside that folder, or choose the output with -o", scene.origin.at("output", "path"))
+
+
+def _check_real_path(scene: Scene, output: Path) -> None:
     """Refuse an output.path whose real location (every symbolic link followed: a linked subfolder, a
-    linked file) leaves the scene's folder, as output.check_inside refuses one spelled with '..'."""
+    linked file) leaves the scene's folder, as _check_inside refuses one spelled with '..'."""
     folder = Path(os.path.realpath(scene.folder))
     real = Path(os.path.realpath(output))
     if real != folder and folder not in real.parents:
         raise SceneError(f"{scene.output.path!r} leaves the scene's folder through a symbolic link (it is "
                          f"{str(real)!r}); give a path inside that folder, or choose the output with -o",
-                         Location(str(source)).at("output", "path"))
+                         scene.origin.at("output", "path"))
 
 
-def render_output(scene: Scene, source: Path, given: Path | None, builtin: bool) -> Path | str:
-    """The image `render` writes for `scene` read from `source` (`builtin`: the default scene), -o `given` or
-    None. Raises SceneError or ImageError, one line naming the source and where the path came from."""
+def render_output(scene: Scene, scene_path: Path, given: Path | None, builtin: bool) -> Path | str:
+    """The image `render` writes for `scene` read from `scene_path` (`builtin`: the default scene), -o `given` or
+    None; never the scene file itself. Raises SceneError or ImageError, one line naming the scene and where the
+    path came from."""
     from ..io.image_io import check_output_path  # OpenImageIO: only once a render is on its way
     option = "--output" if given is not None else "output.path"
     if given is None and not builtin:
-        scene.output.check_inside(str(source))  # a scene writes inside its folder; elsewhere only with -o
+        _check_inside(scene)  # a scene writes inside its folder; elsewhere only with -o
     output = given if given is not None else (Path(scene.output.path).name if builtin
                                               else scene.resolve(scene.output.path))
     if given is None and not builtin:
-        _check_real_path(scene, Path(output), source)
+        _check_real_path(scene, Path(output))
     try:
-        check_output_path(output, inputs=(source,))
+        check_output_path(output, inputs=(scene_path,))
         if given is not None and Path(given).is_symlink():
             # -o LINK writes the file the link names, as `cp x LINK` or `> LINK` would, and keeps the link
             # (the atomic rename would otherwise replace the link itself with a file).
-            output = check_output_path(Path(os.path.realpath(given)), inputs=(source,))
+            output = check_output_path(Path(os.path.realpath(given)), inputs=(scene_path,))
     except ImageError as error:
-        raise ImageError(f"{source}: {option}: {error}") from None  # where the path came from: option or scene
+        raise ImageError(f"{scene.origin}: {option}: {error}") from None  # where the path came from
     if scene.output.aovs and Path(output).suffix.lower() != ".exr":
         raise SceneError(f"{list(scene.output.aovs)} need an .exr output, but -o {output} is a PNG (a PNG holds "
-                         "only RGB)", Location(str(source)).at("output", "aovs"))
+                         "only RGB)", scene.origin.at("output", "aovs"))
     return output

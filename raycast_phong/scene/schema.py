@@ -285,18 +285,6 @@ class Output(Table):
                             f"{self.path!r} (a PNG holds only RGB)")
         return self
 
-    def check_inside(self, source: str | Location) -> None:
-        """Refuse a path that leaves the scene's folder (absolute, ~ or '..'), before it is written to.
-
-        A scene file is data, possibly someone else's: it may write beside itself or below, never over
-        ~/.x.png or ../../x.png. An output elsewhere is the user's choice, made with -o (which the scene's
-        path then does not matter to, so this is checked where the path is used, not while loading).
-        """
-        path = Path(self.path)
-        if path.is_absolute() or self.path.startswith("~") or ".." in path.parts:
-            raise SceneError(f"{self.path!r} leaves the scene's folder (an absolute path, ~ or '..'); give a path "
-                             "inside that folder, or choose the output with -o", located(source).at("output", "path"))
-
 
 DEFAULT_MATERIAL = Material()
 

@@ -242,7 +242,7 @@ class Study:
 # ---------------------------------------------------------------- scenes of the sweep
 
 def variant(base: Scene, data: dict, *, model: str, specular: str, precision: str, samples: int,
-            shininess: float | None, level: int, folder: str, source: str, normals: str | None = None) -> Scene:
+            shininess: float | None, level: int, folder: str, normals: str | None = None) -> Scene:
     """The base scene with every object at `level` and shaded with `model`, and the render keys set.
 
     Mesh files are Loop-subdivided `level` times into `folder` (level 0: the file as it is); `normals`, when
@@ -263,7 +263,7 @@ def variant(base: Scene, data: dict, *, model: str, specular: str, precision: st
         if any(obj.material == "default" for obj in base.objects):
             materials.setdefault("default", {})["shininess"] = shininess
         data["materials"] = materials
-    return validate_scene(data, source=source, folder=base.folder)
+    return validate_scene(data, source=base.origin, folder=base.folder)
 
 
 def mean_edge_length(geometry: Geometry) -> float:
@@ -307,9 +307,8 @@ class _Sweep:
     """The state of one study: scenes, references and measured errors per setting."""
 
     def __init__(self, path: str | Path, overrides, options: StudyOptions, folder: str):
-        self.source = str(path)
         self.data = read_scene_dict(path, overrides, max_memory=options.max_memory)  # validated later, per combination
-        self.base = validate_scene(self.data, source=self.source, folder=Path(path).parent)
+        self.base = validate_scene(self.data, source=str(path), folder=Path(path).parent)
         _check_options(self.base, options)
         self.options, self.folder = options, folder
         self.renderer = Renderer(threads=options.threads, max_memory=options.max_memory)  # every measured render's
@@ -330,7 +329,7 @@ class _Sweep:
     def scene(self, s: Setting, samples: int | None = None) -> Scene:
         return variant(self.base, self.data, model=s.model, specular=s.specular, precision=s.precision,
                        samples=s.samples if samples is None else samples, shininess=s.shininess, level=s.level,
-                       folder=self.folder, source=self.source, normals=s.normals)
+                       folder=self.folder, normals=s.normals)
 
     def settings(self, level: int) -> list[Setting]:
         """Every setting at `level`; flat shading reads no vertex normals, so only with the first normals."""
@@ -345,7 +344,7 @@ class _Sweep:
                                       self.problems[0][1], 0))
             data = warm.model_dump(exclude={"folder"})
             data["render"].update(width=8, height=8)
-            render(validate_scene(data, source=self.source, folder=warm.folder))
+            render(validate_scene(data, source=warm.origin, folder=warm.folder))
 
     def check_fits(self, level: int) -> None:
         """Refuse (SceneError) a level whose renders are over the memory budget, before anything is measured."""
@@ -431,7 +430,7 @@ def run_study(path: str | Path, overrides: list[str] | tuple[str, ...] = (), opt
         rows = monotone_times([study_row(s, runs[s], *sweep.measured[s], sweep.meshes[s.samples, s.level][1], pooled)
                                for s in settings])
         started = process_start() if options.process_start else None  # after the rounds: not among them
-        study = Study(rows, fit_orders(rows, options.settle), sweep.source, options.target, noise,
+        study = Study(rows, fit_orders(rows, options.settle), sweep.base.origin.file, options.target, noise,
                       levels_note=note, shininess=sweep.base.material_of(sweep.base.objects[0]).shininess
                       if sweep.base.objects else math.nan, colour=sweep.base.render.colour,
                       machine=this_machine(started),

@@ -66,8 +66,9 @@ def test_a_line_feed_in_an_output_path_stays_quoted(tmp_path):
     """Catches an output path written into a message unquoted (its line feed then splits the line)."""
     assert r"'a\nb.txt' must end in .png" in one_line_refusal(lambda: scene(output={"path": "a\nb.txt"}))
     assert r"'a\nb.png' (a PNG" in one_line_refusal(lambda: scene(output={"path": "a\nb.png", "aovs": ["depth"]}))
-    outside = scene(output={"path": "../a\nb.png"}).output
-    assert r"'../a\nb.png' leaves" in one_line_refusal(lambda: outside.check_inside("s.toml"))
+    from raycast_phong.scene.output import render_output
+    outside = scene(output={"path": "../a\nb.png"})
+    assert r"'../a\nb.png' leaves" in one_line_refusal(lambda: render_output(outside, Path("s.toml"), None, False))
 
 
 def test_a_line_feed_in_a_symbolic_link_s_target_stays_quoted(tmp_path):

@@ -411,7 +411,7 @@ def test_small_study_writes_report_csv_plots_and_summary(tmp_path):
     row = next(r for r in rows if r["model"] == "gouraud" and r["level"] == "1" and r["precision"] == "float32")
     base = rp.load_scene(path)
     scene = variant(base, read_scene_dict(path), model="gouraud", specular="phong", precision="float32", samples=1,
-                    shininess=None, level=1, folder=str(tmp_path), source=str(path))
+                    shininess=None, level=1, folder=str(tmp_path))
     again = rp.render(scene)
     errors = measure(again.image, mesh_coverage(scene), analytic_reference(scene))
     assert float(row["rmse"]) == errors.rmse and float(row["max_error"]) == errors.max_error

@@ -34,7 +34,7 @@ from raycast_phong.tools.view.server import (
     create_app,
     draft_of,
     frame_of,
-    open_source,
+    open_scene,
     scene_with,
     session_render,
     unpack,
@@ -50,7 +50,7 @@ def scene_path(tmp_path) -> Path:
 
 
 def client_for(path: Path, **options) -> TestClient:
-    return TestClient(create_app(open_source(path), TOKEN, [ORIGIN], **options))
+    return TestClient(create_app(open_scene(path), TOKEN, [ORIGIN], **options))
 
 
 def connect(client: TestClient, token: str = TOKEN, origin: str | None = ORIGIN):
@@ -136,11 +136,11 @@ def test_host_names_in_brackets_and_wildcard_addresses(scene_path):
     from raycast_phong.tools.view import origins_for, page_url
     assert page_url("::1", 8765, "t") == "http://[::1]:8765/?token=t" and origins_for("::1", 8765)[0] == "http://[::1]:8765"
     assert page_url("0.0.0.0", 8765, "t") == "http://127.0.0.1:8765/?token=t"  # the wildcard, reached here
-    ipv6 = create_app(open_source(scene_path), TOKEN, ["http://[::1]:8765"])
+    ipv6 = create_app(open_scene(scene_path), TOKEN, ["http://[::1]:8765"])
     assert TestClient(ipv6).get(f"/?token={TOKEN}", headers={"host": "[::1]:8765"}).status_code == 200
     for bad in ("::1", "evil.example", "[::1"):
         assert TestClient(ipv6).get(f"/?token={TOKEN}", headers={"host": bad}).status_code == 400, bad
-    wildcard = TestClient(create_app(open_source(scene_path), TOKEN, ["http://127.0.0.1:8765"], any_host=True))
+    wildcard = TestClient(create_app(open_scene(scene_path), TOKEN, ["http://127.0.0.1:8765"], any_host=True))
     assert wildcard.get(f"/?token={TOKEN}", headers={"host": "lab-pc.local:8765"}).status_code == 200
     with wildcard.websocket_connect(f"/socket?token={TOKEN}", headers={"host": "lab-pc.local:8765",
                                                                        "origin": "http://lab-pc.local:8765"}) as ws:
@@ -319,14 +319,14 @@ def test_the_view_refuses_more_lights_than_it_allows_in_one_line(scene_path, tmp
         assert receive_frame(ws)[0]["id"] == 2
     many = write_tiny_scene(tmp_path, 16, 12, "[[lights]]\nposition = [0, 0, 5]\n" * MAX_VIEW_LIGHTS)
     with pytest.raises(ViewError, match=r"tiny.toml: lights: 64 lights; allowed: 0 to 63 in the view"):
-        open_source(many)
+        open_scene(many)
 
 
 def test_a_path_past_the_key_names_is_caught_in_the_validated_scene(scene_path, monkeypatch):
     """The second guard: were a key that names a file missed by PATH_KEYS, the validated scene's named_files
     still differ from the source's, and the settings are refused before any file is opened."""
     from raycast_phong.tools.view import server
-    source = open_source(scene_path)
+    source = open_scene(scene_path)
     monkeypatch.setattr(server, "PATH_KEYS", server.re.compile("(?!)"))  # matches no key
     for key, says in (("materials.red.kd_map", "materials.red.kd_map.path"),
                       ("materials.red.ke_map.path", "materials.red.ke_map.path"),
@@ -564,7 +564,7 @@ def test_a_frame_asked_as_rgba_is_the_pngs_pixels_raw(scene_path, tmp_path):
         np.testing.assert_array_equal(rgba[..., :3], decode_png(reference["a"], tmp_path))
         assert (rgba[..., 3] == 255).all()
     assert full_png["a"].startswith(b"\x89PNG")
-    scene = frame_of(scene_with(open_source(scene_path), settings))
+    scene = frame_of(scene_with(open_scene(scene_path), settings))
     np.testing.assert_array_equal(decode_png(full_png["a"], tmp_path), rendered_png(scene))
     assert refused == {"type": "error", "id": 4, "message": "pixels: 'jpeg'; allowed: 'png' or 'rgba'"}
 
@@ -705,7 +705,7 @@ def test_the_server_prepares_every_kernel_the_page_can_ask_for_and_says_so(scene
     from raycast_phong.tools.view import server
     warmed = []
     monkeypatch.setattr(frame, "warm_kernels", lambda reals: warmed.append(set(reals)))
-    server.warm(open_source(scene_path))
+    server.warm(open_scene(scene_path))
     assert warmed == [{np.float32, np.float64}]  # both precisions (the tile kernel holds global mode's shadow rays)
     release = threading.Event()
     monkeypatch.setattr(server, "warm", lambda source: release.wait(60))
@@ -735,7 +735,7 @@ def test_a_saved_scene_file_loads_back_as_the_settings_that_make_it(scene_path):
     changes = {"render.shading": "flat", "lights.0.position": [1.0, -2.0, 3.5], "materials.red.shininess": 10.0,
                "camera.look_at": [0.25, 0.0, 0.0]}
     from raycast_phong.tools.view.server import ViewError, scene_with, settings_from
-    source = open_source(scene_path)
+    source = open_scene(scene_path)
     text = scene_toml(scene_with(source, changes))
     assert settings_from(source, text, "saved.toml") == changes
     assert settings_from(source, json.dumps(rp.load_scene(scene_path).model_dump(mode="json", exclude={"folder"})),
@@ -753,7 +753,7 @@ def test_a_saved_scene_file_loads_back_as_the_settings_that_make_it(scene_path):
             assert reply["type"] == "error" and says in reply["message"] and "\n" not in reply["message"], reply
     # A view of a mesh file: the saved file names it by its absolute path, which is the same file; another is not.
     mesh = Path(__file__).resolve().parents[2] / "scenes" / "meshes" / "torus_knot.ply"
-    source = open_source(mesh)
+    source = open_scene(mesh)
     text = scene_toml(scene_with(source, {"render.shading": "flat"}))
     assert settings_from(source, text, "knot.toml") == {"render.shading": "flat"}
     with pytest.raises(ViewError, match=r"objects.0.path is .*painted_knot.ply, not this view's torus_knot.ply"):
@@ -1021,7 +1021,7 @@ def test_a_light_move_rebuilds_nothing_and_only_a_change_of_what_geometry_reads_
         os.utime(mesh, ns=(10**9, 10**9))  # another mtime whatever the file system's clock and inode reuse
         frame_of_settings(ws, 11, moved)
         assert counted["reads"] == first["reads"] + 1
-    source = open_source(mesh)
+    source = open_scene(mesh)
     for png, settings in zip(shown, [size, *unchanged, moved]):
         np.testing.assert_array_equal(decode_png(png, tmp_path), rendered_png(draft_of(scene_with(source, settings))))
 
@@ -1218,7 +1218,7 @@ def test_the_bands_of_every_frame_run_on_the_servers_band_threads_which_stop_wit
     for thread in threads:
         thread.join(10)
     assert not any(thread.is_alive() for thread in threads)
-    scene = draft_of(scene_with(open_source(scene_path), {**settings, "lights.0.position": [3, 2, 3]}))
+    scene = draft_of(scene_with(open_scene(scene_path), {**settings, "lights.0.position": [3, 2, 3]}))
     np.testing.assert_array_equal(decode_png(png, scene_path.parent), rendered_png(scene))
 
 
@@ -1227,8 +1227,8 @@ def test_the_page_is_served_before_the_renderer_is_loaded(scene_path, monkeypatc
     warm-up waits for the first page (or WARM_AFTER seconds), so the HTML is not queued behind them."""
     made = subprocess.run([sys.executable, "-c", f"""
 import sys
-from raycast_phong.tools.view import create_app, open_source
-create_app(open_source({str(scene_path)!r}), "t" * 40, ["http://testserver"])
+from raycast_phong.tools.view import create_app, open_scene
+create_app(open_scene({str(scene_path)!r}), "t" * 40, ["http://testserver"])
 print(sorted(name for name in ("numba", "OpenImageIO", "raycast_phong.renderer.frame") if name in sys.modules))
 """], capture_output=True, text=True, timeout=120, env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[2])})
     assert made.returncode == 0 and made.stdout.strip() == "[]", made.stdout + made.stderr
@@ -1318,7 +1318,7 @@ def test_the_view_takes_256_settings_and_refuses_257(scene_path):
     """MAX_SETTINGS keys per request: 256 apply, 257 are one line naming the count. Catches `>` made `>=` and the
     limit moved by one (no test sent that many keys)."""
     from raycast_phong.tools.view.server import MAX_SETTINGS, ViewError
-    source = open_source(scene_path)
+    source = open_scene(scene_path)
     settings = {f"materials.m{i}.kd": 0.5 for i in range(MAX_SETTINGS)}
     assert MAX_SETTINGS == 256 and len(scene_with(source, settings).materials) == 257  # red and 256 more
     with pytest.raises(ViewError, match=r"^settings: 257 keys; allowed: at most 256$"):
@@ -1330,7 +1330,7 @@ def test_the_view_s_ray_limit_holds_at_its_value(scene_path, monkeypatch):
     being prime) refused; with the limit set to the tiny scene's 64 × 48 rays, that frame passes and one ray fewer
     refuses it. Catches `>` made `>=` and the limit moved by a ray."""
     from raycast_phong.tools.view import server
-    source = open_source(scene_path)
+    source = open_scene(scene_path)
     full = {"render.width": 1920, "render.height": 1080, "render.samples": 4}
     assert scene_with(source, full).render.samples == 4
     with pytest.raises(server.ViewError, match=r"render\.samples: 2404×13801 pixels × 1² samples is more than"):
@@ -1351,7 +1351,7 @@ def test_a_frame_over_its_share_of_the_servers_memory_budget_is_refused_on_the_p
     from raycast_phong.io.system import format_bytes
     from raycast_phong.tools.view.server import frame_of
     from raycast_phong.tools.view.session import FRAME_THREADS
-    need = rp.Renderer().check_fits(frame_of(scene_with(open_source(scene_path), {}))).total
+    need = rp.Renderer().check_fits(frame_of(scene_with(open_scene(scene_path), {}))).total
     with connect(client_for(scene_path, max_memory=FRAME_THREADS * need)) as ws:
         ws.receive_text()
         header, parts = frame_of_settings(ws, 1, {}, quality="full")
@@ -1402,7 +1402,7 @@ def test_a_draft_is_half_each_side_and_at_most_a_640_by_360_frames_pixels(scene_
     """A frame up to 640×360 drafts at half each side (an odd side rounds up); a larger one at the same share of
     each side, down to DRAFT_PIXELS (320×180): a 1280×720 frame's drafts cost what a 640×360 frame's do."""
     from raycast_phong.tools.view.server import DRAFT_PIXELS
-    scene = scene_with(open_source(scene_path), {"render.width": size[0], "render.height": size[1],
+    scene = scene_with(open_scene(scene_path), {"render.width": size[0], "render.height": size[1],
                                                 "render.samples": 4})
     shaped = draft_of(scene).render
     assert (shaped.width, shaped.height, shaped.samples) == (*draft, 1)

@@ -1134,8 +1134,8 @@ def test_a_frame_over_its_share_of_the_servers_budget_is_said_on_the_page(browse
     """`view --max-memory`: the page's first frame fits its share (half the server's budget: two frames render
     at once); the tessellation slider at level 6 asks for a sphere whose frame does not, and the page says the
     memory line render gives, while the last frame stays on screen."""
-    from raycast_phong.tools.view.server import frame_of, open_source, scene_with
-    source = open_source(scene_path)
+    from raycast_phong.tools.view.server import frame_of, open_scene, scene_with
+    source = open_scene(scene_path)
     small = rp.Renderer().check_fits(frame_of(scene_with(source, {}))).total
     large = rp.Renderer().check_fits(frame_of(scene_with(source, {"objects.0.subdivisions": 6}))).total
     assert large > small

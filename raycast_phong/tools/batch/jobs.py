@@ -140,21 +140,21 @@ def stop_if_received() -> None:
 MAX_LISTED_BYTES = 16 << 20  # `batch -`: a list of paths on stdin, at most as long as a scene file may be
 
 
-def listed_paths(stream, source: str = "stdin", warnings: list[str] | None = None) -> list[str]:
+def listed_paths(stream, warnings: list[str] | None = None) -> list[str]:
     """The paths of `batch -`: one a line of `stream` (bytes, as xargs -d '\\n' reads them), taken literally (no
     glob), blank lines skipped; at most MAX_LISTED_BYTES (`yes | batch -` must not fill the memory). A line with
     a NUL byte names no file on any system: it is left out, with a line in `warnings`, and the others go on."""
     if stream is None:  # the program was started with stdin closed (`<&-`)
-        raise SceneError("standard input is closed; pipe the scene paths to `batch -`, one a line", Location(source))
+        raise SceneError("standard input is closed; pipe the scene paths to `batch -`, one a line", Location("stdin"))
     data = stream.read(MAX_LISTED_BYTES + 1)
     if len(data) > MAX_LISTED_BYTES:
         raise SceneError(f"the list of scene paths is more than the {MAX_LISTED_BYTES >> 20} MiB allowed",
-                         Location(source))
+                         Location("stdin"))
     text = data.decode("utf-8", "surrogateescape") if isinstance(data, bytes) else data
     lines = [(number, line.removesuffix("\r")) for number, line in enumerate(text.split("\n"), 1) if line.strip()]
     for number, line in lines:
         if "\0" in line and warnings is not None:
-            where = Location(source, part=f"line {number}")
+            where = Location("stdin", part=f"line {number}")
             warnings.append(f"{where}: a path with a NUL byte names no file; left out")
     return [line for _, line in lines if "\0" not in line]
 

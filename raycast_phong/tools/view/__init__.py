@@ -13,10 +13,10 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from ... import stops
-from .server import Source, create_app, open_source
+from .server import Opened, create_app, open_scene
 from .session import SOCKET_MAX_BYTES
 
-__all__ = ["Source", "bind", "create_app", "open_source", "remembered_token", "running", "serve"]
+__all__ = ["Opened", "bind", "create_app", "open_scene", "remembered_token", "running", "serve"]
 
 TOKEN = re.compile(r"[A-Za-z0-9_-]{32,128}")  # what secrets.token_urlsafe(32) gives, and no less
 
@@ -109,7 +109,7 @@ def running(path: str | Path | None, host: str = "127.0.0.1", port: int = 0, tok
     token = token or secrets.token_urlsafe(32)
     sock = bind(host, port)
     port = sock.getsockname()[1]
-    app = create_app(open_source(path), token, origins_for(host, port), any_host=host in WILDCARDS, **options)
+    app = create_app(open_scene(path), token, origins_for(host, port), any_host=host in WILDCARDS, **options)
     server = uvicorn.Server(server_config(app))
     thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
     thread.start()
@@ -132,11 +132,11 @@ def serve(path: str | Path | None, host: str = "127.0.0.1", port: int = 8765, op
     told the stop signal the caller recorded (stops.record), once the server has shut down. `max_memory`: the
     server's memory budget (create_app)."""
     import uvicorn
-    source = open_source(path)
+    opened = open_scene(path)
     sock = bind(host, port)
     port = sock.getsockname()[1]
     token = token or remembered_token()
-    app = create_app(source, token, origins_for(host, port), any_host=host in WILDCARDS, max_memory=max_memory)
+    app = create_app(opened, token, origins_for(host, port), any_host=host in WILDCARDS, max_memory=max_memory)
     url = page_url(host, port, token)
     announce(url)
     if open_browser:

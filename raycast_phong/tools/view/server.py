@@ -67,7 +67,7 @@ MAX_VIEW_LIGHTS = MAX_LIGHTS
 # ---------------------------------------------------------------- scenes from page settings
 
 @dataclass
-class Source:
+class Opened:
     """The scene the view was started with: its parsed table, the name errors use, its folder, and the scene
     file the server watches (None for a mesh file, which render() itself reads anew when it changes)."""
     data: dict
@@ -77,51 +77,51 @@ class Source:
     files: dict[tuple, str] = field(default_factory=dict)  # Scene.named_files(): the only files a page may use
 
 
-def open_source(path: str | Path | None) -> Source:
+def open_scene(path: str | Path | None) -> Opened:
     """A scene file (.toml/.json), a mesh file (mesh_scene: framed by a camera and lit by a key light), or the
     default scene; validated now, so a bad file is refused before the server starts."""
     path = Path(path) if path is not None else rp.default_scene_path()
     scene_file = path.suffix.lower() in (".toml", ".json")
-    source = Source(read_scene_dict(path), str(path), path.parent, path if scene_file else None)
-    source.files = scene_with(source, {}).named_files()
-    return source
+    opened = Opened(read_scene_dict(path), str(path), path.parent, path if scene_file else None)
+    opened.files = scene_with(opened, {}).named_files()
+    return opened
 
 
 KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.([A-Za-z0-9_-]+))*")
 # The page never changes a file path: a mesh or texture path would let a page make the server read (or probe
 # for) any file. These keys are refused by name; a path set any other way (a whole material or object table)
-# is caught by comparing the validated scene's named_files with the source's, before any file is opened.
+# is caught by comparing the validated scene's named_files with the opened scene's, before any file is opened.
 PATH_KEYS = re.compile(r"(objects\.\d+\.path|materials\.[^.]+\.k[ade]_map(\.path)?|output(\..*)?|folder)")
 
 
-def scene_with(source: Source, settings: dict) -> rp.Scene:
-    """The source scene with the page's settings applied and validated, as `render --set KEY=VALUE` would."""
+def scene_with(opened: Opened, settings: dict) -> rp.Scene:
+    """The opened scene with the page's settings applied and validated, as `render --set KEY=VALUE` would."""
     if not isinstance(settings, dict):
         raise ViewError("settings must be a table of KEY.PATH: value")
     if len(settings) > MAX_SETTINGS:
         raise ViewError(f"settings: {len(settings)} keys; allowed: at most {MAX_SETTINGS}")
-    data = copy.deepcopy(source.data)
+    data = copy.deepcopy(opened.data)
     for key, value in settings.items():
         if not KEY.fullmatch(key):
-            raise ViewError(f"{source.name}: {key!r} is not a key path; expected names and list indices joined "
+            raise ViewError(f"{opened.name}: {key!r} is not a key path; expected names and list indices joined "
                             "by dots, e.g. render.width")
         if PATH_KEYS.fullmatch(key):
-            raise ViewError(f"{source.name}: {key}: the view does not change file paths or outputs; edit the "
+            raise ViewError(f"{opened.name}: {key}: the view does not change file paths or outputs; edit the "
                             "scene file instead")
-        apply_override(data, f"{key}={toml_value(value)}", source=source.name)
-    scene = rp.validate_scene(data, source=source.name, folder=source.folder)
+        apply_override(data, f"{key}={toml_value(value)}", source=opened.name)
+    scene = rp.validate_scene(data, source=opened.name, folder=opened.folder)
     if settings:
         named = scene.named_files()
-        moved = next((key for key in named if source.files.get(key) != named[key]), None)
+        moved = next((key for key in named if opened.files.get(key) != named[key]), None)
         if moved is not None:
-            raise ViewError(f"{source.name}: {dotted(moved)}: the view does not change file paths or outputs; "
+            raise ViewError(f"{opened.name}: {dotted(moved)}: the view does not change file paths or outputs; "
                             "edit the scene file instead")
     if len(scene.lights) > MAX_VIEW_LIGHTS:
-        raise ViewError(f"{source.name}: lights: {len(scene.lights):,} lights; allowed: 0 to {MAX_VIEW_LIGHTS} in the "
+        raise ViewError(f"{opened.name}: lights: {len(scene.lights):,} lights; allowed: 0 to {MAX_VIEW_LIGHTS} in the "
                         "view; render it with `raycast-phong render` instead")
     opts = scene.render
     if opts.width * opts.height * opts.samples ** 2 > MAX_VIEW_RAYS:
-        raise ViewError(f"{source.name}: render.samples: {opts.width}×{opts.height} pixels × {opts.samples}² "
+        raise ViewError(f"{opened.name}: render.samples: {opts.width}×{opts.height} pixels × {opts.samples}² "
                         f"samples is more than the view's {MAX_VIEW_RAYS:,} rays per frame; render it with "
                         "`raycast-phong render` instead")
     return scene
@@ -170,7 +170,7 @@ def leaves(node: Any, prefix: str = "") -> dict[str, Any]:
     return found
 
 
-def settings_from(source: Source, text: str, name: str) -> dict:
+def settings_from(opened: Opened, text: str, name: str) -> dict:
     """The page's settings that turn the view's scene into the scene file `text` (a TOML or JSON scene, as
     the Save button writes it): the keys whose values differ. Refused in one line when no settings can (a
     different mesh file, another number of lights or objects) or the file is not a valid scene."""
@@ -184,12 +184,12 @@ def settings_from(source: Source, text: str, name: str) -> dict:
         raise ViewError(f"{name}: {syntax_limit(error)}") from None
     if not isinstance(data, dict):
         raise ViewError(f"{name}: a scene file is a table of tables")
-    theirs = rp.validate_scene(data, source=name, folder=source.folder)
+    theirs = rp.validate_scene(data, source=name, folder=opened.folder)
     def dump(scene: rp.Scene) -> dict:  # paths and outputs are compared apart
         table = leaves(scene.model_dump(mode="json", exclude={"folder"}))
         return {key: value for key, value in table.items() if not PATH_KEYS.fullmatch(key)}
 
-    ours = scene_with(source, {})
+    ours = scene_with(opened, {})
     for kind in ("objects", "lights"):
         if len(getattr(theirs, kind)) != len(getattr(ours, kind)):
             raise ViewError(f"{name}: {len(getattr(theirs, kind))} {kind}, this view's scene has "
@@ -200,7 +200,7 @@ def settings_from(source: Source, text: str, name: str) -> dict:
         """The file a key names, its links followed; one that cannot be followed (a symlink loop: RuntimeError on
         Python 3.11, OSError later) is refused in one line naming it, not a dropped socket."""
         try:
-            return None if key not in files else (source.folder / files[key]).resolve()
+            return None if key not in files else (opened.folder / files[key]).resolve()
         except (OSError, RuntimeError) as error:
             loop = not isinstance(error, OSError) or error.errno == errno.ELOOP
             why = "a symlink loop" if loop else error.strerror or str(error)
@@ -217,7 +217,7 @@ def settings_from(source: Source, text: str, name: str) -> dict:
         unset = next(key for key, value in settings.items() if value is None)
         raise ViewError(f"{name}: {unset} is unset there and set here; a page setting cannot unset a key")
     try:
-        made = dump(scene_with(source, settings))
+        made = dump(scene_with(opened, settings))
     except SceneError as error:
         raise ViewError(f"{name}: these settings do not apply to this view's scene: {error}") from None
     if made != wanted:
@@ -311,7 +311,7 @@ def session_render(session: rp.Renderer | None, scene: rp.Scene, **options) -> r
 @dataclass
 class Replies:
     """Turns one request into one reply; runs on the view's worker thread."""
-    source: Source
+    opened: Opened
     # session_render; a test may wrap it (to hold a render while it sends more)
     render: Callable[..., Any] = None
     budget: int | None = None  # each frame's memory budget (session.frame_budget); None: no limit known
@@ -324,13 +324,13 @@ class Replies:
         quality = request.get("quality", "full")
         if quality not in ("draft", "full"):
             raise ViewError(f"quality: {quality!r}; allowed: 'draft' or 'full'")
-        scenes = {"a": scene_with(self.source, settings_of(request))}
+        scenes = {"a": scene_with(self.opened, settings_of(request))}
         if request.get("models"):
             # The lecture's figure: A in flat, Gouraud and Phong shading, as panels a, b and c.
             from raycast_phong.scene.overrides import shaded
             scenes = dict(zip("abc", (shaded(scenes["a"], model) for model in ShadingModel)))
         elif request.get("compare") is not None:
-            scenes["b"] = scene_with(self.source, settings_of(request, "compare"))
+            scenes["b"] = scene_with(self.opened, settings_of(request, "compare"))
         return scenes
 
     def steps(self, request: dict) -> list[str]:
@@ -395,7 +395,7 @@ class Replies:
         measured is the page's last full frame (`shown`, as frame() kept it) if it is this request's."""
         from raycast_phong.tools.accuracy import measured
         from raycast_phong.tools.reference import ExactScene
-        scene = frame_of(scene_with(self.source, settings_of(request)))
+        scene = frame_of(scene_with(self.opened, settings_of(request)))
         try:
             ExactScene(scene)
         except SceneError:
@@ -414,11 +414,11 @@ class Replies:
         """The current settings as a scene file (toml), or the full-resolution image (png, exr with layers);
         `session`: the page's renderer, whose geometry and BVH the image may reuse."""
         what = request.get("what")
-        scene = scene_with(self.source, settings_of(request))
+        scene = scene_with(self.opened, settings_of(request))
         side = request.get("side", "a")
         if side not in ("a", "b"):
             raise ViewError(f"save: side {side!r}; allowed: 'a' or 'b'")
-        stem = f"{Path(self.source.name).stem or 'scene'}-view-{side.upper()}"  # which setting it is
+        stem = f"{Path(self.opened.name).stem or 'scene'}-view-{side.upper()}"  # which setting it is
         if what == "toml":
             data = scene_toml(scene).encode("utf-8")
         elif what in ("png", "exr"):
@@ -432,7 +432,7 @@ class Replies:
 
 # ---------------------------------------------------------------- the app
 
-def create_app(source: Source, token: str, origins: list[str], *, render: Callable | None = None,
+def create_app(opened: Opened, token: str, origins: list[str], *, render: Callable | None = None,
                executor: ThreadPoolExecutor | None = None, any_host: bool = False,
                max_memory: int | None = None) -> Starlette:
     """The view's Starlette app. `origins` are the page's own (scheme://host:port); the socket accepts no other.
@@ -441,9 +441,9 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
     `max_memory`: the server's memory budget in bytes (default: 3/4 of the memory available now), shared by the
     frames that may render at once (session.frame_budget)."""
     access = Access(token, on_page=lambda: view.start_warming())
-    renderer = Replies(source, render, frame_budget(max_memory))
-    view = View(source, renderer, access, origins, any_host, hello, open_source,
-                lambda request: loaded(source, request))
+    renderer = Replies(opened, render, frame_budget(max_memory))
+    view = View(opened, renderer, access, origins, any_host, hello, open_scene,
+                lambda request: loaded(opened, request))
     routes = [Route("/", access.index), Route("/access", access.access), Mount("/static", app=access.static),
               WebSocketRoute("/socket", view.socket)]
     app = Starlette(routes=routes)
@@ -455,11 +455,11 @@ def create_app(source: Source, token: str, origins: list[str], *, render: Callab
     # it asks: a first switch to float64 used to wait ~35 s for numba mid-session. The page shows
     # "preparing the renderer" while this runs (hello's `warming`); the first frame queues behind it.
     # It starts once the first page is served (the HTML first), or within a second if none comes.
-    app.state.warming = view.prepare(executor, lambda: warm(source))
+    app.state.warming = view.prepare(executor, lambda: warm(opened))
     return app
 
 
-def loaded(source: Source, request: dict) -> dict:
+def loaded(opened: Opened, request: dict) -> dict:
     """A scene file the page opened, as the settings that make it; milliseconds, so on the event loop."""
     text, name = request.get("text"), request.get("name") or "scene.toml"
     try:
@@ -469,26 +469,26 @@ def loaded(source: Source, request: dict) -> dict:
         size = len(text.encode("utf-8", "surrogatepass"))
         if size > MAX_SCENE_BYTES:
             raise ViewError(f"{name}: {size:,} bytes; a scene file the page opens is at most {MAX_SCENE_BYTES:,} bytes")
-        return {"type": "loaded", "id": request.get("id"), "settings": settings_from(source, text, name)}
+        return {"type": "loaded", "id": request.get("id"), "settings": settings_from(opened, text, name)}
     except (ViewError, SceneError) as error:
         return {"type": "error", "id": request.get("id"), "message": str(error)}
     except Exception as error:  # noqa: BLE001 — our bug: one line on the page, and its socket keeps serving
         return {"type": "error", "id": request.get("id"), "message": f"internal error: {type(error).__name__}: {error}"}
 
 
-def warm(source: Source) -> None:
+def warm(opened: Opened) -> None:
     """warm_kernels for both precisions with shadows, then one draft frame (geometry, BVH and the PNG path)."""
     from raycast_phong.renderer.frame import warm_kernels
     warm_kernels((np.float32, np.float64))
-    rp.render(draft_of(scene_with(source, {})))
+    rp.render(draft_of(scene_with(opened, {})))
 
 
-def hello(source: Source) -> dict:
+def hello(opened: Opened) -> dict:
     """What the page needs to build its controls: the scene's own settings, the choices it offers and the sizes
     the server takes (the page refuses a larger file or message in one line rather than have its socket closed)."""
     from raycast_phong.tools.accuracy import refined
     from raycast_phong.tools.reference import ExactScene
-    scene = rp.validate_scene(copy.deepcopy(source.data), source=source.name, folder=source.folder)
+    scene = rp.validate_scene(copy.deepcopy(opened.data), source=opened.name, folder=opened.folder)
     try:
         ExactScene(scene)
         analytic = True
@@ -499,7 +499,7 @@ def hello(source: Source) -> dict:
         levels[level] = {f"objects.{i}.{key}": value for i, obj in enumerate(scene.objects)
                          for key, value in refined(obj, level).items()}
     used = sorted({obj.material for obj in scene.objects})
-    return {"type": "hello", "source": source.name, "analytic": analytic, "levels": levels,
+    return {"type": "hello", "source": opened.name, "analytic": analytic, "levels": levels,
             "scene": scene.model_dump(mode="json", exclude={"folder"}), "materials": used,
             "limits": {"scene_bytes": MAX_SCENE_BYTES, "message_bytes": MAX_MESSAGE_BYTES},
             "material_values": {name: scene.material_of(next(o for o in scene.objects if o.material == name))

@@ -1,6 +1,6 @@
 """The view's socket: each page's session (its queue, its frames, its exact errors) and the scene file's watcher.
 
-Split by job: `Client` is one page's state; `View` owns what the pages share (the source, the renderer, the
+Split by job: `Client` is one page's state; `View` owns what the pages share (the opened scene, the renderer, the
 server's render and reference threads, the open pages) and answers a socket; `Session` runs one page (its
 receive loop, its render loop, its reference loop); `Watcher` re-reads the scene file while a page is open.
 Work is bounded per server: every page's frames run on the server's FRAME_THREADS threads and its exact
@@ -144,14 +144,14 @@ class Client:
 class View:
     """What every page of one server shares, and the socket's entry point."""
 
-    def __init__(self, source, renderer, access: Access, origins: list[str], any_host: bool,
-                 hello: Callable[[Any], dict], open_source: Callable, loaded: Callable[[dict], dict]):
-        self.source, self.renderer, self.access = source, renderer, access
+    def __init__(self, opened, renderer, access: Access, origins: list[str], any_host: bool,
+                 hello: Callable[[Any], dict], open_scene: Callable, loaded: Callable[[dict], dict]):
+        self.opened, self.renderer, self.access = opened, renderer, access
         self.origins, self.any_host = origins, any_host
         self.hello, self.loaded = hello, loaded
         self.frames, self.bands, self.references = frame_threads(), band_threads(), reference_threads()
         self.pages: set[WebSocket] = set()   # the open pages, told when the scene file changes
-        self.watcher = Watcher(self, open_source)
+        self.watcher = Watcher(self, open_scene)
         self.warming: Future | None = None    # the kernels' warm-up: a page's first frame waits for it
         self._warm: tuple[ThreadPoolExecutor, Callable[[], None]] | None = None
         self._lock = threading.Lock()
@@ -194,7 +194,7 @@ class View:
 
     def greeting(self) -> dict:
         """hello, with whether the kernels are still being prepared and the scene file's standing problem."""
-        return {**self.hello(self.source), "warming": self.warming is not None and not self.warming.done(),
+        return {**self.hello(self.opened), "warming": self.warming is not None and not self.warming.done(),
                 "problem": self.watcher.problem}
 
     async def socket(self, websocket: WebSocket) -> None:
@@ -379,18 +379,18 @@ class Watcher:
     invalid (the old scene stays). The message stands (`problem`, told to pages that open meanwhile) until
     the file is valid again."""
 
-    def __init__(self, view: View, open_source: Callable):
-        self.view, self.open_source = view, open_source
+    def __init__(self, view: View, open_scene: Callable):
+        self.view, self.open_scene = view, open_scene
         self.task: asyncio.Task | None = None
         self.problem: str | None = None
 
     def start(self) -> None:
-        if self.view.source.watched is not None and (self.task is None or self.task.done()):
+        if self.view.opened.watched is not None and (self.task is None or self.task.done()):
             self.task = asyncio.create_task(self.watch())
 
     async def watch(self) -> None:
         view = self.view
-        path, seen = view.source.watched, version(view.source.watched)
+        path, seen = view.opened.watched, version(view.opened.watched)
         gone = 0.0  # seconds the file has been missing
         while view.pages:
             await asyncio.sleep(WATCH_EVERY)
@@ -417,11 +417,11 @@ class Watcher:
         """The file read again: the new hello for every page, or the one-line message of what is wrong with it."""
         view = self.view
         try:
-            fresh = await asyncio.get_running_loop().run_in_executor(None, self.open_source, path)
+            fresh = await asyncio.get_running_loop().run_in_executor(None, self.open_scene, path)
         except (SceneError, ViewError, OSError, ValueError) as error:
             self.problem = f"{error} (the page keeps the scene as it was until the file is valid)"
             return {"type": "error", "id": None, "file": True, "message": self.problem}
-        view.source.data, view.source.files = fresh.data, fresh.files  # scene_with copies per request
+        view.opened.data, view.opened.files = fresh.data, fresh.files  # scene_with copies per request
         self.problem = None
         return {**view.greeting(), "reloaded": True}
 
