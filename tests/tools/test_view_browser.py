@@ -4,10 +4,13 @@ installed by .ci/run with apt). The page's image is compared with render() of th
 from __future__ import annotations
 
 import base64
+import dataclasses
 import http.server
+import json
 import math
 import re
 import threading
+import time
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -1146,3 +1149,76 @@ def test_a_frame_over_its_share_of_the_servers_budget_is_said_on_the_page(browse
         said = tab.text_content("#error")
         assert "objects.0.subdivisions" in said and "budget" in said, said
         assert tab.evaluate("document.querySelector('#image-a').dataset.quality") == "full"
+
+
+FLOODING_PAGES = 12  # other pages, each keeping a large full frame asked for all the time
+
+
+def test_a_page_s_draft_is_not_held_behind_other_pages_full_frames(browser, scene_path, monkeypatch):
+    """Twelve other pages (sockets) each keep a 1280×720 full frame asked for; this page's drag asks a draft. The
+    frame threads take by turns the cheapest and the oldest work (tools/view/frame_queue.py), so while the draft
+    waits at most one other frame is taken before it (the oldest's turn), however many wait; first come, first
+    served took every full frame queued before it (about ten). Counted in the server's own order of taking, not
+    in time, so it holds on any machine and at any load."""
+    from websockets.sync.client import connect as socket_to
+
+    from raycast_phong.tools.view import frame_queue
+    large = {"render.width": 1280, "render.height": 720, "render.samples": 2}
+    finished, stop, errors, events = [], threading.Event(), [], []
+    take = frame_queue.FrameQueue._take
+
+    @dataclasses.dataclass(order=True)
+    class Logged(frame_queue._Work):  # made by submit_at, the queue's lock held
+        def __post_init__(self):
+            events.append(("queued", self))
+
+    def taken(queue):
+        work = take(queue)
+        events.append(("taken", work))  # the queue's lock is held here too
+        return work
+    monkeypatch.setattr(frame_queue, "_Work", Logged)
+    monkeypatch.setattr(frame_queue.FrameQueue, "_take", taken)
+
+    def flood(address: str, origin: str, page: int) -> None:
+        try:
+            with socket_to(address, origin=origin, max_size=None) as ws:
+                ws.recv(timeout=60)
+                for request in range(1, 10_000):
+                    if stop.is_set():
+                        return
+                    ws.send(json.dumps({"type": "render", "id": request, "quality": "full", "settings": {
+                        **large, "lights.0.position": [page + request * 1e-3, 2, 3]}}))  # never a cached frame
+                    while not isinstance(ws.recv(timeout=120), bytes):
+                        pass
+                    finished.append(page)
+        except Exception as error:  # noqa: BLE001 - said by the test's assertion, not lost in a thread
+            if not stop.is_set():
+                errors.append(repr(error))
+
+    with opened(browser, scene_path) as tab:
+        origin = tab.url_with_token.split("/?", 1)[0]
+        address = origin.replace("http://", "ws://") + "/socket?token=" + tab.url_with_token.split("token=", 1)[1]
+        threads = [threading.Thread(target=flood, args=(address, origin, page), daemon=True)
+                   for page in range(FLOODING_PAGES)]
+        for thread in threads:
+            thread.start()
+        try:
+            deadline = time.monotonic() + 120
+            while len(finished) < 2 * FLOODING_PAGES and not errors and time.monotonic() < deadline:
+                time.sleep(0.05)  # every page has had a frame: each now keeps one waiting or running
+            assert len(finished) >= 2 * FLOODING_PAGES, errors
+            flooded = len(events)
+            drag(tab, "#image-a", 40, 10)
+        finally:
+            stop.set()
+            for thread in threads:
+                thread.join(120)
+    assert not errors, errors
+    later = events[flooded:]
+    draft = next(work for event, work in later if event == "queued" and work.cost == frame_queue.COST["draft"])
+    queued_at = events.index(("queued", draft))
+    waiting = ({work.number for event, work in events[:queued_at] if event == "queued"}
+               - {work.number for event, work in events[:queued_at] if event == "taken"})
+    assert len(waiting) >= 3, waiting  # the other pages kept frames waiting: the draft had a queue to jump
+    ahead = [work for event, work in events[queued_at:events.index(("taken", draft))] if event == "taken"]
+    assert len(ahead) <= 1, f"{len(ahead)} of the {len(waiting)} frames waiting were taken before the page's draft"
