@@ -17,7 +17,7 @@ from functools import partial
 import numpy as np
 
 from ..records import Geometry
-from ..scene.kinds import object_kinds
+from ..scene.alike import alike
 from ..scene.schema import Scene
 from ..shapes import from_file
 from .checks import check_float_range
@@ -100,7 +100,7 @@ def _build(scene: Scene, vertex_normals: bool, normal_dtype: type, memo: Memo, s
                                          placed=placed)), rows)
     if positions is not None and not mesh.single:
         positions(mesh.vertices, mesh.faces)
-    scene_maps = bank.scene_maps([o.material for o in object_kinds(scene).firsts(scene.objects)])
+    scene_maps = bank.scene_maps([o.material for o in alike(scene).firsts(scene.objects)])
     textured = bank.textures and (len(scene_maps) or file_rows.mapped)
     corner_uv = corner_uvs(scene, built, mesh) if textured else np.zeros((0, 3, 2), np.float32)
     corner_colour = corner_colours(scene, built, mesh, in_place=not memo.shares)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..scene.kinds import placements
+from ..scene.alike import placements
 from ..scene.schema import Scene
 from .templates import OBJECT_CHUNK_VERTICES, shape_uv
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..scene.kinds import object_kinds
+from ..scene.alike import alike
 from ..scene.objects import OWN_KEYS
 from ..scene.schema import Object, Scene
 from ..shapes import from_file
@@ -15,12 +15,13 @@ from .memo import mesh_stamp
 
 def object_groups(scene: Scene) -> list[np.ndarray]:
     """The objects (ascending indices) of each group of objects sharing one build (group_key), groups in the
-    order of their first object. Decided once per kind of object (scene.kinds), then spread to the objects."""
-    kinds = object_kinds(scene)
+    order of their first object. Decided once per set of alike objects (scene/alike.py), then spread to the
+    objects."""
+    sets = alike(scene)
     numbers: dict[tuple, int] = {}
-    kind_group = np.array([numbers.setdefault(group_key(scene.objects[i], i), len(numbers))
-                           for i in kinds.first.tolist()], np.int64)
-    return kinds.grouped(kind_group)
+    set_group = np.array([numbers.setdefault(group_key(scene.objects[i], i), len(numbers))
+                           for i in sets.first.tolist()], np.int64)
+    return sets.grouped(set_group)
 
 
 def group_key(obj: Object, index: int) -> tuple:

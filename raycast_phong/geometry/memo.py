@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, NamedTuple, TypeVar
 import numpy as np
 
 from ..records import Geometry
-from ..scene.kinds import object_kinds, placements
+from ..scene.alike import alike, placements
 from ..scene.schema import Scene
 from ..shapes import from_file
 
@@ -81,7 +81,7 @@ class BuildMemo(Memo):
     - each group's template (a shape's triangles, or a mesh file read, merged and mended), keyed by what it
       reads, the mesh file's version among it: a material or shading change, or a new placement, reads nothing;
     - each group's placed part (world vertices, face and corner normals), keyed by its template and its objects'
-      placements: a new tessellation or placement of one kind rebuilds that kind's part only;
+      placements: a new tessellation or placement of one set of alike objects rebuilds that set's part only;
     - the textures decoded, keyed by the file's version (or the image object a mesh file holds) and the
       render.colour they were decoded for.
 
@@ -103,23 +103,23 @@ class BuildMemo(Memo):
 
     def begin(self, scene: Scene, vertex_normals: bool, normal_dtype: type) -> tuple:
         """Start a build: the key of everything build_geometry reads from `scene` and the disk: every object's
-        keys but placement (once per kind, and whether it set crease_angle) and the placements' bits, the
-        materials, the default shading, the colour the maps are decoded in (render.colour), the folder, the mesh
-        files and maps as they are now; not the lights (check_float_range runs on every build), the camera or the
-        other render settings."""
+        keys but placement (once per set of alike objects, and whether it set crease_angle) and the placements'
+        bits, the materials, the default shading, the colour the maps are decoded in (render.colour), the folder,
+        the mesh files and maps as they are now; not the lights (check_float_range runs on every build), the
+        camera or the other render settings."""
         self._used = (set(), set(), set())
-        kinds = object_kinds(scene)
+        sets = alike(scene)
         files = tuple(mesh_stamp(scene.resolve(o.path)) for o in scene.objects if from_file(o))
         files += tuple(file_stamp(scene.resolve(getattr(m, key).path)) for m in scene.materials.values()
                        for key in ("ka_map", "kd_map", "ke_map") if getattr(m, key) is not None)
         placed = tuple(array.tobytes() for array in placements(scene.objects))  # bits: -0.0 is not 0.0
-        firsts = kinds.firsts(scene.objects)
+        firsts = sets.firsts(scene.objects)
         # Objects compare by their values alone, but a mesh file's crease default depends on whether
         # crease_angle was set at all (templates.file_crease_angle): an unset 180 and a set one differ.
         creases = tuple("crease_angle" in o.model_fields_set for o in firsts)
         return (scene.origin, scene.folder, vertex_normals, np.dtype(normal_dtype).str, scene.render.shading,
                 scene.render.colour, tuple(scene.materials.items()), tuple(firsts), creases,
-                kinds.kind.tobytes(), placed, files)
+                sets.of.tobytes(), placed, files)
 
     def geometry_for(self, whole: tuple | None) -> Geometry | None:
         """The last Geometry if `whole` is its key and the texture files it decoded are unchanged; else None."""

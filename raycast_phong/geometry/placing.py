@@ -11,7 +11,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import SceneError
-from ..scene.kinds import placements
+from ..scene.alike import placements
 from ..scene.schema import Scene
 from ..tolerances import POSITION_LIMIT
 from .normals import _normalise_or, compute_corner_normals, face_normals, file_corner_normals

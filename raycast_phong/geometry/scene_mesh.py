@@ -7,7 +7,7 @@ import numpy as np
 
 from ..codes import MODEL_CODE
 from ..records import Geometry
-from ..scene.kinds import object_kinds
+from ..scene.alike import alike
 from ..scene.schema import Scene
 from .placing import Part
 
@@ -38,11 +38,11 @@ class SceneMesh:
             mesh.corners = np.zeros((0, 3, 3), normal_dtype)
             mesh.faces = None  # the part's, in int32 (write, or placed_whole before its normals)
         mesh.face_object = np.repeat(np.arange(objects, dtype=np.int32), mesh.face_count)
-        kinds = object_kinds(scene)  # material and shading are decided per kind of object
-        firsts = kinds.firsts(scene.objects)
-        object_material = np.array([material_index.get(o.material, 0) for o in firsts], np.int32)[kinds.kind]
+        sets = alike(scene)  # material and shading are decided per set of alike objects
+        firsts = sets.firsts(scene.objects)
+        object_material = np.array([material_index.get(o.material, 0) for o in firsts], np.int32)[sets.of]
         mesh.face_material = object_material[mesh.face_object]
-        object_model = np.array([MODEL_CODE[scene.shading_of(o)] for o in firsts], np.int8)[kinds.kind]
+        object_model = np.array([MODEL_CODE[scene.shading_of(o)] for o in firsts], np.int8)[sets.of]
         mesh.face_model = object_model[mesh.face_object]
         return mesh
 

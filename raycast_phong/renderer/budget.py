@@ -15,7 +15,7 @@ from pathlib import Path
 from ..codes import GEOMETRY_LAYERS, TERM_LAYERS, ShadingModel
 from ..errors import SceneError
 from ..io.system import budget_of, count_text, format_bytes
-from ..scene.kinds import object_kinds
+from ..scene.alike import alike
 from ..scene.schema import Scene
 from ..shapes import KINDS, from_file
 from ..values.messages import dotted
@@ -94,9 +94,9 @@ def estimate_memory(scene: Scene, *, smooth: bool = True, float64: bool = False,
     files: dict[Path, int] = {}
     geometry, triangles, largest, largest_bytes = 0, 0, None, -1
     wide_normals = FLOAT64_NORMAL_BYTES if float64 or shadow_lights else 0
-    kinds = object_kinds(scene)  # objects that differ only in placement cost the same: one estimate a kind
-    costs = []  # per kind: (first object, objects, triangles, bytes a triangle, the least its read takes)
-    for index, objects in zip(kinds.first.tolist(), kinds.count.tolist()):
+    sets = alike(scene)  # objects that differ only in placement cost the same: one estimate a set
+    costs = []  # per set: (first object, objects, triangles, bytes a triangle, the least its read takes)
+    for index, objects in zip(sets.first.tolist(), sets.count.tolist()):
         obj = scene.objects[index]
         mesh_file, floor = from_file(obj), 0
         if mesh_file:
@@ -122,7 +122,7 @@ def estimate_memory(scene: Scene, *, smooth: bool = True, float64: bool = False,
     for index, objects, count, per, floor in costs:
         size = max(count * (per - saving), floor)
         geometry += size * objects
-        if size > largest_bytes:  # the first object of the largest kind is the first of the largest objects
+        if size > largest_bytes:  # the first object of the largest set is the first of the largest objects
             largest, largest_bytes = index, size
     geometry += len(scene.objects) * OBJECT_BYTES
     render = scene.render
@@ -144,7 +144,7 @@ def texture_estimate(scene: Scene, meshes) -> int:
     """The texture term: every colour map a used scene material names and every map the mesh files'
     materials name (`meshes`: their MeshSources), at the size it is decoded at, from image headers only
     (io.textures; a mesh file's sizes are its MeshSource's)."""
-    used = {obj.material for obj in object_kinds(scene).firsts(scene.objects)}
+    used = {obj.material for obj in alike(scene).firsts(scene.objects)}
     maps = {scene.resolve(getattr(material, key).path): scene.origin.at("materials", name, key)
             for name, material in scene.materials.items() if name in used or name == "default"
             for key in ("ka_map", "kd_map", "ke_map") if getattr(material, key) is not None}

@@ -15,11 +15,11 @@ from ..codes import ShadingModel, StageName
 from ..geometry.checks import behind_camera
 from ..geometry.kernels import object_bounds
 from ..records import RenderPlan, Stage
-from ..scene.kinds import object_kinds
+from ..scene.alike import alike
 from ..scene.schema import MAX_SAMPLES, Scene
 from ..shapes import kind_of, subdivided
 from .pack import camera_rig
-from .plan import kinds_of
+from .plan import distinct
 
 
 class ObjectFigures:
@@ -115,16 +115,16 @@ def blend_dither(scene: Scene, geometry) -> str | None:
 
 def _candidates(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     """Objects whose highlight has a width (k_s > 0, 0 < f < ∞), and every object's f, (N,)."""
-    materials = [scene.material_of(obj) for obj, _ in kinds_of(scene)]
+    materials = [scene.material_of(obj) for obj, _ in distinct(scene)]
     shininess = np.array([m.shininess for m in materials], np.float64)
     specular = np.array([max(m.ks) > 0 for m in materials], bool)
-    kind = object_kinds(scene).kind
-    return (specular & (shininess > 0) & np.isfinite(shininess))[kind], shininess[kind]
+    of = alike(scene).of
+    return (specular & (shininess > 0) & np.isfinite(shininess))[of], shininess[of]
 
 
 def per_object(scene: Scene, test) -> np.ndarray:
-    """(N,) bool: test(object) of every object, evaluated once per kind."""
-    return np.array([bool(test(obj)) for obj, _ in kinds_of(scene)], bool)[object_kinds(scene).kind]
+    """(N,) bool: test(object) of every object, evaluated once per set of alike objects."""
+    return np.array([bool(test(obj)) for obj, _ in distinct(scene)], bool)[alike(scene).of]
 
 
 def gouraud_findings(scene: Scene, geometry, figures: ObjectFigures | None = None):

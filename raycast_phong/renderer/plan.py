@@ -9,18 +9,18 @@ from __future__ import annotations
 
 from ..codes import GEOMETRY_LAYERS, TERM_LAYERS, Mode, ShadingModel, SpecularModel, StageName, Viewer
 from ..records import RenderPlan, Stage
-from ..scene.kinds import object_kinds
+from ..scene.alike import alike
 from ..scene.schema import Material, Scene
 from ..shapes import from_file
 
 
 def build_plan(scene: Scene, optimize: bool = True) -> RenderPlan:
-    """The stages of this scene's render, each kept or left out with its reason; decided per kind of object
-    (scene.kinds: objects that differ only in placement), so a million boxes cost one decision. The scene's origin
-    (the file it was loaded from) words why render.colour is what it is (colour_reason)."""
-    kinds = kinds_of(scene)
-    smooth = [(obj, n) for obj, n in kinds if scene.shading_of(obj) != ShadingModel.FLAT]
-    stages, specular = _term_stages(scene, kinds, smooth, optimize)
+    """The stages of this scene's render, each kept or left out with its reason; decided per set of alike
+    objects (scene/alike.py: objects that differ only in placement), so a million boxes cost one decision. The
+    scene's origin (the file it was loaded from) words why render.colour is what it is (colour_reason)."""
+    sets = distinct(scene)
+    smooth = [(obj, n) for obj, n in sets if scene.shading_of(obj) != ShadingModel.FLAT]
+    stages, specular = _term_stages(scene, sets, smooth, optimize)
     stages.append(_view_stage(scene, specular))
     stages += _sampling_stages(scene)
     stages += _shadow_stages(scene, smooth)
@@ -50,10 +50,10 @@ def colour_reason(scene: Scene) -> str:
             "for glTF's pipeline")
 
 
-def kinds_of(scene: Scene) -> list[tuple]:
-    """(first object, number of objects) of each kind of object in the scene."""
-    kinds = object_kinds(scene)
-    return list(zip(kinds.firsts(scene.objects), kinds.count.tolist()))
+def distinct(scene: Scene) -> list[tuple]:
+    """(first object, number of objects) of each set of alike objects in the scene."""
+    sets = alike(scene)
+    return list(zip(sets.firsts(scene.objects), sets.count.tolist()))
 
 
 def _any_positive(values) -> bool:
@@ -64,12 +64,12 @@ def _any_positive(values) -> bool:
 FILE_MATERIALS = Material(ka=1, kd=1, ks=1, ke=1)
 
 
-def _term_stages(scene: Scene, kinds: list, smooth: list, optimize: bool) -> tuple[list[Stage], bool]:
+def _term_stages(scene: Scene, sets: list, smooth: list, optimize: bool) -> tuple[list[Stage], bool]:
     """Normals and the model's terms, each kept only where some light and material make it non-zero
-    (`optimize=False` keeps the optional ones anyway); and whether the specular term is needed. `kinds` and
+    (`optimize=False` keeps the optional ones anyway); and whether the specular term is needed. `sets` and
     `smooth` (the smooth-shaded ones) are (object, count) pairs."""
-    materials, lights, render = [scene.material_of(obj) for obj, _ in kinds], scene.lights, scene.render
-    if any(from_file(obj) and obj.material == "default" for obj, _ in kinds):
+    materials, lights, render = [scene.material_of(obj) for obj, _ in sets], scene.lights, scene.render
+    if any(from_file(obj) and obj.material == "default" for obj, _ in sets):
         # A mesh file may bring its own materials (read with the geometry, after this plan): keep every term.
         materials.append(FILE_MATERIALS)
     stages = []
@@ -175,7 +175,7 @@ def _output_stages(scene: Scene) -> list[Stage]:
     """The layers asked for, and the shading models in use."""
     geometry_aovs = sorted(set(GEOMETRY_LAYERS) & set(scene.output.aovs))
     term_aovs = sorted(set(TERM_LAYERS) & set(scene.output.aovs))
-    models = {scene.shading_of(obj) for obj, _ in kinds_of(scene)}
+    models = {scene.shading_of(obj) for obj, _ in distinct(scene)}
     return [
         Stage(StageName.AOV_GEOMETRY, bool(geometry_aovs),
               f"layers {', '.join(geometry_aovs)}" if geometry_aovs else "no depth/normal/face layer asked for"),
@@ -187,7 +187,7 @@ def _output_stages(scene: Scene) -> list[Stage]:
 
 def _precision_stage(scene: Scene, specular: bool) -> Stage:
     """float64 shading when asked, or when a highlight is too stiff for float32 (F32_SHININESS_LIMIT)."""
-    materials = [scene.material_of(obj) for obj, _ in kinds_of(scene)]
+    materials = [scene.material_of(obj) for obj, _ in distinct(scene)]
     stiff = sorted({m.shininess for m in materials if m.shininess > F32_SHININESS_LIMIT}) if specular else []
     if scene.render.precision == "float64":
         reason = "precision = float64"

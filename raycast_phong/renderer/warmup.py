@@ -32,11 +32,11 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None) -
     from .plan import build_plan
     plan = build_plan(scene)
     from ..io.files import open_mesh_file
-    from ..scene.kinds import object_kinds
+    from ..scene.alike import alike
     from ..shapes import from_file
-    kinds = [(index, scene.objects[index]) for index in object_kinds(scene).first.tolist()]  # a mesh: its own kind
+    firsts = [(index, scene.objects[index]) for index in alike(scene).first.tolist()]  # a mesh: a set of its own
     meshes, readers = False, {}
-    for index, obj in kinds:
+    for index, obj in firsts:
         if from_file(obj):
             from ..io.meshes import format_of  # the format registry: only for a scene with a mesh file
             from ..io.meshes.source import source_key
@@ -48,7 +48,7 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None) -
                 if warm_up is not None and not (waiting is not None and waiting.holds_read()):
                     readers.update(dict.fromkeys(warm_up(handle)))
             meshes = True
-    creases = plan.keeps(StageName.VERTEX_NORMALS) and (meshes or any(obj.crease_angle < 180 for _, obj in kinds))
+    creases = plan.keeps(StageName.VERTEX_NORMALS) and (meshes or any(obj.crease_angle < 180 for _, obj in firsts))
     real = plan.real
 
     def tell(name: str, signature: str) -> None:

@@ -59,8 +59,8 @@ from ..values.fields import (
     sequence_of,
 )
 from ..values.messages import Location, describe_error, did_you_mean, located, shown
+from .alike import alike
 from .bulk import objects_in_bulk
-from .kinds import object_kinds
 from .objects import Object, ObjectHead, without_written_defaults
 
 MAX_SIZE = 16384          # pixels per side, from the format
@@ -415,13 +415,13 @@ class Scene(Table):
 
 def _undefined_material(scene: Scene) -> int | None:
     """The first object whose material is neither "default" nor defined; None if there is none. Decided once per
-    kind of object (scene.kinds): a kind's first object is the first of its objects to go wrong."""
-    kinds = object_kinds(scene)
-    names = list(map(operator.attrgetter("material"), kinds.firsts(scene.objects)))
+    set of alike objects (scene/alike.py): a set's first object is the first of its objects to go wrong."""
+    sets = alike(scene)
+    names = list(map(operator.attrgetter("material"), sets.firsts(scene.objects)))
     undefined = {name for name in set(names) if name != "default" and name not in scene.materials}
     if not undefined:
         return None
-    return int(kinds.first[next(k for k, name in enumerate(names) if name in undefined)])
+    return int(sets.first[next(k for k, name in enumerate(names) if name in undefined)])
 
 
 def brightness_problem(scene: Scene, inverse_square: dict[int, float] | None = None, why: str = "") -> tuple | None:

@@ -1,6 +1,6 @@
 """mesh: an object read from a mesh file rather than built: its triangles, normals and materials are the file's
 (io/meshes/, through the scene's MeshSource), so it has no closed form, no tessellation levels and no UVs of its
-own; each mesh object is a kind of object of its own (scene/kinds.py)."""
+own; each mesh object is a set of alike objects of its own (scene/alike.py)."""
 
 from __future__ import annotations
 

@@ -73,28 +73,28 @@ def test_an_error_in_a_group_names_its_object(bad, message):
         build.build_geometry(scene_of(objects))
 
 
-def test_objects_that_differ_only_in_placement_are_one_kind():
-    """scene.kinds: kinds numbered in the order of their first object; name, translate, rotate and scale do not
-    make a new kind, any other key does; every mesh object is a kind of its own."""
-    from raycast_phong.scene.kinds import object_kinds
+def test_objects_that_differ_only_in_placement_are_one_set_of_alike_objects():
+    """scene/alike.py: sets numbered in the order of their first object; name, translate, rotate and scale do
+    not make a new set, any other key does; every mesh object is a set of its own."""
+    from raycast_phong.scene.alike import alike
     box = {"shape": "box"}
     objects = [box, {**box, "translate": [1, 2, 3], "rotate": [0, 9, 0], "scale": 2, "name": "b"},
                {**box, "material": "red"}, {"shape": "icosphere"}, {**box, "size": [1, 1, 3]},
                {"shape": "mesh", "path": "a.obj"}, {"shape": "mesh", "path": "a.obj"}, {**box, "shading": "flat"},
                {**box, "translate": [5, 5, 5]}]
-    kinds = object_kinds(scene_of(objects))
-    assert kinds.kind.tolist() == [0, 0, 1, 2, 3, 4, 5, 6, 0]
-    assert kinds.first.tolist() == [0, 2, 3, 4, 5, 6, 7]
-    assert kinds.count.tolist() == [3, 1, 1, 1, 1, 1, 1]
-    grouped = kinds.grouped(np.array([0, 1, 1, 1, 1, 1, 0]))  # kinds 0 and 6 one group, the rest another
+    sets = alike(scene_of(objects))
+    assert sets.of.tolist() == [0, 0, 1, 2, 3, 4, 5, 6, 0]
+    assert sets.first.tolist() == [0, 2, 3, 4, 5, 6, 7]
+    assert sets.count.tolist() == [3, 1, 1, 1, 1, 1, 1]
+    grouped = sets.grouped(np.array([0, 1, 1, 1, 1, 1, 0]))  # sets 0 and 6 one group, the rest another
     assert [g.tolist() for g in grouped] == [[0, 1, 7, 8], [2, 3, 4, 5, 6]]
-    assert [o.shape for o in kinds.firsts(scene_of(objects).objects)] == ["box", "box", "icosphere", "box", "mesh",
+    assert [o.shape for o in sets.firsts(scene_of(objects).objects)] == ["box", "box", "icosphere", "box", "mesh",
                                                                          "mesh", "box"]
 
 
-def test_a_scene_of_many_objects_is_decided_once_per_kind(monkeypatch):
-    """The plan, the memory estimate and the geometry look up materials and shading models per kind of
-    object, not per object: 20,000 boxes of two materials cost the same number of look-ups as 200."""
+def test_a_scene_of_many_objects_is_decided_once_per_set_of_alike_objects(monkeypatch):
+    """The plan, the memory estimate and the geometry look up materials and shading models per set of alike
+    objects, not per object: 20,000 boxes of two materials cost the same number of look-ups as 200."""
     from raycast_phong.renderer.budget import estimate_memory
     from raycast_phong.renderer.diagnosis import diagnose
     from raycast_phong.renderer.plan import build_plan

@@ -1,10 +1,10 @@
-"""A scene's objects by kind: objects equal in every key but their name and placement are one kind.
+"""A scene's objects in sets of alike objects: objects equal in every key but their name and placement.
 
 Whatever the plan, the memory estimate and the geometry decide from an object's shape, material and shading
-they decide once per kind and spread to the objects with `kind` (a million boxes of one material are one
-kind: one decision, not a million). Mesh objects are each a kind of their own, as their file's materials,
-notes and crease default belong to the object. Computed once per Scene (in two C-level passes over the
-objects) and kept while the Scene lives.
+they decide once per set and spread to the objects with `of` (a million boxes of one material are one set:
+one decision, not a million). Mesh objects are each a set of their own, as their file's materials, notes and
+crease default belong to the object. Computed once per Scene (in two C-level passes over the objects) and
+kept while the Scene lives. (A shape's kind, shapes/, is another thing: what an object is built as.)
 """
 
 from __future__ import annotations
@@ -24,44 +24,44 @@ PLACEMENT_KEYS = ("name", "translate", "rotate", "scale")  # keys that never cha
 
 
 @dataclass(frozen=True, eq=False)
-class ObjectKinds:
-    """Kinds numbered in the order of their first object."""
-    kind: np.ndarray   # (N,) int64: each object's kind
-    first: np.ndarray  # (K,) int64: each kind's first object, which stands for all of its objects
-    count: np.ndarray  # (K,) int64: objects of each kind
+class Alike:
+    """Sets of alike objects, numbered in the order of their first object."""
+    of: np.ndarray     # (N,) int64: each object's set
+    first: np.ndarray  # (K,) int64: each set's first object, which stands for all of its objects
+    count: np.ndarray  # (K,) int64: objects in each set
 
     def firsts(self, objects) -> list:
-        """The first object of each kind: the one each kind's decisions are taken on."""
+        """The first object of each set: the one each set's decisions are taken on."""
         return [objects[i] for i in self.first.tolist()]
 
     def grouped(self, label: np.ndarray) -> list[np.ndarray]:
-        """The objects (ascending) of each label 0..L-1, given the label of each kind (K,): objects whose kinds
+        """The objects (ascending) of each label 0..L-1, given the label of each set (K,): objects whose sets
         share a label form one group, in one stable sort rather than a pass per label."""
-        labels = label[self.kind]
+        labels = label[self.of]
         order = np.argsort(labels, kind="stable")
         return np.split(order, np.cumsum(np.bincount(labels))[:-1])
 
 
-_CACHE: dict[int, tuple[weakref.ref, ObjectKinds]] = {}
+_CACHE: dict[int, tuple[weakref.ref, Alike]] = {}
 
 
-def object_kinds(scene) -> ObjectKinds:
-    """The kinds of `scene.objects`, computed on first use and kept until the scene is freed (a Scene is frozen,
-    so its objects cannot change under the cache)."""
+def alike(scene) -> Alike:
+    """The sets of alike objects of `scene.objects`, computed on first use and kept until the scene is freed (a
+    Scene is frozen, so its objects cannot change under the cache)."""
     found = _CACHE.get(id(scene))
     if found is not None and found[0]() is scene:
         return found[1]
-    kinds = kinds_of(scene.objects)
+    sets = alike_of(scene.objects)
     key = id(scene)
-    _CACHE[key] = (weakref.ref(scene, lambda _, key=key: _CACHE.pop(key, None)), kinds)
-    return kinds
+    _CACHE[key] = (weakref.ref(scene, lambda _, key=key: _CACHE.pop(key, None)), sets)
+    return sets
 
 
-def kinds_of(objects) -> ObjectKinds:
+def alike_of(objects) -> Alike:
     """Number the distinct (shape, sizes, material, shading, normals, ...) tuples of `objects` in order."""
     count = len(objects)
     if not count:
-        return ObjectKinds(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64))
+        return Alike(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64))
     models = list(map(type, objects))
     distinct = dict.fromkeys(models)  # each kind of shape has its own model and keys (scene.objects)
     collecting = gc.isenabled()
@@ -77,13 +77,13 @@ def kinds_of(objects) -> ObjectKinds:
             gc.enable()
     read = {OBJECT_MODELS[name] for name, kind in KINDS.items() if kind.from_file} & distinct.keys()
     for index in [i for i, model in enumerate(models) if model in read] if read else ():
-        keys[index] = (index,)  # an object read from a file is a kind of its own
+        keys[index] = (index,)  # an object read from a file is a set of its own
     number = {key: k for k, key in enumerate(dict.fromkeys(keys))}
-    kind = np.fromiter(map(number.__getitem__, keys), np.int64, count)
-    counts = np.bincount(kind, minlength=len(number))
-    seen = np.maximum.accumulate(kind)  # kind k first appears where it exceeds every kind before it
-    first = np.flatnonzero(np.concatenate(([True], kind[1:] > seen[:-1])))
-    return ObjectKinds(kind, first, counts)
+    of = np.fromiter(map(number.__getitem__, keys), np.int64, count)
+    counts = np.bincount(of, minlength=len(number))
+    seen = np.maximum.accumulate(of)  # set k first appears where it exceeds every set before it
+    first = np.flatnonzero(np.concatenate(([True], of[1:] > seen[:-1])))
+    return Alike(of, first, counts)
 
 
 def _key_of(model) -> operator.attrgetter:
