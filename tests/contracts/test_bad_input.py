@@ -574,3 +574,17 @@ def test_paths_left_out_are_each_said_up_to_20_and_the_21st_is_counted(tmp_path,
     assert MAX_LEFT_OUT == 20 and len(warned) == 20 and warned[-1].startswith("warning: stdin: line 20:"), said
     counted = [line for line in said if "more path(s) left out" in line]
     assert counted == (["warning: and 1 more path(s) left out"] if lines == 21 else []), said
+
+
+@pytest.mark.parametrize("threads, allowed", [("1", True), ("1024", True), ("0", False), ("1025", False)])
+def test_numba_threads_from_1_to_1024_are_taken_and_outside_that_refused(monkeypatch, threads, allowed):
+    """NUMBA_NUM_THREADS is checked before numba is imported: a whole number from 1 to 1024, both ends included
+    (the message says "from 1 to 1024"); 0 and 1025 are one line (OptionError), not numba's own failure."""
+    from raycast_phong.errors import OptionError
+    from raycast_phong.io.system import check_environment
+    monkeypatch.setenv("NUMBA_NUM_THREADS", threads)
+    if allowed:
+        assert check_environment() == []
+    else:
+        with pytest.raises(OptionError, match=f"NUMBA_NUM_THREADS='{threads}'.*from 1 to 1024"):
+            check_environment()
