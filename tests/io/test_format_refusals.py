@@ -38,3 +38,17 @@ def test_a_broken_file_is_refused_naming_its_line(tmp_path, name):
     assert f"{name}: {expected}" in message, message  # the path once (issue 45), then the line
     assert message.count(name) == 1, message
     assert "Error" not in message and "Traceback" not in done.output and not (tmp_path / "x.png").exists()
+
+
+@pytest.mark.parametrize("suffix, text", [(".gltf", b'{"asset": {"version": "2.0"}}'), (".obj", b"v 0 0 0\n"),
+                                          (".ply", b"ply\nformat ascii 1.0\n")])
+def test_a_utf8_byte_order_mark_before_a_text_format_is_not_its_content(tmp_path, suffix, text):
+    """Editors on Windows write a UTF-8 byte-order mark (EF BB BF) first: the content check reads past it, so a
+    .gltf whose JSON follows a BOM is still JSON (not refused as "does not start as a glTF file does"), an OBJ
+    still an OBJ and a PLY a PLY."""
+    from raycast_phong.io.meshes import content, format_of
+    assert content.sniff(b"\xef\xbb\xbf" + text) == content.sniff(text) == {".gltf": "JSON", ".obj": "OBJ",
+                                                                               ".ply": "PLY"}[suffix]
+    path = tmp_path / f"bom{suffix}"
+    path.write_bytes(b"\xef\xbb\xbf" + text)
+    content.check_file_content(path, format_of(path), "bom")  # no SceneError
