@@ -226,3 +226,14 @@ def test_stability_writes_into_a_fresh_temporary_folder(tmp_path):
     assert '"passed": true' in done.stdout
     assert sorted(p.name for p in temporary.iterdir()) == ["raycast-phong-stability"]
     assert (temporary / "raycast-phong-stability").read_text() == "planted by someone else"
+
+
+def test_layers_go_to_an_exr_output_whatever_the_case_of_its_suffix(tmp_path):
+    """output.aovs need an .exr: `-o OUT.EXR` is one (check_output_path takes the suffix in any case, and so must
+    the layers' check), so the render writes it with its depth layer; `-o OUT.PNG` is still refused."""
+    scene = write_tiny_scene(tmp_path, 8, 6, '\n[output]\naovs = ["depth"]\n')
+    result = runner.invoke(app, ["render", str(scene), "-o", str(tmp_path / "OUT.EXR")])
+    assert result.exit_code == 0, result.output
+    assert rp.read_layer(tmp_path / "OUT.EXR", "depth").shape == (6, 8, 1)
+    result = runner.invoke(app, ["render", str(scene), "-o", str(tmp_path / "OUT.PNG")])
+    assert result.exit_code == 2 and "need an .exr output" in result.stderr, result.output
