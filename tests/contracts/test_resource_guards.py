@@ -412,3 +412,16 @@ def test_a_budget_given_as_text_caps_the_scene_read_as_bytes_do(tmp_path):
     assert len(load_scene(path, max_memory="8G").objects) == 1000
     with pytest.raises(SceneError, match="more than the 1 MB available"):
         load_scene(path, max_memory="1M")
+
+
+def test_load_scene_passes_its_budget_to_the_scene_file_read(tmp_path):
+    """load_scene(max_memory=...) caps the scene-file read too, not only validation: 977 kB of nested lists
+    (SCENE_READ_BYTES = 40 a byte: 38.1 MB to parse) under a 10 MB budget are refused as text before the parse,
+    although the table has no object, light or material for the validation check to count."""
+    from raycast_phong.errors import SceneError
+    from raycast_phong.scene.load import load_scene
+    path = tmp_path / "lists.toml"
+    path.write_text("x = [" + "[[]]," * 200_000 + "]\n")
+    with pytest.raises(SceneError, match=r"lists\.toml: reading its 977 kB of text needs ≈ 38.1 MB of memory, "
+                                         r"more than the 10 MB available"):
+        load_scene(path, max_memory=10 << 20)
