@@ -434,3 +434,29 @@ def test_sweep_axes_that_share_a_last_part_are_named_by_their_whole_key_paths(tm
     names = [job.name for job in sweep.jobs()]
     assert len(set(names)) == 4
     assert names[0] == "s--materials.red.shininess=8--materials.blue.shininess=8--shading=flat"
+
+
+def test_each_worker_process_gets_its_share_of_the_batch_memory_budget(tmp_path, monkeypatch):
+    """max_memory is the budget of the scenes rendering at once: with P worker processes each render gets 1/P
+    of it. Two scenes on --jobs 2 with four cores (os.cpu_count faked, so two processes on any machine) under
+    8 GiB: each task carries 4 GiB, not the whole 8. The executor is stopped before anything renders: only the
+    tasks' budgets are looked at."""
+    from raycast_phong.tools.batch import run as batch_run
+    for name in ("a", "b"):
+        (tmp_path / f"{name}.toml").write_text(scene_text())
+    jobs = batch.find_jobs([str(tmp_path / "a.toml"), str(tmp_path / "b.toml")])
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def executor(tasks, scheduler, processes, begun, said):
+        seen.append((processes, [task.max_memory for task in tasks]))
+        raise Stop
+
+    monkeypatch.setattr(os, "cpu_count", lambda: 4)
+    monkeypatch.setattr(batch_run, "warm_up", lambda tasks: 0.0)
+    monkeypatch.setattr(batch_run, "_executor", executor)
+    with pytest.raises(Stop):
+        batch.run_batch(jobs, tmp_path / "out", workers=2, max_memory=8 << 30)
+    assert seen == [(2, [4 << 30, 4 << 30])]
