@@ -7,6 +7,7 @@ import shutil
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import raycast_phong as rp
 from raycast_phong.geometry.build import build_geometry
@@ -276,3 +277,40 @@ def test_an_alpha_map_is_the_last_channel_of_a_grey_and_alpha_image_as_of_an_rgb
                         decode_pil(image, "display", "alpha")):
             np.testing.assert_allclose(decoded[..., 0], expected, atol=1e-6, err_msg=mode)
             assert (decoded[..., 0] == decoded[..., 2]).all()
+
+
+def test_a_half_float_map_is_linear_already_like_any_float_map(tmp_path):
+    """A half-float EXR holds linear values as a float EXR does: under render.colour = linear its texels are used
+    as stored (0.5 stays 0.5, not the sRGB decode's 0.2140), and clamped to [0, 1] with NaN and -inf made 0 and
+    +inf 1. Read as 8-bit, the NaN would be kept and 0.5 decoded from sRGB: a wrong map and NaN pixels."""
+    import OpenImageIO as oiio
+
+    from raycast_phong.io.textures import decode_file
+    path = tmp_path / "half.exr"
+    pixels = np.array([[[0.5, 0.5, 0.5], [2.0, 0.25, -1.0], [np.nan, -np.inf, np.inf]]], np.float32)
+    output = oiio.ImageOutput.create(str(path))
+    assert output.open(str(path), oiio.ImageSpec(3, 1, 3, oiio.HALF))
+    assert output.write_image(pixels) and output.close()
+    expected = np.array([[[0.5, 0.5, 0.5], [1.0, 0.25, 0.0], [0.0, 0.0, 1.0]]], np.float32)  # 0.5, 0.25 exact in half
+    for colour in ("linear", "display"):
+        np.testing.assert_array_equal(decode_file(path, colour), expected)
+
+
+def test_the_memory_estimate_checks_and_counts_every_map_key_of_a_material(tmp_path):
+    """texture_estimate weighs ka_map, kd_map and ke_map alike: a material whose only map is an emission map of
+    64 × 32 texels costs TEXTURE_BYTES_PER_TEXEL × 64 × 32 = 106,496 bytes, and a missing ke_map file is refused
+    by the estimate, before anything is decoded, as a missing kd_map is."""
+    from raycast_phong.errors import SceneError
+    from raycast_phong.io.textures import TEXTURE_BYTES_PER_TEXEL
+    from raycast_phong.renderer.budget import estimate_memory
+    rp.write_image(tmp_path / "glow.png", np.zeros((32, 64, 3), np.float32))
+    scene = tmp_path / "glow.toml"
+    for name in ("glow.png", "missing.png"):
+        scene.write_text(f'[materials.glow]\nke_map = "{name}"\n\n[[objects]]\nshape = "box"\nmaterial = "glow"\n')
+        if name == "glow.png":
+            assert TEXTURE_BYTES_PER_TEXEL * 64 * 32 == 106_496
+            assert estimate_memory(rp.load_scene(scene)).textures == 106_496
+        else:
+            with pytest.raises(SceneError, match=r"materials\.glow\.ke_map.*no such texture file 'missing\.png'|"
+                                                 r"no such texture file .*missing\.png"):
+                estimate_memory(rp.load_scene(scene))
