@@ -151,9 +151,14 @@ def describe_error(error: ValidationError, where: Location, root: type[BaseModel
     """Where the first problem pydantic found validating `root` is (below `where`, the file) and what it is: what
     is wrong, what is allowed."""
     first = error.errors()[0]
-    loc = tuple(part for part in first["loc"] if not (isinstance(part, str) and "[" in part))
+    # An unknown key ends its loc as the file spells it, brackets and all ("a[0]" is a valid quoted TOML key):
+    # kept, not taken for one of the names pydantic gives union branches (an empty loc was an IndexError).
+    raw = tuple(first["loc"])
+    unknown = raw[-1:] if first["type"] == "extra_forbidden" else ()
+    loc = tuple(part for part in raw[:len(raw) - len(unknown)] if not (isinstance(part, str) and "[" in part))
     # pydantic names union branches and validator functions in loc; keep only real keys.
     loc = tuple(p for p in loc if isinstance(p, int) or not p.startswith(("function-", "tuple[", "literal[")))
+    loc += unknown
     place = _place(root, loc)
     kind = first["type"]
     value = first.get("input")

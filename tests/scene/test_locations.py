@@ -71,3 +71,16 @@ def test_a_mistyped_choice_in_a_scene_offers_the_closest_one(table, said):
         rp.validate_scene(table)
     assert str(refused.value).endswith(said), str(refused.value)
     assert ("did you mean" in str(refused.value)) == ("xyz" not in said)
+
+
+@pytest.mark.parametrize("text, key", [('"a[0]" = 1\n', "a[0]"), ('[render]\n"w[1]" = 2\n', "w[1]"),
+                                       ('["lights=[{x"]\ny = 1\n', "lights=[{x")])
+def test_an_unknown_key_with_a_bracket_is_named_not_an_internal_error(tmp_path, text, key):
+    """A quoted TOML key may hold '[' ("a[0]" = 1): validation names it as any unknown key, with the keys
+    allowed there. describe_error dropped every loc part with a '[' as one of pydantic's union-branch names,
+    left an empty loc and raised IndexError: an internal error (exit 1) instead of one line about the file."""
+    path = tmp_path / "s.toml"
+    path.write_text(text)
+    with pytest.raises(rp.SceneError, match=r"unknown key.*; valid keys here: ") as refused:
+        rp.load_scene(path)
+    assert key in str(refused.value)
