@@ -434,3 +434,19 @@ def test_a_collada_files_missing_texture_is_a_note(tmp_path, present):
     said = [note for note in notes if "duck map.tga" in note]
     assert said == ([] if present else [f"{tmp_path / 'tri.dae'}: texture 'duck map.tga' is missing"])
     assert not any("glTF" in note for note in notes)  # trimesh reads its materials as PBR: the note says so
+
+
+def test_the_framing_radius_in_blocks_is_the_whole_array_s_to_the_bit():
+    """read._radius takes max |p − centre| a block of RADIUS_ROWS points at a time: every row's sum and the
+    maximum are those of the whole-array expression, so the bits are too, wherever the farthest point lies (the
+    first block, a middle one, the last and partial one)."""
+    from raycast_phong.io.meshes.read import RADIUS_ROWS, _radius
+    rng = np.random.default_rng(7)
+    points = rng.standard_normal((2 * RADIUS_ROWS + 5, 3)).astype(np.float32)
+    centre = np.array([0.1, -0.2, 0.3])
+    for far in (0, RADIUS_ROWS + 3, len(points) - 1):
+        placed = points.copy()
+        placed[far] = (40.0, -30.0, 20.0)
+        whole = float(np.sqrt(((placed - centre) ** 2).sum(axis=1).max()))
+        assert _radius(placed, centre) == whole
+        assert whole > 50  # the planted point is the farthest

@@ -69,6 +69,7 @@ def read_file(mesh, bounds: bool = True) -> MeshFile:
         raise SceneError(problem.problem, mesh.where) from None
 
 
+
 def _read_file(mesh, bounds: bool) -> MeshFile:
     path, kind, where = mesh.path, mesh.format, mesh.where
     handle = open_mesh_file(path, where)
@@ -117,7 +118,7 @@ def _read_file(mesh, bounds: bool) -> MeshFile:
     if bounds:
         low, high = (side.astype(np.float64) for side in bounding_box(used))  # column by column (records says why)
         centre = (low + high) / 2
-        radius = float(np.sqrt(((used - centre) ** 2).sum(axis=1).max()))
+        radius = _radius(used, centre)
         hint = None if up is not None else up_hint(high - low)
         if hint:
             notes.append(f"{path}: {hint}")
@@ -131,6 +132,22 @@ Z_UP_RATIO = 1.5  # a model this many times longer along Z than along Y (and lon
 # about 1e-7 of its size): a floor as +Y up shows it, or a drawing seen from the front as +Z up would; its
 # extents cannot tell, so no hint (a ratio to a zero extent read "2e+300× longer").
 FLAT_SHARE = 1e-6
+
+
+
+
+RADIUS_ROWS = 1 << 16  # points a block of _radius: its float64 temporaries 1.5 MB, not 80 MB for a 3.3M-corner STL
+
+
+def _radius(points: np.ndarray, centre: np.ndarray) -> float:
+    """max |p − centre| over `points`, in blocks of RADIUS_ROWS: each row's sum and the maximum as over the whole,
+    so the same bits, without two (n, 3) float64 temporaries (40 ms of CPU on a binary STL's 3.3M corners)."""
+    largest = 0.0
+    for start in range(0, len(points), RADIUS_ROWS):
+        block = points[start:start + RADIUS_ROWS] - centre
+        np.square(block, out=block)
+        largest = max(largest, float(block.sum(axis=1).max()))
+    return math.sqrt(largest)
 
 
 def up_hint(extent: np.ndarray) -> str | None:
