@@ -20,7 +20,7 @@ def object_groups(scene: Scene) -> list[np.ndarray]:
     sets = alike(scene)
     numbers: dict[tuple, int] = {}
     set_group = np.array([numbers.setdefault(group_key(scene.objects[i], i), len(numbers))
-                           for i in sets.first.tolist()], np.int64)
+                          for i in sets.first.tolist()], np.int64)
     return sets.grouped(set_group)
 
 

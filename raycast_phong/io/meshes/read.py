@@ -55,7 +55,6 @@ class MeshFile:
     texture_sources: tuple[TextureSource, ...] = ()
 
 
-
 READABLE = f"a mesh file of a format read here ({read_names()})"
 
 
@@ -67,7 +66,6 @@ def read_file(mesh, bounds: bool = True) -> MeshFile:
         return _read_file(mesh, bounds)
     except FileProblem as problem:
         raise SceneError(problem.problem, mesh.where) from None
-
 
 
 def _read_file(mesh, bounds: bool) -> MeshFile:
@@ -132,8 +130,6 @@ Z_UP_RATIO = 1.5  # a model this many times longer along Z than along Y (and lon
 # about 1e-7 of its size): a floor as +Y up shows it, or a drawing seen from the front as +Z up would; its
 # extents cannot tell, so no hint (a ratio to a zero extent read "2e+300× longer").
 FLAT_SHARE = 1e-6
-
-
 
 
 RADIUS_ROWS = 1 << 16  # points a block of _radius: its float64 temporaries 1.5 MB, not 80 MB for a 3.3M-corner STL
