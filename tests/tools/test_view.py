@@ -1371,8 +1371,8 @@ def test_a_frame_over_its_share_of_the_servers_memory_budget_is_refused_on_the_p
 
 def test_a_pages_work_is_queued_at_what_each_step_costs(scene_path, monkeypatch):
     """The frame threads order work by its cost (tools/view/frame_queue.py): a draft is queued at a draft's cost,
-    a full request's steps (validation) at a draft's and its preview and full frame at theirs, a save at a full
-    frame's. Recorded from the queue's one entry point."""
+    a full request's steps (validation) at a check's, after a draft's, and its preview and full frame at theirs, a
+    save at a full frame's. Recorded from the queue's one entry point."""
     from raycast_phong.tools.view import frame_queue
     queued = []
     submit_at = frame_queue.FrameQueue.submit_at
@@ -1389,7 +1389,8 @@ def test_a_pages_work_is_queued_at_what_each_step_costs(scene_path, monkeypatch)
         ws.send_text(json.dumps({"type": "save", "id": 3, "what": "toml", "settings": {}}))
         ws.receive_bytes()
     cost = frame_queue.COST
-    assert queued == [("frame", "draft", cost["draft"]), ("steps", None, cost["draft"]),
+    assert cost["draft"] < cost["check"] < cost["preview"] < cost["full"]
+    assert queued == [("frame", "draft", cost["draft"]), ("steps", None, cost["check"]),
                       ("frame", "preview", cost["preview"]), ("frame", "full", cost["full"]),
                       ("save", None, cost["full"])], queued
 

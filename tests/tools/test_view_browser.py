@@ -1156,26 +1156,33 @@ FLOODING_PAGES = 12  # other pages, each keeping a large full frame asked for al
 
 def test_a_page_s_draft_is_not_held_behind_other_pages_full_frames(browser, scene_path, monkeypatch):
     """Twelve other pages (sockets) each keep a 1280×720 full frame asked for; this page's drag asks a draft. The
-    frame threads take by turns the cheapest and the oldest work (tools/view/frame_queue.py), so while the draft
-    waits at most one other frame is taken before it (the oldest's turn), however many wait; first come, first
-    served took every full frame queued before it (about ten). Counted in the server's own order of taking, not
-    in time, so it holds on any machine and at any load."""
+    frame threads take by turns the cheapest and the oldest work (tools/view/frame_queue.py), and a draft is the
+    cheapest (other pages' checks of their steps come after it), so while it waits at most one of the other
+    pages' frames is taken before it (the oldest's turn), however many wait; first come, first served took every
+    frame queued before it. Counted in the server's own order of taking, not in time, so it holds on any machine
+    and at any load."""
     from websockets.sync.client import connect as socket_to
 
     from raycast_phong.tools.view import frame_queue
     large = {"render.width": 1280, "render.height": 720, "render.samples": 2}
     finished, stop, errors, events = [], threading.Event(), [], []
-    take = frame_queue.FrameQueue._take
+    take, submit_at, making = frame_queue.FrameQueue._take, frame_queue.FrameQueue.submit_at, threading.local()
+
+    def tagged(queue, cost, fn, /, *args, **kwargs):  # what the work is: a frame's step, or the steps' check
+        making.what = (getattr(fn, "__name__", ""), args[-1] if args else None)
+        return submit_at(queue, cost, fn, *args, **kwargs)
 
     @dataclasses.dataclass(order=True)
     class Logged(frame_queue._Work):  # made by submit_at, the queue's lock held
         def __post_init__(self):
+            self.what = making.what
             events.append(("queued", self))
 
     def taken(queue):
         work = take(queue)
         events.append(("taken", work))  # the queue's lock is held here too
         return work
+    monkeypatch.setattr(frame_queue.FrameQueue, "submit_at", tagged)
     monkeypatch.setattr(frame_queue, "_Work", Logged)
     monkeypatch.setattr(frame_queue.FrameQueue, "_take", taken)
 
@@ -1215,10 +1222,14 @@ def test_a_page_s_draft_is_not_held_behind_other_pages_full_frames(browser, scen
                 thread.join(120)
     assert not errors, errors
     later = events[flooded:]
-    draft = next(work for event, work in later if event == "queued" and work.cost == frame_queue.COST["draft"])
+    # The page's draft: a frame's draft step (the other pages ask full frames only: a preview or a full step,
+    # each after a check of its steps at a draft's cost).
+    draft = next(work for event, work in later if event == "queued" and work.what == ("frame", "draft"))
     queued_at = events.index(("queued", draft))
-    waiting = ({work.number for event, work in events[:queued_at] if event == "queued"}
-               - {work.number for event, work in events[:queued_at] if event == "taken"})
+    frames = {work.number for event, work in events[:queued_at]
+              if event == "queued" and work.what[0] == "frame" and work.what[1] != "draft"}
+    waiting = frames - {work.number for event, work in events[:queued_at] if event == "taken"}
     assert len(waiting) >= 3, waiting  # the other pages kept frames waiting: the draft had a queue to jump
-    ahead = [work for event, work in events[queued_at:events.index(("taken", draft))] if event == "taken"]
+    ahead = [work for event, work in events[queued_at:events.index(("taken", draft))]
+             if event == "taken" and work.number in waiting]
     assert len(ahead) <= 1, f"{len(ahead)} of the {len(waiting)} frames waiting were taken before the page's draft"

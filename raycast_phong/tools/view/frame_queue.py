@@ -2,9 +2,10 @@
 
 Every page's frames share the server's FRAME_THREADS threads. Taken first come, first served, sixty pages
 asking for full 1280×720 frames kept a seventh page's draft waiting 3.5-6.2 s. Here the threads take, turn
-about, the cheapest work waiting (a draft before a preview before a full frame; the older of two alike) and the
-oldest: a page that drags waits at most about one frame for its draft however many full frames are waiting,
-and a full frame still runs every other turn however many drafts keep coming.
+about, the cheapest work waiting (a draft before a full request's check of its steps before a preview before a
+full frame; the older of two alike) and the oldest: a page that drags waits at most about one frame for its
+draft however many full frames are waiting, and a full frame still runs every other turn however many drafts
+keep coming.
 """
 
 from __future__ import annotations
@@ -16,9 +17,11 @@ from concurrent.futures import Executor, Future
 from dataclasses import dataclass, field
 from typing import Any
 
-# What a step costs, for the order: a draft is a quarter of the pixels at one sample; a preview every pixel at
-# one sample; a full frame (and a save) every sample.
-COST = {"draft": 0, "preview": 1, "full": 2}
+# What a step costs, for the order: a draft is a quarter of the pixels at one sample; a full request's check of
+# its steps (validation, milliseconds) after it, so that other pages' checks, which each open a full frame's
+# turn, do not go before a dragging page's draft; a preview every pixel at one sample; a full frame (and a save)
+# every sample.
+COST = {"draft": 0, "check": 1, "preview": 2, "full": 3}
 
 
 @dataclass(order=True)

@@ -312,7 +312,7 @@ class Session:
             if request.get("quality", "full") == "draft":
                 steps = ["draft"]  # no hop to the render thread to be told so
             else:  # a preview first if a scene asks for several samples: its scenes are validated to know
-                steps = await self.answer(request, client.executor.at(COST["draft"]), renderer.steps, request)
+                steps = await self.answer(request, client.executor.at(COST["check"]), renderer.steps, request)
             for step in steps or ():
                 waiting = client.pending is not None or client.committed is not None
                 if step != steps[0] and waiting:
