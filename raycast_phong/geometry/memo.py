@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, NamedTuple, TypeVar
 
 import numpy as np
 
+from ..codes import MAP_COLUMNS
 from ..records import Geometry
 from ..scene.alike import alike, placements
 from ..scene.schema import Scene
@@ -111,7 +112,7 @@ class BuildMemo(Memo):
         sets = alike(scene)
         files = tuple(mesh_stamp(scene.resolve(o.path)) for o in scene.objects if from_file(o))
         files += tuple(file_stamp(scene.resolve(getattr(m, key).path)) for m in scene.materials.values()
-                       for key in ("ka_map", "kd_map", "ke_map") if getattr(m, key) is not None)
+                       for key in MAP_COLUMNS if getattr(m, key) is not None)
         placed = tuple(array.tobytes() for array in placements(scene.objects))  # bits: -0.0 is not 0.0
         firsts = sets.firsts(scene.objects)
         # Objects compare by their values alone, but a mesh file's crease default depends on whether

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..codes import MAP_COLUMNS
 from ..errors import SceneError
 from ..records import Texture
 from ..scene.schema import Scene
@@ -82,7 +83,7 @@ class TextureBank:
             name = next((n for n, m in self.scene.materials.items() if m is material), None)
             if name is None:
                 return -1, -1, -1
-            ka, kd, ke = (self.scene_map(name, k) for k in ("ka_map", "kd_map", "ke_map"))
+            ka, kd, ke = (self.scene_map(name, k) for k in MAP_COLUMNS)
         return (kd if ka < 0 else ka), kd, ke
 
     def scene_maps(self, used: list[str]) -> np.ndarray:

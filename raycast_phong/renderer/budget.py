@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..codes import GEOMETRY_LAYERS, TERM_LAYERS, ShadingModel
+from ..codes import GEOMETRY_LAYERS, MAP_COLUMNS, TERM_LAYERS, ShadingModel
 from ..errors import SceneError
 from ..io.system import budget_of, count_text, format_bytes
 from ..scene.alike import alike
@@ -147,7 +147,7 @@ def texture_estimate(scene: Scene, meshes) -> int:
     used = {obj.material for obj in alike(scene).firsts(scene.objects)}
     maps = {scene.resolve(getattr(material, key).path): scene.origin.at("materials", name, key)
             for name, material in scene.materials.items() if name in used or name == "default"
-            for key in ("ka_map", "kd_map", "ke_map") if getattr(material, key) is not None}
+            for key in MAP_COLUMNS if getattr(material, key) is not None}
     sizes = [size for mesh in meshes for size in mesh.texture_sizes]
     if not maps and not sizes:
         return 0
