@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import codes
 from ..codes import OPAQUE_ALPHA, WRAP_CODE, StageName
 from ..geometry.materials import material_rows
 from ..records import Frame, Geometry, ImageBuffers, RenderPlan, Texture
@@ -142,7 +143,7 @@ def material_table(materials, real: type, more: np.ndarray | None = None,
     rows (`maps`, (M, 3), Geometry.scene_maps; -1 without); then the rows `more` (material_rows: the
     materials read from mesh files)."""
     table = material_rows(*(np.array([getattr(m, key) for m in materials], np.float64).reshape(len(materials), -1)
-                            for key in ("ka", "kd", "ks", "ke", "shininess")),
+                            for key in codes.MATERIAL_COLUMNS),
                           maps=maps if maps is not None and len(maps) else None)
     if more is not None:
         table = np.concatenate([table, more])

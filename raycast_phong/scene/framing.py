@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..codes import View
+from ..codes import OUTPUT_PATH, View
 from ..errors import SceneError
 from ..io.encoding import DISPLAY, LINEAR
 from ..tolerances import MIN_EXTENT
@@ -111,7 +111,7 @@ def framed_dict(found, path: str, stem: str, colour: str, overrides: list[str] |
     # Frame again for the size, field of view and camera type the overrides chose; a key they set wins.
     touched = {tuple(a.split("=", 1)[0].strip().split(".")) for a in overrides}
     output = data.get("output")
-    if isinstance(output, dict) and output.get("aovs") and ("output", "path") not in touched:
+    if isinstance(output, dict) and output.get("aovs") and OUTPUT_PATH not in touched:
         output["path"] = f"{stem}.exr"  # layers need EXR, as the format's own default path says
     camera, lights = data.get("camera"), data.get("lights")
     if isinstance(camera, dict) and ("camera",) not in touched:

@@ -279,7 +279,7 @@ class Output(Table):
     def _format(self) -> Output:
         suffix = Path(self.path).suffix.lower()
         if suffix not in IMAGE_SUFFIXES:
-            raise _KeyError(("output", "path"), f"{self.path!r} must end in .png or .exr")
+            raise _KeyError(OUTPUT_PATH, f"{self.path!r} must end in .png or .exr")
         if self.aovs and suffix != ".exr":
             raise _KeyError(("output", "aovs"), f"{list(self.aovs)} need an .exr output, but output.path is "
                             f"{self.path!r} (a PNG holds only RGB)")

@@ -20,7 +20,7 @@ from ...codes import BLENDED_ALPHA, GLTF_WRAP
 from ...errors import FileProblem
 from ..files import open_regular, shown_name
 from .format import TEXT_READ_BYTES_PER_BYTE, Loaded, MeshFormat, Reading, weigh
-from .gltf_json import Document, buffer_files, image_uris, read_document, uri_file
+from .gltf_json import MESHOPT, Document, buffer_files, image_uris, read_document, uri_file
 from .materials import MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, TextureSource, specular_lobe
 from .materials import rgb as _rgb
 
@@ -67,7 +67,7 @@ def check_document(document: Document, path: Path, notes: list[str]) -> dict:
             import DracoPy  # noqa: F401  (trimesh decodes Draco with it)
         except ImportError:
             missing.insert(0, "KHR_draco_mesh_compression (Draco compression: pip install DracoPy)")
-    for name in ("EXT_meshopt_compression", "KHR_meshopt_compression"):
+    for name in MESHOPT:
         if name in required:
             try:
                 import meshopt  # noqa: F401  (io/meshes/gltf_decode.py decodes meshopt with it)

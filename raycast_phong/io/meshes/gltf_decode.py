@@ -19,9 +19,8 @@ import numpy as np
 
 from ...errors import FileProblem, SceneError, Where
 from ..files import open_regular
-from .gltf_json import Document, uri_file
+from .gltf_json import MESHOPT, Document, uri_file
 
-MESHOPT = ("EXT_meshopt_compression", "KHR_meshopt_compression")
 DRACO = "KHR_draco_mesh_compression"
 INSTANCING = "EXT_mesh_gpu_instancing"
 SPECULAR_GLOSSINESS = "KHR_materials_pbrSpecularGlossiness"

@@ -12,6 +12,7 @@ from ...errors import SceneError
 from ..files import open_regular
 
 JSON_LIMIT = 64 << 20  # a glTF's JSON above this is not parsed here (the size bound weighs it; trimesh reads it)
+MESHOPT = ("EXT_meshopt_compression", "KHR_meshopt_compression")  # the two names of meshopt compression
 
 
 class Document(NamedTuple):
