@@ -75,6 +75,24 @@ def test_a_file_is_read_once_for_framing_and_render(tmp_path, suffix, monkeypatc
     assert reads == [path]
 
 
+@pytest.mark.parametrize("suffix", SUFFIXES)
+def test_a_file_named_in_capitals_renders_as_the_same_file_in_lower_case(tmp_path, suffix):
+    """Windows and some exporters write MODEL.PLY, model.Obj: every stage that looks at the suffix (the format,
+    the content check, the count and the read floor, framing's colour space, the reader) takes it in any case, so
+    the capitalised copy renders bit for bit as the original. A stage comparing the suffix as written fails here."""
+    (tmp_path / "lower").mkdir()
+    (tmp_path / "upper").mkdir()
+    lower, upper_folder = write(tmp_path / "lower", suffix), tmp_path / "upper"
+    for file in lower.parent.iterdir():  # a .gltf's buffer files keep their names: the document names them
+        target = upper_folder / (file.stem + file.suffix.upper() if file == lower else file.name)
+        target.write_bytes(file.read_bytes())
+    upper = upper_folder / (lower.stem + suffix.upper())
+    assert mesh_source(upper).triangles() == mesh_source(lower).triangles()
+    assert mesh_source(upper).read_floor() == mesh_source(lower).read_floor()
+    np.testing.assert_array_equal(rp.render(rp.load_scene(upper, SMALL)).image,
+                                  rp.render(rp.load_scene(lower, SMALL)).image)
+
+
 NOISE = bytes(np.random.default_rng(7).integers(0, 256, 700, dtype=np.uint8))
 
 
