@@ -287,8 +287,8 @@ HAND_MUTANTS = (
      'Path(output).suffix != ".exr"'),  # layers refused for -o OUT.EXR
     ("scene/load", "data = read_scene_file(path, max_memory)",
      "data = read_scene_file(path)"),  # a scene file read under the machine's budget, not --max-memory
-    ("renderer/budget", 'for key in ("ka_map", "kd_map", "ke_map") if getattr(material, key) is not None}',
-     'for key in ("ka_map", "kd_map") if getattr(material, key) is not None}'),  # an emission map not weighed
+    ("renderer/budget", "for key in MAP_COLUMNS if getattr(material, key) is not None}",
+     "for key in MAP_COLUMNS[:2] if getattr(material, key) is not None}"),  # an emission map not weighed
     ("tools/batch/run", "max_memory = budget // max(processes, 1) if budget else None",
      "max_memory = budget if budget else None"),  # every worker process given the whole budget
 )
@@ -549,7 +549,8 @@ def write_reports(mutants: list[Mutant], out: Path, tests: list[str]) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--module", action="append", choices=MODULES, metavar="MODULE",
-                        help="a module to mutate, its path below raycast_phong/ (repeatable; default: every module)")
+                        help="a module to mutate, its path below raycast_phong/ (repeatable; default: every module; "
+                             "with --hand, the hand mutants of these modules)")
     parser.add_argument("--hand", action="store_true", help="run HAND_MUTANTS, the bugs written by hand")
     parser.add_argument("--core", action="store_true", help="the kernel and stage modules only (CORE_MODULES)")
     parser.add_argument("--outside-core", action="store_true", help="every module but CORE_MODULES and the kernels")
@@ -571,8 +572,8 @@ def main() -> None:
         earlier = json.loads(args.rerun.read_text(encoding="utf-8"))
         mutants = [Mutant(**m) for m in earlier["mutants"]]
         todo = [m for m in mutants if m.status in ("survived", "timeout", "pending")]
-    elif args.hand:
-        mutants = todo = hand_mutants()
+    elif args.hand:  # with --module: those of these modules only
+        mutants = todo = [m for m in hand_mutants() if not args.module or m.module in args.module]
     else:
         mutants = []
         outside = [m for m in MODULES if m not in CORE_MODULES and not m.startswith("renderer/kernels/")]
