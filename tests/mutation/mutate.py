@@ -56,7 +56,8 @@ EXTRA_TESTS = {"renderer": ("tests/image",), "geometry": ("tests/image",), "io":
                "scene": ("tests/contracts", "tests/cli"), "cli": ("tests/contracts",), "tools": (),
                "shapes": ("tests/geometry", "tests/scene"), "values": ("tests/scene", "tests/contracts"),
                "": ("tests/project", "tests/renderer", "tests/io")}  # "": the package's top-level modules
-MODULE_TESTS = {"renderer/budget": ("tests/contracts/test_resource_guards.py",),  # the memory guard's own tests
+MODULE_TESTS = {"renderer/budget": ("tests/contracts/test_resource_guards.py",  # the memory guard's own tests
+                                    "tests/geometry/test_map_keys.py"),  # every stage over every map key
                 "tools/batch/jobs": ("tests/contracts/test_bad_input.py", "tests/contracts/test_batch_faults.py"),
                 "tools/batch/cluster": ("tests/contracts",),
                 "pytest_plugin": ("tests/image", "tests/project/test_pytest_plugin.py"),  # its own, and the references
