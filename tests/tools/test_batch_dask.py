@@ -29,7 +29,7 @@ def cluster():
     """One in-process worker with two threads on 127.0.0.1; closed after the module."""
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False, protocol="tcp",
                                   host="127.0.0.1",
-                                  dashboard_address=None, timeout=30) as local:
+                                  dashboard_address=":0", timeout=30) as local:
         yield local.scheduler_address
 
 
@@ -57,7 +57,7 @@ def test_a_scheduler_without_workers_is_bad_input_not_a_hang(five_scenes, tmp_pa
     """Its tasks would wait for ever: the batch waits WORKER_WAIT seconds for a worker, then says so."""
     monkeypatch.setattr(batch.cluster, "WORKER_WAIT", 1.0)
     with distributed.LocalCluster(n_workers=0, processes=False, protocol="tcp", host="127.0.0.1",
-                                  dashboard_address=None) as empty:
+                                  dashboard_address=":0") as empty:
         with pytest.raises(OptionError, match=r"the scheduler has no worker \(waited 1 s\); start one there"):
             batch.run_batch(batch.find_jobs([five_scenes]), tmp_path / "out", scheduler=empty.scheduler_address)
 
@@ -218,7 +218,7 @@ def test_a_worker_lost_mid_batch_is_said_and_none_left_fails_the_rest_not_a_hang
     monkeypatch.setattr(batch.cluster, "WATCH_SECONDS", 0.2)
     jobs = [job for job in batch.find_jobs([five_scenes]) if job.name != "broken"]
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, protocol="tcp",
-                                  host="127.0.0.1", dashboard_address=None) as local:
+                                  host="127.0.0.1", dashboard_address=":0") as local:
         shrink = threading.Timer(1.5, local.scale, (left,))
         shrink.start()
         started, reports = time.monotonic(), []
