@@ -57,8 +57,10 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None) -
             return
         smaller = part(name)
         if smaller is None:
-            announce(f"compiling the {np.dtype(real).name} shading kernels, the first time after an install or an "
-                     "edit (about 13-18 s of CPU shared by two processes: 6-9 s on an idle 2-core machine)...")
+            precision = np.dtype(real).name
+            announce(f"compiling the {precision} shading kernels, the first time a scene needs {precision} after "
+                     "an install or an edit (about 13-18 s of CPU shared by two processes: 6-9 s on an idle 2-core "
+                     "machine)...")
             return
         # The shadow rays' kernels compile before the shading kernels, which may follow.
         also, shading = ((", and the shading kernels if they are not compiled yet",

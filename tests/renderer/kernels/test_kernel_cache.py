@@ -150,6 +150,7 @@ def test_the_first_render_says_it_compiles_and_keeps_compilation_out_of_the_fram
     wide = cold_package.python(cold_package.cli, "--set", "render.precision=float64",
                                env={"NUMBA_DEBUG_CACHE": "1", "RAYCAST_PHONG_COMPILE_PROCESSES": "2"})
     assert "compiling the float64 shading kernels" in wide.stderr and wide.stderr.count("compiling") == 1, wide.stderr
+    assert "the first time a scene needs float64" in wide.stderr, wide.stderr  # why now: the precision, not an install
     assert "compile " in wide.stdout and "kernels " not in wide.stdout, wide.stdout
     # With its helper (split_compile.py; asked for, whatever the machine's load) the shading kernel compiles in
     # the helper: this process loads it, and compiles the callee the helper loads (the textured material, with the
