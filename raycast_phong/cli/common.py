@@ -382,8 +382,8 @@ def _assignments(values: list[str] | None) -> list[str] | None:
     `--set render.width 320`, the 320 was taken for the scene file ("320: no such scene file")."""
     for value in values or ():
         if "=" not in value:
-            raise typer.BadParameter(f"{value!r} has no '='; expected KEY.PATH=VALUE, e.g. render.width=320 (the "
-                                     "value after '=', not after a space)")
+            from raycast_phong.scene.overrides import NO_EQUALS
+            raise typer.BadParameter(f"{value!r} has no '='; {NO_EQUALS}")
     return values
 
 

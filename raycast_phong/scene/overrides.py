@@ -24,6 +24,10 @@ if TYPE_CHECKING:
 # What `render --srgb` and `batch --srgb` stand for: they predate render.colour, and decoded the maps and encoded
 # the PNG, which is what "linear" does.
 SRGB_OVERRIDE = "render.colour=linear"
+# An assignment without its '=' (`--set render.width 320`: the shell's space is not one), said by apply_override
+# and, while the command line is parsed, before the 320 is taken for the scene file, by the CLI.
+NO_EQUALS = ("expected KEY.PATH=VALUE, e.g. render.width=320 or lights.0.position=[1, 2, 3] (the value after '=', "
+             "not after a space)")
 
 
 def apply_override(data: dict, assignment: str, source: str | Location = "--set", option: str = "--set") -> None:
@@ -34,7 +38,7 @@ def apply_override(data: dict, assignment: str, source: str | Location = "--set"
     """
     where = dataclasses.replace(located(source), part=f"{option} {shorten(repr(assignment))}")
     if "=" not in assignment:
-        raise SceneError("expected KEY.PATH=VALUE, e.g. render.width=320 or lights.0.position=[1, 2, 3]", where)
+        raise SceneError(NO_EQUALS, where)
     key, text = (part.strip() for part in assignment.split("=", 1))
     key_parts(key, where)  # a bad key is said before a bad value
     try:
