@@ -56,3 +56,14 @@ def test_a_stop_signal_during_a_write_waits_for_it_and_leaves_no_temporary(tmp_p
     assert "after the signal" not in done.stdout
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.txt"]
     assert (tmp_path / "out.txt").read_text() == "whole"
+
+
+def test_a_reason_of_several_lines_is_worded_in_its_first_line(tmp_path):
+    """A write failure is one line (the file, the reason's first line, what is on disk): an OSError whose text
+    runs over several lines (a library's report) keeps only its first, and no temporary file stays behind."""
+    target = tmp_path / "out.txt"
+    with pytest.raises(atomic.WriteError) as caught:
+        with atomic.replaced_atomically(target, ".out-"):
+            raise OSError("the first line\nthe second line")
+    assert str(caught.value) == f"{target}: write failed: the first line (no file was written)"
+    assert list(tmp_path.iterdir()) == []
