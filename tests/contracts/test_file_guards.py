@@ -320,3 +320,12 @@ def test_a_scene_of_exactly_max_scene_bytes_reads_and_one_byte_more_is_refused(t
     said = r"the scene is more than the" if piped else r"the scene file is 4,097 bytes, more than the 4,096"
     with pytest.raises(SceneError, match=said):  # a file is measured before it is read, and its size said
         read(exact + b"#")
+
+
+def test_a_name_of_exactly_the_shown_length_is_kept_whole_and_one_more_is_shortened():
+    """shown_name keeps a quoted name of up to SHOWN_NAME_CHARACTERS (100) characters whole: 98 letters quote
+    to exactly 100 and stay as they are; 99 quote to 101 and keep their first and last 50 characters, saying
+    the one left out."""
+    from raycast_phong.io.files import shown_name
+    assert shown_name("a" * 98) == "'" + "a" * 98 + "'"
+    assert shown_name("a" * 99) == "'" + "a" * 49 + "…(1 characters)…" + "a" * 49 + "'"
