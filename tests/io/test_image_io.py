@@ -229,3 +229,16 @@ def test_a_missing_image_is_said_to_be_missing_once(tmp_path):
     for args in ([missing, present], [present, missing]):
         done = CliRunner().invoke(app, ["compare", *map(str, args)])
         assert done.exit_code == 2 and done.output.strip() == f"error: {missing}: no such file", done.output
+
+
+def test_images_over_the_read_budget_are_refused_naming_the_largest(tmp_path):
+    """check_image_reads refuses images whose headers need more than the budget, in one line naming the
+    image that needs the most (the one to shrink): of a 2×2 and a 6×4 PNG, the 6×4 one."""
+    from raycast_phong.errors import ImageError
+    from raycast_phong.io.image_io import check_image_reads, write_image
+    small, large = tmp_path / "small.png", tmp_path / "large.png"
+    write_image(small, np.zeros((2, 2, 3), np.float32))
+    write_image(large, np.zeros((4, 6, 3), np.float32))
+    with pytest.raises(ImageError) as caught:
+        check_image_reads((small, large), budget=1, per_sample=4)
+    assert str(caught.value).startswith(f"{large}: its header says 6×4 pixels with 3 channels")
