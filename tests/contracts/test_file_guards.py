@@ -329,3 +329,20 @@ def test_a_name_of_exactly_the_shown_length_is_kept_whole_and_one_more_is_shorte
     from raycast_phong.io.files import shown_name
     assert shown_name("a" * 98) == "'" + "a" * 98 + "'"
     assert shown_name("a" * 99) == "'" + "a" * 49 + "…(1 characters)…" + "a" * 49 + "'"
+
+
+def test_a_file_replaced_by_another_of_the_same_size_and_time_is_a_new_version(tmp_path):
+    """file_version must tell a file swapped in under the same name (same size, mtime set back, as a copy
+    with preserved times gives) from the one read before: its inode differs, so what was learnt of the old
+    file (its bounds, its triangles) is not taken for the new one's."""
+    from raycast_phong.io.files import file_version
+    path = tmp_path / "mesh.obj"
+    path.write_bytes(b"one")
+    before, info = file_version(path), os.stat(path)
+    swapped = tmp_path / "swapped.obj"
+    swapped.write_bytes(b"two")  # made while the first still exists: another inode
+    os.utime(swapped, ns=(info.st_atime_ns, info.st_mtime_ns))
+    os.replace(swapped, path)
+    now = os.stat(path)
+    assert (now.st_size, now.st_mtime_ns) == (info.st_size, info.st_mtime_ns)
+    assert file_version(path) != before
