@@ -175,3 +175,12 @@ def test_counts_more_than_the_file_can_hold_are_weighed_by_its_size(tmp_path):
     assert mesh_source(path).triangles() == size // SMALLEST_TRIANGLE
     path.write_text("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
     assert mesh_source(path).triangles() == 1
+
+
+def test_a_text_off_one_face_line_short_is_refused_as_cut_short(tmp_path):
+    """The counts line says 3 vertices and 1 face: with the face line missing the file holds 3 of the 4 lines
+    after it, which the reader refuses as cut short, counting them (not reading the vertices as faces)."""
+    data = b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n"
+    with pytest.raises(SceneError, match=r"holds 3 vertex and face lines where its counts line says 3 \+ 1; "
+                                         r"the file is cut short"):
+        read(tmp_path, data)
