@@ -184,3 +184,12 @@ def test_a_text_off_one_face_line_short_is_refused_as_cut_short(tmp_path):
     with pytest.raises(SceneError, match=r"holds 3 vertex and face lines where its counts line says 3 \+ 1; "
                                          r"the file is cut short"):
         read(tmp_path, data)
+
+
+def test_a_binary_off_face_naming_the_vertex_count_is_refused(tmp_path):
+    """OFF BINARY with 3 vertices (indices 0..2) and one triangle naming vertex 3, one past the last: refused in
+    one line, as the text form is, never read as a vertex that does not exist."""
+    body = struct.pack(">3i", 3, 1, 0) + b"".join(struct.pack(">3f", *p) for p in [(0, 0, 0), (1, 0, 0), (0, 1, 0)])
+    body += struct.pack(">4i", 3, 0, 1, 3) + struct.pack(">i", 0)
+    with pytest.raises(SceneError, match=r"has a face index outside 0\.\.2"):
+        read(tmp_path, b"OFF BINARY\n" + body)
