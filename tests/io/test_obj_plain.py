@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 import trimesh
 
+from raycast_phong.errors import SceneError
 from raycast_phong.io.meshes import obj_plain
 from raycast_phong.io.meshes import read as mesh_file
 from raycast_phong.io.meshes.obj_plain import plain_obj
@@ -135,3 +136,14 @@ def test_the_exact_path_reads_what_python_reads(monkeypatch):
             answered += 1
             assert np.float64(value).tobytes() == np.float64(float(word)).tobytes(), word
     assert answered > 1000
+
+
+def test_a_face_index_of_19_digits_is_refused_not_wrapped(tmp_path):
+    """The fast path reads a face index of at most 18 digits (below 2^63); 19 nines would wrap an int64 to a
+    negative number. Such a file must leave the fast path and be refused in one line as an index beyond the
+    3 vertices, never read as some other vertex nor crash."""
+    path = tmp_path / "big.obj"
+    path.write_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9999999999999999999\n")
+    assert plain_obj(path.read_bytes(), path) is None
+    with pytest.raises(SceneError):
+        mesh_source(path).read()
