@@ -194,3 +194,19 @@ def test_an_index_equal_to_the_vertex_count_is_one_line(tmp_path):
     path = write_glb(tmp_path / "over.glb", tree, data)
     with pytest.raises(SceneError, match=r"has 1 face\(s\) with a vertex index outside 0\.\.8 \(first: \[2, 3, 9\]\)"):
         mesh_file.read_file(mesh_source(path))
+
+
+def test_a_gltf_json_over_the_parse_limit_is_left_unparsed(tmp_path, monkeypatch):
+    """read_document parses at most JSON_LIMIT bytes of a .gltf: a document of exactly the limit parses, one a
+    byte longer is left alone (an empty tree, no problem: trimesh reads it), never parsed cut at the limit
+    (which would refuse a good file as JSON that does not parse). The limit is made 64 bytes here."""
+    from raycast_phong.io.meshes import gltf_json
+    monkeypatch.setattr(gltf_json, "JSON_LIMIT", 64)
+    text = '{"asset": {"version": "2.0"}, "extras": "'
+    fits = text + "x" * (64 - len(text) - 2) + '"}'
+    assert len(fits) == 64
+    path = tmp_path / "m.gltf"
+    path.write_text(fits)
+    assert gltf_json.read_document(path).tree["asset"] == {"version": "2.0"}
+    path.write_text(fits[:-2] + 'x"}')
+    assert gltf_json.read_document(path) == gltf_json.Document({}, None, None)
