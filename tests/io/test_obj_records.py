@@ -258,3 +258,13 @@ def test_a_texture_coordinate_of_exactly_float32_s_largest_reads_and_the_next_fl
     assert done.exit_code == 2, done.output
     [line] = done.stderr.strip().splitlines()
     assert f"line 6: texture coordinate {past} is beyond float32's range" in line, line
+
+
+def test_an_obj_starting_with_a_utf8_byte_order_mark_reads_its_first_vertex(tmp_path):
+    """A UTF-8 byte-order mark (EF BB BF, as Windows editors write) before the first `v` line is dropped whole:
+    the triangle's three vertices all read, the first one too, at (0, 0, 0), (1, 0, 0), (0, 1, 0)."""
+    path = tmp_path / "bom.obj"
+    path.write_bytes(b"\xef\xbb\xbfv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    found = mesh_source(path).read()
+    assert found.faces.tolist() == [[0, 1, 2]]
+    assert found.vertices.tolist() == [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
