@@ -210,3 +210,37 @@ def test_a_gltf_json_over_the_parse_limit_is_left_unparsed(tmp_path, monkeypatch
     assert gltf_json.read_document(path).tree["asset"] == {"version": "2.0"}
     path.write_text(fits[:-2] + 'x"}')
     assert gltf_json.read_document(path) == gltf_json.Document({}, None, None)
+
+
+def _glb_with_one_texture(png: bytes, view_length: int) -> bytes:
+    """A .glb of one material whose base colour map is the PNG `png`, the binary chunk's only content (padded
+    to 4 bytes), its bufferView `view_length` bytes long."""
+    binary = png + b"\0" * (-len(png) % 4)
+    tree = {"asset": {"version": "2.0"}, "buffers": [{"byteLength": len(binary)}],
+            "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": view_length}],
+            "images": [{"bufferView": 0, "mimeType": "image/png"}], "textures": [{"source": 0}],
+            "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]}
+    text = json.dumps(tree).encode()
+    text += b" " * (-len(text) % 4)
+    chunks = struct.pack("<I", len(text)) + b"JSON" + text + struct.pack("<I", len(binary)) + b"BIN\0" + binary
+    return b"glTF" + struct.pack("<II", 2, 12 + len(chunks)) + chunks
+
+
+def test_an_embedded_image_whose_view_runs_past_the_binary_chunk_counts_nothing(tmp_path):
+    """texture_sizes reads an embedded image's header from its bufferView's bytes within the .glb's binary
+    chunk: a 3×2 PNG whose view fits gives (2, 3); the same file with the view 4 bytes longer than the chunk
+    names bytes the file does not hold for it and counts nothing (the read words the broken view)."""
+    import io
+
+    from PIL import Image
+
+    from raycast_phong.io.meshes import gltf
+    from raycast_phong.io.meshes.gltf_json import read_document
+    buffer = io.BytesIO()
+    Image.new("RGB", (3, 2)).save(buffer, "PNG")
+    png = buffer.getvalue()
+    path = tmp_path / "m.glb"
+    path.write_bytes(_glb_with_one_texture(png, len(png)))
+    assert gltf.texture_sizes(path, read_document(path), lambda file: None) == [(2, 3)]
+    path.write_bytes(_glb_with_one_texture(png, len(png) + (-len(png) % 4) + 4))
+    assert gltf.texture_sizes(path, read_document(path), lambda file: None) == []
