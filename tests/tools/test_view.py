@@ -1408,3 +1408,15 @@ def test_a_draft_is_half_each_side_and_at_most_a_640_by_360_frames_pixels(scene_
     shaped = draft_of(scene).render
     assert (shaped.width, shaped.height, shaped.samples) == (*draft, 1)
     assert shaped.width * shaped.height <= max(DRAFT_PIXELS, ((size[0] + 1) // 2) * ((size[1] + 1) // 2))
+
+
+def test_the_scene_file_watched_is_any_file_load_reads_as_a_scene(scene_path, tmp_path):
+    """The view watches what scene.load reads as a scene file (is_mesh_file's rule: any suffix no mesh format
+    claims, none at all included), so a scene saved without a suffix reloads too; a mesh file is not watched (a
+    render reads it anew)."""
+    bare = tmp_path / "lecture"
+    bare.write_text(scene_path.read_text())
+    assert open_scene(bare).watched == bare and open_scene(scene_path).watched == scene_path
+    mesh = tmp_path / "tetra.obj"
+    mesh.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
+    assert open_scene(mesh).watched is None

@@ -37,13 +37,13 @@ from starlette.applications import Starlette
 from starlette.routing import Mount, Route, WebSocketRoute
 
 import raycast_phong as rp
-from raycast_phong.codes import OUTPUT_PATH, SCENE_SUFFIXES, ShadingModel
+from raycast_phong.codes import OUTPUT_PATH, ShadingModel
 from raycast_phong.errors import SceneError, ViewError
 from raycast_phong.io.encoding import DISPLAY, display_values
 from raycast_phong.io.scene_file import syntax_limit
 from raycast_phong.io.scene_toml import scene_toml, toml_value
 from raycast_phong.renderer.kernels.layout import MAX_LIGHTS
-from raycast_phong.scene.load import read_scene_dict
+from raycast_phong.scene.load import is_mesh_file, read_scene_dict
 from raycast_phong.scene.overrides import apply_override
 from raycast_phong.values.messages import dotted
 
@@ -81,8 +81,7 @@ def open_scene(path: str | Path | None) -> Opened:
     """A scene file (.toml/.json), a mesh file (mesh_scene: framed by a camera and lit by a key light), or the
     default scene; validated now, so a bad file is refused before the server starts."""
     path = Path(path) if path is not None else rp.default_scene_path()
-    scene_file = path.suffix.lower() in SCENE_SUFFIXES
-    opened = Opened(read_scene_dict(path), str(path), path.parent, path if scene_file else None)
+    opened = Opened(read_scene_dict(path), str(path), path.parent, None if is_mesh_file(path) else path)
     opened.files = scene_with(opened, {}).named_files()
     return opened
 
