@@ -462,7 +462,7 @@ def _built_in_named(message: str) -> str:
     "the built-in scene (default.toml)": what render, plan, view and the others read with no scene argument."""
     from ..scene.schema import default_scene_path
     path = str(default_scene_path())
-    return message.replace(path, f"the built-in scene ({Path(path).name})") if path in message else message
+    return message.replace(path, f"the built-in scene ({Path(path).name})")
 
 
 def _internal(error: Exception) -> None:
