@@ -347,6 +347,9 @@ def _skipped_spans(tree: ast.Module) -> set[int]:
     return skip
 
 
+KINDS = ("operator", "compare", "drop", "constant", "name", "sign", "swap", "negate")
+
+
 def _variants(node: ast.AST) -> list[tuple[str, ast.AST]]:
     """(kind, mutated copy) for one node."""
     out = []
@@ -362,7 +365,7 @@ def _variants(node: ast.AST) -> list[tuple[str, ast.AST]]:
     elif isinstance(node, ast.Compare) and len(node.ops) == 1 and type(node.ops[0]) in OPERATOR_SWAPS:
         new = copy.deepcopy(node)
         new.ops = [OPERATOR_SWAPS[type(node.ops[0])]()]
-        out.append(("operator", new))
+        out.append(("compare", new))
     elif isinstance(node, ast.BoolOp):
         new = copy.deepcopy(node)
         new.op = OPERATOR_SWAPS[type(node.op)]()
@@ -409,7 +412,7 @@ def generate(module: str, source: str | None = None) -> list[Mutant]:
         original = line[node.col_offset:node.end_col_offset]
         for kind, new in variants:
             text = ast.unparse(new)
-            if kind in ("operator", "negate", "sign", "drop", "swap") and isinstance(node, (ast.BinOp, ast.BoolOp,
+            if kind in ("operator", "compare", "negate", "sign", "drop", "swap") and isinstance(node, (ast.BinOp, ast.BoolOp,
                                                                                            ast.Compare)):
                 text = f"({text})"  # keep the precedence the original had in its context
             key = (node.lineno, node.col_offset, node.end_col_offset, text)
@@ -425,10 +428,11 @@ def generate(module: str, source: str | None = None) -> list[Mutant]:
     return sorted(mutants, key=lambda m: (m.line, m.col, m.kind, m.mutated))
 
 
-def hand_mutants() -> list[Mutant]:
-    """HAND_MUTANTS as Mutants (kind "hand": a text replacement, which may span lines)."""
+def hand_mutants(listed=HAND_MUTANTS) -> list[Mutant]:
+    """HAND_MUTANTS (or another list of (module, original, mutated[, why])) as Mutants (kind "hand": a text
+    replacement, which may span lines)."""
     mutants = []
-    for module, original, mutated in HAND_MUTANTS:
+    for module, original, mutated, *_ in listed:
         source = (REPO / PACKAGE / f"{module}.py").read_text(encoding="utf-8")
         if source.count(original) != 1:  # the code moved on: rewrite the mutant against today's text
             print(f"{module}: a hand mutant's text is not there once, left out: {original!r}", file=sys.stderr)
@@ -553,6 +557,9 @@ def main() -> None:
                         help="a module to mutate, its path below raycast_phong/ (repeatable; default: every module; "
                              "with --hand, the hand mutants of these modules)")
     parser.add_argument("--hand", action="store_true", help="run HAND_MUTANTS, the bugs written by hand")
+    parser.add_argument("--hand-file", type=Path, help="with --hand: a JSON list of [module, original, mutated, "
+                        "why] to run instead of HAND_MUTANTS (a set written apart, measured before it joins them)")
+    parser.add_argument("--kind", action="append", choices=KINDS, help="only mutants of this kind (repeatable)")
     parser.add_argument("--core", action="store_true", help="the kernel and stage modules only (CORE_MODULES)")
     parser.add_argument("--outside-core", action="store_true", help="every module but CORE_MODULES and the kernels")
     parser.add_argument("--fast", action="store_true", help="leave the tests marked slow out of every subset")
@@ -574,12 +581,13 @@ def main() -> None:
         mutants = [Mutant(**m) for m in earlier["mutants"]]
         todo = [m for m in mutants if m.status in ("survived", "timeout", "pending")]
     elif args.hand:  # with --module: those of these modules only
-        mutants = todo = [m for m in hand_mutants() if not args.module or m.module in args.module]
+        listed = json.loads(args.hand_file.read_text(encoding="utf-8")) if args.hand_file else HAND_MUTANTS
+        mutants = todo = [m for m in hand_mutants(listed) if not args.module or m.module in args.module]
     else:
         mutants = []
         outside = [m for m in MODULES if m not in CORE_MODULES and not m.startswith("renderer/kernels/")]
         for module in args.module or (CORE_MODULES if args.core else outside if args.outside_core else MODULES):
-            candidates = generate(module)
+            candidates = [m for m in generate(module) if not args.kind or m.kind in args.kind]
             if args.sample and args.sample < len(candidates):
                 candidates = sorted(random.Random(f"{args.seed}-{module}").sample(candidates, args.sample),
                                     key=lambda m: m.line)

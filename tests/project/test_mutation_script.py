@@ -50,6 +50,16 @@ def test_decorators_annotations_and_raise_statements_are_left_alone():
     assert {m.line for m in mutants} == {5, 7, 9}  # the default, the condition, the returned sum
     assert {m.mutated for m in mutants if m.line == 9} == {"(x - 1)", "(x)", "(1)", "0"}
     assert {m.mutated for m in mutants if m.line == 7} == {"(x >= 2)", "1", "(not x > 2)"}
+    assert {m.kind for m in mutants if m.line == 7} == {"compare", "constant", "negate"}
+
+
+def test_a_set_written_apart_is_read_with_its_reasons():
+    """--hand-file's entries carry a fourth element, why the bug is plausible; hand_mutants places each."""
+    module = "renderer/budget"
+    source = (mutate.REPO / mutate.PACKAGE / f"{module}.py").read_text(encoding="utf-8")
+    line = next(t for t in source.splitlines() if t.strip().startswith("def "))
+    found = mutate.hand_mutants([(module, line, line + "  # x", "why"), (module, "not there at all", "y", "why")])
+    assert [(m.module, m.line, m.kind) for m in found] == [(module, source.splitlines().index(line) + 1, "hand")]
 
 
 def test_the_baseline_imports_the_core_package_from_the_copy():
