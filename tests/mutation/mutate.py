@@ -412,8 +412,8 @@ def generate(module: str, source: str | None = None) -> list[Mutant]:
         original = line[node.col_offset:node.end_col_offset]
         for kind, new in variants:
             text = ast.unparse(new)
-            if kind in ("operator", "compare", "negate", "sign", "drop", "swap") and isinstance(node, (ast.BinOp, ast.BoolOp,
-                                                                                           ast.Compare)):
+            if kind in ("operator", "compare", "negate", "sign", "drop", "swap") \
+                    and isinstance(node, (ast.BinOp, ast.BoolOp, ast.Compare)):
                 text = f"({text})"  # keep the precedence the original had in its context
             key = (node.lineno, node.col_offset, node.end_col_offset, text)
             if text == original or key in seen:
