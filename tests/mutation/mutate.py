@@ -292,6 +292,27 @@ HAND_MUTANTS = (
      "for key in MAP_COLUMNS[:2] if getattr(material, key) is not None}"),  # an emission map not weighed
     ("tools/batch/run", "max_memory = budget // max(processes, 1) if budget else None",
      "max_memory = budget if budget else None"),  # every worker process given the whole budget
+    # The tenth independent set's survivors (each now killed by a test written for it):
+    ("io/atomic", "reason = reason.splitlines()[0] if reason.strip() else type(error).__name__",
+     "reason = reason if reason.strip() else type(error).__name__"),  # a write failure's reason of several lines
+    ("io/files", "if len(text) <= SHOWN_NAME_CHARACTERS:",
+     "if len(text) < SHOWN_NAME_CHARACTERS:"),  # a shown name of exactly 100 characters shortened
+    ("io/files", "return (str(Path(path).resolve()), info.st_mtime_ns, info.st_size, info.st_ino)",
+     "return (str(Path(path).resolve()), info.st_mtime_ns, info.st_size)"),  # a file swapped in: the same version
+    ("io/image_io", "path, (w, h, c) = max(((p, s) for p, s in sizes.items() if s)",
+     "path, (w, h, c) = min(((p, s) for p, s in sizes.items() if s)"),  # the budget's refusal names the smallest
+    ("io/meshes/off", "if len(lines) < 1 + vertex_count + face_count:",
+     "if len(lines) < vertex_count + face_count:"),  # a text OFF one face line short not cut short
+    ("io/meshes/off", "block[:, :3])\n    if faces.size and (faces.min() < 0 or faces.max() >= vertex_count):",
+     "block[:, :3])\n    if faces.size and (faces.min() < 0 or faces.max() > vertex_count):"),  # binary OFF's N of N
+    ("io/meshes/obj_plain", "elif c < 48 or c > 57 or i - start >= 18:",
+     "elif c < 48 or c > 57 or i - start >= 19:"),  # a 19-digit face index wraps an int64
+    ("io/meshes/gltf_json", "text = handle.read(JSON_LIMIT + 1)",
+     "text = handle.read(JSON_LIMIT)"),  # a .gltf's JSON over the limit parsed cut short
+    ("io/meshes/obj", 'if encoding == "utf-8":\n                return data[len(mark):]',
+     'if encoding == "utf-8":\n                return data[len(mark) - 1:]'),  # a UTF-8 mark stripped one byte short
+    ("io/meshes/gltf", "if start + length > document.binary[1]:",
+     "if start > document.binary[1]:"),  # an embedded image's view past the binary chunk read
 )
 OPERATOR_SWAPS = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,
                   ast.Lt: ast.LtE, ast.LtE: ast.Lt, ast.Gt: ast.GtE, ast.GtE: ast.Gt, ast.Eq: ast.NotEq,
