@@ -71,3 +71,18 @@ def test_the_read_floor_of_a_binary_stl_is_its_records_and_copies_of_an_ascii_on
     odd = binary.with_name("odd.stl")
     odd.write_bytes(binary.read_bytes() + b"\0")
     assert mesh_source(odd).read_floor() == odd.stat().st_size * TEXT_READ_BYTES_PER_BYTE
+
+
+@pytest.mark.parametrize(("claimed", "refused"), [(0, False), (1, True)])
+def test_a_header_only_binary_stl_of_84_bytes_is_counted_from_its_header(tmp_path, claimed, refused):
+    """A file of exactly 84 bytes (the header and its count, no record) is a binary STL: counting 1 triangle it is
+    cut short and refused, counting 0 it holds 0. Catches `size >= 84` taken as `size > 84` (84 bytes then
+    weighed as ASCII text: 0 facets, the false count let through)."""
+    from raycast_phong.errors import SceneError
+    path = tmp_path / "head.stl"
+    path.write_bytes(bytes(80) + claimed.to_bytes(4, "little"))
+    if refused:
+        with pytest.raises(SceneError, match=r"head\.stl.*binary STL.*counts 1 triangles \(134 bytes\).*has 84 bytes"):
+            mesh_source(path).triangles()
+    else:
+        assert mesh_source(path).triangles() == 0
