@@ -193,3 +193,39 @@ def test_a_binary_off_face_naming_the_vertex_count_is_refused(tmp_path):
     body += struct.pack(">4i", 3, 0, 1, 3) + struct.pack(">i", 0)
     with pytest.raises(SceneError, match=r"has a face index outside 0\.\.2"):
         read(tmp_path, b"OFF BINARY\n" + body)
+
+
+def test_a_binary_off_face_colour_of_three_floats_is_read(tmp_path):
+    """Geomview's colorspec may be 3 numbers (RGB, no alpha): Nc = 3 colours the face, and the last face's colour,
+    ending the file, is read without a fourth value past it. Catches `Nc >= 3` taken as `Nc > 3` (the colours
+    dropped) and a fourth channel read where Nc is 3 (the next word, here past the end)."""
+    rgb = [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)]
+    body = struct.pack(">3i", len(POINTS), len(FACES), 0) + b"".join(struct.pack(">3f", *p) for p in POINTS)
+    for face, colour in zip(FACES, rgb):
+        body += struct.pack(f">{len(face) + 2}i3f", len(face), *face, 3, *colour)
+    found = read(tmp_path, b"OFF BINARY\n" + body)
+    assert {turned(f) for f in found.faces.tolist()} == FANS
+    for face, colours in zip(found.faces.tolist(), found.corner_colour):
+        polygon = next(k for k, f in enumerate(FACES) if set(face) <= set(f))
+        np.testing.assert_array_equal(colours, np.tile(rgb[polygon], (3, 1)))
+
+
+def test_a_counts_line_of_two_numbers_is_read_and_counted(tmp_path):
+    """NEdges is ignored by every reader and often left out: a counts line of two numbers (`7 3`) is enough, both
+    for the read and for the cheap count (7 vertices, 3 polygons: weighed as max(3, 7 - 2) = 5). Catches the
+    least count taken as 3 numbers, in either place."""
+    data = text("OFF").replace(b"7 3 0  #", b"7 3  #")
+    assert b"\n7 3  #" in data
+    found = read(tmp_path, data)
+    assert {turned(f) for f in found.faces.tolist()} == FANS
+    assert mesh_source(tmp_path / "m.off").triangles() == 5
+
+
+def test_a_face_of_no_corners_is_skipped_and_a_bad_face_after_it_named(tmp_path):
+    """A face line `0` (Nv = 0, a polygon of no corners) holds no triangle and is not an error; a face after it
+    that counts more indices than it gives is refused naming that face, not the empty one. Catches `Nv < 0`
+    taken as `Nv <= 0`."""
+    data = text("OFF").replace(b"7 3 0", b"7 4 0").replace(b"4 0 1 2 3\n", b"0\n4 0 1 2 3\n")
+    assert {turned(f) for f in read(tmp_path, data).faces.tolist()} == FANS
+    with pytest.raises(SceneError, match=r"has face 2 \(line 3 of the faces\) of 3 indices where it counts 5"):
+        read(tmp_path, data.replace(b"3 3 2 4", b"5 3 2 4"))
