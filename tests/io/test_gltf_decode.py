@@ -439,3 +439,36 @@ def test_a_sparse_index_equal_to_the_accessors_count_is_refused_in_words(index, 
     with pytest.raises(SceneError) as caught:
         decoder.float_accessor(0, "k")
     assert "sparse.indices" in str(caught.value) and "below the accessor's count 3" in str(caught.value)
+
+
+def skinned_quad(tmp_path, joints: list[int], joint: int) -> Path:
+    """The quad skinned: its skin lists the nodes `joints` (node 0 the quad's own, node 1 translated by +5 in x)
+    and every vertex names joint number `joint` of them with weight 1."""
+    from tests.io.test_gltf_extensions import quad_gltf
+    path = quad_gltf(tmp_path, {})
+    document = json.loads(path.read_text())
+    document["nodes"] = [{"mesh": 0, "skin": 0}, {"translation": [5, 0, 0]}]
+    document["skins"] = [{"joints": joints}]
+    attributes = document["meshes"][0]["primitives"][0]["attributes"]
+    attributes["JOINTS_0"] = with_accessor(document, np.tile([joint, 0, 0, 0], (4, 1)))
+    attributes["WEIGHTS_0"] = with_accessor(document, np.tile([1, 0, 0, 0], (4, 1)))
+    path.write_text(json.dumps(document))
+    return path
+
+
+@pytest.mark.parametrize(("joints", "joint", "refused"), [
+    ([0, 1], 1, None),
+    ([0, 2], 1, r"skins\[0\]\.joints: allowed: node indices 0\.\.1"),  # a joint node equal to the node count
+    ([0, 1], 2, r"JOINTS_0: allowed: one row per vertex of joint numbers 0\.\.1"),  # a joint number at the count
+])
+def test_a_skin_s_joint_at_the_count_is_refused_naming_the_field(tmp_path, joints, joint, refused):
+    """A skinned quad posed by joint 1 (node 1, +5 in x) moves by it, node 0 being a joint too; a skin joint
+    naming node 2 of 2 nodes, or a vertex naming joint 2 of 2, is refused in one line naming the field, not read
+    past the end (an IndexError worded as a malformed document)."""
+    path = skinned_quad(tmp_path, joints, joint)
+    if refused is None:
+        found = read_mesh(path, "t")
+        np.testing.assert_allclose(np.sort(found.vertices[:, 0]), [4, 4, 6, 6], atol=1e-6)
+        return
+    with pytest.raises(SceneError, match=refused):
+        read_mesh(path, "t")
