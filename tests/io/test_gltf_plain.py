@@ -212,6 +212,26 @@ def test_a_gltf_json_over_the_parse_limit_is_left_unparsed(tmp_path, monkeypatch
     assert gltf_json.read_document(path) == gltf_json.Document({}, None, None)
 
 
+
+def test_a_glb_json_chunk_over_the_parse_limit_is_left_unparsed(tmp_path, monkeypatch):
+    """The same limit on a .glb's JSON chunk, by the length its header gives: a chunk of exactly JSON_LIMIT bytes
+    parses (its binary chunk found after it), one 4 bytes longer (a chunk is padded to 4) is left alone. The limit
+    is made 64 bytes here."""
+    from raycast_phong.io.meshes import gltf_json
+    monkeypatch.setattr(gltf_json, "JSON_LIMIT", 64)
+    text = '{"asset": {"version": "2.0"}, "extras": "'
+    path = tmp_path / "m.glb"
+    for length, parsed in ((64, True), (68, False)):
+        chunk = (text + "x" * (length - len(text) - 2) + '"}').encode()
+        assert len(chunk) == length
+        chunks = struct.pack("<I", length) + b"JSON" + chunk + struct.pack("<I", 4) + b"BIN\0" + bytes(4)
+        path.write_bytes(b"glTF" + struct.pack("<II", 2, 12 + len(chunks)) + chunks)
+        found = gltf_json.read_document(path)
+        if parsed:
+            assert found.tree["asset"] == {"version": "2.0"} and found.binary == (20 + 64 + 8, 4)
+        else:
+            assert found == gltf_json.Document({}, None, None)
+
 def _glb_with_one_texture(png: bytes, view_length: int) -> bytes:
     """A .glb of one material whose base colour map is the PNG `png`, the binary chunk's only content (padded
     to 4 bytes), its bufferView `view_length` bytes long."""
