@@ -268,3 +268,31 @@ def test_an_obj_starting_with_a_utf8_byte_order_mark_reads_its_first_vertex(tmp_
     found = mesh_source(path).read()
     assert found.faces.tolist() == [[0, 1, 2]]
     assert found.vertices.tolist() == [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+
+
+def test_transparency_and_illum_notes_name_only_the_materials_past_their_defaults(tmp_path):
+    """`d 1`, `Tr 0` and `illum 2` (what most exporters write) and a material that leaves them out are opaque
+    Phong: not named; `d 0.99`, `Tr 0.01` and `illum 3` are, each note naming only those. Catches the
+    boundaries taken the wrong way (d <= 1, Tr >= 0, illum >= 2 said of every material)."""
+    notes: list[str] = []
+    mtl.parse_mtl("newmtl opaque\nKd 1 1 1\nd 1\nTr 0\nillum 2\nnewmtl plain\nKd 1 1 1\n"
+                  "newmtl veiled\nd 0.99\nnewmtl tinted\nTr 0.01\nnewmtl mirror\nillum 3\n", tmp_path / "m.mtl", notes)
+    assert notes == [f"{tmp_path / 'm.mtl'}: transparency (d < 1 or Tr > 0) is ignored: veiled, tinted render opaque",
+                     f"{tmp_path / 'm.mtl'}: illum 3 render as illum 2 (Phong); reflection and refraction are out of "
+                     "scope"], notes
+
+
+def test_a_one_value_map_option_without_its_value_leaves_the_file_name(tmp_path):
+    """`map_Kd -clamp wood.png` (the option's on/off left out): the last word is the file, never taken as the
+    option's value; and three maps that are not applied are listed whole, with no `...` (that is for a fourth).
+    Catches the value loop reaching the last word and the list cut at 3 rather than after it."""
+    from PIL import Image
+    Image.new("RGB", (2, 2), (255, 255, 255)).save(tmp_path / "wood.png")
+    assert mtl.map_file(["-clamp", "wood.png"]) == "wood.png"
+    notes: list[str] = []
+    sources: list = []
+    found = mtl.parse_mtl("newmtl w\nmap_Kd -clamp wood.png\nbump wood.png\nmap_Ks wood.png\nrefl wood.png\n",
+                          tmp_path / "m.mtl", notes, sources)
+    assert sources[found["w"].kd_map].source == tmp_path / "wood.png" and sources[found["w"].kd_map].wrap_s == "repeat"
+    assert notes == [f"{tmp_path / 'm.mtl'}: only colour maps (map_Kd, map_Ka, map_Ke) are applied; not applied: "
+                     "bump wood.png, map_ks wood.png, refl wood.png"], notes
