@@ -175,3 +175,15 @@ def test_a_header_of_carriage_return_terminated_lines_is_read(tmp_path, form, en
     path.write_bytes(head + body)
     mesh = read_mesh(path)
     assert np.array_equal(mesh.vertices[mesh.faces[0]], corners)
+
+
+def test_a_format_line_without_its_version_is_read(tmp_path):
+    """`format binary_little_endian` with the version left out (two words, where writers put `1.0`): the header
+    parses with its format and the file reads as with the version. Catches the format line needing 3 words."""
+    path = write_ply(tmp_path / "plain.ply", xyz())
+    data = path.read_bytes().replace(b"format binary_little_endian 1.0\n", b"format binary_little_endian\n", 1)
+    path.write_bytes(data)
+    assert ply.ply_lists.header(data).format == "binary_little_endian"
+    found = mesh_source(path).read()
+    np.testing.assert_array_equal(found.vertices, POINTS.astype(np.float32).astype(np.float64))
+    np.testing.assert_array_equal(found.faces, FACES)
