@@ -207,3 +207,20 @@ def test_a_signed_list_count_at_its_sign_bit_is_negative(count, byte, listed):
     assert fits == (listed is not None)
     if listed is not None:
         assert found[0, 0] == listed and starts.tolist() == [0, width + 4 * listed]
+
+
+def test_a_face_list_empty_on_every_face_is_left_out_and_the_faces_read(tmp_path):
+    """A binary PLY of two triangles whose `texcoord` list is empty on every face (0 entries: a writer's untextured
+    faces) is a valid PLY; it was refused as not following the format (trimesh's reader cannot take a list of
+    length 0, and the lists, all one length, were left to it). Now the empty list is left out, said, and the
+    triangles read. Catches the empty list taken as even (`first < 0` for `first <= 0`)."""
+    head = (b"ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+            b"property float z\nelement face 2\nproperty list uchar int vertex_indices\n"
+            b"property list uchar float texcoord\nend_header\n")
+    body = struct.pack("<12f", 0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0)
+    body += struct.pack("<B3iB", 3, 0, 1, 2, 0) + struct.pack("<B3iB", 3, 0, 2, 3, 0)
+    (tmp_path / "e.ply").write_bytes(head + body)
+    read = mesh_source(tmp_path / "e.ply").read()
+    assert read.faces.tolist() == [[0, 1, 2], [0, 2, 3]] and read.corner_uv is None
+    assert any("its face list 'texcoord' is not one or two entries a corner; it is left out" in note
+               for note in read.notes), read.notes

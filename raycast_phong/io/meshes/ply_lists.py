@@ -89,7 +89,8 @@ def _dtype(kind: str, big: bool) -> np.dtype:
 
 def _even(element: Element, body: memoryview, at: int, big: bool) -> tuple[np.ndarray, int] | None:
     """The element's rows as trimesh would read them (every list as long as its first row's), with where it
-    ends, when every row's counts are indeed the first row's; None when they differ or the data is short."""
+    ends, when every row's counts are indeed the first row's; None when they differ, a list is empty (rewritten
+    by evened) or the data is short."""
     fields, offset = [], 0
     for k, prop in enumerate(element.properties):
         if prop.count is None:
@@ -100,7 +101,7 @@ def _even(element: Element, body: memoryview, at: int, big: bool) -> tuple[np.nd
         if at + offset + size > len(body):
             return None
         first = int(np.frombuffer(body, _dtype(prop.count, big), 1, at + offset)[0])
-        if first < 0:
+        if first <= 0:  # negative, or empty: trimesh's reader refuses a list of length 0, the row walk drops it
             return None
         fields += [(f"c{k}", _dtype(prop.count, big)), (f"p{k}", _dtype(prop.type, big), (first,))]
         offset += size + first * fields[-1][1].itemsize
