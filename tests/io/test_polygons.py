@@ -125,3 +125,19 @@ def test_counts_a_small_file_cannot_hold_are_called_cut_short_not_weighed(tmp_pa
     result = CliRunner().invoke(app, ["render", str(tmp_path / "m.off"), "-q", "-o", str(tmp_path / "m.png"),
                                       "--max-memory", "2G"])
     assert result.exit_code == 2 and "cut short" in result.output and "memory" not in result.output, result.output
+
+
+def test_a_concave_quad_in_an_even_binary_ply_is_cut_not_fanned(tmp_path):
+    """A dart, (4,0) (1,1) (0,4) (0,0), concave at its second corner, as a binary PLY's one face (lists all of 4):
+    quads are tested too, so its two triangles both turn as it does and cover its area, 4. The fan from its first
+    corner would give (4,0) (1,1) (0,4), wound the other way. Catches the concavity test starting at 5 corners."""
+    dart = [(4, 0, 0), (1, 1, 0), (0, 4, 0), (0, 0, 0)]
+    head = (b"ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+            b"property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n")
+    (tmp_path / "d.ply").write_bytes(head + struct.pack("<12f", *(c for p in dart for c in p))
+                                     + struct.pack("<B4i", 4, 0, 1, 2, 3))
+    found = mesh_source(tmp_path / "d.ply").read()
+    corners = found.vertices[found.faces]
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    assert len(found.faces) == 2 and (normal[:, 2] > 0).all(), found.faces
+    assert np.isclose(0.5 * normal[:, 2].sum(), 4.0)
