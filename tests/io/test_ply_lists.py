@@ -224,3 +224,21 @@ def test_a_face_list_empty_on_every_face_is_left_out_and_the_faces_read(tmp_path
     assert read.faces.tolist() == [[0, 1, 2], [0, 2, 3]] and read.corner_uv is None
     assert any("its face list 'texcoord' is not one or two entries a corner; it is left out" in note
                for note in read.notes), read.notes
+
+
+def test_a_uchar_count_of_128_or_more_corners_is_unsigned_in_the_row_walk(tmp_path):
+    """A binary PLY of a 130-gon (a uchar count of 130, past the sign bit) beside a triangle, so the rows are
+    walked: the uchar count is 130 corners, the polygon a fan of 128 triangles, 129 in all. Catches the count's
+    signedness taken the wrong way in element_rows (130 read as -126: the rows refused)."""
+    ring = [(np.cos(a), np.sin(a), 0.0) for a in np.linspace(0, 2 * np.pi, 130, endpoint=False)]
+    points = [*ring, (3, 0, 0), (4, 0, 0), (3, 1, 0)]
+    head = (f"ply\nformat binary_little_endian 1.0\nelement vertex {len(points)}\nproperty float x\n"
+            "property float y\nproperty float z\nelement face 2\nproperty list uchar int vertex_indices\n"
+            "end_header\n").encode()
+    body = b"".join(struct.pack("<3f", *p) for p in points)
+    body += struct.pack("<B130i", 130, *range(130)) + struct.pack("<B3i", 3, 130, 131, 132)
+    (tmp_path / "ring.ply").write_bytes(head + body)
+    read = mesh_source(tmp_path / "ring.ply").read()
+    assert len(read.faces) == 129
+    faces = read.faces.tolist()
+    assert sorted(map(tuple, faces))[:2] == [(0, 1, 2), (0, 2, 3)] and [130, 131, 132] in faces
