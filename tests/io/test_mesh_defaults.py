@@ -358,6 +358,21 @@ def test_a_flat_floor_plane_gets_no_z_up_hint(tmp_path, height):
     assert "--up z" not in output and "longer along Z" not in output, output
 
 
+
+@pytest.mark.parametrize(("extent", "said"), [
+    ((1.0, 2.0, 3.0), "is 1.5× longer along Z than along Y"),  # exactly Z_UP_RATIO times Y
+    ((3.0, 1.0, 3.0), "is 3× longer along Z than along Y"),  # Z ties X for the longest
+    ((1.0, 1e-6, 1.0), None),  # Y exactly FLAT_SHARE of the largest: flat, no hint
+    ((1.0, 2.0, 2.9), None),  # short of the ratio
+])
+def test_the_z_up_hint_at_its_boundaries(extent, said):
+    """up_hint's limits are inclusive: a model exactly 1.5 times longer along Z than along Y, or as long along Z
+    as along X, looks Z-up; one whose Y extent is exactly FLAT_SHARE (1e-6) of its largest is flat. Catches each
+    comparison taken strictly."""
+    from raycast_phong.io.meshes.read import up_hint
+    hint = up_hint(np.array(extent))
+    assert (hint is None) if said is None else (hint is not None and said in hint), hint
+
 # ---------------------------------------------------------------- 8: memory
 
 def test_a_texture_is_decoded_at_the_size_its_use_needs(tmp_path):
