@@ -141,3 +141,18 @@ def test_a_concave_quad_in_an_even_binary_ply_is_cut_not_fanned(tmp_path):
     normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     assert len(found.faces) == 2 and (normal[:, 2] > 0).all(), found.faces
     assert np.isclose(0.5 * normal[:, 2].sum(), 4.0)
+
+
+def test_an_ascii_ply_s_last_polygon_without_a_line_feed_is_cut(tmp_path):
+    """An ASCII PLY whose one face line, the L, ends the file without a line feed: the file's line feeds are then
+    exactly its vertex lines', and the face is still found and ear-clipped (4 triangles wound as the L, area 3),
+    not left to trimesh's fan."""
+    head = ("ply\nformat ascii 1.0\nelement vertex 6\nproperty float x\nproperty float y\nproperty float z\n"
+            "element face 1\nproperty list uchar int vertex_indices\nend_header\n")
+    rows = [" ".join(map(str, p)) for p in L]
+    (tmp_path / "m.ply").write_text(head + "\n".join(rows) + "\n6 0 1 2 3 4 5")  # its fan from corner 0 folds
+    found = mesh_source(tmp_path / "m.ply").read()
+    corners = found.vertices[found.faces]
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    assert len(found.faces) == 4 and (normal[:, 2] > 0).all(), found.faces
+    assert np.isclose(0.5 * normal[:, 2].sum(), AREA)
