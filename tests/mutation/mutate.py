@@ -430,22 +430,25 @@ def generate(module: str, source: str | None = None) -> list[Mutant]:
         if id(node) in conditions:
             variants.append(("negate", ast.UnaryOp(ast.Not(), copy.deepcopy(node))))
         line = lines[node.lineno - 1]
-        original = line[node.col_offset:node.end_col_offset]
+        # ast's offsets count UTF-8 bytes; the line is sliced by characters (a "×" before a node shifts it)
+        head = line.encode("utf-8")
+        col, end_col = (len(head[:offset].decode("utf-8")) for offset in (node.col_offset, node.end_col_offset))
+        original = line[col:end_col]
         for kind, new in variants:
             text = ast.unparse(new)
             if kind in ("operator", "compare", "negate", "sign", "drop", "swap") \
                     and isinstance(node, (ast.BinOp, ast.BoolOp, ast.Compare)):
                 text = f"({text})"  # keep the precedence the original had in its context
-            key = (node.lineno, node.col_offset, node.end_col_offset, text)
+            key = (node.lineno, col, end_col, text)
             if text == original or key in seen:
                 continue
             seen.add(key)
-            mutated_line = line[:node.col_offset] + text + line[node.end_col_offset:]
+            mutated_line = line[:col] + text + line[end_col:]
             try:
                 ast.parse("\n".join([*lines[:node.lineno - 1], mutated_line, *lines[node.lineno:]]))
             except SyntaxError:
                 continue
-            mutants.append(Mutant(module, node.lineno, node.col_offset, node.end_col_offset, kind, original, text))
+            mutants.append(Mutant(module, node.lineno, col, end_col, kind, original, text))
     return sorted(mutants, key=lambda m: (m.line, m.col, m.kind, m.mutated))
 
 

@@ -53,6 +53,14 @@ def test_decorators_annotations_and_raise_statements_are_left_alone():
     assert {m.kind for m in mutants if m.line == 7} == {"compare", "constant", "negate"}
 
 
+def test_a_node_after_a_wide_character_is_cut_at_its_own_text():
+    """ast's column offsets count UTF-8 bytes: a message's "×" before a condition must not shift its span."""
+    mutants = mutate.generate("snippet", 'def f(n):\n    return f"{n}×{n}" if n > 1 else ""\n')
+    assert "(n >= 1)" in {m.mutated for m in mutants if m.original == "n > 1"}
+    for m in mutants:
+        ast.parse(m.original, mode="eval")  # each span is a whole expression, not a cut shifted by two bytes
+
+
 def test_a_set_written_apart_is_read_with_its_reasons():
     """--hand-file's entries carry a fourth element, why the bug is plausible; hand_mutants places each."""
     module = "renderer/budget"
