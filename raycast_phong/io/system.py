@@ -184,8 +184,8 @@ def check_environment() -> list[str]:
 def format_bytes(count: float) -> str:
     """3.4 GB, 512 MB, 20 kB: binary units, written the way people say them."""
     for unit, size in (("TB", 1 << 40), ("GB", 1 << 30), ("MB", 1 << 20), ("kB", 1 << 10)):
-        if count >= size:
-            return f"{count / size:.3g} {unit}"
+        if count >= size:  # 3 figures, but never "1e+03": from 999.5 of a unit up, whole units
+            return f"{count / size:.3g} {unit}" if count / size < 999.5 else f"{count / size:,.0f} {unit}"
     return f"{int(count)} bytes"
 
 

@@ -111,6 +111,36 @@ def test_a_malformed_size_is_refused(text):
         parse_size(text)
 
 
+def test_a_malformed_size_of_exactly_the_shown_length_is_echoed_whole():
+    """A malformed --max-memory is echoed up to 60 characters of its repr whole (58 letters and the quotes); one
+    more is cut to its first 60 and counts the rest."""
+    with pytest.raises(ValueError) as whole:
+        parse_size("x" * 58)
+    assert str(whole.value).endswith("got '" + "x" * 58 + "'")
+    with pytest.raises(ValueError) as cut:
+        parse_size("x" * 59)
+    assert str(cut.value).endswith("got '" + "x" * 59 + "… (1 more characters)")
+
+
+@pytest.mark.parametrize("count, text", [(1 << 40, "1 TB"), (1 << 30, "1 GB"), ((1 << 30) - 1, "1,024 MB"),
+                                         (1 << 20, "1 MB"), (1 << 10, "1 kB"), (1023, "1023 bytes"),
+                                         (1000 << 20, "1,000 MB"), (999 << 20, "999 MB"), (1536 << 20, "1.5 GB"),
+                                         (1 << 50, "1,024 TB")])
+def test_byte_counts_are_written_in_the_largest_unit_they_reach(count, text):
+    """format_bytes: a count of exactly a unit is written in it, one byte less in the unit below; three figures,
+    and whole units from 999.5 up (a budget of 1000M once read "above the 1e+03 MB budget")."""
+    from raycast_phong.io.system import format_bytes
+    assert format_bytes(count) == text
+
+
+@pytest.mark.parametrize("count, text", [(10_000_000, "10M"), (9_949_999, "9.9M"), (1_000_000, "1.0M"),
+                                         (999_999, "999,999")])
+def test_triangle_counts_are_shortened_from_a_million(count, text):
+    """count_text: whole millions from 10M, one decimal from 1M, every digit below."""
+    from raycast_phong.io.system import count_text
+    assert count_text(count) == text
+
+
 def test_the_default_budget_is_a_share_of_the_memory_available():
     budget = default_budget()
     assert budget is not None and 0 < budget < os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
