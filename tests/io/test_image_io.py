@@ -149,6 +149,16 @@ def test_read_image_checks_its_budget_from_the_header_before_decoding(tmp_path, 
         rp.read_image(path)
 
 
+def test_a_read_whose_need_is_exactly_the_budget_is_made(tmp_path):
+    """The budget is the most the read may use: 100 × 50 RGB 8-bit needs 100 × 50 × 3 × 9 = 135,000 bytes, read
+    under a budget of exactly that, refused one byte under it."""
+    path = rp.write_image(tmp_path / "small.png", np.zeros((50, 100, 3), np.float32))
+    pixels, _ = rp.read_image(path, max_memory=135_000)
+    assert pixels.shape == (50, 100, 3)
+    with pytest.raises(rp.errors.ImageError, match="needs about 132 kB to read, over the budget"):
+        rp.read_image(path, max_memory=134_999)
+
+
 def test_an_output_path_as_long_as_path_max_is_refused_and_one_byte_shorter_is_not(tmp_path):
     """PATH_MAX counts the terminating NUL (POSIX), so a path of exactly PATH_MAX bytes is one open() refuses
     with ENAMETOOLONG: the check refuses it before rendering, and lets one byte less through."""
@@ -179,6 +189,23 @@ def test_a_file_name_is_measured_in_bytes_not_characters(tmp_path):
     assert len(os.fsencode("é" * 125 + ".png")) == 254 and len(("é" * 200 + ".png").encode()) == 404
     assert os.pathconf(tmp_path, "PC_NAME_MAX") < 404
     (tmp_path / ("é" * 125 + ".png")).write_bytes(b"")
+
+
+def test_a_file_name_of_exactly_name_max_bytes_is_allowed_and_one_more_is_not(tmp_path):
+    """NAME_MAX is the longest name the file system takes: a name of exactly that many bytes passes (and is
+    written), one byte more is refused naming the file name; in a path also too long, the path is named, since
+    the name is within its limit."""
+    from raycast_phong.errors import ImageError
+    from raycast_phong.io.image_io import _check_name_length
+    limit = os.pathconf(tmp_path, "PC_NAME_MAX")
+    name = "n" * (limit - 4) + ".png"
+    _check_name_length(tmp_path / name, tmp_path)
+    (tmp_path / name).write_bytes(b"")
+    with pytest.raises(ImageError, match=f"file name is {limit + 1:,} bytes, longer than the {limit:,}"):
+        _check_name_length(tmp_path / ("n" + name), tmp_path)
+    too_long = Path(("/" + "d" * 199) * (os.pathconf(tmp_path, "PC_PATH_MAX") // 200)) / name
+    with pytest.raises(ImageError, match="the output's path is"):
+        _check_name_length(too_long, tmp_path)
 
 
 def test_images_read_together_are_weighed_together(tmp_path):
