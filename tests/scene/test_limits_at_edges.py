@@ -154,6 +154,23 @@ def test_a_field_of_view_just_below_180_degrees_is_accepted_and_180_refused():
     assert "camera.fov: out of range" in refusal(lambda: scene(camera={"fov": 0}))
 
 
+def test_a_viewing_direction_of_exactly_the_least_length_is_accepted_and_the_float_below_refused():
+    """look_at − position may be as short as DIRECTION_RANGE[0] (1e-150) and no shorter. Catches `<` made `<=`."""
+    assert scene(camera={"position": [0, 0, 0], "look_at": [1e-150, 0, 0]}).camera.look_at[0] == 1e-150
+    assert "from camera.position; allowed: at least 1e-150" in refusal(
+        lambda: scene(camera={"position": [0, 0, 0], "look_at": [math.nextafter(1e-150, 0.0), 0, 0]}))
+
+
+def test_an_up_at_exactly_the_parallel_bound_is_refused_and_one_just_past_it_accepted():
+    """Up is refused while |f × up| ≤ 1e-9 |f| |up| (the sine of their angle). Looking along x, up = [1, 1e-9, 0]
+    has |f × up| = 1e-9 and |up| = 1 in float64: exactly at the bound, refused; [1, 2e-9, 0] is past it. Catches
+    `<=` made `<`."""
+    camera = {"position": [0, 0, 0], "look_at": [1, 0, 0]}
+    assert "camera.up: [1.0, 1e-09, 0.0] is parallel to the viewing direction" in refusal(
+        lambda: scene(camera={**camera, "up": [1, 1e-9, 0]}))
+    assert scene(camera={**camera, "up": [1, 2e-9, 0]}).camera.up[1] == 2e-9
+
+
 def test_a_view_height_of_1e18_is_accepted_and_the_next_float_refused():
     """Lengths are in (0, 1e18]. Catches view_height's bound made exclusive or moved past 1e18."""
     ortho = {"type": "orthographic"}
