@@ -190,3 +190,161 @@ def test_a_3mf_s_textures_are_in_the_estimate(tmp_path):
         archive.writestr("Metadata/thumbnail.png", thumbnail.getvalue())
     scene = rp.validate_scene({"objects": [{"shape": "mesh", "path": str(path)}]})
     assert estimate_memory(scene).textures == 1024 * 512 * 52
+
+
+# ---------------------------------------------------------------- the estimate's boundaries, exactly
+# Each test below feeds the exact input at which a comparison or a term of the estimate decides, so that `<` for
+# `<=`, a limit one off or a dropped term changes what it asserts.
+
+
+def test_a_budget_exactly_met_is_accepted_and_one_byte_less_is_refused():
+    """The budget is what the render may use: an estimate equal to it fits, one byte over does not."""
+    from raycast_phong.errors import SceneError
+    from raycast_phong.renderer.budget import check_memory
+    scene = rp.validate_scene({"objects": [{"shape": "icosphere", "subdivisions": 3}]})
+    need = estimate_memory(scene).total
+    assert check_memory(scene, need).total == need
+    with pytest.raises(SceneError, match="budget"):
+        check_memory(scene, need - 1)
+
+
+def test_a_mesh_file_at_crease_angle_180_is_weighed_uncreased_with_its_parse(tmp_path):
+    """crease_angle 180 creases nothing: a smooth mesh file costs SMOOTH_BYTES plus its format's parse bytes a
+    triangle; just under 180 every corner may take the pairwise test (CREASED_FILE_BYTES). The 1,280 triangles'
+    cost is above the file's read floor, so the per-triangle figure decides."""
+    import trimesh
+
+    from raycast_phong.io.meshes.source import mesh_source
+    from raycast_phong.renderer.budget import CREASED_FILE_BYTES, OBJECT_BYTES, SMOOTH_BYTES
+    trimesh.creation.icosphere(subdivisions=3).export(tmp_path / "ball.ply")
+    source = mesh_source(tmp_path / "ball.ply")
+    count, parse = source.triangles(), source.format.parse_bytes
+    assert count == 1280 and parse > 0 and source.read_floor() < count * SMOOTH_BYTES
+
+    def geometry(angle):
+        return estimate_memory(rp.validate_scene({"objects": [{"shape": "mesh", "path": str(tmp_path / "ball.ply"),
+                                                               "crease_angle": angle}]})).geometry
+    assert geometry(180) == count * (SMOOTH_BYTES + parse) + OBJECT_BYTES
+    assert geometry(179.5) == count * (CREASED_FILE_BYTES + parse) + OBJECT_BYTES
+
+
+def test_the_morton_saving_starts_at_exactly_morton_faces_triangles():
+    """Embree's Morton build (MORTON_SAVING_BYTES less a triangle) starts at MORTON_FACES triangles in all: a plane
+    of 256 × 512 segments makes exactly 2^18 of them and saves; 256 × 511 is one row short and does not."""
+    from raycast_phong.renderer.budget import FLAT_BYTES, MORTON_SAVING_BYTES, OBJECT_BYTES
+    from raycast_phong.renderer.embree_library import MORTON_FACES
+
+    def found(rows):
+        return estimate_memory(rp.validate_scene({"objects": [{"shape": "plane", "segments": [256, rows]}]}),
+                               smooth=False)
+    assert found(512).triangles == MORTON_FACES
+    assert found(512).geometry == MORTON_FACES * (FLAT_BYTES - MORTON_SAVING_BYTES) + OBJECT_BYTES
+    assert found(511).geometry == 2 * 256 * 511 * FLAT_BYTES + OBJECT_BYTES
+
+
+def test_every_term_of_the_image_estimate_in_float32_and_float64():
+    """The image term of a 10 × 10 render with a term layer, a normal and a face layer: the film (RGB and 4 terms
+    × 3 channels at 4 or 8 bytes, 20 bytes of geometry layers), one float32 copy of each channel written (RGB, 2
+    × 3, 1) and 2^15 rays of 64 bytes (the default tile, one thread, no shadow rays); no texture, so 0."""
+    scene = rp.validate_scene({"render": {"width": 10, "height": 10},
+                               "output": {"aovs": ["diffuse", "normal", "face"]}, "objects": [{"shape": "box"}]})
+    written, rays = 100 * 4 * (3 + 6 + 1), (1 << 15) * 64
+    for real, float64 in ((4, False), (8, True)):
+        found = estimate_memory(scene, float64=float64)
+        assert found.image == 100 * (3 * real + 12 * real + 20) + written + rays, real
+        assert found.textures == 0 and found.total == found.geometry + found.image
+
+
+def test_the_refusal_at_geometry_equal_to_image_blames_the_geometry():
+    """A flat plane of 3 × 10 segments (60 triangles, 18,200 B with its object) on a 1 × 1 image with 284 rays in
+    flight (24 + 284 × 64 = 18,200 B): the two parts tie and the line names the object's key, with the image's
+    share since it is more than a twentieth."""
+    from raycast_phong.errors import SceneError
+    from raycast_phong.renderer.budget import check_memory
+    scene = rp.validate_scene({"render": {"width": 1, "height": 1},
+                               "objects": [{"shape": "plane", "segments": [3, 10]}]})
+    options = {"smooth": False, "tile_rays": 284}
+    found = estimate_memory(scene, **options)
+    assert found.geometry == found.image == 18_200
+    with pytest.raises(SceneError) as refused:
+        check_memory(scene, 1000, **options)
+    assert "objects.0.segments: [3, 10] needs ≈ " in str(refused.value), refused.value
+    assert "for the image" in str(refused.value)
+
+
+def test_an_image_of_exactly_a_twentieth_of_the_total_is_not_named():
+    """The image's bytes join a geometry refusal only above a twentieth of the total: a flat plane of 10 × 13
+    segments (72,200 B) on a 1 × 1 image with 59 rays (3,800 B = 76,000 / 20) is at the limit, not above it."""
+    from raycast_phong.errors import SceneError
+    from raycast_phong.renderer.budget import check_memory
+    scene = rp.validate_scene({"render": {"width": 1, "height": 1},
+                               "objects": [{"shape": "plane", "segments": [10, 13]}]})
+    options = {"smooth": False, "tile_rays": 59}
+    found = estimate_memory(scene, **options)
+    assert (found.geometry, found.image) == (72_200, 3_800)
+    with pytest.raises(SceneError) as refused:
+        check_memory(scene, 1000, **options)
+    assert "objects.0.segments: [10, 13] needs ≈ " in str(refused.value), refused.value
+    assert "for the image" not in str(refused.value)
+
+
+def test_an_object_of_exactly_half_the_geometry_is_named_by_its_key():
+    """One object is named alone when it weighs half the geometry or more: in float64, a smooth plane of 4 × 5
+    segments (40 × 370 = 14,800 B) beside a flat one (40 × 270 = 10,800 B) and their 2 × 2,000 B objects is
+    exactly half of 29,600 B."""
+    from raycast_phong.errors import SceneError
+    from raycast_phong.renderer.budget import check_memory
+    scene = rp.validate_scene({"render": {"width": 1, "height": 1},
+                               "objects": [{"shape": "plane", "segments": [4, 5]},
+                                           {"shape": "plane", "segments": [4, 5], "shading": "flat"}]})
+    options = {"float64": True, "tile_rays": 0}
+    found = estimate_memory(scene, **options)
+    assert (found.largest, 2 * found.largest_bytes, found.geometry) == (0, 29_600, 29_600)
+    with pytest.raises(SceneError) as refused:
+        check_memory(scene, 1000, **options)
+    assert "objects.0.segments: [4, 5] needs ≈ " in str(refused.value), refused.value
+
+
+@pytest.mark.parametrize("samples, shown", [(1, None), (2, ", 2² samples")])
+def test_an_image_refusal_names_the_samples_only_above_one(samples, shown):
+    """A 2000 × 2000 image of a box under a 1 MB budget is refused naming the pixels; one sample a pixel is the
+    default and goes unsaid."""
+    from raycast_phong.errors import SceneError
+    from raycast_phong.renderer.budget import check_memory
+    scene = rp.validate_scene({"render": {"width": 2000, "height": 2000, "samples": samples},
+                               "objects": [{"shape": "box"}]})
+    with pytest.raises(SceneError) as refused:
+        check_memory(scene, 1 << 20)
+    message = str(refused.value)
+    assert "render.width × render.height: 2000×2000 pixels" in message
+    assert ("samples" not in message) if shown is None else (shown in message), message
+
+
+def test_only_the_maps_of_used_materials_and_of_default_are_weighed(tmp_path):
+    """A colour map counts when its material is used or is "default" (what a mesh file's faces without a
+    material take); an unused material's map costs nothing."""
+    from PIL import Image
+    colour = str(tmp_path / "map.png")
+    Image.new("RGB", (64, 64)).save(colour)
+
+    def textures(materials):
+        return estimate_memory(rp.validate_scene({"materials": materials,
+                                                  "objects": [{"shape": "box", "material": "used"}]})).textures
+    plain = {"used": {"kd": 0.5}}
+    assert textures({**plain, "spare": {"kd_map": colour}}) == 0
+    assert textures({**plain, "default": {"kd_map": colour}}) > 0
+    assert textures({"used": {"kd_map": colour}}) > 0
+
+
+def test_an_empty_mesh_file_over_the_budget_is_refused_naming_it(tmp_path):
+    """An empty OBJ weighs nothing (no triangle, no read floor) but its object's OBJECT_BYTES: the largest object
+    is still the first, at 0 bytes, and the refusal names its path rather than failing to find one."""
+    from raycast_phong.errors import SceneError
+    from raycast_phong.renderer.budget import OBJECT_BYTES, check_memory
+    (tmp_path / "empty.obj").write_bytes(b"")
+    scene = rp.validate_scene({"render": {"width": 1, "height": 1},
+                               "objects": [{"shape": "mesh", "path": str(tmp_path / "empty.obj")}]})
+    found = estimate_memory(scene, tile_rays=0)
+    assert (found.triangles, found.geometry, found.largest, found.largest_bytes) == (0, OBJECT_BYTES, 0, 0)
+    with pytest.raises(SceneError, match=r"the largest objects\.0\.path = '.*empty\.obj'"):
+        check_memory(scene, 100, tile_rays=0)
