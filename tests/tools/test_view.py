@@ -1420,3 +1420,20 @@ def test_the_scene_file_watched_is_any_file_load_reads_as_a_scene(scene_path, tm
     mesh = tmp_path / "tetra.obj"
     mesh.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
     assert open_scene(mesh).watched is None
+
+
+@pytest.mark.parametrize(("objects", "spheres"), [(64, 64), (65, 1)])
+def test_a_frame_names_up_to_max_spheres_bounding_spheres_and_one_round_more(objects, spheres):
+    """The page's near limit: MAX_SPHERES (64) objects each get their sphere, 65 get one sphere round them all.
+    Catches `>` made `>=` (64 objects merged into one) and a limit one off."""
+    from raycast_phong.geometry.build import build_geometry
+    from raycast_phong.renderer.reuse import FrameCache
+    from raycast_phong.tools.view.server import MAX_SPHERES, object_spheres
+    assert MAX_SPHERES == 64
+    scene = rp.validate_scene({"objects": [{"shape": "box", "translate": [3 * i, 0, 0]} for i in range(objects)]})
+    cache = FrameCache()
+    cache.derived(build_geometry(scene))
+    found = object_spheres(cache, objects)
+    assert len(found) == spheres
+    if spheres > 1:
+        assert [round(sphere[0]) for sphere in found] == [3 * i for i in range(objects)]
