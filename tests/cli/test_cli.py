@@ -296,3 +296,13 @@ def test_a_textured_render_says_nothing_about_its_maps_brightness(tmp_path):
         done = runner.invoke(app, ["render", str(TEXTURED), "-o", str(tmp_path / "a.png"), *sets, *extra])
         assert done.exit_code == 0, done.output
         assert "note:" not in done.output and "darker" not in done.output, done.output
+
+
+def test_an_error_line_of_exactly_the_limit_is_kept_whole_and_one_more_is_cut():
+    """Every error line passes cli.common.one_line: up to MESSAGE_CHARACTERS (2000) it is kept whole, one character
+    more is cut to 2000 with the count left out; a line feed is shown escaped, never ends the line."""
+    from raycast_phong.cli.common import MESSAGE_CHARACTERS, one_line
+    assert MESSAGE_CHARACTERS == 2000
+    assert one_line("a" * 2000) == "a" * 2000
+    assert one_line("a" * 2001) == "a" * 2000 + "… (1 more characters)"
+    assert one_line("a\nb") == "a\\nb"
