@@ -84,3 +84,14 @@ def test_an_unknown_key_with_a_bracket_is_named_not_an_internal_error(tmp_path, 
     with pytest.raises(rp.SceneError, match=r"unknown key.*; valid keys here: ") as refused:
         rp.load_scene(path)
     assert key in str(refused.value)
+
+
+def test_a_value_or_key_of_exactly_shown_characters_is_echoed_whole_and_one_more_is_cut():
+    """A value echoed in a message is cut past SHOWN_CHARACTERS (80), counting what it leaves out; a key path's
+    part of up to 80 characters is written plain, a longer one quoted and cut."""
+    from raycast_phong.values.messages import SHOWN_CHARACTERS, dotted, shorten
+    assert SHOWN_CHARACTERS == 80
+    assert shorten("v" * 80) == "v" * 80
+    assert shorten("v" * 81) == "v" * 80 + "… (1 more characters)"
+    assert dotted(("materials", "k" * 80, "kd")) == f"materials.{'k' * 80}.kd"
+    assert dotted(("materials", "k" * 81, "kd")) == f"materials.'{'k' * 79}… (3 more characters).kd"
