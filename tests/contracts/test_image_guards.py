@@ -207,6 +207,24 @@ def test_a_contact_sheet_over_the_budget_is_refused_before_its_cells_are_read(tm
     assert result.exit_code == 0 and (out / "sweep-contact.png").is_file(), result.output
 
 
+def test_a_sheet_whose_need_is_exactly_the_budget_is_made_and_one_byte_less_refused(tmp_path):
+    """The sheet's need is every cell held (12 B a pixel), the composed sheet (28 B a pixel) and the largest cell
+    as compare reads it (COMPARE_BYTES_PER_SAMPLE a sample): two RGB cells, one 300 × 200 and one 100 × 50, fit a
+    budget of exactly that sum and not one byte less. Catches `>` made `>=` and a term left out."""
+    import pytest
+
+    from raycast_phong.errors import ImageError
+    from raycast_phong.tools.sweep import COMPARE_BYTES_PER_SAMPLE, _sheet_grid, check_sheet_memory
+    cells = [(("render.shading", value),) for value in ("flat", "phong")]
+    outputs = [claiming_png(tmp_path / "0.png", 300, 200), claiming_png(tmp_path / "1.png", 100, 50)]
+    grid, _ = _sheet_grid(cells, [(200, 300), (50, 100)])
+    need = ((300 * 200 + 100 * 50) * 12 + grid.image_width * grid.image_height * 28
+            + 300 * 200 * 3 * COMPARE_BYTES_PER_SAMPLE)
+    check_sheet_memory(tmp_path / "s-contact.png", cells, outputs, need)
+    with pytest.raises(ImageError, match=r"s-contact.png: the contact sheet of 2 cells of up to 300×200 pixels"):
+        check_sheet_memory(tmp_path / "s-contact.png", cells, outputs, need - 1)
+
+
 def test_the_sheet_check_reads_headers_only(tmp_path):
     """Cells whose headers claim 4000 × 4000 pixels (1 MB files): refused from the headers, naming the sheet."""
     import pytest
