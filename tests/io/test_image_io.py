@@ -269,3 +269,18 @@ def test_images_over_the_read_budget_are_refused_naming_the_largest(tmp_path):
     with pytest.raises(ImageError) as caught:
         check_image_reads((small, large), budget=1, per_sample=4)
     assert str(caught.value).startswith(f"{large}: its header says 6×4 pixels with 3 channels")
+
+
+def test_a_label_exactly_as_wide_as_its_room_fits_at_its_size_and_at_the_least_size():
+    """fitting_size keeps a size at which the text is at most the width: text drawn exactly as wide as the room
+    keeps that size, including at MIN_FONT, the least it tries; a pixel less room at MIN_FONT fits nothing."""
+    from raycast_phong.io.labels import MIN_FONT, fitting_size, text_coverage
+    text = "shading=flat"
+    assert MIN_FONT == 8
+    if text_coverage(text, 20) is None:
+        pytest.skip("no font to draw labels with")
+    wide = text_coverage(text, 20).shape[1]
+    assert fitting_size(text, 20, wide) == 20
+    least = text_coverage(text, MIN_FONT).shape[1]
+    assert fitting_size(text, MIN_FONT, least) == MIN_FONT
+    assert fitting_size(text, MIN_FONT, least - 1) is None
