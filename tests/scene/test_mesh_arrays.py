@@ -146,3 +146,15 @@ def test_a_trimesh_s_simple_material_is_read_as_its_mtl_is(tmp_path):
     with Image.open(MODELS / "fuze uv.jpg") as image:
         assert source.texture_sizes == ((image.height, image.width),)
     assert [m.kd_map for m in source.read().materials] == [0]
+
+
+def test_a_vertex_at_exactly_the_position_limit_is_taken_and_only_those_past_it_counted():
+    """Coordinates may be ±POSITION_LIMIT (1e18) exactly: such arrays are taken; beside a vertex past it, the
+    refusal counts only that one. Catches `<=` made `<` in the check and in its count."""
+    from raycast_phong.scene.mesh_arrays import held_mesh
+    from raycast_phong.tolerances import POSITION_LIMIT
+    assert POSITION_LIMIT == 1e18
+    edge = [[0, 0, 0], [1e18, 0, 0], [0, -1e18, 0]]
+    held_mesh(np.asarray(edge, float), [[0, 1, 2]])  # (mesh_scene would then refuse its camera, framed past 1e18)
+    with pytest.raises(rp.SceneError, match=r"vertices: 1 vertex\(es\) of a face with NaN, infinite or beyond"):
+        held_mesh(np.asarray([*edge, [0, 0, 2e18]], float), [[0, 1, 2], [0, 1, 3]])
