@@ -117,3 +117,16 @@ def test_the_plan_command_and_render_agree_on_whether_a_scene_fits_near_the_budg
                                                                                      render.output)
         if not fits:
             assert "above the" in plan.output and plan.output.strip() == render.output.strip()
+
+
+def test_a_shininess_of_exactly_the_float32_limit_stays_in_float32_and_a_larger_one_does_not():
+    """F32_SHININESS_LIMIT (2^24 / 512 = 32768) is the stiffest highlight float32 shades: at exactly it the plan
+    keeps float32, just above it (32769) it shades in float64 and says why. Catches `>` made `>=`."""
+    from raycast_phong.codes import StageName
+    from raycast_phong.renderer.plan import F32_SHININESS_LIMIT
+    assert F32_SHININESS_LIMIT == 32768
+    at = rp.build_plan(scene(materials__m__shininess="32768"))
+    assert not at.keeps(StageName.FLOAT64_SHADING)
+    above = rp.build_plan(scene(materials__m__shininess="32769"))
+    assert above.keeps(StageName.FLOAT64_SHADING)
+    assert "shininess 32769 > 32768" in above.describe()
