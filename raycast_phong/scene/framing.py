@@ -19,7 +19,7 @@ import numpy as np
 from ..codes import OUTPUT_PATH, View
 from ..errors import SceneError
 from ..io.encoding import DISPLAY, LINEAR
-from ..tolerances import MIN_EXTENT
+from ..tolerances import MIN_EXTENT, POSITION_LIMIT
 from ..values.messages import Location
 from .overrides import apply_override
 
@@ -106,6 +106,7 @@ def framed_dict(found, path: str, stem: str, colour: str, overrides: list[str] |
     }
     data["camera"] = frame_camera(found.centre, found.radius, up_axis, view, (640.0, 480.0), 40.0, False)
     data["lights"] = [key_light(found.centre, data["camera"], up_axis)]
+    _check_in_reach(found, data, where)
     for assignment in overrides:
         apply_override(data, assignment, source=where)
     # Frame again for the size, field of view and camera type the overrides chose; a key they set wins.
@@ -122,6 +123,17 @@ def framed_dict(found, path: str, stem: str, colour: str, overrides: list[str] |
                 ("lights",), ("lights", "0"), ("lights", "0", "position")}:
             lights[0]["position"] = key_light(found.centre, camera, up_axis)["position"]
     return data
+
+
+def _check_in_reach(found, data: dict, where: Location) -> None:
+    """The camera and key light the framing placed stay within POSITION_LIMIT: a model near that limit (or
+    larger than it) is refused for its own extent, not for a camera.position its user never gave."""
+    placed = [data["camera"]["position"], data["lights"][0]["position"]]
+    if max(abs(float(x)) for point in placed for x in point) > POSITION_LIMIT:
+        centre = [float(f"{x:.3g}") for x in found.centre]
+        raise SceneError(f"a model {2 * found.radius:.3g} across at {centre} is too large or too far out to frame: "
+                         f"the camera framing it would stand past ±{POSITION_LIMIT:g}; allowed: a model small and near "
+                         f"enough to the origin that its framing camera stays within ±{POSITION_LIMIT:g}", where)
 
 
 def parse_up(text: str, where: Location) -> np.ndarray:

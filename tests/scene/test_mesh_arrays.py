@@ -155,6 +155,29 @@ def test_a_vertex_at_exactly_the_position_limit_is_taken_and_only_those_past_it_
     from raycast_phong.tolerances import POSITION_LIMIT
     assert POSITION_LIMIT == 1e18
     edge = [[0, 0, 0], [1e18, 0, 0], [0, -1e18, 0]]
-    held_mesh(np.asarray(edge, float), [[0, 1, 2]])  # (mesh_scene would then refuse its camera, framed past 1e18)
+    held_mesh(np.asarray(edge, float), [[0, 1, 2]])  # (mesh_scene then refuses to frame it: the test below)
     with pytest.raises(rp.SceneError, match=r"vertices: 1 vertex\(es\) of a face with NaN, infinite or beyond"):
         held_mesh(np.asarray([*edge, [0, 0, 2e18]], float), [[0, 1, 2], [0, 1, 3]])
+
+
+@pytest.mark.parametrize("size, framed", [(1e17, True), (1e18, False)])
+def test_a_model_whose_framing_camera_would_pass_the_position_limit_is_refused_for_its_extent(tmp_path, size, framed):
+    """A model 1e18 across is taken as arrays (every coordinate within ±1e18) but its framing camera would stand
+    past 1e18: refused naming the model's extent, not a camera.position the caller never gave, for arrays and for
+    a file alike (one home: scene.framing); one 1e17 across frames, its camera within the limit."""
+    from typer.testing import CliRunner
+
+    from raycast_phong.cli import app
+    vertices = np.asarray([[0, 0, 0], [size, 0, 0], [0, size, 0]], float)
+    path = tmp_path / "far.obj"
+    path.write_text("".join(f"v {x!r} {y!r} {z!r}\n" for x, y, z in vertices.tolist()) + "f 1 2 3\n")
+    if framed:
+        assert max(abs(x) for x in rp.mesh_scene(vertices, [[0, 1, 2]]).camera.position) < 1e18
+        return
+    extent = r"a model 1.41e\+18 across at \[5e\+17, 5e\+17, 0.0\] is too large"
+    with pytest.raises(rp.SceneError, match=extent) as error:
+        rp.mesh_scene(vertices, [[0, 1, 2]])
+    assert "camera.position" not in str(error.value)
+    done = CliRunner().invoke(app, ["scene", str(path)])
+    assert done.exit_code == 2 and "far.obj" in done.output and "too large or too far out to frame" in done.output
+    assert "camera.position" not in done.output and len(done.output.strip().splitlines()) == 1, done.output
