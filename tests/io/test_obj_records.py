@@ -296,3 +296,21 @@ def test_a_one_value_map_option_without_its_value_leaves_the_file_name(tmp_path)
     assert sources[found["w"].kd_map].source == tmp_path / "wood.png" and sources[found["w"].kd_map].wrap_s == "repeat"
     assert notes == [f"{tmp_path / 'm.mtl'}: only colour maps (map_Kd, map_Ka, map_Ke) are applied; not applied: "
                      "bump wood.png, map_ks wood.png, refl wood.png"], notes
+
+
+@pytest.mark.parametrize(("extra", "read"), [(0, True), (1, False)])
+def test_an_mtl_of_exactly_max_side_file_bytes_is_read_and_one_byte_more_is_not(tmp_path, extra, read):
+    """An .mtl of 16 MiB (MAX_SIDE_FILE, what a scene file may be) is read, its material defined; one a byte
+    longer is a note and the default material. The files are sparse: a material, then zeros. Catches the limit
+    one off or doubled (the size is written here, not taken from the module)."""
+    from raycast_phong.io.meshes.mtl import read_obj_materials
+    path = tmp_path / "big.mtl"
+    with path.open("wb") as handle:
+        handle.write(b"newmtl red\nKd 1 0 0\n")
+        handle.truncate((16 << 20) + extra)
+    found = read_obj_materials(tmp_path / "m.obj", ["big.mtl"])
+    if read:
+        assert found.library["red"].kd == (1.0, 0.0, 0.0) and found.notes == (), found.notes
+    else:
+        assert found.library == {} and len(found.notes) == 1 and "'big.mtl' cannot be read" in found.notes[0], \
+            found.notes
