@@ -242,3 +242,17 @@ def test_a_uchar_count_of_128_or_more_corners_is_unsigned_in_the_row_walk(tmp_pa
     assert len(read.faces) == 129
     faces = read.faces.tolist()
     assert sorted(map(tuple, faces))[:2] == [(0, 1, 2), (0, 2, 3)] and [130, 131, 132] in faces
+
+
+
+def test_an_empty_polygon_ending_an_uneven_file_is_walked(tmp_path):
+    """A binary PLY of a quad, a triangle and a face of no corners (a uchar count of 0, the file's last byte): the
+    row walk reads that count at the very end as 0 entries, and the quad and triangle read as their fans. Catches
+    the walk refusing a count that ends the data, or a count of 0."""
+    head = (b"ply\nformat binary_little_endian 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
+            b"property float z\nelement face 3\nproperty list uchar int vertex_indices\nend_header\n")
+    body = struct.pack("<15f", 0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0.5, 1.8, 0)
+    body += struct.pack("<B4i", 4, 0, 1, 2, 3) + struct.pack("<B3i", 3, 3, 2, 4) + struct.pack("<B", 0)
+    (tmp_path / "e.ply").write_bytes(head + body)
+    read = mesh_source(tmp_path / "e.ply").read()
+    assert sorted(turned(f) for f in read.faces.tolist()) == [(0, 1, 2), (0, 2, 3), (2, 4, 3)]
