@@ -156,3 +156,18 @@ def test_an_ascii_ply_s_last_polygon_without_a_line_feed_is_cut(tmp_path):
     normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     assert len(found.faces) == 4 and (normal[:, 2] > 0).all(), found.faces
     assert np.isclose(0.5 * normal[:, 2].sum(), AREA)
+
+
+def test_an_ascii_ply_s_face_of_no_corners_leaves_its_concave_polygon_cut(tmp_path):
+    """An ASCII PLY whose face lines are `0` (a polygon of no corners) and the L: the empty face is no reason to
+    leave the file to trimesh's fans, so the L is still ear-clipped (4 triangles wound as it, area 3). Catches
+    a count of 0 corners taken as a bad face line (`< 0` made `<= 0`)."""
+    head = ("ply\nformat ascii 1.0\nelement vertex 6\nproperty float x\nproperty float y\nproperty float z\n"
+            "element face 2\nproperty list uchar int vertex_indices\nend_header\n")
+    rows = [" ".join(map(str, p)) for p in L]
+    (tmp_path / "m.ply").write_text(head + "\n".join(rows) + "\n0\n6 0 1 2 3 4 5\n")
+    found = mesh_source(tmp_path / "m.ply").read()
+    corners = found.vertices[found.faces]
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    assert len(found.faces) == 4 and (normal[:, 2] > 0).all(), found.faces
+    assert np.isclose(0.5 * normal[:, 2].sum(), AREA)
