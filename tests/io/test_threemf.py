@@ -153,6 +153,9 @@ RED_BASE = '<basematerials id="1"><base name="Red" displaycolor="#FF0000"/></bas
     (RED_BASE + '<m:compositematerials id="2" matid="1" matindices="0 3"><m:composite values="0.5 0.5"/>'
      '</m:compositematerials>', "compositematerials 2 has matindices '0 3'; allowed: one or more indices of "
      "basematerials 1's bases, 0..0"),
+    (RED_BASE + '<m:compositematerials id="2" matid="1" matindices="0 1"><m:composite values="0.5 0.5"/>'
+     '</m:compositematerials>', "compositematerials 2 has matindices '0 1'; allowed: one or more indices of "
+     "basematerials 1's bases, 0..0"),  # an index equal to the count of bases
     (RED_BASE + '<m:compositematerials id="2" matid="1" matindices="-1 0"><m:composite values="0.5 0.5"/>'
      '</m:compositematerials>', "compositematerials 2 has matindices '-1 0'"),
     (RED_BASE + '<m:compositematerials id="2" matid="1"><m:composite values="1"/></m:compositematerials>',
@@ -216,6 +219,9 @@ def test_the_consortiums_multiproperties_sample_renders_its_base_colour(tmp_path
     ("", '<triangle v1="0" v2="1" v3="2" pid="7" p1="0"/>', "property group 7"),
     ('<m:colorgroup id="2"><m:color color="#FF0000"/></m:colorgroup>',
      '<triangle v1="0" v2="1" v3="2" pid="2" p1="3"/>', "property index 3"),
+    # An index equal to the group's count (one past its last entry): refused, not read past the end.
+    ('<m:colorgroup id="2"><m:color color="#FF0000"/></m:colorgroup>',
+     '<triangle v1="0" v2="1" v3="2" pid="2" p1="1"/>', "property index 1 is outside property group 2's 0..0"),
     ('<m:colorgroup id="2"><m:color color="red"/></m:colorgroup>', '<triangle v1="0" v2="1" v3="9"/>', "colour 'red'"),
     ('<m:colorgroup id="2"><m:color color="#FF0000"/></m:colorgroup><m:multiproperties id="6" pids="2">'
      '<m:multi pindices="-1"/><m:multi pindices="0"/></m:multiproperties>',
