@@ -31,6 +31,10 @@ EFFECTS = {
     "shiny": '<profile_COMMON><technique sid="t"><blinn><diffuse><color>0.8 0.2 0.2 1</color></diffuse>'
              '<specular><color>0.5 0.5 0.5 1</color></specular><shininess><float>200</float></shininess>'
              '</blinn></technique></profile_COMMON>',
+    "rgb": '<profile_COMMON><technique sid="t"><phong><emission><color>0 0 0.25</color></emission>'
+           '<ambient><color>0.1 0.2 0.3</color></ambient><diffuse><color>0.8 0.2 0.2 1</color></diffuse>'
+           '<specular><color>0.5 0.5 0.5</color></specular><shininess><float>20</float></shininess>'
+           '</phong></technique></profile_COMMON>',  # colours of three numbers, no alpha
     "constant": '<profile_COMMON><technique sid="t"><constant><emission><color>0 1 0 1</color></emission>'
                 '</constant></technique></profile_COMMON>',
 }
@@ -196,6 +200,7 @@ def test_the_count_the_memory_check_weighs_is_what_instance_nodes_build(tmp_path
 @pytest.mark.parametrize(("effect", "ka", "kd", "ks", "shininess", "ke"), [
     # phong: f = 20 is wider than the scene's lobe (32), so k_s is lowered by (20 + 2)/(32 + 2) (docs/meshes.md)
     ("phong", (0.1, 0.2, 0.3), (0.8, 0.2, 0.2), (0.5 * 22 / 34,) * 3, 20.0, (0, 0, 0.25)),
+    ("rgb", (0.1, 0.2, 0.3), (0.8, 0.2, 0.2), (0.5 * 22 / 34,) * 3, 20.0, (0, 0, 0.25)),  # the same as RGB alone
     ("shiny", (0.8, 0.2, 0.2), (0.8, 0.2, 0.2), (0.5,) * 3, 200.0, (0, 0, 0)),  # no ambient: k_a = k_d
     ("common", (1, 0, 0), (1, 0, 0), (0, 0, 0), None, (0, 0, 0)),  # lambert: no specular term
     ("constant", (0, 0, 0), (0, 0, 0), (0, 0, 0), None, (0, 1, 0)),  # emission only
