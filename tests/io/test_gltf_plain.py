@@ -119,6 +119,8 @@ READ_HERE = {
     "a textured material": TEXTURED,
     "a translation": {"nodes": nested(("nodes", 0, "translation"), [1.0, 2.0, 3.0])},
     "a rotation on the mesh's node": {"nodes": nested(("nodes", 1, "rotation"), [0.0, 0.0, 0.6, 0.8])},
+    # |q|² exactly 4 ε (2⁻⁵⁰), the least trimesh normalises (below it, no rotation): a half turn about x.
+    "a rotation of the least length normalised": {"nodes": nested(("nodes", 1, "rotation"), [2.0 ** -25, 0, 0, 0])},
     "T, R and S under a matrix": {"nodes": [{"children": [1], "matrix": [2, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 1, 2, 3,
                                                                           1]},
                                             {"mesh": 0, "translation": [0.5, 0, 0], "rotation": [0.6, 0, 0, 0.8],
