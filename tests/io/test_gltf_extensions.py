@@ -107,6 +107,19 @@ def test_emissive_strength_multiplies_the_emissive_factor_and_is_clamped_to_1(tm
     assert any("clamped to 1" in note for note in read.notes), read.notes
 
 
+@pytest.mark.parametrize("strength", [None, 5.0])
+def test_an_emissive_factor_of_exactly_1_is_not_said_to_be_clamped(tmp_path, strength):
+    """k_e's largest is 1: an emissive factor reaching exactly 1 (1 alone, or 0.2 × strength 5) is within it, read
+    as it is with no note. Catches the clamp note taken at 1 rather than above it."""
+    material = {"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0},
+                "emissiveFactor": [1.0, 0.5, 0.0] if strength is None else [0.2, 0.1, 0.0]}
+    if strength is not None:
+        material["extensions"] = {"KHR_materials_emissive_strength": {"emissiveStrength": strength}}
+    read = read_mesh(quad_gltf(tmp_path, material), "t")
+    np.testing.assert_allclose(read.materials[0].ke, (1.0, 0.5, 0.0), atol=1e-12)
+    assert not any("clamped" in note for note in read.notes), read.notes
+
+
 @pytest.mark.parametrize("before", [(), ("KHR_materials_unlit",)])  # the unread one first, or after one it reads
 @pytest.mark.parametrize(("extension", "words"), [("KHR_texture_basisu", "KTX2 (Basis Universal) textures")])
 def test_an_unsupported_required_extension_is_refused_in_the_renderer_s_words(tmp_path, extension, words, before):
