@@ -80,6 +80,14 @@ def test_a_triangle_fan_is_its_triangles(tmp_path, indexed):
     assert area == pytest.approx(2.5 * np.sin(2 * np.pi / 5), rel=1e-6)  # the regular pentagon's area
 
 
+def test_a_triangle_fan_of_three_vertices_is_one_triangle(tmp_path):
+    """The smallest fan, 3 indices (0, 2, 3 of the pentagon), is its one triangle, facing +Z; catches the fan
+    needing more than 3 vertices."""
+    primitive = {"attributes": {"POSITION": 0}, "mode": 6, "indices": 1}
+    read = read_mesh(write(tmp_path / "fan.gltf", [primitive], indices=[0, 2, 3]), "t")
+    assert triangles(read) == {(0, 2, 3)} and np.allclose(facing(read), 1.0)
+
+
 def test_a_triangle_strip_alternates_its_winding_to_keep_facing(tmp_path):
     """§3.7.2.1: strip triangle i is (v_i, v_i+1+i%2, v_i+2−i%2): every one faces the same way."""
     points = [[0, 0, 0], [0, 1, 0], [1, 0, 0], [1, 1, 0], [2, 0, 0], [2, 1, 0]]
