@@ -154,6 +154,22 @@ def test_the_read_check_weighs_the_format_s_parse_beside_the_render_s_bytes(tmp_
     check_mesh_read(source, max_memory=above)
 
 
+def test_the_read_check_allows_exactly_what_the_read_needs(tmp_path):
+    """The check's limits are inclusive: an OFF of 1 triangle needs MESH_READ_BYTES + OFF's parse_bytes (820
+    bytes, above its size floor): allowed at exactly 820, refused at 819; and a budget of exactly the floor still
+    counts the triangles (the floor alone is no reason to skip them), so it is refused. Catches `need >
+    available` or `floor > available` taken as `>=`."""
+    from raycast_phong.io.meshes.size import check_mesh_read, read_floor
+    path = tmp_path / "one.off"
+    path.write_text("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
+    source = mesh_source(path, "one")
+    assert source.triangles() == 1 and source.format.parse_bytes == 550 and read_floor(source) < 820
+    check_mesh_read(source, max_memory=820)
+    for budget in (819, read_floor(source)):
+        with pytest.raises(SceneError, match="1 triangles needs"):
+            check_mesh_read(source, max_memory=budget)
+
+
 def test_a_header_that_does_not_parse_is_weighed_by_the_file_s_size(tmp_path):
     """A malformed count (no number) is not 0 triangles: the estimate falls back to the size bound, a triangle
     for every SMALLEST_TRIANGLE bytes, so a large malformed file is still weighed before the read words it."""
