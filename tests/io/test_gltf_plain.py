@@ -266,3 +266,14 @@ def test_an_embedded_image_whose_view_runs_past_the_binary_chunk_counts_nothing(
     assert gltf.texture_sizes(path, read_document(path), lambda file: None) == [(2, 3)]
     path.write_bytes(_glb_with_one_texture(png, len(png) + (-len(png) % 4) + 4))
     assert gltf.texture_sizes(path, read_document(path), lambda file: None) == []
+
+
+def test_a_flattening_node_scale_keeps_the_faces_winding(tmp_path):
+    """A node scale of (1, 1, 0): its determinant is exactly 0, not a mirror, so the faces keep their winding as
+    written (only a negative determinant turns them over) and the stored normals are dropped. Catches the mirror
+    test taken as `determinant <= 0`."""
+    tree, data = document(nodes=nested(("nodes", 1, "scale"), [1.0, 1.0, 0.0]))
+    found = mesh_source(write_gltf(tmp_path / "flat.gltf", tree, data)).read()
+    np.testing.assert_array_equal(found.faces, FACES)
+    np.testing.assert_array_equal(found.vertices[:, 2], 0.0)
+    assert found.normals is None
