@@ -486,3 +486,24 @@ def test_a_mirrored_item_flips_the_winding_and_its_corner_colours_stay_at_their_
     assert colour == {(0, 0, 0): (255, 0, 0), (-10, 0, 0): (0, 255, 0), (-10, 10, 0): (0, 0, 255)}
     a, b, c = (np.array(corner) for corner in face)
     assert np.cross(b - a, c - a)[2] > 0  # counter-clockwise seen from +Z: the mirrored face still faces up
+
+
+def test_a_flattening_build_transform_keeps_the_faces_winding(tmp_path):
+    """A build item transform that scales z by 0 (determinant exactly 0, not a mirror) leaves the square in
+    z = 0 as it is, its faces wound as written and each corner's colour at its corner; only a negative
+    determinant turns faces (and their property indices) over. Catches the mirror test taken as
+    `determinant <= 0`, for the faces or for their corners' properties."""
+    resources = ('<m:colorgroup id="5"><m:color color="#FF0000"/><m:color color="#00FF00"/>'
+                 '<m:color color="#0000FF"/></m:colorgroup>')
+    triangles = ('<triangle v1="0" v2="1" v3="2" pid="5" p1="0" p2="1" p3="2"/>'
+                 '<triangle v1="0" v2="2" v3="3" pid="5" p1="2" p2="1" p3="0"/>')
+    plain = read(write_3mf(tmp_path / "plain.3mf", resources, triangles))
+    path = write_3mf(tmp_path / "flat.3mf", resources, triangles)
+    with zipfile.ZipFile(path) as archive:
+        model = archive.read("3D/3dmodel.model").decode()
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("3D/3dmodel.model", model.replace(
+            '<item objectid="1"/>', '<item objectid="1" transform="1 0 0 0 1 0 0 0 0 0 0 0"/>'))
+    flat = read(path)
+    np.testing.assert_array_equal(flat.vertices[flat.faces], plain.vertices[plain.faces])
+    np.testing.assert_array_equal(flat.corner_colour, plain.corner_colour)
