@@ -472,3 +472,20 @@ def test_a_skin_s_joint_at_the_count_is_refused_naming_the_field(tmp_path, joint
         return
     with pytest.raises(SceneError, match=refused):
         read_mesh(path, "t")
+
+
+def test_an_instance_scaled_flat_keeps_its_faces_winding(tmp_path):
+    """The quad (in z = 0, facing +z) instanced once with scale (1, 1, 0): the determinant is exactly 0, not a
+    mirror, so its faces keep their winding, facing +z as written; only a negative determinant turns them over.
+    Catches the mirror test taken as `determinant <= 0`."""
+    from tests.io.test_gltf_extensions import quad_gltf
+    path = quad_gltf(tmp_path, {})
+    document = json.loads(path.read_text())
+    attributes = {"SCALE": with_accessor(document, np.array([[1.0, 1.0, 0.0]]))}
+    document["nodes"][0]["extensions"] = {"EXT_mesh_gpu_instancing": {"attributes": attributes}}
+    document["extensionsUsed"] = ["EXT_mesh_gpu_instancing"]
+    path.write_text(json.dumps(document))
+    read = read_mesh(path, "t")
+    corners_ = read.vertices[read.faces]
+    winding = np.cross(corners_[:, 1] - corners_[:, 0], corners_[:, 2] - corners_[:, 0])
+    assert read.faces.shape == (2, 3) and (winding[:, 2] > 0).all(), winding
