@@ -209,6 +209,16 @@ def test_a_non_finite_node_transform_is_one_line_naming_the_node(tmp_path, field
     assert f"nodes[0].{field} is " in message and f"allowed: {length} finite numbers" in message, message
 
 
+@pytest.mark.parametrize(("written", "shown"), [("x" * 78, "'" + "x" * 78 + "'"), ("x" * 79, "'" + "x" * 76 + "...")])
+def test_a_bad_node_value_is_shown_whole_up_to_80_characters(tmp_path, written, shown):
+    """A bad node field's value is quoted whole while its repr is at most 80 characters (78 letters and their
+    quotes), else cut to 77 and `...`. Catches the cut made at 80 itself."""
+    from raycast_phong.io.meshes.source import mesh_source
+    with pytest.raises(SceneError) as caught:
+        mesh_source(nan_quad(tmp_path, "translation", written)).read()
+    assert f"nodes[0].translation is {shown}; allowed: 3 finite numbers" in str(caught.value), str(caught.value)
+
+
 def test_corrupt_draco_data_is_one_line_naming_the_file(tmp_path, caplog):
     """main: trimesh's two warnings, then "every vertex of the model lies within 0". The intact file renders."""
     shutil.copytree(MODELS / "BoxDraco", tmp_path / "box")
