@@ -148,6 +148,17 @@ def test_a_stated_up_axis_is_the_framing_up(tmp_path):
     assert "up = [0.0, 0.0, 1.0]" in done.stdout, done.stdout
 
 
+@pytest.mark.parametrize(("padding", "up"), [(0, (0.0, 0.0, 1.0)), (1, None)])
+def test_the_up_axis_is_looked_for_in_the_first_64_kib(padding, up):
+    """The up axis is searched for in the document's first 64 KiB (ASSET_LIMIT; exporters write <asset> first):
+    an <up_axis> ending exactly at byte 65,536 is found, one a byte later is not (COLLADA's default then).
+    Catches the limit one off or doubled (the size is written here, not taken from the module)."""
+    from raycast_phong.io.meshes.collada import collada_up
+    tag = b"<up_axis>Z_UP</up_axis>"
+    data = b" " * ((1 << 16) - len(tag) + padding) + tag
+    assert collada_up(data) == up
+
+
 def test_a_colour_input_gives_vertex_colours(tmp_path):
     """A COLOR input beside a material (kwxport_test_vcolors.dae rendered white): red, green, blue at the
     three corners."""
