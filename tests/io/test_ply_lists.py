@@ -256,3 +256,22 @@ def test_an_empty_polygon_ending_an_uneven_file_is_walked(tmp_path):
     (tmp_path / "e.ply").write_bytes(head + body)
     read = mesh_source(tmp_path / "e.ply").read()
     assert sorted(turned(f) for f in read.faces.tolist()) == [(0, 1, 2), (0, 2, 3), (2, 4, 3)]
+
+
+@pytest.mark.parametrize(("past", "shown"), [(0, "'property float'"), (1, "'floa'")])
+def test_a_bad_header_line_is_read_within_the_first_64_kib(tmp_path, past, shown):
+    """A header's bad line is looked for in the file's first 64 KiB (HEADER_LIMIT): a nameless `property float`
+    (after comments) ending exactly at byte 65,536 is named whole; a byte later, only `property floa` lies within
+    the limit, named as a bad type. Catches the limit one off or doubled (the size is written here)."""
+    start = b"ply\nformat ascii 1.0\n"
+    tail = b"element vertex 1\nproperty float"
+    padding = (1 << 16) - len(start) - len(tail) + past
+    comments = b"".join(b"comment " + b"x" * 91 + b"\n" for _ in range(padding // 100))
+    comments += b"comment " + b"x" * (padding - len(comments) - 9) + b"\n"
+    data = start + comments + tail
+    assert len(data) == (1 << 16) + past
+    (tmp_path / "p.ply").write_bytes(data + b"\nend_header\n1\n")
+    with pytest.raises(SceneError) as caught:
+        mesh_source(tmp_path / "p.ply").read()
+    assert f"property type {shown} is not a PLY type, or the property has no name" in str(caught.value), \
+        str(caught.value)
