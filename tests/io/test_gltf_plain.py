@@ -234,6 +234,16 @@ def test_a_glb_json_chunk_over_the_parse_limit_is_left_unparsed(tmp_path, monkey
         else:
             assert found == gltf_json.Document({}, None, None)
 
+
+def test_a_gltf_of_64_mib_and_a_byte_is_not_parsed(tmp_path):
+    """The limit itself, unpatched: a .gltf one byte over 64 MiB (a sparse file of zeros, which would not parse) is
+    left unparsed, no problem said, never read whole. Catches JSON_LIMIT moved (the size is written here)."""
+    from raycast_phong.io.meshes import gltf_json
+    path = tmp_path / "huge.gltf"
+    with path.open("wb") as handle:
+        handle.truncate((64 << 20) + 1)
+    assert gltf_json.read_document(path) == gltf_json.Document({}, None, None)
+
 def _glb_with_one_texture(png: bytes, view_length: int) -> bytes:
     """A .glb of one material whose base colour map is the PNG `png`, the binary chunk's only content (padded
     to 4 bytes), its bufferView `view_length` bytes long."""
