@@ -88,6 +88,22 @@ def test_face_colours_colour_their_fans(tmp_path):
         assert all(np.argmax(c) == polygon for c in colours)
 
 
+@pytest.mark.parametrize("full", ["200", "0.784313725"])
+def test_a_face_without_a_colour_among_coloured_faces_is_drawn_white(tmp_path, full):
+    """Face colours are optional per face (the OFF specification): a face line with no colour among coloured ones
+    is white (every channel 1), not black, whichever form (0..255 or 0..1) the others are written in. Catches the
+    missing row filled with 0, and filled with 1 before the form is known (1/255 among 0..255 colours)."""
+    rgb = {0: f"{full} 0 0", 2: f"0 0 {full}"}
+    data = text("OFF", face=lambda k, f: f"{len(f)} {' '.join(map(str, f))} {rgb.get(k, '')}".rstrip())
+    found = read(tmp_path, data)
+    for face, colours in zip(found.faces.tolist(), found.corner_colour):
+        polygon = next(k for k, f in enumerate(FACES) if set(face) <= set(f))
+        expected = [0, 0, 0] if polygon != 1 else [1, 1, 1]
+        if polygon != 1:
+            expected[0 if polygon == 0 else 2] = 200 / 255
+        np.testing.assert_allclose(colours, [expected] * 3, atol=1e-6)
+
+
 def test_noff_keeps_the_file_s_normals(tmp_path):
     normal = np.array([0.0, 0.6, 0.8])
     found = read(tmp_path, text("NOFF", vertex=lambda k, p: " ".join(map(str, [*p, *normal]))))

@@ -196,8 +196,8 @@ def _colours(values: np.ndarray, name: str, notes: list[str]) -> np.ndarray | No
         return None
     rgba = np.ones((len(values), 4))
     rgba[:, :values.shape[1]] = values[:, :4]
-    rgba[np.isnan(rgba)] = 1.0
-    floats = not (rgba[:, :3] > 1).any()
+    floats = not (rgba[:, :3] > 1).any()  # NaN > 1 is False: a row without a colour does not decide the form
+    rgba[np.isnan(rgba)] = 1.0 if floats else 255.0  # full, in the form the other rows are written in
     return np.clip(np.round(rgba * (255 if floats else 1)), 0, 255).astype(np.uint8)
 
 
