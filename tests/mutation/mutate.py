@@ -83,7 +83,7 @@ def tests_for(module: str) -> list[str]:
     top = module.split("/")[0] if "/" in module else ""
     mirror = [f"tests/{top}"] if top and (REPO / "tests" / top).is_dir() else []
     return [*mirror, *EXTRA_TESTS.get(top, ()), *MODULE_TESTS.get(module, ())]
-COPIED = ("raycast_phong", "tests", "scenes", "cli.py", "pyproject.toml", "README.md", "docs", "benchmarks", ".ci")
+COPIED = ("raycast_phong", "tests", "scenes", "cli.py", "pyproject.toml", "README.md", "LICENSE", "docs", "benchmarks", ".ci")
 WORK = Path(os.environ.get("TMPDIR", "/tmp")) / "raycast-phong-mutation"
 
 # Bugs written by hand (issue 19's independent sample, outside the kernels): (module, original text, mutated
