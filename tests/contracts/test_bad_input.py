@@ -413,6 +413,16 @@ def test_set_with_bad_syntax_or_index(tmp_path, assignment, expected):
     refuse_scene(tmp_path, {}, f"--set {assignment!r}: ", expected, args=("--set", assignment))
 
 
+def test_set_splits_at_the_first_equals_sign_so_a_value_may_hold_one():
+    """`--set KEY=VALUE`: a key path holds no '=', a value may (a file name, a quoted string): the assignment
+    splits at the first one. Catches a split at the last, which made `output.path="a` the key."""
+    from raycast_phong.scene.overrides import apply_override
+    data: dict = {}
+    apply_override(data, 'output.path="a=b.png"')
+    apply_override(data, "render.background=[0.5, 0.5, 0.5]")
+    assert data == {"output": {"path": "a=b.png"}, "render": {"background": [0.5, 0.5, 0.5]}}
+
+
 def test_set_value_is_validated_like_the_file(tmp_path):
     refuse_scene(tmp_path, {}, "materials.red.kd: each coefficient must be in [0, 1]",
                  args=("--set", "materials.red.kd=[2, 0, 0]"))

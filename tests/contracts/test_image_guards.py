@@ -87,6 +87,17 @@ def test_batch_jobs_are_capped_by_the_cores_and_the_budget():
     assert count == 1 and (cores == 1 or "budget" in warning)
 
 
+def test_each_batch_worker_is_given_room_for_itself_and_its_scenes(monkeypatch):
+    """The budget holds budget // (2 × WORKER_BYTES) workers: each takes WORKER_BYTES before its first scene and
+    its scenes as much again. On an 8-core machine, 4 × WORKER_BYTES runs 2 workers, a byte less 1. Catches the
+    scenes' share left out (4 workers)."""
+    from raycast_phong.tools.batch import run
+    monkeypatch.setattr(run.os, "cpu_count", lambda: 8)
+    assert run.worker_count(8, 4 * run.WORKER_BYTES)[0] == 2
+    assert run.worker_count(8, 4 * run.WORKER_BYTES - 1)[0] == 1
+    assert run.worker_count(2, 4 * run.WORKER_BYTES) == (2, None)  # as many as asked: no warning
+
+
 def test_batch_says_when_the_cap_applies(tmp_path):
     folder = tmp_path / "scenes"
     folder.mkdir()

@@ -63,6 +63,7 @@ MODULE_TESTS = {"renderer/budget": ("tests/contracts/test_resource_guards.py",  
                 "pytest_plugin": ("tests/image", "tests/project/test_pytest_plugin.py"),  # its own, and the references
                 "io/system": ("tests/project/test_one_home.py",),  # the budget rule's one home
                 "tools/batch/manifest": ("tests/contracts/test_batch_faults.py",),
+                "tools/batch/run": ("tests/contracts/test_image_guards.py",),  # the workers the budget holds
                 "jit": ("tests/contracts/test_kernel_cache_fallback.py",)}
 
 
@@ -83,7 +84,8 @@ def tests_for(module: str) -> list[str]:
     top = module.split("/")[0] if "/" in module else ""
     mirror = [f"tests/{top}"] if top and (REPO / "tests" / top).is_dir() else []
     return [*mirror, *EXTRA_TESTS.get(top, ()), *MODULE_TESTS.get(module, ())]
-COPIED = ("raycast_phong", "tests", "scenes", "cli.py", "pyproject.toml", "README.md", "LICENSE", "docs", "benchmarks", ".ci")
+COPIED = ("raycast_phong", "tests", "scenes", "cli.py", "pyproject.toml", "README.md", "LICENSE", "docs", "benchmarks",
+          ".ci")
 WORK = Path(os.environ.get("TMPDIR", "/tmp")) / "raycast-phong-mutation"
 
 # Bugs written by hand (issue 19's independent sample, outside the kernels): (module, original text, mutated

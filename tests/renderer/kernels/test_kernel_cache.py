@@ -128,6 +128,18 @@ def test_each_kernel_module_s_key_covers_every_module_it_reads_and_only_those(pa
     assert sorted(path.name for path in cache.iterdir()) == ["outside.mine-0123456789abcdef", current.name]
 
 
+def test_every_kernel_module_s_key_changes_with_numba_s_version(monkeypatch):
+    """A cached kernel is machine code numba made: another numba must not load it (its runtime, its calling
+    conventions), so numba's version is in every key. Catches the key made of the sources alone."""
+    import numba
+
+    from raycast_phong import jit
+    before = jit.kernel_keys.__wrapped__()
+    monkeypatch.setattr(numba, "__version__", numba.__version__ + "+another")
+    after = jit.kernel_keys.__wrapped__()
+    assert after.keys() == before.keys() and all(after[name] != before[name] for name in before), (before, after)
+
+
 @pytest.mark.slow
 def test_the_first_render_says_it_compiles_and_keeps_compilation_out_of_the_frame(cold_package):
     """After an install (an empty cache) `render` says it is compiling before it does, and reports those
