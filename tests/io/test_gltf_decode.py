@@ -136,6 +136,32 @@ def test_instances_are_each_placed_and_counted_before_the_read(tmp_path):
     assert differing(image, expected, 0.02) < 0.005
 
 
+def test_each_instance_counts_its_mesh_s_triangles_where_they_outnumber_its_vertices(tmp_path):
+    """The estimate's count is instances × triangles, and where vertices are fewer than triangles (shared, as in
+    any closed mesh) it is the triangles that decide: a mesh of 4 vertices and 100 triangles (its two indexed
+    over and over) placed 1,000 times by EXT_mesh_gpu_instancing counts 100,000. Catches the instances left off
+    the triangles (the vertices' 3,998 would win)."""
+    import base64
+
+    from raycast_phong.io.meshes.source import mesh_source
+    from tests.io.test_gltf_extensions import quad_gltf
+    path = quad_gltf(tmp_path, {})
+    document = json.loads(path.read_text())
+    indices = np.tile(np.array([0, 1, 2, 0, 2, 3], "<u2"), 50)
+    document["meshes"][0]["primitives"][0]["indices"] = len(document["accessors"])
+    data = indices.tobytes()
+    document["buffers"].append({"uri": "data:application/octet-stream;base64," + base64.b64encode(data).decode(),
+                                "byteLength": len(data)})
+    document["bufferViews"].append({"buffer": len(document["buffers"]) - 1, "byteLength": len(data)})
+    document["accessors"].append({"bufferView": len(document["bufferViews"]) - 1, "componentType": 5123,
+                                  "count": len(indices), "type": "SCALAR"})
+    places = {"TRANSLATION": with_accessor(document, np.zeros((1000, 3)))}
+    document["nodes"][0]["extensions"] = {"EXT_mesh_gpu_instancing": {"attributes": places}}
+    document["extensionsUsed"] = ["EXT_mesh_gpu_instancing"]
+    path.write_text(json.dumps(document))
+    assert mesh_source(path).triangles() == 1000 * 100
+
+
 def test_specular_glossiness_maps_diffuse_specular_and_glossiness_onto_the_lecture_s_model():
     """The same box in both workflows (glTF-Transform's test files): k_d = k_a and the map are the diffuse
     ones, as the metallic-roughness box's base colour; k_s = specularFactor 0.2 and glossiness 1 the sharpest

@@ -282,6 +282,26 @@ def test_transparency_and_illum_notes_name_only_the_materials_past_their_default
                      "scope"], notes
 
 
+@pytest.mark.parametrize("words, name", [
+    (["-mm", "0", "1", "wood.png"], "wood.png"),  # base and gain: two values
+    (["-o", "0.5", "0.5", "0", "-s", "2", "2", "1", "wood.png"], "wood.png"),  # three each
+    (["-bm", "0.5", "-imfchan", "l", "bump map.png"], "bump map.png"),  # one each; a space in the name kept
+])
+def test_each_map_option_takes_as_many_values_as_the_specification_gives_it(words, name):
+    """The .mtl specification's texture map options: -mm base gain, -o/-s/-t u v w, the others one value. Catches
+    -mm taking one value (`map_Kd -mm 0 1 wood.png` naming the file '1 wood.png')."""
+    assert mtl.map_file(words) == name
+
+
+def test_a_material_without_an_illum_line_keeps_its_specular_as_illum_2_does(tmp_path):
+    """No `illum`: the lecture's full model (illum 2), so a given Ks shines; `illum 1` drops it (colour and
+    ambient only). Catches the default taken as 1 (every such exporter's highlight gone)."""
+    notes: list[str] = []
+    found = mtl.parse_mtl("newmtl plain\nKs 1 1 1\nnewmtl two\nKs 1 1 1\nillum 2\nnewmtl one\nKs 1 1 1\nillum 1\n",
+                          tmp_path / "m.mtl", notes, [])
+    assert [found[name].ks for name in ("plain", "two", "one")] == [(1.0, 1.0, 1.0), (1.0, 1.0, 1.0), (0.0, 0.0, 0.0)]
+
+
 def test_a_one_value_map_option_without_its_value_leaves_the_file_name(tmp_path):
     """`map_Kd -clamp wood.png` (the option's on/off left out): the last word is the file, never taken as the
     option's value; and three maps that are not applied are listed whole, with no `...` (that is for a fourth).

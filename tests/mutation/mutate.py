@@ -64,6 +64,8 @@ MODULE_TESTS = {"renderer/budget": ("tests/contracts/test_resource_guards.py",  
                 "io/system": ("tests/project/test_one_home.py",),  # the budget rule's one home
                 "tools/batch/manifest": ("tests/contracts/test_batch_faults.py",),
                 "tools/batch/run": ("tests/contracts/test_image_guards.py",),  # the workers the budget holds
+                "geometry/checks": ("tests/scene/test_limits_at_edges.py",  # the 1/d² gain bound at its edges
+                                    "tests/contracts/test_float_edges.py"),
                 "jit": ("tests/contracts/test_kernel_cache_fallback.py",)}
 
 
