@@ -317,6 +317,23 @@ HAND_MUTANTS = (
      'if encoding == "utf-8":\n                return data[len(mark) - 1:]'),  # a UTF-8 mark stripped one byte short
     ("io/meshes/gltf", "if start + length > document.binary[1]:",
      "if start > document.binary[1]:"),  # an embedded image's view past the binary chunk read
+    ("io/meshes/off", "rgba[np.isnan(rgba)] = 1.0 if floats else 255.0",
+     "rgba[np.isnan(rgba)] = 1.0"),  # an uncoloured OFF face among 0..255 colours at 1/255 (the bug it found)
+    # The eleventh independent set's survivors (each now killed by a test written for it, or by one its subset lacked):
+    ('jit', 'digest = hashlib.sha256(numba.__version__.encode())',
+     'digest = hashlib.sha256()'),  # the kernel key without numba's version
+    ('scene/overrides', 'assignment.split("=", 1))',
+     'assignment.rsplit("=", 1))'),  # --set split at the last '='
+    ('tools/batch/run', 'budget // (2 * WORKER_BYTES)',
+     'budget // WORKER_BYTES'),  # a batch worker's scenes left out of its room
+    ('geometry/checks', 'gains[k] = 1.0 / max(d, floor) ** 2',
+     'gains[k] = 1.0 / max(d, floor)'),  # the 1/d² gain bound as 1/d
+    ('io/meshes/mtl', '"-mm": 2,',
+     '"-mm": 1,'),  # -mm taking one value
+    ('io/meshes/mtl', 'values.get("illum", [2])[0]',
+     'values.get("illum", [1])[0]'),  # the default illum 1
+    ('io/meshes/gltf', 'total += copies * (accessors[indexed]["count"] // 3)',
+     'total += accessors[indexed]["count"] // 3'),  # instances left off the triangle count
 )
 OPERATOR_SWAPS = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,
                   ast.Lt: ast.LtE, ast.LtE: ast.Lt, ast.Gt: ast.GtE, ast.GtE: ast.Gt, ast.Eq: ast.NotEq,
