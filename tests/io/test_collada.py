@@ -76,6 +76,15 @@ def test_a_skinned_mesh_renders_in_its_bind_shape_pose(tmp_path):
     assert any("bind-shape pose" in note for note in mesh.notes), mesh.notes
 
 
+@pytest.mark.parametrize("skinned", [False, True])
+def test_a_skinned_mesh_counts_its_source_s_triangles_before_the_read(tmp_path, skinned):
+    """The memory estimate's count follows an <instance_controller> to the mesh its <skin> names in `source`
+    (COLLADA 1.4.1: <skin source="#geometry">, as <morph source=...>): one triangle either way. Before, it
+    looked for a `mesh` attribute no skin has and counted 0."""
+    from raycast_phong.io.meshes.source import mesh_source
+    assert mesh_source(write_dae(tmp_path / "m.dae", "common", skinned)).triangles() == 1
+
+
 def test_an_effect_without_profile_common_renders_with_the_default_material(tmp_path):
     write_dae(tmp_path / "glsl.dae", "glsl", False)
     done = runner.invoke(app, ["render", str(tmp_path / "glsl.dae"), "-o", str(tmp_path / "x.png"), "--set",

@@ -315,7 +315,7 @@ def count(handle, size: int, mesh) -> int | None:
                 target = by_id.get((child.get("url") or "").lstrip("#"))
                 if name == "instance_controller" and target is not None:  # drawn as its skin's or morph's mesh
                     found = next((c for c in target if _local(c.tag) in ("skin", "morph")), None)
-                    target = None if found is None else by_id.get((found.get("mesh") or "").lstrip("#"))
+                    target = None if found is None else by_id.get((found.get("source") or "").lstrip("#"))
                     name = "instance_geometry"
                 if name == "instance_geometry" and target is not None:
                     total += geometry(target)
