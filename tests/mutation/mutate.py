@@ -319,6 +319,8 @@ HAND_MUTANTS = (
      "if start > document.binary[1]:"),  # an embedded image's view past the binary chunk read
     ("io/meshes/off", "rgba[np.isnan(rgba)] = 1.0 if floats else 255.0",
      "rgba[np.isnan(rgba)] = 1.0"),  # an uncoloured OFF face among 0..255 colours at 1/255 (the bug it found)
+    ("io/meshes/collada", 'by_id.get((found.get("source") or "").lstrip("#"))',
+     'by_id.get((found.get("mesh") or "").lstrip("#"))'),  # a skin's mesh looked up by an attribute it lacks
     # The eleventh independent set's survivors (each now killed by a test written for it, or by one its subset lacked):
     ('jit', 'digest = hashlib.sha256(numba.__version__.encode())',
      'digest = hashlib.sha256()'),  # the kernel key without numba's version
