@@ -321,6 +321,8 @@ HAND_MUTANTS = (
      "rgba[np.isnan(rgba)] = 1.0"),  # an uncoloured OFF face among 0..255 colours at 1/255 (the bug it found)
     ("io/meshes/collada", 'by_id.get((found.get("source") or "").lstrip("#"))',
      'by_id.get((found.get("mesh") or "").lstrip("#"))'),  # a skin's mesh looked up by an attribute it lacks
+    ("tools/view/session", "stale = [client.pending, client.committed] if full else [client.pending]",
+     "stale = [client.pending]"),  # a waiting full request replaced without a dropped message
     # The eleventh independent set's survivors (each now killed by a test written for it, or by one its subset lacked):
     ('jit', 'digest = hashlib.sha256(numba.__version__.encode())',
      'digest = hashlib.sha256()'),  # the kernel key without numba's version

@@ -476,6 +476,37 @@ def test_latest_wins_while_a_render_runs(scene_path):
     assert (first["id"], last["id"]) == (1, 4)
 
 
+def test_a_waiting_full_request_replaced_by_a_newer_one_is_told_dropped(scene_path):
+    """Two full requests (2, 3) sent while a draft (1) renders: the newer replaces the waiting one, and the page
+    is told that 2 was dropped (it stops waiting for it), as for drafts. Catches a full request replacing the
+    waiting full one without a word."""
+    started, release = threading.Event(), threading.Event()
+
+    def held_render(session, scene, **options):
+        if not started.is_set():
+            started.set()
+            release.wait(60)
+        return session_render(session, scene, **options)
+
+    with connect(client_for(scene_path, render=held_render)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "draft"}))
+        assert started.wait(60)
+        for request_id in (2, 3):
+            ws.send_text(json.dumps({"type": "render", "id": request_id, "quality": "full"}))
+        told = json.loads(ws.receive_text())
+        while told["type"] == "progress":
+            told = json.loads(ws.receive_text())
+        release.set()
+        frames = []
+        while not frames or frames[-1]["id"] != 3:
+            message = ws.receive()
+            if message.get("bytes") is not None:
+                frames.append(unpack(message["bytes"])[0])
+    assert told == {"type": "dropped", "id": 2}
+    assert [header["id"] for header in frames] == [3]
+
+
 def test_a_release_is_never_coalesced_away_by_the_next_strokes_drafts(scene_path, tmp_path):
     """Strokes back to back (issue 35): a release's full frame (2) sent while a draft (1) renders, then the next
     stroke's drafts (3, 4) at once. Latest wins among the drafts only: the running draft is cancelled (its state
