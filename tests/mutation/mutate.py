@@ -608,6 +608,8 @@ def main() -> None:
     parser.add_argument("--hand", action="store_true", help="run HAND_MUTANTS, the bugs written by hand")
     parser.add_argument("--hand-file", type=Path, help="with --hand: a JSON list of [module, original, mutated, "
                         "why] to run instead of HAND_MUTANTS (a set written apart, measured before it joins them)")
+    parser.add_argument("--whole", action="store_true", help="run each survivor of its subset again against the "
+                        "whole suite (a test elsewhere may kill it); slower, but what 'killed' means in a measure")
     parser.add_argument("--kind", action="append", choices=KINDS, help="only mutants of this kind (repeatable)")
     parser.add_argument("--core", action="store_true", help="the kernel and stage modules only (CORE_MODULES)")
     parser.add_argument("--outside-core", action="store_true", help="every module but CORE_MODULES and the kernels")
@@ -659,6 +661,11 @@ def main() -> None:
             passed.add(tuple(tests))
             print(f"baseline {' '.join(tests)} passed in {time.perf_counter() - began:.0f} s", flush=True)
         run_one(mutant, seed_cache, tests, args.timeout)
+        if args.whole and mutant.status == "survived" and tests != ["tests"]:
+            if ("tests",) not in passed:
+                baseline(["tests"], args.timeout, seed_cache)
+                passed.add(("tests",))
+            run_one(mutant, seed_cache, ["tests"], args.timeout * 3)
         print(f"[{index}/{len(todo)}] {mutant.status:8} {mutant.seconds:5.1f} s  {mutant.key}  {mutant.failed}",
               flush=True)
         write_reports(mutants, args.out, args.tests or [])
