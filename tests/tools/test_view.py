@@ -453,19 +453,28 @@ def test_an_edited_scene_file_is_reloaded_and_a_broken_one_kept_out(scene_path, 
         assert fixed["scene"]["ambient"] == [0.1, 0.1, 0.1] and fixed["problem"] is None
 
 
-def test_latest_wins_while_a_render_runs(scene_path):
-    """Requests that arrive while a render runs replace one another: only the newest is rendered."""
+@contextmanager
+def draft_held(scene_path, settings: dict | None = None):
+    """A page whose draft 1 (with `settings`) is rendering, held until the `release` yielded beside the socket is
+    set (up to 60 s); later frames render at once: requests sent meanwhile queue behind it."""
     started, release = threading.Event(), threading.Event()
 
     def held_render(session, scene, **options):
-        started.set()
-        release.wait(60)
+        if not started.is_set():
+            started.set()
+            release.wait(60)
         return session_render(session, scene, **options)
 
     with connect(client_for(scene_path, render=held_render)) as ws:
         ws.receive_text()
-        ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "draft"}))
+        ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "draft", "settings": settings or {}}))
         assert started.wait(60)
+        yield ws, release
+
+
+def test_latest_wins_while_a_render_runs(scene_path):
+    """Requests that arrive while a render runs replace one another: only the newest is rendered."""
+    with draft_held(scene_path) as (ws, release):
         for request_id in (2, 3, 4):
             ws.send_text(json.dumps({"type": "render", "id": request_id, "quality": "draft"}))
         dropped = [json.loads(ws.receive_text()) for _ in range(2)]
@@ -480,18 +489,7 @@ def test_a_waiting_full_request_replaced_by_a_newer_one_is_told_dropped(scene_pa
     """Two full requests (2, 3) sent while a draft (1) renders: the newer replaces the waiting one, and the page
     is told that 2 was dropped (it stops waiting for it), as for drafts. Catches a full request replacing the
     waiting full one without a word."""
-    started, release = threading.Event(), threading.Event()
-
-    def held_render(session, scene, **options):
-        if not started.is_set():
-            started.set()
-            release.wait(60)
-        return session_render(session, scene, **options)
-
-    with connect(client_for(scene_path, render=held_render)) as ws:
-        ws.receive_text()
-        ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "draft"}))
-        assert started.wait(60)
+    with draft_held(scene_path) as (ws, release):
         for request_id in (2, 3):
             ws.send_text(json.dumps({"type": "render", "id": request_id, "quality": "full"}))
         told = json.loads(ws.receive_text())
@@ -512,19 +510,8 @@ def test_a_release_is_never_coalesced_away_by_the_next_strokes_drafts(scene_path
     stroke's drafts (3, 4) at once. Latest wins among the drafts only: the running draft is cancelled (its state
     is stale), the full frame is rendered next, with the settings it was sent with, then the newest draft; draft
     3 is dropped."""
-    started, release = threading.Event(), threading.Event()
-
-    def held_render(session, scene, **options):
-        if not started.is_set():
-            started.set()
-            release.wait(60)
-        return session_render(session, scene, **options)
-
     light = lambda x: {"lights.0.position": [x, 2, 3]}
-    with connect(client_for(scene_path, render=held_render)) as ws:
-        ws.receive_text()
-        ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "draft", "settings": light(0)}))
-        assert started.wait(60)
+    with draft_held(scene_path, light(0)) as (ws, release):
         ws.send_text(json.dumps({"type": "render", "id": 2, "quality": "full", "settings": light(1)}))
         for request_id in (3, 4):
             ws.send_text(json.dumps({"type": "render", "id": request_id, "quality": "draft",
