@@ -106,7 +106,6 @@ def framed_dict(found, path: str, stem: str, colour: str, overrides: list[str] |
     }
     data["camera"] = frame_camera(found.centre, found.radius, up_axis, view, (640.0, 480.0), 40.0, False)
     data["lights"] = [key_light(found.centre, data["camera"], up_axis)]
-    _check_in_reach(found, data, where)
     for assignment in overrides:
         apply_override(data, assignment, source=where)
     # Frame again for the size, field of view and camera type the overrides chose; a key they set wins.
@@ -115,21 +114,25 @@ def framed_dict(found, path: str, stem: str, colour: str, overrides: list[str] |
     if isinstance(output, dict) and output.get("aovs") and OUTPUT_PATH not in touched:
         output["path"] = f"{stem}.exr"  # layers need EXR, as the format's own default path says
     camera, lights = data.get("camera"), data.get("lights")
+    framed_camera = isinstance(camera, dict) and not touched & {("camera",), ("camera", "position")}
+    framed_light = isinstance(lights, list) and lights and isinstance(lights[0], dict) and not touched & {
+        ("lights",), ("lights", "0"), ("lights", "0", "position")}
     if isinstance(camera, dict) and ("camera",) not in touched:
         placed = frame_camera(found.centre, found.radius, up_axis, view, _render_size(data),
                               _number(camera.get("fov"), 40.0), camera.get("type") == "orthographic")
         camera.update({k: v for k, v in placed.items() if ("camera", k) not in touched})
-        if isinstance(lights, list) and lights and isinstance(lights[0], dict) and not touched & {
-                ("lights",), ("lights", "0"), ("lights", "0", "position")}:
+        if framed_light:
             lights[0]["position"] = key_light(found.centre, camera, up_axis)["position"]
+    ours = ([camera["position"]] if framed_camera else []) + ([lights[0]["position"]] if framed_light else [])
+    _check_in_reach(found, ours, where)
     return data
 
 
-def _check_in_reach(found, data: dict, where: Location) -> None:
-    """The camera and key light the framing placed stay within POSITION_LIMIT: a model near that limit (or
-    larger than it) is refused for its own extent, not for a camera.position its user never gave."""
-    placed = [data["camera"]["position"], data["lights"][0]["position"]]
-    if max(abs(float(x)) for point in placed for x in point) > POSITION_LIMIT:
+def _check_in_reach(found, placed: list, where: Location) -> None:
+    """The camera and key light positions the framing placed (not those an override gave) stay within
+    POSITION_LIMIT: a model near that limit (or larger than it, or a field of view that puts the camera that far)
+    is refused for its own extent, not for a camera.position its user never gave."""
+    if max((abs(float(x)) for point in placed for x in point), default=0.0) > POSITION_LIMIT:
         centre = [float(f"{x:.3g}") for x in found.centre]
         raise SceneError(f"a model {2 * found.radius:.3g} across at {centre} is too large or too far out to frame: "
                          f"the camera framing it would stand past ±{POSITION_LIMIT:g}; allowed: a model small and near "

@@ -181,3 +181,16 @@ def test_a_model_whose_framing_camera_would_pass_the_position_limit_is_refused_f
     done = CliRunner().invoke(app, ["scene", str(path)])
     assert done.exit_code == 2 and "far.obj" in done.output and "too large or too far out to frame" in done.output
     assert "camera.position" not in done.output and len(done.output.strip().splitlines()) == 1, done.output
+
+
+def test_only_the_positions_the_framing_chose_are_held_to_the_limit():
+    """A model 1e18 across with the camera and light positions its user gave is shown from there (the framing
+    placed nothing past the limit); one 1e17 across whose `camera.fov = 1` puts the framing camera ~40 times
+    farther is refused for its extent, as the default framing of a larger one is. Catches the check made before
+    the overrides (then the user's own positions did not count, and the narrow field of view went unseen)."""
+    large = np.asarray([[0, 0, 0], [1e18, 0, 0], [0, 1e18, 0]], float)
+    given = ["camera.position=[5e17, 5e17, 9e17]", "camera.look_at=[5e17, 5e17, 0]", "lights.0.position=[0, 0, 9e17]"]
+    assert rp.mesh_scene(large, [[0, 1, 2]], overrides=given).camera.position == (5e17, 5e17, 9e17)
+    with pytest.raises(rp.SceneError, match=r"too large or too far out to frame") as error:
+        rp.mesh_scene(large / 10, [[0, 1, 2]], overrides=["camera.fov=1"])
+    assert "camera.position" not in str(error.value)
