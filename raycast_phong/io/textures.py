@@ -72,7 +72,11 @@ def decode_file(path: Path, colour: str, channel: str = "rgb") -> np.ndarray:
     its float texels at full size: the memory estimate counts the shrunk map only."""
     import OpenImageIO as oiio
     with native_errors_kept():  # libpng prints its own "libpng error: ..." line; the caller words one line
-        found = oiio.ImageInput.open(str(path))
+        # colour as stored: OpenImageIO would multiply a PNG's colour by its alpha, darkening a cut-out's edge
+        # texels (and differing from the same image embedded in a GLB, which PIL decodes)
+        straight = oiio.ImageSpec()
+        straight.attribute("oiio:UnassociatedAlpha", 1)
+        found = oiio.ImageInput.open(str(path), straight)
         if found is None:
             raise ValueError(oiio.geterror() or "not an image")
         try:

@@ -317,3 +317,23 @@ def test_the_memory_estimate_checks_and_counts_every_map_key_of_a_material(tmp_p
             with pytest.raises(SceneError, match=r"materials\.glow\.ke_map.*no such texture file 'missing\.png'|"
                                                  r"no such texture file .*missing\.png"):
                 estimate_memory(rp.load_scene(scene))
+
+
+def test_a_maps_colour_is_read_as_stored_beside_any_alpha(tmp_path):
+    """A grey (L), grey + alpha (LA) or RGBA PNG as a colour map: the grey is red, green and blue alike, and the
+    colour is the stored one whatever the alpha (PNG's alpha is straight; a cut-out's edge texels keep their
+    colour), as PIL decodes the same image embedded in a GLB. 200 decoded from sRGB by hand:
+    ((200/255 + 0.055) / 1.055)^2.4 = 0.5776; as stored, 200/255 = 0.7843. Catches OpenImageIO's default of
+    multiplying the colour by the alpha (40/255: 0.1216), grey left in red only, or LA read as two colours."""
+    from PIL import Image
+
+    from raycast_phong.io.textures import decode_file, decode_pil
+    grey, alpha = np.full((2, 3), 200, np.uint8), np.full((2, 3), 40, np.uint8)
+    images = {"L": grey, "LA": np.stack([grey, alpha], axis=2), "RGBA": np.stack([grey, grey, grey, alpha], axis=2)}
+    for mode, pixels in images.items():
+        Image.fromarray(pixels, mode).save(tmp_path / f"{mode}.png")
+        for colour, value in (("linear", 0.5776), ("display", 200 / 255)):
+            with Image.open(tmp_path / f"{mode}.png") as image:
+                for decoded in (decode_file(tmp_path / f"{mode}.png", colour), decode_pil(image, colour)):
+                    assert decoded.shape == (2, 3, 3)
+                    np.testing.assert_allclose(decoded, value, atol=1e-4, err_msg=f"{mode} under {colour}")
