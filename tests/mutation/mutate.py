@@ -607,8 +607,8 @@ def main() -> None:
                         help="a module to mutate, its path below raycast_phong/ (repeatable; default: every module; "
                              "with --hand, the hand mutants of these modules)")
     parser.add_argument("--hand", action="store_true", help="run HAND_MUTANTS, the bugs written by hand")
-    parser.add_argument("--hand-file", type=Path, help="with --hand: a JSON list of [module, original, mutated, "
-                        "why] to run instead of HAND_MUTANTS (a set written apart, measured before it joins them)")
+    parser.add_argument("--hand-file", type=Path, help="a JSON list of [module, original, mutated, why] to run "
+                        "instead of HAND_MUTANTS (a set written apart, measured before it joins them); implies --hand")
     parser.add_argument("--whole", action="store_true", help="run each survivor of its subset again against the "
                         "whole suite (a test elsewhere may kill it); slower, but what 'killed' means in a measure")
     parser.add_argument("--kind", action="append", choices=KINDS, help="only mutants of this kind (repeatable)")
@@ -632,7 +632,7 @@ def main() -> None:
         earlier = json.loads(args.rerun.read_text(encoding="utf-8"))
         mutants = [Mutant(**m) for m in earlier["mutants"]]
         todo = [m for m in mutants if m.status in ("survived", "timeout", "pending")]
-    elif args.hand:  # with --module: those of these modules only
+    elif args.hand or args.hand_file:  # with --module: those of these modules only
         listed = json.loads(args.hand_file.read_text(encoding="utf-8")) if args.hand_file else HAND_MUTANTS
         mutants = todo = [m for m in hand_mutants(listed) if not args.module or m.module in args.module]
     else:

@@ -70,6 +70,19 @@ def test_a_set_written_apart_is_read_with_its_reasons():
     assert [(m.module, m.line, m.kind) for m in found] == [(module, source.splitlines().index(line) + 1, "hand")]
 
 
+def test_a_set_written_apart_is_listed_without_hand(tmp_path, monkeypatch, capsys):
+    """--hand-file alone runs that set: it once needed --hand too, and without it ran every generated mutant of
+    the package for hours instead."""
+    import json
+    module = "renderer/budget"
+    source = (mutate.REPO / mutate.PACKAGE / f"{module}.py").read_text(encoding="utf-8")
+    line = next(t for t in source.splitlines() if t.strip().startswith("def "))
+    (tmp_path / "set.json").write_text(json.dumps([[module, line, line + "  # x", "why"]]), encoding="utf-8")
+    monkeypatch.setattr(sys, "argv", ["mutate.py", "--hand-file", str(tmp_path / "set.json"), "--list"])
+    mutate.main()
+    assert capsys.readouterr().out.strip().splitlines()[-1] == "1 mutants"
+
+
 def test_the_baseline_imports_the_core_package_from_the_copy():
     """The check that a mutant's copy is what gets imported: it once built `import raycast_phong/pipeline`
     from the package path, a syntax error that stopped every mutation run before its first mutant."""
