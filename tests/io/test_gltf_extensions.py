@@ -163,6 +163,37 @@ def test_a_texture_transform_moves_the_uvs_of_its_map(tmp_path, rotation):
     assert len(image) > 100 and green.mean() > 0.8 and not others.any(), (green.mean(), others.mean())
 
 
+@pytest.mark.parametrize("maps, u_range, noted", [
+    ({"emissiveTexture": (0.5, 0.25)}, (0.5, 0.75), False),  # an emissive map alone: its own transform
+    ({"baseColorTexture": (0.5, 0.25), "emissiveTexture": (0.0, 0.5)}, (0.5, 0.75), True),  # the base colour's
+    ({"baseColorTexture": (0.5, 0.25), "emissiveTexture": (0.5, 0.25)}, (0.5, 0.75), False),  # alike: no note
+    ({"baseColorTexture": (0.5, 0.25)}, (0.5, 0.75), False),  # no emissive map: nothing differs
+    ({"baseColorTexture": (0.0, 1.0), "emissiveTexture": None}, (0.0, 1.0), False),  # the identity, given or not
+])
+def test_one_set_of_uvs_follows_the_base_colour_maps_transform_else_the_emissive_maps(tmp_path, maps, u_range,
+                                                                                      noted):
+    """The renderer keeps one set of texture coordinates a corner: they follow the base colour map's
+    KHR_texture_transform, or the emissive map's when it is the only map; two maps transformed apart read the
+    base colour's, with one note saying so (none when the other map is absent, or its transform is the identity
+    given or left out). Each transform here is (offset u, scale): u' = offset + scale u, so u over [0, 1] lands
+    in [offset, offset + scale]; None: no transform."""
+    quadrants_png(tmp_path / "quadrants.png")
+    material = {"pbrMetallicRoughness": {"metallicFactor": 0.0}, "emissiveFactor": [1, 1, 1]}
+    for key, transform in maps.items():
+        info = {"index": 0}
+        if transform is not None:
+            offset, scale = transform
+            info["extensions"] = {"KHR_texture_transform": {"offset": [offset, 0], "scale": [scale, 1]}}
+        (material["pbrMetallicRoughness"] if key == "baseColorTexture" else material)[key] = info
+    read = read_mesh(quad_gltf(tmp_path, material, images=[{"uri": "quadrants.png"}]), "t")
+    u = read.corner_uv[..., 0]
+    assert (u.min(), u.max()) == pytest.approx(u_range, abs=1e-6)
+    said = [note for note in read.notes if "KHR_texture_transform differs" in note]
+    assert len(said) == int(noted), read.notes
+    if noted:
+        assert "base colour's texture coordinates are used for both" in said[0]
+
+
 @pytest.mark.parametrize("transform, gltf_uv, expected", [
     # The extension's own example: offset (0, 1), rotation π/2, scale ½ reads the image's lower left quadrant.
     (((0.0, 1.0), math.pi / 2, (0.5, 0.5)), [(0, 0), (1, 0), (1, 1), (0, 1)],
