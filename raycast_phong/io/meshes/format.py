@@ -76,7 +76,6 @@ class Loaded:
     up: tuple[float, float, float] | None = None   # the up axis the file itself states (COLLADA's <up_axis>)
     library: dict | None = None                    # an OBJ's materials by name (its .mtl files)
     samplers: dict = field(default_factory=dict)   # a glTF's material extensions and samplers (io.meshes.gltf)
-    images: tuple[str, ...] = ()                   # a PLY's TextureFile names, as found beside it
     # The format's own reading of a metallic-roughness material trimesh made from it (COLLADA's effects), given
     # that material and the glTF rule's reading of it; None (or a None result): the glTF rule, noted.
     own_material: Callable[[Any, Any], Any] | None = None

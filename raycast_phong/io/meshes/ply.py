@@ -85,8 +85,8 @@ def read(reading: Reading) -> Loaded:
     resolver = RegularFiles(reading.path)
     resolver.locate = lambda folder, name: folder / resolved(name, reading.path)  # `<this>` in a TextureFile name
     loaded = load(reading, file_obj=io.BytesIO(data if evened is None else evened), resolver=resolver)
-    images = _textures(reading.path, data[:HEADER_LIMIT], reading.notes)
-    return Loaded(parts(loaded) or strip_parts(loaded), images=tuple(images))
+    _note_textures(reading.path, data[:HEADER_LIMIT], reading.notes)
+    return Loaded(parts(loaded) or strip_parts(loaded))
 
 
 COLOURS = ("red", "green", "blue")
@@ -182,19 +182,18 @@ def strip_parts(loaded) -> list:
     return [Part(vertices, faces, None, None)]
 
 
-def _textures(path: Path, head: bytes, notes: list[str]) -> list[str]:
-    """A PLY's TextureFile names , `<this>` replaced; a note for each missing image and for images
-    after the first (one map per file is read)."""
+def _note_textures(path: Path, head: bytes, notes: list[str]) -> None:
+    """A note for a PLY's missing TextureFile image (`<this>` replaced) and for images after the first (one map
+    per file is read: trimesh's, as a SimpleMaterial's image)."""
     names = [resolved(name, path) for name in texture_names(head)]
     if not names:
-        return []
+        return
     for name in names[:1]:
         if not (path.parent / name).is_file():
             notes.append(f"{path}: texture {shown_name(name)} is missing")
     if len(names) > 1:
         notes.append(f"{path}: names {len(names)} TextureFile images (a texture number per face); only the first, "
                      f"{names[0]!r}, is read, for every face")
-    return names
 
 
 def explain(handle, mesh) -> str | None:

@@ -195,7 +195,7 @@ def _surfaces(parts, loaded, pbr: str, path: Path, notes: list[str], sources: li
     coordinates (None unless some used material has a map) and the vertex colours (None unless some part
     has colours). `loaded`: the format's Loaded (an OBJ's library, a glTF's samplers, a PLY's images); `pbr`:
     how the note on approximated PBR materials names them."""
-    library, samplers, textures = loaded.library, loaded.samplers, loaded.images
+    library, samplers = loaded.library, loaded.samplers
     materials: list[FileMaterial] = []
     index: dict[str, int] = {}
     groups, corners, uvs, any_colour, gltf = [], [], [], False, False
@@ -213,13 +213,8 @@ def _surfaces(parts, loaded, pbr: str, path: Path, notes: list[str], sources: li
             found = read_so if read_so is not None else found
         elif material is not None and library is not None:
             found = library.get(getattr(material, "name", None) or "")
-        elif _is_simple(material):  # a trimesh.Trimesh's own (rp.mesh_scene), or a file only trimesh reads
+        elif _is_simple(material):  # a Trimesh's own (rp.mesh_scene), a file only trimesh reads, a PLY's TextureFile
             found = from_simple(material, path, sources)
-        elif textures and getattr(material, "image", None) is not None:  # a PLY's TextureFile (io/meshes/ply.py)
-            sources.append(TextureSource(material.image, "repeat", "repeat", textures[0]))
-            white = (1.0, 1.0, 1.0)
-            found = FileMaterial(Path(textures[0]).stem, white, white, (0.5, 0.5, 0.5), (0.0, 0.0, 0.0), 32.0,
-                                 kd_map=len(sources) - 1)
         if found is not None:
             # Two different materials under one name (glTF names are optional) each keep their own values.
             name, copy = found.name, 1
