@@ -44,3 +44,21 @@ def test_a_missing_texture_file_is_one_note(tmp_path):
     assert done.exit_code == 0, done.output
     [line] = done.stderr.strip().splitlines()
     assert line.startswith("note:") and "'gone.png' is missing" in line, done.stderr
+
+
+@pytest.mark.parametrize(("u", "largest"), [("1e39", "1e+39"), ("-4e38", "4e+38")])
+def test_a_texture_coordinate_past_float32_is_refused_with_the_largest_and_the_range(tmp_path, u, largest):
+    """Texture coordinates are kept as float32 per corner: a PLY's double `s` of 1e39 would become inf there, so
+    the file is refused in one line naming it, the largest magnitude and the range (what any reader's coordinates
+    are held to, not only OBJ's own check); NaN passes (the kernel reads it as 0)."""
+    path = tmp_path / "far.ply"
+    path.write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                    "property double s\nproperty double t\nelement face 1\nproperty list uchar int vertex_indices\n"
+                    f"end_header\n0 0 0 {u} 0\n1 0 0 1 0\n0 1 0 0 1\n3 0 1 2\n")
+    done = runner.invoke(app, ["render", str(path), "-o", str(tmp_path / "far.png")])
+    assert done.exit_code == 2, done.output
+    assert f"far.ply: has a texture coordinate beyond float32's range (largest {largest}); allowed: " \
+           "-3.403e+38 .. 3.403e+38" in done.output
+    assert not (tmp_path / "far.png").exists()
+    path.write_text(path.read_text().replace(u, "nan"))
+    assert runner.invoke(app, ["render", str(path), "-o", str(tmp_path / "far.png")]).exit_code == 0
