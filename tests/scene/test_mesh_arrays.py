@@ -83,6 +83,17 @@ def test_arrays_of_the_wrong_shape_or_kind_say_what_is_wanted(vertices, faces, w
     assert words in str(error.value)
 
 
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_normals_that_are_not_finite_are_refused_in_one_line(bad):
+    """A NaN or infinite normal would shade its pixels NaN: refused as a file's would be, naming the key."""
+    normals = np.array([[0, 0, 1], [0, 0, 1], [0, bad, 1]], float)
+    with pytest.raises(rp.SceneError) as error:
+        rp.mesh_scene(np.eye(3), [[0, 1, 2]], normals=normals)
+    assert "normals: normals hold NaN or infinite values; allowed: finite (V, 3)" in str(error.value)
+    assert "\n" not in str(error.value)
+    rp.mesh_scene(np.eye(3), [[0, 1, 2]], normals=normals[[0, 0, 0]])  # finite: taken
+
+
 def test_given_normals_shade_as_a_files_own(sphere):
     """Normals given with the arrays are the object's own ("file") normals: the sphere's exact ones shade as the
     built-in icosphere of the same triangles with normals = "exact"."""

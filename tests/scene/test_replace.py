@@ -38,6 +38,8 @@ def test_an_empty_change_gives_an_equal_scene():
                                        "allowed indices: 0 to 0"),
     ({"render..width": 3}, "Scene.replace: 'render..width' is not a key path"),
     ({"nope": 1}, "Scene.replace: nope: unknown key"),
+    ({3: 1}, "Scene.replace: 3 is not a key path; expected a string such as 'render.width'"),
+    ({("render", "width"): 1}, "Scene.replace: ['render', 'width'] is not a key path"),
 ])
 def test_a_refused_change_is_one_line_naming_its_key(changes, message):
     scene = rp.load_scene(SCENES / "specular.toml")
@@ -58,3 +60,14 @@ def test_a_list_index_equal_to_the_lists_length_is_one_line():
     assert str(refused.value).endswith("lights.1: lights is a list of 1 item; allowed indices: 0 to 0")
     with pytest.raises(rp.SceneError, match="allowed indices: 0 to 0"):
         rp.load_scene(path).replace({"lights.1.position": [1, 2, 3]})
+
+
+def test_a_folder_key_in_a_table_is_unknown_not_the_scenes_folder(tmp_path):
+    """`folder` is where a scene's relative paths start, set from its file: a table may not move it (a scene
+    reading maps from anywhere it names). Refused as any unknown key; the scene's own folder given apart stands."""
+    from raycast_phong.scene.schema import validate_scene
+    data = {"render": {"width": 8, "height": 6}, "objects": [{"shape": "plane"}]}
+    with pytest.raises(rp.SceneError) as raised:
+        validate_scene({**data, "folder": "/etc"}, "t.toml", tmp_path)
+    assert str(raised.value) == "t.toml: folder: unknown key"
+    assert validate_scene(data, "t.toml", tmp_path).folder == str(tmp_path)
