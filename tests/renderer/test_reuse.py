@@ -135,6 +135,28 @@ def test_a_mesh_file_or_map_changed_on_disk_is_read_again(tmp_path):
     assert not same_bits(repainted.textures[0].pixels, moved.textures[0].pixels)
 
 
+def test_a_map_named_by_a_mesh_files_mtl_changed_on_disk_is_decoded_again(tmp_path):
+    """A mesh file's own map (its .mtl's map_Kd) is not a key of the scene, so the memo holds the version it
+    decoded: repainted (red to blue) the map is read anew, and the geometry is a fresh build's; unchanged, the
+    memo's geometry is given back as it is."""
+    from raycast_phong.io.image_io import write_image
+    (tmp_path / "q.obj").write_text("mtllib q.mtl\nv -1 -1 0\nv 1 -1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n"
+                                    "usemtl m\nf 1/1 2/2 3/3\n")
+    (tmp_path / "q.mtl").write_text("newmtl m\nKd 1 1 1\nmap_Kd paint.png\n")
+    write_image(tmp_path / "paint.png", np.broadcast_to(np.float32([1, 0, 0]), (4, 4, 3)).copy())
+    table = {"render": {"width": 20, "height": 20}, "camera": {"position": [0, 0, 4], "look_at": [0, 0, 0]},
+             "objects": [{"shape": "mesh", "path": "q.obj"}]}
+    memo = BuildMemo()
+    first = build(scene_of(table, tmp_path), memo)
+    assert build(scene_of(table, tmp_path), memo) is first
+    np.testing.assert_array_equal(first.textures[0].pixels[0, 0], [1, 0, 0])
+    write_image(tmp_path / "paint.png", np.broadcast_to(np.float32([0, 0, 1]), (4, 4, 3)).copy())
+    repainted = build(scene_of(table, tmp_path), memo)
+    assert repainted is not first
+    np.testing.assert_array_equal(repainted.textures[0].pixels[0, 0], [0, 0, 1])
+    assert_same_geometry(repainted, build(scene_of(table, tmp_path)))
+
+
 def test_a_frame_cache_reuses_the_bvh_when_the_vertices_and_faces_are_the_same(monkeypatch):
     from raycast_phong.renderer import embree_library as embree
     built = []
