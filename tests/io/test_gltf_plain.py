@@ -135,6 +135,15 @@ READ_HERE = {
                                                                  nested(("meshes", 0, "primitives", 0, "material"),
                                                                         0)(tree))[1],
                                          "materials": [{"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1]}}]},
+    # The scene lists its root twice: trimesh's graph has one edge to it, so the mesh is placed once.
+    "a root listed twice": {"scenes": [{"nodes": [0, 0]}]},
+    # A quaternion of length 0 (below 4 ε) is no rotation, as trimesh reads it.
+    "a zero rotation": {"nodes": nested(("nodes", 1, "rotation"), [0.0, 0.0, 0.0, 0.0])},
+    # COLOR_0 of 8 values for 9 vertices: not one a vertex, so no colours (as trimesh drops them).
+    "vertex colours of another count": {
+        "meshes": nested(("meshes", 0, "primitives", 0, "attributes", "COLOR_0"), 3),
+        "accessors": lambda tree: [*tree["accessors"], {"bufferView": 1, "componentType": 5126, "type": "VEC3",
+                                                        "count": len(POINTS) - 1}]},
 }
 TRIMESH_READS = {
     "texture coordinates of three values": {"meshes": nested(("meshes", 0, "primitives", 0, "attributes",
@@ -144,6 +153,18 @@ TRIMESH_READS = {
         "yfov": 1.0, "znear": 0.1}}]},
     "a texture's source in an extension": {**TEXTURED, "textures": [{"extensions": {"EXT_texture_webp": {
         "source": 0}}}]},
+    # glTF 2.0 §3.5.3: a node has one parent at most; trimesh's graph keeps one of two.
+    "a node under two parents": {"nodes": [{"children": [2]}, {"children": [2]}, {"mesh": 0}],
+                                 "scenes": [{"nodes": [0, 1]}]},
+    # trimesh converts specular-glossiness itself (a file that uses it without listing it in extensionsUsed)
+    "a specular-glossiness material": {"materials": [{"extensions": {"KHR_materials_pbrSpecularGlossiness": {
+        "diffuseFactor": [1, 0, 0, 1]}}}]},
+    "a metallic factor that is not a number": {"materials": [{"pbrMetallicRoughness": {"metallicFactor": "0.5"}}]},
+    "a base colour of three values": {"materials": [{"pbrMetallicRoughness": {"baseColorFactor": [1, 0, 0]}}]},
+    "a negative emissive factor": {"materials": [{"emissiveFactor": [0.5, -0.1, 0]}]},
+    "an alpha mode glTF does not define": {"materials": [{"alphaMode": "CUTOUT"}]},
+    "an image of neither a bufferView nor a URI": {**TEXTURED, "images": [{"uri": png_uri((1, 2, 3))},
+                                                                          {"mimeType": "image/png"}]},
 }
 
 
@@ -184,6 +205,17 @@ def test_a_gltf_reads_without_trimesh_as_trimesh_read_it(case, container, tmp_pa
 def test_what_it_does_not_read_is_left_to_trimesh(case, tmp_path):
     tree, data = document(**TRIMESH_READS[case])
     assert gltf_parts.gltf_parts(tree, [data], tmp_path / "x.glb") is None
+
+
+def test_vertex_colours_not_one_a_vertex_are_none(tmp_path):
+    """COLOR_0 holds one colour a vertex (glTF 2.0 §3.7.2.1: every attribute has the vertices' count): 8 colours
+    for 9 vertices colour nothing, not the first 8 vertices. 9 of them are the vertices' colours."""
+    for count, kept in ((len(POINTS) - 1, False), (len(POINTS), True)):
+        colours = {"bufferView": 1, "componentType": 5126, "type": "VEC3", "count": count}
+        tree, data = document(**{**READ_HERE["vertex colours of another count"],
+                                 "accessors": lambda tree, colours=colours: [*tree["accessors"], colours]})
+        [part] = gltf_parts.gltf_parts(tree, [data], tmp_path / "x.glb")
+        assert (part.colours is not None) == kept
 
 
 def test_an_index_equal_to_the_vertex_count_is_one_line(tmp_path):
