@@ -165,3 +165,55 @@ def test_a_reader_that_stops_on_a_corrupt_file_is_refused_without_its_exception_
         with pytest.raises(SceneError, match=words) as raised:
             read_mesh(tmp_path / name, "t")
         assert "Error" not in str(raised.value), str(raised.value)
+
+
+def test_a_material_naming_a_texture_the_file_lacks_counts_no_map_in_the_memory_estimate(tmp_path):
+    """texture_sizes weighs each colour map from its image's header before the read; a baseColorTexture whose
+    index names no texture (the file has none) counts nothing rather than stopping the estimate (the read words
+    the broken reference). The same material naming a texture of a 4 × 4 image counts it."""
+    from test_gltf_extensions import solid_png
+
+    from raycast_phong.io.meshes.source import mesh_source
+    solid_png(tmp_path / "map.png", (255, 0, 0))
+    path = quad_gltf(tmp_path, {"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}},
+                     images=[{"uri": "map.png"}])
+    source = mesh_source(path)
+    assert source.format.texture_sizes(source) == ((4, 4),)
+    document = json.loads(path.read_text())
+    document["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["index"] = 3
+    path.write_text(json.dumps(document))
+    source = mesh_source(path)
+    assert source.format.texture_sizes(source) == ()
+
+
+def test_wrap_modes_read_before_a_sampler_the_file_lacks_are_kept_and_the_rest_repeat():
+    """glTF 2.0 §5.26: wrapS and wrapT 33071 clamp, 33648 mirror (10497, repeat, the default). Material a's map
+    clamps in s and mirrors in t; material b's texture names sampler 5 of 1: the table is malformed from there
+    on, so b's map (and any after it) repeats, without stopping the read."""
+    from raycast_phong.io.meshes.gltf import gltf_samplers
+    document = {"materials": [{"name": "a", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}},
+                              {"name": "b", "pbrMetallicRoughness": {"baseColorTexture": {"index": 1}}}],
+                "textures": [{"source": 0, "sampler": 0}, {"source": 0, "sampler": 5}],
+                "samplers": [{"wrapS": 33071, "wrapT": 33648}]}
+    assert gltf_samplers(document) == {("a", "baseColorTexture"): ("clamp", "mirror")}
+
+
+def test_node_transforms_are_checked_past_a_node_that_is_not_an_object(tmp_path):
+    """check_node_transforms refuses a node's scale of 2 numbers (3 are needed) though a node before it is a
+    number (not an object: trimesh words that), and leaves a `nodes` that is not a list to trimesh."""
+    from raycast_phong.io.meshes.gltf import check_node_transforms
+    with pytest.raises(SceneError, match=r"'m\.gltf': nodes\[1\]\.scale is \[1, 1\]; allowed: 3 finite numbers"):
+        check_node_transforms({"nodes": [5, {"scale": [1, 1]}]}, Path("m.gltf"))
+    assert check_node_transforms({"nodes": 5}, Path("m.gltf")) is None
+
+
+def test_a_missing_buffer_file_weighs_nothing_in_the_memory_estimate(tmp_path):
+    """held() counts a .gltf's external buffers as read whole (the quad's is 92 bytes); a buffer file that is
+    missing counts 0 (the read then refuses it, naming the file), not an error of the estimate."""
+    from raycast_phong.io.meshes import gltf
+    from raycast_phong.io.meshes.source import mesh_source
+    path = quad_gltf(tmp_path, {})
+    source = mesh_source(path)
+    assert gltf.held(path, source) == (92, 0)
+    (tmp_path / "quad.bin").unlink()
+    assert gltf.held(path, source) == (0, 0)

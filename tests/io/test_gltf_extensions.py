@@ -212,3 +212,15 @@ def test_texture_transform_turns_uvs_as_the_extensions_example_and_sample_do(tra
     given = np.array(gltf_uv, np.float64)
     found = transform_uv(np.column_stack([given[:, 0], 1.0 - given[:, 1]]), transform)
     np.testing.assert_allclose(np.column_stack([found[:, 0], 1.0 - found[:, 1]]), expected, atol=1e-9)
+
+
+def test_maps_the_phong_model_has_no_place_for_are_said_not_applied(tmp_path):
+    """A normalTexture and an occlusionTexture change no Phong term: the material is drawn in its factors and a
+    note names both maps and the material (the base colour map, read, is not named)."""
+    solid_png(tmp_path / "map.png", (128, 128, 255))
+    material = {"name": "bumpy", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}},
+                "normalTexture": {"index": 0}, "occlusionTexture": {"index": 0}}
+    found = read_mesh(quad_gltf(tmp_path, material, images=[{"uri": "map.png"}]), "t")
+    said = [note for note in found.notes if "not applied" in note]
+    assert len(said) == 1 and said[0].endswith("material 'bumpy': normalTexture, occlusionTexture not applied; its "
+                                               "factors are used"), found.notes
