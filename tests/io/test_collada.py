@@ -236,3 +236,91 @@ def test_collada_s_own_effects_are_the_lecture_s_model_read_as_written(tmp_path,
     if shininess is not None:
         assert material.shininess == pytest.approx(shininess)
     assert not any("approximated" in note for note in mesh.notes), mesh.notes
+
+
+def test_a_document_lxml_cannot_parse_is_passed_on_as_it_is(tmp_path):
+    """collada_text changes only what it can parse: a document cut short is given to trimesh byte for byte (which
+    words what is wrong), with no note; the memory estimate counts nothing for it (None: the size bound stands)."""
+    import io
+
+    from raycast_phong.io.meshes import collada
+    data = b'<COLLADA><library_visual_scenes><node><instance_material target="#m"/>'
+    notes: list[str] = []
+    assert collada.collada_text(data, tmp_path / "cut.dae", notes) is data and notes == []
+    assert collada.count(io.BytesIO(data), len(data), None) is None
+
+
+def test_a_controller_whose_source_is_not_a_geometry_is_left_as_written(tmp_path):
+    """<skin source> names the mesh a controller deforms; one naming an effect (not a <geometry>) is not turned
+    into a geometry instance of it: the document is passed on unchanged, with no bind-shape note."""
+    from raycast_phong.io.meshes.collada import collada_text
+    path = write_dae(tmp_path / "skin.dae", "common", True)
+    data = path.read_bytes().replace(b'<skin source="#tri">', b'<skin source="#fx">')
+    notes: list[str] = []
+    assert collada_text(data, path, notes) is data and notes == []
+
+
+def test_a_bind_shape_matrix_that_is_not_16_numbers_is_not_applied(tmp_path):
+    """A bind_shape_matrix with a word among its numbers cannot place the mesh: the skin's source triangle is
+    drawn where its positions put it (the bind-shape note still said), not refused or moved."""
+    from raycast_phong.io.meshes.collada import collada_text
+    path = write_dae(tmp_path / "skin.dae", "common", True, "1 0 0 5 0 1 0 0 0 0 1 0 0 0 0 one")
+    assert b"<matrix>" not in collada_text(path.read_bytes(), path, [])  # no node placing it by that matrix
+    mesh = read(path)
+    assert sorted(map(tuple, mesh.vertices[mesh.faces[0]].round(9).tolist())) == [(0, 0, 0), (0, 1, 0), (1, 0, 0)]
+    assert any("bind-shape pose" in note for note in mesh.notes), mesh.notes
+
+
+def test_an_effect_colour_that_is_not_numbers_is_no_colour():
+    """A <color> whose text holds a word is no colour (None: as if the effect had none) rather than a refusal;
+    the effect's other colours are read (COLLADA 1.4.1: <color> is four floats)."""
+    from raycast_phong.io.meshes.collada import _tree, common_effects
+    effect = EFFECTS["phong"].replace("<color>0.5 0.5 0.5 1</color>", "<color>0.5 half 0.5 1</color>")
+    document = (f'<COLLADA><library_effects><effect id="fx">{effect}</effect></library_effects><library_materials>'
+                '<material id="mat"><instance_effect url="#fx"/></material></library_materials></COLLADA>')
+    [found] = common_effects(_tree(document.encode()))
+    assert found.specular is None and found.diffuse == (0.8, 0.2, 0.2, 1.0) and found.shininess == 20.0
+
+
+def test_a_material_no_effect_makes_keeps_its_own_reading():
+    """_as_effect reads a material as the effect trimesh made it from (its base colour = the diffuse × 255, its
+    emission, roughness √(2/(2 + s))); a material no effect makes (blue, where the only effect is red) is
+    None: it keeps the glTF rule's reading. The red one is the effect's."""
+    from types import SimpleNamespace
+
+    from raycast_phong.io.meshes.collada import CommonEffect, _as_effect
+    from raycast_phong.io.meshes.materials import FileMaterial
+    red = CommonEffect("lambert", None, None, (1.0, 0.0, 0.0, 1.0), None, None, 1.0)
+    built = FileMaterial("m", (0.5, 0.5, 0.5), (0.5, 0.5, 0.5), (0.1, 0.1, 0.1), (0.0, 0.0, 0.0), 10.0)
+
+    def material(rgba):
+        return SimpleNamespace(baseColorFactor=rgba, emissiveFactor=None, roughnessFactor=None)
+    assert _as_effect([red], material([0, 0, 255, 255]), built) is None
+    assert _as_effect([red], material([255, 0, 0, 255]), built).ks == (0.0, 0.0, 0.0)
+
+
+def test_an_image_in_a_data_uri_is_not_said_missing(tmp_path):
+    """_check_images notes each image file <init_from> names that is not beside the document; an image given
+    inline as a data: URI is no file and is not said missing (a file name that is missing is)."""
+    path = write_triangle(tmp_path / "t.dae")
+    images = ('<library_images><image id="inline"><init_from>data:image/png;base64,iVBORw0KGgo=</init_from></image>'
+              '<image id="gone"><init_from>gone.png</init_from></image></library_images>')
+    path.write_text(path.read_text().replace("<library_geometries>", images + "<library_geometries>"))
+    said = [note for note in read(path).notes if "is missing" in note]
+    assert len(said) == 1 and "gone.png" in said[0], said
+
+
+def test_a_polylist_counts_each_polygon_s_triangles_and_a_corner_count_below_3_none(tmp_path):
+    """COLLADA 1.4.1 <polylist>: <vcount> gives each polygon's corners; a polygon of n corners is n − 2
+    triangles, one of fewer than 3 none: vcount 3 4 5 2 1 is 1 + 2 + 3 + 0 + 0 = 6 triangles for the memory
+    check.
+    A polylist without a vcount counts none."""
+    from raycast_phong.io.meshes.source import mesh_source
+    path = write_triangle(tmp_path / "t.dae")
+    text = path.read_text().replace("<triangles ", "<polylist ").replace("</triangles>", "</polylist>")
+    path.write_text(text.replace("<p>0 1 2</p>", "<vcount>3 4 5 2 1</vcount><p>" + "0 1 2 " * 5 + "</p>"))
+    assert mesh_source(path).triangles() == 6
+    (tmp_path / "none").mkdir()
+    other = tmp_path / "none" / "t.dae"
+    other.write_text(text)
+    assert mesh_source(other).triangles() == 0
