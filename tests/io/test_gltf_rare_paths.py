@@ -19,7 +19,7 @@ from raycast_phong.errors import SceneError
 from raycast_phong.io.meshes.gltf_decode import _Decoder, node_globals
 from raycast_phong.io.meshes.source import read_mesh
 
-METE = "EXT_meshopt_compression"
+MESHOPT_NAME = "EXT_meshopt_compression"
 
 
 def decoder(tree: dict, *buffers: bytes) -> _Decoder:
@@ -125,12 +125,12 @@ def meshopt_tree(stored: np.ndarray = POSITIONS, **changes) -> tuple[dict, list[
     spec = {"buffer": 0, "byteOffset": 0, "byteLength": len(packed), "byteStride": 12, "count": 4,
             "mode": "ATTRIBUTES", **changes}
     spec = {k: v for k, v in spec.items() if v is not None}
-    tree = {"bufferViews": [{"buffer": 1, "byteLength": 48, "extensions": {METE: spec}}],
+    tree = {"bufferViews": [{"buffer": 1, "byteLength": 48, "extensions": {MESHOPT_NAME: spec}}],
             "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3"}]}
     return tree, [packed, b""]
 
 
-KEY = f"'t.glb': bufferViews[0].extensions.{METE}"
+KEY = f"'t.glb': bufferViews[0].extensions.{MESHOPT_NAME}"
 
 
 @pytest.mark.parametrize(("changes", "words"), [
@@ -189,7 +189,7 @@ def test_meshopt_views_that_only_sparse_substitutions_read_are_decoded():
     plain = np.array([1.0, 2.0, 3.0], "<f4").tobytes()
 
     def compressed(data: bytes, offset: int) -> dict:
-        return {"buffer": 1, "byteLength": 4, "extensions": {METE: {
+        return {"buffer": 1, "byteLength": 4, "extensions": {MESHOPT_NAME: {
             "buffer": 0, "byteOffset": offset, "byteLength": len(data), "byteStride": 4, "count": 1,
             "mode": "ATTRIBUTES"}}}
     tree = {"bufferViews": [{"buffer": 2, "byteLength": 12}, compressed(index, 0), compressed(value, len(index))],
@@ -227,8 +227,9 @@ def test_a_used_compression_without_its_decoder_package_is_refused_naming_the_pa
     shutil.copytree(MODELS / "BoxDraco", tmp_path / "draco")
     monkeypatch.setitem(sys.modules, "meshopt", None)  # import meshopt raises ImportError
     monkeypatch.setitem(sys.modules, "DracoPy", None)
-    refused(lambda: read_mesh(path, "t"), f"bufferViews[0].extensions.{METE}: decoding meshoptimizer-compressed data "
-                                          "needs the meshopt package: pip install meshopt")
+    refused(lambda: read_mesh(path, "t"), f"bufferViews[0].extensions.{MESHOPT_NAME}: decoding "
+                                          "meshoptimizer-compressed data needs the meshopt package: pip install "
+                                          "meshopt")
     refused(lambda: read_mesh(tmp_path / "draco" / "BoxDraco.gltf", "t"),
             "BoxDraco.gltf': decoding its Draco-compressed meshes needs DracoPy: pip install DracoPy")
 
