@@ -122,7 +122,7 @@ def load_sweep(path: str | Path) -> Sweep:
     fixed = data.get("set", [])
     if not isinstance(fixed, list) or not all(isinstance(item, str) and "=" in item for item in fixed):
         raise SceneError('must be a list of "key.path=value" strings, e.g. ["render.width=160"]', where.at("set"))
-    if not isinstance(data["grid"], dict) or not data["grid"]:
+    if not isinstance(data.get("grid"), dict) or not data["grid"]:
         raise SceneError('must be a table of key paths and value lists, e.g. render.shading = ["flat", "phong"]',
                          where.at("grid"))
     axes = []

@@ -436,6 +436,28 @@ def test_sweep_axes_that_share_a_last_part_are_named_by_their_whole_key_paths(tm
     assert names[0] == "s--materials.red.shininess=8--materials.blue.shininess=8--shading=flat"
 
 
+@pytest.mark.parametrize(("text", "words"), [
+    ('scene = "b.toml"\n[grid\n', "s.toml: TOML syntax error: "),
+    (b"scene = '\xff'\n[grid]\na = [1]\n", "s.toml: cannot read the sweep file ("),
+    ('scene = "b.toml"\nmode = 1\n[grid]\na = [1]\n', "s.toml: mode: unknown key; a sweep file has scene, set, grid"),
+    ('scene = 3\n[grid]\na = [1]\n', "s.toml: scene: must be the base scene file, a string relative to the sweep"),
+    ('scene = "b.toml"\nset = "render.width=3"\n[grid]\na = [1]\n', 's.toml: set: must be a list of "key.path='),
+    ('scene = "b.toml"\nset = ["render.width"]\n[grid]\na = [1]\n', 's.toml: set: must be a list of "key.path='),
+    ('scene = "b.toml"\ngrid = 3\n', "s.toml: grid: must be a table of key paths and value lists"),
+    ('scene = "b.toml"\n[grid]\n', "s.toml: grid: must be a table of key paths and value lists"),
+    ('scene = "b.toml"\n', "s.toml: grid: must be a table of key paths and value lists"),
+    ('scene = "b.toml"\n[grid]\na = []\n', "s.toml: grid.a: must be a non-empty list of values, got []"),
+])
+def test_a_sweep_file_s_mistake_is_one_line_naming_its_key(tmp_path, text, words):
+    """Every check of load_sweep in the words docs/batch.md gives: the file, the key, what is allowed (a file
+    without `grid` too, which load_sweep is given from Python; it raised KeyError)."""
+    path = tmp_path / "s.toml"
+    path.write_bytes(text if isinstance(text, bytes) else text.encode())
+    with pytest.raises(rp.SceneError) as refused:
+        load_sweep(path)
+    assert str(refused.value).startswith(str(tmp_path / words)) and "\n" not in str(refused.value), refused.value
+
+
 def test_each_worker_process_gets_its_share_of_the_batch_memory_budget(tmp_path, monkeypatch):
     """max_memory is the budget of the scenes rendering at once: with P worker processes each render gets 1/P
     of it. Two scenes on --jobs 2 with four cores (os.cpu_count faked, so two processes on any machine) under
