@@ -306,3 +306,21 @@ def test_an_error_line_of_exactly_the_limit_is_kept_whole_and_one_more_is_cut():
     assert one_line("a" * 2000) == "a" * 2000
     assert one_line("a" * 2001) == "a" * 2000 + "… (1 more characters)"
     assert one_line("a\nb") == "a\\nb"
+
+
+def test_scene_verbose_names_every_file_the_scene_reads_and_not_the_one_it_writes(tmp_path):
+    """`scene --verbose`: one `reads KEY: PATH` line on stderr for each file the scene reads (a mesh, a map),
+    resolved from the scene's folder; not output.path, the file a render writes; the TOML still on stdout."""
+    (tmp_path / "tri.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    raycast_phong.write_image(tmp_path / "paint.png", np.zeros((2, 2, 3), np.float32))
+    (tmp_path / "s.toml").write_text('[materials.a]\nkd_map = "paint.png"\n[[objects]]\nshape = "mesh"\n'
+                                     'path = "tri.obj"\n[[objects]]\nshape = "plane"\nmaterial = "a"\n'
+                                     '[output]\npath = "shot.png"\n')
+    done = runner.invoke(app, ["scene", "--verbose", str(tmp_path / "s.toml")])
+    assert done.exit_code == 0, done.output
+    reads = sorted(line for line in done.stderr.splitlines() if line.startswith("reads "))
+    assert reads == [f"reads materials.a.kd_map.path: {tmp_path / 'paint.png'}",
+                     f"reads objects.0.path: {tmp_path / 'tri.obj'}"], done.stderr
+    assert "shot.png" in done.stdout and "shot.png" not in done.stderr
+    quiet = runner.invoke(app, ["scene", str(tmp_path / "s.toml")])
+    assert quiet.exit_code == 0 and "reads " not in quiet.stderr
