@@ -1455,3 +1455,26 @@ def test_a_frame_names_up_to_max_spheres_bounding_spheres_and_one_round_more(obj
     assert len(found) == spheres
     if spheres > 1:
         assert [round(sphere[0]) for sphere in found] == [3 * i for i in range(objects)]
+
+
+def test_each_malformed_page_message_gets_its_own_line_and_the_socket_stays(scene_path):
+    """What the page's protocol refuses, each in its own words (what the message must be and what is allowed),
+    answered under the message's id, never an internal error; the same socket then renders."""
+    cases = [
+        ([1, 2], "message must be a table with type 'render', 'save' or 'load'"),
+        ({"type": "delete", "id": 1}, "message must be a table with type 'render', 'save' or 'load'"),
+        ({"type": "render", "id": 2, "settings": [1, 2]}, "settings must be a table of KEY.PATH: value"),
+        ({"type": "save", "id": 3, "what": "gif", "settings": {}}, "save: 'gif'; allowed: 'toml', 'png' or 'exr'"),
+        ({"type": "load", "id": 4, "name": "a.toml", "text": 3}, "load: text and name must be strings"),
+        ({"type": "load", "id": 5, "name": ["a"], "text": ""}, "load: text and name must be strings"),
+        ({"type": "load", "id": 6, "name": "a.json", "text": "[1, 2]"}, "a.json: a scene file is a table of tables"),
+    ]
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        for message, says in cases:
+            ws.send_text(json.dumps(message))
+            answer = json.loads(ws.receive_text())
+            assert answer["type"] == "error" and answer["message"] == says, (message, answer)
+            assert answer.get("id") == (message.get("id") if isinstance(message, dict) else None)
+        ws.send_text(json.dumps({"type": "render", "id": 9, "settings": {"render.shading": "flat"}}))
+        receive_frame(ws)

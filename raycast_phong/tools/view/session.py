@@ -237,7 +237,7 @@ class Session:
                 try:
                     request = parse(text)
                 except ViewError as error:
-                    await self.send({"type": "error", "id": None, "message": str(error)})
+                    await self.send({"type": "error", "id": getattr(error, "id", None), "message": str(error)})
                     continue
                 if request.get("type") == "load":
                     await self.send(view.loaded(request))
@@ -438,7 +438,9 @@ def parse(text: str) -> dict:
     except (RecursionError, ValueError) as error:  # nested thousands deep, an `id` of 5000 digits
         raise ViewError(f"message: {syntax_limit(error)}") from None
     if not isinstance(request, dict) or request.get("type", "render") not in ("render", "save", "load"):
-        raise ViewError("message must be a table with type 'render', 'save' or 'load'")
+        refused = ViewError("message must be a table with type 'render', 'save' or 'load'")
+        refused.id = request.get("id") if isinstance(request, dict) else None  # the page matches the answer by it
+        raise refused
     return request
 
 
