@@ -482,3 +482,33 @@ def test_each_worker_process_gets_its_share_of_the_batch_memory_budget(tmp_path,
     with pytest.raises(Stop):
         batch.run_batch(jobs, tmp_path / "out", workers=2, max_memory=8 << 30)
     assert seen == [(2, [4 << 30, 4 << 30])]
+
+
+def test_a_mesh_file_is_judged_up_to_date_without_reading_it_whole_under_render_overrides(tmp_path, monkeypatch):
+    """A mesh file rendered directly is judged up to date from its file and overrides alone (no framing, no
+    read through trimesh: jobs._unframed_mesh_job) when the overrides are render, camera, lights, ambient or
+    output keys, --srgb's render.colour among them: the second run loads no scene. Without --srgb the colour is
+    the format's default, another hash: that run loads it and renders again. Catches the override's colour
+    ignored (the hash then differs from the render's and every such job is loaded whole again)."""
+    from raycast_phong.tools.batch import jobs
+    mesh = tmp_path / "tetra.obj"
+    mesh.write_text(TETRAHEDRON)
+    out = tmp_path / "out"
+    assert run(str(mesh), "--out", str(out), "--jobs", "1", "--srgb").exit_code == 0
+    assert statuses(out) == {"tetra": "rendered"}
+    real = jobs.load_scene
+    loaded = []
+    monkeypatch.setattr(jobs, "load_scene", lambda *args, **kwargs: loaded.append(args) or real(*args, **kwargs))
+    assert run(str(mesh), "--out", str(out), "--jobs", "1", "--srgb").exit_code == 0
+    assert statuses(out) == {"tetra": "up to date"} and loaded == []
+    assert run(str(mesh), "--out", str(out), "--jobs", "1").exit_code == 0
+    assert statuses(out) == {"tetra": "rendered"} and len(loaded) == 1
+    # A sweep over the mesh: its render.* overrides judged the same way, an object's key by the full load.
+    sweep, out = tmp_path / "s.toml", tmp_path / "swept"
+    for keys, loads in (('"render.width=12"', 0), ('"render.width=12", "objects.0.scale=[2, 2, 2]"', 1)):
+        sweep.write_text(f'scene = "tetra.obj"\nset = [{keys}]\n[grid]\n"render.height" = [10, 11]\n')
+        assert run(str(sweep), "--out", str(out), "--jobs", "1").exit_code == 0
+        assert set(statuses(out).values()) == {"rendered"}
+        loaded.clear()
+        assert run(str(sweep), "--out", str(out), "--jobs", "1").exit_code == 0
+        assert set(statuses(out).values()) == {"up to date"} and len(loaded) == 2 * loads, keys
