@@ -334,3 +334,62 @@ def test_an_mtl_of_exactly_max_side_file_bytes_is_read_and_one_byte_more_is_not(
     else:
         assert found.library == {} and len(found.notes) == 1 and "'big.mtl' cannot be read" in found.notes[0], \
             found.notes
+
+
+def test_an_mtllib_whose_whole_text_is_too_long_for_a_file_name_is_its_words(tmp_path):
+    """`mtllib a.mtl <300 letters>.mtl`: the whole text cannot be one file (the system refuses a name over 255
+    bytes, an OSError), so the statement is its two words, each a name, and the read goes on. Catches the
+    OSError let through (the OBJ refused for a name no file can have)."""
+    long = "b" * 300 + ".mtl"
+    assert mtl.mtllib_names([f"a.mtl {long}".encode()], tmp_path) == ["a.mtl", long]
+
+
+def test_an_mtllib_line_that_is_not_utf8_is_read_as_latin1(tmp_path):
+    """`mtllib café.mtl` written in Latin-1 (é the one byte 0xE9, not UTF-8): the name is read as Latin-1, as the
+    OBJ itself is, so the file café.mtl is found and its material used. Catches the line kept as its raw bytes
+    (decoded with replacement: 'caf\\ufffd.mtl', missing)."""
+    (tmp_path / "café.mtl").write_text("newmtl red\nKd 1 0 0\n", encoding="utf-8")
+    (tmp_path / "l.obj").write_bytes(b"mtllib caf\xe9.mtl\nusemtl red\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    with (tmp_path / "l.obj").open("rb") as handle:
+        assert mtl.scan_mtllib(handle) == ["café.mtl".encode()]
+    mesh = read(tmp_path / "l.obj")
+    assert [(m.name, m.kd) for m in mesh.materials] == [("red", (1.0, 0.0, 0.0))], mesh.notes
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf"])
+def test_a_coefficient_that_is_not_finite_keeps_its_default_and_is_said(tmp_path, value):
+    """`Kd nan 0 0` (Python's float reads nan and inf): not a number a colour can be, so Kd keeps the scene
+    default (codes.MATERIAL_DEFAULTS: 0.8 0.8 0.8) and the note names it. Catches the finite check dropped (a NaN
+    k_d reaching the kernel, or inf clamped to 1)."""
+    from raycast_phong.codes import MATERIAL_DEFAULTS
+    notes: list[str] = []
+    found = mtl.parse_mtl(f"newmtl m\nKd {value} 0 0\nKa 0.25 0.25 0.25\n", tmp_path / "m.mtl", notes)
+    assert found["m"].kd == MATERIAL_DEFAULTS["kd"] == (0.8, 0.8, 0.8) and found["m"].ka == (0.25, 0.25, 0.25)
+    assert notes == [f"{tmp_path / 'm.mtl'}: 1 value(s) are not numbers and keep their defaults (first: m: Kd "
+                     f"{value} 0 0)"], notes
+
+
+def test_a_map_option_stops_taking_values_at_a_word_that_is_not_a_number(tmp_path):
+    """`map_Kd -s 2 fuze uv.jpg`: -s takes up to three numbers (u [v [w]]); `fuze` is not one, so it starts the
+    file name, spaces kept. Catches the word skipped as a value ('uv.jpg') or the loop never leaving."""
+    assert mtl.map_file(["-s", "2", "fuze", "uv.jpg"]) == "fuze uv.jpg"
+
+
+def test_an_option_after_the_name_without_its_values_is_part_of_the_name(tmp_path):
+    """`map_Kd wood.png -o`: -o needs one to three numbers (u [v [w]]), so a bare `-o` ending the statement is no
+    option and stays in the name; `-clamp on` after it still is one. Catches an option taken with no value."""
+    assert mtl.map_file(["wood.png", "-o"]) == "wood.png -o"
+    assert mtl.map_file(["wood.png", "-o", "-clamp", "on"]) == "wood.png -o"
+    assert mtl.map_file(["wood.png", "-o", "1", "-clamp", "on"]) == "wood.png"
+
+
+def test_a_map_whose_name_is_too_long_for_a_file_is_missing(tmp_path):
+    """`map_Kd <300 letters>.png`: no file can have that name (the system refuses it with an OSError): the map is
+    a missing texture, one note, and the material keeps its Kd. Catches the OSError let through."""
+    from raycast_phong.io.files import shown_name
+    long = "t" * 300 + ".png"
+    notes: list[str] = []
+    found = mtl.parse_mtl(f"newmtl m\nKd 1 0 0\nmap_Kd {long}\n", tmp_path / "m.mtl", notes, [])
+    assert found["m"].kd_map == -1 and found["m"].kd == (1.0, 0.0, 0.0)
+    said = f"{tmp_path / 'm.mtl'}: texture {shown_name(long)} is missing"
+    assert [note for note in notes if "missing" in note] == [said], notes
