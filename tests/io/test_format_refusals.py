@@ -52,3 +52,21 @@ def test_a_utf8_byte_order_mark_before_a_text_format_is_not_its_content(tmp_path
     path = tmp_path / f"bom{suffix}"
     path.write_bytes(b"\xef\xbb\xbf" + text)
     content.check_file_content(path, format_of(path), "bom")  # no SceneError
+
+
+@pytest.mark.parametrize("vertices", ["   vertex 0 0 0\n   vertex 1 0 0\n",
+                                      "   vertex 0 0 0\n   vertex 1 0 0\n   vertex 0 1 0\n   vertex 0 1 1\n"])
+def test_an_ascii_stl_trimesh_cannot_read_whose_vertex_lines_are_right_is_refused_in_general_words(tmp_path,
+                                                                                                    vertices):
+    """A facet's outer loop holds exactly three vertices (the STL format); one of two or four, each vertex line
+    three numbers, stops trimesh's reader. No vertex line is to blame, so no line is named: the refusal is the
+    general one, exit 2, one line. Catches a line blamed where none is wrong."""
+    text = STL.format(third="").replace("   vertex 0 0 0\n   vertex 1 0 0\n   \n", vertices)
+    (tmp_path / "loop.stl").write_text(text)
+    done = runner.invoke(app, ["render", str(tmp_path / "loop.stl"), "-o", str(tmp_path / "x.png")])
+    assert done.exit_code == 2, done.output
+    [line] = done.stderr.strip().splitlines()
+    assert line == (f"error: {tmp_path / 'loop.stl'}: cannot read the file as STL: its content does not follow the "
+                    "STL format where the reader stopped (the file is corrupt, cut short, or another format); allowed: "
+                    "a mesh file of a format read here (OBJ, PLY, STL, OFF, glTF/GLB, 3MF, COLLADA)"), line
+    assert not (tmp_path / "x.png").exists()

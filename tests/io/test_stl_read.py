@@ -86,3 +86,12 @@ def test_a_header_only_binary_stl_of_84_bytes_is_counted_from_its_header(tmp_pat
             mesh_source(path).triangles()
     else:
         assert mesh_source(path).triangles() == 0
+
+
+def test_the_read_floor_of_an_stl_that_cannot_be_opened_is_its_size_as_text(tmp_path):
+    """The floor reads the 84-byte header to tell binary from ASCII; a path gone since it was sized (OSError) or
+    that is no regular file (SceneError) has no header, so it is weighed as ASCII text: size × TEXT_READ_BYTES_PER_BYTE,
+    the read then saying what is wrong. Catches either error let out of the floor."""
+    assert stl.floor(tmp_path / "gone.stl", 1000, None) == 1000 * TEXT_READ_BYTES_PER_BYTE
+    (tmp_path / "folder.stl").mkdir()
+    assert stl.floor(tmp_path / "folder.stl", 4096, None) == 4096 * TEXT_READ_BYTES_PER_BYTE
