@@ -261,3 +261,110 @@ def test_a_face_of_no_corners_is_skipped_and_a_bad_face_after_it_named(tmp_path)
     assert {turned(f) for f in read(tmp_path, data).faces.tolist()} == FANS
     with pytest.raises(SceneError, match=r"has face 2 \(line 3 of the faces\) of 3 indices where it counts 5"):
         read(tmp_path, data.replace(b"3 3 2 4", b"5 3 2 4"))
+
+
+@pytest.mark.parametrize(("data", "said"), [
+    (b"# nothing but a comment, no line feed",
+     "cannot read the file as OFF: its content does not start as a OFF file does"),
+    (b"OFF\n# a comment\n", "has no counts line; allowed: NVertices NFaces NEdges after the header"),
+    (b"nOFF\n", "is cut short before its dimension line; allowed: nOFF, then Ndim"),
+    (b"OFF\n3 x 0\n", "has the counts line '3 x 0', which is not whole numbers"),
+    (b"OFF\n3\n", "has the counts line '3'; allowed: 2 or more whole numbers ≥ 0"),
+    (b"OFF\n-1 1 0\n", "has the counts line '-1 1 0'; allowed: 2 or more whole numbers ≥ 0"),
+    (b"nOFF\n3.5\n", "has the dimension line (nOFF's Ndim) '3.5', which is not whole numbers"),
+    (b"NOFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+     "has vertex lines of 3 numbers; allowed: the same count on every line, at least 6 for its header (NOFF)"),
+    (b"OFF\n3 1 0\n0 0 0\n1 0 0 1\n0 1 0\n3 0 1 2\n",
+     "has vertex lines of differing numbers; allowed: the same count on every line, at least 3 for its header (OFF)"),
+    (b"OFF\n3 1 0\n0 0 0\n1_0 0 0\n0 1 0\n3 0 1 2\n", "has a vertex line numpy cannot read; allowed: decimal numbers"),
+    (b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1.5 2\n",
+     "has a face index that is not a whole number; allowed: vertex indices 0, 1, ..."),
+    (b"OFF BINARY\n" + bytes(8), "is cut short before its binary counts; allowed: three big-endian int32 counts"),
+])
+def test_a_broken_header_or_line_is_refused_saying_what_is_allowed(tmp_path, data, said):
+    """Each refusal of the OFF specification's layout (geomview.org, "OFF Files"): the counts line (whole numbers,
+    NVertices and NFaces at the least), nOFF's Ndim line, vertex lines of one length holding what the header's
+    prefixes add (N: three more), decimal numbers (`1_0` Python reads, numpy and the specification do not),
+    whole face indices, and OFF BINARY's three int32 counts; a file of one comment and no line feed is no OFF
+    (its first word is not found: the scan for it ends with the file). One line, the file named once. Catches each
+    check dropped or its words changed."""
+    with pytest.raises(SceneError) as caught:
+        read(tmp_path, data)
+    assert str(caught.value) == f"{tmp_path / 'm.off'}: {said}", str(caught.value)
+
+
+def test_an_off_binary_file_too_short_for_its_counts_is_weighed_by_its_size(tmp_path):
+    """`OFF BINARY` then 8 bytes: the three int32 counts (12 bytes) are not there, so the cheap count gives none
+    and the file is weighed by its size; the read says it is cut short. Catches the short head read as counts
+    (numpy refusing a buffer too small, an internal error)."""
+    from raycast_phong.io.meshes.size import SMALLEST_TRIANGLE
+    path = tmp_path / "m.off"
+    path.write_bytes(b"OFF BINARY\n" + struct.pack(">2i", 3, 1))
+    with path.open("rb") as handle:
+        assert mesh_source(path).format.count(handle, path.stat().st_size, None) is None
+    assert mesh_source(path).triangles() == path.stat().st_size // SMALLEST_TRIANGLE
+    with pytest.raises(SceneError, match="is cut short before its binary counts"):
+        mesh_source(path).read()
+
+
+def test_noff_s_dimension_line_is_read_and_its_first_three_coordinates_drawn(tmp_path):
+    """nOFF: Ndim (here 4) after the keyword, then vertices of Ndim numbers; 4nOFF adds the homogeneous one
+    (Ndim + 1 numbers). x, y, z are the first three, a note says the rest are not drawn; the cheap count skips
+    the Ndim line (4 vertices, 2 faces: weighed as max(2, 4 - 2) = 2). Catches Ndim read as the counts, the
+    homogeneous number not added to 4nOFF's width, and the count's Ndim line taken as its counts."""
+    square = [[0, 0, 0], [2, 0, 0], [2, 2, 0], [0, 2, 0]]
+    for header, extra, width in (("nOFF", " 9", 4), ("4nOFF", " 9 1", 4)):
+        data = f"{header}\n4\n4 2 0\n" + "".join(f"{x} {y} {z}{extra}\n" for x, y, z in square) + "3 0 1 2\n3 0 2 3\n"
+        found = read(tmp_path, data.encode())
+        assert found.vertices.tolist() == square and found.faces.tolist() == [[0, 1, 2], [0, 2, 3]], header
+        assert [note.split(": ", 1)[1] for note in found.notes] == [
+            f"is {'4' if header[0] == '4' else ''}nOFF ({width}-dimensional vertices); the first three coordinates "
+            "are drawn"], found.notes
+        assert mesh_source(tmp_path / "m.off").triangles() == 2
+
+
+def test_4off_drops_the_homogeneous_coordinate_with_a_note(tmp_path):
+    """4OFF: x y z w a vertex (w = 1 here, where the point is x, y, z whether or not w divides it): drawn at x, y,
+    z, one note; in text and in OFF BINARY. Catches the fourth number read as the next vertex's x (the width not
+    raised by one), and either note dropped."""
+    square = [[0, 0, 0], [2, 0, 0], [2, 2, 0], [0, 2, 0]]
+    data = "4OFF\n4 2 0\n" + "".join(f"{x} {y} {z} 1\n" for x, y, z in square) + "3 0 1 2\n3 0 2 3\n"
+    body = struct.pack(">3i", 4, 2, 0) + b"".join(struct.pack(">4f", *p, 1) for p in square)
+    body += struct.pack(">5i", 3, 0, 1, 2, 0) + struct.pack(">5i", 3, 0, 2, 3, 0)
+    for given in (data.encode(), b"4OFF BINARY\n" + body):
+        found = read(tmp_path, given)
+        assert found.vertices.tolist() == square and found.faces.tolist() == [[0, 1, 2], [0, 2, 3]]
+        assert [note.split(": ", 1)[1] for note in found.notes] == [
+            "is 4OFF (homogeneous 4-D vertices); x, y, z are drawn without the fourth"], found.notes
+
+
+def test_stcoff_s_colours_come_before_its_texture_coordinates(tmp_path):
+    """STCOFF: x y z, then r g b a, then s t (the specification's order); the colours are read from after x y z
+    and the texture coordinates, which no image goes with, are a note. Corner colours: vertex 0 red, 1 green,
+    2 blue (0..255). Catches the colours read from the wrong columns (s t taken as colour) and the note dropped."""
+    rows = ["0 0 0 255 0 0 255 0.5 0.25", "1 0 0 0 255 0 255 1 0", "0 1 0 0 0 255 255 0 1"]
+    found = read(tmp_path, ("STCOFF\n3 1 0\n" + "\n".join(rows) + "\n3 0 1 2\n").encode())
+    np.testing.assert_array_equal(found.corner_colour[0], np.eye(3))
+    assert [note.split(": ", 1)[1] for note in found.notes] == [
+        "its texture coordinates (ST) are not used: OFF names no texture image"], found.notes
+
+
+def test_a_colormap_index_as_a_vertex_colour_is_not_read_and_said(tmp_path):
+    """COFF vertices of one colour number (x y z i: an index into a colormap OFF does not carry): no colour,
+    one note. Catches the index read as red (i/255, 1, 1)."""
+    found = read(tmp_path, b"COFF\n3 1 0\n0 0 0 7\n1 0 0 7\n0 1 0 7\n3 0 1 2\n")
+    assert found.corner_colour is None
+    assert [note.split(": ", 1)[1] for note in found.notes] == [
+        "its colours are colormap indices, which are not read"], found.notes
+
+
+def test_coff_binary_s_vertex_colours_are_read(tmp_path):
+    """COFF BINARY: each vertex x y z r g b a as float32 (0..1), each face Nv, its indices and Nc (0 here):
+    corners red, green, blue. Catches the binary vertex colours not read, or read from the wrong floats."""
+    body = struct.pack(">3i", 3, 1, 0)
+    for point, colour in zip([(0, 0, 0), (1, 0, 0), (0, 1, 0)], np.eye(3)):
+        body += struct.pack(">7f", *point, *colour, 1.0)
+    body += struct.pack(">5i", 3, 0, 1, 2, 0)
+    found = read(tmp_path, b"COFF BINARY\n" + body)
+    assert found.vertices.tolist() == [[0, 0, 0], [1, 0, 0], [0, 1, 0]] and found.faces.tolist() == [[0, 1, 2]]
+    np.testing.assert_array_equal(found.corner_colour[0], np.eye(3))
