@@ -11,6 +11,7 @@ from typer.testing import CliRunner
 
 import raycast_phong as rp
 from raycast_phong.cli import app
+from raycast_phong.io.meshes.source import mesh_source
 
 runner = CliRunner()
 pytestmark = pytest.mark.usefixtures("in_tmp_path")
@@ -62,3 +63,19 @@ def test_a_texture_coordinate_past_float32_is_refused_with_the_largest_and_the_r
     assert not (tmp_path / "far.png").exists()
     path.write_text(path.read_text().replace(u, "nan"))
     assert runner.invoke(app, ["render", str(path), "-o", str(tmp_path / "far.png")]).exit_code == 0
+
+
+def test_several_texture_files_use_the_first_with_a_note(tmp_path):
+    """MeshLab names one TextureFile per image and gives each face a `texnumber`; one map is read per file: the
+    first (texnumber 0's), for every face, and a note says how many were named. trimesh's reader keeps the last
+    TextureFile: here b.png, which is missing, so the square was drawn in trimesh's grey while the note said
+    a.png was read. Catches the note dropped, and the last image read."""
+    Image.new("RGB", (4, 4), (220, 20, 20)).save(tmp_path / "a.png")
+    path = write_ply(tmp_path / "sq.ply", "a.png")
+    path.write_text(path.read_text().replace("comment TextureFile a.png\n",
+                                             "comment TextureFile a.png\ncomment TextureFile b.png\n"))
+    mesh = mesh_source(path).read()
+    assert mesh.notes == (f"{path}: names 2 TextureFile images (a texture number per face); only the first, 'a.png', "
+                          "is read, for every face",), mesh.notes
+    image = mesh.texture_sources[mesh.materials[mesh.face_group[0]].kd_map].source
+    assert image.getpixel((0, 0))[:3] == (220, 20, 20)  # a.png's red

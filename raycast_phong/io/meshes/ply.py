@@ -83,7 +83,10 @@ def read(reading: Reading) -> Loaded:
         return Loaded([plain])
     from .trimesh_parts import RegularFiles, load, parts
     resolver = RegularFiles(reading.path)
-    resolver.locate = lambda folder, name: folder / resolved(name, reading.path)  # `<this>` in a TextureFile name
+    # `<this>` in a TextureFile name; trimesh asks for the last TextureFile, and the first is the one read (the
+    # image of texnumber 0; _note_textures says so)
+    first = texture_names(data[:HEADER_LIMIT])[:1]
+    resolver.locate = lambda folder, name: folder / resolved(first[0] if first else name, reading.path)
     loaded = load(reading, file_obj=io.BytesIO(data if evened is None else evened), resolver=resolver)
     _note_textures(reading.path, data[:HEADER_LIMIT], reading.notes)
     return Loaded(parts(loaded) or strip_parts(loaded))
