@@ -275,3 +275,31 @@ def test_a_bad_header_line_is_read_within_the_first_64_kib(tmp_path, past, shown
         mesh_source(tmp_path / "p.ply").read()
     assert f"property type {shown} is not a PLY type, or the property has no name" in str(caught.value), \
         str(caught.value)
+
+
+STRIP_HEAD = ("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+              "element tristrips 1\nproperty list uchar int {name}\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n")
+
+
+@pytest.mark.parametrize(("name", "strip"), [
+    ("vertex_indices", "4 0 1 3 2"),  # the square: (0, 1, 3) and (3, 1, 2), the second reversed to keep the winding
+    ("indices", "4 0 1 3 2"),         # a list not named vertex_indices: not a strip of vertices
+    ("vertex_indices", "2 0 1"),      # two indices: no triangle
+    ("vertex_indices", "1 0"),        # one index (with its -1, two): too short to window
+    ("vertex_indices", "4 0 0 1 1"),  # every triangle repeats a vertex (a strip's join): none drawn
+])
+def test_an_ascii_strip_makes_its_triangles_or_none(tmp_path, name, strip):
+    """An ASCII `tristrips` element, which trimesh reads as vertices alone: triangle i of a strip is (s_i, s_i+1,
+    s_i+2), every other one reversed; a strip of fewer than 3 indices, one whose triangles all repeat a vertex, or
+    one whose list is not vertex_indices (the PLY description's name) holds no triangle, and the file is refused
+    as holding none. Catches the short strip windowed (numpy's error), the empty result returned as a part, and
+    the missing list let out as an internal error."""
+    path = tmp_path / "s.ply"
+    path.write_text(STRIP_HEAD.format(name=name) + strip + "\n")
+    if (name, strip) == ("vertex_indices", "4 0 1 3 2"):
+        assert mesh_source(path).read().faces.tolist() == [[0, 1, 3], [3, 1, 2]]
+        return
+    with pytest.raises(SceneError) as caught:
+        mesh_source(path).read()
+    assert str(caught.value) == (f"{path}: holds no triangles; expected a mesh file of a format read here (OBJ, PLY, "
+                                 "STL, OFF, glTF/GLB, 3MF, COLLADA)"), str(caught.value)

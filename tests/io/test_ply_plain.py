@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from test_obj_plain import assert_same_mesh_file
 
+from raycast_phong.errors import SceneError
 from raycast_phong.io.meshes import ply
 from raycast_phong.io.meshes import read as mesh_file
 from raycast_phong.io.meshes.source import mesh_source
@@ -187,3 +188,41 @@ def test_a_format_line_without_its_version_is_read(tmp_path):
     found = mesh_source(path).read()
     np.testing.assert_array_equal(found.vertices, POINTS.astype(np.float32).astype(np.float64))
     np.testing.assert_array_equal(found.faces, FACES)
+
+
+def test_a_bad_element_line_in_a_carriage_return_header_is_named_by_its_line(tmp_path):
+    """A header of CR-terminated lines (the PLY description's own line end) with no end_header: its lines are
+    still told apart, so `element vertex x` (a count that is not a whole number) is named as header line 3.
+    Catches the CRs left as they are when no end_header ends them (the header one line, only "no end_header"
+    said) and the element check dropped."""
+    path = tmp_path / "cr.ply"
+    path.write_bytes(b"ply\rformat ascii 1.0\relement vertex x\rproperty float x\r")
+    with pytest.raises(SceneError) as caught:
+        mesh_source(path).read()
+    assert str(caught.value) == (f"{path}: header line 3: 'element vertex x' is not an element; allowed: element "
+                                 "NAME COUNT, COUNT a whole number"), str(caught.value)
+
+
+def test_a_header_without_end_header_is_refused_saying_so(tmp_path):
+    """The PLY header ends at `end_header`; one that never does (cut short) is refused naming how far it was
+    looked for (the file's 70 bytes here). Catches the end_header check's words or the bytes counted wrong."""
+    path = tmp_path / "open.ply"
+    data = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+    path.write_bytes(data)
+    with pytest.raises(SceneError) as caught:
+        mesh_source(path).read()
+    assert str(caught.value) == (f"{path}: has no end_header line in its first {len(data)} bytes; allowed: a PLY "
+                                 "header ending in end_header"), str(caught.value)
+
+
+def test_a_carriage_return_header_longer_than_the_count_s_read_is_counted(tmp_path):
+    """The cheap count reads 4096 bytes: a CR-terminated header whose end_header lies past them (long comments
+    after the elements) still has its `element face 7` found, its lines told apart without the end_header.
+    Catches the CRs left in place (no line starts with `element`: the count weighed by the file's size instead)."""
+    comments = b"".join(b"comment " + b"x" * 91 + b"\r" for _ in range(50))  # 5000 bytes
+    head = (b"ply\rformat ascii 1.0\relement vertex 9\rproperty float x\rproperty float y\rproperty float z\r"
+            b"element face 7\rproperty list uchar int vertex_indices\r" + comments + b"end_header\r")
+    path = tmp_path / "long.ply"
+    path.write_bytes(head + b"0 0 0\r" * 9 + b"3 0 1 2\r" * 7)
+    assert head.find(b"end_header") > 4096
+    assert mesh_source(path).triangles() == 7
