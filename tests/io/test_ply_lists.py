@@ -11,10 +11,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 from PIL import Image
+from typer.testing import CliRunner
 
+from raycast_phong.cli import app
 from raycast_phong.errors import SceneError
 from raycast_phong.io.meshes import ply_lists, ply_rows
 from raycast_phong.io.meshes.source import mesh_source
+
+runner = CliRunner()
 
 # A house: a square wall (a quad), a roof (a triangle) and a floor pentagon, convex each.
 POINTS = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0.5, 1.8, 0), (0, 0, 1), (1, 0, 1), (1.3, 0, 0.5)]
@@ -303,3 +307,25 @@ def test_an_ascii_strip_makes_its_triangles_or_none(tmp_path, name, strip):
         mesh_source(path).read()
     assert str(caught.value) == (f"{path}: holds no triangles; expected a mesh file of a format read here (OBJ, PLY, "
                                  "STL, OFF, glTF/GLB, 3MF, COLLADA)"), str(caught.value)
+
+
+ASCII_QUAD = ("ply\nformat ascii 1.0\nelement vertex 4\nproperty float {x}\nproperty float y\nproperty float z\n"
+              "element face 1\nproperty list uchar int vertex_indices\nend_header\n{body}")
+SQUARE_LINES = "0 0 0\n1 0 0\n1 1 0\n0 1 0\n"
+
+
+@pytest.mark.parametrize("body", [SQUARE_LINES.replace("1 0 0", "1 0 abc") + "4 0 1 2 3\n",
+                                  SQUARE_LINES + "4 0 1 2 x\n"])
+def test_an_ascii_polygon_file_with_a_word_that_is_not_a_number_is_one_line(tmp_path, body):
+    """An ASCII PLY of a quad whose vertex or face line holds a word that is not a number: the concave-polygon
+    scan leaves the file to trimesh, which cannot read it: the renderer's one line, exit 2. It was an internal
+    error with a traceback: numpy 2's text reader raises ValueError where numpy 1 warned, and the scan caught
+    only the warning."""
+    (tmp_path / "w.ply").write_text(ASCII_QUAD.format(x="x", body=body))
+    done = runner.invoke(app, ["render", str(tmp_path / "w.ply"), "-o", str(tmp_path / "o.png")])
+    assert done.exit_code == 2, done.output
+    [line] = done.stderr.strip().splitlines()
+    assert line.startswith(f"error: {tmp_path / 'w.ply'}: cannot read the file as PLY: its content does not follow "
+                           "the PLY format where the reader stopped"), line
+    assert ply_lists.ascii_cut(ASCII_QUAD.format(x="x", body=body).encode(),
+                               ply_lists.header(ASCII_QUAD.format(x="x", body=body).encode())) is None

@@ -302,8 +302,11 @@ def ascii_cut(data: bytes, found: Header | None) -> bytes | None:
         return None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # a word that is not a number: left to trimesh, which says so
-        table = np.fromstring(body[:start], sep=" ")
-        values = np.fromstring(section, sep=" ")
+        try:
+            table = np.fromstring(body[:start], sep=" ")
+            values = np.fromstring(section, sep=" ")
+        except ValueError:  # numpy 2 refuses the word where numpy 1 warned
+            return None
     lines = section.split(b"\n")
     words = np.array([len(line.split()) for line in lines], np.int64)
     if table.size != vertex.rows * len(names) or values.size != words.sum() or len(lines) != face.rows:
