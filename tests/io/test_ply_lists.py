@@ -329,3 +329,134 @@ def test_an_ascii_polygon_file_with_a_word_that_is_not_a_number_is_one_line(tmp_
                            "the PLY format where the reader stopped"), line
     assert ply_lists.ascii_cut(ASCII_QUAD.format(x="x", body=body).encode(),
                                ply_lists.header(ASCII_QUAD.format(x="x", body=body).encode())) is None
+
+
+@pytest.mark.parametrize(("x", "body", "said"), [
+    ("x", SQUARE_LINES[:12], "holds no triangles; expected"),  # 2 of its 4 vertex lines: no face line
+    ("px", SQUARE_LINES + "4 0 1 2 3\n", "cannot read the file as PLY"),  # no x: not a mesh trimesh reads
+    ("x", SQUARE_LINES + "4 0 1 2 nan\n", "has 1 face(s) with a vertex index outside 0..3"),
+])
+def test_an_ascii_polygon_file_the_concave_scan_cannot_read_is_left_to_the_reader(tmp_path, x, body, said):
+    """The concave-polygon scan reads only the plain form (vertex lines of x, y, z; whole face lines): a file cut
+    short before its faces, one without x, or a face index that is not finite is left as it is (ascii_cut gives
+    None) and refused by the read in one line. Catches each guard dropped (an IndexError, a KeyError or a NaN
+    index cut, an internal error)."""
+    data = ASCII_QUAD.format(x=x, body=body).encode()
+    assert ply_lists.ascii_cut(data, ply_lists.header(data)) is None
+    (tmp_path / "c.ply").write_bytes(data)
+    with pytest.raises(SceneError) as caught:
+        mesh_source(tmp_path / "c.ply").read()
+    assert str(caught.value).startswith(f"{tmp_path / 'c.ply'}: {said}"), str(caught.value)
+
+
+@pytest.mark.parametrize("body", [SQUARE_LINES.replace("1 0 0", "1 0 0 5") + "4 0 1 2 3\n",  # a vertex line long
+                                  SQUARE_LINES + "5 0 1 2 3\n",                               # a face count over
+                                  SQUARE_LINES + "4 0 1 2 3\n"])                              # convex: no cut
+def test_an_ascii_quad_the_scan_need_not_cut_is_left_as_written(body):
+    """ascii_cut rewrites only concave polygons of the plain form: a file whose vertex lines do not hold the
+    header's numbers, a face that counts more indices than it gives, or a convex quad is given back as None
+    (trimesh reads it, fanning the quad). Catches the table reshaped whatever its size (numpy's error) and a
+    rewrite made with nothing to cut."""
+    data = ASCII_QUAD.format(x="x", body=body).encode()
+    assert ply_lists.ascii_cut(data, ply_lists.header(data)) is None
+
+
+def test_a_convex_ascii_quad_is_fanned(tmp_path):
+    """The square 0 1 2 3 (convex) as two triangles of its fan from a corner, covering it once: the corners'
+    positions of both triangles span the square and share its diagonal."""
+    (tmp_path / "q.ply").write_text(ASCII_QUAD.format(x="x", body=SQUARE_LINES + "4 0 1 2 3\n"))
+    found = mesh_source(tmp_path / "q.ply").read()
+    assert sorted(turned(f) for f in found.faces.tolist()) == [(0, 1, 2), (0, 2, 3)]
+
+
+def uneven_file(extra_head: str, extra_body: bytes, face_list: str = "vertex_indices") -> bytes:
+    """The house's vertices and polygons (uneven lists), little-endian, then `extra_head`'s element."""
+    data = (f"ply\nformat binary_little_endian 1.0\nelement vertex 8\nproperty float x\nproperty float y\n"
+            f"property float z\nelement face 3\nproperty list uchar int {face_list}\n{extra_head}end_header\n").encode()
+    data += b"".join(struct.pack("<3f", *p) for p in POINTS)
+    data += b"".join(struct.pack(f"<B{len(face)}i", len(face), *face) for face in FACES)
+    return data + extra_body
+
+
+@pytest.mark.parametrize(("head", "body", "name"), [
+    ("element edge 2\nproperty list uchar int vertex_indices\n", struct.pack("<B2iB3i", 2, 0, 1, 3, 1, 2, 3), "edge"),
+    ("element tristrips 2\nproperty list uchar int vertex_indices\nproperty uchar flag\n",
+     struct.pack("<B3iBB4iB", 3, 0, 1, 2, 0, 4, 0, 1, 2, 3, 0), "tristrips"),
+])
+def test_another_element_of_uneven_lists_is_left_out_and_the_faces_read(tmp_path, head, body, name):
+    """An element of uneven lists that is neither `face` nor a one-list `tristrips` (edges; strips with a flag
+    beside their list) is left out, one note naming it; the faces read as their fans. Catches the note dropped
+    and the element's rows kept in the rewrite (the file then misread)."""
+    (tmp_path / "e.ply").write_bytes(uneven_file(head, body))
+    found = mesh_source(tmp_path / "e.ply").read()
+    assert sorted(turned(f) for f in found.faces.tolist()) == sorted(turned(f) for f in FANS)
+    assert f"its element {name!r} has lists of uneven length; it is left out" in found.notes, found.notes
+
+
+def test_a_face_element_of_uneven_lists_without_vertex_indices_holds_no_triangles(tmp_path):
+    """A face element whose only list is not vertex_indices (nor vertex_index, its common variant) names no
+    polygon: left out, said, and the file refused as holding no triangles, the reason given. Catches a list
+    of another name taken for the polygons."""
+    (tmp_path / "n.ply").write_bytes(uneven_file("", b"", face_list="corners"))
+    with pytest.raises(SceneError) as caught:
+        mesh_source(tmp_path / "n.ply").read()
+    assert str(caught.value).startswith(f"{tmp_path / 'n.ply'}: holds no triangles (its element 'face' has lists of "
+                                        "uneven length; it is left out)"), str(caught.value)
+
+
+def test_face_properties_before_the_polygon_list_are_stepped_over(tmp_path):
+    """A face row of a uchar flag and a per-corner texcoord list before vertex_indices (the PLY description
+    orders a row's properties as the header does): the polygon's indices are found after them. The quad (2 0),
+    (0.5 0.5), (0 2), (0 0) is concave at its second corner, so its fan from the first corner would leave it
+    (the diagonal (2 0)-(0 2) runs outside); its only triangulation takes the diagonal from that corner, 1-3:
+    (1, 2, 3) and (3, 0, 1). A triangle beside it makes the lists uneven. Each triangle keeps its corners'
+    coordinates. Catches the scalar's or the list's bytes not counted before the polygon (the concave test then
+    reads other bytes as indices, and the quad is fanned)."""
+    points = [(2, 0, 0), (0.5, 0.5, 0), (0, 2, 0), (0, 0, 0), (3, 0, 0)]
+    faces = [(0, 1, 2, 3), (0, 4, 1)]
+    data = (b"ply\nformat binary_little_endian 1.0\ncomment TextureFile t.png\nelement vertex 5\n"
+            b"property float x\nproperty float y\nproperty float z\nelement face 2\nproperty uchar flag\n"
+            b"property list uchar float texcoord\nproperty list uchar int vertex_indices\nend_header\n")
+    data += b"".join(struct.pack("<3f", *p) for p in points)
+    for face in faces:
+        coords = [c for k in face for c in uv(points[k])]
+        data += struct.pack(f"<BB{len(coords)}fB{len(face)}i", 7, len(coords), *coords, len(face), *face)
+    (tmp_path / "q.ply").write_bytes(data)
+    Image.new("RGB", (4, 4), (255, 255, 255)).save(tmp_path / "t.png")
+    found = mesh_source(tmp_path / "q.ply").read()
+    assert sorted(turned(f) for f in found.faces.tolist()) == [(0, 1, 3), (0, 4, 1), (1, 2, 3)]
+    assert np.allclose(found.corner_uv, [[uv(points[k]) for k in face] for face in found.faces])
+
+
+def test_a_header_whose_element_count_or_format_is_wrong_does_not_parse(tmp_path):
+    """`element vertex x` (no whole count) and `format binary_middle_endian` (the PLY formats are ascii,
+    binary_little_endian and binary_big_endian) are no PLY header: header() gives None, so the read names the
+    bad element line, and the unknown format is not read as little-endian (it is refused). Catches either
+    check dropped (int('x') raised; the body read in a format the file does not have)."""
+    good = write_binary(tmp_path / "h.ply", "little", "uchar", "int").read_bytes()
+    assert ply_lists.header(good) is not None
+    bad_count = good.replace(b"element vertex 8", b"element vertex x")
+    assert ply_lists.header(bad_count) is None
+    (tmp_path / "c.ply").write_bytes(bad_count)
+    with pytest.raises(SceneError, match=r"header line 3: 'element vertex x' is not an element"):
+        mesh_source(tmp_path / "c.ply").read()
+    middle = good.replace(b"binary_little_endian", b"binary_middle_endian")
+    assert ply_lists.header(middle) is None
+    (tmp_path / "m.ply").write_bytes(middle)
+    with pytest.raises(SceneError) as caught:  # trimesh reads it as big-endian: its indices out of range
+        mesh_source(tmp_path / "m.ply").read()
+    assert str(caught.value).startswith(f"{tmp_path / 'm.ply'}: ") and "\n" not in str(caught.value)
+
+
+def test_a_vertex_element_whose_z_is_a_list_is_refused_in_one_line(tmp_path):
+    """A vertex element with x and y scalars and z a list (one entry each) has no positions the concave-polygon
+    test can use (_points gives none), and trimesh cannot read it as vertices: the renderer's one line. Catches
+    the missing z looked up anyway (a KeyError, an internal error)."""
+    data = (b"ply\nformat binary_little_endian 1.0\nelement vertex 8\nproperty float x\nproperty float y\n"
+            b"property list uchar float z\nelement face 3\nproperty list uchar int vertex_indices\nend_header\n")
+    data += b"".join(struct.pack("<2fBf", p[0], p[1], 1, p[2]) for p in POINTS)
+    data += b"".join(struct.pack(f"<B{len(face)}i", len(face), *face) for face in FACES)
+    (tmp_path / "z.ply").write_bytes(data)
+    with pytest.raises(SceneError) as caught:
+        mesh_source(tmp_path / "z.ply").read()
+    assert str(caught.value).startswith(f"{tmp_path / 'z.ply'}: cannot read the file as PLY"), str(caught.value)
