@@ -507,3 +507,154 @@ def test_a_flattening_build_transform_keeps_the_faces_winding(tmp_path):
     flat = read(path)
     np.testing.assert_array_equal(flat.vertices[flat.faces], plain.vertices[plain.faces])
     np.testing.assert_array_equal(flat.corner_colour, plain.corner_colour)
+
+
+# ---------------------------------------------------------------- the package: parts, relationships, broken members
+PRODUCTION = "http://schemas.microsoft.com/3dmanufacturing/production/2015/06"
+
+
+def test_a_zip_without_a_model_part_is_refused_and_not_counted(tmp_path):
+    """A zip holding no 3D/3dmodel.model (and no relationship naming another) is no 3MF (core §2.1): refused in
+    one line, and the cheap count gives none (the read words it). Catches the missing part read as None."""
+    path = tmp_path / "empty.3mf"
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("readme.txt", "no model here")
+    with path.open("rb") as handle:
+        assert mesh_source(path).format.count(handle, path.stat().st_size, None) is None
+    with pytest.raises(SceneError) as caught:
+        read(path)
+    assert str(caught.value) == (f"{path}: cannot read the file as 3MF: it holds no model part "
+                                 "(3D/3dmodel.model); allowed: a 3MF package with a 3D model"), str(caught.value)
+
+
+def test_a_broken_relationships_part_falls_back_on_the_usual_model_part(tmp_path):
+    """_rels/.rels that is not well-formed XML names no model part; the read falls back on 3D/3dmodel.model (the
+    name every producer writes) and the count too. Catches the XML error let out of the fallback."""
+    path = write_package(tmp_path / "r.3mf", mesh_object(1), '<item objectid="1"/>')
+    with zipfile.ZipFile(path) as archive:
+        parts = {name: archive.read(name) for name in archive.namelist()}
+    parts["_rels/.rels"] = b"<Relationships><Relationship Target="
+    with zipfile.ZipFile(path, "w") as archive:
+        for name, data in parts.items():
+            archive.writestr(name, data)
+    assert corners(read(path)) == [[(0, 0, 0), (10, 0, 0), (10, 10, 0)]]
+    assert mesh_source(path).triangles() == 1
+
+
+def test_a_build_item_in_another_model_part_is_read_from_that_part(tmp_path):
+    """The Production extension: a build item's p:path names the model part holding its object (here
+    /3D/other.model, object 1: the square's triangle), read once and placed by the item's transform (x + 5).
+    Catches the other part not read (the object then undefined) and p:path taken without its leading /."""
+    root = (f'<?xml version="1.0" encoding="UTF-8"?>\n<model unit="millimeter" xmlns="{CORE}" xmlns:p="{PRODUCTION}">'
+            '<resources/><build><item objectid="1" p:path="/3D/other.model" transform="1 0 0 0 1 0 0 0 1 5 0 0"/>'
+            '</build></model>')
+    other = (f'<?xml version="1.0" encoding="UTF-8"?>\n<model unit="millimeter" xmlns="{CORE}"><resources>'
+             f'{mesh_object(1)}</resources><build/></model>')
+    path = tmp_path / "p.3mf"
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("3D/3dmodel.model", root)
+        archive.writestr("3D/other.model", other)
+    assert corners(read(path)) == [[(5, 0, 0), (15, 0, 0), (15, 10, 0)]]
+    assert mesh_source(path).triangles() == 1
+
+
+@pytest.mark.parametrize("model", [b"", b"not xml at all"])
+def test_a_model_part_that_is_not_xml_is_refused_as_not_well_formed(tmp_path, model):
+    """A model part with no <model> element at all (empty, or plain text): no required extension to check, and the
+    XML parse refuses it in one line. Catches the missing <model> tag taken as an error of its own (None[1])."""
+    path = tmp_path / "x.3mf"
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("3D/3dmodel.model", model)
+    with pytest.raises(SceneError) as caught:
+        read(path)
+    message = str(caught.value)
+    assert message.startswith(f"{path}: cannot read the file as 3MF: 3D/3dmodel.model is not well-formed XML ("), \
+        message
+    assert "\n" not in message
+
+
+def test_a_model_part_corrupt_past_its_first_64_kib_is_refused_naming_the_part(tmp_path):
+    """A stored model part of ~100 kB whose bytes past the first 64 KiB (the required-extension check's read) are
+    changed: zipfile's CRC check fails while the XML is parsed, refused in one line naming the part. Catches the
+    zip error let out of the parse (an internal error)."""
+    resources = "".join(f"<!-- {'x' * 90} -->" for _ in range(1100))  # 100 kB of comments before the object
+    path = write_3mf(tmp_path / "c.3mf", resources, TWO)
+    data = bytearray(path.read_bytes())
+    at = data.index(b"x" * 90, 80_000)
+    data[at] = ord("y")  # still well-formed XML: only the checksum tells
+    path.write_bytes(bytes(data))
+    with pytest.raises(SceneError) as caught:
+        read(path)
+    assert str(caught.value) == (f"{path}: cannot read the file as 3MF: 3D/3dmodel.model: Bad CRC-32 for file "
+                                 "'3D/3dmodel.model'"), str(caught.value)
+
+
+@pytest.mark.parametrize("batch", [1, 2, 3, 5])
+def test_more_vertices_and_triangles_than_a_batch_are_read_across_it(tmp_path, monkeypatch, batch):
+    """The parse drops every BATCH vertices or triangles it has read (the tree is never held whole): with a batch
+    of 1 to 5, a strip's 7 vertices and 5 triangles cross several drops, and every value is still its own. The
+    drop took every sibling but the last the parser had made, which may be one read ahead and not yet yielded:
+    at the next drop that one had no parent (TypeError, an internal error) for batches 1, 2 and 5; 8192 hid it (the
+    read-ahead of a 32 kB block holds fewer elements)."""
+    from raycast_phong.io.meshes import threemf
+    monkeypatch.setattr(threemf, "BATCH", batch)
+    strip = "".join(f'<vertex x="{10 * (k // 2)}" y="{10 * (k % 2)}" z="{k}"/>' for k in range(7))
+    triangles = "".join(f'<triangle v1="{k}" v2="{k + 1}" v3="{k + 2}"/>' for k in range(5))
+    model = (f'<?xml version="1.0" encoding="UTF-8"?>\n<model unit="millimeter" xmlns="{CORE}"><resources>'
+             f'<object id="1" type="model"><mesh><vertices>{strip}</vertices><triangles>{triangles}</triangles>'
+             '</mesh></object></resources><build><item objectid="1"/></build></model>')
+    path = tmp_path / "b.3mf"
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("3D/3dmodel.model", model)
+    mesh = read(path)
+    assert corners(mesh) == [[(10 * (j // 2), 10 * (j % 2), j) for j in (k, k + 1, k + 2)] for k in range(5)]
+
+
+@pytest.mark.parametrize(("transform", "shown"), [("1 0 0 0 1 0 0 0 1 a b c", "'1 0 0 0 1 0 0 0 1 a b c'"),
+                                                  ("1 0 0 0 1 0 0 0 1 0 0", "'1 0 0 0 1 0 0 0 1 0 0'"),
+                                                  ("1 0 0 0 1 0 0 0 1 0 0 nan", "'1 0 0 0 1 0 0 0 1 0 0 nan'")])
+def test_a_transform_that_is_not_12_finite_numbers_is_refused(tmp_path, transform, shown):
+    """Core §3.4.1: a transform is 12 numbers (the 3 × 3 matrix by rows, then the translation). Words, 11 numbers
+    or a NaN are refused in one line quoting it. Catches the words let through as a ValueError, or a short or
+    non-finite matrix used."""
+    path = write_package(tmp_path / "t.3mf", mesh_object(1), f'<item objectid="1" transform="{transform}"/>')
+    with pytest.raises(SceneError) as caught:
+        read(path)
+    assert str(caught.value) == (f"{path}: transform {shown} is not 12 finite numbers; allowed: "
+                                 "'m00 m01 m02 m10 m11 m12 m20 m21 m22 m30 m31 m32'"), str(caught.value)
+
+
+def test_a_vertex_coordinate_that_is_not_a_number_is_refused(tmp_path):
+    """x="abc": numpy's text reader stops at it (a ValueError in numpy 2), and the refusal says what it is. Catches
+    the error let out, or the column read short."""
+    path = write_3mf(tmp_path / "v.3mf", "", TWO)
+    with zipfile.ZipFile(path) as archive:
+        model = archive.read("3D/3dmodel.model").decode().replace('x="10" y="0"', 'x="abc" y="0"')
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("3D/3dmodel.model", model)
+    with pytest.raises(SceneError) as caught:
+        read(path)
+    assert str(caught.value) == (f"{path}: a vertex coordinate that is not a number (or is missing); "
+                                 "allowed: numbers as the 3MF core specification writes them"), str(caught.value)
+
+
+def test_a_tex2coord_beyond_float32_is_refused(tmp_path):
+    """Texture coordinates are kept as float32 per corner: u = 1e39 cannot be one (it would be inf); refused
+    naming the group and the range. Catches the limit check dropped."""
+    resources = ('<m:texture2d id="3" path="/3D/Texture/t.png" contenttype="image/png"/>'
+                 '<m:texture2dgroup id="4" texid="3"><m:tex2coord u="1e39" v="0"/></m:texture2dgroup>')
+    path = write_3mf(tmp_path / "u.3mf", resources, '<triangle v1="0" v2="1" v3="2" pid="4" p1="0"/>')
+    with pytest.raises(SceneError) as caught:
+        read(path)
+    assert str(caught.value) == (f"{path}: texture2dgroup 4 has a tex2coord beyond float32's range; "
+                                 "allowed: -3.403e+38 .. 3.403e+38"), str(caught.value)
+
+
+def test_a_build_item_naming_an_undefined_object_is_refused(tmp_path):
+    """Core §3.4: an item's objectid must be an object of its part. Refused in one line naming it. Catches the
+    missing object skipped silently or an internal KeyError."""
+    path = write_package(tmp_path / "o.3mf", mesh_object(1), '<item objectid="7"/>')
+    with pytest.raises(SceneError) as caught:
+        read(path)
+    assert str(caught.value) == (f"{path}: the build names object 7 of 3D/3dmodel.model, which it does "
+                                 "not define; allowed: the id of an <object> of that part"), str(caught.value)

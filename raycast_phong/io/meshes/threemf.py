@@ -196,7 +196,11 @@ def _parse(archive, members, part: str, models: dict, path: Path, notes: list[st
                                         (attrib.get("pid"), attrib.get("p1"), attrib.get("p2"), attrib.get("p3")))))
                 held += 1
                 if held == BATCH:  # drop the ones read in one step: per element, the deletes cost 2× the read
-                    del element.getparent()[:-1]
+                    # Those before this one only: the parser may have read siblings ahead (not yet yielded), and
+                    # one dropped with them would be read detached (no parent) at the next drop.
+                    parent = element.getparent()
+                    if parent is not None:
+                        del parent[:parent.index(element)]
                     held = 0
                 continue
             if name == "object":
