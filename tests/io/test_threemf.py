@@ -624,12 +624,15 @@ def test_a_transform_that_is_not_12_finite_numbers_is_refused(tmp_path, transfor
                                  "'m00 m01 m02 m10 m11 m12 m20 m21 m22 m30 m31 m32'"), str(caught.value)
 
 
-def test_a_vertex_coordinate_that_is_not_a_number_is_refused(tmp_path):
-    """x="abc": numpy's text reader stops at it (a ValueError in numpy 2), and the refusal says what it is. Catches
-    the error let out, or the column read short."""
+@pytest.mark.parametrize("vertex", ['x="abc" y="0"', 'x="10"'])
+def test_a_vertex_coordinate_that_is_not_a_number_is_refused(tmp_path, vertex):
+    """x="abc" (numpy's text reader stops at it: a ValueError in numpy 2) or y left out (core §4.1.1: x, y and z
+    are required): refused in one line saying what it is. A missing y was read as NaN (np.array makes None a
+    float NaN) and refused as a NaN coordinate, or drawn when no face used the vertex. Catches either error let
+    out, or the column read short."""
     path = write_3mf(tmp_path / "v.3mf", "", TWO)
     with zipfile.ZipFile(path) as archive:
-        model = archive.read("3D/3dmodel.model").decode().replace('x="10" y="0"', 'x="abc" y="0"')
+        model = archive.read("3D/3dmodel.model").decode().replace('x="10" y="0"', vertex, 1)
     with zipfile.ZipFile(path, "w") as archive:
         archive.writestr("3D/3dmodel.model", model)
     with pytest.raises(SceneError) as caught:
@@ -658,3 +661,119 @@ def test_a_build_item_naming_an_undefined_object_is_refused(tmp_path):
         read(path)
     assert str(caught.value) == (f"{path}: the build names object 7 of 3D/3dmodel.model, which it does "
                                  "not define; allowed: the id of an <object> of that part"), str(caught.value)
+
+
+# ---------------------------------------------------------------- textures: shared, missing, not images, in layers
+def png(colour=(200, 10, 10), mode="RGB") -> bytes:
+    from PIL import Image
+    data = io.BytesIO()
+    Image.new(mode, (2, 2), colour).save(data, "PNG")
+    return data.getvalue()
+
+
+TEXTURE = ('<m:texture2d id="3" path="/3D/Texture/t.png" contenttype="image/png"/>'
+           '<m:texture2dgroup id="4" texid="3"><m:tex2coord u="0" v="0"/><m:tex2coord u="1" v="0"/>'
+           '<m:tex2coord u="1" v="1"/></m:texture2dgroup>')
+TEXTURED = '<triangle v1="0" v2="1" v3="2" pid="4" p1="0" p2="1" p3="2"/>'
+
+
+def not_read(mesh) -> list[str]:
+    return [note.split(": not read: ", 1)[1] for note in mesh.notes if ": not read: " in note]
+
+
+def test_a_texture_placed_twice_is_one_map(tmp_path):
+    """Two build items of one textured object: both instances' triangles use the one material and map (the image
+    is opened once). Catches the texture made again for each instance (two maps of one image)."""
+    path = write_package(tmp_path / "two.3mf", TEXTURE + mesh_object(1, TEXTURED),
+                         '<item objectid="1"/><item objectid="1" transform="1 0 0 0 1 0 0 0 1 20 0 0"/>')
+    with zipfile.ZipFile(path, "a") as archive:
+        archive.writestr("3D/Texture/t.png", png())
+    mesh = read(path)
+    assert len(mesh.faces) == 2 and len(mesh.texture_sources) == 1 and len(set(mesh.face_group.tolist())) == 1
+    assert mesh.materials[mesh.face_group[0]].kd_map == 0
+
+
+@pytest.mark.parametrize(("resources", "files", "said"), [
+    (TEXTURE, {"3D/Texture/t.png": b"not an image"}, "'3D/Texture/t.png', missing or not an image"),
+    (TEXTURE, {}, "'3D/Texture/t.png', missing or not an image"),
+    (TEXTURE.replace('texid="3"', 'texid="9"'), {}, "'texture2d 9', missing or not an image"),
+    (TEXTURE.replace('texid="3"', 'texid="2"') + '<m:colorgroup id="2"><m:color color="#FF0000"/></m:colorgroup>',
+     {}, "'texture2d 2', missing or not an image"),  # texid names a colour group, not a texture2d
+])
+def test_a_texture_missing_or_not_an_image_leaves_the_default_material_with_a_note(tmp_path, resources, files, said):
+    """A texture2d whose part is not an image PIL reads, is missing, or a texid naming no texture2d: the triangles
+    keep their texture coordinates but no map, the default material, one note naming it; the memory estimate
+    weighs no image for it. Catches PIL's error let out, and the note dropped."""
+    mesh = read(write_3mf(tmp_path / "t.3mf", resources, TEXTURED, files))
+    assert (mesh.face_group == -1).all() and mesh.texture_sources == ()
+    assert not_read(mesh) == [f"{said} (its triangles use the default material)"], mesh.notes
+    source = mesh_source(tmp_path / "t.3mf")
+    assert source.format.texture_sizes(source) == ()
+
+
+def test_the_texture_sizes_skip_a_member_that_is_not_an_image(tmp_path):
+    """The memory estimate weighs each image in the zip by its header: a .png member that is not one is skipped
+    (the read notes it), the others still weighed. Catches PIL's error ending the scan (no sizes at all)."""
+    path = write_3mf(tmp_path / "s.3mf", TEXTURE, TEXTURED, {"3D/Texture/a.png": b"not an image",
+                                                            "3D/Texture/t.png": png()})
+    source = mesh_source(path)
+    assert source.format.texture_sizes(source) == ((2, 2),)
+
+
+def test_the_texture_sizes_of_a_file_that_is_no_zip_are_none(tmp_path):
+    """The memory estimate asks for the images' sizes before the read: a .3mf that is no zip has none (the read
+    then refuses it), and its unzipped size is 0, so its floor is its own size. Catches zipfile's error let out
+    of either."""
+    from types import SimpleNamespace
+
+    from raycast_phong.io.meshes import threemf
+    path = tmp_path / "z.3mf"
+    path.write_bytes(b"PK but no zip" * 10)
+    assert threemf.FORMAT.texture_sizes(SimpleNamespace(path=path)) == ()
+    assert threemf._unzipped(path) == 0 and threemf._unzipped(tmp_path / "gone.3mf") == 0
+    assert threemf.FORMAT.floor(path, 130, None) == 130
+
+
+def test_a_texture2d_named_as_a_triangle_s_property_group_is_the_default_material(tmp_path):
+    """A triangle's pid must name a property group (basematerials, colorgroup, texture2dgroup, compositematerials
+    or multiproperties; materials §1); a texture2d is none (a texture2dgroup's texid names it). Its triangles are
+    drawn in the default material, noted naming it a texture2d. The note named it by its image's path
+    ("3D/Texture/t.png resources"); catches that and the note dropped."""
+    mesh = read(write_3mf(tmp_path / "p.3mf", TEXTURE, '<triangle v1="0" v2="1" v3="2" pid="3" p1="0"/>',
+                          {"3D/Texture/t.png": png()}))
+    assert (mesh.face_group == -1).all() and mesh.corner_colour is None and mesh.corner_uv is None
+    assert not_read(mesh) == ["texture2d resources named as a triangle's property group (their triangles use the "
+                              "default material)"], mesh.notes
+
+
+def test_multiproperties_read_the_first_texture_layer_and_note_the_rest(tmp_path):
+    """A multiproperties of a colour group and two texture groups (pids 2 4 5): per corner, the colour group's
+    colour and the first texture group's coordinates with its image as the map; the second texture layer is not
+    read, noted. Corners' rows: (0 0 0), (1 1 0), (0 2 0): red at (0,0), green at (1,0), red at (1,1). Catches the
+    first texture layer not taken (no map), its coordinates taken from the wrong column, the later layer taking
+    its place, and the note dropped."""
+    resources = (TEXTURE + '<m:texture2dgroup id="5" texid="3"><m:tex2coord u="0.5" v="0.5"/></m:texture2dgroup>'
+                 '<m:colorgroup id="2"><m:color color="#FF0000"/><m:color color="#00FF00"/></m:colorgroup>'
+                 '<m:multiproperties id="6" pids="2 4 5"><m:multi pindices="0 0 0"/><m:multi pindices="1 1 0"/>'
+                 '<m:multi pindices="0 2 0"/></m:multiproperties>')
+    triangle = '<triangle v1="0" v2="1" v3="2" pid="6" p1="0" p2="1" p3="2"/>'
+    mesh = read(write_3mf(tmp_path / "m.3mf", resources, triangle, {"3D/Texture/t.png": png()}))
+    np.testing.assert_array_equal(mesh.corner_colour[0], [[1, 0, 0], [0, 1, 0], [1, 0, 0]])
+    np.testing.assert_array_equal(mesh.corner_uv[0], [[0, 0], [1, 0], [1, 1]])
+    material = mesh.materials[mesh.face_group[0]]
+    assert material.kd_map == 0 and material.kd == (1.0, 1.0, 1.0)
+    assert not_read(mesh) == ["multiproperties' texture layers after the first"], mesh.notes
+
+
+@pytest.mark.parametrize(("pids", "said"), [("2 99", "undefined"), ("2 3", "texture2d"), ("2 7", "multiproperties")])
+def test_a_multiproperties_layer_that_is_no_colour_or_texture_group_is_noted(tmp_path, pids, said):
+    """A layer id naming nothing, a texture2d (no property group) or another multiproperties (which materials §5
+    forbids as a layer): not read, one note saying what it is; the colour layer still colours. The note said
+    "undefined" of the last two; catches that and the note dropped."""
+    resources = (TEXTURE + '<m:colorgroup id="2"><m:color color="#00FF00"/></m:colorgroup>'
+                 '<m:multiproperties id="7" pids="2"><m:multi pindices="0"/></m:multiproperties>'
+                 f'<m:multiproperties id="6" pids="{pids}"><m:multi pindices="0 0"/></m:multiproperties>')
+    mesh = read(write_3mf(tmp_path / "u.3mf", resources, '<triangle v1="0" v2="1" v3="2" pid="6" p1="0"/>',
+                          {"3D/Texture/t.png": png()}))
+    np.testing.assert_array_equal(mesh.corner_colour[0], [[0, 1, 0]] * 3)
+    assert not_read(mesh) == [f"multiproperties' {said} layers"], mesh.notes

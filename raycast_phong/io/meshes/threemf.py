@@ -274,12 +274,16 @@ def _transform(attrib, path: Path) -> np.ndarray:
     return matrix
 
 
+def _not_a_number(what: str, path: Path) -> FileProblem:
+    return FileProblem(f"{str(path)!r}: a {what} that is not a number (or is missing); allowed: numbers as the 3MF "
+                       "core specification writes them")
+
+
 def _numbers(values, dtype, what: str, path: Path) -> np.ndarray:
     try:
         return np.array(values, dtype)
     except (TypeError, ValueError):
-        raise FileProblem(f"{str(path)!r}: a {what} that is not a number (or is missing); allowed: numbers as the "
-                          "3MF core specification writes them") from None
+        raise _not_a_number(what, path) from None
 
 
 def _column(words, dtype, what: str, path: Path, default: str | None = None) -> np.ndarray:
@@ -291,9 +295,9 @@ def _column(words, dtype, what: str, path: Path, default: str | None = None) -> 
         words = [default if word is None else word for word in words]
     try:
         text = " ".join(words)
-    except TypeError:  # a None: the attribute is missing
-        text = None
-    if text is not None and (dtype is np.float64 or ("." not in text and "e" not in text.lower())):
+    except TypeError:  # a None: a required attribute is missing (np.array would make it a float NaN)
+        raise _not_a_number(what, path) from None
+    if dtype is np.float64 or ("." not in text and "e" not in text.lower()):
         try:
             values = np.fromstring(text, dtype=dtype, sep=" ") if text else np.zeros(0, dtype)
         except ValueError:  # numpy 2: a word that is not a number stops it; _numbers words it
@@ -459,7 +463,10 @@ def _surfaces(model: _Model, pid: str, vertices, faces, p, path: Path, textures:
     if kind == "multi":
         return [_multi(model, found, pid, vertices, faces, p, path, textures, materials, sources, skipped,
                        archive, members)]
-    skipped.add(f"{found[1]} resources (their triangles use the default material)")
+    # a texture2d (kind "texture", found[1] its image's path) is no property group (materials §3.1: a
+    # texture2dgroup's texid names it): its triangles are drawn in the default material
+    skipped.add(f"{'texture2d' if kind == 'texture' else found[1]} resources named as a triangle's property group "
+                "(their triangles use the default material)")
     return [(vertices, faces, PartSurface())]
 
 
@@ -561,7 +568,8 @@ def _multi(model: _Model, found, pid: str, vertices, faces, p, path: Path, textu
         elif kind == "uv":
             skipped.add("multiproperties' texture layers after the first")
         else:
-            skipped.add(f"multiproperties' {resource[1] if kind == 'other' else 'undefined'} layers")
+            named = {"texture": "texture2d", "multi": "multiproperties"}.get(kind, "undefined")
+            skipped.add(f"multiproperties' {resource[1] if kind == 'other' else named} layers")
     return (vertices, faces, PartSurface(material=material, corner_uv=uv if material is not None else None,
                                          corner_colour=None if colour is None else colour.astype(np.float32)))
 
