@@ -206,7 +206,7 @@ def gltf_samplers(document: dict) -> dict:
                 found.setdefault((material.get("name"), slot), (GLTF_WRAP.get(modes.get("wrapS"), "repeat"),
                                                                 GLTF_WRAP.get(modes.get("wrapT"), "repeat")))
     except (AttributeError, IndexError, TypeError, ValueError):
-        pass  # a malformed table: every map repeats
+        pass  # a malformed table: the maps read before it keep their modes, the rest repeat
     return found
 
 

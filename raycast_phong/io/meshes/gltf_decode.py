@@ -583,8 +583,8 @@ INDEX_TYPES = (5121, 5123, 5125)  # glTF 2.0 §3.7.2.1: unsigned byte, short and
 
 def node_globals(nodes: list) -> np.ndarray:
     """(N, 4, 4) every node's global transform: its parents' local transforms, outermost first, times its own
-    (a `matrix`, stored column by column, or T · R · S). A node in a cycle or under two parents is refused by the
-    read's checks before this (gltf.check_references)."""
+    (a `matrix`, stored column by column, or T · R · S). A node listed as the child of two parents takes the
+    last; a chain is followed at most N steps, so a cycle ends (the file is not refused here)."""
     local = np.tile(np.eye(4), (len(nodes), 1, 1))
     parent = np.full(len(nodes), -1)
     for i, node in enumerate(nodes):
