@@ -83,6 +83,13 @@ def test_a_set_written_apart_is_listed_without_hand(tmp_path, monkeypatch, capsy
     assert capsys.readouterr().out.strip().splitlines()[-1] == "1 mutants"
 
 
+def test_the_whole_suite_runs_on_every_core_and_a_subset_in_one_process():
+    whole, subset = mutate.pytest_command(["tests"]), mutate.pytest_command(["tests/io", "tests/contracts"])
+    assert whole[whole.index("-n") + 1] == "auto" and "-n" not in subset
+    for command in (whole, subset):
+        assert "-x" in command and "tests/project/test_project.py::test_ruff_is_clean" in command
+
+
 def test_the_baseline_imports_the_core_package_from_the_copy():
     """The check that a mutant's copy is what gets imported: it once built `import raycast_phong/pipeline`
     from the package path, a syntax error that stopped every mutation run before its first mutant."""
