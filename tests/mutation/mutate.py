@@ -515,7 +515,7 @@ MARKS = "not bench"  # --fast: "not bench and not slow"
 def pytest_command(tests: list[str]) -> list[str]:
     """pytest on `tests`, stopping at the first failure. Lint is left out: a mutant is unidiomatic on purpose
     ("(points)"), so ruff would kill it for its style. A subset runs in one process (its tests in their order);
-    the whole suite (--whole) on every core, as CI runs it (half the time of a serial run on two cores)."""
+    the whole suite (--whole) on every core, as CI runs it."""
     spread = ["-n", "auto"] if tests == ["tests"] else []
     return [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", "-o", f"addopts=-m '{MARKS}'",
             *spread, "--deselect", "tests/project/test_project.py::test_ruff_is_clean", *tests]
