@@ -1478,3 +1478,27 @@ def test_each_malformed_page_message_gets_its_own_line_and_the_socket_stays(scen
             assert answer.get("id") == (message.get("id") if isinstance(message, dict) else None)
         ws.send_text(json.dumps({"type": "render", "id": 9, "settings": {"render.shading": "flat"}}))
         receive_frame(ws)
+
+
+def test_a_loaded_file_the_pages_settings_cannot_make_is_refused_naming_the_key(tmp_path):
+    """Loading a saved scene gives the page settings that make it from the view's scene, or one line why none
+    can: a key the view's scene sets and the file leaves unset (a setting cannot unset it), or values the file
+    may hold but the view refuses (16384² pixels: past the view's rays a frame)."""
+    from raycast_phong.io.scene_toml import scene_toml
+    from raycast_phong.tools.view.server import ViewError, settings_from
+    path = write_tiny_scene(tmp_path, 32, 24)
+    path.write_text(path.read_text().replace('shape = "icosphere"', 'shape = "icosphere"\nname = "ball"'))
+    opened = open_scene(path)
+    text = scene_toml(scene_with(opened, {}))
+    assert 'name = "ball"' in text and settings_from(opened, text, "same.toml") == {}
+    with pytest.raises(ViewError) as refused:
+        settings_from(opened, text.replace('name = "ball"\n', ""), "nameless.toml")
+    assert str(refused.value) == "nameless.toml: objects.0.name is unset there and set here; a page setting " \
+                                 "cannot unset a key"
+    huge = text.replace("width = 32", "width = 16384").replace("height = 24", "height = 16384")
+    assert "width = 16384" in huge and "height = 16384" in huge
+    with pytest.raises(ViewError) as refused:
+        settings_from(opened, huge, "huge.toml")
+    message = str(refused.value)
+    assert message.startswith("huge.toml: these settings do not apply to this view's scene: ") and \
+        "rays per frame" in message and "\n" not in message, message

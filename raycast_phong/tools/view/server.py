@@ -217,7 +217,7 @@ def settings_from(opened: Opened, text: str, name: str) -> dict:
         raise ViewError(f"{name}: {unset} is unset there and set here; a page setting cannot unset a key")
     try:
         made = dump(scene_with(opened, settings))
-    except SceneError as error:
+    except (SceneError, ViewError) as error:  # the format's refusal, or the view's own limits
         raise ViewError(f"{name}: these settings do not apply to this view's scene: {error}") from None
     if made != wanted:
         differs = sorted(key for key in wanted.keys() | made.keys() if made.get(key) != wanted.get(key))
