@@ -1,6 +1,6 @@
-"""A plain binary PLY is read by numpy views of its bytes (io/meshes/ply.plain_part), without trimesh, into the very
-MeshFile trimesh's reader gave; every other PLY still goes to trimesh. The files are written here from the PLY
-specification (header lines, then rows of each element in order, either endianness)."""
+"""A plain PLY is read by numpy views of its bytes or one parse of its text (io/meshes/ply.plain_part), without
+trimesh, into the very MeshFile trimesh's reader gave; every other PLY still goes to trimesh. The files are written
+here from the PLY specification (header lines, then rows of each element in order, either endianness or ASCII)."""
 
 from __future__ import annotations
 
@@ -26,8 +26,9 @@ FACES = np.array([[0, 1, 2], [2, 3, 4], [4, 5, 6], [6, 7, 8], [8, 0, 4]])
 
 def write_ply(path: Path, vertex: dict[str, tuple[str, np.ndarray]], faces=FACES, *, big: bool = False,
               face_first: bool = False, index_name: str = "vertex_indices", comments: tuple[str, ...] = (),
-              face_extra: dict[str, tuple[str, np.ndarray]] | None = None) -> Path:
-    """A binary PLY of one `vertex` element (name: (PLY type, values)) and one `face` element of triangles."""
+              face_extra: dict[str, tuple[str, np.ndarray]] | None = None, ascii: bool = False) -> Path:
+    """A binary (or `ascii`) PLY of one `vertex` element (name: (PLY type, values)) and one `face` element of
+    triangles; ASCII rows a line each, every value written in its type's shortest round-trip form."""
     kinds = {"float": "f4", "double": "f8", "uchar": "u1", "int": "i4", "ushort": "u2"}
     order = ">" if big else "<"
     vertex_rows = np.zeros(len(POINTS), [(name, order + kinds[kind]) for name, (kind, _) in vertex.items()])
@@ -44,9 +45,14 @@ def write_ply(path: Path, vertex: dict[str, tuple[str, np.ndarray]], faces=FACES
                   *(f"property {kind} {name}" for name, (kind, _) in extra.items())]
     blocks = [(face_lines, face_rows), (vertex_lines, vertex_rows)] if face_first else \
         [(vertex_lines, vertex_rows), (face_lines, face_rows)]
-    header = ["ply", f"format binary_{'big' if big else 'little'}_endian 1.0", *comments,
-              *[line for lines, _ in blocks for line in lines], "end_header"]
-    path.write_bytes(("\n".join(header) + "\n").encode() + b"".join(rows.tobytes() for _, rows in blocks))
+    form = "ascii" if ascii else f"binary_{'big' if big else 'little'}_endian"
+    header = ["ply", f"format {form} 1.0", *comments, *[line for lines, _ in blocks for line in lines], "end_header"]
+    if ascii:
+        body = "".join(" ".join(str(value) for field in row.dtype.names for value in np.ravel(row[field])) + "\n"
+                       for _, rows in blocks for row in rows).encode()
+    else:
+        body = b"".join(rows.tobytes() for _, rows in blocks)
+    path.write_bytes(("\n".join(header) + "\n").encode() + body)
     return path
 
 
@@ -88,19 +94,58 @@ def read(path: Path, plain: bool, monkeypatch) -> mesh_file.MeshFile:
         return mesh_file.read_file(mesh_source(path), bounds=True)
 
 
+@pytest.mark.parametrize("ascii", [False, True], ids=["binary", "ascii"])
 @pytest.mark.parametrize("case", PLAIN)
-def test_a_plain_binary_ply_reads_without_trimesh_as_trimesh_read_it(case, tmp_path, monkeypatch):
-    path = write_ply(tmp_path / "plain.ply", **PLAIN[case])
+def test_a_plain_ply_reads_without_trimesh_as_trimesh_read_it(case, ascii, tmp_path, monkeypatch):
+    """Binary and ASCII alike (ASCII: the vertex element first, little- or big-endian meaningless)."""
+    if ascii and ({"big", "face_first"} & PLAIN[case].keys()):
+        pytest.skip("a binary layout")
+    path = write_ply(tmp_path / "plain.ply", **PLAIN[case], ascii=ascii)
     data = path.read_bytes()
     assert ply.plain_part(data, ply.ply_lists.header(data)) is not None
     assert_same_mesh_file(read(path, True, monkeypatch), read(path, False, monkeypatch))
 
 
+@pytest.mark.parametrize("ascii", [False, True], ids=["binary", "ascii"])
 @pytest.mark.parametrize("case", TRIMESH_READS)
-def test_any_other_ply_is_left_to_trimesh(case, tmp_path, monkeypatch):
-    path = write_ply(tmp_path / "other.ply", **TRIMESH_READS[case])
+def test_any_other_ply_is_left_to_trimesh(case, ascii, tmp_path, monkeypatch):
+    path = write_ply(tmp_path / "other.ply", **TRIMESH_READS[case], ascii=ascii)
     data = path.read_bytes()
     assert ply.plain_part(data, ply.ply_lists.header(data)) is None
+
+
+@pytest.mark.parametrize(("change", "why"), [
+    (lambda text: text + "x\n", "a line past the rows (trimesh ignores it): still plain"),
+    (lambda text: text.replace("\n3 0 1 2\n", "\n3 0 1 2 7\n"), "a row one number too long"),
+    (lambda text: text.replace("\n3 0 1 2\n", "\n3 0 1 x\n"), "a word that is not a number"),
+    (lambda text: text.replace("\n3 8 0 4", ""), "a face row missing"),
+    (lambda text: text.replace("\n3 0 1 2\n3 2 3 4\n", "\n4 0 1 2 3\n2 3 4\n"), "a quad and a two-gon: as many "
+     "numbers as two triangles"),
+    (lambda text: "\n" + text[1:].split("\n", 1)[0].rsplit(" ", 1)[0] + "\n" + text[1:].split("\n", 1)[1],
+     "a vertex row one number short"),
+    (lambda text: text.replace("\n", "\r"), "CR-only line ends"),
+])
+def test_an_ascii_ply_off_the_plain_layout_is_left_to_trimesh(change, why, tmp_path):
+    """ascii_rows reads one row a line, every face a triangle; anything else goes to trimesh (which reads it,
+    or says what is wrong), never a Part of misplaced numbers."""
+    path = write_ply(tmp_path / "a.ply", xyz(), ascii=True)
+    head, body = path.read_text().split("end_header\n")
+    text = head + "end_header\n" + change("\n" + body)[1:]
+    data = text.encode()
+    found = ply.plain_part(data, ply.ply_lists.header(data))
+    assert (found is not None) == why.endswith("still plain"), why
+
+
+def test_an_ascii_ply_is_read_as_written_by_hand(tmp_path):
+    """The numbers of a small ASCII file, as trimesh reads them: each value in its declared type (a `float`
+    0.1 is float32's 0.1, a `double` keeps 0.1), indices as written."""
+    text = ("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty double y\nproperty float z\n"
+            "element face 1\nproperty list uchar int vertex_indices\nend_header\n0.1 0.1 0\n1 0 0\n0 1 -2.5\n"
+            "3 2 0 1\n")
+    part = ply.plain_part(text.encode(), ply.ply_lists.header(text.encode()))
+    np.testing.assert_array_equal(part.vertices, [[np.float64(np.float32(0.1)), 0.1, 0], [1, 0, 0], [0, 1, -2.5]])
+    np.testing.assert_array_equal(part.faces, [[2, 0, 1]])
+    assert part.vertices.dtype == np.float64 and part.faces.dtype == np.int64
 
 
 def test_the_colours_and_normals_of_a_plain_ply_are_the_file_s(tmp_path, monkeypatch):
@@ -134,12 +179,12 @@ def test_a_mixed_polygon_ply_is_read_without_trimesh_after_its_fans(tmp_path, mo
     np.testing.assert_array_equal(plain.faces, [[0, 1, 2], [0, 2, 3], [4, 5, 6]])
 
 
-@pytest.mark.parametrize("suffix", ["ply", "stl", "off", "obj"])
+@pytest.mark.parametrize("suffix", ["ply", "ascii.ply", "stl", "off", "obj"])
 def test_reading_a_plain_mesh_file_does_not_import_trimesh(suffix, tmp_path):
     """trimesh's import (with SciPy's) is 0.3-0.7 s of a process: only a file it alone reads pays for it."""
     path = tmp_path / f"plain.{suffix}"
-    if suffix == "ply":
-        write_ply(path, vertex=xyz())
+    if suffix.endswith("ply"):
+        write_ply(path, vertex=xyz(), ascii=suffix == "ascii.ply")
     elif suffix == "stl":
         corners = POINTS[FACES].astype("<f4")
         records = np.zeros(len(FACES), [("normal", "<f4", 3), ("corners", "<f4", (3, 3)), ("spare", "<u2")])

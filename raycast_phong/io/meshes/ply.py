@@ -97,22 +97,27 @@ UV_NAMES = {"texture_u", "texture_v", "u", "v", "s", "t"}  # the per-vertex coor
 
 
 def plain_part(data: bytes, header: ply_lists.Header | None) -> Part | None:
-    """The Part trimesh's reader gives for a binary PLY of a `vertex` element (float x, y, z; optionally nx, ny,
-    nz and 8-bit red, green, blue, alpha; other scalars ignored, as trimesh keeps them aside) and a `face`
-    element of one list of three indices per row, read by numpy views of the bytes; None for any other PLY
-    (texture coordinates or files, face properties, polygons, strips, other elements, ASCII, short data),
-    which trimesh reads. Same arrays, same dtypes: vertices and normals float64, faces int64, colours as
-    every reader gives them (8-bit / 255 at each corner)."""
-    if header is None or header.format == "ascii" or texture_names(data[:HEADER_LIMIT]):
+    """The Part trimesh's reader gives for a PLY of a `vertex` element (float x, y, z; optionally nx, ny, nz and
+    8-bit red, green, blue, alpha; other scalars ignored, as trimesh keeps them aside) and a `face` element of
+    one list of three indices per row, read by numpy views of the bytes (binary) or one parse of each section
+    (ASCII, ply_lists.ascii_rows); None for any other PLY (texture coordinates or files, face properties,
+    polygons, strips, other elements, short data), which trimesh reads. Same arrays, same dtypes: vertices and
+    normals float64, faces int64, colours as every reader gives them (8-bit / 255 at each corner)."""
+    if header is None or texture_names(data[:HEADER_LIMIT]):
         return None
     if [element.name for element in header.elements] not in (["vertex", "face"], ["face", "vertex"]):
         return None
-    big, view, at, rows = header.format == "binary_big_endian", memoryview(data), header.body, {}
-    for element in header.elements:
-        even = ply_lists._even(element, view, at, big)
-        if even is None or not element.rows:
+    if header.format == "ascii":
+        rows = ply_lists.ascii_rows(data, header)
+        if rows is None:
             return None
-        rows[element.name], at = even
+    else:
+        big, view, at, rows = header.format == "binary_big_endian", memoryview(data), header.body, {}
+        for element in header.elements:
+            even = ply_lists._even(element, view, at, big)
+            if even is None or not element.rows:
+                return None
+            rows[element.name], at = even
     vertex, face = (next(e for e in header.elements if e.name == name) for name in ("vertex", "face"))
     names = {prop.name: f"p{k}" for k, prop in enumerate(vertex.properties) if prop.count is None}
     if (len(face.properties) != 1 or face.properties[0].name not in ply_lists.POLYGON

@@ -240,6 +240,40 @@ def _strip(element: Element, data: np.ndarray, starts: np.ndarray, found: np.nda
     return lines, np.array(len(joined), _dtype("int", big)).tobytes() + joined.tobytes()
 
 
+def ascii_rows(data: bytes, found: Header) -> dict[str, dict[str, np.ndarray]] | None:
+    """An ASCII PLY's `vertex` element (scalars, one row a line) and `face` element (one list of three indices a
+    row, nothing else), in that order, as _even gives a binary one's columns: {"vertex": {"p0": ..., ...},
+    "face": {"p0": (rows, 3)}}, each column in its declared type. The numbers are read as trimesh reads them
+    (float64, then the declared type), in one pass over each section; None for any other layout (a polygon, a
+    comment or a short line, CR-only line ends), which trimesh reads."""
+    if [element.name for element in found.elements] != ["vertex", "face"]:
+        return None
+    vertex, face = found.elements
+    if not vertex.rows or not face.rows or any(prop.count is not None for prop in vertex.properties) \
+            or len(face.properties) != 1 or face.properties[0].count is None:
+        return None
+    body = data[found.body:]
+    feeds = np.flatnonzero(np.frombuffer(body, np.uint8) == 10)
+    if len(feeds) < vertex.rows + face.rows - 1:
+        return None
+    split = int(feeds[vertex.rows - 1]) + 1
+    end = int(feeds[vertex.rows + face.rows - 1]) if len(feeds) >= vertex.rows + face.rows else len(body)
+    try:
+        points = np.fromstring(body[:split], sep=" ")
+        faces = np.fromstring(body[split:end], sep=" ")
+    except ValueError:  # a word that is not a number (numpy 2): trimesh says so
+        return None
+    width = len(vertex.properties)
+    if points.size != vertex.rows * width or faces.size != 4 * face.rows:
+        return None
+    points, faces = points.reshape(vertex.rows, width), faces.reshape(face.rows, 4)
+    if not (faces[:, 0] == 3).all():
+        return None
+    index = face.properties[0].type
+    return {"vertex": {f"p{k}": points[:, k].astype(PLY_DTYPES[prop.type]) for k, prop in enumerate(vertex.properties)},
+            "face": {"p0": faces[:, 1:].astype(PLY_DTYPES[index])}}
+
+
 def evened(data: bytes, found: Header | None, notes: list[str]) -> bytes | None:
     """`data`, a binary PLY (its parsed `found` header), rewritten so every list of an element has one length
     and every concave polygon is ear-clipped (polygons.cut, with the vertex positions when the vertex element
