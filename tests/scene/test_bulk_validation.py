@@ -116,7 +116,8 @@ def test_bulk_gives_what_pydantic_gives_one_object_at_a_time(templates, picks):
 
 
 @pytest.mark.parametrize("key, value", [("translate", [1, "2", 3]), ("radius", 0), ("scale", [0, 1, 1]),
-                                        ("size", [1, 2]), ("material", "nowhere"), ("radius", 10**400),
+                                        ("size", [1, 2]), ("size", [0, 1, 1]), ("size", [1, 1, 2e18]),
+                                        ("material", "nowhere"), ("radius", 10**400),
                                         ("segments", [3, 4097]), ("shading", "Phong")])
 def test_an_error_in_the_last_of_many_objects_is_the_same_line(key, value):
     """One bad value in object 9,999 of 10,000 boxes: the line names that object and key, word for word as
