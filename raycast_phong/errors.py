@@ -51,12 +51,27 @@ class SceneError(InputError):
         super().__init__(problem if where is None else f"{where}: {_once(problem, str(where))}")
 
 
+SHOWN_NAME_CHARACTERS = 100  # a file name echoed in a message: its start and its end, never 5,000 characters
+
+
+def shortened(text: str) -> str:
+    """`text` (a quoted file name) for a one-line message: a long one keeps its first and last
+    SHOWN_NAME_CHARACTERS / 2 characters (the folder it starts in, the file it ends with) and says how many it
+    leaves out."""
+    half = SHOWN_NAME_CHARACTERS // 2
+    if len(text) <= SHOWN_NAME_CHARACTERS:
+        return text
+    return f"{text[:half]}…({len(text) - 2 * half:,} characters)…{text[-half:]}"
+
+
 def _once(problem: str, where: str) -> str:
-    """`problem` with its own quoted copy of `where` (a mesh file's path, when the file is what was given) said
-    once: the line starts with `where:` already."""
+    """`problem` with its own quoted copy of `where` (a mesh file's path, when the file is what was given; a long
+    one as io.files.shown_name shortens it) said once: the line starts with `where:` already."""
     quoted = repr(where)
     if quoted not in problem:
-        return problem
+        quoted = shortened(quoted)
+        if quoted not in problem:
+            return problem
     for start in (f"{quoted}: ", f"{quoted} "):
         if problem.startswith(start):
             problem = problem[len(start):]

@@ -13,22 +13,15 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import BinaryIO
 
-from ..errors import SceneError, Where
+from ..errors import SceneError, Where, shortened
 
 FILE_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe (FIFO)"), (stat.S_ISCHR, "a device"),
               (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
 
 
-SHOWN_NAME_CHARACTERS = 100  # a file name echoed in a message: its start and its end, never 5,000 characters
-
-
 def shown_name(name: str | Path) -> str:
-    """`name` quoted for a one-line message: a long one keeps its first and last SHOWN_NAME_CHARACTERS / 2
-    characters (the folder it starts in, the file it ends with) and says how many it leaves out."""
-    text, half = repr(str(name)), SHOWN_NAME_CHARACTERS // 2
-    if len(text) <= SHOWN_NAME_CHARACTERS:
-        return text
-    return f"{text[:half]}…({len(text) - 2 * half:,} characters)…{text[-half:]}"
+    """`name` quoted for a one-line message, a long one shortened (errors.shortened): its start and its end."""
+    return shortened(repr(str(name)))
 
 
 def open_regular(path: Path, where: Where, what: str, limit: int | None = None) -> BinaryIO:

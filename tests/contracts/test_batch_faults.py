@@ -555,3 +555,16 @@ def test_a_manifest_larger_than_the_limit_is_refused_as_too_large_not_read_in_pa
                 manifest.read_manifest(tmp_path)
         else:
             assert manifest.read_manifest(tmp_path)["scenes"] == {}
+
+
+def test_an_unreadable_manifest_under_a_long_path_names_it_once(tmp_path):
+    """The refusal names the manifest once at the start of its line, however long its path (shown_name shortens
+    a long one inside the message, which the line's start then did not recognise: the path twice, the message
+    worded otherwise than for a short path). Found when a mutation run's long TMPDIR failed the test above."""
+    out = tmp_path / ("d" * 120) / "out"
+    (out / "manifest.json").mkdir(parents=True)
+    (tmp_path / "s.toml").write_text('[[objects]]\nshape = "icosphere"\n')
+    result = run(str(tmp_path / "s.toml"), "--out", str(out), "--jobs", "1")
+    assert result.exit_code == 2
+    assert result.stderr == (f"error: {out / 'manifest.json'}: is a folder, not a regular file; give a batch "
+                             "manifest\n"), result.stderr

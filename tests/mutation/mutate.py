@@ -66,7 +66,8 @@ MODULE_TESTS = {"renderer/budget": ("tests/contracts/test_resource_guards.py",  
                 "tools/batch/run": ("tests/contracts/test_image_guards.py",),  # the workers the budget holds
                 "geometry/checks": ("tests/scene/test_limits_at_edges.py",  # the 1/d² gain bound at its edges
                                     "tests/contracts/test_float_edges.py"),
-                "jit": ("tests/contracts/test_kernel_cache_fallback.py",)}
+                "jit": ("tests/contracts/test_kernel_cache_fallback.py",),
+                "errors": ("tests/contracts/test_file_guards.py", "tests/contracts/test_batch_faults.py")}  # names
 
 
 def _has_code(path: Path) -> bool:
@@ -299,7 +300,7 @@ HAND_MUTANTS = (
     # The tenth independent set's survivors (each now killed by a test written for it):
     ("io/atomic", "reason = reason.splitlines()[0] if reason.strip() else type(error).__name__",
      "reason = reason if reason.strip() else type(error).__name__"),  # a write failure's reason of several lines
-    ("io/files", "if len(text) <= SHOWN_NAME_CHARACTERS:",
+    ("errors", "if len(text) <= SHOWN_NAME_CHARACTERS:",
      "if len(text) < SHOWN_NAME_CHARACTERS:"),  # a shown name of exactly 100 characters shortened
     ("io/files", "return (str(Path(path).resolve()), info.st_mtime_ns, info.st_size, info.st_ino)",
      "return (str(Path(path).resolve()), info.st_mtime_ns, info.st_size)"),  # a file swapped in: the same version
