@@ -271,3 +271,16 @@ def test_a_carriage_return_header_longer_than_the_count_s_read_is_counted(tmp_pa
     path.write_bytes(head + b"0 0 0\r" * 9 + b"3 0 1 2\r" * 7)
     assert head.find(b"end_header") > 4096
     assert mesh_source(path).triangles() == 7
+
+
+def test_an_ascii_face_index_past_its_declared_type_is_refused_not_wrapped(tmp_path):
+    """`property list uchar int`: an index of 2³² + 1 is not an int; cast to int32 it would wrap to vertex 1 and
+    draw a wrong triangle silently (trimesh's cast). Read as written, it is out of range: one line."""
+    from raycast_phong.io.meshes.source import read_mesh
+    path = tmp_path / "wrap.ply"
+    path.write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                    "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n"
+                    f"3 0 {2**32 + 1} 2\n")
+    with pytest.raises(SceneError) as refused:
+        read_mesh(path)
+    assert "4294967297" in str(refused.value) and "\n" not in str(refused.value), refused.value

@@ -269,9 +269,14 @@ def ascii_rows(data: bytes, found: Header) -> dict[str, dict[str, np.ndarray]] |
     points, faces = points.reshape(vertex.rows, width), faces.reshape(face.rows, 4)
     if not (faces[:, 0] == 3).all():
         return None
-    index = face.properties[0].type
-    return {"vertex": {f"p{k}": points[:, k].astype(PLY_DTYPES[prop.type]) for k, prop in enumerate(vertex.properties)},
-            "face": {"p0": faces[:, 1:].astype(PLY_DTYPES[index])}}
+    if not np.isfinite(faces).all():
+        return None
+    # Indices as int64, not their declared type: one past that type's range is then refused as out of range by
+    # the read's check, not wrapped round to another vertex as trimesh's cast does.
+    corners = faces[:, 1:].astype(np.int64)
+    with np.errstate(over="ignore", invalid="ignore"):  # 5e38 as a float is inf, as trimesh casts it: the read
+        return {"vertex": {f"p{k}": points[:, k].astype(PLY_DTYPES[prop.type])  # check then says so, no warning
+                           for k, prop in enumerate(vertex.properties)}, "face": {"p0": corners}}
 
 
 def evened(data: bytes, found: Header | None, notes: list[str]) -> bytes | None:
