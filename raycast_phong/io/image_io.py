@@ -259,7 +259,9 @@ def read_image(path: str | Path, part: int = 0,
     """
     refuse_non_regular(path)
     budget = budget_of(max_memory)
-    buffer = oiio.ImageBuf(str(path), part, 0)
+    straight = oiio.ImageSpec()  # the colour as stored: OpenImageIO would multiply a PNG's colour by its alpha
+    straight.attribute("oiio:UnassociatedAlpha", 1)
+    buffer = oiio.ImageBuf(str(path), part, 0, straight)
     spec = buffer.spec()  # the header alone: ImageBuf decodes the pixels when they are asked for
     if buffer.has_error:
         raise _cannot_read(path, buffer.geterror())

@@ -499,7 +499,9 @@ def read_map(path, colour: str) -> np.ndarray:
     takes it as stored; a float image is linear values, taken as stored either way. Its own reading: nothing
     of the renderer's decoding is shared."""
     import OpenImageIO as oiio
-    buffer = oiio.ImageBuf(str(path))
+    stored = oiio.ImageSpec()  # a PNG's colour as written, not multiplied by its alpha (OpenImageIO's default)
+    stored.attribute("oiio:UnassociatedAlpha", 1)
+    buffer = oiio.ImageBuf(str(path), 0, 0, stored)
     spec = buffer.spec()
     pixels = np.asarray(buffer.get_pixels(oiio.FLOAT), np.float64).reshape(spec.height, spec.width, -1)
     if pixels.shape[2] < 3:

@@ -284,3 +284,20 @@ def test_a_label_exactly_as_wide_as_its_room_fits_at_its_size_and_at_the_least_s
     least = text_coverage(text, MIN_FONT).shape[1]
     assert fitting_size(text, MIN_FONT, least) == MIN_FONT
     assert fitting_size(text, MIN_FONT, least - 1) is None
+
+
+def test_an_rgba_png_is_read_as_stored_by_the_api_and_by_the_oracle(tmp_path):
+    """A PNG's alpha is straight: rp.read_image gives the colour bytes / 255 beside the alpha, and the analytic
+    reference's own map reading (tools/reference.read_map) the same colour, as the renderer's map decode does.
+    OpenImageIO's default multiplies the colour by the alpha: 200 with alpha 40 read as 0.1216, not 0.7843."""
+    from PIL import Image
+
+    from raycast_phong.tools.reference import read_map
+    pixels = np.zeros((2, 3, 4), np.uint8)
+    pixels[...] = (200, 100, 50, 40)
+    Image.fromarray(pixels, "RGBA").save(tmp_path / "a.png")
+    read, names = rp.read_image(tmp_path / "a.png")
+    assert names == ("R", "G", "B", "A")
+    np.testing.assert_allclose(read[0, 0], np.array([200, 100, 50, 40]) / 255, atol=1e-6)
+    np.testing.assert_allclose(read_map(tmp_path / "a.png", "display")[0, 0], np.array([200, 100, 50]) / 255,
+                               atol=1e-6)
