@@ -223,3 +223,28 @@ def test_a_text_file_that_is_no_scene_is_said_to_be_none(tmp_path, name, text, s
     line = refused_render(path)
     assert line.startswith(f"error: {path}: {said}"), line
     assert ("allowed: a scene file (.toml, .json) or a mesh file (OBJ, PLY" in line) == (name == "README.md"), line
+
+
+def test_a_node_transform_turns_normals_by_its_inverse_transpose():
+    """format.placed: a normal stays perpendicular to the placed surface. Under a scale of (2, 1, 1) a surface's
+    tangent (1, -1, 0) becomes (2, -1, 0), so its normal (1, 1, 0)/√2 must become (1, 2, 0)/√5 (n L⁻¹ by hand:
+    (0.5, 1, 0)), not (2, 1, 0) as the matrix itself (or its transpose) would turn it. Under random matrices
+    every tangent stays perpendicular to the turned normal, and a mirror turns the faces over."""
+    from raycast_phong.io.meshes.format import placed
+    matrix = np.diag([2.0, 1.0, 1.0, 1.0])
+    matrix[:3, 3] = (5, 0, 0)
+    normal = np.array([[1.0, 1.0, 0.0]]) / np.sqrt(2)
+    vertices, faces, normals = placed(np.array([[1.0, -1.0, 0.0]]), np.array([[0, 1, 2]]), normal, matrix)
+    np.testing.assert_allclose(vertices, [[7.0, -1.0, 0.0]])
+    np.testing.assert_allclose(normals / np.linalg.norm(normals), [[1 / np.sqrt(5), 2 / np.sqrt(5), 0]], atol=1e-12)
+    np.testing.assert_array_equal(faces, [[0, 1, 2]])
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        linear = rng.normal(size=(3, 3))
+        turned = np.eye(4)
+        turned[:3, :3] = linear
+        n = rng.normal(size=3)
+        tangent = np.cross(n, rng.normal(size=3))  # perpendicular to n
+        _, faces, normals = placed(np.zeros((1, 3)), np.array([[0, 1, 2]]), n[None], turned)
+        assert abs(normals[0] @ (linear @ tangent)) < 1e-9 * np.linalg.norm(normals) * np.linalg.norm(linear @ tangent)
+        assert faces.tolist() == ([[2, 1, 0]] if np.linalg.det(linear) < 0 else [[0, 1, 2]])

@@ -349,6 +349,16 @@ def test_stcoff_s_colours_come_before_its_texture_coordinates(tmp_path):
         "its texture coordinates (ST) are not used: OFF names no texture image"], found.notes
 
 
+def test_cnoff_s_colours_come_after_its_normals(tmp_path):
+    """CNOFF: x y z, then the normal nx ny nz, then r g b a (Geomview's order: [N] before [C]). Vertex 0 red,
+    1 green, 2 blue, each normal +Z. Catches the colours read from just after x y z (the normal's 0 0 1 taken as
+    a blue colour) and the normal read from the colour's columns."""
+    rows = ["0 0 0 0 0 1 255 0 0 255", "1 0 0 0 0 1 0 255 0 255", "0 1 0 0 0 1 0 0 255 255"]
+    found = read(tmp_path, ("CNOFF\n3 1 0\n" + "\n".join(rows) + "\n3 0 1 2\n").encode())
+    np.testing.assert_array_equal(found.corner_colour[0], np.eye(3))
+    np.testing.assert_array_equal(found.normals, [[0, 0, 1]] * 3)
+
+
 def test_a_colormap_index_as_a_vertex_colour_is_not_read_and_said(tmp_path):
     """COFF vertices of one colour number (x y z i: an index into a colormap OFF does not carry): no colour,
     one note. Catches the index read as red (i/255, 1, 1)."""

@@ -340,6 +340,11 @@ HAND_MUTANTS = (
      'values.get("illum", [1])[0]'),  # the default illum 1
     ('io/meshes/gltf', 'total += copies * (accessors[indexed]["count"] // 3)',
      'total += accessors[indexed]["count"] // 3'),  # instances left off the triangle count
+    # the twelfth set's survivors (docs/testing.md)
+    ('io/meshes/off', 'block[:, width + 3 * normals:width + 3 * normals + min(spare, 4)]',
+     'block[:, width:width + min(spare, 4)]'),  # CNOFF's colours read from the normal's columns
+    ('io/meshes/format', 'normals @ np.linalg.inv(linear)',
+     'normals @ linear.T'),  # normals turned by the matrix, not its inverse transpose
     # the bugs the coverage pass found (docs/testing.md), each back as it was
     ('io/textures', 'straight.attribute("oiio:UnassociatedAlpha", 1)',
      'straight.attribute("oiio:UnassociatedAlpha", 0)'),  # a map's colour multiplied by its alpha
