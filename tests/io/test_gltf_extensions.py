@@ -224,3 +224,23 @@ def test_maps_the_phong_model_has_no_place_for_are_said_not_applied(tmp_path):
     said = [note for note in found.notes if "not applied" in note]
     assert len(said) == 1 and said[0].endswith("material 'bumpy': normalTexture, occlusionTexture not applied; its "
                                                "factors are used"), found.notes
+
+
+def test_one_image_file_gives_a_mask_its_alpha_and_the_surface_its_colour(tmp_path):
+    """alphaMode MASK with a base colour map in an image file beside the .gltf: the same file is decoded twice,
+    its colour for the surface and its alpha for the mask, each kept apart (a texture bank keyed without the
+    channel gave the mask the colour, cutting nothing away, or the surface the alpha). The map: red everywhere,
+    alpha 0 on its left half. About half the square is drawn, all of it red."""
+    from PIL import Image
+    pixels = np.zeros((8, 8, 4), np.uint8)
+    pixels[..., 0], pixels[:, 4:, 3] = 255, 255
+    Image.fromarray(pixels, "RGBA").save(tmp_path / "half.png")
+    sizes = {}
+    for mode in ("OPAQUE", "MASK"):
+        material = {"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.0},
+                    "alphaMode": mode}
+        image = covered(rp.render_file(quad_gltf(tmp_path, material, images=[{"uri": "half.png"}]), AMBIENT).image)
+        red = (image[:, 0] > 0.5) & (image[:, 1] < 0.1) & (image[:, 2] < 0.1)
+        assert red.mean() > 0.95, (mode, red.mean())
+        sizes[mode] = len(image)
+    assert 0.35 < sizes["MASK"] / sizes["OPAQUE"] < 0.65, sizes

@@ -345,6 +345,10 @@ HAND_MUTANTS = (
      'block[:, width:width + min(spare, 4)]'),  # CNOFF's colours read from the normal's columns
     ('io/meshes/format', 'normals @ np.linalg.inv(linear)',
      'normals @ linear.T'),  # normals turned by the matrix, not its inverse transpose
+    ('io/scene_file', '(stdin and text.lstrip("\ufeff \t\r\n").startswith("{"))',
+     '(stdin and text.startswith("{"))'),  # JSON on stdin after a blank line read as TOML
+    ('geometry/textures', 'key = (id(found.source), found.wrap_s, found.wrap_t, channel)',
+     'key = (id(found.source), found.wrap_s, found.wrap_t)'),  # one image's colour and alpha as one texture
     # the bugs the coverage pass found (docs/testing.md), each back as it was
     ('io/textures', 'straight.attribute("oiio:UnassociatedAlpha", 1)',
      'straight.attribute("oiio:UnassociatedAlpha", 0)'),  # a map's colour multiplied by its alpha
