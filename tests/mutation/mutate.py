@@ -345,7 +345,7 @@ HAND_MUTANTS = (
      'block[:, width:width + min(spare, 4)]'),  # CNOFF's colours read from the normal's columns
     ('io/meshes/format', 'normals @ np.linalg.inv(linear)',
      'normals @ linear.T'),  # normals turned by the matrix, not its inverse transpose
-    ('io/scene_file', '(stdin and text.lstrip("\ufeff \t\r\n").startswith("{"))',
+    ('io/scene_file', '(stdin and text.lstrip("\\ufeff \\t\\r\\n").startswith("{"))',
      '(stdin and text.startswith("{"))'),  # JSON on stdin after a blank line read as TOML
     ('geometry/textures', 'key = (id(found.source), found.wrap_s, found.wrap_t, channel)',
      'key = (id(found.source), found.wrap_s, found.wrap_t)'),  # one image's colour and alpha as one texture
