@@ -349,6 +349,8 @@ HAND_MUTANTS = (
      '(stdin and text.startswith("{"))'),  # JSON on stdin after a blank line read as TOML
     ('geometry/textures', 'key = (id(found.source), found.wrap_s, found.wrap_t, channel)',
      'key = (id(found.source), found.wrap_s, found.wrap_t)'),  # one image's colour and alpha as one texture
+    ('renderer/plan', 'if light.type == "point" and light.attenuation != "none"]',
+     'if light.attenuation != "none"]'),  # a directional light's attenuation kept as a stage
     # the bugs the coverage pass found (docs/testing.md), each back as it was
     ('io/textures', 'straight.attribute("oiio:UnassociatedAlpha", 1)',
      'straight.attribute("oiio:UnassociatedAlpha", 0)'),  # a map's colour multiplied by its alpha

@@ -130,3 +130,14 @@ def test_a_shininess_of_exactly_the_float32_limit_stays_in_float32_and_a_larger_
     above = rp.build_plan(scene(materials__m__shininess="32769"))
     assert above.keeps(StageName.FLOAT64_SHADING)
     assert "shininess 32769 > 32768" in above.describe()
+
+
+def test_a_directional_lights_attenuation_leaves_the_stage_out():
+    """f_att is a point light's: a directional light has no distance, so its `attenuation` (accepted, ignored)
+    keeps no attenuation stage, and the plan says no point light attenuates. Catches every light counted."""
+    s = scene(lights__0__type='"directional"', lights__0__direction="[-1, -1, -1]",
+              lights__0__attenuation='"inverse_square"')
+    plan = rp.build_plan(s)
+    assert not plan.keeps("attenuation"), plan.describe()
+    assert "no point light attenuates: f_att = 1" in plan.describe()
+    assert rp.render(s).counts["attenuation"] == 0
