@@ -7,6 +7,7 @@ import raycast_phong as rp
 import raycast_phong.geometry.normals as normals
 import raycast_phong.geometry.placing as placing
 import raycast_phong.scene.overrides
+from raycast_phong.codes import StageName
 from raycast_phong.renderer.kernels.layout import COUNTED_TERMS
 
 
@@ -138,6 +139,6 @@ def test_a_directional_lights_attenuation_leaves_the_stage_out():
     s = scene(lights__0__type='"directional"', lights__0__direction="[-1, -1, -1]",
               lights__0__attenuation='"inverse_square"')
     plan = rp.build_plan(s)
-    assert not plan.keeps("attenuation"), plan.describe()
+    assert not plan.keeps(StageName.ATTENUATION), plan.describe()
     assert "no point light attenuates: f_att = 1" in plan.describe()
     assert rp.render(s).counts["attenuation"] == 0
