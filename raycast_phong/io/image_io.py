@@ -245,6 +245,15 @@ def refuse_non_regular(path: str | Path) -> None:
         raise ImageError(f"{path}: {mismatch}; give an image file (PNG, EXR, ...)")
 
 
+def colour_as_stored() -> oiio.ImageSpec:
+    """The configuration an image is opened with so its colour reads as stored: OpenImageIO would multiply a
+    PNG's (or TIFF's) colour by its alpha, darkening a cut-out's edge texels, where PIL and the file keep it
+    straight."""
+    config = oiio.ImageSpec()
+    config.attribute("oiio:UnassociatedAlpha", 1)
+    return config
+
+
 def read_image(path: str | Path, part: int = 0,
                max_memory: int | str | None = None) -> tuple[np.ndarray, tuple[str, ...]]:
     """All channels of one part of an image as (H, W, C) float32 (8-bit files scaled to [0, 1]) and their names.
@@ -259,9 +268,7 @@ def read_image(path: str | Path, part: int = 0,
     """
     refuse_non_regular(path)
     budget = budget_of(max_memory)
-    straight = oiio.ImageSpec()  # the colour as stored: OpenImageIO would multiply a PNG's colour by its alpha
-    straight.attribute("oiio:UnassociatedAlpha", 1)
-    buffer = oiio.ImageBuf(str(path), part, 0, straight)
+    buffer = oiio.ImageBuf(str(path), part, 0, colour_as_stored())
     spec = buffer.spec()  # the header alone: ImageBuf decodes the pixels when they are asked for
     if buffer.has_error:
         raise _cannot_read(path, buffer.geterror())

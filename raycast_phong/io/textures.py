@@ -71,12 +71,10 @@ def decode_file(path: Path, colour: str, channel: str = "rgb") -> np.ndarray:
     result the mean of the source texels it covers), so decoding a 12000² PNG costs a band, not the 1.7 GB of
     its float texels at full size: the memory estimate counts the shrunk map only."""
     import OpenImageIO as oiio
+
+    from .image_io import colour_as_stored
     with native_errors_kept():  # libpng prints its own "libpng error: ..." line; the caller words one line
-        # colour as stored: OpenImageIO would multiply a PNG's colour by its alpha, darkening a cut-out's edge
-        # texels (and differing from the same image embedded in a GLB, which PIL decodes)
-        straight = oiio.ImageSpec()
-        straight.attribute("oiio:UnassociatedAlpha", 1)
-        found = oiio.ImageInput.open(str(path), straight)
+        found = oiio.ImageInput.open(str(path), colour_as_stored())  # as PIL decodes the same image in a GLB
         if found is None:
             raise ValueError(oiio.geterror() or "not an image")
         try:

@@ -352,8 +352,8 @@ HAND_MUTANTS = (
     ('renderer/plan', 'if light.type == "point" and light.attenuation != "none"]',
      'if light.attenuation != "none"]'),  # a directional light's attenuation kept as a stage
     # the bugs the coverage pass found (docs/testing.md), each back as it was
-    ('io/textures', 'straight.attribute("oiio:UnassociatedAlpha", 1)',
-     'straight.attribute("oiio:UnassociatedAlpha", 0)'),  # a map's colour multiplied by its alpha
+    ('io/image_io', 'config.attribute("oiio:UnassociatedAlpha", 1)',
+     'config.attribute("oiio:UnassociatedAlpha", 0)'),  # a map's colour multiplied by its alpha
     ('io/meshes/ply', 'resolved(first[0] if first else name, reading.path)',
      'resolved(name, reading.path)'),  # the last TextureFile read, the note saying the first
     ('io/meshes/threemf', 'parent = element.getparent()\n                    if parent is not None:\n'
