@@ -354,8 +354,8 @@ HAND_MUTANTS = (
     # the bugs the coverage pass found (docs/testing.md), each back as it was
     ('io/image_io', 'config.attribute("oiio:UnassociatedAlpha", 1)',
      'config.attribute("oiio:UnassociatedAlpha", 0)'),  # a map's colour multiplied by its alpha
-    ('io/meshes/ply', 'resolved(first[0] if first else name, reading.path)',
-     'resolved(name, reading.path)'),  # the last TextureFile read, the note saying the first
+    ('io/meshes/ply', 'folder / (names[0] if names else resolved(name, reading.path))',
+     'folder / resolved(name, reading.path)'),  # the last TextureFile read, the note saying the first
     ('io/meshes/threemf', 'parent = element.getparent()\n                    if parent is not None:\n'
      '                        del parent[:parent.index(element)]',
      'del element.getparent()[:-1]'),  # the batch drop deleting siblings read ahead

@@ -85,10 +85,10 @@ def read(reading: Reading) -> Loaded:
     resolver = RegularFiles(reading.path)
     # `<this>` in a TextureFile name; trimesh asks for the last TextureFile, and the first is the one read (the
     # image of texnumber 0; _note_textures says so)
-    first = texture_names(data[:HEADER_LIMIT])[:1]
-    resolver.locate = lambda folder, name: folder / resolved(first[0] if first else name, reading.path)
+    names = [resolved(name, reading.path) for name in texture_names(data[:HEADER_LIMIT])]
+    resolver.locate = lambda folder, name: folder / (names[0] if names else resolved(name, reading.path))
     loaded = load(reading, file_obj=io.BytesIO(data if evened is None else evened), resolver=resolver)
-    _note_textures(reading.path, data[:HEADER_LIMIT], reading.notes)
+    _note_textures(reading.path, names, reading.notes)
     return Loaded(parts(loaded) or strip_parts(loaded))
 
 
@@ -190,15 +190,11 @@ def strip_parts(loaded) -> list:
     return [Part(vertices, faces, None, None)]
 
 
-def _note_textures(path: Path, head: bytes, notes: list[str]) -> None:
-    """A note for a PLY's missing TextureFile image (`<this>` replaced) and for images after the first (one map
-    per file is read: trimesh's, as a SimpleMaterial's image)."""
-    names = [resolved(name, path) for name in texture_names(head)]
-    if not names:
-        return
-    for name in names[:1]:
-        if not (path.parent / name).is_file():
-            notes.append(f"{path}: texture {shown_name(name)} is missing")
+def _note_textures(path: Path, names: list[str], notes: list[str]) -> None:
+    """A note for a PLY's missing TextureFile image (`names`: `<this>` replaced) and for images after the first
+    (one map per file is read: trimesh's, as a SimpleMaterial's image)."""
+    if names and not (path.parent / names[0]).is_file():
+        notes.append(f"{path}: texture {shown_name(names[0])} is missing")
     if len(names) > 1:
         notes.append(f"{path}: names {len(names)} TextureFile images (a texture number per face); only the first, "
                      f"{names[0]!r}, is read, for every face")
