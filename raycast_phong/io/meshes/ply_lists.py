@@ -252,24 +252,22 @@ def ascii_rows(data: bytes, found: Header) -> dict[str, dict[str, np.ndarray]] |
     if not vertex.rows or not face.rows or any(prop.count is not None for prop in vertex.properties) \
             or len(face.properties) != 1 or face.properties[0].count is None:
         return None
-    body = data[found.body:]
-    feeds = np.flatnonzero(np.frombuffer(body, np.uint8) == 10)
+    start = found.body  # positions in `data` itself: each section is copied once, for its parse
+    feeds = start + np.flatnonzero(np.frombuffer(data, np.uint8, offset=start) == 10)
     if len(feeds) < vertex.rows + face.rows - 1:
         return None
     split = int(feeds[vertex.rows - 1]) + 1
-    end = int(feeds[vertex.rows + face.rows - 1]) if len(feeds) >= vertex.rows + face.rows else len(body)
+    end = int(feeds[vertex.rows + face.rows - 1]) if len(feeds) >= vertex.rows + face.rows else len(data)
     try:
-        points = np.fromstring(body[:split], sep=" ")
-        faces = np.fromstring(body[split:end], sep=" ")
+        points = np.fromstring(data[start:split], sep=" ")
+        faces = np.fromstring(data[split:end], sep=" ")
     except ValueError:  # a word that is not a number (numpy 2): trimesh says so
         return None
     width = len(vertex.properties)
     if points.size != vertex.rows * width or faces.size != 4 * face.rows:
         return None
     points, faces = points.reshape(vertex.rows, width), faces.reshape(face.rows, 4)
-    if not (faces[:, 0] == 3).all():
-        return None
-    if not np.isfinite(faces).all():
+    if not (faces[:, 0] == 3).all() or not np.isfinite(faces).all():
         return None
     # Indices as int64, not their declared type: one past that type's range is then refused as out of range by
     # the read's check, not wrapped round to another vertex as trimesh's cast does.
