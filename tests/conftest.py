@@ -91,7 +91,8 @@ def error_logs_in_the_session_folder(tmp_path_factory):
 
 
 # The session's scenes: float32 and float64 with a mesh file that has no normals (the crease split's kernels
-# too), and an OBJ's polygon scan. Made ready in a fresh process each, as a user's first render would.
+# too), and the text readers' scans (OBJ, ASCII PLY). Made ready in a fresh process each, as a user's first render
+# would.
 WARM_UP = """
 import sys
 import trimesh
@@ -105,14 +106,15 @@ if mesh != "-":
     objects.append({"shape": "mesh", "path": str(folder / mesh)})  # a mesh file's merge and winding
 ready_kernels(validate_scene({"render": {"precision": precision, "mode": mode},
                               "lights": [{"type": "point", "position": [2, 2, 3]}], "objects": objects}, source="t"))
-if "obj" in sys.argv[5:]:  # the OBJ reader's kernels, without the mesh preparation the other process compiles
-    from raycast_phong.io.meshes import obj_plain, obj_polygons
+if "obj" in sys.argv[5:]:  # the text readers' kernels (OBJ, ASCII PLY), not the mesh preparation the other compiles
+    from raycast_phong.io.meshes import obj_plain, obj_polygons, ply_lists
     obj_plain.warm_up()
     obj_polygons.warm_up()
+    ply_lists.warm_up()
 """
 # (precision, mode, mesh file or "-", [obj]): between them every kernel a test may call, each compiled by one of the
 # two: float32 with global mode's shadow rays (called by address: only a scene in global mode brings them) and the
-# OBJ reader; float64 with a mesh file's preparation (merge, winding; the same kernels in either precision).
+# text readers; float64 with a mesh file's preparation (merge, winding; the same kernels in either precision).
 WARM_UPS = (("float32", "global", "-", "obj"), ("float64", "local", "ball.stl"))
 
 

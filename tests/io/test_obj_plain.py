@@ -120,8 +120,8 @@ def test_every_way_of_writing_a_coordinate_reads_as_trimesh_read_it(tmp_path, mo
 
 
 def test_the_exact_path_reads_what_python_reads(monkeypatch):
-    """_decimal's value is float()'s wherever it answers, over random words."""
-    from raycast_phong.io.meshes.obj_plain import POWERS, _decimal
+    """decimals.decimal's value is float()'s wherever it answers, over random words."""
+    from raycast_phong.io.meshes.decimals import POWERS, decimal
     rng = np.random.default_rng(5)
     answered = 0
     for _ in range(3000):
@@ -131,7 +131,7 @@ def test_the_exact_path_reads_what_python_reads(monkeypatch):
         if rng.random() < 0.5:
             word += f"e{int(rng.integers(-30, 31))}"
         data = np.frombuffer(word.encode(), np.uint8)
-        value, exact = _decimal(data, 0, len(data), POWERS)
+        value, exact = decimal(data, 0, len(data), POWERS)
         if exact:
             answered += 1
             assert np.float64(value).tobytes() == np.float64(float(word)).tobytes(), word

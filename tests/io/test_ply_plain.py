@@ -273,6 +273,78 @@ def test_a_carriage_return_header_longer_than_the_count_s_read_is_counted(tmp_pa
     assert mesh_source(path).triangles() == 7
 
 
+def _word(rng) -> str:
+    """A decimal as exporters write them: a sign or not, digits around a point or not, an exponent or not;
+    at most 15 digits and 10^±22, on the exact path."""
+    digits = "".join(rng.choice(list("0123456789"), size=int(rng.integers(1, 16))))
+    cut = int(rng.integers(0, len(digits) + 1))
+    word = rng.choice(["", "-", "+"]) + (digits[:cut] + "." + digits[cut:] if rng.random() < 0.7 else digits)
+    return word + (f"{rng.choice(['e', 'E'])}{int(rng.integers(-7, 8))}" if rng.random() < 0.3 else "")
+
+
+def test_an_ascii_ply_s_compiled_rows_are_numpy_s_parse_bit_for_bit(monkeypatch):
+    """ply_lists._rows reads the rows in one compiled pass; its float64 values must be the very bits numpy's
+    parse of the same text gives (the parse trimesh makes), over random decimals separated by spaces, tabs and
+    CRLF line ends; and the compiled pass must be what read them (numpy's parse, the fallback, is barred)."""
+    rng = np.random.default_rng(11)
+    rows = [[_word(rng) for _ in range(5)] for _ in range(400)]
+    lines = [rng.choice([" ", "\t", "  "]).join(row) + rng.choice(["", " ", "\r"]) for row in rows]
+    faces = [f"3 {a} {b} {c}" for a, b, c in rng.integers(0, 400, (50, 3))]
+    text = ("\n".join(lines) + "\n" + "\n".join(faces)).encode()  # the last line without its line feed
+    expected = np.fromstring(text[:text.index(faces[0].encode())], sep=" ").reshape(-1, 5)
+    monkeypatch.setattr(ply.ply_lists, "_parsed", None)
+    read = ply.ply_lists._rows(text, 0, len(rows), 5, len(faces))
+    assert read[0].tobytes() == expected.tobytes()
+    np.testing.assert_array_equal(read[1], [[3, *map(int, face.split()[1:])] for face in faces])
+
+
+@pytest.mark.parametrize(("body", "why"), [
+    ("1 2 3\n4 5\n3 0 1 1\n", "a row one word short"),
+    ("1 2 3\n4 5 6 7\n3 0 1 1\n", "a row one word long"),
+    ("1 2 3 4\n5 6\n3 0 1 1\n", "a row one word long, the next one short: as many numbers in all"),
+    ("1 2 3\n\n4 5 6\n3 0 1 1\n", "a blank line among the rows"),
+    ("1 2 3\n4 5 6\n3 0 1 1 1\n", "a face row one word long"),
+    ("1 2 3\n4 5 6\n", "the face rows missing"),
+    ("1 2 3\n4 5 nan x\n3 0 1 1\n", "a row one word long, the word off the exact path"),
+])
+def test_an_ascii_ply_s_rows_off_one_row_a_line_are_none(body, why):
+    """Every row on its own line, `width` words each: anything else is not the plain layout (trimesh reads it,
+    or says what is wrong), never rows of misplaced numbers."""
+    assert ply.ply_lists._rows(body.encode(), 0, 2, 3, 1) is None, why
+
+
+@pytest.mark.parametrize(("body", "why"), [
+    ("1 2 1e30\n4 5 6\n3 0 1 1\n", "a power of ten past 10^22"),
+    ("1 2 12345678901234567890\n4 5 6\n3 0 1 1\n", "twenty digits: past 2^53"),
+    ("1 2 nan\n4 5 -inf\n3 0 1 1\n", "words numpy reads as numbers"),
+    ("1 2 3\n4 5 6\n3 0 1 1e0\n", "only the faces' words: an exponent on an index is exact, still read"),
+    ("1 2 3\n4 5 6\n3 0 1 12345678901234567890\n", "a face index of twenty digits"),
+    ("1 2 3\x0b\n4 5 6\n3 0 1 1\n", "whitespace the pass does not split on"),
+    ("1 2 1e18446744073709551621\n4 5 6\n3 0 1 1\n", "an exponent of 2^64 + 5: inf, not 1e5 wrapped round"),
+    ("1 2 3\n4 5 6\n3 0 1 12345678901234567890\n# a line past the rows\n", "a line past the face rows, "
+     "which trimesh ignores: numpy's parse of the faces stops at their last line"),
+])
+def test_an_ascii_ply_s_words_off_the_exact_path_are_numpy_s_parse(body, why):
+    """Where a word is off the compiled pass's exact path, numpy's parse reads that section, as before."""
+    data = body.encode()
+    read = ply.ply_lists._rows(data, 0, 2, 3, 1)
+    cut = data.index(b"\n3 ") + 1
+    end = data.find(b"\n", cut) + 1 or len(data)
+    np.testing.assert_array_equal(read[0], np.fromstring(data[:cut], sep=" ").reshape(2, 3), why)
+    np.testing.assert_array_equal(read[1], np.fromstring(data[cut:end], sep=" ").reshape(1, 4), why)
+
+
+def test_an_ascii_ply_header_s_row_count_allocates_nothing_the_file_cannot_hold():
+    """`element vertex 10^12` in a 200-byte file: the compiled pass would allocate 24 TB for its rows; it gives
+    up from the file's size first, and the read says the file is short (trimesh's words) without a MemoryError."""
+    text = ("ply\nformat ascii 1.0\nelement vertex 1000000000000\nproperty float x\nproperty float y\n"
+            "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n3 0 0 0\n")
+    data = text.encode()
+    header = ply.ply_lists.header(data)
+    assert ply.ply_lists._rows(data, header.body, 10 ** 12, 3, 1) is None
+    assert ply.ply_lists.ascii_rows(data, header) is None
+
+
 def test_an_ascii_face_index_past_its_declared_type_is_refused_not_wrapped(tmp_path):
     """`property list uchar int`: an index of 2³² + 1 is not an int; cast to int32 it would wrap to vertex 1 and
     draw a wrong triangle silently (trimesh's cast). Read as written, it is out of range: one line."""

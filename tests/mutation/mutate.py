@@ -310,6 +310,12 @@ HAND_MUTANTS = (
      "if len(lines) < vertex_count + face_count:"),  # a text OFF one face line short not cut short
     ("io/meshes/off", "block[:, :3])\n    if faces.size and (faces.min() < 0 or faces.max() >= vertex_count):",
      "block[:, :3])\n    if faces.size and (faces.min() < 0 or faces.max() > vertex_count):"),  # binary OFF's N of N
+    ("io/meshes/decimals", "if c < 48 or c > 57 or exponent > 1000:",
+     "if c < 48 or c > 57:"),  # an exponent of 2^64 + 5 wraps round to 5
+    ("io/meshes/ply_lists", "corners = corners if exact_faces else _parsed(data[split:end], faces, 4)",
+     "corners = corners if exact_faces else _parsed(data[split:], faces, 4)"),  # a line past the faces parsed
+    ("io/meshes/ply_rows", "if words != width:\n            return False, exact, at",
+     "if False:\n            return False, exact, at"),  # a row one word short read as a row
     ("io/meshes/obj_plain", "elif c < 48 or c > 57 or i - start >= 18:",
      "elif c < 48 or c > 57 or i - start >= 19:"),  # a 19-digit face index wraps an int64
     ("io/meshes/gltf_json", "text = handle.read(JSON_LIMIT + 1)",

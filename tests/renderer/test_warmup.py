@@ -8,6 +8,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 import trimesh
 
 from raycast_phong import compiles
@@ -124,7 +125,6 @@ def test_numba_s_set_up_leaves_scipy_linalg_unimported():
 def test_a_missing_mesh_file_is_refused_before_the_compiling_notice(tmp_path, monkeypatch):
     """The first render after an install compiles for a minute: a scene whose mesh file is missing is told so at
     once, in the read's own words, and never hears "compiling" first."""
-    import pytest
 
     from raycast_phong.errors import SceneError
     from raycast_phong.renderer import frame
@@ -149,6 +149,24 @@ def test_the_plain_obj_scan_is_warmed_only_for_an_obj_it_may_read(tmp_path, monk
     mesh.export(tmp_path / "plain.obj")
     (tmp_path / "named.obj").write_text("mtllib named.mtl\n" + (tmp_path / "plain.obj").read_text())
     for name, expected in (("named.obj", []), ("plain.obj", [True])):
+        warmed.clear()
+        warmup.ready_kernels(validate_scene({"objects": [{"shape": "mesh", "path": str(tmp_path / name)}]},
+                                            source="t"))
+        assert warmed == expected, name
+
+
+@pytest.mark.parametrize("line_end", ["\n", "\r"])
+def test_the_ascii_ply_rows_are_warmed_only_for_an_ascii_ply(tmp_path, monkeypatch, line_end):
+    """ply_rows.number_rows reads an ASCII PLY's rows; a binary PLY (numpy views) never runs it, so its first render
+    does not compile it. A header of carriage-return lines (the PLY description's own line end) is ASCII too."""
+    from raycast_phong.io.meshes import ply_lists
+    warmed = []
+    monkeypatch.setattr(ply_lists, "warm_up", lambda: warmed.append(True))
+    mesh = trimesh.creation.icosphere(1)
+    mesh.export(tmp_path / "binary.ply")
+    text = mesh.export(file_type="ply", encoding="ascii")
+    (tmp_path / "ascii.ply").write_bytes(text.replace(b"\n", line_end.encode()))
+    for name, expected in (("binary.ply", []), ("ascii.ply", [True])):
         warmed.clear()
         warmup.ready_kernels(validate_scene({"objects": [{"shape": "mesh", "path": str(tmp_path / name)}]},
                                             source="t"))

@@ -18,79 +18,19 @@ from pathlib import Path
 import numpy as np
 
 from ...jit import kernel
+from .decimals import POWERS, decimal, numeric
 from .format import Part
 
 SPACE, TAB, LF, CR, HASH = 32, 9, 10, 13, 35
 PLAIN_KERNELS = ("_records",)  # what reading a plain OBJ compiles (renderer/warmup.py loads it first)
 
 
-POWERS = np.array([10.0 ** k for k in range(23)])  # 1e0 .. 1e22: every one exact in float64
-EXACT = 1 << 53  # integers up to this are exact in float64
-
-
-@kernel(inline="always")
-def _numeric(c):
-    """A byte a plain decimal coordinate is written with: digits, sign, point, exponent."""
-    return (48 <= c <= 57) or c == 43 or c == 45 or c == 46 or c == 101 or c == 69
-
-
-@kernel()
-def _decimal(data, start, stop, powers):
-    """(value, exact) of the word data[start:stop]: [+-] digits [. digits] [(e|E) [+-] digits] with a digit
-    before the exponent, read as m × 10^e with m below 2^53 and |e| ≤ 22: then m and 10^|e| are exact in float64
-    and one product or quotient rounds the decimal's exact value correctly, the value every correct reader
-    (numpy's, Python's float) gives (Clinger's fast path). exact False: another word, or one outside that path."""
-    i, negative = start, False
-    if i < stop and (data[i] == 43 or data[i] == 45):
-        negative = data[i] == 45
-        i += 1
-    mantissa, digits, scale, point = 0, 0, 0, False
-    while i < stop:
-        c = data[i]
-        if 48 <= c <= 57:
-            if mantissa >= EXACT // 10:  # one more digit could pass 2^53 (a trailing zero is left to the slow path)
-                return 0.0, False
-            mantissa = 10 * mantissa + (c - 48)
-            digits += 1
-            if point:
-                scale -= 1
-        elif c == 46 and not point:
-            point = True
-        else:
-            break
-        i += 1
-    if digits == 0:
-        return 0.0, False
-    if i < stop:
-        if data[i] != 101 and data[i] != 69:
-            return 0.0, False
-        i += 1
-        sign = 1
-        if i < stop and (data[i] == 43 or data[i] == 45):
-            sign = -1 if data[i] == 45 else 1
-            i += 1
-        if i == stop:
-            return 0.0, False
-        exponent = 0
-        while i < stop:
-            c = data[i]
-            if c < 48 or c > 57 or exponent > 1000:
-                return 0.0, False
-            exponent = 10 * exponent + (c - 48)
-            i += 1
-        scale += sign * exponent
-    if scale > 22 or scale < -22:
-        return 0.0, False
-    value = float(mantissa) * powers[scale] if scale >= 0 else float(mantissa) / powers[-scale]
-    return (-value if negative else value), True
-
-
 @kernel()
 def _records(data, mode, powers, points, vertex_text, faces):
     """One pass over OBJ text `data` (uint8). Returns (plain, vertices, faces, text bytes, exact): whether every
-    line is blank, a comment (`#` first), `v` + a space + three words of _numeric bytes, or `f` + a space + three
+    line is blank, a comment (`#` first), `v` + a space + three words of `numeric` bytes, or `f` + a space + three
     decimal integers of at most 18 digits, words separated by spaces or tabs (lines end in LF or CRLF); the
-    counts; and whether every coordinate was read exactly by _decimal. mode 0 counts; 1 also reads each face's
+    counts; and whether every coordinate was read exactly by decimals.decimal. mode 0 counts; 1 also reads each face's
     indices, less one, into faces (F, 3) int64 and the coordinates into points (V, 3) float64; 2 instead copies
     each `v` line's text after its `v` (its leading space included) into vertex_text, for numpy to read."""
     n = data.shape[0]
@@ -118,7 +58,7 @@ def _records(data, mode, powers, points, vertex_text, faces):
                 while i < stop and data[i] != SPACE and data[i] != TAB:
                     c = data[i]
                     if kind == 118:
-                        if not _numeric(c):
+                        if not numeric(c):
                             return False, vertices, count, written, exact
                     elif c < 48 or c > 57 or i - start >= 18:
                         return False, vertices, count, written, exact
@@ -133,7 +73,7 @@ def _records(data, mode, powers, points, vertex_text, faces):
                     if mode == 1:
                         faces[count, words] = value - 1
                 elif mode == 1 and exact:
-                    number, exact = _decimal(data, start, i, powers)
+                    number, exact = decimal(data, start, i, powers)
                     points[vertices, words] = number
                 words += 1
             if words != 3:

@@ -73,6 +73,10 @@ def read(reading: Reading) -> Loaded:
         problem = ply_problem(data[:HEADER_LIMIT])  # takes a nameless property and reads the next in its column
         if problem:
             raise FileProblem(f"{str(reading.path)!r} {problem}")
+    if header is not None and header.format == "ascii":  # triangles alone: nothing to cut (ascii_cut's scan)
+        plain = plain_part(data, header)
+        if plain is not None:
+            return Loaded([plain])
     cut = ply_lists.ascii_cut(data, header)  # an ASCII file's concave polygons, each made its triangles' lines
     if cut is not None:
         data, header = cut, ply_lists.header(cut)
@@ -215,8 +219,7 @@ def line_feeds(data: bytes) -> bytes:
         return re.sub(rb"\r(?!\n)", b"\n", data)  # the start of a file (explain, count): its header only
     stop = end + len(b"end_header\r") + (data[end + 11:end + 12] == b"\n")  # Rhino ends it `\r\n`
     head = re.sub(rb"\r(?!\n)", b"\n", data[:stop])
-    ascii_body = re.search(rb"^format\s+ascii", head, re.M) is not None
-    return head + (re.sub(rb"\r(?!\n)", b"\n", data[stop:]) if ascii_body else data[stop:])
+    return head + (re.sub(rb"\r(?!\n)", b"\n", data[stop:]) if _ascii(head) else data[stop:])
 
 
 def count(handle, size: int, mesh) -> int | None:
@@ -242,7 +245,7 @@ def _list_triangles(head: bytes, size: int) -> int | None:
     header longer than `head`, or no list; ValueError for a header that does not parse (the size bound then
     stands, size.count_triangles)."""
     end = head.find(b"end_header")
-    if end < 0 or head.find(b"\n", end) < 0 or re.search(rb"^format\s+ascii", head[:end], re.M):
+    if end < 0 or head.find(b"\n", end) < 0 or _ascii(head):
         return None
     found = ply_lists.header(head)
     if found is None:
@@ -260,5 +263,17 @@ def _list_triangles(head: bytes, size: int) -> int | None:
     return max(0, entries - 2 * sum(count for count, _ in lists))
 
 
+def warm_up(handle) -> tuple:
+    """The ASCII rows' kernel for an ASCII PLY (its header says so); none for a binary one, read by numpy views
+    (its uneven lists' walk, rare, compiles when read)."""
+    return (ply_lists.warm_up,) if _ascii(line_feeds(handle.read(HEADER_LIMIT))) else ()
+
+
+def _ascii(head: bytes) -> bool:
+    """Whether the header at the start of `head` says `format ascii`."""
+    end = head.find(b"end_header")
+    return end >= 0 and re.search(rb"^format\s+ascii", head[:end], re.M) is not None
+
+
 FORMAT = MeshFormat(names=("PLY",), suffixes=(".ply",), read=read, count=count, explain=explain, parse_bytes=30,
-                    content=lambda head, found, size, suffix: found == "PLY")
+                    warm_up=warm_up, content=lambda head, found, size, suffix: found == "PLY")

@@ -244,29 +244,18 @@ def ascii_rows(data: bytes, found: Header) -> dict[str, dict[str, np.ndarray]] |
     """An ASCII PLY's `vertex` element (scalars, one row a line) and `face` element (one list of three indices a
     row, nothing else), in that order, as _even gives a binary one's columns: {"vertex": {"p0": ..., ...},
     "face": {"p0": (rows, 3)}}, each column in its declared type. The numbers are read as trimesh reads them
-    (float64, then the declared type), in one pass over each section; None for any other layout (a polygon, a
-    comment or a short line, CR-only line ends), which trimesh reads."""
+    (float64, then the declared type), by _rows; None for any other layout (a polygon, a comment or a short
+    line, CR-only line ends), which trimesh reads."""
     if [element.name for element in found.elements] != ["vertex", "face"]:
         return None
     vertex, face = found.elements
     if not vertex.rows or not face.rows or any(prop.count is not None for prop in vertex.properties) \
             or len(face.properties) != 1 or face.properties[0].count is None:
         return None
-    start = found.body  # positions in `data` itself: each section is copied once, for its parse
-    feeds = start + np.flatnonzero(np.frombuffer(data, np.uint8, offset=start) == 10)
-    if len(feeds) < vertex.rows + face.rows - 1:
+    read = _rows(data, found.body, vertex.rows, len(vertex.properties), face.rows)
+    if read is None:
         return None
-    split = int(feeds[vertex.rows - 1]) + 1
-    end = int(feeds[vertex.rows + face.rows - 1]) if len(feeds) >= vertex.rows + face.rows else len(data)
-    try:
-        points = np.fromstring(data[start:split], sep=" ")
-        faces = np.fromstring(data[split:end], sep=" ")
-    except ValueError:  # a word that is not a number (numpy 2): trimesh says so
-        return None
-    width = len(vertex.properties)
-    if points.size != vertex.rows * width or faces.size != 4 * face.rows:
-        return None
-    points, faces = points.reshape(vertex.rows, width), faces.reshape(face.rows, 4)
+    points, faces = read
     if not (faces[:, 0] == 3).all() or not np.isfinite(faces).all():
         return None
     # Indices as int64, not their declared type: one past that type's range is then refused as out of range by
@@ -275,6 +264,42 @@ def ascii_rows(data: bytes, found: Header) -> dict[str, dict[str, np.ndarray]] |
     with np.errstate(over="ignore", invalid="ignore"):  # 5e38 as a float is inf, as trimesh casts it: the read
         return {"vertex": {f"p{k}": points[:, k].astype(PLY_DTYPES[prop.type])  # check then says so, no warning
                            for k, prop in enumerate(vertex.properties)}, "face": {"p0": corners}}
+
+
+def _rows(data: bytes, start: int, rows: int, width: int, faces: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """(points (rows × width), faces (faces × 4)) float64 of an ASCII PLY's two sections from byte `start`, one
+    row a line: one compiled pass (ply_rows.number_rows) finds the lines and reads every word on the exact path,
+    the bits numpy's parse gives; a section holding any other word is parsed by numpy, as trimesh parses it.
+    None when a line holds another count of words (or the file is too short for the rows: nothing allocated)."""
+    if 2 * max(width, 1) * rows + 8 * faces - 1 > len(data) - start:
+        return None
+    from .decimals import POWERS
+    from .ply_rows import number_rows  # compiled: imported only for an ASCII PLY (numba's import is slow)
+    text = np.frombuffer(data, np.uint8)
+    points, corners = np.empty((rows, width)), np.empty((faces, 4))
+    fits, exact_points, split = number_rows(text, start, rows, width, POWERS, points)
+    if not fits:
+        return None
+    fits, exact_faces, end = number_rows(text, split, faces, 4, POWERS, corners)
+    if not fits:
+        return None
+    points = points if exact_points else _parsed(data[start:split], rows, width)
+    corners = corners if exact_faces else _parsed(data[split:end], faces, 4)
+    return None if points is None or corners is None else (points, corners)
+
+
+def _parsed(section: bytes, rows: int, width: int) -> np.ndarray | None:
+    """The section's numbers (rows × width) by numpy's parse, trimesh's; None where numpy finds another count."""
+    try:
+        values = np.fromstring(section, sep=" ")
+    except ValueError:  # a word that is not a number (numpy 2): trimesh says so
+        return None
+    return values.reshape(rows, width) if values.size == rows * width else None
+
+
+def warm_up() -> None:
+    """Load (or compile) ply_rows.number_rows: a two-line section read."""
+    _rows(b"0 1\n3 0 0 0\n", 0, 1, 2, 1)
 
 
 def evened(data: bytes, found: Header | None, notes: list[str]) -> bytes | None:
