@@ -378,3 +378,69 @@ def test_coff_binary_s_vertex_colours_are_read(tmp_path):
     found = read(tmp_path, b"COFF BINARY\n" + body)
     assert found.vertices.tolist() == [[0, 0, 0], [1, 0, 0], [0, 1, 0]] and found.faces.tolist() == [[0, 1, 2]]
     np.testing.assert_array_equal(found.corner_colour[0], np.eye(3))
+
+
+def _random_off(rng, words) -> bytes:
+    """A COFF of 300 vertices and 200 polygons of 3-6 corners, some with a face colour, as exporters write it:
+    comments (whole lines, after numbers, against a number), blank lines, tabs, CRLF line ends; `words()` writes
+    a decimal."""
+    lines = ["COFF", "# made here", "", "300 200 0\t# counts"]
+    for _ in range(300):
+        lines.append("\t".join([words() for _ in range(3)] + [str(int(rng.integers(0, 256))) for _ in range(3)]))
+        if rng.random() < 0.1:
+            lines.append("  # a comment among the vertices")
+        elif rng.random() < 0.1:
+            lines[-1] += "#a comment against the last number"
+    for _ in range(200):
+        corners = int(rng.integers(3, 7))
+        face = [str(corners), *map(str, rng.choice(300, corners, replace=False))]
+        if rng.random() < 0.3:
+            face += [f"{rng.random():.3f}" for _ in range(3)]
+        lines.append(" ".join(face) + ("\r" if rng.random() < 0.2 else ""))
+    return ("\n".join(lines) + "\n").encode()
+
+
+def test_a_text_off_s_compiled_read_is_numpy_s_parse_bit_for_bit(tmp_path, monkeypatch):
+    """The compiled pass (off._compiled_body) and numpy's parse of the same text give the same mesh to the bit,
+    and the compiled pass is what read it (numpy's parse, the fallback, is barred while it reads)."""
+    from raycast_phong.io.meshes import off
+    rng = np.random.default_rng(3)
+
+    def word() -> str:
+        return f"{rng.normal() * 10 ** int(rng.integers(-3, 4)):.{int(rng.integers(1, 12))}g}"
+
+    data = _random_off(rng, word)
+    with monkeypatch.context() as patch:
+        patch.setattr(off, "_numbers", None)
+        compiled = off.parse(data, [], "m.off")
+    with monkeypatch.context() as patch:
+        patch.setattr(off, "_compiled_body", lambda *arguments: None)
+        parsed = off.parse(data, [], "m.off")
+    for ours, numpy_s in zip(compiled, parsed, strict=True):
+        if isinstance(ours, np.ndarray):
+            assert ours.dtype == numpy_s.dtype and ours.tobytes() == numpy_s.tobytes()
+        else:
+            assert ours == numpy_s
+
+
+@pytest.mark.parametrize(("change", "why"), [
+    (b"1e30", "a power of ten past 10^22"),
+    (b"nan", "a word numpy reads as a number"),
+    (b"12345678901234567890", "twenty digits"),
+])
+def test_a_text_off_with_a_word_off_the_exact_path_is_numpy_s_parse(tmp_path, change, why):
+    """A word the compiled pass does not read exactly sends the file to numpy's parse: the same numbers as numpy
+    reads them (here the first vertex's x)."""
+    from raycast_phong.io.meshes import off
+    data = text("OFF").replace(b"0 0 0\n", b"%s 0 0\n" % change, 1)
+    vertices = off.parse(data, [], "m.off")[0]
+    assert np.array_equal(vertices[0], [np.fromstring(change, sep=" ")[0], 0, 0], equal_nan=True), why
+
+
+def test_a_text_off_s_reader_kernel_is_warmed_and_a_binary_one_s_not(tmp_path):
+    """MeshFormat.warm_up: a text OFF reads its lines by the compiled pass, `OFF BINARY` never does."""
+    from raycast_phong.io.meshes import off
+    with io.BytesIO(text("# a comment\nCOFF")) as handle:
+        assert off.warm_up(handle) == (off._warm_lines,)
+    with io.BytesIO(binary(False)) as handle:
+        assert off.warm_up(handle) == ()

@@ -306,16 +306,21 @@ HAND_MUTANTS = (
      "return (str(Path(path).resolve()), info.st_mtime_ns, info.st_size)"),  # a file swapped in: the same version
     ("io/image_io", "path, (w, h, c) = max(((p, s) for p, s in sizes.items() if s)",
      "path, (w, h, c) = min(((p, s) for p, s in sizes.items() if s)"),  # the budget's refusal names the smallest
-    ("io/meshes/off", "if len(lines) < 1 + vertex_count + face_count:",
-     "if len(lines) < vertex_count + face_count:"),  # a text OFF one face line short not cut short
+    ("io/meshes/off", "if len(lines) < vertex_count + face_count:",
+     "if len(lines) < vertex_count + face_count - 1:"),  # a text OFF one face line short not cut short
     ("io/meshes/off", "block[:, :3])\n    if faces.size and (faces.min() < 0 or faces.max() >= vertex_count):",
      "block[:, :3])\n    if faces.size and (faces.min() < 0 or faces.max() > vertex_count):"),  # binary OFF's N of N
     ("io/meshes/decimals", "if c < 48 or c > 57 or exponent > 1000:",
      "if c < 48 or c > 57:"),  # an exponent of 2^64 + 5 wraps round to 5
-    ("io/meshes/ply_lists", "corners = corners if exact_faces else _parsed(data[split:end], faces, 4)",
-     "corners = corners if exact_faces else _parsed(data[split:], faces, 4)"),  # a line past the faces parsed
-    ("io/meshes/ply_rows", "if words != width:\n            return False, exact, at",
-     "if False:\n            return False, exact, at"),  # a row one word short read as a row
+    ("io/meshes/ply_lists", "else _parsed(data[at:read[2]], count, each)",
+     "else _parsed(data[at:], count, each)"),  # a line past the faces parsed with them
+    ("io/meshes/ply_lists", "if read is None or (read[0] != each).any():",
+     "if read is None:"),  # rows of uneven word counts adding up read as rows
+    ("io/meshes/decimals", "and not _blank(data[at]) and not (comments and data[at] == HASH):",
+     "and not _blank(data[at]):"),  # an OFF comment against a number
+    ("io/meshes/decimals", "if count == 0 and comments:", "if count == 0 and False:"),  # OFF blank lines as rows
+    ("io/meshes/off", "vertices = lines_of_numbers(text, at, vertex_count, True, 3 * vertex_count, True)",
+     "vertices = lines_of_numbers(text, at, vertex_count, True, 3 * vertex_count, False)"),  # colours: no room
     ("io/meshes/obj_plain", "elif c < 48 or c > 57 or i - start >= 18:",
      "elif c < 48 or c > 57 or i - start >= 19:"),  # a 19-digit face index wraps an int64
     ("io/meshes/gltf_json", "text = handle.read(JSON_LIMIT + 1)",

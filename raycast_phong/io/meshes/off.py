@@ -74,8 +74,7 @@ def parse(data: bytes, notes: list[str], name: str):
         rest = data[at:at + 80].split(b"\n", 1)[0]
         if rest.split()[:1] == [b"BINARY"]:
             return _binary(data[at + data[at:].index(b"\n") + 1:], normals, coloured, texture, four, notes, name)
-    text = COMMENT.sub(b"", data[at:])
-    lines = [line for line in text.split(b"\n") if line.strip()]
+    lines, body = _content_lines(data, at, 2 if dimensions else 1)
     width = 3
     if dimensions:
         if not lines:
@@ -90,10 +89,20 @@ def parse(data: bytes, notes: list[str], name: str):
         raise SceneError("has no counts line; allowed: NVertices NFaces NEdges after the header")
     counts = _integers(lines[0], "the counts line", 2)
     vertex_count, face_count = counts[0], counts[1]
-    if len(lines) < 1 + vertex_count + face_count:
-        raise SceneError(f"holds {len(lines) - 1:,} vertex and face lines where its counts line says "
-                       f"{vertex_count:,} + {face_count:,}; the file is cut short")
-    block = _numbers(lines[1:1 + vertex_count], "a vertex line")
+    read = _compiled_body(data, body, vertex_count, face_count)
+    if read is not None:
+        block, face_words, face_values = read
+    else:  # a word off the compiled pass's exact path, or a file cut short: numpy's parse, which words each problem
+        lines = [line for line in COMMENT.sub(b"", data[body:]).split(b"\n") if line.strip()]
+        if len(lines) < vertex_count + face_count:
+            raise SceneError(f"holds {len(lines):,} vertex and face lines where its counts line says "
+                             f"{vertex_count:,} + {face_count:,}; the file is cut short")
+        block = _numbers(lines[:vertex_count], "a vertex line")
+        face_lines = lines[vertex_count:vertex_count + face_count]
+        face_words = np.array([len(line.split()) for line in face_lines], np.int64)
+        face_values = _numbers(face_lines, "a face line")
+        if face_values.size != face_words.sum():
+            raise SceneError("has a face line numpy reads differently from its words; allowed: decimal numbers")
     per_line = block.size // max(vertex_count, 1)
     wanted = width + 3 * normals + 2 * texture
     if block.size != per_line * vertex_count or per_line < wanted:
@@ -109,11 +118,56 @@ def parse(data: bytes, notes: list[str], name: str):
         colours = _colours(block[:, width + 3 * normals:width + 3 * normals + min(spare, 4)], name, notes)
     if texture:
         notes.append(f"{name}: its texture coordinates (ST) are not used: OFF names no texture image")
-    faces, face_colours = _text_faces(lines[1 + vertex_count:1 + vertex_count + face_count], vertices)
+    faces, face_colours = _text_faces(face_words, face_values, vertices)
     if colours is None and face_colours is not None:
         colours, per_face = _colours(face_colours[0], name, notes), True
         colours = colours[face_colours[1]] if colours is not None else None
     return vertices, faces, normal, colours, per_face
+
+
+def _content_lines(data: bytes, at: int, count: int) -> tuple[list[bytes], int]:
+    """The first `count` lines from byte `at` that hold a word once their comments are cut, and where the line
+    after the last of them starts (the vertex lines, after the counts line)."""
+    lines = []
+    while len(lines) < count and at < len(data):
+        end = data.find(b"\n", at)
+        end = len(data) if end < 0 else end
+        line = COMMENT.sub(b"", data[at:end])
+        if line.strip():
+            lines.append(line)
+        at = end + 1
+    return lines, min(at, len(data))
+
+
+def _compiled_body(data: bytes, at: int, vertex_count: int, face_count: int):
+    """(vertex numbers in order, each face line's count of words, face numbers in order) of the lines from byte
+    `at`, read in one compiled pass each (decimals.lines_of_numbers: the bits numpy's parse gives); None when a
+    word is off its exact path or the file is cut short, for the numpy parse that words the problem."""
+    if 2 * (vertex_count + face_count) > len(data) - at:  # each line needs a word and its line feed
+        return None
+    from .decimals import lines_of_numbers  # compiled: imported only for a text OFF (numba's import is slow)
+    text = np.frombuffer(data, np.uint8)
+    vertices = lines_of_numbers(text, at, vertex_count, True, 3 * vertex_count, True)
+    if vertices is None or vertices[1] is None:
+        return None
+    faces = lines_of_numbers(text, vertices[2], face_count, True, 4 * face_count, True)
+    if faces is None or faces[1] is None:
+        return None
+    return vertices[1], faces[0], faces[1]
+
+
+def warm_up(handle) -> tuple:
+    """The compiled lines' kernel for a text OFF (not `OFF BINARY`: its header line says so)."""
+    head = handle.read(4096)
+    at = _start(head)
+    found = HEADER.match(head, at)
+    binary = found is not None and head[found.end():found.end() + 80].split(b"\n", 1)[0].split()[:1] == [b"BINARY"]
+    return () if binary else (_warm_lines,)
+
+
+def _warm_lines() -> None:
+    """Load (or compile) decimals.number_lines as a text OFF calls it."""
+    _compiled_body(b"0 0 0\n3 0 0 0\n", 0, 1, 1)
 
 
 def _integers(line: bytes, what: str, least: int) -> list[int]:
@@ -145,15 +199,12 @@ def _numbers(lines: list[bytes], what: str) -> np.ndarray:
             raise SceneError(f"has {what} numpy cannot read; allowed: decimal numbers") from None
 
 
-def _text_faces(lines: list[bytes], points: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
-    """The face lines' triangles (_polygons), and their colorspecs (the distinct numbers, each triangle's row) if any
-    face has one of 3 or 4 numbers."""
-    words = np.array([len(line.split()) for line in lines], np.int64)
-    values = _numbers(lines, "a face line")
-    if values.size != words.sum():
-        raise SceneError("has a face line numpy reads differently from its words; allowed: decimal numbers")
+def _text_faces(words: np.ndarray, values: np.ndarray, points: np.ndarray
+                ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
+    """The face lines' triangles (_polygons), from each line's count of `words` and every line's numbers in order
+    (`values`), and their colorspecs (the distinct numbers, each triangle's row) if any face has one of 3 or 4."""
     start = np.cumsum(words) - words
-    corners = values[start].astype(np.int64) if len(lines) else np.zeros(0, np.int64)
+    corners = values[start].astype(np.int64) if len(words) else np.zeros(0, np.int64)
     if (corners < 0).any() or (corners + 1 > words).any():
         bad = int(np.flatnonzero((corners < 0) | (corners + 1 > words))[0])
         raise SceneError(f"has face {bad} (line {bad + 1} of the faces) of {words[bad] - 1} indices where it counts "
@@ -166,7 +217,7 @@ def _text_faces(lines: list[bytes], points: np.ndarray) -> tuple[np.ndarray, tup
     if not (spec >= 3).any():
         return faces, None
     rows = np.flatnonzero(spec >= 3)
-    table = np.full((len(lines), 4), np.nan)
+    table = np.full((len(words), 4), np.nan)
     for k in (0, 1, 2, 3):
         has = spec[rows] > k
         table[rows[has], k] = values[start[rows[has]] + 1 + corners[rows[has]] + k]
@@ -289,4 +340,5 @@ def is_off(head: bytes, found, size: int, suffix: str) -> bool:
     return bool(HEADER.match(head, at)) or (found in (None, "OBJ") and bool(NUMBER.match(head, at)))
 
 
-FORMAT = MeshFormat(names=("OFF",), suffixes=(".off",), read=read, count=count, parse_bytes=550, content=is_off)
+FORMAT = MeshFormat(names=("OFF",), suffixes=(".off",), read=read, count=count, parse_bytes=550, content=is_off,
+                    warm_up=warm_up)

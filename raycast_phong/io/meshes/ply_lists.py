@@ -268,24 +268,24 @@ def ascii_rows(data: bytes, found: Header) -> dict[str, dict[str, np.ndarray]] |
 
 def _rows(data: bytes, start: int, rows: int, width: int, faces: int) -> tuple[np.ndarray, np.ndarray] | None:
     """(points (rows × width), faces (faces × 4)) float64 of an ASCII PLY's two sections from byte `start`, one
-    row a line: one compiled pass (ply_rows.number_rows) finds the lines and reads every word on the exact path,
-    the bits numpy's parse gives; a section holding any other word is parsed by numpy, as trimesh parses it.
-    None when a line holds another count of words (or the file is too short for the rows: nothing allocated)."""
+    row a line: one compiled pass (decimals.lines_of_numbers) finds the lines and reads every word on the exact
+    path, the bits numpy's parse gives; a section holding any other word is parsed by numpy, as trimesh parses
+    it. None when a line holds another count of words (or the file is too short for the rows: nothing allocated)."""
     if 2 * max(width, 1) * rows + 8 * faces - 1 > len(data) - start:
         return None
-    from .decimals import POWERS
-    from .ply_rows import number_rows  # compiled: imported only for an ASCII PLY (numba's import is slow)
+    from .decimals import lines_of_numbers  # compiled: imported only for an ASCII PLY (numba's import is slow)
     text = np.frombuffer(data, np.uint8)
-    points, corners = np.empty((rows, width)), np.empty((faces, 4))
-    fits, exact_points, split = number_rows(text, start, rows, width, POWERS, points)
-    if not fits:
-        return None
-    fits, exact_faces, end = number_rows(text, split, faces, 4, POWERS, corners)
-    if not fits:
-        return None
-    points = points if exact_points else _parsed(data[start:split], rows, width)
-    corners = corners if exact_faces else _parsed(data[split:end], faces, 4)
-    return None if points is None or corners is None else (points, corners)
+    sections, at = [], start
+    for count, each in ((rows, width), (faces, 4)):
+        read = lines_of_numbers(text, at, count, False, count * each, False)
+        if read is None or (read[0] != each).any():
+            return None
+        values = read[1].reshape(count, each) if read[1] is not None else _parsed(data[at:read[2]], count, each)
+        if values is None:
+            return None
+        sections.append(values)
+        at = read[2]
+    return sections[0], sections[1]
 
 
 def _parsed(section: bytes, rows: int, width: int) -> np.ndarray | None:
@@ -298,7 +298,7 @@ def _parsed(section: bytes, rows: int, width: int) -> np.ndarray | None:
 
 
 def warm_up() -> None:
-    """Load (or compile) ply_rows.number_rows: a two-line section read."""
+    """Load (or compile) decimals.number_lines: a two-line section read."""
     _rows(b"0 1\n3 0 0 0\n", 0, 1, 2, 1)
 
 

@@ -1,11 +1,9 @@
-"""The compiled passes of reading a PLY (io/meshes/ply_lists.py): every row's start and counts in a binary PLY
-whose lists differ in length from row to row (they depend on the rows before it), and an ASCII PLY's rows of
-numbers in one pass."""
+"""The one compiled pass of reading a PLY whose lists differ in length from row to row (io/meshes/ply_lists.py):
+every row's start and counts, which depend on the rows before it."""
 
 from __future__ import annotations
 
 from ...jit import kernel
-from .decimals import decimal
 
 
 @kernel()
@@ -41,38 +39,3 @@ def walk_rows(data, at, rows, sizes, counts, entries, signed, big, starts, found
     starts[rows] = at
     return True
 
-
-SPACE, TAB, LF, CR = 32, 9, 10, 13
-
-
-@kernel()
-def number_rows(data, at, rows, width, powers, out):
-    """(fits, exact, end) of reading `rows` lines of `width` numbers each from byte `at` of an ASCII PLY's
-    `data` (uint8) into `out` (rows × width float64), words separated by spaces, tabs or CRs, each line ending
-    in LF (the file's last may end with the data): fits False when a line holds another count of words or the
-    data ends first; exact False when a word is not a decimal on decimals.decimal's exact path (`out` is then
-    partly read: numpy's parse reads the section). `end` is the byte after the last line."""
-    n = data.shape[0]
-    exact = True
-    for row in range(rows):
-        if at >= n:
-            return False, exact, at
-        words = 0
-        while True:
-            while at < n and (data[at] == SPACE or data[at] == TAB or data[at] == CR):
-                at += 1
-            if at >= n or data[at] == LF:
-                break
-            start = at
-            while at < n and data[at] != SPACE and data[at] != TAB and data[at] != CR and data[at] != LF:
-                at += 1
-            if words == width:
-                return False, exact, at
-            if exact:
-                value, exact = decimal(data, start, at, powers)
-                out[row, words] = value
-            words += 1
-        if words != width:
-            return False, exact, at
-        at += 1
-    return True, exact, min(at, n)
