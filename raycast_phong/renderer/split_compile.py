@@ -120,7 +120,9 @@ def callee_signatures(inputs) -> dict:
     compiles texture.sample, and _screen_weights (three weights, the vertices, a face's three corners (int32), the
     eye (a slice of the view row), the camera, 1). The helper waits to hear each is cached (Aside.tell) instead of
     compiling it. These are ~1.6 s of CPU: this process then compiles the warm-up scene's geometry kernels and
-    render_band, ~4.5 s more, which with them is about what the helper spends on the rest of _shade_rays."""
+    render_band, ~4.5 s more, which with them is about what the helper spends on the rest of _shade_rays.
+    Written down, not derived (numba types a call only while compiling its caller): a test compiles _shade_rays
+    cold and holds these to the types numba gave its calls."""
     from numba import typeof, types
     real = typeof(inputs.one)
     material = typeof(Material(*[inputs.one] * len(Material._fields)))

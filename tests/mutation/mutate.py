@@ -310,6 +310,8 @@ HAND_MUTANTS = (
      "if len(lines) < vertex_count + face_count - 1:"),  # a text OFF one face line short not cut short
     ("io/meshes/off", "block[:, :3])\n    if faces.size and (faces.min() < 0 or faces.max() >= vertex_count):",
      "block[:, :3])\n    if faces.size and (faces.min() < 0 or faces.max() > vertex_count):"),  # binary OFF's N of N
+    ("renderer/split_compile", "real, types.float64, real, typeof(np.zeros(3, inputs.materials.dtype))",
+     "real, real, real, typeof(np.zeros(3, inputs.materials.dtype))"),  # the footprint typed in the precision
     ("io/meshes/decimals", "if c < 48 or c > 57 or exponent > 1000:",
      "if c < 48 or c > 57:"),  # an exponent of 2^64 + 5 wraps round to 5
     ("io/meshes/ply_lists", "else _parsed(data[at:read[2]], count, each)",

@@ -248,3 +248,31 @@ def test_with_the_fast_paths_off_the_callees_are_linked_and_the_image_is_the_sam
     assert first[1:3] == second[1:3] == ["announced", "compile"]
     fast = rp.render(rp.load_scene(scene, ["render.width=40", "render.height=30"])).image
     assert first[-2] == second[-2] == hashlib.sha256(fast.tobytes()).hexdigest()
+
+
+CALLEES = textwrap.dedent("""
+    import sys
+    from numba import typeof
+    from raycast_phong.renderer import split_compile
+    from raycast_phong.renderer.by_address import shading_arguments
+    from raycast_phong.renderer.kernels import shading
+    inputs = split_compile.unprepared_shading(sys.argv[1])
+    shading._shade_rays.compile(tuple(typeof(argument) for argument in shading_arguments(inputs)))
+    for kernel, signature in split_compile.callee_signatures(inputs).items():
+        print(tuple(signature) in kernel.signatures, kernel.py_func.__name__, kernel.signatures)
+""")
+
+
+@pytest.mark.slow
+def test_the_callees_compiled_first_are_typed_as_the_shading_kernel_calls_them(tmp_path):
+    """split_compile.callee_signatures writes down the argument types _shade_rays calls _textured_material and
+    _screen_weights with, so this process compiles them while the helper compiles the rest. If a call site's types
+    drift from them, this process compiles a kernel nobody calls and the helper compiles the callee again (a
+    silent second longer). Here numba types the calls itself: a cold compile of _shade_rays alone (an empty
+    cache, no helper) compiles each callee for the types of its call, and those must be the written-down ones."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"), split_compile.PROCESSES: "1"}
+    done = subprocess.run([sys.executable, "-c", CALLEES, "float32"], capture_output=True, text=True, env=env,
+                          timeout=600)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.strip().splitlines()
+    assert len(lines) == 2 and all(line.startswith("True ") for line in lines), done.stdout
