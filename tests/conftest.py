@@ -91,7 +91,7 @@ def error_logs_in_the_session_folder(tmp_path_factory):
 
 
 # The session's scenes: float32 and float64 with a mesh file that has no normals (the crease split's kernels
-# too), and the text readers' scans (OBJ, ASCII PLY). Made ready in a fresh process each, as a user's first render
+# too), and the text readers' scans (OBJ, PLY, STL). Made ready in a fresh process each, as a user's first render
 # would.
 WARM_UP = """
 import sys
@@ -106,11 +106,12 @@ if mesh != "-":
     objects.append({"shape": "mesh", "path": str(folder / mesh)})  # a mesh file's merge and winding
 ready_kernels(validate_scene({"render": {"precision": precision, "mode": mode},
                               "lights": [{"type": "point", "position": [2, 2, 3]}], "objects": objects}, source="t"))
-if "obj" in sys.argv[5:]:  # the text readers' kernels (OBJ, ASCII PLY), not the mesh preparation the other compiles
-    from raycast_phong.io.meshes import obj_plain, obj_polygons, ply_lists
+if "obj" in sys.argv[5:]:  # the text readers' kernels (OBJ, PLY, STL), not the mesh preparation the other compiles
+    from raycast_phong.io.meshes import obj_plain, obj_polygons, ply_lists, stl_ascii
     obj_plain.warm_up()
     obj_polygons.warm_up()
     ply_lists.warm_up()
+    stl_ascii.warm_up()
 """
 # (precision, mode, mesh file or "-", [obj]): between them every kernel a test may call, each compiled by one of the
 # two: float32 with global mode's shadow rays (called by address: only a scene in global mode brings them) and the

@@ -179,7 +179,7 @@ def test_a_mixed_polygon_ply_is_read_without_trimesh_after_its_fans(tmp_path, mo
     np.testing.assert_array_equal(plain.faces, [[0, 1, 2], [0, 2, 3], [4, 5, 6]])
 
 
-@pytest.mark.parametrize("suffix", ["ply", "ascii.ply", "stl", "off", "obj"])
+@pytest.mark.parametrize("suffix", ["ply", "ascii.ply", "stl", "ascii.stl", "off", "obj"])
 def test_reading_a_plain_mesh_file_does_not_import_trimesh(suffix, tmp_path):
     """trimesh's import (with SciPy's) is 0.3-0.7 s of a process: only a file it alone reads pays for it."""
     path = tmp_path / f"plain.{suffix}"
@@ -190,6 +190,10 @@ def test_reading_a_plain_mesh_file_does_not_import_trimesh(suffix, tmp_path):
         records = np.zeros(len(FACES), [("normal", "<f4", 3), ("corners", "<f4", (3, 3)), ("spare", "<u2")])
         records["corners"] = corners
         path.write_bytes(bytes(80) + np.uint32(len(FACES)).tobytes() + records.tobytes())
+    elif suffix == "ascii.stl":
+        corners = ["".join(f"vertex {x} {y} {z}\n" for x, y, z in POINTS[face]) for face in FACES]
+        facets = "".join(f"facet normal 0 0 1\nouter loop\n{three}endloop\nendfacet\n" for three in corners)
+        path.write_text(f"solid plain\n{facets}endsolid plain\n")
     else:
         points = "".join(f"{'v ' if suffix == 'obj' else ''}{x} {y} {z}\n" for x, y, z in POINTS)
         faces = "".join(f"f {a + 1} {b + 1} {c + 1}\n" if suffix == "obj" else f"3 {a} {b} {c}\n" for a, b, c in FACES)

@@ -95,3 +95,71 @@ def test_the_read_floor_of_an_stl_that_cannot_be_opened_is_its_size_as_text(tmp_
     assert stl.floor(tmp_path / "gone.stl", 1000, None) == 1000 * TEXT_READ_BYTES_PER_BYTE
     (tmp_path / "folder.stl").mkdir()
     assert stl.floor(tmp_path / "folder.stl", 4096, None) == 4096 * TEXT_READ_BYTES_PER_BYTE
+
+
+def _plain_ascii(rng, word) -> bytes:
+    """An ASCII STL of 40 facets as exporters write it: mixed-case keywords, indentation by spaces or tabs, CRLF
+    on some lines, blank lines, `word()` for each coordinate."""
+    lines = ["solid Knot exported"]
+    for _ in range(40):
+        lines += [f"  FACET normal {word()} {word()} {word()}", "\touter loop"]
+        lines += [f"      vertex {word()}\t{word()}  {word()}" + ("\r" if rng.random() < 0.2 else "") for _ in range(3)]
+        lines += ["    endloop", "  endfacet"] + ([""] if rng.random() < 0.1 else [])
+    return "\n".join([*lines, "endsolid Knot exported", ""]).encode()
+
+
+def _read_both(tmp_path, data: bytes, monkeypatch):
+    """The file read as the reader reads it, and by trimesh's reader (stl_ascii.plain_stl barred)."""
+    from raycast_phong.io.meshes import stl_ascii
+    path = tmp_path / "a.stl"
+    path.write_bytes(data)
+    ours = read_mesh(path, "t")
+    with monkeypatch.context() as patch:
+        patch.setattr(stl_ascii, "plain_stl", lambda data: None)
+        theirs = read_mesh(path, "t")
+    return ours, theirs
+
+
+@pytest.mark.parametrize("digits", [7, 17], ids=["exact path", "numpy's parse"])
+def test_a_plain_ascii_stl_reads_without_trimesh_as_trimesh_read_it(tmp_path, monkeypatch, digits):
+    """stl_ascii.plain_stl gives the MeshFile trimesh's reader gave, bit for bit: coordinates of 7 significant
+    digits on the exact path, of 17 (Python's repr, as trimesh itself writes) by numpy's parse of the vertex
+    lines; and trimesh's reader is not called for it."""
+    from test_obj_plain import assert_same_mesh_file
+
+    from raycast_phong.io.meshes import stl_ascii, trimesh_parts
+    rng = np.random.default_rng(digits)
+    data = _plain_ascii(rng, lambda: f"{rng.normal() * 10 ** int(rng.integers(-2, 3)):.{digits - 1}e}")
+    assert stl_ascii.plain_stl(data) is not None
+    ours, theirs = _read_both(tmp_path, data, monkeypatch)
+    assert_same_mesh_file(ours, theirs)
+    monkeypatch.setattr(trimesh_parts, "load", None)
+    assert_same_mesh_file(read_mesh(tmp_path / "a.stl", "t"), theirs)
+
+
+@pytest.mark.parametrize(("change", "why"), [
+    (lambda t: t + b"solid second\nendsolid second\n", "a second solid: trimesh's Scene"),
+    (lambda t: t.replace(b"      vertex", b"      vertex 1 2 3\n      vertex", 1), "a facet of four vertices"),
+    (lambda t: t.replace(b"endloop", b"", 1), "an endloop missing"),
+    (lambda t: t.replace(b"vertex ", b"vertex 1 ", 1), "a vertex of four numbers"),
+    (lambda t: t.replace(b"vertex 1.5\t", b"vertex ", 1), "a vertex of two numbers"),
+    (lambda t: t.replace(b"vertex ", b"vertex nan ", 1).replace(b"nan ", b"nan", 1), "a word that is no decimal"),
+    (lambda t: t.replace(b"solid Knot exported", b"solid vertexmodel", 1), "a name trimesh's split cuts at"),
+    (lambda t: t.replace(b"outer loop", b"outer loop vertex", 1), "'vertex' on an outer loop line"),
+    (lambda t: t.replace(b"endsolid Knot exported", b"endsolid Knot exported\ngarbage", 1), "words past endsolid"),
+    (lambda t: b"solid empty\nendsolid empty\n", "no facet"),
+])
+def test_any_other_ascii_stl_is_left_to_trimesh(change, why):
+    """Anything but the plain form goes to trimesh's reader (which reads it, or says what is wrong)."""
+    from raycast_phong.io.meshes import stl_ascii
+    rng = np.random.default_rng(1)
+    data = change(_plain_ascii(rng, lambda: "1.5"))
+    assert stl_ascii.plain_stl(data) is None, why
+
+
+def test_an_ascii_stl_s_scan_is_warmed_and_a_binary_one_s_not(stl_files):
+    from raycast_phong.io.meshes import stl_ascii
+    binary, ascii_file = stl_files
+    for path, expected in ((binary, ()), (ascii_file, (stl_ascii.warm_up,))):
+        with path.open("rb") as handle:
+            assert stl.warm_up(handle) == expected, path.name

@@ -312,6 +312,12 @@ HAND_MUTANTS = (
      "block[:, :3])\n    if faces.size and (faces.min() < 0 or faces.max() > vertex_count):"),  # binary OFF's N of N
     ("renderer/split_compile", "real, types.float64, real, typeof(np.zeros(3, inputs.materials.dtype))",
      "real, real, real, typeof(np.zeros(3, inputs.materials.dtype))"),  # the footprint typed in the precision
+    ("io/meshes/stl_ascii", "if kind != SOLID and kind != ENDSOLID and not _plain_rest(data, i, stop):",
+     "if False:"),  # "vertex" on an outer loop line, which trimesh's split cuts at
+    ("io/meshes/stl_ascii", "                if column != 3:", "                if False:"),  # a two-number vertex
+    ("io/meshes/stl_ascii", "(kind == ENDSOLID and expected == FACET and corners > 0)",
+     "(kind == ENDSOLID and expected == FACET)"),  # a solid of no facet read as plain
+    ("io/meshes/stl_ascii", "vertex_text[written] = SPACE", "vertex_text[written] = 48"),  # numbers run together
     ("io/meshes/decimals", "if c < 48 or c > 57 or exponent > 1000:",
      "if c < 48 or c > 57:"),  # an exponent of 2^64 + 5 wraps round to 5
     ("io/meshes/ply_lists", "else _parsed(data[at:read[2]], count, each)",

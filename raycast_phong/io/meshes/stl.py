@@ -1,5 +1,6 @@
 """STL: a binary STL is read here rather than by trimesh, its records straight into float32 corner points; an
-ASCII STL is read by trimesh, and one it cannot read has its first bad `vertex` line named (ascii_stl_problem)."""
+ASCII STL in the form exporters write by one compiled scan (stl_ascii.py), any other by trimesh, and one trimesh
+cannot read has its first bad `vertex` line named (ascii_stl_problem)."""
 
 from __future__ import annotations
 
@@ -58,10 +59,15 @@ def ascii_stl_problem(data: bytes) -> str | None:
 
 
 def read(reading: Reading) -> Loaded:
-    """A binary STL's corners in file order, as trimesh's reader gives them (without its float64); an ASCII STL
-    through trimesh."""
+    """A binary STL's corners in file order, as trimesh's reader gives them (without its float64); a plain ASCII
+    STL by one compiled pass (stl_ascii.py), the same; any other through trimesh."""
     points = binary_stl_points(reading.handle)
     if points is None:
+        from .stl_ascii import plain_stl  # compiled: imported only for an ASCII STL (numba's import is slow)
+        plain = plain_stl(reading.handle.read())
+        if plain is not None:
+            return Loaded([plain])
+        reading.handle.seek(0)
         from .trimesh_parts import load, parts
         return Loaded(parts(load(reading)))
     return Loaded([Part(points, np.arange(len(points), dtype=np.int64).reshape(-1, 3), None, None)])
@@ -104,8 +110,15 @@ def explain(handle, mesh) -> str | None:
     return ascii_stl_problem(handle.read())
 
 
+def warm_up(handle) -> tuple:
+    """The ASCII scan's kernel for a text STL; none for a binary one (read by numpy)."""
+    from . import stl_ascii
+    head = handle.read(84)
+    return () if is_binary(head, os.fstat(handle.fileno()).st_size) else (stl_ascii.warm_up,)
+
+
 FORMAT = MeshFormat(
-    names=("STL",), suffixes=(".stl",), read=read, count=count, floor=floor, explain=explain,
+    names=("STL",), suffixes=(".stl",), read=read, count=count, floor=floor, explain=explain, warm_up=warm_up,
     # A binary STL is told by its size; any text may be an ASCII STL ("solid") or unrecognised.
     content=lambda head, found, size, suffix: is_binary(head, size) or found in ("ASCII STL", None),
     # Binary: 50-byte records, then 36 + 24 bytes a triangle of points and faces, below the render's peak
