@@ -306,3 +306,26 @@ def test_a_set_without_its_equals_sign_is_said_before_the_scene_is_read(command)
     line = done.output.strip()
     assert "\n" not in line and "'render.width' has no '='; expected KEY.PATH=VALUE" in line, line
     assert "no such scene file" not in line
+
+
+def test_a_comma_list_of_numbers_skips_empty_items_and_refuses_a_word_naming_the_option():
+    """tools.lists.numbers: `--levels 0,,1,` is (0, 1) (blanks and empty items skipped, as `items` does for
+    names); a word among the numbers is one OptionError naming the option and the text given."""
+    from raycast_phong.errors import OptionError
+    from raycast_phong.tools.lists import numbers
+    assert numbers("0,,1, ", int, "--levels") == (0, 1)
+    assert numbers(None, int, "--levels") is None
+    with pytest.raises(OptionError, match=r"^--levels: expected numbers separated by commas, got '0,x'$"):
+        numbers("0,x", int, "--levels")
+
+
+def test_the_bar_rounds_its_filled_cells_and_its_clock_pads_minutes_and_seconds(monkeypatch):
+    """cli.progress: on a wide terminal the bar has 24 cells, 2/7 of them filled rounds 6.86 to 7 (not down to 6);
+    the time left reads as a clock, '0:07', '12:30', '1:02:03'."""
+    import shutil
+
+    from raycast_phong.cli import progress
+    monkeypatch.setattr(shutil, "get_terminal_size", lambda fallback=(80, 24): os.terminal_size((200, 24)))
+    bar = progress.Bar(io.StringIO(), True)
+    assert bar._line(2, 7, "x") == "x [" + "#" * 7 + "." * 17 + "] 2/7"
+    assert [progress._clock(s) for s in (7, 750, 3723)] == ["0:07", "12:30", "1:02:03"]

@@ -598,3 +598,15 @@ def test_numba_threads_from_1_to_1024_are_taken_and_outside_that_refused(monkeyp
     else:
         with pytest.raises(OptionError, match=f"NUMBA_NUM_THREADS='{threads}'.*from 1 to 1024"):
             check_environment()
+
+
+@pytest.mark.parametrize("framing", [{"view": "front"}, {"up": "+z"}, {"view": "top", "up": "-y"}])
+def test_view_or_up_for_a_scene_file_is_refused_naming_both(tmp_path, framing):
+    """--view and --up frame a mesh file; a scene file has its own [camera], so either one given with a scene file
+    is refused (not silently ignored), in one line naming the file."""
+    from raycast_phong.errors import SceneError
+    from raycast_phong.scene.load import load_scene
+    path = write_scene(tmp_path)
+    with pytest.raises(SceneError) as refused:
+        load_scene(path, **framing)
+    assert str(refused.value) == f"{path}: --view and --up frame a mesh file; a scene file has its own [camera]"

@@ -568,3 +568,25 @@ def test_an_unreadable_manifest_under_a_long_path_names_it_once(tmp_path):
     assert result.exit_code == 2
     assert result.stderr == (f"error: {out / 'manifest.json'}: is a folder, not a regular file; give a batch "
                              "manifest\n"), result.stderr
+
+
+@pytest.mark.parametrize("data", [{"scenes": {}}, {"format": 1, "scenes": []},
+                                  {"format": 1, "scenes": {}, "sheets": 3}])
+def test_a_manifest_without_its_format_or_with_fields_of_the_wrong_kind_is_corrupt(tmp_path, data):
+    """read_manifest takes only a manifest of format 1 (docs/batch.md) whose scenes and sheets are tables: a JSON
+    file without "format" is some other file, not an old manifest to trust."""
+    from raycast_phong.tools.batch import manifest
+    (tmp_path / "manifest.json").write_text(json.dumps(data))
+    with pytest.raises(manifest.CorruptManifest, match="not a batch manifest of format 1"):
+        manifest.read_manifest(tmp_path)
+
+
+def test_a_manifest_over_the_limit_is_refused_naming_the_limit_in_mib(tmp_path, monkeypatch):
+    """The refusal of a too-large manifest names the limit in MiB: with MANIFEST_LIMIT at 3 MiB, a file of
+    3 MiB + 1 byte is "more than the 3 MiB a batch's manifest takes"."""
+    from raycast_phong.tools.batch import manifest
+    monkeypatch.setattr(manifest, "MANIFEST_LIMIT", 3 << 20)
+    (tmp_path / "manifest.json").write_bytes(b" " * ((3 << 20) + 1))
+    with pytest.raises(manifest.CorruptManifest) as refused:
+        manifest.read_manifest(tmp_path)
+    assert str(refused.value) == "more than the 3 MiB a batch's manifest takes"

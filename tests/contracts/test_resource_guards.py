@@ -432,6 +432,21 @@ def test_a_scene_whose_validation_would_not_fit_is_refused_before_it_is_validate
     assert len(load.load_scene(path, max_memory=100 << 20).objects) == 10_000
 
 
+
+def test_validation_s_memory_counts_materials_and_takes_a_budget_of_exactly_its_need(tmp_path):
+    """VALIDATED_ITEM_BYTES for each object, light and material (a table of named materials counts as the lists
+    do): 40 objects and 60 materials need 100 items' bytes, so a budget of exactly that validates and one byte
+    less is refused, naming both counts. Catches the materials left out and the bound made strict."""
+    from raycast_phong.errors import SceneError
+    from raycast_phong.scene.load import VALIDATED_ITEM_BYTES, load_scene
+    path = tmp_path / "mixed.toml"
+    path.write_text("objects = [" + ",".join(['{shape="box"}'] * 40) + "]\n"
+                    + "".join(f"[materials.m{k}]\nkd = [0.5, 0.5, 0.5]\n" for k in range(60)))
+    need = 100 * VALIDATED_ITEM_BYTES
+    assert len(load_scene(path, max_memory=need).materials) == 60
+    with pytest.raises(SceneError, match=r"mixed\.toml: validating its 40 objects, 60 materials needs ≈ 150 kB"):
+        load_scene(path, max_memory=need - 1)
+
 def test_a_budget_given_as_text_caps_the_scene_read_as_bytes_do(tmp_path):
     """render(max_memory='8G') and load_scene(max_memory='1M') take the CLI's spelling: the scene-file read's
     check reads it with the one parse_size (a str compared with an int was a TypeError)."""

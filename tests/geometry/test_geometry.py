@@ -136,3 +136,26 @@ def test_a_malformed_mesh_file_is_bad_input_but_a_bug_stays_an_internal_error(tm
     monkeypatch.setattr(trimesh, "load", bug)
     with pytest.raises(ZeroDivisionError):
         build_geometry(scene("bad.ply"))
+
+
+def test_rotate_turns_about_x_then_y_then_z(tmp_path):
+    """docs/scene-format.md: rotate is degrees about x, then y, then z. The vertex (1, 2, 3) turned 90° about x is
+    (1, -3, 2), then 90° about z (x → y) is (3, 1, 2); the other order would give (-2, -3, 1)."""
+    (tmp_path / "tri.obj").write_text("v 1 2 3\nv 0 0 0\nv 1 0 0\nf 1 2 3\n")
+    scene = rp.validate_scene({"objects": [{"shape": "mesh", "path": "tri.obj", "rotate": [90, 0, 90]}]},
+                              folder=tmp_path)
+    g = build_geometry(scene)
+    assert any(np.allclose(v, [3, 1, 2], atol=1e-12) for v in g.vertices), g.vertices
+    turned = rp.validate_scene({"objects": [{"shape": "mesh", "path": "tri.obj", "rotate": [90, 90, 0]}]},
+                               folder=tmp_path)  # (1, -3, 2), then 90° about y (z → x): (2, -3, -1)
+    assert any(np.allclose(v, [2, -3, -1], atol=1e-12) for v in build_geometry(turned).vertices)
+
+
+def test_file_normals_follow_a_stretch_by_the_inverse_transpose(tmp_path):
+    """A normal is not a position: under scale S it turns by S⁻¹ (then unit length), so stretching a surface along
+    x tilts its normal toward z. (0.6, 0, 0.8) under scale [2, 1, 1] becomes (0.3, 0, 0.8) / |…|."""
+    (tmp_path / "tri.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0.6 0 0.8\nf 1//1 2//1 3//1\n")
+    scene = rp.validate_scene({"objects": [{"shape": "mesh", "path": "tri.obj", "normals": "file",
+                                            "scale": [2, 1, 1]}]}, folder=tmp_path)
+    expected = np.array([0.3, 0.0, 0.8]) / math.hypot(0.3, 0.8)
+    np.testing.assert_allclose(build_geometry(scene).corner_normals[0], [expected] * 3, atol=1e-6)

@@ -216,3 +216,19 @@ def test_the_brightness_bound_allows_exactly_1e38_and_names_the_brightest_of_sev
     assert scene(ambient=0, lights=lights).lights[2].ambient == (1e38,) * 3
     message = refusal(lambda: scene(ambient=0, lights=[*lights, {**dark, "specular": [1e31, 0, 0]}]))
     assert message.startswith("<scene>: lights.2: a pixel channel could reach 1e+38 ="), message
+
+
+def test_a_1_over_d_squared_light_closer_than_the_floor_counts_at_the_floor():
+    """f_att = 1/max(d, floor)², floor = 1e-6 × the half-extent (docs/scene-format.md): a light 1e-9 off a unit
+    sphere's bounding box counts as 1e-6 away, a gain of 1e12, so an intensity of 1e25 stays within 1e38
+    (1e37 a term); counted at its own 1e-9 (a gain of 1e18) it would be refused."""
+    from raycast_phong.geometry.checks import check_float_range
+    light = {"type": "point", "attenuation": "inverse_square", "position": [1 + 1e-9, 0, 0],
+             "ambient": 0, "diffuse": 1e25, "specular": 0}
+    near = scene(lights=[light], objects=[{"shape": "box", "size": [2, 2, 2]}])
+    geometry = build_geometry(near)
+    assert [float(x) for x in geometry.box[1]] == [1.0, 1.0, 1.0]
+    check_float_range(near, geometry)
+    brighter = scene(lights=[{**light, "diffuse": 2e26}], objects=[{"shape": "box", "size": [2, 2, 2]}])
+    with pytest.raises(SceneError, match=r"lights\.0"):
+        check_float_range(brighter, geometry)  # 2e26 × 1e12 = 2e38: over

@@ -4,6 +4,8 @@ counting its triangles before anything is built, and no file looked for under it
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 import trimesh
@@ -205,3 +207,58 @@ def test_only_the_positions_the_framing_chose_are_held_to_the_limit():
     with pytest.raises(rp.SceneError, match=r"too large or too far out to frame") as error:
         rp.mesh_scene(large / 10, [[0, 1, 2]], overrides=["camera.fov=1"])
     assert "camera.position" not in str(error.value)
+
+
+def test_a_mesh_file_s_scene_carries_the_source_its_framing_read(tmp_path):
+    """load_scene of a mesh file keeps the MeshSource the framing made (Scene.mesh_sources, under the file's real
+    path), as mesh_scene keeps its arrays' source, so prepare() does not read the file a second time."""
+    from raycast_phong.io.meshes.source import source_key
+    path = tmp_path / "tri.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    scene = rp.load_scene(path)
+    assert list(scene.mesh_sources) == [source_key(path)]
+    assert scene.mesh_sources[source_key(path)].triangles() == 1
+
+
+def test_only_the_vertices_a_face_uses_are_checked_and_framed():
+    """As a file's read: a vertex no face names may be NaN or far out (it is never drawn), and the framing's
+    bounding sphere holds the used vertices only, so the scene is the one without it."""
+    from raycast_phong.scene.mesh_arrays import held_mesh
+    used = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0]])
+    for stray in ([np.nan, 0.0, 0.0], [0.0, 0.0, 1e30], [50.0, 50.0, 50.0]):
+        held = held_mesh(np.vstack([used, stray]), [[0, 1, 2]])[1].held
+        assert held.centre.tolist() == [1.0, 1.0, 0.0] and held.radius == pytest.approx(math.sqrt(2.0))
+        scene = rp.mesh_scene(np.vstack([used, stray]), [[0, 1, 2]])
+        assert scene.camera == rp.mesh_scene(used, [[0, 1, 2]]).camera
+
+
+def test_a_negative_face_index_is_refused_naming_it():
+    """A face index below 0 names no vertex (numpy would read -1 as the last one): refused as one past the end
+    is, naming the index and the range allowed."""
+    with pytest.raises(rp.SceneError) as error:
+        rp.mesh_scene(np.eye(3), [[0, 1, -1]])
+    assert "faces: faces name vertex -1, but the mesh has 3 vertices; allowed: 0 ≤ index < 3" in str(error.value)
+
+
+def test_a_trimesh_s_given_vertex_normals_are_its_own():
+    """A Trimesh made with vertex normals (cached by trimesh) keeps them as a file's stored normals, as when they
+    are passed as `normals`; one without gets none (trimesh would compute them on asking)."""
+    from raycast_phong.scene.mesh_arrays import held_mesh
+    normals = np.array([[0.0, 0.6, 0.8]] * 3)
+    given = trimesh.Trimesh(np.eye(3), [[0, 1, 2]], vertex_normals=normals, process=False)
+    held = held_mesh(given)[1].held
+    assert held.stores_normals and np.allclose(held.normals, normals)
+    bare = held_mesh(trimesh.Trimesh(np.eye(3), [[0, 1, 2]], process=False))[1].held
+    assert not bare.stores_normals and bare.normals is None
+
+
+def test_a_trimesh_texture_s_size_is_height_then_width():
+    """ArraySource.texture_sizes are (height, width), as every MeshSource's, though PIL says (width, height): an
+    image 8 wide and 2 tall is (2, 8)."""
+    from PIL import Image
+
+    from raycast_phong.scene.mesh_arrays import held_mesh
+    box = trimesh.creation.box()
+    uv = np.random.default_rng(0).random((len(box.vertices), 2))
+    box.visual = trimesh.visual.TextureVisuals(uv=uv, image=Image.new("RGB", (8, 2), (200, 10, 10)))
+    assert held_mesh(box)[1].texture_sizes == ((2, 8),)

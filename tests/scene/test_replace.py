@@ -71,3 +71,42 @@ def test_a_folder_key_in_a_table_is_unknown_not_the_scenes_folder(tmp_path):
         validate_scene({**data, "folder": "/etc"}, "t.toml", tmp_path)
     assert str(raised.value) == "t.toml: folder: unknown key"
     assert validate_scene(data, "t.toml", tmp_path).folder == str(tmp_path)
+
+
+def test_set_spaces_around_the_equals_sign_belong_to_neither_key_nor_value():
+    """`--set "render.width = 320"` is `render.width=320`: the key path and the value are stripped (else the key
+    is 'width ' and refused as unknown, and a plain string keeps its leading space)."""
+    from raycast_phong.scene.overrides import apply_override
+    data: dict = {}
+    apply_override(data, "render.width = 320")
+    apply_override(data, "output.path =  a.png ")
+    assert data == {"render": {"width": 320}, "output": {"path": "a.png"}}
+
+
+def test_an_index_below_a_missing_key_meets_an_empty_list():
+    """A key path through a key the scene lacks makes it on the way: a table for a name, an empty list for an
+    index, so `lights.0.position` on a scene without lights is the key path's own refusal (the list is empty),
+    not a table {'0': ...} that validation calls a wrong type. A name below a missing key makes a table."""
+    from raycast_phong.scene.overrides import apply_override
+    with pytest.raises(rp.SceneError) as raised:
+        apply_override({}, "lights.0.position=[1, 2, 3]")
+    assert str(raised.value).endswith("lights.0: lights is a list of 0 items; allowed indices: none, the list is "
+                                      "empty"), str(raised.value)
+    data: dict = {}
+    apply_override(data, "render.width=8")
+    assert data == {"render": {"width": 8}}
+
+
+def test_shaded_sets_every_object_and_the_render_to_one_model():
+    """shaded(scene, model), the flat | Gouraud | Phong figure's one scene per model: render.shading and each
+    object's own `shading` (which wins over render.shading) are all `model`; the default scene's spheres start
+    in three different models, so an object left alone shows as the wrong model."""
+    from raycast_phong.codes import ShadingModel
+    from raycast_phong.scene.overrides import shaded
+    scene = rp.load_scene(rp.default_scene_path())
+    assert len({obj.shading for obj in scene.objects}) > 1
+    for model in ShadingModel:
+        changed = shaded(scene, model)
+        assert changed.render.shading == model
+        assert [obj.shading for obj in changed.objects] == [model] * len(scene.objects)
+        assert len(changed.objects) == len(scene.objects) and changed.lights == scene.lights

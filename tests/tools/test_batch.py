@@ -192,7 +192,8 @@ def test_leftover_temporary_files_are_removed(five_scenes, tmp_path):
     """A writer killed hard (SIGKILL) can leave write_image's hidden temporary; the next run deletes it."""
     out = tmp_path / "out"
     out.mkdir()
-    stale = [out / ".sphere0-abcd1234.png", out / ".manifest-x1y2z3w4.json"]
+    # a contact sheet's temporary too, whatever sweep it was of
+    stale = [out / ".sphere0-abcd1234.png", out / ".manifest-x1y2z3w4.json", out / ".old-contact-abcd1234.png"]
     for path in stale:
         path.write_bytes(b"half an image")
     keep = out / ".unrelated-12345678.png"  # not a name of this batch: left alone
@@ -512,3 +513,92 @@ def test_a_mesh_file_is_judged_up_to_date_without_reading_it_whole_under_render_
         loaded.clear()
         assert run(str(sweep), "--out", str(out), "--jobs", "1").exit_code == 0
         assert set(statuses(out).values()) == {"up to date"} and len(loaded) == 2 * loads, keys
+
+
+def test_a_failed_cell_is_dark_red_on_the_contact_sheet(tmp_path):
+    """docs/batch.md: a failed cell is dark red on the sheet (FAILED_RGB, 0.35, 0.06, 0.06), so it cannot pass for
+    a black render nor for the sheet's backdrop; the rendered cell beside it is its image."""
+    (tmp_path / "base.toml").write_text(scene_text())
+    (tmp_path / "widths.toml").write_text('scene = "base.toml"\n[grid]\nrender.width = [8, 0]\n')
+    out = tmp_path / "out"
+    assert run(str(tmp_path / "widths.toml"), "--out", str(out), "--jobs", "1").exit_code == 1
+    sheet = rp.read_image(out / "widths-contact.png")[0]
+    cell = rp.read_image(out / "widths--width=8.png")[0]
+    _, grid = compose_sheet([(("width", "8"),), (("width", "0"),)], [cell, None])
+    assert (grid.rows, grid.columns, grid.width, grid.height) == (1, 2, 8, 16)
+    x, y = grid.origin(0, 0)
+    np.testing.assert_array_equal(sheet[y:y + 16, x:x + 8], cell)
+    x, y = grid.origin(0, 1)
+    np.testing.assert_allclose(sheet[y + 1, x + 1], (0.35, 0.06, 0.06), atol=0.01)  # a corner, clear of "failed"
+
+
+def test_force_rewrites_a_contact_sheet_even_when_no_cell_rendered(tmp_path):
+    """--force makes every output again, the sheet too: a sweep rendered once, then its base scene broken and the
+    batch forced, every cell fails and the sheet shows them dark red (not the first run's images, kept because no
+    cell rendered)."""
+    (tmp_path / "base.toml").write_text(scene_text())
+    sweep = tmp_path / "s.toml"
+    sweep.write_text('scene = "base.toml"\n[grid]\nrender.shading = ["flat", "phong"]\n')
+    out = tmp_path / "out"
+    assert run(str(sweep), "--out", str(out), "--jobs", "1").exit_code == 0
+    (tmp_path / "base.toml").write_text("[render\n")
+    assert run(str(sweep), "--out", str(out), "--jobs", "1", "--force").exit_code == 1
+    assert set(statuses(out).values()) == {"failed"}
+    sheet = rp.read_image(out / "s-contact.png")[0]
+    _, grid = compose_sheet([job.cell for job in load_sweep(sweep).jobs()], [None, None])
+    for column in range(2):
+        x, y = grid.origin(0, column)
+        np.testing.assert_allclose(sheet[y + 1, x + 1], (0.35, 0.06, 0.06), atol=0.01)
+
+
+def test_a_cell_value_s_file_name_drops_brackets_quotes_and_blanks():
+    """sweep.slug, as its docstring says: brackets, quotes and blanks dropped (`[1, 2]` is `1,2`, not `1,-2`),
+    any other character not safe in a file name made '-', and a value that leaves nothing (`""`) named `empty`."""
+    from raycast_phong.tools.sweep import slug
+    assert slug("[1, 2]") == "1,2"
+    assert slug('"a/b c"') == "a-bc"
+    assert slug('""') == "empty"
+
+
+def test_a_sweep_file_is_told_by_its_grid_table_whatever_the_case_of_its_suffix(tmp_path):
+    """is_sweep: a `.TOML` file with a top-level `grid` table is a sweep, as a `.toml` one is (suffixes are
+    compared without case); a scene file, without `grid`, is not."""
+    from raycast_phong.tools.sweep import is_sweep
+    (tmp_path / "S.TOML").write_text('scene = "base.toml"\n[grid]\nrender.width = [8]\n')
+    (tmp_path / "base.TOML").write_text(scene_text())
+    assert is_sweep(tmp_path / "S.TOML") and not is_sweep(tmp_path / "base.TOML")
+
+
+def test_row_labels_appear_from_two_rows_and_may_be_twice_a_cell_s_width():
+    """sheet_layout: a sheet of two rows or more has its row labels at the left (one row has none), each at
+    most max(2 W, 240) px wide: a long label beside 200 px cells takes more than 240 px (up to 400), beside
+    100 px cells exactly 240."""
+    from raycast_phong.tools.sweep import sheet_layout
+    assert sheet_layout(1, 2, 12, 10, ["a=1"]).label_width == 0
+    assert sheet_layout(2, 2, 12, 10, ["a=1", "a=2"]).label_width > 0
+    long = "x" * 60
+    assert 240 < sheet_layout(2, 1, 200, 20, [long, long]).label_width <= 400
+    assert sheet_layout(2, 1, 100, 20, [long, long]).label_width == 240
+
+
+def test_the_manifest_says_the_cores_processes_and_threads_a_batch_used(tmp_path, monkeypatch):
+    """manifest["batch"]: with --jobs 2 on four cores (os.cpu_count faked) and one scene to render, the batch has 2
+    cores, renders in 1 process (no more than there are scenes) on 2 threads; each number in its own field."""
+    monkeypatch.setattr(os, "cpu_count", lambda: 4)
+    (tmp_path / "a.toml").write_text(scene_text())
+    out = tmp_path / "out"
+    assert run(str(tmp_path / "a.toml"), "--out", str(out), "--jobs", "2").exit_code == 0
+    found = batch.read_manifest(out)["batch"]
+    assert (found["cores"], found["processes"], found["threads"]) == (2, 1, 2), found
+
+
+def test_a_second_sweep_into_the_same_folder_keeps_the_first_sweep_s_sheet_in_the_manifest(tmp_path):
+    """The manifest keeps what is not in this batch (docs/batch.md), its `sheets` too: two sweeps batched one
+    after the other into one folder leave both sheets listed."""
+    (tmp_path / "base.toml").write_text(scene_text())
+    out = tmp_path / "out"
+    for name in ("one", "two"):
+        (tmp_path / f"{name}.toml").write_text('scene = "base.toml"\n[grid]\nrender.shading = ["flat"]\n')
+        assert run(str(tmp_path / f"{name}.toml"), "--out", str(out), "--jobs", "1").exit_code == 0
+    sheets = json.loads((out / "manifest.json").read_text())["sheets"]
+    assert sheets == {"one": "one-contact.png", "two": "two-contact.png"}

@@ -303,3 +303,18 @@ def test_variants_held_at_the_budget_are_refused_at_the_scene_one_byte_under_it_
     with pytest.raises(rp.SceneError) as refused:
         compare.render_budget(scenes, held)
     assert str(refused.value).startswith(f"{tiny_scene}: --vary: 3 variants of {render.width}×{render.height} ")
+
+
+def test_a_difference_map_is_scaled_to_the_largest_finite_difference_and_draws_a_nan_at_the_top():
+    """difference_map (compare --diff, docs/batch.md): black for 0 to pale yellow for the largest finite
+    difference (1.0 here, so 0.5 is the middle of the scale, inferno's sixth stop), and a pixel whose difference
+    is NaN (inf − inf) pale yellow too, not black."""
+    a = np.zeros((1, 4, 3), np.float32)
+    b = np.zeros((1, 4, 3), np.float32)
+    b[0, 1, 2], b[0, 2, 0] = 0.5, 1.0
+    a[0, 3], b[0, 3] = np.inf, np.inf
+    shown = difference.difference_map(a, b)
+    np.testing.assert_allclose(shown[0, 0], difference.INFERNO[0], atol=1e-6)
+    np.testing.assert_allclose(shown[0, 1], difference.INFERNO[5], atol=1e-6)
+    np.testing.assert_allclose(shown[0, 2], difference.INFERNO[-1], atol=1e-6)
+    np.testing.assert_allclose(shown[0, 3], difference.INFERNO[-1], atol=1e-6)

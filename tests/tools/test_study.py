@@ -86,6 +86,35 @@ def test_metrics_on_small_arrays():
     assert math.isnan(highlight_loss(a, a, np.zeros_like(a), mask))
 
 
+
+def test_measure_compares_only_the_pixels_both_images_cover_and_its_mae_is_the_mean_absolute_error():
+    """metrics.measure, hand-computed on 2×2 images: the reference leaves pixel (1, 1) uncovered, so its error
+    of 1.0 counts as a silhouette pixel and not in the shading errors, which are over the 3 pixels both cover
+    (9 channel values, three of them 0.3): MAE 0.1, RMSE √0.03, max 0.3."""
+    from types import SimpleNamespace
+    image, coverage = np.zeros((2, 2, 3)), np.ones((2, 2))
+    reference = SimpleNamespace(image=np.zeros((2, 2, 3)), coverage=np.array([[1.0, 1.0], [1.0, 0.0]]),
+                                specular=np.zeros((2, 2, 3)), kind="test")
+    reference.image[0, 0], reference.image[1, 1] = 0.3, 1.0
+    errors = measure(image, coverage, reference)
+    assert errors.compared_pixels == 3 and errors.silhouette_pixels == 1
+    assert errors.mae == pytest.approx(0.1) and errors.max_error == pytest.approx(0.3)
+    assert errors.rmse == pytest.approx(math.sqrt(0.03))
+
+
+def test_highlight_loss_takes_every_pixel_of_half_the_peak_and_counts_each_at_most_up_to_its_highlight():
+    """highlight_loss's formula (docstring): the peak is every pixel whose specular sum is at least half the
+    largest (0.9 and 0.6 here; 0.3 is out), and a pixel's overshoot does not make up for another's miss. The
+    render doubles pixel A's highlight (0.9, counted as 0.9) and misses B's (0.6): 1 − 0.9 / 1.5 = 0.4."""
+    mask = np.ones((2, 2), bool)
+    specular = np.zeros((2, 2, 3))
+    specular[0, 0], specular[0, 1], specular[1, 0] = 0.3, 0.2, 0.1  # sums 0.9 (A), 0.6 (B), 0.3
+    reference = 0.1 + specular
+    image = np.full((2, 2, 3), 0.1)
+    image[0, 0] += 2 * specular[0, 0]
+    assert highlight_loss(image, reference, specular, mask) == pytest.approx(0.4)
+
+
 # ---------------------------------------------------------------- convergence orders and the cost axis
 
 def _tiny_rows():
