@@ -74,6 +74,16 @@ LF, HASH = 10, 35
 
 
 @kernel(inline="always")
+def line_end(data, at):
+    """(end, stop) of the line starting at byte `at` of `data`: the LF that ends it (or the data's end) and where
+    its text stops, before a CR of a CRLF line end."""
+    end = at
+    while end < data.shape[0] and data[end] != LF:
+        end += 1
+    return end, end - 1 if end > at and data[end - 1] == 13 else end
+
+
+@kernel(inline="always")
 def _blank(c):
     """A byte that separates words on a line: what Python's bytes.split() splits on but the line feed."""
     return c == 32 or c == 9 or c == 13 or c == 11 or c == 12

@@ -18,10 +18,10 @@ from pathlib import Path
 import numpy as np
 
 from ...jit import kernel
-from .decimals import POWERS, decimal, numeric
+from .decimals import POWERS, decimal, line_end, numeric
 from .format import Part
 
-SPACE, TAB, LF, CR, HASH = 32, 9, 10, 13, 35
+SPACE, TAB, HASH = 32, 9, 35
 PLAIN_KERNELS = ("_records",)  # what reading a plain OBJ compiles (renderer/warmup.py loads it first)
 
 
@@ -38,10 +38,7 @@ def _records(data, mode, powers, points, vertex_text, faces):
     exact = True
     at = 0
     while at < n:
-        end = at
-        while end < n and data[end] != LF:
-            end += 1
-        stop = end - 1 if end > at and data[end - 1] == CR else end
+        end, stop = line_end(data, at)
         if stop > at and data[at] != HASH:
             if stop - at < 2 or data[at + 1] != SPACE:
                 return False, vertices, count, written, exact

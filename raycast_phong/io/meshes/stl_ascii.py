@@ -16,10 +16,10 @@ import warnings
 import numpy as np
 
 from ...jit import kernel
-from .decimals import POWERS, decimal, numeric
+from .decimals import POWERS, decimal, line_end, numeric
 from .format import Part
 
-SPACE, TAB, LF, CR = 32, 9, 10, 13
+SPACE, TAB = 32, 9
 # The line kinds, by their first word (case-insensitive): what may follow each, in a plain file.
 SOLID, FACET, OUTER, VERTEX, ENDLOOP, ENDFACET, ENDSOLID, OTHER = range(8)
 KEYWORDS = (b"solid", b"facet", b"outer", b"vertex", b"endloop", b"endfacet", b"endsolid")
@@ -71,10 +71,7 @@ def _facets(data, mode, words, lengths, powers, points, vertex_text):
     exact = True
     at = 0
     while at < n:
-        end = at
-        while end < n and data[end] != LF:
-            end += 1
-        stop = end - 1 if end > at and data[end - 1] == CR else end
+        end, stop = line_end(data, at)
         i = at
         while i < stop and (data[i] == SPACE or data[i] == TAB):
             i += 1
