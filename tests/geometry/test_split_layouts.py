@@ -155,3 +155,19 @@ def test_a_memoised_build_follows_a_changed_normal_rule_and_crease(tmp_path):
                            ({"normals": "angle"}, angle_smooth)]:
         scene = rp.validate_scene({"objects": [{"shape": "box", **keys}]})
         assert expected(build_geometry(scene, memo=memo)), keys
+
+
+def test_two_boxes_alike_but_for_their_normal_rule_each_get_their_own_normals():
+    """Catches objects of one shape and size sharing one build although their `normals` rules differ (the group
+    key without the rule): a box smoothed by corner angle has every corner normal along its vertex's diagonal;
+    smoothed by the mean of its triangles (two a face, one or two at a corner) some lean off it."""
+    scene = rp.validate_scene({"objects": [
+        {"shape": "box", "crease_angle": 180, "normals": "angle"},
+        {"shape": "box", "crease_angle": 180, "normals": "mean", "translate": [5, 0, 0]}]})
+    g = build_geometry(scene)
+    for index, centre, diagonal in ((0, (0, 0, 0), True), (1, (5, 0, 0), False)):
+        mine = g.face_object == index
+        corners = g.vertices[g.faces[mine]] - np.array(centre)
+        along = np.allclose(g.corner_normals[mine], corners / np.linalg.norm(corners, axis=-1, keepdims=True),
+                            atol=1e-6)
+        assert along == diagonal, index
