@@ -156,3 +156,37 @@ def test_each_stage_family_has_one_sequencer_and_the_plan_comes_before_the_geome
     plan = graph["renderer.plan"]
     assert not sorted(t for t in plan if t.startswith("geometry."))
     assert "renderer.diagnosis" not in plan and "renderer.plan" in graph["renderer.diagnosis"]
+
+
+def _slice_copies(source: str) -> list[str]:
+    """Assignments of an array to a slice (`a[i:j] = b[k:l]`) inside the @kernel functions of `source`; a slice
+    filled with a constant (`a[:] = 0`) is not one."""
+    import ast
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if not (isinstance(node, ast.FunctionDef) and any(
+                isinstance(d, ast.Call) and getattr(d.func, "id", None) == "kernel" for d in node.decorator_list)):
+            continue
+        for assign in ast.walk(node):
+            if not isinstance(assign, ast.Assign) or isinstance(assign.value, (ast.Constant, ast.UnaryOp)):
+                continue
+            for target in assign.targets:
+                for sub in ast.walk(target):
+                    parts = sub.slice.elts if isinstance(sub, ast.Subscript) and isinstance(sub.slice, ast.Tuple) \
+                        else [sub.slice] if isinstance(sub, ast.Subscript) else []
+                    if any(isinstance(part, ast.Slice) for part in parts):
+                        found.append(f"{node.name} line {assign.lineno}: {ast.unparse(assign)}")
+    return found
+
+
+def test_no_kernel_copies_an_array_into_a_slice():
+    """numba compiles a slice assignment's shape-mismatch message (str, repr, concatenation): 2-2.5 s of a first
+    compile each (docs/performance.md); the plain OBJ scan's one made its compile 3.3 s of CPU instead of 1.3.
+    Kernels copy with loops. The check itself: it finds the copy it is meant to find."""
+    from pathlib import Path
+    assert _slice_copies("@kernel()\ndef f(a, b):\n    a[1:3] = b[0:2]\n    a[:] = 0\n") == [
+        "f line 3: a[1:3] = b[0:2]"]
+    package = Path(__file__).resolve().parents[2] / "raycast_phong"
+    found = [f"{path.relative_to(package)}: {line}" for path in sorted(package.rglob("*.py"))
+             for line in _slice_copies(path.read_text(encoding="utf-8"))]
+    assert not found, found

@@ -77,7 +77,8 @@ def _records(data, mode, powers, points, vertex_text, faces):
                 return False, vertices, count, written, exact
             if kind == 118:
                 if mode == 2:
-                    vertex_text[written:written + stop - at - 1] = data[at + 1:stop]
+                    for k in range(stop - at - 1):  # a loop: a slice assignment compiles its error text
+                        vertex_text[written + k] = data[at + 1 + k]
                 written += stop - at - 1
                 vertices += 1
             else:

@@ -103,7 +103,8 @@ def _facets(data, mode, words, lengths, powers, points, vertex_text):
                     return False, corners, written, exact
                 if mode == 2:
                     vertex_text[written] = SPACE
-                    vertex_text[written + 1:written + 1 + stop - text_start] = data[text_start:stop]
+                    for k in range(stop - text_start):  # a loop: a slice assignment compiles its error text
+                        vertex_text[written + 1 + k] = data[text_start + k]
                 written += 1 + stop - text_start
                 corners += 1
                 in_loop += 1
