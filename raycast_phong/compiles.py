@@ -12,7 +12,8 @@ from contextlib import contextmanager
 _listeners: list[Callable[[str, str], None]] = []
 # What a compile notice calls the kernels of a first kernel that misses the cache, by its module and name (the
 # first match); the shading kernels' (the renderer's, 13-18 s of CPU) are the rest: `part(name)` is None for them.
-PARTS = (("renderer.kernels.shadows", "the shadow rays' kernels (global mode)"),
+PARTS = (("renderer.kernels.shadows.no_shadow_rays", None),  # local mode's stand-in: the shading kernels' part
+         ("renderer.kernels.shadows", "the shadow rays' kernels (global mode)"),
          ("crease", "the crease split's kernels"),
          ("geometry.", "the mesh preparation's kernels (merge, winding)"),
          (".io.", "the mesh reader's kernels"))

@@ -406,6 +406,7 @@ HAND_MUTANTS = (
      'filled = int(share * cells)'),
     ("geometry/grouping", "OWN_KEYS[obj.shape]), obj.normals, obj.crease_angle)",
      "OWN_KEYS[obj.shape]), obj.crease_angle)"),  # two boxes of other normals rules share one build
+    ("compiles", 'PARTS = (("renderer.kernels.shadows.no_shadow_rays", None),', "PARTS = ("),  # local: "global mode"
     ("renderer/split_compile", "real, types.float64, real, typeof(np.zeros(3, inputs.materials.dtype))",
      "real, real, real, typeof(np.zeros(3, inputs.materials.dtype))"),  # the footprint typed in the precision
     ("io/meshes/stl_ascii", "if kind != SOLID and kind != ENDSOLID and not _plain_rest(data, i, stop):",

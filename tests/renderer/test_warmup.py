@@ -63,6 +63,21 @@ def test_an_obj_scene_is_told_it_compiles_when_only_its_polygon_scan_is_missing(
     assert warmup.ready_kernels(mesh_scene(tmp_path), said.append)[0] == "kernels" and said == []
 
 
+@pytest.mark.parametrize(("first", "said_first"), [
+    ("raycast_phong.renderer.kernels.shadows.no_shadow_rays", "compiling the float32 shading kernels"),
+    ("raycast_phong.renderer.kernels.shadows.cast_shadows", "compiling the shadow rays' kernels (global mode)")])
+def test_a_local_scene_s_shadow_stand_in_is_announced_as_the_shading_kernels(monkeypatch, first, said_first):
+    """A scene in local mode hands the tile kernel shadows.no_shadow_rays (by_address.py), which may be the first
+    kernel a fresh install compiles on a busy machine: the notice must not call it global mode's shadow rays
+    (a first STL render from a wheel said so); cast_shadows is those."""
+    from raycast_phong.renderer import frame
+    said = []
+    missing(monkeypatch, frame, "warm_kernels_for", first)
+    scene = validate_scene({"objects": [{"shape": "icosphere"}]}, source="t")
+    assert warmup.ready_kernels(scene, said.append)[0] == "compile" and len(said) == 1
+    assert said[0].startswith(said_first), said
+
+
 def test_a_kernel_compiled_for_float32_only_is_told_to_compile_for_float64(tmp_path):
     """The cache holds a kernel per signature: a float64 call after float32 ones compiles, and is told so (it
     was silent when the check asked for "some signature"). A kernel of its own in a fresh cache folder, in a
