@@ -171,3 +171,17 @@ def test_an_ascii_ply_s_face_of_no_corners_leaves_its_concave_polygon_cut(tmp_pa
     normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     assert len(found.faces) == 4 and (normal[:, 2] > 0).all(), found.faces
     assert np.isclose(0.5 * normal[:, 2].sum(), AREA)
+
+
+@pytest.mark.parametrize("start", range(6))
+def test_an_ascii_ply_s_cut_polygons_are_counted_in_its_rewritten_header(tmp_path, start):
+    """ply_lists.ascii_cut writes each concave polygon's triangles as lines of their own: the rewritten header's
+    face count must be the face lines it now holds (the PLY format counts an element's rows), one more per
+    triangle past the first of each cut polygon, not per corner."""
+    from raycast_phong.io.meshes import ply_lists
+    ply_ascii(tmp_path / "m.ply", start)
+    data = (tmp_path / "m.ply").read_bytes()
+    cut = ply_lists.ascii_cut(data, ply_lists.header(data))
+    vertex, face = ply_lists.header(cut).elements[:2]
+    lines = [line for line in cut[ply_lists.header(cut).body:].split(b"\n") if line.strip()]
+    assert face.rows == len(lines) - vertex.rows == 5  # the L's 4 triangles and the triangle

@@ -407,6 +407,8 @@ HAND_MUTANTS = (
     ("geometry/grouping", "OWN_KEYS[obj.shape]), obj.normals, obj.crease_angle)",
      "OWN_KEYS[obj.shape]), obj.crease_angle)"),  # two boxes of other normals rules share one build
     ("compiles", 'PARTS = (("renderer.kernels.shadows.no_shadow_rays", None),', "PARTS = ("),  # local: "global mode"
+    ("io/meshes/ply_lists", "added = int((corners[concave] - 3).sum())",
+     "added = int((corners[concave] - 2).sum())"),  # set 13: the cut header counts a face line too many
     ("renderer/split_compile", "real, types.float64, real, typeof(np.zeros(3, inputs.materials.dtype))",
      "real, real, real, typeof(np.zeros(3, inputs.materials.dtype))"),  # the footprint typed in the precision
     ("io/meshes/stl_ascii", "if kind != SOLID and kind != ENDSOLID and not _plain_rest(data, i, stop):",
