@@ -207,6 +207,18 @@ def test_the_analytic_reference_is_refused_when_its_image_exceeds_the_budget(tmp
     check_reference_memory(scene, 4096 * 4096 * REFERENCE_PIXEL_BYTES)  # exactly the estimate: fits
 
 
+def test_the_analytic_reference_budget_counts_width_times_height_pixels():
+    """A 4096 × 16 reference is 65,536 pixels: it fits a budget of exactly that many pixels' bytes, which a
+    4096 × 4096 one (width counted twice) would not; one pixel's bytes less is refused, naming both sizes."""
+    from raycast_phong.errors import SceneError
+    from raycast_phong.tools.accuracy import REFERENCE_PIXEL_BYTES, check_reference_memory
+    scene = raycast_phong.validate_scene({"render": {"width": 4096, "height": 16},
+                                          "objects": [{"shape": "icosphere"}]}, source="s")
+    check_reference_memory(scene, 4096 * 16 * REFERENCE_PIXEL_BYTES)
+    with pytest.raises(SceneError, match="4096×16 pixels"):
+        check_reference_memory(scene, 4096 * 16 * REFERENCE_PIXEL_BYTES - REFERENCE_PIXEL_BYTES)
+
+
 def test_reference_command_and_the_mesh_error(tmp_path):
     from typer.testing import CliRunner
 

@@ -55,3 +55,15 @@ def test_a_shape_is_refined_by_level_and_a_mesh_at_zero_iterations_is_left_as_it
     refine_entry(scene, 1, again, 0, 2, tmp_path)
     assert again["path"] == str(tmp_path / "object1-loop2.ply") and "normals" not in again
     assert (tmp_path / "object1-loop2.ply").read_bytes() == b"made before"
+
+
+def test_the_fine_memory_check_counts_a_mesh_at_four_to_the_levels_its_triangles(tmp_path):
+    """docs/accuracy.md, "Levels": a mesh file Loop-subdivided L times has 4^L × the file's triangles, so the
+    octahedron (8) at --fine 2 is 128 in all (the file's 8 and 120 more), the count the refusal names."""
+    from raycast_phong.errors import SceneError
+    from raycast_phong.tools.accuracy import check_fine_memory
+    (tmp_path / "octa.obj").write_text(OCTAHEDRON)
+    (tmp_path / "s.toml").write_text('[[objects]]\nshape = "mesh"\npath = "octa.obj"\n')
+    scene = rp.load_scene(tmp_path / "s.toml")
+    with pytest.raises(SceneError, match=r"--fine 2: the refined scene has 128 triangles "):
+        check_fine_memory(scene, scene.data(), 2, 1)

@@ -291,3 +291,41 @@ def test_the_oracle_lights_nothing_from_a_light_in_the_surface_s_plane():
         assert covered.sum() > 1000 and np.abs(reference.image[covered] - 0.1).max() < 1e-12
         image = rp.render(scene).image
         assert np.abs(image[covered] - reference.image[covered]).max() < 1e-6
+
+
+def test_the_oracle_s_wrap_modes_at_and_past_each_edge():
+    """Texel indices −2 … 6 of a 3-texel row: "mirror" reflects about each edge, repeating the edge texel
+    (… 1 0 | 0 1 2 | 2 1 0 | 0), "clamp" holds the edge texel and "repeat" starts over."""
+    from raycast_phong.tools.reference import _wrapped
+    indices = np.arange(-2, 7)
+    assert _wrapped(indices, 3, "mirror").tolist() == [1, 0, 0, 1, 2, 2, 1, 0, 0]
+    assert _wrapped(indices, 3, "clamp").tolist() == [0, 0, 0, 1, 2, 2, 2, 2, 2]
+    assert _wrapped(indices, 3, "repeat").tolist() == [1, 2, 0, 1, 2, 0, 1, 2, 0]
+
+
+def test_an_emission_map_multiplies_k_e_and_leaves_k_s_alone():
+    """A k_e map of 0.5 everywhere halves the k_e columns (9–11) of the hit's material row; k_a, k_d, k_s and
+    the shininess keep their values (k_s is never mapped)."""
+    from raycast_phong.tools.reference import ExactScene, textured_rows
+    plane = scene([{"shape": "plane"}], [OVERHEAD])
+    rows = np.arange(1.0, 14.0)[None, :]
+    maps = {0: {"ke": (np.full((2, 2, 3), 0.5), "repeat")}}
+    found = textured_rows(plane, ExactScene(plane), maps, rows, np.array([0]), np.array([[0.1, 0.0, 0.2]]))
+    expected = rows.copy()
+    expected[0, 9:12] /= 2
+    np.testing.assert_allclose(found, expected, atol=HAND)
+
+
+def test_the_oracle_reads_a_half_float_map_as_linear_and_a_grey_alpha_png_as_grey(tmp_path):
+    """A half-float EXR holds linear values: render.colour = "linear" takes 0.5 as 0.5, with no sRGB decode
+    (which would give 0.214). A grey + alpha PNG is grey in all three channels, whatever its alpha."""
+    import OpenImageIO as oiio
+    from PIL import Image
+
+    from raycast_phong.tools.reference import read_map
+    half = oiio.ImageBuf(oiio.ImageSpec(2, 2, 3, oiio.HALF))
+    oiio.ImageBufAlgo.fill(half, (0.5, 0.5, 0.5))
+    assert half.write(str(tmp_path / "half.exr"))
+    np.testing.assert_allclose(read_map(tmp_path / "half.exr", "linear"), 0.5, atol=1e-6)
+    Image.fromarray(np.full((2, 3, 2), (51, 200), np.uint8), "LA").save(tmp_path / "grey.png")
+    np.testing.assert_allclose(read_map(tmp_path / "grey.png", "display"), np.full((2, 3, 3), 0.2), atol=1e-6)

@@ -233,6 +233,7 @@ def test_colour_map_runs_from_black_to_pale_yellow_with_rising_lightness():
     ("lights.0.position=[1,2,3],[3,2,1]", "lights.0.position", ["[1,2,3]", "[3,2,1]"]),
     ('lights.0.attenuation="none",[1, 0.5, 0.25]', "lights.0.attenuation", ['"none"', "[1, 0.5, 0.25]"]),
     ('objects.0.name="a,b",c', "objects.0.name", ['"a,b"', "c"]),
+    ("objects.0.name='a,b',c", "objects.0.name", ["'a,b'", "c"]),  # a TOML literal string quotes its comma too
 ])
 def test_vary_splits_at_top_level_commas(text, key, values):
     assert compare.parse_vary(text) == (key, values)

@@ -74,3 +74,31 @@ def test_the_margin_is_the_limit_over_the_value():
     assert row.margin == 4.0
     assert stability.CaseResult("c", "p", "f", True, value=6, limit=3, at_least=True).margin == 2.0
     assert stability.CaseResult("c", "p", "f", True, value=0.0, limit=1.0).margin == float("inf")
+
+
+def test_run_all_reports_each_case_before_it_runs_and_done_after_the_last(monkeypatch):
+    """progress(done, total, next case) before each case, then (total, total, "done"): a bar that ends full."""
+    monkeypatch.setitem(stability.CASES, "non_finite_input", lambda: stability.CaseResult("c", "p", "f", True))
+    calls = []
+    results = stability.run_all(["non_finite_input", "non_finite_input"], lambda *call: calls.append(call))
+    assert calls == [(0, 2, "non_finite_input"), (1, 2, "non_finite_input"), (2, 2, "done")]
+    assert [row.passed for row in results] == [True, True]
+
+
+def test_non_finite_input_fails_when_one_field_slips_through(monkeypatch):
+    """Every one of the 7 inputs must be refused naming its key: a NaN ambient accepted leaves 6 of 7, a failure."""
+    real = stability.validate_scene
+    monkeypatch.setattr(stability, "validate_scene",
+                        lambda data, **keys: None if "ambient" in data else real(data, **keys))
+    row = stability.non_finite_input()
+    assert (row.passed, row.value, row.limit, row.figure) == (False, 6, 7, "6 of 7 refused with the key named")
+
+
+def test_json_gives_an_infinite_margin_as_null_so_the_output_stays_json(monkeypatch):
+    """A value of 0 under its limit is infinitely within it: --json writes null there (JSON has no Infinity)."""
+    monkeypatch.setitem(stability.CASES, "non_finite_input",
+                        lambda: stability.CaseResult("zero", "p", "0", True, value=0.0, limit=1.0))
+    result = runner.invoke(app, ["stability", "--json", "--case", "non_finite_input"])
+    assert result.exit_code == 0, result.output
+    assert "Infinity" not in result.stdout
+    assert json.loads(result.stdout)[0]["margin"] is None

@@ -480,3 +480,30 @@ def test_a_study_of_nothing_is_one_line_from_the_api_too(tmp_path, options):
     the least that runs (checked by the tests above)."""
     with pytest.raises(rp.SceneError, match="at least one level, one model and one repeat"):
         run_study(sphere_file(tmp_path, size=8), options=StudyOptions(**{"levels": (1,), **options}))
+
+
+def test_the_small_helpers_of_the_tables_on_hand_made_numbers():
+    """spread is (median − min)/min: runs of 2, 3 and 10 ms spread 0.5 (the slow outlier does not count); the crop
+    keeps `margin` pixels on both sides of the mask, inclusive; a time range never ends below its fastest run;
+    a range from 100 ms on is in whole ms; h·√f at h = 0.1 and f = 100 is 1 highlight width."""
+    import dataclasses
+
+    from raycast_phong.tools.study import _crop, highlight_widths, ms, spread, time_range
+    assert spread([2.0, 3.0, 10.0]) == pytest.approx(0.5) and spread([0.0, 0.0]) == 0.0
+    mask = np.zeros((10, 12), bool)
+    mask[5, 6] = True
+    assert _crop(mask, margin=2) == (slice(3, 8), slice(4, 9))
+    assert time_range(_timed(0, 5.0, 4.0, 0.1)) == (0.005, 0.005)
+    assert ms(_timed(0, 100.0, 120.0, 0.1)) == "100–120 ms" and ms(_timed(0, 99.0, 120.0, 0.1)) == "99.0–120.0 ms"
+    row = dataclasses.replace(_timed(0, 1.0, 1.0, 0.1), edge_length=0.1, shininess="100")
+    assert highlight_widths(row, 16.0) == pytest.approx(1.0)
+
+
+def test_no_aliasing_is_named_while_the_shading_error_falls_by_less_than_a_third():
+    """The whole-image RMSE stalls at every level, but the shading RMSE falls only 2^-0.1 ≈ 7 % a level: the stall
+    is not the silhouette's aliasing left over, so `aliasing` names no pair of levels."""
+    import dataclasses
+
+    from raycast_phong.tools.study import aliasing
+    rows = [dataclasses.replace(r, image_rmse=0.5) for r in _curve("phong", 0.1)]
+    assert aliasing(rows) is None
