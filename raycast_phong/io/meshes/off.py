@@ -46,6 +46,15 @@ def _start(data: bytes) -> int:
         at = end + 1
 
 
+def _keyword(data: bytes) -> tuple[re.Match | None, int, bool]:
+    """The header keyword (None for a text file that starts at its counts), where what follows it starts, and
+    whether that is `BINARY` (the rest of the keyword's line)."""
+    at = _start(data)
+    found = HEADER.match(data, at)
+    at = found.end() if found else at
+    return found, at, found is not None and data[at:at + 80].split(b"\n", 1)[0].split()[:1] == [b"BINARY"]
+
+
 def read(reading: Reading) -> Loaded:
     data = reading.handle.read()
     try:
@@ -66,14 +75,10 @@ def _visual(colours: np.ndarray | None, per_face: bool, faces: np.ndarray) -> Pa
 def parse(data: bytes, notes: list[str], name: str):
     """(vertices (V, 3), faces (F, 3), normals (V, 3) or None, colours (V|F, 4) uint8 or None, whether the
     colours are per face) of an OFF file's bytes (module docstring)."""
-    at = _start(data)
-    found = HEADER.match(data, at)
+    found, at, binary = _keyword(data)
     texture, coloured, normals, four, dimensions = (bool(found and found[k]) for k in range(1, 6))
-    if found:
-        at = found.end()
-        rest = data[at:at + 80].split(b"\n", 1)[0]
-        if rest.split()[:1] == [b"BINARY"]:
-            return _binary(data[at + data[at:].index(b"\n") + 1:], normals, coloured, texture, four, notes, name)
+    if binary:
+        return _binary(data[at + data[at:].index(b"\n") + 1:], normals, coloured, texture, four, notes, name)
     lines, body = _content_lines(data, at, 2 if dimensions else 1)
     width = 3
     if dimensions:
@@ -158,11 +163,7 @@ def _compiled_body(data: bytes, at: int, vertex_count: int, face_count: int):
 
 def warm_up(handle) -> tuple:
     """The compiled lines' kernel for a text OFF (not `OFF BINARY`: its header line says so)."""
-    head = handle.read(4096)
-    at = _start(head)
-    found = HEADER.match(head, at)
-    binary = found is not None and head[found.end():found.end() + 80].split(b"\n", 1)[0].split()[:1] == [b"BINARY"]
-    return () if binary else (_warm_lines,)
+    return () if _keyword(handle.read(4096))[2] else (_warm_lines,)
 
 
 def _warm_lines() -> None:
@@ -315,9 +316,8 @@ def count(handle, size: int, mesh) -> int | None:
     """The faces and vertices of the counts line (the first line after the header that is not a comment; a
     binary file's three int32), or None where they claim more than the file's `size` can hold."""
     head = handle.read(4096)
-    found = HEADER.match(head, _start(head))
-    at = found.end() if found else 0
-    if found and head[at:at + 80].split(b"\n", 1)[0].split()[:1] == [b"BINARY"]:
+    found, at, binary = _keyword(head)
+    if binary:
         start = at + head[at:].find(b"\n") + 1
         if len(head) < start + 12:
             return None
