@@ -360,3 +360,19 @@ def test_an_ascii_face_index_past_its_declared_type_is_refused_not_wrapped(tmp_p
     with pytest.raises(SceneError) as refused:
         read_mesh(path)
     assert "4294967297" in str(refused.value) and "\n" not in str(refused.value), refused.value
+
+
+def test_an_ascii_ply_whose_concave_quad_is_cut_is_read_without_trimesh(tmp_path, monkeypatch):
+    """An ASCII PLY of a concave quad (a dart: its fourth corner is reflex) is refused by plain_part as written,
+    then cut by ascii_cut into two triangles, which plain_part reads: trimesh's reader is never called, and the
+    cut is ear clipping's (the fan from corner 0 would cover the notch), so both triangles turn one way."""
+    from raycast_phong.io.meshes import trimesh_parts
+    path = tmp_path / "dart.ply"
+    path.write_text("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+                    "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                    "0 0 0\n2 1 0\n0 2 0\n0.5 1 0\n4 0 1 2 3\n")
+    monkeypatch.setattr(trimesh_parts, "load", None)
+    mesh = mesh_file.read_file(mesh_source(path), bounds=True)
+    corners = mesh.vertices[mesh.faces]
+    turns = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])[:, 2]
+    assert len(mesh.faces) == 2 and (turns > 0).all() and np.isclose(turns.sum() / 2, 1.5), (mesh.faces, turns)

@@ -73,7 +73,8 @@ def read(reading: Reading) -> Loaded:
         problem = ply_problem(data[:HEADER_LIMIT])  # takes a nameless property and reads the next in its column
         if problem:
             raise FileProblem(f"{str(reading.path)!r} {problem}")
-    if header is not None and header.format == "ascii":  # triangles alone: nothing to cut (ascii_cut's scan)
+    tried = header is not None and header.format == "ascii"  # plain_part has seen these bytes
+    if tried:  # triangles alone: nothing to cut (ascii_cut's scan)
         plain = plain_part(data, header)
         if plain is not None:
             return Loaded([plain])
@@ -82,9 +83,11 @@ def read(reading: Reading) -> Loaded:
         data, header = cut, ply_lists.header(cut)
     evened = ply_lists.evened(data, header, reading.notes)  # lists of uneven length (a quad, a triangle)
     _note_points(header, reading.path, reading.notes)
-    plain = plain_part(data if evened is None else evened, header if evened is None else ply_lists.header(evened))
-    if plain is not None:
-        return Loaded([plain])
+    if not tried or cut is not None or evened is not None:  # not the bytes plain_part refused above
+        plain = plain_part(data if evened is None else evened,
+                           header if evened is None else ply_lists.header(evened))
+        if plain is not None:
+            return Loaded([plain])
     from .trimesh_parts import RegularFiles, load, parts
     resolver = RegularFiles(reading.path)
     # `<this>` in a TextureFile name; trimesh asks for the last TextureFile, and the first is the one read (the
