@@ -319,3 +319,17 @@ def test_a_flattening_node_scale_keeps_the_faces_winding(tmp_path):
     np.testing.assert_array_equal(found.faces, FACES)
     np.testing.assert_array_equal(found.vertices[:, 2], 0.0)
     assert found.normals is None
+
+
+@pytest.mark.filterwarnings("error")
+def test_an_infinite_vertex_under_a_node_transform_is_one_line_and_no_numpy_warning(tmp_path):
+    """A node that moves its mesh multiplies every vertex, an infinite one too (assimp's BoxWithInfinites.glb):
+    numpy's "invalid value encountered in matmul" must not reach the user, only the read's check of the values."""
+    tree, data = document(nodes=nested(("nodes", 1, "translation"), [1.0, 2.0, 3.0]))
+    points = POINTS.copy()
+    points[4] = [np.inf, -np.inf, np.nan]
+    start = FACES.size * 4
+    data = data[:start] + points.astype("<f4").tobytes() + data[start + POINTS.nbytes:]
+    path = write_glb(tmp_path / "infinite.glb", tree, data)
+    with pytest.raises(SceneError, match=r"has 1 vertex\(es\) with NaN or infinite coordinates"):
+        mesh_file.read_file(mesh_source(path))

@@ -520,6 +520,9 @@ HAND_MUTANTS = (
      'refused.id = None'),  # an unknown type answered without its id
     ('tools/view/server', 'except (SceneError, ViewError) as error:  # the format',
      'except SceneError as error:  # the format'),  # a loaded file past the view's limits not named
+    ('io/meshes/format',
+     '    with np.errstate(invalid="ignore", over="ignore"):\n        vertices = vertices @ linear.T',
+     '    if True:\n        vertices = vertices @ linear.T'),  # numpy's matmul warning for a placed infinite vertex
 )
 OPERATOR_SWAPS = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,
                   ast.Lt: ast.LtE, ast.LtE: ast.Lt, ast.Gt: ast.GtE, ast.GtE: ast.Gt, ast.Eq: ast.NotEq,

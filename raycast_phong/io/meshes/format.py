@@ -42,13 +42,15 @@ def placed(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray | None,
            matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """A part's (vertices, faces, normals) placed by a node's (4, 4) matrix: vertices by it, normals by its
     inverse transpose (dropped if it is singular: their length is set by the geometry stage), faces turned over
-    where it mirrors, so they stay outward. The identity leaves the arrays as they are (most files)."""
+    where it mirrors, so they stay outward. The identity leaves the arrays as they are (most files). A NaN or
+    infinite coordinate is carried through without numpy's warning: the read's values check words it."""
     if np.array_equal(matrix, np.eye(4)):
         return vertices, faces, normals
     linear = matrix[:3, :3]
     determinant = np.linalg.det(linear)
-    vertices = vertices @ linear.T + matrix[:3, 3]
-    normals = None if normals is None or determinant == 0 else normals @ np.linalg.inv(linear)
+    with np.errstate(invalid="ignore", over="ignore"):
+        vertices = vertices @ linear.T + matrix[:3, 3]
+        normals = None if normals is None or determinant == 0 else normals @ np.linalg.inv(linear)
     return vertices, faces[:, ::-1] if determinant < 0 else faces, normals
 
 
