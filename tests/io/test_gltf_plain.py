@@ -333,3 +333,27 @@ def test_an_infinite_vertex_under_a_node_transform_is_one_line_and_no_numpy_warn
     path = write_glb(tmp_path / "infinite.glb", tree, data)
     with pytest.raises(SceneError, match=r"has 1 vertex\(es\) with NaN or infinite coordinates"):
         mesh_file.read_file(mesh_source(path))
+
+
+@pytest.mark.parametrize(("version", "refused"), [("1.0", True), ("3.0", True), ("2.0", False), ("2.1", False)])
+def test_only_major_version_2_is_read(version, refused, tmp_path):
+    """glTF 2.0 §5.2: a loader reads the major version it knows and any later minor one. A glTF 1.0 file (shader
+    techniques, assimp's test/models/glTF) was refused as 'does not follow the glTF format'; it is named now."""
+    tree, data = document(asset={"version": version})
+    path = write_gltf(tmp_path / "versioned.gltf", tree, data)
+    if refused:
+        with pytest.raises(SceneError, match=rf"its asset.version is '{version}'.*allowed: glTF 2\.0"):
+            mesh_file.read_file(mesh_source(path))
+    else:
+        assert len(mesh_file.read_file(mesh_source(path)).faces) == len(FACES)
+
+
+def test_a_glb_of_container_version_1_is_named_as_gltf_1(tmp_path):
+    """A GLB's header holds its container version (§4.4.2: 2); glTF 1.0's KHR_binary_glTF wrote 1."""
+    tree, data = document()
+    path = write_glb(tmp_path / "old.glb", tree, data)
+    raw = bytearray(path.read_bytes())
+    raw[4:8] = (1).to_bytes(4, "little")
+    path.write_bytes(bytes(raw))
+    with pytest.raises(SceneError, match=r"its GLB header gives version 1 \(glTF 1\.0.*allowed: glTF 2\.0"):
+        mesh_file.read_file(mesh_source(path))

@@ -13,6 +13,9 @@ from ..files import open_regular
 
 JSON_LIMIT = 64 << 20  # a glTF's JSON above this is not parsed here (the size bound weighs it; trimesh reads it)
 MESHOPT = ("EXT_meshopt_compression", "KHR_meshopt_compression")  # the two names of meshopt compression
+# glTF 1.0 (shader techniques for materials, KHR_binary_glTF for its .glb) is not read: it says what converts it.
+OLD = " (glTF 1.0, read here only once converted, e.g. by Blender's importer or gltf-pipeline)"
+ALLOWED_VERSION = "glTF 2.0 (asset.version 2.x, a GLB of version 2)"
 
 
 class Document(NamedTuple):
@@ -34,6 +37,10 @@ def read_document(path: Path) -> Document:
             if path.suffix.lower() == ".glb":
                 header = handle.read(20)
                 length = int.from_bytes(header[12:16], "little")
+                container = int.from_bytes(header[4:8], "little")
+                if header[:4] == b"glTF" and len(header) >= 8 and container != 2:
+                    return Document({}, None, f"its GLB header gives version {container}"
+                                              f"{OLD if container == 1 else ''}; allowed: {ALLOWED_VERSION}")
                 if header[:4] != b"glTF" or header[16:20] != b"JSON" or length > JSON_LIMIT:
                     return Document({}, None, None)
                 text = handle.read(length)
@@ -55,7 +62,19 @@ def read_document(path: Path) -> Document:
     except RecursionError:  # Python's parser recurses per level: no glTF is nested a thousand deep
         return Document({}, None, "its JSON is nested deeper than Python's parser reads; allowed: a glTF document "
                                   "(a few levels of objects and lists)")
-    return Document(tree if isinstance(tree, dict) else {}, binary, None)
+    tree = tree if isinstance(tree, dict) else {}
+    return Document(tree, binary, _version_problem(tree))
+
+
+def _version_problem(tree: dict) -> str | None:
+    """A document whose asset.version has a major number other than 2 (glTF 2.0 §5.2: a loader reads only the
+    major version it knows; a later minor one is read). A missing or malformed version is left to the read."""
+    asset = tree.get("asset")
+    version = asset.get("version") if isinstance(asset, dict) else None
+    major = version.split(".")[0] if isinstance(version, str) else ""
+    if not major.isdigit() or int(major) == 2:
+        return None
+    return f"its asset.version is {version[:20]!r}{OLD if int(major) == 1 else ''}; allowed: {ALLOWED_VERSION}"
 
 
 def uri_file(folder: Path, uri: str) -> Path:
