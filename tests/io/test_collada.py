@@ -324,3 +324,17 @@ def test_a_polylist_counts_each_polygon_s_triangles_and_a_corner_count_below_3_n
     other = tmp_path / "none" / "t.dae"
     other.write_text(text)
     assert mesh_source(other).triangles() == 0
+
+
+@pytest.mark.parametrize("transform", ["<translate>nan 0 0</translate>", "<scale>1e300 1 1</scale>"])
+def test_a_node_transform_past_float_range_is_one_line_and_no_numpy_warning(transform, tmp_path, recwarn):
+    """A node moved by NaN or scaled by 1e300 places the triangle out of range: one line from the read's values
+    check, and no numpy warning before it (the placement's determinant; trimesh's graph, which trimesh's load
+    itself raises inside the reader's quiet load: so not warnings as errors, but none recorded)."""
+    path = write_triangle(tmp_path / "far.dae")
+    text = path.read_text().replace('<visual_scene id="s"><node id="n">',
+                                    f'<visual_scene id="s"><node id="outer">{transform}<node id="n">')
+    path.write_text(text.replace("</node></visual_scene>", "</node></node></visual_scene>"))  # a parent node's
+    with pytest.raises(rp.SceneError, match=r"vertex\(es\) with NaN or infinite"):
+        read(path)
+    assert [str(w.message) for w in recwarn] == []

@@ -357,3 +357,12 @@ def test_a_glb_of_container_version_1_is_named_as_gltf_1(tmp_path):
     path.write_bytes(bytes(raw))
     with pytest.raises(SceneError, match=r"its GLB header gives version 1 \(glTF 1\.0.*allowed: glTF 2\.0"):
         mesh_file.read_file(mesh_source(path))
+
+
+@pytest.mark.filterwarnings("error")
+def test_a_node_scale_past_float_range_is_one_line_and_no_numpy_warning(tmp_path):
+    """A node scale of 1e300 on every axis: the placement's determinant overflows (1e900) and the vertices leave
+    float range; the read's values check words it, without numpy's "overflow encountered in det" first."""
+    tree, data = document(nodes=nested(("nodes", 1, "scale"), [1e300, 1e300, 1e300]))
+    with pytest.raises(SceneError, match=r"vertex\(es\) with (a coordinate beyond|NaN or infinite)"):
+        mesh_file.read_file(mesh_source(write_gltf(tmp_path / "far.gltf", tree, data)))

@@ -777,3 +777,13 @@ def test_a_multiproperties_layer_that_is_no_colour_or_texture_group_is_noted(tmp
                           {"3D/Texture/t.png": png()}))
     np.testing.assert_array_equal(mesh.corner_colour[0], [[0, 1, 0]] * 3)
     assert not_read(mesh) == [f"multiproperties' {said} layers"], mesh.notes
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("transform", ["1e300 0 0 0 1e300 0 0 0 1e300 0 0 0", "1 0 0 0 1 0 0 0 1 nan 0 0"])
+def test_an_item_transform_past_float_range_is_one_line_and_no_numpy_warning(transform, tmp_path):
+    """An item scaled by 1e300 (its determinant overflows) or moved by NaN: the read's values check words it;
+    numpy's "overflow encountered in det" or "invalid value" must not reach the user first."""
+    path = write_package(tmp_path / "far.3mf", mesh_object(1), f'<item objectid="1" transform="{transform}"/>')
+    with pytest.raises(SceneError, match=r"vertex\(es\) with a coordinate beyond|is not 12 finite numbers"):
+        read(path)

@@ -47,8 +47,8 @@ def placed(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray | None,
     if np.array_equal(matrix, np.eye(4)):
         return vertices, faces, normals
     linear = matrix[:3, :3]
-    determinant = np.linalg.det(linear)
     with np.errstate(invalid="ignore", over="ignore"):
+        determinant = np.linalg.det(linear)
         vertices = vertices @ linear.T + matrix[:3, 3]
         normals = None if normals is None or determinant == 0 else normals @ np.linalg.inv(linear)
     return vertices, faces[:, ::-1] if determinant < 0 else faces, normals

@@ -508,7 +508,8 @@ class _Decoder:
                for p in primitives):
             return None
         linear, shift = matrices[:, :3, :3], matrices[:, :3, 3]
-        determinant = np.linalg.det(linear)
+        with np.errstate(invalid="ignore", over="ignore"):  # a non-finite matrix: the read's values check words it
+            determinant = np.linalg.det(linear)
         copies = len(matrices)
         merged = []
         for p, primitive in enumerate(primitives):
@@ -518,12 +519,14 @@ class _Decoder:
             count = len(positions)
             if copies * count >= 2**32:
                 raise self.refuse(key, f"places {copies:,} × {count:,} vertices; allowed: fewer than 2³²")
-            placed = np.einsum("kij,vj->kvi", linear, positions) + shift[:, None, :]
+            with np.errstate(invalid="ignore", over="ignore"):
+                placed = np.einsum("kij,vj->kvi", linear, positions) + shift[:, None, :]
             attributes["POSITION"] = self.new_accessor(placed.reshape(-1, 3))
             for name, index in primitive["attributes"].items():
                 if name == "NORMAL" and (determinant != 0).all():
                     normals = self.float_accessor(index, f"{where}.attributes.NORMAL")
-                    turned = np.einsum("vj,kji->kvi", normals, np.linalg.inv(linear))  # n · L⁻¹ = L⁻ᵀ n
+                    with np.errstate(invalid="ignore", over="ignore"):
+                        turned = np.einsum("vj,kji->kvi", normals, np.linalg.inv(linear))  # n · L⁻¹ = L⁻ᵀ n
                     attributes[name] = self.new_accessor(turned.reshape(-1, 3))
                 elif name.startswith(("TEXCOORD_", "COLOR_")):
                     values = self.float_accessor(index, f"{where}.attributes.{name}")

@@ -421,8 +421,9 @@ def _placed(archive, members, models: dict, root: str, path: Path, notes: list[s
             return
         with np.errstate(invalid="ignore", over="ignore"):  # an infinite vertex: read.py's values check words it
             vertices = found.vertices @ transform[:3, :3].T + transform[:3, 3]
-        faces = found.faces if np.linalg.det(transform[:3, :3]) >= 0 else found.faces[:, ::-1]  # a mirror keeps
-        p = found.p if np.linalg.det(transform[:3, :3]) >= 0 else found.p[:, ::-1]            # faces outward
+            kept = not np.linalg.det(transform[:3, :3]) < 0  # a mirror turns the faces over, to keep them outward
+        faces = found.faces if kept else found.faces[:, ::-1]
+        p = found.p if kept else found.p[:, ::-1]
         for pid in np.unique(found.pid).tolist():
             chosen = found.pid == pid
             parts.extend(_surfaces(model, str(pid), vertices, faces[chosen], p[chosen], path, textures,

@@ -67,12 +67,14 @@ def load(reading: Reading, file_obj=None, file_type: str | None = None, resolver
 def parts(loaded) -> list[Part]:
     """The triangle meshes of what trimesh loaded, in world placement (a glTF's node transforms applied).
 
-    Not Scene.dump(): its copies forget the vertex normals the file stored."""
+    Not Scene.dump(): its copies forget the vertex normals the file stored. A node transform past float range
+    (a COLLADA scale of 1e300) is carried without numpy's warnings from trimesh's graph: the values check words it."""
     if isinstance(loaded, trimesh.Trimesh):
         instances = [(np.eye(4), loaded)]
     elif isinstance(loaded, trimesh.Scene):
-        instances = [(np.asarray(loaded.graph[node][0], np.float64), loaded.geometry[loaded.graph[node][1]])
-                     for node in loaded.graph.nodes_geometry]
+        with np.errstate(over="ignore", invalid="ignore"):
+            instances = [(np.asarray(loaded.graph[node][0], np.float64), loaded.geometry[loaded.graph[node][1]])
+                         for node in loaded.graph.nodes_geometry]
         if not instances:  # a glTF without nodes (a library of meshes, glTF 2.0 §3.5.1): each mesh once, unplaced
             instances = [(np.eye(4), mesh) for mesh in loaded.geometry.values()]
     else:
