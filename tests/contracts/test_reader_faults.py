@@ -180,6 +180,15 @@ def test_nan_texture_coordinates_render_without_numpy_s_warning(tmp_path):
     assert (tmp_path / "out.png").is_file()
 
 
+def test_nan_texture_coordinates_of_an_obj_render_as_a_gltf_s_do(tmp_path):
+    """`vt nan nan` renders, as NaN UVs of a glTF do: it was refused as 'a texture coordinate beyond float32's
+    range', with no line named, by a check that took NaN for out of range."""
+    (tmp_path / "n.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt nan nan\nvt 0 0\nvt 1 0\nf 1/1 2/2 3/3\n")
+    done = run("render", "n.obj", "-o", "out.png", "-q", cwd=tmp_path)
+    assert done.returncode == 0 and done.stderr == "", done.stderr
+    assert (tmp_path / "out.png").is_file()
+
+
 def test_a_400_digit_memory_budget_is_one_line(tmp_path):
     done = run("render", "-o", "out.png", "--max-memory", "9" * 400, cwd=tmp_path)
     assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr

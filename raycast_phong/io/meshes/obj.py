@@ -119,7 +119,7 @@ def load_obj(text: io.BytesIO, path: Path, names, data: bytes = b""):
         if mesh.get("vertex_colors") is not None and mesh.get("visual") is not None:
             mesh["visual"].vertex_attributes["color"] = trimesh.visual.color.to_rgba(mesh.pop("vertex_colors"))
         uv = getattr(mesh.get("visual"), "uv", None)
-        if uv is not None and not (np.abs(np.asarray(uv, np.float64)) <= UV_LIMIT).all():
+        if uv is not None and (np.abs(np.asarray(uv, np.float64)) > UV_LIMIT).any():  # NaN passes, as in read.py
             _refuse_texture_coordinate(data or text.getvalue(), path)
     return trimesh.load_scene(kwargs)
 
