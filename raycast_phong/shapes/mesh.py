@@ -19,6 +19,8 @@ class MeshKeys(KindKeys):
     def _named(self) -> MeshKeys:
         if not self.path:
             raise ValueError('shape = "mesh" needs path = "file.obj" (any format trimesh reads)')
+        if "\0" in self.path:  # every later stat and open would raise ValueError, not say the file is missing
+            raise ValueError(f"no such mesh file {self.path[:60]!r}: a file name cannot hold a NUL byte")
         return self
 
 

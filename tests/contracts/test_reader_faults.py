@@ -78,6 +78,11 @@ def textured_scene(path: Path, map_name: str) -> Path:
     return path
 
 
+def mesh_scene(path: Path, mesh_name: str) -> Path:
+    path.write_text(f'[[objects]]\nshape = "mesh"\npath = {json.dumps(mesh_name)}\n\n{LIGHT}')
+    return path
+
+
 def run(*arguments: str, cwd: Path) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "raycast_phong.cli", *arguments], cwd=cwd, capture_output=True,
                           text=True, timeout=180)
@@ -107,6 +112,7 @@ REFUSED = {  # case: (make the input in a folder → the file to render, words t
                             "NaN or infinite coordinates"),
     "glTF primitive that is a number": (lambda d: gltf(d / "p.gltf", [5]), "cannot read the file as glTF"),
     "kd_map with a NUL byte": (lambda d: textured_scene(d / "s.toml", "tex\0.png"), "no such texture file"),
+    "mesh path with a NUL byte": (lambda d: mesh_scene(d / "s.toml", "m\0.obj"), "no such mesh file 'm\\x00.obj'"),
     "truncated PNG map": (lambda d: textured_scene(d / "s.toml", truncated_png(d / "cut.png").name),
                           "cannot be read as an image"),
 }
