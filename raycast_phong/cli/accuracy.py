@@ -65,7 +65,7 @@ def reference_command(
     with exit_codes():
         path = scene or rp.default_scene_path()
         loaded = rp.load_scene(path, set_, view=_view(view), up=up, max_memory=max_memory)
-        check_output_path(output, inputs=(path,))
+        check_output_path(output, inputs=(path, *loaded.files_read()))
         started = time.perf_counter()
         with progress_bar(quiet) as bar:
             bar.update(0, None, "computing the reference" if fine is None else "rendering the finer reference")

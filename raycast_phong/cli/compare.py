@@ -75,9 +75,10 @@ def side_by_side(
         fixed = [*scene_overrides({"render.width": width, "render.height": height}), *set_]
         # every value is checked before any render
         scenes = compare.load_variants(path, fixed, key, values, _view(view), up, max_memory)
-        check_output_path(output, inputs=(path,))
+        inputs = (path, *(file for variant in scenes for file in variant.files_read()))
+        check_output_path(output, inputs=inputs)
         layers = output if output.suffix.lower() == ".exr" else output.with_name(f"{output.stem}-variants.exr")
-        check_output_path(layers, inputs=(path,))
+        check_output_path(layers, inputs=inputs)
         from raycast_phong.io.system import budget_of
         each = compare.render_budget(scenes, budget_of(max_memory))
         results, session = [], rp.Renderer(max_memory=each)

@@ -73,7 +73,7 @@ def scene_command(
                   "# A [materials.NAME] table overrides the mesh file's material of that name; see docs/meshes.md.")
         if output is not None:
             from raycast_phong.io.image_io import check_output_file
-            check_output_file(output, inputs=(scene,))
+            check_output_file(output, inputs=(scene, *loaded.files_read()))  # nor its .mtl, maps, buffers
         text = scene_toml(loaded, header, relative_to=output.parent if output is not None else None)
         if output is not None:
             from raycast_phong.io.atomic import write_text

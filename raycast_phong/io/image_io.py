@@ -75,11 +75,15 @@ def _check_name_length(path: Path, folder: Path) -> None:
 
 
 def _same_file(a: Path, b: Path) -> bool:
-    """One file under two spellings (relative, `..`, a symbolic or hard link), or one path not yet written."""
+    """One file under two spellings (relative, `..`, a symbolic or hard link), or one path not yet written. A
+    path no file can have (a NUL byte) is no other: the input's own check words it."""
     try:
-        return os.path.samefile(a, b)
-    except OSError:  # one of them does not exist: compare the spelled-out paths
-        return a.resolve() == b.resolve()
+        try:
+            return os.path.samefile(a, b)
+        except OSError:  # one of them does not exist: compare the spelled-out paths
+            return a.resolve() == b.resolve()
+    except ValueError:
+        return False
 
 
 # An EXR says what its values are, for a reader that does not know this renderer: the colour setting itself,

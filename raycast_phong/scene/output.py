@@ -2,7 +2,8 @@
 
 -o wins; otherwise the scene's output.path, resolved against the scene's folder and never leaving it (a
 scene file is data: it may write beside itself or below); the built-in default scene writes its file name
-into the working folder. The output must be a writable .png or .exr that is not the input, and layers
+into the working folder. The output must be a writable .png or .exr that is no file the scene reads (the scene
+file, a colour map, a mesh file, a mesh's .mtl or images: Scene.files_read), and layers
 (output.aovs) need an .exr. Symbolic links: output.path is checked where it really leads (a linked subfolder
 that leaves the scene's folder is refused); `-o LINK` writes the file LINK names and keeps the link.
 """
@@ -49,12 +50,13 @@ def render_output(scene: Scene, scene_path: Path, given: Path | None, builtin: b
                                               else scene.resolve(scene.output.path))
     if given is None and not builtin:
         _check_real_path(scene, Path(output))
+    inputs = (scene_path, *scene.files_read())  # the scene file, its maps, its meshes and what they open
     try:
-        check_output_path(output, inputs=(scene_path,))
+        check_output_path(output, inputs=inputs)
         if given is not None and Path(given).is_symlink():
             # -o LINK writes the file the link names, as `cp x LINK` or `> LINK` would, and keeps the link
             # (the atomic rename would otherwise replace the link itself with a file).
-            output = check_output_path(Path(os.path.realpath(given)), inputs=(scene_path,))
+            output = check_output_path(Path(os.path.realpath(given)), inputs=inputs)
     except ImageError as error:
         raise ImageError(f"{scene.origin}: {option}: {error}") from None  # where the path came from
     if scene.output.aovs and Path(output).suffix.lower() != ".exr":

@@ -399,6 +399,17 @@ class Scene(Table):
         """The file each object read from a file (a mesh) names, resolved, in the objects' order."""
         return [path for _, path in self.mesh_objects()]
 
+    def files_read(self) -> list[Path]:
+        """Every file rendering this scene reads, resolved: the colour maps its materials name, its mesh files,
+        then what those open beside them (an .obj's .mtl files and maps, a .gltf's buffers and images), as each
+        mesh file's MeshSource finds them (the scene's own where it has them: a mesh file loaded as a scene). An
+        output may be none of these; a batch's up-to-date rule covers exactly these and the scene file."""
+        from ..io.meshes.source import mesh_sources
+        found = mesh_sources(self)  # not kept on the scene: a batch sends scenes to its workers, sources stay here
+        maps = [self.resolve(path) for key, path in self.named_files().items() if key[0] == "materials"]
+        return [*maps, *self.mesh_paths(), *(side for source in found.values() for side in source.side_files),
+                *(image for source in found.values() for image in source.images)]
+
     def named_files(self) -> dict[tuple, str]:
         """Every file the scene names, as written, by the key path that names it (a tuple, as error locations
         are: messages.dotted words it): ("objects", N, "path") for meshes, ("materials", M, "kd_map", "path")

@@ -68,6 +68,11 @@ class MeshSource:
         return self._described.get("images", ())
 
     @property
+    def files_read(self) -> tuple[Path, ...]:
+        """What reading it opens beside the file itself: its side files, then its images."""
+        return (*self.side_files, *self.images)
+
+    @property
     def side_versions(self) -> tuple:
         """Each side file's version when it was described."""
         return self._described["side_versions"]

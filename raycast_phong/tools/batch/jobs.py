@@ -258,18 +258,7 @@ def input_paths(job: Job, scene: Scene | None) -> list[Path]:
     files the scene reads (resolved against its folder), their side files (an .obj's .mtl, a .gltf's buffers)
     and the images their materials name, as their io.meshes.source.MeshSource gives them (the one load_scene
     made, so nothing is read again); the hash and the modification times both cover exactly these."""
-    if scene is None:
-        return [job.scene]
-    from ...io.meshes.source import mesh_sources
-    maps = [scene.resolve(path) for key, path in scene.named_files().items() if key[0] == "materials"]
-    meshes = scene.mesh_paths()
-    return _paths(job, maps, meshes, list(mesh_sources(scene).values()))
-
-
-def _paths(job: Job, maps: list[Path], meshes: list[Path], sources) -> list[Path]:
-    """input_paths from the scene's maps, its mesh files and their MeshSources."""
-    return [job.scene, *maps, *meshes, *(side for mesh in sources for side in mesh.side_files),
-            *(image for mesh in sources for image in mesh.images)]
+    return [job.scene] if scene is None else [job.scene, *scene.files_read()]
 
 
 def input_times(job: Job, scene: Scene | None) -> dict[str, int]:
@@ -349,7 +338,7 @@ def _unframed_mesh_job(job: Job, settings: Settings) -> tuple[str, dict[str, int
             return None  # a material map, an object's path: inputs the scene would name; a whole [render] table
     from ...io.meshes.source import mesh_source
     path = Path(job.scene)
-    paths = _paths(job, [], [path], [mesh_source(path)])
+    paths = [job.scene, path, *mesh_source(path).files_read]
     return _hash(job, settings, colour, paths), _times(paths)
 
 
