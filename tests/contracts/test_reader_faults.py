@@ -15,6 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import raycast_phong as rp
+
 CORE = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"
 LIGHT = '[[lights]]\ntype = "point"\nposition = [3, 4, 6]\n'
 
@@ -199,3 +201,33 @@ def test_a_400_digit_memory_budget_is_one_line(tmp_path):
     done = run("render", "-o", "out.png", "--max-memory", "9" * 400, cwd=tmp_path)
     assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
     assert "--max-memory" in done.stderr and "more characters" in done.stderr, done.stderr
+
+
+def textured_gltf(path: Path, image: str) -> Path:
+    """gltf() of one triangle whose base colour map is the image file `image` beside it."""
+    tree = json.loads(gltf(path, [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0}],
+                           uv=np.array([[0.1, 0.1], [0.9, 0.1], [0.1, 0.9]])).read_text())
+    tree["materials"] = [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]
+    tree |= {"textures": [{"source": 0}], "images": [{"uri": image}]}
+    path.write_text(json.dumps(tree))
+    return path
+
+
+def test_a_gltf_s_image_file_past_the_decoded_size_is_shrunk_as_read_not_opened_whole(tmp_path, monkeypatch):
+    """A glTF's external image larger than MAX_TEXTURE_SIZE is given to the decode as its file, which shrinks it
+    a band of rows at a time (as the memory estimate counts it), not opened by PIL, which decodes it whole first
+    (a 12000² PNG: 962 MB peak under --max-memory 300M) or, past its bomb limit, refused it: the map was then
+    silently left out. PIL's limit is lowered here so that a 3000² map stands for the 20000² one."""
+    import PIL.Image
+
+    from raycast_phong.io.meshes import read as mesh_file
+    from raycast_phong.io.meshes.source import mesh_source
+    from raycast_phong.io.textures import MAX_TEXTURE_SIZE, decode_file
+    rp.write_image(tmp_path / "big.png", np.full((3000, 3000, 3), 0.5, np.float32))
+    rp.write_image(tmp_path / "small.png", np.full((64, 64, 3), 0.5, np.float32))
+    monkeypatch.setattr(PIL.Image, "MAX_IMAGE_PIXELS", 3_000_000)  # 3000² is past twice this: PIL's error
+    for name, kind in (("big.png", Path), ("small.png", PIL.Image.Image)):
+        read = mesh_file.read_file(mesh_source(textured_gltf(tmp_path / f"{name}.gltf", name)))
+        [source] = read.texture_sources
+        assert isinstance(source.source, kind), (name, source)
+    assert decode_file(tmp_path / "big.png", "display").shape == (MAX_TEXTURE_SIZE, MAX_TEXTURE_SIZE, 3)

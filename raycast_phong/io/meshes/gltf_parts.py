@@ -224,11 +224,15 @@ def _eight_bits(values: np.ndarray) -> np.ndarray:
 
 
 def _images(tree: dict, decoder: _Decoder, path: Path) -> list:
-    """Each image of the document opened by PIL (decoded later, and only if a face uses it), as trimesh did."""
+    """Each image of the document opened by PIL (decoded later, and only if a face uses it), as trimesh did; an
+    image file larger than the decoded size (io.textures.MAX_TEXTURE_SIZE) is given as its path instead, so it
+    is shrunk a band at a time as it is read (decode_file: the memory estimate counts it so), where PIL would
+    decode it whole first (a 12000² PNG: 430 MB of pixels) or refuse it past its bomb limit."""
     if not tree.get("images"):
         return []
     import PIL.Image
 
+    from ..textures import MAX_TEXTURE_SIZE, file_size
     from .gltf_json import uri_file
     opened = []
     for entry in tree["images"]:
@@ -238,6 +242,10 @@ def _images(tree: dict, decoder: _Decoder, path: Path) -> list:
             data = base64.b64decode(entry["uri"].split(",", 1)[1])
         elif isinstance(entry.get("uri"), str):
             file = uri_file(path.parent, entry["uri"])
+            size = file_size(file)  # its header only (None: not a regular file, or no image: opened below)
+            if size is not None and max(size) > MAX_TEXTURE_SIZE:
+                opened.append(file)
+                continue
             with open_regular(file, str(file), "image file") as handle:  # not a FIFO, not a device
                 data = handle.read()
         else:
