@@ -240,6 +240,7 @@ class ReferenceImages:
         A missing reference fails the test (never passes silently) and says how to make one.
         """
         from .io.image_io import read_layer, write_image  # here: pytest loads this plugin in every session
+        from .io.system import budget_of
         path = self.path(name)
         if self.update:
             before = self._old_values(path)
@@ -256,8 +257,9 @@ class ReferenceImages:
             written = self._diagnose(name, image, None, None)
             pytest.fail(f"no reference image {path}; the result is in {', '.join(written)}; make the reference "
                         f"with `pytest {UPDATE_OPTION}`, look at it, and commit it", pytrace=False)
-        # Read back even right after writing, so update runs also go through the EXR round trip.
-        return read_layer(path)
+        # Read back even right after writing, so update runs also go through the EXR round trip. A reference is
+        # the project's own file: the commands' budget, not the API's guard against a decompression bomb.
+        return read_layer(path, max_memory=budget_of(None))
 
     @staticmethod
     def _old_values(path: Path) -> np.ndarray | None:
@@ -266,8 +268,9 @@ class ReferenceImages:
         if not path.exists():
             return None
         from .io.image_io import read_layer
+        from .io.system import budget_of
         try:
-            return read_layer(path)
+            return read_layer(path, max_memory=budget_of(None))
         except OSError:
             return np.empty(0, np.float32)
 

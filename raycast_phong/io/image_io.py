@@ -267,8 +267,9 @@ def read_image(path: str | Path, part: int = 0,
 
     Parameters: `path`, an image file OpenImageIO reads; `part`, the part of a multi-part EXR (0: the first);
     `max_memory`, the bytes the read may use (or '8G'; default: the commands' budget, a share of the memory
-    available). Returns (pixels (H, W, C) float32, channel names). Raises ImageError (one line) for a file
-    that cannot be read or would exceed the budget.
+    available, and no more than BOMB_RATIO times the file's size once past BOMB_FLOOR). Returns (pixels (H, W, C)
+    float32, channel names). Raises ImageError (one line) for a file that cannot be read or would exceed the
+    budget.
     """
     refuse_non_regular(path)
     budget = budget_of(max_memory)
@@ -281,10 +282,24 @@ def read_image(path: str | Path, part: int = 0,
         raise ImageError(f"{path}: a {spec.width}×{spec.height} image of {spec.nchannels} channel(s) needs about "
                          f"{format_bytes(needed)} to read, over the budget of {format_bytes(budget)}; allowed: "
                          "read_image(..., max_memory=...) above it")
+    size = os.stat(path).st_size
+    if max_memory is None and needed > BOMB_FLOOR and needed > BOMB_RATIO * size:
+        raise ImageError(f"{path}: a {spec.width}×{spec.height} image of {spec.nchannels} channel(s) in a file of "
+                         f"{format_bytes(size)} needs about {format_bytes(needed)} to read, over {BOMB_RATIO:,}× its "
+                         "size, as a decompression bomb's does; allowed: read_image(..., max_memory=...) to read "
+                         "it anyway")
     pixels = buffer.get_pixels(oiio.FLOAT)
     if pixels is None or pixels.size == 0:
         raise _cannot_read(path, buffer.geterror())
     return np.asarray(pixels, np.float32), tuple(buffer.spec().channelnames)
+
+
+# An image that decodes to more than BOMB_RATIO × its file's bytes, past BOMB_FLOOR, is read only when the caller
+# gives a budget: a 1 MB PNG of 20000² pixels needs 10 GB (PIL's own guard refuses 179M pixels and more). A PNG of
+# one flat colour compresses about 1000×, so a large flat mask passes only with max_memory; photographs and
+# renders compress 2-20×.
+BOMB_RATIO = 1000
+BOMB_FLOOR = 256 << 20
 
 
 def _read_bytes(spec) -> int:
@@ -294,16 +309,16 @@ def _read_bytes(spec) -> int:
     return values * (2 * 4 + max(spec.format.size(), 1))
 
 
-def read_layer(path: str | Path, layer: str | None = None) -> np.ndarray:
+def read_layer(path: str | Path, layer: str | None = None, max_memory: int | str | None = None) -> np.ndarray:
     """The RGB image (layer None) or one named layer, in any part, of a file written by write_image.
 
     Parameters: `path`, an image file; `layer`, a layer name (depth, normal, face, ambient, diffuse, specular,
-    emission, or an extra part's name) or None for R, G, B. Returns (H, W, C) float32. Raises ImageError for a
-    file that cannot be read or has no such layer (naming the channels it has).
+    emission, or an extra part's name) or None for R, G, B; `max_memory`, as read_image's. Returns (H, W, C)
+    float32. Raises ImageError for a file that cannot be read or has no such layer (naming the channels it has).
     """
     seen: list[str] = []
     for part in range(_part_count(path) if layer is not None else 1):
-        pixels, names = read_image(path, part)
+        pixels, names = read_image(path, part, max_memory)
         seen += names
         wanted = ["R", "G", "B"] if layer is None else [n for n in names if n.startswith(layer + ".")]
         if wanted and all(name in names for name in wanted):

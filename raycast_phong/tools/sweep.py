@@ -38,7 +38,7 @@ from ..io.image_io import (
 )
 from ..io.labels import BACKDROP, MIN_FONT, draw_text, fitting_size, row_wording
 from ..io.scene_toml import toml_value
-from ..io.system import format_bytes
+from ..io.system import budget_of, format_bytes
 from ..values.messages import Location
 from .compare import layout
 
@@ -306,7 +306,8 @@ def write_contact_sheets(jobs: list, report, force: bool, budget: int | None = N
                 continue
             output = report.folder / outcome.outputs[0]
             try:
-                image = np.asarray(read_layer(output), np.float32)
+                # its own output, weighed with the sheet: a large render of a flat background is no bomb
+                image = np.asarray(read_layer(output, max_memory=budget_of(budget)), np.float32)
             except ImageError:
                 images.append(None)
                 continue

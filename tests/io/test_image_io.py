@@ -149,6 +149,21 @@ def test_read_image_checks_its_budget_from_the_header_before_decoding(tmp_path, 
         rp.read_image(path)
 
 
+def test_read_image_without_a_budget_refuses_what_decodes_to_over_1000_times_its_file(tmp_path, monkeypatch):
+    """A decompression bomb (a 1 MB PNG of 20000² pixels: 10 GB; issue 50) is refused from its header when the
+    caller gives no budget, though the commands' budget (a share of the machine) would allow it. The floor is
+    lowered here to 1 MB so that 1000 × 2000 pixels stand for it: of zeros (the file is a few kB, over 1000×) it
+    is refused, and read with max_memory; of noise (a file of 6 MB, 9×) it is read."""
+    from raycast_phong.io import image_io
+    monkeypatch.setattr(image_io, "BOMB_FLOOR", 1 << 20)
+    flat = rp.write_image(tmp_path / "flat.png", np.zeros((1000, 2000, 3), np.float32))
+    with pytest.raises(rp.errors.ImageError, match=r"over 1,000× its size, as a decompression bomb's.*max_memory"):
+        rp.read_image(flat)
+    assert rp.read_image(flat, max_memory="1G")[0].shape == (1000, 2000, 3)
+    noise = np.random.default_rng(3).random((1000, 2000, 3)).astype(np.float32)
+    assert rp.read_image(rp.write_image(tmp_path / "noise.png", noise))[0].shape == (1000, 2000, 3)
+
+
 def test_a_read_whose_need_is_exactly_the_budget_is_made(tmp_path):
     """The budget is the most the read may use: 100 × 50 RGB 8-bit needs 100 × 50 × 3 × 9 = 135,000 bytes, read
     under a budget of exactly that, refused one byte under it."""
