@@ -38,6 +38,15 @@ from .kernels.layout import Material
 SHADE = jit.kernel_name(shading._shade_rays)
 PROCESSES = "RAYCAST_PHONG_COMPILE_PROCESSES"  # 1: compile in this process alone; 2: always with the helper
 HELPER = "import sys; from raycast_phong.renderer.split_compile import helper; helper(*sys.argv[1:])"
+# Run before HELPER, first thing: on Linux the kernel kills the helper when the thread that started it ends
+# (PR_SET_PDEATHSIG = 1, SIGKILL), and it ends at once if that parent is already gone. helper()'s own watch starts
+# only after its imports (about a second): a command killed meanwhile left the helper running that long.
+ORPHAN_GUARD = ("import sys, os\n"
+                "if sys.platform.startswith('linux'):\n"
+                "    import ctypes\n"
+                "    ctypes.CDLL(None).prctl(1, 9)\n"
+                "if os.getppid() != int(sys.argv[2]):\n"
+                "    os._exit(3)\n")
 # The helper's own memory: its peak resident size compiling the default scene's shading kernel was 258 MB (the
 # command's own, 253 MB); on a machine with less available it is not started (the command compiles alone).
 HELPER_BYTES = 400 << 20
@@ -165,8 +174,8 @@ class Aside:
         env = dict(os.environ,
                    PYTHONPATH=os.pathsep.join(filter(None, [package_parent, os.environ.get("PYTHONPATH")])))
         try:
-            self.process = subprocess.Popen([sys.executable, "-c", HELPER, self.precision, str(os.getpid()),
-                                             ",".join(tasks)],
+            self.process = subprocess.Popen([sys.executable, "-c", ORPHAN_GUARD + HELPER, self.precision,
+                                             str(os.getpid()), ",".join(tasks)],
                                             stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                             stderr=subprocess.DEVNULL, env=env, text=True)
         except OSError:  # no interpreter to start (an embedded Python): everything compiles here, as alone

@@ -276,3 +276,37 @@ def test_the_callees_compiled_first_are_typed_as_the_shading_kernel_calls_them(t
     assert done.returncode == 0, done.stderr
     lines = done.stdout.strip().splitlines()
     assert len(lines) == 2 and all(line.startswith("True ") for line in lines), done.stdout
+
+
+# A command holding a helper that only sleeps: it prints the helper's process id, then waits to be killed.
+KILLED_PARENT = textwrap.dedent("""
+    import time
+    from raycast_phong import jit
+    from raycast_phong.renderer import split_compile
+    split_compile.HELPER = "import time; time.sleep(60)"
+    split_compile.two_processes = lambda: True
+    jit.cached = lambda dispatcher, arguments=None: False
+    with split_compile.shading_compiled_aside("float32") as aside:
+        print(aside.process.pid, flush=True)
+        time.sleep(60)
+""")
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the parent-death signal is Linux's")
+def test_a_helper_dies_with_a_command_killed_before_any_cleanup(tmp_path):
+    """SIGKILL leaves the command no handler and no `finally`: the helper must not outlive it (it lived on for
+    1.1-1.8 s after a SIGTERM, in its imports, before its own watch started; this sleeping one for a minute)."""
+    parent = subprocess.Popen([sys.executable, "-c", KILLED_PARENT], stdout=subprocess.PIPE, text=True, cwd=tmp_path,
+                              env=dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache")))
+    helper = int(parent.stdout.readline())
+    time.sleep(0.3)  # past its guard: a helper started and sleeping
+    assert Path(f"/proc/{helper}").exists()
+    parent.kill()
+    parent.wait(timeout=30)
+    deadline = time.monotonic() + 5
+    while Path(f"/proc/{helper}").exists() and time.monotonic() < deadline:
+        time.sleep(0.02)
+    gone = not Path(f"/proc/{helper}").exists()
+    if not gone:
+        os.kill(helper, signal.SIGKILL)
+    assert gone
