@@ -223,8 +223,8 @@ HAND_MUTANTS = (
      "if size > MAX_SCENE_BYTES + 1:"),  # a page-opened scene of 60,001 bytes read
     ("renderer/prepare", "len(scene.lights) > MAX_LIGHTS",
      "len(scene.lights) >= MAX_LIGHTS"),  # global mode refusing 63 lights
-    ("io/meshes/obj", "np.float64)) <= UV_LIMIT).all()",
-     "np.float64)) < UV_LIMIT).all()"),  # float32's largest uv refused
+    ("io/meshes/obj", "np.float64)) > UV_LIMIT).any()",
+     "np.float64)) >= UV_LIMIT).any()"),  # float32's largest uv refused
     ("io/meshes/read", "(np.abs(uv) > UV_LIMIT).any()",
      "(np.abs(uv) >= UV_LIMIT).any()"),  # the same in the common reader
     ("io/scene_file", "data = sys.stdin.buffer.read(MAX_SCENE_BYTES + 1)",
@@ -272,8 +272,8 @@ HAND_MUTANTS = (
      "if pixels.shape[2] == 4 else"),  # a grey + alpha map's alpha read as 1
     ("renderer/pack", "spread = 2.0 * rig.half_height / (scene.render.height * scene.render.samples)",
      "spread = 2.0 * rig.half_height / scene.render.height"),  # mip level of the pixel, not the sample
-    ("tools/batch/jobs", "*(side for mesh in sources for side in mesh.side_files),",
-     "*(side for mesh in sources for side in mesh.side_files[:0]),"),  # an .mtl changed alone is up to date
+    ("scene/schema", "*(side for source in found.values() for side in source.side_files),",
+     "*(side for source in found.values() for side in source.side_files[:0]),"),  # an .mtl changed: up to date
     ("tools/batch/jobs", '"overrides": list(job.overrides),',
      '"overrides": [],'),  # a sweep's set list changed is up to date
     ("tools/view/access", 'httponly=True, samesite="strict")',
@@ -521,8 +521,8 @@ HAND_MUTANTS = (
     ('tools/view/server', 'except (SceneError, ViewError) as error:  # the format',
      'except SceneError as error:  # the format'),  # a loaded file past the view's limits not named
     ('io/meshes/format',
-     '    with np.errstate(invalid="ignore", over="ignore"):\n        vertices = vertices @ linear.T',
-     '    if True:\n        vertices = vertices @ linear.T'),  # numpy's matmul warning for a placed infinite vertex
+     '    with np.errstate(invalid="ignore", over="ignore"):\n        determinant = np.linalg.det(linear)',
+     '    if True:\n        determinant = np.linalg.det(linear)'),  # numpy's det and matmul warnings on a placement
 )
 OPERATOR_SWAPS = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,
                   ast.Lt: ast.LtE, ast.LtE: ast.Lt, ast.Gt: ast.GtE, ast.GtE: ast.Gt, ast.Eq: ast.NotEq,
