@@ -584,6 +584,8 @@ def test_paths_left_out_are_each_said_up_to_20_and_the_21st_is_counted(tmp_path,
     assert MAX_LEFT_OUT == 20 and len(warned) == 20 and warned[-1].startswith("warning: stdin: line 20:"), said
     counted = [line for line in said if "more path(s) left out" in line]
     assert counted == (["warning: and 1 more path(s) left out"] if lines == 21 else []), said
+    # the error counts the paths left out, not the lines printed (20 warnings and a count said "22 line(s)")
+    assert f"every path it named was left out, {lines} in all" in said[-1], said
 
 
 @pytest.mark.parametrize("threads, allowed", [("1", True), ("1024", True), ("0", False), ("1025", False)])

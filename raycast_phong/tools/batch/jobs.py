@@ -211,7 +211,7 @@ def find_jobs(paths: list[str | Path], out: str | Path | None = None, listed: li
         jobs += load_sweep(path).jobs() if is_sweep(path) else [Job(name=path.stem, scene=path)]
     if not jobs:  # `batch -` given nothing, or only lines and names it leaves out: nothing done is no success
         given = " ".join("stdin" if str(p) == "-" else str(p) for p in paths) or "batch"
-        left = f" (every path it named was left out: {len(warnings)} line(s) above)" if warnings else ""
+        left = f" (every path it named was left out, {len(warnings)} in all, as said above)" if warnings else ""
         raise SceneError(f"no scene to render{left}; allowed: scene files, folders or globs, or `-` with scene "
                          "paths on stdin, one a line", Location(given))
     seen: dict[str, Job] = {}
