@@ -18,7 +18,7 @@ from typer.testing import CliRunner
 import raycast_phong as rp
 from raycast_phong.cli import app
 from raycast_phong.geometry.build import build_geometry
-from raycast_phong.io.meshes.source import read_mesh
+from raycast_phong.io.meshes.source import mesh_source, read_mesh
 
 MESHES = Path(__file__).resolve().parents[2] / "scenes" / "meshes"
 SHIPPED = ("dice.obj", "painted_knot.ply", "still_life.glb")
@@ -450,3 +450,33 @@ def test_the_framing_radius_in_blocks_is_the_whole_array_s_to_the_bit():
         whole = float(np.sqrt(((placed - centre) ** 2).sum(axis=1).max()))
         assert _radius(placed, centre) == whole
         assert whole > 50  # the planted point is the farthest
+
+
+@pytest.mark.parametrize("reference", [
+    "maps/wood.png",                   # a relative URI, as the specification writes it
+    "./maps/wood%20grain.png",         # percent-encoded (the file is 'wood grain.png')
+    "maps\\wood.png",                  # Windows' separators
+    "\\maps\\wood.png",                # from the root of the drive the document was on: beside it here
+    "file://maps\\wood.png",           # 3ds Max's file:// before a relative path
+    "C:\\Users\\me\\Desktop\\wood.png",  # an absolute path of the exporter's machine: the name beside the document
+    "maps/WOOD.PNG",                   # Windows' file names ignore case
+])
+def test_a_collada_image_reference_names_the_file_an_exporter_meant(tmp_path, reference):
+    """Found on a fresh corpus (assimp's test/models/Collada: `\\..\\LWO\\...\\EarthCylindric.jpg` for the file
+    earthCylindric.jpg, `file://..\\LWO\\...`): such maps were 'missing' and the model rendered untextured. The
+    one rule (collada.image_file) gives the read, the note, the batch's inputs and the memory estimate the file."""
+    from raycast_phong.io.meshes.collada import image_file
+    maps = tmp_path / "maps"
+    maps.mkdir()
+    wanted = "wood grain.png" if "grain" in reference else "wood.png"
+    rp.write_image(maps / wanted, np.full((4, 8, 3), 0.5, np.float32))
+    if "Desktop" in reference:
+        (maps / wanted).rename(tmp_path / wanted)
+    expected = (tmp_path if "Desktop" in reference else maps) / wanted
+    assert image_file(tmp_path, reference).resolve() == expected.resolve()
+    (tmp_path / "tri.dae").write_text(COLLADA.replace("./MAP", reference.replace("&", "&amp;")))
+    source = mesh_source(tmp_path / "tri.dae")
+    assert [image.resolve() for image in source.images] == [expected.resolve()]
+    assert source.format.texture_sizes(source) == ((4, 8),)
+    read = read_mesh(tmp_path / "tri.dae", "scene.toml: objects.0.path")
+    assert len(read.texture_sources) == 1 and not any("missing" in note for note in read.notes), read.notes

@@ -17,8 +17,8 @@ from urllib.parse import unquote, urlparse
 
 import numpy as np
 
-from ...errors import FileProblem
-from ..files import shown_name
+from ...errors import FileProblem, SceneError
+from ..files import open_regular, shown_name
 from .format import Loaded, MeshFormat, Reading
 from .materials import FileMaterial, specular_lobe
 from .mtl import MAX_SIDE_FILE
@@ -121,7 +121,7 @@ def read(reading: Reading) -> Loaded:
     """A note for each image file it names that is missing, the values trimesh would take silently refused
     (check_values), then the document (made readable: collada_text) through trimesh, with the up axis it
     states."""
-    from .trimesh_parts import load, parts
+    from .trimesh_parts import RegularFiles, load, parts
     _check_images(reading.path, reading.handle, reading.notes)
     data = reading.handle.read()
     root = _tree(data)
@@ -129,7 +129,9 @@ def read(reading: Reading) -> Loaded:
         check_values(root, reading.path)
     text = io.BytesIO(collada_text(data, reading.path, reading.notes))
     effects = common_effects(root) if root is not None else []
-    return Loaded(parts(load(reading, text)), up=collada_up(data),
+    resolver = RegularFiles(reading.path)
+    resolver.locate = image_file  # the images' references as files written on Windows mean them too
+    return Loaded(parts(load(reading, text, resolver=resolver)), up=collada_up(data),
                   own_material=(lambda material, built: _as_effect(effects, material, built)) if effects else None)
 
 
@@ -225,22 +227,74 @@ def _makes(effect: CommonEffect, material) -> bool:
 
 def _check_images(path: Path, handle, notes: list[str]) -> None:
     """A note for each image file a COLLADA file's <library_images> names that is missing: trimesh's reader
-    drops such a map without a word, and the model renders in its factors alone (white for the duck).
-
-    Read from the file's first MAX_SIDE_FILE bytes (exporters write the images before the geometry); the
-    path is <init_from> (1.4) or its <ref> (1.5), a URI relative to the file."""
+    drops such a map without a word, and the model renders in its factors alone (white for the duck)."""
     try:
-        text = handle.read(MAX_SIDE_FILE).decode("utf-8", errors="replace")
+        references = image_references(handle.read(MAX_SIDE_FILE))
     finally:
         handle.seek(0)
-    for image in re.findall(r"<image\b[^>]*>(.*?)</image>", text, re.S):
-        found = re.search(r"<init_from>\s*(?:<ref>)?\s*([^<]+?)\s*<", image)
-        if found is None or found[1].startswith("data:"):
+    for reference in references:
+        if is_local(reference) and not image_file(path.parent, reference).is_file():
+            notes.append(f"{path}: texture {shown_name(_spelled(reference))} is missing")
+
+
+def image_references(data: bytes) -> list[str]:
+    """The image references of a COLLADA document's <library_images> (<init_from>, 1.4, or its <ref>, 1.5), read
+    from its first bytes (exporters write the images before the geometry); embedded data: URIs left out."""
+    text = data.decode("utf-8", errors="replace")
+    found = (re.search(r"<init_from>\s*(?:<ref>)?\s*([^<]+?)\s*<", image)
+             for image in re.findall(r"<image\b[^>]*>(.*?)</image>", text, re.S))
+    return [match[1] for match in found if match is not None and not match[1].startswith("data:")]
+
+
+def is_local(reference: str) -> bool:
+    """Whether an image reference names a file (a relative path or a file: URI), not a web address."""
+    scheme = urlparse(reference.replace("\\", "/")).scheme
+    return scheme in ("", "file") or len(scheme) == 1  # C:/... is a Windows drive, not a scheme
+
+
+def _spelled(reference: str) -> str:
+    """An image reference as a path, for messages: the file: scheme dropped, percent-escapes decoded."""
+    text = re.sub(r"(?i)^file:(//(?=/))?(//)?", "", unquote(reference.replace("\\", "/")))
+    return str(PurePosixPath(text)) if text else text
+
+
+def image_file(folder: Path, reference: str) -> Path:
+    """The file a COLLADA image reference names, for a document in `folder`. A URI relative to the document by
+    the specification; files written on Windows are read as they were meant: backslashes are folder separators,
+    `file://..\\x.jpg` and `\\..\\x.jpg` are relative to the document, and a name found in no folder it could
+    mean is looked for beside the document (an absolute path from the exporter's machine), then by its name in
+    any case (Windows' file names ignore it: `EarthCylindric.jpg` for `earthCylindric.jpg`)."""
+    spelled = _spelled(reference)
+    candidates = [Path(spelled)] if Path(spelled).is_absolute() and not re.match(r"^/?[A-Za-z]:/", spelled) else []
+    candidates += [folder / spelled.lstrip("/"), folder / PurePosixPath(spelled).name]
+    for candidate in candidates:
+        if candidate.is_file():
+            return candidate
+    for candidate in candidates[-2:]:  # the same name, another case, in the folder it names
+        try:
+            matches = [entry for entry in candidate.parent.iterdir() if entry.name.lower() == candidate.name.lower()]
+        except OSError:
             continue
-        uri = urlparse(found[1])
-        name = str(PurePosixPath(unquote(uri.path))) if uri.scheme in ("", "file") else found[1]
-        if uri.scheme in ("", "file") and not (path.parent / name).is_file():
-            notes.append(f"{path}: texture {shown_name(name)} is missing")
+        if len(matches) == 1 and matches[0].is_file():
+            return matches[0]
+    return candidates[-2]
+
+
+def describe(path: Path) -> dict:
+    """The image files its <library_images> names that exist (io.meshes.source: a batch's inputs, what no output
+    may replace, what the memory estimate weighs)."""
+    try:
+        with open_regular(path, str(path), "mesh file") as handle:
+            references = image_references(handle.read(MAX_SIDE_FILE))
+    except (OSError, SceneError):
+        return {}
+    images = (image_file(path.parent, reference) for reference in references if is_local(reference))
+    return {"images": tuple(dict.fromkeys(image for image in images if image.is_file()))}
+
+
+def texture_sizes(mesh) -> tuple[tuple[int, int], ...]:
+    from ..textures import file_size
+    return tuple(size for size in map(file_size, mesh.images) if size)
 
 
 # ---------------------------------------------------------------- what the document builds, before it is read
@@ -332,7 +386,8 @@ def count(handle, size: int, mesh) -> int | None:
     return sum(node(scene) for scene in scenes)
 
 
-FORMAT = MeshFormat(names=("COLLADA",), suffixes=(".dae",), read=read, count=count,
+FORMAT = MeshFormat(names=("COLLADA",), suffixes=(".dae",), read=read, count=count, describe=describe,
+                    texture_sizes=texture_sizes,
                     # trimesh turns every effect (phong, blinn, lambert) into metallic-roughness; the note says so
                     pbr="COLLADA (phong, blinn and lambert effects, which trimesh reads as metallic-roughness: their "
                         "specular and ambient colours are not kept)")
