@@ -404,9 +404,11 @@ class Scene(Table):
         then what those open beside them (an .obj's .mtl files and maps, a .gltf's buffers and images), as each
         mesh file's MeshSource finds them (the scene's own where it has them: a mesh file loaded as a scene). An
         output may be none of these; a batch's up-to-date rule covers exactly these and the scene file."""
+        maps = [self.resolve(path) for key, path in self.named_files().items() if key[0] == "materials"]
+        if not self.mesh_objects():
+            return maps  # the readers' modules stay unimported (the default scene's start-up)
         from ..io.meshes.source import mesh_sources
         found = mesh_sources(self)  # not kept on the scene: a batch sends scenes to its workers, sources stay here
-        maps = [self.resolve(path) for key, path in self.named_files().items() if key[0] == "materials"]
         return [*maps, *self.mesh_paths(), *(side for source in found.values() for side in source.side_files),
                 *(image for source in found.values() for image in source.images)]
 
