@@ -189,7 +189,8 @@ def parse_mtl(content: str, mtl: Path, notes: list[str],
     if clamped:
         notes.append(f"{mtl}: {len(clamped)} coefficient(s) outside [0, 1] are clamped to it (first: {clamped[0]})")
     if transparent:
-        notes.append(f"{mtl}: transparency (d < 1 or Tr > 0) is ignored: {', '.join(transparent)} render opaque")
+        notes.append(f"{mtl}: transparency (d < 1 or Tr > 0) is ignored: material(s) "
+                     f"{', '.join(map(repr, transparent))} render opaque")  # named: 'Windows render opaque' misread
     if illums:
         notes.append(f"{mtl}: illum {', '.join(map(str, sorted(illums)))} render as illum 2 (Phong); reflection "
                      "and refraction are out of scope")
