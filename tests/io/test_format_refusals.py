@@ -70,3 +70,23 @@ def test_an_ascii_stl_trimesh_cannot_read_whose_vertex_lines_are_right_is_refuse
                     "STL format where the reader stopped (the file is corrupt, cut short, or another format); allowed: "
                     "a mesh file of a format read here (OBJ, PLY, STL, OFF, glTF/GLB, 3MF, COLLADA)"), line
     assert not (tmp_path / "x.png").exists()
+
+
+def _suffixes() -> list[str]:
+    from raycast_phong.io.meshes import FORMATS
+    return [suffix for kind in FORMATS for suffix in kind.suffixes]
+
+
+@pytest.mark.parametrize("suffix", _suffixes())
+def test_a_git_lfs_pointer_is_named_as_one_for_every_format(tmp_path, suffix):
+    """A model from a repository cloned without Git LFS is a three-line pointer (f3d's testing/data, a fresh
+    corpus): it was 'holds no triangles' as an OBJ, 'a binary STL whose header counts 959,853,881 triangles', a
+    COLLADA 'corpus cut short'. Every format of the registry says what it is and how to fetch the file."""
+    pointer = ("version https://git-lfs.github.com/spec/v1\noid sha256:"
+               "01fcfd22f33506876c80cf8e889569e8a1843e9330be86d21a39a19f41a01936\nsize 787284\n")
+    (tmp_path / f"model{suffix}").write_text(pointer)
+    done = runner.invoke(app, ["render", str(tmp_path / f"model{suffix}"), "-o", str(tmp_path / "x.png")])
+    assert done.exit_code == 2, done.output
+    line = " ".join(done.stderr.split())
+    assert "is a Git LFS pointer to the 787,284 bytes of the real file" in line and "git lfs pull" in line, line
+    assert done.stderr.count("\n") == 1 and not (tmp_path / "x.png").exists()

@@ -277,7 +277,8 @@ def test_transparency_and_illum_notes_name_only_the_materials_past_their_default
     notes: list[str] = []
     mtl.parse_mtl("newmtl opaque\nKd 1 1 1\nd 1\nTr 0\nillum 2\nnewmtl plain\nKd 1 1 1\n"
                   "newmtl veiled\nd 0.99\nnewmtl tinted\nTr 0.01\nnewmtl mirror\nillum 3\n", tmp_path / "m.mtl", notes)
-    assert notes == [f"{tmp_path / 'm.mtl'}: transparency (d < 1 or Tr > 0) is ignored: material(s) 'veiled', 'tinted' render opaque",
+    assert notes == [f"{tmp_path / 'm.mtl'}: transparency (d < 1 or Tr > 0) is ignored: material(s) 'veiled', "
+                     "'tinted' render opaque",
                      f"{tmp_path / 'm.mtl'}: illum 3 render as illum 2 (Phong); reflection and refraction are out of "
                      "scope"], notes
 

@@ -13,6 +13,8 @@ from ..files import open_regular
 SIGNATURES = ((b"ply", "PLY"), (b"glTF", "GLB"), (b"PK\x03\x04", "a zip archive"), (b"BZh", "bzip2-compressed"),
               (b"\x1f\x8b", "gzip-compressed"), (b"\xfd7zXZ", "xz-compressed"), (b"<?xml", "XML"),
               (b"<COLLADA", "COLLADA (XML)"), (b"{", "JSON"))
+# A file a repository keeps in Git LFS, cloned without it: a few lines naming the real file's hash and size.
+LFS_POINTER = b"version https://git-lfs.github.com/spec/"
 # Suffixes of containers, not mesh formats (trimesh opens some): refused with what to do instead.
 CONTAINERS = {".zip": "a zip archive", ".bz2": "bzip2-compressed", ".gz": "gzip-compressed", ".xz": "xz-compressed",
               ".tar": "a tar archive", ".7z": "a 7z archive"}
@@ -59,6 +61,11 @@ def check_content(path: Path, handle, kind, where: Where) -> None:
     name = kind.name(suffix)
     if not head:
         raise SceneError(f"{str(path)!r} is empty (0 bytes); expected a {name} file", where)
+    if head.startswith(LFS_POINTER):  # read as an OBJ of no faces, or a binary STL of a billion triangles
+        size = re.search(rb"\nsize (\d+)", head)
+        real = f"the {int(size[1]):,} bytes of " if size else ""
+        raise SceneError(f"cannot read {str(path)!r} as {name}: it is a Git LFS pointer to {real}the real file, "
+                         "not the file; fetch it (`git lfs pull` in its repository)", where)
     found = sniff(head)
     if kind.content(head, found, os.fstat(handle.fileno()).st_size, suffix):
         return
