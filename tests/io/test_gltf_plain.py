@@ -366,3 +366,55 @@ def test_a_node_scale_past_float_range_is_one_line_and_no_numpy_warning(tmp_path
     tree, data = document(nodes=nested(("nodes", 1, "scale"), [1e300, 1e300, 1e300]))
     with pytest.raises(SceneError, match=r"vertex\(es\) with (a coordinate beyond|NaN or infinite)"):
         mesh_file.read_file(mesh_source(write_gltf(tmp_path / "far.gltf", tree, data)))
+
+
+def uv_set_document(texcoords: dict, transform_set: int | None = None) -> tuple[dict, bytes]:
+    """One triangle with the base colour map 'map.png' drawn with set `texcoords['base']` (and an emissive map
+    with `texcoords['emissive']` when given), two sets stored: TEXCOORD_0 all zeros, TEXCOORD_1 the corners."""
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], "<f4")
+    sets = [np.zeros((3, 2), "<f4"), np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], "<f4")]
+    indices = np.array([0, 1, 2, 0], "<u2").tobytes()
+    data = points.tobytes() + sets[0].tobytes() + sets[1].tobytes() + indices
+    base = {"index": 0, "texCoord": texcoords["base"]}
+    if transform_set is not None:  # KHR_texture_transform's texCoord overrides the texture info's
+        base["extensions"] = {"KHR_texture_transform": {"texCoord": transform_set}}
+    material = {"name": "m", "pbrMetallicRoughness": {"baseColorTexture": base}}
+    if "emissive" in texcoords:
+        material |= {"emissiveTexture": {"index": 0, "texCoord": texcoords["emissive"]}, "emissiveFactor": [1, 1, 1]}
+    tree = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1, "TEXCOORD_1": 2},
+                                        "indices": 3, "material": 0}]}],
+            "materials": [material], "textures": [{"source": 0}], "images": [{"uri": "map.png"}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                           "min": [0, 0, 0], "max": [1, 1, 0]},
+                          {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"},
+                          {"bufferView": 2, "componentType": 5126, "count": 3, "type": "VEC2"},
+                          {"bufferView": 3, "componentType": 5123, "count": 3, "type": "SCALAR"}],
+            "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36},
+                            {"buffer": 0, "byteOffset": 36, "byteLength": 24},
+                            {"buffer": 0, "byteOffset": 60, "byteLength": 24},
+                            {"buffer": 0, "byteOffset": 84, "byteLength": 6}],
+            "buffers": [{"byteLength": len(data)}]}
+    if transform_set is not None:
+        tree["extensionsUsed"] = ["KHR_texture_transform"]
+    return tree, data
+
+
+@pytest.mark.parametrize("container", ["glb", "gltf"])
+@pytest.mark.parametrize(("texcoords", "transform_set", "drawn"), [
+    ({"base": 1}, None, 1), ({"base": 0}, None, 0), ({"base": 0}, 1, 1), ({"base": 1, "emissive": 0}, None, 1)])
+def test_a_colour_map_is_drawn_with_the_texture_coordinate_set_it_names(tmp_path, container, texcoords,
+                                                                          transform_set, drawn):
+    """glTF 2.0 §5.22: a texture info's texCoord names the TEXCOORD_n set it maps with (KHR_texture_transform's
+    own texCoord overrides it). Both readers used TEXCOORD_0 whatever it said (draco's testdata
+    TexCoord0InvalidTexCoord1Valid.gltf drew 'Multiple UVs not supported in this viewer'). A material whose maps
+    name two sets draws them with its base colour map's, and says so."""
+    import raycast_phong as rp
+    rp.write_image(tmp_path / "map.png", np.full((2, 2, 3), 0.5, np.float32))
+    tree, data = uv_set_document(texcoords, transform_set)
+    path = (write_glb if container == "glb" else write_gltf)(tmp_path / f"sets.{container}", tree, data)
+    found = mesh_file.read_file(mesh_source(path))
+    expected = [[0.0, 1.0], [1.0, 1.0], [0.0, 0.0]] if drawn else [[0.0, 1.0]] * 3  # v up: 1 − glTF's v
+    np.testing.assert_array_equal(found.corner_uv[0], expected)
+    moved = [note for note in found.notes if "emissiveTexture is drawn with its baseColorTexture's" in note]
+    assert len(moved) == ("emissive" in texcoords)

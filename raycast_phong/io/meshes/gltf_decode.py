@@ -41,7 +41,7 @@ def needs_decoding(tree: dict) -> bool:
     """Whether trimesh would misread the document's data: compressed buffer views or primitives, integer
     positions, normals, texture coordinates or colours, an accessor of a primitive without a bufferView (all
     zeros, glTF 2.0 §3.6.2.1: trimesh raised UnboundLocalError), triangle fans (trimesh drops them), skinned
-    meshes, instanced nodes, specular-glossiness materials."""
+    meshes, instanced nodes, specular-glossiness materials, colour maps on a texture coordinate set other than 0."""
     used = tree.get("extensionsUsed")
     used = set(used) if isinstance(used, list) and all(isinstance(e, str) for e in used) else set()
     if used & {*MESHOPT, DRACO, INSTANCING, SPECULAR_GLOSSINESS}:
@@ -50,6 +50,8 @@ def needs_decoding(tree: dict) -> bool:
     if isinstance(nodes, list) and any(isinstance(n, dict) and "skin" in n and "mesh" in n for n in nodes):
         return True  # a skinned mesh: trimesh draws its bind pose, not the pose its joints hold
     try:
+        if colour_uv_sets(tree):  # trimesh maps every texture with TEXCOORD_0
+            return True
         accessors = tree.get("accessors", [])
         for mesh in tree.get("meshes", []):
             for primitive in mesh.get("primitives", []):
@@ -688,10 +690,69 @@ def read_buffers(tree: dict, path: Path, document: Document, where: Where) -> li
     return found
 
 
+def _colour_maps(material: dict) -> list[tuple[str, dict]]:
+    """A material's colour maps' texture infos, the one the base colour comes from first (baseColorTexture, or a
+    specular-glossiness diffuseTexture), then emissiveTexture: the maps this renderer draws."""
+    found = []
+    for table, key in ((material.get("pbrMetallicRoughness"), "baseColorTexture"),
+                       ((material.get("extensions") or {}).get(SPECULAR_GLOSSINESS), "diffuseTexture"),
+                       (material, "emissiveTexture")):
+        if isinstance(table, dict) and isinstance(table.get(key), dict):
+            found.append((key, table[key]))
+    return found
+
+
+def _uv_set(info: dict) -> int:
+    """The texture coordinate set a texture info maps with: its texCoord (glTF 2.0 §5.22, default 0), which its
+    KHR_texture_transform's own texCoord overrides."""
+    transform = (info.get("extensions") or {}).get("KHR_texture_transform") or {}
+    value = transform.get("texCoord", info.get("texCoord", 0))
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise TypeError(f"texCoord {value!r} is not a set index")
+    return value
+
+
+def colour_uv_sets(tree: dict) -> dict[int, int]:
+    """Material index → the texture coordinate set its colour maps are drawn with, where it is not 0: its base
+    colour map's, else its emissive map's (a surface holds one set here)."""
+    sets = {}
+    for index, material in enumerate(tree.get("materials") or []):
+        maps = _colour_maps(material) if isinstance(material, dict) else []
+        if maps and _uv_set(maps[0][1]):
+            sets[index] = _uv_set(maps[0][1])
+    return sets
+
+
+def first_uv_set(tree: dict, path: Path, notes: list[str]) -> None:
+    """The document rewritten (in place) so that each primitive's colour maps read TEXCOORD_0, as trimesh does:
+    a primitive whose material draws its maps with set k gets TEXCOORD_k as TEXCOORD_0, and the maps' texCoord is
+    0. A material whose maps name two sets is drawn with the first map's, and a note says which map is moved."""
+    for index, material in enumerate(tree.get("materials") or []):
+        maps = _colour_maps(material) if isinstance(material, dict) else []
+        if not maps:
+            continue
+        chosen = _uv_set(maps[0][1])
+        moved = [key for key, info in maps[1:] if _uv_set(info) != chosen]
+        if moved:
+            notes.append(f"{path}: material {material.get('name') or index!r}: its {', '.join(moved)} is drawn with "
+                         f"its {maps[0][0]}'s TEXCOORD_{chosen}, not its own set (one set of texture coordinates a "
+                         "surface here)")
+        for _, info in maps:
+            info["texCoord"] = 0
+            ((info.get("extensions") or {}).get("KHR_texture_transform") or {}).pop("texCoord", None)
+        if chosen:
+            for mesh in tree.get("meshes") or []:
+                for primitive in mesh.get("primitives") or []:
+                    attributes = primitive.get("attributes") or {}
+                    if primitive.get("material") == index and f"TEXCOORD_{chosen}" in attributes:
+                        attributes["TEXCOORD_0"] = attributes[f"TEXCOORD_{chosen}"]
+
+
 def decode_document(tree: dict, buffers: list[bytes], path: Path,
                     notes: list[str]) -> tuple[dict, dict[str, bytes]]:
     """The document rewritten as plain glTF for trimesh, with the buffers it names (DECODED_URI + index): every
     buffer given to trimesh by name, the decoded data in one more. `tree` is changed in place (pass a copy)."""
+    first_uv_set(tree, path, notes)
     decoder = _Decoder(tree, buffers, path, notes)
     decoder.decode_meshopt()
     decoder.decode_draco()
