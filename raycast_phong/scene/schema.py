@@ -409,8 +409,7 @@ class Scene(Table):
             return maps  # the readers' modules stay unimported (the default scene's start-up)
         from ..io.meshes.source import mesh_sources
         found = mesh_sources(self)  # not kept on the scene: a batch sends scenes to its workers, sources stay here
-        return [*maps, *self.mesh_paths(), *(side for source in found.values() for side in source.side_files),
-                *(image for source in found.values() for image in source.images)]
+        return [*maps, *self.mesh_paths(), *(file for source in found.values() for file in source.files_read)]
 
     def named_files(self) -> dict[tuple, str]:
         """Every file the scene names, as written, by the key path that names it (a tuple, as error locations

@@ -272,8 +272,8 @@ HAND_MUTANTS = (
      "if pixels.shape[2] == 4 else"),  # a grey + alpha map's alpha read as 1
     ("renderer/pack", "spread = 2.0 * rig.half_height / (scene.render.height * scene.render.samples)",
      "spread = 2.0 * rig.half_height / scene.render.height"),  # mip level of the pixel, not the sample
-    ("scene/schema", "*(side for source in found.values() for side in source.side_files),",
-     "*(side for source in found.values() for side in source.side_files[:0]),"),  # an .mtl changed: up to date
+    ("io/meshes/source", "return (*self.side_files, *self.images)",
+     "return (*self.side_files[:0], *self.images)"),  # an .mtl changed alone is up to date
     ("tools/batch/jobs", '"overrides": list(job.overrides),',
      '"overrides": [],'),  # a sweep's set list changed is up to date
     ("tools/view/access", 'httponly=True, samesite="strict")',
