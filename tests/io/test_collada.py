@@ -183,10 +183,12 @@ def test_a_colour_input_gives_vertex_colours(tmp_path):
     ("0 0 0 1 0 0 0 INF 0", "0 1 2", "positions pa hold NaN or infinite numbers"),
     ("0 0 0 1 0 0 0 1 0", "<p>0 1 -1</p>", "a <p> list holds a negative index (-1)"),
     ("0 0 0 1 0 0 0 1 0", "<vcount>-3</vcount><p>0 1 2</p>", "a <vcount> list holds a negative index (-3)"),
+    ("0 0 0 1 0 0 0 1 0", "<p>0 1 3</p>", "names vertex 3 of the 3 its positions p hold; allowed: 0..2"),
 ])
 def test_what_pycollada_reads_silently_wrong_is_refused(tmp_path, positions, indices, words):
     """pycollada read NaN as 0 and numpy wrapped index -1 to the last vertex, silently (a polygon's negative
-    corner count in a <polylist>'s <vcount> too)."""
+    corner count in a <polylist>'s <vcount> too); an index past the positions made trimesh drop the geometry
+    without a word ("holds no triangles" for a file of one)."""
     path = write_triangle(tmp_path / "t.dae", positions)
     text = path.read_text().replace("<p>0 1 2</p>", indices)
     if "<vcount>" in indices:

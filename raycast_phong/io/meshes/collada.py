@@ -319,8 +319,9 @@ def _local(tag) -> str:
 
 
 def check_values(root, path: Path) -> None:
-    """Refuse what pycollada reads silently wrong: a position that is NaN or infinite (read as 0) and a negative
-    vertex index (numpy wraps -1 to the last vertex)."""
+    """Refuse what pycollada reads silently wrong: a position that is NaN or infinite (read as 0), a negative
+    vertex index (numpy wraps -1 to the last vertex) and one past the positions (trimesh drops that geometry
+    without a word: a file of one said "holds no triangles")."""
     by_id = {element.get("id"): element for element in root.iter() if element.get("id")}
     for element in root.iter():
         name = _local(element.tag)
@@ -328,6 +329,8 @@ def check_values(root, path: Path) -> None:
             raise FileProblem(f"{str(path)!r}: a <{name}> list holds a negative index "
                               f"({next(w for w in element.text.split() if w.startswith('-'))[:20]}); allowed: "
                               "indices 0 or more")
+        if name == "p" and element.text:
+            _check_vertex_indices(element, by_id, path)
         if name == "input" and element.get("semantic") == "POSITION":
             source = by_id.get((element.get("source") or "").lstrip("#"))
             values = None if source is None else next(
@@ -335,6 +338,29 @@ def check_values(root, path: Path) -> None:
             if values is not None and values.text and NOT_FINITE.search(values.text):
                 raise FileProblem(f"{str(path)!r}: positions {values.get('id') or ''} hold NaN or infinite "
                                   "numbers; every vertex must have finite coordinates")
+
+
+def _check_vertex_indices(p, by_id: dict, path: Path) -> None:
+    """Refuse a <p> list whose VERTEX index (at its input's offset, every `stride` values: the primitive's largest
+    offset + 1) is past the count of the positions its <vertices> reads (their accessor's count)."""
+    primitive = p.getparent()
+    inputs = [child for child in primitive if _local(child.tag) == "input"]
+    offsets = [int(child.get("offset", "0")) for child in inputs if (child.get("offset") or "0").isdigit()]
+    vertex = next((child for child in inputs if child.get("semantic") == "VERTEX"), None)
+    vertices = by_id.get((vertex.get("source") or "").lstrip("#")) if vertex is not None else None
+    position = next((child for child in vertices if _local(child.tag) == "input"
+                     and child.get("semantic") == "POSITION"), None) if vertices is not None else None
+    source = by_id.get((position.get("source") or "").lstrip("#")) if position is not None else None
+    accessor = next((child for child in source.iter() if _local(child.tag) == "accessor"), None) \
+        if source is not None else None
+    count = accessor.get("count") if accessor is not None else None
+    if not (count or "").isdigit() or not offsets or not (vertex.get("offset") or "0").isdigit():
+        return  # a document this check cannot follow: pycollada words what is wrong with it
+    words = p.text.split()[int(vertex.get("offset") or "0")::max(offsets) + 1]
+    largest = max((int(word) for word in words if word.isdigit()), default=-1)
+    if largest >= int(count):
+        raise FileProblem(f"{str(path)!r}: a <p> list of <{_local(primitive.tag)}> names vertex {largest} of the "
+                          f"{int(count):,} its positions {source.get('id') or ''} hold; allowed: 0..{int(count) - 1}")
 
 
 def count(handle, size: int, mesh) -> int | None:
