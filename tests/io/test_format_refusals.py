@@ -90,3 +90,18 @@ def test_a_git_lfs_pointer_is_named_as_one_for_every_format(tmp_path, suffix):
     line = " ".join(done.stderr.split())
     assert "is a Git LFS pointer to the 787,284 bytes of the real file" in line and "git lfs pull" in line, line
     assert done.stderr.count("\n") == 1 and not (tmp_path / "x.png").exists()
+
+
+def test_an_mni_surface_object_named_obj_is_named_as_one(tmp_path):
+    """An MNI (BIC) surface object shares the .obj suffix (neuroimaging: pyvista's vtk-data mni-surface-mesh.obj):
+    read as a Wavefront OBJ it 'holds no triangles'. Its 'P' line says what it is; a Wavefront OBJ whose first
+    word is a vertex is still read."""
+    (tmp_path / "brain.obj").write_text("P 0.3 0.3 0.4 10 1 3\n0 0 0\n1 0 0\n0 1 0\n\n0 0 1\n0 0 1\n0 0 1\n\n1\n"
+                                        "0 1 1 1 1\n\n3\n\n0 1 2\n")
+    done = runner.invoke(app, ["render", str(tmp_path / "brain.obj"), "-o", str(tmp_path / "x.png")])
+    assert done.exit_code == 2, done.output
+    line = " ".join(done.stderr.split())
+    assert "its content is an MNI (BIC) surface object" in line and "shares the .obj suffix" in line, line
+    (tmp_path / "plain.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    assert runner.invoke(app, ["render", str(tmp_path / "plain.obj"), "-o", str(tmp_path / "y.png"), "-q"]
+                         ).exit_code == 0

@@ -15,6 +15,11 @@ SIGNATURES = ((b"ply", "PLY"), (b"glTF", "GLB"), (b"PK\x03\x04", "a zip archive"
               (b"<COLLADA", "COLLADA (XML)"), (b"{", "JSON"))
 # A file a repository keeps in Git LFS, cloned without it: a few lines naming the real file's hash and size.
 LFS_POINTER = b"version https://git-lfs.github.com/spec/"
+# Formats not read here that share a suffix with one that is, by their first line: refused naming them, where the
+# format they were taken for found nothing (an MNI surface .obj was a Wavefront OBJ that "holds no triangles").
+NUMBER = rb"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?"
+FOREIGN = ((re.compile(rb"\AP" + rb"[ \t]+" + (NUMBER + rb"[ \t]+") * 5 + rb"\d+[ \t]*\r?\n"),
+            "an MNI (BIC) surface object (a first line 'P' with surface properties and a point count)"),)
 # Suffixes of containers, not mesh formats (trimesh opens some): refused with what to do instead.
 CONTAINERS = {".zip": "a zip archive", ".bz2": "bzip2-compressed", ".gz": "gzip-compressed", ".xz": "xz-compressed",
               ".tar": "a tar archive", ".7z": "a 7z archive"}
@@ -66,6 +71,11 @@ def check_content(path: Path, handle, kind, where: Where) -> None:
         real = f"the {int(size[1]):,} bytes of " if size else ""
         raise SceneError(f"cannot read {str(path)!r} as {name}: it is a Git LFS pointer to {real}the real file, "
                          "not the file; fetch it (`git lfs pull` in its repository)", where)
+    for pattern, foreign in FOREIGN:
+        if pattern.match(head):
+            raise SceneError(f"cannot read {str(path)!r} as {name}: its content is {foreign}, which shares the "
+                             f"{suffix} suffix and is not read here; convert it to a mesh file read here ({name}, "
+                             "PLY, STL, ...)", where)
     found = sniff(head)
     if kind.content(head, found, os.fstat(handle.fileno()).st_size, suffix):
         return
