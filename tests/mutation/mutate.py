@@ -523,6 +523,18 @@ HAND_MUTANTS = (
     ('io/meshes/format',
      '    with np.errstate(invalid="ignore", over="ignore"):\n        determinant = np.linalg.det(linear)',
      '    if True:\n        determinant = np.linalg.det(linear)'),  # numpy's det and matmul warnings on a placement
+    # this session's fixes, each planted once and seen to fail its test
+    ("io/meshes/content", "    if head.startswith(LFS_POINTER):", "    if head.startswith(LFS_POINTER * 2):"),  # LFS
+    ("io/meshes/content", "    for pattern, foreign in FOREIGN:",
+     "    for pattern, foreign in FOREIGN[:0]:"),  # an MNI .obj read as Wavefront
+    ("io/image_io", "needed > BOMB_FLOOR and needed > BOMB_RATIO * size:",
+     "needed > BOMB_FLOOR and needed > BOMB_RATIO * size * 100:"),  # a decompression bomb read
+    ("io/meshes/gltf_decode", "        if colour_uv_sets(tree):  # trimesh maps",
+     "        if False:  # trimesh maps"),  # texCoord 1 drawn with TEXCOORD_0
+    ("io/meshes/collada", "    if largest >= int(count):", "    if largest > int(count):"),  # an index one past
+    ("scene/output", "check_output_path(output, inputs=inputs)",
+     "check_output_path(output, inputs=inputs[:1])"),  # render -o onto the scene's own map
+    ("io/meshes/gltf_json", "and container != 2:", "and container == 0:"),  # a glTF 1.0 GLB
 )
 OPERATOR_SWAPS = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,
                   ast.Lt: ast.LtE, ast.LtE: ast.Lt, ast.Gt: ast.GtE, ast.GtE: ast.Gt, ast.Eq: ast.NotEq,
