@@ -2,10 +2,11 @@
 small textured file's process to PNG. It gives what trimesh's reader gave for the same document (the Parts
 io/meshes/trimesh_parts.parts made of it: its nodes in trimesh's order, each placed by its matrix and T · R · S,
 each triangle primitive a part with its normals, its v-up texture coordinates and its material as trimesh's
-PBRMaterial holds it), so the rest of the read (read._surfaces, gltf.from_pbr) is the same code either way.
+PBRMaterial holds it), so the rest of the read (read._surfaces, gltf.from_pbr) is the same code either way. A
+camera's node is a transform like any other (trimesh left it out of its graph, and a mesh below it with it).
 
 None for what it leaves to trimesh: strips, fans, points and lines, sparse or integer attributes,
-morph targets, a camera, a node or primitive with extensions, a texture without a plain image source, an image PIL
+morph targets, a node or primitive with extensions, a texture without a plain image source, an image PIL
 cannot open, a buffer or image file that is not there. Material extensions trimesh has no reader for are read
 from the document by gltf.gltf_samplers (unlit, emissive strength) or noted (LOOK_ONLY), the same either way.
 """
@@ -65,7 +66,7 @@ def gltf_parts(tree: dict, buffers: list[bytes], path: Path) -> list[Part] | Non
 
 def _parts(tree: dict, buffers: list[bytes], path: Path) -> list[Part]:
     nodes = tree.get("nodes", [])
-    if tree.get("skins") or any("camera" in node or "extensions" in node for node in nodes):
+    if tree.get("skins") or any("extensions" in node for node in nodes):  # a camera places no triangle
         raise NotImplementedError
     decoder = _Decoder(tree, buffers, path, [])
     images = _images(tree, decoder, path)
