@@ -50,6 +50,10 @@ def render_output(scene: Scene, scene_path: Path, given: Path | None, builtin: b
                                               else scene.resolve(scene.output.path))
     if given is None and not builtin:
         _check_real_path(scene, Path(output))
+    if scene.mesh_objects():  # each mesh file described once: kept with the scene, prepare() reads them there
+        from ..io.meshes.source import mesh_sources, source_key
+        for path, source in mesh_sources(scene).items():
+            scene.mesh_sources.setdefault(source_key(path), source)
     inputs = (scene_path, *scene.files_read())  # the scene file, its maps, its meshes and what they open
     try:
         check_output_path(output, inputs=inputs)

@@ -341,6 +341,22 @@ def test_an_obj_is_scanned_for_its_mtllib_once_per_version(tmp_path, monkeypatch
     assert mesh_source(path).side_files == (tmp_path / "other.mtl",)
 
 
+def test_a_scene_file_s_obj_is_scanned_for_its_mtllib_once_by_the_render_command(tmp_path, monkeypatch):
+    """`render s.toml` naming an OBJ: the output check (every file the scene reads, .mtl included) and prepare()
+    want its MeshSource; the check keeps the one it makes with the scene. It was made three times (scanned 42 MB
+    of a 1M-triangle OBJ three times)."""
+    from raycast_phong.io.meshes import obj as obj_format
+    (tmp_path / "tri.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    (tmp_path / "s.toml").write_text('[render]\nwidth = 16\nheight = 12\n[[objects]]\nshape = "mesh"\n'
+                                     'path = "tri.obj"\n[[lights]]\ntype = "point"\nposition = [3, 4, 6]\n')
+    scans = []
+    real = obj_format.scan_mtllib
+    monkeypatch.setattr(obj_format, "scan_mtllib", lambda handle: scans.append(handle.name) or real(handle))
+    done = runner.invoke(app, ["render", str(tmp_path / "s.toml"), "-o", str(tmp_path / "out.png"), "-q"])
+    assert done.exit_code == 0, done.output
+    assert len(scans) == 1, scans
+
+
 def test_an_obj_is_counted_once_for_the_framing_check_and_the_render(tmp_path, monkeypatch):
     """A MeshSource counts an OBJ's face lines (0.37 s for 78 MB) once: the framing's memory check and render()'s
     estimate both ask the source the scene carries, and a new version of the file is counted again."""
