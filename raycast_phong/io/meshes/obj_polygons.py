@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...jit import kernel
+from .decimals import line_end
 from .polygons import ear_clip
 
 SPACE, TAB, LF, CR, HASH, SLASH, MINUS, PLUS, ZERO = 32, 9, 10, 13, 35, 47, 45, 43, 48
@@ -211,10 +212,7 @@ def _scan(data):
         vertices = polygons = words = 0
         at = 0
         while at < n:
-            end = at
-            while end < n and data[end] != LF:
-                end += 1
-            stop = end - 1 if end > at and data[end - 1] == CR else end  # a CRLF line ends before its CR
+            end, stop = line_end(data, at)  # a CRLF line ends before its CR
             i = at
             while i < stop and _blank(data[i]):
                 i += 1
