@@ -160,6 +160,9 @@ def test_read_image_without_a_budget_refuses_what_decodes_to_over_1000_times_its
     with pytest.raises(rp.errors.ImageError, match=r"over 1,000× its size, as a decompression bomb's.*max_memory"):
         rp.read_image(flat)
     assert rp.read_image(flat, max_memory="1G")[0].shape == (1000, 2000, 3)
+    with pytest.raises(rp.errors.ImageError, match="decompression bomb"):
+        rp.read_layer(flat)
+    assert rp.read_layer(flat, max_memory="1G").shape == (1000, 2000, 3)  # read_layer passes its budget on
     noise = np.random.default_rng(3).random((1000, 2000, 3)).astype(np.float32)
     assert rp.read_image(rp.write_image(tmp_path / "noise.png", noise))[0].shape == (1000, 2000, 3)
 
