@@ -16,6 +16,7 @@ numba's unchanged where its internals differ.
 The fast paths on numba's internals, each with its plain fallback, behind one switch (PLAIN:
 RAYCAST_PHONG_PLAIN_NUMBA=1 turns every one off; each is also off by itself where what it relies on is missing):
   LIGHT_LOAD   a cached kernel loaded without numba's registries       else numba's own load
+  NRT_CACHED   numba's runtime functions loaded from the cache too      else compiled in each process
   BY_ADDRESS   a callee handed to its caller by address (`callee`)     else the dispatcher, linked into the caller
   two processes for a first compile (renderer/split_compile.py)        else one (it relies on both above)
 """
@@ -26,6 +27,7 @@ import contextlib
 import hashlib
 import importlib.util
 import os
+import pickle
 import re
 import shutil
 import sys
@@ -35,20 +37,41 @@ from collections.abc import Callable
 from functools import cache, lru_cache
 from pathlib import Path
 
-import numba
-from numba import njit
-from numba.core import environment
-from numba.core.caching import FunctionCache, NullCache
-from numba.core.compiler_lock import global_compiler_lock
-from numba.core.runtime.nrt import rtsys
-
 from .compiles import compiled, compiling
+
+
+@contextlib.contextmanager
+def _unimportable(name: str):
+    """Within the block, `import name` raises ImportError (sys.modules[name] is None), unless it is imported already;
+    as it was after. How numba's import and its set-up are kept from modules they would import for nothing."""
+    blocked = name not in sys.modules
+    if blocked:
+        sys.modules[name] = None
+    try:
+        yield
+    finally:
+        if blocked and sys.modules.get(name, False) is None:
+            del sys.modules[name]
+
+
+# numba's import imports PyYAML (9 ms of a 0.55 s start-up) to read a .numba_config.yaml in the working folder:
+# only where there is one. (A compile reads that file again: one made later, elsewhere, would get numba's warning.)
+NUMBA_CONFIG = ".numba_config.yaml"
+with contextlib.nullcontext() if os.path.isfile(NUMBA_CONFIG) else _unimportable("yaml"):
+    import numba
+    from numba import njit
+    from numba.core import environment
+    from numba.core.caching import FunctionCache, NullCache
+    from numba.core.compiler_lock import global_compiler_lock
+    from numba.core.runtime import nrtdynmod
+    from numba.core.runtime.nrt import rtsys
 
 PACKAGE = Path(__file__).resolve().parent  # raycast_phong/: a kernel may import from anywhere in it
 OWN_CACHE = Path(__file__).resolve().parent / "__pycache__"
 MARK = "@kernel("          # how a module declares a kernel; such a module is cached under its own key
 CACHE = "raycast-phong-kernels"  # the cache under its base: a folder <module>-<key> per kernel module
 OUTSIDE = "outside."       # the folders of kernels defined outside the package (a test's, a user's)
+NRT_PREFIX = "nrt-"        # the files of numba's NRT functions, one per numba, llvmlite and CPU (initialise_nrt)
 RELATIVE_IMPORT = re.compile(rb"^from (\.+)([\w.]*) import (\([^)]*\)|[^\n]*)", re.MULTILINE)
 
 
@@ -141,7 +164,8 @@ def _remove_stale(folder: Path) -> None:
     for all kernels, named after a key of them all)."""
     current = {f"{name}-{key}" for name, key in kernel_keys().items()}
     stale = list(folder.parent.glob(f"{CACHE}-*"))
-    stale += [path for path in folder.iterdir() if path.name not in current and not path.name.startswith(OUTSIDE)]
+    stale += [path for path in folder.iterdir()
+              if path.name not in current and not path.name.startswith((OUTSIDE, NRT_PREFIX))]
     for path in stale:
         shutil.rmtree(path, ignore_errors=True)  # another process may be removing it too
 
@@ -215,6 +239,9 @@ LIGHT_LOAD = not PLAIN and (
     all(hasattr(FunctionCache, name) for name in ("_load_overload", "_guard_against_spurious_io_errors"))
     and all(hasattr(environment, name) for name in ("_rebuild_env", "lookup_environment"))
     and isinstance(getattr(environment.Environment, "_memo", None), dict | weakref.WeakValueDictionary))
+# What the NRT's functions come from the cache through (initialise_nrt); without them numba compiles them.
+NRT_CACHED = LIGHT_LOAD and (all(hasattr(nrtdynmod, name) for name in ("compile_nrt_functions", "create_nrt_module"))
+                             and isinstance(getattr(rtsys, "_init", None), bool))
 # numba's first-class function type (numba.experimental), which ByAddress hands callees through.
 BY_ADDRESS = not PLAIN and importlib.util.find_spec("numba.experimental.function_type") is not None
 
@@ -297,7 +324,7 @@ class _CacheLoadedAsIs(FunctionCache):
 
     def _light_load(self, sig, target_context):
         """The cached kernel for `sig`, loaded without numba's registries, or None."""
-        rtsys.initialize(target_context)  # what numba's refresh starts with (cpu.py); idempotent
+        initialise_nrt(target_context)  # what numba's refresh starts with (cpu.py); idempotent
         # numba holds this lock around every load and compile; taken again (it is re-entrant) so that the
         # unpickler's environment rebuild is swapped for this load alone, whoever calls.
         with global_compiler_lock, self._guard_against_spurious_io_errors():  # numba's own (Windows: busy file)
@@ -400,6 +427,79 @@ class ByAddress:
         return self._address
 
 
+NRT_MARK = b"raycast-phong nrt 1\n"  # the first line of an NRT cache file; then the payload's sha256, then the payload
+
+
+def initialise_nrt(target_context) -> None:
+    """numba's rtsys.initialize, with the NRT's own functions (a small LLVM module numba compiles at a process's
+    first kernel call: 15-18 ms of a 0.55 s start-up) loaded from the kernel cache as object code, as a cached
+    kernel is (3 ms), when this numba has compiled them on this CPU before; otherwise compiled as numba does, and
+    cached. Idempotent, as rtsys.initialize is."""
+    if not NRT_CACHED or rtsys._init:
+        rtsys.initialize(target_context)
+        return
+    with global_compiler_lock:  # numba's lock around every compile and load, held while its function is swapped
+        compile_nrt = nrtdynmod.compile_nrt_functions
+        nrtdynmod.compile_nrt_functions = _cached_nrt_functions  # what rtsys.initialize calls, once
+        try:
+            rtsys.initialize(target_context)
+        finally:
+            nrtdynmod.compile_nrt_functions = compile_nrt
+
+
+def _cached_nrt_functions(context):
+    """nrtdynmod.compile_nrt_functions' library: from the cache file of this numba, llvmlite and CPU (codegen's
+    magic_tuple, which numba's own index keys a kernel on) when it holds it whole (its sha256), else compiled as
+    numba compiles it, with object caching on so that it can be saved. A cache file that cannot be read or written
+    only costs the compile."""
+    codegen = context.codegen()
+    path = _nrt_cache_file(codegen)
+    if path is not None:
+        try:
+            data = path.read_bytes()
+            head, digest, payload = data[:len(NRT_MARK)], data[len(NRT_MARK):len(NRT_MARK) + 32], \
+                data[len(NRT_MARK) + 32:]
+            if head == NRT_MARK and hashlib.sha256(payload).digest() == digest:
+                return codegen.unserialize_library(pickle.loads(payload))
+        except Exception:  # noqa: BLE001 - a missing, cut or foreign file, or numba refusing it: compile instead
+            pass
+    module, library = nrtdynmod.create_nrt_module(context)
+    library.enable_object_caching()
+    library.add_ir_module(module)
+    library.finalize()
+    if path is not None:
+        payload = pickle.dumps(library.serialize_using_object_code())
+        _write_whole(path, NRT_MARK + hashlib.sha256(payload).digest() + payload)
+    return library
+
+
+def _write_whole(path: Path, data: bytes) -> None:
+    """`data` as the file `path`, whole or not at all (a temporary file beside it, then renamed over it); a
+    read-only or full cache leaves no file, and the next process compiles again."""
+    try:
+        handle = tempfile.NamedTemporaryFile(dir=path.parent, prefix=path.name, suffix=".part", delete=False)
+    except OSError:
+        return
+    try:
+        with handle:
+            handle.write(data)
+        os.replace(handle.name, path)
+    except OSError:
+        with contextlib.suppress(OSError):
+            os.unlink(handle.name)
+
+
+def _nrt_cache_file(codegen) -> Path | None:
+    """nrt-<key>.nbc in the kernel cache, the key a hash of numba's and llvmlite's versions and codegen's
+    magic_tuple (the target triple, CPU name and features); None if there is no cache."""
+    root = cache_folder()
+    if root is None:
+        return None
+    import llvmlite
+    key = hashlib.sha256(repr((numba.__version__, llvmlite.__version__, codegen.magic_tuple())).encode())
+    return root / f"{NRT_PREFIX}{key.hexdigest()[:16]}.nbc"
+
+
 class _NothingCached(NullCache):
     """numba's cache of a kernel when no folder is writable: nothing is ever loaded, and each compile is told."""
 
@@ -446,11 +546,5 @@ def set_up() -> None:
     nothing if numba's set-up already ran or SciPy's linalg is already imported (then the probe is free)."""
     if "numba.np.arraymath" in sys.modules:
         return
-    blocked = "scipy.linalg" not in sys.modules
-    if blocked:
-        sys.modules["scipy.linalg"] = None  # an import of it raises ImportError
-    try:
+    with _unimportable("scipy.linalg"):
         import numba.np.arraymath  # noqa: F401  (the probe runs here)
-    finally:
-        if blocked and sys.modules.get("scipy.linalg", False) is None:
-            del sys.modules["scipy.linalg"]

@@ -140,6 +140,11 @@ HAND_MUTANTS = (
     ("jit", "        except Exception:  # noqa: BLE001 - whatever the bytes make the unpickler or numba raise\n"
      "            self.drop()", "        except (OSError, EOFError):\n            self.drop()"),  # too narrow
     ("jit", "            self.drop()\n            return None", "            return None"),  # a corrupt entry kept
+    ("jit", "if head == NRT_MARK and hashlib.sha256(payload).digest() == digest:",
+     "if head == NRT_MARK:"),  # an NRT cache file its sha256 does not match loaded
+    ("jit", "        _write_whole(path, NRT_MARK", "        0 and _write_whole(path, NRT_MARK"),  # NRT never cached
+    ("jit", 'with contextlib.nullcontext() if os.path.isfile(NUMBA_CONFIG) else _unimportable("yaml"):',
+     'with _unimportable("yaml"):'),  # a .numba_config.yaml ignored
     ("tools/view/server", "if len(scene.lights) > MAX_VIEW_LIGHTS:", "if len(scene.lights) > 10 * MAX_VIEW_LIGHTS:"),
     ("tools/view/session", "    if size > MAX_MESSAGE_BYTES:", "    if size > SOCKET_MAX_BYTES:"),
     ("tools/view/server", "        if size > MAX_SCENE_BYTES:", "        if size > MAX_SCENE_BYTES << 10:"),  # KiB

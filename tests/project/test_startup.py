@@ -110,6 +110,7 @@ NOT_ON_THE_DEFAULT_PATH = (
     "raycast_phong.io.meshes.source",
     "raycast_phong.io.textures",
     "trimesh", "PIL", "scipy.linalg", "matplotlib",
+    "yaml",  # numba's config reads a .numba_config.yaml with it: there is none in the working folder
 )
 LOADED = ("import atexit, json, sys\n"
           "atexit.register(lambda: print(json.dumps(sorted(sys.modules))))\n"
@@ -128,3 +129,55 @@ def test_a_render_of_the_default_scene_imports_none_of_what_it_does_not_use(tmp_
     loaded = json.loads(run.stdout.splitlines()[-1])
     assert output.stat().st_size > 0 and "raycast_phong.renderer.kernels.tile" in loaded
     assert [name for name in NOT_ON_THE_DEFAULT_PATH if name in loaded] == []
+
+
+CONFIG_READ = "import sys, raycast_phong.jit, numba\nprint('yaml' in sys.modules, numba.config.CACHE_DIR)\n"
+
+
+def test_numba_s_config_file_is_read_where_there_is_one_and_pyyaml_not_imported_where_there_is_none(tmp_path):
+    """numba's import reads a .numba_config.yaml in the working folder with PyYAML, which it imports either way
+    (9 ms of a start-up): jit imports numba without it where there is no such file, and with it, the file's
+    settings taken as numba takes them, where there is one. Afterwards `import yaml` works as ever."""
+    folder = tmp_path / "with-config"
+    folder.mkdir()
+    (folder / ".numba_config.yaml").write_text(f"cache_dir: {tmp_path / 'from-yaml'}\n", encoding="utf-8")
+    env = {key: value for key, value in os.environ.items() if key != "NUMBA_CACHE_DIR"}
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")])
+    read = subprocess.run([sys.executable, "-c", CONFIG_READ], capture_output=True, text=True, cwd=folder, env=env,
+                          timeout=600)
+    assert read.returncode == 0 and read.stdout.split() == ["True", str(tmp_path / "from-yaml")], read.stderr
+    none = subprocess.run([sys.executable, "-c", CONFIG_READ + "import yaml\nprint(yaml.safe_load('a: 1'))\n"],
+                          capture_output=True, text=True, cwd=tmp_path, env=env, timeout=600)
+    assert none.returncode == 0, none.stderr
+    assert [line.strip() for line in none.stdout.splitlines()] == ["False", "{'a': 1}"], none.stdout
+
+
+NRT_COUNTED = ("import numba.core.runtime.nrtdynmod as nrt\ncompiled = []\nmake = nrt.create_nrt_module\n"
+               "nrt.create_nrt_module = lambda context: (compiled.append(1), make(context))[1]\n")
+
+
+def test_numba_s_runtime_functions_come_from_the_kernel_cache_after_the_first_process(tmp_path):
+    """numba compiles its NRT's functions (a small LLVM module) at each process's first kernel call, 15-18 ms of a
+    start-up: jit.initialise_nrt keeps them in the kernel cache as object code. The first process compiles them
+    (the control), the next loads them and its cached kernel runs, and np.empty (the NRT allocates) still works
+    and raises its own error; a cache file that is cut short, altered or not the NRT's is compiled over, once."""
+    (tmp_path / "allocating.py").write_text(ALLOCATING, encoding="utf-8")
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    code = NRT_COUNTED + CALL + "print('compiled', len(compiled))\n"
+
+    def run() -> list[str]:
+        done = python(code, str(tmp_path), env=env)
+        assert done.returncode == 0, done.stderr
+        return done.stdout.splitlines()
+
+    assert run()[-1] == "compiled 1"
+    saved = list((tmp_path / "cache").rglob("nrt-*.nbc"))
+    assert len(saved) == 1, saved
+    assert run() == ["11.0 False", "negative dimensions not allowed", "compiled 0"]
+    whole = saved[0].read_bytes()
+    digest = whole.index(b"\n") + 1  # the file: a line naming it, the payload's sha256 (32 bytes), the payload
+    for damaged in (whole[:len(whole) // 2], whole[:-1] + bytes([whole[-1] ^ 1]), b"not a cache file",
+                    whole[:digest] + bytes(32) + whole[digest + 32:]):  # a payload its sha256 does not match
+        saved[0].write_bytes(damaged)
+        assert run() == ["11.0 False", "negative dimensions not allowed", "compiled 1"]
+        assert run()[-1] == "compiled 0"  # written whole again by the compile

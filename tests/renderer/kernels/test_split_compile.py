@@ -221,7 +221,7 @@ PLAIN = textwrap.dedent("""
     from raycast_phong.renderer.kernels import shading, shadows
     from raycast_phong.renderer.warmup import ready_kernels
     scene = rp.load_scene(sys.argv[1], ["render.width=40", "render.height=30"])
-    print(jit.PLAIN, jit.LIGHT_LOAD, jit.BY_ADDRESS)
+    print(jit.PLAIN, jit.LIGHT_LOAD, jit.BY_ADDRESS, jit.NRT_CACHED)
     print(ready_kernels(scene, lambda line: print("announced"))[0])
     print(by_address.shadow_caster(True) is shadows.cast_shadows)
     print(hashlib.sha256(rp.render(scene).image.tobytes()).hexdigest())
@@ -231,9 +231,10 @@ PLAIN = textwrap.dedent("""
 @pytest.mark.slow
 def test_with_the_fast_paths_off_the_callees_are_linked_and_the_image_is_the_same(tmp_path):
     """RAYCAST_PHONG_PLAIN_NUMBA=1 turns off every fast path on numba's internals (jit.PLAIN): numba's own cache
-    load, callees linked into render_band instead of handed by address, one compile process. A global-mode scene
-    (both callees) then compiles with plain numba, announced, and gives the bits the fast paths give; the second
-    process compiles render_band again (numba caches no kernel taking a dispatcher), announced too."""
+    load and its runtime functions compiled in each process, callees linked into render_band instead of handed by
+    address, one compile process. A global-mode scene (both callees) then compiles with plain numba, announced, and
+    gives the bits the fast paths give; the second process compiles render_band again (numba caches no kernel
+    taking a dispatcher), announced too."""
     import hashlib
 
     import raycast_phong as rp
@@ -244,7 +245,8 @@ def test_with_the_fast_paths_off_the_callees_are_linked_and_the_image_is_the_sam
     for run in runs:
         assert run.returncode == 0 and not run.stderr, run.stderr
     first, second = (run.stdout.split("\n") for run in runs)
-    assert first[0] == "True False False" and first[-3] == "True"  # the shadow rays' handle is the dispatcher
+    assert first[0] == "True False False False" and first[-3] == "True"  # the shadow rays' handle: the dispatcher
+    assert not list((tmp_path / "cache").rglob("nrt-*")), "numba's runtime functions were cached"
     assert first[1:3] == second[1:3] == ["announced", "compile"]
     fast = rp.render(rp.load_scene(scene, ["render.width=40", "render.height=30"])).image
     assert first[-2] == second[-2] == hashlib.sha256(fast.tobytes()).hexdigest()
