@@ -3,6 +3,9 @@ trimesh; both give trimesh's points, and the memory guard's floor follows what e
 
 from __future__ import annotations
 
+import math
+import re
+
 import numpy as np
 import pytest
 import trimesh
@@ -163,3 +166,73 @@ def test_an_ascii_stl_s_scan_is_warmed_and_a_binary_one_s_not(stl_files):
     for path, expected in ((binary, ()), (ascii_file, (stl_ascii.warm_up,))):
         with path.open("rb") as handle:
             assert stl.warm_up(handle) == expected, path.name
+
+
+def test_a_binary_stl_read_a_few_records_at_a_time_gives_every_corner(stl_files, monkeypatch):
+    """The records are read RECORDS_READ at a time: with 7 (288 triangles: 41 whole reads and a last of 1) the
+    corners are trimesh's, in file order; a read that comes back short (the file shrank under the reader) gives
+    None, the file then trimesh's to word."""
+    import io
+
+    binary, _ = stl_files
+    theirs = trimesh.load(binary, process=False).vertices
+    monkeypatch.setattr(stl, "RECORDS_READ", 7)
+    with binary.open("rb") as handle:
+        corners = stl.binary_stl_points(handle)
+    assert corners.dtype == np.float32 and corners.shape == theirs.shape
+    np.testing.assert_array_equal(corners.astype(np.float64), theirs)
+
+    class Shrinking(io.FileIO):
+        """Its third read finds the end of the file."""
+        reads = 0
+
+        def readinto(self, buffer):
+            self.reads += 1
+            return super().readinto(buffer) if self.reads < 4 else 0  # the 84-byte header is read() first
+
+    with Shrinking(binary) as handle:
+        assert stl.binary_stl_points(handle) is None and handle.reads == 4
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_the_framing_radius_is_numpy_s_largest_row_sum_bit_for_bit(dtype, monkeypatch):
+    """read._radius, column by column in blocks, gives the bits of sqrt(max(((p − c)²).sum(axis=1))) in float64:
+    points far from the origin and of every size, several seeds, blocks of 5 rows and of RADIUS_ROWS; and a point
+    whose squares' sum depends on the order they are added in, added (dx² + dy²) + dz² as numpy's row sum adds."""
+    for seed in range(8):
+        rng = np.random.default_rng(seed)
+        points = (rng.standard_normal((20_000, 3)) * 10.0 ** rng.uniform(-3, 4, (20_000, 1))
+                  + rng.uniform(-1e4, 1e4, 3)).astype(dtype)
+        centre = (points.min(axis=0).astype(np.float64) + points.max(axis=0).astype(np.float64)) / 2
+        expected = float(np.sqrt(((points.astype(np.float64) - centre) ** 2).sum(axis=1).max()))
+        assert mesh_file._radius(points, centre) == expected, seed
+        with monkeypatch.context() as patch:
+            patch.setattr(mesh_file, "RADIUS_ROWS", 5)
+            assert mesh_file._radius(points, centre) == expected, seed
+    # Float32 coordinates' squares add up exactly in float64 almost always; these float64 ones do not: added
+    # (dx² + dz²) + dy² their root is one unit in the last place less (2.908607914449797).
+    pair = np.array([[0.1, 0.2, 2.9], [-0.1, -0.2, -2.9]], dtype)
+    centre = np.zeros(3)
+    x, y, z = (float(value) for value in pair[0])
+    assert mesh_file._radius(pair, centre) == math.sqrt((x * x + y * y) + z * z)
+
+
+@pytest.mark.parametrize(("corner", "refused"), [
+    ("1e18 0 0", None), ("0 0 -1e18", None),
+    ("1.000001e18 0 0", "1 vertex(es) with a coordinate beyond ±1e+18"),
+    ("0 0 -1.000001e18", "1 vertex(es) with a coordinate beyond ±1e+18"),
+    ("0 nan 0", "1 vertex(es) with NaN or infinite coordinates"),
+    ("0 0 -inf", "1 vertex(es) with NaN or infinite coordinates"),
+])
+def test_a_mesh_file_s_coordinates_are_held_to_the_position_limit_exactly(tmp_path, corner, refused):
+    """Every vertex of a face within ±1e18 (POSITION_LIMIT), read off the vertices' bounding box: exactly ±1e18
+    is taken on either side, a millionth past it refused, as are NaN and ±inf; a vertex no face uses is not
+    checked (the last, at 1e30)."""
+    from raycast_phong.errors import SceneError
+    path = tmp_path / "edge.obj"
+    path.write_text(f"v 0 0 0\nv 1 0 0\nv {corner}\nv 1e30 0 0\nf 1 2 3\n", encoding="utf-8")
+    if refused is None:
+        assert read_mesh(path, "t").faces.tolist() == [[0, 1, 2]]
+    else:
+        with pytest.raises(SceneError, match=re.escape(refused)):
+            read_mesh(path, "t")
