@@ -112,6 +112,11 @@ HAND_MUTANTS = (
      "max((placed(child_part, child, depth + 1) for child_part, child in found), default=0)"),  # one component
     ("io/meshes/read", "        raise SceneError(problem.problem, mesh.where) from None",
      "        raise SceneError(problem.problem) from None"),  # a reader's problem without the scene key
+    ("io/meshes/read", "        squared += np.square(block[:, 1] - centre[1])\n"
+     "        squared += np.square(block[:, 2] - centre[2])", "        squared += np.square(block[:, 2] - centre[2])\n"
+     "        squared += np.square(block[:, 1] - centre[1])"),  # the radius's sum in another order: other bits
+    ("io/meshes/stl", "        if handle.readinto(some.view(np.uint8)) != some.nbytes:",
+     "        if handle.readinto(some.view(np.uint8)) is None:"),  # a file cut under the read: zeros read as points
     ("io/meshes/stl", "return len(head) >= 84 and size == 84 + 50 * int.from_bytes(head[80:84], \"little\")",
      "return len(head) >= 84 and size >= 84 + 50 * int.from_bytes(head[80:84], \"little\")"),  # trailing bytes
     ("io/textures", "    mismatch = image_suffix_mismatch(path)\n    if mismatch:",
