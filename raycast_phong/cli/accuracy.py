@@ -59,7 +59,7 @@ def reference_command(
 ) -> None:
     """Render the analytic reference: the same camera, lights, materials and model on the exact sphere,
     plane, box, cylinder and torus, in float64, with the true normal."""
-    from raycast_phong.io.image_io import check_output_path
+    from raycast_phong.io.files import check_output_path
     from raycast_phong.tools.accuracy import reference_image
     check_verbosity(quiet, verbose)
     with exit_codes():

@@ -64,7 +64,8 @@ def side_by_side(
 ) -> None:
     """Render a scene once per value of one key; write the variants side by side over heat maps of how
     much each differs from the last, and print the share of pixels changed, mean and max difference."""
-    from raycast_phong.io.image_io import NO_FONT, check_output_path
+    from raycast_phong.io.files import check_output_path
+    from raycast_phong.io.image_io import NO_FONT
     from raycast_phong.tools import compare  # only this command composes variants
 
     from .render import summary_line
@@ -168,7 +169,8 @@ def compare_images(
 ) -> None:
     """Compare two images as idiff does: mean, RMS, PSNR, the largest error and where. Exit status 0 pass
     (warnings included), 1 fail, 2 unreadable input or different sizes."""
-    from raycast_phong.io.image_io import check_output_path, compare_files
+    from raycast_phong.io.files import check_output_path
+    from raycast_phong.io.image_io import compare_files
     from raycast_phong.tools.difference import difference_map
     check_verbosity(quiet, verbose)
     with exit_codes():

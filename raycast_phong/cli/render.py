@@ -118,10 +118,11 @@ def render(
 
 def _render_with_progress(scene: rp.Scene, threads: int | None, quiet: bool,
                           max_memory: int | None = None) -> rp.RenderResult:
+    from raycast_phong.renderer.fit import fitted
+    fitted(scene, None, threads, max_memory)  # a refused scene loads neither numba nor a kernel: it compiles nothing
     from raycast_phong.renderer.prepare import Renderer
     from raycast_phong.renderer.warmup import ready_kernels
     session = Renderer(threads=threads, max_memory=max_memory)
-    session.check_fits(scene)  # a refused scene compiles nothing
     stage, seconds = ready_kernels(scene, None if quiet else lambda line: typer.echo(line, err=True))
     with progress_bar(quiet) as bar:  # over the tiles, on a terminal (cli.progress)
         bar.update(0, None, "building the geometry and the BVH")

@@ -72,7 +72,7 @@ def scene_command(
         header = (f"# The scene `raycast-phong render {scene.name}` renders: written by `raycast-phong scene`.\n"
                   "# A [materials.NAME] table overrides the mesh file's material of that name; see docs/meshes.md.")
         if output is not None:
-            from raycast_phong.io.image_io import check_output_file
+            from raycast_phong.io.files import check_output_file
             check_output_file(output, inputs=(scene, *loaded.files_read()))  # nor its .mtl, maps, buffers
         text = scene_toml(loaded, header, relative_to=output.parent if output is not None else None)
         if output is not None:

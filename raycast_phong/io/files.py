@@ -1,6 +1,7 @@
-"""Reading input files safely: open_regular opens only a regular file (never a FIFO, a device or a folder) of
-at most a given size; file_version names a version of a file, (resolved path, mtime, size, inode): a rewrite
-changes at least one, so what was learnt of one version is never taken for another's.
+"""Files, safely: open_regular opens only a regular file (never a FIFO, a device or a folder) of at most a given
+size; file_version names a version of a file, (resolved path, mtime, size, inode): a rewrite changes at least one,
+so what was learnt of one version is never taken for another's; check_output_path refuses, before anything
+renders, an image output that could not be written or would replace an input (no codec is loaded for it).
 """
 
 from __future__ import annotations
@@ -13,7 +14,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import BinaryIO
 
-from ..errors import SceneError, Where, shortened
+from ..codes import IMAGE_SUFFIXES
+from ..errors import ImageError, SceneError, Where, shortened
 
 FILE_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe (FIFO)"), (stat.S_ISCHR, "a device"),
               (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
@@ -135,3 +137,61 @@ def native_errors_kept():
                     if not NATIVE_ERROR_LINE.match(line)]
             if kept:
                 sys.stderr.write("".join(kept))
+
+
+# ---------------------------------------------------------------- where an image may be written
+
+def check_output_path(path: str | Path, inputs: tuple[str | Path, ...] = ()) -> Path:
+    """Refuse, before rendering, an output whose folder is missing, whose format is unknown, that is a
+    folder, or that is one of the command's `inputs` (writing it would destroy what is being read)."""
+    path = Path(path)
+    if os.path.isdir(path):  # before the suffix: a folder has none, and "no extension" would not say why
+        check_output_file(path, inputs)  # which says it is a folder
+    if path.suffix.lower() not in IMAGE_SUFFIXES:
+        got = f"not {path.suffix!r}" if path.suffix else "it has no extension"
+        raise ImageError(f"{path}: the output must end in .png (8-bit) or .exr (float32), {got}")
+    check_output_file(path, inputs)
+    return path
+
+
+def check_output_file(path: Path, inputs: tuple[str | Path, ...] = ()) -> None:
+    """Refuse an output file in a missing or read-only folder, a folder itself, or one of `inputs`."""
+    folder = path.parent if str(path.parent) else Path(".")
+    _check_name_length(path, folder)
+    if not folder.is_dir():
+        raise ImageError(f"{path}: the output folder {str(folder)!r} does not exist; create it or choose an "
+                         "existing folder")
+    if path.is_dir():
+        raise ImageError(f"{path}: the output is a folder; give a file name in it, e.g. {path / 'render.png'}")
+    for given in inputs:
+        if _same_file(path, Path(given)):
+            raise ImageError(f"{path}: the output is the input {given}; writing it would replace what is read")
+    if not os.access(folder, os.W_OK):
+        raise ImageError(f"{path}: the output folder {str(folder)!r} is not writable")
+
+
+def _check_name_length(path: Path, folder: Path) -> None:
+    """Refuse a file name or path longer than the file system allows (ENAMETOOLONG from any later call)."""
+    name, whole = len(os.fsencode(path.name)), len(os.fsencode(str(path)))
+    try:
+        name_max = os.pathconf(folder if folder.is_dir() else ".", "PC_NAME_MAX")
+        path_max = os.pathconf(folder if folder.is_dir() else ".", "PC_PATH_MAX")
+    except (OSError, ValueError):
+        name_max, path_max = 255, 4096
+    if name > name_max or whole >= path_max:
+        what, size, limit = ("file name", name, name_max) if name > name_max else ("path", whole, path_max)
+        shown = f"{str(path)[:60]}…" if len(str(path)) > 60 else str(path)
+        raise ImageError(f"{shown}: the output's {what} is {size:,} bytes, longer than the {limit:,} the file system "
+                         "allows; choose a shorter name")
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """One file under two spellings (relative, `..`, a symbolic or hard link), or one path not yet written. A
+    path no file can have (a NUL byte) is no other: the input's own check words it."""
+    try:
+        try:
+            return os.path.samefile(a, b)
+        except OSError:  # one of them does not exist: compare the spelled-out paths
+            return a.resolve() == b.resolve()
+    except ValueError:
+        return False

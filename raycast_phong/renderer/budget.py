@@ -117,7 +117,7 @@ def estimate_memory(scene: Scene, *, smooth: bool = True, float64: bool = False,
                 per = max(per, CREASED_FILE_BYTES)
         costs.append((index, objects, count, per + extra, floor))
         triangles += count * objects
-    from .embree_library import MORTON_FACES  # (ctypes and llvmlite: only when a scene is estimated)
+    from .embree_library import MORTON_FACES  # (ctypes: only when a scene is estimated; no numba, no LLVM)
     saving = MORTON_SAVING_BYTES if triangles >= MORTON_FACES else 0
     for index, objects, count, per, floor in costs:
         size = max(count * (per - saving), floor)

@@ -18,10 +18,8 @@ from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
-from llvmlite import binding
 
 from ..errors import EmbreeError, OptionError
-from .kernels.ray_queries import INTERSECT16, OCCLUDED16
 
 LIBRARY_VARIABLE = "RAYCAST_PHONG_EMBREE_LIBRARY"  # a path to use instead of embreex's own libembree4
 
@@ -82,6 +80,7 @@ class Library:
             function.restype, function.argtypes = result, arguments
             setattr(self, name, function)
         self.path = path
+        from .kernels.ray_queries import INTERSECT16, OCCLUDED16  # the kernels' (numba): only once the library loads
         self.query_addresses = {INTERSECT16: ctypes.cast(lib.rtcIntersect16, p).value,
                                 OCCLUDED16: ctypes.cast(lib.rtcOccluded16, p).value}
         self._lib = lib  # keep the library loaded while its functions are in use
@@ -111,6 +110,7 @@ def library() -> Library:
                               "name libembree4.so.4, or unset it to use embreex's") from None
         raise EmbreeError(f"Embree's C library could not be loaded from {path or 'embreex'} ({error}); "
                           "reinstall embreex") from None
+    from llvmlite import binding  # numba's LLVM: only once the library loads, not for the constants here
     for name, address in loaded.query_addresses.items():
         binding.add_symbol(name, address)
     return loaded

@@ -12,15 +12,17 @@ import numpy as np
 
 from .. import jit
 from ..codes import StageName
+from ..io.system import default_threads
 from ..records import RenderPlan, RenderResult
 from ..scene.load import load_scene
 from ..scene.schema import Scene
 from . import embree_library
 from .by_address import cutter, shader, shadow_caster
 from .film import allocate_film
+from .fit import TILE_RAYS
 from .kernels.tile import render_band
 from .pack import film_rows
-from .prepare import NO_SHADOWS, TILE_RAYS, FrameCache, Renderer, default_threads, prepare
+from .prepare import NO_SHADOWS, FrameCache, Renderer, prepare
 
 __all__ = ["TILE_RAYS", "FrameCache", "Renderer", "default_threads", "render", "render_file", "warm_kernels",
            "warm_kernels_for"]

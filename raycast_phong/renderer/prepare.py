@@ -23,7 +23,6 @@ import time
 from collections.abc import Callable
 from concurrent.futures import Executor, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
-from typing import NamedTuple
 
 import numpy as np
 
@@ -32,22 +31,19 @@ from ..errors import RenderCancelled
 from ..geometry.build import build_geometry
 from ..geometry.memo import FRESH
 from ..geometry.normals import PARALLEL_FACES, prep_threads
-from ..io.system import default_threads
 from ..records import Frame, Geometry, ImageBuffers, RenderPlan, RenderResult
-from ..scene.schema import Scene, SceneError
-from ..shapes import from_file
-from .budget import MemoryEstimate, check_memory
+from ..scene.schema import Scene
+from .budget import MemoryEstimate
 from .by_address import cutter, shader, shadow_caster
 from .diagnosis import ObjectFigures, diagnose
 from .film import allocate_film, film_layers
+from .fit import Fitted, fitted
 from .intersect import Accelerator, frame_of_box, unit_frame
-from .kernels.layout import COUNTS, MAX_LIGHTS, ShadingInputs, ShadowInputs
+from .kernels.layout import COUNTS, ShadingInputs, ShadowInputs
 from .kernels.tile import render_band
 from .pack import RayGenerator, camera_rig, film_rows, no_shadows, plan_flags, prepare_shading, prepare_shadows
-from .plan import build_plan
 from .reuse import FrameCache
 
-TILE_RAYS = 1 << 15  # 32k rays: large enough to amortise a call, small enough for ~10 MB per tile
 # A mesh of at least this many faces, rendered on 2 threads or more, has its BVH built on a thread of its own from the
 # moment its vertices and faces are final (BuildAhead), while its normals, diagnosis and packing go on: neither keeps
 # both cores busy alone (bunny-1m, 1.1M triangles: Embree's Morton build 0.095 s of CPU in 0.05 s of wall with two free
@@ -187,41 +183,15 @@ class Renderer:
         budget (the CLI refuses before any kernel compiles; the study checks every level before it measures)."""
         return self._fitted(scene, None).memory
 
-    def _fitted(self, scene: Scene, plan: RenderPlan | None) -> _Fitted:
-        """The plan, the bands and the memory check (a SceneError over the budget)."""
-        plan = plan or build_plan(scene)
-        if plan.keeps(StageName.SHADOW_RAYS) and len(scene.lights) > MAX_LIGHTS:
-            raise SceneError(f"global mode handles at most {MAX_LIGHTS} lights, the scene has {len(scene.lights)}; "
-                             'use render.mode = "local" or fewer lights', scene.origin.at("lights"))
-        width, height, samples = scene.render.width, scene.render.height, scene.render.samples
-        rows_per_tile = max(1, TILE_RAYS // (width * samples * samples))
-        bands = tuple((row, min(row + rows_per_tile, height)) for row in range(0, height, rows_per_tile))
-        threads = self.threads or default_threads()
-        tile_rays = rows_per_tile * width * samples * samples
-        sources = None
-        if any(map(from_file, scene.objects)):  # each mesh file's MeshSource, read once (the scene's)
-            from ..io.meshes.source import mesh_sources
-            sources = mesh_sources(scene)
-        memory = check_memory(scene, self.max_memory, sources=sources, smooth=plan.keeps(StageName.VERTEX_NORMALS),
-                              float64=plan.keeps(StageName.FLOAT64_SHADING),
-                              shadow_lights=len(scene.lights) if plan.keeps(StageName.SHADOW_RAYS) else 0,
-                              tile_rays=tile_rays, threads=min(threads, len(bands)))
-        return _Fitted(plan, bands, threads, tile_rays, sources, memory)
+    def _fitted(self, scene: Scene, plan: RenderPlan | None) -> Fitted:
+        """The plan, the bands and the memory check (a SceneError over the budget): fit.fitted with this session's
+        threads and budget."""
+        return fitted(scene, plan, self.threads, self.max_memory)
 
 
 def prepare(scene: Scene, plan: RenderPlan | None = None) -> Prepared:
     """A default session's prepare() (the plan command's, the warm-up's): Renderer().prepare(scene, plan)."""
     return Renderer().prepare(scene, plan)
-
-
-class _Fitted(NamedTuple):
-    """What prepare() settles before anything is built."""
-    plan: RenderPlan
-    bands: tuple[tuple[int, int], ...]  # rows [row0, row1) of each tile
-    threads: int
-    tile_rays: int                      # the rays of a full tile
-    sources: dict | None                # each mesh file's MeshSource (None: the scene has none)
-    memory: MemoryEstimate
 
 
 class BuildAhead:

@@ -42,7 +42,7 @@ def render_output(scene: Scene, scene_path: Path, given: Path | None, builtin: b
     """The image `render` writes for `scene` read from `scene_path` (`builtin`: the default scene), -o `given` or
     None; never the scene file itself. Raises SceneError or ImageError, one line naming the scene and where the
     path came from."""
-    from ..io.image_io import check_output_path  # OpenImageIO: only once a render is on its way
+    from ..io.files import check_output_path
     option = "--output" if given is not None else "output.path"
     if given is None and not builtin:
         _check_inside(scene)  # a scene writes inside its folder; elsewhere only with -o

@@ -38,7 +38,7 @@ import numpy as np
 
 from ..errors import OutputError
 from ..io.atomic import write_text
-from ..io.image_io import check_output_file
+from ..io.files import check_output_file
 from ..io.system import usable_cores
 from ..records import Geometry
 from ..renderer.frame import render

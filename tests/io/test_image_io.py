@@ -181,7 +181,7 @@ def test_an_output_path_as_long_as_path_max_is_refused_and_one_byte_shorter_is_n
     """PATH_MAX counts the terminating NUL (POSIX), so a path of exactly PATH_MAX bytes is one open() refuses
     with ENAMETOOLONG: the check refuses it before rendering, and lets one byte less through."""
     from raycast_phong.errors import ImageError
-    from raycast_phong.io.image_io import _check_name_length
+    from raycast_phong.io.files import _check_name_length
     limit = os.pathconf(tmp_path, "PC_PATH_MAX")
 
     def path_of(length: int) -> Path:
@@ -200,7 +200,7 @@ def test_a_file_name_is_measured_in_bytes_not_characters(tmp_path):
     """NAME_MAX is bytes: 200 "é" and ".png" are 404 bytes in UTF-8, over the 255 most file systems allow,
     though only 204 characters; 125 "é" (254 bytes with ".png") pass, and the file system takes them."""
     from raycast_phong.errors import ImageError
-    from raycast_phong.io.image_io import _check_name_length
+    from raycast_phong.io.files import _check_name_length
     with pytest.raises(ImageError, match="file name is 404 bytes, longer than the"):
         _check_name_length(tmp_path / ("é" * 200 + ".png"), tmp_path)
     _check_name_length(tmp_path / ("é" * 125 + ".png"), tmp_path)
@@ -214,7 +214,7 @@ def test_a_file_name_of_exactly_name_max_bytes_is_allowed_and_one_more_is_not(tm
     written), one byte more is refused naming the file name; in a path also too long, the path is named, since
     the name is within its limit."""
     from raycast_phong.errors import ImageError
-    from raycast_phong.io.image_io import _check_name_length
+    from raycast_phong.io.files import _check_name_length
     limit = os.pathconf(tmp_path, "PC_NAME_MAX")
     name = "n" * (limit - 4) + ".png"
     _check_name_length(tmp_path / name, tmp_path)

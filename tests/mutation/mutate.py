@@ -161,11 +161,11 @@ HAND_MUTANTS = (
      "if now - moved >= 10 * STALL_SECONDS:"),  # a stopped helper waited for as if its CPU time were unknown
     ("io/meshes/ply", "and element.rows for element in header.elements):", "for element in header.elements):"),
     # issue 50's guards, a third set: an independent replay's survivors, each with the test written for it
-    ("io/image_io", "whole >= path_max", "whole > path_max"),  # PATH_MAX counts the NUL
+    ("io/files", "whole >= path_max", "whole > path_max"),  # PATH_MAX counts the NUL
     ("io/image_io", "need = sum(w * h * c for w, h, c in filter(None, sizes.values())) * per_sample",
      "need = max((w * h * c for w, h, c in filter(None, sizes.values())), default=0) * per_sample"),
     ("io/image_io", "for part in range(parts):", "for part in range(1):"),  # a cut last EXR part
-    ("io/image_io", "len(os.fsencode(path.name)), len(os.fsencode(str(path)))", "len(path.name), len(str(path))"),
+    ("io/files", "len(os.fsencode(path.name)), len(os.fsencode(str(path)))", "len(path.name), len(str(path))"),
     ("io/textures", "    except (SceneError, OSError):\n        return None\n    if image_suffix_mismatch",
      "    except SceneError:\n        return None\n    if image_suffix_mismatch"),  # a missing map raises
     ("io/meshes/collada", 'INDEX_LISTS = ("p", "v", "vcount")', 'INDEX_LISTS = ("p",)'),
@@ -231,7 +231,7 @@ HAND_MUTANTS = (
      "samples ** 2 >= MAX_VIEW_RAYS"),  # the view's largest frame refused
     ("tools/view/server", "if size > MAX_SCENE_BYTES:",
      "if size > MAX_SCENE_BYTES + 1:"),  # a page-opened scene of 60,001 bytes read
-    ("renderer/prepare", "len(scene.lights) > MAX_LIGHTS",
+    ("renderer/fit", "len(scene.lights) > MAX_LIGHTS",
      "len(scene.lights) >= MAX_LIGHTS"),  # global mode refusing 63 lights
     ("io/meshes/obj", "np.float64)) > UV_LIMIT).any()",
      "np.float64)) >= UV_LIMIT).any()"),  # float32's largest uv refused

@@ -10,6 +10,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[2]
 
 # Modules numba imports only to set up its typing and lowering registries (CPUContext.load_additional_registries).
@@ -181,3 +183,34 @@ def test_numba_s_runtime_functions_come_from_the_kernel_cache_after_the_first_pr
         saved[0].write_bytes(damaged)
         assert run() == ["11.0 False", "negative dimensions not allowed", "compiled 1"]
         assert run()[-1] == "compiled 0"  # written whole again by the compile
+
+
+NOT_FOR_A_REFUSAL = ("numba", "llvmlite", "OpenImageIO", "raycast_phong.renderer.prepare", "raycast_phong.jit")
+
+
+@pytest.mark.parametrize("case", ["over the budget", "a map of zeros named .png", "too many lights"])
+def test_a_scene_refused_before_rendering_loads_neither_numba_nor_the_renderer(tmp_path, case):
+    """A scene `render` refuses from its plan and memory check (renderer/fit.py) exits 2 with its one line having
+    imported neither numba (0.15 s), LLVM, OpenImageIO nor the renderer's stages: a refused input costs its
+    validation alone (issue 46). The control: the same scene's render, unrefused, imports them."""
+    scene = tmp_path / "s.toml"
+    body = '[render]\nwidth = 8\nheight = 6\n[[objects]]\nshape = "icosphere"\nsubdivisions = 1\n'
+    options, expected = [], "error: "
+    if case == "over the budget":
+        options, expected = ["--width", "4000", "--height", "3000", "--max-memory", "10M"], "above the 10 MB budget"
+    elif case == "a map of zeros named .png":
+        (tmp_path / "zeros.png").write_bytes(bytes(64))
+        body += 'material = "m"\n[materials.m]\nkd_map = "zeros.png"\n'
+        expected = "is not a PNG file"
+    else:
+        body = body.replace("[render]\n", '[render]\nmode = "global"\n') + '[[lights]]\nposition = [1, 2, 3]\n' * 64
+        expected = "global mode handles at most 63 lights"
+    scene.write_text(body, encoding="utf-8")
+    run = python(LOADED, "render", str(scene), "-q", "-o", str(tmp_path / "out.png"), *options)
+    assert run.returncode == 2 and expected in run.stderr and len(run.stderr.splitlines()) == 1, run.stderr
+    loaded = json.loads(run.stdout.splitlines()[-1])
+    assert [name for name in NOT_FOR_A_REFUSAL if name in loaded] == []
+    if case == "over the budget":  # the control
+        done = python(LOADED, "render", str(scene), "-q", "-o", str(tmp_path / "out.png"))
+        assert done.returncode == 0, done.stderr
+        assert set(NOT_FOR_A_REFUSAL) <= set(json.loads(done.stdout.splitlines()[-1]))

@@ -35,17 +35,18 @@ def test_every_caller_prepares_through_the_one_sequencer(monkeypatch, tmp_path):
     from typer.testing import CliRunner
 
     from raycast_phong.cli import app
+    from raycast_phong.renderer import fit
     from raycast_phong.renderer import prepare as module
     from raycast_phong.renderer.frame import warm_kernels
     from raycast_phong.tools.accuracy import mesh_coverage
     checks = []
-    check_memory = module.check_memory
+    check_memory = fit.check_memory
 
     def counted(*args, **kwargs):
         checks.append(kwargs)
         return check_memory(*args, **kwargs)
 
-    monkeypatch.setattr(module, "check_memory", counted)
+    monkeypatch.setattr(fit, "check_memory", counted)  # prepare()'s check, made by fit.fitted
     path = tmp_path / "s.toml"
     path.write_text('[render]\nwidth = 32\nheight = 24\nmode = "global"\n[[lights]]\ntype = "point"\n'
                     'position = [2, 2, 3]\n[[objects]]\nshape = "icosphere"\n')

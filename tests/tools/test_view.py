@@ -1071,7 +1071,7 @@ def test_a_newer_request_cancels_a_running_full_frame_between_bands(scene_path, 
     """A full frame of 8 × 8 samples (40 bands of 3 rows) is refined: a preview of one sample a pixel first, then
     the full frame. A draft sent while the full frame's first bands run stops it: the bands already started end,
     no other starts, the page is told how many were done, and the draft follows."""
-    from raycast_phong.renderer import prepare
+    from raycast_phong.io import system
     # The full frame's bands wait until the newer request has cancelled it.
     render, calls = held_until_cancelled(monkeypatch, lambda tile: tile.rays.samples > 1)
     settings = {"render.width": 160, "render.height": 120, "render.samples": 8}
@@ -1088,7 +1088,7 @@ def test_a_newer_request_cancels_a_running_full_frame_between_bands(scene_path, 
     assert (preview["id"], preview["quality"], preview["stats"]["a"]["rays"]) == (1, "preview", 160 * 120)
     assert told["type"] == "cancelled" and told["id"] == 1 and told["of"] == 40, told
     # Only the bands the render threads had started when it was cancelled were rendered (one a thread).
-    assert told["done"] == len(calls) <= prepare.default_threads() < 40
+    assert told["done"] == len(calls) <= system.default_threads() < 40
     assert (draft["id"], draft["quality"]) == (2, "draft")
 
 
@@ -1204,6 +1204,7 @@ def test_the_bands_of_every_frame_run_on_the_servers_band_threads_which_stop_wit
     Frames stay the PNGs render() gives."""
     from websockets.sync.client import connect as socket_to
 
+    from raycast_phong.io import system
     from raycast_phong.renderer import prepare
     from raycast_phong.tools.view import running
     seen = []
@@ -1232,7 +1233,7 @@ def test_the_bands_of_every_frame_run_on_the_servers_band_threads_which_stop_wit
                     png = unpack(message)[1]["a"]
         threads = set(seen)
     assert len(seen) >= 6 * 2 and all(thread.name.startswith("view-bands") for thread in threads), threads
-    assert len({thread.ident for thread in threads}) <= prepare.default_threads()
+    assert len({thread.ident for thread in threads}) <= system.default_threads()
     for thread in threads:
         thread.join(10)
     assert not any(thread.is_alive() for thread in threads)
