@@ -17,6 +17,7 @@ The fast paths on numba's internals, each with its plain fallback, behind one sw
 RAYCAST_PHONG_PLAIN_NUMBA=1 turns every one off; each is also off by itself where what it relies on is missing):
   LIGHT_LOAD   a cached kernel loaded without numba's registries       else numba's own load
   NRT_CACHED   numba's runtime functions loaded from the cache too      else compiled in each process
+  LINK_LAZILY  a cached kernel's bitcode parsed only to link it          else parsed at each load
   BY_ADDRESS   a callee handed to its caller by address (`callee`)     else the dispatcher, linked into the caller
   two processes for a first compile (renderer/split_compile.py)        else one (it relies on both above)
 """
@@ -62,6 +63,7 @@ with contextlib.nullcontext() if os.path.isfile(NUMBA_CONFIG) else _unimportable
     from numba import njit
     from numba.core import environment
     from numba.core.caching import FunctionCache, NullCache
+    from numba.core.codegen import JITCodeLibrary, JITCPUCodegen, JitEngine
     from numba.core.compiler_lock import global_compiler_lock
     from numba.core.runtime import nrtdynmod
     from numba.core.runtime.nrt import rtsys
@@ -239,6 +241,11 @@ LIGHT_LOAD = not PLAIN and (
     all(hasattr(FunctionCache, name) for name in ("_load_overload", "_guard_against_spurious_io_errors"))
     and all(hasattr(environment, name) for name in ("_rebuild_env", "lookup_environment"))
     and isinstance(getattr(environment.Environment, "_memo", None), dict | weakref.WeakValueDictionary))
+# What a cached kernel's linking bitcode is left unparsed through (_LinkedWhenAsked); without them numba parses it.
+LINK_LAZILY = LIGHT_LOAD and (
+    all(hasattr(JITCodeLibrary, name) for name in ("_unserialize", "_get_module_for_linking", "_set_compiled_object",
+                                                    "enable_object_caching", "_finalize_final_module"))
+    and isinstance(getattr(JITCPUCodegen, "_library_class", None), type) and hasattr(JitEngine, "is_symbol_defined"))
 # What the NRT's functions come from the cache through (initialise_nrt); without them numba compiles them.
 NRT_CACHED = LIGHT_LOAD and (all(hasattr(nrtdynmod, name) for name in ("compile_nrt_functions", "create_nrt_module"))
                              and isinstance(getattr(rtsys, "_init", None), bool))
@@ -329,10 +336,16 @@ class _CacheLoadedAsIs(FunctionCache):
         # unpickler's environment rebuild is swapped for this load alone, whoever calls.
         with global_compiler_lock, self._guard_against_spurious_io_errors():  # numba's own (Windows: busy file)
             rebuild, environment._rebuild_env = environment._rebuild_env, _environment_as_is
+            codegen = target_context.codegen()
+            if LINK_LAZILY:  # the libraries this load makes: the kernel's bitcode parsed only if a compile links it
+                codegen._library_class, _LinkedWhenAsked.folder = _LinkedWhenAsked, self.cache_path
             try:
                 return self._load_overload(sig, target_context)
             finally:
                 environment._rebuild_env = rebuild
+                if LINK_LAZILY:
+                    del codegen._library_class  # numba's class attribute again
+                    _LinkedWhenAsked.folder = None
 
     def holds(self, sig, target_context) -> bool:
         """Whether the cache has an entry for `sig`, or for any signature when `sig` is None (its index only:
@@ -425,6 +438,64 @@ class ByAddress:
                                 f"not {self._signature.return_type}")
             self._address = result.library.get_pointer_to_function(result.fndesc.llvm_cfunc_wrapper_name)
         return self._address
+
+
+SYMBOLS = "symbols-"  # a cached kernel's defined symbols, by its linking bitcode's sha256 (_LinkedWhenAsked)
+
+
+class _LinkedWhenAsked(JITCodeLibrary):
+    """numba's code library of a kernel loaded from the cache, whose bitcode (kept beside the object code, for
+    linking the kernel into a caller compiled later) is parsed only when such a compile links it. numba parses it at
+    every load to learn the names the kernel defines (which its engine must know to hand out their addresses):
+    loading a default render's kernels took 78 ms with it, 42 without; a small GLB's 100 and 55. The names are read
+    instead from a file written at the first load (`SYMBOLS` + the bitcode's sha256, in the kernel's folder,
+    checked by its own sha256); the library is otherwise made as numba makes it."""
+
+    folder: str | None = None  # the folder of the kernel being loaded (set by _light_load for that load)
+    _bitcode: bytes | None = None
+
+    @classmethod
+    def _unserialize(cls, codegen, state):
+        name, kind, data = state
+        if kind != "object" or cls.folder is None:
+            return super()._unserialize(codegen, state)
+        object_code, bitcode = data
+        path = Path(cls.folder) / f"{SYMBOLS}{hashlib.sha256(bitcode).hexdigest()[:32]}"
+        names = _symbols_read(path)
+        if names is None:  # numba's load, parsing the bitcode; its names kept for the next
+            library = super()._unserialize(codegen, state)
+            module = library._shared_module
+            names = {value.name for values in (module.functions, module.global_variables) for value in values
+                     if not value.is_declaration}
+            body = "\0".join(sorted(names)).encode()  # NUL: the one byte no LLVM name holds (a .const may hold \n)
+            _write_whole(path, body + b"\n" + hashlib.sha256(body).hexdigest().encode())
+            return library
+        library = codegen.create_library(name)
+        library.enable_object_caching()
+        library._set_compiled_object(object_code)
+        library._bitcode = bitcode
+        library._finalize_final_module()
+        codegen._engine._defined_symbols |= names
+        return library
+
+    def _get_module_for_linking(self):
+        if self._bitcode is not None:  # a compile links this kernel: its bitcode now, as numba would have it
+            from llvmlite import binding
+            self._shared_module, self._bitcode = binding.parse_bitcode(self._bitcode), None
+        return super()._get_module_for_linking()
+
+
+def _symbols_read(path: Path) -> set[str] | None:
+    """The names a symbols file lists (NUL between them), or None if it is missing, unreadable or not whole (its
+    last line, the sha256 of the rest, does not match)."""
+    try:
+        data = path.read_bytes()
+    except OSError:
+        return None
+    body, _, digest = data.rpartition(b"\n")
+    if not body or hashlib.sha256(body).hexdigest().encode() != digest:
+        return None
+    return set(body.decode().split("\0"))
 
 
 NRT_MARK = b"raycast-phong nrt 1\n"  # the first line of an NRT cache file; then the payload's sha256, then the payload

@@ -148,6 +148,11 @@ HAND_MUTANTS = (
     ("jit", "if head == NRT_MARK and hashlib.sha256(payload).digest() == digest:",
      "if head == NRT_MARK:"),  # an NRT cache file its sha256 does not match loaded
     ("jit", "        _write_whole(path, NRT_MARK", "        0 and _write_whole(path, NRT_MARK"),  # NRT never cached
+    ("jit", "        names = _symbols_read(path)\n", "        names = None\n"),  # every load parses the bitcode
+    ("jit", "    if not body or hashlib.sha256(body).hexdigest().encode() != digest:",
+     "    if not body:"),  # an altered symbols file believed
+    ("jit", "        if self._bitcode is not None:  # a compile links",
+     "        if False:  # a compile links"),  # a loaded kernel that cannot be linked
     ("jit", 'with contextlib.nullcontext() if os.path.isfile(NUMBA_CONFIG) else _unimportable("yaml"):',
      'with _unimportable("yaml"):'),  # a .numba_config.yaml ignored
     ("tools/view/server", "if len(scene.lights) > MAX_VIEW_LIGHTS:", "if len(scene.lights) > 10 * MAX_VIEW_LIGHTS:"),

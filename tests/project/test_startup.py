@@ -214,3 +214,44 @@ def test_a_scene_refused_before_rendering_loads_neither_numba_nor_the_renderer(t
         done = python(LOADED, "render", str(scene), "-q", "-o", str(tmp_path / "out.png"))
         assert done.returncode == 0, done.stderr
         assert set(NOT_FOR_A_REFUSAL) <= set(json.loads(done.stdout.splitlines()[-1]))
+
+
+LINKED = ("import numpy as np\nfrom raycast_phong.jit import kernel\n\n\n@kernel()\ndef callee(x):\n"
+          "    return x * 2.0 + 1.0\n")
+LINKING = ("from linked import callee\nfrom raycast_phong.jit import kernel\n\n\n@kernel()\ndef caller(x):\n"
+           "    return callee(x) - 1.0  # numba links callee's code library into caller's\n")
+PARSES = ("import sys\nsys.path.insert(0, sys.argv[1])\nimport llvmlite.binding as llvm\n"
+          "from numba.core.registry import cpu_target\nfrom raycast_phong import jit\n"
+          "jit.initialise_nrt(cpu_target.target_context)  # its own library first: not counted\n"
+          "parsed = []\nparse = llvm.parse_bitcode\n"
+          "llvm.parse_bitcode = lambda data: (parsed.append(1), parse(data))[1]\n"
+          "from linked import callee\nprint(callee(3.0), len(parsed), jit.LINK_LAZILY)\n"
+          "if sys.argv[2] == 'link':\n    from linking import caller\n    print(caller(3.0), len(parsed))\n")
+
+
+def test_a_cached_kernel_s_bitcode_is_parsed_only_when_a_compile_links_it(tmp_path):
+    """numba parses a cached kernel's bitcode at each load to learn the names it defines (40 % of loading the
+    kernels); jit._LinkedWhenAsked reads them from a file the first load writes, and parses the bitcode only when
+    a kernel compiled later links the loaded one. Compiled (the first process), loaded by numba's parse (the
+    second, the control: 1 parse), loaded unparsed (the third: 0), then a caller compiled in that process links
+    it (parsed then) and gets callee's value; a symbols file that is altered or cut short is parsed over once."""
+    (tmp_path / "linked.py").write_text(LINKED, encoding="utf-8")
+    (tmp_path / "linking.py").write_text(LINKING, encoding="utf-8")
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+
+    def run(then: str = "") -> list[list[str]]:
+        done = python(PARSES, str(tmp_path), then, env=env)
+        assert done.returncode == 0 and not done.stderr, done.stderr
+        return [line.split() for line in done.stdout.splitlines()]
+
+    assert run()[0][0] == "7.0"  # compiled into the cache
+    assert run() == [["7.0", "1", "True"]]  # numba's parse, its names kept
+    symbols = list((tmp_path / "cache").rglob("symbols-*"))
+    assert len(symbols) == 1, symbols
+    loaded, linked = run("link")
+    assert loaded == ["7.0", "0", "True"] and linked[0] == "6.0" and int(linked[1]) >= 1
+    whole = symbols[0].read_bytes()
+    for damaged in (whole[:-1] + bytes([whole[-1] ^ 1]), whole[:len(whole) // 2], b""):
+        symbols[0].write_bytes(damaged)
+        assert run() == [["7.0", "1", "True"]]
+        assert run() == [["7.0", "0", "True"]]  # written whole again
