@@ -255,3 +255,14 @@ def test_a_cached_kernel_s_bitcode_is_parsed_only_when_a_compile_links_it(tmp_pa
         symbols[0].write_bytes(damaged)
         assert run() == [["7.0", "1", "True"]]
         assert run() == [["7.0", "0", "True"]]  # written whole again
+
+
+@pytest.mark.parametrize(("model", "needs_pil"), [("scenes/meshes/still_life.glb", False),
+                                                  ("tests/data/models/BoxTextured.glb", True)])
+def test_a_glb_without_maps_renders_without_pil_or_trimesh(tmp_path, model, needs_pil):
+    """A GLB is read by the package's own glTF reader: one without maps imports neither trimesh nor PIL (9 ms);
+    the control, a textured one, imports PIL to weigh and decode its image."""
+    run = python(LOADED, "render", model, "-q", "-o", str(tmp_path / "out.png"), "--width", "32", "--height", "24")
+    assert run.returncode == 0, run.stderr
+    loaded = set(json.loads(run.stdout.splitlines()[-1]))
+    assert ("PIL" in loaded, "trimesh" in loaded) == (needs_pil, False)
