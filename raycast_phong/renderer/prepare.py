@@ -180,7 +180,8 @@ class Renderer:
 
     def check_fits(self, scene: Scene) -> MemoryEstimate:
         """prepare()'s plan and memory check alone, building nothing: a SceneError if the scene is over the
-        budget (the CLI refuses before any kernel compiles; the study checks every level before it measures)."""
+        budget (the study checks every level before it measures; `render` calls fit.fitted itself, before this
+        module loads)."""
         return self._fitted(scene, None).memory
 
     def _fitted(self, scene: Scene, plan: RenderPlan | None) -> Fitted:
