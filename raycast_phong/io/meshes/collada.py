@@ -19,7 +19,7 @@ import numpy as np
 
 from ...errors import FileProblem, SceneError
 from ..files import open_regular, shown_name
-from .format import Loaded, MeshFormat, Reading
+from .format import Loaded, MeshFormat, Reading, image_file_sizes
 from .materials import FileMaterial, specular_lobe
 from .mtl import MAX_SIDE_FILE
 
@@ -292,11 +292,6 @@ def describe(path: Path) -> dict:
     return {"images": tuple(dict.fromkeys(image for image in images if image.is_file()))}
 
 
-def texture_sizes(mesh) -> tuple[tuple[int, int], ...]:
-    from ..textures import file_size
-    return tuple(size for size in map(file_size, mesh.images) if size)
-
-
 # ---------------------------------------------------------------- what the document builds, before it is read
 
 NOT_FINITE = re.compile(r"(?i)\b(nan|inf|infinity)\b")
@@ -413,7 +408,7 @@ def count(handle, size: int, mesh) -> int | None:
 
 
 FORMAT = MeshFormat(names=("COLLADA",), suffixes=(".dae",), read=read, count=count, describe=describe,
-                    texture_sizes=texture_sizes,
+                    texture_sizes=image_file_sizes,
                     # trimesh turns every effect (phong, blinn, lambert) into metallic-roughness; the note says so
                     pbr="COLLADA (phong, blinn and lambert effects, which trimesh reads as metallic-roughness: their "
                         "specular and ambient colours are not kept)")

@@ -118,6 +118,13 @@ def _no_sizes(mesh: MeshSource) -> tuple[tuple[int, int], ...]:
     return ()
 
 
+def image_file_sizes(mesh: MeshSource) -> tuple[tuple[int, int], ...]:
+    """(height, width) of each image file the mesh's description names (MeshSource.images), from its header;
+    a file that is no image is left out (its read says why): the texture_sizes of a format whose maps are files."""
+    from ..textures import file_size
+    return tuple(size for size in map(file_size, mesh.images) if size)
+
+
 @dataclass(frozen=True)
 class MeshFormat:
     """Everything the renderer does that depends on a mesh file's format, in one record.

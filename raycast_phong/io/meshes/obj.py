@@ -14,7 +14,7 @@ import numpy as np
 from ...errors import FileProblem, SceneError
 from ..files import open_regular
 from .content import is_number
-from .format import Loaded, MeshFormat, Reading, weigh
+from .format import Loaded, MeshFormat, Reading, image_file_sizes, weigh
 from .mtl import mtllib_names, read_obj_materials, scan_mtllib
 
 BOMS = ((b"\xef\xbb\xbf", "utf-8"), (b"\xff\xfe", "utf-16-le"), (b"\xfe\xff", "utf-16-be"))
@@ -212,11 +212,6 @@ def describe(path: Path) -> dict:
     return {"side_files": tuple(path.parent / name for name in names), "materials": materials, "images": images}
 
 
-def texture_sizes(mesh) -> tuple[tuple[int, int], ...]:
-    from ..textures import file_size
-    return tuple(size for size in map(file_size, mesh.images) if size)
-
-
 def warm_up(handle) -> tuple:
     """The polygon scan's kernels, and the plain reader's unless the file's first MB names a material library
     (then the plain reader's scan never runs)."""
@@ -227,5 +222,5 @@ def warm_up(handle) -> tuple:
 
 FORMAT = MeshFormat(
     names=("OBJ",), suffixes=(".obj",), read=read, count=count, explain=explain, describe=describe,
-    texture_sizes=texture_sizes, warm_up=warm_up, parse_bytes=80,
+    texture_sizes=image_file_sizes, warm_up=warm_up, parse_bytes=80,
     content=lambda head, found, size, suffix: found in (None, "OBJ", "OFF", "ASCII STL"))  # text formats look alike
