@@ -718,8 +718,8 @@ def colour_uv_sets(tree: dict) -> dict[int, int]:
     sets = {}
     for index, material in enumerate(tree.get("materials") or []):
         maps = _colour_maps(material) if isinstance(material, dict) else []
-        if maps and _uv_set(maps[0][1]):
-            sets[index] = _uv_set(maps[0][1])
+        if maps and (chosen := _uv_set(maps[0][1])):
+            sets[index] = chosen
     return sets
 
 
