@@ -449,7 +449,7 @@ class _LinkedWhenAsked(JITCodeLibrary):
     every load to learn the names the kernel defines (which its engine must know to hand out their addresses):
     loading a default render's kernels took 78 ms with it, 42 without; a small GLB's 100 and 55. The names are read
     instead from a file written at the first load (`SYMBOLS` + the bitcode's sha256, in the kernel's folder,
-    checked by its own sha256); the library is otherwise made as numba makes it."""
+    _checked_write's); the library is otherwise made as numba makes it."""
 
     folder: str | None = None  # the folder of the kernel being loaded (set by _light_load for that load)
     _bitcode: bytes | None = None
@@ -461,15 +461,15 @@ class _LinkedWhenAsked(JITCodeLibrary):
             return super()._unserialize(codegen, state)
         object_code, bitcode = data
         path = Path(cls.folder) / f"{SYMBOLS}{hashlib.sha256(bitcode).hexdigest()[:32]}"
-        names = _symbols_read(path)
-        if names is None:  # numba's load, parsing the bitcode; its names kept for the next
+        listed = _checked_read(path)  # the names, NUL between them: the one byte no LLVM name holds
+        if not listed:  # numba's load, parsing the bitcode; its names kept for the next
             library = super()._unserialize(codegen, state)
             module = library._shared_module
             names = {value.name for values in (module.functions, module.global_variables) for value in values
                      if not value.is_declaration}
-            body = "\0".join(sorted(names)).encode()  # NUL: the one byte no LLVM name holds (a .const may hold \n)
-            _write_whole(path, body + b"\n" + hashlib.sha256(body).hexdigest().encode())
+            _checked_write(path, "\0".join(sorted(names)).encode())
             return library
+        names = set(listed.decode().split("\0"))
         library = codegen.create_library(name)
         library.enable_object_caching()
         library._set_compiled_object(object_code)
@@ -483,22 +483,6 @@ class _LinkedWhenAsked(JITCodeLibrary):
             from llvmlite import binding
             self._shared_module, self._bitcode = binding.parse_bitcode(self._bitcode), None
         return super()._get_module_for_linking()
-
-
-def _symbols_read(path: Path) -> set[str] | None:
-    """The names a symbols file lists (NUL between them), or None if it is missing, unreadable or not whole (its
-    last line, the sha256 of the rest, does not match)."""
-    try:
-        data = path.read_bytes()
-    except OSError:
-        return None
-    body, _, digest = data.rpartition(b"\n")
-    if not body or hashlib.sha256(body).hexdigest().encode() != digest:
-        return None
-    return set(body.decode().split("\0"))
-
-
-NRT_MARK = b"raycast-phong nrt 1\n"  # the first line of an NRT cache file; then the payload's sha256, then the payload
 
 
 def initialise_nrt(target_context) -> None:
@@ -525,28 +509,37 @@ def _cached_nrt_functions(context):
     only costs the compile."""
     codegen = context.codegen()
     path = _nrt_cache_file(codegen)
-    if path is not None:
+    payload = _checked_read(path) if path is not None else None
+    if payload:
         try:
-            data = path.read_bytes()
-            head, digest, payload = data[:len(NRT_MARK)], data[len(NRT_MARK):len(NRT_MARK) + 32], \
-                data[len(NRT_MARK) + 32:]
-            if head == NRT_MARK and hashlib.sha256(payload).digest() == digest:
-                return codegen.unserialize_library(pickle.loads(payload))
-        except Exception:  # noqa: BLE001 - a missing, cut or foreign file, or numba refusing it: compile instead
+            return codegen.unserialize_library(pickle.loads(payload))
+        except Exception:  # noqa: BLE001 - a foreign payload, or numba refusing it: compile instead
             pass
     module, library = nrtdynmod.create_nrt_module(context)
     library.enable_object_caching()
     library.add_ir_module(module)
     library.finalize()
     if path is not None:
-        payload = pickle.dumps(library.serialize_using_object_code())
-        _write_whole(path, NRT_MARK + hashlib.sha256(payload).digest() + payload)
+        _checked_write(path, pickle.dumps(library.serialize_using_object_code()))
     return library
 
 
-def _write_whole(path: Path, data: bytes) -> None:
-    """`data` as the file `path`, whole or not at all (a temporary file beside it, then renamed over it); a
-    read-only or full cache leaves no file, and the next process compiles again."""
+def _checked_read(path: Path) -> bytes | None:
+    """The payload of a cache file _checked_write wrote, or None if it is missing, unreadable or not whole (its
+    first 32 bytes, the sha256 of the rest, do not match): the NRT's and the symbols' files."""
+    try:
+        data = path.read_bytes()
+    except OSError:
+        return None
+    return data[32:] if hashlib.sha256(data[32:]).digest() == data[:32] else None
+
+
+def _checked_write(path: Path, payload: bytes) -> None:
+    """`payload` as the cache file `path`, after its sha256, whole or not at all (a new temporary file beside it,
+    made exclusively, then renamed over it); a read-only or full cache leaves no file, and the next process
+    compiles or parses again. Not io.atomic's writer, which the layers put above this module: nor is its fsync
+    needed, as a file a crash cut fails its sha256 and is made again."""
+    data = hashlib.sha256(payload).digest() + payload
     try:
         handle = tempfile.NamedTemporaryFile(dir=path.parent, prefix=path.name, suffix=".part", delete=False)
     except OSError:

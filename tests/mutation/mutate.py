@@ -145,12 +145,10 @@ HAND_MUTANTS = (
     ("jit", "        except Exception:  # noqa: BLE001 - whatever the bytes make the unpickler or numba raise\n"
      "            self.drop()", "        except (OSError, EOFError):\n            self.drop()"),  # too narrow
     ("jit", "            self.drop()\n            return None", "            return None"),  # a corrupt entry kept
-    ("jit", "if head == NRT_MARK and hashlib.sha256(payload).digest() == digest:",
-     "if head == NRT_MARK:"),  # an NRT cache file its sha256 does not match loaded
-    ("jit", "        _write_whole(path, NRT_MARK", "        0 and _write_whole(path, NRT_MARK"),  # NRT never cached
-    ("jit", "        names = _symbols_read(path)\n", "        names = None\n"),  # every load parses the bitcode
-    ("jit", "    if not body or hashlib.sha256(body).hexdigest().encode() != digest:",
-     "    if not body:"),  # an altered symbols file believed
+    ("jit", "    return data[32:] if hashlib.sha256(data[32:]).digest() == data[:32] else None",
+     "    return data[32:]"),  # a cache file its sha256 does not match believed (NRT or symbols)
+    ("jit", "        _checked_write(path, pickle.dumps(", "        0 and _checked_write(path, pickle.dumps("),  # no NRT
+    ("jit", "        listed = _checked_read(path)  # the names", "        listed = None  # the names"),  # parsed always
     ("jit", "        if self._bitcode is not None:  # a compile links",
      "        if False:  # a compile links"),  # a loaded kernel that cannot be linked
     ("jit", 'with contextlib.nullcontext() if os.path.isfile(NUMBA_CONFIG) else _unimportable("yaml"):',
