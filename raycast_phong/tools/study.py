@@ -286,9 +286,6 @@ class Setting:
     shininess: float | None
     level: int
 
-    def keys(self) -> dict:
-        return asdict(self)
-
 
 def _check_options(base: Scene, options: StudyOptions) -> None:
     """A mesh needs a self-convergence reference (--fine); every axis needs a value."""
@@ -351,16 +348,19 @@ class _Sweep:
         for s in self.settings(level):
             self.renderer.check_fits(self.scene(s))
 
+    def reference(self, s: Setting, samples: int):
+        """The reference of s's problem at `samples`, computed once: it depends on neither the model, the normals,
+        the precision nor the level."""
+        key = (s.specular, samples, s.shininess)
+        if key not in self.references:
+            self.references[key] = reference_image(self.scene(s, samples=samples), fine=self.options.fine)
+        return self.references[key]
+
     def measure_level(self, level: int, keep_images: bool) -> None:
         """Render every setting at `level` once and measure it (the references are computed once per problem)."""
         for s in self.settings(level):
             scene = self.scene(s)
-            if (s.specular, s.samples, s.shininess) not in self.references:
-                # The reference depends on neither the model, the normals, the precision nor the level.
-                self.references[s.specular, s.samples, s.shininess] = reference_image(scene, fine=self.options.fine)
-            if (s.specular, self.supersampling, s.shininess) not in self.references:
-                self.references[s.specular, self.supersampling, s.shininess] = reference_image(
-                    self.scene(s, samples=self.supersampling), fine=self.options.fine)
+            reference, fine = self.reference(s, s.samples), self.reference(s, self.supersampling)
             if (s.samples, level) not in self.meshes:
                 # One prepare (plan, memory check, geometry) serves both: the render's own triangles.
                 ready = self.renderer.prepare(scene)
@@ -369,9 +369,7 @@ class _Sweep:
             began = time.perf_counter()
             result = self.renderer.render(scene)
             self.render_seconds[level] = self.render_seconds.get(level, 0.0) + time.perf_counter() - began
-            reference = self.references[s.specular, s.samples, s.shininess]
             errors = measure(result.image, coverage, reference)
-            fine = self.references[s.specular, self.supersampling, s.shininess]
             both_full = (coverage == 1) & (fine.coverage == 1)
             both_empty = (coverage == 0) & (fine.coverage == 0)
             everywhere = np.ones(coverage.shape, bool)
@@ -479,7 +477,8 @@ def choose_levels(sweep: _Sweep, progress) -> tuple[list[int], str]:
         levels.append(level)
         level += 1
         if len(levels) > FIT_WINDOW:
-            rows = [provisional_row(s, m, sweep.meshes[s.samples, s.level][1]) for s, m in sweep.measured.items()]
+            rows = [study_row(s, [(0.0, {})], *m, sweep.meshes[s.samples, s.level][1])  # untimed: for the fits
+                    for s, m in sweep.measured.items()]
             fits = fit_orders(rows, options.settle)
             if fits and all(f.settled for f in fits):
                 why = f"every order settled (its last three windows within {options.settle:g} of each other)"
@@ -488,11 +487,6 @@ def choose_levels(sweep: _Sweep, progress) -> tuple[list[int], str]:
     for s in [s for s in sweep.images if s.level != keep]:
         del sweep.images[s]
     return levels, f"levels {levels[0]}–{levels[-1]} chosen: {why}"
-
-
-def provisional_row(s: Setting, measured: tuple, edge: float) -> StudyRow:
-    """A row without timings, for the order fits while levels are being chosen."""
-    return study_row(s, [(0.0, {})], *measured, edge)
 
 
 def pooled_minima(runs: dict[Setting, list[tuple[float, dict]]]) -> dict[tuple, float]:
@@ -555,10 +549,10 @@ def study_row(s: Setting, runs: list[tuple[float, dict]], errors, image_rmse: fl
                     level=s.level, triangles=triangles, edge_length=edge_length,
                     seconds_total=min(walls), seconds_total_measured=min(walls),
                     seconds_total_median=statistics.median(walls),
-                    seconds_total_spread=spread(walls) if min(walls) > 0 else 0.0,
+                    seconds_total_spread=spread(walls),
                     seconds_total_bound=geometry + build + stage["diagnosis"] + min(frames) + rest,
                     cpu_seconds=stage["cpu"], seconds=min(frames), seconds_median=statistics.median(frames),
-                    seconds_spread=spread(frames) if min(frames) > 0 else 0.0,
+                    seconds_spread=spread(frames),
                     geometry_seconds=geometry, build_seconds=build, diagnosis_seconds=stage["diagnosis"],
                     rest_seconds=rest, rays_seconds=stage["rays"], shade_seconds=stage["shade"], repeats=len(runs),
                     rmse=errors.rmse, max_error=errors.max_error, psnr=errors.psnr, mae=errors.mae,
@@ -625,12 +619,16 @@ def setting_label(row: StudyRow) -> str:
     return f"{row.model} L{row.level}{normals} {row.precision.replace('float', 'f')} {row.samples}spp"
 
 
-def curves(rows: list[StudyRow]) -> dict[tuple, list[StudyRow]]:
-    """Rows by curve, each sorted by level."""
+def _grouped(rows: list[StudyRow], key: Callable[[StudyRow], tuple]) -> dict[tuple, list[StudyRow]]:
     out: dict[tuple, list[StudyRow]] = {}
     for row in rows:
-        out.setdefault(curve_key(row), []).append(row)
-    return {key: sorted(curve, key=lambda r: r.level) for key, curve in out.items()}
+        out.setdefault(key(row), []).append(row)
+    return out
+
+
+def curves(rows: list[StudyRow]) -> dict[tuple, list[StudyRow]]:
+    """Rows by curve, each sorted by level."""
+    return {key: sorted(curve, key=lambda r: r.level) for key, curve in _grouped(rows, curve_key).items()}
 
 
 def slope(curve: list[StudyRow]) -> float:
@@ -684,8 +682,7 @@ def clearly_faster(a: StudyRow, b: StudyRow, cost: str = "seconds_total_measured
 def pareto_front(rows: list[StudyRow], error: str = "rmse", cost: str = "seconds_total_measured") -> list[StudyRow]:
     """The settings no other setting beats in error while being clearly faster (clearly_faster), fastest first.
 
-    Two points whose time ranges overlap are not ordered in time, so neither drops the other: a front of minima
-    alone ranked settings 0.1 ms apart inside a spread of several ms.
+    Two points whose time ranges overlap are not ordered in time, so neither drops the other.
     """
     usable = [r for r in rows if math.isfinite(getattr(r, error))]
     front = [r for r in usable if not any(q is not r and getattr(q, error) <= getattr(r, error)
@@ -694,10 +691,7 @@ def pareto_front(rows: list[StudyRow], error: str = "rmse", cost: str = "seconds
 
 
 def problems(rows: list[StudyRow]) -> dict[tuple, list[StudyRow]]:
-    out: dict[tuple, list[StudyRow]] = {}
-    for row in rows:
-        out.setdefault(problem_key(row), []).append(row)
-    return out
+    return _grouped(rows, problem_key)
 
 
 def fastest(rows: list[StudyRow], target: float) -> StudyRow | None:
