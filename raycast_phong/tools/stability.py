@@ -98,6 +98,24 @@ def with_precision(plan: RenderPlan, float64: bool) -> RenderPlan:
     return replace(plan, stages=stages)
 
 
+def both_precisions(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+    """The scene's image shaded in float32 and in float64, each forced whatever the plan would choose."""
+    plan = build_plan(scene)
+    return tuple(render(scene, plan=with_precision(plan, float64)).image for float64 in (False, True))
+
+
+def head_on_plane(light: dict, material: dict, ambient: float, **render_keys) -> Scene:
+    """A 4 × 4 plane seen head-on by a 3 × 3 orthographic view 1 high, an infinite viewer (v = n), one light."""
+    return validate_scene({
+        "render": {"width": 3, "height": 3, "viewer": "infinite", **render_keys},
+        "camera": {"type": "orthographic", "position": [0, 0, 5], "view_height": 1.0},
+        "ambient": ambient,
+        "lights": [light],
+        "materials": {"m": material},
+        "objects": [{"shape": "plane", "size": [4, 4], "rotate": [90, 0, 0], "material": "m"}],
+    }, source="stability")
+
+
 # ---------------------------------------------------------------- 1. specular exponent
 
 EXPONENTS = (0.0, 1e-6, 1.0, 128.0, 1e3, 1e4, 1e6, math.inf)
@@ -121,19 +139,10 @@ def float32_highlight_error(shininess: float) -> tuple[float, float]:
     (largest absolute error, S at θ = 1/√f in float64)."""
     worst, middle = 0.0, 0.0
     for theta in np.linspace(0.5, 1.5, 16) / math.sqrt(shininess):
-        scene = validate_scene({
-            "render": {"width": 3, "height": 3, "viewer": "infinite", "shading": "phong"},
-            "camera": {"type": "orthographic", "position": [0, 0, 5], "view_height": 1.0},
-            "ambient": 0,
-            # The light is θ/2 off the normal, so the reflected ray r is θ off the viewer's v = n.
-            "lights": [{"type": "directional", "direction": [-math.sin(theta / 2), 0, -math.cos(theta / 2)],
-                        "diffuse": 0}],
-            "materials": {"m": {"ka": 0, "kd": 0, "ks": 1, "shininess": shininess}},
-            "objects": [{"shape": "plane", "size": [4, 4], "rotate": [90, 0, 0], "material": "m"}],
-        }, source="stability")
-        plan = build_plan(scene)
-        single = float(render(scene, plan=with_precision(plan, False)).image[1, 1, 0])
-        double = float(render(scene, plan=with_precision(plan, True)).image[1, 1, 0])
+        # The light is θ/2 off the normal, so the reflected ray r is θ off the viewer's v = n.
+        scene = head_on_plane({"type": "directional", "direction": [-math.sin(theta / 2), 0, -math.cos(theta / 2)],
+                               "diffuse": 0}, {"ka": 0, "kd": 0, "ks": 1, "shininess": shininess}, 0, shading="phong")
+        single, double = (float(image[1, 1, 0]) for image in both_precisions(scene))
         worst = max(worst, abs(single - double))
         middle = double if abs(theta * math.sqrt(shininess) - 1) < 0.04 else middle
     return worst, middle
@@ -167,11 +176,8 @@ def gouraud_phong_peak_ratio(shininess: float, subdivisions: int = 1) -> float:
 @case
 def stiff_gouraud() -> CaseResult:
     ratios = {f: gouraud_phong_peak_ratio(f) for f in (10.0, 100.0, 1000.0)}
-    warned = {}
-    for f in ratios:
-        scene = sphere_scene(f, 1, shading="gouraud")
-        result = render(scene)
-        warned[f] = any("gouraud" in w and "subdivisions =" in w for w in result.plan.warnings)
+    warned = {f: any("gouraud" in w and "subdivisions =" in w
+                     for w in render(sphere_scene(f, 1, shading="gouraud")).plan.warnings) for f in ratios}
     figure = ", ".join(f"f = {f:g}: {r:.2g}" for f, r in ratios.items()) + " (Gouraud/Phong peak, 80 faces)"
     return CaseResult("stiff highlights under Gouraud", "the peak ratio falls with f and the plan warns with a "
                       "subdivision count when vertex normals are wider apart than 1/√f",
@@ -208,8 +214,7 @@ def plane_with_light(distance: float, attenuation, precision: str = "float32",
 
 @case
 def light_on_the_surface() -> CaseResult:
-    worst, finite = 0.0, True
-    head_on = True
+    worst, finite, head_on = 0.0, True, True
     for distance in (0.0, 1e-30, 1e-12, -1e-12):
         for sideways in ((0.0, 0.0), (3e-7, -5e-7)):
             for attenuation in ("none", "inverse_square", [1.0, 0.5, 0.25]):
@@ -233,24 +238,19 @@ LIGHT_ON_SURFACE_PEAK = 1 / (2e-6) ** 2 * (0.8 * 0.8 + 1.0 * 0.5)
 
 # ---------------------------------------------------------------- 4. grazing light and view
 
+def centre_steps(scenes) -> tuple[np.ndarray, float]:
+    """The centre pixels (float64) of a sequence of 3 × 3 renders and the largest step between successive ones."""
+    values = np.array([render(scene).image[1, 1].astype(np.float64) for scene in scenes])
+    return values, float(np.abs(np.diff(values, axis=0)).max())
+
+
 @case
 def grazing_light() -> CaseResult:
     """The light sweeps through the plane's horizon: the image is continuous and, past it, ambient only."""
     angles = np.linspace(89.0, 91.0, 81)  # degrees from the normal
-    values = []
-    for angle in angles:
-        direction = [-math.sin(math.radians(angle)), 0, -math.cos(math.radians(angle))]
-        scene = validate_scene({
-            "render": {"width": 3, "height": 3, "viewer": "infinite", "shading": "phong"},
-            "camera": {"type": "orthographic", "position": [0, 0, 5], "view_height": 1.0},
-            "ambient": 0.1,
-            "lights": [{"type": "directional", "direction": direction}],
-            "materials": {"m": {"ka": 1, "kd": 0.8, "ks": 0.5, "ke": 0.05, "shininess": 4}},
-            "objects": [{"shape": "plane", "size": [4, 4], "rotate": [90, 0, 0], "material": "m"}],
-        }, source="stability")
-        values.append(render(scene).image[1, 1].astype(np.float64))
-    values = np.array(values)
-    jump = float(np.abs(np.diff(values, axis=0)).max())
+    values, jump = centre_steps(head_on_plane(
+        {"type": "directional", "direction": [-math.sin(math.radians(angle)), 0, -math.cos(math.radians(angle))]},
+        {"ka": 1, "kd": 0.8, "ks": 0.5, "ke": 0.05, "shininess": 4}, 0.1, shading="phong") for angle in angles)
     beyond = values[angles >= 90.0]
     exact = bool(np.allclose(beyond, 0.1 + 0.05, atol=1e-7))
     # A step of 2/80 degrees moves l·n by ≈ 4.4e-4: continuity means no jump much larger than that.
@@ -265,21 +265,15 @@ def grazing_light() -> CaseResult:
 def grazing_view() -> CaseResult:
     """The eye sinks toward a lit plane's horizon (v·n → 0): finite, ≥ 0, continuous in the angle."""
     angles = np.linspace(80.0, 89.99, 60)  # degrees between the view direction and the plane's normal
-    values = []
-    for angle in angles:
-        a = math.radians(angle)
-        scene = validate_scene({
-            "render": {"width": 3, "height": 3, "shading": "phong"},
-            "camera": {"type": "orthographic", "position": [5 * math.sin(a), 0, 5 * math.cos(a)],
-                       "up": [0, 1, 0], "view_height": 0.01},
-            "ambient": 0.1,
-            "lights": [{"type": "point", "position": [-1, 0.5, 2]}],
-            "materials": {"m": {"ka": 1, "kd": 0.8, "ks": 0.5, "shininess": 16}},
-            "objects": [{"shape": "plane", "size": [4, 4], "rotate": [90, 0, 0], "material": "m"}],
-        }, source="stability")
-        values.append(render(scene).image[1, 1].astype(np.float64))
-    values = np.array(values)
-    jump = float(np.abs(np.diff(values, axis=0)).max())
+    values, jump = centre_steps(validate_scene({
+        "render": {"width": 3, "height": 3, "shading": "phong"},
+        "camera": {"type": "orthographic", "position": [5 * math.sin(a), 0, 5 * math.cos(a)],
+                   "up": [0, 1, 0], "view_height": 0.01},
+        "ambient": 0.1,
+        "lights": [{"type": "point", "position": [-1, 0.5, 2]}],
+        "materials": {"m": {"ka": 1, "kd": 0.8, "ks": 0.5, "shininess": 16}},
+        "objects": [{"shape": "plane", "size": [4, 4], "rotate": [90, 0, 0], "material": "m"}],
+    }, source="stability") for a in map(math.radians, angles))
     return CaseResult("grazing view", "the eye at 80° … 89.99° from the normal: finite, ≥ 0, continuous",
                       f"largest step {jump:.1e} per 0.17°", bool(np.isfinite(values).all()) and values.min() >= 0
                       and jump < 0.02, value=jump, limit=0.02)
@@ -302,6 +296,16 @@ def mesh_scene(path: Path, shading: str = "phong", **render_keys) -> Scene:
     }, source=str(path), folder=path.parent)
 
 
+def against_clean(clean: Path, other: Path) -> tuple[float, list]:
+    """The largest change of the mesh file `other`'s image from `clean`'s under each shading model, and other's
+    render results."""
+    models = ("flat", "gouraud", "phong")
+    results = [render(mesh_scene(other, model)) for model in models]
+    worst = max(float(np.abs(render(mesh_scene(clean, model)).image - result.image).max())
+                for model, result in zip(models, results))
+    return worst, results
+
+
 @case
 def degenerate_geometry() -> CaseResult:
     import trimesh
@@ -316,11 +320,8 @@ def degenerate_geometry() -> CaseResult:
         clean, dirty = Path(folder) / "clean.obj", Path(folder) / "dirty.obj"
         write_obj(clean, vertices, faces)
         write_obj(dirty, np.vstack([vertices, extra_vertices]), np.vstack([faces, extra_faces]))
-        worst, finite = 0.0, True
-        for model in ("flat", "gouraud", "phong"):
-            a, b = render(mesh_scene(clean, model)).image, render(mesh_scene(dirty, model)).image
-            finite &= bool(np.isfinite(b).all())
-            worst = max(worst, float(np.abs(a - b).max()))
+        worst, results = against_clean(clean, dirty)
+    finite = all(np.isfinite(result.image).all() for result in results)
     return CaseResult("degenerate geometry", "zero-area faces, a 1e-9 needle, duplicate vertices: no NaN, "
                       "no hole, the image of the clean mesh", f"max change {worst:.1e}", finite and worst < 1e-5,
                       value=worst, limit=1e-5)
@@ -338,12 +339,8 @@ def inconsistent_winding() -> CaseResult:
         clean, mixed = Path(folder) / "clean.obj", Path(folder) / "mixed.obj"
         write_obj(clean, sphere.vertices, sphere.faces)
         write_obj(mixed, sphere.vertices, faces)
-        worst, noted = 0.0, False
-        for model in ("flat", "gouraud", "phong"):
-            a = render(mesh_scene(clean, model)).image
-            result = render(mesh_scene(mixed, model))
-            worst = max(worst, float(np.abs(a - result.image).max()))
-            noted = result.plan.keeps(StageName.WINDING_REPAIR)
+        worst, results = against_clean(clean, mixed)
+    noted = results[-1].plan.keeps(StageName.WINDING_REPAIR)
     return CaseResult("inconsistent winding", "half the faces flipped: every model's image unchanged, "
                       "the plan says the winding was repaired", f"max change {worst:.1e}", worst < 1e-5 and noted,
                       value=worst, limit=1e-5)
@@ -377,12 +374,12 @@ def hovering_sheet() -> CaseResult:
         shares[share] = float((row < lit - 1e-3).mean())
     # The origin's offset (8 float32 roundings of the unit frame, 4.8e-7) lowers the sheet as the shadow ray sees
     # it by that much: at 1e-6 of the size (2e-6 in the unit frame) the strip is 76 % of its length.
-    right = all(abs(v - 0.5) <= 2 / 64 for k, v in shares.items() if k >= 1e-5)
+    off = max(abs(v - 0.5) for k, v in shares.items() if k >= 1e-5)
     return CaseResult("hovering sheet", "global mode, a sheet 1e-3 … 1e-6 of the scene's size above a plane, the light "
                       "89° from the vertical: its shadow strip is half the row (within 2 of 64 pixels) down to 1e-5, "
                       "and at least ¾ of that at 1e-6 (the origin's offset is a quarter of the height there)",
-                      ", ".join(f"{k:g}: {v:.2f}" for k, v in shares.items()), right and shares[1e-6] >= 0.375,
-                      value=max(abs(v - 0.5) for k, v in shares.items() if k >= 1e-5), limit=2 / 64)
+                      ", ".join(f"{k:g}: {v:.2f}" for k, v in shares.items()), off <= 2 / 64 and shares[1e-6] >= 0.375,
+                      value=off, limit=2 / 64)
 
 
 @case
@@ -405,10 +402,9 @@ def triangle_soup() -> CaseResult:
                     faces[::flip] = faces[::flip, ::-1]
                 soup = Path(folder) / f"soup-{flip}-{jitter:g}.obj"
                 write_obj(soup, corners, faces)
-                for model in ("flat", "gouraud", "phong"):
-                    result = render(mesh_scene(soup, model))
-                    worst = max(worst, float(np.abs(render(mesh_scene(clean, model)).image - result.image).max()))
-                    noted &= any("triangle soup" in note for note in result.plan.notes)
+                change, results = against_clean(clean, soup)
+                worst = max(worst, change)
+                noted &= all(any("triangle soup" in note for note in result.plan.notes) for result in results)
     return CaseResult("triangle soup", "a soup whose copies of a point differ by 1e-12 or 1e-7 of the size, every "
                       "third face flipped or none: the welded mesh's image within 1e-3, and a note",
                       f"max change {worst:.1e}", worst < 1e-3 and noted, value=worst, limit=1e-3)
@@ -416,12 +412,12 @@ def triangle_soup() -> CaseResult:
 
 # ---------------------------------------------------------------- 7. scale and position
 
-def placed_scene(scale: float, shift: float, mode: str) -> Scene:
+def placed_scene(scale: float, shift: float, mode: str, **render_keys) -> Scene:
     def at(p):
         return [scale * c + shift for c in p]
 
     return validate_scene({
-        "render": {"width": 48, "height": 48, "mode": mode, "shading": "phong"},
+        "render": {"width": 48, "height": 48, "mode": mode, "shading": "phong", **render_keys},
         "camera": {"position": at([0.5, 1.5, 4]), "look_at": at([0, 0, 0]), "fov": 40},
         "lights": [{"type": "point", "position": at([2, 3, 2])}],
         "objects": [{"shape": "icosphere", "subdivisions": 2, "radius": scale, "translate": at([0, 0.3, 0])},
@@ -605,15 +601,8 @@ def non_finite_input() -> CaseResult:
 @case
 def float32_against_float64() -> CaseResult:
     """The float64 path against a float64 hand computation; the float32 deviation of the other cases."""
-    scene = validate_scene({
-        "render": {"width": 3, "height": 3, "viewer": "infinite", "precision": "float64"},
-        "camera": {"type": "orthographic", "position": [0, 0, 5], "view_height": 1.0},
-        "ambient": 0.1,
-        "lights": [{"type": "directional", "direction": [-math.sin(1.0), 0, -math.cos(1.0)], "diffuse": 0.7,
-                    "specular": 0.9}],
-        "materials": {"m": {"ka": 0.3, "kd": 0.6, "ks": 0.4, "shininess": 7}},
-        "objects": [{"shape": "plane", "size": [4, 4], "rotate": [90, 0, 0], "material": "m"}],
-    }, source="stability")
+    light = {"type": "directional", "direction": [-math.sin(1.0), 0, -math.cos(1.0)], "diffuse": 0.7, "specular": 0.9}
+    scene = head_on_plane(light, {"ka": 0.3, "kd": 0.6, "ks": 0.4, "shininess": 7}, 0.1, precision="float64")
     n_dot_l = math.cos(1.0)
     v_dot_r = math.cos(1.0)  # r = 2(l·n)n − l = (−sin 1, 0, cos 1), v = n = (0, 0, 1)
     expected = 0.1 * 0.3 + 0.7 * 0.6 * n_dot_l + 0.9 * 0.4 * max(v_dot_r, 0) ** 7
@@ -629,27 +618,22 @@ def float32_against_float64() -> CaseResult:
 
 def float32_deviation(make: Callable[[str], Scene]) -> float:
     """max |float32 − float64| / max |float64| of one scene (float32 forced even where the plan would not)."""
-    scene = make("float32")
-    plan = build_plan(scene)
-    single = render(scene, plan=with_precision(plan, False)).image.astype(np.float64)
-    double = render(scene, plan=with_precision(plan, True)).image
-    return float(np.abs(single - double).max() / max(np.abs(double).max(), 1e-300))
+    single, double = both_precisions(make("float32"))
+    return float(np.abs(single.astype(np.float64) - double).max() / max(np.abs(double).max(), 1e-300))
 
 
 FLOAT32_CASES: dict[str, Callable[[str], Scene]] = {
     "f = 128": lambda p: sphere_scene(128.0, precision=p),
     "f = 1e4": lambda p: sphere_scene(1e4, precision=p),
     "light 1e-12 off the surface": lambda p: plane_with_light(1e-12, "inverse_square", p),
-    "scale 1e6, 4e12 away": lambda p: placed_scene(1e6, 4e12, "local").model_copy(
-        update={"render": placed_scene(1e6, 4e12, "local").render.model_copy(update={"precision": p})}),
-    "receding quad": lambda p: receding_quad_scene(16.0, "perspective").model_copy(
-        update={"render": receding_quad_scene(16.0, "perspective").render.model_copy(update={"precision": p})}),
+    "scale 1e6, 4e12 away": lambda p: placed_scene(1e6, 4e12, "local", precision=p),
+    "receding quad": lambda p: receding_quad_scene(16.0, "perspective", p),
 }
 
 
 # ---------------------------------------------------------------- 12. perspective against screen space
 
-def receding_quad_scene(ratio: float, interpolation: str) -> Scene:
+def receding_quad_scene(ratio: float, interpolation: str, precision: str = "float64") -> Scene:
     """A quad from depth 1 to depth `ratio` in front of the camera; vertex normals (from the file) turn
     from facing a directional light at the near edge to perpendicular at the far edge, so Gouraud's
     diffuse term is an attribute going linearly from 1 to 0 along the depth."""
@@ -662,7 +646,7 @@ def receding_quad_scene(ratio: float, interpolation: str) -> Scene:
         "vn 0 0 1\nvn 0 0 1\nvn 1 0 0\nvn 1 0 0\nf 1//1 2//2 3//3\nf 1//1 3//3 4//4\n")
     return validate_scene({
         "render": {"width": 9, "height": 200, "shading": "gouraud", "viewer": "infinite",
-                   "interpolation": interpolation, "precision": "float64"},
+                   "interpolation": interpolation, "precision": precision},
         "camera": {"position": [0, 0, 0], "look_at": [0, 0, -1], "fov": 90},
         "ambient": 0,
         "lights": [{"type": "directional", "direction": [0, 0, -1], "diffuse": 1, "specular": 0}],
