@@ -78,9 +78,9 @@ def _plain_metavars(params: list) -> list:
     return params
 
 
-class PlainHelpCommand(TyperCommand):
-    """typer's command, with plain metavars in its --help (_plain_metavars), drawn without escape sequences
-    under NO_COLOR or TERM=dumb (_plain_help)."""
+class _PlainHelp:
+    """A click command's --help with plain metavars (_plain_metavars), drawn without escape sequences under
+    NO_COLOR or TERM=dumb (_plain_help)."""
 
     def get_params(self, ctx):
         return _plain_metavars(super().get_params(ctx))
@@ -88,6 +88,10 @@ class PlainHelpCommand(TyperCommand):
     def format_help(self, ctx, formatter):
         _plain_help()
         return super().format_help(ctx, formatter)
+
+
+class PlainHelpCommand(_PlainHelp, TyperCommand):
+    """typer's command, its --help plain (_PlainHelp)."""
 
 
 class App(typer.Typer):
@@ -98,18 +102,11 @@ class App(typer.Typer):
         return super().command(*args, cls=cls or PlainHelpCommand, **kwargs)
 
 
-class OneLineErrors(TyperGroup):
+class OneLineErrors(_PlainHelp, TyperGroup):
     """typer's command group, but a usage error (a bad --width, an unknown option or command) is one line on
     stderr with exit 2, like every other error of the program, instead of rich's boxed message. Under NO_COLOR
     or TERM=dumb (plain_output) nothing it or a command prints carries an escape sequence: the context's `color`
-    is False, which click's echo and secho obey, and the help is drawn without a colour system."""
-
-    def get_params(self, ctx):
-        return _plain_metavars(super().get_params(ctx))
-
-    def format_help(self, ctx, formatter):
-        _plain_help()
-        return super().format_help(ctx, formatter)
+    is False, which click's echo and secho obey, and the help is drawn without a colour system (_PlainHelp)."""
 
     def main(self, *args, standalone_mode: bool = True, **kwargs):
         try:
@@ -123,7 +120,6 @@ class OneLineErrors(TyperGroup):
                 # typer (a PacifyFlushWrapper) and rich (stdout pointed at /dev/null) meet EPIPE with a silent
                 # exit 1: say it as every other failed write
                 if type(sys.stdout).__name__ == "PacifyFlushWrapper" or _stdout_identity() != before:
-                    import errno
                     raise BrokenPipeError(errno.EPIPE, "Broken pipe") from None
             _flush_or_fail(sys.stdout, "stdout")  # a full disk or a closed pipe shows at the flush too
             sys.exit(code)
@@ -218,7 +214,6 @@ def _output_failed(error: OSError) -> None:
     """stdout or stderr could not be written (`> /dev/full`, a reader that closed the pipe): one line on
     stderr if it still takes one, exit 2 (a failed write, like any other output), no traceback; stdout is
     pointed at /dev/null so Python's own flush at exit does not fail again."""
-    import errno
     try:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     except (OSError, ValueError):
@@ -429,14 +424,9 @@ def fail(message: str, code: int = 2) -> None:
 
 
 def scene_overrides(options: dict[str, object]) -> list[str]:
-    """CLI options that stand for scene keys, as `key=value` overrides (None = not given)."""
-    out = []
-    for key, value in options.items():
-        if value is None:
-            continue
-        value = value.value if hasattr(value, "value") else value
-        out.append(f"{key}={json.dumps(value)}")
-    return out
+    """CLI options that stand for scene keys, as `key=value` overrides (None = not given; an enum by its value)."""
+    return [f"{key}={json.dumps(getattr(value, 'value', value))}" for key, value in options.items()
+            if value is not None]
 
 
 @contextmanager
@@ -494,5 +484,4 @@ def _traceback_log(error: BaseException) -> str | None:
 
 
 def _debug() -> bool:
-    import os
     return os.environ.get("RAYCAST_PHONG_DEBUG", "") not in ("", "0")
