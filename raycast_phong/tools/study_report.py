@@ -70,6 +70,7 @@ COLOURS = {"flat": "tab:blue", "gouraud": "tab:orange", "phong": "tab:green"}
 # quiet machine gives a few %; a study on a load of 9 over 2 cores gave 37 % with frame times out of order.
 NOISY_SPREAD = 0.25
 STYLES = ["-", "--", ":", "-."]
+MARKERS = ["o", "s", "^", "D"]
 CAPTIONS = {
     "plot": "Shading RMSE against time to image (left: the whole render() call) and frame time (right), as "
             "measured: each point at its fastest run, its bar reaching its median run. Coloured: one curve per model "
@@ -88,10 +89,9 @@ CAPTIONS = {
     "highlight": "Highlight loss (share of the reference's specular peak the render misses) against level.",
     "orders": "Local convergence order (slope between successive levels) against the edge length measured in "
               "highlight widths, h·√f (for a unit radius). Theory: 1 for flat, 2 for Gouraud and Phong.",
-    "errors": "Per problem and model: the render, the reference and the per-pixel error max over RGB "
-              "|render − reference| "
-              "(black 0, pale yellow the largest error over the pixels both cover fully; silhouette pixels "
-              "saturate).",
+    "errors": "Per problem and model: the render, the reference and the per-pixel error max over RGB |render − "
+              "reference| (black 0, pale yellow the largest error over the pixels both cover fully; silhouette "
+              "pixels saturate).",
 }
 
 
@@ -175,6 +175,12 @@ def _finish(figure) -> None:
             placed.append(label.get_window_extent(renderer))
 
 
+def _log_log(axes) -> None:
+    axes.set_xscale("log")
+    axes.set_yscale("log")
+    axes.grid(True, which="both", alpha=0.3)
+
+
 def _legend(axes) -> None:
     """The legend outside the axes, on their right: inside, "best" still covered points of a crowded panel."""
     axes.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
@@ -229,9 +235,7 @@ def _front_axes(axes, rows: list[StudyRow], cost: str, target: float, label_fron
     if best is not None:
         axes.plot([getattr(best, cost) * 1e3], [best.rmse], "*", ms=13, color="tab:red", zorder=6,
                   label="fastest to the target")
-    axes.set_xscale("log")
-    axes.set_yscale("log")
-    axes.grid(True, which="both", alpha=0.3)
+    _log_log(axes)
 
 
 def front_figure(study: Study):
@@ -287,11 +291,9 @@ def silhouette_figure(study: Study):
         _measured(right, [r for r in finite if r.model == name], "seconds_total_measured", "image_rmse", "o", ms=3,
                   color=COLOURS.get(name, "black"), label=name)
     _front(right, finite, "seconds_total_measured", "image_rmse", True)
-    right.set_xscale("log")
-    right.set_yscale("log")
+    _log_log(right)
     right.set_xlabel("time to image, ms (fastest run, bar to the median)")
     right.set_ylabel("whole-image RMSE against the supersampled reference")
-    right.grid(True, which="both", alpha=0.3)
     if len(counts) == 1:
         right.set_title(f"one sample count ({counts[0]}): no silhouette sweep (study --samples 1,2,4)", fontsize=9)
     _legend(right)
@@ -331,13 +333,12 @@ GUIDE_BELOW = 0.5  # the slope guides start this factor below a curve's last-but
 
 def convergence_figure(study: Study):
     """log RMSE against log h, one panel per problem: per curve (model and normals, at the problem's first precision
-    and samples) its points, the fitted line of its order and, just below its finest two levels, guides of
-    slopes 1 and 2 (one pair through the first curve's finest point sat far from every other curve)."""
+    and samples) its points, the fitted line of its order and, just below its finest two levels (beside that curve,
+    where one pair for the panel would sit far from the others), guides of slopes 1 and 2."""
     plt = _pyplot()
     groups = list(problems(study.rows).values())
     figure, panels = plt.subplots(len(groups), 1, figsize=(10, 4.8 * len(groups)), dpi=100, squeeze=False,
                                   layout="constrained")
-    markers = ["o", "s", "^", "D"]
     guided = False
     for rows, (axes,) in zip(groups, panels):
         first = rows[0]
@@ -350,7 +351,7 @@ def convergence_figure(study: Study):
             error = np.array([r.rmse for r in curve])
             colour = COLOURS.get(key[0], "black")
             name = key[0] + ("" if key[1] == "scene" else f", {key[1]} normals")
-            axes.plot(h, error, "-", marker=markers[normals.index(key[1]) % 4], ms=4, lw=1, color=colour, label=name)
+            axes.plot(h, error, "-", marker=MARKERS[normals.index(key[1]) % 4], ms=4, lw=1, color=colour, label=name)
             window = slice(-min(FIT_WINDOW, len(curve)), None)  # the fit's levels: the finest FIT_WINDOW
             order = slope(curve[window])  # the order the table gives (fit_orders), and its least-squares intercept
             intercept = float(np.mean(np.log(error[window]) - order * np.log(h[window])))
@@ -365,14 +366,12 @@ def convergence_figure(study: Study):
             axes.set_title("fewer than two levels with an error: no convergence to show", fontsize=9)
             continue
         guided = False  # each panel's legend names the guides
-        axes.set_xscale("log")
-        axes.set_yscale("log")
+        _log_log(axes)
         axes.invert_xaxis()  # finer to the right, as the orders plot
         axes.set_xlabel("mean edge length h, world units (finer →)")
         axes.set_ylabel("shading RMSE (pixels both cover)")
         axes.set_title(f"{Path(study.scene).name}: {problem_label(first)}, {first.precision}, {first.samples} spp",
                        fontsize=9)
-        axes.grid(True, which="both", alpha=0.3)
         _legend(axes)
     _finish(figure)
     return figure
@@ -384,7 +383,6 @@ def orders_figure(study: Study):
     first = study.rows[0]
     shininess = list(dict.fromkeys(r.shininess for r in study.rows))
     normals = list(dict.fromkeys(r.normals for r in study.rows))
-    markers = ["o", "s", "^", "D"]
     for key, curve in curves([r for r in study.rows if (r.precision, r.samples) == (first.precision, first.samples)
                               ]).items():
         points = local_orders(curve)
@@ -393,7 +391,7 @@ def orders_figure(study: Study):
         label = key[0] + ("" if key[1] == "scene" else f", {key[1]} normals") + (
             "" if key[5] == "scene" else f", f = {key[5]}")
         axes.plot([highlight_widths(r, study.shininess) for r, _ in points], [o for _, o in points],
-                  STYLES[shininess.index(key[5]) % len(STYLES)], marker=markers[normals.index(key[1]) % 4], ms=4,
+                  STYLES[shininess.index(key[5]) % len(STYLES)], marker=MARKERS[normals.index(key[1]) % 4], ms=4,
                   color=COLOURS.get(key[0], "black"), label=label)
     for theory in (1, 2):
         axes.axhline(theory, color="0.5", lw=0.8, ls=":")
