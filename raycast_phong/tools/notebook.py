@@ -52,7 +52,7 @@ def figure_html(result: RenderResult, title: str = "") -> str:
     left_out = sum(not s.kept for s in result.plan.stages)
     caption = f"<b>{html.escape(title)}</b><br>" if title else ""
     # The figure is as wide as its image (the caption wraps under it): three of them fit side by side in a
-    # JupyterLab output, where a wide table used to push each onto its own line.
+    # JupyterLab output, where a wide table would push each onto its own line.
     return (f"<figure style='flex:0 0 auto;width:{width}px;margin:0 1em 1em 0;vertical-align:top'>"
             f"<img src='data:image/png;base64,{png}' width='{width}' height='{height}' alt='{html.escape(title)}'>"
             f"<figcaption style='font-size:smaller'>{caption}<table>{table}</table>"

@@ -80,7 +80,7 @@ class ReferenceImage:
 def _discriminant(o, d, a, b, r2):
     """b² − a c of |o + t d|² = r² (a = d·d, b = o·d, c = o·o − r²) without cancellation: a (r² − |p|²), p = o − (b/a) d
     the foot of the perpendicular from the centre (Haines et al., Ray Tracing Gems ch. 7). b² and a c agree
-    to all their digits for an eye 1e7 radii away, so their difference was rounding alone (issue 47)."""
+    to all their digits for an eye 1e7 radii away, so their difference is rounding alone."""
     with np.errstate(divide="ignore", invalid="ignore"):
         p = o - (b / a)[:, None] * d
     return a * (r2 - np.einsum("ij,ij->i", p, p))

@@ -238,8 +238,8 @@ def encode(image: np.ndarray, suffix: str, aovs: dict | None = None, colour: str
 def rgba_bytes(image: np.ndarray, colour: str = DISPLAY) -> bytes:
     """A draft's pixels as the page paints them into its canvas (ImageData: rows of R, G, B, A, top row first):
     the 8-bit values the PNG would hold (encoding.to_8bit), opaque. No compression: a 320×180 draft is 230 kB on
-    a local socket, and the page neither inflates nor decodes it (issue 35: a PNG's decode through an <img> was
-    ~18 ms of a draft's ~100 ms on the page)."""
+    a local socket, and the page neither inflates nor decodes it (a PNG's decode through an <img> costs ~18 ms of
+    a draft's ~100 ms on the page)."""
     from raycast_phong.io.encoding import to_8bit
     rgb8 = to_8bit(image, colour)
     rgba = np.full((*rgb8.shape[:2], 4), 255, np.uint8)
@@ -451,7 +451,7 @@ def create_app(opened: Opened, token: str, origins: list[str], *, render: Callab
     executor = executor or ThreadPoolExecutor(max_workers=1, thread_name_prefix="view-warm")
     app.state.executor, app.state.renderer, app.state.view = executor, renderer, view
     # Load or compile every kernel the page can ask for (float32 and float64 shading, shadow rays) before
-    # it asks: a first switch to float64 used to wait ~35 s for numba mid-session. The page shows
+    # it asks, or a first switch to float64 waits ~35 s for numba mid-session. The page shows
     # "preparing the renderer" while this runs (hello's `warming`); the first frame queues behind it.
     # It starts once the first page is served (the HTML first), or within a second if none comes.
     app.state.warming = view.prepare(executor, lambda: warm(opened))

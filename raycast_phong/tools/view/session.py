@@ -140,6 +140,11 @@ class Client:
             self._renderer = page_renderer(self.bands, self.budget)
         return self._renderer
 
+    @property
+    def waiting(self) -> bool:
+        """Whether a draft or a committed frame waits to be rendered."""
+        return self.pending is not None or self.committed is not None
+
 
 class View:
     """What every page of one server shares, and the socket's entry point."""
@@ -159,7 +164,7 @@ class View:
     def prepare(self, executor: ThreadPoolExecutor, job: Callable[[], None]) -> Future:
         """Run `job` (the kernels' warm-up: numba's import and every kernel loaded or compiled) on `executor`
         once: when the first page is served or a socket opens, or WARM_AFTER seconds from now, whichever is
-        first. Started at once, it held the GIL while the page's HTML was waited for. `warming` is its Future."""
+        first, not at once: it holds the GIL, which the page's HTML would wait for. `warming` is its Future."""
         self.warming, self._warm = Future(), (executor, job)
         self.warming.set_running_or_notify_cancel()  # running from now on: a page that waits cannot cancel it
         timer = threading.Timer(WARM_AFTER, self.start_warming)
@@ -262,8 +267,8 @@ class Session:
         draft (the committed frame waiting goes first: it is older), a newer full request replaces both. A
         running refinement (the samples after a preview) is cancelled between bands, and so is a running draft
         when a full request comes (a release's frame waits for no stale draft, nor does the page paint one); a
-        committed request's first full-size frame is not (issue 35: every release is answered by a full frame,
-        even when the next stroke starts at once; a draft waits for it, ~one frame's time)."""
+        committed request's first full-size frame is not (every release is answered by a full frame, even when
+        the next stroke starts at once; a draft waits for it, ~one frame's time)."""
         client = self.client
         client.asked_at = time.monotonic()
         full = request.get("quality", "full") != "draft"
@@ -299,7 +304,7 @@ class Session:
             await client.wake.wait()
             client.wake.clear()
             request = self.next_request()
-            if client.pending is not None or client.committed is not None:
+            if client.waiting:
                 client.wake.set()  # a draft waits behind the committed frame: this loop comes back for it
             while client.saves:
                 save = client.saves.popleft()
@@ -314,8 +319,7 @@ class Session:
             else:  # a preview first if a scene asks for several samples: its scenes are validated to know
                 steps = await self.answer(request, client.executor.at(COST["check"]), renderer.steps, request)
             for step in steps or ():
-                waiting = client.pending is not None or client.committed is not None
-                if step != steps[0] and waiting:
+                if step != steps[0] and client.waiting:
                     break  # a newer request came while the preview rendered: the full frame is stale
                 client.cancel.clear()
                 client.running = step
@@ -356,12 +360,10 @@ class Session:
         client, loop = self.client, asyncio.get_running_loop()
         while client.reference_next is not None:
             # Start only once the page has rested a moment: a drag that goes on makes it stale before it starts.
-            # Rested: no request for REFERENCE_REST seconds and no frame running. (Nothing waiting was not enough:
-            # a drag keeps one draft in flight and none waiting, so references ran mid-drag, ~30 % of the server's
-            # CPU in an unpaced drag, numpy's BLAS threads spinning beside the frames at normal priority.)
+            # Rested: no request for REFERENCE_REST seconds and no frame running (nothing waiting is not enough: a
+            # drag keeps one draft in flight and none waiting, and a reference costs ~30 % of the server's CPU).
             await asyncio.sleep(max(0.05, client.asked_at + REFERENCE_REST - time.monotonic()))
-            if (client.pending is not None or client.committed is not None or client.running is not None
-                    or time.monotonic() - client.asked_at < REFERENCE_REST):
+            if client.waiting or client.running is not None or time.monotonic() - client.asked_at < REFERENCE_REST:
                 continue  # a newer frame is on its way (a full one brings its own reference request)
             request, client.reference_next = client.reference_next, None
             try:
