@@ -463,8 +463,7 @@ def exact_uv(shape: str, points: np.ndarray, size=(2.0, 2.0)) -> np.ndarray:
 def textured_plane_colour(u, v, kd, ka, ambient: float, diffuse: float, cosine: float = 1.0) -> np.ndarray:
     """A plane whose k_d map (and so k_a's) is ramp(u, v), lit by one light of I_d = `diffuse` at the angle
     of `cosine`, scene ambient I_a = `ambient`, no specular: (I_a k_a + I_d cos k_d) · ramp(u, v)."""
-    texture = ramp(u, v)
-    return (ambient * np.asarray(ka) + diffuse * cosine * np.asarray(kd)) * texture
+    return (ambient * np.asarray(ka) + diffuse * cosine * np.asarray(kd)) * ramp(u, v)
 
 
 def textured_ambient_reference(scene: Scene, ka) -> tuple[np.ndarray, np.ndarray]:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import atexit
 import functools
+import itertools
 import math
 import shutil
 import tempfile
@@ -215,16 +216,15 @@ def plane_with_light(distance: float, attenuation, precision: str = "float32",
 @case
 def light_on_the_surface() -> CaseResult:
     worst, finite, head_on = 0.0, True, True
-    for distance in (0.0, 1e-30, 1e-12, -1e-12):
-        for sideways in ((0.0, 0.0), (3e-7, -5e-7)):
-            for attenuation in ("none", "inverse_square", [1.0, 0.5, 0.25]):
-                for precision in ("float32", "float64"):
-                    image = render(plane_with_light(distance, attenuation, precision, sideways)).image
-                    finite &= bool(np.isfinite(image).all() and image.min() >= 0)
-                    worst = max(worst, float(image.max()))
-                    if attenuation == "inverse_square":
-                        # Inside the floor (2e-6 here) the light is head-on: f_att (kd + ks) at the centre.
-                        head_on &= abs(float(image[4, 4].max()) / LIGHT_ON_SURFACE_PEAK - 1) < 1e-5
+    for distance, sideways, attenuation, precision in itertools.product(
+            (0.0, 1e-30, 1e-12, -1e-12), ((0.0, 0.0), (3e-7, -5e-7)), ("none", "inverse_square", [1.0, 0.5, 0.25]),
+            ("float32", "float64")):
+        image = render(plane_with_light(distance, attenuation, precision, sideways)).image
+        finite &= bool(np.isfinite(image).all() and image.min() >= 0)
+        worst = max(worst, float(image.max()))
+        if attenuation == "inverse_square":
+            # Inside the floor (2e-6 here) the light is head-on: f_att (kd + ks) at the centre.
+            head_on &= abs(float(image[4, 4].max()) / LIGHT_ON_SURFACE_PEAK - 1) < 1e-5
     return CaseResult("light at, on or inside the surface", "d ∈ {0, 1e-30, ±1e-12}, on the axis and 6e-7 "
                       "sideways, every attenuation, both precisions: finite, ≥ 0; inside the 1/d² floor (1e-6 of "
                       "the scene size) the light is head-on, so the centre pixel is f_att (k_d + k_s) on any CPU",
@@ -393,18 +393,17 @@ def triangle_soup() -> CaseResult:
     with tempfile.TemporaryDirectory() as folder:
         clean = Path(folder) / "clean.obj"
         write_obj(clean, sphere.vertices, sphere.faces)
-        for flip in (0, 3):
-            for jitter in (1e-12, 1e-7):
-                corners = sphere.vertices[sphere.faces].reshape(-1, 3)
-                corners = corners * (1 + jitter * rng.standard_normal(corners.shape))
-                faces = np.arange(len(corners)).reshape(-1, 3)
-                if flip:
-                    faces[::flip] = faces[::flip, ::-1]
-                soup = Path(folder) / f"soup-{flip}-{jitter:g}.obj"
-                write_obj(soup, corners, faces)
-                change, results = against_clean(clean, soup)
-                worst = max(worst, change)
-                noted &= all(any("triangle soup" in note for note in result.plan.notes) for result in results)
+        for flip, jitter in itertools.product((0, 3), (1e-12, 1e-7)):
+            corners = sphere.vertices[sphere.faces].reshape(-1, 3)
+            corners = corners * (1 + jitter * rng.standard_normal(corners.shape))
+            faces = np.arange(len(corners)).reshape(-1, 3)
+            if flip:
+                faces[::flip] = faces[::flip, ::-1]
+            soup = Path(folder) / f"soup-{flip}-{jitter:g}.obj"
+            write_obj(soup, corners, faces)
+            change, results = against_clean(clean, soup)
+            worst = max(worst, change)
+            noted &= all(any("triangle soup" in note for note in result.plan.notes) for result in results)
     return CaseResult("triangle soup", "a soup whose copies of a point differ by 1e-12 or 1e-7 of the size, every "
                       "third face flipped or none: the welded mesh's image within 1e-3, and a note",
                       f"max change {worst:.1e}", worst < 1e-3 and noted, value=worst, limit=1e-3)
@@ -497,11 +496,10 @@ def light_in_the_surface_plane() -> CaseResult:
     """A light in the surface's plane lights nothing (n·l within LIT_ROUNDINGS units of rounding is 0): the largest
     departure from the ambient term, in both precisions and on both sides."""
     worst = 0.0
-    for precision in ("float32", "float64"):
-        for side in (-1.0, 1.0):
-            image = render(light_in_plane_scene(precision, side)).image
-            covered = image.max(axis=2) > 0.0
-            worst = max(worst, float(np.abs(image[covered] - 0.1).max()))
+    for precision, side in itertools.product(("float32", "float64"), (-1.0, 1.0)):
+        image = render(light_in_plane_scene(precision, side)).image
+        covered = image.max(axis=2) > 0.0
+        worst = max(worst, float(np.abs(image[covered] - 0.1).max()))
     return CaseResult("light in the surface's plane", "a point light exactly in a tilted plane's plane, shininess 1, "
                       "both precisions: every pixel the ambient term within 1e-6 (n·l is rounding alone)",
                       f"largest departure {worst:.1e}", worst <= 1e-6, value=worst, limit=1e-6)
