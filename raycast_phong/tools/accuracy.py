@@ -97,16 +97,15 @@ def fine_reference(scene: Scene, levels: int, max_memory: int | None = None) -> 
     data = scene.data()
     data["render"].update(shading="phong", precision="float64")
     data["output"] = {"path": "reference.exr", "aovs": ["specular"]}
+    targets = [min(level_of(obj) + levels, max_level(obj)) for obj in scene.objects]
     for index, obj in enumerate(scene.objects):
         data["objects"][index]["shading"] = "phong"
         if not from_file(obj):
-            data["objects"][index].update(refined(obj, min(level_of(obj) + levels, max_level(obj))))
+            data["objects"][index].update(refined(obj, targets[index]))
     check_fine_memory(scene, data, levels, max_memory)
     with tempfile.TemporaryDirectory(prefix="raycast-phong-fine-") as folder:
-        for index, obj in enumerate(scene.objects):
-            data["objects"][index]["shading"] = "phong"
-            refine_entry(scene, index, data["objects"][index], min(level_of(obj) + levels, max_level(obj)), levels,
-                         Path(folder))
+        for index, target in enumerate(targets):  # the meshes now Loop-subdivided
+            refine_entry(scene, index, data["objects"][index], target, levels, Path(folder))
         fine = validate_scene(data, source=scene.origin, folder=scene.folder)
         result = render(fine, max_memory=max_memory)
         coverage = mesh_coverage(fine)

@@ -850,28 +850,25 @@ def read_csv(path: Path) -> list[dict[str, str]]:
 def fits_table(study: Study) -> list[list[str]]:
     """Header and rows of the fitted-order table (summary.md and report.html), each order far from theory with
     its reason (order_reason)."""
-    rows = [["model", "curve", f"order (last {FIT_WINDOW} levels)", "theory", "why not theory", "window before",
-             "all levels", "levels", "settled"]]
-    for f in study.fits:
-        rows.append([f.model, f.group, f"{f.order:.2f}", f"{f.theory:g}", order_reason(f, study) or "–",
-                     "–" if math.isnan(f.previous) else f"{f.previous:.2f}", f"{f.order_all:.2f}", str(f.levels),
-                     "yes" if f.settled else "no"])
-    return rows
+    header = ["model", "curve", f"order (last {FIT_WINDOW} levels)", "theory", "why not theory", "window before",
+              "all levels", "levels", "settled"]
+    return [header] + [[f.model, f.group, f"{f.order:.2f}", f"{f.theory:g}", order_reason(f, study) or "–",
+                        "–" if math.isnan(f.previous) else f"{f.previous:.2f}", f"{f.order_all:.2f}", str(f.levels),
+                        "yes" if f.settled else "no"] for f in study.fits]
 
 
 def rows_table(study: Study) -> list[list[str]]:
-    rows = [["model", "normals", "specular", "precision", "spp", "f", "level", "triangles", "edge",
-             "ms to image, min", "median", "spread", "diagnosis ms", "frame ms", "rest ms",
-             "lower bound ms (Σ stage minima)", "RMSE", "max", "PSNR dB", "silhouette RMSE", "image RMSE",
-             "highlight loss"]]
-    for r in study.rows:
-        rows.append([r.model, r.normals, r.specular, r.precision, str(r.samples), r.shininess, str(r.level),
-                     f"{r.triangles:,}", f"{r.edge_length:.4f}", f"{r.seconds_total_measured * 1e3:.2f}",
-                     f"{r.seconds_total_median * 1e3:.2f}", f"{100 * r.seconds_total_spread:.0f} %",
-                     f"{r.diagnosis_seconds * 1e3:.2f}", f"{r.seconds * 1e3:.2f}", f"{r.rest_seconds * 1e3:.2f}",
-                     f"{r.seconds_total_bound * 1e3:.2f}", f"{r.rmse:.2e}", f"{r.max_error:.3g}", f"{r.psnr:.1f}",
-                     f"{r.silhouette_rmse:.3g}", f"{r.image_rmse:.3g}", f"{r.highlight_loss:.3f}"])
-    return rows
+    header = ["model", "normals", "specular", "precision", "spp", "f", "level", "triangles", "edge",
+              "ms to image, min", "median", "spread", "diagnosis ms", "frame ms", "rest ms",
+              "lower bound ms (Σ stage minima)", "RMSE", "max", "PSNR dB", "silhouette RMSE", "image RMSE",
+              "highlight loss"]
+    return [header] + [[r.model, r.normals, r.specular, r.precision, str(r.samples), r.shininess, str(r.level),
+                        f"{r.triangles:,}", f"{r.edge_length:.4f}", f"{r.seconds_total_measured * 1e3:.2f}",
+                        f"{r.seconds_total_median * 1e3:.2f}", f"{100 * r.seconds_total_spread:.0f} %",
+                        f"{r.diagnosis_seconds * 1e3:.2f}", f"{r.seconds * 1e3:.2f}", f"{r.rest_seconds * 1e3:.2f}",
+                        f"{r.seconds_total_bound * 1e3:.2f}", f"{r.rmse:.2e}", f"{r.max_error:.3g}",
+                        f"{r.psnr:.1f}", f"{r.silhouette_rmse:.3g}", f"{r.image_rmse:.3g}",
+                        f"{r.highlight_loss:.3f}"] for r in study.rows]
 
 
 TIMES = ("Times to image are the whole render() call as measured: its minimum and median over the rounds "

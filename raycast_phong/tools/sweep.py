@@ -298,23 +298,21 @@ def write_contact_sheets(jobs: list, report, force: bool, budget: int | None = N
         outputs = [report.folder / by_name[job.name].outputs[0]
                    if by_name[job.name].status != "failed" and by_name[job.name].outputs else None for job in members]
         check_sheet_memory(path, [job.cell for job in members], outputs, budget)
-        images = []
-        for job in members:
-            outcome = by_name[job.name]
-            if outcome.status == "failed" or not outcome.outputs:
-                images.append(None)
-                continue
-            output = report.folder / outcome.outputs[0]
-            try:
-                # its own output, weighed with the sheet: a large render of a flat background is no bomb
-                image = np.asarray(read_layer(output, max_memory=budget_of(budget)), np.float32)
-            except ImageError:
-                images.append(None)
-                continue
-            if output.suffix.lower() == ".exr":
-                image = display_values(image, image_colour(output) or DISPLAY)
-            images.append(np.clip(image, 0.0, 1.0))
-        canvas, _ = compose_sheet([job.cell for job in members], images)
+        canvas, _ = compose_sheet([job.cell for job in members], [_cell_image(output, budget) for output in outputs])
         write_image(path, canvas)
         sheets[sweep] = path.name
     return sheets
+
+
+def _cell_image(output: Path | None, budget: int | None) -> np.ndarray | None:
+    """A cell's image as the sheet shows it, read back from its file (None: the cell failed or cannot be read)."""
+    if output is None:
+        return None
+    try:
+        # its own output, weighed with the sheet: a large render of a flat background is no bomb
+        image = np.asarray(read_layer(output, max_memory=budget_of(budget)), np.float32)
+    except ImageError:
+        return None
+    if output.suffix.lower() == ".exr":
+        image = display_values(image, image_colour(output) or DISPLAY)
+    return np.clip(image, 0.0, 1.0)
