@@ -13,7 +13,7 @@ from concurrent.futures import Future
 from contextlib import contextmanager
 
 from ...errors import OptionError
-from .jobs import FAILED, Outcome, Task, new_entry, reason_line, render_job
+from .jobs import Outcome, Task, failed, render_job
 
 # A Dask client gives up on an unreachable scheduler after this long rather than hanging the batch, and on a
 # scheduler with no worker after WORKER_WAIT seconds (its tasks would wait for ever).
@@ -26,8 +26,7 @@ def cluster_outcome(future: Future, task: Task) -> Outcome:
     try:
         return future.result()
     except Exception as error:  # noqa: BLE001
-        reason = reason_line(task.job, f"worker failed: {type(error).__name__}: {error}")
-        return new_entry(task.job, FAILED, reason=reason, hash=task.digest, inputs=task.inputs)
+        return failed(task, f"worker failed: {type(error).__name__}: {error}")
 
 
 @contextmanager
@@ -95,10 +94,8 @@ def on_cluster(tasks: list[Task], scheduler: str, started: set[str],
             if pending and alone is not None and time.monotonic() - alone >= WORKER_WAIT:
                 for future in sorted(pending, key=lambda f: futures[f].job.name):
                     future.cancel()
-                    reason = reason_line(futures[future].job, f"no worker left on the scheduler for "
-                                                              f"{WORKER_WAIT:g} s; not rendered")
-                    yield new_entry(futures[future].job, FAILED, reason=reason, hash=futures[future].digest,
-                                    inputs=futures[future].inputs)
+                    yield failed(futures[future],
+                                 f"no worker left on the scheduler for {WORKER_WAIT:g} s; not rendered")
                 return
 
 

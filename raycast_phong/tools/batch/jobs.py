@@ -363,8 +363,7 @@ def render_job(task: Task) -> Outcome:
         write_image(task.output, result.image, result.aovs, colour=task.scene.render.colour)
         result = result.with_timings(write=time.perf_counter() - written)
     except (SceneError, ImageError, WriteError) as error:  # a failed write is a failed scene, never rendered
-        entry.reason = reason_line(task.job, str(error))
-        return entry
+        return failed(task, str(error))
     except Exception as error:  # noqa: BLE001 — a renderer bug in one scene must not stop the batch
         return _internal_error(task.job, entry, error)
     seconds = {"load": task.load_seconds, **result.timings, "total": time.perf_counter() - start}
@@ -382,6 +381,11 @@ def _lines(kept: object) -> list[str]:
 def new_entry(job: Job, status: str, **fields) -> Outcome:
     """A manifest entry for `job`."""
     return Outcome(name=job.name, scene=str(job.scene), overrides=list(job.overrides), status=status, **fields)
+
+
+def failed(task: Task, message: str) -> Outcome:
+    """The FAILED manifest entry of a task, `message` its reason (reason_line)."""
+    return new_entry(task.job, FAILED, reason=reason_line(task.job, message), hash=task.digest, inputs=task.inputs)
 
 
 def _internal_error(job: Job, entry: Outcome, error: BaseException) -> Outcome:

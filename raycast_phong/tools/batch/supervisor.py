@@ -18,7 +18,7 @@ from multiprocessing import connection
 from ...errors import SceneError
 from ...renderer.intersect import embree_started
 from ...stops import STOP_SIGNALS
-from .jobs import FAILED, RENDERED, Outcome, Task, new_entry, reason_line, render_job
+from .jobs import RENDERED, Outcome, Task, failed, new_entry, render_job
 from .manifest import remove_temporaries
 
 # Linux's prctl option that has the kernel send a signal to a process when its parent dies.
@@ -191,5 +191,4 @@ def _died(task: Task, exitcode: int | None) -> Outcome:
                       threads=task.threads)
     remove_temporaries(task.output.parent, [task.job.name])  # killed mid-write, it left its temporary file
     how = f"killed by {signal.Signals(-exitcode).name}" if exitcode and exitcode < 0 else f"exit status {exitcode}"
-    return new_entry(task.job, FAILED, reason=reason_line(task.job, f"its worker process died ({how}; out of memory?)"),
-                  hash=task.digest, inputs=task.inputs)
+    return failed(task, f"its worker process died ({how}; out of memory?)")
