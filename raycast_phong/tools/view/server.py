@@ -298,6 +298,16 @@ def object_spheres(cache: FrameCache, objects: int) -> list[list[float]]:
     return [[round(float(x), 6) for x in (*c, r)] for c, r in zip(centre, radius)]
 
 
+def analytic(scene: rp.Scene) -> bool:
+    """Whether the exact surfaces (reference.ExactScene) cover the scene: no mesh file, so errors() can measure it."""
+    from raycast_phong.tools.reference import ExactScene
+    try:
+        ExactScene(scene)
+    except SceneError:
+        return False
+    return True
+
+
 def left_out(plan) -> list[dict]:
     return [{"name": s.name, "reason": s.reason} for s in plan.stages if not s.kept]
 
@@ -393,11 +403,8 @@ class Replies:
         """RMSE, max error and highlight loss of A against the exact surfaces; None for a mesh scene. The image
         measured is the page's last full frame (`shown`, as frame() kept it) if it is this request's."""
         from raycast_phong.tools.accuracy import measured
-        from raycast_phong.tools.reference import ExactScene
         scene = frame_of(scene_with(self.opened, settings_of(request)))
-        try:
-            ExactScene(scene)
-        except SceneError:
+        if not analytic(scene):
             return None
         shown_id, image = (shown or {}).get("a", (None, None))
         if shown_id != request.get("id"):
@@ -486,19 +493,11 @@ def hello(opened: Opened) -> dict:
     """What the page needs to build its controls: the scene's own settings, the choices it offers and the sizes
     the server takes (the page refuses a larger file or message in one line rather than have its socket closed)."""
     from raycast_phong.tools.accuracy import refined
-    from raycast_phong.tools.reference import ExactScene
     scene = rp.validate_scene(copy.deepcopy(opened.data), source=opened.name, folder=opened.folder)
-    try:
-        ExactScene(scene)
-        analytic = True
-    except SceneError:
-        analytic = False
-    levels = {}
-    for level in LEVELS:
-        levels[level] = {f"objects.{i}.{key}": value for i, obj in enumerate(scene.objects)
-                         for key, value in refined(obj, level).items()}
+    levels = {level: {f"objects.{i}.{key}": value for i, obj in enumerate(scene.objects)
+                      for key, value in refined(obj, level).items()} for level in LEVELS}
     used = sorted({obj.material for obj in scene.objects})
-    return {"type": "hello", "source": opened.name, "analytic": analytic, "levels": levels,
+    return {"type": "hello", "source": opened.name, "analytic": analytic(scene), "levels": levels,
             "scene": scene.model_dump(mode="json", exclude={"folder"}), "materials": used,
             "limits": {"scene_bytes": MAX_SCENE_BYTES, "message_bytes": MAX_MESSAGE_BYTES},
             "material_values": {name: scene.material_of(next(o for o in scene.objects if o.material == name))
