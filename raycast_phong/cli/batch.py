@@ -22,6 +22,7 @@ from .common import (
     output_or_old_spelling,
     quiet_option,
     verbose_option,
+    warn,
 )
 from .progress import progress_bar, shows_progress
 
@@ -102,10 +103,9 @@ def batch(
                 found = batches.find_jobs(paths, out, listed, refused)
             finally:  # before a refusal too: it says why nothing was left
                 for warning in refused[:MAX_LEFT_OUT]:
-                    typer.secho(f"warning: {one_line(warning)}", err=True, fg=typer.colors.YELLOW)
+                    warn(warning)
                 if len(refused) > MAX_LEFT_OUT:
-                    typer.secho(f"warning: and {len(refused) - MAX_LEFT_OUT:,} more path(s) left out", err=True,
-                                fg=typer.colors.YELLOW)
+                    warn(f"and {len(refused) - MAX_LEFT_OUT:,} more path(s) left out")
             report = _batch_with_progress(found, out, jobs, force, batches.Settings(srgb=srgb), scheduler, quiet,
                                           verbose, max_memory)
     except batches.Interrupted as stop:

@@ -98,7 +98,7 @@ def side_by_side(
         if layers != output:
             rp.write_image(output, comparison.image)
     if not comparison.labelled:
-        typer.secho(f"warning: the image has no labels: {NO_FONT}", err=True, fg=typer.colors.YELLOW)
+        warn(f"the image has no labels: {NO_FONT}")
     for line in told_once(key, values, [result.plan.warnings for result in results]):
         warn(line)
     if quiet:
