@@ -143,8 +143,7 @@ def study(
             precisions=lists.choices(precision or None, Precision, "--precision"),
             samples=lists.numbers(samples, int, "--samples"), shininess=lists.numbers(shininess, float, "--shininess"),
             repeats=repeats, fine=fine, target=target, max_memory=max_memory)
-    overrides = [*scene_overrides({"render.width": width, "render.height": height}), *set_]
-    with exit_codes():
+        overrides = [*scene_overrides({"render.width": width, "render.height": height}), *set_]
         path = scene or rp.default_scene_path()
         check_study_folder(out, path)
         with progress_bar(quiet) as bar:
