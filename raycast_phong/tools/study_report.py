@@ -473,13 +473,10 @@ def _figure(plot: Plot) -> str:
 
 
 def fronts_table(study: Study) -> list[list[str]]:
-    rows = [["problem", "setting", "triangles", "ms to image, min", "median", "shading RMSE"]]
-    for group in problems(study.rows).values():
-        for r in pareto_front(group):
-            rows.append([problem_label(r), setting_label(r), f"{r.triangles:,}",
-                         f"{r.seconds_total_measured * 1e3:.2f}", f"{r.seconds_total_median * 1e3:.2f}",
-                         f"{r.rmse:.2e}"])
-    return rows
+    header = ["problem", "setting", "triangles", "ms to image, min", "median", "shading RMSE"]
+    return [header] + [[problem_label(r), setting_label(r), f"{r.triangles:,}", f"{r.seconds_total_measured * 1e3:.2f}",
+                        f"{r.seconds_total_median * 1e3:.2f}", f"{r.rmse:.2e}"]
+                       for group in problems(study.rows).values() for r in pareto_front(group)]
 
 
 def _ordered(curve: list[StudyRow]) -> str:
@@ -491,13 +488,12 @@ def _ordered(curve: list[StudyRow]) -> str:
 
 
 def cost_table(study: Study) -> list[list[str]]:
-    rows = [["model", "curve", "triangles", "ms to image, min", "median", "rises beyond the spread"]]
-    for key, curve in curves(study.rows).items():
-        rows.append([key[0], f"{key[1]} normals, {key[2]}, {key[3]}, {key[4]} spp, f={key[5]}",
-                     " → ".join(f"{r.triangles:,}" for r in curve),
-                     " → ".join(f"{r.seconds_total_measured * 1e3:.1f}" for r in curve),
-                     " → ".join(f"{r.seconds_total_median * 1e3:.1f}" for r in curve), _ordered(curve)])
-    return rows
+    header = ["model", "curve", "triangles", "ms to image, min", "median", "rises beyond the spread"]
+    return [header] + [[key[0], f"{key[1]} normals, {key[2]}, {key[3]}, {key[4]} spp, f={key[5]}",
+                        " → ".join(f"{r.triangles:,}" for r in curve),
+                        " → ".join(f"{r.seconds_total_measured * 1e3:.1f}" for r in curve),
+                        " → ".join(f"{r.seconds_total_median * 1e3:.1f}" for r in curve), _ordered(curve)]
+                       for key, curve in curves(study.rows).items()]
 
 
 def report_html(study: Study, plots: dict[str, Plot]) -> str:
