@@ -658,11 +658,9 @@ def fit_orders(rows: list[StudyRow], settle: float = 0.1) -> list[Fit]:
 
 def local_orders(curve: list[StudyRow]) -> list[tuple[StudyRow, float]]:
     """The slope between each pair of successive levels, at the finer one."""
-    out = []
-    for coarse, fine in itertools.pairwise(curve):
-        if coarse.rmse > 0 and fine.rmse > 0 and fine.edge_length != coarse.edge_length:
-            out.append((fine, math.log(fine.rmse / coarse.rmse) / math.log(fine.edge_length / coarse.edge_length)))
-    return out
+    return [(fine, math.log(fine.rmse / coarse.rmse) / math.log(fine.edge_length / coarse.edge_length))
+            for coarse, fine in itertools.pairwise(curve)
+            if coarse.rmse > 0 and fine.rmse > 0 and fine.edge_length != coarse.edge_length]
 
 
 RANGES = {"seconds_total_measured": "seconds_total_median", "seconds": "seconds_median"}  # cost -> its median
