@@ -226,7 +226,7 @@ def stability(
         rows = [(r, "—" if r.value is None else f"{r.value:.3g} {'≥' if r.at_least else '≤'} {r.limit:.3g}",
                  "—" if r.margin is None else ("∞" if math.isinf(r.margin) else f"{r.margin:.3g}×")) for r in shown]
         # With no colour system the output holds no escape sequence (NO_COLOR, TERM=dumb). The terminal's own width
-        # (80 when piped): a table below WIDE_TABLE columns broke its words ("propert y"), so a block per case then.
+        # (80 when piped): a table below WIDE_TABLE columns breaks its words ("propert y"), so a block per case then.
         console = Console(**({"color_system": None} if plain_output() else {}))
         if console.width >= WIDE_TABLE:
             console.print(_stability_table(rows))

@@ -33,7 +33,7 @@ HOST_CHARACTERS, LABEL_CHARACTERS = 253, 63  # a DNS name's limits (RFC 1035 §2
 
 def _scheduler(address: str | None) -> str | None:
     """--scheduler as Dask takes it, [PROTOCOL://]HOST:PORT; anything else exits 2 with one line here (Dask's
-    own parser raised a bare ValueError deep in its connection code: an internal error)."""
+    own parser raises a bare ValueError deep in its connection code: an internal error)."""
     if address is None:
         return None
     found = SCHEDULER.fullmatch(address)

@@ -31,7 +31,7 @@ def cluster_outcome(future: Future, task: Task) -> Outcome:
 
 @contextmanager
 def _dask_quiet() -> Iterator[None]:
-    """Dask's own loggers silenced while the batch uses the cluster: a scheduler that dies mid-batch made them
+    """Dask's own loggers silenced while the batch uses the cluster: a scheduler that dies mid-batch makes them
     print a 30-line traceback; each task it took down fails with one line in the report instead."""
     names = [name for name in logging.root.manager.loggerDict if name.split(".")[0] == "distributed"]
     loggers = [logging.getLogger(name) for name in ("distributed", "tornado", "asyncio", *names)]

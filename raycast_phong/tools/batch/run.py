@@ -33,7 +33,7 @@ from .manifest import folder_lock, is_own_manifest, open_manifest, remove_tempor
 from .supervisor import in_process, process_pool, warm_up
 
 # The manifest is rewritten at most this often while scenes finish (and always at the end, or on an interrupt):
-# rewriting it after every scene cost the parent 4 ms each, O(scenes²) over a batch.
+# rewriting it after every scene costs the parent 4 ms each, O(scenes²) over a batch.
 MANIFEST_INTERVAL = 0.5
 DEFAULT_SETTINGS = Settings()
 

@@ -96,8 +96,8 @@ def server_config(app, log_level: str = "warning"):
     """uvicorn's settings for the view; log_level "info" logs every request (`view --verbose`)."""
     import uvicorn
     # ws_max_size: refuse a flood at the protocol level, above the limit parse() answers in one line.
-    # lifespan off: the app has no start-up or shut-down events, and uvicorn's lifespan task logged a
-    # traceback when Ctrl-C's KeyboardInterrupt cancelled it.
+    # lifespan off: the app has no start-up or shut-down events, and uvicorn's lifespan task logs a
+    # traceback when Ctrl-C's KeyboardInterrupt cancels it.
     return uvicorn.Config(app, log_level=log_level, ws_max_size=SOCKET_MAX_BYTES, ws_ping_interval=None, lifespan="off",
                           ws_per_message_deflate=False)
 

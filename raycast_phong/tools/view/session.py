@@ -38,7 +38,7 @@ if TYPE_CHECKING:
 
 FRAME_THREADS = 2       # frames rendered at once by one server, over all its pages (each frame uses every core)
 # The frames' bands run on the server's band threads (io.system.default_threads(): the cores, at most 8), kept
-# for its life and shared by its frames: a pool started for every frame waited 1-2 ms for its threads to start.
+# for its life and shared by its frames: a pool started for every frame would wait 1-2 ms for its threads.
 REFERENCE_THREADS = 1   # exact references at once (at nice 19: they use what the frames leave)
 REFERENCE_REST = 0.3    # seconds without a newer request before the exact errors of a full frame are computed
 WATCH_EVERY = 0.5       # seconds between looks at the scene file: an edit shows within a second, the disk idle
