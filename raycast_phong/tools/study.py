@@ -309,9 +309,8 @@ class _Sweep:
         _check_options(self.base, options)
         self.options, self.folder = options, folder
         self.renderer = Renderer(threads=options.threads, max_memory=options.max_memory)  # every measured render's
-        value = lambda v: v.value if hasattr(v, "value") else v
-        self.models = [value(m) for m in options.models]
-        self.problems = [(value(s), f) for f in (options.shininess or (None,))
+        self.models = [getattr(m, "value", m) for m in options.models]  # an enum by its value
+        self.problems = [(getattr(s, "value", s), f) for f in (options.shininess or (None,))
                          for s in (options.speculars or (self.base.render.specular,))]
         self.choices = [(nrm, prec, n) for nrm in (options.normals or (None,))
                         for prec in (options.precisions or (self.base.render.precision,))
