@@ -86,17 +86,19 @@ def _discriminant(o, d, a, b, r2):
     return a * (r2 - np.einsum("ij,ij->i", p, p))
 
 
+def _roots(o, d, r):
+    """Both roots t of |o + t d|² = r² (rows of any width: a circle's in x–y too), the cancellation-free pair
+    q/a, c/q; inf where there is none."""
+    a, b, c = np.einsum("ij,ij->i", d, d), np.einsum("ij,ij->i", o, d), np.einsum("ij,ij->i", o, o) - r * r
+    disc = _discriminant(o, d, a, b, r * r)
+    q = -(b + np.copysign(np.sqrt(np.maximum(disc, 0)), b))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(disc >= 0, q / a, np.inf), np.where(disc >= 0, c / q, np.inf)
+
+
 def _sphere(o, d, obj, t_min):
     """|o + t d|² = r²: the nearest root above t_min (the cancellation-free pair q/a, c/q)."""
-    a = np.einsum("ij,ij->i", d, d)
-    b = np.einsum("ij,ij->i", o, d)
-    c = np.einsum("ij,ij->i", o, o) - obj.radius ** 2
-    disc = _discriminant(o, d, a, b, obj.radius ** 2)
-    root = np.sqrt(np.maximum(disc, 0))
-    q = -(b + np.copysign(root, b))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = _nearest(t_min, np.where(disc >= 0, q / a, np.inf), np.where(disc >= 0, c / q, np.inf))
-    return t, o + np.where(np.isfinite(t), t, 0)[:, None] * d
+    return _nearest(t_min, *_roots(o, d, obj.radius))
 
 
 def _box(o, d, obj, t_min):
@@ -109,7 +111,7 @@ def _box(o, d, obj, t_min):
     far = np.fmin.reduce(np.fmax(t1, t2), axis=1)
     inside = near <= far
     t = _nearest(t_min, np.where(inside, near, np.inf), np.where(inside, far, np.inf))
-    return t, o + np.where(np.isfinite(t), t, 0)[:, None] * d
+    return t
 
 
 def _box_normal(p, obj):
@@ -127,29 +129,23 @@ def _plane(o, d, obj, t_min):
         t = -o[:, 1] / d[:, 1]
     p = o + np.where(np.isfinite(t), t, 0)[:, None] * d
     on = (np.abs(p[:, 0]) <= width / 2) & (np.abs(p[:, 2]) <= depth / 2) & (t > t_min)
-    return np.where(on, t, np.inf), p
+    return np.where(on, t, np.inf)
 
 
 def _cylinder(o, d, obj, t_min):
     """Side x² + y² = r², |z| ≤ h/2, and the two caps z = ±h/2, x² + y² ≤ r²."""
     r, h = obj.radius, obj.height / 2
-    a = d[:, 0] ** 2 + d[:, 1] ** 2
-    b = o[:, 0] * d[:, 0] + o[:, 1] * d[:, 1]
-    c = o[:, 0] ** 2 + o[:, 1] ** 2 - r * r
-    disc = _discriminant(o[:, :2], d[:, :2], a, b, r * r)
-    root = np.sqrt(np.maximum(disc, 0))
-    q = -(b + np.copysign(root, b))
     candidates = []
     with np.errstate(divide="ignore", invalid="ignore"):
-        for t in (q / a, c / q):
+        for t in _roots(o[:, :2], d[:, :2], r):
             z = o[:, 2] + t * d[:, 2]
-            candidates.append(np.where((disc >= 0) & (np.abs(z) <= h) & np.isfinite(t), t, np.inf))
+            candidates.append(np.where((np.abs(z) <= h) & np.isfinite(t), t, np.inf))
         for cap in (-h, h):
             t = (cap - o[:, 2]) / d[:, 2]
             x, y = o[:, 0] + t * d[:, 0], o[:, 1] + t * d[:, 1]
             candidates.append(np.where((x * x + y * y <= r * r) & np.isfinite(t), t, np.inf))
     t = _nearest(t_min, *candidates)
-    return t, o + np.where(np.isfinite(t), t, 0)[:, None] * d
+    return t
 
 
 def _cylinder_normal(p, obj):
@@ -198,7 +194,7 @@ def _torus(o, d, obj, t_min):
         s = s0[near, None] + tau
         s = np.where(np.isfinite(s) & (s > t_min * length[near, None]), s, np.inf)
         t[near] = s.min(axis=1) / length[near]
-    return t, o + np.where(np.isfinite(t), t, 0)[:, None] * d
+    return t
 
 
 def _torus_normal(p, obj):
@@ -269,12 +265,13 @@ class ExactScene:
             inverse = self.inverse[index]
             local_o = (origins - self.translate[index]) @ inverse.T
             local_d = directions @ inverse.T
-            t, local_p = INTERSECT[obj.shape](local_o, local_d, obj, t_min)
+            t = INTERSECT[obj.shape](local_o, local_d, obj, t_min)
             closer = t < best
             if closer.any():
+                local_p = local_o[closer] + t[closer, None] * local_d[closer]
                 best[closer], which[closer] = t[closer], index
                 # Normals are covectors: world = (linear)^-T · local, i.e. local @ inverse as rows.
-                normal[closer] = NORMAL[obj.shape](local_p[closer], obj) @ inverse
+                normal[closer] = NORMAL[obj.shape](local_p, obj) @ inverse
         length = np.linalg.norm(normal, axis=1, keepdims=True)
         normal = normal / np.where(length > 0, length, 1.0)
         points = origins + np.where(np.isfinite(best), best, 0)[:, None] * directions

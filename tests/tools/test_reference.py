@@ -265,7 +265,7 @@ def test_the_oracle_s_sphere_is_exact_at_any_distance(distance):
     directions = targets - eye
     directions /= np.linalg.norm(directions, axis=1, keepdims=True)
     origins = np.broadcast_to(eye, directions.shape).copy()
-    t, _ = _sphere(origins, directions, type("Sphere", (), {"radius": 1.0}), 0.0)
+    t = _sphere(origins, directions, type("Sphere", (), {"radius": 1.0}), 0.0)
     hits = 0
     for k in range(len(t)):
         exact, disc = _exact_sphere_t(origins[k], directions[k])
