@@ -515,6 +515,28 @@ def test_a_mesh_file_is_judged_up_to_date_without_reading_it_whole_under_render_
         assert set(statuses(out).values()) == {"up to date"} and len(loaded) == 2 * loads, keys
 
 
+
+@pytest.mark.parametrize("keys", ['"render.width=8"', '"objects.0.scale=[2, 2, 2]"'], ids=["unframed", "loaded"])
+def test_an_up_to_date_entry_keeps_its_render_s_notes_and_warnings(tmp_path, keys):
+    """docs/batch.md: an up-to-date scene keeps the warnings and notes of the render that made its image. An OBJ
+    whose .mtl is missing (a note), swept over two heights, is judged up to date by its file alone under a render
+    key (jobs._unframed_mesh_job) and by the full load under an object's key: both keep the note. Catches the
+    unframed path's entry made without them (it once was)."""
+    (tmp_path / "t.obj").write_text("mtllib gone.mtl\n" + TETRAHEDRON)
+    sweep, out = tmp_path / "s.toml", tmp_path / "out"
+    sweep.write_text(f'scene = "t.obj"\nset = [{keys}]\n[grid]\n"render.height" = [10, 11]\n')
+    assert run(str(sweep), "--out", str(out), "--jobs", "1").exit_code == 0
+    first = manifest(out)
+    assert {entry["status"] for entry in first.values()} == {"rendered"}
+    assert all(any("gone.mtl" in line for line in entry["notes"]) for entry in first.values()), first
+    assert run(str(sweep), "--out", str(out), "--jobs", "1").exit_code == 0
+    second = manifest(out)
+    assert {entry["status"] for entry in second.values()} == {"up to date"}, second
+    assert {name: (entry["notes"], entry["warnings"]) for name, entry in second.items()} == \
+        {name: (entry["notes"], entry["warnings"]) for name, entry in first.items()}
+
+
+
 def test_a_failed_cell_is_dark_red_on_the_contact_sheet(tmp_path):
     """docs/batch.md: a failed cell is dark red on the sheet (FAILED_RGB, 0.35, 0.06, 0.06), so it cannot pass for
     a black render nor for the sheet's backdrop; the rendered cell beside it is its image."""

@@ -295,9 +295,7 @@ def prepare_job(job: Job, folder: Path, settings: Settings, previous: dict | Non
     if not force and previous is not None:
         unframed = _unframed_mesh_job(job, settings)
         if unframed is not None and is_current(previous, *unframed, folder):
-            return replace(entry, status=UP_TO_DATE, outputs=previous["outputs"],
-                           seconds=previous.get("seconds", {}), rays_per_second=previous.get("rays_per_second"),
-                           hash=unframed[0], inputs=unframed[1])
+            return _up_to_date(entry, previous, *unframed)
     try:
         scene = absolute_folder(load_scene(job.scene, settings.overrides(job), max_memory=max_memory))
     except SceneError as error:
@@ -308,12 +306,17 @@ def prepare_job(job: Job, folder: Path, settings: Settings, previous: dict | Non
     load_seconds = time.perf_counter() - start
     digest, inputs = job_hash(job, scene, settings), input_times(job, scene)
     if not force and is_current(previous, digest, inputs, folder):
-        return replace(entry, status=UP_TO_DATE, outputs=previous["outputs"], seconds=previous.get("seconds", {}),
-                       rays_per_second=previous.get("rays_per_second"), hash=digest, inputs=inputs,
-                       warnings=_lines(previous.get("warnings")), notes=_lines(previous.get("notes")))
+        return _up_to_date(entry, previous, digest, inputs)
     output = Path(folder).absolute() / f"{job.name}{Path(scene.output.path).suffix.lower()}"
     return Task(job=job, scene=scene, output=output, digest=digest, inputs=inputs, settings=settings, threads=None,
                 load_seconds=load_seconds, before=file_identity(output))
+
+
+def _up_to_date(entry: Outcome, previous: dict, digest: str, inputs: dict[str, int]) -> Outcome:
+    """`entry` up to date: the previous render's outputs, figures, warnings and notes, under today's hash."""
+    return replace(entry, status=UP_TO_DATE, outputs=previous["outputs"], seconds=previous.get("seconds", {}),
+                   rays_per_second=previous.get("rays_per_second"), hash=digest, inputs=inputs,
+                   warnings=_lines(previous.get("warnings")), notes=_lines(previous.get("notes")))
 
 
 def _unframed_mesh_job(job: Job, settings: Settings) -> tuple[str, dict[str, int]] | None:
