@@ -65,8 +65,6 @@ def open_regular(path: Path, where: Where, what: str, limit: int | None = None) 
         raise
 
 
-
-
 # An image's first bytes, by the suffixes that promise its format: a file whose bytes are not its suffix's is
 # refused at once (OpenImageIO would try every reader it has on it, minutes for a 3 GiB file of something else).
 IMAGE_MAGIC = {".png": ("PNG", (b"\x89PNG\r\n\x1a\n",)), ".jpg": ("JPEG", (b"\xff\xd8\xff",)),
@@ -100,6 +98,7 @@ def open_mesh_file(path: Path, where: Where) -> BinaryIO:
         return open_regular(path, where, "mesh file")  # never a FIFO, a device or a folder
     except FileNotFoundError:
         raise SceneError(f"no such mesh file {str(path)!r}", where) from None
+
 
 def file_version(path: str | Path, info: os.stat_result | None = None) -> tuple:
     """(resolved path, mtime, size, inode) of the file as it is now; OSError for a missing one. `info`: a

@@ -13,7 +13,6 @@ than that, and the memory stays bounded.
 
 from __future__ import annotations
 
-import re
 import warnings
 from pathlib import Path
 
@@ -198,8 +197,6 @@ def file_size(path: Path) -> tuple[int, int] | None:
         return None
     with handle:
         try:
-            import warnings
-
             from PIL import Image
             with warnings.catch_warnings():  # a header only: the decode shrinks a large map in bands (decode_file)
                 warnings.simplefilter("ignore", Image.DecompressionBombWarning)
@@ -223,11 +220,5 @@ def file_size(path: Path) -> tuple[int, int] | None:
 
 def texture_bytes(sizes) -> int:
     """The memory estimate's texture term: TEXTURE_BYTES_PER_TEXEL per level-0 texel at the decoded size."""
-    total = 0
-    for height, width in sizes:
-        h, w = capped(height, width)
-        total += TEXTURE_BYTES_PER_TEXEL * h * w
-    return total
+    return sum(TEXTURE_BYTES_PER_TEXEL * h * w for h, w in (capped(height, width) for height, width in sizes))
 
-
-WRAP_OPTION = re.compile(r"-clamp\s+(on|off)", re.I)

@@ -226,8 +226,6 @@ def transform_uv(uv: np.ndarray, transform: tuple) -> np.ndarray:
     return np.column_stack([c * u + s * v + ox, 1.0 - (-s * u + c * v + oy)])
 
 
-
-
 def from_pbr(material, path: Path, notes: list[str], sources: list[TextureSource], samplers: dict) -> FileMaterial:
     """glTF 2.0 metallic-roughness → Phong: a stated approximation (docs/meshes.md).
 

@@ -336,7 +336,6 @@ def evened(data: bytes, found: Header | None, notes: list[str]) -> bytes | None:
     return b"\n".join(lines) + b"".join(body for _, body in parts)
 
 
-
 def ascii_cut(data: bytes, found: Header | None) -> bytes | None:
     """`data`, an ASCII PLY (its parsed `found` header), with each concave polygon's line replaced by one line
     per triangle (polygons.cut), the face count raised to match; None when there is none or the file is not

@@ -46,7 +46,6 @@ def binary_stl_points(handle) -> np.ndarray | None:
     return points.reshape(-1, 3)
 
 
-
 VERTEX_LINES = re.compile(rb"^[ \t]*vertex(?![^ \t\r\n])([^\n]*)", re.M | re.I)
 
 
