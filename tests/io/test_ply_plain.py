@@ -13,7 +13,7 @@ import pytest
 from test_obj_plain import assert_same_mesh_file
 
 from raycast_phong.errors import SceneError
-from raycast_phong.io.meshes import ply
+from raycast_phong.io.meshes import decimals, ply
 from raycast_phong.io.meshes import read as mesh_file
 from raycast_phong.io.meshes.source import mesh_source
 
@@ -296,7 +296,7 @@ def test_an_ascii_ply_s_compiled_rows_are_numpy_s_parse_bit_for_bit(monkeypatch)
     faces = [f"3 {a} {b} {c}" for a, b, c in rng.integers(0, 400, (50, 3))]
     text = ("\n".join(lines) + "\n" + "\n".join(faces)).encode()  # the last line without its line feed
     expected = np.fromstring(text[:text.index(faces[0].encode())], sep=" ").reshape(-1, 5)
-    monkeypatch.setattr(ply.ply_lists, "_parsed", None)
+    monkeypatch.setattr(decimals, "numpy_rows", None)
     read = ply.ply_lists._rows(text, 0, len(rows), 5, len(faces))
     assert read[0].tobytes() == expected.tobytes()
     np.testing.assert_array_equal(read[1], [[3, *map(int, face.split()[1:])] for face in faces])

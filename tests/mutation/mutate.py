@@ -464,8 +464,8 @@ HAND_MUTANTS = (
     ("io/meshes/stl_ascii", "vertex_text[written] = SPACE", "vertex_text[written] = 48"),  # numbers run together
     ("io/meshes/decimals", "if c < 48 or c > 57 or exponent > 1000:",
      "if c < 48 or c > 57:"),  # an exponent of 2^64 + 5 wraps round to 5
-    ("io/meshes/ply_lists", "else _parsed(data[at:read[2]], count, each)",
-     "else _parsed(data[at:], count, each)"),  # a line past the faces parsed with them
+    ("io/meshes/ply_lists", "else numpy_rows(data[at:read[2]], count, each)",
+     "else numpy_rows(data[at:], count, each)"),  # a line past the faces parsed with them
     ("io/meshes/ply_lists", "if read is None or (read[0] != each).any():",
      "if read is None:"),  # rows of uneven word counts adding up read as rows
     ("io/meshes/decimals", "and not _blank(data[at]) and not (comments and data[at] == HASH):",

@@ -5,6 +5,8 @@ from the parse it replaces. One pass over a 40 MB file takes ~0.15 s of CPU, num
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from ...jit import kernel
@@ -140,3 +142,15 @@ def lines_of_numbers(text: np.ndarray, at: int, rows: int, comments: bool, expec
     if lines != rows or total > len(values):
         return None
     return words, values[:total] if exact else None, end
+
+
+def numpy_rows(text: bytes, rows: int, width: int) -> np.ndarray | None:
+    """(rows, width) float64 of `text` by numpy's parse (np.fromstring, the call trimesh's readers make, so its
+    bits); None where numpy reads another count of numbers (a word that is not one stops it short)."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # numpy 1 warns where it stops short: counted below
+            values = np.fromstring(text, sep=" ")
+    except ValueError:  # numpy 2 raises where it stops
+        return None
+    return values.reshape(rows, width) if values.size == rows * width else None

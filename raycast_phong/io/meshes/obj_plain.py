@@ -12,13 +12,12 @@ file to the full reader (io/obj.py), which words every problem.
 
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 
 import numpy as np
 
 from ...jit import kernel
-from .decimals import POWERS, decimal, line_end, numeric
+from .decimals import POWERS, decimal, line_end, numeric, numpy_rows
 from .format import Part
 
 SPACE, TAB, HASH = 32, 9, 35
@@ -129,13 +128,7 @@ def _numpy_points(text: np.ndarray, size: int, count: int) -> np.ndarray | None:
     vertex_text = vertex_text.tobytes()
     if b"+e" in vertex_text or b"-e" in vertex_text:
         return None
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # a word that is not a number stops numpy short: counted below
-            values = np.fromstring(vertex_text, sep=" ", dtype=np.float64)
-    except ValueError:  # numpy 2 raises where it stops
-        return None
-    return values.reshape(-1, 3) if len(values) == 3 * count else None
+    return numpy_rows(vertex_text, count, 3)
 
 
 def warm_up() -> None:

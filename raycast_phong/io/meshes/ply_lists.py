@@ -273,28 +273,19 @@ def _rows(data: bytes, start: int, rows: int, width: int, faces: int) -> tuple[n
     it. None when a line holds another count of words (or the file is too short for the rows: nothing allocated)."""
     if 2 * max(width, 1) * rows + 8 * faces - 1 > len(data) - start:
         return None
-    from .decimals import lines_of_numbers  # compiled: imported only for an ASCII PLY (numba's import is slow)
+    from .decimals import lines_of_numbers, numpy_rows  # compiled: only for an ASCII PLY (numba's import is slow)
     text = np.frombuffer(data, np.uint8)
     sections, at = [], start
     for count, each in ((rows, width), (faces, 4)):
         read = lines_of_numbers(text, at, count, False, count * each, False)
         if read is None or (read[0] != each).any():
             return None
-        values = read[1].reshape(count, each) if read[1] is not None else _parsed(data[at:read[2]], count, each)
+        values = read[1].reshape(count, each) if read[1] is not None else numpy_rows(data[at:read[2]], count, each)
         if values is None:
             return None
         sections.append(values)
         at = read[2]
     return sections[0], sections[1]
-
-
-def _parsed(section: bytes, rows: int, width: int) -> np.ndarray | None:
-    """The section's numbers (rows × width) by numpy's parse, trimesh's; None where numpy finds another count."""
-    try:
-        values = np.fromstring(section, sep=" ")
-    except ValueError:  # a word that is not a number (numpy 2): trimesh says so
-        return None
-    return values.reshape(rows, width) if values.size == rows * width else None
 
 
 def warm_up() -> None:

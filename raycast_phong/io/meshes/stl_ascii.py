@@ -11,12 +11,10 @@ holding "vertex" or "endsolid", which trimesh's split would take apart) is trime
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 
 from ...jit import kernel
-from .decimals import POWERS, decimal, line_end, numeric
+from .decimals import POWERS, decimal, line_end, numeric, numpy_rows
 from .format import Part
 
 SPACE, TAB = 32, 9
@@ -145,15 +143,9 @@ def plain_stl(data: bytes) -> Part | None:
     if not _facets(text, 1, WORDS, LENGTHS, POWERS, points, no_text)[3]:
         vertex_text = np.empty(size, np.uint8)
         _facets(text, 2, WORDS, LENGTHS, POWERS, no_points, vertex_text)
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")  # numpy stopping short is counted below
-                values = np.fromstring(vertex_text.tobytes(), sep=" ")
-        except ValueError:
+        points = numpy_rows(vertex_text.tobytes(), corners, 3)
+        if points is None:
             return None
-        if values.size != 3 * corners:
-            return None
-        points = values.reshape(-1, 3)
     return Part(points, np.arange(corners, dtype=np.int64).reshape(-1, 3), None, None)
 
 
