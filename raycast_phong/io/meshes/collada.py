@@ -50,10 +50,8 @@ def collada_text(data: bytes, path: Path, notes: list[str]) -> bytes:
             and re.search(rb"\d,\d", data) is None):
         return data
     from lxml import etree
-    try:
-        root = etree.fromstring(data, etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False,
-                                                      huge_tree=False))
-    except (etree.XMLSyntaxError, ValueError):
+    root = _tree(data)
+    if root is None:
         return data
     namespace = root.tag[:root.tag.index("}") + 1] if root.tag.startswith("{") else ""
     by_id = {element.get("id"): element for element in root.iter() if element.get("id")}
@@ -171,7 +169,7 @@ def common_effects(root) -> list[CommonEffect]:
             diffuse[3] if diffuse is not None and len(diffuse) == 4 else 1.0
         found.append(CommonEffect(_local(technique.tag), _rgb(values.get("emission")), _rgb(values.get("ambient")),
                                   None if diffuse is None else (*_rgb(diffuse), alpha),
-                                  _rgb(values.get("specular")), _first(values.get("shininess")), alpha))
+                                  _rgb(values.get("specular")), (values.get("shininess") or (None,))[0], alpha))
     return found
 
 
@@ -187,10 +185,6 @@ def _value(element) -> tuple[float, ...] | None:
 
 def _rgb(values) -> tuple[float, float, float] | None:
     return None if values is None or len(values) < 3 else tuple(min(max(v, 0.0), 1.0) for v in values[:3])
-
-
-def _first(values) -> float | None:
-    return None if not values else values[0]
 
 
 def _as_effect(effects: list[CommonEffect], material, built: FileMaterial) -> FileMaterial | None:
