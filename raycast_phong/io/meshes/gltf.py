@@ -178,19 +178,19 @@ def gltf_samplers(document: dict) -> dict:
     try:
         textures, samplers = document.get("textures", []), document.get("samplers", [])
         for material in document.get("materials", []):
-            extensions = material.get("extensions") or {}
-            if isinstance(extensions, dict) and UNLIT in extensions:
-                found.setdefault((material.get("name"), UNLIT), True)
-            strength = (extensions.get(EMISSIVE_STRENGTH) or {}).get("emissiveStrength", 1.0) \
-                if isinstance(extensions, dict) else 1.0
+            name, extensions = material.get("name"), material.get("extensions")
+            extensions = extensions if isinstance(extensions, dict) else {}
+            if UNLIT in extensions:
+                found.setdefault((name, UNLIT), True)
+            strength = (extensions.get(EMISSIVE_STRENGTH) or {}).get("emissiveStrength", 1.0)
             if isinstance(strength, (int, float)) and not isinstance(strength, bool) and strength != 1.0:
-                found.setdefault((material.get("name"), EMISSIVE_STRENGTH), float(strength))
+                found.setdefault((name, EMISSIVE_STRENGTH), float(strength))
             slots = {"baseColorTexture": (material.get("pbrMetallicRoughness") or {}).get("baseColorTexture"),
                      "emissiveTexture": material.get("emissiveTexture")}
-            glossy = extensions.get(SPECULAR_GLOSSINESS) if isinstance(extensions, dict) else None
+            glossy = extensions.get(SPECULAR_GLOSSINESS)
             if isinstance(glossy, dict):
                 specular = np.clip(np.asarray(glossy.get("specularFactor", (1.0, 1.0, 1.0)), np.float64)[:3], 0, 1)
-                found.setdefault((material.get("name"), SPECULAR_GLOSSINESS),
+                found.setdefault((name, SPECULAR_GLOSSINESS),
                                  (specular, min(max(float(glossy.get("glossinessFactor", 1.0)), 0.0), 1.0),
                                   "specularGlossinessTexture" in glossy))
                 slots["baseColorTexture"] = glossy.get("diffuseTexture")
@@ -199,14 +199,14 @@ def gltf_samplers(document: dict) -> dict:
                     continue
                 transform = (info.get("extensions") or {}).get(TRANSFORM)
                 if isinstance(transform, dict):
-                    found.setdefault((material.get("name"), TRANSFORM, slot), (
+                    found.setdefault((name, TRANSFORM, slot), (
                         tuple(float(x) for x in transform.get("offset", (0.0, 0.0)))[:2],
                         float(transform.get("rotation", 0.0)),
                         tuple(float(x) for x in transform.get("scale", (1.0, 1.0)))[:2]))
                 sampler = textures[info["index"]].get("sampler")
                 modes = samplers[sampler] if isinstance(sampler, int) else {}
-                found.setdefault((material.get("name"), slot), (GLTF_WRAP.get(modes.get("wrapS"), "repeat"),
-                                                                GLTF_WRAP.get(modes.get("wrapT"), "repeat")))
+                found.setdefault((name, slot), (GLTF_WRAP.get(modes.get("wrapS"), "repeat"),
+                                                GLTF_WRAP.get(modes.get("wrapT"), "repeat")))
     except (AttributeError, IndexError, TypeError, ValueError):
         pass  # a malformed table: the maps read before it keep their modes, the rest repeat
     return found
@@ -256,31 +256,28 @@ def from_pbr(material, path: Path, notes: list[str], sources: list[TextureSource
     alpha = roughness * roughness
     shininess = MAX_FILE_SHININESS if alpha == 0 else 2 / alpha**2 - 2
     name = material.name or f"{path.stem}-material"
+
+    def source(key: str, said: str, channel: str = "rgb") -> int:
+        """The material's map `key` as a texture source with its sampler's wrap modes: its index in `sources`."""
+        wrap_s, wrap_t = samplers.get((material.name, key), ("repeat", "repeat"))
+        sources.append(TextureSource(getattr(material, key), wrap_s, wrap_t, f"{path}: material {name!r}: its {said}",
+                                     channel))
+        return len(sources) - 1
     mode = getattr(material, "alphaMode", None)
     mask = {}
     if mode in ("MASK", "BLEND"):  # glTF 2.0 §3.9.4: alpha = factor × the base colour map's alpha
         cutoff = getattr(material, "alphaCutoff", None)
         cutoff = 0.5 if cutoff is None else max(float(cutoff), 0.0)
         mask = {"alpha_cutoff": BLENDED_ALPHA if mode == "BLEND" else cutoff, "alpha": float(base[3])}
-        image = getattr(material, "baseColorTexture", None)
-        if image is not None:
-            wrap_s, wrap_t = samplers.get((material.name, "baseColorTexture"), ("repeat", "repeat"))
-            mask["alpha_map"] = len(sources)
-            sources.append(TextureSource(image, wrap_s, wrap_t, f"{path}: material {name!r}: its baseColorTexture's "
-                                         "alpha", channel="alpha"))
+        if getattr(material, "baseColorTexture", None) is not None:
+            mask["alpha_map"] = source("baseColorTexture", "baseColorTexture's alpha", "alpha")
         # MASK cuts away (ray_queries.cut_masked); BLEND is screen-door coverage: seen with probability alpha
         said = (f"alphaMode MASK cuts the surface away where alpha < {mask['alpha_cutoff']:.3g}" if mode == "MASK" else
                 "alphaMode BLEND is drawn as coverage: each ray sample sees the surface with probability alpha "
                 "(render.samples = 4 or more averages it to a blend)")
         notes.append(f"{path}: material {name!r}: {said}; a shadow ray (global mode) still sees the whole surface")
-    maps = {}
-    for key in ("baseColorTexture", "emissiveTexture"):
-        image = getattr(material, key, None)
-        if image is None:
-            continue
-        wrap_s, wrap_t = samplers.get((material.name, key), ("repeat", "repeat"))
-        maps[key] = len(sources)
-        sources.append(TextureSource(image, wrap_s, wrap_t, f"{path}: material {name!r}: its {key}"))
+    maps = {key: source(key, key) for key in ("baseColorTexture", "emissiveTexture")
+            if getattr(material, key, None) is not None}
     ignored = [key for key in ("metallicRoughnessTexture", "normalTexture", "occlusionTexture")
                if getattr(material, key, None) is not None]
     if glossy is not None:
@@ -400,21 +397,17 @@ def count(handle, size: int, mesh) -> int | None:
     if not document:
         return None
     try:
-        return _count(document)
+        accessors, meshes = document.get("accessors", []), document.get("meshes", [])
+        placed = [node for node in document.get("nodes", []) if "mesh" in node]
+        uses = [(node["mesh"], _instances(node, accessors)) for node in placed] or [(m, 1) for m in range(len(meshes))]
+        total = vertices = 0
+        for mesh, copies in uses:
+            for primitive in meshes[mesh].get("primitives", []):
+                indexed = primitive.get("indices", primitive.get("attributes", {}).get("POSITION"))
+                total += copies * (accessors[indexed]["count"] // 3)
+                vertices += copies * int(accessors[primitive.get("attributes", {}).get("POSITION", indexed)]["count"])
     except (AttributeError, IndexError, KeyError, TypeError, ValueError):
         return None  # a malformed document (a primitive that is a number): the size bound stands; the read words it
-
-
-def _count(document: dict) -> int:
-    accessors, meshes = document.get("accessors", []), document.get("meshes", [])
-    placed = [node for node in document.get("nodes", []) if "mesh" in node]
-    uses = [(node["mesh"], _instances(node, accessors)) for node in placed] or [(m, 1) for m in range(len(meshes))]
-    total = vertices = 0
-    for mesh, copies in uses:
-        for primitive in meshes[mesh].get("primitives", []):
-            indexed = primitive.get("indices", primitive.get("attributes", {}).get("POSITION"))
-            total += copies * (accessors[indexed]["count"] // 3)
-            vertices += copies * int(accessors[primitive.get("attributes", {}).get("POSITION", indexed)]["count"])
     return weigh(total, vertices)
 
 
