@@ -20,7 +20,7 @@ from ...codes import BLENDED_ALPHA, GLTF_WRAP
 from ...errors import FileProblem
 from ..files import open_regular, shown_name
 from .format import TEXT_READ_BYTES_PER_BYTE, Loaded, MeshFormat, Reading, weigh
-from .gltf_json import MESHOPT, Document, buffer_files, image_uris, read_document, uri_file
+from .gltf_json import MESHOPT, Document, file_uris, read_document, uri_file
 from .materials import MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, TextureSource, specular_lobe
 from .materials import rgb as _rgb
 
@@ -81,7 +81,7 @@ def check_document(document: Document, path: Path, notes: list[str]) -> dict:
                           f"renderer does not support; supported: {', '.join(SUPPORTED_REQUIRED)} (and, drawn in "
                           f"the base material: {', '.join(LOOK_ONLY)})")
     _note_unread(tree, path, notes)
-    for uri in image_uris(tree):
+    for uri in file_uris(tree, "images"):
         if not uri_file(path.parent, uri).is_file():
             notes.append(f"{path}: texture {shown_name(unquote(uri))} is missing")
     return gltf_samplers(tree)
@@ -458,9 +458,9 @@ def describe(path: Path) -> dict:
     """Its JSON document, parsed (at most JSON_LIMIT), a .gltf's external buffer files (side files) and the image
     files its URIs name."""
     document = read_document(path)
-    glb = path.suffix.lower() == ".glb"
-    return {"document": document, "side_files": () if glb else buffer_files(document.tree, path.parent),
-            "images": tuple(uri_file(path.parent, uri) for uri in image_uris(document.tree))}
+    buffers = () if path.suffix.lower() == ".glb" else file_uris(document.tree, "buffers")
+    return {"document": document, "side_files": tuple(uri_file(path.parent, uri) for uri in buffers),
+            "images": tuple(uri_file(path.parent, uri) for uri in file_uris(document.tree, "images"))}
 
 
 def _texture_sizes(mesh) -> tuple[tuple[int, int], ...]:

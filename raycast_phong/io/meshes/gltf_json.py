@@ -86,20 +86,11 @@ def uri_file(folder: Path, uri: str) -> Path:
     return folder / unquote(uri)
 
 
-def buffer_files(document: dict, folder: Path) -> tuple[Path, ...]:
-    """The external buffer files a glTF names (not its `data:` URIs), percent-decoded (uri_file)."""
+def file_uris(document: dict, table: str) -> list[str]:
+    """The files outside the glTF that its `table` ("buffers", "images") names: its URIs other than data:, as
+    written (uri_file finds the file); none for a table that is not a list (the read reports it)."""
     try:
-        return tuple(uri_file(folder, b["uri"]) for b in document.get("buffers", [])
-                     if isinstance(b, dict) and isinstance(b.get("uri"), str) and not b["uri"].startswith("data:"))
-    except (TypeError, AttributeError):
-        return ()  # buffers that are not a list: the read reports it
-
-
-def image_uris(document: dict) -> list[str]:
-    """The image files outside the glTF that it names: its URIs other than data:, as written (uri_file finds
-    the file)."""
-    try:
-        return [image["uri"] for image in document.get("images", []) if isinstance(image, dict)
-                and isinstance(image.get("uri"), str) and not image["uri"].startswith("data:")]
+        return [row["uri"] for row in document.get(table, []) if isinstance(row, dict)
+                and isinstance(row.get("uri"), str) and not row["uri"].startswith("data:")]
     except (TypeError, AttributeError):
         return []
