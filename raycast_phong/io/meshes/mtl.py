@@ -66,15 +66,16 @@ def scan_mtllib(handle) -> list[bytes]:
             lines += MTLLIB.findall(block[:cut])
         carry = block[cut:][-4096:]  # an mtllib line is short: a longer remainder is no mtllib
     lines += MTLLIB.findall(carry)
-    return [_utf8(line) for line in lines]
+    return [utf8(line) for line in lines]
 
 
-def _utf8(line: bytes) -> bytes:
+def utf8(text: bytes) -> bytes:
+    """`text` as UTF-8: itself, or read as Latin-1 when it is not (every byte is a Latin-1 character)."""
     try:
-        line.decode("utf-8")
-        return line
+        text.decode("utf-8")
+        return text
     except UnicodeDecodeError:
-        return line.decode("latin-1").encode("utf-8")
+        return text.decode("latin-1").encode("utf-8")
 
 
 class ObjMaterials(NamedTuple):

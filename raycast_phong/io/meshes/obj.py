@@ -15,7 +15,7 @@ from ...errors import FileProblem, SceneError
 from ..files import open_regular
 from .content import is_number
 from .format import Loaded, MeshFormat, Reading, image_file_sizes, weigh
-from .mtl import mtllib_names, read_obj_materials, scan_mtllib
+from .mtl import mtllib_names, read_obj_materials, scan_mtllib, utf8
 
 BOMS = ((b"\xef\xbb\xbf", "utf-8"), (b"\xff\xfe", "utf-16-le"), (b"\xfe\xff", "utf-16-be"))
 
@@ -59,12 +59,8 @@ def obj_text(data: bytes, path: Path) -> io.BytesIO:
     Latin-1 character, and the keywords are plain ASCII; trimesh would need the optional charset_normalizer to
     guess), relative face indices made absolute and concave polygons cut. An index 0 or one counting back past
     the file's start is a SceneError naming the line."""
-    try:
-        data.decode("utf-8")
-    except UnicodeDecodeError:
-        data = data.decode("latin-1").encode("utf-8")
     from .obj_polygons import absolute_indices, triangulate_concave
-    data, problem = absolute_indices(data)  # trimesh counts -1 back from the file's end, not the line
+    data, problem = absolute_indices(utf8(data))  # trimesh counts -1 back from the file's end, not the line
     if problem:
         raise FileProblem(f"{str(path)!r} {problem}")
     data, _ = triangulate_concave(data)  # trimesh would fan a concave polygon over its hole

@@ -24,6 +24,7 @@ import warnings
 import numpy as np
 
 from ...errors import SceneError
+from .content import is_number
 from .format import Loaded, MeshFormat, Part, Reading, weigh
 from .materials import PartSurface
 from .polygons import cut
@@ -190,13 +191,10 @@ def _numbers(lines: list[bytes], what: str) -> np.ndarray:
         try:
             return np.fromstring(joined, sep=" ") if joined.strip() else np.zeros(0)
         except (DeprecationWarning, ValueError):
-            for line in lines:
-                for word in line.split():
-                    try:
-                        float(word)
-                    except ValueError:
-                        raise SceneError(f"has {what} with {word[:40].decode('latin-1')!r}, which is not a number; "
-                                       "allowed: decimal numbers") from None
+            bad = next((word for line in lines for word in line.split() if not is_number(word)), None)
+            if bad is not None:
+                raise SceneError(f"has {what} with {bad[:40].decode('latin-1')!r}, which is not a number; "
+                                 "allowed: decimal numbers") from None
             raise SceneError(f"has {what} numpy cannot read; allowed: decimal numbers") from None
 
 
