@@ -27,7 +27,7 @@ from ...errors import SceneError
 from .content import is_number
 from .format import Loaded, MeshFormat, Part, Reading, weigh
 from .materials import PartSurface
-from .polygons import cut
+from .polygons import cut, listed
 
 HEADER = re.compile(rb"(ST)?(C)?(N)?(4)?(n)?OFF")
 COMMENT = re.compile(rb"#[^\n]*")
@@ -227,11 +227,7 @@ def _polygons(values: np.ndarray, first: np.ndarray, corners: np.ndarray, points
               ) -> tuple[np.ndarray, np.ndarray]:
     """Triangles of polygons whose corner indices start at values[first] (`corners` each), each polygon a
     fan or, when concave, ear-clipped (polygons.cut), and each triangle's polygon."""
-    def vertex_of(polygons: np.ndarray, k: int) -> np.ndarray:
-        index = values[first[polygons] + k]
-        return np.where(np.abs(index) <= len(points), index, -1).astype(np.int64)  # -1: not a vertex, not cut
-
-    row, picks = cut(corners, vertex_of, points)
+    row, picks = cut(corners, listed(values, first, points), points)
     faces = values[first[row][:, None] + picks]  # every corner is in some triangle, whichever the cut
     if faces.size and not (faces == np.round(faces)).all():
         raise SceneError("has a face index that is not a whole number; allowed: vertex indices 0, 1, ...")

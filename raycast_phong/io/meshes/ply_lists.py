@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .polygons import cut
+from .polygons import cut, fan, listed
 
 # The PLY scalar types (Paul Bourke's PLY format, and the sized names rply and MeshLab write), as numpy kinds.
 PLY_DTYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
@@ -216,10 +216,9 @@ def _concave(element: Element, rows: np.ndarray, points: np.ndarray | None) -> b
     if points is None or polygon is None or rows[f"p{polygon}"].ndim < 2 or rows[f"p{polygon}"].shape[1] < 4:
         return False
     corners = rows[f"p{polygon}"]
-    row, picks = cut(np.full(len(corners), corners.shape[1]),
-                     lambda faces, k: corners[faces, k].astype(np.int64), points)
-    step = np.arange(len(row)) % max(corners.shape[1] - 2, 1)
-    return bool((picks[:, 1] != step + 1).any() or (picks[:, 2] != step + 2).any() or picks[:, 0].any())
+    sizes = np.full(len(corners), corners.shape[1])
+    _, picks = cut(sizes, lambda faces, k: corners[faces, k].astype(np.int64), points)
+    return bool((picks != fan(sizes)[1]).any())
 
 
 def _strip(element: Element, data: np.ndarray, starts: np.ndarray, found: np.ndarray,
@@ -368,15 +367,8 @@ def ascii_cut(data: bytes, found: Header | None) -> bytes | None:
     corners = values[first].astype(np.int64)
     if (corners < 0).any() or (corners + 1 > words).any() or not np.isfinite(values).all():
         return None
-
-    def vertex_of(polygons: np.ndarray, k: int) -> np.ndarray:
-        index = values[first[polygons] + 1 + k]
-        return np.where(np.abs(index) <= len(points), index, -1).astype(np.int64)
-
-    row, picks = cut(corners, vertex_of, points)
-    fan = np.column_stack([np.zeros(len(row), np.int64), *(np.arange(len(row)) - (np.cumsum(np.maximum(
-        corners - 2, 0)) - np.maximum(corners - 2, 0))[row] + k for k in (1, 2))])
-    concave = np.unique(row[(picks != fan).any(axis=1)])
+    row, picks = cut(corners, listed(values, first + 1, points), points)
+    concave = np.unique(row[(picks != fan(corners)[1]).any(axis=1)])
     if not len(concave):
         return None
     for polygon in concave.tolist()[::-1]:

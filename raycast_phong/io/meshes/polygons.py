@@ -19,20 +19,29 @@ CHUNK = 1 << 16  # polygons tested at a time: the test's (P, n, 3) float64 tempo
 CONVEX_TOLERANCE = 1e-12  # a turn this far below zero, relative to the polygon's largest, is still straight
 
 
-def fan_corners(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Polygons of `corners` corners each, cut as fans from their first corner: each triangle's polygon, and
-    its number j in its fan (the triangle is corners 0, j + 1, j + 2); none for a polygon of fewer than 3."""
+def fan(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Polygons of `corners` corners each, cut as fans from their first corner: each triangle's polygon `row`, and
+    its corner numbers `picks` (T, 3), (0, j + 1, j + 2) for triangle j of its fan; none for fewer than 3 corners."""
     fans = np.maximum(corners - 2, 0)
     row = np.repeat(np.arange(len(corners)), fans)
-    return row, np.arange(len(row)) - np.repeat(np.cumsum(fans) - fans, fans)
+    step = np.arange(len(row)) - np.repeat(np.cumsum(fans) - fans, fans)
+    return row, np.column_stack([np.zeros_like(step), step + 1, step + 2])
+
+
+def listed(values: np.ndarray, first: np.ndarray, points: np.ndarray):
+    """cut's vertex_of for polygons whose corner indices are the parsed numbers `values` from values[first] on:
+    an index that cannot be a vertex is -1 (its polygon is not cut; the reader refuses it)."""
+    def vertex_of(polygons: np.ndarray, k: int) -> np.ndarray:
+        index = values[first[polygons] + k]
+        return np.where(np.abs(index) <= len(points), index, -1).astype(np.int64)
+    return vertex_of
 
 
 def cut(corners: np.ndarray, vertex_of, points: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
     """Each triangle's polygon `row` and its three corner numbers `picks` (T, 3) within the polygon, for
     polygons of `corners` corners; `vertex_of(polygons, k)` gives corner k's vertex of those polygons, and
     `points` (V, 3) the vertices (None: fans only, when the positions are not at hand)."""
-    row, step = fan_corners(corners)
-    picks = np.column_stack([np.zeros_like(step), step + 1, step + 2])
+    row, picks = fan(corners)
     if points is None or not len(row):
         return row, picks
     first = np.cumsum(np.maximum(corners - 2, 0)) - np.maximum(corners - 2, 0)  # each polygon's first triangle
