@@ -9,7 +9,7 @@ made new (O_EXCL), reopened with O_NOFOLLOW, and a link at the target is replace
 
 The stop signals (SIGINT, SIGTERM, SIGHUP, SIGQUIT: stops.STOP_SIGNALS) are held back while the temporary
 file exists (their handlers run right after), so a `kill` or a closed terminal cannot land between creating
-it and removing or renaming it — the window that left a stray `.manifest-XXXXXXXX.json` behind in one CI run.
+it and removing or renaming it (and leave a stray `.manifest-XXXXXXXX.json` behind).
 """
 
 from __future__ import annotations

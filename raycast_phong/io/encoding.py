@@ -38,8 +38,7 @@ def to_8bit(image: np.ndarray, colour: str = DISPLAY, rows_per_band: int = 256) 
         values = display_values(np.asarray(image[row:row + rows_per_band], np.float32), colour)
         # Clamped by fmax and fmin, which (unlike clip) take the number over a NaN: a NaN would cast to an
         # arbitrary byte; the renderer never produces one, but a caller's array might. In place after the first
-        # pass: the bytes clip + nan_to_num gave, 7x faster (nan_to_num's isposinf/isneginf passes were most of
-        # a draft's encoding in the live view).
+        # pass: the bytes of clip + nan_to_num, without their extra passes (the live view encodes every draft).
         values = np.fmax(values, 0.0)
         np.fmin(values, 1.0, out=values)
         np.multiply(values, 255.0, out=values)

@@ -426,9 +426,8 @@ def compare_files(a: str | Path, b: str | Path, fail: float, warn: float,
 def png_bytes(image: np.ndarray, colour: str = DISPLAY) -> bytes:
     """An (H, W, 3) image rendered in `colour` as a PNG in memory, with the 8-bit values `raycast-phong render
     -o x.png` stores (encoding.to_8bit: clamped, the sRGB curve for "linear", rounded). Written here, not by
-    OpenImageIO, which writes only files: its route (a scratch file, fsynced, read back) took 45 ms of a
-    640×360 frame and 240 ms of a 1280×720 one, this takes the to_8bit pass and a zlib pass at level 1 (speed
-    over size: the bytes cross a local socket).
+    OpenImageIO, which writes only files (a scratch file, fsynced, read back): the to_8bit pass and a zlib pass
+    at level 1 (speed over size: the bytes cross a local socket).
 
     PNG: signature, IHDR (8-bit RGB), one IDAT of zlib rows each led by filter 0, IEND (RFC 2083).
     """

@@ -76,7 +76,7 @@ def budget_of(max_memory: int | str | None) -> int | None:
     """The bytes a command may use: `max_memory` (bytes, or '8G'), else default_budget(); None: no limit known.
 
     The one home of that rule (render, compare, batch, the references). A budget of 0 bytes or less is a
-    ValueError, never the default in disguise (`max_memory or default_budget()` turned 0 into 3/4 of the memory)."""
+    ValueError, never the default in disguise (`max_memory or default_budget()` would make 0 that default)."""
     budget = parse_size(max_memory) if isinstance(max_memory, str) else max_memory
     if budget is None:
         return default_budget()

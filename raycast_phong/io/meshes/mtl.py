@@ -37,8 +37,8 @@ def mtllib_names(lines: list[bytes], folder: Path) -> list[str]:
     """The .mtl files named by an OBJ's `mtllib` statements (`lines`: each statement's text after `mtllib`),
     in order, each once. The OBJ specification lets one statement name several files: they are separated by
     blanks, a backslash escapes a space (`b\\ c.mtl` is "b c.mtl"), and a `#` word starts a comment. A
-    statement whose whole text names a file beside the OBJ is that one file (`mtllib my model.mtl`, which
-    exporters write unescaped and which was read so before)."""
+    statement whose whole text names a file beside the OBJ is that one file (`mtllib my model.mtl`, as exporters
+    write it, unescaped)."""
     names = []
     for line in lines:
         text = line.decode("utf-8", "replace").strip()

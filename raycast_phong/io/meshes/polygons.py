@@ -7,8 +7,7 @@ concave"; PLY and OBJ state no limit). Convexity is tested at once for all polyg
 is convex when it turns the same way at every corner about its Newell normal n (the sum of the cross products
 about its centre), turn_i = (e_i × e_i+1) · n ≥ −1e-12 max |turn|, e_i = c_i+1 − c_i. Only the concave ones
 are cut one by one, by mapbox-earcut (which trimesh uses for 2-D polygons), and keep the fan's triangle count
-(n − 2), so each triangle's polygon and order stay what the fan gave: a file without concave polygons is read
-to the same triangles as before.
+(n − 2), so each triangle's polygon and order stay what the fan gave.
 """
 
 from __future__ import annotations

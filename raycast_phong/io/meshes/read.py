@@ -86,8 +86,8 @@ def _read_file(mesh, bounds: bool) -> MeshFile:
             problem = kind.explain(handle, mesh)
         if problem:
             raise SceneError(f"{str(path)!r} {problem}", where) from None
-        # The renderer's words, not the library's exception text (issue 33): a KeyError of three NUL bytes or
-        # numpy's "could not be read to its end" says nothing a user can act on.
+        # The renderer's words, not the library's exception text: a KeyError of three NUL bytes or numpy's "could
+        # not be read to its end" says nothing a user can act on.
         name = kind.name(path.suffix.lower())
         raise SceneError(f"cannot read {str(path)!r} as {name}: its content does not follow the {name} format where "
                          f"the reader stopped (the file is corrupt, cut short, or another format); allowed: "
@@ -337,9 +337,8 @@ def _raised_in_trimesh(error: BaseException) -> bool:
 def _corner_colours(part: Part) -> np.ndarray | None:
     """(F, 3, 3) float32 colour in [0, 1] at each face corner: vertex colours (8-bit /255), a face's colour
     at its three corners, or glTF's COLOR_0 or COLLADA's COLOR beside a material (trimesh keeps them as vertex
-    attributes);
-    None when the part has none. Taken as stored (glTF's COLOR_0 is linear; PLY and OFF colours say nothing,
-    and are read as linear too, as before)."""
+    attributes); None when the part has none. Taken as stored (glTF's COLOR_0 is linear; PLY and OFF colours say
+    nothing, and are read as linear too)."""
     visual, trimesh = part.visual, sys.modules.get("trimesh")  # a trimesh visual only where trimesh read the file
     if part.colours is None and (visual is None or trimesh is None):  # read here, without colours
         return None
