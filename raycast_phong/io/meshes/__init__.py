@@ -13,7 +13,7 @@ from functools import cache
 from pathlib import Path
 
 from . import collada, gltf, obj, off, ply, stl, threemf
-from .format import MeshFormat
+from .format import Loaded, MeshFormat
 
 FORMATS: tuple[MeshFormat, ...] = (obj.FORMAT, ply.FORMAT, stl.FORMAT, off.FORMAT, gltf.FORMAT, threemf.FORMAT,
                                    collada.FORMAT)
@@ -29,8 +29,6 @@ def format_of(path: str | Path) -> MeshFormat:
 
 @cache
 def _trimesh_format(suffix: str) -> MeshFormat:
-    from .format import Loaded
-
     def read(reading):
         from .trimesh_parts import load, parts
         return Loaded(parts(load(reading)))

@@ -15,7 +15,7 @@ from ...errors import FileProblem, SceneError
 from ..files import open_regular
 from .content import is_number
 from .format import Loaded, MeshFormat, Reading, image_file_sizes, weigh
-from .mtl import mtllib_names, read_obj_materials, scan_mtllib, utf8
+from .mtl import mtllib_names, read_obj_materials, scan_mtllib, uncommented, utf8
 
 BOMS = ((b"\xef\xbb\xbf", "utf-8"), (b"\xff\xfe", "utf-16-le"), (b"\xfe\xff", "utf-16-be"))
 
@@ -77,7 +77,6 @@ def kept_hashes(data: bytes) -> bytes:
     comment cut leaves the name whole. Files without such a line are returned as they are."""
     if not USEMTL_HASH.search(data):
         return data
-    from .mtl import uncommented
     marker = IN_NAME.encode()
     return USEMTL_HASH.sub(lambda line: b" ".join(uncommented(line[0].split())).replace(b"#", marker), data)
 

@@ -23,7 +23,7 @@ from ...tolerances import POSITION_LIMIT
 from ..files import open_mesh_file
 from . import read_names
 from .content import check_content
-from .format import Part, Reading
+from .format import Loaded, Part, Reading
 from .gltf import SPECULAR_GLOSSINESS, TRANSFORM, UNLIT, from_pbr, transform_uv
 from .gltf_parts import GltfMaterial
 from .materials import FILE_CREASE_ANGLE, MAX_FILE_SHININESS, WIDE_LOBE, FileMaterial, PartSurface, TextureSource
@@ -285,7 +285,6 @@ def held_surfaces(part: Part, path: Path) -> tuple:
     """(face_group, materials, corner_uv, corner_colour, texture sources, notes) of a mesh given as a
     trimesh.Trimesh (rp.mesh_scene; `part` holds its visual), read by the rule a file's parts are read by, so its
     colours, material and texture coordinates colour it as they would in a file; notes start with `path`."""
-    from .format import Loaded
     notes: list[str] = []
     sources: list[TextureSource] = []
     found = _surfaces([part], Loaded([part]), "the Trimesh's metallic-roughness (PBR)", path, notes, sources)

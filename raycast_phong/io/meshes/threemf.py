@@ -30,7 +30,7 @@ from ..encoding import srgb_encode
 from ..files import open_regular
 from ..textures import srgb_to_linear
 from . import threemf_draft
-from .format import Loaded, MeshFormat, Reading
+from .format import Loaded, MeshFormat, Part, Reading
 from .materials import FileMaterial, PartSurface, TextureSource, rgb
 from .obj import UV_LIMIT
 
@@ -603,7 +603,6 @@ def texture_sizes(mesh) -> tuple[tuple[int, int], ...]:
 
 
 def read(reading: Reading) -> Loaded:
-    from .format import Part
     own = read_3mf(reading.handle, reading.path, reading.notes, reading.textures)
     return Loaded([Part(vertices, faces, None, surface) for vertices, faces, surface in own])
 
