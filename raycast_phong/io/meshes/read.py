@@ -217,8 +217,8 @@ def _surfaces(parts, loaded, pbr: str, path: Path, notes: list[str], sources: li
             found = read_so if read_so is not None else found
         elif material is not None and library is not None:
             found = library.get(getattr(material, "name", None) or "")
-        elif _is_simple(material):  # a Trimesh's own (rp.mesh_scene), a file only trimesh reads, a PLY's TextureFile
-            found = from_simple(material, path, sources)
+        elif _is_trimesh(material, "SimpleMaterial"):
+            found = from_simple(material, path, sources)  # rp.mesh_scene's, a trimesh-only file's, a PLY's TextureFile
         if found is not None:
             # Two different materials under one name (glTF names are optional) each keep their own values.
             name, copy = found.name, 1
@@ -237,9 +237,7 @@ def _surfaces(parts, loaded, pbr: str, path: Path, notes: list[str], sources: li
         if uv is not None and (np.abs(uv) > UV_LIMIT).any():  # NaN passes: the kernel reads it as 0
             raise FileProblem(f"{str(path)!r} has a texture coordinate beyond float32's range (largest "
                               f"{float(np.nanmax(np.abs(uv))):.4g}); allowed: -{UV_LIMIT:.4g} .. {UV_LIMIT:.4g}")
-        uvs.append(None if uv is None else uv[part.faces].astype(np.float32))
-        if own is not None:
-            uvs[-1] = own.corner_uv
+        uvs.append(own.corner_uv if own is not None else None if uv is None else uv[part.faces].astype(np.float32))
         corner = _corner_colours(part) if own is None else own.corner_colour
         any_colour |= corner is not None
         corners.append(corner)
@@ -310,19 +308,17 @@ def from_simple(material, path: Path, sources: list[TextureSource]) -> FileMater
                         float(shininess), kd_map=kd_map)
 
 
-def _is_simple(material) -> bool:
-    """Whether a part's material is trimesh's SimpleMaterial (without importing trimesh to ask)."""
+def _is_trimesh(material, kind: str) -> bool:
+    """Whether a part's material is trimesh's `kind` (SimpleMaterial, PBRMaterial), without importing trimesh to
+    ask (a file read without it has none)."""
     trimesh = sys.modules.get("trimesh")
-    return trimesh is not None and isinstance(material, trimesh.visual.material.SimpleMaterial)
+    return trimesh is not None and isinstance(material, getattr(trimesh.visual.material, kind))
 
 
 def _is_pbr(material) -> bool:
     """Whether a part's material is a glTF's metallic-roughness one: read here (gltf_parts.GltfMaterial) or
-    trimesh's PBRMaterial (a glTF's, a COLLADA's); a file read without trimesh does not import it to ask."""
-    if isinstance(material, GltfMaterial):
-        return True
-    trimesh = sys.modules.get("trimesh")
-    return trimesh is not None and isinstance(material, trimesh.visual.material.PBRMaterial)
+    trimesh's PBRMaterial (a glTF's, a COLLADA's)."""
+    return isinstance(material, GltfMaterial) or _is_trimesh(material, "PBRMaterial")
 
 
 def _raised_in_trimesh(error: BaseException) -> bool:
