@@ -356,9 +356,7 @@ class _Decoder:
                 step = np.arange(1, max(len(order) - 1, 1))
                 faces = np.column_stack([np.full(len(step), order[:1].sum()), order[step], order[step + 1]]) \
                     if len(order) >= 3 else np.zeros((0, 3), np.int64)
-                self.tree["accessors"].append({"bufferView": self.append(faces.astype("<u4").tobytes()),
-                                               "componentType": 5125, "count": faces.size, "type": "SCALAR"})
-                primitive.update(indices=len(self.tree["accessors"]) - 1, mode=4)
+                primitive.update(indices=self.new_accessor(faces, indices=True), mode=4)
 
     # ------------------------------------------------------------ skins
 
@@ -541,21 +539,22 @@ class _Decoder:
                 faces = np.arange(count - count % 3, dtype=np.int64).reshape(-1, 3)
             every = faces[None, :, :] + (np.arange(copies) * count)[:, None, None]
             every = np.where((determinant < 0)[:, None, None], every[:, :, ::-1], every)  # a mirror keeps them outward
-            indices = self.append(every.reshape(-1).astype("<u4").tobytes())
-            self.tree["accessors"].append({"bufferView": indices, "componentType": 5125, "count": every.size,
-                                           "type": "SCALAR"})
-            merged.append({"attributes": attributes, "indices": len(self.tree["accessors"]) - 1, "mode": 4,
+            merged.append({"attributes": attributes, "indices": self.new_accessor(every, indices=True), "mode": 4,
                            **({"material": primitive["material"]} if "material" in primitive else {})})
         self.tree["meshes"].append({"name": self.tree["meshes"][mesh].get("name", f"mesh {mesh}") + " instanced",
                                     "primitives": merged})
         return len(self.tree["meshes"]) - 1
 
-    def new_accessor(self, values: np.ndarray) -> int:
-        """A new float32 accessor of `values` (count, width) in the decoded buffer."""
-        types = {1: "SCALAR", 2: "VEC2", 3: "VEC3", 4: "VEC4"}
-        view = self.append(np.ascontiguousarray(values, "<f4").tobytes())
-        self.tree.setdefault("accessors", []).append({"bufferView": view, "componentType": 5126,
-                                                      "count": len(values), "type": types[values.shape[1]]})
+    def new_accessor(self, values: np.ndarray, indices: bool = False) -> int:
+        """A new accessor in the decoded buffer: of float32 `values` (count, width), or with `indices` of every one
+        of `values` as a uint32 index (SCALAR)."""
+        if indices:
+            data, component, count, kind = values.astype("<u4").tobytes(), 5125, values.size, "SCALAR"
+        else:
+            data, component, count = np.ascontiguousarray(values, "<f4").tobytes(), 5126, len(values)
+            kind = {1: "SCALAR", 2: "VEC2", 3: "VEC3", 4: "VEC4"}[values.shape[1]]
+        self.tree.setdefault("accessors", []).append({"bufferView": self.append(data), "componentType": component,
+                                                      "count": count, "type": kind})
         return len(self.tree["accessors"]) - 1
 
     # ------------------------------------------------------------ KHR_materials_pbrSpecularGlossiness
