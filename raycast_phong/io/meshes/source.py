@@ -85,11 +85,7 @@ class MeshSource:
 
     def current(self) -> bool:
         """Whether the file and its side files are still as they were (a batch renders long after it loads)."""
-        try:
-            now = file_version(self.path)
-        except OSError:
-            now = None
-        return now == self.version and _stamps(self.side_files) == self.side_versions
+        return _version(self.path) == self.version and _stamps(self.side_files) == self.side_versions
 
     @cached_property
     def texture_sizes(self) -> tuple[tuple[int, int], ...]:
@@ -141,11 +137,7 @@ def mesh_source(path: Path, where: Where | None = None) -> MeshSource:
     asked); `where` starts its errors (default: the file). A file that cannot be read gives a source with what
     could be (the read words the error)."""
     path = Path(path)
-    try:
-        version = file_version(path)
-    except OSError:
-        version = None
-    return MeshSource(path, format_of(path), version, str(path) if where is None else where)
+    return MeshSource(path, format_of(path), _version(path), str(path) if where is None else where)
 
 
 def read_mesh(path: Path, where: Where | None = None) -> MeshFile:
@@ -153,13 +145,16 @@ def read_mesh(path: Path, where: Where | None = None) -> MeshFile:
     return mesh_source(path, where).read()
 
 
+def _version(path: Path) -> tuple | None:
+    """io.files.file_version of `path`; None for a file that is not there (the read words it)."""
+    try:
+        return file_version(path)
+    except OSError:
+        return None
+
+
 def _stamps(files) -> tuple:
-    def stamp(file: Path) -> tuple:
-        try:
-            return file_version(file)
-        except OSError:
-            return (str(file), None)
-    return tuple(stamp(file) for file in files)
+    return tuple(_version(file) or (str(file), None) for file in files)
 
 
 def mesh_sources(scene, given: dict | None = None) -> dict[Path, MeshSource]:
