@@ -83,8 +83,7 @@ def read_3mf(handle, path: Path, notes: list[str], sources: list[TextureSource])
 
 def _read_archive(archive: zipfile.ZipFile, path: Path, notes: list[str], sources: list[TextureSource]) -> list:
     """read_3mf's model parts of the open archive, parsed and placed."""
-    members = {info.filename.lstrip("/").lower(): info.filename for info in archive.infolist()}
-    root = _root_part(archive, members)
+    members, root = _root_part(archive)
     if root is None:
         raise FileProblem(f"cannot read {str(path)!r} as 3MF: it holds no model part ({ROOT}); allowed: a 3MF "
                           "package with a 3D model")
@@ -99,8 +98,10 @@ def _read_archive(archive: zipfile.ZipFile, path: Path, notes: list[str], source
     return _placed(archive, members, models, root, path, notes, sources)
 
 
-def _root_part(archive: zipfile.ZipFile, members: dict[str, str]) -> str | None:
-    """The model part _rels/.rels names (core §2.1), else 3D/3dmodel.model in any letter case."""
+def _root_part(archive: zipfile.ZipFile) -> tuple[dict[str, str], str | None]:
+    """The archive's members by their lower-case names, and its model part: the one _rels/.rels names (core
+    §2.1), else 3D/3dmodel.model in any letter case (None: neither)."""
+    members = {info.filename.lstrip("/").lower(): info.filename for info in archive.infolist()}
     rels = members.get("_rels/.rels")
     if rels is not None:
         from lxml import etree
@@ -109,10 +110,10 @@ def _root_part(archive: zipfile.ZipFile, members: dict[str, str]) -> str | None:
             for relation in tree.iter("{*}Relationship"):
                 target = relation.get("Target", "").lstrip("/").lower()
                 if relation.get("Type") == MODEL_RELATION and target in members:
-                    return members[target]
+                    return members, members[target]
         except (etree.XMLSyntaxError, ValueError, zipfile.BadZipFile, OSError, EOFError):
             pass  # a broken relationships part: fall back on the usual name
-    return members.get(ROOT.lower())
+    return members, members.get(ROOT.lower())
 
 
 def _parser(**options):
@@ -631,18 +632,15 @@ def count(handle, size: int, mesh) -> int | None:
 
 def _built_triangles(archive: zipfile.ZipFile) -> int | None:
     """count's sum over the build of the archive's root part."""
-    members = {info.filename.lstrip("/").lower(): info.filename for info in archive.infolist()}
-    root = _root_part(archive, members)
+    members, root = _root_part(archive)
     if root is None:
         return None
     parts: dict[str, dict] = {}  # part → object id → its triangles, or its components [(part, id)]
 
     def objects(part: str) -> dict:
         if part not in parts:
-            parts[part] = {}
             name = members.get(part.lower())
-            if name is not None:
-                parts[part] = _scanned_objects(archive.read(name), part)
+            parts[part] = {} if name is None else _scanned_objects(archive.read(name), part)
         return parts[part]
 
     totals: dict[tuple[str, str], int] = {}
