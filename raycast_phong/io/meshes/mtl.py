@@ -218,14 +218,7 @@ def map_file(words: list[str]) -> str:
     0.5`): words from an option to the end that are all options with their values are not part of the name."""
     at = 0
     while at < len(words) and words[at].lower() in MAP_OPTIONS:
-        count = MAP_OPTIONS[words[at].lower()]
-        at += 1
-        taken = 0
-        while taken < count and at < len(words) - 1:
-            if count == 1 or is_number(words[at]):
-                at, taken = at + 1, taken + 1
-            else:
-                break
+        at = _past_values(words, at, len(words) - 1)
     end = next((i for i in range(at + 1, len(words)) if _only_options(words[i:])), len(words))
     return " ".join(words[at:end]).replace("\\", "/")
 
@@ -235,16 +228,22 @@ def _only_options(words: list[str]) -> bool:
     (`-clamp on`, `-bm 0.5`), 1 to 3 numbers for -o, -s, -t, 1 or 2 for -mm."""
     at = 0
     while at < len(words):
-        count = MAP_OPTIONS.get(words[at].lower())
-        if count is None:
+        if words[at].lower() not in MAP_OPTIONS:
             return False
-        at += 1
-        taken = 0
-        while taken < count and at < len(words) and (count == 1 or is_number(words[at])):
-            at, taken = at + 1, taken + 1
-        if taken == 0:
+        end = _past_values(words, at, len(words))
+        if end == at + 1:  # an option without its values
             return False
+        at = end
     return True
+
+
+def _past_values(words: list[str], at: int, stop: int) -> int:
+    """Where the values of the map option words[at] end: one word for a one-value option, up to its count of
+    numbers for the others, none at or past `stop`."""
+    count, end = MAP_OPTIONS[words[at].lower()], at + 1
+    while end - at - 1 < count and end < stop and (count == 1 or is_number(words[end])):
+        end += 1
+    return end
 
 
 def texture_path(folder: Path, file: str) -> Path | None:
