@@ -388,9 +388,8 @@ class _Decoder:
                 stored = self.float_accessor(skin["inverseBindMatrices"], f"skins[{node['skin']}].inverseBindMatrices")
                 inverse[:len(stored)] = stored.reshape(-1, 4, 4).transpose(0, 2, 1)[:len(joints)]
             pose = placed[joints] @ inverse  # (J, 4, 4)
-            posed = []
-            for p, primitive in enumerate(primitives):
-                posed.append(self.posed(primitive, pose, f"meshes[{node['mesh']}].primitives[{p}]"))
+            posed = [self.posed(primitive, pose, f"meshes[{node['mesh']}].primitives[{p}]")
+                     for p, primitive in enumerate(primitives)]
             self.tree["meshes"].append({"name": f"{self.tree['meshes'][node['mesh']].get('name', 'mesh')} posed",
                                         "primitives": posed})
             node.pop("mesh")
@@ -760,13 +759,8 @@ def decode_document(tree: dict, buffers: list[bytes], path: Path,
     decoder.skins()
     decoder.instance()
     decoder.specular_glossiness()
-    named = {}
-    rewritten = []
-    for index, data in enumerate([*buffers, bytes(decoder.new)]):
-        name = f"{DECODED_URI}{index}"
-        named[name] = bytes(data) if not isinstance(data, bytes) else data
-        rewritten.append({"uri": name, "byteLength": len(data)})
-    tree["buffers"] = rewritten
+    named = {f"{DECODED_URI}{index}": bytes(data) for index, data in enumerate([*buffers, decoder.new])}
+    tree["buffers"] = [{"uri": name, "byteLength": len(data)} for name, data in named.items()]
     for key in ("extensionsRequired", "extensionsUsed"):
         if isinstance(tree.get(key), list):
             tree[key] = [e for e in tree[key] if e not in (*MESHOPT, DRACO, INSTANCING, SPECULAR_GLOSSINESS,

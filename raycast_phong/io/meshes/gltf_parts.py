@@ -73,12 +73,8 @@ def _parts(tree: dict, buffers: list[bytes], path: Path) -> list[Part]:
     materials = [_material(material, tree, images) for material in tree.get("materials", [])]
     meshes = [[_primitive(primitive, decoder, materials) for primitive in mesh["primitives"]]
               for mesh in tree.get("meshes", [])]
-    found = []
-    for matrix, mesh in _placed(tree):
-        for vertices, faces, normals, visual, colours in meshes[mesh]:
-            if len(faces):
-                found.append(Part(*placed(vertices, faces, normals, matrix), visual, colours))
-    return found
+    return [Part(*placed(vertices, faces, normals, matrix), visual, colours) for matrix, mesh in _placed(tree)
+            for vertices, faces, normals, visual, colours in meshes[mesh] if len(faces)]
 
 
 def _placed(tree: dict) -> list[tuple[np.ndarray, int]]:
