@@ -153,9 +153,8 @@ def _primitive(primitive: dict, decoder: _Decoder, materials: list[GltfMaterial]
         faces = decoder.read_accessor(primitive["indices"], "indices").reshape(-1, 3).astype(np.int64)
     else:
         faces = np.arange(len(vertices), dtype=np.int64).reshape(-1, 3)
-    normals = None
-    if "NORMAL" in attributes:
-        normals = decoder.read_accessor(attributes["NORMAL"], "NORMAL").astype(np.float64)
+    normals = decoder.read_accessor(attributes["NORMAL"], "NORMAL").astype(np.float64) \
+        if "NORMAL" in attributes else None
     visual = colours = None
     if "material" in primitive:
         uv = None

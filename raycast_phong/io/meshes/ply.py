@@ -138,11 +138,8 @@ def plain_part(data: bytes, header: ply_lists.Header | None) -> Part | None:
                             for name in coloured)):
         return None
     table = rows["vertex"]
-    vertices = np.column_stack([table[names[axis]] for axis in "xyz"]).astype(np.float64)
+    vertices, normals = ply_lists._points(vertex, table), ply_lists._points(vertex, table, ("nx", "ny", "nz"))
     faces = rows["face"]["p0"].astype(np.int64)
-    normals = None
-    if {"nx", "ny", "nz"} <= names.keys():
-        normals = np.column_stack([table[names[axis]] for axis in ("nx", "ny", "nz")]).astype(np.float64)
     surface = None
     if coloured:
         rgb = np.column_stack([table[names[name]] for name in COLOURS]).astype(np.float32) / 255.0

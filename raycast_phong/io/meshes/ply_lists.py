@@ -202,12 +202,13 @@ def _fan_rows(props, kept: list[int], lists: list[int], data: np.ndarray, starts
     return (np.concatenate(columns, axis=1) if columns else np.zeros((len(row), 0), np.uint8)).tobytes()
 
 
-def _points(element: Element, rows: np.ndarray) -> np.ndarray | None:
-    """(V, 3) float64 x, y, z of an even vertex element's rows, or None when it has no such scalars."""
+def _points(element: Element, rows: np.ndarray, axes=("x", "y", "z")) -> np.ndarray | None:
+    """(V, 3) float64 x, y, z (or other `axes`: nx, ny, nz) of an even vertex element's rows, or None when it has
+    no such scalars."""
     names = {prop.name: f"p{k}" for k, prop in enumerate(element.properties) if prop.count is None}
-    if not {"x", "y", "z"} <= names.keys():
+    if not set(axes) <= names.keys():
         return None
-    return np.column_stack([rows[names[axis]] for axis in "xyz"]).astype(np.float64)
+    return np.column_stack([rows[names[axis]] for axis in axes]).astype(np.float64)
 
 
 def _concave(element: Element, rows: np.ndarray, points: np.ndarray | None) -> bool:

@@ -87,9 +87,7 @@ def parts(loaded) -> list[Part]:
         normals = mesh._cache.cache.get("vertex_normals")
         vertices, faces, normals = placed(np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64),
                                           None if normals is None else np.asarray(normals, np.float64), transform)
-        colours = None
-        if not isinstance(mesh.visual, trimesh.visual.ColorVisuals):
-            colours = mesh.vertex_attributes.get("color")
+        colours = None if isinstance(mesh.visual, trimesh.visual.ColorVisuals) else mesh.vertex_attributes.get("color")
         found.append(Part(vertices, faces, normals, mesh.visual, colours))
     return found
 
