@@ -36,9 +36,7 @@ def sniff(head: bytes) -> str | None:
         return "OBJ"
     if re.match(rb"(\s*(#[^\n]*)?\n)*\s*(ST)?C?N?4?n?OFF\b", head):  # Geomview's [ST][C][N][4][n]OFF
         return "OFF"
-    if stripped[:5].lower() == b"solid":
-        return "ASCII STL"
-    return None
+    return "ASCII STL" if stripped[:5].lower() == b"solid" else None
 
 
 def check_file_content(path: Path, kind, where: Where) -> None:

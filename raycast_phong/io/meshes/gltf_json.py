@@ -81,9 +81,7 @@ def uri_file(folder: Path, uri: str) -> Path:
     """The file a glTF's relative URI names: percent-decoded (glTF 2.0 §3.3.3: URIs are RFC 3986, so a space
     is written %20), unless a file of the name as written exists (exporters that write spaces as they are)."""
     written = folder / uri
-    if "%" not in uri or written.is_file():
-        return written
-    return folder / unquote(uri)
+    return written if "%" not in uri or written.is_file() else folder / unquote(uri)
 
 
 def file_uris(document: dict, table: str) -> list[str]:

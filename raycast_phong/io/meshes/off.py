@@ -157,9 +157,7 @@ def _compiled_body(data: bytes, at: int, vertex_count: int, face_count: int):
     if vertices is None or vertices[1] is None:
         return None
     faces = lines_of_numbers(text, vertices[2], face_count, True, 4 * face_count, True)
-    if faces is None or faces[1] is None:
-        return None
-    return vertices[1], faces[0], faces[1]
+    return None if faces is None or faces[1] is None else (vertices[1], faces[0], faces[1])
 
 
 def warm_up(handle) -> tuple:

@@ -189,9 +189,7 @@ def strip_parts(loaded) -> list:
     keep = ((windows >= 0).all(axis=1) & (windows[:, 0] != windows[:, 1]) & (windows[:, 1] != windows[:, 2])
             & (windows[:, 0] != windows[:, 2]))
     faces = np.where(odd[:, None], windows[:, [1, 0, 2]], windows)[keep]
-    if not len(faces):
-        return []
-    return [Part(vertices, faces, None, None)]
+    return [Part(vertices, faces, None, None)] if len(faces) else []
 
 
 def _note_textures(path: Path, names: list[str], notes: list[str]) -> None:

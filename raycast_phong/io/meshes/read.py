@@ -353,6 +353,4 @@ def _corner_colours(part: Part) -> np.ndarray | None:
     raw = np.asarray(raw)
     scale = 1.0 if raw.dtype.kind == "f" else float(np.iinfo(raw.dtype).max)
     rgb = np.clip(np.asarray(raw, np.float64).reshape(len(raw), -1)[:, :3] / scale, 0, 1).astype(np.float32)
-    if rgb.shape[1] < 3:
-        return None
-    return rgb[part.faces]
+    return rgb[part.faces] if rgb.shape[1] >= 3 else None
