@@ -55,7 +55,6 @@ def collada_text(data: bytes, path: Path, notes: list[str]) -> bytes:
         return data
     namespace = root.tag[:root.tag.index("}") + 1] if root.tag.startswith("{") else ""
     by_id = {element.get("id"): element for element in root.iter() if element.get("id")}
-    changed = False
     skinned = 0
     for instance in list(root.iter(f"{namespace}instance_controller")):
         controller = by_id.get((instance.get("url") or "").lstrip("#"))
@@ -69,15 +68,13 @@ def collada_text(data: bytes, path: Path, notes: list[str]) -> bytes:
         matrix = found.find(f"{namespace}bind_shape_matrix")
         geometry = etree.Element(f"{namespace}instance_geometry", url=f"#{source}")
         geometry.extend(child for child in list(instance) if child.tag == f"{namespace}bind_material")
-        parent = instance.getparent()
         if matrix is not None and " ".join((matrix.text or "").split()) not in ("", IDENTITY) and _matrix(matrix.text):
             node = etree.Element(f"{namespace}node")
             etree.SubElement(node, f"{namespace}matrix").text = " ".join(matrix.text.split())
             node.append(geometry)
             geometry = node
-        parent.replace(instance, geometry)
+        instance.getparent().replace(instance, geometry)
         skinned += 1
-        changed = True
     if skinned:
         notes.append(f"{path}: {skinned} skinned or morphed mesh(es) (<instance_controller>) drawn in their "
                      "bind-shape pose; the skeleton and animations are not applied")
@@ -88,7 +85,6 @@ def collada_text(data: bytes, path: Path, notes: list[str]) -> bytes:
             commas += count
     if commas:
         notes.append(f"{path}: {commas} number(s) written with a decimal comma (as 0,5) read as decimal points")
-        changed = True
     dropped = set()
     for binding in list(root.iter(f"{namespace}instance_material")):
         target = (binding.get("target") or "").lstrip("#")
@@ -100,11 +96,10 @@ def collada_text(data: bytes, path: Path, notes: list[str]) -> bytes:
         if effect is None or effect.find(f"{namespace}profile_COMMON") is None:
             dropped.add(target or "?")
             binding.getparent().remove(binding)
-            changed = True
     if dropped:
         notes.append(f"{path}: material(s) {', '.join(sorted(dropped))} not defined or without a profile_COMMON "
                      "effect (the only one read); their triangles use the default material")
-    return etree.tostring(root, xml_declaration=True, encoding="utf-8") if changed else data
+    return etree.tostring(root, xml_declaration=True, encoding="utf-8") if skinned or commas or dropped else data
 
 
 def _matrix(text: str) -> bool:
