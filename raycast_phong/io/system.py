@@ -32,10 +32,7 @@ def available_memory() -> int | None:
     found = None
     try:
         with open("/proc/meminfo", "rb") as meminfo:
-            for line in meminfo:
-                if line.startswith(b"MemAvailable:"):
-                    found = int(line.split()[1]) * 1024
-                    break
+            found = next((int(line.split()[1]) * 1024 for line in meminfo if line.startswith(b"MemAvailable:")), None)
     except (OSError, ValueError, IndexError):
         pass
     if found is None:
