@@ -289,10 +289,7 @@ NO_FONT = ("OpenImageIO found no font (tried its own DroidSans and DejaVuSans); 
 
 def label_font() -> str | None:
     """The first of LABEL_FONTS that OpenImageIO can load, or None on a machine without them."""
-    for name in LABEL_FONTS:
-        if oiio.ImageBufAlgo.text_size("Ag", 12, name).defined:
-            return name
-    return None
+    return next((name for name in LABEL_FONTS if oiio.ImageBufAlgo.text_size("Ag", 12, name).defined), None)
 
 
 def text_coverage(text: str, size: int) -> np.ndarray | None:

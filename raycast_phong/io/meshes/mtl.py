@@ -42,8 +42,7 @@ def mtllib_names(lines: list[bytes], folder: Path) -> list[str]:
     names = []
     for line in lines:
         text = line.decode("utf-8", "replace").strip()
-        words = [word.replace("\\ ", " ") for word in re.split(r"(?<!\\)[ \t]+", text)]
-        words = words[:next((i for i, word in enumerate(words) if word.startswith("#")), len(words))]
+        words = uncommented([word.replace("\\ ", " ") for word in re.split(r"(?<!\\)[ \t]+", text)])
         whole = text.replace("\\ ", " ")
         try:
             if len(words) > 1 and (folder / whole).is_file():
