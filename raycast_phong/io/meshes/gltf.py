@@ -11,6 +11,7 @@ import io
 import json
 import math
 import warnings
+from collections import Counter
 from pathlib import Path
 from urllib.parse import unquote
 
@@ -91,13 +92,10 @@ def _note_unread(tree: dict, path: Path, notes: list[str]) -> None:
     """A note for what the file holds that is not drawn: its point and line primitives (only triangles are
     surfaces), its own lights (KHR_lights_punctual: the scene's lights light it) and cameras (the framing's is
     used)."""
-    modes: dict[str, int] = {}
     try:
-        for mesh in tree.get("meshes", []):
-            for primitive in mesh.get("primitives", []):
-                kind = NOT_SURFACES.get(primitive.get("mode", 4))
-                if kind:
-                    modes[kind] = modes.get(kind, 0) + 1
+        modes = Counter(NOT_SURFACES[mode] for mesh in tree.get("meshes", [])
+                        for primitive in mesh.get("primitives", [])
+                        if (mode := primitive.get("mode", 4)) in NOT_SURFACES)
         lights = ((tree.get("extensions") or {}).get(LIGHTS) or {}).get("lights") or []
         cameras = tree.get("cameras") or []
     except (AttributeError, TypeError):

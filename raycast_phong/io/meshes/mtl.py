@@ -196,8 +196,7 @@ def parse_mtl(content: str, mtl: Path, notes: list[str],
                      "and refraction are out of scope")
     if textures:
         missing = sorted({file for _, _, file in textures if file and texture_path(mtl.parent, file) is None})
-        for file in missing:
-            notes.append(f"{mtl}: texture {shown_name(file)} is missing")
+        notes.extend(f"{mtl}: texture {shown_name(file)} is missing" for file in missing)
         others = [f"{key} {file}" for _, key, file in textures if key not in ("map_kd", "map_ka", "map_ke")]
         if others:
             shown = ", ".join(others[:3]) + (", ..." if len(others) > 3 else "")
