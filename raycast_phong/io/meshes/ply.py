@@ -166,15 +166,11 @@ def strip_parts(loaded) -> list:
     raw = getattr(loaded, "metadata", {}).get("_ply_raw") if hasattr(loaded, "metadata") else None
     if not raw or "tristrips" not in raw or "vertex" not in raw:
         return []
-    data = raw["tristrips"]["data"]
+    data, vertex = raw["tristrips"]["data"], raw["vertex"]["data"]
     try:
         field = data["vertex_indices"]
         rows = field["f1"] if field.dtype.names else field
         strips = np.concatenate([np.append(np.asarray(row, np.int64).ravel(), -1) for row in np.atleast_1d(rows)])
-    except (KeyError, ValueError, TypeError, IndexError):
-        return []
-    vertex = raw["vertex"]["data"]
-    try:
         vertices = np.column_stack([np.asarray(vertex[k], np.float64).ravel() for k in ("x", "y", "z")])
     except (KeyError, ValueError, TypeError, IndexError):
         return []
