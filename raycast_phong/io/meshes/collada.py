@@ -221,9 +221,8 @@ def _check_images(path: Path, handle, notes: list[str]) -> None:
         references = image_references(handle.read(MAX_SIDE_FILE))
     finally:
         handle.seek(0)
-    for reference in references:
-        if is_local(reference) and not image_file(path.parent, reference).is_file():
-            notes.append(f"{path}: texture {shown_name(_spelled(reference))} is missing")
+    notes.extend(f"{path}: texture {shown_name(_spelled(reference))} is missing" for reference in references
+                 if is_local(reference) and not image_file(path.parent, reference).is_file())
 
 
 def image_references(data: bytes) -> list[str]:

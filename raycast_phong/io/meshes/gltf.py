@@ -82,9 +82,8 @@ def check_document(document: Document, path: Path, notes: list[str]) -> dict:
                           f"renderer does not support; supported: {', '.join(SUPPORTED_REQUIRED)} (and, drawn in "
                           f"the base material: {', '.join(LOOK_ONLY)})")
     _note_unread(tree, path, notes)
-    for uri in file_uris(tree, "images"):
-        if not uri_file(path.parent, uri).is_file():
-            notes.append(f"{path}: texture {shown_name(unquote(uri))} is missing")
+    notes.extend(f"{path}: texture {shown_name(unquote(uri))} is missing" for uri in file_uris(tree, "images")
+                 if not uri_file(path.parent, uri).is_file())
     return gltf_samplers(tree)
 
 

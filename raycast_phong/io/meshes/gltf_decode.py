@@ -691,13 +691,10 @@ def read_buffers(tree: dict, path: Path, document: Document, where: Where) -> li
 def _colour_maps(material: dict) -> list[tuple[str, dict]]:
     """A material's colour maps' texture infos, the one the base colour comes from first (baseColorTexture, or a
     specular-glossiness diffuseTexture), then emissiveTexture: the maps this renderer draws."""
-    found = []
-    for table, key in ((material.get("pbrMetallicRoughness"), "baseColorTexture"),
-                       ((material.get("extensions") or {}).get(SPECULAR_GLOSSINESS), "diffuseTexture"),
-                       (material, "emissiveTexture")):
-        if isinstance(table, dict) and isinstance(table.get(key), dict):
-            found.append((key, table[key]))
-    return found
+    glossy = (material.get("extensions") or {}).get(SPECULAR_GLOSSINESS)
+    tables = ((material.get("pbrMetallicRoughness"), "baseColorTexture"), (glossy, "diffuseTexture"),
+              (material, "emissiveTexture"))
+    return [(key, table[key]) for table, key in tables if isinstance(table, dict) and isinstance(table.get(key), dict)]
 
 
 def _uv_set(info: dict) -> int:
