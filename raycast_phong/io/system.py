@@ -9,6 +9,7 @@ import math
 import os
 import re
 import sys
+from contextlib import suppress
 from pathlib import Path
 
 
@@ -30,11 +31,8 @@ def available_memory() -> int | None:
     v1, its own cgroup and every parent) and by the address space `ulimit -v` (RLIMIT_AS) leaves; else free
     pages. A command's --max-memory is its caller's to apply (io.meshes.size.check_mesh_read's max_memory)."""
     found = None
-    try:
-        with open("/proc/meminfo", "rb") as meminfo:
-            found = next((int(line.split()[1]) * 1024 for line in meminfo if line.startswith(b"MemAvailable:")), None)
-    except (OSError, ValueError, IndexError):
-        pass
+    with suppress(OSError, ValueError, IndexError), open("/proc/meminfo", "rb") as meminfo:
+        found = next((int(line.split()[1]) * 1024 for line in meminfo if line.startswith(b"MemAvailable:")), None)
     if found is None:
         try:
             found = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
@@ -117,14 +115,12 @@ def _cgroup_room(root: str | Path | None = None, lines: list[str] | None = None)
     places.append((root, "memory.max", "memory.current"))
     for folder, limit_name, used_name in places:
         while True:
-            try:
+            with suppress(OSError, ValueError):
                 limit = (folder / limit_name).read_text().strip()
                 used = int((folder / used_name).read_text())
                 if limit != "max" and int(limit) < 1 << 62:  # v1 writes "no limit" as a huge number
                     left = max(int(limit) - used, 0)
                     room = left if room is None else min(room, left)
-            except (OSError, ValueError):
-                pass
             if folder.parent == folder or folder in (root, root / "memory"):
                 break
             folder = folder.parent

@@ -12,6 +12,7 @@ import json
 import math
 import warnings
 from collections import Counter
+from contextlib import suppress
 from pathlib import Path
 from urllib.parse import unquote
 
@@ -172,7 +173,8 @@ def gltf_samplers(document: dict) -> dict:
     material, (name, SPECULAR_GLOSSINESS): (specular factor (3,), glossiness factor), and its diffuseTexture is
     the baseColorTexture slot (io/gltf_decode.py hands it to trimesh so)."""
     found = {}
-    try:
+    # a malformed table: the maps read before it keep their modes, the rest repeat
+    with suppress(AttributeError, IndexError, TypeError, ValueError):
         textures, samplers = document.get("textures", []), document.get("samplers", [])
         for material in document.get("materials", []):
             name, extensions = material.get("name"), material.get("extensions")
@@ -204,8 +206,6 @@ def gltf_samplers(document: dict) -> dict:
                 modes = samplers[sampler] if isinstance(sampler, int) else {}
                 found.setdefault((name, slot), (GLTF_WRAP.get(modes.get("wrapS"), "repeat"),
                                                 GLTF_WRAP.get(modes.get("wrapT"), "repeat")))
-    except (AttributeError, IndexError, TypeError, ValueError):
-        pass  # a malformed table: the maps read before it keep their modes, the rest repeat
     return found
 
 

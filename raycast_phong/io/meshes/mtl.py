@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import re
+from contextlib import suppress
 from pathlib import Path
 from typing import NamedTuple
 
@@ -44,11 +45,9 @@ def mtllib_names(lines: list[bytes], folder: Path) -> list[str]:
         text = line.decode("utf-8", "replace").strip()
         words = uncommented([word.replace("\\ ", " ") for word in re.split(r"(?<!\\)[ \t]+", text)])
         whole = text.replace("\\ ", " ")
-        try:
+        with suppress(OSError):  # a name too long to be one file: the words
             if len(words) > 1 and (folder / whole).is_file():
                 words = [whole]
-        except OSError:
-            pass  # a name too long to be one file: the words
         names += words
     return list(dict.fromkeys(name for name in names if name))
 
@@ -248,11 +247,9 @@ def texture_path(folder: Path, file: str) -> Path | None:
     """The texture a material names, relative to its .mtl: as written, else by its file name alone beside
     the .mtl (exporters often keep the absolute path of the machine they ran on); None when neither exists."""
     for candidate in (folder / file, folder / Path(file).name):
-        try:
+        with suppress(OSError):
             if candidate.is_file():
                 return candidate
-        except OSError:
-            pass
     return None
 
 

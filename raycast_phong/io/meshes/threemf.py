@@ -20,6 +20,7 @@ import posixpath
 import re
 import zipfile
 import zlib
+from contextlib import suppress
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -105,14 +106,13 @@ def _root_part(archive: zipfile.ZipFile) -> tuple[dict[str, str], str | None]:
     rels = members.get("_rels/.rels")
     if rels is not None:
         from lxml import etree
-        try:
+        # a broken relationships part: fall back on the usual name
+        with suppress(etree.XMLSyntaxError, ValueError, zipfile.BadZipFile, OSError, EOFError):
             tree = etree.fromstring(archive.read(rels), _parser())
             for relation in tree.iter("{*}Relationship"):
                 target = relation.get("Target", "").lstrip("/").lower()
                 if relation.get("Type") == MODEL_RELATION and target in members:
                     return members, members[target]
-        except (etree.XMLSyntaxError, ValueError, zipfile.BadZipFile, OSError, EOFError):
-            pass  # a broken relationships part: fall back on the usual name
     return members, members.get(ROOT.lower())
 
 
