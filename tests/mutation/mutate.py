@@ -321,8 +321,8 @@ HAND_MUTANTS = (
      "path, (w, h, c) = min(((p, s) for p, s in sizes.items() if s)"),  # the budget's refusal names the smallest
     ("io/meshes/off", "if len(lines) < vertex_count + face_count:",
      "if len(lines) < vertex_count + face_count - 1:"),  # a text OFF one face line short not cut short
-    ("io/meshes/off", "block[:, :3])\n    if faces.size and (faces.min() < 0 or faces.max() >= vertex_count):",
-     "block[:, :3])\n    if faces.size and (faces.min() < 0 or faces.max() > vertex_count):"),  # binary OFF's N of N
+    ("io/meshes/off", "if faces.size and (faces.min() < 0 or faces.max() >= len(points)):",
+     "if faces.size and (faces.min() < 0 or faces.max() > len(points)):"),  # an OFF face index N of N
     ('scene/overrides', '"objects": objects})',
      '"objects": scene.objects})'),
     ('scene/overrides', 'update={"shading": model}),',

@@ -207,9 +207,6 @@ def _text_faces(words: np.ndarray, values: np.ndarray, points: np.ndarray
         raise SceneError(f"has face {bad} (line {bad + 1} of the faces) of {words[bad] - 1} indices where it counts "
                        f"{corners[bad]}; allowed: Nv then Nv vertex indices")
     faces, row = _polygons(values, start + 1, corners, points)
-    vertex_count = len(points)
-    if faces.size and (faces.min() < 0 or faces.max() >= vertex_count):
-        raise SceneError(f"has a face index outside 0..{vertex_count - 1}; allowed: indices of its own vertices")
     spec = words - 1 - corners
     if not (spec >= 3).any():
         return faces, None
@@ -224,12 +221,16 @@ def _text_faces(words: np.ndarray, values: np.ndarray, points: np.ndarray
 def _polygons(values: np.ndarray, first: np.ndarray, corners: np.ndarray, points: np.ndarray
               ) -> tuple[np.ndarray, np.ndarray]:
     """Triangles of polygons whose corner indices start at values[first] (`corners` each), each polygon a
-    fan or, when concave, ear-clipped (polygons.cut), and each triangle's polygon."""
+    fan or, when concave, ear-clipped (polygons.cut), and each triangle's polygon; an index that is not a whole
+    number, or names no vertex of `points`, refused."""
     row, picks = cut(corners, listed(values, first, points), points)
     faces = values[first[row][:, None] + picks]  # every corner is in some triangle, whichever the cut
     if faces.size and not (faces == np.round(faces)).all():
         raise SceneError("has a face index that is not a whole number; allowed: vertex indices 0, 1, ...")
-    return faces.astype(np.int64).reshape(-1, 3), row
+    faces = faces.astype(np.int64).reshape(-1, 3)
+    if faces.size and (faces.min() < 0 or faces.max() >= len(points)):
+        raise SceneError(f"has a face index outside 0..{len(points) - 1}; allowed: indices of its own vertices")
+    return faces, row
 
 
 def _colours(values: np.ndarray, name: str, notes: list[str]) -> np.ndarray | None:
@@ -284,8 +285,6 @@ def _binary(body: bytes, normals: bool, coloured: bool, texture: bool, four: boo
     whole = np.frombuffer(body[: len(body) - len(body) % 4], word + "i4")
     first = (starts[:-1] + 4) // 4  # the word of each face's first index
     faces, row = _polygons(whole.astype(np.float64), first, found[:, 0], block[:, :3])
-    if faces.size and (faces.min() < 0 or faces.max() >= vertex_count):
-        raise SceneError(f"has a face index outside 0..{vertex_count - 1}; allowed: indices of its own vertices")
     colours, per_face = None, False
     base = (4 if four else 3) + 3 * normals
     if coloured:
