@@ -431,10 +431,9 @@ def held(path: Path, mesh) -> tuple[int, int]:
 
 
 def _size(path: Path) -> int:
-    try:
+    with suppress(OSError):
         return path.stat().st_size
-    except OSError:
-        return 0  # the read reports a missing buffer
+    return 0  # the read reports a missing buffer
 
 
 # An image in a .glb's buffer is decoded whole by trimesh (PIL: 4 bytes a texel as RGBA) before it is shrunk to

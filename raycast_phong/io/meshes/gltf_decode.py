@@ -310,11 +310,8 @@ class _Decoder:
                     raise self.refuse(key, "needs a bufferView and attributes") from None
                 decoded = _draco_decode(data, self.path)
                 attributes = primitive.get("attributes", {})
-                found = {}
-                for attribute in getattr(decoded, "attributes", []):
-                    name = ids.get(attribute.get("unique_id"))
-                    if name in attributes:
-                        found[name] = np.asarray(attribute["data"])
+                found = {name: np.asarray(attribute["data"]) for attribute in getattr(decoded, "attributes", [])
+                         if (name := ids.get(attribute.get("unique_id"))) in attributes}
                 if "POSITION" in attributes and "POSITION" not in found:
                     found["POSITION"] = np.asarray(decoded.points)
                 for name, values in found.items():

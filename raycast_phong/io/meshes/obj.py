@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import io
 import re
+from contextlib import suppress
 from pathlib import Path
 
 import numpy as np
@@ -196,11 +197,9 @@ def count(handle, size: int, mesh) -> int:
 def describe(path: Path) -> dict:
     """Its .mtl files (every one its `mtllib` lines name, in order: side files), read and parsed, and the colour
     maps they name that exist. The OBJ is scanned for `mtllib` in 1 MB blocks; an .mtl is at most 16 MiB."""
-    try:
-        with open_regular(path, str(path), "mesh file") as handle:
-            lines = scan_mtllib(handle)
-    except (OSError, SceneError):
-        lines = []  # the read words it
+    lines = []  # unreadable: the read words it
+    with suppress(OSError, SceneError), open_regular(path, str(path), "mesh file") as handle:
+        lines = scan_mtllib(handle)
     names = mtllib_names(lines, path.parent)
     materials = read_obj_materials(path, names)
     images = tuple(dict.fromkeys(texture.source for texture in materials.sources))

@@ -149,7 +149,7 @@ def _triangles(element: Element, data: np.ndarray, starts: np.ndarray, found: np
     if polygon is None:
         return None
     corners = found[:, lists.index(polygon)]
-    kept, chunks = [], []
+    kept = []
     for k, prop in enumerate(props):
         length = found[:, lists.index(k)] if prop.count is not None else None
         each = int(length[0] // max(int(corners[0]), 1)) if length is not None and len(length) else 1
@@ -157,9 +157,8 @@ def _triangles(element: Element, data: np.ndarray, starts: np.ndarray, found: np
             kept.append(k)
         else:
             notes.append(f"its face list {prop.name!r} is not one or two entries a corner; it is left out")
-    for first in range(0, len(corners), FACE_CHUNK):
-        rows = slice(first, first + FACE_CHUNK)
-        chunks.append(_fan_rows(props, kept, lists, data, starts[:-1][rows], found[rows], corners[rows], big, points))
+    chunks = [_fan_rows(props, kept, lists, data, starts[:-1][rows], found[rows], corners[rows], big, points)
+              for rows in (slice(first, first + FACE_CHUNK) for first in range(0, len(corners), FACE_CHUNK))]
     triangles = int(np.maximum(corners - 2, 0).sum())
     lines = (f"element {element.name} {triangles}".encode(), *(element.lines[1 + k] for k in kept))
     return lines, b"".join(chunks)

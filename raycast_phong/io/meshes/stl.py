@@ -7,6 +7,7 @@ from __future__ import annotations
 import os
 import re
 import struct
+from contextlib import suppress
 
 import numpy as np
 
@@ -103,11 +104,9 @@ BINARY_STL_READ_BYTES_PER_BYTE = 3
 
 def floor(path, size: int, mesh) -> int:
     from ..files import open_regular
-    try:
-        with open_regular(path, str(path), "mesh file") as handle:
-            head = handle.read(84)
-    except (OSError, SceneError):
-        head = b""
+    head = b""
+    with suppress(OSError, SceneError), open_regular(path, str(path), "mesh file") as handle:
+        head = handle.read(84)
     return size * (BINARY_STL_READ_BYTES_PER_BYTE if is_binary(head, size) else TEXT_READ_BYTES_PER_BYTE)
 
 
