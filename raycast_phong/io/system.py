@@ -101,10 +101,9 @@ def _cgroup_room(root: str | Path | None = None, lines: list[str] | None = None)
     root = Path(root or _CGROUP_ROOT)
     room = None
     if lines is None:
-        try:
+        lines = []
+        with suppress(OSError):
             lines = Path("/proc/self/cgroup").read_text().splitlines()
-        except OSError:
-            lines = []
     places = []
     for line in lines:
         number, controllers, where = [*line.split(":", 2), "", ""][:3]

@@ -746,13 +746,9 @@ def decode_document(tree: dict, buffers: list[bytes], path: Path,
     buffer given to trimesh by name, the decoded data in one more. `tree` is changed in place (pass a copy)."""
     first_uv_set(tree, path, notes)
     decoder = _Decoder(tree, buffers, path, notes)
-    decoder.decode_meshopt()
-    decoder.decode_draco()
-    decoder.dequantize()
-    decoder.fans()
-    decoder.skins()
-    decoder.instance()
-    decoder.specular_glossiness()
+    for step in (decoder.decode_meshopt, decoder.decode_draco, decoder.dequantize, decoder.fans, decoder.skins,
+                 decoder.instance, decoder.specular_glossiness):
+        step()  # in this order: each reads the document the ones before it rewrote
     named = {f"{DECODED_URI}{index}": bytes(data) for index, data in enumerate([*buffers, decoder.new])}
     tree["buffers"] = [{"uri": name, "byteLength": len(data)} for name, data in named.items()]
     for key in ("extensionsRequired", "extensionsUsed"):
