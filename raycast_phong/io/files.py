@@ -10,7 +10,7 @@ import os
 import re
 import stat
 import sys
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import BinaryIO
 
@@ -172,11 +172,10 @@ def check_output_file(path: Path, inputs: tuple[str | Path, ...] = ()) -> None:
 def _check_name_length(path: Path, folder: Path) -> None:
     """Refuse a file name or path longer than the file system allows (ENAMETOOLONG from any later call)."""
     name, whole = len(os.fsencode(path.name)), len(os.fsencode(str(path)))
-    try:
-        name_max = os.pathconf(folder if folder.is_dir() else ".", "PC_NAME_MAX")
-        path_max = os.pathconf(folder if folder.is_dir() else ".", "PC_PATH_MAX")
-    except (OSError, ValueError):
-        name_max, path_max = 255, 4096
+    name_max, path_max = 255, 4096  # where the file system does not say
+    with suppress(OSError, ValueError):
+        where = folder if folder.is_dir() else "."
+        name_max, path_max = os.pathconf(where, "PC_NAME_MAX"), os.pathconf(where, "PC_PATH_MAX")
     if name > name_max or whole >= path_max:
         what, size, limit = ("file name", name, name_max) if name > name_max else ("path", whole, path_max)
         shown = f"{str(path)[:60]}…" if len(str(path)) > 60 else str(path)

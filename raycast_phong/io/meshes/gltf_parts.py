@@ -119,8 +119,7 @@ def _local(node: dict) -> np.ndarray:
 def _rotation(xyzw: np.ndarray) -> np.ndarray:
     """The homogeneous rotation of a quaternion (x, y, z, w), normalised as it is read: q scaled by √(2/|q|²)
     so that the products q_i q_j are the rotation's terms (2 q_i q_j of a unit q)."""
-    w, x, y, z = xyzw[[3, 0, 1, 2]]
-    q = np.array([w, x, y, z])
+    q = xyzw[[3, 0, 1, 2]]  # w, x, y, z
     n = float(q @ q)
     matrix = np.eye(4)
     if n < np.finfo(float).eps * 4.0:
