@@ -264,10 +264,9 @@ def _transform(attrib, path: Path) -> np.ndarray:
     text = attrib.get("transform")
     if text is None:
         return matrix
-    try:
+    values = np.zeros(0)  # a word that is not a number: refused as not 12 numbers
+    with suppress(ValueError):
         values = np.array(text.split(), np.float64)
-    except ValueError:
-        values = np.zeros(0)
     if values.shape != (12,) or not np.isfinite(values).all():
         raise FileProblem(f"{str(path)!r}: transform {text[:80]!r} is not 12 finite numbers; allowed: "
                           "'m00 m01 m02 m10 m11 m12 m20 m21 m22 m30 m31 m32'")
