@@ -171,8 +171,7 @@ def _concatenate(parts: list[Part]) -> tuple[np.ndarray, np.ndarray, np.ndarray 
     vertices = np.concatenate([part.vertices for part in parts])
     faces = np.concatenate([part.faces + o for part, o in zip(parts, offsets)])
     stored = all(part.normals is not None for part in parts)
-    normals = np.concatenate([part.normals for part in parts]) if stored else None
-    return vertices, faces, normals
+    return vertices, faces, np.concatenate([part.normals for part in parts]) if stored else None
 
 
 def _check_values(coordinates: np.ndarray, path: Path, low: np.ndarray, high: np.ndarray) -> None:
