@@ -17,7 +17,7 @@ from ..geometry.kernels import object_bounds
 from ..records import RenderPlan, Stage
 from ..scene.alike import alike
 from ..scene.schema import MAX_SAMPLES, Scene
-from ..shapes import kind_of, subdivided
+from ..shapes import kind_of
 from .pack import camera_rig
 from .plan import distinct
 
@@ -83,7 +83,7 @@ def diagnose(plan: RenderPlan, scene: Scene, geometry, figures: ObjectFigures | 
     stages += surface_maps(geometry, plan.colour)
     found: list[tuple[tuple, int, float]] = []  # (what the warning says, object, its measured figure)
     if plan.keeps(StageName.SPECULAR):
-        found = [*gouraud_findings(scene, geometry, figures), *subpixel_findings(scene, geometry, figures)]
+        found = [*gouraud_findings(scene, geometry, figures), *subpixel_findings(scene, figures)]
     behind = behind_camera(scene, geometry)
     chosen = [item for item in found if item[0][0] == "gouraud" and item[0][-1]]
     warned = [item for item in found if not (item[0][0] == "gouraud" and item[0][-1])]
@@ -127,26 +127,24 @@ def per_object(scene: Scene, test) -> np.ndarray:
     return np.array([bool(test(obj)) for obj, _ in distinct(scene)], bool)[alike(scene).of]
 
 
-def gouraud_findings(scene: Scene, geometry, figures: ObjectFigures | None = None):
+def gouraud_findings(scene: Scene, geometry, figures: ObjectFigures):
     """Gouraud objects whose vertex normals are further apart than their highlight is wide; the finding ends
     with whether the object's own `shading` key chose Gouraud."""
     wanted, shininess = _candidates(scene)
-    gouraud = per_object(scene, lambda obj: scene.shading_of(obj) == ShadingModel.GOURAUD)
-    wanted &= gouraud
+    wanted &= per_object(scene, lambda obj: scene.shading_of(obj) == ShadingModel.GOURAUD)
     if not wanted.any() or not len(geometry.corner_normals):
         return
-    spacing = (figures or ObjectFigures(geometry, len(scene.objects))).spread(wanted)
+    spacing = figures.spread(wanted)
     highlight = 1 / np.sqrt(np.where(wanted, shininess, 1.0))  # radians where S falls to ≈ e^-1/2
     for index in np.flatnonzero(wanted & (spacing > highlight)):
         obj, f = scene.objects[index], shininess[index]
         more = math.ceil(math.log2(spacing[index] / highlight[index]))
-        kind = kind_of(obj)
-        how = kind.finer(obj, more) if kind is not None else subdivided(more)
+        how = kind_of(obj).finer(obj, more)
         chosen = obj.shading == ShadingModel.GOURAUD
         yield ("gouraud", f, math.degrees(highlight[index]), how, chosen), int(index), math.degrees(spacing[index])
 
 
-def subpixel_findings(scene: Scene, geometry, figures: ObjectFigures | None = None):
+def subpixel_findings(scene: Scene, figures: ObjectFigures):
     """Curved objects whose highlight is narrower than a pixel (with one sample per pixel)."""
     if scene.render.samples > 1:
         return
@@ -154,7 +152,7 @@ def subpixel_findings(scene: Scene, geometry, figures: ObjectFigures | None = No
     wanted &= per_object(scene, lambda obj: kind_of(obj).curved)
     if not wanted.any():
         return
-    centre, radius = (figures or ObjectFigures(geometry, len(scene.objects))).bounds()
+    centre, radius = figures.bounds()
     highlight = 1 / np.sqrt(np.where(wanted, shininess, 1.0))
     width_px = highlight_width_pixels(scene, centre, radius, highlight)
     for index in np.flatnonzero(wanted & (width_px < 1)):

@@ -37,7 +37,7 @@ from .budget import MemoryEstimate
 from .by_address import cutter, shader, shadow_caster
 from .diagnosis import ObjectFigures, diagnose
 from .film import allocate_film, film_layers
-from .fit import Fitted, fitted
+from .fit import fitted
 from .intersect import Accelerator, frame_of_box, unit_frame
 from .kernels.layout import COUNTS, ShadingInputs, ShadowInputs
 from .kernels.tile import render_band
@@ -48,7 +48,7 @@ from .reuse import FrameCache
 # moment its vertices and faces are final (BuildAhead), while its normals, diagnosis and packing go on: neither keeps
 # both cores busy alone (bunny-1m, 1.1M triangles: Embree's Morton build 0.095 s of CPU in 0.05 s of wall with two free
 # cores; the normals' passes wait on their slowest thread), together they do. Below it (every built-in scene) the BVH
-# is built in render(), after the preparation, as before.
+# is built in render(), after the preparation.
 BUILD_AHEAD_FACES = PARALLEL_FACES
 NO_SHADOWS = no_shadows()  # local mode's shadow inputs for the tile kernel (read only in global mode)
 
@@ -148,7 +148,7 @@ class Renderer:
         own while the normals are made, on 2 threads or more and without a cache (render() asks for it; a
         prepare() that is not rendered starts no Embree).
         """
-        plan, bands, threads, tile_rays, sources, memory = self._fitted(scene, plan)
+        plan, bands, threads, tile_rays, sources, memory = fitted(scene, plan, self.threads, self.max_memory)
         width, height, samples = scene.render.width, scene.render.height, scene.render.samples
         start = time.perf_counter()
         real, cache = plan.real, self.cache
@@ -182,12 +182,7 @@ class Renderer:
         """prepare()'s plan and memory check alone, building nothing: a SceneError if the scene is over the
         budget (the study checks every level before it measures; `render` calls fit.fitted itself, before this
         module loads)."""
-        return self._fitted(scene, None).memory
-
-    def _fitted(self, scene: Scene, plan: RenderPlan | None) -> Fitted:
-        """The plan, the bands and the memory check (a SceneError over the budget): fit.fitted with this session's
-        threads and budget."""
-        return fitted(scene, plan, self.threads, self.max_memory)
+        return fitted(scene, None, self.threads, self.max_memory).memory
 
 
 def prepare(scene: Scene, plan: RenderPlan | None = None) -> Prepared:

@@ -78,7 +78,7 @@ def test_many_small_objects_stay_within_the_estimate():
 
 
 # ---------------------------------------------------------------- the refusal as render() applies it
-# Renderer.check_fits is prepare()'s plan and memory check alone (render() runs the same _fitted), building nothing.
+# Renderer.check_fits is prepare()'s plan and memory check alone (render() runs the same fit.fitted), building nothing.
 MiB = 1 << 20
 
 
