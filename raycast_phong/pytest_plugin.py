@@ -179,8 +179,6 @@ class SideBySide:
         return self.gap + index * (self.width + self.gap)
 
 
-
-
 def write_previews(folder: Path, name: str, image: np.ndarray, reference: np.ndarray | None) -> list[Path]:
     """8-bit PNGs that any viewer opens, with the values `render -o x.png` stores for render.colour "display"
     (clamped to [0, 1], no curve): <name>-actual.png, <name>-reference.png and (same size only)

@@ -37,9 +37,6 @@ _NONE = type(None)
 _ROWS = 1 << 16  # objects checked at once: the columns' temporaries stay a few MB however many there are
 # Values a validator refuses for every built-in kind (bulk never sees a mesh file): its own stored normals.
 _REFUSED = {_normals_fit: frozenset({"file"})}
-# Whole-object validators a kind's model may have that bulk checking stands for (none yet: a kind with one of
-# its own is validated by pydantic, an object at a time).
-_MODEL_RULES: frozenset = frozenset()
 # Keys of a built-in kind that bulk checking leaves to pydantic (an object with one is validated alone); the
 # test holds this to what the fields' rules say.
 LEFT_TO_PYDANTIC: dict[str, frozenset] = {}
@@ -229,7 +226,7 @@ def _column_of(annotation, before: list, after: list, metadata: list, nullable: 
 
 def _plan(model) -> dict[str, Check]:
     """The bulk check of each key of a kind's model whose rules are read here (see column_check)."""
-    if set(model.__pydantic_decorators__.model_validators) - _MODEL_RULES:
+    if model.__pydantic_decorators__.model_validators:  # a whole-object rule: pydantic's, an object at a time
         return {}
     plan = {key: check for key, field in model.model_fields.items() if (check := column_check(field)) is not None}
     plan["shape"] = lambda column: (np.ones(len(column), bool), column)  # the group's own shape

@@ -208,8 +208,8 @@ class TextureMap(Table):
 
 
 def _map(value: Any) -> Any:
-    """kd_map = "wood.png" is the short form of { path = "wood.png" }; a number or a list is neither (a file
-    named '5' was once looked for)."""
+    """kd_map = "wood.png" is the short form of { path = "wood.png" }; a number or a list is neither (not a file
+    named '5')."""
     if isinstance(value, str):
         return {"path": value}
     if value is not None and not isinstance(value, dict):
@@ -335,7 +335,7 @@ class Scene(Table):
             return NotImplemented
         return self.__dict__ == other.__dict__
 
-    __hash__ = None  # as before this __eq__: a Scene holds dicts (materials), so it was never hashable
+    __hash__ = None  # a Scene holds dicts (materials): not hashable
 
     @property
     def origin(self) -> Location:
