@@ -22,19 +22,17 @@ class Table(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
 
 
-def check_number(value: Any) -> Any:
+def check_number(value: Any, *, what: str = "a number") -> Any:
     """TOML and JSON tell text and booleans from numbers, so "32" or true where a number belongs is a
     mistake in the file; pydantic's lax mode would quietly convert them."""
     if isinstance(value, (str, bool, dict, list, tuple)) or value is None:
-        raise ValueError(f"must be a number, got {shown(value)}")
+        raise ValueError(f"must be {what}, got {shown(value)}")
     return value
 
 
 def check_whole(value: Any) -> Any:
     """As check_number, for counts: width, height, samples, subdivisions, segments."""
-    if isinstance(value, (str, bool, dict, list, tuple)) or value is None:
-        raise ValueError(f"must be a whole number, got {shown(value)}")
-    return value
+    return check_number(value, what="a whole number")
 
 
 Number = Annotated[float, BeforeValidator(check_number)]

@@ -152,7 +152,7 @@ def describe_error(error: ValidationError, where: Location, root: type[BaseModel
     is wrong, what is allowed."""
     first = error.errors()[0]
     # An unknown key ends its loc as the file spells it, brackets and all ("a[0]" is a valid quoted TOML key):
-    # kept, not taken for one of the names pydantic gives union branches (an empty loc was an IndexError).
+    # kept, not taken for one of the names pydantic gives union branches (an empty loc has no last key).
     raw = tuple(first["loc"])
     unknown = raw[-1:] if first["type"] == "extra_forbidden" else ()
     loc = tuple(part for part in raw[:len(raw) - len(unknown)] if not (isinstance(part, str) and "[" in part))
@@ -171,9 +171,7 @@ def describe_error(error: ValidationError, where: Location, root: type[BaseModel
         if foreign:
             return at, foreign
         return at, f"unknown key{did_you_mean(str(loc[-1]), valid)}; valid keys here: {', '.join(valid)}"
-    message = first["msg"]
-    if message.startswith("Value error, "):
-        message = message[len("Value error, "):]
+    message = first["msg"].removeprefix("Value error, ")
     # Say pydantic's type errors in the scene file's words (table, list, true/false).
     if kind in ("greater_than_equal", "less_than_equal", "greater_than", "less_than"):
         message = f"out of range; allowed: {_allowed_range(place)}"
