@@ -90,8 +90,7 @@ def object_mesh(scene: Scene, index: int, sources: dict | None = None) -> Object
 def shape_uv(obj: Object, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray | None:
     """(F, 3, 2) texture coordinates of a built-in shape's template (object_mesh's vertices and faces), made
     only when the scene has textures (a textured scene's geometry stage calls it); None for a mesh file."""
-    kind = shapes.kind_of(obj)
-    return None if kind is None else kind.uv(obj, vertices, faces)
+    return shapes.kind_of(obj).uv(obj, vertices, faces)
 
 
 def _load_mesh(scene: Scene, obj: Object, where: Location, mesh=None):

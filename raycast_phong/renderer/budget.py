@@ -51,7 +51,6 @@ MORTON_SAVING_BYTES = 50
 OBJECT_BYTES = 2000
 # Per ray of a tile (origins, directions, hits, Embree's output): 8192 × 16² rays in one row took 117 MB.
 RAY_BYTES = 64
-GB = 1 << 30
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from pathlib import Path
 
 import numpy as np
@@ -65,9 +65,8 @@ def two_processes() -> bool:
     a kernel cache; otherwise when this process may run on two cores or more and one of them is free now (idle_cores:
     the machine's idle time over a tenth of a second, not the load average, which still counts a job that ended
     a minute ago, such as the pip install before a first render), with HELPER_BYTES of memory available for the
-    helper. The two processes spend about 15 % more CPU than
-    one (each compiles numba's own helpers, and the helper starts Python): on a busy machine that only makes the
-    compile longer."""
+    helper. The two processes spend about 15 % more CPU than one (each compiles numba's own helpers, and the
+    helper starts Python): on a busy machine that only makes the compile longer."""
     if not (jit.LIGHT_LOAD and jit.BY_ADDRESS):  # the helper's result is waited for and loaded through both
         return False
     setting = os.environ.get(PROCESSES, "").strip()
@@ -179,8 +178,6 @@ class Aside:
                                             stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                             stderr=subprocess.DEVNULL, env=env, text=True)
         except OSError:  # no interpreter to start (an embedded Python): everything compiles here, as alone
-            self.process = None
-        if self.process is None:
             return
         self.lines: queue.Queue[str] = queue.Queue()
         threading.Thread(target=_read_lines, args=(self.process.stdout, self.lines), daemon=True).start()
@@ -213,11 +210,9 @@ class Aside:
 
     def tell(self, name: str) -> None:
         """Tell the helper that `name` is in the cache (a helper that has ended hears nothing)."""
-        try:
+        with suppress(OSError):
             self.process.stdin.write(name + "\n")
             self.process.stdin.flush()
-        except OSError:
-            pass
 
     def close(self) -> None:
         for name in self.waits:
@@ -227,20 +222,16 @@ class Aside:
                 self.process.kill()
             self.process.wait()
             for stream in (self.process.stdin, self.process.stdout):
-                try:
+                with suppress(OSError):
                     stream.close()
-                except OSError:
-                    pass
 
 
 def _read_lines(stream, lines: queue.Queue) -> None:
     """Each line the helper says, then "" when it has ended: wait_for waits on the queue with a timeout, which a
     pipe's readline has not."""
-    try:
+    with suppress(OSError, ValueError):  # closed under the thread by Aside.close
         for line in stream:
             lines.put(line)
-    except (OSError, ValueError):  # closed under the thread by Aside.close
-        pass
     lines.put("")
 
 

@@ -21,8 +21,7 @@ if TYPE_CHECKING:
     from .schema import Scene
 
 
-# What `render --srgb` and `batch --srgb` stand for: they predate render.colour, and decoded the maps and encoded
-# the PNG, which is what "linear" does.
+# What `render --srgb` and `batch --srgb` stand for: maps decoded from sRGB and the PNG encoded, as "linear" does.
 SRGB_OVERRIDE = "render.colour=linear"
 # An assignment without its '=' (`--set render.width 320`: the shell's space is not one), said by apply_override
 # and, while the command line is parsed, before the 320 is taken for the scene file, by the CLI.
