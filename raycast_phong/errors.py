@@ -21,8 +21,8 @@
 Outside the tree, on purpose: tools.batch.Interrupted, a KeyboardInterrupt carrying a batch's report when
 SIGINT or SIGTERM stops it; it stays a BaseException so no `except Exception` swallows the signal.
 
-Each branch also derives from the built-in class its callers caught before the tree existed (SceneError is
-a ValueError, WriteError an OSError), so every `except` clause and exit status stays as it was.
+Each branch also derives from the built-in class its kind of failure is (SceneError is a ValueError,
+WriteError an OSError), so an `except ValueError` or `except OSError` catches it too.
 """
 
 from __future__ import annotations
@@ -81,14 +81,10 @@ def _once(problem: str, where: str) -> str:
     return problem.replace(quoted, "the file")
 
 
-
 class Problem(SceneError):
     """A problem said without where it is (a shape's, a mesh reader's): the one boundary that knows the scene
     key (geometry.templates.object_mesh, io.meshes.read.read_file) raises it again as a SceneError there, so
     no function below is handed a `where` to thread through. Uncaught, it is still one line."""
-
-    def __init__(self, problem: str):
-        super().__init__(problem)
 
 
 class FileProblem(Problem):

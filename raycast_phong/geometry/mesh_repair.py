@@ -78,7 +78,7 @@ def _volume_sign(vertices: np.ndarray, faces: np.ndarray) -> float:
     The pass adds in another order than numpy, so its sum may differ in the last bits, but both lie within
     γ = (F + 5) u of the exact sum, relative to the sum of the absolute values of every product (`scale`:
     five roundings in a term, F − 1 in the sum, u = 2^-53). Beyond twice that from 0 both have the exact sum's
-    sign; nearer (a closed mesh of almost no volume) the numpy sum decides, as before."""
+    sign; nearer (a closed mesh of almost no volume) the numpy sum decides."""
     low, high = bounding_box(vertices)
     total, scale = signed_volume(vertices, faces, (low + high) / 2)
     n = len(faces) + 5

@@ -45,7 +45,6 @@ ERRORS = {1: "unknown error", 2: "invalid argument", 3: "invalid operation", 4: 
           5: "unsupported CPU", 6: "cancelled"}
 
 
-
 def library_path() -> Path | None:
     """LIBRARY_VARIABLE if set, else the libembree4 that embreex's wheel carries beside its package."""
     if os.environ.get(LIBRARY_VARIABLE):
@@ -92,13 +91,12 @@ def library() -> Library:
     path = library_path()
     chosen = os.environ.get(LIBRARY_VARIABLE)  # the user's choice: what is wrong with it is their input's fault
     if chosen:
-        try:
-            regular = stat.S_ISREG(os.stat(path).st_mode)  # a FIFO would block dlopen for ever
+        try:  # a FIFO would block dlopen for ever
+            problem = None if stat.S_ISREG(os.stat(path).st_mode) else "not a regular file"
         except OSError as error:
-            raise OptionError(f"{LIBRARY_VARIABLE}={chosen[:200]}: {error.strerror}; name Embree 4's library "
-                              "(libembree4.so.4), or unset it to use embreex's") from None
-        if not regular:
-            raise OptionError(f"{LIBRARY_VARIABLE}={chosen[:200]}: not a regular file; name Embree 4's library "
+            problem = f"{error.strerror}"
+        if problem:
+            raise OptionError(f"{LIBRARY_VARIABLE}={chosen[:200]}: {problem}; name Embree 4's library "
                               "(libembree4.so.4), or unset it to use embreex's")
     try:
         if path is None:

@@ -23,7 +23,7 @@ from ..io.meshes import format_of
 from ..io.meshes.source import MeshSource
 from ..shapes import MESH
 from ..tolerances import POSITION_LIMIT
-from ..values.messages import Location
+from ..values.messages import Location, located
 
 if TYPE_CHECKING:
     from .schema import Scene  # imported when a scene is made (mesh_scene), not with this module
@@ -79,7 +79,7 @@ def held_mesh(vertices: Any, faces: Any = None, normals: Any = None, where: str 
     coordinate, a face naming a vertex that does not exist, no face at all.
     """
     from ..io.meshes.read import MeshFile  # imports trimesh: only when a mesh is held
-    where = where if isinstance(where, Location) else Location(str(where))
+    where = located(where)
     visual = None
     if faces is None and hasattr(vertices, "faces") and hasattr(vertices, "vertices"):  # a trimesh.Trimesh
         mesh = vertices

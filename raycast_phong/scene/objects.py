@@ -108,9 +108,7 @@ _FOREIGN_DEFAULTS = {shape: {key: tuple(other.model_fields[key].default for othe
 
 
 def _at_default(value: Any, defaults: tuple) -> bool:
-    if isinstance(value, list):
-        value = tuple(value)
-    return not isinstance(value, bool) and value in defaults  # true == 1 in Python, not in a scene file
+    return not isinstance(value, bool) and json_value(value) in defaults  # true == 1 in Python, not in a scene file
 
 
 def without_written_defaults(objects: Any) -> Any:
