@@ -228,9 +228,6 @@ class ReferenceImages:
         self.diagnostics = diagnostics
         self.written = {} if written is None else written
 
-    def path(self, name: str) -> Path:
-        return self.folder / f"{name}.exr"
-
     def load_or_update(self, name: str, image: np.ndarray) -> np.ndarray:
         """The reference `name` as (H, W, 3) float32; in update mode `image` is written first (and recorded in
         `written`).
@@ -239,7 +236,7 @@ class ReferenceImages:
         """
         from .io.image_io import read_layer, write_image  # here: pytest loads this plugin in every session
         from .io.system import budget_of
-        path = self.path(name)
+        path = self.folder / f"{name}.exr"
         if self.update:
             before = self._old_values(path)
             try:

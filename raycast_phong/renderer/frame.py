@@ -116,5 +116,4 @@ def render_file(path: str | Path, overrides: list[str] | tuple[str, ...] = (), *
     start = time.perf_counter()
     scene = load_scene(path, overrides, view=view, up=up, max_memory=options.get("max_memory"))
     loaded = time.perf_counter() - start
-    result = render(scene, **options)
-    return result.with_timings(load=loaded)
+    return render(scene, **options).with_timings(load=loaded)
