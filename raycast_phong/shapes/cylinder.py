@@ -6,7 +6,7 @@ import numpy as np
 from pydantic import Field
 
 from ..values.fields import KindKeys, Length, Segments
-from .kind import ShapeKind, doublings
+from .kind import Revolved
 from .surfaces import revolve, sphere_uv
 
 
@@ -37,7 +37,7 @@ class CylinderKeys(KindKeys):
     segments: Segments | None = Field(None, description="[sections around, unused], default [32, 1]")
 
 
-class Cylinder(ShapeKind):
+class Cylinder(Revolved):
     name = "cylinder"
     keys = CylinderKeys
     thin_key = "radius"
@@ -64,6 +64,3 @@ class Cylinder(ShapeKind):
 
     def refined(self, obj, level):  # the second value is unused, but the format asks for 3..4096
         return {"segments": [8 * 2 ** level, (obj.segments or (32, 3))[1]]}
-
-    def level_of(self, obj):
-        return doublings((obj.segments or (32, 16))[0], 8)

@@ -76,6 +76,17 @@ class ShapeKind:
         return subdivided(more)
 
 
+class Revolved(ShapeKind):
+    """A surface of revolution about z (surfaces.revolve) whose `segments` are [steps around z, steps along its
+    profile]: level L has 8·2^L steps around and 4·2^L along (L = 2 is the format's default [32, 16])."""
+
+    def refined(self, obj, level):
+        return {"segments": [8 * 2 ** level, 4 * 2 ** level]}
+
+    def level_of(self, obj):
+        return doublings((obj.segments or (32, 16))[0], 8)
+
+
 def doublings(count: int, first: int) -> int:
     """The level L whose segment count first·2^L is nearest `count` (0 at the least): `refined`'s inverse for the
     kinds whose levels double their first segment count."""

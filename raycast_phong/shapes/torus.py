@@ -6,7 +6,7 @@ import numpy as np
 from pydantic import Field
 
 from ..values.fields import KindKeys, Length, Segments
-from .kind import ShapeKind, doublings
+from .kind import Revolved
 from .surfaces import _seamless, revolve
 
 
@@ -35,7 +35,7 @@ class TorusKeys(KindKeys):
     segments: Segments | None = Field(None, description="[steps around z, steps around the tube], default [32, 16]")
 
 
-class Torus(ShapeKind):
+class Torus(Revolved):
     name = "torus"
     keys = TorusKeys
     thin_key = "minor_radius"
@@ -59,9 +59,3 @@ class Torus(ShapeKind):
         ring = np.hypot(corners[..., 0], corners[..., 1])
         centre = obj.major_radius * corners[..., :2] / np.where(ring > 0, ring, 1.0)[..., None]
         return np.concatenate([corners[..., :2] - centre, corners[..., 2:]], axis=-1)
-
-    def refined(self, obj, level):
-        return {"segments": [8 * 2 ** level, 4 * 2 ** level]}
-
-    def level_of(self, obj):
-        return doublings((obj.segments or (32, 16))[0], 8)

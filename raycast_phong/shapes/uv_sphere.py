@@ -6,7 +6,7 @@ import numpy as np
 from pydantic import Field
 
 from ..values.fields import KindKeys, Length, Segments
-from .kind import ShapeKind, doublings
+from .kind import Revolved
 from .surfaces import revolve, sphere_uv
 
 
@@ -28,7 +28,7 @@ class UvSphereKeys(KindKeys):
         "[32, 16]"))
 
 
-class UvSphere(ShapeKind):
+class UvSphere(Revolved):
     name = "uv_sphere"
     keys = UvSphereKeys
 
@@ -48,9 +48,3 @@ class UvSphere(ShapeKind):
 
     def exact_normals(self, obj, corners, flat):
         return corners  # p / |p|
-
-    def refined(self, obj, level):
-        return {"segments": [8 * 2 ** level, 4 * 2 ** level]}
-
-    def level_of(self, obj):
-        return doublings((obj.segments or (32, 16))[0], 8)
