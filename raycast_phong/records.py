@@ -105,10 +105,8 @@ class ImageBuffers:
     face: np.ndarray    # (H, W) float32 face index, -1 on a miss; (0, 0) if not asked
 
     def rows(self, row0: int, row1: int) -> ImageBuffers:
-        """Views of rows [row0, row1) (empty layers stay empty); C-contiguous because rows are whole."""
-        def cut(array: np.ndarray) -> np.ndarray:
-            return array[row0:row1] if len(array) else array
-        return ImageBuffers(*(cut(a) for a in (self.rgb, self.terms, self.depth, self.normal, self.face)))
+        """Views of rows [row0, row1) (an empty layer's slice is empty); C-contiguous because rows are whole."""
+        return ImageBuffers(*(a[row0:row1] for a in (self.rgb, self.terms, self.depth, self.normal, self.face)))
 
 
 @dataclass(frozen=True)

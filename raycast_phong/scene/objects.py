@@ -107,10 +107,6 @@ _FOREIGN_DEFAULTS = {shape: {key: tuple(other.model_fields[key].default for othe
                      for shape in OBJECT_MODELS}
 
 
-def _at_default(value: Any, defaults: tuple) -> bool:
-    return not isinstance(value, bool) and json_value(value) in defaults  # true == 1 in Python, not in a scene file
-
-
 def without_written_defaults(objects: Any) -> Any:
     """The object tables without the keys of other kinds that a scene file written by an earlier version holds
     at their defaults (it wrote every key of every shape): such a file still reads. A key another kind reads,
@@ -125,5 +121,6 @@ def _trimmed(obj: dict) -> dict:
     foreign = _FOREIGN_DEFAULTS.get(shape) if type(shape) is str else None
     if not foreign:
         return obj
-    drop = [key for key, value in obj.items() if key in foreign and _at_default(value, foreign[key])]
+    drop = [key for key, value in obj.items()  # at its default: not a bool (true == 1 in Python, not in a file)
+            if key in foreign and not isinstance(value, bool) and json_value(value) in foreign[key]]
     return {key: value for key, value in obj.items() if key not in drop} if drop else obj
