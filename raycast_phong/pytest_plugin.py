@@ -279,8 +279,7 @@ class ReferenceImages:
                 written += map(str, write())
             except OSError as error:  # each file is written atomically: those before stay whole
                 written.append(f"(not written: {error})")
-        pngs = [path for path in written if path.endswith(".png")]
-        return pngs + [path for path in written if path not in pngs]
+        return sorted(written, key=lambda path: not path.endswith(".png"))  # stable: each part in its order
 
     def assert_matches(self, image: np.ndarray, name: str, *, rtol: float = 0.0, atol: float = 1e-3,
                        fail_percent: float = 0.0, edges: np.ndarray | None = None) -> ImageMatch:

@@ -25,12 +25,5 @@ def allocate_film(width: int, height: int, aovs: tuple[str, ...], dtype: type = 
 
 def film_layers(film: ImageBuffers, aovs: tuple[str, ...]) -> dict[str, np.ndarray]:
     """The requested layers as name → (H, W, C) float32, in the order asked for."""
-    layers = {}
-    for name in aovs:
-        if name in TERM_LAYERS:
-            layers[name] = film.terms[:, :, TERM_LAYERS.index(name)]
-        elif name == "normal":
-            layers[name] = film.normal
-        else:
-            layers[name] = getattr(film, name)[:, :, None]
-    return layers
+    return {name: (film.terms[:, :, TERM_LAYERS.index(name)] if name in TERM_LAYERS
+                   else film.normal if name == "normal" else getattr(film, name)[:, :, None]) for name in aovs}
