@@ -11,8 +11,9 @@ import re
 
 import numpy as np
 
-from ..codes import ShadingModel, StageName
+from ..codes import ALPHA_CUTOFF, BLENDED_ALPHA, ShadingModel, StageName
 from ..geometry.checks import behind_camera
+from ..geometry.file_materials import first_file_row
 from ..geometry.kernels import object_bounds
 from ..records import RenderPlan, Stage
 from ..scene.alike import alike
@@ -99,8 +100,6 @@ BLEND_SAMPLES = 4  # samples a pixel at which BLEND's coverage reads as a blend 
 def blend_dither(scene: Scene, geometry) -> str | None:
     """A warning when a face's material is alphaMode BLEND (drawn as coverage: a sample sees it with probability
     alpha) and a pixel has fewer than BLEND_SAMPLES² samples: the surface then shows as a dither."""
-    from ..codes import ALPHA_CUTOFF, BLENDED_ALPHA
-    from ..geometry.file_materials import first_file_row
     rows = geometry.file_materials
     if scene.render.samples >= BLEND_SAMPLES or not len(rows) or not (rows[:, ALPHA_CUTOFF] == BLENDED_ALPHA).any():
         return None
