@@ -68,7 +68,6 @@ class Accelerator:
         global _started
         _started = True
         self.frame = frame or unit_frame(vertices)
-        # Robust mode (as embreex's robust=True): watertight edges, no cracks between faces.
         self.embree_scene = embree_library.EmbreeScene(embree_library.library(), self.frame.to_unit(vertices), faces)
 
     def closest_hits(self, origins: np.ndarray, directions: np.ndarray, row_rays: int = 4) -> TileHits:

@@ -445,14 +445,10 @@ def brightness_problem(scene: Scene, inverse_square: dict[int, float] | None = N
     can give (geometry.check_float_range; 0 until then). Supersampling only averages.
     """
     inverse_square = inverse_square or {}
-    gains = []
-    for k, light in enumerate(scene.lights):
-        if light.type == "directional" or light.attenuation == "none":
-            gains.append(1.0)
-        elif light.attenuation == "inverse_square":
-            gains.append(inverse_square.get(k, 0.0))
-        else:
-            gains.append(min(1.0, 1.0 / light.attenuation[0]) if light.attenuation[0] > 0 else 1.0)
+    gains = [1.0 if light.type == "directional" or light.attenuation == "none"
+             else inverse_square.get(k, 0.0) if light.attenuation == "inverse_square"
+             else min(1.0, 1.0 / light.attenuation[0]) if light.attenuation[0] > 0 else 1.0
+             for k, light in enumerate(scene.lights)]
     terms = [[g * (a + d + s) for a, d, s in zip(light.ambient, light.diffuse, light.specular)]
              for g, light in zip(gains, scene.lights)]
     total = max(1.0 + scene.ambient[c] + sum(term[c] for term in terms) for c in range(3))
