@@ -40,7 +40,7 @@ PROCESSES = "RAYCAST_PHONG_COMPILE_PROCESSES"  # 1: compile in this process alon
 HELPER = "import sys; from raycast_phong.renderer.split_compile import helper; helper(*sys.argv[1:])"
 # Run before HELPER, first thing: on Linux the kernel kills the helper when the thread that started it ends
 # (PR_SET_PDEATHSIG = 1, SIGKILL), and it ends at once if that parent is already gone. helper()'s own watch starts
-# only after its imports (about a second): a command killed meanwhile left the helper running that long.
+# only after its imports (about a second): a command killed meanwhile would leave the helper running that long.
 ORPHAN_GUARD = ("import sys, os\n"
                 "if sys.platform.startswith('linux'):\n"
                 "    import ctypes\n"

@@ -97,8 +97,8 @@ def test_each_kernel_module_s_key_covers_every_module_it_reads_and_only_those(pa
     # The scene schema is no kernel code (kernels read renderer/kernels/layout.py's tables): a new message
     # there recompiles nothing, nor does a kind's key. So is the packing of a Scene into those tables
     # (renderer/pack.py).
-    edit(copy / "values" / "fields.py", 'raise ValueError(f"must be a whole number, got {shown(value)}")',
-         'raise ValueError(f"must be an integer, got {shown(value)}")')
+    edit(copy / "values" / "fields.py", 'return check_number(value, what="a whole number")',
+         'return check_number(value, what="an integer")')
     edit(copy / "shapes" / "box.py", '    """A box centred on the origin, its sides along the axes."""',
          '    """A box centred on the origin, its sides along the axes."""\n    bevel: float = 0.0')
     (copy / "renderer" / "pack.py").write_text((copy / "renderer" / "pack.py").read_text() + "\n# an edit\n")
