@@ -18,7 +18,7 @@ import os
 import re
 import sys
 import threading
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import Annotated
 
@@ -214,16 +214,12 @@ def _output_failed(error: OSError) -> None:
     """stdout or stderr could not be written (`> /dev/full`, a reader that closed the pipe): one line on
     stderr if it still takes one, exit 2 (a failed write, like any other output), no traceback; stdout is
     pointed at /dev/null so Python's own flush at exit does not fail again."""
-    try:
+    with suppress(OSError, ValueError):
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-    except (OSError, ValueError):
-        pass
     reason = "the reader closed the pipe" if error.errno == errno.EPIPE else (error.strerror or str(error))
-    try:
+    with suppress(OSError, ValueError):
         sys.stderr.write(f"error: {getattr(error, 'stream', 'stdout')}: write failed: {reason}\n")
         sys.stderr.flush()
-    except (OSError, ValueError):
-        pass
     os._exit(2)  # nothing left to flush that could be written
 
 

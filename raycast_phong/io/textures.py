@@ -14,6 +14,7 @@ than that, and the memory stays bounded.
 from __future__ import annotations
 
 import warnings
+from contextlib import suppress
 from pathlib import Path
 
 import numpy as np
@@ -195,15 +196,12 @@ def file_size(path: Path) -> tuple[int, int] | None:
     if image_suffix_mismatch(path):  # no image's signature where its suffix promises one: no reader probes it
         handle.close()
         return None
-    with handle:
-        try:
-            from PIL import Image
-            with warnings.catch_warnings():  # a header only: the decode shrinks a large map in bands (decode_file)
-                warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-                with Image.open(handle) as image:
-                    return image.height, image.width
-        except Exception:  # noqa: BLE001 - not an image PIL reads (an EXR), or past PIL's bomb limit: OIIO's header
-            pass
+    with handle, suppress(Exception):  # not an image PIL reads (an EXR), or past PIL's bomb limit: OIIO's header
+        from PIL import Image
+        with warnings.catch_warnings():  # a header only: the decode shrinks a large map in bands (decode_file)
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            with Image.open(handle) as image:
+                return image.height, image.width
     try:
         import OpenImageIO as oiio
         with native_errors_kept():  # libpng's own "IHDR: Read error" line: the decode words one line

@@ -31,6 +31,7 @@ import tempfile
 import time
 import typing
 from collections.abc import Callable
+from contextlib import suppress
 from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 
@@ -191,12 +192,10 @@ class Machine:
 
 def cpu_model() -> str:
     """The CPU's model name (/proc/cpuinfo on Linux, else platform's guess)."""
-    try:
+    with suppress(OSError):
         for line in Path("/proc/cpuinfo").read_text().splitlines():
             if line.startswith("model name"):
                 return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
     return platform.processor() or platform.machine() or "unknown CPU"
 
 

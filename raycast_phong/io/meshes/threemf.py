@@ -592,11 +592,9 @@ def texture_sizes(mesh) -> tuple[tuple[int, int], ...]:
                 name = info.filename.lower()
                 # an image by its suffix, or any member of a texture folder (the 0.93 samples' "0000.texture")
                 if (name.endswith((".png", ".jpg", ".jpeg")) or "/texture/" in name) and "thumbnail" not in name:
-                    try:
+                    with suppress(Exception):  # not an image: the read notes it
                         with archive.open(info) as member, Image.open(member) as image:
                             sizes.append((image.height, image.width))
-                    except Exception:  # noqa: BLE001 - not an image: the read notes it
-                        pass
     except (OSError, SceneError, zipfile.BadZipFile, ValueError, EOFError):
         return ()
     return tuple(sizes)

@@ -10,7 +10,7 @@ import logging
 import time
 from collections.abc import Iterator
 from concurrent.futures import Future
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 
 from ...errors import OptionError
 from .jobs import Outcome, Task, failed, render_job
@@ -76,10 +76,8 @@ def on_cluster(tasks: list[Task], scheduler: str, started: set[str],
         pending, known, alone = set(futures), _workers(client) or set(), None
         warnings = [] if warnings is None else warnings
         while pending:
-            try:
+            with suppress(Exception):  # a timeout, or futures a dying scheduler cancelled: their state says
                 wait(pending, timeout=WATCH_SECONDS, return_when="FIRST_COMPLETED")
-            except Exception:  # noqa: BLE001 - a timeout, or futures a dying scheduler cancelled: their state says
-                pass
             done = {future for future in pending if future.done()}
             pending -= done
             for future in sorted(done, key=lambda f: futures[f].job.name):

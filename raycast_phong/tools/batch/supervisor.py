@@ -13,6 +13,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Iterator
+from contextlib import suppress
 from multiprocessing import connection
 
 from ...errors import SceneError
@@ -138,10 +139,8 @@ class _Worker:
     def stop(self, gently: bool) -> None:
         """Gently: tell an idle worker to leave and wait for it; else kill it (SIGKILL) at once."""
         if gently:
-            try:
+            with suppress(OSError):
                 self.connection.send(None)
-            except OSError:
-                pass
             self.process.join(timeout=5)
         if self.process.is_alive():
             self.process.kill()
@@ -158,11 +157,9 @@ def _work(tasks: connection.Connection, parent: int | None) -> None:
         signal.signal(number, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(128 + signal.SIGTERM))
     signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
-    try:
+    with suppress(EOFError, OSError):  # the batch process is gone
         while (task := tasks.recv()) is not None:
             tasks.send(render_job(task))
-    except (EOFError, OSError):  # the batch process is gone
-        pass
 
 
 def _die_with_parent(parent: int | None) -> None:
