@@ -110,8 +110,7 @@ def _box(o, d, obj, t_min):
     near = np.fmax.reduce(np.fmin(t1, t2), axis=1)
     far = np.fmin.reduce(np.fmax(t1, t2), axis=1)
     inside = near <= far
-    t = _nearest(t_min, np.where(inside, near, np.inf), np.where(inside, far, np.inf))
-    return t
+    return _nearest(t_min, np.where(inside, near, np.inf), np.where(inside, far, np.inf))
 
 
 def _box_normal(p, obj):
@@ -144,8 +143,7 @@ def _cylinder(o, d, obj, t_min):
             t = (cap - o[:, 2]) / d[:, 2]
             x, y = o[:, 0] + t * d[:, 0], o[:, 1] + t * d[:, 1]
             candidates.append(np.where((x * x + y * y <= r * r) & np.isfinite(t), t, np.inf))
-    t = _nearest(t_min, *candidates)
-    return t
+    return _nearest(t_min, *candidates)
 
 
 def _cylinder_normal(p, obj):
