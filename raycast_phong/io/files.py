@@ -107,6 +107,14 @@ def file_version(path: str | Path, info: os.stat_result | None = None) -> tuple:
     return (str(Path(path).resolve()), info.st_mtime_ns, info.st_size, info.st_ino)
 
 
+def present_version(path: str | Path) -> tuple | None:
+    """file_version of `path`; None for a file that is not there (deleted, moved, or an editor's save halfway)."""
+    try:
+        return file_version(path)
+    except OSError:
+        return None
+
+
 # Lines a native image library prints on the process's own stderr (fd 2) while it fails: libpng's default
 # error handler writes "libpng error: IDAT: Read error: ..." before OpenImageIO reports the same error, which
 # the caller then words in its one line.

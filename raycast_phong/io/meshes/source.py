@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ...errors import Where
-from ..files import file_version
+from ..files import present_version
 from . import format_of
 from .format import MeshFormat
 from .gltf_json import Document
@@ -85,7 +85,7 @@ class MeshSource:
 
     def current(self) -> bool:
         """Whether the file and its side files are still as they were (a batch renders long after it loads)."""
-        return _version(self.path) == self.version and _stamps(self.side_files) == self.side_versions
+        return present_version(self.path) == self.version and _stamps(self.side_files) == self.side_versions
 
     @cached_property
     def texture_sizes(self) -> tuple[tuple[int, int], ...]:
@@ -137,7 +137,7 @@ def mesh_source(path: Path, where: Where | None = None) -> MeshSource:
     asked); `where` starts its errors (default: the file). A file that cannot be read gives a source with what
     could be (the read words the error)."""
     path = Path(path)
-    return MeshSource(path, format_of(path), _version(path), str(path) if where is None else where)
+    return MeshSource(path, format_of(path), present_version(path), str(path) if where is None else where)
 
 
 def read_mesh(path: Path, where: Where | None = None) -> MeshFile:
@@ -145,16 +145,8 @@ def read_mesh(path: Path, where: Where | None = None) -> MeshFile:
     return mesh_source(path, where).read()
 
 
-def _version(path: Path) -> tuple | None:
-    """io.files.file_version of `path`; None for a file that is not there (the read words it)."""
-    try:
-        return file_version(path)
-    except OSError:
-        return None
-
-
 def _stamps(files) -> tuple:
-    return tuple(_version(file) or (str(file), None) for file in files)
+    return tuple(present_version(file) or (str(file), None) for file in files)
 
 
 def mesh_sources(scene, given: dict | None = None) -> dict[Path, MeshSource]:

@@ -48,9 +48,7 @@ from raycast_phong.scene.overrides import apply_override
 from raycast_phong.values.messages import dotted
 
 from .access import Access, Guard, host_of
-from .session import MAX_MESSAGE_BYTES, MAX_SCENE_BYTES, Client, View, frame_budget, lowest_priority, parse, version  # noqa: F401
-
-# (Client, lowest_priority, parse and version: imported from here by the tests.)
+from .session import MAX_MESSAGE_BYTES, MAX_SCENE_BYTES, Client, View, frame_budget  # noqa: F401 (Client: the tests')
 
 if TYPE_CHECKING:
     from raycast_phong.renderer.reuse import FrameCache

@@ -27,6 +27,7 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 
 import raycast_phong as rp
 from raycast_phong.errors import RenderCancelled, SceneError, ViewError
+from raycast_phong.io.files import present_version
 from raycast_phong.io.scene_file import syntax_limit
 
 from .access import Access
@@ -95,15 +96,6 @@ def band_threads() -> ThreadPoolExecutor:
 
 def reference_threads() -> ThreadPoolExecutor:
     return ThreadPoolExecutor(REFERENCE_THREADS, "view-reference", initializer=lowest_priority)
-
-
-def version(path) -> tuple | None:
-    """What changes when a file is rewritten (an editor's save replaces it: a new inode); None if it is gone."""
-    try:
-        stat = path.stat()
-    except OSError:
-        return None
-    return stat.st_mtime_ns, stat.st_size, stat.st_ino
 
 
 @dataclass
@@ -392,11 +384,11 @@ class Watcher:
 
     async def watch(self) -> None:
         view = self.view
-        path, seen = view.opened.watched, version(view.opened.watched)
+        path, seen = view.opened.watched, present_version(view.opened.watched)
         gone = 0.0  # seconds the file has been missing
         while view.pages:
             await asyncio.sleep(WATCH_EVERY)
-            now = version(path)
+            now = present_version(path)
             if now is None:  # an editor between its delete and its write, or removed: said once it stays away
                 gone += WATCH_EVERY
                 if gone < GONE_AFTER or seen is None:
