@@ -251,10 +251,8 @@ def _unread_geometry(name: str, element, part: str, path: Path, notes: list[str]
 
 def _path_of(attrib, part: str) -> str:
     """The model part a component or build item's p:path names (the Production extension), else its own."""
-    for key, value in attrib.items():
-        if _local(key) == "path" and value:
-            return posixpath.normpath(value.lstrip("/"))
-    return part
+    return next((posixpath.normpath(value.lstrip("/")) for key, value in attrib.items() if _local(key) == "path"
+                 and value), part)
 
 
 def _transform(attrib, path: Path) -> np.ndarray:

@@ -34,9 +34,7 @@ def host_of(header: str) -> str:
     header = header.strip().lower()
     if header.startswith("["):
         return header[1:header.index("]")] if "]" in header else ""
-    if header.count(":") > 1:
-        return ""
-    return header.split(":", 1)[0]
+    return "" if header.count(":") > 1 else header.split(":", 1)[0]
 
 
 def cookie_name(connection: HTTPConnection) -> str:
