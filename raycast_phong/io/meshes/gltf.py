@@ -137,7 +137,7 @@ def texture_sizes(path: Path, document: Document, file_size, embedded: bool = Fa
     from PIL import Image
     sizes = []
     for index, _ in sorted(images):
-        try:
+        with suppress(Exception):  # a broken image counts nothing; the read words it
             image = tree["images"][index]
             if "bufferView" in image:
                 if document.binary is None:
@@ -159,8 +159,6 @@ def texture_sizes(path: Path, document: Document, file_size, embedded: bool = Fa
                 size = file_size(uri_file(path.parent, image["uri"]))
                 if size:
                     sizes.append(size)
-        except Exception:  # noqa: BLE001 - a broken image counts nothing; the read words it
-            continue
     return sizes
 
 

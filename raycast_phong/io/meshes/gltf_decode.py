@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import base64
 import copy
+from contextlib import suppress
 from pathlib import Path
 
 import numpy as np
@@ -118,7 +119,7 @@ class _Decoder:
                 extents[view] = max(extents.get(view, 0), end)
         views = self.tree.get("bufferViews", [])
         for accessor in self.tree.get("accessors", []):
-            try:
+            with suppress(AttributeError, IndexError, KeyError, TypeError, ValueError):  # read_accessor words it
                 size = np.dtype(DTYPES[accessor["componentType"]]).itemsize * WIDTHS[accessor["type"]]
                 view = accessor.get("bufferView")
                 stride = (views[view].get("byteStride") if isinstance(view, int) else None) or size
@@ -128,8 +129,6 @@ class _Decoder:
                 if sparse:
                     use(sparse["indices"]["bufferView"], 10**12)  # small, read whole
                     use(sparse["values"]["bufferView"], 10**12)
-            except (AttributeError, IndexError, KeyError, TypeError, ValueError):
-                continue  # read_accessor words it
         for image in self.tree.get("images", []):
             use(image.get("bufferView") if isinstance(image, dict) else None, 10**12)
         return extents
