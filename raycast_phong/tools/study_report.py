@@ -109,6 +109,11 @@ def _pyplot():
     return plt
 
 
+def _panels(rows: int, columns: int, width: float, height: float):
+    """A figure of rows × columns panels (always a 2-D array), 100 dpi, in matplotlib's constrained layout."""
+    return _pyplot().subplots(rows, columns, figsize=(width, height), dpi=100, squeeze=False, layout="constrained")
+
+
 def noisy(study: Study) -> bool:
     """Whether the study's timing rounds were noise (NOISY_SPREAD)."""
     return study.noise is not None and study.noise.median_spread > NOISY_SPREAD
@@ -239,10 +244,8 @@ def _front_axes(axes, rows: list[StudyRow], cost: str, target: float, label_fron
 
 
 def front_figure(study: Study):
-    plt = _pyplot()
     groups = list(problems(study.rows).values())
-    figure, grid = plt.subplots(len(groups), 2, figsize=(15, 4.6 * len(groups)), dpi=100, squeeze=False,
-                                layout="constrained")
+    figure, grid = _panels(len(groups), 2, 15, 4.6 * len(groups))
     for rows, (left, right) in zip(groups, grid):
         _front_axes(left, rows, "seconds_total_measured", study.target, True, noisy(study))
         _front_axes(right, rows, "seconds", study.target, False, noisy(study))
@@ -266,8 +269,7 @@ def silhouette_figure(study: Study):
     mine = [r for r in rows if r.model == model and (r.normals, r.precision) == (first.normals, first.precision)]
     counts = sorted({r.samples for r in mine})
     # A sweep over one sample count is one x value, no curve: the left panel is drawn only for a real sweep.
-    figure, panels = plt.subplots(1, 2 if len(counts) > 1 else 1, figsize=(13 if len(counts) > 1 else 8, 4.4),
-                                  dpi=100, squeeze=False, layout="constrained")
+    figure, panels = _panels(1, 2 if len(counts) > 1 else 1, 13 if len(counts) > 1 else 8, 4.4)
     *left, right = panels[0]
     if left:
         left = left[0]
@@ -304,8 +306,7 @@ def silhouette_figure(study: Study):
 
 
 def highlight_figure(study: Study):
-    plt = _pyplot()
-    figure, axes = plt.subplots(figsize=(10, 4.6), dpi=100, layout="constrained")
+    figure, ((axes,),) = _panels(1, 1, 10, 4.6)
     base = _base(study.rows)
     shininess = list(dict.fromkeys(r.shininess for r in study.rows))
     for key, curve in curves([r for r in study.rows if _is_base(r, base)]).items():
@@ -335,10 +336,8 @@ def convergence_figure(study: Study):
     """log RMSE against log h, one panel per problem: per curve (model and normals, at the problem's first precision
     and samples) its points, the fitted line of its order and, just below its finest two levels (beside that curve,
     where one pair for the panel would sit far from the others), guides of slopes 1 and 2."""
-    plt = _pyplot()
     groups = list(problems(study.rows).values())
-    figure, panels = plt.subplots(len(groups), 1, figsize=(10, 4.8 * len(groups)), dpi=100, squeeze=False,
-                                  layout="constrained")
+    figure, panels = _panels(len(groups), 1, 10, 4.8 * len(groups))
     guided = False
     for rows, (axes,) in zip(groups, panels):
         first = rows[0]
@@ -378,8 +377,7 @@ def convergence_figure(study: Study):
 
 
 def orders_figure(study: Study):
-    plt = _pyplot()
-    figure, axes = plt.subplots(figsize=(10, 4.8), dpi=100, layout="constrained")
+    figure, ((axes,),) = _panels(1, 1, 10, 4.8)
     first = study.rows[0]
     shininess = list(dict.fromkeys(r.shininess for r in study.rows))
     normals = list(dict.fromkeys(r.normals for r in study.rows))
