@@ -68,14 +68,13 @@ def run_all(names: list[str] | None = None,
     is called before each case and after the last."""
     results = []
     names = names or list(CASES)
+    progress = progress or (lambda done, total, name: None)
     for done, name in enumerate(names):
-        if progress:
-            progress(done, len(names), name)
+        progress(done, len(names), name)
         start = time.perf_counter()
         result = CASES[name]()
         results.append(replace(result, seconds=time.perf_counter() - start))
-    if progress:
-        progress(len(names), len(names), "done")
+    progress(len(names), len(names), "done")
     return results
 
 

@@ -378,7 +378,7 @@ class _Sweep:
                 self.images[s] = (result.image, reference.image, coverage == 1, reference.coverage == 1)
 
     def time_all(self, settings: list[Setting], repeats: int,
-                 progress: Callable[[int, int, str], None] | None = None) -> tuple[dict, MachineNoise]:
+                 progress: Callable[[int, int, str], None]) -> tuple[dict, MachineNoise]:
         """`repeats` rounds, every setting once per round, each round in its own shuffled order (seeded), so
         a slow spell hits different neighbours every round and the minimum escapes it; progress(renders done,
         renders in all, "timing round R of N") after each render."""
@@ -392,9 +392,8 @@ class _Sweep:
                 result = self.renderer.render(scenes[s])
                 wall = time.perf_counter() - begin
                 runs[s].append((wall, {**result.timings, "cpu": time.process_time() - cpu}))
-                if progress:
-                    progress(round_ * len(settings) + position, repeats * len(settings),
-                             f"timing round {round_ + 1} of {repeats}")
+                progress(round_ * len(settings) + position, repeats * len(settings),
+                         f"timing round {round_ + 1} of {repeats}")
         spreads = [spread([wall for wall, _ in r]) for r in runs.values()]
         noise = MachineNoise(os.cpu_count() or 1, load_before, os.getloadavg(), statistics.median(spreads),
                              max(spreads), repeats, time.perf_counter() - start)
@@ -412,6 +411,7 @@ def run_study(path: str | Path, overrides: list[str] | tuple[str, ...] = (), opt
     """Measure every setting at the given (or chosen) levels, then time them all in interleaved rounds;
     progress(done, total, what) is called as each level starts ("level L": levels done of those known so far)
     and after each timing render ("timing round R of N": renders done of all), then with "done"."""
+    progress = progress or (lambda done, total, what: None)
     with tempfile.TemporaryDirectory(prefix="raycast-phong-study-") as folder:
         sweep = _Sweep(path, overrides, options, folder)
         for level in sorted(set(options.levels or ()), reverse=True):  # a given level over the budget: refused
@@ -419,8 +419,7 @@ def run_study(path: str | Path, overrides: list[str] | tuple[str, ...] = (), opt
         sweep.warm_up()
         levels, note = choose_levels(sweep, progress)
         settings = [s for level in levels for s in sweep.settings(level)]
-        if progress:
-            progress(0, len(settings) * options.repeats, "timing")
+        progress(0, len(settings) * options.repeats, "timing")
         runs, noise = sweep.time_all(settings, options.repeats, progress)
         pooled = pooled_minima(runs)
         rows = monotone_times([study_row(s, runs[s], *sweep.measured[s], sweep.meshes[s.samples, s.level][1], pooled)
@@ -432,8 +431,7 @@ def run_study(path: str | Path, overrides: list[str] | tuple[str, ...] = (), opt
                       machine=this_machine(started),
                       objects=tuple((obj.shape, obj.normals or "mean") for obj in sweep.base.objects))
         study.images = error_images(sweep)
-        if progress:
-            progress(len(settings) * options.repeats, len(settings) * options.repeats, "done")
+        progress(len(settings) * options.repeats, len(settings) * options.repeats, "done")
     return study
 
 
@@ -447,8 +445,7 @@ def choose_levels(sweep: _Sweep, progress) -> tuple[list[int], str]:
         levels = sorted(set(options.levels))
         keep = middle if middle in levels else levels[len(levels) // 2]
         for level in levels:
-            if progress:
-                progress(levels.index(level), len(levels), f"level {level}")
+            progress(levels.index(level), len(levels), f"level {level}")
             sweep.measure_level(level, keep_images=level == keep)
         return levels, f"levels {', '.join(map(str, levels))} as given"
     finest = min((max_level(obj) for obj in sweep.base.objects), default=8)
@@ -468,8 +465,7 @@ def choose_levels(sweep: _Sweep, progress) -> tuple[list[int], str]:
                     > options.budget:
                 why = f"the next level would pass the budget of {options.budget:g} s"
                 break
-        if progress:
-            progress(len(levels), len(levels) + 1, f"level {level}")
+        progress(len(levels), len(levels) + 1, f"level {level}")
         sweep.check_fits(level)
         sweep.measure_level(level, keep_images=True)
         levels.append(level)
