@@ -341,9 +341,8 @@ COMPARE_BYTES_PER_SAMPLE = 16
 def _cannot_read(path: str | Path, said: str) -> ImageError:
     """The one line for an image OpenImageIO could not read: "no such file" for a missing one (its own words
     repeat themselves: 'Could not open file: Could not open file "x.png"'), else the first line of what it said."""
-    if not os.path.lexists(path):
-        return ImageError(f"{path}: no such file")
-    return ImageError(f"{path}: cannot read ({_first_line(said)})")
+    reason = f"cannot read ({_first_line(said)})" if os.path.lexists(path) else "no such file"
+    return ImageError(f"{path}: {reason}")
 
 
 def _first_line(text: str) -> str:
