@@ -9,13 +9,20 @@ dispatcher, linked into render_band."""
 from __future__ import annotations
 
 import numpy as np
-from numba import types
+from numba import typeof, types
 
 from .. import jit
 from .kernels import ray_queries, shading, shadows
 from .kernels.layout import F_ALPHA_MASK, TileRays
 
 _handles: dict[object, object] = {}
+
+
+def _handle(key, make):
+    """The handle kept under `key`, made by `make()` the first time it is asked."""
+    if key not in _handles:
+        _handles[key] = make()
+    return _handles[key]
 
 
 def no_rays() -> TileRays:
@@ -35,12 +42,7 @@ def shading_arguments(inputs) -> tuple:
 
 def shader(inputs):
     """The handle render_band calls _shade_rays through, for these shading inputs' types."""
-    from numba import typeof
-    key = typeof(inputs)
-    handle = _handles.get(key)
-    if handle is None:
-        handle = _handles[key] = jit.callee(shading._shade_rays, shading_arguments(inputs))
-    return handle
+    return _handle(typeof(inputs), lambda: jit.callee(shading._shade_rays, shading_arguments(inputs)))
 
 
 def shadow_arguments() -> tuple:
@@ -54,25 +56,20 @@ def shadow_arguments() -> tuple:
 def shadow_caster(global_mode: bool):
     """The handle render_band casts shadow rays through: shadows.cast_shadows in global mode, else
     shadows.no_shadow_rays (render_band calls it only in global mode: a local scene never compiles the other)."""
-    handle = _handles.get(global_mode)
-    if handle is None:
-        kernel = shadows.cast_shadows if global_mode else shadows.no_shadow_rays
-        handle = _handles[global_mode] = jit.callee(kernel, shadow_arguments(), types.int64)
-    return handle
+    kernel = shadows.cast_shadows if global_mode else shadows.no_shadow_rays
+    return _handle(global_mode, lambda: jit.callee(kernel, shadow_arguments(), types.int64))
 
 
 def cutter(params, inputs):
     """The handle render_band casts on past alpha-masked hits through, for these ray parameters and shading inputs:
     ray_queries.cut_masked when a material has a mask (layout.F_ALPHA_MASK), else ray_queries.no_cut (render_band
     calls it only with the flag: a scene without masks never compiles the other)."""
-    from numba import typeof
     masked = bool(inputs.flags & F_ALPHA_MASK)
-    key = ("cut", masked, typeof(inputs))
-    handle = _handles.get(key)
-    if handle is None:
+
+    def make():
         rays = no_rays()
         screen = np.zeros(1), np.zeros(1, np.int64)
         arguments = (0, params, *screen, 0, np.zeros((0, 3), np.float32), rays.directions, rays.face, rays.u, rays.v,
                      rays.t, inputs)
-        handle = _handles[key] = jit.callee(ray_queries.cut_masked if masked else ray_queries.no_cut, arguments)
-    return handle
+        return jit.callee(ray_queries.cut_masked if masked else ray_queries.no_cut, arguments)
+    return _handle(("cut", masked, typeof(inputs)), make)
