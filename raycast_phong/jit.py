@@ -60,7 +60,7 @@ def _unimportable(name: str):
 NUMBA_CONFIG = ".numba_config.yaml"
 with contextlib.nullcontext() if os.path.isfile(NUMBA_CONFIG) else _unimportable("yaml"):
     import numba
-    from numba import njit
+    from numba import njit, typeof, types
     from numba.core import environment
     from numba.core.caching import FunctionCache, NullCache
     from numba.core.codegen import JITCodeLibrary, JITCPUCodegen, JitEngine
@@ -69,7 +69,7 @@ with contextlib.nullcontext() if os.path.isfile(NUMBA_CONFIG) else _unimportable
     from numba.core.runtime.nrt import rtsys
 
 PACKAGE = Path(__file__).resolve().parent  # raycast_phong/: a kernel may import from anywhere in it
-OWN_CACHE = Path(__file__).resolve().parent / "__pycache__"
+OWN_CACHE = PACKAGE / "__pycache__"
 MARK = "@kernel("          # how a module declares a kernel; such a module is cached under its own key
 CACHE = "raycast-phong-kernels"  # the cache under its base: a folder <module>-<key> per kernel module
 OUTSIDE = "outside."       # the folders of kernels defined outside the package (a test's, a user's)
@@ -150,12 +150,10 @@ def _bases():
     if numba.config.CACHE_DIR:  # NUMBA_CACHE_DIR
         yield Path(numba.config.CACHE_DIR)
     yield OWN_CACHE
-    try:
+    with contextlib.suppress(RuntimeError):  # no home folder known at all
         user = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
-    except RuntimeError:  # no home folder known at all
-        user = None
-    if user is not None and user.parent.is_dir():  # never made: a missing home folder (a user whose HOME is gone)
-        yield user / "raycast-phong"
+        if user.parent.is_dir():  # never made: a missing home folder (a user whose HOME is gone)
+            yield user / "raycast-phong"
     private = _private_temporary()  # last: a read-only install and home would otherwise compile every run
     if private is not None:
         yield private
@@ -195,15 +193,13 @@ def _module_folder(module_file: Path) -> Path | None:
 def _private_temporary() -> Path | None:
     """raycast-phong-<uid> in the temporary folder, made 0700 and used only if this user owns it and no one
     else can write it (numba's cache holds code that is loaded: another user's folder must never be used)."""
-    try:
+    with contextlib.suppress(OSError, AttributeError):  # AttributeError: no getuid (Windows)
         base = Path(tempfile.gettempdir()) / f"raycast-phong-{os.getuid()}"
         base.mkdir(mode=0o700, exist_ok=True)
         info = os.lstat(base)
         import stat
         if stat.S_ISDIR(info.st_mode) and info.st_uid == os.getuid() and not info.st_mode & 0o022:
             return base
-    except (OSError, AttributeError):  # AttributeError: no getuid (Windows)
-        pass
     return None
 
 
@@ -297,10 +293,8 @@ class _CacheLoadedAsIs(FunctionCache):
             yield
             return
         with handle:
-            try:
+            with contextlib.suppress(OSError):  # a file system without locks: as numba alone
                 fcntl.flock(handle, fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH)
-            except OSError:
-                pass  # a file system without locks: as numba alone
             yield
 
     def _checked_load(self, sig, target_context):
@@ -324,10 +318,8 @@ class _CacheLoadedAsIs(FunctionCache):
         """Remove this kernel's cache entry: its index and data files (numba writes them afresh on the compile)."""
         index = Path(self._cache_file._index_path)
         for path in index.parent.glob(f"{index.stem}.*"):
-            try:
+            with contextlib.suppress(OSError):  # another process removed or replaced it
                 path.unlink()
-            except OSError:
-                pass  # another process removed or replaced it
 
     def _light_load(self, sig, target_context):
         """The cached kernel for `sig`, loaded without numba's registries, or None."""
@@ -370,7 +362,6 @@ def cached(dispatcher, arguments: tuple | None = None) -> bool:
     """Whether `dispatcher` has code for these arguments' types (None: for any signature), in the process or in its
     cache (True also when that cannot be told: the caller then simply goes on as if it were). Only the cache's
     index is read: nothing is loaded."""
-    from numba import typeof
     signature = None if arguments is None else tuple(typeof(argument) for argument in arguments)
     if dispatcher.overloads if signature is None else signature in dispatcher.overloads:
         return True
@@ -413,7 +404,6 @@ class ByAddress:
         """`dispatcher` for these arguments' types (example values), returning `returns` (a numba type; None:
         nothing). The kernel's own return type is checked against it when its address is asked."""
         import numba.experimental.function_type  # noqa: F401  numba's first-class function types
-        from numba import typeof, types
         self.dispatcher = dispatcher
         self._signature = (returns or types.none)(*(typeof(argument) for argument in arguments))
         self._numba_type_ = types.FunctionType(self._signature)
@@ -511,10 +501,8 @@ def _cached_nrt_functions(context):
     path = _nrt_cache_file(codegen)
     payload = _checked_read(path) if path is not None else None
     if payload:
-        try:
+        with contextlib.suppress(Exception):  # a foreign payload, or numba refusing it: compile instead
             return codegen.unserialize_library(pickle.loads(payload))
-        except Exception:  # noqa: BLE001 - a foreign payload, or numba refusing it: compile instead
-            pass
     module, library = nrtdynmod.create_nrt_module(context)
     library.enable_object_caching()
     library.add_ir_module(module)
