@@ -88,8 +88,7 @@ def idle_cores(seconds: float = 0.1) -> float:
         idle, total = idle_and_total()
         time.sleep(seconds)
         idle_after, total_after = idle_and_total()
-        share = (idle_after - idle) / max(total_after - total, 1)
-        return share * (os.cpu_count() or 1)
+        return (idle_after - idle) / max(total_after - total, 1) * (os.cpu_count() or 1)
     except (OSError, ValueError, IndexError):
         try:
             return max(0.0, (os.cpu_count() or 1) - os.getloadavg()[0])
@@ -288,8 +287,8 @@ def helper(precision: str, parent: str, tasks: str = "shade") -> None:
     for task in tasks.split(","):
         if task == "shade":
             inputs = unprepared_shading(precision)
-            for kernel in callee_signatures(inputs):
-                jit.compiled_elsewhere[jit.kernel_name(kernel)] = told(jit.kernel_name(kernel))
+            for name in map(jit.kernel_name, callee_signatures(inputs)):
+                jit.compiled_elsewhere[name] = told(name)
             shading._shade_rays(*shading_arguments(inputs))
         elif task == "winding":
             from ..geometry.mesh_repair import winding_signatures

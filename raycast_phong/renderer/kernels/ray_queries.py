@@ -182,8 +182,8 @@ def camera_hits(scene, params, screen_x, cell_row, row0, row1, eye, directions, 
 
 # A camera this many unit-frame radii from the scene's centre (the scene lies within √3 of it) or farther starts
 # its primary rays near the scene: a float32 origin 1e6 scene sizes away rounds to about 0.06 of the scene, so
-# Embree, which tests triangles relative to the origin, merged a sphere's front and back (issue 47). Nearer
-# cameras keep their rays as they are (every render's bits unchanged).
+# Embree, which tests triangles relative to the origin, would merge a sphere's front and back. Nearer cameras
+# keep their rays as they are.
 FAR_EYE = 4096.0
 SCENE_RADIUS = 2.0  # > √3: the unit frame's scene lies inside this sphere about its centre
 

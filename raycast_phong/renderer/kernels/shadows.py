@@ -8,8 +8,8 @@ Two decisions keep shadows honest at any scale, both made in Embree's unit frame
   geometric normal, to the light's side, by OFFSET_ROUNDINGS float32 roundings of the largest coordinate
   involved (the face's corners, the origin): what Embree's float32 copy of the face and the stored origin can
   be off by, a few times over. The offset follows the hit's own rounding, not the scene's size: Wächter and
-  Binder's 256 ulps (a fixed 1/65536 near the origin) left a sheet 1e-5 of the scene above a plane without
-  its shadow (issue 47).
+  Binder's 256 ulps (a fixed 1/65536 near the origin) leave a sheet 1e-5 of the scene above a plane without
+  its shadow.
 - *The shadow terminator* (Hanika, "Hacking the Shadow Terminator", Ray Tracing Gems II, ch. 4): for
   Gouraud and Phong faces with `terminator = "hanika"`, the origin first moves to where the smooth
   surface described by the vertex normals would be, so coarse facets do not shadow their own lit side.
