@@ -170,14 +170,10 @@ def _remove_stale(folder: Path) -> None:
         shutil.rmtree(path, ignore_errors=True)  # another process may be removing it too
 
 
-def kernel_folder(function) -> Path | None:
-    """The cache folder of the kernel module `function` is defined in (made if need be); None if there is no
-    cache. A kernel defined outside the package gets a folder of its own file (numba checks that file)."""
-    return _module_folder(Path(function.__code__.co_filename).resolve())
-
-
 @cache
-def _module_folder(module_file: Path) -> Path | None:
+def kernel_folder(module_file: Path) -> Path | None:
+    """The cache folder of the kernel module `module_file` (made if need be); None if there is no cache. A kernel
+    defined outside the package gets a folder of its own file (numba checks that file)."""
     root = cache_folder()
     if root is None:
         return None
@@ -210,7 +206,7 @@ def kernel(**options):
     check in every division of the hot loop.
     """
     def decorate(function):
-        folder = kernel_folder(function)
+        folder = kernel_folder(Path(function.__code__.co_filename).resolve())
         settings = {"nogil": True, "error_model": "numpy", **options}
         if folder is None:
             set_up()  # every first call compiles: numba's registries load then, without the BLAS probe
