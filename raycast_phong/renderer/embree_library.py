@@ -125,8 +125,7 @@ def picked_target(report: str) -> str | None:
     for line in report.splitlines():
         for kind in ("supported", "compile time enabled"):
             if line.rstrip().endswith(f"({kind})"):
-                words = line.rsplit("(", 1)[0].replace("Targets", " ").replace(":", " ").split()
-                sets[kind] = set(words)
+                sets[kind] = set(line.rsplit("(", 1)[0].replace("Targets", " ").replace(":", " ").split())
     both = sets.get("supported", set()) & sets.get("compile time enabled", set())
     return next((target for target in TARGETS if target in both), None)
 

@@ -28,12 +28,12 @@ def ready_kernels(scene: Scene, announce: Callable[[str], None] | None = None) -
     from ..compiles import part, told
     from ..geometry.mesh_repair import WINDING_KERNELS, warm_up_merge, winding_signatures
     from ..geometry.normals import warm_up_creases
-    from .frame import warm_kernels_for
-    from .plan import build_plan
-    plan = build_plan(scene)
     from ..io.files import open_mesh_file
     from ..scene.alike import alike
     from ..shapes import from_file
+    from .frame import warm_kernels_for
+    from .plan import build_plan
+    plan = build_plan(scene)
     firsts = [(index, scene.objects[index]) for index in alike(scene).first.tolist()]  # a mesh: a set of its own
     meshes, readers = False, {}
     for index, obj in firsts:
