@@ -121,11 +121,9 @@ TARGETS = ("AVX512", "AVX2", "AVXI", "AVX", "SSE4.2", "SSE2")
 def picked_target(report: str) -> str | None:
     """The ISA Embree runs its kernels in: the best target that is both "(supported)" by the CPU and
     "(compile time enabled)" in the library, read from a verbose device report; None if it names none."""
-    sets = {}
-    for line in report.splitlines():
-        for kind in ("supported", "compile time enabled"):
-            if line.rstrip().endswith(f"({kind})"):
-                sets[kind] = set(line.rsplit("(", 1)[0].replace("Targets", " ").replace(":", " ").split())
+    sets = {kind: set(line.rsplit("(", 1)[0].replace("Targets", " ").replace(":", " ").split())
+            for line in report.splitlines() for kind in ("supported", "compile time enabled")
+            if line.rstrip().endswith(f"({kind})")}
     both = sets.get("supported", set()) & sets.get("compile time enabled", set())
     return next((target for target in TARGETS if target in both), None)
 

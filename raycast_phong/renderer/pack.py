@@ -106,10 +106,7 @@ class RayGenerator:
     def rows(self, row0: int, row1: int) -> tuple[np.ndarray, np.ndarray]:
         count = (row1 - row0) * self.width * self.samples * self.samples
         directions = np.empty((count, 3), np.float32)
-        if self.rig.orthographic:
-            origins = np.empty((count, 3), np.float32)
-        else:
-            origins = self.shared_origins[:count]
+        origins = np.empty((count, 3), np.float32) if self.rig.orthographic else self.shared_origins[:count]
         fill_rows(self.params, row0, row1, origins, directions)
         return origins, directions
 
@@ -280,13 +277,10 @@ def prepare_shading(scene: Scene, geometry: Geometry, rig: CameraRig, frame: Fra
 
 def prepare_shadows(scene: Scene, geometry: Geometry, frame: Frame, offset_scale: float = 1.0) -> ShadowInputs:
     """Geometry and lights in Embree's unit frame for the shadow-ray kernel (shadows.cast_shadows)."""
-    kinds, vectors = [], []
-    for light in scene.lights:
-        if light.type == "point":
-            kinds.append(POINT), vectors.append(frame.to_unit(np.asarray(light.position, np.float64)))
-        else:
-            toward = -np.asarray(light.direction, np.float64)
-            kinds.append(DIRECTIONAL), vectors.append(toward / np.linalg.norm(toward))
+    kinds = [POINT if light.type == "point" else DIRECTIONAL for light in scene.lights]
+    vectors = [frame.to_unit(np.asarray(light.position, np.float64)) if light.type == "point"
+               else -np.asarray(light.direction, np.float64) / np.linalg.norm(light.direction)
+               for light in scene.lights]
     hanika = scene.render.terminator == "hanika" and len(geometry.corner_normals) > 0
     corner = geometry.corner_normals if len(geometry.corner_normals) else np.zeros((1, 3, 3))
     return ShadowInputs(

@@ -268,8 +268,8 @@ def run_tiles(tile: TileWork, bands: list[tuple[int, int]], threads: int,
     counts = np.zeros(len(COUNTS), np.int64)
     seconds = np.zeros(3)  # rays, shadows, shade
     start = time.perf_counter()
-    if progress:
-        progress(0, len(bands))
+    progress = progress or (lambda done, total: None)
+    progress(0, len(bands))
 
     def band_unless_cancelled(band: tuple[int, int]):
         return None if cancelled is not None and cancelled() else tile(band)
@@ -285,8 +285,7 @@ def run_tiles(tile: TileWork, bands: list[tuple[int, int]], threads: int,
             done += 1
             seconds += (ray_s, shadow_s, shade_s)
             counts += tile_counts
-            if progress:
-                progress(done, len(bands))
+            progress(done, len(bands))
     except BaseException:
         for future in futures:
             future.cancel()
