@@ -51,14 +51,10 @@ class TextureBank:
         from ..io.textures import decode_file, decode_pil
         found = read.texture_sources[index]
         colour, channel = self.scene.render.colour, found.channel
-        if isinstance(found.source, Path):
-            key = (str(found.source), found.wrap_s, found.wrap_t, channel)
-            decode = lambda: decode_file(found.source, colour, channel)
-            stamp = lambda: file_stamp(found.source)
-        else:
-            key = (id(found.source), found.wrap_s, found.wrap_t, channel)
-            decode = lambda: decode_pil(found.source, colour, channel)
-            stamp = lambda: found.source
+        on_disk = isinstance(found.source, Path)  # a file, or an image object the mesh file holds
+        key = (str(found.source) if on_disk else id(found.source), found.wrap_s, found.wrap_t, channel)
+        decode = lambda: (decode_file if on_disk else decode_pil)(found.source, colour, channel)
+        stamp = lambda: file_stamp(found.source) if on_disk else found.source
         return self.add(key, decode, found.wrap_s, found.wrap_t, found.name, stamp)
 
     def scene_map(self, name: str, key: str) -> int:

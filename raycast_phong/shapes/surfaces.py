@@ -53,8 +53,6 @@ def sphere_uv(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     u = (np.arctan2(corners[..., 1], corners[..., 0]) / (2 * np.pi)) % 1.0
     v = 0.5 + np.arcsin(np.clip(corners[..., 2] / np.where(r > 0, r, 1), -1, 1)) / np.pi
     pole = np.hypot(corners[..., 0], corners[..., 1]) <= 1e-12 * np.maximum(r, 1e-300)
-    u = _seamless(np.where(pole, np.nan, u))
-    others = np.where(pole, np.nan, u)
-    mean = np.nanmean(np.where(np.isnan(others), np.nan, others), axis=1, keepdims=True)
-    u = np.where(pole, np.broadcast_to(mean, u.shape), u)
+    u = _seamless(np.where(pole, np.nan, u))  # a pole corner's NaN is left out of its face's mean
+    u = np.where(pole, np.nanmean(u, axis=1, keepdims=True), u)
     return np.stack([u, v], axis=-1)
