@@ -6,6 +6,7 @@ is keyed by what it was made from, and arrays are compared by their bits.
 
 from __future__ import annotations
 
+import functools
 import threading
 from collections.abc import Callable
 from typing import Any
@@ -36,14 +37,11 @@ class Derived:
         self.geometry = geometry
         self._values: dict[Any, tuple[tuple[str, ...], Any]] = {}
         if before is not None:
-            same: dict[str, bool] = {}
-
+            @functools.cache  # each field compared once, however many values name it
             def unchanged(name: str) -> bool:
-                if name not in same:
-                    old, new = getattr(before.geometry, name), getattr(geometry, name)
-                    same[name] = old is new or (isinstance(old, np.ndarray) and isinstance(new, np.ndarray)
-                                                and same_bits(old, new))
-                return same[name]
+                old, new = getattr(before.geometry, name), getattr(geometry, name)
+                return old is new or (isinstance(old, np.ndarray) and isinstance(new, np.ndarray)
+                                      and same_bits(old, new))
             self._values = {key: (fields, value) for key, (fields, value) in before._values.items()
                             if all(unchanged(name) for name in fields)}
 
