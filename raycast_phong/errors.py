@@ -72,10 +72,8 @@ def _once(problem: str, where: str) -> str:
         quoted = shortened(quoted)
         if quoted not in problem:
             return problem
-    for start in (f"{quoted}: ", f"{quoted} "):
-        if problem.startswith(start):
-            problem = problem[len(start):]
-            break
+    problem = next((problem[len(start):] for start in (f"{quoted}: ", f"{quoted} ") if problem.startswith(start)),
+                   problem)
     if problem.endswith(f" {quoted}"):  # "no such mesh file 'm.obj'" at m.obj: "m.obj: no such mesh file"
         problem = problem[:-len(quoted) - 1]
     return problem.replace(quoted, "the file")

@@ -127,10 +127,8 @@ def plan_flags(plan: RenderPlan, scene: Scene) -> tuple[int, int]:
             F_AOV_TERMS: StageName.AOV_TERMS, F_SHADOWS: StageName.SHADOW_RAYS, F_TEXTURES: StageName.TEXTURES,
             F_VERTEX_COLOURS: StageName.VERTEX_COLOURS}
     flags = sum(bit for bit, stage in bits.items() if plan.keeps(stage))
-    if not plan.keeps(StageName.SPECULAR):
-        specular = SPECULAR_NONE
-    else:
-        specular = SPECULAR_PHONG if scene.render.specular == SpecularModel.PHONG else SPECULAR_BLINN
+    specular = (SPECULAR_NONE if not plan.keeps(StageName.SPECULAR)
+                else SPECULAR_PHONG if scene.render.specular == SpecularModel.PHONG else SPECULAR_BLINN)
     return flags, specular
 
 

@@ -431,9 +431,7 @@ def _undefined_material(scene: Scene) -> int | None:
     sets = alike(scene)
     names = list(map(operator.attrgetter("material"), sets.firsts(scene.objects)))
     undefined = {name for name in set(names) if name != "default" and name not in scene.materials}
-    if not undefined:
-        return None
-    return int(sets.first[next(k for k, name in enumerate(names) if name in undefined)])
+    return int(sets.first[next(k for k, name in enumerate(names) if name in undefined)]) if undefined else None
 
 
 def brightness_problem(scene: Scene, inverse_square: dict[int, float] | None = None, why: str = "") -> tuple | None:
