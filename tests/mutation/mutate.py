@@ -510,8 +510,8 @@ HAND_MUTANTS = (
      'normals @ linear.T'),  # normals turned by the matrix, not its inverse transpose
     ('io/scene_file', '(stdin and text.lstrip("\\ufeff \\t\\r\\n").startswith("{"))',
      '(stdin and text.startswith("{"))'),  # JSON on stdin after a blank line read as TOML
-    ('geometry/textures', 'key = (id(found.source), found.wrap_s, found.wrap_t, channel)',
-     'key = (id(found.source), found.wrap_s, found.wrap_t)'),  # one image's colour and alpha as one texture
+    ('geometry/textures', 'else id(found.source), found.wrap_s, found.wrap_t, channel)',
+     'else id(found.source), found.wrap_s, found.wrap_t)'),  # one image's colour and alpha as one texture
     ('renderer/plan', 'if light.type == "point" and light.attenuation != "none"]',
      'if light.attenuation != "none"]'),  # a directional light's attenuation kept as a stage
     # the bugs the coverage pass found (docs/testing.md), each back as it was
