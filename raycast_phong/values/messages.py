@@ -79,11 +79,6 @@ class _Union:
     key: str                               # the key whose value names the kind: "shape"
     models: dict[str, type[BaseModel]]     # kind → its model, in the schema's order
 
-    def own_keys(self, kind: str) -> list[str]:
-        """The keys `kind` alone reads, besides the keys every kind has."""
-        common = set.intersection(*(set(model.model_fields) for model in self.models.values()))
-        return [key for key in self.models[kind].model_fields if key not in common]
-
 
 @dataclass(frozen=True)
 class _Place:
@@ -214,7 +209,8 @@ def _foreign(place: _Place, key: str) -> str | None:
     readers = [name for name, model in union.models.items() if key in model.model_fields]
     if not readers:
         return None
-    own = union.own_keys(kind)
+    common = set.intersection(*(set(model.model_fields) for model in union.models.values()))  # every kind's keys
+    own = [key for key in union.models[kind].model_fields if key not in common]  # the keys `kind` alone reads
     reads = f"reads {', '.join(own)} besides the keys" if own else "reads only the keys"
     article = "an" if kind[:1] in "aeiou" else "a"
     return (f'does not apply to {union.key} = "{kind}" ({key} is a key of {_listed(readers)}); {article} {kind} '
