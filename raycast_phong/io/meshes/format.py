@@ -94,7 +94,7 @@ def _any_content(head: bytes, found: str | None, size: int, suffix: str) -> bool
     return True
 
 
-def _no_count(handle: BinaryIO, size: int, mesh: MeshSource) -> int | None:
+def _none(*_: object) -> None:
     return None
 
 
@@ -104,10 +104,6 @@ def _text_floor(path: Path, size: int, mesh: MeshSource) -> int:
 
 def _no_held(path: Path, mesh: MeshSource) -> tuple[int, int]:
     return 0, 0
-
-
-def _nothing(handle: BinaryIO, mesh: MeshSource) -> None:
-    return None
 
 
 def _described(path: Path) -> dict[str, Any]:
@@ -138,7 +134,7 @@ class MeshFormat:
     # the file's size, `suffix` its suffix; a file that does not fit is refused in one line before any reader.
     content: Callable[[bytes, str | None, int, str], bool] = _any_content
     # Triangles from the header or a cheap scan (size.count_triangles weighs them); None: the size bound.
-    count: Callable[[BinaryIO, int, MeshSource], int | None] = _no_count
+    count: Callable[[BinaryIO, int, MeshSource], int | None] = _none
     # The least memory reading the file costs, from its size (and side files' sizes) alone.
     floor: Callable[[Path, int, MeshSource], int] = _text_floor
     # What a read decodes besides the file's bytes, for the refusal's words: (external buffers, unzipped bytes).
@@ -146,7 +142,7 @@ class MeshFormat:
     parse_bytes: int = OTHER_PARSE_BYTES  # a read's bytes a triangle above the render's own peak
     # What is wrong with a file its reader refused, in the renderer's words naming the line (the file open at
     # its start, its MeshSource); None to word the reader's refusal.
-    explain: Callable[[BinaryIO, MeshSource], str | None] = _nothing
+    explain: Callable[[BinaryIO, MeshSource], str | None] = _none
     # What the file names beside it, made into MeshSource fields (side_files, document, materials, images).
     describe: Callable[[Path], dict[str, Any]] = _described
     texture_sizes: Callable[[MeshSource], tuple[tuple[int, int], ...]] = _no_sizes  # (height, width) of each map

@@ -9,7 +9,7 @@ import socket
 import sys
 import threading
 import webbrowser
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from pathlib import Path
 
 from ... import stops
@@ -43,11 +43,9 @@ def remembered_token() -> str:
     if TOKEN.fullmatch(kept):
         return kept
     token = secrets.token_urlsafe(32)
-    if private:
-        try:
+    if private:  # unwritten: this run's token only, and the page needs the new URL after a restart
+        with suppress(WriteError):
             write_text(path, token + "\n")
-        except WriteError:
-            pass  # this run's token only: the page then needs the new URL after a restart
     return token
 
 
