@@ -19,7 +19,6 @@ import numpy as np
 from ..records import Geometry
 from ..scene.alike import alike
 from ..scene.schema import Scene
-from ..shapes import from_file
 from .checks import check_float_range
 from .corners import corner_colours, corner_uvs
 from .file_materials import FileRows
@@ -53,9 +52,7 @@ def build_geometry(scene: Scene, vertex_normals: bool = True,
     they are final: for a scene of one object (a mesh file) before its normals are made, else once every object
     is placed. prepare() starts the BVH then, while the normals are made.
     """
-    if sources is None and any(map(from_file, scene.objects)):
-        from ..io.meshes.source import mesh_sources
-        sources = mesh_sources(scene)
+    sources = scene.current_mesh_sources() if sources is None else sources
     whole = memo.begin(scene, vertex_normals, normal_dtype)
     kept = memo.geometry_for(whole)
     if kept is not None:

@@ -87,9 +87,7 @@ def estimate_memory(scene: Scene, *, smooth: bool = True, float64: bool = False,
     cast shadow rays (global mode); tile_rays × threads rays are in flight at once; sources: the mesh files'
     io.meshes.source.MeshSource by resolved path (made here when not given).
     """
-    if sources is None and any(map(from_file, scene.objects)):
-        from ..io.meshes.source import mesh_sources
-        sources = mesh_sources(scene)
+    sources = scene.current_mesh_sources() if sources is None else sources
     files: dict[Path, int] = {}
     geometry, triangles, largest, largest_bytes = 0, 0, None, -1
     wide_normals = FLOAT64_NORMAL_BYTES if float64 or shadow_lights else 0

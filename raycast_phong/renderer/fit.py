@@ -12,7 +12,6 @@ from ..errors import SceneError
 from ..io.system import default_threads
 from ..records import RenderPlan
 from ..scene.schema import Scene
-from ..shapes import from_file
 from .budget import MemoryEstimate, check_memory
 from .kernels.layout import MAX_LIGHTS
 from .plan import build_plan
@@ -43,10 +42,7 @@ def fitted(scene: Scene, plan: RenderPlan | None = None, threads: int | None = N
     bands = tuple((row, min(row + rows_per_tile, height)) for row in range(0, height, rows_per_tile))
     threads = threads or default_threads()
     tile_rays = rows_per_tile * width * samples * samples
-    sources = None
-    if any(map(from_file, scene.objects)):  # each mesh file's MeshSource, read once (the scene's)
-        from ..io.meshes.source import mesh_sources
-        sources = mesh_sources(scene)
+    sources = scene.current_mesh_sources()  # each mesh file's MeshSource, read once (the scene's)
     memory = check_memory(scene, max_memory, sources=sources, smooth=plan.keeps(StageName.VERTEX_NORMALS),
                           float64=plan.keeps(StageName.FLOAT64_SHADING),
                           shadow_lights=len(scene.lights) if plan.keeps(StageName.SHADOW_RAYS) else 0,

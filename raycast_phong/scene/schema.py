@@ -349,6 +349,14 @@ class Scene(Table):
         were (a scene file: prepare() makes them)."""
         return self._mesh_sources
 
+    def current_mesh_sources(self) -> dict | None:
+        """Each mesh file's MeshSource by resolved path (io.meshes.source.mesh_sources: the kept ones still
+        current, the others made now); None when no object is read from a file, its modules left unimported."""
+        if any(map(from_file, self.objects)):
+            from ..io.meshes.source import mesh_sources
+            return mesh_sources(self)
+        return None
+
     def data(self, mode: str = "python", exclude_none: bool = False) -> dict:
         """The scene's keys as a dict that validates back to this scene (model_dump without the folder), a key
         left unset that means "decide from the file" kept unset: an object's crease_angle, unset, creases a mesh
@@ -405,10 +413,9 @@ class Scene(Table):
         mesh file's MeshSource finds them (the scene's own where it has them: a mesh file loaded as a scene). An
         output may be none of these; a batch's up-to-date rule covers exactly these and the scene file."""
         maps = [self.resolve(path) for key, path in self.named_files().items() if key[0] == "materials"]
-        if not self.mesh_objects():
-            return maps  # the readers' modules stay unimported (the default scene's start-up)
-        from ..io.meshes.source import mesh_sources
-        found = mesh_sources(self)  # not kept on the scene: a batch sends scenes to its workers, sources stay here
+        found = self.current_mesh_sources()  # not kept: a batch sends scenes to its workers, sources stay here
+        if found is None:
+            return maps
         return [*maps, *self.mesh_paths(), *(file for source in found.values() for file in source.files_read)]
 
     def named_files(self) -> dict[tuple, str]:
