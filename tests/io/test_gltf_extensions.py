@@ -244,3 +244,43 @@ def test_one_image_file_gives_a_mask_its_alpha_and_the_surface_its_colour(tmp_pa
         assert red.mean() > 0.95, (mode, red.mean())
         sizes[mode] = len(image)
     assert 0.35 < sizes["MASK"] / sizes["OPAQUE"] < 0.65, sizes
+
+
+@pytest.mark.parametrize("wrap_s, wrap_t", [("clamp", "repeat"), ("repeat", "clamp")])
+def test_a_samplers_wrap_modes_act_each_along_its_own_axis(tmp_path, wrap_s, wrap_t):
+    """glTF 2.0 §5.26: wrapS acts along u, wrapT along v. A texture transform (scale 2, offset −½) spreads the
+    square's UVs over [−½, 3⁄2]²; the map's red rises with its column (0 at the left), its green with its row.
+    Clamped along u, the square's left quarter (u < 0) shows the first column: no red at all; repeated, it shows
+    the map's right half: red. The same of green along v in the square's top and bottom quarters: clamped, one
+    row (each band's green constant down it); repeated, the rows wrap (green changes down the band). Seen head
+    on, the square is square in the image and its UVs run straight along its rows and columns."""
+    from PIL import Image
+    ramp = np.array([0, 80, 160, 240], np.uint8)
+    pixels = np.full((4, 4, 3), 255, np.uint8)  # blue throughout: the square is seen where red and green are 0
+    pixels[..., 0], pixels[..., 1] = ramp[None, :], ramp[:, None]
+    Image.fromarray(pixels).save(tmp_path / "ramp.png")
+    transform = {"offset": [-0.5, -0.5], "scale": [2.0, 2.0]}
+    info = {"index": 0, "extensions": {"KHR_texture_transform": transform}}
+    path = quad_gltf(tmp_path, {"pbrMetallicRoughness": {"baseColorTexture": info, "metallicFactor": 0.0}},
+                     images=[{"uri": "ramp.png"}], required=("KHR_texture_transform",))
+    document = json.loads(path.read_text(encoding="utf-8"))
+    codes = {"clamp": 33071, "repeat": 10497}
+    document["samplers"] = [{"wrapS": codes[wrap_s], "wrapT": codes[wrap_t]}]
+    document["textures"][0]["sampler"] = 0
+    path.write_text(json.dumps(document), encoding="utf-8")
+    head_on = ["camera.position=[0, 0, 6]", "camera.look_at=[0, 0, 0]", "camera.fov=30"]
+    image = rp.render_file(path, [*AMBIENT, *head_on, "render.width=160", "render.height=120"]).image
+    rows, columns = np.nonzero(image[..., 2] > 0.5)
+    square = image[rows.min():rows.max() + 1, columns.min():columns.max() + 1]
+    n = len(square)
+    assert n > 40 and abs(square.shape[1] - n) <= 2, square.shape
+    inner = slice(n * 3 // 10, n * 7 // 10)  # away from the other axis's bands
+    band = slice(n // 20, n // 5)            # well inside u < 0 (columns) or v < 0 / v > 1 (rows)
+    left_red = square[inner, band, 0]
+    if wrap_s == "clamp":
+        assert left_red.max() < 1e-6, left_red.max()
+    else:
+        assert left_red.min() > 0.2, left_red.min()
+    for rows_of_band in (square[band, inner, 1], square[-band.stop:-band.start, inner, 1]):
+        change = np.ptp(rows_of_band, axis=0).min()  # down the band, in each column
+        assert change < 1e-6 if wrap_t == "clamp" else change > 0.02, (wrap_t, change)
