@@ -324,6 +324,20 @@ def test_an_embedded_image_whose_view_runs_past_the_binary_chunk_counts_nothing(
     assert gltf.texture_sizes(path, read_document(path), lambda file: None) == []
 
 
+def test_data_uris_are_no_files_beside_a_gltf_and_a_file_uri_is_one(tmp_path):
+    """glTF 2.0 §3.9.3: a buffer or image URI is a data: URI (the bytes inside the JSON) or a file's. Only files
+    are side files, images the budget weighs, inputs of a batch and maps that may be missing: a .gltf whose
+    buffer and first image are data: URIs and whose second image is map.png names map.png and nothing else."""
+    from PIL import Image
+    Image.new("RGB", (2, 2)).save(tmp_path / "map.png")
+    tree, data = document(**TEXTURED)
+    tree["images"].append({"uri": "map.png"})
+    source = mesh_source(write_gltf(tmp_path / "embedded.gltf", tree, data))
+    assert (source.side_files, source.images, source.files_read) == ((), (tmp_path / "map.png",),
+                                                                      (tmp_path / "map.png",))
+    assert not [note for note in mesh_file.read_file(source).notes if "missing" in note]
+
+
 def test_a_flattening_node_scale_keeps_the_faces_winding(tmp_path):
     """A node scale of (1, 1, 0): its determinant is exactly 0, not a mirror, so the faces keep their winding as
     written (only a negative determinant turns them over) and the stored normals are dropped. Catches the mirror
