@@ -1134,6 +1134,35 @@ def test_a_full_frame_of_several_samples_is_refined_from_a_preview(scene_path, t
     np.testing.assert_array_equal(decode_png(last["a"], tmp_path), rendered_png(three))
 
 
+def test_a_full_request_sent_while_a_preview_renders_skips_the_older_full_frame(scene_path, monkeypatch):
+    """Request 1 (3 × 3 samples) renders its preview; request 2, full, comes meanwhile and waits as the committed
+    frame. The preview is shown (a committed request's first frame always is), but 1's full frame is stale and
+    never rendered: 2's preview and full frame follow. Catches `waiting` that sees a waiting draft only."""
+    from raycast_phong.renderer import prepare
+    running, go = threading.Event(), threading.Event()
+    band = prepare.TileWork.__call__
+
+    def held_band(tile, rows):
+        if tile.film.rgb.shape[1] == 96 and tile.rays.samples == 1 and not go.is_set():  # request 1's preview
+            running.set()
+            go.wait(30)
+        return band(tile, rows)
+    monkeypatch.setattr(prepare.TileWork, "__call__", held_band)
+    settings = {"render.samples": 3, "render.width": 96, "render.height": 72}  # no warm-up renders this size
+    with connect(client_for(scene_path)) as ws:
+        ws.receive_text()
+        ws.send_text(json.dumps({"type": "render", "id": 1, "quality": "full", "settings": settings}))
+        assert running.wait(60)  # waits there until 2 is queued
+        ws.send_text(json.dumps({"type": "render", "id": 2, "quality": "full", "settings": settings}))
+        time.sleep(0.2)  # request 2 is queued before the preview goes on
+        go.set()
+        frames = []
+        while not frames or (frames[-1]["id"], frames[-1]["quality"]) != (2, "full"):
+            frames.append(receive_frame(ws)[0])
+    assert [(header["id"], header["quality"]) for header in frames] == [(1, "preview"), (2, "preview"),
+                                                                         (2, "full")]
+
+
 def test_each_page_has_one_frame_cache_released_when_it_closes(scene_path, monkeypatch):
     """A page's frames share one FrameCache (its geometry and BVH), and nothing holds it once the page closes."""
     import gc
