@@ -55,6 +55,17 @@ def test_an_inverse_square_light_s_ambient_alone_is_refused_once_the_geometry_gi
     build_geometry(scene(lights=[{**light, "ambient": 1e25}]))  # 1e37: allowed
 
 
+def test_a_far_inverse_square_light_is_judged_by_its_gain_at_the_scene_not_before():
+    """A 1/d² light 10⁴ from the sphere with diffuse and specular 1e38 each (2e38 unattenuated): its gain there is
+    below 1e-8, so no pixel channel passes 2e30. The scene is valid and its geometry builds. Catches validation
+    giving a 1/d² light a gain of 1 before the geometry can give its own."""
+    light = {"position": [0, 0, 1e4], "attenuation": "inverse_square", "ambient": 0, "diffuse": 1e38,
+             "specular": 1e38}
+    build_geometry(scene(lights=[light]))
+    with pytest.raises(SceneError, match=r"lights\.0: a pixel channel could reach 2e\+38"):
+        scene(lights=[{**light, "attenuation": "none"}])  # the same light unattenuated: refused at once
+
+
 def one_line_refusal(make) -> str:
     with pytest.raises(SceneError) as refused:
         make()
