@@ -548,6 +548,12 @@ HAND_MUTANTS = (
     ("scene/output", "check_output_path(output, inputs=inputs)",
      "check_output_path(output, inputs=inputs[:1])"),  # render -o onto the scene's own map
     ("io/meshes/gltf_json", "and container != 2:", "and container == 0:"),  # a glTF 1.0 GLB
+    ("io/meshes/gltf", "TextureSource(getattr(material, key), wrap_s, wrap_t,",
+     "TextureSource(getattr(material, key), wrap_t, wrap_s,"),  # a sampler's wrapS and wrapT swapped
+    ("io/meshes/gltf_json", ' and not row["uri"].startswith("data:")]', "]"),  # a data: URI taken for a file
+    ("tools/view/session", "return self.pending is not None or self.committed is not None",
+     "return self.pending is not None"),  # a stale full frame rendered after a newer full request came
+    ("scene/schema", "else inverse_square.get(k, 0.0)", "else inverse_square.get(k, 1.0)"),  # a far 1/d² light
 )
 OPERATOR_SWAPS = {ast.Add: ast.Sub, ast.Sub: ast.Add, ast.Mult: ast.Div, ast.Div: ast.Mult,
                   ast.Lt: ast.LtE, ast.LtE: ast.Lt, ast.Gt: ast.GtE, ast.GtE: ast.Gt, ast.Eq: ast.NotEq,
