@@ -341,13 +341,9 @@ COMPARE_BYTES_PER_SAMPLE = 16
 def _cannot_read(path: str | Path, said: str) -> ImageError:
     """The one line for an image OpenImageIO could not read: "no such file" for a missing one (its own words
     repeat themselves: 'Could not open file: Could not open file "x.png"'), else the first line of what it said."""
-    reason = f"cannot read ({_first_line(said)})" if os.path.lexists(path) else "no such file"
+    first = next((line.strip() for line in str(said).splitlines() if line.strip()), "unknown reason")
+    reason = f"cannot read ({first})" if os.path.lexists(path) else "no such file"
     return ImageError(f"{path}: {reason}")
-
-
-def _first_line(text: str) -> str:
-    """OpenImageIO's error text is several lines, the first the reason."""
-    return next((line.strip() for line in str(text).splitlines() if line.strip()), "unknown reason")
 
 
 def header_spec(path: str | Path):
