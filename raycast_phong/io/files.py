@@ -100,10 +100,9 @@ def open_mesh_file(path: Path, where: Where) -> BinaryIO:
         raise SceneError(f"no such mesh file {str(path)!r}", where) from None
 
 
-def file_version(path: str | Path, info: os.stat_result | None = None) -> tuple:
-    """(resolved path, mtime, size, inode) of the file as it is now; OSError for a missing one. `info`: a
-    stat (or fstat of an open handle) already made."""
-    info = os.stat(path) if info is None else info
+def file_version(path: str | Path) -> tuple:
+    """(resolved path, mtime, size, inode) of the file as it is now; OSError for a missing one."""
+    info = os.stat(path)
     return (str(Path(path).resolve()), info.st_mtime_ns, info.st_size, info.st_ino)
 
 

@@ -366,8 +366,7 @@ def image_header(path: str | Path) -> tuple[int, int, int] | None:
     return None if spec is None else (spec.width, spec.height, spec.nchannels)
 
 
-def check_image_reads(paths: tuple[str | Path, ...], budget: int | None, per_sample: int,
-                      raise_it: str = "raise the budget (--max-memory)") -> None:
+def check_image_reads(paths: tuple[str | Path, ...], budget: int | None, per_sample: int) -> None:
     """Refuse (ImageError, one line) to read images whose headers claim more pixels than the budget holds at
     `per_sample` bytes per pixel channel: a 100-byte PNG may claim 20000 × 20000 pixels."""
     if budget is None:
@@ -378,7 +377,7 @@ def check_image_reads(paths: tuple[str | Path, ...], budget: int | None, per_sam
         path, (w, h, c) = max(((p, s) for p, s in sizes.items() if s), key=lambda item: math.prod(item[1]))
         raise ImageError(f"{path}: its header says {w}×{h} pixels with {c} channels; reading "
                          f"{'them' if len(paths) == 1 else 'the images'} needs ≈ {format_bytes(need)} of memory, "
-                         f"above the {format_bytes(budget)} budget; {raise_it}")
+                         f"above the {format_bytes(budget)} budget; raise the budget (--max-memory)")
 
 
 def compare_files(a: str | Path, b: str | Path, fail: float, warn: float,
