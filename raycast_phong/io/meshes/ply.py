@@ -228,9 +228,6 @@ def count(handle, size: int, mesh) -> int | None:
     return None
 
 
-PLY_SIZES = ply_lists.PLY_SIZES
-
-
 def _list_triangles(head: bytes, size: int) -> int | None:
     """The most triangles a binary PLY's lists (faces, strips) can make, from its size and its header's
     types, whatever its counts claim: the bytes past the fixed-size properties hold at most that many list
@@ -246,8 +243,8 @@ def _list_triangles(head: bytes, size: int) -> int | None:
         raise ValueError("a PLY header that does not parse")
     elements = []  # (count, bytes of its fixed properties and list counts, smallest list entry or 0)
     for element in found.elements:
-        fixed = sum(PLY_SIZES[p.count if p.count else p.type] for p in element.properties)
-        smallest = min((PLY_SIZES[p.type] for p in element.properties if p.count), default=0)
+        fixed = sum(ply_lists.PLY_SIZES[p.count if p.count else p.type] for p in element.properties)
+        smallest = min((ply_lists.PLY_SIZES[p.type] for p in element.properties if p.count), default=0)
         elements.append((element.rows, fixed, smallest))
     lists = [(count, entry) for count, _, entry in elements if entry]
     if not lists:

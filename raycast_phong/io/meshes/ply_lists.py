@@ -97,7 +97,7 @@ def _even(element: Element, body: memoryview, at: int, big: bool) -> tuple[np.nd
             fields.append((f"p{k}", _dtype(prop.type, big)))
             offset += fields[-1][1].itemsize
             continue
-        size = np.dtype(PLY_DTYPES[prop.count]).itemsize
+        size = PLY_SIZES[prop.count]
         if at + offset + size > len(body):
             return None
         first = int(np.frombuffer(body, _dtype(prop.count, big), 1, at + offset)[0])
@@ -117,9 +117,9 @@ def _even(element: Element, body: memoryview, at: int, big: bool) -> tuple[np.nd
 def element_rows(element: Element, data: np.ndarray, at: int, big: bool):
     """The element's row starts and list counts, by ply_rows.walk_rows; None when its rows do not fit the data."""
     props = element.properties
-    sizes = np.array([np.dtype(PLY_DTYPES[p.type]).itemsize if p.count is None else 0 for p in props], np.int64)
-    counts = np.array([0 if p.count is None else np.dtype(PLY_DTYPES[p.count]).itemsize for p in props], np.int64)
-    entries = np.array([np.dtype(PLY_DTYPES[p.type]).itemsize for p in props], np.int64)
+    sizes = np.array([PLY_SIZES[p.type] if p.count is None else 0 for p in props], np.int64)
+    counts = np.array([0 if p.count is None else PLY_SIZES[p.count] for p in props], np.int64)
+    entries = np.array([PLY_SIZES[p.type] for p in props], np.int64)
     signed = np.array([p.count is not None and PLY_DTYPES[p.count][0] == "i" for p in props], np.bool_)
     starts = np.empty(element.rows + 1, np.int64)
     found = np.zeros((element.rows, max(1, int((counts > 0).sum()))), np.int64)
@@ -171,7 +171,7 @@ def _fan_rows(props, kept: list[int], lists: list[int], data: np.ndarray, starts
     polygon = next(k for k in lists if props[k].name in POLYGON)
     at = starts.copy()  # where the polygon list starts in each row
     for k, prop in enumerate(props[:polygon]):
-        size = np.dtype(PLY_DTYPES[prop.type]).itemsize
+        size = PLY_SIZES[prop.type]
         at += size if prop.count is None else PLY_SIZES[prop.count] + found[:, lists.index(k)] * size
     at += PLY_SIZES[props[polygon].count]
     entry = _dtype(props[polygon].type, big)
@@ -183,13 +183,13 @@ def _fan_rows(props, kept: list[int], lists: list[int], data: np.ndarray, starts
     offsets = starts.copy()  # where each row's next property starts
     columns = []
     for k, prop in enumerate(props):
-        entry = np.dtype(PLY_DTYPES[prop.type]).itemsize
+        entry = PLY_SIZES[prop.type]
         if prop.count is None:
             if k in kept:
                 columns.append(_gather(data, offsets[row], entry))
             offsets += entry
             continue
-        width = np.dtype(PLY_DTYPES[prop.count]).itemsize
+        width = PLY_SIZES[prop.count]
         length = found[:, lists.index(k)]
         if k in kept:
             each = int(length[0] // max(int(corners[0]), 1)) if len(length) else 1
@@ -229,7 +229,7 @@ def _strip(element: Element, data: np.ndarray, starts: np.ndarray, found: np.nda
         return None
     prop = element.properties[0]
     entry = _dtype(prop.type, big)
-    width = np.dtype(PLY_DTYPES[prop.count]).itemsize
+    width = PLY_SIZES[prop.count]
     pieces = []
     for row in range(element.rows):  # a strips element has a few rows (one, usually)
         values = np.frombuffer(data, entry, int(found[row, 0]), int(starts[row]) + width).astype(np.int64)
