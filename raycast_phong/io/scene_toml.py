@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import re
+from contextlib import suppress
 from pathlib import Path
 from typing import Any
 
@@ -46,12 +47,10 @@ def _without_none(value: Any) -> Any:
 def rebased(path: Path, relative_to: Path | None) -> str:
     """An absolute file path written relative to the folder `relative_to` (absolute when that is None, or
     when no relative path leads there, as across Windows drives)."""
-    if relative_to is None:
-        return str(path)
-    try:
-        return os.path.relpath(path, relative_to.resolve())
-    except ValueError:
-        return str(path)
+    if relative_to is not None:
+        with suppress(ValueError):
+            return os.path.relpath(path, relative_to.resolve())
+    return str(path)
 
 
 def scene_data(scene, relative_to: Path | None = None) -> dict:

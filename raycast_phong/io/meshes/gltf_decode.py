@@ -50,7 +50,7 @@ def needs_decoding(tree: dict) -> bool:
     nodes = tree.get("nodes")
     if isinstance(nodes, list) and any(isinstance(n, dict) and "skin" in n and "mesh" in n for n in nodes):
         return True  # a skinned mesh: trimesh draws its bind pose, not the pose its joints hold
-    try:
+    with suppress(AttributeError, IndexError, KeyError, TypeError):  # a malformed document: trimesh words it
         if colour_uv_sets(tree):  # trimesh maps every texture with TEXCOORD_0
             return True
         accessors = tree.get("accessors", [])
@@ -64,8 +64,6 @@ def needs_decoding(tree: dict) -> bool:
                         return True
                 if "indices" in primitive and "bufferView" not in accessors[primitive["indices"]]:
                     return True
-    except (AttributeError, IndexError, KeyError, TypeError):
-        return False  # a malformed document: trimesh words it
     return False
 
 
