@@ -155,10 +155,6 @@ def read(reading: Reading) -> Loaded:
     return Loaded(parts(load_obj(obj_text(data, path), path, materials.library, data)), library=library)
 
 
-def explain(handle, mesh) -> str | None:
-    return obj_problem(bom_decoded(handle.read(), mesh.path))
-
-
 CHUNK = 1 << 20  # an OBJ is scanned this many bytes at a time (about 20 MB of index arrays), never a whole line
 
 
@@ -215,6 +211,7 @@ def warm_up(handle) -> tuple:
 
 
 FORMAT = MeshFormat(
-    names=("OBJ",), suffixes=(".obj",), read=read, count=count, explain=explain, describe=describe,
+    names=("OBJ",), suffixes=(".obj",), read=read, count=count, describe=describe,
     texture_sizes=image_file_sizes, warm_up=warm_up, parse_bytes=80,
+    explain=lambda handle, mesh: obj_problem(bom_decoded(handle.read(), mesh.path)),
     content=lambda head, found, size, suffix: found in (None, "OBJ", "OFF", "ASCII STL"))  # text formats look alike

@@ -198,10 +198,6 @@ def _note_textures(path: Path, names: list[str], notes: list[str]) -> None:
                      f"{names[0]!r}, is read, for every face")
 
 
-def explain(handle, mesh) -> str | None:
-    return ply_problem(line_feeds(handle.read(HEADER_LIMIT)))
-
-
 def line_feeds(data: bytes) -> bytes:
     """A PLY whose lines end in a carriage return alone (Rhino 6, classic Mac; the PLY description says
     "carriage-return terminated lines") with its header's CRs made line feeds, and an ASCII body's too; the same
@@ -266,5 +262,6 @@ def _ascii(head: bytes) -> bool:
     return end >= 0 and re.search(rb"^format\s+ascii", head[:end], re.M) is not None
 
 
-FORMAT = MeshFormat(names=("PLY",), suffixes=(".ply",), read=read, count=count, explain=explain, parse_bytes=30,
-                    warm_up=warm_up, content=lambda head, found, size, suffix: found == "PLY")
+FORMAT = MeshFormat(names=("PLY",), suffixes=(".ply",), read=read, count=count, parse_bytes=30, warm_up=warm_up,
+                    explain=lambda handle, mesh: ply_problem(line_feeds(handle.read(HEADER_LIMIT))),
+                    content=lambda head, found, size, suffix: found == "PLY")

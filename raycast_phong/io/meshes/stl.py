@@ -110,10 +110,6 @@ def floor(path, size: int, mesh) -> int:
     return size * (BINARY_STL_READ_BYTES_PER_BYTE if is_binary(head, size) else TEXT_READ_BYTES_PER_BYTE)
 
 
-def explain(handle, mesh) -> str | None:
-    return ascii_stl_problem(handle.read())
-
-
 def warm_up(handle) -> tuple:
     """The ASCII scan's kernel for a text STL; none for a binary one (read by numpy)."""
     from . import stl_ascii
@@ -122,7 +118,8 @@ def warm_up(handle) -> tuple:
 
 
 FORMAT = MeshFormat(
-    names=("STL",), suffixes=(".stl",), read=read, count=count, floor=floor, explain=explain, warm_up=warm_up,
+    names=("STL",), suffixes=(".stl",), read=read, count=count, floor=floor, warm_up=warm_up,
+    explain=lambda handle, mesh: ascii_stl_problem(handle.read()),
     # A binary STL is told by its size; any text may be an ASCII STL ("solid") or unrecognised.
     content=lambda head, found, size, suffix: is_binary(head, size) or found in ("ASCII STL", None),
     # Binary: 50-byte records, then 36 + 24 bytes a triangle of points and faces, below the render's peak
