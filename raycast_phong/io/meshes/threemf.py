@@ -108,18 +108,14 @@ def _root_part(archive: zipfile.ZipFile) -> tuple[dict[str, str], str | None]:
         from lxml import etree
         # a broken relationships part: fall back on the usual name
         with suppress(etree.XMLSyntaxError, ValueError, zipfile.BadZipFile, OSError, EOFError):
-            tree = etree.fromstring(archive.read(rels), _parser())
+            # a file from anywhere: no entities, no network, no DTD (billion laughs, XXE)
+            parser = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False)
+            tree = etree.fromstring(archive.read(rels), parser)
             for relation in tree.iter("{*}Relationship"):
                 target = relation.get("Target", "").lstrip("/").lower()
                 if relation.get("Type") == MODEL_RELATION and target in members:
                     return members, members[target]
     return members, members.get(ROOT.lower())
-
-
-def _parser(**options):
-    """lxml options for a file from anywhere: no entities, no network, no DTD (billion laughs, XXE)."""
-    from lxml import etree
-    return etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, **options)
 
 
 def _local(tag) -> str:
