@@ -38,10 +38,8 @@ def available_memory() -> int | None:
             found = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
         except (ValueError, OSError, AttributeError):
             return None
-    for limit in (_cgroup_room(), _address_space_room()):
-        if limit is not None:
-            found = min(found, limit)
-    return found
+    limits = [limit for limit in (_cgroup_room(), _address_space_room()) if limit is not None]
+    return min([found, *limits])
 
 
 UNITS = {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30, "t": 1 << 40}
