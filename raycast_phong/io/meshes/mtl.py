@@ -96,12 +96,9 @@ def read_obj_materials(path: Path, names: list[str]) -> ObjMaterials:
         try:
             with open_regular(mtl, f"{path}: mtllib", "material file", MAX_SIDE_FILE) as handle:
                 content = handle.read(MAX_SIDE_FILE + 1).decode("utf-8", "replace")
-        except FileNotFoundError:
-            notes.append(f"{path}: its material file {name!r} is missing; the default material is used")
-            continue
         except (SceneError, OSError) as error:
-            notes.append(f"{path}: its material file {name!r} cannot be read ({error}); the default material is "
-                         "used")
+            why = "is missing" if isinstance(error, FileNotFoundError) else f"cannot be read ({error})"
+            notes.append(f"{path}: its material file {name!r} {why}; the default material is used")
             continue
         for key, material in parse_mtl(content, mtl, notes, sources).items():
             library.setdefault(key, material)
