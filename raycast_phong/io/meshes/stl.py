@@ -30,9 +30,8 @@ def binary_stl_points(handle) -> np.ndarray | None:
     bytes a triangle), so no buffer of the whole file (50 bytes a triangle) is touched."""
     handle.seek(0)
     head = handle.read(84)
-    size = os.fstat(handle.fileno()).st_size
-    count = int.from_bytes(head[80:84], "little") if len(head) == 84 else 0
-    if count == 0 or size != 84 + STL_RECORD.itemsize * count:
+    count = int.from_bytes(head[80:84], "little")
+    if count == 0 or not is_binary(head, os.fstat(handle.fileno()).st_size):
         handle.seek(0)
         return None
     points = np.empty((count, 3, 3), np.float32)
