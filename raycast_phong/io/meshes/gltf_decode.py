@@ -176,10 +176,9 @@ class _Decoder:
                                        f"{extents[index]}; allowed: no more than they read")
             else:
                 decoded = _meshopt_decode(bytes(data), count, stride, mode, kind, self.refuse, key)
-            view.pop("extensions")
-            rest = {k: v for k, v in extensions.items() if k != name}
-            if rest:
-                view["extensions"] = rest
+            extensions.pop(name)
+            if not extensions:
+                view.pop("extensions")
             buffer, offset, length = self.place(decoded)  # the view itself now names the decoded bytes
             view.update(buffer=buffer, byteOffset=offset, byteLength=length)
             if mode == "ATTRIBUTES":
