@@ -736,15 +736,24 @@ def first_uv_set(tree: dict, path: Path, notes: list[str]) -> None:
                         attributes["TEXCOORD_0"] = attributes[f"TEXCOORD_{chosen}"]
 
 
-def decode_document(tree: dict, buffers: list[bytes], path: Path,
-                    notes: list[str]) -> tuple[dict, dict[str, bytes]]:
-    """The document rewritten as plain glTF for trimesh, with the buffers it names (DECODED_URI + index): every
-    buffer given to trimesh by name, the decoded data in one more. `tree` is changed in place (pass a copy)."""
-    first_uv_set(tree, path, notes)
-    decoder = _Decoder(tree, buffers, path, notes)
-    for step in (decoder.decode_meshopt, decoder.decode_draco, decoder.dequantize, decoder.fans, decoder.skins,
-                 decoder.instance, decoder.specular_glossiness):
-        step()  # in this order: each reads the document the ones before it rewrote
+def decode_gltf(path: Path, document: Document, where: Where, notes: list[str]) -> tuple[dict, dict[str, bytes]]:
+    """The glTF at `path` (its parsed `document`) as plain glTF for trimesh: a copy of the document rewritten, and
+    the buffers it names (DECODED_URI + index): every buffer given to trimesh by name, the decoded data in one
+    more. A document too malformed to decode is refused in one line."""
+    tree = copy.deepcopy(document.tree)
+    buffers = read_buffers(tree, path, document, where)
+    try:
+        first_uv_set(tree, path, notes)
+        decoder = _Decoder(tree, buffers, path, notes)
+        for step in (decoder.decode_meshopt, decoder.decode_draco, decoder.dequantize, decoder.fans, decoder.skins,
+                     decoder.instance, decoder.specular_glossiness):
+            step()  # in this order: each reads the document the ones before it rewrote
+    except (AttributeError, IndexError, KeyError, TypeError, ValueError) as error:
+        if isinstance(error, SceneError):
+            raise
+        raise FileProblem(f"{str(path)!r}: its document is malformed where its compressed, quantized or "
+                          f"instanced data is described ({type(error).__name__}: {error}); allowed: a glTF 2.0 "
+                          "document") from None
     named = {f"{DECODED_URI}{index}": bytes(data) for index, data in enumerate([*buffers, decoder.new])}
     tree["buffers"] = [{"uri": name, "byteLength": len(data)} for name, data in named.items()]
     for key in ("extensionsRequired", "extensionsUsed"):
@@ -752,18 +761,3 @@ def decode_document(tree: dict, buffers: list[bytes], path: Path,
             tree[key] = [e for e in tree[key] if e not in (*MESHOPT, DRACO, INSTANCING, SPECULAR_GLOSSINESS,
                                                             "KHR_mesh_quantization")]
     return tree, named
-
-
-def decode_gltf(path: Path, document: Document, where: Where, notes: list[str]) -> tuple[dict, dict[str, bytes]]:
-    """The glTF at `path` (its parsed `document`) as plain glTF for trimesh: the rewritten document and the
-    buffers it names (decode_document). A document too malformed to decode is refused in one line."""
-    tree = copy.deepcopy(document.tree)
-    buffers = read_buffers(tree, path, document, where)
-    try:
-        return decode_document(tree, buffers, path, notes)
-    except (AttributeError, IndexError, KeyError, TypeError, ValueError) as error:
-        if isinstance(error, SceneError):
-            raise
-        raise FileProblem(f"{str(path)!r}: its document is malformed where its compressed, quantized or "
-                          f"instanced data is described ({type(error).__name__}: {error}); allowed: a glTF 2.0 "
-                          "document") from None
