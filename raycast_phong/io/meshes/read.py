@@ -250,10 +250,9 @@ def _surfaces(parts, loaded, pbr: str, path: Path, notes: list[str], sources: li
         # A part without colours keeps its material's own k_d: mark it with -1 to tell it apart.
         corner_colour = np.concatenate([c if c is not None else np.full((len(p.faces), 3, 3), -1, np.float32)
                                         for c, p in zip(corners, parts)])
-    mapped = any(m.ka_map >= 0 or m.kd_map >= 0 or m.ke_map >= 0 for m in materials)
+    mapped = {k for k, m in enumerate(materials) if max(m.ka_map, m.kd_map, m.ke_map) >= 0}  # materials with a map
     if mapped:  # a part without texture coordinates reads its maps at (0, 0), as GL reads a missing attribute
-        if any(u is None for u, g in zip(uvs, groups) if len(g) and g[0] >= 0
-               and max(materials[g[0]].ka_map, materials[g[0]].kd_map, materials[g[0]].ke_map) >= 0):
+        if any(u is None for u, g in zip(uvs, groups) if len(g) and g[0] in mapped):
             notes.append(f"{path}: a textured part has no texture coordinates; its maps are read at (0, 0)")
         corner_uv = np.concatenate([u if u is not None else np.zeros((len(p.faces), 3, 2), np.float32)
                                     for u, p in zip(uvs, parts)])
