@@ -113,8 +113,7 @@ class MeshSource:
             found = read_file(self, bounds=True)
             if self.version is not None:
                 self._memo["read"] = found
-            empty = found.vertices[:0]
-            self._memo["bounds"] = replace(found, vertices=empty, faces=found.faces[:0], normals=None,
+            self._memo["bounds"] = replace(found, vertices=found.vertices[:0], faces=found.faces[:0], normals=None,
                                            face_group=found.face_group[:0], corner_uv=None, corner_colour=None)
         return self._memo["bounds"]
 
