@@ -126,9 +126,7 @@ def _numpy_points(text: np.ndarray, size: int, count: int) -> np.ndarray | None:
     vertex_text = np.empty(size, np.uint8)
     _records(text, 2, POWERS, np.empty((0, 3)), vertex_text, np.empty((0, 3), np.int64))
     vertex_text = vertex_text.tobytes()
-    if b"+e" in vertex_text or b"-e" in vertex_text:
-        return None
-    return numpy_rows(vertex_text, count, 3)
+    return None if b"+e" in vertex_text or b"-e" in vertex_text else numpy_rows(vertex_text, count, 3)
 
 
 def warm_up() -> None:
