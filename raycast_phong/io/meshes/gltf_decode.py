@@ -455,8 +455,7 @@ class _Decoder:
         (merged_instances: 20,000 child nodes took trimesh 7 s), else (a primitive that is not triangles) as one
         child node per instance, whose matrix is the instance's."""
         nodes = self.tree.get("nodes", [])
-        for n in range(len(nodes)):
-            node = nodes[n]
+        for n, node in enumerate(list(nodes)):  # not the child nodes it adds
             extensions = node.get("extensions") if isinstance(node, dict) else None
             if not isinstance(extensions, dict) or INSTANCING not in extensions or "mesh" not in node:
                 continue
