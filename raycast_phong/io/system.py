@@ -1,6 +1,5 @@
 """What the machine can give now: available memory (Linux's /proc/meminfo, capped by cgroup v1/v2 limits and
-`ulimit -v`), and
-how byte and triangle counts are written in messages.
+`ulimit -v`), and how byte and triangle counts are written in messages.
 """
 
 from __future__ import annotations
