@@ -159,7 +159,7 @@ def test_many_repeated_points_probe_the_hash_table_as_they_merge():
 
 @pytest.mark.parametrize("seed", range(4))
 def test_float32_points_as_a_binary_stl_is_read_merge_as_their_float64_values(seed):
-    """A binary STL's corners are read as float32 (io/stl.binary_stl_points): the merge compares them
+    """A binary STL's corners are read as float32 (io/meshes/stl.binary_stl_points): the merge compares them
     as they are and gives what the float64 path gives those values (the old read), bit for bit, in float64:
     signed zeros joined, the first of each point kept, unused points dropped."""
     rng = np.random.default_rng(seed)

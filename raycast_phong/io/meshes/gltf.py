@@ -28,7 +28,7 @@ from .materials import rgb as _rgb
 
 # Required glTF extensions read here; any other one in extensionsRequired is refused (glTF 2.0 §3.12: a loader
 # must not load a file whose required extensions it does not support). Draco needs DracoPy, meshopt the meshopt
-# package; io/gltf_decode.py decodes the data ones before trimesh reads the file.
+# package; io/meshes/gltf_decode.py decodes the data ones before trimesh reads the file.
 SUPPORTED_REQUIRED = ("KHR_draco_mesh_compression", "KHR_materials_unlit", "KHR_materials_emissive_strength",
                       "KHR_texture_transform", "KHR_mesh_quantization", "EXT_meshopt_compression",
                       "KHR_meshopt_compression", "EXT_mesh_gpu_instancing", "KHR_materials_pbrSpecularGlossiness",
@@ -169,7 +169,7 @@ def gltf_samplers(document: dict) -> dict:
     unlit; its emissive strength for (name, EMISSIVE_STRENGTH); a colour map's KHR_texture_transform for
     (name, TRANSFORM, slot): (offset, rotation, scale) (transform_uv); for a KHR_materials_pbrSpecularGlossiness
     material, (name, SPECULAR_GLOSSINESS): (specular factor (3,), glossiness factor), and its diffuseTexture is
-    the baseColorTexture slot (io/gltf_decode.py hands it to trimesh so)."""
+    the baseColorTexture slot (io/meshes/gltf_decode.py hands it to trimesh so)."""
     found = {}
     # a malformed table: the maps read before it keep their modes, the rest repeat
     with suppress(AttributeError, IndexError, TypeError, ValueError):

@@ -5,7 +5,7 @@ EXT_meshopt_compression / KHR_meshopt_compression bufferViews (with the `meshopt
 codec), integer vertex attributes (KHR_mesh_quantization, and core glTF's normalized texture coordinates: trimesh
 ignores `normalized`), KHR_draco_mesh_compression (DracoPy, so a corrupt stream is one line, not trimesh's
 warnings and zero vertices), EXT_mesh_gpu_instancing (each instance a child node of its own matrix) and
-KHR_materials_pbrSpecularGlossiness (its diffuse colour and map as the base colour: io/gltf.py maps the rest).
+KHR_materials_pbrSpecularGlossiness (its diffuse colour and map as the base colour: gltf.py maps the rest).
 A file that needs none of this is handed to trimesh unchanged (needs_decoding). No trimesh here.
 """
 

@@ -1,5 +1,5 @@
 """A mesh file's materials on the lecture's model (k_a, k_d, k_s, f, k_e), shared by every format's reader
-(io/mtl.py, io/gltf.py, io/mesh_file.py): the records and the one rule for a file's highlight. No trimesh."""
+(mtl.py, gltf.py, read.py): the records and the one rule for a file's highlight. No trimesh."""
 
 from __future__ import annotations
 
@@ -52,7 +52,7 @@ class FileMaterial:
 
 @dataclass(frozen=True, eq=False)
 class PartSurface:
-    """What colours one part of a file read by this package's own readers (io/threemf.py, io/ply.py) rather than
+    """What colours one part of a file read by this package's own readers (threemf.py, ply.py) rather than
     through trimesh's visuals: its material and per-corner texture coordinates and colours."""
     material: FileMaterial | None = None         # None: the faces use the `default` material
     corner_uv: np.ndarray | None = None          # (F, 3, 2) float32, v up

@@ -1,6 +1,6 @@
 """Wavefront materials: the .mtl files an OBJ names (its `mtllib` statements) and what they say, on the
 lecture's model (docs/meshes.md, "Materials"). Each .mtl is read and parsed once per version of its OBJ
-(io/mesh_source.py keeps the result, ObjMaterials, for every stage that asks). No trimesh."""
+(io/meshes/source.py keeps the result, ObjMaterials, for every stage that asks). No trimesh."""
 
 from __future__ import annotations
 

@@ -7,7 +7,7 @@ text and reads the face indices (decimal integers: exact); the coordinates are c
 trimesh's reader makes (np.fromstring of the `v` lines' text), so they carry its bits; the vertices no face
 names are dropped and the faces renumbered as trimesh does. Any other record (`vt`, `vn`, `usemtl`, `o`, `g`,
 `s`, polygons, `v/vt` corners, relative or zero indices, a coordinate that is not a plain number) leaves the
-file to the full reader (io/obj.py), which words every problem.
+file to the full reader (io/meshes/obj.py), which words every problem.
 """
 
 from __future__ import annotations
