@@ -263,5 +263,4 @@ def _ascii(head: bytes) -> bool:
 
 
 FORMAT = MeshFormat(names=("PLY",), suffixes=(".ply",), read=read, count=count, parse_bytes=30, warm_up=warm_up,
-                    explain=lambda handle, mesh: ply_problem(line_feeds(handle.read(HEADER_LIMIT))),
                     content=lambda head, found, size, suffix: found == "PLY")
