@@ -423,3 +423,20 @@ def test_an_open_model_seen_from_its_unlit_side_shows_against_the_background(tmp
     assert rp.load_scene("sheet.obj").render.background == (0.2, 0.2, 0.2)
     glb = pbr_sphere(tmp_path / "s.glb", 0.5)  # linear colour: decoded, so the sRGB curve writes 51 back
     assert rp.load_scene(glb).render.background == pytest.approx((0.0331,) * 3, abs=1e-4)
+
+
+@pytest.mark.parametrize("textured_first, noted", [(True, False), (False, True)])
+def test_only_a_textured_part_without_uvs_is_said_to_read_its_maps_at_0_0(tmp_path, textured_first, noted):
+    """An OBJ of two parts, the first with texture coordinates and the second without: the note on maps read at
+    (0, 0) comes when the part without them has the textured material, not when it has the plain one. Catches
+    the note given for any part without coordinates once any material has a map."""
+    from PIL import Image
+    Image.new("RGB", (2, 2), (200, 100, 50)).save(tmp_path / "wood.png")
+    (tmp_path / "m.mtl").write_text("newmtl wood\nKd 1 1 1\nmap_Kd wood.png\nnewmtl plain\nKd 0.5 0.5 0.5\n")
+    first, second = ("wood", "plain") if textured_first else ("plain", "wood")
+    (tmp_path / "two.obj").write_text("mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 2 0 0\nv 2 1 0\n"
+                                      f"vt 0 0\nvt 1 0\nvt 0 1\nusemtl {first}\nf 1/1 2/2 3/3\n"
+                                      f"usemtl {second}\nf 2 5 4\nf 5 6 4\n")
+    from raycast_phong.io.meshes.source import read_mesh
+    said = [note for note in read_mesh(tmp_path / "two.obj", "t").notes if "read at (0, 0)" in note]
+    assert len(said) == noted, said
