@@ -346,9 +346,7 @@ SceneArgument = Annotated[Path | None, typer.Argument(
     show_default=False, dir_okay=False)]
 
 
-MeshView = View  # a mesh file's camera (scene.framing.VIEWS): typer's choices come from the enum
-
-ViewOption = Annotated[MeshView | None, typer.Option(
+ViewOption = Annotated[View | None, typer.Option(
     "--view", show_default=False, help="A mesh file's camera: three-quarter (the default: 30° round from the "
     "front, 20° up), front, side, top or iso; it frames the model's bounding sphere.")]
 
@@ -358,7 +356,7 @@ UpOption = Annotated[str | None, typer.Option(
     "one its format states (glTF: y), else y.")]
 
 
-def _view(view: MeshView | None) -> str | None:
+def _view(view: View | None) -> str | None:
     return view.value if view is not None else None
 
 
@@ -453,7 +451,7 @@ def _built_in_named(message: str) -> str:
 
 def _internal(error: Exception) -> None:
     """An error that is our bug: one line, exit 1, the traceback in a log file (raised as is under debug)."""
-    if _debug():
+    if os.environ.get("RAYCAST_PHONG_DEBUG", "") not in ("", "0"):
         raise error
     log = _traceback_log(error)
     fail(f"internal error: {type(error).__name__}: {error}" + (f" (traceback in {log})" if log else ""), code=1)
@@ -477,7 +475,3 @@ def _traceback_log(error: BaseException) -> str | None:
         return path
     except OSError:
         return None
-
-
-def _debug() -> bool:
-    return os.environ.get("RAYCAST_PHONG_DEBUG", "") not in ("", "0")
