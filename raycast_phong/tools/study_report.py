@@ -126,18 +126,9 @@ def _noise_note(axes, study: Study) -> None:
               fontsize=7, va="top", color="tab:red", bbox={"facecolor": "white", "alpha": 0.8, "lw": 0})
 
 
-def _integer_ticks(axis) -> None:
-    from matplotlib.ticker import MaxNLocator
-    axis.set_major_locator(MaxNLocator(integer=True))
-
-
 SUBS = (tuple(range(1, 10)), (1, 2, 5), (1,))  # log-axis labels, densest first: 1-9, 1-2-5, 1 × 10^k
 OFFSETS = ((5, 4), (5, -11), (-5, 4), (-5, -11), (5, 14), (5, -21))  # points: where a front label may go
 LABEL = "front label"  # the gid of a Pareto point's label (_finish)
-
-
-def _overlap(boxes, pad: float = 2.0) -> bool:
-    return any(a.padded(pad).overlaps(b) for a, b in itertools.combinations(boxes, 2))
 
 
 def _set_log_labels(axis, subs: tuple) -> None:
@@ -147,8 +138,10 @@ def _set_log_labels(axis, subs: tuple) -> None:
     axis.set_minor_formatter(NullFormatter())
 
 
-def _tick_boxes(axis) -> list:
-    return [label.get_window_extent() for label in axis.get_ticklabels() if label.get_visible() and label.get_text()]
+def _crowded(axis) -> bool:
+    """Whether two of the axis's drawn tick labels overlap, or come within 2 pixels of each other."""
+    boxes = [label.get_window_extent() for label in axis.get_ticklabels() if label.get_visible() and label.get_text()]
+    return any(a.padded(2.0).overlaps(b) for a, b in itertools.combinations(boxes, 2))
 
 
 def _finish(figure) -> None:
@@ -162,7 +155,7 @@ def _finish(figure) -> None:
         _set_log_labels(axis, SUBS[0])
     for _ in SUBS:
         figure.canvas.draw()
-        crowded = [axis for axis, index in choice.items() if index + 1 < len(SUBS) and _overlap(_tick_boxes(axis))]
+        crowded = [axis for axis, index in choice.items() if index + 1 < len(SUBS) and _crowded(axis)]
         if not crowded:
             break
         for axis in crowded:
@@ -321,7 +314,8 @@ def highlight_figure(study: Study):
     axes.set_xlabel("tessellation level (triangles ×4 per level)")
     axes.set_ylabel("highlight loss (0 all delivered, 1 none)")
     axes.set_ylim(-0.02, 1.02)
-    _integer_ticks(axes.xaxis)
+    from matplotlib.ticker import MaxNLocator
+    axes.xaxis.set_major_locator(MaxNLocator(integer=True))
     axes.grid(True, alpha=0.3)
     _legend(axes)
     axes.set_title(f"{Path(study.scene).name}: the specular peak, {base[0]} normals, {base[1]}, {base[2]} spp",
