@@ -588,11 +588,6 @@ def curve_key(row: StudyRow) -> tuple:
     return (row.model, row.normals, row.specular, row.precision, row.samples, row.shininess)
 
 
-def problem_key(row: StudyRow) -> tuple:
-    """What the scene asks (the reference): the specular model and the shininess."""
-    return (row.specular, row.shininess)
-
-
 def group_label(row: StudyRow) -> str:
     f = "" if row.shininess == "scene" else f", f={row.shininess}"
     normals = "" if row.normals == "scene" else f"{row.normals} normals, "
@@ -683,7 +678,8 @@ def pareto_front(rows: list[StudyRow], error: str = "rmse", cost: str = "seconds
 
 
 def problems(rows: list[StudyRow]) -> dict[tuple, list[StudyRow]]:
-    return _grouped(rows, problem_key)
+    """Rows by problem, what the scene asks (the reference): the specular model and the shininess."""
+    return _grouped(rows, lambda row: (row.specular, row.shininess))
 
 
 def fastest(rows: list[StudyRow], target: float) -> StudyRow | None:
