@@ -8,7 +8,7 @@ import numpy as np
 
 from ..codes import ALPHA, ALPHA_CUTOFF, ALPHA_MAP, OPAQUE_ALPHA
 from ..scene.schema import DEFAULT_MATERIAL, Scene
-from .materials import material_rows
+from .materials import material_rows, rows_of
 from .textures import TextureBank
 
 if TYPE_CHECKING:
@@ -51,7 +51,7 @@ class FileRows:
             coloured = (read.face_group < 0) & (read.corner_colour[:, 0, 0] >= 0)
             group = np.where(coloured, len(named) - 1, group)
         self.mapped |= any(r >= 0 for m in maps for r in m)
-        rows = self._rows(named, np.asarray(maps, np.int64).reshape(-1, 3))
+        rows = rows_of(named, np.asarray(maps, np.int64).reshape(-1, 3))
         for row, own in enumerate(read.materials):  # alpha the file gives (glTF alphaMode MASK or BLEND)
             if own.alpha_cutoff != OPAQUE_ALPHA:
                 rows[row, ALPHA_CUTOFF], rows[row, ALPHA] = own.alpha_cutoff, own.alpha
@@ -59,12 +59,6 @@ class FileRows:
                 self.mapped |= rows[row, ALPHA_MAP] >= 0
         self.rows.append(rows)
         return (self.first + sum(len(r) for r in self.rows[:-1]) + group).astype(np.int32)
-
-    @staticmethod
-    def _rows(named: list, maps: np.ndarray) -> np.ndarray:
-        def column(key: str) -> np.ndarray:
-            return np.array([getattr(m, key) for m in named], np.float64).reshape(len(named), -1)
-        return material_rows(column("ka"), column("kd"), column("ks"), column("ke"), column("shininess")[:, 0], maps)
 
     def table(self) -> np.ndarray:
         return np.concatenate(self.rows) if self.rows else material_rows(*(np.zeros((0, 3)),) * 4, np.zeros(0))

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import codes
 from ..codes import ALPHA, ALPHA_CUTOFF, ALPHA_MAP, KA, KA_MAP, KD, KE, KE_MAP, KS, MATERIAL_TABLE_WIDTH, SHININESS
 
 
@@ -22,3 +23,10 @@ def material_rows(ka, kd, ks, ke, shininess, maps=None) -> np.ndarray:
     table[:, KA_MAP:KE_MAP + 1] = -1 if maps is None else np.reshape(maps, (-1, 3))
     table[:, ALPHA_CUTOFF], table[:, ALPHA], table[:, ALPHA_MAP] = -1.0, 1.0, -1.0  # opaque (FileRows sets a mask)
     return table
+
+
+def rows_of(materials, maps=None) -> np.ndarray:
+    """material_rows of material records (the scene's Materials, a mesh file's FileMaterials): their ka, kd, ks,
+    ke and shininess (codes.MATERIAL_COLUMNS)."""
+    return material_rows(*(np.array([getattr(m, key) for m in materials], np.float64).reshape(len(materials), -1)
+                           for key in codes.MATERIAL_COLUMNS), maps)

@@ -11,9 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import codes
 from ..codes import OPAQUE_ALPHA, WRAP_CODE, StageName
-from ..geometry.materials import material_rows
+from ..geometry.materials import rows_of
 from ..records import Frame, Geometry, ImageBuffers, RenderPlan, Texture
 from ..scene.schema import DEFAULT_MATERIAL, Scene, SpecularModel
 from ..tolerances import MIN_DISTANCE
@@ -137,9 +136,7 @@ def material_table(materials, real: type, more: np.ndarray | None = None,
     """(M, MATERIAL_COLUMNS) array of `real`: per material k_a, k_d, k_s, k_e (r, g, b each), f and its map
     rows (`maps`, (M, 3), Geometry.scene_maps; -1 without); then the rows `more` (material_rows: the
     materials read from mesh files)."""
-    table = material_rows(*(np.array([getattr(m, key) for m in materials], np.float64).reshape(len(materials), -1)
-                            for key in codes.MATERIAL_COLUMNS),
-                          maps=maps if maps is not None and len(maps) else None)
+    table = rows_of(materials, maps if maps is not None and len(maps) else None)
     if more is not None:
         table = np.concatenate([table, more])
     return np.ascontiguousarray(table, real)
