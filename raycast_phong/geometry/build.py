@@ -73,7 +73,7 @@ def _build(scene: Scene, vertex_normals: bool, normal_dtype: type, memo: Memo, s
     material_index = {name: i + 1 for i, name in enumerate(scene.materials)}  # 0 is the built-in default
     groups = object_groups(scene)
     bank = TextureBank(scene, memo)
-    notes, file_notes, file_rows = [], [], FileRows(scene, material_index, bank)
+    notes, file_notes, file_rows = [], [], FileRows(scene, bank)
     built = []  # (members, template, exact corner normals in the object frame, a mesh file's material rows)
     for members in groups:
         index = int(members[0])

@@ -26,9 +26,8 @@ class FileRows:
     and k_d per corner in the kernel, then replace them). A file material the scene defines by name
     ([materials.NAME]) uses the scene's factors instead, and the file's maps unless it gives its own."""
 
-    def __init__(self, scene: Scene, material_index: dict[str, int], bank: TextureBank | None = None):
-        self.scene, self.material_index = scene, material_index
-        self.bank = bank if bank is not None else TextureBank(scene)
+    def __init__(self, scene: Scene, bank: TextureBank):
+        self.scene, self.bank = scene, bank
         self.rows: list[np.ndarray] = []
         self.mapped = False
         self.first = first_file_row(scene)
