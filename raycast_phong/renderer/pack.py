@@ -297,7 +297,6 @@ def no_shadows() -> ShadowInputs:
                         np.zeros(0, np.bool_), np.zeros(0, np.int64), np.zeros((0, 3)), False)
 
 
-def film_rows(out: ImageBuffers, counts: np.ndarray | None = None) -> FilmRows:
-    """The kernel's FilmRows of image rows `out` (ImageBuffers.rows), with fresh counters unless given."""
-    counts = np.zeros(len(COUNTS), np.int64) if counts is None else counts
-    return FilmRows(out.rgb, out.terms, out.depth, out.normal, out.face, counts)
+def film_rows(out: ImageBuffers) -> FilmRows:
+    """The kernel's FilmRows of image rows `out` (ImageBuffers.rows), with fresh counters."""
+    return FilmRows(out.rgb, out.terms, out.depth, out.normal, out.face, np.zeros(len(COUNTS), np.int64))
