@@ -31,14 +31,12 @@ def refined(obj: Object, level: int) -> dict:
     """The keys that give an analytic object tessellation `level` (docs/accuracy.md, "Levels"; its kind's rule:
     icosphere subdivisions = L, uv_sphere and torus segments = [8·2^L, 4·2^L], cylinder [8·2^L, its own second
     value], plane [2^L, 2^L], box unchanged since 12 flat faces are exact); {} for a mesh file."""
-    kind = kind_of(obj)
-    return {} if kind is None else kind.refined(obj, level)
+    return kind_of(obj).refined(obj, level)
 
 
 def level_of(obj: Object) -> int:
     """The level of an object as the scene gives it (the inverse of `refined`; 0 for a box or mesh)."""
-    kind = kind_of(obj)
-    return 0 if kind is None else kind.level_of(obj)
+    return kind_of(obj).level_of(obj)
 
 
 def refine_entry(scene: Scene, index: int, entry: dict, level: int, iterations: int, folder: Path) -> None:
@@ -115,8 +113,7 @@ def fine_reference(scene: Scene, levels: int, max_memory: int | None = None) -> 
 
 def max_level(obj: Object) -> int:
     """The finest level the scene format allows for the shape (subdivisions ≤ 8, segments ≤ 4096; a mesh: 9)."""
-    kind = kind_of(obj)
-    return 9 if kind is None else kind.max_level
+    return kind_of(obj).max_level
 
 
 def reference_image(scene: Scene, fine: int | None = None, max_memory: int | None = None) -> ReferenceImage:
