@@ -45,8 +45,7 @@ def _dask_quiet() -> Iterator[None]:
             logger.setLevel(level)
 
 
-def on_cluster(tasks: list[Task], scheduler: str, started: set[str],
-               warnings: list[str] | None = None) -> Iterator[Outcome]:
+def on_cluster(tasks: list[Task], scheduler: str, started: set[str], warnings: list[str]) -> Iterator[Outcome]:
     """Each task on an existing Dask cluster; the mesh and texture files and the output folder must be at the same
     absolute paths there. A worker that leaves mid-batch is a line in `warnings` (Dask runs its scenes again on
     another); with no worker left for WORKER_WAIT seconds, the scenes not finished fail, each with one line,
@@ -74,7 +73,6 @@ def on_cluster(tasks: list[Task], scheduler: str, started: set[str],
         futures = {client.submit(render_job, task, pure=False): task for task in tasks}
         started.update(task.job.name for task in tasks)
         pending, known, alone = set(futures), _workers(client) or set(), None
-        warnings = [] if warnings is None else warnings
         while pending:
             with suppress(Exception):  # a timeout, or futures a dying scheduler cancelled: their state says
                 wait(pending, timeout=WATCH_SECONDS, return_when="FIRST_COMPLETED")
