@@ -223,9 +223,7 @@ class ReferenceImages:
     (recording each in `written`, path → "new", "changed" or "unchanged")."""
 
     def __init__(self, folder: Path, update: bool, diagnostics: Path, written: dict[str, str] | None = None):
-        self.folder = folder
-        self.update = update
-        self.diagnostics = diagnostics
+        self.folder, self.update, self.diagnostics = folder, update, diagnostics
         self.written = {} if written is None else written
 
     def load_or_update(self, name: str, image: np.ndarray) -> np.ndarray:
