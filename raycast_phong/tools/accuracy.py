@@ -71,20 +71,14 @@ def check_fine_memory(scene: Scene, data: dict, levels: int, max_memory: int | N
     if budget is None:
         return
     found = estimate_memory(validate_scene(data, source=scene.origin, folder=scene.folder), float64=True)
-    extra_triangles = sum(found_triangles * (4 ** levels - 1) for found_triangles in (
-        _mesh_triangles(scene, index) for index, obj in enumerate(scene.objects) if from_file(obj)))
+    sources = scene.current_mesh_sources()  # each mesh file's, made once for all its objects
+    extra_triangles = (4 ** levels - 1) * sum(sources[path].triangles() for _, path in scene.mesh_objects())
     need = found.total + extra_triangles * (SMOOTH_BYTES + FLOAT64_NORMAL_BYTES + LOOP_BYTES)
     if need > budget:
         triangles = count_text(found.triangles + extra_triangles)
         raise SceneError(f"--fine {levels}: the refined scene has {triangles} triangles and needs ≈ "
                          f"{format_bytes(need)} of memory, above the {format_bytes(budget)} budget; use a smaller "
                          "--fine or raise the budget (--max-memory)", scene.origin)
-
-
-def _mesh_triangles(scene: Scene, index: int) -> int:
-    from ..io.meshes.source import mesh_sources
-    path = scene.resolve(scene.objects[index].path)
-    return mesh_sources(scene)[path].triangles()
 
 
 def fine_reference(scene: Scene, levels: int, max_memory: int | None = None) -> ReferenceImage:
